@@ -1,0 +1,316 @@
+!> The flat interface of the core: plain explicit-shape arrays of C kinds,
+!> a status code and a message out.  f2py wraps this module as mlid._core,
+!> and the batch program calls the same routines, so both give the same
+!> numbers.
+!>
+!> Common arguments:
+!>   mkind, nx, nu, ny     model kind (1 = linear state space) and sizes
+!>   theta(nth)            all parameters [p, x0, bias], nth = np + nx + ny
+!>   isfree(nth)           1 where the parameter is estimated, else 0
+!>   iconst, rconst        model constants (unused by the linear model)
+!>   t(nt), u(nu,nt), y(ny,nt)   the record, one column per sample
+!>   iopt(8), ropt(8)      options, layout in mlid_options
+!>   status, msg           0 and '' on success, see mlid_kinds
+module mlid_api
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_models, only: model_t, model_create
+  use mlid_options, only: options_t, options_from_flat, options_to_flat
+  use mlid_likelihood, only: oe_likelihood
+  use mlid_newton, only: fit_result_t, newton_fit, info_inverse
+  use mlid_simulate, only: simulate_outputs
+  use mlid_monte_carlo, only: monte_carlo_oe
+  use mlid_inputs, only: input_signal
+  implicit none
+  private
+  public :: mlid_input_signal, mlid_default_options, mlid_theta_size, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo
+
+contains
+
+  !> A standard input shape (mlid_inputs) on t = 0, dt, ..., (nt-1)*dt.
+  subroutine mlid_input_signal(shape, amplitude, t_start, pulse_width, dt, nt, u, status, msg)
+    character(len=*), intent(in) :: shape
+    real(c_double), intent(in) :: amplitude, t_start, pulse_width, dt
+    integer(c_int), intent(in) :: nt
+    real(c_double), intent(out) :: u(nt)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call input_signal(shape, amplitude, t_start, pulse_width, dt, u, status, msg)
+  end subroutine mlid_input_signal
+
+  !> The default options, so that Python and decks share one set.
+  subroutine mlid_default_options(iopt, ropt)
+    integer(c_int), intent(out) :: iopt(8)
+    real(c_double), intent(out) :: ropt(8)
+    call options_to_flat(options_t(), iopt, ropt)
+  end subroutine mlid_default_options
+
+  !> Number of parameters nth = np + nx + ny of a model.
+  subroutine mlid_theta_size(mkind, nx, nu, ny, nic, iconst, nrc, rconst, nth, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nic, nrc
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    integer(c_int), intent(out) :: nth, status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+
+    nth = 0
+    call model_create(mkind, nx, nu, ny, iconst, rconst, m, status, msg)
+    if (status == MLID_OK) nth = m%np + nx + ny
+  end subroutine mlid_theta_size
+
+  !> Output-error maximum-likelihood fit from theta0.
+  !> Out: theta, sigma (Cramer-Rao, 0 for fixed), cov/info/grad/eigval over
+  !> the nf free parameters, rhat, yhat, cost_hist(nc) (nc = max_iter + 1;
+  !> entries past niter + 1 are 0), cost, niter, reason (mlid_kinds STOP_*),
+  !> converged (0/1), bad_param (free index of a singular direction).
+  subroutine mlid_fit(mkind, nx, nu, ny, nth, theta0, isfree, nic, iconst, nrc, rconst, &
+                      nt, t, u, y, iopt, ropt, nf, nc, theta, sigma, cov, info, grad, eigval, &
+                      rhat, yhat, cost_hist, cost, niter, reason, converged, bad_param, &
+                      status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nth, nic, nrc, nt, nf, nc
+    real(c_double), intent(in) :: theta0(nth)
+    integer(c_int), intent(in) :: isfree(nth)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
+    integer(c_int), intent(in) :: iopt(8)
+    real(c_double), intent(in) :: ropt(8)
+    real(c_double), intent(out) :: theta(nth), sigma(nth), cov(nf, nf), info(nf, nf), grad(nf)
+    real(c_double), intent(out) :: eigval(nf), rhat(ny, ny), yhat(ny, nt), cost_hist(nc), cost
+    integer(c_int), intent(out) :: niter, reason, converged, bad_param, status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    type(fit_result_t) :: res
+    integer, allocatable :: ifree(:)
+    integer :: k
+
+    theta = theta0
+    sigma = 0.0_wp
+    cov = 0.0_wp
+    info = 0.0_wp
+    grad = 0.0_wp
+    eigval = 0.0_wp
+    rhat = 0.0_wp
+    yhat = 0.0_wp
+    cost_hist = 0.0_wp
+    cost = 0.0_wp
+    niter = 0
+    reason = 0
+    converged = 0
+    bad_param = 0
+    call setup(mkind, nx, nu, ny, theta0, isfree, iconst, rconst, t, u, y, iopt, ropt, nf, &
+               m, opt, ifree, status, msg)
+    if (status /= MLID_OK) return
+    if (nc /= opt%max_iter + 1) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0)') 'cost history length ', nc, ' must be max_iter + 1 = ', &
+        opt%max_iter + 1
+      return
+    end if
+    call newton_fit(m, theta0, ifree, t, u, y, opt, res, status, msg)
+    if (.not. allocated(res%theta)) return
+    theta = res%theta
+    cost_hist = res%cost_hist
+    if (.not. allocated(res%info)) return
+    do k = 1, nf
+      sigma(ifree(k)) = sqrt(max(0.0_wp, res%cov(k, k)))
+    end do
+    cov = res%cov
+    info = res%info
+    grad = res%grad
+    eigval = res%eigval
+    rhat = res%rhat
+    yhat = res%yhat
+    cost = res%cost
+    niter = res%niter
+    reason = res%reason
+    converged = merge(1, 0, res%converged)
+    bad_param = res%bad_param
+  end subroutine mlid_fit
+
+  !> Cost, gradient and information matrix at theta, without iterating.
+  subroutine mlid_evaluate(mkind, nx, nu, ny, nth, theta, isfree, nic, iconst, nrc, rconst, &
+                           nt, t, u, y, iopt, ropt, nf, cost, grad, info, rhat, yhat, &
+                           status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nth, nic, nrc, nt, nf
+    real(c_double), intent(in) :: theta(nth)
+    integer(c_int), intent(in) :: isfree(nth)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
+    integer(c_int), intent(in) :: iopt(8)
+    real(c_double), intent(in) :: ropt(8)
+    real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny), yhat(ny, nt)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    integer, allocatable :: ifree(:)
+
+    cost = 0.0_wp
+    grad = 0.0_wp
+    info = 0.0_wp
+    rhat = 0.0_wp
+    yhat = 0.0_wp
+    call setup(mkind, nx, nu, ny, theta, isfree, iconst, rconst, t, u, y, iopt, ropt, nf, &
+               m, opt, ifree, status, msg)
+    if (status /= MLID_OK) return
+    call oe_likelihood(m, theta, ifree, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+  end subroutine mlid_evaluate
+
+  !> Outputs y (with noise of standard deviation noise_std, seeded) and
+  !> states x of the model along the time base t with inputs u.
+  subroutine mlid_simulate(mkind, nx, nu, ny, nth, theta, nic, iconst, nrc, rconst, nt, t, u, &
+                           noise_std, seed, iopt, ropt, y, x, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nth, nic, nrc, nt, seed
+    real(c_double), intent(in) :: theta(nth)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    real(c_double), intent(in) :: t(nt), u(nu, nt), noise_std(ny)
+    integer(c_int), intent(in) :: iopt(8)
+    real(c_double), intent(in) :: ropt(8)
+    real(c_double), intent(out) :: y(ny, nt), x(nx, nt)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    integer, allocatable :: ifree(:)
+    integer :: nofree(nth)
+
+    y = 0.0_wp
+    x = 0.0_wp
+    nofree = 0
+    ! No measurements yet: check the time base and inputs against themselves.
+    call setup(mkind, nx, nu, ny, theta, nofree, iconst, rconst, t, u, y, iopt, ropt, 0, &
+               m, opt, ifree, status, msg)
+    if (status /= MLID_OK) return
+    call simulate_outputs(m, theta, t, u, opt, noise_std, seed, y, x, status, msg)
+  end subroutine mlid_simulate
+
+  !> nrun identifications: data from theta_true with seeds seed0, seed0+1, ...,
+  !> each fitted from theta_start.  est and sig (nf, nrun) are the estimates
+  !> and Cramer-Rao standard deviations of the free parameters, iters the
+  !> iterations, run_status each run's status (0, or the code it ended on).
+  subroutine mlid_monte_carlo(mkind, nx, nu, ny, nth, theta_true, theta_start, isfree, nic, &
+                              iconst, nrc, rconst, nt, t, u, noise_std, seed0, nrun, iopt, &
+                              ropt, nf, est, sig, iters, run_status, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nth, nic, nrc, nt, seed0, nrun, nf
+    real(c_double), intent(in) :: theta_true(nth), theta_start(nth)
+    integer(c_int), intent(in) :: isfree(nth)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    real(c_double), intent(in) :: t(nt), u(nu, nt), noise_std(ny)
+    integer(c_int), intent(in) :: iopt(8)
+    real(c_double), intent(in) :: ropt(8)
+    real(c_double), intent(out) :: est(nf, nrun), sig(nf, nrun)
+    integer(c_int), intent(out) :: iters(nrun), run_status(nrun), status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    integer, allocatable :: ifree(:)
+    real(wp) :: yzero(ny, nt)
+
+    est = 0.0_wp
+    sig = 0.0_wp
+    iters = 0
+    run_status = 0
+    yzero = 0.0_wp
+    call setup(mkind, nx, nu, ny, theta_start, isfree, iconst, rconst, t, u, yzero, iopt, ropt, &
+               nf, m, opt, ifree, status, msg)
+    if (status /= MLID_OK) return
+    if (.not. all(ieee_is_finite(theta_true))) then
+      status = MLID_ERR_INPUT
+      msg = 'true parameter values must be finite'
+      return
+    end if
+    call monte_carlo_oe(m, theta_true, theta_start, ifree, t, u, opt, noise_std, seed0, &
+                        est, sig, iters, run_status)
+  end subroutine mlid_monte_carlo
+
+  !> Build the model and options and check everything the estimators assume
+  !> of their arguments, with a message that names the offending item.
+  subroutine setup(mkind, nx, nu, ny, theta, isfree, iconst, rconst, t, u, y, iopt, ropt, nf, &
+                   m, opt, ifree, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nf
+    real(c_double), intent(in) :: theta(:)
+    integer(c_int), intent(in) :: isfree(:), iconst(:)
+    real(c_double), intent(in) :: rconst(:), t(:), u(:, :), y(:, :)
+    integer(c_int), intent(in) :: iopt(8)
+    real(c_double), intent(in) :: ropt(8)
+    class(model_t), allocatable, intent(out) :: m
+    type(options_t), intent(out) :: opt
+    integer, allocatable, intent(out) :: ifree(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: k, j, nt
+
+    call model_create(mkind, nx, nu, ny, iconst, rconst, m, status, msg)
+    if (status /= MLID_OK) return
+    call options_from_flat(iopt, ropt, opt, status, msg)
+    if (status /= MLID_OK) return
+    status = MLID_ERR_INPUT
+    nt = size(t)
+    if (size(theta) /= m%np + nx + ny) then
+      write (msg, '(a,i0,a,i0)') 'parameter vector has ', size(theta), &
+        ' entries, the model needs np + nx + ny = ', m%np + nx + ny
+      return
+    end if
+    if (any(isfree /= 0 .and. isfree /= 1)) then
+      msg = 'free flags must be 0 or 1'
+      return
+    end if
+    ifree = pack([(k, k=1, size(theta))], isfree == 1)
+    if (size(ifree) /= nf) then
+      write (msg, '(a,i0,a,i0)') 'nf = ', nf, ' but ', size(ifree), ' parameters are free'
+      return
+    end if
+    do k = 1, size(theta)
+      if (.not. ieee_is_finite(theta(k))) then
+        write (msg, '(a,i0,a)') 'parameter ', k, ' is not finite'
+        return
+      end if
+    end do
+    if (nt < 2) then
+      write (msg, '(a,i0,a)') 'record has ', nt, ' samples, at least 2 are needed'
+      return
+    end if
+    if (nf > 0 .and. (nt < nf .or. nt*ny <= nf)) then
+      write (msg, '(a,i0,a,i0,a)') 'record has ', nt, ' samples for ', nf, &
+        ' free parameters: too few to estimate them'
+      return
+    end if
+    do j = 1, nt
+      if (.not. ieee_is_finite(t(j))) then
+        write (msg, '(a,i0)') 'data: time is not finite at sample ', j
+        return
+      end if
+      if (j > 1) then
+        if (.not. t(j) > t(j - 1)) then
+          write (msg, '(a,i0,a,g0.6)') 'data: time does not increase at sample ', j, &
+            ', t = ', t(j)
+          return
+        end if
+      end if
+      do k = 1, nu
+        if (.not. ieee_is_finite(u(k, j))) then
+          write (msg, '(a,i0,a,i0,a,g0.6,a)') 'data: input ', k, ' is NaN or infinite at sample ', &
+            j, ' (t = ', t(j), ')'
+          return
+        end if
+      end do
+      do k = 1, ny
+        if (.not. ieee_is_finite(y(k, j))) then
+          write (msg, '(a,i0,a,i0,a,g0.6,a)') 'data: output ', k, &
+            ' is NaN or infinite at sample ', j, ' (t = ', t(j), ')'
+          return
+        end if
+      end do
+    end do
+    status = MLID_OK
+    msg = ''
+  end subroutine setup
+
+end module mlid_api

@@ -1,0 +1,681 @@
+!> Batch decks: Fortran namelist groups, several cases stacked in one file.
+!>
+!> A case starts at each line whose first word is &case and holds the groups
+!>   &case     title, job ('estimate' or 'simulate')
+!>   &model    kind, nx, nu, ny, f, g, h, d (row by row), x0, bias, free, names,
+!>             input_hold, substeps, state_names, input_names, output_names
+!>   &data     file, time_col, input_cols, output_cols, skip_rows   (estimate)
+!>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
+!>             t_start, pulse_width                                  (simulate)
+!>   &estimate max_iter, halvings, noise, tol_cost, tol_step, tol_grad, rcond
+!> A problem in one case is kept in that case (status, msg) and the others
+!> are still read.  The Python reader (mlid/deck.py) follows the same rules.
+module mlid_deck
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
+  use mlid_models, only: MODEL_LINEAR
+  use mlid_options, only: options_t, options_to_flat, NOPT
+  use mlid_inputs, only: input_signal
+  implicit none
+  private
+  public :: deck_case_t, deck_read, case_record, case_time_input, NAMELEN, PATHLEN
+
+  integer, parameter :: NAMELEN = 32, PATHLEN = 512, LINELEN = 2048
+  integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXFREE = 200, MAXCOL = 100
+  real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
+  character(len=*), parameter :: GROUPS = ' case model data simulate estimate '
+
+  type :: deck_case_t
+    integer :: status = MLID_OK
+    character(len=msg_len) :: msg = ''
+    integer :: line = 0                       !< line of &case in the deck
+    character(len=128) :: title = ''
+    character(len=16) :: job = ''
+    integer :: mkind = MODEL_LINEAR
+    integer :: nx = 0, nu = 0, ny = 0
+    real(wp), allocatable :: theta(:)         !< [vec F, vec G, vec H, vec D, x0, bias]
+    integer, allocatable :: isfree(:)
+    character(len=NAMELEN), allocatable :: labels(:)  !< per free parameter, theta order
+    integer :: iopt(NOPT) = 0
+    real(wp) :: ropt(NOPT) = 0.0_wp
+    character(len=16) :: noise = 'diagonal'
+    character(len=PATHLEN) :: data_file = ''  !< relative paths are resolved from the deck
+    integer :: time_col = 1, skip_rows = 0
+    integer, allocatable :: input_cols(:), output_cols(:)
+    character(len=PATHLEN) :: out_file = ''
+    real(wp) :: t_end = 0.0_wp, dt = 0.0_wp
+    integer :: seed = 0
+    real(wp), allocatable :: noise_std(:), amplitude(:)
+    character(len=16) :: input_shape = 'none'
+    real(wp) :: t_start = 0.0_wp, pulse_width = 0.0_wp
+  end type deck_case_t
+
+contains
+
+  !> Read every case of a deck.  status /= 0 only when the deck as a whole
+  !> cannot be used (missing file, no &case); per-case problems are kept in
+  !> the cases.
+  subroutine deck_read(path, cases, status, msg)
+    character(len=*), intent(in) :: path
+    type(deck_case_t), allocatable, intent(out) :: cases(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=LINELEN), allocatable :: lines(:)
+    integer, allocatable :: starts(:)
+    integer :: n, k, last
+
+    allocate (cases(0))
+    call read_lines(path, lines, status, msg)
+    if (status /= MLID_OK) return
+    n = size(lines)
+    allocate (starts(0))
+    do k = 1, n
+      if (first_word(lines(k)) == '&case') starts = [starts, k]
+    end do
+    if (size(starts) == 0) then
+      status = MLID_ERR_INPUT
+      msg = trim(path)//': no &case group found (a deck is a sequence of cases, each starting with &case)'
+      return
+    end if
+    do k = 1, starts(1) - 1
+      if (len_trim(strip_comment(lines(k))) > 0) then
+        status = MLID_ERR_INPUT
+        write (msg, '(a,i0,a)') trim(path)//' line ', k, ': text before the first &case group'
+        return
+      end if
+    end do
+    deallocate (cases)
+    allocate (cases(size(starts)))
+    do k = 1, size(starts)
+      last = n
+      if (k < size(starts)) last = starts(k + 1) - 1
+      cases(k)%line = starts(k)
+      call read_case(lines(starts(k):last), starts(k), cases(k))
+    end do
+  end subroutine deck_read
+
+  !> Parse one case from its lines (first is the &case line, number line0).
+  subroutine read_case(lines, line0, c)
+    character(len=*), intent(in) :: lines(:)
+    integer, intent(in) :: line0
+    type(deck_case_t), intent(inout) :: c
+    ! namelist variables, reset for every case
+    character(len=128) :: title
+    character(len=16) :: job, kind, input_hold, noise, input_shape
+    integer :: nx, nu, ny, substeps, max_iter, halvings, time_col, skip_rows, seed
+    real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
+    character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
+    character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
+    real(wp) :: tol_cost, tol_step, tol_grad, rcond
+    character(len=PATHLEN) :: file, out
+    integer :: input_cols(MAXCOL), output_cols(MAXCOL)
+    real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start, pulse_width
+    namelist /case/ title, job
+    namelist /model/ kind, nx, nu, ny, f, g, h, d, x0, bias, free, names, input_hold, substeps, &
+      state_names, input_names, output_names
+    namelist /data/ file, time_col, input_cols, output_cols, skip_rows
+    namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
+      pulse_width
+    namelist /estimate/ max_iter, halvings, noise, tol_cost, tol_step, tol_grad, rcond
+    type(options_t) :: opt
+    integer :: unit, k, ios, np, idx
+    logical :: found
+    character(len=msg_len) :: iomsg
+    character(len=LINELEN) :: text
+
+    ! Write the case without comments to a scratch file: gfortran and the
+    ! Python reader disagree on comments after a trailing comma.
+    open (newunit=unit, status='scratch', action='readwrite', form='formatted')
+    do k = 1, size(lines)
+      text = strip_comment(lines(k))
+      write (unit, '(a)') trim(text)
+      call check_groups(text, line0 + k - 1, c)
+      if (c%status /= MLID_OK) then
+        close (unit)
+        return
+      end if
+    end do
+
+    title = ''
+    job = ''
+    call read_group('case')
+    if (c%status /= MLID_OK) return
+    c%title = title
+    c%job = lower(job)
+    if (c%job /= 'estimate' .and. c%job /= 'simulate') then
+      call fail('group &case: job must be ''estimate'' or ''simulate'', got '''//trim(job)//'''')
+      return
+    end if
+
+    kind = 'linear'
+    nx = 0
+    nu = 0
+    ny = 0
+    f = UNSET
+    g = UNSET
+    h = UNSET
+    d = UNSET
+    x0 = UNSET
+    bias = UNSET
+    free = ''
+    names = ''
+    state_names = ''
+    input_names = ''
+    output_names = ''
+    input_hold = 'linear'
+    substeps = opt%substeps
+    call read_group('model', required=.true.)
+    if (c%status /= MLID_OK) return
+    if (lower(kind) /= 'linear') then
+      call fail('group &model: unknown kind '''//trim(kind)//''' (available: linear)')
+      return
+    end if
+    if (nx < 1 .or. nx > MAXX .or. nu < 0 .or. nu > MAXU .or. ny < 1 .or. ny > MAXY) then
+      write (iomsg, '(a,3(1x,i0),a,3(1x,i0))') 'group &model: nx, nu, ny =', nx, nu, ny, &
+        ' out of range; limits are 1..', MAXX, MAXU, MAXY
+      call fail(iomsg)
+      return
+    end if
+    c%nx = nx
+    c%nu = nu
+    c%ny = ny
+    np = nx*nx + nx*nu + ny*nx + ny*nu
+    allocate (c%theta(np + nx + ny), c%isfree(np + nx + ny), c%labels(np + nx + ny))
+    c%isfree = 0
+    c%labels = ''
+    call put_matrix('f', f, nx, nx, 0, required=.true.)
+    call put_matrix('g', g, nx, nu, nx*nx, required=nu > 0)
+    call put_matrix('h', h, ny, nx, nx*nx + nx*nu, required=.true.)
+    call put_matrix('d', d, ny, nu, nx*nx + nx*nu + ny*nx, required=.false.)
+    call put_vector('x0', x0, nx, np)
+    call put_vector('bias', bias, ny, np + nx)
+    if (c%status /= MLID_OK) return
+    do k = 1, MAXFREE
+      if (len_trim(free(k)) == 0) cycle
+      call element_index(free(k), nx, nu, ny, idx)
+      if (idx == 0) then
+        call fail('group &model: free parameter '''//trim(free(k))// &
+                  ''' does not exist (use f(i,j), g(i,j), h(i,j), d(i,j), x0(i), bias(i) within the dimensions)')
+        return
+      end if
+      if (c%isfree(idx) == 1) then
+        call fail('group &model: free parameter '''//trim(free(k))//''' listed twice')
+        return
+      end if
+      c%isfree(idx) = 1
+      c%labels(idx) = free(k)
+      if (len_trim(names(k)) > 0) c%labels(idx) = names(k)
+    end do
+    if (count(len_trim(names) > 0) > count(len_trim(free) > 0)) then
+      call fail('group &model: more names than free parameters')
+      return
+    end if
+    c%labels = pack(c%labels, c%isfree == 1)
+    select case (lower(input_hold))
+    case ('linear')
+      opt%hold = .false.
+    case ('zoh')
+      opt%hold = .true.
+    case default
+      call fail('group &model: input_hold must be ''linear'' or ''zoh'', got '''//trim(input_hold)//'''')
+      return
+    end select
+    opt%substeps = substeps
+
+    if (c%job == 'estimate') then
+      file = ''
+      time_col = 1
+      input_cols = 0
+      output_cols = 0
+      skip_rows = 0
+      call read_group('data', required=.true.)
+      if (c%status /= MLID_OK) return
+      c%data_file = file
+      c%time_col = time_col
+      c%skip_rows = skip_rows
+      c%input_cols = pack(input_cols, input_cols /= 0)
+      c%output_cols = pack(output_cols, output_cols /= 0)
+      if (len_trim(file) == 0) then
+        call fail('group &data: file is missing')
+      else if (size(c%input_cols) /= nu .or. size(c%output_cols) /= ny) then
+        write (iomsg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%input_cols), &
+          ' input_cols and ', size(c%output_cols), ' output_cols given, the model has ', nu, &
+          ' inputs and ', ny, ' outputs'
+        call fail(iomsg)
+      else if (any([c%input_cols, c%output_cols, time_col] < 1) .or. skip_rows < 0) then
+        call fail('group &data: column numbers must be >= 1 and skip_rows >= 0')
+      end if
+      if (c%status /= MLID_OK) return
+
+      max_iter = opt%max_iter
+      halvings = opt%halvings
+      noise = 'diagonal'
+      tol_cost = opt%tol_cost
+      tol_step = opt%tol_step
+      tol_grad = opt%tol_grad
+      rcond = opt%rcond
+      call read_group('estimate')
+      if (c%status /= MLID_OK) return
+      opt%max_iter = max_iter
+      opt%halvings = halvings
+      opt%tol_cost = tol_cost
+      opt%tol_step = tol_step
+      opt%tol_grad = tol_grad
+      opt%rcond = rcond
+      c%noise = lower(noise)
+      if (c%noise /= 'diagonal' .and. c%noise /= 'full') then
+        call fail('group &estimate: noise must be ''diagonal'' or ''full'', got '''//trim(noise)//'''')
+        return
+      end if
+      opt%full_r = c%noise == 'full'
+    else
+      out = ''
+      t_end = 0.0_wp
+      dt = 0.0_wp
+      seed = 0
+      noise_std = UNSET
+      input_shape = 'none'
+      amplitude = UNSET
+      t_start = 0.0_wp
+      pulse_width = 0.0_wp
+      call read_group('simulate', required=.true.)
+      if (c%status /= MLID_OK) return
+      c%out_file = out
+      c%t_end = t_end
+      c%dt = dt
+      c%seed = seed
+      c%input_shape = lower(input_shape)
+      c%t_start = t_start
+      c%pulse_width = pulse_width
+      c%noise_std = pack(noise_std, noise_std /= UNSET)
+      c%amplitude = pack(amplitude, amplitude /= UNSET)
+      if (size(c%amplitude) == 0) c%amplitude = [(0.0_wp, k=1, nu)]
+      if (len_trim(out) == 0) then
+        call fail('group &simulate: out (the data file to write) is missing')
+      else if (.not. (dt > 0.0_wp .and. t_end > dt)) then
+        call fail('group &simulate: need dt > 0 and t_end > dt')
+      else if (size(c%noise_std) /= ny) then
+        write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
+          ' values, the model has ', ny, ' outputs'
+        call fail(iomsg)
+      else if (size(c%amplitude) /= nu) then
+        write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: amplitude has ', size(c%amplitude), &
+          ' values, the model has ', nu, ' inputs'
+        call fail(iomsg)
+      else if (seed < 0) then
+        call fail('group &simulate: seed must be >= 0')
+      end if
+      if (c%status /= MLID_OK) return
+    end if
+    call options_to_flat(opt, c%iopt, c%ropt)
+    close (unit)
+
+  contains
+
+    !> Read one group; a missing optional group keeps the defaults.
+    subroutine read_group(group, required)
+      character(len=*), intent(in) :: group
+      logical, intent(in), optional :: required
+      rewind (unit)
+      select case (group)
+      case ('case');     read (unit, nml=case, iostat=ios, iomsg=iomsg)
+      case ('model');    read (unit, nml=model, iostat=ios, iomsg=iomsg)
+      case ('data');     read (unit, nml=data, iostat=ios, iomsg=iomsg)
+      case ('simulate'); read (unit, nml=simulate, iostat=ios, iomsg=iomsg)
+      case ('estimate'); read (unit, nml=estimate, iostat=ios, iomsg=iomsg)
+      end select
+      found = ios == 0
+      if (ios < 0) then
+        if (present(required)) then
+          if (required) call fail('group &'//group//' is missing (job '''//trim(c%job)//''' needs it)')
+        end if
+      else if (ios > 0) then
+        call fail('group &'//group//' (line '//itoa(group_line(lines, line0, group))// &
+                  '): '//trim(iomsg))
+      end if
+    end subroutine read_group
+
+    !> Place a row-by-row matrix of the deck into theta (column-major).
+    subroutine put_matrix(key, v, nr, nc, offset, required)
+      character(len=*), intent(in) :: key
+      real(wp), intent(in) :: v(:)
+      integer, intent(in) :: nr, nc, offset
+      logical, intent(in) :: required
+      integer :: ngiven, i, j
+      if (c%status /= MLID_OK) return
+      ngiven = count(v /= UNSET)
+      if (ngiven == 0 .and. .not. required) then
+        c%theta(offset + 1:offset + nr*nc) = 0.0_wp
+        return
+      end if
+      if (ngiven /= nr*nc .or. any(v(1:nr*nc) == UNSET)) then
+        write (iomsg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &model: '//key//' has ', ngiven, &
+          ' values, '//key//' is ', nr, 'x', nc, ' and needs ', nr*nc, ' (row by row)'
+        call fail(iomsg)
+        return
+      end if
+      do i = 1, nr
+        do j = 1, nc
+          c%theta(offset + (j - 1)*nr + i) = v((i - 1)*nc + j)
+        end do
+      end do
+      if (.not. all(ieee_is_finite(c%theta(offset + 1:offset + nr*nc)))) &
+        call fail('group &model: '//key//' has a value that is not finite')
+    end subroutine put_matrix
+
+    subroutine put_vector(key, v, n, offset)
+      character(len=*), intent(in) :: key
+      real(wp), intent(in) :: v(:)
+      integer, intent(in) :: n, offset
+      integer :: ngiven
+      if (c%status /= MLID_OK) return
+      ngiven = count(v /= UNSET)
+      if (ngiven == 0) then
+        c%theta(offset + 1:offset + n) = 0.0_wp
+      else if (ngiven /= n .or. any(v(1:n) == UNSET)) then
+        write (iomsg, '(a,i0,a,i0,a)') 'group &model: '//key//' has ', ngiven, &
+          ' values, it needs ', n
+        call fail(iomsg)
+      else
+        c%theta(offset + 1:offset + n) = v(1:n)
+      end if
+    end subroutine put_vector
+
+    subroutine fail(text)
+      character(len=*), intent(in) :: text
+      c%status = MLID_ERR_INPUT
+      c%msg = text
+      close (unit)
+    end subroutine fail
+
+  end subroutine read_case
+
+  !> Flag a group name that is not one of GROUPS.
+  subroutine check_groups(text, line, c)
+    character(len=*), intent(in) :: text
+    integer, intent(in) :: line
+    type(deck_case_t), intent(inout) :: c
+    integer :: k, e
+    logical :: quoted
+    character :: q
+
+    quoted = .false.
+    q = ' '
+    do k = 1, len_trim(text)
+      if (quoted) then
+        if (text(k:k) == q) quoted = .false.
+      else if (text(k:k) == '''' .or. text(k:k) == '"') then
+        quoted = .true.
+        q = text(k:k)
+      else if (text(k:k) == '&') then
+        e = k + 1
+        do while (e <= len_trim(text))
+          if (verify(text(e:e), 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ_0123456789') /= 0) exit
+          e = e + 1
+        end do
+        if (index(GROUPS, ' '//lower(text(k + 1:e - 1))//' ') == 0) then
+          c%status = MLID_ERR_INPUT
+          c%msg = 'line '//itoa(line)//': unknown group &'//text(k + 1:e - 1)// &
+                  ' (groups are &case, &model, &data, &simulate, &estimate)'
+          return
+        end if
+      end if
+    end do
+  end subroutine check_groups
+
+  !> Index into theta of a parameter named f(i,j), g(i,j), h(i,j), d(i,j),
+  !> x0(i) or bias(i); 0 if there is no such element.
+  subroutine element_index(name, nx, nu, ny, idx)
+    character(len=*), intent(in) :: name
+    integer, intent(in) :: nx, nu, ny
+    integer, intent(out) :: idx
+    character(len=NAMELEN) :: key
+    integer :: p, q, i, j, ios, np
+    character(len=len(name)) :: s
+
+    idx = 0
+    s = lower(adjustl(name))
+    p = index(s, '(')
+    q = index(s, ')')
+    if (p < 2 .or. q < p + 2 .or. len_trim(s) /= q) return
+    key = s(1:p - 1)
+    j = 0
+    if (index(s(p + 1:q - 1), ',') > 0) then
+      read (s(p + 1:q - 1), *, iostat=ios) i, j
+    else
+      read (s(p + 1:q - 1), *, iostat=ios) i
+    end if
+    if (ios /= 0) return
+    np = nx*nx + nx*nu + ny*nx + ny*nu
+    select case (trim(key))
+    case ('f')
+      if (in(i, nx) .and. in(j, nx)) idx = (j - 1)*nx + i
+    case ('g')
+      if (in(i, nx) .and. in(j, nu)) idx = nx*nx + (j - 1)*nx + i
+    case ('h')
+      if (in(i, ny) .and. in(j, nx)) idx = nx*nx + nx*nu + (j - 1)*ny + i
+    case ('d')
+      if (in(i, ny) .and. in(j, nu)) idx = nx*nx + nx*nu + ny*nx + (j - 1)*ny + i
+    case ('x0')
+      if (in(i, nx) .and. j == 0) idx = np + i
+    case ('bias')
+      if (in(i, ny) .and. j == 0) idx = np + nx + i
+    end select
+  contains
+    logical function in(k, n)
+      integer, intent(in) :: k, n
+      in = k >= 1 .and. k <= n
+    end function in
+  end subroutine element_index
+
+  !> The record of an estimate case: t(nt), u(nu, nt), y(ny, nt) from its
+  !> data file (relative to the deck's folder deck_dir).
+  subroutine case_record(c, deck_dir, t, u, y, status, msg)
+    type(deck_case_t), intent(in) :: c
+    character(len=*), intent(in) :: deck_dir
+    real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=LINELEN), allocatable :: lines(:)
+    character(len=PATHLEN) :: path
+    real(wp), allocatable :: table(:, :), row(:)
+    integer :: k, n, ncol, ios, nrow
+
+    path = resolve(deck_dir, c%data_file)
+    call read_lines(path, lines, status, msg)
+    if (status /= MLID_OK) return
+    status = MLID_ERR_INPUT
+    n = size(lines)
+    allocate (table(0, 0))
+    ncol = 0
+    nrow = 0
+    do k = c%skip_rows + 1, n
+      if (len_trim(strip_comment(lines(k), '#')) == 0) cycle
+      if (ncol == 0) then
+        ncol = count_fields(lines(k))
+        deallocate (table)
+        allocate (table(ncol, n), row(ncol))
+      end if
+      if (count_fields(lines(k)) /= ncol) then
+        write (msg, '(a,i0,a,i0,a,i0)') 'data file '//trim(path)//' line ', k, ': ', &
+          count_fields(lines(k)), ' columns, expected ', ncol
+        return
+      end if
+      read (lines(k), *, iostat=ios) row
+      if (ios /= 0) then
+        write (msg, '(a,i0,a)') 'data file '//trim(path)//' line ', k, ': malformed number'
+        return
+      end if
+      nrow = nrow + 1
+      table(:, nrow) = row
+    end do
+    if (nrow == 0) then
+      msg = 'data file '//trim(path)//': no data rows'
+      return
+    end if
+    if (maxval([c%input_cols, c%output_cols, c%time_col]) > ncol) then
+      write (msg, '(a,i0,a,i0,a)') 'data file '//trim(path)//': column ', &
+        maxval([c%input_cols, c%output_cols, c%time_col]), ' requested, the file has ', ncol, &
+        ' columns'
+      return
+    end if
+    t = table(c%time_col, 1:nrow)
+    u = table(c%input_cols, 1:nrow)
+    y = table(c%output_cols, 1:nrow)
+    status = MLID_OK
+    msg = ''
+  end subroutine case_record
+
+  !> Time base t = 0, dt, ..., and inputs of a simulate case.
+  subroutine case_time_input(c, t, u, status, msg)
+    type(deck_case_t), intent(in) :: c
+    real(wp), allocatable, intent(out) :: t(:), u(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: nt, k
+
+    nt = nint(c%t_end/c%dt) + 1
+    t = [(real(k - 1, wp)*c%dt, k=1, nt)]
+    allocate (u(c%nu, nt))
+    status = MLID_OK
+    msg = ''
+    do k = 1, c%nu
+      call input_signal(c%input_shape, c%amplitude(k), c%t_start, c%pulse_width, c%dt, &
+                        u(k, :), status, msg)
+      if (status /= MLID_OK) return
+    end do
+  end subroutine case_time_input
+
+  !> Path relative to the deck's folder unless absolute.
+  function resolve(dir, file) result(path)
+    character(len=*), intent(in) :: dir, file
+    character(len=PATHLEN) :: path
+    if (file(1:1) == '/' .or. len_trim(dir) == 0) then
+      path = file
+    else
+      path = trim(dir)//'/'//trim(file)
+    end if
+  end function resolve
+
+  subroutine read_lines(path, lines, status, msg)
+    character(len=*), intent(in) :: path
+    character(len=LINELEN), allocatable, intent(out) :: lines(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=LINELEN) :: buf
+    integer :: unit, ios, n
+    logical :: exists
+
+    allocate (lines(0))
+    inquire (file=path, exist=exists)
+    if (.not. exists) then
+      status = MLID_ERR_INPUT
+      msg = 'file not found: '//trim(path)
+      return
+    end if
+    open (newunit=unit, file=path, status='old', action='read', iostat=ios)
+    if (ios /= 0) then
+      status = MLID_ERR_INPUT
+      msg = 'cannot open '//trim(path)
+      return
+    end if
+    n = 0
+    do
+      read (unit, '(a)', iostat=ios) buf
+      if (ios /= 0) exit
+      n = n + 1
+      if (n > size(lines)) lines = [character(len=LINELEN) :: lines, (' ', ios=1, max(64, n))]
+      lines(n) = buf
+    end do
+    close (unit)
+    lines = lines(1:n)
+    status = MLID_OK
+    msg = ''
+  end subroutine read_lines
+
+  !> The line without its comment (from the first mark outside quotes).
+  function strip_comment(line, mark) result(s)
+    character(len=*), intent(in) :: line
+    character, intent(in), optional :: mark
+    character(len=len(line)) :: s
+    character :: q, cm
+    logical :: quoted
+    integer :: k
+    cm = '!'
+    if (present(mark)) cm = mark
+    s = line
+    quoted = .false.
+    q = ' '
+    do k = 1, len_trim(line)
+      if (quoted) then
+        if (line(k:k) == q) quoted = .false.
+      else if (line(k:k) == '''' .or. line(k:k) == '"') then
+        quoted = .true.
+        q = line(k:k)
+      else if (line(k:k) == cm) then
+        s = line(1:k - 1)
+        return
+      end if
+    end do
+  end function strip_comment
+
+  function first_word(line) result(w)
+    character(len=*), intent(in) :: line
+    character(len=16) :: w
+    character(len=len(line)) :: s
+    integer :: e
+    s = adjustl(line)
+    e = scan(s, ' /,'//achar(9))
+    if (e == 0) e = len(s) + 1
+    w = lower(s(1:min(e - 1, 16)))
+  end function first_word
+
+  !> Line number of the first &group in the case (for messages).
+  integer function group_line(lines, line0, group)
+    character(len=*), intent(in) :: lines(:), group
+    integer, intent(in) :: line0
+    integer :: k
+    group_line = line0
+    do k = 1, size(lines)
+      if (index(lower(strip_comment(lines(k))), '&'//group) > 0) then
+        group_line = line0 + k - 1
+        return
+      end if
+    end do
+  end function group_line
+
+  integer function count_fields(line)
+    character(len=*), intent(in) :: line
+    integer :: k
+    logical :: inside
+    count_fields = 0
+    inside = .false.
+    do k = 1, len_trim(line)
+      if (index(' ,'//achar(9), line(k:k)) > 0) then
+        inside = .false.
+      else if (.not. inside) then
+        inside = .true.
+        count_fields = count_fields + 1
+      end if
+    end do
+  end function count_fields
+
+  pure function lower(s) result(r)
+    character(len=*), intent(in) :: s
+    character(len=len(s)) :: r
+    integer :: k
+    r = s
+    do k = 1, len(s)
+      if (s(k:k) >= 'A' .and. s(k:k) <= 'Z') r(k:k) = achar(iachar(s(k:k)) + 32)
+    end do
+  end function lower
+
+  function itoa(i) result(s)
+    integer, intent(in) :: i
+    character(len=:), allocatable :: s
+    character(len=16) :: buf
+    write (buf, '(i0)') i
+    s = trim(buf)
+  end function itoa
+
+end module mlid_deck

@@ -1,0 +1,70 @@
+!> Standard flight-test input shapes on a uniform time base.
+!>
+!> Pulse edges are placed on whole samples (widths rounded to samples) so
+!> that every caller gets the same signal whatever the rounding of t.
+module mlid_inputs
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  implicit none
+  private
+  public :: input_signal, INPUT_SHAPES
+
+  character(len=*), parameter :: INPUT_SHAPES = 'none, step, pulse, doublet, 3211'
+
+contains
+
+  !> u(k) at t(k) = (k-1)*dt for a named shape of amplitude a starting at
+  !> t_start with unit pulse width pw:
+  !>   step: a from t_start on; pulse: a for pw; doublet: +a for pw, -a for pw;
+  !>   3211: +a for 3pw, -a for 2pw, +a for pw, -a for pw.
+  subroutine input_signal(shape, a, t_start, pw, dt, u, status, msg)
+    character(len=*), intent(in) :: shape
+    real(wp), intent(in) :: a, t_start, pw, dt
+    real(wp), intent(out) :: u(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: k0, w, k
+    integer, allocatable :: widths(:)
+    real(wp), allocatable :: signs(:)
+
+    status = MLID_OK
+    msg = ''
+    u = 0.0_wp
+    if (.not. dt > 0.0_wp) then
+      status = MLID_ERR_INPUT
+      msg = 'input signal: dt must be > 0'
+      return
+    end if
+    k0 = nint(t_start/dt) + 1
+    w = nint(pw/dt)
+    select case (trim(shape))
+    case ('none')
+      return
+    case ('step')
+      if (k0 <= size(u)) u(max(1, k0):) = a
+      return
+    case ('pulse')
+      widths = [1]
+      signs = [1.0_wp]
+    case ('doublet')
+      widths = [1, 1]
+      signs = [1.0_wp, -1.0_wp]
+    case ('3211')
+      widths = [3, 2, 1, 1]
+      signs = [1.0_wp, -1.0_wp, 1.0_wp, -1.0_wp]
+    case default
+      status = MLID_ERR_INPUT
+      msg = 'unknown input shape '''//trim(shape)//''': use '//INPUT_SHAPES
+      return
+    end select
+    if (w < 1 .or. t_start < 0.0_wp) then
+      status = MLID_ERR_INPUT
+      msg = 'input signal: pulse_width must be at least one sample and t_start >= 0'
+      return
+    end if
+    do k = 1, size(widths)
+      if (k0 <= size(u)) u(k0:min(size(u), k0 + widths(k)*w - 1)) = signs(k)*a
+      k0 = k0 + widths(k)*w
+    end do
+  end subroutine input_signal
+
+end module mlid_inputs

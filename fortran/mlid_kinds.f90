@@ -1,0 +1,54 @@
+!> Kinds, status codes and stop reasons shared by the whole core.
+!>
+!> Every core routine reports failure through an integer status and a
+!> message instead of stopping, so that Python and the batch program can
+!> report the problem and carry on with the rest of a batch.
+module mlid_kinds
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  implicit none
+  private
+
+  !> Working precision: C double, so f2py maps it without a kind map.
+  integer, parameter, public :: wp = c_double
+  !> Integer kind of the flat interface.
+  integer, parameter, public :: ik = c_int
+  !> Length of status messages.
+  integer, parameter, public :: msg_len = 256
+
+  !> Status codes (0 is success).
+  integer, parameter, public :: MLID_OK = 0
+  integer, parameter, public :: MLID_ERR_INPUT = 1     !< bad input: dimensions, values, options
+  integer, parameter, public :: MLID_ERR_SINGULAR = 2  !< singular information or covariance
+  integer, parameter, public :: MLID_ERR_DIVERGED = 3  !< state became non-finite
+  integer, parameter, public :: MLID_ERR_NOCONV = 4    !< iteration ended without convergence
+  integer, parameter, public :: MLID_ERR_INTERNAL = 5  !< LAPACK or other internal failure
+
+  !> Why a Newton iteration stopped.
+  integer, parameter, public :: STOP_NONE = 0
+  integer, parameter, public :: STOP_COST = 1       !< relative cost change below tolerance
+  integer, parameter, public :: STOP_STEP = 2       !< relative step below tolerance
+  integer, parameter, public :: STOP_GRAD = 3       !< Newton decrement below tolerance
+  integer, parameter, public :: STOP_MAXITER = 4    !< iteration limit reached
+  integer, parameter, public :: STOP_NO_DECREASE = 5 !< no cost decrease after all halvings
+  integer, parameter, public :: STOP_FAILED = 6     !< an error ended the iteration
+
+  public :: stop_reason_text
+
+contains
+
+  !> Human-readable text for a stop reason.
+  pure function stop_reason_text(reason) result(text)
+    integer, intent(in) :: reason
+    character(len=64) :: text
+    select case (reason)
+    case (STOP_COST);        text = 'relative cost change below tol_cost'
+    case (STOP_STEP);        text = 'relative parameter step below tol_step'
+    case (STOP_GRAD);        text = 'Newton decrement below tol_grad'
+    case (STOP_MAXITER);     text = 'iteration limit reached'
+    case (STOP_NO_DECREASE); text = 'no cost decrease after all step halvings'
+    case (STOP_FAILED);      text = 'stopped by an error'
+    case default;            text = 'not started'
+    end select
+  end function stop_reason_text
+
+end module mlid_kinds

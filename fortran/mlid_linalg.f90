@@ -1,0 +1,92 @@
+!> LAPACK wrappers: symmetric eigen-decomposition and Cholesky-based
+!> inverse with log-determinant.
+module mlid_linalg
+  use mlid_kinds, only: wp
+  implicit none
+  private
+  public :: sym_eig, chol_inverse
+
+  interface
+    subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
+                      isuppz, work, lwork, iwork, liwork, info)
+      import :: wp
+      character, intent(in) :: jobz, range, uplo
+      integer, intent(in) :: n, lda, il, iu, ldz, lwork, liwork
+      real(wp), intent(inout) :: a(lda, *)
+      real(wp), intent(in) :: vl, vu, abstol
+      integer, intent(out) :: m, info
+      real(wp), intent(out) :: w(*), z(ldz, *), work(*)
+      integer, intent(out) :: isuppz(*), iwork(*)
+    end subroutine dsyevr
+    subroutine dpotrf(uplo, n, a, lda, info)
+      import :: wp
+      character, intent(in) :: uplo
+      integer, intent(in) :: n, lda
+      real(wp), intent(inout) :: a(lda, *)
+      integer, intent(out) :: info
+    end subroutine dpotrf
+    subroutine dpotri(uplo, n, a, lda, info)
+      import :: wp
+      character, intent(in) :: uplo
+      integer, intent(in) :: n, lda
+      real(wp), intent(inout) :: a(lda, *)
+      integer, intent(out) :: info
+    end subroutine dpotri
+  end interface
+
+contains
+
+  !> All eigenvalues (ascending) and eigenvectors of a symmetric matrix.
+  !> info /= 0 reports a LAPACK failure.
+  subroutine sym_eig(a, w, v, info)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: w(:)
+    real(wp), intent(out) :: v(:, :)
+    integer, intent(out) :: info
+    real(wp), allocatable :: acopy(:, :), work(:)
+    integer, allocatable :: iwork(:), isuppz(:)
+    real(wp) :: wq(1)
+    integer :: iwq(1), n, m
+
+    n = size(a, 1)
+    if (n == 0) then
+      info = 0
+      return
+    end if
+    acopy = a
+    allocate (isuppz(2*n))
+    call dsyevr('V', 'A', 'L', n, acopy, n, 0.0_wp, 0.0_wp, 0, 0, 0.0_wp, m, w, v, n, &
+                isuppz, wq, -1, iwq, -1, info)
+    if (info /= 0) return
+    allocate (work(int(wq(1))), iwork(iwq(1)))
+    call dsyevr('V', 'A', 'L', n, acopy, n, 0.0_wp, 0.0_wp, 0, 0, 0.0_wp, m, w, v, n, &
+                isuppz, work, size(work), iwork, size(iwork), info)
+  end subroutine sym_eig
+
+  !> Inverse and log-determinant of a symmetric positive-definite matrix.
+  !> info > 0 means the matrix is not positive definite.
+  subroutine chol_inverse(a, ainv, logdet, info)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: ainv(:, :)
+    real(wp), intent(out) :: logdet
+    integer, intent(out) :: info
+    integer :: n, i, j
+
+    n = size(a, 1)
+    ainv = a
+    logdet = 0.0_wp
+    call dpotrf('L', n, ainv, n, info)
+    if (info /= 0) return
+    do i = 1, n
+      logdet = logdet + 2.0_wp*log(ainv(i, i))
+    end do
+    call dpotri('L', n, ainv, n, info)
+    if (info /= 0) return
+    do j = 1, n
+      do i = 1, j - 1
+        ainv(i, j) = ainv(j, i)
+      end do
+    end do
+  end subroutine chol_inverse
+
+end module mlid_linalg

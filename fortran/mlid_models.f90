@@ -1,0 +1,223 @@
+!> The model interface and its implementations.
+!>
+!> A model is xdot = f(t, x, u, p), y = h(t, x, u, p) with analytic
+!> Jacobians.  Every estimator works on the full parameter vector
+!>
+!>     theta = [ p(1:np), x0(1:nx), bias(1:ny) ]
+!>
+!> so initial states and output biases are parameters of every model, free
+!> or fixed like any other; the model itself only sees p.
+module mlid_models
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  implicit none
+  private
+  public :: model_t, linear_model_t, model_create, MODEL_LINEAR
+
+  !> Model kinds of the flat interface.
+  integer, parameter :: MODEL_LINEAR = 1
+
+  type, abstract :: model_t
+    integer :: nx = 0  !< states
+    integer :: nu = 0  !< inputs
+    integer :: ny = 0  !< outputs
+    integer :: np = 0  !< model parameters (before x0 and bias)
+  contains
+    procedure(f_iface), deferred :: f
+    procedure(h_iface), deferred :: h
+    procedure(dfdx_iface), deferred :: dfdx
+    procedure(dfdp_iface), deferred :: dfdp
+    procedure(dhdx_iface), deferred :: dhdx
+    procedure(dhdp_iface), deferred :: dhdp
+  end type model_t
+
+  abstract interface
+    !> State derivative xdot = f(t, x, u, p).
+    pure subroutine f_iface(self, t, x, u, p, xdot)
+      import :: model_t, wp
+      class(model_t), intent(in) :: self
+      real(wp), intent(in) :: t, x(:), u(:), p(:)
+      real(wp), intent(out) :: xdot(:)
+    end subroutine f_iface
+    !> Output y = h(t, x, u, p), without bias.
+    pure subroutine h_iface(self, t, x, u, p, y)
+      import :: model_t, wp
+      class(model_t), intent(in) :: self
+      real(wp), intent(in) :: t, x(:), u(:), p(:)
+      real(wp), intent(out) :: y(:)
+    end subroutine h_iface
+    !> a = df/dx (nx, nx).
+    pure subroutine dfdx_iface(self, t, x, u, p, a)
+      import :: model_t, wp
+      class(model_t), intent(in) :: self
+      real(wp), intent(in) :: t, x(:), u(:), p(:)
+      real(wp), intent(out) :: a(:, :)
+    end subroutine dfdx_iface
+    !> b(:, k) = df/dp(idx(k)) for the requested model parameters.
+    pure subroutine dfdp_iface(self, t, x, u, p, idx, b)
+      import :: model_t, wp
+      class(model_t), intent(in) :: self
+      real(wp), intent(in) :: t, x(:), u(:), p(:)
+      integer, intent(in) :: idx(:)
+      real(wp), intent(out) :: b(:, :)
+    end subroutine dfdp_iface
+    !> c = dh/dx (ny, nx).
+    pure subroutine dhdx_iface(self, t, x, u, p, c)
+      import :: model_t, wp
+      class(model_t), intent(in) :: self
+      real(wp), intent(in) :: t, x(:), u(:), p(:)
+      real(wp), intent(out) :: c(:, :)
+    end subroutine dhdx_iface
+    !> d(:, k) = dh/dp(idx(k)) for the requested model parameters.
+    pure subroutine dhdp_iface(self, t, x, u, p, idx, d)
+      import :: model_t, wp
+      class(model_t), intent(in) :: self
+      real(wp), intent(in) :: t, x(:), u(:), p(:)
+      integer, intent(in) :: idx(:)
+      real(wp), intent(out) :: d(:, :)
+    end subroutine dhdp_iface
+  end interface
+
+  !> Linear state space xdot = F x + G u, y = H x + D u.
+  !> p = [vec(F), vec(G), vec(H), vec(D)], each column-major.
+  type, extends(model_t) :: linear_model_t
+    integer :: of = 0, og = 0, oh = 0, od = 0  !< offsets of the blocks in p
+  contains
+    procedure :: f => lin_f
+    procedure :: h => lin_h
+    procedure :: dfdx => lin_dfdx
+    procedure :: dfdp => lin_dfdp
+    procedure :: dhdx => lin_dhdx
+    procedure :: dhdp => lin_dhdp
+  end type linear_model_t
+
+contains
+
+  !> Build a model from the flat description of the interface.
+  !> iconst and rconst carry model constants (unused by the linear model).
+  subroutine model_create(kind, nx, nu, ny, iconst, rconst, model, status, msg)
+    integer, intent(in) :: kind, nx, nu, ny
+    integer, intent(in) :: iconst(:)
+    real(wp), intent(in) :: rconst(:)
+    class(model_t), allocatable, intent(out) :: model
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(linear_model_t) :: lin
+
+    status = MLID_OK
+    msg = ''
+    if (nx < 1 .or. nu < 0 .or. ny < 1) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,3(i0,1x),a)') 'model dimensions nx, nu, ny = ', nx, nu, ny, &
+        'must be nx >= 1, nu >= 0, ny >= 1'
+      return
+    end if
+    select case (kind)
+    case (MODEL_LINEAR)
+      lin%nx = nx
+      lin%nu = nu
+      lin%ny = ny
+      lin%of = 0
+      lin%og = nx*nx
+      lin%oh = lin%og + nx*nu
+      lin%od = lin%oh + ny*nx
+      lin%np = lin%od + ny*nu
+      allocate (model, source=lin)
+    case default
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0)') 'unknown model kind ', kind
+    end select
+  end subroutine model_create
+
+  pure subroutine lin_f(self, t, x, u, p, xdot)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: xdot(:)
+    integer :: j, n
+    n = self%nx
+    xdot = 0.0_wp
+    do j = 1, n
+      xdot = xdot + p(self%of + (j - 1)*n + 1:self%of + j*n)*x(j)
+    end do
+    do j = 1, self%nu
+      xdot = xdot + p(self%og + (j - 1)*n + 1:self%og + j*n)*u(j)
+    end do
+  end subroutine lin_f
+
+  pure subroutine lin_h(self, t, x, u, p, y)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: y(:)
+    integer :: j, m
+    m = self%ny
+    y = 0.0_wp
+    do j = 1, self%nx
+      y = y + p(self%oh + (j - 1)*m + 1:self%oh + j*m)*x(j)
+    end do
+    do j = 1, self%nu
+      y = y + p(self%od + (j - 1)*m + 1:self%od + j*m)*u(j)
+    end do
+  end subroutine lin_h
+
+  pure subroutine lin_dfdx(self, t, x, u, p, a)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: a(:, :)
+    a = reshape(p(self%of + 1:self%of + self%nx*self%nx), [self%nx, self%nx])
+  end subroutine lin_dfdx
+
+  pure subroutine lin_dfdp(self, t, x, u, p, idx, b)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: b(:, :)
+    integer :: k, q, i, j, n
+    n = self%nx
+    b = 0.0_wp
+    do k = 1, size(idx)
+      q = idx(k)
+      if (q <= self%og) then            ! F(i, j): df_i/dF(i, j) = x_j
+        q = q - self%of - 1
+        i = mod(q, n) + 1
+        j = q/n + 1
+        b(i, k) = x(j)
+      else if (q <= self%oh) then       ! G(i, j): df_i/dG(i, j) = u_j
+        q = q - self%og - 1
+        i = mod(q, n) + 1
+        j = q/n + 1
+        b(i, k) = u(j)
+      end if                            ! H and D do not enter f
+    end do
+  end subroutine lin_dfdp
+
+  pure subroutine lin_dhdx(self, t, x, u, p, c)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: c(:, :)
+    c = reshape(p(self%oh + 1:self%oh + self%ny*self%nx), [self%ny, self%nx])
+  end subroutine lin_dhdx
+
+  pure subroutine lin_dhdp(self, t, x, u, p, idx, d)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: d(:, :)
+    integer :: k, q, i, j, m
+    m = self%ny
+    d = 0.0_wp
+    do k = 1, size(idx)
+      q = idx(k)
+      if (q > self%oh .and. q <= self%od) then    ! H(i, j): dh_i/dH(i, j) = x_j
+        q = q - self%oh - 1
+        i = mod(q, m) + 1
+        j = q/m + 1
+        d(i, k) = x(j)
+      else if (q > self%od) then                  ! D(i, j): dh_i/dD(i, j) = u_j
+        q = q - self%od - 1
+        i = mod(q, m) + 1
+        j = q/m + 1
+        d(i, k) = u(j)
+      end if
+    end do
+  end subroutine lin_dhdp
+
+end module mlid_models

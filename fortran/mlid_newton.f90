@@ -1,0 +1,205 @@
+!> Modified Newton-Raphson (Gauss-Newton) maximisation of the likelihood,
+!> report §4.3 and §4.6: step from the eigen-decomposition of the
+!> information matrix (block 6), step halving when the cost rises (blocks
+!> 8-9), stop on cost change, step size or gradient (§8.2.3).
+module mlid_newton
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, MLID_ERR_INTERNAL, &
+                        STOP_NONE, STOP_COST, STOP_STEP, STOP_GRAD, STOP_MAXITER, &
+                        STOP_NO_DECREASE, STOP_FAILED
+  use mlid_linalg, only: sym_eig
+  use mlid_models, only: model_t
+  use mlid_options, only: options_t
+  use mlid_likelihood, only: oe_likelihood
+  implicit none
+  private
+  public :: fit_result_t, newton_fit, info_inverse
+
+  type :: fit_result_t
+    real(wp), allocatable :: theta(:)       !< final parameters (all, fixed ones unchanged)
+    real(wp), allocatable :: grad(:)        !< gradient at theta (free)
+    real(wp), allocatable :: info(:, :)     !< information matrix at theta (free)
+    real(wp), allocatable :: cov(:, :)      !< inverse of info: Cramer-Rao covariance (free)
+    real(wp), allocatable :: eigval(:)      !< eigenvalues of info, ascending
+    real(wp), allocatable :: rhat(:, :)     !< measurement noise covariance estimate
+    real(wp), allocatable :: yhat(:, :)     !< model outputs at theta
+    real(wp), allocatable :: cost_hist(:)   !< cost before iteration 1, then after each
+    real(wp) :: cost = 0.0_wp
+    integer :: niter = 0
+    integer :: reason = STOP_NONE
+    integer :: bad_param = 0                !< free index dominating a singular direction
+    logical :: converged = .false.
+  end type fit_result_t
+
+contains
+
+  !> Fit the free parameters ifree of theta0 by output-error maximum
+  !> likelihood.  On a non-zero status res still holds the last iterate.
+  subroutine newton_fit(m, theta0, ifree, t, u, y, opt, res, status, msg)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta0(:)
+    integer, intent(in) :: ifree(:)
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(options_t), intent(in) :: opt
+    type(fit_result_t), intent(out) :: res
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: nf, ny, nt, it, ih, tstat, ndrop
+    real(wp) :: step(size(ifree)), trial(size(theta0)), best(size(theta0))
+    real(wp) :: jt, jbest, scale, decrement, dj
+    real(wp), allocatable :: rt(:, :), yt(:, :), rbest(:, :)
+    character(len=len(msg)) :: tmsg
+
+    nf = size(ifree)
+    ny = m%ny
+    nt = size(t)
+    allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), &
+              res%rhat(ny, ny), res%yhat(ny, nt), res%cost_hist(opt%max_iter + 1))
+    allocate (rt(ny, ny), yt(ny, nt), rbest(ny, ny))
+    res%theta = theta0
+    res%cost_hist = 0.0_wp
+
+    call oe_likelihood(m, res%theta, ifree, t, u, y, opt, res%cost, res%rhat, res%yhat, &
+                       status, msg, res%grad, res%info)
+    if (status /= MLID_OK) then
+      res%reason = STOP_FAILED
+      return
+    end if
+    res%cost_hist(1) = res%cost
+
+    do it = 1, opt%max_iter
+      call newton_step(res, opt%rcond, step, decrement, ndrop, status, msg)
+      if (status /= MLID_OK) then
+        res%reason = STOP_FAILED
+        return
+      end if
+      if (decrement <= opt%tol_grad) then
+        res%reason = STOP_GRAD
+        exit
+      end if
+
+      ! Full step first, then halve while the cost does not decrease.
+      jbest = huge(1.0_wp)
+      scale = 1.0_wp
+      do ih = 0, opt%halvings
+        trial = res%theta
+        trial(ifree) = trial(ifree) + scale*step
+        call oe_likelihood(m, trial, ifree, t, u, y, opt, jt, rt, yt, tstat, tmsg)
+        if (tstat == MLID_OK .and. ieee_is_finite(jt) .and. jt < jbest) then
+          jbest = jt
+          best = trial
+          rbest = rt
+        end if
+        if (jbest < res%cost) exit
+        scale = 0.5_wp*scale
+      end do
+
+      dj = res%cost - jbest
+      if (.not. (dj > 0.0_wp)) then
+        ! No decrease: converged if the cost is flat to tolerance, else stuck.
+        if (jbest < huge(1.0_wp) .and. abs(dj) <= opt%tol_cost*max(1.0_wp, abs(res%cost))) then
+          res%reason = STOP_COST
+        else
+          res%reason = STOP_NO_DECREASE
+        end if
+        exit
+      end if
+
+      res%niter = it
+      res%theta = best
+      call oe_likelihood(m, res%theta, ifree, t, u, y, opt, res%cost, res%rhat, res%yhat, &
+                         status, msg, res%grad, res%info)
+      if (status /= MLID_OK) then
+        res%reason = STOP_FAILED
+        return
+      end if
+      res%cost_hist(it + 1) = res%cost
+
+      if (dj <= opt%tol_cost*max(1.0_wp, abs(res%cost))) then
+        res%reason = STOP_COST
+        exit
+      end if
+      if (scale*norm2(step) <= opt%tol_step*norm2(res%theta(ifree))) then
+        res%reason = STOP_STEP
+        exit
+      end if
+    end do
+    if (res%reason == STOP_NONE) res%reason = STOP_MAXITER
+    res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
+
+    ! Cramer-Rao bound at the final estimate.
+    call info_inverse(res%info, opt%rcond, res%cov, res%eigval, ndrop, res%bad_param, status, msg)
+    if (status /= MLID_OK) return
+    if (ndrop > 0) then
+      status = MLID_ERR_SINGULAR
+      write (msg, '(a,i0,a,es9.2,a,i0,a)') 'information matrix singular (', ndrop, &
+        ' eigenvalue(s) below ', opt%rcond, ' of the largest): free parameter ', res%bad_param, &
+        ' is not identifiable from these data'
+    else if (.not. res%converged) then
+      status = MLID_ERR_NOCONV
+      write (msg, '(a,i0,a)') 'not converged after ', res%niter, ' iterations: ' // &
+        trim(merge('no cost decrease after all step halvings', &
+                   'iteration limit reached                 ', &
+                   res%reason == STOP_NO_DECREASE))
+    end if
+  end subroutine newton_fit
+
+  !> Newton step -M^-1 g through the eigen-decomposition of M, with the
+  !> directions whose eigenvalues fall below rcond*max left out, and the
+  !> Newton decrement sqrt(g' M^-1 g).
+  subroutine newton_step(res, rcond, step, decrement, ndrop, status, msg)
+    type(fit_result_t), intent(in) :: res
+    real(wp), intent(in) :: rcond
+    real(wp), intent(out) :: step(:), decrement
+    integer, intent(out) :: ndrop, status
+    character(len=*), intent(out) :: msg
+    real(wp) :: cov(size(step), size(step)), w(size(step))
+    integer :: bad
+
+    call info_inverse(res%info, rcond, cov, w, ndrop, bad, status, msg)
+    if (status /= MLID_OK) return
+    step = -matmul(cov, res%grad)
+    decrement = sqrt(max(0.0_wp, -dot_product(res%grad, step)))
+  end subroutine newton_step
+
+  !> Pseudo-inverse of the information matrix from its eigen-decomposition.
+  !> ndrop eigenvalues fall below rcond times the largest; bad is the free
+  !> parameter with the largest weight in the weakest direction.
+  subroutine info_inverse(info, rcond, cov, w, ndrop, bad, status, msg)
+    real(wp), intent(in) :: info(:, :)
+    real(wp), intent(in) :: rcond
+    real(wp), intent(out) :: cov(:, :), w(:)
+    integer, intent(out) :: ndrop, bad, status
+    character(len=*), intent(out) :: msg
+    real(wp) :: v(size(w), size(w))
+    integer :: n, k, ierr
+
+    status = MLID_OK
+    msg = ''
+    n = size(w)
+    ndrop = 0
+    bad = 0
+    cov = 0.0_wp
+    if (n == 0) return
+    if (.not. all(ieee_is_finite(info))) then
+      status = MLID_ERR_SINGULAR
+      msg = 'information matrix is not finite'
+      return
+    end if
+    call sym_eig(info, w, v, ierr)
+    if (ierr /= 0) then
+      status = MLID_ERR_INTERNAL
+      write (msg, '(a,i0)') 'eigen-decomposition of the information matrix failed, dsyevr info = ', ierr
+      return
+    end if
+    do k = 1, n
+      if (w(k) > rcond*w(n) .and. w(n) > 0.0_wp) then
+        cov = cov + spread(v(:, k), 2, n)*spread(v(:, k)/w(k), 1, n)
+      else
+        ndrop = ndrop + 1
+      end if
+    end do
+    if (ndrop > 0) bad = maxloc(abs(v(:, 1)), 1)
+  end subroutine info_inverse
+
+end module mlid_newton

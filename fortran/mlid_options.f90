@@ -1,0 +1,87 @@
+!> Estimator and integration options, and their flat encoding.
+!>
+!> The flat interface carries options as iopt(8) and ropt(8) so that f2py
+!> and the deck reader need no derived types; this module is the one place
+!> that knows the layout.
+module mlid_options
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  implicit none
+  private
+  public :: options_t, options_from_flat, options_to_flat, NOPT
+
+  integer, parameter :: NOPT = 8  !< length of iopt and ropt
+
+  type :: options_t
+    integer :: max_iter = 30      !< iopt(1): Newton iterations at most
+    integer :: halvings = 5       !< iopt(2): step halvings when the cost rises
+    logical :: full_r = .false.   !< iopt(3): 0 diagonal R, 1 full R
+    logical :: hold = .false.     !< iopt(4): 0 input linear between samples, 1 zero-order hold
+    integer :: substeps = 1       !< iopt(5): RK4 steps per sample interval
+    real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
+    real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
+    real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
+    real(wp) :: rcond = 1.0e-10_wp    !< ropt(4): eigenvalues of M below rcond*max are singular
+  end type options_t
+
+contains
+
+  !> Encode options in the flat layout (unused slots are zero).
+  subroutine options_to_flat(opt, iopt, ropt)
+    type(options_t), intent(in) :: opt
+    integer, intent(out) :: iopt(NOPT)
+    real(wp), intent(out) :: ropt(NOPT)
+    iopt = 0
+    ropt = 0.0_wp
+    iopt(1) = opt%max_iter
+    iopt(2) = opt%halvings
+    iopt(3) = merge(1, 0, opt%full_r)
+    iopt(4) = merge(1, 0, opt%hold)
+    iopt(5) = opt%substeps
+    ropt(1) = opt%tol_cost
+    ropt(2) = opt%tol_step
+    ropt(3) = opt%tol_grad
+    ropt(4) = opt%rcond
+  end subroutine options_to_flat
+
+  !> Decode and check the flat options.  Zero or negative entries where a
+  !> positive value is required are errors; the Python layer and the deck
+  !> reader fill in the defaults above.
+  subroutine options_from_flat(iopt, ropt, opt, status, msg)
+    integer, intent(in) :: iopt(NOPT)
+    real(wp), intent(in) :: ropt(NOPT)
+    type(options_t), intent(out) :: opt
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+
+    status = MLID_ERR_INPUT
+    opt%max_iter = iopt(1)
+    opt%halvings = iopt(2)
+    opt%full_r = iopt(3) == 1
+    opt%hold = iopt(4) == 1
+    opt%substeps = iopt(5)
+    opt%tol_cost = ropt(1)
+    opt%tol_step = ropt(2)
+    opt%tol_grad = ropt(3)
+    opt%rcond = ropt(4)
+    if (opt%max_iter < 0) then
+      write (msg, '(a,i0)') 'max_iter must be >= 0, got ', opt%max_iter
+    else if (opt%halvings < 0) then
+      write (msg, '(a,i0)') 'halvings must be >= 0, got ', opt%halvings
+    else if (iopt(3) /= 0 .and. iopt(3) /= 1) then
+      write (msg, '(a,i0)') 'noise code must be 0 (diagonal) or 1 (full), got ', iopt(3)
+    else if (iopt(4) /= 0 .and. iopt(4) /= 1) then
+      write (msg, '(a,i0)') 'input hold code must be 0 (linear) or 1 (zero-order), got ', iopt(4)
+    else if (opt%substeps < 1) then
+      write (msg, '(a,i0)') 'substeps must be >= 1, got ', opt%substeps
+    else if (.not. (opt%tol_cost >= 0.0_wp .and. opt%tol_step >= 0.0_wp .and. &
+                    opt%tol_grad >= 0.0_wp)) then
+      msg = 'tolerances tol_cost, tol_step, tol_grad must be >= 0'
+    else if (.not. (opt%rcond > 0.0_wp .and. opt%rcond < 1.0_wp)) then
+      msg = 'rcond must lie in (0, 1)'
+    else
+      status = MLID_OK
+      msg = ''
+    end if
+  end subroutine options_from_flat
+
+end module mlid_options

@@ -1,0 +1,136 @@
+!> The printed report of a fit (report Table 5.3 layout) and the JSON form
+!> of a case result.  mlid/result.py prints the same table.
+module mlid_report
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, stop_reason_text
+  implicit none
+  private
+  public :: report_fit, json_open, json_close, json_case
+
+contains
+
+  !> Table of start, estimate and Cramer-Rao sigma per free parameter.
+  subroutine report_fit(unit, noise, labels, start, est, sig, cost, rhat, niter, reason, converged)
+    integer, intent(in) :: unit
+    character(len=*), intent(in) :: noise
+    character(len=*), intent(in) :: labels(:)
+    real(wp), intent(in) :: start(:), est(:), sig(:), cost, rhat(:, :)
+    integer, intent(in) :: niter, reason
+    logical, intent(in) :: converged
+    integer :: k
+
+    write (unit, '(a,i0,a)') ' output-error ML, R '//trim(noise)//': ', niter, ' iterations, '// &
+      trim(merge('converged    ', 'NOT converged', converged))//' ('// &
+      trim(stop_reason_text(reason))//')'
+    write (unit, '(1x,a16,a15,a15,a13)') 'parameter       ', 'start', 'estimate', 'sigma'
+    do k = 1, size(labels)
+      write (unit, '(1x,a16,2es15.6e2,es13.4e2)') labels(k), start(k), est(k), sig(k)
+    end do
+    write (unit, '(a,es17.10e2,a,es13.6e2)') ' cost J = ', cost, '   det R = ', det_sym(rhat)
+    write (unit, '(a,*(1x,es10.4e2))') ' R diagonal:', (rhat(k, k), k=1, size(rhat, 1))
+  end subroutine report_fit
+
+  !> Determinant by Gaussian elimination with partial pivoting (small R).
+  real(wp) function det_sym(a)
+    real(wp), intent(in) :: a(:, :)
+    real(wp) :: m(size(a, 1), size(a, 1)), tmp(size(a, 1))
+    integer :: n, i, p
+    n = size(a, 1)
+    m = a
+    det_sym = 1.0_wp
+    do i = 1, n
+      p = maxloc(abs(m(i:, i)), 1) + i - 1
+      if (m(p, i) == 0.0_wp) then
+        det_sym = 0.0_wp
+        return
+      end if
+      if (p /= i) then
+        tmp = m(i, :)
+        m(i, :) = m(p, :)
+        m(p, :) = tmp
+        det_sym = -det_sym
+      end if
+      det_sym = det_sym*m(i, i)
+      m(i + 1:, i:) = m(i + 1:, i:) - spread(m(i + 1:, i)/m(i, i), 2, n - i + 1)*spread(m(i, i:), 1, n - i)
+    end do
+  end function det_sym
+
+  subroutine json_open(unit)
+    integer, intent(in) :: unit
+    write (unit, '(a)') '['
+  end subroutine json_open
+
+  subroutine json_close(unit)
+    integer, intent(in) :: unit
+    write (unit, '(a)') ']'
+  end subroutine json_close
+
+  !> One case as a JSON object (the keys mlid run --json writes).
+  subroutine json_case(unit, first, title, job, status, msg, labels, est, sig, cost, rhat, &
+                       niter, converged, wall)
+    integer, intent(in) :: unit
+    logical, intent(in) :: first
+    character(len=*), intent(in) :: title, job, msg
+    integer, intent(in) :: status, niter
+    character(len=*), intent(in) :: labels(:)
+    real(wp), intent(in) :: est(:), sig(:), cost, rhat(:, :), wall
+    logical, intent(in) :: converged
+    integer :: k
+
+    if (.not. first) write (unit, '(a)') ','
+    write (unit, '(a)') '{"title": '//quote(title)//', "job": '//quote(job)//','
+    write (unit, '(a,i0,a)') '"status": ', status, ', "message": '//quote(msg)//','
+    write (unit, '(a)', advance='no') '"parameters": ['
+    do k = 1, size(labels)
+      write (unit, '(a)', advance='no') quote(labels(k))//trim(merge(', ', '  ', k < size(labels)))
+    end do
+    write (unit, '(a)') '],'
+    write (unit, '(a)') '"estimate": '//numbers(est)//','
+    write (unit, '(a)') '"sigma": '//numbers(sig)//','
+    write (unit, '(a)') '"R": ['
+    do k = 1, size(rhat, 1)
+      write (unit, '(a)') numbers(rhat(k, :))//trim(merge(',', ' ', k < size(rhat, 1)))
+    end do
+    write (unit, '(a)') '],'
+    write (unit, '(a)') '"det_R": '//number(det_sym(rhat))//', "cost": '//number(cost)//','
+    write (unit, '(a,i0,a)') '"iterations": ', niter, ', "converged": '// &
+      trim(merge('true ', 'false', converged))//', "wall_time_s": '//number(wall)//'}'
+  end subroutine json_case
+
+  function quote(s) result(q)
+    character(len=*), intent(in) :: s
+    character(len=:), allocatable :: q
+    integer :: k
+    q = '"'
+    do k = 1, len_trim(s)
+      if (s(k:k) == '"' .or. s(k:k) == '\') q = q//'\'
+      q = q//s(k:k)
+    end do
+    q = q//'"'
+  end function quote
+
+  function number(x) result(s)
+    real(wp), intent(in) :: x
+    character(len=:), allocatable :: s
+    character(len=32) :: buf
+    if (ieee_is_finite(x)) then
+      write (buf, '(es24.16e3)') x
+      s = trim(adjustl(buf))
+    else
+      s = 'null'
+    end if
+  end function number
+
+  function numbers(x) result(s)
+    real(wp), intent(in) :: x(:)
+    character(len=:), allocatable :: s
+    integer :: k
+    s = '['
+    do k = 1, size(x)
+      s = s//number(x(k))
+      if (k < size(x)) s = s//', '
+    end do
+    s = s//']'
+  end function numbers
+
+end module mlid_report

@@ -1,0 +1,18 @@
+"""mlid: maximum-likelihood identification of aircraft stability and control
+derivatives (NASA CR-2200 and beyond).  The numerics live in the Fortran core
+(mlid._core); this package holds the objects, I/O, command line and plots."""
+
+from .errors import (MlidError, InputError, SingularInformationError, DivergenceError,
+                     NonConvergenceError, InternalError)
+from .model import LinearModel
+from .data import FlightData
+from .result import FitResult
+from .core import fit, evaluate, simulate, monte_carlo, default_options
+from .deck import read_deck, run_deck
+
+__version__ = "0.1.0"
+
+__all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
+           "NonConvergenceError", "InternalError", "LinearModel", "FlightData", "FitResult",
+           "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
+           "run_deck"]

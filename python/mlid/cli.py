@@ -1,0 +1,78 @@
+"""The ``mlid`` command line.  Every failure is one line on stderr and a
+non-zero exit code; a failing case does not stop the rest of a batch."""
+
+import argparse
+import json
+import os
+import sys
+
+from .errors import MlidError
+
+JOBS = """jobs:
+  run DECK      run every case of a namelist deck in order; deck jobs are
+                'estimate' (output-error maximum-likelihood fit of the free
+                parameters to a data file) and 'simulate' (write a record
+                from a model, a standard input and seeded measurement noise)
+"""
+
+
+def _parser():
+    p = argparse.ArgumentParser(
+        prog="mlid", description="Maximum-likelihood identification of aircraft stability and "
+        "control derivatives (NASA CR-2200 and beyond).", epilog=JOBS,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="job", metavar="JOB")
+    run = sub.add_parser("run", help="run every case of a deck")
+    run.add_argument("deck", help="namelist deck (.nml)")
+    run.add_argument("--plots", metavar="DIR", help="write PNG plots of each fit into DIR")
+    run.add_argument("--json", metavar="FILE", help="write every case's results as JSON")
+    return p
+
+
+def _run(args):
+    from .deck import run_deck
+
+    runs = run_deck(args.deck)
+    failed, records = 0, []
+    for case, out, result, error in runs:
+        print(f"\n case {case.index}: {case.title}")
+        if out is not None and case.job == "simulate":
+            print(f" simulated {out['samples']} samples to {out['out']}")
+        if result is not None:
+            print(result.report())
+        if args.plots and result is not None:
+            from .plots import plot_fit
+            path = plot_fit(result, args.plots, f"case{case.index}")
+            print(f" plot: {path}")
+        if error:
+            failed += 1
+            print(f" FAILED: {error}")
+            print(f"mlid: {case.where()}: {error}", file=sys.stderr)
+            out = {"title": case.title, "job": case.job, "status": 1, "message": error}
+        elif out.get("status", 0) != 0:
+            failed += 1
+            print(f"mlid: {case.where()}: {out['message']}", file=sys.stderr)
+        records.append(out)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(records, fh, indent=1)
+    if failed:
+        print(f"{failed} of {len(runs)} cases failed", file=sys.stderr)
+    return 1 if failed else 0
+
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
+    if args.job is None:
+        _parser().print_help()
+        return 2
+    try:
+        return _run(args)
+    except MlidError as exc:
+        print(f"mlid: {exc}", file=sys.stderr)
+        return 1
+    except Exception as exc:  # never a traceback for a user; MLID_DEBUG=1 shows it
+        if os.environ.get("MLID_DEBUG"):
+            raise
+        print(f"mlid: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return 3

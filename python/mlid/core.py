@@ -1,0 +1,158 @@
+"""Thin wrappers over the Fortran core (mlid._core): arrays in, arrays out."""
+
+import time
+
+import numpy as np
+
+from . import _core
+from .data import FlightData
+from .errors import InputError, SingularInformationError, check_status
+from .result import FitResult
+
+_api = _core.mlid_api
+NOISE = ("diagonal", "full")
+STOP_REASONS = {
+    0: "not started",
+    1: "relative cost change below tol_cost",
+    2: "relative parameter step below tol_step",
+    3: "Newton decrement below tol_grad",
+    4: "iteration limit reached",
+    5: "no cost decrease after all step halvings",
+    6: "stopped by an error",
+}
+
+
+def default_options():
+    """The core's default estimator options, by name."""
+    iopt, ropt = _api.mlid_default_options()
+    return {"max_iter": int(iopt[0]), "halvings": int(iopt[1]),
+            "noise": NOISE[int(iopt[2])], "tol_cost": float(ropt[0]),
+            "tol_step": float(ropt[1]), "tol_grad": float(ropt[2]), "rcond": float(ropt[3])}
+
+
+def _flat_options(model, options):
+    opts = default_options()
+    unknown = set(options) - set(opts)
+    if unknown:
+        raise InputError(f"unknown option {sorted(unknown)[0]!r}; known: {', '.join(opts)}")
+    opts.update(options)
+    if opts["noise"] not in NOISE:
+        raise InputError(f"noise must be one of {NOISE}, got {opts['noise']!r}")
+    iopt = np.zeros(8, dtype=np.int32)
+    ropt = np.zeros(8)
+    iopt[:5] = [opts["max_iter"], opts["halvings"], NOISE.index(opts["noise"]),
+                1 if model.input_hold == "zoh" else 0, model.substeps]
+    ropt[:4] = [opts["tol_cost"], opts["tol_step"], opts["tol_grad"], opts["rcond"]]
+    return iopt, ropt, opts
+
+
+def _record(model, data):
+    if data.u.shape[1] != model.nu:
+        raise InputError(f"data has {data.u.shape[1]} input columns, the model has {model.nu} inputs")
+    if data.y.shape[1] != model.ny:
+        raise InputError(f"data has {data.y.shape[1]} output columns, the model has "
+                         f"{model.ny} outputs")
+    # (nt, n) C-ordered is the core's (n, nt) Fortran-ordered: no copy.
+    u = np.ascontiguousarray(data.u, dtype=float).T
+    y = np.ascontiguousarray(data.y, dtype=float).T
+    return np.ascontiguousarray(data.t, dtype=float), u, y
+
+
+def fit(model, data, **options):
+    """Output-error maximum-likelihood fit of the model's free parameters.
+
+    Options (defaults from the core, see ``default_options()``): max_iter,
+    halvings, noise ('diagonal' or 'full' R estimated from the residuals),
+    tol_cost, tol_step, tol_grad, rcond.  Returns a FitResult; raises an
+    MlidError subclass for bad input, divergence or singular information
+    (with the partial result attached where there is one).
+    """
+    iopt, ropt, opts = _flat_options(model, options)
+    t, u, y = _record(model, data)
+    theta0 = model.theta
+    mask = model.free_mask
+    nf = int(mask.sum())
+    start = time.perf_counter()
+    (theta, sigma, cov, info, grad, eigval, rhat, yhat, cost_hist, cost, niter, reason,
+     converged, bad, status, msg) = _api.mlid_fit(
+        model.kind, model.nx, theta0, mask, model.iconst, model.rconst, t, u, y, iopt, ropt,
+        nf, int(iopt[0]) + 1)
+    wall = time.perf_counter() - start
+    text = msg.decode(errors="replace").strip()
+    if status not in (0, 2, 4):       # no result to return
+        check_status(status, text)
+    free_names = model.free_names()
+    if status == 2 and bad:
+        text = text.replace(f"free parameter {bad} ", f"{free_names[bad - 1]!r} ")
+    result = FitResult(
+        model=model.with_theta(theta), start_model=model, data=data, options=opts,
+        names=free_names, start=theta0[mask == 1], estimate=theta[mask == 1],
+        sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
+        eigenvalues=eigval, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
+        cost_history=cost_hist[:niter + 1].copy(), iterations=int(niter),
+        converged=bool(converged), reason=STOP_REASONS.get(int(reason), "?"),
+        status=int(status), message=text, wall_time=wall)
+    if status == 2:
+        raise SingularInformationError(text, result)
+    return result
+
+
+def evaluate(model, data, noise="diagonal"):
+    """Cost, gradient, information matrix, R-hat and outputs at the model's
+    current parameters (no iteration)."""
+    iopt, ropt, _ = _flat_options(model, {"noise": noise})
+    t, u, y = _record(model, data)
+    mask = model.free_mask
+    cost, grad, info, rhat, yhat, status, msg = _api.mlid_evaluate(
+        model.kind, model.nx, model.theta, mask, model.iconst, model.rconst, t, u, y,
+        iopt, ropt, int(mask.sum()))
+    check_status(status, msg)
+    return {"cost": float(cost), "gradient": grad, "information": info, "rhat": rhat,
+            "yhat": yhat.T.copy()}
+
+
+def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names=None):
+    """Outputs of the model along t with inputs u (nt, nu), plus Gaussian
+    measurement noise of standard deviation noise_std per output (seeded).
+    Returns (FlightData, states (nt, nx))."""
+    t = np.ascontiguousarray(t, dtype=float).ravel()
+    u = np.ascontiguousarray(np.asarray(u, dtype=float).reshape(t.size, model.nu))
+    noise = np.zeros(model.ny) if noise_std is None else np.asarray(noise_std, dtype=float)
+    if noise.shape != (model.ny,):
+        raise InputError(f"noise_std needs {model.ny} values (one per output), got {noise.size}")
+    iopt, ropt, _ = _flat_options(model, {})
+    y, x, status, msg = _api.mlid_simulate(model.kind, model.nx, model.theta,
+                                           model.iconst, model.rconst, t, u.T, noise,
+                                           int(seed), iopt, ropt)
+    check_status(status, msg)
+    return FlightData(t, u, y.T, input_names, output_names), x.T.copy()
+
+
+def monte_carlo(truth, start, t, u, noise_std, runs=100, seed=1, **options):
+    """Seeded Monte Carlo of output-error fits: data from ``truth`` with
+    seeds seed, seed+1, ...; each fitted from ``start`` (same structure and
+    free set).  Returns estimates, Cramer-Rao sigmas (runs, nf), iterations
+    and per-run status."""
+    if truth.theta.size != start.theta.size or list(truth.free) != list(start.free):
+        raise InputError("truth and start models must have the same structure and free set")
+    iopt, ropt, _ = _flat_options(start, options)
+    t = np.ascontiguousarray(t, dtype=float).ravel()
+    u = np.ascontiguousarray(np.asarray(u, dtype=float).reshape(t.size, start.nu))
+    mask = start.free_mask
+    est, sig, iters, run_status, status, msg = _api.mlid_monte_carlo(
+        start.kind, start.nx, truth.theta, start.theta, mask, start.iconst,
+        start.rconst, t, u.T, np.asarray(noise_std, dtype=float), int(seed), int(runs), iopt,
+        ropt, int(mask.sum()))
+    check_status(status, msg)
+    return {"estimates": est.T.copy(), "sigma": sig.T.copy(), "iterations": iters,
+            "status": run_status, "names": start.free_names(),
+            "truth": truth.theta[mask == 1]}
+
+
+def input_signal(shape, amplitude, t_start, pulse_width, dt, nt):
+    """A standard input shape on t = 0, dt, ..., (nt-1) dt: 'none', 'step',
+    'pulse', 'doublet' or '3211' (pulse widths in multiples of pulse_width)."""
+    u, status, msg = _api.mlid_input_signal(str(shape), float(amplitude), float(t_start),
+                                            float(pulse_width), float(dt), int(nt))
+    check_status(status, msg)
+    return u

@@ -1,0 +1,64 @@
+"""The result of a fit, and its printed report (report Table 5.3 style)."""
+
+import numpy as np
+
+
+class FitResult:
+    """Estimates, Cramer-Rao standard deviations, correlations, noise
+    covariance, residuals, cost history and how the iteration ended."""
+
+    def __init__(self, **fields):
+        self.__dict__.update(fields)
+
+    @property
+    def residuals(self):
+        """Measured minus model outputs, (nt, ny)."""
+        return self.data.y - self.yhat
+
+    @property
+    def correlation(self):
+        """Correlation matrix of the estimates, from the Cramer-Rao covariance."""
+        d = np.sqrt(np.clip(np.diag(self.covariance), 0, None))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            c = self.covariance / np.outer(d, d)
+        return np.where(np.outer(d, d) > 0, c, 0.0)
+
+    @property
+    def det_r(self):
+        return float(np.linalg.det(self.rhat))
+
+    def as_dict(self):
+        """Plain types for JSON."""
+        return {
+            "parameters": list(self.names),
+            "start": self.start.tolist(),
+            "estimate": self.estimate.tolist(),
+            "sigma": self.sigma.tolist(),
+            "correlation": self.correlation.tolist(),
+            "R": self.rhat.tolist(),
+            "det_R": self.det_r,
+            "cost": self.cost,
+            "cost_history": self.cost_history.tolist(),
+            "iterations": self.iterations,
+            "converged": self.converged,
+            "reason": self.reason,
+            "message": self.message,
+            "wall_time_s": self.wall_time,
+        }
+
+    def report(self):
+        """The printed report; mlid-batch prints the same lines."""
+        lines = [
+            f" output-error ML, R {self.options['noise']}: {self.iterations} iterations, "
+            f"{'converged' if self.converged else 'NOT converged'} ({self.reason})",
+            f" {'parameter':<16}{'start':>15}{'estimate':>15}{'sigma':>13}",
+        ]
+        for n, s0, e, s in zip(self.names, self.start, self.estimate, self.sigma):
+            lines.append(f" {n[:16]:<16}{s0:15.6E}{e:15.6E}{s:13.4E}")
+        lines.append(f" cost J = {self.cost:17.10E}   det R = {self.det_r:13.6E}")
+        lines.append(" R diagonal:" + "".join(f" {v:10.4E}" for v in np.diag(self.rhat)))
+        return "\n".join(lines)
+
+    def __repr__(self):
+        return f"FitResult(cost={self.cost:.6g}, iterations={self.iterations}, " \
+               f"converged={self.converged})"
