@@ -1,0 +1,53 @@
+# Two commands do all set-up on a fresh Debian machine with Python 3.11 (as root):
+#   make demo   install what is missing, then run the C-8 case and print the report
+#   make test   install what is missing, then pytest (installed package) and meson test
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+VPY := $(VENV)/bin/python
+BUILD := build
+STAMP := $(VENV)/.mlid-installed
+SOURCES := $(shell find fortran python -name '*.f90' -o -name '*.py' -o -name 'meson.build') \
+           meson.build meson.options pyproject.toml
+APT := DEBIAN_FRONTEND=noninteractive apt-get install -y -q
+
+.PHONY: demo test install sysdeps bench clean
+
+demo: install
+	$(VENV)/bin/mlid run cases/c8_short_period/c8.nml --plots $(BUILD)/plots --json $(BUILD)/c8.json
+
+test: install
+	$(VPY) -m pytest tests -q
+	$(VENV)/bin/meson test -C $(BUILD) --print-errorlogs
+
+bench: install
+	$(VPY) benchmarks/bench_fit.py
+	$(VPY) benchmarks/monte_carlo_c8.py
+
+install: sysdeps $(STAMP)
+
+# System packages from Debian: gfortran, LAPACK/BLAS, venv and headers for Python.
+sysdeps:
+	@missing=""; \
+	command -v gfortran >/dev/null || missing="$$missing gfortran"; \
+	dpkg -s liblapack-dev >/dev/null 2>&1 || missing="$$missing liblapack-dev libblas-dev"; \
+	$(PYTHON) -c 'import ensurepip, venv' 2>/dev/null || missing="$$missing python3-venv"; \
+	$(PYTHON) -c 'import sysconfig, os, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \
+	  || missing="$$missing python3-dev"; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" != 0 ]; then echo "mlid: need Debian packages:$$missing (run as root or install them)"; exit 1; fi; \
+	  echo "installing:$$missing"; apt-get update -q && $(APT) $$missing; \
+	fi
+
+$(VPY):
+	$(PYTHON) -m venv $(VENV)
+	$(VPY) -m pip install -q --upgrade pip
+	$(VPY) -m pip install -q meson meson-python ninja numpy f90nml matplotlib pytest
+
+# Build with meson-python into ./build (kept, so meson test can run there).
+$(STAMP): $(VPY) $(SOURCES)
+	$(VPY) -m pip install -q --no-build-isolation -Cbuild-dir=$(BUILD) .
+	touch $(STAMP)
+
+clean:
+	rm -rf $(BUILD) $(VENV)

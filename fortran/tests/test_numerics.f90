@@ -1,0 +1,145 @@
+!> Unit tests of the core numerics: RK4 order and exactness, sensitivities
+!> against finite differences, LAPACK wrappers, the random stream.
+program test_numerics
+  use mlid_kinds, only: wp, MLID_OK
+  use mlid_models, only: model_t, model_create, MODEL_LINEAR
+  use mlid_options, only: options_t
+  use mlid_filter, only: oe_predict
+  use mlid_linalg, only: sym_eig, chol_inverse
+  use mlid_random, only: rng_t, rng_seed, rng_normal
+  implicit none
+  integer :: nfail = 0
+
+  call test_rk4_order()
+  call test_sensitivities()
+  call test_linalg()
+  call test_random()
+  if (nfail > 0) then
+    write (*, '(i0,a)') nfail, ' checks failed'
+    error stop 1
+  end if
+  write (*, '(a)') 'all checks passed'
+
+contains
+
+  subroutine check(ok, what)
+    logical, intent(in) :: ok
+    character(len=*), intent(in) :: what
+    if (.not. ok) then
+      nfail = nfail + 1
+      write (*, '(a)') 'FAIL: '//what
+    else
+      write (*, '(a)') 'ok:   '//what
+    end if
+  end subroutine check
+
+  !> xdot = a x + b u with u = t (linear between samples is exact for a
+  !> ramp): RK4 error must fall 16x when dt halves.
+  subroutine test_rk4_order()
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    real(wp) :: theta(6), e(2), a, b, tt, exact
+    real(wp), allocatable :: t(:), u(:, :), y(:, :)
+    integer :: status, k, n, j
+    character(len=256) :: msg
+
+    call model_create(MODEL_LINEAR, 1, 1, 1, [integer ::], [real(wp) ::], m, status, msg)
+    a = -2.0_wp
+    b = 3.0_wp
+    theta = [a, b, 1.0_wp, 0.0_wp, 1.0_wp, 0.0_wp]   ! F, G, H, D, x0, bias
+    do k = 1, 2
+      n = 10*2**k
+      allocate (t(n + 1), u(1, n + 1), y(1, n + 1))
+      t = [(real(j, wp)/n, j=0, n)]
+      u(1, :) = t
+      call oe_predict(m, theta, [integer ::], t, u, opt, y, status, msg)
+      tt = 1.0_wp
+      ! x = x0 e^{at} - b t/a + b (e^{at} - 1)/a^2
+      exact = exp(a*tt) - b*tt/a + b*(exp(a*tt) - 1.0_wp)/a**2
+      e(k) = abs(y(1, n + 1) - exact)
+      deallocate (t, u, y)
+    end do
+    call check(e(1)/e(2) > 12.0_wp .and. e(1)/e(2) < 20.0_wp, 'RK4 error ratio ~16 when dt halves')
+    call check(e(2) < 1.0e-6_wp, 'RK4 accurate to 1e-6 at dt = 1/40')
+  end subroutine test_rk4_order
+
+  !> Output sensitivities of a 2-state, 1-input, 2-output model against
+  !> central differences, for model parameters, x0 and bias.
+  subroutine test_sensitivities()
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2), tp(size(theta)), tm(size(theta)), h
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), yp(:, :), ym(:, :), dy(:, :, :)
+    integer, allocatable :: ifree(:)
+    integer :: status, j, k
+    real(wp) :: err
+    character(len=256) :: msg
+
+    call model_create(MODEL_LINEAR, 2, 1, 2, [integer ::], [real(wp) ::], m, status, msg)
+    ! F = [[-1.2, 0.8], [-0.5, -0.3]] col-major, G, H = [[1, 0.2], [0, 1]], D, x0, bias
+    theta = [-1.2_wp, -0.5_wp, 0.8_wp, -0.3_wp, 0.4_wp, -1.1_wp, 1.0_wp, 0.0_wp, 0.2_wp, 1.0_wp, &
+             0.05_wp, -0.02_wp, 0.3_wp, -0.1_wp, 0.01_wp, 0.02_wp]
+    ifree = [1, 3, 4, 6, 9, 12, 13, 14, 16]   ! F, G, H, D, x0, bias entries
+    allocate (t(101), u(1, 101), y(2, 101), yp(2, 101), ym(2, 101), dy(2, size(ifree), 101))
+    t = [(0.05_wp*j, j=0, 100)]
+    u(1, :) = sin(2.0_wp*t) + merge(1.0_wp, 0.0_wp, t > 1.0_wp)
+    call oe_predict(m, theta, ifree, t, u, opt, y, status, msg, dy=dy)
+    err = 0.0_wp
+    do k = 1, size(ifree)
+      h = 1.0e-6_wp
+      tp = theta
+      tm = theta
+      tp(ifree(k)) = tp(ifree(k)) + h
+      tm(ifree(k)) = tm(ifree(k)) - h
+      call oe_predict(m, tp, [integer ::], t, u, opt, yp, status, msg)
+      call oe_predict(m, tm, [integer ::], t, u, opt, ym, status, msg)
+      err = max(err, maxval(abs((yp - ym)/(2*h) - dy(:, k, :)))/max(1.0_wp, maxval(abs(dy(:, k, :)))))
+    end do
+    call check(err < 1.0e-7_wp, 'output sensitivities match central differences (F, G, H, D, x0, bias)')
+  end subroutine test_sensitivities
+
+  subroutine test_linalg()
+    real(wp) :: a(3, 3), w(3), v(3, 3), ainv(3, 3), logdet
+    integer :: info
+    a = reshape([4.0_wp, 1.0_wp, 0.5_wp, 1.0_wp, 3.0_wp, 0.2_wp, 0.5_wp, 0.2_wp, 2.0_wp], [3, 3])
+    call sym_eig(a, w, v, info)
+    call check(info == 0 .and. maxval(abs(matmul(a, v) - v*spread(w, 1, 3))) < 1.0e-12_wp, &
+               'dsyevr eigenpairs satisfy A v = lambda v')
+    call check(w(1) <= w(2) .and. w(2) <= w(3), 'eigenvalues ascending')
+    call chol_inverse(a, ainv, logdet, info)
+    call check(info == 0 .and. maxval(abs(matmul(a, ainv) - eye3())) < 1.0e-12_wp, &
+               'Cholesky inverse')
+    call check(abs(logdet - log(product(w))) < 1.0e-12_wp, 'log-determinant = sum of log eigenvalues')
+    a(3, 3) = -5.0_wp
+    call chol_inverse(a, ainv, logdet, info)
+    call check(info > 0, 'indefinite matrix reported, not inverted')
+  end subroutine test_linalg
+
+  function eye3() result(e)
+    real(wp) :: e(3, 3)
+    integer :: i
+    e = 0.0_wp
+    do i = 1, 3
+      e(i, i) = 1.0_wp
+    end do
+  end function eye3
+
+  !> Same seed, same stream; N(0,1) moments within 5 standard errors.
+  subroutine test_random()
+    type(rng_t) :: r1, r2
+    integer, parameter :: n = 200000
+    real(wp) :: z(n), mean, var
+    integer :: k
+    call rng_seed(r1, 7)
+    call rng_seed(r2, 7)
+    do k = 1, n
+      z(k) = rng_normal(r1)
+    end do
+    call check(abs(rng_normal(r2) - z(1)) == 0.0_wp, 'same seed gives the same stream')
+    mean = sum(z)/n
+    var = sum((z - mean)**2)/(n - 1)
+    call check(abs(mean) < 5.0_wp/sqrt(real(n, wp)), 'normal mean within 5 standard errors of 0')
+    call check(abs(var - 1.0_wp) < 5.0_wp*sqrt(2.0_wp/n), 'normal variance within 5 standard errors of 1')
+  end subroutine test_random
+
+end program test_numerics

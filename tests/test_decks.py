@@ -1,0 +1,141 @@
+"""Decks through both front ends: `mlid run` (Python) and `mlid-batch`
+(Fortran) must read a deck the same way, give the same numbers, and turn
+every bad input into one line naming deck, case and problem while the rest
+of the batch still runs."""
+
+import json
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from conftest import BIN, REPO
+
+C8_CASE = REPO / "cases" / "c8_short_period"
+
+SMALL = """
+&case title = '{title}', job = 'estimate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5,
+        -0.8, -2.0,
+    g = 1.0, 0.3,
+    h = 1, 0,
+        0, 1,
+    free = 'f(1,1)', 'f(2,1)', 'g(1,1)', names = 'a11', 'a21', 'b1' /
+&data file = '{file}', time_col = 1, input_cols = 2, output_cols = 3, 4 /
+"""
+SIM = """
+&case title = 'make data', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.2, 0.5, -1.0, -2.0,   g = 1.5, 0.3,   h = 1, 0, 0, 1 /
+&simulate out = 'small.dat', t_end = 4.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
+    input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2 /
+"""
+
+
+def _run_both(deck, *extra):
+    py = subprocess.run([str(BIN / "mlid"), "run", str(deck), *extra], capture_output=True,
+                        text=True)
+    fo = subprocess.run([str(BIN / "mlid-batch"), str(deck), *extra], capture_output=True,
+                        text=True)
+    return py, fo
+
+
+@pytest.fixture
+def c8_deck(tmp_path):
+    shutil.copy(C8_CASE / "c8.nml", tmp_path / "c8.nml")
+    return tmp_path / "c8.nml"
+
+
+def test_python_and_batch_give_the_same_numbers(c8_deck, tmp_path):
+    py = subprocess.run([str(BIN / "mlid"), "run", str(c8_deck), "--json",
+                         str(tmp_path / "py.json"), "--plots", str(tmp_path / "plots")],
+                        capture_output=True, text=True)
+    assert py.returncode == 0, py.stderr
+    fo = subprocess.run([str(BIN / "mlid-batch"), str(c8_deck), "--json",
+                         str(tmp_path / "fo.json")], capture_output=True, text=True)
+    assert fo.returncode == 0, fo.stderr
+    a = json.loads((tmp_path / "py.json").read_text())
+    b = json.loads((tmp_path / "fo.json").read_text())
+    assert [c["job"] for c in a] == [c["job"] for c in b] == ["simulate", "estimate"]
+    fa, fb = a[1], b[1]
+    assert fa["parameters"] == fb["parameters"] == ["M_q", "M_alpha", "Z_alpha", "M_delta",
+                                                    "Z_delta"]
+    np.testing.assert_allclose(fa["estimate"], fb["estimate"], rtol=1e-10, atol=0)
+    np.testing.assert_allclose(fa["sigma"], fb["sigma"], rtol=1e-10, atol=0)
+    np.testing.assert_allclose(fa["cost"], fb["cost"], rtol=1e-10)
+    assert fa["iterations"] == fb["iterations"] and fa["converged"] and fb["converged"]
+    # the printed reports are the same text
+    assert py.stdout.split("\n case 2")[1].split(" plot:")[0] == fo.stdout.split("\n case 2")[1]
+    assert (tmp_path / "plots" / "case2_fit.png").stat().st_size > 10000
+
+
+def _bad_deck(tmp_path, bad_case):
+    """A batch: simulate data, a bad case, then a good fit that must still run."""
+    text = SIM + bad_case + SMALL.format(title="good fit", file="small.dat")
+    deck = tmp_path / "batch.nml"
+    deck.write_text(text)
+    return deck
+
+
+BAD = {
+    "unknown group": ("&modle nx = 2 /\n" + SMALL.format(title="bad", file="small.dat"),
+                      "unknown group &modle"),
+    "unknown name": (SMALL.format(title="bad", file="small.dat").replace("nx = 2,", "nx = 2, fo = 1,"),
+                     "fo"),
+    "missing data file": (SMALL.format(title="bad", file="nowhere.dat"), "nowhere.dat"),
+    "wrong dimensions": (SMALL.format(title="bad", file="small.dat").replace("-0.8, -2.0,", "-0.8,"),
+                         "f has 3 values"),
+    "NaN in data": (SMALL.format(title="bad", file="nan.dat"), "NaN or infinite at sample 3"),
+    "too few samples": (SMALL.format(title="bad", file="short.dat"), "too few"),
+    "free parameter that does not exist": (
+        SMALL.format(title="bad", file="small.dat").replace("'f(2,1)'", "'f(3,1)'"),
+        "'f(3,1)' does not exist"),
+    "bad job": (SMALL.format(title="bad", file="small.dat").replace("'estimate'", "'estimat'"),
+                "job must be"),
+    "missing group": ("&case title = 'bad', job = 'estimate' /\n", "group &model is missing"),
+    "column out of range": (SMALL.format(title="bad", file="small.dat").replace(
+        "output_cols = 3, 4", "output_cols = 3, 9"), "column 9"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD))
+def test_bad_deck_fails_one_case_in_both_front_ends(tmp_path, name):
+    bad, phrase = BAD[name]
+    deck = _bad_deck(tmp_path, bad)
+    rows = ["0 0 0 0", "0.02 1 0.1 0.1", "0.04 1 nan 0.1", "0.06 1 0.2 0.2"]
+    (tmp_path / "nan.dat").write_text("\n".join(rows) + "\n")
+    (tmp_path / "short.dat").write_text("\n".join(rows[:2]) + "\n")
+    py, fo = _run_both(deck)
+    for out, who in ((py, "mlid"), (fo, "mlid-batch")):
+        assert out.returncode == 1, (who, out.stdout, out.stderr)
+        assert "Traceback" not in out.stderr and "Error termination" not in out.stderr
+        errors = [ln for ln in out.stderr.splitlines() if ln.startswith(who + ":")]
+        assert len(errors) == 1, (who, out.stderr)
+        assert "case 2 (line" in errors[0] and phrase in errors[0], (who, errors[0])
+        assert "1 of 3 cases failed" in out.stderr
+        # the cases before and after still ran
+        assert "simulated 201 samples" in out.stdout
+        assert out.stdout.count("converged (") == 1, (who, out.stdout)
+
+
+def test_missing_deck_and_empty_deck(tmp_path):
+    py, fo = _run_both(tmp_path / "none.nml")
+    assert py.returncode == fo.returncode == 1
+    assert "file not found" in py.stderr and "file not found" in fo.stderr
+    (tmp_path / "empty.nml").write_text("! nothing here\n")
+    py, fo = _run_both(tmp_path / "empty.nml")
+    assert py.returncode == fo.returncode == 1
+    assert "no &case group" in py.stderr and "no &case group" in fo.stderr
+
+
+def test_read_deck_api_keeps_case_errors(tmp_path):
+    import mlid
+
+    deck = _bad_deck(tmp_path, BAD["wrong dimensions"][0])
+    cases = mlid.read_deck(deck)
+    assert [c.error is None for c in cases] == [True, False, True]
+    assert "f has 3 values" in cases[1].error
+    runs = mlid.run_deck(deck)
+    assert runs[2][2].converged and runs[1][3] is not None
