@@ -80,8 +80,8 @@ def _bad_deck(tmp_path, bad_case):
 
 
 BAD = {
-    "unknown group": ("&modle nx = 2 /\n" + SMALL.format(title="bad", file="small.dat"),
-                      "unknown group &modle"),
+    "unknown group": (SMALL.format(title="bad", file="small.dat").replace(
+        "&data", "&modle nx = 2 /\n&data"), "unknown group &modle"),
     "unknown name": (SMALL.format(title="bad", file="small.dat").replace("nx = 2,", "nx = 2, fo = 1,"),
                      "fo"),
     "missing data file": (SMALL.format(title="bad", file="nowhere.dat"), "nowhere.dat"),
