@@ -18,7 +18,7 @@ module mlid_api
   use mlid_models, only: model_t, model_create
   use mlid_options, only: options_t, options_from_flat, options_to_flat
   use mlid_likelihood, only: oe_likelihood
-  use mlid_newton, only: fit_result_t, newton_fit, info_inverse
+  use mlid_newton, only: fit_result_t, newton_fit
   use mlid_simulate, only: simulate_outputs
   use mlid_monte_carlo, only: monte_carlo_oe
   use mlid_inputs, only: input_signal

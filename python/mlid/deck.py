@@ -239,7 +239,7 @@ def _model(m):
                             substeps=m["substeps"])
     except InputError as exc:
         raise InputError(f"group &model: {exc}") from None
-    model.names = {model._canonical(f): n for f, n in zip(free, labels)}
+    model.names = {model.canonical_name(f): n for f, n in zip(free, labels)}
     return model
 
 

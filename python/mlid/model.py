@@ -58,12 +58,12 @@ class LinearModel:
         self.input_hold = input_hold
         self.substeps = int(substeps)
         self.names = dict(names or {})
-        self.free = [self._canonical(n) for n in free]
+        self.free = [self.canonical_name(n) for n in free]
         dup = {n for n in self.free if self.free.count(n) > 1}
         if dup:
             raise InputError(f"free parameter listed twice: {sorted(dup)[0]}")
         for key in self.names:
-            self._canonical(key)
+            self.canonical_name(key)
 
     # -- parameter vector ------------------------------------------------
     def _blocks(self):
@@ -86,7 +86,8 @@ class LinearModel:
                 out += [f"{key}({i + 1})" for i in range(a.size)]
         return out
 
-    def _canonical(self, name):
+    def canonical_name(self, name):
+        """The element name of a parameter, checked against the dimensions."""
         m = _ELEMENT.match(str(name))
         blocks = dict(self._blocks())
         if not m or m.group(1).lower() not in blocks:
