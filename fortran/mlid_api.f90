@@ -4,27 +4,30 @@
 !> numbers.
 !>
 !> Common arguments:
-!>   mkind, nx, nu, ny     model kind (1 = linear state space) and sizes
-!>   theta(nth)            all parameters [p, x0, bias], nth = np + nx + ny
-!>   isfree(nth)           1 where the parameter is estimated, else 0
-!>   iconst, rconst        model constants (unused by the linear model)
+!>   mkind, nx, nu, ny, nw   model kind (1 = linear state space), sizes, noise inputs
+!>   theta(nth)              all parameters [p, x0, bias, q, r, s] (mlid_models)
+!>   isfree(nth)             1 where the parameter is estimated, else 0
+!>   itie(nth)               j: theta(k) is held equal to theta(j); 0: not tied
+!>   iconst, rconst          model constants (unused by the linear model)
 !>   t(nt), u(nu,nt), y(ny,nt)   the record, one column per sample
-!>   iopt(8), ropt(8)      options, layout in mlid_options
-!>   status, msg           0 and '' on success, see mlid_kinds
+!>   iopt(8), ropt(8)        options, layout in mlid_options
+!>   status, msg             0 and '' on success, see mlid_kinds
 module mlid_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_models, only: model_t, model_create
+  use mlid_models, only: model_t, model_create, model_layout, layout_t
   use mlid_options, only: options_t, options_from_flat, options_to_flat
-  use mlid_likelihood, only: oe_likelihood
+  use mlid_params, only: param_map_t, param_map_create, apply_ties
+  use mlid_likelihood, only: likelihood
   use mlid_newton, only: fit_result_t, newton_fit
   use mlid_simulate, only: simulate_outputs
-  use mlid_monte_carlo, only: monte_carlo_oe
+  use mlid_monte_carlo, only: monte_carlo
   use mlid_inputs, only: input_signal
   implicit none
   private
-  public :: mlid_input_signal, mlid_default_options, mlid_theta_size, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo
+  public :: mlid_input_signal, mlid_default_options, mlid_theta_size, mlid_fit, mlid_evaluate, &
+            mlid_simulate, mlid_monte_carlo
 
 contains
 
@@ -46,32 +49,38 @@ contains
     call options_to_flat(options_t(), iopt, ropt)
   end subroutine mlid_default_options
 
-  !> Number of parameters nth = np + nx + ny of a model.
-  subroutine mlid_theta_size(mkind, nx, nu, ny, nic, iconst, nrc, rconst, nth, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nic, nrc
+  !> Number of model parameters np and of all parameters nth of a model.
+  subroutine mlid_theta_size(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, np, nth, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
-    integer(c_int), intent(out) :: nth, status
+    integer(c_int), intent(out) :: np, nth, status
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
+    type(layout_t) :: l
 
+    np = 0
     nth = 0
-    call model_create(mkind, nx, nu, ny, iconst, rconst, m, status, msg)
-    if (status == MLID_OK) nth = m%np + nx + ny
+    call model_create(mkind, nx, nu, ny, nw, iconst, rconst, m, status, msg)
+    if (status /= MLID_OK) return
+    np = m%np
+    l = model_layout(m)
+    nth = l%nth
   end subroutine mlid_theta_size
 
-  !> Output-error maximum-likelihood fit from theta0.
+  !> Maximum-likelihood fit from theta0 (output or filter error, iopt(6)).
   !> Out: theta, sigma (Cramer-Rao, 0 for fixed), cov/info/grad/eigval over
-  !> the nf free parameters, rhat, yhat, cost_hist(nc) (nc = max_iter + 1;
-  !> entries past niter + 1 are 0), cost, niter, reason (mlid_kinds STOP_*),
-  !> converged (0/1), bad_param (free index of a singular direction).
-  subroutine mlid_fit(mkind, nx, nu, ny, nth, theta0, isfree, nic, iconst, nrc, rconst, &
-                      nt, t, u, y, iopt, ropt, nf, nc, theta, sigma, cov, info, grad, eigval, &
-                      rhat, yhat, cost_hist, cost, niter, reason, converged, bad_param, &
+  !> the nf free parameters, rhat (R-hat, or the mean innovation covariance),
+  !> yhat, cost_hist(nc) (nc = max_iter + 1; entries past niter + 1 are 0),
+  !> cost, niter, reason (mlid_kinds STOP_*), converged (0/1), bad_param
+  !> (free index of a singular direction).
+  subroutine mlid_fit(mkind, nx, nu, ny, nw, nth, theta0, isfree, itie, nic, iconst, nrc, &
+                      rconst, nt, t, u, y, iopt, ropt, nf, nc, theta, sigma, cov, info, grad, &
+                      eigval, rhat, yhat, cost_hist, cost, niter, reason, converged, bad_param, &
                       status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nth, nic, nrc, nt, nf, nc
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nc
     real(c_double), intent(in) :: theta0(nth)
-    integer(c_int), intent(in) :: isfree(nth)
+    integer(c_int), intent(in) :: isfree(nth), itie(nth)
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
@@ -83,8 +92,8 @@ contains
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
     type(options_t) :: opt
+    type(param_map_t) :: pm
     type(fit_result_t) :: res
-    integer, allocatable :: ifree(:)
     integer :: k
 
     theta = theta0
@@ -101,8 +110,8 @@ contains
     reason = 0
     converged = 0
     bad_param = 0
-    call setup(mkind, nx, nu, ny, theta0, isfree, iconst, rconst, t, u, y, iopt, ropt, nf, &
-               m, opt, ifree, status, msg)
+    call setup(mkind, nx, nu, ny, nw, theta0, isfree, itie, iconst, rconst, t, u, y, iopt, &
+               ropt, nf, m, opt, pm, status, msg)
     if (status /= MLID_OK) return
     if (nc /= opt%max_iter + 1) then
       status = MLID_ERR_INPUT
@@ -110,13 +119,13 @@ contains
         opt%max_iter + 1
       return
     end if
-    call newton_fit(m, theta0, ifree, t, u, y, opt, res, status, msg)
+    call newton_fit(m, theta0, pm, t, u, y, opt, res, status, msg)
     if (.not. allocated(res%theta)) return
     theta = res%theta
     cost_hist = res%cost_hist
     if (.not. allocated(res%info)) return
     do k = 1, nf
-      sigma(ifree(k)) = sqrt(max(0.0_wp, res%cov(k, k)))
+      sigma(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov(k, k)))
     end do
     cov = res%cov
     info = res%info
@@ -132,12 +141,12 @@ contains
   end subroutine mlid_fit
 
   !> Cost, gradient and information matrix at theta, without iterating.
-  subroutine mlid_evaluate(mkind, nx, nu, ny, nth, theta, isfree, nic, iconst, nrc, rconst, &
-                           nt, t, u, y, iopt, ropt, nf, cost, grad, info, rhat, yhat, &
+  subroutine mlid_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, itie, nic, iconst, nrc, &
+                           rconst, nt, t, u, y, iopt, ropt, nf, cost, grad, info, rhat, yhat, &
                            status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nth, nic, nrc, nt, nf
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf
     real(c_double), intent(in) :: theta(nth)
-    integer(c_int), intent(in) :: isfree(nth)
+    integer(c_int), intent(in) :: isfree(nth), itie(nth)
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
@@ -148,28 +157,31 @@ contains
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
     type(options_t) :: opt
-    integer, allocatable :: ifree(:)
+    type(param_map_t) :: pm
+    real(wp) :: th(nth)
 
     cost = 0.0_wp
     grad = 0.0_wp
     info = 0.0_wp
     rhat = 0.0_wp
     yhat = 0.0_wp
-    call setup(mkind, nx, nu, ny, theta, isfree, iconst, rconst, t, u, y, iopt, ropt, nf, &
-               m, opt, ifree, status, msg)
+    call setup(mkind, nx, nu, ny, nw, theta, isfree, itie, iconst, rconst, t, u, y, iopt, ropt, &
+               nf, m, opt, pm, status, msg)
     if (status /= MLID_OK) return
-    call oe_likelihood(m, theta, ifree, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+    th = theta
+    call apply_ties(pm%tie, th)
+    call likelihood(m, th, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
   end subroutine mlid_evaluate
 
-  !> Outputs y (with noise of standard deviation noise_std, seeded) and
-  !> states x of the model along the time base t with inputs u.
-  subroutine mlid_simulate(mkind, nx, nu, ny, nth, theta, nic, iconst, nrc, rconst, nt, t, u, &
-                           noise_std, seed, iopt, ropt, y, x, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nth, nic, nrc, nt, seed
+  !> Outputs y and states x of the model along t with inputs u, with the
+  !> process and measurement noise whose statistics are in theta (seeded).
+  subroutine mlid_simulate(mkind, nx, nu, ny, nw, nth, theta, nic, iconst, nrc, rconst, nt, t, u, &
+                           seed, iopt, ropt, y, x, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed
     real(c_double), intent(in) :: theta(nth)
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt), noise_std(ny)
+    real(c_double), intent(in) :: t(nt), u(nu, nt)
     integer(c_int), intent(in) :: iopt(8)
     real(c_double), intent(in) :: ropt(8)
     real(c_double), intent(out) :: y(ny, nt), x(nx, nt)
@@ -177,32 +189,32 @@ contains
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
     type(options_t) :: opt
-    integer, allocatable :: ifree(:)
+    type(param_map_t) :: pm
     integer :: nofree(nth)
 
     y = 0.0_wp
     x = 0.0_wp
     nofree = 0
     ! No measurements yet: check the time base and inputs against themselves.
-    call setup(mkind, nx, nu, ny, theta, nofree, iconst, rconst, t, u, y, iopt, ropt, 0, &
-               m, opt, ifree, status, msg)
+    call setup(mkind, nx, nu, ny, nw, theta, nofree, nofree, iconst, rconst, t, u, y, iopt, &
+               ropt, 0, m, opt, pm, status, msg)
     if (status /= MLID_OK) return
-    call simulate_outputs(m, theta, t, u, opt, noise_std, seed, y, x, status, msg)
+    call simulate_outputs(m, theta, t, u, opt, seed, y, x, status, msg)
   end subroutine mlid_simulate
 
   !> nrun identifications: data from theta_true with seeds seed0, seed0+1, ...,
   !> each fitted from theta_start.  est and sig (nf, nrun) are the estimates
   !> and Cramer-Rao standard deviations of the free parameters, iters the
   !> iterations, run_status each run's status (0, or the code it ended on).
-  subroutine mlid_monte_carlo(mkind, nx, nu, ny, nth, theta_true, theta_start, isfree, nic, &
-                              iconst, nrc, rconst, nt, t, u, noise_std, seed0, nrun, iopt, &
-                              ropt, nf, est, sig, iters, run_status, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nth, nic, nrc, nt, seed0, nrun, nf
+  subroutine mlid_monte_carlo(mkind, nx, nu, ny, nw, nth, theta_true, theta_start, isfree, itie, &
+                              nic, iconst, nrc, rconst, nt, t, u, seed0, nrun, iopt, ropt, nf, &
+                              est, sig, iters, run_status, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed0, nrun, nf
     real(c_double), intent(in) :: theta_true(nth), theta_start(nth)
-    integer(c_int), intent(in) :: isfree(nth)
+    integer(c_int), intent(in) :: isfree(nth), itie(nth)
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt), noise_std(ny)
+    real(c_double), intent(in) :: t(nt), u(nu, nt)
     integer(c_int), intent(in) :: iopt(8)
     real(c_double), intent(in) :: ropt(8)
     real(c_double), intent(out) :: est(nf, nrun), sig(nf, nrun)
@@ -210,7 +222,7 @@ contains
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
     type(options_t) :: opt
-    integer, allocatable :: ifree(:)
+    type(param_map_t) :: pm
     real(wp) :: yzero(ny, nt)
 
     est = 0.0_wp
@@ -218,53 +230,53 @@ contains
     iters = 0
     run_status = 0
     yzero = 0.0_wp
-    call setup(mkind, nx, nu, ny, theta_start, isfree, iconst, rconst, t, u, yzero, iopt, ropt, &
-               nf, m, opt, ifree, status, msg)
+    call setup(mkind, nx, nu, ny, nw, theta_start, isfree, itie, iconst, rconst, t, u, yzero, &
+               iopt, ropt, nf, m, opt, pm, status, msg)
     if (status /= MLID_OK) return
     if (.not. all(ieee_is_finite(theta_true))) then
       status = MLID_ERR_INPUT
       msg = 'true parameter values must be finite'
       return
     end if
-    call monte_carlo_oe(m, theta_true, theta_start, ifree, t, u, opt, noise_std, seed0, &
-                        est, sig, iters, run_status)
+    call monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, run_status)
   end subroutine mlid_monte_carlo
 
-  !> Build the model and options and check everything the estimators assume
-  !> of their arguments, with a message that names the offending item.
-  subroutine setup(mkind, nx, nu, ny, theta, isfree, iconst, rconst, t, u, y, iopt, ropt, nf, &
-                   m, opt, ifree, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nf
+  !> Build the model, options and parameter map and check everything the
+  !> estimators assume of their arguments, with a message that names the
+  !> offending item.
+  subroutine setup(mkind, nx, nu, ny, nw, theta, isfree, itie, iconst, rconst, t, u, y, iopt, &
+                   ropt, nf, m, opt, pm, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nf
     real(c_double), intent(in) :: theta(:)
-    integer(c_int), intent(in) :: isfree(:), iconst(:)
+    integer(c_int), intent(in) :: isfree(:), itie(:), iconst(:)
     real(c_double), intent(in) :: rconst(:), t(:), u(:, :), y(:, :)
     integer(c_int), intent(in) :: iopt(8)
     real(c_double), intent(in) :: ropt(8)
     class(model_t), allocatable, intent(out) :: m
     type(options_t), intent(out) :: opt
-    integer, allocatable, intent(out) :: ifree(:)
+    type(param_map_t), intent(out) :: pm
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer :: k, j, nt
+    type(layout_t) :: l
 
-    call model_create(mkind, nx, nu, ny, iconst, rconst, m, status, msg)
+    call model_create(mkind, nx, nu, ny, nw, iconst, rconst, m, status, msg)
     if (status /= MLID_OK) return
     call options_from_flat(iopt, ropt, opt, status, msg)
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
     nt = size(t)
-    if (size(theta) /= m%np + nx + ny) then
+    l = model_layout(m)
+    if (size(theta) /= l%nth) then
       write (msg, '(a,i0,a,i0)') 'parameter vector has ', size(theta), &
-        ' entries, the model needs np + nx + ny = ', m%np + nx + ny
+        ' entries, the model needs ', l%nth
       return
     end if
-    if (any(isfree /= 0 .and. isfree /= 1)) then
-      msg = 'free flags must be 0 or 1'
-      return
-    end if
-    ifree = pack([(k, k=1, size(theta))], isfree == 1)
-    if (size(ifree) /= nf) then
-      write (msg, '(a,i0,a,i0)') 'nf = ', nf, ' but ', size(ifree), ' parameters are free'
+    call param_map_create(l, isfree, itie, pm, status, msg)
+    if (status /= MLID_OK) return
+    status = MLID_ERR_INPUT
+    if (pm%nf /= nf) then
+      write (msg, '(a,i0,a,i0,a)') 'nf = ', nf, ' but ', pm%nf, ' parameters are free'
       return
     end if
     do k = 1, size(theta)

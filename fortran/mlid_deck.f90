@@ -2,12 +2,15 @@
 !>
 !> A case starts at each line whose first word is &case and holds the groups
 !>   &case     title, job ('estimate' or 'simulate')
-!>   &model    kind, nx, nu, ny, f, g, h, d (row by row), x0, bias, free, names,
-!>             input_hold, substeps, state_names, input_names, output_names
+!>   &model    kind, nx, nu, ny, nw, f, g, h, d, gamma (row by row), x0, bias,
+!>             q, r, s (noise variances, cross-covariance row by row), free,
+!>             names, tie, input_hold, substeps, state_names, input_names,
+!>             output_names
 !>   &data     file, time_col, input_cols, output_cols, skip_rows   (estimate)
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
 !>             t_start, pulse_width                                  (simulate)
-!>   &estimate max_iter, halvings, noise, tol_cost, tol_step, tol_grad, rcond
+!>   &estimate method, max_iter, halvings, noise, partials, steady_state,
+!>             tol_cost, tol_step, tol_grad, rcond
 !> A problem in one case is kept in that case (status, msg) and the others
 !> are still read.  The Python reader (mlid/deck.py) follows the same rules.
 module mlid_deck
@@ -21,7 +24,7 @@ module mlid_deck
   public :: deck_case_t, deck_read, case_record, case_time_input, NAMELEN, PATHLEN
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512, LINELEN = 2048
-  integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXFREE = 200, MAXCOL = 100
+  integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
   character(len=*), parameter :: GROUPS = ' case model data simulate estimate '
 
@@ -32,13 +35,14 @@ module mlid_deck
     character(len=128) :: title = ''
     character(len=16) :: job = ''
     integer :: mkind = MODEL_LINEAR
-    integer :: nx = 0, nu = 0, ny = 0
-    real(wp), allocatable :: theta(:)         !< [vec F, vec G, vec H, vec D, x0, bias]
-    integer, allocatable :: isfree(:)
+    integer :: nx = 0, nu = 0, ny = 0, nw = 0
+    real(wp), allocatable :: theta(:)         !< [F, G, H, D, Gamma, x0, bias, q, r, s]
+    integer, allocatable :: isfree(:), itie(:)
     character(len=NAMELEN), allocatable :: labels(:)  !< per free parameter, theta order
     integer :: iopt(NOPT) = 0
     real(wp) :: ropt(NOPT) = 0.0_wp
     character(len=16) :: noise = 'diagonal'
+    character(len=16) :: method = 'output_error'
     character(len=PATHLEN) :: data_file = ''  !< relative paths are resolved from the deck
     integer :: time_col = 1, skip_rows = 0
     integer, allocatable :: input_cols(:), output_cols(:)
@@ -101,24 +105,28 @@ contains
     type(deck_case_t), intent(inout) :: c
     ! namelist variables, reset for every case
     character(len=128) :: title
-    character(len=16) :: job, kind, input_hold, noise, input_shape
-    integer :: nx, nu, ny, substeps, max_iter, halvings, time_col, skip_rows, seed
+    character(len=16) :: job, kind, input_hold, noise, input_shape, method
+    integer :: nx, nu, ny, nw, substeps, max_iter, halvings, time_col, skip_rows, seed
     real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
+    real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY)
+    logical :: partials, steady_state
     character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
+    character(len=2*NAMELEN + 1) :: tie(MAXFREE)
     character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
     real(wp) :: tol_cost, tol_step, tol_grad, rcond
     character(len=PATHLEN) :: file, out
     integer :: input_cols(MAXCOL), output_cols(MAXCOL)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start, pulse_width
     namelist /case/ title, job
-    namelist /model/ kind, nx, nu, ny, f, g, h, d, x0, bias, free, names, input_hold, substeps, &
-      state_names, input_names, output_names
+    namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, x0, bias, q, r, s, free, names, &
+      tie, input_hold, substeps, state_names, input_names, output_names
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
       pulse_width
-    namelist /estimate/ max_iter, halvings, noise, tol_cost, tol_step, tol_grad, rcond
+    namelist /estimate/ method, max_iter, halvings, noise, partials, steady_state, tol_cost, &
+      tol_step, tol_grad, rcond
     type(options_t) :: opt
-    integer :: unit, k, ios, np, idx
+    integer :: unit, k, ios, np, idx, jdx, p, nth
     logical :: found
     character(len=msg_len) :: iomsg
     character(len=LINELEN) :: text
@@ -151,7 +159,13 @@ contains
     nx = 0
     nu = 0
     ny = 0
+    nw = 0
     f = UNSET
+    gamma = UNSET
+    q = UNSET
+    r = UNSET
+    s = UNSET
+    tie = ''
     g = UNSET
     h = UNSET
     d = UNSET
@@ -170,32 +184,40 @@ contains
       call fail('group &model: unknown kind '''//trim(kind)//''' (available: linear)')
       return
     end if
-    if (nx < 1 .or. nx > MAXX .or. nu < 0 .or. nu > MAXU .or. ny < 1 .or. ny > MAXY) then
-      write (iomsg, '(a,3(1x,i0),a,3(1x,i0))') 'group &model: nx, nu, ny =', nx, nu, ny, &
-        ' out of range; limits are 1..', MAXX, MAXU, MAXY
+    if (nx < 1 .or. nx > MAXX .or. nu < 0 .or. nu > MAXU .or. ny < 1 .or. ny > MAXY .or. &
+        nw < 0 .or. nw > MAXW) then
+      write (iomsg, '(a,4(1x,i0),a,4(1x,i0))') 'group &model: nx, nu, ny, nw =', nx, nu, ny, nw, &
+        ' out of range; limits are', MAXX, MAXU, MAXY, MAXW
       call fail(iomsg)
       return
     end if
     c%nx = nx
     c%nu = nu
     c%ny = ny
-    np = nx*nx + nx*nu + ny*nx + ny*nu
-    allocate (c%theta(np + nx + ny), c%isfree(np + nx + ny), c%labels(np + nx + ny))
+    c%nw = nw
+    np = nx*nx + nx*nu + ny*nx + ny*nu + nx*nw
+    nth = np + nx + ny + nw + ny + nw*ny
+    allocate (c%theta(nth), c%isfree(nth), c%itie(nth), c%labels(nth))
     c%isfree = 0
+    c%itie = 0
     c%labels = ''
     call put_matrix('f', f, nx, nx, 0, required=.true.)
     call put_matrix('g', g, nx, nu, nx*nx, required=nu > 0)
     call put_matrix('h', h, ny, nx, nx*nx + nx*nu, required=.true.)
     call put_matrix('d', d, ny, nu, nx*nx + nx*nu + ny*nx, required=.false.)
+    call put_matrix('gamma', gamma, nx, nw, np - nx*nw, required=nw > 0)
     call put_vector('x0', x0, nx, np)
     call put_vector('bias', bias, ny, np + nx)
+    call put_vector('q', q, nw, np + nx + ny)
+    call put_vector('r', r, ny, np + nx + ny + nw)
+    call put_matrix('s', s, nw, ny, np + nx + ny + nw + ny, required=.false.)
     if (c%status /= MLID_OK) return
     do k = 1, MAXFREE
       if (len_trim(free(k)) == 0) cycle
-      call element_index(free(k), nx, nu, ny, idx)
+      call element_index(free(k), nx, nu, ny, nw, idx)
       if (idx == 0) then
         call fail('group &model: free parameter '''//trim(free(k))// &
-                  ''' does not exist (use f(i,j), g(i,j), h(i,j), d(i,j), x0(i), bias(i) within the dimensions)')
+                  ''' does not exist (use f, g, h, d, gamma (i,j), x0, bias, q, r (i), s (i,j) within the dimensions)')
         return
       end if
       if (c%isfree(idx) == 1) then
@@ -211,6 +233,22 @@ contains
       return
     end if
     c%labels = pack(c%labels, c%isfree == 1)
+    do k = 1, MAXFREE
+      if (len_trim(tie(k)) == 0) cycle
+      p = index(tie(k), '=')
+      idx = 0
+      jdx = 0
+      if (p > 1) then
+        call element_index(tie(k)(1:p - 1), nx, nu, ny, nw, idx)
+        call element_index(tie(k)(p + 1:), nx, nu, ny, nw, jdx)
+      end if
+      if (idx == 0 .or. jdx == 0) then
+        call fail('group &model: tie '''//trim(tie(k))//''' must read ''a=b'' with two '// &
+                  'parameters that exist')
+        return
+      end if
+      c%itie(idx) = jdx
+    end do
     select case (lower(input_hold))
     case ('linear')
       opt%hold = .false.
@@ -250,6 +288,9 @@ contains
       max_iter = opt%max_iter
       halvings = opt%halvings
       noise = 'diagonal'
+      method = 'output_error'
+      partials = opt%partials
+      steady_state = opt%steady
       tol_cost = opt%tol_cost
       tol_step = opt%tol_step
       tol_grad = opt%tol_grad
@@ -262,6 +303,19 @@ contains
       opt%tol_step = tol_step
       opt%tol_grad = tol_grad
       opt%rcond = rcond
+      opt%partials = partials
+      opt%steady = steady_state
+      c%method = lower(method)
+      select case (c%method)
+      case ('output_error')
+        opt%method = 0
+      case ('filter_error')
+        opt%method = 1
+      case default
+        call fail('group &estimate: method must be ''output_error'' or ''filter_error'', got '''// &
+                  trim(method)//'''')
+        return
+      end select
       c%noise = lower(noise)
       if (c%noise /= 'diagonal' .and. c%noise /= 'full') then
         call fail('group &estimate: noise must be ''diagonal'' or ''full'', got '''//trim(noise)//'''')
@@ -289,12 +343,14 @@ contains
       c%pulse_width = pulse_width
       c%noise_std = pack(noise_std, noise_std /= UNSET)
       c%amplitude = pack(amplitude, amplitude /= UNSET)
+      ! noise_std, when given, sets the measurement-noise variances r
+      if (size(c%noise_std) == ny) c%theta(np + nx + ny + nw + 1:np + nx + ny + nw + ny) = c%noise_std**2
       if (size(c%amplitude) == 0) c%amplitude = [(0.0_wp, k=1, nu)]
       if (len_trim(out) == 0) then
         call fail('group &simulate: out (the data file to write) is missing')
       else if (.not. (dt > 0.0_wp .and. t_end > dt)) then
         call fail('group &simulate: need dt > 0 and t_end > dt')
-      else if (size(c%noise_std) /= ny) then
+      else if (size(c%noise_std) /= ny .and. size(c%noise_std) /= 0) then
         write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
           ' values, the model has ', ny, ' outputs'
         call fail(iomsg)
@@ -424,10 +480,11 @@ contains
   end subroutine check_groups
 
   !> Index into theta of a parameter named f(i,j), g(i,j), h(i,j), d(i,j),
-  !> x0(i) or bias(i); 0 if there is no such element.
-  subroutine element_index(name, nx, nu, ny, idx)
+  !> gamma(i,j), x0(i), bias(i), q(i), r(i) or s(i,j); 0 if there is no
+  !> such element.
+  subroutine element_index(name, nx, nu, ny, nw, idx)
     character(len=*), intent(in) :: name
-    integer, intent(in) :: nx, nu, ny
+    integer, intent(in) :: nx, nu, ny, nw
     integer, intent(out) :: idx
     character(len=NAMELEN) :: key
     integer :: p, q, i, j, ios, np
@@ -446,7 +503,7 @@ contains
       read (s(p + 1:q - 1), *, iostat=ios) i
     end if
     if (ios /= 0) return
-    np = nx*nx + nx*nu + ny*nx + ny*nu
+    np = nx*nx + nx*nu + ny*nx + ny*nu + nx*nw
     select case (trim(key))
     case ('f')
       if (in(i, nx) .and. in(j, nx)) idx = (j - 1)*nx + i
@@ -456,10 +513,18 @@ contains
       if (in(i, ny) .and. in(j, nx)) idx = nx*nx + nx*nu + (j - 1)*ny + i
     case ('d')
       if (in(i, ny) .and. in(j, nu)) idx = nx*nx + nx*nu + ny*nx + (j - 1)*ny + i
+    case ('gamma')
+      if (in(i, nx) .and. in(j, nw)) idx = nx*nx + nx*nu + ny*nx + ny*nu + (j - 1)*nx + i
     case ('x0')
       if (in(i, nx) .and. j == 0) idx = np + i
     case ('bias')
       if (in(i, ny) .and. j == 0) idx = np + nx + i
+    case ('q')
+      if (in(i, nw) .and. j == 0) idx = np + nx + ny + i
+    case ('r')
+      if (in(i, ny) .and. j == 0) idx = np + nx + ny + nw + i
+    case ('s')
+      if (in(i, nw) .and. in(j, ny)) idx = np + nx + ny + nw + ny + (j - 1)*nw + i
     end select
   contains
     logical function in(k, n)

@@ -1,30 +1,63 @@
-!> State estimation along a record, and the sensitivity recursions.
+!> State estimation along a record and the sensitivity recursions
+!> (report §4.1, §4.3).
 !>
-!> With no process noise the Kalman gain is zero and the filter reduces to
-!> the output-error predictor (report §4.4): the model is integrated from
-!> x0 and the innovations are the output errors.  This module holds that
-!> predictor with its output sensitivities (eqs 4.31, 4.35 with K = 0).
+!> oe_predict: with no process noise the gain is zero and the filter reduces
+!>   to the output-error predictor (§4.4); innovations are output errors.
+!> kf_innovations: the Kalman filter for process noise w held over each
+!>   sample interval (variance Q, entering through df/dw) and measurement
+!>   noise v (variance R) correlated with the noise of the interval that
+!>   follows (S = E{w v'}, the forward correlation of §5.1.5-5.1.7):
+!>
+!>     update   B = C P C' + R,  K = P C' B^-1,  x+ = x- + K nu,  P+ = (I - K C) P-
+!>     predict  x- = RK4 step of f(x, [u; w^]) from x+, with w^ = S B^-1 nu,
+!>              P- = Phi P+ Phi' + W (Q - S B^-1 S') W' - Phi K S' W' - W S K' Phi'
+!>
+!>   where Phi and W are the RK4 step's transition for the state and the held
+!>   noise.  The sensitivities d x^/d theta follow eqs 4.35-4.36 and, with
+!>   opt%partials, the covariance partials dP, dK, dB of eqs 4.32-4.34 (the
+!>   "added partials" of Appendix B).  With opt%steady the gain is held at its
+!>   steady-state value.  Linear (time-invariant) models only, for now.
 module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED
-  use mlid_models, only: model_t
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_SINGULAR, &
+                        MLID_ERR_NOCONV
+  use mlid_linalg, only: chol_inverse
+  use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
+  use mlid_params, only: param_map_t
   use mlid_rk, only: rk4_step
   implicit none
   private
-  public :: oe_predict
+  public :: oe_predict, kf_innovations
+
+  !> Filter covariance quantities at one sample and their partials.
+  type :: cov_t
+    real(wp), allocatable :: pm(:, :), dpm(:, :, :)    !< P(j|j-1) and dP
+    real(wp), allocatable :: pp(:, :), dpp(:, :, :)    !< P(j|j) and dP
+    real(wp), allocatable :: b(:, :), binv(:, :), db(:, :, :)
+    real(wp), allocatable :: k(:, :), dk(:, :, :)
+    real(wp) :: logdet = 0.0_wp
+  end type cov_t
+
+  !> What the filter needs that does not change along a record.
+  type :: lti_t
+    real(wp), allocatable :: c(:, :), dc(:, :, :)      !< dh/dx and its partials
+    real(wp), allocatable :: phi(:, :), dphi(:, :, :)  !< state transition over an interval
+    real(wp), allocatable :: w(:, :), dw(:, :, :)      !< held-noise transition
+    real(wp), allocatable :: q(:, :), dq(:, :, :), r(:, :), dr(:, :, :), s(:, :), ds(:, :, :)
+    real(wp), allocatable :: g(:, :)                   !< df/dw
+    real(wp) :: dt = -1.0_wp
+  end type lti_t
 
 contains
 
   !> Model outputs yhat(ny, nt) along the record and, if dy is present,
   !> their sensitivities dy(ny, nf, nt) to the free parameters.
-  !>
-  !> theta = [p, x0, bias]; ifree holds the ascending indices into theta of
-  !> the nf free parameters.  xhist(nx, nt), if present, receives the states.
-  subroutine oe_predict(m, theta, ifree, t, u, opt, yhat, status, msg, dy, xhist)
+  !> xhist(nx, nt), if present, receives the states.
+  subroutine oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy, xhist)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
-    integer, intent(in) :: ifree(:)
+    type(param_map_t), intent(in) :: pm
     real(wp), intent(in) :: t(:), u(:, :)
     type(options_t), intent(in) :: opt
     real(wp), intent(out) :: yhat(:, :)
@@ -32,73 +65,439 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: dy(:, :, :)
     real(wp), intent(out), optional :: xhist(:, :)
-    integer :: np, nx, ny, nt, nf, nm, j, k, q, isub
-    integer, allocatable :: idxm(:)
+    type(layout_t) :: l
     real(wp), allocatable :: s(:, :), c(:, :), d(:, :)
-    real(wp) :: x(m%nx), ua(m%nu), ub(m%nu), h, ts
+    real(wp) :: x(m%nx), ua(m%nu + m%nw), ub(m%nu + m%nw)
+    integer :: j, k
     logical :: sens
 
     status = MLID_OK
     msg = ''
-    np = m%np
-    nx = m%nx
-    ny = m%ny
-    nt = size(t)
-    nf = size(ifree)
+    l = pm%l
     sens = present(dy)
-    idxm = pack(ifree, ifree <= np)
-    nm = size(idxm)
-    x = theta(np + 1:np + nx)
+    x = theta(l%ox0 + 1:l%ox0 + l%nx)
+    ua = 0.0_wp
+    ub = 0.0_wp
     if (sens) then
-      allocate (s(nx, nf), c(ny, nx), d(ny, nm))
+      allocate (s(l%nx, pm%nf), c(l%ny, l%nx), d(l%ny, size(pm%im)))
       s = 0.0_wp
-      do k = 1, nf
-        q = ifree(k) - np
-        if (q >= 1 .and. q <= nx) s(q, k) = 1.0_wp   ! d x(0) / d x0(q)
+      do k = 1, size(pm%ix0)
+        s(pm%ix0(k), pm%cx0(k)) = s(pm%ix0(k), pm%cx0(k)) + 1.0_wp
       end do
     end if
 
-    do j = 1, nt
+    do j = 1, size(t)
       if (j > 1) then
-        h = (t(j) - t(j - 1))/opt%substeps
-        do isub = 1, opt%substeps
-          ts = t(j - 1) + (isub - 1)*h
-          if (opt%hold) then
-            ua = u(:, j - 1)
-            ub = ua
-          else
-            ua = u(:, j - 1) + (u(:, j) - u(:, j - 1))*(real(isub - 1, wp)/opt%substeps)
-            ub = u(:, j - 1) + (u(:, j) - u(:, j - 1))*(real(isub, wp)/opt%substeps)
-          end if
-          if (sens) then
-            call rk4_step(m, theta(1:np), ts, h, ua, ub, x, idxm, s)
-          else
-            call rk4_step(m, theta(1:np), ts, h, ua, ub, x, idxm)
-          end if
-        end do
+        if (sens) then
+          call advance(m, theta, pm, t, u, opt, j - 1, [real(wp) ::], x, s)
+        else
+          call advance(m, theta, pm, t, u, opt, j - 1, [real(wp) ::], x)
+        end if
         if (.not. all(ieee_is_finite(x))) then
-          status = MLID_ERR_DIVERGED
-          write (msg, '(a,g0.6,a)') 'simulation diverged: state non-finite at t = ', t(j), &
-            ' (unstable model or parameters far off)'
+          call diverged(t(j), status, msg)
           return
         end if
       end if
       if (present(xhist)) xhist(:, j) = x
-      call m%h(t(j), x, u(:, j), theta(1:np), yhat(:, j))
-      yhat(:, j) = yhat(:, j) + theta(np + nx + 1:np + nx + ny)
+      call m%h(t(j), x, u(:, j), theta(1:l%np), yhat(:, j))
+      yhat(:, j) = yhat(:, j) + theta(l%obias + 1:l%obias + l%ny)
       if (sens) then
-        call m%dhdx(t(j), x, u(:, j), theta(1:np), c)
-        dy(:, :, j) = matmul(c, s)
-        if (nm > 0) then
-          call m%dhdp(t(j), x, u(:, j), theta(1:np), idxm, d)
-          dy(:, 1:nm, j) = dy(:, 1:nm, j) + d
-        end if
-        do k = 1, nf
-          q = ifree(k) - np - nx
-          if (q >= 1) dy(q, k, j) = dy(q, k, j) + 1.0_wp   ! d y / d bias(q)
-        end do
+        call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dy(:, :, j), c, d)
       end if
     end do
   end subroutine oe_predict
+
+  !> Innovations nu(ny, nt) and their covariances through binv(ny, ny, nt)
+  !> and logdet(nt); with dnu present also their sensitivities
+  !> dnu(ny, nf, nt) and, with opt%partials, db(ny, ny, nf, nt).
+  !> yhat(ny, nt) receives the one-step predictions.
+  subroutine kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
+                            dnu, db)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(options_t), intent(in) :: opt
+    real(wp), intent(out) :: yhat(:, :), nu(:, :), binv(:, :, :), logdet(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), intent(out), optional :: dnu(:, :, :), db(:, :, :, :)
+    type(layout_t) :: l
+    type(lti_t) :: sys
+    type(cov_t) :: cv
+    real(wp), allocatable :: s(:, :), c(:, :), d(:, :), what(:), dwhat(:, :), sb(:, :)
+    real(wp) :: x(m%nx)
+    integer :: j, k, nf
+    logical :: sens, partials
+
+    status = MLID_OK
+    msg = ''
+    l = pm%l
+    nf = pm%nf
+    sens = present(dnu)
+    partials = sens .and. opt%partials
+    call lti_setup(m, theta, pm, t, u, opt, sys, status, msg)
+    if (status /= MLID_OK) return
+    call cov_alloc(cv, l%nx, l%ny, nf)
+    x = theta(l%ox0 + 1:l%ox0 + l%nx)
+    allocate (s(l%nx, nf), c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf))
+    s = 0.0_wp
+    do k = 1, size(pm%ix0)
+      s(pm%ix0(k), pm%cx0(k)) = s(pm%ix0(k), pm%cx0(k)) + 1.0_wp
+    end do
+    if (opt%steady) then
+      call steady_state(sys, cv, partials, status, msg)
+      if (status /= MLID_OK) return
+    end if
+
+    do j = 1, size(t)
+      if (j > 1) then
+        if (sens) then
+          call advance(m, theta, pm, t, u, opt, j - 1, what, x, s, matmul(sys%g, dwhat))
+        else
+          call advance(m, theta, pm, t, u, opt, j - 1, what, x)
+        end if
+        if (.not. all(ieee_is_finite(x))) then
+          call diverged(t(j), status, msg)
+          return
+        end if
+        if (.not. opt%steady) call cov_predict(sys, cv, partials)
+      end if
+      if (.not. opt%steady) then
+        call cov_update(sys, cv, partials, status, msg)
+        if (status /= MLID_OK) then
+          write (msg, '(a,g0.6,a)') trim(msg)//' at t = ', t(j)
+          return
+        end if
+      end if
+      call m%h(t(j), x, u(:, j), theta(1:l%np), yhat(:, j))
+      yhat(:, j) = yhat(:, j) + theta(l%obias + 1:l%obias + l%ny)
+      nu(:, j) = y(:, j) - yhat(:, j)
+      binv(:, :, j) = cv%binv
+      logdet(j) = cv%logdet
+      if (sens) then                ! d nu = -(C dx(j|j-1) + dh/dp + d bias), eq. 4.31
+        call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dnu(:, :, j), c, d)
+        dnu(:, :, j) = -dnu(:, :, j)
+      end if
+      ! state update and the held-noise estimate for the next interval
+      x = x + matmul(cv%k, nu(:, j))
+      sb = matmul(sys%s, cv%binv)
+      what = matmul(sb, nu(:, j))
+      if (sens) then                ! eq. 4.36
+        s = s + matmul(cv%k, dnu(:, :, j))
+        dwhat = matmul(sb, dnu(:, :, j))
+        if (partials) then
+          db(:, :, :, j) = cv%db
+          do k = 1, nf
+            s(:, k) = s(:, k) + matmul(cv%dk(:, :, k), nu(:, j))
+            dwhat(:, k) = dwhat(:, k) + matmul(sys%ds(:, :, k), matmul(cv%binv, nu(:, j))) &
+                          - matmul(sb, matmul(cv%db(:, :, k), matmul(cv%binv, nu(:, j))))
+          end do
+        end if
+      end if
+    end do
+  end subroutine kf_innovations
+
+  !> Everything the filter holds fixed along the record (linear models):
+  !> C, Phi, W = held-noise transition, Q, R, S and their partials.
+  subroutine lti_setup(m, theta, pm, t, u, opt, sys, status, msg)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :)
+    type(options_t), intent(in) :: opt
+    type(lti_t), intent(out) :: sys
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(layout_t) :: l
+    real(wp) :: dt, e(m%nx), ua(m%nu + m%nw), dcm(m%ny, m%nx, size(pm%im))
+    real(wp), allocatable :: sk(:, :)
+    integer :: i, k, nf, nx, nw, ny
+    type(options_t) :: o1
+
+    status = MLID_ERR_INPUT
+    l = pm%l
+    nf = pm%nf
+    nx = l%nx
+    nw = l%nw
+    ny = l%ny
+    dt = t(2) - t(1)
+    do k = 2, size(t) - 1
+      if (abs((t(k + 1) - t(k)) - dt) > 1.0e-9_wp*dt) then
+        write (msg, '(a,i0)') 'the Kalman filter needs uniform sampling; time step changes at sample ', k + 1
+        return
+      end if
+    end do
+    do k = 1, nw
+      if (.not. theta(l%oq + k) >= 0.0_wp) then
+        write (msg, '(a,i0,a)') 'process-noise variance q(', k, ') must be >= 0'
+        return
+      end if
+    end do
+    do k = 1, ny
+      if (.not. theta(l%or + k) > 0.0_wp) then
+        write (msg, '(a,i0,a)') 'measurement-noise variance r(', k, ') must be > 0'
+        return
+      end if
+    end do
+    allocate (sys%c(ny, nx), sys%dc(ny, nx, nf), sys%phi(nx, nx), sys%dphi(nx, nx, nf), &
+              sys%w(nx, nw), sys%dw(nx, nw, nf), sys%q(nw, nw), sys%dq(nw, nw, nf), &
+              sys%r(ny, ny), sys%dr(ny, ny, nf), sys%s(nw, ny), sys%ds(nw, ny, nf), &
+              sys%g(nx, nw), sk(nx, nf))
+    sys%dt = dt
+    ua = 0.0_wp
+    e = theta(l%ox0 + 1:l%ox0 + nx)
+    call m%dhdx(t(1), e, u(:, 1), theta(1:l%np), sys%c)
+    call m%dfdw(t(1), e, ua, theta(1:l%np), sys%g)
+    sys%dc = 0.0_wp
+    call m%dhdxp(t(1), e, u(:, 1), theta(1:l%np), pm%im, dcm)
+    do k = 1, size(pm%im)
+      sys%dc(:, :, pm%cm(k)) = sys%dc(:, :, pm%cm(k)) + dcm(:, :, k)
+    end do
+    ! Phi and W: one interval of the integrator applied to unit states and
+    ! unit held noise; their partials from the same step's sensitivities.
+    o1 = opt
+    do i = 1, nx
+      e = 0.0_wp
+      e(i) = 1.0_wp
+      sk = 0.0_wp
+      call integrate(e, ua, sk)
+      sys%phi(:, i) = e
+      sys%dphi(:, i, :) = sk
+    end do
+    do i = 1, nw
+      e = 0.0_wp
+      ua = 0.0_wp
+      ua(m%nu + i) = 1.0_wp
+      sk = 0.0_wp
+      call integrate(e, ua, sk)
+      sys%w(:, i) = e
+      sys%dw(:, i, :) = sk
+    end do
+    sys%q = 0.0_wp
+    sys%r = 0.0_wp
+    sys%dq = 0.0_wp
+    sys%dr = 0.0_wp
+    sys%ds = 0.0_wp
+    do k = 1, nw
+      sys%q(k, k) = theta(l%oq + k)
+    end do
+    do k = 1, ny
+      sys%r(k, k) = theta(l%or + k)
+    end do
+    sys%s = reshape(theta(l%os + 1:l%os + nw*ny), [nw, ny])
+    do k = 1, size(pm%iq)
+      sys%dq(pm%iq(k), pm%iq(k), pm%cq(k)) = sys%dq(pm%iq(k), pm%iq(k), pm%cq(k)) + 1.0_wp
+    end do
+    do k = 1, size(pm%ir)
+      sys%dr(pm%ir(k), pm%ir(k), pm%cr(k)) = sys%dr(pm%ir(k), pm%ir(k), pm%cr(k)) + 1.0_wp
+    end do
+    do k = 1, size(pm%is)
+      i = pm%is(k) - 1
+      sys%ds(mod(i, nw) + 1, i/nw + 1, pm%cs(k)) = sys%ds(mod(i, nw) + 1, i/nw + 1, pm%cs(k)) + 1.0_wp
+    end do
+    status = MLID_OK
+    msg = ''
+
+  contains
+
+    subroutine integrate(x, uh, sx)
+      real(wp), intent(inout) :: x(:), sx(:, :)
+      real(wp), intent(in) :: uh(:)
+      real(wp) :: h
+      integer :: isub
+      h = dt/o1%substeps
+      do isub = 1, o1%substeps
+        call rk4_step(m, theta(1:l%np), t(1), h, uh, uh, x, pm%im, pm%cm, sx)
+      end do
+    end subroutine integrate
+
+  end subroutine lti_setup
+
+  !> Measurement update: B, B^-1, log|B|, K, P+ and their partials.
+  subroutine cov_update(sys, cv, partials, status, msg)
+    type(lti_t), intent(in) :: sys
+    type(cov_t), intent(inout) :: cv
+    logical, intent(in) :: partials
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: pct(:, :), dpct(:, :)
+    integer :: k, ierr
+
+    status = MLID_OK
+    msg = ''
+    pct = matmul(cv%pm, transpose(sys%c))
+    cv%b = matmul(sys%c, pct) + sys%r
+    cv%b = 0.5_wp*(cv%b + transpose(cv%b))
+    call chol_inverse(cv%b, cv%binv, cv%logdet, ierr)
+    if (ierr /= 0) then
+      status = MLID_ERR_SINGULAR
+      msg = 'innovation covariance B = C P C'' + R is not positive definite'
+      return
+    end if
+    cv%k = matmul(pct, cv%binv)
+    cv%pp = cv%pm - matmul(cv%k, transpose(pct))
+    cv%pp = 0.5_wp*(cv%pp + transpose(cv%pp))
+    if (.not. partials) return
+    do k = 1, size(cv%dpm, 3)
+      dpct = matmul(cv%dpm(:, :, k), transpose(sys%c)) + matmul(cv%pm, transpose(sys%dc(:, :, k)))
+      cv%db(:, :, k) = matmul(sys%dc(:, :, k), pct) + matmul(sys%c, dpct) + sys%dr(:, :, k)
+      cv%db(:, :, k) = 0.5_wp*(cv%db(:, :, k) + transpose(cv%db(:, :, k)))
+      cv%dk(:, :, k) = matmul(dpct - matmul(cv%k, cv%db(:, :, k)), cv%binv)
+      ! dP+ = dP- - dK (C P-) - K d(C P-), with C P- = pct'
+      cv%dpp(:, :, k) = cv%dpm(:, :, k) - matmul(cv%dk(:, :, k), transpose(pct)) &
+                        - matmul(cv%k, transpose(dpct))
+      cv%dpp(:, :, k) = 0.5_wp*(cv%dpp(:, :, k) + transpose(cv%dpp(:, :, k)))
+    end do
+  end subroutine cov_update
+
+  !> Time update: P- of the next sample from P+ (and the partials).
+  subroutine cov_predict(sys, cv, partials)
+    type(lti_t), intent(in) :: sys
+    type(cov_t), intent(inout) :: cv
+    logical, intent(in) :: partials
+    real(wp), allocatable :: qt(:, :), kst(:, :), a(:, :), dqt(:, :), dkst(:, :), da(:, :)
+    real(wp), allocatable :: sb(:, :)
+    integer :: k
+
+    sb = matmul(sys%s, cv%binv)
+    qt = sys%q - matmul(sb, transpose(sys%s))         ! Q - S B^-1 S'
+    kst = matmul(cv%k, transpose(sys%s))               ! K S'
+    a = matmul(matmul(sys%phi, kst), transpose(sys%w)) ! Phi K S' W'
+    cv%pm = matmul(matmul(sys%phi, cv%pp), transpose(sys%phi)) &
+            + matmul(matmul(sys%w, qt), transpose(sys%w)) - a - transpose(a)
+    if (.not. partials) return
+    do k = 1, size(cv%dpm, 3)
+      dqt = sys%dq(:, :, k) - matmul(sys%ds(:, :, k), transpose(sb)) &
+            + matmul(matmul(sb, cv%db(:, :, k)), transpose(sb)) &
+            - matmul(sb, transpose(sys%ds(:, :, k)))
+      dkst = matmul(cv%dk(:, :, k), transpose(sys%s)) + matmul(cv%k, transpose(sys%ds(:, :, k)))
+      da = matmul(matmul(sys%dphi(:, :, k), kst), transpose(sys%w)) &
+           + matmul(matmul(sys%phi, dkst), transpose(sys%w)) &
+           + matmul(matmul(sys%phi, kst), transpose(sys%dw(:, :, k)))
+      cv%dpm(:, :, k) = matmul(matmul(sys%dphi(:, :, k), cv%pp), transpose(sys%phi)) &
+                        + matmul(matmul(sys%phi, cv%dpp(:, :, k)), transpose(sys%phi)) &
+                        + matmul(matmul(sys%phi, cv%pp), transpose(sys%dphi(:, :, k))) &
+                        + matmul(matmul(sys%dw(:, :, k), qt), transpose(sys%w)) &
+                        + matmul(matmul(sys%w, dqt), transpose(sys%w)) &
+                        + matmul(matmul(sys%w, qt), transpose(sys%dw(:, :, k))) &
+                        - da - transpose(da)
+    end do
+  end subroutine cov_predict
+
+  !> Iterate update and prediction from P = 0 until P(j|j-1) (and its
+  !> partials) stop changing; leave the converged update in cv.
+  subroutine steady_state(sys, cv, partials, status, msg)
+    type(lti_t), intent(in) :: sys
+    type(cov_t), intent(inout) :: cv
+    logical, intent(in) :: partials
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: p0(:, :), dp0(:, :, :)
+    integer :: it
+    integer, parameter :: max_it = 100000
+
+    do it = 1, max_it
+      call cov_update(sys, cv, partials, status, msg)
+      if (status /= MLID_OK) return
+      p0 = cv%pm
+      dp0 = cv%dpm
+      call cov_predict(sys, cv, partials)
+      if (maxval(abs(cv%pm - p0)) <= 1.0e-14_wp*max(tiny(1.0_wp), maxval(abs(cv%pm)))) then
+        if (.not. partials) exit
+        if (maxval(abs(cv%dpm - dp0)) <= 1.0e-12_wp*max(tiny(1.0_wp), maxval(abs(cv%dpm)))) exit
+      end if
+    end do
+    if (it > max_it) then
+      status = MLID_ERR_NOCONV
+      msg = 'steady-state Kalman filter: the Riccati iteration did not converge'
+      return
+    end if
+    call cov_update(sys, cv, partials, status, msg)
+  end subroutine steady_state
+
+  subroutine cov_alloc(cv, nx, ny, nf)
+    type(cov_t), intent(out) :: cv
+    integer, intent(in) :: nx, ny, nf
+    allocate (cv%pm(nx, nx), cv%dpm(nx, nx, nf), cv%pp(nx, nx), cv%dpp(nx, nx, nf), &
+              cv%b(ny, ny), cv%binv(ny, ny), cv%db(ny, ny, nf), cv%k(nx, ny), cv%dk(nx, ny, nf))
+    cv%pm = 0.0_wp
+    cv%dpm = 0.0_wp
+    cv%pp = 0.0_wp
+    cv%dpp = 0.0_wp
+    cv%db = 0.0_wp
+    cv%dk = 0.0_wp
+  end subroutine cov_alloc
+
+  !> Integrate x (and s) over sample interval j -> j+1 with the inputs linear
+  !> (or held) and the noise inputs held at what; sforce: constant forcing
+  !> of the sensitivities.
+  subroutine advance(m, theta, pm, t, u, opt, j, what, x, s, sforce)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :)
+    type(options_t), intent(in) :: opt
+    integer, intent(in) :: j
+    real(wp), intent(in) :: what(:)
+    real(wp), intent(inout) :: x(:)
+    real(wp), intent(inout), optional :: s(:, :)
+    real(wp), intent(in), optional :: sforce(:, :)
+    real(wp) :: ua(m%nu + m%nw), ub(m%nu + m%nw), h, ts
+    integer :: isub
+
+    ua = 0.0_wp
+    ub = 0.0_wp
+    if (size(what) > 0) then
+      ua(m%nu + 1:) = what
+      ub(m%nu + 1:) = what
+    end if
+    h = (t(j + 1) - t(j))/opt%substeps
+    do isub = 1, opt%substeps
+      ts = t(j) + (isub - 1)*h
+      if (opt%hold) then
+        ua(1:m%nu) = u(:, j)
+        ub(1:m%nu) = u(:, j)
+      else
+        ua(1:m%nu) = u(:, j) + (u(:, j + 1) - u(:, j))*(real(isub - 1, wp)/opt%substeps)
+        ub(1:m%nu) = u(:, j) + (u(:, j + 1) - u(:, j))*(real(isub, wp)/opt%substeps)
+      end if
+      if (present(s)) then
+        call rk4_step(m, theta(1:pm%l%np), ts, h, ua, ub, x, pm%im, pm%cm, s, sforce)
+      else
+        call rk4_step(m, theta(1:pm%l%np), ts, h, ua, ub, x, pm%im, pm%cm)
+      end if
+    end do
+  end subroutine advance
+
+  !> dy/dtheta at one sample: C s + dh/dp + bias columns.
+  subroutine output_sensitivity(m, theta, pm, t, x, u, s, dy, c, d)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:), t, x(:), u(:), s(:, :)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(out) :: dy(:, :), c(:, :), d(:, :)
+    integer :: k
+
+    call m%dhdx(t, x, u, theta(1:pm%l%np), c)
+    dy = matmul(c, s)
+    if (size(pm%im) > 0) then
+      call m%dhdp(t, x, u, theta(1:pm%l%np), pm%im, d)
+      do k = 1, size(pm%im)
+        dy(:, pm%cm(k)) = dy(:, pm%cm(k)) + d(:, k)
+      end do
+    end if
+    do k = 1, size(pm%ib)
+      dy(pm%ib(k), pm%cb(k)) = dy(pm%ib(k), pm%cb(k)) + 1.0_wp
+    end do
+  end subroutine output_sensitivity
+
+  subroutine diverged(t, status, msg)
+    real(wp), intent(in) :: t
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    status = MLID_ERR_DIVERGED
+    write (msg, '(a,g0.6,a)') 'simulation diverged: state non-finite at t = ', t, &
+      ' (unstable model or parameters far off)'
+  end subroutine diverged
 
 end module mlid_filter

@@ -1,55 +1,78 @@
-!> Output-error likelihood: residuals, measurement-noise covariance from the
-!> residuals, cost, gradient and information matrix (report §4.4, eqs 4.17,
-!> 4.30, 4.37 with no process noise).
+!> The negative log-likelihood (report eq. 4.17), its gradient (4.30) and
+!> information matrix (4.37), for the two estimators:
 !>
-!>     J = 1/2 sum_j [ nu_j' R^-1 nu_j + ln|R| ],  R = (1/N) sum_j nu_j nu_j'
+!> output error (§4.4): innovations are output errors; R is estimated from
+!>   the residuals, R = (1/N) sum nu nu' (its diagonal, or all of it).  The
+!>   gradient and information are taken with R held at that estimate; at
+!>   R-hat the gradient equals that of the concentrated cost, so one Newton
+!>   step on theta and one re-estimate of R make a consistent relaxation.
+!> filter error (§4.1, §4.3): innovations and their covariances B(j) from the
+!>   Kalman filter; R, Q and S are parameters like any other.
 !>
-!> (diagonal of the sample covariance, or all of it).  The gradient and the
-!> information matrix are taken with R held at that estimate; at R-hat the
-!> gradient equals that of the concentrated cost, so one Newton step on theta
-!> and one re-estimate of R make a consistent relaxation.
+!>     J = 1/2 sum_j [ nu_j' B_j^-1 nu_j + ln|B_j| ]
+!>     M_kl = sum_j [ dnu_k' B^-1 dnu_l + 1/2 tr(B^-1 dB_k B^-1 dB_l) ]
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR
   use mlid_linalg, only: chol_inverse
   use mlid_models, only: model_t
   use mlid_options, only: options_t
-  use mlid_filter, only: oe_predict
+  use mlid_params, only: param_map_t
+  use mlid_filter, only: oe_predict, kf_innovations
   implicit none
   private
-  public :: oe_likelihood
+  public :: likelihood
 
 contains
 
-  !> Cost at theta; with grad and info present also the gradient dJ/dtheta
-  !> and the information matrix for the free parameters.
-  subroutine oe_likelihood(m, theta, ifree, t, u, y, opt, cost, rhat, yhat, status, msg, &
-                           grad, info)
+  !> Cost at theta (and gradient and information for the free parameters
+  !> when grad and info are present) by the method of opt.  rhat receives
+  !> R-hat (output error) or the mean innovation covariance (filter error).
+  subroutine likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
-    integer, intent(in) :: ifree(:)
+    type(param_map_t), intent(in) :: pm
     real(wp), intent(in) :: t(:), u(:, :), y(:, :)
     type(options_t), intent(in) :: opt
-    real(wp), intent(out) :: cost
-    real(wp), intent(out) :: rhat(:, :)
-    real(wp), intent(out) :: yhat(:, :)
+    real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), intent(out), optional :: grad(:)
-    real(wp), intent(out), optional :: info(:, :)
+    real(wp), intent(out), optional :: grad(:), info(:, :)
+
+    cost = huge(1.0_wp)
+    if (opt%method == 1) then
+      call fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+    else
+      call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+    end if
+    if (status == MLID_OK .and. .not. ieee_is_finite(cost)) then
+      status = MLID_ERR_SINGULAR
+      msg = 'cost is not finite'
+    end if
+  end subroutine likelihood
+
+  subroutine oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(options_t), intent(in) :: opt
+    real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), intent(out), optional :: grad(:), info(:, :)
     real(wp), allocatable :: dy(:, :, :), nu(:, :), w(:, :)
-    real(wp) :: rinv(m%ny, m%ny), logdet, quad
+    real(wp) :: rinv(m%ny, m%ny), logdet
     integer :: ny, nt, nf, j, i, ierr
 
     ny = m%ny
     nt = size(t)
-    nf = size(ifree)
-    cost = huge(1.0_wp)
+    nf = pm%nf
     if (present(grad)) then
       allocate (dy(ny, nf, nt))
-      call oe_predict(m, theta, ifree, t, u, opt, yhat, status, msg, dy=dy)
+      call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy=dy)
     else
-      call oe_predict(m, theta, ifree, t, u, opt, yhat, status, msg)
+      call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg)
     end if
     if (status /= MLID_OK) return
 
@@ -75,14 +98,7 @@ contains
       msg = 'residual covariance is singular (outputs linearly dependent): use noise = ''diagonal'''
       return
     end if
-
-    quad = sum(nu*matmul(rinv, nu))
-    cost = 0.5_wp*(quad + nt*logdet)
-    if (.not. ieee_is_finite(cost)) then
-      status = MLID_ERR_SINGULAR
-      msg = 'cost is not finite'
-      return
-    end if
+    cost = 0.5_wp*(sum(nu*matmul(rinv, nu)) + nt*logdet)
 
     if (present(grad) .and. present(info)) then
       grad = 0.0_wp
@@ -95,5 +111,71 @@ contains
       end do
     end if
   end subroutine oe_likelihood
+
+  subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(options_t), intent(in) :: opt
+    real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), intent(out), optional :: grad(:), info(:, :)
+    real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
+    real(wp), allocatable :: w(:, :), bnu(:), e(:, :, :)
+    real(wp) :: tr
+    integer :: ny, nt, nf, j, k, l
+
+    ny = m%ny
+    nt = size(t)
+    nf = pm%nf
+    allocate (nu(ny, nt), binv(ny, ny, nt), logdet(nt))
+    if (present(grad)) then
+      allocate (dnu(ny, nf, nt), db(ny, ny, nf, nt))
+      db = 0.0_wp
+      call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, db)
+    else
+      call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg)
+    end if
+    if (status /= MLID_OK) return
+    cost = 0.0_wp
+    do j = 1, nt
+      cost = cost + 0.5_wp*(dot_product(nu(:, j), matmul(binv(:, :, j), nu(:, j))) + logdet(j))
+    end do
+    rhat = matmul(nu, transpose(nu))/nt
+    if (.not. (present(grad) .and. present(info))) return
+
+    grad = 0.0_wp
+    info = 0.0_wp
+    allocate (w(ny, nf), e(ny, ny, nf))
+    do j = 1, nt
+      bnu = matmul(binv(:, :, j), nu(:, j))
+      w = matmul(binv(:, :, j), dnu(:, :, j))
+      grad = grad + matmul(bnu, dnu(:, :, j))
+      info = info + matmul(transpose(dnu(:, :, j)), w)
+      if (.not. opt%partials) cycle
+      do k = 1, nf
+        e(:, :, k) = matmul(binv(:, :, j), db(:, :, k, j))   ! B^-1 dB_k
+        grad(k) = grad(k) + 0.5_wp*(trace(e(:, :, k)) - dot_product(bnu, matmul(db(:, :, k, j), bnu)))
+      end do
+      do k = 1, nf
+        do l = 1, k
+          tr = 0.5_wp*sum(e(:, :, k)*transpose(e(:, :, l)))
+          info(k, l) = info(k, l) + tr
+          if (l /= k) info(l, k) = info(l, k) + tr
+        end do
+      end do
+    end do
+  end subroutine fe_likelihood
+
+  pure real(wp) function trace(a)
+    real(wp), intent(in) :: a(:, :)
+    integer :: i
+    trace = 0.0_wp
+    do i = 1, size(a, 1)
+      trace = trace + a(i, i)
+    end do
+  end function trace
 
 end module mlid_likelihood

@@ -1,17 +1,21 @@
 !> The model interface and its implementations.
 !>
-!> A model is xdot = f(t, x, u, p), y = h(t, x, u, p) with analytic
-!> Jacobians.  Every estimator works on the full parameter vector
+!> A model is xdot = f(t, x, [u; w], p), y = h(t, x, u, p) with analytic
+!> Jacobians, where w (nw values) is process noise held over a sample
+!> interval and entering like extra inputs.  Every estimator works on the
+!> full parameter vector (offsets in layout_t)
 !>
-!>     theta = [ p(1:np), x0(1:nx), bias(1:ny) ]
+!>     theta = [ p(np), x0(nx), bias(ny), q(nw), r(ny), s(nw*ny) ]
 !>
-!> so initial states and output biases are parameters of every model, free
-!> or fixed like any other; the model itself only sees p.
+!> with q and r the variances of process and measurement noise (diagonal Q
+!> and R) and s their cross-covariance S (nw x ny, column-major).  Initial
+!> states, biases and noise statistics are thus parameters of every model,
+!> free or fixed like any other; the model itself only sees p.
 module mlid_models
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: model_t, linear_model_t, model_create, MODEL_LINEAR
+  public :: model_t, linear_model_t, model_create, MODEL_LINEAR, layout_t, model_layout
 
   !> Model kinds of the flat interface.
   integer, parameter :: MODEL_LINEAR = 1
@@ -20,6 +24,7 @@ module mlid_models
     integer :: nx = 0  !< states
     integer :: nu = 0  !< inputs
     integer :: ny = 0  !< outputs
+    integer :: nw = 0  !< process-noise inputs
     integer :: np = 0  !< model parameters (before x0 and bias)
   contains
     procedure(f_iface), deferred :: f
@@ -28,6 +33,8 @@ module mlid_models
     procedure(dfdp_iface), deferred :: dfdp
     procedure(dhdx_iface), deferred :: dhdx
     procedure(dhdp_iface), deferred :: dhdp
+    procedure(dfdw_iface), deferred :: dfdw
+    procedure(dhdxp_iface), deferred :: dhdxp
   end type model_t
 
   abstract interface
@@ -75,12 +82,33 @@ module mlid_models
       integer, intent(in) :: idx(:)
       real(wp), intent(out) :: d(:, :)
     end subroutine dhdp_iface
+    !> g = df/dw (nx, nw): how the process noise enters.
+    pure subroutine dfdw_iface(self, t, x, u, p, g)
+      import :: model_t, wp
+      class(model_t), intent(in) :: self
+      real(wp), intent(in) :: t, x(:), u(:), p(:)
+      real(wp), intent(out) :: g(:, :)
+    end subroutine dfdw_iface
+    !> dc(:, :, k) = d(dh/dx)/dp(idx(k)), for the filter's covariance partials.
+    pure subroutine dhdxp_iface(self, t, x, u, p, idx, dc)
+      import :: model_t, wp
+      class(model_t), intent(in) :: self
+      real(wp), intent(in) :: t, x(:), u(:), p(:)
+      integer, intent(in) :: idx(:)
+      real(wp), intent(out) :: dc(:, :, :)
+    end subroutine dhdxp_iface
   end interface
 
-  !> Linear state space xdot = F x + G u, y = H x + D u.
-  !> p = [vec(F), vec(G), vec(H), vec(D)], each column-major.
+  !> Where each block of theta starts (offset: block entry k is theta(o + k)).
+  type :: layout_t
+    integer :: np = 0, nx = 0, ny = 0, nw = 0
+    integer :: ox0 = 0, obias = 0, oq = 0, or = 0, os = 0, nth = 0
+  end type layout_t
+
+  !> Linear state space xdot = F x + G u + Gamma w, y = H x + D u.
+  !> p = [vec(F), vec(G), vec(H), vec(D), vec(Gamma)], each column-major.
   type, extends(model_t) :: linear_model_t
-    integer :: of = 0, og = 0, oh = 0, od = 0  !< offsets of the blocks in p
+    integer :: of = 0, og = 0, oh = 0, od = 0, ogam = 0  !< offsets of the blocks in p
   contains
     procedure :: f => lin_f
     procedure :: h => lin_h
@@ -88,14 +116,32 @@ module mlid_models
     procedure :: dfdp => lin_dfdp
     procedure :: dhdx => lin_dhdx
     procedure :: dhdp => lin_dhdp
+    procedure :: dfdw => lin_dfdw
+    procedure :: dhdxp => lin_dhdxp
   end type linear_model_t
 
 contains
 
+  !> The blocks of theta for a model.
+  pure function model_layout(m) result(l)
+    class(model_t), intent(in) :: m
+    type(layout_t) :: l
+    l%np = m%np
+    l%nx = m%nx
+    l%ny = m%ny
+    l%nw = m%nw
+    l%ox0 = m%np
+    l%obias = l%ox0 + m%nx
+    l%oq = l%obias + m%ny
+    l%or = l%oq + m%nw
+    l%os = l%or + m%ny
+    l%nth = l%os + m%nw*m%ny
+  end function model_layout
+
   !> Build a model from the flat description of the interface.
   !> iconst and rconst carry model constants (unused by the linear model).
-  subroutine model_create(kind, nx, nu, ny, iconst, rconst, model, status, msg)
-    integer, intent(in) :: kind, nx, nu, ny
+  subroutine model_create(kind, nx, nu, ny, nw, iconst, rconst, model, status, msg)
+    integer, intent(in) :: kind, nx, nu, ny, nw
     integer, intent(in) :: iconst(:)
     real(wp), intent(in) :: rconst(:)
     class(model_t), allocatable, intent(out) :: model
@@ -105,10 +151,10 @@ contains
 
     status = MLID_OK
     msg = ''
-    if (nx < 1 .or. nu < 0 .or. ny < 1) then
+    if (nx < 1 .or. nu < 0 .or. ny < 1 .or. nw < 0) then
       status = MLID_ERR_INPUT
-      write (msg, '(a,3(i0,1x),a)') 'model dimensions nx, nu, ny = ', nx, nu, ny, &
-        'must be nx >= 1, nu >= 0, ny >= 1'
+      write (msg, '(a,4(i0,1x),a)') 'model dimensions nx, nu, ny, nw = ', nx, nu, ny, nw, &
+        'must be nx >= 1, nu >= 0, ny >= 1, nw >= 0'
       return
     end if
     select case (kind)
@@ -116,11 +162,13 @@ contains
       lin%nx = nx
       lin%nu = nu
       lin%ny = ny
+      lin%nw = nw
       lin%of = 0
       lin%og = nx*nx
       lin%oh = lin%og + nx*nu
       lin%od = lin%oh + ny*nx
-      lin%np = lin%od + ny*nu
+      lin%ogam = lin%od + ny*nu
+      lin%np = lin%ogam + nx*nw
       allocate (model, source=lin)
     case default
       status = MLID_ERR_INPUT
@@ -140,6 +188,9 @@ contains
     end do
     do j = 1, self%nu
       xdot = xdot + p(self%og + (j - 1)*n + 1:self%og + j*n)*u(j)
+    end do
+    do j = 1, min(self%nw, size(u) - self%nu)          ! process noise, if given
+      xdot = xdot + p(self%ogam + (j - 1)*n + 1:self%ogam + j*n)*u(self%nu + j)
     end do
   end subroutine lin_f
 
@@ -185,6 +236,11 @@ contains
         i = mod(q, n) + 1
         j = q/n + 1
         b(i, k) = u(j)
+      else if (q > self%ogam) then      ! Gamma(i, j): df_i/dGamma(i, j) = w_j
+        q = q - self%ogam - 1
+        i = mod(q, n) + 1
+        j = q/n + 1
+        if (self%nu + j <= size(u)) b(i, k) = u(self%nu + j)
       end if                            ! H and D do not enter f
     end do
   end subroutine lin_dfdp
@@ -211,7 +267,7 @@ contains
         i = mod(q, m) + 1
         j = q/m + 1
         d(i, k) = x(j)
-      else if (q > self%od) then                  ! D(i, j): dh_i/dD(i, j) = u_j
+      else if (q > self%od .and. q <= self%ogam) then  ! D(i, j): dh_i/dD(i, j) = u_j
         q = q - self%od - 1
         i = mod(q, m) + 1
         j = q/m + 1
@@ -219,5 +275,28 @@ contains
       end if
     end do
   end subroutine lin_dhdp
+
+  pure subroutine lin_dfdw(self, t, x, u, p, g)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: g(:, :)
+    g = reshape(p(self%ogam + 1:self%ogam + self%nx*self%nw), [self%nx, self%nw])
+  end subroutine lin_dfdw
+
+  pure subroutine lin_dhdxp(self, t, x, u, p, idx, dc)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: dc(:, :, :)
+    integer :: k, q
+    dc = 0.0_wp
+    do k = 1, size(idx)
+      q = idx(k)
+      if (q > self%oh .and. q <= self%od) then    ! H(i, j)
+        q = q - self%oh - 1
+        dc(mod(q, self%ny) + 1, q/self%ny + 1, k) = 1.0_wp
+      end if
+    end do
+  end subroutine lin_dhdxp
 
 end module mlid_models

@@ -10,7 +10,8 @@ module mlid_newton
   use mlid_linalg, only: sym_eig
   use mlid_models, only: model_t
   use mlid_options, only: options_t
-  use mlid_likelihood, only: oe_likelihood
+  use mlid_likelihood, only: likelihood
+  use mlid_params, only: param_map_t, apply_ties
   implicit none
   private
   public :: fit_result_t, newton_fit, info_inverse
@@ -33,34 +34,35 @@ module mlid_newton
 
 contains
 
-  !> Fit the free parameters ifree of theta0 by output-error maximum
-  !> likelihood.  On a non-zero status res still holds the last iterate.
-  subroutine newton_fit(m, theta0, ifree, t, u, y, opt, res, status, msg)
+  !> Fit the free parameters of theta0 (map pm) by maximum likelihood, with
+  !> the method of opt.  On a non-zero status res still holds the last iterate.
+  subroutine newton_fit(m, theta0, pm, t, u, y, opt, res, status, msg)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta0(:)
-    integer, intent(in) :: ifree(:)
+    type(param_map_t), intent(in) :: pm
     real(wp), intent(in) :: t(:), u(:, :), y(:, :)
     type(options_t), intent(in) :: opt
     type(fit_result_t), intent(out) :: res
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer :: nf, ny, nt, it, ih, tstat, ndrop
-    real(wp) :: step(size(ifree)), trial(size(theta0)), best(size(theta0))
+    real(wp) :: step(pm%nf), trial(size(theta0)), best(size(theta0))
     real(wp) :: jt, jbest, scale, decrement, dj
     real(wp), allocatable :: rt(:, :), yt(:, :), rbest(:, :)
     character(len=len(msg)) :: tmsg
 
-    nf = size(ifree)
+    nf = pm%nf
     ny = m%ny
     nt = size(t)
     allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), &
               res%rhat(ny, ny), res%yhat(ny, nt), res%cost_hist(opt%max_iter + 1))
     allocate (rt(ny, ny), yt(ny, nt), rbest(ny, ny))
     res%theta = theta0
+    call apply_ties(pm%tie, res%theta)
     res%cost_hist = 0.0_wp
 
-    call oe_likelihood(m, res%theta, ifree, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                       status, msg, res%grad, res%info)
+    call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
+                    status, msg, res%grad, res%info)
     if (status /= MLID_OK) then
       res%reason = STOP_FAILED
       return
@@ -83,8 +85,9 @@ contains
       scale = 1.0_wp
       do ih = 0, opt%halvings
         trial = res%theta
-        trial(ifree) = trial(ifree) + scale*step
-        call oe_likelihood(m, trial, ifree, t, u, y, opt, jt, rt, yt, tstat, tmsg)
+        trial(pm%ifree) = trial(pm%ifree) + scale*step
+        call apply_ties(pm%tie, trial)
+        call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
         if (tstat == MLID_OK .and. ieee_is_finite(jt) .and. jt < jbest) then
           jbest = jt
           best = trial
@@ -107,8 +110,8 @@ contains
 
       res%niter = it
       res%theta = best
-      call oe_likelihood(m, res%theta, ifree, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                         status, msg, res%grad, res%info)
+      call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
+                      status, msg, res%grad, res%info)
       if (status /= MLID_OK) then
         res%reason = STOP_FAILED
         return
@@ -119,7 +122,7 @@ contains
         res%reason = STOP_COST
         exit
       end if
-      if (scale*norm2(step) <= opt%tol_step*norm2(res%theta(ifree))) then
+      if (scale*norm2(step) <= opt%tol_step*norm2(res%theta(pm%ifree))) then
         res%reason = STOP_STEP
         exit
       end if

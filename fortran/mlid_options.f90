@@ -17,6 +17,9 @@ module mlid_options
     logical :: full_r = .false.   !< iopt(3): 0 diagonal R, 1 full R
     logical :: hold = .false.     !< iopt(4): 0 input linear between samples, 1 zero-order hold
     integer :: substeps = 1       !< iopt(5): RK4 steps per sample interval
+    integer :: method = 0         !< iopt(6): 0 output error, 1 filter error (Kalman filter)
+    logical :: partials = .true.  !< iopt(7): filter error with covariance/gain partials (eqs 4.32-4.34)
+    logical :: steady = .false.   !< iopt(8): filter error with the steady-state gain
     real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
     real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
     real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
@@ -37,6 +40,9 @@ contains
     iopt(3) = merge(1, 0, opt%full_r)
     iopt(4) = merge(1, 0, opt%hold)
     iopt(5) = opt%substeps
+    iopt(6) = opt%method
+    iopt(7) = merge(1, 0, opt%partials)
+    iopt(8) = merge(1, 0, opt%steady)
     ropt(1) = opt%tol_cost
     ropt(2) = opt%tol_step
     ropt(3) = opt%tol_grad
@@ -59,6 +65,9 @@ contains
     opt%full_r = iopt(3) == 1
     opt%hold = iopt(4) == 1
     opt%substeps = iopt(5)
+    opt%method = iopt(6)
+    opt%partials = iopt(7) == 1
+    opt%steady = iopt(8) == 1
     opt%tol_cost = ropt(1)
     opt%tol_step = ropt(2)
     opt%tol_grad = ropt(3)
@@ -71,6 +80,10 @@ contains
       write (msg, '(a,i0)') 'noise code must be 0 (diagonal) or 1 (full), got ', iopt(3)
     else if (iopt(4) /= 0 .and. iopt(4) /= 1) then
       write (msg, '(a,i0)') 'input hold code must be 0 (linear) or 1 (zero-order), got ', iopt(4)
+    else if (opt%method /= 0 .and. opt%method /= 1) then
+      write (msg, '(a,i0)') 'method code must be 0 (output error) or 1 (filter error), got ', iopt(6)
+    else if (any(iopt(7:8) /= 0 .and. iopt(7:8) /= 1)) then
+      msg = 'partials and steady flags must be 0 or 1'
     else if (opt%substeps < 1) then
       write (msg, '(a,i0)') 'substeps must be >= 1, got ', opt%substeps
     else if (.not. (opt%tol_cost >= 0.0_wp .and. opt%tol_step >= 0.0_wp .and. &

@@ -10,16 +10,16 @@ module mlid_report
 contains
 
   !> Table of start, estimate and Cramer-Rao sigma per free parameter.
-  subroutine report_fit(unit, noise, labels, start, est, sig, cost, rhat, niter, reason, converged)
+  subroutine report_fit(unit, method, labels, start, est, sig, cost, rhat, niter, reason, converged)
     integer, intent(in) :: unit
-    character(len=*), intent(in) :: noise
+    character(len=*), intent(in) :: method
     character(len=*), intent(in) :: labels(:)
     real(wp), intent(in) :: start(:), est(:), sig(:), cost, rhat(:, :)
     integer, intent(in) :: niter, reason
     logical, intent(in) :: converged
     integer :: k
 
-    write (unit, '(a,i0,a)') ' output-error ML, R '//trim(noise)//': ', niter, ' iterations, '// &
+    write (unit, '(a,i0,a)') ' '//trim(method)//': ', niter, ' iterations, '// &
       trim(merge('converged    ', 'NOT converged', converged))//' ('// &
       trim(stop_reason_text(reason))//')'
     write (unit, '(1x,a16,a15,a15,a13)') 'parameter       ', 'start', 'estimate', 'sigma'

@@ -15,16 +15,19 @@ contains
 
   !> Advance x (and s, if given) from t0 to t0+dt.
   !>
-  !> s(nx, nf) holds dx/dtheta for the free parameters; its first size(idxm)
-  !> columns belong to the model parameters p(idxm), which force the
-  !> sensitivity equation through df/dp.  The other columns (initial states,
-  !> biases) only propagate through df/dx.
-  subroutine rk4_step(m, p, t0, dt, ua, ub, x, idxm, s)
+  !> s(nx, nf) holds dx/dtheta for the free parameters.  The model
+  !> parameters p(idxm(k)) force column colm(k) of the sensitivity equation
+  !> through df/dp (several may share a column: ties); the other columns
+  !> only propagate through df/dx, plus sforce, a constant forcing of every
+  !> column (the filter's held noise estimate).  ua, ub may carry the noise
+  !> inputs after the control inputs.
+  subroutine rk4_step(m, p, t0, dt, ua, ub, x, idxm, colm, s, sforce)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), t0, dt, ua(:), ub(:)
     real(wp), intent(inout) :: x(:)
-    integer, intent(in) :: idxm(:)
+    integer, intent(in) :: idxm(:), colm(:)
     real(wp), intent(inout), optional :: s(:, :)
+    real(wp), intent(in), optional :: sforce(:, :)
     real(wp) :: um(size(ua)), th
     real(wp), dimension(size(x)) :: k1, k2, k3, k4
     real(wp), allocatable :: s1(:, :), s2(:, :), s3(:, :), s4(:, :)
@@ -48,21 +51,23 @@ contains
 
   contains
 
-    !> xd = f, sd = (df/dx) s + [df/dp(idxm), 0].
+    !> xd = f, sd = (df/dx) s + df/dp(idxm) (into columns colm) + sforce.
     subroutine deriv(t, xs, us, xd, ss, sd)
       real(wp), intent(in) :: t, xs(:), us(:), ss(:, :)
       real(wp), intent(out) :: xd(:), sd(:, :)
       real(wp) :: a(size(xs), size(xs)), b(size(xs), size(idxm))
-      integer :: nm
+      integer :: k
 
-      nm = size(idxm)
       call m%f(t, xs, us, p, xd)
       call m%dfdx(t, xs, us, p, a)
       sd = matmul(a, ss)
-      if (nm > 0) then
+      if (size(idxm) > 0) then
         call m%dfdp(t, xs, us, p, idxm, b)
-        sd(:, 1:nm) = sd(:, 1:nm) + b
+        do k = 1, size(idxm)
+          sd(:, colm(k)) = sd(:, colm(k)) + b(:, k)
+        end do
       end if
+      if (present(sforce)) sd = sd + sforce
     end subroutine deriv
 
   end subroutine rk4_step

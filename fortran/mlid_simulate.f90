@@ -1,10 +1,18 @@
-!> Data generation: the model's outputs along a record plus Gaussian
-!> measurement noise from a seeded generator.
+!> Data generation: the model along a record with process noise held over
+!> each sample interval and measurement noise, drawn together from a seeded
+!> generator with the covariances in theta:
+!>
+!>     [w_j; v_j] ~ N(0, [[Q, S], [S', R]])
+!>
+!> w_j drives the interval that follows t_j and v_j corrupts y(t_j), so the
+!> two are correlated forward in time (report §5.1.5), as the filter assumes.
 module mlid_simulate
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_models, only: model_t
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_DIVERGED
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_linalg, only: sym_eig
+  use mlid_models, only: model_t, layout_t, model_layout
   use mlid_options, only: options_t
-  use mlid_filter, only: oe_predict
+  use mlid_rk, only: rk4_step
   use mlid_random, only: rng_t, rng_seed, rng_normal
   implicit none
   private
@@ -12,41 +20,90 @@ module mlid_simulate
 
 contains
 
-  !> y(ny, nt) = h(x) + bias + noise_std*N(0,1) along the record;
-  !> xhist(nx, nt) receives the states.  Noise is drawn sample by sample,
-  !> output by output, from the stream started by seed.
-  subroutine simulate_outputs(m, theta, t, u, opt, noise_std, seed, y, xhist, status, msg)
+  !> y(ny, nt) and states xhist(nx, nt) along t with inputs u.
+  subroutine simulate_outputs(m, theta, t, u, opt, seed, y, xhist, status, msg)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), t(:), u(:, :)
     type(options_t), intent(in) :: opt
-    real(wp), intent(in) :: noise_std(:)
     integer, intent(in) :: seed
     real(wp), intent(out) :: y(:, :), xhist(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    type(layout_t) :: l
     type(rng_t) :: rng
-    integer :: i, j
-    integer, allocatable :: nofree(:)
+    real(wp) :: c(m%nw + m%ny, m%nw + m%ny), lsq(m%nw + m%ny, m%nw + m%ny)
+    real(wp) :: ev(m%nw + m%ny), z(m%nw + m%ny), wv(m%nw + m%ny)
+    real(wp) :: x(m%nx), ua(m%nu + m%nw), ub(m%nu + m%nw), h, ts
+    integer :: i, j, isub, nw, ny, info
+    integer, allocatable :: none(:)
 
-    if (.not. all(noise_std >= 0.0_wp)) then
-      status = MLID_ERR_INPUT
-      msg = 'noise standard deviations must be finite and >= 0'
-      return
-    end if
+    status = MLID_ERR_INPUT
+    l = model_layout(m)
+    nw = m%nw
+    ny = m%ny
     if (seed < 0) then
-      status = MLID_ERR_INPUT
       write (msg, '(a,i0)') 'seed must be >= 0, got ', seed
       return
     end if
-    allocate (nofree(0))
-    call oe_predict(m, theta, nofree, t, u, opt, y, status, msg, xhist=xhist)
-    if (status /= MLID_OK) return
-    call rng_seed(rng, seed)
-    do j = 1, size(t)
-      do i = 1, m%ny
-        y(i, j) = y(i, j) + noise_std(i)*rng_normal(rng)
-      end do
+    ! Square root of the joint noise covariance by eigen-decomposition, so
+    ! that zero variances (noise-free channels) are allowed.
+    c = 0.0_wp
+    do i = 1, nw
+      c(i, i) = theta(l%oq + i)
     end do
+    do i = 1, ny
+      c(nw + i, nw + i) = theta(l%or + i)
+    end do
+    c(1:nw, nw + 1:) = reshape(theta(l%os + 1:l%os + nw*ny), [nw, ny])
+    c(nw + 1:, 1:nw) = transpose(c(1:nw, nw + 1:))
+    call sym_eig(c, ev, lsq, info)
+    if (info /= 0 .or. .not. all(ieee_is_finite(ev))) then
+      msg = 'noise covariances are not finite'
+      return
+    end if
+    if (minval(ev) < -1.0e-12_wp*max(1.0_wp, maxval(abs(ev)))) then
+      msg = 'noise covariance [[Q, S], [S'', R]] is not positive semi-definite '// &
+            '(variances q, r must be >= 0 and |S| small enough)'
+      return
+    end if
+    do i = 1, nw + ny
+      lsq(:, i) = lsq(:, i)*sqrt(max(ev(i), 0.0_wp))
+    end do
+
+    allocate (none(0))
+    call rng_seed(rng, seed)
+    x = theta(l%ox0 + 1:l%ox0 + m%nx)
+    do j = 1, size(t)
+      do i = 1, nw + ny
+        z(i) = rng_normal(rng)
+      end do
+      wv = matmul(lsq, z)
+      xhist(:, j) = x
+      call m%h(t(j), x, u(:, j), theta(1:l%np), y(:, j))
+      y(:, j) = y(:, j) + theta(l%obias + 1:l%obias + ny) + wv(nw + 1:)
+      if (j == size(t)) exit
+      h = (t(j + 1) - t(j))/opt%substeps
+      ua(m%nu + 1:) = wv(1:nw)
+      ub(m%nu + 1:) = wv(1:nw)
+      do isub = 1, opt%substeps
+        ts = t(j) + (isub - 1)*h
+        if (opt%hold) then
+          ua(1:m%nu) = u(:, j)
+          ub(1:m%nu) = u(:, j)
+        else
+          ua(1:m%nu) = u(:, j) + (u(:, j + 1) - u(:, j))*(real(isub - 1, wp)/opt%substeps)
+          ub(1:m%nu) = u(:, j) + (u(:, j + 1) - u(:, j))*(real(isub, wp)/opt%substeps)
+        end if
+        call rk4_step(m, theta(1:l%np), ts, h, ua, ub, x, none, none)
+      end do
+      if (.not. all(ieee_is_finite(x))) then
+        status = MLID_ERR_DIVERGED
+        write (msg, '(a,g0.6)') 'simulation diverged: state non-finite at t = ', t(j + 1)
+        return
+      end if
+    end do
+    status = MLID_OK
+    msg = ''
   end subroutine simulate_outputs
 
 end module mlid_simulate

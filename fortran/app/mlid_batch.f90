@@ -94,9 +94,8 @@ contains
       call case_time_input(c, t, u, cstat, cmsg)
       if (cstat == MLID_OK) then
         allocate (y(c%ny, size(t)), x(c%nx, size(t)))
-        call mlid_simulate(c%mkind, c%nx, c%nu, c%ny, nth, c%theta, 0, [integer ::], 0, &
-                           [real(wp) ::], size(t), t, u, c%noise_std, c%seed, c%iopt, c%ropt, &
-                           y, x, cstat, cmsg)
+        call mlid_simulate(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, 0, [integer ::], 0, &
+                           [real(wp) ::], size(t), t, u, c%seed, c%iopt, c%ropt, y, x, cstat, cmsg)
       end if
       if (cstat == MLID_OK) then
         path = c%out_file
@@ -119,14 +118,15 @@ contains
         allocate (theta(nth), sigma(nth), cov(nf, nf), info(nf, nf), grad(nf), eigval(nf), &
                   rhat(c%ny, c%ny), yhat(c%ny, size(t)), hist(c%iopt(1) + 1))
         call system_clock(t0, rate)
-        call mlid_fit(c%mkind, c%nx, c%nu, c%ny, nth, c%theta, c%isfree, 0, [integer ::], 0, &
-                      [real(wp) ::], size(t), t, u, y, c%iopt, c%ropt, nf, size(hist), theta, &
+        call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, 0, &
+                      [integer ::], 0, [real(wp) ::], size(t), t, u, y, c%iopt, c%ropt, nf, &
+                      size(hist), theta, &
                       sigma, cov, info, grad, eigval, rhat, yhat, hist, cost, niter, reason, &
                       converged, bad, cstat, cmsg)
         call system_clock(t1)
         wall = real(t1 - t0, wp)/rate
         if (cstat == MLID_OK .or. cstat == MLID_ERR_NOCONV) then
-          call report_fit(6, c%noise, c%labels, pack(c%theta, c%isfree == 1), &
+          call report_fit(6, method_text(c), c%labels, pack(c%theta, c%isfree == 1), &
                           pack(theta, c%isfree == 1), pack(sigma, c%isfree == 1), cost, rhat, &
                           niter, reason, converged == 1)
           fitted = .true.
@@ -153,6 +153,19 @@ contains
       write (*, '(a)') ' FAILED: '//trim(cmsg)
     end if
   end subroutine run_case
+
+  !> The estimator, as the report's first line names it.
+  function method_text(c) result(text)
+    type(deck_case_t), intent(in) :: c
+    character(len=:), allocatable :: text
+    if (c%method == 'filter_error') then
+      text = 'filter-error ML, '//trim(merge('steady-state gain', 'time-varying gain', &
+             c%iopt(8) == 1))//', '//trim(merge('with gain partials   ', 'without gain partials', &
+             c%iopt(7) == 1))
+    else
+      text = 'output-error ML, R '//trim(c%noise)
+    end if
+  end function method_text
 
   !> Put the name of free parameter bad in place of its number.
   function replace_index(text, bad, labels) result(out)

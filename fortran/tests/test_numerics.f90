@@ -2,7 +2,8 @@
 !> against finite differences, LAPACK wrappers, the random stream.
 program test_numerics
   use mlid_kinds, only: wp, MLID_OK
-  use mlid_models, only: model_t, model_create, MODEL_LINEAR
+  use mlid_models, only: model_t, model_create, model_layout, MODEL_LINEAR
+  use mlid_params, only: param_map_t, param_map_create
   use mlid_options, only: options_t
   use mlid_filter, only: oe_predict
   use mlid_linalg, only: sym_eig, chol_inverse
@@ -38,21 +39,24 @@ contains
   subroutine test_rk4_order()
     class(model_t), allocatable :: m
     type(options_t) :: opt
-    real(wp) :: theta(6), e(2), a, b, tt, exact
+    type(param_map_t) :: pm
+    real(wp) :: theta(7), e(2), a, b, tt, exact
     real(wp), allocatable :: t(:), u(:, :), y(:, :)
     integer :: status, k, n, j
     character(len=256) :: msg
 
-    call model_create(MODEL_LINEAR, 1, 1, 1, [integer ::], [real(wp) ::], m, status, msg)
+    call model_create(MODEL_LINEAR, 1, 1, 1, 0, [integer ::], [real(wp) ::], m, status, msg)
+    call param_map_create(model_layout(m), [0, 0, 0, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0, 0], pm, &
+                          status, msg)
     a = -2.0_wp
     b = 3.0_wp
-    theta = [a, b, 1.0_wp, 0.0_wp, 1.0_wp, 0.0_wp]   ! F, G, H, D, x0, bias
+    theta = [a, b, 1.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 1.0_wp]   ! F, G, H, D, x0, bias, r
     do k = 1, 2
       n = 10*2**k
       allocate (t(n + 1), u(1, n + 1), y(1, n + 1))
       t = [(real(j, wp)/n, j=0, n)]
       u(1, :) = t
-      call oe_predict(m, theta, [integer ::], t, u, opt, y, status, msg)
+      call oe_predict(m, theta, pm, t, u, opt, y, status, msg)
       tt = 1.0_wp
       ! x = x0 e^{at} - b t/a + b (e^{at} - 1)/a^2
       exact = exp(a*tt) - b*tt/a + b*(exp(a*tt) - 1.0_wp)/a**2
@@ -68,22 +72,30 @@ contains
   subroutine test_sensitivities()
     class(model_t), allocatable :: m
     type(options_t) :: opt
-    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2), tp(size(theta)), tm(size(theta)), h
+    type(param_map_t) :: pm, none
+    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2 + 2), tp(size(theta)), tm(size(theta)), h
+    integer :: isfree(size(theta)), notie(size(theta))
     real(wp), allocatable :: t(:), u(:, :), y(:, :), yp(:, :), ym(:, :), dy(:, :, :)
     integer, allocatable :: ifree(:)
     integer :: status, j, k
     real(wp) :: err
     character(len=256) :: msg
 
-    call model_create(MODEL_LINEAR, 2, 1, 2, [integer ::], [real(wp) ::], m, status, msg)
-    ! F = [[-1.2, 0.8], [-0.5, -0.3]] col-major, G, H = [[1, 0.2], [0, 1]], D, x0, bias
+    call model_create(MODEL_LINEAR, 2, 1, 2, 0, [integer ::], [real(wp) ::], m, status, msg)
+    ! F = [[-1.2, 0.8], [-0.5, -0.3]] col-major, G, H = [[1, 0.2], [0, 1]], D, x0, bias, r
     theta = [-1.2_wp, -0.5_wp, 0.8_wp, -0.3_wp, 0.4_wp, -1.1_wp, 1.0_wp, 0.0_wp, 0.2_wp, 1.0_wp, &
-             0.05_wp, -0.02_wp, 0.3_wp, -0.1_wp, 0.01_wp, 0.02_wp]
+             0.05_wp, -0.02_wp, 0.3_wp, -0.1_wp, 0.01_wp, 0.02_wp, 1.0_wp, 1.0_wp]
     ifree = [1, 3, 4, 6, 9, 12, 13, 14, 16]   ! F, G, H, D, x0, bias entries
+    isfree = 0
+    isfree(ifree) = 1
+    notie = 0
+    call param_map_create(model_layout(m), isfree, notie, pm, status, msg)
+    isfree = 0
+    call param_map_create(model_layout(m), isfree, notie, none, status, msg)
     allocate (t(101), u(1, 101), y(2, 101), yp(2, 101), ym(2, 101), dy(2, size(ifree), 101))
     t = [(0.05_wp*j, j=0, 100)]
     u(1, :) = sin(2.0_wp*t) + merge(1.0_wp, 0.0_wp, t > 1.0_wp)
-    call oe_predict(m, theta, ifree, t, u, opt, y, status, msg, dy=dy)
+    call oe_predict(m, theta, pm, t, u, opt, y, status, msg, dy=dy)
     err = 0.0_wp
     do k = 1, size(ifree)
       h = 1.0e-6_wp
@@ -91,8 +103,8 @@ contains
       tm = theta
       tp(ifree(k)) = tp(ifree(k)) + h
       tm(ifree(k)) = tm(ifree(k)) - h
-      call oe_predict(m, tp, [integer ::], t, u, opt, yp, status, msg)
-      call oe_predict(m, tm, [integer ::], t, u, opt, ym, status, msg)
+      call oe_predict(m, tp, none, t, u, opt, yp, status, msg)
+      call oe_predict(m, tm, none, t, u, opt, ym, status, msg)
       err = max(err, maxval(abs((yp - ym)/(2*h) - dy(:, k, :)))/max(1.0_wp, maxval(abs(dy(:, k, :)))))
     end do
     call check(err < 1.0e-7_wp, 'output sensitivities match central differences (F, G, H, D, x0, bias)')

@@ -11,6 +11,7 @@ from .result import FitResult
 
 _api = _core.mlid_api
 NOISE = ("diagonal", "full")
+METHODS = ("output_error", "filter_error")
 STOP_REASONS = {
     0: "not started",
     1: "relative cost change below tol_cost",
@@ -25,9 +26,11 @@ STOP_REASONS = {
 def default_options():
     """The core's default estimator options, by name."""
     iopt, ropt = _api.mlid_default_options()
-    return {"max_iter": int(iopt[0]), "halvings": int(iopt[1]),
-            "noise": NOISE[int(iopt[2])], "tol_cost": float(ropt[0]),
-            "tol_step": float(ropt[1]), "tol_grad": float(ropt[2]), "rcond": float(ropt[3])}
+    return {"method": METHODS[int(iopt[5])], "max_iter": int(iopt[0]),
+            "halvings": int(iopt[1]), "noise": NOISE[int(iopt[2])],
+            "partials": bool(iopt[6]), "steady_state": bool(iopt[7]),
+            "tol_cost": float(ropt[0]), "tol_step": float(ropt[1]), "tol_grad": float(ropt[2]),
+            "rcond": float(ropt[3])}
 
 
 def _flat_options(model, options):
@@ -38,12 +41,22 @@ def _flat_options(model, options):
     opts.update(options)
     if opts["noise"] not in NOISE:
         raise InputError(f"noise must be one of {NOISE}, got {opts['noise']!r}")
+    if opts["method"] not in METHODS:
+        raise InputError(f"method must be one of {METHODS}, got {opts['method']!r}")
     iopt = np.zeros(8, dtype=np.int32)
     ropt = np.zeros(8)
-    iopt[:5] = [opts["max_iter"], opts["halvings"], NOISE.index(opts["noise"]),
-                1 if model.input_hold == "zoh" else 0, model.substeps]
+    iopt[:8] = [opts["max_iter"], opts["halvings"], NOISE.index(opts["noise"]),
+                1 if model.input_hold == "zoh" else 0, model.substeps,
+                METHODS.index(opts["method"]), int(bool(opts["partials"])),
+                int(bool(opts["steady_state"]))]
     ropt[:4] = [opts["tol_cost"], opts["tol_step"], opts["tol_grad"], opts["rcond"]]
     return iopt, ropt, opts
+
+
+def _model_args(model):
+    """The model's part of every core call, by keyword."""
+    return {"mkind": model.kind, "nx": model.nx, "nu": model.nu, "ny": model.ny,
+            "nw": model.nw, "iconst": model.iconst, "rconst": model.rconst}
 
 
 def _record(model, data):
@@ -59,11 +72,14 @@ def _record(model, data):
 
 
 def fit(model, data, **options):
-    """Output-error maximum-likelihood fit of the model's free parameters.
+    """Maximum-likelihood fit of the model's free parameters.
 
-    Options (defaults from the core, see ``default_options()``): max_iter,
-    halvings, noise ('diagonal' or 'full' R estimated from the residuals),
-    tol_cost, tol_step, tol_grad, rcond.  Returns a FitResult; raises an
+    Options (defaults from the core, see ``default_options()``): method
+    ('output_error', or 'filter_error': the Kalman filter with the model's
+    process noise), max_iter, halvings, noise (output error: 'diagonal' or
+    'full' R estimated from the residuals), partials (filter error: the
+    covariance and gain partials of eqs 4.32-4.34), steady_state (filter
+    error: steady-state gain), tol_cost, tol_step, tol_grad, rcond.  Returns a FitResult; raises an
     MlidError subclass for bad input, divergence or singular information
     (with the partial result attached where there is one).
     """
@@ -75,8 +91,8 @@ def fit(model, data, **options):
     start = time.perf_counter()
     (theta, sigma, cov, info, grad, eigval, rhat, yhat, cost_hist, cost, niter, reason,
      converged, bad, status, msg) = _api.mlid_fit(
-        model.kind, model.nx, theta0, mask, model.iconst, model.rconst, t, u, y, iopt, ropt,
-        nf, int(iopt[0]) + 1)
+        **_model_args(model), theta0=theta0, isfree=mask, itie=model.tie_index, t=t, u=u, y=y,
+        iopt=iopt, ropt=ropt, nf=nf, nc=int(iopt[0]) + 1)
     wall = time.perf_counter() - start
     text = msg.decode(errors="replace").strip()
     if status not in (0, 2, 4):       # no result to return
@@ -97,52 +113,60 @@ def fit(model, data, **options):
     return result
 
 
-def evaluate(model, data, noise="diagonal"):
+def evaluate(model, data, **options):
     """Cost, gradient, information matrix, R-hat and outputs at the model's
-    current parameters (no iteration)."""
-    iopt, ropt, _ = _flat_options(model, {"noise": noise})
+    current parameters (no iteration); options as for fit()."""
+    iopt, ropt, _ = _flat_options(model, options)
     t, u, y = _record(model, data)
     mask = model.free_mask
     cost, grad, info, rhat, yhat, status, msg = _api.mlid_evaluate(
-        model.kind, model.nx, model.theta, mask, model.iconst, model.rconst, t, u, y,
-        iopt, ropt, int(mask.sum()))
+        **_model_args(model), theta=model.theta, isfree=mask, itie=model.tie_index, t=t, u=u,
+        y=y, iopt=iopt, ropt=ropt, nf=int(mask.sum()))
     check_status(status, msg)
     return {"cost": float(cost), "gradient": grad, "information": info, "rhat": rhat,
             "yhat": yhat.T.copy()}
 
 
 def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names=None):
-    """Outputs of the model along t with inputs u (nt, nu), plus Gaussian
-    measurement noise of standard deviation noise_std per output (seeded).
+    """Outputs of the model along t with inputs u (nt, nu), with the model's
+    process noise and measurement noise (seeded).  noise_std, if given,
+    replaces the measurement-noise standard deviations (r = noise_std**2).
     Returns (FlightData, states (nt, nx))."""
     t = np.ascontiguousarray(t, dtype=float).ravel()
     u = np.ascontiguousarray(np.asarray(u, dtype=float).reshape(t.size, model.nu))
-    noise = np.zeros(model.ny) if noise_std is None else np.asarray(noise_std, dtype=float)
-    if noise.shape != (model.ny,):
-        raise InputError(f"noise_std needs {model.ny} values (one per output), got {noise.size}")
+    if noise_std is not None:
+        noise = np.asarray(noise_std, dtype=float).ravel()
+        if noise.shape != (model.ny,):
+            raise InputError(f"noise_std needs {model.ny} values (one per output), got "
+                             f"{noise.size}")
+        model = model.with_theta(model.theta)
+        model.r = noise**2
     iopt, ropt, _ = _flat_options(model, {})
-    y, x, status, msg = _api.mlid_simulate(model.kind, model.nx, model.theta,
-                                           model.iconst, model.rconst, t, u.T, noise,
-                                           int(seed), iopt, ropt)
+    y, x, status, msg = _api.mlid_simulate(**_model_args(model), theta=model.theta, t=t, u=u.T,
+                                           seed=int(seed), iopt=iopt, ropt=ropt)
     check_status(status, msg)
     return FlightData(t, u, y.T, input_names, output_names), x.T.copy()
 
 
-def monte_carlo(truth, start, t, u, noise_std, runs=100, seed=1, **options):
-    """Seeded Monte Carlo of output-error fits: data from ``truth`` with
-    seeds seed, seed+1, ...; each fitted from ``start`` (same structure and
-    free set).  Returns estimates, Cramer-Rao sigmas (runs, nf), iterations
-    and per-run status."""
+def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, **options):
+    """Seeded Monte Carlo of fits: data from ``truth`` (its noise, or
+    measurement noise of standard deviation noise_std) with seeds seed,
+    seed+1, ...; each fitted from ``start`` (same structure and free set) with
+    the fit options given.  Returns estimates, Cramer-Rao sigmas (runs, nf),
+    iterations and per-run status."""
     if truth.theta.size != start.theta.size or list(truth.free) != list(start.free):
         raise InputError("truth and start models must have the same structure and free set")
+    if noise_std is not None:
+        truth = truth.with_theta(truth.theta)
+        truth.r = np.asarray(noise_std, dtype=float) ** 2
     iopt, ropt, _ = _flat_options(start, options)
     t = np.ascontiguousarray(t, dtype=float).ravel()
     u = np.ascontiguousarray(np.asarray(u, dtype=float).reshape(t.size, start.nu))
     mask = start.free_mask
     est, sig, iters, run_status, status, msg = _api.mlid_monte_carlo(
-        start.kind, start.nx, truth.theta, start.theta, mask, start.iconst,
-        start.rconst, t, u.T, np.asarray(noise_std, dtype=float), int(seed), int(runs), iopt,
-        ropt, int(mask.sum()))
+        **_model_args(start), theta_true=truth.theta, theta_start=start.theta, isfree=mask,
+        itie=start.tie_index, t=t, u=u.T, seed0=int(seed), nrun=int(runs), iopt=iopt, ropt=ropt,
+        nf=int(mask.sum()))
     check_status(status, msg)
     return {"estimates": est.T.copy(), "sigma": sig.T.copy(), "iterations": iters,
             "status": run_status, "names": start.free_names(),

@@ -20,6 +20,7 @@ from .errors import InputError, MlidError
 from .model import LinearModel
 
 _REAL, _INT, _STR, _REALS, _INTS, _STRS = "real", "int", "str", "reals", "ints", "strs"
+_BOOL = "bool"
 
 
 def _schema():
@@ -28,9 +29,11 @@ def _schema():
         "case": {"title": (_STR, ""), "job": (_STR, "")},
         "model": {
             "kind": (_STR, "linear"), "nx": (_INT, 0), "nu": (_INT, 0), "ny": (_INT, 0),
-            "f": (_REALS, None), "g": (_REALS, None), "h": (_REALS, None),
-            "d": (_REALS, None), "x0": (_REALS, None), "bias": (_REALS, None),
-            "free": (_STRS, []), "names": (_STRS, []), "input_hold": (_STR, "linear"),
+            "nw": (_INT, 0), "f": (_REALS, None), "g": (_REALS, None), "h": (_REALS, None),
+            "d": (_REALS, None), "gamma": (_REALS, None), "x0": (_REALS, None),
+            "bias": (_REALS, None), "q": (_REALS, None), "r": (_REALS, None),
+            "s": (_REALS, None), "free": (_STRS, []), "names": (_STRS, []),
+            "tie": (_STRS, []), "input_hold": (_STR, "linear"),
             "substeps": (_INT, 1), "state_names": (_STRS, []),
             "input_names": (_STRS, []), "output_names": (_STRS, []),
         },
@@ -40,8 +43,11 @@ def _schema():
                      "seed": (_INT, 0), "noise_std": (_REALS, None),
                      "input_shape": (_STR, "none"), "amplitude": (_REALS, None),
                      "t_start": (_REAL, 0.0), "pulse_width": (_REAL, 0.0)},
-        "estimate": {"max_iter": (_INT, opts["max_iter"]), "halvings": (_INT, opts["halvings"]),
-                     "noise": (_STR, "diagonal"), "tol_cost": (_REAL, opts["tol_cost"]),
+        "estimate": {"method": (_STR, "output_error"), "max_iter": (_INT, opts["max_iter"]),
+                     "halvings": (_INT, opts["halvings"]), "noise": (_STR, "diagonal"),
+                     "partials": (_BOOL, opts["partials"]),
+                     "steady_state": (_BOOL, opts["steady_state"]),
+                     "tol_cost": (_REAL, opts["tol_cost"]),
                      "tol_step": (_REAL, opts["tol_step"]), "tol_grad": (_REAL, opts["tol_grad"]),
                      "rcond": (_REAL, opts["rcond"])},
     }
@@ -177,6 +183,10 @@ def _read_case(case, block, line0, schema):
         _check_data(groups, case.model)
         e = groups.setdefault("estimate", {k: v for k, (_, v) in schema["estimate"].items()})
         e["noise"] = e["noise"].lower()
+        e["method"] = e["method"].lower()
+        if e["method"] not in ("output_error", "filter_error"):
+            raise InputError(f"group &estimate: method must be 'output_error' or 'filter_error', "
+                             f"got '{e['method']}'")
         if e["noise"] not in ("diagonal", "full"):
             raise InputError(f"group &estimate: noise must be 'diagonal' or 'full', got "
                              f"'{e['noise']}'")
@@ -191,11 +201,11 @@ def _convert(where, key, kind, value, start):
     elif isinstance(value, list):
         raise InputError(f"{where}: '{key}' takes one value, got {len(value)}")
     base = {_REAL: (int, float), _REALS: (int, float), _INT: (int,), _INTS: (int,),
-            _STR: (str,), _STRS: (str,)}[kind]
+            _STR: (str,), _STRS: (str,), _BOOL: (bool,)}[kind]
     for v in values:
-        if v is not None and (isinstance(v, bool) or not isinstance(v, base)):
+        if v is not None and (isinstance(v, bool) != (kind == _BOOL) or not isinstance(v, base)):
             raise InputError(f"{where}: bad value {v!r} for '{key}'")
-    if kind in (_REAL, _INT, _STR):
+    if kind in (_REAL, _INT, _STR, _BOOL):
         return values[0]
     return values
 
@@ -215,18 +225,33 @@ def _given(values, n, key, shape, required):
 def _model(m):
     if m["kind"].lower() != "linear":
         raise InputError(f"group &model: unknown kind '{m['kind']}' (available: linear)")
-    nx, nu, ny = m["nx"], m["nu"], m["ny"]
-    if not (1 <= nx <= 30 and 0 <= nu <= 10 and 1 <= ny <= 30):
-        raise InputError(f"group &model: nx, nu, ny = {nx} {nu} {ny} out of range; limits are "
-                         "1..30 10 30")
+    nx, nu, ny, nw = m["nx"], m["nu"], m["ny"], m["nw"]
+    if not (1 <= nx <= 30 and 0 <= nu <= 10 and 1 <= ny <= 30 and 0 <= nw <= 10):
+        raise InputError(f"group &model: nx, nu, ny, nw = {nx} {nu} {ny} {nw} out of range; "
+                         "limits are 30 10 30 10")
     F = _given(m["f"], nx * nx, "f", f"{nx}x{nx}", True).reshape(nx, nx)
     G = _given(m["g"], nx * nu, "g", f"{nx}x{nu}", nu > 0)
     H = _given(m["h"], ny * nx, "h", f"{ny}x{nx}", True).reshape(ny, nx)
     D = _given(m["d"], ny * nu, "d", f"{ny}x{nu}", False)
+    gamma = _given(m["gamma"], nx * nw, "gamma", f"{nx}x{nw}", nw > 0)
     x0 = _given(m["x0"], nx, "x0", str(nx), False)
     bias = _given(m["bias"], ny, "bias", str(ny), False)
+    q = _given(m["q"], nw, "q", str(nw), False)
+    r = _given(m["r"], ny, "r", str(ny), False)
+    S = _given(m["s"], nw * ny, "s", f"{nw}x{ny}", False)
     G = np.zeros((nx, nu)) if G is None else G.reshape(nx, nu)
     D = None if D is None else D.reshape(ny, nu)
+    gamma = np.zeros((nx, nw)) if gamma is None else gamma.reshape(nx, nw)
+    S = None if S is None else S.reshape(nw, ny)
+    ties = {}
+    for tie in m["tie"]:
+        if not tie:
+            continue
+        if tie.count("=") != 1:
+            raise InputError(f"group &model: tie '{tie}' must read 'a=b' with two parameters "
+                             "that exist")
+        a, b = tie.split("=")
+        ties[a.strip()] = b.strip()
     free = [f for f in m["free"] if f]
     labels = [n for n in m["names"] if n]
     if len(labels) > len(free):
@@ -236,7 +261,7 @@ def _model(m):
                          f"'{m['input_hold']}'")
     try:
         model = LinearModel(F, G, H, D, x0, bias, free=free, input_hold=m["input_hold"].lower(),
-                            substeps=m["substeps"])
+                            substeps=m["substeps"], Gamma=gamma, q=q, r=r, S=S, ties=ties)
     except InputError as exc:
         raise InputError(f"group &model: {exc}") from None
     model.names = {model.canonical_name(f): n for f, n in zip(free, labels)}
@@ -270,7 +295,7 @@ def _check_simulate(groups, model):
         raise InputError("group &simulate: out (the data file to write) is missing")
     if not (s["dt"] > 0 and s["t_end"] > s["dt"]):
         raise InputError("group &simulate: need dt > 0 and t_end > dt")
-    if len(s["noise_std"]) != model.ny:
+    if s["noise_std"] and len(s["noise_std"]) != model.ny:
         raise InputError(f"group &simulate: noise_std has {len(s['noise_std'])} values, the "
                          f"model has {model.ny} outputs")
     if len(s["amplitude"]) != model.nu:
@@ -288,7 +313,7 @@ def run_case(case):
     if case.job == "simulate":
         s = case.groups["simulate"]
         t, u = case.time_input()
-        data, _ = core.simulate(case.model, t, u, s["noise_std"], s["seed"],
+        data, _ = core.simulate(case.model, t, u, s["noise_std"] or None, s["seed"],
                                 output_names=m["output_names"] or None,
                                 input_names=m["input_names"] or None)
         out = case._path(s["out"])

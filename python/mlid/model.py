@@ -17,12 +17,19 @@ INPUT_HOLDS = ("linear", "zoh")
 
 
 class LinearModel:
-    """Linear state space  xdot = F x + G u,  y = H x + D u + bias.
+    """Linear state space with process and measurement noise
+
+        xdot = F x + G u + Gamma w,   y = H x + D u + bias + v,
+
+    w (nw values) held over each sample interval with variances q (diagonal
+    Q), v with variances r (diagonal R), cross-covariance S = E{w v'} (nw x ny).
 
     Parameters are named by element, 1-based as in a deck: ``'f(1,2)'``,
-    ``'g(3,1)'``, ``'h(i,j)'``, ``'d(i,j)'``, ``'x0(i)'``, ``'bias(i)'``.
-    ``free`` lists the names to estimate; ``names`` gives them readable
-    labels (``{'f(3,3)': 'M_q'}``) used in reports.
+    ``'g(3,1)'``, ``'h(i,j)'``, ``'d(i,j)'``, ``'gamma(i,j)'``, ``'x0(i)'``,
+    ``'bias(i)'``, ``'q(i)'``, ``'r(i)'``, ``'s(i,j)'``.  ``free`` lists the
+    names to estimate; ``names`` gives them readable labels (``{'f(3,3)':
+    'M_q'}``) used in reports; ``ties`` holds parameters equal to a free one
+    (``{'f(1,5)': 'f(1,3)'}``).
     """
 
     kind = 1
@@ -30,7 +37,8 @@ class LinearModel:
     rconst = np.zeros(0)
 
     def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
-                 input_hold="linear", substeps=1):
+                 input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
+                 ties=None):
         F = np.atleast_2d(np.asarray(F, dtype=float))
         nx = F.shape[0]
         if F.shape != (nx, nx):
@@ -51,10 +59,24 @@ class LinearModel:
             raise InputError(f"x0 must have {nx} values (one per state), got {x0.size}")
         if bias.size != ny:
             raise InputError(f"bias must have {ny} values (one per output), got {bias.size}")
+        Gamma = np.zeros((nx, 0)) if Gamma is None else np.asarray(Gamma, dtype=float)
+        if Gamma.ndim == 1:
+            Gamma = Gamma.reshape(nx, -1)
+        if Gamma.shape[0] != nx:
+            raise InputError(f"Gamma must have {nx} rows (one per state), got shape {Gamma.shape}")
+        nw = Gamma.shape[1]
+        q = np.zeros(nw) if q is None else np.asarray(q, dtype=float).ravel()
+        r = np.zeros(ny) if r is None else np.asarray(r, dtype=float).ravel()
+        S = np.zeros((nw, ny)) if S is None else np.asarray(S, dtype=float).reshape(nw, ny)
+        if q.size != nw:
+            raise InputError(f"q must have {nw} values (one per noise input), got {q.size}")
+        if r.size != ny:
+            raise InputError(f"r must have {ny} values (one per output), got {r.size}")
         if input_hold not in INPUT_HOLDS:
             raise InputError(f"input_hold must be one of {INPUT_HOLDS}, got {input_hold!r}")
-        self.nx, self.nu, self.ny = nx, nu, ny
+        self.nx, self.nu, self.ny, self.nw = nx, nu, ny, nw
         self.F, self.G, self.H, self.D, self.x0, self.bias = F, G, H, D, x0, bias
+        self.Gamma, self.q, self.r, self.S = Gamma, q, r, S
         self.input_hold = input_hold
         self.substeps = int(substeps)
         self.names = dict(names or {})
@@ -64,15 +86,23 @@ class LinearModel:
             raise InputError(f"free parameter listed twice: {sorted(dup)[0]}")
         for key in self.names:
             self.canonical_name(key)
+        self.ties = {self.canonical_name(a): self.canonical_name(b)
+                     for a, b in (ties or {}).items()}
+        for a, b in self.ties.items():
+            if a in self.free:
+                raise InputError(f"parameter {a!r} is both free and tied")
+            if b in self.ties:
+                raise InputError(f"{a!r} is tied to {b!r}, which is itself tied")
 
     # -- parameter vector ------------------------------------------------
     def _blocks(self):
         return [("f", self.F), ("g", self.G), ("h", self.H), ("d", self.D),
-                ("x0", self.x0), ("bias", self.bias)]
+                ("gamma", self.Gamma), ("x0", self.x0), ("bias", self.bias), ("q", self.q),
+                ("r", self.r), ("s", self.S)]
 
     @property
     def theta(self):
-        """All parameters [vec F, vec G, vec H, vec D, x0, bias], column-major."""
+        """All parameters [F, G, H, D, Gamma, x0, bias, q, r, S], matrices column-major."""
         return np.concatenate([a.ravel(order="F") for _, a in self._blocks()])
 
     def element_names(self):
@@ -91,8 +121,8 @@ class LinearModel:
         m = _ELEMENT.match(str(name))
         blocks = dict(self._blocks())
         if not m or m.group(1).lower() not in blocks:
-            raise InputError(f"parameter {name!r} does not exist: use f(i,j), g(i,j), h(i,j), "
-                             "d(i,j), x0(i) or bias(i)")
+            raise InputError(f"parameter {name!r} does not exist: use f, g, h, d, gamma, s (i,j) "
+                             "or x0, bias, q, r (i)")
         key, i = m.group(1).lower(), int(m.group(2))
         a = blocks[key]
         if a.ndim == 2:
@@ -115,6 +145,15 @@ class LinearModel:
             mask[names.index(n)] = 1
         return mask
 
+    @property
+    def tie_index(self):
+        """For the core: 1-based index of the parameter each entry is tied to, else 0."""
+        names = self.element_names()
+        tie = np.zeros(len(names), dtype=np.int32)
+        for a, b in self.ties.items():
+            tie[names.index(a)] = names.index(b) + 1
+        return tie
+
     def free_names(self):
         """Readable labels of the free parameters, in theta order."""
         return [self.names.get(n, n) for n, f in zip(self.element_names(), self.free_mask) if f]
@@ -128,8 +167,18 @@ class LinearModel:
             k += a.size
         return LinearModel(parts["f"], parts["g"], parts["h"], parts["d"], parts["x0"],
                            parts["bias"], free=self.free, names=self.names,
-                           input_hold=self.input_hold, substeps=self.substeps)
+                           input_hold=self.input_hold, substeps=self.substeps,
+                           Gamma=parts["gamma"], q=parts["q"], r=parts["r"], S=parts["s"],
+                           ties=self.ties)
+
+    def with_free(self, free, names=None):
+        """A copy with another free set (and labels, if given)."""
+        m = self.with_theta(self.theta)
+        m.free = [m.canonical_name(n) for n in free]
+        if names is not None:
+            m.names = dict(names)
+        return m
 
     def __repr__(self):
-        return (f"LinearModel(nx={self.nx}, nu={self.nu}, ny={self.ny}, "
+        return (f"LinearModel(nx={self.nx}, nu={self.nu}, ny={self.ny}, nw={self.nw}, "
                 f"free={self.free_names()})")

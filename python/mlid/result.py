@@ -48,8 +48,15 @@ class FitResult:
 
     def report(self):
         """The printed report; mlid-batch prints the same lines."""
+        o = self.options
+        if o.get("method") == "filter_error":
+            method = ("filter-error ML, "
+                      + ("steady-state gain" if o["steady_state"] else "time-varying gain") + ", "
+                      + ("with gain partials" if o["partials"] else "without gain partials"))
+        else:
+            method = f"output-error ML, R {o['noise']}"
         lines = [
-            f" output-error ML, R {self.options['noise']}: {self.iterations} iterations, "
+            f" {method}: {self.iterations} iterations, "
             f"{'converged' if self.converged else 'NOT converged'} ({self.reason})",
             f" {'parameter':<16}{'start':>15}{'estimate':>15}{'sigma':>13}",
         ]
