@@ -210,7 +210,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     type(layout_t) :: l
-    real(wp) :: dt, e(m%nx), ua(m%nu + m%nw), dcm(m%ny, m%nx, size(pm%im))
+    real(wp) :: dt, e(m%nx), ua(m%nu + m%nw), dcm(m%ny, m%nx, size(pm%im)), a(m%nx, m%nx)
     real(wp), allocatable :: sk(:, :)
     integer :: i, k, nf, nx, nw, ny
     type(options_t) :: o1
@@ -253,6 +253,18 @@ contains
     call m%dhdxp(t(1), e, u(:, 1), theta(1:l%np), pm%im, dcm)
     do k = 1, size(pm%im)
       sys%dc(:, :, pm%cm(k)) = sys%dc(:, :, pm%cm(k)) + dcm(:, :, k)
+    end do
+    ! A state driven only by process noise and by itself is a noise-shaping
+    ! (gust) state: its pole must be negative, or the "gust" grows without bound.
+    call m%dfdx(t(1), e, ua, theta(1:l%np), a)
+    do i = 1, nx
+      if (any(sys%g(i, :) /= 0.0_wp) .and. all(pack(a(i, :), [(k /= i, k=1, nx)]) == 0.0_wp) &
+          .and. .not. a(i, i) < 0.0_wp) then
+        write (msg, '(a,i0,a,i0,a,i0,a,g0.6,a)') 'gust state ', i, ' (driven only by process '// &
+          'noise) has a time constant of the wrong sign: f(', i, ',', i, ') = ', a(i, i), &
+          ' must be < 0'
+        return
+      end if
     end do
     ! Phi and W: one interval of the integrator applied to unit states and
     ! unit held noise; their partials from the same step's sensitivities.

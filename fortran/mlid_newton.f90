@@ -21,7 +21,7 @@ module mlid_newton
     real(wp), allocatable :: grad(:)        !< gradient at theta (free)
     real(wp), allocatable :: info(:, :)     !< information matrix at theta (free)
     real(wp), allocatable :: cov(:, :)      !< inverse of info: Cramer-Rao covariance (free)
-    real(wp), allocatable :: eigval(:)      !< eigenvalues of info, ascending
+    real(wp), allocatable :: eigval(:)      !< eigenvalues of the normalised info, ascending
     real(wp), allocatable :: rhat(:, :)     !< measurement noise covariance estimate
     real(wp), allocatable :: yhat(:, :)     !< model outputs at theta
     real(wp), allocatable :: cost_hist(:)   !< cost before iteration 1, then after each
@@ -136,8 +136,8 @@ contains
     if (ndrop > 0) then
       status = MLID_ERR_SINGULAR
       write (msg, '(a,i0,a,es9.2,a,i0,a)') 'information matrix singular (', ndrop, &
-        ' eigenvalue(s) below ', opt%rcond, ' of the largest): free parameter ', res%bad_param, &
-        ' is not identifiable from these data'
+        ' eigenvalue(s) of the normalised matrix below', opt%rcond, ' of the largest): free parameter ', &
+        res%bad_param, ' is not identifiable from these data'
     else if (.not. res%converged) then
       status = MLID_ERR_NOCONV
       write (msg, '(a,i0,a)') 'not converged after ', res%niter, ' iterations: ' // &
@@ -165,16 +165,20 @@ contains
     decrement = sqrt(max(0.0_wp, -dot_product(res%grad, step)))
   end subroutine newton_step
 
-  !> Pseudo-inverse of the information matrix from its eigen-decomposition.
-  !> ndrop eigenvalues fall below rcond times the largest; bad is the free
-  !> parameter with the largest weight in the weakest direction.
+  !> Pseudo-inverse of the information matrix from the eigen-decomposition
+  !> of its normalised form N = D^-1/2 M D^-1/2, D = diag(M) (report §5.3.5),
+  !> so that the singularity test does not depend on the parameters' units.
+  !> ndrop eigenvalues of N fall below rcond times the largest (or a
+  !> parameter has no effect at all); bad is the free parameter with the
+  !> largest weight in the weakest direction.  w returns the eigenvalues of
+  !> N, ascending.
   subroutine info_inverse(info, rcond, cov, w, ndrop, bad, status, msg)
     real(wp), intent(in) :: info(:, :)
     real(wp), intent(in) :: rcond
     real(wp), intent(out) :: cov(:, :), w(:)
     integer, intent(out) :: ndrop, bad, status
     character(len=*), intent(out) :: msg
-    real(wp) :: v(size(w), size(w))
+    real(wp) :: v(size(w), size(w)), sc(size(w)), nrm(size(w), size(w))
     integer :: n, k, ierr
 
     status = MLID_OK
@@ -183,13 +187,18 @@ contains
     ndrop = 0
     bad = 0
     cov = 0.0_wp
+    w = 0.0_wp
     if (n == 0) return
     if (.not. all(ieee_is_finite(info))) then
       status = MLID_ERR_SINGULAR
       msg = 'information matrix is not finite'
       return
     end if
-    call sym_eig(info, w, v, ierr)
+    ! A parameter with no effect at all gets a zero row: a zero eigenvalue.
+    sc = 0.0_wp
+    where (info_diag(info) > 0.0_wp) sc = 1.0_wp/sqrt(info_diag(info))
+    nrm = info*spread(sc, 1, n)*spread(sc, 2, n)
+    call sym_eig(nrm, w, v, ierr)
     if (ierr /= 0) then
       status = MLID_ERR_INTERNAL
       write (msg, '(a,i0)') 'eigen-decomposition of the information matrix failed, dsyevr info = ', ierr
@@ -202,7 +211,17 @@ contains
         ndrop = ndrop + 1
       end if
     end do
+    cov = cov*spread(sc, 1, n)*spread(sc, 2, n)
     if (ndrop > 0) bad = maxloc(abs(v(:, 1)), 1)
   end subroutine info_inverse
+
+  pure function info_diag(a) result(d)
+    real(wp), intent(in) :: a(:, :)
+    real(wp) :: d(size(a, 1))
+    integer :: k
+    do k = 1, size(d)
+      d(k) = a(k, k)
+    end do
+  end function info_diag
 
 end module mlid_newton

@@ -196,3 +196,12 @@ def test_nonuniform_sampling_rejected_by_filter():
 def test_bad_ties():
     with pytest.raises(mlid.InputError, match="both free and tied"):
         gust_model(["f(1,3)"])
+
+
+def test_gust_time_constant_of_wrong_sign():
+    model = gust_model(BODY)
+    data = record(model)
+    bad = model.with_theta(model.theta)
+    bad.F[2, 2] = 0.5                      # an unstable "gust"
+    with pytest.raises(mlid.InputError, match=r"gust state 3 .* wrong sign: f\(3,3\)"):
+        mlid.fit(bad, data, method="filter_error")

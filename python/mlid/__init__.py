@@ -6,7 +6,8 @@ from .errors import (MlidError, InputError, SingularInformationError, Divergence
                      NonConvergenceError, InternalError)
 from .model import LinearModel
 from .data import FlightData
-from .result import FitResult
+from .result import FitResult, whiteness
+from .reduction import reduce_measured_state, reduced_data, recover_disturbance
 from .core import fit, evaluate, simulate, monte_carlo, default_options
 from .deck import read_deck, run_deck
 
@@ -15,4 +16,5 @@ __version__ = "0.1.0"
 __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
            "NonConvergenceError", "InternalError", "LinearModel", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
-           "run_deck"]
+           "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
+           "recover_disturbance"]

@@ -1,6 +1,28 @@
-"""The result of a fit, and its printed report (report Table 5.3 style)."""
+"""The result of a fit, its printed report (report Table 5.3 style), and
+the whiteness test of its residuals."""
 
 import numpy as np
+
+
+def whiteness(residuals, lags=20):
+    """Ljung-Box test of each column of residuals (nt, ny) over lags 1..lags.
+
+    Returns a list of dicts per column: Q, the 5% critical value of
+    chi-square(lags) (Wilson-Hilferty), white (Q below it), and the fraction
+    of autocorrelations outside +-1.96/sqrt(N).
+    """
+    e = np.asarray(residuals, dtype=float)
+    e = e.reshape(len(e), -1) - e.reshape(len(e), -1).mean(axis=0)
+    n = len(e)
+    crit = lags * (1 - 2 / (9 * lags) + 1.6449 * np.sqrt(2 / (9 * lags))) ** 3
+    out = []
+    for col in e.T:
+        c0 = col @ col
+        rho = np.array([col[k:] @ col[:-k] for k in range(1, lags + 1)]) / c0
+        q = n * (n + 2) * np.sum(rho**2 / (n - np.arange(1, lags + 1)))
+        out.append({"Q": float(q), "critical": float(crit), "white": bool(q < crit),
+                    "outside": float(np.mean(np.abs(rho) > 1.96 / np.sqrt(n)))})
+    return out
 
 
 class FitResult:
@@ -22,6 +44,10 @@ class FitResult:
         with np.errstate(invalid="ignore", divide="ignore"):
             c = self.covariance / np.outer(d, d)
         return np.where(np.outer(d, d) > 0, c, 0.0)
+
+    def whiteness(self, lags=20):
+        """Ljung-Box whiteness test of the residuals (innovations), per output."""
+        return whiteness(self.residuals, lags)
 
     @property
     def det_r(self):

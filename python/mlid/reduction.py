@@ -1,0 +1,100 @@
+"""The perfectly-measured-state reduction of report §5.3.2.
+
+When a state is measured much more accurately than the process noise that
+drives it (there: sideslip, with gusts entering like sideslip), the measured
+value can replace the state wherever it appears.  The state leaves the model,
+its column of F (and of H) becomes an input driven by the measurement, the
+measurement leaves the outputs, and the order drops by one.  After a fit, the
+removed state's own equation integrated along the fitted states gives its
+inertial history; the measurement minus that history is the disturbance
+(gust) plus measurement noise, to which a noise model can be fitted.
+"""
+
+import re
+
+import numpy as np
+
+from .data import FlightData
+from .errors import InputError
+from .model import LinearModel
+from . import core
+
+
+def _rename(name, keep, removed, nu, outs, output):
+    """Element name of the full model -> element name in the reduced one."""
+    key, i, j = re.match(r"(\w+)\((\d+)(?:,(\d+))?\)", name).groups()
+    i, j = int(i) - 1, None if j is None else int(j) - 1
+    if key == "f":
+        if i == removed:
+            return None
+        return f"f({keep.index(i) + 1},{keep.index(j) + 1})" if j != removed \
+            else f"g({keep.index(i) + 1},{nu + 1})"
+    if key == "g":
+        return None if i == removed else f"g({keep.index(i) + 1},{j + 1})"
+    if key == "h":
+        if i == output:
+            return None
+        return f"h({outs.index(i) + 1},{keep.index(j) + 1})" if j != removed \
+            else f"d({outs.index(i) + 1},{nu + 1})"
+    if key == "d":
+        return None if i == output else f"d({outs.index(i) + 1},{j + 1})"
+    if key == "x0":
+        return None if i == removed else f"x0({keep.index(i) + 1})"
+    if key in ("bias", "r"):
+        return None if i == output else f"{key}({outs.index(i) + 1})"
+    return None
+
+
+def reduce_measured_state(model, state, output):
+    """The model with state ``state`` (1-based) taken as perfectly measured by
+    output ``output`` (1-based): returns the reduced LinearModel, whose last
+    input is that measurement.  Process noise is dropped (the reduced model is
+    fitted by output error); free parameters and labels carry over."""
+    k, o = state - 1, output - 1
+    if not (0 <= k < model.nx and 0 <= o < model.ny):
+        raise InputError(f"state {state} or output {output} does not exist")
+    if model.H[o, k] != 1.0 or np.any(np.delete(model.H[o], k) != 0) or np.any(model.D[o] != 0):
+        raise InputError(f"output {output} must measure state {state} alone (H row = unit vector)")
+    keep = [i for i in range(model.nx) if i != k]
+    outs = [i for i in range(model.ny) if i != o]
+    F = model.F[np.ix_(keep, keep)]
+    G = np.column_stack([model.G[keep], model.F[keep, k]])
+    H = model.H[np.ix_(outs, keep)]
+    D = np.column_stack([model.D[outs], model.H[outs, k]])
+    free, names = [], {}
+    for n in model.free:
+        new = _rename(n, keep, k, model.nu, outs, o)
+        if new is None:
+            raise InputError(f"free parameter {n!r} does not survive the reduction")
+        free.append(new)
+        if n in model.names:
+            names[new] = model.names[n]
+    return LinearModel(F, G, H, D, model.x0[keep], model.bias[outs], free=free, names=names,
+                       r=model.r[outs], input_hold=model.input_hold, substeps=model.substeps)
+
+
+def reduced_data(data, output):
+    """The record for the reduced model: the measured output becomes the last input."""
+    o = output - 1
+    return FlightData(data.t, np.column_stack([data.u, data.y[:, o]]),
+                      np.delete(data.y, o, axis=1),
+                      data.input_names + [data.output_names[o]],
+                      [n for i, n in enumerate(data.output_names) if i != o], data.source)
+
+
+def recover_disturbance(model, fitted, data, state, output):
+    """Measurement minus the removed state's inertial history.
+
+    The removed state's equation x_k' = F[k, others] x_others + F[k, k] y_meas
+    + G[k] u is integrated along the states of the fitted reduced model (the
+    measured value standing for the state wherever it appears, as in the
+    reduction).  Returns (history of the inertial state, disturbance + noise).
+    """
+    k, o = state - 1, output - 1
+    keep = [i for i in range(model.nx) if i != k]
+    _, states = core.simulate(fitted, data.t, np.column_stack([data.u, data.y[:, o]]))
+    inputs = np.column_stack([states, data.y[:, o], data.u])
+    coeff = np.r_[model.F[k, keep], model.F[k, k], model.G[k]]
+    one = LinearModel([[0.0]], coeff[None, :], [[1.0]], x0=[model.x0[k]])
+    sim, _ = core.simulate(one, data.t, inputs)
+    return sim.y[:, 0], data.y[:, o] - sim.y[:, 0]
