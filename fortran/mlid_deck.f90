@@ -50,8 +50,8 @@ module mlid_deck
     real(wp) :: t_end = 0.0_wp, dt = 0.0_wp
     integer :: seed = 0
     real(wp), allocatable :: noise_std(:), amplitude(:)
-    character(len=16) :: input_shape = 'none'
-    real(wp) :: t_start = 0.0_wp, pulse_width = 0.0_wp
+    character(len=16), allocatable :: input_shape(:)   !< per input
+    real(wp), allocatable :: t_start(:), pulse_width(:)  !< per input
   end type deck_case_t
 
 contains
@@ -105,7 +105,7 @@ contains
     type(deck_case_t), intent(inout) :: c
     ! namelist variables, reset for every case
     character(len=128) :: title
-    character(len=16) :: job, kind, input_hold, noise, input_shape, method
+    character(len=16) :: job, kind, input_hold, noise, method, input_shape(MAXU)
     integer :: nx, nu, ny, nw, substeps, max_iter, halvings, time_col, skip_rows, seed
     real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
     real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY)
@@ -116,7 +116,7 @@ contains
     real(wp) :: tol_cost, tol_step, tol_grad, rcond
     character(len=PATHLEN) :: file, out
     integer :: input_cols(MAXCOL), output_cols(MAXCOL)
-    real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start, pulse_width
+    real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
     namelist /case/ title, job
     namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, x0, bias, q, r, s, free, names, &
       tie, input_hold, substeps, state_names, input_names, output_names
@@ -328,19 +328,20 @@ contains
       dt = 0.0_wp
       seed = 0
       noise_std = UNSET
-      input_shape = 'none'
+      input_shape = ''
       amplitude = UNSET
-      t_start = 0.0_wp
-      pulse_width = 0.0_wp
+      t_start = UNSET
+      pulse_width = UNSET
       call read_group('simulate', required=.true.)
       if (c%status /= MLID_OK) return
       c%out_file = out
       c%t_end = t_end
       c%dt = dt
       c%seed = seed
-      c%input_shape = lower(input_shape)
-      c%t_start = t_start
-      c%pulse_width = pulse_width
+      ! one value serves every input; otherwise one per input
+      c%input_shape = per_input_text(input_shape, nu, 'none')
+      c%t_start = per_input(t_start, nu)
+      c%pulse_width = per_input(pulse_width, nu)
       c%noise_std = pack(noise_std, noise_std /= UNSET)
       c%amplitude = pack(amplitude, amplitude /= UNSET)
       ! noise_std, when given, sets the measurement-noise variances r
@@ -360,6 +361,11 @@ contains
         call fail(iomsg)
       else if (seed < 0) then
         call fail('group &simulate: seed must be >= 0')
+      else if (size(c%input_shape) /= nu .or. size(c%t_start) /= nu .or. &
+               size(c%pulse_width) /= nu) then
+        write (iomsg, '(a,i0,a)') 'group &simulate: input_shape, t_start and pulse_width take '// &
+          'one value or one per input (', nu, ')'
+        call fail(iomsg)
       end if
       if (c%status /= MLID_OK) return
     end if
@@ -367,6 +373,30 @@ contains
     close (unit)
 
   contains
+
+    !> The values given, or the one value repeated for every input (zeros
+    !> when none is given).
+    function per_input(v, n) result(out)
+      real(wp), intent(in) :: v(:)
+      integer, intent(in) :: n
+      real(wp), allocatable :: out(:)
+      out = pack(v, v /= UNSET)
+      if (size(out) == 0) out = [0.0_wp]
+      if (size(out) == 1) out = spread(out(1), 1, n)
+    end function per_input
+
+    function per_input_text(v, n, default) result(out)
+      character(len=*), intent(in) :: v(:), default
+      integer, intent(in) :: n
+      character(len=16), allocatable :: out(:)
+      integer :: i
+      out = pack(v, len_trim(v) > 0)
+      if (size(out) == 0) out = [character(len=16) :: default]
+      if (size(out) == 1) out = spread(out(1), 1, n)
+      do i = 1, size(out)
+        out(i) = lower(out(i))
+      end do
+    end function per_input_text
 
     !> Read one group; a missing optional group keeps the defaults.
     subroutine read_group(group, required)
@@ -605,7 +635,7 @@ contains
     status = MLID_OK
     msg = ''
     do k = 1, c%nu
-      call input_signal(c%input_shape, c%amplitude(k), c%t_start, c%pulse_width, c%dt, &
+      call input_signal(c%input_shape(k), c%amplitude(k), c%t_start(k), c%pulse_width(k), c%dt, &
                         u(k, :), status, msg)
       if (status /= MLID_OK) return
     end do

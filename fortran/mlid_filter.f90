@@ -46,6 +46,9 @@ module mlid_filter
     real(wp), allocatable :: w(:, :), dw(:, :, :)      !< held-noise transition
     real(wp), allocatable :: q(:, :), dq(:, :, :), r(:, :), dr(:, :, :), s(:, :), ds(:, :, :)
     real(wp), allocatable :: g(:, :)                   !< df/dw
+    !> Which partials are non-zero, per free parameter (most are zero:
+    !> only F and Gamma move Phi and W, only q, r, s move Q, R, S).
+    logical, allocatable :: nz_phi(:), nz_w(:), nz_c(:), nz_q(:), nz_r(:), nz_s(:)
     real(wp) :: dt = -1.0_wp
   end type lti_t
 
@@ -308,6 +311,16 @@ contains
       i = pm%is(k) - 1
       sys%ds(mod(i, nw) + 1, i/nw + 1, pm%cs(k)) = sys%ds(mod(i, nw) + 1, i/nw + 1, pm%cs(k)) + 1.0_wp
     end do
+    allocate (sys%nz_phi(nf), sys%nz_w(nf), sys%nz_c(nf), sys%nz_q(nf), sys%nz_r(nf), &
+              sys%nz_s(nf))
+    do k = 1, nf
+      sys%nz_phi(k) = any(sys%dphi(:, :, k) /= 0.0_wp)
+      sys%nz_w(k) = any(sys%dw(:, :, k) /= 0.0_wp)
+      sys%nz_c(k) = any(sys%dc(:, :, k) /= 0.0_wp)
+      sys%nz_q(k) = any(sys%dq(:, :, k) /= 0.0_wp)
+      sys%nz_r(k) = any(sys%dr(:, :, k) /= 0.0_wp)
+      sys%nz_s(k) = any(sys%ds(:, :, k) /= 0.0_wp)
+    end do
     status = MLID_OK
     msg = ''
 
@@ -333,12 +346,14 @@ contains
     logical, intent(in) :: partials
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), allocatable :: pct(:, :), dpct(:, :)
+    real(wp) :: pct(size(cv%pm, 1), size(sys%c, 1)), dpct(size(cv%pm, 1), size(sys%c, 1))
+    real(wp) :: ct(size(sys%c, 2), size(sys%c, 1))
     integer :: k, ierr
 
     status = MLID_OK
     msg = ''
-    pct = matmul(cv%pm, transpose(sys%c))
+    ct = transpose(sys%c)
+    pct = matmul(cv%pm, ct)
     cv%b = matmul(sys%c, pct) + sys%r
     cv%b = 0.5_wp*(cv%b + transpose(cv%b))
     call chol_inverse(cv%b, cv%binv, cv%logdet, ierr)
@@ -352,8 +367,11 @@ contains
     cv%pp = 0.5_wp*(cv%pp + transpose(cv%pp))
     if (.not. partials) return
     do k = 1, size(cv%dpm, 3)
-      dpct = matmul(cv%dpm(:, :, k), transpose(sys%c)) + matmul(cv%pm, transpose(sys%dc(:, :, k)))
-      cv%db(:, :, k) = matmul(sys%dc(:, :, k), pct) + matmul(sys%c, dpct) + sys%dr(:, :, k)
+      dpct = matmul(cv%dpm(:, :, k), ct)
+      if (sys%nz_c(k)) dpct = dpct + matmul(cv%pm, transpose(sys%dc(:, :, k)))
+      cv%db(:, :, k) = matmul(sys%c, dpct)
+      if (sys%nz_c(k)) cv%db(:, :, k) = cv%db(:, :, k) + matmul(sys%dc(:, :, k), pct)
+      if (sys%nz_r(k)) cv%db(:, :, k) = cv%db(:, :, k) + sys%dr(:, :, k)
       cv%db(:, :, k) = 0.5_wp*(cv%db(:, :, k) + transpose(cv%db(:, :, k)))
       cv%dk(:, :, k) = matmul(dpct - matmul(cv%k, cv%db(:, :, k)), cv%binv)
       ! dP+ = dP- - dK (C P-) - K d(C P-), with C P- = pct'
@@ -363,37 +381,63 @@ contains
     end do
   end subroutine cov_update
 
-  !> Time update: P- of the next sample from P+ (and the partials).
+  !> Time update: P- of the next sample from P+ (and the partials), with the
+  !> products shared by all parameters formed once and zero partials skipped.
   subroutine cov_predict(sys, cv, partials)
     type(lti_t), intent(in) :: sys
     type(cov_t), intent(inout) :: cv
     logical, intent(in) :: partials
-    real(wp), allocatable :: qt(:, :), kst(:, :), a(:, :), dqt(:, :), dkst(:, :), da(:, :)
-    real(wp), allocatable :: sb(:, :)
-    integer :: k
+    integer :: nx, nw, ny, k
+    real(wp) :: sb(size(sys%s, 1), size(sys%s, 2)), qt(size(sys%q, 1), size(sys%q, 1))
+    real(wp) :: kst(size(cv%k, 1), size(sys%s, 1)), a(size(cv%pm, 1), size(cv%pm, 1))
+    real(wp) :: phit(size(cv%pm, 1), size(cv%pm, 1)), ppt(size(cv%pm, 1), size(cv%pm, 1))
+    real(wp) :: qwt(size(sys%q, 1), size(cv%pm, 1)), wt(size(sys%w, 2), size(cv%pm, 1))
+    real(wp) :: dqt(size(sys%q, 1), size(sys%q, 1)), dkst(size(cv%k, 1), size(sys%s, 1))
+    real(wp) :: da(size(cv%pm, 1), size(cv%pm, 1)), tmp(size(cv%pm, 1), size(cv%pm, 1))
+    logical :: corr
 
+    nx = size(cv%pm, 1)
+    nw = size(sys%q, 1)
+    ny = size(sys%s, 2)
+    corr = any(sys%s /= 0.0_wp)
+    phit = transpose(sys%phi)
+    wt = transpose(sys%w)
     sb = matmul(sys%s, cv%binv)
-    qt = sys%q - matmul(sb, transpose(sys%s))         ! Q - S B^-1 S'
-    kst = matmul(cv%k, transpose(sys%s))               ! K S'
-    a = matmul(matmul(sys%phi, kst), transpose(sys%w)) ! Phi K S' W'
-    cv%pm = matmul(matmul(sys%phi, cv%pp), transpose(sys%phi)) &
-            + matmul(matmul(sys%w, qt), transpose(sys%w)) - a - transpose(a)
+    qt = sys%q - matmul(sb, transpose(sys%s))          ! Q - S B^-1 S'
+    kst = matmul(cv%k, transpose(sys%s))                ! K S'
+    ppt = matmul(cv%pp, phit)                           ! P+ Phi'
+    qwt = matmul(qt, wt)                                ! Q~ W'
+    cv%pm = matmul(sys%phi, ppt) + matmul(sys%w, qwt)
+    if (corr) then
+      a = matmul(matmul(sys%phi, kst), wt)              ! Phi K S' W'
+      cv%pm = cv%pm - a - transpose(a)
+    end if
     if (.not. partials) return
     do k = 1, size(cv%dpm, 3)
-      dqt = sys%dq(:, :, k) - matmul(sys%ds(:, :, k), transpose(sb)) &
-            + matmul(matmul(sb, cv%db(:, :, k)), transpose(sb)) &
-            - matmul(sb, transpose(sys%ds(:, :, k)))
-      dkst = matmul(cv%dk(:, :, k), transpose(sys%s)) + matmul(cv%k, transpose(sys%ds(:, :, k)))
-      da = matmul(matmul(sys%dphi(:, :, k), kst), transpose(sys%w)) &
-           + matmul(matmul(sys%phi, dkst), transpose(sys%w)) &
-           + matmul(matmul(sys%phi, kst), transpose(sys%dw(:, :, k)))
-      cv%dpm(:, :, k) = matmul(matmul(sys%dphi(:, :, k), cv%pp), transpose(sys%phi)) &
-                        + matmul(matmul(sys%phi, cv%dpp(:, :, k)), transpose(sys%phi)) &
-                        + matmul(matmul(sys%phi, cv%pp), transpose(sys%dphi(:, :, k))) &
-                        + matmul(matmul(sys%dw(:, :, k), qt), transpose(sys%w)) &
-                        + matmul(matmul(sys%w, dqt), transpose(sys%w)) &
-                        + matmul(matmul(sys%w, qt), transpose(sys%dw(:, :, k))) &
-                        - da - transpose(da)
+      tmp = matmul(sys%phi, matmul(cv%dpp(:, :, k), phit))
+      if (sys%nz_phi(k)) then
+        da = matmul(sys%dphi(:, :, k), ppt)
+        tmp = tmp + da + transpose(da)
+      end if
+      if (sys%nz_w(k)) then
+        da = matmul(sys%dw(:, :, k), qwt)
+        tmp = tmp + da + transpose(da)
+      end if
+      if (corr .or. sys%nz_q(k) .or. sys%nz_s(k)) then
+        dqt = sys%dq(:, :, k)
+        if (corr .or. sys%nz_s(k)) dqt = dqt - matmul(sys%ds(:, :, k), transpose(sb)) &
+                                   + matmul(matmul(sb, cv%db(:, :, k)), transpose(sb)) &
+                                   - matmul(sb, transpose(sys%ds(:, :, k)))
+        tmp = tmp + matmul(sys%w, matmul(dqt, wt))
+      end if
+      if (corr .or. sys%nz_s(k)) then
+        dkst = matmul(cv%dk(:, :, k), transpose(sys%s)) + matmul(cv%k, transpose(sys%ds(:, :, k)))
+        da = matmul(matmul(sys%phi, dkst), wt)
+        if (sys%nz_phi(k)) da = da + matmul(matmul(sys%dphi(:, :, k), kst), wt)
+        if (sys%nz_w(k)) da = da + matmul(matmul(sys%phi, kst), transpose(sys%dw(:, :, k)))
+        tmp = tmp - da - transpose(da)
+      end if
+      cv%dpm(:, :, k) = tmp
     end do
   end subroutine cov_predict
 

@@ -26,8 +26,11 @@ contains
     do k = 1, size(labels)
       write (unit, '(1x,a16,2es15.6e2,es13.4e2)') labels(k), start(k), est(k), sig(k)
     end do
-    write (unit, '(a,es17.10e2,a,es13.6e2)') ' cost J = ', cost, '   det R = ', det_sym(rhat)
-    write (unit, '(a,*(1x,es10.4e2))') ' R diagonal:', (rhat(k, k), k=1, size(rhat, 1))
+    ! output error estimates R; filter error reports the mean innovation covariance B
+    write (unit, '(a,es17.10e2,a,es13.6e2)') ' cost J = ', cost, '   det '// &
+      trim(merge('R', 'B', method(1:6) == 'output'))//' = ', det_sym(rhat)
+    write (unit, '(a,*(1x,es10.4e2))') ' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', &
+      method(1:6) == 'output')), (rhat(k, k), k=1, size(rhat, 1))
   end subroutine report_fit
 
   !> Determinant by Gaussian elimination with partial pivoting (small R).

@@ -42,13 +42,18 @@ def _run_both(deck, *extra):
     return py, fo
 
 
-@pytest.fixture
-def c8_deck(tmp_path):
-    shutil.copy(C8_CASE / "c8.nml", tmp_path / "c8.nml")
-    return tmp_path / "c8.nml"
+DECKS = {"c8": (C8_CASE / "c8.nml", ["M_q", "M_alpha", "Z_alpha", "M_delta", "Z_delta"]),
+         "m2f3": (REPO / "cases" / "m2f3_gusts" / "m2f3.nml",
+                  ["L_p", "N_p", "L_r", "N_r", "L_beta", "N_beta", "Y_beta", "a_gust", "L_da",
+                   "N_da", "Y_da", "L_dr", "N_dr", "Y_dr", "q_gust", "R_p", "R_r", "R_beta",
+                   "R_phi", "R_ay"])}
 
 
-def test_python_and_batch_give_the_same_numbers(c8_deck, tmp_path):
+@pytest.mark.parametrize("name", sorted(DECKS))
+def test_python_and_batch_give_the_same_numbers(name, tmp_path):
+    deck, labels = DECKS[name]
+    c8_deck = tmp_path / deck.name
+    shutil.copy(deck, c8_deck)
     py = subprocess.run([str(BIN / "mlid"), "run", str(c8_deck), "--json",
                          str(tmp_path / "py.json"), "--plots", str(tmp_path / "plots")],
                         capture_output=True, text=True)
@@ -60,8 +65,7 @@ def test_python_and_batch_give_the_same_numbers(c8_deck, tmp_path):
     b = json.loads((tmp_path / "fo.json").read_text())
     assert [c["job"] for c in a] == [c["job"] for c in b] == ["simulate", "estimate"]
     fa, fb = a[1], b[1]
-    assert fa["parameters"] == fb["parameters"] == ["M_q", "M_alpha", "Z_alpha", "M_delta",
-                                                    "Z_delta"]
+    assert fa["parameters"] == fb["parameters"] == labels
     np.testing.assert_allclose(fa["estimate"], fb["estimate"], rtol=1e-10, atol=0)
     np.testing.assert_allclose(fa["sigma"], fb["sigma"], rtol=1e-10, atol=0)
     np.testing.assert_allclose(fa["cost"], fb["cost"], rtol=1e-10)

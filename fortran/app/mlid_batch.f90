@@ -30,7 +30,7 @@ program mlid_batch
       stop
     else if (arg(1:1) == '-') then
       write (0, '(a)') 'mlid-batch: unknown option '//trim(arg)
-      stop 2
+      stop 2, quiet=.true.
     else
       deck = arg
     end if
@@ -38,7 +38,7 @@ program mlid_batch
   end do
   if (len_trim(deck) == 0) then
     write (0, '(a)') 'usage: mlid-batch DECK [--json FILE]'
-    stop 2
+    stop 2, quiet=.true.
   end if
   deck_dir = ''
   if (index(deck, '/', back=.true.) > 0) deck_dir = deck(1:index(deck, '/', back=.true.) - 1)
@@ -46,7 +46,7 @@ program mlid_batch
   call deck_read(trim(deck), cases, status, msg)
   if (status /= MLID_OK) then
     write (0, '(a)') 'mlid-batch: '//trim(msg)
-    stop 1
+    stop 1, quiet=.true.
   end if
   json = .false.
   if (len_trim(json_path) > 0) then
@@ -65,7 +65,7 @@ program mlid_batch
   end if
   if (nfail > 0) then
     write (0, '(i0,a,i0,a)') nfail, ' of ', size(cases), ' cases failed'
-    stop 1
+    stop 1, quiet=.true.
   end if
 
 contains

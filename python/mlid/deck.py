@@ -41,8 +41,8 @@ def _schema():
                  "output_cols": (_INTS, []), "skip_rows": (_INT, 0)},
         "simulate": {"out": (_STR, ""), "t_end": (_REAL, 0.0), "dt": (_REAL, 0.0),
                      "seed": (_INT, 0), "noise_std": (_REALS, None),
-                     "input_shape": (_STR, "none"), "amplitude": (_REALS, None),
-                     "t_start": (_REAL, 0.0), "pulse_width": (_REAL, 0.0)},
+                     "input_shape": (_STRS, []), "amplitude": (_REALS, None),
+                     "t_start": (_REALS, None), "pulse_width": (_REALS, None)},
         "estimate": {"method": (_STR, "output_error"), "max_iter": (_INT, opts["max_iter"]),
                      "halvings": (_INT, opts["halvings"]), "noise": (_STR, "diagonal"),
                      "partials": (_BOOL, opts["partials"]),
@@ -81,8 +81,8 @@ class Case:
         t = np.arange(nt) * s["dt"]
         u = np.zeros((nt, self.model.nu))
         for k, a in enumerate(s["amplitude"]):
-            u[:, k] = core.input_signal(s["input_shape"], a, s["t_start"], s["pulse_width"],
-                                        s["dt"], nt)
+            u[:, k] = core.input_signal(s["input_shape"][k], a, s["t_start"][k],
+                                        s["pulse_width"][k], s["dt"], nt)
         return t, u
 
     def options(self):
@@ -290,7 +290,14 @@ def _check_simulate(groups, model):
     s = groups["simulate"]
     s["noise_std"] = [v for v in (s["noise_std"] or []) if v is not None]
     s["amplitude"] = [v for v in (s["amplitude"] or []) if v is not None] or [0.0] * model.nu
-    s["input_shape"] = s["input_shape"].lower()
+    # one value serves every input; otherwise one per input
+    def per_input(values, default):
+        given = [v for v in (values or []) if v not in (None, "")] or [default]
+        return given * model.nu if len(given) == 1 else given
+
+    s["input_shape"] = [v.lower() for v in per_input(s["input_shape"], "none")]
+    s["t_start"] = per_input(s["t_start"], 0.0)
+    s["pulse_width"] = per_input(s["pulse_width"], 0.0)
     if not s["out"]:
         raise InputError("group &simulate: out (the data file to write) is missing")
     if not (s["dt"] > 0 and s["t_end"] > s["dt"]):
@@ -303,6 +310,9 @@ def _check_simulate(groups, model):
                          f"model has {model.nu} inputs")
     if s["seed"] < 0:
         raise InputError("group &simulate: seed must be >= 0")
+    if not len(s["input_shape"]) == len(s["t_start"]) == len(s["pulse_width"]) == model.nu:
+        raise InputError(f"group &simulate: input_shape, t_start and pulse_width take one value "
+                         f"or one per input ({model.nu})")
 
 
 def run_case(case):

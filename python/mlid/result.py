@@ -88,8 +88,11 @@ class FitResult:
         ]
         for n, s0, e, s in zip(self.names, self.start, self.estimate, self.sigma):
             lines.append(f" {n[:16]:<16}{s0:15.6E}{e:15.6E}{s:13.4E}")
-        lines.append(f" cost J = {self.cost:17.10E}   det R = {self.det_r:13.6E}")
-        lines.append(" R diagonal:" + "".join(f" {v:10.4E}" for v in np.diag(self.rhat)))
+        # output error estimates R; filter error reports the mean innovation covariance B
+        r = "R" if method.startswith("output") else "B"
+        lines.append(f" cost J = {self.cost:17.10E}   det {r} = {self.det_r:13.6E}")
+        label = "R diagonal:" if r == "R" else "B diagonal (mean)"
+        lines.append(f" {label}" + "".join(f" {v:10.4E}" for v in np.diag(self.rhat)))
         return "\n".join(lines)
 
     def __repr__(self):
