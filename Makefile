@@ -21,8 +21,11 @@ test: install
 	$(VENV)/bin/meson test -C $(BUILD) --print-errorlogs
 
 bench: install
+	$(VPY) -m pip install -q statsmodels
 	$(VPY) benchmarks/bench_fit.py
 	$(VPY) benchmarks/monte_carlo_c8.py
+	$(VPY) benchmarks/monte_carlo_m2f3.py
+	$(VPY) benchmarks/peer_statsmodels_m2f3.py
 
 install: sysdeps $(STAMP)
 

@@ -4,7 +4,7 @@ module mlid_linalg
   use mlid_kinds, only: wp
   implicit none
   private
-  public :: sym_eig, chol_inverse
+  public :: sym_eig, chol_inverse, psd_factor
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -88,5 +88,42 @@ contains
       end do
     end do
   end subroutine chol_inverse
+
+  !> Lower-triangular L with L L' = A for a symmetric positive
+  !> semi-definite A (zero pivots give zero columns), so that a diagonal A
+  !> gives L = diag(sqrt(a_ii)).  ok is false when A is not semi-definite.
+  subroutine psd_factor(a, l, ok)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: l(:, :)
+    logical, intent(out) :: ok
+    real(wp) :: d, tol
+    integer :: n, i, j
+
+    n = size(a, 1)
+    l = 0.0_wp
+    ok = .true.
+    tol = 1.0e-12_wp*max(tiny(1.0_wp), maxval(abs(a)))
+    do j = 1, n
+      d = a(j, j) - sum(l(j, 1:j - 1)**2)
+      if (d < -tol) then
+        ok = .false.
+        return
+      end if
+      if (d <= tol) then
+        ! a zero pivot: the rest of the column must vanish too
+        do i = j + 1, n
+          if (abs(a(i, j) - sum(l(i, 1:j - 1)*l(j, 1:j - 1))) > sqrt(tol)*sqrt(max(tol, a(i, i)))) then
+            ok = .false.
+            return
+          end if
+        end do
+        cycle
+      end if
+      l(j, j) = sqrt(d)
+      do i = j + 1, n
+        l(i, j) = (a(i, j) - sum(l(i, 1:j - 1)*l(j, 1:j - 1)))/l(j, j)
+      end do
+    end do
+  end subroutine psd_factor
 
 end module mlid_linalg

@@ -9,7 +9,7 @@
 module mlid_simulate
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_DIVERGED
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_linalg, only: sym_eig
+  use mlid_linalg, only: psd_factor
   use mlid_models, only: model_t, layout_t, model_layout
   use mlid_options, only: options_t
   use mlid_rk, only: rk4_step
@@ -32,9 +32,10 @@ contains
     type(layout_t) :: l
     type(rng_t) :: rng
     real(wp) :: c(m%nw + m%ny, m%nw + m%ny), lsq(m%nw + m%ny, m%nw + m%ny)
-    real(wp) :: ev(m%nw + m%ny), z(m%nw + m%ny), wv(m%nw + m%ny)
+    real(wp) :: z(m%nw + m%ny), wv(m%nw + m%ny)
+    logical :: ok
     real(wp) :: x(m%nx), ua(m%nu + m%nw), ub(m%nu + m%nw), h, ts
-    integer :: i, j, isub, nw, ny, info
+    integer :: i, j, isub, nw, ny
     integer, allocatable :: none(:)
 
     status = MLID_ERR_INPUT
@@ -45,8 +46,9 @@ contains
       write (msg, '(a,i0)') 'seed must be >= 0, got ', seed
       return
     end if
-    ! Square root of the joint noise covariance by eigen-decomposition, so
-    ! that zero variances (noise-free channels) are allowed.
+    ! Factor of the joint noise covariance; zero variances (noise-free
+    ! channels) are allowed, and a diagonal covariance gives each channel its
+    ! own draw.
     c = 0.0_wp
     do i = 1, nw
       c(i, i) = theta(l%oq + i)
@@ -56,19 +58,16 @@ contains
     end do
     c(1:nw, nw + 1:) = reshape(theta(l%os + 1:l%os + nw*ny), [nw, ny])
     c(nw + 1:, 1:nw) = transpose(c(1:nw, nw + 1:))
-    call sym_eig(c, ev, lsq, info)
-    if (info /= 0 .or. .not. all(ieee_is_finite(ev))) then
+    if (.not. all(ieee_is_finite(c))) then
       msg = 'noise covariances are not finite'
       return
     end if
-    if (minval(ev) < -1.0e-12_wp*max(1.0_wp, maxval(abs(ev)))) then
+    call psd_factor(c, lsq, ok)
+    if (.not. ok) then
       msg = 'noise covariance [[Q, S], [S'', R]] is not positive semi-definite '// &
             '(variances q, r must be >= 0 and |S| small enough)'
       return
     end if
-    do i = 1, nw + ny
-      lsq(:, i) = lsq(:, i)*sqrt(max(ev(i), 0.0_wp))
-    end do
 
     allocate (none(0))
     call rng_seed(rng, seed)
