@@ -16,7 +16,8 @@ module mlid_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_models, only: model_t, model_create, model_layout, layout_t
+  use mlid_models, only: model_t, model_layout, layout_t
+  use mlid_model_factory, only: model_create
   use mlid_options, only: options_t, options_from_flat, options_to_flat
   use mlid_params, only: param_map_t, param_map_create, apply_ties
   use mlid_likelihood, only: likelihood

@@ -2,10 +2,11 @@
 !>
 !> A case starts at each line whose first word is &case and holds the groups
 !>   &case     title, job ('estimate' or 'simulate')
-!>   &model    kind, nx, nu, ny, nw, f, g, h, d, gamma (row by row), x0, bias,
-!>             q, r, s (noise variances, cross-covariance row by row), free,
-!>             names, tie, input_hold, substeps, state_names, input_names,
-!>             output_names
+!>   &model    kind ('linear' or 'longitudinal'), nx, nu, ny, nw, f, g, h, d,
+!>             gamma (row by row), cd_regressors, cl_regressors, cm_regressors,
+!>             cd, cl, cm, constants (longitudinal), x0, bias, q, r, s (noise
+!>             variances, cross-covariance row by row), free, names, tie,
+!>             input_hold, substeps, state_names, input_names, output_names
 !>   &data     file, time_col, input_cols, output_cols, skip_rows   (estimate)
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
 !>             t_start, pulse_width                                  (simulate)
@@ -16,15 +17,21 @@
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_models, only: MODEL_LINEAR
+  use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG
   use mlid_options, only: options_t, options_to_flat, NOPT
   use mlid_inputs, only: input_signal
+  use mlid_aero_long, only: REGRESSOR_NAMES, NREG
   implicit none
   private
   public :: deck_case_t, deck_read, case_record, case_time_input, NAMELEN, PATHLEN
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512, LINELEN = 2048
   integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
+  integer, parameter :: MAXR = 12, NBLOCK = 10
+  !> Suffix of a longitudinal coefficient's default label, per regressor
+  !> (C_D0, C_DV, C_Lalpha, C_mq, ...; python/mlid/model.py has the same).
+  character(len=8), parameter :: SUFFIX(NREG) = &
+    [character(len=8) :: '0', 'V', 'alpha', 'alpha2', 'q', 'de']
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
   character(len=*), parameter :: GROUPS = ' case model data simulate estimate '
 
@@ -35,6 +42,8 @@ module mlid_deck
     character(len=128) :: title = ''
     character(len=16) :: job = ''
     integer :: mkind = MODEL_LINEAR
+    integer, allocatable :: iconst(:)         !< model constants (longitudinal: regressor codes)
+    real(wp), allocatable :: rconst(:)
     integer :: nx = 0, nu = 0, ny = 0, nw = 0
     real(wp), allocatable :: theta(:)         !< [F, G, H, D, Gamma, x0, bias, q, r, s]
     integer, allocatable :: isfree(:), itie(:)
@@ -109,6 +118,12 @@ contains
     integer :: nx, nu, ny, nw, substeps, max_iter, halvings, time_col, skip_rows, seed
     real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
     real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY)
+    character(len=8) :: cd_regressors(MAXR), cl_regressors(MAXR), cm_regressors(MAXR)
+    real(wp) :: cd(MAXR), cl(MAXR), cm(MAXR), constants(9)
+    character(len=8) :: bkey(NBLOCK)
+    integer :: brow(NBLOCK), bcol(NBLOCK), boff(NBLOCK), ncoef(3), codes(3*MAXR)
+    character(len=NAMELEN), allocatable :: default_label(:)
+    character(len=NAMELEN) :: canon
     logical :: partials, steady_state
     character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
     character(len=2*NAMELEN + 1) :: tie(MAXFREE)
@@ -119,7 +134,8 @@ contains
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
     namelist /case/ title, job
     namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, x0, bias, q, r, s, free, names, &
-      tie, input_hold, substeps, state_names, input_names, output_names
+      tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
+      cl_regressors, cm_regressors, cd, cl, cm, constants
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
       pulse_width
@@ -166,6 +182,13 @@ contains
     r = UNSET
     s = UNSET
     tie = ''
+    cd_regressors = ''
+    cl_regressors = ''
+    cm_regressors = ''
+    cd = UNSET
+    cl = UNSET
+    cm = UNSET
+    constants = UNSET
     g = UNSET
     h = UNSET
     d = UNSET
@@ -180,10 +203,35 @@ contains
     substeps = opt%substeps
     call read_group('model', required=.true.)
     if (c%status /= MLID_OK) return
-    if (lower(kind) /= 'linear') then
-      call fail('group &model: unknown kind '''//trim(kind)//''' (available: linear)')
+    select case (lower(kind))
+    case ('linear')
+      c%mkind = MODEL_LINEAR
+      allocate (c%iconst(0), c%rconst(0))
+    case ('longitudinal')
+      c%mkind = MODEL_AERO_LONG
+      if (any([nx, nu, ny, nw] /= [0, 0, 0, 0] .and. [nx, nu, ny, nw] /= [4, 2, 7, 0])) then
+        call fail('group &model: a longitudinal model has nx, nu, ny, nw = 4, 2, 7, 0')
+        return
+      end if
+      nx = 4
+      nu = 2
+      ny = 7
+      nw = 0
+      call regressor_codes(cd_regressors, 1)
+      call regressor_codes(cl_regressors, 2)
+      call regressor_codes(cm_regressors, 3)
+      if (c%status /= MLID_OK) return
+      if (count(constants /= UNSET) /= 9) then
+        call fail('group &model: constants needs 9 values: g, S/m, S cbar/Iy, lT/Iy, V0, m, '// &
+                  'sigma_T, rho, cbar/2')
+        return
+      end if
+      c%iconst = [ncoef, pack(codes, codes > 0)]
+      c%rconst = constants
+    case default
+      call fail('group &model: unknown kind '''//trim(kind)//''' (available: linear, longitudinal)')
       return
-    end if
+    end select
     if (nx < 1 .or. nx > MAXX .or. nu < 0 .or. nu > MAXU .or. ny < 1 .or. ny > MAXY .or. &
         nw < 0 .or. nw > MAXW) then
       write (iomsg, '(a,4(1x,i0),a,4(1x,i0))') 'group &model: nx, nu, ny, nw =', nx, nu, ny, nw, &
@@ -195,17 +243,31 @@ contains
     c%nu = nu
     c%ny = ny
     c%nw = nw
-    np = nx*nx + nx*nu + ny*nx + ny*nu + nx*nw
-    nth = np + nx + ny + nw + ny + nw*ny
+    ! The blocks of theta, in order: key, rows, columns (-1: a vector).
+    if (c%mkind == MODEL_LINEAR) then
+      call set_blocks([character(len=8) :: 'f', 'g', 'h', 'd', 'gamma', 'x0', 'bias', 'q', 'r', 's'], &
+                      [nx, nx, ny, ny, nx, nx, ny, nw, ny, nw], [nx, nu, nx, nu, nw, -1, -1, -1, -1, ny])
+    else
+      call set_blocks([character(len=8) :: 'cd', 'cl', 'cm', 'x0', 'bias', 'q', 'r', 's'], &
+                      [ncoef, nx, ny, nw, ny, nw], [-1, -1, -1, -1, -1, -1, -1, ny])
+    end if
+    np = boff(findloc(bkey, 'x0', 1))
+    nth = sum(brow*merge(1, bcol, bcol < 0))
     allocate (c%theta(nth), c%isfree(nth), c%itie(nth), c%labels(nth))
     c%isfree = 0
     c%itie = 0
     c%labels = ''
-    call put_matrix('f', f, nx, nx, 0, required=.true.)
-    call put_matrix('g', g, nx, nu, nx*nx, required=nu > 0)
-    call put_matrix('h', h, ny, nx, nx*nx + nx*nu, required=.true.)
-    call put_matrix('d', d, ny, nu, nx*nx + nx*nu + ny*nx, required=.false.)
-    call put_matrix('gamma', gamma, nx, nw, np - nx*nw, required=nw > 0)
+    if (c%mkind == MODEL_LINEAR) then
+      call put_matrix('f', f, nx, nx, 0, required=.true.)
+      call put_matrix('g', g, nx, nu, nx*nx, required=nu > 0)
+      call put_matrix('h', h, ny, nx, nx*nx + nx*nu, required=.true.)
+      call put_matrix('d', d, ny, nu, nx*nx + nx*nu + ny*nx, required=.false.)
+      call put_matrix('gamma', gamma, nx, nw, np - nx*nw, required=nw > 0)
+    else
+      call put_vector('cd', cd, ncoef(1), 0)
+      call put_vector('cl', cl, ncoef(2), ncoef(1))
+      call put_vector('cm', cm, ncoef(3), ncoef(1) + ncoef(2))
+    end if
     call put_vector('x0', x0, nx, np)
     call put_vector('bias', bias, ny, np + nx)
     call put_vector('q', q, nw, np + nx + ny)
@@ -214,10 +276,10 @@ contains
     if (c%status /= MLID_OK) return
     do k = 1, MAXFREE
       if (len_trim(free(k)) == 0) cycle
-      call element_index(free(k), nx, nu, ny, nw, idx)
+      call element_index(free(k), bkey, brow, bcol, boff, idx)
       if (idx == 0) then
         call fail('group &model: free parameter '''//trim(free(k))// &
-                  ''' does not exist (use f, g, h, d, gamma (i,j), x0, bias, q, r (i), s (i,j) within the dimensions)')
+                  ''' does not exist ('//trim(block_list())//' within the dimensions)')
         return
       end if
       if (c%isfree(idx) == 1) then
@@ -225,7 +287,7 @@ contains
         return
       end if
       c%isfree(idx) = 1
-      c%labels(idx) = free(k)
+      c%labels(idx) = default_label(idx)
       if (len_trim(names(k)) > 0) c%labels(idx) = names(k)
     end do
     if (count(len_trim(names) > 0) > count(len_trim(free) > 0)) then
@@ -239,8 +301,8 @@ contains
       idx = 0
       jdx = 0
       if (p > 1) then
-        call element_index(tie(k)(1:p - 1), nx, nu, ny, nw, idx)
-        call element_index(tie(k)(p + 1:), nx, nu, ny, nw, jdx)
+        call element_index(tie(k)(1:p - 1), bkey, brow, bcol, boff, idx)
+        call element_index(tie(k)(p + 1:), bkey, brow, bcol, boff, jdx)
       end if
       if (idx == 0 .or. jdx == 0) then
         call fail('group &model: tie '''//trim(tie(k))//''' must read ''a=b'' with two '// &
@@ -373,6 +435,80 @@ contains
     close (unit)
 
   contains
+
+    !> Record the block table and the default label of every entry: the
+    !> canonical element name, or C_D0, C_Lalpha, ... for coefficients.
+    subroutine set_blocks(keys, rows, cols)
+      character(len=*), intent(in) :: keys(:)
+      integer, intent(in) :: rows(:), cols(:)
+      integer :: b, i, j, o
+      bkey = ''
+      brow = 0
+      bcol = 0
+      boff = 0
+      o = 0
+      do b = 1, size(keys)
+        bkey(b) = keys(b)
+        brow(b) = rows(b)
+        bcol(b) = cols(b)
+        boff(b) = o
+        o = o + rows(b)*merge(1, cols(b), cols(b) < 0)
+      end do
+      do b = size(keys) + 1, NBLOCK
+        boff(b) = o
+      end do
+      allocate (default_label(o))
+      do b = 1, size(keys)
+        if (cols(b) < 0) then
+          do i = 1, rows(b)
+            write (default_label(boff(b) + i), '(a,i0,a)') trim(keys(b))//'(', i, ')'
+            if (b <= 3 .and. c%mkind == MODEL_AERO_LONG) default_label(boff(b) + i) = &
+              'C_'//trim(merge('D', merge('L', 'm', b == 2), b == 1))// &
+              trim(SUFFIX(codes((b - 1)*MAXR + i)))
+          end do
+        else
+          do j = 1, cols(b)
+            do i = 1, rows(b)
+              write (default_label(boff(b) + (j - 1)*rows(b) + i), '(a,i0,a,i0,a)') &
+                trim(keys(b))//'(', i, ',', j, ')'
+            end do
+          end do
+        end if
+      end do
+    end subroutine set_blocks
+
+    function block_list() result(text)
+      character(len=:), allocatable :: text
+      integer :: b
+      text = 'use'
+      do b = 1, NBLOCK
+        if (len_trim(bkey(b)) == 0) exit
+        text = text//' '//trim(bkey(b))//trim(merge('(i,j)', '(i)  ', bcol(b) >= 0))
+      end do
+    end function block_list
+
+    !> Regressor names of coefficient ic -> codes (and their count).
+    subroutine regressor_codes(names_in, ic)
+      character(len=*), intent(in) :: names_in(:)
+      integer, intent(in) :: ic
+      integer :: k, j, i
+      ncoef(ic) = 0
+      codes((ic - 1)*MAXR + 1:ic*MAXR) = 0
+      do k = 1, size(names_in)
+        if (len_trim(names_in(k)) == 0) cycle
+        j = 0
+        do i = 1, NREG
+          if (trim(REGRESSOR_NAMES(i)) == trim(adjustl(names_in(k)))) j = i
+        end do
+        if (j == 0) then
+          call fail('group &model: regressor '''//trim(names_in(k))//''' does not exist (use 1, '// &
+                    'V/V0, alpha, alpha^2, qhat, de)')
+          return
+        end if
+        ncoef(ic) = ncoef(ic) + 1
+        codes((ic - 1)*MAXR + ncoef(ic)) = j
+      end do
+    end subroutine regressor_codes
 
     !> The values given, or the one value repeated for every input (zeros
     !> when none is given).
@@ -509,15 +645,13 @@ contains
     end do
   end subroutine check_groups
 
-  !> Index into theta of a parameter named f(i,j), g(i,j), h(i,j), d(i,j),
-  !> gamma(i,j), x0(i), bias(i), q(i), r(i) or s(i,j); 0 if there is no
-  !> such element.
-  subroutine element_index(name, nx, nu, ny, nw, idx)
-    character(len=*), intent(in) :: name
-    integer, intent(in) :: nx, nu, ny, nw
+  !> Index into theta of a parameter named key(i) or key(i,j) after the
+  !> block table (keys, rows, columns, offsets); 0 if there is no such element.
+  subroutine element_index(name, bkey, brow, bcol, boff, idx)
+    character(len=*), intent(in) :: name, bkey(:)
+    integer, intent(in) :: brow(:), bcol(:), boff(:)
     integer, intent(out) :: idx
-    character(len=NAMELEN) :: key
-    integer :: p, q, i, j, ios, np
+    integer :: p, q, i, j, ios, b
     character(len=len(name)) :: s
 
     idx = 0
@@ -525,7 +659,6 @@ contains
     p = index(s, '(')
     q = index(s, ')')
     if (p < 2 .or. q < p + 2 .or. len_trim(s) /= q) return
-    key = s(1:p - 1)
     j = 0
     if (index(s(p + 1:q - 1), ',') > 0) then
       read (s(p + 1:q - 1), *, iostat=ios) i, j
@@ -533,34 +666,16 @@ contains
       read (s(p + 1:q - 1), *, iostat=ios) i
     end if
     if (ios /= 0) return
-    np = nx*nx + nx*nu + ny*nx + ny*nu + nx*nw
-    select case (trim(key))
-    case ('f')
-      if (in(i, nx) .and. in(j, nx)) idx = (j - 1)*nx + i
-    case ('g')
-      if (in(i, nx) .and. in(j, nu)) idx = nx*nx + (j - 1)*nx + i
-    case ('h')
-      if (in(i, ny) .and. in(j, nx)) idx = nx*nx + nx*nu + (j - 1)*ny + i
-    case ('d')
-      if (in(i, ny) .and. in(j, nu)) idx = nx*nx + nx*nu + ny*nx + (j - 1)*ny + i
-    case ('gamma')
-      if (in(i, nx) .and. in(j, nw)) idx = nx*nx + nx*nu + ny*nx + ny*nu + (j - 1)*nx + i
-    case ('x0')
-      if (in(i, nx) .and. j == 0) idx = np + i
-    case ('bias')
-      if (in(i, ny) .and. j == 0) idx = np + nx + i
-    case ('q')
-      if (in(i, nw) .and. j == 0) idx = np + nx + ny + i
-    case ('r')
-      if (in(i, ny) .and. j == 0) idx = np + nx + ny + nw + i
-    case ('s')
-      if (in(i, nw) .and. in(j, ny)) idx = np + nx + ny + nw + ny + (j - 1)*nw + i
-    end select
-  contains
-    logical function in(k, n)
-      integer, intent(in) :: k, n
-      in = k >= 1 .and. k <= n
-    end function in
+    do b = 1, size(bkey)
+      if (trim(bkey(b)) /= trim(s(1:p - 1)) .or. len_trim(bkey(b)) == 0) cycle
+      if (i < 1 .or. i > brow(b)) return
+      if (bcol(b) < 0) then
+        if (j == 0) idx = boff(b) + i
+      else if (j >= 1 .and. j <= bcol(b)) then
+        idx = boff(b) + (j - 1)*brow(b) + i
+      end if
+      return
+    end do
   end subroutine element_index
 
   !> The record of an estimate case: t(nt), u(nu, nt), y(ny, nt) from its

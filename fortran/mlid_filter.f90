@@ -224,6 +224,10 @@ contains
     nx = l%nx
     nw = l%nw
     ny = l%ny
+    if (.not. m%linear) then
+      msg = 'filter error needs a linear model (the extended Kalman filter is not implemented yet)'
+      return
+    end if
     dt = t(2) - t(1)
     do k = 2, size(t) - 1
       if (abs((t(k + 1) - t(k)) - dt) > 1.0e-9_wp*dt) then

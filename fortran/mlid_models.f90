@@ -15,10 +15,7 @@ module mlid_models
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: model_t, linear_model_t, model_create, MODEL_LINEAR, layout_t, model_layout
-
-  !> Model kinds of the flat interface.
-  integer, parameter :: MODEL_LINEAR = 1
+  public :: model_t, linear_model_t, layout_t, model_layout
 
   type, abstract :: model_t
     integer :: nx = 0  !< states
@@ -26,6 +23,7 @@ module mlid_models
     integer :: ny = 0  !< outputs
     integer :: nw = 0  !< process-noise inputs
     integer :: np = 0  !< model parameters (before x0 and bias)
+    logical :: linear = .false.  !< f and h linear in x and u (the Kalman filter needs it)
   contains
     procedure(f_iface), deferred :: f
     procedure(h_iface), deferred :: h
@@ -137,44 +135,6 @@ contains
     l%os = l%or + m%ny
     l%nth = l%os + m%nw*m%ny
   end function model_layout
-
-  !> Build a model from the flat description of the interface.
-  !> iconst and rconst carry model constants (unused by the linear model).
-  subroutine model_create(kind, nx, nu, ny, nw, iconst, rconst, model, status, msg)
-    integer, intent(in) :: kind, nx, nu, ny, nw
-    integer, intent(in) :: iconst(:)
-    real(wp), intent(in) :: rconst(:)
-    class(model_t), allocatable, intent(out) :: model
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    type(linear_model_t) :: lin
-
-    status = MLID_OK
-    msg = ''
-    if (nx < 1 .or. nu < 0 .or. ny < 1 .or. nw < 0) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,4(i0,1x),a)') 'model dimensions nx, nu, ny, nw = ', nx, nu, ny, nw, &
-        'must be nx >= 1, nu >= 0, ny >= 1, nw >= 0'
-      return
-    end if
-    select case (kind)
-    case (MODEL_LINEAR)
-      lin%nx = nx
-      lin%nu = nu
-      lin%ny = ny
-      lin%nw = nw
-      lin%of = 0
-      lin%og = nx*nx
-      lin%oh = lin%og + nx*nu
-      lin%od = lin%oh + ny*nx
-      lin%ogam = lin%od + ny*nu
-      lin%np = lin%ogam + nx*nw
-      allocate (model, source=lin)
-    case default
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0)') 'unknown model kind ', kind
-    end select
-  end subroutine model_create
 
   pure subroutine lin_f(self, t, x, u, p, xdot)
     class(linear_model_t), intent(in) :: self

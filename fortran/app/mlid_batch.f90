@@ -94,8 +94,9 @@ contains
       call case_time_input(c, t, u, cstat, cmsg)
       if (cstat == MLID_OK) then
         allocate (y(c%ny, size(t)), x(c%nx, size(t)))
-        call mlid_simulate(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, 0, [integer ::], 0, &
-                           [real(wp) ::], size(t), t, u, c%seed, c%iopt, c%ropt, y, x, cstat, cmsg)
+        call mlid_simulate(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, size(c%iconst), &
+                           c%iconst, size(c%rconst), c%rconst, size(t), t, u, c%seed, c%iopt, &
+                           c%ropt, y, x, cstat, cmsg)
       end if
       if (cstat == MLID_OK) then
         path = c%out_file
@@ -118,9 +119,9 @@ contains
         allocate (theta(nth), sigma(nth), cov(nf, nf), info(nf, nf), grad(nf), eigval(nf), &
                   rhat(c%ny, c%ny), yhat(c%ny, size(t)), hist(c%iopt(1) + 1))
         call system_clock(t0, rate)
-        call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, 0, &
-                      [integer ::], 0, [real(wp) ::], size(t), t, u, y, c%iopt, c%ropt, nf, &
-                      size(hist), theta, &
+        call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, &
+                      size(c%iconst), c%iconst, size(c%rconst), c%rconst, size(t), t, u, y, &
+                      c%iopt, c%ropt, nf, size(hist), theta, &
                       sigma, cov, info, grad, eigval, rhat, yhat, hist, cost, niter, reason, &
                       converged, bad, cstat, cmsg)
         call system_clock(t1)

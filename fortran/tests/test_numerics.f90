@@ -2,7 +2,8 @@
 !> against finite differences, LAPACK wrappers, the random stream.
 program test_numerics
   use mlid_kinds, only: wp, MLID_OK
-  use mlid_models, only: model_t, model_create, model_layout, MODEL_LINEAR
+  use mlid_models, only: model_t, model_layout
+  use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG
   use mlid_params, only: param_map_t, param_map_create
   use mlid_options, only: options_t
   use mlid_filter, only: oe_predict
@@ -13,6 +14,7 @@ program test_numerics
 
   call test_rk4_order()
   call test_sensitivities()
+  call test_aero_jacobians()
   call test_linalg()
   call test_random()
   if (nfail > 0) then
@@ -109,6 +111,54 @@ contains
     end do
     call check(err < 1.0e-7_wp, 'output sensitivities match central differences (F, G, H, D, x0, bias)')
   end subroutine test_sensitivities
+
+  !> Analytic Jacobians of the longitudinal model (every regressor used)
+  !> against central differences.
+  subroutine test_aero_jacobians()
+    class(model_t), allocatable :: m
+    real(wp), parameter :: x(4) = [95.0_wp, 0.12_wp, 0.08_wp, 0.03_wp], u(2) = [-0.02_wp, 1.2e4_wp]
+    real(wp) :: p(13), a(4, 4), b(4, 13), c(7, 4), d(7, 13), fp(4), fm(4), yp(7), ym(7)
+    real(wp) :: e(4), ep(13), h, err
+    integer :: status, k, idx(13)
+    character(len=256) :: msg
+
+    ! C_D: 1, V/V0, alpha, alpha^2; C_L: 1, alpha, qhat; C_m: 1, V/V0, alpha, alpha^2, qhat, de
+    call model_create(MODEL_AERO_LONG, 4, 2, 7, 0, [4, 3, 6, 1, 2, 3, 4, 1, 3, 5, 1, 2, 3, 4, 5, 6], &
+                      [9.80665_wp, 4.028e-3_wp, 8.0027e-4_wp, -7.0153e-6_wp, 104.67_wp, 7472.0_wp, &
+                       0.0524_wp, 0.792_wp, 1.215_wp], m, status, msg)
+    call check(status == MLID_OK, 'longitudinal model created: '//trim(msg))
+    p = [0.1_wp, -0.05_wp, 0.23_wp, 0.8_wp, -0.2_wp, 3.2_wp, 6.0_wp, 0.13_wp, -0.014_wp, -1.0_wp, &
+         -0.4_wp, -27.0_wp, -1.4_wp]
+    idx = [(k, k=1, 13)]
+    call m%dfdx(0.0_wp, x, u, p, a)
+    call m%dfdp(0.0_wp, x, u, p, idx, b)
+    call m%dhdx(0.0_wp, x, u, p, c)
+    call m%dhdp(0.0_wp, x, u, p, idx, d)
+    err = 0.0_wp
+    do k = 1, 4
+      h = 1.0e-6_wp*max(1.0_wp, abs(x(k)))
+      e = 0.0_wp
+      e(k) = h
+      call m%f(0.0_wp, x + e, u, p, fp)
+      call m%f(0.0_wp, x - e, u, p, fm)
+      err = max(err, maxval(abs((fp - fm)/(2*h) - a(:, k)))/max(1.0_wp, maxval(abs(a(:, k)))))
+      call m%h(0.0_wp, x + e, u, p, yp)
+      call m%h(0.0_wp, x - e, u, p, ym)
+      err = max(err, maxval(abs((yp - ym)/(2*h) - c(:, k)))/max(1.0_wp, maxval(abs(c(:, k)))))
+    end do
+    do k = 1, 13
+      h = 1.0e-6_wp*max(1.0_wp, abs(p(k)))
+      ep = 0.0_wp
+      ep(k) = h
+      call m%f(0.0_wp, x, u, p + ep, fp)
+      call m%f(0.0_wp, x, u, p - ep, fm)
+      err = max(err, maxval(abs((fp - fm)/(2*h) - b(:, k)))/max(1.0_wp, maxval(abs(b(:, k)))))
+      call m%h(0.0_wp, x, u, p + ep, yp)
+      call m%h(0.0_wp, x, u, p - ep, ym)
+      err = max(err, maxval(abs((yp - ym)/(2*h) - d(:, k)))/max(1.0_wp, maxval(abs(d(:, k)))))
+    end do
+    call check(err < 1.0e-7_wp, 'longitudinal model: df/dx, df/dp, dh/dx, dh/dp match central differences')
+  end subroutine test_aero_jacobians
 
   subroutine test_linalg()
     real(wp) :: a(3, 3), w(3), v(3, 3), ainv(3, 3), logdet

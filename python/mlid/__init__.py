@@ -4,7 +4,7 @@ derivatives (NASA CR-2200 and beyond).  The numerics live in the Fortran core
 
 from .errors import (MlidError, InputError, SingularInformationError, DivergenceError,
                      NonConvergenceError, InternalError)
-from .model import LinearModel
+from .model import LinearModel, LongitudinalModel
 from .data import FlightData
 from .result import FitResult, whiteness
 from .reduction import reduce_measured_state, reduced_data, recover_disturbance
@@ -14,7 +14,7 @@ from .deck import read_deck, run_deck
 __version__ = "0.1.0"
 
 __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
-           "NonConvergenceError", "InternalError", "LinearModel", "FlightData", "FitResult",
+           "NonConvergenceError", "InternalError", "LinearModel", "LongitudinalModel", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
            "recover_disturbance"]

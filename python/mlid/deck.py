@@ -17,7 +17,7 @@ import numpy as np
 from . import core
 from .data import FlightData
 from .errors import InputError, MlidError
-from .model import LinearModel
+from .model import CONSTANTS, LinearModel, LongitudinalModel
 
 _REAL, _INT, _STR, _REALS, _INTS, _STRS = "real", "int", "str", "reals", "ints", "strs"
 _BOOL = "bool"
@@ -34,6 +34,9 @@ def _schema():
             "bias": (_REALS, None), "q": (_REALS, None), "r": (_REALS, None),
             "s": (_REALS, None), "free": (_STRS, []), "names": (_STRS, []),
             "tie": (_STRS, []), "input_hold": (_STR, "linear"),
+            "cd_regressors": (_STRS, []), "cl_regressors": (_STRS, []),
+            "cm_regressors": (_STRS, []), "cd": (_REALS, None), "cl": (_REALS, None),
+            "cm": (_REALS, None), "constants": (_REALS, None),
             "substeps": (_INT, 1), "state_names": (_STRS, []),
             "input_names": (_STRS, []), "output_names": (_STRS, []),
         },
@@ -222,9 +225,39 @@ def _given(values, n, key, shape, required):
     return np.array(vals[:n], dtype=float)
 
 
+def _longitudinal(m):
+    if any(v not in (0, w) for v, w in zip((m["nx"], m["nu"], m["ny"], m["nw"]), (4, 2, 7, 0))):
+        raise InputError("group &model: a longitudinal model has nx, nu, ny, nw = 4, 2, 7, 0")
+    regs = {key: [r for r in m[f"{key.lower()}_regressors"] if r] for key in ("CD", "CL", "Cm")}
+    coeffs = {key: _given(m[key.lower()], len(regs[key]), key.lower(), str(len(regs[key])), True)
+              for key in regs}
+    consts = [v for v in (m["constants"] or []) if v is not None]
+    if len(consts) != 9:
+        raise InputError("group &model: constants needs 9 values: g, S/m, S cbar/Iy, lT/Iy, V0, "
+                         "m, sigma_T, rho, cbar/2")
+    free = [f for f in m["free"] if f]
+    labels = [n for n in m["names"] if n]
+    if len(labels) > len(free):
+        raise InputError("group &model: more names than free parameters")
+    try:
+        model = LongitudinalModel(regs, coeffs, dict(zip(CONSTANTS, consts)),
+                                  x0=_given(m["x0"], 4, "x0", "4", False),
+                                  bias=_given(m["bias"], 7, "bias", "7", False),
+                                  r=_given(m["r"], 7, "r", "7", False), free=free,
+                                  input_hold=m["input_hold"].lower(), substeps=m["substeps"])
+    except InputError as exc:
+        raise InputError(f"group &model: {exc}") from None
+    model.names.update({model.canonical_name(f): n for f, n in zip(free, labels)})
+    return model
+
+
 def _model(m):
-    if m["kind"].lower() != "linear":
-        raise InputError(f"group &model: unknown kind '{m['kind']}' (available: linear)")
+    kind = m["kind"].lower()
+    if kind == "longitudinal":
+        return _longitudinal(m)
+    if kind != "linear":
+        raise InputError(f"group &model: unknown kind '{m['kind']}' (available: linear, "
+                         "longitudinal)")
     nx, nu, ny, nw = m["nx"], m["nu"], m["ny"], m["nw"]
     if not (1 <= nx <= 30 and 0 <= nu <= 10 and 1 <= ny <= 30 and 0 <= nw <= 10):
         raise InputError(f"group &model: nx, nu, ny, nw = {nx} {nu} {ny} {nw} out of range; "

@@ -1,8 +1,14 @@
 """Model objects: what the equations are and which parameters are free.
 
-Every model carries its full parameter vector ``theta = [p, x0, bias]``
-(model parameters, initial states, output biases) and a list of free
-parameter names; the Fortran core sees only flat arrays.
+Every model carries its full parameter vector
+
+    theta = [p, x0, bias, q, r, S]
+
+(model parameters, initial states, output biases, process- and
+measurement-noise variances, their cross-covariance) and a list of free
+parameter names; the Fortran core sees only flat arrays.  Parameters are
+named by element, 1-based as in a deck: ``'f(1,2)'``, ``'x0(3)'``,
+``'r(2)'``, ``'cm(4)'``.
 """
 
 import re
@@ -16,67 +22,27 @@ _ELEMENT = re.compile(r"^\s*([a-z0-9_]+)\s*\(\s*(\d+)\s*(?:,\s*(\d+)\s*)?\)\s*$"
 INPUT_HOLDS = ("linear", "zoh")
 
 
-class LinearModel:
-    """Linear state space with process and measurement noise
+class Model:
+    """What every model shares: the generic blocks of theta and the free,
+    tied and labelled parameters.  Subclasses define kind, iconst, rconst,
+    _model_blocks() and _from_parts()."""
 
-        xdot = F x + G u + Gamma w,   y = H x + D u + bias + v,
+    kind = 0
 
-    w (nw values) held over each sample interval with variances q (diagonal
-    Q), v with variances r (diagonal R), cross-covariance S = E{w v'} (nw x ny).
-
-    Parameters are named by element, 1-based as in a deck: ``'f(1,2)'``,
-    ``'g(3,1)'``, ``'h(i,j)'``, ``'d(i,j)'``, ``'gamma(i,j)'``, ``'x0(i)'``,
-    ``'bias(i)'``, ``'q(i)'``, ``'r(i)'``, ``'s(i,j)'``.  ``free`` lists the
-    names to estimate; ``names`` gives them readable labels (``{'f(3,3)':
-    'M_q'}``) used in reports; ``ties`` holds parameters equal to a free one
-    (``{'f(1,5)': 'f(1,3)'}``).
-    """
-
-    kind = 1
-    iconst = np.zeros(0, dtype=np.int32)
-    rconst = np.zeros(0)
-
-    def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
-                 input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
-                 ties=None):
-        F = np.atleast_2d(np.asarray(F, dtype=float))
-        nx = F.shape[0]
-        if F.shape != (nx, nx):
-            raise InputError(f"F must be square, got shape {F.shape}")
-        G = np.asarray(G, dtype=float)
-        if G.ndim == 1:
-            G = G.reshape(nx, -1)
-        H = np.atleast_2d(np.asarray(H, dtype=float))
-        if G.shape[0] != nx:
-            raise InputError(f"G must have {nx} rows (one per state), got shape {G.shape}")
-        if H.shape[1] != nx:
-            raise InputError(f"H must have {nx} columns (one per state), got shape {H.shape}")
-        nu, ny = G.shape[1], H.shape[0]
-        D = np.zeros((ny, nu)) if D is None else np.asarray(D, dtype=float).reshape(ny, nu)
+    def _init_common(self, nx, nu, ny, nw, x0, bias, q, r, S, free, names, ties, input_hold,
+                     substeps):
         x0 = np.zeros(nx) if x0 is None else np.asarray(x0, dtype=float).ravel()
         bias = np.zeros(ny) if bias is None else np.asarray(bias, dtype=float).ravel()
-        if x0.size != nx:
-            raise InputError(f"x0 must have {nx} values (one per state), got {x0.size}")
-        if bias.size != ny:
-            raise InputError(f"bias must have {ny} values (one per output), got {bias.size}")
-        Gamma = np.zeros((nx, 0)) if Gamma is None else np.asarray(Gamma, dtype=float)
-        if Gamma.ndim == 1:
-            Gamma = Gamma.reshape(nx, -1)
-        if Gamma.shape[0] != nx:
-            raise InputError(f"Gamma must have {nx} rows (one per state), got shape {Gamma.shape}")
-        nw = Gamma.shape[1]
         q = np.zeros(nw) if q is None else np.asarray(q, dtype=float).ravel()
         r = np.zeros(ny) if r is None else np.asarray(r, dtype=float).ravel()
         S = np.zeros((nw, ny)) if S is None else np.asarray(S, dtype=float).reshape(nw, ny)
-        if q.size != nw:
-            raise InputError(f"q must have {nw} values (one per noise input), got {q.size}")
-        if r.size != ny:
-            raise InputError(f"r must have {ny} values (one per output), got {r.size}")
+        for key, a, n in (("x0", x0, nx), ("bias", bias, ny), ("q", q, nw), ("r", r, ny)):
+            if a.size != n:
+                raise InputError(f"{key} must have {n} values, got {a.size}")
         if input_hold not in INPUT_HOLDS:
             raise InputError(f"input_hold must be one of {INPUT_HOLDS}, got {input_hold!r}")
         self.nx, self.nu, self.ny, self.nw = nx, nu, ny, nw
-        self.F, self.G, self.H, self.D, self.x0, self.bias = F, G, H, D, x0, bias
-        self.Gamma, self.q, self.r, self.S = Gamma, q, r, S
+        self.x0, self.bias, self.q, self.r, self.S = x0, bias, q, r, S
         self.input_hold = input_hold
         self.substeps = int(substeps)
         self.names = dict(names or {})
@@ -84,8 +50,7 @@ class LinearModel:
         dup = {n for n in self.free if self.free.count(n) > 1}
         if dup:
             raise InputError(f"free parameter listed twice: {sorted(dup)[0]}")
-        for key in self.names:
-            self.canonical_name(key)
+        self.names = {self.canonical_name(k): v for k, v in self.names.items()}
         self.ties = {self.canonical_name(a): self.canonical_name(b)
                      for a, b in (ties or {}).items()}
         for a, b in self.ties.items():
@@ -94,15 +59,20 @@ class LinearModel:
             if b in self.ties:
                 raise InputError(f"{a!r} is tied to {b!r}, which is itself tied")
 
+    def _common(self):
+        """Keyword arguments that carry the generic parts to a copy."""
+        return dict(x0=self.x0, bias=self.bias, q=self.q, r=self.r, S=self.S, free=self.free,
+                    names=self.names, ties=self.ties, input_hold=self.input_hold,
+                    substeps=self.substeps)
+
     # -- parameter vector ------------------------------------------------
     def _blocks(self):
-        return [("f", self.F), ("g", self.G), ("h", self.H), ("d", self.D),
-                ("gamma", self.Gamma), ("x0", self.x0), ("bias", self.bias), ("q", self.q),
-                ("r", self.r), ("s", self.S)]
+        return self._model_blocks() + [("x0", self.x0), ("bias", self.bias), ("q", self.q),
+                                       ("r", self.r), ("s", self.S)]
 
     @property
     def theta(self):
-        """All parameters [F, G, H, D, Gamma, x0, bias, q, r, S], matrices column-major."""
+        """All parameters, in the core's order; matrices column-major."""
         return np.concatenate([a.ravel(order="F") for _, a in self._blocks()])
 
     def element_names(self):
@@ -121,8 +91,9 @@ class LinearModel:
         m = _ELEMENT.match(str(name))
         blocks = dict(self._blocks())
         if not m or m.group(1).lower() not in blocks:
-            raise InputError(f"parameter {name!r} does not exist: use f, g, h, d, gamma, s (i,j) "
-                             "or x0, bias, q, r (i)")
+            raise InputError(f"parameter {name!r} does not exist: use "
+                             + ", ".join(f"{k}(i,j)" if a.ndim == 2 else f"{k}(i)"
+                                         for k, a in self._blocks()))
         key, i = m.group(1).lower(), int(m.group(2))
         a = blocks[key]
         if a.ndim == 2:
@@ -158,6 +129,12 @@ class LinearModel:
         """Readable labels of the free parameters, in theta order."""
         return [self.names.get(n, n) for n, f in zip(self.element_names(), self.free_mask) if f]
 
+    def value(self, name):
+        """The value of one parameter, by element name or label."""
+        labels = {v: k for k, v in self.names.items()}
+        key = self.canonical_name(labels.get(name, name))
+        return float(self.theta[self.element_names().index(key)])
+
     def with_theta(self, theta):
         """A copy with the parameter vector replaced."""
         theta = np.asarray(theta, dtype=float)
@@ -165,20 +142,145 @@ class LinearModel:
         for key, a in self._blocks():
             parts[key] = theta[k:k + a.size].reshape(a.shape, order="F")
             k += a.size
-        return LinearModel(parts["f"], parts["g"], parts["h"], parts["d"], parts["x0"],
-                           parts["bias"], free=self.free, names=self.names,
-                           input_hold=self.input_hold, substeps=self.substeps,
-                           Gamma=parts["gamma"], q=parts["q"], r=parts["r"], S=parts["s"],
-                           ties=self.ties)
+        common = self._common()
+        common.update(x0=parts.pop("x0"), bias=parts.pop("bias"), q=parts.pop("q"),
+                      r=parts.pop("r"), S=parts.pop("s"))
+        return self._from_parts(parts, common)
 
     def with_free(self, free, names=None):
         """A copy with another free set (and labels, if given)."""
         m = self.with_theta(self.theta)
         m.free = [m.canonical_name(n) for n in free]
         if names is not None:
-            m.names = dict(names)
+            m.names = {m.canonical_name(k): v for k, v in names.items()}
         return m
 
     def __repr__(self):
-        return (f"LinearModel(nx={self.nx}, nu={self.nu}, ny={self.ny}, nw={self.nw}, "
+        return (f"{type(self).__name__}(nx={self.nx}, nu={self.nu}, ny={self.ny}, nw={self.nw}, "
                 f"free={self.free_names()})")
+
+
+class LinearModel(Model):
+    """Linear state space with process and measurement noise
+
+        xdot = F x + G u + Gamma w,   y = H x + D u + bias + v,
+
+    w (nw values) held over each sample interval with variances q (diagonal
+    Q), v with variances r (diagonal R), cross-covariance S = E{w v'} (nw x ny).
+
+    Model parameters: ``'f(i,j)'``, ``'g(i,j)'``, ``'h(i,j)'``, ``'d(i,j)'``,
+    ``'gamma(i,j)'``; ``names`` gives readable labels (``{'f(3,3)': 'M_q'}``);
+    ``ties`` holds parameters equal to a free one (``{'f(1,5)': 'f(1,3)'}``).
+    """
+
+    kind = 1
+    iconst = np.zeros(0, dtype=np.int32)
+    rconst = np.zeros(0)
+
+    def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
+                 input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
+                 ties=None):
+        F = np.atleast_2d(np.asarray(F, dtype=float))
+        nx = F.shape[0]
+        if F.shape != (nx, nx):
+            raise InputError(f"F must be square, got shape {F.shape}")
+        G = np.asarray(G, dtype=float)
+        if G.ndim == 1:
+            G = G.reshape(nx, -1)
+        H = np.atleast_2d(np.asarray(H, dtype=float))
+        if G.shape[0] != nx:
+            raise InputError(f"G must have {nx} rows (one per state), got shape {G.shape}")
+        if H.shape[1] != nx:
+            raise InputError(f"H must have {nx} columns (one per state), got shape {H.shape}")
+        nu, ny = G.shape[1], H.shape[0]
+        D = np.zeros((ny, nu)) if D is None else np.asarray(D, dtype=float).reshape(ny, nu)
+        Gamma = np.zeros((nx, 0)) if Gamma is None else np.asarray(Gamma, dtype=float)
+        if Gamma.ndim == 1:
+            Gamma = Gamma.reshape(nx, -1)
+        if Gamma.shape[0] != nx:
+            raise InputError(f"Gamma must have {nx} rows (one per state), got shape {Gamma.shape}")
+        self.F, self.G, self.H, self.D, self.Gamma = F, G, H, D, Gamma
+        self._init_common(nx, nu, ny, Gamma.shape[1], x0, bias, q, r, S, free, names, ties,
+                          input_hold, substeps)
+
+    def _model_blocks(self):
+        return [("f", self.F), ("g", self.G), ("h", self.H), ("d", self.D),
+                ("gamma", self.Gamma)]
+
+    def _from_parts(self, parts, common):
+        return LinearModel(parts["f"], parts["g"], parts["h"], parts["d"],
+                           Gamma=parts["gamma"], **common)
+
+
+#: Regressors of the longitudinal model (fortran/mlid_aero_long.f90), by name,
+#: with the suffix of the coefficient names they give (C_D0, C_Lalpha, C_mq, ...).
+REGRESSORS = {"1": "0", "V/V0": "V", "alpha": "alpha", "alpha^2": "alpha2", "qhat": "q",
+              "de": "de"}
+#: Its constants, in the core's order.
+CONSTANTS = ("g", "S/m", "S cbar/Iy", "lT/Iy", "V0", "m", "sigma_T", "rho", "cbar/2")
+
+
+class LongitudinalModel(Model):
+    """Nonlinear longitudinal aircraft model (states V, alpha, theta, q;
+    inputs delta_e, thrust; outputs V, alpha, theta, q, qdot, a_x, a_z) whose
+    C_D, C_L, C_m are linear in their coefficients over named regressors
+    (``REGRESSORS``); the equations are in fortran/mlid_aero_long.f90.
+
+    regressors: {'CD': ['1', 'V/V0', 'alpha'], 'CL': [...], 'Cm': [...]}
+    coefficients: {'CD': [values], ...} (start values, same order)
+    constants: {name: value} for every name in ``CONSTANTS``
+    Model parameters are ``'cd(k)'``, ``'cl(k)'``, ``'cm(k)'``, labelled
+    C_D0, C_DV, C_Dalpha, ... unless ``names`` says otherwise.
+    """
+
+    kind = 2
+
+    def __init__(self, regressors, coefficients, constants, x0=None, bias=None, free=(),
+                 names=None, input_hold="linear", substeps=1, r=None, ties=None, q=None, S=None):
+        self.regressors = {k: list(regressors.get(k, [])) for k in ("CD", "CL", "Cm")}
+        unknown = set(regressors) - set(self.regressors)
+        if unknown:
+            raise InputError(f"unknown coefficient {sorted(unknown)[0]!r}: use CD, CL, Cm")
+        for key, regs in self.regressors.items():
+            for reg in regs:
+                if reg not in REGRESSORS:
+                    raise InputError(f"regressor {reg!r} does not exist (in {key}): use "
+                                     + ", ".join(REGRESSORS))
+        self.coefficients = {}
+        for key, regs in self.regressors.items():
+            vals = np.asarray(coefficients.get(key, np.zeros(len(regs))), dtype=float).ravel()
+            if vals.size != len(regs):
+                raise InputError(f"{key} has {len(regs)} regressors but {vals.size} values")
+            self.coefficients[key] = vals
+        missing = [c for c in CONSTANTS if c not in constants]
+        if missing:
+            raise InputError(f"missing constant {missing[0]!r} (need {', '.join(CONSTANTS)})")
+        self.constants = {c: float(constants[c]) for c in CONSTANTS}
+        labels = {}
+        for key, block in (("CD", "cd"), ("CL", "cl"), ("Cm", "cm")):
+            for k, reg in enumerate(self.regressors[key]):
+                labels[f"{block}({k + 1})"] = f"C_{key[1]}{REGRESSORS[reg]}"
+        labels.update(names or {})
+        self._init_common(4, 2, 7, 0, x0, bias, q, r, S, free, labels, ties, input_hold,
+                          substeps)
+
+    @property
+    def iconst(self):
+        codes = list(REGRESSORS)
+        regs = [self.regressors[k] for k in ("CD", "CL", "Cm")]
+        return np.array([len(r) for r in regs] + [codes.index(x) + 1 for r in regs for x in r],
+                        dtype=np.int32)
+
+    @property
+    def rconst(self):
+        return np.array([self.constants[c] for c in CONSTANTS])
+
+    def _model_blocks(self):
+        return [("cd", self.coefficients["CD"]), ("cl", self.coefficients["CL"]),
+                ("cm", self.coefficients["Cm"])]
+
+    def _from_parts(self, parts, common):
+        common.pop("q")
+        common.pop("S")
+        return LongitudinalModel(self.regressors, {"CD": parts["cd"], "CL": parts["cl"],
+                                                   "Cm": parts["cm"]}, self.constants, **common)

@@ -1,0 +1,66 @@
+!> Builds a model of any kind from the flat description of the interface.
+module mlid_model_factory
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_models, only: model_t, linear_model_t
+  use mlid_aero_long, only: aero_long_t, aero_long_create
+  implicit none
+  private
+  public :: model_create, MODEL_LINEAR, MODEL_AERO_LONG
+
+  !> Model kinds of the flat interface.
+  integer, parameter :: MODEL_LINEAR = 1      !< linear state space (mlid_models)
+  integer, parameter :: MODEL_AERO_LONG = 2   !< nonlinear longitudinal aircraft (mlid_aero_long)
+
+contains
+
+  !> Build a model from the flat description of the interface.
+  !> iconst and rconst carry model constants (unused by the linear model).
+  subroutine model_create(kind, nx, nu, ny, nw, iconst, rconst, model, status, msg)
+    integer, intent(in) :: kind, nx, nu, ny, nw
+    integer, intent(in) :: iconst(:)
+    real(wp), intent(in) :: rconst(:)
+    class(model_t), allocatable, intent(out) :: model
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(linear_model_t) :: lin
+    type(aero_long_t) :: aero
+
+    status = MLID_OK
+    msg = ''
+    if (nx < 1 .or. nu < 0 .or. ny < 1 .or. nw < 0) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,4(i0,1x),a)') 'model dimensions nx, nu, ny, nw = ', nx, nu, ny, nw, &
+        'must be nx >= 1, nu >= 0, ny >= 1, nw >= 0'
+      return
+    end if
+    select case (kind)
+    case (MODEL_LINEAR)
+      lin%nx = nx
+      lin%nu = nu
+      lin%ny = ny
+      lin%nw = nw
+      lin%of = 0
+      lin%og = nx*nx
+      lin%oh = lin%og + nx*nu
+      lin%od = lin%oh + ny*nx
+      lin%ogam = lin%od + ny*nu
+      lin%np = lin%ogam + nx*nw
+      lin%linear = .true.
+      allocate (model, source=lin)
+    case (MODEL_AERO_LONG)
+      if (nx /= 4 .or. nu /= 2 .or. ny /= 7 .or. nw /= 0) then
+        status = MLID_ERR_INPUT
+        msg = 'longitudinal model: nx, nu, ny, nw must be 4, 2, 7, 0 (V, alpha, theta, q; '// &
+              'delta_e, thrust; V, alpha, theta, q, qdot, a_x, a_z)'
+        return
+      end if
+      call aero_long_create(iconst, rconst, aero, status, msg)
+      if (status /= MLID_OK) return
+      allocate (model, source=aero)
+    case default
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0)') 'unknown model kind ', kind
+    end select
+  end subroutine model_create
+
+end module mlid_model_factory

@@ -1,0 +1,133 @@
+"""The nonlinear longitudinal model on the real HFB-320 record
+(../shared/data, read from there; skipped when absent) and on synthetic data."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import mlid
+from conftest import BIN, REPO
+
+DATA = REPO.parent / "shared" / "data" / "hfb320_1_10.asc"
+DECK = REPO / "cases" / "hfb320" / "hfb320.nml"
+needs_data = pytest.mark.skipif(not DATA.is_file(),
+                                reason=f"real flight data not found at {DATA}")
+
+# Reference result of ../shared/data/README.md (a second implementation).
+REF = np.array([0.117758, -0.0517459, 0.234846, -0.204711, 0.363549, 3.21232, 0.134413,
+                -0.0139045, -1.00241, -27.0570, -1.43707])
+REF_SIGMA = np.array([0.00323, 0.00280, 0.00639, 0.0196, 0.0173, 0.0394, 0.00512, 0.00473,
+                      0.00867, 0.681, 0.0174])
+REF_DET_R = 3.0161e-24
+
+
+@needs_data
+def test_hfb320_reproduces_the_reference():
+    case = mlid.read_deck(DECK)[0]
+    out, res = mlid.deck.run_case(case)
+    assert res.converged
+    assert np.all(np.abs(res.estimate - REF) / REF_SIGMA < 0.1), (res.estimate - REF) / REF_SIGMA
+    assert np.all(np.abs(res.sigma / REF_SIGMA - 1) < 0.05), res.sigma / REF_SIGMA
+    assert abs(res.det_r / REF_DET_R - 1) < 0.005
+
+
+@needs_data
+def test_hfb320_both_front_ends_agree(tmp_path):
+    py = subprocess.run([str(BIN / "mlid"), "run", str(DECK), "--json", str(tmp_path / "py.json")],
+                        capture_output=True, text=True)
+    fo = subprocess.run([str(BIN / "mlid-batch"), str(DECK), "--json", str(tmp_path / "fo.json")],
+                        capture_output=True, text=True)
+    assert py.returncode == 0 and fo.returncode == 0, (py.stderr, fo.stderr)
+    a = json.loads((tmp_path / "py.json").read_text())[0]
+    b = json.loads((tmp_path / "fo.json").read_text())[0]
+    assert a["parameters"][:3] == b["parameters"][:3] == ["C_D0", "C_DV", "C_Dalpha"]
+    np.testing.assert_allclose(a["estimate"], b["estimate"], rtol=1e-10, atol=0)
+    np.testing.assert_allclose(a["sigma"], b["sigma"], rtol=1e-10, atol=0)
+
+
+def _hfb_like(free, regressors=None, values=None):
+    regs = regressors or {"CD": ["1", "V/V0", "alpha"], "CL": ["1", "V/V0", "alpha"],
+                          "Cm": ["1", "V/V0", "alpha", "qhat", "de"]}
+    values = values or {"CD": REF[:3], "CL": REF[3:6], "Cm": REF[6:]}
+    const = dict(zip(mlid.model.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
+                                            7472.0, 0.0524, 0.792, 1.215]))
+    r = [0.33, 5.2e-6, 1.5e-4, 6.9e-6, 6.2e-5, 6.0e-4, 4.7e-2]   # ~ the HFB residual variances
+    return mlid.LongitudinalModel(regs, values, const, x0=[106.0, 0.11, 0.105, -0.003],
+                                  free=free, r=r)
+
+
+def _inputs():
+    t = np.arange(601) * 0.1
+    de = -0.008 + mlid.core.input_signal("3211", 0.03, 2.0, 1.5, 0.1, 601) \
+        + mlid.core.input_signal("pulse", -0.04, 40.0, 2.0, 0.1, 601)
+    return t, np.column_stack([de, np.full(601, 11600.0)])
+
+
+COEFFS = [f"cd({k})" for k in (1, 2, 3)] + [f"cl({k})" for k in (1, 2, 3)] + \
+    [f"cm({k})" for k in (1, 2, 3, 4, 5)]
+
+
+def test_synthetic_longitudinal_fit_recovers_truth():
+    truth = _hfb_like(COEFFS)
+    t, u = _inputs()
+    data, _ = mlid.simulate(truth, t, u, seed=21)
+    start = truth.with_theta(truth.theta * np.where(truth.free_mask == 1, 1.2, 1.0))
+    res = mlid.fit(start, data)
+    assert res.converged
+    z = (res.estimate - truth.theta[truth.free_mask == 1]) / res.sigma
+    assert np.all(np.abs(z) < 3), z
+
+
+def test_longitudinal_gradient_matches_finite_differences():
+    regs = {"CD": ["1", "V/V0", "alpha", "alpha^2"], "CL": ["1", "alpha", "qhat"],
+            "Cm": ["1", "V/V0", "alpha", "alpha^2", "qhat", "de"]}
+    free = [f"cd({k})" for k in range(1, 5)] + [f"cl({k})" for k in range(1, 4)] + \
+        [f"cm({k})" for k in range(1, 7)] + ["x0(1)", "x0(2)", "x0(4)", "bias(6)"]
+    values = {"CD": [0.118, -0.052, 0.235, 0.5], "CL": [0.16, 3.21, 5.0],
+              "Cm": [0.12, -0.014, -1.0, 0.5, -27.0, -1.44]}
+    model = _hfb_like(free, regs, values)
+    t, u = _inputs()
+    data, _ = mlid.simulate(model, t[:300], u[:300], seed=4)
+    start = model.with_theta(model.theta * np.where(model.free_mask == 1, 1.05, 1.0))
+    ev = mlid.evaluate(start, data)
+    theta, idx = start.theta, np.flatnonzero(start.free_mask)
+
+    def cost(th):
+        return mlid.evaluate(start.with_theta(th), data)["cost"]
+
+    fd = []
+    for k in idx:
+        h = 1e-4 * max(abs(theta[k]), 1e-2)
+        e = np.zeros_like(theta)
+        e[k] = h
+        fd.append((8 * (cost(theta + e) - cost(theta - e))
+                   - (cost(theta + 2 * e) - cost(theta - 2 * e))) / (12 * h))
+    fd = np.array(fd)
+    rel = np.abs(fd - ev["gradient"]) / np.maximum(np.abs(fd), 1.0)
+    assert np.max(rel) < 1e-6, dict(zip(start.free_names(), rel))
+
+
+def test_filter_error_refuses_nonlinear_models():
+    model = _hfb_like(["cd(1)"])
+    t, u = _inputs()
+    data, _ = mlid.simulate(model, t[:50], u[:50], seed=1)
+    with pytest.raises(mlid.InputError, match="needs a linear model"):
+        mlid.fit(model, data, method="filter_error")
+
+
+@pytest.mark.parametrize("change, phrase", [
+    (("'alpha', 'qhat', 'de'", "'alpha', 'qbar', 'de'"), "regressor 'qbar' does not exist"),
+    (("0.792, 1.215,", "0.792,"), "constants needs 9 values"),
+    (("'cm(5)',", "'cm(6)',"), "'cm(6)' does not exist"),
+])
+def test_bad_longitudinal_decks(tmp_path, change, phrase):
+    text = DECK.read_text().replace(*change).replace("../../../shared/data/hfb320_1_10.asc",
+                                                     str(DATA))
+    deck = tmp_path / "bad.nml"
+    deck.write_text(text)
+    for cmd in ([str(BIN / "mlid"), "run", str(deck)], [str(BIN / "mlid-batch"), str(deck)]):
+        out = subprocess.run(cmd, capture_output=True, text=True)
+        assert out.returncode == 1 and phrase in out.stderr, (cmd[0], out.stderr)
+        assert "Traceback" not in out.stderr
