@@ -23,7 +23,7 @@ module mlid_aero_long
   use mlid_models, only: model_t
   implicit none
   private
-  public :: aero_long_t, aero_long_create, REGRESSOR_NAMES, NREG
+  public :: aero_long_t, aero_long_create, check_longitudinal_record, REGRESSOR_NAMES, NREG
 
   !> Regressor codes 1..NREG and their names (the deck and Python use the names).
   integer, parameter :: NREG = 6
@@ -98,6 +98,32 @@ contains
     status = MLID_OK
     msg = ''
   end subroutine aero_long_create
+
+  !> Checks of a record against the model's units: a speed that is not
+  !> positive is an error (the equations divide by V); angles or an elevator
+  !> beyond 1 rad (57 deg) most likely are degrees: a warning (status OK,
+  !> message set).
+  subroutine check_longitudinal_record(u, y, status, msg)
+    real(wp), intent(in) :: u(:, :), y(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: j
+    status = MLID_OK
+    msg = ''
+    do j = 1, size(y, 2)
+      if (.not. y(1, j) > 0.0_wp) then
+        status = MLID_ERR_INPUT
+        write (msg, '(a,i0,a)') 'data: output 1 (V) must be a positive airspeed in m/s; it is <= 0 '// &
+          'at sample ', j, ' (wrong column?)'
+        return
+      end if
+    end do
+    if (maxval(abs(y(2:3, :))) > 1.0_wp .or. maxval(abs(u(1, :))) > 1.0_wp) then
+      write (msg, '(a,g0.4,a)') 'warning: angles in the data reach ', &
+        max(maxval(abs(y(2:3, :))), maxval(abs(u(1, :)))), ': they look like degrees, the '// &
+        'longitudinal model expects radians'
+    end if
+  end subroutine check_longitudinal_record
 
   !> Regressor values and their derivatives with respect to (V, alpha, q).
   pure subroutine regressor(self, k, x, u, r, dr)

@@ -10,7 +10,7 @@
 !>   itie(nth)               j: theta(k) is held equal to theta(j); 0: not tied
 !>   iconst, rconst          model constants (unused by the linear model)
 !>   t(nt), u(nu,nt), y(ny,nt)   the record, one column per sample
-!>   iopt(8), ropt(8)        options, layout in mlid_options
+!>   iopt(12), ropt(12)      options, layout in mlid_options
 !>   status, msg             0 and '' on success, see mlid_kinds
 module mlid_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
@@ -25,6 +25,7 @@ module mlid_api
   use mlid_simulate, only: simulate_outputs
   use mlid_monte_carlo, only: monte_carlo
   use mlid_inputs, only: input_signal
+  use mlid_aero_long, only: aero_long_t, check_longitudinal_record
   implicit none
   private
   public :: mlid_input_signal, mlid_default_options, mlid_theta_size, mlid_fit, mlid_evaluate, &
@@ -45,8 +46,8 @@ contains
 
   !> The default options, so that Python and decks share one set.
   subroutine mlid_default_options(iopt, ropt)
-    integer(c_int), intent(out) :: iopt(8)
-    real(c_double), intent(out) :: ropt(8)
+    integer(c_int), intent(out) :: iopt(12)
+    real(c_double), intent(out) :: ropt(12)
     call options_to_flat(options_t(), iopt, ropt)
   end subroutine mlid_default_options
 
@@ -70,24 +71,25 @@ contains
   end subroutine mlid_theta_size
 
   !> Maximum-likelihood fit from theta0 (output or filter error, iopt(6)).
-  !> Out: theta, sigma (Cramer-Rao, 0 for fixed), cov/info/grad/eigval over
+  !> Out: theta_start (theta0, or the equation-error start-up's values), theta, sigma (Cramer-Rao, 0 for fixed), cov/info/grad/eigval over
   !> the nf free parameters, rhat (R-hat, or the mean innovation covariance),
   !> yhat, cost_hist(nc) (nc = max_iter + 1; entries past niter + 1 are 0),
   !> cost, niter, reason (mlid_kinds STOP_*), converged (0/1), bad_param
   !> (free index of a singular direction).
   subroutine mlid_fit(mkind, nx, nu, ny, nw, nth, theta0, isfree, itie, nic, iconst, nrc, &
-                      rconst, nt, t, u, y, iopt, ropt, nf, nc, theta, sigma, cov, info, grad, &
-                      eigval, rhat, yhat, cost_hist, cost, niter, reason, converged, bad_param, &
-                      status, msg)
+                      rconst, nt, t, u, y, iopt, ropt, nf, nc, theta_start, theta, sigma, cov, &
+                      info, grad, eigval, rhat, yhat, cost_hist, cost, niter, reason, converged, &
+                      bad_param, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nc
     real(c_double), intent(in) :: theta0(nth)
     integer(c_int), intent(in) :: isfree(nth), itie(nth)
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
-    integer(c_int), intent(in) :: iopt(8)
-    real(c_double), intent(in) :: ropt(8)
-    real(c_double), intent(out) :: theta(nth), sigma(nth), cov(nf, nf), info(nf, nf), grad(nf)
+    integer(c_int), intent(in) :: iopt(12)
+    real(c_double), intent(in) :: ropt(12)
+    real(c_double), intent(out) :: theta_start(nth), theta(nth), sigma(nth), cov(nf, nf)
+    real(c_double), intent(out) :: info(nf, nf), grad(nf)
     real(c_double), intent(out) :: eigval(nf), rhat(ny, ny), yhat(ny, nt), cost_hist(nc), cost
     integer(c_int), intent(out) :: niter, reason, converged, bad_param, status
     character(len=256), intent(out) :: msg
@@ -95,8 +97,10 @@ contains
     type(options_t) :: opt
     type(param_map_t) :: pm
     type(fit_result_t) :: res
+    character(len=256) :: warning
     integer :: k
 
+    theta_start = theta0
     theta = theta0
     sigma = 0.0_wp
     cov = 0.0_wp
@@ -114,6 +118,7 @@ contains
     call setup(mkind, nx, nu, ny, nw, theta0, isfree, itie, iconst, rconst, t, u, y, iopt, &
                ropt, nf, m, opt, pm, status, msg)
     if (status /= MLID_OK) return
+    warning = msg
     if (nc /= opt%max_iter + 1) then
       status = MLID_ERR_INPUT
       write (msg, '(a,i0,a,i0)') 'cost history length ', nc, ' must be max_iter + 1 = ', &
@@ -121,6 +126,7 @@ contains
       return
     end if
     call newton_fit(m, theta0, pm, t, u, y, opt, res, status, msg)
+    if (allocated(res%theta_start)) theta_start = res%theta_start
     if (.not. allocated(res%theta)) return
     theta = res%theta
     cost_hist = res%cost_hist
@@ -139,6 +145,7 @@ contains
     reason = res%reason
     converged = merge(1, 0, res%converged)
     bad_param = res%bad_param
+    if (status == MLID_OK) msg = warning
   end subroutine mlid_fit
 
   !> Cost, gradient and information matrix at theta, without iterating.
@@ -151,8 +158,8 @@ contains
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
-    integer(c_int), intent(in) :: iopt(8)
-    real(c_double), intent(in) :: ropt(8)
+    integer(c_int), intent(in) :: iopt(12)
+    real(c_double), intent(in) :: ropt(12)
     real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny), yhat(ny, nt)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
@@ -183,8 +190,8 @@ contains
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt)
-    integer(c_int), intent(in) :: iopt(8)
-    real(c_double), intent(in) :: ropt(8)
+    integer(c_int), intent(in) :: iopt(12)
+    real(c_double), intent(in) :: ropt(12)
     real(c_double), intent(out) :: y(ny, nt), x(nx, nt)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
@@ -216,8 +223,8 @@ contains
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt)
-    integer(c_int), intent(in) :: iopt(8)
-    real(c_double), intent(in) :: ropt(8)
+    integer(c_int), intent(in) :: iopt(12)
+    real(c_double), intent(in) :: ropt(12)
     real(c_double), intent(out) :: est(nf, nrun), sig(nf, nrun)
     integer(c_int), intent(out) :: iters(nrun), run_status(nrun), status
     character(len=256), intent(out) :: msg
@@ -251,8 +258,8 @@ contains
     real(c_double), intent(in) :: theta(:)
     integer(c_int), intent(in) :: isfree(:), itie(:), iconst(:)
     real(c_double), intent(in) :: rconst(:), t(:), u(:, :), y(:, :)
-    integer(c_int), intent(in) :: iopt(8)
-    real(c_double), intent(in) :: ropt(8)
+    integer(c_int), intent(in) :: iopt(12)
+    real(c_double), intent(in) :: ropt(12)
     class(model_t), allocatable, intent(out) :: m
     type(options_t), intent(out) :: opt
     type(param_map_t), intent(out) :: pm
@@ -324,6 +331,11 @@ contains
     end do
     status = MLID_OK
     msg = ''
+    ! model-specific checks of the record (units); may leave a warning in msg
+    select type (m)
+    type is (aero_long_t)
+      if (any(y /= 0.0_wp)) call check_longitudinal_record(u, y, status, msg)
+    end select
   end subroutine setup
 
 end module mlid_api

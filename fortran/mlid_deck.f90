@@ -10,7 +10,7 @@
 !>   &data     file, time_col, input_cols, output_cols, skip_rows   (estimate)
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
 !>             t_start, pulse_width                                  (simulate)
-!>   &estimate method, max_iter, halvings, noise, partials, steady_state,
+!>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
 !>             tol_cost, tol_step, tol_grad, rcond
 !> A problem in one case is kept in that case (status, msg) and the others
 !> are still read.  The Python reader (mlid/deck.py) follows the same rules.
@@ -114,7 +114,7 @@ contains
     type(deck_case_t), intent(inout) :: c
     ! namelist variables, reset for every case
     character(len=128) :: title
-    character(len=16) :: job, kind, input_hold, noise, method, input_shape(MAXU)
+    character(len=16) :: job, kind, input_hold, noise, method, startup, input_shape(MAXU)
     integer :: nx, nu, ny, nw, substeps, max_iter, halvings, time_col, skip_rows, seed
     real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
     real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY)
@@ -139,7 +139,7 @@ contains
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
       pulse_width
-    namelist /estimate/ method, max_iter, halvings, noise, partials, steady_state, tol_cost, &
+    namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, tol_cost, &
       tol_step, tol_grad, rcond
     type(options_t) :: opt
     integer :: unit, k, ios, np, idx, jdx, p, nth
@@ -351,6 +351,7 @@ contains
       halvings = opt%halvings
       noise = 'diagonal'
       method = 'output_error'
+      startup = 'none'
       partials = opt%partials
       steady_state = opt%steady
       tol_cost = opt%tol_cost
@@ -376,6 +377,16 @@ contains
       case default
         call fail('group &estimate: method must be ''output_error'' or ''filter_error'', got '''// &
                   trim(method)//'''')
+        return
+      end select
+      select case (lower(startup))
+      case ('none')
+        opt%startup = 0
+      case ('equation_error')
+        opt%startup = 1
+      case default
+        call fail('group &estimate: startup must be ''none'' or ''equation_error'', got '''// &
+                  trim(startup)//'''')
         return
       end select
       c%noise = lower(noise)

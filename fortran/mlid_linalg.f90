@@ -1,10 +1,11 @@
 !> LAPACK wrappers: symmetric eigen-decomposition and Cholesky-based
 !> inverse with log-determinant.
 module mlid_linalg
-  use mlid_kinds, only: wp
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: sym_eig, chol_inverse, psd_factor
+  public :: sym_eig, chol_inverse, psd_factor, info_inverse
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -125,5 +126,64 @@ contains
       end do
     end do
   end subroutine psd_factor
+
+  !> Pseudo-inverse of the information matrix from the eigen-decomposition
+  !> of its normalised form N = D^-1/2 M D^-1/2, D = diag(M) (report §5.3.5),
+  !> so that the singularity test does not depend on the parameters' units.
+  !> ndrop eigenvalues of N fall below rcond times the largest (or a
+  !> parameter has no effect at all); bad is the free parameter with the
+  !> largest weight in the weakest direction.  w returns the eigenvalues of
+  !> N, ascending.
+  subroutine info_inverse(info, rcond, cov, w, ndrop, bad, status, msg)
+    real(wp), intent(in) :: info(:, :)
+    real(wp), intent(in) :: rcond
+    real(wp), intent(out) :: cov(:, :), w(:)
+    integer, intent(out) :: ndrop, bad, status
+    character(len=*), intent(out) :: msg
+    real(wp) :: v(size(w), size(w)), sc(size(w)), nrm(size(w), size(w))
+    integer :: n, k, ierr
+
+    status = MLID_OK
+    msg = ''
+    n = size(w)
+    ndrop = 0
+    bad = 0
+    cov = 0.0_wp
+    w = 0.0_wp
+    if (n == 0) return
+    if (.not. all(ieee_is_finite(info))) then
+      status = MLID_ERR_SINGULAR
+      msg = 'information matrix is not finite'
+      return
+    end if
+    ! A parameter with no effect at all gets a zero row: a zero eigenvalue.
+    sc = 0.0_wp
+    where (info_diag(info) > 0.0_wp) sc = 1.0_wp/sqrt(info_diag(info))
+    nrm = info*spread(sc, 1, n)*spread(sc, 2, n)
+    call sym_eig(nrm, w, v, ierr)
+    if (ierr /= 0) then
+      status = MLID_ERR_INTERNAL
+      write (msg, '(a,i0)') 'eigen-decomposition of the information matrix failed, dsyevr info = ', ierr
+      return
+    end if
+    do k = 1, n
+      if (w(k) > rcond*w(n) .and. w(n) > 0.0_wp) then
+        cov = cov + spread(v(:, k), 2, n)*spread(v(:, k)/w(k), 1, n)
+      else
+        ndrop = ndrop + 1
+      end if
+    end do
+    cov = cov*spread(sc, 1, n)*spread(sc, 2, n)
+    if (ndrop > 0) bad = maxloc(abs(v(:, 1)), 1)
+  end subroutine info_inverse
+
+  pure function info_diag(a) result(d)
+    real(wp), intent(in) :: a(:, :)
+    real(wp) :: d(size(a, 1))
+    integer :: k
+    do k = 1, size(d)
+      d(k) = a(k, k)
+    end do
+  end function info_diag
 
 end module mlid_linalg

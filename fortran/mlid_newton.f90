@@ -7,16 +7,18 @@ module mlid_newton
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, MLID_ERR_INTERNAL, &
                         STOP_NONE, STOP_COST, STOP_STEP, STOP_GRAD, STOP_MAXITER, &
                         STOP_NO_DECREASE, STOP_FAILED
-  use mlid_linalg, only: sym_eig
+  use mlid_linalg, only: info_inverse
+  use mlid_equation_error, only: equation_error
   use mlid_models, only: model_t
   use mlid_options, only: options_t
   use mlid_likelihood, only: likelihood
   use mlid_params, only: param_map_t, apply_ties
   implicit none
   private
-  public :: fit_result_t, newton_fit, info_inverse
+  public :: fit_result_t, newton_fit
 
   type :: fit_result_t
+    real(wp), allocatable :: theta_start(:) !< where the iteration started
     real(wp), allocatable :: theta(:)       !< final parameters (all, fixed ones unchanged)
     real(wp), allocatable :: grad(:)        !< gradient at theta (free)
     real(wp), allocatable :: info(:, :)     !< information matrix at theta (free)
@@ -46,7 +48,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer :: nf, ny, nt, it, ih, tstat, ndrop
-    real(wp) :: step(pm%nf), trial(size(theta0)), best(size(theta0))
+    real(wp) :: step(pm%nf), trial(size(theta0)), best(size(theta0)), ee_sigma(pm%nf)
     real(wp) :: jt, jbest, scale, decrement, dj
     real(wp), allocatable :: rt(:, :), yt(:, :), rbest(:, :)
     character(len=len(msg)) :: tmsg
@@ -60,6 +62,14 @@ contains
     res%theta = theta0
     call apply_ties(pm%tie, res%theta)
     res%cost_hist = 0.0_wp
+    if (opt%startup == 1) then
+      call equation_error(m, theta0, pm, t, u, y, res%theta, ee_sigma, status, msg)
+      if (status /= MLID_OK) then
+        res%reason = STOP_FAILED
+        return
+      end if
+    end if
+    res%theta_start = res%theta
 
     call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
                     status, msg, res%grad, res%info)
@@ -164,64 +174,5 @@ contains
     step = -matmul(cov, res%grad)
     decrement = sqrt(max(0.0_wp, -dot_product(res%grad, step)))
   end subroutine newton_step
-
-  !> Pseudo-inverse of the information matrix from the eigen-decomposition
-  !> of its normalised form N = D^-1/2 M D^-1/2, D = diag(M) (report §5.3.5),
-  !> so that the singularity test does not depend on the parameters' units.
-  !> ndrop eigenvalues of N fall below rcond times the largest (or a
-  !> parameter has no effect at all); bad is the free parameter with the
-  !> largest weight in the weakest direction.  w returns the eigenvalues of
-  !> N, ascending.
-  subroutine info_inverse(info, rcond, cov, w, ndrop, bad, status, msg)
-    real(wp), intent(in) :: info(:, :)
-    real(wp), intent(in) :: rcond
-    real(wp), intent(out) :: cov(:, :), w(:)
-    integer, intent(out) :: ndrop, bad, status
-    character(len=*), intent(out) :: msg
-    real(wp) :: v(size(w), size(w)), sc(size(w)), nrm(size(w), size(w))
-    integer :: n, k, ierr
-
-    status = MLID_OK
-    msg = ''
-    n = size(w)
-    ndrop = 0
-    bad = 0
-    cov = 0.0_wp
-    w = 0.0_wp
-    if (n == 0) return
-    if (.not. all(ieee_is_finite(info))) then
-      status = MLID_ERR_SINGULAR
-      msg = 'information matrix is not finite'
-      return
-    end if
-    ! A parameter with no effect at all gets a zero row: a zero eigenvalue.
-    sc = 0.0_wp
-    where (info_diag(info) > 0.0_wp) sc = 1.0_wp/sqrt(info_diag(info))
-    nrm = info*spread(sc, 1, n)*spread(sc, 2, n)
-    call sym_eig(nrm, w, v, ierr)
-    if (ierr /= 0) then
-      status = MLID_ERR_INTERNAL
-      write (msg, '(a,i0)') 'eigen-decomposition of the information matrix failed, dsyevr info = ', ierr
-      return
-    end if
-    do k = 1, n
-      if (w(k) > rcond*w(n) .and. w(n) > 0.0_wp) then
-        cov = cov + spread(v(:, k), 2, n)*spread(v(:, k)/w(k), 1, n)
-      else
-        ndrop = ndrop + 1
-      end if
-    end do
-    cov = cov*spread(sc, 1, n)*spread(sc, 2, n)
-    if (ndrop > 0) bad = maxloc(abs(v(:, 1)), 1)
-  end subroutine info_inverse
-
-  pure function info_diag(a) result(d)
-    real(wp), intent(in) :: a(:, :)
-    real(wp) :: d(size(a, 1))
-    integer :: k
-    do k = 1, size(d)
-      d(k) = a(k, k)
-    end do
-  end function info_diag
 
 end module mlid_newton

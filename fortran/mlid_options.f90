@@ -1,6 +1,6 @@
 !> Estimator and integration options, and their flat encoding.
 !>
-!> The flat interface carries options as iopt(8) and ropt(8) so that f2py
+!> The flat interface carries options as iopt(12) and ropt(12) so that f2py
 !> and the deck reader need no derived types; this module is the one place
 !> that knows the layout.
 module mlid_options
@@ -9,7 +9,7 @@ module mlid_options
   private
   public :: options_t, options_from_flat, options_to_flat, NOPT
 
-  integer, parameter :: NOPT = 8  !< length of iopt and ropt
+  integer, parameter :: NOPT = 12  !< length of iopt and ropt
 
   type :: options_t
     integer :: max_iter = 30      !< iopt(1): Newton iterations at most
@@ -20,6 +20,7 @@ module mlid_options
     integer :: method = 0         !< iopt(6): 0 output error, 1 filter error (Kalman filter)
     logical :: partials = .true.  !< iopt(7): filter error with covariance/gain partials (eqs 4.32-4.34)
     logical :: steady = .false.   !< iopt(8): filter error with the steady-state gain
+    integer :: startup = 0        !< iopt(9): 0 from the given values, 1 equation-error start-up
     real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
     real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
     real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
@@ -43,6 +44,7 @@ contains
     iopt(6) = opt%method
     iopt(7) = merge(1, 0, opt%partials)
     iopt(8) = merge(1, 0, opt%steady)
+    iopt(9) = opt%startup
     ropt(1) = opt%tol_cost
     ropt(2) = opt%tol_step
     ropt(3) = opt%tol_grad
@@ -68,6 +70,7 @@ contains
     opt%method = iopt(6)
     opt%partials = iopt(7) == 1
     opt%steady = iopt(8) == 1
+    opt%startup = iopt(9)
     opt%tol_cost = ropt(1)
     opt%tol_step = ropt(2)
     opt%tol_grad = ropt(3)
@@ -82,8 +85,8 @@ contains
       write (msg, '(a,i0)') 'input hold code must be 0 (linear) or 1 (zero-order), got ', iopt(4)
     else if (opt%method /= 0 .and. opt%method /= 1) then
       write (msg, '(a,i0)') 'method code must be 0 (output error) or 1 (filter error), got ', iopt(6)
-    else if (any(iopt(7:8) /= 0 .and. iopt(7:8) /= 1)) then
-      msg = 'partials and steady flags must be 0 or 1'
+    else if (any(iopt(7:9) /= 0 .and. iopt(7:9) /= 1)) then
+      msg = 'partials, steady and startup flags must be 0 or 1'
     else if (opt%substeps < 1) then
       write (msg, '(a,i0)') 'substeps must be >= 1, got ', opt%substeps
     else if (.not. (opt%tol_cost >= 0.0_wp .and. opt%tol_step >= 0.0_wp .and. &

@@ -40,11 +40,15 @@ def test_hfb320_both_front_ends_agree(tmp_path):
     fo = subprocess.run([str(BIN / "mlid-batch"), str(DECK), "--json", str(tmp_path / "fo.json")],
                         capture_output=True, text=True)
     assert py.returncode == 0 and fo.returncode == 0, (py.stderr, fo.stderr)
-    a = json.loads((tmp_path / "py.json").read_text())[0]
-    b = json.loads((tmp_path / "fo.json").read_text())[0]
-    assert a["parameters"][:3] == b["parameters"][:3] == ["C_D0", "C_DV", "C_Dalpha"]
-    np.testing.assert_allclose(a["estimate"], b["estimate"], rtol=1e-10, atol=0)
-    np.testing.assert_allclose(a["sigma"], b["sigma"], rtol=1e-10, atol=0)
+    cases_py = json.loads((tmp_path / "py.json").read_text())
+    cases_fo = json.loads((tmp_path / "fo.json").read_text())
+    assert len(cases_py) == len(cases_fo) == 2      # plain, and from an equation-error start
+    for a, b in zip(cases_py, cases_fo):
+        assert a["parameters"][:3] == b["parameters"][:3] == ["C_D0", "C_DV", "C_Dalpha"]
+        np.testing.assert_allclose(a["estimate"], b["estimate"], rtol=1e-10, atol=0)
+        np.testing.assert_allclose(a["sigma"], b["sigma"], rtol=1e-10, atol=0)
+    # both starts reach the same maximum
+    np.testing.assert_allclose(cases_py[0]["estimate"], cases_py[1]["estimate"], rtol=1e-5)
 
 
 def _hfb_like(free, regressors=None, values=None):
@@ -130,4 +134,48 @@ def test_bad_longitudinal_decks(tmp_path, change, phrase):
     for cmd in ([str(BIN / "mlid"), "run", str(deck)], [str(BIN / "mlid-batch"), str(deck)]):
         out = subprocess.run(cmd, capture_output=True, text=True)
         assert out.returncode == 1 and phrase in out.stderr, (cmd[0], out.stderr)
+        assert "Traceback" not in out.stderr
+
+
+def test_equation_error_startup_lands_near_the_truth():
+    truth = _hfb_like(COEFFS)
+    t, u = _inputs()
+    data, _ = mlid.simulate(truth, t, u, seed=8)
+    far = truth.with_theta(truth.theta * np.where(truth.free_mask == 1, 1.5, 1.0))
+    res = mlid.fit(far, data, startup="equation_error")
+    assert res.converged
+    tr = truth.theta[truth.free_mask == 1]
+    # the start-up alone is a one-pass least squares: much nearer than the start, overall
+    # (single coefficients such as C_L0, collinear with C_LV, may not be)
+    def rms(x):
+        return np.sqrt(np.mean(((x - tr) / res.sigma) ** 2))
+    assert rms(res.start) < rms(far.theta[far.free_mask == 1]) / 3
+    assert np.all(np.abs((res.estimate - tr) / res.sigma) < 3)
+
+
+def test_equation_error_needs_every_state_measured():
+    model = mlid.LinearModel([[-1.0, 0.5], [-0.3, -2.0]], [[1.0], [0.4]], [[1.0, 1.0]],
+                             free=["f(1,1)"])
+    t = np.arange(100) * 0.05
+    data, _ = mlid.simulate(model, t, np.sin(t)[:, None], [0.01], seed=1)
+    with pytest.raises(mlid.InputError, match="every state measured: state 1"):
+        mlid.fit(model, data, startup="equation_error")
+
+
+@needs_data
+@pytest.mark.parametrize("edit, phrase, code", [
+    (lambda tab: tab[:, 5].__imul__(57.29578), "look like degrees", 0),
+    (lambda tab: tab[:, 4].__imul__(0.0), "positive airspeed", 1),
+])
+def test_units_checks_in_both_front_ends(tmp_path, edit, phrase, code):
+    table = np.loadtxt(DATA)
+    edit(table)
+    np.savetxt(tmp_path / "hfb.asc", table)
+    text = DECK.read_text().split("\n&case title = 'HFB-320 flight 1, output error from")[0]
+    (tmp_path / "deck.nml").write_text(text.replace("../../../shared/data/hfb320_1_10.asc",
+                                                    str(tmp_path / "hfb.asc")))
+    for cmd in ([str(BIN / "mlid"), "run", str(tmp_path / "deck.nml")],
+                [str(BIN / "mlid-batch"), str(tmp_path / "deck.nml")]):
+        out = subprocess.run(cmd, capture_output=True, text=True)
+        assert out.returncode == code and phrase in out.stderr, (cmd[0], out.stderr)
         assert "Traceback" not in out.stderr

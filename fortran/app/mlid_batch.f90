@@ -74,7 +74,7 @@ contains
     integer, intent(in) :: k
     type(deck_case_t), intent(inout) :: c
     real(wp), allocatable :: t(:), u(:, :), y(:, :)
-    real(wp), allocatable :: theta(:), sigma(:), cov(:, :), info(:, :), grad(:), eigval(:)
+    real(wp), allocatable :: theta(:), theta0(:), sigma(:), cov(:, :), info(:, :), grad(:), eigval(:)
     real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), x(:, :)
     real(wp) :: cost, wall
     integer :: niter, reason, converged, bad, nf, nth, cstat, j, t0, t1, rate, ou
@@ -116,23 +116,26 @@ contains
     else if (cstat == MLID_OK) then
       call case_record(c, deck_dir, t, u, y, cstat, cmsg)
       if (cstat == MLID_OK) then
-        allocate (theta(nth), sigma(nth), cov(nf, nf), info(nf, nf), grad(nf), eigval(nf), &
+        allocate (theta(nth), theta0(nth), sigma(nth), cov(nf, nf), info(nf, nf), grad(nf), eigval(nf), &
                   rhat(c%ny, c%ny), yhat(c%ny, size(t)), hist(c%iopt(1) + 1))
         call system_clock(t0, rate)
         call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, &
                       size(c%iconst), c%iconst, size(c%rconst), c%rconst, size(t), t, u, y, &
-                      c%iopt, c%ropt, nf, size(hist), theta, &
+                      c%iopt, c%ropt, nf, size(hist), theta0, theta, &
                       sigma, cov, info, grad, eigval, rhat, yhat, hist, cost, niter, reason, &
                       converged, bad, cstat, cmsg)
         call system_clock(t1)
         wall = real(t1 - t0, wp)/rate
         if (cstat == MLID_OK .or. cstat == MLID_ERR_NOCONV) then
-          call report_fit(6, method_text(c), c%labels, pack(c%theta, c%isfree == 1), &
+          call report_fit(6, method_text(c), c%labels, pack(theta0, c%isfree == 1), &
                           pack(theta, c%isfree == 1), pack(sigma, c%isfree == 1), cost, rhat, &
                           niter, reason, converged == 1)
           fitted = .true.
         end if
         if (cstat /= MLID_OK .and. bad > 0) cmsg = replace_index(cmsg, bad, c%labels)
+        if (cstat == MLID_OK .and. cmsg(1:8) == 'warning:') write (0, '(a,i0,a,i0,a)') &
+          'mlid-batch: '//trim(deck)//' case ', k, ' (line ', c%line, ') '''//trim(c%title)// &
+          ''': '//trim(cmsg)
       end if
     end if
     if (json) then

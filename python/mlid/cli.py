@@ -30,8 +30,11 @@ def _parser():
 
 
 def _run(args):
+    import warnings
+
     from .deck import run_deck
 
+    warnings.simplefilter("ignore")       # the core's warnings are printed with each case
     runs = run_deck(args.deck)
     failed, records = 0, []
     for case, out, result, error in runs:
@@ -40,6 +43,8 @@ def _run(args):
             print(f" simulated {out['samples']} samples to {out['out']}")
         if result is not None:
             print(result.report())
+            if result.message.startswith("warning:"):
+                print(f"mlid: {case.where()}: {result.message}", file=sys.stderr)
         if args.plots and result is not None:
             from .plots import plot_fit
             path = plot_fit(result, args.plots, f"case{case.index}")

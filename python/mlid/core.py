@@ -1,17 +1,19 @@
 """Thin wrappers over the Fortran core (mlid._core): arrays in, arrays out."""
 
 import time
+import warnings
 
 import numpy as np
 
 from . import _core
 from .data import FlightData
-from .errors import InputError, SingularInformationError, check_status
+from .errors import InputError, MlidWarning, SingularInformationError, check_status
 from .result import FitResult
 
 _api = _core.mlid_api
 NOISE = ("diagonal", "full")
 METHODS = ("output_error", "filter_error")
+STARTUPS = ("none", "equation_error")
 STOP_REASONS = {
     0: "not started",
     1: "relative cost change below tol_cost",
@@ -29,6 +31,7 @@ def default_options():
     return {"method": METHODS[int(iopt[5])], "max_iter": int(iopt[0]),
             "halvings": int(iopt[1]), "noise": NOISE[int(iopt[2])],
             "partials": bool(iopt[6]), "steady_state": bool(iopt[7]),
+            "startup": STARTUPS[int(iopt[8])],
             "tol_cost": float(ropt[0]), "tol_step": float(ropt[1]), "tol_grad": float(ropt[2]),
             "rcond": float(ropt[3])}
 
@@ -43,12 +46,15 @@ def _flat_options(model, options):
         raise InputError(f"noise must be one of {NOISE}, got {opts['noise']!r}")
     if opts["method"] not in METHODS:
         raise InputError(f"method must be one of {METHODS}, got {opts['method']!r}")
-    iopt = np.zeros(8, dtype=np.int32)
-    ropt = np.zeros(8)
+    if opts["startup"] not in STARTUPS:
+        raise InputError(f"startup must be one of {STARTUPS}, got {opts['startup']!r}")
+    iopt = np.zeros(12, dtype=np.int32)
+    ropt = np.zeros(12)
     iopt[:8] = [opts["max_iter"], opts["halvings"], NOISE.index(opts["noise"]),
                 1 if model.input_hold == "zoh" else 0, model.substeps,
                 METHODS.index(opts["method"]), int(bool(opts["partials"])),
                 int(bool(opts["steady_state"]))]
+    iopt[8] = STARTUPS.index(opts["startup"])
     ropt[:4] = [opts["tol_cost"], opts["tol_step"], opts["tol_grad"], opts["rcond"]]
     return iopt, ropt, opts
 
@@ -79,7 +85,9 @@ def fit(model, data, **options):
     process noise), max_iter, halvings, noise (output error: 'diagonal' or
     'full' R estimated from the residuals), partials (filter error: the
     covariance and gain partials of eqs 4.32-4.34), steady_state (filter
-    error: steady-state gain), tol_cost, tol_step, tol_grad, rcond.  Returns a FitResult; raises an
+    error: steady-state gain), startup ('equation_error': start from an
+    equation-error least-squares pass, all states measured), tol_cost,
+    tol_step, tol_grad, rcond.  Returns a FitResult; raises an
     MlidError subclass for bad input, divergence or singular information
     (with the partial result attached where there is one).
     """
@@ -89,20 +97,22 @@ def fit(model, data, **options):
     mask = model.free_mask
     nf = int(mask.sum())
     start = time.perf_counter()
-    (theta, sigma, cov, info, grad, eigval, rhat, yhat, cost_hist, cost, niter, reason,
-     converged, bad, status, msg) = _api.mlid_fit(
+    (theta_start, theta, sigma, cov, info, grad, eigval, rhat, yhat, cost_hist, cost, niter,
+     reason, converged, bad, status, msg) = _api.mlid_fit(
         **_model_args(model), theta0=theta0, isfree=mask, itie=model.tie_index, t=t, u=u, y=y,
         iopt=iopt, ropt=ropt, nf=nf, nc=int(iopt[0]) + 1)
     wall = time.perf_counter() - start
     text = msg.decode(errors="replace").strip()
     if status not in (0, 2, 4):       # no result to return
         check_status(status, text)
+    if status == 0 and text.startswith("warning:"):
+        warnings.warn(text[len("warning:"):].strip(), MlidWarning, stacklevel=2)
     free_names = model.free_names()
     if status == 2 and bad:
         text = text.replace(f"free parameter {bad} ", f"{free_names[bad - 1]!r} ")
     result = FitResult(
         model=model.with_theta(theta), start_model=model, data=data, options=opts,
-        names=free_names, start=theta0[mask == 1], estimate=theta[mask == 1],
+        names=free_names, start=theta_start[mask == 1], estimate=theta[mask == 1],
         sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
         eigenvalues=eigval, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
         cost_history=cost_hist[:niter + 1].copy(), iterations=int(niter),

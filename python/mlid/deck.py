@@ -46,7 +46,8 @@ def _schema():
                      "seed": (_INT, 0), "noise_std": (_REALS, None),
                      "input_shape": (_STRS, []), "amplitude": (_REALS, None),
                      "t_start": (_REALS, None), "pulse_width": (_REALS, None)},
-        "estimate": {"method": (_STR, "output_error"), "max_iter": (_INT, opts["max_iter"]),
+        "estimate": {"method": (_STR, "output_error"), "startup": (_STR, "none"),
+                     "max_iter": (_INT, opts["max_iter"]),
                      "halvings": (_INT, opts["halvings"]), "noise": (_STR, "diagonal"),
                      "partials": (_BOOL, opts["partials"]),
                      "steady_state": (_BOOL, opts["steady_state"]),
@@ -187,6 +188,10 @@ def _read_case(case, block, line0, schema):
         e = groups.setdefault("estimate", {k: v for k, (_, v) in schema["estimate"].items()})
         e["noise"] = e["noise"].lower()
         e["method"] = e["method"].lower()
+        e["startup"] = e["startup"].lower()
+        if e["startup"] not in ("none", "equation_error"):
+            raise InputError(f"group &estimate: startup must be 'none' or 'equation_error', "
+                             f"got '{e['startup']}'")
         if e["method"] not in ("output_error", "filter_error"):
             raise InputError(f"group &estimate: method must be 'output_error' or 'filter_error', "
                              f"got '{e['method']}'")

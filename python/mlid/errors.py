@@ -32,6 +32,10 @@ class NonConvergenceError(MlidError):
         self.result = result
 
 
+class MlidWarning(UserWarning):
+    """Something in the input looks wrong but the computation went on (units)."""
+
+
 class InternalError(MlidError):
     """A numerical library call failed unexpectedly."""
 
