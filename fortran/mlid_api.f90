@@ -26,10 +26,11 @@ module mlid_api
   use mlid_monte_carlo, only: monte_carlo
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record
+  use mlid_jacobian_check, only: check_jacobians
   implicit none
   private
-  public :: mlid_input_signal, mlid_default_options, mlid_theta_size, mlid_fit, mlid_evaluate, &
-            mlid_simulate, mlid_monte_carlo
+  public :: mlid_input_signal, mlid_default_options, mlid_theta_size, mlid_model_sizes, &
+            mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo
 
 contains
 
@@ -69,6 +70,57 @@ contains
     l = model_layout(m)
     nth = l%nth
   end subroutine mlid_theta_size
+
+  !> Sizes of a model whose sizes are its own (longitudinal, user): give
+  !> nx = nu = ny = nw = -1 to learn them.
+  subroutine mlid_model_sizes(mkind, nic, iconst, nrc, rconst, nx, nu, ny, nw, np, status, msg)
+    integer(c_int), intent(in) :: mkind, nic, nrc
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    integer(c_int), intent(out) :: nx, nu, ny, nw, np, status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+
+    nx = 0
+    nu = 0
+    ny = 0
+    nw = 0
+    np = 0
+    call model_create(mkind, -1, -1, -1, -1, iconst, rconst, m, status, msg)
+    if (status /= MLID_OK) return
+    nx = m%nx
+    nu = m%nu
+    ny = m%ny
+    nw = m%nw
+    np = m%np
+  end subroutine mlid_model_sizes
+
+  !> Largest relative differences between the model's analytic Jacobians
+  !> (df/dx, df/dp, dh/dx, dh/dp) and central differences at (x, u, p).
+  subroutine mlid_check_jacobians(mkind, nx, nu, ny, nw, np, p, nic, iconst, nrc, rconst, x, u, &
+                                  err, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, np, nic, nrc
+    real(c_double), intent(in) :: p(np), x(nx), u(nu)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    real(c_double), intent(out) :: err(4)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+    real(wp) :: uw(nu + nw)
+
+    err = 0.0_wp
+    call model_create(mkind, nx, nu, ny, nw, iconst, rconst, m, status, msg)
+    if (status /= MLID_OK) return
+    if (m%np /= np) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0)') 'the model has ', m%np, ' parameters, not ', np
+      return
+    end if
+    uw = 0.0_wp
+    uw(1:nu) = u
+    call check_jacobians(m, 0.0_wp, x, uw, p, err)
+  end subroutine mlid_check_jacobians
 
   !> Maximum-likelihood fit from theta0 (output or filter error, iopt(6)).
   !> Out: theta_start (theta0, or the equation-error start-up's values), theta, sigma (Cramer-Rao, 0 for fixed), cov/info/grad/eigval over

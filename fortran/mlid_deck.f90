@@ -2,9 +2,10 @@
 !>
 !> A case starts at each line whose first word is &case and holds the groups
 !>   &case     title, job ('estimate' or 'simulate')
-!>   &model    kind ('linear' or 'longitudinal'), nx, nu, ny, nw, f, g, h, d,
-!>             gamma (row by row), cd_regressors, cl_regressors, cm_regressors,
-!>             cd, cl, cm, constants (longitudinal), x0, bias, q, r, s (noise
+!>   &model    kind ('linear', 'longitudinal' or 'user'), nx, nu, ny, nw, f, g,
+!>             h, d, gamma (row by row), cd_regressors, cl_regressors,
+!>             cm_regressors, cd, cl, cm, constants (longitudinal), p,
+!>             user_iconst, user_rconst (user), x0, bias, q, r, s (noise
 !>             variances, cross-covariance row by row), free, names, tie,
 !>             input_hold, substeps, state_names, input_names, output_names
 !>   &data     file, time_col, input_cols, output_cols, skip_rows   (estimate)
@@ -17,10 +18,11 @@
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG
+  use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER
   use mlid_options, only: options_t, options_to_flat, NOPT
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, NREG
+  use mlid_user_model, only: user_model_t, user_model_create
   implicit none
   private
   public :: deck_case_t, deck_read, case_record, case_time_input, NAMELEN, PATHLEN
@@ -119,7 +121,9 @@ contains
     real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
     real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY)
     character(len=8) :: cd_regressors(MAXR), cl_regressors(MAXR), cm_regressors(MAXR)
-    real(wp) :: cd(MAXR), cl(MAXR), cm(MAXR), constants(9)
+    real(wp) :: cd(MAXR), cl(MAXR), cm(MAXR), constants(9), p(MAXFREE), user_rconst(MAXFREE)
+    integer :: user_iconst(MAXFREE)
+    type(user_model_t) :: user
     character(len=8) :: bkey(NBLOCK)
     integer :: brow(NBLOCK), bcol(NBLOCK), boff(NBLOCK), ncoef(3), codes(3*MAXR)
     character(len=NAMELEN), allocatable :: default_label(:)
@@ -135,14 +139,14 @@ contains
     namelist /case/ title, job
     namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, x0, bias, q, r, s, free, names, &
       tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
-      cl_regressors, cm_regressors, cd, cl, cm, constants
+      cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
       pulse_width
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, tol_cost, &
       tol_step, tol_grad, rcond
     type(options_t) :: opt
-    integer :: unit, k, ios, np, idx, jdx, p, nth
+    integer :: unit, k, ios, np, idx, jdx, peq, nth
     logical :: found
     character(len=msg_len) :: iomsg
     character(len=LINELEN) :: text
@@ -189,6 +193,9 @@ contains
     cl = UNSET
     cm = UNSET
     constants = UNSET
+    p = UNSET
+    user_iconst = -huge(1)
+    user_rconst = UNSET
     g = UNSET
     h = UNSET
     d = UNSET
@@ -228,8 +235,23 @@ contains
       end if
       c%iconst = [ncoef, pack(codes, codes > 0)]
       c%rconst = constants
+    case ('user')
+      c%mkind = MODEL_USER
+      c%iconst = pack(user_iconst, user_iconst /= -huge(1))
+      c%rconst = pack(user_rconst, user_rconst /= UNSET)
+      call user_model_create(c%iconst, c%rconst, user, ios, iomsg)
+      if (ios /= MLID_OK) then
+        call fail('group &model: '//trim(iomsg))
+        return
+      end if
+      nx = user%nx
+      nu = user%nu
+      ny = user%ny
+      nw = user%nw
+      ncoef(1) = user%np
     case default
-      call fail('group &model: unknown kind '''//trim(kind)//''' (available: linear, longitudinal)')
+      call fail('group &model: unknown kind '''//trim(kind)//''' (available: linear, '// &
+                'longitudinal, user)')
       return
     end select
     if (nx < 1 .or. nx > MAXX .or. nu < 0 .or. nu > MAXU .or. ny < 1 .or. ny > MAXY .or. &
@@ -247,6 +269,9 @@ contains
     if (c%mkind == MODEL_LINEAR) then
       call set_blocks([character(len=8) :: 'f', 'g', 'h', 'd', 'gamma', 'x0', 'bias', 'q', 'r', 's'], &
                       [nx, nx, ny, ny, nx, nx, ny, nw, ny, nw], [nx, nu, nx, nu, nw, -1, -1, -1, -1, ny])
+    else if (c%mkind == MODEL_USER) then
+      call set_blocks([character(len=8) :: 'p', 'x0', 'bias', 'q', 'r', 's'], &
+                      [ncoef(1), nx, ny, nw, ny, nw], [-1, -1, -1, -1, -1, ny])
     else
       call set_blocks([character(len=8) :: 'cd', 'cl', 'cm', 'x0', 'bias', 'q', 'r', 's'], &
                       [ncoef, nx, ny, nw, ny, nw], [-1, -1, -1, -1, -1, -1, -1, ny])
@@ -263,6 +288,10 @@ contains
       call put_matrix('h', h, ny, nx, nx*nx + nx*nu, required=.true.)
       call put_matrix('d', d, ny, nu, nx*nx + nx*nu + ny*nx, required=.false.)
       call put_matrix('gamma', gamma, nx, nw, np - nx*nw, required=nw > 0)
+    else if (c%mkind == MODEL_USER) then
+      call put_vector('p', p, ncoef(1), 0)
+      if (ncoef(1) > 0 .and. count(p /= UNSET) == 0) call fail('group &model: p (the user '// &
+                                                               'model''s parameters) is missing')
     else
       call put_vector('cd', cd, ncoef(1), 0)
       call put_vector('cl', cl, ncoef(2), ncoef(1))
@@ -297,12 +326,12 @@ contains
     c%labels = pack(c%labels, c%isfree == 1)
     do k = 1, MAXFREE
       if (len_trim(tie(k)) == 0) cycle
-      p = index(tie(k), '=')
+      peq = index(tie(k), '=')
       idx = 0
       jdx = 0
-      if (p > 1) then
-        call element_index(tie(k)(1:p - 1), bkey, brow, bcol, boff, idx)
-        call element_index(tie(k)(p + 1:), bkey, brow, bcol, boff, jdx)
+      if (peq > 1) then
+        call element_index(tie(k)(1:peq - 1), bkey, brow, bcol, boff, idx)
+        call element_index(tie(k)(peq + 1:), bkey, brow, bcol, boff, jdx)
       end if
       if (idx == 0 .or. jdx == 0) then
         call fail('group &model: tie '''//trim(tie(k))//''' must read ''a=b'' with two '// &

@@ -3,13 +3,15 @@ module mlid_model_factory
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t, linear_model_t
   use mlid_aero_long, only: aero_long_t, aero_long_create
+  use mlid_user_model, only: user_model_t, user_model_create
   implicit none
   private
-  public :: model_create, MODEL_LINEAR, MODEL_AERO_LONG
+  public :: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER
 
   !> Model kinds of the flat interface.
   integer, parameter :: MODEL_LINEAR = 1      !< linear state space (mlid_models)
   integer, parameter :: MODEL_AERO_LONG = 2   !< nonlinear longitudinal aircraft (mlid_aero_long)
+  integer, parameter :: MODEL_USER = 3        !< the user's own model (mlid_user_model)
 
 contains
 
@@ -24,10 +26,12 @@ contains
     character(len=*), intent(out) :: msg
     type(linear_model_t) :: lin
     type(aero_long_t) :: aero
+    type(user_model_t) :: user
 
     status = MLID_OK
     msg = ''
-    if (nx < 1 .or. nu < 0 .or. ny < 1 .or. nw < 0) then
+    if ((nx < 1 .or. nu < 0 .or. ny < 1 .or. nw < 0) .and. &
+        .not. (kind /= MODEL_LINEAR .and. all([nx, nu, ny, nw] == -1))) then
       status = MLID_ERR_INPUT
       write (msg, '(a,4(i0,1x),a)') 'model dimensions nx, nu, ny, nw = ', nx, nu, ny, nw, &
         'must be nx >= 1, nu >= 0, ny >= 1, nw >= 0'
@@ -48,7 +52,7 @@ contains
       lin%linear = .true.
       allocate (model, source=lin)
     case (MODEL_AERO_LONG)
-      if (nx /= 4 .or. nu /= 2 .or. ny /= 7 .or. nw /= 0) then
+      if (any([nx, nu, ny, nw] /= [4, 2, 7, 0]) .and. any([nx, nu, ny, nw] /= -1)) then
         status = MLID_ERR_INPUT
         msg = 'longitudinal model: nx, nu, ny, nw must be 4, 2, 7, 0 (V, alpha, theta, q; '// &
               'delta_e, thrust; V, alpha, theta, q, qdot, a_x, a_z)'
@@ -57,6 +61,17 @@ contains
       call aero_long_create(iconst, rconst, aero, status, msg)
       if (status /= MLID_OK) return
       allocate (model, source=aero)
+    case (MODEL_USER)
+      call user_model_create(iconst, rconst, user, status, msg)
+      if (status /= MLID_OK) return
+      if (any([user%nx, user%nu, user%ny, user%nw] /= [nx, nu, ny, nw]) .and. &
+          any([nx, nu, ny, nw] /= -1)) then
+        status = MLID_ERR_INPUT
+        write (msg, '(a,4(1x,i0),a,4(1x,i0))') 'user model: nx, nu, ny, nw are', user%nx, &
+          user%nu, user%ny, user%nw, ', not', nx, nu, ny, nw
+        return
+      end if
+      allocate (model, source=user)
     case default
       status = MLID_ERR_INPUT
       write (msg, '(a,i0)') 'unknown model kind ', kind

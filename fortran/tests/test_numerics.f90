@@ -5,6 +5,7 @@ program test_numerics
   use mlid_models, only: model_t, model_layout
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG
   use mlid_params, only: param_map_t, param_map_create
+  use mlid_jacobian_check, only: check_jacobians
   use mlid_options, only: options_t
   use mlid_filter, only: oe_predict
   use mlid_linalg, only: sym_eig, chol_inverse
@@ -117,9 +118,8 @@ contains
   subroutine test_aero_jacobians()
     class(model_t), allocatable :: m
     real(wp), parameter :: x(4) = [95.0_wp, 0.12_wp, 0.08_wp, 0.03_wp], u(2) = [-0.02_wp, 1.2e4_wp]
-    real(wp) :: p(13), a(4, 4), b(4, 13), c(7, 4), d(7, 13), fp(4), fm(4), yp(7), ym(7)
-    real(wp) :: e(4), ep(13), h, err
-    integer :: status, k, idx(13)
+    real(wp) :: p(13), err, errs(4)
+    integer :: status
     character(len=256) :: msg
 
     ! C_D: 1, V/V0, alpha, alpha^2; C_L: 1, alpha, qhat; C_m: 1, V/V0, alpha, alpha^2, qhat, de
@@ -129,34 +129,8 @@ contains
     call check(status == MLID_OK, 'longitudinal model created: '//trim(msg))
     p = [0.1_wp, -0.05_wp, 0.23_wp, 0.8_wp, -0.2_wp, 3.2_wp, 6.0_wp, 0.13_wp, -0.014_wp, -1.0_wp, &
          -0.4_wp, -27.0_wp, -1.4_wp]
-    idx = [(k, k=1, 13)]
-    call m%dfdx(0.0_wp, x, u, p, a)
-    call m%dfdp(0.0_wp, x, u, p, idx, b)
-    call m%dhdx(0.0_wp, x, u, p, c)
-    call m%dhdp(0.0_wp, x, u, p, idx, d)
-    err = 0.0_wp
-    do k = 1, 4
-      h = 1.0e-6_wp*max(1.0_wp, abs(x(k)))
-      e = 0.0_wp
-      e(k) = h
-      call m%f(0.0_wp, x + e, u, p, fp)
-      call m%f(0.0_wp, x - e, u, p, fm)
-      err = max(err, maxval(abs((fp - fm)/(2*h) - a(:, k)))/max(1.0_wp, maxval(abs(a(:, k)))))
-      call m%h(0.0_wp, x + e, u, p, yp)
-      call m%h(0.0_wp, x - e, u, p, ym)
-      err = max(err, maxval(abs((yp - ym)/(2*h) - c(:, k)))/max(1.0_wp, maxval(abs(c(:, k)))))
-    end do
-    do k = 1, 13
-      h = 1.0e-6_wp*max(1.0_wp, abs(p(k)))
-      ep = 0.0_wp
-      ep(k) = h
-      call m%f(0.0_wp, x, u, p + ep, fp)
-      call m%f(0.0_wp, x, u, p - ep, fm)
-      err = max(err, maxval(abs((fp - fm)/(2*h) - b(:, k)))/max(1.0_wp, maxval(abs(b(:, k)))))
-      call m%h(0.0_wp, x, u, p + ep, yp)
-      call m%h(0.0_wp, x, u, p - ep, ym)
-      err = max(err, maxval(abs((yp - ym)/(2*h) - d(:, k)))/max(1.0_wp, maxval(abs(d(:, k)))))
-    end do
+    call check_jacobians(m, 0.0_wp, x, u, p, errs)
+    err = maxval(errs)
     call check(err < 1.0e-7_wp, 'longitudinal model: df/dx, df/dp, dh/dx, dh/dp match central differences')
   end subroutine test_aero_jacobians
 

@@ -4,17 +4,18 @@ derivatives (NASA CR-2200 and beyond).  The numerics live in the Fortran core
 
 from .errors import (MlidError, InputError, SingularInformationError, DivergenceError,
                      NonConvergenceError, InternalError)
-from .model import LinearModel, LongitudinalModel
+from .model import LinearModel, LongitudinalModel, UserModel
 from .data import FlightData
 from .result import FitResult, whiteness
 from .reduction import reduce_measured_state, reduced_data, recover_disturbance
-from .core import fit, evaluate, simulate, monte_carlo, default_options
+from .core import fit, evaluate, simulate, monte_carlo, default_options, check_jacobians
 from .deck import read_deck, run_deck
 
 __version__ = "0.1.0"
 
 __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
-           "NonConvergenceError", "InternalError", "LinearModel", "LongitudinalModel", "FlightData", "FitResult",
+           "NonConvergenceError", "InternalError", "LinearModel", "LongitudinalModel", "UserModel",
+           "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
            "recover_disturbance"]

@@ -17,7 +17,7 @@ import numpy as np
 from . import core
 from .data import FlightData
 from .errors import InputError, MlidError
-from .model import CONSTANTS, LinearModel, LongitudinalModel
+from .model import CONSTANTS, LinearModel, LongitudinalModel, UserModel
 
 _REAL, _INT, _STR, _REALS, _INTS, _STRS = "real", "int", "str", "reals", "ints", "strs"
 _BOOL = "bool"
@@ -36,7 +36,8 @@ def _schema():
             "tie": (_STRS, []), "input_hold": (_STR, "linear"),
             "cd_regressors": (_STRS, []), "cl_regressors": (_STRS, []),
             "cm_regressors": (_STRS, []), "cd": (_REALS, None), "cl": (_REALS, None),
-            "cm": (_REALS, None), "constants": (_REALS, None),
+            "cm": (_REALS, None), "constants": (_REALS, None), "p": (_REALS, None),
+            "user_iconst": (_INTS, []), "user_rconst": (_REALS, []),
             "substeps": (_INT, 1), "state_names": (_STRS, []),
             "input_names": (_STRS, []), "output_names": (_STRS, []),
         },
@@ -256,13 +257,36 @@ def _longitudinal(m):
     return model
 
 
+def _user(m):
+    free = [f for f in m["free"] if f]
+    labels = [n for n in m["names"] if n]
+    if len(labels) > len(free):
+        raise InputError("group &model: more names than free parameters")
+    try:
+        model = UserModel([v for v in (m["p"] or []) if v is not None],
+                          [v for v in m["user_iconst"] if v is not None],
+                          [v for v in m["user_rconst"] if v is not None], free=free,
+                          input_hold=m["input_hold"].lower(), substeps=m["substeps"])
+        for key in ("x0", "bias", "r"):
+            n = getattr(model, key).size
+            given = _given(m[key], n, key, str(n), False)
+            if given is not None:
+                setattr(model, key, given)
+    except InputError as exc:
+        raise InputError(f"group &model: {exc}") from None
+    model.names.update({model.canonical_name(f): n for f, n in zip(free, labels)})
+    return model
+
+
 def _model(m):
     kind = m["kind"].lower()
     if kind == "longitudinal":
         return _longitudinal(m)
+    if kind == "user":
+        return _user(m)
     if kind != "linear":
         raise InputError(f"group &model: unknown kind '{m['kind']}' (available: linear, "
-                         "longitudinal)")
+                         "longitudinal, user)")
     nx, nu, ny, nw = m["nx"], m["nu"], m["ny"], m["nw"]
     if not (1 <= nx <= 30 and 0 <= nu <= 10 and 1 <= ny <= 30 and 0 <= nw <= 10):
         raise InputError(f"group &model: nx, nu, ny, nw = {nx} {nu} {ny} {nw} out of range; "

@@ -284,3 +284,32 @@ class LongitudinalModel(Model):
         common.pop("S")
         return LongitudinalModel(self.regressors, {"CD": parts["cd"], "CL": parts["cl"],
                                                    "Cm": parts["cm"]}, self.constants, **common)
+
+
+class UserModel(Model):
+    """The user's own Fortran model (fortran/mlid_user_model.f90, compiled into
+    the core): p holds its np parameters, named ``'p(k)'``; iconst and rconst
+    its constants.  Its sizes come from the core."""
+
+    kind = 3
+
+    def __init__(self, p, iconst=(), rconst=(), x0=None, bias=None, free=(), names=None,
+                 input_hold="linear", substeps=1, q=None, r=None, S=None, ties=None):
+        from . import _core
+        self.iconst = np.asarray(iconst, dtype=np.int32).ravel()
+        self.rconst = np.asarray(rconst, dtype=float).ravel()
+        nx, nu, ny, nw, npar, status, msg = _core.mlid_api.mlid_model_sizes(
+            mkind=self.kind, iconst=self.iconst, rconst=self.rconst)
+        if status:
+            raise InputError(msg.decode(errors="replace").strip())
+        self.p = np.asarray(p, dtype=float).ravel()
+        if self.p.size != npar:
+            raise InputError(f"the user model has {npar} parameters p, got {self.p.size} values")
+        self._init_common(nx, nu, ny, nw, x0, bias, q, r, S, free, names, ties, input_hold,
+                          substeps)
+
+    def _model_blocks(self):
+        return [("p", self.p)]
+
+    def _from_parts(self, parts, common):
+        return UserModel(parts["p"], self.iconst, self.rconst, **common)
