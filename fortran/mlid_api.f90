@@ -21,7 +21,8 @@ module mlid_api
   use mlid_options, only: options_t, options_from_flat, options_to_flat
   use mlid_params, only: param_map_t, param_map_create, apply_ties
   use mlid_likelihood, only: likelihood
-  use mlid_newton, only: fit_result_t, newton_fit
+  use mlid_newton, only: fit_result_t, extras_t, newton_fit
+  use mlid_linalg, only: sym_eig
   use mlid_simulate, only: simulate_outputs
   use mlid_monte_carlo, only: monte_carlo
   use mlid_inputs, only: input_signal
@@ -122,17 +123,24 @@ contains
     call check_jacobians(m, 0.0_wp, x, uw, p, err)
   end subroutine mlid_check_jacobians
 
-  !> Maximum-likelihood fit from theta0 (output or filter error, iopt(6)).
+  !> Maximum-likelihood fit from theta0 (output or filter error, iopt(6)),
+  !> with the options of report sec. 4.6: a priori values prior(nth) and weight
+  !> pweight(nf, nf) over the free parameters (use_prior = 1), bounds
+  !> lower(nth) <= theta <= upper(nth) (use_bounds = 1), the rank-deficient
+  !> search from iopt(10) (rank: the rank of the last step).
   !> Out: theta_start (theta0, or the equation-error start-up's values), theta, sigma (Cramer-Rao, 0 for fixed), cov/info/grad/eigval over
   !> the nf free parameters, rhat (R-hat, or the mean innovation covariance),
   !> yhat, cost_hist(nc) (nc = max_iter + 1; entries past niter + 1 are 0),
   !> cost, niter, reason (mlid_kinds STOP_*), converged (0/1), bad_param
   !> (free index of a singular direction).
   subroutine mlid_fit(mkind, nx, nu, ny, nw, nth, theta0, isfree, itie, nic, iconst, nrc, &
-                      rconst, nt, t, u, y, iopt, ropt, nf, nc, theta_start, theta, sigma, cov, &
-                      info, grad, eigval, rhat, yhat, cost_hist, cost, niter, reason, converged, &
+                      rconst, nt, t, u, y, iopt, ropt, nf, nc, use_prior, prior, pweight, &
+                      use_bounds, lower, upper, theta_start, theta, sigma, cov, info, grad, &
+                      eigval, rhat, yhat, cost_hist, cost, niter, reason, converged, rank, &
                       bad_param, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nc
+    integer(c_int), intent(in) :: use_prior, use_bounds
+    real(c_double), intent(in) :: prior(nth), pweight(nf, nf), lower(nth), upper(nth)
     real(c_double), intent(in) :: theta0(nth)
     integer(c_int), intent(in) :: isfree(nth), itie(nth)
     integer(c_int), intent(in) :: iconst(nic)
@@ -143,12 +151,13 @@ contains
     real(c_double), intent(out) :: theta_start(nth), theta(nth), sigma(nth), cov(nf, nf)
     real(c_double), intent(out) :: info(nf, nf), grad(nf)
     real(c_double), intent(out) :: eigval(nf), rhat(ny, ny), yhat(ny, nt), cost_hist(nc), cost
-    integer(c_int), intent(out) :: niter, reason, converged, bad_param, status
+    integer(c_int), intent(out) :: niter, reason, converged, rank, bad_param, status
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
     type(fit_result_t) :: res
+    type(extras_t) :: ex
     character(len=256) :: warning
     integer :: k
 
@@ -166,18 +175,22 @@ contains
     niter = 0
     reason = 0
     converged = 0
+    rank = 0
     bad_param = 0
     call setup(mkind, nx, nu, ny, nw, theta0, isfree, itie, iconst, rconst, t, u, y, iopt, &
                ropt, nf, m, opt, pm, status, msg)
     if (status /= MLID_OK) return
     warning = msg
+    call extras(pm, opt, theta0, use_prior, prior, pweight, use_bounds, lower, upper, ex, &
+                bad_param, status, msg)
+    if (status /= MLID_OK) return
     if (nc /= opt%max_iter + 1) then
       status = MLID_ERR_INPUT
       write (msg, '(a,i0,a,i0)') 'cost history length ', nc, ' must be max_iter + 1 = ', &
         opt%max_iter + 1
       return
     end if
-    call newton_fit(m, theta0, pm, t, u, y, opt, res, status, msg)
+    call newton_fit(m, theta0, pm, t, u, y, opt, ex, res, status, msg)
     if (allocated(res%theta_start)) theta_start = res%theta_start
     if (.not. allocated(res%theta)) return
     theta = res%theta
@@ -196,6 +209,7 @@ contains
     niter = res%niter
     reason = res%reason
     converged = merge(1, 0, res%converged)
+    rank = res%rank
     bad_param = res%bad_param
     if (status == MLID_OK) msg = warning
   end subroutine mlid_fit
@@ -300,6 +314,65 @@ contains
     end if
     call monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, run_status)
   end subroutine mlid_monte_carlo
+
+  !> Check and gather the a priori values and weight and the bounds of the
+  !> free parameters; messages name the free parameter by its number.
+  subroutine extras(pm, opt, theta0, use_prior, prior, pweight, use_bounds, lower, upper, ex, &
+                    bad, status, msg)
+    type(param_map_t), intent(in) :: pm
+    type(options_t), intent(in) :: opt
+    real(c_double), intent(in) :: theta0(:), prior(:), pweight(:, :), lower(:), upper(:)
+    integer(c_int), intent(in) :: use_prior, use_bounds
+    type(extras_t), intent(out) :: ex
+    integer, intent(out) :: bad, status
+    character(len=*), intent(out) :: msg
+    real(wp) :: ev(pm%nf), v(pm%nf, pm%nf)
+    integer :: k, ierr
+
+    status = MLID_ERR_INPUT
+    bad = 0
+    if (pm%nf == 0) then
+      msg = 'every parameter is fixed: there is nothing to estimate'
+      return
+    end if
+    if (opt%rank_min > pm%nf) then
+      write (msg, '(a,i0,a,i0,a)') 'rank_min = ', opt%rank_min, ' is larger than the ', pm%nf, &
+        ' free parameters'
+      return
+    end if
+    if (use_prior == 1) then
+      if (.not. all(ieee_is_finite(pweight)) .or. .not. all(ieee_is_finite(prior))) then
+        msg = 'a priori values and weights must be finite'
+        return
+      end if
+      call sym_eig(0.5_wp*(pweight + transpose(pweight)), ev, v, ierr)
+      if (ierr /= 0 .or. maxval(abs(pweight - transpose(pweight))) > 0.0_wp .or. &
+          minval(ev) < -1.0e-12_wp*max(1.0_wp, maxval(abs(ev)))) then
+        msg = 'the a priori weight matrix must be symmetric positive semi-definite'
+        return
+      end if
+      ex%prior = prior(pm%ifree)
+      ex%weight = pweight
+    end if
+    if (use_bounds == 1) then
+      do k = 1, pm%nf
+        bad = k
+        if (.not. lower(pm%ifree(k)) <= upper(pm%ifree(k))) then
+          write (msg, '(a,i0,a)') 'free parameter ', k, ': lower bound above upper bound'
+          return
+        end if
+        if (theta0(pm%ifree(k)) < lower(pm%ifree(k)) .or. theta0(pm%ifree(k)) > upper(pm%ifree(k))) then
+          write (msg, '(a,i0,a)') 'free parameter ', k, ': start value outside its bounds'
+          return
+        end if
+      end do
+      ex%lower = lower(pm%ifree)
+      ex%upper = upper(pm%ifree)
+    end if
+    bad = 0
+    status = MLID_OK
+    msg = ''
+  end subroutine extras
 
   !> Build the model, options and parameter map and check everything the
   !> estimators assume of their arguments, with a message that names the

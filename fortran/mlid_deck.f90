@@ -12,7 +12,9 @@
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
 !>             t_start, pulse_width                                  (simulate)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
-!>             tol_cost, tol_step, tol_grad, rcond
+!>             tol_cost, tol_step, tol_grad, rcond, prior, prior_weight,
+!>             prior_decay, rank_min, lower, upper (per free parameter, in the
+!>             order of free)
 !> A problem in one case is kept in that case (status, msg) and the others
 !> are still read.  The Python reader (mlid/deck.py) follows the same rules.
 module mlid_deck
@@ -49,6 +51,8 @@ module mlid_deck
     integer :: nx = 0, nu = 0, ny = 0, nw = 0
     real(wp), allocatable :: theta(:)         !< [F, G, H, D, Gamma, x0, bias, q, r, s]
     integer, allocatable :: isfree(:), itie(:)
+    integer :: use_prior = 0, use_bounds = 0
+    real(wp), allocatable :: prior(:), pweight(:, :), lower(:), upper(:)  !< prior(nth) etc.
     character(len=NAMELEN), allocatable :: labels(:)  !< per free parameter, theta order
     integer :: iopt(NOPT) = 0
     real(wp) :: ropt(NOPT) = 0.0_wp
@@ -132,7 +136,9 @@ contains
     character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
     character(len=2*NAMELEN + 1) :: tie(MAXFREE)
     character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
-    real(wp) :: tol_cost, tol_step, tol_grad, rcond
+    real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay
+    real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
+    integer :: rank_min, free_idx(MAXFREE), nfree, pos
     character(len=PATHLEN) :: file, out
     integer :: input_cols(MAXCOL), output_cols(MAXCOL)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
@@ -144,7 +150,7 @@ contains
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
       pulse_width
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, tol_cost, &
-      tol_step, tol_grad, rcond
+      tol_step, tol_grad, rcond, prior, prior_weight, prior_decay, rank_min, lower, upper
     type(options_t) :: opt
     integer :: unit, k, ios, np, idx, jdx, peq, nth
     logical :: found
@@ -169,7 +175,7 @@ contains
     call read_group('case')
     if (c%status /= MLID_OK) return
     c%title = title
-    c%job = lower(job)
+    c%job = to_lower(job)
     if (c%job /= 'estimate' .and. c%job /= 'simulate') then
       call fail('group &case: job must be ''estimate'' or ''simulate'', got '''//trim(job)//'''')
       return
@@ -210,7 +216,7 @@ contains
     substeps = opt%substeps
     call read_group('model', required=.true.)
     if (c%status /= MLID_OK) return
-    select case (lower(kind))
+    select case (to_lower(kind))
     case ('linear')
       c%mkind = MODEL_LINEAR
       allocate (c%iconst(0), c%rconst(0))
@@ -316,6 +322,7 @@ contains
         return
       end if
       c%isfree(idx) = 1
+      free_idx(count(len_trim(free(1:k)) > 0)) = idx
       c%labels(idx) = default_label(idx)
       if (len_trim(names(k)) > 0) c%labels(idx) = names(k)
     end do
@@ -340,7 +347,7 @@ contains
       end if
       c%itie(idx) = jdx
     end do
-    select case (lower(input_hold))
+    select case (to_lower(input_hold))
     case ('linear')
       opt%hold = .false.
     case ('zoh')
@@ -387,8 +394,18 @@ contains
       tol_step = opt%tol_step
       tol_grad = opt%tol_grad
       rcond = opt%rcond
+      prior_decay = opt%prior_decay
+      rank_min = opt%rank_min
+      prior = UNSET
+      prior_weight = UNSET
+      lower = UNSET
+      upper = UNSET
       call read_group('estimate')
       if (c%status /= MLID_OK) return
+      call put_extras()
+      if (c%status /= MLID_OK) return
+      opt%prior_decay = prior_decay
+      opt%rank_min = rank_min
       opt%max_iter = max_iter
       opt%halvings = halvings
       opt%tol_cost = tol_cost
@@ -397,7 +414,7 @@ contains
       opt%rcond = rcond
       opt%partials = partials
       opt%steady = steady_state
-      c%method = lower(method)
+      c%method = to_lower(method)
       select case (c%method)
       case ('output_error')
         opt%method = 0
@@ -408,7 +425,7 @@ contains
                   trim(method)//'''')
         return
       end select
-      select case (lower(startup))
+      select case (to_lower(startup))
       case ('none')
         opt%startup = 0
       case ('equation_error')
@@ -418,7 +435,7 @@ contains
                   trim(startup)//'''')
         return
       end select
-      c%noise = lower(noise)
+      c%noise = to_lower(noise)
       if (c%noise /= 'diagonal' .and. c%noise /= 'full') then
         call fail('group &estimate: noise must be ''diagonal'' or ''full'', got '''//trim(noise)//'''')
         return
@@ -475,6 +492,38 @@ contains
     close (unit)
 
   contains
+
+    !> A priori values and weights and bounds, given per free parameter in
+    !> the order of free, into theta's order.
+    subroutine put_extras()
+      integer :: j, nfr
+      nfr = count(c%isfree == 1)
+      if (count(prior_weight /= UNSET) + count(prior /= UNSET) + count(lower /= UNSET) + &
+          count(upper /= UNSET) == 0) return
+      do j = 1, MAXFREE
+        if (j > nfr .and. any([prior(j), prior_weight(j), lower(j), upper(j)] /= UNSET)) then
+          write (iomsg, '(a,i0,a)') 'group &estimate: prior, prior_weight, lower and upper take '// &
+            'one value per free parameter (', nfr, ')'
+          call fail(iomsg)
+          return
+        end if
+      end do
+      allocate (c%prior(size(c%theta)), c%pweight(nfr, nfr), c%lower(size(c%theta)), &
+                c%upper(size(c%theta)))
+      c%prior = c%theta
+      c%pweight = 0.0_wp
+      c%lower = -huge(1.0_wp)
+      c%upper = huge(1.0_wp)
+      do j = 1, nfr
+        pos = count(c%isfree(1:free_idx(j)) == 1)      ! its place among the free, theta order
+        if (prior(j) /= UNSET) c%prior(free_idx(j)) = prior(j)
+        if (prior_weight(j) /= UNSET) c%pweight(pos, pos) = prior_weight(j)
+        if (lower(j) /= UNSET) c%lower(free_idx(j)) = lower(j)
+        if (upper(j) /= UNSET) c%upper(free_idx(j)) = upper(j)
+      end do
+      if (count(prior_weight /= UNSET) > 0) c%use_prior = 1
+      if (count(lower /= UNSET) + count(upper /= UNSET) > 0) c%use_bounds = 1
+    end subroutine put_extras
 
     !> Record the block table and the default label of every entry: the
     !> canonical element name, or C_D0, C_Lalpha, ... for coefficients.
@@ -570,7 +619,7 @@ contains
       if (size(out) == 0) out = [character(len=16) :: default]
       if (size(out) == 1) out = spread(out(1), 1, n)
       do i = 1, size(out)
-        out(i) = lower(out(i))
+        out(i) = to_lower(out(i))
       end do
     end function per_input_text
 
@@ -675,7 +724,7 @@ contains
           if (verify(text(e:e), 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ_0123456789') /= 0) exit
           e = e + 1
         end do
-        if (index(GROUPS, ' '//lower(text(k + 1:e - 1))//' ') == 0) then
+        if (index(GROUPS, ' '//to_lower(text(k + 1:e - 1))//' ') == 0) then
           c%status = MLID_ERR_INPUT
           c%msg = 'line '//itoa(line)//': unknown group &'//text(k + 1:e - 1)// &
                   ' (groups are &case, &model, &data, &simulate, &estimate)'
@@ -695,7 +744,7 @@ contains
     character(len=len(name)) :: s
 
     idx = 0
-    s = lower(adjustl(name))
+    s = to_lower(adjustl(name))
     p = index(s, '(')
     q = index(s, ')')
     if (p < 2 .or. q < p + 2 .or. len_trim(s) /= q) return
@@ -877,7 +926,7 @@ contains
     s = adjustl(line)
     e = scan(s, ' /,'//achar(9))
     if (e == 0) e = len(s) + 1
-    w = lower(s(1:min(e - 1, 16)))
+    w = to_lower(s(1:min(e - 1, 16)))
   end function first_word
 
   !> Line number of the first &group in the case (for messages).
@@ -887,7 +936,7 @@ contains
     integer :: k
     group_line = line0
     do k = 1, size(lines)
-      if (index(lower(strip_comment(lines(k))), '&'//group) > 0) then
+      if (index(to_lower(strip_comment(lines(k))), '&'//group) > 0) then
         group_line = line0 + k - 1
         return
       end if
@@ -910,7 +959,7 @@ contains
     end do
   end function count_fields
 
-  pure function lower(s) result(r)
+  pure function to_lower(s) result(r)
     character(len=*), intent(in) :: s
     character(len=len(s)) :: r
     integer :: k
@@ -918,7 +967,7 @@ contains
     do k = 1, len(s)
       if (s(k:k) >= 'A' .and. s(k:k) <= 'Z') r(k:k) = achar(iachar(s(k:k)) + 32)
     end do
-  end function lower
+  end function to_lower
 
   function itoa(i) result(s)
     integer, intent(in) :: i

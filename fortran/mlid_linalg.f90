@@ -5,7 +5,7 @@ module mlid_linalg
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: sym_eig, chol_inverse, psd_factor, info_inverse
+  public :: sym_eig, chol_inverse, psd_factor, info_inverse, info_eig
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -127,48 +127,64 @@ contains
     end do
   end subroutine psd_factor
 
-  !> Pseudo-inverse of the information matrix from the eigen-decomposition
-  !> of its normalised form N = D^-1/2 M D^-1/2, D = diag(M) (report §5.3.5),
-  !> so that the singularity test does not depend on the parameters' units.
-  !> ndrop eigenvalues of N fall below rcond times the largest (or a
-  !> parameter has no effect at all); bad is the free parameter with the
-  !> largest weight in the weakest direction.  w returns the eigenvalues of
-  !> N, ascending.
-  subroutine info_inverse(info, rcond, cov, w, ndrop, bad, status, msg)
+  !> Eigen-decomposition of the normalised information matrix
+  !> N = D^-1/2 M D^-1/2, D = diag(M) (report §5.3.5): the scale sc = D^-1/2
+  !> (0 for a parameter with no information at all), eigenvalues w ascending
+  !> and eigenvectors v.  Working on N keeps the parameters' units out of
+  !> every singularity test and rank choice.
+  subroutine info_eig(info, sc, w, v, status, msg)
     real(wp), intent(in) :: info(:, :)
-    real(wp), intent(in) :: rcond
-    real(wp), intent(out) :: cov(:, :), w(:)
-    integer, intent(out) :: ndrop, bad, status
+    real(wp), intent(out) :: sc(:), w(:), v(:, :)
+    integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: v(size(w), size(w)), sc(size(w)), nrm(size(w), size(w))
-    integer :: n, k, ierr
+    integer :: n, ierr
 
     status = MLID_OK
     msg = ''
     n = size(w)
-    ndrop = 0
-    bad = 0
-    cov = 0.0_wp
     w = 0.0_wp
+    v = 0.0_wp
+    sc = 0.0_wp
     if (n == 0) return
     if (.not. all(ieee_is_finite(info))) then
       status = MLID_ERR_SINGULAR
       msg = 'information matrix is not finite'
       return
     end if
-    ! A parameter with no effect at all gets a zero row: a zero eigenvalue.
-    sc = 0.0_wp
     where (info_diag(info) > 0.0_wp) sc = 1.0_wp/sqrt(info_diag(info))
-    nrm = info*spread(sc, 1, n)*spread(sc, 2, n)
-    call sym_eig(nrm, w, v, ierr)
+    call sym_eig(info*spread(sc, 1, n)*spread(sc, 2, n), w, v, ierr)
     if (ierr /= 0) then
       status = MLID_ERR_INTERNAL
       write (msg, '(a,i0)') 'eigen-decomposition of the information matrix failed, dsyevr info = ', ierr
-      return
     end if
+  end subroutine info_eig
+
+  !> Inverse of the information matrix from info_eig keeping the rank
+  !> largest eigenvalues of N (all above rcond times the largest when rank
+  !> is absent): cov = D^-1/2 V_r L_r^-1 V_r' D^-1/2.  ndrop counts the
+  !> eigenvalues left out below rcond; bad is the free parameter with the
+  !> largest weight in the weakest direction.  w returns N's eigenvalues.
+  subroutine info_inverse(info, rcond, cov, w, ndrop, bad, status, msg, rank)
+    real(wp), intent(in) :: info(:, :)
+    real(wp), intent(in) :: rcond
+    real(wp), intent(out) :: cov(:, :), w(:)
+    integer, intent(out) :: ndrop, bad, status
+    character(len=*), intent(out) :: msg
+    integer, intent(in), optional :: rank
+    real(wp) :: v(size(w), size(w)), sc(size(w))
+    integer :: n, k, keep
+
+    n = size(w)
+    ndrop = 0
+    bad = 0
+    cov = 0.0_wp
+    call info_eig(info, sc, w, v, status, msg)
+    if (status /= MLID_OK .or. n == 0) return
+    keep = n
+    if (present(rank)) keep = rank
     do k = 1, n
       if (w(k) > rcond*w(n) .and. w(n) > 0.0_wp) then
-        cov = cov + spread(v(:, k), 2, n)*spread(v(:, k)/w(k), 1, n)
+        if (k > n - keep) cov = cov + spread(v(:, k), 2, n)*spread(v(:, k)/w(k), 1, n)
       else
         ndrop = ndrop + 1
       end if

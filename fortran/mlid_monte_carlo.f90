@@ -7,7 +7,7 @@ module mlid_monte_carlo
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t
   use mlid_simulate, only: simulate_outputs
-  use mlid_newton, only: fit_result_t, newton_fit
+  use mlid_newton, only: fit_result_t, extras_t, newton_fit
   implicit none
   private
   public :: monte_carlo
@@ -28,6 +28,7 @@ contains
     integer, intent(out) :: iters(:), run_status(:)
     real(wp) :: y(m%ny, size(t)), x(m%nx, size(t))
     type(fit_result_t) :: res
+    type(extras_t) :: none
     character(len=256) :: msg
     integer :: r, k
 
@@ -37,7 +38,7 @@ contains
     do r = 1, size(run_status)
       call simulate_outputs(m, theta_true, t, u, opt, seed0 + r - 1, y, x, run_status(r), msg)
       if (run_status(r) /= MLID_OK) cycle
-      call newton_fit(m, theta_start, pm, t, u, y, opt, res, run_status(r), msg)
+      call newton_fit(m, theta_start, pm, t, u, y, opt, none, res, run_status(r), msg)
       if (.not. allocated(res%theta)) cycle
       est(:, r) = res%theta(pm%ifree)
       do k = 1, pm%nf

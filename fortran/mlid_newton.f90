@@ -15,21 +15,31 @@ module mlid_newton
   use mlid_params, only: param_map_t, apply_ties
   implicit none
   private
-  public :: fit_result_t, newton_fit
+  public :: fit_result_t, extras_t, newton_fit
+
+  !> The estimator options of report §4.6 beyond plain Newton-Raphson, over
+  !> the free parameters: a priori values and weight (block 7), bounds
+  !> (blocks 11-12).  Unallocated: not used.
+  type :: extras_t
+    real(wp), allocatable :: prior(:)       !< a priori values (nf)
+    real(wp), allocatable :: weight(:, :)   !< a priori weight matrix (nf, nf), positive semi-definite
+    real(wp), allocatable :: lower(:), upper(:)   !< bounds (nf)
+  end type extras_t
 
   type :: fit_result_t
     real(wp), allocatable :: theta_start(:) !< where the iteration started
     real(wp), allocatable :: theta(:)       !< final parameters (all, fixed ones unchanged)
-    real(wp), allocatable :: grad(:)        !< gradient at theta (free)
-    real(wp), allocatable :: info(:, :)     !< information matrix at theta (free)
-    real(wp), allocatable :: cov(:, :)      !< inverse of info: Cramer-Rao covariance (free)
+    real(wp), allocatable :: grad(:)        !< gradient of the likelihood at theta (free)
+    real(wp), allocatable :: info(:, :)     !< information matrix at theta, with the prior weight
+    real(wp), allocatable :: cov(:, :)      !< its (rank-r) inverse: Cramer-Rao covariance (free)
     real(wp), allocatable :: eigval(:)      !< eigenvalues of the normalised info, ascending
     real(wp), allocatable :: rhat(:, :)     !< measurement noise covariance estimate
     real(wp), allocatable :: yhat(:, :)     !< model outputs at theta
-    real(wp), allocatable :: cost_hist(:)   !< cost before iteration 1, then after each
-    real(wp) :: cost = 0.0_wp
+    real(wp), allocatable :: cost_hist(:)   !< likelihood before iteration 1, then after each
+    real(wp) :: cost = 0.0_wp               !< negative log-likelihood (without the prior term)
     integer :: niter = 0
     integer :: reason = STOP_NONE
+    integer :: rank = 0                     !< rank of the last step's solution
     integer :: bad_param = 0                !< free index dominating a singular direction
     logical :: converged = .false.
   end type fit_result_t
@@ -37,20 +47,24 @@ module mlid_newton
 contains
 
   !> Fit the free parameters of theta0 (map pm) by maximum likelihood, with
-  !> the method of opt.  On a non-zero status res still holds the last iterate.
-  subroutine newton_fit(m, theta0, pm, t, u, y, opt, res, status, msg)
+  !> the method of opt and the options in ex.  On a non-zero status res still
+  !> holds the last iterate.
+  subroutine newton_fit(m, theta0, pm, t, u, y, opt, ex, res, status, msg)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta0(:)
     type(param_map_t), intent(in) :: pm
     real(wp), intent(in) :: t(:), u(:, :), y(:, :)
     type(options_t), intent(in) :: opt
+    type(extras_t), intent(in) :: ex
     type(fit_result_t), intent(out) :: res
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    integer :: nf, ny, nt, it, ih, tstat, ndrop
+    integer :: nf, ny, nt, it, ih, tstat, ndrop, rank, rmin, rmax, rbest
+    logical :: better
     real(wp) :: step(pm%nf), trial(size(theta0)), best(size(theta0)), ee_sigma(pm%nf)
-    real(wp) :: jt, jbest, scale, decrement, dj
-    real(wp), allocatable :: rt(:, :), yt(:, :), rbest(:, :)
+    real(wp) :: g(pm%nf), mt(pm%nf, pm%nf), cov(pm%nf, pm%nf), w(pm%nf)
+    real(wp) :: jt, jbest, jnow, scale, decrement, dj, s, best_step
+    real(wp), allocatable :: rt(:, :), yt(:, :)
     character(len=len(msg)) :: tmsg
 
     nf = pm%nf
@@ -58,10 +72,11 @@ contains
     nt = size(t)
     allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), &
               res%rhat(ny, ny), res%yhat(ny, nt), res%cost_hist(opt%max_iter + 1))
-    allocate (rt(ny, ny), yt(ny, nt), rbest(ny, ny))
+    allocate (rt(ny, ny), yt(ny, nt))
     res%theta = theta0
     call apply_ties(pm%tie, res%theta)
     res%cost_hist = 0.0_wp
+    res%rank = nf
     if (opt%startup == 1) then
       call equation_error(m, theta0, pm, t, u, y, res%theta, ee_sigma, status, msg)
       if (status /= MLID_OK) then
@@ -78,9 +93,20 @@ contains
       return
     end if
     res%cost_hist(1) = res%cost
+    rmin = nf
+    if (opt%rank_min > 0) rmin = opt%rank_min
+    s = 1.0_wp
 
     do it = 1, opt%max_iter
-      call newton_step(res, opt%rcond, step, decrement, ndrop, status, msg)
+      ! the objective of this iteration: likelihood + prior term (weight s W)
+      jnow = res%cost + prior_cost(res%theta, s)
+      g = res%grad
+      mt = res%info
+      if (allocated(ex%weight)) then
+        g = g + s*matmul(ex%weight, res%theta(pm%ifree) - ex%prior)
+        mt = mt + s*ex%weight
+      end if
+      call bounded_step(nf, step, decrement)
       if (status /= MLID_OK) then
         res%reason = STOP_FAILED
         return
@@ -90,27 +116,52 @@ contains
         exit
       end if
 
-      ! Full step first, then halve while the cost does not decrease.
+      ! For each rank from rmin to full (block 7-10): the step, limited by the
+      ! bounds (blocks 11-12), halved while the objective does not decrease;
+      ! keep the best.
+      ! ranks above the number of usable eigenvalues (ndrop from the full-rank
+      ! step just taken) would repeat the same step
+      rmax = nf - ndrop
       jbest = huge(1.0_wp)
-      scale = 1.0_wp
-      do ih = 0, opt%halvings
-        trial = res%theta
-        trial(pm%ifree) = trial(pm%ifree) + scale*step
-        call apply_ties(pm%tie, trial)
-        call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
-        if (tstat == MLID_OK .and. ieee_is_finite(jt) .and. jt < jbest) then
-          jbest = jt
-          best = trial
-          rbest = rt
+      best_step = 0.0_wp
+      rbest = 0
+      do rank = min(rmin, rmax), rmax
+        call bounded_step(rank, step, decrement)
+        if (status /= MLID_OK) then
+          res%reason = STOP_FAILED
+          return
         end if
-        if (jbest < res%cost) exit
-        scale = 0.5_wp*scale
+        scale = 1.0_wp
+        do ih = 0, opt%halvings
+          trial = res%theta
+          trial(pm%ifree) = trial(pm%ifree) + scale*step
+          call apply_ties(pm%tie, trial)
+          call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
+          if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
+            jt = jt + prior_cost(trial, s)
+            ! ranks run upward: a higher rank wins unless a lower one is better
+            ! by more than the cost tolerance (near-ties are rounding)
+            if (rank > rbest) then
+              better = jt <= jbest + opt%tol_cost*max(1.0_wp, abs(jnow))
+            else
+              better = jt < jbest
+            end if
+            if (better) then
+              jbest = jt
+              best = trial
+              best_step = scale*norm2(step)
+              rbest = rank
+            end if
+            if (jt < jnow) exit
+          end if
+          scale = 0.5_wp*scale
+        end do
       end do
 
-      dj = res%cost - jbest
+      dj = jnow - jbest
       if (.not. (dj > 0.0_wp)) then
-        ! No decrease: converged if the cost is flat to tolerance, else stuck.
-        if (jbest < huge(1.0_wp) .and. abs(dj) <= opt%tol_cost*max(1.0_wp, abs(res%cost))) then
+        ! No decrease: converged if the objective is flat to tolerance, else stuck.
+        if (jbest < huge(1.0_wp) .and. abs(dj) <= opt%tol_cost*max(1.0_wp, abs(jnow))) then
           res%reason = STOP_COST
         else
           res%reason = STOP_NO_DECREASE
@@ -119,6 +170,7 @@ contains
       end if
 
       res%niter = it
+      res%rank = rbest
       res%theta = best
       call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
                       status, msg, res%grad, res%info)
@@ -127,23 +179,26 @@ contains
         return
       end if
       res%cost_hist(it + 1) = res%cost
-
-      if (dj <= opt%tol_cost*max(1.0_wp, abs(res%cost))) then
+      if (dj <= opt%tol_cost*max(1.0_wp, abs(jbest))) then
         res%reason = STOP_COST
         exit
       end if
-      if (scale*norm2(step) <= opt%tol_step*norm2(res%theta(pm%ifree))) then
+      if (best_step <= opt%tol_step*norm2(res%theta(pm%ifree))) then
         res%reason = STOP_STEP
         exit
       end if
+      s = s*opt%prior_decay
     end do
     if (res%reason == STOP_NONE) res%reason = STOP_MAXITER
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
 
-    ! Cramer-Rao bound at the final estimate.
-    call info_inverse(res%info, opt%rcond, res%cov, res%eigval, ndrop, res%bad_param, status, msg)
+    ! Cramer-Rao bound at the final estimate, with the prior's weight and
+    ! the rank of the last step.
+    if (allocated(ex%weight)) res%info = res%info + s*ex%weight
+    call info_inverse(res%info, opt%rcond, res%cov, res%eigval, ndrop, res%bad_param, status, &
+                      msg, res%rank)
     if (status /= MLID_OK) return
-    if (ndrop > 0) then
+    if (ndrop > 0 .and. opt%rank_min == 0) then     ! singular, and no rank-deficient solution asked
       status = MLID_ERR_SINGULAR
       write (msg, '(a,i0,a,es9.2,a,i0,a)') 'information matrix singular (', ndrop, &
         ' eigenvalue(s) of the normalised matrix below', opt%rcond, ' of the largest): free parameter ', &
@@ -155,24 +210,63 @@ contains
                    'iteration limit reached                 ', &
                    res%reason == STOP_NO_DECREASE))
     end if
+
+  contains
+
+    !> 1/2 s (theta - prior)' W (theta - prior) over the free parameters.
+    real(wp) function prior_cost(th, sw)
+      real(wp), intent(in) :: th(:), sw
+      real(wp) :: d(nf)
+      prior_cost = 0.0_wp
+      if (.not. allocated(ex%weight)) return
+      d = th(pm%ifree) - ex%prior
+      prior_cost = 0.5_wp*sw*dot_product(d, matmul(ex%weight, d))
+    end function prior_cost
+
+    !> The Newton step -M^-1 g of the given rank (and the Newton decrement
+    !> sqrt(-g' step)), with the bounds of blocks 11-12: a parameter on a
+    !> bound that the step would push outward is held there and the step
+    !> solved again for the others; then the whole step is scaled so that no
+    !> parameter crosses its bound.
+    subroutine bounded_step(rank, st, dec)
+      integer, intent(in) :: rank
+      real(wp), intent(out) :: st(:), dec
+      real(wp) :: th(nf), factor
+      logical :: active(nf)
+      integer :: k, nfree_act
+      integer, allocatable :: keep(:)
+      real(wp), allocatable :: sub(:, :), subw(:)
+
+      call info_inverse(mt, opt%rcond, cov, w, ndrop, res%bad_param, status, msg, rank)
+      if (status /= MLID_OK) return
+      st = -matmul(cov, g)
+      if (allocated(ex%lower)) then
+        th = res%theta(pm%ifree)
+        active = (th <= ex%lower .and. st < 0.0_wp) .or. (th >= ex%upper .and. st > 0.0_wp)
+        if (any(active)) then
+          keep = pack([(k, k=1, nf)], .not. active)
+          nfree_act = size(keep)
+          allocate (sub(nfree_act, nfree_act), subw(nfree_act))
+          st = 0.0_wp
+          if (nfree_act > 0) then
+            call info_inverse(mt(keep, keep), opt%rcond, sub, subw, ndrop, k, status, msg, &
+                              min(rank, nfree_act))
+            if (status /= MLID_OK) return
+            st(keep) = -matmul(sub, g(keep))
+          end if
+        end if
+        factor = 1.0_wp
+        do k = 1, nf
+          if (th(k) + st(k) > ex%upper(k)) factor = min(factor, (ex%upper(k) - th(k))/st(k))
+          if (th(k) + st(k) < ex%lower(k)) factor = min(factor, (ex%lower(k) - th(k))/st(k))
+        end do
+        dec = sqrt(max(0.0_wp, -dot_product(g, st)))
+        st = factor*st
+      else
+        dec = sqrt(max(0.0_wp, -dot_product(g, st)))
+      end if
+    end subroutine bounded_step
+
   end subroutine newton_fit
-
-  !> Newton step -M^-1 g through the eigen-decomposition of M, with the
-  !> directions whose eigenvalues fall below rcond*max left out, and the
-  !> Newton decrement sqrt(g' M^-1 g).
-  subroutine newton_step(res, rcond, step, decrement, ndrop, status, msg)
-    type(fit_result_t), intent(in) :: res
-    real(wp), intent(in) :: rcond
-    real(wp), intent(out) :: step(:), decrement
-    integer, intent(out) :: ndrop, status
-    character(len=*), intent(out) :: msg
-    real(wp) :: cov(size(step), size(step)), w(size(step))
-    integer :: bad
-
-    call info_inverse(res%info, rcond, cov, w, ndrop, bad, status, msg)
-    if (status /= MLID_OK) return
-    step = -matmul(cov, res%grad)
-    decrement = sqrt(max(0.0_wp, -dot_product(res%grad, step)))
-  end subroutine newton_step
 
 end module mlid_newton

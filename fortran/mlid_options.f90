@@ -21,10 +21,12 @@ module mlid_options
     logical :: partials = .true.  !< iopt(7): filter error with covariance/gain partials (eqs 4.32-4.34)
     logical :: steady = .false.   !< iopt(8): filter error with the steady-state gain
     integer :: startup = 0        !< iopt(9): 0 from the given values, 1 equation-error start-up
+    integer :: rank_min = 0       !< iopt(10): rank-deficient search from this rank (0: full rank only)
     real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
     real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
     real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
     real(wp) :: rcond = 1.0e-10_wp    !< ropt(4): eigenvalues of M below rcond*max are singular
+    real(wp) :: prior_decay = 1.0_wp  !< ropt(5): a priori weights times this each iteration (§4.5.2)
   end type options_t
 
 contains
@@ -45,10 +47,12 @@ contains
     iopt(7) = merge(1, 0, opt%partials)
     iopt(8) = merge(1, 0, opt%steady)
     iopt(9) = opt%startup
+    iopt(10) = opt%rank_min
     ropt(1) = opt%tol_cost
     ropt(2) = opt%tol_step
     ropt(3) = opt%tol_grad
     ropt(4) = opt%rcond
+    ropt(5) = opt%prior_decay
   end subroutine options_to_flat
 
   !> Decode and check the flat options.  Zero or negative entries where a
@@ -71,10 +75,12 @@ contains
     opt%partials = iopt(7) == 1
     opt%steady = iopt(8) == 1
     opt%startup = iopt(9)
+    opt%rank_min = iopt(10)
     opt%tol_cost = ropt(1)
     opt%tol_step = ropt(2)
     opt%tol_grad = ropt(3)
     opt%rcond = ropt(4)
+    opt%prior_decay = ropt(5)
     if (opt%max_iter < 0) then
       write (msg, '(a,i0)') 'max_iter must be >= 0, got ', opt%max_iter
     else if (opt%halvings < 0) then
@@ -94,6 +100,10 @@ contains
       msg = 'tolerances tol_cost, tol_step, tol_grad must be >= 0'
     else if (.not. (opt%rcond > 0.0_wp .and. opt%rcond < 1.0_wp)) then
       msg = 'rcond must lie in (0, 1)'
+    else if (opt%rank_min < 0) then
+      write (msg, '(a,i0)') 'rank_min must be >= 0, got ', opt%rank_min
+    else if (.not. (opt%prior_decay > 0.0_wp .and. opt%prior_decay <= 1.0_wp)) then
+      msg = 'prior_decay must lie in (0, 1]'
     else
       status = MLID_OK
       msg = ''

@@ -10,18 +10,21 @@ module mlid_report
 contains
 
   !> Table of start, estimate and Cramer-Rao sigma per free parameter.
-  subroutine report_fit(unit, method, labels, start, est, sig, cost, rhat, niter, reason, converged)
+  subroutine report_fit(unit, method, labels, start, est, sig, cost, rhat, niter, reason, converged, &
+                        rank, rank_min)
     integer, intent(in) :: unit
     character(len=*), intent(in) :: method
     character(len=*), intent(in) :: labels(:)
     real(wp), intent(in) :: start(:), est(:), sig(:), cost, rhat(:, :)
-    integer, intent(in) :: niter, reason
+    integer, intent(in) :: niter, reason, rank, rank_min
     logical, intent(in) :: converged
     integer :: k
 
     write (unit, '(a,i0,a)') ' '//trim(method)//': ', niter, ' iterations, '// &
       trim(merge('converged    ', 'NOT converged', converged))//' ('// &
       trim(stop_reason_text(reason))//')'
+    if (rank_min > 0) write (unit, '(a,i0,a,i0,a)') ' rank-deficient solution: rank ', rank, &
+      ' of ', size(labels), ' (sigma from the same rank)'
     write (unit, '(1x,a16,a15,a15,a13)') 'parameter       ', 'start', 'estimate', 'sigma'
     do k = 1, size(labels)
       write (unit, '(1x,a16,2es15.6e2,es13.4e2)') labels(k), start(k), est(k), sig(k)

@@ -77,7 +77,7 @@ contains
     real(wp), allocatable :: theta(:), theta0(:), sigma(:), cov(:, :), info(:, :), grad(:), eigval(:)
     real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), x(:, :)
     real(wp) :: cost, wall
-    integer :: niter, reason, converged, bad, nf, nth, cstat, j, t0, t1, rate, ou
+    integer :: niter, reason, converged, bad, nf, nth, cstat, j, t0, t1, rate, ou, rank
     character(len=256) :: cmsg
     character(len=512) :: path
     logical :: fitted
@@ -121,15 +121,17 @@ contains
         call system_clock(t0, rate)
         call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, &
                       size(c%iconst), c%iconst, size(c%rconst), c%rconst, size(t), t, u, y, &
-                      c%iopt, c%ropt, nf, size(hist), theta0, theta, &
+                      c%iopt, c%ropt, nf, size(hist), c%use_prior, prior_or_zero(c%prior, nth), &
+                      pweight_or_zero(c%pweight, nf), c%use_bounds, prior_or_zero(c%lower, nth), &
+                      prior_or_zero(c%upper, nth), theta0, theta, &
                       sigma, cov, info, grad, eigval, rhat, yhat, hist, cost, niter, reason, &
-                      converged, bad, cstat, cmsg)
+                      converged, rank, bad, cstat, cmsg)
         call system_clock(t1)
         wall = real(t1 - t0, wp)/rate
         if (cstat == MLID_OK .or. cstat == MLID_ERR_NOCONV) then
           call report_fit(6, method_text(c), c%labels, pack(theta0, c%isfree == 1), &
                           pack(theta, c%isfree == 1), pack(sigma, c%isfree == 1), cost, rhat, &
-                          niter, reason, converged == 1)
+                          niter, reason, converged == 1, rank, c%iopt(10))
           fitted = .true.
         end if
         if (cstat /= MLID_OK .and. bad > 0) cmsg = replace_index(cmsg, bad, c%labels)
@@ -158,6 +160,23 @@ contains
     end if
   end subroutine run_case
 
+  !> An optional array, or zeros of the size the interface wants.
+  function prior_or_zero(a, n) result(out)
+    real(wp), allocatable, intent(in) :: a(:)
+    integer, intent(in) :: n
+    real(wp) :: out(n)
+    out = 0.0_wp
+    if (allocated(a)) out = a
+  end function prior_or_zero
+
+  function pweight_or_zero(a, n) result(out)
+    real(wp), allocatable, intent(in) :: a(:, :)
+    integer, intent(in) :: n
+    real(wp) :: out(n, n)
+    out = 0.0_wp
+    if (allocated(a)) out = a
+  end function pweight_or_zero
+
   !> The estimator, as the report's first line names it.
   function method_text(c) result(text)
     type(deck_case_t), intent(in) :: c
@@ -171,18 +190,23 @@ contains
     end if
   end function method_text
 
-  !> Put the name of free parameter bad in place of its number.
+  !> Put the name of free parameter bad in place of "free parameter <bad>".
   function replace_index(text, bad, labels) result(out)
     character(len=*), intent(in) :: text
     integer, intent(in) :: bad
     character(len=*), intent(in) :: labels(:)
     character(len=256) :: out
     character(len=32) :: key
-    integer :: p
-    write (key, '(a,i0,a)') 'free parameter ', bad, ' '
-    p = index(text, trim(key)//' ')
+    integer :: p, e
+    write (key, '(a,i0)') 'free parameter ', bad
+    p = index(text, trim(key))
     out = text
-    if (p > 0) out = text(1:p - 1)//''''//trim(labels(bad))//''' '//text(p + len_trim(key) + 1:)
+    if (p == 0) return
+    e = p + len_trim(key)
+    if (e <= len(text)) then
+      if (index('0123456789', text(e:e)) > 0) return
+    end if
+    out = text(1:p - 1)//''''//trim(labels(bad))//''''//text(e:)
   end function replace_index
 
 end program mlid_batch

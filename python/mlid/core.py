@@ -1,5 +1,6 @@
 """Thin wrappers over the Fortran core (mlid._core): arrays in, arrays out."""
 
+import re
 import time
 import warnings
 
@@ -31,7 +32,8 @@ def default_options():
     return {"method": METHODS[int(iopt[5])], "max_iter": int(iopt[0]),
             "halvings": int(iopt[1]), "noise": NOISE[int(iopt[2])],
             "partials": bool(iopt[6]), "steady_state": bool(iopt[7]),
-            "startup": STARTUPS[int(iopt[8])],
+            "startup": STARTUPS[int(iopt[8])], "rank_min": int(iopt[9]),
+            "prior_decay": float(ropt[4]),
             "tol_cost": float(ropt[0]), "tol_step": float(ropt[1]), "tol_grad": float(ropt[2]),
             "rcond": float(ropt[3])}
 
@@ -55,6 +57,8 @@ def _flat_options(model, options):
                 METHODS.index(opts["method"]), int(bool(opts["partials"])),
                 int(bool(opts["steady_state"]))]
     iopt[8] = STARTUPS.index(opts["startup"])
+    iopt[9] = opts["rank_min"]
+    ropt[4] = opts["prior_decay"]
     ropt[:4] = [opts["tol_cost"], opts["tol_step"], opts["tol_grad"], opts["rcond"]]
     return iopt, ropt, opts
 
@@ -77,7 +81,47 @@ def _record(model, data):
     return np.ascontiguousarray(data.t, dtype=float), u, y
 
 
-def fit(model, data, **options):
+def _extras(model, prior, prior_weight, bounds):
+    """A priori values/weight and bounds in the core's layout."""
+    names = model.element_names()
+    labels = {v: k for k, v in model.names.items()}
+    free = [n for n, f in zip(names, model.free_mask) if f]
+
+    def index(name):
+        key = model.canonical_name(labels.get(name, name))
+        if key not in free:
+            raise InputError(f"{name!r} is not a free parameter")
+        return key
+
+    theta = model.theta
+    pvec = theta.copy()
+    for name, value in (prior or {}).items():
+        pvec[names.index(index(name))] = value
+    nf = len(free)
+    if prior_weight is None:
+        weight = np.zeros((nf, nf))
+    elif isinstance(prior_weight, dict):
+        weight = np.zeros((nf, nf))
+        for name, w in prior_weight.items():
+            k = free.index(index(name))
+            weight[k, k] = w
+    else:
+        weight = np.asarray(prior_weight, dtype=float)
+        if weight.shape != (nf, nf):
+            raise InputError(f"prior_weight must be {nf}x{nf} (free parameters), got "
+                             f"{weight.shape}")
+    lower = np.full(theta.size, -np.finfo(float).max)
+    upper = np.full(theta.size, np.finfo(float).max)
+    for name, (lo, hi) in (bounds or {}).items():
+        k = names.index(index(name))
+        lower[k] = -np.finfo(float).max if lo is None else lo
+        upper[k] = np.finfo(float).max if hi is None else hi
+    return {"use_prior": int(prior_weight is not None), "prior": pvec,
+            "pweight": np.asfortranarray(weight), "use_bounds": int(bool(bounds)),
+            "lower": lower, "upper": upper}
+
+
+def fit(model, data, prior=None, prior_weight=None, bounds=None, **options):
     """Maximum-likelihood fit of the model's free parameters.
 
     Options (defaults from the core, see ``default_options()``): method
@@ -87,7 +131,12 @@ def fit(model, data, **options):
     covariance and gain partials of eqs 4.32-4.34), steady_state (filter
     error: steady-state gain), startup ('equation_error': start from an
     equation-error least-squares pass, all states measured), tol_cost,
-    tol_step, tol_grad, rcond.  Returns a FitResult; raises an
+    tol_step, tol_grad, rcond, rank_min (rank-deficient search from this
+    rank, report §4.6 blocks 7-10), prior_decay (a priori weights times this
+    each iteration).  The a priori weighting of §4.5.2: prior_weight, a dict
+    {name: weight} (diagonal) or an nf x nf matrix over the free parameters,
+    and prior, {name: value} (default the start values).  bounds: {name:
+    (lower, upper)} with the step limiting of §4.6 blocks 11-12.  Returns a FitResult; raises an
     MlidError subclass for bad input, divergence or singular information
     (with the partial result attached where there is one).
     """
@@ -98,25 +147,26 @@ def fit(model, data, **options):
     nf = int(mask.sum())
     start = time.perf_counter()
     (theta_start, theta, sigma, cov, info, grad, eigval, rhat, yhat, cost_hist, cost, niter,
-     reason, converged, bad, status, msg) = _api.mlid_fit(
+     reason, converged, rank, bad, status, msg) = _api.mlid_fit(
         **_model_args(model), theta0=theta0, isfree=mask, itie=model.tie_index, t=t, u=u, y=y,
-        iopt=iopt, ropt=ropt, nf=nf, nc=int(iopt[0]) + 1)
+        iopt=iopt, ropt=ropt, nf=nf, nc=int(iopt[0]) + 1,
+        **_extras(model, prior, prior_weight, bounds))
     wall = time.perf_counter() - start
     text = msg.decode(errors="replace").strip()
+    free_names = model.free_names()
+    if status and bad:                # the core numbers the free parameter; name it
+        text = re.sub(rf"free parameter {bad}(?!\d)", repr(free_names[bad - 1]), text)
     if status not in (0, 2, 4):       # no result to return
         check_status(status, text)
     if status == 0 and text.startswith("warning:"):
         warnings.warn(text[len("warning:"):].strip(), MlidWarning, stacklevel=2)
-    free_names = model.free_names()
-    if status == 2 and bad:
-        text = text.replace(f"free parameter {bad} ", f"{free_names[bad - 1]!r} ")
     result = FitResult(
         model=model.with_theta(theta), start_model=model, data=data, options=opts,
         names=free_names, start=theta_start[mask == 1], estimate=theta[mask == 1],
         sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
         eigenvalues=eigval, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
         cost_history=cost_hist[:niter + 1].copy(), iterations=int(niter),
-        converged=bool(converged), reason=STOP_REASONS.get(int(reason), "?"),
+        converged=bool(converged), reason=STOP_REASONS.get(int(reason), "?"), rank=int(rank),
         status=int(status), message=text, wall_time=wall)
     if status == 2:
         raise SingularInformationError(text, result)

@@ -54,7 +54,10 @@ def _schema():
                      "steady_state": (_BOOL, opts["steady_state"]),
                      "tol_cost": (_REAL, opts["tol_cost"]),
                      "tol_step": (_REAL, opts["tol_step"]), "tol_grad": (_REAL, opts["tol_grad"]),
-                     "rcond": (_REAL, opts["rcond"])},
+                     "rcond": (_REAL, opts["rcond"]), "prior": (_REALS, None),
+                     "prior_weight": (_REALS, None), "prior_decay": (_REAL, opts["prior_decay"]),
+                     "rank_min": (_INT, opts["rank_min"]), "lower": (_REALS, None),
+                     "upper": (_REALS, None)},
     }
 
 
@@ -91,7 +94,24 @@ class Case:
         return t, u
 
     def options(self):
-        return dict(self.groups.get("estimate", {}))
+        """Options for fit(): the &estimate group, with the per-free-parameter
+        lists (order of &model free) turned into prior, prior_weight, bounds."""
+        e = dict(self.groups.get("estimate", {}))
+        free = [f for f in self.groups["model"]["free"] if f]
+        lists = {k: [v for v in (e.pop(k) or [])] for k in ("prior", "prior_weight", "lower",
+                                                             "upper")}
+        for key, vals in lists.items():
+            if len(vals) > len(free):
+                raise InputError(f"group &estimate: prior, prior_weight, lower and upper take one "
+                                 f"value per free parameter ({len(free)})")
+        pick = {k: {f: v for f, v in zip(free, vals) if v is not None} for k, vals in lists.items()}
+        if pick["prior"] or pick["prior_weight"]:
+            e["prior"] = pick["prior"]
+            e["prior_weight"] = pick["prior_weight"] if pick["prior_weight"] else None
+        if pick["lower"] or pick["upper"]:
+            e["bounds"] = {f: (pick["lower"].get(f), pick["upper"].get(f))
+                           for f in set(pick["lower"]) | set(pick["upper"])}
+        return e
 
     def _path(self, name):
         p = Path(name)

@@ -67,6 +67,7 @@ class FitResult:
             "cost_history": self.cost_history.tolist(),
             "iterations": self.iterations,
             "converged": self.converged,
+            "rank": self.rank,
             "reason": self.reason,
             "message": self.message,
             "wall_time_s": self.wall_time,
@@ -84,8 +85,11 @@ class FitResult:
         lines = [
             f" {method}: {self.iterations} iterations, "
             f"{'converged' if self.converged else 'NOT converged'} ({self.reason})",
-            f" {'parameter':<16}{'start':>15}{'estimate':>15}{'sigma':>13}",
         ]
+        if o.get("rank_min", 0) > 0:
+            lines.append(f" rank-deficient solution: rank {self.rank} of {len(self.names)} "
+                         "(sigma from the same rank)")
+        lines.append(f" {'parameter':<16}{'start':>15}{'estimate':>15}{'sigma':>13}")
         for n, s0, e, s in zip(self.names, self.start, self.estimate, self.sigma):
             lines.append(f" {n[:16]:<16}{s0:15.6E}{e:15.6E}{s:13.4E}")
         # output error estimates R; filter error reports the mean innovation covariance B

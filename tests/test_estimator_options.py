@@ -1,0 +1,108 @@
+"""The estimator options of report §4.6: a priori weighting, bounds,
+rank-deficient solutions (and fixed parameters, which are just not free)."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import mlid
+from conftest import BIN, c8_record, c8_start, c8_truth
+
+
+@pytest.fixture(scope="module")
+def data():
+    return c8_record()
+
+
+def test_prior_weight_zero_changes_nothing_and_large_weight_pins(data):
+    plain = mlid.fit(c8_start(), data)
+    zero = mlid.fit(c8_start(), data, prior_weight={"M_q": 0.0})
+    np.testing.assert_allclose(zero.estimate, plain.estimate, rtol=1e-9)
+    pinned = mlid.fit(c8_start(), data, prior={"M_q": -1.6}, prior_weight={"M_q": 1e12})
+    assert pinned.estimate[pinned.names.index("M_q")] == pytest.approx(-1.6, abs=1e-5)
+
+
+def test_prior_optimum_balances_likelihood_and_prior(data):
+    w = 400.0
+    res = mlid.fit(c8_start(), data, prior={"M_alpha": -0.3}, prior_weight={"M_alpha": w})
+    k = res.names.index("M_alpha")
+    # at the optimum the likelihood gradient cancels the prior's pull
+    g = mlid.evaluate(res.model, data)["gradient"]
+    assert g[k] == pytest.approx(-w * (res.estimate[k] + 0.3), rel=1e-3, abs=1e-3)
+    assert res.estimate[k] > mlid.fit(c8_start(), data).estimate[k]       # pulled toward -0.3
+    # the information includes the prior weight, so sigma shrinks
+    assert res.sigma[k] < mlid.fit(c8_start(), data).sigma[k]
+
+
+def test_bounds_hold_the_estimate_on_the_bound(data):
+    free = mlid.fit(c8_start(), data)
+    k = free.names.index("M_q")
+    lower = free.estimate[k] + 3 * free.sigma[k]    # above the optimum, below the start
+    res = mlid.fit(c8_start(), data, bounds={"M_q": (lower, None)})
+    assert res.estimate[k] == pytest.approx(lower, abs=1e-12)
+    assert res.converged
+
+
+def test_rank_deficient_solution_handles_a_singular_direction():
+    model = mlid.LinearModel([[-1.0, 0.5], [0.0, -2.0]], [[1.0], [0.0]], np.eye(2),
+                             free=["f(1,1)", "f(1,2)", "g(1,1)"])
+    t = np.arange(200) * 0.02
+    data, _ = mlid.simulate(model, t, np.sin(3 * t)[:, None], [0.01, 0.01], seed=3)
+    with pytest.raises(mlid.SingularInformationError):
+        mlid.fit(model, data)
+    res = mlid.fit(model, data, rank_min=1)
+    assert res.rank == 2                                     # the null direction left out
+    assert "rank-deficient solution: rank 2 of 3" in res.report()
+    k = res.names.index("f(1,1)")
+    assert abs(res.estimate[k] + 1.0) < 3 * res.sigma[k]
+
+
+def test_rank_search_at_full_rank_matches_plain_fit(data):
+    plain = mlid.fit(c8_start(), data)
+    ranked = mlid.fit(c8_start(), data, rank_min=3)
+    assert ranked.rank == 5
+    np.testing.assert_allclose(ranked.estimate, plain.estimate, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"bounds": {"M_q": (-1.0, -2.0)}}, "'M_q': lower bound above upper bound"),
+    ({"bounds": {"M_q": (-0.5, 0.0)}}, "'M_q': start value outside its bounds"),
+    ({"prior_weight": np.diag([1.0, -1.0, 1.0, 1.0, 1.0])}, "positive semi-definite"),
+    ({"rank_min": 6}, "larger than the 5 free parameters"),
+    ({"prior_weight": {"f(1,1)": 1.0}}, "not a free parameter"),
+])
+def test_bad_options(data, kwargs, match):
+    with pytest.raises(mlid.InputError, match=match):
+        mlid.fit(c8_start(), data, **kwargs)
+
+
+def test_every_parameter_fixed(data):
+    with pytest.raises(mlid.InputError, match="every parameter is fixed"):
+        mlid.fit(c8_truth().with_free([]), data)
+
+
+def test_options_through_decks_in_both_front_ends(tmp_path):
+    deck = tmp_path / "opts.nml"
+    deck.write_text("""
+&case title = 'make data', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2, f = -1.2, 0.5, -1.0, -2.0, g = 1.5, 0.3,
+    h = 1, 0, 0, 1 /
+&simulate out = 'd.dat', t_end = 4.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
+    input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2 /
+&case title = 'options', job = 'estimate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2, f = -1.0, 0.5, -0.8, -2.0, g = 1.0, 0.3,
+    h = 1, 0, 0, 1, free = 'g(1,1)', 'f(1,1)', 'f(2,1)' /
+&data file = 'd.dat', input_cols = 2, output_cols = 3, 4 /
+&estimate prior = 1.4, prior_weight = 50.0, lower = -10, -10, -0.95, rank_min = 2 /
+""")
+    res = []
+    for cmd, out in (([str(BIN / "mlid"), "run"], "a.json"), ([str(BIN / "mlid-batch")], "b.json")):
+        run = subprocess.run(cmd + [str(deck), "--json", str(tmp_path / out)], capture_output=True,
+                             text=True)
+        assert run.returncode == 0, run.stderr
+        assert "rank-deficient solution: rank 3 of 3" in run.stdout    # no near-tie wins
+        res.append(json.loads((tmp_path / out).read_text())[1])
+    np.testing.assert_allclose(res[0]["estimate"], res[1]["estimate"], rtol=1e-10, atol=0)
+    assert res[0]["estimate"][res[0]["parameters"].index("f(2,1)")] >= -0.95  # the bound holds
