@@ -27,6 +27,7 @@ bench: install
 	$(VPY) benchmarks/monte_carlo_c8.py
 	$(VPY) benchmarks/monte_carlo_m2f3.py
 	$(VPY) benchmarks/peer_statsmodels_m2f3.py
+	$(VPY) benchmarks/bench_rank_search.py
 
 install: sysdeps $(STAMP)
 
