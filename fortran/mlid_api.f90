@@ -136,7 +136,7 @@ contains
   subroutine mlid_fit(mkind, nx, nu, ny, nw, nth, theta0, isfree, itie, nic, iconst, nrc, &
                       rconst, nt, t, u, y, iopt, ropt, nf, nc, use_prior, prior, pweight, &
                       use_bounds, lower, upper, theta_start, theta, sigma, cov, info, grad, &
-                      eigval, rhat, yhat, cost_hist, cost, niter, reason, converged, rank, &
+                      eigval, eigvec, rhat, yhat, cost_hist, cost, niter, reason, converged, rank, &
                       bad_param, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nc
     integer(c_int), intent(in) :: use_prior, use_bounds
@@ -150,7 +150,8 @@ contains
     real(c_double), intent(in) :: ropt(12)
     real(c_double), intent(out) :: theta_start(nth), theta(nth), sigma(nth), cov(nf, nf)
     real(c_double), intent(out) :: info(nf, nf), grad(nf)
-    real(c_double), intent(out) :: eigval(nf), rhat(ny, ny), yhat(ny, nt), cost_hist(nc), cost
+    real(c_double), intent(out) :: eigval(nf), eigvec(nf, nf), rhat(ny, ny), yhat(ny, nt)
+    real(c_double), intent(out) :: cost_hist(nc), cost
     integer(c_int), intent(out) :: niter, reason, converged, rank, bad_param, status
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
@@ -168,6 +169,7 @@ contains
     info = 0.0_wp
     grad = 0.0_wp
     eigval = 0.0_wp
+    eigvec = 0.0_wp
     rhat = 0.0_wp
     yhat = 0.0_wp
     cost_hist = 0.0_wp
@@ -203,6 +205,7 @@ contains
     info = res%info
     grad = res%grad
     eigval = res%eigval
+    eigvec = res%eigvec
     rhat = res%rhat
     yhat = res%yhat
     cost = res%cost

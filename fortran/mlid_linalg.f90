@@ -163,14 +163,16 @@ contains
   !> largest eigenvalues of N (all above rcond times the largest when rank
   !> is absent): cov = D^-1/2 V_r L_r^-1 V_r' D^-1/2.  ndrop counts the
   !> eigenvalues left out below rcond; bad is the free parameter with the
-  !> largest weight in the weakest direction.  w returns N's eigenvalues.
-  subroutine info_inverse(info, rcond, cov, w, ndrop, bad, status, msg, rank)
+  !> largest weight in the weakest direction.  w and vec return N's
+  !> eigenvalues and eigenvectors.
+  subroutine info_inverse(info, rcond, cov, w, ndrop, bad, status, msg, rank, vec)
     real(wp), intent(in) :: info(:, :)
     real(wp), intent(in) :: rcond
     real(wp), intent(out) :: cov(:, :), w(:)
     integer, intent(out) :: ndrop, bad, status
     character(len=*), intent(out) :: msg
     integer, intent(in), optional :: rank
+    real(wp), intent(out), optional :: vec(:, :)   !< eigenvectors of the normalised matrix
     real(wp) :: v(size(w), size(w)), sc(size(w))
     integer :: n, k, keep
 
@@ -179,6 +181,7 @@ contains
     bad = 0
     cov = 0.0_wp
     call info_eig(info, sc, w, v, status, msg)
+    if (present(vec)) vec = v
     if (status /= MLID_OK .or. n == 0) return
     keep = n
     if (present(rank)) keep = rank

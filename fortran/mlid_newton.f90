@@ -17,6 +17,10 @@ module mlid_newton
   private
   public :: fit_result_t, extras_t, newton_fit
 
+  !> How much a higher rank must lower the cost (a negative log-likelihood)
+  !> to be taken in the rank-deficient search: Akaike's 1 per parameter.
+  real(wp), parameter :: RANK_GAIN = 1.0_wp
+
   !> The estimator options of report §4.6 beyond plain Newton-Raphson, over
   !> the free parameters: a priori values and weight (block 7), bounds
   !> (blocks 11-12).  Unallocated: not used.
@@ -33,6 +37,7 @@ module mlid_newton
     real(wp), allocatable :: info(:, :)     !< information matrix at theta, with the prior weight
     real(wp), allocatable :: cov(:, :)      !< its (rank-r) inverse: Cramer-Rao covariance (free)
     real(wp), allocatable :: eigval(:)      !< eigenvalues of the normalised info, ascending
+    real(wp), allocatable :: eigvec(:, :)   !< its eigenvectors (columns)
     real(wp), allocatable :: rhat(:, :)     !< measurement noise covariance estimate
     real(wp), allocatable :: yhat(:, :)     !< model outputs at theta
     real(wp), allocatable :: cost_hist(:)   !< likelihood before iteration 1, then after each
@@ -70,7 +75,7 @@ contains
     nf = pm%nf
     ny = m%ny
     nt = size(t)
-    allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), &
+    allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), res%eigvec(nf, nf), &
               res%rhat(ny, ny), res%yhat(ny, nt), res%cost_hist(opt%max_iter + 1))
     allocate (rt(ny, ny), yt(ny, nt))
     res%theta = theta0
@@ -135,14 +140,17 @@ contains
         do ih = 0, opt%halvings
           trial = res%theta
           trial(pm%ifree) = trial(pm%ifree) + scale*step
+          if (allocated(ex%lower)) &   ! no rounding across a bound
+            trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
           call apply_ties(pm%tie, trial)
           call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
           if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
             jt = jt + prior_cost(trial, s)
-            ! ranks run upward: a higher rank wins unless a lower one is better
-            ! by more than the cost tolerance (near-ties are rounding)
-            if (rank > rbest) then
-              better = jt <= jbest + opt%tol_cost*max(1.0_wp, abs(jnow))
+            ! ranks run upward: a higher rank must lower the cost by more than
+            ! RANK_GAIN (Akaike's penalty for one more parameter), or the weak
+            ! directions stay where they are (report §5.3.6)
+            if (rank > rbest .and. rbest > 0) then
+              better = jt < jbest - RANK_GAIN
             else
               better = jt < jbest
             end if
@@ -196,7 +204,7 @@ contains
     ! the rank of the last step.
     if (allocated(ex%weight)) res%info = res%info + s*ex%weight
     call info_inverse(res%info, opt%rcond, res%cov, res%eigval, ndrop, res%bad_param, status, &
-                      msg, res%rank)
+                      msg, res%rank, res%eigvec)
     if (status /= MLID_OK) return
     if (ndrop > 0 .and. opt%rank_min == 0) then     ! singular, and no rank-deficient solution asked
       status = MLID_ERR_SINGULAR

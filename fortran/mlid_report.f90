@@ -11,13 +11,14 @@ contains
 
   !> Table of start, estimate and Cramer-Rao sigma per free parameter.
   subroutine report_fit(unit, method, labels, start, est, sig, cost, rhat, niter, reason, converged, &
-                        rank, rank_min)
+                        rank, rank_min, eigval, eigvec, cov)
     integer, intent(in) :: unit
     character(len=*), intent(in) :: method
     character(len=*), intent(in) :: labels(:)
     real(wp), intent(in) :: start(:), est(:), sig(:), cost, rhat(:, :)
     integer, intent(in) :: niter, reason, rank, rank_min
     logical, intent(in) :: converged
+    real(wp), intent(in) :: eigval(:), eigvec(:, :), cov(:, :)
     integer :: k
 
     write (unit, '(a,i0,a)') ' '//trim(method)//': ', niter, ' iterations, '// &
@@ -34,7 +35,66 @@ contains
       trim(merge('R', 'B', method(1:6) == 'output'))//' = ', det_sym(rhat)
     write (unit, '(a,*(1x,es10.4e2))') ' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', &
       method(1:6) == 'output')), (rhat(k, k), k=1, size(rhat, 1))
+    call report_identifiability(unit, labels, eigval, eigvec, cov)
   end subroutine report_fit
+
+  !> What the information says about the parameters (report §4.5, §5.3.5):
+  !> the eigenvalue spread of the normalised information, its weakest
+  !> direction as a combination of named parameters, correlations above 0.9.
+  subroutine report_identifiability(unit, labels, eigval, eigvec, cov)
+    integer, intent(in) :: unit
+    character(len=*), intent(in) :: labels(:)
+    real(wp), intent(in) :: eigval(:), eigvec(:, :), cov(:, :)
+    character(len=:), allocatable :: line
+    character(len=16) :: num
+    integer :: n, k, l, order(size(eigval)), shown
+    real(wp) :: c
+
+    n = size(eigval)
+    if (n == 0) return
+    line = ' normalised information: eigenvalues '//trim(fmt_e(eigval(1)))//' to '// &
+           trim(fmt_e(eigval(n)))
+    if (eigval(1) > 0.0_wp) line = line//', spread '//trim(fmt_e(eigval(n)/eigval(1)))
+    write (unit, '(a)') line
+    ! components of the weakest direction, largest first
+    order = [(k, k=1, n)]
+    do k = 1, n
+      do l = k + 1, n
+        if (abs(eigvec(order(l), 1)) > abs(eigvec(order(k), 1))) order([k, l]) = order([l, k])
+      end do
+    end do
+    line = ' weakest direction:'
+    shown = 0
+    do k = 1, n
+      if (abs(eigvec(order(k), 1)) < 0.1_wp .or. shown == 5) exit
+      write (num, '(sp,f5.2)') eigvec(order(k), 1)
+      line = line//' '//trim(num)//' '//trim(labels(order(k)))
+      shown = shown + 1
+    end do
+    write (unit, '(a)') line
+    line = ' correlations above 0.9:'
+    shown = 0
+    do k = 1, n
+      do l = k + 1, n
+        if (.not. (cov(k, k) > 0.0_wp .and. cov(l, l) > 0.0_wp)) cycle
+        c = cov(k, l)/sqrt(cov(k, k)*cov(l, l))
+        if (abs(c) <= 0.9_wp) cycle
+        write (num, '(sp,f5.2)') c
+        line = line//trim(merge(' ', ',', shown == 0))//' '//trim(labels(k))//'/'//trim(labels(l))// &
+               ' '//trim(num)
+        shown = shown + 1
+      end do
+    end do
+    if (shown == 0) line = line//' none'
+    write (unit, '(a)') line
+  end subroutine report_identifiability
+
+  function fmt_e(x) result(s)
+    real(wp), intent(in) :: x
+    character(len=16) :: s
+    write (s, '(es10.3e2)') x
+    s = adjustl(s)
+  end function fmt_e
 
   !> Determinant by Gaussian elimination with partial pivoting (small R).
   real(wp) function det_sym(a)

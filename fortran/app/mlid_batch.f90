@@ -75,6 +75,7 @@ contains
     type(deck_case_t), intent(inout) :: c
     real(wp), allocatable :: t(:), u(:, :), y(:, :)
     real(wp), allocatable :: theta(:), theta0(:), sigma(:), cov(:, :), info(:, :), grad(:), eigval(:)
+    real(wp), allocatable :: eigvec(:, :)
     real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), x(:, :)
     real(wp) :: cost, wall
     integer :: niter, reason, converged, bad, nf, nth, cstat, j, t0, t1, rate, ou, rank
@@ -117,6 +118,7 @@ contains
       call case_record(c, deck_dir, t, u, y, cstat, cmsg)
       if (cstat == MLID_OK) then
         allocate (theta(nth), theta0(nth), sigma(nth), cov(nf, nf), info(nf, nf), grad(nf), eigval(nf), &
+                  eigvec(nf, nf), &
                   rhat(c%ny, c%ny), yhat(c%ny, size(t)), hist(c%iopt(1) + 1))
         call system_clock(t0, rate)
         call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, &
@@ -124,14 +126,14 @@ contains
                       c%iopt, c%ropt, nf, size(hist), c%use_prior, prior_or_zero(c%prior, nth), &
                       pweight_or_zero(c%pweight, nf), c%use_bounds, prior_or_zero(c%lower, nth), &
                       prior_or_zero(c%upper, nth), theta0, theta, &
-                      sigma, cov, info, grad, eigval, rhat, yhat, hist, cost, niter, reason, &
+                      sigma, cov, info, grad, eigval, eigvec, rhat, yhat, hist, cost, niter, reason, &
                       converged, rank, bad, cstat, cmsg)
         call system_clock(t1)
         wall = real(t1 - t0, wp)/rate
         if (cstat == MLID_OK .or. cstat == MLID_ERR_NOCONV) then
           call report_fit(6, method_text(c), c%labels, pack(theta0, c%isfree == 1), &
                           pack(theta, c%isfree == 1), pack(sigma, c%isfree == 1), cost, rhat, &
-                          niter, reason, converged == 1, rank, c%iopt(10))
+                          niter, reason, converged == 1, rank, c%iopt(10), eigval, eigvec, cov)
           fitted = .true.
         end if
         if (cstat /= MLID_OK .and. bad > 0) cmsg = replace_index(cmsg, bad, c%labels)

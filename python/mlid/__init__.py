@@ -10,6 +10,7 @@ from .result import FitResult, whiteness
 from .reduction import reduce_measured_state, reduced_data, recover_disturbance
 from .core import fit, evaluate, simulate, monte_carlo, default_options, check_jacobians
 from .deck import read_deck, run_deck
+from .analysis import fpe, compare_models, predict
 
 __version__ = "0.1.0"
 
@@ -18,4 +19,4 @@ __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceErr
            "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
-           "recover_disturbance"]
+           "recover_disturbance", "fpe", "compare_models", "predict"]

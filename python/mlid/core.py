@@ -146,8 +146,8 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, **options):
     mask = model.free_mask
     nf = int(mask.sum())
     start = time.perf_counter()
-    (theta_start, theta, sigma, cov, info, grad, eigval, rhat, yhat, cost_hist, cost, niter,
-     reason, converged, rank, bad, status, msg) = _api.mlid_fit(
+    (theta_start, theta, sigma, cov, info, grad, eigval, eigvec, rhat, yhat, cost_hist, cost,
+     niter, reason, converged, rank, bad, status, msg) = _api.mlid_fit(
         **_model_args(model), theta0=theta0, isfree=mask, itie=model.tie_index, t=t, u=u, y=y,
         iopt=iopt, ropt=ropt, nf=nf, nc=int(iopt[0]) + 1,
         **_extras(model, prior, prior_weight, bounds))
@@ -164,7 +164,7 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, **options):
         model=model.with_theta(theta), start_model=model, data=data, options=opts,
         names=free_names, start=theta_start[mask == 1], estimate=theta[mask == 1],
         sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
-        eigenvalues=eigval, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
+        eigenvalues=eigval, eigenvectors=eigvec, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
         cost_history=cost_hist[:niter + 1].copy(), iterations=int(niter),
         converged=bool(converged), reason=STOP_REASONS.get(int(reason), "?"), rank=int(rank),
         status=int(status), message=text, wall_time=wall)

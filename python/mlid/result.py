@@ -97,7 +97,33 @@ class FitResult:
         lines.append(f" cost J = {self.cost:17.10E}   det {r} = {self.det_r:13.6E}")
         label = "R diagonal:" if r == "R" else "B diagonal (mean)"
         lines.append(f" {label}" + "".join(f" {v:10.4E}" for v in np.diag(self.rhat)))
-        return "\n".join(lines)
+        return "\n".join(lines + self.identifiability())
+
+    def identifiability(self):
+        """What the information says about the parameters (report §4.5,
+        §5.3.5): eigenvalue spread of the normalised information, its weakest
+        direction in named parameters, correlations above 0.9.  The core
+        computes the eigen-decomposition; mlid-batch prints the same lines."""
+        w, v, n = self.eigenvalues, self.eigenvectors, len(self.names)
+        if n == 0:
+            return []
+        line = f" normalised information: eigenvalues {w[0]:.3E} to {w[-1]:.3E}"
+        if w[0] > 0:
+            line += f", spread {w[-1] / w[0]:.3E}"
+        weak = " weakest direction:"
+        order = sorted(range(n), key=lambda k: -abs(v[k, 0]))    # stable, as the batch's
+        for k in [k for k in order if abs(v[k, 0]) >= 0.1][:5]:
+            weak += f" {v[k, 0]:+.2f} {self.names[k]}"
+        pairs = []
+        cov = self.covariance
+        for k in range(n):
+            for l in range(k + 1, n):
+                if cov[k, k] > 0 and cov[l, l] > 0:
+                    c = cov[k, l] / np.sqrt(cov[k, k] * cov[l, l])
+                    if abs(c) > 0.9:
+                        pairs.append(f"{self.names[k]}/{self.names[l]} {c:+.2f}")
+        corr = " correlations above 0.9: " + (", ".join(pairs) if pairs else "none")
+        return [line, weak, corr]
 
     def __repr__(self):
         return f"FitResult(cost={self.cost:.6g}, iterations={self.iterations}, " \

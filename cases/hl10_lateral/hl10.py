@@ -1,0 +1,161 @@
+"""HL-10 lifting body, lateral, with a yaw damper (NASA CR-2200 §5.2, Table 5.3).
+
+Synthetic data from eq. 5.1 with Table 5.3's wind-tunnel values as truth. A
+yaw damper feeds yaw rate back to the rudder and the pilot's rudder input is
+weak, so N_r and N_dr (and L_r and L_dr) are nearly confounded: the
+unconstrained fit matches the data but returns wrong signs.  The remedies of
+report §4.6, side by side: a priori weighting, fixed parameters, the
+rank-deficient solution, bounds.  Then the model-size comparison (§5.3.5) and
+the prediction check (§5.2.8).
+
+    python hl10.py [--plots DIR]
+
+Every number and where it comes from: README.md in this folder.
+"""
+
+import argparse
+import sys
+
+import numpy as np
+
+import mlid
+
+ALPHA = np.radians(16.8)          # Table 5.3 heading / §5.2: alpha = 16.8 deg
+V = 1181.0                        # ft/s: Mach 1.22 at 45,000 ft (ours)
+G_V = 32.174 * np.cos(ALPHA) / V  # g cos(theta)/V with theta = alpha (ours)
+WT = {"L_p": -0.3435, "L_r": 0.2723, "L_beta": -30.75, "N_p": 0.0245, "N_r": -0.1290,
+      "N_beta": 6.8411, "Y_p": -0.0617, "Y_r": -0.0120, "Y_beta": -0.0916, "L_da": 11.2464,
+      "L_dr": 5.665, "N_da": 0.8135, "N_dr": -3.617, "Y_da": -0.00180, "Y_dr": 0.0111}
+K_YAW = 1.0                       # yaw damper gain, deg rudder per deg/s yaw rate (ours)
+NOISE_STD = [0.2, 0.1, 0.1, 0.1, 0.01]     # p, r [deg/s], beta, phi [deg], a_y' [deg/s] (ours)
+DT, NT, SEED = 0.02, 327, 1       # 327 samples at 50/s (§5.2); seed ours
+ELEMENT = {"L_p": "f(1,1)", "L_r": "f(1,2)", "L_beta": "f(1,3)", "N_p": "f(2,1)",
+           "N_r": "f(2,2)", "N_beta": "f(2,3)", "Y_beta": "f(3,3)", "L_da": "g(1,1)",
+           "L_dr": "g(1,2)", "N_da": "g(2,1)", "N_dr": "g(2,2)", "Y_da": "g(3,1)",
+           "Y_dr": "g(3,2)"}
+# a_y' = Y_p p + Y_r r + Y_beta beta + Y_da da + Y_dr dr carries the side-force derivatives
+TIES = {"h(5,3)": "f(3,3)", "d(5,1)": "g(3,1)", "d(5,2)": "g(3,2)"}
+KEY = ["L_r", "N_r", "L_dr", "N_dr"]   # the confounded four
+
+
+def matrices(v):
+    F = np.array([[v["L_p"], v["L_r"], v["L_beta"], 0.0], [v["N_p"], v["N_r"], v["N_beta"], 0.0],
+                  [v["Y_p"] + np.sin(ALPHA), v["Y_r"] - np.cos(ALPHA), v["Y_beta"], G_V],
+                  [1.0, np.tan(ALPHA), 0.0, 0.0]])
+    G = np.array([[v["L_da"], v["L_dr"]], [v["N_da"], v["N_dr"]], [v["Y_da"], v["Y_dr"]],
+                  [0.0, 0.0]])
+    H = np.vstack([np.eye(4), [v["Y_p"], v["Y_r"], v["Y_beta"], 0.0]])
+    D = np.vstack([np.zeros((4, 2)), [v["Y_da"], v["Y_dr"]]])
+    return F, G, H, D
+
+
+def record():
+    """Closed loop: the rudder surface is the pilot's input plus K r; the
+    record holds the surface positions, as a flight record would."""
+    F, G, H, D = matrices(WT)
+    loop = np.outer(G[:, 1], [0.0, K_YAW, 0.0, 0.0])
+    closed = mlid.LinearModel(F + loop, G, H + np.outer(D[:, 1], [0.0, K_YAW, 0.0, 0.0]), D,
+                              r=np.square(NOISE_STD))
+    t = np.arange(NT) * DT
+    da = mlid.core.input_signal("3211", 2.0, 0.5, 0.3, DT, NT)       # aileron, deg
+    dr_pilot = mlid.core.input_signal("doublet", 0.2, 3.5, 0.3, DT, NT)   # weak rudder, deg
+    sim, x = mlid.simulate(closed, t, np.column_stack([da, dr_pilot]), seed=SEED)
+    return mlid.FlightData(t, np.column_stack([da, dr_pilot + K_YAW * x[:, 1]]), sim.y,
+                           ["delta_a", "delta_r"], ["p", "r", "beta", "phi", "a_y'"])
+
+
+def wind_tunnel():
+    """The a priori ('wind-tunnel') values: the truth 20% off, alternately up
+    and down (ours), so that no remedy is handed the answer."""
+    return {n: v * (1.2 if i % 2 else 0.8) for i, (n, v) in enumerate(WT.items())}
+
+
+def model(free):
+    F, G, H, D = matrices(wind_tunnel())
+    return mlid.LinearModel(F, G, H, D, free=[ELEMENT[n] for n in free],
+                            names={e: n for n, e in ELEMENT.items()}, ties=TIES)
+
+
+def fits(data):
+    allfree = list(ELEMENT)
+    wt = wind_tunnel()
+    out = {"unconstrained": mlid.fit(model(allfree), data)}
+    weights = {n: 1.0 / (0.3 * wt[n]) ** 2 for n in KEY}           # 30% a priori sigma
+    out["a priori"] = mlid.fit(model(allfree), data, prior_weight=weights)
+    out["fixed L_dr, N_dr"] = mlid.fit(model([n for n in allfree if n not in ("L_dr", "N_dr")]),
+                                       data)
+    out["rank-deficient"] = mlid.fit(model(allfree), data, rank_min=len(allfree) - 2)
+    out["bounds (signs)"] = mlid.fit(model(allfree), data,
+                                     bounds={"L_r": (0.0, None), "N_r": (None, 0.0)})
+    return out
+
+
+def summary(name, res):
+    est = {n: res.estimate[res.names.index(n)] for n in res.names}
+    wrong = [n for n, e in est.items() if np.sign(e) * np.sign(WT[n]) < 0]    # 0: on a bound
+    dist = np.sqrt(np.mean([((est.get(n, wind_tunnel()[n]) - WT[n]) / WT[n]) ** 2 for n in KEY]))
+    return {"name": name, "est": est, "wrong": wrong, "ln_det_R": np.linalg.slogdet(res.rhat)[1],
+            "rms_fit": float(np.sqrt(np.mean((res.residuals / np.std(res.data.y, axis=0)) ** 2))),
+            "dist": float(dist), "rank": res.rank, "k": len(res.names)}
+
+
+def run(plots=None):
+    data = record()
+    results = fits(data)
+    rows = [summary(n, r) for n, r in results.items()]
+    # model size: the unconstrained model against smaller free sets (§5.3.5)
+    size_fits = [results["unconstrained"], results["fixed L_dr, N_dr"],
+                 mlid.fit(model([n for n in ELEMENT if n not in ("L_dr", "N_dr", "Y_da", "Y_dr")]),
+                          data)]
+    table = mlid.compare_models(size_fits, ["13: all", "11: L_dr, N_dr fixed",
+                                            "9: and Y_da, Y_dr fixed"],
+                                plot=f"{plots}/hl10_model_size.png" if plots else None)
+    # prediction check (§5.2.8): fit the first 227 samples, predict the last 100
+    first = mlid.FlightData(data.t[:227], data.u[:227], data.y[:227], data.input_names,
+                            data.output_names)
+    part = mlid.fit(model(list(ELEMENT)), first, rank_min=len(ELEMENT) - 2)
+    pred = mlid.predict(part, data, 227)
+    if plots:
+        from mlid.analysis import plot_prediction
+        from mlid.plots import plot_fit
+        plot_fit(results["unconstrained"], plots, "hl10_unconstrained")
+        plot_fit(results["rank-deficient"], plots, "hl10_rank_deficient")
+        plot_prediction(data, pred["prediction"], 227, f"{plots}/hl10_prediction.png")
+    return results, rows, table, pred
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--plots", metavar="DIR")
+    args = p.parse_args(argv)
+    try:
+        results, rows, table, pred = run(args.plots)
+    except mlid.MlidError as exc:
+        print(f"hl10: {exc}", file=sys.stderr)
+        return 1
+    print(" HL-10 with a yaw damper: the confounded derivatives under each remedy")
+    print(f" {'':<18}" + "".join(f"{n:>10}" for n in KEY)
+          + f"{'wrong signs':>14}{'fit rms':>9}{'dist':>7}{'rank':>6}")
+    print(f" {'truth':<18}" + "".join(f"{WT[n]:10.4f}" for n in KEY))
+    for r in rows:
+        cells = "".join(f"{r['est'][n]:10.4f}" if n in r["est"] else f"{'fixed':>10}" for n in KEY)
+        print(f" {r['name']:<18}{cells}{len(r['wrong']):14d}{r['rms_fit']:9.4f}{r['dist']:7.2f}"
+              f"{r['rank']:4d}/{r['k']}")
+    print(" fit rms: residual rms over output rms; dist: rms relative error of the four")
+    print("\n model size (§5.3.5): k, ln|R|, FPE = (N-k)/(N+k) ln|R|")
+    for row in table:
+        print(f"  {row['label']:<24} k={row['k']:2d}  ln|R|={row['ln_det_R']:9.3f}  "
+              f"FPE={row['fpe']:9.3f}")
+    print("\n prediction of the last 100 samples from a rank-deficient fit of the first 227 "
+          "(rms / noise sigma): " + ", ".join(f"{n} {v:.2f}" for n, v in
+                                              zip(["p", "r", "beta", "phi", "a_y'"],
+                                                  pred["rms_over_noise"])))
+    print("\n" + results["unconstrained"].report().split(" normalised information")[0].rstrip()
+          .split("\n")[0])
+    print(" " + results["unconstrained"].identifiability()[1].strip())
+    print(" " + results["unconstrained"].identifiability()[2].strip())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
