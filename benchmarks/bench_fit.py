@@ -21,7 +21,7 @@ import mlid
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "tests"))
-from conftest import C8_STD, c8_record, c8_start  # noqa: E402
+from conftest import c8_record, c8_start  # noqa: E402
 
 
 def median_time(fn, repeat):

@@ -16,6 +16,9 @@ import numpy as np
 
 import mlid
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from mc_table import print_table  # noqa: E402
+
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "cases" / "m2f3_gusts"))
 import m2f3  # noqa: E402
 
@@ -29,21 +32,7 @@ def main(runs=100):
     mc = mlid.monte_carlo(truth, start, data.t, data.u, runs=runs, seed=1000,
                           method="filter_error")
     wall = time.perf_counter() - t0
-    ok = mc["status"] == 0
-    est, sig = mc["estimates"][ok], mc["sigma"][ok]
-    print(f"{runs} filter-error identifications in {wall:.2f} s "
-          f"({1e3 * wall / runs:.1f} ms each), {ok.sum()} succeeded, "
-          f"mean iterations {mc['iterations'][ok].mean():.1f}")
-    print(f"{'parameter':<10}{'truth':>11}{'mean est':>11}{'sample sd':>11}{'mean CR sd':>11}"
-          f"{'ratio':>8}")
-    worst = 0.0
-    for k, name in enumerate(mc["names"]):
-        sd, cr = est[:, k].std(ddof=1), sig[:, k].mean()
-        worst = max(worst, abs(sd / cr - 1))
-        print(f"{name:<10}{mc['truth'][k]:11.4g}{est[:, k].mean():11.4g}{sd:11.4g}{cr:11.4g}"
-              f"{sd / cr:8.3f}")
-    print(f"largest |sample sd / CR sd - 1| = {worst:.3f}: "
-          f"{'within' if worst < 0.25 else 'OUTSIDE'} 25%")
+    print_table(mc, runs, wall, 0.25)
 
 
 if __name__ == "__main__":

@@ -131,14 +131,13 @@ contains
     character(len=8) :: bkey(NBLOCK)
     integer :: brow(NBLOCK), bcol(NBLOCK), boff(NBLOCK), ncoef(3), codes(3*MAXR)
     character(len=NAMELEN), allocatable :: default_label(:)
-    character(len=NAMELEN) :: canon
     logical :: partials, steady_state
     character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
     character(len=2*NAMELEN + 1) :: tie(MAXFREE)
     character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
     real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay
     real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
-    integer :: rank_min, free_idx(MAXFREE), nfree, pos
+    integer :: rank_min, free_idx(MAXFREE), pos
     character(len=PATHLEN) :: file, out
     integer :: input_cols(MAXCOL), output_cols(MAXCOL)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)

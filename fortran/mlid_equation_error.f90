@@ -33,7 +33,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     type(layout_t) :: l
-    integer :: nx, ny, nt, nf, j, i, k, pass, ndrop, bad, xout(m%nx)
+    integer :: nx, ny, nt, nf, i, k, pass, ndrop, bad, xout(m%nx)
     real(wp) :: c(m%ny, m%nx), dp(m%ny, size(pm%im)), b(m%nx, size(pm%im)), x(m%nx), xd(m%nx)
     real(wp) :: f(m%nx), h(m%ny), w(m%nx + m%ny), ss(m%nx + m%ny)
     real(wp) :: row(pm%nf), a(pm%nf, pm%nf), g(pm%nf), cov(pm%nf, pm%nf), ev(pm%nf), delta(pm%nf)

@@ -25,7 +25,7 @@ module mlid_filter
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t
-  use mlid_rk, only: rk4_step
+  use mlid_rk, only: rk4_step, rk4_interval
   implicit none
   private
   public :: oe_predict, kf_innovations
@@ -70,8 +70,8 @@ contains
     real(wp), intent(out), optional :: xhist(:, :)
     type(layout_t) :: l
     real(wp), allocatable :: s(:, :), c(:, :), d(:, :)
-    real(wp) :: x(m%nx), ua(m%nu + m%nw), ub(m%nu + m%nw)
-    integer :: j, k
+    real(wp) :: x(m%nx)
+    integer :: j
     logical :: sens
 
     status = MLID_OK
@@ -79,14 +79,9 @@ contains
     l = pm%l
     sens = present(dy)
     x = theta(l%ox0 + 1:l%ox0 + l%nx)
-    ua = 0.0_wp
-    ub = 0.0_wp
     if (sens) then
-      allocate (s(l%nx, pm%nf), c(l%ny, l%nx), d(l%ny, size(pm%im)))
-      s = 0.0_wp
-      do k = 1, size(pm%ix0)
-        s(pm%ix0(k), pm%cx0(k)) = s(pm%ix0(k), pm%cx0(k)) + 1.0_wp
-      end do
+      allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)))
+      s = initial_sensitivity(pm)
     end if
 
     do j = 1, size(t)
@@ -143,11 +138,8 @@ contains
     if (status /= MLID_OK) return
     call cov_alloc(cv, l%nx, l%ny, nf)
     x = theta(l%ox0 + 1:l%ox0 + l%nx)
-    allocate (s(l%nx, nf), c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf))
-    s = 0.0_wp
-    do k = 1, size(pm%ix0)
-      s(pm%ix0(k), pm%cx0(k)) = s(pm%ix0(k), pm%cx0(k)) + 1.0_wp
-    end do
+    allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf))
+    s = initial_sensitivity(pm)
     if (opt%steady) then
       call steady_state(sys, cv, partials, status, msg)
       if (status /= MLID_OK) return
@@ -489,9 +481,8 @@ contains
     cv%dk = 0.0_wp
   end subroutine cov_alloc
 
-  !> Integrate x (and s) over sample interval j -> j+1 with the inputs linear
-  !> (or held) and the noise inputs held at what; sforce: constant forcing
-  !> of the sensitivities.
+  !> Integrate x (and s) over sample interval j -> j+1 with the noise inputs
+  !> held at what; sforce: constant forcing of the sensitivities.
   subroutine advance(m, theta, pm, t, u, opt, j, what, x, s, sforce)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
@@ -503,32 +494,24 @@ contains
     real(wp), intent(inout) :: x(:)
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
-    real(wp) :: ua(m%nu + m%nw), ub(m%nu + m%nw), h, ts
-    integer :: isub
+    real(wp) :: w(m%nw)
 
-    ua = 0.0_wp
-    ub = 0.0_wp
-    if (size(what) > 0) then
-      ua(m%nu + 1:) = what
-      ub(m%nu + 1:) = what
-    end if
-    h = (t(j + 1) - t(j))/opt%substeps
-    do isub = 1, opt%substeps
-      ts = t(j) + (isub - 1)*h
-      if (opt%hold) then
-        ua(1:m%nu) = u(:, j)
-        ub(1:m%nu) = u(:, j)
-      else
-        ua(1:m%nu) = u(:, j) + (u(:, j + 1) - u(:, j))*(real(isub - 1, wp)/opt%substeps)
-        ub(1:m%nu) = u(:, j) + (u(:, j + 1) - u(:, j))*(real(isub, wp)/opt%substeps)
-      end if
-      if (present(s)) then
-        call rk4_step(m, theta(1:pm%l%np), ts, h, ua, ub, x, pm%im, pm%cm, s, sforce)
-      else
-        call rk4_step(m, theta(1:pm%l%np), ts, h, ua, ub, x, pm%im, pm%cm)
-      end if
-    end do
+    w = 0.0_wp
+    if (size(what) > 0) w = what
+    call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), w, opt%hold, &
+                      opt%substeps, x, pm%im, pm%cm, s, sforce)
   end subroutine advance
+
+  !> Sensitivities of the initial state: a unit column for each free x0.
+  pure function initial_sensitivity(pm) result(s)
+    type(param_map_t), intent(in) :: pm
+    real(wp) :: s(pm%l%nx, pm%nf)
+    integer :: k
+    s = 0.0_wp
+    do k = 1, size(pm%ix0)
+      s(pm%ix0(k), pm%cx0(k)) = s(pm%ix0(k), pm%cx0(k)) + 1.0_wp
+    end do
+  end function initial_sensitivity
 
   !> dy/dtheta at one sample: C s + dh/dp + bias columns.
   subroutine output_sensitivity(m, theta, pm, t, x, u, s, dy, c, d)

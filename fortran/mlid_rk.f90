@@ -9,7 +9,7 @@ module mlid_rk
   use mlid_models, only: model_t
   implicit none
   private
-  public :: rk4_step
+  public :: rk4_step, rk4_interval
 
 contains
 
@@ -71,5 +71,41 @@ contains
     end subroutine deriv
 
   end subroutine rk4_step
+
+  !> Integrate over the sample interval [t0, t1] in nsub RK4 steps: the
+  !> control inputs linear from u0 to u1 (or held at u0 when hold), the
+  !> noise inputs w held throughout.  Arguments after x as in rk4_step.
+  subroutine rk4_interval(m, p, t0, t1, u0, u1, w, hold, nsub, x, idxm, colm, s, sforce)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: p(:), t0, t1, u0(:), u1(:), w(:)
+    logical, intent(in) :: hold
+    integer, intent(in) :: nsub
+    real(wp), intent(inout) :: x(:)
+    integer, intent(in) :: idxm(:), colm(:)
+    real(wp), intent(inout), optional :: s(:, :)
+    real(wp), intent(in), optional :: sforce(:, :)
+    real(wp) :: ua(size(u0) + size(w)), ub(size(u0) + size(w)), h, ts
+    integer :: isub, nu
+
+    nu = size(u0)
+    ua(nu + 1:) = w
+    ub(nu + 1:) = w
+    h = (t1 - t0)/nsub
+    do isub = 1, nsub
+      ts = t0 + (isub - 1)*h
+      if (hold) then
+        ua(1:nu) = u0
+        ub(1:nu) = u0
+      else
+        ua(1:nu) = u0 + (u1 - u0)*(real(isub - 1, wp)/nsub)
+        ub(1:nu) = u0 + (u1 - u0)*(real(isub, wp)/nsub)
+      end if
+      if (present(s)) then
+        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, s, sforce)
+      else
+        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm)
+      end if
+    end do
+  end subroutine rk4_interval
 
 end module mlid_rk

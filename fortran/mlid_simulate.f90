@@ -12,7 +12,7 @@ module mlid_simulate
   use mlid_linalg, only: psd_factor
   use mlid_models, only: model_t, layout_t, model_layout
   use mlid_options, only: options_t
-  use mlid_rk, only: rk4_step
+  use mlid_rk, only: rk4_interval
   use mlid_random, only: rng_t, rng_seed, rng_normal
   implicit none
   private
@@ -34,8 +34,8 @@ contains
     real(wp) :: c(m%nw + m%ny, m%nw + m%ny), lsq(m%nw + m%ny, m%nw + m%ny)
     real(wp) :: z(m%nw + m%ny), wv(m%nw + m%ny)
     logical :: ok
-    real(wp) :: x(m%nx), ua(m%nu + m%nw), ub(m%nu + m%nw), h, ts
-    integer :: i, j, isub, nw, ny
+    real(wp) :: x(m%nx)
+    integer :: i, j, nw, ny
     integer, allocatable :: none(:)
 
     status = MLID_ERR_INPUT
@@ -81,20 +81,8 @@ contains
       call m%h(t(j), x, u(:, j), theta(1:l%np), y(:, j))
       y(:, j) = y(:, j) + theta(l%obias + 1:l%obias + ny) + wv(nw + 1:)
       if (j == size(t)) exit
-      h = (t(j + 1) - t(j))/opt%substeps
-      ua(m%nu + 1:) = wv(1:nw)
-      ub(m%nu + 1:) = wv(1:nw)
-      do isub = 1, opt%substeps
-        ts = t(j) + (isub - 1)*h
-        if (opt%hold) then
-          ua(1:m%nu) = u(:, j)
-          ub(1:m%nu) = u(:, j)
-        else
-          ua(1:m%nu) = u(:, j) + (u(:, j + 1) - u(:, j))*(real(isub - 1, wp)/opt%substeps)
-          ub(1:m%nu) = u(:, j) + (u(:, j + 1) - u(:, j))*(real(isub, wp)/opt%substeps)
-        end if
-        call rk4_step(m, theta(1:l%np), ts, h, ua, ub, x, none, none)
-      end do
+      call rk4_interval(m, theta(1:l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), wv(1:nw), &
+                        opt%hold, opt%substeps, x, none, none)
       if (.not. all(ieee_is_finite(x))) then
         status = MLID_ERR_DIVERGED
         write (msg, '(a,g0.6)') 'simulation diverged: state non-finite at t = ', t(j + 1)
