@@ -44,7 +44,7 @@ module mlid_newton
     real(wp) :: cost = 0.0_wp               !< negative log-likelihood (without the prior term)
     integer :: niter = 0
     integer :: reason = STOP_NONE
-    integer :: rank = 0                     !< rank of the last step's solution
+    integer :: rank = 0                     !< highest rank of any step: the directions estimated
     integer :: bad_param = 0                !< free index dominating a singular direction
     logical :: converged = .false.
   end type fit_result_t
@@ -178,7 +178,8 @@ contains
       end if
 
       res%niter = it
-      res%rank = rbest
+      if (it == 1) res%rank = 0
+      res%rank = max(res%rank, rbest)   ! late steps are small in every direction
       res%theta = best
       call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
                       status, msg, res%grad, res%info)
