@@ -338,9 +338,9 @@ contains
       msg = 'every parameter is fixed: there is nothing to estimate'
       return
     end if
-    if (opt%rank_min > pm%nf) then
-      write (msg, '(a,i0,a,i0,a)') 'rank_min = ', opt%rank_min, ' is larger than the ', pm%nf, &
-        ' free parameters'
+    if (max(opt%rank_min, opt%rank_max) > pm%nf) then
+      write (msg, '(a,i0,a,i0,a)') 'rank_min/rank_max = ', max(opt%rank_min, opt%rank_max), &
+        ' is larger than the ', pm%nf, ' free parameters'
       return
     end if
     if (use_prior == 1) then

@@ -13,7 +13,7 @@
 !>             t_start, pulse_width                                  (simulate)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
 !>             tol_cost, tol_step, tol_grad, rcond, prior, prior_weight,
-!>             prior_decay, rank_min, lower, upper (per free parameter, in the
+!>             prior_decay, rank_min, rank_max, lower, upper (per free parameter, in the
 !>             order of free)
 !> A problem in one case is kept in that case (status, msg) and the others
 !> are still read.  The Python reader (mlid/deck.py) follows the same rules.
@@ -137,7 +137,7 @@ contains
     character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
     real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay
     real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
-    integer :: rank_min, free_idx(MAXFREE), pos
+    integer :: rank_min, rank_max, free_idx(MAXFREE), pos
     character(len=PATHLEN) :: file, out
     integer :: input_cols(MAXCOL), output_cols(MAXCOL)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
@@ -149,7 +149,7 @@ contains
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
       pulse_width
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, tol_cost, &
-      tol_step, tol_grad, rcond, prior, prior_weight, prior_decay, rank_min, lower, upper
+      tol_step, tol_grad, rcond, prior, prior_weight, prior_decay, rank_min, rank_max, lower, upper
     type(options_t) :: opt
     integer :: unit, k, ios, np, idx, jdx, peq, nth
     logical :: found
@@ -395,6 +395,7 @@ contains
       rcond = opt%rcond
       prior_decay = opt%prior_decay
       rank_min = opt%rank_min
+      rank_max = opt%rank_max
       prior = UNSET
       prior_weight = UNSET
       lower = UNSET
@@ -405,6 +406,7 @@ contains
       if (c%status /= MLID_OK) return
       opt%prior_decay = prior_decay
       opt%rank_min = rank_min
+      opt%rank_max = rank_max
       opt%max_iter = max_iter
       opt%halvings = halvings
       opt%tol_cost = tol_cost

@@ -127,6 +127,7 @@ contains
       ! ranks above the number of usable eigenvalues (ndrop from the full-rank
       ! step just taken) would repeat the same step
       rmax = nf - ndrop
+      if (opt%rank_max > 0) rmax = min(rmax, opt%rank_max)
       jbest = huge(1.0_wp)
       best_step = 0.0_wp
       rbest = 0

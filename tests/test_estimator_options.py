@@ -74,6 +74,7 @@ def test_rank_search_on_a_well_determined_case_stays_near_the_full_solution(data
     ({"bounds": {"M_q": (-0.5, 0.0)}}, "'M_q': start value outside its bounds"),
     ({"prior_weight": np.diag([1.0, -1.0, 1.0, 1.0, 1.0])}, "positive semi-definite"),
     ({"rank_min": 6}, "larger than the 5 free parameters"),
+    ({"rank_min": 4, "rank_max": 3}, "below rank_min"),
     ({"prior_weight": {"f(1,1)": 1.0}}, "not a free parameter"),
 ])
 def test_bad_options(data, kwargs, match):

@@ -32,7 +32,7 @@ def default_options():
     return {"method": METHODS[int(iopt[5])], "max_iter": int(iopt[0]),
             "halvings": int(iopt[1]), "noise": NOISE[int(iopt[2])],
             "partials": bool(iopt[6]), "steady_state": bool(iopt[7]),
-            "startup": STARTUPS[int(iopt[8])], "rank_min": int(iopt[9]),
+            "startup": STARTUPS[int(iopt[8])], "rank_min": int(iopt[9]), "rank_max": int(iopt[10]),
             "prior_decay": float(ropt[4]),
             "tol_cost": float(ropt[0]), "tol_step": float(ropt[1]), "tol_grad": float(ropt[2]),
             "rcond": float(ropt[3])}
@@ -58,6 +58,7 @@ def _flat_options(model, options):
                 int(bool(opts["steady_state"]))]
     iopt[8] = STARTUPS.index(opts["startup"])
     iopt[9] = opts["rank_min"]
+    iopt[10] = opts["rank_max"]
     ropt[4] = opts["prior_decay"]
     ropt[:4] = [opts["tol_cost"], opts["tol_step"], opts["tol_grad"], opts["rcond"]]
     return iopt, ropt, opts

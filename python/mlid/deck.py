@@ -56,7 +56,8 @@ def _schema():
                      "tol_step": (_REAL, opts["tol_step"]), "tol_grad": (_REAL, opts["tol_grad"]),
                      "rcond": (_REAL, opts["rcond"]), "prior": (_REALS, None),
                      "prior_weight": (_REALS, None), "prior_decay": (_REAL, opts["prior_decay"]),
-                     "rank_min": (_INT, opts["rank_min"]), "lower": (_REALS, None),
+                     "rank_min": (_INT, opts["rank_min"]), "rank_max": (_INT, opts["rank_max"]),
+                     "lower": (_REALS, None),
                      "upper": (_REALS, None)},
     }
 
