@@ -51,3 +51,19 @@ def c8_record(seed=1, t_end=6.0, dt=0.02):
 @pytest.fixture
 def c8_data():
     return c8_record()
+
+
+def finite_difference(fn, theta, idx, rel=1e-6, floor=1.0, five_point=False):
+    """d fn(theta) / d theta[k] for k in idx by central differences (five-point
+    when asked), step rel * max(|theta_k|, floor); fn may return an array."""
+    out = []
+    for k in idx:
+        h = rel * max(abs(theta[k]), floor)
+        e = np.zeros_like(theta)
+        e[k] = h
+        d = (np.asarray(fn(theta + e)) - np.asarray(fn(theta - e))) / (2 * h)
+        if five_point:
+            d2 = (np.asarray(fn(theta + 2 * e)) - np.asarray(fn(theta - 2 * e))) / (4 * h)
+            d = (4 * d - d2) / 3
+        out.append(d)
+    return np.array(out)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import mlid
+from conftest import finite_difference
 
 DT = 0.05
 NT = 300
@@ -43,19 +44,9 @@ def test_gradient_matches_finite_differences(steady):
     data = record(model)
     opts = {"method": "filter_error", "steady_state": steady}
     ev = mlid.evaluate(model, data, **opts)
-    theta, idx = model.theta, np.flatnonzero(model.free_mask)
-
-    def cost(th):
-        return mlid.evaluate(model.with_theta(th), data, **opts)["cost"]
-
-    fd = []
-    for k in idx:
-        h = 1e-4 * max(abs(theta[k]), 1e-1)
-        e = np.zeros_like(theta)
-        e[k] = h
-        fd.append((8 * (cost(theta + e) - cost(theta - e)) - (cost(theta + 2 * e)
-                                                               - cost(theta - 2 * e))) / (12 * h))
-    fd = np.array(fd)
+    fd = finite_difference(lambda th: mlid.evaluate(model.with_theta(th), data, **opts)["cost"],
+                           model.theta, np.flatnonzero(model.free_mask), rel=1e-4, floor=1e-1,
+                           five_point=True)
     rel = np.abs(fd - ev["gradient"]) / np.maximum(np.abs(fd), 1.0)
     assert np.max(rel) < 1e-6, dict(zip(model.free_names(), rel))
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import mlid
-from conftest import BIN, REPO
+from conftest import BIN, REPO, finite_difference
 
 DATA = REPO.parent / "shared" / "data" / "hfb320_1_10.asc"
 DECK = REPO / "cases" / "hfb320" / "hfb320.nml"
@@ -96,19 +96,9 @@ def test_longitudinal_gradient_matches_finite_differences():
     data, _ = mlid.simulate(model, t[:300], u[:300], seed=4)
     start = model.with_theta(model.theta * np.where(model.free_mask == 1, 1.05, 1.0))
     ev = mlid.evaluate(start, data)
-    theta, idx = start.theta, np.flatnonzero(start.free_mask)
-
-    def cost(th):
-        return mlid.evaluate(start.with_theta(th), data)["cost"]
-
-    fd = []
-    for k in idx:
-        h = 1e-4 * max(abs(theta[k]), 1e-2)
-        e = np.zeros_like(theta)
-        e[k] = h
-        fd.append((8 * (cost(theta + e) - cost(theta - e))
-                   - (cost(theta + 2 * e) - cost(theta - 2 * e))) / (12 * h))
-    fd = np.array(fd)
+    fd = finite_difference(lambda th: mlid.evaluate(start.with_theta(th), data)["cost"],
+                           start.theta, np.flatnonzero(start.free_mask), rel=1e-4, floor=1e-2,
+                           five_point=True)
     rel = np.abs(fd - ev["gradient"]) / np.maximum(np.abs(fd), 1.0)
     assert np.max(rel) < 1e-6, dict(zip(start.free_names(), rel))
 

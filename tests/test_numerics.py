@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import mlid
-from conftest import C8_F, C8_G, C8_STD, c8_record, c8_start, c8_truth
+from conftest import C8_F, C8_G, C8_STD, c8_record, c8_start, c8_truth, finite_difference
 
 
 def _with_extra_free(model, extra):
@@ -19,34 +19,18 @@ def test_gradient_matches_finite_differences(c8_data, noise):
     # every point, so this is the gradient of the concentrated likelihood.
     model = _with_extra_free(c8_start(), ["x0(3)", "bias(2)", "h(4,3)"])
     ev = mlid.evaluate(model, c8_data, noise=noise)
-    theta, idx = model.theta, np.flatnonzero(model.free_mask)
-    fd = []
-    for k in idx:
-        h = 1e-6 * max(1.0, abs(theta[k]))
-        tp, tm = theta.copy(), theta.copy()
-        tp[k] += h
-        tm[k] -= h
-        jp = mlid.evaluate(model.with_theta(tp), c8_data, noise=noise)["cost"]
-        jm = mlid.evaluate(model.with_theta(tm), c8_data, noise=noise)["cost"]
-        fd.append((jp - jm) / (2 * h))
-    fd = np.array(fd)
+    fd = finite_difference(
+        lambda th: mlid.evaluate(model.with_theta(th), c8_data, noise=noise)["cost"],
+        model.theta, np.flatnonzero(model.free_mask))
     assert np.max(np.abs(fd - ev["gradient"]) / np.maximum(1.0, np.abs(fd))) < 1e-6
 
 
 def test_information_matrix_matches_finite_difference_sensitivities(c8_data):
     model = _with_extra_free(c8_start(), ["x0(1)", "bias(4)"])
     ev = mlid.evaluate(model, c8_data)
-    theta, idx = model.theta, np.flatnonzero(model.free_mask)
-    jac = []
-    for k in idx:
-        h = 1e-6 * max(1.0, abs(theta[k]))
-        tp, tm = theta.copy(), theta.copy()
-        tp[k] += h
-        tm[k] -= h
-        yp = mlid.evaluate(model.with_theta(tp), c8_data)["yhat"]
-        ym = mlid.evaluate(model.with_theta(tm), c8_data)["yhat"]
-        jac.append((yp - ym) / (2 * h))
-    jac = np.stack(jac, axis=-1)                       # (nt, ny, nf)
+    jac = finite_difference(lambda th: mlid.evaluate(model.with_theta(th), c8_data)["yhat"],
+                            model.theta, np.flatnonzero(model.free_mask))
+    jac = np.moveaxis(jac, 0, -1)                      # (nt, ny, nf)
     rinv = np.linalg.inv(ev["rhat"])
     m_fd = np.einsum("tik,ij,tjl->kl", jac, rinv, jac)
     scale = np.sqrt(np.outer(np.diag(m_fd), np.diag(m_fd)))
