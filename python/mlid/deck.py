@@ -252,6 +252,20 @@ def _given(values, n, key, shape, required):
     return np.array(vals[:n], dtype=float)
 
 
+def _free_and_labels(m):
+    """The &model free list and its labels (names), blanks dropped."""
+    free = [f for f in m["free"] if f]
+    labels = [n for n in m["names"] if n]
+    if len(labels) > len(free):
+        raise InputError("group &model: more names than free parameters")
+    return free, labels
+
+
+def _label(model, free, labels):
+    """Give the free parameters their deck labels (the rest keep theirs)."""
+    model.names.update({model.canonical_name(f): n for f, n in zip(free, labels)})
+
+
 def _longitudinal(m):
     if any(v not in (0, w) for v, w in zip((m["nx"], m["nu"], m["ny"], m["nw"]), (4, 2, 7, 0))):
         raise InputError("group &model: a longitudinal model has nx, nu, ny, nw = 4, 2, 7, 0")
@@ -262,10 +276,7 @@ def _longitudinal(m):
     if len(consts) != 9:
         raise InputError("group &model: constants needs 9 values: g, S/m, S cbar/Iy, lT/Iy, V0, "
                          "m, sigma_T, rho, cbar/2")
-    free = [f for f in m["free"] if f]
-    labels = [n for n in m["names"] if n]
-    if len(labels) > len(free):
-        raise InputError("group &model: more names than free parameters")
+    free, labels = _free_and_labels(m)
     try:
         model = LongitudinalModel(regs, coeffs, dict(zip(CONSTANTS, consts)),
                                   x0=_given(m["x0"], 4, "x0", "4", False),
@@ -274,15 +285,12 @@ def _longitudinal(m):
                                   input_hold=m["input_hold"].lower(), substeps=m["substeps"])
     except InputError as exc:
         raise InputError(f"group &model: {exc}") from None
-    model.names.update({model.canonical_name(f): n for f, n in zip(free, labels)})
+    _label(model, free, labels)
     return model
 
 
 def _user(m):
-    free = [f for f in m["free"] if f]
-    labels = [n for n in m["names"] if n]
-    if len(labels) > len(free):
-        raise InputError("group &model: more names than free parameters")
+    free, labels = _free_and_labels(m)
     try:
         model = UserModel([v for v in (m["p"] or []) if v is not None],
                           [v for v in m["user_iconst"] if v is not None],
@@ -295,7 +303,7 @@ def _user(m):
                 setattr(model, key, given)
     except InputError as exc:
         raise InputError(f"group &model: {exc}") from None
-    model.names.update({model.canonical_name(f): n for f, n in zip(free, labels)})
+    _label(model, free, labels)
     return model
 
 
@@ -335,10 +343,7 @@ def _model(m):
                              "that exist")
         a, b = tie.split("=")
         ties[a.strip()] = b.strip()
-    free = [f for f in m["free"] if f]
-    labels = [n for n in m["names"] if n]
-    if len(labels) > len(free):
-        raise InputError("group &model: more names than free parameters")
+    free, labels = _free_and_labels(m)
     if m["input_hold"].lower() not in ("linear", "zoh"):
         raise InputError(f"group &model: input_hold must be 'linear' or 'zoh', got "
                          f"'{m['input_hold']}'")
@@ -347,7 +352,7 @@ def _model(m):
                             substeps=m["substeps"], Gamma=gamma, q=q, r=r, S=S, ties=ties)
     except InputError as exc:
         raise InputError(f"group &model: {exc}") from None
-    model.names = {model.canonical_name(f): n for f, n in zip(free, labels)}
+    _label(model, free, labels)
     return model
 
 
