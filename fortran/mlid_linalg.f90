@@ -76,6 +76,8 @@ contains
     n = size(a, 1)
     ainv = a
     logdet = 0.0_wp
+    info = 0
+    if (n == 0) return          ! LAPACK wants lda >= 1
     call dpotrf('L', n, ainv, n, info)
     if (info /= 0) return
     do i = 1, n

@@ -3,6 +3,7 @@
 module mlid_report
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, stop_reason_text
+  use mlid_linalg, only: chol_inverse
   implicit none
   private
   public :: report_fit, json_open, json_close, json_case
@@ -32,7 +33,7 @@ contains
     end do
     ! output error estimates R; filter error reports the mean innovation covariance B
     write (unit, '(a,es17.10e2,a,es13.6e2)') ' cost J = ', cost, '   det '// &
-      trim(merge('R', 'B', method(1:6) == 'output'))//' = ', det_sym(rhat)
+      trim(merge('R', 'B', method(1:6) == 'output'))//' = ', det_r(rhat)
     write (unit, '(a,*(1x,es10.4e2))') ' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', &
       method(1:6) == 'output')), (rhat(k, k), k=1, size(rhat, 1))
     call report_identifiability(unit, labels, eigval, eigvec, cov)
@@ -96,30 +97,16 @@ contains
     s = adjustl(s)
   end function fmt_e
 
-  !> Determinant by Gaussian elimination with partial pivoting (small R).
-  real(wp) function det_sym(a)
+  !> det R of the (positive-definite) noise or innovation covariance, from
+  !> the Cholesky log-determinant; 0 if it is not positive definite.
+  real(wp) function det_r(a)
     real(wp), intent(in) :: a(:, :)
-    real(wp) :: m(size(a, 1), size(a, 1)), tmp(size(a, 1))
-    integer :: n, i, p
-    n = size(a, 1)
-    m = a
-    det_sym = 1.0_wp
-    do i = 1, n
-      p = maxloc(abs(m(i:, i)), 1) + i - 1
-      if (m(p, i) == 0.0_wp) then
-        det_sym = 0.0_wp
-        return
-      end if
-      if (p /= i) then
-        tmp = m(i, :)
-        m(i, :) = m(p, :)
-        m(p, :) = tmp
-        det_sym = -det_sym
-      end if
-      det_sym = det_sym*m(i, i)
-      m(i + 1:, i:) = m(i + 1:, i:) - spread(m(i + 1:, i)/m(i, i), 2, n - i + 1)*spread(m(i, i:), 1, n - i)
-    end do
-  end function det_sym
+    real(wp) :: ainv(size(a, 1), size(a, 1)), logdet
+    integer :: info
+    call chol_inverse(a, ainv, logdet, info)
+    det_r = 0.0_wp
+    if (info == 0) det_r = exp(logdet)
+  end function det_r
 
   subroutine json_open(unit)
     integer, intent(in) :: unit
@@ -158,7 +145,7 @@ contains
       write (unit, '(a)') numbers(rhat(k, :))//trim(merge(',', ' ', k < size(rhat, 1)))
     end do
     write (unit, '(a)') '],'
-    write (unit, '(a)') '"det_R": '//number(det_sym(rhat))//', "cost": '//number(cost)//','
+    write (unit, '(a)') '"det_R": '//number(det_r(rhat))//', "cost": '//number(cost)//','
     write (unit, '(a,i0,a)') '"iterations": ', niter, ', "converged": '// &
       trim(merge('true ', 'false', converged))//', "wall_time_s": '//number(wall)//'}'
   end subroutine json_case
