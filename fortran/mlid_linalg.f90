@@ -5,7 +5,7 @@ module mlid_linalg
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: sym_eig, chol_inverse, psd_factor, info_inverse, info_eig
+  public :: sym_eig, chol_inverse, psd_factor, info_inverse, info_eig, eig_inverse
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -176,27 +176,47 @@ contains
     integer, intent(in), optional :: rank
     real(wp), intent(out), optional :: vec(:, :)   !< eigenvectors of the normalised matrix
     real(wp) :: v(size(w), size(w)), sc(size(w))
-    integer :: n, k, keep
+
+    call info_eig(info, sc, w, v, status, msg)
+    if (present(vec)) vec = v
+    ndrop = 0
+    bad = 0
+    cov = 0.0_wp
+    if (status /= MLID_OK) return
+    if (present(rank)) then
+      call eig_inverse(sc, w, v, rcond, rank, cov, ndrop, bad)
+    else
+      call eig_inverse(sc, w, v, rcond, size(w), cov, ndrop, bad)
+    end if
+  end subroutine info_inverse
+
+  !> The inverse from info_eig's scale, eigenvalues and eigenvectors,
+  !> keeping the rank largest eigenvalues (and only those above rcond times
+  !> the largest): cov = D^-1/2 V_r L_r^-1 V_r' D^-1/2.  ndrop counts those
+  !> below rcond; bad is the parameter with the largest weight in the
+  !> weakest direction when any is dropped.
+  pure subroutine eig_inverse(sc, w, v, rcond, rank, cov, ndrop, bad)
+    real(wp), intent(in) :: sc(:), w(:), v(:, :), rcond
+    integer, intent(in) :: rank
+    real(wp), intent(out) :: cov(:, :)
+    integer, intent(out) :: ndrop, bad
+    integer :: n, k
 
     n = size(w)
     ndrop = 0
     bad = 0
     cov = 0.0_wp
-    call info_eig(info, sc, w, v, status, msg)
-    if (present(vec)) vec = v
-    if (status /= MLID_OK .or. n == 0) return
-    keep = n
-    if (present(rank)) keep = rank
+    if (n == 0) return
     do k = 1, n
       if (w(k) > rcond*w(n) .and. w(n) > 0.0_wp) then
-        if (k > n - keep) cov = cov + spread(v(:, k), 2, n)*spread(v(:, k)/w(k), 1, n)
+        if (k > n - rank) cov = cov + spread(v(:, k), 2, n)*spread(v(:, k)/w(k), 1, n)
       else
         ndrop = ndrop + 1
       end if
     end do
     cov = cov*spread(sc, 1, n)*spread(sc, 2, n)
     if (ndrop > 0) bad = maxloc(abs(v(:, 1)), 1)
-  end subroutine info_inverse
+  end subroutine eig_inverse
 
   pure function info_diag(a) result(d)
     real(wp), intent(in) :: a(:, :)

@@ -7,7 +7,7 @@ module mlid_newton
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, MLID_ERR_INTERNAL, &
                         STOP_NONE, STOP_COST, STOP_STEP, STOP_GRAD, STOP_MAXITER, &
                         STOP_NO_DECREASE, STOP_FAILED
-  use mlid_linalg, only: info_inverse
+  use mlid_linalg, only: info_inverse, info_eig, eig_inverse
   use mlid_equation_error, only: equation_error
   use mlid_models, only: model_t
   use mlid_options, only: options_t
@@ -67,7 +67,8 @@ contains
     integer :: nf, ny, nt, it, ih, tstat, ndrop, rank, rmin, rmax, rbest
     logical :: better
     real(wp) :: step(pm%nf), trial(size(theta0)), best(size(theta0)), ee_sigma(pm%nf)
-    real(wp) :: g(pm%nf), mt(pm%nf, pm%nf), cov(pm%nf, pm%nf), w(pm%nf)
+    real(wp) :: g(pm%nf), mt(pm%nf, pm%nf), cov(pm%nf, pm%nf), w(pm%nf), v(pm%nf, pm%nf)
+    real(wp) :: sc(pm%nf)
     real(wp) :: jt, jbest, jnow, scale, decrement, dj, s, best_step
     real(wp), allocatable :: rt(:, :), yt(:, :)
     character(len=len(msg)) :: tmsg
@@ -110,6 +111,12 @@ contains
       if (allocated(ex%weight)) then
         g = g + s*matmul(ex%weight, res%theta(pm%ifree) - ex%prior)
         mt = mt + s*ex%weight
+      end if
+      ! one eigen-decomposition per iteration serves every candidate rank
+      call info_eig(mt, sc, w, v, status, msg)
+      if (status /= MLID_OK) then
+        res%reason = STOP_FAILED
+        return
       end if
       call bounded_step(nf, step, decrement)
       if (status /= MLID_OK) then
@@ -247,8 +254,7 @@ contains
       integer, allocatable :: keep(:)
       real(wp), allocatable :: sub(:, :), subw(:)
 
-      call info_inverse(mt, opt%rcond, cov, w, ndrop, res%bad_param, status, msg, rank)
-      if (status /= MLID_OK) return
+      call eig_inverse(sc, w, v, opt%rcond, rank, cov, ndrop, res%bad_param)
       st = -matmul(cov, g)
       if (allocated(ex%lower)) then
         th = res%theta(pm%ifree)
