@@ -30,7 +30,7 @@ module mlid_api
   use mlid_jacobian_check, only: check_jacobians
   implicit none
   private
-  public :: mlid_input_signal, mlid_default_options, mlid_theta_size, mlid_model_sizes, &
+  public :: mlid_input_signal, mlid_default_options, mlid_model_sizes, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo
 
 contains
@@ -52,25 +52,6 @@ contains
     real(c_double), intent(out) :: ropt(12)
     call options_to_flat(options_t(), iopt, ropt)
   end subroutine mlid_default_options
-
-  !> Number of model parameters np and of all parameters nth of a model.
-  subroutine mlid_theta_size(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, np, nth, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    integer(c_int), intent(out) :: np, nth, status
-    character(len=256), intent(out) :: msg
-    class(model_t), allocatable :: m
-    type(layout_t) :: l
-
-    np = 0
-    nth = 0
-    call model_create(mkind, nx, nu, ny, nw, iconst, rconst, m, status, msg)
-    if (status /= MLID_OK) return
-    np = m%np
-    l = model_layout(m)
-    nth = l%nth
-  end subroutine mlid_theta_size
 
   !> Sizes of a model whose sizes are its own (longitudinal, user): give
   !> nx = nu = ny = nw = -1 to learn them.

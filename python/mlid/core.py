@@ -248,9 +248,8 @@ def check_jacobians(model, x, u):
     and central differences at state x, input u and the model's parameters:
     {'df/dx', 'df/dp', 'dh/dx', 'dh/dp'}.  Values near 1e-8 or below mean the
     Jacobians are right; write your own model's, then check them here."""
-    npar = model.theta.size - (model.nx + 2 * model.ny + model.nw + model.nw * model.ny)
     err, status, msg = _api.mlid_check_jacobians(
-        **_model_args(model), np=npar, p=model.theta[:npar],
+        **_model_args(model), np=model.np, p=model.theta[:model.np],
         x=np.asarray(x, dtype=float), u=np.asarray(u, dtype=float).reshape(model.nu))
     check_status(status, msg)
     return dict(zip(("df/dx", "df/dp", "dh/dx", "dh/dp"), err.tolist()))

@@ -71,6 +71,11 @@ class Model:
                                        ("r", self.r), ("s", self.S)]
 
     @property
+    def np(self):
+        """Number of model parameters p (theta before x0 and the noise blocks)."""
+        return sum(a.size for _, a in self._model_blocks())
+
+    @property
     def theta(self):
         """All parameters, in the core's order; matrices column-major."""
         return np.concatenate([a.ravel(order="F") for _, a in self._blocks()])
