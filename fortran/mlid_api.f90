@@ -198,10 +198,11 @@ contains
     if (status == MLID_OK) msg = warning
   end subroutine mlid_fit
 
-  !> Cost, gradient and information matrix at theta, without iterating.
+  !> Cost, gradient, information matrix and output sensitivity norms at
+  !> theta, without iterating.
   subroutine mlid_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, itie, nic, iconst, nrc, &
                            rconst, nt, t, u, y, iopt, ropt, nf, cost, grad, info, rhat, yhat, &
-                           status, msg)
+                           sens, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf
     real(c_double), intent(in) :: theta(nth)
     integer(c_int), intent(in) :: isfree(nth), itie(nth)
@@ -211,6 +212,7 @@ contains
     integer(c_int), intent(in) :: iopt(12)
     real(c_double), intent(in) :: ropt(12)
     real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny), yhat(ny, nt)
+    real(c_double), intent(out) :: sens(ny, nf)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
@@ -223,12 +225,13 @@ contains
     info = 0.0_wp
     rhat = 0.0_wp
     yhat = 0.0_wp
+    sens = 0.0_wp
     call setup(mkind, nx, nu, ny, nw, theta, isfree, itie, iconst, rconst, t, u, y, iopt, ropt, &
                nf, m, opt, pm, status, msg)
     if (status /= MLID_OK) return
     th = theta
     call apply_ties(pm%tie, th)
-    call likelihood(m, th, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+    call likelihood(m, th, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, sens)
   end subroutine mlid_evaluate
 
   !> Outputs y and states x of the model along t with inputs u, with the

@@ -13,7 +13,7 @@
 !>             t_start, pulse_width                                  (simulate)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
 !>             tol_cost, tol_step, tol_grad, rcond, prior, prior_weight,
-!>             prior_decay, rank_min, rank_max, lower, upper (per free parameter, in the
+!>             prior_decay, rank_min, rank_max, rank_rule, lower, upper (per free parameter, in the
 !>             order of free)
 !> A problem in one case is kept in that case (status, msg) and the others
 !> are still read.  The Python reader (mlid/deck.py) follows the same rules.
@@ -120,7 +120,7 @@ contains
     type(deck_case_t), intent(inout) :: c
     ! namelist variables, reset for every case
     character(len=128) :: title
-    character(len=16) :: job, kind, input_hold, noise, method, startup, input_shape(MAXU)
+    character(len=16) :: job, kind, input_hold, noise, method, startup, rank_rule, input_shape(MAXU)
     integer :: nx, nu, ny, nw, substeps, max_iter, halvings, time_col, skip_rows, seed
     real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
     real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY)
@@ -149,7 +149,8 @@ contains
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
       pulse_width
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, tol_cost, &
-      tol_step, tol_grad, rcond, prior, prior_weight, prior_decay, rank_min, rank_max, lower, upper
+      tol_step, tol_grad, rcond, prior, prior_weight, prior_decay, rank_min, rank_max, rank_rule, &
+      lower, upper
     type(options_t) :: opt
     integer :: unit, k, ios, np, idx, jdx, peq, nth
     logical :: found
@@ -387,6 +388,7 @@ contains
       noise = 'diagonal'
       method = 'output_error'
       startup = 'none'
+      rank_rule = 'iteration'
       partials = opt%partials
       steady_state = opt%steady
       tol_cost = opt%tol_cost
@@ -434,6 +436,16 @@ contains
       case default
         call fail('group &estimate: startup must be ''none'' or ''equation_error'', got '''// &
                   trim(startup)//'''')
+        return
+      end select
+      select case (to_lower(rank_rule))
+      case ('iteration')
+        opt%rank_rule = 0
+      case ('staged')
+        opt%rank_rule = 1
+      case default
+        call fail('group &estimate: rank_rule must be ''iteration'' or ''staged'', got '''// &
+                  trim(rank_rule)//'''')
         return
       end select
       c%noise = to_lower(noise)

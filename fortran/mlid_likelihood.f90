@@ -28,7 +28,8 @@ contains
   !> Cost at theta (and gradient and information for the free parameters
   !> when grad and info are present) by the method of opt.  rhat receives
   !> R-hat (output error) or the mean innovation covariance (filter error).
-  subroutine likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+  subroutine likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                        sens)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -38,12 +39,18 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :)
+    !> output sensitivity norms (ny, nf): sqrt(sum_t (d yhat_i/d theta_k)^2 / R_ii),
+    !> how many residual sigmas parameter k moves output i over the record
+    !> (innovations for filter error); needs grad and info
+    real(wp), intent(out), optional :: sens(:, :)
 
     cost = huge(1.0_wp)
     if (opt%method == 1) then
-      call fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+      call fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                         sens)
     else
-      call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+      call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                         sens)
     end if
     if (status == MLID_OK .and. .not. ieee_is_finite(cost)) then
       status = MLID_ERR_SINGULAR
@@ -51,7 +58,8 @@ contains
     end if
   end subroutine likelihood
 
-  subroutine oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+  subroutine oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
+                           info, sens)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -60,7 +68,7 @@ contains
     real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), intent(out), optional :: grad(:), info(:, :)
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :)
     real(wp), allocatable :: dy(:, :, :), nu(:, :), w(:, :)
     real(wp) :: rinv(m%ny, m%ny), logdet
     integer :: ny, nt, nf, j, i, ierr
@@ -109,10 +117,12 @@ contains
         grad = grad - matmul(nu(:, j), w)
         info = info + matmul(transpose(dy(:, :, j)), w)
       end do
+      if (present(sens)) call sensitivity_norms(dy, rhat, sens)
     end if
   end subroutine oe_likelihood
 
-  subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info)
+  subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
+                           info, sens)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -121,7 +131,7 @@ contains
     real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), intent(out), optional :: grad(:), info(:, :)
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :)
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
     real(wp), allocatable :: w(:, :), bnu(:), e(:, :, :)
     real(wp) :: tr
@@ -145,6 +155,7 @@ contains
     end do
     rhat = matmul(nu, transpose(nu))/nt
     if (.not. (present(grad) .and. present(info))) return
+    if (present(sens)) call sensitivity_norms(dnu, rhat, sens)
 
     grad = 0.0_wp
     info = 0.0_wp
@@ -168,6 +179,16 @@ contains
       end do
     end do
   end subroutine fe_likelihood
+
+  !> sqrt(sum_t ds(i,k,t)^2 / r(i,i)) for each output i and parameter k.
+  pure subroutine sensitivity_norms(ds, r, sens)
+    real(wp), intent(in) :: ds(:, :, :), r(:, :)
+    real(wp), intent(out) :: sens(:, :)
+    integer :: i
+    do i = 1, size(sens, 1)
+      sens(i, :) = sqrt(sum(ds(i, :, :)**2, dim=2)/r(i, i))
+    end do
+  end subroutine sensitivity_norms
 
   pure real(wp) function trace(a)
     real(wp), intent(in) :: a(:, :)

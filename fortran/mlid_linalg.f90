@@ -133,12 +133,16 @@ contains
   !> N = D^-1/2 M D^-1/2, D = diag(M) (report §5.3.5): the scale sc = D^-1/2
   !> (0 for a parameter with no information at all), eigenvalues w ascending
   !> and eigenvectors v.  Working on N keeps the parameters' units out of
-  !> every singularity test and rank choice.
-  subroutine info_eig(info, sc, w, v, status, msg)
+  !> every singularity test and rank choice.  With unit present the
+  !> parameters are measured in those units instead (sc = unit): the
+  !> rank-deficient search uses the a priori magnitudes, so that a dropped
+  !> direction is one not determined to within the parameters' own size.
+  subroutine info_eig(info, sc, w, v, status, msg, unit)
     real(wp), intent(in) :: info(:, :)
     real(wp), intent(out) :: sc(:), w(:), v(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    real(wp), intent(in), optional :: unit(:)
     integer :: n, ierr
 
     status = MLID_OK
@@ -153,7 +157,11 @@ contains
       msg = 'information matrix is not finite'
       return
     end if
-    where (info_diag(info) > 0.0_wp) sc = 1.0_wp/sqrt(info_diag(info))
+    if (present(unit)) then
+      sc = unit
+    else
+      where (info_diag(info) > 0.0_wp) sc = 1.0_wp/sqrt(info_diag(info))
+    end if
     call sym_eig(info*spread(sc, 1, n)*spread(sc, 2, n), w, v, ierr)
     if (ierr /= 0) then
       status = MLID_ERR_INTERNAL

@@ -18,8 +18,9 @@ module mlid_newton
   public :: fit_result_t, extras_t, newton_fit
 
   !> How much a higher rank must lower the cost (a negative log-likelihood)
-  !> to be taken in the rank-deficient search: Akaike's 1 per parameter.
-  real(wp), parameter :: RANK_GAIN = 1.0_wp
+  !> to be taken in the rank-deficient search: a likelihood-ratio test at 5%
+  !> for one more direction, chi-square(1) 95% point 3.841 over 2.
+  real(wp), parameter :: RANK_GAIN = 0.5_wp*3.841_wp
 
   !> The estimator options of report §4.6 beyond plain Newton-Raphson, over
   !> the free parameters: a priori values and weight (block 7), bounds
@@ -64,12 +65,13 @@ contains
     type(fit_result_t), intent(out) :: res
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    integer :: nf, ny, nt, it, ih, tstat, ndrop, rank, rmin, rmax, rbest
+    integer :: nf, ny, nt, it, ih, tstat, ndrop, rank, rmin, rtop
+    type(fit_result_t) :: saved
     logical :: better
     real(wp) :: step(pm%nf), trial(size(theta0)), best(size(theta0)), ee_sigma(pm%nf)
     real(wp) :: g(pm%nf), mt(pm%nf, pm%nf), cov(pm%nf, pm%nf), w(pm%nf), v(pm%nf, pm%nf)
-    real(wp) :: sc(pm%nf)
-    real(wp) :: jt, jbest, jnow, scale, decrement, dj, s, best_step
+    real(wp) :: sc(pm%nf), unit(pm%nf), scr(pm%nf), wr(pm%nf), vr(pm%nf, pm%nf)
+    real(wp) :: jt, jbest, jnow, scale, decrement, dj, s, best_step, jsaved
     real(wp), allocatable :: rt(:, :), yt(:, :)
     character(len=len(msg)) :: tmsg
 
@@ -100,113 +102,41 @@ contains
     end if
     res%cost_hist(1) = res%cost
     rmin = nf
-    if (opt%rank_min > 0) rmin = opt%rank_min
+    if (opt%rank_min > 0) rmin = min(opt%rank_min, nf)
+    rtop = nf
+    if (opt%rank_max > 0) rtop = min(nf, opt%rank_max)
+    ! Units of the rank-deficient search: the start values' magnitudes (the
+    ! step is then the least relative change, and a weak combination stays
+    ! at its a priori value, §5.3.6).  A parameter starting at zero has no
+    ! size to be relative to: it gets the median size-to-sigma ratio of the
+    ! others, so that it is neither dropped nor favoured for that alone.
+    unit = search_units(res%theta(pm%ifree), [(res%info(ih, ih), ih=1, nf)])
     s = 1.0_wp
+    it = 0
 
-    do it = 1, opt%max_iter
-      ! the objective of this iteration: likelihood + prior term (weight s W)
-      jnow = res%cost + prior_cost(res%theta, s)
-      g = res%grad
-      mt = res%info
-      if (allocated(ex%weight)) then
-        g = g + s*matmul(ex%weight, res%theta(pm%ifree) - ex%prior)
-        mt = mt + s*ex%weight
-      end if
-      ! one eigen-decomposition per iteration serves every candidate rank
-      call info_eig(mt, sc, w, v, status, msg)
-      if (status /= MLID_OK) then
-        res%reason = STOP_FAILED
-        return
-      end if
-      call bounded_step(nf, step, decrement)
-      if (status /= MLID_OK) then
-        res%reason = STOP_FAILED
-        return
-      end if
-      if (decrement <= opt%tol_grad) then
-        res%reason = STOP_GRAD
-        exit
-      end if
-
-      ! For each rank from rmin to full (block 7-10): the step, limited by the
-      ! bounds (blocks 11-12), halved while the objective does not decrease;
-      ! keep the best.
-      ! ranks above the number of usable eigenvalues (ndrop from the full-rank
-      ! step just taken) would repeat the same step
-      rmax = nf - ndrop
-      if (opt%rank_max > 0) rmax = min(rmax, opt%rank_max)
-      jbest = huge(1.0_wp)
-      best_step = 0.0_wp
-      rbest = 0
-      do rank = min(rmin, rmax), rmax
-        call bounded_step(rank, step, decrement)
-        if (status /= MLID_OK) then
-          res%reason = STOP_FAILED
-          return
+    if (opt%rank_rule == 1 .and. rmin < rtop) then
+      ! Staged: converge at the minimum rank, then free one more direction
+      ! at a time and keep it only if the converged likelihood improves by
+      ! more than RANK_GAIN; otherwise go back to the last accepted fit.
+      rank = rmin
+      call iterate(rank, rank)
+      do while (rank < rtop .and. status == MLID_OK .and. res%converged)
+        saved = res
+        jsaved = res%cost + prior_cost(res%theta, s)
+        call iterate(rank + 1, rank + 1)
+        if (status /= MLID_OK) return
+        if (jsaved - (res%cost + prior_cost(res%theta, s)) <= RANK_GAIN) then
+          res = saved
+          exit
         end if
-        scale = 1.0_wp
-        do ih = 0, opt%halvings
-          trial = res%theta
-          trial(pm%ifree) = trial(pm%ifree) + scale*step
-          if (allocated(ex%lower)) &   ! no rounding across a bound
-            trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
-          call apply_ties(pm%tie, trial)
-          call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
-          if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
-            jt = jt + prior_cost(trial, s)
-            ! ranks run upward: a higher rank must lower the cost by more than
-            ! RANK_GAIN (Akaike's penalty for one more parameter), or the weak
-            ! directions stay where they are (report §5.3.6)
-            if (rank > rbest .and. rbest > 0) then
-              better = jt < jbest - RANK_GAIN
-            else
-              better = jt < jbest
-            end if
-            if (better) then
-              jbest = jt
-              best = trial
-              best_step = scale*norm2(step)
-              rbest = rank
-            end if
-            if (jt < jnow) exit
-          end if
-          scale = 0.5_wp*scale
-        end do
+        rank = rank + 1
       end do
+      res%rank = rank
+    else
+      call iterate(min(rmin, rtop), rtop)
+    end if
+    if (status /= MLID_OK) return
 
-      dj = jnow - jbest
-      if (.not. (dj > 0.0_wp)) then
-        ! No decrease: converged if the objective is flat to tolerance, else stuck.
-        if (jbest < huge(1.0_wp) .and. abs(dj) <= opt%tol_cost*max(1.0_wp, abs(jnow))) then
-          res%reason = STOP_COST
-        else
-          res%reason = STOP_NO_DECREASE
-        end if
-        exit
-      end if
-
-      res%niter = it
-      if (it == 1) res%rank = 0
-      res%rank = max(res%rank, rbest)   ! late steps are small in every direction
-      res%theta = best
-      call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                      status, msg, res%grad, res%info)
-      if (status /= MLID_OK) then
-        res%reason = STOP_FAILED
-        return
-      end if
-      res%cost_hist(it + 1) = res%cost
-      if (dj <= opt%tol_cost*max(1.0_wp, abs(jbest))) then
-        res%reason = STOP_COST
-        exit
-      end if
-      if (best_step <= opt%tol_step*norm2(res%theta(pm%ifree))) then
-        res%reason = STOP_STEP
-        exit
-      end if
-      s = s*opt%prior_decay
-    end do
-    if (res%reason == STOP_NONE) res%reason = STOP_MAXITER
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
 
     ! Cramer-Rao bound at the final estimate, with the prior's weight and
@@ -215,6 +145,11 @@ contains
     call info_inverse(res%info, opt%rcond, res%cov, res%eigval, ndrop, res%bad_param, status, &
                       msg, res%rank, res%eigvec)
     if (status /= MLID_OK) return
+    if (res%rank < nf) then   ! the covariance of the directions estimated, in the search's units
+      call info_eig(res%info, scr, wr, vr, status, msg, unit)
+      if (status /= MLID_OK) return
+      call eig_inverse(scr, wr, vr, opt%rcond, res%rank, res%cov, ih, tstat)
+    end if
     if (ndrop > 0 .and. opt%rank_min == 0) then     ! singular, and no rank-deficient solution asked
       status = MLID_ERR_SINGULAR
       write (msg, '(a,i0,a,es9.2,a,i0,a)') 'information matrix singular (', ndrop, &
@@ -229,6 +164,156 @@ contains
     end if
 
   contains
+
+    !> |theta_k|, or for a zero start value the marginal sigma 1/sqrt(M_kk)
+    !> times the median |theta_j| sqrt(M_jj) of the others.
+    function search_units(th, dg) result(un)
+      real(wp), intent(in) :: th(:), dg(:)
+      real(wp) :: un(size(th)), snr(size(th)), med
+      logical :: sized(size(th))
+      integer :: k, n, j
+      sized = th /= 0.0_wp .and. dg > 0.0_wp
+      un = abs(th)
+      n = count(sized)
+      med = 1.0_wp
+      if (n > 0) then
+        snr(:n) = pack(abs(th)*sqrt(max(dg, 0.0_wp)), sized)
+        do k = 2, n             ! insertion sort: n is a handful
+          med = snr(k)
+          j = k - 1
+          do while (j >= 1)
+            if (snr(j) <= med) exit
+            snr(j + 1) = snr(j)
+            j = j - 1
+          end do
+          snr(j + 1) = med
+        end do
+        med = 0.5_wp*(snr((n + 1)/2) + snr(n/2 + 1))
+      end if
+      do k = 1, size(th)
+        if (th(k) == 0.0_wp) then
+          un(k) = 1.0_wp
+          if (dg(k) > 0.0_wp) un(k) = med/sqrt(dg(k))
+        end if
+      end do
+    end function search_units
+
+    !> Newton iterations from res until converged or the iteration budget
+    !> is spent, each trying the ranks rlo..rhi and keeping the best.
+    subroutine iterate(rlo, rhi)
+      integer, intent(in) :: rlo, rhi
+      integer :: rank, rmax, rbest
+      logical :: first
+      first = .true.
+      res%reason = STOP_NONE
+      do while (it < opt%max_iter)
+        it = it + 1
+        ! the objective of this iteration: likelihood + prior term (weight s W)
+        jnow = res%cost + prior_cost(res%theta, s)
+        g = res%grad
+        mt = res%info
+        if (allocated(ex%weight)) then
+          g = g + s*matmul(ex%weight, res%theta(pm%ifree) - ex%prior)
+          mt = mt + s*ex%weight
+        end if
+        ! one eigen-decomposition per iteration serves every candidate rank
+        call info_eig(mt, sc, w, v, status, msg)
+        if (status == MLID_OK .and. rlo < nf) call info_eig(mt, scr, wr, vr, status, msg, unit)
+        if (status /= MLID_OK) then
+          res%reason = STOP_FAILED
+          return
+        end if
+        call bounded_step(nf, step, decrement)
+        if (status /= MLID_OK) then
+          res%reason = STOP_FAILED
+          return
+        end if
+        if (decrement <= opt%tol_grad) then
+          res%reason = STOP_GRAD
+          exit
+        end if
+
+        ! For each rank from rmin to full (block 7-10): the step, limited by the
+        ! bounds (blocks 11-12), halved while the objective does not decrease;
+        ! keep the best.
+        ! ranks above the number of usable eigenvalues (ndrop from the full-rank
+        ! step just taken) would repeat the same step
+        rmax = min(nf - ndrop, rhi)
+        jbest = huge(1.0_wp)
+        best_step = 0.0_wp
+        rbest = 0
+        do rank = min(rlo, rmax), rmax
+          call bounded_step(rank, step, decrement)
+          if (status /= MLID_OK) then
+            res%reason = STOP_FAILED
+            return
+          end if
+          scale = 1.0_wp
+          do ih = 0, opt%halvings
+            trial = res%theta
+            trial(pm%ifree) = trial(pm%ifree) + scale*step
+            if (allocated(ex%lower)) &   ! no rounding across a bound
+              trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
+            call apply_ties(pm%tie, trial)
+            call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
+            if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
+              jt = jt + prior_cost(trial, s)
+              ! ranks run upward: a higher rank must lower the cost by more than
+              ! RANK_GAIN (a likelihood-ratio test per direction), or the weak
+              ! directions stay where they are (report §5.3.6)
+              if (rank > rbest .and. rbest > 0) then
+                better = jt < jbest - RANK_GAIN
+              else
+                better = jt < jbest
+              end if
+              if (better) then
+                jbest = jt
+                best = trial
+                best_step = scale*norm2(step)
+                rbest = rank
+              end if
+              if (jt < jnow) exit
+            end if
+            scale = 0.5_wp*scale
+          end do
+        end do
+
+        dj = jnow - jbest
+        if (.not. (dj > 0.0_wp)) then
+          ! No decrease: converged if the objective is flat to tolerance, else stuck.
+          if (jbest < huge(1.0_wp) .and. abs(dj) <= opt%tol_cost*max(1.0_wp, abs(jnow))) then
+            res%reason = STOP_COST
+          else
+            res%reason = STOP_NO_DECREASE
+          end if
+          exit
+        end if
+
+        res%niter = it
+        if (first) res%rank = 0
+        first = .false.
+        res%rank = max(res%rank, rbest)   ! late steps are small in every direction
+        res%theta = best
+        call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
+                        status, msg, res%grad, res%info)
+        if (status /= MLID_OK) then
+          res%reason = STOP_FAILED
+          return
+        end if
+        res%cost_hist(it + 1) = res%cost
+        if (dj <= opt%tol_cost*max(1.0_wp, abs(jbest))) then
+          res%reason = STOP_COST
+          exit
+        end if
+        if (best_step <= opt%tol_step*norm2(res%theta(pm%ifree))) then
+          res%reason = STOP_STEP
+          exit
+        end if
+        s = s*opt%prior_decay
+      end do
+      if (res%reason == STOP_NONE) res%reason = STOP_MAXITER
+      res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
+    end subroutine iterate
 
     !> 1/2 s (theta - prior)' W (theta - prior) over the free parameters.
     real(wp) function prior_cost(th, sw)
@@ -254,7 +339,11 @@ contains
       integer, allocatable :: keep(:)
       real(wp), allocatable :: sub(:, :), subw(:)
 
-      call eig_inverse(sc, w, v, opt%rcond, rank, cov, ndrop, res%bad_param)
+      if (rank < nf) then
+        call eig_inverse(scr, wr, vr, opt%rcond, rank, cov, ndrop, res%bad_param)
+      else
+        call eig_inverse(sc, w, v, opt%rcond, rank, cov, ndrop, res%bad_param)
+      end if
       st = -matmul(cov, g)
       if (allocated(ex%lower)) then
         th = res%theta(pm%ifree)

@@ -23,6 +23,8 @@ module mlid_options
     integer :: startup = 0        !< iopt(9): 0 from the given values, 1 equation-error start-up
     integer :: rank_min = 0       !< iopt(10): rank-deficient search from this rank (0: full rank only)
     integer :: rank_max = 0       !< iopt(11): ... up to this rank (0: full rank)
+    integer :: rank_rule = 0      !< iopt(12): 0 best rank each iteration (report §4.6 blocks 7-10),
+                                  !<   1 staged: converge at each rank, one more direction at a time
     real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
     real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
     real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
@@ -50,6 +52,7 @@ contains
     iopt(9) = opt%startup
     iopt(10) = opt%rank_min
     iopt(11) = opt%rank_max
+    iopt(12) = opt%rank_rule
     ropt(1) = opt%tol_cost
     ropt(2) = opt%tol_step
     ropt(3) = opt%tol_grad
@@ -79,6 +82,7 @@ contains
     opt%startup = iopt(9)
     opt%rank_min = iopt(10)
     opt%rank_max = iopt(11)
+    opt%rank_rule = iopt(12)
     opt%tol_cost = ropt(1)
     opt%tol_step = ropt(2)
     opt%tol_grad = ropt(3)
@@ -105,6 +109,8 @@ contains
       msg = 'rcond must lie in (0, 1)'
     else if (opt%rank_min < 0 .or. opt%rank_max < 0) then
       msg = 'rank_min and rank_max must be >= 0'
+    else if (opt%rank_rule /= 0 .and. opt%rank_rule /= 1) then
+      write (msg, '(a,i0)') 'rank rule code must be 0 (each iteration) or 1 (staged), got ', iopt(12)
     else if (opt%rank_max > 0 .and. opt%rank_max < opt%rank_min) then
       write (msg, '(a,i0,a,i0)') 'rank_max = ', opt%rank_max, ' is below rank_min = ', opt%rank_min
     else if (.not. (opt%prior_decay > 0.0_wp .and. opt%prior_decay <= 1.0_wp)) then

@@ -98,6 +98,8 @@ BAD = {
         "'f(3,1)' does not exist"),
     "bad job": (SMALL.format(title="bad", file="small.dat").replace("'estimate'", "'estimat'"),
                 "job must be"),
+    "bad rank rule": (SMALL.format(title="bad", file="small.dat")
+                      + "&estimate rank_min = 2, rank_rule = 'stagged' /\n", "rank_rule must be"),
     "missing group": ("&case title = 'bad', job = 'estimate' /\n", "group &model is missing"),
     "column out of range": (SMALL.format(title="bad", file="small.dat").replace(
         "output_cols = 3, 4", "output_cols = 3, 9"), "column 9"),

@@ -59,14 +59,15 @@ def test_rank_deficient_solution_handles_a_singular_direction():
     assert abs(res.estimate[k] + 1.0) < 3 * res.sigma[k]
 
 
-def test_rank_search_on_a_well_determined_case_stays_near_the_full_solution(data):
-    # a direction is left out only when stepping along it would lower the cost by less
-    # than 1 = delta^2/2 in sigma units, so the estimate stays within sqrt(2) sigma of
-    # the full-rank solution
+@pytest.mark.parametrize("rule", ["iteration", "staged"])
+def test_rank_search_on_a_well_determined_case_stays_near_the_full_solution(data, rule):
+    # a direction is left out only when freeing it would lower the cost by less than
+    # 1.92 = delta^2/2 (the 5% likelihood-ratio test), delta in sigma units, so the
+    # estimate stays within 1.96 sigma of the full-rank solution
     plain = mlid.fit(c8_start(), data)
-    ranked = mlid.fit(c8_start(), data, rank_min=3)
+    ranked = mlid.fit(c8_start(), data, rank_min=3, rank_rule=rule)
     assert 3 <= ranked.rank <= 5
-    assert np.all(np.abs(ranked.estimate - plain.estimate) < np.sqrt(2) * plain.sigma)
+    assert np.all(np.abs(ranked.estimate - plain.estimate) < 1.96 * plain.sigma)
 
 
 @pytest.mark.parametrize("kwargs, match", [
@@ -75,6 +76,7 @@ def test_rank_search_on_a_well_determined_case_stays_near_the_full_solution(data
     ({"prior_weight": np.diag([1.0, -1.0, 1.0, 1.0, 1.0])}, "positive semi-definite"),
     ({"rank_min": 6}, "larger than the 5 free parameters"),
     ({"rank_min": 4, "rank_max": 3}, "below rank_min"),
+    ({"rank_min": 3, "rank_rule": "greedy"}, "rank_rule must be one of"),
     ({"prior_weight": {"f(1,1)": 1.0}}, "not a free parameter"),
 ])
 def test_bad_options(data, kwargs, match):
@@ -99,7 +101,8 @@ def test_options_through_decks_in_both_front_ends(tmp_path):
 &model kind = 'linear', nx = 2, nu = 1, ny = 2, f = -1.0, 0.5, -0.8, -2.0, g = 1.0, 0.3,
     h = 1, 0, 0, 1, free = 'g(1,1)', 'f(1,1)', 'f(2,1)' /
 &data file = 'd.dat', input_cols = 2, output_cols = 3, 4 /
-&estimate prior = 1.4, prior_weight = 50.0, lower = -10, -10, -0.95, rank_min = 2 /
+&estimate prior = 1.4, prior_weight = 50.0, lower = -10, -10, -0.95, rank_min = 2,
+    rank_rule = 'staged' /
 """)
     res = []
     for cmd, out in (([str(BIN / "mlid"), "run"], "a.json"), ([str(BIN / "mlid-batch")], "b.json")):

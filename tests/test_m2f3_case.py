@@ -37,3 +37,18 @@ def test_m2f3_story(tmp_path):
     assert _beyond_3_sigma(fe, truth)[0] == 0
     assert all(w["white"] for w in fe.whiteness())
     assert (tmp_path / "m2f3_gust.png").exists()
+
+
+def test_m2f3_remedies_with_sas():
+    """Closed loop through roll and yaw dampers: filter error alone flips a
+    control derivative; a priori weighting and the staged rank-deficient
+    solution restore the signs at no loss of fit (report §5.3.4-5.3.6)."""
+    import remedies
+    rows = {n: remedies.summary(n, r) for n, r in remedies.fits(remedies.record()).items()}
+    free = rows["unconstrained"]
+    assert free["wrong"]
+    for name in ("a priori", "rank-def., staged", "bounds (signs)"):
+        assert not rows[name]["wrong"], name
+        assert rows[name]["rms_fit"] < 1.01 * free["rms_fit"], name
+    staged = rows["rank-def., staged"]
+    assert staged["rank"] < staged["k"] and staged["dist"] < 0.25 * free["dist"]

@@ -15,6 +15,7 @@ _api = _core.mlid_api
 NOISE = ("diagonal", "full")
 METHODS = ("output_error", "filter_error")
 STARTUPS = ("none", "equation_error")
+RANK_RULES = ("iteration", "staged")
 STOP_REASONS = {
     0: "not started",
     1: "relative cost change below tol_cost",
@@ -33,6 +34,7 @@ def default_options():
             "halvings": int(iopt[1]), "noise": NOISE[int(iopt[2])],
             "partials": bool(iopt[6]), "steady_state": bool(iopt[7]),
             "startup": STARTUPS[int(iopt[8])], "rank_min": int(iopt[9]), "rank_max": int(iopt[10]),
+            "rank_rule": RANK_RULES[int(iopt[11])],
             "prior_decay": float(ropt[4]),
             "tol_cost": float(ropt[0]), "tol_step": float(ropt[1]), "tol_grad": float(ropt[2]),
             "rcond": float(ropt[3])}
@@ -50,6 +52,8 @@ def _flat_options(model, options):
         raise InputError(f"method must be one of {METHODS}, got {opts['method']!r}")
     if opts["startup"] not in STARTUPS:
         raise InputError(f"startup must be one of {STARTUPS}, got {opts['startup']!r}")
+    if opts["rank_rule"] not in RANK_RULES:
+        raise InputError(f"rank_rule must be one of {RANK_RULES}, got {opts['rank_rule']!r}")
     iopt = np.zeros(12, dtype=np.int32)
     ropt = np.zeros(12)
     iopt[:8] = [opts["max_iter"], opts["halvings"], NOISE.index(opts["noise"]),
@@ -59,6 +63,7 @@ def _flat_options(model, options):
     iopt[8] = STARTUPS.index(opts["startup"])
     iopt[9] = opts["rank_min"]
     iopt[10] = opts["rank_max"]
+    iopt[11] = RANK_RULES.index(opts["rank_rule"])
     ropt[4] = opts["prior_decay"]
     ropt[:4] = [opts["tol_cost"], opts["tol_step"], opts["tol_grad"], opts["rcond"]]
     return iopt, ropt, opts
@@ -132,8 +137,11 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, **options):
     covariance and gain partials of eqs 4.32-4.34), steady_state (filter
     error: steady-state gain), startup ('equation_error': start from an
     equation-error least-squares pass, all states measured), tol_cost,
-    tol_step, tol_grad, rcond, rank_min (rank-deficient search from this
-    rank, report §4.6 blocks 7-10), prior_decay (a priori weights times this
+    tol_step, tol_grad, rcond, rank_min and rank_max (rank-deficient search
+    over these ranks, report §4.6 blocks 7-10), rank_rule ('iteration': the
+    best rank each iteration, as the report; 'staged': converge at rank_min,
+    then free one more direction at a time while a likelihood-ratio test at
+    5% accepts it), prior_decay (a priori weights times this
     each iteration).  The a priori weighting of §4.5.2: prior_weight, a dict
     {name: weight} (diagonal) or an nf x nf matrix over the free parameters,
     and prior, {name: value} (default the start values).  bounds: {name:
@@ -175,17 +183,19 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, **options):
 
 
 def evaluate(model, data, **options):
-    """Cost, gradient, information matrix, R-hat and outputs at the model's
-    current parameters (no iteration); options as for fit()."""
+    """Cost, gradient, information matrix, R-hat, outputs and output
+    sensitivity norms (ny, nf: how many residual sigmas each free parameter
+    moves each output over the record) at the model's current parameters (no
+    iteration); options as for fit()."""
     iopt, ropt, _ = _flat_options(model, options)
     t, u, y = _record(model, data)
     mask = model.free_mask
-    cost, grad, info, rhat, yhat, status, msg = _api.mlid_evaluate(
+    cost, grad, info, rhat, yhat, sens, status, msg = _api.mlid_evaluate(
         **_model_args(model), theta=model.theta, isfree=mask, itie=model.tie_index, t=t, u=u,
         y=y, iopt=iopt, ropt=ropt, nf=int(mask.sum()))
     check_status(status, msg)
     return {"cost": float(cost), "gradient": grad, "information": info, "rhat": rhat,
-            "yhat": yhat.T.copy()}
+            "yhat": yhat.T.copy(), "sensitivity": sens}
 
 
 def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names=None):

@@ -57,6 +57,7 @@ def _schema():
                      "rcond": (_REAL, opts["rcond"]), "prior": (_REALS, None),
                      "prior_weight": (_REALS, None), "prior_decay": (_REAL, opts["prior_decay"]),
                      "rank_min": (_INT, opts["rank_min"]), "rank_max": (_INT, opts["rank_max"]),
+                     "rank_rule": (_STR, opts["rank_rule"]),
                      "lower": (_REALS, None),
                      "upper": (_REALS, None)},
     }
@@ -211,6 +212,10 @@ def _read_case(case, block, line0, schema):
         e["noise"] = e["noise"].lower()
         e["method"] = e["method"].lower()
         e["startup"] = e["startup"].lower()
+        e["rank_rule"] = e["rank_rule"].lower()
+        if e["rank_rule"] not in ("iteration", "staged"):
+            raise InputError(f"group &estimate: rank_rule must be 'iteration' or 'staged', "
+                             f"got '{e['rank_rule']}'")
         if e["startup"] not in ("none", "equation_error"):
             raise InputError(f"group &estimate: startup must be 'none' or 'equation_error', "
                              f"got '{e['startup']}'")

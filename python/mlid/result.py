@@ -125,6 +125,24 @@ class FitResult:
         corr = " correlations above 0.9: " + (", ".join(pairs) if pairs else "none")
         return [line, weak, corr]
 
+    def sensitivity_norms(self):
+        """Output sensitivity norms at the estimate, (ny, nf): sqrt(sum over
+        the record of (d yhat_i / d theta_k)^2 / R_ii), how many residual
+        sigmas each parameter moves each output (innovations for filter
+        error).  A parameter small in every output is one the data cannot see."""
+        from .core import evaluate
+        return evaluate(self.model, self.data, **self.options)["sensitivity"]
+
+    def sensitivity_table(self):
+        """The sensitivity norms as printed lines, a row per parameter."""
+        s = self.sensitivity_norms()
+        outs = [n[:10] for n in self.data.output_names] or [f"y{i + 1}" for i in range(len(s))]
+        lines = [" output sensitivity norms (residual sigmas over the record)",
+                 f" {'parameter':<16}" + "".join(f"{n:>11}" for n in outs)]
+        for k, name in enumerate(self.names):
+            lines.append(f" {name[:16]:<16}" + "".join(f"{v:11.3E}" for v in s[:, k]))
+        return lines
+
     def __repr__(self):
         return f"FitResult(cost={self.cost:.6g}, iterations={self.iterations}, " \
                f"converged={self.converged})"
