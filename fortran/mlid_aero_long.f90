@@ -11,6 +11,8 @@
 !>   a_z = qbar (S/m)(-C_L cos alpha - C_D sin alpha) - F sin sigma/m
 !>
 !> states x = (V, alpha, theta, q), inputs u = (delta_e, F_T), qbar = rho V^2/2.
+!> Process noise w (4, variances q, zero unless set) adds to each state
+!> equation: atmospheric turbulence for filter error.
 !> This is the HFB-320 model of ../shared/data/README.md (Jategaonkar's test
 !> case) when the regressors are (1, V/V0, alpha) for C_D and C_L and
 !> (1, V/V0, alpha, qhat, delta_e) for C_m, qhat = q cbar/(2 V0).
@@ -82,7 +84,7 @@ contains
     m%nx = 4
     m%nu = 2
     m%ny = 7
-    m%nw = 0
+    m%nw = 4      ! process noise (turbulence) adds to each state equation
     m%np = np
     m%code = iconst(4:)
     m%coef = [(1, k=1, n(1)), (2, k=1, n(2)), (3, k=1, n(3))]
@@ -185,6 +187,7 @@ contains
               + self%g*cos(al - th)/v
     xdot(3) = x(4)
     xdot(4) = self%sc*qbar*c(3) + self%lt*ft
+    if (size(u) >= 2 + self%nw) xdot = xdot + u(3:2 + self%nw)   ! process noise, if given
   end subroutine al_f
 
   pure subroutine al_dfdx(self, t, x, u, p, a)
@@ -313,7 +316,11 @@ contains
     class(aero_long_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: g(:, :)
+    integer :: k
     g = 0.0_wp
+    do k = 1, self%nw
+      g(k, k) = 1.0_wp
+    end do
   end subroutine al_dfdw
 
   pure subroutine al_dhdxp(self, t, x, u, p, idx, dc)

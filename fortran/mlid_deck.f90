@@ -222,14 +222,14 @@ contains
       allocate (c%iconst(0), c%rconst(0))
     case ('longitudinal')
       c%mkind = MODEL_AERO_LONG
-      if (any([nx, nu, ny, nw] /= [0, 0, 0, 0] .and. [nx, nu, ny, nw] /= [4, 2, 7, 0])) then
-        call fail('group &model: a longitudinal model has nx, nu, ny, nw = 4, 2, 7, 0')
+      if (any([nx, nu, ny, nw] /= [0, 0, 0, 0] .and. [nx, nu, ny, nw] /= [4, 2, 7, 4])) then
+        call fail('group &model: a longitudinal model has nx, nu, ny, nw = 4, 2, 7, 4')
         return
       end if
       nx = 4
       nu = 2
       ny = 7
-      nw = 0
+      nw = 4
       call regressor_codes(cd_regressors, 1)
       call regressor_codes(cl_regressors, 2)
       call regressor_codes(cm_regressors, 3)

@@ -16,7 +16,14 @@
 !>   noise.  The sensitivities d x^/d theta follow eqs 4.35-4.36 and, with
 !>   opt%partials, the covariance partials dP, dK, dB of eqs 4.32-4.34 (the
 !>   "added partials" of Appendix B).  With opt%steady the gain is held at its
-!>   steady-state value.  Linear (time-invariant) models only, for now.
+!>   steady-state value.
+!>   For a nonlinear model the same recursion is the extended Kalman filter
+!>   (eqs 4.22-4.28): C is dh/dx at x(j|j-1), Phi and W are the Jacobians of
+!>   the RK4 interval at x(j-1|j-1), integrated with the state.  Its
+!>   partials hold the linearisation fixed: exact for the noise covariances
+!>   Q, R, S, neglected through Phi, W, C for the parameters of f and h
+!>   (the report's simplification).  The steady-state gain needs a linear
+!>   model.
 module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_SINGULAR, &
@@ -110,7 +117,7 @@ contains
   !> dnu(ny, nf, nt) and, with opt%partials, db(ny, ny, nf, nt).
   !> yhat(ny, nt) receives the one-step predictions.
   subroutine kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
-                            dnu, db)
+                            dnu, db, bhist)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -120,22 +127,32 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: dnu(:, :, :), db(:, :, :, :)
+    real(wp), intent(out), optional :: bhist(:, :, :)   !< B(j) itself
     type(layout_t) :: l
     type(lti_t) :: sys
     type(cov_t) :: cv
     real(wp), allocatable :: s(:, :), c(:, :), d(:, :), what(:), dwhat(:, :), sb(:, :)
+    real(wp), allocatable :: sj(:, :), fj(:, :)
     real(wp) :: x(m%nx)
-    integer :: j, k, nf
-    logical :: sens, partials
+    integer :: j, k, nf, nx, nw, ns
+    logical :: sens, partials, ekf
 
     status = MLID_OK
     msg = ''
     l = pm%l
     nf = pm%nf
     sens = present(dnu)
+    ekf = .not. m%linear
     partials = sens .and. opt%partials
+    nx = l%nx
+    nw = l%nw
     call lti_setup(m, theta, pm, t, u, opt, sys, status, msg)
     if (status /= MLID_OK) return
+    ns = merge(nf, 0, sens)
+    if (ekf) then
+      ! columns: the parameter sensitivities (if wanted), then Phi, then W
+      allocate (sj(nx, ns + nx + nw), fj(nx, ns + nx + nw))
+    end if
     call cov_alloc(cv, l%nx, l%ny, nf)
     x = theta(l%ox0 + 1:l%ox0 + l%nx)
     allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf))
@@ -147,7 +164,27 @@ contains
 
     do j = 1, size(t)
       if (j > 1) then
-        if (sens) then
+        if (ekf) then               ! linearise the interval about x(j-1|j-1), eq. 4.27
+          call m%dfdw(t(j - 1), x, [u(:, j - 1), what], theta(1:l%np), sys%g)
+          sj = 0.0_wp
+          fj = 0.0_wp
+          if (sens) then
+            sj(:, 1:nf) = s
+            fj(:, 1:nf) = matmul(sys%g, dwhat)
+          end if
+          do k = 1, nx
+            sj(k, ns + k) = 1.0_wp
+          end do
+          fj(:, ns + nx + 1:) = sys%g
+          if (sens) then
+            call advance(m, theta, pm, t, u, opt, j - 1, what, x, sj, fj)
+            s = sj(:, 1:nf)
+          else          ! no parameter columns: nothing may force them
+            call advance_plain(m, theta, pm, t, u, opt, j - 1, what, x, sj, fj)
+          end if
+          sys%phi = sj(:, ns + 1:ns + nx)
+          sys%w = sj(:, ns + nx + 1:)
+        else if (sens) then
           call advance(m, theta, pm, t, u, opt, j - 1, what, x, s, matmul(sys%g, dwhat))
         else
           call advance(m, theta, pm, t, u, opt, j - 1, what, x)
@@ -158,6 +195,7 @@ contains
         end if
         if (.not. opt%steady) call cov_predict(sys, cv, partials)
       end if
+      if (ekf) call m%dhdx(t(j), x, u(:, j), theta(1:l%np), sys%c)
       if (.not. opt%steady) then
         call cov_update(sys, cv, partials, status, msg)
         if (status /= MLID_OK) then
@@ -170,6 +208,7 @@ contains
       nu(:, j) = y(:, j) - yhat(:, j)
       binv(:, :, j) = cv%binv
       logdet(j) = cv%logdet
+      if (present(bhist)) bhist(:, :, j) = cv%b
       if (sens) then                ! d nu = -(C dx(j|j-1) + dh/dp + d bias), eq. 4.31
         call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dnu(:, :, j), c, d)
         dnu(:, :, j) = -dnu(:, :, j)
@@ -216,13 +255,14 @@ contains
     nx = l%nx
     nw = l%nw
     ny = l%ny
-    if (.not. m%linear) then
-      msg = 'filter error needs a linear model (the extended Kalman filter is not implemented yet)'
+    if (.not. m%linear .and. opt%steady) then
+      msg = 'the steady-state gain needs a linear model (a nonlinear model uses the extended '// &
+            'Kalman filter with its time-varying gain)'
       return
     end if
     dt = t(2) - t(1)
     do k = 2, size(t) - 1
-      if (abs((t(k + 1) - t(k)) - dt) > 1.0e-9_wp*dt) then
+      if (abs((t(k + 1) - t(k)) - dt) > 1.0e-3_wp*dt) then   ! recorded times are rounded
         write (msg, '(a,i0)') 'the Kalman filter needs uniform sampling; time step changes at sample ', k + 1
         return
       end if
@@ -267,8 +307,13 @@ contains
     end do
     ! Phi and W: one interval of the integrator applied to unit states and
     ! unit held noise; their partials from the same step's sensitivities.
+    ! (a nonlinear model gets them at each interval, in kf_innovations)
     o1 = opt
-    do i = 1, nx
+    sys%phi = 0.0_wp
+    sys%dphi = 0.0_wp
+    sys%w = 0.0_wp
+    sys%dw = 0.0_wp
+    do i = 1, merge(nx, 0, m%linear)
       e = 0.0_wp
       e(i) = 1.0_wp
       sk = 0.0_wp
@@ -276,7 +321,7 @@ contains
       sys%phi(:, i) = e
       sys%dphi(:, i, :) = sk
     end do
-    do i = 1, nw
+    do i = 1, merge(nw, 0, m%linear)
       e = 0.0_wp
       ua = 0.0_wp
       ua(m%nu + i) = 1.0_wp
@@ -501,6 +546,23 @@ contains
     call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), w, opt%hold, &
                       opt%substeps, x, pm%im, pm%cm, s, sforce)
   end subroutine advance
+
+  !> As advance, for columns that no model parameter forces (Phi and W).
+  subroutine advance_plain(m, theta, pm, t, u, opt, j, what, x, s, sforce)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :)
+    type(options_t), intent(in) :: opt
+    integer, intent(in) :: j
+    real(wp), intent(in) :: what(:)
+    real(wp), intent(inout) :: x(:), s(:, :)
+    real(wp), intent(in) :: sforce(:, :)
+    integer :: none(0)
+
+    call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), what, opt%hold, &
+                      opt%substeps, x, none, none, s, sforce)
+  end subroutine advance_plain
 
   !> Sensitivities of the initial state: a unit column for each free x0.
   pure function initial_sensitivity(pm) result(s)

@@ -11,13 +11,19 @@
 !>
 !>     J = 1/2 sum_j [ nu_j' B_j^-1 nu_j + ln|B_j| ]
 !>     M_kl = sum_j [ dnu_k' B^-1 dnu_l + 1/2 tr(B^-1 dB_k B^-1 dB_l) ]
+!>
+!>   A nonlinear model's extended Kalman filter takes dnu and dB with the
+!>   gain partials (opt%partials) from forward differences of whole filter
+!>   runs: its gain depends on the parameters also through the
+!>   linearisation, whose analytic partials would need second derivatives
+!>   of f and h.  Without partials the analytic sensitivities hold the gain.
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR
   use mlid_linalg, only: chol_inverse
   use mlid_models, only: model_t
   use mlid_options, only: options_t
-  use mlid_params, only: param_map_t
+  use mlid_params, only: param_map_t, apply_ties
   use mlid_filter, only: oe_predict, kf_innovations
   implicit none
   private
@@ -133,7 +139,7 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :)
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
-    real(wp), allocatable :: w(:, :), bnu(:), e(:, :, :)
+    real(wp), allocatable :: w(:, :), bnu(:), e(:, :, :), b0(:, :, :)
     real(wp) :: tr
     integer :: ny, nt, nf, j, k, l
 
@@ -141,7 +147,13 @@ contains
     nt = size(t)
     nf = pm%nf
     allocate (nu(ny, nt), binv(ny, ny, nt), logdet(nt))
-    if (present(grad)) then
+    if (present(grad) .and. .not. m%linear .and. opt%partials) then
+      allocate (dnu(ny, nf, nt), db(ny, ny, nf, nt), b0(ny, ny, nt))
+      call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
+                          bhist=b0)
+      if (status == MLID_OK) call numerical_partials(m, theta, pm, t, u, y, opt, nu, b0, dnu, db, &
+                                                     status, msg)
+    else if (present(grad)) then
       allocate (dnu(ny, nf, nt), db(ny, ny, nf, nt))
       db = 0.0_wp
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, db)
@@ -179,6 +191,60 @@ contains
       end do
     end do
   end subroutine fe_likelihood
+
+  !> dnu/dtheta and dB/dtheta of the filter by forward differences from the
+  !> nominal run (nu0, b0): Gauss-Newton needs them to a relative 1e-6, not
+  !> more, and one run per parameter halves the cost of central ones.  The
+  !> step is 1e-6 of the parameter, or of the mean magnitude of its block
+  !> (model, x0, bias, q, r, s) when it is zero; upward, so that a variance
+  !> at zero stays admissible.
+  subroutine numerical_partials(m, theta, pm, t, u, y, opt, nu0, b0, dnu, db, status, msg)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :), nu0(:, :), b0(:, :, :)
+    type(options_t), intent(in) :: opt
+    real(wp), intent(out) :: dnu(:, :, :), db(:, :, :, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: yh(:, :), nup(:, :), bi(:, :, :), ld(:), bp(:, :, :)
+    real(wp) :: th(size(theta)), h
+    integer :: k, i, ny, nt, blk(7)
+
+    ny = m%ny
+    nt = size(t)
+    allocate (yh(ny, nt), nup(ny, nt), bi(ny, ny, nt), ld(nt), bp(ny, ny, nt))
+    blk = [0, pm%l%ox0, pm%l%obias, pm%l%oq, pm%l%or, pm%l%os, pm%l%nth]
+    do k = 1, pm%nf
+      i = pm%ifree(k)
+      h = 1.0e-6_wp*abs(theta(i))
+      if (h == 0.0_wp) h = 1.0e-6_wp*block_scale(i)
+      th = theta
+      th(i) = theta(i) + h
+      h = th(i) - theta(i)          ! the step actually taken
+      call apply_ties(pm%tie, th)
+      call kf_innovations(m, th, pm, t, u, y, opt, yh, nup, bi, ld, status, msg, bhist=bp)
+      if (status /= MLID_OK) return
+      dnu(:, k, :) = (nup - nu0)/h
+      db(:, :, k, :) = (bp - b0)/h
+    end do
+
+  contains
+
+    real(wp) function block_scale(i)
+      integer, intent(in) :: i
+      integer :: b
+      real(wp), allocatable :: v(:)
+      block_scale = 1.0_wp
+      do b = 1, 6
+        if (i > blk(b) .and. i <= blk(b + 1)) then
+          v = pack(abs(theta(blk(b) + 1:blk(b + 1))), theta(blk(b) + 1:blk(b + 1)) /= 0.0_wp)
+          if (size(v) > 0) block_scale = sum(v)/size(v)
+        end if
+      end do
+    end function block_scale
+
+  end subroutine numerical_partials
 
   !> sqrt(sum_t ds(i,k,t)^2 / r(i,i)) for each output i and parameter k.
   pure subroutine sensitivity_norms(ds, r, sens)

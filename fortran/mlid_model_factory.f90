@@ -52,9 +52,9 @@ contains
       lin%linear = .true.
       allocate (model, source=lin)
     case (MODEL_AERO_LONG)
-      if (any([nx, nu, ny, nw] /= [4, 2, 7, 0]) .and. any([nx, nu, ny, nw] /= -1)) then
+      if (any([nx, nu, ny, nw] /= [4, 2, 7, 4]) .and. any([nx, nu, ny, nw] /= -1)) then
         status = MLID_ERR_INPUT
-        msg = 'longitudinal model: nx, nu, ny, nw must be 4, 2, 7, 0 (V, alpha, theta, q; '// &
+        msg = 'longitudinal model: nx, nu, ny, nw must be 4, 2, 7, 4 (V, alpha, theta, q; '// &
               'delta_e, thrust; V, alpha, theta, q, qdot, a_x, a_z)'
         return
       end if

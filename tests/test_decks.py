@@ -10,6 +10,7 @@ import subprocess
 import numpy as np
 import pytest
 
+import mlid
 from conftest import BIN, REPO
 
 C8_CASE = REPO / "cases" / "c8_short_period"
@@ -145,3 +146,12 @@ def test_read_deck_api_keeps_case_errors(tmp_path):
     assert "f has 3 values" in cases[1].error
     runs = mlid.run_deck(deck)
     assert runs[2][2].converged and runs[1][3] is not None
+
+
+def test_values_from_an_index_fill_the_following_elements(tmp_path):
+    """x(i) = a, b sets x(i) and x(i+1), as a Fortran compiler reads it."""
+    deck = tmp_path / "d.nml"
+    deck.write_text(SMALL.format(title="idx", file="small.dat")
+                    + "&estimate lower(2) = -1.0, -2.0 /\n")
+    case = mlid.read_deck(deck)[0]
+    assert case.options()["bounds"] == {"f(2,1)": (-1.0, None), "g(1,1)": (-2.0, None)}

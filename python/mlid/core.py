@@ -134,7 +134,9 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, **options):
     ('output_error', or 'filter_error': the Kalman filter with the model's
     process noise), max_iter, halvings, noise (output error: 'diagonal' or
     'full' R estimated from the residuals), partials (filter error: the
-    covariance and gain partials of eqs 4.32-4.34), steady_state (filter
+    covariance and gain partials of eqs 4.32-4.34; for a nonlinear model's
+    extended Kalman filter they hold the linearisation fixed: exact for the
+    noise covariances, neglected for the parameters of f and h), steady_state (filter
     error: steady-state gain), startup ('equation_error': start from an
     equation-error least-squares pass, all states measured), tol_cost,
     tol_step, tol_grad, rcond, rank_min and rank_max (rank-deficient search

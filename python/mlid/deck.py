@@ -9,6 +9,7 @@ the deck's folder.  See README.md for every group and name.
 
 import math
 import re
+import warnings
 from pathlib import Path
 
 import f90nml
@@ -180,7 +181,15 @@ def _read_case(case, block, line0, schema):
                 raise InputError(f"line {line0 + k}: unknown group &{name} (groups are &case, "
                                  "&model, &data, &simulate, &estimate)")
     try:
-        nml = f90nml.reads("\n".join(text) + "\n")
+        # f90nml drops values it cannot place, with a warning: refuse rather than lose them
+        # x(i) = a, b fills x(i), x(i+1) in Fortran; f90nml needs x(i:) for that
+        body = re.sub(r"\b(\w+)\((\d+)\)(\s*=)", r"\1(\2:)\3", "\n".join(text))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            nml = f90nml.reads(body + "\n")
+    except UserWarning as exc:
+        raise InputError(f"line {line0}: {str(exc).replace('f90nml: warning: ', '')}; "
+                         "to give several values from an index write x(i:j) = ...") from None
     except Exception as exc:  # f90nml raises several types for bad syntax
         raise InputError(f"line {line0}: cannot parse the case: {exc}") from None
     groups = {}
@@ -272,8 +281,8 @@ def _label(model, free, labels):
 
 
 def _longitudinal(m):
-    if any(v not in (0, w) for v, w in zip((m["nx"], m["nu"], m["ny"], m["nw"]), (4, 2, 7, 0))):
-        raise InputError("group &model: a longitudinal model has nx, nu, ny, nw = 4, 2, 7, 0")
+    if any(v not in (0, w) for v, w in zip((m["nx"], m["nu"], m["ny"], m["nw"]), (4, 2, 7, 4))):
+        raise InputError("group &model: a longitudinal model has nx, nu, ny, nw = 4, 2, 7, 4")
     regs = {key: [r for r in m[f"{key.lower()}_regressors"] if r] for key in ("CD", "CL", "Cm")}
     coeffs = {key: _given(m[key.lower()], len(regs[key]), key.lower(), str(len(regs[key])), True)
               for key in regs}
@@ -286,7 +295,9 @@ def _longitudinal(m):
         model = LongitudinalModel(regs, coeffs, dict(zip(CONSTANTS, consts)),
                                   x0=_given(m["x0"], 4, "x0", "4", False),
                                   bias=_given(m["bias"], 7, "bias", "7", False),
-                                  r=_given(m["r"], 7, "r", "7", False), free=free,
+                                  r=_given(m["r"], 7, "r", "7", False),
+                                  q=_given(m["q"], 4, "q", "4", False),
+                                  S=_given(m["s"], 28, "s", "4x7", False), free=free,
                                   input_hold=m["input_hold"].lower(), substeps=m["substeps"])
     except InputError as exc:
         raise InputError(f"group &model: {exc}") from None

@@ -266,7 +266,8 @@ class LongitudinalModel(Model):
             for k, reg in enumerate(self.regressors[key]):
                 labels[f"{block}({k + 1})"] = f"C_{key[1]}{REGRESSORS[reg]}"
         labels.update(names or {})
-        self._init_common(4, 2, 7, 0, x0, bias, q, r, S, free, labels, ties, input_hold,
+        # process noise (q, 4 variances) adds to each state equation: turbulence
+        self._init_common(4, 2, 7, 4, x0, bias, q, r, S, free, labels, ties, input_hold,
                           substeps)
 
     @property
@@ -285,8 +286,6 @@ class LongitudinalModel(Model):
                 ("cm", self.coefficients["Cm"])]
 
     def _from_parts(self, parts, common):
-        common.pop("q")
-        common.pop("S")
         return LongitudinalModel(self.regressors, {"CD": parts["cd"], "CL": parts["cl"],
                                                    "Cm": parts["cm"]}, self.constants, **common)
 
