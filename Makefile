@@ -28,6 +28,7 @@ bench: install
 	$(VPY) benchmarks/monte_carlo_m2f3.py
 	$(VPY) benchmarks/peer_statsmodels_m2f3.py
 	$(VPY) benchmarks/bench_rank_search.py
+	$(VPY) benchmarks/bench_x22.py
 
 install: sysdeps $(STAMP)
 

@@ -80,12 +80,12 @@ contains
   !> Largest relative differences between the model's analytic Jacobians
   !> (df/dx, df/dp, dh/dx, dh/dp) and central differences at (x, u, p).
   subroutine mlid_check_jacobians(mkind, nx, nu, ny, nw, np, p, nic, iconst, nrc, rconst, x, u, &
-                                  err, status, msg)
+                                  w, err, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, np, nic, nrc
-    real(c_double), intent(in) :: p(np), x(nx), u(nu)
+    real(c_double), intent(in) :: p(np), x(nx), u(nu), w(nw)
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(out) :: err(4)
+    real(c_double), intent(out) :: err(6)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
@@ -99,8 +99,8 @@ contains
       write (msg, '(a,i0,a,i0)') 'the model has ', m%np, ' parameters, not ', np
       return
     end if
-    uw = 0.0_wp
     uw(1:nu) = u
+    uw(nu + 1:) = w
     call check_jacobians(m, 0.0_wp, x, uw, p, err)
   end subroutine mlid_check_jacobians
 
@@ -237,8 +237,8 @@ contains
   !> Outputs y and states x of the model along t with inputs u, with the
   !> process and measurement noise whose statistics are in theta (seeded).
   subroutine mlid_simulate(mkind, nx, nu, ny, nw, nth, theta, nic, iconst, nrc, rconst, nt, t, u, &
-                           seed, iopt, ropt, y, x, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed
+                           seed, timing, iopt, ropt, y, x, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed, timing
     real(c_double), intent(in) :: theta(nth)
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
@@ -260,7 +260,7 @@ contains
     call setup(mkind, nx, nu, ny, nw, theta, nofree, nofree, iconst, rconst, t, u, y, iopt, &
                ropt, 0, m, opt, pm, status, msg)
     if (status /= MLID_OK) return
-    call simulate_outputs(m, theta, t, u, opt, seed, y, x, status, msg)
+    call simulate_outputs(m, theta, t, u, opt, seed, y, x, status, msg, timing)
   end subroutine mlid_simulate
 
   !> nrun identifications: data from theta_true with seeds seed0, seed0+1, ...,

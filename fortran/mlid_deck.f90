@@ -2,7 +2,7 @@
 !>
 !> A case starts at each line whose first word is &case and holds the groups
 !>   &case     title, job ('estimate' or 'simulate')
-!>   &model    kind ('linear', 'longitudinal' or 'user'), nx, nu, ny, nw, f, g,
+!>   &model    kind ('linear', 'longitudinal', 'x22' or 'user'), nx, nu, ny, nw, f, g,
 !>             h, d, gamma (row by row), cd_regressors, cl_regressors,
 !>             cm_regressors, cd, cl, cm, constants (longitudinal), p,
 !>             user_iconst, user_rconst (user), x0, bias, q, r, s (noise
@@ -20,7 +20,8 @@
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER
+  use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
+  use mlid_x22, only: X22_LABELS
   use mlid_options, only: options_t, options_to_flat, NOPT
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, NREG
@@ -255,9 +256,21 @@ contains
       ny = user%ny
       nw = user%nw
       ncoef(1) = user%np
+    case ('x22')
+      c%mkind = MODEL_X22
+      allocate (c%iconst(0), c%rconst(0))
+      if (any([nx, nu, ny, nw] /= [0, 0, 0, 0] .and. [nx, nu, ny, nw] /= [4, 1, 7, 3])) then
+        call fail('group &model: the X-22 model has nx, nu, ny, nw = 4, 1, 7, 3')
+        return
+      end if
+      nx = 4
+      nu = 1
+      ny = 7
+      nw = 3
+      ncoef(1) = 23
     case default
       call fail('group &model: unknown kind '''//trim(kind)//''' (available: linear, '// &
-                'longitudinal, user)')
+                'longitudinal, x22, user)')
       return
     end select
     if (nx < 1 .or. nx > MAXX .or. nu < 0 .or. nu > MAXU .or. ny < 1 .or. ny > MAXY .or. &
@@ -275,7 +288,7 @@ contains
     if (c%mkind == MODEL_LINEAR) then
       call set_blocks([character(len=8) :: 'f', 'g', 'h', 'd', 'gamma', 'x0', 'bias', 'q', 'r', 's'], &
                       [nx, nx, ny, ny, nx, nx, ny, nw, ny, nw], [nx, nu, nx, nu, nw, -1, -1, -1, -1, ny])
-    else if (c%mkind == MODEL_USER) then
+    else if (c%mkind == MODEL_USER .or. c%mkind == MODEL_X22) then
       call set_blocks([character(len=8) :: 'p', 'x0', 'bias', 'q', 'r', 's'], &
                       [ncoef(1), nx, ny, nw, ny, nw], [-1, -1, -1, -1, -1, ny])
     else
@@ -294,9 +307,9 @@ contains
       call put_matrix('h', h, ny, nx, nx*nx + nx*nu, required=.true.)
       call put_matrix('d', d, ny, nu, nx*nx + nx*nu + ny*nx, required=.false.)
       call put_matrix('gamma', gamma, nx, nw, np - nx*nw, required=nw > 0)
-    else if (c%mkind == MODEL_USER) then
+    else if (c%mkind == MODEL_USER .or. c%mkind == MODEL_X22) then
       call put_vector('p', p, ncoef(1), 0)
-      if (ncoef(1) > 0 .and. count(p /= UNSET) == 0) call fail('group &model: p (the user '// &
+      if (ncoef(1) > 0 .and. count(p /= UNSET) == 0) call fail('group &model: p (the '// &
                                                                'model''s parameters) is missing')
     else
       call put_vector('cd', cd, ncoef(1), 0)
@@ -567,6 +580,7 @@ contains
             if (b <= 3 .and. c%mkind == MODEL_AERO_LONG) default_label(boff(b) + i) = &
               'C_'//trim(merge('D', merge('L', 'm', b == 2), b == 1))// &
               trim(SUFFIX(codes((b - 1)*MAXR + i)))
+            if (b == 1 .and. c%mkind == MODEL_X22) default_label(boff(b) + i) = X22_LABELS(i)
           end do
         else
           do j = 1, cols(b)

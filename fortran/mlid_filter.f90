@@ -52,6 +52,7 @@ module mlid_filter
     real(wp), allocatable :: phi(:, :), dphi(:, :, :)  !< state transition over an interval
     real(wp), allocatable :: w(:, :), dw(:, :, :)      !< held-noise transition
     real(wp), allocatable :: q(:, :), dq(:, :, :), r(:, :), dr(:, :, :), s(:, :), ds(:, :, :)
+    real(wp), allocatable :: r0(:, :), s0(:, :)       !< R and S of the parameters alone
     real(wp), allocatable :: g(:, :)                   !< df/dw
     !> Which partials are non-zero, per free parameter (most are zero:
     !> only F and Gamma move Phi and W, only q, r, s move Q, R, S).
@@ -131,9 +132,9 @@ contains
     type(layout_t) :: l
     type(lti_t) :: sys
     type(cov_t) :: cv
-    real(wp), allocatable :: s(:, :), c(:, :), d(:, :), what(:), dwhat(:, :), sb(:, :)
+    real(wp), allocatable :: s(:, :), c(:, :), d(:, :), what(:), dwhat(:, :)
     real(wp), allocatable :: sj(:, :), fj(:, :)
-    real(wp) :: x(m%nx)
+    real(wp) :: x(m%nx), dhw(m%ny, m%nw), sb(m%nw, m%ny)
     integer :: j, k, nf, nx, nw, ns
     logical :: sens, partials, ekf
 
@@ -195,7 +196,16 @@ contains
         end if
         if (.not. opt%steady) call cov_predict(sys, cv, partials)
       end if
-      if (ekf) call m%dhdx(t(j), x, u(:, j), theta(1:l%np), sys%c)
+      if (ekf) then
+        call m%dhdx(t(j), x, u(:, j), theta(1:l%np), sys%c)
+        ! outputs that carry the process noise of the next interval, (dh/dw) w:
+        ! the effective R and S at this sample (report §5.1.7)
+        call m%dhdw(t(j), x, u(:, j), theta(1:l%np), dhw)
+        if (any(dhw /= 0.0_wp)) then
+          sys%r = sys%r0 + matmul(dhw, matmul(sys%q, transpose(dhw)))
+          sys%s = sys%s0 + matmul(sys%q, transpose(dhw))
+        end if
+      end if
       if (.not. opt%steady) then
         call cov_update(sys, cv, partials, status, msg)
         if (status /= MLID_OK) then
@@ -342,6 +352,8 @@ contains
       sys%r(k, k) = theta(l%or + k)
     end do
     sys%s = reshape(theta(l%os + 1:l%os + nw*ny), [nw, ny])
+    sys%r0 = sys%r
+    sys%s0 = sys%s
     do k = 1, size(pm%iq)
       sys%dq(pm%iq(k), pm%iq(k), pm%cq(k)) = sys%dq(pm%iq(k), pm%iq(k), pm%cq(k)) + 1.0_wp
     end do

@@ -9,14 +9,20 @@ module mlid_jacobian_check
 
 contains
 
-  !> err = largest relative error of (df/dx, df/dp, dh/dx, dh/dp) at (t, x, u, p),
-  !> each column scaled by max(1, its largest entry).
+  !> err = largest relative error of (df/dx, df/dp, dh/dx, dh/dp, df/dw,
+  !> dh/dw) at (t, x, u, p), each column scaled by max(1, its largest entry).
+  !> u = [controls; process noise]: the noise-dependent terms are checked too.
+  !> dh/dw against the change of h + (dh/dw) w that the noise makes in f's
+  !> output rows is not defined generally, so it is checked as linear: the
+  !> difference of (dh/dw) at two noise values must vanish.
   subroutine check_jacobians(m, t, x, u, p, err)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: err(4)
+    real(wp), intent(out) :: err(6)
     real(wp) :: a(m%nx, m%nx), b(m%nx, m%np), c(m%ny, m%nx), d(m%ny, m%np)
+    real(wp) :: g(m%nx, m%nw), dw(m%ny, m%nw), dw2(m%ny, m%nw), u2(size(u))
     real(wp) :: fp(m%nx), fm(m%nx), yp(m%ny), ym(m%ny), ex(m%nx), ep(m%np), h
+    real(wp) :: eu(size(u))
     integer :: k, idx(m%np)
 
     idx = [(k, k=1, m%np)]
@@ -46,6 +52,24 @@ contains
       call m%h(t, x, u, p - ep, ym)
       err(2) = max(err(2), rel((fp - fm)/(2*h), b(:, k)))
       err(4) = max(err(4), rel((yp - ym)/(2*h), d(:, k)))
+    end do
+    call m%dfdw(t, x, u, p, g)
+    do k = 1, m%nw
+      if (m%nu + k > size(u)) exit
+      h = 1.0e-6_wp*max(1.0_wp, abs(u(m%nu + k)))
+      eu = 0.0_wp
+      eu(m%nu + k) = h
+      call m%f(t, x, u + eu, p, fp)
+      call m%f(t, x, u - eu, p, fm)
+      err(5) = max(err(5), rel((fp - fm)/(2*h), g(:, k)))
+    end do
+    ! the noise in the outputs is (dh/dw) w: dh/dw must not depend on w
+    call m%dhdw(t, x, u, p, dw)
+    u2 = u
+    if (size(u) > m%nu) u2(m%nu + 1:) = 0.0_wp
+    call m%dhdw(t, x, u2, p, dw2)
+    do k = 1, m%nw
+      err(6) = max(err(6), rel(dw2(:, k), dw(:, k)))
     end do
 
   contains

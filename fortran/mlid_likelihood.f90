@@ -139,9 +139,8 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :)
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
-    real(wp), allocatable :: w(:, :), bnu(:), e(:, :, :), b0(:, :, :)
-    real(wp) :: tr
-    integer :: ny, nt, nf, j, k, l
+    real(wp), allocatable :: w(:, :), bnu(:), e(:, :, :), b0(:, :, :), ev(:, :), evt(:, :)
+    integer :: ny, nt, nf, j, k
 
     ny = m%ny
     nt = size(t)
@@ -171,7 +170,7 @@ contains
 
     grad = 0.0_wp
     info = 0.0_wp
-    allocate (w(ny, nf), e(ny, ny, nf))
+    allocate (w(ny, nf), e(ny, ny, nf), ev(ny*ny, nf), evt(ny*ny, nf))
     do j = 1, nt
       bnu = matmul(binv(:, :, j), nu(:, j))
       w = matmul(binv(:, :, j), dnu(:, :, j))
@@ -181,14 +180,11 @@ contains
       do k = 1, nf
         e(:, :, k) = matmul(binv(:, :, j), db(:, :, k, j))   ! B^-1 dB_k
         grad(k) = grad(k) + 0.5_wp*(trace(e(:, :, k)) - dot_product(bnu, matmul(db(:, :, k, j), bnu)))
+        ev(:, k) = reshape(e(:, :, k), [ny*ny])
+        evt(:, k) = reshape(transpose(e(:, :, k)), [ny*ny])
       end do
-      do k = 1, nf
-        do l = 1, k
-          tr = 0.5_wp*sum(e(:, :, k)*transpose(e(:, :, l)))
-          info(k, l) = info(k, l) + tr
-          if (l /= k) info(l, k) = info(l, k) + tr
-        end do
-      end do
+      ! 1/2 tr(E_k E_l) for all k, l in one product
+      info = info + 0.5_wp*matmul(transpose(ev), evt)
     end do
   end subroutine fe_likelihood
 
@@ -209,13 +205,17 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: yh(:, :), nup(:, :), bi(:, :, :), ld(:), bp(:, :, :)
     real(wp) :: th(size(theta)), h
-    integer :: k, i, ny, nt, blk(7)
+    integer :: k, i, ny, nt, blk(7), kstat(pm%nf)
+    character(len=len(msg)) :: kmsg(pm%nf)
 
     ny = m%ny
     nt = size(t)
-    allocate (yh(ny, nt), nup(ny, nt), bi(ny, ny, nt), ld(nt), bp(ny, ny, nt))
     blk = [0, pm%l%ox0, pm%l%obias, pm%l%oq, pm%l%or, pm%l%os, pm%l%nth]
+    kstat = MLID_OK
+    ! one whole filter run per parameter, independent of the others
+    !$omp parallel do schedule(dynamic) default(shared) private(k, i, h, th, yh, nup, bi, ld, bp)
     do k = 1, pm%nf
+      allocate (yh(ny, nt), nup(ny, nt), bi(ny, ny, nt), ld(nt), bp(ny, ny, nt))
       i = pm%ifree(k)
       h = 1.0e-6_wp*abs(theta(i))
       if (h == 0.0_wp) h = 1.0e-6_wp*block_scale(i)
@@ -223,10 +223,22 @@ contains
       th(i) = theta(i) + h
       h = th(i) - theta(i)          ! the step actually taken
       call apply_ties(pm%tie, th)
-      call kf_innovations(m, th, pm, t, u, y, opt, yh, nup, bi, ld, status, msg, bhist=bp)
-      if (status /= MLID_OK) return
-      dnu(:, k, :) = (nup - nu0)/h
-      db(:, :, k, :) = (bp - b0)/h
+      call kf_innovations(m, th, pm, t, u, y, opt, yh, nup, bi, ld, kstat(k), kmsg(k), bhist=bp)
+      if (kstat(k) == MLID_OK) then
+        dnu(:, k, :) = (nup - nu0)/h
+        db(:, :, k, :) = (bp - b0)/h
+      end if
+      deallocate (yh, nup, bi, ld, bp)
+    end do
+    !$omp end parallel do
+    status = MLID_OK
+    msg = ''
+    do k = 1, pm%nf
+      if (kstat(k) /= MLID_OK) then
+        status = kstat(k)
+        msg = kmsg(k)
+        return
+      end if
     end do
 
   contains

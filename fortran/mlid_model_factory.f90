@@ -4,14 +4,16 @@ module mlid_model_factory
   use mlid_models, only: model_t, linear_model_t
   use mlid_aero_long, only: aero_long_t, aero_long_create
   use mlid_user_model, only: user_model_t, user_model_create
+  use mlid_x22, only: x22_t, x22_create
   implicit none
   private
-  public :: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER
+  public :: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
 
   !> Model kinds of the flat interface.
   integer, parameter :: MODEL_LINEAR = 1      !< linear state space (mlid_models)
   integer, parameter :: MODEL_AERO_LONG = 2   !< nonlinear longitudinal aircraft (mlid_aero_long)
   integer, parameter :: MODEL_USER = 3        !< the user's own model (mlid_user_model)
+  integer, parameter :: MODEL_X22 = 4         !< X-22 VTOL of report Appendix A (mlid_x22)
 
 contains
 
@@ -27,6 +29,7 @@ contains
     type(linear_model_t) :: lin
     type(aero_long_t) :: aero
     type(user_model_t) :: user
+    type(x22_t) :: x22
 
     status = MLID_OK
     msg = ''
@@ -72,6 +75,16 @@ contains
         return
       end if
       allocate (model, source=user)
+    case (MODEL_X22)
+      if (any([nx, nu, ny, nw] /= [4, 1, 7, 3]) .and. any([nx, nu, ny, nw] /= -1)) then
+        status = MLID_ERR_INPUT
+        msg = 'X-22 model: nx, nu, ny, nw must be 4, 1, 7, 3 (u, w, theta, q; delta_es; '// &
+              'u, w, theta, q, qdot, n_x, n_z; gusts in u, w, q)'
+        return
+      end if
+      call x22_create(iconst, rconst, x22, status, msg)
+      if (status /= MLID_OK) return
+      allocate (model, source=x22)
     case default
       status = MLID_ERR_INPUT
       write (msg, '(a,i0)') 'unknown model kind ', kind

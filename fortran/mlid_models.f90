@@ -11,6 +11,9 @@
 !> and R) and s their cross-covariance S (nw x ny, column-major).  Initial
 !> states, biases and noise statistics are thus parameters of every model,
 !> free or fixed like any other; the model itself only sees p.
+!> A model whose outputs carry the process noise too (accelerometers, §5.1)
+!> overrides dhdw: y = h + (dh/dw) w, with the w of the interval that
+!> follows the sample; by default they do not.
 module mlid_models
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   implicit none
@@ -33,6 +36,7 @@ module mlid_models
     procedure(dhdp_iface), deferred :: dhdp
     procedure(dfdw_iface), deferred :: dfdw
     procedure(dhdxp_iface), deferred :: dhdxp
+    procedure :: dhdw => no_output_noise
   end type model_t
 
   abstract interface
@@ -119,6 +123,14 @@ module mlid_models
   end type linear_model_t
 
 contains
+
+  !> dw = dh/dw (ny, nw): zero, the outputs carry no process noise.
+  pure subroutine no_output_noise(self, t, x, u, p, dw)
+    class(model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: dw(:, :)
+    dw = 0.0_wp
+  end subroutine no_output_noise
 
   !> The blocks of theta for a model.
   pure function model_layout(m) result(l)

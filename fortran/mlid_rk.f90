@@ -30,17 +30,11 @@ contains
     real(wp), intent(in), optional :: sforce(:, :)
     real(wp) :: um(size(ua)), th
     real(wp), dimension(size(x)) :: k1, k2, k3, k4
-    real(wp), allocatable :: s1(:, :), s2(:, :), s3(:, :), s4(:, :)
 
     th = t0 + 0.5_wp*dt
     um = 0.5_wp*(ua + ub)
     if (present(s)) then
-      allocate (s1, s2, s3, s4, mold=s)
-      call deriv(t0, x, ua, k1, s, s1)
-      call deriv(th, x + 0.5_wp*dt*k1, um, k2, s + 0.5_wp*dt*s1, s2)
-      call deriv(th, x + 0.5_wp*dt*k2, um, k3, s + 0.5_wp*dt*s2, s3)
-      call deriv(t0 + dt, x + dt*k3, ub, k4, s + dt*s3, s4)
-      s = s + (dt/6.0_wp)*(s1 + 2.0_wp*(s2 + s3) + s4)
+      call step_sens(s, size(s, 2))
     else
       call m%f(t0, x, ua, p, k1)
       call m%f(th, x + 0.5_wp*dt*k1, um, p, k2)
@@ -50,6 +44,18 @@ contains
     x = x + (dt/6.0_wp)*(k1 + 2.0_wp*(k2 + k3) + k4)
 
   contains
+
+    !> The stages with the sensitivities (on the stack: this runs per step).
+    subroutine step_sens(s, ns)
+      integer, intent(in) :: ns
+      real(wp), intent(inout) :: s(:, :)
+      real(wp), dimension(size(x), ns) :: s1, s2, s3, s4
+      call deriv(t0, x, ua, k1, s, s1)
+      call deriv(th, x + 0.5_wp*dt*k1, um, k2, s + 0.5_wp*dt*s1, s2)
+      call deriv(th, x + 0.5_wp*dt*k2, um, k3, s + 0.5_wp*dt*s2, s3)
+      call deriv(t0 + dt, x + dt*k3, ub, k4, s + dt*s3, s4)
+      s = s + (dt/6.0_wp)*(s1 + 2.0_wp*(s2 + s3) + s4)
+    end subroutine step_sens
 
     !> xd = f, sd = (df/dx) s + df/dp(idxm) (into columns colm) + sforce.
     subroutine deriv(t, xs, us, xd, ss, sd)

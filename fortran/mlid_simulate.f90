@@ -6,6 +6,10 @@
 !>
 !> w_j drives the interval that follows t_j and v_j corrupts y(t_j), so the
 !> two are correlated forward in time (report §5.1.5), as the filter assumes.
+!> Outputs that carry the process noise (dh/dw, accelerometers) get
+!> (dh/dw) w_j with the forward timing, or (dh/dw) w_(j-1), the noise of the
+!> interval before the sample, with the backward timing (timing = 1; at the
+!> first sample a draw of its own).
 module mlid_simulate
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_DIVERGED
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
@@ -21,19 +25,20 @@ module mlid_simulate
 contains
 
   !> y(ny, nt) and states xhist(nx, nt) along t with inputs u.
-  subroutine simulate_outputs(m, theta, t, u, opt, seed, y, xhist, status, msg)
+  subroutine simulate_outputs(m, theta, t, u, opt, seed, y, xhist, status, msg, timing)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), t(:), u(:, :)
     type(options_t), intent(in) :: opt
     integer, intent(in) :: seed
+    integer, intent(in), optional :: timing   !< 0 forward (default), 1 backward
     real(wp), intent(out) :: y(:, :), xhist(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     type(layout_t) :: l
     type(rng_t) :: rng
     real(wp) :: c(m%nw + m%ny, m%nw + m%ny), lsq(m%nw + m%ny, m%nw + m%ny)
-    real(wp) :: z(m%nw + m%ny), wv(m%nw + m%ny)
-    logical :: ok
+    real(wp) :: z(m%nw + m%ny), wv(m%nw + m%ny), wprev(m%nw), dhw(m%ny, m%nw)
+    logical :: ok, backward
     real(wp) :: x(m%nx)
     integer :: i, j, nw, ny
     integer, allocatable :: none(:)
@@ -45,6 +50,14 @@ contains
     if (seed < 0) then
       write (msg, '(a,i0)') 'seed must be >= 0, got ', seed
       return
+    end if
+    backward = .false.
+    if (present(timing)) then
+      if (timing /= 0 .and. timing /= 1) then
+        write (msg, '(a,i0)') 'noise timing must be 0 (forward) or 1 (backward), got ', timing
+        return
+      end if
+      backward = timing == 1
     end if
     ! Factor of the joint noise covariance; zero variances (noise-free
     ! channels) are allowed, and a diagonal covariance gives each channel its
@@ -72,6 +85,13 @@ contains
     allocate (none(0))
     call rng_seed(rng, seed)
     x = theta(l%ox0 + 1:l%ox0 + m%nx)
+    if (backward) then                ! the interval before the first sample
+      do i = 1, nw + ny
+        z(i) = rng_normal(rng)
+      end do
+      wv = matmul(lsq, z)
+      wprev = wv(1:nw)
+    end if
     do j = 1, size(t)
       do i = 1, nw + ny
         z(i) = rng_normal(rng)
@@ -80,6 +100,15 @@ contains
       xhist(:, j) = x
       call m%h(t(j), x, u(:, j), theta(1:l%np), y(:, j))
       y(:, j) = y(:, j) + theta(l%obias + 1:l%obias + ny) + wv(nw + 1:)
+      if (nw > 0) then
+        call m%dhdw(t(j), x, u(:, j), theta(1:l%np), dhw)
+        if (backward) then
+          y(:, j) = y(:, j) + matmul(dhw, wprev)
+          wprev = wv(1:nw)
+        else
+          y(:, j) = y(:, j) + matmul(dhw, wv(1:nw))
+        end if
+      end if
       if (j == size(t)) exit
       call rk4_interval(m, theta(1:l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), wv(1:nw), &
                         opt%hold, opt%substeps, x, none, none)

@@ -96,8 +96,8 @@ contains
       if (cstat == MLID_OK) then
         allocate (y(c%ny, size(t)), x(c%nx, size(t)))
         call mlid_simulate(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, size(c%iconst), &
-                           c%iconst, size(c%rconst), c%rconst, size(t), t, u, c%seed, c%iopt, &
-                           c%ropt, y, x, cstat, cmsg)
+                           c%iconst, size(c%rconst), c%rconst, size(t), t, u, c%seed, 0, &
+                           c%iopt, c%ropt, y, x, cstat, cmsg)
       end if
       if (cstat == MLID_OK) then
         path = c%out_file

@@ -4,7 +4,7 @@ derivatives (NASA CR-2200 and beyond).  The numerics live in the Fortran core
 
 from .errors import (MlidError, InputError, SingularInformationError, DivergenceError,
                      NonConvergenceError, InternalError)
-from .model import LinearModel, LongitudinalModel, UserModel
+from .model import LinearModel, LongitudinalModel, UserModel, X22Model
 from .data import FlightData
 from .result import FitResult, whiteness
 from .reduction import reduce_measured_state, reduced_data, recover_disturbance
@@ -15,7 +15,7 @@ from .analysis import fpe, compare_models, predict
 __version__ = "0.1.0"
 
 __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
-           "NonConvergenceError", "InternalError", "LinearModel", "LongitudinalModel", "UserModel",
+           "NonConvergenceError", "InternalError", "LinearModel", "LongitudinalModel", "UserModel", "X22Model",
            "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",

@@ -200,11 +200,20 @@ def evaluate(model, data, **options):
             "yhat": yhat.T.copy(), "sensitivity": sens}
 
 
-def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names=None):
+TIMINGS = ("forward", "backward")
+
+
+def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names=None,
+             timing="forward"):
     """Outputs of the model along t with inputs u (nt, nu), with the model's
     process noise and measurement noise (seeded).  noise_std, if given,
     replaces the measurement-noise standard deviations (r = noise_std**2).
+    Outputs that carry the process noise (accelerometers of the X-22 model)
+    get that of the interval after the sample ('forward', as the filter
+    assumes) or before it ('backward'), report §5.1.5.
     Returns (FlightData, states (nt, nx))."""
+    if timing not in TIMINGS:
+        raise InputError(f"timing must be one of {TIMINGS}, got {timing!r}")
     t = np.ascontiguousarray(t, dtype=float).ravel()
     u = np.ascontiguousarray(np.asarray(u, dtype=float).reshape(t.size, model.nu))
     if noise_std is not None:
@@ -216,7 +225,8 @@ def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names
         model.r = noise**2
     iopt, ropt, _ = _flat_options(model, {})
     y, x, status, msg = _api.mlid_simulate(**_model_args(model), theta=model.theta, t=t, u=u.T,
-                                           seed=int(seed), iopt=iopt, ropt=ropt)
+                                           seed=int(seed), timing=TIMINGS.index(timing),
+                                           iopt=iopt, ropt=ropt)
     check_status(status, msg)
     return FlightData(t, u, y.T, input_names, output_names), x.T.copy()
 
@@ -255,13 +265,16 @@ def input_signal(shape, amplitude, t_start, pulse_width, dt, nt):
     return u
 
 
-def check_jacobians(model, x, u):
+def check_jacobians(model, x, u, w=None):
     """Largest relative differences between the model's analytic Jacobians
-    and central differences at state x, input u and the model's parameters:
-    {'df/dx', 'df/dp', 'dh/dx', 'dh/dp'}.  Values near 1e-8 or below mean the
-    Jacobians are right; write your own model's, then check them here."""
+    and central differences at state x, input u, process noise w (default
+    zero) and the model's parameters: {'df/dx', 'df/dp', 'dh/dx', 'dh/dp',
+    'df/dw', 'dh/dw'} ('dh/dw': how far dh/dw changes with w; the output noise
+    must be linear in it).  Values near 1e-8 or below mean the Jacobians are
+    right; write your own model's, then check them here."""
+    w = np.zeros(model.nw) if w is None else np.asarray(w, dtype=float).reshape(model.nw)
     err, status, msg = _api.mlid_check_jacobians(
         **_model_args(model), np=model.np, p=model.theta[:model.np],
-        x=np.asarray(x, dtype=float), u=np.asarray(u, dtype=float).reshape(model.nu))
+        x=np.asarray(x, dtype=float), u=np.asarray(u, dtype=float).reshape(model.nu), w=w)
     check_status(status, msg)
-    return dict(zip(("df/dx", "df/dp", "dh/dx", "dh/dp"), err.tolist()))
+    return dict(zip(("df/dx", "df/dp", "dh/dx", "dh/dp", "df/dw", "dh/dw"), err.tolist()))

@@ -18,7 +18,7 @@ import numpy as np
 from . import core
 from .data import FlightData
 from .errors import InputError, MlidError
-from .model import CONSTANTS, LinearModel, LongitudinalModel, UserModel
+from .model import CONSTANTS, LinearModel, LongitudinalModel, UserModel, X22Model
 
 _REAL, _INT, _STR, _REALS, _INTS, _STRS = "real", "int", "str", "reals", "ints", "strs"
 _BOOL = "bool"
@@ -323,15 +323,35 @@ def _user(m):
     return model
 
 
+def _x22(m):
+    if any(v not in (0, w) for v, w in zip((m["nx"], m["nu"], m["ny"], m["nw"]), (4, 1, 7, 3))):
+        raise InputError("group &model: the X-22 model has nx, nu, ny, nw = 4, 1, 7, 3")
+    free, labels = _free_and_labels(m)
+    try:
+        model = X22Model(_given(m["p"], 23, "p", "23", True),
+                         x0=_given(m["x0"], 4, "x0", "4", False),
+                         bias=_given(m["bias"], 7, "bias", "7", False),
+                         q=_given(m["q"], 3, "q", "3", False),
+                         r=_given(m["r"], 7, "r", "7", False),
+                         S=_given(m["s"], 21, "s", "3x7", False), free=free,
+                         input_hold=m["input_hold"].lower(), substeps=m["substeps"])
+    except InputError as exc:
+        raise InputError(f"group &model: {exc}") from None
+    _label(model, free, labels)
+    return model
+
+
 def _model(m):
     kind = m["kind"].lower()
     if kind == "longitudinal":
         return _longitudinal(m)
     if kind == "user":
         return _user(m)
+    if kind == "x22":
+        return _x22(m)
     if kind != "linear":
         raise InputError(f"group &model: unknown kind '{m['kind']}' (available: linear, "
-                         "longitudinal, user)")
+                         "longitudinal, x22, user)")
     nx, nu, ny, nw = m["nx"], m["nu"], m["ny"], m["nw"]
     if not (1 <= nx <= 30 and 0 <= nu <= 10 and 1 <= ny <= 30 and 0 <= nw <= 10):
         raise InputError(f"group &model: nx, nu, ny, nw = {nx} {nu} {ny} {nw} out of range; "

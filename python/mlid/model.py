@@ -317,3 +317,41 @@ class UserModel(Model):
 
     def _from_parts(self, parts, common):
         return UserModel(parts["p"], self.iconst, self.rconst, **common)
+
+
+#: The X-22's 23 coefficients (report Appendix A): each derivative's polynomial
+#: in u by rising power, labelled e.g. M_o, M_o.u, M_o.u2.
+X22_DERIVATIVES = (("M_o", 3), ("M_w", 2), ("M_q", 2), ("M_de", 2), ("X_o", 3), ("X_w", 2),
+                   ("X_de", 2), ("Z_o", 3), ("Z_w", 2), ("Z_de", 2))
+X22_LABELS = tuple(f"{d}{('', '.u', '.u2')[k]}" for d, n in X22_DERIVATIVES for k in range(n))
+
+
+class X22Model(Model):
+    """X-22 VTOL longitudinal model of report Appendix A
+    (fortran/mlid_x22.f90): states u, w [ft/s], theta [rad], q [rad/s];
+    input delta_es; outputs u, w, theta, q, qdot, n_x, n_z [g]; gusts v1, v2
+    [ft/s], v3 [rad/s] (variances q) entering through dA/d(u, w, q) and
+    carried by qdot, n_x and n_z.  p: the 23 coefficients of X22_LABELS,
+    named ``'p(k)'`` and labelled by X22_LABELS."""
+
+    kind = 4
+
+    def __init__(self, p, x0=None, bias=None, free=(), names=None, input_hold="linear",
+                 substeps=1, q=None, r=None, S=None, ties=None):
+        self.p = np.asarray(p, dtype=float).ravel()
+        if self.p.size != len(X22_LABELS):
+            raise InputError(f"the X-22 model has {len(X22_LABELS)} coefficients, got "
+                             f"{self.p.size}")
+        labels = {f"p({k + 1})": n for k, n in enumerate(X22_LABELS)}
+        labels.update(names or {})
+        self._init_common(4, 1, 7, 3, x0, bias, q, r, S, free, labels, ties, input_hold,
+                          substeps)
+
+    iconst = np.zeros(0, dtype=np.int32)
+    rconst = np.zeros(0)
+
+    def _model_blocks(self):
+        return [("p", self.p)]
+
+    def _from_parts(self, parts, common):
+        return X22Model(parts["p"], **common)

@@ -117,21 +117,25 @@ contains
   !> against central differences.
   subroutine test_aero_jacobians()
     class(model_t), allocatable :: m
-    real(wp), parameter :: x(4) = [95.0_wp, 0.12_wp, 0.08_wp, 0.03_wp], u(2) = [-0.02_wp, 1.2e4_wp]
-    real(wp) :: p(13), err, errs(4)
+    ! inputs delta_e, thrust, then the four process-noise values
+    real(wp), parameter :: x(4) = [95.0_wp, 0.12_wp, 0.08_wp, 0.03_wp], &
+                           u(6) = [-0.02_wp, 1.2e4_wp, 0.3_wp, -0.01_wp, 0.002_wp, 0.05_wp]
+    real(wp) :: p(13), err, errs(6)
     integer :: status
     character(len=256) :: msg
 
     ! C_D: 1, V/V0, alpha, alpha^2; C_L: 1, alpha, qhat; C_m: 1, V/V0, alpha, alpha^2, qhat, de
-    call model_create(MODEL_AERO_LONG, 4, 2, 7, 0, [4, 3, 6, 1, 2, 3, 4, 1, 3, 5, 1, 2, 3, 4, 5, 6], &
+    call model_create(MODEL_AERO_LONG, 4, 2, 7, 4, [4, 3, 6, 1, 2, 3, 4, 1, 3, 5, 1, 2, 3, 4, 5, 6], &
                       [9.80665_wp, 4.028e-3_wp, 8.0027e-4_wp, -7.0153e-6_wp, 104.67_wp, 7472.0_wp, &
                        0.0524_wp, 0.792_wp, 1.215_wp], m, status, msg)
     call check(status == MLID_OK, 'longitudinal model created: '//trim(msg))
+    if (status /= MLID_OK) return
     p = [0.1_wp, -0.05_wp, 0.23_wp, 0.8_wp, -0.2_wp, 3.2_wp, 6.0_wp, 0.13_wp, -0.014_wp, -1.0_wp, &
          -0.4_wp, -27.0_wp, -1.4_wp]
     call check_jacobians(m, 0.0_wp, x, u, p, errs)
     err = maxval(errs)
-    call check(err < 1.0e-7_wp, 'longitudinal model: df/dx, df/dp, dh/dx, dh/dp match central differences')
+    call check(err < 1.0e-7_wp, 'longitudinal model: df/dx, df/dp, dh/dx, dh/dp, df/dw match '// &
+               'central differences')
   end subroutine test_aero_jacobians
 
   subroutine test_linalg()
