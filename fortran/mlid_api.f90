@@ -114,12 +114,16 @@ contains
   !> yhat, cost_hist(nc) (nc = max_iter + 1; entries past niter + 1 are 0),
   !> cost, niter, reason (mlid_kinds STOP_*), converged (0/1), bad_param
   !> (free index of a singular direction).
+  !> Several manoeuvres: the record holds them one after the other, segment k
+  !> from sample segstart(k) (segstart(1) = 1), with an initial state and a
+  !> bias vector each in theta (the x0 and bias blocks nseg times as long).
   subroutine mlid_fit(mkind, nx, nu, ny, nw, nth, theta0, isfree, itie, nic, iconst, nrc, &
-                      rconst, nt, t, u, y, iopt, ropt, nf, nc, use_prior, prior, pweight, &
-                      use_bounds, lower, upper, theta_start, theta, sigma, cov, info, grad, &
-                      eigval, eigvec, rhat, yhat, cost_hist, cost, niter, reason, converged, rank, &
-                      bad_param, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nc
+                      rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, nc, use_prior, prior, &
+                      pweight, use_bounds, lower, upper, theta_start, theta, sigma, cov, info, &
+                      grad, eigval, eigvec, rhat, yhat, cost_hist, cost, niter, reason, converged, &
+                      rank, bad_param, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nc, nseg
+    integer(c_int), intent(in) :: segstart(nseg)
     integer(c_int), intent(in) :: use_prior, use_bounds
     real(c_double), intent(in) :: prior(nth), pweight(nf, nf), lower(nth), upper(nth)
     real(c_double), intent(in) :: theta0(nth)
@@ -161,7 +165,7 @@ contains
     rank = 0
     bad_param = 0
     call setup(mkind, nx, nu, ny, nw, theta0, isfree, itie, iconst, rconst, t, u, y, iopt, &
-               ropt, nf, m, opt, pm, status, msg)
+               ropt, nf, m, opt, pm, status, msg, segstart)
     if (status /= MLID_OK) return
     warning = msg
     call extras(pm, opt, theta0, use_prior, prior, pweight, use_bounds, lower, upper, ex, &
@@ -201,9 +205,10 @@ contains
   !> Cost, gradient, information matrix and output sensitivity norms at
   !> theta, without iterating.
   subroutine mlid_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, itie, nic, iconst, nrc, &
-                           rconst, nt, t, u, y, iopt, ropt, nf, cost, grad, info, rhat, yhat, &
-                           sens, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf
+                           rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, cost, grad, info, &
+                           rhat, yhat, sens, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nseg
+    integer(c_int), intent(in) :: segstart(nseg)
     real(c_double), intent(in) :: theta(nth)
     integer(c_int), intent(in) :: isfree(nth), itie(nth)
     integer(c_int), intent(in) :: iconst(nic)
@@ -227,7 +232,7 @@ contains
     yhat = 0.0_wp
     sens = 0.0_wp
     call setup(mkind, nx, nu, ny, nw, theta, isfree, itie, iconst, rconst, t, u, y, iopt, ropt, &
-               nf, m, opt, pm, status, msg)
+               nf, m, opt, pm, status, msg, segstart)
     if (status /= MLID_OK) return
     th = theta
     call apply_ties(pm%tie, th)
@@ -365,7 +370,7 @@ contains
   !> estimators assume of their arguments, with a message that names the
   !> offending item.
   subroutine setup(mkind, nx, nu, ny, nw, theta, isfree, itie, iconst, rconst, t, u, y, iopt, &
-                   ropt, nf, m, opt, pm, status, msg)
+                   ropt, nf, m, opt, pm, status, msg, segstart)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nf
     real(c_double), intent(in) :: theta(:)
     integer(c_int), intent(in) :: isfree(:), itie(:), iconst(:)
@@ -377,6 +382,7 @@ contains
     type(param_map_t), intent(out) :: pm
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    integer(c_int), intent(in), optional :: segstart(:)   !< first sample of each manoeuvre
     integer :: k, j, nt
     type(layout_t) :: l
 
@@ -386,7 +392,26 @@ contains
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
     nt = size(t)
-    l = model_layout(m)
+    if (present(segstart)) then
+      if (size(segstart) < 1) then
+        msg = 'at least one manoeuvre (segment) is needed'
+        return
+      end if
+      if (segstart(1) /= 1) then
+        msg = 'the first manoeuvre must start at sample 1'
+        return
+      end if
+      do k = 2, size(segstart)
+        if (segstart(k) < segstart(k - 1) + 2 .or. segstart(k) > nt - 1) then
+          write (msg, '(a,i0,a)') 'manoeuvre ', k - 1, ' has fewer than 2 samples, or '// &
+            'the manoeuvre starts are not increasing within the record'
+          return
+        end if
+      end do
+      l = model_layout(m, segstart)
+    else
+      l = model_layout(m)
+    end if
     if (size(theta) /= l%nth) then
       write (msg, '(a,i0,a,i0)') 'parameter vector has ', size(theta), &
         ' entries, the model needs ', l%nth

@@ -112,12 +112,21 @@ contains
     !> One pass over the record at theta + delta: normal equations a, g
     !> with weights w, and each equation's residual sum of squares ss.
     subroutine sweep()
-      integer :: jj, kk, ii
+      integer :: jj, kk, ii, iseg, ob
       a = 0.0_wp
       g = 0.0_wp
       ss = 0.0_wp
+      iseg = 1
       do jj = 2, nt - 1
-        x = y(xout, jj) - theta(l%obias + xout)
+        ! central differences stay inside a manoeuvre (segment)
+        if (iseg < l%nseg) then
+          if (l%seg(iseg + 1) <= jj + 1) then
+            if (l%seg(iseg + 1) == jj) iseg = iseg + 1
+            cycle
+          end if
+        end if
+        ob = l%obias + (iseg - 1)*ny
+        x = y(xout, jj) - theta(ob + xout)
         xd = (y(xout, jj + 1) - y(xout, jj - 1))/(t(jj + 1) - t(jj - 1))
         ua(1:m%nu) = u(:, jj)
         call m%f(t(jj), x, ua, theta(1:l%np), f)
@@ -138,9 +147,9 @@ contains
             row(pm%cm(ii)) = row(pm%cm(ii)) + dp(kk, ii)
           end do
           do ii = 1, size(pm%ib)
-            if (pm%ib(ii) == kk) row(pm%cb(ii)) = row(pm%cb(ii)) + 1.0_wp
+            if (pm%ib(ii) == (iseg - 1)*ny + kk) row(pm%cb(ii)) = row(pm%cb(ii)) + 1.0_wp
           end do
-          call add_row(y(kk, jj) - h(kk) - theta(l%obias + kk), nx + kk)
+          call add_row(y(kk, jj) - h(kk) - theta(ob + kk), nx + kk)
         end do
       end do
     end subroutine sweep

@@ -79,21 +79,21 @@ contains
     type(layout_t) :: l
     real(wp), allocatable :: s(:, :), c(:, :), d(:, :)
     real(wp) :: x(m%nx)
-    integer :: j
+    integer :: j, iseg
     logical :: sens
 
     status = MLID_OK
     msg = ''
     l = pm%l
     sens = present(dy)
-    x = theta(l%ox0 + 1:l%ox0 + l%nx)
-    if (sens) then
-      allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)))
-      s = initial_sensitivity(pm)
-    end if
+    if (sens) allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)))
+    iseg = 0
 
     do j = 1, size(t)
-      if (j > 1) then
+      if (segment_starts(l, j, iseg)) then     ! each manoeuvre from its own initial state
+        x = theta(l%ox0 + (iseg - 1)*l%nx + 1:l%ox0 + iseg*l%nx)
+        if (sens) s = initial_sensitivity(pm, iseg)
+      else
         if (sens) then
           call advance(m, theta, pm, t, u, opt, j - 1, [real(wp) ::], x, s)
         else
@@ -106,9 +106,9 @@ contains
       end if
       if (present(xhist)) xhist(:, j) = x
       call m%h(t(j), x, u(:, j), theta(1:l%np), yhat(:, j))
-      yhat(:, j) = yhat(:, j) + theta(l%obias + 1:l%obias + l%ny)
+      yhat(:, j) = yhat(:, j) + theta(l%obias + (iseg - 1)*l%ny + 1:l%obias + iseg*l%ny)
       if (sens) then
-        call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dy(:, :, j), c, d)
+        call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dy(:, :, j), c, d, iseg)
       end if
     end do
   end subroutine oe_predict
@@ -135,7 +135,7 @@ contains
     real(wp), allocatable :: s(:, :), c(:, :), d(:, :), what(:), dwhat(:, :)
     real(wp), allocatable :: sj(:, :), fj(:, :)
     real(wp) :: x(m%nx), dhw(m%ny, m%nw), sb(m%nw, m%ny)
-    integer :: j, k, nf, nx, nw, ns
+    integer :: j, k, nf, nx, nw, ns, iseg
     logical :: sens, partials, ekf
 
     status = MLID_OK
@@ -155,16 +155,25 @@ contains
       allocate (sj(nx, ns + nx + nw), fj(nx, ns + nx + nw))
     end if
     call cov_alloc(cv, l%nx, l%ny, nf)
-    x = theta(l%ox0 + 1:l%ox0 + l%nx)
     allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf))
-    s = initial_sensitivity(pm)
     if (opt%steady) then
       call steady_state(sys, cv, partials, status, msg)
       if (status /= MLID_OK) return
     end if
+    iseg = 0
 
     do j = 1, size(t)
-      if (j > 1) then
+      if (segment_starts(l, j, iseg)) then
+        ! each manoeuvre from its own (known) initial state: P = 0
+        x = theta(l%ox0 + (iseg - 1)*l%nx + 1:l%ox0 + iseg*l%nx)
+        s = initial_sensitivity(pm, iseg)
+        what = 0.0_wp
+        dwhat = 0.0_wp
+        if (j > 1 .and. .not. opt%steady) then
+          cv%pm = 0.0_wp
+          cv%dpm = 0.0_wp
+        end if
+      else
         if (ekf) then               ! linearise the interval about x(j-1|j-1), eq. 4.27
           call m%dfdw(t(j - 1), x, [u(:, j - 1), what], theta(1:l%np), sys%g)
           sj = 0.0_wp
@@ -214,13 +223,13 @@ contains
         end if
       end if
       call m%h(t(j), x, u(:, j), theta(1:l%np), yhat(:, j))
-      yhat(:, j) = yhat(:, j) + theta(l%obias + 1:l%obias + l%ny)
+      yhat(:, j) = yhat(:, j) + theta(l%obias + (iseg - 1)*l%ny + 1:l%obias + iseg*l%ny)
       nu(:, j) = y(:, j) - yhat(:, j)
       binv(:, :, j) = cv%binv
       logdet(j) = cv%logdet
       if (present(bhist)) bhist(:, :, j) = cv%b
       if (sens) then                ! d nu = -(C dx(j|j-1) + dh/dp + d bias), eq. 4.31
-        call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dnu(:, :, j), c, d)
+        call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dnu(:, :, j), c, d, iseg)
         dnu(:, :, j) = -dnu(:, :, j)
       end if
       ! state update and the held-noise estimate for the next interval
@@ -272,6 +281,7 @@ contains
     end if
     dt = t(2) - t(1)
     do k = 2, size(t) - 1
+      if (any(l%seg == k + 1)) cycle                  ! a new manoeuvre: its own time base
       if (abs((t(k + 1) - t(k)) - dt) > 1.0e-3_wp*dt) then   ! recorded times are rounded
         write (msg, '(a,i0)') 'the Kalman filter needs uniform sampling; time step changes at sample ', k + 1
         return
@@ -576,24 +586,38 @@ contains
                       opt%substeps, x, none, none, s, sforce)
   end subroutine advance_plain
 
-  !> Sensitivities of the initial state: a unit column for each free x0.
-  pure function initial_sensitivity(pm) result(s)
+  !> Sensitivities of the initial state of segment iseg: a unit column for
+  !> each of its free x0 entries.
+  pure function initial_sensitivity(pm, iseg) result(s)
     type(param_map_t), intent(in) :: pm
+    integer, intent(in) :: iseg
     real(wp) :: s(pm%l%nx, pm%nf)
-    integer :: k
+    integer :: k, i
     s = 0.0_wp
     do k = 1, size(pm%ix0)
-      s(pm%ix0(k), pm%cx0(k)) = s(pm%ix0(k), pm%cx0(k)) + 1.0_wp
+      i = pm%ix0(k) - (iseg - 1)*pm%l%nx
+      if (i >= 1 .and. i <= pm%l%nx) s(i, pm%cx0(k)) = s(i, pm%cx0(k)) + 1.0_wp
     end do
   end function initial_sensitivity
 
-  !> dy/dtheta at one sample: C s + dh/dp + bias columns.
-  subroutine output_sensitivity(m, theta, pm, t, x, u, s, dy, c, d)
+  !> Whether sample j starts a segment (a manoeuvre); iseg counts them.
+  logical function segment_starts(l, j, iseg)
+    type(layout_t), intent(in) :: l
+    integer, intent(in) :: j
+    integer, intent(inout) :: iseg
+    segment_starts = .false.
+    if (iseg < l%nseg) segment_starts = l%seg(iseg + 1) == j
+    if (segment_starts) iseg = iseg + 1
+  end function segment_starts
+
+  !> dy/dtheta at one sample of segment iseg: C s + dh/dp + its bias columns.
+  subroutine output_sensitivity(m, theta, pm, t, x, u, s, dy, c, d, iseg)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), t, x(:), u(:), s(:, :)
     type(param_map_t), intent(in) :: pm
     real(wp), intent(out) :: dy(:, :), c(:, :), d(:, :)
-    integer :: k
+    integer, intent(in) :: iseg
+    integer :: k, i
 
     call m%dhdx(t, x, u, theta(1:pm%l%np), c)
     dy = matmul(c, s)
@@ -604,7 +628,8 @@ contains
       end do
     end if
     do k = 1, size(pm%ib)
-      dy(pm%ib(k), pm%cb(k)) = dy(pm%ib(k), pm%cb(k)) + 1.0_wp
+      i = pm%ib(k) - (iseg - 1)*pm%l%ny
+      if (i >= 1 .and. i <= pm%l%ny) dy(i, pm%cb(k)) = dy(i, pm%cb(k)) + 1.0_wp
     end do
   end subroutine output_sensitivity
 

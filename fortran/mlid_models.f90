@@ -102,9 +102,14 @@ module mlid_models
   end interface
 
   !> Where each block of theta starts (offset: block entry k is theta(o + k)).
+  !> A record of several manoeuvres (segments) has an initial state and a
+  !> bias vector per segment: the x0 block holds nx*nseg entries, segment
+  !> by segment, and the bias block ny*nseg; seg(k) is the first sample of
+  !> segment k.
   type :: layout_t
-    integer :: np = 0, nx = 0, ny = 0, nw = 0
+    integer :: np = 0, nx = 0, ny = 0, nw = 0, nseg = 1
     integer :: ox0 = 0, obias = 0, oq = 0, or = 0, os = 0, nth = 0
+    integer, allocatable :: seg(:)
   end type layout_t
 
   !> Linear state space xdot = F x + G u + Gamma w, y = H x + D u.
@@ -132,17 +137,22 @@ contains
     dw = 0.0_wp
   end subroutine no_output_noise
 
-  !> The blocks of theta for a model.
-  pure function model_layout(m) result(l)
+  !> The blocks of theta for a model, on a record of one segment or of the
+  !> segments starting at the samples seg.
+  pure function model_layout(m, seg) result(l)
     class(model_t), intent(in) :: m
+    integer, intent(in), optional :: seg(:)
     type(layout_t) :: l
+    l%seg = [1]
+    if (present(seg)) l%seg = seg
+    l%nseg = size(l%seg)
     l%np = m%np
     l%nx = m%nx
     l%ny = m%ny
     l%nw = m%nw
     l%ox0 = m%np
-    l%obias = l%ox0 + m%nx
-    l%oq = l%obias + m%ny
+    l%obias = l%ox0 + m%nx*l%nseg
+    l%oq = l%obias + m%ny*l%nseg
     l%or = l%oq + m%nw
     l%os = l%or + m%ny
     l%nth = l%os + m%nw*m%ny

@@ -16,8 +16,8 @@ module mlid_params
     integer, allocatable :: tie(:)              !< tie(k) = j: theta(k) := theta(j); 0 if untied
     !> Moving entries by block: the index within the block and the free column.
     integer, allocatable :: im(:), cm(:)        !< model parameters p
-    integer, allocatable :: ix0(:), cx0(:)      !< initial states
-    integer, allocatable :: ib(:), cb(:)        !< output biases
+    integer, allocatable :: ix0(:), cx0(:)      !< initial states (segment by segment)
+    integer, allocatable :: ib(:), cb(:)        !< output biases (segment by segment)
     integer, allocatable :: iq(:), cq(:)        !< process-noise variances
     integer, allocatable :: ir(:), cr(:)        !< measurement-noise variances
     integer, allocatable :: is(:), cs(:)        !< cross-covariances
@@ -78,8 +78,8 @@ contains
       end if
     end do
     call block(0, l%np, pm%im, pm%cm)
-    call block(l%ox0, l%nx, pm%ix0, pm%cx0)
-    call block(l%obias, l%ny, pm%ib, pm%cb)
+    call block(l%ox0, l%nx*l%nseg, pm%ix0, pm%cx0)
+    call block(l%obias, l%ny*l%nseg, pm%ib, pm%cb)
     call block(l%oq, l%nw, pm%iq, pm%cq)
     call block(l%or, l%ny, pm%ir, pm%cr)
     call block(l%os, l%nw*l%ny, pm%is, pm%cs)

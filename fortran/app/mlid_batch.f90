@@ -123,7 +123,7 @@ contains
         call system_clock(t0, rate)
         call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, &
                       size(c%iconst), c%iconst, size(c%rconst), c%rconst, size(t), t, u, y, &
-                      c%iopt, c%ropt, nf, size(hist), c%use_prior, prior_or_zero(c%prior, nth), &
+                      1, [1], c%iopt, c%ropt, nf, size(hist), c%use_prior, prior_or_zero(c%prior, nth), &
                       pweight_or_zero(c%pweight, nf), c%use_bounds, prior_or_zero(c%lower, nth), &
                       prior_or_zero(c%upper, nth), theta0, theta, &
                       sigma, cov, info, grad, eigval, eigvec, rhat, yhat, hist, cost, niter, reason, &

@@ -9,6 +9,7 @@ import numpy as np
 from . import _core
 from .data import FlightData
 from .errors import InputError, MlidWarning, SingularInformationError, check_status
+from .maneuvers import Params, join
 from .result import FitResult
 
 _api = _core.mlid_api
@@ -87,29 +88,20 @@ def _record(model, data):
     return np.ascontiguousarray(data.t, dtype=float), u, y
 
 
-def _extras(model, prior, prior_weight, bounds):
+def _extras(params, prior, prior_weight, bounds):
     """A priori values/weight and bounds in the core's layout."""
-    names = model.element_names()
-    labels = {v: k for k, v in model.names.items()}
-    free = [n for n, f in zip(names, model.free_mask) if f]
-
-    def index(name):
-        key = model.canonical_name(labels.get(name, name))
-        if key not in free:
-            raise InputError(f"{name!r} is not a free parameter")
-        return key
-
-    theta = model.theta
+    theta = params.theta
+    free = list(np.flatnonzero(params.mask))
     pvec = theta.copy()
     for name, value in (prior or {}).items():
-        pvec[names.index(index(name))] = value
+        pvec[params.index(name)] = value
     nf = len(free)
     if prior_weight is None:
         weight = np.zeros((nf, nf))
     elif isinstance(prior_weight, dict):
         weight = np.zeros((nf, nf))
         for name, w in prior_weight.items():
-            k = free.index(index(name))
+            k = free.index(params.index(name))
             weight[k, k] = w
     else:
         weight = np.asarray(prior_weight, dtype=float)
@@ -119,7 +111,7 @@ def _extras(model, prior, prior_weight, bounds):
     lower = np.full(theta.size, -np.finfo(float).max)
     upper = np.full(theta.size, np.finfo(float).max)
     for name, (lo, hi) in (bounds or {}).items():
-        k = names.index(index(name))
+        k = params.index(name)
         lower[k] = -np.finfo(float).max if lo is None else lo
         upper[k] = np.finfo(float).max if hi is None else hi
     return {"use_prior": int(prior_weight is not None), "prior": pvec,
@@ -127,8 +119,26 @@ def _extras(model, prior, prior_weight, bounds):
             "lower": lower, "upper": upper}
 
 
-def fit(model, data, prior=None, prior_weight=None, bounds=None, **options):
+def _manoeuvres(model, data, initial_states, biases):
+    """The parameters and the record for one manoeuvre or several (a list)."""
+    if isinstance(data, (list, tuple)):
+        record, starts = join(list(data))
+        return Params(model, len(data), initial_states, biases), record, starts
+    if initial_states is not None or biases is not None:
+        raise InputError("initial_states and biases are for several manoeuvres (a list of "
+                         "records); one manoeuvre takes the model's x0 and bias")
+    return Params(model), data, np.array([1], dtype=np.int32)
+
+
+def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=None,
+        biases=None, **options):
     """Maximum-likelihood fit of the model's free parameters.
+
+    data: a FlightData, or a list of them: several manoeuvres fitted
+    together, sharing every parameter but the initial state and the output
+    biases, which each has of its own (named like the model's with '#k', k
+    the manoeuvre; start values initial_states and biases, one per
+    manoeuvre, default the model's).
 
     Options (defaults from the core, see ``default_options()``): method
     ('output_error', or 'filter_error': the Kalman filter with the model's
@@ -152,19 +162,19 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, **options):
     (with the partial result attached where there is one).
     """
     iopt, ropt, opts = _flat_options(model, options)
-    t, u, y = _record(model, data)
-    theta0 = model.theta
-    mask = model.free_mask
+    params, record, starts = _manoeuvres(model, data, initial_states, biases)
+    t, u, y = _record(model, record)
+    theta0, mask = params.theta, params.mask
     nf = int(mask.sum())
     start = time.perf_counter()
     (theta_start, theta, sigma, cov, info, grad, eigval, eigvec, rhat, yhat, cost_hist, cost,
      niter, reason, converged, rank, bad, status, msg) = _api.mlid_fit(
-        **_model_args(model), theta0=theta0, isfree=mask, itie=model.tie_index, t=t, u=u, y=y,
-        iopt=iopt, ropt=ropt, nf=nf, nc=int(iopt[0]) + 1,
-        **_extras(model, prior, prior_weight, bounds))
+        **_model_args(model), theta0=theta0, isfree=mask, itie=params.tie, t=t, u=u, y=y,
+        segstart=starts, iopt=iopt, ropt=ropt, nf=nf, nc=int(iopt[0]) + 1,
+        **_extras(params, prior, prior_weight, bounds))
     wall = time.perf_counter() - start
     text = msg.decode(errors="replace").strip()
-    free_names = model.free_names()
+    free_names = params.free_names()
     if status and bad:                # the core numbers the free parameter; name it
         text = re.sub(rf"free parameter {bad}(?!\d)", repr(free_names[bad - 1]), text)
     if status not in (0, 2, 4):       # no result to return
@@ -172,7 +182,9 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, **options):
     if status == 0 and text.startswith("warning:"):
         warnings.warn(text[len("warning:"):].strip(), MlidWarning, stacklevel=2)
     result = FitResult(
-        model=model.with_theta(theta), start_model=model, data=data, options=opts,
+        model=params.model_of(theta), start_model=model, data=record, options=opts,
+        manoeuvres=[params.model_of(theta, k) for k in range(params.n)],
+        evaluate_args=(data, initial_states, biases),
         names=free_names, start=theta_start[mask == 1], estimate=theta[mask == 1],
         sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
         eigenvalues=eigval, eigenvectors=eigvec, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
@@ -184,17 +196,18 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, **options):
     return result
 
 
-def evaluate(model, data, **options):
+def evaluate(model, data, initial_states=None, biases=None, **options):
     """Cost, gradient, information matrix, R-hat, outputs and output
     sensitivity norms (ny, nf: how many residual sigmas each free parameter
     moves each output over the record) at the model's current parameters (no
-    iteration); options as for fit()."""
+    iteration); data, initial_states, biases and options as for fit()."""
     iopt, ropt, _ = _flat_options(model, options)
-    t, u, y = _record(model, data)
-    mask = model.free_mask
+    params, record, starts = _manoeuvres(model, data, initial_states, biases)
+    t, u, y = _record(model, record)
+    mask = params.mask
     cost, grad, info, rhat, yhat, sens, status, msg = _api.mlid_evaluate(
-        **_model_args(model), theta=model.theta, isfree=mask, itie=model.tie_index, t=t, u=u,
-        y=y, iopt=iopt, ropt=ropt, nf=int(mask.sum()))
+        **_model_args(model), theta=params.theta, isfree=mask, itie=params.tie, t=t, u=u,
+        y=y, segstart=starts, iopt=iopt, ropt=ropt, nf=int(mask.sum()))
     check_status(status, msg)
     return {"cost": float(cost), "gradient": grad, "information": info, "rhat": rhat,
             "yhat": yhat.T.copy(), "sensitivity": sens}

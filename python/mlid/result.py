@@ -131,7 +131,12 @@ class FitResult:
         sigmas each parameter moves each output (innovations for filter
         error).  A parameter small in every output is one the data cannot see."""
         from .core import evaluate
-        return evaluate(self.model, self.data, **self.options)["sensitivity"]
+        data, x0s, biases = getattr(self, "evaluate_args", (self.data, None, None))
+        if isinstance(data, (list, tuple)):      # several manoeuvres: each one's own x0, bias
+            x0s = [m.x0 for m in self.manoeuvres]
+            biases = [m.bias for m in self.manoeuvres]
+        return evaluate(self.model, data, initial_states=x0s, biases=biases,
+                        **self.options)["sensitivity"]
 
     def sensitivity_table(self):
         """The sensitivity norms as printed lines, a row per parameter."""

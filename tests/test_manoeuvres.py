@@ -1,0 +1,110 @@
+"""Several manoeuvres fitted together: shared aerodynamics, each manoeuvre's
+own initial state and output biases (python/mlid/maneuvers.py, layout_t)."""
+
+import numpy as np
+import pytest
+
+import mlid
+from conftest import finite_difference
+from test_hfb320 import COEFFS, _hfb_like, _inputs
+
+
+def _two_manoeuvres(q=None):
+    """Two records of the HFB-like model from different trims, the second
+    with an alpha-vane bias."""
+    truth = _hfb_like(COEFFS)
+    if q is not None:
+        truth.q = np.asarray(q, dtype=float)
+    t, u = _inputs()
+    first, _ = mlid.simulate(truth, t[:300], u[:300], seed=11)
+    other = truth.with_theta(truth.theta)
+    other.x0 = np.array([98.0, 0.13, 0.12, 0.0])
+    other.bias = np.array([0.0, 0.01, 0.0, 0.0, 0.0, 0.0, 0.0])
+    u2 = u[:250].copy()
+    u2[:, 0] = u2[:, 0] - 0.004
+    second, _ = mlid.simulate(other, t[:250], u2, seed=12)
+    return truth, other, [first, second]
+
+
+def test_joint_fit_recovers_the_shared_and_the_own_parameters():
+    truth, other, records = _two_manoeuvres()
+    free = COEFFS + ["x0(1)", "x0(2)", "x0(3)", "x0(4)", "bias(2)"]
+    start = truth.with_free(free)
+    start = start.with_theta(np.where(np.arange(start.theta.size) < len(COEFFS),
+                                      start.theta * 1.05, start.theta))
+    # each manoeuvre from its first measured sample (V, alpha, theta, q), as in practice
+    res = mlid.fit(start, records, initial_states=[r.y[0, :4] for r in records],
+                   biases=[np.zeros(7), np.zeros(7)])
+    assert res.converged
+    assert "bias(2)#2" in res.names and "x0(1)#1" in res.names
+    want = dict(zip(truth.free_names(), truth.theta[truth.free_mask == 1]))
+    want.update({f"x0({i + 1})#{k + 1}": m.x0[i] for k, m in enumerate((truth, other))
+                 for i in range(4)})
+    want.update({"bias(2)#1": 0.0, "bias(2)#2": 0.01})
+    z = np.array([(e - want[n]) / s for n, e, s in zip(res.names, res.estimate, res.sigma)])
+    assert np.all(np.abs(z) < 3), dict(zip(res.names, z))
+    # each manoeuvre's model carries its own estimates
+    assert res.manoeuvres[1].x0[1] == res.estimate[res.names.index("x0(2)#2")]
+    assert res.manoeuvres[0].bias[1] == res.estimate[res.names.index("bias(2)#1")]
+    # the shared coefficients are better determined than from either record alone
+    alone = [mlid.fit(m.with_free(free), r) for m, r in zip((truth, other), records)]
+    k = len(COEFFS)
+    assert np.all(res.sigma[:k] < np.minimum(alone[0].sigma[:k], alone[1].sigma[:k]))
+
+
+def test_joint_gradient_matches_finite_differences():
+    truth, other, records = _two_manoeuvres()
+    free = COEFFS[:6] + ["x0(1)", "x0(4)", "bias(6)"]
+    m = truth.with_free(free)
+    x0s, biases = [truth.x0 * 1.01, other.x0 * 0.99], [np.zeros(7), other.bias]
+    ev = mlid.evaluate(m, records, initial_states=x0s, biases=biases)
+    params = mlid.maneuvers.Params(m, 2, x0s, biases)
+
+    def cost(theta):
+        p = params.model_of(theta, 0)
+        x = [params.model_of(theta, k).x0 for k in range(2)]
+        b = [params.model_of(theta, k).bias for k in range(2)]
+        return mlid.evaluate(p, records, initial_states=x, biases=b)["cost"]
+
+    fd = finite_difference(cost, params.theta, np.flatnonzero(params.mask), rel=1e-4, floor=1e-4,
+                           five_point=True)
+    rel = np.abs(fd - ev["gradient"]) / np.maximum(np.abs(fd), 1.0)
+    assert np.max(rel) < 1e-5, dict(zip(params.free_names(), rel))
+
+
+def test_filter_error_cost_adds_over_manoeuvres():
+    """With the noise statistics fixed, each manoeuvre's filter starts anew
+    (its own x0, P = 0): the joint cost is the sum of the two."""
+    q = [1e-4, 4e-6, 0.0, 4e-5]
+    truth, other, records = _two_manoeuvres(q)
+    m = truth.with_free(COEFFS)
+    joint = mlid.evaluate(m, records, initial_states=[truth.x0, other.x0],
+                          biases=[truth.bias, other.bias], method="filter_error")
+    one = mlid.evaluate(m, records[0], method="filter_error")
+    two = mlid.evaluate(other.with_free(COEFFS), records[1], method="filter_error")
+    assert joint["cost"] == pytest.approx(one["cost"] + two["cost"], rel=1e-12)
+    np.testing.assert_allclose(joint["information"], one["information"] + two["information"],
+                               rtol=1e-6)
+
+
+def test_equation_error_start_up_on_several_manoeuvres():
+    truth, other, records = _two_manoeuvres()
+    start = truth.with_free(COEFFS)
+    start = start.with_theta(start.theta * np.where(start.free_mask == 1, 1.3, 1.0))
+    res = mlid.fit(start, records, initial_states=[truth.x0, other.x0],
+                   biases=[truth.bias, other.bias], startup="equation_error")
+    assert res.converged
+    z = (res.estimate - truth.theta[truth.with_free(COEFFS).free_mask == 1]) / res.sigma
+    assert np.all(np.abs(z) < 3), z
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"initial_states": [np.zeros(4)]}, "one per manoeuvre"),
+    ({"biases": [np.zeros(3), np.zeros(3)]}, "each needs 7 values"),
+])
+def test_bad_manoeuvre_input(kwargs, match):
+    truth, other, records = _two_manoeuvres()
+    with pytest.raises(mlid.InputError, match=match):
+        mlid.fit(truth.with_free(COEFFS), records, **kwargs)
+    with pytest.raises(mlid.InputError, match="several manoeuvres"):
+        mlid.fit(truth.with_free(COEFFS), records[0], **kwargs)
