@@ -139,7 +139,9 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :)
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
-    real(wp), allocatable :: w(:, :), bnu(:), e(:, :, :), b0(:, :, :), ev(:, :), evt(:, :)
+    real(wp), allocatable :: b0(:, :, :)
+    real(wp) :: w(m%ny, pm%nf), bnu(m%ny), e(m%ny, m%ny, pm%nf), ev(m%ny*m%ny, pm%nf), &
+                evt(m%ny*m%ny, pm%nf)
     integer :: ny, nt, nf, j, k
 
     ny = m%ny
@@ -170,7 +172,8 @@ contains
 
     grad = 0.0_wp
     info = 0.0_wp
-    allocate (w(ny, nf), e(ny, ny, nf), ev(ny*ny, nf), evt(ny*ny, nf))
+    ! samples in parallel: each adds its terms to grad and info
+    !$omp parallel do default(shared) private(j, k, bnu, w, e, ev, evt) reduction(+:grad, info)
     do j = 1, nt
       bnu = matmul(binv(:, :, j), nu(:, j))
       w = matmul(binv(:, :, j), dnu(:, :, j))
@@ -186,6 +189,7 @@ contains
       ! 1/2 tr(E_k E_l) for all k, l in one product
       info = info + 0.5_wp*matmul(transpose(ev), evt)
     end do
+    !$omp end parallel do
   end subroutine fe_likelihood
 
   !> dnu/dtheta and dB/dtheta of the filter by forward differences from the

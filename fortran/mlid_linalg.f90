@@ -35,6 +35,9 @@ module mlid_linalg
     end subroutine dpotri
   end interface
 
+  !> Below this size chol_inverse factorises without LAPACK.
+  integer, parameter :: SMALL_N = 12
+
 contains
 
   !> All eigenvalues (ascending) and eigenvectors of a symmetric matrix.
@@ -64,6 +67,49 @@ contains
                 isuppz, work, size(work), iwork, size(iwork), info)
   end subroutine sym_eig
 
+  !> The same by a plain Cholesky factorisation for small n, where LAPACK's
+  !> call overhead outweighs the arithmetic.  info = k > 0: the leading minor
+  !> of order k is not positive definite.
+  pure subroutine small_chol_inverse(a, ainv, logdet, info)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: ainv(:, :), logdet
+    integer, intent(out) :: info
+    real(wp) :: l(size(a, 1), size(a, 1)), li(size(a, 1), size(a, 1)), d
+    integer :: n, i, j, k
+
+    n = size(a, 1)
+    info = 0
+    logdet = 0.0_wp
+    l = 0.0_wp
+    do j = 1, n
+      d = a(j, j) - sum(l(j, 1:j - 1)**2)
+      if (.not. d > 0.0_wp) then
+        info = j
+        ainv = 0.0_wp
+        return
+      end if
+      l(j, j) = sqrt(d)
+      logdet = logdet + log(d)
+      do i = j + 1, n
+        l(i, j) = (a(i, j) - sum(l(i, 1:j - 1)*l(j, 1:j - 1)))/l(j, j)
+      end do
+    end do
+    ! L^-1 by forward substitution, then A^-1 = L^-T L^-1
+    li = 0.0_wp
+    do k = 1, n
+      li(k, k) = 1.0_wp/l(k, k)
+      do i = k + 1, n
+        li(i, k) = -sum(l(i, k:i - 1)*li(k:i - 1, k))/l(i, i)
+      end do
+    end do
+    do j = 1, n
+      do i = j, n
+        ainv(i, j) = sum(li(i:n, i)*li(i:n, j))
+        ainv(j, i) = ainv(i, j)
+      end do
+    end do
+  end subroutine small_chol_inverse
+
   !> Inverse and log-determinant of a symmetric positive-definite matrix.
   !> info > 0 means the matrix is not positive definite.
   subroutine chol_inverse(a, ainv, logdet, info)
@@ -78,6 +124,10 @@ contains
     logdet = 0.0_wp
     info = 0
     if (n == 0) return          ! LAPACK wants lda >= 1
+    if (n <= SMALL_N) then      ! the filter's innovation covariance, every sample
+      call small_chol_inverse(a, ainv, logdet, info)
+      return
+    end if
     call dpotrf('L', n, ainv, n, info)
     if (info /= 0) return
     do i = 1, n
