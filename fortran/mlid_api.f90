@@ -28,10 +28,14 @@ module mlid_api
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record
   use mlid_jacobian_check, only: check_jacobians
+  use mlid_design, only: design_t, design_create, operator_mu, riccati_length, &
+                         transition_length, costate_input, input_information, mu_for_length
   implicit none
   private
   public :: mlid_input_signal, mlid_default_options, mlid_model_sizes, &
-            mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo
+            mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
+            mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
+            mlid_design_mu_for_length
 
 contains
 
@@ -369,6 +373,119 @@ contains
   !> Build the model, options and parameter map and check everything the
   !> estimators assume of their arguments, with a message that names the
   !> offending item.
+  !> Input design (mlid_design).  Common arguments: the linear model F(nx,nx),
+  !> G(nx,nu), H(ny,nx), the noise spectral density R(ny,ny), the m unknowns
+  !> by block ukind (1 F, 2 G, 3 H), row urow and column ucol, weights w(m).
+  !> mu_max on [0, T] by the operator method on ncell and 2 ncell cells; u:
+  !> the optimal input on the 2 ncell cells (unit energy, nu per cell).
+  subroutine mlid_design_mu(nx, nu, ny, f, g, h, r, m, ukind, urow, ucol, w, t, ncell, mu, u, &
+                            status, msg)
+    integer(c_int), intent(in) :: nx, nu, ny, m, ncell
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), w(m), t
+    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+    real(c_double), intent(out) :: mu, u(2*ncell*nu)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(design_t) :: d
+    mu = 0.0_wp
+    u = 0.0_wp
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg)
+    if (status == MLID_OK) call operator_mu(d, t, ncell, mu, u, status, msg)
+  end subroutine mlid_design_mu
+
+  !> The critical length T of mu (method 1 Riccati, 2 transition matrix),
+  !> searched up to tmax; lam0(na), na = (m+1) nx: the costate lambda(0)
+  !> (transition method only).
+  subroutine mlid_design_length(nx, nu, ny, f, g, h, r, m, ukind, urow, ucol, w, mu, tmax, &
+                                method, na, t, lam0, status, msg)
+    integer(c_int), intent(in) :: nx, nu, ny, m, method, na
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), w(m), mu, tmax
+    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+    real(c_double), intent(out) :: t, lam0(na)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(design_t) :: d
+    t = 0.0_wp
+    lam0 = 0.0_wp
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg)
+    if (status /= MLID_OK) return
+    if (na /= d%na) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0)') 'lam0 needs (m+1) nx = ', d%na
+      return
+    end if
+    if (method == 1) then
+      call riccati_length(d, mu, tmax, t, status, msg)
+    else if (method == 2) then
+      call transition_length(d, mu, tmax, t, lam0, status, msg)
+    else
+      status = MLID_ERR_INPUT
+      msg = 'method must be 1 (Riccati) or 2 (transition matrix)'
+    end if
+  end subroutine mlid_design_length
+
+  !> The optimal input from the costate lam0 (transition method) on ncell
+  !> cells of [0, T], unit energy.
+  subroutine mlid_design_input(nx, nu, ny, f, g, h, r, m, ukind, urow, ucol, w, mu, t, na, &
+                               lam0, ncell, u, status, msg)
+    integer(c_int), intent(in) :: nx, nu, ny, m, na, ncell
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), w(m), mu, t
+    real(c_double), intent(in) :: lam0(na)
+    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+    real(c_double), intent(out) :: u(ncell*nu)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(design_t) :: d
+    u = 0.0_wp
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg)
+    if (status /= MLID_OK) return
+    if (na /= d%na) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0)') 'lam0 needs (m+1) nx = ', d%na
+      return
+    end if
+    call costate_input(d, mu, t, lam0, ncell, u, status, msg)
+  end subroutine mlid_design_input
+
+  !> The information matrix mm(m, m) (unweighted, eq. 7.12) of the input u
+  !> held over ncell cells of [0, T] (nu per cell).
+  subroutine mlid_design_information(nx, nu, ny, f, g, h, r, m, ukind, urow, ucol, t, ncell, u, &
+                                     mm, status, msg)
+    integer(c_int), intent(in) :: nx, nu, ny, m, ncell
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), t, u(ncell*nu)
+    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+    real(c_double), intent(out) :: mm(m, m)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(design_t) :: d
+    real(wp) :: ones(m)
+    mm = 0.0_wp
+    ones = 1.0_wp
+    if (.not. all(ieee_is_finite(u))) then
+      status = MLID_ERR_INPUT
+      msg = 'input is not finite'
+      return
+    end if
+    call design_create(f, g, h, r, ukind, urow, ucol, ones, d, status, msg)
+    if (status == MLID_OK) call input_information(d, t, ncell, u, mm, status, msg)
+  end subroutine mlid_design_information
+
+  !> mu_max for the length td by the secant iteration of eq. 7.89 on the
+  !> Riccati critical length, started from mu1 and mu2.
+  subroutine mlid_design_mu_for_length(nx, nu, ny, f, g, h, r, m, ukind, urow, ucol, w, td, &
+                                       mu1, mu2, mu, status, msg)
+    integer(c_int), intent(in) :: nx, nu, ny, m
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), w(m), td, mu1, mu2
+    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+    real(c_double), intent(out) :: mu
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(design_t) :: d
+    mu = 0.0_wp
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg)
+    if (status == MLID_OK) call mu_for_length(d, td, mu1, mu2, mu, status, msg)
+  end subroutine mlid_design_mu_for_length
+
   subroutine setup(mkind, nx, nu, ny, nw, theta, isfree, itie, iconst, rconst, t, u, y, iopt, &
                    ropt, nf, m, opt, pm, status, msg, segstart)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nf

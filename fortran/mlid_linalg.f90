@@ -5,7 +5,7 @@ module mlid_linalg
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: sym_eig, chol_inverse, psd_factor, info_inverse, info_eig, eig_inverse
+  public :: sym_eig, chol_inverse, psd_factor, info_inverse, info_eig, eig_inverse, expm, solve
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -33,6 +33,12 @@ module mlid_linalg
       real(wp), intent(inout) :: a(lda, *)
       integer, intent(out) :: info
     end subroutine dpotri
+    subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
+      import :: wp
+      integer, intent(in) :: n, nrhs, lda, ldb
+      real(wp), intent(inout) :: a(lda, *), b(ldb, *)
+      integer, intent(out) :: ipiv(*), info
+    end subroutine dgesv
   end interface
 
   !> Below this size chol_inverse factorises without LAPACK.
@@ -275,6 +281,67 @@ contains
     cov = cov*spread(sc, 1, n)*spread(sc, 2, n)
     if (ndrop > 0) bad = maxloc(abs(v(:, 1)), 1)
   end subroutine eig_inverse
+
+  !> x = A^-1 b for a general square A (LU, LAPACK dgesv); info > 0: singular.
+  subroutine solve(a, b, x, info)
+    real(wp), intent(in) :: a(:, :), b(:, :)
+    real(wp), intent(out) :: x(:, :)
+    integer, intent(out) :: info
+    real(wp) :: lu(size(a, 1), size(a, 1))
+    integer :: ipiv(size(a, 1)), n
+    n = size(a, 1)
+    x = b
+    info = 0
+    if (n == 0) return
+    lu = a
+    call dgesv(n, size(b, 2), lu, n, ipiv, x, n, info)
+  end subroutine solve
+
+  !> Matrix exponential e^A: diagonal Pade approximant of degree 6 after
+  !> scaling A by 2^-s so that its norm is below 1/2, then s squarings
+  !> (Moler & Van Loan's method 3); accurate to rounding for the norms here.
+  subroutine expm(a, e, info)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: e(:, :)
+    integer, intent(out) :: info
+    integer, parameter :: q = 6
+    real(wp) :: x(size(a, 1), size(a, 1)), n(size(a, 1), size(a, 1)), d(size(a, 1), size(a, 1))
+    real(wp) :: as(size(a, 1), size(a, 1)), c, anorm
+    integer :: k, sq, i
+
+    info = 0
+    anorm = maxval(sum(abs(a), dim=1))
+    if (.not. ieee_is_finite(anorm)) then
+      info = -1
+      e = 0.0_wp
+      return
+    end if
+    sq = max(0, exponent(anorm) + 1)
+    as = a/2.0_wp**sq
+    x = as
+    c = 0.5_wp
+    n = c*as
+    d = -c*as
+    do i = 1, size(a, 1)
+      n(i, i) = n(i, i) + 1.0_wp
+      d(i, i) = d(i, i) + 1.0_wp
+    end do
+    do k = 2, q
+      c = c*real(q - k + 1, wp)/real(k*(2*q - k + 1), wp)
+      x = matmul(as, x)
+      n = n + c*x
+      if (mod(k, 2) == 0) then
+        d = d + c*x
+      else
+        d = d - c*x
+      end if
+    end do
+    call solve(d, n, e, info)
+    if (info /= 0) return
+    do k = 1, sq
+      e = matmul(e, e)
+    end do
+  end subroutine expm
 
   pure function info_diag(a) result(d)
     real(wp), intent(in) :: a(:, :)

@@ -1,0 +1,580 @@
+!> Optimal input design for linear models (report §VII).
+!>
+!> The unknowns theta_i (elements of F, G or H, weights w_i) and the state
+!> make the augmented system of eqs 7.15-7.19,
+!>
+!>   x_A = [x; sqrt(w_1) dx/dtheta_1; ...],  xdot_A = F_A x_A + G_A u,
+!>
+!> whose outputs sqrt(w_i) dy/dtheta_i = H_A,i x_A give the weighted trace
+!> tr(W M) = int x_A' Q_A x_A dt, Q_A = sum_i H_A,i' R^-1 H_A,i (eq. 7.20).
+!> Under the energy constraint int u'u dt = E the best input is the
+!> eigenfunction of the largest eigenvalue mu of A* Q_A A (eq. 7.39), and
+!> max tr(WM) = mu E.  Three solvers, cross-checked in the tests:
+!>
+!>   operator_mu    the operator on a grid of piecewise-constant input cells,
+!>                  exact per cell (Van Loan), its largest eigenpair from
+!>                  LAPACK; two grids and Richardson extrapolation (eq. 7.39)
+!>   riccati_length the Riccati equation 7.31 from P(0) = 0 forward to its
+!>                  first blow-up, the conjugate point T of mu (§7.2.2, §7.7)
+!>   transition_length  det Phi_ll(T; mu) = 0 of the Hamiltonian transition
+!>                  matrix (eqs 7.25-7.29), lambda(0) from the smallest
+!>                  eigenvector of Phi_ll' Phi_ll
+!>
+!> R is the spectral density of the continuous measurement noise (eq. 7.11).
+module mlid_design
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, &
+                        MLID_ERR_INTERNAL
+  use mlid_linalg, only: expm, sym_eig, solve, chol_inverse
+  implicit none
+  private
+  public :: design_t, design_create, operator_mu, riccati_length, transition_length, &
+            costate_input, input_information, mu_for_length
+
+  type :: design_t
+    integer :: nx = 0, nu = 0, ny = 0, m = 0, na = 0
+    real(wp), allocatable :: fa(:, :), ga(:, :), qa(:, :)
+    !> ha(:, :, i): sqrt(w_i) dy/dtheta_i = ha_i x_A; rinv = R^-1; w the weights
+    real(wp), allocatable :: ha(:, :, :), rinv(:, :), w(:)
+  end type design_t
+
+contains
+
+  !> The augmented system for unknowns given by block (1 F, 2 G, 3 H), row
+  !> and column, and weights w (> 0).
+  subroutine design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg)
+    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), r(:, :), w(:)
+    integer, intent(in) :: ukind(:), urow(:), ucol(:)
+    type(design_t), intent(out) :: d
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: nx, nu, ny, m, i, o
+    real(wp) :: logdet, sw
+
+    status = MLID_ERR_INPUT
+    nx = size(f, 1)
+    nu = size(g, 2)
+    ny = size(h, 1)
+    m = size(ukind)
+    if (m < 1) then
+      msg = 'input design needs at least one unknown'
+      return
+    end if
+    if (nu < 1) then
+      msg = 'input design needs at least one input'
+      return
+    end if
+    if (any(.not. ieee_is_finite(w)) .or. any(w <= 0.0_wp)) then
+      msg = 'weights must be finite and > 0'
+      return
+    end if
+    if (.not. (all(ieee_is_finite(f)) .and. all(ieee_is_finite(g)) .and. &
+               all(ieee_is_finite(h)) .and. all(ieee_is_finite(r)))) then
+      msg = 'F, G, H and R must be finite'
+      return
+    end if
+    do i = 1, m
+      select case (ukind(i))
+      case (1)
+        if (urow(i) < 1 .or. urow(i) > nx .or. ucol(i) < 1 .or. ucol(i) > nx) exit
+      case (2)
+        if (urow(i) < 1 .or. urow(i) > nx .or. ucol(i) < 1 .or. ucol(i) > nu) exit
+      case (3)
+        if (urow(i) < 1 .or. urow(i) > ny .or. ucol(i) < 1 .or. ucol(i) > nx) exit
+      case default
+        exit
+      end select
+    end do
+    if (i <= m) then
+      write (msg, '(a,i0,a)') 'unknown ', i, ' is not an element of F, G or H'
+      return
+    end if
+    d%nx = nx
+    d%nu = nu
+    d%ny = ny
+    d%m = m
+    d%na = (m + 1)*nx
+    d%w = w
+    allocate (d%fa(d%na, d%na), d%ga(d%na, nu), d%ha(ny, d%na, m), d%rinv(ny, ny), &
+              d%qa(d%na, d%na))
+    call chol_inverse(r, d%rinv, logdet, i)
+    if (i /= 0) then
+      status = MLID_ERR_INPUT
+      msg = 'noise spectral density R must be positive definite'
+      return
+    end if
+    d%fa = 0.0_wp
+    d%ga = 0.0_wp
+    d%ha = 0.0_wp
+    d%fa(1:nx, 1:nx) = f
+    d%ga(1:nx, :) = g
+    do i = 1, m
+      o = i*nx
+      sw = sqrt(w(i))
+      d%fa(o + 1:o + nx, o + 1:o + nx) = f
+      d%ha(:, o + 1:o + nx, i) = h
+      select case (ukind(i))           ! eq. 7.15: the derivative of F, G or H drives s_i
+      case (1)
+        d%fa(o + urow(i), ucol(i)) = sw
+      case (2)
+        d%ga(o + urow(i), ucol(i)) = sw
+      case (3)
+        d%ha(urow(i), ucol(i), i) = sw
+      end select
+    end do
+    d%qa = 0.0_wp
+    do i = 1, m
+      d%qa = d%qa + matmul(transpose(d%ha(:, :, i)), matmul(d%rinv, d%ha(:, :, i)))
+    end do
+    status = MLID_OK
+    msg = ''
+  end subroutine design_create
+
+  !> One input cell of length h, exactly (Van Loan): x_A(k+1) = phi x_A(k)
+  !> + gam c_k, and int over the cell of z' Qz z = z_k' qd z_k with
+  !> z = [x_A; c], Qz = [[Q_A, 0], [0, 0]].
+  subroutine cell(d, h, phi, gam, qd, status)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: h
+    real(wp), intent(out) :: phi(:, :), gam(:, :), qd(:, :)
+    integer, intent(out) :: status
+    integer :: na, nz
+    real(wp), allocatable :: c(:, :), e(:, :)
+
+    na = d%na
+    nz = na + d%nu
+    allocate (c(2*nz, 2*nz), e(2*nz, 2*nz))
+    c = 0.0_wp
+    c(1:na, 1:na) = -transpose(d%fa)*h
+    c(na + 1:nz, 1:na) = -transpose(d%ga)*h
+    c(1:na, nz + 1:nz + na) = d%qa*h
+    c(nz + 1:nz + na, nz + 1:nz + na) = d%fa*h
+    c(nz + 1:nz + na, nz + na + 1:) = d%ga*h
+    call expm(c, e, status)
+    if (status /= 0) return
+    ! e = [[., F12], [0, F22]], F22 = e^{A h}, int_0^h e^{A't} Qz e^{At} dt = F22' F12
+    phi = e(nz + 1:nz + na, nz + 1:nz + na)
+    gam = e(nz + 1:nz + na, nz + na + 1:)
+    qd = matmul(transpose(e(nz + 1:, nz + 1:)), e(1:nz, nz + 1:))
+    qd = 0.5_wp*(qd + transpose(qd))
+  end subroutine cell
+
+  !> The weighted-trace operator on n cells of [0, T]: tr(WM) = c' q c for
+  !> the cell heights c.
+  subroutine operator_matrix(d, t, n, q, status)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: t
+    integer, intent(in) :: n
+    real(wp), intent(out) :: q(:, :)
+    integer, intent(out) :: status
+    real(wp) :: phi(d%na, d%na), gam(d%na, d%nu), qd(d%na + d%nu, d%na + d%nu)
+    real(wp) :: v(d%na, d%na), b(d%na, d%nu), wk(d%na, d%nu)
+    integer :: l, j, na, nu
+
+    na = d%na
+    nu = d%nu
+    call cell(d, t/n, phi, gam, qd, status)
+    if (status /= 0) return
+    q = 0.0_wp
+    ! V_l = sum over the cells after l of (Phi^i)' Qxx Phi^i: V_(n-1) = 0, V_l = Qxx + Phi' V_(l+1) Phi
+    v = 0.0_wp
+    do l = n - 1, 0, -1
+      q(l*nu + 1:(l + 1)*nu, l*nu + 1:(l + 1)*nu) = matmul(transpose(gam), matmul(v, gam)) &
+                                                    + qd(na + 1:, na + 1:)
+      ! cells j < l: Gam' (Phi^(l-1-j))' (Phi' V_l Gam + Qxu)
+      b = matmul(transpose(phi), matmul(v, gam)) + qd(1:na, na + 1:)
+      wk = b
+      do j = l - 1, 0, -1
+        q(j*nu + 1:(j + 1)*nu, l*nu + 1:(l + 1)*nu) = matmul(transpose(gam), wk)
+        q(l*nu + 1:(l + 1)*nu, j*nu + 1:(j + 1)*nu) = transpose(q(j*nu + 1:(j + 1)*nu, &
+                                                                     l*nu + 1:(l + 1)*nu))
+        wk = matmul(transpose(phi), wk)
+      end do
+      v = qd(1:na, 1:na) + matmul(transpose(phi), matmul(v, phi))
+    end do
+  end subroutine operator_matrix
+
+  !> Largest eigenvalue mu of the operator A* Q_A A on [0, T] (eq. 7.39):
+  !> on n and 2n input cells, Richardson-extrapolated (the cell error is
+  !> O(h^2)).  u: the optimal input on the 2n cells (nu per cell, cell
+  !> after cell), normalised to unit energy.
+  subroutine operator_mu(d, t, n, mu, u, status, msg)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: t
+    integer, intent(in) :: n
+    real(wp), intent(out) :: mu, u(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: mu1, mu2
+    real(wp), allocatable :: q(:, :), ev(:), vec(:, :)
+    integer :: k, nn
+
+    status = MLID_ERR_INPUT
+    mu = 0.0_wp
+    u = 0.0_wp
+    if (.not. (t > 0.0_wp .and. ieee_is_finite(t))) then
+      msg = 'design length T must be > 0'
+      return
+    end if
+    if (n < 4) then
+      msg = 'at least 4 input cells are needed'
+      return
+    end if
+    do k = 1, 2
+      nn = k*n
+      allocate (q(nn*d%nu, nn*d%nu), ev(nn*d%nu), vec(nn*d%nu, nn*d%nu))
+      call operator_matrix(d, t, nn, q, status)
+      if (status /= 0) then
+        status = MLID_ERR_INTERNAL
+        msg = 'matrix exponential failed (model not finite?)'
+        return
+      end if
+      call sym_eig(q, ev, vec, status)
+      if (status /= 0) then
+        status = MLID_ERR_INTERNAL
+        msg = 'eigen-decomposition of the design operator failed'
+        return
+      end if
+      if (k == 1) mu1 = ev(nn*d%nu)/(t/nn)
+      if (k == 2) then
+        mu2 = ev(nn*d%nu)/(t/nn)
+        u = vec(:, nn*d%nu)/sqrt(t/nn)
+        if (sum(u(1:d%nu)) < 0.0_wp) u = -u           ! a sign convention: starts positive
+      end if
+      deallocate (q, ev, vec)
+    end do
+    mu = (4.0_wp*mu2 - mu1)/3.0_wp
+    if (.not. mu > 0.0_wp) then
+      status = MLID_ERR_SINGULAR
+      msg = 'the unknowns do not affect the outputs (zero sensitivity, or an input that '// &
+            'reaches no state): no input can identify them'
+      return
+    end if
+    status = MLID_OK
+    msg = ''
+  end subroutine operator_mu
+
+  !> The critical length T of mu by the Riccati equation 7.31, P(0) = 0,
+  !> integrated (RK4) until its most negative eigenvalue escapes to minus
+  !> infinity: -1/lambda_min(P) falls linearly to zero at the conjugate point,
+  !> found by shrinking the step near it and a final secant.  tmax: give up
+  !> beyond it.
+  subroutine riccati_length(d, mu, tmax, t, status, msg)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: mu, tmax
+    real(wp), intent(out) :: t
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: p(d%na, d%na), pn(d%na, d%na), ggt(d%na, d%na), h, tc, g0, g1
+    integer :: steps
+
+    status = MLID_ERR_INPUT
+    t = 0.0_wp
+    if (.not. (mu > 0.0_wp .and. tmax > 0.0_wp)) then
+      msg = 'mu and the largest length must be > 0'
+      return
+    end if
+    ggt = matmul(d%ga, transpose(d%ga))/mu
+    p = 0.0_wp
+    tc = 0.0_wp
+    ! RK4 steps well inside the fastest rate of the Hamiltonian system
+    h = min(tmax/4000.0_wp, 0.02_wp/max(1.0e-12_wp, maxval(sum(abs(hamiltonian(d, mu)), dim=1))))
+    g0 = huge(1.0_wp)
+    steps = 0
+    do while (h > 1.0e-13_wp*tmax)
+      steps = steps + 1
+      if (steps > 10000000) exit
+      pn = p
+      call rk4(pn, h)
+      g1 = escape(pn)
+      if (g1 > 0.0_wp .and. ieee_is_finite(g1) .and. g1 > 2.0_wp*h) then
+        ! still well before the escape: accept
+        p = pn
+        tc = tc + h
+        g0 = g1
+        if (tc > tmax) then
+          status = MLID_ERR_NOCONV
+          write (msg, '(a,g0.4)') 'no conjugate point before T = ', tmax
+          return
+        end if
+      else
+        h = 0.5_wp*h          ! near the escape: smaller steps
+      end if
+    end do
+    ! -1/lambda_min ~ (T - t): one more (small) step and the secant
+    pn = p
+    call rk4(pn, h)
+    g1 = escape(pn)
+    if (ieee_is_finite(g1) .and. g0 /= g1) then
+      t = tc + h*g0/(g0 - g1)
+    else
+      t = tc + g0
+    end if
+    status = MLID_OK
+    msg = ''
+
+  contains
+
+    subroutine rk4(x, dt)
+      real(wp), intent(inout) :: x(:, :)
+      real(wp), intent(in) :: dt
+      real(wp), dimension(d%na, d%na) :: k1, k2, k3, k4
+      k1 = rhs(x)
+      k2 = rhs(x + 0.5_wp*dt*k1)
+      k3 = rhs(x + 0.5_wp*dt*k2)
+      k4 = rhs(x + dt*k3)
+      x = x + (dt/6.0_wp)*(k1 + 2.0_wp*(k2 + k3) + k4)
+    end subroutine rk4
+
+    function rhs(x) result(xd)
+      real(wp), intent(in) :: x(:, :)
+      real(wp) :: xd(d%na, d%na)
+      xd = matmul(d%fa, x) + matmul(x, transpose(d%fa)) - matmul(x, matmul(d%qa, x)) - ggt
+    end function rhs
+
+    !> -1/lambda_min(P): positive and falling to 0 at the escape
+    real(wp) function escape(x)
+      real(wp), intent(in) :: x(:, :)
+      real(wp) :: ev(d%na), vec(d%na, d%na)
+      integer :: info
+      escape = -1.0_wp
+      if (.not. all(ieee_is_finite(x))) return
+      call sym_eig(0.5_wp*(x + transpose(x)), ev, vec, info)
+      if (info /= 0) return
+      if (ev(1) < 0.0_wp) then
+        escape = -1.0_wp/ev(1)
+      else
+        escape = huge(1.0_wp)
+      end if
+    end function escape
+
+  end subroutine riccati_length
+
+  !> The Hamiltonian matrix of eq. 7.24 for mu.
+  function hamiltonian(d, mu) result(hm)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: mu
+    real(wp) :: hm(2*d%na, 2*d%na)
+    integer :: na
+    na = d%na
+    hm(1:na, 1:na) = d%fa
+    hm(1:na, na + 1:) = -matmul(d%ga, transpose(d%ga))/mu
+    hm(na + 1:, 1:na) = d%qa
+    hm(na + 1:, na + 1:) = -transpose(d%fa)
+  end function hamiltonian
+
+  !> The critical length T of mu by the transition matrix (eqs 7.25-7.29):
+  !> the first T > 0 where det Phi_ll(T) changes sign, scanned in steps of
+  !> tmax/2000 and bisected; lam0: the smallest eigenvector of
+  !> Phi_ll' Phi_ll there (unit norm).
+  subroutine transition_length(d, mu, tmax, t, lam0, status, msg)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: mu, tmax
+    real(wp), intent(out) :: t, lam0(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: hm(2*d%na, 2*d%na), step(2*d%na, 2*d%na), phi(2*d%na, 2*d%na)
+    real(wp) :: a, b, fa, fb, c, fc, ev(d%na), vec(d%na, d%na), dt
+    integer :: k, it, na
+
+    status = MLID_ERR_INPUT
+    t = 0.0_wp
+    lam0 = 0.0_wp
+    if (.not. (mu > 0.0_wp .and. tmax > 0.0_wp)) then
+      msg = 'mu and the largest length must be > 0'
+      return
+    end if
+    na = d%na
+    hm = hamiltonian(d, mu)
+    dt = tmax/2000.0_wp
+    call expm(hm*dt, step, status)
+    if (status /= 0) then
+      status = MLID_ERR_INTERNAL
+      msg = 'matrix exponential failed'
+      return
+    end if
+    phi = step
+    a = 0.0_wp
+    fa = 1.0_wp                           ! det Phi_ll(0) = det I
+    do k = 1, 2000
+      b = k*dt
+      fb = det_ll(phi)
+      if (sign(1.0_wp, fb) /= sign(1.0_wp, fa)) exit
+      a = b
+      fa = fb
+      phi = matmul(phi, step)
+    end do
+    if (k > 2000) then
+      status = MLID_ERR_NOCONV
+      write (msg, '(a,g0.4)') 'no conjugate point before T = ', tmax
+      return
+    end if
+    do it = 1, 200                        ! bisection on the sign change
+      c = 0.5_wp*(a + b)
+      call expm(hm*c, phi, status)
+      fc = det_ll(phi)
+      if (sign(1.0_wp, fc) == sign(1.0_wp, fa)) then
+        a = c
+        fa = fc
+      else
+        b = c
+      end if
+      if (b - a < 1.0e-14_wp*b) exit
+    end do
+    t = 0.5_wp*(a + b)
+    call expm(hm*t, phi, status)
+    call sym_eig(matmul(transpose(phi(na + 1:, na + 1:)), phi(na + 1:, na + 1:)), ev, vec, k)
+    lam0 = vec(:, 1)
+    status = MLID_OK
+    msg = ''
+
+  contains
+
+    !> det of the lambda-lambda block, scaled (the sign is what counts)
+    real(wp) function det_ll(ph)
+      real(wp), intent(in) :: ph(:, :)
+      det_ll = determinant(ph(na + 1:, na + 1:))
+    end function det_ll
+
+  end subroutine transition_length
+
+  !> Determinant by Gaussian elimination with partial pivoting.
+  pure real(wp) function determinant(a0)
+    real(wp), intent(in) :: a0(:, :)
+    real(wp) :: a(size(a0, 1), size(a0, 1)), row(size(a0, 1))
+    integer :: n, k, p
+    a = a0
+    n = size(a, 1)
+    determinant = 1.0_wp
+    do k = 1, n
+      p = k - 1 + maxloc(abs(a(k:, k)), 1)
+      if (a(p, k) == 0.0_wp) then
+        determinant = 0.0_wp
+        return
+      end if
+      if (p /= k) then
+        row = a(k, :)
+        a(k, :) = a(p, :)
+        a(p, :) = row
+        determinant = -determinant
+      end if
+      determinant = determinant*a(k, k)
+      a(k + 1:, k:) = a(k + 1:, k:) - spread(a(k + 1:, k)/a(k, k), 2, n - k + 1)*spread(a(k, k:), 1, n - k)
+    end do
+  end function determinant
+
+  !> The optimal input from lambda(0) (eqs 7.23-7.24): u = -G_A' lambda/mu
+  !> at the midpoints of n cells of [0, T], scaled to unit energy.
+  subroutine costate_input(d, mu, t, lam0, n, u, status, msg)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: mu, t, lam0(:)
+    integer, intent(in) :: n
+    real(wp), intent(out) :: u(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: hm(2*d%na, 2*d%na), step(2*d%na, 2*d%na), half(2*d%na, 2*d%na), z(2*d%na)
+    integer :: k, na
+
+    na = d%na
+    hm = hamiltonian(d, mu)
+    call expm(hm*(t/n), step, status)
+    if (status == 0) call expm(hm*(0.5_wp*t/n), half, status)
+    if (status /= 0) then
+      status = MLID_ERR_INTERNAL
+      msg = 'matrix exponential failed'
+      return
+    end if
+    z = 0.0_wp
+    z(na + 1:) = lam0
+    z = matmul(half, z)
+    do k = 0, n - 1
+      u(k*d%nu + 1:(k + 1)*d%nu) = -matmul(transpose(d%ga), z(na + 1:))/mu
+      z = matmul(step, z)
+    end do
+    u = u/sqrt(sum(u*u)*t/n)
+    if (sum(u(1:d%nu)) < 0.0_wp) u = -u
+    status = MLID_OK
+    msg = ''
+  end subroutine costate_input
+
+  !> The information matrix M (m x m, unweighted, eq. 7.12) of the input u
+  !> held over n cells of [0, T] (nu per cell): the augmented states exact at
+  !> four substeps per cell, the integral by Simpson's rule per cell.
+  subroutine input_information(d, t, n, u, mm, status, msg)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: t, u(:)
+    integer, intent(in) :: n
+    real(wp), intent(out) :: mm(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer, parameter :: ns = 4
+    real(wp) :: c(d%na + d%nu, d%na + d%nu), e(d%na + d%nu, d%na + d%nu), x(d%na), h
+    real(wp) :: y(d%ny, d%m), wgt
+    integer :: k, j, i, l
+
+    mm = 0.0_wp
+    h = t/(n*ns)
+    c = 0.0_wp
+    c(1:d%na, 1:d%na) = d%fa*h
+    c(1:d%na, d%na + 1:) = d%ga*h
+    call expm(c, e, status)
+    if (status /= 0) then
+      status = MLID_ERR_INTERNAL
+      msg = 'matrix exponential failed'
+      return
+    end if
+    x = 0.0_wp
+    do k = 0, n - 1
+      do j = 0, ns
+        if (j > 0) x = matmul(e(1:d%na, 1:d%na), x) + matmul(e(1:d%na, d%na + 1:), &
+                                                             u(k*d%nu + 1:(k + 1)*d%nu))
+        wgt = merge(1.0_wp, merge(4.0_wp, 2.0_wp, mod(j, 2) == 1), j == 0 .or. j == ns)*h/3.0_wp
+        do i = 1, d%m                    ! unweighted output sensitivities
+          y(:, i) = matmul(d%ha(:, :, i), x)/sqrt(d%w(i))
+        end do
+        do i = 1, d%m
+          do l = 1, d%m
+            mm(i, l) = mm(i, l) + wgt*dot_product(y(:, i), matmul(d%rinv, y(:, l)))
+          end do
+        end do
+      end do
+    end do
+    status = MLID_OK
+    msg = ''
+  end subroutine input_information
+
+  !> mu_max for a given length T by the secant iteration of eq. 7.89 on the
+  !> Riccati critical length, from the two brackets mu1, mu2.
+  subroutine mu_for_length(d, td, mu1, mu2, mu, status, msg)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: td, mu1, mu2
+    real(wp), intent(out) :: mu
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: a, b, ta, tb, c
+    integer :: it
+
+    a = mu1
+    b = mu2
+    call riccati_length(d, a, 10.0_wp*td, ta, status, msg)
+    if (status /= MLID_OK) return
+    call riccati_length(d, b, 10.0_wp*td, tb, status, msg)
+    if (status /= MLID_OK) return
+    do it = 1, 60
+      ! eq. 7.89: 1/mu linear in T through the two latest pairs
+      c = 1.0_wp/(1.0_wp/a + (td - ta)*(1.0_wp/b - 1.0_wp/a)/(tb - ta))
+      a = b
+      ta = tb
+      b = c
+      call riccati_length(d, b, 10.0_wp*td, tb, status, msg)
+      if (status /= MLID_OK) return
+      if (abs(tb - td) <= 1.0e-10_wp*td) exit
+    end do
+    mu = b
+    if (abs(tb - td) > 1.0e-6_wp*td) then
+      status = MLID_ERR_NOCONV
+      msg = 'mu for the given length: the secant iteration (eq. 7.89) did not converge'
+    end if
+  end subroutine mu_for_length
+
+end module mlid_design

@@ -1,0 +1,188 @@
+"""Optimal input design for linear models (report §VII-VIII): thin wrappers
+over fortran/mlid_design.f90.
+
+    d = mlid.InputDesign(F, G, H, R, ["f(1,1)", "f(1,2)", "g(1,1)"])
+    mu = d.mu_max(T=4.0)                       # operator method (eq. 7.39)
+    T = d.critical_length(mu, "riccati")      # or "transition" (eqs 7.25-7.34)
+    inp = d.optimal_input(T=4.0, energy=311)  # u(t), M, det M, sigma, ...
+
+R is the spectral density of the continuous measurement noise (eq. 7.11).
+"""
+
+import re
+
+import numpy as np
+
+from . import _core
+from .errors import InputError, check_status
+
+_api = _core.mlid_api
+_UNKNOWN = re.compile(r"^\s*([fgh])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*$", re.IGNORECASE)
+
+
+def summary(M):
+    """What the report tabulates for an information matrix (§8.1): trace,
+    determinant, eigenvalues, tr M * tr M^-1 and the Cramer-Rao sigma."""
+    M = np.asarray(M, dtype=float)
+    eig = np.linalg.eigvalsh(M)
+    if eig[0] <= 1e-13 * eig[-1]:               # an unknown the input does not reach
+        sigma = np.where(np.diag(M) > 0, np.sqrt(np.diag(np.linalg.pinv(M))), np.inf)
+        return {"trace": float(np.trace(M)), "det": 0.0, "eigenvalues": eig,
+                "trace_product": np.inf, "sigma": sigma, "spread": np.inf}
+    inv = np.linalg.inv(M)
+    return {"trace": float(np.trace(M)), "det": float(np.linalg.det(M)), "eigenvalues": eig,
+            "trace_product": float(np.trace(M) * np.trace(inv)),
+            "sigma": np.sqrt(np.diag(inv)), "spread": float(eig[-1] / eig[0])}
+
+
+class DesignedInput:
+    """An input on [0, T] held over equal cells, and its information."""
+
+    def __init__(self, t_edges, u, M, mu=None, energy=None, weights=None):
+        self.t_edges, self.u, self.M, self.mu = t_edges, u, M, mu
+        self.energy = float(np.sum(u**2) * (t_edges[1] - t_edges[0])) if energy is None else energy
+        self.weights = weights
+        self.summary = summary(M)
+
+    @property
+    def t(self):
+        """Cell midpoints."""
+        return 0.5 * (self.t_edges[1:] + self.t_edges[:-1])
+
+    def spectrum(self):
+        """|Fourier transform| of the input (Fig. 8.4): frequencies [rad/s], magnitude."""
+        dt = self.t_edges[1] - self.t_edges[0]
+        n = 8 * len(self.u)                      # zero padding for a smooth curve
+        spec = np.abs(np.fft.rfft(self.u[:, 0], n)) * dt
+        return 2 * np.pi * np.fft.rfftfreq(n, dt), spec
+
+
+class InputDesign:
+    """The linear model x' = F x + G u, z = H x + n (E{n n'} = R delta) and
+    the unknowns, elements of F, G or H named 'f(i,j)', 'g(i,j)', 'h(i,j)'."""
+
+    def __init__(self, F, G, H, R, unknowns, weights=None):
+        self.F, self.G, self.H, self.R = (np.asfortranarray(np.atleast_2d(np.asarray(a, float)))
+                                          for a in (F, G, H, R))
+        nx, nu, ny = self.F.shape[0], self.G.shape[1], self.H.shape[0]
+        if self.F.shape != (nx, nx) or self.G.shape[0] != nx or self.H.shape[1] != nx \
+                or self.R.shape != (ny, ny):
+            raise InputError(f"F {self.F.shape}, G {self.G.shape}, H {self.H.shape} and R "
+                             f"{self.R.shape} do not fit together")
+        self.unknowns = list(unknowns)
+        kinds, rows, cols = [], [], []
+        for name in self.unknowns:
+            m = _UNKNOWN.match(name)
+            if not m:
+                raise InputError(f"unknown {name!r}: name an element of F, G or H as 'f(i,j)'")
+            kinds.append("fgh".index(m.group(1).lower()) + 1)
+            rows.append(int(m.group(2)))
+            cols.append(int(m.group(3)))
+        self._unk = {"ukind": np.array(kinds, np.int32), "urow": np.array(rows, np.int32),
+                     "ucol": np.array(cols, np.int32)}
+        self.weights = np.ones(len(self.unknowns)) if weights is None else \
+            np.asarray(weights, dtype=float)
+        if self.weights.shape != (len(self.unknowns),):
+            raise InputError(f"weights: one per unknown ({len(self.unknowns)})")
+
+    def _args(self):
+        return dict(f=self.F, g=self.G, h=self.H, r=self.R, **self._unk)
+
+    def with_weights(self, weights):
+        return InputDesign(self.F, self.G, self.H, self.R, self.unknowns, weights)
+
+    def with_model(self, F=None, G=None, H=None):
+        return InputDesign(self.F if F is None else F, self.G if G is None else G,
+                           self.H if H is None else H, self.R, self.unknowns, self.weights)
+
+    def _check_t(self, T, what="T"):
+        if not (np.isfinite(T) and T > 0):
+            raise InputError(f"{what} must be > 0, got {T}")
+
+    def mu_max(self, T, cells=200, method="operator"):
+        """The largest eigenvalue mu of the design operator on [0, T]:
+        max tr(WM) = mu E.  'operator': eq. 7.39 on cells and 2*cells input
+        cells, Richardson-extrapolated; 'riccati': the secant of eq. 7.89 on
+        the Riccati critical length, started from the operator's value."""
+        self._check_t(T)
+        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, t=float(T), ncell=int(cells),
+                                                  **self._args())
+        check_status(status, msg)
+        if method == "operator":
+            return float(mu)
+        if method != "riccati":
+            raise InputError(f"method must be 'operator' or 'riccati', got {method!r}")
+        mu2, status, msg = _api.mlid_design_mu_for_length(w=self.weights, td=float(T),
+                                                          mu1=0.9 * mu, mu2=1.1 * mu,
+                                                          **self._args())
+        check_status(status, msg)
+        return float(mu2)
+
+    def critical_length(self, mu, method="riccati", tmax=100.0):
+        """The interval length T whose largest eigenvalue is mu (the first
+        conjugate point): 'riccati' (eqs 7.31-7.34, §7.7) or 'transition'
+        (eqs 7.25-7.29)."""
+        if not mu > 0:
+            raise InputError(f"mu must be > 0, got {mu}")
+        na = (len(self.unknowns) + 1) * self.F.shape[0]
+        T, lam0, status, msg = _api.mlid_design_length(
+            w=self.weights, mu=float(mu), tmax=float(tmax),
+            method={"riccati": 1, "transition": 2}[method], na=na, **self._args())
+        check_status(status, msg)
+        return (float(T), lam0) if method == "transition" else float(T)
+
+    def information(self, T, u):
+        """The (unweighted) information matrix of the input u (cells, nu)
+        held over equal cells of [0, T] (eq. 7.12)."""
+        self._check_t(T)
+        u = np.asarray(u, dtype=float).reshape(-1, self.G.shape[1])
+        M, status, msg = _api.mlid_design_information(t=float(T), ncell=len(u), u=u.ravel(),
+                                                       **self._args())
+        check_status(status, msg)
+        return M
+
+    def optimal_input(self, T, energy, cells=200, method="operator"):
+        """The optimal input on [0, T] of the given energy: the operator's
+        eigenvector on 2*cells cells, or ('transition') u = -G_A' lambda/mu
+        from lambda(0) of the transition-matrix method on cells cells."""
+        self._check_t(T)
+        self._check_t(energy, "energy")
+        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, t=float(T), ncell=int(cells),
+                                                  **self._args())
+        check_status(status, msg)
+        nu = self.G.shape[1]
+        if method == "transition":
+            Tc, lam0 = self.critical_length(mu, "transition", tmax=10 * T)
+            na = (len(self.unknowns) + 1) * self.F.shape[0]
+            u, status, msg = _api.mlid_design_input(w=self.weights, mu=mu, t=float(T), na=na,
+                                                    lam0=lam0, ncell=int(cells), **self._args())
+            check_status(status, msg)
+        elif method != "operator":
+            raise InputError(f"method must be 'operator' or 'transition', got {method!r}")
+        u = u.reshape(-1, nu) * np.sqrt(energy)
+        edges = np.linspace(0.0, T, len(u) + 1)
+        return DesignedInput(edges, u, self.information(T, u), mu=float(mu), energy=energy,
+                             weights=self.weights.copy())
+
+    def equalised(self, T, energy, iterations=12, alpha=1.0, cells=200):
+        """The weighted-trace design of §7.8: weights updated by eq. 7.88,
+        w <- w + alpha (1/m_ii - w), toward an equal diagonal of W M, alpha
+        halved whenever the ratio of its largest to smallest element does not
+        fall.  Returns the last design and the ratio history."""
+        design, ratios = self, []
+        best = design.optimal_input(T, energy, cells)
+        wm = np.diag(best.M) * design.weights
+        ratios.append(float(wm.max() / wm.min()))
+        a = alpha
+        for _ in range(iterations):
+            w = design.weights + a * (1.0 / np.diag(best.M) - design.weights)
+            trial_design = design.with_weights(w / w.max())
+            trial = trial_design.optimal_input(T, energy, cells)
+            wm = np.diag(trial.M) * trial_design.weights
+            ratio = float(wm.max() / wm.min())
+            if ratio < ratios[-1]:
+                design, best = trial_design, trial
+                ratios.append(ratio)
+            else:
+                a *= 0.5
+        return best, ratios
