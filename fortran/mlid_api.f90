@@ -374,14 +374,15 @@ contains
   !> estimators assume of their arguments, with a message that names the
   !> offending item.
   !> Input design (mlid_design).  Common arguments: the linear model F(nx,nx),
-  !> G(nx,nu), H(ny,nx), the noise spectral density R(ny,ny), the m unknowns
+  !> G(nx,nu), H(ny,nx), the noise spectral density R(ny,ny), the process
+  !> noise Gamma Q Gamma' gq(nx,nx) (zero: none), the m unknowns
   !> by block ukind (1 F, 2 G, 3 H), row urow and column ucol, weights w(m).
   !> mu_max on [0, T] by the operator method on ncell and 2 ncell cells; u:
   !> the optimal input on the 2 ncell cells (unit energy, nu per cell).
-  subroutine mlid_design_mu(nx, nu, ny, f, g, h, r, m, ukind, urow, ucol, w, t, ncell, mu, u, &
+  subroutine mlid_design_mu(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, t, ncell, mu, u, &
                             status, msg)
     integer(c_int), intent(in) :: nx, nu, ny, m, ncell
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), w(m), t
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), t
     integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
     real(c_double), intent(out) :: mu, u(2*ncell*nu)
     integer(c_int), intent(out) :: status
@@ -389,17 +390,17 @@ contains
     type(design_t) :: d
     mu = 0.0_wp
     u = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg)
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
     if (status == MLID_OK) call operator_mu(d, t, ncell, mu, u, status, msg)
   end subroutine mlid_design_mu
 
   !> The critical length T of mu (method 1 Riccati, 2 transition matrix),
   !> searched up to tmax; lam0(na), na = (m+1) nx: the costate lambda(0)
   !> (transition method only).
-  subroutine mlid_design_length(nx, nu, ny, f, g, h, r, m, ukind, urow, ucol, w, mu, tmax, &
+  subroutine mlid_design_length(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, mu, tmax, &
                                 method, na, t, lam0, status, msg)
     integer(c_int), intent(in) :: nx, nu, ny, m, method, na
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), w(m), mu, tmax
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), mu, tmax
     integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
     real(c_double), intent(out) :: t, lam0(na)
     integer(c_int), intent(out) :: status
@@ -407,7 +408,7 @@ contains
     type(design_t) :: d
     t = 0.0_wp
     lam0 = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg)
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
     if (status /= MLID_OK) return
     if (na /= d%na) then
       status = MLID_ERR_INPUT
@@ -426,10 +427,10 @@ contains
 
   !> The optimal input from the costate lam0 (transition method) on ncell
   !> cells of [0, T], unit energy.
-  subroutine mlid_design_input(nx, nu, ny, f, g, h, r, m, ukind, urow, ucol, w, mu, t, na, &
+  subroutine mlid_design_input(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, mu, t, na, &
                                lam0, ncell, u, status, msg)
     integer(c_int), intent(in) :: nx, nu, ny, m, na, ncell
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), w(m), mu, t
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), mu, t
     real(c_double), intent(in) :: lam0(na)
     integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
     real(c_double), intent(out) :: u(ncell*nu)
@@ -437,7 +438,7 @@ contains
     character(len=256), intent(out) :: msg
     type(design_t) :: d
     u = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg)
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
     if (status /= MLID_OK) return
     if (na /= d%na) then
       status = MLID_ERR_INPUT
@@ -449,10 +450,10 @@ contains
 
   !> The information matrix mm(m, m) (unweighted, eq. 7.12) of the input u
   !> held over ncell cells of [0, T] (nu per cell).
-  subroutine mlid_design_information(nx, nu, ny, f, g, h, r, m, ukind, urow, ucol, t, ncell, u, &
+  subroutine mlid_design_information(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, t, ncell, u, &
                                      mm, status, msg)
     integer(c_int), intent(in) :: nx, nu, ny, m, ncell
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), t, u(ncell*nu)
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), t, u(ncell*nu)
     integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
     real(c_double), intent(out) :: mm(m, m)
     integer(c_int), intent(out) :: status
@@ -466,23 +467,23 @@ contains
       msg = 'input is not finite'
       return
     end if
-    call design_create(f, g, h, r, ukind, urow, ucol, ones, d, status, msg)
+    call design_create(f, g, h, r, ukind, urow, ucol, ones, d, status, msg, gq)
     if (status == MLID_OK) call input_information(d, t, ncell, u, mm, status, msg)
   end subroutine mlid_design_information
 
   !> mu_max for the length td by the secant iteration of eq. 7.89 on the
   !> Riccati critical length, started from mu1 and mu2.
-  subroutine mlid_design_mu_for_length(nx, nu, ny, f, g, h, r, m, ukind, urow, ucol, w, td, &
+  subroutine mlid_design_mu_for_length(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, td, &
                                        mu1, mu2, mu, status, msg)
     integer(c_int), intent(in) :: nx, nu, ny, m
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), w(m), td, mu1, mu2
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), td, mu1, mu2
     integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
     real(c_double), intent(out) :: mu
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     type(design_t) :: d
     mu = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg)
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
     if (status == MLID_OK) call mu_for_length(d, td, mu1, mu2, mu, status, msg)
   end subroutine mlid_design_mu_for_length
 

@@ -41,13 +41,17 @@ module mlid_design
 contains
 
   !> The augmented system for unknowns given by block (1 F, 2 G, 3 H), row
-  !> and column, and weights w (> 0).
-  subroutine design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg)
+  !> and column, and weights w (> 0).  With process noise (gq = Gamma Q
+  !> Gamma', §7.5) the sensitivities are those of the steady-state Kalman
+  !> filter, driven by F - K H (eq. 7.84), the gain K = Sigma H' R^-1 held.
+  subroutine design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
     real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), r(:, :), w(:)
     integer, intent(in) :: ukind(:), urow(:), ucol(:)
     type(design_t), intent(out) :: d
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    real(wp), intent(in), optional :: gq(:, :)
+    real(wp) :: fs(size(f, 1), size(f, 1)), k(size(f, 1), size(h, 1))
     integer :: nx, nu, ny, m, i, o
     real(wp) :: logdet, sw
 
@@ -103,6 +107,15 @@ contains
       msg = 'noise spectral density R must be positive definite'
       return
     end if
+    fs = f
+    if (present(gq)) then
+      if (any(gq /= 0.0_wp)) then
+        call steady_gain(f, h, d%rinv, gq, k, status, msg)
+        if (status /= MLID_OK) return
+        status = MLID_ERR_INPUT
+        fs = f - matmul(k, h)
+      end if
+    end if
     d%fa = 0.0_wp
     d%ga = 0.0_wp
     d%ha = 0.0_wp
@@ -111,7 +124,7 @@ contains
     do i = 1, m
       o = i*nx
       sw = sqrt(w(i))
-      d%fa(o + 1:o + nx, o + 1:o + nx) = f
+      d%fa(o + 1:o + nx, o + 1:o + nx) = fs
       d%ha(:, o + 1:o + nx, i) = h
       select case (ukind(i))           ! eq. 7.15: the derivative of F, G or H drives s_i
       case (1)
@@ -129,6 +142,48 @@ contains
     status = MLID_OK
     msg = ''
   end subroutine design_create
+
+  !> The steady-state Kalman gain K = Sigma H' R^-1 of eqs 7.81-7.82, Sigma
+  !> integrated (RK4) from zero until it stops changing.
+  subroutine steady_gain(f, h, rinv, gq, k, status, msg)
+    real(wp), intent(in) :: f(:, :), h(:, :), rinv(:, :), gq(:, :)
+    real(wp), intent(out) :: k(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: sg(size(f, 1), size(f, 1)), old(size(f, 1), size(f, 1)), hrh(size(f, 1), size(f, 1))
+    real(wp) :: dt
+    integer :: it
+
+    hrh = matmul(transpose(h), matmul(rinv, h))
+    dt = 0.05_wp/max(1.0e-12_wp, maxval(sum(abs(f), dim=1)) + sqrt(maxval(abs(gq))* &
+                                                                 maxval(abs(hrh))))
+    sg = 0.0_wp
+    do it = 1, 10000000
+      old = sg
+      sg = sg + dt*rhs(sg + 0.5_wp*dt*rhs(sg))           ! midpoint steps
+      if (maxval(abs(sg - old)) <= 1.0e-13_wp*max(1.0e-300_wp, maxval(abs(sg)))) exit
+      if (.not. all(ieee_is_finite(sg))) exit
+    end do
+    if (.not. all(ieee_is_finite(sg)) .or. it > 10000000) then
+      status = MLID_ERR_NOCONV
+      msg = 'steady-state Kalman filter of the design did not converge (unobservable '// &
+            'unstable mode?)'
+      k = 0.0_wp
+      return
+    end if
+    k = matmul(sg, matmul(transpose(h), rinv))
+    status = MLID_OK
+    msg = ''
+
+  contains
+
+    function rhs(x) result(xd)
+      real(wp), intent(in) :: x(:, :)
+      real(wp) :: xd(size(x, 1), size(x, 1))
+      xd = matmul(f, x) + matmul(x, transpose(f)) + gq - matmul(x, matmul(hrh, x))
+    end function rhs
+
+  end subroutine steady_gain
 
   !> One input cell of length h, exactly (Van Loan): x_A(k+1) = phi x_A(k)
   !> + gam c_k, and int over the cell of z' Qz z = z_k' qd z_k with

@@ -143,3 +143,20 @@ def test_an_unknown_no_input_reaches_gets_infinite_sigma():
     assert np.all(np.isfinite(inp.u))
     assert np.isfinite(inp.summary["sigma"][0]) and np.isinf(inp.summary["sigma"][1])
     assert inp.summary["det"] == 0.0
+
+
+def test_process_noise_design_matches_the_report_example():
+    """§7.5.1: x' = -x + theta u + eta, steady-state gain k; the sensitivity
+    pole moves to -(1+k), mu = 1/(r (omega^2 + (1+k)^2)), tan(omega T) = -omega/(1+k)."""
+    q, r, T = 3.0, 1.0, 1.0
+    d = mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[r]], ["g(1,1)"], process_noise=[[q]])
+    k = (-1.0 + np.sqrt(1.0 + q / r))              # Sigma/r from -2 Sigma + q - Sigma^2/r = 0
+    a = 1.0 + k
+    lo, hi = np.pi / (2 * T) + 1e-12, np.pi / T
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if np.tan(mid * T) + mid / a < 0 else (lo, mid)
+    omega = 0.5 * (lo + hi)
+    mu = 1.0 / (r * (omega**2 + a**2))
+    assert d.mu_max(T) == pytest.approx(mu, rel=1e-7)
+    assert d.mu_max(T) < first_order().mu_max(T)      # process noise costs information

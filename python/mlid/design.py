@@ -58,10 +58,13 @@ class DesignedInput:
 
 
 class InputDesign:
-    """The linear model x' = F x + G u, z = H x + n (E{n n'} = R delta) and
-    the unknowns, elements of F, G or H named 'f(i,j)', 'g(i,j)', 'h(i,j)'."""
+    """The linear model x' = F x + G u (+ Gamma eta), z = H x + n
+    (E{n n'} = R delta) and the unknowns, elements of F, G or H named
+    'f(i,j)', 'g(i,j)', 'h(i,j)'.  process_noise: Gamma Q Gamma' (nx x nx);
+    the design then uses the steady-state Kalman filter's sensitivities
+    (§7.5, eq. 7.84)."""
 
-    def __init__(self, F, G, H, R, unknowns, weights=None):
+    def __init__(self, F, G, H, R, unknowns, weights=None, process_noise=None):
         self.F, self.G, self.H, self.R = (np.asfortranarray(np.atleast_2d(np.asarray(a, float)))
                                           for a in (F, G, H, R))
         nx, nu, ny = self.F.shape[0], self.G.shape[1], self.H.shape[0]
@@ -84,16 +87,22 @@ class InputDesign:
             np.asarray(weights, dtype=float)
         if self.weights.shape != (len(self.unknowns),):
             raise InputError(f"weights: one per unknown ({len(self.unknowns)})")
+        self.process_noise = np.zeros((nx, nx)) if process_noise is None else \
+            np.asfortranarray(np.asarray(process_noise, dtype=float))
+        if self.process_noise.shape != (nx, nx):
+            raise InputError(f"process_noise must be {nx}x{nx} (Gamma Q Gamma')")
 
     def _args(self):
-        return dict(f=self.F, g=self.G, h=self.H, r=self.R, **self._unk)
+        return dict(f=self.F, g=self.G, h=self.H, r=self.R, gq=self.process_noise, **self._unk)
 
     def with_weights(self, weights):
-        return InputDesign(self.F, self.G, self.H, self.R, self.unknowns, weights)
+        return InputDesign(self.F, self.G, self.H, self.R, self.unknowns, weights,
+                           self.process_noise)
 
     def with_model(self, F=None, G=None, H=None):
         return InputDesign(self.F if F is None else F, self.G if G is None else G,
-                           self.H if H is None else H, self.R, self.unknowns, self.weights)
+                           self.H if H is None else H, self.R, self.unknowns, self.weights,
+                           self.process_noise)
 
     def _check_t(self, T, what="T"):
         if not (np.isfinite(T) and T > 0):
