@@ -29,6 +29,7 @@ bench: install
 	$(VPY) benchmarks/peer_statsmodels_m2f3.py
 	$(VPY) benchmarks/bench_rank_search.py
 	$(VPY) benchmarks/bench_x22.py
+	$(VPY) benchmarks/bench_design.py
 
 install: sysdeps $(STAMP)
 

@@ -1,0 +1,34 @@
+"""Speed of the optimal input design (cases/c8_input_design): the C-8
+four-state model of §8.2 with five unknowns, T = 4 s, energy 58: mu_max and
+the optimal input by the operator method (median of 5).  Target: under 0.5 s.
+"""
+
+import time
+
+import numpy as np
+
+import mlid
+
+F = [[-0.02, -32.2, 0, 33.74], [0, 0, 1, 0], [0.003, 0, -1.588, -0.562],
+     [-0.004, 0, 1, -0.737]]
+G = [[0], [0], [-1.658], [0.005]]
+R = np.diag([0.125, 0.125, 0.25, 0.25])       # CASES.md §1 (OCR ".125 .125 .250"), ours
+UNKNOWNS = ["f(3,3)", "f(3,4)", "f(4,4)", "g(3,1)", "g(4,1)"]
+
+
+def main():
+    d = mlid.InputDesign(F, G, np.eye(4), R, UNKNOWNS)
+    for cells in (100, 200):
+        times = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            inp = d.optimal_input(4.0, 58.0, cells=cells)
+            times.append(time.perf_counter() - t0)
+        wall = float(np.median(times))
+        print(f"C-8 four-state, 5 unknowns, T = 4 s, {cells}+{2 * cells} cells: "
+              f"{1e3 * wall:.0f} ms (target < 500 ms: {'met' if wall < 0.5 else 'NOT met'}); "
+              f"mu {inp.mu:.1f}, tr M {inp.summary['trace']:.4g}")
+
+
+if __name__ == "__main__":
+    main()
