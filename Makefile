@@ -30,6 +30,7 @@ bench: install
 	$(VPY) benchmarks/bench_rank_search.py
 	$(VPY) benchmarks/bench_x22.py
 	$(VPY) benchmarks/bench_design.py
+	$(VPY) benchmarks/monte_carlo_10k.py
 
 install: sysdeps $(STAMP)
 
@@ -49,7 +50,7 @@ sysdeps:
 $(VPY):
 	$(PYTHON) -m venv $(VENV)
 	$(VPY) -m pip install -q --upgrade pip
-	$(VPY) -m pip install -q meson meson-python ninja numpy f90nml matplotlib pytest
+	$(VPY) -m pip install -q meson meson-python ninja numpy f90nml matplotlib pytest dask distributed
 
 # Build with meson-python into ./build (kept, so meson test can run there).
 $(STAMP): $(VPY) $(SOURCES)

@@ -278,7 +278,7 @@ contains
   !> iterations, run_status each run's status (0, or the code it ended on).
   subroutine mlid_monte_carlo(mkind, nx, nu, ny, nw, nth, theta_true, theta_start, isfree, itie, &
                               nic, iconst, nrc, rconst, nt, t, u, seed0, nrun, iopt, ropt, nf, &
-                              est, sig, iters, run_status, status, msg)
+                              est, sig, info, iters, run_status, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed0, nrun, nf
     real(c_double), intent(in) :: theta_true(nth), theta_start(nth)
     integer(c_int), intent(in) :: isfree(nth), itie(nth)
@@ -287,7 +287,7 @@ contains
     real(c_double), intent(in) :: t(nt), u(nu, nt)
     integer(c_int), intent(in) :: iopt(12)
     real(c_double), intent(in) :: ropt(12)
-    real(c_double), intent(out) :: est(nf, nrun), sig(nf, nrun)
+    real(c_double), intent(out) :: est(nf, nrun), sig(nf, nrun), info(nf, nf, nrun)
     integer(c_int), intent(out) :: iters(nrun), run_status(nrun), status
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
@@ -296,6 +296,7 @@ contains
     real(wp) :: yzero(ny, nt)
 
     est = 0.0_wp
+    info = 0.0_wp
     sig = 0.0_wp
     iters = 0
     run_status = 0
@@ -308,7 +309,8 @@ contains
       msg = 'true parameter values must be finite'
       return
     end if
-    call monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, run_status)
+    call monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, run_status, &
+                     info)
   end subroutine mlid_monte_carlo
 
   !> Check and gather the a priori values and weight and the bounds of the

@@ -17,7 +17,7 @@ contains
   !> Run r uses seed seed0 + r - 1.  A failed run is recorded in
   !> run_status(r) and does not stop the others.
   subroutine monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, &
-                         run_status)
+                         run_status, info)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta_true(:), theta_start(:)
     type(param_map_t), intent(in) :: pm
@@ -26,6 +26,7 @@ contains
     integer, intent(in) :: seed0
     real(wp), intent(out) :: est(:, :), sig(:, :)
     integer, intent(out) :: iters(:), run_status(:)
+    real(wp), intent(out), optional :: info(:, :, :)   !< each run's information matrix
     real(wp) :: y(m%ny, size(t)), x(m%nx, size(t))
     type(fit_result_t) :: res
     type(extras_t) :: none
@@ -35,6 +36,7 @@ contains
     est = 0.0_wp
     sig = 0.0_wp
     iters = 0
+    if (present(info)) info = 0.0_wp
     do r = 1, size(run_status)
       call simulate_outputs(m, theta_true, t, u, opt, seed0 + r - 1, y, x, run_status(r), msg)
       if (run_status(r) /= MLID_OK) cycle
@@ -45,6 +47,7 @@ contains
         sig(k, r) = sqrt(max(0.0_wp, res%cov(k, k)))
       end do
       iters(r) = res%niter
+      if (present(info) .and. allocated(res%info)) info(:, :, r) = res%info
     end do
   end subroutine monte_carlo
 

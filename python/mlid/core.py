@@ -249,7 +249,7 @@ def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, **options)
     measurement noise of standard deviation noise_std) with seeds seed,
     seed+1, ...; each fitted from ``start`` (same structure and free set) with
     the fit options given.  Returns estimates, Cramer-Rao sigmas (runs, nf),
-    iterations and per-run status."""
+    information matrices (runs, nf, nf), iterations and per-run status."""
     if truth.theta.size != start.theta.size or list(truth.free) != list(start.free):
         raise InputError("truth and start models must have the same structure and free set")
     if noise_std is not None:
@@ -259,12 +259,13 @@ def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, **options)
     t = np.ascontiguousarray(t, dtype=float).ravel()
     u = np.ascontiguousarray(np.asarray(u, dtype=float).reshape(t.size, start.nu))
     mask = start.free_mask
-    est, sig, iters, run_status, status, msg = _api.mlid_monte_carlo(
+    est, sig, info, iters, run_status, status, msg = _api.mlid_monte_carlo(
         **_model_args(start), theta_true=truth.theta, theta_start=start.theta, isfree=mask,
         itie=start.tie_index, t=t, u=u.T, seed0=int(seed), nrun=int(runs), iopt=iopt, ropt=ropt,
         nf=int(mask.sum()))
     check_status(status, msg)
-    return {"estimates": est.T.copy(), "sigma": sig.T.copy(), "iterations": iters,
+    return {"estimates": est.T.copy(), "sigma": sig.T.copy(),
+            "information": np.moveaxis(info, 2, 0).copy(), "iterations": iters,
             "status": run_status, "names": start.free_names(),
             "truth": truth.theta[mask == 1]}
 
