@@ -48,6 +48,8 @@ def test_c8_monte_carlo_case(tmp_path):
     assert o["expected info trace"] > 3 * d["expected info trace"]
     assert o["sample cov det"] < d["sample cov det"]
     assert len(list(tmp_path.glob("fig8_1*.png"))) == 5
+    ts = out["two-sided"]                       # §8.3: through the servo, det favours optimal
+    assert ts["optimal"]["det"] > 2 * ts["doublet"]["det"]
 
 
 def test_bad_runs():
