@@ -160,3 +160,16 @@ def test_process_noise_design_matches_the_report_example():
     mu = 1.0 / (r * (omega**2 + a**2))
     assert d.mu_max(T) == pytest.approx(mu, rel=1e-7)
     assert d.mu_max(T) < first_order().mu_max(T)      # process noise costs information
+
+
+def test_two_inputs_share_the_energy_where_it_buys_most():
+    """Two decoupled first-order channels with unknown gains: the optimal
+    input puts all its energy on the channel of the larger mu (the weaker
+    noise), and the design matches that channel's closed form."""
+    d = mlid.InputDesign(np.diag([-1.0, -1.0]), np.eye(2), np.eye(2), np.diag([1.0, 4.0]),
+                         ["g(1,1)", "g(2,2)"])
+    omega, mu = closed_form(1.0)
+    assert d.mu_max(1.0) == pytest.approx(mu, abs=1e-7)      # channel 1, r = 1
+    inp = d.optimal_input(1.0, 1.0)
+    assert inp.u.shape[1] == 2
+    assert np.sum(inp.u[:, 1] ** 2) < 1e-12 * np.sum(inp.u[:, 0] ** 2)

@@ -60,7 +60,8 @@ def first_order_example(T=1.0):
 
 def standard_input(kind, T, n, energy=None, peak=None):
     """The standard flight-test inputs on n equal cells of [0, T], scaled to
-    an energy or a peak: doublet, 3-2-1-1, Schroeder-phased multisine (8
+    an energy or a peak: doublet, 3-2-1-1, multistep (a 2-1-1 pattern of
+    alternating steps, twice, unit T/8), Schroeder-phased multisine (8
     harmonics of 1/T), PRBS (31-bit maximal-length sequence)."""
     t = (np.arange(n) + 0.5) * T / n
     if kind == "doublet":
@@ -68,6 +69,9 @@ def standard_input(kind, T, n, energy=None, peak=None):
     elif kind == "3211":
         unit = T / 7
         u = np.select([t < 3 * unit, t < 5 * unit, t < 6 * unit], [1.0, -1.0, 1.0], -1.0)
+    elif kind == "multistep":
+        ends = np.cumsum([2, 1, 1, 2, 1, 1]) * T / 8
+        u = np.array([(-1.0) ** np.searchsorted(ends, x, side="right") for x in t])
     elif kind == "multisine":
         k = np.arange(1, 9)
         phase = -np.pi * k * (k - 1) / len(k)              # Schroeder's phases
@@ -147,7 +151,7 @@ def run(plots=None):
     # standard inputs, equal energy and equal peak
     peak = float(np.max(np.abs(long.u)))
     rows = [("optimal", long.u)]
-    for kind in ("doublet", "3211", "multisine", "prbs"):
+    for kind in ("doublet", "3211", "multistep", "multisine", "prbs"):
         rows.append((f"{kind}, equal energy", standard_input(kind, T_LONG, 2 * CELLS, E_LONG)))
         rows.append((f"{kind}, equal peak", standard_input(kind, T_LONG, 2 * CELLS, peak=peak)))
     sq = square_wave(long.u, T_LONG, peak, min_width=0.2)
