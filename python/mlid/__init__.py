@@ -13,12 +13,13 @@ from .deck import read_deck, run_deck
 from .analysis import fpe, compare_models, predict
 from .design import InputDesign, DesignedInput
 from .parallel import monte_carlo_parallel
+from .diagnose import diagnose
 
 __version__ = "0.1.0"
 
 __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
            "NonConvergenceError", "InternalError", "LinearModel", "LongitudinalModel", "UserModel",
-           "X22Model", "InputDesign", "DesignedInput", "monte_carlo_parallel", "check_jacobians", "FlightData", "FitResult",
+           "X22Model", "InputDesign", "DesignedInput", "monte_carlo_parallel", "diagnose", "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
            "recover_disturbance", "fpe", "compare_models", "predict"]

@@ -26,6 +26,10 @@ def _parser():
     run.add_argument("deck", help="namelist deck (.nml)")
     run.add_argument("--plots", metavar="DIR", help="write PNG plots of each fit into DIR")
     run.add_argument("--json", metavar="FILE", help="write every case's results as JSON")
+    diag = sub.add_parser("diagnose", help="find what the model of each estimate case misses")
+    diag.add_argument("deck", help="namelist deck (.nml)")
+    diag.add_argument("--plots", metavar="DIR", help="residuals before and after, per case")
+    diag.add_argument("--alpha", type=float, default=0.05, help="significance (default 0.05)")
     return p
 
 
@@ -66,12 +70,48 @@ def _run(args):
     return 1 if failed else 0
 
 
+def _diagnose(args):
+    import warnings
+
+    from .deck import read_deck, run_case
+    from .diagnose import diagnose
+
+    warnings.simplefilter("ignore")
+    failed, cases = 0, read_deck(args.deck)
+    for case in cases:
+        print(f"\n case {case.index}: {case.title}")
+        try:
+            if case.job == "simulate" or case.error:
+                out, _ = run_case(case)
+                print(f" simulated {out['samples']} samples to {out['out']}")
+                continue
+            options = case.options()
+            for key in ("prior", "prior_weight", "bounds"):   # the workflow's own fits
+                options.pop(key, None)
+            d = diagnose(case.model, case.record(), alpha=args.alpha, **options)
+            print(d.report())
+            if args.plots:
+                path = d.plot(args.plots)
+                target = path.with_name(f"case{case.index}_diagnosis.png")
+                path.replace(target)
+                print(f" plot: {target}")
+        except MlidError as exc:
+            failed += 1
+            print(f" FAILED: {exc}")
+            print(f"mlid: {case.where()}: {exc}", file=sys.stderr)
+    if failed:
+        print(f"{failed} of {len(cases)} cases failed", file=sys.stderr)
+    return 1 if failed else 0
+
+
 def main(argv=None):
     args = _parser().parse_args(argv)
     if args.job is None:
         _parser().print_help()
         return 2
     try:
+        if args.job == "diagnose":
+            return _diagnose(args)
         return _run(args)
     except MlidError as exc:
         print(f"mlid: {exc}", file=sys.stderr)

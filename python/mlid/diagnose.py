@@ -1,0 +1,535 @@
+"""What is the model missing?  Fit, diagnose the residuals, rank candidate
+effects from a library, refit the best, accept by likelihood ratio and
+Akaike, repeat (issue 7; the report did it by hand in §5.2-5.3).
+
+    d = mlid.diagnose(model, data)
+    print(d.report())
+    d.effects            # the accepted effects, in order, with estimate and sigma
+    d.fit                # the final fit
+
+Candidate families (each with the name a flight-test engineer would use):
+
+    output bias           a constant offset on one output (free bias(i))
+    missing derivative    a fixed element of F, G, H or D set free (e.g. Y_p)
+    input time delay      an input recorded ahead of the surface by k samples
+    sensor scale factor   an output read as (1 + k) times the truth
+    sensor lag            a first-order lag between the quantity and its sensor
+    process noise         turbulence on one state equation: filter error
+    nonlinear term        a further regressor (alpha^2, ...) in C_D, C_L or C_m
+
+Candidates that are parameters of the model (bias, derivative, nonlinear
+term) are ranked by the score (Lagrange-multiplier) statistic from the
+gradient and information at the current fit, the nuisance parameters
+partialled out; the others by the match of the residuals to their
+signature.  The best few are refitted; one is accepted per round when its
+likelihood ratio 2 dJ beats the chi-square(k) point at alpha divided by the
+number of candidates tried (Bonferroni) and its cost drop beats Akaike's k.
+A candidate whose direction the free parameters already span (less than
+1e-7 of its information left once they are partialled out) is flagged as
+confounded, never picked; a refitted one strongly correlated with a free
+parameter (above 0.95) says so in its decision.
+"""
+
+import math
+
+import numpy as np
+
+from . import core
+from .data import FlightData
+from .errors import MlidError
+from .model import REGRESSORS, LinearModel, LongitudinalModel
+from .result import whiteness
+
+
+def _normal_upper(p):
+    """z with P(Z > z) = p (bisection on erfc)."""
+    lo, hi = -40.0, 40.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if 0.5 * math.erfc(mid / math.sqrt(2)) > p else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def chi2_quantile(p, k=1):
+    """Upper-p point of chi-square(k): exact for k = 1 (the square of the
+    two-sided normal point), Wilson-Hilferty for k > 1."""
+    if k == 1:
+        return _normal_upper(p / 2) ** 2
+    z = _normal_upper(p)
+    return k * (1 - 2 / (9 * k) + z * math.sqrt(2 / (9 * k))) ** 3
+
+
+def residual_diagnostics(res, lags=20, xcorr_lags=10):
+    """Per output: mean and its z, whiteness (Ljung-Box), the strongest
+    spectral peak over the median, the largest cross-correlation with each
+    input (and its lag), a linear trend's z, and the share of repeated values
+    (clipping or quantisation plateaus)."""
+    e = res.residuals
+    n = len(e)
+    white = whiteness(e, lags)
+    u = res.data.u - res.data.u.mean(axis=0)
+    out = []
+    for i in range(e.shape[1]):
+        col = e[:, i]
+        sd = col.std(ddof=1) or 1.0
+        c = col - col.mean()
+        spec = np.abs(np.fft.rfft(c))[1:] ** 2
+        peak = float(spec.max() / max(np.median(spec), 1e-300)) if spec.size else 0.0
+        tt = np.arange(n) - (n - 1) / 2
+        slope = float(tt @ c / (tt @ tt))
+        slope_z = slope / (sd / math.sqrt(tt @ tt))
+        xc = []
+        for j in range(u.shape[1]):
+            uj = u[:, j]
+            den = math.sqrt((c @ c) * (uj @ uj)) or 1.0
+            vals = [(float(c[k:] @ uj[:n - k]) / den, k) for k in range(xcorr_lags + 1)]
+            xc.append(max(vals, key=lambda v: abs(v[0])))
+        y = res.data.y[:, i]
+        repeated = float(np.mean(np.diff(y) == 0.0))
+        out.append({"output": res.data.output_names[i] if res.data.output_names else f"y{i + 1}",
+                    "mean": float(col.mean()), "mean_z": float(col.mean() / (sd / math.sqrt(n))),
+                    "rms": float(math.sqrt(np.mean(col**2))), "Q": white[i]["Q"],
+                    "Q_critical": white[i]["critical"], "white": white[i]["white"],
+                    "spectral_peak": peak, "trend_z": slope_z, "xcorr": xc,
+                    "plateaus": repeated})
+    return out
+
+
+class Candidate:
+    """One effect the model might be missing."""
+
+    def __init__(self, family, name, k=1, **spec):
+        self.family, self.name, self.k, self.spec = family, name, k, spec
+        self.score = None          # LM statistic (parameter candidates)
+        self.signature = None      # residual signature (structural candidates)
+        self.confounded = False
+        self.lr = None
+        self.fit = None
+        self.decision = "not refitted"
+        self.value = None
+        self.note = ""
+
+    def __repr__(self):
+        return f"Candidate({self.family}: {self.name})"
+
+
+def _linear_elements(model, nx):
+    """The fixed, untied elements of F and G (the derivatives) in the state
+    equations that have a free derivative already, among the first nx
+    states.  An equation with none is kinematics (phi-dot = p + tan(alpha) r),
+    and states a candidate added (a sensor lag) are not aircraft dynamics."""
+    free, tied = set(model.free), set(model.ties)
+    rows = [i for i in range(nx) if any(f"{k}({i + 1},{j + 1})" in free
+                                        for k, a in (("f", model.F), ("g", model.G))
+                                        for j in range(a.shape[1]))]
+    out = []
+    for key, a in (("f", model.F), ("g", model.G)):
+        for j in range(a.shape[1] if key == "g" else nx):
+            for i in rows:
+                name = f"{key}({i + 1},{j + 1})"
+                if name not in free and name not in tied:
+                    out.append(name)
+    return out
+
+
+def _gain_element(model, i):
+    """h(i,j) when output i measures state j alone (a scale factor is then
+    that element), else None."""
+    row = model.H[i]
+    nz = np.flatnonzero(row)
+    if len(nz) == 1 and not np.any(model.D[i]):
+        return f"h({i + 1},{nz[0] + 1})"
+    return None
+
+
+def _library(model, data, families, nx):
+    cands = []
+    ny, nu = model.ny, model.nu
+    outs = data.output_names or [f"y{i + 1}" for i in range(ny)]
+    ins = data.input_names or [f"u{j + 1}" for j in range(nu)]
+    if "bias" in families:
+        for i in range(ny):
+            if f"bias({i + 1})" not in model.free:
+                cands.append(Candidate("output bias", f"bias on {outs[i]}",
+                                       param=f"bias({i + 1})"))
+    if "derivative" in families and isinstance(model, LinearModel):
+        for e in _linear_elements(model, nx):
+            cands.append(Candidate("missing derivative", model.names.get(e, e), param=e))
+    if "nonlinear" in families and isinstance(model, LongitudinalModel):
+        for key in ("CD", "CL", "Cm"):
+            for reg in REGRESSORS:
+                if reg not in model.regressors[key]:
+                    cands.append(Candidate("nonlinear term", f"{reg} in {key}", coef=key, reg=reg))
+    if "delay" in families:
+        for j in range(nu):
+            cands.append(Candidate("input time delay", f"delay on {ins[j]}", input=j))
+    if "scale" in families and isinstance(model, LinearModel):
+        for i in range(ny):
+            gain = _gain_element(model, i)
+            if gain is not None:        # a parameter: the score test applies
+                if gain not in model.free and gain not in model.ties:
+                    cands.append(Candidate("sensor scale factor", f"scale factor on {outs[i]}",
+                                           param=gain))
+            else:
+                cands.append(Candidate("sensor scale factor", f"scale factor on {outs[i]}",
+                                       output=i))
+    if "lag" in families and isinstance(model, LinearModel):
+        for i in range(ny):
+            cands.append(Candidate("sensor lag", f"lag on {outs[i]}", output=i))
+    if "noise" in families and isinstance(model, LinearModel) and model.nw == 0:
+        for s in range(model.nx):   # one turbulence model at a time
+            cands.append(Candidate("process noise", f"turbulence on state {s + 1}", state=s))
+    return cands
+
+
+# --- building the candidate models -------------------------------------------
+
+def _with_param(model, name):
+    return model.with_free(list(model.free) + [name])
+
+
+def _extended_longitudinal(model, coef, reg):
+    regs = {k: list(v) for k, v in model.regressors.items()}
+    vals = {k: np.array(v, dtype=float) for k, v in model.coefficients.items()}
+    regs[coef] = regs[coef] + [reg]
+    vals[coef] = np.r_[vals[coef], 0.0]
+    block = {"CD": "cd", "CL": "cl", "Cm": "cm"}[coef]
+    # keep each free name pointing at the same coefficient (new ones go last)
+    names = dict(model.names)
+    m = LongitudinalModel(regs, vals, model.constants, x0=model.x0, bias=model.bias,
+                          free=[], names=names, input_hold=model.input_hold,
+                          substeps=model.substeps, r=model.r, q=model.q, S=model.S)
+    new = f"{block}({len(regs[coef])})"
+    return m.with_free(list(model.free) + [new]), new
+
+
+def _scaled(model, i, k):
+    H, D = model.H.copy(), model.D.copy()
+    H[i] *= 1 + k
+    D[i] *= 1 + k
+    m = LinearModel(model.F, model.G, H, D, Gamma=model.Gamma, **model._common())
+    return m
+
+
+def _lagged(model, i, tau):
+    """A first-order lag on output i: a new state z, zdot = (H_i x + D_i u - z)/tau."""
+    nx = model.nx
+    F = np.zeros((nx + 1, nx + 1))
+    F[:nx, :nx] = model.F
+    F[nx, :nx] = model.H[i] / tau
+    F[nx, nx] = -1.0 / tau
+    G = np.vstack([model.G, model.D[i] / tau])
+    H = np.hstack([model.H, np.zeros((model.ny, 1))])
+    H[i] = 0.0
+    H[i, nx] = 1.0
+    D = model.D.copy()
+    D[i] = 0.0
+    Gamma = np.vstack([model.Gamma, np.zeros((1, model.nw))])
+    common = model._common()
+    x0 = np.r_[model.x0, model.H[i] @ model.x0]
+    common["x0"] = x0
+    # element names move with the new state only for F(i,j), G(i,j) (same indices)
+    return LinearModel(F, G, H, D, Gamma=Gamma, **common)
+
+
+def _noisy(model, s):
+    """Process noise on state s: Gamma = e_s, q free, r free (filter error)."""
+    nx, ny = model.nx, model.ny
+    Gamma = np.zeros((nx, 1))
+    Gamma[s, 0] = 1.0
+    common = model._common()
+    common.update(q=np.array([1e-3]), S=np.zeros((1, ny)))
+    m = LinearModel(model.F, model.G, model.H, model.D, Gamma=Gamma, **common)
+    return m.with_free(list(model.free) + ["q(1)"] + [f"r({i + 1})" for i in range(ny)])
+
+
+def _delayed(data, j, k):
+    u = data.u.copy()
+    u[k:, j] = data.u[:-k, j]
+    u[:k, j] = data.u[0, j]
+    return FlightData(data.t, u, data.y, data.input_names, data.output_names)
+
+
+def _golden(f, a, b, n=18):
+    """Minimise f on [a, b] (golden section), n steps."""
+    g = (math.sqrt(5) - 1) / 2
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(n):
+        if fc < fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = f(d)
+    return (c, fc) if fc < fd else (d, fd)
+
+
+class Diagnosis:
+    """The outcome: accepted effects, every candidate tried, the gap."""
+
+    def __init__(self, base, final, model, effects, rounds, alpha):
+        self.base, self.fit, self.model = base, final, model
+        self.effects, self.rounds, self.alpha = effects, rounds, alpha
+        self.before = residual_diagnostics(base)
+        self.after = residual_diagnostics(final)
+
+    def report(self):
+        lines = [" model-discrepancy diagnosis"]
+        for k, rnd in enumerate(self.rounds, 1):
+            lines.append(f" round {k}: cost {rnd['cost']:.2f}, {len(rnd['candidates'])} candidates,"
+                         f" threshold 2dJ > {rnd['threshold']:.2f} (chi-square, alpha "
+                         f"{self.alpha}/{len(rnd['candidates'])})")
+            ranked = sorted(rnd["candidates"], key=_rank_key, reverse=True)
+            for c in ranked[:8]:
+                stat = (f"score {c.score:9.2f}" if c.score is not None
+                        else f"signature {c.signature:6.3f}")
+                lr = f"2dJ {c.lr:9.2f}" if c.lr is not None else " " * 13
+                note = f" ({c.note})" if c.note else ""
+                lines.append(f"   {c.family:<20} {c.name:<28} {stat}  {lr}  {c.decision}{note}")
+        if self.effects:
+            lines.append(" effects found:")
+            for c in self.effects:
+                val = "" if c.value is None else f" = {c.value[0]:.5g} +- {c.value[1]:.2g}"
+                lines.append(f"   {c.family}: {c.name}{val} (2dJ {c.lr:.1f})")
+        else:
+            lines.append(" nothing missing at this significance")
+        lines.append(f" cost {self.base.cost:.2f} -> {self.fit.cost:.2f}")
+        for b, a in zip(self.before, self.after):
+            lines.append(f"   {b['output']:<8} residual rms {b['rms']:.4g} -> {a['rms']:.4g},  "
+                         f"Ljung-Box Q {b['Q']:.1f} -> {a['Q']:.1f} (5% point {b['Q_critical']:.1f})")
+        return "\n".join(lines)
+
+    def plot(self, folder):
+        """Residuals, their autocorrelation and spectrum before and after."""
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from pathlib import Path
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        ny = self.base.residuals.shape[1]
+        fig, axes = plt.subplots(ny, 3, figsize=(11, 2.0 * ny + 1), squeeze=False)
+        for i in range(ny):
+            for res, label, color in ((self.base, "before", "C3"), (self.fit, "after", "C0")):
+                e = res.residuals[:, i]
+                axes[i, 0].plot(res.data.t, e, color=color, lw=0.7, label=label)
+                c = e - e.mean()
+                ac = [1.0] + [float(c[k:] @ c[:-k] / (c @ c)) for k in range(1, 30)]
+                axes[i, 1].plot(ac, "o-", ms=2, color=color, label=label)
+                spec = np.abs(np.fft.rfft(c)) ** 2
+                axes[i, 2].semilogy(spec[1:], color=color, lw=0.7, label=label)
+            bound = 1.96 / math.sqrt(len(self.base.residuals))
+            axes[i, 1].axhspan(-bound, bound, color="0.9")
+            axes[i, 0].set_ylabel(self.before[i]["output"])
+        axes[0, 0].set_title("residuals")
+        axes[0, 1].set_title("autocorrelation")
+        axes[0, 2].set_title("spectrum")
+        axes[0, 0].legend(fontsize=7)
+        fig.tight_layout()
+        path = Path(folder) / "diagnosis.png"
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        return path
+
+
+def _rank_key(c):
+    if c.confounded:
+        return -1.0
+    if c.score is not None:
+        return c.score
+    return 1e3 * (c.signature or 0.0)
+
+
+FAMILIES = ("bias", "derivative", "nonlinear", "delay", "scale", "lag", "noise")
+#: a parameter candidate with less than this share of its information left once
+#: the free parameters are partialled out lies in their span: confounded
+CONFOUNDED = 1e-7
+
+
+def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effects=3,
+             max_delay=6, **options):
+    """The workflow of issue 7 on one record: returns a Diagnosis."""
+    options = dict(options)
+    base = core.fit(model, data, **options)
+    current, fit, cur_data = model.with_theta(base.model.theta), base, data
+    effects, rounds = [], []
+    while len(effects) < max_effects:
+        cands = _library(current, cur_data, families, model.nx)
+        cands = [c for c in cands if not any(_same(c, e) for e in effects)]
+        if not cands:
+            break
+        _score(current, fit, cur_data, cands, options)
+        diag = residual_diagnostics(fit)
+        _signatures(fit, cands, diag)
+        threshold = chi2_quantile(alpha / len(cands))
+        # the best of each kind: parameters by score, structures by signature
+        scored = sorted([c for c in cands if c.score is not None and not c.confounded],
+                        key=lambda c: c.score, reverse=True)
+        signed = sorted([c for c in cands if c.signature is not None],
+                        key=lambda c: c.signature, reverse=True)
+        tried = scored[:refit_best // 2] + signed[:refit_best - refit_best // 2]
+        for c in tried:
+            _refit(current, cur_data, fit, c, options, max_delay)
+        good = [c for c in tried if c.lr is not None and c.lr > chi2_quantile(
+            alpha / len(cands), c.k) and c.lr / 2 > c.k]
+        for c in tried:
+            if c.lr is not None and c not in good:
+                c.decision = "rejected"
+        rounds.append({"cost": fit.cost, "candidates": cands, "threshold": threshold})
+        if not good:
+            break
+        best = max(good, key=lambda c: c.lr)
+        best.decision = "ACCEPTED"
+        for c in good:
+            if c is not best:
+                c.decision = "significant, not the best this round"
+        effects.append(best)
+        current, fit, cur_data = best.spec["model"], best.fit, best.spec["data"]
+        options = best.spec["options"]
+    return Diagnosis(base, fit, current, effects, rounds, alpha)
+
+
+def _same(c, e):
+    return c.family == e.family and c.name == e.name
+
+
+def _score(model, fit, data, cands, options):
+    """LM statistics of the parameter candidates at the current estimate,
+    with the free parameters partialled out."""
+    for c in cands:
+        try:
+            if "param" in c.spec:
+                m = _with_param(model, c.spec["param"])
+                extra = m.free_names().index(m.names.get(c.spec["param"], c.spec["param"]))
+            elif "coef" in c.spec:
+                m, new = _extended_longitudinal(model, c.spec["coef"], c.spec["reg"])
+                extra = m.free_names().index(m.names.get(new, new))
+            else:
+                continue
+            ev = core.evaluate(m, data, **options)
+        except MlidError:
+            c.confounded = True
+            continue
+        g, M = ev["gradient"], ev["information"]
+        idx = [k for k in range(len(g)) if k != extra]
+        mcc = M[extra, extra]
+        if mcc <= 0:
+            c.confounded = True
+            continue
+        mct = M[extra, idx]
+        try:
+            left = mcc - mct @ np.linalg.solve(M[np.ix_(idx, idx)], mct)
+        except np.linalg.LinAlgError:
+            left = 0.0
+        if left < CONFOUNDED * mcc:  # the free parameters already span it
+            c.confounded = True
+            c.score = 0.0
+            continue
+        # the free parameters sit at their optimum: their gradient is ~0
+        gc = g[extra] - mct @ np.linalg.solve(M[np.ix_(idx, idx)], g[idx])
+        c.score = float(gc**2 / left)
+
+
+def _signatures(fit, cands, diag):
+    e = fit.residuals
+    yhat = fit.yhat
+    for c in cands:
+        if c.score is not None or c.confounded:
+            continue
+        f = c.family
+        if f == "input time delay":
+            c.signature = max(abs(d["xcorr"][c.spec["input"]][0]) for d in diag
+                              if d["xcorr"][c.spec["input"]][1] > 0) if any(
+                d["xcorr"][c.spec["input"]][1] > 0 for d in diag) else 0.0
+        elif f == "sensor scale factor":
+            i = c.spec["output"]
+            c.signature = abs(_corr(e[:, i], yhat[:, i]))
+        elif f == "sensor lag":
+            i = c.spec["output"]
+            c.signature = abs(_corr(e[:, i], np.gradient(yhat[:, i])))
+        elif f == "process noise":
+            c.signature = float(np.mean([abs(_corr(e[1:, i], e[:-1, i]))
+                                         for i in range(e.shape[1])]))
+
+
+def _corr(a, b):
+    a, b = a - a.mean(), b - b.mean()
+    den = math.sqrt((a @ a) * (b @ b))
+    return float(a @ b / den) if den > 0 else 0.0
+
+
+def _refit(model, data, fit, c, options, max_delay):
+    """Refit with the candidate; c.lr = 2 (J0 - J1)."""
+    f = c.family
+    try:
+        if "param" in c.spec:
+            m = _with_param(model, c.spec["param"])
+            res, d, opts = core.fit(m, data, **options), data, options
+            c.spec["label"] = m.names.get(c.spec["param"], c.spec["param"])
+            k = res.names.index(c.spec["label"])
+            c.value = (float(res.estimate[k]), float(res.sigma[k]))
+        elif "coef" in c.spec:
+            m, new = _extended_longitudinal(model, c.spec["coef"], c.spec["reg"])
+            res, d, opts = core.fit(m, data, **options), data, options
+            c.spec["label"] = m.names.get(new, new)
+            k = res.names.index(c.spec["label"])
+            c.value = (float(res.estimate[k]), float(res.sigma[k]))
+        elif f == "input time delay":
+            best = None
+            for lag in range(1, max_delay + 1):
+                dd = _delayed(data, c.spec["input"], lag)
+                r = core.fit(model, dd, **options)
+                if best is None or r.cost < best[0].cost:
+                    best = (r, dd, lag)
+            res, d, opts = best[0], best[1], options
+            m = model
+            c.value = (float(best[2] * (data.t[1] - data.t[0])), float("nan"))
+        elif f == "sensor scale factor":
+            i = c.spec["output"]
+            cache = {}
+
+            def cost(k):
+                r = core.fit(_scaled(model, i, k), data, **options)
+                cache[k] = r
+                return r.cost
+            k, _ = _golden(cost, -0.5, 0.5)
+            res, d, opts, m = cache[k], data, options, _scaled(model, i, k)
+            c.value = (float(k), float("nan"))
+        elif f == "sensor lag":
+            i = c.spec["output"]
+            dt = data.t[1] - data.t[0]
+            cache = {}
+
+            def cost(lt):
+                r = core.fit(_lagged(model, i, math.exp(lt)), data, **options)
+                cache[lt] = r
+                return r.cost
+            lt, _ = _golden(cost, math.log(0.3 * dt), math.log(50 * dt))
+            res, d, opts, m = cache[lt], data, options, _lagged(model, i, math.exp(lt))
+            c.value = (float(math.exp(lt)), float("nan"))
+        elif f == "process noise":
+            m = _noisy(model.with_theta(fit.model.theta), c.spec["state"])
+            m.r = np.diag(fit.rhat).copy()
+            opts = dict(options, method="filter_error")
+            res = core.fit(m, data, bounds={"q(1)": (0.0, None)}, **opts)
+            d = data
+            c.value = (float(res.estimate[res.names.index(m.names.get("q(1)", "q(1)"))]),
+                       float(res.sigma[res.names.index(m.names.get("q(1)", "q(1)"))]))
+        else:
+            return
+    except MlidError as exc:
+        c.decision = f"refit failed: {exc}"
+        return
+    c.lr = float(2 * (fit.cost - res.cost))
+    c.fit = res
+    if "label" in c.spec:
+        k = res.names.index(c.spec["label"])
+        corr = np.delete(res.correlation[k], k)
+        if corr.size and np.max(np.abs(corr)) > 0.95:
+            j = int(np.argmax(np.abs(corr)))
+            other = [n for i, n in enumerate(res.names) if i != k][j]
+            c.note = f"correlated {corr[j]:+.3f} with {other}"
+    c.spec.update(model=res.model if hasattr(res, "model") else m, data=d, options=opts)
+    c.decision = "refitted"

@@ -1,0 +1,130 @@
+"""Synthetic records with a hidden effect, for the discrepancy workflow
+(tests/test_diagnose.py, benchmarks/diagnose_scenarios.py).
+
+A lateral model (report eq. 5.1 with HL-10-like derivatives, flown open loop
+with an aileron 3-2-1-1 and a rudder doublet) generates each record; the
+truth contains one effect (or two, or none) that the analysis model lacks.
+The nonlinear-term scenario uses the longitudinal model instead.
+"""
+
+import numpy as np
+
+import mlid
+
+ALPHA = np.radians(16.8)
+G_V = 32.174 * np.cos(ALPHA) / 1181.0
+BASE = {"L_p": -0.3435, "L_r": 0.2723, "L_beta": -30.75, "N_p": 0.0245, "N_r": -0.1290,
+        "N_beta": 6.8411, "Y_beta": -0.0916, "L_da": 11.2464, "L_dr": 5.665, "N_da": 0.8135,
+        "N_dr": -3.617}
+FREE = {"L_p": "f(1,1)", "L_r": "f(1,2)", "L_beta": "f(1,3)", "N_p": "f(2,1)", "N_r": "f(2,2)",
+        "N_beta": "f(2,3)", "Y_beta": "f(3,3)", "L_da": "g(1,1)", "L_dr": "g(1,2)",
+        "N_da": "g(2,1)", "N_dr": "g(2,2)"}
+NOISE = [0.2, 0.1, 0.05, 0.05]          # p, r [deg/s], beta, phi [deg]
+DT, NT = 0.02, 400
+SCENARIOS = ("null", "bias", "derivative", "gust", "delay", "scale", "lag", "nonlinear", "two")
+# what the workflow must name first: (family, name)
+EXPECTED = {"bias": ("output bias", "bias on beta"),
+            "derivative": ("missing derivative", "Y_p"),
+            "gust": ("process noise", None),          # any state: the gust drives all three
+            "delay": ("input time delay", "delay on delta_a"),
+            "scale": ("sensor scale factor", "scale factor on p"),
+            "lag": ("sensor lag", "lag on phi"),
+            "nonlinear": ("nonlinear term", "alpha^2 in Cm"),
+            "two": [("output bias", "bias on beta"), ("input time delay", "delay on delta_a")]}
+
+
+def matrices(v, y_p=0.0):
+    F = np.array([[v["L_p"], v["L_r"], v["L_beta"], 0.0], [v["N_p"], v["N_r"], v["N_beta"], 0.0],
+                  [y_p + np.sin(ALPHA), -np.cos(ALPHA), v["Y_beta"], G_V],
+                  [1.0, np.tan(ALPHA), 0.0, 0.0]])
+    G = np.array([[v["L_da"], v["L_dr"]], [v["N_da"], v["N_dr"]], [0.0, 0.0], [0.0, 0.0]])
+    return F, G
+
+
+def analysis_model():
+    F, G = matrices(BASE)
+    return mlid.LinearModel(F, G, np.eye(4), free=list(FREE.values()),
+                            names={**{e: n for n, e in FREE.items()}, "f(3,1)": "Y_p",
+                                   "f(3,2)": "Y_r"})
+
+
+def inputs():
+    t = np.arange(NT) * DT
+    da = mlid.core.input_signal("3211", 2.0, 0.5, 0.3, DT, NT)
+    dr = mlid.core.input_signal("doublet", 2.0, 4.0, 0.5, DT, NT)
+    return t, np.column_stack([da, dr])
+
+
+def make(scenario, seed):
+    """(analysis model, record) for a scenario and a seed."""
+    if scenario == "nonlinear":
+        return _longitudinal(seed)
+    t, u = inputs()
+    rng = np.random.default_rng(seed)
+    F, G = matrices(BASE, y_p=-0.15 if scenario == "derivative" else 0.0)
+    H = np.eye(4)
+    surf = u.copy()
+    if scenario in ("delay", "two"):
+        surf[3:, 0] = u[:-3, 0]
+        surf[:3, 0] = u[0, 0]
+    if scenario == "gust":
+        # a first-order gust entering like sideslip (report eq. 5.1), tau = 0.5 s
+        Fg = np.zeros((5, 5))
+        Fg[:4, :4] = F
+        Fg[:3, 4] = F[:3, 2]
+        Fg[4, 4] = -2.0
+        truth = mlid.LinearModel(Fg, np.vstack([G, [0, 0]]), np.hstack([H, [[0], [0], [1], [0]]]),
+                                 Gamma=[[0], [0], [0], [0], [1.0]], q=[4.0], r=np.square(NOISE))
+        data, _ = mlid.simulate(truth, t, surf, seed=seed)
+    else:
+        truth = mlid.LinearModel(F, G, H, r=np.square(NOISE))
+        data, x = mlid.simulate(truth, t, surf, seed=seed)
+        y = data.y.copy()
+        if scenario in ("bias", "two"):
+            y[:, 2] += 0.15
+        if scenario == "scale":
+            y[:, 0] = x[:, 0] * 1.1 + rng.normal(0, NOISE[0], NT)
+        if scenario == "lag":
+            # a second-order sensor on phi: omega 15 rad/s, damping 0.7
+            wn, z = 15.0, 0.7
+            s = np.zeros(2)
+            out = np.empty(NT)
+            for k in range(NT):
+                out[k] = s[0]
+                for _ in range(10):
+                    h = DT / 10
+                    acc = wn * wn * (x[k, 3] - s[0]) - 2 * z * wn * s[1]
+                    s = s + h * np.array([s[1], acc])
+            y[:, 3] = out + rng.normal(0, NOISE[3], NT)
+        data = mlid.FlightData(t, u, y)
+    data.input_names = ["delta_a", "delta_r"]
+    data.output_names = ["p", "r", "beta", "phi"]
+    # the record holds the commanded (undelayed) inputs
+    data = mlid.FlightData(t, u, data.y, ["delta_a", "delta_r"], ["p", "r", "beta", "phi"])
+    return analysis_model(), data
+
+
+def _longitudinal(seed):
+    regs = {"CD": ["1", "V/V0", "alpha"], "CL": ["1", "V/V0", "alpha"],
+            "Cm": ["1", "V/V0", "alpha", "qhat", "de"]}
+    vals = {"CD": [0.117758, -0.0517459, 0.234846], "CL": [-0.204711, 0.363549, 3.21232],
+            "Cm": [0.134413, -0.0139045, -1.00241, -27.0570, -1.43707]}
+    const = dict(zip(mlid.model.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
+                                            7472.0, 0.0524, 0.792, 1.215]))
+    r = [0.33, 5.2e-6, 1.5e-4, 6.9e-6, 6.2e-5, 6.0e-4, 4.7e-2]
+    truth_regs = dict(regs, Cm=regs["Cm"] + ["alpha^2"])
+    truth_vals = dict(vals, Cm=vals["Cm"] + [-2.5])
+    truth = mlid.LongitudinalModel(truth_regs, truth_vals, const, x0=[106.0, 0.11, 0.105, -0.003],
+                                   r=r)
+    t = np.arange(601) * 0.1
+    de = -0.008 + mlid.core.input_signal("3211", 0.03, 2.0, 1.5, 0.1, 601) \
+        + mlid.core.input_signal("pulse", -0.04, 40.0, 2.0, 0.1, 601)
+    u = np.column_stack([de, np.full(601, 11600.0)])
+    data, _ = mlid.simulate(truth, t, u, seed=seed,
+                            output_names=["V", "alpha", "theta", "q", "qdot", "a_x", "a_z"],
+                            input_names=["delta_e", "thrust"])
+    free = [f"cd({k})" for k in (1, 2, 3)] + [f"cl({k})" for k in (1, 2, 3)] + \
+        [f"cm({k})" for k in (1, 2, 3, 4, 5)]
+    model = mlid.LongitudinalModel(regs, vals, const, x0=[106.0, 0.11, 0.105, -0.003], r=r,
+                                   free=free)
+    return model, data

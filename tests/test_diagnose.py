@@ -1,0 +1,96 @@
+"""The discrepancy workflow (mlid.diagnose): each hidden effect of
+tests/scenarios.py named first and accepted, nothing accepted when nothing is
+missing, the gap shrinking; the score statistic against a refit."""
+
+import subprocess
+
+import numpy as np
+import pytest
+
+import mlid
+from conftest import BIN
+from mlid.diagnose import chi2_quantile
+import scenarios
+
+SEEDS = (1, 2)
+
+
+@pytest.mark.parametrize("scenario", [s for s in scenarios.SCENARIOS if s != "null"])
+def test_hidden_effect_is_named(scenario):
+    for seed in SEEDS:
+        model, data = scenarios.make(scenario, seed)
+        d = mlid.diagnose(model, data)
+        assert d.effects, (scenario, seed, d.report())
+        expected = scenarios.EXPECTED[scenario]
+        first = d.effects[0]
+        if isinstance(expected, list):        # two effects: both found
+            found = {(e.family, e.name) for e in d.effects}
+            assert all(e in found for e in expected), d.report()
+        else:
+            family, name = expected
+            assert first.family == family and (name is None or first.name == name), d.report()
+        assert first.lr > chi2_quantile(0.05 / len(d.rounds[0]["candidates"]))
+        assert d.fit.cost < d.base.cost                       # the gap shrinks
+
+
+def test_null_case_accepts_nothing():
+    for seed in SEEDS + (3,):
+        model, data = scenarios.make("null", seed)
+        d = mlid.diagnose(model, data)
+        assert not d.effects, d.report()
+        assert "nothing missing" in d.report()
+
+
+def test_estimates_of_the_named_effects():
+    model, data = scenarios.make("bias", 1)
+    d = mlid.diagnose(model, data)
+    est, sigma = d.effects[0].value
+    assert abs(est - 0.15) < 3 * sigma                  # the hidden bias on beta
+    model, data = scenarios.make("delay", 1)
+    d = mlid.diagnose(model, data)
+    assert d.effects[0].value[0] == pytest.approx(3 * scenarios.DT)   # 3 samples
+    model, data = scenarios.make("scale", 1)
+    d = mlid.diagnose(model, data)
+    est, sigma = d.effects[0].value
+    assert abs(est - 1.1) < 3 * sigma                   # h(1,1): the gain of the p sensor
+
+
+def test_score_statistic_predicts_the_refit():
+    """Near the optimum the score statistic and the likelihood ratio agree
+    (both chi-square(1)); for a small bias they are close."""
+    model, data = scenarios.make("null", 4)
+    y = data.y.copy()
+    y[:, 1] += 0.02                                     # a small bias on r (~0.2 sigma)
+    data = mlid.FlightData(data.t, data.u, y, data.input_names, data.output_names)
+    d = mlid.diagnose(model, data, families=("bias",))
+    c = [c for c in d.rounds[0]["candidates"] if c.name == "bias on r"][0]
+    assert c.score == pytest.approx(c.lr, rel=0.1)
+
+
+def test_chi2_points():
+    assert chi2_quantile(0.05) == pytest.approx(3.841, abs=1e-3)
+    assert chi2_quantile(0.01) == pytest.approx(6.635, abs=1e-3)
+    assert chi2_quantile(0.05, 2) == pytest.approx(5.991, rel=0.01)
+
+
+def test_diagnose_from_the_command_line(tmp_path):
+    deck = tmp_path / "d.nml"
+    deck.write_text("""
+&case title = 'make data', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2, f = -1.2, 0.5, -1.0, -2.0, g = 1.5, 0.3,
+    h = 1, 0, 0, 1, bias = 0.0, 0.05 /
+&simulate out = 'd.dat', t_end = 4.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
+    input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2 /
+&case title = 'fit without the bias', job = 'estimate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2, f = -1.0, 0.5, -0.8, -2.0, g = 1.0, 0.3,
+    h = 1, 0, 0, 1, free = 'g(1,1)', 'f(1,1)', 'f(2,1)' /
+&data file = 'd.dat', input_cols = 2, output_cols = 3, 4 /
+""")
+    out = subprocess.run([str(BIN / "mlid"), "diagnose", str(deck), "--plots", str(tmp_path)],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "output bias: bias on y2" in out.stdout or "output bias: bias on" in out.stdout
+    assert (tmp_path / "case2_diagnosis.png").exists()
+    bad = subprocess.run([str(BIN / "mlid"), "diagnose", str(tmp_path / "none.nml")],
+                         capture_output=True, text=True)
+    assert bad.returncode == 1 and "Traceback" not in bad.stderr
