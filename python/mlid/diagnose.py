@@ -439,10 +439,10 @@ def _signatures(fit, cands, diag):
         if c.score is not None or c.confounded:
             continue
         f = c.family
-        if f == "input time delay":
-            c.signature = max(abs(d["xcorr"][c.spec["input"]][0]) for d in diag
-                              if d["xcorr"][c.spec["input"]][1] > 0) if any(
-                d["xcorr"][c.spec["input"]][1] > 0 for d in diag) else 0.0
+        if f == "input time delay":     # residuals that follow the input a few samples late
+            lagged = [abs(d["xcorr"][c.spec["input"]][0]) for d in diag
+                      if d["xcorr"][c.spec["input"]][1] > 0]
+            c.signature = max(lagged, default=0.0)
         elif f == "sensor scale factor":
             i = c.spec["output"]
             c.signature = abs(_corr(e[:, i], yhat[:, i]))
