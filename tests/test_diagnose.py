@@ -94,3 +94,13 @@ def test_diagnose_from_the_command_line(tmp_path):
     bad = subprocess.run([str(BIN / "mlid"), "diagnose", str(tmp_path / "none.nml")],
                          capture_output=True, text=True)
     assert bad.returncode == 1 and "Traceback" not in bad.stderr
+
+
+def test_start_up_and_bounds_go_to_the_fits():
+    """An equation-error start-up runs for the first fit only (the refits
+    start from the current estimate, where a bias would not be identifiable
+    by equation error), and bounds reach every fit but no score evaluation."""
+    model, data = scenarios.make("bias", 1)
+    d = mlid.diagnose(model, data, startup="equation_error", bounds={"L_p": (None, 0.0)})
+    assert (d.effects[0].family, d.effects[0].name) == scenarios.EXPECTED["bias"]
+    assert not any(c.decision.startswith("refit failed") for r in d.rounds for c in r["candidates"])

@@ -85,10 +85,7 @@ def _diagnose(args):
                 out, _ = run_case(case)
                 print(f" simulated {out['samples']} samples to {out['out']}")
                 continue
-            options = case.options()
-            for key in ("prior", "prior_weight", "bounds"):   # the workflow's own fits
-                options.pop(key, None)
-            d = diagnose(case.model, case.record(), alpha=args.alpha, **options)
+            d = diagnose(case.model, case.record(), alpha=args.alpha, **case.options())
             print(d.report())
             if args.plots:
                 path = d.plot(args.plots)

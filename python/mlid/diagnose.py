@@ -350,9 +350,13 @@ CONFOUNDED = 1e-7
 
 def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effects=3,
              max_delay=6, **options):
-    """The workflow of issue 7 on one record: returns a Diagnosis."""
+    """The workflow of issue 7 on one record: returns a Diagnosis.  options
+    go to every fit (prior, prior_weight and bounds to the fits only, not to
+    the score evaluations); the refits start from the current estimate, so an
+    equation-error start-up runs for the first fit alone."""
     options = dict(options)
     base = core.fit(model, data, **options)
+    options["startup"] = "none"
     current, fit, cur_data = model.with_theta(base.model.theta), base, data
     effects, rounds = [], []
     while len(effects) < max_effects:
@@ -408,7 +412,7 @@ def _score(model, fit, data, cands, options):
                 extra = m.free_names().index(m.names.get(new, new))
             else:
                 continue
-            ev = core.evaluate(m, data, **options)
+            ev = core.evaluate(m, data, **_evaluate_options(options))
         except MlidError:
             c.confounded = True
             continue
@@ -458,6 +462,13 @@ def _corr(a, b):
     a, b = a - a.mean(), b - b.mean()
     den = math.sqrt((a @ a) * (b @ b))
     return float(a @ b / den) if den > 0 else 0.0
+
+
+_FIT_ONLY = ("prior", "prior_weight", "bounds")
+
+
+def _evaluate_options(options):
+    return {k: v for k, v in options.items() if k not in _FIT_ONLY}
 
 
 def _refit(model, data, fit, c, options, max_delay):
@@ -513,7 +524,8 @@ def _refit(model, data, fit, c, options, max_delay):
             m = _noisy(model.with_theta(fit.model.theta), c.spec["state"])
             m.r = np.diag(fit.rhat).copy()
             opts = dict(options, method="filter_error")
-            res = core.fit(m, data, bounds={"q(1)": (0.0, None)}, **opts)
+            opts["bounds"] = dict(opts.get("bounds") or {}, **{"q(1)": (0.0, None)})
+            res = core.fit(m, data, **opts)
             d = data
             c.value = (float(res.estimate[res.names.index(m.names.get("q(1)", "q(1)"))]),
                        float(res.sigma[res.names.index(m.names.get("q(1)", "q(1)"))]))
