@@ -502,10 +502,14 @@ def _refit(model, data, fit, c, options, max_delay):
             cache = {}
 
             def cost(k):
-                r = core.fit(_scaled(model, i, k), data, **options)
-                cache[k] = r
-                return r.cost
-            k, _ = _golden(cost, -0.5, 0.5)
+                try:
+                    cache[k] = core.fit(_scaled(model, i, k), data, **options)
+                except MlidError:          # a trial the model cannot take: not the optimum
+                    return math.inf
+                return cache[k].cost
+            k, jk = _golden(cost, -0.5, 0.5)
+            if not math.isfinite(jk):
+                raise MlidError("no scale factor in the range fits")
             res, d, opts, m = cache[k], data, options, _scaled(model, i, k)
             c.value = (float(k), float("nan"))
         elif f == "sensor lag":
@@ -514,10 +518,15 @@ def _refit(model, data, fit, c, options, max_delay):
             cache = {}
 
             def cost(lt):
-                r = core.fit(_lagged(model, i, math.exp(lt)), data, **options)
-                cache[lt] = r
-                return r.cost
-            lt, _ = _golden(cost, math.log(0.3 * dt), math.log(50 * dt))
+                try:
+                    cache[lt] = core.fit(_lagged(model, i, math.exp(lt)), data, **options)
+                except MlidError:
+                    return math.inf
+                return cache[lt].cost
+            # from one sample interval (the integrator's step) to 50
+            lt, jt = _golden(cost, math.log(dt), math.log(50 * dt))
+            if not math.isfinite(jt):
+                raise MlidError("no lag in the range fits")
             res, d, opts, m = cache[lt], data, options, _lagged(model, i, math.exp(lt))
             c.value = (float(math.exp(lt)), float("nan"))
         elif f == "process noise":
