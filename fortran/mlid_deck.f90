@@ -28,9 +28,11 @@ module mlid_deck
   use mlid_user_model, only: user_model_t, user_model_create
   implicit none
   private
-  public :: deck_case_t, deck_read, case_record, case_time_input, NAMELEN, PATHLEN
+  public :: deck_case_t, deck_read, case_record, case_time_input, manoeuvre_layout, NAMELEN, &
+            PATHLEN
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512, LINELEN = 2048
+  integer, parameter :: MAXSEG = 20     !< manoeuvres (data files) per case
   integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
   integer, parameter :: MAXR = 12, NBLOCK = 10
   !> Suffix of a longitudinal coefficient's default label, per regressor
@@ -59,7 +61,8 @@ module mlid_deck
     real(wp) :: ropt(NOPT) = 0.0_wp
     character(len=16) :: noise = 'diagonal'
     character(len=16) :: method = 'output_error'
-    character(len=PATHLEN) :: data_file = ''  !< relative paths are resolved from the deck
+    !> the records, one per manoeuvre (relative paths are resolved from the deck)
+    character(len=PATHLEN), allocatable :: data_files(:)
     integer :: time_col = 1, skip_rows = 0
     integer, allocatable :: input_cols(:), output_cols(:)
     character(len=PATHLEN) :: out_file = ''
@@ -139,7 +142,7 @@ contains
     real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay
     real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
     integer :: rank_min, rank_max, free_idx(MAXFREE), pos
-    character(len=PATHLEN) :: file, out
+    character(len=PATHLEN) :: file(MAXSEG), out
     integer :: input_cols(MAXCOL), output_cols(MAXCOL)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
     namelist /case/ title, job
@@ -379,12 +382,12 @@ contains
       skip_rows = 0
       call read_group('data', required=.true.)
       if (c%status /= MLID_OK) return
-      c%data_file = file
+      c%data_files = pack(file, len_trim(file) > 0)
       c%time_col = time_col
       c%skip_rows = skip_rows
       c%input_cols = pack(input_cols, input_cols /= 0)
       c%output_cols = pack(output_cols, output_cols /= 0)
-      if (len_trim(file) == 0) then
+      if (size(c%data_files) == 0) then
         call fail('group &data: file is missing')
       else if (size(c%input_cols) /= nu .or. size(c%output_cols) /= ny) then
         write (iomsg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%input_cols), &
@@ -794,20 +797,53 @@ contains
     end do
   end subroutine element_index
 
-  !> The record of an estimate case: t(nt), u(nu, nt), y(ny, nt) from its
-  !> data file (relative to the deck's folder deck_dir).
-  subroutine case_record(c, deck_dir, t, u, y, status, msg)
+  !> The record of an estimate case: time, inputs and outputs from its
+  !> data files (relative to the deck's folder deck_dir).  Several files are
+  !> several manoeuvres, one after the other, each keeping its sampling with
+  !> its times moved to follow the one before; segstart(k) is the first
+  !> sample of manoeuvre k.
+  subroutine case_record(c, deck_dir, t, u, y, status, msg, segstart)
     type(deck_case_t), intent(in) :: c
     character(len=*), intent(in) :: deck_dir
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    integer, allocatable, intent(out), optional :: segstart(:)
+    real(wp), allocatable :: tk(:), uk(:, :), yk(:, :)
+    integer :: k, nseg
+    integer :: starts(MAXSEG)
+
+    nseg = size(c%data_files)
+    allocate (t(0), u(c%nu, 0), y(c%ny, 0))
+    do k = 1, nseg
+      call read_record(c, resolve(deck_dir, c%data_files(k)), tk, uk, yk, status, msg)
+      if (status /= MLID_OK) return
+      if (size(tk) < 2 .and. nseg > 1) then
+        status = MLID_ERR_INPUT
+        write (msg, '(a,i0,a)') 'manoeuvre ', k, ' ('//trim(c%data_files(k))// &
+          ') has fewer than 2 samples'
+        return
+      end if
+      starts(k) = size(t) + 1
+      if (k > 1) tk = tk - tk(1) + t(size(t)) + (tk(2) - tk(1))
+      t = [t, tk]
+      u = reshape([u, uk], [c%nu, size(t)])
+      y = reshape([y, yk], [c%ny, size(t)])
+    end do
+    if (present(segstart)) segstart = starts(1:nseg)
+  end subroutine case_record
+
+  !> One data file: the case's columns of it.
+  subroutine read_record(c, path, t, u, y, status, msg)
+    type(deck_case_t), intent(in) :: c
+    character(len=*), intent(in) :: path
+    real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
     character(len=LINELEN), allocatable :: lines(:)
-    character(len=PATHLEN) :: path
     real(wp), allocatable :: table(:, :), row(:)
     integer :: k, n, ncol, ios, nrow
 
-    path = resolve(deck_dir, c%data_file)
     call read_lines(path, lines, status, msg)
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
@@ -850,7 +886,105 @@ contains
     y = table(c%output_cols, 1:nrow)
     status = MLID_OK
     msg = ''
-  end subroutine case_record
+  end subroutine read_record
+
+  !> The case's parameters for nseg manoeuvres: every manoeuvre its own
+  !> initial state and biases (the x0 and bias blocks repeated, start values
+  !> and free flags alike), the rest shared; labels of a manoeuvre's own
+  !> entries end in '#k'.  As mlid/maneuvers.py does for Python.
+  subroutine manoeuvre_layout(c, nseg, status, msg)
+    type(deck_case_t), intent(inout) :: c
+    integer, intent(in) :: nseg
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: nth, np, nx, ny, own, k, j, shift
+    integer, allocatable :: map(:), seg(:)
+    character(len=NAMELEN), allocatable :: full(:), lab(:)
+    character(len=8) :: suffix
+
+    status = MLID_OK
+    msg = ''
+    if (nseg <= 1) return
+    nx = c%nx
+    ny = c%ny
+    nth = size(c%theta)
+    np = nth - (nx + ny + c%nw + ny + c%nw*ny)
+    own = nx + ny
+    if (any(c%itie /= 0 .and. ((c%itie > np .and. c%itie <= np + own) .or. &
+                               [(k > np .and. k <= np + own, k=1, nth)]))) then
+      status = MLID_ERR_INPUT
+      msg = 'ties to or from initial states and biases are not available with several manoeuvres'
+      return
+    end if
+    ! map(k): the single-manoeuvre entry that entry k of the new vector copies; seg(k) its manoeuvre
+    allocate (map(0), seg(0))
+    map = [(k, k=1, np)]
+    seg = [(0, k=1, np)]
+    do j = 1, nseg
+      map = [map, (np + k, k=1, nx)]
+      seg = [seg, (j, k=1, nx)]
+    end do
+    do j = 1, nseg
+      map = [map, (np + nx + k, k=1, ny)]
+      seg = [seg, (j, k=1, ny)]
+    end do
+    map = [map, (k, k=np + own + 1, nth)]
+    seg = [seg, (0, k=np + own + 1, nth)]
+    allocate (full(nth))
+    full = ''
+    full(pack([(k, k=1, nth)], c%isfree == 1)) = c%labels
+    if (c%use_prior == 1) then
+      if (any(c%isfree(np + 1:np + own) == 1)) then
+        status = MLID_ERR_INPUT
+        msg = 'a priori weighting with free initial states or biases is not available with '// &
+              'several manoeuvres'
+        return
+      end if
+    end if
+    allocate (lab(size(map)))
+    do k = 1, size(map)
+      lab(k) = full(map(k))
+      if (seg(k) > 0) then
+        write (suffix, '(a,i0)') '#', seg(k)
+        lab(k) = trim(full(map(k)))//trim(suffix)
+      end if
+    end do
+    shift = (nseg - 1)*own
+    c%itie = merge(c%itie + shift, c%itie, c%itie > np + own)
+    c%itie = c%itie(map)
+    c%theta = c%theta(map)
+    if (allocated(c%prior)) c%prior = c%prior(map)
+    if (allocated(c%lower)) c%lower = c%lower(map)
+    if (allocated(c%upper)) c%upper = c%upper(map)
+    if (allocated(c%pweight)) call grow_weight()
+    c%isfree = c%isfree(map)
+    c%labels = pack(lab, c%isfree == 1)
+
+  contains
+
+    !> The a priori weight over the new free set: shared entries keep
+    !> theirs, a manoeuvre's own get none (none had one, checked above).
+    subroutine grow_weight()
+      real(wp), allocatable :: w(:, :)
+      integer, allocatable :: old(:), newf(:)
+      integer :: a, b, ia, ib
+      old = pack([(k, k=1, nth)], c%isfree == 1)
+      newf = pack([(k, k=1, size(map))], c%isfree(map) == 1)
+      allocate (w(size(newf), size(newf)))
+      w = 0.0_wp
+      do a = 1, size(newf)
+        if (seg(newf(a)) > 0) cycle
+        ia = findloc(old, map(newf(a)), 1)
+        do b = 1, size(newf)
+          if (seg(newf(b)) > 0) cycle
+          ib = findloc(old, map(newf(b)), 1)
+          w(a, b) = c%pweight(ia, ib)
+        end do
+      end do
+      c%pweight = w
+    end subroutine grow_weight
+
+  end subroutine manoeuvre_layout
 
   !> Time base t = 0, dt, ..., and inputs of a simulate case.
   subroutine case_time_input(c, t, u, status, msg)

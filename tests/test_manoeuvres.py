@@ -108,3 +108,45 @@ def test_bad_manoeuvre_input(kwargs, match):
         mlid.fit(truth.with_free(COEFFS), records, **kwargs)
     with pytest.raises(mlid.InputError, match="several manoeuvres"):
         mlid.fit(truth.with_free(COEFFS), records[0], **kwargs)
+
+
+def test_several_manoeuvres_in_a_deck_through_both_front_ends(tmp_path):
+    """&data file = 'a.dat', 'b.dat': two manoeuvres, shared derivatives,
+    each its own initial state and bias; both front ends, the same numbers."""
+    import json
+    import subprocess
+
+    from conftest import BIN
+    deck = tmp_path / "two.nml"
+    deck.write_text("""
+&case title = 'first manoeuvre', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2, f = -1.2, 0.5, -1.0, -2.0, g = 1.5, 0.3,
+    h = 1, 0, 0, 1, x0 = 0.2, 0.0 /
+&simulate out = 'a.dat', t_end = 3.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
+    input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2 /
+&case title = 'second manoeuvre', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2, f = -1.2, 0.5, -1.0, -2.0, g = 1.5, 0.3,
+    h = 1, 0, 0, 1, x0 = -0.1, 0.05, bias = 0.0, 0.03 /
+&simulate out = 'b.dat', t_end = 2.0, dt = 0.02, seed = 5, noise_std = 0.01, 0.01,
+    input_shape = 'doublet', amplitude = 0.8, t_start = 0.3, pulse_width = 0.4 /
+&case title = 'both together', job = 'estimate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2, f = -1.0, 0.5, -0.8, -2.0, g = 1.0, 0.3,
+    h = 1, 0, 0, 1, free = 'g(1,1)', 'f(1,1)', 'f(2,1)', 'x0(1)', 'x0(2)', 'bias(2)',
+    names = 'b1', 'a11', 'a21' /
+&data file = 'a.dat', 'b.dat', input_cols = 2, output_cols = 3, 4 /
+""")
+    res = []
+    for cmd, out in (([str(BIN / "mlid"), "run"], "py.json"), ([str(BIN / "mlid-batch")], "fo.json")):
+        run = subprocess.run(cmd + [str(deck), "--json", str(tmp_path / out)], capture_output=True,
+                             text=True)
+        assert run.returncode == 0, run.stderr
+        res.append(json.loads((tmp_path / out).read_text())[2])
+    a, b = res
+    assert a["parameters"] == b["parameters"]
+    assert "x0(1)#2" in a["parameters"] and "bias(2)#2" in a["parameters"]
+    np.testing.assert_allclose(a["estimate"], b["estimate"], rtol=1e-10, atol=1e-14)
+    est = dict(zip(a["parameters"], a["estimate"]))
+    sig = dict(zip(a["parameters"], a["sigma"]))
+    for name, truth in (("a11", -1.2), ("a21", -1.0), ("b1", 1.5), ("x0(1)#1", 0.2),
+                        ("x0(1)#2", -0.1), ("x0(2)#2", 0.05), ("bias(2)#2", 0.03)):
+        assert abs(est[name] - truth) < 4 * sig[name], (name, est[name], sig[name])

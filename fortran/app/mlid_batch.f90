@@ -4,7 +4,7 @@
 !> if any case failed.
 program mlid_batch
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_NOCONV
-  use mlid_deck, only: deck_case_t, deck_read, case_record, case_time_input
+  use mlid_deck, only: deck_case_t, deck_read, case_record, case_time_input, manoeuvre_layout
   use mlid_api, only: mlid_fit, mlid_simulate
   use mlid_report, only: report_fit, json_open, json_close, json_case
   implicit none
@@ -77,6 +77,7 @@ contains
     real(wp), allocatable :: theta(:), theta0(:), sigma(:), cov(:, :), info(:, :), grad(:), eigval(:)
     real(wp), allocatable :: eigvec(:, :)
     real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), x(:, :)
+    integer, allocatable :: segstart(:)
     real(wp) :: cost, wall
     integer :: niter, reason, converged, bad, nf, nth, cstat, j, t0, t1, rate, ou, rank
     character(len=256) :: cmsg
@@ -115,15 +116,19 @@ contains
         end if
       end if
     else if (cstat == MLID_OK) then
-      call case_record(c, deck_dir, t, u, y, cstat, cmsg)
+      call case_record(c, deck_dir, t, u, y, cstat, cmsg, segstart)
+      ! several data files: several manoeuvres, each its own x0 and biases
+      if (cstat == MLID_OK) call manoeuvre_layout(c, size(segstart), cstat, cmsg)
       if (cstat == MLID_OK) then
+        nth = size(c%theta)
+        nf = count(c%isfree == 1)
         allocate (theta(nth), theta0(nth), sigma(nth), cov(nf, nf), info(nf, nf), grad(nf), eigval(nf), &
                   eigvec(nf, nf), &
                   rhat(c%ny, c%ny), yhat(c%ny, size(t)), hist(c%iopt(1) + 1))
         call system_clock(t0, rate)
         call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, &
                       size(c%iconst), c%iconst, size(c%rconst), c%rconst, size(t), t, u, y, &
-                      1, [1], c%iopt, c%ropt, nf, size(hist), c%use_prior, prior_or_zero(c%prior, nth), &
+                      size(segstart), segstart, c%iopt, c%ropt, nf, size(hist), c%use_prior, prior_or_zero(c%prior, nth), &
                       pweight_or_zero(c%pweight, nf), c%use_bounds, prior_or_zero(c%lower, nth), &
                       prior_or_zero(c%upper, nth), theta0, theta, &
                       sigma, cov, info, grad, eigval, eigvec, rhat, yhat, hist, cost, niter, reason, &

@@ -42,7 +42,7 @@ def _schema():
             "substeps": (_INT, 1), "state_names": (_STRS, []),
             "input_names": (_STRS, []), "output_names": (_STRS, []),
         },
-        "data": {"file": (_STR, ""), "time_col": (_INT, 1), "input_cols": (_INTS, []),
+        "data": {"file": (_STRS, []), "time_col": (_INT, 1), "input_cols": (_INTS, []),
                  "output_cols": (_INTS, []), "skip_rows": (_INT, 0)},
         "simulate": {"out": (_STR, ""), "t_end": (_REAL, 0.0), "dt": (_REAL, 0.0),
                      "seed": (_INT, 0), "noise_std": (_REALS, None),
@@ -78,12 +78,15 @@ class Case:
 
     # -- what the case needs to run ------------------------------------
     def record(self):
-        """The FlightData of an estimate case, read from its data file."""
+        """The FlightData of an estimate case, read from its data file; a list
+        of them when the case names several files (several manoeuvres)."""
         d, m = self.groups["data"], self.groups["model"]
-        return FlightData.load(self._path(d["file"]), d["time_col"], d["input_cols"],
-                               d["output_cols"], d["skip_rows"],
-                               input_names=m["input_names"] or None,
-                               output_names=m["output_names"] or None)
+        records = [FlightData.load(self._path(f), d["time_col"], d["input_cols"],
+                                   d["output_cols"], d["skip_rows"],
+                                   input_names=m["input_names"] or None,
+                                   output_names=m["output_names"] or None)
+                   for f in d["file"] if f]
+        return records[0] if len(records) == 1 else records
 
     def time_input(self):
         """Time base and inputs of a simulate case (shapes from the core)."""
@@ -398,6 +401,7 @@ def _check_data(groups, model):
     d = groups["data"]
     d["input_cols"] = [c for c in d["input_cols"] if c]
     d["output_cols"] = [c for c in d["output_cols"] if c]
+    d["file"] = [f for f in (d["file"] or []) if f]
     if not d["file"]:
         raise InputError("group &data: file is missing")
     if len(d["input_cols"]) != model.nu or len(d["output_cols"]) != model.ny:
