@@ -34,7 +34,7 @@ module mlid_deck
   integer, parameter :: NAMELEN = 32, PATHLEN = 512, LINELEN = 2048
   integer, parameter :: MAXSEG = 20     !< manoeuvres (data files) per case
   integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
-  integer, parameter :: MAXR = 12, NBLOCK = 10
+  integer, parameter :: MAXR = 12, NBLOCK = 11
   !> Suffix of a longitudinal coefficient's default label, per regressor
   !> (C_D0, C_DV, C_Lalpha, C_mq, ...; python/mlid/model.py has the same).
   character(len=8), parameter :: SUFFIX(NREG) = &
@@ -127,7 +127,7 @@ contains
     character(len=16) :: job, kind, input_hold, noise, method, startup, rank_rule, input_shape(MAXU)
     integer :: nx, nu, ny, nw, substeps, max_iter, halvings, time_col, skip_rows, seed
     real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
-    real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY)
+    real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY), k(MAXU*MAXX)
     character(len=8) :: cd_regressors(MAXR), cl_regressors(MAXR), cm_regressors(MAXR)
     real(wp) :: cd(MAXR), cl(MAXR), cm(MAXR), constants(9), p(MAXFREE), user_rconst(MAXFREE)
     integer :: user_iconst(MAXFREE)
@@ -146,7 +146,7 @@ contains
     integer :: input_cols(MAXCOL), output_cols(MAXCOL)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
     namelist /case/ title, job
-    namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, x0, bias, q, r, s, free, names, &
+    namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, k, x0, bias, q, r, s, free, names, &
       tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
       cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows
@@ -156,7 +156,7 @@ contains
       tol_step, tol_grad, rcond, prior, prior_weight, prior_decay, rank_min, rank_max, rank_rule, &
       lower, upper
     type(options_t) :: opt
-    integer :: unit, k, ios, np, idx, jdx, peq, nth
+    integer :: unit, ik, ios, np, idx, jdx, peq, nth
     logical :: found
     character(len=msg_len) :: iomsg
     character(len=LINELEN) :: text
@@ -164,10 +164,10 @@ contains
     ! Write the case without comments to a scratch file: gfortran and the
     ! Python reader disagree on comments after a trailing comma.
     open (newunit=unit, status='scratch', action='readwrite', form='formatted')
-    do k = 1, size(lines)
-      text = strip_comment(lines(k))
+    do ik = 1, size(lines)
+      text = strip_comment(lines(ik))
       write (unit, '(a)') trim(text)
-      call check_groups(text, line0 + k - 1, c)
+      call check_groups(text, line0 + ik - 1, c)
       if (c%status /= MLID_OK) then
         close (unit)
         return
@@ -192,6 +192,7 @@ contains
     nw = 0
     f = UNSET
     gamma = UNSET
+    k = UNSET
     q = UNSET
     r = UNSET
     s = UNSET
@@ -289,8 +290,9 @@ contains
     c%nw = nw
     ! The blocks of theta, in order: key, rows, columns (-1: a vector).
     if (c%mkind == MODEL_LINEAR) then
-      call set_blocks([character(len=8) :: 'f', 'g', 'h', 'd', 'gamma', 'x0', 'bias', 'q', 'r', 's'], &
-                      [nx, nx, ny, ny, nx, nx, ny, nw, ny, nw], [nx, nu, nx, nu, nw, -1, -1, -1, -1, ny])
+      call set_blocks([character(len=8) :: 'f', 'g', 'h', 'd', 'gamma', 'k', 'x0', 'bias', 'q', &
+                       'r', 's'], [nx, nx, ny, ny, nx, nu, nx, ny, nw, ny, nw], &
+                      [nx, nu, nx, nu, nw, nx, -1, -1, -1, -1, ny])
     else if (c%mkind == MODEL_USER .or. c%mkind == MODEL_X22) then
       call set_blocks([character(len=8) :: 'p', 'x0', 'bias', 'q', 'r', 's'], &
                       [ncoef(1), nx, ny, nw, ny, nw], [-1, -1, -1, -1, -1, ny])
@@ -309,7 +311,8 @@ contains
       call put_matrix('g', g, nx, nu, nx*nx, required=nu > 0)
       call put_matrix('h', h, ny, nx, nx*nx + nx*nu, required=.true.)
       call put_matrix('d', d, ny, nu, nx*nx + nx*nu + ny*nx, required=.false.)
-      call put_matrix('gamma', gamma, nx, nw, np - nx*nw, required=nw > 0)
+      call put_matrix('gamma', gamma, nx, nw, np - nx*nw - nu*nx, required=nw > 0)
+      call put_matrix('k', k, nu, nx, np - nu*nx, required=.false.)
     else if (c%mkind == MODEL_USER .or. c%mkind == MODEL_X22) then
       call put_vector('p', p, ncoef(1), 0)
       if (ncoef(1) > 0 .and. count(p /= UNSET) == 0) call fail('group &model: p (the '// &
@@ -325,39 +328,39 @@ contains
     call put_vector('r', r, ny, np + nx + ny + nw)
     call put_matrix('s', s, nw, ny, np + nx + ny + nw + ny, required=.false.)
     if (c%status /= MLID_OK) return
-    do k = 1, MAXFREE
-      if (len_trim(free(k)) == 0) cycle
-      call element_index(free(k), bkey, brow, bcol, boff, idx)
+    do ik = 1, MAXFREE
+      if (len_trim(free(ik)) == 0) cycle
+      call element_index(free(ik), bkey, brow, bcol, boff, idx)
       if (idx == 0) then
-        call fail('group &model: free parameter '''//trim(free(k))// &
+        call fail('group &model: free parameter '''//trim(free(ik))// &
                   ''' does not exist ('//trim(block_list())//' within the dimensions)')
         return
       end if
       if (c%isfree(idx) == 1) then
-        call fail('group &model: free parameter '''//trim(free(k))//''' listed twice')
+        call fail('group &model: free parameter '''//trim(free(ik))//''' listed twice')
         return
       end if
       c%isfree(idx) = 1
-      free_idx(count(len_trim(free(1:k)) > 0)) = idx
+      free_idx(count(len_trim(free(1:ik)) > 0)) = idx
       c%labels(idx) = default_label(idx)
-      if (len_trim(names(k)) > 0) c%labels(idx) = names(k)
+      if (len_trim(names(ik)) > 0) c%labels(idx) = names(ik)
     end do
     if (count(len_trim(names) > 0) > count(len_trim(free) > 0)) then
       call fail('group &model: more names than free parameters')
       return
     end if
     c%labels = pack(c%labels, c%isfree == 1)
-    do k = 1, MAXFREE
-      if (len_trim(tie(k)) == 0) cycle
-      peq = index(tie(k), '=')
+    do ik = 1, MAXFREE
+      if (len_trim(tie(ik)) == 0) cycle
+      peq = index(tie(ik), '=')
       idx = 0
       jdx = 0
       if (peq > 1) then
-        call element_index(tie(k)(1:peq - 1), bkey, brow, bcol, boff, idx)
-        call element_index(tie(k)(peq + 1:), bkey, brow, bcol, boff, jdx)
+        call element_index(tie(ik)(1:peq - 1), bkey, brow, bcol, boff, idx)
+        call element_index(tie(ik)(peq + 1:), bkey, brow, bcol, boff, jdx)
       end if
       if (idx == 0 .or. jdx == 0) then
-        call fail('group &model: tie '''//trim(tie(k))//''' must read ''a=b'' with two '// &
+        call fail('group &model: tie '''//trim(tie(ik))//''' must read ''a=b'' with two '// &
                   'parameters that exist')
         return
       end if
@@ -494,7 +497,7 @@ contains
       c%amplitude = pack(amplitude, amplitude /= UNSET)
       ! noise_std, when given, sets the measurement-noise variances r
       if (size(c%noise_std) == ny) c%theta(np + nx + ny + nw + 1:np + nx + ny + nw + ny) = c%noise_std**2
-      if (size(c%amplitude) == 0) c%amplitude = [(0.0_wp, k=1, nu)]
+      if (size(c%amplitude) == 0) c%amplitude = [(0.0_wp, ik=1, nu)]
       if (len_trim(out) == 0) then
         call fail('group &simulate: out (the data file to write) is missing')
       else if (.not. (dt > 0.0_wp .and. t_end > dt)) then

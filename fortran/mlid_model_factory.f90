@@ -51,7 +51,8 @@ contains
       lin%oh = lin%og + nx*nu
       lin%od = lin%oh + ny*nx
       lin%ogam = lin%od + ny*nu
-      lin%np = lin%ogam + nx*nw
+      lin%ok = lin%ogam + nx*nw
+      lin%np = lin%ok + nu*nx
       lin%linear = .true.
       allocate (model, source=lin)
     case (MODEL_AERO_LONG)

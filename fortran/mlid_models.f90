@@ -112,10 +112,13 @@ module mlid_models
     integer, allocatable :: seg(:)
   end type layout_t
 
-  !> Linear state space xdot = F x + G u + Gamma w, y = H x + D u.
-  !> p = [vec(F), vec(G), vec(H), vec(D), vec(Gamma)], each column-major.
+  !> Linear state space xdot = F x + G (u + K x) + Gamma w,
+  !> y = H x + D (u + K x): K (nu x nx) feeds states back to the inputs
+  !> (a stability augmentation system acting on top of the recorded
+  !> command); it is zero unless a case says otherwise.
+  !> p = [vec(F), vec(G), vec(H), vec(D), vec(Gamma), vec(K)], each column-major.
   type, extends(model_t) :: linear_model_t
-    integer :: of = 0, og = 0, oh = 0, od = 0, ogam = 0  !< offsets of the blocks in p
+    integer :: of = 0, og = 0, oh = 0, od = 0, ogam = 0, ok = 0  !< offsets of the blocks in p
   contains
     procedure :: f => lin_f
     procedure :: h => lin_h
@@ -158,18 +161,41 @@ contains
     l%nth = l%os + m%nw*m%ny
   end function model_layout
 
+  !> The inputs the aircraft sees: v = u + K x (the recorded u alone when K = 0).
+  pure function lin_surface(self, x, u, p) result(v)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: x(:), u(:), p(:)
+    real(wp) :: v(self%nu)
+    integer :: s, nu
+    nu = self%nu
+    v = u(1:nu)
+    do s = 1, self%nx
+      v = v + p(self%ok + (s - 1)*nu + 1:self%ok + s*nu)*x(s)
+    end do
+  end function lin_surface
+
+  !> One nr x nc block of p, starting after offset o.
+  pure function block(p, o, nr, nc) result(a)
+    real(wp), intent(in) :: p(:)
+    integer, intent(in) :: o, nr, nc
+    real(wp) :: a(nr, nc)
+    a = reshape(p(o + 1:o + nr*nc), [nr, nc])
+  end function block
+
   pure subroutine lin_f(self, t, x, u, p, xdot)
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: xdot(:)
+    real(wp) :: v(self%nu)
     integer :: j, n
     n = self%nx
+    v = lin_surface(self, x, u, p)
     xdot = 0.0_wp
     do j = 1, n
       xdot = xdot + p(self%of + (j - 1)*n + 1:self%of + j*n)*x(j)
     end do
     do j = 1, self%nu
-      xdot = xdot + p(self%og + (j - 1)*n + 1:self%og + j*n)*u(j)
+      xdot = xdot + p(self%og + (j - 1)*n + 1:self%og + j*n)*v(j)
     end do
     do j = 1, min(self%nw, size(u) - self%nu)          ! process noise, if given
       xdot = xdot + p(self%ogam + (j - 1)*n + 1:self%ogam + j*n)*u(self%nu + j)
@@ -180,22 +206,29 @@ contains
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: y(:)
+    real(wp) :: v(self%nu)
     integer :: j, m
     m = self%ny
+    v = lin_surface(self, x, u, p)
     y = 0.0_wp
     do j = 1, self%nx
       y = y + p(self%oh + (j - 1)*m + 1:self%oh + j*m)*x(j)
     end do
     do j = 1, self%nu
-      y = y + p(self%od + (j - 1)*m + 1:self%od + j*m)*u(j)
+      y = y + p(self%od + (j - 1)*m + 1:self%od + j*m)*v(j)
     end do
   end subroutine lin_h
 
+  !> a = F + G K
   pure subroutine lin_dfdx(self, t, x, u, p, a)
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: a(:, :)
-    a = reshape(p(self%of + 1:self%of + self%nx*self%nx), [self%nx, self%nx])
+    integer :: n, nu
+    n = self%nx
+    nu = self%nu
+    a = block(p, self%of, n, n)
+    if (nu > 0) a = a + matmul(block(p, self%og, n, nu), block(p, self%ok, nu, n))
   end subroutine lin_dfdx
 
   pure subroutine lin_dfdp(self, t, x, u, p, idx, b)
@@ -203,8 +236,10 @@ contains
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: b(:, :)
+    real(wp) :: v(self%nu)
     integer :: k, q, i, j, n
     n = self%nx
+    v = lin_surface(self, x, u, p)
     b = 0.0_wp
     do k = 1, size(idx)
       q = idx(k)
@@ -213,25 +248,36 @@ contains
         i = mod(q, n) + 1
         j = q/n + 1
         b(i, k) = x(j)
-      else if (q <= self%oh) then       ! G(i, j): df_i/dG(i, j) = u_j
+      else if (q <= self%oh) then       ! G(i, j): df_i/dG(i, j) = v_j
         q = q - self%og - 1
         i = mod(q, n) + 1
         j = q/n + 1
-        b(i, k) = u(j)
-      else if (q > self%ogam) then      ! Gamma(i, j): df_i/dGamma(i, j) = w_j
+        b(i, k) = v(j)
+      else if (q > self%ogam .and. q <= self%ok) then  ! Gamma(i, j): df_i/dGamma(i, j) = w_j
         q = q - self%ogam - 1
         i = mod(q, n) + 1
         j = q/n + 1
         if (self%nu + j <= size(u)) b(i, k) = u(self%nu + j)
+      else if (q > self%ok) then        ! K(j, s): df/dK(j, s) = G(:, j) x_s
+        q = q - self%ok - 1
+        j = mod(q, self%nu) + 1
+        i = q/self%nu + 1
+        b(:, k) = p(self%og + (j - 1)*n + 1:self%og + j*n)*x(i)
       end if                            ! H and D do not enter f
     end do
   end subroutine lin_dfdp
 
+  !> c = H + D K
   pure subroutine lin_dhdx(self, t, x, u, p, c)
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: c(:, :)
-    c = reshape(p(self%oh + 1:self%oh + self%ny*self%nx), [self%ny, self%nx])
+    integer :: n, nu, m
+    n = self%nx
+    nu = self%nu
+    m = self%ny
+    c = block(p, self%oh, m, n)
+    if (nu > 0) c = c + matmul(block(p, self%od, m, nu), block(p, self%ok, nu, n))
   end subroutine lin_dhdx
 
   pure subroutine lin_dhdp(self, t, x, u, p, idx, d)
@@ -239,8 +285,10 @@ contains
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: d(:, :)
+    real(wp) :: v(self%nu)
     integer :: k, q, i, j, m
     m = self%ny
+    v = lin_surface(self, x, u, p)
     d = 0.0_wp
     do k = 1, size(idx)
       q = idx(k)
@@ -249,11 +297,16 @@ contains
         i = mod(q, m) + 1
         j = q/m + 1
         d(i, k) = x(j)
-      else if (q > self%od .and. q <= self%ogam) then  ! D(i, j): dh_i/dD(i, j) = u_j
+      else if (q > self%od .and. q <= self%ogam) then  ! D(i, j): dh_i/dD(i, j) = v_j
         q = q - self%od - 1
         i = mod(q, m) + 1
         j = q/m + 1
-        d(i, k) = u(j)
+        d(i, k) = v(j)
+      else if (q > self%ok) then                  ! K(j, s): dh/dK(j, s) = D(:, j) x_s
+        q = q - self%ok - 1
+        j = mod(q, self%nu) + 1
+        i = q/self%nu + 1
+        d(:, k) = p(self%od + (j - 1)*m + 1:self%od + j*m)*x(i)
       end if
     end do
   end subroutine lin_dhdp
@@ -262,21 +315,35 @@ contains
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: g(:, :)
-    g = reshape(p(self%ogam + 1:self%ogam + self%nx*self%nw), [self%nx, self%nw])
+    g = block(p, self%ogam, self%nx, self%nw)
   end subroutine lin_dfdw
 
+  !> d(H + D K)/dp: H(i, j) gives e_i e_j', D(i, j) gives e_i K(j, :),
+  !> K(j, s) gives D(:, j) e_s'.
   pure subroutine lin_dhdxp(self, t, x, u, p, idx, dc)
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: dc(:, :, :)
-    integer :: k, q
+    integer :: k, q, i, j, m, nu
+    m = self%ny
+    nu = self%nu
     dc = 0.0_wp
     do k = 1, size(idx)
       q = idx(k)
       if (q > self%oh .and. q <= self%od) then    ! H(i, j)
         q = q - self%oh - 1
-        dc(mod(q, self%ny) + 1, q/self%ny + 1, k) = 1.0_wp
+        dc(mod(q, m) + 1, q/m + 1, k) = 1.0_wp
+      else if (q > self%od .and. q <= self%ogam) then  ! D(i, j)
+        q = q - self%od - 1
+        i = mod(q, m) + 1
+        j = q/m + 1
+        dc(i, :, k) = p(self%ok + j:self%ok + nu*self%nx:nu)
+      else if (q > self%ok) then                  ! K(j, s)
+        q = q - self%ok - 1
+        j = mod(q, nu) + 1
+        i = q/nu + 1
+        dc(:, i, k) = p(self%od + (j - 1)*m + 1:self%od + j*m)
       end if
     end do
   end subroutine lin_dhdxp

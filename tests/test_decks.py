@@ -156,3 +156,31 @@ def test_values_from_an_index_fill_the_following_elements(tmp_path):
                     + "&estimate lower(2) = -1.0, -2.0 /\n")
     case = mlid.read_deck(deck)[0]
     assert case.options()["bounds"] == {"f(2,1)": (-1.0, None), "g(1,1)": (-2.0, None)}
+
+
+def test_state_feedback_in_a_deck_through_both_front_ends(tmp_path):
+    """k (the SAS: states fed back to the inputs) read, simulated and
+    estimated alike by both front ends."""
+    sim = SIM.replace("h = 1, 0, 0, 1 /", "h = 1, 0, 0, 1, k = 0.3, 0.0 /")
+    est = """
+&case title = 'feedback', job = 'estimate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5, -1.0, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1,   k = 0.0, 0.0,
+    free = 'f(1,1)', 'g(1,1)', 'g(2,1)', 'k(1,1)', names = 'a11', 'b1', 'b2', 'K_x1' /
+&data file = 'small.dat', time_col = 1, input_cols = 2, output_cols = 3, 4 /
+"""
+    deck = tmp_path / "feedback.nml"
+    deck.write_text(sim + est)
+    out = {}
+    for who in ("mlid", "mlid-batch"):
+        cmd = [str(BIN / who)] + (["run"] if who == "mlid" else []) + [
+            str(deck), "--json", str(tmp_path / f"{who}.json")]
+        run = subprocess.run(cmd, capture_output=True, text=True)
+        assert run.returncode == 0, (who, run.stderr)
+        out[who] = json.loads((tmp_path / f"{who}.json").read_text())[1]
+    a, b = out["mlid"], out["mlid-batch"]
+    assert a["parameters"] == b["parameters"] == ["a11", "b1", "b2", "K_x1"]
+    np.testing.assert_allclose(a["estimate"], b["estimate"], rtol=1e-10, atol=0)
+    truth = [-1.2, 1.5, 0.3, 0.3]
+    z = (np.array(a["estimate"]) - truth) / np.array(a["sigma"])
+    assert np.all(np.abs(z) < 4), dict(zip(a["parameters"], z))

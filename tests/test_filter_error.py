@@ -51,6 +51,23 @@ def test_gradient_matches_finite_differences(steady):
     assert np.max(rel) < 1e-6, dict(zip(model.free_names(), rel))
 
 
+def test_gradient_with_state_feedback():
+    """A feedback K (the SAS) and a direct input term D: every partial of the
+    closed-loop F + G K and H + D K, gain partials included."""
+    m = gust_model()
+    model = mlid.LinearModel(m.F, m.G, m.H, D=[[0.1], [0.0]], K=[[0.2, -0.1, 0.0]], Gamma=m.Gamma,
+                             q=m.q, r=m.r, S=[[0.0, 0.003]], ties=GUST_TIES,
+                             free=BODY + ["k(1,1)", "k(1,2)", "d(1,1)", "h(2,2)", "q(1)"])
+    data = record(model)
+    opts = {"method": "filter_error", "partials": True}
+    ev = mlid.evaluate(model, data, **opts)
+    fd = finite_difference(lambda th: mlid.evaluate(model.with_theta(th), data, **opts)["cost"],
+                           model.theta, np.flatnonzero(model.free_mask), rel=1e-4, floor=1e-1,
+                           five_point=True)
+    rel = np.abs(fd - ev["gradient"]) / np.maximum(np.abs(fd), 1.0)
+    assert np.max(rel) < 1e-6, dict(zip(model.free_names(), rel))
+
+
 def _rk4(f, x, ua, ub, h):
     um = 0.5 * (ua + ub)
     k1 = f(x, ua)

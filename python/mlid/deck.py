@@ -31,8 +31,8 @@ def _schema():
         "model": {
             "kind": (_STR, "linear"), "nx": (_INT, 0), "nu": (_INT, 0), "ny": (_INT, 0),
             "nw": (_INT, 0), "f": (_REALS, None), "g": (_REALS, None), "h": (_REALS, None),
-            "d": (_REALS, None), "gamma": (_REALS, None), "x0": (_REALS, None),
-            "bias": (_REALS, None), "q": (_REALS, None), "r": (_REALS, None),
+            "d": (_REALS, None), "gamma": (_REALS, None), "k": (_REALS, None),
+            "x0": (_REALS, None), "bias": (_REALS, None), "q": (_REALS, None), "r": (_REALS, None),
             "s": (_REALS, None), "free": (_STRS, []), "names": (_STRS, []),
             "tie": (_STRS, []), "input_hold": (_STR, "linear"),
             "cd_regressors": (_STRS, []), "cl_regressors": (_STRS, []),
@@ -364,6 +364,7 @@ def _model(m):
     H = _given(m["h"], ny * nx, "h", f"{ny}x{nx}", True).reshape(ny, nx)
     D = _given(m["d"], ny * nu, "d", f"{ny}x{nu}", False)
     gamma = _given(m["gamma"], nx * nw, "gamma", f"{nx}x{nw}", nw > 0)
+    K = _given(m["k"], nu * nx, "k", f"{nu}x{nx}", False)
     x0 = _given(m["x0"], nx, "x0", str(nx), False)
     bias = _given(m["bias"], ny, "bias", str(ny), False)
     q = _given(m["q"], nw, "q", str(nw), False)
@@ -372,6 +373,7 @@ def _model(m):
     G = np.zeros((nx, nu)) if G is None else G.reshape(nx, nu)
     D = None if D is None else D.reshape(ny, nu)
     gamma = np.zeros((nx, nw)) if gamma is None else gamma.reshape(nx, nw)
+    K = None if K is None else K.reshape(nu, nx)
     S = None if S is None else S.reshape(nw, ny)
     ties = {}
     for tie in m["tie"]:
@@ -388,7 +390,8 @@ def _model(m):
                          f"'{m['input_hold']}'")
     try:
         model = LinearModel(F, G, H, D, x0, bias, free=free, input_hold=m["input_hold"].lower(),
-                            substeps=m["substeps"], Gamma=gamma, q=q, r=r, S=S, ties=ties)
+                            substeps=m["substeps"], Gamma=gamma, q=q, r=r, S=S, ties=ties,
+                            K=K)
     except InputError as exc:
         raise InputError(f"group &model: {exc}") from None
     _label(model, free, labels)

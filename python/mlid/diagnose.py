@@ -207,7 +207,7 @@ def _scaled(model, i, k):
     H, D = model.H.copy(), model.D.copy()
     H[i] *= 1 + k
     D[i] *= 1 + k
-    m = LinearModel(model.F, model.G, H, D, Gamma=model.Gamma, **model._common())
+    m = LinearModel(model.F, model.G, H, D, Gamma=model.Gamma, K=model.K, **model._common())
     return m
 
 
@@ -225,11 +225,12 @@ def _lagged(model, i, tau):
     D = model.D.copy()
     D[i] = 0.0
     Gamma = np.vstack([model.Gamma, np.zeros((1, model.nw))])
+    K = np.hstack([model.K, np.zeros((model.nu, 1))])
     common = model._common()
     x0 = np.r_[model.x0, model.H[i] @ model.x0]
     common["x0"] = x0
     # element names move with the new state only for F(i,j), G(i,j) (same indices)
-    return LinearModel(F, G, H, D, Gamma=Gamma, **common)
+    return LinearModel(F, G, H, D, Gamma=Gamma, K=K, **common)
 
 
 def _noisy(model, s):
@@ -239,7 +240,7 @@ def _noisy(model, s):
     Gamma[s, 0] = 1.0
     common = model._common()
     common.update(q=np.array([1e-3]), S=np.zeros((1, ny)))
-    m = LinearModel(model.F, model.G, model.H, model.D, Gamma=Gamma, **common)
+    m = LinearModel(model.F, model.G, model.H, model.D, Gamma=Gamma, K=model.K, **common)
     return m.with_free(list(model.free) + ["q(1)"] + [f"r({i + 1})" for i in range(ny)])
 
 

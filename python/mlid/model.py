@@ -168,13 +168,17 @@ class Model:
 class LinearModel(Model):
     """Linear state space with process and measurement noise
 
-        xdot = F x + G u + Gamma w,   y = H x + D u + bias + v,
+        xdot = F x + G (u + K x) + Gamma w,   y = H x + D (u + K x) + bias + v,
 
     w (nw values) held over each sample interval with variances q (diagonal
     Q), v with variances r (diagonal R), cross-covariance S = E{w v'} (nw x ny).
 
+    K (nu x nx, zero unless given) feeds states back to the inputs: a
+    stability augmentation system moving the surfaces on top of the
+    recorded command.
+
     Model parameters: ``'f(i,j)'``, ``'g(i,j)'``, ``'h(i,j)'``, ``'d(i,j)'``,
-    ``'gamma(i,j)'``; ``names`` gives readable labels (``{'f(3,3)': 'M_q'}``);
+    ``'gamma(i,j)'``, ``'k(j,s)'``; ``names`` gives readable labels (``{'f(3,3)': 'M_q'}``);
     ``ties`` holds parameters equal to a free one (``{'f(1,5)': 'f(1,3)'}``).
     """
 
@@ -184,7 +188,7 @@ class LinearModel(Model):
 
     def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
-                 ties=None):
+                 ties=None, K=None):
         F = np.atleast_2d(np.asarray(F, dtype=float))
         nx = F.shape[0]
         if F.shape != (nx, nx):
@@ -204,17 +208,26 @@ class LinearModel(Model):
             Gamma = Gamma.reshape(nx, -1)
         if Gamma.shape[0] != nx:
             raise InputError(f"Gamma must have {nx} rows (one per state), got shape {Gamma.shape}")
-        self.F, self.G, self.H, self.D, self.Gamma = F, G, H, D, Gamma
+        K = np.zeros((nu, nx)) if K is None else np.asarray(K, dtype=float)
+        if K.size != nu * nx:
+            raise InputError(f"K must be {nu}x{nx} (inputs x states), got shape {K.shape}")
+        K = K.reshape(nu, nx)
+        self.F, self.G, self.H, self.D, self.Gamma, self.K = F, G, H, D, Gamma, K
         self._init_common(nx, nu, ny, Gamma.shape[1], x0, bias, q, r, S, free, names, ties,
                           input_hold, substeps)
 
     def _model_blocks(self):
         return [("f", self.F), ("g", self.G), ("h", self.H), ("d", self.D),
-                ("gamma", self.Gamma)]
+                ("gamma", self.Gamma), ("k", self.K)]
 
     def _from_parts(self, parts, common):
         return LinearModel(parts["f"], parts["g"], parts["h"], parts["d"],
-                           Gamma=parts["gamma"], **common)
+                           Gamma=parts["gamma"], K=parts["k"], **common)
+
+    @property
+    def closed_loop(self):
+        """(F + G K, H + D K): the matrices the recorded inputs drive."""
+        return self.F + self.G @ self.K, self.H + self.D @ self.K
 
 
 #: Regressors of the longitudinal model (fortran/mlid_aero_long.f90), by name,

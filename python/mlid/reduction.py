@@ -55,6 +55,8 @@ def reduce_measured_state(model, state, output):
         raise InputError(f"state {state} or output {output} does not exist")
     if model.H[o, k] != 1.0 or np.any(np.delete(model.H[o], k) != 0) or np.any(model.D[o] != 0):
         raise InputError(f"output {output} must measure state {state} alone (H row = unit vector)")
+    if np.any(model.K != 0):
+        raise InputError("the reduction takes a model without state feedback (K = 0)")
     keep = [i for i in range(model.nx) if i != k]
     outs = [i for i in range(model.ny) if i != o]
     F = model.F[np.ix_(keep, keep)]
