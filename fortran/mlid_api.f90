@@ -29,13 +29,14 @@ module mlid_api
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record
   use mlid_jacobian_check, only: check_jacobians
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, &
-                         transition_length, costate_input, input_information, mu_for_length
+                         transition_length, costate_input, input_information, mu_for_length, &
+                         amplitude_limited_input
   implicit none
   private
   public :: mlid_input_signal, mlid_default_options, mlid_model_sizes, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
-            mlid_design_mu_for_length
+            mlid_design_mu_for_length, mlid_design_amplitude
 
 contains
 
@@ -472,6 +473,24 @@ contains
     call design_create(f, g, h, r, ukind, urow, ucol, ones, d, status, msg, gq)
     if (status == MLID_OK) call input_information(d, t, ncell, u, mm, status, msg)
   end subroutine mlid_design_information
+
+  !> The best square wave |u| = peak held over ncell cells of [0, T]
+  !> (mlid_design amplitude_limited_input); trwm its weighted trace.
+  subroutine mlid_design_amplitude(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, t, &
+                                   ncell, peak, u, trwm, status, msg)
+    integer(c_int), intent(in) :: nx, nu, ny, m, ncell
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), &
+                                  w(m), t, peak
+    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+    real(c_double), intent(out) :: u(ncell*nu), trwm
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(design_t) :: d
+    u = 0.0_wp
+    trwm = 0.0_wp
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
+    if (status == MLID_OK) call amplitude_limited_input(d, t, ncell, peak, u, trwm, status, msg)
+  end subroutine mlid_design_amplitude
 
   !> mu_max for the length td by the secant iteration of eq. 7.89 on the
   !> Riccati critical length, started from mu1 and mu2.

@@ -29,7 +29,7 @@ module mlid_design
   implicit none
   private
   public :: design_t, design_create, operator_mu, riccati_length, transition_length, &
-            costate_input, input_information, mu_for_length
+            costate_input, input_information, mu_for_length, amplitude_limited_input
 
   type :: design_t
     integer :: nx = 0, nu = 0, ny = 0, m = 0, na = 0
@@ -597,6 +597,87 @@ contains
     status = MLID_OK
     msg = ''
   end subroutine input_information
+
+  !> The best input under an amplitude limit |u| <= peak, held over n equal
+  !> cells of [0, T] (the cell: the shortest pulse a pilot or an input
+  !> injector flies).  tr(WM) = u'Q u (Q the operator on the cells) is convex
+  !> in u, so its maximum over the box lies at a corner: a square wave of
+  !> +-peak.  Local search over the corners: start from the signs of each of
+  !> the leading eigenvectors of Q (the energy-optimal inputs), flip the cell
+  !> that raises u'Q u most until none does; the best start wins.  trwm is
+  !> its tr(WM); nstart the starts tried.
+  subroutine amplitude_limited_input(d, t, n, peak, u, trwm, status, msg)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: t, peak
+    integer, intent(in) :: n
+    real(wp), intent(out) :: u(:), trwm
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer, parameter :: nstart = 4
+    real(wp), allocatable :: q(:, :), ev(:), vec(:, :), v(:), qv(:), gain(:)
+    real(wp) :: val
+    integer :: nn, k, a, flips
+
+    status = MLID_ERR_INPUT
+    u = 0.0_wp
+    trwm = 0.0_wp
+    if (.not. (t > 0.0_wp .and. ieee_is_finite(t))) then
+      msg = 'design length T must be > 0'
+      return
+    end if
+    if (.not. (peak > 0.0_wp .and. ieee_is_finite(peak))) then
+      msg = 'the amplitude limit must be > 0'
+      return
+    end if
+    if (n < 1) then
+      msg = 'at least one input cell is needed (the minimum pulse is longer than T)'
+      return
+    end if
+    nn = n*d%nu
+    allocate (q(nn, nn), ev(nn), vec(nn, nn), v(nn), qv(nn), gain(nn))
+    call operator_matrix(d, t, n, q, status)
+    if (status /= 0) then
+      status = MLID_ERR_INTERNAL
+      msg = 'matrix exponential failed (model not finite?)'
+      return
+    end if
+    q = q/(t/n)                        ! u'Q u = tr(WM) for cell amplitudes u
+    call sym_eig(q, ev, vec, status)
+    if (status /= 0) then
+      status = MLID_ERR_INTERNAL
+      msg = 'eigen-decomposition of the design operator failed'
+      return
+    end if
+    if (.not. ev(nn) > 0.0_wp) then
+      status = MLID_ERR_SINGULAR
+      msg = 'the unknowns do not affect the outputs (zero sensitivity, or an input that '// &
+            'reaches no state): no input can identify them'
+      return
+    end if
+    trwm = -huge(1.0_wp)
+    do k = nn, max(1, nn - nstart + 1), -1
+      v = merge(peak, -peak, vec(:, k) >= 0.0_wp)
+      qv = matmul(q, v)
+      do flips = 1, 100*nn
+        ! flipping cell a changes v'Qv by 4 (peak^2 Q_aa - v_a (Qv)_a)
+        do a = 1, nn
+          gain(a) = 4.0_wp*(peak**2*q(a, a) - v(a)*qv(a))
+        end do
+        a = maxloc(gain, 1)
+        if (.not. gain(a) > 1.0e-12_wp*abs(dot_product(v, qv))) exit
+        qv = qv - 2.0_wp*v(a)*q(:, a)
+        v(a) = -v(a)
+      end do
+      val = dot_product(v, matmul(q, v))
+      if (val > trwm) then
+        trwm = val
+        u = v
+      end if
+    end do
+    if (sum(u(1:d%nu)) < 0.0_wp) u = -u       ! a sign convention: starts positive
+    status = MLID_OK
+    msg = ''
+  end subroutine amplitude_limited_input
 
   !> mu_max for a given length T by the secant iteration of eq. 7.89 on the
   !> Riccati critical length, from the two brackets mu1, mu2.

@@ -173,6 +173,27 @@ class InputDesign:
         return DesignedInput(edges, u, self.information(T, u), mu=float(mu), energy=energy,
                              weights=self.weights.copy())
 
+    def amplitude_limited(self, T, peak, min_width):
+        """The best square wave under |u| <= peak with no pulse shorter than
+        min_width: tr(WM) is convex in u, so the optimum over the box is a
+        corner (+-peak on every cell); found by local search from the signs
+        of the leading energy-optimal inputs (fortran/mlid_design.f90).  The
+        cells are the widest that fit T at least min_width each."""
+        self._check_t(T)
+        self._check_t(peak, "peak")
+        self._check_t(min_width, "min_width")
+        cells = int(np.floor(T / min_width + 1e-9))
+        if cells < 1:
+            raise InputError(f"min_width {min_width} is longer than T = {T}")
+        nu = self.G.shape[1]
+        u, trwm, status, msg = _api.mlid_design_amplitude(w=self.weights, t=float(T),
+                                                          ncell=cells, peak=float(peak),
+                                                          **self._args())
+        check_status(status, msg)
+        u = u.reshape(-1, nu)
+        edges = np.linspace(0.0, T, cells + 1)
+        return DesignedInput(edges, u, self.information(T, u), weights=self.weights.copy())
+
     def equalised(self, T, energy, iterations=12, alpha=1.0, cells=200):
         """The weighted-trace design of §7.8: weights updated by eq. 7.88,
         w <- w + alpha (1/m_ii - w), toward an equal diagonal of W M, alpha
