@@ -4,7 +4,9 @@
 A lateral model (report eq. 5.1 with HL-10-like derivatives, flown open loop
 with an aileron 3-2-1-1 and a rudder doublet) generates each record; the
 truth contains one effect (or two, or none) that the analysis model lacks.
-The nonlinear-term scenario uses the longitudinal model instead.
+The nonlinear-term scenario uses the longitudinal model instead.  In the
+SAS scenario a yaw damper adds K_SAS r to the pilot's rudder; the record holds
+the pedal command as the input and the rudder position as a fifth output.
 """
 
 import numpy as np
@@ -21,7 +23,10 @@ FREE = {"L_p": "f(1,1)", "L_r": "f(1,2)", "L_beta": "f(1,3)", "N_p": "f(2,1)", "
         "N_da": "g(2,1)", "N_dr": "g(2,2)"}
 NOISE = [0.2, 0.1, 0.05, 0.05]          # p, r [deg/s], beta, phi [deg]
 DT, NT = 0.02, 400
-SCENARIOS = ("null", "bias", "derivative", "gust", "delay", "scale", "lag", "nonlinear", "two")
+SCENARIOS = ("null", "bias", "derivative", "gust", "delay", "scale", "lag", "nonlinear", "two",
+             "sas")
+K_SAS = 0.5                             # deg rudder per deg/s of yaw rate (ours)
+RUDDER_NOISE = 0.05                     # deg
 # what the workflow must name first: (family, name)
 EXPECTED = {"bias": ("output bias", "bias on beta"),
             "derivative": ("missing derivative", "Y_p"),
@@ -30,7 +35,8 @@ EXPECTED = {"bias": ("output bias", "bias on beta"),
             "scale": ("sensor scale factor", "scale factor on p"),
             "lag": ("sensor lag", "lag on phi"),
             "nonlinear": ("nonlinear term", "alpha^2 in Cm"),
-            "two": [("output bias", "bias on beta"), ("input time delay", "delay on delta_a")]}
+            "two": [("output bias", "bias on beta"), ("input time delay", "delay on delta_a")],
+            "sas": ("feedback loop (SAS)", "r fed back to delta_r")}
 
 
 def matrices(v, y_p=0.0):
@@ -41,11 +47,31 @@ def matrices(v, y_p=0.0):
     return F, G
 
 
-def analysis_model():
+def analysis_model(rudder_output=False):
+    """The open-loop model; with rudder_output, a fifth output that reads
+    the rudder position (y5 = delta_r, the input as recorded)."""
     F, G = matrices(BASE)
-    return mlid.LinearModel(F, G, np.eye(4), free=list(FREE.values()),
+    H, D = np.eye(4), np.zeros((4, 2))
+    if rudder_output:
+        H, D = np.vstack([H, np.zeros(4)]), np.vstack([D, [0.0, 1.0]])
+    return mlid.LinearModel(F, G, H, D, free=list(FREE.values()),
                             names={**{e: n for n, e in FREE.items()}, "f(3,1)": "Y_p",
                                    "f(3,2)": "Y_r"})
+
+
+def _sas(seed, rudder_output=True):
+    """A yaw damper (K_SAS r added to the pedal command); the record holds the
+    command, and with rudder_output the rudder position too."""
+    t, u = inputs()
+    F, G = matrices(BASE)
+    model = analysis_model(rudder_output)
+    K = np.zeros((2, 4))
+    K[1, 1] = K_SAS
+    truth = mlid.LinearModel(F, G, model.H, model.D, K=K,
+                             r=np.square(NOISE + [RUDDER_NOISE] * rudder_output))
+    data, _ = mlid.simulate(truth, t, u, seed=seed)
+    outs = ["p", "r", "beta", "phi"] + ["rudder"] * rudder_output
+    return model, mlid.FlightData(t, u, data.y, ["delta_a", "delta_r"], outs)
 
 
 def inputs():
@@ -59,6 +85,8 @@ def make(scenario, seed):
     """(analysis model, record) for a scenario and a seed."""
     if scenario == "nonlinear":
         return _longitudinal(seed)
+    if scenario == "sas":
+        return _sas(seed)
     t, u = inputs()
     rng = np.random.default_rng(seed)
     F, G = matrices(BASE, y_p=-0.15 if scenario == "derivative" else 0.0)

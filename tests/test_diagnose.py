@@ -53,6 +53,23 @@ def test_estimates_of_the_named_effects():
     d = mlid.diagnose(model, data)
     est, sigma = d.effects[0].value
     assert abs(est - 1.1) < 3 * sigma                   # h(1,1): the gain of the p sensor
+    model, data = scenarios.make("sas", 1)
+    d = mlid.diagnose(model, data)
+    est, sigma = d.effects[0].value
+    assert abs(est - scenarios.K_SAS) < 3 * sigma       # the yaw damper's gain
+
+
+def test_a_loop_the_data_cannot_see_is_flagged_confounded():
+    """Without the rudder position in the record the yaw damper only changes
+    L_r and N_r, which are free: the loop is flagged, never picked (report
+    §5.3: "a uniqueness problem")."""
+    model, data = scenarios._sas(1, rudder_output=False)
+    d = mlid.diagnose(model, data)
+    loop = [c for c in d.rounds[0]["candidates"] if c.name == "r fed back to delta_r"][0]
+    assert loop.confounded and loop.lr is None
+    assert "confounded with the free parameters, not tried: " in d.report()
+    assert "r fed back to delta_r" in d.report()
+    assert not any(e.family == "feedback loop (SAS)" for e in d.effects)
 
 
 def test_score_statistic_predicts_the_refit():

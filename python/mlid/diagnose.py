@@ -16,9 +16,11 @@ Candidate families (each with the name a flight-test engineer would use):
     sensor lag            a first-order lag between the quantity and its sensor
     process noise         turbulence on one state equation: filter error
     nonlinear term        a further regressor (alpha^2, ...) in C_D, C_L or C_m
+    feedback loop (SAS)   a state fed back to an input: the surface moves by
+                          k x_s on top of the recorded command (free k(j,s))
 
 Candidates that are parameters of the model (bias, derivative, nonlinear
-term) are ranked by the score (Lagrange-multiplier) statistic from the
+term, feedback, a scale factor that is an element of H) are ranked by the score (Lagrange-multiplier) statistic from the
 gradient and information at the current fit, the nuisance parameters
 partialled out; the others by the match of the residuals to their
 signature.  The best few are refitted; one is accepted per round when its
@@ -176,10 +178,30 @@ def _library(model, data, families, nx):
     if "lag" in families and isinstance(model, LinearModel):
         for i in range(ny):
             cands.append(Candidate("sensor lag", f"lag on {outs[i]}", output=i))
+    if "feedback" in families and isinstance(model, LinearModel):
+        known = set(model.free) | set(model.ties)
+        for j in range(nu):
+            if not (np.any(model.G[:nx, j]) or np.any(model.D[:, j])):
+                continue           # an input that moves nothing carries no loop
+            for st in range(nx):
+                name = f"k({j + 1},{st + 1})"
+                if name not in known:
+                    cands.append(Candidate("feedback loop (SAS)",
+                                           f"{_state_name(model, st, outs)} fed back to {ins[j]}",
+                                           param=name))
     if "noise" in families and isinstance(model, LinearModel) and model.nw == 0:
         for s in range(model.nx):   # one turbulence model at a time
             cands.append(Candidate("process noise", f"turbulence on state {s + 1}", state=s))
     return cands
+
+
+def _state_name(model, s, outs):
+    """A state by the output that measures it alone, else x<s>."""
+    for i in range(model.ny):
+        row = model.H[i]
+        if row[s] == 1.0 and np.count_nonzero(row) == 1 and not np.any(model.D[i]):
+            return outs[i]
+    return f"x{s + 1}"
 
 
 # --- building the candidate models -------------------------------------------
@@ -283,13 +305,22 @@ class Diagnosis:
             lines.append(f" round {k}: cost {rnd['cost']:.2f}, {len(rnd['candidates'])} candidates,"
                          f" threshold 2dJ > {rnd['threshold']:.2f} (chi-square, alpha "
                          f"{self.alpha}/{len(rnd['candidates'])})")
-            ranked = sorted(rnd["candidates"], key=_rank_key, reverse=True)
-            for c in ranked[:8]:
+            # every candidate refitted, then the best of the rest
+            tried = sorted([c for c in rnd["candidates"]
+                            if c.lr is not None or c.decision.startswith("refit failed")],
+                           key=lambda c: -math.inf if c.lr is None else c.lr, reverse=True)
+            rest = sorted([c for c in rnd["candidates"] if c.decision == "not refitted"],
+                          key=_rank_key, reverse=True)
+            for c in tried + rest[:max(0, 8 - len(tried))]:
                 stat = (f"score {c.score:9.2f}" if c.score is not None
                         else f"signature {c.signature:6.3f}")
                 lr = f"2dJ {c.lr:9.2f}" if c.lr is not None else " " * 13
                 note = f" ({c.note})" if c.note else ""
                 lines.append(f"   {c.family:<20} {c.name:<28} {stat}  {lr}  {c.decision}{note}")
+            confounded = [c.name for c in rnd["candidates"] if c.confounded]
+            if confounded:
+                lines.append("   confounded with the free parameters, not tried: "
+                             + ", ".join(confounded))
         if self.effects:
             lines.append(" effects found:")
             for c in self.effects:
@@ -343,7 +374,7 @@ def _rank_key(c):
     return 1e3 * (c.signature or 0.0)
 
 
-FAMILIES = ("bias", "derivative", "nonlinear", "delay", "scale", "lag", "noise")
+FAMILIES = ("bias", "derivative", "nonlinear", "delay", "scale", "lag", "noise", "feedback")
 #: a parameter candidate with less than this share of its information left once
 #: the free parameters are partialled out lies in their span: confounded
 CONFOUNDED = 1e-7
@@ -415,13 +446,13 @@ def _score(model, fit, data, cands, options):
                 continue
             ev = core.evaluate(m, data, **_evaluate_options(options))
         except MlidError:
-            c.confounded = True
+            c.confounded, c.decision = True, "confounded"
             continue
         g, M = ev["gradient"], ev["information"]
         idx = [k for k in range(len(g)) if k != extra]
         mcc = M[extra, extra]
         if mcc <= 0:
-            c.confounded = True
+            c.confounded, c.decision = True, "confounded"
             continue
         mct = M[extra, idx]
         try:
@@ -429,7 +460,7 @@ def _score(model, fit, data, cands, options):
         except np.linalg.LinAlgError:
             left = 0.0
         if left < CONFOUNDED * mcc:  # the free parameters already span it
-            c.confounded = True
+            c.confounded, c.decision = True, "confounded"
             c.score = 0.0
             continue
         # the free parameters sit at their optimum: their gradient is ~0
