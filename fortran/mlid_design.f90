@@ -249,6 +249,31 @@ contains
     end do
   end subroutine operator_matrix
 
+  !> The operator on n input cells of [0, T] and its eigen-decomposition
+  !> (eigenvalues ascending).
+  subroutine operator_eigen(d, t, n, q, ev, vec, status, msg)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: t
+    integer, intent(in) :: n
+    real(wp), intent(out) :: q(:, :), ev(:), vec(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    call operator_matrix(d, t, n, q, status)
+    if (status /= 0) then
+      status = MLID_ERR_INTERNAL
+      msg = 'matrix exponential failed (model not finite?)'
+      return
+    end if
+    call sym_eig(q, ev, vec, status)
+    if (status /= 0) then
+      status = MLID_ERR_INTERNAL
+      msg = 'eigen-decomposition of the design operator failed'
+      return
+    end if
+    status = MLID_OK
+    msg = ''
+  end subroutine operator_eigen
+
   !> Largest eigenvalue mu of the operator A* Q_A A on [0, T] (eq. 7.39):
   !> on n and 2n input cells, Richardson-extrapolated (the cell error is
   !> O(h^2)).  u: the optimal input on the 2n cells (nu per cell, cell
@@ -278,18 +303,8 @@ contains
     do k = 1, 2
       nn = k*n
       allocate (q(nn*d%nu, nn*d%nu), ev(nn*d%nu), vec(nn*d%nu, nn*d%nu))
-      call operator_matrix(d, t, nn, q, status)
-      if (status /= 0) then
-        status = MLID_ERR_INTERNAL
-        msg = 'matrix exponential failed (model not finite?)'
-        return
-      end if
-      call sym_eig(q, ev, vec, status)
-      if (status /= 0) then
-        status = MLID_ERR_INTERNAL
-        msg = 'eigen-decomposition of the design operator failed'
-        return
-      end if
+      call operator_eigen(d, t, nn, q, ev, vec, status, msg)
+      if (status /= MLID_OK) return
       if (k == 1) mu1 = ev(nn*d%nu)/(t/nn)
       if (k == 2) then
         mu2 = ev(nn*d%nu)/(t/nn)
@@ -635,19 +650,10 @@ contains
     end if
     nn = n*d%nu
     allocate (q(nn, nn), ev(nn), vec(nn, nn), v(nn), qv(nn), gain(nn))
-    call operator_matrix(d, t, n, q, status)
-    if (status /= 0) then
-      status = MLID_ERR_INTERNAL
-      msg = 'matrix exponential failed (model not finite?)'
-      return
-    end if
+    call operator_eigen(d, t, n, q, ev, vec, status, msg)
+    if (status /= MLID_OK) return
     q = q/(t/n)                        ! u'Q u = tr(WM) for cell amplitudes u
-    call sym_eig(q, ev, vec, status)
-    if (status /= 0) then
-      status = MLID_ERR_INTERNAL
-      msg = 'eigen-decomposition of the design operator failed'
-      return
-    end if
+    ev = ev/(t/n)
     if (.not. ev(nn) > 0.0_wp) then
       status = MLID_ERR_SINGULAR
       msg = 'the unknowns do not affect the outputs (zero sensitivity, or an input that '// &
