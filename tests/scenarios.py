@@ -33,7 +33,7 @@ EXPECTED = {"bias": ("output bias", "bias on beta"),
             "gust": ("process noise", None),          # any state: the gust drives all three
             "delay": ("input time delay", "delay on delta_a"),
             "scale": ("sensor scale factor", "scale factor on p"),
-            "lag": ("sensor lag", "lag on phi"),
+            "lag": ("sensor lag", "second-order lag on phi"),
             "nonlinear": ("nonlinear term", "alpha^2 in Cm"),
             "two": [("output bias", "bias on beta"), ("input time delay", "delay on delta_a")],
             "sas": ("feedback loop (SAS)", "r fed back to delta_r")}
@@ -130,6 +130,23 @@ def make(scenario, seed):
     # the record holds the commanded (undelayed) inputs
     data = mlid.FlightData(t, u, data.y, ["delta_a", "delta_r"], ["p", "r", "beta", "phi"])
     return analysis_model(), data
+
+
+def first_order_lag(seed, tau=0.1):
+    """The null record with phi read through a first-order lag tau (the
+    order check of the lag family: it must not say second order)."""
+    t, u = inputs()
+    F, G = matrices(BASE)
+    data, x = mlid.simulate(mlid.LinearModel(F, G, np.eye(4)), t, u, seed=seed)
+    rng = np.random.default_rng(seed)
+    a = np.exp(-DT / tau)
+    z = np.zeros(NT)
+    for k in range(1, NT):          # exact for phi linear over the interval's mean
+        z[k] = a * z[k - 1] + (1 - a) * 0.5 * (x[k, 3] + x[k - 1, 3])
+    y = x + rng.normal(0.0, 1.0, x.shape) * NOISE
+    y[:, 3] = z + rng.normal(0.0, NOISE[3], NT)
+    return analysis_model(), mlid.FlightData(t, u, y, ["delta_a", "delta_r"],
+                                             ["p", "r", "beta", "phi"])
 
 
 def _longitudinal(seed):

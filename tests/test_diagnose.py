@@ -59,6 +59,17 @@ def test_estimates_of_the_named_effects():
     assert abs(est - scenarios.K_SAS) < 3 * sigma       # the yaw damper's gain
 
 
+def test_the_order_of_a_sensor_lag():
+    """The scenario's second-order lag (15 rad/s) is named second order; a
+    first-order lag of 0.1 s stays first order, its tau recovered."""
+    model, data = scenarios.make("lag", 1)
+    lag = mlid.diagnose(model, data).effects[0]
+    assert lag.name == "second-order lag on phi" and 10.0 < lag.value[0] < 20.0
+    model, data = scenarios.first_order_lag(1)
+    lag = mlid.diagnose(model, data).effects[0]
+    assert lag.name == "lag on phi" and lag.value[0] == pytest.approx(0.1, rel=0.05)
+
+
 def test_a_loop_the_data_cannot_see_is_flagged_confounded():
     """Without the rudder position in the record the yaw damper only changes
     L_r and N_r, which are free: the loop is flagged, never picked (report

@@ -13,7 +13,9 @@ Candidate families (each with the name a flight-test engineer would use):
     missing derivative    a fixed element of F, G, H or D set free (e.g. Y_p)
     input time delay      an input recorded ahead of the surface by k samples
     sensor scale factor   an output read as (1 + k) times the truth
-    sensor lag            a first-order lag between the quantity and its sensor
+    sensor lag            a first-order lag between the quantity and its sensor;
+                          once accepted, a second-order one (damping 0.7) if it
+                          fits better
     process noise         turbulence on one state equation: filter error
     nonlinear term        a further regressor (alpha^2, ...) in C_D, C_L or C_m
     feedback loop (SAS)   a state fed back to an input: the surface moves by
@@ -255,6 +257,27 @@ def _lagged(model, i, tau):
     return LinearModel(F, G, H, D, Gamma=Gamma, K=K, **common)
 
 
+def _lagged2(model, i, wn, zeta):
+    """A second-order lag on output i: new states z, zdot with
+    z'' = wn^2 (H_i x + D_i u - z) - 2 zeta wn z'."""
+    m = _lagged(model, i, 1.0)              # z in place, then the second state
+    nx = model.nx
+    F = np.zeros((nx + 2, nx + 2))
+    F[:nx + 1, :nx + 1] = m.F
+    F[nx, :] = 0.0
+    F[nx, nx + 1] = 1.0
+    F[nx + 1, :nx] = wn * wn * model.H[i]
+    F[nx + 1, nx] = -wn * wn
+    F[nx + 1, nx + 1] = -2.0 * zeta * wn
+    G = np.vstack([model.G, np.zeros((1, model.nu)), wn * wn * model.D[i]])
+    H = np.hstack([m.H, np.zeros((model.ny, 1))])
+    Gamma = np.vstack([m.Gamma, np.zeros((1, model.nw))])
+    K = np.hstack([m.K, np.zeros((model.nu, 1))])
+    common = model._common()
+    common["x0"] = np.r_[m.x0, 0.0]
+    return LinearModel(F, G, H, m.D, Gamma=Gamma, K=K, **common)
+
+
 def _noisy(model, s):
     """Process noise on state s: Gamma = e_s, q free, r free (filter error)."""
     nx, ny = model.nx, model.ny
@@ -417,6 +440,8 @@ def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effec
         if not good:
             break
         best = max(good, key=lambda c: c.lr)
+        if best.family == "sensor lag":
+            _lag_order(best, current, cur_data, fit, options)
         best.decision = "ACCEPTED"
         for c in good:
             if c is not best:
@@ -428,6 +453,8 @@ def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effec
 
 
 def _same(c, e):
+    if c.family == e.family == "sensor lag":
+        return c.spec["output"] == e.spec["output"]
     return c.family == e.family and c.name == e.name
 
 
@@ -503,6 +530,53 @@ def _evaluate_options(options):
     return {k: v for k, v in options.items() if k not in _FIT_ONLY}
 
 
+#: damping of the second-order sensor-lag candidate (a typical sensor or
+#: anti-aliasing filter); its natural frequency is profiled
+LAG2_DAMPING = 0.7
+
+
+def _profile_lag(model, data, i, options, order):
+    """The best first-order lag (time constant tau, from one sample interval,
+    the integrator's step, to 50) or second-order lag (natural frequency
+    1/tau over the same range, damping LAG2_DAMPING) on output i: the fit,
+    its model and tau or omega_n."""
+    dt = data.t[1] - data.t[0]
+    cache = {}
+
+    def build(lt):
+        if order == 1:
+            return _lagged(model, i, math.exp(lt))
+        return _lagged2(model, i, math.exp(-lt), LAG2_DAMPING)
+
+    def cost(lt):
+        try:
+            cache[lt] = core.fit(build(lt), data, **options)
+        except MlidError:          # a trial the model cannot take: not the optimum
+            return math.inf
+        return cache[lt].cost
+    lt, jt = _golden(cost, math.log(dt), math.log(50 * dt))
+    if not math.isfinite(jt):
+        raise MlidError("no lag in the range fits")
+    return cache[lt], build(lt), float(math.exp(lt) if order == 1 else math.exp(-lt))
+
+
+def _lag_order(c, model, data, fit, options):
+    """An accepted first-order lag: does a second-order one fit better?  Both
+    have one profiled parameter, so the lower cost decides."""
+    try:
+        res, m, wn = _profile_lag(model, data, c.spec["output"], options, 2)
+    except MlidError:
+        return
+    if res.cost < c.fit.cost:
+        c.note = (f"second order (damping {LAG2_DAMPING}) beats first order by "
+                  f"2dJ {2 * (c.fit.cost - res.cost):.1f}")
+        c.name = "second-order " + c.name
+        c.value = (wn, float("nan"))
+        c.lr = float(2 * (fit.cost - res.cost))
+        c.fit = res
+        c.spec.update(model=res.model, data=data, options=options)
+
+
 def _refit(model, data, fit, c, options, max_delay):
     """Refit with the candidate; c.lr = 2 (J0 - J1)."""
     f = c.family
@@ -545,22 +619,9 @@ def _refit(model, data, fit, c, options, max_delay):
             res, d, opts, m = cache[k], data, options, _scaled(model, i, k)
             c.value = (float(k), float("nan"))
         elif f == "sensor lag":
-            i = c.spec["output"]
-            dt = data.t[1] - data.t[0]
-            cache = {}
-
-            def cost(lt):
-                try:
-                    cache[lt] = core.fit(_lagged(model, i, math.exp(lt)), data, **options)
-                except MlidError:
-                    return math.inf
-                return cache[lt].cost
-            # from one sample interval (the integrator's step) to 50
-            lt, jt = _golden(cost, math.log(dt), math.log(50 * dt))
-            if not math.isfinite(jt):
-                raise MlidError("no lag in the range fits")
-            res, d, opts, m = cache[lt], data, options, _lagged(model, i, math.exp(lt))
-            c.value = (float(math.exp(lt)), float("nan"))
+            res, m, tau = _profile_lag(model, data, c.spec["output"], options, 1)
+            d, opts = data, options
+            c.value = (tau, float("nan"))
         elif f == "process noise":
             m = _noisy(model.with_theta(fit.model.theta), c.spec["state"])
             m.r = np.diag(fit.rhat).copy()
