@@ -175,12 +175,12 @@ contains
   end function lin_surface
 
   !> One nr x nc block of p, starting after offset o.
-  pure function block(p, o, nr, nc) result(a)
+  pure function sub_matrix(p, o, nr, nc) result(a)
     real(wp), intent(in) :: p(:)
     integer, intent(in) :: o, nr, nc
     real(wp) :: a(nr, nc)
     a = reshape(p(o + 1:o + nr*nc), [nr, nc])
-  end function block
+  end function sub_matrix
 
   pure subroutine lin_f(self, t, x, u, p, xdot)
     class(linear_model_t), intent(in) :: self
@@ -227,8 +227,8 @@ contains
     integer :: n, nu
     n = self%nx
     nu = self%nu
-    a = block(p, self%of, n, n)
-    if (nu > 0) a = a + matmul(block(p, self%og, n, nu), block(p, self%ok, nu, n))
+    a = sub_matrix(p, self%of, n, n)
+    if (nu > 0) a = a + matmul(sub_matrix(p, self%og, n, nu), sub_matrix(p, self%ok, nu, n))
   end subroutine lin_dfdx
 
   pure subroutine lin_dfdp(self, t, x, u, p, idx, b)
@@ -276,8 +276,8 @@ contains
     n = self%nx
     nu = self%nu
     m = self%ny
-    c = block(p, self%oh, m, n)
-    if (nu > 0) c = c + matmul(block(p, self%od, m, nu), block(p, self%ok, nu, n))
+    c = sub_matrix(p, self%oh, m, n)
+    if (nu > 0) c = c + matmul(sub_matrix(p, self%od, m, nu), sub_matrix(p, self%ok, nu, n))
   end subroutine lin_dhdx
 
   pure subroutine lin_dhdp(self, t, x, u, p, idx, d)
@@ -315,7 +315,7 @@ contains
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: g(:, :)
-    g = block(p, self%ogam, self%nx, self%nw)
+    g = sub_matrix(p, self%ogam, self%nx, self%nw)
   end subroutine lin_dfdw
 
   !> d(H + D K)/dp: H(i, j) gives e_i e_j', D(i, j) gives e_i K(j, :),

@@ -22,9 +22,9 @@ Candidate families (each with the name a flight-test engineer would use):
                           k x_s on top of the recorded command (free k(j,s))
 
 Candidates that are parameters of the model (bias, derivative, nonlinear
-term, feedback, a scale factor that is an element of H) are ranked by the score (Lagrange-multiplier) statistic from the
-gradient and information at the current fit, the nuisance parameters
-partialled out; the others by the match of the residuals to their
+term, feedback, a scale factor that is an element of H) are ranked by the
+score (Lagrange-multiplier) statistic from the gradient and information at
+the current fit, the nuisance parameters partialled out; the others by the match of the residuals to their
 signature.  The best few are refitted; one is accepted per round when its
 likelihood ratio 2 dJ beats the chi-square(k) point at alpha divided by the
 number of candidates tried (Bonferroni) and its cost drop beats Akaike's k.
@@ -564,7 +564,7 @@ def _lag_order(c, model, data, fit, options):
     """An accepted first-order lag: does a second-order one fit better?  Both
     have one profiled parameter, so the lower cost decides."""
     try:
-        res, m, wn = _profile_lag(model, data, c.spec["output"], options, 2)
+        res, _, wn = _profile_lag(model, data, c.spec["output"], options, 2)
     except MlidError:
         return
     if res.cost < c.fit.cost:

@@ -224,11 +224,6 @@ class LinearModel(Model):
         return LinearModel(parts["f"], parts["g"], parts["h"], parts["d"],
                            Gamma=parts["gamma"], K=parts["k"], **common)
 
-    @property
-    def closed_loop(self):
-        """(F + G K, H + D K): the matrices the recorded inputs drive."""
-        return self.F + self.G @ self.K, self.H + self.D @ self.K
-
 
 #: Regressors of the longitudinal model (fortran/mlid_aero_long.f90), by name,
 #: with the suffix of the coefficient names they give (C_D0, C_Lalpha, C_mq, ...).
