@@ -437,42 +437,12 @@ contains
       opt%partials = partials
       opt%steady = steady_state
       c%method = to_lower(method)
-      select case (c%method)
-      case ('output_error')
-        opt%method = 0
-      case ('filter_error')
-        opt%method = 1
-      case default
-        call fail('group &estimate: method must be ''output_error'' or ''filter_error'', got '''// &
-                  trim(method)//'''')
-        return
-      end select
-      select case (to_lower(startup))
-      case ('none')
-        opt%startup = 0
-      case ('equation_error')
-        opt%startup = 1
-      case default
-        call fail('group &estimate: startup must be ''none'' or ''equation_error'', got '''// &
-                  trim(startup)//'''')
-        return
-      end select
-      select case (to_lower(rank_rule))
-      case ('iteration')
-        opt%rank_rule = 0
-      case ('staged')
-        opt%rank_rule = 1
-      case default
-        call fail('group &estimate: rank_rule must be ''iteration'' or ''staged'', got '''// &
-                  trim(rank_rule)//'''')
-        return
-      end select
+      opt%method = either('method', method, 'output_error', 'filter_error')
+      opt%startup = either('startup', startup, 'none', 'equation_error')
+      opt%rank_rule = either('rank_rule', rank_rule, 'iteration', 'staged')
       c%noise = to_lower(noise)
-      if (c%noise /= 'diagonal' .and. c%noise /= 'full') then
-        call fail('group &estimate: noise must be ''diagonal'' or ''full'', got '''//trim(noise)//'''')
-        return
-      end if
-      opt%full_r = c%noise == 'full'
+      opt%full_r = either('noise', noise, 'diagonal', 'full') == 1
+      if (c%status /= MLID_OK) return
     else
       out = ''
       t_end = 0.0_wp
@@ -724,6 +694,22 @@ contains
         c%theta(offset + 1:offset + n) = v(1:n)
       end if
     end subroutine put_vector
+
+    !> 0 or 1 for an &estimate keyword that must name one of two choices;
+    !> anything else fails the case (the first such failure is the message).
+    integer function either(key, given, name0, name1)
+      character(len=*), intent(in) :: key, given, name0, name1
+      either = -1
+      if (c%status /= MLID_OK) return
+      if (to_lower(given) == name0) then
+        either = 0
+      else if (to_lower(given) == name1) then
+        either = 1
+      else
+        call fail('group &estimate: '//key//' must be '''//name0//''' or '''//name1// &
+                  ''', got '''//trim(given)//'''')
+      end if
+    end function either
 
     subroutine fail(text)
       character(len=*), intent(in) :: text

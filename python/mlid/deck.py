@@ -278,9 +278,19 @@ def _free_and_labels(m):
     return free, labels
 
 
-def _label(model, free, labels):
-    """Give the free parameters their deck labels (the rest keep theirs)."""
+def _labelled(m, build):
+    """The model build(free) makes from the &model free list, its free
+    parameters given their deck labels (the rest keep theirs); its errors
+    named as the group's."""
+    free, labels = _free_and_labels(m)
+    try:
+        model = build(free)
+    except InputError as exc:
+        text = str(exc)
+        raise InputError(text if text.startswith("group &model") else f"group &model: {text}") \
+            from None
     model.names.update({model.canonical_name(f): n for f, n in zip(free, labels)})
+    return model
 
 
 def _longitudinal(m):
@@ -293,24 +303,15 @@ def _longitudinal(m):
     if len(consts) != 9:
         raise InputError("group &model: constants needs 9 values: g, S/m, S cbar/Iy, lT/Iy, V0, "
                          "m, sigma_T, rho, cbar/2")
-    free, labels = _free_and_labels(m)
-    try:
-        model = LongitudinalModel(regs, coeffs, dict(zip(CONSTANTS, consts)),
-                                  x0=_given(m["x0"], 4, "x0", "4", False),
-                                  bias=_given(m["bias"], 7, "bias", "7", False),
-                                  r=_given(m["r"], 7, "r", "7", False),
-                                  q=_given(m["q"], 4, "q", "4", False),
-                                  S=_given(m["s"], 28, "s", "4x7", False), free=free,
-                                  input_hold=m["input_hold"].lower(), substeps=m["substeps"])
-    except InputError as exc:
-        raise InputError(f"group &model: {exc}") from None
-    _label(model, free, labels)
-    return model
+    return _labelled(m, lambda free: LongitudinalModel(
+        regs, coeffs, dict(zip(CONSTANTS, consts)), x0=_given(m["x0"], 4, "x0", "4", False),
+        bias=_given(m["bias"], 7, "bias", "7", False), r=_given(m["r"], 7, "r", "7", False),
+        q=_given(m["q"], 4, "q", "4", False), S=_given(m["s"], 28, "s", "4x7", False),
+        free=free, input_hold=m["input_hold"].lower(), substeps=m["substeps"]))
 
 
 def _user(m):
-    free, labels = _free_and_labels(m)
-    try:
+    def build(free):
         model = UserModel([v for v in (m["p"] or []) if v is not None],
                           [v for v in m["user_iconst"] if v is not None],
                           [v for v in m["user_rconst"] if v is not None], free=free,
@@ -320,28 +321,18 @@ def _user(m):
             given = _given(m[key], n, key, str(n), False)
             if given is not None:
                 setattr(model, key, given)
-    except InputError as exc:
-        raise InputError(f"group &model: {exc}") from None
-    _label(model, free, labels)
-    return model
+        return model
+    return _labelled(m, build)
 
 
 def _x22(m):
     if any(v not in (0, w) for v, w in zip((m["nx"], m["nu"], m["ny"], m["nw"]), (4, 1, 7, 3))):
         raise InputError("group &model: the X-22 model has nx, nu, ny, nw = 4, 1, 7, 3")
-    free, labels = _free_and_labels(m)
-    try:
-        model = X22Model(_given(m["p"], 23, "p", "23", True),
-                         x0=_given(m["x0"], 4, "x0", "4", False),
-                         bias=_given(m["bias"], 7, "bias", "7", False),
-                         q=_given(m["q"], 3, "q", "3", False),
-                         r=_given(m["r"], 7, "r", "7", False),
-                         S=_given(m["s"], 21, "s", "3x7", False), free=free,
-                         input_hold=m["input_hold"].lower(), substeps=m["substeps"])
-    except InputError as exc:
-        raise InputError(f"group &model: {exc}") from None
-    _label(model, free, labels)
-    return model
+    return _labelled(m, lambda free: X22Model(
+        _given(m["p"], 23, "p", "23", True), x0=_given(m["x0"], 4, "x0", "4", False),
+        bias=_given(m["bias"], 7, "bias", "7", False), q=_given(m["q"], 3, "q", "3", False),
+        r=_given(m["r"], 7, "r", "7", False), S=_given(m["s"], 21, "s", "3x7", False),
+        free=free, input_hold=m["input_hold"].lower(), substeps=m["substeps"]))
 
 
 def _model(m):
@@ -384,18 +375,12 @@ def _model(m):
                              "that exist")
         a, b = tie.split("=")
         ties[a.strip()] = b.strip()
-    free, labels = _free_and_labels(m)
     if m["input_hold"].lower() not in ("linear", "zoh"):
         raise InputError(f"group &model: input_hold must be 'linear' or 'zoh', got "
                          f"'{m['input_hold']}'")
-    try:
-        model = LinearModel(F, G, H, D, x0, bias, free=free, input_hold=m["input_hold"].lower(),
-                            substeps=m["substeps"], Gamma=gamma, q=q, r=r, S=S, ties=ties,
-                            K=K)
-    except InputError as exc:
-        raise InputError(f"group &model: {exc}") from None
-    _label(model, free, labels)
-    return model
+    return _labelled(m, lambda free: LinearModel(
+        F, G, H, D, x0, bias, free=free, input_hold=m["input_hold"].lower(),
+        substeps=m["substeps"], Gamma=gamma, q=q, r=r, S=S, ties=ties, K=K))
 
 
 def _check_data(groups, model):
