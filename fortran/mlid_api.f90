@@ -15,10 +15,11 @@
 module mlid_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, stop_reason_text
   use mlid_models, only: model_t, model_layout, layout_t
   use mlid_model_factory, only: model_create
-  use mlid_options, only: options_t, options_from_flat, options_to_flat
+  use mlid_options, only: options_t, options_from_flat, options_to_flat, NOPTION, OPTION_NAMES, &
+                          option_kind, option_set, option_get
   use mlid_params, only: param_map_t, param_map_create, apply_ties
   use mlid_likelihood, only: likelihood
   use mlid_newton, only: fit_result_t, extras_t, newton_fit
@@ -26,6 +27,9 @@ module mlid_api
   use mlid_simulate, only: simulate_outputs
   use mlid_monte_carlo, only: monte_carlo
   use mlid_inputs, only: input_signal
+  use mlid_deck, only: opened, deck_open, case_time_input
+  use mlid_case, only: case_t, join_lines, split_lines
+  use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record
   use mlid_jacobian_check, only: check_jacobians
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, &
@@ -34,6 +38,9 @@ module mlid_api
   implicit none
   private
   public :: mlid_input_signal, mlid_default_options, mlid_model_sizes, &
+            mlid_option_info, mlid_option_set, mlid_option_get, mlid_options_check, &
+            mlid_stop_reason, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
+            mlid_deck_case_data, mlid_deck_case_time_input, mlid_report_fit, mlid_case_json, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude
@@ -57,6 +64,235 @@ contains
     real(c_double), intent(out) :: ropt(12)
     call options_to_flat(options_t(), iopt, ropt)
   end subroutine mlid_default_options
+
+  !> Option k of the core's table (k = 1, 2, ...): its name and kind
+  !> ('int', 'real', 'bool', 'choice'); name is blank past the last one.
+  subroutine mlid_option_info(k, name, kind)
+    integer(c_int), intent(in) :: k
+    character(len=16), intent(out) :: name, kind
+    name = ''
+    kind = ''
+    if (k < 1 .or. k > NOPTION) return
+    name = OPTION_NAMES(k)
+    kind = option_kind(name)
+  end subroutine mlid_option_info
+
+  !> Set an option by name from its text in the flat arrays.
+  subroutine mlid_option_set(iopt, ropt, name, text, status, msg)
+    integer(c_int), intent(inout) :: iopt(12)
+    real(c_double), intent(inout) :: ropt(12)
+    character(len=*), intent(in) :: name, text
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call option_set(iopt, ropt, name, text, status, msg)
+  end subroutine mlid_option_set
+
+  !> An option's value as text, by name.
+  subroutine mlid_option_get(iopt, ropt, name, text)
+    integer(c_int), intent(in) :: iopt(12)
+    real(c_double), intent(in) :: ropt(12)
+    character(len=*), intent(in) :: name
+    character(len=32), intent(out) :: text
+    text = option_get(iopt, ropt, name)
+  end subroutine mlid_option_get
+
+  !> Check a whole set of flat options (ranges, limits) before any work.
+  subroutine mlid_options_check(iopt, ropt, status, msg)
+    integer(c_int), intent(in) :: iopt(12)
+    real(c_double), intent(in) :: ropt(12)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(options_t) :: opt
+    call options_from_flat(iopt, ropt, opt, status, msg)
+  end subroutine mlid_options_check
+
+  !> Why an iteration stopped, in words (the report's text).
+  subroutine mlid_stop_reason(reason, text)
+    integer(c_int), intent(in) :: reason
+    character(len=64), intent(out) :: text
+    text = stop_reason_text(reason)
+  end subroutine mlid_stop_reason
+
+  !> Read a deck with the core's reader and keep its cases for the calls
+  !> below (sizes first, then arrays).  status /= 0: the deck as a whole
+  !> cannot be used; a case that cannot run carries its own status.
+  subroutine mlid_deck_open(path, ncases, status, msg)
+    character(len=*), intent(in) :: path
+    integer(c_int), intent(out) :: ncases, status
+    character(len=256), intent(out) :: msg
+    call deck_open(path, ncases, status, msg)
+  end subroutine mlid_deck_open
+
+  !> Case k of the opened deck: where it is, what it does, its sizes.
+  !> nt is the number of samples of a simulate case; nfile the data files of
+  !> an estimate case.
+  subroutine mlid_deck_case(k, line, title, job, cstatus, cmsg, mkind, nx, nu, ny, nw, nth, nf, &
+                            nic, nrc, nfile, nt)
+    integer(c_int), intent(in) :: k
+    integer(c_int), intent(out) :: line, cstatus, mkind, nx, nu, ny, nw, nth, nf, nic, nrc, &
+                                   nfile, nt
+    character(len=128), intent(out) :: title
+    character(len=16), intent(out) :: job
+    character(len=256), intent(out) :: cmsg
+    type(case_t) :: c
+
+    line = 0
+    title = ''
+    job = ''
+    cstatus = MLID_ERR_INPUT
+    cmsg = 'no such case'
+    mkind = 0
+    nx = 0
+    nu = 0
+    ny = 0
+    nw = 0
+    nth = 0
+    nf = 0
+    nic = 0
+    nrc = 0
+    nfile = 0
+    nt = 0
+    if (.not. allocated(opened)) return
+    if (k < 1 .or. k > size(opened)) return
+    c = opened(k)
+    line = c%line
+    title = c%title
+    job = c%job
+    cstatus = c%status
+    cmsg = c%msg
+    if (c%status /= MLID_OK) return
+    mkind = c%mkind
+    nx = c%nx
+    nu = c%nu
+    ny = c%ny
+    nw = c%nw
+    nth = size(c%theta)
+    nf = count(c%isfree == 1)
+    nic = size(c%iconst)
+    nrc = size(c%rconst)
+    if (allocated(c%data_files)) nfile = size(c%data_files)
+    if (c%job == 'simulate') nt = nint(c%t_end/c%dt) + 1
+  end subroutine mlid_deck_case
+
+  !> The model, options, prior and bounds of case k (sizes from
+  !> mlid_deck_case); labels of the free parameters, one per line.
+  subroutine mlid_deck_case_model(k, nth, nf, nic, nrc, theta, isfree, itie, iconst, rconst, &
+                                  iopt, ropt, labels, use_prior, prior, pweight, use_bounds, &
+                                  lower, upper)
+    integer(c_int), intent(in) :: k, nth, nf, nic, nrc
+    real(c_double), intent(out) :: theta(nth), rconst(nrc), ropt(12), prior(nth), pweight(nf, nf)
+    real(c_double), intent(out) :: lower(nth), upper(nth)
+    integer(c_int), intent(out) :: isfree(nth), itie(nth), iconst(nic), iopt(12), use_prior, &
+                                   use_bounds
+    character(len=8192), intent(out) :: labels
+    integer :: j
+
+    associate (c => opened(k))
+      theta = c%theta
+      isfree = c%isfree
+      itie = c%itie
+      iconst = c%iconst
+      rconst = c%rconst
+      iopt = c%iopt
+      ropt = c%ropt
+      labels = join_lines(c%labels)
+      use_prior = c%use_prior
+      use_bounds = c%use_bounds
+      prior = theta
+      pweight = 0.0_wp
+      lower = -huge(1.0_wp)
+      upper = huge(1.0_wp)
+      if (allocated(c%prior)) prior = c%prior
+      if (allocated(c%pweight)) pweight = c%pweight
+      if (allocated(c%lower)) lower = c%lower
+      if (allocated(c%upper)) upper = c%upper
+    end associate
+  end subroutine mlid_deck_case_model
+
+  !> Data file j of estimate case k (its path resolved from the deck's
+  !> folder) and the columns to take from it.
+  subroutine mlid_deck_case_data(k, j, nu, ny, path, time_col, input_cols, output_cols, skip_rows, &
+                                 input_names, output_names)
+    integer(c_int), intent(in) :: k, j, nu, ny
+    character(len=512), intent(out) :: path
+    integer(c_int), intent(out) :: time_col, input_cols(nu), output_cols(ny), skip_rows
+    character(len=4096), intent(out) :: input_names, output_names
+    associate (c => opened(k))
+      input_names = join_lines(c%input_names)
+      output_names = join_lines(c%output_names)
+      path = ''
+      time_col = 0
+      input_cols = 0
+      output_cols = 0
+      skip_rows = 0
+      if (.not. allocated(c%data_files)) return
+      path = c%data_files(j)
+      time_col = c%time_col
+      input_cols = c%input_cols
+      output_cols = c%output_cols
+      skip_rows = c%skip_rows
+    end associate
+  end subroutine mlid_deck_case_data
+
+  !> Time base and inputs of simulate case k, the seed, and the record to write.
+  subroutine mlid_deck_case_time_input(k, nu, nt, t, u, seed, out, status, msg)
+    integer(c_int), intent(in) :: k, nu, nt
+    real(c_double), intent(out) :: t(nt), u(nu, nt)
+    integer(c_int), intent(out) :: seed, status
+    character(len=512), intent(out) :: out
+    character(len=256), intent(out) :: msg
+    real(wp), allocatable :: tc(:), uc(:, :)
+    t = 0.0_wp
+    u = 0.0_wp
+    seed = opened(k)%seed
+    out = opened(k)%out_file
+    call case_time_input(opened(k), tc, uc, status, msg)
+    if (status /= MLID_OK) return
+    t = tc
+    u = uc
+  end subroutine mlid_deck_case_time_input
+
+  !> The printed report and the JSON object of a fit (the text mlid-batch
+  !> prints and writes); labels one per line; the text ends where its
+  !> length says.
+  subroutine mlid_report_fit(nf, ny, nh, labels, iopt, start, est, sig, cov, eigval, eigvec, &
+                             rhat, hist, cost, niter, reason, converged, nrank, title, job, &
+                             status, msg, report, nreport, json, njson)
+    integer(c_int), intent(in) :: nf, ny, nh, iopt(12), niter, reason, converged, nrank, status
+    character(len=*), intent(in) :: labels, title, job, msg
+    real(c_double), intent(in) :: start(nf), est(nf), sig(nf), cov(nf, nf), eigval(nf), &
+                                  eigvec(nf, nf), rhat(ny, ny), hist(nh), cost
+    character(len=262144), intent(out) :: report, json
+    integer(c_int), intent(out) :: nreport, njson
+    type(fit_summary_t) :: s
+    character(len=:), allocatable :: text
+
+    s = fit_summary_t(split_lines(labels, nf), start, est, sig, cov, eigval, eigvec, rhat, &
+                      hist, cost, niter, reason, nrank, converged == 1)
+    text = fit_report(s, iopt)
+    nreport = min(len(text), len(report))
+    report = text
+    text = fit_json(title, job, status, msg, s)
+    njson = min(len(text), len(json))
+    json = text
+  end subroutine mlid_report_fit
+
+  !> The JSON object of a case without a fit (samples >= 0: a simulate
+  !> case that wrote out).
+  subroutine mlid_case_json(title, job, status, msg, samples, out, json, njson)
+    character(len=*), intent(in) :: title, job, msg, out
+    integer(c_int), intent(in) :: status, samples
+    character(len=4096), intent(out) :: json
+    integer(c_int), intent(out) :: njson
+    character(len=:), allocatable :: text
+    if (samples >= 0) then
+      text = case_json(title, job, status, msg, samples, out)
+    else
+      text = case_json(title, job, status, msg)
+    end if
+    njson = min(len(text), len(json))
+    json = text
+  end subroutine mlid_case_json
 
   !> Sizes of a model whose sizes are its own (longitudinal, user): give
   !> nx = nu = ny = nw = -1 to learn them.

@@ -20,19 +20,22 @@
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
+  use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
   use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
   use mlid_x22, only: X22_LABELS
-  use mlid_options, only: options_t, options_to_flat, NOPT
+  use mlid_options, only: options_t, options_to_flat, options_from_flat, NOPT
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, NREG
   use mlid_user_model, only: user_model_t, user_model_create
   implicit none
   private
-  public :: deck_case_t, deck_read, case_record, case_time_input, manoeuvre_layout, NAMELEN, &
-            PATHLEN
+  public :: case_t, deck_read, deck_open, case_record, case_time_input, manoeuvre_layout, &
+            NAMELEN, PATHLEN
 
-  integer, parameter :: NAMELEN = 32, PATHLEN = 512, LINELEN = 2048
-  integer, parameter :: MAXSEG = 20     !< manoeuvres (data files) per case
+  !> The cases of the deck last opened by deck_open, for the flat interface.
+  type(case_t), allocatable, protected, public :: opened(:)
+
+  integer, parameter :: LINELEN = 2048
   integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
   integer, parameter :: MAXR = 12, NBLOCK = 11
   !> Suffix of a longitudinal coefficient's default label, per regressor
@@ -42,36 +45,6 @@ module mlid_deck
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
   character(len=*), parameter :: GROUPS = ' case model data simulate estimate '
 
-  type :: deck_case_t
-    integer :: status = MLID_OK
-    character(len=msg_len) :: msg = ''
-    integer :: line = 0                       !< line of &case in the deck
-    character(len=128) :: title = ''
-    character(len=16) :: job = ''
-    integer :: mkind = MODEL_LINEAR
-    integer, allocatable :: iconst(:)         !< model constants (longitudinal: regressor codes)
-    real(wp), allocatable :: rconst(:)
-    integer :: nx = 0, nu = 0, ny = 0, nw = 0
-    real(wp), allocatable :: theta(:)         !< [F, G, H, D, Gamma, x0, bias, q, r, s]
-    integer, allocatable :: isfree(:), itie(:)
-    integer :: use_prior = 0, use_bounds = 0
-    real(wp), allocatable :: prior(:), pweight(:, :), lower(:), upper(:)  !< prior(nth) etc.
-    character(len=NAMELEN), allocatable :: labels(:)  !< per free parameter, theta order
-    integer :: iopt(NOPT) = 0
-    real(wp) :: ropt(NOPT) = 0.0_wp
-    character(len=16) :: noise = 'diagonal'
-    character(len=16) :: method = 'output_error'
-    !> the records, one per manoeuvre (relative paths are resolved from the deck)
-    character(len=PATHLEN), allocatable :: data_files(:)
-    integer :: time_col = 1, skip_rows = 0
-    integer, allocatable :: input_cols(:), output_cols(:)
-    character(len=PATHLEN) :: out_file = ''
-    real(wp) :: t_end = 0.0_wp, dt = 0.0_wp
-    integer :: seed = 0
-    real(wp), allocatable :: noise_std(:), amplitude(:)
-    character(len=16), allocatable :: input_shape(:)   !< per input
-    real(wp), allocatable :: t_start(:), pulse_width(:)  !< per input
-  end type deck_case_t
 
 contains
 
@@ -80,7 +53,7 @@ contains
   !> the cases.
   subroutine deck_read(path, cases, status, msg)
     character(len=*), intent(in) :: path
-    type(deck_case_t), allocatable, intent(out) :: cases(:)
+    type(case_t), allocatable, intent(out) :: cases(:)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     character(len=LINELEN), allocatable :: lines(:)
@@ -114,14 +87,40 @@ contains
       if (k < size(starts)) last = starts(k + 1) - 1
       cases(k)%line = starts(k)
       call read_case(lines(starts(k):last), starts(k), cases(k))
+      call resolve_paths(path, cases(k))
     end do
   end subroutine deck_read
+
+  !> Read a deck and keep its cases (opened) for the flat interface.
+  subroutine deck_open(path, ncases, status, msg)
+    character(len=*), intent(in) :: path
+    integer, intent(out) :: ncases, status
+    character(len=*), intent(out) :: msg
+    call deck_read(path, opened, status, msg)
+    ncases = size(opened)
+  end subroutine deck_open
+
+  !> File names of a case are taken from the deck's folder unless absolute.
+  subroutine resolve_paths(deck, c)
+    character(len=*), intent(in) :: deck
+    type(case_t), intent(inout) :: c
+    character(len=:), allocatable :: dir
+    integer :: k
+    dir = ''
+    if (index(deck, '/', back=.true.) > 0) dir = deck(1:index(deck, '/', back=.true.) - 1)
+    if (allocated(c%data_files)) then
+      do k = 1, size(c%data_files)
+        c%data_files(k) = resolve(dir, c%data_files(k))
+      end do
+    end if
+    if (len_trim(c%out_file) > 0) c%out_file = resolve(dir, c%out_file)
+  end subroutine resolve_paths
 
   !> Parse one case from its lines (first is the &case line, number line0).
   subroutine read_case(lines, line0, c)
     character(len=*), intent(in) :: lines(:)
     integer, intent(in) :: line0
-    type(deck_case_t), intent(inout) :: c
+    type(case_t), intent(inout) :: c
     ! namelist variables, reset for every case
     character(len=128) :: title
     character(len=16) :: job, kind, input_hold, noise, method, startup, rank_rule, input_shape(MAXU)
@@ -160,14 +159,16 @@ contains
     logical :: found
     character(len=msg_len) :: iomsg
     character(len=LINELEN) :: text
+    character(len=:), allocatable :: seen
 
     ! Write the case without comments to a scratch file: gfortran and the
     ! Python reader disagree on comments after a trailing comma.
     open (newunit=unit, status='scratch', action='readwrite', form='formatted')
+    seen = ' '
     do ik = 1, size(lines)
       text = strip_comment(lines(ik))
       write (unit, '(a)') trim(text)
-      call check_groups(text, line0 + ik - 1, c)
+      call check_groups(text, line0 + ik - 1, c, seen)
       if (c%status /= MLID_OK) then
         close (unit)
         return
@@ -376,6 +377,8 @@ contains
       return
     end select
     opt%substeps = substeps
+    c%input_names = pack(input_names, len_trim(input_names) > 0)
+    c%output_names = pack(output_names, len_trim(output_names) > 0)
 
     if (c%job == 'estimate') then
       file = ''
@@ -472,6 +475,10 @@ contains
         call fail('group &simulate: out (the data file to write) is missing')
       else if (.not. (dt > 0.0_wp .and. t_end > dt)) then
         call fail('group &simulate: need dt > 0 and t_end > dt')
+      else if (.not. (t_end/dt < real(MAX_SAMPLES, wp))) then
+        write (iomsg, '(a,g0.6,a,i0,a)') 'group &simulate: t_end/dt = ', t_end/dt, &
+          ' samples; at most ', MAX_SAMPLES, ' are allowed'
+        call fail(iomsg)
       else if (size(c%noise_std) /= ny .and. size(c%noise_std) /= 0) then
         write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
           ' values, the model has ', ny, ' outputs'
@@ -491,6 +498,11 @@ contains
       if (c%status /= MLID_OK) return
     end if
     call options_to_flat(opt, c%iopt, c%ropt)
+    call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(iomsg)
+      return
+    end if
     close (unit)
 
   contains
@@ -721,10 +733,11 @@ contains
   end subroutine read_case
 
   !> Flag a group name that is not one of GROUPS.
-  subroutine check_groups(text, line, c)
+  subroutine check_groups(text, line, c, seen)
     character(len=*), intent(in) :: text
     integer, intent(in) :: line
-    type(deck_case_t), intent(inout) :: c
+    type(case_t), intent(inout) :: c
+    character(len=:), allocatable, intent(inout) :: seen  !< ' group group ... '
     integer :: k, e
     logical :: quoted
     character :: q
@@ -749,6 +762,13 @@ contains
                   ' (groups are &case, &model, &data, &simulate, &estimate)'
           return
         end if
+        ! a compiler's namelist read would take the first and ignore the rest
+        if (index(seen, ' '//to_lower(text(k + 1:e - 1))//' ') > 0) then
+          c%status = MLID_ERR_INPUT
+          c%msg = 'line '//itoa(line)//': group &'//text(k + 1:e - 1)//' given twice in one case'
+          return
+        end if
+        seen = seen//to_lower(text(k + 1:e - 1))//' '
       end if
     end do
   end subroutine check_groups
@@ -787,13 +807,12 @@ contains
   end subroutine element_index
 
   !> The record of an estimate case: time, inputs and outputs from its
-  !> data files (relative to the deck's folder deck_dir).  Several files are
+  !> data files (paths resolved by the reader).  Several files are
   !> several manoeuvres, one after the other, each keeping its sampling with
   !> its times moved to follow the one before; segstart(k) is the first
   !> sample of manoeuvre k.
-  subroutine case_record(c, deck_dir, t, u, y, status, msg, segstart)
-    type(deck_case_t), intent(in) :: c
-    character(len=*), intent(in) :: deck_dir
+  subroutine case_record(c, t, u, y, status, msg, segstart)
+    type(case_t), intent(in) :: c
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
@@ -805,7 +824,7 @@ contains
     nseg = size(c%data_files)
     allocate (t(0), u(c%nu, 0), y(c%ny, 0))
     do k = 1, nseg
-      call read_record(c, resolve(deck_dir, c%data_files(k)), tk, uk, yk, status, msg)
+      call read_record(c, c%data_files(k), tk, uk, yk, status, msg)
       if (status /= MLID_OK) return
       if (size(tk) < 2 .and. nseg > 1) then
         status = MLID_ERR_INPUT
@@ -824,7 +843,7 @@ contains
 
   !> One data file: the case's columns of it.
   subroutine read_record(c, path, t, u, y, status, msg)
-    type(deck_case_t), intent(in) :: c
+    type(case_t), intent(in) :: c
     character(len=*), intent(in) :: path
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
@@ -882,7 +901,7 @@ contains
   !> and free flags alike), the rest shared; labels of a manoeuvre's own
   !> entries end in '#k'.  As mlid/maneuvers.py does for Python.
   subroutine manoeuvre_layout(c, nseg, status, msg)
-    type(deck_case_t), intent(inout) :: c
+    type(case_t), intent(inout) :: c
     integer, intent(in) :: nseg
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
@@ -977,7 +996,7 @@ contains
 
   !> Time base t = 0, dt, ..., and inputs of a simulate case.
   subroutine case_time_input(c, t, u, status, msg)
-    type(deck_case_t), intent(in) :: c
+    type(case_t), intent(in) :: c
     real(wp), allocatable, intent(out) :: t(:), u(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg

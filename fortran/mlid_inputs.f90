@@ -3,6 +3,7 @@
 !> Pulse edges are placed on whole samples (widths rounded to samples) so
 !> that every caller gets the same signal whatever the rounding of t.
 module mlid_inputs
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   implicit none
   private
@@ -34,11 +35,23 @@ contains
       msg = 'input signal: dt must be > 0'
       return
     end if
-    k0 = nint(t_start/dt) + 1
-    w = nint(pw/dt)
-    select case (trim(shape))
-    case ('none')
+    if (.not. (ieee_is_finite(a) .and. ieee_is_finite(t_start) .and. ieee_is_finite(pw) .and. &
+               ieee_is_finite(dt))) then
+      status = MLID_ERR_INPUT
+      msg = 'input signal: amplitude, t_start, pulse_width and dt must be finite'
       return
+    end if
+    if (trim(shape) == 'none') return
+    if (t_start < 0.0_wp .or. t_start > real(size(u) - 1, wp)*dt) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,g0.6,a,g0.6,a)') 'input signal: t_start = ', t_start, &
+        ' s lies outside the record (0 to ', real(size(u) - 1, wp)*dt, ' s)'
+      return
+    end if
+    ! both in samples; a pulse wider than the record acts as the record
+    k0 = nint(t_start/dt) + 1
+    w = nint(min(max(pw/dt, 0.0_wp), real(size(u), wp)))
+    select case (trim(shape))
     case ('step')
       if (k0 <= size(u)) u(max(1, k0):) = a
       return
@@ -56,13 +69,14 @@ contains
       msg = 'unknown input shape '''//trim(shape)//''': use '//INPUT_SHAPES
       return
     end select
-    if (w < 1 .or. t_start < 0.0_wp) then
+    if (w < 1) then
       status = MLID_ERR_INPUT
-      msg = 'input signal: pulse_width must be at least one sample and t_start >= 0'
+      msg = 'input signal: pulse_width must be at least one sample'
       return
     end if
     do k = 1, size(widths)
-      if (k0 <= size(u)) u(k0:min(size(u), k0 + widths(k)*w - 1)) = signs(k)*a
+      if (k0 > size(u)) exit
+      u(k0:min(size(u), k0 + widths(k)*w - 1)) = signs(k)*a
       k0 = k0 + widths(k)*w
     end do
   end subroutine input_signal

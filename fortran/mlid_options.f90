@@ -4,12 +4,29 @@
 !> and the deck reader need no derived types; this module is the one place
 !> that knows the layout.
 module mlid_options
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   implicit none
   private
   public :: options_t, options_from_flat, options_to_flat, NOPT
+  public :: NOPTION, OPTION_NAMES, option_kind, option_set, option_get
 
   integer, parameter :: NOPT = 12  !< length of iopt and ropt
+  !> Limits checked before any work starts: beyond them a run would hang or
+  !> allocate without bound, and no real case comes near them.
+  integer, parameter, public :: MAX_ITER_LIMIT = 10000, HALVINGS_LIMIT = 60, SUBSTEPS_LIMIT = 1000
+
+  !> The options by name, for Python and any other caller that should not
+  !> know the flat layout: option k lives in iopt(k) for k <= NIOPT, else in
+  !> ropt(k - NIOPT).  Choices are listed in the order of their codes 0, 1.
+  integer, parameter :: NOPTION = 17, NIOPT = 12
+  character(len=12), parameter :: OPTION_NAMES(NOPTION) = [character(len=12) :: &
+    'max_iter', 'halvings', 'noise', 'input_hold', 'substeps', 'method', 'partials', &
+    'steady_state', 'startup', 'rank_min', 'rank_max', 'rank_rule', &
+    'tol_cost', 'tol_step', 'tol_grad', 'rcond', 'prior_decay']
+  character(len=26), parameter :: OPTION_CHOICES(NOPTION) = [character(len=26) :: &
+    '', '', 'diagonal full', 'linear zoh', '', 'output_error filter_error', 'false true', &
+    'false true', 'none equation_error', '', '', 'iteration staged', '', '', '', '', '']
 
   type :: options_t
     integer :: max_iter = 30      !< iopt(1): Newton iterations at most
@@ -88,10 +105,10 @@ contains
     opt%tol_grad = ropt(3)
     opt%rcond = ropt(4)
     opt%prior_decay = ropt(5)
-    if (opt%max_iter < 0) then
-      write (msg, '(a,i0)') 'max_iter must be >= 0, got ', opt%max_iter
-    else if (opt%halvings < 0) then
-      write (msg, '(a,i0)') 'halvings must be >= 0, got ', opt%halvings
+    if (opt%max_iter < 0 .or. opt%max_iter > MAX_ITER_LIMIT) then
+      write (msg, '(a,i0,a,i0)') 'max_iter must lie in 0 to ', MAX_ITER_LIMIT, ', got ', opt%max_iter
+    else if (opt%halvings < 0 .or. opt%halvings > HALVINGS_LIMIT) then
+      write (msg, '(a,i0,a,i0)') 'halvings must lie in 0 to ', HALVINGS_LIMIT, ', got ', opt%halvings
     else if (iopt(3) /= 0 .and. iopt(3) /= 1) then
       write (msg, '(a,i0)') 'noise code must be 0 (diagonal) or 1 (full), got ', iopt(3)
     else if (iopt(4) /= 0 .and. iopt(4) /= 1) then
@@ -100,8 +117,8 @@ contains
       write (msg, '(a,i0)') 'method code must be 0 (output error) or 1 (filter error), got ', iopt(6)
     else if (any(iopt(7:9) /= 0 .and. iopt(7:9) /= 1)) then
       msg = 'partials, steady and startup flags must be 0 or 1'
-    else if (opt%substeps < 1) then
-      write (msg, '(a,i0)') 'substeps must be >= 1, got ', opt%substeps
+    else if (opt%substeps < 1 .or. opt%substeps > SUBSTEPS_LIMIT) then
+      write (msg, '(a,i0,a,i0)') 'substeps must lie in 1 to ', SUBSTEPS_LIMIT, ', got ', opt%substeps
     else if (.not. (opt%tol_cost >= 0.0_wp .and. opt%tol_step >= 0.0_wp .and. &
                     opt%tol_grad >= 0.0_wp)) then
       msg = 'tolerances tol_cost, tol_step, tol_grad must be >= 0'
@@ -120,5 +137,161 @@ contains
       msg = ''
     end if
   end subroutine options_from_flat
+
+  !> 'int', 'real', 'bool' or 'choice' (with the words of OPTION_CHOICES);
+  !> '' for a name that is no option.
+  function option_kind(name) result(kind)
+    character(len=*), intent(in) :: name
+    character(len=6) :: kind
+    integer :: k
+    k = option_index(name)
+    kind = ''
+    if (k == 0) return
+    if (k > NIOPT) then
+      kind = 'real'
+    else if (OPTION_CHOICES(k) == 'false true') then
+      kind = 'bool'
+    else if (len_trim(OPTION_CHOICES(k)) > 0) then
+      kind = 'choice'
+    else
+      kind = 'int'
+    end if
+  end function option_kind
+
+  !> Set one option in the flat arrays from its text ('20', 'full', 'true',
+  !> '1e-8'); the value's range is checked later by options_from_flat.
+  subroutine option_set(iopt, ropt, name, text, status, msg)
+    integer, intent(inout) :: iopt(NOPT)
+    real(wp), intent(inout) :: ropt(NOPT)
+    character(len=*), intent(in) :: name, text
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: k, code, ios
+    real(wp) :: x
+
+    status = MLID_ERR_INPUT
+    k = option_index(name)
+    if (k == 0) then
+      msg = 'unknown option '''//trim(name)//'''; known: '//known_names()
+      return
+    end if
+    select case (option_kind(name))
+    case ('real')
+      read (text, *, iostat=ios) x
+      if (ios /= 0 .or. .not. ieee_is_finite(x) .or. index(text, '*') > 0) then
+        msg = 'option '//trim(name)//' takes a finite number, got '''//trim(text)//''''
+        return
+      end if
+      ropt(k - NIOPT) = x
+    case ('int')
+      read (text, *, iostat=ios) x
+      if (ios /= 0 .or. .not. (abs(x) <= real(huge(1), wp)) .or. x /= aint(x) .or. &
+          index(text, '*') > 0) then
+        msg = 'option '//trim(name)//' takes a whole number within +-2147483647, got '''// &
+              trim(text)//''''
+        return
+      end if
+      iopt(k) = nint(x)
+    case default
+      code = choice_code(OPTION_CHOICES(k), text)
+      if (code < 0) then
+        msg = 'option '//trim(name)//' must be one of '//trim(OPTION_CHOICES(k))//', got '''// &
+              trim(text)//''''
+        return
+      end if
+      iopt(k) = code
+    end select
+    status = MLID_OK
+    msg = ''
+  end subroutine option_set
+
+  !> One option's value as text, in the form option_set takes.
+  function option_get(iopt, ropt, name) result(text)
+    integer, intent(in) :: iopt(NOPT)
+    real(wp), intent(in) :: ropt(NOPT)
+    character(len=*), intent(in) :: name
+    character(len=32) :: text
+    integer :: k
+    k = option_index(name)
+    text = ''
+    select case (option_kind(name))
+    case ('real')
+      write (text, '(es24.16e3)') ropt(k - NIOPT)
+      text = adjustl(text)
+    case ('int')
+      write (text, '(i0)') iopt(k)
+    case ('bool', 'choice')
+      text = choice_word(OPTION_CHOICES(k), iopt(k))
+    end select
+  end function option_get
+
+  integer function option_index(name)
+    character(len=*), intent(in) :: name
+    integer :: k
+    option_index = 0
+    do k = 1, NOPTION
+      if (lower(adjustl(name)) == OPTION_NAMES(k)) option_index = k
+    end do
+  end function option_index
+
+  function known_names() result(text)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = trim(OPTION_NAMES(1))
+    do k = 2, NOPTION
+      text = text//', '//trim(OPTION_NAMES(k))
+    end do
+  end function known_names
+
+  !> The code (0, 1, ...) of a word among the choices; -1 if absent.  A
+  !> bool also takes 1/0 and Fortran's .true./.false., t/f.
+  integer function choice_code(choices, word)
+    character(len=*), intent(in) :: choices, word
+    character(len=len(word)) :: w
+    integer :: k
+    w = lower(adjustl(word))
+    if (choices == 'false true') then
+      select case (w)
+      case ('true', '.true.', 't', '1')
+        choice_code = 1
+        return
+      case ('false', '.false.', 'f', '0')
+        choice_code = 0
+        return
+      end select
+    end if
+    do k = 0, 9
+      choice_code = k
+      if (len_trim(w) > 0 .and. choice_word(choices, k) == w) return
+    end do
+    choice_code = -1
+  end function choice_code
+
+  !> Word number code (from 0) of a blank-separated list; '' past its end.
+  function choice_word(choices, code) result(word)
+    character(len=*), intent(in) :: choices
+    integer, intent(in) :: code
+    character(len=32) :: word
+    integer :: k, p
+    character(len=len(choices)) :: rest
+    rest = adjustl(choices)
+    word = ''
+    do k = 0, code
+      p = index(rest, ' ')
+      word = rest(1:p - 1)
+      rest = adjustl(rest(p:))
+    end do
+    if (code < 0 .or. len_trim(word) == 0) word = ''
+  end function choice_word
+
+  pure function lower(s) result(r)
+    character(len=*), intent(in) :: s
+    character(len=len(s)) :: r
+    integer :: k
+    r = s
+    do k = 1, len(s)
+      if (s(k:k) >= 'A' .and. s(k:k) <= 'Z') r(k:k) = achar(iachar(s(k:k)) + 32)
+    end do
+  end function lower
 
 end module mlid_options

@@ -1,62 +1,102 @@
-!> The printed report of a fit (report Table 5.3 layout) and the JSON form
-!> of a case result.  mlid/result.py prints the same table.
+!> The printed report of a fit (report Table 5.3 layout) and the JSON of a
+!> case, built once as text: mlid-batch prints and writes these strings,
+!> and Python asks for the same strings through mlid_api, so the two front
+!> ends agree byte for byte.
 module mlid_report
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, stop_reason_text
   use mlid_linalg, only: chol_inverse
+  use mlid_options, only: NOPT, option_get
   implicit none
   private
-  public :: report_fit, json_open, json_close, json_case
+  public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string
+
+  character, parameter :: NL = achar(10)
+
+  !> What a report says of one fit (free parameters only, theta order).
+  type :: fit_summary_t
+    character(len=32), allocatable :: labels(:)
+    real(wp), allocatable :: start(:), est(:), sig(:), cov(:, :), eigval(:), eigvec(:, :)
+    real(wp), allocatable :: rhat(:, :), hist(:)
+    real(wp) :: cost = 0.0_wp
+    integer :: niter = 0, reason = 0, rank = 0
+    logical :: converged = .false.
+  end type fit_summary_t
 
 contains
 
-  !> Table of start, estimate and Cramer-Rao sigma per free parameter.
-  subroutine report_fit(unit, method, labels, start, est, sig, cost, rhat, niter, reason, converged, &
-                        rank, rank_min, eigval, eigvec, cov)
-    integer, intent(in) :: unit
-    character(len=*), intent(in) :: method
-    character(len=*), intent(in) :: labels(:)
-    real(wp), intent(in) :: start(:), est(:), sig(:), cost, rhat(:, :)
-    integer, intent(in) :: niter, reason, rank, rank_min
-    logical, intent(in) :: converged
-    real(wp), intent(in) :: eigval(:), eigvec(:, :), cov(:, :)
+  !> The report: how the iteration ended, the table of start, estimate and
+  !> Cramer-Rao sigma, cost and noise, identifiability; every line ends in NL.
+  function fit_report(s, iopt) result(text)
+    type(fit_summary_t), intent(in) :: s
+    integer, intent(in) :: iopt(NOPT)
+    character(len=:), allocatable :: text, method
+    character(len=512) :: buf
+    logical :: oe
     integer :: k
 
-    write (unit, '(a,i0,a)') ' '//trim(method)//': ', niter, ' iterations, '// &
-      trim(merge('converged    ', 'NOT converged', converged))//' ('// &
-      trim(stop_reason_text(reason))//')'
-    if (rank_min > 0) write (unit, '(a,i0,a,i0,a)') ' rank-deficient solution: rank ', rank, &
-      ' of ', size(labels), ' (sigma from the same rank)'
-    write (unit, '(1x,a16,a15,a15,a13)') 'parameter       ', 'start', 'estimate', 'sigma'
-    do k = 1, size(labels)
-      write (unit, '(1x,a16,2es15.6e2,es13.4e2)') labels(k), start(k), est(k), sig(k)
+    method = method_text(iopt)
+    oe = method(1:6) == 'output'
+    write (buf, '(a,i0,a)') ' '//method//': ', s%niter, ' iterations, '// &
+      trim(merge('converged    ', 'NOT converged', s%converged))//' ('// &
+      trim(stop_reason_text(s%reason))//')'
+    text = trim(buf)//NL
+    if (iopt(10) > 0) then
+      write (buf, '(a,i0,a,i0,a)') ' rank-deficient solution: rank ', s%rank, ' of ', &
+        size(s%labels), ' (sigma from the same rank)'
+      text = text//trim(buf)//NL
+    end if
+    write (buf, '(1x,a16,a15,a15,a13)') 'parameter       ', 'start', 'estimate', 'sigma'
+    text = text//trim(buf)//NL
+    do k = 1, size(s%labels)
+      write (buf, '(1x,a16,2es15.6e2,es13.4e2)') s%labels(k), s%start(k), s%est(k), s%sig(k)
+      text = text//trim(buf)//NL
     end do
     ! output error estimates R; filter error reports the mean innovation covariance B
-    write (unit, '(a,es17.10e2,a,es13.6e2)') ' cost J = ', cost, '   det '// &
-      trim(merge('R', 'B', method(1:6) == 'output'))//' = ', det_r(rhat)
-    write (unit, '(a,*(1x,es10.4e2))') ' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', &
-      method(1:6) == 'output')), (rhat(k, k), k=1, size(rhat, 1))
-    call report_identifiability(unit, labels, eigval, eigvec, cov)
-  end subroutine report_fit
+    write (buf, '(a,es17.10e2,a,es13.6e2)') ' cost J = ', s%cost, '   det '// &
+      trim(merge('R', 'B', oe))//' = ', det_r(s%rhat)
+    text = text//trim(buf)//NL
+    text = text//' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', oe))
+    do k = 1, size(s%rhat, 1)
+      write (buf, '(1x,es10.4e2)') s%rhat(k, k)
+      text = text//trim(buf)
+    end do
+    text = text//NL//identifiability(s%labels, s%eigval, s%eigvec, s%cov)
+  end function fit_report
+
+  !> The estimator, as the report's first line names it.
+  function method_text(iopt) result(text)
+    integer, intent(in) :: iopt(NOPT)
+    character(len=:), allocatable :: text
+    real(wp) :: ropt(NOPT)
+    ropt = 0.0_wp
+    if (option_get(iopt, ropt, 'method') == 'filter_error') then
+      text = 'filter-error ML, '//trim(merge('steady-state gain', 'time-varying gain', &
+             option_get(iopt, ropt, 'steady_state') == 'true'))//', '// &
+             trim(merge('with gain partials   ', 'without gain partials', &
+             option_get(iopt, ropt, 'partials') == 'true'))
+    else
+      text = 'output-error ML, R '//trim(option_get(iopt, ropt, 'noise'))
+    end if
+  end function method_text
 
   !> What the information says about the parameters (report §4.5, §5.3.5):
   !> the eigenvalue spread of the normalised information, its weakest
   !> direction as a combination of named parameters, correlations above 0.9.
-  subroutine report_identifiability(unit, labels, eigval, eigvec, cov)
-    integer, intent(in) :: unit
+  function identifiability(labels, eigval, eigvec, cov) result(text)
     character(len=*), intent(in) :: labels(:)
     real(wp), intent(in) :: eigval(:), eigvec(:, :), cov(:, :)
-    character(len=:), allocatable :: line
+    character(len=:), allocatable :: text, line
     character(len=16) :: num
     integer :: n, k, l, order(size(eigval)), shown
     real(wp) :: c
 
+    text = ''
     n = size(eigval)
     if (n == 0) return
-    line = ' normalised information: eigenvalues '//trim(fmt_e(eigval(1)))//' to '// &
+    text = ' normalised information: eigenvalues '//trim(fmt_e(eigval(1)))//' to '// &
            trim(fmt_e(eigval(n)))
-    if (eigval(1) > 0.0_wp) line = line//', spread '//trim(fmt_e(eigval(n)/eigval(1)))
-    write (unit, '(a)') line
+    if (eigval(1) > 0.0_wp) text = text//', spread '//trim(fmt_e(eigval(n)/eigval(1)))
     ! components of the weakest direction, largest first
     order = [(k, k=1, n)]
     do k = 1, n
@@ -72,7 +112,7 @@ contains
       line = line//' '//trim(num)//' '//trim(labels(order(k)))
       shown = shown + 1
     end do
-    write (unit, '(a)') line
+    text = text//NL//line//NL
     line = ' correlations above 0.9:'
     shown = 0
     do k = 1, n
@@ -81,14 +121,14 @@ contains
         c = cov(k, l)/sqrt(cov(k, k)*cov(l, l))
         if (abs(c) <= 0.9_wp) cycle
         write (num, '(sp,f5.2)') c
-        line = line//trim(merge(' ', ',', shown == 0))//' '//trim(labels(k))//'/'//trim(labels(l))// &
-               ' '//trim(num)
+        line = line//trim(merge(' ', ',', shown == 0))//' '//trim(labels(k))//'/'// &
+               trim(labels(l))//' '//trim(num)
         shown = shown + 1
       end do
     end do
     if (shown == 0) line = line//' none'
-    write (unit, '(a)') line
-  end subroutine report_identifiability
+    text = text//line//NL
+  end function identifiability
 
   function fmt_e(x) result(s)
     real(wp), intent(in) :: x
@@ -108,59 +148,142 @@ contains
     if (info == 0) det_r = exp(logdet)
   end function det_r
 
-  subroutine json_open(unit)
-    integer, intent(in) :: unit
-    write (unit, '(a)') '['
-  end subroutine json_open
-
-  subroutine json_close(unit)
-    integer, intent(in) :: unit
-    write (unit, '(a)') ']'
-  end subroutine json_close
-
-  !> One case as a JSON object (the keys mlid run --json writes).
-  subroutine json_case(unit, first, title, job, status, msg, labels, est, sig, cost, rhat, &
-                       niter, converged, wall)
-    integer, intent(in) :: unit
-    logical, intent(in) :: first
+  !> The JSON object of a fitted case.
+  function fit_json(title, job, status, msg, s) result(text)
     character(len=*), intent(in) :: title, job, msg
-    integer, intent(in) :: status, niter
-    character(len=*), intent(in) :: labels(:)
-    real(wp), intent(in) :: est(:), sig(:), cost, rhat(:, :), wall
-    logical, intent(in) :: converged
+    integer, intent(in) :: status
+    type(fit_summary_t), intent(in) :: s
+    character(len=:), allocatable :: text
+    character(len=16) :: buf
     integer :: k
 
-    if (.not. first) write (unit, '(a)') ','
-    write (unit, '(a)') '{"title": '//quote(title)//', "job": '//quote(job)//','
-    write (unit, '(a,i0,a)') '"status": ', status, ', "message": '//quote(msg)//','
-    write (unit, '(a)', advance='no') '"parameters": ['
-    do k = 1, size(labels)
-      write (unit, '(a)', advance='no') quote(labels(k))//trim(merge(', ', '  ', k < size(labels)))
+    text = case_json(title, job, status, msg)
+    text = text(1:len(text) - 1)//','//NL//'"parameters": ['
+    do k = 1, size(s%labels)
+      text = text//json_string(s%labels(k))
+      if (k < size(s%labels)) text = text//', '
     end do
-    write (unit, '(a)') '],'
-    write (unit, '(a)') '"estimate": '//numbers(est)//','
-    write (unit, '(a)') '"sigma": '//numbers(sig)//','
-    write (unit, '(a)') '"R": ['
-    do k = 1, size(rhat, 1)
-      write (unit, '(a)') numbers(rhat(k, :))//trim(merge(',', ' ', k < size(rhat, 1)))
-    end do
-    write (unit, '(a)') '],'
-    write (unit, '(a)') '"det_R": '//number(det_r(rhat))//', "cost": '//number(cost)//','
-    write (unit, '(a,i0,a)') '"iterations": ', niter, ', "converged": '// &
-      trim(merge('true ', 'false', converged))//', "wall_time_s": '//number(wall)//'}'
-  end subroutine json_case
+    text = text//'],'//NL//'"start": '//numbers(s%start)//','//NL// &
+           '"estimate": '//numbers(s%est)//','//NL//'"sigma": '//numbers(s%sig)//','//NL// &
+           '"correlation": '//matrix(correlation(s%cov))//','//NL// &
+           '"R": '//matrix(s%rhat)//','//NL//'"det_R": '//number(det_r(s%rhat))// &
+           ', "cost": '//number(s%cost)//','//NL//'"cost_history": '//numbers(s%hist)//','//NL
+    write (buf, '(i0)') s%niter
+    text = text//'"iterations": '//trim(buf)//', "converged": '// &
+           trim(merge('true ', 'false', s%converged))
+    write (buf, '(i0)') s%rank
+    text = text//', "rank": '//trim(buf)//', "reason": '// &
+           json_string(trim(stop_reason_text(s%reason)))//'}'
+  end function fit_json
 
-  function quote(s) result(q)
+  !> The JSON object of a case without a fit: title, job, status, message
+  !> and, for a simulate case, the samples written and where.
+  function case_json(title, job, status, msg, samples, out) result(text)
+    character(len=*), intent(in) :: title, job, msg
+    integer, intent(in) :: status
+    integer, intent(in), optional :: samples
+    character(len=*), intent(in), optional :: out
+    character(len=:), allocatable :: text
+    character(len=16) :: buf
+    write (buf, '(i0)') status
+    text = '{"title": '//json_string(title)//', "job": '//json_string(job)//','//NL// &
+           '"status": '//trim(buf)//', "message": '//json_string(msg)
+    if (present(samples) .and. present(out)) then
+      write (buf, '(i0)') samples
+      text = text//','//NL//'"samples": '//trim(buf)//', "out": '//json_string(out)
+    end if
+    text = text//'}'
+  end function case_json
+
+  !> The --json file: the objects of a deck's cases as one list.
+  function json_list(objects, n) result(text)
+    character(len=*), intent(in) :: objects
+    integer, intent(in) :: n
+    character(len=:), allocatable :: text
+    text = '['//NL//objects
+    if (n > 0) text = text//NL
+    text = text//']'//NL
+  end function json_list
+
+  !> A JSON string: quotes, backslashes and control characters escaped; a
+  !> byte that does not start a whole UTF-8 character becomes U+FFFD, so a
+  !> message cut mid-character or a latin-1 title still makes valid JSON.
+  function json_string(s) result(q)
     character(len=*), intent(in) :: s
     character(len=:), allocatable :: q
-    integer :: k
+    character(len=6) :: esc
+    integer :: k, n, b, last
     q = '"'
-    do k = 1, len_trim(s)
-      if (s(k:k) == '"' .or. s(k:k) == '\') q = q//'\'
-      q = q//s(k:k)
+    k = 1
+    last = len_trim(s)
+    do while (k <= last)
+      b = iachar(s(k:k))
+      n = utf8_length(s(k:last))
+      if (s(k:k) == '"' .or. s(k:k) == '\') then
+        q = q//'\'//s(k:k)
+      else if (b < 32 .or. b == 127) then
+        write (esc, '(a,z4.4)') '\u', b
+        q = q//esc
+      else if (n == 0) then
+        q = q//'\ufffd'
+      else
+        q = q//s(k:k + n - 1)
+        k = k + n
+        cycle
+      end if
+      k = k + 1
     end do
     q = q//'"'
-  end function quote
+  end function json_string
+
+  !> Bytes of the UTF-8 character at the start of s; 0 if none starts there.
+  integer function utf8_length(s)
+    character(len=*), intent(in) :: s
+    integer :: b, n, j
+    b = iachar(s(1:1))
+    if (b < 128) then
+      n = 1
+    else if (b >= 194 .and. b <= 223) then
+      n = 2
+    else if (b >= 224 .and. b <= 239) then
+      n = 3
+    else if (b >= 240 .and. b <= 244) then
+      n = 4
+    else
+      n = 0
+    end if
+    utf8_length = 0
+    if (n == 0 .or. n > len(s)) return
+    do j = 2, n
+      if (iachar(s(j:j)) < 128 .or. iachar(s(j:j)) > 191) return
+    end do
+    utf8_length = n
+  end function utf8_length
+
+  function correlation(cov) result(c)
+    real(wp), intent(in) :: cov(:, :)
+    real(wp) :: c(size(cov, 1), size(cov, 2))
+    integer :: k, l
+    do l = 1, size(cov, 2)
+      do k = 1, size(cov, 1)
+        c(k, l) = 0.0_wp
+        if (cov(k, k) > 0.0_wp .and. cov(l, l) > 0.0_wp) &
+          c(k, l) = cov(k, l)/sqrt(cov(k, k)*cov(l, l))
+      end do
+    end do
+  end function correlation
+
+  function matrix(a) result(text)
+    real(wp), intent(in) :: a(:, :)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = '['
+    do k = 1, size(a, 1)
+      text = text//numbers(a(k, :))
+      if (k < size(a, 1)) text = text//', '
+    end do
+    text = text//']'
+  end function matrix
 
   function number(x) result(s)
     real(wp), intent(in) :: x

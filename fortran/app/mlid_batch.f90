@@ -1,19 +1,20 @@
 !> mlid-batch DECK [--json FILE]: run every case of a deck without Python,
 !> as the original batch program did.  A failing case prints one line
 !> naming deck, case and problem; the others still run; the exit code is 1
-!> if any case failed.
+!> if any case failed.  Records and the JSON file are written whole or not
+!> at all: to a temporary name in the same folder, renamed when complete.
 program mlid_batch
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_NOCONV
-  use mlid_deck, only: deck_case_t, deck_read, case_record, case_time_input, manoeuvre_layout
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_NOCONV, MLID_ERR_SINGULAR
+  use mlid_case, only: case_t
+  use mlid_deck, only: deck_read, case_record, case_time_input, manoeuvre_layout
   use mlid_api, only: mlid_fit, mlid_simulate
-  use mlid_report, only: report_fit, json_open, json_close, json_case
+  use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, json_list
   implicit none
-  character(len=1024) :: deck, arg, json_path
-  type(deck_case_t), allocatable :: cases(:)
-  integer :: status, nfail, k, nargs, ju, njson
-  logical :: json
+  character(len=4096) :: deck, arg, json_path
+  type(case_t), allocatable :: cases(:)
+  integer :: status, nfail, k, nargs
   character(len=256) :: msg
-  character(len=:), allocatable :: deck_dir
+  character(len=:), allocatable :: objects, json_tmp
 
   nargs = command_argument_count()
   json_path = ''
@@ -40,28 +41,31 @@ program mlid_batch
     write (0, '(a)') 'usage: mlid-batch DECK [--json FILE]'
     stop 2, quiet=.true.
   end if
-  deck_dir = ''
-  if (index(deck, '/', back=.true.) > 0) deck_dir = deck(1:index(deck, '/', back=.true.) - 1)
+  ! the JSON destination is tried before any case runs
+  if (len_trim(json_path) > 0) then
+    call temporary_for(trim(json_path), json_tmp, status, msg)
+    if (status /= MLID_OK) then
+      write (0, '(a)') 'mlid-batch: '//trim(msg)
+      stop 1, quiet=.true.
+    end if
+  end if
 
   call deck_read(trim(deck), cases, status, msg)
   if (status /= MLID_OK) then
     write (0, '(a)') 'mlid-batch: '//trim(msg)
     stop 1, quiet=.true.
   end if
-  json = .false.
-  if (len_trim(json_path) > 0) then
-    open (newunit=ju, file=trim(json_path), status='replace', action='write')
-    json = .true.
-    call json_open(ju)
-  end if
   nfail = 0
-  njson = 0
+  objects = ''
   do k = 1, size(cases)
     call run_case(k, cases(k))
   end do
-  if (json) then
-    call json_close(ju)
-    close (ju)
+  if (len_trim(json_path) > 0) then
+    call write_whole(trim(json_path), json_tmp, json_list(objects, size(cases)), status, msg)
+    if (status /= MLID_OK) then
+      write (0, '(a)') 'mlid-batch: '//trim(msg)
+      nfail = nfail + 1
+    end if
   end if
   if (nfail > 0) then
     write (0, '(i0,a,i0,a)') nfail, ' of ', size(cases), ' cases failed'
@@ -70,95 +74,26 @@ program mlid_batch
 
 contains
 
+  !> Run case k: print its report, add its JSON object, count a failure.
   subroutine run_case(k, c)
     integer, intent(in) :: k
-    type(deck_case_t), intent(inout) :: c
-    real(wp), allocatable :: t(:), u(:, :), y(:, :)
-    real(wp), allocatable :: theta(:), theta0(:), sigma(:), cov(:, :), info(:, :), grad(:), eigval(:)
-    real(wp), allocatable :: eigvec(:, :)
-    real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), x(:, :)
-    integer, allocatable :: segstart(:)
-    real(wp) :: cost, wall
-    integer :: niter, reason, converged, bad, nf, nth, cstat, j, t0, t1, rate, ou, rank
+    type(case_t), intent(inout) :: c
+    character(len=:), allocatable :: json
+    integer :: cstat
     character(len=256) :: cmsg
-    character(len=512) :: path
-    logical :: fitted
 
     write (*, '(/,a,i0,a)') ' case ', k, ': '//trim(c%title)
-    fitted = .false.
     cstat = c%status
     cmsg = c%msg
-    nth = 0
-    if (cstat == MLID_OK) nth = size(c%theta)
-    nf = 0
-    if (cstat == MLID_OK) nf = count(c%isfree == 1)
-    if (cstat == MLID_OK .and. c%job == 'simulate') then
-      call case_time_input(c, t, u, cstat, cmsg)
-      if (cstat == MLID_OK) then
-        allocate (y(c%ny, size(t)), x(c%nx, size(t)))
-        call mlid_simulate(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, size(c%iconst), &
-                           c%iconst, size(c%rconst), c%rconst, size(t), t, u, c%seed, 0, &
-                           c%iopt, c%ropt, y, x, cstat, cmsg)
-      end if
-      if (cstat == MLID_OK) then
-        path = c%out_file
-        if (path(1:1) /= '/' .and. len(deck_dir) > 0) path = deck_dir//'/'//trim(c%out_file)
-        open (newunit=ou, file=trim(path), status='replace', action='write', iostat=cstat)
-        if (cstat /= 0) then
-          cmsg = 'cannot write '//trim(path)
-        else
-          write (ou, '(a)') '# t, inputs, outputs (mlid simulate)'
-          do j = 1, size(t)
-            write (ou, '(*(es25.16e3))') t(j), u(:, j), y(:, j)
-          end do
-          close (ou)
-          write (*, '(a,i0,a)') ' simulated ', size(t), ' samples to '//trim(path)
-        end if
-      end if
-    else if (cstat == MLID_OK) then
-      call case_record(c, deck_dir, t, u, y, cstat, cmsg, segstart)
-      ! several data files: several manoeuvres, each its own x0 and biases
-      if (cstat == MLID_OK) call manoeuvre_layout(c, size(segstart), cstat, cmsg)
-      if (cstat == MLID_OK) then
-        nth = size(c%theta)
-        nf = count(c%isfree == 1)
-        allocate (theta(nth), theta0(nth), sigma(nth), cov(nf, nf), info(nf, nf), grad(nf), eigval(nf), &
-                  eigvec(nf, nf), &
-                  rhat(c%ny, c%ny), yhat(c%ny, size(t)), hist(c%iopt(1) + 1))
-        call system_clock(t0, rate)
-        call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, &
-                      size(c%iconst), c%iconst, size(c%rconst), c%rconst, size(t), t, u, y, &
-                      size(segstart), segstart, c%iopt, c%ropt, nf, size(hist), c%use_prior, prior_or_zero(c%prior, nth), &
-                      pweight_or_zero(c%pweight, nf), c%use_bounds, prior_or_zero(c%lower, nth), &
-                      prior_or_zero(c%upper, nth), theta0, theta, &
-                      sigma, cov, info, grad, eigval, eigvec, rhat, yhat, hist, cost, niter, reason, &
-                      converged, rank, bad, cstat, cmsg)
-        call system_clock(t1)
-        wall = real(t1 - t0, wp)/rate
-        if (cstat == MLID_OK .or. cstat == MLID_ERR_NOCONV) then
-          call report_fit(6, method_text(c), c%labels, pack(theta0, c%isfree == 1), &
-                          pack(theta, c%isfree == 1), pack(sigma, c%isfree == 1), cost, rhat, &
-                          niter, reason, converged == 1, rank, c%iopt(10), eigval, eigvec, cov)
-          fitted = .true.
-        end if
-        if (cstat /= MLID_OK .and. bad > 0) cmsg = replace_index(cmsg, bad, c%labels)
-        if (cstat == MLID_OK .and. cmsg(1:8) == 'warning:') write (0, '(a,i0,a,i0,a)') &
-          'mlid-batch: '//trim(deck)//' case ', k, ' (line ', c%line, ') '''//trim(c%title)// &
-          ''': '//trim(cmsg)
-      end if
+    if (cstat /= MLID_OK) then
+      json = case_json(c%title, c%job, cstat, cmsg)
+    else if (c%job == 'simulate') then
+      call simulate_case(c, json, cstat, cmsg)
+    else
+      call fit_case(k, c, json, cstat, cmsg)
     end if
-    if (json) then
-      if (fitted) then
-        call json_case(ju, njson == 0, c%title, c%job, cstat, cmsg, c%labels, &
-                       pack(theta, c%isfree == 1), pack(sigma, c%isfree == 1), cost, rhat, &
-                       niter, converged == 1, wall)
-      else
-        call json_case(ju, njson == 0, c%title, c%job, cstat, cmsg, [character(len=1) ::], &
-                       [real(wp) ::], [real(wp) ::], 0.0_wp, reshape([real(wp) ::], [0, 0]), &
-                       0, .false., 0.0_wp)
-      end if
-      njson = njson + 1
-    end if
+    if (len(objects) > 0) objects = objects//','//achar(10)
+    objects = objects//json
     if (cstat /= MLID_OK) then
       nfail = nfail + 1
       write (0, '(a,i0,a,i0,a)') 'mlid-batch: '//trim(deck)//' case ', k, ' (line ', c%line, &
@@ -167,35 +102,162 @@ contains
     end if
   end subroutine run_case
 
+  subroutine simulate_case(c, json, cstat, cmsg)
+    type(case_t), intent(in) :: c
+    character(len=:), allocatable, intent(out) :: json
+    integer, intent(out) :: cstat
+    character(len=*), intent(out) :: cmsg
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), x(:, :)
+    character(len=:), allocatable :: tmp
+    integer :: ou, j
+
+    json = case_json(c%title, c%job, MLID_ERR_INPUT, '')
+    call case_time_input(c, t, u, cstat, cmsg)
+    if (cstat /= MLID_OK) return
+    allocate (y(c%ny, size(t)), x(c%nx, size(t)))
+    call mlid_simulate(c%mkind, c%nx, c%nu, c%ny, c%nw, size(c%theta), c%theta, size(c%iconst), &
+                       c%iconst, size(c%rconst), c%rconst, size(t), t, u, c%seed, 0, &
+                       c%iopt, c%ropt, y, x, cstat, cmsg)
+    if (cstat /= MLID_OK) return
+    call temporary_for(trim(c%out_file), tmp, cstat, cmsg)
+    if (cstat /= MLID_OK) return
+    open (newunit=ou, file=tmp, status='replace', action='write', iostat=cstat)
+    if (cstat /= 0) then
+      cstat = MLID_ERR_INPUT
+      cmsg = 'cannot write '//trim(c%out_file)
+      return
+    end if
+    write (ou, '(a)') '# t, inputs, outputs (mlid simulate)'
+    do j = 1, size(t)
+      write (ou, '(*(es25.16e3))') t(j), u(:, j), y(:, j)
+    end do
+    close (ou)
+    call commit(tmp, trim(c%out_file), cstat, cmsg)
+    if (cstat /= MLID_OK) return
+    write (*, '(a,i0,a)') ' simulated ', size(t), ' samples to '//trim(c%out_file)
+    json = case_json(c%title, c%job, cstat, cmsg, size(t), trim(c%out_file))
+  end subroutine simulate_case
+
+  subroutine fit_case(k, c, json, cstat, cmsg)
+    integer, intent(in) :: k
+    type(case_t), intent(inout) :: c
+    character(len=:), allocatable, intent(out) :: json
+    integer, intent(out) :: cstat
+    character(len=*), intent(out) :: cmsg
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), theta0(:), sigma(:), grad(:)
+    real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), info(:, :)
+    integer, allocatable :: segstart(:)
+    type(fit_summary_t) :: s
+    integer :: bad, nf, nth, converged
+    logical, allocatable :: free(:)
+
+    json = case_json(c%title, c%job, MLID_ERR_INPUT, '')
+    call case_record(c, t, u, y, cstat, cmsg, segstart)
+    ! several data files: several manoeuvres, each its own x0 and biases
+    if (cstat == MLID_OK) call manoeuvre_layout(c, size(segstart), cstat, cmsg)
+    if (cstat /= MLID_OK) return
+    nth = size(c%theta)
+    nf = count(c%isfree == 1)
+    allocate (theta(nth), theta0(nth), sigma(nth), grad(nf), info(nf, nf), rhat(c%ny, c%ny), &
+              yhat(c%ny, size(t)), hist(c%iopt(1) + 1), s%cov(nf, nf), s%eigval(nf), &
+              s%eigvec(nf, nf))
+    call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, &
+                  size(c%iconst), c%iconst, size(c%rconst), c%rconst, size(t), t, u, y, &
+                  size(segstart), segstart, c%iopt, c%ropt, nf, size(hist), c%use_prior, &
+                  or_zero(c%prior, nth), weight_or_zero(c%pweight, nf), c%use_bounds, &
+                  or_zero(c%lower, nth), or_zero(c%upper, nth), theta0, theta, sigma, s%cov, &
+                  info, grad, s%eigval, s%eigvec, rhat, yhat, hist, s%cost, s%niter, s%reason, &
+                  converged, s%rank, bad, cstat, cmsg)
+    if (cstat /= MLID_OK .and. bad > 0) cmsg = replace_index(cmsg, bad, c%labels)
+    ! a fit that ended singular or unconverged still has a result to report
+    if (all(cstat /= [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) then
+      json = case_json(c%title, c%job, cstat, cmsg)
+      return
+    end if
+    free = c%isfree == 1
+    s%labels = c%labels
+    s%start = pack(theta0, free)
+    s%est = pack(theta, free)
+    s%sig = pack(sigma, free)
+    s%rhat = rhat
+    s%hist = hist(1:s%niter + 1)
+    s%converged = converged == 1
+    write (*, '(a)', advance='no') fit_report(s, c%iopt)
+    json = fit_json(c%title, c%job, cstat, cmsg, s)
+    if (cstat == MLID_OK .and. cmsg(1:min(8, len(cmsg))) == 'warning:') &
+      write (0, '(a,i0,a,i0,a)') 'mlid-batch: '//trim(deck)//' case ', k, ' (line ', c%line, &
+      ') '''//trim(c%title)//''': '//trim(cmsg)
+  end subroutine fit_case
+
+  !> A temporary name beside path, and a check that it can be written there.
+  subroutine temporary_for(path, tmp, status, msg)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable, intent(out) :: tmp
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=16) :: pid
+    integer :: unit, slash
+
+    write (pid, '(i0)') getpid()
+    slash = index(path, '/', back=.true.)
+    tmp = path(1:slash)//'.'//path(slash + 1:)//'.tmp-'//trim(pid)
+    open (newunit=unit, file=tmp, status='replace', action='write', iostat=status)
+    if (status /= 0) then
+      status = MLID_ERR_INPUT
+      msg = 'cannot write '//path//' (its folder is missing or not writable)'
+      return
+    end if
+    close (unit, status='delete')
+    status = MLID_OK
+    msg = ''
+  end subroutine temporary_for
+
+  !> Write text to tmp and rename it onto path.
+  subroutine write_whole(path, tmp, text, status, msg)
+    character(len=*), intent(in) :: path, tmp, text
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: unit
+    open (newunit=unit, file=tmp, status='replace', action='write', access='stream', &
+          form='unformatted', iostat=status)
+    if (status == 0) write (unit, iostat=status) text
+    if (status /= 0) then
+      msg = 'cannot write '//path
+      status = MLID_ERR_INPUT
+      return
+    end if
+    close (unit)
+    call commit(tmp, path, status, msg)
+  end subroutine write_whole
+
+  subroutine commit(tmp, path, status, msg)
+    character(len=*), intent(in) :: tmp, path
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    call rename(tmp, path, status)
+    msg = ''
+    if (status /= 0) then
+      status = MLID_ERR_INPUT
+      msg = 'cannot write '//path
+    end if
+  end subroutine commit
+
   !> An optional array, or zeros of the size the interface wants.
-  function prior_or_zero(a, n) result(out)
+  function or_zero(a, n) result(out)
     real(wp), allocatable, intent(in) :: a(:)
     integer, intent(in) :: n
     real(wp) :: out(n)
     out = 0.0_wp
     if (allocated(a)) out = a
-  end function prior_or_zero
+  end function or_zero
 
-  function pweight_or_zero(a, n) result(out)
+  function weight_or_zero(a, n) result(out)
     real(wp), allocatable, intent(in) :: a(:, :)
     integer, intent(in) :: n
     real(wp) :: out(n, n)
     out = 0.0_wp
     if (allocated(a)) out = a
-  end function pweight_or_zero
-
-  !> The estimator, as the report's first line names it.
-  function method_text(c) result(text)
-    type(deck_case_t), intent(in) :: c
-    character(len=:), allocatable :: text
-    if (c%method == 'filter_error') then
-      text = 'filter-error ML, '//trim(merge('steady-state gain', 'time-varying gain', &
-             c%iopt(8) == 1))//', '//trim(merge('with gain partials   ', 'without gain partials', &
-             c%iopt(7) == 1))
-    else
-      text = 'output-error ML, R '//trim(c%noise)
-    end if
-  end function method_text
+  end function weight_or_zero
 
   !> Put the name of free parameter bad in place of "free parameter <bad>".
   function replace_index(text, bad, labels) result(out)

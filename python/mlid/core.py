@@ -13,61 +13,73 @@ from .maneuvers import Params, join
 from .result import FitResult
 
 _api = _core.mlid_api
-NOISE = ("diagonal", "full")
-METHODS = ("output_error", "filter_error")
-STARTUPS = ("none", "equation_error")
-RANK_RULES = ("iteration", "staged")
-STOP_REASONS = {
-    0: "not started",
-    1: "relative cost change below tol_cost",
-    2: "relative parameter step below tol_step",
-    3: "Newton decrement below tol_grad",
-    4: "iteration limit reached",
-    5: "no cost decrease after all step halvings",
-    6: "stopped by an error",
-}
+#: Options that are the model's (Model.input_hold, Model.substeps), not fit()'s.
+_MODEL_OPTIONS = ("input_hold", "substeps")
+
+
+def _text(b):
+    return b.decode(errors="replace").strip()
+
+
+def _option_kinds():
+    """The core's option table: {name: kind}, kind 'int', 'real', 'bool' or
+    'choice'.  Names, positions and choices live in fortran/mlid_options.f90."""
+    kinds, k = {}, 1
+    while True:
+        name, kind = (_text(v) for v in _api.mlid_option_info(k))
+        if not name:
+            return kinds
+        kinds[name] = kind
+        k += 1
+
+
+_KINDS = _option_kinds()
+_TYPES = {"int": int, "real": float, "bool": lambda s: s == "true", "choice": str}
+
+
+def options_by_name(iopt, ropt):
+    """Every option of the core's flat arrays, by name (the model's too)."""
+    return {name: _TYPES[kind](_text(_api.mlid_option_get(iopt, ropt, name)))
+            for name, kind in _KINDS.items()}
+
+
+def _as_dict(iopt, ropt):
+    opts = options_by_name(iopt, ropt)
+    return {name: v for name, v in opts.items() if name not in _MODEL_OPTIONS}
+
+
+def _as_text(value):
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))
+    return str(value)
 
 
 def default_options():
     """The core's default estimator options, by name."""
-    iopt, ropt = _api.mlid_default_options()
-    return {"method": METHODS[int(iopt[5])], "max_iter": int(iopt[0]),
-            "halvings": int(iopt[1]), "noise": NOISE[int(iopt[2])],
-            "partials": bool(iopt[6]), "steady_state": bool(iopt[7]),
-            "startup": STARTUPS[int(iopt[8])], "rank_min": int(iopt[9]), "rank_max": int(iopt[10]),
-            "rank_rule": RANK_RULES[int(iopt[11])],
-            "prior_decay": float(ropt[4]),
-            "tol_cost": float(ropt[0]), "tol_step": float(ropt[1]), "tol_grad": float(ropt[2]),
-            "rcond": float(ropt[3])}
+    return _as_dict(*_api.mlid_default_options())
 
 
 def _flat_options(model, options):
-    opts = default_options()
-    unknown = set(options) - set(opts)
+    """The core's flat option arrays for fit() options and the model's own,
+    set by name (the core checks names and values), and the options by name."""
+    iopt, ropt = _api.mlid_default_options()
+    given = dict(options)
+    unknown = [n for n in given if n not in _KINDS or n in _MODEL_OPTIONS]
     if unknown:
-        raise InputError(f"unknown option {sorted(unknown)[0]!r}; known: {', '.join(opts)}")
-    opts.update(options)
-    if opts["noise"] not in NOISE:
-        raise InputError(f"noise must be one of {NOISE}, got {opts['noise']!r}")
-    if opts["method"] not in METHODS:
-        raise InputError(f"method must be one of {METHODS}, got {opts['method']!r}")
-    if opts["startup"] not in STARTUPS:
-        raise InputError(f"startup must be one of {STARTUPS}, got {opts['startup']!r}")
-    if opts["rank_rule"] not in RANK_RULES:
-        raise InputError(f"rank_rule must be one of {RANK_RULES}, got {opts['rank_rule']!r}")
-    iopt = np.zeros(12, dtype=np.int32)
-    ropt = np.zeros(12)
-    iopt[:8] = [opts["max_iter"], opts["halvings"], NOISE.index(opts["noise"]),
-                1 if model.input_hold == "zoh" else 0, model.substeps,
-                METHODS.index(opts["method"]), int(bool(opts["partials"])),
-                int(bool(opts["steady_state"]))]
-    iopt[8] = STARTUPS.index(opts["startup"])
-    iopt[9] = opts["rank_min"]
-    iopt[10] = opts["rank_max"]
-    iopt[11] = RANK_RULES.index(opts["rank_rule"])
-    ropt[4] = opts["prior_decay"]
-    ropt[:4] = [opts["tol_cost"], opts["tol_step"], opts["tol_grad"], opts["rcond"]]
-    return iopt, ropt, opts
+        raise InputError(f"unknown option {unknown[0]!r}; known: {', '.join(default_options())}")
+    given.update(input_hold=model.input_hold, substeps=model.substeps)
+    for name, value in given.items():
+        status, msg = _api.mlid_option_set(iopt, ropt, name, _as_text(value))
+        check_status(status, msg)
+    check_status(*_api.mlid_options_check(iopt, ropt))
+    return iopt, ropt, _as_dict(iopt, ropt)
+
+
+def stop_reason(code):
+    """Why an iteration stopped, in the report's words (from the core)."""
+    return _text(_api.mlid_stop_reason(int(code)))
 
 
 def _model_args(model):
@@ -170,7 +182,7 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     (theta_start, theta, sigma, cov, info, grad, eigval, eigvec, rhat, yhat, cost_hist, cost,
      niter, reason, converged, rank, bad, status, msg) = _api.mlid_fit(
         **_model_args(model), theta0=theta0, isfree=mask, itie=params.tie, t=t, u=u, y=y,
-        segstart=starts, iopt=iopt, ropt=ropt, nf=nf, nc=int(iopt[0]) + 1,
+        segstart=starts, iopt=iopt, ropt=ropt, nf=nf, nc=opts["max_iter"] + 1,
         **_extras(params, prior, prior_weight, bounds))
     wall = time.perf_counter() - start
     text = msg.decode(errors="replace").strip()
@@ -189,7 +201,8 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
         eigenvalues=eigval, eigenvectors=eigvec, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
         cost_history=cost_hist[:niter + 1].copy(), iterations=int(niter),
-        converged=bool(converged), reason=STOP_REASONS.get(int(reason), "?"), rank=int(rank),
+        converged=bool(converged), reason=stop_reason(reason), reason_code=int(reason),
+        flat_options=iopt, rank=int(rank),
         status=int(status), message=text, wall_time=wall)
     if status == 2:
         raise SingularInformationError(text, result)

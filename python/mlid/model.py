@@ -363,3 +363,30 @@ class X22Model(Model):
 
     def _from_parts(self, parts, common):
         return X22Model(parts["p"], **common)
+
+
+def from_core(mkind, sizes, iconst, rconst, theta, isfree, itie, labels, input_hold, substeps):
+    """The model a case spec of the core describes (kind, sizes (nx, nu, ny,
+    nw), constants, the whole theta with free flags, ties and the free
+    parameters' labels); the core has read and checked it."""
+    nx, nu, ny, nw = sizes
+    z = np.zeros
+    if mkind == LinearModel.kind:
+        proto = LinearModel(z((nx, nx)), z((nx, nu)), z((ny, nx)), Gamma=z((nx, nw)))
+    elif mkind == LongitudinalModel.kind:
+        codes, n = list(REGRESSORS), iconst[:3]
+        regs = [codes[c - 1] for c in iconst[3:]]
+        split = {"CD": regs[:n[0]], "CL": regs[n[0]:n[0] + n[1]], "Cm": regs[n[0] + n[1]:]}
+        proto = LongitudinalModel(split, {}, dict(zip(CONSTANTS, rconst)))
+    elif mkind == UserModel.kind:
+        proto = UserModel(z(len(theta) - (nx + 2 * ny + nw + nw * ny)), iconst, rconst)
+    else:
+        proto = X22Model(z(len(X22_LABELS)))
+    model = proto.with_theta(theta)
+    names = model.element_names()
+    free = [names[k] for k in np.flatnonzero(isfree)]
+    model.free = free
+    model.names.update(zip(free, labels))
+    model.ties = {names[k]: names[itie[k] - 1] for k in np.flatnonzero(itie)}
+    model.input_hold, model.substeps = input_hold, int(substeps)
+    return model

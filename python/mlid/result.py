@@ -73,57 +73,33 @@ class FitResult:
             "wall_time_s": self.wall_time,
         }
 
+    def _texts(self, title="", job="estimate"):
+        """The core's report and JSON object of this fit (mlid-batch prints
+        and writes the same text)."""
+        from .core import _api
+        rep, nrep, js, njs = _api.mlid_report_fit(
+            labels="\n".join(self.names) + "\n", iopt=self.flat_options, start=self.start,
+            est=self.estimate, sig=self.sigma, cov=self.covariance, eigval=self.eigenvalues,
+            eigvec=self.eigenvectors, rhat=self.rhat, hist=self.cost_history, cost=self.cost,
+            niter=self.iterations, reason=self.reason_code, converged=int(self.converged),
+            nrank=self.rank, title=title, job=job, status=self.status, msg=self.message)
+        return rep[:nrep].decode(errors="replace"), js[:njs].decode(errors="replace")
+
     def report(self):
-        """The printed report; mlid-batch prints the same lines."""
-        o = self.options
-        if o.get("method") == "filter_error":
-            method = ("filter-error ML, "
-                      + ("steady-state gain" if o["steady_state"] else "time-varying gain") + ", "
-                      + ("with gain partials" if o["partials"] else "without gain partials"))
-        else:
-            method = f"output-error ML, R {o['noise']}"
-        lines = [
-            f" {method}: {self.iterations} iterations, "
-            f"{'converged' if self.converged else 'NOT converged'} ({self.reason})",
-        ]
-        if o.get("rank_min", 0) > 0:
-            lines.append(f" rank-deficient solution: rank {self.rank} of {len(self.names)} "
-                         "(sigma from the same rank)")
-        lines.append(f" {'parameter':<16}{'start':>15}{'estimate':>15}{'sigma':>13}")
-        for n, s0, e, s in zip(self.names, self.start, self.estimate, self.sigma):
-            lines.append(f" {n[:16]:<16}{s0:15.6E}{e:15.6E}{s:13.4E}")
-        # output error estimates R; filter error reports the mean innovation covariance B
-        r = "R" if method.startswith("output") else "B"
-        lines.append(f" cost J = {self.cost:17.10E}   det {r} = {self.det_r:13.6E}")
-        label = "R diagonal:" if r == "R" else "B diagonal (mean)"
-        lines.append(f" {label}" + "".join(f" {v:10.4E}" for v in np.diag(self.rhat)))
-        return "\n".join(lines + self.identifiability())
+        """The printed report (report Table 5.3 layout) with what the
+        information says about identifiability (report §4.5, §5.3.5)."""
+        return self._texts()[0].rstrip("\n")
 
     def identifiability(self):
-        """What the information says about the parameters (report §4.5,
-        §5.3.5): eigenvalue spread of the normalised information, its weakest
-        direction in named parameters, correlations above 0.9.  The core
-        computes the eigen-decomposition; mlid-batch prints the same lines."""
-        w, v, n = self.eigenvalues, self.eigenvectors, len(self.names)
-        if n == 0:
-            return []
-        line = f" normalised information: eigenvalues {w[0]:.3E} to {w[-1]:.3E}"
-        if w[0] > 0:
-            line += f", spread {w[-1] / w[0]:.3E}"
-        weak = " weakest direction:"
-        order = sorted(range(n), key=lambda k: -abs(v[k, 0]))    # stable, as the batch's
-        for k in [k for k in order if abs(v[k, 0]) >= 0.1][:5]:
-            weak += f" {v[k, 0]:+.2f} {self.names[k]}"
-        pairs = []
-        cov = self.covariance
-        for k in range(n):
-            for l in range(k + 1, n):
-                if cov[k, k] > 0 and cov[l, l] > 0:
-                    c = cov[k, l] / np.sqrt(cov[k, k] * cov[l, l])
-                    if abs(c) > 0.9:
-                        pairs.append(f"{self.names[k]}/{self.names[l]} {c:+.2f}")
-        corr = " correlations above 0.9: " + (", ".join(pairs) if pairs else "none")
-        return [line, weak, corr]
+        """The report's lines on identifiability: eigenvalue spread of the
+        normalised information, its weakest direction, correlations above 0.9."""
+        lines = self.report().split("\n")
+        k = [i for i, ln in enumerate(lines) if ln.startswith((" R diagonal", " B diagonal"))]
+        return lines[k[0] + 1:]
+
+    def json(self, title="", job="estimate"):
+        """The JSON object of this fit as a deck case (``mlid run --json``)."""
+        return self._texts(title, job)[1]
 
     def sensitivity_norms(self):
         """Output sensitivity norms at the estimate, (ny, nf): sqrt(sum over

@@ -1,0 +1,84 @@
+!> The case spec: everything one case of a deck (or a Python call) asks the
+!> core to do: model kind and sizes, constants, the parameter vector with
+!> free flags, ties and labels, options, prior and bounds, data files and
+!> channels, the simulate job's inputs.  The deck reader fills it
+!> (mlid_deck); mlid_api hands it to Python field by field, so no front end
+!> re-derives a layout.
+module mlid_case
+  use mlid_kinds, only: wp, msg_len, MLID_OK
+  use mlid_model_factory, only: MODEL_LINEAR
+  use mlid_options, only: NOPT
+  implicit none
+  private
+  public :: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, join_lines, split_lines
+
+  integer, parameter :: NAMELEN = 32, PATHLEN = 512
+  integer, parameter :: MAXSEG = 20     !< manoeuvres (data files) per case
+  !> Samples of a simulated record at the most: checked before anything is
+  !> allocated (a real manoeuvre has thousands).
+  integer, parameter :: MAX_SAMPLES = 10000000
+
+  type :: case_t
+    integer :: status = MLID_OK
+    character(len=msg_len) :: msg = ''
+    integer :: line = 0                       !< line of &case in the deck
+    character(len=128) :: title = ''
+    character(len=16) :: job = ''
+    integer :: mkind = MODEL_LINEAR
+    integer, allocatable :: iconst(:)         !< model constants (longitudinal: regressor codes)
+    real(wp), allocatable :: rconst(:)
+    integer :: nx = 0, nu = 0, ny = 0, nw = 0
+    real(wp), allocatable :: theta(:)         !< [F, G, H, D, Gamma, x0, bias, q, r, s]
+    integer, allocatable :: isfree(:), itie(:)
+    integer :: use_prior = 0, use_bounds = 0
+    real(wp), allocatable :: prior(:), pweight(:, :), lower(:), upper(:)  !< prior(nth) etc.
+    character(len=NAMELEN), allocatable :: labels(:)  !< per free parameter, theta order
+    character(len=NAMELEN), allocatable :: input_names(:), output_names(:)  !< channels, if named
+    integer :: iopt(NOPT) = 0
+    real(wp) :: ropt(NOPT) = 0.0_wp
+    character(len=16) :: noise = 'diagonal'
+    character(len=16) :: method = 'output_error'
+    !> the records, one per manoeuvre (relative paths are resolved from the deck)
+    character(len=PATHLEN), allocatable :: data_files(:)
+    integer :: time_col = 1, skip_rows = 0
+    integer, allocatable :: input_cols(:), output_cols(:)
+    character(len=PATHLEN) :: out_file = ''
+    real(wp) :: t_end = 0.0_wp, dt = 0.0_wp
+    integer :: seed = 0
+    real(wp), allocatable :: noise_std(:), amplitude(:)
+    character(len=16), allocatable :: input_shape(:)   !< per input
+    real(wp), allocatable :: t_start(:), pulse_width(:)  !< per input
+  end type case_t
+
+contains
+
+  !> Names one per line, for the flat interface.
+  function join_lines(names) result(text)
+    character(len=*), allocatable, intent(in) :: names(:)
+    character(len=:), allocatable :: text
+    integer :: j
+    text = ''
+    if (.not. allocated(names)) return
+    do j = 1, size(names)
+      text = text//trim(names(j))//achar(10)
+    end do
+  end function join_lines
+
+  !> The first n lines of text (names one per line).
+  function split_lines(text, n) result(names)
+    character(len=*), intent(in) :: text
+    integer, intent(in) :: n
+    character(len=NAMELEN) :: names(n)
+    integer :: j, p, e
+    names = ''
+    p = 1
+    do j = 1, n
+      if (p > len(text)) exit
+      e = index(text(p:), achar(10))
+      if (e == 0) e = len(text) - p + 2
+      names(j) = text(p:p + e - 2)
+      p = p + e
+    end do
+  end function split_lines
+
+end module mlid_case
