@@ -25,12 +25,15 @@ module mlid_aero_long
   use mlid_models, only: model_t
   implicit none
   private
-  public :: aero_long_t, aero_long_create, check_longitudinal_record, REGRESSOR_NAMES, NREG
+  public :: aero_long_t, aero_long_create, check_longitudinal_record, REGRESSOR_NAMES, NREG, &
+            CONSTANT_NAMES
 
   !> Regressor codes 1..NREG and their names (the deck and Python use the names).
   integer, parameter :: NREG = 6
   character(len=8), parameter :: REGRESSOR_NAMES(NREG) = &
     [character(len=8) :: '1', 'V/V0', 'alpha', 'alpha^2', 'qhat', 'de']
+  !> The constants rconst, in order.
+  character(len=*), parameter :: CONSTANT_NAMES = 'g, S/m, S cbar/Iy, lT/Iy, V0, m, sigma_T, rho, cbar/2'
 
   type, extends(model_t) :: aero_long_t
     integer, allocatable :: code(:)      !< regressor code of each parameter
@@ -73,8 +76,8 @@ contains
       return
     end if
     if (size(rconst) /= 9) then
-      write (msg, '(a,i0)') 'longitudinal model: rconst needs 9 constants '// &
-        '(g, S/m, S cbar/Iy, lT/Iy, V0, m, sigma_T, rho, cbar/2), got ', size(rconst)
+      write (msg, '(a,i0)') 'longitudinal model: rconst needs 9 constants ('//CONSTANT_NAMES// &
+        '), got ', size(rconst)
       return
     end if
     if (.not. (rconst(5) > 0.0_wp .and. rconst(6) > 0.0_wp .and. rconst(8) > 0.0_wp)) then

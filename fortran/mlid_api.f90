@@ -30,7 +30,8 @@ module mlid_api
   use mlid_deck, only: opened, deck_open, case_time_input
   use mlid_case, only: case_t, join_lines, split_lines
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json
-  use mlid_aero_long, only: aero_long_t, check_longitudinal_record
+  use mlid_aero_long, only: aero_long_t, check_longitudinal_record, REGRESSOR_NAMES, CONSTANT_NAMES
+  use mlid_layout, only: layout_table_t, layout_of, element_name, default_label
   use mlid_jacobian_check, only: check_jacobians
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, &
                          transition_length, costate_input, input_information, mu_for_length, &
@@ -41,6 +42,7 @@ module mlid_api
             mlid_option_info, mlid_option_set, mlid_option_get, mlid_options_check, &
             mlid_stop_reason, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
             mlid_deck_case_data, mlid_deck_case_time_input, mlid_report_fit, mlid_case_json, &
+            mlid_layout_size, mlid_layout, mlid_name_list, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude
@@ -293,6 +295,84 @@ contains
     njson = min(len(text), len(json))
     json = text
   end subroutine mlid_case_json
+
+  !> Sizes of a model's parameter layout (mlid_layout): blocks and entries.
+  subroutine mlid_layout_size(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, nblock, nth, &
+                              status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    integer(c_int), intent(out) :: nblock, nth, status
+    character(len=256), intent(out) :: msg
+    type(layout_table_t) :: lt
+    call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
+    nblock = lt%nblock
+    nth = lt%nth
+  end subroutine mlid_layout_size
+
+  !> A model's parameter layout: each block's key (one per line), rows,
+  !> columns (-1: a vector) and offset in theta; each entry's element name
+  !> and default label (one per line).
+  subroutine mlid_layout(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, nblock, nth, keys, &
+                         rows, cols, offs, names, labels, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic), nblock, nth
+    real(c_double), intent(in) :: rconst(nrc)
+    character(len=256), intent(out) :: keys
+    integer(c_int), intent(out) :: rows(nblock), cols(nblock), offs(nblock), status
+    character(len=131072), intent(out) :: names, labels
+    character(len=256), intent(out) :: msg
+    type(layout_table_t) :: lt
+    character(len=:), allocatable :: text
+    integer :: k
+
+    keys = ''
+    names = ''
+    labels = ''
+    rows = 0
+    cols = 0
+    offs = 0
+    call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
+    if (status /= MLID_OK) return
+    if (lt%nblock /= nblock .or. lt%nth /= nth) then
+      status = MLID_ERR_INPUT
+      msg = 'layout sizes do not match mlid_layout_size'
+      return
+    end if
+    rows = lt%rows(1:nblock)
+    cols = lt%cols(1:nblock)
+    offs = lt%off(1:nblock)
+    text = ''
+    do k = 1, nblock
+      text = text//trim(lt%key(k))//achar(10)
+    end do
+    keys = text
+    text = ''
+    do k = 1, nth
+      text = text//trim(element_name(lt, k))//achar(10)
+    end do
+    names = text
+    text = ''
+    do k = 1, nth
+      text = text//trim(default_label(lt, k))//achar(10)
+    end do
+    labels = text
+  end subroutine mlid_layout
+
+  !> A list of names the core defines, one per line: 'regressors' (of the
+  !> longitudinal model, by code) or 'constants' (its rconst, in order).
+  subroutine mlid_name_list(which, text)
+    character(len=*), intent(in) :: which
+    character(len=1024), intent(out) :: text
+    integer :: k
+    text = ''
+    select case (which)
+    case ('regressors')
+      do k = 1, size(REGRESSOR_NAMES)
+        text = trim(text)//trim(REGRESSOR_NAMES(k))//achar(10)
+      end do
+    case ('constants')
+      text = CONSTANT_NAMES
+    end select
+  end subroutine mlid_name_list
 
   !> Sizes of a model whose sizes are its own (longitudinal, user): give
   !> nx = nu = ny = nw = -1 to learn them.

@@ -36,8 +36,6 @@ module mlid_case
     character(len=NAMELEN), allocatable :: input_names(:), output_names(:)  !< channels, if named
     integer :: iopt(NOPT) = 0
     real(wp) :: ropt(NOPT) = 0.0_wp
-    character(len=16) :: noise = 'diagonal'
-    character(len=16) :: method = 'output_error'
     !> the records, one per manoeuvre (relative paths are resolved from the deck)
     character(len=PATHLEN), allocatable :: data_files(:)
     integer :: time_col = 1, skip_rows = 0

@@ -16,17 +16,18 @@
 !>             prior_decay, rank_min, rank_max, rank_rule, lower, upper (per free parameter, in the
 !>             order of free)
 !> A problem in one case is kept in that case (status, msg) and the others
-!> are still read.  The Python reader (mlid/deck.py) follows the same rules.
+!> are still read.  Python reads decks through this reader too (mlid_api's
+!> mlid_deck_* routines; python/mlid/deck.py).
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
-  use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
-  use mlid_x22, only: X22_LABELS
-  use mlid_options, only: options_t, options_to_flat, options_from_flat, NOPT
+  use mlid_models, only: model_t
+  use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
+  use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
-  use mlid_aero_long, only: REGRESSOR_NAMES, NREG
-  use mlid_user_model, only: user_model_t, user_model_create
+  use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
+  use mlid_layout, only: layout_table_t, layout_table, element_index, default_label, block_list
   implicit none
   private
   public :: case_t, deck_read, deck_open, case_record, case_time_input, manoeuvre_layout, &
@@ -37,13 +38,16 @@ module mlid_deck
 
   integer, parameter :: LINELEN = 2048
   integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
-  integer, parameter :: MAXR = 12, NBLOCK = 11
-  !> Suffix of a longitudinal coefficient's default label, per regressor
-  !> (C_D0, C_DV, C_Lalpha, C_mq, ...; python/mlid/model.py has the same).
-  character(len=8), parameter :: SUFFIX(NREG) = &
-    [character(len=8) :: '0', 'V', 'alpha', 'alpha2', 'q', 'de']
+  integer, parameter :: MAXR = 12   !< regressors of each coefficient
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
   character(len=*), parameter :: GROUPS = ' case model data simulate estimate '
+
+  !> What the group readers of one case share: the scratch unit with the
+  !> case's text and its lines (for line numbers in messages).
+  type :: reader_t
+    integer :: unit = 0, line0 = 0
+    character(len=LINELEN), allocatable :: lines(:)
+  end type reader_t
 
 
 contains
@@ -116,75 +120,114 @@ contains
     if (len_trim(c%out_file) > 0) c%out_file = resolve(dir, c%out_file)
   end subroutine resolve_paths
 
-  !> Parse one case from its lines (first is the &case line, number line0).
+  !> Parse one case from its lines (first is the &case line, number line0):
+  !> one reader per group, each after the one before succeeded.
   subroutine read_case(lines, line0, c)
     character(len=*), intent(in) :: lines(:)
     integer, intent(in) :: line0
     type(case_t), intent(inout) :: c
-    ! namelist variables, reset for every case
+    type(reader_t) :: rd
+    type(options_t) :: opt
+    integer, allocatable :: free_idx(:)
+    character(len=:), allocatable :: seen
+    character(len=LINELEN) :: text
+    integer :: k
+
+    ! The case without comments goes to a scratch file that each group's
+    ! namelist read rewinds: gfortran and a Python reader disagree on
+    ! comments after a trailing comma.
+    rd%line0 = line0
+    rd%lines = lines
+    open (newunit=rd%unit, status='scratch', action='readwrite', form='formatted')
+    seen = ' '
+    do k = 1, size(lines)
+      text = strip_comment(lines(k))
+      write (rd%unit, '(a)') trim(text)
+      call check_groups(text, line0 + k - 1, c, seen)
+      if (c%status /= MLID_OK) exit
+    end do
+    call options_to_flat(options_t(), c%iopt, c%ropt)
+    if (c%status == MLID_OK) call read_case_group(rd, c)
+    if (c%status == MLID_OK) call read_model_group(rd, c, free_idx)
+    if (c%status == MLID_OK .and. c%job == 'estimate') then
+      call read_data_group(rd, c)
+      if (c%status == MLID_OK) call read_estimate_group(rd, c, free_idx)
+    else if (c%status == MLID_OK) then
+      call read_simulate_group(rd, c)
+    end if
+    if (c%status == MLID_OK) then
+      call options_from_flat(c%iopt, c%ropt, opt, c%status, c%msg)
+    end if
+    close (rd%unit)
+  end subroutine read_case
+
+  !> After a group's namelist read: a missing group (an error when the job
+  !> needs it) or a read error becomes the case's message.
+  subroutine group_status(rd, group, ios, iomsg, required, c)
+    type(reader_t), intent(in) :: rd
+    character(len=*), intent(in) :: group, iomsg
+    integer, intent(in) :: ios
+    logical, intent(in) :: required
+    type(case_t), intent(inout) :: c
+    if (ios < 0 .and. required) then
+      call fail(c, 'group &'//group//' is missing (job '''//trim(c%job)//''' needs it)')
+    else if (ios > 0) then
+      call fail(c, 'group &'//group//' (line '//itoa(group_line(rd%lines, rd%line0, group))// &
+                '): '//trim(iomsg))
+    end if
+  end subroutine group_status
+
+  subroutine fail(c, text)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: text
+    c%status = MLID_ERR_INPUT
+    c%msg = text
+  end subroutine fail
+
+  !> &case: title and job.
+  subroutine read_case_group(rd, c)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
     character(len=128) :: title
-    character(len=16) :: job, kind, input_hold, noise, method, startup, rank_rule, input_shape(MAXU)
-    integer :: nx, nu, ny, nw, substeps, max_iter, halvings, time_col, skip_rows, seed
+    character(len=16) :: job
+    character(len=msg_len) :: iomsg
+    integer :: ios
+    namelist /case/ title, job
+
+    title = ''
+    job = ''
+    rewind (rd%unit)
+    read (rd%unit, nml=case, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'case', ios, iomsg, .true., c)
+    if (c%status /= MLID_OK) return
+    c%title = title
+    c%job = to_lower(job)
+    if (c%job /= 'estimate' .and. c%job /= 'simulate') &
+      call fail(c, 'group &case: job must be ''estimate'' or ''simulate'', got '''//trim(job)//'''')
+  end subroutine read_case_group
+
+  !> &model: the kind and sizes, the parameter vector, free parameters and
+  !> their labels, ties, input hold and substeps, channel names.
+  subroutine read_model_group(rd, c, free_idx)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    integer, allocatable, intent(out) :: free_idx(:)
+    character(len=16) :: kind, input_hold
+    integer :: nx, nu, ny, nw, substeps, user_iconst(MAXFREE), ncoef(3), ios
     real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
     real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY), k(MAXU*MAXX)
     character(len=8) :: cd_regressors(MAXR), cl_regressors(MAXR), cm_regressors(MAXR)
     real(wp) :: cd(MAXR), cl(MAXR), cm(MAXR), constants(9), p(MAXFREE), user_rconst(MAXFREE)
-    integer :: user_iconst(MAXFREE)
-    type(user_model_t) :: user
-    character(len=8) :: bkey(NBLOCK)
-    integer :: brow(NBLOCK), bcol(NBLOCK), boff(NBLOCK), ncoef(3), codes(3*MAXR)
-    character(len=NAMELEN), allocatable :: default_label(:)
-    logical :: partials, steady_state
     character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
     character(len=2*NAMELEN + 1) :: tie(MAXFREE)
     character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
-    real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay
-    real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
-    integer :: rank_min, rank_max, free_idx(MAXFREE), pos
-    character(len=PATHLEN) :: file(MAXSEG), out
-    integer :: input_cols(MAXCOL), output_cols(MAXCOL)
-    real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
-    namelist /case/ title, job
+    character(len=msg_len) :: iomsg
+    integer, allocatable :: codes(:)
+    type(layout_table_t) :: lt
+    type(options_t) :: defaults
     namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, k, x0, bias, q, r, s, free, names, &
       tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
       cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst
-    namelist /data/ file, time_col, input_cols, output_cols, skip_rows
-    namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
-      pulse_width
-    namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, tol_cost, &
-      tol_step, tol_grad, rcond, prior, prior_weight, prior_decay, rank_min, rank_max, rank_rule, &
-      lower, upper
-    type(options_t) :: opt
-    integer :: unit, ik, ios, np, idx, jdx, peq, nth
-    logical :: found
-    character(len=msg_len) :: iomsg
-    character(len=LINELEN) :: text
-    character(len=:), allocatable :: seen
-
-    ! Write the case without comments to a scratch file: gfortran and the
-    ! Python reader disagree on comments after a trailing comma.
-    open (newunit=unit, status='scratch', action='readwrite', form='formatted')
-    seen = ' '
-    do ik = 1, size(lines)
-      text = strip_comment(lines(ik))
-      write (unit, '(a)') trim(text)
-      call check_groups(text, line0 + ik - 1, c, seen)
-      if (c%status /= MLID_OK) then
-        close (unit)
-        return
-      end if
-    end do
-
-    title = ''
-    job = ''
-    call read_group('case')
-    if (c%status /= MLID_OK) return
-    c%title = title
-    c%job = to_lower(job)
-    if (c%job /= 'estimate' .and. c%job /= 'simulate') then
-      call fail('group &case: job must be ''estimate'' or ''simulate'', got '''//trim(job)//'''')
-      return
-    end if
 
     kind = 'linear'
     nx = 0
@@ -192,545 +235,517 @@ contains
     ny = 0
     nw = 0
     f = UNSET
+    g = UNSET
+    h = UNSET
+    d = UNSET
     gamma = UNSET
     k = UNSET
+    x0 = UNSET
+    bias = UNSET
     q = UNSET
     r = UNSET
     s = UNSET
-    tie = ''
-    cd_regressors = ''
-    cl_regressors = ''
-    cm_regressors = ''
     cd = UNSET
     cl = UNSET
     cm = UNSET
     constants = UNSET
     p = UNSET
-    user_iconst = -huge(1)
     user_rconst = UNSET
-    g = UNSET
-    h = UNSET
-    d = UNSET
-    x0 = UNSET
-    bias = UNSET
+    user_iconst = -huge(1)
+    cd_regressors = ''
+    cl_regressors = ''
+    cm_regressors = ''
     free = ''
     names = ''
+    tie = ''
     state_names = ''
     input_names = ''
     output_names = ''
     input_hold = 'linear'
-    substeps = opt%substeps
-    call read_group('model', required=.true.)
+    substeps = defaults%substeps
+    rewind (rd%unit)
+    read (rd%unit, nml=model, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'model', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
+    call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], constants, &
+                    user_iconst, user_rconst, nx, nu, ny, nw, ncoef, codes)
+    if (c%status /= MLID_OK) return
+    lt = layout_table(c%mkind, nx, nu, ny, nw, ncoef, codes)
+    allocate (c%theta(lt%nth), c%isfree(lt%nth), c%itie(lt%nth))
+    c%isfree = 0
+    c%itie = 0
+    if (c%mkind == MODEL_LINEAR) then
+      call put_matrix(c, lt, 'f', f, required=.true.)
+      call put_matrix(c, lt, 'g', g, required=nu > 0)
+      call put_matrix(c, lt, 'h', h, required=.true.)
+      call put_matrix(c, lt, 'd', d, required=.false.)
+      call put_matrix(c, lt, 'gamma', gamma, required=nw > 0)
+      call put_matrix(c, lt, 'k', k, required=.false.)
+    else if (c%mkind == MODEL_AERO_LONG) then
+      call put_matrix(c, lt, 'cd', cd, required=.false.)
+      call put_matrix(c, lt, 'cl', cl, required=.false.)
+      call put_matrix(c, lt, 'cm', cm, required=.false.)
+    else
+      call put_matrix(c, lt, 'p', p, required=ncoef(1) > 0)
+    end if
+    call put_matrix(c, lt, 'x0', x0, required=.false.)
+    call put_matrix(c, lt, 'bias', bias, required=.false.)
+    call put_matrix(c, lt, 'q', q, required=.false.)
+    call put_matrix(c, lt, 'r', r, required=.false.)
+    call put_matrix(c, lt, 's', s, required=.false.)
+    if (c%status == MLID_OK) call set_free(c, lt, free, names, free_idx)
+    if (c%status == MLID_OK) call set_ties(c, lt, tie)
+    if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'input_hold', input_hold)
+    if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'substeps', itoa(substeps))
+    c%input_names = pack(input_names, len_trim(input_names) > 0)
+    c%output_names = pack(output_names, len_trim(output_names) > 0)
+  end subroutine read_model_group
+
+  !> The model kind and its sizes and constants (a built-in model's sizes
+  !> are its own; nx, nu, ny, nw may be left out or must agree).
+  subroutine model_kind(c, kind, regressors, constants, user_iconst, user_rconst, nx, nu, ny, &
+                        nw, ncoef, codes)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: kind, regressors(:)
+    real(wp), intent(in) :: constants(:), user_rconst(:)
+    integer, intent(in) :: user_iconst(:)
+    integer, intent(inout) :: nx, nu, ny, nw
+    integer, intent(out) :: ncoef(3)
+    integer, allocatable, intent(out) :: codes(:)
+    character(len=msg_len) :: iomsg
+
+    ncoef = 0
+    allocate (codes(0), c%iconst(0), c%rconst(0))
     select case (to_lower(kind))
     case ('linear')
       c%mkind = MODEL_LINEAR
-      allocate (c%iconst(0), c%rconst(0))
     case ('longitudinal')
       c%mkind = MODEL_AERO_LONG
-      if (any([nx, nu, ny, nw] /= [0, 0, 0, 0] .and. [nx, nu, ny, nw] /= [4, 2, 7, 4])) then
-        call fail('group &model: a longitudinal model has nx, nu, ny, nw = 4, 2, 7, 4')
-        return
-      end if
-      nx = 4
-      nu = 2
-      ny = 7
-      nw = 4
-      call regressor_codes(cd_regressors, 1)
-      call regressor_codes(cl_regressors, 2)
-      call regressor_codes(cm_regressors, 3)
+      call regressor_codes(c, regressors, ncoef, codes)
       if (c%status /= MLID_OK) return
       if (count(constants /= UNSET) /= 9) then
-        call fail('group &model: constants needs 9 values: g, S/m, S cbar/Iy, lT/Iy, V0, m, '// &
-                  'sigma_T, rho, cbar/2')
+        call fail(c, 'group &model: constants needs 9 values: '//CONSTANT_NAMES)
         return
       end if
-      c%iconst = [ncoef, pack(codes, codes > 0)]
+      c%iconst = [ncoef, codes]
       c%rconst = constants
     case ('user')
       c%mkind = MODEL_USER
       c%iconst = pack(user_iconst, user_iconst /= -huge(1))
       c%rconst = pack(user_rconst, user_rconst /= UNSET)
-      call user_model_create(c%iconst, c%rconst, user, ios, iomsg)
-      if (ios /= MLID_OK) then
-        call fail('group &model: '//trim(iomsg))
-        return
-      end if
-      nx = user%nx
-      nu = user%nu
-      ny = user%ny
-      nw = user%nw
-      ncoef(1) = user%np
     case ('x22')
       c%mkind = MODEL_X22
-      allocate (c%iconst(0), c%rconst(0))
-      if (any([nx, nu, ny, nw] /= [0, 0, 0, 0] .and. [nx, nu, ny, nw] /= [4, 1, 7, 3])) then
-        call fail('group &model: the X-22 model has nx, nu, ny, nw = 4, 1, 7, 3')
-        return
-      end if
-      nx = 4
-      nu = 1
-      ny = 7
-      nw = 3
-      ncoef(1) = 23
     case default
-      call fail('group &model: unknown kind '''//trim(kind)//''' (available: linear, '// &
+      call fail(c, 'group &model: unknown kind '''//trim(kind)//''' (available: linear, '// &
                 'longitudinal, x22, user)')
       return
     end select
+    if (c%mkind /= MODEL_LINEAR) then
+      call own_sizes(c, nx, nu, ny, nw, ncoef)
+      if (c%status /= MLID_OK) return
+    end if
     if (nx < 1 .or. nx > MAXX .or. nu < 0 .or. nu > MAXU .or. ny < 1 .or. ny > MAXY .or. &
         nw < 0 .or. nw > MAXW) then
       write (iomsg, '(a,4(1x,i0),a,4(1x,i0))') 'group &model: nx, nu, ny, nw =', nx, nu, ny, nw, &
         ' out of range; limits are', MAXX, MAXU, MAXY, MAXW
-      call fail(iomsg)
+      call fail(c, iomsg)
       return
     end if
     c%nx = nx
     c%nu = nu
     c%ny = ny
     c%nw = nw
-    ! The blocks of theta, in order: key, rows, columns (-1: a vector).
-    if (c%mkind == MODEL_LINEAR) then
-      call set_blocks([character(len=8) :: 'f', 'g', 'h', 'd', 'gamma', 'k', 'x0', 'bias', 'q', &
-                       'r', 's'], [nx, nx, ny, ny, nx, nu, nx, ny, nw, ny, nw], &
-                      [nx, nu, nx, nu, nw, nx, -1, -1, -1, -1, ny])
-    else if (c%mkind == MODEL_USER .or. c%mkind == MODEL_X22) then
-      call set_blocks([character(len=8) :: 'p', 'x0', 'bias', 'q', 'r', 's'], &
-                      [ncoef(1), nx, ny, nw, ny, nw], [-1, -1, -1, -1, -1, ny])
-    else
-      call set_blocks([character(len=8) :: 'cd', 'cl', 'cm', 'x0', 'bias', 'q', 'r', 's'], &
-                      [ncoef, nx, ny, nw, ny, nw], [-1, -1, -1, -1, -1, -1, -1, ny])
+  end subroutine model_kind
+
+  !> A built-in or user model's own sizes (from the model itself); sizes
+  !> the deck gives must agree with them.
+  subroutine own_sizes(c, nx, nu, ny, nw, ncoef)
+    type(case_t), intent(inout) :: c
+    integer, intent(inout) :: nx, nu, ny, nw, ncoef(3)
+    class(model_t), allocatable :: m
+    character(len=msg_len) :: iomsg
+    integer :: ios
+
+    call model_create(c%mkind, -1, -1, -1, -1, c%iconst, c%rconst, m, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &model: '//trim(iomsg))
+      return
     end if
-    np = boff(findloc(bkey, 'x0', 1))
-    nth = sum(brow*merge(1, bcol, bcol < 0))
-    allocate (c%theta(nth), c%isfree(nth), c%itie(nth), c%labels(nth))
-    c%isfree = 0
-    c%itie = 0
-    c%labels = ''
-    if (c%mkind == MODEL_LINEAR) then
-      call put_matrix('f', f, nx, nx, 0, required=.true.)
-      call put_matrix('g', g, nx, nu, nx*nx, required=nu > 0)
-      call put_matrix('h', h, ny, nx, nx*nx + nx*nu, required=.true.)
-      call put_matrix('d', d, ny, nu, nx*nx + nx*nu + ny*nx, required=.false.)
-      call put_matrix('gamma', gamma, nx, nw, np - nx*nw - nu*nx, required=nw > 0)
-      call put_matrix('k', k, nu, nx, np - nu*nx, required=.false.)
-    else if (c%mkind == MODEL_USER .or. c%mkind == MODEL_X22) then
-      call put_vector('p', p, ncoef(1), 0)
-      if (ncoef(1) > 0 .and. count(p /= UNSET) == 0) call fail('group &model: p (the '// &
-                                                               'model''s parameters) is missing')
-    else
-      call put_vector('cd', cd, ncoef(1), 0)
-      call put_vector('cl', cl, ncoef(2), ncoef(1))
-      call put_vector('cm', cm, ncoef(3), ncoef(1) + ncoef(2))
+    if (c%mkind /= MODEL_USER .and. any([nx, nu, ny, nw] /= 0 .and. &
+                                        [nx, nu, ny, nw] /= [m%nx, m%nu, m%ny, m%nw])) then
+      write (iomsg, '(a,3(i0,a),i0)') 'group &model: this model has nx, nu, ny, nw = ', m%nx, &
+        ', ', m%nu, ', ', m%ny, ', ', m%nw
+      call fail(c, iomsg)
+      return
     end if
-    call put_vector('x0', x0, nx, np)
-    call put_vector('bias', bias, ny, np + nx)
-    call put_vector('q', q, nw, np + nx + ny)
-    call put_vector('r', r, ny, np + nx + ny + nw)
-    call put_matrix('s', s, nw, ny, np + nx + ny + nw + ny, required=.false.)
+    nx = m%nx
+    nu = m%nu
+    ny = m%ny
+    nw = m%nw
+    if (c%mkind /= MODEL_AERO_LONG) ncoef(1) = m%np
+  end subroutine own_sizes
+
+  !> Regressor names of C_D, C_L, C_m (MAXR each) -> their counts and codes.
+  subroutine regressor_codes(c, names, ncoef, codes)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: names(:)
+    integer, intent(out) :: ncoef(3)
+    integer, allocatable, intent(inout) :: codes(:)
+    integer :: k, i
+    ncoef = 0
+    do k = 1, size(names)
+      if (len_trim(names(k)) == 0) cycle
+      i = findloc(REGRESSOR_NAMES, trim(adjustl(names(k))), 1)
+      if (i == 0) then
+        call fail(c, 'group &model: regressor '''//trim(names(k))//''' does not exist (use '// &
+                  joined(REGRESSOR_NAMES)//')')
+        return
+      end if
+      ncoef((k - 1)/MAXR + 1) = ncoef((k - 1)/MAXR + 1) + 1
+      codes = [codes, i]
+    end do
+  end subroutine regressor_codes
+
+  !> Place block key of the deck (a matrix given row by row) into theta
+  !> (column-major); a block not given is zero unless required.
+  subroutine put_matrix(c, lt, key, v, required)
+    type(case_t), intent(inout) :: c
+    type(layout_table_t), intent(in) :: lt
+    character(len=*), intent(in) :: key
+    real(wp), intent(in) :: v(:)
+    logical, intent(in) :: required
+    character(len=msg_len) :: iomsg
+    integer :: b, nr, nc, n, ngiven, i, j, o
+
     if (c%status /= MLID_OK) return
-    do ik = 1, MAXFREE
-      if (len_trim(free(ik)) == 0) cycle
-      call element_index(free(ik), bkey, brow, bcol, boff, idx)
+    b = findloc(lt%key, key, 1)
+    nr = lt%rows(b)
+    nc = merge(1, lt%cols(b), lt%cols(b) < 0)
+    n = nr*nc
+    o = lt%off(b)
+    ngiven = count(v /= UNSET)
+    if (ngiven == 0 .and. .not. required) then
+      c%theta(o + 1:o + n) = 0.0_wp
+      return
+    end if
+    if (ngiven /= n .or. any(v(1:n) == UNSET)) then
+      if (lt%cols(b) < 0) then
+        write (iomsg, '(a,i0,a,i0)') 'group &model: '//key//' has ', ngiven, &
+          ' values, it needs ', n
+      else
+        write (iomsg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &model: '//key//' has ', ngiven, &
+          ' values, '//key//' is ', nr, 'x', nc, ' and needs ', n, ' (row by row)'
+      end if
+      call fail(c, iomsg)
+      return
+    end if
+    do i = 1, nr
+      do j = 1, nc
+        c%theta(o + (j - 1)*nr + i) = v((i - 1)*nc + j)
+      end do
+    end do
+    if (.not. all(ieee_is_finite(c%theta(o + 1:o + n)))) &
+      call fail(c, 'group &model: '//key//' has a value that is not finite')
+  end subroutine put_matrix
+
+  !> The free parameters (free_idx: their theta indices in the order of
+  !> free) and their labels (names, else the default label).
+  subroutine set_free(c, lt, free, names, free_idx)
+    type(case_t), intent(inout) :: c
+    type(layout_table_t), intent(in) :: lt
+    character(len=*), intent(in) :: free(:), names(:)
+    integer, allocatable, intent(out) :: free_idx(:)
+    character(len=NAMELEN), allocatable :: labels(:)
+    integer :: k, idx
+
+    allocate (free_idx(0), labels(lt%nth))
+    labels = ''
+    do k = 1, size(free)
+      if (len_trim(free(k)) == 0) cycle
+      idx = element_index(lt, free(k))
       if (idx == 0) then
-        call fail('group &model: free parameter '''//trim(free(ik))// &
-                  ''' does not exist ('//trim(block_list())//' within the dimensions)')
+        call fail(c, 'group &model: free parameter '''//trim(free(k))// &
+                  ''' does not exist ('//block_list(lt)//' within the dimensions)')
         return
       end if
       if (c%isfree(idx) == 1) then
-        call fail('group &model: free parameter '''//trim(free(ik))//''' listed twice')
+        call fail(c, 'group &model: free parameter '''//trim(free(k))//''' listed twice')
         return
       end if
       c%isfree(idx) = 1
-      free_idx(count(len_trim(free(1:ik)) > 0)) = idx
-      c%labels(idx) = default_label(idx)
-      if (len_trim(names(ik)) > 0) c%labels(idx) = names(ik)
+      free_idx = [free_idx, idx]
+      labels(idx) = default_label(lt, idx)
+      if (len_trim(names(k)) > 0) labels(idx) = names(k)
     end do
-    if (count(len_trim(names) > 0) > count(len_trim(free) > 0)) then
-      call fail('group &model: more names than free parameters')
+    if (count(len_trim(names) > 0) > size(free_idx)) then
+      call fail(c, 'group &model: more names than free parameters')
       return
     end if
-    c%labels = pack(c%labels, c%isfree == 1)
-    do ik = 1, MAXFREE
-      if (len_trim(tie(ik)) == 0) cycle
-      peq = index(tie(ik), '=')
+    c%labels = pack(labels, c%isfree == 1)
+  end subroutine set_free
+
+  !> Ties 'a=b': parameter a held equal to b.
+  subroutine set_ties(c, lt, tie)
+    type(case_t), intent(inout) :: c
+    type(layout_table_t), intent(in) :: lt
+    character(len=*), intent(in) :: tie(:)
+    integer :: k, peq, idx, jdx
+    do k = 1, size(tie)
+      if (len_trim(tie(k)) == 0) cycle
+      peq = index(tie(k), '=')
       idx = 0
       jdx = 0
       if (peq > 1) then
-        call element_index(tie(ik)(1:peq - 1), bkey, brow, bcol, boff, idx)
-        call element_index(tie(ik)(peq + 1:), bkey, brow, bcol, boff, jdx)
+        idx = element_index(lt, tie(k)(1:peq - 1))
+        jdx = element_index(lt, tie(k)(peq + 1:))
       end if
       if (idx == 0 .or. jdx == 0) then
-        call fail('group &model: tie '''//trim(tie(ik))//''' must read ''a=b'' with two '// &
+        call fail(c, 'group &model: tie '''//trim(tie(k))//''' must read ''a=b'' with two '// &
                   'parameters that exist')
         return
       end if
       c%itie(idx) = jdx
     end do
-    select case (to_lower(input_hold))
-    case ('linear')
-      opt%hold = .false.
-    case ('zoh')
-      opt%hold = .true.
-    case default
-      call fail('group &model: input_hold must be ''linear'' or ''zoh'', got '''//trim(input_hold)//'''')
-      return
-    end select
-    opt%substeps = substeps
-    c%input_names = pack(input_names, len_trim(input_names) > 0)
-    c%output_names = pack(output_names, len_trim(output_names) > 0)
+  end subroutine set_ties
 
-    if (c%job == 'estimate') then
-      file = ''
-      time_col = 1
-      input_cols = 0
-      output_cols = 0
-      skip_rows = 0
-      call read_group('data', required=.true.)
-      if (c%status /= MLID_OK) return
-      c%data_files = pack(file, len_trim(file) > 0)
-      c%time_col = time_col
-      c%skip_rows = skip_rows
-      c%input_cols = pack(input_cols, input_cols /= 0)
-      c%output_cols = pack(output_cols, output_cols /= 0)
-      if (size(c%data_files) == 0) then
-        call fail('group &data: file is missing')
-      else if (size(c%input_cols) /= nu .or. size(c%output_cols) /= ny) then
-        write (iomsg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%input_cols), &
-          ' input_cols and ', size(c%output_cols), ' output_cols given, the model has ', nu, &
-          ' inputs and ', ny, ' outputs'
-        call fail(iomsg)
-      else if (any([c%input_cols, c%output_cols, time_col] < 1) .or. skip_rows < 0) then
-        call fail('group &data: column numbers must be >= 1 and skip_rows >= 0')
-      end if
-      if (c%status /= MLID_OK) return
+  !> Set an option of the case by name from the deck's text (the core's
+  !> option table checks the name and the value).
+  subroutine set_option(c, where, name, text)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: where, name, text
+    character(len=msg_len) :: msg
+    integer :: status
+    call option_set(c%iopt, c%ropt, name, text, status, msg)
+    if (status /= MLID_OK) call fail(c, where//trim(msg))
+  end subroutine set_option
 
-      max_iter = opt%max_iter
-      halvings = opt%halvings
-      noise = 'diagonal'
-      method = 'output_error'
-      startup = 'none'
-      rank_rule = 'iteration'
-      partials = opt%partials
-      steady_state = opt%steady
-      tol_cost = opt%tol_cost
-      tol_step = opt%tol_step
-      tol_grad = opt%tol_grad
-      rcond = opt%rcond
-      prior_decay = opt%prior_decay
-      rank_min = opt%rank_min
-      rank_max = opt%rank_max
-      prior = UNSET
-      prior_weight = UNSET
-      lower = UNSET
-      upper = UNSET
-      call read_group('estimate')
-      if (c%status /= MLID_OK) return
-      call put_extras()
-      if (c%status /= MLID_OK) return
-      opt%prior_decay = prior_decay
-      opt%rank_min = rank_min
-      opt%rank_max = rank_max
-      opt%max_iter = max_iter
-      opt%halvings = halvings
-      opt%tol_cost = tol_cost
-      opt%tol_step = tol_step
-      opt%tol_grad = tol_grad
-      opt%rcond = rcond
-      opt%partials = partials
-      opt%steady = steady_state
-      c%method = to_lower(method)
-      opt%method = either('method', method, 'output_error', 'filter_error')
-      opt%startup = either('startup', startup, 'none', 'equation_error')
-      opt%rank_rule = either('rank_rule', rank_rule, 'iteration', 'staged')
-      c%noise = to_lower(noise)
-      opt%full_r = either('noise', noise, 'diagonal', 'full') == 1
-      if (c%status /= MLID_OK) return
-    else
-      out = ''
-      t_end = 0.0_wp
-      dt = 0.0_wp
-      seed = 0
-      noise_std = UNSET
-      input_shape = ''
-      amplitude = UNSET
-      t_start = UNSET
-      pulse_width = UNSET
-      call read_group('simulate', required=.true.)
-      if (c%status /= MLID_OK) return
-      c%out_file = out
-      c%t_end = t_end
-      c%dt = dt
-      c%seed = seed
-      ! one value serves every input; otherwise one per input
-      c%input_shape = per_input_text(input_shape, nu, 'none')
-      c%t_start = per_input(t_start, nu)
-      c%pulse_width = per_input(pulse_width, nu)
-      c%noise_std = pack(noise_std, noise_std /= UNSET)
-      c%amplitude = pack(amplitude, amplitude /= UNSET)
-      ! noise_std, when given, sets the measurement-noise variances r
-      if (size(c%noise_std) == ny) c%theta(np + nx + ny + nw + 1:np + nx + ny + nw + ny) = c%noise_std**2
-      if (size(c%amplitude) == 0) c%amplitude = [(0.0_wp, ik=1, nu)]
-      if (len_trim(out) == 0) then
-        call fail('group &simulate: out (the data file to write) is missing')
-      else if (.not. (dt > 0.0_wp .and. t_end > dt)) then
-        call fail('group &simulate: need dt > 0 and t_end > dt')
-      else if (.not. (t_end/dt < real(MAX_SAMPLES, wp))) then
-        write (iomsg, '(a,g0.6,a,i0,a)') 'group &simulate: t_end/dt = ', t_end/dt, &
-          ' samples; at most ', MAX_SAMPLES, ' are allowed'
-        call fail(iomsg)
-      else if (size(c%noise_std) /= ny .and. size(c%noise_std) /= 0) then
-        write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
-          ' values, the model has ', ny, ' outputs'
-        call fail(iomsg)
-      else if (size(c%amplitude) /= nu) then
-        write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: amplitude has ', size(c%amplitude), &
-          ' values, the model has ', nu, ' inputs'
-        call fail(iomsg)
-      else if (seed < 0) then
-        call fail('group &simulate: seed must be >= 0')
-      else if (size(c%input_shape) /= nu .or. size(c%t_start) /= nu .or. &
-               size(c%pulse_width) /= nu) then
-        write (iomsg, '(a,i0,a)') 'group &simulate: input_shape, t_start and pulse_width take '// &
-          'one value or one per input (', nu, ')'
-        call fail(iomsg)
-      end if
-      if (c%status /= MLID_OK) return
+  !> &data: the records (one file per manoeuvre) and their columns.
+  subroutine read_data_group(rd, c)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    character(len=PATHLEN) :: file(MAXSEG)
+    integer :: time_col, skip_rows, input_cols(MAXCOL), output_cols(MAXCOL), ios
+    character(len=msg_len) :: iomsg
+    namelist /data/ file, time_col, input_cols, output_cols, skip_rows
+
+    file = ''
+    time_col = 1
+    input_cols = 0
+    output_cols = 0
+    skip_rows = 0
+    rewind (rd%unit)
+    read (rd%unit, nml=data, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'data', ios, iomsg, .true., c)
+    if (c%status /= MLID_OK) return
+    c%data_files = pack(file, len_trim(file) > 0)
+    c%time_col = time_col
+    c%skip_rows = skip_rows
+    c%input_cols = pack(input_cols, input_cols /= 0)
+    c%output_cols = pack(output_cols, output_cols /= 0)
+    if (size(c%data_files) == 0) then
+      call fail(c, 'group &data: file is missing')
+    else if (size(c%input_cols) /= c%nu .or. size(c%output_cols) /= c%ny) then
+      write (iomsg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%input_cols), &
+        ' input_cols and ', size(c%output_cols), ' output_cols given, the model has ', c%nu, &
+        ' inputs and ', c%ny, ' outputs'
+      call fail(c, iomsg)
+    else if (any([c%input_cols, c%output_cols, time_col] < 1) .or. skip_rows < 0) then
+      call fail(c, 'group &data: column numbers must be >= 1 and skip_rows >= 0')
     end if
-    call options_to_flat(opt, c%iopt, c%ropt)
+  end subroutine read_data_group
+
+  !> &estimate: the estimator's options, and a priori values, weights and
+  !> bounds per free parameter (in the order of free).
+  subroutine read_estimate_group(rd, c, free_idx)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: free_idx(:)
+    character(len=32) :: noise, method, startup, rank_rule
+    integer :: max_iter, halvings, rank_min, rank_max, ios
+    logical :: partials, steady_state
+    real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay
+    real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
+    character(len=msg_len) :: iomsg
+    type(options_t) :: opt
+    namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
+      tol_cost, tol_step, tol_grad, rcond, prior, prior_weight, prior_decay, rank_min, &
+      rank_max, rank_rule, lower, upper
+
     call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
-    if (ios /= MLID_OK) then
-      call fail(iomsg)
-      return
+    max_iter = opt%max_iter
+    halvings = opt%halvings
+    partials = opt%partials
+    steady_state = opt%steady
+    tol_cost = opt%tol_cost
+    tol_step = opt%tol_step
+    tol_grad = opt%tol_grad
+    rcond = opt%rcond
+    prior_decay = opt%prior_decay
+    rank_min = opt%rank_min
+    rank_max = opt%rank_max
+    noise = option_get(c%iopt, c%ropt, 'noise')
+    method = option_get(c%iopt, c%ropt, 'method')
+    startup = option_get(c%iopt, c%ropt, 'startup')
+    rank_rule = option_get(c%iopt, c%ropt, 'rank_rule')
+    prior = UNSET
+    prior_weight = UNSET
+    lower = UNSET
+    upper = UNSET
+    rewind (rd%unit)
+    read (rd%unit, nml=estimate, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'estimate', ios, iomsg, .false., c)
+    if (c%status /= MLID_OK) return
+    opt%max_iter = max_iter
+    opt%halvings = halvings
+    opt%partials = partials
+    opt%steady = steady_state
+    opt%tol_cost = tol_cost
+    opt%tol_step = tol_step
+    opt%tol_grad = tol_grad
+    opt%rcond = rcond
+    opt%prior_decay = prior_decay
+    opt%rank_min = rank_min
+    opt%rank_max = rank_max
+    call options_to_flat(opt, c%iopt, c%ropt)
+    call set_option(c, 'group &estimate: ', 'method', method)
+    call set_option(c, 'group &estimate: ', 'startup', startup)
+    call set_option(c, 'group &estimate: ', 'rank_rule', rank_rule)
+    call set_option(c, 'group &estimate: ', 'noise', noise)
+    if (c%status == MLID_OK) call put_extras(c, free_idx, prior, prior_weight, lower, upper)
+  end subroutine read_estimate_group
+
+  !> A priori values and weights and bounds, given per free parameter in
+  !> the order of free, into theta's order.
+  subroutine put_extras(c, free_idx, prior, prior_weight, lower, upper)
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: free_idx(:)
+    real(wp), intent(in) :: prior(:), prior_weight(:), lower(:), upper(:)
+    character(len=msg_len) :: iomsg
+    integer :: j, nfr, pos
+
+    nfr = size(free_idx)
+    if (count(prior_weight /= UNSET) + count(prior /= UNSET) + count(lower /= UNSET) + &
+        count(upper /= UNSET) == 0) return
+    do j = nfr + 1, size(prior)
+      if (any([prior(j), prior_weight(j), lower(j), upper(j)] /= UNSET)) then
+        write (iomsg, '(a,i0,a)') 'group &estimate: prior, prior_weight, lower and upper take '// &
+          'one value per free parameter (', nfr, ')'
+        call fail(c, iomsg)
+        return
+      end if
+    end do
+    allocate (c%prior(size(c%theta)), c%pweight(nfr, nfr), c%lower(size(c%theta)), &
+              c%upper(size(c%theta)))
+    c%prior = c%theta
+    c%pweight = 0.0_wp
+    c%lower = -huge(1.0_wp)
+    c%upper = huge(1.0_wp)
+    do j = 1, nfr
+      pos = count(c%isfree(1:free_idx(j)) == 1)      ! its place among the free, theta order
+      if (prior(j) /= UNSET) c%prior(free_idx(j)) = prior(j)
+      if (prior_weight(j) /= UNSET) c%pweight(pos, pos) = prior_weight(j)
+      if (lower(j) /= UNSET) c%lower(free_idx(j)) = lower(j)
+      if (upper(j) /= UNSET) c%upper(free_idx(j)) = upper(j)
+    end do
+    if (count(prior_weight /= UNSET) > 0) c%use_prior = 1
+    if (count(lower /= UNSET) + count(upper /= UNSET) > 0) c%use_bounds = 1
+  end subroutine put_extras
+
+  !> &simulate: the record to write, its time base, inputs and noise.
+  subroutine read_simulate_group(rd, c)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    character(len=PATHLEN) :: out
+    character(len=16) :: input_shape(MAXU)
+    real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
+    integer :: seed, ios, o
+    character(len=msg_len) :: iomsg
+    namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
+      pulse_width
+
+    out = ''
+    t_end = 0.0_wp
+    dt = 0.0_wp
+    seed = 0
+    noise_std = UNSET
+    input_shape = ''
+    amplitude = UNSET
+    t_start = UNSET
+    pulse_width = UNSET
+    rewind (rd%unit)
+    read (rd%unit, nml=simulate, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'simulate', ios, iomsg, .true., c)
+    if (c%status /= MLID_OK) return
+    c%out_file = out
+    c%t_end = t_end
+    c%dt = dt
+    c%seed = seed
+    ! one value serves every input; otherwise one per input
+    c%input_shape = per_input_text(input_shape, c%nu, 'none')
+    c%t_start = per_input(t_start, c%nu)
+    c%pulse_width = per_input(pulse_width, c%nu)
+    c%noise_std = pack(noise_std, noise_std /= UNSET)
+    c%amplitude = pack(amplitude, amplitude /= UNSET)
+    if (size(c%amplitude) == 0) c%amplitude = spread(0.0_wp, 1, c%nu)
+    call check_simulate(c)
+    if (c%status /= MLID_OK) return
+    ! noise_std, when given, sets the measurement-noise variances r
+    o = size(c%theta) - c%nw*c%ny - c%ny
+    if (size(c%noise_std) == c%ny) c%theta(o + 1:o + c%ny) = c%noise_std**2
+  end subroutine read_simulate_group
+
+  subroutine check_simulate(c)
+    type(case_t), intent(inout) :: c
+    character(len=msg_len) :: iomsg
+    if (len_trim(c%out_file) == 0) then
+      call fail(c, 'group &simulate: out (the data file to write) is missing')
+    else if (.not. (c%dt > 0.0_wp .and. c%t_end > c%dt)) then
+      call fail(c, 'group &simulate: need dt > 0 and t_end > dt')
+    else if (.not. (c%t_end/c%dt < real(MAX_SAMPLES, wp))) then
+      write (iomsg, '(a,g0.6,a,i0,a)') 'group &simulate: t_end/dt = ', c%t_end/c%dt, &
+        ' samples; at most ', MAX_SAMPLES, ' are allowed'
+      call fail(c, iomsg)
+    else if (size(c%noise_std) /= c%ny .and. size(c%noise_std) /= 0) then
+      write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
+        ' values, the model has ', c%ny, ' outputs'
+      call fail(c, iomsg)
+    else if (size(c%amplitude) /= c%nu) then
+      write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: amplitude has ', size(c%amplitude), &
+        ' values, the model has ', c%nu, ' inputs'
+      call fail(c, iomsg)
+    else if (c%seed < 0) then
+      call fail(c, 'group &simulate: seed must be >= 0')
+    else if (size(c%input_shape) /= c%nu .or. size(c%t_start) /= c%nu .or. &
+             size(c%pulse_width) /= c%nu) then
+      write (iomsg, '(a,i0,a)') 'group &simulate: input_shape, t_start and pulse_width take '// &
+        'one value or one per input (', c%nu, ')'
+      call fail(c, iomsg)
     end if
-    close (unit)
+  end subroutine check_simulate
 
-  contains
+  !> The values given, or the one value repeated for every input (zeros
+  !> when none is given).
+  function per_input(v, n) result(out)
+    real(wp), intent(in) :: v(:)
+    integer, intent(in) :: n
+    real(wp), allocatable :: out(:)
+    out = pack(v, v /= UNSET)
+    if (size(out) == 0) out = [0.0_wp]
+    if (size(out) == 1) out = spread(out(1), 1, n)
+  end function per_input
 
-    !> A priori values and weights and bounds, given per free parameter in
-    !> the order of free, into theta's order.
-    subroutine put_extras()
-      integer :: j, nfr
-      nfr = count(c%isfree == 1)
-      if (count(prior_weight /= UNSET) + count(prior /= UNSET) + count(lower /= UNSET) + &
-          count(upper /= UNSET) == 0) return
-      do j = 1, MAXFREE
-        if (j > nfr .and. any([prior(j), prior_weight(j), lower(j), upper(j)] /= UNSET)) then
-          write (iomsg, '(a,i0,a)') 'group &estimate: prior, prior_weight, lower and upper take '// &
-            'one value per free parameter (', nfr, ')'
-          call fail(iomsg)
-          return
-        end if
-      end do
-      allocate (c%prior(size(c%theta)), c%pweight(nfr, nfr), c%lower(size(c%theta)), &
-                c%upper(size(c%theta)))
-      c%prior = c%theta
-      c%pweight = 0.0_wp
-      c%lower = -huge(1.0_wp)
-      c%upper = huge(1.0_wp)
-      do j = 1, nfr
-        pos = count(c%isfree(1:free_idx(j)) == 1)      ! its place among the free, theta order
-        if (prior(j) /= UNSET) c%prior(free_idx(j)) = prior(j)
-        if (prior_weight(j) /= UNSET) c%pweight(pos, pos) = prior_weight(j)
-        if (lower(j) /= UNSET) c%lower(free_idx(j)) = lower(j)
-        if (upper(j) /= UNSET) c%upper(free_idx(j)) = upper(j)
-      end do
-      if (count(prior_weight /= UNSET) > 0) c%use_prior = 1
-      if (count(lower /= UNSET) + count(upper /= UNSET) > 0) c%use_bounds = 1
-    end subroutine put_extras
-
-    !> Record the block table and the default label of every entry: the
-    !> canonical element name, or C_D0, C_Lalpha, ... for coefficients.
-    subroutine set_blocks(keys, rows, cols)
-      character(len=*), intent(in) :: keys(:)
-      integer, intent(in) :: rows(:), cols(:)
-      integer :: b, i, j, o
-      bkey = ''
-      brow = 0
-      bcol = 0
-      boff = 0
-      o = 0
-      do b = 1, size(keys)
-        bkey(b) = keys(b)
-        brow(b) = rows(b)
-        bcol(b) = cols(b)
-        boff(b) = o
-        o = o + rows(b)*merge(1, cols(b), cols(b) < 0)
-      end do
-      do b = size(keys) + 1, NBLOCK
-        boff(b) = o
-      end do
-      allocate (default_label(o))
-      do b = 1, size(keys)
-        if (cols(b) < 0) then
-          do i = 1, rows(b)
-            write (default_label(boff(b) + i), '(a,i0,a)') trim(keys(b))//'(', i, ')'
-            if (b <= 3 .and. c%mkind == MODEL_AERO_LONG) default_label(boff(b) + i) = &
-              'C_'//trim(merge('D', merge('L', 'm', b == 2), b == 1))// &
-              trim(SUFFIX(codes((b - 1)*MAXR + i)))
-            if (b == 1 .and. c%mkind == MODEL_X22) default_label(boff(b) + i) = X22_LABELS(i)
-          end do
-        else
-          do j = 1, cols(b)
-            do i = 1, rows(b)
-              write (default_label(boff(b) + (j - 1)*rows(b) + i), '(a,i0,a,i0,a)') &
-                trim(keys(b))//'(', i, ',', j, ')'
-            end do
-          end do
-        end if
-      end do
-    end subroutine set_blocks
-
-    function block_list() result(text)
-      character(len=:), allocatable :: text
-      integer :: b
-      text = 'use'
-      do b = 1, NBLOCK
-        if (len_trim(bkey(b)) == 0) exit
-        text = text//' '//trim(bkey(b))//trim(merge('(i,j)', '(i)  ', bcol(b) >= 0))
-      end do
-    end function block_list
-
-    !> Regressor names of coefficient ic -> codes (and their count).
-    subroutine regressor_codes(names_in, ic)
-      character(len=*), intent(in) :: names_in(:)
-      integer, intent(in) :: ic
-      integer :: k, j, i
-      ncoef(ic) = 0
-      codes((ic - 1)*MAXR + 1:ic*MAXR) = 0
-      do k = 1, size(names_in)
-        if (len_trim(names_in(k)) == 0) cycle
-        j = 0
-        do i = 1, NREG
-          if (trim(REGRESSOR_NAMES(i)) == trim(adjustl(names_in(k)))) j = i
-        end do
-        if (j == 0) then
-          call fail('group &model: regressor '''//trim(names_in(k))//''' does not exist (use 1, '// &
-                    'V/V0, alpha, alpha^2, qhat, de)')
-          return
-        end if
-        ncoef(ic) = ncoef(ic) + 1
-        codes((ic - 1)*MAXR + ncoef(ic)) = j
-      end do
-    end subroutine regressor_codes
-
-    !> The values given, or the one value repeated for every input (zeros
-    !> when none is given).
-    function per_input(v, n) result(out)
-      real(wp), intent(in) :: v(:)
-      integer, intent(in) :: n
-      real(wp), allocatable :: out(:)
-      out = pack(v, v /= UNSET)
-      if (size(out) == 0) out = [0.0_wp]
-      if (size(out) == 1) out = spread(out(1), 1, n)
-    end function per_input
-
-    function per_input_text(v, n, default) result(out)
-      character(len=*), intent(in) :: v(:), default
-      integer, intent(in) :: n
-      character(len=16), allocatable :: out(:)
-      integer :: i
-      out = pack(v, len_trim(v) > 0)
-      if (size(out) == 0) out = [character(len=16) :: default]
-      if (size(out) == 1) out = spread(out(1), 1, n)
-      do i = 1, size(out)
-        out(i) = to_lower(out(i))
-      end do
-    end function per_input_text
-
-    !> Read one group; a missing optional group keeps the defaults.
-    subroutine read_group(group, required)
-      character(len=*), intent(in) :: group
-      logical, intent(in), optional :: required
-      rewind (unit)
-      select case (group)
-      case ('case');     read (unit, nml=case, iostat=ios, iomsg=iomsg)
-      case ('model');    read (unit, nml=model, iostat=ios, iomsg=iomsg)
-      case ('data');     read (unit, nml=data, iostat=ios, iomsg=iomsg)
-      case ('simulate'); read (unit, nml=simulate, iostat=ios, iomsg=iomsg)
-      case ('estimate'); read (unit, nml=estimate, iostat=ios, iomsg=iomsg)
-      end select
-      found = ios == 0
-      if (ios < 0) then
-        if (present(required)) then
-          if (required) call fail('group &'//group//' is missing (job '''//trim(c%job)//''' needs it)')
-        end if
-      else if (ios > 0) then
-        call fail('group &'//group//' (line '//itoa(group_line(lines, line0, group))// &
-                  '): '//trim(iomsg))
-      end if
-    end subroutine read_group
-
-    !> Place a row-by-row matrix of the deck into theta (column-major).
-    subroutine put_matrix(key, v, nr, nc, offset, required)
-      character(len=*), intent(in) :: key
-      real(wp), intent(in) :: v(:)
-      integer, intent(in) :: nr, nc, offset
-      logical, intent(in) :: required
-      integer :: ngiven, i, j
-      if (c%status /= MLID_OK) return
-      ngiven = count(v /= UNSET)
-      if (ngiven == 0 .and. .not. required) then
-        c%theta(offset + 1:offset + nr*nc) = 0.0_wp
-        return
-      end if
-      if (ngiven /= nr*nc .or. any(v(1:nr*nc) == UNSET)) then
-        write (iomsg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &model: '//key//' has ', ngiven, &
-          ' values, '//key//' is ', nr, 'x', nc, ' and needs ', nr*nc, ' (row by row)'
-        call fail(iomsg)
-        return
-      end if
-      do i = 1, nr
-        do j = 1, nc
-          c%theta(offset + (j - 1)*nr + i) = v((i - 1)*nc + j)
-        end do
-      end do
-      if (.not. all(ieee_is_finite(c%theta(offset + 1:offset + nr*nc)))) &
-        call fail('group &model: '//key//' has a value that is not finite')
-    end subroutine put_matrix
-
-    subroutine put_vector(key, v, n, offset)
-      character(len=*), intent(in) :: key
-      real(wp), intent(in) :: v(:)
-      integer, intent(in) :: n, offset
-      integer :: ngiven
-      if (c%status /= MLID_OK) return
-      ngiven = count(v /= UNSET)
-      if (ngiven == 0) then
-        c%theta(offset + 1:offset + n) = 0.0_wp
-      else if (ngiven /= n .or. any(v(1:n) == UNSET)) then
-        write (iomsg, '(a,i0,a,i0,a)') 'group &model: '//key//' has ', ngiven, &
-          ' values, it needs ', n
-        call fail(iomsg)
-      else
-        c%theta(offset + 1:offset + n) = v(1:n)
-      end if
-    end subroutine put_vector
-
-    !> 0 or 1 for an &estimate keyword that must name one of two choices;
-    !> anything else fails the case (the first such failure is the message).
-    integer function either(key, given, name0, name1)
-      character(len=*), intent(in) :: key, given, name0, name1
-      either = -1
-      if (c%status /= MLID_OK) return
-      if (to_lower(given) == name0) then
-        either = 0
-      else if (to_lower(given) == name1) then
-        either = 1
-      else
-        call fail('group &estimate: '//key//' must be '''//name0//''' or '''//name1// &
-                  ''', got '''//trim(given)//'''')
-      end if
-    end function either
-
-    subroutine fail(text)
-      character(len=*), intent(in) :: text
-      c%status = MLID_ERR_INPUT
-      c%msg = text
-      close (unit)
-    end subroutine fail
-
-  end subroutine read_case
+  function per_input_text(v, n, default) result(out)
+    character(len=*), intent(in) :: v(:), default
+    integer, intent(in) :: n
+    character(len=16), allocatable :: out(:)
+    integer :: i
+    out = pack(v, len_trim(v) > 0)
+    if (size(out) == 0) out = [character(len=16) :: default]
+    if (size(out) == 1) out = spread(out(1), 1, n)
+    do i = 1, size(out)
+      out(i) = to_lower(out(i))
+    end do
+  end function per_input_text
 
   !> Flag a group name that is not one of GROUPS.
   subroutine check_groups(text, line, c, seen)
@@ -772,39 +787,6 @@ contains
       end if
     end do
   end subroutine check_groups
-
-  !> Index into theta of a parameter named key(i) or key(i,j) after the
-  !> block table (keys, rows, columns, offsets); 0 if there is no such element.
-  subroutine element_index(name, bkey, brow, bcol, boff, idx)
-    character(len=*), intent(in) :: name, bkey(:)
-    integer, intent(in) :: brow(:), bcol(:), boff(:)
-    integer, intent(out) :: idx
-    integer :: p, q, i, j, ios, b
-    character(len=len(name)) :: s
-
-    idx = 0
-    s = to_lower(adjustl(name))
-    p = index(s, '(')
-    q = index(s, ')')
-    if (p < 2 .or. q < p + 2 .or. len_trim(s) /= q) return
-    j = 0
-    if (index(s(p + 1:q - 1), ',') > 0) then
-      read (s(p + 1:q - 1), *, iostat=ios) i, j
-    else
-      read (s(p + 1:q - 1), *, iostat=ios) i
-    end if
-    if (ios /= 0) return
-    do b = 1, size(bkey)
-      if (trim(bkey(b)) /= trim(s(1:p - 1)) .or. len_trim(bkey(b)) == 0) cycle
-      if (i < 1 .or. i > brow(b)) return
-      if (bcol(b) < 0) then
-        if (j == 0) idx = boff(b) + i
-      else if (j >= 1 .and. j <= bcol(b)) then
-        idx = boff(b) + (j - 1)*brow(b) + i
-      end if
-      return
-    end do
-  end subroutine element_index
 
   !> The record of an estimate case: time, inputs and outputs from its
   !> data files (paths resolved by the reader).  Several files are
@@ -1137,6 +1119,17 @@ contains
       if (s(k:k) >= 'A' .and. s(k:k) <= 'Z') r(k:k) = achar(iachar(s(k:k)) + 32)
     end do
   end function to_lower
+
+  !> 'a, b, c'
+  function joined(names) result(text)
+    character(len=*), intent(in) :: names(:)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = trim(names(1))
+    do k = 2, size(names)
+      text = text//', '//trim(names(k))
+    end do
+  end function joined
 
   function itoa(i) result(s)
     integer, intent(in) :: i

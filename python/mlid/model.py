@@ -8,49 +8,128 @@ Every model carries its full parameter vector
 measurement-noise variances, their cross-covariance) and a list of free
 parameter names; the Fortran core sees only flat arrays.  Parameters are
 named by element, 1-based as in a deck: ``'f(1,2)'``, ``'x0(3)'``,
-``'r(2)'``, ``'cm(4)'``.
+``'r(2)'``, ``'cm(4)'``.  The order of the blocks, their element names and
+default labels come from the core (fortran/mlid_layout.f90); the matrices
+F, G, ... are views into theta.
 """
 
+import copy
 import re
 
 import numpy as np
 
-from .errors import InputError
+from ._core import mlid_api as _api
+from .errors import InputError, check_status
 
 _ELEMENT = re.compile(r"^\s*([a-z0-9_]+)\s*\(\s*(\d+)\s*(?:,\s*(\d+)\s*)?\)\s*$", re.I)
 
 INPUT_HOLDS = ("linear", "zoh")
 
 
+def _lines(text):
+    return [s for s in text.decode(errors="replace").rstrip().split("\n") if s]
+
+
+class _Layout:
+    """The core's layout of theta for one model kind and its sizes."""
+
+    _cache = {}
+
+    def __init__(self, kind, sizes, iconst, rconst):
+        args = dict(mkind=kind, nx=sizes[0], nu=sizes[1], ny=sizes[2], nw=sizes[3],
+                    iconst=iconst, rconst=rconst)
+        nblock, self.nth, status, msg = _api.mlid_layout_size(**args)
+        check_status(status, msg)
+        keys, rows, cols, offs, names, labels, status, msg = _api.mlid_layout(
+            **args, nblock=nblock, nth=self.nth)
+        check_status(status, msg)
+        self.blocks = {k: (int(o), int(r), int(c))
+                       for k, r, c, o in zip(_lines(keys), rows, cols, offs)}
+        self.names, self.labels = _lines(names), _lines(labels)
+        self.np = self.blocks["x0"][0]
+
+    @classmethod
+    def of(cls, kind, sizes, iconst, rconst):
+        key = (kind, tuple(sizes), tuple(iconst), tuple(rconst))
+        if key not in cls._cache:
+            cls._cache[key] = cls(kind, sizes, iconst, rconst)
+        return cls._cache[key]
+
+    def shape(self, key):
+        _, r, c = self.blocks[key]
+        return (r, c) if c >= 0 else (r,)
+
+    def slice(self, key):
+        o, r, c = self.blocks[key]
+        return slice(o, o + r * (c if c >= 0 else 1))
+
+
+def _own_sizes(kind, iconst, rconst):
+    """Sizes of a model whose sizes are its own, from the core."""
+    nx, nu, ny, nw, _, status, msg = _api.mlid_model_sizes(mkind=kind, iconst=iconst,
+                                                           rconst=rconst)
+    check_status(status, msg)
+    return nx, nu, ny, nw
+
+
+class _Block:
+    """A block of theta, as an array view, by its key in the core's layout."""
+
+    def __init__(self, key):
+        self.key = key
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def __get__(self, model, owner=None):
+        return self if model is None else model._block(self.key)
+
+    def __set__(self, model, value):
+        model._put(self.key, value, self.name)
+
+
 class Model:
-    """What every model shares: the generic blocks of theta and the free,
-    tied and labelled parameters.  Subclasses define kind, iconst, rconst,
-    _model_blocks() and _from_parts()."""
+    """What every model shares: theta in the core's layout, the generic
+    blocks and the free, tied and labelled parameters.  Subclasses set kind,
+    iconst, rconst and their own blocks."""
 
     kind = 0
+    iconst = np.zeros(0, dtype=np.int32)
+    rconst = np.zeros(0)
+    x0, bias, q, r, S = _Block("x0"), _Block("bias"), _Block("q"), _Block("r"), _Block("s")
 
-    def _init_common(self, nx, nu, ny, nw, x0, bias, q, r, S, free, names, ties, input_hold,
-                     substeps):
-        x0 = np.zeros(nx) if x0 is None else np.asarray(x0, dtype=float).ravel()
-        bias = np.zeros(ny) if bias is None else np.asarray(bias, dtype=float).ravel()
-        q = np.zeros(nw) if q is None else np.asarray(q, dtype=float).ravel()
-        r = np.zeros(ny) if r is None else np.asarray(r, dtype=float).ravel()
-        S = np.zeros((nw, ny)) if S is None else np.asarray(S, dtype=float).reshape(nw, ny)
-        for key, a, n in (("x0", x0, nx), ("bias", bias, ny), ("q", q, nw), ("r", r, ny)):
-            if a.size != n:
-                raise InputError(f"{key} must have {n} values, got {a.size}")
+    def _init_layout(self, nx, nu, ny, nw):
+        self.nx, self.nu, self.ny, self.nw = nx, nu, ny, nw
+        self._layout = _Layout.of(self.kind, (nx, nu, ny, nw), self.iconst, self.rconst)
+        self._theta = np.zeros(self._layout.nth)
+
+    def _block(self, key):
+        return self._theta[self._layout.slice(key)].reshape(self._layout.shape(key), order="F")
+
+    def _put(self, key, value, what=None):
+        shape = self._layout.shape(key)
+        a = np.asarray(value, dtype=float)
+        if a.size != int(np.prod(shape)):
+            raise InputError(f"{what or key} must have {int(np.prod(shape))} values"
+                             + (f" ({shape[0]}x{shape[1]})" if len(shape) == 2 else "")
+                             + f", got {a.size}")
+        self._theta[self._layout.slice(key)] = a.reshape(shape).ravel(order="F")
+
+    def _init_common(self, x0, bias, q, r, S, free, names, ties, input_hold, substeps):
+        for key, value in (("x0", x0), ("bias", bias), ("q", q), ("r", r), ("S", S)):
+            if value is not None:
+                setattr(self, key, value)
         if input_hold not in INPUT_HOLDS:
             raise InputError(f"input_hold must be one of {INPUT_HOLDS}, got {input_hold!r}")
-        self.nx, self.nu, self.ny, self.nw = nx, nu, ny, nw
-        self.x0, self.bias, self.q, self.r, self.S = x0, bias, q, r, S
         self.input_hold = input_hold
         self.substeps = int(substeps)
-        self.names = dict(names or {})
+        self.names = {e: lab for e, lab in zip(self._layout.names, self._layout.labels)
+                      if e != lab}
+        self.names.update({self.canonical_name(k): v for k, v in (names or {}).items()})
         self.free = [self.canonical_name(n) for n in free]
         dup = {n for n in self.free if self.free.count(n) > 1}
         if dup:
             raise InputError(f"free parameter listed twice: {sorted(dup)[0]}")
-        self.names = {self.canonical_name(k): v for k, v in self.names.items()}
         self.ties = {self.canonical_name(a): self.canonical_name(b)
                      for a, b in (ties or {}).items()}
         for a, b in self.ties.items():
@@ -66,56 +145,45 @@ class Model:
                     substeps=self.substeps)
 
     # -- parameter vector ------------------------------------------------
-    def _blocks(self):
-        return self._model_blocks() + [("x0", self.x0), ("bias", self.bias), ("q", self.q),
-                                       ("r", self.r), ("s", self.S)]
-
     @property
     def np(self):
         """Number of model parameters p (theta before x0 and the noise blocks)."""
-        return sum(a.size for _, a in self._model_blocks())
+        return self._layout.np
 
     @property
     def theta(self):
         """All parameters, in the core's order; matrices column-major."""
-        return np.concatenate([a.ravel(order="F") for _, a in self._blocks()])
+        return self._theta.copy()
 
     def element_names(self):
         """The element name of every entry of theta, in order."""
-        out = []
-        for key, a in self._blocks():
-            if a.ndim == 2:
-                out += [f"{key}({i + 1},{j + 1})" for j in range(a.shape[1])
-                        for i in range(a.shape[0])]
-            else:
-                out += [f"{key}({i + 1})" for i in range(a.size)]
-        return out
+        return list(self._layout.names)
 
     def canonical_name(self, name):
         """The element name of a parameter, checked against the dimensions."""
         m = _ELEMENT.match(str(name))
-        blocks = dict(self._blocks())
+        blocks = self._layout.blocks
         if not m or m.group(1).lower() not in blocks:
             raise InputError(f"parameter {name!r} does not exist: use "
-                             + ", ".join(f"{k}(i,j)" if a.ndim == 2 else f"{k}(i)"
-                                         for k, a in self._blocks()))
+                             + ", ".join(f"{k}(i,j)" if c >= 0 else f"{k}(i)"
+                                         for k, (_, _, c) in blocks.items()))
         key, i = m.group(1).lower(), int(m.group(2))
-        a = blocks[key]
-        if a.ndim == 2:
+        shape = self._layout.shape(key)
+        if len(shape) == 2:
             if m.group(3) is None:
                 raise InputError(f"parameter {name!r} needs two indices: {key}(i,j)")
             j = int(m.group(3))
-            if not (1 <= i <= a.shape[0] and 1 <= j <= a.shape[1]):
+            if not (1 <= i <= shape[0] and 1 <= j <= shape[1]):
                 raise InputError(f"parameter {name!r} does not exist: {key.upper()} is "
-                                 f"{a.shape[0]}x{a.shape[1]}")
+                                 f"{shape[0]}x{shape[1]}")
             return f"{key}({i},{j})"
-        if m.group(3) is not None or not 1 <= i <= a.size:
-            raise InputError(f"parameter {name!r} does not exist: {key} has {a.size} entries")
+        if m.group(3) is not None or not 1 <= i <= shape[0]:
+            raise InputError(f"parameter {name!r} does not exist: {key} has {shape[0]} entries")
         return f"{key}({i})"
 
     @property
     def free_mask(self):
-        names = self.element_names()
+        names = self._layout.names
         mask = np.zeros(len(names), dtype=np.int32)
         for n in self.free:
             mask[names.index(n)] = 1
@@ -124,7 +192,7 @@ class Model:
     @property
     def tie_index(self):
         """For the core: 1-based index of the parameter each entry is tied to, else 0."""
-        names = self.element_names()
+        names = self._layout.names
         tie = np.zeros(len(names), dtype=np.int32)
         for a, b in self.ties.items():
             tie[names.index(a)] = names.index(b) + 1
@@ -132,29 +200,27 @@ class Model:
 
     def free_names(self):
         """Readable labels of the free parameters, in theta order."""
-        return [self.names.get(n, n) for n, f in zip(self.element_names(), self.free_mask) if f]
+        return [self.names.get(n, n) for n, f in zip(self._layout.names, self.free_mask) if f]
 
     def value(self, name):
         """The value of one parameter, by element name or label."""
         labels = {v: k for k, v in self.names.items()}
         key = self.canonical_name(labels.get(name, name))
-        return float(self.theta[self.element_names().index(key)])
+        return float(self._theta[self._layout.names.index(key)])
 
     def with_theta(self, theta):
         """A copy with the parameter vector replaced."""
-        theta = np.asarray(theta, dtype=float)
-        parts, k = {}, 0
-        for key, a in self._blocks():
-            parts[key] = theta[k:k + a.size].reshape(a.shape, order="F")
-            k += a.size
-        common = self._common()
-        common.update(x0=parts.pop("x0"), bias=parts.pop("bias"), q=parts.pop("q"),
-                      r=parts.pop("r"), S=parts.pop("s"))
-        return self._from_parts(parts, common)
+        theta = np.asarray(theta, dtype=float).ravel()
+        if theta.size != self._layout.nth:
+            raise InputError(f"theta must have {self._layout.nth} values, got {theta.size}")
+        m = copy.copy(self)
+        m._theta = theta.copy()
+        m.names, m.free, m.ties = dict(self.names), list(self.free), dict(self.ties)
+        return m
 
     def with_free(self, free, names=None):
         """A copy with another free set (and labels, if given)."""
-        m = self.with_theta(self.theta)
+        m = self.with_theta(self._theta)
         m.free = [m.canonical_name(n) for n in free]
         if names is not None:
             m.names = {m.canonical_name(k): v for k, v in names.items()}
@@ -183,8 +249,8 @@ class LinearModel(Model):
     """
 
     kind = 1
-    iconst = np.zeros(0, dtype=np.int32)
-    rconst = np.zeros(0)
+    F, G, H, D = _Block("f"), _Block("g"), _Block("h"), _Block("d")
+    Gamma, K = _Block("gamma"), _Block("k")
 
     def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
@@ -201,36 +267,24 @@ class LinearModel(Model):
             raise InputError(f"G must have {nx} rows (one per state), got shape {G.shape}")
         if H.shape[1] != nx:
             raise InputError(f"H must have {nx} columns (one per state), got shape {H.shape}")
-        nu, ny = G.shape[1], H.shape[0]
-        D = np.zeros((ny, nu)) if D is None else np.asarray(D, dtype=float).reshape(ny, nu)
         Gamma = np.zeros((nx, 0)) if Gamma is None else np.asarray(Gamma, dtype=float)
         if Gamma.ndim == 1:
             Gamma = Gamma.reshape(nx, -1)
         if Gamma.shape[0] != nx:
             raise InputError(f"Gamma must have {nx} rows (one per state), got shape {Gamma.shape}")
-        K = np.zeros((nu, nx)) if K is None else np.asarray(K, dtype=float)
-        if K.size != nu * nx:
-            raise InputError(f"K must be {nu}x{nx} (inputs x states), got shape {K.shape}")
-        K = K.reshape(nu, nx)
-        self.F, self.G, self.H, self.D, self.Gamma, self.K = F, G, H, D, Gamma, K
-        self._init_common(nx, nu, ny, Gamma.shape[1], x0, bias, q, r, S, free, names, ties,
-                          input_hold, substeps)
-
-    def _model_blocks(self):
-        return [("f", self.F), ("g", self.G), ("h", self.H), ("d", self.D),
-                ("gamma", self.Gamma), ("k", self.K)]
-
-    def _from_parts(self, parts, common):
-        return LinearModel(parts["f"], parts["g"], parts["h"], parts["d"],
-                           Gamma=parts["gamma"], K=parts["k"], **common)
+        self._init_layout(nx, G.shape[1], H.shape[0], Gamma.shape[1])
+        self.F, self.G, self.H, self.Gamma = F, G, H, Gamma
+        if D is not None:
+            self.D = D
+        if K is not None:
+            self.K = K
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
 
 
-#: Regressors of the longitudinal model (fortran/mlid_aero_long.f90), by name,
-#: with the suffix of the coefficient names they give (C_D0, C_Lalpha, C_mq, ...).
-REGRESSORS = {"1": "0", "V/V0": "V", "alpha": "alpha", "alpha^2": "alpha2", "qhat": "q",
-              "de": "de"}
-#: Its constants, in the core's order.
-CONSTANTS = ("g", "S/m", "S cbar/Iy", "lT/Iy", "V0", "m", "sigma_T", "rho", "cbar/2")
+#: Regressors of the longitudinal model (fortran/mlid_aero_long.f90), in
+#: the order of their codes, and its constants in the core's order.
+REGRESSORS = tuple(_lines(_api.mlid_name_list("regressors")))
+CONSTANTS = tuple(_api.mlid_name_list("constants").decode().strip().split(", "))
 
 
 class LongitudinalModel(Model):
@@ -247,10 +301,11 @@ class LongitudinalModel(Model):
     """
 
     kind = 2
+    _COEFFICIENTS = {"CD": "cd", "CL": "cl", "Cm": "cm"}
 
     def __init__(self, regressors, coefficients, constants, x0=None, bias=None, free=(),
                  names=None, input_hold="linear", substeps=1, r=None, ties=None, q=None, S=None):
-        self.regressors = {k: list(regressors.get(k, [])) for k in ("CD", "CL", "Cm")}
+        self.regressors = {k: list(regressors.get(k, [])) for k in self._COEFFICIENTS}
         unknown = set(regressors) - set(self.regressors)
         if unknown:
             raise InputError(f"unknown coefficient {sorted(unknown)[0]!r}: use CD, CL, Cm")
@@ -259,43 +314,28 @@ class LongitudinalModel(Model):
                 if reg not in REGRESSORS:
                     raise InputError(f"regressor {reg!r} does not exist (in {key}): use "
                                      + ", ".join(REGRESSORS))
-        self.coefficients = {}
-        for key, regs in self.regressors.items():
-            vals = np.asarray(coefficients.get(key, np.zeros(len(regs))), dtype=float).ravel()
-            if vals.size != len(regs):
-                raise InputError(f"{key} has {len(regs)} regressors but {vals.size} values")
-            self.coefficients[key] = vals
         missing = [c for c in CONSTANTS if c not in constants]
         if missing:
             raise InputError(f"missing constant {missing[0]!r} (need {', '.join(CONSTANTS)})")
         self.constants = {c: float(constants[c]) for c in CONSTANTS}
-        labels = {}
-        for key, block in (("CD", "cd"), ("CL", "cl"), ("Cm", "cm")):
-            for k, reg in enumerate(self.regressors[key]):
-                labels[f"{block}({k + 1})"] = f"C_{key[1]}{REGRESSORS[reg]}"
-        labels.update(names or {})
+        regs = [self.regressors[k] for k in self._COEFFICIENTS]
+        self.iconst = np.array([len(r) for r in regs]
+                               + [REGRESSORS.index(x) + 1 for r in regs for x in r], dtype=np.int32)
+        self.rconst = np.array([self.constants[c] for c in CONSTANTS])
+        self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
+        for key, block in self._COEFFICIENTS.items():
+            vals = np.asarray(coefficients.get(key, np.zeros(len(self.regressors[key]))),
+                              dtype=float).ravel()
+            if vals.size != len(self.regressors[key]):
+                raise InputError(f"{key} has {len(self.regressors[key])} regressors but "
+                                 f"{vals.size} values")
+            self._put(block, vals, key)
         # process noise (q, 4 variances) adds to each state equation: turbulence
-        self._init_common(4, 2, 7, 4, x0, bias, q, r, S, free, labels, ties, input_hold,
-                          substeps)
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
 
     @property
-    def iconst(self):
-        codes = list(REGRESSORS)
-        regs = [self.regressors[k] for k in ("CD", "CL", "Cm")]
-        return np.array([len(r) for r in regs] + [codes.index(x) + 1 for r in regs for x in r],
-                        dtype=np.int32)
-
-    @property
-    def rconst(self):
-        return np.array([self.constants[c] for c in CONSTANTS])
-
-    def _model_blocks(self):
-        return [("cd", self.coefficients["CD"]), ("cl", self.coefficients["CL"]),
-                ("cm", self.coefficients["Cm"])]
-
-    def _from_parts(self, parts, common):
-        return LongitudinalModel(self.regressors, {"CD": parts["cd"], "CL": parts["cl"],
-                                                   "Cm": parts["cm"]}, self.constants, **common)
+    def coefficients(self):
+        return {key: self._block(block) for key, block in self._COEFFICIENTS.items()}
 
 
 class UserModel(Model):
@@ -304,34 +344,18 @@ class UserModel(Model):
     its constants.  Its sizes come from the core."""
 
     kind = 3
+    p = _Block("p")
 
     def __init__(self, p, iconst=(), rconst=(), x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, q=None, r=None, S=None, ties=None):
-        from . import _core
         self.iconst = np.asarray(iconst, dtype=np.int32).ravel()
         self.rconst = np.asarray(rconst, dtype=float).ravel()
-        nx, nu, ny, nw, npar, status, msg = _core.mlid_api.mlid_model_sizes(
-            mkind=self.kind, iconst=self.iconst, rconst=self.rconst)
-        if status:
-            raise InputError(msg.decode(errors="replace").strip())
-        self.p = np.asarray(p, dtype=float).ravel()
-        if self.p.size != npar:
-            raise InputError(f"the user model has {npar} parameters p, got {self.p.size} values")
-        self._init_common(nx, nu, ny, nw, x0, bias, q, r, S, free, names, ties, input_hold,
-                          substeps)
-
-    def _model_blocks(self):
-        return [("p", self.p)]
-
-    def _from_parts(self, parts, common):
-        return UserModel(parts["p"], self.iconst, self.rconst, **common)
-
-
-#: The X-22's 23 coefficients (report Appendix A): each derivative's polynomial
-#: in u by rising power, labelled e.g. M_o, M_o.u, M_o.u2.
-X22_DERIVATIVES = (("M_o", 3), ("M_w", 2), ("M_q", 2), ("M_de", 2), ("X_o", 3), ("X_w", 2),
-                   ("X_de", 2), ("Z_o", 3), ("Z_w", 2), ("Z_de", 2))
-X22_LABELS = tuple(f"{d}{('', '.u', '.u2')[k]}" for d, n in X22_DERIVATIVES for k in range(n))
+        self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
+        p = np.asarray(p, dtype=float).ravel()
+        if p.size != self.np:
+            raise InputError(f"the user model has {self.np} parameters p, got {p.size} values")
+        self.p = p
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
 
 
 class X22Model(Model):
@@ -343,50 +367,46 @@ class X22Model(Model):
     named ``'p(k)'`` and labelled by X22_LABELS."""
 
     kind = 4
+    p = _Block("p")
 
     def __init__(self, p, x0=None, bias=None, free=(), names=None, input_hold="linear",
                  substeps=1, q=None, r=None, S=None, ties=None):
-        self.p = np.asarray(p, dtype=float).ravel()
-        if self.p.size != len(X22_LABELS):
-            raise InputError(f"the X-22 model has {len(X22_LABELS)} coefficients, got "
-                             f"{self.p.size}")
-        labels = {f"p({k + 1})": n for k, n in enumerate(X22_LABELS)}
-        labels.update(names or {})
-        self._init_common(4, 1, 7, 3, x0, bias, q, r, S, free, labels, ties, input_hold,
-                          substeps)
+        self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
+        p = np.asarray(p, dtype=float).ravel()
+        if p.size != self.np:
+            raise InputError(f"the X-22 model has {self.np} coefficients, got {p.size}")
+        self.p = p
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
 
-    iconst = np.zeros(0, dtype=np.int32)
-    rconst = np.zeros(0)
 
-    def _model_blocks(self):
-        return [("p", self.p)]
+#: The X-22's 23 coefficients (report Appendix A), from the core: each
+#: derivative's polynomial in u by rising power, labelled e.g. M_o, M_o.u, M_o.u2.
+_X22 = _Layout.of(X22Model.kind, _own_sizes(X22Model.kind, X22Model.iconst, X22Model.rconst),
+                  X22Model.iconst, X22Model.rconst)
+X22_LABELS = tuple(_X22.labels[_X22.slice("p")])
+X22_DERIVATIVES = tuple((d, sum(1 for lab in X22_LABELS if lab.split(".")[0] == d))
+                        for d in dict.fromkeys(lab.split(".")[0] for lab in X22_LABELS))
 
-    def _from_parts(self, parts, common):
-        return X22Model(parts["p"], **common)
+_KINDS = {c.kind: c for c in (LinearModel, LongitudinalModel, UserModel, X22Model)}
 
 
 def from_core(mkind, sizes, iconst, rconst, theta, isfree, itie, labels, input_hold, substeps):
     """The model a case spec of the core describes (kind, sizes (nx, nu, ny,
     nw), constants, the whole theta with free flags, ties and the free
     parameters' labels); the core has read and checked it."""
-    nx, nu, ny, nw = sizes
-    z = np.zeros
-    if mkind == LinearModel.kind:
-        proto = LinearModel(z((nx, nx)), z((nx, nu)), z((ny, nx)), Gamma=z((nx, nw)))
-    elif mkind == LongitudinalModel.kind:
-        codes, n = list(REGRESSORS), iconst[:3]
-        regs = [codes[c - 1] for c in iconst[3:]]
-        split = {"CD": regs[:n[0]], "CL": regs[n[0]:n[0] + n[1]], "Cm": regs[n[0] + n[1]:]}
-        proto = LongitudinalModel(split, {}, dict(zip(CONSTANTS, rconst)))
-    elif mkind == UserModel.kind:
-        proto = UserModel(z(len(theta) - (nx + 2 * ny + nw + nw * ny)), iconst, rconst)
-    else:
-        proto = X22Model(z(len(X22_LABELS)))
-    model = proto.with_theta(theta)
-    names = model.element_names()
+    m = object.__new__(_KINDS[mkind])
+    m.iconst = np.asarray(iconst, dtype=np.int32)
+    m.rconst = np.asarray(rconst, dtype=float)
+    if mkind == LongitudinalModel.kind:
+        n, regs = m.iconst[:3], [REGRESSORS[c - 1] for c in m.iconst[3:]]
+        m.regressors = {"CD": regs[:n[0]], "CL": regs[n[0]:n[0] + n[1]],
+                        "Cm": regs[n[0] + n[1]:]}
+        m.constants = dict(zip(CONSTANTS, m.rconst))
+    m._init_layout(*sizes)
+    m._theta[:] = theta
+    names = m.element_names()
     free = [names[k] for k in np.flatnonzero(isfree)]
-    model.free = free
-    model.names.update(zip(free, labels))
-    model.ties = {names[k]: names[itie[k] - 1] for k in np.flatnonzero(itie)}
-    model.input_hold, model.substeps = input_hold, int(substeps)
-    return model
+    ties = {names[k]: names[itie[k] - 1] for k in np.flatnonzero(itie)}
+    m._init_common(None, None, None, None, None, free, dict(zip(free, labels)), ties,
+                   input_hold, substeps)
+    return m

@@ -1,0 +1,216 @@
+!> The layout of every model kind's parameter vector
+!>   theta = [p, x0, bias, q, r, s]
+!> as a table of blocks (key, rows, columns, offset), with the element name
+!> ('f(1,2)', 'x0(3)') and default label ('C_Lalpha', 'M_q.u') of every
+!> entry.  The deck reader and, through mlid_api, Python ask this module;
+!> no one else knows the order.
+module mlid_layout
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
+  use mlid_x22, only: X22_LABELS
+  use mlid_aero_long, only: REGRESSOR_NAMES, NREG
+  use mlid_user_model, only: user_model_t, user_model_create
+  implicit none
+  private
+  public :: layout_table_t, layout_table, layout_of, element_index, element_name, &
+            default_label, block_list, NBLOCK
+
+  integer, parameter :: NBLOCK = 11
+  !> Suffix of a longitudinal coefficient's default label, per regressor
+  !> code (C_D0, C_DV, C_Lalpha, C_mq, ...).
+  character(len=8), parameter :: SUFFIX(NREG) = &
+    [character(len=8) :: '0', 'V', 'alpha', 'alpha2', 'q', 'de']
+
+  type :: layout_table_t
+    integer :: mkind = MODEL_LINEAR
+    integer :: nblock = 0, np = 0, nth = 0
+    character(len=8) :: key(NBLOCK) = ''
+    integer :: rows(NBLOCK) = 0, cols(NBLOCK) = 0, off(NBLOCK) = 0  !< cols < 0: a vector
+    integer :: ncoef(3) = 0            !< longitudinal: coefficients of C_D, C_L, C_m
+    integer, allocatable :: codes(:)   !< longitudinal: regressor code of each coefficient
+  end type layout_table_t
+
+contains
+
+  !> The table of a model kind with these sizes; ncoef: coefficients of C_D,
+  !> C_L, C_m (longitudinal, with their regressor codes) or np in ncoef(1)
+  !> (user, X-22).
+  function layout_table(mkind, nx, nu, ny, nw, ncoef, codes) result(lt)
+    integer, intent(in) :: mkind, nx, nu, ny, nw, ncoef(3), codes(:)
+    type(layout_table_t) :: lt
+    lt%mkind = mkind
+    lt%ncoef = ncoef
+    lt%codes = codes
+    select case (mkind)
+    case (MODEL_LINEAR)
+      call set_blocks(lt, [character(len=8) :: 'f', 'g', 'h', 'd', 'gamma', 'k', 'x0', 'bias', &
+                      'q', 'r', 's'], [nx, nx, ny, ny, nx, nu, nx, ny, nw, ny, nw], &
+                      [nx, nu, nx, nu, nw, nx, -1, -1, -1, -1, ny])
+    case (MODEL_AERO_LONG)
+      call set_blocks(lt, [character(len=8) :: 'cd', 'cl', 'cm', 'x0', 'bias', 'q', 'r', 's'], &
+                      [ncoef, nx, ny, nw, ny, nw], [-1, -1, -1, -1, -1, -1, -1, ny])
+    case default
+      call set_blocks(lt, [character(len=8) :: 'p', 'x0', 'bias', 'q', 'r', 's'], &
+                      [ncoef(1), nx, ny, nw, ny, nw], [-1, -1, -1, -1, -1, ny])
+    end select
+    lt%np = lt%off(findloc(lt%key, 'x0', 1))
+  end function layout_table
+
+  !> The table of a model given by its constants, as the flat interface
+  !> describes it (longitudinal: iconst = [ncoef, codes]; user: its np).
+  subroutine layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
+    integer, intent(in) :: mkind, nx, nu, ny, nw, iconst(:)
+    real(wp), intent(in) :: rconst(:)
+    type(layout_table_t), intent(out) :: lt
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(user_model_t) :: user
+    integer :: ncoef(3)
+
+    status = MLID_OK
+    msg = ''
+    ncoef = 0
+    select case (mkind)
+    case (MODEL_AERO_LONG)
+      if (size(iconst) < 3) then
+        status = MLID_ERR_INPUT
+        msg = 'longitudinal model: iconst needs the numbers of coefficients first'
+        return
+      end if
+      ncoef = iconst(1:3)
+      if (any(ncoef < 0) .or. sum(ncoef) /= size(iconst) - 3) then
+        status = MLID_ERR_INPUT
+        msg = 'longitudinal model: iconst must be [ncd, ncl, ncm, one code per coefficient]'
+        return
+      end if
+      lt = layout_table(mkind, nx, nu, ny, nw, ncoef, iconst(4:))
+      return
+    case (MODEL_USER)
+      call user_model_create(iconst, rconst, user, status, msg)
+      if (status /= MLID_OK) return
+      ncoef(1) = user%np
+    case (MODEL_X22)
+      ncoef(1) = size(X22_LABELS)
+    end select
+    lt = layout_table(mkind, nx, nu, ny, nw, ncoef, [integer ::])
+  end subroutine layout_of
+
+  subroutine set_blocks(lt, keys, rows, cols)
+    type(layout_table_t), intent(inout) :: lt
+    character(len=*), intent(in) :: keys(:)
+    integer, intent(in) :: rows(:), cols(:)
+    integer :: b, o
+    o = 0
+    lt%nblock = size(keys)
+    do b = 1, size(keys)
+      lt%key(b) = keys(b)
+      lt%rows(b) = rows(b)
+      lt%cols(b) = cols(b)
+      lt%off(b) = o
+      o = o + rows(b)*merge(1, cols(b), cols(b) < 0)
+    end do
+    lt%off(size(keys) + 1:) = o
+    lt%nth = o
+  end subroutine set_blocks
+
+  !> The block of entry k of theta and the entry's row and column in it.
+  subroutine locate(lt, k, b, i, j)
+    type(layout_table_t), intent(in) :: lt
+    integer, intent(in) :: k
+    integer, intent(out) :: b, i, j
+    do b = lt%nblock, 1, -1
+      if (k > lt%off(b)) exit
+    end do
+    i = k - lt%off(b)
+    j = 0
+    if (lt%cols(b) >= 0) then
+      j = (i - 1)/lt%rows(b) + 1
+      i = i - (j - 1)*lt%rows(b)
+    end if
+  end subroutine locate
+
+  !> The element name of entry k: key(i) or key(i,j).
+  function element_name(lt, k) result(name)
+    type(layout_table_t), intent(in) :: lt
+    integer, intent(in) :: k
+    character(len=32) :: name
+    integer :: b, i, j
+    call locate(lt, k, b, i, j)
+    if (j == 0) then
+      write (name, '(a,i0,a)') trim(lt%key(b))//'(', i, ')'
+    else
+      write (name, '(a,i0,a,i0,a)') trim(lt%key(b))//'(', i, ',', j, ')'
+    end if
+  end function element_name
+
+  !> The default label of entry k: the element name, or the coefficient's
+  !> name (C_D0, C_Lalpha, ... of the longitudinal model; the X-22's M_o.u, ...).
+  function default_label(lt, k) result(label)
+    type(layout_table_t), intent(in) :: lt
+    integer, intent(in) :: k
+    character(len=32) :: label
+    integer :: b, i, j
+    call locate(lt, k, b, i, j)
+    label = element_name(lt, k)
+    if (lt%mkind == MODEL_AERO_LONG .and. b <= 3) then
+      label = 'C_'//trim(merge('D', merge('L', 'm', b == 2), b == 1))// &
+              trim(SUFFIX(lt%codes(sum(lt%ncoef(1:b - 1)) + i)))
+    else if (lt%mkind == MODEL_X22 .and. b == 1) then
+      label = X22_LABELS(i)
+    end if
+  end function default_label
+
+  !> Index into theta of a parameter named key(i) or key(i,j); 0 if there
+  !> is no such element.
+  integer function element_index(lt, name) result(idx)
+    type(layout_table_t), intent(in) :: lt
+    character(len=*), intent(in) :: name
+    integer :: p, q, i, j, ios, b
+    character(len=len(name)) :: s
+
+    idx = 0
+    s = lower(adjustl(name))
+    p = index(s, '(')
+    q = index(s, ')')
+    if (p < 2 .or. q < p + 2 .or. len_trim(s) /= q) return
+    j = 0
+    if (index(s(p + 1:q - 1), ',') > 0) then
+      read (s(p + 1:q - 1), *, iostat=ios) i, j
+    else
+      read (s(p + 1:q - 1), *, iostat=ios) i
+    end if
+    if (ios /= 0) return
+    do b = 1, lt%nblock
+      if (trim(lt%key(b)) /= trim(s(1:p - 1))) cycle
+      if (i < 1 .or. i > lt%rows(b)) return
+      if (lt%cols(b) < 0) then
+        if (j == 0) idx = lt%off(b) + i
+      else if (j >= 1 .and. j <= lt%cols(b)) then
+        idx = lt%off(b) + (j - 1)*lt%rows(b) + i
+      end if
+      return
+    end do
+  end function element_index
+
+  !> 'use f(i,j) g(i,j) ... x0(i) ...': the parameters this model has.
+  function block_list(lt) result(text)
+    type(layout_table_t), intent(in) :: lt
+    character(len=:), allocatable :: text
+    integer :: b
+    text = 'use'
+    do b = 1, lt%nblock
+      text = text//' '//trim(lt%key(b))//trim(merge('(i,j)', '(i)  ', lt%cols(b) >= 0))
+    end do
+  end function block_list
+
+  pure function lower(s) result(r)
+    character(len=*), intent(in) :: s
+    character(len=len(s)) :: r
+    integer :: k
+    r = s
+    do k = 1, len(s)
+      if (s(k:k) >= 'A' .and. s(k:k) <= 'Z') r(k:k) = achar(iachar(s(k:k)) + 32)
+    end do
+  end function lower
+
+end module mlid_layout
