@@ -31,7 +31,7 @@ module mlid_api
   use mlid_case, only: case_t, join_lines, split_lines
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record, REGRESSOR_NAMES, CONSTANT_NAMES
-  use mlid_layout, only: layout_table_t, layout_of, element_name, default_label
+  use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
   use mlid_jacobian_check, only: check_jacobians
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, &
                          transition_length, costate_input, input_information, mu_for_length, &
@@ -42,7 +42,7 @@ module mlid_api
             mlid_option_info, mlid_option_set, mlid_option_get, mlid_options_check, &
             mlid_stop_reason, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
             mlid_deck_case_data, mlid_deck_case_time_input, mlid_report_fit, mlid_case_json, &
-            mlid_layout_size, mlid_layout, mlid_name_list, &
+            mlid_layout_size, mlid_layout, mlid_name_list, mlid_manoeuvre_map, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude
@@ -187,7 +187,6 @@ contains
     integer(c_int), intent(out) :: isfree(nth), itie(nth), iconst(nic), iopt(12), use_prior, &
                                    use_bounds
     character(len=8192), intent(out) :: labels
-    integer :: j
 
     associate (c => opened(k))
       theta = c%theta
@@ -356,6 +355,33 @@ contains
     end do
     labels = text
   end subroutine mlid_layout
+
+  !> theta of a model for nseg manoeuvres (mlid_layout's manoeuvre_map):
+  !> entry k (k <= n) copies entry map(k) of the one-manoeuvre theta and
+  !> belongs to manoeuvre seg(k), 0 if shared; nmax >= nseg*nth.
+  subroutine mlid_manoeuvre_map(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, nseg, nmax, &
+                                n, map, seg, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic), nseg, nmax
+    real(c_double), intent(in) :: rconst(nrc)
+    integer(c_int), intent(out) :: n, map(nmax), seg(nmax), status
+    character(len=256), intent(out) :: msg
+    type(layout_table_t) :: lt
+    integer, allocatable :: m(:), s(:)
+    n = 0
+    map = 0
+    seg = 0
+    call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
+    if (status /= MLID_OK) return
+    call manoeuvre_map(lt, max(nseg, 1), m, s)
+    if (size(m) > nmax) then
+      status = MLID_ERR_INPUT
+      msg = 'manoeuvre map: nmax too small'
+      return
+    end if
+    n = size(m)
+    map(1:n) = m
+    seg(1:n) = s
+  end subroutine mlid_manoeuvre_map
 
   !> A list of names the core defines, one per line: 'regressors' (of the
   !> longitudinal model, by code) or 'constants' (its rconst, in order).

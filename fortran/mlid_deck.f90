@@ -27,7 +27,8 @@ module mlid_deck
   use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
-  use mlid_layout, only: layout_table_t, layout_table, element_index, default_label, block_list
+  use mlid_layout, only: layout_table_t, layout_table, layout_of, element_index, default_label, &
+                         block_list, manoeuvre_map
   implicit none
   private
   public :: case_t, deck_read, deck_open, case_record, case_time_input, manoeuvre_layout, &
@@ -887,44 +888,37 @@ contains
     integer, intent(in) :: nseg
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    integer :: nth, np, nx, ny, own, k, j, shift
-    integer, allocatable :: map(:), seg(:)
+    integer :: nth, k
+    integer, allocatable :: map(:), seg(:), new_of(:)
+    logical, allocatable :: own(:)
     character(len=NAMELEN), allocatable :: full(:), lab(:)
     character(len=8) :: suffix
+    type(layout_table_t) :: lt
 
     status = MLID_OK
     msg = ''
     if (nseg <= 1) return
-    nx = c%nx
-    ny = c%ny
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, status, msg)
+    if (status /= MLID_OK) return
+    call manoeuvre_map(lt, nseg, map, seg)
     nth = size(c%theta)
-    np = nth - (nx + ny + c%nw + ny + c%nw*ny)
-    own = nx + ny
-    if (any(c%itie /= 0 .and. ((c%itie > np .and. c%itie <= np + own) .or. &
-                               [(k > np .and. k <= np + own, k=1, nth)]))) then
+    allocate (own(nth), new_of(0:nth))
+    own = .false.
+    own(pack(map, seg > 0)) = .true.
+    new_of = 0
+    do k = size(map), 1, -1
+      if (seg(k) == 0) new_of(map(k)) = k
+    end do
+    if (any(c%itie /= 0 .and. (own .or. own(max(c%itie, 1))))) then
       status = MLID_ERR_INPUT
       msg = 'ties to or from initial states and biases are not available with several manoeuvres'
       return
     end if
-    ! map(k): the single-manoeuvre entry that entry k of the new vector copies; seg(k) its manoeuvre
-    allocate (map(0), seg(0))
-    map = [(k, k=1, np)]
-    seg = [(0, k=1, np)]
-    do j = 1, nseg
-      map = [map, (np + k, k=1, nx)]
-      seg = [seg, (j, k=1, nx)]
-    end do
-    do j = 1, nseg
-      map = [map, (np + nx + k, k=1, ny)]
-      seg = [seg, (j, k=1, ny)]
-    end do
-    map = [map, (k, k=np + own + 1, nth)]
-    seg = [seg, (0, k=np + own + 1, nth)]
     allocate (full(nth))
     full = ''
     full(pack([(k, k=1, nth)], c%isfree == 1)) = c%labels
     if (c%use_prior == 1) then
-      if (any(c%isfree(np + 1:np + own) == 1)) then
+      if (any(c%isfree == 1 .and. own)) then
         status = MLID_ERR_INPUT
         msg = 'a priori weighting with free initial states or biases is not available with '// &
               'several manoeuvres'
@@ -939,9 +933,7 @@ contains
         lab(k) = trim(full(map(k)))//trim(suffix)
       end if
     end do
-    shift = (nseg - 1)*own
-    c%itie = merge(c%itie + shift, c%itie, c%itie > np + own)
-    c%itie = c%itie(map)
+    c%itie = new_of(c%itie(map))
     c%theta = c%theta(map)
     if (allocated(c%prior)) c%prior = c%prior(map)
     if (allocated(c%lower)) c%lower = c%lower(map)

@@ -13,7 +13,7 @@ module mlid_layout
   implicit none
   private
   public :: layout_table_t, layout_table, layout_of, element_index, element_name, &
-            default_label, block_list, NBLOCK
+            default_label, block_list, manoeuvre_map, NBLOCK
 
   integer, parameter :: NBLOCK = 11
   !> Suffix of a longitudinal coefficient's default label, per regressor
@@ -191,6 +191,33 @@ contains
       return
     end do
   end function element_index
+
+  !> theta for nseg manoeuvres: every manoeuvre its own initial state and
+  !> biases (the x0 and bias blocks repeated), the rest shared.  Entry k of
+  !> the new vector copies entry map(k) of the one-manoeuvre vector and
+  !> belongs to manoeuvre seg(k) (0: shared).
+  subroutine manoeuvre_map(lt, nseg, map, seg)
+    type(layout_table_t), intent(in) :: lt
+    integer, intent(in) :: nseg
+    integer, allocatable, intent(out) :: map(:), seg(:)
+    integer :: bx, bb, j, k, first, last
+    bx = findloc(lt%key, 'x0', 1)
+    bb = findloc(lt%key, 'bias', 1)
+    first = lt%off(bx) + 1                      ! x0 and bias are adjacent
+    last = lt%off(bb) + lt%rows(bb)
+    map = [(k, k=1, first - 1)]
+    seg = [(0, k=1, first - 1)]
+    do j = 1, nseg
+      map = [map, (k, k=first, lt%off(bb))]
+      seg = [seg, (j, k=first, lt%off(bb))]
+    end do
+    do j = 1, nseg
+      map = [map, (k, k=lt%off(bb) + 1, last)]
+      seg = [seg, (j, k=lt%off(bb) + 1, last)]
+    end do
+    map = [map, (k, k=last + 1, lt%nth)]
+    seg = [seg, (0, k=last + 1, lt%nth)]
+  end subroutine manoeuvre_map
 
   !> 'use f(i,j) g(i,j) ... x0(i) ...': the parameters this model has.
   function block_list(lt) result(text)

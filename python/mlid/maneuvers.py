@@ -3,65 +3,67 @@ and the joined record.
 
 The model's parameters are shared by every manoeuvre except the initial
 state and the output biases, which each manoeuvre has of its own: the core's
-x0 and bias blocks are repeated once per manoeuvre (fortran/mlid_models.f90,
-layout_t).  A manoeuvre's own entries are named like the model's with the
+x0 and bias blocks are repeated once per manoeuvre (fortran/mlid_layout.f90,
+manoeuvre_map).  A manoeuvre's own entries are named like the model's with the
 manoeuvre number after '#', e.g. 'x0(1)#2' or 'V0#2'.
 """
 
 import numpy as np
 
 from .data import FlightData
-from .errors import InputError
+from ._core import mlid_api as _api
+from .errors import InputError, check_status
 
 
 class Params:
-    """The core's parameter vector for a model on n manoeuvres."""
+    """The core's parameter vector for a model on n manoeuvres (the map of
+    shared and own entries comes from the core, mlid_layout)."""
 
     def __init__(self, model, n=1, initial_states=None, biases=None):
         self.model, self.n = model, n
-        names = model.element_names()
+        nmax = n * model.theta.size
+        m, mp, sg, status, msg = _api.mlid_manoeuvre_map(
+            mkind=model.kind, nx=model.nx, nu=model.nu, ny=model.ny, nw=model.nw,
+            iconst=model.iconst, rconst=model.rconst, nseg=n, nmax=nmax)
+        check_status(status, msg)
+        self.map, self.seg = mp[:m] - 1, sg[:m]         # 0-based entries of one manoeuvre
+        own = self.seg > 0
         theta, mask, tie = model.theta, model.free_mask, model.tie_index
-        np_, nx, ny = model.np, model.nx, model.ny
-        self.shared_head = slice(0, np_)
-        self.rest = slice(np_ + nx + ny, len(theta))
-        x0s = self._per_manoeuvre(initial_states, model.x0, nx, "initial_states")
-        biases = self._per_manoeuvre(biases, model.bias, ny, "biases")
-        if n > 1:
-            own = set(range(np_, np_ + nx + ny))
-            if any(t and (k in own or t - 1 in own) for k, t in enumerate(tie)):
-                raise InputError("ties to or from initial states and biases are not available "
-                                 "with several manoeuvres")
-        self.theta = np.concatenate([theta[:np_], *x0s, *biases, theta[self.rest]])
-        x0_mask, bias_mask = mask[np_:np_ + nx], mask[np_ + nx:np_ + nx + ny]
-        self.mask = np.concatenate([mask[:np_], np.tile(x0_mask, n), np.tile(bias_mask, n),
-                                    mask[self.rest]]).astype(np.int32)
-        # ties keep to the shared blocks; entries after the repeated blocks move
-        shift = (n - 1) * (nx + ny)
-        moved = np.where(tie > np_ + nx + ny, tie + shift, tie)
-        self.tie = np.concatenate([moved[:np_], np.zeros(n * (nx + ny), dtype=np.int32),
-                                   moved[self.rest]]).astype(np.int32)
-        label = [model.names.get(e, e) for e in names]
-        own_el, own_lab = names[np_:np_ + nx + ny], label[np_:np_ + nx + ny]
+        own_old = np.zeros(theta.size, dtype=bool)
+        own_old[self.map[own]] = True
+        if n > 1 and np.any((tie > 0) & (own_old | own_old[np.maximum(tie, 1) - 1])):
+            raise InputError("ties to or from initial states and biases are not available "
+                             "with several manoeuvres")
+        self.theta = theta[self.map]
+        for key, given in (("x0", initial_states), ("bias", biases)):
+            self._put_own(key, given, "initial_states" if key == "x0" else "biases")
+        self.mask = mask[self.map].astype(np.int32)
+        # a tie points at the new place of its shared entry
+        new_of = np.zeros(theta.size + 1, dtype=np.int32)
+        new_of[self.map[~own] + 1] = np.flatnonzero(~own) + 1
+        self.tie = new_of[tie[self.map]].astype(np.int32)
+        names = model.element_names()
+        labels = [model.names.get(e, e) for e in names]
 
-        def repeat(items):
-            if n == 1:
-                return items
-            return [f"{a}#{k + 1}" for k in range(n) for a in items]
+        def tagged(seq):
+            return [seq[i] + (f"#{k}" if k and n > 1 else "") for i, k in zip(self.map, self.seg)]
 
-        self.elements = (names[:np_] + repeat(own_el[:nx]) + repeat(own_el[nx:])
-                         + names[self.rest])
-        self.labels = (label[:np_] + repeat(own_lab[:nx]) + repeat(own_lab[nx:])
-                       + label[self.rest])
+        self.elements, self.labels = tagged(names), tagged(labels)
 
-    def _per_manoeuvre(self, given, default, size, what):
+    def _put_own(self, key, given, what):
+        """Each manoeuvre's own x0 or bias block: the model's, or given per manoeuvre."""
         if given is None:
-            return [np.asarray(default, dtype=float)] * self.n
+            return
         if len(given) != self.n:
             raise InputError(f"{what}: one per manoeuvre ({self.n}), got {len(given)}")
-        out = [np.asarray(g, dtype=float).ravel() for g in given]
-        if any(o.size != size for o in out):
-            raise InputError(f"{what}: each needs {size} values")
-        return out
+        block = self.model._layout.slice(key)
+        size = block.stop - block.start
+        for k, g in enumerate(given, 1):
+            g = np.asarray(g, dtype=float).ravel()
+            if g.size != size:
+                raise InputError(f"{what}: each needs {size} values")
+            at = (self.seg == k) & (self.map >= block.start) & (self.map < block.stop)
+            self.theta[at] = g
 
     def free_names(self):
         return [lab for lab, f in zip(self.labels, self.mask) if f]
@@ -83,12 +85,10 @@ class Params:
 
     def model_of(self, theta, k=0):
         """The model with the shared parameters of theta and manoeuvre k's own."""
-        m = self.model
-        np_, nx, ny = m.np, m.nx, m.ny
-        x0 = theta[np_ + k * nx:np_ + (k + 1) * nx]
-        bias = theta[np_ + self.n * nx + k * ny:np_ + self.n * nx + (k + 1) * ny]
-        return m.with_theta(np.concatenate([theta[:np_], x0, bias,
-                                            theta[np_ + self.n * (nx + ny):]]))
+        one = np.empty(self.model.theta.size)
+        at = (self.seg == 0) | (self.seg == k + 1)
+        one[self.map[at]] = np.asarray(theta)[at]
+        return self.model.with_theta(one)
 
 
 def join(records):
