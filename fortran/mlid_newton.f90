@@ -31,6 +31,26 @@ module mlid_newton
     real(wp), allocatable :: lower(:), upper(:)   !< bounds (nf)
   end type extras_t
 
+  !> What a Newton search carries from iteration to iteration.
+  type :: search_t
+    integer :: nf = 0                  !< free parameters
+    integer :: it = 0                  !< iterations taken (all stages)
+    integer :: ndrop = 0               !< eigenvalues dropped by the last step's inverse
+    real(wp) :: s = 1.0_wp             !< weight of the prior term (decays each iteration)
+    real(wp), allocatable :: unit(:)   !< units of the rank-deficient search
+    real(wp), allocatable :: g(:), mt(:, :), cov(:, :)   !< gradient, information with the prior, step inverse
+    real(wp), allocatable :: sc(:), w(:), v(:, :)        !< eigen-decomposition of mt
+    real(wp), allocatable :: scr(:), wr(:), vr(:, :)     !< ... in the search's units
+  end type search_t
+
+  !> The best trial point of one iteration over its ranks.
+  type :: candidate_t
+    real(wp) :: cost = huge(1.0_wp)    !< objective there (likelihood + prior term)
+    real(wp), allocatable :: theta(:)
+    real(wp) :: step = 0.0_wp          !< length of the step taken
+    integer :: rank = 0                !< the rank that gave it (0: none)
+  end type candidate_t
+
   type :: fit_result_t
     real(wp), allocatable :: theta_start(:) !< where the iteration started
     real(wp), allocatable :: theta(:)       !< final parameters (all, fixed ones unchanged)
@@ -65,90 +85,277 @@ contains
     type(fit_result_t), intent(out) :: res
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    integer :: nf, ny, nt, it, ih, tstat, ndrop, rank, rmin, rtop
-    type(fit_result_t) :: saved
-    logical :: better
-    real(wp) :: step(pm%nf), trial(size(theta0)), best(size(theta0)), ee_sigma(pm%nf)
-    real(wp) :: g(pm%nf), mt(pm%nf, pm%nf), cov(pm%nf, pm%nf), w(pm%nf), v(pm%nf, pm%nf)
-    real(wp) :: sc(pm%nf), unit(pm%nf), scr(pm%nf), wr(pm%nf), vr(pm%nf, pm%nf)
-    real(wp) :: jt, jbest, jnow, scale, decrement, dj, s, best_step, jsaved
-    real(wp), allocatable :: rt(:, :), yt(:, :)
-    character(len=len(msg)) :: tmsg
+    type(search_t) :: st
+    integer :: rmin, rtop, k
+
+    call fit_start(m, theta0, pm, t, u, y, opt, res, status, msg)
+    if (status /= MLID_OK) return
+    st%nf = pm%nf
+    allocate (st%g(st%nf), st%mt(st%nf, st%nf), st%cov(st%nf, st%nf), st%sc(st%nf), st%w(st%nf), &
+              st%v(st%nf, st%nf), st%scr(st%nf), st%wr(st%nf), st%vr(st%nf, st%nf))
+    rmin = st%nf
+    if (opt%rank_min > 0) rmin = min(opt%rank_min, st%nf)
+    rtop = st%nf
+    if (opt%rank_max > 0) rtop = min(st%nf, opt%rank_max)
+    st%unit = search_units(res%theta(pm%ifree), [(res%info(k, k), k=1, st%nf)])
+    if (opt%rank_rule == 1 .and. rmin < rtop) then
+      call staged_search(m, pm, t, u, y, opt, ex, st, res, rmin, rtop, status, msg)
+    else
+      call iterate(m, pm, t, u, y, opt, ex, st, res, min(rmin, rtop), rtop, status, msg)
+    end if
+    if (status /= MLID_OK) return
+    res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
+    call final_bound(opt, ex, st, res, status, msg)
+  end subroutine newton_fit
+
+  !> The start: res allocated, theta0 with its ties (or the equation-error
+  !> start-up), and the likelihood there.
+  subroutine fit_start(m, theta0, pm, t, u, y, opt, res, status, msg)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta0(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(options_t), intent(in) :: opt
+    type(fit_result_t), intent(inout) :: res
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: ee_sigma(pm%nf)
+    integer :: nf, ny, nt
 
     nf = pm%nf
     ny = m%ny
     nt = size(t)
     allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), res%eigvec(nf, nf), &
               res%rhat(ny, ny), res%yhat(ny, nt), res%cost_hist(opt%max_iter + 1))
-    allocate (rt(ny, ny), yt(ny, nt))
     res%theta = theta0
     call apply_ties(pm%tie, res%theta)
     res%cost_hist = 0.0_wp
     res%rank = nf
+    res%reason = STOP_FAILED
     if (opt%startup == 1) then
       call equation_error(m, theta0, pm, t, u, y, res%theta, ee_sigma, status, msg)
+      if (status /= MLID_OK) return
+    end if
+    res%theta_start = res%theta
+    call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
+                    status, msg, res%grad, res%info)
+    if (status /= MLID_OK) return
+    res%reason = STOP_NONE
+    res%cost_hist(1) = res%cost
+  end subroutine fit_start
+
+  !> Staged rank-deficient search: converge at the minimum rank, then free
+  !> one more direction at a time and keep it only if the converged
+  !> likelihood improves by more than RANK_GAIN; otherwise go back to the
+  !> last accepted fit.
+  subroutine staged_search(m, pm, t, u, y, opt, ex, st, res, rmin, rtop, status, msg)
+    class(model_t), intent(in) :: m
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(options_t), intent(in) :: opt
+    type(extras_t), intent(in) :: ex
+    type(search_t), intent(inout) :: st
+    type(fit_result_t), intent(inout) :: res
+    integer, intent(in) :: rmin, rtop
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(fit_result_t) :: saved
+    real(wp) :: jsaved
+    integer :: rank
+
+    rank = rmin
+    call iterate(m, pm, t, u, y, opt, ex, st, res, rank, rank, status, msg)
+    do while (rank < rtop .and. status == MLID_OK .and. res%converged)
+      saved = res
+      jsaved = res%cost + prior_cost(ex, pm, res%theta, st%s)
+      call iterate(m, pm, t, u, y, opt, ex, st, res, rank + 1, rank + 1, status, msg)
+      if (status /= MLID_OK) return
+      if (jsaved - (res%cost + prior_cost(ex, pm, res%theta, st%s)) <= RANK_GAIN) then
+        res = saved
+        exit
+      end if
+      rank = rank + 1
+    end do
+    res%rank = rank
+  end subroutine staged_search
+
+  !> Newton iterations from res until converged or the iteration budget
+  !> is spent, each trying the ranks rlo..rhi and keeping the best.
+  subroutine iterate(m, pm, t, u, y, opt, ex, st, res, rlo, rhi, status, msg)
+    class(model_t), intent(in) :: m
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(options_t), intent(in) :: opt
+    type(extras_t), intent(in) :: ex
+    type(search_t), intent(inout) :: st
+    type(fit_result_t), intent(inout) :: res
+    integer, intent(in) :: rlo, rhi
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(candidate_t) :: best
+    real(wp) :: step(st%nf), decrement, jnow, dj
+    logical :: first
+
+    first = .true.
+    status = MLID_OK
+    msg = ''
+    res%reason = STOP_NONE
+    do while (st%it < opt%max_iter)
+      st%it = st%it + 1
+      ! the objective of this iteration: likelihood + prior term (weight s W)
+      jnow = res%cost + prior_cost(ex, pm, res%theta, st%s)
+      call newton_system(pm, ex, st, res, rlo < st%nf, status, msg)
+      if (status == MLID_OK) call bounded_step(opt, ex, pm, st, res, st%nf, step, decrement, &
+                                               status, msg)
       if (status /= MLID_OK) then
         res%reason = STOP_FAILED
         return
       end if
-    end if
-    res%theta_start = res%theta
-
-    call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                    status, msg, res%grad, res%info)
-    if (status /= MLID_OK) then
-      res%reason = STOP_FAILED
-      return
-    end if
-    res%cost_hist(1) = res%cost
-    rmin = nf
-    if (opt%rank_min > 0) rmin = min(opt%rank_min, nf)
-    rtop = nf
-    if (opt%rank_max > 0) rtop = min(nf, opt%rank_max)
-    ! Units of the rank-deficient search: the start values' magnitudes (the
-    ! step is then the least relative change, and a weak combination stays
-    ! at its a priori value, §5.3.6).  A parameter starting at zero has no
-    ! size to be relative to: it gets the median size-to-sigma ratio of the
-    ! others, so that it is neither dropped nor favoured for that alone.
-    unit = search_units(res%theta(pm%ifree), [(res%info(ih, ih), ih=1, nf)])
-    s = 1.0_wp
-    it = 0
-
-    if (opt%rank_rule == 1 .and. rmin < rtop) then
-      ! Staged: converge at the minimum rank, then free one more direction
-      ! at a time and keep it only if the converged likelihood improves by
-      ! more than RANK_GAIN; otherwise go back to the last accepted fit.
-      rank = rmin
-      call iterate(rank, rank)
-      do while (rank < rtop .and. status == MLID_OK .and. res%converged)
-        saved = res
-        jsaved = res%cost + prior_cost(res%theta, s)
-        call iterate(rank + 1, rank + 1)
-        if (status /= MLID_OK) return
-        if (jsaved - (res%cost + prior_cost(res%theta, s)) <= RANK_GAIN) then
-          res = saved
-          exit
+      if (decrement <= opt%tol_grad) then
+        res%reason = STOP_GRAD
+        exit
+      end if
+      ! ranks above the number of usable eigenvalues (ndrop from the full-rank
+      ! step just taken) would repeat the same step
+      call best_of_ranks(m, pm, t, u, y, opt, ex, st, res, rlo, min(st%nf - st%ndrop, rhi), &
+                         jnow, best, status, msg)
+      if (status /= MLID_OK) then
+        res%reason = STOP_FAILED
+        return
+      end if
+      dj = jnow - best%cost
+      if (.not. (dj > 0.0_wp)) then
+        ! No decrease: converged if the objective is flat to tolerance, else stuck.
+        if (best%cost < huge(1.0_wp) .and. abs(dj) <= opt%tol_cost*max(1.0_wp, abs(jnow))) then
+          res%reason = STOP_COST
+        else
+          res%reason = STOP_NO_DECREASE
         end if
-        rank = rank + 1
-      end do
-      res%rank = rank
-    else
-      call iterate(min(rmin, rtop), rtop)
-    end if
-    if (status /= MLID_OK) return
-
+        exit
+      end if
+      res%niter = st%it
+      if (first) res%rank = 0
+      first = .false.
+      res%rank = max(res%rank, best%rank)   ! late steps are small in every direction
+      res%theta = best%theta
+      call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
+                      status, msg, res%grad, res%info)
+      if (status /= MLID_OK) then
+        res%reason = STOP_FAILED
+        return
+      end if
+      res%cost_hist(st%it + 1) = res%cost
+      if (dj <= opt%tol_cost*max(1.0_wp, abs(best%cost))) then
+        res%reason = STOP_COST
+        exit
+      end if
+      if (best%step <= opt%tol_step*norm2(res%theta(pm%ifree))) then
+        res%reason = STOP_STEP
+        exit
+      end if
+      st%s = st%s*opt%prior_decay
+    end do
+    if (res%reason == STOP_NONE) res%reason = STOP_MAXITER
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
+  end subroutine iterate
 
-    ! Cramer-Rao bound at the final estimate, with the prior's weight and
-    ! the rank of the last step.
-    if (allocated(ex%weight)) res%info = res%info + s*ex%weight
+  !> Gradient and information of this iteration's objective (with the
+  !> prior term) and their eigen-decompositions: one per iteration serves
+  !> every candidate rank (in the search's units only when a rank below
+  !> full is tried).
+  subroutine newton_system(pm, ex, st, res, deficient, status, msg)
+    type(param_map_t), intent(in) :: pm
+    type(extras_t), intent(in) :: ex
+    type(search_t), intent(inout) :: st
+    type(fit_result_t), intent(in) :: res
+    logical, intent(in) :: deficient
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    st%g = res%grad
+    st%mt = res%info
+    if (allocated(ex%weight)) then
+      st%g = st%g + st%s*matmul(ex%weight, res%theta(pm%ifree) - ex%prior)
+      st%mt = st%mt + st%s*ex%weight
+    end if
+    call info_eig(st%mt, st%sc, st%w, st%v, status, msg)
+    if (status == MLID_OK .and. deficient) call info_eig(st%mt, st%scr, st%wr, st%vr, status, &
+                                                        msg, st%unit)
+  end subroutine newton_system
+
+  !> For each rank from rlo to rmax (blocks 7-10): the step, limited by the
+  !> bounds (blocks 11-12), halved while the objective does not decrease;
+  !> the best of all.  Ranks run upward: a higher rank must lower the cost
+  !> by more than RANK_GAIN (a likelihood-ratio test per direction), or the
+  !> weak directions stay where they are (report §5.3.6).
+  subroutine best_of_ranks(m, pm, t, u, y, opt, ex, st, res, rlo, rmax, jnow, best, status, msg)
+    class(model_t), intent(in) :: m
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :), jnow
+    type(options_t), intent(in) :: opt
+    type(extras_t), intent(in) :: ex
+    type(search_t), intent(inout) :: st
+    type(fit_result_t), intent(inout) :: res
+    integer, intent(in) :: rlo, rmax
+    type(candidate_t), intent(out) :: best
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: step(st%nf), trial(size(res%theta)), decrement, scale, jt
+    real(wp), allocatable :: rt(:, :), yt(:, :)   ! on the heap: worker threads have small stacks
+    integer :: rank, ih, tstat
+    logical :: better
+    character(len=len(msg)) :: tmsg
+
+    allocate (rt(m%ny, m%ny), yt(m%ny, size(t)))
+    best%cost = huge(1.0_wp)
+    best%step = 0.0_wp
+    best%rank = 0
+    best%theta = res%theta
+    do rank = min(rlo, rmax), rmax
+      call bounded_step(opt, ex, pm, st, res, rank, step, decrement, status, msg)
+      if (status /= MLID_OK) return
+      scale = 1.0_wp
+      do ih = 0, opt%halvings
+        trial = res%theta
+        trial(pm%ifree) = trial(pm%ifree) + scale*step
+        if (allocated(ex%lower)) &   ! no rounding across a bound
+          trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
+        call apply_ties(pm%tie, trial)
+        call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
+        if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
+          jt = jt + prior_cost(ex, pm, trial, st%s)
+          if (rank > best%rank .and. best%rank > 0) then
+            better = jt < best%cost - RANK_GAIN
+          else
+            better = jt < best%cost
+          end if
+          if (better) best = candidate_t(jt, trial, scale*norm2(step), rank)
+          if (jt < jnow) exit
+        end if
+        scale = 0.5_wp*scale
+      end do
+    end do
+  end subroutine best_of_ranks
+
+  !> Cramer-Rao bound at the final estimate, with the prior's weight and
+  !> the rank of the last step; a singular information or an iteration that
+  !> did not converge sets status (res is kept).
+  subroutine final_bound(opt, ex, st, res, status, msg)
+    type(options_t), intent(in) :: opt
+    type(extras_t), intent(in) :: ex
+    type(search_t), intent(inout) :: st
+    type(fit_result_t), intent(inout) :: res
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: ndrop, k, tstat
+
+    if (allocated(ex%weight)) res%info = res%info + st%s*ex%weight
     call info_inverse(res%info, opt%rcond, res%cov, res%eigval, ndrop, res%bad_param, status, &
                       msg, res%rank, res%eigvec)
     if (status /= MLID_OK) return
-    if (res%rank < nf) then   ! the covariance of the directions estimated, in the search's units
-      call info_eig(res%info, scr, wr, vr, status, msg, unit)
+    if (res%rank < st%nf) then   ! the covariance of the directions estimated, in the search's units
+      call info_eig(res%info, st%scr, st%wr, st%vr, status, msg, st%unit)
       if (status /= MLID_OK) return
-      call eig_inverse(scr, wr, vr, opt%rcond, res%rank, res%cov, ih, tstat)
+      call eig_inverse(st%scr, st%wr, st%vr, opt%rcond, res%rank, res%cov, k, tstat)
     end if
     if (ndrop > 0 .and. opt%rank_min == 0) then     ! singular, and no rank-deficient solution asked
       status = MLID_ERR_SINGULAR
@@ -162,216 +369,111 @@ contains
                    'iteration limit reached                 ', &
                    res%reason == STOP_NO_DECREASE))
     end if
+  end subroutine final_bound
 
-  contains
-
-    !> |theta_k|, or for a zero start value the marginal sigma 1/sqrt(M_kk)
-    !> times the median |theta_j| sqrt(M_jj) of the others.
-    function search_units(th, dg) result(un)
-      real(wp), intent(in) :: th(:), dg(:)
-      real(wp) :: un(size(th)), snr(size(th)), med
-      logical :: sized(size(th))
-      integer :: k, n, j
-      sized = th /= 0.0_wp .and. dg > 0.0_wp
-      un = abs(th)
-      n = count(sized)
-      med = 1.0_wp
-      if (n > 0) then
-        snr(:n) = pack(abs(th)*sqrt(max(dg, 0.0_wp)), sized)
-        do k = 2, n             ! insertion sort: n is a handful
-          med = snr(k)
-          j = k - 1
-          do while (j >= 1)
-            if (snr(j) <= med) exit
-            snr(j + 1) = snr(j)
-            j = j - 1
-          end do
-          snr(j + 1) = med
+  !> |theta_k|, or for a zero start value the marginal sigma 1/sqrt(M_kk)
+  !> times the median |theta_j| sqrt(M_jj) of the others.  Units of the
+  !> rank-deficient search: the step is then the least relative change, and
+  !> a weak combination stays at its a priori value (§5.3.6); a parameter
+  !> starting at zero is neither dropped nor favoured for that alone.
+  function search_units(th, dg) result(un)
+    real(wp), intent(in) :: th(:), dg(:)
+    real(wp) :: un(size(th)), snr(size(th)), med
+    logical :: sized(size(th))
+    integer :: k, n, j
+    sized = th /= 0.0_wp .and. dg > 0.0_wp
+    un = abs(th)
+    n = count(sized)
+    med = 1.0_wp
+    if (n > 0) then
+      snr(:n) = pack(abs(th)*sqrt(max(dg, 0.0_wp)), sized)
+      do k = 2, n             ! insertion sort: n is a handful
+        med = snr(k)
+        j = k - 1
+        do while (j >= 1)
+          if (snr(j) <= med) exit
+          snr(j + 1) = snr(j)
+          j = j - 1
         end do
-        med = 0.5_wp*(snr((n + 1)/2) + snr(n/2 + 1))
-      end if
-      do k = 1, size(th)
-        if (th(k) == 0.0_wp) then
-          un(k) = 1.0_wp
-          if (dg(k) > 0.0_wp) un(k) = med/sqrt(dg(k))
-        end if
+        snr(j + 1) = med
       end do
-    end function search_units
+      med = 0.5_wp*(snr((n + 1)/2) + snr(n/2 + 1))
+    end if
+    do k = 1, size(th)
+      if (th(k) == 0.0_wp) then
+        un(k) = 1.0_wp
+        if (dg(k) > 0.0_wp) un(k) = med/sqrt(dg(k))
+      end if
+    end do
+  end function search_units
 
-    !> Newton iterations from res until converged or the iteration budget
-    !> is spent, each trying the ranks rlo..rhi and keeping the best.
-    subroutine iterate(rlo, rhi)
-      integer, intent(in) :: rlo, rhi
-      integer :: rank, rmax, rbest
-      logical :: first
-      first = .true.
-      res%reason = STOP_NONE
-      do while (it < opt%max_iter)
-        it = it + 1
-        ! the objective of this iteration: likelihood + prior term (weight s W)
-        jnow = res%cost + prior_cost(res%theta, s)
-        g = res%grad
-        mt = res%info
-        if (allocated(ex%weight)) then
-          g = g + s*matmul(ex%weight, res%theta(pm%ifree) - ex%prior)
-          mt = mt + s*ex%weight
-        end if
-        ! one eigen-decomposition per iteration serves every candidate rank
-        call info_eig(mt, sc, w, v, status, msg)
-        if (status == MLID_OK .and. rlo < nf) call info_eig(mt, scr, wr, vr, status, msg, unit)
-        if (status /= MLID_OK) then
-          res%reason = STOP_FAILED
-          return
-        end if
-        call bounded_step(nf, step, decrement)
-        if (status /= MLID_OK) then
-          res%reason = STOP_FAILED
-          return
-        end if
-        if (decrement <= opt%tol_grad) then
-          res%reason = STOP_GRAD
-          exit
-        end if
+  !> 1/2 s (theta - prior)' W (theta - prior) over the free parameters.
+  real(wp) function prior_cost(ex, pm, th, sw)
+    type(extras_t), intent(in) :: ex
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: th(:), sw
+    real(wp) :: d(pm%nf)
+    prior_cost = 0.0_wp
+    if (.not. allocated(ex%weight)) return
+    d = th(pm%ifree) - ex%prior
+    prior_cost = 0.5_wp*sw*dot_product(d, matmul(ex%weight, d))
+  end function prior_cost
 
-        ! For each rank from rmin to full (block 7-10): the step, limited by the
-        ! bounds (blocks 11-12), halved while the objective does not decrease;
-        ! keep the best.
-        ! ranks above the number of usable eigenvalues (ndrop from the full-rank
-        ! step just taken) would repeat the same step
-        rmax = min(nf - ndrop, rhi)
-        jbest = huge(1.0_wp)
-        best_step = 0.0_wp
-        rbest = 0
-        do rank = min(rlo, rmax), rmax
-          call bounded_step(rank, step, decrement)
-          if (status /= MLID_OK) then
-            res%reason = STOP_FAILED
-            return
-          end if
-          scale = 1.0_wp
-          do ih = 0, opt%halvings
-            trial = res%theta
-            trial(pm%ifree) = trial(pm%ifree) + scale*step
-            if (allocated(ex%lower)) &   ! no rounding across a bound
-              trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
-            call apply_ties(pm%tie, trial)
-            call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
-            if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
-              jt = jt + prior_cost(trial, s)
-              ! ranks run upward: a higher rank must lower the cost by more than
-              ! RANK_GAIN (a likelihood-ratio test per direction), or the weak
-              ! directions stay where they are (report §5.3.6)
-              if (rank > rbest .and. rbest > 0) then
-                better = jt < jbest - RANK_GAIN
-              else
-                better = jt < jbest
-              end if
-              if (better) then
-                jbest = jt
-                best = trial
-                best_step = scale*norm2(step)
-                rbest = rank
-              end if
-              if (jt < jnow) exit
-            end if
-            scale = 0.5_wp*scale
-          end do
-        end do
+  !> The Newton step -M^-1 g of the given rank (and the Newton decrement
+  !> sqrt(-g' step)), with the bounds of blocks 11-12: a parameter on a
+  !> bound that the step would push outward is held there and the step
+  !> solved again for the others; then the whole step is scaled so that no
+  !> parameter crosses its bound.
+  subroutine bounded_step(opt, ex, pm, st, res, rank, step, dec, status, msg)
+    type(options_t), intent(in) :: opt
+    type(extras_t), intent(in) :: ex
+    type(param_map_t), intent(in) :: pm
+    type(search_t), intent(inout) :: st
+    type(fit_result_t), intent(inout) :: res
+    integer, intent(in) :: rank
+    real(wp), intent(out) :: step(:), dec
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: th(st%nf), factor
+    logical :: active(st%nf)
+    integer :: k, nf, nfree_act
+    integer, allocatable :: keep(:)
+    real(wp), allocatable :: sub(:, :), subw(:)
 
-        dj = jnow - jbest
-        if (.not. (dj > 0.0_wp)) then
-          ! No decrease: converged if the objective is flat to tolerance, else stuck.
-          if (jbest < huge(1.0_wp) .and. abs(dj) <= opt%tol_cost*max(1.0_wp, abs(jnow))) then
-            res%reason = STOP_COST
-          else
-            res%reason = STOP_NO_DECREASE
-          end if
-          exit
+    nf = st%nf
+    status = MLID_OK
+    msg = ''
+    if (rank < nf) then
+      call eig_inverse(st%scr, st%wr, st%vr, opt%rcond, rank, st%cov, st%ndrop, res%bad_param)
+    else
+      call eig_inverse(st%sc, st%w, st%v, opt%rcond, rank, st%cov, st%ndrop, res%bad_param)
+    end if
+    step = -matmul(st%cov, st%g)
+    if (allocated(ex%lower)) then
+      th = res%theta(pm%ifree)
+      active = (th <= ex%lower .and. step < 0.0_wp) .or. (th >= ex%upper .and. step > 0.0_wp)
+      if (any(active)) then
+        keep = pack([(k, k=1, nf)], .not. active)
+        nfree_act = size(keep)
+        allocate (sub(nfree_act, nfree_act), subw(nfree_act))
+        step = 0.0_wp
+        if (nfree_act > 0) then
+          call info_inverse(st%mt(keep, keep), opt%rcond, sub, subw, st%ndrop, k, status, msg, &
+                            min(rank, nfree_act))
+          if (status /= MLID_OK) return
+          step(keep) = -matmul(sub, st%g(keep))
         end if
-
-        res%niter = it
-        if (first) res%rank = 0
-        first = .false.
-        res%rank = max(res%rank, rbest)   ! late steps are small in every direction
-        res%theta = best
-        call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                        status, msg, res%grad, res%info)
-        if (status /= MLID_OK) then
-          res%reason = STOP_FAILED
-          return
-        end if
-        res%cost_hist(it + 1) = res%cost
-        if (dj <= opt%tol_cost*max(1.0_wp, abs(jbest))) then
-          res%reason = STOP_COST
-          exit
-        end if
-        if (best_step <= opt%tol_step*norm2(res%theta(pm%ifree))) then
-          res%reason = STOP_STEP
-          exit
-        end if
-        s = s*opt%prior_decay
+      end if
+      factor = 1.0_wp
+      do k = 1, nf
+        if (th(k) + step(k) > ex%upper(k)) factor = min(factor, (ex%upper(k) - th(k))/step(k))
+        if (th(k) + step(k) < ex%lower(k)) factor = min(factor, (ex%lower(k) - th(k))/step(k))
       end do
-      if (res%reason == STOP_NONE) res%reason = STOP_MAXITER
-      res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
-    end subroutine iterate
-
-    !> 1/2 s (theta - prior)' W (theta - prior) over the free parameters.
-    real(wp) function prior_cost(th, sw)
-      real(wp), intent(in) :: th(:), sw
-      real(wp) :: d(nf)
-      prior_cost = 0.0_wp
-      if (.not. allocated(ex%weight)) return
-      d = th(pm%ifree) - ex%prior
-      prior_cost = 0.5_wp*sw*dot_product(d, matmul(ex%weight, d))
-    end function prior_cost
-
-    !> The Newton step -M^-1 g of the given rank (and the Newton decrement
-    !> sqrt(-g' step)), with the bounds of blocks 11-12: a parameter on a
-    !> bound that the step would push outward is held there and the step
-    !> solved again for the others; then the whole step is scaled so that no
-    !> parameter crosses its bound.
-    subroutine bounded_step(rank, st, dec)
-      integer, intent(in) :: rank
-      real(wp), intent(out) :: st(:), dec
-      real(wp) :: th(nf), factor
-      logical :: active(nf)
-      integer :: k, nfree_act
-      integer, allocatable :: keep(:)
-      real(wp), allocatable :: sub(:, :), subw(:)
-
-      if (rank < nf) then
-        call eig_inverse(scr, wr, vr, opt%rcond, rank, cov, ndrop, res%bad_param)
-      else
-        call eig_inverse(sc, w, v, opt%rcond, rank, cov, ndrop, res%bad_param)
-      end if
-      st = -matmul(cov, g)
-      if (allocated(ex%lower)) then
-        th = res%theta(pm%ifree)
-        active = (th <= ex%lower .and. st < 0.0_wp) .or. (th >= ex%upper .and. st > 0.0_wp)
-        if (any(active)) then
-          keep = pack([(k, k=1, nf)], .not. active)
-          nfree_act = size(keep)
-          allocate (sub(nfree_act, nfree_act), subw(nfree_act))
-          st = 0.0_wp
-          if (nfree_act > 0) then
-            call info_inverse(mt(keep, keep), opt%rcond, sub, subw, ndrop, k, status, msg, &
-                              min(rank, nfree_act))
-            if (status /= MLID_OK) return
-            st(keep) = -matmul(sub, g(keep))
-          end if
-        end if
-        factor = 1.0_wp
-        do k = 1, nf
-          if (th(k) + st(k) > ex%upper(k)) factor = min(factor, (ex%upper(k) - th(k))/st(k))
-          if (th(k) + st(k) < ex%lower(k)) factor = min(factor, (ex%lower(k) - th(k))/st(k))
-        end do
-        dec = sqrt(max(0.0_wp, -dot_product(g, st)))
-        st = factor*st
-      else
-        dec = sqrt(max(0.0_wp, -dot_product(g, st)))
-      end if
-    end subroutine bounded_step
-
-  end subroutine newton_fit
+      dec = sqrt(max(0.0_wp, -dot_product(st%g, step)))
+      step = factor*step
+    else
+      dec = sqrt(max(0.0_wp, -dot_product(st%g, step)))
+    end if
+  end subroutine bounded_step
 
 end module mlid_newton
