@@ -31,6 +31,16 @@ module mlid_newton
     real(wp), allocatable :: lower(:), upper(:)   !< bounds (nf)
   end type extras_t
 
+  !> What a search works on, fixed for its length: the model, the map of
+  !> free parameters, the record, the options and the extras.
+  type :: problem_t
+    class(model_t), pointer :: m => null()
+    type(param_map_t), pointer :: pm => null()
+    real(wp), pointer :: t(:) => null(), u(:, :) => null(), y(:, :) => null()
+    type(options_t), pointer :: opt => null()
+    type(extras_t), pointer :: ex => null()
+  end type problem_t
+
   !> What a Newton search carries from iteration to iteration.
   type :: search_t
     integer :: nf = 0                  !< free parameters
@@ -76,17 +86,20 @@ contains
   !> the method of opt and the options in ex.  On a non-zero status res still
   !> holds the last iterate.
   subroutine newton_fit(m, theta0, pm, t, u, y, opt, ex, res, status, msg)
-    class(model_t), intent(in) :: m
+    class(model_t), intent(in), target :: m
     real(wp), intent(in) :: theta0(:)
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
-    type(options_t), intent(in) :: opt
-    type(extras_t), intent(in) :: ex
+    type(param_map_t), intent(in), target :: pm
+    real(wp), intent(in), target :: t(:), u(:, :), y(:, :)
+    type(options_t), intent(in), target :: opt
+    type(extras_t), intent(in), target :: ex
     type(fit_result_t), intent(out) :: res
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    type(problem_t) :: pb
     type(search_t) :: st
     integer :: rmin, rtop, k
+
+    pb = problem_t(m, pm, t, u, y, opt, ex)
 
     call fit_start(m, theta0, pm, t, u, y, opt, res, status, msg)
     if (status /= MLID_OK) return
@@ -99,9 +112,9 @@ contains
     if (opt%rank_max > 0) rtop = min(st%nf, opt%rank_max)
     st%unit = search_units(res%theta(pm%ifree), [(res%info(k, k), k=1, st%nf)])
     if (opt%rank_rule == 1 .and. rmin < rtop) then
-      call staged_search(m, pm, t, u, y, opt, ex, st, res, rmin, rtop, status, msg)
+      call staged_search(pb, st, res, rmin, rtop, status, msg)
     else
-      call iterate(m, pm, t, u, y, opt, ex, st, res, min(rmin, rtop), rtop, status, msg)
+      call iterate(pb, st, res, min(rmin, rtop), rtop, status, msg)
     end if
     if (status /= MLID_OK) return
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
@@ -148,12 +161,8 @@ contains
   !> one more direction at a time and keep it only if the converged
   !> likelihood improves by more than RANK_GAIN; otherwise go back to the
   !> last accepted fit.
-  subroutine staged_search(m, pm, t, u, y, opt, ex, st, res, rmin, rtop, status, msg)
-    class(model_t), intent(in) :: m
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
-    type(options_t), intent(in) :: opt
-    type(extras_t), intent(in) :: ex
+  subroutine staged_search(pb, st, res, rmin, rtop, status, msg)
+    type(problem_t), intent(in) :: pb
     type(search_t), intent(inout) :: st
     type(fit_result_t), intent(inout) :: res
     integer, intent(in) :: rmin, rtop
@@ -163,30 +172,28 @@ contains
     real(wp) :: jsaved
     integer :: rank
 
-    rank = rmin
-    call iterate(m, pm, t, u, y, opt, ex, st, res, rank, rank, status, msg)
-    do while (rank < rtop .and. status == MLID_OK .and. res%converged)
-      saved = res
-      jsaved = res%cost + prior_cost(ex, pm, res%theta, st%s)
-      call iterate(m, pm, t, u, y, opt, ex, st, res, rank + 1, rank + 1, status, msg)
-      if (status /= MLID_OK) return
-      if (jsaved - (res%cost + prior_cost(ex, pm, res%theta, st%s)) <= RANK_GAIN) then
-        res = saved
-        exit
-      end if
-      rank = rank + 1
-    end do
-    res%rank = rank
+    associate (pm => pb%pm, ex => pb%ex)
+      rank = rmin
+      call iterate(pb, st, res, rank, rank, status, msg)
+      do while (rank < rtop .and. status == MLID_OK .and. res%converged)
+        saved = res
+        jsaved = res%cost + prior_cost(ex, pm, res%theta, st%s)
+        call iterate(pb, st, res, rank + 1, rank + 1, status, msg)
+        if (status /= MLID_OK) return
+        if (jsaved - (res%cost + prior_cost(ex, pm, res%theta, st%s)) <= RANK_GAIN) then
+          res = saved
+          exit
+        end if
+        rank = rank + 1
+      end do
+      res%rank = rank
+    end associate
   end subroutine staged_search
 
   !> Newton iterations from res until converged or the iteration budget
   !> is spent, each trying the ranks rlo..rhi and keeping the best.
-  subroutine iterate(m, pm, t, u, y, opt, ex, st, res, rlo, rhi, status, msg)
-    class(model_t), intent(in) :: m
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
-    type(options_t), intent(in) :: opt
-    type(extras_t), intent(in) :: ex
+  subroutine iterate(pb, st, res, rlo, rhi, status, msg)
+    type(problem_t), intent(in) :: pb
     type(search_t), intent(inout) :: st
     type(fit_result_t), intent(inout) :: res
     integer, intent(in) :: rlo, rhi
@@ -196,90 +203,92 @@ contains
     real(wp) :: step(st%nf), decrement, jnow, dj
     logical :: first
 
-    first = .true.
-    status = MLID_OK
-    msg = ''
-    res%reason = STOP_NONE
-    do while (st%it < opt%max_iter)
-      st%it = st%it + 1
-      ! the objective of this iteration: likelihood + prior term (weight s W)
-      jnow = res%cost + prior_cost(ex, pm, res%theta, st%s)
-      call newton_system(pm, ex, st, res, rlo < st%nf, status, msg)
-      if (status == MLID_OK) call bounded_step(opt, ex, pm, st, res, st%nf, step, decrement, &
-                                               status, msg)
-      if (status /= MLID_OK) then
-        res%reason = STOP_FAILED
-        return
-      end if
-      if (decrement <= opt%tol_grad) then
-        res%reason = STOP_GRAD
-        exit
-      end if
-      ! ranks above the number of usable eigenvalues (ndrop from the full-rank
-      ! step just taken) would repeat the same step
-      call best_of_ranks(m, pm, t, u, y, opt, ex, st, res, rlo, min(st%nf - st%ndrop, rhi), &
-                         jnow, best, status, msg)
-      if (status /= MLID_OK) then
-        res%reason = STOP_FAILED
-        return
-      end if
-      dj = jnow - best%cost
-      if (.not. (dj > 0.0_wp)) then
-        ! No decrease: converged if the objective is flat to tolerance, else stuck.
-        if (best%cost < huge(1.0_wp) .and. abs(dj) <= opt%tol_cost*max(1.0_wp, abs(jnow))) then
-          res%reason = STOP_COST
-        else
-          res%reason = STOP_NO_DECREASE
+    associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt, ex => pb%ex)
+      first = .true.
+      status = MLID_OK
+      msg = ''
+      res%reason = STOP_NONE
+      do while (st%it < opt%max_iter)
+        st%it = st%it + 1
+        ! the objective of this iteration: likelihood + prior term (weight s W)
+        jnow = res%cost + prior_cost(ex, pm, res%theta, st%s)
+        call newton_system(pb, st, res, rlo < st%nf, status, msg)
+        if (status == MLID_OK) call bounded_step(pb, st, res, st%nf, step, decrement, status, msg)
+        if (status /= MLID_OK) then
+          res%reason = STOP_FAILED
+          return
         end if
-        exit
-      end if
-      res%niter = st%it
-      if (first) res%rank = 0
-      first = .false.
-      res%rank = max(res%rank, best%rank)   ! late steps are small in every direction
-      res%theta = best%theta
-      call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                      status, msg, res%grad, res%info)
-      if (status /= MLID_OK) then
-        res%reason = STOP_FAILED
-        return
-      end if
-      res%cost_hist(st%it + 1) = res%cost
-      if (dj <= opt%tol_cost*max(1.0_wp, abs(best%cost))) then
-        res%reason = STOP_COST
-        exit
-      end if
-      if (best%step <= opt%tol_step*norm2(res%theta(pm%ifree))) then
-        res%reason = STOP_STEP
-        exit
-      end if
-      st%s = st%s*opt%prior_decay
-    end do
-    if (res%reason == STOP_NONE) res%reason = STOP_MAXITER
-    res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
+        if (decrement <= opt%tol_grad) then
+          res%reason = STOP_GRAD
+          exit
+        end if
+        ! ranks above the number of usable eigenvalues (ndrop from the full-rank
+        ! step just taken) would repeat the same step
+        call best_of_ranks(pb, st, res, rlo, min(st%nf - st%ndrop, rhi), jnow, best, status, msg)
+        if (status /= MLID_OK) then
+          res%reason = STOP_FAILED
+          return
+        end if
+        dj = jnow - best%cost
+        if (.not. (dj > 0.0_wp)) then
+          ! No decrease: converged if the objective is flat to tolerance, else stuck.
+          if (best%cost < huge(1.0_wp) .and. abs(dj) <= opt%tol_cost*max(1.0_wp, abs(jnow))) then
+            res%reason = STOP_COST
+          else
+            res%reason = STOP_NO_DECREASE
+          end if
+          exit
+        end if
+        res%niter = st%it
+        if (first) res%rank = 0
+        first = .false.
+        res%rank = max(res%rank, best%rank)   ! late steps are small in every direction
+        res%theta = best%theta
+        call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
+                        status, msg, res%grad, res%info)
+        if (status /= MLID_OK) then
+          res%reason = STOP_FAILED
+          return
+        end if
+        res%cost_hist(st%it + 1) = res%cost
+        if (dj <= opt%tol_cost*max(1.0_wp, abs(best%cost))) then
+          res%reason = STOP_COST
+          exit
+        end if
+        if (best%step <= opt%tol_step*norm2(res%theta(pm%ifree))) then
+          res%reason = STOP_STEP
+          exit
+        end if
+        st%s = st%s*opt%prior_decay
+      end do
+      if (res%reason == STOP_NONE) res%reason = STOP_MAXITER
+      res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
+    end associate
   end subroutine iterate
 
   !> Gradient and information of this iteration's objective (with the
   !> prior term) and their eigen-decompositions: one per iteration serves
   !> every candidate rank (in the search's units only when a rank below
   !> full is tried).
-  subroutine newton_system(pm, ex, st, res, deficient, status, msg)
-    type(param_map_t), intent(in) :: pm
-    type(extras_t), intent(in) :: ex
+  subroutine newton_system(pb, st, res, deficient, status, msg)
+    type(problem_t), intent(in) :: pb
     type(search_t), intent(inout) :: st
     type(fit_result_t), intent(in) :: res
     logical, intent(in) :: deficient
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    st%g = res%grad
-    st%mt = res%info
-    if (allocated(ex%weight)) then
-      st%g = st%g + st%s*matmul(ex%weight, res%theta(pm%ifree) - ex%prior)
-      st%mt = st%mt + st%s*ex%weight
-    end if
-    call info_eig(st%mt, st%sc, st%w, st%v, status, msg)
-    if (status == MLID_OK .and. deficient) call info_eig(st%mt, st%scr, st%wr, st%vr, status, &
-                                                        msg, st%unit)
+
+    associate (pm => pb%pm, ex => pb%ex)
+      st%g = res%grad
+      st%mt = res%info
+      if (allocated(ex%weight)) then
+        st%g = st%g + st%s*matmul(ex%weight, res%theta(pm%ifree) - ex%prior)
+        st%mt = st%mt + st%s*ex%weight
+      end if
+      call info_eig(st%mt, st%sc, st%w, st%v, status, msg)
+      if (status == MLID_OK .and. deficient) call info_eig(st%mt, st%scr, st%wr, st%vr, status, &
+                                                          msg, st%unit)
+    end associate
   end subroutine newton_system
 
   !> For each rank from rlo to rmax (blocks 7-10): the step, limited by the
@@ -287,12 +296,9 @@ contains
   !> the best of all.  Ranks run upward: a higher rank must lower the cost
   !> by more than RANK_GAIN (a likelihood-ratio test per direction), or the
   !> weak directions stay where they are (report §5.3.6).
-  subroutine best_of_ranks(m, pm, t, u, y, opt, ex, st, res, rlo, rmax, jnow, best, status, msg)
-    class(model_t), intent(in) :: m
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(in) :: t(:), u(:, :), y(:, :), jnow
-    type(options_t), intent(in) :: opt
-    type(extras_t), intent(in) :: ex
+  subroutine best_of_ranks(pb, st, res, rlo, rmax, jnow, best, status, msg)
+    type(problem_t), intent(in) :: pb
+    real(wp), intent(in) :: jnow
     type(search_t), intent(inout) :: st
     type(fit_result_t), intent(inout) :: res
     integer, intent(in) :: rlo, rmax
@@ -305,35 +311,37 @@ contains
     logical :: better
     character(len=len(msg)) :: tmsg
 
-    allocate (rt(m%ny, m%ny), yt(m%ny, size(t)))
-    best%cost = huge(1.0_wp)
-    best%step = 0.0_wp
-    best%rank = 0
-    best%theta = res%theta
-    do rank = min(rlo, rmax), rmax
-      call bounded_step(opt, ex, pm, st, res, rank, step, decrement, status, msg)
-      if (status /= MLID_OK) return
-      scale = 1.0_wp
-      do ih = 0, opt%halvings
-        trial = res%theta
-        trial(pm%ifree) = trial(pm%ifree) + scale*step
-        if (allocated(ex%lower)) &   ! no rounding across a bound
-          trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
-        call apply_ties(pm%tie, trial)
-        call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
-        if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
-          jt = jt + prior_cost(ex, pm, trial, st%s)
-          if (rank > best%rank .and. best%rank > 0) then
-            better = jt < best%cost - RANK_GAIN
-          else
-            better = jt < best%cost
+    associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt, ex => pb%ex)
+      allocate (rt(m%ny, m%ny), yt(m%ny, size(t)))
+      best%cost = huge(1.0_wp)
+      best%step = 0.0_wp
+      best%rank = 0
+      best%theta = res%theta
+      do rank = min(rlo, rmax), rmax
+        call bounded_step(pb, st, res, rank, step, decrement, status, msg)
+        if (status /= MLID_OK) return
+        scale = 1.0_wp
+        do ih = 0, opt%halvings
+          trial = res%theta
+          trial(pm%ifree) = trial(pm%ifree) + scale*step
+          if (allocated(ex%lower)) &   ! no rounding across a bound
+            trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
+          call apply_ties(pm%tie, trial)
+          call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
+          if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
+            jt = jt + prior_cost(ex, pm, trial, st%s)
+            if (rank > best%rank .and. best%rank > 0) then
+              better = jt < best%cost - RANK_GAIN
+            else
+              better = jt < best%cost
+            end if
+            if (better) best = candidate_t(jt, trial, scale*norm2(step), rank)
+            if (jt < jnow) exit
           end if
-          if (better) best = candidate_t(jt, trial, scale*norm2(step), rank)
-          if (jt < jnow) exit
-        end if
-        scale = 0.5_wp*scale
+          scale = 0.5_wp*scale
+        end do
       end do
-    end do
+    end associate
   end subroutine best_of_ranks
 
   !> Cramer-Rao bound at the final estimate, with the prior's weight and
@@ -424,10 +432,8 @@ contains
   !> bound that the step would push outward is held there and the step
   !> solved again for the others; then the whole step is scaled so that no
   !> parameter crosses its bound.
-  subroutine bounded_step(opt, ex, pm, st, res, rank, step, dec, status, msg)
-    type(options_t), intent(in) :: opt
-    type(extras_t), intent(in) :: ex
-    type(param_map_t), intent(in) :: pm
+  subroutine bounded_step(pb, st, res, rank, step, dec, status, msg)
+    type(problem_t), intent(in) :: pb
     type(search_t), intent(inout) :: st
     type(fit_result_t), intent(inout) :: res
     integer, intent(in) :: rank
@@ -440,40 +446,42 @@ contains
     integer, allocatable :: keep(:)
     real(wp), allocatable :: sub(:, :), subw(:)
 
-    nf = st%nf
-    status = MLID_OK
-    msg = ''
-    if (rank < nf) then
-      call eig_inverse(st%scr, st%wr, st%vr, opt%rcond, rank, st%cov, st%ndrop, res%bad_param)
-    else
-      call eig_inverse(st%sc, st%w, st%v, opt%rcond, rank, st%cov, st%ndrop, res%bad_param)
-    end if
-    step = -matmul(st%cov, st%g)
-    if (allocated(ex%lower)) then
-      th = res%theta(pm%ifree)
-      active = (th <= ex%lower .and. step < 0.0_wp) .or. (th >= ex%upper .and. step > 0.0_wp)
-      if (any(active)) then
-        keep = pack([(k, k=1, nf)], .not. active)
-        nfree_act = size(keep)
-        allocate (sub(nfree_act, nfree_act), subw(nfree_act))
-        step = 0.0_wp
-        if (nfree_act > 0) then
-          call info_inverse(st%mt(keep, keep), opt%rcond, sub, subw, st%ndrop, k, status, msg, &
-                            min(rank, nfree_act))
-          if (status /= MLID_OK) return
-          step(keep) = -matmul(sub, st%g(keep))
-        end if
+    associate (pm => pb%pm, opt => pb%opt, ex => pb%ex)
+      nf = st%nf
+      status = MLID_OK
+      msg = ''
+      if (rank < nf) then
+        call eig_inverse(st%scr, st%wr, st%vr, opt%rcond, rank, st%cov, st%ndrop, res%bad_param)
+      else
+        call eig_inverse(st%sc, st%w, st%v, opt%rcond, rank, st%cov, st%ndrop, res%bad_param)
       end if
-      factor = 1.0_wp
-      do k = 1, nf
-        if (th(k) + step(k) > ex%upper(k)) factor = min(factor, (ex%upper(k) - th(k))/step(k))
-        if (th(k) + step(k) < ex%lower(k)) factor = min(factor, (ex%lower(k) - th(k))/step(k))
-      end do
-      dec = sqrt(max(0.0_wp, -dot_product(st%g, step)))
-      step = factor*step
-    else
-      dec = sqrt(max(0.0_wp, -dot_product(st%g, step)))
-    end if
+      step = -matmul(st%cov, st%g)
+      if (allocated(ex%lower)) then
+        th = res%theta(pm%ifree)
+        active = (th <= ex%lower .and. step < 0.0_wp) .or. (th >= ex%upper .and. step > 0.0_wp)
+        if (any(active)) then
+          keep = pack([(k, k=1, nf)], .not. active)
+          nfree_act = size(keep)
+          allocate (sub(nfree_act, nfree_act), subw(nfree_act))
+          step = 0.0_wp
+          if (nfree_act > 0) then
+            call info_inverse(st%mt(keep, keep), opt%rcond, sub, subw, st%ndrop, k, status, msg, &
+                              min(rank, nfree_act))
+            if (status /= MLID_OK) return
+            step(keep) = -matmul(sub, st%g(keep))
+          end if
+        end if
+        factor = 1.0_wp
+        do k = 1, nf
+          if (th(k) + step(k) > ex%upper(k)) factor = min(factor, (ex%upper(k) - th(k))/step(k))
+          if (th(k) + step(k) < ex%lower(k)) factor = min(factor, (ex%lower(k) - th(k))/step(k))
+        end do
+        dec = sqrt(max(0.0_wp, -dot_product(st%g, step)))
+        step = factor*step
+      else
+        dec = sqrt(max(0.0_wp, -dot_product(st%g, step)))
+      end if
+    end associate
   end subroutine bounded_step
 
 end module mlid_newton
