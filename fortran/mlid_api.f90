@@ -28,7 +28,8 @@ module mlid_api
   use mlid_monte_carlo, only: monte_carlo
   use mlid_inputs, only: input_signal
   use mlid_deck, only: opened, deck_open, case_time_input
-  use mlid_case, only: case_t, join_lines, split_lines
+  use mlid_case, only: case_t, NAMELEN
+  use mlid_text, only: join_lines, split_lines
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record, REGRESSOR_NAMES, CONSTANT_NAMES
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
@@ -268,7 +269,7 @@ contains
     type(fit_summary_t) :: s
     character(len=:), allocatable :: text
 
-    s = fit_summary_t(split_lines(labels, nf), start, est, sig, cov, eigval, eigvec, rhat, &
+    s = fit_summary_t(split_lines(labels, nf, NAMELEN), start, est, sig, cov, eigval, eigvec, rhat, &
                       hist, cost, niter, reason, nrank, converged == 1)
     text = fit_report(s, iopt)
     nreport = min(len(text), len(report))

@@ -10,7 +10,7 @@ module mlid_case
   use mlid_options, only: NOPT
   implicit none
   private
-  public :: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, join_lines, split_lines
+  public :: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512
   integer, parameter :: MAXSEG = 20     !< manoeuvres (data files) per case
@@ -47,36 +47,5 @@ module mlid_case
     character(len=16), allocatable :: input_shape(:)   !< per input
     real(wp), allocatable :: t_start(:), pulse_width(:)  !< per input
   end type case_t
-
-contains
-
-  !> Names one per line, for the flat interface.
-  function join_lines(names) result(text)
-    character(len=*), allocatable, intent(in) :: names(:)
-    character(len=:), allocatable :: text
-    integer :: j
-    text = ''
-    if (.not. allocated(names)) return
-    do j = 1, size(names)
-      text = text//trim(names(j))//achar(10)
-    end do
-  end function join_lines
-
-  !> The first n lines of text (names one per line).
-  function split_lines(text, n) result(names)
-    character(len=*), intent(in) :: text
-    integer, intent(in) :: n
-    character(len=NAMELEN) :: names(n)
-    integer :: j, p, e
-    names = ''
-    p = 1
-    do j = 1, n
-      if (p > len(text)) exit
-      e = index(text(p:), achar(10))
-      if (e == 0) e = len(text) - p + 2
-      names(j) = text(p:p + e - 2)
-      p = p + e
-    end do
-  end function split_lines
 
 end module mlid_case

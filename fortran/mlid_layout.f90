@@ -6,6 +6,7 @@
 !> no one else knows the order.
 module mlid_layout
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_text, only: to_lower
   use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
   use mlid_x22, only: X22_LABELS
   use mlid_aero_long, only: REGRESSOR_NAMES, NREG
@@ -169,7 +170,7 @@ contains
     character(len=len(name)) :: s
 
     idx = 0
-    s = lower(adjustl(name))
+    s = to_lower(adjustl(name))
     p = index(s, '(')
     q = index(s, ')')
     if (p < 2 .or. q < p + 2 .or. len_trim(s) /= q) return
@@ -229,15 +230,5 @@ contains
       text = text//' '//trim(lt%key(b))//trim(merge('(i,j)', '(i)  ', lt%cols(b) >= 0))
     end do
   end function block_list
-
-  pure function lower(s) result(r)
-    character(len=*), intent(in) :: s
-    character(len=len(s)) :: r
-    integer :: k
-    r = s
-    do k = 1, len(s)
-      if (s(k:k) >= 'A' .and. s(k:k) <= 'Z') r(k:k) = achar(iachar(s(k:k)) + 32)
-    end do
-  end function lower
 
 end module mlid_layout

@@ -6,6 +6,7 @@
 module mlid_options
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_text, only: to_lower, joined
   implicit none
   private
   public :: options_t, options_from_flat, options_to_flat, NOPT
@@ -172,7 +173,7 @@ contains
     status = MLID_ERR_INPUT
     k = option_index(name)
     if (k == 0) then
-      msg = 'unknown option '''//trim(name)//'''; known: '//known_names()
+      msg = 'unknown option '''//trim(name)//'''; known: '//joined(OPTION_NAMES)
       return
     end if
     select case (option_kind(name))
@@ -230,18 +231,9 @@ contains
     integer :: k
     option_index = 0
     do k = 1, NOPTION
-      if (lower(adjustl(name)) == OPTION_NAMES(k)) option_index = k
+      if (to_lower(adjustl(name)) == OPTION_NAMES(k)) option_index = k
     end do
   end function option_index
-
-  function known_names() result(text)
-    character(len=:), allocatable :: text
-    integer :: k
-    text = trim(OPTION_NAMES(1))
-    do k = 2, NOPTION
-      text = text//', '//trim(OPTION_NAMES(k))
-    end do
-  end function known_names
 
   !> The code (0, 1, ...) of a word among the choices; -1 if absent.  A
   !> bool also takes 1/0 and Fortran's .true./.false., t/f.
@@ -249,7 +241,7 @@ contains
     character(len=*), intent(in) :: choices, word
     character(len=len(word)) :: w
     integer :: k
-    w = lower(adjustl(word))
+    w = to_lower(adjustl(word))
     if (choices == 'false true') then
       select case (w)
       case ('true', '.true.', 't', '1')
@@ -283,15 +275,5 @@ contains
     end do
     if (code < 0 .or. len_trim(word) == 0) word = ''
   end function choice_word
-
-  pure function lower(s) result(r)
-    character(len=*), intent(in) :: s
-    character(len=len(s)) :: r
-    integer :: k
-    r = s
-    do k = 1, len(s)
-      if (s(k:k) >= 'A' .and. s(k:k) <= 'Z') r(k:k) = achar(iachar(s(k:k)) + 32)
-    end do
-  end function lower
 
 end module mlid_options
