@@ -63,6 +63,9 @@ def test_python_and_batch_give_the_same_numbers(name, tmp_path):
     fo = subprocess.run([str(BIN / "mlid-batch"), str(c8_deck), "--json",
                          str(tmp_path / "fo.json")], capture_output=True, text=True)
     assert fo.returncode == 0, fo.stderr
+    # one report and one JSON writer, in the core: the same bytes from both
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "fo.json").read_bytes()
+    assert _without_plots(py.stdout) == fo.stdout
     a = json.loads((tmp_path / "py.json").read_text())
     b = json.loads((tmp_path / "fo.json").read_text())
     assert [c["job"] for c in a] == [c["job"] for c in b] == ["simulate", "estimate"]
@@ -75,6 +78,27 @@ def test_python_and_batch_give_the_same_numbers(name, tmp_path):
     # the printed reports are the same text
     assert py.stdout.split("\n case 2")[1].split(" plot:")[0] == fo.stdout.split("\n case 2")[1]
     assert (tmp_path / "plots" / "case2_fit.png").stat().st_size > 10000
+
+
+def _without_plots(stdout):
+    return "".join(ln for ln in stdout.splitlines(keepends=True) if not ln.startswith(" plot:"))
+
+
+@pytest.mark.parametrize("deck", [REPO / "cases" / "hfb320" / "hfb320.nml",
+                                  REPO / "cases" / "user_model" / "cubic_short_period.nml"],
+                         ids=lambda p: p.parent.name)
+def test_every_other_deck_gives_the_same_bytes(deck, tmp_path):
+    """The decks of cases/ not run above: report and JSON byte for byte."""
+    if "shared/data" in deck.read_text() and not (REPO.parent / "shared" / "data").is_dir():
+        pytest.skip("real flight data not found beside the checkout")
+    py = subprocess.run([str(BIN / "mlid"), "run", str(deck), "--json", str(tmp_path / "py.json")],
+                        capture_output=True, text=True)
+    fo = subprocess.run([str(BIN / "mlid-batch"), str(deck), "--json", str(tmp_path / "fo.json")],
+                        capture_output=True, text=True)
+    assert py.returncode == fo.returncode == 0, (py.stderr, fo.stderr)
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "fo.json").read_bytes()
+    assert py.stdout == fo.stdout
+    assert all(c["status"] == 0 for c in json.loads((tmp_path / "py.json").read_text()))
 
 
 def _bad_deck(tmp_path, bad_case):
@@ -115,7 +139,11 @@ def test_bad_deck_fails_one_case_in_both_front_ends(tmp_path, name):
     rows = ["0 0 0 0", "0.02 1 0.1 0.1", "0.04 1 nan 0.1", "0.06 1 0.2 0.2"]
     (tmp_path / "nan.dat").write_text("\n".join(rows) + "\n")
     (tmp_path / "short.dat").write_text("\n".join(rows[:2]) + "\n")
-    py, fo = _run_both(deck)
+    py, fo = _run_both(deck, "--json", str(tmp_path / "out.json"))
+    # the same problem in the same words, the same report, from both front ends
+    assert py.stdout == fo.stdout
+    assert [ln.split("': ", 1)[1] for ln in py.stderr.splitlines() if ln.startswith("mlid:")] == \
+        [ln.split("': ", 1)[1] for ln in fo.stderr.splitlines() if ln.startswith("mlid-batch:")]
     for out, who in ((py, "mlid"), (fo, "mlid-batch")):
         assert out.returncode == 1, (who, out.stdout, out.stderr)
         assert "Traceback" not in out.stderr and "Error termination" not in out.stderr

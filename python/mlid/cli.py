@@ -2,7 +2,6 @@
 non-zero exit code; a failing case does not stop the rest of a batch."""
 
 import argparse
-import json
 import os
 import sys
 
@@ -36,11 +35,11 @@ def _parser():
 def _run(args):
     import warnings
 
-    from .deck import run_deck
+    from .deck import case_json, json_list, run_deck
 
     warnings.simplefilter("ignore")       # the core's warnings are printed with each case
     runs = run_deck(args.deck)
-    failed, records = 0, []
+    failed, objects = 0, []
     for case, out, result, error in runs:
         print(f"\n case {case.index}: {case.title}")
         if out is not None and case.job == "simulate":
@@ -53,18 +52,15 @@ def _run(args):
             from .plots import plot_fit
             path = plot_fit(result, args.plots, f"case{case.index}")
             print(f" plot: {path}")
-        if error:
+        objects.append(case_json(case, out, result, error))
+        message = str(error) if error else (out or {}).get("message", "")
+        if error or (out or {}).get("status", 0) != 0:
             failed += 1
-            print(f" FAILED: {error}")
-            print(f"mlid: {case.where()}: {error}", file=sys.stderr)
-            out = {"title": case.title, "job": case.job, "status": 1, "message": error}
-        elif out.get("status", 0) != 0:
-            failed += 1
-            print(f"mlid: {case.where()}: {out['message']}", file=sys.stderr)
-        records.append(out)
+            print(f" FAILED: {message}")
+            print(f"mlid: {case.where()}: {message}", file=sys.stderr)
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump(records, fh, indent=1)
+            fh.write(json_list(objects))
     if failed:
         print(f"{failed} of {len(runs)} cases failed", file=sys.stderr)
     return 1 if failed else 0

@@ -35,7 +35,7 @@ class FlightData:
         """
         path = Path(path)
         if not path.is_file():
-            raise InputError(f"data file not found: {path}")
+            raise InputError(f"file not found: {path}")
         header = None
         with open(path) as fh:
             lines = fh.readlines()

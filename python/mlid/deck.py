@@ -9,7 +9,7 @@ import numpy as np
 from . import core
 from .core import _api, _text
 from .data import FlightData
-from .errors import InputError, MlidError, check_status
+from .errors import InputError, MlidError, check_status, status_of
 from .model import from_core
 
 
@@ -24,6 +24,7 @@ class Case:
         (self.line, title, job, status, msg, mkind, nx, nu, ny, nw, nth, nf, nic, nrc, nfile,
          nt) = _api.mlid_deck_case(k)
         self.index, self.deck, self.title, self.job = k, Path(deck), _text(title), _text(job)
+        self._title = title.rstrip()      # the deck's own bytes, for the core's JSON
         self.error = _text(msg) if status else None
         self.model = None
         if self.error:
@@ -46,7 +47,7 @@ class Case:
         if self.job == "simulate":
             t, u, self.seed, out, status, msg = _api.mlid_deck_case_time_input(k, nu, nt)
             check_status(status, msg)
-            self._time_input, self.out = (t, u.T.copy()), Path(_text(out))
+            self._time_input, self.out = (t, u.T.copy()), _text(out)
 
     def where(self):
         return f"{self.deck} case {self.index} (line {self.line}) '{self.title}'"
@@ -72,6 +73,24 @@ class Case:
         """Options for fit(): the &estimate group by name, with prior,
         prior_weight and bounds where the deck gives them."""
         return dict(self._options)
+
+
+def case_json(case, out=None, result=None, error=None):
+    """The JSON object of a case as the core writes it (mlid-batch writes the
+    same bytes): a fit's when there is one, else title, job, status, message
+    and, for a simulate case, the samples written and where."""
+    if result is not None:
+        return result.json(case._title, case.job)
+    samples, path = (out["samples"], out["out"]) if out and "samples" in out else (-1, "")
+    status = 0 if error is None else status_of(error)
+    text, n = _api.mlid_case_json(case._title, case.job, status, str(error or ""), samples,
+                                  path)
+    return text[:n].decode(errors="replace")
+
+
+def json_list(objects):
+    """The --json file: the cases' objects as one list (as mlid-batch writes it)."""
+    return "[\n" + ",\n".join(objects) + ("\n" if objects else "") + "]\n"
 
 
 def read_deck(path):
@@ -107,7 +126,7 @@ def run_case(case):
 
 def run_deck(path):
     """Run every case of a deck in order.  Returns a list of (case, output
-    dict or None, FitResult or None, error message or None); a failing case
+    dict or None, FitResult or None, the MlidError or None); a failing case
     does not stop the others."""
     runs = []
     for case in read_deck(path):
@@ -115,5 +134,5 @@ def run_deck(path):
             out, result = run_case(case)
             runs.append((case, out, result, None))
         except MlidError as exc:
-            runs.append((case, None, getattr(exc, "result", None), str(exc)))
+            runs.append((case, None, getattr(exc, "result", None), exc))
     return runs

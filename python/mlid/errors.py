@@ -49,6 +49,14 @@ _BY_STATUS = {
 }
 
 
+def status_of(error):
+    """The core's status code of an mlid error (1, bad input, for any other)."""
+    for status, cls in _BY_STATUS.items():
+        if type(error) is cls:
+            return status
+    return 1
+
+
 def check_status(status, msg, context=""):
     """Raise the exception for a non-zero core status, with its message."""
     if status == 0:
