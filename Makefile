@@ -24,6 +24,7 @@ bench: install
 	$(VPY) -m pip install -q statsmodels
 	$(VPY) benchmarks/bench_fit.py
 	$(VPY) benchmarks/bench_hfb320.py
+	$(VPY) benchmarks/bench_deck.py
 	$(VPY) benchmarks/monte_carlo_c8.py
 	$(VPY) benchmarks/monte_carlo_m2f3.py
 	$(VPY) benchmarks/peer_statsmodels_m2f3.py

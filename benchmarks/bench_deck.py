@@ -10,26 +10,17 @@
   on the same file, side by side.
 """
 
-import time
 from pathlib import Path
 
 import numpy as np
 
 import mlid
+from timing import median
 
 REPO = Path(__file__).resolve().parent.parent
 DECKS = sorted(p for p in (REPO / "cases").glob("*/*.nml"))
 HFB = REPO / "cases" / "hfb320" / "hfb320.nml"
 HFB_DATA = REPO.parent / "shared" / "data" / "hfb320_1_10.asc"
-
-
-def median(fn, n):
-    times = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
 
 
 def main():

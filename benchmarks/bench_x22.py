@@ -14,21 +14,11 @@ from pathlib import Path
 # core's OpenMP threads for the two cores
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
-
 import mlid  # noqa: E402
+from timing import median  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "cases" / "x22_vtol"))
 import x22  # noqa: E402
-
-
-def median(fn, n):
-    times = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
 
 
 def main():
