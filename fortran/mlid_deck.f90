@@ -704,7 +704,7 @@ contains
     else if (.not. (c%dt > 0.0_wp .and. c%t_end > c%dt)) then
       call fail(c, 'group &simulate: need dt > 0 and t_end > dt')
     else if (.not. (c%t_end/c%dt < real(MAX_SAMPLES, wp))) then
-      write (iomsg, '(a,g0.6,a,i0,a)') 'group &simulate: t_end/dt = ', c%t_end/c%dt, &
+      write (iomsg, '(a,es10.3,a,i0,a)') 'group &simulate: t_end/dt =', c%t_end/c%dt, &
         ' samples; at most ', MAX_SAMPLES, ' are allowed'
       call fail(c, iomsg)
     else if (size(c%noise_std) /= c%ny .and. size(c%noise_std) /= 0) then

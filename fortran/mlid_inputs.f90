@@ -44,8 +44,8 @@ contains
     if (trim(shape) == 'none') return
     if (t_start < 0.0_wp .or. t_start > real(size(u) - 1, wp)*dt) then
       status = MLID_ERR_INPUT
-      write (msg, '(a,g0.6,a,g0.6,a)') 'input signal: t_start = ', t_start, &
-        ' s lies outside the record (0 to ', real(size(u) - 1, wp)*dt, ' s)'
+      write (msg, '(a,es10.3,a,es10.3,a)') 'input signal: t_start =', t_start, &
+        ' s lies outside the record (0 to', real(size(u) - 1, wp)*dt, ' s)'
       return
     end if
     ! both in samples; a pulse wider than the record acts as the record

@@ -129,6 +129,18 @@ BAD = {
     "missing group": ("&case title = 'bad', job = 'estimate' /\n", "group &model is missing"),
     "column out of range": (SMALL.format(title="bad", file="small.dat").replace(
         "output_cols = 3, 4", "output_cols = 3, 9"), "column 9"),
+    # limits checked before any work starts: no overflow, no unbounded allocation
+    "max_iter beyond its limit": (SMALL.format(title="bad", file="small.dat")
+                                  + "&estimate max_iter = 2147483647 /\n", "max_iter must lie in"),
+    "substeps beyond its limit": (SMALL.format(title="bad", file="small.dat").replace(
+        "nx = 2,", "nx = 2, substeps = 100000000,"), "substeps must lie in"),
+    "pulse far beyond the record": (SIM.replace("make data", "bad").replace("t_start = 0.2",
+                                                                         "t_start = 1e12"),
+                                    "lies outside the record"),
+    "record of 1e12 samples": (SIM.replace("make data", "bad").replace("dt = 0.02", "dt = 4e-12"),
+                               "samples; at most"),
+    "a group given twice": (SMALL.format(title="bad", file="small.dat")
+                            + "&model nx = 3 /\n", "group &model given twice"),
 }
 
 
@@ -212,3 +224,37 @@ def test_state_feedback_in_a_deck_through_both_front_ends(tmp_path):
     truth = [-1.2, 1.5, 0.3, 0.3]
     z = (np.array(a["estimate"]) - truth) / np.array(a["sigma"])
     assert np.all(np.abs(z) < 4), dict(zip(a["parameters"], z))
+
+
+@pytest.mark.parametrize("who", ["mlid", "mlid-batch"])
+def test_a_killed_run_leaves_the_previous_json_whole(tmp_path, who):
+    """Files are written whole or not at all: a run killed in the middle of a
+    deck (here blocked on a named pipe as its data file) leaves the previous
+    JSON as it was, and the record it wrote before is complete."""
+    import os
+    import signal
+    import time
+
+    os.mkfifo(tmp_path / "pipe.dat")
+    deck = tmp_path / "deck.nml"
+    deck.write_text(SIM + SMALL.format(title="blocked", file="pipe.dat"))
+    old = b'[{"previous": "run"}]\n'
+    (tmp_path / "out.json").write_bytes(old)
+    cmd = [str(BIN / who)] + (["run"] if who == "mlid" else []) + [
+        str(deck), "--json", str(tmp_path / "out.json")]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while not (tmp_path / "small.dat").exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.5)                      # now blocked opening the pipe
+        assert proc.poll() is None
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    assert (tmp_path / "out.json").read_bytes() == old
+    rows = np.loadtxt(tmp_path / "small.dat", comments="#")
+    assert rows.shape == (201, 4)
+    leftovers = [p.name for p in tmp_path.iterdir()
+                 if p.name not in ("pipe.dat", "deck.nml", "out.json", "small.dat")]
+    assert all(".tmp" in name for name in leftovers), leftovers

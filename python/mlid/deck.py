@@ -46,8 +46,8 @@ class Case:
         self._files = [_api.mlid_deck_case_data(k, j, nu, ny) for j in range(1, max(nfile, 1) + 1)]
         if self.job == "simulate":
             t, u, self.seed, out, status, msg = _api.mlid_deck_case_time_input(k, nu, nt)
-            check_status(status, msg)
             self._time_input, self.out = (t, u.T.copy()), _text(out)
+            self.error = _text(msg) if status else None
 
     def where(self):
         return f"{self.deck} case {self.index} (line {self.line}) '{self.title}'"
