@@ -30,6 +30,7 @@ module mlid_api
   use mlid_deck, only: opened, deck_open, case_time_input
   use mlid_case, only: case_t, NAMELEN
   use mlid_text, only: join_lines, split_lines
+  use mlid_record, only: record_keep, kept, record_check_segments
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record, REGRESSOR_NAMES, CONSTANT_NAMES
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
@@ -44,6 +45,7 @@ module mlid_api
             mlid_stop_reason, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
             mlid_deck_case_data, mlid_deck_case_time_input, mlid_report_fit, mlid_case_json, &
             mlid_layout_size, mlid_layout, mlid_name_list, mlid_manoeuvre_map, &
+            mlid_record_open, mlid_record_get, mlid_check_time, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude
@@ -383,6 +385,44 @@ contains
     map(1:n) = m
     seg(1:n) = s
   end subroutine mlid_manoeuvre_map
+
+  !> Read a text record with the core's one reader (mlid_record) and keep it
+  !> for mlid_record_get; nt samples, ncol columns in the file, its column
+  !> names one per line (blank where the file names none).  header_only = 1:
+  !> stop at the first data row (names and ncol only).
+  subroutine mlid_record_open(path, time_col, nin, input_cols, nout, output_cols, skip_rows, &
+                              header_only, nt, ncol, names, status, msg)
+    character(len=*), intent(in) :: path
+    integer(c_int), intent(in) :: time_col, nin, nout, input_cols(nin), output_cols(nout), &
+                                  skip_rows, header_only
+    integer(c_int), intent(out) :: nt, ncol, status
+    character(len=65536), intent(out) :: names
+    character(len=256), intent(out) :: msg
+    call record_keep(path, time_col, input_cols, output_cols, skip_rows, header_only == 1, &
+                     status, msg)
+    nt = size(kept%t)
+    ncol = kept%ncol
+    names = join_lines(kept%names)
+  end subroutine mlid_record_open
+
+  !> The record mlid_record_open read: t(nt), u(nu, nt), y(ny, nt).
+  subroutine mlid_record_get(nu, ny, nt, t, u, y)
+    integer(c_int), intent(in) :: nu, ny, nt
+    real(c_double), intent(out) :: t(nt), u(nu, nt), y(ny, nt)
+    t = kept%t
+    u = kept%u
+    y = kept%y
+  end subroutine mlid_record_get
+
+  !> Time increasing and without gaps (a step over 1.5 times the median),
+  !> each manoeuvre of a joined record on its own (segstart: first samples).
+  subroutine mlid_check_time(nt, t, nseg, segstart, status, msg)
+    integer(c_int), intent(in) :: nt, nseg, segstart(nseg)
+    real(c_double), intent(in) :: t(nt)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call record_check_segments(t, segstart, status, msg)
+  end subroutine mlid_check_time
 
   !> A list of names the core defines, one per line: 'regressors' (of the
   !> longitudinal model, by code) or 'constants' (its rconst, in order).
@@ -948,6 +988,11 @@ contains
         end if
       end do
     end do
+    ! a jump in time is two manoeuvres joined: named, for every method
+    if (present(segstart)) then
+      call record_check_segments(t, segstart, status, msg)
+      if (status /= MLID_OK) return
+    end if
     status = MLID_OK
     msg = ''
     ! model-specific checks of the record (units); may leave a warning in msg

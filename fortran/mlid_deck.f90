@@ -28,6 +28,7 @@ module mlid_deck
   use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
+  use mlid_record, only: record_t, record_read
   use mlid_layout, only: layout_table_t, layout_table, layout_of, element_index, default_label, &
                          block_list, manoeuvre_map
   implicit none
@@ -825,59 +826,19 @@ contains
     if (present(segstart)) segstart = starts(1:nseg)
   end subroutine case_record
 
-  !> One data file: the case's columns of it.
+  !> One data file: the case's columns of it, by the one record reader.
   subroutine read_record(c, path, t, u, y, status, msg)
     type(case_t), intent(in) :: c
     character(len=*), intent(in) :: path
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    character(len=LINELEN), allocatable :: lines(:)
-    real(wp), allocatable :: table(:, :), row(:)
-    integer :: k, n, ncol, ios, nrow
-
-    call read_lines(path, lines, status, msg)
+    type(record_t) :: rec
+    call record_read(path, c%time_col, c%input_cols, c%output_cols, c%skip_rows, rec, status, msg)
     if (status /= MLID_OK) return
-    status = MLID_ERR_INPUT
-    n = size(lines)
-    allocate (table(0, 0))
-    ncol = 0
-    nrow = 0
-    do k = c%skip_rows + 1, n
-      if (len_trim(strip_comment(lines(k), '#')) == 0) cycle
-      if (ncol == 0) then
-        ncol = count_fields(lines(k))
-        deallocate (table)
-        allocate (table(ncol, n), row(ncol))
-      end if
-      if (count_fields(lines(k)) /= ncol) then
-        write (msg, '(a,i0,a,i0,a,i0)') 'data file '//trim(path)//' line ', k, ': ', &
-          count_fields(lines(k)), ' columns, expected ', ncol
-        return
-      end if
-      read (lines(k), *, iostat=ios) row
-      if (ios /= 0) then
-        write (msg, '(a,i0,a)') 'data file '//trim(path)//' line ', k, ': malformed number'
-        return
-      end if
-      nrow = nrow + 1
-      table(:, nrow) = row
-    end do
-    if (nrow == 0) then
-      msg = 'data file '//trim(path)//': no data rows'
-      return
-    end if
-    if (maxval([c%input_cols, c%output_cols, c%time_col]) > ncol) then
-      write (msg, '(a,i0,a,i0,a)') 'data file '//trim(path)//': column ', &
-        maxval([c%input_cols, c%output_cols, c%time_col]), ' requested, the file has ', ncol, &
-        ' columns'
-      return
-    end if
-    t = table(c%time_col, 1:nrow)
-    u = table(c%input_cols, 1:nrow)
-    y = table(c%output_cols, 1:nrow)
-    status = MLID_OK
-    msg = ''
+    call move_alloc(rec%t, t)
+    call move_alloc(rec%u, u)
+    call move_alloc(rec%y, y)
   end subroutine read_record
 
   !> The case's parameters for nseg manoeuvres: every manoeuvre its own

@@ -117,7 +117,7 @@ BAD = {
     "missing data file": (SMALL.format(title="bad", file="nowhere.dat"), "nowhere.dat"),
     "wrong dimensions": (SMALL.format(title="bad", file="small.dat").replace("-0.8, -2.0,", "-0.8,"),
                          "f has 3 values"),
-    "NaN in data": (SMALL.format(title="bad", file="nan.dat"), "NaN or infinite at sample 3"),
+    "NaN in data": (SMALL.format(title="bad", file="nan.dat"), "nan.dat line 3: column 3: 'nan' is not finite"),
     "too few samples": (SMALL.format(title="bad", file="short.dat"), "too few"),
     "free parameter that does not exist": (
         SMALL.format(title="bad", file="small.dat").replace("'f(2,1)'", "'f(3,1)'"),

@@ -1,20 +1,52 @@
-"""Flight records: time, inputs and outputs, loaded from text files."""
+"""Flight records: time, inputs and outputs; text records are read by the
+core's one reader (fortran/mlid_record.f90), the one mlid-batch uses."""
 
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from ._core import mlid_api as _api
+from .errors import InputError, check_status
+
+
+def _channels(a, nt, what, name):
+    """a as (nt, n) float64: one row per sample; (n, nt) given the wrong way
+    round, other shapes, None or text are refused (NaN is the fit's to refuse,
+    with the sample named, so that a record can be cleaned first)."""
+    if a is None or isinstance(a, (str, bytes, Path)):
+        raise InputError(f"{name} must be an array of {what} (one row per sample), got "
+                         f"{type(a).__name__}")
+    try:
+        a = np.asarray(a, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must hold numbers") from None
+    if a.ndim == 1 and a.size == nt:
+        a = a.reshape(nt, 1)
+    if a.ndim != 2 or a.shape[0] != nt:
+        hint = " (given ny x nt: transpose it)" if a.ndim == 2 and a.shape[1] == nt else ""
+        raise InputError(f"{name} has shape {a.shape}; expected (nt, n{name}) = ({nt}, n), one row "
+                         f"per sample{hint}")
+    return np.ascontiguousarray(a)
 
 
 class FlightData:
     """A record: t (nt,), u (nt, nu), y (nt, ny), with channel names."""
 
     def __init__(self, t, u, y, input_names=None, output_names=None, source=""):
-        self.t = np.ascontiguousarray(t, dtype=float).ravel()
+        if t is None or isinstance(t, (str, bytes, Path)):
+            raise InputError(f"t must be an array of times, got {type(t).__name__}")
+        try:
+            t = np.asarray(t, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError("t must hold numbers") from None
+        if t.ndim != 1 and not (t.ndim == 2 and 1 in t.shape):
+            raise InputError(f"t has shape {t.shape}; expected (nt,)")
+        self.t = np.ascontiguousarray(t.ravel())
         nt = self.t.size
-        self.u = np.asarray(u, dtype=float).reshape(nt, -1) if nt else np.zeros((0, 0))
-        self.y = np.asarray(y, dtype=float).reshape(nt, -1) if nt else np.zeros((0, 0))
+        self.u = _channels(u, nt, "inputs", "u") if nt else np.zeros((0, 0))
+        self.y = _channels(y, nt, "outputs", "y") if nt else np.zeros((0, 0))
         self.input_names = list(input_names or [f"u{i + 1}" for i in range(self.u.shape[1])])
         self.output_names = list(output_names or [f"y{i + 1}" for i in range(self.y.shape[1])])
         self.source = str(source)
@@ -28,48 +60,72 @@ class FlightData:
     @classmethod
     def load(cls, path, time_col=1, input_cols=(), output_cols=(), skip_rows=0,
              input_names=None, output_names=None):
-        """Read whitespace- or comma-separated columns; '#' starts a comment.
+        """Read a text record with the core's reader: columns separated by
+        blanks, tabs or commas; '#' comments; header lines (the last one with
+        a name per column names them); D exponents; a BOM; CR-LF.  Repeat
+        counts, missing or extra columns, NaN/Inf, time that does not
+        increase and jumps in time are errors naming the file and line.
 
-        Columns are numbered from 1, as in a deck, or named when the file
-        has a header row (give ``skip_rows=1`` and names instead of numbers).
+        Columns are numbered from 1, as in a deck, or named by the header.
+        Channel names default to the header's names of the columns taken.
         """
-        path = Path(path)
-        if not path.is_file():
-            raise InputError(f"file not found: {path}")
-        header = None
-        with open(path) as fh:
-            lines = fh.readlines()
-        if skip_rows:
-            header = lines[skip_rows - 1].replace(",", " ").split()
-        delimiter = "," if any("," in ln for ln in lines[skip_rows:skip_rows + 5]) else None
+        path = str(path)
+        cols = [time_col, *input_cols, *output_cols]
+        names = None
+        if any(isinstance(c, str) and not c.isdigit() for c in cols):
+            names = cls._header(path, skip_rows)
+        num = [cls._column(c, names, path) for c in cols]
+        nu, ny = len(input_cols), len(output_cols)
+        nt, _, header, status, msg = _api.mlid_record_open(
+            path, num[0], np.array(num[1:1 + nu], dtype=np.int32),
+            np.array(num[1 + nu:], dtype=np.int32), int(skip_rows), 0)
+        check_status(status, msg)
+        t, u, y = _api.mlid_record_get(nu, ny, nt)
+        header = header.decode(errors="replace").split("\n")
+
+        def named(given, idx):
+            found = [header[k - 1] if k <= len(header) else "" for k in idx]
+            return given or (found if all(found) else None)
+
+        return cls(t, u.T, y.T, named(input_names, num[1:1 + nu]),
+                   named(output_names, num[1 + nu:]), source=path)
+
+    @staticmethod
+    def _header(path, skip_rows):
+        _, ncol, header, status, msg = _api.mlid_record_open(
+            path, 1, np.zeros(0, np.int32), np.zeros(0, np.int32), int(skip_rows), 1)
+        check_status(status, msg)
+        return header.decode(errors="replace").split("\n")[:ncol]
+
+    @staticmethod
+    def _column(c, names, path):
+        if isinstance(c, str) and not c.isdigit():
+            if not names or c not in names:
+                raise InputError(f"data file {path}: no column named {c!r}")
+            return names.index(c) + 1
         try:
-            table = np.loadtxt(lines[skip_rows:], delimiter=delimiter, ndmin=2)
-        except ValueError as exc:
-            raise InputError(f"data file {path}: malformed numbers ({exc})") from None
-        if table.size == 0:
-            raise InputError(f"data file {path}: no data rows")
-
-        def col(c):
-            if isinstance(c, str) and not c.isdigit():
-                if header is None or c not in header:
-                    raise InputError(f"data file {path}: no column named {c!r}")
-                return header.index(c)
             k = int(c)
-            if not 1 <= k <= table.shape[1]:
-                raise InputError(f"data file {path}: column {k} requested, the file has "
-                                 f"{table.shape[1]} columns")
-            return k - 1
-
-        t = table[:, col(time_col)]
-        u = table[:, [col(c) for c in input_cols]]
-        y = table[:, [col(c) for c in output_cols]]
-        return cls(t, u, y, input_names, output_names, source=path)
+        except (TypeError, ValueError):
+            raise InputError(f"data file {path}: column {c!r} is neither a number nor a name") \
+                from None
+        if not 1 <= k <= 100000:
+            raise InputError(f"data file {path}: column {k} does not exist (columns count from 1)")
+        return k
 
     def save(self, path):
-        """Write t, u, y as columns with a '#' header (17 digits, exact)."""
+        """Write t, u, y as columns with a '#' header (17 digits, exact), whole
+        or not at all: to a temporary name beside path, renamed when complete."""
         names = ["t"] + self.input_names + self.output_names
-        np.savetxt(path, np.column_stack([self.t, self.u, self.y]), fmt="%.16e",
-                   header=" ".join(names))
+        path = Path(path)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        try:
+            with os.fdopen(fd, "w") as fh:
+                np.savetxt(fh, np.column_stack([self.t, self.u, self.y]), fmt="%.16e",
+                           header=" ".join(names))
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
 
     def __repr__(self):
         return (f"FlightData(nt={self.nt}, inputs={self.input_names}, "

@@ -1,0 +1,464 @@
+!> The one reader of text flight records, for both front ends.
+!>
+!> Tolerant of what real files carry: any line length, LF or CR-LF, a UTF-8
+!> byte-order mark, blank lines, '#' comments with any bytes (also after
+!> the data on a line), header lines before the first data row (the last
+!> one with as many fields as there are columns names them), fields
+!> separated by blanks, tabs or one comma, D exponents (1.0D+00).
+!> Strict about what is wrong, each a message naming the file and line: a
+!> list-directed repeat count (3*0.0), anything that is not a plain number
+!> or not finite in a column that is used, rows with more or fewer columns
+!> than the first, a column beyond the file's, no data rows, time that does
+!> not increase, and a jump in time (two manoeuvres joined).
+module mlid_record
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
+  use mlid_text, only: itoa
+  implicit none
+  private
+  public :: record_t, record_read, record_check_time, record_check_segments, record_keep, &
+            GAP_FACTOR
+
+  !> A time step larger than this times the median step is a gap.
+  real(wp), parameter :: GAP_FACTOR = 1.5_wp
+  integer, parameter :: CHUNK = 4096, NAMELEN = 32
+
+  !> A record: t(nt), u(nu, nt), y(ny, nt), the file's column names (from
+  !> its header, when it has one) and the file line of each sample.
+  type :: record_t
+    real(wp), allocatable :: t(:), u(:, :), y(:, :)
+    character(len=NAMELEN), allocatable :: names(:)
+    integer, allocatable :: line(:)
+    integer :: ncol = 0
+  end type record_t
+
+  !> The record last read for the flat interface (sizes first, then arrays).
+  type(record_t), save, protected, public :: kept
+
+contains
+
+  !> Read the columns time_col, input_cols, output_cols (from 1) of a text
+  !> record, after skip_rows lines skipped as they are.
+  !> header_only: stop at the first data row (for the column names).
+  subroutine record_read(path, time_col, input_cols, output_cols, skip_rows, rec, status, msg, &
+                         header_only)
+    character(len=*), intent(in) :: path
+    integer, intent(in) :: time_col, input_cols(:), output_cols(:), skip_rows
+    type(record_t), intent(out) :: rec
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    logical, intent(in), optional :: header_only
+    character(len=:), allocatable :: line, header
+    integer :: unit, nline, nrow, ios, at
+    logical :: exists
+
+    status = MLID_ERR_INPUT
+    allocate (rec%t(0), rec%u(size(input_cols), 0), rec%y(size(output_cols), 0), rec%names(0), &
+              rec%line(0))
+    inquire (file=path, exist=exists)
+    if (.not. exists) then
+      msg = 'file not found: '//trim(path)
+      return
+    end if
+    open (newunit=unit, file=path, status='old', action='read', form='formatted', &
+          access='sequential', iostat=ios)
+    if (ios /= 0) then
+      msg = 'data file '//trim(path)//': cannot be opened'
+      return
+    end if
+    header = ''
+    nline = 0
+    nrow = 0
+    do
+      call read_line(unit, line, ios)
+      if (ios /= 0) exit
+      nline = nline + 1
+      if (nline <= skip_rows) then
+        header = line             ! the last line skipped may name the columns
+        cycle
+      end if
+      if (nline == 1 .and. len(line) >= 3) then
+        if (line(1:3) == char(239)//char(187)//char(191)) line = line(4:)   ! UTF-8 BOM
+      end if
+      call take_line(line, nline, nrow, header, rec, time_col, input_cols, output_cols, msg)
+      if (len_trim(msg) > 0) then
+        close (unit)
+        msg = 'data file '//trim(path)//' line '//itoa(nline)//': '//trim(msg)
+        return
+      end if
+      if (present(header_only) .and. nrow == 1) then
+        if (header_only) exit
+      end if
+    end do
+    close (unit)
+    if (ios > 0) then
+      msg = 'data file '//trim(path)//': cannot be read (is it a folder?)'
+      return
+    end if
+    if (nrow == 0) then
+      msg = 'data file '//trim(path)//': no data rows'
+      return
+    end if
+    rec%t = rec%t(1:nrow)
+    rec%u = rec%u(:, 1:nrow)
+    rec%y = rec%y(:, 1:nrow)
+    rec%line = rec%line(1:nrow)
+    if (rec%ncol > 0) rec%names = names_of(header, rec%ncol)
+    if (present(header_only)) then
+      status = MLID_OK
+      msg = ''
+      if (header_only) return
+    end if
+    call record_check_time(rec%t, at, status, msg)
+    if (status /= MLID_OK) msg = 'data file '//trim(path)//' line '//itoa(rec%line(at))//': '// &
+                                 trim(msg)
+  end subroutine record_read
+
+  !> record_read into kept.
+  subroutine record_keep(path, time_col, input_cols, output_cols, skip_rows, header_only, status, &
+                         msg)
+    character(len=*), intent(in) :: path
+    integer, intent(in) :: time_col, input_cols(:), output_cols(:), skip_rows
+    logical, intent(in) :: header_only
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    call record_read(path, time_col, input_cols, output_cols, skip_rows, kept, status, msg, &
+                     header_only)
+  end subroutine record_keep
+
+  !> One line of any length (without its end, CR-LF or LF); ios < 0 at the end.
+  subroutine read_line(unit, line, ios)
+    integer, intent(in) :: unit
+    character(len=:), allocatable, intent(out) :: line
+    integer, intent(out) :: ios
+    character(len=CHUNK) :: buf
+    integer :: n
+    line = ''
+    do
+      read (unit, '(a)', advance='no', size=n, iostat=ios) buf
+      line = line//buf(1:n)
+      if (ios /= 0) exit
+    end do
+    if (is_iostat_eor(ios)) ios = 0
+    if (ios < 0 .and. len(line) > 0) ios = 0      ! a last line without its end
+    n = len(line)
+    if (n > 0) then
+      if (line(n:n) == achar(13)) line = line(1:n - 1)
+    end if
+  end subroutine read_line
+
+  !> Classify one line (blank, comment, header, data row) and take a data
+  !> row's columns into rec; msg is non-blank for a line that is wrong.
+  subroutine take_line(line, nline, nrow, header, rec, time_col, input_cols, output_cols, msg)
+    character(len=*), intent(in) :: line
+    integer, intent(in) :: nline, time_col, input_cols(:), output_cols(:)
+    integer, intent(inout) :: nrow
+    character(len=:), allocatable, intent(inout) :: header
+    type(record_t), intent(inout) :: rec
+    character(len=*), intent(out) :: msg
+    integer, allocatable :: first(:), last(:)
+    integer :: hash, ncol
+    real(wp) :: x
+
+    msg = ''
+    hash = index(line, '#')
+    if (hash > 0) then
+      if (nrow == 0 .and. len_trim(line(1:hash - 1)) == 0) header = line(hash + 1:)
+      call fields(line(1:hash - 1), first, last, msg)
+    else
+      call fields(line, first, last, msg)
+    end if
+    if (len_trim(msg) > 0 .or. size(first) == 0) return
+    ncol = size(first)
+    if (nrow == 0) then
+      call parse(line(first(1):last(1)), x, msg)
+      if (len_trim(msg) > 0 .and. verify(line(first(1):first(1)), '+-.0123456789') > 0 .and. &
+          verify(line(first(1):last(1)), 'nNaAiIfFtTyY+-') > 0) then
+        header = line                      ! a header line before the first data row
+        msg = ''
+        return
+      end if
+      rec%ncol = ncol
+      if (maxval([time_col, input_cols, output_cols]) > ncol) then
+        msg = 'column '//itoa(maxval([time_col, input_cols, output_cols]))// &
+              ' requested, the file has '//itoa(ncol)//' columns'
+        return
+      end if
+    end if
+    if (ncol /= rec%ncol) then
+      msg = itoa(ncol)//' columns, the first data row has '//itoa(rec%ncol)
+      return
+    end if
+    call add_row(line, first, last, nline, nrow, rec, time_col, input_cols, output_cols, msg)
+  end subroutine take_line
+
+  !> The requested columns of a data row, appended to rec.
+  subroutine add_row(line, first, last, nline, nrow, rec, time_col, input_cols, output_cols, msg)
+    character(len=*), intent(in) :: line
+    integer, intent(in) :: first(:), last(:), nline, time_col, input_cols(:), output_cols(:)
+    integer, intent(inout) :: nrow
+    type(record_t), intent(inout) :: rec
+    character(len=*), intent(out) :: msg
+    integer :: k, c
+
+    if (nrow == size(rec%t)) call grow(rec, max(64, 2*nrow))
+    nrow = nrow + 1
+    rec%line(nrow) = nline
+    call parse(line(first(time_col):last(time_col)), rec%t(nrow), msg)
+    c = time_col
+    do k = 1, size(input_cols)
+      if (len_trim(msg) > 0) exit
+      c = input_cols(k)
+      call parse(line(first(c):last(c)), rec%u(k, nrow), msg)
+    end do
+    do k = 1, size(output_cols)
+      if (len_trim(msg) > 0) exit
+      c = output_cols(k)
+      call parse(line(first(c):last(c)), rec%y(k, nrow), msg)
+    end do
+    if (len_trim(msg) > 0) msg = 'column '//itoa(c)//': '//trim(msg)
+  end subroutine add_row
+
+  subroutine grow(rec, n)
+    type(record_t), intent(inout) :: rec
+    integer, intent(in) :: n
+    real(wp), allocatable :: t(:), u(:, :), y(:, :)
+    integer, allocatable :: line(:)
+    integer :: m
+    m = size(rec%t)
+    allocate (t(n), u(size(rec%u, 1), n), y(size(rec%y, 1), n), line(n))
+    t(1:m) = rec%t
+    u(:, 1:m) = rec%u
+    y(:, 1:m) = rec%y
+    line(1:m) = rec%line
+    call move_alloc(t, rec%t)
+    call move_alloc(u, rec%u)
+    call move_alloc(y, rec%y)
+    call move_alloc(line, rec%line)
+  end subroutine grow
+
+  !> Where the fields of a line start and end: separated by blanks, tabs
+  !> and at most one comma (two commas, or a comma first or last, leave a
+  !> field empty, which is an error).
+  subroutine fields(line, first, last, msg)
+    character(len=*), intent(in) :: line
+    integer, allocatable, intent(out) :: first(:), last(:)
+    character(len=*), intent(out) :: msg
+    integer :: k, n
+    logical :: inside, comma
+
+    allocate (first(0), last(0))
+    msg = ''
+    inside = .false.
+    comma = .false.
+    n = len_trim(line)
+    do k = 1, n
+      if (line(k:k) == ' ' .or. line(k:k) == achar(9) .or. line(k:k) == ',') then
+        if (inside) last = [last, k - 1]
+        if (line(k:k) == ',') then
+          if (comma .or. size(first) == 0) then
+            msg = 'an empty field (two commas, or a comma first)'
+            return
+          end if
+          comma = .true.
+        end if
+        inside = .false.
+      else if (.not. inside) then
+        first = [first, k]
+        inside = .true.
+        comma = .false.
+      end if
+    end do
+    if (inside) last = [last, n]
+    if (comma) msg = 'an empty field (a comma last)'
+  end subroutine fields
+
+  !> A plain number: sign, digits with at most one point, an exponent with
+  !> E or D; finite.
+  subroutine parse(field, x, msg)
+    character(len=*), intent(in) :: field
+    real(wp), intent(out) :: x
+    character(len=*), intent(out) :: msg
+    character(len=len(field)) :: f
+    integer :: k, ios
+
+    msg = ''
+    x = 0.0_wp
+    if (index(field, '*') > 0) then
+      msg = 'repeat count '''//field//''' (write every value out)'
+      return
+    end if
+    if (.not. plain_number(field)) then
+      msg = '''' //field//''' is not a number'
+      if (verify(field, 'nNaAiIfF+-') == 0) msg = '''' //field//''' is not finite'
+      return
+    end if
+    f = field
+    k = scan(f, 'dD')
+    if (k > 0) f(k:k) = 'e'
+    read (f, *, iostat=ios) x
+    if (ios /= 0 .or. .not. ieee_is_finite(x)) msg = ''''//field//''' is not finite'
+  end subroutine parse
+
+  logical function plain_number(s)
+    character(len=*), intent(in) :: s
+    integer :: k, digits, e
+    plain_number = .false.
+    k = 1
+    if (s(1:1) == '+' .or. s(1:1) == '-') k = 2
+    e = scan(s, 'eEdD')
+    if (e == 0) e = len(s) + 1
+    if (k >= e) return
+    digits = len(s(k:e - 1)) - count_char(s(k:e - 1), '.')
+    if (count_char(s(k:e - 1), '.') > 1 .or. digits < 1) return
+    if (verify(s(k:e - 1), '0123456789.') > 0) return
+    if (e > len(s)) then
+      plain_number = .true.
+      return
+    end if
+    k = e + 1
+    if (k <= len(s)) then
+      if (s(k:k) == '+' .or. s(k:k) == '-') k = k + 1
+    end if
+    plain_number = k <= len(s) .and. verify(s(k:), '0123456789') == 0
+  end function plain_number
+
+  integer function count_char(s, c)
+    character(len=*), intent(in) :: s
+    character, intent(in) :: c
+    integer :: k
+    count_char = 0
+    do k = 1, len(s)
+      if (s(k:k) == c) count_char = count_char + 1
+    end do
+  end function count_char
+
+  !> The column names of a header line with ncol fields (blanks otherwise).
+  function names_of(header, ncol) result(names)
+    character(len=*), intent(in) :: header
+    integer, intent(in) :: ncol
+    character(len=NAMELEN), allocatable :: names(:)
+    integer, allocatable :: first(:), last(:)
+    character(len=msg_len) :: msg
+    integer :: k
+    allocate (names(ncol))
+    names = ''
+    call fields(header, first, last, msg)
+    if (size(first) /= ncol .or. len_trim(msg) > 0) return
+    do k = 1, ncol
+      names(k) = header(first(k):last(k))
+    end do
+  end function names_of
+
+  !> Time must increase, and a step larger than GAP_FACTOR times the median
+  !> step is a gap: two manoeuvres joined.  at: the sample where it happens.
+  subroutine record_check_time(t, at, status, msg)
+    real(wp), intent(in) :: t(:)
+    integer, intent(out) :: at, status
+    character(len=*), intent(out) :: msg
+    real(wp) :: dt(max(size(t) - 1, 0)), med
+    character(len=32) :: a, b, c
+    integer :: k
+
+    status = MLID_OK
+    msg = ''
+    at = 0
+    do k = 2, size(t)
+      if (.not. t(k) > t(k - 1)) then
+        status = MLID_ERR_INPUT
+        at = k
+        write (a, '(g0.8)') t(k - 1)
+        write (b, '(g0.8)') t(k)
+        msg = 'time does not increase: '//trim(b)//' s after '//trim(a)//' s (sample '// &
+              itoa(k)//')'
+        return
+      end if
+    end do
+    if (size(t) < 3) return
+    dt = t(2:) - t(:size(t) - 1)
+    med = median(dt)
+    do k = 1, size(dt)
+      if (dt(k) > GAP_FACTOR*med) then
+        status = MLID_ERR_INPUT
+        at = k + 1
+        write (a, '(f0.4)') t(k)
+        write (b, '(f0.4)') t(k + 1)
+        write (c, '(g0.4)') med
+        msg = 'time jumps from '//trim(a)//' s to '//trim(b)//' s at sample '//itoa(k + 1)// &
+              ' (sampling '//trim(c)//' s): split the record into manoeuvres (&data file = '// &
+              '''a.dat'', ''b.dat'', or a list of records in Python)'
+        return
+      end if
+    end do
+  end subroutine record_check_time
+
+  !> record_check_time for each manoeuvre of a joined record (segstart:
+  !> the first sample of each); the message names the manoeuvre.
+  subroutine record_check_segments(t, segstart, status, msg)
+    real(wp), intent(in) :: t(:)
+    integer, intent(in) :: segstart(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: k, first, last, at
+    status = MLID_OK
+    msg = ''
+    do k = 1, size(segstart)
+      first = max(1, segstart(k))
+      last = size(t)
+      if (k < size(segstart)) last = min(size(t), segstart(k + 1) - 1)
+      if (last <= first) cycle
+      call record_check_time(t(first:last), at, status, msg)
+      if (status /= MLID_OK) then
+        if (size(segstart) > 1) msg = 'manoeuvre '//itoa(k)//': '//trim(msg)
+        msg = 'data: '//trim(msg)
+        return
+      end if
+    end do
+  end subroutine record_check_segments
+
+  !> The median of x (quickselect on a copy).
+  real(wp) function median(x)
+    real(wp), intent(in) :: x(:)
+    real(wp) :: a(size(x))
+    a = x
+    median = select_kth(a, (size(a) + 1)/2)
+    if (mod(size(a), 2) == 0) median = 0.5_wp*(median + minval(a((size(a) + 1)/2 + 1:)))
+  end function median
+
+  !> The k-th smallest of a; a is left partitioned about it.
+  real(wp) function select_kth(a, k)
+    real(wp), intent(inout) :: a(:)
+    integer, intent(in) :: k
+    integer :: lo, hi, i, j
+    real(wp) :: pivot
+    lo = 1
+    hi = size(a)
+    do while (lo < hi)
+      pivot = a((lo + hi)/2)
+      i = lo
+      j = hi
+      do while (i <= j)
+        do while (a(i) < pivot)
+          i = i + 1
+        end do
+        do while (a(j) > pivot)
+          j = j - 1
+        end do
+        if (i <= j) then
+          a([i, j]) = a([j, i])
+          i = i + 1
+          j = j - 1
+        end if
+      end do
+      if (k <= j) then
+        hi = j
+      else if (k >= i) then
+        lo = i
+      else
+        exit
+      end if
+    end do
+    select_kth = a(k)
+  end function select_kth
+
+end module mlid_record
