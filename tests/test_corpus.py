@@ -25,8 +25,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
+try:   # the Makefile installs it; an older .venv may lack it: then only the fuzz tests skip
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+except ImportError:
+    st = None
 
 import mlid
 from conftest import BIN
@@ -398,63 +401,67 @@ def test_whole_deck_refused_with_one_line(name, tmp_path):
 GOOD_DECK = (SIM + "\n" + (CORPUS / "cases" / "plain.nml").read_text() + "\n" + GOOD).encode()
 GOOD_RECORD = b"".join((CORPUS / "records" / "good.dat").read_bytes().splitlines(True)[:30])
 
-_byte = st.one_of(st.integers(32, 126), st.integers(0, 31), st.integers(127, 255))
-_token = st.sampled_from([b"&", b"/", b"'", b'"', b",", b"=", b"!", b"#", b"*", b"3*", b"nan",
-                          b"-Infinity", b"1e999", b"2147483648", b"1.0D+00", b"\r", b"\t",
-                          b"\xef\xbb\xbf", b"\n&case ", b"\n&model ", b" nx = 0", b"(0,0)"])
-_mutation = st.one_of(
-    st.tuples(st.just("insert"), st.floats(0, 1), _token.map(list)),
-    st.tuples(st.just("insert"), st.floats(0, 1), st.lists(_byte, min_size=1, max_size=8)),
-    st.tuples(st.just("delete"), st.floats(0, 1), st.integers(1, 40)),
-    st.tuples(st.just("duplicate line"), st.floats(0, 1), st.integers(1, 3)),
-    st.tuples(st.just("replace"), st.floats(0, 1), st.lists(_byte, min_size=1, max_size=4)),
-)
+if st is None:
+    def test_fuzz_needs_hypothesis():
+        pytest.skip("hypothesis is not installed (make install adds it to a new .venv)")
+else:
+    _byte = st.one_of(st.integers(32, 126), st.integers(0, 31), st.integers(127, 255))
+    _token = st.sampled_from([b"&", b"/", b"'", b'"', b",", b"=", b"!", b"#", b"*", b"3*", b"nan",
+                              b"-Infinity", b"1e999", b"2147483648", b"1.0D+00", b"\r", b"\t",
+                              b"\xef\xbb\xbf", b"\n&case ", b"\n&model ", b" nx = 0", b"(0,0)"])
+    _mutation = st.one_of(
+        st.tuples(st.just("insert"), st.floats(0, 1), _token.map(list)),
+        st.tuples(st.just("insert"), st.floats(0, 1), st.lists(_byte, min_size=1, max_size=8)),
+        st.tuples(st.just("delete"), st.floats(0, 1), st.integers(1, 40)),
+        st.tuples(st.just("duplicate line"), st.floats(0, 1), st.integers(1, 3)),
+        st.tuples(st.just("replace"), st.floats(0, 1), st.lists(_byte, min_size=1, max_size=4)),
+    )
 
 
-def _mutate(data, mutations):
-    b = bytearray(data)
-    for op, where, arg in mutations:
-        k = int(where * len(b)) if b else 0
-        if op == "insert":
-            b[k:k] = bytes(arg)
-        elif op == "delete":
-            del b[k:k + arg]
-        elif op == "replace":
-            b[k:k + len(arg)] = bytes(arg)
-        else:
-            lines = bytes(b).split(b"\n")
-            j = min(int(where * len(lines)), len(lines) - 1)
-            lines[j:j] = [lines[j]] * arg
-            b = bytearray(b"\n".join(lines))
-    return bytes(b)
+    def _mutate(data, mutations):
+        b = bytearray(data)
+        for op, where, arg in mutations:
+            k = int(where * len(b)) if b else 0
+            if op == "insert":
+                b[k:k] = bytes(arg)
+            elif op == "delete":
+                del b[k:k + arg]
+            elif op == "replace":
+                b[k:k + len(arg)] = bytes(arg)
+            else:
+                lines = bytes(b).split(b"\n")
+                j = min(int(where * len(lines)), len(lines) - 1)
+                lines[j:j] = [lines[j]] * arg
+                b = bytearray(b"\n".join(lines))
+        return bytes(b)
 
 
-FUZZ = settings(max_examples=200, deadline=None, derandomize=True, database=None,
-                suppress_health_check=list(HealthCheck))
+    FUZZ = settings(max_examples=200, deadline=None, derandomize=True, database=None,
+                    suppress_health_check=list(HealthCheck))
 
 
-@FUZZ
-@given(st.lists(_mutation, min_size=1, max_size=6))
-def test_fuzz_read_deck(mutations):
-    with tempfile.TemporaryDirectory() as d:
-        path = Path(d) / "deck.nml"
-        path.write_bytes(_mutate(GOOD_DECK, mutations))
-        try:
-            cases = mlid.read_deck(path)
-        except mlid.MlidError:
-            return
-        for case in cases:
-            assert case.error is None or isinstance(case.error, str)
+    @FUZZ
+    @given(st.lists(_mutation, min_size=1, max_size=6))
+    def test_fuzz_read_deck(mutations):
+        with tempfile.TemporaryDirectory() as d:
+            path = Path(d) / "deck.nml"
+            path.write_bytes(_mutate(GOOD_DECK, mutations))
+            try:
+                cases = mlid.read_deck(path)
+            except mlid.MlidError:
+                return
+            for case in cases:
+                assert case.error is None or isinstance(case.error, str)
 
 
-@FUZZ
-@given(st.lists(_mutation, min_size=1, max_size=6))
-def test_fuzz_load_record(mutations):
-    with tempfile.TemporaryDirectory() as d:
-        path = Path(d) / "rec.dat"
-        path.write_bytes(_mutate(GOOD_RECORD, mutations))
-        try:
-            data = mlid.FlightData.load(path, time_col=1, input_cols=[2], output_cols=[3, 4])
-        except mlid.MlidError:
-            return
-        assert data.u.shape == (data.nt, 1) and data.y.shape == (data.nt, 2)
+    @FUZZ
+    @given(st.lists(_mutation, min_size=1, max_size=6))
+    def test_fuzz_load_record(mutations):
+        with tempfile.TemporaryDirectory() as d:
+            path = Path(d) / "rec.dat"
+            path.write_bytes(_mutate(GOOD_RECORD, mutations))
+            try:
+                data = mlid.FlightData.load(path, time_col=1, input_cols=[2], output_cols=[3, 4])
+            except mlid.MlidError:
+                return
+            assert data.u.shape == (data.nt, 1) and data.y.shape == (data.nt, 2)
