@@ -21,7 +21,7 @@
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower, itoa, joined
+  use mlid_text, only: to_lower, itoa, joined, read_text, line_t
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
@@ -39,7 +39,6 @@ module mlid_deck
   !> The cases of the deck last opened by deck_open, for the flat interface.
   type(case_t), allocatable, protected, public :: opened(:)
 
-  integer, parameter :: LINELEN = 2048
   integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
   integer, parameter :: MAXR = 12   !< regressors of each coefficient
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
@@ -49,7 +48,7 @@ module mlid_deck
   !> case's text and its lines (for line numbers in messages).
   type :: reader_t
     integer :: unit = 0, line0 = 0
-    character(len=LINELEN), allocatable :: lines(:)
+    type(line_t), allocatable :: lines(:)
   end type reader_t
 
 
@@ -63,17 +62,17 @@ contains
     type(case_t), allocatable, intent(out) :: cases(:)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    character(len=LINELEN), allocatable :: lines(:)
+    type(line_t), allocatable :: lines(:)
     integer, allocatable :: starts(:)
     integer :: n, k, last
 
     allocate (cases(0))
-    call read_lines(path, lines, status, msg)
+    call read_text(path, lines, status, msg)
     if (status /= MLID_OK) return
     n = size(lines)
     allocate (starts(0))
     do k = 1, n
-      if (first_word(lines(k)) == '&case') starts = [starts, k]
+      if (first_word(lines(k)%s) == '&case') starts = [starts, k]
     end do
     if (size(starts) == 0) then
       status = MLID_ERR_INPUT
@@ -81,7 +80,7 @@ contains
       return
     end if
     do k = 1, starts(1) - 1
-      if (len_trim(strip_comment(lines(k))) > 0) then
+      if (len_trim(strip_comment(lines(k)%s)) > 0) then
         status = MLID_ERR_INPUT
         write (msg, '(a,i0,a)') trim(path)//' line ', k, ': text before the first &case group'
         return
@@ -126,14 +125,14 @@ contains
   !> Parse one case from its lines (first is the &case line, number line0):
   !> one reader per group, each after the one before succeeded.
   subroutine read_case(lines, line0, c)
-    character(len=*), intent(in) :: lines(:)
+    type(line_t), intent(in) :: lines(:)
     integer, intent(in) :: line0
     type(case_t), intent(inout) :: c
     type(reader_t) :: rd
+    type(case_t) :: groups
     type(options_t) :: opt
     integer, allocatable :: free_idx(:)
-    character(len=:), allocatable :: seen
-    character(len=LINELEN) :: text
+    character(len=:), allocatable :: seen, text
     integer :: k
 
     ! The case without comments goes to a scratch file that each group's
@@ -144,13 +143,19 @@ contains
     open (newunit=rd%unit, status='scratch', action='readwrite', form='formatted')
     seen = ' '
     do k = 1, size(lines)
-      text = strip_comment(lines(k))
+      text = strip_comment(lines(k)%s)
       write (rd%unit, '(a)') trim(text)
-      call check_groups(text, line0 + k - 1, c, seen)
-      if (c%status /= MLID_OK) exit
+      if (c%status == MLID_OK) call check_groups(text, line0 + k - 1, c, seen)
     end do
     call options_to_flat(options_t(), c%iopt, c%ropt)
-    if (c%status == MLID_OK) call read_case_group(rd, c)
+    ! the title first, so that a message about the groups names the case
+    groups = c
+    c%status = MLID_OK
+    call read_case_group(rd, c)
+    if (groups%status /= MLID_OK) then
+      c%status = groups%status
+      c%msg = groups%msg
+    end if
     if (c%status == MLID_OK) call read_model_group(rd, c, free_idx)
     if (c%status == MLID_OK .and. c%job == 'estimate') then
       call read_data_group(rd, c)
@@ -176,9 +181,37 @@ contains
       call fail(c, 'group &'//group//' is missing (job '''//trim(c%job)//''' needs it)')
     else if (ios > 0) then
       call fail(c, 'group &'//group//' (line '//itoa(group_line(rd%lines, rd%line0, group))// &
-                '): '//trim(iomsg))
+                '): '//blame(rd, group, iomsg))
     end if
   end subroutine group_status
+
+  !> A namelist read error in words a user can act on: the compiler names
+  !> the token it could not take ("Cannot match namelist object name .5");
+  !> the name assigned just before it on its line is the one with the bad
+  !> value ("max_iter = 2.5").
+  function blame(rd, group, iomsg) result(text)
+    type(reader_t), intent(in) :: rd
+    character(len=*), intent(in) :: group, iomsg
+    character(len=:), allocatable :: text, token, line
+    integer :: p, k, q, e, b
+    text = trim(iomsg)
+    p = index(iomsg, 'object name ')
+    if (p == 0) return
+    token = trim(iomsg(p + 12:))
+    if (len(token) == 0) return
+    do k = group_line(rd%lines, rd%line0, group) - rd%line0 + 1, size(rd%lines)
+      line = trim(strip_comment(rd%lines(k)%s))
+      q = index(line, token)
+      if (q == 0) cycle
+      e = index(line(1:q - 1), '=', back=.true.)
+      if (e == 0) return
+      b = scan(trim(line(1:e - 1)), ' ,', back=.true.)
+      text = 'line '//itoa(rd%line0 + k - 1)//': bad value '''// &
+             trim(adjustl(line(e + 1:q + len(token) - 1)))//''' for '// &
+             trim(adjustl(line(b + 1:e - 1)))//' ('//trim(iomsg)//')'
+      return
+    end do
+  end function blame
 
   subroutine fail(c, text)
     type(case_t), intent(inout) :: c
@@ -961,42 +994,6 @@ contains
     end if
   end function resolve
 
-  subroutine read_lines(path, lines, status, msg)
-    character(len=*), intent(in) :: path
-    character(len=LINELEN), allocatable, intent(out) :: lines(:)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    character(len=LINELEN) :: buf
-    integer :: unit, ios, n
-    logical :: exists
-
-    allocate (lines(0))
-    inquire (file=path, exist=exists)
-    if (.not. exists) then
-      status = MLID_ERR_INPUT
-      msg = 'file not found: '//trim(path)
-      return
-    end if
-    open (newunit=unit, file=path, status='old', action='read', iostat=ios)
-    if (ios /= 0) then
-      status = MLID_ERR_INPUT
-      msg = 'cannot open '//trim(path)
-      return
-    end if
-    n = 0
-    do
-      read (unit, '(a)', iostat=ios) buf
-      if (ios /= 0) exit
-      n = n + 1
-      if (n > size(lines)) lines = [character(len=LINELEN) :: lines, (' ', ios=1, max(64, n))]
-      lines(n) = buf
-    end do
-    close (unit)
-    lines = lines(1:n)
-    status = MLID_OK
-    msg = ''
-  end subroutine read_lines
-
   !> The line without its comment (from the first mark outside quotes).
   function strip_comment(line, mark) result(s)
     character(len=*), intent(in) :: line
@@ -1036,12 +1033,13 @@ contains
 
   !> Line number of the first &group in the case (for messages).
   integer function group_line(lines, line0, group)
-    character(len=*), intent(in) :: lines(:), group
+    type(line_t), intent(in) :: lines(:)
+    character(len=*), intent(in) :: group
     integer, intent(in) :: line0
     integer :: k
     group_line = line0
     do k = 1, size(lines)
-      if (index(to_lower(strip_comment(lines(k))), '&'//group) > 0) then
+      if (index(to_lower(strip_comment(lines(k)%s)), '&'//group) > 0) then
         group_line = line0 + k - 1
         return
       end if

@@ -13,7 +13,7 @@
 module mlid_record
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: itoa
+  use mlid_text, only: itoa, open_text, read_line
   implicit none
   private
   public :: record_t, record_read, record_check_time, record_check_segments, record_keep, &
@@ -21,7 +21,7 @@ module mlid_record
 
   !> A time step larger than this times the median step is a gap.
   real(wp), parameter :: GAP_FACTOR = 1.5_wp
-  integer, parameter :: CHUNK = 4096, NAMELEN = 32
+  integer, parameter :: NAMELEN = 32
 
   !> A record: t(nt), u(nu, nt), y(ny, nt), the file's column names (from
   !> its header, when it has one) and the file line of each sample.
@@ -50,35 +50,23 @@ contains
     logical, intent(in), optional :: header_only
     character(len=:), allocatable :: line, header
     integer :: unit, nline, nrow, ios, at
-    logical :: exists
 
     status = MLID_ERR_INPUT
     allocate (rec%t(0), rec%u(size(input_cols), 0), rec%y(size(output_cols), 0), rec%names(0), &
               rec%line(0))
-    inquire (file=path, exist=exists)
-    if (.not. exists) then
-      msg = 'file not found: '//trim(path)
-      return
-    end if
-    open (newunit=unit, file=path, status='old', action='read', form='formatted', &
-          access='sequential', iostat=ios)
-    if (ios /= 0) then
-      msg = 'data file '//trim(path)//': cannot be opened'
-      return
-    end if
+    call open_text(path, 'data file ', unit, status, msg)
+    if (status /= MLID_OK) return
+    status = MLID_ERR_INPUT
     header = ''
     nline = 0
     nrow = 0
     do
-      call read_line(unit, line, ios)
+      call read_line(unit, nline == 0, line, ios)
       if (ios /= 0) exit
       nline = nline + 1
       if (nline <= skip_rows) then
         header = line             ! the last line skipped may name the columns
         cycle
-      end if
-      if (nline == 1 .and. len(line) >= 3) then
-        if (line(1:3) == char(239)//char(187)//char(191)) line = line(4:)   ! UTF-8 BOM
       end if
       call take_line(line, nline, nrow, header, rec, time_col, input_cols, output_cols, msg)
       if (len_trim(msg) > 0) then
@@ -126,27 +114,6 @@ contains
                      header_only)
   end subroutine record_keep
 
-  !> One line of any length (without its end, CR-LF or LF); ios < 0 at the end.
-  subroutine read_line(unit, line, ios)
-    integer, intent(in) :: unit
-    character(len=:), allocatable, intent(out) :: line
-    integer, intent(out) :: ios
-    character(len=CHUNK) :: buf
-    integer :: n
-    line = ''
-    do
-      read (unit, '(a)', advance='no', size=n, iostat=ios) buf
-      line = line//buf(1:n)
-      if (ios /= 0) exit
-    end do
-    if (is_iostat_eor(ios)) ios = 0
-    if (ios < 0 .and. len(line) > 0) ios = 0      ! a last line without its end
-    n = len(line)
-    if (n > 0) then
-      if (line(n:n) == achar(13)) line = line(1:n - 1)
-    end if
-  end subroutine read_line
-
   !> Classify one line (blank, comment, header, data row) and take a data
   !> row's columns into rec; msg is non-blank for a line that is wrong.
   subroutine take_line(line, nline, nrow, header, rec, time_col, input_cols, output_cols, msg)
@@ -185,6 +152,8 @@ contains
         return
       end if
     end if
+    call check_fields(line, first, last, msg)
+    if (len_trim(msg) > 0) return
     if (ncol /= rec%ncol) then
       msg = itoa(ncol)//' columns, the first data row has '//itoa(rec%ncol)
       return
@@ -218,6 +187,28 @@ contains
     end do
     if (len_trim(msg) > 0) msg = 'column '//itoa(c)//': '//trim(msg)
   end subroutine add_row
+
+  !> Every field of a data row a plain number (not only the columns taken):
+  !> a repeat count or a word anywhere is refused.
+  subroutine check_fields(line, first, last, msg)
+    character(len=*), intent(in) :: line
+    integer, intent(in) :: first(:), last(:)
+    character(len=*), intent(out) :: msg
+    integer :: k
+    msg = ''
+    do k = 1, size(first)
+      if (plain_number(line(first(k):last(k)))) cycle
+      if (index(line(first(k):last(k)), '*') > 0) then
+        msg = 'column '//itoa(k)//': repeat count '''//line(first(k):last(k))// &
+              ''' (write every value out)'
+      else if (verify(line(first(k):last(k)), 'nNaAiIfFtTyY+-') == 0) then
+        msg = 'column '//itoa(k)//': '''//line(first(k):last(k))//''' is not finite'
+      else
+        msg = 'column '//itoa(k)//': '''//line(first(k):last(k))//''' is not a number'
+      end if
+      return
+    end do
+  end subroutine check_fields
 
   subroutine grow(rec, n)
     type(record_t), intent(inout) :: rec
@@ -384,7 +375,7 @@ contains
         write (a, '(f0.4)') t(k)
         write (b, '(f0.4)') t(k + 1)
         write (c, '(g0.4)') med
-        msg = 'time jumps from '//trim(a)//' s to '//trim(b)//' s at sample '//itoa(k + 1)// &
+        msg = 'a gap in time from '//trim(a)//' s to '//trim(b)//' s at sample '//itoa(k + 1)// &
               ' (sampling '//trim(c)//' s): split the record into manoeuvres (&data file = '// &
               '''a.dat'', ''b.dat'', or a list of records in Python)'
         return

@@ -1,8 +1,20 @@
-!> Small text helpers shared by the readers and the flat interface.
+!> Small text helpers shared by the readers and the flat interface, and
+!> the opening and reading of text files of any line length.
 module mlid_text
+  use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: to_lower, itoa, joined, join_lines, split_lines
+  public :: to_lower, itoa, joined, join_lines, split_lines, open_text, read_line, read_text, &
+            line_t
+
+  integer, parameter :: CHUNK = 4096
+  character(len=3), parameter :: BOM = char(239)//char(187)//char(191)   !< UTF-8 byte-order mark
+
+  !> One line of text (gfortran mishandles arrays of deferred-length
+  !> character as components; an array of these does not).
+  type :: line_t
+    character(len=:), allocatable :: s
+  end type line_t
 
 contains
 
@@ -64,5 +76,93 @@ contains
       p = p + e
     end do
   end function split_lines
+
+  !> Open a text file to read; a missing file or a directory is refused.
+  subroutine open_text(path, what, unit, status, msg)
+    character(len=*), intent(in) :: path, what
+    integer, intent(out) :: unit, status
+    character(len=*), intent(out) :: msg
+    logical :: exists
+    status = MLID_ERR_INPUT
+    unit = -1
+    inquire (file=path, exist=exists)
+    if (.not. exists) then
+      msg = 'file not found: '//trim(path)
+      return
+    end if
+    inquire (file=trim(path)//'/.', exist=exists)
+    if (exists) then
+      msg = what//trim(path)//' is a directory'
+      return
+    end if
+    open (newunit=unit, file=path, status='old', action='read', form='formatted', &
+          access='sequential', iostat=status)
+    if (status /= 0) then
+      status = MLID_ERR_INPUT
+      msg = what//trim(path)//': cannot be opened'
+      return
+    end if
+    status = MLID_OK
+    msg = ''
+  end subroutine open_text
+
+  !> One line of any length (without its end, CR-LF or LF; a byte-order
+  !> mark dropped on the first line); ios < 0 at the end of the file.
+  subroutine read_line(unit, first, line, ios)
+    integer, intent(in) :: unit
+    logical, intent(in) :: first
+    character(len=:), allocatable, intent(out) :: line
+    integer, intent(out) :: ios
+    character(len=CHUNK) :: buf
+    integer :: n
+    line = ''
+    do
+      read (unit, '(a)', advance='no', size=n, iostat=ios) buf
+      line = line//buf(1:n)
+      if (ios /= 0) exit
+    end do
+    if (is_iostat_eor(ios)) ios = 0
+    if (ios < 0 .and. len(line) > 0) ios = 0      ! a last line without its end
+    n = len(line)
+    if (n > 0) then
+      if (line(n:n) == achar(13)) line = line(1:n - 1)
+    end if
+    if (first .and. len(line) >= 3) then
+      if (line(1:3) == BOM) line = line(4:)
+    end if
+  end subroutine read_line
+
+  !> All lines of a text file.
+  subroutine read_text(path, lines, status, msg)
+    character(len=*), intent(in) :: path
+    type(line_t), allocatable, intent(out) :: lines(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(line_t), allocatable :: more(:)
+    integer :: unit, ios, n
+
+    allocate (lines(0))
+    call open_text(path, '', unit, status, msg)
+    if (status /= MLID_OK) return
+    deallocate (lines)
+    allocate (lines(64))
+    n = 0
+    do
+      if (n == size(lines)) then
+        allocate (more(2*n))
+        more(1:n) = lines
+        call move_alloc(more, lines)
+      end if
+      call read_line(unit, n == 0, lines(n + 1)%s, ios)
+      if (ios /= 0) exit
+      n = n + 1
+    end do
+    close (unit)
+    lines = lines(1:n)
+    if (ios > 0) then
+      status = MLID_ERR_INPUT
+      msg = trim(path)//': cannot be read'
+    end if
+  end subroutine read_text
 
 end module mlid_text

@@ -92,6 +92,8 @@ contains
     else
       call fit_case(k, c, json, cstat, cmsg)
     end if
+    ! a job that stopped before its result has only its message to give
+    if (.not. allocated(json)) json = case_json(c%title, c%job, cstat, cmsg)
     if (len(objects) > 0) objects = objects//','//achar(10)
     objects = objects//json
     if (cstat /= MLID_OK) then
@@ -111,7 +113,6 @@ contains
     character(len=:), allocatable :: tmp
     integer :: ou, j
 
-    json = case_json(c%title, c%job, MLID_ERR_INPUT, '')
     call case_time_input(c, t, u, cstat, cmsg)
     if (cstat /= MLID_OK) return
     allocate (y(c%ny, size(t)), x(c%nx, size(t)))
@@ -151,7 +152,6 @@ contains
     integer :: bad, nf, nth, converged
     logical, allocatable :: free(:)
 
-    json = case_json(c%title, c%job, MLID_ERR_INPUT, '')
     call case_record(c, t, u, y, cstat, cmsg, segstart)
     ! several data files: several manoeuvres, each its own x0 and biases
     if (cstat == MLID_OK) call manoeuvre_layout(c, size(segstart), cstat, cmsg)
@@ -170,10 +170,7 @@ contains
                   converged, s%rank, bad, cstat, cmsg)
     if (cstat /= MLID_OK .and. bad > 0) cmsg = replace_index(cmsg, bad, c%labels)
     ! a fit that ended singular or unconverged still has a result to report
-    if (all(cstat /= [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) then
-      json = case_json(c%title, c%job, cstat, cmsg)
-      return
-    end if
+    if (all(cstat /= [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) return
     free = c%isfree == 1
     s%labels = c%labels
     s%start = pack(theta0, free)

@@ -10,11 +10,7 @@ from . import core
 from .core import _api, _text
 from .data import FlightData
 from .errors import InputError, MlidError, check_status, status_of
-from .model import from_core
-
-
-def _lines(text):
-    return [s for s in _text(text).split("\n") if s]
+from .model import _lines, from_core
 
 
 class Case:
@@ -113,8 +109,9 @@ def run_case(case):
                                 input_names=inputs)
         try:
             data.save(case.out)
-        except OSError as exc:
-            raise InputError(f"cannot write {case.out}: {exc.strerror}") from None
+        except OSError:
+            raise InputError(f"cannot write {case.out} (its folder is missing or not "
+                             "writable)") from None
         return {"title": case.title, "job": case.job, "status": 0, "message": "",
                 "samples": int(data.nt), "out": str(case.out)}, None
     result = core.fit(case.model, case.record(), **case.options())
