@@ -6,8 +6,11 @@ import numpy as np
 
 from . import core
 from .data import FlightData
+from .errors import guarded
+from .files import atomic_savefig
 
 
+@guarded
 def fpe(result):
     """Akaike's final-prediction-error corrected cost (N-k)/(N+k) ln|R| of a
     fit with R estimated (report §5.3.5): lower is better, and unlike the
@@ -16,6 +19,7 @@ def fpe(result):
     return (n - k) / (n + k) * float(np.linalg.slogdet(result.rhat)[1])
 
 
+@guarded
 def compare_models(results, labels=None, plot=None):
     """A table (and, with plot=PATH, a Fig. 5.18-style plot) of fits with
     different free sets: parameters k, cost, ln|R| and FPE, fewest first."""
@@ -40,11 +44,12 @@ def compare_models(results, labels=None, plot=None):
         ax.legend(fontsize=8)
         fig.tight_layout()
         Path(plot).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(plot, dpi=110)
+        atomic_savefig(fig, plot, dpi=110)
         plt.close(fig)
     return rows
 
 
+@guarded
 def predict(result, data, start):
     """Prediction check (report §5.2.8): the model fitted on the first part
     of a record run through the whole record; returns the prediction error
@@ -75,6 +80,6 @@ def plot_prediction(data, prediction, start, path):
     axes[-1, 0].set_xlabel("t [s]")
     fig.tight_layout()
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
     return path

@@ -5,7 +5,7 @@ import argparse
 import os
 import sys
 
-from .errors import MlidError
+from .errors import InternalError, MlidError
 
 JOBS = """jobs:
   run DECK      run every case of a namelist deck in order; deck jobs are
@@ -32,15 +32,51 @@ def _parser():
     return p
 
 
+def _outputs_writable(args):
+    """--json and --plots destinations tried before any case runs."""
+    from pathlib import Path
+
+    from .errors import InputError
+    from .files import check_writable
+    if getattr(args, "json", None):
+        check_writable(args.json, "--json")
+    if args.plots:
+        try:
+            Path(args.plots).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"cannot make --plots folder {args.plots}: {exc.strerror}") \
+                from None
+        check_writable(Path(args.plots) / "plot.png", "--plots into")
+
+
+def _attempt(what, fn, *args):
+    """fn(*args), or the error it raised as an MlidError naming what failed."""
+    try:
+        return fn(*args), None
+    except MlidError as exc:
+        return None, exc
+    except Exception as exc:  # a plot or a write: one line, the batch goes on
+        if os.environ.get("MLID_DEBUG"):
+            raise
+        return None, InternalError(f"{what}: {type(exc).__name__}: {exc}")
+
+
+def _failed(case, error):
+    print(f" FAILED: {error}")
+    print(f"mlid: {case.where()}: {error}", file=sys.stderr)
+
+
 def _run(args):
     import warnings
 
-    from .deck import case_json, json_list, run_deck
+    from .deck import case_json, iter_deck, json_list
+    from .files import atomic_write_text
+    from .plots import plot_fit
 
+    _outputs_writable(args)
     warnings.simplefilter("ignore")       # the core's warnings are printed with each case
-    runs = run_deck(args.deck)
     failed, objects = 0, []
-    for case, out, result, error in runs:
+    for case, out, result, error in iter_deck(args.deck):
         print(f"\n case {case.index}: {case.title}")
         if out is not None and case.job == "simulate":
             print(f" simulated {out['samples']} samples to {out['out']}")
@@ -48,21 +84,25 @@ def _run(args):
             print(result.report())
             if result.message.startswith("warning:"):
                 print(f"mlid: {case.where()}: {result.message}", file=sys.stderr)
-        if args.plots and result is not None:
-            from .plots import plot_fit
-            path = plot_fit(result, args.plots, f"case{case.index}")
-            print(f" plot: {path}")
         objects.append(case_json(case, out, result, error))
-        message = str(error) if error else (out or {}).get("message", "")
-        if error or (out or {}).get("status", 0) != 0:
+        if error is None and (out or {}).get("status", 0) != 0:
+            error = out["message"]
+        if args.plots and result is not None:
+            path, plot_error = _attempt("plot", plot_fit, result, args.plots, f"case{case.index}")
+            if path is not None:
+                print(f" plot: {path}")
+            error = error or plot_error
+        if error:
             failed += 1
-            print(f" FAILED: {message}")
-            print(f"mlid: {case.where()}: {message}", file=sys.stderr)
+            _failed(case, error)
     if args.json:
-        with open(args.json, "w") as fh:
-            fh.write(json_list(objects))
+        _, error = _attempt(f"--json {args.json}", atomic_write_text, args.json,
+                            json_list(objects))
+        if error:
+            failed += 1
+            print(f"mlid: {error}", file=sys.stderr)
     if failed:
-        print(f"{failed} of {len(runs)} cases failed", file=sys.stderr)
+        print(f"{failed} of {len(objects)} cases failed", file=sys.stderr)
     return 1 if failed else 0
 
 
@@ -72,26 +112,29 @@ def _diagnose(args):
     from .deck import read_deck, run_case
     from .diagnose import diagnose
 
+    _outputs_writable(args)
     warnings.simplefilter("ignore")
     failed, cases = 0, read_deck(args.deck)
     for case in cases:
         print(f"\n case {case.index}: {case.title}")
-        try:
-            if case.job == "simulate" or case.error:
-                out, _ = run_case(case)
-                print(f" simulated {out['samples']} samples to {out['out']}")
-                continue
-            d = diagnose(case.model, case.record(), alpha=args.alpha, **case.options())
-            print(d.report())
-            if args.plots:
-                path = d.plot(args.plots)
-                target = path.with_name(f"case{case.index}_diagnosis.png")
-                path.replace(target)
-                print(f" plot: {target}")
-        except MlidError as exc:
+        if case.job == "simulate" or case.error:
+            out, error = _attempt("run", run_case, case)
+            if out:
+                print(f" simulated {out[0]['samples']} samples to {out[0]['out']}")
+        else:
+            d, error = _attempt("diagnose", lambda: diagnose(case.model, case.record(),
+                                                             alpha=args.alpha, **case.options()))
+            if d is not None:
+                print(d.report())
+                if args.plots:
+                    path, error = _attempt("plot", d.plot, args.plots)
+                    if path is not None:
+                        target = path.with_name(f"case{case.index}_diagnosis.png")
+                        path.replace(target)
+                        print(f" plot: {target}")
+        if error:
             failed += 1
-            print(f" FAILED: {exc}")
-            print(f"mlid: {case.where()}: {exc}", file=sys.stderr)
+            _failed(case, error)
     if failed:
         print(f"{failed} of {len(cases)} cases failed", file=sys.stderr)
     return 1 if failed else 0
@@ -106,6 +149,14 @@ def main(argv=None):
         if args.job == "diagnose":
             return _diagnose(args)
         return _run(args)
+    except BrokenPipeError:
+        # the reader went away (mlid run deck | head): end quietly, as a
+        # program killed by SIGPIPE would
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
+    except KeyboardInterrupt:
+        return 130
     except MlidError as exc:
         print(f"mlid: {exc}", file=sys.stderr)
         return 1

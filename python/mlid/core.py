@@ -8,7 +8,8 @@ import numpy as np
 
 from . import _core
 from .data import FlightData
-from .errors import InputError, MlidWarning, SingularInformationError, check_status
+from .errors import (InputError, MlidWarning, SingularInformationError, check_status,
+                     guarded)
 from .maneuvers import Params, join
 from .result import FitResult
 
@@ -56,6 +57,7 @@ def _as_text(value):
     return str(value)
 
 
+@guarded
 def default_options():
     """The core's default estimator options, by name."""
     return _as_dict(*_api.mlid_default_options())
@@ -80,6 +82,37 @@ def _flat_options(model, options):
 def stop_reason(code):
     """Why an iteration stopped, in the report's words (from the core)."""
     return _text(_api.mlid_stop_reason(int(code)))
+
+
+def _check_model(model, name="model"):
+    from .model import Model
+    if not isinstance(model, Model):
+        raise InputError(f"{name} must be a mlid model (LinearModel, LongitudinalModel, X22Model "
+                         f"or UserModel), got {type(model).__name__}")
+
+
+def _check_data(data):
+    records = list(data) if isinstance(data, (list, tuple)) else [data]
+    if not records or not all(isinstance(r, FlightData) for r in records):
+        raise InputError("data must be a FlightData or a list of them (FlightData.load(path, "
+                         f"...) reads a file), got {type(data).__name__}")
+
+
+def _whole(name, value, low=0, high=2**31 - 1):
+    """A whole number within [low, high] (the core's integers are 32-bit)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise InputError(f"{name} must be a whole number, got {value!r}")
+    if not low <= value <= high:
+        raise InputError(f"{name} must lie in {low} to {high}, got {value}")
+    return int(value)
+
+
+def _time_and_inputs(model, t, u):
+    """t (nt,) and u (nt, nu) checked as a record's are (u given nu x nt is refused)."""
+    rec = FlightData(t, u, np.zeros((np.size(t), 0)))
+    if rec.u.shape[1] != model.nu:
+        raise InputError(f"u has {rec.u.shape[1]} columns, the model has {model.nu} inputs")
+    return rec.t, rec.u
 
 
 def _model_args(model):
@@ -142,6 +175,7 @@ def _manoeuvres(model, data, initial_states, biases):
     return Params(model), data, np.array([1], dtype=np.int32)
 
 
+@guarded
 def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=None,
         biases=None, **options):
     """Maximum-likelihood fit of the model's free parameters.
@@ -173,6 +207,8 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     MlidError subclass for bad input, divergence or singular information
     (with the partial result attached where there is one).
     """
+    _check_model(model)
+    _check_data(data)
     iopt, ropt, opts = _flat_options(model, options)
     params, record, starts = _manoeuvres(model, data, initial_states, biases)
     t, u, y = _record(model, record)
@@ -209,11 +245,14 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     return result
 
 
+@guarded
 def evaluate(model, data, initial_states=None, biases=None, **options):
     """Cost, gradient, information matrix, R-hat, outputs and output
     sensitivity norms (ny, nf: how many residual sigmas each free parameter
     moves each output over the record) at the model's current parameters (no
     iteration); data, initial_states, biases and options as for fit()."""
+    _check_model(model)
+    _check_data(data)
     iopt, ropt, _ = _flat_options(model, options)
     params, record, starts = _manoeuvres(model, data, initial_states, biases)
     t, u, y = _record(model, record)
@@ -229,6 +268,7 @@ def evaluate(model, data, initial_states=None, biases=None, **options):
 TIMINGS = ("forward", "backward")
 
 
+@guarded
 def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names=None,
              timing="forward"):
     """Outputs of the model along t with inputs u (nt, nu), with the model's
@@ -240,8 +280,9 @@ def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names
     Returns (FlightData, states (nt, nx))."""
     if timing not in TIMINGS:
         raise InputError(f"timing must be one of {TIMINGS}, got {timing!r}")
-    t = np.ascontiguousarray(t, dtype=float).ravel()
-    u = np.ascontiguousarray(np.asarray(u, dtype=float).reshape(t.size, model.nu))
+    _check_model(model)
+    seed = _whole("seed", seed)
+    t, u = _time_and_inputs(model, t, u)
     if noise_std is not None:
         noise = np.asarray(noise_std, dtype=float).ravel()
         if noise.shape != (model.ny,):
@@ -257,20 +298,23 @@ def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names
     return FlightData(t, u, y.T, input_names, output_names), x.T.copy()
 
 
+@guarded
 def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, **options):
     """Seeded Monte Carlo of fits: data from ``truth`` (its noise, or
     measurement noise of standard deviation noise_std) with seeds seed,
     seed+1, ...; each fitted from ``start`` (same structure and free set) with
     the fit options given.  Returns estimates, Cramer-Rao sigmas (runs, nf),
     information matrices (runs, nf, nf), iterations and per-run status."""
+    _check_model(truth, "truth")
+    _check_model(start, "start")
+    seed, runs = _whole("seed", seed), _whole("runs", runs, 1, 10**7)
     if truth.theta.size != start.theta.size or list(truth.free) != list(start.free):
         raise InputError("truth and start models must have the same structure and free set")
     if noise_std is not None:
         truth = truth.with_theta(truth.theta)
         truth.r = np.asarray(noise_std, dtype=float) ** 2
     iopt, ropt, _ = _flat_options(start, options)
-    t = np.ascontiguousarray(t, dtype=float).ravel()
-    u = np.ascontiguousarray(np.asarray(u, dtype=float).reshape(t.size, start.nu))
+    t, u = _time_and_inputs(start, t, u)
     mask = start.free_mask
     est, sig, info, iters, run_status, status, msg = _api.mlid_monte_carlo(
         **_model_args(start), theta_true=truth.theta, theta_start=start.theta, isfree=mask,
@@ -283,15 +327,18 @@ def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, **options)
             "truth": truth.theta[mask == 1]}
 
 
+@guarded
 def input_signal(shape, amplitude, t_start, pulse_width, dt, nt):
     """A standard input shape on t = 0, dt, ..., (nt-1) dt: 'none', 'step',
     'pulse', 'doublet' or '3211' (pulse widths in multiples of pulse_width)."""
+    nt = _whole("nt", nt, 1, 10**7)
     u, status, msg = _api.mlid_input_signal(str(shape), float(amplitude), float(t_start),
-                                            float(pulse_width), float(dt), int(nt))
+                                            float(pulse_width), float(dt), nt)
     check_status(status, msg)
     return u
 
 
+@guarded
 def check_jacobians(model, x, u, w=None):
     """Largest relative differences between the model's analytic Jacobians
     and central differences at state x, input u, process noise w (default
@@ -299,9 +346,13 @@ def check_jacobians(model, x, u, w=None):
     'df/dw', 'dh/dw'} ('dh/dw': how far dh/dw changes with w; the output noise
     must be linear in it).  Values near 1e-8 or below mean the Jacobians are
     right; write your own model's, then check them here."""
+    _check_model(model)
     w = np.zeros(model.nw) if w is None else np.asarray(w, dtype=float).reshape(model.nw)
+    x = np.asarray(x, dtype=float).ravel()
+    if x.size != model.nx:
+        raise InputError(f"x has {x.size} values, the model has {model.nx} states")
     err, status, msg = _api.mlid_check_jacobians(
         **_model_args(model), np=model.np, p=model.theta[:model.np],
-        x=np.asarray(x, dtype=float), u=np.asarray(u, dtype=float).reshape(model.nu), w=w)
+        x=x, u=np.asarray(u, dtype=float).reshape(model.nu), w=w)
     check_status(status, msg)
     return dict(zip(("df/dx", "df/dp", "dh/dx", "dh/dp", "df/dw", "dh/dw"), err.tolist()))

@@ -1,14 +1,21 @@
 """Flight records: time, inputs and outputs; text records are read by the
 core's one reader (fortran/mlid_record.f90), the one mlid-batch uses."""
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ._core import mlid_api as _api
-from .errors import InputError, check_status
+from .errors import InputError, check_status, guarded_class
+from .files import atomic_open
+
+
+def _numbers(a, name):
+    """a as float64: real numbers only (not complex, text or objects)."""
+    a = np.asarray(a)
+    if a.dtype.kind not in "biuf":
+        raise InputError(f"{name} must hold real numbers, got {a.dtype}")
+    return a.astype(float)
 
 
 def _channels(a, nt, what, name):
@@ -18,10 +25,7 @@ def _channels(a, nt, what, name):
     if a is None or isinstance(a, (str, bytes, Path)):
         raise InputError(f"{name} must be an array of {what} (one row per sample), got "
                          f"{type(a).__name__}")
-    try:
-        a = np.asarray(a, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must hold numbers") from None
+    a = _numbers(a, name)
     if a.ndim == 1 and a.size == nt:
         a = a.reshape(nt, 1)
     if a.ndim != 2 or a.shape[0] != nt:
@@ -31,16 +35,14 @@ def _channels(a, nt, what, name):
     return np.ascontiguousarray(a)
 
 
+@guarded_class
 class FlightData:
     """A record: t (nt,), u (nt, nu), y (nt, ny), with channel names."""
 
     def __init__(self, t, u, y, input_names=None, output_names=None, source=""):
         if t is None or isinstance(t, (str, bytes, Path)):
             raise InputError(f"t must be an array of times, got {type(t).__name__}")
-        try:
-            t = np.asarray(t, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError("t must hold numbers") from None
+        t = _numbers(t, "t")
         if t.ndim != 1 and not (t.ndim == 2 and 1 in t.shape):
             raise InputError(f"t has shape {t.shape}; expected (nt,)")
         self.t = np.ascontiguousarray(t.ravel())
@@ -116,16 +118,9 @@ class FlightData:
         """Write t, u, y as columns with a '#' header (17 digits, exact), whole
         or not at all: to a temporary name beside path, renamed when complete."""
         names = ["t"] + self.input_names + self.output_names
-        path = Path(path)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "w") as fh:
-                np.savetxt(fh, np.column_stack([self.t, self.u, self.y]), fmt="%.16e",
-                           header=" ".join(names))
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        with atomic_open(path) as fh:
+            np.savetxt(fh, np.column_stack([self.t, self.u, self.y]), fmt="%.16e",
+                       header=" ".join(names))
 
     def __repr__(self):
         return (f"FlightData(nt={self.nt}, inputs={self.input_names}, "

@@ -9,7 +9,7 @@ import numpy as np
 from . import core
 from .core import _api, _text
 from .data import FlightData
-from .errors import InputError, MlidError, check_status, status_of
+from .errors import InputError, MlidError, check_status, guarded, status_of
 from .model import _lines, from_core
 
 
@@ -89,6 +89,7 @@ def json_list(objects):
     return "[\n" + ",\n".join(objects) + ("\n" if objects else "") + "]\n"
 
 
+@guarded
 def read_deck(path):
     """All cases of a deck.  A case that cannot run carries its ``error``;
     a deck that cannot be read at all raises InputError."""
@@ -98,6 +99,7 @@ def read_deck(path):
     return [Case(path, k) for k in range(1, ncases + 1)]
 
 
+@guarded
 def run_case(case):
     """Run one case; returns a dict (JSON-ready) and, for fits, the FitResult."""
     if case.error:
@@ -107,11 +109,7 @@ def run_case(case):
         inputs, outputs = case.channel_names()
         data, _ = core.simulate(case.model, t, u, seed=case.seed, output_names=outputs,
                                 input_names=inputs)
-        try:
-            data.save(case.out)
-        except OSError:
-            raise InputError(f"cannot write {case.out} (its folder is missing or not "
-                             "writable)") from None
+        data.save(case.out)
         return {"title": case.title, "job": case.job, "status": 0, "message": "",
                 "samples": int(data.nt), "out": str(case.out)}, None
     result = core.fit(case.model, case.record(), **case.options())
@@ -121,15 +119,18 @@ def run_case(case):
     return out, result
 
 
-def run_deck(path):
-    """Run every case of a deck in order.  Returns a list of (case, output
-    dict or None, FitResult or None, the MlidError or None); a failing case
+def iter_deck(path):
+    """Run every case of a deck in order, yielding (case, output dict or None,
+    FitResult or None, the MlidError or None) as each ends; a failing case
     does not stop the others."""
-    runs = []
     for case in read_deck(path):
         try:
             out, result = run_case(case)
-            runs.append((case, out, result, None))
+            yield case, out, result, None
         except MlidError as exc:
-            runs.append((case, None, getattr(exc, "result", None), exc))
-    return runs
+            yield case, None, getattr(exc, "result", None), exc
+
+
+def run_deck(path):
+    """Every case of a deck run in order: a list of what iter_deck yields."""
+    return list(iter_deck(path))

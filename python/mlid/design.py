@@ -14,7 +14,7 @@ import re
 import numpy as np
 
 from . import _core
-from .errors import InputError, check_status
+from .errors import InputError, check_status, guarded_class
 
 _api = _core.mlid_api
 _UNKNOWN = re.compile(r"^\s*([fgh])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*$", re.IGNORECASE)
@@ -57,6 +57,7 @@ class DesignedInput:
         return 2 * np.pi * np.fft.rfftfreq(n, dt), spec
 
 
+@guarded_class
 class InputDesign:
     """The linear model x' = F x + G u (+ Gamma eta), z = H x + n
     (E{n n'} = R delta) and the unknowns, elements of F, G or H named
@@ -127,6 +128,14 @@ class InputDesign:
         check_status(status, msg)
         return float(mu2)
 
+    _SOLVERS = {"riccati": 1, "transition": 2}
+
+    def _solver(self, method):
+        if method not in self._SOLVERS:
+            raise InputError(f"method must be one of {', '.join(map(repr, self._SOLVERS))}, got "
+                             f"{method!r}")
+        return self._SOLVERS[method]
+
     def critical_length(self, mu, method="riccati", tmax=100.0):
         """The interval length T whose largest eigenvalue is mu (the first
         conjugate point): 'riccati' (eqs 7.31-7.34, §7.7) or 'transition'
@@ -136,7 +145,7 @@ class InputDesign:
         na = (len(self.unknowns) + 1) * self.F.shape[0]
         T, lam0, status, msg = _api.mlid_design_length(
             w=self.weights, mu=float(mu), tmax=float(tmax),
-            method={"riccati": 1, "transition": 2}[method], na=na, **self._args())
+            method=self._solver(method), na=na, **self._args())
         check_status(status, msg)
         return (float(T), lam0) if method == "transition" else float(T)
 

@@ -40,7 +40,8 @@ import numpy as np
 
 from . import core
 from .data import FlightData
-from .errors import MlidError
+from .errors import MlidError, guarded
+from .files import atomic_savefig
 from .model import REGRESSORS, LinearModel, LongitudinalModel
 from .result import whiteness
 
@@ -384,7 +385,7 @@ class Diagnosis:
         axes[0, 0].legend(fontsize=7)
         fig.tight_layout()
         path = Path(folder) / "diagnosis.png"
-        fig.savefig(path, dpi=100)
+        atomic_savefig(fig, path, dpi=100)
         plt.close(fig)
         return path
 
@@ -403,6 +404,7 @@ FAMILIES = ("bias", "derivative", "nonlinear", "delay", "scale", "lag", "noise",
 CONFOUNDED = 1e-7
 
 
+@guarded
 def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effects=3,
              max_delay=6, **options):
     """The workflow of issue 7 on one record: returns a Diagnosis.  options

@@ -1,4 +1,9 @@
-"""Exceptions raised by mlid, one per status code of the Fortran core."""
+"""Exceptions raised by mlid, one per status code of the Fortran core, and
+the guard that lets no other exception leave the public API."""
+
+import functools
+import inspect
+import os
 
 
 class MlidError(Exception):
@@ -66,3 +71,37 @@ def check_status(status, msg, context=""):
     if context:
         text = f"{context}: {text}"
     raise _BY_STATUS.get(int(status), MlidError)(text)
+
+
+#: What a wrong type, shape or value passed in raises inside numpy, f2py or
+#: Python itself; f2py's own argument checks raise '_core.error'.
+_MISUSE = (TypeError, ValueError, KeyError, IndexError, OverflowError, AttributeError)
+
+
+def guarded(fn):
+    """Only MlidError subclasses leave fn: misuse the explicit checks did not
+    catch becomes InputError naming the function, anything else
+    InternalError.  MLID_DEBUG=1 lets the original exception through."""
+    @functools.wraps(fn)
+    def call(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except MlidError:
+            raise
+        except MemoryError:
+            raise InputError(f"{fn.__qualname__}: not enough memory for these sizes") from None
+        except Exception as exc:
+            if os.environ.get("MLID_DEBUG"):
+                raise
+            misuse = isinstance(exc, _MISUSE) or type(exc).__name__ == "error"
+            raise (InputError if misuse else InternalError)(
+                f"{fn.__qualname__}: {type(exc).__name__}: {exc}") from None
+    return call
+
+
+def guarded_class(cls):
+    """guarded() on the constructor and every public method of cls."""
+    for name, member in list(vars(cls).items()):
+        if inspect.isfunction(member) and (name == "__init__" or not name.startswith("_")):
+            setattr(cls, name, guarded(member))
+    return cls

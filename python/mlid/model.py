@@ -19,7 +19,7 @@ import re
 import numpy as np
 
 from ._core import mlid_api as _api
-from .errors import InputError, check_status
+from .errors import InputError, check_status, guarded_class
 
 _ELEMENT = re.compile(r"^\s*([a-z0-9_]+)\s*\(\s*(\d+)\s*(?:,\s*(\d+)\s*)?\)\s*$", re.I)
 
@@ -64,6 +64,16 @@ class _Layout:
         return slice(o, o + r * (c if c >= 0 else 1))
 
 
+def _real(name, a):
+    """a as a float64 array of finite real numbers, or one clear line."""
+    a = np.asarray(a)
+    if a.dtype.kind not in "biuf":
+        raise InputError(f"{name} must hold real numbers, got {a.dtype}")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{name} has a value that is not finite")
+    return a.astype(float)
+
+
 def _own_sizes(kind, iconst, rconst):
     """Sizes of a model whose sizes are its own, from the core."""
     nx, nu, ny, nw, _, status, msg = _api.mlid_model_sizes(mkind=kind, iconst=iconst,
@@ -88,6 +98,7 @@ class _Block:
         model._put(self.key, value, self.name)
 
 
+@guarded_class
 class Model:
     """What every model shares: theta in the core's layout, the generic
     blocks and the free, tied and labelled parameters.  Subclasses set kind,
@@ -231,6 +242,7 @@ class Model:
                 f"free={self.free_names()})")
 
 
+@guarded_class
 class LinearModel(Model):
     """Linear state space with process and measurement noise
 
@@ -255,14 +267,12 @@ class LinearModel(Model):
     def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
                  ties=None, K=None):
-        F = np.atleast_2d(np.asarray(F, dtype=float))
+        F, G, H = np.atleast_2d(_real("F", F)), _real("G", G), np.atleast_2d(_real("H", H))
         nx = F.shape[0]
         if F.shape != (nx, nx):
             raise InputError(f"F must be square, got shape {F.shape}")
-        G = np.asarray(G, dtype=float)
         if G.ndim == 1:
             G = G.reshape(nx, -1)
-        H = np.atleast_2d(np.asarray(H, dtype=float))
         if G.shape[0] != nx:
             raise InputError(f"G must have {nx} rows (one per state), got shape {G.shape}")
         if H.shape[1] != nx:
@@ -287,6 +297,7 @@ REGRESSORS = tuple(_lines(_api.mlid_name_list("regressors")))
 CONSTANTS = tuple(_api.mlid_name_list("constants").decode().strip().split(", "))
 
 
+@guarded_class
 class LongitudinalModel(Model):
     """Nonlinear longitudinal aircraft model (states V, alpha, theta, q;
     inputs delta_e, thrust; outputs V, alpha, theta, q, qdot, a_x, a_z) whose
@@ -338,6 +349,7 @@ class LongitudinalModel(Model):
         return {key: self._block(block) for key, block in self._COEFFICIENTS.items()}
 
 
+@guarded_class
 class UserModel(Model):
     """The user's own Fortran model (fortran/mlid_user_model.f90, compiled into
     the core): p holds its np parameters, named ``'p(k)'``; iconst and rconst
@@ -358,6 +370,7 @@ class UserModel(Model):
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
 
 
+@guarded_class
 class X22Model(Model):
     """X-22 VTOL longitudinal model of report Appendix A
     (fortran/mlid_x22.f90): states u, w [ft/s], theta [rad], q [rad/s];

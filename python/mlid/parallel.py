@@ -12,7 +12,7 @@ from multiprocessing import get_context
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, guarded
 
 
 def _chunk(args):
@@ -21,6 +21,7 @@ def _chunk(args):
     return monte_carlo(truth, start, t, u, runs=runs, seed=seed, **options)
 
 
+@guarded
 def monte_carlo_parallel(truth, start, t, u, runs=100, seed=1, workers=None, scheduler=None,
                          chunk=None, **options):
     """As mlid.monte_carlo, with the runs in chunks over workers processes

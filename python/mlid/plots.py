@@ -3,6 +3,8 @@
 
 from pathlib import Path
 
+from .files import atomic_savefig
+
 
 def plot_fit(result, folder, stem):
     """Write FOLDER/STEM_fit.png and return its path."""
@@ -32,6 +34,6 @@ def plot_fit(result, folder, stem):
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{stem}_fit.png"
-    fig.savefig(path, dpi=110)
+    atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
     return path

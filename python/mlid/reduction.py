@@ -15,7 +15,7 @@ import re
 import numpy as np
 
 from .data import FlightData
-from .errors import InputError
+from .errors import InputError, guarded
 from .model import LinearModel
 from . import core
 
@@ -45,6 +45,7 @@ def _rename(name, keep, removed, nu, outs, output):
     return None
 
 
+@guarded
 def reduce_measured_state(model, state, output):
     """The model with state ``state`` (1-based) taken as perfectly measured by
     output ``output`` (1-based): returns the reduced LinearModel, whose last
@@ -75,6 +76,7 @@ def reduce_measured_state(model, state, output):
                        r=model.r[outs], input_hold=model.input_hold, substeps=model.substeps)
 
 
+@guarded
 def reduced_data(data, output):
     """The record for the reduced model: the measured output becomes the last input."""
     o = output - 1
@@ -84,6 +86,7 @@ def reduced_data(data, output):
                       [n for i, n in enumerate(data.output_names) if i != o], data.source)
 
 
+@guarded
 def recover_disturbance(model, fitted, data, state, output):
     """Measurement minus the removed state's inertial history.
 

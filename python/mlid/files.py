@@ -1,0 +1,54 @@
+"""Files written whole or not at all: to a temporary name in the target's
+folder, renamed onto it when complete, so a killed run leaves the previous
+file intact."""
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+from .errors import InputError
+
+NOT_WRITABLE = "(its folder is missing or not writable)"
+
+
+@contextlib.contextmanager
+def atomic_open(path, mode="w"):
+    """A file handle whose content replaces path only when the block ends
+    without an exception."""
+    path = Path(path)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError:
+        raise InputError(f"cannot write {path} {NOT_WRITABLE}") from None
+    try:
+        with os.fdopen(fd, mode) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_text(path, text):
+    with atomic_open(path) as fh:
+        fh.write(text)
+
+
+def atomic_savefig(fig, path, **kw):
+    path = Path(path)
+    with atomic_open(path, "wb") as fh:
+        fig.savefig(fh, format=path.suffix.lstrip(".") or "png", **kw)
+
+
+def check_writable(path, what):
+    """One clear line, before any work starts, if path cannot be written."""
+    folder = Path(path).parent
+    try:
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=".mlid-check.")
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError:
+        raise InputError(f"cannot write {what} {path} {NOT_WRITABLE}") from None
