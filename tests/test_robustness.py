@@ -135,3 +135,43 @@ def test_api_misuse_raises_only_mlid_errors(model, data):
 def test_transposed_outputs_are_refused_with_the_shape_named(data):
     with pytest.raises(mlid.InputError, match=r"y has shape \(2, 101\); expected \(nt, ny\)"):
         mlid.FlightData(data.t, data.u, data.y.T)
+
+
+@pytest.mark.parametrize("method", ["output_error", "filter_error"])
+def test_a_gap_in_time_is_named_for_every_method(model, data, method):
+    t = data.t.copy()
+    t[60:] += 5.0                                        # two manoeuvres joined
+    joined = mlid.FlightData(t, data.u, data.y)
+    with pytest.raises(mlid.InputError, match=r"a gap in time from 1\.1800 s to 6\.2000 s at "
+                                              r"sample 61 .*split the record into manoeuvres"):
+        mlid.fit(model, joined, method=method)
+
+
+def test_json_strings_are_escaped_and_valid_utf8(tmp_path):
+    """A title with a TAB and a latin-1 byte: both front ends write the same
+    valid JSON (the byte replaced, the TAB escaped)."""
+    import json
+
+    deck = tmp_path / "d.nml"
+    deck.write_bytes(SIM.replace("make data", "make\tdata \xe9t\xe9").encode("latin-1")
+                     + SMALL.format(title="fit", file="small.dat").encode())
+    for who in ("mlid", "mlid-batch"):
+        cmd = [str(BIN / who)] + (["run"] if who == "mlid" else []) + [
+            str(deck), "--json", str(tmp_path / f"{who}.json")]
+        assert subprocess.run(cmd, capture_output=True).returncode == 0
+    a, b = ((tmp_path / f"{w}.json").read_bytes() for w in ("mlid", "mlid-batch"))
+    assert a == b
+    assert json.loads(a.decode("utf-8"))[0]["title"] == "make\tdata \ufffdt\ufffd"
+
+
+def test_parallel_runs_of_one_deck_agree(tmp_path):
+    """Records are replaced whole: two runs of one deck at once never read
+    each other's half-written record."""
+    deck = _deck(tmp_path, "")
+    runs = [subprocess.Popen([str(BIN / "mlid-batch"), str(deck), "--json",
+                              str(tmp_path / f"{k}.json")], stdout=subprocess.DEVNULL)
+            for k in range(2)]
+    assert [p.wait(timeout=120) for p in runs] == [0, 0]
+    import json
+    a, b = (json.loads((tmp_path / f"{k}.json").read_text())[1]["estimate"] for k in range(2))
+    assert a == b
