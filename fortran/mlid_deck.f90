@@ -994,16 +994,13 @@ contains
     end if
   end function resolve
 
-  !> The line without its comment (from the first mark outside quotes).
-  function strip_comment(line, mark) result(s)
+  !> The line without its comment (from the first '!' outside quotes).
+  function strip_comment(line) result(s)
     character(len=*), intent(in) :: line
-    character, intent(in), optional :: mark
     character(len=len(line)) :: s
-    character :: q, cm
+    character :: q
     logical :: quoted
     integer :: k
-    cm = '!'
-    if (present(mark)) cm = mark
     s = line
     quoted = .false.
     q = ' '
@@ -1013,7 +1010,7 @@ contains
       else if (line(k:k) == '''' .or. line(k:k) == '"') then
         quoted = .true.
         q = line(k:k)
-      else if (line(k:k) == cm) then
+      else if (line(k:k) == '!') then
         s = line(1:k - 1)
         return
       end if
@@ -1045,21 +1042,5 @@ contains
       end if
     end do
   end function group_line
-
-  integer function count_fields(line)
-    character(len=*), intent(in) :: line
-    integer :: k
-    logical :: inside
-    count_fields = 0
-    inside = .false.
-    do k = 1, len_trim(line)
-      if (index(' ,'//achar(9), line(k:k)) > 0) then
-        inside = .false.
-      else if (.not. inside) then
-        inside = .true.
-        count_fields = count_fields + 1
-      end if
-    end do
-  end function count_fields
 
 end module mlid_deck
