@@ -15,7 +15,7 @@ module mlid_record
                                          c_intptr_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: itoa, open_text, read_line
+  use mlid_text, only: itoa, text_file_t, text_open, text_line, text_close
   implicit none
   private
   public :: record_t, record_read, record_check_time, record_check_segments, record_keep, &
@@ -61,19 +61,20 @@ contains
     character(len=*), intent(out) :: msg
     logical, intent(in), optional :: header_only
     character(len=:), allocatable :: line, header
-    integer :: unit, nline, nrow, ios, at
+    type(text_file_t) :: tf
+    integer :: nline, nrow, ios, at
 
     status = MLID_ERR_INPUT
     allocate (rec%t(0), rec%u(size(input_cols), 0), rec%y(size(output_cols), 0), rec%names(0), &
               rec%line(0))
-    call open_text(path, 'data file ', unit, status, msg)
+    call text_open(path, 'data file ', tf, status, msg)
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
     header = ''
     nline = 0
     nrow = 0
     do
-      call read_line(unit, nline == 0, line, ios)
+      call text_line(tf, line, ios)
       if (ios /= 0) exit
       nline = nline + 1
       if (nline <= skip_rows) then
@@ -82,7 +83,7 @@ contains
       end if
       call take_line(line, nline, nrow, header, rec, time_col, input_cols, output_cols, msg)
       if (len_trim(msg) > 0) then
-        close (unit)
+        call text_close(tf)
         msg = 'data file '//trim(path)//' line '//itoa(nline)//': '//trim(msg)
         return
       end if
@@ -90,7 +91,7 @@ contains
         if (header_only) exit
       end if
     end do
-    close (unit)
+    call text_close(tf)
     if (ios > 0) then
       msg = 'data file '//trim(path)//': cannot be read (is it a folder?)'
       return

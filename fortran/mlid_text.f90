@@ -1,11 +1,12 @@
 !> Small text helpers shared by the readers and the flat interface, and
 !> the opening and reading of text files of any line length.
 module mlid_text
+  use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: to_lower, itoa, joined, join_lines, split_lines, open_text, read_line, read_text, &
-            line_t
+  public :: to_lower, itoa, joined, join_lines, split_lines, read_text, line_t, text_file_t, &
+            text_open, text_line, text_close
 
   integer, parameter :: CHUNK = 4096
   character(len=3), parameter :: BOM = char(239)//char(187)//char(191)   !< UTF-8 byte-order mark
@@ -15,6 +16,14 @@ module mlid_text
   type :: line_t
     character(len=:), allocatable :: s
   end type line_t
+
+  !> A text file being read line by line (text_open, text_line, text_close).
+  type :: text_file_t
+    character(len=:), allocatable :: text      !< all of it, read at once, or else
+    integer :: unit = 0                        !< its unit, read line by line
+    integer(int64) :: pos = 1                  !< where the next line starts in text
+    integer :: nline = 0                       !< lines given so far
+  end type text_file_t
 
 contains
 
@@ -77,15 +86,20 @@ contains
     end do
   end function split_lines
 
-  !> Open a text file to read; a missing file or a directory is refused.
-  subroutine open_text(path, what, unit, status, msg)
+  !> Open a text file to read line by line: held whole in memory when it
+  !> can be read at once (a regular file: fast), else read line by line from
+  !> a formatted unit (a pipe).  A missing file or a directory is refused.
+  subroutine text_open(path, what, tf, status, msg)
     character(len=*), intent(in) :: path, what
-    integer, intent(out) :: unit, status
+    type(text_file_t), intent(out) :: tf
+    integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    integer(int64) :: size_bytes
     logical :: exists
+    integer :: unit
+
     status = MLID_ERR_INPUT
-    unit = -1
-    inquire (file=path, exist=exists)
+    inquire (file=path, exist=exists, size=size_bytes)
     if (.not. exists) then
       msg = 'file not found: '//trim(path)
       return
@@ -95,22 +109,69 @@ contains
       msg = what//trim(path)//' is a directory'
       return
     end if
-    open (newunit=unit, file=path, status='old', action='read', form='formatted', &
+    status = MLID_OK
+    msg = ''
+    if (size_bytes > 0) then
+      open (newunit=unit, file=path, access='stream', form='unformatted', action='read', &
+            status='old', iostat=status)
+      if (status == 0) then
+        allocate (character(len=size_bytes) :: tf%text)
+        read (unit, iostat=status) tf%text
+        close (unit)
+        if (status == 0) return
+        deallocate (tf%text)
+      end if
+    end if
+    open (newunit=tf%unit, file=path, status='old', action='read', form='formatted', &
           access='sequential', iostat=status)
     if (status /= 0) then
       status = MLID_ERR_INPUT
       msg = what//trim(path)//': cannot be opened'
-      return
     end if
-    status = MLID_OK
-    msg = ''
-  end subroutine open_text
+  end subroutine text_open
 
-  !> One line of any length (without its end, CR-LF or LF; a byte-order
+  !> The next line of any length (without its end, CR-LF or LF; a byte-order
   !> mark dropped on the first line); ios < 0 at the end of the file.
-  subroutine read_line(unit, first, line, ios)
+  subroutine text_line(tf, line, ios)
+    type(text_file_t), intent(inout) :: tf
+    character(len=:), allocatable, intent(out) :: line
+    integer, intent(out) :: ios
+    integer(int64) :: e
+    integer :: n
+
+    if (allocated(tf%text)) then
+      ios = 0
+      if (tf%pos > len(tf%text, int64)) then
+        ios = -1
+        line = ''
+        return
+      end if
+      e = index(tf%text(tf%pos:), achar(10), kind=int64)
+      if (e == 0) e = len(tf%text, int64) - tf%pos + 2
+      line = tf%text(tf%pos:tf%pos + e - 2)
+      tf%pos = tf%pos + e
+    else
+      call read_line(tf%unit, line, ios)
+      if (ios /= 0) return
+    end if
+    n = len(line)
+    if (n > 0) then
+      if (line(n:n) == achar(13)) line = line(1:n - 1)
+    end if
+    if (tf%nline == 0 .and. len(line) >= 3) then
+      if (line(1:3) == BOM) line = line(4:)
+    end if
+    tf%nline = tf%nline + 1
+  end subroutine text_line
+
+  subroutine text_close(tf)
+    type(text_file_t), intent(inout) :: tf
+    if (.not. allocated(tf%text)) close (tf%unit)
+  end subroutine text_close
+
+  !> One line of a formatted unit, of any length; ios < 0 at the end.
+  subroutine read_line(unit, line, ios)
     integer, intent(in) :: unit
-    logical, intent(in) :: first
     character(len=:), allocatable, intent(out) :: line
     integer, intent(out) :: ios
     character(len=CHUNK) :: buf
@@ -123,13 +184,6 @@ contains
     end do
     if (is_iostat_eor(ios)) ios = 0
     if (ios < 0 .and. len(line) > 0) ios = 0      ! a last line without its end
-    n = len(line)
-    if (n > 0) then
-      if (line(n:n) == achar(13)) line = line(1:n - 1)
-    end if
-    if (first .and. len(line) >= 3) then
-      if (line(1:3) == BOM) line = line(4:)
-    end if
   end subroutine read_line
 
   !> All lines of a text file.
@@ -139,10 +193,11 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     type(line_t), allocatable :: more(:)
-    integer :: unit, ios, n
+    type(text_file_t) :: tf
+    integer :: ios, n
 
     allocate (lines(0))
-    call open_text(path, '', unit, status, msg)
+    call text_open(path, '', tf, status, msg)
     if (status /= MLID_OK) return
     deallocate (lines)
     allocate (lines(64))
@@ -153,11 +208,11 @@ contains
         more(1:n) = lines
         call move_alloc(more, lines)
       end if
-      call read_line(unit, n == 0, lines(n + 1)%s, ios)
+      call text_line(tf, lines(n + 1)%s, ios)
       if (ios /= 0) exit
       n = n + 1
     end do
-    close (unit)
+    call text_close(tf)
     lines = lines(1:n)
     if (ios > 0) then
       status = MLID_ERR_INPUT
