@@ -15,7 +15,7 @@ module mlid_record
                                          c_intptr_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: itoa, text_file_t, text_open, text_line, text_close
+  use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close
   implicit none
   private
   public :: record_t, record_read, record_check_time, record_check_segments, record_keep, &
@@ -84,7 +84,7 @@ contains
       call take_line(line, nline, nrow, header, rec, time_col, input_cols, output_cols, msg)
       if (len_trim(msg) > 0) then
         call text_close(tf)
-        msg = 'data file '//trim(path)//' line '//itoa(nline)//': '//trim(msg)
+        msg = 'data file '//short_path(path)//' line '//itoa(nline)//': '//trim(msg)
         return
       end if
       if (present(header_only) .and. nrow == 1) then
@@ -93,11 +93,11 @@ contains
     end do
     call text_close(tf)
     if (ios > 0) then
-      msg = 'data file '//trim(path)//': cannot be read (is it a folder?)'
+      msg = 'data file '//short_path(path)//': cannot be read'
       return
     end if
     if (nrow == 0) then
-      msg = 'data file '//trim(path)//': no data rows'
+      msg = 'data file '//short_path(path)//': no data rows'
       return
     end if
     rec%t = rec%t(1:nrow)
@@ -111,7 +111,7 @@ contains
       if (header_only) return
     end if
     call record_check_time(rec%t, at, status, msg)
-    if (status /= MLID_OK) msg = 'data file '//trim(path)//' line '//itoa(rec%line(at))//': '// &
+    if (status /= MLID_OK) msg = 'data file '//short_path(path)//' line '//itoa(rec%line(at))//': '// &
                                  trim(msg)
   end subroutine record_read
 
@@ -152,7 +152,7 @@ contains
     if (nrow == 0) then
       if (.not. plain_number(line(first(1):last(1))) .and. &
           verify(line(first(1):first(1)), '+-.0123456789') > 0 .and. &
-          verify(line(first(1):last(1)), 'nNaAiIfFtTyY+-') > 0) then
+          .not. not_finite_word(line(first(1):last(1)))) then
         header = line                      ! a header line before the first data row
         return
       end if
@@ -214,7 +214,7 @@ contains
       if (index(line(first(k):last(k)), '*') > 0) then
         msg = 'column '//itoa(k)//': repeat count '''//line(first(k):last(k))// &
               ''' (write every value out)'
-      else if (verify(line(first(k):last(k)), 'nNaAiIfFtTyY+-') == 0) then
+      else if (not_finite_word(line(first(k):last(k)))) then
         msg = 'column '//itoa(k)//': '''//line(first(k):last(k))//''' is not finite'
       else
         msg = 'column '//itoa(k)//': '''//line(first(k):last(k))//''' is not a number'
@@ -364,7 +364,6 @@ contains
     integer, intent(out) :: at, status
     character(len=*), intent(out) :: msg
     real(wp) :: dt(max(size(t) - 1, 0)), med
-    character(len=32) :: a, b, c
     integer :: k
 
     status = MLID_OK
@@ -374,10 +373,8 @@ contains
       if (.not. t(k) > t(k - 1)) then
         status = MLID_ERR_INPUT
         at = k
-        write (a, '(g0.8)') t(k - 1)
-        write (b, '(g0.8)') t(k)
-        msg = 'time does not increase: '//trim(b)//' s after '//trim(a)//' s (sample '// &
-              itoa(k)//')'
+        msg = 'time does not increase: '//seconds(t(k))//' after '//seconds(t(k - 1))// &
+              ' (sample '//itoa(k)//')'
         return
       end if
     end do
@@ -388,11 +385,9 @@ contains
       if (dt(k) > GAP_FACTOR*med) then
         status = MLID_ERR_INPUT
         at = k + 1
-        write (a, '(f0.4)') t(k)
-        write (b, '(f0.4)') t(k + 1)
-        write (c, '(g0.4)') med
-        msg = 'a gap in time from '//trim(a)//' s to '//trim(b)//' s at sample '//itoa(k + 1)// &
-              ' (sampling '//trim(c)//' s): split the record into manoeuvres (&data file = '// &
+        msg = 'a gap in time from '//seconds(t(k))//' to '//seconds(t(k + 1))//' at sample '// &
+              itoa(k + 1)//' (sampling '//seconds(med)//'): split the record into manoeuvres '// &
+              '(&data file = '// &
               '''a.dat'', ''b.dat'', or a list of records in Python)'
         return
       end if
@@ -422,6 +417,46 @@ contains
       end if
     end do
   end subroutine record_check_segments
+
+  !> A path for a message: its last 60 characters, so the problem fits.
+  function short_path(path) result(text)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable :: text
+    text = trim(path)
+    if (len(text) > 60) text = '...'//text(len(text) - 56:)
+  end function short_path
+
+  !> A time in seconds for a message: '12.34 s', '0.02 s', '1.5E+07 s'.
+  function seconds(x) result(text)
+    real(wp), intent(in) :: x
+    character(len=:), allocatable :: text
+    character(len=32) :: buf
+    integer :: k
+    if (abs(x) >= 1.0e-3_wp .and. abs(x) < 1.0e7_wp) then
+      write (buf, '(f0.6)') x
+      k = len_trim(buf)
+      do while (buf(k:k) == '0')
+        k = k - 1
+      end do
+      if (buf(k:k) == '.') k = k - 1
+      text = trim(adjustl(buf(1:k)))
+      if (text(1:1) == '.') text = '0'//text
+      if (text(1:2) == '-.') text = '-0'//text(2:)
+    else
+      write (buf, '(es10.3)') x
+      text = trim(adjustl(buf))
+    end if
+    text = text//' s'
+  end function seconds
+
+  !> NaN or an infinity, as a field may spell them.
+  logical function not_finite_word(field)
+    character(len=*), intent(in) :: field
+    character(len=len(field)) :: f
+    f = to_lower(field)
+    if (f(1:1) == '+' .or. f(1:1) == '-') f = f(2:)
+    not_finite_word = f == 'nan' .or. f == 'inf' .or. f == 'infinity'
+  end function not_finite_word
 
   !> The median of x (quickselect on a copy).
   real(wp) function median(x)

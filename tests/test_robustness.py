@@ -142,8 +142,8 @@ def test_a_gap_in_time_is_named_for_every_method(model, data, method):
     t = data.t.copy()
     t[60:] += 5.0                                        # two manoeuvres joined
     joined = mlid.FlightData(t, data.u, data.y)
-    with pytest.raises(mlid.InputError, match=r"a gap in time from 1\.1800 s to 6\.2000 s at "
-                                              r"sample 61 .*split the record into manoeuvres"):
+    with pytest.raises(mlid.InputError, match=r"a gap in time from 1\.18 s to 6\.2 s at sample 61 "
+                                              r".*split the record into manoeuvres"):
         mlid.fit(model, joined, method=method)
 
 
