@@ -38,6 +38,10 @@ module mlid_design
     real(wp), allocatable :: ha(:, :, :), rinv(:, :), w(:)
   end type design_t
 
+  !> Input cells times inputs at the most for the operator solver: its
+  !> matrices are (2 cells inputs)^2 (about 256 MB at the limit).
+  integer, parameter, public :: MAX_CELLS = 2000
+
 contains
 
   !> The augmented system for unknowns given by block (1 F, 2 G, 3 H), row
@@ -298,6 +302,11 @@ contains
     end if
     if (n < 4) then
       msg = 'at least 4 input cells are needed'
+      return
+    end if
+    if (n > MAX_CELLS/max(d%nu, 1)) then   ! the operator matrix grows as (2 cells inputs)^2
+      write (msg, '(a,i0,a)') 'cells x inputs must be <= ', MAX_CELLS, &
+        ' (the operator matrix grows as its square)'
       return
     end if
     do k = 1, 2

@@ -5,6 +5,7 @@
 module mlid_inputs
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_text, only: to_lower
   implicit none
   private
   public :: input_signal, INPUT_SHAPES
@@ -41,7 +42,7 @@ contains
       msg = 'input signal: amplitude, t_start, pulse_width and dt must be finite'
       return
     end if
-    if (trim(shape) == 'none') return
+    if (to_lower(shape) == 'none') return
     if (t_start < 0.0_wp .or. t_start > real(size(u) - 1, wp)*dt) then
       status = MLID_ERR_INPUT
       write (msg, '(a,es10.3,a,es10.3,a)') 'input signal: t_start =', t_start, &
@@ -51,7 +52,7 @@ contains
     ! both in samples; a pulse wider than the record acts as the record
     k0 = nint(t_start/dt) + 1
     w = nint(min(max(pw/dt, 0.0_wp), real(size(u), wp)))
-    select case (trim(shape))
+    select case (trim(to_lower(shape)))
     case ('step')
       if (k0 <= size(u)) u(max(1, k0):) = a
       return

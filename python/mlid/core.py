@@ -11,6 +11,7 @@ from .data import FlightData
 from .errors import (InputError, MlidWarning, SingularInformationError, check_status,
                      guarded)
 from .maneuvers import Params, join
+from .model import _real
 from .result import FitResult
 
 _api = _core.mlid_api
@@ -138,6 +139,10 @@ def _extras(params, prior, prior_weight, bounds):
     theta = params.theta
     free = list(np.flatnonzero(params.mask))
     pvec = theta.copy()
+    for what, given in (("prior", prior), ("bounds", bounds)):
+        if given is not None and not isinstance(given, dict):
+            raise InputError(f"{what} must be a dict by parameter name, got "
+                             f"{type(given).__name__}")
     for name, value in (prior or {}).items():
         pvec[params.index(name)] = value
     nf = len(free)
@@ -155,7 +160,12 @@ def _extras(params, prior, prior_weight, bounds):
                              f"{weight.shape}")
     lower = np.full(theta.size, -np.finfo(float).max)
     upper = np.full(theta.size, np.finfo(float).max)
-    for name, (lo, hi) in (bounds or {}).items():
+    for name, pair in (bounds or {}).items():
+        if not isinstance(pair, (tuple, list)) or len(pair) != 2 or \
+                any(v is not None and not np.isfinite(v) for v in pair):
+            raise InputError(f"bounds[{name!r}] must be a pair (lower, upper) of numbers or None, "
+                             f"got {pair!r}")
+        lo, hi = pair
         k = params.index(name)
         lower[k] = -np.finfo(float).max if lo is None else lo
         upper[k] = np.finfo(float).max if hi is None else hi
@@ -284,7 +294,9 @@ def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names
     seed = _whole("seed", seed)
     t, u = _time_and_inputs(model, t, u)
     if noise_std is not None:
-        noise = np.asarray(noise_std, dtype=float).ravel()
+        noise = _real("noise_std", noise_std).ravel()
+        if np.any(noise < 0):
+            raise InputError(f"noise_std must be >= 0, got {noise.tolist()}")
         if noise.shape != (model.ny,):
             raise InputError(f"noise_std needs {model.ny} values (one per output), got "
                              f"{noise.size}")
@@ -307,7 +319,8 @@ def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, **options)
     information matrices (runs, nf, nf), iterations and per-run status."""
     _check_model(truth, "truth")
     _check_model(start, "start")
-    seed, runs = _whole("seed", seed), _whole("runs", runs, 1, 10**7)
+    runs = _whole("runs", runs, 1, 10**7)
+    seed = _whole("seed", seed, 0, 2**31 - runs)     # seeds seed .. seed + runs - 1
     if truth.theta.size != start.theta.size or list(truth.free) != list(start.free):
         raise InputError("truth and start models must have the same structure and free set")
     if noise_std is not None:
@@ -332,7 +345,10 @@ def input_signal(shape, amplitude, t_start, pulse_width, dt, nt):
     """A standard input shape on t = 0, dt, ..., (nt-1) dt: 'none', 'step',
     'pulse', 'doublet' or '3211' (pulse widths in multiples of pulse_width)."""
     nt = _whole("nt", nt, 1, 10**7)
-    u, status, msg = _api.mlid_input_signal(str(shape), float(amplitude), float(t_start),
+    if not isinstance(shape, str):
+        raise InputError(f"shape must be a name ('none', 'step', 'pulse', 'doublet', '3211'), "
+                         f"got {type(shape).__name__}")
+    u, status, msg = _api.mlid_input_signal(shape, float(amplitude), float(t_start),
                                             float(pulse_width), float(dt), nt)
     check_status(status, msg)
     return u
@@ -348,11 +364,12 @@ def check_jacobians(model, x, u, w=None):
     right; write your own model's, then check them here."""
     _check_model(model)
     w = np.zeros(model.nw) if w is None else np.asarray(w, dtype=float).reshape(model.nw)
-    x = np.asarray(x, dtype=float).ravel()
-    if x.size != model.nx:
-        raise InputError(f"x has {x.size} values, the model has {model.nx} states")
+    x, u = _real("x", x).ravel(), _real("u", u).ravel()
+    if x.size != model.nx or u.size != model.nu:
+        raise InputError(f"x and u have {x.size} and {u.size} values, the model has {model.nx} "
+                         f"states and {model.nu} inputs")
     err, status, msg = _api.mlid_check_jacobians(
         **_model_args(model), np=model.np, p=model.theta[:model.np],
-        x=x, u=np.asarray(u, dtype=float).reshape(model.nu), w=w)
+        x=x, u=u, w=w)
     check_status(status, msg)
     return dict(zip(("df/dx", "df/dp", "dh/dx", "dh/dp", "df/dw", "dh/dw"), err.tolist()))

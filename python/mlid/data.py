@@ -29,7 +29,7 @@ def _channels(a, nt, what, name):
     if a.ndim == 1 and a.size == nt:
         a = a.reshape(nt, 1)
     if a.ndim != 2 or a.shape[0] != nt:
-        hint = " (given ny x nt: transpose it)" if a.ndim == 2 and a.shape[1] == nt else ""
+        hint = f" (given n{name} x nt: transpose it)" if a.ndim == 2 and a.shape[1] == nt else ""
         raise InputError(f"{name} has shape {a.shape}; expected (nt, n{name}) = ({nt}, n), one row "
                          f"per sample{hint}")
     return np.ascontiguousarray(a)

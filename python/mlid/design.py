@@ -14,16 +14,21 @@ import re
 import numpy as np
 
 from . import _core
-from .errors import InputError, check_status, guarded_class
+from .errors import InputError, check_status, guarded, guarded_class
+from .model import _real
+from .core import _whole
 
 _api = _core.mlid_api
 _UNKNOWN = re.compile(r"^\s*([fgh])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*$", re.IGNORECASE)
 
 
+@guarded
 def summary(M):
     """What the report tabulates for an information matrix (§8.1): trace,
     determinant, eigenvalues, tr M * tr M^-1 and the Cramer-Rao sigma."""
-    M = np.asarray(M, dtype=float)
+    M = _real("M", M)
+    if M.ndim != 2 or M.shape[0] != M.shape[1]:
+        raise InputError(f"M must be a square information matrix, got shape {M.shape}")
     eig = np.linalg.eigvalsh(M)
     if eig[0] <= 1e-13 * eig[-1]:               # an unknown the input does not reach
         sigma = np.where(np.diag(M) > 0, np.sqrt(np.diag(np.linalg.pinv(M))), np.inf)
@@ -66,22 +71,32 @@ class InputDesign:
     (§7.5, eq. 7.84)."""
 
     def __init__(self, F, G, H, R, unknowns, weights=None, process_noise=None):
-        self.F, self.G, self.H, self.R = (np.asfortranarray(np.atleast_2d(np.asarray(a, float)))
-                                          for a in (F, G, H, R))
+        self.F, self.G, self.H, self.R = (np.asfortranarray(np.atleast_2d(_real(n, a)))
+                                          for n, a in (("F", F), ("G", G), ("H", H), ("R", R)))
         nx, nu, ny = self.F.shape[0], self.G.shape[1], self.H.shape[0]
         if self.F.shape != (nx, nx) or self.G.shape[0] != nx or self.H.shape[1] != nx \
                 or self.R.shape != (ny, ny):
             raise InputError(f"F {self.F.shape}, G {self.G.shape}, H {self.H.shape} and R "
                              f"{self.R.shape} do not fit together")
+        if isinstance(unknowns, str):
+            raise InputError("unknowns must be a list of names such as ['f(1,1)', 'g(2,1)']")
         self.unknowns = list(unknowns)
         kinds, rows, cols = [], [], []
         for name in self.unknowns:
-            m = _UNKNOWN.match(name)
+            m = _UNKNOWN.match(str(name))
             if not m:
                 raise InputError(f"unknown {name!r}: name an element of F, G or H as 'f(i,j)'")
-            kinds.append("fgh".index(m.group(1).lower()) + 1)
-            rows.append(int(m.group(2)))
-            cols.append(int(m.group(3)))
+            key, i, j = m.group(1).lower(), int(m.group(2)), int(m.group(3))
+            shape = {"f": self.F, "g": self.G, "h": self.H}[key].shape
+            if not (1 <= i <= shape[0] and 1 <= j <= shape[1]):
+                raise InputError(f"unknown {name!r} is not an element of {key.upper()} "
+                                 f"({shape[0]}x{shape[1]})")
+            if (key, i, j) in zip(kinds, rows, cols):
+                raise InputError(f"unknown {name!r} is listed twice")
+            kinds.append(key)
+            rows.append(i)
+            cols.append(j)
+        kinds = ["fgh".index(k) + 1 for k in kinds]
         self._unk = {"ukind": np.array(kinds, np.int32), "urow": np.array(rows, np.int32),
                      "ucol": np.array(cols, np.int32)}
         self.weights = np.ones(len(self.unknowns)) if weights is None else \
@@ -105,8 +120,12 @@ class InputDesign:
                            self.H if H is None else H, self.R, self.unknowns, self.weights,
                            self.process_noise)
 
+    @staticmethod
+    def _cells(cells):
+        return _whole("cells", cells, 4, 10**6)     # the core bounds cells x inputs too
+
     def _check_t(self, T, what="T"):
-        if not (np.isfinite(T) and T > 0):
+        if isinstance(T, (str, bytes)) or not (np.isfinite(T) and T > 0):
             raise InputError(f"{what} must be > 0, got {T}")
 
     def mu_max(self, T, cells=200, method="operator"):
@@ -115,8 +134,8 @@ class InputDesign:
         cells, Richardson-extrapolated; 'riccati': the secant of eq. 7.89 on
         the Riccati critical length, started from the operator's value."""
         self._check_t(T)
-        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, t=float(T), ncell=int(cells),
-                                                  **self._args())
+        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, t=float(T),
+                                                  ncell=self._cells(cells), **self._args())
         check_status(status, msg)
         if method == "operator":
             return float(mu)
@@ -153,7 +172,11 @@ class InputDesign:
         """The (unweighted) information matrix of the input u (cells, nu)
         held over equal cells of [0, T] (eq. 7.12)."""
         self._check_t(T)
-        u = np.asarray(u, dtype=float).reshape(-1, self.G.shape[1])
+        u = _real("u", u)
+        nu = self.G.shape[1]
+        u = u.reshape(-1, 1) if u.ndim == 1 and nu == 1 else u
+        if u.ndim != 2 or u.shape[1] != nu:
+            raise InputError(f"u has shape {u.shape}; expected (cells, {nu}), one row per cell")
         M, status, msg = _api.mlid_design_information(t=float(T), ncell=len(u), u=u.ravel(),
                                                        **self._args())
         check_status(status, msg)
@@ -165,15 +188,16 @@ class InputDesign:
         from lambda(0) of the transition-matrix method on cells cells."""
         self._check_t(T)
         self._check_t(energy, "energy")
-        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, t=float(T), ncell=int(cells),
-                                                  **self._args())
+        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, t=float(T),
+                                                  ncell=self._cells(cells), **self._args())
         check_status(status, msg)
         nu = self.G.shape[1]
         if method == "transition":
             Tc, lam0 = self.critical_length(mu, "transition", tmax=10 * T)
             na = (len(self.unknowns) + 1) * self.F.shape[0]
             u, status, msg = _api.mlid_design_input(w=self.weights, mu=mu, t=float(T), na=na,
-                                                    lam0=lam0, ncell=int(cells), **self._args())
+                                                    lam0=lam0, ncell=self._cells(cells),
+                                                    **self._args())
             check_status(status, msg)
         elif method != "operator":
             raise InputError(f"method must be 'operator' or 'transition', got {method!r}")

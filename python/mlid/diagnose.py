@@ -40,7 +40,7 @@ import numpy as np
 
 from . import core
 from .data import FlightData
-from .errors import MlidError, guarded
+from .errors import InputError, MlidError, guarded
 from .files import atomic_savefig
 from .model import REGRESSORS, LinearModel, LongitudinalModel
 from .result import whiteness
@@ -411,6 +411,8 @@ def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effec
     go to every fit (prior, prior_weight and bounds to the fits only, not to
     the score evaluations); the refits start from the current estimate, so an
     equation-error start-up runs for the first fit alone."""
+    if not 0 < alpha < 1:
+        raise InputError(f"alpha must lie in (0, 1), got {alpha}")
     options = dict(options)
     base = core.fit(model, data, **options)
     options["startup"] = "none"

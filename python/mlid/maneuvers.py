@@ -13,6 +13,7 @@ import numpy as np
 from .data import FlightData
 from ._core import mlid_api as _api
 from .errors import InputError, check_status
+from .model import _real
 
 
 class Params:
@@ -54,12 +55,14 @@ class Params:
         """Each manoeuvre's own x0 or bias block: the model's, or given per manoeuvre."""
         if given is None:
             return
+        if isinstance(given, (str, bytes)) or not hasattr(given, "__len__"):
+            raise InputError(f"{what} must be a list, one per manoeuvre ({self.n})")
         if len(given) != self.n:
             raise InputError(f"{what}: one per manoeuvre ({self.n}), got {len(given)}")
         block = self.model._layout.slice(key)
         size = block.stop - block.start
         for k, g in enumerate(given, 1):
-            g = np.asarray(g, dtype=float).ravel()
+            g = _real(f"{what}[{k - 1}]", g).ravel()
             if g.size != size:
                 raise InputError(f"{what}: each needs {size} values")
             at = (self.seg == k) & (self.map >= block.start) & (self.map < block.stop)

@@ -12,6 +12,7 @@ from multiprocessing import get_context
 
 import numpy as np
 
+from . import core
 from .errors import InputError, guarded
 
 
@@ -27,9 +28,16 @@ def monte_carlo_parallel(truth, start, t, u, runs=100, seed=1, workers=None, sch
     """As mlid.monte_carlo, with the runs in chunks over workers processes
     (default: the machine's cores) or over the Dask cluster at scheduler
     (an address such as 'tcp://127.0.0.1:8786', or a distributed.Client)."""
-    if runs < 1:
-        raise InputError(f"runs must be >= 1, got {runs}")
-    workers = workers or os.cpu_count() or 1
+    core._check_model(truth, "truth")
+    core._check_model(start, "start")
+    runs = core._whole("runs", runs, 1, 10**7)
+    seed = core._whole("seed", seed, 0, 2**31 - runs)
+    t, u = core._time_and_inputs(start, t, u)
+    if scheduler is not None and not isinstance(scheduler, str) and \
+            not hasattr(scheduler, "gather"):
+        raise InputError("scheduler must be an address such as 'tcp://127.0.0.1:8786' or a "
+                         f"distributed.Client, got {type(scheduler).__name__}")
+    workers = (os.cpu_count() or 1) if workers is None else core._whole("workers", workers, 1, 4096)
     chunk = chunk or max(1, int(np.ceil(runs / (4 * workers))))
     jobs = [(truth, start, t, u, min(chunk, runs - k), seed + k, options)
             for k in range(0, runs, chunk)]

@@ -1,0 +1,194 @@
+"""API misuse raises an mlid.MlidError subclass (InputError) naming the
+problem, in one line, for every public function (a table of misuses first
+written against an earlier front end, now on main's checks)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import mlid
+
+
+def _model(nu=1):
+    G = [[1.0, 0.2], [0.3, 1.0]] if nu == 2 else [[1.0], [0.3]]
+    return mlid.LinearModel([[-1.0, 0.5], [-0.8, -2.0]], G, np.eye(2),
+                            free=["f(1,1)", "f(2,1)", "g(1,1)"])
+
+
+def _record():
+    t = np.arange(101) * 0.02
+    u = np.sin(3 * t)[:, None]
+    data, _ = mlid.simulate(_model(), t, u, [0.01, 0.01], seed=3)
+    return data
+
+
+def _design():
+    return mlid.InputDesign([[-1.588, -0.562], [1.0, -0.737]], [[-1.66], [0.005]], np.eye(2),
+                            np.diag([0.02, 0.04]), ["f(1,1)", "g(1,1)"])
+
+
+T = np.arange(101) * 0.02
+U1 = np.sin(3 * T)[:, None]
+U2 = np.column_stack([np.sin(3 * T), np.cos(2 * T)])
+NAN_U = U1.copy()
+NAN_U[7, 0] = np.nan
+BIG = 2**31
+
+MISUSE = {
+    # fit / evaluate
+    "fit model None": (lambda d: mlid.fit(None, d), "model must be a mlid model.*None"),
+    "fit model path": (lambda d: mlid.fit("c8.nml", d), r"model must be a mlid model \(LinearModel, Longitu"),
+    "fit data None": (lambda d: mlid.fit(_model(), None), r"data must be a FlightData or a list of them \(Fli"),
+    "fit data path": (lambda d: mlid.fit(_model(), "c8.dat"), "FlightData.load"),
+    "fit empty list": (lambda d: mlid.fit(_model(), []), r"data must be a FlightData or a list of them \(Fli"),
+    "fit list with a string": (lambda d: mlid.fit(_model(), [d, "b.dat"]), r"data must be a FlightData or a list of them \(Fli"),
+    "fit data with too few outputs": (lambda d: mlid.fit(_model(), mlid.FlightData(d.t, d.u, d.y[:, :1])),
+                            "1 output columns, the model has 2"),
+    "fit max_iter huge": (lambda d: mlid.fit(_model(), d, max_iter=2**40), r"option max_iter takes a whole number within \+\-21"),
+    "fit max_iter negative": (lambda d: mlid.fit(_model(), d, max_iter=-1), r"max_iter must lie in 0 to 10000, got \-1"),
+    "fit max_iter float": (lambda d: mlid.fit(_model(), d, max_iter=2.5), "whole number"),
+    "fit rank_min huge": (lambda d: mlid.fit(_model(), d, rank_min=BIG), r"option rank_min takes a whole number within \+\-21"),
+    "fit method typo": (lambda d: mlid.fit(_model(), d, method="fliter_error"),
+                        r"option method must be one of output_error filter"),
+    "fit tol nan": (lambda d: mlid.fit(_model(), d, tol_cost=math.nan), r"option tol_cost takes a finite number, got 'nan'"),
+    "fit bounds not a pair": (lambda d: mlid.fit(_model(), d, bounds={"f(1,1)": 3.0}),
+                              "pair"),
+    "fit bounds crossed": (lambda d: mlid.fit(_model(), d, bounds={"f(1,1)": (1.0, -1.0)}),
+                           "'f\\(1,1\\)': lower bound above upper bound"),
+    "fit prior list": (lambda d: mlid.fit(_model(), d, prior=[1.0, 2.0]), "prior must be a dict"),
+    "fit initial_states str": (lambda d: mlid.fit(_model(), [d, d], initial_states="x0"),
+                               "initial_states must be a list"),
+    "fit biases wrong size": (lambda d: mlid.fit(_model(), [d, d], biases=[[0.0], [0.0, 0.0]]),
+                              "biases: each needs 2 values"),
+    "fit biases NaN": (lambda d: mlid.fit(_model(), [d, d], biases=[[0.0, math.nan], [0, 0]]),
+                       r"biases\[0\] has a value that is not finite"),
+    "fit bounds NaN": (lambda d: mlid.fit(_model(), d, bounds={"f(1,1)": (math.nan, None)}),
+                       r"bounds\['f\(1,1\)'\] must be a pair \(lower, upper\) o"),
+    "diagnose data None": (lambda d: mlid.diagnose(_model(), None), "data must be"),
+    "diagnose alpha": (lambda d: mlid.diagnose(_model(), d, alpha=5), r"alpha must lie in \(0, 1\), got 5"),
+    "evaluate model None": (lambda d: mlid.evaluate(None, d), "model must be"),
+    "evaluate noise typo": (lambda d: mlid.evaluate(_model(), d, noise="ful"), r"option noise must be one of diagonal full, got '"),
+    # simulate
+    "simulate model None": (lambda d: mlid.simulate(None, T, U1), "model must be"),
+    "simulate model str": (lambda d: mlid.simulate("model", T, U1), r"model must be a mlid model \(LinearModel, Longitu"),
+    "simulate u transposed": (lambda d: mlid.simulate(_model(2), T, U2.T),
+                              r"u has shape \(2, 101\); expected \(nt, nu\) = \(101, "),
+    "simulate u too short": (lambda d: mlid.simulate(_model(), T, U1[:50]), r"u has shape \(50, 1\); expected \(nt, nu\) = \(101, n"),
+    "simulate u None": (lambda d: mlid.simulate(_model(), T, None), r"u must be an array of inputs \(one row per sample"),
+    "simulate u NaN": (lambda d: mlid.simulate(_model(), T, NAN_U), r"data: input 1 is NaN or infinite at sample 8 \(t "),
+    "simulate t None": (lambda d: mlid.simulate(_model(), None, U1), r"t must be an array of times, got NoneType"),
+    "simulate t decreasing": (lambda d: mlid.simulate(_model(), T[::-1], U1), r"data: time does not increase at sample 2, t = 1\."),
+    "simulate seed huge": (lambda d: mlid.simulate(_model(), T, U1, seed=BIG), r"seed must lie in 0 to 2147483647, got 2147483648"),
+    "simulate seed negative": (lambda d: mlid.simulate(_model(), T, U1, seed=-1), r"seed must lie in 0 to 2147483647, got \-1"),
+    "simulate seed str": (lambda d: mlid.simulate(_model(), T, U1, seed="3"), "whole number"),
+    "simulate noise count": (lambda d: mlid.simulate(_model(), T, U1, [0.1]), r"noise_std needs 2 values \(one per output\), got 1"),
+    "simulate noise NaN": (lambda d: mlid.simulate(_model(), T, U1, [math.nan, 0.1]), r"noise_std has a value that is not finite"),
+    "simulate noise negative": (lambda d: mlid.simulate(_model(), T, U1, [-0.1, 0.1]), ">= 0"),
+    "simulate timing typo": (lambda d: mlid.simulate(_model(), T, U1, timing="back"),
+                             "'forward', 'backward'"),
+    # monte_carlo
+    "monte_carlo start None": (lambda d: mlid.monte_carlo(_model(), None, T, U1), "start must be"),
+    "monte_carlo runs huge": (lambda d: mlid.monte_carlo(_model(), _model(), T, U1, runs=BIG),
+                              r"runs must lie in 1 to 10000000, got 2147483648"),
+    "monte_carlo runs zero": (lambda d: mlid.monte_carlo(_model(), _model(), T, U1, runs=0),
+                              r"runs must lie in 1 to 10000000, got 0"),
+    "monte_carlo seed overflow": (lambda d: mlid.monte_carlo(_model(), _model(), T, U1, runs=5,
+                                                             seed=BIG - 2), r"seed must lie in 0 to 2147483643, got 2147483646"),
+    "monte_carlo memory": (lambda d: mlid.monte_carlo(_model(), _model(), T, U1, runs=BIG - 1),
+                           r"runs must lie in 1 to 10000000, got 2147483647"),
+    # input_signal
+    "input_signal shape typo": (lambda d: mlid.core.input_signal("dublet", 1, 0, 0.5, 0.02, 10),
+                                r"unknown input shape 'dublet': use none, step, pu"),
+    "input_signal shape None": (lambda d: mlid.core.input_signal(None, 1, 0, 0.5, 0.02, 10),
+                                r"shape must be a name .*got NoneType"),
+    "input_signal nt huge": (lambda d: mlid.core.input_signal("step", 1, 0, 0.5, 0.02, BIG),
+                             r"nt must lie in 1 to 10000000, got 2147483648"),
+    "input_signal nt zero": (lambda d: mlid.core.input_signal("step", 1, 0, 0.5, 0.02, 0),
+                             r"nt must lie in 1 to 10000000, got 0"),
+    "input_signal dt zero": (lambda d: mlid.core.input_signal("step", 1, 0, 0.5, 0.0, 10),
+                             "dt must be > 0"),
+    "input_signal amplitude nan": (lambda d: mlid.core.input_signal("step", math.nan, 0, 0.5,
+                                                                    0.02, 10), "amplitude"),
+    # check_jacobians
+    "check_jacobians model path": (lambda d: mlid.check_jacobians("user.f90", [0, 0], [0]),
+                                   "model must be"),
+    "check_jacobians x wrong": (lambda d: mlid.check_jacobians(_model(), [0, 0, 0], [0]),
+                                r"x and u have 3 and 1 values, the model has 2 sta"),
+    "check_jacobians u None": (lambda d: mlid.check_jacobians(_model(), [0, 0], None), r"u must hold real numbers, got object"),
+    # input design
+    "design F None": (lambda d: mlid.InputDesign(None, [[1.0]], [[1.0]], [[1.0]], ["g(1,1)"]),
+                      r"F must hold real numbers, got object"),
+    "design F not square": (lambda d: mlid.InputDesign(np.ones((2, 3)), np.ones((2, 1)),
+                                                       np.eye(2), np.eye(2), ["g(1,1)"]),
+                            r"F \(2, 3\), G \(2, 1\), H \(2, 2\) and R \(2, 2\) do not"),
+    "design R wrong": (lambda d: mlid.InputDesign(np.eye(2), np.ones((2, 1)), np.eye(2),
+                                                  np.eye(3), ["g(1,1)"]),
+                       r"F \(2, 2\), G \(2, 1\), H \(2, 2\) and R \(3, 3\) do not"),
+    "design F NaN": (lambda d: mlid.InputDesign([[math.nan]], [[1.0]], [[1.0]], [[1.0]],
+                                                ["g(1,1)"]), r"F has a value that is not finite"),
+    "design unknowns string": (lambda d: mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[1.0]],
+                                                          "g(1,1)"), "list of names"),
+    "design unknown outside": (lambda d: mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[1.0]],
+                                                          ["f(3,1)"]), r"unknown 'f\(3,1\)' is not an element of F \(1x1\)"),
+    "design unknown twice": (lambda d: mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[1.0]],
+                                                        ["g(1,1)", "G(1,1)"]), "twice"),
+    "design weights count": (lambda d: mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[1.0]],
+                                                        ["g(1,1)"], weights=[1, 2]),
+                             "one per unknown"),
+    "design solver typo": (lambda d: _design().critical_length(0.2, "ricatti"),
+                           "method must be one of 'riccati', 'transition'"),
+    "design mu method typo": (lambda d: _design().mu_max(1.0, method="opperator"),
+                              r"method must be 'operator' or 'riccati', got 'opp"),
+    "design input method typo": (lambda d: _design().optimal_input(4.0, 1.0, method="transitoin"),
+                                 r"method must be 'operator' or 'transition', got '"),
+    "design cells huge": (lambda d: _design().mu_max(1.0, cells=BIG), r"cells must lie in 4 to 1000000, got 2147483648"),
+    "design cells memory": (lambda d: _design().mu_max(1.0, cells=10**6), r"cells x inputs must be <= 2000 \(the operator mat"),
+    "design T nan": (lambda d: _design().mu_max(math.nan), r"T must be > 0, got nan"),
+    "design T str": (lambda d: _design().mu_max("1.0"), r"T must be > 0, got 1\.0"),
+    "design information u shape": (lambda d: _design().information(1.0, np.ones((4, 3))),
+                                   r"expected \(cells, 1\)"),
+    "design summary not square": (lambda d: mlid.design.summary(np.ones((2, 3))), "square"),
+    # parallel
+    "parallel truth None": (lambda d: mlid.monte_carlo_parallel(None, _model(), T, U1),
+                            "truth must be"),
+    "parallel runs huge": (lambda d: mlid.monte_carlo_parallel(_model(), _model(), T, U1,
+                                                               runs=2**40), r"runs must lie in 1 to 10000000, got 109951162777"),
+    "parallel workers zero": (lambda d: mlid.monte_carlo_parallel(_model(), _model(), T, U1,
+                                                                  workers=0), r"workers must lie in 1 to 4096, got 0"),
+    "parallel scheduler": (lambda d: mlid.monte_carlo_parallel(_model(), _model(), T, U1,
+                                                               scheduler=42), r"scheduler must be an address such as 'tcp://127\."),
+    "parallel u transposed": (lambda d: mlid.monte_carlo_parallel(_model(2), _model(2), T, U2.T,
+                                                                  workers=1),
+                              r"given nu x nt: transpose it"),
+}
+
+
+@pytest.fixture(scope="module")
+def record():
+    return _record()
+
+
+@pytest.mark.parametrize("name", sorted(MISUSE))
+def test_api_misuse_raises_an_mlid_error(name, record):
+    call, phrase = MISUSE[name]
+    with pytest.raises(mlid.MlidError, match=phrase) as info:
+        call(record)
+    assert isinstance(info.value, mlid.InputError)
+    assert "\n" not in str(info.value)
+
+
+def test_there_are_enough_misuse_cases():
+    assert len(MISUSE) >= 25
+
+
+def test_right_calls_still_work(record):
+    """The checks take what the functions took before: 1-D u for one input,
+    numpy integers, a tuple of records, an upper-case input shape."""
+    data, _ = mlid.simulate(_model(), T, U1[:, 0], seed=np.int64(3))
+    assert data.u.shape == (101, 1)
+    u = mlid.core.input_signal("DOUBLET", 1.0, 0.2, 0.2, 0.02, np.int32(101))
+    assert u.shape == (101,) and np.abs(u).max() == 1.0
+    res = mlid.fit(_model(), (record,), max_iter=np.int64(10), tol_cost=1e-9)
+    assert res.converged
+    assert set(mlid.check_jacobians(_model(), np.zeros(2), 0.0)) >= {"df/dx", "dh/dp"}
