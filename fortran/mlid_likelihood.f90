@@ -29,6 +29,10 @@ module mlid_likelihood
   private
   public :: likelihood
 
+  !> Blocks of samples summed in order in the filter-error gradient and
+  !> information, whatever the number of threads.
+  integer, parameter :: NBLOCK = 64
+
 contains
 
   !> Cost at theta (and gradient and information for the free parameters
@@ -142,7 +146,8 @@ contains
     real(wp), allocatable :: b0(:, :, :)
     real(wp) :: w(m%ny, pm%nf), bnu(m%ny), e(m%ny, m%ny, pm%nf), ev(m%ny*m%ny, pm%nf), &
                 evt(m%ny*m%ny, pm%nf)
-    integer :: ny, nt, nf, j, k
+    real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
+    integer :: ny, nt, nf, j, k, b, nblk
 
     ny = m%ny
     nt = size(t)
@@ -170,26 +175,38 @@ contains
     if (.not. (present(grad) .and. present(info))) return
     if (present(sens)) call sensitivity_norms(dnu, rhat, sens)
 
-    grad = 0.0_wp
-    info = 0.0_wp
-    ! samples in parallel: each adds its terms to grad and info
-    !$omp parallel do default(shared) private(j, k, bnu, w, e, ev, evt) reduction(+:grad, info)
-    do j = 1, nt
-      bnu = matmul(binv(:, :, j), nu(:, j))
-      w = matmul(binv(:, :, j), dnu(:, :, j))
-      grad = grad + matmul(bnu, dnu(:, :, j))
-      info = info + matmul(transpose(dnu(:, :, j)), w)
-      if (.not. opt%partials) cycle
-      do k = 1, nf
-        e(:, :, k) = matmul(binv(:, :, j), db(:, :, k, j))   ! B^-1 dB_k
-        grad(k) = grad(k) + 0.5_wp*(trace(e(:, :, k)) - dot_product(bnu, matmul(db(:, :, k, j), bnu)))
-        ev(:, k) = reshape(e(:, :, k), [ny*ny])
-        evt(:, k) = reshape(transpose(e(:, :, k)), [ny*ny])
+    ! samples in parallel, in NBLOCK fixed blocks whose sums are added in
+    ! order: the result does not depend on the number of threads
+    nblk = min(NBLOCK, nt)
+    allocate (gpart(nf, nblk), ipart(nf, nf, nblk))
+    !$omp parallel do schedule(static) default(shared) private(b, j, k, bnu, w, e, ev, evt)
+    do b = 1, nblk
+      gpart(:, b) = 0.0_wp
+      ipart(:, :, b) = 0.0_wp
+      do j = (b - 1)*nt/nblk + 1, b*nt/nblk
+        bnu = matmul(binv(:, :, j), nu(:, j))
+        w = matmul(binv(:, :, j), dnu(:, :, j))
+        gpart(:, b) = gpart(:, b) + matmul(bnu, dnu(:, :, j))
+        ipart(:, :, b) = ipart(:, :, b) + matmul(transpose(dnu(:, :, j)), w)
+        if (.not. opt%partials) cycle
+        do k = 1, nf
+          e(:, :, k) = matmul(binv(:, :, j), db(:, :, k, j))   ! B^-1 dB_k
+          gpart(k, b) = gpart(k, b) + 0.5_wp*(trace(e(:, :, k)) - &
+                                              dot_product(bnu, matmul(db(:, :, k, j), bnu)))
+          ev(:, k) = reshape(e(:, :, k), [ny*ny])
+          evt(:, k) = reshape(transpose(e(:, :, k)), [ny*ny])
+        end do
+        ! 1/2 tr(E_k E_l) for all k, l in one product
+        ipart(:, :, b) = ipart(:, :, b) + 0.5_wp*matmul(transpose(ev), evt)
       end do
-      ! 1/2 tr(E_k E_l) for all k, l in one product
-      info = info + 0.5_wp*matmul(transpose(ev), evt)
     end do
     !$omp end parallel do
+    grad = 0.0_wp
+    info = 0.0_wp
+    do b = 1, nblk
+      grad = grad + gpart(:, b)
+      info = info + ipart(:, :, b)
+    end do
   end subroutine fe_likelihood
 
   !> dnu/dtheta and dB/dtheta of the filter by forward differences from the
