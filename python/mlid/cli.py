@@ -95,14 +95,14 @@ def _run(args):
         if error:
             failed += 1
             _failed(case, error)
+    if failed:
+        print(f"{failed} of {len(objects)} cases failed", file=sys.stderr)
     if args.json:
         _, error = _attempt(f"--json {args.json}", atomic_write_text, args.json,
                             json_list(objects))
         if error:
-            failed += 1
             print(f"mlid: {error}", file=sys.stderr)
-    if failed:
-        print(f"{failed} of {len(objects)} cases failed", file=sys.stderr)
+            return 1
     return 1 if failed else 0
 
 

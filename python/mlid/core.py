@@ -11,7 +11,7 @@ from .data import FlightData
 from .errors import (InputError, MlidWarning, SingularInformationError, check_status,
                      guarded)
 from .maneuvers import Params, join
-from .model import _real
+from .model import Model, _real
 from .result import FitResult
 
 _api = _core.mlid_api
@@ -86,7 +86,6 @@ def stop_reason(code):
 
 
 def _check_model(model, name="model"):
-    from .model import Model
     if not isinstance(model, Model):
         raise InputError(f"{name} must be a mlid model (LinearModel, LongitudinalModel, X22Model "
                          f"or UserModel), got {type(model).__name__}")
