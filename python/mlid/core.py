@@ -7,11 +7,12 @@ import warnings
 import numpy as np
 
 from . import _core
+from .checks import real_array, whole
 from .data import FlightData
 from .errors import (InputError, MlidWarning, SingularInformationError, check_status,
                      guarded)
 from .maneuvers import Params, join
-from .model import Model, _real
+from .model import Model
 from .result import FitResult
 
 _api = _core.mlid_api
@@ -96,15 +97,6 @@ def _check_data(data):
     if not records or not all(isinstance(r, FlightData) for r in records):
         raise InputError("data must be a FlightData or a list of them (FlightData.load(path, "
                          f"...) reads a file), got {type(data).__name__}")
-
-
-def _whole(name, value, low=0, high=2**31 - 1):
-    """A whole number within [low, high] (the core's integers are 32-bit)."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise InputError(f"{name} must be a whole number, got {value!r}")
-    if not low <= value <= high:
-        raise InputError(f"{name} must lie in {low} to {high}, got {value}")
-    return int(value)
 
 
 def _time_and_inputs(model, t, u):
@@ -290,10 +282,10 @@ def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names
     if timing not in TIMINGS:
         raise InputError(f"timing must be one of {TIMINGS}, got {timing!r}")
     _check_model(model)
-    seed = _whole("seed", seed)
+    seed = whole("seed", seed)
     t, u = _time_and_inputs(model, t, u)
     if noise_std is not None:
-        noise = _real("noise_std", noise_std).ravel()
+        noise = real_array("noise_std", noise_std).ravel()
         if np.any(noise < 0):
             raise InputError(f"noise_std must be >= 0, got {noise.tolist()}")
         if noise.shape != (model.ny,):
@@ -318,8 +310,8 @@ def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, **options)
     information matrices (runs, nf, nf), iterations and per-run status."""
     _check_model(truth, "truth")
     _check_model(start, "start")
-    runs = _whole("runs", runs, 1, 10**7)
-    seed = _whole("seed", seed, 0, 2**31 - runs)     # seeds seed .. seed + runs - 1
+    runs = whole("runs", runs, 1, 10**7)
+    seed = whole("seed", seed, 0, 2**31 - runs)     # seeds seed .. seed + runs - 1
     if truth.theta.size != start.theta.size or list(truth.free) != list(start.free):
         raise InputError("truth and start models must have the same structure and free set")
     if noise_std is not None:
@@ -343,7 +335,7 @@ def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, **options)
 def input_signal(shape, amplitude, t_start, pulse_width, dt, nt):
     """A standard input shape on t = 0, dt, ..., (nt-1) dt: 'none', 'step',
     'pulse', 'doublet' or '3211' (pulse widths in multiples of pulse_width)."""
-    nt = _whole("nt", nt, 1, 10**7)
+    nt = whole("nt", nt, 1, 10**7)
     if not isinstance(shape, str):
         raise InputError(f"shape must be a name ('none', 'step', 'pulse', 'doublet', '3211'), "
                          f"got {type(shape).__name__}")
@@ -363,7 +355,7 @@ def check_jacobians(model, x, u, w=None):
     right; write your own model's, then check them here."""
     _check_model(model)
     w = np.zeros(model.nw) if w is None else np.asarray(w, dtype=float).reshape(model.nw)
-    x, u = _real("x", x).ravel(), _real("u", u).ravel()
+    x, u = real_array("x", x).ravel(), real_array("u", u).ravel()
     if x.size != model.nx or u.size != model.nu:
         raise InputError(f"x and u have {x.size} and {u.size} values, the model has {model.nx} "
                          f"states and {model.nu} inputs")

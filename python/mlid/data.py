@@ -6,16 +6,9 @@ from pathlib import Path
 import numpy as np
 
 from ._core import mlid_api as _api
+from .checks import real_array
 from .errors import InputError, check_status, guarded_class
 from .files import atomic_open
-
-
-def _numbers(a, name):
-    """a as float64: real numbers only (not complex, text or objects)."""
-    a = np.asarray(a)
-    if a.dtype.kind not in "biuf":
-        raise InputError(f"{name} must hold real numbers, got {a.dtype}")
-    return a.astype(float)
 
 
 def _channels(a, nt, what, name):
@@ -25,7 +18,7 @@ def _channels(a, nt, what, name):
     if a is None or isinstance(a, (str, bytes, Path)):
         raise InputError(f"{name} must be an array of {what} (one row per sample), got "
                          f"{type(a).__name__}")
-    a = _numbers(a, name)
+    a = real_array(name, a, finite=False)
     if a.ndim == 1 and a.size == nt:
         a = a.reshape(nt, 1)
     if a.ndim != 2 or a.shape[0] != nt:
@@ -42,7 +35,7 @@ class FlightData:
     def __init__(self, t, u, y, input_names=None, output_names=None, source=""):
         if t is None or isinstance(t, (str, bytes, Path)):
             raise InputError(f"t must be an array of times, got {type(t).__name__}")
-        t = _numbers(t, "t")
+        t = real_array("t", t, finite=False)
         if t.ndim != 1 and not (t.ndim == 2 and 1 in t.shape):
             raise InputError(f"t has shape {t.shape}; expected (nt,)")
         self.t = np.ascontiguousarray(t.ravel())

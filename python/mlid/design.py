@@ -14,9 +14,8 @@ import re
 import numpy as np
 
 from . import _core
+from .checks import real_array, whole
 from .errors import InputError, check_status, guarded, guarded_class
-from .model import _real
-from .core import _whole
 
 _api = _core.mlid_api
 _UNKNOWN = re.compile(r"^\s*([fgh])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*$", re.IGNORECASE)
@@ -26,7 +25,7 @@ _UNKNOWN = re.compile(r"^\s*([fgh])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*$", re.IGNOR
 def summary(M):
     """What the report tabulates for an information matrix (§8.1): trace,
     determinant, eigenvalues, tr M * tr M^-1 and the Cramer-Rao sigma."""
-    M = _real("M", M)
+    M = real_array("M", M)
     if M.ndim != 2 or M.shape[0] != M.shape[1]:
         raise InputError(f"M must be a square information matrix, got shape {M.shape}")
     eig = np.linalg.eigvalsh(M)
@@ -71,7 +70,7 @@ class InputDesign:
     (§7.5, eq. 7.84)."""
 
     def __init__(self, F, G, H, R, unknowns, weights=None, process_noise=None):
-        self.F, self.G, self.H, self.R = (np.asfortranarray(np.atleast_2d(_real(n, a)))
+        self.F, self.G, self.H, self.R = (np.asfortranarray(np.atleast_2d(real_array(n, a)))
                                           for n, a in (("F", F), ("G", G), ("H", H), ("R", R)))
         nx, nu, ny = self.F.shape[0], self.G.shape[1], self.H.shape[0]
         if self.F.shape != (nx, nx) or self.G.shape[0] != nx or self.H.shape[1] != nx \
@@ -122,7 +121,7 @@ class InputDesign:
 
     @staticmethod
     def _cells(cells):
-        return _whole("cells", cells, 4, 10**6)     # the core bounds cells x inputs too
+        return whole("cells", cells, 4, 10**6)     # the core bounds cells x inputs too
 
     def _check_t(self, T, what="T"):
         if isinstance(T, (str, bytes)) or not (np.isfinite(T) and T > 0):
@@ -172,7 +171,7 @@ class InputDesign:
         """The (unweighted) information matrix of the input u (cells, nu)
         held over equal cells of [0, T] (eq. 7.12)."""
         self._check_t(T)
-        u = _real("u", u)
+        u = real_array("u", u)
         nu = self.G.shape[1]
         u = u.reshape(-1, 1) if u.ndim == 1 and nu == 1 else u
         if u.ndim != 2 or u.shape[1] != nu:

@@ -10,10 +10,10 @@ manoeuvre number after '#', e.g. 'x0(1)#2' or 'V0#2'.
 
 import numpy as np
 
-from .data import FlightData
 from ._core import mlid_api as _api
+from .checks import real_array
+from .data import FlightData
 from .errors import InputError, check_status
-from .model import _real
 
 
 class Params:
@@ -62,7 +62,7 @@ class Params:
         block = self.model._layout.slice(key)
         size = block.stop - block.start
         for k, g in enumerate(given, 1):
-            g = _real(f"{what}[{k - 1}]", g).ravel()
+            g = real_array(f"{what}[{k - 1}]", g).ravel()
             if g.size != size:
                 raise InputError(f"{what}: each needs {size} values")
             at = (self.seg == k) & (self.map >= block.start) & (self.map < block.stop)

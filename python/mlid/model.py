@@ -19,6 +19,7 @@ import re
 import numpy as np
 
 from ._core import mlid_api as _api
+from .checks import real_array
 from .errors import InputError, check_status, guarded_class
 
 _ELEMENT = re.compile(r"^\s*([a-z0-9_]+)\s*\(\s*(\d+)\s*(?:,\s*(\d+)\s*)?\)\s*$", re.I)
@@ -62,16 +63,6 @@ class _Layout:
     def slice(self, key):
         o, r, c = self.blocks[key]
         return slice(o, o + r * (c if c >= 0 else 1))
-
-
-def _real(name, a):
-    """a as a float64 array of finite real numbers, or one clear line."""
-    a = np.asarray(a)
-    if a.dtype.kind not in "biuf":
-        raise InputError(f"{name} must hold real numbers, got {a.dtype}")
-    if not np.all(np.isfinite(a)):
-        raise InputError(f"{name} has a value that is not finite")
-    return a.astype(float)
 
 
 def _own_sizes(kind, iconst, rconst):
@@ -267,7 +258,7 @@ class LinearModel(Model):
     def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
                  ties=None, K=None):
-        F, G, H = np.atleast_2d(_real("F", F)), _real("G", G), np.atleast_2d(_real("H", H))
+        F, G, H = np.atleast_2d(real_array("F", F)), real_array("G", G), np.atleast_2d(real_array("H", H))
         nx = F.shape[0]
         if F.shape != (nx, nx):
             raise InputError(f"F must be square, got shape {F.shape}")

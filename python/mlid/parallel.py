@@ -13,6 +13,7 @@ from multiprocessing import get_context
 import numpy as np
 
 from . import core
+from .checks import whole
 from .errors import InputError, guarded
 
 
@@ -30,14 +31,14 @@ def monte_carlo_parallel(truth, start, t, u, runs=100, seed=1, workers=None, sch
     (an address such as 'tcp://127.0.0.1:8786', or a distributed.Client)."""
     core._check_model(truth, "truth")
     core._check_model(start, "start")
-    runs = core._whole("runs", runs, 1, 10**7)
-    seed = core._whole("seed", seed, 0, 2**31 - runs)
+    runs = whole("runs", runs, 1, 10**7)
+    seed = whole("seed", seed, 0, 2**31 - runs)
     t, u = core._time_and_inputs(start, t, u)
     if scheduler is not None and not isinstance(scheduler, str) and \
             not hasattr(scheduler, "gather"):
         raise InputError("scheduler must be an address such as 'tcp://127.0.0.1:8786' or a "
                          f"distributed.Client, got {type(scheduler).__name__}")
-    workers = (os.cpu_count() or 1) if workers is None else core._whole("workers", workers, 1, 4096)
+    workers = (os.cpu_count() or 1) if workers is None else whole("workers", workers, 1, 4096)
     chunk = chunk or max(1, int(np.ceil(runs / (4 * workers))))
     jobs = [(truth, start, t, u, min(chunk, runs - k), seed + k, options)
             for k in range(0, runs, chunk)]

@@ -1,0 +1,25 @@
+"""Checks of what a caller passes in, each one clear line (InputError)."""
+
+import numpy as np
+
+from .errors import InputError
+
+
+def real_array(name, a, finite=True):
+    """a as a float64 array of real numbers (not complex, text or objects),
+    finite unless finite=False."""
+    a = np.asarray(a)
+    if a.dtype.kind not in "biuf":
+        raise InputError(f"{name} must hold real numbers, got {a.dtype}")
+    if finite and not np.all(np.isfinite(a)):
+        raise InputError(f"{name} has a value that is not finite")
+    return a.astype(float)
+
+
+def whole(name, value, low=0, high=2**31 - 1):
+    """A whole number within [low, high] (the core's integers are 32-bit)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise InputError(f"{name} must be a whole number, got {value!r}")
+    if not low <= value <= high:
+        raise InputError(f"{name} must lie in {low} to {high}, got {value}")
+    return int(value)
