@@ -28,11 +28,36 @@ def _channels(a, nt, what, name):
     return np.ascontiguousarray(a)
 
 
+def _units(units, n, name):
+    units = ["" if u is None else str(u) for u in (units or [""] * n)]
+    if len(units) != n:
+        raise InputError(f"{name} has {len(units)} entries for {n} channels")
+    return units
+
+
+def _display(display, units, name):
+    if display is None:
+        return [(u, 1.0, 0.0) for u in units]
+    display = [(str(u), float(s), float(o)) for u, s, o in display]
+    if len(display) != len(units) or any(s == 0 for _, s, _ in display):
+        raise InputError(f"{name} needs one (unit, scale, offset) per channel, scale not 0")
+    return display
+
+
 @guarded_class
 class FlightData:
-    """A record: t (nt,), u (nt, nu), y (nt, ny), with channel names."""
+    """A record: t (nt,), u (nt, nu), y (nt, ny) in the core's units (SI,
+    angles in rad), with channel names and units.
 
-    def __init__(self, t, u, y, input_names=None, output_names=None, source=""):
+    ``input_units``/``output_units`` are the core's units of the channels
+    ('' where none was declared); ``input_display``/``output_display`` are
+    (unit, scale, offset) per channel, the unit the record declared and how
+    to get back to it: declared = (core - offset) / scale (see ``shown``).
+    """
+
+    def __init__(self, t, u, y, input_names=None, output_names=None, source="",
+                 input_units=None, output_units=None, input_display=None,
+                 output_display=None):
         if t is None or isinstance(t, (str, bytes, Path)):
             raise InputError(f"t must be an array of times, got {type(t).__name__}")
         t = real_array("t", t, finite=False)
@@ -47,6 +72,19 @@ class FlightData:
         self.source = str(source)
         if len(self.input_names) != self.u.shape[1] or len(self.output_names) != self.y.shape[1]:
             raise InputError("channel names do not match the number of input/output columns")
+        self.input_units = _units(input_units, self.u.shape[1], "input_units")
+        self.output_units = _units(output_units, self.y.shape[1], "output_units")
+        self.input_display = _display(input_display, self.input_units, "input_display")
+        self.output_display = _display(output_display, self.output_units, "output_display")
+
+    def shown(self, which, i):
+        """Channel i of the inputs ('u') or outputs ('y') in the unit the
+        record declared: (values (nt,), unit); the core's values and unit
+        where none was declared."""
+        x, display = (self.u, self.input_display) if which == "u" else (self.y, self.output_display)
+        unit, scale, offset = display[i]
+        values = x[:, i]
+        return (values - offset) / scale, unit
 
     @property
     def nt(self):
