@@ -7,6 +7,7 @@ VENV := .venv
 VPY := $(VENV)/bin/python
 BUILD := build
 STAMP := $(VENV)/.mlid-installed
+DEPS := $(VENV)/.mlid-deps
 SOURCES := $(shell find fortran python -name '*.f90' -o -name '*.py' -o -name 'meson.build') \
            meson.build meson.options pyproject.toml
 APT := DEBIAN_FRONTEND=noninteractive apt-get install -y -q
@@ -52,10 +53,14 @@ sysdeps:
 $(VPY):
 	$(PYTHON) -m venv $(VENV)
 	$(VPY) -m pip install -q --upgrade pip
-	$(VPY) -m pip install -q meson meson-python ninja numpy matplotlib pytest dask distributed hypothesis
+
+# The venv's packages, installed again when this list changes.
+$(DEPS): $(VPY) Makefile
+	$(VPY) -m pip install -q meson meson-python ninja numpy matplotlib scipy h5py pandas pytest dask distributed hypothesis
+	touch $(DEPS)
 
 # Build with meson-python into ./build (kept, so meson test can run there).
-$(STAMP): $(VPY) $(SOURCES)
+$(STAMP): $(DEPS) $(SOURCES)
 	$(VPY) -m pip install -q --no-build-isolation -Cbuild-dir=$(BUILD) .
 	touch $(STAMP)
 

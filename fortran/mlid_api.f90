@@ -30,7 +30,9 @@ module mlid_api
   use mlid_deck, only: opened, deck_open, case_time_input
   use mlid_case, only: case_t, NAMELEN
   use mlid_text, only: join_lines, split_lines
-  use mlid_record, only: record_keep, kept, record_check_segments
+  use mlid_record, only: record_check_segments
+  use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, &
+                           channels_table, taken, UNITLEN
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record, REGRESSOR_NAMES, CONSTANT_NAMES
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
@@ -45,7 +47,8 @@ module mlid_api
             mlid_stop_reason, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
             mlid_deck_case_data, mlid_deck_case_time_input, mlid_report_fit, mlid_case_json, &
             mlid_layout_size, mlid_layout, mlid_name_list, mlid_manoeuvre_map, &
-            mlid_record_open, mlid_record_get, mlid_check_time, &
+            mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
+            mlid_channels_table, mlid_channels_get, mlid_check_time, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude
@@ -214,29 +217,119 @@ contains
   end subroutine mlid_deck_case_model
 
   !> Data file j of estimate case k (its path resolved from the deck's
-  !> folder) and the columns to take from it.
-  subroutine mlid_deck_case_data(k, j, nu, ny, path, time_col, input_cols, output_cols, skip_rows, &
-                                 input_names, output_names)
-    integer(c_int), intent(in) :: k, j, nu, ny
+  !> folder), and the deck's channel names (&model input_names, output_names).
+  subroutine mlid_deck_case_data(k, j, path, input_names, output_names)
+    integer(c_int), intent(in) :: k, j
     character(len=512), intent(out) :: path
-    integer(c_int), intent(out) :: time_col, input_cols(nu), output_cols(ny), skip_rows
     character(len=4096), intent(out) :: input_names, output_names
     associate (c => opened(k))
       input_names = join_lines(c%input_names)
       output_names = join_lines(c%output_names)
       path = ''
-      time_col = 0
-      input_cols = 0
-      output_cols = 0
-      skip_rows = 0
-      if (.not. allocated(c%data_files)) return
-      path = c%data_files(j)
-      time_col = c%time_col
-      input_cols = c%input_cols
-      output_cols = c%output_cols
-      skip_rows = c%skip_rows
+      if (allocated(c%data_files)) path = c%data_files(j)
     end associate
   end subroutine mlid_deck_case_data
+
+  !> Read data file j of estimate case k as the case takes it (channels,
+  !> units, derived channels, window) and keep it for mlid_channels_get.
+  subroutine mlid_deck_case_record(k, j, nt, status, msg)
+    integer(c_int), intent(in) :: k, j
+    integer(c_int), intent(out) :: nt, status
+    character(len=256), intent(out) :: msg
+    associate (c => opened(k))
+      call channels_read(c%data_files(j), c%chan, c%win_start(j), c%win_end(j), taken, &
+                         status, msg)
+    end associate
+    nt = taken_samples(status)
+  end subroutine mlid_deck_case_record
+
+  !> The same for a table the Python front end read from data file j of
+  !> case k (.mat or HDF5): x(nrow, ncol) with its columns' names and units
+  !> one per line (blank where unknown).
+  subroutine mlid_deck_case_table(k, j, nrow, ncol, x, names, units, nt, status, msg)
+    integer(c_int), intent(in) :: k, j, nrow, ncol
+    real(c_double), intent(in) :: x(nrow, ncol)
+    character(len=*), intent(in) :: names, units
+    integer(c_int), intent(out) :: nt, status
+    character(len=256), intent(out) :: msg
+    associate (c => opened(k))
+      call channels_table(c%data_files(j), x, split_lines(names, ncol, NAMELEN), &
+                          split_lines(units, ncol, UNITLEN), c%chan, c%win_start(j), &
+                          c%win_end(j), taken, status, msg)
+    end associate
+    nt = taken_samples(status)
+  end subroutine mlid_deck_case_table
+
+  !> Read a text record's channels (mlid_channels) and keep them for
+  !> mlid_channels_get.  The spec as channels_spec takes it: one entry per
+  !> line; t_start, t_end: the window.
+  subroutine mlid_channels_read(path, time, inputs, outputs, columns, units, derived, &
+                                skip_rows, t_start, t_end, nt, status, msg)
+    character(len=*), intent(in) :: path, time, inputs, outputs, columns, units, derived
+    integer(c_int), intent(in) :: skip_rows
+    real(c_double), intent(in) :: t_start, t_end
+    integer(c_int), intent(out) :: nt, status
+    character(len=256), intent(out) :: msg
+    type(channels_t) :: spec
+    call channels_spec(time, inputs, outputs, columns, units, derived, skip_rows, spec, &
+                       status, msg)
+    if (status == MLID_OK) then
+      call channels_read(path, spec, t_start, t_end, taken, status, msg)
+    else
+      msg = 'data file '//trim(path)//': '//trim(msg)
+    end if
+    nt = taken_samples(status)
+  end subroutine mlid_channels_read
+
+  !> The same for a table x(nrow, ncol) the Python front end read (source
+  !> names it in messages), with its columns' names and units one per line.
+  subroutine mlid_channels_table(source, nrow, ncol, x, names, col_units, time, inputs, &
+                                 outputs, columns, units, derived, t_start, t_end, nt, status, &
+                                 msg)
+    character(len=*), intent(in) :: source, names, col_units, time, inputs, outputs, columns, &
+                                    units, derived
+    integer(c_int), intent(in) :: nrow, ncol
+    real(c_double), intent(in) :: x(nrow, ncol), t_start, t_end
+    integer(c_int), intent(out) :: nt, status
+    character(len=256), intent(out) :: msg
+    type(channels_t) :: spec
+    call channels_spec(time, inputs, outputs, columns, units, derived, 0, spec, status, msg)
+    if (status == MLID_OK) then
+      call channels_table(source, x, split_lines(names, ncol, NAMELEN), &
+                          split_lines(col_units, ncol, UNITLEN), spec, t_start, t_end, taken, &
+                          status, msg)
+    else
+      msg = 'data '//trim(source)//': '//trim(msg)
+    end if
+    nt = taken_samples(status)
+  end subroutine mlid_channels_table
+
+  !> The channels last taken: t(nt), u(nu, nt), y(ny, nt), the file line
+  !> (or table row) of each sample; per channel (inputs, then outputs) the
+  !> name, the core's unit and the unit declared one per line, and
+  !> scale and offset: core = scale*declared + offset.
+  subroutine mlid_channels_get(nu, ny, nt, t, u, y, line, names, units, shown, scale, offset)
+    integer(c_int), intent(in) :: nu, ny, nt
+    real(c_double), intent(out) :: t(nt), u(nu, nt), y(ny, nt), scale(nu + ny), offset(nu + ny)
+    integer(c_int), intent(out) :: line(nt)
+    character(len=65536), intent(out) :: names, units, shown
+    t = taken%t
+    u = taken%u
+    y = taken%y
+    line = taken%line
+    names = join_lines(taken%names)
+    units = join_lines(taken%units)
+    shown = join_lines(taken%shown)
+    scale = taken%scale
+    offset = taken%offset
+  end subroutine mlid_channels_get
+
+  !> Samples of the set taken (0 when it could not be), its channels cleared then.
+  integer function taken_samples(status) result(nt)
+    integer, intent(in) :: status
+    nt = 0
+    if (status == MLID_OK) nt = size(taken%t)
+  end function taken_samples
 
   !> Time base and inputs of simulate case k, the seed, and the record to write.
   subroutine mlid_deck_case_time_input(k, nu, nt, t, u, seed, out, status, msg)
@@ -385,34 +478,6 @@ contains
     map(1:n) = m
     seg(1:n) = s
   end subroutine mlid_manoeuvre_map
-
-  !> Read a text record with the core's one reader (mlid_record) and keep it
-  !> for mlid_record_get; nt samples, ncol columns in the file, its column
-  !> names one per line (blank where the file names none).  header_only = 1:
-  !> stop at the first data row (names and ncol only).
-  subroutine mlid_record_open(path, time_col, nin, input_cols, nout, output_cols, skip_rows, &
-                              header_only, nt, ncol, names, status, msg)
-    character(len=*), intent(in) :: path
-    integer(c_int), intent(in) :: time_col, nin, nout, input_cols(nin), output_cols(nout), &
-                                  skip_rows, header_only
-    integer(c_int), intent(out) :: nt, ncol, status
-    character(len=65536), intent(out) :: names
-    character(len=256), intent(out) :: msg
-    call record_keep(path, time_col, input_cols, output_cols, skip_rows, header_only == 1, &
-                     status, msg)
-    nt = size(kept%t)
-    ncol = kept%ncol
-    names = join_lines(kept%names)
-  end subroutine mlid_record_open
-
-  !> The record mlid_record_open read: t(nt), u(nu, nt), y(ny, nt).
-  subroutine mlid_record_get(nu, ny, nt, t, u, y)
-    integer(c_int), intent(in) :: nu, ny, nt
-    real(c_double), intent(out) :: t(nt), u(nu, nt), y(ny, nt)
-    t = kept%t
-    u = kept%u
-    y = kept%y
-  end subroutine mlid_record_get
 
   !> Time increasing and without gaps (a step over 1.5 times the median),
   !> each manoeuvre of a joined record on its own (segstart: first samples).

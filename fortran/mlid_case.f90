@@ -8,6 +8,7 @@ module mlid_case
   use mlid_kinds, only: wp, msg_len, MLID_OK
   use mlid_model_factory, only: MODEL_LINEAR
   use mlid_options, only: NOPT
+  use mlid_channels, only: channels_t
   implicit none
   private
   public :: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
@@ -38,8 +39,8 @@ module mlid_case
     real(wp) :: ropt(NOPT) = 0.0_wp
     !> the records, one per manoeuvre (relative paths are resolved from the deck)
     character(len=PATHLEN), allocatable :: data_files(:)
-    integer :: time_col = 1, skip_rows = 0
-    integer, allocatable :: input_cols(:), output_cols(:)
+    type(channels_t) :: chan                  !< the channels taken of each record
+    real(wp), allocatable :: win_start(:), win_end(:)  !< time window of each record
     character(len=PATHLEN) :: out_file = ''
     real(wp) :: t_end = 0.0_wp, dt = 0.0_wp
     integer :: seed = 0

@@ -8,7 +8,8 @@
 !>             user_iconst, user_rconst (user), x0, bias, q, r, s (noise
 !>             variances, cross-covariance row by row), free, names, tie,
 !>             input_hold, substeps, state_names, input_names, output_names
-!>   &data     file, time_col, input_cols, output_cols, skip_rows   (estimate)
+!>   &data     file, time_col, input_cols, output_cols (numbers or names),
+!>             skip_rows, columns, units, derived, t_start, t_end  (estimate)
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
 !>             t_start, pulse_width                                  (simulate)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
@@ -28,7 +29,7 @@ module mlid_deck
   use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
-  use mlid_record, only: record_t, record_read
+  use mlid_channels, only: channel_set_t, channels_read, channels_spec
   use mlid_layout, only: layout_table_t, layout_table, layout_of, element_index, default_label, &
                          block_list, manoeuvre_map
   implicit none
@@ -41,6 +42,7 @@ module mlid_deck
 
   integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
   integer, parameter :: MAXR = 12   !< regressors of each coefficient
+  integer, parameter :: MAXDER = 50, CHANLEN = 64, EXPRLEN = 1024  !< &data entries
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
   character(len=*), parameter :: GROUPS = ' case model data simulate estimate '
 
@@ -555,40 +557,97 @@ contains
     if (status /= MLID_OK) call fail(c, where//trim(msg))
   end subroutine set_option
 
-  !> &data: the records (one file per manoeuvre) and their columns.
+  !> &data: the records (one file per manoeuvre), the channels taken of
+  !> them (by column number or name), the columns' names and units, derived
+  !> channels and the time window of each file.
   subroutine read_data_group(rd, c)
     type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
     character(len=PATHLEN) :: file(MAXSEG)
-    integer :: time_col, skip_rows, input_cols(MAXCOL), output_cols(MAXCOL), ios
-    character(len=msg_len) :: iomsg
-    namelist /data/ file, time_col, input_cols, output_cols, skip_rows
+    character(len=CHANLEN) :: time_col, input_cols(MAXCOL), output_cols(MAXCOL), &
+                              columns(MAXCOL), units(MAXCOL)
+    character(len=EXPRLEN) :: derived(MAXDER)
+    real(wp) :: t_start(MAXSEG), t_end(MAXSEG)
+    integer :: skip_rows, ios, status
+    character(len=msg_len) :: iomsg, msg
+    namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
+      derived, t_start, t_end
 
     file = ''
-    time_col = 1
-    input_cols = 0
-    output_cols = 0
+    time_col = '1'
+    input_cols = ''
+    output_cols = ''
+    columns = ''
+    units = ''
+    derived = ''
+    t_start = UNSET
+    t_end = UNSET
     skip_rows = 0
     rewind (rd%unit)
     read (rd%unit, nml=data, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'data', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
     c%data_files = pack(file, len_trim(file) > 0)
-    c%time_col = time_col
-    c%skip_rows = skip_rows
-    c%input_cols = pack(input_cols, input_cols /= 0)
-    c%output_cols = pack(output_cols, output_cols /= 0)
-    if (size(c%data_files) == 0) then
-      call fail(c, 'group &data: file is missing')
-    else if (size(c%input_cols) /= c%nu .or. size(c%output_cols) /= c%ny) then
-      write (iomsg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%input_cols), &
-        ' input_cols and ', size(c%output_cols), ' output_cols given, the model has ', c%nu, &
+    call data_windows(c, t_start, t_end)
+    call check_data_group(c, [time_col, input_cols, output_cols, columns, units], derived)
+    if (c%status /= MLID_OK) return
+    call channels_spec(time_col, as_text(input_cols), as_text(output_cols), as_text(columns), &
+                       as_text(units), as_text(derived), skip_rows, c%chan, status, msg)
+    if (status /= MLID_OK) call fail(c, 'group &data: '//trim(msg))
+    if (c%status /= MLID_OK) return
+    if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
+      write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%chan%inputs), &
+        ' input_cols and ', size(c%chan%outputs), ' output_cols given, the model has ', c%nu, &
         ' inputs and ', c%ny, ' outputs'
-      call fail(c, iomsg)
-    else if (any([c%input_cols, c%output_cols, time_col] < 1) .or. skip_rows < 0) then
-      call fail(c, 'group &data: column numbers must be >= 1 and skip_rows >= 0')
+      call fail(c, msg)
     end if
   end subroutine read_data_group
+
+  !> Each file's window: t_start and t_end in the order of file; a file
+  !> without one takes all of it.
+  subroutine data_windows(c, t_start, t_end)
+    type(case_t), intent(inout) :: c
+    real(wp), intent(in) :: t_start(:), t_end(:)
+    integer :: n
+    n = size(c%data_files)
+    c%win_start = merge(-huge(1.0_wp), t_start(1:n), t_start(1:n) == UNSET)
+    c%win_end = merge(huge(1.0_wp), t_end(1:n), t_end(1:n) == UNSET)
+    if (any(t_start(n + 1:) /= UNSET) .or. any(t_end(n + 1:) /= UNSET)) then
+      call fail(c, 'group &data: more t_start or t_end than files ('//itoa(n)//')')
+    else if (any(c%win_end <= c%win_start)) then
+      call fail(c, 'group &data: t_end must be after t_start (file '// &
+                itoa(findloc(c%win_end <= c%win_start, .true., 1))//')')
+    end if
+  end subroutine data_windows
+
+  !> What &data must hold.  An entry that fills its whole length was cut.
+  subroutine check_data_group(c, entries, derived)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: entries(:), derived(:)
+    integer :: k
+    if (c%status /= MLID_OK) return
+    k = findloc(len_trim(entries) == len(entries), .true., 1)
+    if (size(c%data_files) == 0) then
+      call fail(c, 'group &data: file is missing')
+    else if (k > 0) then
+      call fail(c, 'group &data: "'//entries(k)(1:20)//'..." is longer than '// &
+                itoa(len(entries))//' characters')
+    else if (any(len_trim(derived) == len(derived))) then
+      call fail(c, 'group &data: a derived channel is longer than '//itoa(len(derived))// &
+                ' characters')
+    end if
+  end subroutine check_data_group
+
+  !> The non-blank entries of an array, one per line (channels_spec's form).
+  function as_text(texts) result(text)
+    character(len=*), intent(in) :: texts(:)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = ''
+    do k = 1, size(texts)
+      if (len_trim(texts(k)) > 0) text = text//trim(texts(k))//achar(10)
+    end do
+  end function as_text
 
   !> &estimate: the estimator's options, and a priori values, weights and
   !> bounds per free parameter (in the order of free).
@@ -842,7 +901,7 @@ contains
     nseg = size(c%data_files)
     allocate (t(0), u(c%nu, 0), y(c%ny, 0))
     do k = 1, nseg
-      call read_record(c, c%data_files(k), tk, uk, yk, status, msg)
+      call read_record(c, k, tk, uk, yk, status, msg)
       if (status /= MLID_OK) return
       if (size(tk) < 2 .and. nseg > 1) then
         status = MLID_ERR_INPUT
@@ -859,19 +918,20 @@ contains
     if (present(segstart)) segstart = starts(1:nseg)
   end subroutine case_record
 
-  !> One data file: the case's columns of it, by the one record reader.
-  subroutine read_record(c, path, t, u, y, status, msg)
+  !> Data file k: the case's channels of it in its window, by the one
+  !> record reader.
+  subroutine read_record(c, k, t, u, y, status, msg)
     type(case_t), intent(in) :: c
-    character(len=*), intent(in) :: path
+    integer, intent(in) :: k
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    type(record_t) :: rec
-    call record_read(path, c%time_col, c%input_cols, c%output_cols, c%skip_rows, rec, status, msg)
+    type(channel_set_t) :: set
+    call channels_read(c%data_files(k), c%chan, c%win_start(k), c%win_end(k), set, status, msg)
     if (status /= MLID_OK) return
-    call move_alloc(rec%t, t)
-    call move_alloc(rec%u, u)
-    call move_alloc(rec%y, y)
+    call move_alloc(set%t, t)
+    call move_alloc(set%u, u)
+    call move_alloc(set%y, y)
   end subroutine read_record
 
   !> The case's parameters for nseg manoeuvres: every manoeuvre its own

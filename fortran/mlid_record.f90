@@ -18,24 +18,23 @@ module mlid_record
   use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close
   implicit none
   private
-  public :: record_t, record_read, record_check_time, record_check_segments, record_keep, &
-            GAP_FACTOR
+  public :: record_t, record_read, record_check_time, record_check_segments, short_path, &
+            seconds, GAP_FACTOR, NAMELEN, UNITLEN
 
   !> A time step larger than this times the median step is a gap.
   real(wp), parameter :: GAP_FACTOR = 1.5_wp
-  integer, parameter :: NAMELEN = 32
+  integer, parameter :: NAMELEN = 32, UNITLEN = 16
 
-  !> A record: t(nt), u(nu, nt), y(ny, nt), the file's column names (from
-  !> its header, when it has one) and the file line of each sample.
+  !> A record as read: the columns asked for, x(size(cols), nrow), the
+  !> file's column names and units (from its header, when it has one:
+  !> 'ALCG[deg]' names ALCG with unit deg) and the file line of each row.
   type :: record_t
-    real(wp), allocatable :: t(:), u(:, :), y(:, :)
+    real(wp), allocatable :: x(:, :)
     character(len=NAMELEN), allocatable :: names(:)
+    character(len=UNITLEN), allocatable :: units(:)
     integer, allocatable :: line(:)
     integer :: ncol = 0
   end type record_t
-
-  !> The record last read for the flat interface (sizes first, then arrays).
-  type(record_t), save, protected, public :: kept
 
   interface
     !> C's decimal conversion of a field already checked to be a plain number.
@@ -49,24 +48,25 @@ module mlid_record
 
 contains
 
-  !> Read the columns time_col, input_cols, output_cols (from 1) of a text
-  !> record, after skip_rows lines skipped as they are.
-  !> header_only: stop at the first data row (for the column names).
-  subroutine record_read(path, time_col, input_cols, output_cols, skip_rows, rec, status, msg, &
-                         header_only)
+  !> Read the columns cols (from 1) of a text record, after skip_rows lines
+  !> skipped as they are.  header_only: stop at the first data row (for the
+  !> column names and their number).  Time is the caller's to check: it
+  !> knows which column holds it and which window it takes.
+  subroutine record_read(path, cols, skip_rows, rec, status, msg, header_only)
     character(len=*), intent(in) :: path
-    integer, intent(in) :: time_col, input_cols(:), output_cols(:), skip_rows
+    integer, intent(in) :: cols(:), skip_rows
     type(record_t), intent(out) :: rec
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     logical, intent(in), optional :: header_only
     character(len=:), allocatable :: line, header
     type(text_file_t) :: tf
-    integer :: nline, nrow, ios, at
+    integer :: nline, nrow, ios
+    logical :: only_header
 
-    status = MLID_ERR_INPUT
-    allocate (rec%t(0), rec%u(size(input_cols), 0), rec%y(size(output_cols), 0), rec%names(0), &
-              rec%line(0))
+    only_header = .false.
+    if (present(header_only)) only_header = header_only
+    allocate (rec%x(size(cols), 0), rec%names(0), rec%units(0), rec%line(0))
     call text_open(path, 'data file ', tf, status, msg)
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
@@ -81,60 +81,39 @@ contains
         header = line             ! the last line skipped may name the columns
         cycle
       end if
-      call take_line(line, nline, nrow, header, rec, time_col, input_cols, output_cols, msg)
+      call take_line(line, nline, nrow, header, rec, cols, only_header, msg)
       if (len_trim(msg) > 0) then
         call text_close(tf)
         msg = 'data file '//short_path(path)//' line '//itoa(nline)//': '//trim(msg)
         return
       end if
-      if (present(header_only) .and. nrow == 1) then
-        if (header_only) exit
-      end if
+      if (only_header .and. rec%ncol > 0) exit
     end do
     call text_close(tf)
     if (ios > 0) then
       msg = 'data file '//short_path(path)//': cannot be read'
       return
     end if
-    if (nrow == 0) then
+    if (rec%ncol == 0) then
       msg = 'data file '//short_path(path)//': no data rows'
       return
     end if
-    rec%t = rec%t(1:nrow)
-    rec%u = rec%u(:, 1:nrow)
-    rec%y = rec%y(:, 1:nrow)
+    rec%x = rec%x(:, 1:nrow)
     rec%line = rec%line(1:nrow)
-    if (rec%ncol > 0) rec%names = names_of(header, rec%ncol)
-    if (present(header_only)) then
-      status = MLID_OK
-      msg = ''
-      if (header_only) return
-    end if
-    call record_check_time(rec%t, at, status, msg)
-    if (status /= MLID_OK) msg = 'data file '//short_path(path)//' line '//itoa(rec%line(at))//': '// &
-                                 trim(msg)
+    call names_of(header, rec%ncol, rec%names, rec%units)
+    status = MLID_OK
+    msg = ''
   end subroutine record_read
-
-  !> record_read into kept.
-  subroutine record_keep(path, time_col, input_cols, output_cols, skip_rows, header_only, status, &
-                         msg)
-    character(len=*), intent(in) :: path
-    integer, intent(in) :: time_col, input_cols(:), output_cols(:), skip_rows
-    logical, intent(in) :: header_only
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    call record_read(path, time_col, input_cols, output_cols, skip_rows, kept, status, msg, &
-                     header_only)
-  end subroutine record_keep
 
   !> Classify one line (blank, comment, header, data row) and take a data
   !> row's columns into rec; msg is non-blank for a line that is wrong.
-  subroutine take_line(line, nline, nrow, header, rec, time_col, input_cols, output_cols, msg)
+  subroutine take_line(line, nline, nrow, header, rec, cols, only_header, msg)
     character(len=*), intent(in) :: line
-    integer, intent(in) :: nline, time_col, input_cols(:), output_cols(:)
+    integer, intent(in) :: nline, cols(:)
     integer, intent(inout) :: nrow
     character(len=:), allocatable, intent(inout) :: header
     type(record_t), intent(inout) :: rec
+    logical, intent(in) :: only_header
     character(len=*), intent(out) :: msg
     integer, allocatable :: first(:), last(:)
     integer :: hash, ncol
@@ -142,14 +121,14 @@ contains
     msg = ''
     hash = index(line, '#')
     if (hash > 0) then
-      if (nrow == 0 .and. len_trim(line(1:hash - 1)) == 0) header = line(hash + 1:)
+      if (rec%ncol == 0 .and. len_trim(line(1:hash - 1)) == 0) header = line(hash + 1:)
       call fields(line(1:hash - 1), first, last, msg)
     else
       call fields(line, first, last, msg)
     end if
     if (len_trim(msg) > 0 .or. size(first) == 0) return
     ncol = size(first)
-    if (nrow == 0) then
+    if (rec%ncol == 0) then
       if (.not. plain_number(line(first(1):last(1))) .and. &
           verify(line(first(1):first(1)), '+-.0123456789') > 0 .and. &
           .not. not_finite_word(line(first(1):last(1)))) then
@@ -157,10 +136,12 @@ contains
         return
       end if
       rec%ncol = ncol
-      if (maxval([time_col, input_cols, output_cols]) > ncol) then
-        msg = 'column '//itoa(maxval([time_col, input_cols, output_cols]))// &
-              ' requested, the file has '//itoa(ncol)//' columns'
-        return
+      if (only_header) return
+      if (size(cols) > 0) then
+        if (maxval(cols) > ncol) then
+          msg = 'column '//itoa(maxval(cols))//' requested, the file has '//itoa(ncol)//' columns'
+          return
+        end if
       end if
     end if
     call check_fields(line, first, last, msg)
@@ -169,36 +150,28 @@ contains
       msg = itoa(ncol)//' columns, the first data row has '//itoa(rec%ncol)
       return
     end if
-    call add_row(line, first, last, nline, nrow, rec, time_col, input_cols, output_cols, msg)
+    call add_row(line, first, last, nline, nrow, rec, cols, msg)
   end subroutine take_line
 
   !> The requested columns of a data row, appended to rec.
-  subroutine add_row(line, first, last, nline, nrow, rec, time_col, input_cols, output_cols, msg)
+  subroutine add_row(line, first, last, nline, nrow, rec, cols, msg)
     character(len=*), intent(in) :: line
-    integer, intent(in) :: first(:), last(:), nline, time_col, input_cols(:), output_cols(:)
+    integer, intent(in) :: first(:), last(:), nline, cols(:)
     integer, intent(inout) :: nrow
     type(record_t), intent(inout) :: rec
     character(len=*), intent(out) :: msg
-    integer :: k, c
+    integer :: k
 
-    if (nrow == size(rec%t)) call grow(rec, max(64, 2*nrow))
+    if (nrow == size(rec%x, 2)) call grow(rec, max(64, 2*nrow))
     nrow = nrow + 1
     rec%line(nrow) = nline
-    rec%t(nrow) = to_real(line(first(time_col):last(time_col)))
-    do k = 1, size(input_cols)
-      rec%u(k, nrow) = to_real(line(first(input_cols(k)):last(input_cols(k))))
-    end do
-    do k = 1, size(output_cols)
-      rec%y(k, nrow) = to_real(line(first(output_cols(k)):last(output_cols(k))))
+    do k = 1, size(cols)
+      rec%x(k, nrow) = to_real(line(first(cols(k)):last(cols(k))))
     end do
     msg = ''
-    if (ieee_is_finite(rec%t(nrow)) .and. all(ieee_is_finite(rec%u(:, nrow))) .and. &
-        all(ieee_is_finite(rec%y(:, nrow)))) return
-    do k = 1, size(first)          ! 1e400: a plain number beyond the range of a double
-      c = k
-      if (.not. ieee_is_finite(to_real(line(first(k):last(k))))) exit
-    end do
-    msg = 'column '//itoa(c)//': '''//line(first(c):last(c))//''' is not finite'
+    if (all(ieee_is_finite(rec%x(:, nrow)))) return
+    k = cols(findloc(ieee_is_finite(rec%x(:, nrow)), .false., 1))   ! 1e400: beyond a double
+    msg = 'column '//itoa(k)//': '''//line(first(k):last(k))//''' is not finite'
   end subroutine add_row
 
   !> Every field of a data row a plain number (not only the columns taken):
@@ -226,18 +199,14 @@ contains
   subroutine grow(rec, n)
     type(record_t), intent(inout) :: rec
     integer, intent(in) :: n
-    real(wp), allocatable :: t(:), u(:, :), y(:, :)
+    real(wp), allocatable :: x(:, :)
     integer, allocatable :: line(:)
     integer :: m
-    m = size(rec%t)
-    allocate (t(n), u(size(rec%u, 1), n), y(size(rec%y, 1), n), line(n))
-    t(1:m) = rec%t
-    u(:, 1:m) = rec%u
-    y(:, 1:m) = rec%y
+    m = size(rec%x, 2)
+    allocate (x(size(rec%x, 1), n), line(n))
+    x(:, 1:m) = rec%x
     line(1:m) = rec%line
-    call move_alloc(t, rec%t)
-    call move_alloc(u, rec%u)
-    call move_alloc(y, rec%y)
+    call move_alloc(x, rec%x)
     call move_alloc(line, rec%line)
   end subroutine grow
 
@@ -340,22 +309,36 @@ contains
     end do
   end function count_char
 
-  !> The column names of a header line with ncol fields (blanks otherwise).
-  function names_of(header, ncol) result(names)
+  !> The column names and units of a header line with ncol fields (blanks
+  !> otherwise): 'ALCG[deg]' or 'ALCG [deg]' is the column ALCG in deg.
+  subroutine names_of(header, ncol, names, units)
     character(len=*), intent(in) :: header
     integer, intent(in) :: ncol
-    character(len=NAMELEN), allocatable :: names(:)
+    character(len=NAMELEN), allocatable, intent(out) :: names(:)
+    character(len=UNITLEN), allocatable, intent(out) :: units(:)
+    character(len=len(header)) :: h
     integer, allocatable :: first(:), last(:)
     character(len=msg_len) :: msg
-    integer :: k
-    allocate (names(ncol))
+    integer :: k, b
+    allocate (names(ncol), units(ncol))
     names = ''
-    call fields(header, first, last, msg)
+    units = ''
+    h = header
+    do k = len_trim(h), 2, -1        ! 'ALCG [deg]' -> 'ALCG[deg]'
+      if (h(k:k) == '[' .and. h(k - 1:k - 1) == ' ') h(k - 1:) = h(k:)
+    end do
+    call fields(h, first, last, msg)
     if (size(first) /= ncol .or. len_trim(msg) > 0) return
     do k = 1, ncol
-      names(k) = header(first(k):last(k))
+      b = index(h(first(k):last(k)), '[')
+      if (b > 1 .and. h(last(k):last(k)) == ']') then
+        names(k) = h(first(k):first(k) + b - 2)
+        units(k) = h(first(k) + b:last(k) - 1)
+      else
+        names(k) = h(first(k):last(k))
+      end if
     end do
-  end function names_of
+  end subroutine names_of
 
   !> Time must increase, and a step larger than GAP_FACTOR times the median
   !> step is a gap: two manoeuvres joined.  at: the sample where it happens.
@@ -387,8 +370,7 @@ contains
         at = k + 1
         msg = 'a gap in time from '//seconds(t(k))//' to '//seconds(t(k + 1))//' at sample '// &
               itoa(k + 1)//' (sampling '//seconds(med)//'): split the record into manoeuvres '// &
-              '(&data file = '// &
-              '''a.dat'', ''b.dat'', or a list of records in Python)'
+              '(several files, or windows t_start/t_end of one)'
         return
       end if
     end do
@@ -432,7 +414,7 @@ contains
     character(len=:), allocatable :: text
     character(len=32) :: buf
     integer :: k
-    if (abs(x) >= 1.0e-3_wp .and. abs(x) < 1.0e7_wp) then
+    if ((abs(x) >= 1.0e-3_wp .and. abs(x) < 1.0e7_wp) .or. x == 0.0_wp) then
       write (buf, '(f0.6)') x
       k = len_trim(buf)
       do while (buf(k:k) == '0')
@@ -440,6 +422,7 @@ contains
       end do
       if (buf(k:k) == '.') k = k - 1
       text = trim(adjustl(buf(1:k)))
+      if (len(text) == 0) text = '0'
       if (text(1:1) == '.') text = '0'//text
       if (text(1:2) == '-.') text = '-0'//text(2:)
     else

@@ -5,8 +5,8 @@ module mlid_text
   use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: to_lower, itoa, joined, join_lines, split_lines, read_text, line_t, text_file_t, &
-            text_open, text_line, text_close
+  public :: to_lower, itoa, joined, join_lines, split_lines, text_lines, read_text, line_t, &
+            text_file_t, text_open, text_line, text_close
 
   integer, parameter :: CHUNK = 4096
   character(len=3), parameter :: BOM = char(239)//char(187)//char(191)   !< UTF-8 byte-order mark
@@ -27,7 +27,7 @@ module mlid_text
 
 contains
 
-  pure function to_lower(s) result(r)
+  elemental function to_lower(s) result(r)
     character(len=*), intent(in) :: s
     character(len=len(s)) :: r
     integer :: k
@@ -85,6 +85,21 @@ contains
       p = p + e
     end do
   end function split_lines
+
+  !> The non-blank lines of text (lines separated by newlines), trimmed.
+  function text_lines(text) result(lines)
+    character(len=*), intent(in) :: text
+    type(line_t), allocatable :: lines(:)
+    integer :: p, e
+    allocate (lines(0))
+    p = 1
+    do while (p <= len(text))
+      e = index(text(p:), achar(10))
+      if (e == 0) e = len(text) - p + 2
+      if (len_trim(text(p:p + e - 2)) > 0) lines = [lines, line_t(trim(adjustl(text(p:p + e - 2))))]
+      p = p + e
+    end do
+  end function text_lines
 
   !> Open a text file to read line by line: held whole in memory when it
   !> can be read at once (a regular file: fast), else read line by line from

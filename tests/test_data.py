@@ -34,7 +34,7 @@ def test_save_load_round_trip_is_exact(tmp_path):
     ("0 1 2\n1 x 3\n", {}, "line 2: column 2: 'x' is not a number"),
     ("0 1 2\n1 1\n", {}, "line 2: 2 columns, the first data row has 3"),
     ("0 1 2\n", {"output_cols": [7]}, "column 7 requested"),
-    ("time,a\n0,1\n", {"time_col": "t", "skip_rows": 1}, "no column named 't'"),
+    ("time,a\n0,1\n", {"time_col": "t", "skip_rows": 1}, "no channel named t \\(channels: time a\\)"),
 ])
 def test_bad_files(tmp_path, text, kwargs, match):
     f = tmp_path / "bad.dat"

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import formats
 from ._core import mlid_api as _api
 from .checks import real_array
 from .errors import InputError, check_status, guarded_class
@@ -26,6 +27,39 @@ def _channels(a, nt, what, name):
         raise InputError(f"{name} has shape {a.shape}; expected (nt, n{name}) = ({nt}, n), one row "
                          f"per sample{hint}")
     return np.ascontiguousarray(a)
+
+
+def _lines(entries, what):
+    """Channel names or numbers, or 'NAME = text' entries from a dict, one per
+    line (the core's form)."""
+    if entries is None:
+        return "\n"
+    if isinstance(entries, dict):
+        entries = [f"{k} = {v}" for k, v in entries.items()]
+    if isinstance(entries, (str, int, np.integer)):
+        entries = [entries]
+    out = []
+    for e in entries:
+        if not isinstance(e, (str, int, np.integer)) or "\n" in str(e) or isinstance(e, bool):
+            raise InputError(f"{what}: {e!r} is neither a channel number nor a name")
+        out.append(str(e).strip())
+    return "\n".join(out) + "\n"
+
+
+def _spec(time_col, input_cols, output_cols, columns, units, derived):
+    """The channel spec as the core's flat interface takes it."""
+    return (_lines(time_col, "time_col"), _lines(input_cols, "input_cols"),
+            _lines(output_cols, "output_cols"), _lines(columns, "columns"),
+            _lines(units, "units"), _lines(derived, "derived"))
+
+
+def _counts(spec):
+    """Inputs and outputs of a spec."""
+    return tuple(len([s for s in text.split("\n") if s]) for text in spec[1:3])
+
+
+def _text_lines(text, n):
+    return text.decode(errors="replace").split("\n")[:n]
 
 
 def _units(units, n, name):
@@ -92,58 +126,110 @@ class FlightData:
 
     @classmethod
     def load(cls, path, time_col=1, input_cols=(), output_cols=(), skip_rows=0,
-             input_names=None, output_names=None):
-        """Read a text record with the core's reader: columns separated by
-        blanks, tabs or commas; '#' comments; header lines (the last one with
-        a name per column names them); D exponents; a BOM; CR-LF.  Repeat
+             input_names=None, output_names=None, columns=None, units=None, derived=None,
+             t_start=None, t_end=None, variable=None):
+        """Read a flight record: a text file with the core's reader (the one
+        mlid-batch uses), or a MATLAB .mat (v5, v7.3) or HDF5 file (this
+        front end only; see mlid.formats).
+
+        Text files: columns separated by blanks, tabs or commas; '#'
+        comments; header lines (the last one with a name per column names
+        them; 'ALCG[deg]' gives a unit); D exponents; a BOM; CR-LF.  Repeat
         counts, missing or extra columns, NaN/Inf, time that does not
         increase and jumps in time are errors naming the file and line.
 
-        Columns are numbered from 1, as in a deck, or named by the header.
-        Channel names default to the header's names of the columns taken.
+        Parameters
+        ----------
+        path : str or Path
+        time_col, input_cols, output_cols : int or str
+            Channels by column number (from 1) or name (a column's, or a
+            derived channel's); names match exactly, else case-insensitively.
+        skip_rows : int
+            Lines skipped first (text files; the last one may name the columns).
+        input_names, output_names : list of str, optional
+            Names for the channels taken (default: their names in the file).
+        columns : list of str, optional
+            Names of the file's columns in order, each perhaps with a unit
+            ('ALCG[deg]'); for files that name none, or to rename them.
+        units : dict or list of str, optional
+            Units of columns, {'ALCG': 'deg'} or ['ALCG = deg']; converted to
+            the core's (SI, rad) on reading.
+        derived : dict or list of str, optional
+            Channels computed from others, in order: {'da': '(DAIL_R -
+            DAIL_L)/2'} or ['da = (DAIL_R - DAIL_L)/2'] (mlid_expr's small
+            language: + - * / ^, functions, no user code run).
+        t_start, t_end : float, optional
+            The time window taken, in the file's time.
+        variable : str, optional
+            The matrix to take of a .mat or HDF5 file holding several.
+
+        Returns
+        -------
+        FlightData
+
+        Raises
+        ------
+        InputError
+            One line naming the file, line (or row) and problem.
         """
+        spec = _spec(time_col, input_cols, output_cols, columns, units, derived)
+        window = (-np.inf if t_start is None else float(t_start),
+                  np.inf if t_end is None else float(t_end))
         path = str(path)
-        cols = [time_col, *input_cols, *output_cols]
-        names = None
-        if any(isinstance(c, str) and not c.isdigit() for c in cols):
-            names = cls._header(path, skip_rows)
-        num = [cls._column(c, names, path) for c in cols]
-        nu, ny = len(input_cols), len(output_cols)
-        nt, _, header, status, msg = _api.mlid_record_open(
-            path, num[0], np.array(num[1:1 + nu], dtype=np.int32),
-            np.array(num[1 + nu:], dtype=np.int32), int(skip_rows), 0)
+        if formats.is_binary(path):
+            x, names, col_units = formats.read_table(path, variable)
+            nt, status, msg = _api.mlid_channels_table(
+                path, x, "\n".join(names) + "\n", "\n".join(col_units) + "\n", *spec, *window)
+        else:
+            nt, status, msg = _api.mlid_channels_read(path, *spec, int(skip_rows), *window)
         check_status(status, msg)
-        t, u, y = _api.mlid_record_get(nu, ny, nt)
-        header = header.decode(errors="replace").split("\n")
+        return cls._taken(*_counts(spec), nt, path, input_names, output_names)
 
-        def named(given, idx):
-            found = [header[k - 1] if k <= len(header) else "" for k in idx]
-            return given or (found if all(found) else None)
+    @classmethod
+    def from_frame(cls, frame, time_col, input_cols=(), output_cols=(), units=None,
+                   derived=None, t_start=None, t_end=None, input_names=None,
+                   output_names=None, source="DataFrame"):
+        """A record from a pandas DataFrame (or anything with ``columns`` and
+        ``to_numpy``): channels by column name, as in ``load``; a column
+        named 'ALCG[deg]' carries its unit.
 
-        return cls(t, u.T, y.T, named(input_names, num[1:1 + nu]),
-                   named(output_names, num[1 + nu:]), source=path)
+        Returns
+        -------
+        FlightData
 
-    @staticmethod
-    def _header(path, skip_rows):
-        _, ncol, header, status, msg = _api.mlid_record_open(
-            path, 1, np.zeros(0, np.int32), np.zeros(0, np.int32), int(skip_rows), 1)
-        check_status(status, msg)
-        return header.decode(errors="replace").split("\n")[:ncol]
-
-    @staticmethod
-    def _column(c, names, path):
-        if isinstance(c, str) and not c.isdigit():
-            if not names or c not in names:
-                raise InputError(f"data file {path}: no column named {c!r}")
-            return names.index(c) + 1
+        Raises
+        ------
+        InputError
+            A name not among the columns, a value not finite, a unit unknown.
+        """
         try:
-            k = int(c)
-        except (TypeError, ValueError):
-            raise InputError(f"data file {path}: column {c!r} is neither a number nor a name") \
-                from None
-        if not 1 <= k <= 100000:
-            raise InputError(f"data file {path}: column {k} does not exist (columns count from 1)")
-        return k
+            names = [str(c) for c in frame.columns]
+            x = np.asarray(frame.to_numpy(dtype=float), dtype=float)
+        except (AttributeError, TypeError, ValueError) as exc:
+            raise InputError(f"from_frame needs a DataFrame of numbers ({exc})") from None
+        split = [n.split("[", 1) for n in names]
+        col_units = [s[1].rstrip("]").strip() if len(s) == 2 and n.endswith("]") else ""
+                     for s, n in zip(split, names)]
+        names = [s[0].strip() if u else n for s, n, u in zip(split, names, col_units)]
+        spec = _spec(time_col, input_cols, output_cols, None, units, derived)
+        window = (-np.inf if t_start is None else float(t_start),
+                  np.inf if t_end is None else float(t_end))
+        nt, status, msg = _api.mlid_channels_table(
+            source, np.asfortranarray(x), "\n".join(names) + "\n", "\n".join(col_units) + "\n",
+            *spec, *window)
+        check_status(status, msg)
+        return cls._taken(*_counts(spec), nt, source, input_names, output_names)
+
+    @classmethod
+    def _taken(cls, nu, ny, nt, source, input_names=None, output_names=None):
+        """The channels the core took last (mlid_channels_get)."""
+        t, u, y, _, names, units, shown, scale, offset = _api.mlid_channels_get(nu, ny, nt)
+        names, units, shown = (_text_lines(v, nu + ny) for v in (names, units, shown))
+        names = [n or (f"u{i + 1}" if i < nu else f"y{i - nu + 1}") for i, n in enumerate(names)]
+        display = list(zip(shown, scale, offset))
+        return cls(t, u.T, y.T, input_names or names[:nu], output_names or names[nu:],
+                   source=source, input_units=units[:nu], output_units=units[nu:],
+                   input_display=display[:nu], output_display=display[nu:])
 
     def save(self, path):
         """Write t, u, y as columns with a '#' header (17 digits, exact), whole

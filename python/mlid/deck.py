@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import core
+from . import core, formats
 from .core import _api, _text
 from .data import FlightData
 from .errors import InputError, MlidError, check_status, guarded, status_of
@@ -39,7 +39,8 @@ class Case:
                               for f, lo, hi in zip(free, lower[isfree == 1], upper[isfree == 1])
                               if lo > -big or hi < big}
         self._options = opts
-        self._files = [_api.mlid_deck_case_data(k, j, nu, ny) for j in range(1, max(nfile, 1) + 1)]
+        self._sizes = (nu, ny)
+        self._files = [_api.mlid_deck_case_data(k, j) for j in range(1, max(nfile, 1) + 1)]
         if self.job == "simulate":
             t, u, self.seed, out, status, msg = _api.mlid_deck_case_time_input(k, nu, nt)
             self._time_input, self.out = (t, u.T.copy()), _text(out)
@@ -53,12 +54,23 @@ class Case:
         return tuple(_lines(n) or None for n in self._files[0][-2:])
 
     def record(self):
-        """The FlightData of an estimate case, read from its data file; a list
-        of them when the case names several files (several manoeuvres)."""
+        """The FlightData of an estimate case, read from its data files as the
+        core reads them for mlid-batch (channels, units, derived channels,
+        windows); .mat and HDF5 files are read by this front end into a table
+        the core then takes the same way.  A list when the case names
+        several files (several manoeuvres)."""
         inputs, outputs = self.channel_names()
-        records = [FlightData.load(_text(path), tc, ic, oc, skip, input_names=inputs,
-                                   output_names=outputs)
-                   for path, tc, ic, oc, skip, _, _ in self._files]
+        records = []
+        for j, (path, _, _) in enumerate(self._files, start=1):
+            path = _text(path)
+            if formats.is_binary(path):
+                x, names, units = formats.read_table(path)
+                nt, status, msg = _api.mlid_deck_case_table(
+                    self.index, j, x, "\n".join(names) + "\n", "\n".join(units) + "\n")
+            else:
+                nt, status, msg = _api.mlid_deck_case_record(self.index, j)
+            check_status(status, msg)
+            records.append(FlightData._taken(*self._sizes, nt, path, inputs, outputs))
         return records[0] if len(records) == 1 else records
 
     def time_input(self):

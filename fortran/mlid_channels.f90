@@ -1,0 +1,514 @@
+!> Flight-data channels: which channels of a record a case takes (time,
+!> inputs, outputs, each by column number or by name), the units they are
+!> recorded in (converted to the core's: SI, angles in rad), channels
+!> derived from others by a small expression language (mlid_expr), and the
+!> time window taken of each file.  One path for every source: a text
+!> record read by mlid_record (both front ends), or a table the Python
+!> front end read from a .mat or HDF5 file or a DataFrame.
+!>
+!> Names: a column is named by the deck's `columns` (in order), else by the
+!> file's header; 'ALCG[deg]' names ALCG with its unit.  A name is matched
+!> exactly, else case-insensitively when that is unique.  Derived channels
+!> are computed from converted values, in order, each from the columns and
+!> the derived channels before it; a derived channel has the unit its
+!> channels share (none when they differ).
+module mlid_channels
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
+  use mlid_text, only: itoa, to_lower, line_t, joined, text_lines
+  use mlid_record, only: record_t, record_read, record_check_time, short_path, seconds, &
+                         NAMELEN, UNITLEN
+  use mlid_expr, only: expr_t, expr_compile, expr_eval, expr_uses, split_definition
+  use mlid_units, only: unit_to_core
+  implicit none
+  private
+  public :: channels_t, channel_set_t, channels_spec, channels_read, channels_table, NAMELEN, &
+            UNITLEN
+
+  !> What a case takes of its records.
+  type :: channels_t
+    character(len=NAMELEN) :: time = '1'
+    character(len=NAMELEN), allocatable :: inputs(:), outputs(:)
+    character(len=NAMELEN + UNITLEN + 2), allocatable :: columns(:)  !< names the file's columns
+    type(line_t), allocatable :: units(:)      !< 'NAME = unit'
+    type(line_t), allocatable :: derived(:)    !< 'NAME = expression'
+    integer :: skip_rows = 0
+  end type channels_t
+
+  !> One manoeuvre's channels as taken, in the core's units: t(nt),
+  !> u(nu, nt), y(ny, nt); names, core units, the units declared (for
+  !> display: declared value = (core value - offset)/scale), and the line
+  !> (text) or row (table) each sample came from.
+  type :: channel_set_t
+    real(wp), allocatable :: t(:), u(:, :), y(:, :)
+    character(len=NAMELEN), allocatable :: names(:)        !< inputs, then outputs
+    character(len=UNITLEN), allocatable :: units(:), shown(:)
+    real(wp), allocatable :: scale(:), offset(:)
+    integer, allocatable :: line(:)
+  end type channel_set_t
+
+  !> The set last taken through the flat interface (mlid_api), held here
+  !> for it to hand to Python channel by channel.
+  type(channel_set_t), public, save :: taken
+
+  !> The channels of one source: its columns, then the derived ones.
+  type :: plan_t
+    integer :: ncol = 0
+    character(len=NAMELEN), allocatable :: name(:)
+    character(len=UNITLEN), allocatable :: unit(:), shown(:)
+    real(wp), allocatable :: scale(:), offset(:)
+    logical, allocatable :: need(:)
+    type(expr_t), allocatable :: expr(:)
+    integer :: itime = 0, nin = 0
+    integer, allocatable :: pick(:)          !< inputs, then outputs
+  end type plan_t
+
+contains
+
+  !> The spec from texts, one entry per line (the flat interface's form):
+  !> time, inputs, outputs and columns name or number channels; units are
+  !> 'NAME = unit' and derived 'NAME = expression'.
+  subroutine channels_spec(time, inputs, outputs, columns, units, derived, skip_rows, spec, &
+                           status, msg)
+    character(len=*), intent(in) :: time, inputs, outputs, columns, units, derived
+    integer, intent(in) :: skip_rows
+    type(channels_t), intent(out) :: spec
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(line_t), allocatable :: all(:)
+    integer :: k
+
+    all = [text_lines(time), text_lines(inputs), text_lines(outputs)]
+    status = MLID_ERR_INPUT
+    do k = 1, size(all)
+      if (len(all(k)%s) > NAMELEN) then
+        msg = 'channel '''//all(k)%s//''' is longer than '//itoa(NAMELEN)//' characters'
+        return
+      end if
+    end do
+    all = text_lines(columns)
+    do k = 1, size(all)
+      if (len(all(k)%s) > len(spec%columns)) then
+        msg = 'column '''//all(k)%s//''' is longer than '//itoa(len(spec%columns))// &
+              ' characters'
+        return
+      end if
+    end do
+    if (size(text_lines(time)) /= 1) then
+      msg = 'one time channel is needed, '//itoa(size(text_lines(time)))//' given'
+      return
+    end if
+    all = text_lines(time)
+    spec%time = all(1)%s
+    spec%inputs = names_of_lines(text_lines(inputs))
+    spec%outputs = names_of_lines(text_lines(outputs))
+    spec%columns = names_of_lines(text_lines(columns))
+    spec%units = text_lines(units)
+    spec%derived = text_lines(derived)
+    spec%skip_rows = skip_rows
+    status = MLID_OK
+    msg = ''
+    if (skip_rows < 0) then
+      status = MLID_ERR_INPUT
+      msg = 'skip_rows must be >= 0'
+    end if
+  end subroutine channels_spec
+
+  function names_of_lines(lines) result(names)
+    type(line_t), intent(in) :: lines(:)
+    character(len=NAMELEN + UNITLEN + 2) :: names(size(lines))
+    integer :: k
+    do k = 1, size(lines)
+      names(k) = lines(k)%s
+    end do
+  end function names_of_lines
+
+  !> A text record's channels, through the one record reader.  The header
+  !> is read first (names, units, number of columns); then only the columns
+  !> the case needs are converted.
+  subroutine channels_read(path, spec, t_start, t_end, set, status, msg)
+    character(len=*), intent(in) :: path
+    type(channels_t), intent(in) :: spec
+    real(wp), intent(in) :: t_start, t_end
+    type(channel_set_t), intent(out) :: set
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(record_t) :: rec
+    type(plan_t) :: plan
+    real(wp), allocatable :: ch(:, :)
+    integer, allocatable :: cols(:)
+    integer :: k
+
+    if (binary_format(path)) then
+      status = MLID_ERR_INPUT
+      msg = 'data file '//short_path(path)//': MATLAB and HDF5 files are read by the Python '// &
+            'front end (mlid run, mlid.FlightData.load); mlid-batch reads text records'
+      return
+    end if
+    call record_read(path, [integer ::], spec%skip_rows, rec, status, msg, header_only=.true.)
+    if (status /= MLID_OK) return
+    call make_plan(spec, rec%names, rec%units, plan, status, msg)
+    if (status /= MLID_OK) then
+      msg = 'data file '//short_path(path)//': '//trim(msg)
+      return
+    end if
+    cols = pack([(k, k=1, plan%ncol)], plan%need(1:plan%ncol))
+    call record_read(path, cols, spec%skip_rows, rec, status, msg)
+    if (status /= MLID_OK) return
+    allocate (ch(size(rec%x, 2), size(plan%name)))
+    ch = 0.0_wp
+    ch(:, cols) = transpose(rec%x)
+    call take(plan, ch, rec%line, 'data file '//short_path(path), 'line', t_start, t_end, set, &
+              status, msg)
+  end subroutine channels_read
+
+  !> A table's channels: x(nrow, ncol) with its columns' names and units
+  !> (either may be blank), read by the Python front end from a .mat or
+  !> HDF5 file or a DataFrame; source names it in messages.
+  subroutine channels_table(source, x, names, units, spec, t_start, t_end, set, status, msg)
+    character(len=*), intent(in) :: source
+    real(wp), intent(in) :: x(:, :)
+    character(len=*), intent(in) :: names(:), units(:)
+    type(channels_t), intent(in) :: spec
+    real(wp), intent(in) :: t_start, t_end
+    type(channel_set_t), intent(out) :: set
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(plan_t) :: plan
+    real(wp), allocatable :: ch(:, :)
+    character(len=NAMELEN) :: nm(size(names))
+    character(len=UNITLEN) :: un(size(units))
+    integer :: k, r
+
+    nm = names
+    un = units
+    call make_plan(spec, nm, un, plan, status, msg)
+    if (status /= MLID_OK) then
+      msg = 'data '//short_path(source)//': '//trim(msg)
+      return
+    end if
+    do k = 1, plan%ncol
+      if (.not. plan%need(k)) cycle
+      if (all(ieee_is_finite(x(:, k)))) cycle
+      r = findloc(ieee_is_finite(x(:, k)), .false., 1)
+      status = MLID_ERR_INPUT
+      msg = 'data '//short_path(source)//' row '//itoa(r)//': column '//trim(label(plan, k))// &
+            ' is not finite'
+      return
+    end do
+    allocate (ch(size(x, 1), size(plan%name)))
+    ch = 0.0_wp
+    ch(:, 1:plan%ncol) = x
+    call take(plan, ch, [(k, k=1, size(x, 1))], 'data '//short_path(source), 'row', t_start, &
+              t_end, set, status, msg)
+  end subroutine channels_table
+
+  !> Names and units of the columns and derived channels, the derived
+  !> channels compiled, the channels picked, and which columns are needed.
+  subroutine make_plan(spec, names, units, plan, status, msg)
+    type(channels_t), intent(in) :: spec
+    character(len=NAMELEN), intent(in) :: names(:)
+    character(len=UNITLEN), intent(in) :: units(:)
+    type(plan_t), intent(out) :: plan
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: k, ncol, nder
+
+    ncol = size(names)
+    nder = 0
+    if (allocated(spec%derived)) nder = size(spec%derived)
+    plan%ncol = ncol
+    allocate (plan%name(ncol + nder), plan%unit(ncol + nder), plan%shown(ncol + nder), &
+              plan%scale(ncol + nder), plan%offset(ncol + nder), plan%need(ncol + nder), &
+              plan%expr(nder))
+    plan%name(1:ncol) = names
+    plan%shown(1:ncol) = units
+    plan%need = .false.
+    status = MLID_ERR_INPUT
+    if (allocated(spec%columns)) then
+      if (size(spec%columns) > ncol) then
+        msg = itoa(size(spec%columns))//' columns named, the file has '//itoa(ncol)
+        return
+      end if
+      do k = 1, size(spec%columns)
+        call name_and_unit(spec%columns(k), plan%name(k), plan%shown(k))
+      end do
+    end if
+    call declared_units(spec, plan, msg)
+    if (len_trim(msg) > 0) return
+    do k = 1, ncol
+      call unit_to_core(plan%shown(k), plan%scale(k), plan%offset(k), plan%unit(k), status, msg)
+      if (status /= MLID_OK) then
+        msg = 'column '//trim(label(plan, k))//': '//trim(msg)
+        return
+      end if
+    end do
+    do k = 1, nder
+      call derive(spec%derived(k)%s, ncol + k, plan, status, msg)
+      if (status /= MLID_OK) return
+    end do
+    call pick_channels(spec, plan, status, msg)
+  end subroutine make_plan
+
+  !> 'NAME = unit' entries: each names a column, whose header may not say
+  !> otherwise.
+  subroutine declared_units(spec, plan, msg)
+    type(channels_t), intent(in) :: spec
+    type(plan_t), intent(inout) :: plan
+    character(len=*), intent(out) :: msg
+    character(len=NAMELEN) :: name
+    character(len=:), allocatable :: rhs
+    integer :: k, i, status
+
+    msg = ''
+    if (.not. allocated(spec%units)) return
+    do k = 1, size(spec%units)
+      call split_definition(spec%units(k)%s, name, rhs, status, msg)
+      if (status /= MLID_OK) then
+        msg = 'units: '//trim(msg)
+        return
+      end if
+      call find(plan, name, plan%ncol, i, msg)
+      if (i == 0) then
+        msg = 'units: '//trim(msg)
+        return
+      end if
+      rhs = trim(adjustl(rhs))
+      if (len_trim(plan%shown(i)) > 0 .and. to_lower(plan%shown(i)) /= to_lower(rhs)) then
+        msg = 'units: '//trim(name)//' is declared in '//rhs//' but the file says '// &
+              trim(plan%shown(i))
+        return
+      end if
+      plan%shown(i) = rhs
+    end do
+  end subroutine declared_units
+
+  !> Derived channel j of the plan from its definition 'NAME = expression'.
+  subroutine derive(def, j, plan, status, msg)
+    character(len=*), intent(in) :: def
+    integer, intent(in) :: j
+    type(plan_t), intent(inout) :: plan
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=:), allocatable :: rhs
+    integer, allocatable :: uses(:)
+    integer :: i, k
+
+    call split_definition(def, plan%name(j), rhs, status, msg)
+    if (status /= MLID_OK) then
+      msg = 'derived: '//trim(msg)
+      return
+    end if
+    call find(plan, plan%name(j), j - 1, i, msg)
+    if (i > 0) then
+      status = MLID_ERR_INPUT
+      msg = 'derived: a channel named '//trim(plan%name(j))//' exists already'
+      return
+    end if
+    call expr_compile(rhs, plan%name(1:j - 1), plan%expr(j - plan%ncol), status, msg)
+    if (status /= MLID_OK) then
+      msg = 'derived '//trim(plan%name(j))//': '//trim(msg)
+      return
+    end if
+    uses = expr_uses(plan%expr(j - plan%ncol))
+    do k = 1, size(uses)
+      call mark(plan, uses(k))
+    end do
+    plan%scale(j) = 1.0_wp
+    plan%offset(j) = 0.0_wp
+    plan%unit(j) = ''
+    plan%shown(j) = ''
+    if (size(uses) == 0) return
+    if (all(plan%unit(uses) == plan%unit(uses(1)))) plan%unit(j) = plan%unit(uses(1))
+    if (all(plan%shown(uses) == plan%shown(uses(1)))) plan%shown(j) = plan%shown(uses(1))
+    if (len_trim(plan%unit(j)) > 0 .and. len_trim(plan%shown(j)) > 0) &
+      plan%scale(j) = plan%scale(uses(1))
+  end subroutine derive
+
+  !> A channel needed, and the columns a derived channel is computed from.
+  recursive subroutine mark(plan, i)
+    type(plan_t), intent(inout) :: plan
+    integer, intent(in) :: i
+    integer, allocatable :: uses(:)
+    integer :: k
+    if (plan%need(i)) return
+    plan%need(i) = .true.
+    if (i <= plan%ncol) return
+    uses = expr_uses(plan%expr(i - plan%ncol))
+    do k = 1, size(uses)
+      call mark(plan, uses(k))
+    end do
+  end subroutine mark
+
+  !> Time, inputs and outputs, each a column number or a channel name.
+  subroutine pick_channels(spec, plan, status, msg)
+    type(channels_t), intent(in) :: spec
+    type(plan_t), intent(inout) :: plan
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=NAMELEN), allocatable :: want(:)
+    integer :: k, i
+
+    status = MLID_ERR_INPUT
+    want = [spec%time, spec%inputs, spec%outputs]
+    plan%nin = size(spec%inputs)
+    allocate (plan%pick(size(want) - 1))
+    do k = 1, size(want)
+      if (is_number(want(k))) then
+        read (want(k), *) i
+        if (i < 1 .or. i > plan%ncol) then
+          msg = 'column '//trim(adjustl(want(k)))//' requested, the file has columns 1 to '// &
+                itoa(plan%ncol)
+          return
+        end if
+      else
+        call find(plan, want(k), size(plan%name), i, msg)
+        if (i == 0) return
+      end if
+      call mark(plan, i)
+      if (k == 1) then
+        plan%itime = i
+      else
+        plan%pick(k - 1) = i
+      end if
+    end do
+    status = MLID_OK
+    msg = ''
+  end subroutine pick_channels
+
+  !> The channel named name among the first n of the plan: exactly, else
+  !> case-insensitively when unique; 0 and a message when there is none.
+  subroutine find(plan, name, n, i, msg)
+    type(plan_t), intent(in) :: plan
+    character(len=*), intent(in) :: name
+    integer, intent(in) :: n
+    integer, intent(out) :: i
+    character(len=*), intent(out) :: msg
+    logical :: same(n)
+    integer :: k
+
+    msg = ''
+    i = 0
+    same = plan%name(1:n) == name
+    if (count(same) == 0) same = to_lower(plan%name(1:n)) == to_lower(name)
+    if (count(same) == 1) then
+      i = findloc(same, .true., 1)
+    else if (count(same) > 1) then
+      msg = itoa(count(same))//' channels are named '//trim(name)
+    else
+      msg = 'no channel named '//trim(name)//' (channels: '
+      do k = 1, min(n, 12)
+        msg = trim(msg)//' '//trim(plan%name(k))
+      end do
+      if (n > 12) msg = trim(msg)//' ...'
+      if (n == 0 .or. all(plan%name(1:n) == '')) msg = 'no channel named '//trim(name)// &
+        ' (the file names no columns: name them with columns = ... or number them'
+      msg = trim(msg)//')'
+    end if
+  end subroutine find
+
+  !> Convert, derive, window and check; the set the case takes.
+  subroutine take(plan, ch, line, where, lineword, t_start, t_end, set, status, msg)
+    type(plan_t), intent(in) :: plan
+    real(wp), intent(inout) :: ch(:, :)
+    integer, intent(in) :: line(:)
+    character(len=*), intent(in) :: where, lineword
+    real(wp), intent(in) :: t_start, t_end
+    type(channel_set_t), intent(out) :: set
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    logical, allocatable :: keep(:)
+    integer :: k, r, at
+
+    status = MLID_ERR_INPUT
+    do k = 1, plan%ncol
+      if (plan%need(k) .and. (plan%scale(k) /= 1.0_wp .or. plan%offset(k) /= 0.0_wp)) &
+        ch(:, k) = plan%scale(k)*ch(:, k) + plan%offset(k)
+    end do
+    do k = plan%ncol + 1, size(plan%name)
+      call expr_eval(plan%expr(k - plan%ncol), ch(:, 1:k - 1), ch(:, k))
+      if (.not. plan%need(k) .or. all(ieee_is_finite(ch(:, k)))) cycle
+      r = findloc(ieee_is_finite(ch(:, k)), .false., 1)
+      msg = where//' '//lineword//' '//itoa(line(r))//': derived channel '// &
+            trim(plan%name(k))//' is not finite'
+      return
+    end do
+    keep = ch(:, plan%itime) >= t_start .and. ch(:, plan%itime) <= t_end
+    if (count(keep) == 0) then
+      msg = where//': no samples between '//seconds(t_start)//' and '//seconds(t_end)// &
+            ' (the record runs from '//seconds(ch(1, plan%itime))//' to '// &
+            seconds(ch(size(ch, 1), plan%itime))//')'
+      return
+    end if
+    set%t = pack(ch(:, plan%itime), keep)
+    set%line = pack(line, keep)
+    call record_check_time(set%t, at, status, msg)
+    if (status /= MLID_OK) then
+      msg = where//' '//lineword//' '//itoa(set%line(at))//': '//trim(msg)
+      return
+    end if
+    allocate (set%u(plan%nin, size(set%t)), set%y(size(plan%pick) - plan%nin, size(set%t)))
+    do k = 1, plan%nin
+      set%u(k, :) = pack(ch(:, plan%pick(k)), keep)
+    end do
+    do k = plan%nin + 1, size(plan%pick)
+      set%y(k - plan%nin, :) = pack(ch(:, plan%pick(k)), keep)
+    end do
+    set%names = plan%name(plan%pick)
+    set%units = plan%unit(plan%pick)
+    set%shown = plan%shown(plan%pick)
+    set%scale = plan%scale(plan%pick)
+    set%offset = plan%offset(plan%pick)
+  end subroutine take
+
+  !> A column number: digits, perhaps signed (a sign is refused as out of range).
+  logical function is_number(text)
+    character(len=*), intent(in) :: text
+    integer :: k
+    k = verify(text, ' ')
+    is_number = .false.
+    if (k == 0) return
+    if (scan(text(k:k), '+-') == 1) k = k + 1
+    is_number = len_trim(text) >= k .and. verify(trim(text(k:)), '0123456789') == 0
+  end function is_number
+
+  !> 'ALCG[deg]' -> ALCG, deg; 'ALCG' -> ALCG, unit unchanged.
+  subroutine name_and_unit(text, name, unit)
+    character(len=*), intent(in) :: text
+    character(len=NAMELEN), intent(out) :: name
+    character(len=UNITLEN), intent(inout) :: unit
+    integer :: b, e
+    b = index(text, '[')
+    e = len_trim(text)
+    if (b > 1 .and. text(e:e) == ']') then
+      name = adjustl(text(1:b - 1))
+      unit = adjustl(text(b + 1:e - 1))
+    else
+      name = adjustl(text)
+    end if
+  end subroutine name_and_unit
+
+  !> A .mat, .h5 or .hdf5 file, by its name.
+  logical function binary_format(path)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable :: p
+    p = to_lower(trim(path))
+    binary_format = ends(p, '.mat') .or. ends(p, '.h5') .or. ends(p, '.hdf5')
+  contains
+    logical function ends(s, tail)
+      character(len=*), intent(in) :: s, tail
+      ends = len(s) >= len(tail)
+      if (ends) ends = s(len(s) - len(tail) + 1:) == tail
+    end function ends
+  end function binary_format
+
+  !> A column for a message: its name, or its number.
+  function label(plan, k) result(text)
+    type(plan_t), intent(in) :: plan
+    integer, intent(in) :: k
+    character(len=:), allocatable :: text
+    text = trim(plan%name(k))
+    if (len(text) == 0) text = itoa(k)
+  end function label
+
+end module mlid_channels
