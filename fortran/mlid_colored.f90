@@ -15,10 +15,12 @@
 !> Lags are truncated at L with Bartlett weights w(k) = 1 - k/(L+1): a plain
 !> truncation can make the bracket indefinite (negative variances), the
 !> triangular window keeps it positive semi-definite (its spectrum, the
-!> Fejer kernel, is non-negative).  L is four times the first lag at which
-!> every output's residual autocorrelation lies inside the white-noise band
-!> +-2/sqrt(N), at most N/10: beyond that the estimates of Rvv(k) add
-!> sampling noise (variance growing like L/N) and no correlation.
+!> Fejer kernel, is non-negative).  L is four times the lag by which every
+!> output's residual autocorrelation has first come inside the white-noise
+!> band +-2/sqrt(N) (with weights 1 - k/(L+1) the lags that carry the
+!> correlation keep at least 3/4 of it), at most N/10: beyond that the
+!> estimates of Rvv(k) add sampling noise (variance growing like L/N) and
+!> little correlation.
 !>
 !> Cost: the bracket is sum_i a(i)' g(i) with g(i) = sum_k w(k) Rvv(k)' a(i+k)
 !> (a matrix FIR filter of the weighted sensitivities), O(N L ny^2 nf) plus
@@ -146,12 +148,16 @@ contains
     rvv = rvv/real(nt, wp)
   end subroutine residual_autocov
 
-  !> The lag: LAG_FACTOR times the first lag at which the autocorrelation
-  !> of every output is inside +-2/sqrt(N), at most N/LAG_CAP_DIV.
+  !> The lag: LAG_FACTOR times the lag by which every output's
+  !> autocorrelation has first come inside +-2/sqrt(N) (each output its own
+  !> first crossing: coloured noise makes the sample autocorrelation at
+  !> long lags scatter wider than that band, so all outputs inside it at
+  !> one lag is a rare event), at most N/LAG_CAP_DIV.
   integer function colored_lag(v, seg) result(lag)
     real(wp), intent(in) :: v(:, :)
     integer, intent(in) :: seg(:)
     real(wp) :: c0(size(v, 1)), ck(size(v, 1)), band
+    logical :: crossed(size(v, 1))
     integer :: k, s, i0, i1, nt, cap
 
     nt = size(v, 2)
@@ -160,13 +166,15 @@ contains
     c0 = sum(v**2, dim=2)
     if (any(.not. (c0 > 0.0_wp))) return       ! a zero residual: no basis for a choice
     band = 2.0_wp/sqrt(real(nt, wp))
+    crossed = .false.
     do k = 1, cap
       ck = 0.0_wp
       do s = 1, size(seg)
         call segment_bounds(seg, s, nt, i0, i1)
         if (i1 - i0 >= k) ck = ck + sum(v(:, i0:i1 - k)*v(:, i0 + k:i1), dim=2)
       end do
-      if (all(abs(ck/c0) < band)) then
+      crossed = crossed .or. abs(ck/c0) < band
+      if (all(crossed)) then
         lag = min(LAG_FACTOR*k, cap, nt - 1)
         return
       end if
