@@ -103,31 +103,42 @@ contains
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
     integer, intent(in) :: seg(:)
     real(wp) :: b(size(a, 3), size(a, 3))
-    real(wp), allocatable :: g(:, :, :)
+    real(wp), allocatable :: at(:, :, :), g(:, :, :)
     real(wp) :: rk(size(a, 1), size(a, 1))
-    integer :: nf, lag, k, l, s, i0, i1
+    integer :: ny, nt, nf, lag, k, l, s, i0, i1
 
+    ny = size(a, 1)
+    nt = size(a, 2)
     nf = size(a, 3)
     lag = ubound(rvv, 3)
-    allocate (g(size(a, 1), size(a, 2), nf))
+    ! samples last: the filter over all parameters is one product per lag
+    at = reshape(a, [ny, nf, nt], order=[1, 3, 2])
+    allocate (g(ny, nf, nt))
     g = 0.0_wp
     do s = 1, size(seg)
-      call segment_bounds(seg, s, size(a, 2), i0, i1)
+      call segment_bounds(seg, s, nt, i0, i1)
       do k = 0, min(lag, i1 - i0)
         rk = (1.0_wp - real(k, wp)/real(lag + 1, wp))*transpose(rvv(:, :, k))
         if (k == 0) rk = 0.5_wp*rk
-        do l = 1, nf
-          g(:, i0:i1 - k, l) = g(:, i0:i1 - k, l) + matmul(rk, a(:, i0 + k:i1, l))
-        end do
+        call add_product(ny, nf*(i1 - i0 + 1 - k), rk, at(:, :, i0 + k:i1), g(:, :, i0:i1 - k))
       end do
     end do
+    at = reshape(g, [ny, nt, nf], order=[1, 3, 2])
     do l = 1, nf
       do k = 1, nf
-        b(k, l) = sum(a(:, :, k)*g(:, :, l))
+        b(k, l) = sum(a(:, :, k)*at(:, :, l))
       end do
     end do
     b = b + transpose(b)
   end function bracket
+
+  !> y = y + r x on contiguous blocks of columns (x, y: n x m).
+  pure subroutine add_product(n, m, r, x, y)
+    integer, intent(in) :: n, m
+    real(wp), intent(in) :: r(n, n), x(n, m)
+    real(wp), intent(inout) :: y(n, m)
+    y = y + matmul(r, x)
+  end subroutine add_product
 
   !> Rvv(:, :, k) = (1/N) sum v(i) v(i+k)' over the pairs within one
   !> segment, k = 0 .. ubound(rvv, 3).
