@@ -23,6 +23,7 @@ module mlid_api
   use mlid_params, only: param_map_t, param_map_create, apply_ties
   use mlid_likelihood, only: likelihood
   use mlid_newton, only: fit_result_t, extras_t, newton_fit
+  use mlid_colored, only: colored_covariance, colored_sandwich
   use mlid_linalg, only: sym_eig
   use mlid_simulate, only: simulate_outputs
   use mlid_monte_carlo, only: monte_carlo
@@ -50,6 +51,7 @@ module mlid_api
             mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
             mlid_channels_table, mlid_channels_get, mlid_check_time, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
+            mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude
 
@@ -352,20 +354,21 @@ contains
   !> The printed report and the JSON object of a fit (the text mlid-batch
   !> prints and writes); labels one per line; the text ends where its
   !> length says.
-  subroutine mlid_report_fit(nf, ny, nh, labels, iopt, start, est, sig, cov, eigval, eigvec, &
-                             rhat, hist, cost, niter, reason, converged, nrank, title, job, &
+  !> sigc: sigma corrected for coloured residuals, lag: its lag.
+  subroutine mlid_report_fit(nf, ny, nh, labels, iopt, start, est, sig, sigc, lag, cov, eigval, &
+                             eigvec, rhat, hist, cost, niter, reason, converged, nrank, title, job, &
                              status, msg, report, nreport, json, njson)
-    integer(c_int), intent(in) :: nf, ny, nh, iopt(12), niter, reason, converged, nrank, status
+    integer(c_int), intent(in) :: nf, ny, nh, iopt(12), niter, reason, converged, nrank, status, lag
     character(len=*), intent(in) :: labels, title, job, msg
-    real(c_double), intent(in) :: start(nf), est(nf), sig(nf), cov(nf, nf), eigval(nf), &
+    real(c_double), intent(in) :: start(nf), est(nf), sig(nf), sigc(nf), cov(nf, nf), eigval(nf), &
                                   eigvec(nf, nf), rhat(ny, ny), hist(nh), cost
     character(len=262144), intent(out) :: report, json
     integer(c_int), intent(out) :: nreport, njson
     type(fit_summary_t) :: s
     character(len=:), allocatable :: text
 
-    s = fit_summary_t(split_lines(labels, nf, NAMELEN), start, est, sig, cov, eigval, eigvec, rhat, &
-                      hist, cost, niter, reason, nrank, converged == 1)
+    s = fit_summary_t(split_lines(labels, nf, NAMELEN), start, est, sig, sigc, cov, eigval, eigvec, &
+                      rhat, hist, cost, niter, reason, nrank, lag, converged == 1)
     text = fit_report(s, iopt)
     nreport = min(len(text), len(report))
     report = text
@@ -566,7 +569,8 @@ contains
   !> the nf free parameters, rhat (R-hat, or the mean innovation covariance),
   !> yhat, cost_hist(nc) (nc = max_iter + 1; entries past niter + 1 are 0),
   !> cost, niter, reason (mlid_kinds STOP_*), converged (0/1), bad_param
-  !> (free index of a singular direction).
+  !> (free index of a singular direction), sigma_c and cov_c (the same
+  !> corrected for coloured residuals, mlid_colored) and lag (its lag).
   !> Several manoeuvres: the record holds them one after the other, segment k
   !> from sample segstart(k) (segstart(1) = 1), with an initial state and a
   !> bias vector each in theta (the x0 and bias blocks nseg times as long).
@@ -574,7 +578,7 @@ contains
                       rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, nc, use_prior, prior, &
                       pweight, use_bounds, lower, upper, theta_start, theta, sigma, cov, info, &
                       grad, eigval, eigvec, rhat, yhat, cost_hist, cost, niter, reason, converged, &
-                      rank, bad_param, status, msg)
+                      rank, bad_param, sigma_c, cov_c, lag, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nc, nseg
     integer(c_int), intent(in) :: segstart(nseg)
     integer(c_int), intent(in) :: use_prior, use_bounds
@@ -591,6 +595,8 @@ contains
     real(c_double), intent(out) :: eigval(nf), eigvec(nf, nf), rhat(ny, ny), yhat(ny, nt)
     real(c_double), intent(out) :: cost_hist(nc), cost
     integer(c_int), intent(out) :: niter, reason, converged, rank, bad_param, status
+    real(c_double), intent(out) :: sigma_c(nth), cov_c(nf, nf)
+    integer(c_int), intent(out) :: lag
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
     type(options_t) :: opt
@@ -604,6 +610,9 @@ contains
     theta = theta0
     sigma = 0.0_wp
     cov = 0.0_wp
+    sigma_c = 0.0_wp
+    cov_c = 0.0_wp
+    lag = 0
     info = 0.0_wp
     grad = 0.0_wp
     eigval = 0.0_wp
@@ -640,6 +649,13 @@ contains
       sigma(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov(k, k)))
     end do
     cov = res%cov
+    if (allocated(res%cov_c)) then
+      cov_c = res%cov_c
+      do k = 1, nf
+        sigma_c(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov_c(k, k)))
+      end do
+      lag = res%lag
+    end if
     info = res%info
     grad = res%grad
     eigval = res%eigval
@@ -659,7 +675,7 @@ contains
   !> theta, without iterating.
   subroutine mlid_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, itie, nic, iconst, nrc, &
                            rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, cost, grad, info, &
-                           rhat, yhat, sens, status, msg)
+                           rhat, yhat, sens, wsens, msens, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nseg
     integer(c_int), intent(in) :: segstart(nseg)
     real(c_double), intent(in) :: theta(nth)
@@ -671,6 +687,7 @@ contains
     real(c_double), intent(in) :: ropt(12)
     real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny), yhat(ny, nt)
     real(c_double), intent(out) :: sens(ny, nf)
+    real(c_double), intent(out) :: wsens(ny, nt, nf), msens(nf, nf)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
@@ -684,13 +701,46 @@ contains
     rhat = 0.0_wp
     yhat = 0.0_wp
     sens = 0.0_wp
+    wsens = 0.0_wp
+    msens = 0.0_wp
     call setup(mkind, nx, nu, ny, nw, theta, isfree, itie, iconst, rconst, t, u, y, iopt, ropt, &
                nf, m, opt, pm, status, msg, segstart)
     if (status /= MLID_OK) return
     th = theta
     call apply_ties(pm%tie, th)
-    call likelihood(m, th, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, sens)
+    call likelihood(m, th, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, sens, &
+                    wsens, msens)
   end subroutine mlid_evaluate
+
+  !> The covariance corrected for coloured residuals (mlid_colored) from
+  !> weighted sensitivities a(ny, nt, nf), residuals v(ny, nt), the segment
+  !> starts, cov (M^-1), info (M) and msens (the part of M a makes); Rvv up
+  !> to lag_in (< 0: the lag chosen from v, returned in lag).
+  subroutine mlid_colored_cov(ny, nt, nf, nseg, segstart, a, v, cov, info, msens, lag_in, &
+                              cov_c, lag, status, msg)
+    integer(c_int), intent(in) :: ny, nt, nf, nseg, segstart(nseg), lag_in
+    real(c_double), intent(in) :: a(ny, nt, nf), v(ny, nt), cov(nf, nf), info(nf, nf), &
+                                  msens(nf, nf)
+    real(c_double), intent(out) :: cov_c(nf, nf)
+    integer(c_int), intent(out) :: lag, status
+    character(len=256), intent(out) :: msg
+    integer :: lg
+    call colored_covariance(cov, info, msens, a, v, segstart, lag_in, cov_c, lg, status, msg)
+    lag = lg
+  end subroutine mlid_colored_cov
+
+  !> The same with the residual autocovariance given: rvv(:, :, k+1) =
+  !> Rvv(k), k = 0 .. nlag (Bartlett weights at nlag).
+  subroutine mlid_colored_cov_rvv(ny, nt, nf, nseg, segstart, a, nlag, rvv, cov, info, msens, &
+                                  cov_c, status, msg)
+    integer(c_int), intent(in) :: ny, nt, nf, nseg, segstart(nseg), nlag
+    real(c_double), intent(in) :: a(ny, nt, nf), rvv(ny, ny, nlag + 1), cov(nf, nf), &
+                                  info(nf, nf), msens(nf, nf)
+    real(c_double), intent(out) :: cov_c(nf, nf)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call colored_sandwich(cov, info, msens, a, rvv, segstart, cov_c, status, msg)
+  end subroutine mlid_colored_cov_rvv
 
   !> Outputs y and states x of the model along t with inputs u, with the
   !> process and measurement noise whose statistics are in theta (seeded).

@@ -39,7 +39,7 @@ contains
   !> when grad and info are present) by the method of opt.  rhat receives
   !> R-hat (output error) or the mean innovation covariance (filter error).
   subroutine likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                        sens)
+                        sens, wsens, msens)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -53,14 +53,19 @@ contains
     !> how many residual sigmas parameter k moves output i over the record
     !> (innovations for filter error); needs grad and info
     real(wp), intent(out), optional :: sens(:, :)
+    !> for the coloured-residual correction (mlid_colored), with grad and
+    !> info: the sensitivities weighted by the inverse noise (innovation)
+    !> covariance, W(j) dyhat/dtheta at sample j (ny, nt, nf), and the part
+    !> of info they make, sum_j S(j)' W(j) S(j) (nf, nf)
+    real(wp), intent(out), optional :: wsens(:, :, :), msens(:, :)
 
     cost = huge(1.0_wp)
     if (opt%method == 1) then
       call fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                         sens)
+                         sens, wsens, msens)
     else
       call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                         sens)
+                         sens, wsens, msens)
     end if
     if (status == MLID_OK .and. .not. ieee_is_finite(cost)) then
       status = MLID_ERR_SINGULAR
@@ -69,7 +74,7 @@ contains
   end subroutine likelihood
 
   subroutine oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
-                           info, sens)
+                           info, sens, wsens, msens)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -78,7 +83,7 @@ contains
     real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :)
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: dy(:, :, :), nu(:, :), w(:, :)
     real(wp) :: rinv(m%ny, m%ny), logdet
     integer :: ny, nt, nf, j, i, ierr
@@ -126,13 +131,15 @@ contains
         w = matmul(rinv, dy(:, :, j))
         grad = grad - matmul(nu(:, j), w)
         info = info + matmul(transpose(dy(:, :, j)), w)
+        if (present(wsens)) wsens(:, j, :) = w
       end do
+      if (present(msens)) msens = info
       if (present(sens)) call sensitivity_norms(dy, rhat, sens)
     end if
   end subroutine oe_likelihood
 
   subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
-                           info, sens)
+                           info, sens, wsens, msens)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -141,7 +148,7 @@ contains
     real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :)
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
     real(wp), allocatable :: b0(:, :, :)
     real(wp) :: w(m%ny, pm%nf), bnu(m%ny), e(m%ny, m%ny, pm%nf), ev(m%ny*m%ny, pm%nf), &
@@ -188,6 +195,7 @@ contains
         w = matmul(binv(:, :, j), dnu(:, :, j))
         gpart(:, b) = gpart(:, b) + matmul(bnu, dnu(:, :, j))
         ipart(:, :, b) = ipart(:, :, b) + matmul(transpose(dnu(:, :, j)), w)
+        if (present(wsens)) wsens(:, j, :) = w
         if (.not. opt%partials) cycle
         do k = 1, nf
           e(:, :, k) = matmul(binv(:, :, j), db(:, :, k, j))   ! B^-1 dB_k
@@ -207,6 +215,12 @@ contains
       grad = grad + gpart(:, b)
       info = info + ipart(:, :, b)
     end do
+    if (present(msens)) then    ! without the noise-covariance term 1/2 tr(..)
+      msens = 0.0_wp
+      do j = 1, nt
+        msens = msens + matmul(transpose(dnu(:, :, j)), matmul(binv(:, :, j), dnu(:, :, j)))
+      end do
+    end if
   end subroutine fe_likelihood
 
   !> dnu/dtheta and dB/dtheta of the filter by forward differences from the

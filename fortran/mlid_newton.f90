@@ -13,6 +13,7 @@ module mlid_newton
   use mlid_options, only: options_t
   use mlid_likelihood, only: likelihood
   use mlid_params, only: param_map_t, apply_ties
+  use mlid_colored, only: colored_covariance
   implicit none
   private
   public :: fit_result_t, extras_t, newton_fit
@@ -72,6 +73,10 @@ module mlid_newton
     real(wp), allocatable :: rhat(:, :)     !< measurement noise covariance estimate
     real(wp), allocatable :: yhat(:, :)     !< model outputs at theta
     real(wp), allocatable :: cost_hist(:)   !< likelihood before iteration 1, then after each
+    real(wp), allocatable :: wsens(:, :, :) !< weighted sensitivities at theta (ny, nt, nf)
+    real(wp), allocatable :: msens(:, :)    !< the part of info they make
+    real(wp), allocatable :: cov_c(:, :)    !< covariance corrected for coloured residuals
+    integer :: lag = 0                      !< its residual-autocorrelation lag
     real(wp) :: cost = 0.0_wp               !< negative log-likelihood (without the prior term)
     integer :: niter = 0
     integer :: reason = STOP_NONE
@@ -119,7 +124,30 @@ contains
     if (status /= MLID_OK) return
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
     call final_bound(opt, ex, st, res, status, msg)
+    if (any(status == [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) &
+      call colored_bound(pm, y, res, status, msg)
   end subroutine newton_fit
+
+  !> The Cramer-Rao covariance corrected for coloured residuals
+  !> (mlid_colored) from the weighted sensitivities kept with the last
+  !> information matrix; a failure there replaces only an OK status.
+  subroutine colored_bound(pm, y, res, status, msg)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: y(:, :)
+    type(fit_result_t), intent(inout) :: res
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    integer :: cstat
+    character(len=len(msg)) :: cmsg
+
+    allocate (res%cov_c(pm%nf, pm%nf))
+    call colored_covariance(res%cov, res%info, res%msens, res%wsens, y - res%yhat, pm%l%seg, -1, &
+                            res%cov_c, res%lag, cstat, cmsg)
+    if (cstat /= MLID_OK .and. status == MLID_OK) then
+      status = cstat
+      msg = cmsg
+    end if
+  end subroutine colored_bound
 
   !> The start: res allocated, theta0 with its ties (or the equation-error
   !> start-up), and the likelihood there.
@@ -139,7 +167,8 @@ contains
     ny = m%ny
     nt = size(t)
     allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), res%eigvec(nf, nf), &
-              res%rhat(ny, ny), res%yhat(ny, nt), res%cost_hist(opt%max_iter + 1))
+              res%rhat(ny, ny), res%yhat(ny, nt), res%cost_hist(opt%max_iter + 1), &
+              res%wsens(ny, nt, nf), res%msens(nf, nf))
     res%theta = theta0
     call apply_ties(pm%tie, res%theta)
     res%cost_hist = 0.0_wp
@@ -151,7 +180,7 @@ contains
     end if
     res%theta_start = res%theta
     call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                    status, msg, res%grad, res%info)
+                    status, msg, res%grad, res%info, wsens=res%wsens, msens=res%msens)
     if (status /= MLID_OK) return
     res%reason = STOP_NONE
     res%cost_hist(1) = res%cost
@@ -245,7 +274,7 @@ contains
         res%rank = max(res%rank, best%rank)   ! late steps are small in every direction
         res%theta = best%theta
         call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                        status, msg, res%grad, res%info)
+                        status, msg, res%grad, res%info, wsens=res%wsens, msens=res%msens)
         if (status /= MLID_OK) then
           res%reason = STOP_FAILED
           return

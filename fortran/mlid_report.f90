@@ -16,10 +16,11 @@ module mlid_report
   !> What a report says of one fit (free parameters only, theta order).
   type :: fit_summary_t
     character(len=32), allocatable :: labels(:)
-    real(wp), allocatable :: start(:), est(:), sig(:), cov(:, :), eigval(:), eigvec(:, :)
+    real(wp), allocatable :: start(:), est(:), sig(:), sigc(:), cov(:, :), eigval(:), eigvec(:, :)
     real(wp), allocatable :: rhat(:, :), hist(:)
     real(wp) :: cost = 0.0_wp
     integer :: niter = 0, reason = 0, rank = 0
+    integer :: lag = 0           !< lag of the coloured-residual correction (sigc)
     logical :: converged = .false.
   end type fit_summary_t
 
@@ -46,12 +47,17 @@ contains
         size(s%labels), ' (sigma from the same rank)'
       text = text//trim(buf)//NL
     end if
-    write (buf, '(1x,a16,a15,a15,a13)') 'parameter       ', 'start', 'estimate', 'sigma'
+    write (buf, '(1x,a16,a15,a15,a13,a13)') 'parameter       ', 'start', 'estimate', 'sigma', &
+      'sigma col.'
     text = text//trim(buf)//NL
     do k = 1, size(s%labels)
-      write (buf, '(1x,a16,2es15.6e2,es13.4e2)') s%labels(k), s%start(k), s%est(k), s%sig(k)
+      write (buf, '(1x,a16,2es15.6e2,2es13.4e2)') s%labels(k), s%start(k), s%est(k), s%sig(k), &
+        s%sigc(k)
       text = text//trim(buf)//NL
     end do
+    write (buf, '(a,i0,a)') ' sigma col.: Cramer-Rao sigma corrected for coloured residuals ' // &
+      '(residual autocorrelation to lag ', s%lag, ')'
+    text = text//trim(buf)//NL
     ! output error estimates R; filter error reports the mean innovation covariance B
     write (buf, '(a,es17.10e2,a,es13.6e2)') ' cost J = ', s%cost, '   det '// &
       trim(merge('R', 'B', oe))//' = ', det_r(s%rhat)
@@ -165,6 +171,8 @@ contains
     end do
     text = text//'],'//NL//'"start": '//numbers(s%start)//','//NL// &
            '"estimate": '//numbers(s%est)//','//NL//'"sigma": '//numbers(s%sig)//','//NL// &
+           '"sigma_corrected": '//numbers(s%sigc)//', "colored_lag": '//integer_text(s%lag)// &
+           ','//NL// &
            '"correlation": '//matrix(correlation(s%cov))//','//NL// &
            '"R": '//matrix(s%rhat)//','//NL//'"det_R": '//number(det_r(s%rhat))// &
            ', "cost": '//number(s%cost)//','//NL//'"cost_history": '//numbers(s%hist)//','//NL
@@ -284,6 +292,14 @@ contains
     end do
     text = text//']'
   end function matrix
+
+  function integer_text(n) result(s)
+    integer, intent(in) :: n
+    character(len=:), allocatable :: s
+    character(len=16) :: buf
+    write (buf, '(i0)') n
+    s = trim(buf)
+  end function integer_text
 
   function number(x) result(s)
     real(wp), intent(in) :: x

@@ -145,8 +145,8 @@ contains
     character(len=:), allocatable, intent(out) :: json
     integer, intent(out) :: cstat
     character(len=*), intent(out) :: cmsg
-    real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), theta0(:), sigma(:), grad(:)
-    real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), info(:, :)
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), theta0(:), sigma(:), grad(:), sigc(:)
+    real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), info(:, :), covc(:, :)
     integer, allocatable :: segstart(:)
     type(fit_summary_t) :: s
     integer :: bad, nf, nth, converged
@@ -158,16 +158,16 @@ contains
     if (cstat /= MLID_OK) return
     nth = size(c%theta)
     nf = count(c%isfree == 1)
-    allocate (theta(nth), theta0(nth), sigma(nth), grad(nf), info(nf, nf), rhat(c%ny, c%ny), &
+    allocate (theta(nth), theta0(nth), sigma(nth), sigc(nth), grad(nf), info(nf, nf), rhat(c%ny, c%ny), &
               yhat(c%ny, size(t)), hist(c%iopt(1) + 1), s%cov(nf, nf), s%eigval(nf), &
-              s%eigvec(nf, nf))
+              s%eigvec(nf, nf), covc(nf, nf))
     call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, &
                   size(c%iconst), c%iconst, size(c%rconst), c%rconst, size(t), t, u, y, &
                   size(segstart), segstart, c%iopt, c%ropt, nf, size(hist), c%use_prior, &
                   or_zero(c%prior, nth), weight_or_zero(c%pweight, nf), c%use_bounds, &
                   or_zero(c%lower, nth), or_zero(c%upper, nth), theta0, theta, sigma, s%cov, &
                   info, grad, s%eigval, s%eigvec, rhat, yhat, hist, s%cost, s%niter, s%reason, &
-                  converged, s%rank, bad, cstat, cmsg)
+                  converged, s%rank, bad, sigc, covc, s%lag, cstat, cmsg)
     if (cstat /= MLID_OK .and. bad > 0) cmsg = replace_index(cmsg, bad, c%labels)
     ! a fit that ended singular or unconverged still has a result to report
     if (all(cstat /= [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) return
@@ -176,6 +176,7 @@ contains
     s%start = pack(theta0, free)
     s%est = pack(theta, free)
     s%sig = pack(sigma, free)
+    s%sigc = pack(sigc, free)
     s%rhat = rhat
     s%hist = hist(1:s%niter + 1)
     s%converged = converged == 1

@@ -25,6 +25,10 @@ def _parser():
     run.add_argument("deck", help="namelist deck (.nml)")
     run.add_argument("--plots", metavar="DIR", help="write PNG plots of each fit into DIR")
     run.add_argument("--json", metavar="FILE", help="write every case's results as JSON")
+    run.add_argument("--table", metavar="FILE",
+                     help="write the results table of every fitted case into one FILE, a "
+                     "'case' column numbering the deck's cases; format from the suffix: "
+                     ".csv, .tex (LaTeX booktabs) or .json")
     diag = sub.add_parser("diagnose", help="find what the model of each estimate case misses")
     diag.add_argument("deck", help="namelist deck (.nml)")
     diag.add_argument("--plots", metavar="DIR", help="residuals before and after, per case")
@@ -40,6 +44,12 @@ def _outputs_writable(args):
     from .files import check_writable
     if getattr(args, "json", None):
         check_writable(args.json, "--json")
+    if getattr(args, "table", None):
+        from .table import WRITERS
+        if Path(args.table).suffix.lower().lstrip(".") not in WRITERS:
+            raise InputError(f"--table {args.table}: the suffix must be one of "
+                             f"{', '.join('.' + s for s in WRITERS)}")
+        check_writable(args.table, "--table")
     if args.plots:
         try:
             Path(args.plots).mkdir(parents=True, exist_ok=True)
@@ -72,10 +82,11 @@ def _run(args):
     from .deck import case_json, iter_deck, json_list
     from .files import atomic_write_text
     from .plots import plot_fit
+    from .table import ResultsTable, results_table
 
     _outputs_writable(args)
     warnings.simplefilter("ignore")       # the core's warnings are printed with each case
-    failed, objects = 0, []
+    failed, objects, tables = 0, [], []
     for case, out, result, error in iter_deck(args.deck):
         print(f"\n case {case.index}: {case.title}")
         if out is not None and case.job == "simulate":
@@ -85,6 +96,11 @@ def _run(args):
             if result.message.startswith("warning:"):
                 print(f"mlid: {case.where()}: {result.message}", file=sys.stderr)
         objects.append(case_json(case, out, result, error))
+        if args.table and result is not None:
+            table, table_error = _attempt("table", results_table, result, case.index)
+            if table is not None:
+                tables.append(table)
+            error = error or table_error
         if error is None and (out or {}).get("status", 0) != 0:
             error = out["message"]
         if args.plots and result is not None:
@@ -100,6 +116,12 @@ def _run(args):
     if args.json:
         _, error = _attempt(f"--json {args.json}", atomic_write_text, args.json,
                             json_list(objects))
+        if error:
+            print(f"mlid: {error}", file=sys.stderr)
+            return 1
+    if args.table:
+        _, error = _attempt(f"--table {args.table}", ResultsTable.concat(tables).write,
+                            args.table)
         if error:
             print(f"mlid: {error}", file=sys.stderr)
             return 1

@@ -217,7 +217,7 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     nf = int(mask.sum())
     start = time.perf_counter()
     (theta_start, theta, sigma, cov, info, grad, eigval, eigvec, rhat, yhat, cost_hist, cost,
-     niter, reason, converged, rank, bad, status, msg) = _api.mlid_fit(
+     niter, reason, converged, rank, bad, sigma_c, cov_c, lag, status, msg) = _api.mlid_fit(
         **_model_args(model), theta0=theta0, isfree=mask, itie=params.tie, t=t, u=u, y=y,
         segstart=starts, iopt=iopt, ropt=ropt, nf=nf, nc=opts["max_iter"] + 1,
         **_extras(params, prior, prior_weight, bounds))
@@ -236,6 +236,7 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         evaluate_args=(data, initial_states, biases),
         names=free_names, start=theta_start[mask == 1], estimate=theta[mask == 1],
         sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
+        sigma_corrected=sigma_c[mask == 1], covariance_corrected=cov_c, colored_lag=int(lag),
         eigenvalues=eigval, eigenvectors=eigvec, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
         cost_history=cost_hist[:niter + 1].copy(), iterations=int(niter),
         converged=bool(converged), reason=stop_reason(reason), reason_code=int(reason),
@@ -251,19 +252,85 @@ def evaluate(model, data, initial_states=None, biases=None, **options):
     """Cost, gradient, information matrix, R-hat, outputs and output
     sensitivity norms (ny, nf: how many residual sigmas each free parameter
     moves each output over the record) at the model's current parameters (no
-    iteration); data, initial_states, biases and options as for fit()."""
+    iteration); data, initial_states, biases and options as for fit().
+    Also "weighted_sensitivity" (ny, nt, nf): W(j) d yhat/d theta at each
+    sample (W the inverse of R-hat, or of the innovation covariance; the
+    sign of the innovation sensitivities for filter error), and
+    "information_sensitivity" (nf, nf): the part of the information they
+    make, the inputs of the coloured-residual correction (``colored_covariance``)."""
     _check_model(model)
     _check_data(data)
     iopt, ropt, _ = _flat_options(model, options)
     params, record, starts = _manoeuvres(model, data, initial_states, biases)
     t, u, y = _record(model, record)
     mask = params.mask
-    cost, grad, info, rhat, yhat, sens, status, msg = _api.mlid_evaluate(
+    cost, grad, info, rhat, yhat, sens, wsens, msens, status, msg = _api.mlid_evaluate(
         **_model_args(model), theta=params.theta, isfree=mask, itie=params.tie, t=t, u=u,
         y=y, segstart=starts, iopt=iopt, ropt=ropt, nf=int(mask.sum()))
     check_status(status, msg)
     return {"cost": float(cost), "gradient": grad, "information": info, "rhat": rhat,
-            "yhat": yhat.T.copy(), "sensitivity": sens}
+            "yhat": yhat.T.copy(), "sensitivity": sens, "weighted_sensitivity": wsens,
+            "information_sensitivity": msens}
+
+
+@guarded
+def colored_covariance(weighted_sensitivity, residuals, covariance, information,
+                       information_sensitivity, segment_starts=None, lag=None, rvv=None):
+    """The Cramer-Rao covariance corrected for coloured residuals (the core's
+    mlid_colored): cov [M - Ms + sum_i sum_j a(i)' w(|i-j|) Rvv(i-j) a(j)] cov.
+
+    Parameters
+    ----------
+    weighted_sensitivity : array (ny, nt, nf)
+        a(i), as ``evaluate`` returns it.
+    residuals : array (nt, ny)
+        Residuals (innovations) v(i).
+    covariance, information, information_sensitivity : arrays (nf, nf)
+        M^-1, M and Ms.
+    segment_starts : sequence of int, optional
+        First sample (1-based) of each manoeuvre; default one manoeuvre.
+    lag : int, optional
+        Largest lag; default chosen from the residuals by the core.
+    rvv : array (nlag + 1, ny, ny), optional
+        The residual autocovariance Rvv(0..nlag) to use instead of the
+        residuals' (residuals and lag are then ignored).
+
+    Returns
+    -------
+    (cov_c, lag): the corrected covariance (nf, nf) and the lag used.
+
+    Raises
+    ------
+    InputError
+        Sizes that do not agree, or bad segment starts.
+    """
+    a = np.asfortranarray(weighted_sensitivity, dtype=float)
+    if a.ndim != 3:
+        raise InputError("weighted_sensitivity must be (ny, nt, nf)")
+    ny, nt, nf = a.shape
+    seg = np.asarray([1] if segment_starts is None else segment_starts, dtype=np.int32)
+    mats = [np.asfortranarray(m, dtype=float) for m in (covariance, information,
+                                                         information_sensitivity)]
+    if any(m.shape != (nf, nf) for m in mats):
+        raise InputError(f"covariance, information and information_sensitivity must be "
+                         f"{nf} x {nf}")
+    if rvv is not None:
+        r = np.asarray(rvv, dtype=float)
+        if r.ndim != 3 or r.shape[1:] != (ny, ny):
+            raise InputError(f"rvv must be (nlag + 1, {ny}, {ny})")
+        cov_c, status, msg = _api.mlid_colored_cov_rvv(
+            segstart=seg, a=a, nlag=len(r) - 1, rvv=np.asfortranarray(r.transpose(1, 2, 0)),
+            cov=mats[0], info=mats[1], msens=mats[2])
+        check_status(status, msg)
+        return cov_c, len(r) - 1
+    v = np.asarray(residuals, dtype=float)
+    if v.shape != (nt, ny):
+        raise InputError(f"residuals must be ({nt}, {ny}) like the sensitivities")
+    cov_c, used, status, msg = _api.mlid_colored_cov(
+        segstart=seg, a=a, v=np.asfortranarray(v.T), cov=mats[0], info=mats[1], msens=mats[2],
+        lag_in=-1 if lag is None else int(lag))
+    check_status(status, msg)
+    return cov_c, int(used)
 
 
 TIMINGS = ("forward", "backward")

@@ -27,7 +27,10 @@ def whiteness(residuals, lags=20):
 
 class FitResult:
     """Estimates, Cramer-Rao standard deviations, correlations, noise
-    covariance, residuals, cost history and how the iteration ended."""
+    covariance, residuals, cost history and how the iteration ended.
+    ``sigma_corrected`` and ``covariance_corrected``: the Cramer-Rao ones
+    corrected for coloured residuals (the core's mlid_colored, residual
+    autocorrelation up to lag ``colored_lag``)."""
 
     def __init__(self, **fields):
         self.__dict__.update(fields)
@@ -60,6 +63,8 @@ class FitResult:
             "start": self.start.tolist(),
             "estimate": self.estimate.tolist(),
             "sigma": self.sigma.tolist(),
+            "sigma_corrected": self.sigma_corrected.tolist(),
+            "colored_lag": self.colored_lag,
             "correlation": self.correlation.tolist(),
             "R": self.rhat.tolist(),
             "det_R": self.det_r,
@@ -79,7 +84,8 @@ class FitResult:
         from .core import _api
         rep, nrep, js, njs = _api.mlid_report_fit(
             labels="\n".join(self.names) + "\n", iopt=self.flat_options, start=self.start,
-            est=self.estimate, sig=self.sigma, cov=self.covariance, eigval=self.eigenvalues,
+            est=self.estimate, sig=self.sigma, sigc=self.sigma_corrected, lag=self.colored_lag,
+            cov=self.covariance, eigval=self.eigenvalues,
             eigvec=self.eigenvectors, rhat=self.rhat, hist=self.cost_history, cost=self.cost,
             niter=self.iterations, reason=self.reason_code, converged=int(self.converged),
             nrank=self.rank, title=title, job=job, status=self.status, msg=self.message)
@@ -123,6 +129,12 @@ class FitResult:
         for k, name in enumerate(self.names):
             lines.append(f" {name[:16]:<16}" + "".join(f"{v:11.3E}" for v in s[:, k]))
         return lines
+
+    def table(self):
+        """The results table (mlid.table.ResultsTable): name, unit, estimate,
+        Cramer-Rao and corrected sigma, relative sigma, flag."""
+        from .table import results_table
+        return results_table(self)
 
     def __repr__(self):
         return f"FitResult(cost={self.cost:.6g}, iterations={self.iterations}, " \
