@@ -644,7 +644,7 @@ def bode(result, hz=True, samples=BAND_SAMPLES, seed=BAND_SEED, path=None):
     b = bode_data(result, hz, samples, seed)
     recs = _Records.of_result(result)
     ny, nu = b["mag"].shape[1:]
-    fig, axes = _figure(2 * ny, nu, 4.8 * nu + 0.6, 1.35, sharex=True)
+    fig, axes = _figure(2 * ny, nu, max(6.8, 4.8 * nu + 0.6), 1.35, sharex=True)
     for j in range(nu):
         for i in range(ny):
             am, ap = axes[2 * i, j], axes[2 * i + 1, j]
