@@ -29,6 +29,8 @@ def _parser():
                      help="write the results table of every fitted case into one FILE, a "
                      "'case' column numbering the deck's cases; format from the suffix: "
                      ".csv, .tex (LaTeX booktabs) or .json")
+    run.add_argument("--report", metavar="DIR", help="write one self-contained HTML page of "
+                     "the deck, DIR/<deck name>.html, with every case's tables and figures")
     diag = sub.add_parser("diagnose", help="find what the model of each estimate case misses")
     diag.add_argument("deck", help="namelist deck (.nml)")
     diag.add_argument("--plots", metavar="DIR", help="residuals before and after, per case")
@@ -37,7 +39,7 @@ def _parser():
 
 
 def _outputs_writable(args):
-    """--json and --plots destinations tried before any case runs."""
+    """--json, --plots and --report destinations tried before any case runs."""
     from pathlib import Path
 
     from .errors import InputError
@@ -50,13 +52,16 @@ def _outputs_writable(args):
             raise InputError(f"--table {args.table}: the suffix must be one of "
                              f"{', '.join('.' + s for s in WRITERS)}")
         check_writable(args.table, "--table")
-    if args.plots:
+    for option in ("plots", "report"):
+        folder = getattr(args, option, None)
+        if not folder:
+            continue
         try:
-            Path(args.plots).mkdir(parents=True, exist_ok=True)
+            Path(folder).mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise InputError(f"cannot make --plots folder {args.plots}: {exc.strerror}") \
+            raise InputError(f"cannot make --{option} folder {folder}: {exc.strerror}") \
                 from None
-        check_writable(Path(args.plots) / "plot.png", "--plots into")
+        check_writable(Path(folder) / "plot.png", f"--{option} into")
 
 
 def _attempt(what, fn, *args):
@@ -81,13 +86,17 @@ def _run(args):
 
     from .deck import case_json, iter_deck, json_list
     from .files import atomic_write_text
-    from .plots import plot_fit
+    from .plots import plot_fit, use_file_backend
     from .table import ResultsTable, results_table
 
     _outputs_writable(args)
+    if args.plots or args.report:
+        use_file_backend()
     warnings.simplefilter("ignore")       # the core's warnings are printed with each case
-    failed, objects, tables = 0, [], []
+    failed, objects, tables, ran = 0, [], [], []
     for case, out, result, error in iter_deck(args.deck):
+        if args.report:
+            ran.append((case, out, result, error))
         print(f"\n case {case.index}: {case.title}")
         if out is not None and case.job == "simulate":
             print(f" simulated {out['samples']} samples to {out['out']}")
@@ -125,6 +134,14 @@ def _run(args):
         if error:
             print(f"mlid: {error}", file=sys.stderr)
             return 1
+    if args.report:
+        from .html_report import write_report
+        path, error = _attempt(f"--report {args.report}", write_report, args.report, args.deck,
+                               ran)
+        if error:
+            print(f"mlid: {error}", file=sys.stderr)
+            return 1
+        print(f" report: {path}")
     return 1 if failed else 0
 
 
