@@ -52,7 +52,7 @@ sysdeps:
 $(VPY):
 	$(PYTHON) -m venv $(VENV)
 	$(VPY) -m pip install -q --upgrade pip
-	$(VPY) -m pip install -q meson meson-python ninja numpy matplotlib pytest dask distributed hypothesis
+	$(VPY) -m pip install -q meson meson-python ninja numpy matplotlib pytest dask distributed hypothesis tqdm
 
 # Build with meson-python into ./build (kept, so meson test can run there).
 $(STAMP): $(VPY) $(SOURCES)
