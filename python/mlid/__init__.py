@@ -15,7 +15,20 @@ from .design import InputDesign, DesignedInput
 from .parallel import monte_carlo_parallel
 from .diagnose import diagnose
 
-__version__ = "0.1.0"
+
+
+def _version():
+    """The installed package's version (its metadata), else the one meson wrote
+    at build time from meson.build."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("mlid")
+    except PackageNotFoundError:
+        from ._version import VERSION
+        return VERSION
+
+
+__version__ = _version()
 
 __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
            "NonConvergenceError", "InternalError", "LinearModel", "LongitudinalModel", "UserModel",

@@ -20,8 +20,15 @@ def _parser():
         prog="mlid", description="Maximum-likelihood identification of aircraft stability and "
         "control derivatives (NASA CR-2200 and beyond).", epilog=JOBS,
         formatter_class=argparse.RawDescriptionHelpFormatter)
+    from . import __version__
+    p.add_argument("--version", action="version", version=f"mlid {__version__}")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress bars (they show only when stderr is a terminal)")
+    quiet = argparse.ArgumentParser(add_help=False)     # also after the job's name
+    quiet.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
+                       help="no progress bars")
     sub = p.add_subparsers(dest="job", metavar="JOB")
-    run = sub.add_parser("run", help="run every case of a deck")
+    run = sub.add_parser("run", help="run every case of a deck", parents=[quiet])
     run.add_argument("deck", help="namelist deck (.nml)")
     run.add_argument("--plots", metavar="DIR", help="write PNG plots of each fit into DIR")
     run.add_argument("--json", metavar="FILE", help="write every case's results as JSON")
@@ -31,7 +38,8 @@ def _parser():
                      ".csv, .tex (LaTeX booktabs) or .json")
     run.add_argument("--report", metavar="DIR", help="write one self-contained HTML page of "
                      "the deck, DIR/<deck name>.html, with every case's tables and figures")
-    diag = sub.add_parser("diagnose", help="find what the model of each estimate case misses")
+    diag = sub.add_parser("diagnose", help="find what the model of each estimate case misses",
+                          parents=[quiet])
     diag.add_argument("deck", help="namelist deck (.nml)")
     diag.add_argument("--plots", metavar="DIR", help="residuals before and after, per case")
     diag.add_argument("--alpha", type=float, default=0.05, help="significance (default 0.05)")
@@ -84,9 +92,10 @@ def _failed(case, error):
 def _run(args):
     import warnings
 
-    from .deck import case_json, iter_deck, json_list
+    from .deck import case_json, iter_deck, json_list, read_deck
     from .files import atomic_write_text
     from .plots import plot_fit, use_file_backend
+    from .progress import bar
     from .table import ResultsTable, results_table
 
     _outputs_writable(args)
@@ -94,9 +103,13 @@ def _run(args):
         use_file_backend()
     warnings.simplefilter("ignore")       # the core's warnings are printed with each case
     failed, objects, tables, ran = 0, [], [], []
+    ncase = len(read_deck(args.deck))
+    cases = bar(None if ncase > 1 else False, ncase, "mlid run", "case")
     for case, out, result, error in iter_deck(args.deck):
+        cases.update()
         if args.report:
             ran.append((case, out, result, error))
+        cases.clear()                     # the case's lines go above the bar
         print(f"\n case {case.index}: {case.title}")
         if out is not None and case.job == "simulate":
             print(f" simulated {out['samples']} samples to {out['out']}")
@@ -120,6 +133,9 @@ def _run(args):
         if error:
             failed += 1
             _failed(case, error)
+        sys.stdout.flush()
+        cases.refresh()
+    cases.close()
     if failed:
         print(f"{failed} of {len(objects)} cases failed", file=sys.stderr)
     if args.json:
@@ -180,7 +196,16 @@ def _diagnose(args):
 
 
 def main(argv=None):
+    from . import progress
     args = _parser().parse_args(argv)
+    was, progress.default = progress.default, (False if args.quiet else progress.default)
+    try:
+        return _main(args)
+    finally:
+        progress.default = was
+
+
+def _main(args):
     if args.job is None:
         _parser().print_help()
         return 2

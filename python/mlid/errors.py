@@ -41,6 +41,11 @@ class MlidWarning(UserWarning):
     """Something in the input looks wrong but the computation went on (units)."""
 
 
+class ConvergenceWarning(MlidWarning):
+    """Some runs of a batch (Monte Carlo) did not converge or failed; the
+    others' results stand."""
+
+
 class InternalError(MlidError):
     """A numerical library call failed unexpectedly."""
 
@@ -60,6 +65,16 @@ def status_of(error):
         if type(error) is cls:
             return status
     return 1
+
+
+#: A core status code in a few words (a Monte Carlo run's status, say).
+STATUS_TEXT = {0: "succeeded", 1: "bad input", 2: "singular information", 3: "diverged",
+               4: "not converged", 5: "internal error"}
+
+
+def status_text(status):
+    """A core status code in a few words (STATUS_TEXT)."""
+    return STATUS_TEXT.get(int(status), f"status {int(status)}")
 
 
 def check_status(status, msg, context=""):

@@ -1,61 +1,101 @@
-"""Monte Carlo identifications spread over processes or a Dask cluster.
+"""Monte Carlo identifications spread over threads or a Dask cluster.
 
 Run k of a Monte Carlo always uses seed + k - 1, so the results do not
-depend on how the runs are split: chunks of runs go to worker processes
-(spawned, not forked: the core's OpenMP runtime does not survive a fork) or,
-given a scheduler address, to a Dask cluster.
+depend on how the runs are split: chunks of runs go to worker threads (the
+core's wrappers release the GIL, and a fit touches no module variable of the
+core, so threads run fits side by side; no process is started, so a plain
+script needs no ``if __name__ == "__main__":`` guard) or, given a scheduler
+address, to a Dask cluster.
 """
 
+import ctypes
 import os
-from concurrent.futures import ProcessPoolExecutor
-from multiprocessing import get_context
+from concurrent.futures import ThreadPoolExecutor, as_completed
 
 import numpy as np
 
 from . import core
 from .checks import whole
 from .errors import InputError, guarded
+from .progress import bar as progress_bar
 
 
-def _chunk(args):
-    from .core import monte_carlo
-    truth, start, t, u, runs, seed, options = args
-    return monte_carlo(truth, start, t, u, runs=runs, seed=seed, **options)
+def _omp_threads(n):
+    """Each fit in this thread opens OpenMP teams of n threads (the OpenMP
+    thread count is a per-thread setting): workers x n threads stay within
+    the cores.  Results do not depend on it.  Nothing if the core was built
+    without OpenMP's runtime library."""
+    try:
+        ctypes.CDLL("libgomp.so.1").omp_set_num_threads(ctypes.c_int(n))
+    except (OSError, AttributeError):
+        pass
 
 
 @guarded
 def monte_carlo_parallel(truth, start, t, u, runs=100, seed=1, workers=None, scheduler=None,
-                         chunk=None, **options):
-    """As mlid.monte_carlo, with the runs in chunks over workers processes
-    (default: the machine's cores) or over the Dask cluster at scheduler
-    (an address such as 'tcp://127.0.0.1:8786', or a distributed.Client)."""
-    core._check_model(truth, "truth")
-    core._check_model(start, "start")
-    runs = whole("runs", runs, 1, 10**7)
-    seed = whole("seed", seed, 0, 2**31 - runs)
-    t, u = core._time_and_inputs(start, t, u)
+                         chunk=None, noise_std=None, progress=None, **options):
+    """As ``mlid.monte_carlo``, with the runs in chunks over threads or a
+    Dask cluster; the same numbers whichever way they are split.
+
+    Parameters
+    ----------
+    truth, start, t, u, noise_std, runs, seed, **options
+        As for ``mlid.monte_carlo``.
+    workers : int, optional
+        Threads running chunks side by side (default: the machine's cores).
+    scheduler : str or distributed.Client, optional
+        A Dask scheduler address such as 'tcp://127.0.0.1:8786', or a
+        client: the chunks run on that cluster instead.
+    chunk : int, optional
+        Runs per chunk (default: about four chunks per worker).
+    progress : None, bool or stream
+        A bar over the runs as chunks end (None: when stderr is a terminal).
+
+    Returns
+    -------
+    dict
+        As ``mlid.monte_carlo``.
+
+    Raises
+    ------
+    InputError
+        Bad models, sizes, options, workers or scheduler.
+
+    Warns
+    -----
+    ConvergenceWarning
+        When runs fail: how many of how many, and what ``summary`` leaves out.
+    """
+    call, runs, seed, names, truth_free = core._mc_setup(truth, start, t, u, noise_std, runs,
+                                                         seed, options)
     if scheduler is not None and not isinstance(scheduler, str) and \
             not hasattr(scheduler, "gather"):
         raise InputError("scheduler must be an address such as 'tcp://127.0.0.1:8786' or a "
                          f"distributed.Client, got {type(scheduler).__name__}")
     workers = (os.cpu_count() or 1) if workers is None else whole("workers", workers, 1, 4096)
-    chunk = chunk or max(1, int(np.ceil(runs / (4 * workers))))
-    jobs = [(truth, start, t, u, min(chunk, runs - k), seed + k, options)
-            for k in range(0, runs, chunk)]
-    if scheduler is not None:
-        from distributed import Client
-        client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
-        try:
-            parts = client.gather(client.map(_chunk, jobs, pure=False))
-        finally:
-            if client is not scheduler:
-                client.close()
-    elif workers == 1:
-        parts = [_chunk(j) for j in jobs]
-    else:
-        with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
-            parts = list(pool.map(_chunk, jobs))
-    out = dict(parts[0])
-    for key in ("estimates", "sigma", "information", "iterations", "status"):
-        out[key] = np.concatenate([p[key] for p in parts])
-    return out
+    chunk = whole("chunk", chunk or max(1, int(np.ceil(runs / (4 * workers)))), 1, 10**7)
+    jobs = core._mc_chunks(runs, seed, chunk)
+    parts = [None] * len(jobs)
+    with progress_bar(progress, runs, "Monte Carlo", "run") as b:
+        if scheduler is not None:
+            from distributed import Client, as_completed as dask_completed
+            client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
+            try:
+                futures = [client.submit(core._mc_runs, call, s, n, pure=False) for s, n in jobs]
+                index = {f.key: k for k, f in enumerate(futures)}
+                for f in dask_completed(futures):
+                    parts[index[f.key]] = f.result()
+                    b.update(jobs[index[f.key]][1])
+            finally:
+                if client is not scheduler:
+                    client.close()
+        else:
+            n = min(workers, len(jobs))
+            omp = max(1, (os.cpu_count() or 1) // n)
+            with ThreadPoolExecutor(n, initializer=_omp_threads, initargs=(omp,)) as pool:
+                futures = {pool.submit(core._mc_runs, call, s, n): k
+                           for k, (s, n) in enumerate(jobs)}
+                for f in as_completed(futures):
+                    parts[futures[f]] = f.result()
+                    b.update(jobs[futures[f]][1])
+    return core._mc_result(parts, names, truth_free)

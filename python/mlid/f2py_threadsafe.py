@@ -1,0 +1,48 @@
+"""Build step (not installed): a copy of fortran/mlid_api.f90 for f2py to
+read, with '!f2py threadsafe' in the numerical routines named below, so their
+wrappers release the GIL while the core runs (Python threads then run fits
+side by side: mlid.monte_carlo_parallel).
+
+Only routines that touch no module variable of the core may be listed: the
+deck and record readers keep what they read in module variables (mlid_deck's
+`opened`, mlid_record's `kept`) and stay under the GIL.  The core is built
+with OpenMP, so gfortran compiles it -frecursive: locals live on each
+thread's stack.
+
+    python f2py_threadsafe.py IN.f90 OUT.f90
+"""
+
+import re
+import sys
+
+THREADSAFE = ("mlid_fit", "mlid_evaluate", "mlid_simulate", "mlid_monte_carlo")
+
+
+def mark(text):
+    """text with the directive after the header (and its continuation lines)
+    of each routine in THREADSAFE; every one must be found."""
+    lines = text.split("\n")
+    out, found, i = [], set(), 0
+    head = re.compile(r"\s*subroutine\s+(\w+)\s*\(", re.I)
+    while i < len(lines):
+        m = head.match(lines[i])
+        out.append(lines[i])
+        if m and m.group(1).lower() in THREADSAFE:
+            while lines[i].split("!")[0].rstrip().endswith("&"):
+                i += 1
+                out.append(lines[i])
+            out.append("!f2py threadsafe")
+            found.add(m.group(1).lower())
+        i += 1
+    missing = set(THREADSAFE) - found
+    if missing:
+        raise SystemExit(f"f2py_threadsafe: no subroutine {sorted(missing)} in the input")
+    return "\n".join(out)
+
+
+if __name__ == "__main__":
+    src, dst = sys.argv[1:3]
+    with open(src, encoding="utf-8") as f:
+        text = mark(f.read())
+    with open(dst, "w", encoding="utf-8") as f:
+        f.write(text)
