@@ -36,6 +36,7 @@ module mlid_api
                            channels_table, taken, UNITLEN
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record, REGRESSOR_NAMES, CONSTANT_NAMES
+  use mlid_param_units, only: param_units
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
   use mlid_jacobian_check, only: check_jacobians
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, &
@@ -49,7 +50,7 @@ module mlid_api
             mlid_deck_case_data, mlid_deck_case_time_input, mlid_report_fit, mlid_case_json, &
             mlid_layout_size, mlid_layout, mlid_name_list, mlid_manoeuvre_map, &
             mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
-            mlid_channels_table, mlid_channels_get, mlid_check_time, &
+            mlid_channels_table, mlid_channels_get, mlid_check_time, mlid_parameter_units, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
@@ -355,11 +356,11 @@ contains
   !> prints and writes); labels one per line; the text ends where its
   !> length says.
   !> sigc: sigma corrected for coloured residuals, lag: its lag.
-  subroutine mlid_report_fit(nf, ny, nh, labels, iopt, start, est, sig, sigc, lag, cov, eigval, &
+  subroutine mlid_report_fit(nf, ny, nh, labels, units, iopt, start, est, sig, sigc, lag, cov, eigval, &
                              eigvec, rhat, hist, cost, niter, reason, converged, nrank, title, job, &
                              status, msg, report, nreport, json, njson)
     integer(c_int), intent(in) :: nf, ny, nh, iopt(12), niter, reason, converged, nrank, status, lag
-    character(len=*), intent(in) :: labels, title, job, msg
+    character(len=*), intent(in) :: labels, units, title, job, msg
     real(c_double), intent(in) :: start(nf), est(nf), sig(nf), sigc(nf), cov(nf, nf), eigval(nf), &
                                   eigvec(nf, nf), rhat(ny, ny), hist(nh), cost
     character(len=262144), intent(out) :: report, json
@@ -368,7 +369,8 @@ contains
     character(len=:), allocatable :: text
 
     s = fit_summary_t(split_lines(labels, nf, NAMELEN), start, est, sig, sigc, cov, eigval, eigvec, &
-                      rhat, hist, cost, niter, reason, nrank, lag, converged == 1)
+                      rhat, hist, cost, niter, reason, nrank, lag, converged == 1, &
+                      split_lines(units, nf, UNITLEN))
     text = fit_report(s, iopt)
     nreport = min(len(text), len(report))
     report = text
@@ -481,6 +483,27 @@ contains
     map(1:n) = m
     seg(1:n) = s
   end subroutine mlid_manoeuvre_map
+
+  !> The unit of every entry of a model's theta (mlid_param_units), one per
+  !> line, from its record's channel units (one per line, core units).
+  subroutine mlid_parameter_units(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, nth, theta, &
+                              input_units, output_units, units, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic), nth
+    real(c_double), intent(in) :: rconst(nrc), theta(nth)
+    character(len=*), intent(in) :: input_units, output_units
+    character(len=65536), intent(out) :: units
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(layout_table_t) :: lt
+    character(len=UNITLEN), allocatable :: each(:)
+    units = ''
+    allocate (each(nth))
+    call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
+    if (status /= MLID_OK) return
+    call param_units(lt, theta, split_lines(input_units, nu, UNITLEN), &
+                     split_lines(output_units, ny, UNITLEN), each)
+    units = join_lines(each)
+  end subroutine mlid_parameter_units
 
   !> Time increasing and without gaps (a step over 1.5 times the median),
   !> each manoeuvre of a joined record on its own (segstart: first samples).

@@ -29,13 +29,14 @@ module mlid_deck
   use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
-  use mlid_channels, only: channel_set_t, channels_read, channels_spec
+  use mlid_channels, only: channel_set_t, channels_read, channels_spec, UNITLEN
+  use mlid_param_units, only: param_units
   use mlid_layout, only: layout_table_t, layout_table, layout_of, element_index, default_label, &
                          block_list, manoeuvre_map
   implicit none
   private
   public :: case_t, deck_read, deck_open, case_record, case_time_input, manoeuvre_layout, &
-            NAMELEN, PATHLEN
+            case_param_units, NAMELEN, PATHLEN, UNITLEN
 
   !> The cases of the deck last opened by deck_open, for the flat interface.
   type(case_t), allocatable, protected, public :: opened(:)
@@ -888,12 +889,13 @@ contains
   !> several manoeuvres, one after the other, each keeping its sampling with
   !> its times moved to follow the one before; segstart(k) is the first
   !> sample of manoeuvre k.
-  subroutine case_record(c, t, u, y, status, msg, segstart)
+  subroutine case_record(c, t, u, y, status, msg, segstart, units)
     type(case_t), intent(in) :: c
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer, allocatable, intent(out), optional :: segstart(:)
+    character(len=UNITLEN), allocatable, intent(out), optional :: units(:)  !< inputs, outputs
     real(wp), allocatable :: tk(:), uk(:, :), yk(:, :)
     integer :: k, nseg
     integer :: starts(MAXSEG)
@@ -901,7 +903,7 @@ contains
     nseg = size(c%data_files)
     allocate (t(0), u(c%nu, 0), y(c%ny, 0))
     do k = 1, nseg
-      call read_record(c, k, tk, uk, yk, status, msg)
+      call read_record(c, k, tk, uk, yk, status, msg, units)
       if (status /= MLID_OK) return
       if (size(tk) < 2 .and. nseg > 1) then
         status = MLID_ERR_INPUT
@@ -920,15 +922,19 @@ contains
 
   !> Data file k: the case's channels of it in its window, by the one
   !> record reader.
-  subroutine read_record(c, k, t, u, y, status, msg)
+  subroutine read_record(c, k, t, u, y, status, msg, units)
     type(case_t), intent(in) :: c
     integer, intent(in) :: k
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    character(len=UNITLEN), allocatable, intent(inout), optional :: units(:)
     type(channel_set_t) :: set
     call channels_read(c%data_files(k), c%chan, c%win_start(k), c%win_end(k), set, status, msg)
     if (status /= MLID_OK) return
+    if (present(units)) then           ! the first file's; every file declares the same
+      if (.not. allocated(units)) units = set%units
+    end if
     call move_alloc(set%t, t)
     call move_alloc(set%u, u)
     call move_alloc(set%y, y)
@@ -1022,6 +1028,27 @@ contains
     end subroutine grow_weight
 
   end subroutine manoeuvre_layout
+
+  !> The units of the case's free parameters on nseg manoeuvres, from its
+  !> channels' units (inputs, then outputs); called before manoeuvre_layout.
+  subroutine case_param_units(c, nseg, channel_units, units, status, msg)
+    type(case_t), intent(in) :: c
+    integer, intent(in) :: nseg
+    character(len=*), intent(in) :: channel_units(:)
+    character(len=UNITLEN), allocatable, intent(out) :: units(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(layout_table_t) :: lt
+    character(len=UNITLEN), allocatable :: each(:)
+    integer, allocatable :: map(:), seg(:)
+
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, status, msg)
+    if (status /= MLID_OK) return
+    allocate (each(size(c%theta)))
+    call param_units(lt, c%theta, channel_units(1:c%nu), channel_units(c%nu + 1:c%nu + c%ny), each)
+    call manoeuvre_map(lt, max(nseg, 1), map, seg)
+    units = pack(each(map), c%isfree(map) == 1)
+  end subroutine case_param_units
 
   !> Time base t = 0, dt, ..., and inputs of a simulate case.
   subroutine case_time_input(c, t, u, status, msg)

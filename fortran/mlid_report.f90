@@ -7,6 +7,7 @@ module mlid_report
   use mlid_kinds, only: wp, stop_reason_text
   use mlid_linalg, only: chol_inverse
   use mlid_options, only: NOPT, option_get
+  use mlid_record, only: UNITLEN
   implicit none
   private
   public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string
@@ -22,6 +23,7 @@ module mlid_report
     integer :: niter = 0, reason = 0, rank = 0
     integer :: lag = 0           !< lag of the coloured-residual correction (sigc)
     logical :: converged = .false.
+    character(len=UNITLEN), allocatable :: units(:)  !< of each parameter (mlid_param_units)
   end type fit_summary_t
 
 contains
@@ -47,12 +49,12 @@ contains
         size(s%labels), ' (sigma from the same rank)'
       text = text//trim(buf)//NL
     end if
-    write (buf, '(1x,a16,a15,a15,a13,a13)') 'parameter       ', 'start', 'estimate', 'sigma', &
-      'sigma col.'
+    write (buf, '(1x,a16,1x,a10,a15,a15,a13,a13)') 'parameter       ', 'unit      ', 'start', &
+      'estimate', 'sigma', 'sigma col.'
     text = text//trim(buf)//NL
     do k = 1, size(s%labels)
-      write (buf, '(1x,a16,2es15.6e2,2es13.4e2)') s%labels(k), s%start(k), s%est(k), s%sig(k), &
-        s%sigc(k)
+      write (buf, '(1x,a16,1x,a10,2es15.6e2,2es13.4e2)') s%labels(k), unit_of(s, k), s%start(k), &
+        s%est(k), s%sig(k), s%sigc(k)
       text = text//trim(buf)//NL
     end do
     write (buf, '(a,i0,a)') ' sigma col.: Cramer-Rao sigma corrected for coloured residuals ' // &
@@ -154,6 +156,15 @@ contains
     if (info == 0) det_r = exp(logdet)
   end function det_r
 
+  !> The unit of free parameter k, '' if the fit has none.
+  function unit_of(s, k) result(unit)
+    type(fit_summary_t), intent(in) :: s
+    integer, intent(in) :: k
+    character(len=UNITLEN) :: unit
+    unit = ''
+    if (allocated(s%units)) unit = s%units(k)
+  end function unit_of
+
   !> The JSON object of a fitted case.
   function fit_json(title, job, status, msg, s) result(text)
     character(len=*), intent(in) :: title, job, msg
@@ -167,6 +178,11 @@ contains
     text = text(1:len(text) - 1)//','//NL//'"parameters": ['
     do k = 1, size(s%labels)
       text = text//json_string(s%labels(k))
+      if (k < size(s%labels)) text = text//', '
+    end do
+    text = text//'],'//NL//'"units": ['
+    do k = 1, size(s%labels)
+      text = text//json_string(trim(unit_of(s, k)))
       if (k < size(s%labels)) text = text//', '
     end do
     text = text//'],'//NL//'"start": '//numbers(s%start)//','//NL// &

@@ -6,7 +6,8 @@
 program mlid_batch
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_NOCONV, MLID_ERR_SINGULAR
   use mlid_case, only: case_t
-  use mlid_deck, only: deck_read, case_record, case_time_input, manoeuvre_layout
+  use mlid_deck, only: deck_read, case_record, case_time_input, manoeuvre_layout, &
+                       case_param_units, UNITLEN
   use mlid_api, only: mlid_fit, mlid_simulate
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, json_list
   implicit none
@@ -151,8 +152,10 @@ contains
     type(fit_summary_t) :: s
     integer :: bad, nf, nth, converged
     logical, allocatable :: free(:)
+    character(len=UNITLEN), allocatable :: units(:)
 
-    call case_record(c, t, u, y, cstat, cmsg, segstart)
+    call case_record(c, t, u, y, cstat, cmsg, segstart, units)
+    if (cstat == MLID_OK) call case_param_units(c, size(segstart), units, s%units, cstat, cmsg)
     ! several data files: several manoeuvres, each its own x0 and biases
     if (cstat == MLID_OK) call manoeuvre_layout(c, size(segstart), cstat, cmsg)
     if (cstat /= MLID_OK) return

@@ -235,7 +235,8 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         model=params.model_of(theta), start_model=model, data=record, options=opts,
         manoeuvres=[params.model_of(theta, k) for k in range(params.n)],
         evaluate_args=(data, initial_states, biases),
-        names=free_names, start=theta_start[mask == 1], estimate=theta[mask == 1],
+        names=free_names, param_units=_free_units(model, record, params),
+        start=theta_start[mask == 1], estimate=theta[mask == 1],
         sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
         sigma_corrected=sigma_c[mask == 1], covariance_corrected=cov_c, colored_lag=int(lag),
         eigenvalues=eigval, eigenvectors=eigvec, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
@@ -246,6 +247,12 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     if status == 2:
         raise SingularInformationError(text, result)
     return result
+
+
+def _free_units(model, record, params):
+    """The unit of each free parameter of a fit (mlid_param_units)."""
+    units = model.param_units(record.input_units, record.output_units)
+    return [units[i] for i, f in zip(params.map, params.mask) if f]
 
 
 @guarded

@@ -115,5 +115,7 @@ def join(records):
         t_end = ts[-1][-1]
     joined = FlightData(np.concatenate(ts), np.vstack([r.u for r in records]),
                         np.vstack([r.y for r in records]), first.input_names,
-                        first.output_names)
+                        first.output_names, input_units=first.input_units,
+                        output_units=first.output_units, input_display=first.input_display,
+                        output_display=first.output_display)
     return joined, np.array(starts, dtype=np.int32)

@@ -161,6 +161,33 @@ class Model:
         """The element name of every entry of theta, in order."""
         return list(self._layout.names)
 
+    def param_units(self, input_units, output_units):
+        """The unit of every entry of theta, in order, from the units of the
+        record's channels (the core's units, as ``FlightData.input_units``
+        and ``output_units`` hold them).
+
+        Parameters
+        ----------
+        input_units, output_units : sequence of str
+            One unit per input and per output ('' unknown).
+
+        Returns
+        -------
+        list of str
+            '-' for a dimensionless parameter, '' where the unit is unknown
+            (fortran/mlid_param_units.f90 says which).
+        """
+        if len(input_units) != self.nu or len(output_units) != self.ny:
+            raise InputError(f"param_units: {self.nu} input and {self.ny} output units needed, "
+                             f"got {len(input_units)} and {len(output_units)}")
+        text, status, msg = _api.mlid_parameter_units(
+            mkind=self.kind, nx=self.nx, nu=self.nu, ny=self.ny, nw=self.nw, iconst=self.iconst,
+            rconst=self.rconst, theta=self._theta, input_units="\n".join(input_units) + "\n",
+            output_units="\n".join(output_units) + "\n")
+        check_status(status, msg)
+        lines = text.decode(errors="replace").split("\n")
+        return [s.strip() for s in lines[:self._theta.size]]
+
     def canonical_name(self, name):
         """The element name of a parameter, checked against the dimensions."""
         m = _ELEMENT.match(str(name))

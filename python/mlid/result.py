@@ -60,6 +60,7 @@ class FitResult:
         """Plain types for JSON."""
         return {
             "parameters": list(self.names),
+            "units": list(getattr(self, "param_units", None) or [""] * len(self.names)),
             "start": self.start.tolist(),
             "estimate": self.estimate.tolist(),
             "sigma": self.sigma.tolist(),
@@ -83,7 +84,9 @@ class FitResult:
         and writes the same text)."""
         from .core import _api
         rep, nrep, js, njs = _api.mlid_report_fit(
-            labels="\n".join(self.names) + "\n", iopt=self.flat_options, start=self.start,
+            labels="\n".join(self.names) + "\n",
+            units="\n".join(getattr(self, "param_units", None) or [""] * len(self.names)) + "\n",
+            iopt=self.flat_options, start=self.start,
             est=self.estimate, sig=self.sigma, sigc=self.sigma_corrected, lag=self.colored_lag,
             cov=self.covariance, eigval=self.eigenvalues,
             eigvec=self.eigenvectors, rhat=self.rhat, hist=self.cost_history, cost=self.cost,
