@@ -34,7 +34,9 @@ module mlid_api
   use mlid_record, only: record_check_segments
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, &
                            channels_table, taken, UNITLEN
-  use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json
+  use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
+                         validation_json
+  use mlid_validate, only: prediction_stats
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record, REGRESSOR_NAMES, CONSTANT_NAMES
   use mlid_param_units, only: param_units
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
@@ -51,6 +53,7 @@ module mlid_api
             mlid_layout_size, mlid_layout, mlid_name_list, mlid_manoeuvre_map, &
             mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
             mlid_channels_table, mlid_channels_get, mlid_check_time, mlid_parameter_units, &
+            mlid_deck_case_holdout, mlid_prediction_stats, mlid_report_validation, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
@@ -232,6 +235,18 @@ contains
       if (allocated(c%data_files)) path = c%data_files(j)
     end associate
   end subroutine mlid_deck_case_data
+
+  !> The files validate case k predicts (numbers into its file list).
+  subroutine mlid_deck_case_holdout(k, nmax, n, holdout)
+    integer(c_int), intent(in) :: k, nmax
+    integer(c_int), intent(out) :: n, holdout(nmax)
+    holdout = 0
+    n = 0
+    associate (c => opened(k))
+      if (allocated(c%holdout)) n = min(size(c%holdout), nmax)
+      if (n > 0) holdout(1:n) = c%holdout(1:n)
+    end associate
+  end subroutine mlid_deck_case_holdout
 
   !> Read data file j of estimate case k as the case takes it (channels,
   !> units, derived channels, window) and keep it for mlid_channels_get.
@@ -483,6 +498,32 @@ contains
     map(1:n) = m
     seg(1:n) = s
   end subroutine mlid_manoeuvre_map
+
+  !> Theil's U, rms error and rms/sigma per output of a prediction
+  !> (mlid_validate): y, yhat (ny, nt), rhat the identification's.
+  subroutine mlid_prediction_stats(ny, nt, y, yhat, rhat, theil, rms, ratio)
+    integer(c_int), intent(in) :: ny, nt
+    real(c_double), intent(in) :: y(ny, nt), yhat(ny, nt), rhat(ny, ny)
+    real(c_double), intent(out) :: theil(ny), rms(ny), ratio(ny)
+    call prediction_stats(y, yhat, rhat, theil, rms, ratio)
+  end subroutine mlid_prediction_stats
+
+  !> The printed lines and the JSON member of a validation.
+  subroutine mlid_report_validation(ny, nh, names, holdout, theil, rms, ratio, report, nreport, &
+                                    json, njson)
+    integer(c_int), intent(in) :: ny, nh, holdout(nh)
+    character(len=*), intent(in) :: names
+    real(c_double), intent(in) :: theil(ny), rms(ny), ratio(ny)
+    character(len=65536), intent(out) :: report, json
+    integer(c_int), intent(out) :: nreport, njson
+    character(len=:), allocatable :: text
+    text = validation_report(split_lines(names, ny, NAMELEN), holdout, theil, rms, ratio)
+    nreport = min(len(text), len(report))
+    report = text
+    text = validation_json(split_lines(names, ny, NAMELEN), holdout, theil, rms, ratio)
+    njson = min(len(text), len(json))
+    json = text
+  end subroutine mlid_report_validation
 
   !> The unit of every entry of a model's theta (mlid_param_units), one per
   !> line, from its record's channel units (one per line, core units).

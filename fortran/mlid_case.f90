@@ -41,6 +41,7 @@ module mlid_case
     character(len=PATHLEN), allocatable :: data_files(:)
     type(channels_t) :: chan                  !< the channels taken of each record
     real(wp), allocatable :: win_start(:), win_end(:)  !< time window of each record
+    integer, allocatable :: holdout(:)                 !< validate: the files predicted
     character(len=PATHLEN) :: out_file = ''
     real(wp) :: t_end = 0.0_wp, dt = 0.0_wp
     integer :: seed = 0

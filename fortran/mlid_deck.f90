@@ -1,7 +1,7 @@
 !> Batch decks: Fortran namelist groups, several cases stacked in one file.
 !>
 !> A case starts at each line whose first word is &case and holds the groups
-!>   &case     title, job ('estimate' or 'simulate')
+!>   &case     title, job ('estimate', 'validate' or 'simulate')
 !>   &model    kind ('linear', 'longitudinal', 'x22' or 'user'), nx, nu, ny, nw, f, g,
 !>             h, d, gamma (row by row), cd_regressors, cl_regressors,
 !>             cm_regressors, cd, cl, cm, constants (longitudinal), p,
@@ -9,7 +9,8 @@
 !>             variances, cross-covariance row by row), free, names, tie,
 !>             input_hold, substeps, state_names, input_names, output_names
 !>   &data     file, time_col, input_cols, output_cols (numbers or names),
-!>             skip_rows, columns, units, derived, t_start, t_end  (estimate)
+!>             skip_rows, columns, units, derived, t_start, t_end,
+!>             holdout (validate: the files predicted, not fitted)  (estimate, validate)
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
 !>             t_start, pulse_width                                  (simulate)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
@@ -36,7 +37,7 @@ module mlid_deck
   implicit none
   private
   public :: case_t, deck_read, deck_open, case_record, case_time_input, manoeuvre_layout, &
-            case_param_units, NAMELEN, PATHLEN, UNITLEN
+            case_param_units, holdout_case, NAMELEN, PATHLEN, UNITLEN
 
   !> The cases of the deck last opened by deck_open, for the flat interface.
   type(case_t), allocatable, protected, public :: opened(:)
@@ -160,7 +161,7 @@ contains
       c%msg = groups%msg
     end if
     if (c%status == MLID_OK) call read_model_group(rd, c, free_idx)
-    if (c%status == MLID_OK .and. c%job == 'estimate') then
+    if (c%status == MLID_OK .and. c%job /= 'simulate') then
       call read_data_group(rd, c)
       if (c%status == MLID_OK) call read_estimate_group(rd, c, free_idx)
     else if (c%status == MLID_OK) then
@@ -241,8 +242,9 @@ contains
     if (c%status /= MLID_OK) return
     c%title = title
     c%job = to_lower(job)
-    if (c%job /= 'estimate' .and. c%job /= 'simulate') &
-      call fail(c, 'group &case: job must be ''estimate'' or ''simulate'', got '''//trim(job)//'''')
+    if (all(c%job /= [character(len=8) :: 'estimate', 'validate', 'simulate'])) &
+      call fail(c, 'group &case: job must be ''estimate'', ''validate'' or ''simulate'', got '''// &
+                trim(job)//'''')
   end subroutine read_case_group
 
   !> &model: the kind and sizes, the parameter vector, free parameters and
@@ -569,10 +571,10 @@ contains
                               columns(MAXCOL), units(MAXCOL)
     character(len=EXPRLEN) :: derived(MAXDER)
     real(wp) :: t_start(MAXSEG), t_end(MAXSEG)
-    integer :: skip_rows, ios, status
+    integer :: skip_rows, ios, status, holdout(MAXSEG)
     character(len=msg_len) :: iomsg, msg
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
-      derived, t_start, t_end
+      derived, t_start, t_end, holdout
 
     file = ''
     time_col = '1'
@@ -584,12 +586,14 @@ contains
     t_start = UNSET
     t_end = UNSET
     skip_rows = 0
+    holdout = 0
     rewind (rd%unit)
     read (rd%unit, nml=data, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'data', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
     c%data_files = pack(file, len_trim(file) > 0)
     call data_windows(c, t_start, t_end)
+    call data_holdout(c, holdout)
     call check_data_group(c, [time_col, input_cols, output_cols, columns, units], derived)
     if (c%status /= MLID_OK) return
     call channels_spec(time_col, as_text(input_cols), as_text(output_cols), as_text(columns), &
@@ -620,6 +624,32 @@ contains
                 itoa(findloc(c%win_end <= c%win_start, .true., 1))//')')
     end if
   end subroutine data_windows
+
+  !> The files a validate case predicts: at least one, not all, each once.
+  subroutine data_holdout(c, holdout)
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: holdout(:)
+    integer :: n, k
+    n = size(c%data_files)
+    c%holdout = pack(holdout, holdout /= 0)
+    if (c%status /= MLID_OK) return
+    if (c%job /= 'validate') then
+      if (size(c%holdout) > 0) call fail(c, 'group &data: holdout is for job ''validate''')
+      return
+    end if
+    if (size(c%holdout) == 0 .or. size(c%holdout) >= n) then
+      call fail(c, 'group &data: a validate case needs holdout, the numbers of the files to '// &
+                'predict (at least one of the '//itoa(n)//' files, not all)')
+    else if (any(c%holdout < 1 .or. c%holdout > n)) then
+      call fail(c, 'group &data: holdout '//itoa(c%holdout(findloc(c%holdout < 1 .or. &
+                c%holdout > n, .true., 1)))//' is no file number (1 to '//itoa(n)//')')
+    else
+      do k = 2, size(c%holdout)
+        if (any(c%holdout(:k - 1) == c%holdout(k))) &
+          call fail(c, 'group &data: holdout lists file '//itoa(c%holdout(k))//' twice')
+      end do
+    end if
+  end subroutine data_holdout
 
   !> What &data must hold.  An entry that fills its whole length was cut.
   subroutine check_data_group(c, entries, derived)
@@ -889,13 +919,14 @@ contains
   !> several manoeuvres, one after the other, each keeping its sampling with
   !> its times moved to follow the one before; segstart(k) is the first
   !> sample of manoeuvre k.
-  subroutine case_record(c, t, u, y, status, msg, segstart, units)
+  subroutine case_record(c, t, u, y, status, msg, segstart, units, names)
     type(case_t), intent(in) :: c
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer, allocatable, intent(out), optional :: segstart(:)
     character(len=UNITLEN), allocatable, intent(out), optional :: units(:)  !< inputs, outputs
+    character(len=NAMELEN), allocatable, intent(out), optional :: names(:)  !< the channels'
     real(wp), allocatable :: tk(:), uk(:, :), yk(:, :)
     integer :: k, nseg
     integer :: starts(MAXSEG)
@@ -903,7 +934,7 @@ contains
     nseg = size(c%data_files)
     allocate (t(0), u(c%nu, 0), y(c%ny, 0))
     do k = 1, nseg
-      call read_record(c, k, tk, uk, yk, status, msg, units)
+      call read_record(c, k, tk, uk, yk, status, msg, units, names)
       if (status /= MLID_OK) return
       if (size(tk) < 2 .and. nseg > 1) then
         status = MLID_ERR_INPUT
@@ -912,7 +943,8 @@ contains
         return
       end if
       starts(k) = size(t) + 1
-      if (k > 1) tk = tk - tk(1) + t(size(t)) + (tk(2) - tk(1))
+      ! each manoeuvre follows the one before, in mlid/maneuvers.py's join's arithmetic
+      if (k > 1) tk = tk + (t(size(t)) + (tk(2) - tk(1)) - tk(1))
       t = [t, tk]
       u = reshape([u, uk], [c%nu, size(t)])
       y = reshape([y, yk], [c%ny, size(t)])
@@ -922,18 +954,22 @@ contains
 
   !> Data file k: the case's channels of it in its window, by the one
   !> record reader.
-  subroutine read_record(c, k, t, u, y, status, msg, units)
+  subroutine read_record(c, k, t, u, y, status, msg, units, names)
     type(case_t), intent(in) :: c
     integer, intent(in) :: k
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     character(len=UNITLEN), allocatable, intent(inout), optional :: units(:)
+    character(len=NAMELEN), allocatable, intent(inout), optional :: names(:)
     type(channel_set_t) :: set
     call channels_read(c%data_files(k), c%chan, c%win_start(k), c%win_end(k), set, status, msg)
     if (status /= MLID_OK) return
     if (present(units)) then           ! the first file's; every file declares the same
       if (.not. allocated(units)) units = set%units
+    end if
+    if (present(names)) then
+      if (.not. allocated(names)) names = set%names
     end if
     call move_alloc(set%t, t)
     call move_alloc(set%u, u)
@@ -1049,6 +1085,55 @@ contains
     call manoeuvre_map(lt, max(nseg, 1), map, seg)
     units = pack(each(map), c%isfree(map) == 1)
   end subroutine case_param_units
+
+  !> The case that predicts the held-out manoeuvres of validate case c
+  !> from its fit on nfit (theta_fit, in the layout of nfit manoeuvres):
+  !> every parameter held at its estimate but the initial states and
+  !> output biases that were free in the fit, fitted afresh on each held-out
+  !> manoeuvre (start: the first fitted manoeuvre's); no ties, prior or
+  !> bounds; output error on a model without noise, as a prediction is.
+  !> One manoeuvre's layout (manoeuvre_layout spreads it over the held-out
+  !> ones).  As mlid/validate.py does for Python.
+  subroutine holdout_case(c, theta_fit, nfit, h, status, msg)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: theta_fit(:)
+    integer, intent(in) :: nfit
+    type(case_t), intent(out) :: h
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(layout_table_t) :: lt
+    integer, allocatable :: map(:), seg(:)
+    logical, allocatable :: own(:)
+    character(len=NAMELEN), allocatable :: full(:)
+    integer :: k, b, i0, i1
+
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, status, msg)
+    if (status /= MLID_OK) return
+    call manoeuvre_map(lt, max(nfit, 1), map, seg)
+    h = c
+    do k = size(map), 1, -1
+      if (seg(k) <= 1) h%theta(map(k)) = theta_fit(k)
+    end do
+    allocate (own(size(c%theta)), full(size(c%theta)))
+    own = .false.
+    do b = 1, lt%nblock
+      i0 = lt%off(b) + 1
+      i1 = lt%off(b) + lt%rows(b)*merge(1, lt%cols(b), lt%cols(b) < 0)
+      if (any(lt%key(b) == [character(len=8) :: 'x0', 'bias'])) own(i0:i1) = .true.
+      if (any(lt%key(b) == [character(len=8) :: 'q', 'r', 's'])) h%theta(i0:i1) = 0.0_wp
+    end do
+    full = ''
+    full(pack([(k, k=1, size(c%theta))], c%isfree == 1)) = c%labels
+    h%isfree = merge(c%isfree, 0, own)
+    h%labels = pack(full, h%isfree == 1)
+    h%itie = 0
+    h%use_prior = 0
+    h%use_bounds = 0
+    call option_set(h%iopt, h%ropt, 'method', 'output_error', status, msg)
+    if (status == MLID_OK) call option_set(h%iopt, h%ropt, 'startup', 'none', status, msg)
+    if (status == MLID_OK) call option_set(h%iopt, h%ropt, 'rank_min', '0', status, msg)
+    if (status == MLID_OK) call option_set(h%iopt, h%ropt, 'rank_max', '0', status, msg)
+  end subroutine holdout_case
 
   !> Time base t = 0, dt, ..., and inputs of a simulate case.
   subroutine case_time_input(c, t, u, status, msg)

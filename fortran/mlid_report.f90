@@ -10,7 +10,8 @@ module mlid_report
   use mlid_record, only: UNITLEN
   implicit none
   private
-  public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string
+  public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string, &
+            validation_report, validation_json
 
   character, parameter :: NL = achar(10)
 
@@ -155,6 +156,54 @@ contains
     det_r = 0.0_wp
     if (info == 0) det_r = exp(logdet)
   end function det_r
+
+  !> The lines of a validation (mlid_validate): the files predicted, then
+  !> per output Theil's U, the rms prediction error and rms/sigma.
+  function validation_report(names, holdout, theil, rms, ratio) result(text)
+    character(len=*), intent(in) :: names(:)
+    integer, intent(in) :: holdout(:)
+    real(wp), intent(in) :: theil(:), rms(:), ratio(:)
+    character(len=:), allocatable :: text
+    character(len=512) :: buf
+    integer :: k
+
+    text = ' validation: predicted file'//trim(merge('s', ' ', size(holdout) > 1))
+    do k = 1, size(holdout)
+      write (buf, '(1x,i0)') holdout(k)
+      text = text//trim(buf)
+    end do
+    text = text//' (initial state and output biases fitted there, every other parameter '// &
+           'held at its estimate)'//NL
+    write (buf, '(1x,a16,a12,a14,a12)') 'output          ', 'Theil U', 'rms error', 'rms/sigma'
+    text = text//trim(buf)//NL
+    do k = 1, size(names)
+      write (buf, '(1x,a16,f12.4,es14.4e2,f12.3)') names(k), theil(k), rms(k), ratio(k)
+      text = text//trim(buf)//NL
+    end do
+    text = text//' Theil U: rms(y - yhat)/(rms(y) + rms(yhat)); sigma: the identification''s '// &
+           'residual sigma'//NL
+  end function validation_report
+
+  !> The "validation" member of a validate case's JSON object.
+  function validation_json(names, holdout, theil, rms, ratio) result(text)
+    character(len=*), intent(in) :: names(:)
+    integer, intent(in) :: holdout(:)
+    real(wp), intent(in) :: theil(:), rms(:), ratio(:)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = '"validation": {"holdout": ['
+    do k = 1, size(holdout)
+      text = text//integer_text(holdout(k))
+      if (k < size(holdout)) text = text//', '
+    end do
+    text = text//'], "outputs": ['
+    do k = 1, size(names)
+      text = text//json_string(trim(names(k)))
+      if (k < size(names)) text = text//', '
+    end do
+    text = text//'],'//NL//'"theil": '//numbers(theil)//', "rms": '//numbers(rms)// &
+           ', "rms_over_sigma": '//numbers(ratio)//'}'
+  end function validation_json
 
   !> The unit of free parameter k, '' if the fit has none.
   function unit_of(s, k) result(unit)

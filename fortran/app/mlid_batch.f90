@@ -7,9 +7,11 @@ program mlid_batch
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_NOCONV, MLID_ERR_SINGULAR
   use mlid_case, only: case_t
   use mlid_deck, only: deck_read, case_record, case_time_input, manoeuvre_layout, &
-                       case_param_units, UNITLEN
+                       case_param_units, holdout_case, UNITLEN, NAMELEN
+  use mlid_validate, only: prediction_stats
   use mlid_api, only: mlid_fit, mlid_simulate
-  use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, json_list
+  use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, json_list, &
+                         validation_report, validation_json
   implicit none
   character(len=4096) :: deck, arg, json_path
   type(case_t), allocatable :: cases(:)
@@ -28,7 +30,7 @@ program mlid_batch
       k = k + 1
     else if (arg == '-h' .or. arg == '--help') then
       write (*, '(a)') 'usage: mlid-batch DECK [--json FILE]', &
-        '  runs every case of a namelist deck (jobs: estimate, simulate) and prints the report'
+        '  runs every case of a namelist deck (jobs: estimate, validate, simulate) and prints the report'
       stop
     else if (arg(1:1) == '-') then
       write (0, '(a)') 'mlid-batch: unknown option '//trim(arg)
@@ -90,6 +92,8 @@ contains
       json = case_json(c%title, c%job, cstat, cmsg)
     else if (c%job == 'simulate') then
       call simulate_case(c, json, cstat, cmsg)
+    else if (c%job == 'validate') then
+      call validate_case(k, c, json, cstat, cmsg)
     else
       call fit_case(k, c, json, cstat, cmsg)
     end if
@@ -146,16 +150,35 @@ contains
     character(len=:), allocatable, intent(out) :: json
     integer, intent(out) :: cstat
     character(len=*), intent(out) :: cmsg
-    real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), theta0(:), sigma(:), grad(:), sigc(:)
-    real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), info(:, :), covc(:, :)
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :)
     integer, allocatable :: segstart(:)
-    type(fit_summary_t) :: s
-    integer :: bad, nf, nth, converged
-    logical, allocatable :: free(:)
     character(len=UNITLEN), allocatable :: units(:)
 
     call case_record(c, t, u, y, cstat, cmsg, segstart, units)
-    if (cstat == MLID_OK) call case_param_units(c, size(segstart), units, s%units, cstat, cmsg)
+    if (cstat == MLID_OK) call fit_record(k, c, t, u, y, segstart, units, .true., json, cstat, &
+                                          cmsg, theta, rhat, yhat)
+  end subroutine fit_case
+
+  !> Fit case c to a record (several manoeuvres: segstart), print the
+  !> report if asked, and return the JSON object, theta, R-hat and outputs.
+  subroutine fit_record(k, c, t, u, y, segstart, units, report, json, cstat, cmsg, theta, &
+                        rhat, yhat)
+    integer, intent(in) :: k
+    type(case_t), intent(inout) :: c
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    integer, intent(in) :: segstart(:)
+    character(len=*), intent(in) :: units(:)
+    logical, intent(in) :: report
+    character(len=:), allocatable, intent(out) :: json
+    integer, intent(out) :: cstat
+    character(len=*), intent(out) :: cmsg
+    real(wp), allocatable, intent(out) :: theta(:), rhat(:, :), yhat(:, :)
+    real(wp), allocatable :: theta0(:), sigma(:), grad(:), sigc(:), hist(:), info(:, :), covc(:, :)
+    type(fit_summary_t) :: s
+    integer :: bad, nf, nth, converged
+    logical, allocatable :: free(:)
+
+    call case_param_units(c, size(segstart), units, s%units, cstat, cmsg)
     ! several data files: several manoeuvres, each its own x0 and biases
     if (cstat == MLID_OK) call manoeuvre_layout(c, size(segstart), cstat, cmsg)
     if (cstat /= MLID_OK) return
@@ -174,6 +197,7 @@ contains
     if (cstat /= MLID_OK .and. bad > 0) cmsg = replace_index(cmsg, bad, c%labels)
     ! a fit that ended singular or unconverged still has a result to report
     if (all(cstat /= [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) return
+    if (.not. report) return
     free = c%isfree == 1
     s%labels = c%labels
     s%start = pack(theta0, free)
@@ -188,7 +212,95 @@ contains
     if (cstat == MLID_OK .and. cmsg(1:min(8, len(cmsg))) == 'warning:') &
       write (0, '(a,i0,a,i0,a)') 'mlid-batch: '//trim(deck)//' case ', k, ' (line ', c%line, &
       ') '''//trim(c%title)//''': '//trim(cmsg)
-  end subroutine fit_case
+  end subroutine fit_record
+
+  !> Validate case c: fit on the files not held out (reported as an estimate
+  !> case is), then predict the held-out ones (holdout_case) and say how well.
+  subroutine validate_case(k, c, json, cstat, cmsg)
+    integer, intent(in) :: k
+    type(case_t), intent(inout) :: c
+    character(len=:), allocatable, intent(out) :: json
+    integer, intent(out) :: cstat
+    character(len=*), intent(out) :: cmsg
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :), r0(:, :)
+    real(wp), allocatable :: th(:), uh(:, :), yh(:, :), pred(:, :), theil(:), rms(:), ratio(:)
+    integer, allocatable :: segstart(:), sh(:)
+    character(len=UNITLEN), allocatable :: units(:)
+    character(len=NAMELEN), allocatable :: names(:)
+    character(len=:), allocatable :: hjson
+    type(case_t) :: fitted, held
+    logical, allocatable :: out(:)
+
+    allocate (out(size(c%data_files)))
+    out = .false.
+    out(c%holdout) = .true.
+    ! each part read and joined as the Python front end joins its records
+    fitted = files_of(c, .not. out)
+    call case_record(fitted, t, u, y, cstat, cmsg, segstart, units)
+    if (cstat == MLID_OK) call fit_record(k, fitted, t, u, y, segstart, units, .true., json, &
+                                          cstat, cmsg, theta, rhat, yhat)
+    if (cstat /= MLID_OK) return
+    call holdout_case(files_of(c, out), theta, count(.not. out), held, cstat, cmsg)
+    if (cstat == MLID_OK) call case_record(held, th, uh, yh, cstat, cmsg, sh, units, names)
+    if (cstat /= MLID_OK) return
+    if (count(held%isfree == 1) > 0) then
+      call fit_record(k, held, th, uh, yh, sh, units, .false., hjson, cstat, cmsg, theta, r0, &
+                      pred)
+    else
+      call predict(held, th, uh, sh, pred, cstat, cmsg)
+    end if
+    if (cstat /= MLID_OK) then         ! the case failed: its JSON says why, not the fit's
+      cmsg = 'prediction of the held-out files: '//trim(cmsg)
+      deallocate (json)
+      return
+    end if
+    allocate (theil(c%ny), rms(c%ny), ratio(c%ny))
+    call prediction_stats(yh, pred, rhat, theil, rms, ratio)
+    if (allocated(c%output_names)) then
+      if (all(len_trim(c%output_names) > 0)) names(c%nu + 1:) = c%output_names
+    end if
+    write (*, '(a)', advance='no') validation_report(names(c%nu + 1:), c%holdout, theil, rms, &
+                                                     ratio)
+    json = json(1:len(json) - 1)//','//achar(10)// &
+           validation_json(names(c%nu + 1:), c%holdout, theil, rms, ratio)//'}'
+  end subroutine validate_case
+
+  !> Case c with only the data files where keep is true.
+  function files_of(c, keep) result(part)
+    type(case_t), intent(in) :: c
+    logical, intent(in) :: keep(:)
+    type(case_t) :: part
+    part = c
+    part%data_files = pack(c%data_files, keep)
+    part%win_start = pack(c%win_start, keep)
+    part%win_end = pack(c%win_end, keep)
+  end function files_of
+
+  !> The outputs of case h (nothing free) on each manoeuvre, simulated
+  !> without noise.
+  subroutine predict(h, t, u, segstart, y, cstat, cmsg)
+    type(case_t), intent(in) :: h
+    real(wp), intent(in) :: t(:), u(:, :)
+    integer, intent(in) :: segstart(:)
+    real(wp), allocatable, intent(out) :: y(:, :)
+    integer, intent(out) :: cstat
+    character(len=*), intent(out) :: cmsg
+    real(wp), allocatable :: x(:, :)
+    integer :: j, i0, i1
+
+    allocate (y(h%ny, size(t)), x(h%nx, size(t)))
+    cstat = MLID_OK
+    do j = 1, size(segstart)
+      i0 = segstart(j)
+      i1 = size(t)
+      if (j < size(segstart)) i1 = segstart(j + 1) - 1
+      call mlid_simulate(h%mkind, h%nx, h%nu, h%ny, h%nw, size(h%theta), h%theta, &
+                         size(h%iconst), h%iconst, size(h%rconst), h%rconst, i1 - i0 + 1, &
+                         t(i0:i1), u(:, i0:i1), 0, 0, h%iopt, h%ropt, y(:, i0:i1), x(:, i0:i1), &
+                         cstat, cmsg)
+      if (cstat /= MLID_OK) return
+    end do
+  end subroutine predict
 
   !> A temporary name beside path, and a check that it can be written there.
   subroutine temporary_for(path, tmp, status, msg)

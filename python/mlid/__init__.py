@@ -14,6 +14,7 @@ from .analysis import fpe, compare_models, predict
 from .design import InputDesign, DesignedInput
 from .parallel import monte_carlo_parallel
 from .diagnose import diagnose
+from .validate import validate, Validation
 
 
 
@@ -35,4 +36,4 @@ __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceErr
            "X22Model", "InputDesign", "DesignedInput", "monte_carlo_parallel", "diagnose", "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
-           "recover_disturbance", "fpe", "compare_models", "predict"]
+           "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation"]

@@ -115,6 +115,8 @@ def _run(args):
             print(f" simulated {out['samples']} samples to {out['out']}")
         if result is not None:
             print(result.report())
+            if getattr(result, "validation", None) is not None:
+                print(result.validation.report())
             if result.message.startswith("warning:"):
                 print(f"mlid: {case.where()}: {result.message}", file=sys.stderr)
         objects.append(case_json(case, out, result, error))

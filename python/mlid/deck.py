@@ -41,6 +41,8 @@ class Case:
         self._options = opts
         self._sizes = (nu, ny)
         self._files = [_api.mlid_deck_case_data(k, j) for j in range(1, max(nfile, 1) + 1)]
+        n, holdout = _api.mlid_deck_case_holdout(k, max(nfile, 1))
+        self.holdout = [int(j) for j in holdout[:n]]   # validate: the files predicted
         if self.job == "simulate":
             t, u, self.seed, out, status, msg = _api.mlid_deck_case_time_input(k, nu, nt)
             self._time_input, self.out = (t, u.T.copy()), _text(out)
@@ -88,7 +90,11 @@ def case_json(case, out=None, result=None, error=None):
     same bytes): a fit's when there is one, else title, job, status, message
     and, for a simulate case, the samples written and where."""
     if result is not None:
-        return result.json(case._title, case.job)
+        text = result.json(case._title, case.job)
+        validation = getattr(result, "validation", None)
+        if validation is not None:        # as mlid-batch adds it
+            text = text[:-1] + ",\n" + validation.json_member() + "}"
+        return text
     samples, path = (out["samples"], out["out"]) if out and "samples" in out else (-1, "")
     status = 0 if error is None else status_of(error)
     text, n = _api.mlid_case_json(case._title, case.job, status, str(error or ""), samples,
@@ -124,11 +130,32 @@ def run_case(case):
         data.save(case.out)
         return {"title": case.title, "job": case.job, "status": 0, "message": "",
                 "samples": int(data.nt), "out": str(case.out)}, None
-    result = core.fit(case.model, case.record(), **case.options())
+    if case.job == "validate":
+        result = _validate_case(case)
+    else:
+        result = core.fit(case.model, case.record(), **case.options())
     out = {"title": case.title, "job": case.job, "status": result.status,
            "message": result.message}
     out.update(result.as_dict())
+    if getattr(result, "validation", None) is not None:
+        out["validation"] = result.validation.as_dict()
     return out, result
+
+
+def _validate_case(case):
+    """Fit a validate case on the files it does not hold out, then predict
+    those it does (mlid.validate); the FitResult carries the Validation."""
+    from .validate import validate
+    records = case.record()
+    fitted = [r for j, r in enumerate(records, 1) if j not in case.holdout]
+    held = [records[j - 1] for j in case.holdout]
+    result = core.fit(case.model, fitted if len(fitted) > 1 else fitted[0], **case.options())
+    try:
+        result.validation = validate(result, held if len(held) > 1 else held[0],
+                                     holdout=case.holdout)
+    except MlidError as exc:                # one line, as mlid-batch says it
+        raise type(exc)(f"prediction of the held-out files: {exc}") from None
+    return result
 
 
 def iter_deck(path):

@@ -760,3 +760,39 @@ def monte_carlo_histograms(mc, cr_sigma=None, units=None, path=None):
     axes.flat[0].legend(loc="upper left", frameon=False, fontsize=7)
     fig.suptitle("Monte Carlo estimates and the Cramér-Rao bound", fontsize=10)
     return _finish(fig, path)
+
+
+# -- validation ---------------------------------------------------------------
+
+@_styled
+def validation(v, path=None):
+    """Measured and predicted outputs of held-out manoeuvres (``mlid.validate``),
+    under the inputs, with Theil's U and rms/σ of each output in its panel.
+
+    Parameters
+    ----------
+    v : Validation
+    path : str or Path, optional
+        Also write the figure there.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        nu + ny axes sharing the time axis; joins between held-out
+        manoeuvres are not bridged.
+    """
+    result = v.prediction
+    recs = _Records.of_result(result)
+    nu = result.data.u.shape[1]
+    n = nu + result.data.y.shape[1]
+    fig, axes = _figure(n, 1, 7.5, 1.35, sharex=True)
+    _draw_outputs(fig, axes[:, 0], result, recs)
+    for i, ax in enumerate(axes[nu:, 0]):
+        ax.text(0.01, 0.95, f"Theil U {v.theil[i]:.3f}   rms/σ {v.rms_over_sigma[i]:.2f}",
+                transform=ax.transAxes, ha="left", va="top", fontsize=7.5, color="0.25")
+    axes[nu, 0].get_legend().remove()
+    axes[nu, 0].legend(["measured", "predicted"], loc="upper right", ncols=2, frameon=False)
+    held = ", ".join(str(k) for k in v.holdout)
+    fig.suptitle(f"validation: held-out manoeuvre{'s' * (len(v.holdout) > 1)} {held} "
+                 "predicted by the identified model", fontsize=10)
+    return _finish(fig, path)
