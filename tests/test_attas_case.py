@@ -5,6 +5,7 @@ and FVSysID test case 11 reproduced from the two .mat records."""
 import json
 import subprocess
 
+import numpy as np
 import pytest
 
 import mlid
@@ -53,3 +54,19 @@ def test_test_case_11_matches_the_reference():
         assert abs(value - ref_value) < 0.01 * ref_sigma, name
         assert abs(sigma / ref_sigma - 1) < 1e-3, name
     assert abs(res.det_r / det_r - 1) < 1e-6
+
+
+def test_elevator_2_is_predicted_by_the_fit_of_elevator_1():
+    """The validate case: the prediction of the second manoeuvre is the
+    deck's own (mlid.validate on the same records), close (Theil U below
+    0.1) and worse than the fit's residuals (rms/sigma above 1), as a
+    prediction of data not fitted is."""
+    case = mlid.read_deck(DECK)[2]
+    assert case.job == "validate" and case.holdout == [2]
+    from mlid.deck import run_case
+    out, res = run_case(case)
+    v = res.validation
+    assert out["validation"]["theil"] == v.theil.tolist()
+    assert np.all(v.theil < 0.1) and np.all(v.rms_over_sigma > 1.0)
+    again = mlid.validate(res, case.record()[1], holdout=[2])
+    np.testing.assert_array_equal(again.theil, v.theil)

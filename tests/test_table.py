@@ -150,3 +150,18 @@ def test_cli_table(tmp_path):
 def test_concat():
     a = ResultsTable([{"case": 1, **dict.fromkeys(COLUMNS, 0.0)}])
     assert len(ResultsTable.concat([a, a])) == 2
+
+
+def test_text_table_holds_every_row_at_its_printed_precision():
+    from mlid.table import ResultsTable
+    rows = [{"name": "C_Lalpha", "unit": "1/rad", "estimate": 3.21174, "sigma_cr": 0.0394,
+             "sigma_corrected": 0.128, "relative_sigma_percent": 3.987, "flag": True},
+            {"name": "C_D0", "unit": "-", "estimate": 0.0, "sigma_cr": 1e-3,
+             "sigma_corrected": 1.2e-3, "relative_sigma_percent": float("nan"), "flag": False}]
+    lines = ResultsTable(rows).text().splitlines()
+    assert lines[0].split() == ["parameter", "unit", "estimate", "CR", "sigma", "corr.", "sigma",
+                                "rel.", "%", "flag"]
+    first, second = lines[1].split(), lines[2].split()
+    assert first[:2] == ["C_Lalpha", "1/rad"] and first[-1] == "coloured"
+    assert [float(x) for x in first[2:6]] == [3.21174, 0.0394, 0.128, 3.99]
+    assert second[-1] == "--" and len(lines) == 4

@@ -1,6 +1,7 @@
 """ATTAS short period from the raw flight records: the deck attas_sp.nml
 run through the Python front end, test case 11 compared with the reference
-fit of the textbook software, and the text and .mat records of the same
+fit of the textbook software, the second manoeuvre predicted by a fit of
+the first, and the text and .mat records of the same
 manoeuvre read by name to the same channels.  Every number README.md
 quotes is printed here.
 
@@ -68,6 +69,10 @@ def main():
         print(f"{name:<9} {value:14.7e} {ref_value:14.7e} {z:11.2e} {sigma / ref_sigma:12.5f}")
     print(f"largest difference {worst:.1e} sigma; det R {res.det_r:.6e} against {det_r:.6e} "
           f"(relative {abs(res.det_r - det_r) / det_r:.1e})")
+
+    v = results[3].validation
+    print("\ncase 3: fitted on fAttasElv1.mat, fAttasElv2.mat predicted (its initial state fitted)")
+    print(v.report())
 
     args = dict(time_col="T", input_cols=["DELV"], output_cols=["ALCG", "QRGY"],
                 columns=["T[s]"] + [f"c{k}" for k in range(2, 8)] + ["QRGY[deg/s]"]

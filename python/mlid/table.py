@@ -120,6 +120,34 @@ class ResultsTable:
                      else row[c]) for c in self.columns} for row in self.rows]
         return json.dumps({"columns": list(self.columns), "rows": rows}, indent=1) + "\n"
 
+    def text(self):
+        """A fixed-width table for a terminal or a plain-text report."""
+        heads = {CASE: "case", "name": "parameter", "unit": "unit", "estimate": "estimate",
+                 "sigma_cr": "CR sigma", "sigma_corrected": "corr. sigma",
+                 "relative_sigma_percent": "rel. %", "flag": "flag"}
+        widths = {CASE: 5, "name": 16, "unit": 10, "estimate": 14, "sigma_cr": 12,
+                  "sigma_corrected": 12, "relative_sigma_percent": 8, "flag": 9}
+        left = (CASE, "name", "unit", "flag")
+
+        def cell(c, v):
+            if c == "flag":
+                v = FLAG_TEXT if v else ""
+            elif c == "relative_sigma_percent":
+                v = f"{v:.2f}" if math.isfinite(v) else "--"
+            elif isinstance(v, float):
+                v = f"{v:.6e}" if c == "estimate" else f"{v:.4e}"
+            return f"{v:<{widths[c]}}" if c in left else f"{v:>{widths[c]}}"
+
+        lines = [" ".join(f"{heads[c]:<{widths[c]}}" if c in left else
+                          f"{heads[c]:>{widths[c]}}" for c in self.columns)]
+        lines += [" ".join(cell(c, row[c]) for c in self.columns) for row in self.rows]
+        lines.append(f"corr. sigma: Cramer-Rao sigma corrected for coloured residuals; "
+                     f"'{FLAG_TEXT}' where it exceeds {FLAG_RATIO:g} times the CR sigma")
+        return "\n".join(ln.rstrip() for ln in lines) + "\n"
+
+    def __str__(self):
+        return self.text()
+
     def latex_text(self):
         """A booktabs tabular (needs \\usepackage{booktabs}); numbers plain, to
         4 significant digits; names and units escaped."""

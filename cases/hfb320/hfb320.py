@@ -1,0 +1,80 @@
+"""HFB-320 Hansa Jet from the real flight record: the deck hfb320.nml run
+through the Python front end, the output-error estimates compared with the
+reference of ../../../shared/data/README.md, and the results table (unit,
+estimate, Cramer-Rao and coloured-residual sigma, relative sigma, flag)
+printed and exported as CSV, LaTeX and JSON.  Every number README.md
+quotes is printed here.
+
+    python cases/hfb320/hfb320.py [OUT_DIR]     # exports into OUT_DIR (default: a temp dir)
+"""
+
+import re
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from mlid.deck import iter_deck
+
+HERE = Path(__file__).resolve().parent
+DATA = HERE.parents[2] / "shared" / "data"
+NAMES = ["C_D0", "C_DV", "C_Dalpha", "C_L0", "C_LV", "C_Lalpha", "C_m0", "C_mV", "C_malpha",
+         "C_mq", "C_mde"]
+
+
+def reference():
+    """The reference estimates and sigmas, and det R, from the data README's
+    'Reference result' tables (in the order of NAMES)."""
+    text = (DATA / "README.md").read_text(encoding="utf-8")
+    part = text.split("### Reference result", 1)[1].split("\n## ", 1)[0]
+    pairs = re.findall(r"(−?-?[\d.]+(?:e[−-]?\d+)?) \(([\d.]+)\)", part)
+    values = np.array([float(v.replace("−", "-")) for v, _ in pairs])
+    sigmas = np.array([float(s) for _, s in pairs])
+    det_r = float(re.search(r"det\(R\) = ([\d.]+e−?-?\d+)", part).group(1).replace("−", "-"))
+    return values, sigmas, det_r
+
+
+def main(out_dir):
+    if not (DATA / "hfb320_1_10.asc").is_file():
+        sys.exit(f"the flight record is not at {DATA}")
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    results = {}
+    for case, out, result, error in iter_deck(HERE / "hfb320.nml"):
+        if error:
+            sys.exit(f"{case.where()}: {error}")
+        results[case.index] = result
+        print(f"case {case.index}: {case.title}: {result.iterations} iterations, "
+              f"converged={result.converged}, cost {result.cost:.1f}, det R {result.det_r:.6e}, "
+              f"{1e3 * result.wall_time:.0f} ms")
+
+    res = results[1]
+    ref, ref_sigma, ref_det = reference()
+    assert res.names == NAMES, res.names
+    z = (res.estimate - ref) / ref_sigma
+    print("\ncase 1 against the reference (data README):")
+    print(f"{'parameter':<10}{'ours':>15}{'sigma':>12}{'reference':>13}{'sigma':>10}"
+          f"{'diff/sigma':>12}{'sigma ratio':>13}")
+    for k, name in enumerate(NAMES):
+        print(f"{name:<10}{res.estimate[k]:15.7g}{res.sigma[k]:12.5g}{ref[k]:13.6g}"
+              f"{ref_sigma[k]:10.3g}{z[k]:12.4f}{res.sigma[k] / ref_sigma[k]:13.4f}")
+    print(f"largest |diff|/sigma {np.abs(z).max():.4f}; sigma ratios "
+          f"{(res.sigma / ref_sigma).min():.4f} to {(res.sigma / ref_sigma).max():.4f}; "
+          f"det R {res.det_r:.6e} against {ref_det:.4e} "
+          f"(relative {abs(res.det_r / ref_det - 1):.1e})")
+
+    for index in (1, 3):
+        table = results[index].table()
+        ratio = results[index].sigma_corrected / results[index].sigma
+        print(f"\ncase {index} results table (coloured-residual correction to lag "
+              f"{results[index].colored_lag}; corrected/CR sigma {ratio.min():.2f} to "
+              f"{ratio.max():.2f}, {sum(r['flag'] for r in table.rows)} flagged):")
+        print(table.text(), end="")
+        for suffix in ("csv", "tex", "json"):
+            path = Path(out_dir) / f"hfb320_case{index}.{suffix}"
+            table.write(path)
+            print(f"  wrote {path}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else tempfile.mkdtemp(prefix="hfb320_"))
