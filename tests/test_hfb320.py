@@ -223,3 +223,25 @@ def test_units_checks_in_both_front_ends(tmp_path, edit, phrase, code):
         out = subprocess.run(cmd, capture_output=True, text=True)
         assert out.returncode == code and phrase in out.stderr, (cmd[0], out.stderr)
         assert "Traceback" not in out.stderr
+
+
+@needs_data
+def test_the_case_script_prints_and_exports_the_results_table(tmp_path):
+    """hfb320.py: the reference comparison and, per case, the table it also
+    writes as CSV, LaTeX and JSON; the files hold the fit's own numbers."""
+    import csv
+    import sys
+    out = subprocess.run([sys.executable, str(REPO / "cases" / "hfb320" / "hfb320.py"),
+                          str(tmp_path)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "largest |diff|/sigma 0.01" in out.stdout and "case 1 results table" in out.stdout
+    case = mlid.read_deck(DECK)[0]
+    _, res = mlid.deck.run_case(case)
+    rows = list(csv.DictReader((tmp_path / "hfb320_case1.csv").open()))
+    assert [r["name"] for r in rows] == res.names
+    assert [r["unit"] for r in rows] == ["-", "-", "1/rad", "-", "-", "1/rad", "-", "-",
+                                         "1/rad", "1/rad", "1/rad"]
+    np.testing.assert_allclose([float(r["sigma_corrected"]) for r in rows], res.sigma_corrected,
+                               rtol=1e-12)
+    assert json.loads((tmp_path / "hfb320_case3.json").read_text())["rows"][-1]["unit"] == "m2/s4"
+    assert r"\toprule" in (tmp_path / "hfb320_case1.tex").read_text()
