@@ -8,10 +8,18 @@ import sys
 from .errors import InternalError, MlidError
 
 JOBS = """jobs:
-  run DECK      run every case of a namelist deck in order; deck jobs are
-                'estimate' (output-error maximum-likelihood fit of the free
-                parameters to a data file) and 'simulate' (write a record
-                from a model, a standard input and seeded measurement noise)
+  run DECK       run every case of a namelist deck in order.  Deck jobs:
+                 'estimate'  maximum-likelihood fit of the free parameters to one
+                             data file or several (manoeuvres fitted together);
+                             output error, or filter error with process noise
+                             (&estimate method), equation-error start-up,
+                             a priori weighting, bounds, rank-deficient steps
+                 'validate'  an estimate fit on the files not listed in &data
+                             holdout, then a prediction of those that are:
+                             Theil's U and rms/sigma per output
+                 'simulate'  write a record from a model, a standard input and
+                             seeded measurement noise
+  diagnose DECK  what the model of each estimate case misses
 """
 
 
@@ -89,14 +97,46 @@ def _failed(case, error):
     print(f"mlid: {case.where()}: {error}", file=sys.stderr)
 
 
+def _show_case(args, case, out, result, error, tables):
+    """Print a case's report and write its table rows and plots; returns the
+    case's error (its own, or the first of a table or a plot)."""
+    from .plots import plot_fit, plot_validation
+    from .table import results_table
+    print(f"\n case {case.index}: {case.title}")
+    if out is not None and case.job == "simulate":
+        print(f" simulated {out['samples']} samples to {out['out']}")
+    checked = getattr(result, "validation", None)
+    if result is not None:
+        print(result.report())
+        if checked is not None:
+            print(checked.report())
+        if result.message.startswith("warning:"):
+            print(f"mlid: {case.where()}: {result.message}", file=sys.stderr)
+    if args.table and result is not None:
+        table, table_error = _attempt("table", results_table, result, case.index)
+        if table is not None:
+            tables.append(table)
+        error = error or table_error
+    if error is None and (out or {}).get("status", 0) != 0:
+        error = out["message"]
+    if args.plots and result is not None:
+        plots = [(plot_fit, result)] + ([(plot_validation, checked)] if checked else [])
+        for fn, what in plots:
+            path, plot_error = _attempt("plot", fn, what, args.plots, f"case{case.index}")
+            if path is not None:
+                print(f" plot: {path}")
+            error = error or plot_error
+    return error
+
+
 def _run(args):
     import warnings
 
     from .deck import case_json, iter_deck, json_list, read_deck
     from .files import atomic_write_text
-    from .plots import plot_fit, use_file_backend
+    from .plots import use_file_backend
     from .progress import bar
-    from .table import ResultsTable, results_table
+    from .table import ResultsTable
 
     _outputs_writable(args)
     if args.plots or args.report:
@@ -110,28 +150,8 @@ def _run(args):
         if args.report:
             ran.append((case, out, result, error))
         cases.clear()                     # the case's lines go above the bar
-        print(f"\n case {case.index}: {case.title}")
-        if out is not None and case.job == "simulate":
-            print(f" simulated {out['samples']} samples to {out['out']}")
-        if result is not None:
-            print(result.report())
-            if getattr(result, "validation", None) is not None:
-                print(result.validation.report())
-            if result.message.startswith("warning:"):
-                print(f"mlid: {case.where()}: {result.message}", file=sys.stderr)
         objects.append(case_json(case, out, result, error))
-        if args.table and result is not None:
-            table, table_error = _attempt("table", results_table, result, case.index)
-            if table is not None:
-                tables.append(table)
-            error = error or table_error
-        if error is None and (out or {}).get("status", 0) != 0:
-            error = out["message"]
-        if args.plots and result is not None:
-            path, plot_error = _attempt("plot", plot_fit, result, args.plots, f"case{case.index}")
-            if path is not None:
-                print(f" plot: {path}")
-            error = error or plot_error
+        error = _show_case(args, case, out, result, error, tables)
         if error:
             failed += 1
             _failed(case, error)
@@ -140,26 +160,21 @@ def _run(args):
     cases.close()
     if failed:
         print(f"{failed} of {len(objects)} cases failed", file=sys.stderr)
+    writes = []
     if args.json:
-        _, error = _attempt(f"--json {args.json}", atomic_write_text, args.json,
-                            json_list(objects))
-        if error:
-            print(f"mlid: {error}", file=sys.stderr)
-            return 1
+        writes.append((f"--json {args.json}", atomic_write_text, args.json, json_list(objects)))
     if args.table:
-        _, error = _attempt(f"--table {args.table}", ResultsTable.concat(tables).write,
-                            args.table)
-        if error:
-            print(f"mlid: {error}", file=sys.stderr)
-            return 1
+        writes.append((f"--table {args.table}", ResultsTable.concat(tables).write, args.table))
     if args.report:
         from .html_report import write_report
-        path, error = _attempt(f"--report {args.report}", write_report, args.report, args.deck,
-                               ran)
+        writes.append((f"--report {args.report}", write_report, args.report, args.deck, ran))
+    for what, fn, *fn_args in writes:
+        path, error = _attempt(what, fn, *fn_args)
         if error:
             print(f"mlid: {error}", file=sys.stderr)
             return 1
-        print(f" report: {path}")
+        if what.startswith("--report"):
+            print(f" report: {path}")
     return 1 if failed else 0
 
 

@@ -331,6 +331,15 @@ def plot_fit(result, folder, stem):
     return path
 
 
+def plot_validation(v, folder, stem):
+    """Write FOLDER/STEM_validation.png (``validation``) and return its path."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{stem}_validation.png"
+    close(validation(v, path))
+    return path
+
+
 # -- residual statistics ------------------------------------------------------
 
 def residual_autocorrelation(result, lags=None):
