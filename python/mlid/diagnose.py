@@ -34,6 +34,7 @@ confounded, never picked; a refitted one strongly correlated with a free
 parameter (above 0.95) says so in its decision.
 """
 
+import html
 import math
 
 import numpy as np
@@ -44,6 +45,7 @@ from .errors import InputError, MlidError, guarded
 from .files import atomic_savefig
 from .model import REGRESSORS, LinearModel, LongitudinalModel
 from .result import whiteness
+from .table import HTML_DIGITS
 
 
 def _normal_upper(p):
@@ -315,7 +317,32 @@ def _golden(f, a, b, n=18):
 
 
 class Diagnosis:
-    """The outcome: accepted effects, every candidate tried, the gap."""
+    """The outcome of ``diagnose``: accepted effects, every candidate tried,
+    the gap between the first and the last fit.
+
+    Parameters
+    ----------
+    base : FitResult
+        The fit of the model as given.
+    final : FitResult
+        The fit with every accepted effect (``base`` when none was).
+    model : Model
+        The model of ``final``.
+    effects : list of Candidate
+        The accepted effects, in the order they were accepted.
+    rounds : list of dict
+        Per round: its starting ``cost``, the ``candidates`` ranked and the
+        likelihood-ratio ``threshold``.
+    alpha : float
+        The significance level, before the Bonferroni division.
+
+    Attributes
+    ----------
+    fit : FitResult
+        ``final``.
+    before, after : list of dict
+        ``residual_diagnostics`` of ``base`` and of ``final``.
+    """
 
     def __init__(self, base, final, model, effects, rounds, alpha):
         self.base, self.fit, self.model = base, final, model
@@ -323,19 +350,42 @@ class Diagnosis:
         self.before = residual_diagnostics(base)
         self.after = residual_diagnostics(final)
 
+    def _round_header(self, k, rnd):
+        return (f"round {k}: cost {rnd['cost']:.2f}, {len(rnd['candidates'])} candidates, "
+                f"threshold 2dJ > {rnd['threshold']:.2f} (chi-square, alpha "
+                f"{self.alpha}/{len(rnd['candidates'])})")
+
+    @staticmethod
+    def _listed(rnd):
+        """The candidates a round lists: every one refitted (largest 2dJ
+        first), then the best of the rest, eight in all."""
+        tried = sorted([c for c in rnd["candidates"]
+                        if c.lr is not None or c.decision.startswith("refit failed")],
+                       key=lambda c: -math.inf if c.lr is None else c.lr, reverse=True)
+        rest = sorted([c for c in rnd["candidates"] if c.decision == "not refitted"],
+                      key=_rank_key, reverse=True)
+        return tried + rest[:max(0, 8 - len(tried))]
+
+    @property
+    def verdict(self):
+        """One line: the effects found, or that nothing is missing."""
+        if not self.effects:
+            return "nothing missing at this significance"
+        return "effects found: " + ", ".join(c.name for c in self.effects)
+
     def report(self):
+        """The diagnosis as printed lines: each round's candidates with their
+        statistic, likelihood ratio and decision, the effects found, and the
+        residual RMS and whiteness before and after.
+
+        Returns
+        -------
+        str
+        """
         lines = [" model-discrepancy diagnosis"]
         for k, rnd in enumerate(self.rounds, 1):
-            lines.append(f" round {k}: cost {rnd['cost']:.2f}, {len(rnd['candidates'])} candidates,"
-                         f" threshold 2dJ > {rnd['threshold']:.2f} (chi-square, alpha "
-                         f"{self.alpha}/{len(rnd['candidates'])})")
-            # every candidate refitted, then the best of the rest
-            tried = sorted([c for c in rnd["candidates"]
-                            if c.lr is not None or c.decision.startswith("refit failed")],
-                           key=lambda c: -math.inf if c.lr is None else c.lr, reverse=True)
-            rest = sorted([c for c in rnd["candidates"] if c.decision == "not refitted"],
-                          key=_rank_key, reverse=True)
-            for c in tried + rest[:max(0, 8 - len(tried))]:
+            lines.append(" " + self._round_header(k, rnd))
+            for c in self._listed(rnd):
                 stat = (f"score {c.score:9.2f}" if c.score is not None
                         else f"signature {c.signature:6.3f}")
                 lr = f"2dJ {c.lr:9.2f}" if c.lr is not None else " " * 13
@@ -351,12 +401,46 @@ class Diagnosis:
                 val = "" if c.value is None else f" = {c.value[0]:.5g} +- {c.value[1]:.2g}"
                 lines.append(f"   {c.family}: {c.name}{val} (2dJ {c.lr:.1f})")
         else:
-            lines.append(" nothing missing at this significance")
+            lines.append(" " + self.verdict)
         lines.append(f" cost {self.base.cost:.2f} -> {self.fit.cost:.2f}")
         for b, a in zip(self.before, self.after):
             lines.append(f"   {b['output']:<8} residual rms {b['rms']:.4g} -> {a['rms']:.4g},  "
                          f"Ljung-Box Q {b['Q']:.1f} -> {a['Q']:.1f} (5% point {b['Q_critical']:.1f})")
         return "\n".join(lines)
+
+    def _repr_html_(self):
+        """Jupyter's view: the verdict, the effects, each round's candidates
+        and the residuals before and after, as tables."""
+        parts = [f'<div class="mlid-diagnosis"><p><b>Diagnosis</b>: '
+                 f'<span class="verdict">{_esc(self.verdict)}</span>; cost '
+                 f'<span class="cost-before">{_g(self.base.cost)}</span> &rarr; '
+                 f'<span class="cost-after">{_g(self.fit.cost)}</span></p>']
+        if self.effects:
+            parts.append(_html_table(
+                "mlid-effects", ("family", "effect", "value", "σ", "2dJ"),
+                [(c.family, c.name) + (c.value if c.value is not None else (None, None))
+                 + (c.lr,) for c in self.effects]))
+        for k, rnd in enumerate(self.rounds, 1):
+            parts.append(f"<p>{_esc(self._round_header(k, rnd))}</p>")
+            parts.append(_html_table(
+                "mlid-candidates", ("family", "candidate", "score", "signature", "2dJ",
+                                    "decision"),
+                [(c.family, c.name, c.score, c.signature, c.lr,
+                  c.decision + (f" ({c.note})" if c.note else "")) for c in self._listed(rnd)]))
+            confounded = [c.name for c in rnd["candidates"] if c.confounded]
+            if confounded:
+                parts.append("<p>confounded with the free parameters, not tried: "
+                             f"{_esc(', '.join(confounded))}</p>")
+        parts.append(_html_table(
+            "mlid-residuals", ("output", "rms before", "rms after", "Ljung-Box Q before",
+                               "Q after", "5% point"),
+            [(b["output"], b["rms"], a["rms"], b["Q"], a["Q"], b["Q_critical"])
+             for b, a in zip(self.before, self.after)]))
+        return "".join(parts) + "</div>"
+
+    def __repr__(self):
+        return (f"Diagnosis({len(self.effects)} effects {[c.name for c in self.effects]}, "
+                f"{len(self.rounds)} rounds, cost {self.base.cost:.6g} -> {self.fit.cost:.6g})")
 
     def plot(self, folder):
         """Residuals, their autocorrelation and spectrum before and after."""
@@ -388,6 +472,29 @@ class Diagnosis:
         atomic_savefig(fig, path, dpi=100)
         plt.close(fig)
         return path
+
+
+def _esc(text):
+    return html.escape(str(text))
+
+
+def _g(value):
+    """A number in the HTML views (as the results table: HTML_DIGITS
+    significant digits), NaN and None empty."""
+    if value is None or not math.isfinite(value):
+        return ""
+    return f"{value:.{HTML_DIGITS}g}"
+
+
+def _html_table(cls, heads, rows):
+    """An HTML table: text cells escaped, numbers right-aligned by _g."""
+    def cell(v):
+        if isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) or v is None:
+            return f'<td style="text-align:right">{_g(None if v is None else float(v))}</td>'
+        return f"<td>{_esc(v)}</td>"
+    head = "".join(f"<th>{_esc(h)}</th>" for h in heads)
+    body = "".join("<tr>" + "".join(cell(v) for v in row) + "</tr>" for row in rows)
+    return f'<table class="{cls}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
 
 
 def _rank_key(c):

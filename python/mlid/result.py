@@ -1,5 +1,8 @@
-"""The result of a fit, its printed report (report Table 5.3 style), and
-the whiteness test of its residuals."""
+"""The result of a fit, its printed report (report Table 5.3 style), its
+HTML form for Jupyter, and the whiteness test of its residuals."""
+
+import html
+import re
 
 import numpy as np
 
@@ -138,6 +141,42 @@ class FitResult:
         Cramer-Rao and corrected sigma, relative sigma, flag."""
         from .table import results_table
         return results_table(self)
+
+    def noise_diagonal(self):
+        """The diagonal of R-hat by output, in the core report's words.
+
+        Returns
+        -------
+        label : str
+            'R diagonal' (output error: R estimated from the residuals) or
+            'B diagonal (mean)' (filter error: the mean innovation covariance),
+            as the printed report says it.
+        rows : list of (str, float)
+            Each output's name and its diagonal element (core units).
+        """
+        line = next(ln for ln in self.report().split("\n")
+                    if ln.startswith((" R diagonal", " B diagonal")))
+        label = re.match(r"\s*(\w diagonal(?: \(mean\))?)", line).group(1)
+        outs = list(self.data.output_names) or [f"y{i + 1}" for i in range(len(self.rhat))]
+        return label, [(name, float(v)) for name, v in zip(outs, np.diag(self.rhat))]
+
+    def _repr_html_(self):
+        """Jupyter's view: the report's first line (method, iterations,
+        converged and why), the results table, the cost and R-hat's diagonal."""
+        from .table import HTML_DIGITS
+        e = html.escape
+        head = self.report().split("\n")[0].strip()
+        label, rows = self.noise_diagonal()
+        noise = "".join(f"<tr><td>{e(name)}</td><td style=\"text-align:right\">"
+                        f"{v:.{HTML_DIGITS}g}</td></tr>" for name, v in rows)
+        return (f'<div class="mlid-fit"><p><b>FitResult</b>: {e(head)}</p>'
+                f"{self.table().html_text()}"
+                f'<p>cost J = <span class="cost">{self.cost:.{HTML_DIGITS}g}</span>, '
+                f'<span class="iterations">{self.iterations}</span> iterations, '
+                f'converged: <span class="converged">{"yes" if self.converged else "no"}'
+                f'</span> (<span class="reason">{e(self.reason)}</span>)</p>'
+                f'<table class="mlid-noise"><thead><tr><th>output</th><th>{e(label)}</th>'
+                f"</tr></thead><tbody>{noise}</tbody></table></div>")
 
     def __repr__(self):
         return f"FitResult(cost={self.cost:.6g}, iterations={self.iterations}, " \

@@ -1,9 +1,10 @@
 """The results table a flight-test report can take: per free parameter its
 name, unit, estimate, Cramer-Rao sigma, sigma corrected for coloured
-residuals, relative sigma and a flag, exported as CSV, LaTeX, JSON or a
-pandas DataFrame.  Files are written whole or not at all."""
+residuals, relative sigma and a flag, exported as CSV, LaTeX, JSON, HTML or
+a pandas DataFrame.  Files are written whole or not at all."""
 
 import csv
+import html
 import io
 import json
 import math
@@ -18,6 +19,10 @@ COLUMNS = ("name", "unit", "estimate", "sigma_cr", "sigma_corrected", "relative_
            "flag")
 LATEX_HEADINGS = ("Parameter", "Unit", "Estimate", r"CR $\sigma$", r"Corrected $\sigma$",
                   r"$\sigma$/$|\hat\theta|$ (\%)", "Flag")
+#: The same headings as plain text (HTML, Jupyter).
+HEADINGS = ("Parameter", "Unit", "Estimate", "CR σ", "Corrected σ", "σ/|θ̂| (%)", "Flag")
+#: Significant digits of a number in the HTML table.
+HTML_DIGITS = 6
 #: A parameter is flagged when its corrected sigma is more than this times the Cramer-Rao one.
 FLAG_RATIO = 2.0
 FLAG_TEXT = "coloured"
@@ -161,6 +166,23 @@ class ResultsTable:
         lines += [r"\bottomrule", r"\end{tabular}"]
         return "\n".join(lines) + "\n"
 
+    def html_text(self):
+        """An HTML table (no styling): names, units and flags escaped,
+        numbers to HTML_DIGITS significant digits, an undefined relative
+        sigma (zero estimate) empty; the flag column says ``coloured``."""
+        cols = self.columns
+        heads = (("Case",) if CASE in cols else ()) + HEADINGS
+        head = "".join(f"<th>{html.escape(h)}</th>" for h in heads)
+        body = []
+        for row in self.rows:
+            cells = "".join(_html_cell(c, row[c]) for c in cols)
+            body.append(f"<tr>{cells}</tr>")
+        return (f'<table class="mlid-results"><thead><tr>{head}</tr></thead>'
+                f"<tbody>{''.join(body)}</tbody></table>")
+
+    def _repr_html_(self):
+        return self.html_text()
+
     # --- exports ------------------------------------------------------------------------
 
     def to_csv(self, path):
@@ -220,6 +242,15 @@ def _csv_cell(col, value):
     if isinstance(value, float):
         return repr(value) if math.isfinite(value) else ""
     return value
+
+
+def _html_cell(col, value):
+    if col == "flag":
+        return f"<td>{FLAG_TEXT if value else ''}</td>"
+    if isinstance(value, (float, np.floating)):
+        text = f"{value:.{HTML_DIGITS}g}" if math.isfinite(value) else ""
+        return f'<td style="text-align:right">{text}</td>'
+    return f"<td>{html.escape(str(value))}</td>"
 
 
 def _latex_cell(col, value):
