@@ -19,11 +19,12 @@
 !>   steady-state value.
 !>   For a nonlinear model the same recursion is the extended Kalman filter
 !>   (eqs 4.22-4.28): C is dh/dx at x(j|j-1), Phi and W are the Jacobians of
-!>   the RK4 interval at x(j-1|j-1), integrated with the state.  Its
-!>   partials hold the linearisation fixed: exact for the noise covariances
-!>   Q, R, S, neglected through Phi, W, C for the parameters of f and h
-!>   (the report's simplification).  The steady-state gain needs a linear
-!>   model.
+!>   the RK4 interval at x(j-1|j-1), integrated with the state.  The
+!>   partials this routine would form for it hold the linearisation fixed
+!>   (none through Phi, W, C, nor through the effective R and S of outputs
+!>   that carry the process noise), so mlid_likelihood does not ask for
+!>   them: with opt%partials it differences whole filter runs instead.  The
+!>   steady-state gain needs a linear model.
 module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_SINGULAR, &

@@ -182,32 +182,105 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         biases=None, **options):
     """Maximum-likelihood fit of the model's free parameters.
 
-    data: a FlightData, or a list of them: several manoeuvres fitted
-    together, sharing every parameter but the initial state and the output
-    biases, which each has of its own (named like the model's with '#k', k
-    the manoeuvre; start values initial_states and biases, one per
-    manoeuvre, default the model's).
+    Modified Newton-Raphson (report §4.6) on the negative log-likelihood,
+    from the model's current parameter values.
 
-    Options (defaults from the core, see ``default_options()``): method
-    ('output_error', or 'filter_error': the Kalman filter with the model's
-    process noise), max_iter, halvings, noise (output error: 'diagonal' or
-    'full' R estimated from the residuals), partials (filter error: the
-    covariance and gain partials of eqs 4.32-4.34; for a nonlinear model's
-    extended Kalman filter they hold the linearisation fixed: exact for the
-    noise covariances, neglected for the parameters of f and h), steady_state (filter
-    error: steady-state gain), startup ('equation_error': start from an
-    equation-error least-squares pass, all states measured), tol_cost,
-    tol_step, tol_grad, rcond, rank_min and rank_max (rank-deficient search
-    over these ranks, report §4.6 blocks 7-10), rank_rule ('iteration': the
-    best rank each iteration, as the report; 'staged': converge at rank_min,
-    then free one more direction at a time while a likelihood-ratio test at
-    5% accepts it), prior_decay (a priori weights times this
-    each iteration).  The a priori weighting of §4.5.2: prior_weight, a dict
-    {name: weight} (diagonal) or an nf x nf matrix over the free parameters,
-    and prior, {name: value} (default the start values).  bounds: {name:
-    (lower, upper)} with the step limiting of §4.6 blocks 11-12.  Returns a FitResult; raises an
-    MlidError subclass for bad input, divergence or singular information
-    (with the partial result attached where there is one).
+    Parameters
+    ----------
+    model : Model
+        A LinearModel, LongitudinalModel, X22Model or UserModel; its free
+        parameters are estimated, the others held.
+    data : FlightData or list of FlightData
+        One record, or several manoeuvres fitted together: they share every
+        parameter but the initial state and the output biases, which each
+        has of its own (named like the model's with '#k', k the manoeuvre).
+    prior : dict, optional
+        A priori values {name: value} of §4.5.2 (default: the start values).
+    prior_weight : dict or array_like, optional
+        The a priori weights: {name: weight} (diagonal) or an nf x nf matrix
+        over the free parameters; none, no a priori term.
+    bounds : dict, optional
+        {name: (lower, upper)}, either may be None; steps are limited to
+        them as in §4.6 blocks 11-12.
+    initial_states, biases : list of array_like, optional
+        Start values of each manoeuvre's x0 and output bias (several
+        manoeuvres only; default the model's).
+    **options
+        Estimator options by name (defaults: ``default_options()``):
+
+        method : 'output_error' or 'filter_error'
+            Output error (§4.4): R estimated from the residuals.  Filter
+            error (§4.1, §4.3): the Kalman filter with the model's process
+            noise; q, r and S are parameters like any other.  A nonlinear
+            model gets the extended Kalman filter, linearised over each
+            sample interval.
+        noise : 'diagonal' or 'full'
+            Output error: the R estimated from the residuals.
+        partials : bool
+            Filter error: include the partials of the innovations and their
+            covariance B through the filter's covariance and gain (eqs
+            4.32-4.34) in the gradient and information matrix; needed for
+            free noise parameters.  A linear model gets them analytically.
+            A nonlinear model's extended Kalman filter depends on the
+            parameters also through its linearisation (Phi, W and C taken
+            along the estimated states), whose analytic partials need second
+            derivatives of f and h: the core instead takes the innovations'
+            and B's partials as forward differences of whole filter runs,
+            one per free parameter (step 1e-6 of the parameter), so the
+            gradient is that of the cost for every parameter, the
+            coefficients of f and h as well as the noise statistics.  Without
+            partials the gain and B are held fixed in the gradient and
+            information: the innovations' sensitivities run through the
+            states only, and the noise parameters get no gradient (a free
+            one then makes the information singular).
+        steady_state : bool
+            Filter error, linear models: the steady-state gain.
+        startup : 'none' or 'equation_error'
+            Start from an equation-error least-squares pass (all states
+            measured).
+        max_iter, halvings : int
+            Iterations, and step halvings when the cost rises.
+        tol_cost, tol_step, tol_grad : float
+            Convergence tests: relative cost change, relative step, and the
+            step in Cramer-Rao sigmas.
+        rcond : float
+            Eigenvalues of the normalised information below rcond times the
+            largest are singular.
+        rank_min, rank_max : int
+            Rank-deficient search over these ranks (§4.6 blocks 7-10); 0,
+            full rank.
+        rank_rule : 'iteration' or 'staged'
+            'iteration': the best rank each iteration, as the report;
+            'staged': converge at rank_min, then free one more direction at
+            a time while a likelihood-ratio test at 5% accepts it.
+        prior_decay : float
+            The a priori weights are multiplied by this each iteration.
+
+    Returns
+    -------
+    FitResult
+        Estimates, Cramer-Rao and coloured-residual sigmas, covariance,
+        R-hat, outputs, cost history and how the iteration ended.  A run that
+        ends without meeting a convergence test returns its last iterate with
+        ``converged`` False.
+
+    Raises
+    ------
+    InputError
+        Bad model, data, names, options, prior, bounds or sizes; time that
+        does not increase or has a gap; non-uniform sampling for filter
+        error.
+    SingularInformationError
+        The information matrix is singular (``.result`` holds the fit).
+    DivergenceError
+        The simulation diverged (a state not finite).
+    InternalError
+        A numerical library call failed.
+
+    Warns
+    -----
+    MlidWarning
+        When the core warns about the record (units that look wrong).
     """
     _check_model(model)
     _check_data(data)
