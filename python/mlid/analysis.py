@@ -14,15 +14,41 @@ from .files import atomic_savefig
 def fpe(result):
     """Akaike's final-prediction-error corrected cost (N-k)/(N+k) ln|R| of a
     fit with R estimated (report §5.3.5): lower is better, and unlike the
-    cost it does not fall just because parameters are added."""
+    cost it does not fall just because parameters are added.
+
+    Parameters
+    ----------
+    result : FitResult
+        N its samples, k its free parameters, R its R-hat.
+
+    Returns
+    -------
+    float
+    """
     n, k = result.data.nt, len(result.names)
     return (n - k) / (n + k) * float(np.linalg.slogdet(result.rhat)[1])
 
 
 @guarded
 def compare_models(results, labels=None, plot=None):
-    """A table (and, with plot=PATH, a Fig. 5.18-style plot) of fits with
-    different free sets: parameters k, cost, ln|R| and FPE, fewest first."""
+    """A table (and a Fig. 5.18-style plot) of fits with different free sets.
+
+    Parameters
+    ----------
+    results : list of FitResult
+        Fits of the same record.
+    labels : list of str, optional
+        One per fit (default 'fit 1', 'fit 2', ...).
+    plot : str or Path, optional
+        Where to write the plot of FPE and ln|R| against k (PNG, whole or
+        not at all).
+
+    Returns
+    -------
+    list of dict
+        Per fit, fewest parameters first: ``label``, ``k``, ``cost``,
+        ``ln_det_R`` and ``fpe``.
+    """
     labels = labels or [f"fit {i + 1}" for i in range(len(results))]
     rows = sorted(({"label": lab, "k": len(r.names), "cost": r.cost,
                     "ln_det_R": float(np.linalg.slogdet(r.rhat)[1]), "fpe": fpe(r)}
@@ -52,8 +78,29 @@ def compare_models(results, labels=None, plot=None):
 @guarded
 def predict(result, data, start):
     """Prediction check (report §5.2.8): the model fitted on the first part
-    of a record run through the whole record; returns the prediction error
-    RMS per output over samples start: and the predicted FlightData."""
+    of a record run through the whole record, without noise.
+
+    Parameters
+    ----------
+    result : FitResult
+        The fit of the first part.
+    data : FlightData
+        The whole record.
+    start : int
+        The first sample (from 0) of the part predicted.
+
+    Returns
+    -------
+    dict
+        ``rms``, the prediction error RMS per output over samples start:;
+        ``rms_over_noise``, it over sqrt(diag R-hat); ``prediction``, the
+        predicted FlightData.
+
+    Raises
+    ------
+    InputError
+        data that does not fit the model.
+    """
     predicted, _ = core.simulate(result.model, data.t, data.u)
     err = data.y[start:] - predicted.y[start:]
     rms = np.sqrt(np.mean(err**2, axis=0))

@@ -62,7 +62,13 @@ def _as_text(value):
 
 @guarded
 def default_options():
-    """The core's default estimator options, by name."""
+    """The core's default estimator options, by name.
+
+    Returns
+    -------
+    dict
+        {name: value} of every option ``fit`` takes (fortran/mlid_options.f90).
+    """
     return _as_dict(*_api.mlid_default_options())
 
 
@@ -330,15 +336,37 @@ def _free_units(model, record, params):
 
 @guarded
 def evaluate(model, data, initial_states=None, biases=None, **options):
-    """Cost, gradient, information matrix, R-hat, outputs and output
-    sensitivity norms (ny, nf: how many residual sigmas each free parameter
-    moves each output over the record) at the model's current parameters (no
-    iteration); data, initial_states, biases and options as for fit().
-    Also "weighted_sensitivity" (ny, nt, nf): W(j) d yhat/d theta at each
-    sample (W the inverse of R-hat, or of the innovation covariance; the
-    sign of the innovation sensitivities for filter error), and
-    "information_sensitivity" (nf, nf): the part of the information they
-    make, the inputs of the coloured-residual correction (``colored_covariance``)."""
+    """The likelihood and its derivatives at the model's current parameters
+    (no iteration).
+
+    Parameters
+    ----------
+    model, data, initial_states, biases, **options
+        As for ``fit``.
+
+    Returns
+    -------
+    dict
+        ``cost``; ``gradient`` (nf,) and ``information`` (nf, nf) over the
+        free parameters; ``rhat`` (ny, ny); ``yhat`` (nt, ny); ``sensitivity``
+        (ny, nf), the output sensitivity norms: how many residual sigmas each
+        free parameter moves each output over the record;
+        ``weighted_sensitivity`` (ny, nt, nf): W(j) d yhat/d theta at each
+        sample (W the inverse of R-hat, or of the innovation covariance; the
+        sign of the innovation sensitivities for filter error); and
+        ``information_sensitivity`` (nf, nf), the part of the information
+        they make: the inputs of the coloured-residual correction
+        (``mlid.core.colored_covariance``).
+
+    Raises
+    ------
+    InputError
+        As for ``fit``.
+    SingularInformationError
+        A residual or innovation covariance that is singular.
+    DivergenceError
+        The simulation diverged.
+    """
     _check_model(model)
     _check_data(data)
     iopt, ropt, _ = _flat_options(model, options)
@@ -420,13 +448,49 @@ TIMINGS = ("forward", "backward")
 @guarded
 def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names=None,
              timing="forward"):
-    """Outputs of the model along t with inputs u (nt, nu), with the model's
-    process noise and measurement noise (seeded).  noise_std, if given,
-    replaces the measurement-noise standard deviations (r = noise_std**2).
-    Outputs that carry the process noise (accelerometers of the X-22 model)
-    get that of the interval after the sample ('forward', as the filter
-    assumes) or before it ('backward'), report §5.1.5.
-    Returns (FlightData, states (nt, nx))."""
+    """Outputs of the model along t with inputs u, with the model's process
+    and measurement noise (seeded).
+
+    The process noise is held over each sample interval with variances q,
+    correlated with the measurement noise through S; RK4 integrates each
+    interval over its own length.
+
+    Parameters
+    ----------
+    model : Model
+        The model and its current parameters, q, r and S.
+    t : array_like (nt,)
+        Sample times, finite and increasing; uneven steps are taken as
+        they are.
+    u : array_like (nt, nu)
+        Inputs, one row per sample.
+    noise_std : array_like (ny,), optional
+        Measurement-noise standard deviations replacing the model's
+        (r = noise_std**2).
+    seed : int
+        Seed of the noise; the same seed gives the same record.
+    output_names, input_names : list of str, optional
+        Channel names of the record.
+    timing : {'forward', 'backward'}
+        Outputs that carry the process noise (accelerometers of the X-22
+        model) get that of the interval after the sample ('forward', as the
+        filter assumes) or before it ('backward'), report §5.1.5.
+
+    Returns
+    -------
+    data : FlightData
+        t, u and the noisy outputs.
+    states : ndarray (nt, nx)
+        The states along the record.
+
+    Raises
+    ------
+    InputError
+        Bad model, sizes, times, inputs, noise_std, seed or timing; noise
+        covariances that are not positive semi-definite.
+    DivergenceError
+        The simulation diverged.
+    """
     if timing not in TIMINGS:
         raise InputError(f"timing must be one of {TIMINGS}, got {timing!r}")
     _check_model(model)
@@ -595,12 +659,33 @@ def input_signal(shape, amplitude, t_start, pulse_width, dt, nt):
 
 @guarded
 def check_jacobians(model, x, u, w=None):
-    """Largest relative differences between the model's analytic Jacobians
-    and central differences at state x, input u, process noise w (default
-    zero) and the model's parameters: {'df/dx', 'df/dp', 'dh/dx', 'dh/dp',
-    'df/dw', 'dh/dw'} ('dh/dw': how far dh/dw changes with w; the output noise
-    must be linear in it).  Values near 1e-8 or below mean the Jacobians are
-    right; write your own model's, then check them here."""
+    """Compare the model's analytic Jacobians with central differences, at
+    one point and the model's parameters; write your own model's, then
+    check them here.
+
+    Parameters
+    ----------
+    model : Model
+    x : array_like (nx,)
+        State.
+    u : array_like (nu,)
+        Input.
+    w : array_like (nw,), optional
+        Process noise (default zero).
+
+    Returns
+    -------
+    dict
+        The largest relative difference for each of 'df/dx', 'df/dp',
+        'dh/dx', 'dh/dp', 'df/dw' and 'dh/dw' ('dh/dw': how far dh/dw changes
+        with w; the output noise must be linear in it).  Values near 1e-8 or
+        below mean the Jacobians are right.
+
+    Raises
+    ------
+    InputError
+        x, u or w of the wrong size.
+    """
     _check_model(model)
     w = np.zeros(model.nw) if w is None else np.asarray(w, dtype=float).reshape(model.nw)
     x, u = real_array("x", x).ravel(), real_array("u", u).ravel()

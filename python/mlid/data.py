@@ -87,6 +87,33 @@ class FlightData:
     ('' where none was declared); ``input_display``/``output_display`` are
     (unit, scale, offset) per channel, the unit the record declared and how
     to get back to it: declared = (core - offset) / scale (see ``shown``).
+
+    Time, inputs and outputs may hold NaN here: a fit refuses them with the
+    sample named, so that a record can be cleaned first.  ``load`` and
+    ``from_frame`` read records from files and DataFrames.
+
+    Parameters
+    ----------
+    t : array_like (nt,)
+        Sample times [s].
+    u : array_like (nt, nu)
+        Inputs, one row per sample (a vector for one input).
+    y : array_like (nt, ny)
+        Outputs, one row per sample (a vector for one output).
+    input_names, output_names : list of str, optional
+        Channel names (default u1, u2, ... and y1, y2, ...).
+    source : str
+        Where the record came from (a path), for messages.
+    input_units, output_units : list of str, optional
+        The core's unit of each channel ('' unknown).
+    input_display, output_display : list of (str, float, float), optional
+        (unit, scale, offset) per channel (default: the core's unit, 1, 0).
+
+    Raises
+    ------
+    InputError
+        t not a vector, u or y not one row per sample (given transposed, the
+        message says so), or names, units or display not one per channel.
     """
 
     def __init__(self, t, u, y, input_names=None, output_names=None, source="",
@@ -112,9 +139,22 @@ class FlightData:
         self.output_display = _display(output_display, self.output_units, "output_display")
 
     def shown(self, which, i):
-        """Channel i of the inputs ('u') or outputs ('y') in the unit the
-        record declared: (values (nt,), unit); the core's values and unit
-        where none was declared."""
+        """A channel in the unit the record declared.
+
+        Parameters
+        ----------
+        which : {'u', 'y'}
+            Inputs or outputs.
+        i : int
+            The channel, from 0.
+
+        Returns
+        -------
+        values : ndarray (nt,)
+            (core value - offset) / scale; the core's values where the
+            record declared no unit.
+        unit : str
+        """
         x, display = (self.u, self.input_display) if which == "u" else (self.y, self.output_display)
         unit, scale, offset = display[i]
         values = x[:, i]
@@ -122,6 +162,7 @@ class FlightData:
 
     @property
     def nt(self):
+        """Number of samples."""
         return self.t.size
 
     @classmethod
@@ -193,6 +234,17 @@ class FlightData:
         ``to_numpy``): channels by column name, as in ``load``; a column
         named 'ALCG[deg]' carries its unit.
 
+        Parameters
+        ----------
+        frame : pandas.DataFrame
+            The table, a column per channel, numbers only.
+        time_col, input_cols, output_cols : str or list of str
+            Channels by column name (or a derived channel's), as in ``load``.
+        units, derived, t_start, t_end, input_names, output_names
+            As in ``load``.
+        source : str
+            What messages call the table.
+
         Returns
         -------
         FlightData
@@ -233,7 +285,13 @@ class FlightData:
 
     def save(self, path):
         """Write t, u, y as columns with a '#' header (17 digits, exact), whole
-        or not at all: to a temporary name beside path, renamed when complete."""
+        or not at all: to a temporary name beside path, renamed when complete.
+
+        Parameters
+        ----------
+        path : str or Path
+            The text file; ``load(path, 1, [2, ...], [...])`` reads it back.
+        """
         names = ["t"] + self.input_names + self.output_names
         with atomic_open(path) as fh:
             np.savetxt(fh, np.column_stack([self.t, self.u, self.y]), fmt="%.16e",

@@ -23,8 +23,28 @@ _UNKNOWN = re.compile(r"^\s*([fgh])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*$", re.IGNOR
 
 @guarded
 def summary(M):
-    """What the report tabulates for an information matrix (§8.1): trace,
-    determinant, eigenvalues, tr M * tr M^-1 and the Cramer-Rao sigma."""
+    """What the report tabulates for an information matrix (§8.1).
+
+    Parameters
+    ----------
+    M : array_like (n, n)
+        An information matrix.
+
+    Returns
+    -------
+    dict
+        ``trace``, ``det``, ``eigenvalues`` (ascending), ``trace_product``
+        tr M tr M^-1, ``sigma`` (Cramer-Rao: sqrt of diag M^-1) and
+        ``spread`` (largest over smallest eigenvalue).  A singular M (an
+        unknown the input does not reach) gives det 0, infinite
+        trace_product and spread, and sigma from the pseudo-inverse
+        (infinite where M's diagonal is zero).
+
+    Raises
+    ------
+    InputError
+        If M is not square.
+    """
     M = real_array("M", M)
     if M.ndim != 2 or M.shape[0] != M.shape[1]:
         raise InputError(f"M must be a square information matrix, got shape {M.shape}")
@@ -40,7 +60,24 @@ def summary(M):
 
 
 class DesignedInput:
-    """An input on [0, T] held over equal cells, and its information."""
+    """An input on [0, T] held over equal cells, and its information.
+
+    Parameters
+    ----------
+    t_edges : ndarray (cells + 1,)
+        Cell edges, 0 to T.
+    u : ndarray (cells, nu)
+        The input on each cell.
+    M : ndarray (n, n)
+        Its (unweighted) information matrix; ``summary`` holds
+        ``summary(M)``.
+    mu : float, optional
+        The design operator's eigenvalue, for energy-optimal inputs.
+    energy : float, optional
+        The integral of u'u over [0, T] (default: computed from u).
+    weights : ndarray, optional
+        The weights of the unknowns it was designed for.
+    """
 
     def __init__(self, t_edges, u, M, mu=None, energy=None, weights=None):
         self.t_edges, self.u, self.M, self.mu = t_edges, u, M, mu
@@ -54,7 +91,15 @@ class DesignedInput:
         return 0.5 * (self.t_edges[1:] + self.t_edges[:-1])
 
     def spectrum(self):
-        """|Fourier transform| of the input (Fig. 8.4): frequencies [rad/s], magnitude."""
+        """|Fourier transform| of the first input (Fig. 8.4), zero-padded eightfold.
+
+        Returns
+        -------
+        omega : ndarray
+            Frequencies [rad/s].
+        magnitude : ndarray
+            |U(omega)|.
+        """
         dt = self.t_edges[1] - self.t_edges[0]
         n = 8 * len(self.u)                      # zero padding for a smooth curve
         spec = np.abs(np.fft.rfft(self.u[:, 0], n)) * dt
@@ -67,7 +112,29 @@ class InputDesign:
     (E{n n'} = R delta) and the unknowns, elements of F, G or H named
     'f(i,j)', 'g(i,j)', 'h(i,j)'.  process_noise: Gamma Q Gamma' (nx x nx);
     the design then uses the steady-state Kalman filter's sensitivities
-    (§7.5, eq. 7.84)."""
+    (§7.5, eq. 7.84).
+
+    Parameters
+    ----------
+    F : array_like (nx, nx)
+    G : array_like (nx, nu)
+    H : array_like (ny, nx)
+    R : array_like (ny, ny)
+        Spectral density of the continuous measurement noise (eq. 7.11).
+    unknowns : list of str
+        The parameters the input is designed for: 'f(i,j)', 'g(i,j)',
+        'h(i,j)', 1-based.
+    weights : array_like, optional
+        One per unknown (default ones): the design maximises tr(W M).
+    process_noise : array_like (nx, nx), optional
+        Gamma Q Gamma' (default none).
+
+    Raises
+    ------
+    InputError
+        Matrices that do not fit together, unknowns that are not elements of
+        F, G or H or are listed twice, weights not one per unknown.
+    """
 
     def __init__(self, F, G, H, R, unknowns, weights=None, process_noise=None):
         self.F, self.G, self.H, self.R = (np.asfortranarray(np.atleast_2d(real_array(n, a)))
@@ -111,10 +178,32 @@ class InputDesign:
         return dict(f=self.F, g=self.G, h=self.H, r=self.R, gq=self.process_noise, **self._unk)
 
     def with_weights(self, weights):
+        """The same design problem with other weights.
+
+        Parameters
+        ----------
+        weights : array_like
+            One per unknown.
+
+        Returns
+        -------
+        InputDesign
+        """
         return InputDesign(self.F, self.G, self.H, self.R, self.unknowns, weights,
                            self.process_noise)
 
     def with_model(self, F=None, G=None, H=None):
+        """The same unknowns, R, weights and process noise for other matrices.
+
+        Parameters
+        ----------
+        F, G, H : array_like, optional
+            Replacements (default: the design's own).
+
+        Returns
+        -------
+        InputDesign
+        """
         return InputDesign(self.F if F is None else F, self.G if G is None else G,
                            self.H if H is None else H, self.R, self.unknowns, self.weights,
                            self.process_noise)
@@ -129,9 +218,34 @@ class InputDesign:
 
     def mu_max(self, T, cells=200, method="operator"):
         """The largest eigenvalue mu of the design operator on [0, T]:
-        max tr(WM) = mu E.  'operator': eq. 7.39 on cells and 2*cells input
-        cells, Richardson-extrapolated; 'riccati': the secant of eq. 7.89 on
-        the Riccati critical length, started from the operator's value."""
+        max tr(WM) = mu E.
+
+        Parameters
+        ----------
+        T : float
+            Length of the input [s], > 0.
+        cells : int
+            Input cells of the operator method (4 or more).
+        method : {'operator', 'riccati'}
+            'operator': eq. 7.39 on cells and 2*cells input cells,
+            Richardson-extrapolated; 'riccati': the secant of eq. 7.89 on the
+            Riccati critical length, started from the operator's value.
+
+        Returns
+        -------
+        float
+
+        Raises
+        ------
+        InputError
+            T not > 0, bad cells or method, matrices the core refuses (R not
+            positive definite, weights not > 0, values not finite).
+        SingularInformationError
+            The unknowns do not affect the outputs.
+        NonConvergenceError
+            With process noise, the steady-state filter did not converge;
+            'riccati', the secant did not.
+        """
         self._check_t(T)
         mu, u, status, msg = _api.mlid_design_mu(w=self.weights, t=float(T),
                                                   ncell=self._cells(cells), **self._args())
@@ -156,8 +270,30 @@ class InputDesign:
 
     def critical_length(self, mu, method="riccati", tmax=100.0):
         """The interval length T whose largest eigenvalue is mu (the first
-        conjugate point): 'riccati' (eqs 7.31-7.34, §7.7) or 'transition'
-        (eqs 7.25-7.29)."""
+        conjugate point).
+
+        Parameters
+        ----------
+        mu : float
+            The eigenvalue, > 0.
+        method : {'riccati', 'transition'}
+            'riccati' (eqs 7.31-7.34, §7.7) or 'transition' (eqs 7.25-7.29).
+        tmax : float
+            The longest T searched.
+
+        Returns
+        -------
+        float or (float, ndarray)
+            T; with 'transition', (T, lambda(0)) (the costate's start, for
+            ``optimal_input``).
+
+        Raises
+        ------
+        InputError
+            mu not > 0, an unknown method.
+        NonConvergenceError
+            No conjugate point up to tmax.
+        """
         if not mu > 0:
             raise InputError(f"mu must be > 0, got {mu}")
         na = (len(self.unknowns) + 1) * self.F.shape[0]
@@ -168,8 +304,26 @@ class InputDesign:
         return (float(T), lam0) if method == "transition" else float(T)
 
     def information(self, T, u):
-        """The (unweighted) information matrix of the input u (cells, nu)
-        held over equal cells of [0, T] (eq. 7.12)."""
+        """The (unweighted) information matrix of an input held over equal
+        cells of [0, T] (eq. 7.12).
+
+        Parameters
+        ----------
+        T : float
+            Length of the input [s], > 0.
+        u : array_like (cells, nu)
+            The input on each cell (a vector for one input).
+
+        Returns
+        -------
+        ndarray (n, n)
+            Over the unknowns, in their order.
+
+        Raises
+        ------
+        InputError
+            T not > 0, u not one row per cell.
+        """
         self._check_t(T)
         u = real_array("u", u)
         nu = self.G.shape[1]
@@ -182,9 +336,35 @@ class InputDesign:
         return M
 
     def optimal_input(self, T, energy, cells=200, method="operator"):
-        """The optimal input on [0, T] of the given energy: the operator's
-        eigenvector on 2*cells cells, or ('transition') u = -G_A' lambda/mu
-        from lambda(0) of the transition-matrix method on cells cells."""
+        """The input on [0, T] of the given energy that maximises tr(W M).
+
+        Parameters
+        ----------
+        T : float
+            Length [s], > 0.
+        energy : float
+            The integral of u'u over [0, T], > 0.
+        cells : int
+            Input cells.
+        method : {'operator', 'transition'}
+            'operator': the design operator's eigenvector on 2*cells cells;
+            'transition': u = -G_A' lambda/mu from lambda(0) of the
+            transition-matrix method, on cells cells.
+
+        Returns
+        -------
+        DesignedInput
+
+        Raises
+        ------
+        InputError
+            T or energy not > 0, bad cells or method.
+        SingularInformationError
+            The unknowns do not affect the outputs.
+        NonConvergenceError
+            'transition': no conjugate point; with process noise, the
+            steady-state filter did not converge.
+        """
         self._check_t(T)
         self._check_t(energy, "energy")
         mu, u, status, msg = _api.mlid_design_mu(w=self.weights, t=float(T),
@@ -210,7 +390,28 @@ class InputDesign:
         min_width: tr(WM) is convex in u, so the optimum over the box is a
         corner (+-peak on every cell); found by local search from the signs
         of the leading energy-optimal inputs (fortran/mlid_design.f90).  The
-        cells are the widest that fit T at least min_width each."""
+        cells are the widest that fit T at least min_width each.
+
+        Parameters
+        ----------
+        T : float
+            Length [s], > 0.
+        peak : float
+            The amplitude limit, > 0.
+        min_width : float
+            The shortest pulse [s], > 0 and not longer than T.
+
+        Returns
+        -------
+        DesignedInput
+
+        Raises
+        ------
+        InputError
+            T, peak or min_width not > 0, or min_width longer than T.
+        SingularInformationError
+            The unknowns do not affect the outputs.
+        """
         self._check_t(T)
         self._check_t(peak, "peak")
         self._check_t(min_width, "min_width")
@@ -230,7 +431,30 @@ class InputDesign:
         """The weighted-trace design of §7.8: weights updated by eq. 7.88,
         w <- w + alpha (1/m_ii - w), toward an equal diagonal of W M, alpha
         halved whenever the ratio of its largest to smallest element does not
-        fall.  Returns the last design and the ratio history."""
+        fall.
+
+        Parameters
+        ----------
+        T, energy, cells
+            As for ``optimal_input``.
+        iterations : int
+            Weight updates tried.
+        alpha : float
+            The first step of the update.
+
+        Returns
+        -------
+        design : DesignedInput
+            The best design found (its ``weights`` the ones it used).
+        ratios : list of float
+            The ratio of the largest to the smallest element of diag(W M)
+            of each design accepted, the first the starting one.
+
+        Raises
+        ------
+        InputError
+            As for ``optimal_input``.
+        """
         design, ratios = self, []
         best = design.optimal_input(T, energy, cells)
         wm = np.diag(best.M) * design.weights

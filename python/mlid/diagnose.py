@@ -443,7 +443,18 @@ class Diagnosis:
                 f"{len(self.rounds)} rounds, cost {self.base.cost:.6g} -> {self.fit.cost:.6g})")
 
     def plot(self, folder):
-        """Residuals, their autocorrelation and spectrum before and after."""
+        """Residuals, their autocorrelation and spectrum before and after.
+
+        Parameters
+        ----------
+        folder : str or Path
+            Where to write diagnosis.png (made if missing).
+
+        Returns
+        -------
+        Path
+            The figure's path.
+        """
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
@@ -514,10 +525,47 @@ CONFOUNDED = 1e-7
 @guarded
 def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effects=3,
              max_delay=6, **options):
-    """The workflow of issue 7 on one record: returns a Diagnosis.  options
-    go to every fit (prior, prior_weight and bounds to the fits only, not to
-    the score evaluations); the refits start from the current estimate, so an
-    equation-error start-up runs for the first fit alone."""
+    """What is the model missing?  Fit, rank the candidate effects, refit
+    the best, accept one per round by likelihood ratio and Akaike, repeat
+    (the module's docstring says how).
+
+    Parameters
+    ----------
+    model : Model
+        The model as it stands; candidates other than biases, delays and
+        nonlinear terms need a LinearModel, nonlinear terms a
+        LongitudinalModel.
+    data : FlightData
+        One record.
+    families : sequence of str
+        The candidate families tried, from ``FAMILIES``.
+    alpha : float
+        Significance level in (0, 1), divided by the number of candidates
+        of a round (Bonferroni).
+    refit_best : int
+        Candidates refitted per round: half the best by score, half by
+        residual signature.
+    max_effects : int
+        Rounds at most (one effect accepted per round).
+    max_delay : int
+        The longest input delay tried, in samples.
+    **options
+        Go to every fit (prior, prior_weight and bounds to the fits only,
+        not to the score evaluations); the refits start from the current
+        estimate, so an equation-error start-up runs for the first fit alone.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    InputError
+        alpha outside (0, 1), or what ``fit`` raises for the first fit.
+    MlidError
+        What the first fit raises; a candidate's failed refit is recorded
+        in its decision instead.
+    """
     if not 0 < alpha < 1:
         raise InputError(f"alpha must lie in (0, 1), got {alpha}")
     options = dict(options)

@@ -17,7 +17,12 @@ class InputError(MlidError):
 class SingularInformationError(MlidError):
     """The information matrix (or a residual covariance) is singular.
 
-    ``result`` holds the fit as far as it got, when there is one.
+    Parameters
+    ----------
+    message : str
+        What is singular and, where the core can tell, which parameters.
+    result : FitResult, optional
+        The fit as far as it got, when there is one (``.result``).
     """
 
     def __init__(self, message, result=None):
@@ -30,7 +35,15 @@ class DivergenceError(MlidError):
 
 
 class NonConvergenceError(MlidError):
-    """The iteration ended without meeting a convergence test."""
+    """The iteration ended without meeting a convergence test.
+
+    Parameters
+    ----------
+    message : str
+        How the iteration ended.
+    result : FitResult, optional
+        The last iterate, when there is one (``.result``).
+    """
 
     def __init__(self, message, result=None):
         super().__init__(message)

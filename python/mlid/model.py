@@ -26,6 +26,46 @@ _ELEMENT = re.compile(r"^\s*([a-z0-9_]+)\s*\(\s*(\d+)\s*(?:,\s*(\d+)\s*)?\)\s*$"
 
 INPUT_HOLDS = ("linear", "zoh")
 
+#: The constructor arguments every model kind shares, for its docstring.
+_COMMON_PARAMETERS = """x0 : array_like (nx,), optional
+        Initial state (default zero).
+    bias : array_like (ny,), optional
+        Output biases, added to the outputs (default zero).
+    free : sequence of str
+        The free parameters by element name, 1-based: 'f(1,2)', 'x0(3)',
+        'bias(1)', 'q(1)', 'r(2)', 's(1,2)' and the kind's own.
+    names : dict, optional
+        Readable labels by element name, {'f(3,3)': 'M_q'}; reports and
+        results use them.
+    input_hold : {'linear', 'zoh'}
+        Inputs linear between samples (RK4's mid-step stages take their
+        mean) or held from one sample to the next.
+    substeps : int
+        RK4 steps per sample interval.
+    q : array_like (nw,), optional
+        Process-noise variances (default zero), the noise held over each
+        sample interval.
+    r : array_like (ny,), optional
+        Measurement-noise variances (default zero); filter error needs them
+        > 0, simulation draws the noise from them.
+    S : array_like (nw, ny), optional
+        Cross-covariance E{w v'} of the process noise of an interval and the
+        measurement noise at its start (default zero).
+    ties : dict, optional
+        Parameters equal to a free one, {'f(1,5)': 'f(1,3)'}."""
+#: What every model constructor raises.
+_COMMON_RAISES = """InputError
+        Wrong sizes or shapes, an element that does not exist, a parameter
+        listed twice, both free and tied, or tied to a tied one, an unknown
+        input_hold."""
+
+
+def _documented(cls):
+    """Fill the shared constructor arguments into the class docstring."""
+    cls.__doc__ = cls.__doc__.replace("{common}", _COMMON_PARAMETERS).replace(
+        "{raises}", _COMMON_RAISES)
+    return cls
+
 
 def _lines(text):
     return [s for s in text.decode(errors="replace").rstrip().split("\n") if s]
@@ -158,7 +198,13 @@ class Model:
         return self._theta.copy()
 
     def element_names(self):
-        """The element name of every entry of theta, in order."""
+        """The element name of every entry of theta, in order.
+
+        Returns
+        -------
+        list of str
+            'f(1,1)', ..., 'x0(1)', ..., 'r(ny)', ... as the core lays theta out.
+        """
         return list(self._layout.names)
 
     def param_units(self, input_units, output_units):
@@ -189,7 +235,24 @@ class Model:
         return [s.strip() for s in lines[:self._theta.size]]
 
     def canonical_name(self, name):
-        """The element name of a parameter, checked against the dimensions."""
+        """The element name of a parameter, checked against the dimensions.
+
+        Parameters
+        ----------
+        name : str
+            An element name, any case and spacing: 'F( 1,2 )'.
+
+        Returns
+        -------
+        str
+            The element name as the model writes it: 'f(1,2)'.
+
+        Raises
+        ------
+        InputError
+            No such block, the wrong number of indices, or indices outside
+            the block.
+        """
         m = _ELEMENT.match(str(name))
         blocks = self._layout.blocks
         if not m or m.group(1).lower() not in blocks:
@@ -212,6 +275,7 @@ class Model:
 
     @property
     def free_mask(self):
+        """1 for each free entry of theta, else 0 (int32, as the core takes it)."""
         names = self._layout.names
         mask = np.zeros(len(names), dtype=np.int32)
         for n in self.free:
@@ -228,17 +292,54 @@ class Model:
         return tie
 
     def free_names(self):
-        """Readable labels of the free parameters, in theta order."""
+        """Readable labels of the free parameters, in theta order.
+
+        Returns
+        -------
+        list of str
+            Each free parameter's label, or its element name when it has none.
+        """
         return [self.names.get(n, n) for n, f in zip(self._layout.names, self.free_mask) if f]
 
     def value(self, name):
-        """The value of one parameter, by element name or label."""
+        """The value of one parameter, by element name or label.
+
+        Parameters
+        ----------
+        name : str
+            'f(3,3)' or its label 'M_q'.
+
+        Returns
+        -------
+        float
+
+        Raises
+        ------
+        InputError
+            If no parameter has that name or label.
+        """
         labels = {v: k for k, v in self.names.items()}
         key = self.canonical_name(labels.get(name, name))
         return float(self._theta[self._layout.names.index(key)])
 
     def with_theta(self, theta):
-        """A copy with the parameter vector replaced."""
+        """A copy with the parameter vector replaced.
+
+        Parameters
+        ----------
+        theta : array_like
+            Every parameter in the core's order (``theta``'s size).
+
+        Returns
+        -------
+        Model
+            The same kind, free set, ties and labels.
+
+        Raises
+        ------
+        InputError
+            If theta has the wrong size.
+        """
         theta = np.asarray(theta, dtype=float).ravel()
         if theta.size != self._layout.nth:
             raise InputError(f"theta must have {self._layout.nth} values, got {theta.size}")
@@ -248,7 +349,24 @@ class Model:
         return m
 
     def with_free(self, free, names=None):
-        """A copy with another free set (and labels, if given)."""
+        """A copy with another free set (and labels, if given).
+
+        Parameters
+        ----------
+        free : sequence of str
+            The new free parameters, by element name.
+        names : dict, optional
+            Labels by element name, replacing the model's.
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        InputError
+            If a name is not an element of the model.
+        """
         m = self.with_theta(self._theta)
         m.free = [m.canonical_name(n) for n in free]
         if names is not None:
@@ -260,6 +378,7 @@ class Model:
                 f"free={self.free_names()})")
 
 
+@_documented
 @guarded_class
 class LinearModel(Model):
     """Linear state space with process and measurement noise
@@ -276,6 +395,23 @@ class LinearModel(Model):
     Model parameters: ``'f(i,j)'``, ``'g(i,j)'``, ``'h(i,j)'``, ``'d(i,j)'``,
     ``'gamma(i,j)'``, ``'k(j,s)'``; ``names`` gives readable labels (``{'f(3,3)': 'M_q'}``);
     ``ties`` holds parameters equal to a free one (``{'f(1,5)': 'f(1,3)'}``).
+
+    Parameters
+    ----------
+    F : array_like (nx, nx)
+    G : array_like (nx, nu)
+    H : array_like (ny, nx)
+    D : array_like (ny, nu), optional
+        Default zero.
+    Gamma : array_like (nx, nw), optional
+        How the process noise enters (default: none, nw = 0).
+    K : array_like (nu, nx), optional
+        State feedback to the inputs (default zero).
+    {common}
+
+    Raises
+    ------
+    {raises}
     """
 
     kind = 1
@@ -315,6 +451,7 @@ REGRESSORS = tuple(_lines(_api.mlid_name_list("regressors")))
 CONSTANTS = tuple(_api.mlid_name_list("constants").decode().strip().split(", "))
 
 
+@_documented
 @guarded_class
 class LongitudinalModel(Model):
     """Nonlinear longitudinal aircraft model (states V, alpha, theta, q;
@@ -326,7 +463,24 @@ class LongitudinalModel(Model):
     coefficients: {'CD': [values], ...} (start values, same order)
     constants: {name: value} for every name in ``CONSTANTS``
     Model parameters are ``'cd(k)'``, ``'cl(k)'``, ``'cm(k)'``, labelled
-    C_D0, C_DV, C_Dalpha, ... unless ``names`` says otherwise.
+    C_D0, C_DV, C_Dalpha, ... unless ``names`` says otherwise.  Process
+    noise (4 variances q) adds to each state equation.
+
+    Parameters
+    ----------
+    regressors : dict
+        {'CD': [...], 'CL': [...], 'Cm': [...]}: each coefficient's
+        regressors by name, from ``REGRESSORS``; a key left out has none.
+    coefficients : dict
+        Start values in the same order, {'CD': [...], ...} (default zero).
+    constants : dict
+        A value for every name of ``CONSTANTS`` (SI units).
+    {common}
+
+    Raises
+    ------
+    {raises}
+        Also an unknown coefficient, regressor or missing constant.
     """
 
     kind = 2
@@ -364,14 +518,32 @@ class LongitudinalModel(Model):
 
     @property
     def coefficients(self):
+        """The coefficients' current values, {'CD': array, 'CL': ..., 'Cm': ...}."""
         return {key: self._block(block) for key, block in self._COEFFICIENTS.items()}
 
 
+@_documented
 @guarded_class
 class UserModel(Model):
     """The user's own Fortran model (fortran/mlid_user_model.f90, compiled into
     the core): p holds its np parameters, named ``'p(k)'``; iconst and rconst
-    its constants.  Its sizes come from the core."""
+    its constants.  Its sizes come from the core.
+
+    Parameters
+    ----------
+    p : array_like (np,)
+        The model parameters' start values.
+    iconst : array_like of int, optional
+        Integer constants the user model reads.
+    rconst : array_like of float, optional
+        Real constants the user model reads.
+    {common}
+
+    Raises
+    ------
+    {raises}
+        Also p of the wrong size, or constants the user model refuses.
+    """
 
     kind = 3
     p = _Block("p")
@@ -388,6 +560,7 @@ class UserModel(Model):
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
 
 
+@_documented
 @guarded_class
 class X22Model(Model):
     """X-22 VTOL longitudinal model of report Appendix A
@@ -395,7 +568,19 @@ class X22Model(Model):
     input delta_es; outputs u, w, theta, q, qdot, n_x, n_z [g]; gusts v1, v2
     [ft/s], v3 [rad/s] (variances q) entering through dA/d(u, w, q) and
     carried by qdot, n_x and n_z.  p: the 23 coefficients of X22_LABELS,
-    named ``'p(k)'`` and labelled by X22_LABELS."""
+    named ``'p(k)'`` and labelled by X22_LABELS.
+
+    Parameters
+    ----------
+    p : array_like (23,)
+        The coefficients' start values, in the order of X22_LABELS.
+    {common}
+
+    Raises
+    ------
+    {raises}
+        Also p of the wrong size.
+    """
 
     kind = 4
     p = _Block("p")

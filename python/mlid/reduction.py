@@ -47,10 +47,32 @@ def _rename(name, keep, removed, nu, outs, output):
 
 @guarded
 def reduce_measured_state(model, state, output):
-    """The model with state ``state`` (1-based) taken as perfectly measured by
-    output ``output`` (1-based): returns the reduced LinearModel, whose last
-    input is that measurement.  Process noise is dropped (the reduced model is
-    fitted by output error); free parameters and labels carry over."""
+    """The model with one state taken as perfectly measured by one output.
+
+    Process noise is dropped (the reduced model is fitted by output error);
+    free parameters and labels carry over.
+
+    Parameters
+    ----------
+    model : LinearModel
+        Without state feedback (K = 0).
+    state : int
+        The state, 1-based.
+    output : int
+        The output that measures it alone (its row of H a unit vector, D
+        zero), 1-based.
+
+    Returns
+    -------
+    LinearModel
+        One state and one output fewer; its last input is the measurement.
+
+    Raises
+    ------
+    InputError
+        No such state or output, an output that does not measure the state
+        alone, state feedback, or a free parameter that leaves with the state.
+    """
     k, o = state - 1, output - 1
     if not (0 <= k < model.nx and 0 <= o < model.ny):
         raise InputError(f"state {state} or output {output} does not exist")
@@ -78,7 +100,19 @@ def reduce_measured_state(model, state, output):
 
 @guarded
 def reduced_data(data, output):
-    """The record for the reduced model: the measured output becomes the last input."""
+    """The record for the reduced model: the measured output becomes the last input.
+
+    Parameters
+    ----------
+    data : FlightData
+        The record of the full model.
+    output : int
+        The output that measures the removed state, 1-based.
+
+    Returns
+    -------
+    FlightData
+    """
     o = output - 1
     return FlightData(data.t, np.column_stack([data.u, data.y[:, o]]),
                       np.delete(data.y, o, axis=1),
@@ -93,7 +127,25 @@ def recover_disturbance(model, fitted, data, state, output):
     The removed state's equation x_k' = F[k, others] x_others + F[k, k] y_meas
     + G[k] u is integrated along the states of the fitted reduced model (the
     measured value standing for the state wherever it appears, as in the
-    reduction).  Returns (history of the inertial state, disturbance + noise).
+    reduction).
+
+    Parameters
+    ----------
+    model : LinearModel
+        The full model (its row of F and G for the removed state).
+    fitted : LinearModel
+        The reduced model at its estimate.
+    data : FlightData
+        The record of the full model.
+    state, output : int
+        As for ``reduce_measured_state``.
+
+    Returns
+    -------
+    inertial : ndarray (nt,)
+        The removed state's history from its own equation.
+    disturbance : ndarray (nt,)
+        The measurement minus it: disturbance (gust) plus measurement noise.
     """
     k, o = state - 1, output - 1
     keep = [i for i in range(model.nx) if i != k]

@@ -8,11 +8,22 @@ import numpy as np
 
 
 def whiteness(residuals, lags=20):
-    """Ljung-Box test of each column of residuals (nt, ny) over lags 1..lags.
+    """Ljung-Box test of each column of residuals over lags 1..lags.
 
-    Returns a list of dicts per column: Q, the 5% critical value of
-    chi-square(lags) (Wilson-Hilferty), white (Q below it), and the fraction
-    of autocorrelations outside +-1.96/sqrt(N).
+    Parameters
+    ----------
+    residuals : array_like (nt, ny) or (nt,)
+        Residuals or innovations, a column per output; each column's mean is
+        removed first.
+    lags : int
+        The largest lag.
+
+    Returns
+    -------
+    list of dict
+        Per column: ``Q``; ``critical``, the 5% point of chi-square(lags)
+        (Wilson-Hilferty); ``white``, Q below it; ``outside``, the fraction
+        of autocorrelations outside +-1.96/sqrt(N).
     """
     e = np.asarray(residuals, dtype=float)
     e = e.reshape(len(e), -1) - e.reshape(len(e), -1).mean(axis=0)
@@ -33,7 +44,39 @@ class FitResult:
     covariance, residuals, cost history and how the iteration ended.
     ``sigma_corrected`` and ``covariance_corrected``: the Cramer-Rao ones
     corrected for coloured residuals (the core's mlid_colored, residual
-    autocorrelation up to lag ``colored_lag``)."""
+    autocorrelation up to lag ``colored_lag``).
+
+    Made by ``fit``; in Jupyter it shows as an HTML table.
+
+    Parameters
+    ----------
+    **fields
+        The attributes, by name (``fit`` sets those below and more).
+
+    Attributes
+    ----------
+    names : list of str
+        The free parameters' labels.
+    start, estimate, sigma, sigma_corrected : ndarray (nf,)
+        Start values, estimates, Cramer-Rao and corrected sigmas.
+    covariance, covariance_corrected, information : ndarray (nf, nf)
+    rhat : ndarray (ny, ny)
+        R-hat (output error) or the mean innovation covariance (filter error).
+    yhat : ndarray (nt, ny)
+        Model outputs (one-step predictions for filter error).
+    cost : float
+    cost_history : ndarray (iterations + 1,)
+    iterations : int
+    converged : bool
+    reason : str
+        Why the iteration stopped, in the report's words.
+    model : Model
+        The model at the estimate.
+    data : FlightData
+        The record fitted (several manoeuvres joined).
+    options : dict
+        The options used, by name.
+    """
 
     def __init__(self, **fields):
         self.__dict__.update(fields)
@@ -52,15 +95,34 @@ class FitResult:
         return np.where(np.outer(d, d) > 0, c, 0.0)
 
     def whiteness(self, lags=20):
-        """Ljung-Box whiteness test of the residuals (innovations), per output."""
+        """Ljung-Box whiteness test of the residuals (innovations), per output.
+
+        Parameters
+        ----------
+        lags : int
+            The largest lag.
+
+        Returns
+        -------
+        list of dict
+            As ``mlid.whiteness``.
+        """
         return whiteness(self.residuals, lags)
 
     @property
     def det_r(self):
+        """The determinant of R-hat (the report's det R, or det B)."""
         return float(np.linalg.det(self.rhat))
 
     def as_dict(self):
-        """Plain types for JSON."""
+        """Plain types for JSON.
+
+        Returns
+        -------
+        dict
+            Parameters, start, estimate, sigmas, correlation, R, cost and its
+            history, iterations, convergence, rank, reason, message, wall time.
+        """
         return {
             "parameters": list(self.names),
             "units": list(getattr(self, "param_units", None) or [""] * len(self.names)),
@@ -99,25 +161,52 @@ class FitResult:
 
     def report(self):
         """The printed report (report Table 5.3 layout) with what the
-        information says about identifiability (report §4.5, §5.3.5)."""
+        information says about identifiability (report §4.5, §5.3.5).
+
+        Returns
+        -------
+        str
+            The core's text, the one mlid-batch prints.
+        """
         return self._texts()[0].rstrip("\n")
 
     def identifiability(self):
         """The report's lines on identifiability: eigenvalue spread of the
-        normalised information, its weakest direction, correlations above 0.9."""
+        normalised information, its weakest direction, correlations above 0.9.
+
+        Returns
+        -------
+        list of str
+        """
         lines = self.report().split("\n")
         k = [i for i, ln in enumerate(lines) if ln.startswith((" R diagonal", " B diagonal"))]
         return lines[k[0] + 1:]
 
     def json(self, title="", job="estimate"):
-        """The JSON object of this fit as a deck case (``mlid run --json``)."""
+        """The JSON object of this fit as a deck case (``mlid run --json``).
+
+        Parameters
+        ----------
+        title, job : str
+            The case's title and job, as a deck gives them.
+
+        Returns
+        -------
+        str
+            The core's JSON text, the one mlid-batch writes.
+        """
         return self._texts(title, job)[1]
 
     def sensitivity_norms(self):
         """Output sensitivity norms at the estimate, (ny, nf): sqrt(sum over
         the record of (d yhat_i / d theta_k)^2 / R_ii), how many residual
         sigmas each parameter moves each output (innovations for filter
-        error).  A parameter small in every output is one the data cannot see."""
+        error).  A parameter small in every output is one the data cannot see.
+
+        Returns
+        -------
+        ndarray (ny, nf)
+        """
         from .core import evaluate
         data, x0s, biases = getattr(self, "evaluate_args", (self.data, None, None))
         if isinstance(data, (list, tuple)):      # several manoeuvres: each one's own x0, bias
@@ -127,7 +216,12 @@ class FitResult:
                         **self.options)["sensitivity"]
 
     def sensitivity_table(self):
-        """The sensitivity norms as printed lines, a row per parameter."""
+        """The sensitivity norms as printed lines, a row per parameter.
+
+        Returns
+        -------
+        list of str
+        """
         s = self.sensitivity_norms()
         outs = [n[:10] for n in self.data.output_names] or [f"y{i + 1}" for i in range(len(s))]
         lines = [" output sensitivity norms (residual sigmas over the record)",
@@ -137,8 +231,19 @@ class FitResult:
         return lines
 
     def table(self):
-        """The results table (mlid.table.ResultsTable): name, unit, estimate,
-        Cramer-Rao and corrected sigma, relative sigma, flag."""
+        """The results table: name, unit, estimate, Cramer-Rao and corrected
+        sigma, relative sigma, flag.
+
+        Returns
+        -------
+        mlid.table.ResultsTable
+            Exports CSV, LaTeX, JSON, HTML and DataFrames.
+
+        Raises
+        ------
+        InputError
+            If ``param_units`` does not have one entry per free parameter.
+        """
         from .table import results_table
         return results_table(self)
 

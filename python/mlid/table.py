@@ -85,7 +85,13 @@ class ResultsTable:
     """Rows of a results table (dicts keyed by ``columns``); the exports.
 
     ``ResultsTable.concat(tables)`` joins the tables of several cases (each
-    made with its ``case`` label) into one."""
+    made with its ``case`` label) into one.  In Jupyter it shows as HTML.
+
+    Parameters
+    ----------
+    rows : iterable of dict
+        As ``results_table`` makes them.
+    """
 
     def __init__(self, rows):
         self.rows = list(rows)
@@ -97,7 +103,16 @@ class ResultsTable:
 
     @classmethod
     def concat(cls, tables):
-        """One table of the rows of several."""
+        """One table of the rows of several.
+
+        Parameters
+        ----------
+        tables : iterable of ResultsTable
+
+        Returns
+        -------
+        ResultsTable
+        """
         return cls([row for t in tables for row in t.rows])
 
     def __len__(self):
@@ -110,7 +125,12 @@ class ResultsTable:
 
     def csv_text(self):
         """CSV with a header line; numbers as Python writes them back exactly,
-        an undefined relative sigma (zero estimate) empty, flag ``coloured`` or empty."""
+        an undefined relative sigma (zero estimate) empty, flag ``coloured`` or empty.
+
+        Returns
+        -------
+        str
+        """
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(self.columns)
@@ -120,7 +140,12 @@ class ResultsTable:
 
     def json_text(self):
         """A JSON object {"columns": [...], "rows": [{...}, ...]}; an undefined
-        relative sigma is null."""
+        relative sigma is null.
+
+        Returns
+        -------
+        str
+        """
         rows = [{c: (None if isinstance(row[c], float) and not math.isfinite(row[c])
                      else row[c]) for c in self.columns} for row in self.rows]
         return json.dumps({"columns": list(self.columns), "rows": rows}, indent=1) + "\n"
@@ -155,7 +180,12 @@ class ResultsTable:
 
     def latex_text(self):
         """A booktabs tabular (needs \\usepackage{booktabs}); numbers plain, to
-        4 significant digits; names and units escaped."""
+        4 significant digits; names and units escaped.
+
+        Returns
+        -------
+        str
+        """
         cols = self.columns
         align = "".join("l" if c in (CASE, "name", "unit", "flag") else "r" for c in cols)
         heads = ((("Case",) if CASE in cols else ()) + LATEX_HEADINGS)
@@ -169,7 +199,12 @@ class ResultsTable:
     def html_text(self):
         """An HTML table (no styling): names, units and flags escaped,
         numbers to HTML_DIGITS significant digits, an undefined relative
-        sigma (zero estimate) empty; the flag column says ``coloured``."""
+        sigma (zero estimate) empty; the flag column says ``coloured``.
+
+        Returns
+        -------
+        str
+        """
         cols = self.columns
         heads = (("Case",) if CASE in cols else ()) + HEADINGS
         head = "".join(f"<th>{html.escape(h)}</th>" for h in heads)
@@ -186,19 +221,38 @@ class ResultsTable:
     # --- exports ------------------------------------------------------------------------
 
     def to_csv(self, path):
-        """Write the CSV form to path (whole or not at all)."""
+        """Write the CSV form to path (whole or not at all).
+
+        Parameters
+        ----------
+        path : str or Path
+        """
         _write(path, self.csv_text())
 
     def to_json(self, path):
-        """Write the JSON form to path (whole or not at all)."""
+        """Write the JSON form to path (whole or not at all).
+
+        Parameters
+        ----------
+        path : str or Path
+        """
         _write(path, self.json_text())
 
     def to_latex(self, path):
-        """Write the LaTeX tabular to path (whole or not at all)."""
+        """Write the LaTeX tabular to path (whole or not at all).
+
+        Parameters
+        ----------
+        path : str or Path
+        """
         _write(path, self.latex_text())
 
     def to_frame(self):
         """A pandas DataFrame with ``columns``.
+
+        Returns
+        -------
+        pandas.DataFrame
 
         Raises
         ------
@@ -214,6 +268,10 @@ class ResultsTable:
 
     def write(self, path):
         """Write path in the format its suffix names (.csv, .tex, .json).
+
+        Parameters
+        ----------
+        path : str or Path
 
         Raises
         ------
