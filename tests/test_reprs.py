@@ -81,7 +81,9 @@ def _table(parsed, cls):
 def result():
     t = np.arange(301) * 0.02
     u = mlid.core.input_signal("3211", 0.08, 1.0, 0.5, 0.02, 301).reshape(-1, 1)
-    data, _ = mlid.simulate(c8_truth(), t, u, noise_std=C8_STD, seed=5, output_names=OUTPUTS)
+    sim, _ = mlid.simulate(c8_truth(), t, u, noise_std=C8_STD, seed=5)
+    data = mlid.FlightData(t, u, sim.y, ["de"], OUTPUTS, input_units=["rad"],
+                           output_units=["m/s", "rad", "rad/s", "rad"])
     return mlid.fit(c8_start().with_free(C8_FREE, names=NAMES), data)
 
 
@@ -97,7 +99,8 @@ def test_fit_html_holds_the_results_table(result):
     want = np.column_stack([result.estimate, result.sigma, result.sigma_corrected,
                             100 * result.sigma_corrected / np.abs(result.estimate)])
     np.testing.assert_allclose(got, want, rtol=RTOL)
-    assert [r[1] for r in rows] == [""] * len(rows)            # no param_units: blank
+    # the units the fit found from the channels' (mlid_param_units)
+    assert [r[1] for r in rows] == list(result.param_units) and all(result.param_units)
     flags = result.sigma_corrected > FLAG_RATIO * result.sigma
     assert [r[6] for r in rows] == [FLAG_TEXT if f else "" for f in flags]
 

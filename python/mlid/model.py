@@ -222,6 +222,11 @@ class Model:
         list of str
             '-' for a dimensionless parameter, '' where the unit is unknown
             (fortran/mlid_param_units.f90 says which).
+
+        Raises
+        ------
+        InputError
+            Not one unit per input and per output.
         """
         if len(input_units) != self.nu or len(output_units) != self.ny:
             raise InputError(f"param_units: {self.nu} input and {self.ny} output units needed, "
