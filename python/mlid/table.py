@@ -151,7 +151,12 @@ class ResultsTable:
         return json.dumps({"columns": list(self.columns), "rows": rows}, indent=1) + "\n"
 
     def text(self):
-        """A fixed-width table for a terminal or a plain-text report."""
+        """A fixed-width table for a terminal or a plain-text report.
+
+        Returns
+        -------
+        str
+        """
         heads = {CASE: "case", "name": "parameter", "unit": "unit", "estimate": "estimate",
                  "sigma_cr": "CR sigma", "sigma_corrected": "corr. sigma",
                  "relative_sigma_percent": "rel. %", "flag": "flag"}

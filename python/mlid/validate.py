@@ -28,7 +28,13 @@ class Validation:
     its files; 1, 2, ... for ``mlid.validate``), ``prediction`` (a
     FitResult-like object whose ``data`` are the held-out records joined and
     ``yhat`` the model's prediction, for the plots), ``identification`` (the
-    FitResult validated), ``output_names``."""
+    FitResult validated), ``output_names``.
+
+    Parameters
+    ----------
+    **fields
+        The attributes above, by name (``validate`` sets them).
+    """
 
     def __init__(self, **fields):
         self.__dict__.update(fields)
@@ -41,20 +47,49 @@ class Validation:
         return rep[:nrep].decode(errors="replace"), js[:njs].decode(errors="replace")
 
     def report(self):
-        """The printed lines (the same as mlid-batch prints)."""
+        """The printed lines (the same as mlid-batch prints).
+
+        Returns
+        -------
+        str
+        """
         return self._texts()[0].rstrip("\n")
 
     def json_member(self):
-        """The ``"validation": {...}`` member of the case's JSON object."""
+        """The ``"validation": {...}`` member of the case's JSON object.
+
+        Returns
+        -------
+        str
+            The core's JSON text.
+        """
         return self._texts()[1]
 
     def as_dict(self):
+        """Plain types for JSON.
+
+        Returns
+        -------
+        dict
+            ``holdout``, ``outputs``, and per output ``theil``, ``rms`` and
+            ``rms_over_sigma``.
+        """
         return {"holdout": list(map(int, self.holdout)), "outputs": list(self.output_names),
                 "theil": self.theil.tolist(), "rms": self.rms.tolist(),
                 "rms_over_sigma": self.rms_over_sigma.tolist()}
 
     def plot(self, path=None):
-        """Measured and predicted held-out outputs (``mlid.plots.validation``)."""
+        """Measured and predicted held-out outputs (``mlid.plots.validation``).
+
+        Parameters
+        ----------
+        path : str or Path, optional
+            Also write the figure there.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
         from .plots import validation
         return validation(self, path)
 
