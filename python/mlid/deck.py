@@ -109,8 +109,24 @@ def json_list(objects):
 
 @guarded
 def read_deck(path):
-    """All cases of a deck.  A case that cannot run carries its ``error``;
-    a deck that cannot be read at all raises InputError."""
+    """All cases of a deck, read by the core's reader (the one mlid-batch uses).
+
+    Parameters
+    ----------
+    path : str or Path
+        The namelist deck.
+
+    Returns
+    -------
+    list of Case
+        One per ``&case``, in order; a case that cannot run carries its
+        ``error`` (one line naming the group and problem) instead of a model.
+
+    Raises
+    ------
+    InputError
+        If the deck cannot be read at all (missing, empty, unreadable).
+    """
     path = Path(path)
     ncases, status, msg = _api.mlid_deck_open(str(path))
     check_status(status, msg)
@@ -171,5 +187,23 @@ def iter_deck(path):
 
 
 def run_deck(path):
-    """Every case of a deck run in order: a list of what iter_deck yields."""
+    """Every case of a deck run in order.
+
+    Parameters
+    ----------
+    path : str or Path
+        The namelist deck.
+
+    Returns
+    -------
+    list of tuple
+        What ``iter_deck`` yields for each case: (case, output dict or None,
+        FitResult or None, MlidError or None); a failing case does not stop
+        the others.
+
+    Raises
+    ------
+    InputError
+        If the deck cannot be read at all.
+    """
     return list(iter_deck(path))
