@@ -24,6 +24,8 @@ DATA = REPO.parent / "shared" / "data" / "hfb320_1_10.asc"
 
 
 def correction_inputs(res, data, options):
+    # evaluate takes the fit's options but not its prior or bounds
+    options = {k: v for k, v in options.items() if k not in ("prior", "prior_weight", "bounds")}
     ev = evaluate(res.model, data, **options)
     return (ev["weighted_sensitivity"], data.y - ev["yhat"], res.covariance, ev["information"],
             ev["information_sensitivity"])

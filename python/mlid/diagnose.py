@@ -43,6 +43,7 @@ from . import core
 from .data import FlightData
 from .errors import InputError, MlidError, guarded
 from .files import atomic_savefig
+from .progress import bar as progress_bar, bump
 from .model import REGRESSORS, LinearModel, LongitudinalModel
 from .result import whiteness
 from .table import HTML_DIGITS
@@ -524,7 +525,7 @@ CONFOUNDED = 1e-7
 
 @guarded
 def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effects=3,
-             max_delay=6, **options):
+             max_delay=6, progress=None, **options):
     """What is the model missing?  Fit, rank the candidate effects, refit
     the best, accept one per round by likelihood ratio and Akaike, repeat
     (the module's docstring says how).
@@ -549,6 +550,9 @@ def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effec
         Rounds at most (one effect accepted per round).
     max_delay : int
         The longest input delay tried, in samples.
+    progress : None, bool or stream
+        A bar over the fits as they run (None: when stderr is a terminal;
+        ``mlid.progress.bar`` says more).
     **options
         Go to every fit (prior, prior_weight and bounds to the fits only,
         not to the score evaluations); the refits start from the current
@@ -569,8 +573,16 @@ def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effec
     if not 0 < alpha < 1:
         raise InputError(f"alpha must lie in (0, 1), got {alpha}")
     options = dict(options)
-    base = core.fit(model, data, **options)
-    options["startup"] = "none"
+    with progress_bar(progress, 1, "diagnose", "fit") as b:
+        base = core.fit(model, data, **options)
+        b.update()
+        options["startup"] = "none"
+        return _rounds(model, data, base, families, alpha, refit_best, max_effects, max_delay,
+                       options, b)
+
+
+def _rounds(model, data, base, families, alpha, refit_best, max_effects, max_delay, options, b):
+    """diagnose's rounds after the first fit; b counts the fits."""
     current, fit, cur_data = model.with_theta(base.model.theta), base, data
     effects, rounds = [], []
     while len(effects) < max_effects:
@@ -588,8 +600,10 @@ def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effec
         signed = sorted([c for c in cands if c.signature is not None],
                         key=lambda c: c.signature, reverse=True)
         tried = scored[:refit_best // 2] + signed[:refit_best - refit_best // 2]
+        bump(b, b.n + len(tried))
         for c in tried:
             _refit(current, cur_data, fit, c, options, max_delay)
+            b.update()
         good = [c for c in tried if c.lr is not None and c.lr > chi2_quantile(
             alpha / len(cands), c.k) and c.lr / 2 > c.k]
         for c in tried:

@@ -24,6 +24,7 @@ def _wanted(progress):
 class Silent:
     """The bar when none is shown: takes every call, writes nothing."""
     total = 0
+    n = 0
 
     def update(self, n=1):
         pass
