@@ -190,18 +190,8 @@ contains
     integer, intent(in) :: holdout(:)
     real(wp), intent(in) :: theil(:), rms(:), ratio(:)
     character(len=:), allocatable :: text
-    integer :: k
-    text = '"validation": {"holdout": ['
-    do k = 1, size(holdout)
-      text = text//integer_text(holdout(k))
-      if (k < size(holdout)) text = text//', '
-    end do
-    text = text//'], "outputs": ['
-    do k = 1, size(names)
-      text = text//json_string(trim(names(k)))
-      if (k < size(names)) text = text//', '
-    end do
-    text = text//'],'//NL//'"theil": '//numbers(theil)//', "rms": '//numbers(rms)// &
+    text = '"validation": {"holdout": '//integers(holdout)//', "outputs": '//strings(names)// &
+           ','//NL//'"theil": '//numbers(theil)//', "rms": '//numbers(rms)// &
            ', "rms_over_sigma": '//numbers(ratio)//'}'
   end function validation_json
 
@@ -224,17 +214,9 @@ contains
     integer :: k
 
     text = case_json(title, job, status, msg)
-    text = text(1:len(text) - 1)//','//NL//'"parameters": ['
-    do k = 1, size(s%labels)
-      text = text//json_string(s%labels(k))
-      if (k < size(s%labels)) text = text//', '
-    end do
-    text = text//'],'//NL//'"units": ['
-    do k = 1, size(s%labels)
-      text = text//json_string(trim(unit_of(s, k)))
-      if (k < size(s%labels)) text = text//', '
-    end do
-    text = text//'],'//NL//'"start": '//numbers(s%start)//','//NL// &
+    text = text(1:len(text) - 1)//','//NL//'"parameters": '//strings(s%labels)//','//NL// &
+           '"units": '//strings([(unit_of(s, k), k=1, size(s%labels))])//','//NL// &
+           '"start": '//numbers(s%start)//','//NL// &
            '"estimate": '//numbers(s%est)//','//NL//'"sigma": '//numbers(s%sig)//','//NL// &
            '"sigma_corrected": '//numbers(s%sigc)//', "colored_lag": '//integer_text(s%lag)// &
            ','//NL// &
@@ -377,6 +359,32 @@ contains
       s = 'null'
     end if
   end function number
+
+  !> A JSON list of strings: ["a", "b"] (each trimmed).
+  function strings(names) result(s)
+    character(len=*), intent(in) :: names(:)
+    character(len=:), allocatable :: s
+    integer :: k
+    s = '['
+    do k = 1, size(names)
+      s = s//json_string(trim(names(k)))
+      if (k < size(names)) s = s//', '
+    end do
+    s = s//']'
+  end function strings
+
+  !> A JSON list of integers.
+  function integers(n) result(s)
+    integer, intent(in) :: n(:)
+    character(len=:), allocatable :: s
+    integer :: k
+    s = '['
+    do k = 1, size(n)
+      s = s//integer_text(n(k))
+      if (k < size(n)) s = s//', '
+    end do
+    s = s//']'
+  end function integers
 
   function numbers(x) result(s)
     real(wp), intent(in) :: x(:)
