@@ -82,6 +82,39 @@ def axis_label(name, unit):
     return f"{name} [{unit}]" if unit else str(name)
 
 
+def _grouped(unit):
+    """unit in parentheses when it is compound ('rad/s' -> '(rad/s)'), so that
+    a power or a quotient of it reads one way."""
+    return f"({unit})" if any(c in unit for c in "/*· ") else unit
+
+
+def unit_ratio(num, den):
+    """The unit of num per den ('(rad/s)/deg'); '' when neither is known,
+    '-' standing for an unknown one."""
+    if not (num or den):
+        return ""
+    return f"{_grouped(num) if num else '-'}/{_grouped(den) if den else '-'}"
+
+
+def psd_unit(unit):
+    """The unit of a power spectral density of a channel in unit ('deg²/Hz',
+    '(rad/s)²/Hz'); '' when the channel's unit is unknown."""
+    return f"{_grouped(unit)}²/Hz" if unit else ""
+
+
+def noise_symbol(result):
+    """What result.rhat is, as the plots and the report name it: 'R̂' (output
+    error: the measurement-noise covariance) or 'B̂' (filter error: the mean
+    covariance of the innovations, which the residuals are)."""
+    return "B̂" if result.options.get("method") == "filter_error" else "R̂"
+
+
+def model_label(result):
+    """The legend entry of the fitted outputs: the model's outputs (output
+    error) or the filter's one-step predictions (filter error)."""
+    return "filter prediction" if noise_symbol(result) == "B̂" else "model"
+
+
 def _display(record, which, i):
     """(unit, scale, offset) of channel i: declared = (core - offset) / scale."""
     table = getattr(record, "input_display" if which == "u" else "output_display", None)
@@ -225,7 +258,7 @@ def _draw_outputs(fig, axes, result, recs):
         x, _ = recs.shown("y", i)
         ax.plot(recs.time, x, ".", ms=2.2, color=COLORS["measured"], label="measured")
         ax.plot(recs.time, recs.convert("y", i, result.yhat[:, i]), color=COLORS["model"],
-                label="model")
+                label=model_label(result))
         ax.set_ylabel(recs.label("y", i))
     axes[nu].legend(loc="upper right", ncols=2, frameon=False)
     _time_axis(axes, recs)
@@ -237,7 +270,7 @@ def _draw_residuals(axes, result, recs):
     for i, ax in enumerate(axes):
         _, scale, _ = _display(recs.first, "y", i)
         band = 2 * sigma[i] / abs(scale)
-        ax.axhspan(-band, band, color=COLORS["band"], alpha=0.12, lw=0, label="±2σ (R̂)")
+        ax.axhspan(-band, band, color=COLORS["band"], alpha=0.12, lw=0, label=f"±2σ ({noise_symbol(result)})")
         ax.plot(recs.time, recs.convert("y", i, res[:, i], difference=True),
                 color=COLORS["residual"], lw=0.8)
         ax.axhline(0.0, color="0.5", lw=0.6)
@@ -277,7 +310,8 @@ def outputs(result, path=None):
 @_styled
 def residuals(result, path=None):
     """Residuals (measured minus model) per output with the ±2σ band, σ the
-    square root of the diagonal of R̂.
+    square root of the diagonal of R̂ (of B̂, the innovation covariance, for
+    filter error: ``noise_symbol``).
 
     Parameters
     ----------
@@ -318,7 +352,7 @@ def fit_overview(result, path=None):
         ax.remove()
     _draw_residuals(ra[nu:], result, recs)
     left.suptitle("measured and model outputs", fontsize=10)
-    right.suptitle("residuals with ±2σ bands (σ from R̂)", fontsize=10)
+    right.suptitle(f"residuals with ±2σ bands (σ from {noise_symbol(result)})", fontsize=10)
     return _finish(fig, path)
 
 
@@ -427,7 +461,7 @@ def residual_spectra(result, segment=None):
 @_styled
 def spectra(result, segment=None, path=None):
     """Residual power spectra per output against frequency [Hz], with the
-    level of white noise of the same variance (R̂) dashed.
+    level of white noise of the same variance (R̂, B̂ for filter error) dashed.
 
     Parameters
     ----------
@@ -450,7 +484,7 @@ def spectra(result, segment=None, path=None):
         ax.semilogy(f[1:], psd[1:, i], color=COLORS["residual"], lw=1.0)
         ax.axhline(white, color=COLORS["band"], ls="--", lw=0.9, label="white, same variance")
         ax.set_title(recs.names("y")[i])
-        ax.set_ylabel(f"PSD [{unit or 'unit'}²/Hz]")
+        ax.set_ylabel(axis_label("PSD", psd_unit(unit)))
         ax.set_xlim(0, f[-1])
     axes[0].legend(loc="upper right", frameon=False)
     _bottom_labels(axes, ncols, "frequency [Hz]")
@@ -658,7 +692,7 @@ def bode(result, hz=True, samples=BAND_SAMPLES, seed=BAND_SEED, path=None):
         for i in range(ny):
             am, ap = axes[2 * i, j], axes[2 * i + 1, j]
             uy, uu = _display(recs.first, "y", i)[0], _display(recs.first, "u", j)[0]
-            ratio = f"{uy or '-'}/{uu or '-'}" if (uy or uu) else ""
+            ratio = unit_ratio(uy, uu)
             for ax, key, lab in ((am, "mag", "dB"), (ap, "phase", "deg")):
                 ax.fill_between(b["freq"], b[f"{key}_band"][0, :, i, j],
                                 b[f"{key}_band"][1, :, i, j], color=COLORS["band"], alpha=0.2,
