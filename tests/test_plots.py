@@ -141,6 +141,22 @@ def test_residual_band_is_two_sigma_of_rhat_in_the_declared_unit(case):
     np.testing.assert_allclose(_span(axes[0]), [-band[0], band[0]], rtol=1e-13)
 
 
+def test_filter_error_band_is_that_of_the_innovations():
+    """For filter error the residuals are innovations and rhat their mean
+    covariance B̂, larger than the measurement noise R: the band is named so."""
+    t, u = _inputs(201)
+    m = mlid.LinearModel(F0, G0, np.eye(2), Gamma=[[1.0], [0.0]], q=[1e-4],
+                         r=np.square(NOISE), free=["f(2,1)", "g(2,1)", "q(1)"])
+    data, _ = mlid.simulate(m, t, u, seed=3)
+    res = mlid.fit(m, data, method="filter_error")
+    assert np.all(np.diag(res.rhat) > res.model.r)
+    fig = plots.residuals(res)
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["±2σ (B̂)"]
+    np.testing.assert_allclose(_span(fig.axes[1]), 2 * np.sqrt(res.rhat[1, 1]) * np.array([-1, 1]))
+    labels = [t.get_text() for t in plots.outputs(res).axes[1].get_legend().get_texts()]
+    assert labels == ["measured", "filter prediction"]
+
+
 def test_manoeuvre_joins_are_not_bridged(case):
     first, second = case["pair"]
     res = case["joint"]
