@@ -96,10 +96,16 @@ def unit_ratio(num, den):
     return f"{_grouped(num) if num else '-'}/{_grouped(den) if den else '-'}"
 
 
+def unit_squared(unit):
+    """The unit of a variance of a channel in unit ('deg²', '(rad/s)²'); ''
+    when the channel's unit is unknown."""
+    return f"{_grouped(unit)}²" if unit else ""
+
+
 def psd_unit(unit):
     """The unit of a power spectral density of a channel in unit ('deg²/Hz',
     '(rad/s)²/Hz'); '' when the channel's unit is unknown."""
-    return f"{_grouped(unit)}²/Hz" if unit else ""
+    return f"{unit_squared(unit)}/Hz" if unit else ""
 
 
 def noise_symbol(result):
@@ -200,6 +206,12 @@ def _bottom_labels(axes, ncols, label):
             ax.set_xlabel(label)
 
 
+def _legend_above(ax, side, **kw):
+    """ax's legend just above it, on the left or right, off the data."""
+    ax.legend(loc=f"lower {side}", bbox_to_anchor=(0.0 if side == "left" else 1.0, 1.0),
+              frameon=False, borderaxespad=0.1, borderpad=0.0, handlelength=1.6, **kw)
+
+
 def _time_axis(axes, recs):
     axes[-1].set_xlabel("t [s]")
     for ax in axes:
@@ -260,7 +272,7 @@ def _draw_outputs(fig, axes, result, recs):
         ax.plot(recs.time, recs.convert("y", i, result.yhat[:, i]), color=COLORS["model"],
                 label=model_label(result))
         ax.set_ylabel(recs.label("y", i))
-    axes[nu].legend(loc="upper right", ncols=2, frameon=False)
+    _legend_above(axes[nu], "right", ncols=2)
     _time_axis(axes, recs)
 
 
@@ -270,16 +282,17 @@ def _draw_residuals(axes, result, recs):
     for i, ax in enumerate(axes):
         _, scale, _ = _display(recs.first, "y", i)
         band = 2 * sigma[i] / abs(scale)
-        ax.axhspan(-band, band, color=COLORS["band"], alpha=0.12, lw=0, label=f"±2σ ({noise_symbol(result)})")
+        ax.axhspan(-band, band, color=COLORS["band"], alpha=0.12, lw=0,
+                   label=f"±2σ ({noise_symbol(result)})")
         ax.plot(recs.time, recs.convert("y", i, res[:, i], difference=True),
                 color=COLORS["residual"], lw=0.8)
         ax.axhline(0.0, color="0.5", lw=0.6)
         ax.set_ylabel(axis_label(f"Δ{recs.names('y')[i]}",
                                  _display(recs.first, "y", i)[0]))
         outside = np.mean(np.abs(res[:, i]) > 2 * sigma[i]) if sigma[i] > 0 else np.nan
-        ax.text(0.99, 0.95, f"{100 * outside:.1f}% outside", transform=ax.transAxes,
-                ha="right", va="top", fontsize=7.5, color="0.35")
-    axes[0].legend(loc="upper left", frameon=False)
+        ax.set_title(f"{100 * outside:.1f}% outside ±2σ", loc="right", fontsize=7.5,
+                     color="0.35", pad=2)
+    _legend_above(axes[0], "left")
     _time_axis(axes, recs)
 
 
@@ -352,7 +365,8 @@ def fit_overview(result, path=None):
         ax.remove()
     _draw_residuals(ra[nu:], result, recs)
     left.suptitle("measured and model outputs", fontsize=10)
-    right.suptitle(f"residuals with ±2σ bands (σ from {noise_symbol(result)})", fontsize=10)
+    right.suptitle(f"residuals with ±2σ bands (σ from {noise_symbol(result)})",
+                   fontsize=10)
     return _finish(fig, path)
 
 
