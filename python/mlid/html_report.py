@@ -41,7 +41,9 @@ figure{margin:10px 0 18px}figure img{max-width:100%;height:auto;border:1px solid
 figcaption{color:#555;font-size:12.5px;margin-top:3px}
 pre{background:#f7f7f7;padding:8px 10px;font-size:12px;overflow-x:auto}
 details summary{cursor:pointer;color:#1f5fa8;margin:8px 0}
-.toc td{text-align:left}.grid{display:flex;flex-wrap:wrap;gap:28px;align-items:flex-start}
+.toc td,.toc th{text-align:left}
+.estimates td:nth-child(2),.estimates th:nth-child(2),.estimates td:last-child,
+.estimates th:last-child{text-align:left}.grid{display:flex;flex-wrap:wrap;gap:28px;align-items:flex-start}
 .note{color:#666;font-size:12.5px}
 """
 
@@ -60,13 +62,15 @@ def _num(v, digits=5):
 
 
 def _table(header, rows, cls=""):
-    """An HTML table; cells are escaped unless given as ('raw', html)."""
+    """An HTML table (no head row when header is None); cells are escaped
+    unless given as ('raw', html)."""
     def cell(c, tag):
         text = c[1] if isinstance(c, tuple) and c and c[0] == "raw" else _e(c)
         return f"<{tag}>{text}</{tag}>"
-    head = "".join(cell(h, "th") for h in header)
+    head = "" if header is None else \
+        "<thead><tr>" + "".join(cell(h, "th") for h in header) + "</tr></thead>"
     body = "".join("<tr>" + "".join(cell(c, "td") for c in r) + "</tr>" for r in rows)
-    return f'<table class="{cls}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+    return f'<table class="{cls}">{head}<tbody>{body}</tbody></table>'
 
 
 def _png(fig):
@@ -93,91 +97,68 @@ def _figure(make, caption):
 # -- tables of a fit -------------------------------------------------------------
 
 def _flags(result, k, rel):
+    """The report's own flags of estimate k: a large relative σ, a large
+    correlation with another estimate."""
     out = []
-    if rel is not None and rel > FLAG_RELATIVE_SIGMA:
+    if rel is not None and math.isfinite(rel) and rel > FLAG_RELATIVE_SIGMA:
         out.append(f"σ > {FLAG_RELATIVE_SIGMA:.0%}")
     c = np.array(result.correlation, dtype=float)
     if c.shape[0] > 1:
         others = np.abs(np.delete(c[k], k))
         if others.max() > FLAG_CORRELATION:
             out.append(f"|ρ| {others.max():.2f}")
-    return ", ".join(out)
-
-
-def _external_table(result):
-    """mlid.table.results_table(result) as HTML, when that module exists
-    (a DataFrame, text, a list of dicts or of rows); None otherwise."""
-    try:
-        from . import table
-    except ImportError:
-        return None
-    fn = getattr(table, "results_table", None)
-    if fn is None:
-        return None
-    t = fn(result)
-    if hasattr(t, "to_html"):
-        return t.to_html(index=False, escape=True, border=0)
-    if isinstance(t, str):
-        return f"<pre>{_e(t)}</pre>"
-    t = list(t)
-    if t and isinstance(t[0], dict):
-        header = list(t[0])
-        return _table(header, [[_cell(r.get(h)) for h in header] for r in t])
-    if t and isinstance(t[0], str):
-        return f"<pre>{_e(chr(10).join(t))}</pre>"
-    return _table([_cell(h) for h in t[0]], [[_cell(c) for c in r] for r in t[1:]])
-
-
-def _cell(v):
-    return _num(v) if isinstance(v, (float, np.floating)) else ("" if v is None else v)
+    return out
 
 
 def estimates_table(result):
-    """The estimates as HTML: name, start, estimate, Cramér-Rao σ; with the
-    corrected σ, relative σ, unit and flags when the result carries
-    ``sigma_corrected`` and ``param_units``.  ``mlid.table.results_table``
-    is used instead when it exists."""
-    try:
-        given = _external_table(result)
-    except Exception:                # fall back to ours rather than lose the table
-        given = None
-    if given is not None:
-        return given
-    corrected = getattr(result, "sigma_corrected", None)
-    units = getattr(result, "param_units", None)
-    header = ["parameter", "start", "estimate", "Cramér-Rao σ"]
-    if corrected is not None and units is not None:
-        header += ["corrected σ", "relative σ [%]", "unit", "flag"]
-    else:
-        header += ["relative σ [%]", "flag"]
+    """The results table of ``mlid.table.results_table`` as HTML: name, unit,
+    estimate, Cramér-Rao σ, σ corrected for coloured residuals, relative σ
+    and flag, with the start value after the unit and the report's own flags
+    (relative σ above FLAG_RELATIVE_SIGMA, |correlation| above
+    FLAG_CORRELATION) beside the table's.
+
+    Raises
+    ------
+    InputError
+        If the result's param_units do not fit its parameters.
+    """
+    from .table import FLAG_TEXT, HEADINGS, results_table
+    header = [*HEADINGS[:2], "start", *HEADINGS[2:]]
     rows = []
-    for k, name in enumerate(result.names):
-        est, sig = float(result.estimate[k]), float(result.sigma[k])
-        row = [name, _num(result.start[k]), _num(est), _num(sig, 3)]
-        s = float(corrected[k]) if corrected is not None and units is not None else sig
-        rel = abs(s / est) if est != 0 else None
-        if corrected is not None and units is not None:
-            row += [_num(s, 3)]
-        row += [f"{100 * rel:.1f}" if rel is not None else "–"]
-        if corrected is not None and units is not None:
-            row += [units[k] or ""]
-        flag = _flags(result, k, rel)
-        row += [("raw", f'<span class="flag">{_e(flag)}</span>') if flag else ""]
-        rows.append(row)
-    return _table(header, rows)
+    for k, r in enumerate(results_table(result).rows):
+        rel = r["relative_sigma_percent"] / 100
+        flags = ([FLAG_TEXT] if r["flag"] else []) + _flags(result, k, rel)
+        rows.append([r["name"], r["unit"], _num(result.start[k]), _num(r["estimate"]),
+                     _num(r["sigma_cr"], 3), _num(r["sigma_corrected"], 3),
+                     f"{100 * rel:.1f}" if math.isfinite(rel) else "–",
+                     ("raw", f'<span class="flag">{_e(", ".join(flags))}</span>') if flags
+                     else ""])
+    note = "" if any(r[1] for r in rows) else \
+        '<p class="note">units of the parameters: not declared to the fit</p>'
+    return _table(header, rows, "estimates") + note
 
 
 def noise_table(result):
-    """R diagonal per output, its σ in the declared unit, and det R."""
-    data = result.data
+    """Per output: σ = √ of the diagonal of R̂ (B̂ for filter error) in the
+    declared unit, and the diagonal itself in the core's unit; det R̂."""
     recs = plots._Records.of_result(result)
+    sym = plots.noise_symbol(result)
     rows = []
-    for i, name in enumerate(data.output_names):
+    for i, name in enumerate(result.data.output_names):
         r = float(result.rhat[i, i])
         unit, scale, _ = plots._display(recs.first, "y", i)
-        rows.append([name, _num(r), _num(math.sqrt(max(r, 0.0)) / abs(scale), 4), unit])
-    return (_table(["output", "R̂ᵢᵢ (core units)", "σ = √R̂ᵢᵢ", "unit"], rows)
-            + f"<p>det R̂ = {_e(_num(result.det_r))}</p>")
+        core = recs.first.output_units[i] if recs.first.output_units else ""
+        rows.append([name, _num(math.sqrt(max(r, 0.0)) / abs(scale), 4), unit, _num(r, 4),
+                     plots.unit_squared(core)])
+    return (_table(["output", f"σ = √{sym}ᵢᵢ", "unit", f"{sym}ᵢᵢ", "unit"], rows)
+            + f"<p>det {sym} = {_e(_num(result.det_r))}</p>")
+
+
+def noise_heading(result):
+    """What the noise table shows: the measurement noise (output error) or
+    the innovations (filter error)."""
+    return "Innovations (mean covariance B̂)" if plots.noise_symbol(result) == "B̂" \
+        else "Measurement noise (R̂)"
 
 
 def convergence_html(result):
@@ -186,7 +167,7 @@ def convergence_html(result):
     rows = [["status", state], ["stopped because", result.reason],
             ["iterations", result.iterations], ["final cost", _num(result.cost, 8)],
             ["rank", result.rank], ["fit time [s]", _num(result.wall_time, 3)]]
-    return _table(["", ""], rows) + f'<p class="note">cost history: {_e(hist)}</p>'
+    return _table(None, rows) + f'<p class="note">cost history: {_e(hist)}</p>'
 
 
 def whiteness_html(result):
@@ -236,12 +217,14 @@ def _fit_sections(result):
         ident = []
     if ident:
         parts.append(f"<pre>{_e(chr(10).join(ident))}</pre>")
-    parts += ['<div class="grid"><div><h3>Measurement noise</h3>', noise_table(result),
+    parts += [f'<div class="grid"><div><h3>{_e(noise_heading(result))}</h3>',
+              noise_table(result),
               "</div><div><h3>Convergence</h3>", convergence_html(result), "</div></div>",
               "<h3>Whiteness of the residuals</h3>", whiteness_html(result),
               "<h3>Figures</h3>",
-              _figure(lambda: plots.fit_overview(result), "measured and model outputs with the "
-                      "inputs; residuals with ±2σ bands, σ from R̂"),
+              _figure(lambda: plots.fit_overview(result), "measured and "
+                      f"{plots.model_label(result)} outputs with the inputs; residuals with "
+                      f"±2σ bands, σ from {plots.noise_symbol(result)}"),
               _figure(lambda: plots.autocorrelation(result), "residual autocorrelation against "
                       "lag, ±1.96/√N band"),
               _figure(lambda: plots.spectra(result), "residual power spectra, white-noise level "
