@@ -133,7 +133,7 @@ def test_residual_band_is_two_sigma_of_rhat_in_the_declared_unit(case):
         np.testing.assert_allclose(line.get_ydata(), res.residuals[:, i] / SCALE_Y[i],
                                    rtol=1e-13, atol=1e-15)
         outside = np.mean(np.abs(res.residuals[:, i]) > 2 * np.sqrt(res.rhat[i, i]))
-        assert f"{100 * outside:.1f}% outside" in [t.get_text() for t in ax.texts]
+        assert ax.get_title(loc="right") == f"{100 * outside:.1f}% outside ±2σ"
     # the overview's right half draws the same band
     right = fig_overview = plots.fit_overview(res)
     axes = [ax for ax in right.subfigs[1].axes]
@@ -153,8 +153,10 @@ def test_filter_error_band_is_that_of_the_innovations():
     fig = plots.residuals(res)
     assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["±2σ (B̂)"]
     np.testing.assert_allclose(_span(fig.axes[1]), 2 * np.sqrt(res.rhat[1, 1]) * np.array([-1, 1]))
-    labels = [t.get_text() for t in plots.outputs(res).axes[1].get_legend().get_texts()]
+    fig = plots.outputs(res)
+    labels = [t.get_text() for t in fig.axes[1].get_legend().get_texts()]
     assert labels == ["measured", "filter prediction"]
+    assert fig.get_suptitle() == "measured outputs and filter predictions"
 
 
 def test_manoeuvre_joins_are_not_bridged(case):

@@ -162,12 +162,18 @@ def noise_heading(result):
 
 
 def convergence_html(result):
-    hist = " → ".join(_num(c, 7) for c in result.cost_history)
+    """How the iteration ended, as a two-column table."""
     state = "converged" if result.converged else "not converged"
     rows = [["status", state], ["stopped because", result.reason],
             ["iterations", result.iterations], ["final cost", _num(result.cost, 8)],
             ["rank", result.rank], ["fit time [s]", _num(result.wall_time, 3)]]
-    return _table(None, rows) + f'<p class="note">cost history: {_e(hist)}</p>'
+    return _table(None, rows)
+
+
+def cost_history_html(result):
+    """The cost at each iteration, one line that wraps."""
+    hist = " → ".join(_num(c, 7) for c in result.cost_history)
+    return f'<p class="note">cost history: {_e(hist)}</p>'
 
 
 def whiteness_html(result):
@@ -220,11 +226,12 @@ def _fit_sections(result):
     parts += [f'<div class="grid"><div><h3>{_e(noise_heading(result))}</h3>',
               noise_table(result),
               "</div><div><h3>Convergence</h3>", convergence_html(result), "</div></div>",
+              cost_history_html(result),
               "<h3>Whiteness of the residuals</h3>", whiteness_html(result),
               "<h3>Figures</h3>",
-              _figure(lambda: plots.fit_overview(result), "measured and "
-                      f"{plots.model_label(result)} outputs with the inputs; residuals with "
-                      f"±2σ bands, σ from {plots.noise_symbol(result)}"),
+              _figure(lambda: plots.fit_overview(result), f"{plots.outputs_title(result)} "
+                      "with the inputs; residuals with ±2σ bands, σ from "
+                      f"{plots.noise_symbol(result)}"),
               _figure(lambda: plots.autocorrelation(result), "residual autocorrelation against "
                       "lag, ±1.96/√N band"),
               _figure(lambda: plots.spectra(result), "residual power spectra, white-noise level "

@@ -121,6 +121,12 @@ def model_label(result):
     return "filter prediction" if noise_symbol(result) == "B̂" else "model"
 
 
+def outputs_title(result):
+    """The title of the measured and fitted outputs (``model_label``)."""
+    return "measured outputs and filter predictions" if noise_symbol(result) == "B̂" \
+        else "measured and model outputs"
+
+
 def _display(record, which, i):
     """(unit, scale, offset) of channel i: declared = (core - offset) / scale."""
     table = getattr(record, "input_display" if which == "u" else "output_display", None)
@@ -316,7 +322,7 @@ def outputs(result, path=None):
     n = result.data.u.shape[1] + result.data.y.shape[1]
     fig, axes = _figure(n, 1, 7.5, 1.35, sharex=True)
     _draw_outputs(fig, axes[:, 0], result, recs)
-    fig.suptitle("measured and model outputs", fontsize=10)
+    fig.suptitle(outputs_title(result), fontsize=10)
     return _finish(fig, path)
 
 
@@ -364,7 +370,7 @@ def fit_overview(result, path=None):
     for ax in ra[:nu]:
         ax.remove()
     _draw_residuals(ra[nu:], result, recs)
-    left.suptitle("measured and model outputs", fontsize=10)
+    left.suptitle(outputs_title(result), fontsize=10)
     right.suptitle(f"residuals with ±2σ bands (σ from {noise_symbol(result)})",
                    fontsize=10)
     return _finish(fig, path)
