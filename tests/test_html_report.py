@@ -225,3 +225,36 @@ def test_the_page_is_written_whole(run, tmp_path):
         write_report(tmp_path, tmp_path / "c8.nml", cases())
     assert page.read_text() == "previous\n"
     assert [p.name for p in tmp_path.iterdir()] == ["c8.html"]
+
+
+def test_a_validate_case_shows_its_prediction(tmp_path):
+    """The deck job 'validate': Theil's U, the rms error in the declared unit
+    (alpha in deg) and rms/σ of the held-out file, as mlid.validate has them,
+    and its figure."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import mlid
+    from mlid.html_report import write_report
+    from test_validate import DECK as VALIDATE, write_manoeuvres
+    write_manoeuvres(tmp_path)
+    deck = tmp_path / "v.nml"
+    deck.write_text(VALIDATE)
+    cases = mlid.run_deck(deck)
+    v = cases[0][2].validation
+    page = Page()
+    page.feed(write_report(tmp_path / "out", deck, cases).read_text(encoding="ascii"))
+    section = page.sections["case-1"]
+    rows = [r for t in section["tables"] if t["rows"][0][:2] == ["output", "Theil U"]
+            for r in t["rows"]]
+    assert rows[0] == ["output", "Theil U", "rms error", "unit", "rms / σ"]
+    # the deck declares alpha in deg and nothing for q
+    assert [r[0] for r in rows[1:]] == ["alpha", "q"] and [r[3] for r in rows[1:]] == ["deg", ""]
+    got = np.array([[float(r[1]), float(r[2]), float(r[4])] for r in rows[1:]])
+    np.testing.assert_allclose(got[:, 0], v.theil, rtol=5e-3)
+    np.testing.assert_allclose(got[:, 1], v.rms * [180 / np.pi, 1.0], rtol=5e-4)
+    np.testing.assert_allclose(got[:, 2], v.rms_over_sigma, rtol=5e-3)
+    assert len(section["imgs"]) == 7        # the fit's six and the prediction
+    # the parameters' units, from the channels' (Z_a in 1/s, a0 in rad; '' where not known)
+    est = _table(section, cls="estimates")
+    assert [r[1] for r in est[1:]] == list(cases[0][2].param_units)
+    assert "1/s" in cases[0][2].param_units

@@ -187,6 +187,21 @@ def whiteness_html(result):
                     "lags outside ±1.96/√N [%]"], rows))
 
 
+def validation_html(v):
+    """Per output of the held-out manoeuvres: Theil's U, the rms prediction
+    error in the declared unit and its ratio to the identification's σ."""
+    recs = plots._Records.of_result(v.prediction)
+    rows = []
+    for i, name in enumerate(v.output_names):
+        unit, scale, _ = plots._display(recs.first, "y", i)
+        rows.append([name, _num(v.theil[i], 3), _num(v.rms[i] / abs(scale), 4), unit,
+                     _num(v.rms_over_sigma[i], 3)])
+    held = ", ".join(str(k) for k in v.holdout)
+    return (f"<p>held-out file{'s' * (len(v.holdout) > 1)} {_e(held)}, predicted by the "
+            "identified model (own initial state and biases fitted)</p>"
+            + _table(["output", "Theil U", "rms error", "unit", "rms / σ"], rows))
+
+
 def modes_html(model):
     rows = []
     for m in plots.modes(model):
@@ -237,6 +252,11 @@ def _fit_sections(result):
               _figure(lambda: plots.spectra(result), "residual power spectra, white-noise level "
                       "of the same variance dashed"),
               _figure(lambda: plots.correlation(result), "correlation matrix of the estimates")]
+    checked = getattr(result, "validation", None)
+    if checked is not None:
+        parts += ["<h3>Validation on held-out manoeuvres</h3>", validation_html(checked),
+                  _figure(lambda: plots.validation(checked), "held-out manoeuvres: measured "
+                          "outputs and the identified model's prediction")]
     if getattr(result.model, "kind", None) == 1:
         parts += ["<h3>Modes of the identified model</h3>", modes_html(result.model),
                   _figure(lambda: plots.s_plane(result), "eigenvalues of A; the cloud: models "

@@ -112,7 +112,8 @@ def noise_symbol(result):
     """What result.rhat is, as the plots and the report name it: 'R̂' (output
     error: the measurement-noise covariance) or 'B̂' (filter error: the mean
     covariance of the innovations, which the residuals are)."""
-    return "B̂" if result.options.get("method") == "filter_error" else "R̂"
+    options = getattr(result, "options", None) or {}
+    return "B̂" if options.get("method") == "filter_error" else "R̂"
 
 
 def model_label(result):
@@ -851,10 +852,10 @@ def validation(v, path=None):
     fig, axes = _figure(n, 1, 7.5, 1.35, sharex=True)
     _draw_outputs(fig, axes[:, 0], result, recs)
     for i, ax in enumerate(axes[nu:, 0]):
-        ax.text(0.01, 0.95, f"Theil U {v.theil[i]:.3f}   rms/σ {v.rms_over_sigma[i]:.2f}",
-                transform=ax.transAxes, ha="left", va="top", fontsize=7.5, color="0.25")
-    axes[nu, 0].get_legend().remove()
-    axes[nu, 0].legend(["measured", "predicted"], loc="upper right", ncols=2, frameon=False)
+        ax.set_title(f"Theil U {v.theil[i]:.3f}   rms/σ {v.rms_over_sigma[i]:.2f}", loc="left",
+                     fontsize=7.5, color="0.25", pad=2)
+    axes[nu, 0].get_lines()[1].set_label("predicted")
+    _legend_above(axes[nu, 0], "right", ncols=2)
     held = ", ".join(str(k) for k in v.holdout)
     fig.suptitle(f"validation: held-out manoeuvre{'s' * (len(v.holdout) > 1)} {held} "
                  "predicted by the identified model", fontsize=10)
