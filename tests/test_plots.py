@@ -232,6 +232,8 @@ def test_spectra_in_hz_to_nyquist_against_scipy(case):
         f, p = curve.get_xdata(), curve.get_ydata()
         assert f[-1] == pytest.approx(nyquist, rel=1e-12)
         assert ax.get_xlim()[1] == pytest.approx(nyquist, rel=1e-12)
+        lo, hi = ax.get_ylim()                # labelled powers of ten, not minor ticks
+        assert hi / lo >= 10 ** plots.LOG_DECADES * (1 - 1e-9)
         np.testing.assert_allclose(np.diff(f), 1 / (64 * DT), rtol=1e-9)
         # a second implementation: scipy's Welch in the declared unit
         e = res.residuals[:, i] / SCALE_Y[i]

@@ -219,6 +219,21 @@ def _legend_above(ax, side, **kw):
               frameon=False, borderaxespad=0.1, borderpad=0.0, handlelength=1.6, **kw)
 
 
+#: Decades a logarithmic axis spans at least (so that it has labelled powers of ten).
+LOG_DECADES = 2
+
+
+def _decades(ax, n):
+    """ax's log y axis widened about its geometric middle to span n decades
+    when it spans fewer; minor ticks unlabelled."""
+    from matplotlib.ticker import NullFormatter
+    lo, hi = ax.get_ylim()
+    if hi < lo * 10 ** n:
+        mid = np.sqrt(lo * hi)
+        ax.set_ylim(mid / 10 ** (n / 2), mid * 10 ** (n / 2))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+
+
 def _time_axis(axes, recs):
     axes[-1].set_xlabel("t [s]")
     for ax in axes:
@@ -504,10 +519,11 @@ def spectra(result, segment=None, path=None):
         white = 2 * result.rhat[i, i] * recs.dt / scale ** 2
         ax.semilogy(f[1:], psd[1:, i], color=COLORS["residual"], lw=1.0)
         ax.axhline(white, color=COLORS["band"], ls="--", lw=0.9, label="white, same variance")
-        ax.set_title(recs.names("y")[i])
+        ax.set_title(recs.names("y")[i], loc="left")
         ax.set_ylabel(axis_label("PSD", psd_unit(unit)))
         ax.set_xlim(0, f[-1])
-    axes[0].legend(loc="upper right", frameon=False)
+        _decades(ax, LOG_DECADES)
+    _legend_above(axes[0], "right")
     _bottom_labels(axes, ncols, "frequency [Hz]")
     fig.suptitle("residual power spectra (Welch, Hann)", fontsize=10)
     return _finish(fig, path)
@@ -725,7 +741,7 @@ def bode(result, hz=True, samples=BAND_SAMPLES, seed=BAND_SEED, path=None):
             am.set_title(f"{recs.names('u')[j]} → {recs.names('y')[i]}"
                          + (f"  [{ratio}]" if ratio else ""), loc="left")
         axes[-1, j].set_xlabel(f"frequency [{b['unit']}]")
-    axes[0, 0].legend(loc="lower left", frameon=False)
+    _legend_above(axes[0, 0], "right", ncols=2)
     fig.suptitle(f"frequency response of the identified model\nband: 2.5-97.5 percentiles of "
                  f"{samples} draws from N(θ̂, Cramér-Rao covariance), seed {seed}", fontsize=9.5)
     return _finish(fig, path)
