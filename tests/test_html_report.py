@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from conftest import REPO
+from mlid.table import HEADINGS
 
 DECK = REPO / "cases" / "c8_short_period" / "c8.nml"
 # A case whose record is missing: it fails, the report goes on.
@@ -142,8 +143,8 @@ def test_the_page_parses_with_a_section_per_case(run):
 def test_results_table_matches_the_fit(run):
     fit = run["json"][1]
     rows = _table(run["page"].sections["case-2"], cls="estimates")
-    assert rows[0][:6] == ["parameter", "unit", "start", "estimate", "Cramér-Rao σ",
-                           "corrected σ"]
+    assert rows[0] == [*HEADINGS[:2], "Start", *HEADINGS[2:]]
+    assert rows[0][:6] == ["Parameter", "Unit", "Start", "Estimate", "CR σ", "Corrected σ"]
     body = rows[1:]
     assert [r[0] for r in body] == fit["parameters"]
     got = np.array([[float(r[k]) for k in (2, 3, 4, 5, 6)] for r in body])

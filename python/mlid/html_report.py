@@ -123,7 +123,7 @@ def estimates_table(result):
         If the result's param_units do not fit its parameters.
     """
     from .table import FLAG_TEXT, HEADINGS, results_table
-    header = [*HEADINGS[:2], "start", *HEADINGS[2:]]
+    header = [*HEADINGS[:2], "Start", *HEADINGS[2:]]
     rows = []
     for k, r in enumerate(results_table(result).rows):
         rel = r["relative_sigma_percent"] / 100

@@ -109,11 +109,14 @@ def psd_unit(unit):
 
 
 def noise_symbol(result):
-    """What result.rhat is, as the plots and the report name it: 'R̂' (output
-    error: the measurement-noise covariance) or 'B̂' (filter error: the mean
-    covariance of the innovations, which the residuals are)."""
-    options = getattr(result, "options", None) or {}
-    return "B̂" if options.get("method") == "filter_error" else "R̂"
+    """What result.rhat is, as the core's report says it
+    (``FitResult.noise_diagonal``): 'R̂' (output error: the measurement-noise
+    covariance) or 'B̂' (filter error: the mean covariance of the
+    innovations, which the residuals are).  A bare prediction (``mlid.validate``
+    of a model with nothing to fit) estimated no noise: 'R̂'."""
+    if not hasattr(result, "flat_options"):
+        return "R̂"
+    return "B̂" if result.noise_diagonal()[0].startswith("B") else "R̂"
 
 
 def model_label(result):
