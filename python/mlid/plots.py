@@ -395,22 +395,23 @@ def fit_overview(result, path=None):
     return _finish(fig, path)
 
 
-def plot_fit(result, folder, stem):
-    """Write FOLDER/STEM_fit.png (``fit_overview``) and return its path."""
+def _write_into(draw, obj, folder, name):
+    """Draw obj into FOLDER/NAME (whole or not at all), release the figure,
+    return the path."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"{stem}_fit.png"
-    close(fit_overview(result, path))
-    return path
+    close(draw(obj, folder / name))
+    return folder / name
+
+
+def plot_fit(result, folder, stem):
+    """Write FOLDER/STEM_fit.png (``fit_overview``) and return its path."""
+    return _write_into(fit_overview, result, folder, f"{stem}_fit.png")
 
 
 def plot_validation(v, folder, stem):
     """Write FOLDER/STEM_validation.png (``validation``) and return its path."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"{stem}_validation.png"
-    close(validation(v, path))
-    return path
+    return _write_into(validation, v, folder, f"{stem}_validation.png")
 
 
 # -- residual statistics ------------------------------------------------------
