@@ -256,7 +256,7 @@ contains
     character(len=16) :: kind, input_hold
     integer :: nx, nu, ny, nw, substeps, user_iconst(MAXFREE), ncoef(3), ios
     real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
-    real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY), k(MAXU*MAXX)
+    real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY), k(MAXU*MAXX), bx(MAXX)
     character(len=8) :: cd_regressors(MAXR), cl_regressors(MAXR), cm_regressors(MAXR)
     real(wp) :: cd(MAXR), cl(MAXR), cm(MAXR), constants(9), p(MAXFREE), user_rconst(MAXFREE)
     character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
@@ -266,7 +266,7 @@ contains
     integer, allocatable :: codes(:)
     type(layout_table_t) :: lt
     type(options_t) :: defaults
-    namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, k, x0, bias, q, r, s, free, names, &
+    namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, k, bx, x0, bias, q, r, s, free, names, &
       tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
       cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst
 
@@ -281,6 +281,7 @@ contains
     d = UNSET
     gamma = UNSET
     k = UNSET
+    bx = UNSET
     x0 = UNSET
     bias = UNSET
     q = UNSET
@@ -322,6 +323,7 @@ contains
       call put_matrix(c, lt, 'd', d, required=.false.)
       call put_matrix(c, lt, 'gamma', gamma, required=nw > 0)
       call put_matrix(c, lt, 'k', k, required=.false.)
+      call put_matrix(c, lt, 'bx', bx, required=.false.)
     else if (c%mkind == MODEL_AERO_LONG) then
       call put_matrix(c, lt, 'cd', cd, required=.false.)
       call put_matrix(c, lt, 'cl', cl, required=.false.)

@@ -16,7 +16,7 @@ module mlid_layout
   public :: layout_table_t, layout_table, layout_of, element_index, element_name, &
             default_label, block_list, manoeuvre_map, NBLOCK
 
-  integer, parameter :: NBLOCK = 11
+  integer, parameter :: NBLOCK = 12
   !> Suffix of a longitudinal coefficient's default label, per regressor
   !> code (C_D0, C_DV, C_Lalpha, C_mq, ...).
   character(len=8), parameter :: SUFFIX(NREG) = &
@@ -44,9 +44,9 @@ contains
     lt%codes = codes
     select case (mkind)
     case (MODEL_LINEAR)
-      call set_blocks(lt, [character(len=8) :: 'f', 'g', 'h', 'd', 'gamma', 'k', 'x0', 'bias', &
-                      'q', 'r', 's'], [nx, nx, ny, ny, nx, nu, nx, ny, nw, ny, nw], &
-                      [nx, nu, nx, nu, nw, nx, -1, -1, -1, -1, ny])
+      call set_blocks(lt, [character(len=8) :: 'f', 'g', 'h', 'd', 'gamma', 'k', 'bx', 'x0', &
+                      'bias', 'q', 'r', 's'], [nx, nx, ny, ny, nx, nu, nx, nx, ny, nw, ny, nw], &
+                      [nx, nu, nx, nu, nw, nx, -1, -1, -1, -1, -1, ny])
     case (MODEL_AERO_LONG)
       call set_blocks(lt, [character(len=8) :: 'cd', 'cl', 'cm', 'x0', 'bias', 'q', 'r', 's'], &
                       [ncoef, nx, ny, nw, ny, nw], [-1, -1, -1, -1, -1, -1, -1, ny])

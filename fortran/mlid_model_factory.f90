@@ -52,7 +52,8 @@ contains
       lin%od = lin%oh + ny*nx
       lin%ogam = lin%od + ny*nu
       lin%ok = lin%ogam + nx*nw
-      lin%np = lin%ok + nu*nx
+      lin%obx = lin%ok + nu*nx
+      lin%np = lin%obx + nx
       lin%linear = .true.
       allocate (model, source=lin)
     case (MODEL_AERO_LONG)

@@ -112,13 +112,14 @@ module mlid_models
     integer, allocatable :: seg(:)
   end type layout_t
 
-  !> Linear state space xdot = F x + G (u + K x) + Gamma w,
+  !> Linear state space xdot = F x + G (u + K x) + bx + Gamma w,
   !> y = H x + D (u + K x): K (nu x nx) feeds states back to the inputs
   !> (a stability augmentation system acting on top of the recorded
-  !> command); it is zero unless a case says otherwise.
-  !> p = [vec(F), vec(G), vec(H), vec(D), vec(Gamma), vec(K)], each column-major.
+  !> command); it is zero unless a case says otherwise.  bx (nx): constant
+  !> state-equation biases (trim offsets, the textbook's Z0, M0).
+  !> p = [vec(F), vec(G), vec(H), vec(D), vec(Gamma), vec(K), bx], each column-major.
   type, extends(model_t) :: linear_model_t
-    integer :: of = 0, og = 0, oh = 0, od = 0, ogam = 0, ok = 0  !< offsets of the blocks in p
+    integer :: of = 0, og = 0, oh = 0, od = 0, ogam = 0, ok = 0, obx = 0  !< offsets in p
   contains
     procedure :: f => lin_f
     procedure :: h => lin_h
@@ -200,6 +201,7 @@ contains
     do j = 1, min(self%nw, size(u) - self%nu)          ! process noise, if given
       xdot = xdot + p(self%ogam + (j - 1)*n + 1:self%ogam + j*n)*u(self%nu + j)
     end do
+    xdot = xdot + p(self%obx + 1:self%obx + n)
   end subroutine lin_f
 
   pure subroutine lin_h(self, t, x, u, p, y)
@@ -258,11 +260,13 @@ contains
         i = mod(q, n) + 1
         j = q/n + 1
         if (self%nu + j <= size(u)) b(i, k) = u(self%nu + j)
-      else if (q > self%ok) then        ! K(j, s): df/dK(j, s) = G(:, j) x_s
+      else if (q > self%ok .and. q <= self%obx) then  ! K(j, s): df/dK(j, s) = G(:, j) x_s
         q = q - self%ok - 1
         j = mod(q, self%nu) + 1
         i = q/self%nu + 1
         b(:, k) = p(self%og + (j - 1)*n + 1:self%og + j*n)*x(i)
+      else if (q > self%obx) then       ! bx(i): df_i/dbx(i) = 1
+        b(q - self%obx, k) = 1.0_wp
       end if                            ! H and D do not enter f
     end do
   end subroutine lin_dfdp
@@ -302,7 +306,7 @@ contains
         i = mod(q, m) + 1
         j = q/m + 1
         d(i, k) = v(j)
-      else if (q > self%ok) then                  ! K(j, s): dh/dK(j, s) = D(:, j) x_s
+      else if (q > self%ok .and. q <= self%obx) then  ! K(j, s): dh/dK(j, s) = D(:, j) x_s
         q = q - self%ok - 1
         j = mod(q, self%nu) + 1
         i = q/self%nu + 1
@@ -339,7 +343,7 @@ contains
         i = mod(q, m) + 1
         j = q/m + 1
         dc(i, :, k) = p(self%ok + j:self%ok + nu*self%nx:nu)
-      else if (q > self%ok) then                  ! K(j, s)
+      else if (q > self%ok .and. q <= self%obx) then  ! K(j, s)
         q = q - self%ok - 1
         j = mod(q, nu) + 1
         i = q/nu + 1

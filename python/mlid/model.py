@@ -388,17 +388,19 @@ class Model:
 class LinearModel(Model):
     """Linear state space with process and measurement noise
 
-        xdot = F x + G (u + K x) + Gamma w,   y = H x + D (u + K x) + bias + v,
+        xdot = F x + G (u + K x) + bx + Gamma w,   y = H x + D (u + K x) + bias + v,
 
     w (nw values) held over each sample interval with variances q (diagonal
     Q), v with variances r (diagonal R), cross-covariance S = E{w v'} (nw x ny).
 
     K (nu x nx, zero unless given) feeds states back to the inputs: a
     stability augmentation system moving the surfaces on top of the
-    recorded command.
+    recorded command.  bx (nx, zero unless given): constant state-equation
+    biases (trim offsets, such as the textbook's Z_0 and M_0), no fake input
+    of ones needed.
 
     Model parameters: ``'f(i,j)'``, ``'g(i,j)'``, ``'h(i,j)'``, ``'d(i,j)'``,
-    ``'gamma(i,j)'``, ``'k(j,s)'``; ``names`` gives readable labels (``{'f(3,3)': 'M_q'}``);
+    ``'gamma(i,j)'``, ``'k(j,s)'``, ``'bx(i)'``; ``names`` gives readable labels (``{'f(3,3)': 'M_q'}``);
     ``ties`` holds parameters equal to a free one (``{'f(1,5)': 'f(1,3)'}``).
 
     Parameters
@@ -412,6 +414,8 @@ class LinearModel(Model):
         How the process noise enters (default: none, nw = 0).
     K : array_like (nu, nx), optional
         State feedback to the inputs (default zero).
+    bx : array_like (nx,), optional
+        State-equation biases (default zero).
     {common}
 
     Raises
@@ -421,11 +425,11 @@ class LinearModel(Model):
 
     kind = 1
     F, G, H, D = _Block("f"), _Block("g"), _Block("h"), _Block("d")
-    Gamma, K = _Block("gamma"), _Block("k")
+    Gamma, K, bx = _Block("gamma"), _Block("k"), _Block("bx")
 
     def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
-                 ties=None, K=None):
+                 ties=None, K=None, bx=None):
         F, G, H = np.atleast_2d(real_array("F", F)), real_array("G", G), np.atleast_2d(real_array("H", H))
         nx = F.shape[0]
         if F.shape != (nx, nx):
@@ -447,6 +451,8 @@ class LinearModel(Model):
             self.D = D
         if K is not None:
             self.K = K
+        if bx is not None:
+            self.bx = bx
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
 
 
