@@ -7,7 +7,8 @@
 !>   mkind, nx, nu, ny, nw   model kind (1 = linear state space), sizes, noise inputs
 !>   theta(nth)              all parameters [p, x0, bias, q, r, s] (mlid_models)
 !>   isfree(nth)             1 where the parameter is estimated, else 0
-!>   itie(nth)               j: theta(k) is held equal to theta(j); 0: not tied
+!>   ntie, mtie, tie_to, tie_from, tie_scale (mtie >= max(ntie, 1)), tie_offset(nth)
+!>                           affine ties: theta(to) := offset(to) + sum scale*theta(from)
 !>   iconst, rconst          model constants (unused by the linear model)
 !>   t(nt), u(nu,nt), y(ny,nt)   the record, one column per sample
 !>   iopt(12), ropt(12)      options, layout in mlid_options
@@ -20,7 +21,8 @@ module mlid_api
   use mlid_model_factory, only: model_create
   use mlid_options, only: options_t, options_from_flat, options_to_flat, NOPTION, OPTION_NAMES, &
                           option_kind, option_set, option_get
-  use mlid_params, only: param_map_t, param_map_create, apply_ties
+  use mlid_params, only: param_map_t, param_map_create, apply_ties, tie_t, no_ties
+  use mlid_ties, only: tie_parse, MAXTERM
   use mlid_likelihood, only: likelihood
   use mlid_newton, only: fit_result_t, extras_t, newton_fit
   use mlid_colored, only: colored_covariance, colored_sandwich
@@ -54,6 +56,7 @@ module mlid_api
             mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
             mlid_channels_table, mlid_channels_get, mlid_check_time, mlid_parameter_units, &
             mlid_deck_case_holdout, mlid_prediction_stats, mlid_report_validation, &
+            mlid_deck_case_ties, mlid_tie_parse, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
@@ -190,20 +193,19 @@ contains
 
   !> The model, options, prior and bounds of case k (sizes from
   !> mlid_deck_case); labels of the free parameters, one per line.
-  subroutine mlid_deck_case_model(k, nth, nf, nic, nrc, theta, isfree, itie, iconst, rconst, &
+  subroutine mlid_deck_case_model(k, nth, nf, nic, nrc, theta, isfree, iconst, rconst, &
                                   iopt, ropt, labels, use_prior, prior, pweight, use_bounds, &
                                   lower, upper)
     integer(c_int), intent(in) :: k, nth, nf, nic, nrc
     real(c_double), intent(out) :: theta(nth), rconst(nrc), ropt(12), prior(nth), pweight(nf, nf)
     real(c_double), intent(out) :: lower(nth), upper(nth)
-    integer(c_int), intent(out) :: isfree(nth), itie(nth), iconst(nic), iopt(12), use_prior, &
+    integer(c_int), intent(out) :: isfree(nth), iconst(nic), iopt(12), use_prior, &
                                    use_bounds
     character(len=8192), intent(out) :: labels
 
     associate (c => opened(k))
       theta = c%theta
       isfree = c%isfree
-      itie = c%itie
       iconst = c%iconst
       rconst = c%rconst
       iopt = c%iopt
@@ -235,6 +237,44 @@ contains
       if (allocated(c%data_files)) path = c%data_files(j)
     end associate
   end subroutine mlid_deck_case_data
+
+  !> The ties of case k: n terms (to, from, scale; nmax at most) and the
+  !> offset of every entry.
+  subroutine mlid_deck_case_ties(k, nth, nmax, n, to, from, scale, offset)
+    integer(c_int), intent(in) :: k, nth, nmax
+    integer(c_int), intent(out) :: n, to(nmax), from(nmax)
+    real(c_double), intent(out) :: scale(nmax), offset(nth)
+    associate (c => opened(k))
+      n = min(size(c%tie%to), nmax)
+      to = 0
+      from = 0
+      scale = 0.0_wp
+      to(1:n) = c%tie%to(1:n)
+      from(1:n) = c%tie%from(1:n)
+      scale(1:n) = c%tie%scale(1:n)
+      offset = c%tie%offset
+    end associate
+  end subroutine mlid_deck_case_ties
+
+  !> A tie written as text (mlid_ties) for a model: the tied entry, its
+  !> constant and its terms (n of them, at most 16).
+  subroutine mlid_tie_parse(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, text, to, offset, &
+                            n, from, scale, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    character(len=*), intent(in) :: text
+    integer(c_int), intent(out) :: to, n, from(16), status
+    real(c_double), intent(out) :: offset, scale(16)
+    character(len=256), intent(out) :: msg
+    type(layout_table_t) :: lt
+    to = 0
+    n = 0
+    from = 0
+    offset = 0.0_wp
+    scale = 0.0_wp
+    call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
+    if (status == MLID_OK) call tie_parse(lt, text, to, offset, n, from, scale, status, msg)
+  end subroutine mlid_tie_parse
 
   !> The files validate case k predicts (numbers into its file list).
   subroutine mlid_deck_case_holdout(k, nmax, n, holdout)
@@ -638,7 +678,8 @@ contains
   !> Several manoeuvres: the record holds them one after the other, segment k
   !> from sample segstart(k) (segstart(1) = 1), with an initial state and a
   !> bias vector each in theta (the x0 and bias blocks nseg times as long).
-  subroutine mlid_fit(mkind, nx, nu, ny, nw, nth, theta0, isfree, itie, nic, iconst, nrc, &
+  subroutine mlid_fit(mkind, nx, nu, ny, nw, nth, theta0, isfree, ntie, mtie, tie_to, tie_from, &
+                      tie_scale, tie_offset, nic, iconst, nrc, &
                       rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, nc, use_prior, prior, &
                       pweight, use_bounds, lower, upper, theta_start, theta, sigma, cov, info, &
                       grad, eigval, eigvec, rhat, yhat, cost_hist, cost, niter, reason, converged, &
@@ -648,7 +689,8 @@ contains
     integer(c_int), intent(in) :: use_prior, use_bounds
     real(c_double), intent(in) :: prior(nth), pweight(nf, nf), lower(nth), upper(nth)
     real(c_double), intent(in) :: theta0(nth)
-    integer(c_int), intent(in) :: isfree(nth), itie(nth)
+    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
+    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
@@ -690,7 +732,8 @@ contains
     converged = 0
     rank = 0
     bad_param = 0
-    call setup(mkind, nx, nu, ny, nw, theta0, isfree, itie, iconst, rconst, t, u, y, iopt, &
+    call setup(mkind, nx, nu, ny, nw, theta0, isfree, &
+               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, y, iopt, &
                ropt, nf, m, opt, pm, status, msg, segstart)
     if (status /= MLID_OK) return
     warning = msg
@@ -737,13 +780,15 @@ contains
 
   !> Cost, gradient, information matrix and output sensitivity norms at
   !> theta, without iterating.
-  subroutine mlid_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, itie, nic, iconst, nrc, &
+  subroutine mlid_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, ntie, mtie, tie_to, tie_from, &
+                           tie_scale, tie_offset, nic, iconst, nrc, &
                            rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, cost, grad, info, &
                            rhat, yhat, sens, wsens, msens, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nseg
     integer(c_int), intent(in) :: segstart(nseg)
     real(c_double), intent(in) :: theta(nth)
-    integer(c_int), intent(in) :: isfree(nth), itie(nth)
+    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
+    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
@@ -767,7 +812,9 @@ contains
     sens = 0.0_wp
     wsens = 0.0_wp
     msens = 0.0_wp
-    call setup(mkind, nx, nu, ny, nw, theta, isfree, itie, iconst, rconst, t, u, y, iopt, ropt, &
+    call setup(mkind, nx, nu, ny, nw, theta, isfree, &
+               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, y, iopt, &
+               ropt, &
                nf, m, opt, pm, status, msg, segstart)
     if (status /= MLID_OK) return
     th = theta
@@ -829,7 +876,7 @@ contains
     x = 0.0_wp
     nofree = 0
     ! No measurements yet: check the time base and inputs against themselves.
-    call setup(mkind, nx, nu, ny, nw, theta, nofree, nofree, iconst, rconst, t, u, y, iopt, &
+    call setup(mkind, nx, nu, ny, nw, theta, nofree, no_ties(nth), iconst, rconst, t, u, y, iopt, &
                ropt, 0, m, opt, pm, status, msg)
     if (status /= MLID_OK) return
     call simulate_outputs(m, theta, t, u, opt, seed, y, x, status, msg, timing)
@@ -839,12 +886,14 @@ contains
   !> each fitted from theta_start.  est and sig (nf, nrun) are the estimates
   !> and Cramer-Rao standard deviations of the free parameters, iters the
   !> iterations, run_status each run's status (0, or the code it ended on).
-  subroutine mlid_monte_carlo(mkind, nx, nu, ny, nw, nth, theta_true, theta_start, isfree, itie, &
+  subroutine mlid_monte_carlo(mkind, nx, nu, ny, nw, nth, theta_true, theta_start, isfree, &
+                              ntie, mtie, tie_to, tie_from, tie_scale, tie_offset, &
                               nic, iconst, nrc, rconst, nt, t, u, seed0, nrun, iopt, ropt, nf, &
                               est, sig, info, iters, run_status, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed0, nrun, nf
     real(c_double), intent(in) :: theta_true(nth), theta_start(nth)
-    integer(c_int), intent(in) :: isfree(nth), itie(nth)
+    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
+    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt)
@@ -864,7 +913,8 @@ contains
     iters = 0
     run_status = 0
     yzero = 0.0_wp
-    call setup(mkind, nx, nu, ny, nw, theta_start, isfree, itie, iconst, rconst, t, u, yzero, &
+    call setup(mkind, nx, nu, ny, nw, theta_start, isfree, &
+               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, yzero, &
                iopt, ropt, nf, m, opt, pm, status, msg)
     if (status /= MLID_OK) return
     if (.not. all(ieee_is_finite(theta_true))) then
@@ -1070,11 +1120,22 @@ contains
     if (status == MLID_OK) call mu_for_length(d, td, mu1, mu2, mu, status, msg)
   end subroutine mlid_design_mu_for_length
 
-  subroutine setup(mkind, nx, nu, ny, nw, theta, isfree, itie, iconst, rconst, t, u, y, iopt, &
+  !> The ties of the flat interface: the first ntie terms (no more than given).
+  pure function ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset) result(tie)
+    integer(c_int), intent(in) :: ntie, tie_to(:), tie_from(:)
+    real(c_double), intent(in) :: tie_scale(:), tie_offset(:)
+    type(tie_t) :: tie
+    integer :: n
+    n = max(0, min(ntie, size(tie_to), size(tie_from), size(tie_scale)))
+    tie = tie_t(tie_to(1:n), tie_from(1:n), tie_scale(1:n), tie_offset)
+  end function ties_of
+
+  subroutine setup(mkind, nx, nu, ny, nw, theta, isfree, tie, iconst, rconst, t, u, y, iopt, &
                    ropt, nf, m, opt, pm, status, msg, segstart)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nf
     real(c_double), intent(in) :: theta(:)
-    integer(c_int), intent(in) :: isfree(:), itie(:), iconst(:)
+    integer(c_int), intent(in) :: isfree(:), iconst(:)
+    type(tie_t), intent(in) :: tie
     real(c_double), intent(in) :: rconst(:), t(:), u(:, :), y(:, :)
     integer(c_int), intent(in) :: iopt(12)
     real(c_double), intent(in) :: ropt(12)
@@ -1118,7 +1179,7 @@ contains
         ' entries, the model needs ', l%nth
       return
     end if
-    call param_map_create(l, isfree, itie, pm, status, msg)
+    call param_map_create(l, isfree, tie, pm, status, msg)
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
     if (pm%nf /= nf) then

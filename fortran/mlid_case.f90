@@ -9,6 +9,7 @@ module mlid_case
   use mlid_model_factory, only: MODEL_LINEAR
   use mlid_options, only: NOPT
   use mlid_channels, only: channels_t
+  use mlid_params, only: tie_t
   implicit none
   private
   public :: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
@@ -30,7 +31,8 @@ module mlid_case
     real(wp), allocatable :: rconst(:)
     integer :: nx = 0, nu = 0, ny = 0, nw = 0
     real(wp), allocatable :: theta(:)         !< [F, G, H, D, Gamma, x0, bias, q, r, s]
-    integer, allocatable :: isfree(:), itie(:)
+    integer, allocatable :: isfree(:)
+    type(tie_t) :: tie                        !< affine ties (mlid_params)
     integer :: use_prior = 0, use_bounds = 0
     real(wp), allocatable :: prior(:), pweight(:, :), lower(:), upper(:)  !< prior(nth) etc.
     character(len=NAMELEN), allocatable :: labels(:)  !< per free parameter, theta order

@@ -32,7 +32,10 @@ module mlid_deck
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
   use mlid_channels, only: channel_set_t, channels_read, channels_spec, UNITLEN
   use mlid_param_units, only: param_units
-  use mlid_layout, only: layout_table_t, layout_table, layout_of, element_index, default_label, &
+  use mlid_ties, only: tie_parse, MAXTERM
+  use mlid_params, only: no_ties
+  use mlid_layout, only: layout_table_t, layout_table, layout_of, element_index, element_name, &
+                         default_label, &
                          block_list, manoeuvre_map
   implicit none
   private
@@ -313,9 +316,9 @@ contains
                     user_iconst, user_rconst, nx, nu, ny, nw, ncoef, codes)
     if (c%status /= MLID_OK) return
     lt = layout_table(c%mkind, nx, nu, ny, nw, ncoef, codes)
-    allocate (c%theta(lt%nth), c%isfree(lt%nth), c%itie(lt%nth))
+    allocate (c%theta(lt%nth), c%isfree(lt%nth))
+    c%tie = no_ties(lt%nth)
     c%isfree = 0
-    c%itie = 0
     if (c%mkind == MODEL_LINEAR) then
       call put_matrix(c, lt, 'f', f, required=.true.)
       call put_matrix(c, lt, 'g', g, required=nu > 0)
@@ -527,27 +530,42 @@ contains
     c%labels = pack(labels, c%isfree == 1)
   end subroutine set_free
 
-  !> Ties 'a=b': parameter a held equal to b.
+  !> Ties 'a = b' or 'a = c + s*b + ...' (mlid_ties), each tied entry once.
   subroutine set_ties(c, lt, tie)
     type(case_t), intent(inout) :: c
     type(layout_table_t), intent(in) :: lt
     character(len=*), intent(in) :: tie(:)
-    integer :: k, peq, idx, jdx
+    integer :: k, to, n, from(MAXTERM), status
+    real(wp) :: offset, scale(MAXTERM)
+    character(len=msg_len) :: msg
     do k = 1, size(tie)
       if (len_trim(tie(k)) == 0) cycle
-      peq = index(tie(k), '=')
-      idx = 0
-      jdx = 0
-      if (peq > 1) then
-        idx = element_index(lt, tie(k)(1:peq - 1))
-        jdx = element_index(lt, tie(k)(peq + 1:))
+      call tie_parse(lt, tie(k), to, offset, n, from, scale, status, msg)
+      if (status == MLID_OK .and. any(c%tie%to == to)) then
+        status = MLID_ERR_INPUT
+        msg = 'tie '''//trim(tie(k))//''': the parameter is tied twice'
       end if
-      if (idx == 0 .or. jdx == 0) then
-        call fail(c, 'group &model: tie '''//trim(tie(k))//''' must read ''a=b'' with two '// &
-                  'parameters that exist')
+      if (status /= MLID_OK) then
+        call fail(c, 'group &model: '//trim(msg))
         return
       end if
-      c%itie(idx) = jdx
+      c%tie%to = [c%tie%to, spread(to, 1, n)]
+      c%tie%from = [c%tie%from, from(1:n)]
+      c%tie%scale = [c%tie%scale, scale(1:n)]
+      c%tie%offset(to) = offset
+    end do
+    ! in the words mlid/model.py uses for a model built in Python
+    do k = 1, size(c%tie%to)
+      if (c%isfree(c%tie%to(k)) == 1) then
+        call fail(c, 'group &model: parameter '''//trim(element_name(lt, c%tie%to(k)))// &
+                  ''' is both free and tied')
+        return
+      else if (any(c%tie%to == c%tie%from(k))) then
+        call fail(c, 'group &model: '''//trim(element_name(lt, c%tie%to(k)))//''' is tied to '''// &
+                  trim(element_name(lt, c%tie%from(k)))//''', which is itself tied (a chain or '// &
+                  'a cycle of ties): tie to the free parameter')
+        return
+      end if
     end do
   end subroutine set_ties
 
@@ -1008,7 +1026,7 @@ contains
     do k = size(map), 1, -1
       if (seg(k) == 0) new_of(map(k)) = k
     end do
-    if (any(c%itie /= 0 .and. (own .or. own(max(c%itie, 1))))) then
+    if (any(own(c%tie%to)) .or. any(own(c%tie%from))) then
       status = MLID_ERR_INPUT
       msg = 'ties to or from initial states and biases are not available with several manoeuvres'
       return
@@ -1032,7 +1050,9 @@ contains
         lab(k) = trim(full(map(k)))//trim(suffix)
       end if
     end do
-    c%itie = new_of(c%itie(map))
+    c%tie%to = new_of(c%tie%to)           ! tied entries and sources are shared ones
+    c%tie%from = new_of(c%tie%from)
+    c%tie%offset = c%tie%offset(map)
     c%theta = c%theta(map)
     if (allocated(c%prior)) c%prior = c%prior(map)
     if (allocated(c%lower)) c%lower = c%lower(map)
@@ -1128,7 +1148,7 @@ contains
     full(pack([(k, k=1, size(c%theta))], c%isfree == 1)) = c%labels
     h%isfree = merge(c%isfree, 0, own)
     h%labels = pack(full, h%isfree == 1)
-    h%itie = 0
+    h%tie = no_ties(size(h%theta))
     h%use_prior = 0
     h%use_bounds = 0
     call option_set(h%iopt, h%ropt, 'method', 'output_error', status, msg)

@@ -134,7 +134,7 @@ contains
         do kk = 1, nx                     ! state equations
           row = 0.0_wp
           do ii = 1, size(pm%im)
-            row(pm%cm(ii)) = row(pm%cm(ii)) + b(kk, ii)
+            row(pm%cm(ii)) = row(pm%cm(ii)) + pm%wm(ii)*b(kk, ii)
           end do
           call add_row(xd(kk) - f(kk), kk)
         end do
@@ -144,10 +144,10 @@ contains
           if (.not. eq_out(kk)) cycle
           row = 0.0_wp
           do ii = 1, size(pm%im)
-            row(pm%cm(ii)) = row(pm%cm(ii)) + dp(kk, ii)
+            row(pm%cm(ii)) = row(pm%cm(ii)) + pm%wm(ii)*dp(kk, ii)
           end do
           do ii = 1, size(pm%ib)
-            if (pm%ib(ii) == (iseg - 1)*ny + kk) row(pm%cb(ii)) = row(pm%cb(ii)) + 1.0_wp
+            if (pm%ib(ii) == (iseg - 1)*ny + kk) row(pm%cb(ii)) = row(pm%cb(ii)) + pm%wb(ii)
           end do
           call add_row(y(kk, jj) - h(kk) - theta(ob + kk), nx + kk)
         end do

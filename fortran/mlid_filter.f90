@@ -312,7 +312,7 @@ contains
     sys%dc = 0.0_wp
     call m%dhdxp(t(1), e, u(:, 1), theta(1:l%np), pm%im, dcm)
     do k = 1, size(pm%im)
-      sys%dc(:, :, pm%cm(k)) = sys%dc(:, :, pm%cm(k)) + dcm(:, :, k)
+      sys%dc(:, :, pm%cm(k)) = sys%dc(:, :, pm%cm(k)) + pm%wm(k)*dcm(:, :, k)
     end do
     ! A state driven only by process noise and by itself is a noise-shaping
     ! (gust) state: its pole must be negative, or the "gust" grows without bound.
@@ -366,14 +366,15 @@ contains
     sys%r0 = sys%r
     sys%s0 = sys%s
     do k = 1, size(pm%iq)
-      sys%dq(pm%iq(k), pm%iq(k), pm%cq(k)) = sys%dq(pm%iq(k), pm%iq(k), pm%cq(k)) + 1.0_wp
+      sys%dq(pm%iq(k), pm%iq(k), pm%cq(k)) = sys%dq(pm%iq(k), pm%iq(k), pm%cq(k)) + pm%wq(k)
     end do
     do k = 1, size(pm%ir)
-      sys%dr(pm%ir(k), pm%ir(k), pm%cr(k)) = sys%dr(pm%ir(k), pm%ir(k), pm%cr(k)) + 1.0_wp
+      sys%dr(pm%ir(k), pm%ir(k), pm%cr(k)) = sys%dr(pm%ir(k), pm%ir(k), pm%cr(k)) + pm%wr(k)
     end do
     do k = 1, size(pm%is)
       i = pm%is(k) - 1
-      sys%ds(mod(i, nw) + 1, i/nw + 1, pm%cs(k)) = sys%ds(mod(i, nw) + 1, i/nw + 1, pm%cs(k)) + 1.0_wp
+      sys%ds(mod(i, nw) + 1, i/nw + 1, pm%cs(k)) = sys%ds(mod(i, nw) + 1, i/nw + 1, pm%cs(k)) + &
+                                                  pm%ws(k)
     end do
     allocate (sys%nz_phi(nf), sys%nz_w(nf), sys%nz_c(nf), sys%nz_q(nf), sys%nz_r(nf), &
               sys%nz_s(nf))
@@ -397,7 +398,7 @@ contains
       integer :: isub
       h = dt/o1%substeps
       do isub = 1, o1%substeps
-        call rk4_step(m, theta(1:l%np), t(1), h, uh, uh, x, pm%im, pm%cm, sx)
+        call rk4_step(m, theta(1:l%np), t(1), h, uh, uh, x, pm%im, pm%cm, pm%wm, sx)
       end do
     end subroutine integrate
 
@@ -567,7 +568,7 @@ contains
     w = 0.0_wp
     if (size(what) > 0) w = what
     call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), w, opt%hold, &
-                      opt%substeps, x, pm%im, pm%cm, s, sforce)
+                      opt%substeps, x, pm%im, pm%cm, pm%wm, s, sforce)
   end subroutine advance
 
   !> As advance, for columns that no model parameter forces (Phi and W).
@@ -584,7 +585,7 @@ contains
     integer :: none(0)
 
     call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), what, opt%hold, &
-                      opt%substeps, x, none, none, s, sforce)
+                      opt%substeps, x, none, none, [real(wp) ::], s, sforce)
   end subroutine advance_plain
 
   !> Sensitivities of the initial state of segment iseg: a unit column for
@@ -597,7 +598,7 @@ contains
     s = 0.0_wp
     do k = 1, size(pm%ix0)
       i = pm%ix0(k) - (iseg - 1)*pm%l%nx
-      if (i >= 1 .and. i <= pm%l%nx) s(i, pm%cx0(k)) = s(i, pm%cx0(k)) + 1.0_wp
+      if (i >= 1 .and. i <= pm%l%nx) s(i, pm%cx0(k)) = s(i, pm%cx0(k)) + pm%wx0(k)
     end do
   end function initial_sensitivity
 
@@ -625,12 +626,12 @@ contains
     if (size(pm%im) > 0) then
       call m%dhdp(t, x, u, theta(1:pm%l%np), pm%im, d)
       do k = 1, size(pm%im)
-        dy(:, pm%cm(k)) = dy(:, pm%cm(k)) + d(:, k)
+        dy(:, pm%cm(k)) = dy(:, pm%cm(k)) + pm%wm(k)*d(:, k)
       end do
     end if
     do k = 1, size(pm%ib)
       i = pm%ib(k) - (iseg - 1)*pm%l%ny
-      if (i >= 1 .and. i <= pm%l%ny) dy(i, pm%cb(k)) = dy(i, pm%cb(k)) + 1.0_wp
+      if (i >= 1 .and. i <= pm%l%ny) dy(i, pm%cb(k)) = dy(i, pm%cb(k)) + pm%wb(k)
     end do
   end subroutine output_sensitivity
 

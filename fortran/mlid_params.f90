@@ -1,111 +1,151 @@
 !> The parameter map: which entries of theta are free, which are tied to
-!> a free one (theta(k) := theta(j)), and to which block each moving entry
-!> belongs.  Sensitivities are kept per free parameter; a tied entry adds
-!> its effect to its owner's column.
+!> others by affine ties
+!>   theta(k) := c(k) + sum over its terms of s * theta(j)
+!> (an equality tie is one term with s = 1, c = 0), and to which block each
+!> moving entry belongs.  Sensitivities are kept per free parameter; a
+!> tied entry adds its effect, times the term's scale, to the column of
+!> each free parameter it follows.
 module mlid_params
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: layout_t
   implicit none
   private
-  public :: param_map_t, param_map_create, apply_ties
+  public :: param_map_t, tie_t, param_map_create, apply_ties, no_ties
+
+  !> Affine ties: term i gives theta(to(i)) the part scale(i)*theta(from(i));
+  !> offset(k) is the constant of a tied entry k (0 for the others).
+  type :: tie_t
+    integer, allocatable :: to(:), from(:)
+    real(wp), allocatable :: scale(:), offset(:)
+  end type tie_t
 
   type :: param_map_t
     type(layout_t) :: l
     integer :: nf = 0
     integer, allocatable :: ifree(:)            !< theta index of each free parameter
-    integer, allocatable :: tie(:)              !< tie(k) = j: theta(k) := theta(j); 0 if untied
-    !> Moving entries by block: the index within the block and the free column.
+    type(tie_t) :: tie
+    !> Moving entries by block: the index within the block, the free column
+    !> and the weight (1 for a free entry, the term's scale for a tied one).
     integer, allocatable :: im(:), cm(:)        !< model parameters p
     integer, allocatable :: ix0(:), cx0(:)      !< initial states (segment by segment)
     integer, allocatable :: ib(:), cb(:)        !< output biases (segment by segment)
     integer, allocatable :: iq(:), cq(:)        !< process-noise variances
     integer, allocatable :: ir(:), cr(:)        !< measurement-noise variances
     integer, allocatable :: is(:), cs(:)        !< cross-covariances
+    real(wp), allocatable :: wm(:), wx0(:), wb(:), wq(:), wr(:), ws(:)
   end type param_map_t
 
 contains
 
   !> Check the free flags and ties and build the map.
-  subroutine param_map_create(l, isfree, itie, pm, status, msg)
+  subroutine param_map_create(l, isfree, tie, pm, status, msg)
     type(layout_t), intent(in) :: l
-    integer, intent(in) :: isfree(:), itie(:)
+    integer, intent(in) :: isfree(:)
+    type(tie_t), intent(in) :: tie
     type(param_map_t), intent(out) :: pm
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    integer :: k, j, col
+    integer :: k, col
     integer, allocatable :: act(:), acol(:)
+    real(wp), allocatable :: aw(:)
+
+    pm%l = l
+    call check(l, isfree, tie, status, msg)
+    if (status /= MLID_OK) return
+    pm%tie = tie
+    pm%ifree = pack([(k, k=1, l%nth)], isfree == 1)
+    pm%nf = size(pm%ifree)
+    ! moving entries: the free ones, then each term of a tie to a free one
+    act = pm%ifree
+    acol = [(k, k=1, pm%nf)]
+    aw = [(1.0_wp, k=1, pm%nf)]
+    do k = 1, size(tie%to)
+      col = findloc(pm%ifree, tie%from(k), 1)
+      if (col == 0) cycle               ! tied to a fixed entry: a constant
+      act = [act, tie%to(k)]
+      acol = [acol, col]
+      aw = [aw, tie%scale(k)]
+    end do
+    call block(0, l%np, pm%im, pm%cm, pm%wm)
+    call block(l%ox0, l%nx*l%nseg, pm%ix0, pm%cx0, pm%wx0)
+    call block(l%obias, l%ny*l%nseg, pm%ib, pm%cb, pm%wb)
+    call block(l%oq, l%nw, pm%iq, pm%cq, pm%wq)
+    call block(l%or, l%ny, pm%ir, pm%cr, pm%wr)
+    call block(l%os, l%nw*l%ny, pm%is, pm%cs, pm%ws)
+
+  contains
+
+    subroutine block(offset, n, idx, cols, w)
+      integer, intent(in) :: offset, n
+      integer, allocatable, intent(out) :: idx(:), cols(:)
+      real(wp), allocatable, intent(out) :: w(:)
+      logical :: in(size(act))
+      in = act > offset .and. act <= offset + n
+      idx = pack(act, in) - offset
+      cols = pack(acol, in)
+      w = pack(aw, in)
+    end subroutine block
+
+  end subroutine param_map_create
+
+  !> The free flags and the ties: each term names two entries; a tied entry
+  !> is not free; a source is not itself tied (no chains, hence no cycles).
+  subroutine check(l, isfree, tie, status, msg)
+    type(layout_t), intent(in) :: l
+    integer, intent(in) :: isfree(:)
+    type(tie_t), intent(in) :: tie
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: i, k, j
 
     status = MLID_ERR_INPUT
-    pm%l = l
-    if (size(isfree) /= l%nth .or. size(itie) /= l%nth) then
-      write (msg, '(a,i0)') 'free and tie arrays must have nth entries: ', l%nth
+    if (size(isfree) /= l%nth .or. size(tie%offset) /= l%nth .or. &
+        size(tie%from) /= size(tie%to) .or. size(tie%scale) /= size(tie%to)) then
+      write (msg, '(a,i0)') 'free flags and tie offsets must have nth entries, tie terms '// &
+        'one source and scale each: nth = ', l%nth
       return
     end if
     if (any(isfree /= 0 .and. isfree /= 1)) then
       msg = 'free flags must be 0 or 1'
       return
     end if
-    do k = 1, l%nth
-      j = itie(k)
-      if (j == 0) cycle
-      if (j < 0 .or. j > l%nth .or. j == k) then
+    do i = 1, size(tie%to)
+      k = tie%to(i)
+      j = tie%from(i)
+      if (k < 1 .or. k > l%nth .or. j < 1 .or. j > l%nth .or. j == k) then
         write (msg, '(a,i0,a,i0)') 'parameter ', k, ' is tied to a parameter that does not exist: ', j
         return
       else if (isfree(k) == 1) then
         write (msg, '(a,i0,a)') 'parameter ', k, ' is both free and tied'
         return
-      else if (itie(j) /= 0) then
+      else if (any(tie%to == j)) then
         write (msg, '(a,i0,a,i0,a)') 'parameter ', k, ' is tied to ', j, &
-          ' which is itself tied: tie to the free parameter'
+          ' which is itself tied (a chain or a cycle of ties): tie to the free parameter'
         return
       end if
     end do
-    pm%tie = itie
-    pm%ifree = pack([(k, k=1, l%nth)], isfree == 1)
-    pm%nf = size(pm%ifree)
-    ! moving entries: the free ones, then those tied to a free one
-    allocate (act(0), acol(0))
-    do k = 1, l%nth
-      col = 0
-      if (isfree(k) == 1) then
-        col = findloc(pm%ifree, k, 1)
-      else if (itie(k) /= 0) then
-        if (isfree(itie(k)) == 1) col = findloc(pm%ifree, itie(k), 1)
-      end if
-      if (col > 0) then
-        act = [act, k]
-        acol = [acol, col]
-      end if
-    end do
-    call block(0, l%np, pm%im, pm%cm)
-    call block(l%ox0, l%nx*l%nseg, pm%ix0, pm%cx0)
-    call block(l%obias, l%ny*l%nseg, pm%ib, pm%cb)
-    call block(l%oq, l%nw, pm%iq, pm%cq)
-    call block(l%or, l%ny, pm%ir, pm%cr)
-    call block(l%os, l%nw*l%ny, pm%is, pm%cs)
     status = MLID_OK
     msg = ''
+  end subroutine check
 
-  contains
+  !> No ties on a vector of nth entries.
+  pure function no_ties(nth) result(tie)
+    integer, intent(in) :: nth
+    type(tie_t) :: tie
+    allocate (tie%to(0), tie%from(0), tie%scale(0), tie%offset(nth))
+    tie%offset = 0.0_wp
+  end function no_ties
 
-    subroutine block(offset, n, idx, cols)
-      integer, intent(in) :: offset, n
-      integer, allocatable, intent(out) :: idx(:), cols(:)
-      logical :: in(size(act))
-      in = act > offset .and. act <= offset + n
-      idx = pack(act, in) - offset
-      cols = pack(acol, in)
-    end subroutine block
-
-  end subroutine param_map_create
-
-  !> theta(k) := theta(tie(k)) for every tied entry.
+  !> theta(k) := offset(k) + sum of its terms, for every tied entry.
   pure subroutine apply_ties(tie, theta)
-    integer, intent(in) :: tie(:)
+    type(tie_t), intent(in) :: tie
     real(wp), intent(inout) :: theta(:)
-    integer :: k
-    do k = 1, size(tie)
-      if (tie(k) /= 0) theta(k) = theta(tie(k))
+    integer :: i
+    do i = 1, size(tie%to)
+      theta(tie%to(i)) = tie%offset(tie%to(i))
+    end do
+    do i = 1, size(tie%to)
+      theta(tie%to(i)) = theta(tie%to(i)) + tie%scale(i)*theta(tie%from(i))
     end do
   end subroutine apply_ties
 

@@ -21,11 +21,12 @@ contains
   !> only propagate through df/dx, plus sforce, a constant forcing of every
   !> column (the filter's held noise estimate).  ua, ub may carry the noise
   !> inputs after the control inputs.
-  subroutine rk4_step(m, p, t0, dt, ua, ub, x, idxm, colm, s, sforce)
+  subroutine rk4_step(m, p, t0, dt, ua, ub, x, idxm, colm, wcol, s, sforce)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), t0, dt, ua(:), ub(:)
     real(wp), intent(inout) :: x(:)
     integer, intent(in) :: idxm(:), colm(:)
+    real(wp), intent(in) :: wcol(:)            !< weight of each (1, or a tie's scale)
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
     real(wp) :: um(size(ua)), th
@@ -57,7 +58,7 @@ contains
       s = s + (dt/6.0_wp)*(s1 + 2.0_wp*(s2 + s3) + s4)
     end subroutine step_sens
 
-    !> xd = f, sd = (df/dx) s + df/dp(idxm) (into columns colm) + sforce.
+    !> xd = f, sd = (df/dx) s + wcol df/dp(idxm) (into columns colm) + sforce.
     subroutine deriv(t, xs, us, xd, ss, sd)
       real(wp), intent(in) :: t, xs(:), us(:), ss(:, :)
       real(wp), intent(out) :: xd(:), sd(:, :)
@@ -70,7 +71,7 @@ contains
       if (size(idxm) > 0) then
         call m%dfdp(t, xs, us, p, idxm, b)
         do k = 1, size(idxm)
-          sd(:, colm(k)) = sd(:, colm(k)) + b(:, k)
+          sd(:, colm(k)) = sd(:, colm(k)) + wcol(k)*b(:, k)
         end do
       end if
       if (present(sforce)) sd = sd + sforce
@@ -81,13 +82,14 @@ contains
   !> Integrate over the sample interval [t0, t1] in nsub RK4 steps: the
   !> control inputs linear from u0 to u1 (or held at u0 when hold), the
   !> noise inputs w held throughout.  Arguments after x as in rk4_step.
-  subroutine rk4_interval(m, p, t0, t1, u0, u1, w, hold, nsub, x, idxm, colm, s, sforce)
+  subroutine rk4_interval(m, p, t0, t1, u0, u1, w, hold, nsub, x, idxm, colm, wcol, s, sforce)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), t0, t1, u0(:), u1(:), w(:)
     logical, intent(in) :: hold
     integer, intent(in) :: nsub
     real(wp), intent(inout) :: x(:)
     integer, intent(in) :: idxm(:), colm(:)
+    real(wp), intent(in) :: wcol(:)
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
     real(wp) :: ua(size(u0) + size(w)), ub(size(u0) + size(w)), h, ts
@@ -107,9 +109,9 @@ contains
         ub(1:nu) = u0 + (u1 - u0)*(real(isub, wp)/nsub)
       end if
       if (present(s)) then
-        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, s, sforce)
+        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, s, sforce)
       else
-        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm)
+        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol)
       end if
     end do
   end subroutine rk4_interval

@@ -111,7 +111,7 @@ contains
       end if
       if (j == size(t)) exit
       call rk4_interval(m, theta(1:l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), wv(1:nw), &
-                        opt%hold, opt%substeps, x, none, none)
+                        opt%hold, opt%substeps, x, none, none, [real(wp) ::])
       if (.not. all(ieee_is_finite(x))) then
         status = MLID_ERR_DIVERGED
         write (msg, '(a,g0.6)') 'simulation diverged: state non-finite at t = ', t(j + 1)

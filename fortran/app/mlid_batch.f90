@@ -187,7 +187,8 @@ contains
     allocate (theta(nth), theta0(nth), sigma(nth), sigc(nth), grad(nf), info(nf, nf), rhat(c%ny, c%ny), &
               yhat(c%ny, size(t)), hist(c%iopt(1) + 1), s%cov(nf, nf), s%eigval(nf), &
               s%eigvec(nf, nf), covc(nf, nf))
-    call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, c%itie, &
+    call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, size(c%tie%to), &
+                  size(c%tie%to), c%tie%to, c%tie%from, c%tie%scale, c%tie%offset, &
                   size(c%iconst), c%iconst, size(c%rconst), c%rconst, size(t), t, u, y, &
                   size(segstart), segstart, c%iopt, c%ropt, nf, size(hist), c%use_prior, &
                   or_zero(c%prior, nth), weight_or_zero(c%pweight, nf), c%use_bounds, &

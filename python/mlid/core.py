@@ -298,7 +298,7 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     start = time.perf_counter()
     (theta_start, theta, sigma, cov, info, grad, eigval, eigvec, rhat, yhat, cost_hist, cost,
      niter, reason, converged, rank, bad, sigma_c, cov_c, lag, status, msg) = _api.mlid_fit(
-        **_model_args(model), theta0=theta0, isfree=mask, itie=params.tie, t=t, u=u, y=y,
+        **_model_args(model), theta0=theta0, isfree=mask, **params.ties, t=t, u=u, y=y,
         segstart=starts, iopt=iopt, ropt=ropt, nf=nf, nc=opts["max_iter"] + 1,
         **_extras(params, prior, prior_weight, bounds))
     wall = time.perf_counter() - start
@@ -374,7 +374,7 @@ def evaluate(model, data, initial_states=None, biases=None, **options):
     t, u, y = _record(model, record)
     mask = params.mask
     cost, grad, info, rhat, yhat, sens, wsens, msens, status, msg = _api.mlid_evaluate(
-        **_model_args(model), theta=params.theta, isfree=mask, itie=params.tie, t=t, u=u,
+        **_model_args(model), theta=params.theta, isfree=mask, **params.ties, t=t, u=u,
         y=y, segstart=starts, iopt=iopt, ropt=ropt, nf=int(mask.sum()))
     check_status(status, msg)
     return {"cost": float(cost), "gradient": grad, "information": info, "rhat": rhat,
@@ -529,7 +529,7 @@ def _mc_setup(truth, start, t, u, noise_std, runs, seed, options):
     t, u = _time_and_inputs(start, t, u)
     mask = start.free_mask
     call = dict(**_model_args(start), theta_true=truth.theta, theta_start=start.theta,
-                isfree=mask, itie=start.tie_index, t=t, u=u.T, iopt=iopt, ropt=ropt,
+                isfree=mask, **start.tie_args(), t=t, u=u.T, iopt=iopt, ropt=ropt,
                 nf=int(mask.sum()))
     return call, runs, seed, start.free_names(), truth.theta[mask == 1]
 

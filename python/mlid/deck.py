@@ -25,10 +25,12 @@ class Case:
         self.model = None
         if self.error:
             return
-        (theta, isfree, itie, iconst, rconst, iopt, ropt, labels, use_prior, prior, pweight,
+        (theta, isfree, iconst, rconst, iopt, ropt, labels, use_prior, prior, pweight,
          use_bounds, lower, upper) = _api.mlid_deck_case_model(k, nth, nf, nic, nrc)
         opts = core.options_by_name(iopt, ropt)
-        self.model = from_core(mkind, (nx, nu, ny, nw), iconst, rconst, theta, isfree, itie,
+        n, to, frm, scale, offset = _api.mlid_deck_case_ties(k, nth, 16 * nth)
+        ties = (to[:n], frm[:n], scale[:n], offset)
+        self.model = from_core(mkind, (nx, nu, ny, nw), iconst, rconst, theta, isfree, ties,
                                _lines(labels), opts.pop("input_hold"), opts.pop("substeps"))
         free = [self.model.element_names()[j] for j in np.flatnonzero(isfree)]
         if use_prior:

@@ -29,20 +29,20 @@ class Params:
         check_status(status, msg)
         self.map, self.seg = mp[:m] - 1, sg[:m]         # 0-based entries of one manoeuvre
         own = self.seg > 0
-        theta, mask, tie = model.theta, model.free_mask, model.tie_index
+        theta, mask, terms = model.theta, model.free_mask, model.tie_terms()
         own_old = np.zeros(theta.size, dtype=bool)
         own_old[self.map[own]] = True
-        if n > 1 and np.any((tie > 0) & (own_old | own_old[np.maximum(tie, 1) - 1])):
+        tied = [k for k in terms] + [j for _, src in terms.values() for j, _ in src]
+        if n > 1 and any(own_old[k] for k in tied):
             raise InputError("ties to or from initial states and biases are not available "
                              "with several manoeuvres")
         self.theta = theta[self.map]
         for key, given in (("x0", initial_states), ("bias", biases)):
             self._put_own(key, given, "initial_states" if key == "x0" else "biases")
         self.mask = mask[self.map].astype(np.int32)
-        # a tie points at the new place of its shared entry
-        new_of = np.zeros(theta.size + 1, dtype=np.int32)
-        new_of[self.map[~own] + 1] = np.flatnonzero(~own) + 1
-        self.tie = new_of[tie[self.map]].astype(np.int32)
+        # a tie points at the new places of its shared entries
+        shared = np.where(own, -1, self.map)
+        self.ties = model.tie_args(shared) if n > 1 else model.tie_args()
         names = model.element_names()
         labels = [model.names.get(e, e) for e in names]
 

@@ -52,7 +52,11 @@ _COMMON_PARAMETERS = """x0 : array_like (nx,), optional
         Cross-covariance E{w v'} of the process noise of an interval and the
         measurement noise at its start (default zero).
     ties : dict, optional
-        Parameters equal to a free one, {'f(1,5)': 'f(1,3)'}."""
+        Affine ties, {tied: right-hand side}: a parameter equal to a free one,
+        {'f(1,5)': 'f(1,3)'}, or a constant plus a sum of scaled parameters,
+        {'g(1,1)': '-0.01 + 0.0096*g(2,1) - f(2,2)'} (fortran/mlid_ties.f90
+        reads them, as it reads a deck's ``tie``).  The tied values are set
+        from the sources when the model is made and at every iteration."""
 #: What every model constructor raises.
 _COMMON_RAISES = """InputError
         Wrong sizes or shapes, an element that does not exist, a parameter
@@ -172,13 +176,18 @@ class Model:
         dup = {n for n in self.free if self.free.count(n) > 1}
         if dup:
             raise InputError(f"free parameter listed twice: {sorted(dup)[0]}")
-        self.ties = {self.canonical_name(a): self.canonical_name(b)
-                     for a, b in (ties or {}).items()}
-        for a, b in self.ties.items():
+        self.ties = {self.canonical_name(a): str(b).strip() for a, b in (ties or {}).items()}
+        terms = self.tie_terms()
+        names = self._layout.names
+        for k, (offset, sources) in terms.items():
+            a = names[k]
             if a in self.free:
                 raise InputError(f"parameter {a!r} is both free and tied")
-            if b in self.ties:
-                raise InputError(f"{a!r} is tied to {b!r}, which is itself tied")
+            for j, _ in sources:
+                if names[j] in self.ties:
+                    raise InputError(f"{a!r} is tied to {names[j]!r}, which is itself tied "
+                                     "(a chain or a cycle of ties): tie to the free parameter")
+        self._theta[:] = self._tied(self._theta, terms)
 
     def _common(self):
         """Keyword arguments that carry the generic parts to a copy."""
@@ -287,14 +296,67 @@ class Model:
             mask[names.index(n)] = 1
         return mask
 
-    @property
-    def tie_index(self):
-        """For the core: 1-based index of the parameter each entry is tied to, else 0."""
-        names = self._layout.names
-        tie = np.zeros(len(names), dtype=np.int32)
-        for a, b in self.ties.items():
-            tie[names.index(a)] = names.index(b) + 1
-        return tie
+    def tie_terms(self):
+        """The ties parsed by the core (fortran/mlid_ties.f90).
+
+        Returns
+        -------
+        dict
+            {tied entry (0-based): (offset, [(source entry, scale), ...])}.
+
+        Raises
+        ------
+        InputError
+            A tie that names no parameter or is not affine ('a = c + s*b + ...').
+        """
+        out = {}
+        for a, rhs in self.ties.items():
+            to, offset, n, frm, scale, status, msg = _api.mlid_tie_parse(
+                mkind=self.kind, nx=self.nx, nu=self.nu, ny=self.ny, nw=self.nw,
+                iconst=self.iconst, rconst=self.rconst, text=f"{a} = {rhs}")
+            check_status(status, msg)
+            out[int(to) - 1] = (float(offset), [(int(j) - 1, float(s))
+                                                for j, s in zip(frm[:n], scale[:n])])
+        return out
+
+    @staticmethod
+    def _tied(theta, terms):
+        """theta with each tied entry set from its terms."""
+        theta = np.array(theta, dtype=float)
+        for k, (offset, sources) in terms.items():
+            theta[k] = offset + sum(s * theta[j] for j, s in sources)
+        return theta
+
+    def tie_args(self, entries=None):
+        """The ties as the core takes them: tie_to, tie_from (1-based),
+        tie_scale per term and tie_offset per entry of theta.
+
+        Parameters
+        ----------
+        entries : array_like of int, optional
+            A map of this model's entries onto a longer vector (several
+            manoeuvres): entry k of the long vector is entry entries[k] here;
+            a tied entry and its sources must map once (shared entries).
+
+        Returns
+        -------
+        dict
+        """
+        terms = self.tie_terms()
+        where = np.arange(self._theta.size) if entries is None else np.asarray(entries)
+        new_of = {int(e): k for k, e in enumerate(where)}
+        to, frm, scale = [], [], []
+        offset = np.zeros(len(where))
+        for k, (c, sources) in terms.items():
+            offset[new_of[k]] = c
+            for j, s in sources:
+                to.append(new_of[k] + 1)
+                frm.append(new_of[j] + 1)
+                scale.append(s)
+        # f2py wants at least one element: no tie is ntie = 0 over arrays of one
+        return {"ntie": len(to), "tie_to": np.array(to or [0], dtype=np.int32),
+                "tie_from": np.array(frm or [0], dtype=np.int32),
+                "tie_scale": np.array(scale or [0.0], dtype=float), "tie_offset": offset}
 
     def free_names(self):
         """Readable labels of the free parameters, in theta order.
@@ -401,7 +463,8 @@ class LinearModel(Model):
 
     Model parameters: ``'f(i,j)'``, ``'g(i,j)'``, ``'h(i,j)'``, ``'d(i,j)'``,
     ``'gamma(i,j)'``, ``'k(j,s)'``, ``'bx(i)'``; ``names`` gives readable labels (``{'f(3,3)': 'M_q'}``);
-    ``ties`` holds parameters equal to a free one (``{'f(1,5)': 'f(1,3)'}``).
+    ``ties`` holds parameters tied to free ones: equal (``{'f(1,5)': 'f(1,3)'}``)
+    or affine (``{'g(1,1)': '0.0096*g(2,1)'}``).
 
     Parameters
     ----------
@@ -617,7 +680,16 @@ X22_DERIVATIVES = tuple((d, sum(1 for lab in X22_LABELS if lab.split(".")[0] == 
 _KINDS = {c.kind: c for c in (LinearModel, LongitudinalModel, UserModel, X22Model)}
 
 
-def from_core(mkind, sizes, iconst, rconst, theta, isfree, itie, labels, input_hold, substeps):
+def _tie_text(names, offset, sources):
+    """A tie's right-hand side as text: 'f(1,3)', or '0.5 + 2.0*g(1,1)'."""
+    if offset == 0 and len(sources) == 1 and sources[0][1] == 1:
+        return names[sources[0][0]]
+    parts = [repr(offset)] if offset else []
+    parts += [f"{s!r}*{names[j]}" for j, s in sources]
+    return " + ".join(parts)
+
+
+def from_core(mkind, sizes, iconst, rconst, theta, isfree, ties, labels, input_hold, substeps):
     """The model a case spec of the core describes (kind, sizes (nx, nu, ny,
     nw), constants, the whole theta with free flags, ties and the free
     parameters' labels); the core has read and checked it."""
@@ -633,7 +705,11 @@ def from_core(mkind, sizes, iconst, rconst, theta, isfree, itie, labels, input_h
     m._theta[:] = theta
     names = m.element_names()
     free = [names[k] for k in np.flatnonzero(isfree)]
-    ties = {names[k]: names[itie[k] - 1] for k in np.flatnonzero(itie)}
+    to, frm, scale, offset = ties
+    grouped = {}
+    for k, j, s in zip(to, frm, scale):
+        grouped.setdefault(int(k) - 1, []).append((int(j) - 1, float(s)))
+    ties = {names[k]: _tie_text(names, float(offset[k]), src) for k, src in grouped.items()}
     m._init_common(None, None, None, None, None, free, dict(zip(free, labels)), ties,
                    input_hold, substeps)
     return m

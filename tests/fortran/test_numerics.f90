@@ -4,7 +4,7 @@ program test_numerics
   use mlid_kinds, only: wp, MLID_OK
   use mlid_models, only: model_t, model_layout
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG
-  use mlid_params, only: param_map_t, param_map_create
+  use mlid_params, only: param_map_t, param_map_create, no_ties
   use mlid_jacobian_check, only: check_jacobians
   use mlid_options, only: options_t
   use mlid_filter, only: oe_predict
@@ -49,7 +49,7 @@ contains
     character(len=256) :: msg
 
     call model_create(MODEL_LINEAR, 1, 1, 1, 0, [integer ::], [real(wp) ::], m, status, msg)
-    call param_map_create(model_layout(m), [0, 0, 0, 0, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0, 0, 0], &
+    call param_map_create(model_layout(m), [0, 0, 0, 0, 0, 0, 0, 0], no_ties(8), &
                           pm, status, msg)
     a = -2.0_wp
     b = 3.0_wp
@@ -77,7 +77,7 @@ contains
     type(options_t) :: opt
     type(param_map_t) :: pm, none
     real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2 + 2 + 2), tp(size(theta)), tm(size(theta)), h
-    integer :: isfree(size(theta)), notie(size(theta))
+    integer :: isfree(size(theta))
     real(wp), allocatable :: t(:), u(:, :), y(:, :), yp(:, :), ym(:, :), dy(:, :, :)
     integer, allocatable :: ifree(:)
     integer :: status, j, k
@@ -91,10 +91,9 @@ contains
     ifree = [1, 3, 4, 6, 9, 12, 13, 14, 15, 16, 18]   ! F, G, H, D, K, x0, bias entries
     isfree = 0
     isfree(ifree) = 1
-    notie = 0
-    call param_map_create(model_layout(m), isfree, notie, pm, status, msg)
+    call param_map_create(model_layout(m), isfree, no_ties(size(theta)), pm, status, msg)
     isfree = 0
-    call param_map_create(model_layout(m), isfree, notie, none, status, msg)
+    call param_map_create(model_layout(m), isfree, no_ties(size(theta)), none, status, msg)
     allocate (t(101), u(1, 101), y(2, 101), yp(2, 101), ym(2, 101), dy(2, size(ifree), 101))
     t = [(0.05_wp*j, j=0, 100)]
     u(1, :) = sin(2.0_wp*t) + merge(1.0_wp, 0.0_wp, t > 1.0_wp)
