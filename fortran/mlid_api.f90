@@ -321,15 +321,15 @@ contains
   !> Read a text record's channels (mlid_channels) and keep them for
   !> mlid_channels_get.  The spec as channels_spec takes it: one entry per
   !> line; t_start, t_end: the window.
-  subroutine mlid_channels_read(path, time, inputs, outputs, columns, units, derived, &
+  subroutine mlid_channels_read(path, time, inputs, outputs, columns, units, derived, show, &
                                 skip_rows, t_start, t_end, nt, status, msg)
-    character(len=*), intent(in) :: path, time, inputs, outputs, columns, units, derived
+    character(len=*), intent(in) :: path, time, inputs, outputs, columns, units, derived, show
     integer(c_int), intent(in) :: skip_rows
     real(c_double), intent(in) :: t_start, t_end
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
     type(channels_t) :: spec
-    call channels_spec(time, inputs, outputs, columns, units, derived, skip_rows, spec, &
+    call channels_spec(time, inputs, outputs, columns, units, derived, show, skip_rows, spec, &
                        status, msg)
     if (status == MLID_OK) then
       call channels_read(path, spec, t_start, t_end, taken, status, msg)
@@ -342,16 +342,17 @@ contains
   !> The same for a table x(nrow, ncol) the Python front end read (source
   !> names it in messages), with its columns' names and units one per line.
   subroutine mlid_channels_table(source, nrow, ncol, x, names, col_units, time, inputs, &
-                                 outputs, columns, units, derived, t_start, t_end, nt, status, &
-                                 msg)
+                                 outputs, columns, units, derived, show, t_start, t_end, nt, &
+                                 status, msg)
     character(len=*), intent(in) :: source, names, col_units, time, inputs, outputs, columns, &
-                                    units, derived
+                                    units, derived, show
     integer(c_int), intent(in) :: nrow, ncol
     real(c_double), intent(in) :: x(nrow, ncol), t_start, t_end
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
     type(channels_t) :: spec
-    call channels_spec(time, inputs, outputs, columns, units, derived, 0, spec, status, msg)
+    call channels_spec(time, inputs, outputs, columns, units, derived, show, 0, spec, status, &
+                       msg)
     if (status == MLID_OK) then
       call channels_table(source, x, split_lines(names, ncol, NAMELEN), &
                           split_lines(col_units, ncol, UNITLEN), spec, t_start, t_end, taken, &

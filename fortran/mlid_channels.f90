@@ -17,7 +17,7 @@ module mlid_channels
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: itoa, to_lower, line_t, joined, text_lines
   use mlid_record, only: record_t, record_read, record_check_time, short_path, seconds, &
-                         NAMELEN, UNITLEN
+                         number_text, NAMELEN, UNITLEN
   use mlid_expr, only: expr_t, expr_compile, expr_eval, expr_uses, split_definition
   use mlid_units, only: unit_to_core
   implicit none
@@ -32,6 +32,7 @@ module mlid_channels
     character(len=NAMELEN + UNITLEN + 2), allocatable :: columns(:)  !< names the file's columns
     type(line_t), allocatable :: units(:)      !< 'NAME = unit'
     type(line_t), allocatable :: derived(:)    !< 'NAME = expression'
+    type(line_t), allocatable :: show(:)       !< 'NAME = unit' it is shown in
     integer :: skip_rows = 0
   end type channels_t
 
@@ -51,12 +52,15 @@ module mlid_channels
   !> for it to hand to Python channel by channel.
   type(channel_set_t), public, save :: taken
 
-  !> The channels of one source: its columns, then the derived ones.
+  !> The channels of one source: its columns, then the derived ones.  Each
+  !> has the unit its record declares, converted to the core's unit by
+  !> core = factor*declared + offset, and the unit it is shown in
+  !> (the declared one unless `show` names another): core = dscale*shown + doffset.
   type :: plan_t
     integer :: ncol = 0
     character(len=NAMELEN), allocatable :: name(:)
-    character(len=UNITLEN), allocatable :: unit(:), shown(:)
-    real(wp), allocatable :: scale(:), offset(:)
+    character(len=UNITLEN), allocatable :: unit(:), declared(:), shown(:)
+    real(wp), allocatable :: factor(:), offset(:), dscale(:), doffset(:)
     logical, allocatable :: need(:)
     type(expr_t), allocatable :: expr(:)
     integer :: itime = 0, nin = 0
@@ -66,11 +70,11 @@ module mlid_channels
 contains
 
   !> The spec from texts, one entry per line (the flat interface's form):
-  !> time, inputs, outputs and columns name or number channels; units are
-  !> 'NAME = unit' and derived 'NAME = expression'.
-  subroutine channels_spec(time, inputs, outputs, columns, units, derived, skip_rows, spec, &
-                           status, msg)
-    character(len=*), intent(in) :: time, inputs, outputs, columns, units, derived
+  !> time, inputs, outputs and columns name or number channels; units and
+  !> show are 'NAME = unit', derived 'NAME = expression'.
+  subroutine channels_spec(time, inputs, outputs, columns, units, derived, show, skip_rows, &
+                           spec, status, msg)
+    character(len=*), intent(in) :: time, inputs, outputs, columns, units, derived, show
     integer, intent(in) :: skip_rows
     type(channels_t), intent(out) :: spec
     integer, intent(out) :: status
@@ -105,6 +109,7 @@ contains
     spec%columns = names_of_lines(text_lines(columns))
     spec%units = text_lines(units)
     spec%derived = text_lines(derived)
+    spec%show = text_lines(show)
     spec%skip_rows = skip_rows
     status = MLID_OK
     msg = ''
@@ -218,11 +223,11 @@ contains
     nder = 0
     if (allocated(spec%derived)) nder = size(spec%derived)
     plan%ncol = ncol
-    allocate (plan%name(ncol + nder), plan%unit(ncol + nder), plan%shown(ncol + nder), &
-              plan%scale(ncol + nder), plan%offset(ncol + nder), plan%need(ncol + nder), &
+    allocate (plan%name(ncol + nder), plan%unit(ncol + nder), plan%declared(ncol + nder), &
+              plan%factor(ncol + nder), plan%offset(ncol + nder), plan%need(ncol + nder), &
               plan%expr(nder))
     plan%name(1:ncol) = names
-    plan%shown(1:ncol) = units
+    plan%declared(1:ncol) = units
     plan%need = .false.
     status = MLID_ERR_INPUT
     if (allocated(spec%columns)) then
@@ -231,13 +236,14 @@ contains
         return
       end if
       do k = 1, size(spec%columns)
-        call name_and_unit(spec%columns(k), plan%name(k), plan%shown(k))
+        call name_and_unit(spec%columns(k), plan%name(k), plan%declared(k))
       end do
     end if
     call declared_units(spec, plan, msg)
     if (len_trim(msg) > 0) return
     do k = 1, ncol
-      call unit_to_core(plan%shown(k), plan%scale(k), plan%offset(k), plan%unit(k), status, msg)
+      call unit_to_core(plan%declared(k), plan%factor(k), plan%offset(k), plan%unit(k), &
+                        status, msg)
       if (status /= MLID_OK) then
         msg = 'column '//trim(label(plan, k))//': '//trim(msg)
         return
@@ -247,6 +253,11 @@ contains
       call derive(spec%derived(k)%s, ncol + k, plan, status, msg)
       if (status /= MLID_OK) return
     end do
+    plan%shown = plan%declared
+    plan%dscale = plan%factor
+    plan%doffset = plan%offset
+    call shown_units(spec, plan, status, msg)
+    if (status /= MLID_OK) return
     call pick_channels(spec, plan, status, msg)
   end subroutine make_plan
 
@@ -274,14 +285,78 @@ contains
         return
       end if
       rhs = trim(adjustl(rhs))
-      if (len_trim(plan%shown(i)) > 0 .and. to_lower(plan%shown(i)) /= to_lower(rhs)) then
+      if (len_trim(plan%declared(i)) > 0 .and. to_lower(plan%declared(i)) /= to_lower(rhs)) then
         msg = 'units: '//trim(name)//' is declared in '//rhs//' but the file says '// &
-              trim(plan%shown(i))
+              trim(plan%declared(i))
+        return
+      end if
+      plan%declared(i) = rhs
+    end do
+  end subroutine declared_units
+
+  !> 'NAME = unit' entries of show: the unit a channel (a column or a
+  !> derived one) is shown in, instead of the one declared.  Display only:
+  !> the values taken stay in the core's unit.  The channel's core unit must
+  !> be known (a unit declared) and the same as the shown unit's.
+  subroutine shown_units(spec, plan, status, msg)
+    type(channels_t), intent(in) :: spec
+    type(plan_t), intent(inout) :: plan
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=NAMELEN) :: name
+    character(len=UNITLEN) :: core
+    character(len=:), allocatable :: rhs, is_in
+    real(wp) :: factor, offset
+    integer :: k, i
+
+    status = MLID_OK
+    msg = ''
+    if (.not. allocated(spec%show)) return
+    do k = 1, size(spec%show)
+      call split_definition(spec%show(k)%s, name, rhs, status, msg)
+      if (status /= MLID_OK) then
+        msg = 'show: '//trim(msg)
+        return
+      end if
+      status = MLID_ERR_INPUT
+      call find(plan, name, size(plan%name), i, msg)
+      if (i == 0) then
+        msg = 'show: '//trim(msg)
+        return
+      end if
+      rhs = trim(adjustl(rhs))
+      call unit_to_core(rhs, factor, offset, core, status, msg)
+      if (status /= MLID_OK) then
+        msg = 'show '//trim(name)//': '//trim(msg)
+        return
+      end if
+      status = MLID_ERR_INPUT
+      is_in = trim(plan%declared(i))
+      if (len(is_in) == 0) is_in = trim(plan%unit(i))
+      if (len(is_in) == 0) then
+        msg = 'show '//trim(name)//' = '//rhs//': '//trim(name)//' has no unit declared '// &
+              '(declare it: units = '''//trim(name)//' = unit'' or '//trim(name)//'[unit])'
+        return
+      end if
+      if (core /= plan%unit(i)) then
+        msg = 'show '//trim(name)//' = '//rhs//': '//trim(name)//' is in '//is_in//', '// &
+              rhs//' converts to '//core_name(core)//', not '//core_name(plan%unit(i))
         return
       end if
       plan%shown(i) = rhs
+      plan%dscale(i) = factor
+      plan%doffset(i) = offset
+      status = MLID_OK
     end do
-  end subroutine declared_units
+  end subroutine shown_units
+
+  !> A core unit for a message: '' is dimensionless.
+  function core_name(unit) result(text)
+    character(len=*), intent(in) :: unit
+    character(len=:), allocatable :: text
+    text = trim(unit)
+    if (len(text) == 0) text = 'dimensionless'
+  end function core_name
 
   !> Derived channel j of the plan from its definition 'NAME = expression'.
   subroutine derive(def, j, plan, status, msg)
@@ -314,15 +389,15 @@ contains
     do k = 1, size(uses)
       call mark(plan, uses(k))
     end do
-    plan%scale(j) = 1.0_wp
+    plan%factor(j) = 1.0_wp
     plan%offset(j) = 0.0_wp
     plan%unit(j) = ''
-    plan%shown(j) = ''
+    plan%declared(j) = ''
     if (size(uses) == 0) return
     if (all(plan%unit(uses) == plan%unit(uses(1)))) plan%unit(j) = plan%unit(uses(1))
-    if (all(plan%shown(uses) == plan%shown(uses(1)))) plan%shown(j) = plan%shown(uses(1))
-    if (len_trim(plan%unit(j)) > 0 .and. len_trim(plan%shown(j)) > 0) &
-      plan%scale(j) = plan%scale(uses(1))
+    if (all(plan%declared(uses) == plan%declared(uses(1)))) plan%declared(j) = plan%declared(uses(1))
+    if (len_trim(plan%unit(j)) > 0 .and. len_trim(plan%declared(j)) > 0) &
+      plan%factor(j) = plan%factor(uses(1))
   end subroutine derive
 
   !> A channel needed, and the columns a derived channel is computed from.
@@ -422,8 +497,8 @@ contains
 
     status = MLID_ERR_INPUT
     do k = 1, plan%ncol
-      if (plan%need(k) .and. (plan%scale(k) /= 1.0_wp .or. plan%offset(k) /= 0.0_wp)) &
-        ch(:, k) = plan%scale(k)*ch(:, k) + plan%offset(k)
+      if (plan%need(k) .and. (plan%factor(k) /= 1.0_wp .or. plan%offset(k) /= 0.0_wp)) &
+        ch(:, k) = plan%factor(k)*ch(:, k) + plan%offset(k)
     end do
     do k = plan%ncol + 1, size(plan%name)
       call expr_eval(plan%expr(k - plan%ncol), ch(:, 1:k - 1), ch(:, k))
@@ -457,9 +532,64 @@ contains
     set%names = plan%name(plan%pick)
     set%units = plan%unit(plan%pick)
     set%shown = plan%shown(plan%pick)
-    set%scale = plan%scale(plan%pick)
-    set%offset = plan%offset(plan%pick)
+    set%scale = plan%dscale(plan%pick)
+    set%offset = plan%doffset(plan%pick)
+    call radians_check(plan, set, where, msg)
   end subroutine take
+
+  !> A channel declared in rad whose values go beyond 2 pi in magnitude
+  !> most likely holds degrees: a warning (status stays OK) naming the one
+  !> that goes furthest, its largest value, and the others, if any.
+  subroutine radians_check(plan, set, where, msg)
+    type(plan_t), intent(in) :: plan
+    type(channel_set_t), intent(in) :: set
+    character(len=*), intent(in) :: where
+    character(len=*), intent(out) :: msg
+    real(wp), parameter :: TWO_PI = 2.0_wp*acos(-1.0_wp)
+    character(len=:), allocatable :: others
+    real(wp) :: worst, v
+    integer :: k, p, at, iworst
+
+    msg = ''
+    others = ''
+    worst = 0.0_wp
+    iworst = 0
+    do k = 1, size(plan%pick)
+      p = plan%pick(k)
+      if (plan%unit(p) /= 'rad' .or. plan%factor(p) /= 1.0_wp .or. &
+          len_trim(plan%declared(p)) == 0) cycle
+      if (k <= plan%nin) then
+        at = maxloc(abs(set%u(k, :)), 1)
+        v = set%u(k, at)
+      else
+        at = maxloc(abs(set%y(k - plan%nin, :)), 1)
+        v = set%y(k - plan%nin, at)
+      end if
+      if (abs(v) <= TWO_PI) cycle
+      if (iworst > 0) then
+        if (abs(v) <= abs(worst)) then
+          call add(plan%name(p))
+          cycle
+        end if
+        call add(plan%name(iworst))
+      end if
+      iworst = p
+      worst = v
+    end do
+    if (iworst == 0) return
+    msg = 'warning: '//where//': channel '//trim(plan%name(iworst))//' is declared in rad '// &
+          'but reaches '//number_text(worst)//', beyond 2 pi: most likely degrees, declare it deg'
+    if (len(others) > 0) msg = trim(msg)//' (so do '//others(3:)//')'
+  contains
+    subroutine add(name)             ! the message keeps to one line of msg_len
+      character(len=*), intent(in) :: name
+      if (len(others) < 48) then
+        others = others//', '//trim(name)
+      else if (others(len(others) - 2:) /= '...') then
+        others = others//', ...'
+      end if
+    end subroutine add
+  end subroutine radians_check
 
   !> A column number: digits, perhaps signed (a sign is refused as out of range).
   logical function is_number(text)

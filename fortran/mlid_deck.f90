@@ -582,19 +582,20 @@ contains
 
   !> &data: the records (one file per manoeuvre), the channels taken of
   !> them (by column number or name), the columns' names and units, derived
-  !> channels and the time window of each file.
+  !> channels, the units channels are shown in and the time window of each
+  !> file.
   subroutine read_data_group(rd, c)
     type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
     character(len=PATHLEN) :: file(MAXSEG)
     character(len=CHANLEN) :: time_col, input_cols(MAXCOL), output_cols(MAXCOL), &
-                              columns(MAXCOL), units(MAXCOL)
+                              columns(MAXCOL), units(MAXCOL), show(MAXCOL)
     character(len=EXPRLEN) :: derived(MAXDER)
     real(wp) :: t_start(MAXSEG), t_end(MAXSEG)
     integer :: skip_rows, ios, status, holdout(MAXSEG)
     character(len=msg_len) :: iomsg, msg
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
-      derived, t_start, t_end, holdout
+      derived, show, t_start, t_end, holdout
 
     file = ''
     time_col = '1'
@@ -603,6 +604,7 @@ contains
     columns = ''
     units = ''
     derived = ''
+    show = ''
     t_start = UNSET
     t_end = UNSET
     skip_rows = 0
@@ -614,10 +616,12 @@ contains
     c%data_files = pack(file, len_trim(file) > 0)
     call data_windows(c, t_start, t_end)
     call data_holdout(c, holdout)
-    call check_data_group(c, [time_col, input_cols, output_cols, columns, units], derived)
+    call check_data_group(c, [time_col, input_cols, output_cols, columns, units, show], &
+                          derived)
     if (c%status /= MLID_OK) return
     call channels_spec(time_col, as_text(input_cols), as_text(output_cols), as_text(columns), &
-                       as_text(units), as_text(derived), skip_rows, c%chan, status, msg)
+                       as_text(units), as_text(derived), as_text(show), skip_rows, c%chan, &
+                       status, msg)
     if (status /= MLID_OK) call fail(c, 'group &data: '//trim(msg))
     if (c%status /= MLID_OK) return
     if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
@@ -938,8 +942,9 @@ contains
   !> data files (paths resolved by the reader).  Several files are
   !> several manoeuvres, one after the other, each keeping its sampling with
   !> its times moved to follow the one before; segstart(k) is the first
-  !> sample of manoeuvre k.
-  subroutine case_record(c, t, u, y, status, msg, segstart, units, names)
+  !> sample of manoeuvre k.  The reader's warnings (values that look wrong
+  !> for their declared unit), one per file, in notes.
+  subroutine case_record(c, t, u, y, status, msg, segstart, units, names, notes)
     type(case_t), intent(in) :: c
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
@@ -947,15 +952,19 @@ contains
     integer, allocatable, intent(out), optional :: segstart(:)
     character(len=UNITLEN), allocatable, intent(out), optional :: units(:)  !< inputs, outputs
     character(len=NAMELEN), allocatable, intent(out), optional :: names(:)  !< the channels'
+    type(line_t), allocatable, intent(out), optional :: notes(:)
     real(wp), allocatable :: tk(:), uk(:, :), yk(:, :)
     integer :: k, nseg
     integer :: starts(MAXSEG)
 
     nseg = size(c%data_files)
     allocate (t(0), u(c%nu, 0), y(c%ny, 0))
+    if (present(notes)) allocate (notes(0))
     do k = 1, nseg
       call read_record(c, k, tk, uk, yk, status, msg, units, names)
       if (status /= MLID_OK) return
+      if (present(notes) .and. len_trim(msg) > 0) notes = [notes, line_t(trim(msg))]
+      msg = ''
       if (size(tk) < 2 .and. nseg > 1) then
         status = MLID_ERR_INPUT
         write (msg, '(a,i0,a)') 'manoeuvre ', k, ' ('//trim(c%data_files(k))// &

@@ -19,7 +19,7 @@ module mlid_record
   implicit none
   private
   public :: record_t, record_read, record_check_time, record_check_segments, short_path, &
-            seconds, GAP_FACTOR, NAMELEN, UNITLEN
+            seconds, number_text, GAP_FACTOR, NAMELEN, UNITLEN
 
   !> A time step larger than this times the median step is a gap.
   real(wp), parameter :: GAP_FACTOR = 1.5_wp
@@ -412,6 +412,13 @@ contains
   function seconds(x) result(text)
     real(wp), intent(in) :: x
     character(len=:), allocatable :: text
+    text = number_text(x)//' s'
+  end function seconds
+
+  !> A value for a message: '12.34', '0.02', '-57.29578', '1.5E+07'.
+  function number_text(x) result(text)
+    real(wp), intent(in) :: x
+    character(len=:), allocatable :: text
     character(len=32) :: buf
     integer :: k
     if ((abs(x) >= 1.0e-3_wp .and. abs(x) < 1.0e7_wp) .or. x == 0.0_wp) then
@@ -429,8 +436,7 @@ contains
       write (buf, '(es10.3)') x
       text = trim(adjustl(buf))
     end if
-    text = text//' s'
-  end function seconds
+  end function number_text
 
   !> NaN or an infinity, as a field may spell them.
   logical function not_finite_word(field)

@@ -6,6 +6,7 @@
 program mlid_batch
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_NOCONV, MLID_ERR_SINGULAR
   use mlid_case, only: case_t
+  use mlid_text, only: line_t
   use mlid_deck, only: deck_read, case_record, case_time_input, manoeuvre_layout, &
                        case_param_units, holdout_case, UNITLEN, NAMELEN
   use mlid_validate, only: prediction_stats
@@ -103,11 +104,30 @@ contains
     objects = objects//json
     if (cstat /= MLID_OK) then
       nfail = nfail + 1
-      write (0, '(a,i0,a,i0,a)') 'mlid-batch: '//trim(deck)//' case ', k, ' (line ', c%line, &
-        ') '''//trim(c%title)//''': '//trim(cmsg)
+      call say(k, c, cmsg)
       write (*, '(a)') ' FAILED: '//trim(cmsg)
     end if
   end subroutine run_case
+
+  !> A line on stderr about case k: a failure or a warning.
+  subroutine say(k, c, text)
+    integer, intent(in) :: k
+    type(case_t), intent(in) :: c
+    character(len=*), intent(in) :: text
+    write (0, '(a,i0,a,i0,a)') 'mlid-batch: '//trim(deck)//' case ', k, ' (line ', c%line, &
+      ') '''//trim(c%title)//''': '//trim(text)
+  end subroutine say
+
+  !> The warnings of the records read for case k, one line each.
+  subroutine say_notes(k, c, notes)
+    integer, intent(in) :: k
+    type(case_t), intent(in) :: c
+    type(line_t), intent(in) :: notes(:)
+    integer :: j
+    do j = 1, size(notes)
+      call say(k, c, notes(j)%s)
+    end do
+  end subroutine say_notes
 
   subroutine simulate_case(c, json, cstat, cmsg)
     type(case_t), intent(in) :: c
@@ -153,8 +173,10 @@ contains
     real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :)
     integer, allocatable :: segstart(:)
     character(len=UNITLEN), allocatable :: units(:)
+    type(line_t), allocatable :: notes(:)
 
-    call case_record(c, t, u, y, cstat, cmsg, segstart, units)
+    call case_record(c, t, u, y, cstat, cmsg, segstart, units, notes=notes)
+    if (allocated(notes)) call say_notes(k, c, notes)
     if (cstat == MLID_OK) call fit_record(k, c, t, u, y, segstart, units, .true., json, cstat, &
                                           cmsg, theta, rhat, yhat)
   end subroutine fit_case
@@ -210,9 +232,7 @@ contains
     s%converged = converged == 1
     write (*, '(a)', advance='no') fit_report(s, c%iopt)
     json = fit_json(c%title, c%job, cstat, cmsg, s)
-    if (cstat == MLID_OK .and. cmsg(1:min(8, len(cmsg))) == 'warning:') &
-      write (0, '(a,i0,a,i0,a)') 'mlid-batch: '//trim(deck)//' case ', k, ' (line ', c%line, &
-      ') '''//trim(c%title)//''': '//trim(cmsg)
+    if (cstat == MLID_OK .and. cmsg(1:min(8, len(cmsg))) == 'warning:') call say(k, c, cmsg)
   end subroutine fit_record
 
   !> Validate case c: fit on the files not held out (reported as an estimate
@@ -226,8 +246,9 @@ contains
     real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :), r0(:, :)
     real(wp), allocatable :: th(:), uh(:, :), yh(:, :), pred(:, :), theil(:), rms(:), ratio(:)
     integer, allocatable :: segstart(:), sh(:)
-    character(len=UNITLEN), allocatable :: units(:)
+    character(len=UNITLEN), allocatable :: units(:), hunits(:)
     character(len=NAMELEN), allocatable :: names(:)
+    type(line_t), allocatable :: notes(:)
     character(len=:), allocatable :: hjson
     type(case_t) :: fitted, held
     logical, allocatable :: out(:)
@@ -235,17 +256,21 @@ contains
     allocate (out(size(c%data_files)))
     out = .false.
     out(c%holdout) = .true.
-    ! each part read and joined as the Python front end joins its records
+    ! each part read and joined as the Python front end joins its records; all
+    ! read before the fit, as the Python front end reads them
     fitted = files_of(c, .not. out)
-    call case_record(fitted, t, u, y, cstat, cmsg, segstart, units)
+    call case_record(fitted, t, u, y, cstat, cmsg, segstart, units, notes=notes)
+    if (allocated(notes)) call say_notes(k, c, notes)
+    if (cstat == MLID_OK) call case_record(files_of(c, out), th, uh, yh, cstat, cmsg, sh, &
+                                           hunits, names, notes)
+    if (cstat == MLID_OK) call say_notes(k, c, notes)
     if (cstat == MLID_OK) call fit_record(k, fitted, t, u, y, segstart, units, .true., json, &
                                           cstat, cmsg, theta, rhat, yhat)
     if (cstat /= MLID_OK) return
     call holdout_case(files_of(c, out), theta, count(.not. out), held, cstat, cmsg)
-    if (cstat == MLID_OK) call case_record(held, th, uh, yh, cstat, cmsg, sh, units, names)
     if (cstat /= MLID_OK) return
     if (count(held%isfree == 1) > 0) then
-      call fit_record(k, held, th, uh, yh, sh, units, .false., hjson, cstat, cmsg, theta, r0, &
+      call fit_record(k, held, th, uh, yh, sh, hunits, .false., hjson, cstat, cmsg, theta, r0, &
                       pred)
     else
       call predict(held, th, uh, sh, pred, cstat, cmsg)

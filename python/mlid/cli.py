@@ -103,6 +103,7 @@ def _show_case(args, case, out, result, error, tables):
     from .plots import plot_fit, plot_validation
     from .table import results_table
     print(f"\n case {case.index}: {case.title}")
+    _record_warnings(case)
     if out is not None and case.job == "simulate":
         print(f" simulated {out['samples']} samples to {out['out']}")
     checked = getattr(result, "validation", None)
@@ -127,6 +128,13 @@ def _show_case(args, case, out, result, error, tables):
                 print(f" plot: {path}")
             error = error or plot_error
     return error
+
+
+def _record_warnings(case):
+    """The warnings of the case's records, one line each on stderr, as
+    mlid-batch prints them."""
+    for text in case.warnings:
+        print(f"mlid: {case.where()}: warning: {text}", file=sys.stderr)
 
 
 def _run(args):
@@ -196,6 +204,7 @@ def _diagnose(args):
         else:
             d, error = _attempt("diagnose", lambda: diagnose(case.model, case.record(),
                                                              alpha=args.alpha, **case.options()))
+            _record_warnings(case)
             if d is not None:
                 print(d.report())
                 if args.plots:

@@ -1,6 +1,7 @@
 """Flight records: time, inputs and outputs; text records are read by the
 core's one reader (fortran/mlid_record.f90), the one mlid-batch uses."""
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -8,7 +9,7 @@ import numpy as np
 from . import formats
 from ._core import mlid_api as _api
 from .checks import real_array
-from .errors import InputError, check_status, guarded_class
+from .errors import InputError, MlidWarning, check_status, guarded_class
 from .files import atomic_open
 
 
@@ -46,11 +47,24 @@ def _lines(entries, what):
     return "\n".join(out) + "\n"
 
 
-def _spec(time_col, input_cols, output_cols, columns, units, derived):
+def _spec(time_col, input_cols, output_cols, columns, units, derived, show):
     """The channel spec as the core's flat interface takes it."""
     return (_lines(time_col, "time_col"), _lines(input_cols, "input_cols"),
             _lines(output_cols, "output_cols"), _lines(columns, "columns"),
-            _lines(units, "units"), _lines(derived, "derived"))
+            _lines(units, "units"), _lines(derived, "derived"), _lines(show, "show"))
+
+
+def read_status(status, msg):
+    """The core channel reader's status: raise for an error; a warning it
+    left (values that look wrong for their declared unit) becomes an
+    MlidWarning, and its text is returned ('' when there is none)."""
+    check_status(status, msg)
+    text = msg.decode(errors="replace").strip() if isinstance(msg, bytes) else str(msg).strip()
+    if not text.startswith("warning:"):
+        return ""
+    text = text[len("warning:"):].strip()
+    warnings.warn(text, MlidWarning, stacklevel=3)
+    return text
 
 
 def _counts(spec):
@@ -168,7 +182,7 @@ class FlightData:
     @classmethod
     def load(cls, path, time_col=1, input_cols=(), output_cols=(), skip_rows=0,
              input_names=None, output_names=None, columns=None, units=None, derived=None,
-             t_start=None, t_end=None, variable=None):
+             t_start=None, t_end=None, variable=None, show=None):
         """Read a flight record: a text file with the core's reader (the one
         mlid-batch uses), or a MATLAB .mat (v5, v7.3) or HDF5 file (this
         front end only; see mlid.formats).
@@ -178,6 +192,8 @@ class FlightData:
         them; 'ALCG[deg]' gives a unit); D exponents; a BOM; CR-LF.  Repeat
         counts, missing or extra columns, NaN/Inf, time that does not
         increase and jumps in time are errors naming the file and line.
+        A channel declared in rad whose values go beyond 2 pi most likely
+        holds degrees: an MlidWarning names it.
 
         Parameters
         ----------
@@ -203,6 +219,11 @@ class FlightData:
             The time window taken, in the file's time.
         variable : str, optional
             The matrix to take of a .mat or HDF5 file holding several.
+        show : dict or list of str, optional
+            Units channels are shown in (plots, tables, ``shown``) instead
+            of the declared ones, {'ALFCG': 'deg'} or ['ALFCG = deg']; a
+            column or a derived channel, whose unit must convert to the same
+            core unit.  Display only: the values fitted do not change.
 
         Returns
         -------
@@ -212,8 +233,13 @@ class FlightData:
         ------
         InputError
             One line naming the file, line (or row) and problem.
+
+        Warns
+        -----
+        MlidWarning
+            A channel declared in rad goes beyond 2 pi (most likely degrees).
         """
-        spec = _spec(time_col, input_cols, output_cols, columns, units, derived)
+        spec = _spec(time_col, input_cols, output_cols, columns, units, derived, show)
         window = (-np.inf if t_start is None else float(t_start),
                   np.inf if t_end is None else float(t_end))
         path = str(path)
@@ -223,13 +249,13 @@ class FlightData:
                 path, x, "\n".join(names) + "\n", "\n".join(col_units) + "\n", *spec, *window)
         else:
             nt, status, msg = _api.mlid_channels_read(path, *spec, int(skip_rows), *window)
-        check_status(status, msg)
+        read_status(status, msg)
         return cls._taken(*_counts(spec), nt, path, input_names, output_names)
 
     @classmethod
     def from_frame(cls, frame, time_col, input_cols=(), output_cols=(), units=None,
                    derived=None, t_start=None, t_end=None, input_names=None,
-                   output_names=None, source="DataFrame"):
+                   output_names=None, source="DataFrame", show=None):
         """A record from a pandas DataFrame (or anything with ``columns`` and
         ``to_numpy``): channels by column name, as in ``load``; a column
         named 'ALCG[deg]' carries its unit.
@@ -240,7 +266,7 @@ class FlightData:
             The table, a column per channel, numbers only.
         time_col, input_cols, output_cols : str or list of str
             Channels by column name (or a derived channel's), as in ``load``.
-        units, derived, t_start, t_end, input_names, output_names
+        units, derived, t_start, t_end, input_names, output_names, show
             As in ``load``.
         source : str
             What messages call the table.
@@ -253,6 +279,11 @@ class FlightData:
         ------
         InputError
             A name not among the columns, a value not finite, a unit unknown.
+
+        Warns
+        -----
+        MlidWarning
+            A channel declared in rad goes beyond 2 pi (most likely degrees).
         """
         try:
             names = [str(c) for c in frame.columns]
@@ -263,13 +294,13 @@ class FlightData:
         col_units = [s[1].rstrip("]").strip() if len(s) == 2 and n.endswith("]") else ""
                      for s, n in zip(split, names)]
         names = [s[0].strip() if u else n for s, n, u in zip(split, names, col_units)]
-        spec = _spec(time_col, input_cols, output_cols, None, units, derived)
+        spec = _spec(time_col, input_cols, output_cols, None, units, derived, show)
         window = (-np.inf if t_start is None else float(t_start),
                   np.inf if t_end is None else float(t_end))
         nt, status, msg = _api.mlid_channels_table(
             source, np.asfortranarray(x), "\n".join(names) + "\n", "\n".join(col_units) + "\n",
             *spec, *window)
-        check_status(status, msg)
+        read_status(status, msg)
         return cls._taken(*_counts(spec), nt, source, input_names, output_names)
 
     @classmethod

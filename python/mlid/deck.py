@@ -8,7 +8,7 @@ import numpy as np
 
 from . import core, formats
 from .core import _api, _text
-from .data import FlightData
+from .data import FlightData, read_status
 from .errors import InputError, MlidError, check_status, guarded, status_of
 from .model import _lines, from_core
 
@@ -23,6 +23,7 @@ class Case:
         self._title = title.rstrip()      # the deck's own bytes, for the core's JSON
         self.error = _text(msg) if status else None
         self.model = None
+        self.warnings = []                # the records' (record()), as mlid-batch says them
         if self.error:
             return
         (theta, isfree, iconst, rconst, iopt, ropt, labels, use_prior, prior, pweight,
@@ -57,25 +58,31 @@ class Case:
         """The deck's input and output names (None where not given)."""
         return tuple(_lines(n) or None for n in self._files[0][-2:])
 
-    def record(self):
+    def record(self, files=None):
         """The FlightData of an estimate case, read from its data files as the
         core reads them for mlid-batch (channels, units, derived channels,
-        windows); .mat and HDF5 files are read by this front end into a table
-        the core then takes the same way.  A list when the case names
-        several files (several manoeuvres)."""
+        windows, units shown); .mat and HDF5 files are read by this front
+        end into a table the core then takes the same way.  A list when the
+        case names several files (several manoeuvres) or ``files`` is given:
+        the numbers (from 1) of the files to read, in that order.  Warnings
+        of the reader (a channel declared in rad beyond 2 pi) are
+        MlidWarnings, and are added to ``warnings``."""
         inputs, outputs = self.channel_names()
+        numbers = range(1, len(self._files) + 1) if files is None else files
         records = []
-        for j, (path, _, _) in enumerate(self._files, start=1):
-            path = _text(path)
+        for j in numbers:
+            path = _text(self._files[j - 1][0])
             if formats.is_binary(path):
                 x, names, units = formats.read_table(path)
                 nt, status, msg = _api.mlid_deck_case_table(
                     self.index, j, x, "\n".join(names) + "\n", "\n".join(units) + "\n")
             else:
                 nt, status, msg = _api.mlid_deck_case_record(self.index, j)
-            check_status(status, msg)
+            note = read_status(status, msg)
+            if note:
+                self.warnings.append(note)
             records.append(FlightData._taken(*self._sizes, nt, path, inputs, outputs))
-        return records[0] if len(records) == 1 else records
+        return records[0] if len(records) == 1 and files is None else records
 
     def time_input(self):
         """Time base and inputs (nt, nu) of a simulate case."""
@@ -138,6 +145,7 @@ def read_deck(path):
 @guarded
 def run_case(case):
     """Run one case; returns a dict (JSON-ready) and, for fits, the FitResult."""
+    case.warnings = []
     if case.error:
         raise InputError(case.error)
     if case.job == "simulate":
@@ -164,9 +172,13 @@ def _validate_case(case):
     """Fit a validate case on the files it does not hold out, then predict
     those it does (mlid.validate); the FitResult carries the Validation."""
     from .validate import validate
-    records = case.record()
-    fitted = [r for j, r in enumerate(records, 1) if j not in case.holdout]
-    held = [records[j - 1] for j in case.holdout]
+    # read as mlid-batch reads them (its warnings in the same order): the
+    # files fitted, then those held out, each part in file order
+    numbers = range(1, len(case._files) + 1)
+    fitted = case.record([j for j in numbers if j not in case.holdout])
+    kept = sorted(case.holdout)
+    by_number = dict(zip(kept, case.record(kept)))
+    held = [by_number[j] for j in case.holdout]
     result = core.fit(case.model, fitted if len(fitted) > 1 else fitted[0], **case.options())
     try:
         result.validation = validate(result, held if len(held) > 1 else held[0],
