@@ -109,6 +109,13 @@ def _bad_deck(tmp_path, bad_case):
     return deck
 
 
+def _shown(show):
+    """The small case with its columns named in rad and show = show."""
+    return SMALL.format(title="bad", file="small.dat").replace(
+        "output_cols = 3, 4", "output_cols = 3, 4,\n    columns = 't[s]', 'u[rad]', 'a[rad]', "
+                              f"'q[rad/s]', show = 'u = deg', '{show}'")
+
+
 BAD = {
     "unknown group": (SMALL.format(title="bad", file="small.dat").replace(
         "&data", "&modle nx = 2 /\n&data"), "unknown group &modle"),
@@ -141,6 +148,12 @@ BAD = {
                                "samples; at most"),
     "a group given twice": (SMALL.format(title="bad", file="small.dat")
                             + "&model nx = 3 /\n", "group &model given twice"),
+    # the unit a channel is shown in: known, convertible, of a channel that exists
+    "show an unknown unit": (_shown("a = dgr"), "small.dat: show a: unknown unit 'dgr'"),
+    "show a unit that does not convert": (
+        _shown("q = deg"), "small.dat: show q = deg: q is in rad/s, deg converts to rad, not "
+                           "rad/s"),
+    "show an unknown channel": (_shown("b = deg"), "small.dat: show: no channel named b"),
 }
 
 

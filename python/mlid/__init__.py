@@ -3,7 +3,7 @@ derivatives (NASA CR-2200 and beyond).  The numerics live in the Fortran core
 (mlid._core); this package holds the objects, I/O, command line and plots."""
 
 from .errors import (MlidError, InputError, SingularInformationError, DivergenceError,
-                     NonConvergenceError, InternalError)
+                     NonConvergenceError, InternalError, MlidWarning)
 from .model import LinearModel, LongitudinalModel, UserModel, X22Model
 from .data import FlightData
 from .result import FitResult, whiteness
@@ -32,7 +32,7 @@ def _version():
 __version__ = _version()
 
 __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
-           "NonConvergenceError", "InternalError", "LinearModel", "LongitudinalModel", "UserModel",
+           "NonConvergenceError", "InternalError", "MlidWarning", "LinearModel", "LongitudinalModel", "UserModel",
            "X22Model", "InputDesign", "DesignedInput", "monte_carlo_parallel", "diagnose", "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
