@@ -289,7 +289,8 @@ contains
   end subroutine mlid_deck_case_holdout
 
   !> Read data file j of estimate case k as the case takes it (channels,
-  !> units, derived channels, window) and keep it for mlid_channels_get.
+  !> units, derived channels, units shown, window) and keep it for
+  !> mlid_channels_get; a warning as mlid_channels_read gives it.
   subroutine mlid_deck_case_record(k, j, nt, status, msg)
     integer(c_int), intent(in) :: k, j
     integer(c_int), intent(out) :: nt, status
@@ -320,7 +321,8 @@ contains
 
   !> Read a text record's channels (mlid_channels) and keep them for
   !> mlid_channels_get.  The spec as channels_spec takes it: one entry per
-  !> line; t_start, t_end: the window.
+  !> line; t_start, t_end: the window.  Status OK with msg 'warning: ...'
+  !> when a channel looks wrong for its declared unit (degrees in rad).
   subroutine mlid_channels_read(path, time, inputs, outputs, columns, units, derived, show, &
                                 skip_rows, t_start, t_end, nt, status, msg)
     character(len=*), intent(in) :: path, time, inputs, outputs, columns, units, derived, show
