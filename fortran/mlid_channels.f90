@@ -1,10 +1,12 @@
 !> Flight-data channels: which channels of a record a case takes (time,
 !> inputs, outputs, each by column number or by name), the units they are
 !> recorded in (converted to the core's: SI, angles in rad), channels
-!> derived from others by a small expression language (mlid_expr), and the
-!> time window taken of each file.  One path for every source: a text
-!> record read by mlid_record (both front ends), or a table the Python
-!> front end read from a .mat or HDF5 file or a DataFrame.
+!> derived from others by a small expression language (mlid_expr), the
+!> units channels are shown in (display only), and the time window taken of
+!> each file.  A channel declared in rad that goes beyond 2 pi warns.  One
+!> path for every source: a text record read by mlid_record (both front
+!> ends), or a table the Python front end read from a .mat or HDF5 file or a
+!> DataFrame.
 !>
 !> Names: a column is named by the deck's `columns` (in order), else by the
 !> file's header; 'ALCG[deg]' names ALCG with its unit.  A name is matched
@@ -395,7 +397,8 @@ contains
     plan%declared(j) = ''
     if (size(uses) == 0) return
     if (all(plan%unit(uses) == plan%unit(uses(1)))) plan%unit(j) = plan%unit(uses(1))
-    if (all(plan%declared(uses) == plan%declared(uses(1)))) plan%declared(j) = plan%declared(uses(1))
+    if (all(plan%declared(uses) == plan%declared(uses(1)))) &
+      plan%declared(j) = plan%declared(uses(1))
     if (len_trim(plan%unit(j)) > 0 .and. len_trim(plan%declared(j)) > 0) &
       plan%factor(j) = plan%factor(uses(1))
   end subroutine derive
