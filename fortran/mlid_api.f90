@@ -324,15 +324,16 @@ contains
   !> line; t_start, t_end: the window.  Status OK with msg 'warning: ...'
   !> when a channel looks wrong for its declared unit (degrees in rad).
   subroutine mlid_channels_read(path, time, inputs, outputs, columns, units, derived, show, &
-                                skip_rows, t_start, t_end, nt, status, msg)
+                                skip_rows, t_start, t_end, dt, nt, status, msg)
     character(len=*), intent(in) :: path, time, inputs, outputs, columns, units, derived, show
     integer(c_int), intent(in) :: skip_rows
-    real(c_double), intent(in) :: t_start, t_end
+    real(c_double), intent(in) :: t_start, t_end, dt
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
     type(channels_t) :: spec
     call channels_spec(time, inputs, outputs, columns, units, derived, show, skip_rows, spec, &
                        status, msg)
+    spec%dt = dt
     if (status == MLID_OK) then
       call channels_read(path, spec, t_start, t_end, taken, status, msg)
     else
@@ -344,17 +345,18 @@ contains
   !> The same for a table x(nrow, ncol) the Python front end read (source
   !> names it in messages), with its columns' names and units one per line.
   subroutine mlid_channels_table(source, nrow, ncol, x, names, col_units, time, inputs, &
-                                 outputs, columns, units, derived, show, t_start, t_end, nt, &
-                                 status, msg)
+                                 outputs, columns, units, derived, show, t_start, t_end, dt, &
+                                 nt, status, msg)
     character(len=*), intent(in) :: source, names, col_units, time, inputs, outputs, columns, &
                                     units, derived, show
     integer(c_int), intent(in) :: nrow, ncol
-    real(c_double), intent(in) :: x(nrow, ncol), t_start, t_end
+    real(c_double), intent(in) :: x(nrow, ncol), t_start, t_end, dt
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
     type(channels_t) :: spec
     call channels_spec(time, inputs, outputs, columns, units, derived, show, 0, spec, status, &
                        msg)
+    spec%dt = dt
     if (status == MLID_OK) then
       call channels_table(source, x, split_lines(names, ncol, NAMELEN), &
                           split_lines(col_units, ncol, UNITLEN), spec, t_start, t_end, taken, &

@@ -36,6 +36,10 @@ module mlid_channels
     type(line_t), allocatable :: derived(:)    !< 'NAME = expression'
     type(line_t), allocatable :: show(:)       !< 'NAME = unit' it is shown in
     integer :: skip_rows = 0
+    !> > 0: the time rebuilt at this step from the window's first sample,
+    !> the recorded time used only to cut the window (a recording gap is then
+    !> integrated across, as the textbook software does); 0: the record's time.
+    real(wp) :: dt = 0.0_wp
   end type channels_t
 
   !> One manoeuvre's channels as taken, in the core's units: t(nt),
@@ -165,7 +169,8 @@ contains
     allocate (ch(size(rec%x, 2), size(plan%name)))
     ch = 0.0_wp
     ch(:, cols) = transpose(rec%x)
-    call take(plan, ch, rec%line, 'data file '//short_path(path), 'line', t_start, t_end, set, &
+    call take(plan, ch, rec%line, 'data file '//short_path(path), 'line', t_start, t_end, &
+              spec%dt, set, &
               status, msg)
   end subroutine channels_read
 
@@ -207,7 +212,7 @@ contains
     ch = 0.0_wp
     ch(:, 1:plan%ncol) = x
     call take(plan, ch, [(k, k=1, size(x, 1))], 'data '//short_path(source), 'row', t_start, &
-              t_end, set, status, msg)
+              t_end, spec%dt, set, status, msg)
   end subroutine channels_table
 
   !> Names and units of the columns and derived channels, the derived
@@ -486,12 +491,12 @@ contains
   end subroutine find
 
   !> Convert, derive, window and check; the set the case takes.
-  subroutine take(plan, ch, line, where, lineword, t_start, t_end, set, status, msg)
+  subroutine take(plan, ch, line, where, lineword, t_start, t_end, dt, set, status, msg)
     type(plan_t), intent(in) :: plan
     real(wp), intent(inout) :: ch(:, :)
     integer, intent(in) :: line(:)
     character(len=*), intent(in) :: where, lineword
-    real(wp), intent(in) :: t_start, t_end
+    real(wp), intent(in) :: t_start, t_end, dt
     type(channel_set_t), intent(out) :: set
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
@@ -519,6 +524,7 @@ contains
       return
     end if
     set%t = pack(ch(:, plan%itime), keep)
+    if (dt > 0.0_wp) set%t = set%t(1) + dt*[(real(k - 1, wp), k=1, size(set%t))]
     set%line = pack(line, keep)
     call record_check_time(set%t, at, status, msg)
     if (status /= MLID_OK) then

@@ -103,32 +103,35 @@ contains
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
     integer, intent(in) :: seg(:)
     real(wp) :: b(size(a, 3), size(a, 3))
-    real(wp), allocatable :: at(:, :, :), g(:, :, :)
-    real(wp) :: rk(size(a, 1), size(a, 1))
+    real(wp), allocatable :: g(:, :, :), rk(:, :, :)
     integer :: ny, nt, nf, lag, k, l, s, i0, i1
 
     ny = size(a, 1)
     nt = size(a, 2)
     nf = size(a, 3)
     lag = ubound(rvv, 3)
-    ! samples last: the filter over all parameters is one product per lag
-    at = reshape(a, [ny, nf, nt], order=[1, 3, 2])
-    allocate (g(ny, nf, nt))
-    g = 0.0_wp
-    do s = 1, size(seg)
-      call segment_bounds(seg, s, nt, i0, i1)
-      do k = 0, min(lag, i1 - i0)
-        rk = (1.0_wp - real(k, wp)/real(lag + 1, wp))*transpose(rvv(:, :, k))
-        if (k == 0) rk = 0.5_wp*rk
-        call add_product(ny, nf*(i1 - i0 + 1 - k), rk, at(:, :, i0 + k:i1), g(:, :, i0:i1 - k))
-      end do
+    allocate (g(ny, nt, nf), rk(ny, ny, 0:lag))
+    do k = 0, lag
+      rk(:, :, k) = (1.0_wp - real(k, wp)/real(lag + 1, wp))*transpose(rvv(:, :, k))
     end do
-    at = reshape(g, [ny, nt, nf], order=[1, 3, 2])
+    rk(:, :, 0) = 0.5_wp*rk(:, :, 0)
+    ! each parameter's column on its own (threads share no sum, so the
+    ! result does not depend on their number)
+    !$omp parallel do private(k, s, i0, i1) schedule(static)
     do l = 1, nf
+      g(:, :, l) = 0.0_wp
+      do s = 1, size(seg)
+        call segment_bounds(seg, s, nt, i0, i1)
+        do k = 0, min(lag, i1 - i0)
+          call add_product(ny, i1 - i0 + 1 - k, rk(:, :, k), a(:, i0 + k:i1, l), &
+                           g(:, i0:i1 - k, l))
+        end do
+      end do
       do k = 1, nf
-        b(k, l) = sum(a(:, :, k)*at(:, :, l))
+        b(k, l) = sum(a(:, :, k)*g(:, :, l))
       end do
     end do
+    !$omp end parallel do
     b = b + transpose(b)
   end function bracket
 
@@ -137,7 +140,12 @@ contains
     integer, intent(in) :: n, m
     real(wp), intent(in) :: r(n, n), x(n, m)
     real(wp), intent(inout) :: y(n, m)
-    y = y + matmul(r, x)
+    integer :: c, j
+    do c = 1, m                     ! in place: no temporary of the product
+      do j = 1, n
+        y(:, c) = y(:, c) + r(:, j)*x(j, c)
+      end do
+    end do
   end subroutine add_product
 
   !> Rvv(:, :, k) = (1/N) sum v(i) v(i+k)' over the pairs within one

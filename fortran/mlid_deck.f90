@@ -10,7 +10,8 @@
 !>             input_hold, substeps, state_names, input_names, output_names
 !>   &data     file, time_col, input_cols, output_cols (numbers or names),
 !>             skip_rows, columns, units, derived, t_start, t_end,
-!>             holdout (validate: the files predicted, not fitted)  (estimate, validate)
+!>             holdout (validate: the files predicted, not fitted), dt (a uniform
+!>             time step replacing the record's time)               (estimate, validate)
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
 !>             t_start, pulse_width                                  (simulate)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
@@ -591,11 +592,11 @@ contains
     character(len=CHANLEN) :: time_col, input_cols(MAXCOL), output_cols(MAXCOL), &
                               columns(MAXCOL), units(MAXCOL), show(MAXCOL)
     character(len=EXPRLEN) :: derived(MAXDER)
-    real(wp) :: t_start(MAXSEG), t_end(MAXSEG)
+    real(wp) :: t_start(MAXSEG), t_end(MAXSEG), dt
     integer :: skip_rows, ios, status, holdout(MAXSEG)
     character(len=msg_len) :: iomsg, msg
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
-      derived, show, t_start, t_end, holdout
+      derived, show, t_start, t_end, holdout, dt
 
     file = ''
     time_col = '1'
@@ -609,6 +610,7 @@ contains
     t_end = UNSET
     skip_rows = 0
     holdout = 0
+    dt = 0.0_wp
     rewind (rd%unit)
     read (rd%unit, nml=data, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'data', ios, iomsg, .true., c)
@@ -623,7 +625,10 @@ contains
                        as_text(units), as_text(derived), as_text(show), skip_rows, c%chan, &
                        status, msg)
     if (status /= MLID_OK) call fail(c, 'group &data: '//trim(msg))
+    if (.not. dt >= 0.0_wp) call fail(c, 'group &data: dt must be > 0 (a uniform time step '// &
+                                         'replacing the record''s time), or left out')
     if (c%status /= MLID_OK) return
+    c%chan%dt = dt
     if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
       write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%chan%inputs), &
         ' input_cols and ', size(c%chan%outputs), ' output_cols given, the model has ', c%nu, &

@@ -47,6 +47,15 @@ def _lines(entries, what):
     return "\n".join(out) + "\n"
 
 
+def _window(t_start, t_end, dt):
+    """The window and time step as the core takes them (0: the record's time)."""
+    if dt is not None and not float(dt) > 0:
+        raise InputError(f"dt must be > 0 (a uniform time step replacing the record's time), "
+                         f"got {dt}")
+    return (-np.inf if t_start is None else float(t_start),
+            np.inf if t_end is None else float(t_end), 0.0 if dt is None else float(dt))
+
+
 def _spec(time_col, input_cols, output_cols, columns, units, derived, show):
     """The channel spec as the core's flat interface takes it."""
     return (_lines(time_col, "time_col"), _lines(input_cols, "input_cols"),
@@ -182,7 +191,7 @@ class FlightData:
     @classmethod
     def load(cls, path, time_col=1, input_cols=(), output_cols=(), skip_rows=0,
              input_names=None, output_names=None, columns=None, units=None, derived=None,
-             t_start=None, t_end=None, variable=None, show=None):
+             t_start=None, t_end=None, variable=None, show=None, dt=None):
         """Read a flight record: a text file with the core's reader (the one
         mlid-batch uses), or a MATLAB .mat (v5, v7.3) or HDF5 file (this
         front end only; see mlid.formats).
@@ -217,6 +226,10 @@ class FlightData:
             language: + - * / ^, functions, no user code run).
         t_start, t_end : float, optional
             The time window taken, in the file's time.
+        dt : float, optional
+            A uniform time step replacing the record's time from the
+            window's first sample (a recording gap is then integrated
+            across, as the textbook software does); default the record's.
         variable : str, optional
             The matrix to take of a .mat or HDF5 file holding several.
         show : dict or list of str, optional
@@ -240,8 +253,7 @@ class FlightData:
             A channel declared in rad goes beyond 2 pi (most likely degrees).
         """
         spec = _spec(time_col, input_cols, output_cols, columns, units, derived, show)
-        window = (-np.inf if t_start is None else float(t_start),
-                  np.inf if t_end is None else float(t_end))
+        window = _window(t_start, t_end, dt)
         path = str(path)
         if formats.is_binary(path):
             x, names, col_units = formats.read_table(path, variable)
@@ -255,7 +267,7 @@ class FlightData:
     @classmethod
     def from_frame(cls, frame, time_col, input_cols=(), output_cols=(), units=None,
                    derived=None, t_start=None, t_end=None, input_names=None,
-                   output_names=None, source="DataFrame", show=None):
+                   output_names=None, source="DataFrame", show=None, dt=None):
         """A record from a pandas DataFrame (or anything with ``columns`` and
         ``to_numpy``): channels by column name, as in ``load``; a column
         named 'ALCG[deg]' carries its unit.
@@ -266,7 +278,7 @@ class FlightData:
             The table, a column per channel, numbers only.
         time_col, input_cols, output_cols : str or list of str
             Channels by column name (or a derived channel's), as in ``load``.
-        units, derived, t_start, t_end, input_names, output_names, show
+        units, derived, t_start, t_end, input_names, output_names, show, dt
             As in ``load``.
         source : str
             What messages call the table.
@@ -295,8 +307,7 @@ class FlightData:
                      for s, n in zip(split, names)]
         names = [s[0].strip() if u else n for s, n, u in zip(split, names, col_units)]
         spec = _spec(time_col, input_cols, output_cols, None, units, derived, show)
-        window = (-np.inf if t_start is None else float(t_start),
-                  np.inf if t_end is None else float(t_end))
+        window = _window(t_start, t_end, dt)
         nt, status, msg = _api.mlid_channels_table(
             source, np.asfortranarray(x), "\n".join(names) + "\n", "\n".join(col_units) + "\n",
             *spec, *window)
