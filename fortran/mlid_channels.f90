@@ -276,22 +276,13 @@ contains
     character(len=*), intent(out) :: msg
     character(len=NAMELEN) :: name
     character(len=:), allocatable :: rhs
-    integer :: k, i, status
+    integer :: k, i
 
     msg = ''
     if (.not. allocated(spec%units)) return
     do k = 1, size(spec%units)
-      call split_definition(spec%units(k)%s, name, rhs, status, msg)
-      if (status /= MLID_OK) then
-        msg = 'units: '//trim(msg)
-        return
-      end if
-      call find(plan, name, plan%ncol, i, msg)
-      if (i == 0) then
-        msg = 'units: '//trim(msg)
-        return
-      end if
-      rhs = trim(adjustl(rhs))
+      call named_entry(spec%units(k)%s, 'units', plan, plan%ncol, name, rhs, i, msg)
+      if (i == 0) return
       if (len_trim(plan%declared(i)) > 0 .and. to_lower(plan%declared(i)) /= to_lower(rhs)) then
         msg = 'units: '//trim(name)//' is declared in '//rhs//' but the file says '// &
               trim(plan%declared(i))
@@ -300,6 +291,27 @@ contains
       plan%declared(i) = rhs
     end do
   end subroutine declared_units
+
+  !> An entry 'NAME = value' of list what (units, show): the channel it
+  !> names among the first n (i; 0, with msg, when there is none) and the value.
+  subroutine named_entry(entry, what, plan, n, name, rhs, i, msg)
+    character(len=*), intent(in) :: entry, what
+    type(plan_t), intent(in) :: plan
+    integer, intent(in) :: n
+    character(len=NAMELEN), intent(out) :: name
+    character(len=:), allocatable, intent(out) :: rhs
+    integer, intent(out) :: i
+    character(len=*), intent(out) :: msg
+    integer :: status
+    i = 0
+    call split_definition(entry, name, rhs, status, msg)
+    if (status == MLID_OK) call find(plan, name, n, i, msg)
+    if (i == 0) then
+      msg = what//': '//trim(msg)
+      return
+    end if
+    rhs = trim(adjustl(rhs))
+  end subroutine named_entry
 
   !> 'NAME = unit' entries of show: the unit a channel (a column or a
   !> derived one) is shown in, instead of the one declared.  Display only:
@@ -320,18 +332,9 @@ contains
     msg = ''
     if (.not. allocated(spec%show)) return
     do k = 1, size(spec%show)
-      call split_definition(spec%show(k)%s, name, rhs, status, msg)
-      if (status /= MLID_OK) then
-        msg = 'show: '//trim(msg)
-        return
-      end if
       status = MLID_ERR_INPUT
-      call find(plan, name, size(plan%name), i, msg)
-      if (i == 0) then
-        msg = 'show: '//trim(msg)
-        return
-      end if
-      rhs = trim(adjustl(rhs))
+      call named_entry(spec%show(k)%s, 'show', plan, size(plan%name), name, rhs, i, msg)
+      if (i == 0) return
       call unit_to_core(rhs, factor, offset, core, status, msg)
       if (status /= MLID_OK) then
         msg = 'show '//trim(name)//': '//trim(msg)
