@@ -61,7 +61,7 @@ def main():
           f"diag R relative differences up to "
           f"{np.max(np.abs(np.diag(res.rhat) / diag - 1)):.1e}")
     print(f"fit {1e3 * res.wall_time:.0f} ms in-process against the reference's {wall:.1f} s "
-          f"(benchmarks/bench_attas_lateral.py times it side by side)")
+          f"(benchmarks/bench_references.py times it side by side)")
 
 
 if __name__ == "__main__":
