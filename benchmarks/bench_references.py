@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import mlid
+from mlid.reference import read_reference
 from timing import median
 
 REPO = Path(__file__).resolve().parent.parent
@@ -24,13 +25,6 @@ def reference_of(deck):
     return None
 
 
-def recorded_seconds(ref):
-    for line in ref.read_text().splitlines():
-        if line.startswith("# Octave wall time:"):
-            return float(line.split(":")[1].split()[0])
-    raise SystemExit(f"no wall time in {ref}")
-
-
 def main():
     decks = [(d, reference_of(d)) for d in sorted(REPO.glob("cases/*/*.nml"))]
     decks = [(d, r) for d, r in decks if r is not None]
@@ -42,7 +36,7 @@ def main():
         data, opts = case.record(), case.options()
         res = mlid.fit(case.model, data, **opts)
         t = median(lambda: mlid.fit(case.model, data, **opts), 20)
-        seconds = recorded_seconds(ref)
+        seconds = read_reference(ref).seconds
         print(f"{str(deck.relative_to(REPO / 'cases')):<38}{data.nt:>6}{len(res.names):>4}"
               f"{res.iterations:>4}{1e3 * t:10.1f}{seconds:13.1f}{seconds / t:8.0f}x")
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.reference import read_reference
 from conftest import BIN, REPO
 
 DECK = REPO / "cases" / "attas_channels" / "attas_sp.nml"
@@ -17,12 +18,6 @@ REF = DATA / "refs" / "attas_sp_tc11_fvsysid_octave.txt"
 pytestmark = pytest.mark.skipif(not DATA.is_dir(), reason="real flight data not beside the checkout")
 REF_NAMES = {"Z_alpha": "Zal", "1+Z_q": "Zq", "M_alpha": "Mal", "M_q": "Mq", "Z_de": "Zde",
              "Z_0": "Z0", "M_de": "Mde", "M_0": "M0"}
-
-
-def _reference():
-    rows = [ln.split() for ln in REF.read_text().splitlines() if ln and not ln.startswith("#")]
-    det = [ln for ln in REF.read_text().splitlines() if ln.startswith("# Result:")][0]
-    return {n: (float(v), float(s)) for n, v, s in rows}, float(det.split("det(R) =")[1].split()[0])
 
 
 def test_text_case_is_the_same_in_both_front_ends(tmp_path):
@@ -47,9 +42,10 @@ def test_test_case_11_matches_the_reference():
     assert [r.nt for r in records] == [626, 626]
     assert records[0].output_units == ["rad", "rad/s"]
     res = mlid.fit(case.model, records, **case.options())
-    ref, det_r = _reference()
+    ref = read_reference(REF)
+    det_r = ref.det_r
     for name, value, sigma in zip(res.names, res.estimate, res.sigma):
-        ref_value, ref_sigma = ref[REF_NAMES[name]]
+        ref_value, ref_sigma = ref.estimates[REF_NAMES[name]]
         ref_value += 1.0 if name == "1+Z_q" else 0.0
         assert abs(value - ref_value) < 0.01 * ref_sigma, name
         assert abs(sigma / ref_sigma - 1) < 1e-3, name

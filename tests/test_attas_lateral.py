@@ -8,18 +8,13 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.reference import read_reference
 from conftest import BIN, REPO
 
 DATA = REPO.parent / "shared" / "data"
 REF = DATA / "refs" / "attas_lat_ailrud2_tc01model_fvsysid_octave.txt"
 DECK = REPO / "cases" / "attas_lateral" / "attas_lat.nml"
 needs_data = pytest.mark.skipif(not REF.is_file(), reason=f"reference not found at {REF}")
-
-
-def reference():
-    rows = [ln.split() for ln in REF.read_text().splitlines() if ln and not ln.startswith("#")]
-    det = [ln for ln in REF.read_text().splitlines() if ln.startswith("# Result:")][0]
-    return {n: (float(v), float(s)) for n, v, s in rows}, float(det.split("det(R) =")[1].split()[0])
 
 
 @needs_data
@@ -31,13 +26,13 @@ def test_the_case_reproduces_the_reference():
     data = case.record()
     assert data.nt == 1502 and np.allclose(np.diff(data.t), 0.04)
     res = mlid.fit(case.model, data, **case.options())
-    ref, det_r = reference()
+    ref = read_reference(REF)
     assert res.converged and len(res.names) == 22
     for name, value, sigma in zip(res.names, res.estimate, res.sigma):
-        ref_value, ref_sigma = ref[name]
+        ref_value, ref_sigma = ref.estimates[name]
         assert abs(value - ref_value) < 0.1 * ref_sigma, name
         assert abs(sigma / ref_sigma - 1) < 0.05, name
-    assert abs(res.det_r / det_r - 1) < 0.01
+    assert abs(res.det_r / ref.det_r - 1) < 0.01
     # the tied output derivatives follow the state equations'
     np.testing.assert_array_equal(res.model.H[:2], res.model.F)
     np.testing.assert_array_equal(res.model.D[:2], res.model.G)

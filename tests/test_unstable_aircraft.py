@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.reference import read_reference
 from conftest import BIN, REPO
 
 DATA = REPO.parent / "shared" / "data"
@@ -17,13 +18,6 @@ REFS = {"tc06": "unstab_ac_tc06_regstart_fvsysid_octave.txt",
         "tc08": "unstab_ac_tc08_oem_fvsysid_octave.txt"}
 needs_data = pytest.mark.skipif(not (DATA / "unStabAC_sim.asc").is_file(),
                                 reason="the simulated record is not in ../shared/data")
-
-
-def reference(name):
-    text = (DATA / "refs" / name).read_text().splitlines()
-    rows = [ln.split() for ln in text if ln and not ln.startswith("#")]
-    det = [ln for ln in text if ln.startswith("# Result:")][0]
-    return {n: (float(v), float(s)) for n, v, s in rows}, float(det.split("det(R) =")[1].split()[0])
 
 
 @needs_data
@@ -41,11 +35,11 @@ def test_each_deck_reproduces_its_reference_in_both_front_ends(deck, tmp_path):
     py, fo = (json.loads((tmp_path / f"{exe}.json").read_text())[0]
               for exe in ("mlid", "mlid-batch"))
     assert py == fo
-    ref, det_r = reference(REFS[deck])
+    ref = read_reference(DATA / "refs" / REFS[deck])
     for name, value, sigma in zip(py["parameters"], py["estimate"], py["sigma"]):
-        assert abs(value - ref[name][0]) < 0.1 * ref[name][1], name
-        assert abs(sigma / ref[name][1] - 1) < 0.05, name
-    assert abs(py["det_R"] / det_r - 1) < 0.01
+        assert abs(value - ref.estimates[name][0]) < 0.1 * ref.estimates[name][1], name
+        assert abs(sigma / ref.estimates[name][1] - 1) < 0.05, name
+    assert abs(py["det_R"] / ref.det_r - 1) < 0.01
     if deck == "tc08":                     # the wrong, stable model of the book's example
         case = mlid.read_deck(path)[0]
         _, res = mlid.deck.run_case(case)
