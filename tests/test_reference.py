@@ -1,7 +1,6 @@
 """mlid.reference: the textbook software's reference files read in one place,
 and a fit compared with one."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
