@@ -175,13 +175,30 @@ contains
     end do
   end function lin_surface
 
-  !> One nr x nc block of p, starting after offset o.
-  pure function sub_matrix(p, o, nr, nc) result(a)
+  !> a = the nr x nc block of p after offset o, plus B K when the model
+  !> feeds states back (B the nr x nu block after ob, K p's feedback block);
+  !> column by column, without temporaries (this runs at every RK4 stage).
+  pure subroutine block_plus_feedback(self, p, o, ob, nr, a)
+    class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: p(:)
-    integer, intent(in) :: o, nr, nc
-    real(wp) :: a(nr, nc)
-    a = reshape(p(o + 1:o + nr*nc), [nr, nc])
-  end function sub_matrix
+    integer, intent(in) :: o, ob, nr
+    real(wp), intent(out) :: a(:, :)
+    real(wp) :: bk(nr)
+    integer :: j, s, nu
+    nu = self%nu
+    do j = 1, size(a, 2)
+      a(:, j) = p(o + (j - 1)*nr + 1:o + j*nr)
+    end do
+    if (nu == 0) return
+    if (all(p(self%ok + 1:self%ok + nu*self%nx) == 0.0_wp)) return
+    do j = 1, size(a, 2)
+      bk = 0.0_wp
+      do s = 1, nu
+        bk = bk + p(ob + (s - 1)*nr + 1:ob + s*nr)*p(self%ok + (j - 1)*nu + s)
+      end do
+      a(:, j) = a(:, j) + bk
+    end do
+  end subroutine block_plus_feedback
 
   pure subroutine lin_f(self, t, x, u, p, xdot)
     class(linear_model_t), intent(in) :: self
@@ -226,11 +243,7 @@ contains
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: a(:, :)
-    integer :: n, nu
-    n = self%nx
-    nu = self%nu
-    a = sub_matrix(p, self%of, n, n)
-    if (nu > 0) a = a + matmul(sub_matrix(p, self%og, n, nu), sub_matrix(p, self%ok, nu, n))
+    call block_plus_feedback(self, p, self%of, self%og, self%nx, a)
   end subroutine lin_dfdx
 
   pure subroutine lin_dfdp(self, t, x, u, p, idx, b)
@@ -276,12 +289,7 @@ contains
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: c(:, :)
-    integer :: n, nu, m
-    n = self%nx
-    nu = self%nu
-    m = self%ny
-    c = sub_matrix(p, self%oh, m, n)
-    if (nu > 0) c = c + matmul(sub_matrix(p, self%od, m, nu), sub_matrix(p, self%ok, nu, n))
+    call block_plus_feedback(self, p, self%oh, self%od, self%ny, c)
   end subroutine lin_dhdx
 
   pure subroutine lin_dhdp(self, t, x, u, p, idx, d)
@@ -319,7 +327,11 @@ contains
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: g(:, :)
-    g = sub_matrix(p, self%ogam, self%nx, self%nw)
+    integer :: j, n
+    n = self%nx
+    do j = 1, self%nw
+      g(:, j) = p(self%ogam + (j - 1)*n + 1:self%ogam + j*n)
+    end do
   end subroutine lin_dfdw
 
   !> d(H + D K)/dp: H(i, j) gives e_i e_j', D(i, j) gives e_i K(j, :),
