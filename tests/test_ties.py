@@ -105,6 +105,12 @@ def test_the_deck_in_both_front_ends(tmp_path):
     assert (tmp_path / "mlid.json").read_bytes() == (tmp_path / "mlid-batch.json").read_bytes()
     case = mlid.read_deck(tmp_path / "ok.nml")[0]
     assert case.model.tie_terms() == model({"g(1,1)": "-0.01 + 0.02*g(2,1)"}, []).tie_terms()
+    # negative scales and sums come back from the core as the deck wrote them
+    rhs = "0.5 - 0.02*g(2,1) - f(2,2)"
+    (tmp_path / "neg.nml").write_text(DECK.format(tie=f"'g(1,1) = {rhs}'"))
+    case = mlid.read_deck(tmp_path / "neg.nml")[0]
+    assert case.error is None
+    assert case.model.tie_terms() == model({"g(1,1)": rhs}, []).tie_terms()
     for bad, phrase in (("'f(1,1) = f(2,1)*f(2,2)'", "multiplies two parameters"),
                         ("'f(1,1) = f(1,2)', 'f(1,2) = f(1,1)'",
                          "'f(1,1)' is tied to 'f(1,2)', which is itself tied"),

@@ -684,9 +684,11 @@ def _tie_text(names, offset, sources):
     """A tie's right-hand side as text: 'f(1,3)', or '0.5 + 2.0*g(1,1)'."""
     if offset == 0 and len(sources) == 1 and sources[0][1] == 1:
         return names[sources[0][0]]
-    parts = [repr(offset)] if offset else []
-    parts += [f"{s!r}*{names[j]}" for j, s in sources]
-    return " + ".join(parts)
+    text = repr(offset) if offset else ""
+    for j, s in sources:                  # 'c - s*b', never '+ -s*b' (the core reads signs once)
+        sign = "-" if s < 0 else "+"
+        text += f" {sign} {abs(s)!r}*{names[j]}" if text else f"{s!r}*{names[j]}"
+    return text
 
 
 def from_core(mkind, sizes, iconst, rconst, theta, isfree, ties, labels, input_hold, substeps):
