@@ -265,7 +265,8 @@ contains
     character(len=*), intent(out) :: msg
     type(layout_t) :: l
     real(wp) :: dt, e(m%nx), ua(m%nu + m%nw), dcm(m%ny, m%nx, size(pm%im)), a(m%nx, m%nx)
-    real(wp), allocatable :: sk(:, :)
+    real(wp), allocatable :: sk(:, :), s0step(:, :)
+    real(wp) :: x0step(m%nx)
     integer :: i, k, nf, nx, nw, ny
     type(options_t) :: o1
 
@@ -303,7 +304,7 @@ contains
     allocate (sys%c(ny, nx), sys%dc(ny, nx, nf), sys%phi(nx, nx), sys%dphi(nx, nx, nf), &
               sys%w(nx, nw), sys%dw(nx, nw, nf), sys%q(nw, nw), sys%dq(nw, nw, nf), &
               sys%r(ny, ny), sys%dr(ny, ny, nf), sys%s(nw, ny), sys%ds(nw, ny, nf), &
-              sys%g(nx, nw), sk(nx, nf))
+              sys%g(nx, nw), sk(nx, nf), s0step(nx, nf))
     sys%dt = dt
     ua = 0.0_wp
     e = theta(l%ox0 + 1:l%ox0 + nx)
@@ -329,18 +330,24 @@ contains
     ! Phi and W: one interval of the integrator applied to unit states and
     ! unit held noise; their partials from the same step's sensitivities.
     ! (a nonlinear model gets them at each interval, in kf_innovations)
+    ! The model may be affine (state-equation biases): the step from zero
+    ! state and noise is subtracted, leaving the linear part.
     o1 = opt
     sys%phi = 0.0_wp
     sys%dphi = 0.0_wp
     sys%w = 0.0_wp
     sys%dw = 0.0_wp
+    ua = 0.0_wp
+    x0step = 0.0_wp
+    s0step = 0.0_wp
+    if (m%linear) call integrate(x0step, ua, s0step)
     do i = 1, merge(nx, 0, m%linear)
       e = 0.0_wp
       e(i) = 1.0_wp
       sk = 0.0_wp
       call integrate(e, ua, sk)
-      sys%phi(:, i) = e
-      sys%dphi(:, i, :) = sk
+      sys%phi(:, i) = e - x0step
+      sys%dphi(:, i, :) = sk - s0step
     end do
     do i = 1, merge(nw, 0, m%linear)
       e = 0.0_wp
@@ -348,8 +355,8 @@ contains
       ua(m%nu + i) = 1.0_wp
       sk = 0.0_wp
       call integrate(e, ua, sk)
-      sys%w(:, i) = e
-      sys%dw(:, i, :) = sk
+      sys%w(:, i) = e - x0step
+      sys%dw(:, i, :) = sk - s0step
     end do
     sys%q = 0.0_wp
     sys%r = 0.0_wp

@@ -54,8 +54,11 @@ def test_biases_recovered_within_the_bound(method):
     free = ["f(2,1)", "f(2,2)", "g(2,1)", "bx(1)", "bx(2)"]
     free += ["q(1)"] if method == "filter_error" else []
     f0 = np.array(F) * [[1.0], [0.8]]              # only the free row starts off
-    start = mlid.LinearModel(F=f0, G=G, H=np.eye(2), free=free, **kw)
+    # bx(2) started a third short: from zero the filter-error fit (the same
+    # with a column of ones, checked) stalls after 2 iterations
+    start = mlid.LinearModel(F=f0, G=G, H=np.eye(2), free=free, bx=[0.0, -0.2], **kw)
     res = mlid.fit(start, d, method=method)
+    assert res.converged
     got = dict(zip(res.names, zip(res.estimate, res.sigma)))
     for k, name in enumerate(("bx(1)", "bx(2)")):
         value, sigma = got[name]
@@ -87,3 +90,25 @@ def test_the_deck_gives_the_same_report_in_both_front_ends(tmp_path):
         bad = subprocess.run([str(BIN / exe), *pre, str(tmp_path / "bad.nml")],
                              capture_output=True, text=True, cwd=tmp_path)
         assert bad.returncode == 1 and "bx has 3 values, it needs 2" in bad.stderr, bad.stderr
+
+
+@pytest.mark.parametrize("steady", [False, True])
+def test_filter_error_is_the_same_as_with_a_constant_input_of_ones(steady):
+    """The Kalman filter's transition and noise matrices are the linear
+    part of an affine model: with bx the cost, gradient and information are
+    those of the same model carrying bx as a column of G on an input of ones
+    (a bx that leaked into Phi changed the cost by 1.9 at bx = (1, -3))."""
+    kw = {"Gamma": [[0.0], [1.0]], "q": [1e-4], "r": [4e-6, 25e-6]}
+    d = record(seed=5, **kw)
+    free = ["f(2,1)", "g(2,1)", "q(1)", "r(1)"]
+    with_bx = mlid.LinearModel(F=F, G=G, H=np.eye(2), bx=[1.0, -3.0], free=free + ["bx(2)"],
+                               **kw)
+    ones = mlid.LinearModel(F=F, G=np.column_stack([G, [1.0, -3.0]]), H=np.eye(2),
+                            free=free + ["g(2,2)"], **kw)
+    ones_data = mlid.FlightData(d.t, np.column_stack([d.u, np.ones(d.nt)]), d.y)
+    opts = {"method": "filter_error", "steady_state": steady}
+    a = mlid.evaluate(with_bx, d, **opts)
+    b = mlid.evaluate(ones, ones_data, **opts)
+    assert a["cost"] == pytest.approx(b["cost"], rel=1e-12, abs=1e-9)
+    np.testing.assert_allclose(a["gradient"], b["gradient"], rtol=1e-8, atol=1e-8)
+    np.testing.assert_allclose(a["information"], b["information"], rtol=1e-8)
