@@ -49,6 +49,7 @@ module mlid_deck
   integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
   integer, parameter :: MAXR = 12   !< regressors of each coefficient
   integer, parameter :: MAXDER = 50, CHANLEN = 64, EXPRLEN = 1024  !< &data entries
+  integer, parameter :: TIELEN = 512                                !< a tie's text
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
   character(len=*), parameter :: GROUPS = ' case model data simulate estimate '
 
@@ -264,7 +265,7 @@ contains
     character(len=8) :: cd_regressors(MAXR), cl_regressors(MAXR), cm_regressors(MAXR)
     real(wp) :: cd(MAXR), cl(MAXR), cm(MAXR), constants(9), p(MAXFREE), user_rconst(MAXFREE)
     character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
-    character(len=2*NAMELEN + 1) :: tie(MAXFREE)
+    character(len=TIELEN) :: tie(MAXFREE)
     character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
     character(len=msg_len) :: iomsg
     integer, allocatable :: codes(:)
@@ -541,6 +542,11 @@ contains
     character(len=msg_len) :: msg
     do k = 1, size(tie)
       if (len_trim(tie(k)) == 0) cycle
+      if (len_trim(tie(k)) == len(tie(k))) then       ! namelist input cuts what does not fit
+        call fail(c, 'group &model: tie '''//tie(k)(1:40)//'...'' is longer than '// &
+                  itoa(len(tie(k)) - 1)//' characters')
+        return
+      end if
       call tie_parse(lt, tie(k), to, offset, n, from, scale, status, msg)
       if (status == MLID_OK .and. any(c%tie%to == to)) then
         status = MLID_ERR_INPUT

@@ -36,13 +36,13 @@ def model(ties, free, F=F, G=G, **kw):
 def test_gradient_and_information_against_finite_differences(ties):
     data = record(model({}, []))
     m = model(ties, ["f(2,1)", "f(2,2)", "g(2,1)"])
-    ev = mlid.evaluate(m, data, noise="fixed" if False else "diagonal")
+    ev = mlid.evaluate(m, data)
     theta0 = m.theta
 
     def cost(k, h):
         th = theta0.copy()
         th[m.free_mask.nonzero()[0][k]] += h
-        mm = m.with_theta(m._tied(th, m.tie_terms()))
+        mm = m.with_theta(m.tied(th))
         return mlid.evaluate(mm, data)["cost"]
 
     for k in range(3):
@@ -115,7 +115,8 @@ def test_the_deck_in_both_front_ends(tmp_path):
                         ("'f(1,1) = f(1,2)', 'f(1,2) = f(1,1)'",
                          "'f(1,1)' is tied to 'f(1,2)', which is itself tied"),
                         ("'f(2,1) = f(1,2)'", "parameter 'f(2,1)' is both free and tied"),
-                        ("'f(1,1) = f(1,2)', 'f(1,1) = 2*f(1,2)'", "tied twice")):
+                        ("'f(1,1) = f(1,2)', 'f(1,1) = 2*f(1,2)'", "tied twice"),
+                        ("'f(1,1) = " + "0.5*f(1,2) + " * 50 + "1'", "longer than 511")):
         (tmp_path / "bad.nml").write_text(DECK.format(tie=bad))
         for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
             out = subprocess.run([str(BIN / exe), *pre, "bad.nml"], capture_output=True,
@@ -123,3 +124,13 @@ def test_the_deck_in_both_front_ends(tmp_path):
             lines = [ln for ln in out.stderr.splitlines() if ln.startswith(exe + ":")]
             assert out.returncode == 1 and len(lines) == 1 and phrase in lines[0], out.stderr
             assert "case 1 (line 2)" in lines[0]
+
+
+def test_the_bode_band_samples_keep_affine_ties():
+    from mlid.plots import sampled_models
+    ties = {"f(1,1)": "0.1 - 0.5*f(2,2)"}
+    res = mlid.fit(model(ties, ["f(2,1)", "f(2,2)", "g(2,1)"]), record(model(ties, [])))
+    draws = sampled_models(res, samples=20)
+    assert len({m.F[1, 1] for m in draws}) == 20
+    for m in draws:
+        assert m.F[0, 0] == pytest.approx(0.1 - 0.5 * m.F[1, 1], rel=1e-14)

@@ -187,7 +187,7 @@ class Model:
                 if names[j] in self.ties:
                     raise InputError(f"{a!r} is tied to {names[j]!r}, which is itself tied "
                                      "(a chain or a cycle of ties): tie to the free parameter")
-        self._theta[:] = self._tied(self._theta, terms)
+        self._theta[:] = self.tied(self._theta, terms)
 
     def _common(self):
         """Keyword arguments that carry the generic parts to a copy."""
@@ -319,11 +319,22 @@ class Model:
                                                 for j, s in zip(frm[:n], scale[:n])])
         return out
 
-    @staticmethod
-    def _tied(theta, terms):
-        """theta with each tied entry set from its terms."""
+    def tied(self, theta, terms=None):
+        """theta with every tied entry set from its ties.
+
+        Parameters
+        ----------
+        theta : array_like
+            A parameter vector of this model.
+        terms : dict, optional
+            ``tie_terms()``, when the caller has them already.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         theta = np.array(theta, dtype=float)
-        for k, (offset, sources) in terms.items():
+        for k, (offset, sources) in (self.tie_terms() if terms is None else terms).items():
             theta[k] = offset + sum(s * theta[j] for j, s in sources)
         return theta
 

@@ -622,21 +622,18 @@ def _free_positions(result, model):
 
 def sampled_models(result, samples=BAND_SAMPLES, seed=BAND_SEED):
     """Models with the free parameters drawn from N(estimate, Cramér-Rao
-    covariance), seeded; ties follow the parameter they are tied to."""
+    covariance), seeded; tied parameters follow their ties (affine ones too)."""
     model = result.model
     pos, idx = _free_positions(result, model)
     cov = np.asarray(result.covariance)[np.ix_(idx, idx)]
     draws = np.random.default_rng(seed).multivariate_normal(
         np.asarray(result.estimate)[idx], cov, size=samples, method="eigh")
-    names = model.element_names()
-    ties = [(names.index(a), names.index(b)) for a, b in model.ties.items()]
+    terms = model.tie_terms()
     out = []
     for d in draws:
         theta = model.theta
         theta[pos] = d
-        for a, b in ties:
-            theta[a] = theta[b]
-        out.append(model.with_theta(theta))
+        out.append(model.with_theta(model.tied(theta, terms)))
     return out
 
 
