@@ -112,3 +112,16 @@ def test_filter_error_is_the_same_as_with_a_constant_input_of_ones(steady):
     assert a["cost"] == pytest.approx(b["cost"], rel=1e-12, abs=1e-9)
     np.testing.assert_allclose(a["gradient"], b["gradient"], rtol=1e-8, atol=1e-8)
     np.testing.assert_allclose(a["information"], b["information"], rtol=1e-8)
+
+
+def test_rebuilt_models_keep_their_state_biases():
+    """diagnose's candidate models and the perfect-state reduction carry bx
+    (a lag state gets none of its own)."""
+    import importlib
+    dg = importlib.import_module("mlid.diagnose")
+    m = mlid.LinearModel(F=F, G=G, H=np.eye(2), bx=BX, free=["bx(1)", "f(2,1)"])
+    assert list(dg._scaled(m, 0, 0.1).bx) == BX and list(dg._noisy(m, 1).bx) == BX
+    assert list(dg._lagged(m, 0, 0.2).bx) == BX + [0.0]
+    assert list(dg._lagged2(m, 0, 5.0, 0.7).bx) == BX + [0.0, 0.0]
+    r = mlid.reduce_measured_state(m.with_free(["bx(1)"]), state=2, output=2)
+    assert list(r.bx) == BX[:1] and r.free == ["bx(1)"]

@@ -235,7 +235,8 @@ def _scaled(model, i, k):
     H, D = model.H.copy(), model.D.copy()
     H[i] *= 1 + k
     D[i] *= 1 + k
-    m = LinearModel(model.F, model.G, H, D, Gamma=model.Gamma, K=model.K, **model._common())
+    m = LinearModel(model.F, model.G, H, D, Gamma=model.Gamma, K=model.K, bx=model.bx,
+                    **model._common())
     return m
 
 
@@ -258,7 +259,7 @@ def _lagged(model, i, tau):
     x0 = np.r_[model.x0, model.H[i] @ model.x0]
     common["x0"] = x0
     # element names move with the new state only for F(i,j), G(i,j) (same indices)
-    return LinearModel(F, G, H, D, Gamma=Gamma, K=K, **common)
+    return LinearModel(F, G, H, D, Gamma=Gamma, K=K, bx=np.r_[model.bx, 0.0], **common)
 
 
 def _lagged2(model, i, wn, zeta):
@@ -279,7 +280,7 @@ def _lagged2(model, i, wn, zeta):
     K = np.hstack([m.K, np.zeros((model.nu, 1))])
     common = model._common()
     common["x0"] = np.r_[m.x0, 0.0]
-    return LinearModel(F, G, H, m.D, Gamma=Gamma, K=K, **common)
+    return LinearModel(F, G, H, m.D, Gamma=Gamma, K=K, bx=np.r_[m.bx, 0.0], **common)
 
 
 def _noisy(model, s):
@@ -289,7 +290,8 @@ def _noisy(model, s):
     Gamma[s, 0] = 1.0
     common = model._common()
     common.update(q=np.array([1e-3]), S=np.zeros((1, ny)))
-    m = LinearModel(model.F, model.G, model.H, model.D, Gamma=Gamma, K=model.K, **common)
+    m = LinearModel(model.F, model.G, model.H, model.D, Gamma=Gamma, K=model.K, bx=model.bx,
+                    **common)
     return m.with_free(list(model.free) + ["q(1)"] + [f"r({i + 1})" for i in range(ny)])
 
 

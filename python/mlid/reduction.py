@@ -38,8 +38,8 @@ def _rename(name, keep, removed, nu, outs, output):
             else f"d({outs.index(i) + 1},{nu + 1})"
     if key == "d":
         return None if i == output else f"d({outs.index(i) + 1},{j + 1})"
-    if key == "x0":
-        return None if i == removed else f"x0({keep.index(i) + 1})"
+    if key in ("x0", "bx"):
+        return None if i == removed else f"{key}({keep.index(i) + 1})"
     if key in ("bias", "r"):
         return None if i == output else f"{key}({outs.index(i) + 1})"
     return None
@@ -95,7 +95,8 @@ def reduce_measured_state(model, state, output):
         if n in model.names:
             names[new] = model.names[n]
     return LinearModel(F, G, H, D, model.x0[keep], model.bias[outs], free=free, names=names,
-                       r=model.r[outs], input_hold=model.input_hold, substeps=model.substeps)
+                       r=model.r[outs], input_hold=model.input_hold, substeps=model.substeps,
+                       bx=model.bx[keep])
 
 
 @guarded
