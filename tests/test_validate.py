@@ -177,3 +177,24 @@ def test_bad_holdout_is_one_line_in_both_front_ends(tmp_path, holdout, job, phra
         errors = [ln for ln in out.stderr.splitlines() if ln.startswith(who + ":")]
         assert len(errors) == 1 and phrase in errors[0] and "case 1 (line 2)" in errors[0], \
             (who, out.stderr)
+
+
+@pytest.mark.parametrize("change", ["holdout = 3, 1", "max_iter = 2"])
+def test_both_front_ends_agree_on_two_holdouts_and_on_a_fit_that_stops(tmp_path, change):
+    """Two held-out files listed out of order are joined in file order by
+    both; a fit that does not converge is reported, fails the case and is
+    not validated, by both."""
+    write_manoeuvres(tmp_path)
+    deck = tmp_path / "v.nml"
+    text = DECK.replace("holdout = 2", change if change.startswith("holdout") else "holdout = 2")
+    if change.startswith("max_iter"):
+        text = text.replace("max_iter = 30", change)
+    deck.write_text(text)
+    py, fo = run_both(deck, tmp_path)
+    assert py.stdout == fo.stdout
+    assert (tmp_path / "p.json").read_bytes() == (tmp_path / "f.json").read_bytes()
+    if change.startswith("holdout"):
+        assert py.returncode == 0 and "predicted files 3 1" in py.stdout
+    else:
+        assert py.returncode == fo.returncode == 1 and "validation:" not in py.stdout
+        assert "not converged after 2 iterations" in py.stderr

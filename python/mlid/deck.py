@@ -98,7 +98,7 @@ def case_json(case, out=None, result=None, error=None):
     """The JSON object of a case as the core writes it (mlid-batch writes the
     same bytes): a fit's when there is one, else title, job, status, message
     and, for a simulate case, the samples written and where."""
-    if result is not None:
+    if result is not None and not getattr(error, "reported_only", False):
         text = result.json(case._title, case.job)
         validation = getattr(result, "validation", None)
         if validation is not None:        # as mlid-batch adds it
@@ -178,13 +178,17 @@ def _validate_case(case):
     fitted = case.record([j for j in numbers if j not in case.holdout])
     kept = sorted(case.holdout)
     by_number = dict(zip(kept, case.record(kept)))
-    held = [by_number[j] for j in case.holdout]
+    held = [by_number[j] for j in kept]    # joined in file order, as mlid-batch joins them
     result = core.fit(case.model, fitted if len(fitted) > 1 else fitted[0], **case.options())
+    if result.status != 0:                 # no prediction from a fit that did not end well
+        return result
     try:
         result.validation = validate(result, held if len(held) > 1 else held[0],
                                      holdout=case.holdout)
-    except MlidError as exc:                # one line, as mlid-batch says it
-        raise type(exc)(f"prediction of the held-out files: {exc}") from None
+    except MlidError as exc:                # one line, as mlid-batch says it; the report of
+        err = type(exc)(f"prediction of the held-out files: {exc}")   # the fit, not its JSON
+        err.result, err.reported_only = result, True
+        raise err from None
     return result
 
 

@@ -12,7 +12,7 @@ import numpy as np
 from . import core
 from .core import _api
 from .data import FlightData
-from .errors import InputError, guarded
+from .errors import InputError, check_status, guarded
 from .maneuvers import join
 from .result import FitResult
 
@@ -158,6 +158,7 @@ def validate(result, data, holdout=None):
     if model.free:
         opts = {**result.options, **PREDICTION_OPTIONS}
         prediction = core.fit(model, records if len(records) > 1 else records[0], **opts)
+        check_status(prediction.status, prediction.message)    # not converged: no prediction
         yhat = prediction.yhat
     else:
         yhat = _predict(model, records)
