@@ -112,8 +112,11 @@ contains
     do i = 1, size(tie%to)
       k = tie%to(i)
       j = tie%from(i)
-      if (k < 1 .or. k > l%nth .or. j < 1 .or. j > l%nth .or. j == k) then
+      if (k < 1 .or. k > l%nth .or. j < 1 .or. j > l%nth) then
         write (msg, '(a,i0,a,i0)') 'parameter ', k, ' is tied to a parameter that does not exist: ', j
+        return
+      else if (j == k) then
+        write (msg, '(a,i0,a)') 'parameter ', k, ' is tied to itself'
         return
       else if (isfree(k) == 1) then
         write (msg, '(a,i0,a)') 'parameter ', k, ' is both free and tied'

@@ -4,6 +4,7 @@
 !>   'g(3,1) = 104.67*g(1,1) - f(1,1) + 0.5'   a sum of such terms
 !> Names are element names of the model's layout ('f(1,2)', 'cl(3)').
 module mlid_ties
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_layout, only: layout_table_t, element_index
   implicit none
@@ -62,6 +63,14 @@ contains
     end do
     if (n == 0) then
       msg = 'tie '''//trim(text)//''' names no parameter to follow (a constant is a fixed value)'
+      return
+    end if
+    if (any(from(1:n) == to)) then
+      msg = 'tie '''//trim(text)//''' ties a parameter to itself'
+      return
+    end if
+    if (.not. (ieee_is_finite(offset) .and. all(ieee_is_finite(scale(1:n))))) then
+      msg = 'tie '''//trim(text)//''' has a number that is not finite'
       return
     end if
     status = MLID_OK

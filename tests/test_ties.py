@@ -78,6 +78,9 @@ def test_an_equality_tie_is_the_old_tie():
     ({"f(1,1)": "0.5"}, "names no parameter to follow"),
     ({"f(2,1)": "f(2,2)"}, "both free and tied"),
     ({"f(1,1)": "2 x f(2,2)"}, "expected + or -"),
+    ({"f(1,1)": "0.5*f(1,1)"}, "ties a parameter to itself"),
+    ({"f(1,1)": "1d400*f(2,2)"}, "not finite"),
+    ({"f(1,1)": "f(2,2)", "F(1, 1)": "2*f(2,2)"}, "parameter 'f(1,1)' is tied twice"),
 ])
 def test_bad_ties_are_one_clear_line(ties, phrase):
     with pytest.raises(mlid.InputError, match=re.escape(phrase)):

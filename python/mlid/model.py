@@ -176,7 +176,12 @@ class Model:
         dup = {n for n in self.free if self.free.count(n) > 1}
         if dup:
             raise InputError(f"free parameter listed twice: {sorted(dup)[0]}")
-        self.ties = {self.canonical_name(a): str(b).strip() for a, b in (ties or {}).items()}
+        self.ties = {}
+        for a, b in (ties or {}).items():
+            a = self.canonical_name(a)
+            if a in self.ties:
+                raise InputError(f"parameter {a!r} is tied twice")
+            self.ties[a] = str(b).strip()
         terms = self.tie_terms()
         names = self._layout.names
         for k, (offset, sources) in terms.items():
