@@ -2,7 +2,9 @@
 fitted to.  Each held-out manoeuvre gets its own initial state and output
 biases (those the identification fitted, fitted afresh there by output
 error); every other parameter is held at its estimate and the model has no
-noise, as a prediction has none.  Per output: Theil's inequality
+noise, as a prediction has none.  Ties are not carried into the prediction:
+an initial state or bias tied to another is held at its fitted value, and
+the free ones are fitted on their own.  Per output: Theil's inequality
 coefficient, the rms prediction error and its ratio to the identification's
 residual sigma (the core's mlid_validate; mlid-batch's validate job does the
 same through fortran/mlid_deck.f90's holdout_case)."""
