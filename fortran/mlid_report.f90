@@ -8,6 +8,7 @@ module mlid_report
   use mlid_linalg, only: chol_inverse
   use mlid_options, only: NOPT, option_get
   use mlid_record, only: UNITLEN
+  use mlid_text, only: itoa
   implicit none
   private
   public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string, &
@@ -218,7 +219,7 @@ contains
            '"units": '//strings([(unit_of(s, k), k=1, size(s%labels))])//','//NL// &
            '"start": '//numbers(s%start)//','//NL// &
            '"estimate": '//numbers(s%est)//','//NL//'"sigma": '//numbers(s%sig)//','//NL// &
-           '"sigma_corrected": '//numbers(s%sigc)//', "colored_lag": '//integer_text(s%lag)// &
+           '"sigma_corrected": '//numbers(s%sigc)//', "colored_lag": '//itoa(s%lag)// &
            ','//NL// &
            '"correlation": '//matrix(correlation(s%cov))//','//NL// &
            '"R": '//matrix(s%rhat)//','//NL//'"det_R": '//number(det_r(s%rhat))// &
@@ -340,14 +341,6 @@ contains
     text = text//']'
   end function matrix
 
-  function integer_text(n) result(s)
-    integer, intent(in) :: n
-    character(len=:), allocatable :: s
-    character(len=16) :: buf
-    write (buf, '(i0)') n
-    s = trim(buf)
-  end function integer_text
-
   function number(x) result(s)
     real(wp), intent(in) :: x
     character(len=:), allocatable :: s
@@ -380,7 +373,7 @@ contains
     integer :: k
     s = '['
     do k = 1, size(n)
-      s = s//integer_text(n(k))
+      s = s//itoa(n(k))
       if (k < size(n)) s = s//', '
     end do
     s = s//']'
