@@ -140,7 +140,7 @@ def _record_warnings(case):
 def _run(args):
     import warnings
 
-    from .deck import case_json, iter_deck, json_list, read_deck
+    from .deck import case_json, json_list, read_deck, run_cases
     from .files import atomic_write_text
     from .plots import use_file_backend
     from .progress import bar
@@ -151,9 +151,9 @@ def _run(args):
         use_file_backend()
     warnings.simplefilter("ignore")       # the core's warnings are printed with each case
     failed, objects, tables, ran = 0, [], [], []
-    ncase = len(read_deck(args.deck))
-    cases = bar(None if ncase > 1 else False, ncase, "mlid run", "case")
-    for case, out, result, error in iter_deck(args.deck):
+    deck = read_deck(args.deck)             # read once: the bar's length and the cases
+    cases = bar(None if len(deck) > 1 else False, len(deck), "mlid run", "case")
+    for case, out, result, error in run_cases(deck):
         cases.update()
         if args.report:
             ran.append((case, out, result, error))

@@ -196,7 +196,12 @@ def iter_deck(path):
     """Run every case of a deck in order, yielding (case, output dict or None,
     FitResult or None, the MlidError or None) as each ends; a failing case
     does not stop the others."""
-    for case in read_deck(path):
+    return run_cases(read_deck(path))
+
+
+def run_cases(cases):
+    """As ``iter_deck`` for cases ``read_deck`` has read already."""
+    for case in cases:
         try:
             out, result = run_case(case)
             yield case, out, result, None

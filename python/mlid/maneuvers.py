@@ -42,7 +42,7 @@ class Params:
         self.mask = mask[self.map].astype(np.int32)
         # a tie points at the new places of its shared entries
         shared = np.where(own, -1, self.map)
-        self.ties = model.tie_args(shared) if n > 1 else model.tie_args()
+        self.ties = model.tie_args(shared if n > 1 else None, terms)
         names = model.element_names()
         labels = [model.names.get(e, e) for e in names]
 

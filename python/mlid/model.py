@@ -343,7 +343,7 @@ class Model:
             theta[k] = offset + sum(s * theta[j] for j, s in sources)
         return theta
 
-    def tie_args(self, entries=None):
+    def tie_args(self, entries=None, terms=None):
         """The ties as the core takes them: tie_to, tie_from (1-based),
         tie_scale per term and tie_offset per entry of theta.
 
@@ -353,12 +353,14 @@ class Model:
             A map of this model's entries onto a longer vector (several
             manoeuvres): entry k of the long vector is entry entries[k] here;
             a tied entry and its sources must map once (shared entries).
+        terms : dict, optional
+            ``tie_terms()``, when the caller has them already.
 
         Returns
         -------
         dict
         """
-        terms = self.tie_terms()
+        terms = self.tie_terms() if terms is None else terms
         where = np.arange(self._theta.size) if entries is None else np.asarray(entries)
         new_of = {int(e): k for k, e in enumerate(where)}
         to, frm, scale = [], [], []
