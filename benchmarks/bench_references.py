@@ -37,7 +37,8 @@ def main():
         res = mlid.fit(case.model, data, **opts)
         t = median(lambda: mlid.fit(case.model, data, **opts), 20)
         seconds = read_reference(ref).seconds
-        print(f"{str(deck.relative_to(REPO / 'cases')):<38}{data.nt:>6}{len(res.names):>4}"
+        nt = sum(d.nt for d in data) if isinstance(data, list) else data.nt
+        print(f"{str(deck.relative_to(REPO / 'cases')):<38}{nt:>6}{len(res.names):>4}"
               f"{res.iterations:>4}{1e3 * t:10.1f}{seconds:13.1f}{seconds / t:8.0f}x")
 
 

@@ -55,7 +55,7 @@ module mlid_api
             mlid_layout_size, mlid_layout, mlid_name_list, mlid_manoeuvre_map, &
             mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
             mlid_channels_table, mlid_channels_get, mlid_check_time, mlid_parameter_units, &
-            mlid_deck_case_holdout, mlid_prediction_stats, mlid_report_validation, &
+            mlid_deck_case_holdout, mlid_deck_case_initial_states, mlid_prediction_stats, mlid_report_validation, &
             mlid_deck_case_ties, mlid_tie_parse, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
@@ -287,6 +287,20 @@ contains
       if (n > 0) holdout(1:n) = c%holdout(1:n)
     end associate
   end subroutine mlid_deck_case_holdout
+
+  !> The initial states case k gives per manoeuvre (n = 0: none; else nx per
+  !> data file, manoeuvre after manoeuvre).
+  subroutine mlid_deck_case_initial_states(k, nmax, n, x0)
+    integer(c_int), intent(in) :: k, nmax
+    integer(c_int), intent(out) :: n
+    real(c_double), intent(out) :: x0(nmax)
+    x0 = 0.0_wp
+    n = 0
+    associate (c => opened(k))
+      if (allocated(c%initial_states)) n = min(size(c%initial_states), nmax)
+      if (n > 0) x0(1:n) = c%initial_states(1:n)
+    end associate
+  end subroutine mlid_deck_case_initial_states
 
   !> Read data file j of estimate case k as the case takes it (channels,
   !> units, derived channels, units shown, window) and keep it for

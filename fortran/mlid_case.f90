@@ -37,6 +37,7 @@ module mlid_case
     real(wp), allocatable :: prior(:), pweight(:, :), lower(:), upper(:)  !< prior(nth) etc.
     character(len=NAMELEN), allocatable :: labels(:)  !< per free parameter, theta order
     character(len=NAMELEN), allocatable :: input_names(:), output_names(:)  !< channels, if named
+    real(wp), allocatable :: initial_states(:)  !< nx per manoeuvre, if given (else x0 for each)
     integer :: iopt(NOPT) = 0
     real(wp) :: ropt(NOPT) = 0.0_wp
     !> the records, one per manoeuvre (relative paths are resolved from the deck)

@@ -2,12 +2,14 @@
 !>
 !> A case starts at each line whose first word is &case and holds the groups
 !>   &case     title, job ('estimate', 'validate' or 'simulate')
-!>   &model    kind ('linear', 'longitudinal', 'x22' or 'user'), nx, nu, ny, nw, f, g,
-!>             h, d, gamma (row by row), cd_regressors, cl_regressors,
+!>   &model    kind ('linear', 'longitudinal', 'x22', 'user' or 'equations'), nx, nu,
+!>             ny, nw, f, g, h, d, gamma (row by row), cd_regressors, cl_regressors,
 !>             cm_regressors, cd, cl, cm, constants (longitudinal), p,
-!>             user_iconst, user_rconst (user), x0, bias, q, r, s (noise
+!>             user_iconst, user_rconst (user), xdot, outputs, definitions,
+!>             params (equations), x0, bias, q, r, s (noise
 !>             variances, cross-covariance row by row), free, names, tie,
-!>             input_hold, substeps, state_names, input_names, output_names
+!>             input_hold, substeps, state_names, input_names, output_names,
+!>             initial_states (nx per manoeuvre, manoeuvre after manoeuvre)
 !>   &data     file, time_col, input_cols, output_cols (numbers or names),
 !>             skip_rows, columns, units, derived, t_start, t_end,
 !>             holdout (validate: the files predicted, not fitted), dt (a uniform
@@ -27,7 +29,10 @@ module mlid_deck
   use mlid_text, only: to_lower, itoa, joined, read_text, line_t
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
   use mlid_models, only: model_t
-  use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
+  use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
+                                MODEL_EQUATIONS
+  use mlid_equations, only: equations_text_codes
+  use mlid_expr, only: split_definition
   use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
@@ -46,10 +51,11 @@ module mlid_deck
   !> The cases of the deck last opened by deck_open, for the flat interface.
   type(case_t), allocatable, protected, public :: opened(:)
 
-  integer, parameter :: MAXX = 30, MAXU = 10, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
+  integer, parameter :: MAXX = 30, MAXU = 30, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
   integer, parameter :: MAXR = 12   !< regressors of each coefficient
   integer, parameter :: MAXDER = 50, CHANLEN = 64, EXPRLEN = 1024  !< &data entries
-  integer, parameter :: TIELEN = 512                                !< a tie's text
+  integer, parameter :: TIELEN = 512                                !< a tie's or equation's text
+  integer, parameter :: MAXDEF = 100                                !< an equations model's definitions
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
   character(len=*), parameter :: GROUPS = ' case model data simulate estimate '
 
@@ -168,6 +174,7 @@ contains
     if (c%status == MLID_OK) call read_model_group(rd, c, free_idx)
     if (c%status == MLID_OK .and. c%job /= 'simulate') then
       call read_data_group(rd, c)
+      if (c%status == MLID_OK) call check_initial_states(c)
       if (c%status == MLID_OK) call read_estimate_group(rd, c, free_idx)
     else if (c%status == MLID_OK) then
       call read_simulate_group(rd, c)
@@ -267,13 +274,18 @@ contains
     character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
     character(len=TIELEN) :: tie(MAXFREE)
     character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
+    character(len=TIELEN) :: xdot(MAXX), outputs(MAXY), definitions(MAXDEF)
+    character(len=NAMELEN + 32) :: params(MAXFREE)
+    real(wp) :: initial_states(MAXX*MAXSEG)
     character(len=msg_len) :: iomsg
     integer, allocatable :: codes(:)
+    real(wp), allocatable :: pstart(:)
     type(layout_table_t) :: lt
     type(options_t) :: defaults
     namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, k, bx, x0, bias, q, r, s, free, names, &
       tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
-      cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst
+      cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst, &
+      xdot, outputs, definitions, params, initial_states
 
     kind = 'linear'
     nx = 0
@@ -310,14 +322,28 @@ contains
     output_names = ''
     input_hold = 'linear'
     substeps = defaults%substeps
+    xdot = ''
+    outputs = ''
+    definitions = ''
+    params = ''
+    initial_states = UNSET
     rewind (rd%unit)
     read (rd%unit, nml=model, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'model', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
+    if (to_lower(kind) == 'equations') then
+      call equations_text(c, state_names, xdot, input_names, output_names, outputs, &
+                          definitions, params, pstart)
+      if (c%status /= MLID_OK) return
+    end if
     call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], constants, &
                     user_iconst, user_rconst, nx, nu, ny, nw, ncoef, codes)
     if (c%status /= MLID_OK) return
-    lt = layout_table(c%mkind, nx, nu, ny, nw, ncoef, codes)
+    if (c%mkind == MODEL_EQUATIONS) then             ! its parameters' own names, for free and tie
+      call layout_of(c%mkind, nx, nu, ny, nw, c%iconst, c%rconst, lt, ios, iomsg)
+    else
+      lt = layout_table(c%mkind, nx, nu, ny, nw, ncoef, codes)
+    end if
     allocate (c%theta(lt%nth), c%isfree(lt%nth))
     c%tie = no_ties(lt%nth)
     c%isfree = 0
@@ -333,6 +359,8 @@ contains
       call put_matrix(c, lt, 'cd', cd, required=.false.)
       call put_matrix(c, lt, 'cl', cl, required=.false.)
       call put_matrix(c, lt, 'cm', cm, required=.false.)
+    else if (c%mkind == MODEL_EQUATIONS) then
+      c%theta(1:size(pstart)) = pstart
     else
       call put_matrix(c, lt, 'p', p, required=ncoef(1) > 0)
     end if
@@ -347,7 +375,69 @@ contains
     if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'substeps', itoa(substeps))
     c%input_names = pack(input_names, len_trim(input_names) > 0)
     c%output_names = pack(output_names, len_trim(output_names) > 0)
+    c%initial_states = pack(initial_states, initial_states /= UNSET)
+    if (size(c%initial_states) > 0 .and. (mod(size(c%initial_states), max(c%nx, 1)) /= 0 &
+        .or. c%nx == 0)) call fail(c, 'group &model: initial_states needs nx = '// &
+        itoa(c%nx)//' values per manoeuvre, got '//itoa(size(c%initial_states)))
   end subroutine read_model_group
+
+  !> An equations model's text (mlid_equations) from the deck: the states
+  !> and their derivatives, inputs, parameters ('NAME' or 'NAME = start
+  !> value', in the order of p), definitions and outputs.
+  subroutine equations_text(c, states, xdot, inputs, ynames, outputs, definitions, params, &
+                            pstart)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: states(:), xdot(:), inputs(:), ynames(:), outputs(:), &
+                                    definitions(:), params(:)
+    real(wp), allocatable, intent(out) :: pstart(:)
+    character(len=:), allocatable :: text, rhs
+    character(len=NAMELEN) :: name
+    character(len=msg_len) :: iomsg
+    integer :: k, ios
+    real(wp) :: v
+
+    text = ''
+    allocate (pstart(0))
+    if (count(len_trim(states) > 0) /= count(len_trim(xdot) > 0)) then
+      call fail(c, 'group &model: the equations model needs one xdot per state_names entry')
+      return
+    end if
+    if (any(len_trim([xdot, outputs, definitions]) == TIELEN)) then
+      call fail(c, 'group &model: an equation is longer than '//itoa(TIELEN - 1)//' characters')
+      return
+    end if
+    do k = 1, count(len_trim(inputs) > 0)
+      text = text//'u '//trim(inputs(k))//achar(10)
+    end do
+    do k = 1, count(len_trim(params) > 0)
+      if (index(params(k), '=') > 0) then
+        call split_definition(params(k), name, rhs, ios, iomsg)
+        if (ios == MLID_OK) read (rhs, *, iostat=ios) v
+        if (ios /= MLID_OK .or. .not. ieee_is_finite(v)) then
+          call fail(c, 'group &model: params entry '''//trim(params(k))// &
+                    ''' is not NAME or NAME = number')
+          return
+        end if
+      else
+        name = adjustl(params(k))
+        v = 0.0_wp
+      end if
+      text = text//'p '//trim(name)//achar(10)
+      pstart = [pstart, v]
+    end do
+    do k = 1, count(len_trim(definitions) > 0)
+      text = text//'l '//trim(definitions(k))//achar(10)
+    end do
+    do k = 1, count(len_trim(xdot) > 0)
+      text = text//'x '//trim(states(k))//' = '//trim(xdot(k))//achar(10)
+    end do
+    do k = 1, count(len_trim(outputs) > 0)
+      name = ynames(k)
+      if (len_trim(name) == 0) name = 'y'//itoa(k)
+      text = text//'y '//trim(name)//' = '//trim(outputs(k))//achar(10)
+    end do
+    c%iconst = equations_text_codes(text)
+  end subroutine equations_text
 
   !> The model kind and its sizes and constants (a built-in model's sizes
   !> are its own; nx, nu, ny, nw may be left out or must agree).
@@ -363,7 +453,8 @@ contains
     character(len=msg_len) :: iomsg
 
     ncoef = 0
-    allocate (codes(0), c%iconst(0), c%rconst(0))
+    allocate (codes(0), c%rconst(0))
+    if (to_lower(kind) /= 'equations' .or. .not. allocated(c%iconst)) c%iconst = [integer ::]
     select case (to_lower(kind))
     case ('linear')
       c%mkind = MODEL_LINEAR
@@ -383,16 +474,18 @@ contains
       c%rconst = pack(user_rconst, user_rconst /= UNSET)
     case ('x22')
       c%mkind = MODEL_X22
+    case ('equations')
+      c%mkind = MODEL_EQUATIONS
     case default
       call fail(c, 'group &model: unknown kind '''//trim(kind)//''' (available: linear, '// &
-                'longitudinal, x22, user)')
+                'longitudinal, x22, user, equations)')
       return
     end select
     if (c%mkind /= MODEL_LINEAR) then
       call own_sizes(c, nx, nu, ny, nw, ncoef)
       if (c%status /= MLID_OK) return
     end if
-    if (nx < 1 .or. nx > MAXX .or. nu < 0 .or. nu > MAXU .or. ny < 1 .or. ny > MAXY .or. &
+    if (nx < merge(0, 1, c%mkind == MODEL_EQUATIONS) .or. nx > MAXX .or. nu < 0 .or. nu > MAXU .or. ny < 1 .or. ny > MAXY .or. &
         nw < 0 .or. nw > MAXW) then
       write (iomsg, '(a,4(1x,i0),a,4(1x,i0))') 'group &model: nx, nu, ny, nw =', nx, nu, ny, nw, &
         ' out of range; limits are', MAXX, MAXU, MAXY, MAXW
@@ -687,6 +780,20 @@ contains
   end subroutine data_holdout
 
   !> What &data must hold.  An entry that fills its whole length was cut.
+  !> initial_states: nx values for each data file (each manoeuvre).
+  subroutine check_initial_states(c)
+    type(case_t), intent(inout) :: c
+    if (.not. allocated(c%initial_states)) return
+    if (size(c%initial_states) == 0) return
+    if (c%job == 'validate') then
+      call fail(c, 'group &model: initial_states is not available with job = ''validate''')
+    else if (size(c%initial_states) /= c%nx*size(c%data_files)) then
+      call fail(c, 'group &model: initial_states has '//itoa(size(c%initial_states))// &
+                ' values; nx = '//itoa(c%nx)//' for each of the '//itoa(size(c%data_files))// &
+                ' data files needs '//itoa(c%nx*size(c%data_files)))
+    end if
+  end subroutine check_initial_states
+
   subroutine check_data_group(c, entries, derived)
     type(case_t), intent(inout) :: c
     character(len=*), intent(in) :: entries(:), derived(:)
@@ -1049,9 +1156,12 @@ contains
 
     status = MLID_OK
     msg = ''
-    if (nseg <= 1) return
     call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, status, msg)
     if (status /= MLID_OK) return
+    if (nseg <= 1) then
+      call own_initial_states()
+      return
+    end if
     call manoeuvre_map(lt, nseg, map, seg)
     nth = size(c%theta)
     allocate (own(nth), new_of(0:nth))
@@ -1095,8 +1205,25 @@ contains
     if (allocated(c%pweight)) call grow_weight()
     c%isfree = c%isfree(map)
     c%labels = pack(lab, c%isfree == 1)
+    call own_initial_states()
 
   contains
+
+    !> Each manoeuvre's x0 from initial_states (the x0 blocks follow one
+    !> another, manoeuvre by manoeuvre).
+    subroutine own_initial_states()
+      integer :: o
+      if (.not. allocated(c%initial_states)) return
+      if (size(c%initial_states) == 0) return
+      if (size(c%initial_states) /= c%nx*nseg) then
+        status = MLID_ERR_INPUT
+        msg = 'initial_states has '//itoa(size(c%initial_states))//' values, not nx = '// &
+              itoa(c%nx)//' for each of '//itoa(nseg)//' manoeuvres'
+        return
+      end if
+      o = lt%off(findloc(lt%key, 'x0', 1))
+      c%theta(o + 1:o + c%nx*nseg) = c%initial_states
+    end subroutine own_initial_states
 
     !> The a priori weight over the new free set: shared entries keep
     !> theirs, a manoeuvre's own get none (none had one, checked above).

@@ -1,7 +1,7 @@
 !> A small, safe expression language for derived channels, the same in
 !> both front ends: numbers, channel names (exact, else case-insensitive
 !> when unique), + - * / ^, unary minus, parentheses, pi, and the functions
-!> sin cos tan asin acos atan atan2 sqrt abs exp log log10 min max.
+!> sin cos tan asin acos atan atan2 sqrt abs exp log log10 min max tanh.
 !> Nothing is executed but this arithmetic.  An expression is compiled
 !> once to postfix code (recursive descent) and evaluated on whole columns.
 !> Precedence: ^ (right-associative) above unary minus above * / above + -,
@@ -11,15 +11,22 @@ module mlid_expr
   use mlid_text, only: itoa, to_lower
   implicit none
   private
-  public :: expr_t, expr_compile, expr_eval, expr_uses, split_definition
+  public :: expr_t, expr_compile, expr_eval, expr_uses, split_definition, is_name
+  public :: OP_NUM, OP_VAR, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_FUN, FUN_ARGS
+  public :: F_SIN, F_COS, F_TAN, F_ASIN, F_ACOS, F_ATAN, F_ATAN2, F_SQRT, F_ABS, F_EXP, F_LOG, &
+            F_LOG10, F_MIN, F_MAX, F_TANH
 
   ! Postfix operations.
   integer, parameter :: OP_NUM = 1, OP_VAR = 2, OP_NEG = 3, OP_ADD = 4, OP_SUB = 5, &
                         OP_MUL = 6, OP_DIV = 7, OP_POW = 8, OP_FUN = 9
-  integer, parameter :: NFUN = 14
+  ! Functions: their numbers (the arg of OP_FUN), names and argument counts.
+  integer, parameter :: F_SIN = 1, F_COS = 2, F_TAN = 3, F_ASIN = 4, F_ACOS = 5, F_ATAN = 6, &
+                        F_ATAN2 = 7, F_SQRT = 8, F_ABS = 9, F_EXP = 10, F_LOG = 11, &
+                        F_LOG10 = 12, F_MIN = 13, F_MAX = 14, F_TANH = 15
+  integer, parameter :: NFUN = 15
   character(len=5), parameter :: FUN_NAME(NFUN) = [character(len=5) :: 'sin', 'cos', 'tan', &
-    'asin', 'acos', 'atan', 'atan2', 'sqrt', 'abs', 'exp', 'log', 'log10', 'min', 'max']
-  integer, parameter :: FUN_ARGS(NFUN) = [1, 1, 1, 1, 1, 1, 2, 1, 1, 1, 1, 1, 2, 2]
+    'asin', 'acos', 'atan', 'atan2', 'sqrt', 'abs', 'exp', 'log', 'log10', 'min', 'max', 'tanh']
+  integer, parameter :: FUN_ARGS(NFUN) = [1, 1, 1, 1, 1, 1, 2, 1, 1, 1, 1, 1, 2, 2, 1]
   integer, parameter :: MAXCODE = 512
 
   !> A compiled expression: postfix code over the channels it was compiled against.
@@ -36,22 +43,27 @@ module mlid_expr
     type(expr_t) :: ex
     integer :: status = MLID_OK
     character(len=:), allocatable :: err
+    character(len=:), allocatable :: noun   !< what a name stands for: 'channel', 'name'
   end type parser_t
 
 contains
 
   !> Compile text against the channel names; status and a message naming
-  !> the character where it went wrong.
-  subroutine expr_compile(text, names, ex, status, msg)
+  !> the character where it went wrong.  noun: what the names are, for the
+  !> message (default 'channel').
+  subroutine expr_compile(text, names, ex, status, msg, noun)
     character(len=*), intent(in) :: text
     character(len=*), intent(in) :: names(:)
     type(expr_t), intent(out) :: ex
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    character(len=*), intent(in), optional :: noun
     type(parser_t) :: ps
 
     ps%s = trim(text)
     ps%err = ''
+    ps%noun = 'channel'
+    if (present(noun)) ps%noun = noun
     call skip_blanks(ps)
     if (ps%p > len(ps%s)) call fail(ps, 'the expression is empty')
     if (ps%status == MLID_OK) call sum_of(ps, names)
@@ -236,7 +248,7 @@ contains
     if (f == 0) then
       ps%p = at
       call fail(ps, 'unknown function '//word//' (functions: sin cos tan asin acos atan '// &
-                'atan2 sqrt abs exp log log10 min max)')
+                'atan2 sqrt abs exp log log10 min max tanh)')
       return
     end if
     call advance(ps)
@@ -269,8 +281,8 @@ contains
       call emit(ps, OP_NUM, 0, acos(-1.0_wp), 1)
     else
       ps%p = at
-      if (count(same) == 0) call fail(ps, 'no channel named '//word)
-      if (count(same) > 1) call fail(ps, itoa(count(same))//' channels are named '//word)
+      if (count(same) == 0) call fail(ps, 'no '//ps%noun//' named '//word)
+      if (count(same) > 1) call fail(ps, itoa(count(same))//' '//ps%noun//'s are named '//word)
     end if
   end subroutine channel
 
@@ -380,8 +392,24 @@ contains
     character(len=*), intent(in) :: why
     if (ps%status /= MLID_OK) return
     ps%status = MLID_ERR_INPUT
-    ps%err = ''''//ps%s//''' at character '//itoa(min(ps%p, len(ps%s) + 1))//': '//why
+    ps%err = excerpt(ps%s, ps%p)//' at character '//itoa(min(ps%p, len(ps%s) + 1))//': '//why
   end subroutine fail
+
+  !> The text quoted, or for a long one the 60 characters around position p,
+  !> so that the message stays one readable line.
+  function excerpt(s, p) result(q)
+    character(len=*), intent(in) :: s
+    integer, intent(in) :: p
+    character(len=:), allocatable :: q
+    integer :: a, b
+    if (len(s) <= 60) then
+      q = ''''//s//''''
+      return
+    end if
+    a = max(1, min(p, len(s)) - 30)
+    b = min(len(s), a + 59)
+    q = ''''//trim(merge('...', '   ', a > 1))//s(a:b)//trim(merge('...', '   ', b < len(s)))//''''
+  end function excerpt
 
   ! ---- evaluation ----
 
@@ -431,6 +459,8 @@ contains
         x = log(x)
       case ('log10')
         x = log10(x)
+      case ('tanh')
+        x = tanh(x)
       case ('atan2')
         st(:, top - 1) = atan2(st(:, top - 1), x)
       case ('min')

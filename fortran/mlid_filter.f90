@@ -628,10 +628,9 @@ contains
     integer, intent(in) :: iseg
     integer :: k, i
 
-    call m%dhdx(t, x, u, theta(1:pm%l%np), c)
+    call m%h_jac(t, x, u, theta(1:pm%l%np), pm%im, c, d)
     dy = matmul(c, s)
     if (size(pm%im) > 0) then
-      call m%dhdp(t, x, u, theta(1:pm%l%np), pm%im, d)
       do k = 1, size(pm%im)
         dy(:, pm%cm(k)) = dy(:, pm%cm(k)) + pm%wm(k)*d(:, k)
       end do

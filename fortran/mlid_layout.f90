@@ -7,7 +7,9 @@
 module mlid_layout
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: to_lower
-  use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
+  use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
+                                MODEL_EQUATIONS
+  use mlid_equations, only: equations_t, equations_create
   use mlid_x22, only: X22_LABELS
   use mlid_aero_long, only: REGRESSOR_NAMES, NREG
   use mlid_user_model, only: user_model_t, user_model_create
@@ -29,6 +31,7 @@ module mlid_layout
     integer :: rows(NBLOCK) = 0, cols(NBLOCK) = 0, off(NBLOCK) = 0  !< cols < 0: a vector
     integer :: ncoef(3) = 0            !< longitudinal: coefficients of C_D, C_L, C_m
     integer, allocatable :: codes(:)   !< longitudinal: regressor code of each coefficient
+    character(len=32), allocatable :: pnames(:)  !< equations: the parameters' own names
   end type layout_table_t
 
 contains
@@ -66,6 +69,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     type(user_model_t) :: user
+    type(equations_t) :: eqs
     integer :: ncoef(3)
 
     status = MLID_OK
@@ -92,8 +96,13 @@ contains
       ncoef(1) = user%np
     case (MODEL_X22)
       ncoef(1) = size(X22_LABELS)
+    case (MODEL_EQUATIONS)
+      call equations_create(iconst, rconst, eqs, status, msg)
+      if (status /= MLID_OK) return
+      ncoef(1) = eqs%np
     end select
     lt = layout_table(mkind, nx, nu, ny, nw, ncoef, [integer ::])
+    if (mkind == MODEL_EQUATIONS) lt%pnames = eqs%pnames
   end subroutine layout_of
 
   subroutine set_blocks(lt, keys, rows, cols)
@@ -158,11 +167,13 @@ contains
               trim(SUFFIX(lt%codes(sum(lt%ncoef(1:b - 1)) + i)))
     else if (lt%mkind == MODEL_X22 .and. b == 1) then
       label = X22_LABELS(i)
+    else if (allocated(lt%pnames) .and. b == 1) then
+      label = lt%pnames(i)
     end if
   end function default_label
 
-  !> Index into theta of a parameter named key(i) or key(i,j); 0 if there
-  !> is no such element.
+  !> Index into theta of a parameter named key(i) or key(i,j), or (the
+  !> equations model) by its own name; 0 if there is no such element.
   integer function element_index(lt, name) result(idx)
     type(layout_table_t), intent(in) :: lt
     character(len=*), intent(in) :: name
@@ -171,6 +182,10 @@ contains
 
     idx = 0
     s = to_lower(adjustl(name))
+    if (allocated(lt%pnames)) then                 ! an equations model's parameter by its name
+      idx = findloc(to_lower(lt%pnames) == s, .true., 1)
+      if (idx > 0) return
+    end if
     p = index(s, '(')
     q = index(s, ')')
     if (p < 2 .or. q < p + 2 .or. len_trim(s) /= q) return

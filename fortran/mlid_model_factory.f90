@@ -5,15 +5,17 @@ module mlid_model_factory
   use mlid_aero_long, only: aero_long_t, aero_long_create
   use mlid_user_model, only: user_model_t, user_model_create
   use mlid_x22, only: x22_t, x22_create
+  use mlid_equations, only: equations_t, equations_create
   implicit none
   private
-  public :: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22
+  public :: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, MODEL_EQUATIONS
 
   !> Model kinds of the flat interface.
   integer, parameter :: MODEL_LINEAR = 1      !< linear state space (mlid_models)
   integer, parameter :: MODEL_AERO_LONG = 2   !< nonlinear longitudinal aircraft (mlid_aero_long)
   integer, parameter :: MODEL_USER = 3        !< the user's own model (mlid_user_model)
   integer, parameter :: MODEL_X22 = 4         !< X-22 VTOL of report Appendix A (mlid_x22)
+  integer, parameter :: MODEL_EQUATIONS = 5   !< equations stated as text (mlid_equations)
 
 contains
 
@@ -30,14 +32,15 @@ contains
     type(aero_long_t) :: aero
     type(user_model_t) :: user
     type(x22_t) :: x22
+    type(equations_t) :: eqs
 
     status = MLID_OK
     msg = ''
-    if ((nx < 1 .or. nu < 0 .or. ny < 1 .or. nw < 0) .and. &
+    if ((nx < merge(0, 1, kind == MODEL_EQUATIONS) .or. nu < 0 .or. ny < 1 .or. nw < 0) .and. &
         .not. (kind /= MODEL_LINEAR .and. all([nx, nu, ny, nw] == -1))) then
       status = MLID_ERR_INPUT
       write (msg, '(a,4(i0,1x),a)') 'model dimensions nx, nu, ny, nw = ', nx, nu, ny, nw, &
-        'must be nx >= 1, nu >= 0, ny >= 1, nw >= 0'
+        'must be nx >= 1 (0 for equations), nu >= 0, ny >= 1, nw >= 0'
       return
     end if
     select case (kind)
@@ -87,6 +90,17 @@ contains
       call x22_create(iconst, rconst, x22, status, msg)
       if (status /= MLID_OK) return
       allocate (model, source=x22)
+    case (MODEL_EQUATIONS)
+      call equations_create(iconst, rconst, eqs, status, msg)
+      if (status /= MLID_OK) return
+      if (any([eqs%nx, eqs%nu, eqs%ny, eqs%nw] /= [nx, nu, ny, nw]) .and. &
+          any([nx, nu, ny, nw] /= -1)) then
+        status = MLID_ERR_INPUT
+        write (msg, '(a,4(1x,i0),a,4(1x,i0))') 'equations model: nx, nu, ny, nw are', eqs%nx, &
+          eqs%nu, eqs%ny, eqs%nw, ', not', nx, nu, ny, nw
+        return
+      end if
+      allocate (model, source=eqs)
     case default
       status = MLID_ERR_INPUT
       write (msg, '(a,i0)') 'unknown model kind ', kind

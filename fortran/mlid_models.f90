@@ -37,6 +37,8 @@ module mlid_models
     procedure(dfdw_iface), deferred :: dfdw
     procedure(dhdxp_iface), deferred :: dhdxp
     procedure :: dhdw => no_output_noise
+    procedure :: f_jac => f_with_jacobians
+    procedure :: h_jac => h_jacobians
   end type model_t
 
   abstract interface
@@ -140,6 +142,29 @@ contains
     real(wp), intent(out) :: dw(:, :)
     dw = 0.0_wp
   end subroutine no_output_noise
+
+  !> xdot = f, a = df/dx and b = df/dp(idx) at one point: what the
+  !> sensitivity equations need at every RK4 stage.  A model that gets them
+  !> cheaper together (the equations model: one sweep) overrides this.
+  pure subroutine f_with_jacobians(self, t, x, u, p, idx, xdot, a, b)
+    class(model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: xdot(:), a(:, :), b(:, :)
+    call self%f(t, x, u, p, xdot)
+    call self%dfdx(t, x, u, p, a)
+    if (size(idx) > 0) call self%dfdp(t, x, u, p, idx, b)
+  end subroutine f_with_jacobians
+
+  !> c = dh/dx and d = dh/dp(idx) at one point, as f_with_jacobians.
+  pure subroutine h_jacobians(self, t, x, u, p, idx, c, d)
+    class(model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: c(:, :), d(:, :)
+    call self%dhdx(t, x, u, p, c)
+    if (size(idx) > 0) call self%dhdp(t, x, u, p, idx, d)
+  end subroutine h_jacobians
 
   !> The blocks of theta for a model, on a record of one segment or of the
   !> segments starting at the samples seg.

@@ -65,11 +65,9 @@ contains
       real(wp) :: a(size(xs), size(xs)), b(size(xs), size(idxm))
       integer :: k
 
-      call m%f(t, xs, us, p, xd)
-      call m%dfdx(t, xs, us, p, a)
+      call m%f_jac(t, xs, us, p, idxm, xd, a, b)
       sd = matmul(a, ss)
       if (size(idxm) > 0) then
-        call m%dfdp(t, xs, us, p, idxm, b)
         do k = 1, size(idxm)
           sd(:, colm(k)) = sd(:, colm(k)) + wcol(k)*b(:, k)
         end do

@@ -135,6 +135,8 @@ contains
     logical function atom(value, item) result(ok)
       real(wp), intent(out) :: value
       integer, intent(out) :: item
+      character(len=*), parameter :: WORD = 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ'// &
+                                            '0123456789_.'
       integer :: start, close, ios
       call skip()
       start = p
@@ -146,6 +148,18 @@ contains
         return
       end if
       if (verify(text(p:p), 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ') == 0) then
+        close = verify(text(p:)//' ', WORD) - 1     ! a bare name (an equations model's own)
+        if (text(min(p + close, len(text)):min(p + close, len(text))) /= '(' .or. &
+            p + close > len(text)) then
+          item = element_index(lt, text(p:p + close - 1))
+          if (item == 0) then
+            msg = 'tie '''//trim(text)//''': '''//text(p:p + close - 1)//''' is no parameter'
+            return
+          end if
+          p = p + close
+          ok = .true.
+          return
+        end if
         close = index(text(p:), ')')
         if (close == 0) then
           write (msg, '(a,i0)') 'tie '''//trim(text)//''': a parameter name needs (i) or '// &

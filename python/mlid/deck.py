@@ -46,6 +46,9 @@ class Case:
         self._files = [_api.mlid_deck_case_data(k, j) for j in range(1, max(nfile, 1) + 1)]
         n, holdout = _api.mlid_deck_case_holdout(k, max(nfile, 1))
         self.holdout = [int(j) for j in holdout[:n]]   # validate: the files predicted
+        n, x0 = _api.mlid_deck_case_initial_states(k, max(nx, 1) * max(nfile, 1))
+        if n:                                          # each manoeuvre's own x0
+            self._options["initial_states"] = list(x0[:n].reshape(-1, nx))
         if self.job == "simulate":
             t, u, self.seed, out, status, msg = _api.mlid_deck_case_time_input(k, nu, nt)
             self._time_input, self.out = (t, u.T.copy()), _text(out)

@@ -695,7 +695,91 @@ X22_LABELS = tuple(_X22.labels[_X22.slice("p")])
 X22_DERIVATIVES = tuple((d, sum(1 for lab in X22_LABELS if lab.split(".")[0] == d))
                         for d in dict.fromkeys(lab.split(".")[0] for lab in X22_LABELS))
 
-_KINDS = {c.kind: c for c in (LinearModel, LongitudinalModel, UserModel, X22Model)}
+@_documented
+@guarded_class
+class EquationModel(Model):
+    """A model stated as equations in text, differentiated exactly by the
+    core (fortran/mlid_equations.f90): no Fortran and no rebuild.  The
+    expressions use the language of derived channels (+ - * / ^, sin cos tan
+    asin acos atan atan2 sqrt abs exp log log10 min max tanh, pi) over the
+    states, inputs, parameters, t and the definitions.  p holds the
+    parameters, named by their own names or ``'p(k)'``; there is no process
+    noise (nw = 0: q and S are empty) and there may be no states
+    (regression).
+
+    Parameters
+    ----------
+    outputs : dict
+        {name: expression} of each output, in output order.
+    states : dict, optional
+        {name: expression of its time derivative}, in state order.
+    inputs : sequence of str, optional
+        The inputs' names, in the order of the data's input channels.
+    params : dict, optional
+        {name: start value} of each model parameter, in the order of p.
+    definitions : dict, optional
+        {name: expression} of constants and intermediate quantities, each
+        usable by the ones after it and by the equations.
+    {common}
+
+    Raises
+    ------
+    {raises}
+        Also an expression the core cannot read (the message names the
+        equation and the character), a name given twice.
+    """
+
+    kind = 5
+    p = _Block("p")
+
+    def __init__(self, outputs, states=None, inputs=(), params=None, definitions=None, x0=None,
+                 bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
+                 S=None, ties=None):
+        params = dict(params or {})
+        lines = ([f"u {n}" for n in inputs] + [f"p {n}" for n in params]
+                 + [f"l {n} = {_one_line(e)}" for n, e in (definitions or {}).items()]
+                 + [f"x {n} = {_one_line(e)}" for n, e in (states or {}).items()]
+                 + [f"y {n} = {_one_line(e)}" for n, e in outputs.items()])
+        self.iconst = np.frombuffer("\n".join(lines).encode(), dtype=np.uint8).astype(np.int32)
+        self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
+        self.p = np.asarray(list(params.values()), dtype=float)
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
+
+    @property
+    def text(self):
+        """The model's text as the core reads it (one item a line)."""
+        return bytes(self.iconst.astype(np.uint8)).decode()
+
+    def canonical_name(self, name):
+        """The element name of a parameter, by its own name or its element.
+
+        Parameters
+        ----------
+        name : str
+            A parameter's own name, any case ('Mq'), or an element name
+            ('p(5)', 'x0(1)').
+
+        Returns
+        -------
+        str
+            The element name: 'p(5)'.
+
+        Raises
+        ------
+        InputError
+            No such parameter or element.
+        """
+        sl = self._layout.slice("p")
+        own = {lab.lower(): e for e, lab in zip(self._layout.names[sl], self._layout.labels[sl])}
+        return own.get(str(name).strip().lower()) or super().canonical_name(name)
+
+
+def _one_line(expression):
+    """An expression on one line (the model's text is one item a line)."""
+    return " ".join(str(expression).split())
+
+
+_KINDS = {c.kind: c for c in (LinearModel, LongitudinalModel, UserModel, X22Model, EquationModel)}
 
 
 def _tie_text(names, offset, sources):

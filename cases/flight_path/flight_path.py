@@ -1,0 +1,84 @@
+"""ATTAS flight-path reconstruction: the decks tc22.nml (sensor biases) and
+tc22b.nml (sensor biases and vane calibration), FVSysID test case 22 and its
+variant, run through the Python front end and compared with the reference
+fits of the textbook software; every number README.md quotes is printed here.
+
+    python cases/flight_path/flight_path.py
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import mlid
+
+from mlid.deck import iter_deck
+from mlid.reference import compare, read_reference
+
+HERE = Path(__file__).resolve().parent
+DATA = HERE.parents[2] / "shared" / "data"
+DECKS = {"tc22.nml": "attas_fpr_tc22_fvsysid_octave.txt",
+         "tc22b.nml": "attas_fpr_tc22b_albe_fvsysid_octave.txt"}
+
+
+def derived_against_record():
+    """How far the records' angular accelerations (columns 46-48) are from
+    the ones the reference used (refs/derived/attas_fpr_pqrdot.asc)."""
+    rec = np.vstack([np.loadtxt(DATA / f"fAttas{n}_pqrDot.asc")[:, 45:48]
+                     for n in ("Elv1", "Ail1", "Rud1")])
+    ref = np.loadtxt(DATA / "refs" / "derived" / "attas_fpr_pqrdot.asc")[:, 2:5]
+    return np.max(np.abs(rec - ref))
+
+
+#: A correction's neutral value: scale factors 1, biases 0.
+NEUTRAL = {"f_al": 1.0, "f_be": 1.0}
+
+
+def with_reference_channels(case):
+    """tc22 fitted with the angular accelerations the reference used: the
+    deck's records with inputs 7-9 replaced by refs/derived/attas_fpr_pqrdot.asc."""
+    records = case.record()
+    derived = np.loadtxt(DATA / "refs" / "derived" / "attas_fpr_pqrdot.asc")[:, 2:5]
+    start = 0
+    for rec in records:
+        rec.u[:, 6:9] = derived[start:start + rec.nt]
+        start += rec.nt
+    return mlid.fit(case.model, records, **case.options())
+
+
+def significance(res):
+    """Each correction's distance from its neutral value in Cramer-Rao sigmas
+    and in sigmas corrected for the coloured residuals: a sensor correction
+    is significant (worth applying) when it stands 3 corrected sigmas out."""
+    lines = [f"{'parameter':<10}{'estimate':>14}{'/sigma':>9}{'/sigma col.':>13}  significant"]
+    for name, v, s, sc in zip(res.names, res.estimate, res.sigma, res.sigma_corrected):
+        d = abs(v - NEUTRAL.get(name, 0.0))
+        lines.append(f"{name:<10}{v:14.6e}{d / s:9.1f}{d / sc:13.1f}  {'yes' if d > 3 * sc else 'no'}")
+    return lines
+
+
+def main():
+    if not (DATA / "refs" / DECKS["tc22.nml"]).is_file():
+        sys.exit(f"the references are not under {DATA / 'refs'}")
+    print(f"records' angular accelerations against the reference's: at most "
+          f"{derived_against_record():.1e} rad/s^2 apart")
+    for deck, ref_name in DECKS.items():
+        case, _, res, error = next(iter_deck(HERE / deck))
+        if error:
+            sys.exit(f"{case.where()}: {error}")
+        ref = read_reference(DATA / "refs" / ref_name)
+        print(f"\n{case.title}: {res.iterations} iterations, converged={res.converged}")
+        print("\n".join(compare(res, ref)["lines"]))
+        print(f"diag R relative differences up to "
+              f"{np.max(np.abs(np.diag(res.rhat) / ref.diag_r - 1)):.1e}")
+        if deck == "tc22.nml":
+            exact = compare(with_reference_channels(case), ref)["lines"][-1]
+            print(f"with the reference's angular accelerations: {exact}")
+        print("\n".join(significance(res)))
+        print(f"fit {1e3 * res.wall_time:.0f} ms in-process against the reference's {ref.seconds:.1f} s "
+              f"(benchmarks/bench_references.py times it side by side)")
+
+
+if __name__ == "__main__":
+    main()

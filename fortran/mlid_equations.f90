@@ -1,0 +1,370 @@
+!> A model stated as equations in text, with exact Jacobians.
+!>
+!> Real aircraft need models the built-in kinds cannot state: kinematic
+!> equations for flight-path reconstruction, six-degree-of-freedom
+!> aerodynamics, stall models.  Here the user writes them in the expression
+!> language of mlid_expr and mlid differentiates them exactly (reverse mode,
+!> mlid_expr_diff): no Fortran, no rebuild, no finite differences.
+!>
+!> The model's text, one item a line (what iconst carries, as character
+!> codes, through the flat interface every kind shares; the deck reader and
+!> Python's EquationModel write it):
+!>
+!>   x NAME = EXPR    a state and its derivative d(NAME)/dt, in state order
+!>   y NAME = EXPR    an output, in output order
+!>   u NAME           an input, in input order
+!>   p NAME           a model parameter, in the order of p
+!>   l NAME = EXPR    a definition (a constant or an intermediate quantity),
+!>                    usable in the lines after it
+!>
+!> Expressions read states, inputs, parameters, t (time) and definitions.
+!> No process noise enters (nw = 0); there may be no states (nx = 0): the
+!> outputs are then functions of inputs and parameters (regression).
+module mlid_equations
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_models, only: model_t
+  use mlid_expr, only: expr_t, expr_compile, split_definition, is_name
+  use mlid_expr_diff, only: code_t, code_expand, code_value, code_gradient, MAXNODE, MAXDEPTH
+  use mlid_text, only: to_lower
+  implicit none
+  private
+  public :: equations_t, equations_create, equations_text_codes
+
+  integer, parameter :: NAMELEN = 32
+  !> Limits that let the evaluators work in fixed local arrays: variables
+  !> (states, inputs, parameters and t) and states or outputs.
+  integer, parameter :: MAXVAR = 512, MAXOUT = 64
+
+  type, extends(model_t) :: equations_t
+    integer :: nvar = 0                                 !< v = [x, u, p, t]
+    type(code_t), allocatable :: fcode(:), hcode(:)     !< state derivatives, outputs
+    character(len=NAMELEN), allocatable :: xnames(:), unames(:), pnames(:), ynames(:)
+  contains
+    procedure :: f => eq_f
+    procedure :: h => eq_h
+    procedure :: dfdx => eq_dfdx
+    procedure :: dfdp => eq_dfdp
+    procedure :: dhdx => eq_dhdx
+    procedure :: dhdp => eq_dhdp
+    procedure :: dfdw => eq_dfdw
+    procedure :: dhdxp => eq_dhdxp
+    procedure :: f_jac => eq_f_jac
+    procedure :: h_jac => eq_h_jac
+  end type equations_t
+
+  !> One line of the text: its kind letter, name and expression.
+  type :: item_t
+    character :: kind = ' '
+    character(len=NAMELEN) :: name = ''
+    character(len=:), allocatable :: rhs
+  end type item_t
+
+contains
+
+  !> Text -> character codes, as iconst carries them.
+  pure function equations_text_codes(text) result(codes)
+    character(len=*), intent(in) :: text
+    integer :: codes(len(text))
+    integer :: k
+    codes = [(iachar(text(k:k)), k=1, len(text))]
+  end function equations_text_codes
+
+  !> The model of the text in iconst (character codes); rconst must be empty.
+  subroutine equations_create(iconst, rconst, m, status, msg)
+    integer, intent(in) :: iconst(:)
+    real(wp), intent(in) :: rconst(:)
+    type(equations_t), intent(out) :: m
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(item_t), allocatable :: items(:)
+
+    status = MLID_ERR_INPUT
+    if (size(rconst) /= 0) then
+      msg = 'equations model: takes no real constants (state them as definitions)'
+      return
+    end if
+    if (any(iconst < 1 .or. iconst > 255)) then
+      msg = 'equations model: iconst must hold the text as character codes'
+      return
+    end if
+    call read_items(iconst, items, status, msg)
+    if (status /= MLID_OK) return
+    m%xnames = names_of(items, 'x')
+    m%unames = names_of(items, 'u')
+    m%pnames = names_of(items, 'p')
+    m%ynames = names_of(items, 'y')
+    m%nx = size(m%xnames)
+    m%nu = size(m%unames)
+    m%np = size(m%pnames)
+    m%ny = size(m%ynames)
+    m%nw = 0
+    m%nvar = m%nx + m%nu + m%np + 1
+    if (m%nvar > MAXVAR .or. m%nx > MAXOUT .or. m%ny > MAXOUT) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0,a)') 'equations model: too large (at most ', MAXVAR - 1, &
+        ' states, inputs and parameters together, ', MAXOUT, ' states and outputs each)'
+      return
+    end if
+    if (m%ny == 0) then
+      status = MLID_ERR_INPUT
+      msg = 'equations model: no outputs (lines y NAME = ...)'
+      return
+    end if
+    call compile_all(m, items, status, msg)
+  end subroutine equations_create
+
+  !> Split the text into items, checking each line's form and that no name
+  !> is used twice.
+  subroutine read_items(codes, items, status, msg)
+    integer, intent(in) :: codes(:)
+    type(item_t), allocatable, intent(out) :: items(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=size(codes)) :: text
+    character(len=:), allocatable :: line
+    type(item_t) :: it
+    integer :: k, a, b
+
+    do k = 1, size(codes)
+      text(k:k) = achar(codes(k))
+    end do
+    allocate (items(0))
+    status = MLID_OK
+    msg = ''
+    a = 1
+    do while (a <= len(text))
+      b = index(text(a:), achar(10))
+      b = merge(len(text), a + b - 2, b == 0)
+      line = trim(adjustl(text(a:b)))
+      a = b + 2
+      if (len(line) == 0) cycle
+      it%kind = line(1:1)
+      it%rhs = ''
+      if (index('xyl', it%kind) > 0 .and. len(line) > 2) then
+        call split_definition(line(2:), it%name, it%rhs, status, msg)
+      else if (index('up', it%kind) > 0 .and. len(line) > 2) then
+        it%name = adjustl(line(2:))
+        if (.not. is_name(trim(it%name)) .or. len_trim(adjustl(line(2:))) > NAMELEN) then
+          status = MLID_ERR_INPUT
+          msg = ''''//trim(adjustl(line(2:)))//''' is not a name'
+        end if
+      else
+        status = MLID_ERR_INPUT
+        msg = 'line '''//line//''' is not x|y|l NAME = ..., u NAME or p NAME'
+      end if
+      if (status == MLID_OK .and. it%kind /= 'y' .and. (to_lower(it%name) == 't' .or. &
+          any(to_lower(items%name) == to_lower(it%name) .and. items%kind /= 'y'))) then
+        status = MLID_ERR_INPUT
+        msg = 'the name '''//trim(it%name)//''' is given twice (states, inputs, parameters, '// &
+              'definitions and t share one set of names, any case)'
+      end if
+      if (status /= MLID_OK) then
+        msg = 'equations model: '//msg
+        return
+      end if
+      items = [items, it]
+    end do
+  end subroutine read_items
+
+  pure function names_of(items, kind) result(names)
+    type(item_t), intent(in) :: items(:)
+    character, intent(in) :: kind
+    character(len=NAMELEN), allocatable :: names(:)
+    names = pack(items%name, items%kind == kind)
+  end function names_of
+
+  !> Compile the definitions in order, then the state and output equations,
+  !> each against [x, u, p, t] and the definitions before it.
+  subroutine compile_all(m, items, status, msg)
+    type(equations_t), intent(inout) :: m
+    type(item_t), intent(in) :: items(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=NAMELEN), allocatable :: names(:)
+    type(code_t), allocatable :: defs(:)
+    type(code_t) :: code
+    integer :: k, nf, nh
+
+    names = [m%xnames, m%unames, m%pnames, [character(len=NAMELEN) :: 't']]
+    allocate (defs(0), m%fcode(m%nx), m%hcode(m%ny))
+    nf = 0
+    nh = 0
+    status = MLID_OK
+    do k = 1, size(items)
+      if (index('xyl', items(k)%kind) == 0) cycle
+      call compile_one(items(k), names, m%nvar, defs, code, status, msg)
+      if (status /= MLID_OK) return
+      select case (items(k)%kind)
+      case ('l')
+        defs = [defs, code]
+        names = [names, items(k)%name]
+      case ('x')
+        nf = nf + 1
+        m%fcode(nf) = code
+      case ('y')
+        nh = nh + 1
+        m%hcode(nh) = code
+      end select
+    end do
+  end subroutine compile_all
+
+  subroutine compile_one(it, names, nvar, defs, code, status, msg)
+    type(item_t), intent(in) :: it
+    character(len=*), intent(in) :: names(:)
+    integer, intent(in) :: nvar
+    type(code_t), intent(in) :: defs(:)
+    type(code_t), intent(out) :: code
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=*), parameter :: WHAT(3) = [character(len=10) :: 'state', 'output', 'definition']
+    type(expr_t) :: ex
+    call expr_compile(it%rhs, names, ex, status, msg, noun='variable')
+    if (status /= MLID_OK) then
+      msg = 'equations model, '//trim(WHAT(index('xyl', it%kind)))//' '//trim(it%name)//': '//msg
+      return
+    end if
+    call code_expand(ex, nvar, defs, code)
+    if (code%n > MAXNODE .or. code%depth > MAXDEPTH) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a)') 'equations model, '//trim(WHAT(index('xyl', it%kind)))//' '// &
+        trim(it%name)//': too long with its definitions written out (at most ', MAXNODE, &
+        ' operations)'
+    end if
+  end subroutine compile_one
+
+  !> v = [x, u, p, t] (fixed size: this runs several times per sample).
+  pure subroutine point(self, t, x, u, p, v)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: v(MAXVAR)
+    v(1:self%nx) = x(1:self%nx)
+    v(self%nx + 1:self%nx + self%nu) = u(1:self%nu)
+    v(self%nx + self%nu + 1:self%nvar - 1) = p(1:self%np)
+    v(self%nvar) = t
+  end subroutine point
+
+  pure subroutine eq_f(self, t, x, u, p, xdot)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: xdot(:)
+    real(wp) :: v(MAXVAR)
+    integer :: i
+    call point(self, t, x, u, p, v)
+    do i = 1, self%nx
+      xdot(i) = code_value(self%fcode(i), v)
+    end do
+  end subroutine eq_f
+
+  pure subroutine eq_h(self, t, x, u, p, y)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: y(:)
+    real(wp) :: v(MAXVAR)
+    integer :: i
+    call point(self, t, x, u, p, v)
+    do i = 1, self%ny
+      y(i) = code_value(self%hcode(i), v)
+    end do
+  end subroutine eq_h
+
+  !> Values and Jacobians of a set of codes in one sweep each: val(i), and
+  !> dx(i, :) = d/dx, dp(i, k) = d/dp(idx(k)) of code i.
+  pure subroutine sweep(self, codes, t, x, u, p, idx, val, dx, dp)
+    class(equations_t), intent(in) :: self
+    type(code_t), intent(in) :: codes(:)
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: val(:), dx(:, :), dp(:, :)
+    real(wp) :: v(MAXVAR), g(MAXVAR)
+    integer :: i, k, op
+    call point(self, t, x, u, p, v)
+    op = self%nx + self%nu
+    do i = 1, size(codes)
+      call code_gradient(codes(i), v(1:self%nvar), val(i), g(1:self%nvar))
+      dx(i, 1:self%nx) = g(1:self%nx)
+      do k = 1, size(idx)
+        dp(i, k) = g(op + idx(k))
+      end do
+    end do
+  end subroutine sweep
+
+  pure subroutine eq_f_jac(self, t, x, u, p, idx, xdot, a, b)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: xdot(:), a(:, :), b(:, :)
+    call sweep(self, self%fcode, t, x, u, p, idx, xdot, a, b)
+  end subroutine eq_f_jac
+
+  pure subroutine eq_h_jac(self, t, x, u, p, idx, c, d)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: c(:, :), d(:, :)
+    real(wp) :: y(MAXOUT)
+    call sweep(self, self%hcode, t, x, u, p, idx, y, c, d)
+  end subroutine eq_h_jac
+
+  pure subroutine eq_dfdx(self, t, x, u, p, a)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: a(:, :)
+    real(wp) :: xdot(MAXOUT), b(MAXOUT, 0)
+    call sweep(self, self%fcode, t, x, u, p, [integer ::], xdot, a, b)
+  end subroutine eq_dfdx
+
+  pure subroutine eq_dfdp(self, t, x, u, p, idx, b)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: b(:, :)
+    real(wp) :: xdot(MAXOUT), a(MAXOUT, MAXOUT)
+    call sweep(self, self%fcode, t, x, u, p, idx, xdot, a, b)
+  end subroutine eq_dfdp
+
+  pure subroutine eq_dhdx(self, t, x, u, p, c)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: c(:, :)
+    real(wp) :: y(MAXOUT), d(MAXOUT, 0)
+    call sweep(self, self%hcode, t, x, u, p, [integer ::], y, c, d)
+  end subroutine eq_dhdx
+
+  pure subroutine eq_dhdp(self, t, x, u, p, idx, d)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: d(:, :)
+    real(wp) :: y(MAXOUT), c(MAXOUT, MAXOUT)
+    call sweep(self, self%hcode, t, x, u, p, idx, y, c, d)
+  end subroutine eq_dhdp
+
+  !> No process noise enters the equations model.
+  pure subroutine eq_dfdw(self, t, x, u, p, g)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: g(:, :)
+    g = 0.0_wp
+  end subroutine eq_dfdw
+
+  !> d(dh/dx)/dp by central differences of the exact dh/dx (the filter's
+  !> covariance partials only; with nw = 0 the filter is output error).
+  pure subroutine eq_dhdxp(self, t, x, u, p, idx, dc)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: dc(:, :, :)
+    real(wp) :: pp(size(p)), cp(self%ny, self%nx), cm(self%ny, self%nx), step
+    integer :: k
+    do k = 1, size(idx)
+      step = 1.0e-6_wp*max(1.0_wp, abs(p(idx(k))))
+      pp = p
+      pp(idx(k)) = p(idx(k)) + step
+      call eq_dhdx(self, t, x, u, pp, cp)
+      pp(idx(k)) = p(idx(k)) - step
+      call eq_dhdx(self, t, x, u, pp, cm)
+      dc(:, :, k) = (cp - cm)/(2.0_wp*step)
+    end do
+  end subroutine eq_dhdxp
+
+end module mlid_equations
