@@ -65,7 +65,10 @@ contains
 
   !> Model outputs yhat(ny, nt) along the record and, if dy is present,
   !> their sensitivities dy(ny, nf, nt) to the free parameters.
-  !> xhist(nx, nt), if present, receives the states.
+  !> xhist(nx, nt), if present, receives the states.  The manoeuvres
+  !> (segments) are independent, each from its own initial state, and are
+  !> integrated in parallel: each writes only its own samples, so the result
+  !> does not depend on the threads; a failure is the first segment's.
   subroutine oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy, xhist)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
@@ -77,42 +80,73 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: dy(:, :, :)
     real(wp), intent(out), optional :: xhist(:, :)
-    type(layout_t) :: l
-    real(wp), allocatable :: s(:, :), c(:, :), d(:, :)
-    real(wp) :: x(m%nx)
-    integer :: j, iseg
-    logical :: sens
+    integer :: k, nseg, first(pm%l%nseg + 1), kstat(pm%l%nseg)
+    character(len=len(msg)) :: kmsg(pm%l%nseg)
 
+    nseg = pm%l%nseg
+    first(1:nseg) = pm%l%seg
+    first(nseg + 1) = size(t) + 1
+    !$omp parallel do schedule(dynamic, 1) if (nseg > 1)
+    do k = 1, nseg
+      call oe_segment(m, theta, pm, t, u, opt, k, first(k), first(k + 1) - 1, yhat, &
+                      kstat(k), kmsg(k), dy, xhist)
+    end do
+    !$omp end parallel do
     status = MLID_OK
     msg = ''
-    l = pm%l
-    sens = present(dy)
-    if (sens) allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)))
-    iseg = 0
-
-    do j = 1, size(t)
-      if (segment_starts(l, j, iseg)) then     ! each manoeuvre from its own initial state
-        x = theta(l%ox0 + (iseg - 1)*l%nx + 1:l%ox0 + iseg*l%nx)
-        if (sens) s = initial_sensitivity(pm, iseg)
-      else
-        if (sens) then
-          call advance(m, theta, pm, t, u, opt, j - 1, [real(wp) ::], x, s)
-        else
-          call advance(m, theta, pm, t, u, opt, j - 1, [real(wp) ::], x)
-        end if
-        if (.not. all(ieee_is_finite(x))) then
-          call diverged(t(j), status, msg)
-          return
-        end if
-      end if
-      if (present(xhist)) xhist(:, j) = x
-      call m%h(t(j), x, u(:, j), theta(1:l%np), yhat(:, j))
-      yhat(:, j) = yhat(:, j) + theta(l%obias + (iseg - 1)*l%ny + 1:l%obias + iseg*l%ny)
-      if (sens) then
-        call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dy(:, :, j), c, d, iseg)
+    do k = 1, nseg
+      if (kstat(k) /= MLID_OK) then
+        status = kstat(k)
+        msg = kmsg(k)
+        return
       end if
     end do
   end subroutine oe_predict
+
+  !> oe_predict over the samples j0..j1 of segment iseg.
+  subroutine oe_segment(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, dy, xhist)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :)
+    type(options_t), intent(in) :: opt
+    integer, intent(in) :: iseg, j0, j1
+    real(wp), intent(inout) :: yhat(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), intent(inout), optional :: dy(:, :, :)
+    real(wp), intent(inout), optional :: xhist(:, :)
+    real(wp), allocatable :: s(:, :), c(:, :), d(:, :)
+    real(wp) :: x(m%nx)
+    integer :: j
+
+    status = MLID_OK
+    msg = ''
+    associate (l => pm%l)
+      if (present(dy)) allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)))
+      x = theta(l%ox0 + (iseg - 1)*l%nx + 1:l%ox0 + iseg*l%nx)
+      if (present(dy)) s = initial_sensitivity(pm, iseg)
+      do j = j0, j1
+        if (j > j0) then
+          if (present(dy)) then
+            call advance(m, theta, pm, t, u, opt, j - 1, [real(wp) ::], x, s)
+          else
+            call advance(m, theta, pm, t, u, opt, j - 1, [real(wp) ::], x)
+          end if
+          if (.not. all(ieee_is_finite(x))) then
+            call diverged(t(j), status, msg)
+            return
+          end if
+        end if
+        if (present(xhist)) xhist(:, j) = x
+        call m%h(t(j), x, u(:, j), theta(1:l%np), yhat(:, j))
+        yhat(:, j) = yhat(:, j) + theta(l%obias + (iseg - 1)*l%ny + 1:l%obias + iseg*l%ny)
+        if (present(dy)) then
+          call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dy(:, :, j), c, d, iseg)
+        end if
+      end do
+    end associate
+  end subroutine oe_segment
 
   !> Innovations nu(ny, nt) and their covariances through binv(ny, ny, nt)
   !> and logdet(nt); with dnu present also their sensitivities
