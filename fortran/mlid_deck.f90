@@ -32,7 +32,7 @@ module mlid_deck
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
                                 MODEL_EQUATIONS
   use mlid_equations, only: equations_text_codes
-  use mlid_expr, only: split_definition
+  use mlid_expr, only: split_definition, expr_t, expr_compile, expr_eval
   use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
@@ -177,7 +177,9 @@ contains
       if (c%status == MLID_OK) call check_initial_states(c)
       if (c%status == MLID_OK) call read_estimate_group(rd, c, free_idx)
     else if (c%status == MLID_OK) then
-      call read_simulate_group(rd, c)
+      if (size(c%initial_states) > 0) &
+        call fail(c, 'group &model: initial_states is for estimate cases (several data files)')
+      if (c%status == MLID_OK) call read_simulate_group(rd, c)
     end if
     if (c%status == MLID_OK) then
       call options_from_flat(c%iopt, c%ropt, opt, c%status, c%msg)
@@ -275,7 +277,7 @@ contains
     character(len=TIELEN) :: tie(MAXFREE)
     character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
     character(len=TIELEN) :: xdot(MAXX), outputs(MAXY), definitions(MAXDEF)
-    character(len=NAMELEN + 32) :: params(MAXFREE)
+    character(len=TIELEN) :: params(MAXFREE)
     real(wp) :: initial_states(MAXX*MAXSEG)
     character(len=msg_len) :: iomsg
     integer, allocatable :: codes(:)
@@ -332,15 +334,28 @@ contains
     call group_status(rd, 'model', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
     if (to_lower(kind) == 'equations') then
+      if (any(p /= UNSET) .or. any(user_rconst /= UNSET) .or. any(user_iconst /= -huge(1))) then
+        call fail(c, 'group &model: kind = ''equations'' takes its parameters in params '// &
+                  '(''NAME = value''), not p, user_iconst or user_rconst')
+        return
+      end if
       call equations_text(c, state_names, xdot, input_names, output_names, outputs, &
                           definitions, params, pstart)
       if (c%status /= MLID_OK) return
+    else if (any(len_trim([xdot, outputs, definitions, params]) > 0)) then
+      call fail(c, 'group &model: xdot, outputs, definitions and params are for kind = '// &
+                '''equations'', not '''//trim(kind)//'''')
+      return
     end if
     call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], constants, &
                     user_iconst, user_rconst, nx, nu, ny, nw, ncoef, codes)
     if (c%status /= MLID_OK) return
     if (c%mkind == MODEL_EQUATIONS) then             ! its parameters' own names, for free and tie
       call layout_of(c%mkind, nx, nu, ny, nw, c%iconst, c%rconst, lt, ios, iomsg)
+      if (ios /= MLID_OK) then
+        call fail(c, 'group &model: '//trim(iomsg))
+        return
+      end if
     else
       lt = layout_table(c%mkind, nx, nu, ny, nw, ncoef, codes)
     end if
@@ -375,6 +390,10 @@ contains
     if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'substeps', itoa(substeps))
     c%input_names = pack(input_names, len_trim(input_names) > 0)
     c%output_names = pack(output_names, len_trim(output_names) > 0)
+    if (all(size(c%input_names) /= [0, c%nu]) .or. all(size(c%output_names) /= [0, c%ny])) &
+      call fail(c, 'group &model: input_names and output_names name every input and output '// &
+                '(nu = '//itoa(c%nu)//', ny = '//itoa(c%ny)//') or none; given '// &
+                itoa(size(c%input_names))//' and '//itoa(size(c%output_names)))
     c%initial_states = pack(initial_states, initial_states /= UNSET)
     if (size(c%initial_states) > 0 .and. (mod(size(c%initial_states), max(c%nx, 1)) /= 0 &
         .or. c%nx == 0)) call fail(c, 'group &model: initial_states needs nx = '// &
@@ -390,19 +409,22 @@ contains
     character(len=*), intent(in) :: states(:), xdot(:), inputs(:), ynames(:), outputs(:), &
                                     definitions(:), params(:)
     real(wp), allocatable, intent(out) :: pstart(:)
-    character(len=:), allocatable :: text, rhs
+    character(len=:), allocatable :: text
     character(len=NAMELEN) :: name
-    character(len=msg_len) :: iomsg
-    integer :: k, ios
+    integer :: k
     real(wp) :: v
 
     text = ''
     allocate (pstart(0))
+    if (has_gap(c, 'state_names', states) .or. has_gap(c, 'xdot', xdot) .or. &
+        has_gap(c, 'input_names', inputs) .or. has_gap(c, 'output_names', ynames) .or. &
+        has_gap(c, 'outputs', outputs) .or. has_gap(c, 'definitions', definitions) .or. &
+        has_gap(c, 'params', params)) return
     if (count(len_trim(states) > 0) /= count(len_trim(xdot) > 0)) then
       call fail(c, 'group &model: the equations model needs one xdot per state_names entry')
       return
     end if
-    if (any(len_trim([xdot, outputs, definitions]) == TIELEN)) then
+    if (any(len_trim([xdot, outputs, definitions, params]) == TIELEN)) then
       call fail(c, 'group &model: an equation is longer than '//itoa(TIELEN - 1)//' characters')
       return
     end if
@@ -410,18 +432,8 @@ contains
       text = text//'u '//trim(inputs(k))//achar(10)
     end do
     do k = 1, count(len_trim(params) > 0)
-      if (index(params(k), '=') > 0) then
-        call split_definition(params(k), name, rhs, ios, iomsg)
-        if (ios == MLID_OK) read (rhs, *, iostat=ios) v
-        if (ios /= MLID_OK .or. .not. ieee_is_finite(v)) then
-          call fail(c, 'group &model: params entry '''//trim(params(k))// &
-                    ''' is not NAME or NAME = number')
-          return
-        end if
-      else
-        name = adjustl(params(k))
-        v = 0.0_wp
-      end if
+      call param_entry(c, params(k), name, v)
+      if (c%status /= MLID_OK) return
       text = text//'p '//trim(name)//achar(10)
       pstart = [pstart, v]
     end do
@@ -438,6 +450,52 @@ contains
     end do
     c%iconst = equations_text_codes(text)
   end subroutine equations_text
+
+  !> A params entry: 'NAME' (start value 0) or 'NAME = value', the value an
+  !> expression of numbers ('-3/2', '2*pi'), never read loosely.
+  subroutine param_entry(c, entry, name, v)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: entry
+    character(len=*), intent(out) :: name
+    real(wp), intent(out) :: v
+    character(len=:), allocatable :: rhs
+    character(len=msg_len) :: iomsg
+    type(expr_t) :: ex
+    real(wp) :: none(1, 0), val(1)
+    integer :: ios
+
+    v = 0.0_wp
+    if (index(entry, '=') == 0) then
+      call split_definition(trim(entry)//' = 0', name, rhs, ios, iomsg)
+    else
+      call split_definition(entry, name, rhs, ios, iomsg)
+      if (ios == MLID_OK) call expr_compile(rhs, [character(len=1) ::], ex, ios, iomsg, &
+                                            noun='variable')
+      if (ios == MLID_OK) then
+        call expr_eval(ex, none, val)
+        v = val(1)
+        if (.not. ieee_is_finite(v)) then
+          ios = MLID_ERR_INPUT
+          iomsg = 'the value is not finite'
+        end if
+      end if
+    end if
+    if (ios /= MLID_OK) call fail(c, 'group &model: params entry '''//trim(entry)//''': '// &
+                                  trim(iomsg))
+  end subroutine param_entry
+
+  !> Whether a list has a blank entry before a filled one (said in one line).
+  logical function has_gap(c, what, list)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: what, list(:)
+    integer :: k
+    has_gap = .false.
+    k = findloc(len_trim(list) == 0, .true., 1)
+    if (k == 0) return
+    has_gap = any(len_trim(list(k + 1:)) > 0)
+    if (has_gap) call fail(c, 'group &model: '//what//'('//itoa(k)//') is empty, and an '// &
+                           'entry after it is not')
+  end function has_gap
 
   !> The model kind and its sizes and constants (a built-in model's sizes
   !> are its own; nx, nu, ny, nw may be left out or must agree).

@@ -4,7 +4,8 @@
 !> equations for flight-path reconstruction, six-degree-of-freedom
 !> aerodynamics, stall models.  Here the user writes them in the expression
 !> language of mlid_expr and mlid differentiates them exactly (reverse mode,
-!> mlid_expr_diff): no Fortran, no rebuild, no finite differences.
+!> mlid_expr_diff): no Fortran, no rebuild, no finite differences (but for
+!> the filter's second derivatives d(dh/dx)/dp, eq_dhdxp).
 !>
 !> The model's text, one item a line (what iconst carries, as character
 !> codes, through the flat interface every kind shares; the deck reader and
@@ -127,6 +128,7 @@ contains
 
     do k = 1, size(codes)
       text(k:k) = achar(codes(k))
+      if (codes(k) == 9 .or. codes(k) == 13) text(k:k) = ' '   ! tabs, CR-LF line ends
     end do
     allocate (items(0))
     status = MLID_OK
@@ -140,7 +142,10 @@ contains
       if (len(line) == 0) cycle
       it%kind = line(1:1)
       it%rhs = ''
-      if (index('xyl', it%kind) > 0 .and. len(line) > 2) then
+      if (len(line) > 2 .and. line(2:2) /= ' ') then
+        status = MLID_ERR_INPUT
+        msg = 'line '''//line//''' is not x|y|l NAME = ..., u NAME or p NAME'
+      else if (index('xyl', it%kind) > 0 .and. len(line) > 2) then
         call split_definition(line(2:), it%name, it%rhs, status, msg)
       else if (index('up', it%kind) > 0 .and. len(line) > 2) then
         it%name = adjustl(line(2:))
@@ -153,10 +158,11 @@ contains
         msg = 'line '''//line//''' is not x|y|l NAME = ..., u NAME or p NAME'
       end if
       if (status == MLID_OK .and. it%kind /= 'y' .and. (to_lower(it%name) == 't' .or. &
-          any(to_lower(items%name) == to_lower(it%name) .and. items%kind /= 'y'))) then
+          to_lower(it%name) == 'pi' .or. &
+          any(items%name == it%name .and. items%kind /= 'y'))) then
         status = MLID_ERR_INPUT
-        msg = 'the name '''//trim(it%name)//''' is given twice (states, inputs, parameters, '// &
-              'definitions and t share one set of names, any case)'
+        msg = 'the name '''//trim(it%name)//''' is given twice or reserved (states, inputs, '// &
+              'parameters, definitions, t and pi share one set of names)'
       end if
       if (status /= MLID_OK) then
         msg = 'equations model: '//msg

@@ -7,10 +7,11 @@
 !> the gradient d/dv by one forward and one reverse sweep (reverse-mode
 !> differentiation), which costs a few evaluations whatever nvar is.
 module mlid_expr_diff
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp
   use mlid_expr, only: expr_t, OP_NUM, OP_VAR, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, &
-                       OP_FUN, FUN_ARGS, F_SIN, F_COS, F_TAN, F_ASIN, F_ACOS, F_ATAN, &
-                       F_ATAN2, F_SQRT, F_ABS, F_EXP, F_LOG, F_LOG10, F_MIN
+                       OP_POW, OP_FUN, FUN_ARGS, F_SIN, F_COS, F_TAN, F_ASIN, F_ACOS, F_ATAN, &
+                       F_ATAN2, F_SQRT, F_ABS, F_EXP, F_LOG, F_LOG10, F_MIN, F_MAX, F_TANH
   implicit none
   private
   public :: code_t, code_expand, code_value, code_gradient, MAXNODE, MAXDEPTH
@@ -215,10 +216,13 @@ contains
       c = a/b
       da = 1.0_wp/b
       db = -c/b
-    case default                                ! OP_POW
+    case (OP_POW)
       if (b == 2.0_wp) then
         c = a*a
         da = 2.0_wp*a
+      else if (b == 0.0_wp) then
+        c = 1.0_wp                              ! a^0, also at a = 0
+        da = 0.0_wp
       else if (b == anint(b) .and. abs(b) < 1.0e6_wp) then
         c = a**nint(b)                          ! integer powers of negative numbers too
         da = b*a**(nint(b) - 1)
@@ -228,6 +232,10 @@ contains
       end if
       db = 0.0_wp
       if (a > 0.0_wp) db = c*log(a)
+    case default                    ! none: the parser makes no other (NaN shows it at once)
+      c = ieee_value(c, ieee_quiet_nan)
+      da = c
+      db = c
     end select
   end subroutine binary
 
@@ -270,9 +278,12 @@ contains
     case (F_LOG10)
       c = log10(a)
       da = 1.0_wp/(a*log(10.0_wp))
-    case default                                ! F_TANH
+    case (F_TANH)
       c = tanh(a)
       da = 1.0_wp - c*c
+    case default                    ! none: every function of mlid_expr is above
+      c = ieee_value(c, ieee_quiet_nan)
+      da = c
     end select
   end subroutine fun1
 
@@ -292,10 +303,14 @@ contains
       c = min(a, b)
       da = merge(1.0_wp, 0.0_wp, a <= b)
       db = 1.0_wp - da
-    case default                                ! F_MAX
+    case (F_MAX)
       c = max(a, b)
       da = merge(1.0_wp, 0.0_wp, a >= b)
       db = 1.0_wp - da
+    case default                    ! none: every function of mlid_expr is above
+      c = ieee_value(c, ieee_quiet_nan)
+      da = c
+      db = c
     end select
   end subroutine fun2
 

@@ -77,6 +77,7 @@ contains
     pure real(wp) function rel(fd, an)
       real(wp), intent(in) :: fd(:), an(:)
       rel = maxval(abs(fd - an))/max(1.0_wp, maxval(abs(an)))
+      if (any(fd /= fd) .or. any(an /= an)) rel = huge(1.0_wp)   ! a NaN is never right
     end function rel
 
   end subroutine check_jacobians

@@ -182,8 +182,10 @@ contains
 
     idx = 0
     s = to_lower(adjustl(name))
-    if (allocated(lt%pnames)) then                 ! an equations model's parameter by its name
-      idx = findloc(to_lower(lt%pnames) == s, .true., 1)
+    if (allocated(lt%pnames)) then    ! an equations model's parameter by its name: exact,
+      idx = findloc(lt%pnames == adjustl(name), .true., 1)       ! else any case when unique
+      if (idx == 0 .and. count(to_lower(lt%pnames) == s) == 1) &
+        idx = findloc(to_lower(lt%pnames) == s, .true., 1)
       if (idx > 0) return
     end if
     p = index(s, '(')

@@ -137,7 +137,7 @@ contains
       integer, intent(out) :: item
       character(len=*), parameter :: WORD = 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ'// &
                                             '0123456789_.'
-      integer :: start, close, ios
+      integer :: start, close, ios, after
       call skip()
       start = p
       value = 0.0_wp
@@ -149,8 +149,9 @@ contains
       end if
       if (verify(text(p:p), 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ') == 0) then
         close = verify(text(p:)//' ', WORD) - 1     ! a bare name (an equations model's own)
-        if (text(min(p + close, len(text)):min(p + close, len(text))) /= '(' .or. &
-            p + close > len(text)) then
+        after = p + close
+        if (after <= len(text)) after = after - 1 + verify(text(after:)//'x', ' ')
+        if (after > len(text) .or. text(min(after, len(text)):min(after, len(text))) /= '(') then
           item = element_index(lt, text(p:p + close - 1))
           if (item == 0) then
             msg = 'tie '''//trim(text)//''': '''//text(p:p + close - 1)//''' is no parameter'

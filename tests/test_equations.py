@@ -109,7 +109,7 @@ def test_parameters_by_name_in_free_ties_and_labels():
     ({"outputs": {"y": "x + zz"}}, "equations model, output y: 'x \\+ zz' at character 5: "
                                    "no variable named zz"),
     ({"outputs": {"y": "x"}, "inputs": ["x"]}, "the name 'x' is given twice"),
-    ({"outputs": {"y": "x"}, "definitions": {"T": "1"}}, "the name 'T' is given twice"),
+    ({"outputs": {"y": "x"}, "definitions": {"t": "1"}}, "the name 't' is given twice"),
     ({"outputs": {"y": "x*(2"}}, "output y: 'x\\*\\(2' at character 5: '\\)' is missing"),
     ({"outputs": {}}, "equations model: no outputs"),
     ({"outputs": {"y": "x"}, "params": {"2b": 0}}, "'2b' is not a name"),
@@ -174,6 +174,15 @@ def test_a_deck_fits_in_both_front_ends(tmp_path):
                                             "the 1 data files needs 1"),
     ("a*x + b*u", "tie = 'b = 2*zz',", "'zz' is no parameter"),
     ("a*x + b*u", "definitions = 'a = 2',", "the name 'a' is given twice"),
+    ("a*x + b*u", "definitions = 'pi = 3',", "the name 'pi' is given twice or reserved"),
+    ("a*x + b*u", "params = 'a = 2 3', 'b',", "params entry 'a = 2 3': '2 3' at character 3: "
+                                            "unexpected '3'"),
+    ("a*x + b*u", "params = 'a = -1.5 junk', 'b',", "params entry 'a = -1.5 junk'"),
+    ("a*x + b*u", "p = 1, 2,", "takes its parameters in params"),
+    ("a*x + b*u", "state_names = 'x', '', 'z',", "state_names\\(2\\) is empty"),
+    ("a*x + b*u", "output_names = 'y', 'z',", "input_names and output_names name every input "
+                                              "and output \\(nu = 1, ny = 1\\) or none"),
+    ("a*x + b*u", "tie = 'b = 2 * a (1)',", "tie 'b = 2 \\* a \\(1\\)': 'a \\(1\\)' is no parameter"),
 ])
 def test_bad_decks_are_one_line_and_the_rest_runs(tmp_path, xdot, extra, message):
     first_order_file(tmp_path / "fo.dat")
@@ -184,3 +193,48 @@ def test_bad_decks_are_one_line_and_the_rest_runs(tmp_path, xdot, extra, message
     bad = [line for line in out.splitlines() if re.search(message, line)]
     assert len(bad) == 1, out
     assert "the next case" in out and "converged" in out
+
+
+def test_params_values_are_expressions_and_one_file_takes_initial_states(tmp_path):
+    """'a = -3/2' is -1.5 (never a list-directed read); initial_states with one
+    data file is that manoeuvre's x0, the same in both front ends."""
+    first_order_file(tmp_path / "fo.dat")
+    deck = tmp_path / "fo.nml"
+    deck.write_text(DECK.format(xdot="a*x + b*u", extra="initial_states = 0.25,")
+                    .replace("'a = -1.5', 'b = 0.5'", "'a = -3/2', 'b = 2^-1'"))
+    run_both(deck, tmp_path)
+    case = mlid.read_deck(deck)[0]
+    assert list(case.model.p) == [-1.5, 0.5]
+    assert case.model.x0[0] == 0.25 or case.options()["initial_states"][0][0] == 0.25
+
+
+def test_a_simulate_case_refuses_initial_states(tmp_path):
+    deck = tmp_path / "s.nml"
+    deck.write_text("""&case title = 's', job = 'simulate' /
+&model kind = 'equations', state_names = 'x', input_names = 'u', params = 'a = -1',
+    xdot = 'a*x + u', outputs = 'x', initial_states = 1 /
+&simulate out = 's.dat', t_end = 1, dt = 0.1 /
+""")
+    out = run_both(deck, tmp_path)
+    assert "initial_states is for estimate cases" in out
+
+
+def test_entries_of_another_kind_are_refused(tmp_path):
+    deck = tmp_path / "l.nml"
+    deck.write_text("""&case title = 'l', job = 'simulate' /
+&model kind = 'linear', nx = 1, nu = 1, ny = 1, f = -1, g = 1, h = 1, xdot = 'x' /
+&simulate out = 's.dat', t_end = 1, dt = 0.1 /
+""")
+    assert "xdot, outputs, definitions and params are for kind = 'equations'" in \
+        run_both(deck, tmp_path)
+
+
+def test_power_zero_and_names_in_python():
+    """x^0 has the derivative 0 (not 0*Inf = NaN at x = 0); a name must be
+    one word, and inputs a list."""
+    m = mlid.EquationModel({"y": "x^0 + x^2"}, states={"x": "-x + u^1"}, inputs=["u"])
+    assert max(mlid.check_jacobians(m, [0.0], [0.0]).values()) < 1e-7
+    with pytest.raises(mlid.InputError, match="inputs must be a list"):
+        mlid.EquationModel({"y": "d"}, inputs="de")
+    with pytest.raises(mlid.InputError, match="is not a name"):
+        mlid.EquationModel({"y": "k"}, params={"k\nx b = 1": 1.0})

@@ -47,8 +47,10 @@ class Case:
         n, holdout = _api.mlid_deck_case_holdout(k, max(nfile, 1))
         self.holdout = [int(j) for j in holdout[:n]]   # validate: the files predicted
         n, x0 = _api.mlid_deck_case_initial_states(k, max(nx, 1) * max(nfile, 1))
-        if n:                                          # each manoeuvre's own x0
+        if n and nfile > 1:                            # each manoeuvre's own x0
             self._options["initial_states"] = list(x0[:n].reshape(-1, nx))
+        elif n:
+            self.model.x0 = x0[:n]
         if self.job == "simulate":
             t, u, self.seed, out, status, msg = _api.mlid_deck_case_time_input(k, nu, nt)
             self._time_input, self.out = (t, u.T.copy()), _text(out)

@@ -736,6 +736,12 @@ class EquationModel(Model):
                  bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
                  S=None, ties=None):
         params = dict(params or {})
+        if isinstance(inputs, (str, bytes)):
+            raise InputError(f"inputs must be a list of names, got the string {inputs!r}")
+        names_given = [*inputs, *params, *(definitions or {}), *(states or {}), *outputs]
+        for n in names_given:
+            if not isinstance(n, str) or not n or any(c.isspace() for c in n):
+                raise InputError(f"equations model: {n!r} is not a name")
         lines = ([f"u {n}" for n in inputs] + [f"p {n}" for n in params]
                  + [f"l {n} = {_one_line(e)}" for n, e in (definitions or {}).items()]
                  + [f"x {n} = {_one_line(e)}" for n, e in (states or {}).items()]
@@ -770,8 +776,12 @@ class EquationModel(Model):
             No such parameter or element.
         """
         sl = self._layout.slice("p")
-        own = {lab.lower(): e for e, lab in zip(self._layout.names[sl], self._layout.labels[sl])}
-        return own.get(str(name).strip().lower()) or super().canonical_name(name)
+        own = dict(zip(self._layout.labels[sl], self._layout.names[sl]))
+        key = str(name).strip()
+        if key in own:                          # exact, else any case when unique
+            return own[key]
+        alike = [e for lab, e in own.items() if lab.lower() == key.lower()]
+        return alike[0] if len(alike) == 1 else super().canonical_name(name)
 
 
 def _one_line(expression):
