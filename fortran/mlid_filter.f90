@@ -28,7 +28,7 @@
 module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_SINGULAR, &
-                        MLID_ERR_NOCONV
+                        MLID_ERR_NOCONV, first_failure
   use mlid_linalg, only: chol_inverse
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
@@ -92,15 +92,7 @@ contains
                       kstat(k), kmsg(k), dy, xhist)
     end do
     !$omp end parallel do
-    status = MLID_OK
-    msg = ''
-    do k = 1, nseg
-      if (kstat(k) /= MLID_OK) then
-        status = kstat(k)
-        msg = kmsg(k)
-        return
-      end if
-    end do
+    call first_failure(kstat, kmsg, status, msg)
   end subroutine oe_predict
 
   !> oe_predict over the samples j0..j1 of segment iseg.

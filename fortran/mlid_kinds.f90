@@ -32,7 +32,7 @@ module mlid_kinds
   integer, parameter, public :: STOP_NO_DECREASE = 5 !< no cost decrease after all halvings
   integer, parameter, public :: STOP_FAILED = 6     !< an error ended the iteration
 
-  public :: stop_reason_text
+  public :: stop_reason_text, first_failure
 
 contains
 
@@ -50,5 +50,21 @@ contains
     case default;            text = 'not started'
     end select
   end function stop_reason_text
+
+  !> The first failure of work done in parallel (item by item, so the
+  !> message does not depend on the threads): its status and message.
+  pure subroutine first_failure(kstat, kmsg, status, msg)
+    integer, intent(in) :: kstat(:)
+    character(len=*), intent(in) :: kmsg(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: k
+    status = MLID_OK
+    msg = ''
+    k = findloc(kstat /= MLID_OK, .true., 1)
+    if (k == 0) return
+    status = kstat(k)
+    msg = kmsg(k)
+  end subroutine first_failure
 
 end module mlid_kinds

@@ -19,7 +19,7 @@
 !>   of f and h.  Without partials the analytic sensitivities hold the gain.
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, first_failure
   use mlid_linalg, only: chol_inverse
   use mlid_models, only: model_t
   use mlid_options, only: options_t
@@ -266,15 +266,8 @@ contains
       deallocate (yh, nup, bi, ld, bp)
     end do
     !$omp end parallel do
-    status = MLID_OK
-    msg = ''
-    do k = 1, pm%nf
-      if (kstat(k) /= MLID_OK) then
-        status = kstat(k)
-        msg = kmsg(k)
-        return
-      end if
-    end do
+    call first_failure(kstat, kmsg, status, msg)
+    if (status /= MLID_OK) return
 
   contains
 

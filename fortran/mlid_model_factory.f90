@@ -71,14 +71,8 @@ contains
       allocate (model, source=aero)
     case (MODEL_USER)
       call user_model_create(iconst, rconst, user, status, msg)
+      if (status == MLID_OK) call sizes_agree('user model', user, nx, nu, ny, nw, status, msg)
       if (status /= MLID_OK) return
-      if (any([user%nx, user%nu, user%ny, user%nw] /= [nx, nu, ny, nw]) .and. &
-          any([nx, nu, ny, nw] /= -1)) then
-        status = MLID_ERR_INPUT
-        write (msg, '(a,4(1x,i0),a,4(1x,i0))') 'user model: nx, nu, ny, nw are', user%nx, &
-          user%nu, user%ny, user%nw, ', not', nx, nu, ny, nw
-        return
-      end if
       allocate (model, source=user)
     case (MODEL_X22)
       if (any([nx, nu, ny, nw] /= [4, 1, 7, 3]) .and. any([nx, nu, ny, nw] /= -1)) then
@@ -92,19 +86,28 @@ contains
       allocate (model, source=x22)
     case (MODEL_EQUATIONS)
       call equations_create(iconst, rconst, eqs, status, msg)
+      if (status == MLID_OK) call sizes_agree('equations model', eqs, nx, nu, ny, nw, status, msg)
       if (status /= MLID_OK) return
-      if (any([eqs%nx, eqs%nu, eqs%ny, eqs%nw] /= [nx, nu, ny, nw]) .and. &
-          any([nx, nu, ny, nw] /= -1)) then
-        status = MLID_ERR_INPUT
-        write (msg, '(a,4(1x,i0),a,4(1x,i0))') 'equations model: nx, nu, ny, nw are', eqs%nx, &
-          eqs%nu, eqs%ny, eqs%nw, ', not', nx, nu, ny, nw
-        return
-      end if
       allocate (model, source=eqs)
     case default
       status = MLID_ERR_INPUT
       write (msg, '(a,i0)') 'unknown model kind ', kind
     end select
   end subroutine model_create
+
+  !> A model whose sizes are its own against the sizes asked (all -1: any).
+  subroutine sizes_agree(what, m, nx, nu, ny, nw, status, msg)
+    character(len=*), intent(in) :: what
+    class(model_t), intent(in) :: m
+    integer, intent(in) :: nx, nu, ny, nw
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    status = MLID_OK
+    msg = ''
+    if (all([nx, nu, ny, nw] == -1) .or. all([m%nx, m%nu, m%ny, m%nw] == [nx, nu, ny, nw])) return
+    status = MLID_ERR_INPUT
+    write (msg, '(a,4(1x,i0),a,4(1x,i0))') what//': nx, nu, ny, nw are', m%nx, m%nu, m%ny, &
+      m%nw, ', not', nx, nu, ny, nw
+  end subroutine sizes_agree
 
 end module mlid_model_factory

@@ -148,20 +148,13 @@ contains
         return
       end if
       if (verify(text(p:p), 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ') == 0) then
-        close = verify(text(p:)//' ', WORD) - 1     ! a bare name (an equations model's own)
+        ! a bare name (an equations model's own), or key(i) / key(i,j)
+        close = verify(text(p:)//' ', WORD) - 1
         after = p + close
         if (after <= len(text)) after = after - 1 + verify(text(after:)//'x', ' ')
-        if (after > len(text) .or. text(min(after, len(text)):min(after, len(text))) /= '(') then
-          item = element_index(lt, text(p:p + close - 1))
-          if (item == 0) then
-            msg = 'tie '''//trim(text)//''': '''//text(p:p + close - 1)//''' is no parameter'
-            return
-          end if
-          p = p + close
-          ok = .true.
-          return
+        if (after <= len(text)) then
+          if (text(after:after) == '(') close = index(text(p:), ')')
         end if
-        close = index(text(p:), ')')
         if (close == 0) then
           write (msg, '(a,i0)') 'tie '''//trim(text)//''': a parameter name needs (i) or '// &
             '(i,j) at character ', p

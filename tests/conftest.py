@@ -1,6 +1,8 @@
 """Shared fixtures.  The tests import the installed mlid (the venv), never
 the checkout: a broken install must fail here."""
 
+import json
+import subprocess
 import sys
 from pathlib import Path
 
@@ -67,3 +69,27 @@ def finite_difference(fn, theta, idx, rel=1e-6, floor=1.0, five_point=False):
             d = (4 * d - d2) / 3
         out.append(d)
     return np.array(out)
+
+
+def both_front_ends_json(deck, tmp_path):
+    """Run a deck through `mlid run` and mlid-batch; assert the same report
+    and the same JSON, and return the first case's JSON object."""
+    runs = [subprocess.run([str(BIN / exe), *pre, str(deck), "--json", str(tmp_path / f"{exe}.json")],
+                           capture_output=True, text=True)
+            for exe, pre in (("mlid", ["run"]), ("mlid-batch", []))]
+    assert runs[0].returncode == 0 and runs[0].stdout == runs[1].stdout, runs[0].stderr
+    py, fo = (json.loads((tmp_path / f"{exe}.json").read_text())[0]
+              for exe in ("mlid", "mlid-batch"))
+    assert py == fo
+    return py
+
+
+def assert_reproduces(fit, ref):
+    """A fit's JSON object against a reference fit of the textbook software:
+    every estimate within 0.1 sigma, sigma within 5%, det R within 1% (the
+    targets of issue 14)."""
+    assert sorted(fit["parameters"]) == sorted(ref.estimates)
+    for name, value, sigma in zip(fit["parameters"], fit["estimate"], fit["sigma"]):
+        assert abs(value - ref.estimates[name][0]) < 0.1 * ref.estimates[name][1], name
+        assert abs(sigma / ref.estimates[name][1] - 1) < 0.05, name
+    assert abs(fit["det_R"] / ref.det_r - 1) < 0.01

@@ -1,15 +1,12 @@
 """The simulated unstable aircraft (cases/unstable_aircraft, FVSysID test cases
 6, 7, 8): each deck against its reference fit, in both front ends."""
 
-import json
-import subprocess
-
 import numpy as np
 import pytest
 
 import mlid
 from mlid.reference import read_reference
-from conftest import BIN, REPO
+from conftest import REPO, assert_reproduces, both_front_ends_json
 
 DATA = REPO.parent / "shared" / "data"
 HERE = REPO / "cases" / "unstable_aircraft"
@@ -28,18 +25,7 @@ def test_each_deck_reproduces_its_reference_in_both_front_ends(deck, tmp_path):
     such (a stable model), and its deck names no reference."""
     path = HERE / f"{deck}.nml"
     assert ("! reference:" in path.read_text()) == (deck != "tc08")
-    runs = [subprocess.run([str(BIN / exe), *pre, str(path), "--json", str(tmp_path / f"{exe}.json")],
-                           capture_output=True, text=True) for exe, pre in (("mlid", ["run"]),
-                                                                           ("mlid-batch", []))]
-    assert runs[0].returncode == 0 and runs[0].stdout == runs[1].stdout, runs[0].stderr
-    py, fo = (json.loads((tmp_path / f"{exe}.json").read_text())[0]
-              for exe in ("mlid", "mlid-batch"))
-    assert py == fo
-    ref = read_reference(DATA / "refs" / REFS[deck])
-    for name, value, sigma in zip(py["parameters"], py["estimate"], py["sigma"]):
-        assert abs(value - ref.estimates[name][0]) < 0.1 * ref.estimates[name][1], name
-        assert abs(sigma / ref.estimates[name][1] - 1) < 0.05, name
-    assert abs(py["det_R"] / ref.det_r - 1) < 0.01
+    assert_reproduces(both_front_ends_json(path, tmp_path), read_reference(DATA / "refs" / REFS[deck]))
     if deck == "tc08":                     # the wrong, stable model of the book's example
         case = mlid.read_deck(path)[0]
         _, res = mlid.deck.run_case(case)
