@@ -33,6 +33,7 @@ module mlid_api
   use mlid_deck, only: opened, deck_open, case_time_input
   use mlid_case, only: case_t, NAMELEN
   use mlid_text, only: join_lines, split_lines
+  use mlid_sixdof, only: sixdof_parts, SIXDOF_CONSTANTS
   use mlid_record, only: record_check_segments
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, &
                            channels_table, taken, UNITLEN
@@ -56,7 +57,7 @@ module mlid_api
             mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
             mlid_channels_table, mlid_channels_get, mlid_check_time, mlid_parameter_units, &
             mlid_deck_case_holdout, mlid_deck_case_initial_states, mlid_prediction_stats, mlid_report_validation, &
-            mlid_deck_case_ties, mlid_tie_parse, &
+            mlid_deck_case_ties, mlid_tie_parse, mlid_sixdof_text, mlid_sixdof_constants, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
@@ -275,6 +276,41 @@ contains
     call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
     if (status == MLID_OK) call tie_parse(lt, text, to, offset, n, from, scale, status, msg)
   end subroutine mlid_tie_parse
+
+  !> The six-degree-of-freedom model's constants, in their order.
+  subroutine mlid_sixdof_constants(names)
+    character(len=64), intent(out) :: names
+    names = SIXDOF_CONSTANTS
+  end subroutine mlid_sixdof_constants
+
+  !> The six-degree-of-freedom model's own lines (mlid_sixdof) for the
+  !> states, inputs and definitions' names given one a line: what goes
+  !> before the user's definitions, after them, and the state equations.
+  subroutine mlid_sixdof_text(consts, states, inputs, defined, pre, post, xs, status, msg)
+    real(c_double), intent(in) :: consts(9)
+    character(len=*), intent(in) :: states, inputs, defined
+    character(len=16384), intent(out) :: pre, post, xs
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    character(len=:), allocatable :: a, b, x
+    integer :: k
+    call sixdof_parts(consts, lines_of(states), lines_of(inputs), lines_of(defined), &
+                      a, b, x, status, msg)
+    pre = ''
+    post = ''
+    xs = ''
+    if (status /= MLID_OK) return
+    pre = a
+    post = b
+    xs = x
+  contains
+    !> Names given one a line, each line newline-ended.
+    function lines_of(text) result(names)
+      character(len=*), intent(in) :: text
+      character(len=NAMELEN), allocatable :: names(:)
+      names = split_lines(text, count([(text(k:k) == achar(10), k=1, len(text))]), NAMELEN)
+    end function lines_of
+  end subroutine mlid_sixdof_text
 
   !> The files validate case k predicts (numbers into its file list).
   subroutine mlid_deck_case_holdout(k, nmax, n, holdout)

@@ -32,6 +32,7 @@ module mlid_deck
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
                                 MODEL_EQUATIONS
   use mlid_equations, only: equations_text_codes
+  use mlid_sixdof, only: sixdof_parts
   use mlid_expr, only: split_definition, expr_t, expr_compile, expr_eval
   use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
@@ -278,6 +279,8 @@ contains
     character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
     character(len=TIELEN) :: xdot(MAXX), outputs(MAXY), definitions(MAXDEF)
     character(len=TIELEN) :: params(MAXFREE)
+    character(len=TIELEN), allocatable :: xs(:)
+    character(len=:), allocatable :: pre, post
     real(wp) :: initial_states(MAXX*MAXSEG)
     character(len=msg_len) :: iomsg
     integer, allocatable :: codes(:)
@@ -333,18 +336,25 @@ contains
     read (rd%unit, nml=model, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'model', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
-    if (to_lower(kind) == 'equations') then
+    if (any(to_lower(kind) == [character(len=9) :: 'equations', 'sixdof'])) then
       if (any(p /= UNSET) .or. any(user_rconst /= UNSET) .or. any(user_iconst /= -huge(1))) then
-        call fail(c, 'group &model: kind = ''equations'' takes its parameters in params '// &
-                  '(''NAME = value''), not p, user_iconst or user_rconst')
+        call fail(c, 'group &model: kind = '''//trim(kind)//''' takes its parameters in '// &
+                  'params (''NAME = value''), not p, user_iconst or user_rconst')
         return
       end if
-      call equations_text(c, state_names, xdot, input_names, output_names, outputs, &
-                          definitions, params, pstart)
+      if (to_lower(kind) == 'sixdof') then
+        call sixdof_deck(c, constants, state_names, xdot, input_names, definitions, pre, post, xs)
+        if (c%status /= MLID_OK) return
+        call equations_text(c, state_names, xs, input_names, output_names, outputs, &
+                            definitions, params, pstart, pre, post)
+      else
+        call equations_text(c, state_names, xdot, input_names, output_names, outputs, &
+                            definitions, params, pstart)
+      end if
       if (c%status /= MLID_OK) return
     else if (any(len_trim([xdot, outputs, definitions, params]) > 0)) then
       call fail(c, 'group &model: xdot, outputs, definitions and params are for kind = '// &
-                '''equations'', not '''//trim(kind)//'''')
+                '''equations'' or ''sixdof'', not '''//trim(kind)//'''')
       return
     end if
     call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], constants, &
@@ -404,11 +414,12 @@ contains
   !> and their derivatives, inputs, parameters ('NAME' or 'NAME = start
   !> value', in the order of p), definitions and outputs.
   subroutine equations_text(c, states, xdot, inputs, ynames, outputs, definitions, params, &
-                            pstart)
+                            pstart, pre, post)
     type(case_t), intent(inout) :: c
     character(len=*), intent(in) :: states(:), xdot(:), inputs(:), ynames(:), outputs(:), &
                                     definitions(:), params(:)
     real(wp), allocatable, intent(out) :: pstart(:)
+    character(len=*), intent(in), optional :: pre, post   !< lines around the definitions (sixdof)
     character(len=:), allocatable :: text
     character(len=NAMELEN) :: name
     integer :: k
@@ -437,9 +448,11 @@ contains
       text = text//'p '//trim(name)//achar(10)
       pstart = [pstart, v]
     end do
+    if (present(pre)) text = text//pre
     do k = 1, count(len_trim(definitions) > 0)
       text = text//'l '//trim(definitions(k))//achar(10)
     end do
+    if (present(post)) text = text//post
     do k = 1, count(len_trim(xdot) > 0)
       text = text//'x '//trim(states(k))//' = '//trim(xdot(k))//achar(10)
     end do
@@ -450,6 +463,44 @@ contains
     end do
     c%iconst = equations_text_codes(text)
   end subroutine equations_text
+
+  !> kind = 'sixdof': the rigid-body lines of mlid_sixdof around the deck's
+  !> definitions, and the state equations (xs) in the order of state_names.
+  subroutine sixdof_deck(c, constants, states, xdot, inputs, definitions, pre, post, xs)
+    type(case_t), intent(inout) :: c
+    real(wp), intent(in) :: constants(:)
+    character(len=*), intent(in) :: states(:), xdot(:), inputs(:), definitions(:)
+    character(len=:), allocatable, intent(out) :: pre, post
+    character(len=TIELEN), allocatable, intent(out) :: xs(:)
+    character(len=:), allocatable :: lines
+    character(len=NAMELEN) :: defined(size(definitions))
+    character(len=msg_len) :: iomsg
+    integer :: k, a, b, ios
+
+    allocate (xs(0))
+    if (any(len_trim(xdot) > 0)) then
+      call fail(c, 'group &model: kind = ''sixdof'' writes the state equations itself (no xdot)')
+      return
+    end if
+    defined = ''
+    do k = 1, size(definitions)
+      a = index(definitions(k), '=')
+      if (a > 1) defined(k) = adjustl(definitions(k)(1:a - 1))
+    end do
+    call sixdof_parts(pack(constants, constants /= UNSET), pack(states, len_trim(states) > 0), &
+                      pack(inputs, len_trim(inputs) > 0), pack(defined, len_trim(defined) > 0), &
+                      pre, post, lines, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &model: '//trim(iomsg))
+      return
+    end if
+    a = 1                                   ! 'x NAME = EXPR' lines -> the EXPRs
+    do while (a < len(lines))
+      b = a + index(lines(a:), achar(10)) - 1
+      xs = [xs, lines(a + index(lines(a:b), '=') + 1:b - 1)]
+      a = b + 1
+    end do
+  end subroutine sixdof_deck
 
   !> A params entry: 'NAME' (start value 0) or 'NAME = value', the value an
   !> expression of numbers ('-3/2', '2*pi'), never read loosely.
@@ -512,7 +563,9 @@ contains
 
     ncoef = 0
     allocate (codes(0), c%rconst(0))
-    if (to_lower(kind) /= 'equations' .or. .not. allocated(c%iconst)) c%iconst = [integer ::]
+    ! an equations (or sixdof) model's text is already in iconst
+    if (all(to_lower(kind) /= [character(len=9) :: 'equations', 'sixdof']) .or. &
+        .not. allocated(c%iconst)) c%iconst = [integer ::]
     select case (to_lower(kind))
     case ('linear')
       c%mkind = MODEL_LINEAR
@@ -532,11 +585,11 @@ contains
       c%rconst = pack(user_rconst, user_rconst /= UNSET)
     case ('x22')
       c%mkind = MODEL_X22
-    case ('equations')
+    case ('equations', 'sixdof')          ! a six-degree-of-freedom model is written as equations
       c%mkind = MODEL_EQUATIONS
     case default
       call fail(c, 'group &model: unknown kind '''//trim(kind)//''' (available: linear, '// &
-                'longitudinal, x22, user, equations)')
+                'longitudinal, x22, user, equations, sixdof)')
       return
     end select
     if (c%mkind /= MODEL_LINEAR) then

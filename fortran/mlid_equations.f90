@@ -157,7 +157,7 @@ contains
         status = MLID_ERR_INPUT
         msg = 'line '''//line//''' is not x|y|l NAME = ..., u NAME or p NAME'
       end if
-      if (status == MLID_OK .and. it%kind /= 'y' .and. (to_lower(it%name) == 't' .or. &
+      if (status == MLID_OK .and. it%kind /= 'y' .and. (it%name == 't' .or. &
           to_lower(it%name) == 'pi' .or. &
           any(items%name == it%name .and. items%kind /= 'y'))) then
         status = MLID_ERR_INPUT

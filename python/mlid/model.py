@@ -735,21 +735,27 @@ class EquationModel(Model):
     def __init__(self, outputs, states=None, inputs=(), params=None, definitions=None, x0=None,
                  bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
                  S=None, ties=None):
-        params = dict(params or {})
+        self._build(outputs, states or {}, inputs, params, definitions, "", "",
+                    (x0, bias, q, r, S, free, names, ties, input_hold, substeps))
+
+    def _build(self, outputs, states, inputs, params, definitions, pre, post, common):
+        """The model's text from its parts (pre and post: lines a generator
+        puts around the definitions), then the layout and parameters."""
+        params, definitions = dict(params or {}), dict(definitions or {})
         if isinstance(inputs, (str, bytes)):
             raise InputError(f"inputs must be a list of names, got the string {inputs!r}")
-        names_given = [*inputs, *params, *(definitions or {}), *(states or {}), *outputs]
-        for n in names_given:
+        for n in [*inputs, *params, *definitions, *states, *outputs]:
             if not isinstance(n, str) or not n or any(c.isspace() for c in n):
                 raise InputError(f"equations model: {n!r} is not a name")
-        lines = ([f"u {n}" for n in inputs] + [f"p {n}" for n in params]
-                 + [f"l {n} = {_one_line(e)}" for n, e in (definitions or {}).items()]
-                 + [f"x {n} = {_one_line(e)}" for n, e in (states or {}).items()]
+        lines = ([f"u {n}" for n in inputs] + [f"p {n}" for n in params] + [pre]
+                 + [f"l {n} = {_one_line(e)}" for n, e in definitions.items()] + [post]
+                 + [f"x {n} = {_one_line(e)}" for n, e in states.items()]
                  + [f"y {n} = {_one_line(e)}" for n, e in outputs.items()])
-        self.iconst = np.frombuffer("\n".join(lines).encode(), dtype=np.uint8).astype(np.int32)
+        text = "\n".join(line.rstrip("\n") for line in lines if line)
+        self.iconst = np.frombuffer(text.encode(), dtype=np.uint8).astype(np.int32)
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
         self.p = np.asarray(list(params.values()), dtype=float)
-        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
+        self._init_common(*common)
 
     @property
     def text(self):
@@ -782,6 +788,69 @@ class EquationModel(Model):
             return own[key]
         alike = [e for lab, e in own.items() if lab.lower() == key.lower()]
         return alike[0] if len(alike) == 1 else super().canonical_name(name)
+
+
+#: The six-degree-of-freedom model's constants, in the core's order (mlid_sixdof).
+SIXDOF_CONSTANTS = tuple(n.strip() for n in
+                         _api.mlid_sixdof_constants().decode().strip().split(","))
+
+
+@_documented
+@guarded_class
+class SixDofModel(EquationModel):
+    """The six-degree-of-freedom rigid aircraft in body axes
+    (fortran/mlid_sixdof.f90), written out as an equations model: states any
+    of u, v, w, p, q, r, phi, theta, psi, h; the aerodynamic coefficients
+    are definitions over the air data it provides (V, alpha, beta, phat,
+    qhat, rhat), the inputs and the parameters.  It adds qbar, the specific
+    forces at the centre of gravity ax, ay, az, the moments and pdot, qdot,
+    rdot, usable in the outputs.  A kinematic quantity (u ... theta) that is
+    not a state must be an input: the decoupled forms.
+
+    Parameters
+    ----------
+    constants : dict
+        m [kg], Ix, Iy, Iz, Ixz [kg m^2], S [m^2], cbar, b [m], g [m/s^2].
+    states : sequence of str
+        The states, in order.
+    outputs : dict
+        {name: expression} of each output ('alpha', 'ay', 'pdot', ...).
+    inputs : sequence of str, optional
+        The inputs' names, in the order of the data's input channels.
+    params : dict, optional
+        {name: start value} of each model parameter.
+    definitions : dict, optional
+        The coefficients CX, CZ (or CD, CL), CY, Cl, Cm, Cn as the states
+        need them, rho, and optionally thrust T, its inclination sigT and
+        moment arm lT, with any intermediate quantities, in order.
+    {common}
+
+    Raises
+    ------
+    {raises}
+        Also a constant missing or not positive, an inertia matrix that is
+        not positive definite, an unknown state, a kinematic quantity neither
+        state nor input, a coefficient a state needs left undefined.
+    """
+
+    def __init__(self, constants, states, outputs, inputs=(), params=None, definitions=None,
+                 x0=None, bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None,
+                 r=None, S=None, ties=None):
+        missing = [k for k in SIXDOF_CONSTANTS if k not in constants]
+        if missing or len(constants) != len(SIXDOF_CONSTANTS):
+            raise InputError(f"constants must give {', '.join(SIXDOF_CONSTANTS)}; "
+                             f"missing {missing or 'none'}, unknown "
+                             f"{sorted(set(constants) - set(SIXDOF_CONSTANTS)) or 'none'}")
+        definitions = dict(definitions or {})
+        pre, post, xs, status, msg = _api.mlid_sixdof_text(
+            [float(constants[k]) for k in SIXDOF_CONSTANTS], "".join(f"{n}\n" for n in states),
+            "".join(f"{n}\n" for n in inputs), "".join(f"{n}\n" for n in definitions))
+        check_status(status, msg)
+        equations = dict(line[2:].split(" = ", 1) for line in xs.decode().strip().split("\n")
+                         if line.strip())
+        self._build(outputs, equations, inputs, params, definitions, pre.decode().strip(),
+                    post.decode().strip(), (x0, bias, q, r, S, free, names, ties, input_hold,
+                                            substeps))
 
 
 def _one_line(expression):
