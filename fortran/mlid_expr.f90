@@ -1,7 +1,8 @@
 !> A small, safe expression language for derived channels, the same in
 !> both front ends: numbers, channel names (exact, else case-insensitive
 !> when unique), + - * / ^, unary minus, parentheses, pi, and the functions
-!> sin cos tan asin acos atan atan2 sqrt abs exp log log10 min max tanh.
+!> sin cos tan asin acos atan atan2 sqrt abs exp log log10 min max tanh
+!> step (1 where the argument is > 0, else 0: switches and breakpoints).
 !> Nothing is executed but this arithmetic.  An expression is compiled
 !> once to postfix code (recursive descent) and evaluated on whole columns.
 !> Precedence: ^ (right-associative) above unary minus above * / above + -,
@@ -14,7 +15,7 @@ module mlid_expr
   public :: expr_t, expr_compile, expr_eval, expr_uses, split_definition, is_name
   public :: OP_NUM, OP_VAR, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_FUN, FUN_ARGS
   public :: F_SIN, F_COS, F_TAN, F_ASIN, F_ACOS, F_ATAN, F_ATAN2, F_SQRT, F_ABS, F_EXP, F_LOG, &
-            F_LOG10, F_MIN, F_MAX, F_TANH
+            F_LOG10, F_MIN, F_MAX, F_TANH, F_STEP
 
   ! Postfix operations.
   integer, parameter :: OP_NUM = 1, OP_VAR = 2, OP_NEG = 3, OP_ADD = 4, OP_SUB = 5, &
@@ -22,11 +23,12 @@ module mlid_expr
   ! Functions: their numbers (the arg of OP_FUN), names and argument counts.
   integer, parameter :: F_SIN = 1, F_COS = 2, F_TAN = 3, F_ASIN = 4, F_ACOS = 5, F_ATAN = 6, &
                         F_ATAN2 = 7, F_SQRT = 8, F_ABS = 9, F_EXP = 10, F_LOG = 11, &
-                        F_LOG10 = 12, F_MIN = 13, F_MAX = 14, F_TANH = 15
-  integer, parameter :: NFUN = 15
+                        F_LOG10 = 12, F_MIN = 13, F_MAX = 14, F_TANH = 15, F_STEP = 16
+  integer, parameter :: NFUN = 16
   character(len=5), parameter :: FUN_NAME(NFUN) = [character(len=5) :: 'sin', 'cos', 'tan', &
-    'asin', 'acos', 'atan', 'atan2', 'sqrt', 'abs', 'exp', 'log', 'log10', 'min', 'max', 'tanh']
-  integer, parameter :: FUN_ARGS(NFUN) = [1, 1, 1, 1, 1, 1, 2, 1, 1, 1, 1, 1, 2, 2, 1]
+    'asin', 'acos', 'atan', 'atan2', 'sqrt', 'abs', 'exp', 'log', 'log10', 'min', 'max', 'tanh', &
+    'step']
+  integer, parameter :: FUN_ARGS(NFUN) = [1, 1, 1, 1, 1, 1, 2, 1, 1, 1, 1, 1, 2, 2, 1, 1]
   integer, parameter :: MAXCODE = 512
 
   !> A compiled expression: postfix code over the channels it was compiled against.
@@ -248,7 +250,7 @@ contains
     if (f == 0) then
       ps%p = at
       call fail(ps, 'unknown function '//word//' (functions: sin cos tan asin acos atan '// &
-                'atan2 sqrt abs exp log log10 min max tanh)')
+                'atan2 sqrt abs exp log log10 min max tanh step)')
       return
     end if
     call advance(ps)
@@ -461,6 +463,8 @@ contains
         x = log10(x)
       case ('tanh')
         x = tanh(x)
+      case ('step')
+        x = merge(1.0_wp, 0.0_wp, x > 0.0_wp)
       case ('atan2')
         st(:, top - 1) = atan2(st(:, top - 1), x)
       case ('min')

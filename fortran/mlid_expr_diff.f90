@@ -11,7 +11,7 @@ module mlid_expr_diff
   use mlid_kinds, only: wp
   use mlid_expr, only: expr_t, OP_NUM, OP_VAR, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, &
                        OP_POW, OP_FUN, FUN_ARGS, F_SIN, F_COS, F_TAN, F_ASIN, F_ACOS, F_ATAN, &
-                       F_ATAN2, F_SQRT, F_ABS, F_EXP, F_LOG, F_LOG10, F_MIN, F_MAX, F_TANH
+                       F_ATAN2, F_SQRT, F_ABS, F_EXP, F_LOG, F_LOG10, F_MIN, F_MAX, F_TANH, F_STEP
   implicit none
   private
   public :: code_t, code_expand, code_value, code_gradient, MAXNODE, MAXDEPTH
@@ -281,6 +281,9 @@ contains
     case (F_TANH)
       c = tanh(a)
       da = 1.0_wp - c*c
+    case (F_STEP)                     ! a switch: flat on either side
+      c = merge(1.0_wp, 0.0_wp, a > 0.0_wp)
+      da = 0.0_wp
     case default                    ! none: every function of mlid_expr is above
       c = ieee_value(c, ieee_quiet_nan)
       da = c

@@ -6,9 +6,9 @@
 !> module provides (V, alpha, beta, phat = p b/2V, qhat = q cbar/2V,
 !> rhat = r b/2V), the inputs and the parameters: either C_X and C_Z (body
 !> axes) or C_D and C_L (stability axes), and C_Y, C_l, C_m, C_n as the
-!> states need them; and rho (a constant or an input), optionally thrust T
-!> with its inclination sigT (rad, nose up) and pitching-moment arm lT (m,
-!> M_T = lT T).  This module adds the rest:
+!> states need them; and rho, optionally thrust T with its inclination sigT
+!> (rad, nose up) and pitching-moment arm lT (m, M_T = lT T), each a
+!> definition or an input.  This module adds the rest:
 !>
 !>   before the user's definitions: the constants m, Ix, Iy, Iz, Ixz, S,
 !>     cbar, b, g and the air data;
@@ -76,7 +76,7 @@ contains
     pre = pre//'l V = sqrt(u^2 + v^2 + w^2)'//achar(10)//'l alpha = atan2(w, u)'//achar(10)// &
           'l beta = asin(v/V)'//achar(10)//'l phat = p*b/(2*V)'//achar(10)// &
           'l qhat = q*cbar/(2*V)'//achar(10)//'l rhat = r*b/(2*V)'//achar(10)
-    have = ' '//join(defined)//' '
+    have = ' '//join(defined)//' '//join(unames)//' '   ! a definition or an input
     if (has(have, 'CD')) post = post//'l CX = -CD*cos(alpha) + CL*sin(alpha)'//achar(10)// &
                                 'l CZ = -CD*sin(alpha) - CL*cos(alpha)'//achar(10)
     post = post//'l qbar = 0.5*rho*V^2'//achar(10)
@@ -120,7 +120,7 @@ contains
             '(Ix Iz - Ixz^2 <= 0)'
     end if
     if (len_trim(msg) > 0) return
-    have = ' '//join(defined)//' '
+    have = ' '//join(defined)//' '//join(unames)//' '   ! a definition or an input
     do k = 1, size(xnames)
       i = findloc(STATES, trim(xnames(k)), 1)
       if (i == 0) then

@@ -17,7 +17,8 @@ EVERYTHING = dict(
     states={"x1": "-a*x1 + s2/3 + sin(x2)*cos(s1) - tan(0.3*x1) + tanh(b*x2) + t*u1",
             "x2": "asin(0.5*x1) + acos(0.4*x2) + atan(s1) + atan2(x2, 1 + x1) "
                   "- sqrt(1 + s1^2) + abs(x1 - 0.1) + exp(-c*x2) + log(2 + x1) "
-                  "+ log10(3 + b*x2) + min(x1, x2) + max(s1, 0) + (-x1)^2"},
+                  "+ log10(3 + b*x2) + min(x1, x2) + max(s1, 0) + (-x1)^2 "
+                  "+ step(x1 - 0.25)*a*x2"},
     outputs={"y1": "x1/(1 + x2^2)", "y2": "a*b*x2 - u1*x1", "y3": "-(x1 + 2*b)^3"},
     inputs=["u1"], params={"a": 0.7, "b": 1.3})
 
