@@ -32,8 +32,10 @@ module mlid_api
   use mlid_inputs, only: input_signal
   use mlid_deck, only: opened, deck_open, case_time_input
   use mlid_case, only: case_t, NAMELEN
-  use mlid_text, only: join_lines, split_lines
+  use mlid_text, only: join_lines, split_lines, name_lines, joined
   use mlid_sixdof, only: sixdof_parts, SIXDOF_CONSTANTS
+  use mlid_flightpath, only: flightpath_text, FLIGHTPATH_CONSTANTS, FLIGHTPATH_CORRECTIONS, &
+                             FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
   use mlid_record, only: record_check_segments
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, &
                            channels_table, taken, UNITLEN
@@ -58,6 +60,7 @@ module mlid_api
             mlid_channels_table, mlid_channels_get, mlid_check_time, mlid_parameter_units, &
             mlid_deck_case_holdout, mlid_deck_case_initial_states, mlid_prediction_stats, mlid_report_validation, &
             mlid_deck_case_ties, mlid_tie_parse, mlid_sixdof_text, mlid_sixdof_constants, &
+            mlid_flightpath_lists, mlid_flightpath_model_text, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
@@ -293,9 +296,11 @@ contains
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     character(len=:), allocatable :: a, b, x
-    integer :: k
-    call sixdof_parts(consts, lines_of(states), lines_of(inputs), lines_of(defined), &
-                      a, b, x, status, msg)
+    character(len=NAMELEN), allocatable :: xn(:), un(:), dn(:)
+    call name_lines(states, xn)
+    call name_lines(inputs, un)
+    call name_lines(defined, dn)
+    call sixdof_parts(consts, xn, un, dn, a, b, x, status, msg)
     pre = ''
     post = ''
     xs = ''
@@ -303,14 +308,34 @@ contains
     pre = a
     post = b
     xs = x
-  contains
-    !> Names given one a line, each line newline-ended.
-    function lines_of(text) result(names)
-      character(len=*), intent(in) :: text
-      character(len=NAMELEN), allocatable :: names(:)
-      names = split_lines(text, count([(text(k:k) == achar(10), k=1, len(text))]), NAMELEN)
-    end function lines_of
   end subroutine mlid_sixdof_text
+
+  !> The flight-path model's constants, corrections, outputs and inputs,
+  !> each list comma-separated in its order (mlid_flightpath).
+  subroutine mlid_flightpath_lists(constants, corrections, outputs, inputs)
+    character(len=256), intent(out) :: constants, corrections, outputs, inputs
+    constants = FLIGHTPATH_CONSTANTS
+    corrections = joined(FLIGHTPATH_CORRECTIONS)
+    outputs = joined(FLIGHTPATH_OUTPUTS)
+    inputs = joined(FLIGHTPATH_INPUTS)
+  end subroutine mlid_flightpath_lists
+
+  !> The flight-path model's text (mlid_flightpath) for its constants, the
+  !> corrections present and the outputs, names given one a line.
+  subroutine mlid_flightpath_model_text(consts, corrections, outputs, text, status, msg)
+    real(c_double), intent(in) :: consts(7)
+    character(len=*), intent(in) :: corrections, outputs
+    character(len=16384), intent(out) :: text
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    character(len=:), allocatable :: a
+    character(len=NAMELEN), allocatable :: pn(:), yn(:)
+    call name_lines(corrections, pn)
+    call name_lines(outputs, yn)
+    call flightpath_text(consts, pn, yn, a, status, msg)
+    text = ''
+    if (status == MLID_OK) text = a
+  end subroutine mlid_flightpath_model_text
 
   !> The files validate case k predicts (numbers into its file list).
   subroutine mlid_deck_case_holdout(k, nmax, n, holdout)

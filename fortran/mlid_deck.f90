@@ -9,7 +9,8 @@
 !>             params (equations), x0, bias, q, r, s (noise
 !>             variances, cross-covariance row by row), free, names, tie,
 !>             input_hold, substeps, state_names, input_names, output_names,
-!>             initial_states (nx per manoeuvre, manoeuvre after manoeuvre)
+!>             initial_states (nx per manoeuvre, manoeuvre after manoeuvre),
+!>             delay (each output's time delay, s)
 !>   &data     file, time_col, input_cols, output_cols (numbers or names),
 !>             skip_rows, columns, units, derived, t_start, t_end,
 !>             holdout (validate: the files predicted, not fitted), dt (a uniform
@@ -33,6 +34,7 @@ module mlid_deck
                                 MODEL_EQUATIONS
   use mlid_equations, only: equations_text_codes
   use mlid_sixdof, only: sixdof_parts
+  use mlid_flightpath, only: flightpath_text, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
   use mlid_expr, only: split_definition, expr_t, expr_compile, expr_eval
   use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
@@ -281,7 +283,7 @@ contains
     character(len=TIELEN) :: params(MAXFREE)
     character(len=TIELEN), allocatable :: xs(:)
     character(len=:), allocatable :: pre, post
-    real(wp) :: initial_states(MAXX*MAXSEG)
+    real(wp) :: initial_states(MAXX*MAXSEG), delay(MAXY)
     character(len=msg_len) :: iomsg
     integer, allocatable :: codes(:)
     real(wp), allocatable :: pstart(:)
@@ -290,7 +292,7 @@ contains
     namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, k, bx, x0, bias, q, r, s, free, names, &
       tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
       cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst, &
-      xdot, outputs, definitions, params, initial_states
+      xdot, outputs, definitions, params, initial_states, delay
 
     kind = 'linear'
     nx = 0
@@ -332,29 +334,34 @@ contains
     definitions = ''
     params = ''
     initial_states = UNSET
+    delay = UNSET
     rewind (rd%unit)
     read (rd%unit, nml=model, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'model', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
-    if (any(to_lower(kind) == [character(len=9) :: 'equations', 'sixdof'])) then
+    if (written_as_equations(kind)) then
       if (any(p /= UNSET) .or. any(user_rconst /= UNSET) .or. any(user_iconst /= -huge(1))) then
         call fail(c, 'group &model: kind = '''//trim(kind)//''' takes its parameters in '// &
                   'params (''NAME = value''), not p, user_iconst or user_rconst')
         return
       end if
-      if (to_lower(kind) == 'sixdof') then
+      select case (to_lower(kind))
+      case ('sixdof')
         call sixdof_deck(c, constants, state_names, xdot, input_names, definitions, pre, post, xs)
         if (c%status /= MLID_OK) return
         call equations_text(c, state_names, xs, input_names, output_names, outputs, &
                             definitions, params, pstart, pre, post)
-      else
+      case ('flight_path')
+        call flightpath_deck(c, constants, state_names, xdot, input_names, output_names, &
+                             outputs, definitions, params, pstart)
+      case default
         call equations_text(c, state_names, xdot, input_names, output_names, outputs, &
                             definitions, params, pstart)
-      end if
+      end select
       if (c%status /= MLID_OK) return
     else if (any(len_trim([xdot, outputs, definitions, params]) > 0)) then
       call fail(c, 'group &model: xdot, outputs, definitions and params are for kind = '// &
-                '''equations'' or ''sixdof'', not '''//trim(kind)//'''')
+                '''equations'', ''sixdof'' or ''flight_path'', not '''//trim(kind)//'''')
       return
     end if
     call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], constants, &
@@ -394,6 +401,7 @@ contains
     call put_matrix(c, lt, 'q', q, required=.false.)
     call put_matrix(c, lt, 'r', r, required=.false.)
     call put_matrix(c, lt, 's', s, required=.false.)
+    call put_matrix(c, lt, 'delay', delay, required=.false.)
     if (c%status == MLID_OK) call set_free(c, lt, free, names, free_idx)
     if (c%status == MLID_OK) call set_ties(c, lt, tie)
     if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'input_hold', input_hold)
@@ -502,6 +510,54 @@ contains
     end do
   end subroutine sixdof_deck
 
+  !> The kinds whose model is a text of equations (mlid_equations).
+  logical function written_as_equations(kind)
+    character(len=*), intent(in) :: kind
+    written_as_equations = any(to_lower(kind) == [character(len=11) :: 'equations', 'sixdof', &
+                                                  'flight_path'])
+  end function written_as_equations
+
+  !> kind = 'flight_path': the kinematic model of mlid_flightpath with the
+  !> corrections params names (start values there), the outputs of
+  !> output_names (all seven when none) and its own states and inputs.
+  subroutine flightpath_deck(c, constants, states, xdot, inputs, ynames, outputs, definitions, &
+                             params, pstart)
+    type(case_t), intent(inout) :: c
+    real(wp), intent(in) :: constants(:)
+    character(len=*), intent(in) :: states(:), xdot(:), outputs(:), definitions(:), params(:)
+    character(len=*), intent(inout) :: inputs(:), ynames(:)
+    real(wp), allocatable, intent(out) :: pstart(:)
+    character(len=NAMELEN), allocatable :: pnames(:)
+    character(len=NAMELEN) :: name
+    character(len=:), allocatable :: text
+    character(len=msg_len) :: iomsg
+    real(wp) :: v
+    integer :: k, ios
+
+    allocate (pstart(0), pnames(0))
+    if (any(len_trim([states, xdot, inputs, outputs, definitions]) > 0)) then
+      call fail(c, 'group &model: kind = ''flight_path'' writes its states, inputs and '// &
+                'equations itself (no state_names, xdot, input_names, outputs, definitions)')
+      return
+    end if
+    if (has_gap(c, 'params', params) .or. has_gap(c, 'output_names', ynames)) return
+    do k = 1, count(len_trim(params) > 0)
+      call param_entry(c, params(k), name, v)
+      if (c%status /= MLID_OK) return
+      pnames = [pnames, name]
+      pstart = [pstart, v]
+    end do
+    if (all(len_trim(ynames) == 0)) ynames(1:size(FLIGHTPATH_OUTPUTS)) = FLIGHTPATH_OUTPUTS
+    call flightpath_text(pack(constants, constants /= UNSET), pnames, &
+                         pack(ynames, len_trim(ynames) > 0), text, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &model: '//trim(iomsg))
+      return
+    end if
+    inputs(1:size(FLIGHTPATH_INPUTS)) = FLIGHTPATH_INPUTS
+    c%iconst = equations_text_codes(text)
+  end subroutine flightpath_deck
+
   !> A params entry: 'NAME' (start value 0) or 'NAME = value', the value an
   !> expression of numbers ('-3/2', '2*pi'), never read loosely.
   subroutine param_entry(c, entry, name, v)
@@ -563,9 +619,8 @@ contains
 
     ncoef = 0
     allocate (codes(0), c%rconst(0))
-    ! an equations (or sixdof) model's text is already in iconst
-    if (all(to_lower(kind) /= [character(len=9) :: 'equations', 'sixdof']) .or. &
-        .not. allocated(c%iconst)) c%iconst = [integer ::]
+    ! a model written as equations has its text in iconst already
+    if (.not. written_as_equations(kind) .or. .not. allocated(c%iconst)) c%iconst = [integer ::]
     select case (to_lower(kind))
     case ('linear')
       c%mkind = MODEL_LINEAR
@@ -585,11 +640,11 @@ contains
       c%rconst = pack(user_rconst, user_rconst /= UNSET)
     case ('x22')
       c%mkind = MODEL_X22
-    case ('equations', 'sixdof')          ! a six-degree-of-freedom model is written as equations
+    case ('equations', 'sixdof', 'flight_path')   ! the latter two written as equations
       c%mkind = MODEL_EQUATIONS
     case default
       call fail(c, 'group &model: unknown kind '''//trim(kind)//''' (available: linear, '// &
-                'longitudinal, x22, user, equations, sixdof)')
+                'longitudinal, x22, user, equations, sixdof, flight_path)')
       return
     end select
     if (c%mkind /= MODEL_LINEAR) then
@@ -1038,6 +1093,7 @@ contains
     character(len=16) :: input_shape(MAXU)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
     integer :: seed, ios, o
+    type(layout_table_t) :: lt
     character(len=msg_len) :: iomsg
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
       pulse_width
@@ -1069,7 +1125,12 @@ contains
     call check_simulate(c)
     if (c%status /= MLID_OK) return
     ! noise_std, when given, sets the measurement-noise variances r
-    o = size(c%theta) - c%nw*c%ny - c%ny
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &simulate: '//trim(iomsg))
+      return
+    end if
+    o = lt%off(findloc(lt%key, 'r', 1))
     if (size(c%noise_std) == c%ny) c%theta(o + 1:o + c%ny) = c%noise_std**2
   end subroutine read_simulate_group
 

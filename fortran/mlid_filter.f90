@@ -34,6 +34,7 @@ module mlid_filter
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t
   use mlid_rk, only: rk4_step, rk4_interval
+  use mlid_delay, only: delay_outputs, delay_check
   implicit none
   private
   public :: oe_predict, kf_innovations
@@ -137,6 +138,17 @@ contains
           call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dy(:, :, j), c, d, iseg)
         end if
       end do
+      call delay_check(theta(l%odelay + 1:l%odelay + l%ny), t, j0, j1, iseg, msg)
+      if (len_trim(msg) > 0) then
+        status = MLID_ERR_INPUT
+        return
+      end if
+      if (present(dy)) then                  ! sensors that report late (mlid_delay)
+        call delay_outputs(theta(l%odelay + 1:l%odelay + l%ny), t, j0, j1, yhat, dy, pm%id, &
+                           pm%cd, pm%wd)
+      else
+        call delay_outputs(theta(l%odelay + 1:l%odelay + l%ny), t, j0, j1, yhat)
+      end if
     end associate
   end subroutine oe_segment
 

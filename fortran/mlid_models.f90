@@ -5,11 +5,12 @@
 !> interval and entering like extra inputs.  Every estimator works on the
 !> full parameter vector (offsets in layout_t)
 !>
-!>     theta = [ p(np), x0(nx), bias(ny), q(nw), r(ny), s(nw*ny) ]
+!>     theta = [ p(np), x0(nx), bias(ny), q(nw), r(ny), s(nw*ny), delay(ny) ]
 !>
 !> with q and r the variances of process and measurement noise (diagonal Q
-!> and R) and s their cross-covariance S (nw x ny, column-major).  Initial
-!> states, biases and noise statistics are thus parameters of every model,
+!> and R), s their cross-covariance S (nw x ny, column-major) and delay each
+!> output's time delay (s, mlid_delay).  Initial states, biases, noise
+!> statistics and delays are thus parameters of every model,
 !> free or fixed like any other; the model itself only sees p.
 !> A model whose outputs carry the process noise too (accelerometers, §5.1)
 !> overrides dhdw: y = h + (dh/dw) w, with the w of the interval that
@@ -110,7 +111,7 @@ module mlid_models
   !> segment k.
   type :: layout_t
     integer :: np = 0, nx = 0, ny = 0, nw = 0, nseg = 1
-    integer :: ox0 = 0, obias = 0, oq = 0, or = 0, os = 0, nth = 0
+    integer :: ox0 = 0, obias = 0, oq = 0, or = 0, os = 0, odelay = 0, nth = 0
     integer, allocatable :: seg(:)
   end type layout_t
 
@@ -184,7 +185,8 @@ contains
     l%oq = l%obias + m%ny*l%nseg
     l%or = l%oq + m%nw
     l%os = l%or + m%ny
-    l%nth = l%os + m%nw*m%ny
+    l%odelay = l%os + m%nw*m%ny
+    l%nth = l%odelay + m%ny
   end function model_layout
 
   !> The inputs the aircraft sees: v = u + K x (the recorded u alone when K = 0).

@@ -32,7 +32,8 @@ module mlid_params
     integer, allocatable :: iq(:), cq(:)        !< process-noise variances
     integer, allocatable :: ir(:), cr(:)        !< measurement-noise variances
     integer, allocatable :: is(:), cs(:)        !< cross-covariances
-    real(wp), allocatable :: wm(:), wx0(:), wb(:), wq(:), wr(:), ws(:)
+    integer, allocatable :: id(:), cd(:)        !< output delays
+    real(wp), allocatable :: wm(:), wx0(:), wb(:), wq(:), wr(:), ws(:), wd(:)
   end type param_map_t
 
 contains
@@ -72,6 +73,7 @@ contains
     call block(l%oq, l%nw, pm%iq, pm%cq, pm%wq)
     call block(l%or, l%ny, pm%ir, pm%cr, pm%wr)
     call block(l%os, l%nw*l%ny, pm%is, pm%cs, pm%ws)
+    call block(l%odelay, l%ny, pm%id, pm%cd, pm%wd)
 
   contains
 

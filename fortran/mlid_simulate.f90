@@ -16,6 +16,7 @@ module mlid_simulate
   use mlid_linalg, only: psd_factor
   use mlid_models, only: model_t, layout_t, model_layout
   use mlid_options, only: options_t
+  use mlid_delay, only: delay_outputs, delay_check
   use mlid_rk, only: rk4_interval
   use mlid_random, only: rng_t, rng_seed, rng_normal
   implicit none
@@ -42,6 +43,7 @@ contains
     real(wp) :: x(m%nx)
     integer :: i, j, nw, ny
     integer, allocatable :: none(:)
+    real(wp) :: noise(m%ny, size(t))
 
     status = MLID_ERR_INPUT
     l = model_layout(m)
@@ -99,7 +101,8 @@ contains
       wv = matmul(lsq, z)
       xhist(:, j) = x
       call m%h(t(j), x, u(:, j), theta(1:l%np), y(:, j))
-      y(:, j) = y(:, j) + theta(l%obias + 1:l%obias + ny) + wv(nw + 1:)
+      y(:, j) = y(:, j) + theta(l%obias + 1:l%obias + ny)
+      noise(:, j) = wv(nw + 1:)
       if (nw > 0) then
         call m%dhdw(t(j), x, u(:, j), theta(1:l%np), dhw)
         if (backward) then
@@ -118,6 +121,11 @@ contains
         return
       end if
     end do
+    ! sensors that report late (mlid_delay), then their own noise
+    call delay_check(theta(l%odelay + 1:l%odelay + ny), t, 1, size(t), 1, msg)
+    if (len_trim(msg) > 0) return
+    call delay_outputs(theta(l%odelay + 1:l%odelay + ny), t, 1, size(t), y)
+    y = y + noise
     status = MLID_OK
     msg = ''
   end subroutine simulate_outputs

@@ -5,7 +5,7 @@ module mlid_text
   use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: to_lower, itoa, joined, join_lines, split_lines, text_lines, read_text, line_t, &
+  public :: to_lower, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
             text_file_t, text_open, text_line, text_close
 
   integer, parameter :: CHUNK = 4096
@@ -85,6 +85,22 @@ contains
       p = p + e
     end do
   end function split_lines
+
+  !> Every line of text, each newline-ended: names one a line, as the flat
+  !> interface passes them.
+  subroutine name_lines(text, names)
+    character(len=*), intent(in) :: text
+    character(len=*), allocatable, intent(out) :: names(:)
+    integer :: k, p, e
+    allocate (names(count([(text(k:k) == achar(10), k=1, len(text))])))
+    names = ''
+    p = 1
+    do k = 1, size(names)
+      e = index(text(p:), achar(10))
+      names(k) = text(p:p + e - 2)
+      p = p + e
+    end do
+  end subroutine name_lines
 
   !> The non-blank lines of text (lines separated by newlines), trimmed.
   function text_lines(text) result(lines)

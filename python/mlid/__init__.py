@@ -4,7 +4,8 @@ derivatives (NASA CR-2200 and beyond).  The numerics live in the Fortran core
 
 from .errors import (MlidError, InputError, SingularInformationError, DivergenceError,
                      NonConvergenceError, InternalError, MlidWarning)
-from .model import LinearModel, LongitudinalModel, UserModel, X22Model, EquationModel, SixDofModel
+from .model import LinearModel, LongitudinalModel, UserModel, X22Model, EquationModel, SixDofModel, \
+    FlightPathModel
 from .data import FlightData
 from .result import FitResult, whiteness
 from .reduction import reduce_measured_state, reduced_data, recover_disturbance
@@ -33,7 +34,7 @@ __version__ = _version()
 
 __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
            "NonConvergenceError", "InternalError", "MlidWarning", "LinearModel", "LongitudinalModel", "UserModel",
-           "X22Model", "EquationModel", "SixDofModel", "InputDesign", "DesignedInput", "monte_carlo_parallel", "diagnose", "check_jacobians", "FlightData", "FitResult",
+           "X22Model", "EquationModel", "SixDofModel", "FlightPathModel", "InputDesign", "DesignedInput", "monte_carlo_parallel", "diagnose", "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
            "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation"]

@@ -56,7 +56,12 @@ _COMMON_PARAMETERS = """x0 : array_like (nx,), optional
         {'f(1,5)': 'f(1,3)'}, or a constant plus a sum of scaled parameters,
         {'g(1,1)': '-0.01 + 0.0096*g(2,1) - f(2,2)'} (fortran/mlid_ties.f90
         reads them, as it reads a deck's ``tie``).  The tied values are set
-        from the sources when the model is made and at every iteration."""
+        from the sources when the model is made and at every iteration.
+    delay : array_like (ny,), optional
+        Each output's time delay in s (default zero): the model output
+        interpolated between its samples, y(k) - (delay/dt)(y(k) - y(k-1))
+        (fortran/mlid_delay.f90), a parameter 'delay(i)' like any other;
+        output error only."""
 #: What every model constructor raises.
 _COMMON_RAISES = """InputError
         Wrong sizes or shapes, an element that does not exist, a parameter
@@ -143,6 +148,7 @@ class Model:
     iconst = np.zeros(0, dtype=np.int32)
     rconst = np.zeros(0)
     x0, bias, q, r, S = _Block("x0"), _Block("bias"), _Block("q"), _Block("r"), _Block("s")
+    delay = _Block("delay")
 
     def _init_layout(self, nx, nu, ny, nw):
         self.nx, self.nu, self.ny, self.nw = nx, nu, ny, nw
@@ -161,8 +167,10 @@ class Model:
                              + f", got {a.size}")
         self._theta[self._layout.slice(key)] = a.reshape(shape).ravel(order="F")
 
-    def _init_common(self, x0, bias, q, r, S, free, names, ties, input_hold, substeps):
-        for key, value in (("x0", x0), ("bias", bias), ("q", q), ("r", r), ("S", S)):
+    def _init_common(self, x0, bias, q, r, S, free, names, ties, input_hold, substeps,
+                     delay=None):
+        for key, value in (("x0", x0), ("bias", bias), ("q", q), ("r", r), ("S", S),
+                           ("delay", delay)):
             if value is not None:
                 setattr(self, key, value)
         if input_hold not in INPUT_HOLDS:
@@ -198,7 +206,7 @@ class Model:
         """Keyword arguments that carry the generic parts to a copy."""
         return dict(x0=self.x0, bias=self.bias, q=self.q, r=self.r, S=self.S, free=self.free,
                     names=self.names, ties=self.ties, input_hold=self.input_hold,
-                    substeps=self.substeps)
+                    substeps=self.substeps, delay=self.delay)
 
     # -- parameter vector ------------------------------------------------
     @property
@@ -510,7 +518,7 @@ class LinearModel(Model):
 
     def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
-                 ties=None, K=None, bx=None):
+                 ties=None, K=None, bx=None, delay=None):
         F, G, H = np.atleast_2d(real_array("F", F)), real_array("G", G), np.atleast_2d(real_array("H", H))
         nx = F.shape[0]
         if F.shape != (nx, nx):
@@ -534,7 +542,7 @@ class LinearModel(Model):
             self.K = K
         if bx is not None:
             self.bx = bx
-        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay)
 
 
 #: Regressors of the longitudinal model (fortran/mlid_aero_long.f90), in
@@ -579,7 +587,8 @@ class LongitudinalModel(Model):
     _COEFFICIENTS = {"CD": "cd", "CL": "cl", "Cm": "cm"}
 
     def __init__(self, regressors, coefficients, constants, x0=None, bias=None, free=(),
-                 names=None, input_hold="linear", substeps=1, r=None, ties=None, q=None, S=None):
+                 names=None, input_hold="linear", substeps=1, r=None, ties=None, q=None, S=None,
+                 delay=None):
         self.regressors = {k: list(regressors.get(k, [])) for k in self._COEFFICIENTS}
         unknown = set(regressors) - set(self.regressors)
         if unknown:
@@ -606,7 +615,7 @@ class LongitudinalModel(Model):
                                  f"{vals.size} values")
             self._put(block, vals, key)
         # process noise (q, 4 variances) adds to each state equation: turbulence
-        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay)
 
     @property
     def coefficients(self):
@@ -641,7 +650,7 @@ class UserModel(Model):
     p = _Block("p")
 
     def __init__(self, p, iconst=(), rconst=(), x0=None, bias=None, free=(), names=None,
-                 input_hold="linear", substeps=1, q=None, r=None, S=None, ties=None):
+                 input_hold="linear", substeps=1, q=None, r=None, S=None, ties=None, delay=None):
         self.iconst = np.asarray(iconst, dtype=np.int32).ravel()
         self.rconst = np.asarray(rconst, dtype=float).ravel()
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
@@ -649,7 +658,7 @@ class UserModel(Model):
         if p.size != self.np:
             raise InputError(f"the user model has {self.np} parameters p, got {p.size} values")
         self.p = p
-        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay)
 
 
 @_documented
@@ -678,13 +687,13 @@ class X22Model(Model):
     p = _Block("p")
 
     def __init__(self, p, x0=None, bias=None, free=(), names=None, input_hold="linear",
-                 substeps=1, q=None, r=None, S=None, ties=None):
+                 substeps=1, q=None, r=None, S=None, ties=None, delay=None):
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
         p = np.asarray(p, dtype=float).ravel()
         if p.size != self.np:
             raise InputError(f"the X-22 model has {self.np} coefficients, got {p.size}")
         self.p = p
-        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps)
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay)
 
 
 #: The X-22's 23 coefficients (report Appendix A), from the core: each
@@ -734,9 +743,9 @@ class EquationModel(Model):
 
     def __init__(self, outputs, states=None, inputs=(), params=None, definitions=None, x0=None,
                  bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
-                 S=None, ties=None):
+                 S=None, ties=None, delay=None):
         self._build(outputs, states or {}, inputs, params, definitions, "", "",
-                    (x0, bias, q, r, S, free, names, ties, input_hold, substeps))
+                    (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay))
 
     def _build(self, outputs, states, inputs, params, definitions, pre, post, common):
         """The model's text from its parts (pre and post: lines a generator
@@ -751,10 +760,15 @@ class EquationModel(Model):
                  + [f"l {n} = {_one_line(e)}" for n, e in definitions.items()] + [post]
                  + [f"x {n} = {_one_line(e)}" for n, e in states.items()]
                  + [f"y {n} = {_one_line(e)}" for n, e in outputs.items()])
-        text = "\n".join(line.rstrip("\n") for line in lines if line)
+        self._from_text("\n".join(line.rstrip("\n") for line in lines if line),
+                        list(params.values()), common)
+
+    def _from_text(self, text, p, common):
+        """The model from its text, the parameters' start values and the
+        common settings."""
         self.iconst = np.frombuffer(text.encode(), dtype=np.uint8).astype(np.int32)
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
-        self.p = np.asarray(list(params.values()), dtype=float)
+        self.p = np.asarray(p, dtype=float)
         self._init_common(*common)
 
     @property
@@ -835,7 +849,7 @@ class SixDofModel(EquationModel):
 
     def __init__(self, constants, states, outputs, inputs=(), params=None, definitions=None,
                  x0=None, bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None,
-                 r=None, S=None, ties=None):
+                 r=None, S=None, ties=None, delay=None):
         missing = [k for k in SIXDOF_CONSTANTS if k not in constants]
         if missing or len(constants) != len(SIXDOF_CONSTANTS):
             raise InputError(f"constants must give {', '.join(SIXDOF_CONSTANTS)}; "
@@ -850,7 +864,68 @@ class SixDofModel(EquationModel):
                          if line.strip())
         self._build(outputs, equations, inputs, params, definitions, pre.decode().strip(),
                     post.decode().strip(), (x0, bias, q, r, S, free, names, ties, input_hold,
-                                            substeps))
+                                            substeps, delay))
+
+
+#: The flight-path model's constants, corrections, outputs and inputs, in
+#: the core's order (mlid_flightpath).
+FLIGHTPATH_CONSTANTS, FLIGHTPATH_CORRECTIONS, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS = (
+    tuple(n.strip() for n in b.decode().strip().split(","))
+    for b in _api.mlid_flightpath_lists())
+
+
+@_documented
+@guarded_class
+class FlightPathModel(EquationModel):
+    """Flight-path reconstruction (data compatibility, textbook ch. 10):
+    the kinematic equations driven by the measured accelerations and rates
+    (fortran/mlid_flightpath.f90), written out as an equations model.
+    States u, v, w, phi, theta, psi, h; inputs ax, ay, az [m/s^2], p, q, r
+    [rad/s], pdot, qdot, rdot [rad/s^2] (FLIGHTPATH_INPUTS, in that order);
+    outputs any of V, alpha, beta, phi, theta, psi, h.  The sensor
+    corrections present are parameters: accelerometer and gyro biases and
+    scale factors (a = (a_m - b_ax)/f_ax), air-data scale factors and biases
+    (alpha_m = f_al alpha + b_al, alpha and beta the vanes' flank angles at
+    the boom) and a constant wind w_n, w_e, w_d (earth axes); attitude and
+    height biases are ``bias(i)``, sensor time delays ``delay(i)``.
+
+    Parameters
+    ----------
+    constants : dict
+        xA, yA, zA: the accelerometer, xN, yN, zN: the air-data boom [m,
+        body axes from the centre of gravity]; g [m/s^2].
+    corrections : dict
+        {name: start value} of each correction the model has (from
+        FLIGHTPATH_CORRECTIONS); the rest are absent (neutral).
+    outputs : sequence of str, optional
+        The outputs, in the order of the data's output channels (default
+        all seven).
+    {common}
+
+    Raises
+    ------
+    {raises}
+        Also a constant missing, an unknown correction or output, a name
+        given twice.
+    """
+
+    def __init__(self, constants, corrections=None, outputs=FLIGHTPATH_OUTPUTS, x0=None,
+                 bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
+                 S=None, ties=None, delay=None):
+        missing = [k for k in FLIGHTPATH_CONSTANTS if k not in constants]
+        if missing or len(constants) != len(FLIGHTPATH_CONSTANTS):
+            raise InputError(f"constants must give {', '.join(FLIGHTPATH_CONSTANTS)}; "
+                             f"missing {missing or 'none'}, unknown "
+                             f"{sorted(set(constants) - set(FLIGHTPATH_CONSTANTS)) or 'none'}")
+        if isinstance(outputs, (str, bytes)):
+            raise InputError(f"outputs must be a list of names, got the string {outputs!r}")
+        corrections = dict(corrections or {})
+        text, status, msg = _api.mlid_flightpath_model_text(
+            [float(constants[k]) for k in FLIGHTPATH_CONSTANTS],
+            "".join(f"{n}\n" for n in corrections), "".join(f"{n}\n" for n in outputs))
+        check_status(status, msg)
+        self._from_text(text.decode().rstrip(), list(corrections.values()),
+                        (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay))
 
 
 def _one_line(expression):

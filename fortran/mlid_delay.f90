@@ -1,0 +1,95 @@
+!> Time delays of the outputs: a sensor that reports late by tau.
+!>
+!> An output delayed by tau (s) is the model output at t - tau, interpolated
+!> linearly between the two samples of its manoeuvre that bracket t - tau
+!> (held at the manoeuvre's first sample before it starts).  A lead (tau < 0)
+!> is extrapolated from the sample and the one before it, so the rule is
+!> linear in tau through zero: the delay's derivative is continuous at its
+!> usual start value 0, and for |tau| < dt the rule is the time shift of the
+!> textbook software's flight-path reconstruction (its test case 33).  The
+!> delay is a parameter like any other (theta's block 'delay', one per
+!> output): its sensitivity is the chain rule through the interpolation,
+!> the negative slope between the two samples used.
+module mlid_delay
+  use mlid_kinds, only: wp
+  implicit none
+  private
+  public :: delay_outputs, delay_check
+
+contains
+
+  !> Delay output rows y(i, j0:j1) of one manoeuvre by tau(i); with dy
+  !> (ny, nf, nt), their sensitivities too, and the delays' own columns:
+  !> free delay i (or one tied to it) adds weight w(k) times its partial to
+  !> column col(k) (idx(k) = i).
+  pure subroutine delay_outputs(tau, t, j0, j1, y, dy, idx, col, w)
+    real(wp), intent(in) :: tau(:), t(:)
+    integer, intent(in) :: j0, j1
+    real(wp), intent(inout) :: y(:, :)
+    real(wp), intent(inout), optional :: dy(:, :, :)
+    integer, intent(in), optional :: idx(:), col(:)
+    real(wp), intent(in), optional :: w(:)
+    real(wp), allocatable :: y0(:), dy0(:, :)
+    real(wp) :: s, a, slope
+    integer :: i, j, k, m
+
+    do i = 1, size(tau)
+      if (tau(i) == 0.0_wp .and. .not. moving(i)) cycle
+      y0 = y(i, j0:j1)                   ! the undelayed row, indexed from 1
+      if (present(dy)) dy0 = dy(i, :, j0:j1)
+      m = 2
+      do j = j0, j1
+        s = t(j) - tau(i)
+        if (j == j0 .or. s <= t(j0)) then      ! before the manoeuvre: held
+          y(i, j) = y0(1)
+          if (present(dy)) dy(i, :, j) = dy0(:, 1)
+          cycle
+        end if
+        if (tau(i) < 0.0_wp) then              ! a lead: from samples j-1 and j
+          m = j - j0 + 1
+        else                                   ! t(j0+m-2) < s <= t(j0+m-1)
+          do while (t(j0 + m - 1) < s)
+            m = m + 1
+          end do
+          do while (t(j0 + m - 2) >= s)
+            m = m - 1
+          end do
+        end if
+        a = (t(j0 + m - 1) - s)/(t(j0 + m - 1) - t(j0 + m - 2))
+        slope = (y0(m - 1) - y0(m))/(t(j0 + m - 1) - t(j0 + m - 2))
+        y(i, j) = (1.0_wp - a)*y0(m) + a*y0(m - 1)
+        if (.not. present(dy)) cycle
+        dy(i, :, j) = (1.0_wp - a)*dy0(:, m) + a*dy0(:, m - 1)
+        do k = 1, size(idx)
+          if (idx(k) == i) dy(i, col(k), j) = dy(i, col(k), j) + w(k)*slope
+        end do
+      end do
+    end do
+
+  contains
+
+    pure logical function moving(i)
+      integer, intent(in) :: i
+      moving = .false.
+      if (present(idx)) moving = any(idx == i)
+    end function moving
+
+  end subroutine delay_outputs
+
+  !> A delay as long as its manoeuvre leaves nothing to fit: msg names the
+  !> output and the manoeuvre, or is blank when every delay is shorter.
+  pure subroutine delay_check(tau, t, j0, j1, iseg, msg)
+    real(wp), intent(in) :: tau(:), t(:)
+    integer, intent(in) :: j0, j1, iseg
+    character(len=*), intent(out) :: msg
+    integer :: i
+    msg = ''
+    do i = 1, size(tau)
+      if (tau(i) == 0.0_wp .or. abs(tau(i)) < t(j1) - t(j0)) cycle
+      write (msg, '(a,i0,a,g0.4,a,i0,a,g0.4,a)') 'delay(', i, ') = ', tau(i), &
+        ' s is not shorter than manoeuvre ', iseg, ' (', t(j1) - t(j0), ' s)'
+      return
+    end do
+  end subroutine delay_check
+
+end module mlid_delay

@@ -1,0 +1,113 @@
+"""Data compatibility after a flight-path reconstruction: which sensor
+corrections a fit finds significant, and the record with them applied, for
+the next step (the aerodynamic model).
+
+A correction is significant when it stands ``threshold`` (3) sigmas from its
+neutral value (1 for a scale factor ``f_*``, else 0), the sigma corrected
+for coloured residuals: a reconstruction's residuals drift, and its
+Cramer-Rao sigma is optimistic several times over.
+
+The corrected record undoes each estimated correction of the model
+(mlid.FlightPathModel, or a deck of kind 'flight_path'): accelerometers and
+gyros a = (a_m - b)/f; air data V = (V_m - b_V)/f_V, alpha and beta alike;
+each output's bias(i) (per manoeuvre) removed and its delay(i) taken back
+(y(t) = y_m(t + tau), interpolated within the manoeuvre).
+"""
+
+import numpy as np
+
+from .data import FlightData
+from .errors import InputError
+from .model import FLIGHTPATH_INPUTS
+
+#: Output -> (scale factor, bias) of the air-data corrections.
+AIR_DATA = {"V": ("f_V", "b_V"), "alpha": ("f_al", "b_al"), "beta": ("f_be", "b_be")}
+
+
+def neutral(name):
+    """A correction's neutral value: 1 for a scale factor (f_*), else 0."""
+    return 1.0 if name.split("#")[0].startswith("f_") else 0.0
+
+
+def significance(result, threshold=3.0):
+    """Each free parameter other than the initial states, its distance from
+    its neutral value in Cramer-Rao and in corrected sigmas, and whether it
+    is significant.
+
+    Parameters
+    ----------
+    result : FitResult
+    threshold : float
+        Corrected sigmas a significant correction stands out by.
+
+    Returns
+    -------
+    dict
+        ``rows`` (name, estimate, neutral, in CR sigmas, in corrected
+        sigmas, significant) and ``lines`` (the printed table).
+    """
+    rows = []
+    for name, v, s, sc in zip(result.names, result.estimate, result.sigma,
+                              result.sigma_corrected):
+        if name.startswith("x0"):
+            continue
+        d = abs(v - neutral(name))
+        rows.append((name, float(v), neutral(name), d / s, d / sc, bool(d > threshold * sc)))
+    lines = [f"{'correction':<12}{'estimate':>14}{'neutral':>9}{'/sigma':>9}{'/sigma col.':>13}"
+             f"  significant (>{threshold:g} corrected sigma)"]
+    lines += [f"{n:<12}{v:14.6e}{z:9.0f}{a:9.1f}{b:13.1f}  {'yes' if y else 'no'}"
+              for n, v, z, a, b, y in rows]
+    return {"rows": rows, "lines": lines}
+
+
+def corrected_record(result):
+    """The fitted record with the estimated corrections undone.
+
+    Parameters
+    ----------
+    result : FitResult
+        A fit of a flight-path model (its inputs FLIGHTPATH_INPUTS).
+
+    Returns
+    -------
+    FlightData or list of FlightData
+        As the record was given: one, or one per manoeuvre; ``save`` writes
+        each whole or not at all.
+
+    Raises
+    ------
+    InputError
+        If the model's inputs are not those of a flight-path model.
+    """
+    data = result.evaluate_args[0]
+    records = list(data) if isinstance(data, (list, tuple)) else [data]
+    out = [_corrected(model, rec) for model, rec in zip(result.manoeuvres, records)]
+    return out if isinstance(data, (list, tuple)) else out[0]
+
+
+def _corrected(model, rec):
+    own = _corrections(model)
+    if rec.u.shape[1] != len(FLIGHTPATH_INPUTS):
+        raise InputError(f"corrected_record: the record has {rec.u.shape[1]} inputs; a flight-path "
+                         f"model has {len(FLIGHTPATH_INPUTS)}: {', '.join(FLIGHTPATH_INPUTS)}")
+    u = rec.u.copy()
+    for j, name in enumerate(FLIGHTPATH_INPUTS[:6]):    # accelerometers and gyros
+        u[:, j] = (u[:, j] - own.get(f"b_{name}", 0.0)) / own.get(f"f_{name}", 1.0)
+    y = rec.y.copy()
+    for i, name in enumerate(_output_names(model)):
+        shifted = np.interp(rec.t + model.delay[i], rec.t, y[:, i])   # held beyond the ends
+        f, b = AIR_DATA.get(name, (None, None))
+        y[:, i] = (shifted - model.bias[i] - own.get(b, 0.0)) / own.get(f, 1.0)
+    return FlightData(rec.t, u, y, input_names=rec.input_names, output_names=rec.output_names,
+                      input_units=rec.input_units, output_units=rec.output_units)
+
+
+def _corrections(model):
+    """The model's own parameters, {name: value}."""
+    sl = model._layout.slice("p")
+    return dict(zip(model._layout.labels[sl], model.p))
+
+
+def _output_names(model):
+    """The model's outputs, by the names its text gives them."""
+    return [line.split()[1] for line in model.text.splitlines() if line.startswith("y ")]
