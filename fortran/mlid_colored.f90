@@ -22,14 +22,23 @@
 !> estimates of Rvv(k) add sampling noise (variance growing like L/N) and
 !> little correlation.
 !>
-!> Cost: the bracket is sum_i a(i)' g(i) with g(i) = sum_k w(k) Rvv(k)' a(i+k)
-!> (a matrix FIR filter of the weighted sensitivities), O(N L ny^2 nf) plus
-!> one O(N ny nf^2) product, instead of O(N^2 ny^2 nf^2) for the double sum.
+!> Cost: the bracket is sum_i a(i)' c(i), c = K * a the convolution of the
+!> weighted sensitivities with the kernel K(d) = w(|d|) Rvv(d).  It is taken
+!> through the Fourier transform, each manoeuvre zero-padded to a power of
+!> two beyond its length plus the lag (so the circular convolution is the
+!> linear one), by Parseval: (1/n) sum_f A(f)^H K(f) A(f).  That is
+!> O(N log N ny nf + N ny^2 nf + N ny nf^2), where the direct FIR filter
+!> is O(N L ny^2 nf): each segment takes the cheaper (fourier_cheaper).
 module mlid_colored
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_length, fft_real_pair
   implicit none
   private
-  public :: colored_covariance, colored_sandwich, residual_autocov, colored_lag
+  public :: colored_covariance, colored_sandwich, residual_autocov, colored_lag, colored_bracket
+  public :: BRACKET_AUTO, BRACKET_FOURIER, BRACKET_DIRECT
+
+  !> How the bracket is taken: the cheaper way per segment, or one way.
+  integer, parameter :: BRACKET_AUTO = 0, BRACKET_FOURIER = 1, BRACKET_DIRECT = 2
 
   !> Lag multiple of the first lag inside the white-noise band.
   integer, parameter :: LAG_FACTOR = 4
@@ -90,42 +99,153 @@ contains
       msg = 'colored covariance: cov, info, msens must be nf x nf and Rvv ny x ny'
       return
     end if
-    d = info - msens + bracket(a, rvv, seg)
+    d = info - msens + colored_bracket(a, rvv, seg, BRACKET_AUTO)
     cov_c = matmul(cov, matmul(d, cov))
     cov_c = 0.5_wp*(cov_c + transpose(cov_c))   ! symmetric to rounding
   end subroutine colored_sandwich
 
-  !> sum_i sum_j a(i)' w(|i-j|) Rvv(i-j) a(j) within segments, as P + P'
-  !> with P = sum_i a(i)' g(i), g(i) = Rvv(0) a(i)/2 + sum_k>0 w(k) Rvv(k)' a(i+k):
-  !> the pair (i, j = i+k) gives a(i)' Rvv(-k) a(i+k) = a(i)' Rvv(k)' a(i+k),
-  !> the pair (i+k, i) its transpose.
-  function bracket(a, rvv, seg) result(b)
+  !> sum_i sum_j a(i)' K(i-j) a(j) within segments, K(d) = w(|d|) Rvv(d),
+  !> Rvv(-k) = Rvv(k)', segment by segment, each by the Fourier transform or
+  !> the direct filter, whichever costs less (how = BRACKET_AUTO), or as how
+  !> says (the benchmark and the check compare them).
+  function colored_bracket(a, rvv, seg, how) result(b)
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
-    integer, intent(in) :: seg(:)
+    integer, intent(in) :: seg(:), how
     real(wp) :: b(size(a, 3), size(a, 3))
-    real(wp), allocatable :: g(:, :, :), rk(:, :, :)
-    integer :: ny, nt, nf, lag, k, l, s, i0, i1
+    integer :: s, i0, i1, lag
+    logical :: fourier
+    b = 0.0_wp
+    do s = 1, size(seg)
+      call segment_bounds(seg, s, size(a, 2), i0, i1)
+      lag = min(ubound(rvv, 3), i1 - i0)
+      fourier = how == BRACKET_FOURIER .or. (how == BRACKET_AUTO .and. &
+                fourier_cheaper(size(a, 1), i1 - i0 + 1, size(a, 3), lag))
+      if (fourier) then
+        b = b + segment_bracket(a(:, i0:i1, :), rvv(:, :, 0:lag), ubound(rvv, 3))
+      else
+        b = b + segment_direct(a(:, i0:i1, :), rvv(:, :, 0:lag), ubound(rvv, 3))
+      end if
+    end do
+  end function colored_bracket
+
+  !> Whether the transform costs less than the direct filter for one
+  !> segment: operation counts, the transform's weighted 4:1 (measured,
+  !> benchmarks/bench_colored_bracket.f90: it loses at lag 1, wins 4-8
+  !> times at lag 212).
+  pure logical function fourier_cheaper(ny, nt, nf, lag)
+    integer, intent(in) :: ny, nt, nf, lag
+    real(wp) :: n
+    n = real(fft_length(nt + lag), wp)
+    fourier_cheaper = 4.0_wp*n*(ny*nf*log(n)/log(2.0_wp)/2 + ny*ny*nf + ny*nf*nf) < &
+                      real(nt, wp)*(lag + 1)*ny*ny*nf
+  end function fourier_cheaper
+
+  !> One segment's bracket (Bartlett weights of lag L; rvv up to the
+  !> segment's own longest lag): A(f) = the transforms of a's rows, then
+  !> Re sum_f A(f)^H K(f) A(f)/n over f = 0 .. n/2, the inner ones twice
+  !> (f and n - f are conjugate for real series): Re(A^H G) = Ar' Gr + Ai' Gi.
+  function segment_bracket(a, rvv, lag) result(b)
+    real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
+    integer, intent(in) :: lag
+    real(wp) :: b(size(a, 3), size(a, 3))
+    real(wp), allocatable :: kr(:, :, :), ki(:, :, :), sr(:, :, :), si(:, :, :), gr(:, :, :), &
+                             gi(:, :, :)
+    complex(wp), allocatable :: z(:), xf(:), yf(:)
+    type(fft_plan_t) :: plan
+    integer :: ny, nt, nf, n, nfreq, l, r, q
 
     ny = size(a, 1)
     nt = size(a, 2)
     nf = size(a, 3)
-    lag = ubound(rvv, 3)
-    allocate (g(ny, nt, nf), rk(ny, ny, 0:lag))
-    do k = 0, lag
+    n = fft_length(nt + ubound(rvv, 3))
+    nfreq = n/2 + 1
+    plan = fft_plan(n)
+    allocate (kr(nfreq, ny, ny), ki(nfreq, ny, ny), sr(nfreq, ny, nf), si(nfreq, ny, nf), &
+              gr(nfreq, ny, nf), gi(nfreq, ny, nf), z(0:n - 1))
+    do q = 1, ny                                 ! the kernel's transform, entry by entry
+      do r = 1, ny
+        z(:) = kernel_row(rvv, lag, r, q, n)
+        call fft_forward(plan, z)
+        kr(:, r, q) = real(z(0:nfreq - 1), wp)
+        ki(:, r, q) = aimag(z(0:nfreq - 1))
+      end do
+    end do
+    ! each parameter's transforms and filtered transforms on their own (the
+    ! result does not depend on the threads)
+    !$omp parallel do private(r, q, xf, yf) schedule(static)
+    do l = 1, nf
+      allocate (xf(0:nfreq - 1), yf(0:nfreq - 1))
+      do r = 1, ny, 2                          ! two rows a transform
+        q = min(r + 1, ny)
+        call fft_real_pair(plan, a(r, :, l), a(q, :, l), xf, yf)
+        sr(:, r, l) = real(xf, wp)
+        si(:, r, l) = aimag(xf)
+        sr(:, q, l) = real(yf, wp)
+        si(:, q, l) = aimag(yf)
+      end do
+      gr(:, :, l) = 0.0_wp
+      gi(:, :, l) = 0.0_wp
+      do q = 1, ny                             ! G(f) = K(f) A(f), all f at once
+        do r = 1, ny
+          gr(:, r, l) = gr(:, r, l) + kr(:, r, q)*sr(:, q, l) - ki(:, r, q)*si(:, q, l)
+          gi(:, r, l) = gi(:, r, l) + kr(:, r, q)*si(:, q, l) + ki(:, r, q)*sr(:, q, l)
+        end do
+      end do
+      gr(2:nfreq - 1, :, l) = 2.0_wp*gr(2:nfreq - 1, :, l)   ! f and n - f
+      gi(2:nfreq - 1, :, l) = 2.0_wp*gi(2:nfreq - 1, :, l)
+      deallocate (xf, yf)
+    end do
+    !$omp end parallel do
+    b = 0.0_wp
+    call add_atb(nfreq*ny, nf, sr, gr, b)
+    call add_atb(nfreq*ny, nf, si, gi, b)
+    b = b/real(n, wp)
+  end function segment_bracket
+
+  !> The kernel entry K(d)(r, q) = w(|d|) Rvv(d)(r, q) at index d mod n,
+  !> d = -L' .. L' (L' = ubound(rvv, 3)), zero elsewhere.
+  function kernel_row(rvv, lag, r, q, n) result(z)
+    real(wp), intent(in) :: rvv(:, :, 0:)
+    integer, intent(in) :: lag, r, q, n
+    complex(wp) :: z(0:n - 1)
+    real(wp) :: w
+    integer :: k
+    z = 0.0_wp
+    z(0) = 0.5_wp*(rvv(r, q, 0) + rvv(q, r, 0))   ! Rvv(0) symmetric, as the direct filter takes it
+    do k = 1, ubound(rvv, 3)
+      w = 1.0_wp - real(k, wp)/real(lag + 1, wp)
+      z(k) = w*rvv(r, q, k)
+      z(n - k) = w*rvv(q, r, k)              ! Rvv(-k) = Rvv(k)'
+    end do
+  end function kernel_row
+
+  !> One segment's bracket by the direct FIR filter (Bartlett weights of
+  !> lag L; rvv up to the segment's own longest lag), as P + P' with
+  !> P = sum_i a(i)' g(i), g(i) = Rvv(0) a(i)/2 + sum_k>0 w(k) Rvv(k)' a(i+k):
+  !> the pair (i, j = i+k) gives a(i)' Rvv(-k) a(i+k) = a(i)' Rvv(k)' a(i+k),
+  !> the pair (i+k, i) its transpose.
+  function segment_direct(a, rvv, lag) result(b)
+    real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
+    integer, intent(in) :: lag
+    real(wp) :: b(size(a, 3), size(a, 3))
+    real(wp), allocatable :: g(:, :, :), rk(:, :, :)
+    integer :: ny, nt, nf, k, l
+
+    ny = size(a, 1)
+    nt = size(a, 2)
+    nf = size(a, 3)
+    allocate (g(ny, nt, nf), rk(ny, ny, 0:ubound(rvv, 3)))
+    do k = 0, ubound(rvv, 3)
       rk(:, :, k) = (1.0_wp - real(k, wp)/real(lag + 1, wp))*transpose(rvv(:, :, k))
     end do
     rk(:, :, 0) = 0.5_wp*rk(:, :, 0)
     ! each parameter's column on its own (threads share no sum, so the
     ! result does not depend on their number)
-    !$omp parallel do private(k, s, i0, i1) schedule(static)
+    !$omp parallel do private(k) schedule(static)
     do l = 1, nf
       g(:, :, l) = 0.0_wp
-      do s = 1, size(seg)
-        call segment_bounds(seg, s, nt, i0, i1)
-        do k = 0, min(lag, i1 - i0)
-          call add_product(ny, i1 - i0 + 1 - k, rk(:, :, k), a(:, i0 + k:i1, l), &
-                           g(:, i0:i1 - k, l))
-        end do
+      do k = 0, ubound(rvv, 3)
+        call add_product(ny, nt - k, rk(:, :, k), a(:, 1 + k:nt, l), g(:, 1:nt - k, l))
       end do
       do k = 1, nf
         b(k, l) = sum(a(:, :, k)*g(:, :, l))
@@ -133,7 +253,16 @@ contains
     end do
     !$omp end parallel do
     b = b + transpose(b)
-  end function bracket
+  end function segment_direct
+
+  !> b = b + x' y (x, y: m x nf, the spectra flattened by sequence
+  !> association).
+  subroutine add_atb(m, nf, x, y, b)
+    integer, intent(in) :: m, nf
+    real(wp), intent(in) :: x(m, nf), y(m, nf)
+    real(wp), intent(inout) :: b(nf, nf)
+    b = b + matmul(transpose(x), y)
+  end subroutine add_atb
 
   !> y = y + r x on contiguous blocks of columns (x, y: n x m).
   pure subroutine add_product(n, m, r, x, y)

@@ -6,7 +6,9 @@
 !> is extrapolated from the sample and the one before it, so the rule is
 !> linear in tau through zero: the delay's derivative is continuous at its
 !> usual start value 0, and for |tau| < dt the rule is the time shift of the
-!> textbook software's flight-path reconstruction (its test case 33).  The
+!> textbook software's flight-path reconstruction (its test case 33).  A
+!> lead of a sample or more is refused (delay_check): extrapolated further it
+!> is wrong, and interpolated it jumps at one sample.  The
 !> delay is a parameter like any other (theta's block 'delay', one per
 !> output): its sensitivity is the chain rule through the interpolation,
 !> the negative slope between the two samples used.
@@ -76,20 +78,40 @@ contains
 
   end subroutine delay_outputs
 
-  !> A delay as long as its manoeuvre leaves nothing to fit: msg names the
-  !> output and the manoeuvre, or is blank when every delay is shorter.
-  pure subroutine delay_check(tau, t, j0, j1, iseg, msg)
+  !> A delay as long as its manoeuvre leaves nothing to fit, and a lead of a
+  !> sample or more is beyond the rule (extrapolated from the sample before):
+  !> msg names the output and the manoeuvre, or is blank when every delay is
+  !> fine.
+  pure subroutine delay_check(tau, t, j0, j1, iseg, msg, what)
     real(wp), intent(in) :: tau(:), t(:)
     integer, intent(in) :: j0, j1, iseg
     character(len=*), intent(out) :: msg
+    character(len=*), intent(in) :: what        !< the block: 'delay' or 'udelay'
+    real(wp) :: step
     integer :: i
     msg = ''
+    step = huge(1.0_wp)
+    if (j1 > j0) step = minval(t(j0 + 1:j1) - t(j0:j1 - 1))
     do i = 1, size(tau)
-      if (tau(i) == 0.0_wp .or. abs(tau(i)) < t(j1) - t(j0)) cycle
-      write (msg, '(a,i0,a,g0.4,a,i0,a,g0.4,a)') 'delay(', i, ') = ', tau(i), &
-        ' s is not shorter than manoeuvre ', iseg, ' (', t(j1) - t(j0), ' s)'
-      return
+      if (tau(i) /= 0.0_wp .and. abs(tau(i)) >= t(j1) - t(j0)) then
+        write (msg, '(a,i0,3a,i0,3a)') what//'(', i, ') = ', num(tau(i)), &
+          ' s is not shorter than manoeuvre ', iseg, ' (', num(t(j1) - t(j0)), ' s)'
+      else if (-tau(i) >= step) then
+        write (msg, '(a,i0,3a,i0,3a)') what//'(', i, ') = ', num(tau(i)), &
+          ' s leads by a sample or more (manoeuvre ', iseg, ' steps by ', num(step), &
+          ' s): a lead is extrapolated within a sample only; shift the channel in the record'
+      end if
+      if (len_trim(msg) > 0) return
     end do
   end subroutine delay_check
+
+  pure function num(x) result(text)
+    real(wp), intent(in) :: x
+    character(len=:), allocatable :: text
+    character(len=16) :: buf
+    write (buf, '(g0.4)') x
+    if (abs(x) < 0.1_wp .and. x /= 0.0_wp) write (buf, '(es10.3)') x
+    text = trim(adjustl(buf))
+  end function num
 
 end module mlid_delay

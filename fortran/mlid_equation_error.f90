@@ -13,7 +13,7 @@
 module mlid_equation_error
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR
   use mlid_models, only: model_t, layout_t
-  use mlid_params, only: param_map_t, apply_ties
+  use mlid_params, only: param_map_t, apply_ties, input_delays
   use mlid_linalg, only: info_inverse
   implicit none
   private
@@ -56,6 +56,12 @@ contains
     if (size(pm%ix0) + size(pm%iq) + size(pm%ir) + size(pm%is) > 0) then
       msg = 'equation-error start-up estimates model parameters and biases only: fix x0 and '// &
             'the noise statistics'
+      return
+    end if
+    if (size(pm%id) > 0 .or. any(theta(l%odelay + 1:l%odelay + ny) /= 0.0_wp) .or. &
+        input_delays(theta, pm)) then
+      msg = 'equation-error start-up takes the measured states as they are: no '// &
+            'time delays (start without them, then free them)'
       return
     end if
     allocate (ua(m%nu + m%nw))

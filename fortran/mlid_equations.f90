@@ -51,6 +51,9 @@ module mlid_equations
     procedure :: dhdxp => eq_dhdxp
     procedure :: f_jac => eq_f_jac
     procedure :: h_jac => eq_h_jac
+    procedure :: has_input_jacobians => eq_input_jacobians
+    procedure :: dfdu => eq_dfdu
+    procedure :: dhdu => eq_dhdu
   end type equations_t
 
   !> One line of the text: its kind letter, name and expression.
@@ -310,6 +313,40 @@ contains
     real(wp) :: y(MAXOUT)
     call sweep(self, self%hcode, t, x, u, p, idx, y, c, d)
   end subroutine eq_h_jac
+
+  pure logical function eq_input_jacobians(self)
+    class(equations_t), intent(in) :: self
+    eq_input_jacobians = .true.
+  end function eq_input_jacobians
+
+  !> b(i, :) = d/du of code i (inputs: v(nx+1 : nx+nu)).
+  pure subroutine sweep_u(self, codes, t, x, u, p, b)
+    class(equations_t), intent(in) :: self
+    type(code_t), intent(in) :: codes(:)
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: b(:, :)
+    real(wp) :: v(MAXVAR), g(MAXVAR), val
+    integer :: i
+    call point(self, t, x, u, p, v)
+    do i = 1, size(codes)
+      call code_gradient(codes(i), v(1:self%nvar), val, g(1:self%nvar))
+      b(i, 1:self%nu) = g(self%nx + 1:self%nx + self%nu)
+    end do
+  end subroutine sweep_u
+
+  pure subroutine eq_dfdu(self, t, x, u, p, b)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: b(:, :)
+    call sweep_u(self, self%fcode, t, x, u, p, b)
+  end subroutine eq_dfdu
+
+  pure subroutine eq_dhdu(self, t, x, u, p, b)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: b(:, :)
+    call sweep_u(self, self%hcode, t, x, u, p, b)
+  end subroutine eq_dhdu
 
   pure subroutine eq_dfdx(self, t, x, u, p, a)
     class(equations_t), intent(in) :: self

@@ -32,8 +32,8 @@ module mlid_filter
   use mlid_linalg, only: chol_inverse
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
-  use mlid_params, only: param_map_t
-  use mlid_rk, only: rk4_step, rk4_interval
+  use mlid_params, only: param_map_t, input_delays
+  use mlid_rk, only: rk4_step, rk4_interval, input_sens_t
   use mlid_delay, only: delay_outputs, delay_check
   implicit none
   private
@@ -96,7 +96,9 @@ contains
     call first_failure(kstat, kmsg, status, msg)
   end subroutine oe_predict
 
-  !> oe_predict over the samples j0..j1 of segment iseg.
+  !> oe_predict over the samples j0..j1 of segment iseg.  Inputs that a
+  !> delay moves (udelay) are delayed first (mlid_delay), and force the
+  !> sensitivities through df/du and dh/du.
   subroutine oe_segment(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, dy, xhist)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
@@ -109,36 +111,24 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(inout), optional :: dy(:, :, :)
     real(wp), intent(inout), optional :: xhist(:, :)
-    real(wp), allocatable :: s(:, :), c(:, :), d(:, :)
-    real(wp) :: x(m%nx)
-    integer :: j
+    real(wp), allocatable :: ud(:, :), dud(:, :)
 
     status = MLID_OK
     msg = ''
     associate (l => pm%l)
-      if (present(dy)) allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)))
-      x = theta(l%ox0 + (iseg - 1)*l%nx + 1:l%ox0 + iseg*l%nx)
-      if (present(dy)) s = initial_sensitivity(pm, iseg)
-      do j = j0, j1
-        if (j > j0) then
-          if (present(dy)) then
-            call advance(m, theta, pm, t, u, opt, j - 1, [real(wp) ::], x, s)
-          else
-            call advance(m, theta, pm, t, u, opt, j - 1, [real(wp) ::], x)
-          end if
-          if (.not. all(ieee_is_finite(x))) then
-            call diverged(t(j), status, msg)
-            return
-          end if
+      if (input_delays(theta, pm)) then
+        call delay_check(theta(l%oudelay + 1:l%oudelay + l%nu), t, j0, j1, iseg, msg, 'udelay')
+        if (len_trim(msg) > 0) then
+          status = MLID_ERR_INPUT
+          return
         end if
-        if (present(xhist)) xhist(:, j) = x
-        call m%h(t(j), x, u(:, j), theta(1:l%np), yhat(:, j))
-        yhat(:, j) = yhat(:, j) + theta(l%obias + (iseg - 1)*l%ny + 1:l%obias + iseg*l%ny)
-        if (present(dy)) then
-          call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dy(:, :, j), c, d, iseg)
-        end if
-      end do
-      call delay_check(theta(l%odelay + 1:l%odelay + l%ny), t, j0, j1, iseg, msg)
+        call delayed_inputs(theta, pm, t, u, j0, j1, ud, dud)
+        call integrate(ud, dud)
+      else
+        call integrate(u)
+      end if
+      if (status /= MLID_OK) return
+      call delay_check(theta(l%odelay + 1:l%odelay + l%ny), t, j0, j1, iseg, msg, 'delay')
       if (len_trim(msg) > 0) then
         status = MLID_ERR_INPUT
         return
@@ -150,7 +140,76 @@ contains
         call delay_outputs(theta(l%odelay + 1:l%odelay + l%ny), t, j0, j1, yhat)
       end if
     end associate
+
+  contains
+
+    !> States, outputs and sensitivities over the segment on the inputs uu;
+    !> du(k, j): how moving input delay k moves its input at sample j.
+    subroutine integrate(uu, du)
+      real(wp), intent(in) :: uu(:, :)
+      real(wp), intent(in), optional :: du(:, :)
+      real(wp), allocatable :: s(:, :), c(:, :), d(:, :), hu(:, :)
+      type(input_sens_t) :: us
+      real(wp) :: x(m%nx)
+      integer :: j, k
+
+      if (present(dy)) allocate (c(m%ny, m%nx), d(m%ny, size(pm%im)), hu(m%ny, m%nu))
+      x = theta(pm%l%ox0 + (iseg - 1)*m%nx + 1:pm%l%ox0 + iseg*m%nx)
+      if (present(dy)) s = initial_sensitivity(pm, iseg)
+      if (present(du)) us = input_sens_t(pm%iu, pm%cu, du(:, j0), du(:, j0))
+      do j = j0, j1
+        if (j > j0) then
+          if (present(dy) .and. present(du)) then
+            us%d0 = du(:, j - 1)
+            us%d1 = du(:, j)
+            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x, s, us=us)
+          else if (present(dy)) then
+            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x, s)
+          else
+            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x)
+          end if
+          if (.not. all(ieee_is_finite(x))) then
+            call diverged(t(j), status, msg)
+            return
+          end if
+        end if
+        if (present(xhist)) xhist(:, j) = x
+        call m%h(t(j), x, uu(:, j), theta(1:pm%l%np), yhat(:, j))
+        yhat(:, j) = yhat(:, j) + theta(pm%l%obias + (iseg - 1)*m%ny + 1:pm%l%obias + iseg*m%ny)
+        if (.not. present(dy)) cycle
+        call output_sensitivity(m, theta, pm, t(j), x, uu(:, j), s, dy(:, :, j), c, d, iseg)
+        if (.not. present(du)) cycle
+        call m%dhdu(t(j), x, uu(:, j), theta(1:pm%l%np), hu)
+        do k = 1, size(pm%iu)
+          dy(:, pm%cu(k), j) = dy(:, pm%cu(k), j) + hu(:, pm%iu(k))*du(k, j)
+        end do
+      end do
+    end subroutine integrate
+
   end subroutine oe_segment
+
+
+  !> The inputs with segment j0..j1 delayed (mlid_delay), and du(k, j): the
+  !> moving input delay k's effect on its input at sample j (a tie's scale
+  !> in it).
+  subroutine delayed_inputs(theta, pm, t, u, j0, j1, ud, du)
+    real(wp), intent(in) :: theta(:), t(:), u(:, :)
+    type(param_map_t), intent(in) :: pm
+    integer, intent(in) :: j0, j1
+    real(wp), allocatable, intent(out) :: ud(:, :), du(:, :)
+    real(wp), allocatable :: dall(:, :, :)
+    integer :: k, nk
+    nk = size(pm%iu)
+    ud = u
+    allocate (dall(pm%l%nu, nk, size(t)), du(nk, size(t)))
+    dall(:, :, j0:j1) = 0.0_wp
+    call delay_outputs(theta(pm%l%oudelay + 1:pm%l%oudelay + pm%l%nu), t, j0, j1, ud, dall, &
+                       pm%iu, [(k, k=1, nk)], pm%wu)
+    du = 0.0_wp
+    do k = 1, nk
+      du(k, j0:j1) = dall(pm%iu(k), k, j0:j1)
+    end do
+  end subroutine delayed_inputs
 
   !> Innovations nu(ny, nt) and their covariances through binv(ny, ny, nt)
   !> and logdet(nt); with dnu present also their sensitivities
@@ -597,7 +656,7 @@ contains
 
   !> Integrate x (and s) over sample interval j -> j+1 with the noise inputs
   !> held at what; sforce: constant forcing of the sensitivities.
-  subroutine advance(m, theta, pm, t, u, opt, j, what, x, s, sforce)
+  subroutine advance(m, theta, pm, t, u, opt, j, what, x, s, sforce, us)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -608,12 +667,13 @@ contains
     real(wp), intent(inout) :: x(:)
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
+    type(input_sens_t), intent(in), optional :: us
     real(wp) :: w(m%nw)
 
     w = 0.0_wp
     if (size(what) > 0) w = what
     call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), w, opt%hold, &
-                      opt%substeps, x, pm%im, pm%cm, pm%wm, s, sforce)
+                      opt%substeps, x, pm%im, pm%cm, pm%wm, s, sforce, us)
   end subroutine advance
 
   !> As advance, for columns that no model parameter forces (Phi and W).

@@ -23,7 +23,7 @@ module mlid_likelihood
   use mlid_linalg, only: chol_inverse
   use mlid_models, only: model_t
   use mlid_options, only: options_t
-  use mlid_params, only: param_map_t, apply_ties
+  use mlid_params, only: param_map_t, apply_ties, input_delays
   use mlid_filter, only: oe_predict, kf_innovations
   implicit none
   private
@@ -60,10 +60,15 @@ contains
     real(wp), intent(out), optional :: wsens(:, :, :), msens(:, :)
 
     cost = huge(1.0_wp)
-    if (opt%method == 1 .and. (size(pm%id) > 0 .or. &
+    if (opt%method == 1 .and. (size(pm%id) > 0 .or. input_delays(theta, pm) .or. &
         any(theta(pm%l%odelay + 1:pm%l%odelay + m%ny) /= 0.0_wp))) then
       status = MLID_ERR_INPUT
-      msg = 'output time delays are for output error (method = ''output_error''), not the filter'
+      msg = 'time delays are for output error (method = ''output_error''), not the filter'
+      return
+    else if (size(pm%iu) > 0 .and. .not. m%has_input_jacobians()) then
+      status = MLID_ERR_INPUT
+      msg = 'a free input time delay needs the model''s input Jacobians: kinds linear, '// &
+            'equations, sixdof, flight_path'
       return
     else if (opt%method == 1) then
       call fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
@@ -245,12 +250,13 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: yh(:, :), nup(:, :), bi(:, :, :), ld(:), bp(:, :, :)
     real(wp) :: th(size(theta)), h
-    integer :: k, i, ny, nt, blk(8), kstat(pm%nf)
+    integer :: k, i, ny, nt, blk(9), kstat(pm%nf)
     character(len=len(msg)) :: kmsg(pm%nf)
 
     ny = m%ny
     nt = size(t)
-    blk = [0, pm%l%ox0, pm%l%obias, pm%l%oq, pm%l%or, pm%l%os, pm%l%odelay, pm%l%nth]
+    blk = [0, pm%l%ox0, pm%l%obias, pm%l%oq, pm%l%or, pm%l%os, pm%l%odelay, pm%l%oudelay, &
+           pm%l%nth]
     kstat = MLID_OK
     ! one whole filter run per parameter, independent of the others
     !$omp parallel do schedule(dynamic) default(shared) private(k, i, h, th, yh, nup, bi, ld, bp)
@@ -281,7 +287,7 @@ contains
       integer :: b
       real(wp), allocatable :: v(:)
       block_scale = 1.0_wp
-      do b = 1, 7
+      do b = 1, size(blk) - 1
         if (i > blk(b) .and. i <= blk(b + 1)) then
           v = pack(abs(theta(blk(b) + 1:blk(b + 1))), theta(blk(b) + 1:blk(b + 1)) /= 0.0_wp)
           if (size(v) > 0) block_scale = sum(v)/size(v)

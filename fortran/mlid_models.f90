@@ -5,7 +5,7 @@
 !> interval and entering like extra inputs.  Every estimator works on the
 !> full parameter vector (offsets in layout_t)
 !>
-!>     theta = [ p(np), x0(nx), bias(ny), q(nw), r(ny), s(nw*ny), delay(ny) ]
+!>     theta = [ p(np), x0(nx), bias(ny), q(nw), r(ny), s(nw*ny), delay(ny), udelay(nu) ]
 !>
 !> with q and r the variances of process and measurement noise (diagonal Q
 !> and R), s their cross-covariance S (nw x ny, column-major) and delay each
@@ -40,6 +40,11 @@ module mlid_models
     procedure :: dhdw => no_output_noise
     procedure :: f_jac => f_with_jacobians
     procedure :: h_jac => h_jacobians
+    !> df/du and dh/du (nx or ny, nu): what input time delays need; a model
+    !> that gives them says so in has_input_jacobians.
+    procedure :: has_input_jacobians => no_input_jacobians
+    procedure :: dfdu => zero_input_jacobian
+    procedure :: dhdu => zero_input_jacobian
   end type model_t
 
   abstract interface
@@ -111,7 +116,8 @@ module mlid_models
   !> segment k.
   type :: layout_t
     integer :: np = 0, nx = 0, ny = 0, nw = 0, nseg = 1
-    integer :: ox0 = 0, obias = 0, oq = 0, or = 0, os = 0, odelay = 0, nth = 0
+    integer :: ox0 = 0, obias = 0, oq = 0, or = 0, os = 0, odelay = 0, oudelay = 0, nth = 0
+    integer :: nu = 0
     integer, allocatable :: seg(:)
   end type layout_t
 
@@ -132,6 +138,9 @@ module mlid_models
     procedure :: dhdp => lin_dhdp
     procedure :: dfdw => lin_dfdw
     procedure :: dhdxp => lin_dhdxp
+    procedure :: has_input_jacobians => lin_input_jacobians
+    procedure :: dfdu => lin_dfdu
+    procedure :: dhdu => lin_dhdu
   end type linear_model_t
 
 contains
@@ -143,6 +152,20 @@ contains
     real(wp), intent(out) :: dw(:, :)
     dw = 0.0_wp
   end subroutine no_output_noise
+
+  pure logical function no_input_jacobians(self)
+    class(model_t), intent(in) :: self
+    no_input_jacobians = .false.
+  end function no_input_jacobians
+
+
+  !> Never called: a model without input Jacobians is refused input delays.
+  pure subroutine zero_input_jacobian(self, t, x, u, p, b)
+    class(model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: b(:, :)
+    b = 0.0_wp
+  end subroutine zero_input_jacobian
 
   !> xdot = f, a = df/dx and b = df/dp(idx) at one point: what the
   !> sensitivity equations need at every RK4 stage.  A model that gets them
@@ -186,7 +209,9 @@ contains
     l%or = l%oq + m%nw
     l%os = l%or + m%ny
     l%odelay = l%os + m%nw*m%ny
-    l%nth = l%odelay + m%ny
+    l%oudelay = l%odelay + m%ny
+    l%nu = m%nu
+    l%nth = l%oudelay + m%nu
   end function model_layout
 
   !> The inputs the aircraft sees: v = u + K x (the recorded u alone when K = 0).
@@ -226,6 +251,27 @@ contains
       a(:, j) = a(:, j) + bk
     end do
   end subroutine block_plus_feedback
+
+  pure logical function lin_input_jacobians(self)
+    class(linear_model_t), intent(in) :: self
+    lin_input_jacobians = .true.
+  end function lin_input_jacobians
+
+  !> df/du = G (the feedback K x adds to u, not to its derivative).
+  pure subroutine lin_dfdu(self, t, x, u, p, b)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: b(:, :)
+    b = reshape(p(self%og + 1:self%og + self%nx*self%nu), [self%nx, self%nu])
+  end subroutine lin_dfdu
+
+  !> dh/du = D.
+  pure subroutine lin_dhdu(self, t, x, u, p, b)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: b(:, :)
+    b = reshape(p(self%od + 1:self%od + self%ny*self%nu), [self%ny, self%nu])
+  end subroutine lin_dhdu
 
   pure subroutine lin_f(self, t, x, u, p, xdot)
     class(linear_model_t), intent(in) :: self

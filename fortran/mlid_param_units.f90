@@ -86,7 +86,7 @@ contains
         if (lt%mkind == MODEL_LINEAR) d = over(x(i), times(sec, u(j)))
       case ('bx')
         d = over(x(i), sec)
-      case ('delay')
+      case ('delay', 'udelay')
         d = sec
       case ('h')
         if (lt%mkind == MODEL_LINEAR) d = over(y(i), x(j))

@@ -10,7 +10,7 @@ module mlid_params
   use mlid_models, only: layout_t
   implicit none
   private
-  public :: param_map_t, tie_t, param_map_create, apply_ties, no_ties
+  public :: param_map_t, tie_t, param_map_create, apply_ties, no_ties, input_delays
 
   !> Affine ties: term i gives theta(to(i)) the part scale(i)*theta(from(i));
   !> offset(k) is the constant of a tied entry k (0 for the others).
@@ -33,7 +33,8 @@ module mlid_params
     integer, allocatable :: ir(:), cr(:)        !< measurement-noise variances
     integer, allocatable :: is(:), cs(:)        !< cross-covariances
     integer, allocatable :: id(:), cd(:)        !< output delays
-    real(wp), allocatable :: wm(:), wx0(:), wb(:), wq(:), wr(:), ws(:), wd(:)
+    integer, allocatable :: iu(:), cu(:)        !< input delays
+    real(wp), allocatable :: wm(:), wx0(:), wb(:), wq(:), wr(:), ws(:), wd(:), wu(:)
   end type param_map_t
 
 contains
@@ -74,6 +75,7 @@ contains
     call block(l%or, l%ny, pm%ir, pm%cr, pm%wr)
     call block(l%os, l%nw*l%ny, pm%is, pm%cs, pm%ws)
     call block(l%odelay, l%ny, pm%id, pm%cd, pm%wd)
+    call block(l%oudelay, l%nu, pm%iu, pm%cu, pm%wu)
 
   contains
 
@@ -153,5 +155,13 @@ contains
       theta(tie%to(i)) = theta(tie%to(i)) + tie%scale(i)*theta(tie%from(i))
     end do
   end subroutine apply_ties
+
+  !> Whether any input is delayed or its delay free.
+  pure logical function input_delays(theta, pm)
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    input_delays = size(pm%iu) > 0 .or. &
+                   any(theta(pm%l%oudelay + 1:pm%l%oudelay + pm%l%nu) /= 0.0_wp)
+  end function input_delays
 
 end module mlid_params

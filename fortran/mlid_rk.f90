@@ -9,7 +9,16 @@ module mlid_rk
   use mlid_models, only: model_t
   implicit none
   private
-  public :: rk4_step, rk4_interval
+  public :: rk4_step, rk4_interval, input_sens_t
+
+  !> How delayed inputs move the sensitivities: entry k, d u(input(k)) /
+  !> d theta(col(k)) at the interval's ends (d0, d1; a tie's scale in it),
+  !> linear between them like the inputs.  Forces column col(k) through
+  !> df/du(:, input(k)).
+  type :: input_sens_t
+    integer, allocatable :: input(:), col(:)
+    real(wp), allocatable :: d0(:), d1(:)
+  end type input_sens_t
 
 contains
 
@@ -21,7 +30,7 @@ contains
   !> only propagate through df/dx, plus sforce, a constant forcing of every
   !> column (the filter's held noise estimate).  ua, ub may carry the noise
   !> inputs after the control inputs.
-  subroutine rk4_step(m, p, t0, dt, ua, ub, x, idxm, colm, wcol, s, sforce)
+  subroutine rk4_step(m, p, t0, dt, ua, ub, x, idxm, colm, wcol, s, sforce, us)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), t0, dt, ua(:), ub(:)
     real(wp), intent(inout) :: x(:)
@@ -29,6 +38,7 @@ contains
     real(wp), intent(in) :: wcol(:)            !< weight of each (1, or a tie's scale)
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
+    type(input_sens_t), intent(in), optional :: us   !< delayed inputs (d0, d1 at t0, t0 + dt)
     real(wp) :: um(size(ua)), th
     real(wp), dimension(size(x)) :: k1, k2, k3, k4
 
@@ -51,21 +61,22 @@ contains
       integer, intent(in) :: ns
       real(wp), intent(inout) :: s(:, :)
       real(wp), dimension(size(x), ns) :: s1, s2, s3, s4
-      call deriv(t0, x, ua, k1, s, s1)
-      call deriv(th, x + 0.5_wp*dt*k1, um, k2, s + 0.5_wp*dt*s1, s2)
-      call deriv(th, x + 0.5_wp*dt*k2, um, k3, s + 0.5_wp*dt*s2, s3)
-      call deriv(t0 + dt, x + dt*k3, ub, k4, s + dt*s3, s4)
+      call deriv(t0, x, ua, k1, s, s1, 0.0_wp)
+      call deriv(th, x + 0.5_wp*dt*k1, um, k2, s + 0.5_wp*dt*s1, s2, 0.5_wp)
+      call deriv(th, x + 0.5_wp*dt*k2, um, k3, s + 0.5_wp*dt*s2, s3, 0.5_wp)
+      call deriv(t0 + dt, x + dt*k3, ub, k4, s + dt*s3, s4, 1.0_wp)
       s = s + (dt/6.0_wp)*(s1 + 2.0_wp*(s2 + s3) + s4)
     end subroutine step_sens
 
-    !> xd = f, sd = (df/dx) s + wcol df/dp(idxm) (into columns colm) + sforce.
-    subroutine deriv(t, xs, us, xd, ss, sd)
-      real(wp), intent(in) :: t, xs(:), us(:), ss(:, :)
+    !> xd = f, sd = (df/dx) s + wcol df/dp(idxm) (into columns colm) + sforce
+    !> + the delayed inputs' forcing at fraction c of the step.
+    subroutine deriv(t, xs, ui, xd, ss, sd, c)
+      real(wp), intent(in) :: t, xs(:), ui(:), ss(:, :), c
       real(wp), intent(out) :: xd(:), sd(:, :)
       real(wp) :: a(size(xs), size(xs)), b(size(xs), size(idxm))
       integer :: k
 
-      call m%f_jac(t, xs, us, p, idxm, xd, a, b)
+      call m%f_jac(t, xs, ui, p, idxm, xd, a, b)
       sd = matmul(a, ss)
       if (size(idxm) > 0) then
         do k = 1, size(idxm)
@@ -73,14 +84,29 @@ contains
         end do
       end if
       if (present(sforce)) sd = sd + sforce
+      if (present(us)) call input_forcing(t, xs, ui, c, sd)
     end subroutine deriv
+
+    subroutine input_forcing(t, xs, ui, c, sd)
+      real(wp), intent(in) :: t, xs(:), ui(:), c
+      real(wp), intent(inout) :: sd(:, :)
+      real(wp) :: bu(size(xs), m%nu)
+      integer :: k
+      if (size(us%input) == 0) return
+      call m%dfdu(t, xs, ui, p, bu)
+      do k = 1, size(us%input)
+        sd(:, us%col(k)) = sd(:, us%col(k)) + bu(:, us%input(k))* &
+                           ((1.0_wp - c)*us%d0(k) + c*us%d1(k))
+      end do
+    end subroutine input_forcing
 
   end subroutine rk4_step
 
   !> Integrate over the sample interval [t0, t1] in nsub RK4 steps: the
   !> control inputs linear from u0 to u1 (or held at u0 when hold), the
   !> noise inputs w held throughout.  Arguments after x as in rk4_step.
-  subroutine rk4_interval(m, p, t0, t1, u0, u1, w, hold, nsub, x, idxm, colm, wcol, s, sforce)
+  subroutine rk4_interval(m, p, t0, t1, u0, u1, w, hold, nsub, x, idxm, colm, wcol, s, sforce, &
+                          us)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), t0, t1, u0(:), u1(:), w(:)
     logical, intent(in) :: hold
@@ -90,6 +116,8 @@ contains
     real(wp), intent(in) :: wcol(:)
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
+    type(input_sens_t), intent(in), optional :: us   !< delayed inputs, at t0 and t1
+    type(input_sens_t) :: sub
     real(wp) :: ua(size(u0) + size(w)), ub(size(u0) + size(w)), h, ts
     integer :: isub, nu
 
@@ -106,7 +134,16 @@ contains
         ua(1:nu) = u0 + (u1 - u0)*(real(isub - 1, wp)/nsub)
         ub(1:nu) = u0 + (u1 - u0)*(real(isub, wp)/nsub)
       end if
-      if (present(s)) then
+      if (present(us)) then          ! the delayed inputs' sensitivities, held or linear
+        sub = us
+        if (.not. hold) then
+          sub%d0 = us%d0 + (us%d1 - us%d0)*(real(isub - 1, wp)/nsub)
+          sub%d1 = us%d0 + (us%d1 - us%d0)*(real(isub, wp)/nsub)
+        else
+          sub%d1 = us%d0
+        end if
+        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, s, sforce, sub)
+      else if (present(s)) then
         call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, s, sforce)
       else
         call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol)

@@ -43,7 +43,7 @@ contains
     real(wp) :: x(m%nx)
     integer :: i, j, nw, ny
     integer, allocatable :: none(:)
-    real(wp) :: noise(m%ny, size(t))
+    real(wp) :: noise(m%ny, size(t)), ud(size(u, 1), size(u, 2))
 
     status = MLID_ERR_INPUT
     l = model_layout(m)
@@ -84,6 +84,11 @@ contains
       return
     end if
 
+    ! inputs that reach the aircraft late (mlid_delay)
+    call delay_check(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), 1, msg, 'udelay')
+    if (len_trim(msg) > 0) return
+    ud = u
+    call delay_outputs(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), ud)
     allocate (none(0))
     call rng_seed(rng, seed)
     x = theta(l%ox0 + 1:l%ox0 + m%nx)
@@ -100,11 +105,11 @@ contains
       end do
       wv = matmul(lsq, z)
       xhist(:, j) = x
-      call m%h(t(j), x, u(:, j), theta(1:l%np), y(:, j))
+      call m%h(t(j), x, ud(:, j), theta(1:l%np), y(:, j))
       y(:, j) = y(:, j) + theta(l%obias + 1:l%obias + ny)
       noise(:, j) = wv(nw + 1:)
       if (nw > 0) then
-        call m%dhdw(t(j), x, u(:, j), theta(1:l%np), dhw)
+        call m%dhdw(t(j), x, ud(:, j), theta(1:l%np), dhw)
         if (backward) then
           y(:, j) = y(:, j) + matmul(dhw, wprev)
           wprev = wv(1:nw)
@@ -113,7 +118,7 @@ contains
         end if
       end if
       if (j == size(t)) exit
-      call rk4_interval(m, theta(1:l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), wv(1:nw), &
+      call rk4_interval(m, theta(1:l%np), t(j), t(j + 1), ud(:, j), ud(:, j + 1), wv(1:nw), &
                         opt%hold, opt%substeps, x, none, none, [real(wp) ::])
       if (.not. all(ieee_is_finite(x))) then
         status = MLID_ERR_DIVERGED
@@ -122,7 +127,7 @@ contains
       end if
     end do
     ! sensors that report late (mlid_delay), then their own noise
-    call delay_check(theta(l%odelay + 1:l%odelay + ny), t, 1, size(t), 1, msg)
+    call delay_check(theta(l%odelay + 1:l%odelay + ny), t, 1, size(t), 1, msg, 'delay')
     if (len_trim(msg) > 0) return
     call delay_outputs(theta(l%odelay + 1:l%odelay + ny), t, 1, size(t), y)
     y = y + noise

@@ -108,6 +108,22 @@ def test_against_numpy_double_sum():
     assert used > 0
 
 
+def test_fourier_bracket_with_odd_outputs_and_lags_beyond_a_manoeuvre():
+    """The bracket is taken through the Fourier transform (outputs two to a
+    transform, each manoeuvre zero-padded): three outputs, five parameters,
+    manoeuvres of 30, 1 and 89 samples, lags up to and past the longest."""
+    rng = np.random.default_rng(5)
+    a, r, msens = _random_problem(rng, ny=3, nf=5)
+    v = (_ar1(rng, (120, 3), 0.7) @ np.linalg.cholesky(r).T).T
+    info = msens + np.eye(5)
+    cov = np.linalg.inv(info)
+    seg = [1, 31, 32]
+    for lag in (1, 29, 60, 119):
+        cov_c, used = colored_covariance(a, v.T, cov, info, msens, segment_starts=seg, lag=lag)
+        want = cov @ (info - msens + _double_sum(a, v, seg, used)) @ cov
+        np.testing.assert_allclose(cov_c, want, rtol=1e-11, atol=1e-14 * np.abs(want).max())
+
+
 def test_bad_sizes():
     rng = np.random.default_rng(1)
     a, r, msens = _random_problem(rng)

@@ -110,3 +110,8 @@ def test_bad_input_is_one_line_in_both_front_ends(tmp_path, entry, message):
     with pytest.raises(mlid.InputError, match="is not a correction"):
         mlid.FlightPathModel(ATTAS, {"b_xx": 0.0})
     assert len(FLIGHTPATH_INPUTS) == 9
+
+
+def test_a_renamed_scale_factor_is_still_one_at_neutral():
+    m = mlid.FlightPathModel(ATTAS, {"f_al": 1.0}, free=["f_al"], names={"f_al": "K_alpha"})
+    assert compatibility._own_names(m, ["K_alpha", "x0(1)#2"]) == ["f_al", "x0(1)"]

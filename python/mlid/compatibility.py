@@ -31,8 +31,8 @@ def neutral(name):
 
 def significance(result, threshold=3.0):
     """Each free parameter other than the initial states, its distance from
-    its neutral value in Cramer-Rao and in corrected sigmas, and whether it
-    is significant.
+    its neutral value (by the parameter's own name, whatever its label) in
+    Cramer-Rao and in corrected sigmas, and whether it is significant.
 
     Parameters
     ----------
@@ -47,12 +47,12 @@ def significance(result, threshold=3.0):
         sigmas, significant) and ``lines`` (the printed table).
     """
     rows = []
-    for name, v, s, sc in zip(result.names, result.estimate, result.sigma,
-                              result.sigma_corrected):
-        if name.startswith("x0"):
+    for name, own, v, s, sc in zip(result.names, _own_names(result.model, result.names),
+                                   result.estimate, result.sigma, result.sigma_corrected):
+        if own.startswith("x0"):
             continue
-        d = abs(v - neutral(name))
-        rows.append((name, float(v), neutral(name), d / s, d / sc, bool(d > threshold * sc)))
+        d = abs(v - neutral(own))
+        rows.append((name, float(v), neutral(own), d / s, d / sc, bool(d > threshold * sc)))
     lines = [f"{'correction':<12}{'estimate':>14}{'neutral':>9}{'/sigma':>9}{'/sigma col.':>13}"
              f"  significant (>{threshold:g} corrected sigma)"]
     lines += [f"{n:<12}{v:14.6e}{z:9.0f}{a:9.1f}{b:13.1f}  {'yes' if y else 'no'}"
@@ -100,6 +100,15 @@ def _corrected(model, rec):
         y[:, i] = (shifted - model.bias[i] - own.get(b, 0.0)) / own.get(f, 1.0)
     return FlightData(rec.t, u, y, input_names=rec.input_names, output_names=rec.output_names,
                       input_units=rec.input_units, output_units=rec.output_units)
+
+
+def _own_names(model, labels):
+    """Each label's parameter by its own name (the label given by names=
+    taken back): a renamed scale factor is still a scale factor."""
+    element = {v: k for k, v in model.names.items()}
+    own = dict(zip(model._layout.names, model._layout.labels))
+    bases = [label.split("#")[0] for label in labels]
+    return [own.get(element.get(b, b), b) for b in bases]
 
 
 def _corrections(model):

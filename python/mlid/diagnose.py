@@ -195,7 +195,10 @@ def _library(model, data, families, nx):
                     cands.append(Candidate("feedback loop (SAS)",
                                            f"{_state_name(model, st, outs)} fed back to {ins[j]}",
                                            param=name))
-    if "noise" in families and isinstance(model, LinearModel) and model.nw == 0:
+    # process noise means the filter, which takes no output delays
+    if "noise" in families and isinstance(model, LinearModel) and model.nw == 0 \
+            and not np.any(model.delay) and not np.any(model.udelay) \
+            and not any("delay(" in n for n in model.free):
         for s in range(model.nx):   # one turbulence model at a time
             cands.append(Candidate("process noise", f"turbulence on state {s + 1}", state=s))
     return cands
@@ -223,10 +226,7 @@ def _extended_longitudinal(model, coef, reg):
     vals[coef] = np.r_[vals[coef], 0.0]
     block = {"CD": "cd", "CL": "cl", "Cm": "cm"}[coef]
     # keep each free name pointing at the same coefficient (new ones go last)
-    names = dict(model.names)
-    m = LongitudinalModel(regs, vals, model.constants, x0=model.x0, bias=model.bias,
-                          free=[], names=names, input_hold=model.input_hold,
-                          substeps=model.substeps, r=model.r, q=model.q, S=model.S)
+    m = LongitudinalModel(regs, vals, model.constants, **{**model._common(), "free": []})
     new = f"{block}({len(regs[coef])})"
     return m.with_free(list(model.free) + [new]), new
 

@@ -58,10 +58,16 @@ _COMMON_PARAMETERS = """x0 : array_like (nx,), optional
         reads them, as it reads a deck's ``tie``).  The tied values are set
         from the sources when the model is made and at every iteration.
     delay : array_like (ny,), optional
-        Each output's time delay in s (default zero): the model output
-        interpolated between its samples, y(k) - (delay/dt)(y(k) - y(k-1))
-        (fortran/mlid_delay.f90), a parameter 'delay(i)' like any other;
-        output error only."""
+        Each output's time delay in s (default zero): the model output at
+        t - delay, interpolated between the samples that bracket it; a lead
+        (delay < 0, less than a sample) extrapolated from the sample before
+        (fortran/mlid_delay.f90).  A parameter 'delay(i)' like any other;
+        output error only.
+    udelay : array_like (nu,), optional
+        Each input's time delay in s (default zero), by the same rule: the
+        aircraft sees the recorded input at t - udelay.  A parameter
+        'udelay(j)'; output error only; free only with the kinds that give
+        their input Jacobians (linear, equations, sixdof, flight path)."""
 #: What every model constructor raises.
 _COMMON_RAISES = """InputError
         Wrong sizes or shapes, an element that does not exist, a parameter
@@ -149,6 +155,7 @@ class Model:
     rconst = np.zeros(0)
     x0, bias, q, r, S = _Block("x0"), _Block("bias"), _Block("q"), _Block("r"), _Block("s")
     delay = _Block("delay")
+    udelay = _Block("udelay")
 
     def _init_layout(self, nx, nu, ny, nw):
         self.nx, self.nu, self.ny, self.nw = nx, nu, ny, nw
@@ -168,9 +175,9 @@ class Model:
         self._theta[self._layout.slice(key)] = a.reshape(shape).ravel(order="F")
 
     def _init_common(self, x0, bias, q, r, S, free, names, ties, input_hold, substeps,
-                     delay=None):
+                     delay=None, udelay=None):
         for key, value in (("x0", x0), ("bias", bias), ("q", q), ("r", r), ("S", S),
-                           ("delay", delay)):
+                           ("delay", delay), ("udelay", udelay)):
             if value is not None:
                 setattr(self, key, value)
         if input_hold not in INPUT_HOLDS:
@@ -206,7 +213,8 @@ class Model:
         """Keyword arguments that carry the generic parts to a copy."""
         return dict(x0=self.x0, bias=self.bias, q=self.q, r=self.r, S=self.S, free=self.free,
                     names=self.names, ties=self.ties, input_hold=self.input_hold,
-                    substeps=self.substeps, delay=self.delay)
+                    substeps=self.substeps, delay=self.delay,
+                    udelay=self.udelay)
 
     # -- parameter vector ------------------------------------------------
     @property
@@ -518,7 +526,7 @@ class LinearModel(Model):
 
     def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
-                 ties=None, K=None, bx=None, delay=None):
+                 ties=None, K=None, bx=None, delay=None, udelay=None):
         F, G, H = np.atleast_2d(real_array("F", F)), real_array("G", G), np.atleast_2d(real_array("H", H))
         nx = F.shape[0]
         if F.shape != (nx, nx):
@@ -542,7 +550,8 @@ class LinearModel(Model):
             self.K = K
         if bx is not None:
             self.bx = bx
-        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay)
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
+                          udelay)
 
 
 #: Regressors of the longitudinal model (fortran/mlid_aero_long.f90), in
@@ -588,7 +597,7 @@ class LongitudinalModel(Model):
 
     def __init__(self, regressors, coefficients, constants, x0=None, bias=None, free=(),
                  names=None, input_hold="linear", substeps=1, r=None, ties=None, q=None, S=None,
-                 delay=None):
+                 delay=None, udelay=None):
         self.regressors = {k: list(regressors.get(k, [])) for k in self._COEFFICIENTS}
         unknown = set(regressors) - set(self.regressors)
         if unknown:
@@ -615,7 +624,8 @@ class LongitudinalModel(Model):
                                  f"{vals.size} values")
             self._put(block, vals, key)
         # process noise (q, 4 variances) adds to each state equation: turbulence
-        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay)
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
+                          udelay)
 
     @property
     def coefficients(self):
@@ -650,7 +660,8 @@ class UserModel(Model):
     p = _Block("p")
 
     def __init__(self, p, iconst=(), rconst=(), x0=None, bias=None, free=(), names=None,
-                 input_hold="linear", substeps=1, q=None, r=None, S=None, ties=None, delay=None):
+                 input_hold="linear", substeps=1, q=None, r=None, S=None, ties=None, delay=None,
+                 udelay=None):
         self.iconst = np.asarray(iconst, dtype=np.int32).ravel()
         self.rconst = np.asarray(rconst, dtype=float).ravel()
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
@@ -658,7 +669,8 @@ class UserModel(Model):
         if p.size != self.np:
             raise InputError(f"the user model has {self.np} parameters p, got {p.size} values")
         self.p = p
-        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay)
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
+                          udelay)
 
 
 @_documented
@@ -687,13 +699,14 @@ class X22Model(Model):
     p = _Block("p")
 
     def __init__(self, p, x0=None, bias=None, free=(), names=None, input_hold="linear",
-                 substeps=1, q=None, r=None, S=None, ties=None, delay=None):
+                 substeps=1, q=None, r=None, S=None, ties=None, delay=None, udelay=None):
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
         p = np.asarray(p, dtype=float).ravel()
         if p.size != self.np:
             raise InputError(f"the X-22 model has {self.np} coefficients, got {p.size}")
         self.p = p
-        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay)
+        self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
+                          udelay)
 
 
 #: The X-22's 23 coefficients (report Appendix A), from the core: each
@@ -743,9 +756,10 @@ class EquationModel(Model):
 
     def __init__(self, outputs, states=None, inputs=(), params=None, definitions=None, x0=None,
                  bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
-                 S=None, ties=None, delay=None):
+                 S=None, ties=None, delay=None, udelay=None):
         self._build(outputs, states or {}, inputs, params, definitions, "", "",
-                    (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay))
+                    (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
+                     udelay))
 
     def _build(self, outputs, states, inputs, params, definitions, pre, post, common):
         """The model's text from its parts (pre and post: lines a generator
@@ -849,7 +863,7 @@ class SixDofModel(EquationModel):
 
     def __init__(self, constants, states, outputs, inputs=(), params=None, definitions=None,
                  x0=None, bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None,
-                 r=None, S=None, ties=None, delay=None):
+                 r=None, S=None, ties=None, delay=None, udelay=None):
         missing = [k for k in SIXDOF_CONSTANTS if k not in constants]
         if missing or len(constants) != len(SIXDOF_CONSTANTS):
             raise InputError(f"constants must give {', '.join(SIXDOF_CONSTANTS)}; "
@@ -864,7 +878,7 @@ class SixDofModel(EquationModel):
                          if line.strip())
         self._build(outputs, equations, inputs, params, definitions, pre.decode().strip(),
                     post.decode().strip(), (x0, bias, q, r, S, free, names, ties, input_hold,
-                                            substeps, delay))
+                                            substeps, delay, udelay))
 
 
 #: The flight-path model's constants, corrections, outputs and inputs, in
@@ -911,7 +925,7 @@ class FlightPathModel(EquationModel):
 
     def __init__(self, constants, corrections=None, outputs=FLIGHTPATH_OUTPUTS, x0=None,
                  bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
-                 S=None, ties=None, delay=None):
+                 S=None, ties=None, delay=None, udelay=None):
         missing = [k for k in FLIGHTPATH_CONSTANTS if k not in constants]
         if missing or len(constants) != len(FLIGHTPATH_CONSTANTS):
             raise InputError(f"constants must give {', '.join(FLIGHTPATH_CONSTANTS)}; "
@@ -925,7 +939,8 @@ class FlightPathModel(EquationModel):
             "".join(f"{n}\n" for n in corrections), "".join(f"{n}\n" for n in outputs))
         check_status(status, msg)
         self._from_text(text.decode().rstrip(), list(corrections.values()),
-                        (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay))
+                        (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
+                         udelay))
 
 
 def _one_line(expression):

@@ -40,8 +40,10 @@ def _rename(name, keep, removed, nu, outs, output):
         return None if i == output else f"d({outs.index(i) + 1},{j + 1})"
     if key in ("x0", "bx"):
         return None if i == removed else f"{key}({keep.index(i) + 1})"
-    if key in ("bias", "r"):
+    if key in ("bias", "r", "delay"):
         return None if i == output else f"{key}({outs.index(i) + 1})"
+    if key == "udelay":                 # the inputs stay, the measurement comes last
+        return name
     return None
 
 
@@ -80,6 +82,8 @@ def reduce_measured_state(model, state, output):
         raise InputError(f"output {output} must measure state {state} alone (H row = unit vector)")
     if np.any(model.K != 0):
         raise InputError("the reduction takes a model without state feedback (K = 0)")
+    if model.delay[o] != 0:
+        raise InputError(f"output {output} has a time delay: it cannot stand in for the state")
     keep = [i for i in range(model.nx) if i != k]
     outs = [i for i in range(model.ny) if i != o]
     F = model.F[np.ix_(keep, keep)]
@@ -96,7 +100,8 @@ def reduce_measured_state(model, state, output):
             names[new] = model.names[n]
     return LinearModel(F, G, H, D, model.x0[keep], model.bias[outs], free=free, names=names,
                        r=model.r[outs], input_hold=model.input_hold, substeps=model.substeps,
-                       bx=model.bx[keep])
+                       bx=model.bx[keep], delay=model.delay[outs],
+                       udelay=np.r_[model.udelay, 0.0])
 
 
 @guarded

@@ -43,17 +43,18 @@ contains
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
-    real(wp) :: theta(10), e(2), a, b, tt, exact
+    real(wp) :: theta(11), e(2), a, b, tt, exact
     real(wp), allocatable :: t(:), u(:, :), y(:, :)
     integer :: status, k, n, j
     character(len=256) :: msg
 
     call model_create(MODEL_LINEAR, 1, 1, 1, 0, [integer ::], [real(wp) ::], m, status, msg)
-    call param_map_create(model_layout(m), [0, 0, 0, 0, 0, 0, 0, 0, 0, 0], no_ties(10), &
+    call param_map_create(model_layout(m), [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0], no_ties(11), &
                           pm, status, msg)
     a = -2.0_wp
     b = 3.0_wp
-    theta = [a, b, 1.0_wp, 0.0_wp, 0.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 1.0_wp, 0.0_wp]  ! F G H D K bx x0 bias r delay
+    ! F G H D K bx x0 bias r delay udelay
+    theta = [a, b, 1.0_wp, 0.0_wp, 0.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 0.0_wp]
     do k = 1, 2
       n = 10*2**k
       allocate (t(n + 1), u(1, n + 1), y(1, n + 1))
@@ -72,12 +73,14 @@ contains
 
   !> Output sensitivities of a 2-state, 1-input, 2-output model with state
   !> feedback against central differences, for model parameters (state
-  !> biases bx among them), x0, bias and the output delays (one leading).
+  !> biases bx among them), x0, bias, the output delays (one leading) and the
+  !> input's delay.
   subroutine test_sensitivities()
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm, none
-    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2 + 2 + 2 + 2 + 2), tp(size(theta)), tm(size(theta)), h
+    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2 + 2 + 2 + 2 + 2 + 1), tp(size(theta)), tm(size(theta))
+    real(wp) :: h
     integer :: isfree(size(theta))
     real(wp), allocatable :: t(:), u(:, :), y(:, :), yp(:, :), ym(:, :), dy(:, :, :)
     integer, allocatable :: ifree(:)
@@ -89,8 +92,8 @@ contains
     ! F = [[-1.2, 0.8], [-0.5, -0.3]] col-major, G, H = [[1, 0.2], [0, 1]], D, K, bx, x0, bias, r
     theta = [-1.2_wp, -0.5_wp, 0.8_wp, -0.3_wp, 0.4_wp, -1.1_wp, 1.0_wp, 0.0_wp, 0.2_wp, 1.0_wp, &
              0.05_wp, -0.02_wp, 0.3_wp, -0.2_wp, 0.05_wp, -0.1_wp, 0.3_wp, -0.1_wp, 0.01_wp, &
-             0.02_wp, 1.0_wp, 1.0_wp, 0.013_wp, -0.02_wp]
-    ifree = [1, 3, 4, 6, 9, 12, 13, 14, 15, 16, 17, 18, 20, 23, 24]   ! F G H D K bx x0 bias delay
+             0.02_wp, 1.0_wp, 1.0_wp, 0.013_wp, -0.02_wp, 0.031_wp]
+    ifree = [1, 3, 4, 6, 9, 12, 13, 14, 15, 16, 17, 18, 20, 23, 24, 25]   ! ... delay udelay
     isfree = 0
     isfree(ifree) = 1
     call param_map_create(model_layout(m), isfree, no_ties(size(theta)), pm, status, msg)
@@ -111,7 +114,8 @@ contains
       call oe_predict(m, tm, none, t, u, opt, ym, status, msg)
       err = max(err, maxval(abs((yp - ym)/(2*h) - dy(:, k, :)))/max(1.0_wp, maxval(abs(dy(:, k, :)))))
     end do
-    call check(err < 1.0e-7_wp, 'output sensitivities match central differences (F, G, H, D, K, bx, x0, bias, delay)')
+    call check(err < 1.0e-7_wp, 'output sensitivities match central differences (F, G, H, D, K, '// &
+               'bx, x0, bias, delay, udelay)')
   end subroutine test_sensitivities
 
   !> Analytic Jacobians of the longitudinal model (every regressor used)
