@@ -25,7 +25,8 @@ module mlid_equations
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
   use mlid_expr, only: expr_t, expr_compile, split_definition, is_name
-  use mlid_expr_diff, only: code_t, code_expand, code_value, code_gradient, MAXNODE, MAXDEPTH
+  use mlid_expr_diff, only: graph_t, program_t, graph_add, program_of, program_forward, &
+                            program_reverse, program_values, MAXNODE
   use mlid_text, only: to_lower
   implicit none
   private
@@ -38,7 +39,7 @@ module mlid_equations
 
   type, extends(model_t) :: equations_t
     integer :: nvar = 0                                 !< v = [x, u, p, t]
-    type(code_t), allocatable :: fcode(:), hcode(:)     !< state derivatives, outputs
+    type(program_t) :: fprog, hprog                     !< state derivatives, outputs
     character(len=NAMELEN), allocatable :: xnames(:), unames(:), pnames(:), ynames(:)
   contains
     procedure :: f => eq_f
@@ -183,63 +184,45 @@ contains
   end function names_of
 
   !> Compile the definitions in order, then the state and output equations,
-  !> each against [x, u, p, t] and the definitions before it.
+  !> each against [x, u, p, t] and the definitions before it, into one
+  !> graph: the programs of the state equations and of the outputs.
   subroutine compile_all(m, items, status, msg)
     type(equations_t), intent(inout) :: m
     type(item_t), intent(in) :: items(:)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    character(len=*), parameter :: WHAT(3) = [character(len=10) :: 'state', 'output', 'definition']
     character(len=NAMELEN), allocatable :: names(:)
-    type(code_t), allocatable :: defs(:)
-    type(code_t) :: code
-    integer :: k, nf, nh
+    integer, allocatable :: defroot(:), froot(:), hroot(:)
+    type(graph_t) :: g
+    type(expr_t) :: ex
+    integer :: k, root
 
     names = [m%xnames, m%unames, m%pnames, [character(len=NAMELEN) :: 't']]
-    allocate (defs(0), m%fcode(m%nx), m%hcode(m%ny))
-    nf = 0
-    nh = 0
+    allocate (defroot(0), froot(0), hroot(0))
     status = MLID_OK
     do k = 1, size(items)
       if (index('xyl', items(k)%kind) == 0) cycle
-      call compile_one(items(k), names, m%nvar, defs, code, status, msg)
-      if (status /= MLID_OK) return
+      call expr_compile(items(k)%rhs, names, ex, status, msg, noun='variable')
+      if (status == MLID_OK) call graph_add(g, ex, m%nvar, defroot, root, status, msg)
+      if (status /= MLID_OK) then
+        msg = 'equations model, '//trim(WHAT(index('xyl', items(k)%kind)))//' '// &
+              trim(items(k)%name)//': '//msg
+        return
+      end if
       select case (items(k)%kind)
       case ('l')
-        defs = [defs, code]
+        defroot = [defroot, root]
         names = [names, items(k)%name]
       case ('x')
-        nf = nf + 1
-        m%fcode(nf) = code
+        froot = [froot, root]
       case ('y')
-        nh = nh + 1
-        m%hcode(nh) = code
+        hroot = [hroot, root]
       end select
     end do
+    m%fprog = program_of(g, froot)
+    m%hprog = program_of(g, hroot)
   end subroutine compile_all
-
-  subroutine compile_one(it, names, nvar, defs, code, status, msg)
-    type(item_t), intent(in) :: it
-    character(len=*), intent(in) :: names(:)
-    integer, intent(in) :: nvar
-    type(code_t), intent(in) :: defs(:)
-    type(code_t), intent(out) :: code
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    character(len=*), parameter :: WHAT(3) = [character(len=10) :: 'state', 'output', 'definition']
-    type(expr_t) :: ex
-    call expr_compile(it%rhs, names, ex, status, msg, noun='variable')
-    if (status /= MLID_OK) then
-      msg = 'equations model, '//trim(WHAT(index('xyl', it%kind)))//' '//trim(it%name)//': '//msg
-      return
-    end if
-    call code_expand(ex, nvar, defs, code)
-    if (code%n > MAXNODE .or. code%depth > MAXDEPTH) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0,a)') 'equations model, '//trim(WHAT(index('xyl', it%kind)))//' '// &
-        trim(it%name)//': too long with its definitions written out (at most ', MAXNODE, &
-        ' operations)'
-    end if
-  end subroutine compile_one
 
   !> v = [x, u, p, t] (fixed size: this runs several times per sample).
   pure subroutine point(self, t, x, u, p, v)
@@ -257,11 +240,8 @@ contains
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: xdot(:)
     real(wp) :: v(MAXVAR)
-    integer :: i
     call point(self, t, x, u, p, v)
-    do i = 1, self%nx
-      xdot(i) = code_value(self%fcode(i), v)
-    end do
+    call program_values(self%fprog, v(1:self%nvar), xdot(1:self%nx))
   end subroutine eq_f
 
   pure subroutine eq_h(self, t, x, u, p, y)
@@ -269,27 +249,27 @@ contains
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: y(:)
     real(wp) :: v(MAXVAR)
-    integer :: i
     call point(self, t, x, u, p, v)
-    do i = 1, self%ny
-      y(i) = code_value(self%hcode(i), v)
-    end do
+    call program_values(self%hprog, v(1:self%nvar), y(1:self%ny))
   end subroutine eq_h
 
-  !> Values and Jacobians of a set of codes in one sweep each: val(i), and
-  !> dx(i, :) = d/dx, dp(i, k) = d/dp(idx(k)) of code i.
-  pure subroutine sweep(self, codes, t, x, u, p, idx, val, dx, dp)
+  !> Values and Jacobians of a program's expressions: one forward sweep,
+  !> one reverse sweep each: val(i), and dx(i, :) = d/dx, dp(i, k) =
+  !> d/dp(idx(k)) of expression i.
+  pure subroutine sweep(self, prog, t, x, u, p, idx, val, dx, dp)
     class(equations_t), intent(in) :: self
-    type(code_t), intent(in) :: codes(:)
+    type(program_t), intent(in) :: prog
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: val(:), dx(:, :), dp(:, :)
-    real(wp) :: v(MAXVAR), g(MAXVAR)
+    real(wp) :: v(MAXVAR), g(MAXVAR), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
     integer :: i, k, op
     call point(self, t, x, u, p, v)
+    call program_forward(prog, v(1:self%nvar), nv, d1, d2)
     op = self%nx + self%nu
-    do i = 1, size(codes)
-      call code_gradient(codes(i), v(1:self%nvar), val(i), g(1:self%nvar))
+    do i = 1, size(prog%root)
+      val(i) = nv(prog%root(i))
+      call program_reverse(prog, i, d1, d2, g(1:self%nvar))
       dx(i, 1:self%nx) = g(1:self%nx)
       do k = 1, size(idx)
         dp(i, k) = g(op + idx(k))
@@ -302,7 +282,7 @@ contains
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: xdot(:), a(:, :), b(:, :)
-    call sweep(self, self%fcode, t, x, u, p, idx, xdot, a, b)
+    call sweep(self, self%fprog, t, x, u, p, idx, xdot, a, b)
   end subroutine eq_f_jac
 
   pure subroutine eq_h_jac(self, t, x, u, p, idx, c, d)
@@ -311,7 +291,7 @@ contains
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: c(:, :), d(:, :)
     real(wp) :: y(MAXOUT)
-    call sweep(self, self%hcode, t, x, u, p, idx, y, c, d)
+    call sweep(self, self%hprog, t, x, u, p, idx, y, c, d)
   end subroutine eq_h_jac
 
   pure logical function eq_input_jacobians(self)
@@ -319,17 +299,18 @@ contains
     eq_input_jacobians = .true.
   end function eq_input_jacobians
 
-  !> b(i, :) = d/du of code i (inputs: v(nx+1 : nx+nu)).
-  pure subroutine sweep_u(self, codes, t, x, u, p, b)
+  !> b(i, :) = d/du of expression i (inputs: v(nx+1 : nx+nu)).
+  pure subroutine sweep_u(self, prog, t, x, u, p, b)
     class(equations_t), intent(in) :: self
-    type(code_t), intent(in) :: codes(:)
+    type(program_t), intent(in) :: prog
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
-    real(wp) :: v(MAXVAR), g(MAXVAR), val
+    real(wp) :: v(MAXVAR), g(MAXVAR), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
     integer :: i
     call point(self, t, x, u, p, v)
-    do i = 1, size(codes)
-      call code_gradient(codes(i), v(1:self%nvar), val, g(1:self%nvar))
+    call program_forward(prog, v(1:self%nvar), nv, d1, d2)
+    do i = 1, size(prog%root)
+      call program_reverse(prog, i, d1, d2, g(1:self%nvar))
       b(i, 1:self%nu) = g(self%nx + 1:self%nx + self%nu)
     end do
   end subroutine sweep_u
@@ -338,14 +319,14 @@ contains
     class(equations_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
-    call sweep_u(self, self%fcode, t, x, u, p, b)
+    call sweep_u(self, self%fprog, t, x, u, p, b)
   end subroutine eq_dfdu
 
   pure subroutine eq_dhdu(self, t, x, u, p, b)
     class(equations_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
-    call sweep_u(self, self%hcode, t, x, u, p, b)
+    call sweep_u(self, self%hprog, t, x, u, p, b)
   end subroutine eq_dhdu
 
   pure subroutine eq_dfdx(self, t, x, u, p, a)
@@ -353,7 +334,7 @@ contains
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: a(:, :)
     real(wp) :: xdot(MAXOUT), b(MAXOUT, 0)
-    call sweep(self, self%fcode, t, x, u, p, [integer ::], xdot, a, b)
+    call sweep(self, self%fprog, t, x, u, p, [integer ::], xdot, a, b)
   end subroutine eq_dfdx
 
   pure subroutine eq_dfdp(self, t, x, u, p, idx, b)
@@ -362,7 +343,7 @@ contains
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: b(:, :)
     real(wp) :: xdot(MAXOUT), a(MAXOUT, MAXOUT)
-    call sweep(self, self%fcode, t, x, u, p, idx, xdot, a, b)
+    call sweep(self, self%fprog, t, x, u, p, idx, xdot, a, b)
   end subroutine eq_dfdp
 
   pure subroutine eq_dhdx(self, t, x, u, p, c)
@@ -370,7 +351,7 @@ contains
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: c(:, :)
     real(wp) :: y(MAXOUT), d(MAXOUT, 0)
-    call sweep(self, self%hcode, t, x, u, p, [integer ::], y, c, d)
+    call sweep(self, self%hprog, t, x, u, p, [integer ::], y, c, d)
   end subroutine eq_dhdx
 
   pure subroutine eq_dhdp(self, t, x, u, p, idx, d)
@@ -379,7 +360,7 @@ contains
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: d(:, :)
     real(wp) :: y(MAXOUT), c(MAXOUT, MAXOUT)
-    call sweep(self, self%hcode, t, x, u, p, idx, y, c, d)
+    call sweep(self, self%hprog, t, x, u, p, idx, y, c, d)
   end subroutine eq_dhdp
 
   !> No process noise enters the equations model.

@@ -1,198 +1,241 @@
 !> Compiled expressions evaluated at one point, with their exact gradient.
 !>
 !> The equations model (mlid_equations) states its equations as text in
-!> the expression language of mlid_expr.  Here that postfix code becomes a
-!> code_t over variables v(1:nvar), with named definitions expanded in
-!> place, and is evaluated at a point: the value alone, or the value and
-!> the gradient d/dv by one forward and one reverse sweep (reverse-mode
-!> differentiation), which costs a few evaluations whatever nvar is.
+!> the expression language of mlid_expr.  Here the postfix code of every
+!> definition and equation becomes one graph over variables v(1:nvar): a
+!> definition is a node like any other, shared by each expression that uses
+!> it, so it is computed once per point however often it is used, and so is
+!> any subexpression written more than once (same_node).  A
+!> program is a set of the graph's expressions (the state equations, or the
+!> outputs): one forward sweep gives every node's value and the partials to
+!> its operands, one reverse sweep per expression, over its own nodes only,
+!> gives its gradient d/dv (reverse-mode differentiation).
 module mlid_expr_diff
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use mlid_kinds, only: wp
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_expr, only: expr_t, OP_NUM, OP_VAR, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, &
                        OP_POW, OP_FUN, FUN_ARGS, F_SIN, F_COS, F_TAN, F_ASIN, F_ACOS, F_ATAN, &
                        F_ATAN2, F_SQRT, F_ABS, F_EXP, F_LOG, F_LOG10, F_MIN, F_MAX, F_TANH, F_STEP
   implicit none
   private
-  public :: code_t, code_expand, code_value, code_gradient, MAXNODE, MAXDEPTH
+  public :: graph_t, program_t, graph_add, program_of, program_forward, program_reverse, &
+            program_values, MAXNODE
 
-  !> The longest code and the deepest stack one may need: the evaluators
-  !> work in fixed local arrays, because gfortran puts arrays sized at run
-  !> time on the heap, and these run several times per sample.
-  integer, parameter :: MAXNODE = 2048, MAXDEPTH = 256
+  !> The most nodes a model's graph may have: the sweeps work in fixed
+  !> local arrays, because gfortran puts arrays sized at run time on the
+  !> heap, and these run several times per sample.
+  integer, parameter :: MAXNODE = 4096
 
-  !> Postfix code over v(1:nvar): op, arg (variable or function number),
-  !> num (the number of OP_NUM); c1, c2 the nodes of a node's operands
-  !> (0: none); depth, the stack it needs.
-  type :: code_t
-    integer :: n = 0, depth = 0
+  !> Nodes: op, arg (variable or function number), num (the number of
+  !> OP_NUM), c1, c2 the nodes of the operands (earlier ones; 0: none).
+  type :: graph_t
+    integer :: n = 0
     integer, allocatable :: op(:), arg(:), c1(:), c2(:)
     real(wp), allocatable :: num(:)
-  end type code_t
+  end type graph_t
+
+  !> Expressions of a graph: their roots, the nodes any of them needs
+  !> (ascending: the forward sweep), and each root's own nodes, descending
+  !> (its reverse sweep): ridx(rptr(i) : rptr(i+1) - 1).
+  type :: program_t
+    type(graph_t) :: g
+    integer, allocatable :: root(:), fwd(:), rptr(:), ridx(:)
+  end type program_t
 
 contains
 
-  !> ex compiled against [v(1:nvar), definitions(:)] -> code over v alone:
-  !> each reference to definition k (name nvar + k) is replaced by defs(k).
-  subroutine code_expand(ex, nvar, defs, code)
+  !> Append ex, compiled against [v(1:nvar), definitions]: a reference to
+  !> definition k (variable nvar + k) is the node defroot(k) itself.  root:
+  !> the expression's node.  Fails when the graph would pass MAXNODE.
+  subroutine graph_add(g, ex, nvar, defroot, root, status, msg)
+    type(graph_t), intent(inout) :: g
     type(expr_t), intent(in) :: ex
-    integer, intent(in) :: nvar
-    type(code_t), intent(in) :: defs(:)
-    type(code_t), intent(out) :: code
-    integer :: k, d, m
+    integer, intent(in) :: nvar, defroot(:)
+    integer, intent(out) :: root, status
+    character(len=*), intent(out) :: msg
+    integer :: st(ex%n), k, top, nargs, a, b
 
-    m = 0
-    do k = 1, ex%n
-      if (ex%op(k) == OP_VAR .and. ex%arg(k) > nvar) then
-        m = m + defs(ex%arg(k) - nvar)%n
-      else
-        m = m + 1
-      end if
-    end do
-    allocate (code%op(m), code%arg(m), code%num(m))
-    code%n = 0
-    do k = 1, ex%n
-      if (ex%op(k) == OP_VAR .and. ex%arg(k) > nvar) then
-        d = ex%arg(k) - nvar
-        code%op(code%n + 1:code%n + defs(d)%n) = defs(d)%op(1:defs(d)%n)
-        code%arg(code%n + 1:code%n + defs(d)%n) = defs(d)%arg(1:defs(d)%n)
-        code%num(code%n + 1:code%n + defs(d)%n) = defs(d)%num(1:defs(d)%n)
-        code%n = code%n + defs(d)%n
-      else
-        code%n = code%n + 1
-        code%op(code%n) = ex%op(k)
-        code%arg(code%n) = ex%arg(k)
-        code%num(code%n) = ex%num(k)
-      end if
-    end do
-    call link(code)
-  end subroutine code_expand
-
-  !> Each node's operands (c1, c2) and the stack the code needs.
-  pure subroutine link(code)
-    type(code_t), intent(inout) :: code
-    integer :: st(code%n), k, top
-    allocate (code%c1(code%n), code%c2(code%n))
-    code%c1 = 0
-    code%c2 = 0
-    code%depth = 0
+    root = 0
+    status = MLID_ERR_INPUT
+    if (g%n + ex%n > MAXNODE) then
+      write (msg, '(a,i0,a)') 'the equations and definitions together pass ', MAXNODE, &
+        ' operations'
+      return
+    end if
+    if (.not. allocated(g%op)) allocate (g%op(0), g%arg(0), g%c1(0), g%c2(0), g%num(0))
+    call reserve(g, g%n + ex%n)
     top = 0
-    do k = 1, code%n
-      select case (code%op(k))
-      case (OP_NUM, OP_VAR)
+    do k = 1, ex%n
+      if (ex%op(k) == OP_VAR .and. ex%arg(k) > nvar) then
         top = top + 1
+        st(top) = defroot(ex%arg(k) - nvar)
+        cycle
+      end if
+      select case (ex%op(k))
+      case (OP_NUM, OP_VAR)
+        nargs = 0
       case (OP_NEG)
-        code%c1(k) = st(top)
+        nargs = 1
       case (OP_FUN)
-        if (FUN_ARGS(code%arg(k)) == 2) then
-          code%c1(k) = st(top - 1)
-          code%c2(k) = st(top)
-          top = top - 1
-        else
-          code%c1(k) = st(top)
-        end if
+        nargs = FUN_ARGS(ex%arg(k))
       case default
-        code%c1(k) = st(top - 1)
-        code%c2(k) = st(top)
-        top = top - 1
+        nargs = 2
       end select
-      st(top) = k
-      code%depth = max(code%depth, top)
+      a = 0
+      b = 0
+      if (nargs >= 1) a = st(top - nargs + 1)
+      if (nargs == 2) b = st(top)
+      top = top - nargs + 1
+      st(top) = same_node(g, ex%op(k), ex%arg(k), ex%num(k), a, b)
+      if (st(top) > 0) cycle              ! computed already: shared
+      g%n = g%n + 1
+      g%op(g%n) = ex%op(k)
+      g%arg(g%n) = ex%arg(k)
+      g%num(g%n) = ex%num(k)
+      g%c1(g%n) = a
+      g%c2(g%n) = b
+      st(top) = g%n
     end do
-  end subroutine link
+    root = st(top)
+    status = MLID_OK
+    msg = ''
+  end subroutine graph_add
 
-  !> The value of the code at v.
-  pure real(wp) function code_value(code, v) result(val)
-    type(code_t), intent(in) :: code
+  !> The node that computes op(arg, num) of nodes a, b already, or 0: a
+  !> subexpression written twice (sin(theta) in three state equations) is
+  !> computed once.
+  pure integer function same_node(g, op, arg, num, a, b) result(k)
+    type(graph_t), intent(in) :: g
+    integer, intent(in) :: op, arg, a, b
+    real(wp), intent(in) :: num
+    do k = 1, g%n
+      if (g%op(k) == op .and. g%arg(k) == arg .and. g%c1(k) == a .and. g%c2(k) == b .and. &
+          (op /= OP_NUM .or. g%num(k) == num)) return
+    end do
+    k = 0
+  end function same_node
+
+  !> Room for n nodes.
+  pure subroutine reserve(g, n)
+    type(graph_t), intent(inout) :: g
+    integer, intent(in) :: n
+    integer :: extra
+    extra = n - size(g%op)
+    if (extra <= 0) return
+    g%op = [g%op, spread(0, 1, extra)]
+    g%arg = [g%arg, spread(0, 1, extra)]
+    g%c1 = [g%c1, spread(0, 1, extra)]
+    g%c2 = [g%c2, spread(0, 1, extra)]
+    g%num = [g%num, spread(0.0_wp, 1, extra)]
+  end subroutine reserve
+
+  !> The program of the graph's expressions at the nodes roots.
+  pure function program_of(g, roots) result(p)
+    type(graph_t), intent(in) :: g
+    integer, intent(in) :: roots(:)
+    type(program_t) :: p
+    logical :: need(g%n), any_need(g%n)
+    integer :: i, k
+    p%g = g
+    p%root = roots
+    allocate (p%rptr(size(roots) + 1), p%ridx(0))
+    any_need = .false.
+    p%rptr(1) = 1
+    do i = 1, size(roots)
+      need = .false.
+      need(roots(i)) = .true.
+      do k = roots(i), 1, -1            ! operands come before their node
+        if (.not. need(k)) cycle
+        if (g%c1(k) > 0) need(g%c1(k)) = .true.
+        if (g%c2(k) > 0) need(g%c2(k)) = .true.
+      end do
+      p%ridx = [p%ridx, pack([(k, k=g%n, 1, -1)], need(g%n:1:-1))]
+      p%rptr(i + 1) = size(p%ridx) + 1
+      any_need = any_need .or. need
+    end do
+    p%fwd = pack([(k, k=1, g%n)], any_need)
+  end function program_of
+
+  !> Every needed node's value nv and partials to its operands d1, d2.
+  pure subroutine program_forward(p, v, nv, d1, d2)
+    type(program_t), intent(in) :: p
     real(wp), intent(in) :: v(:)
-    real(wp) :: nv(MAXNODE), d1, d2
-    integer :: k
+    real(wp), intent(out) :: nv(:), d1(:), d2(:)
+    integer :: j, k
 
-    do k = 1, code%n
-      select case (code%op(k))
-      case (OP_NUM)
-        nv(k) = code%num(k)
-      case (OP_VAR)
-        nv(k) = v(code%arg(k))
-      case (OP_NEG)
-        nv(k) = -nv(code%c1(k))
-      case (OP_ADD)
-        nv(k) = nv(code%c1(k)) + nv(code%c2(k))
-      case (OP_SUB)
-        nv(k) = nv(code%c1(k)) - nv(code%c2(k))
-      case (OP_MUL)
-        nv(k) = nv(code%c1(k))*nv(code%c2(k))
-      case (OP_FUN)
-        if (code%c2(k) > 0) then
-          call fun2(code%arg(k), nv(code%c1(k)), nv(code%c2(k)), nv(k), d1, d2)
-        else
-          call fun1(code%arg(k), nv(code%c1(k)), nv(k), d1)
-        end if
-      case default
-        call binary(code%op(k), nv(code%c1(k)), nv(code%c2(k)), nv(k), d1, d2)
-      end select
+    do j = 1, size(p%fwd)
+      k = p%fwd(j)
+      associate (g => p%g)
+        select case (g%op(k))
+        case (OP_NUM)
+          nv(k) = g%num(k)
+        case (OP_VAR)
+          nv(k) = v(g%arg(k))
+        case (OP_NEG)
+          nv(k) = -nv(g%c1(k))
+          d1(k) = -1.0_wp
+        case (OP_ADD)                 ! the common operations inline, the rest in helpers
+          nv(k) = nv(g%c1(k)) + nv(g%c2(k))
+          d1(k) = 1.0_wp
+          d2(k) = 1.0_wp
+        case (OP_SUB)
+          nv(k) = nv(g%c1(k)) - nv(g%c2(k))
+          d1(k) = 1.0_wp
+          d2(k) = -1.0_wp
+        case (OP_MUL)
+          nv(k) = nv(g%c1(k))*nv(g%c2(k))
+          d1(k) = nv(g%c2(k))
+          d2(k) = nv(g%c1(k))
+        case (OP_FUN)
+          if (g%c2(k) > 0) then
+            call fun2(g%arg(k), nv(g%c1(k)), nv(g%c2(k)), nv(k), d1(k), d2(k))
+          else
+            call fun1(g%arg(k), nv(g%c1(k)), nv(k), d1(k))
+          end if
+        case default
+          call binary(g%op(k), nv(g%c1(k)), nv(g%c2(k)), nv(k), d1(k), d2(k))
+        end select
+      end associate
     end do
-    val = nv(code%n)
-  end function code_value
+  end subroutine program_forward
 
-  !> The value of the code at v and its gradient g = d(value)/dv: a forward
-  !> sweep keeps each node's value and the partials to its operands, a
-  !> reverse sweep carries the adjoints down to the variables.
-  pure subroutine code_gradient(code, v, val, g)
-    type(code_t), intent(in) :: code
+  !> The gradient gr(1:nvar) of expression i after program_forward.
+  pure subroutine program_reverse(p, i, d1, d2, gr)
+    type(program_t), intent(in) :: p
+    integer, intent(in) :: i
+    real(wp), intent(in) :: d1(:), d2(:)
+    real(wp), intent(out) :: gr(:)
+    real(wp) :: adj(MAXNODE)
+    integer :: j, k
+
+    gr = 0.0_wp
+    associate (g => p%g, list => p%ridx(p%rptr(i):p%rptr(i + 1) - 1))
+      adj(list) = 0.0_wp
+      adj(p%root(i)) = 1.0_wp
+      do j = 1, size(list)
+        k = list(j)
+        if (adj(k) == 0.0_wp) cycle
+        select case (g%op(k))
+        case (OP_NUM)
+        case (OP_VAR)
+          gr(g%arg(k)) = gr(g%arg(k)) + adj(k)
+        case default
+          adj(g%c1(k)) = adj(g%c1(k)) + adj(k)*d1(k)
+          if (g%c2(k) > 0) adj(g%c2(k)) = adj(g%c2(k)) + adj(k)*d2(k)
+        end select
+      end do
+    end associate
+  end subroutine program_reverse
+
+  !> The values of the program's expressions at v.
+  pure subroutine program_values(p, v, val)
+    type(program_t), intent(in) :: p
     real(wp), intent(in) :: v(:)
-    real(wp), intent(out) :: val, g(:)
-    real(wp) :: nv(MAXNODE), d1(MAXNODE), d2(MAXNODE), adj(MAXNODE)
-    integer :: k, n
-
-    n = code%n
-    do k = 1, n
-      select case (code%op(k))
-      case (OP_NUM)
-        nv(k) = code%num(k)
-      case (OP_VAR)
-        nv(k) = v(code%arg(k))
-      case (OP_NEG)
-        nv(k) = -nv(code%c1(k))
-        d1(k) = -1.0_wp
-      case (OP_ADD)                   ! the common operations inline, the rest in helpers
-        nv(k) = nv(code%c1(k)) + nv(code%c2(k))
-        d1(k) = 1.0_wp
-        d2(k) = 1.0_wp
-      case (OP_SUB)
-        nv(k) = nv(code%c1(k)) - nv(code%c2(k))
-        d1(k) = 1.0_wp
-        d2(k) = -1.0_wp
-      case (OP_MUL)
-        nv(k) = nv(code%c1(k))*nv(code%c2(k))
-        d1(k) = nv(code%c2(k))
-        d2(k) = nv(code%c1(k))
-      case (OP_FUN)
-        if (code%c2(k) > 0) then
-          call fun2(code%arg(k), nv(code%c1(k)), nv(code%c2(k)), nv(k), d1(k), d2(k))
-        else
-          call fun1(code%arg(k), nv(code%c1(k)), nv(k), d1(k))
-        end if
-      case default
-        call binary(code%op(k), nv(code%c1(k)), nv(code%c2(k)), nv(k), d1(k), d2(k))
-      end select
-    end do
-    val = nv(n)
-    g = 0.0_wp
-    adj(1:n) = 0.0_wp
-    adj(n) = 1.0_wp
-    do k = n, 1, -1
-      if (adj(k) == 0.0_wp) cycle
-      select case (code%op(k))
-      case (OP_NUM)
-      case (OP_VAR)
-        g(code%arg(k)) = g(code%arg(k)) + adj(k)
-      case default
-        adj(code%c1(k)) = adj(code%c1(k)) + adj(k)*d1(k)
-        if (code%c2(k) > 0) adj(code%c2(k)) = adj(code%c2(k)) + adj(k)*d2(k)
-      end select
-    end do
-  end subroutine code_gradient
+    real(wp), intent(out) :: val(:)
+    real(wp) :: nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
+    call program_forward(p, v, nv, d1, d2)
+    val = nv(p%root)
+  end subroutine program_values
 
   !> c = a op b and the partials dc/da, dc/db.
   pure subroutine binary(op, a, b, c, da, db)

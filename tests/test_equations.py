@@ -116,9 +116,10 @@ def test_parameters_by_name_in_free_ties_and_labels():
     ({"outputs": {"y": "x"}, "params": {"2b": 0}}, "'2b' is not a name"),
     ({"outputs": {"y": "x" + " + x" * 300}}, "output y: '\\.\\.\\.x \\+ x.*at character \\d+: the "
                                               "expression is too long"),
-    ({"outputs": {"y": "x"}, "definitions": {"d": "x" + " + x" * 200,
-                                             "e": "d*d*d*d*d*d"}}, "definition e: too long with its "
-                                                             "definitions written out"),
+    ({"outputs": {"y": "x"},          # 85 distinct terms each: shared subexpressions are not
+      "definitions": {f"d{k}": " + ".join(f"{k + i / 1000}*x" for i in range(85))
+                      for k in range(17)}},      # counted twice
+     "definition d15: the equations and definitions together pass 4096 operations"),
 ])
 def test_bad_models_are_one_line(kw, message):
     with pytest.raises(mlid.InputError, match=message) as err:
