@@ -283,7 +283,7 @@ contains
     character(len=TIELEN) :: params(MAXFREE)
     character(len=TIELEN), allocatable :: xs(:)
     character(len=:), allocatable :: pre, post
-    real(wp) :: initial_states(MAXX*MAXSEG), delay(MAXY), udelay(MAXU)
+    real(wp) :: initial_states(MAXX*MAXSEG), delay(MAXY), udelay(MAXU), stab(MAXX*MAXY)
     character(len=msg_len) :: iomsg
     integer, allocatable :: codes(:)
     real(wp), allocatable :: pstart(:)
@@ -292,7 +292,7 @@ contains
     namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, k, bx, x0, bias, q, r, s, free, names, &
       tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
       cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst, &
-      xdot, outputs, definitions, params, initial_states, delay, udelay
+      xdot, outputs, definitions, params, initial_states, delay, udelay, stab
 
     kind = 'linear'
     nx = 0
@@ -336,6 +336,7 @@ contains
     initial_states = UNSET
     delay = UNSET
     udelay = UNSET
+    stab = UNSET
     rewind (rd%unit)
     read (rd%unit, nml=model, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'model', ios, iomsg, .true., c)
@@ -404,6 +405,7 @@ contains
     call put_matrix(c, lt, 's', s, required=.false.)
     call put_matrix(c, lt, 'delay', delay, required=.false.)
     call put_matrix(c, lt, 'udelay', udelay, required=.false.)
+    call put_matrix(c, lt, 'stab', stab, required=.false.)
     if (c%status == MLID_OK) call set_free(c, lt, free, names, free_idx)
     if (c%status == MLID_OK) call set_ties(c, lt, tie)
     if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'input_hold', input_hold)

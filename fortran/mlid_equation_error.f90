@@ -59,9 +59,9 @@ contains
       return
     end if
     if (size(pm%id) > 0 .or. any(theta(l%odelay + 1:l%odelay + ny) /= 0.0_wp) .or. &
-        input_delays(theta, pm)) then
+        input_delays(theta, pm) .or. any(theta(l%ostab + 1:l%nth) /= 0.0_wp)) then
       msg = 'equation-error start-up takes the measured states as they are: no '// &
-            'time delays (start without them, then free them)'
+            'time delays or stabilizing gain (start without them)'
       return
     end if
     allocate (ua(m%nu + m%nw))

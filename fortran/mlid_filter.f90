@@ -70,7 +70,7 @@ contains
   !> (segments) are independent, each from its own initial state, and are
   !> integrated in parallel: each writes only its own samples, so the result
   !> does not depend on the threads; a failure is the first segment's.
-  subroutine oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy, xhist)
+  subroutine oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy, xhist, z)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -81,6 +81,7 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: dy(:, :, :)
     real(wp), intent(out), optional :: xhist(:, :)
+    real(wp), intent(in), optional :: z(:, :)     !< the measured outputs (stabilized output error)
     integer :: k, nseg, first(pm%l%nseg + 1), kstat(pm%l%nseg)
     character(len=len(msg)) :: kmsg(pm%l%nseg)
 
@@ -90,7 +91,7 @@ contains
     !$omp parallel do schedule(dynamic, 1) if (nseg > 1)
     do k = 1, nseg
       call oe_segment(m, theta, pm, t, u, opt, k, first(k), first(k + 1) - 1, yhat, &
-                      kstat(k), kmsg(k), dy, xhist)
+                      kstat(k), kmsg(k), dy, xhist, z)
     end do
     !$omp end parallel do
     call first_failure(kstat, kmsg, status, msg)
@@ -98,8 +99,11 @@ contains
 
   !> oe_predict over the samples j0..j1 of segment iseg.  Inputs that a
   !> delay moves (udelay) are delayed first (mlid_delay), and force the
-  !> sensitivities through df/du and dh/du.
-  subroutine oe_segment(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, dy, xhist)
+  !> sensitivities through df/du and dh/du.  With a stabilizing gain K
+  !> (theta's block stab, nx x ny), the stabilized output error of the
+  !> textbook (its eq. 9.37): after the outputs of each sample, x <- x +
+  !> K (z - yhat) and its sensitivities s <- s - K dy, before integrating on.
+  subroutine oe_segment(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, dy, xhist, z)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -111,11 +115,26 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(inout), optional :: dy(:, :, :)
     real(wp), intent(inout), optional :: xhist(:, :)
+    real(wp), intent(in), optional :: z(:, :)
     real(wp), allocatable :: ud(:, :), dud(:, :)
+    real(wp) :: gain(m%nx, m%ny)
+    logical :: stabilized
 
     status = MLID_OK
     msg = ''
     associate (l => pm%l)
+      gain = reshape(theta(l%ostab + 1:l%ostab + m%nx*m%ny), [m%nx, m%ny])
+      stabilized = any(gain /= 0.0_wp)
+      if (stabilized .and. .not. present(z)) then
+        msg = 'the stabilized output error (stab) needs the measured outputs'
+      else if (stabilized .and. (size(pm%id) > 0 .or. &
+               any(theta(l%odelay + 1:l%odelay + l%ny) /= 0.0_wp))) then
+        msg = 'the stabilized output error (stab) takes no output time delays'
+      end if
+      if (len_trim(msg) > 0) then
+        status = MLID_ERR_INPUT
+        return
+      end if
       if (input_delays(theta, pm)) then
         call delay_check(theta(l%oudelay + 1:l%oudelay + l%nu), t, j0, j1, iseg, msg, 'udelay')
         if (len_trim(msg) > 0) then
@@ -176,13 +195,18 @@ contains
         if (present(xhist)) xhist(:, j) = x
         call m%h(t(j), x, uu(:, j), theta(1:pm%l%np), yhat(:, j))
         yhat(:, j) = yhat(:, j) + theta(pm%l%obias + (iseg - 1)*m%ny + 1:pm%l%obias + iseg*m%ny)
-        if (.not. present(dy)) cycle
-        call output_sensitivity(m, theta, pm, t(j), x, uu(:, j), s, dy(:, :, j), c, d, iseg)
-        if (.not. present(du)) cycle
-        call m%dhdu(t(j), x, uu(:, j), theta(1:pm%l%np), hu)
-        do k = 1, size(pm%iu)
-          dy(:, pm%cu(k), j) = dy(:, pm%cu(k), j) + hu(:, pm%iu(k))*du(k, j)
-        end do
+        if (present(dy)) then
+          call output_sensitivity(m, theta, pm, t(j), x, uu(:, j), s, dy(:, :, j), c, d, iseg)
+          if (present(du)) then
+            call m%dhdu(t(j), x, uu(:, j), theta(1:pm%l%np), hu)
+            do k = 1, size(pm%iu)
+              dy(:, pm%cu(k), j) = dy(:, pm%cu(k), j) + hu(:, pm%iu(k))*du(k, j)
+            end do
+          end if
+        end if
+        if (.not. stabilized) cycle
+        x = x + matmul(gain, z(:, j) - yhat(:, j))
+        if (present(dy)) s = s - matmul(gain, dy(:, :, j))
       end do
     end subroutine integrate
 

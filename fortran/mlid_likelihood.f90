@@ -65,6 +65,11 @@ contains
       status = MLID_ERR_INPUT
       msg = 'time delays are for output error (method = ''output_error''), not the filter'
       return
+    else if (opt%method == 1 .and. any(theta(pm%l%ostab + 1:pm%l%nth) /= 0.0_wp)) then
+      status = MLID_ERR_INPUT
+      msg = 'stab, the gain of the stabilized output error, is for output error; the filter '// &
+            'has its own'
+      return
     else if (size(pm%iu) > 0 .and. .not. m%has_input_jacobians()) then
       status = MLID_ERR_INPUT
       msg = 'a free input time delay needs the model''s input Jacobians: kinds linear, '// &
@@ -103,9 +108,9 @@ contains
     nf = pm%nf
     if (present(grad)) then
       allocate (dy(ny, nf, nt))
-      call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy=dy)
+      call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy=dy, z=y)
     else
-      call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg)
+      call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, z=y)
     end if
     if (status /= MLID_OK) return
 

@@ -5,11 +5,13 @@
 !> interval and entering like extra inputs.  Every estimator works on the
 !> full parameter vector (offsets in layout_t)
 !>
-!>     theta = [ p(np), x0(nx), bias(ny), q(nw), r(ny), s(nw*ny), delay(ny), udelay(nu) ]
+!>     theta = [ p(np), x0(nx), bias(ny), q(nw), r(ny), s(nw*ny), delay(ny), udelay(nu),
+!>               stab(nx*ny) ]
 !>
 !> with q and r the variances of process and measurement noise (diagonal Q
 !> and R), s their cross-covariance S (nw x ny, column-major) and delay each
-!> output's time delay (s, mlid_delay).  Initial states, biases, noise
+!> output's time delay (s, mlid_delay), udelay each input's, stab the fixed
+!> gain of the stabilized output error (mlid_filter).  Initial states, biases, noise
 !> statistics and delays are thus parameters of every model,
 !> free or fixed like any other; the model itself only sees p.
 !> A model whose outputs carry the process noise too (accelerometers, §5.1)
@@ -116,7 +118,8 @@ module mlid_models
   !> segment k.
   type :: layout_t
     integer :: np = 0, nx = 0, ny = 0, nw = 0, nseg = 1
-    integer :: ox0 = 0, obias = 0, oq = 0, or = 0, os = 0, odelay = 0, oudelay = 0, nth = 0
+    integer :: ox0 = 0, obias = 0, oq = 0, or = 0, os = 0, odelay = 0, oudelay = 0, ostab = 0
+    integer :: nth = 0
     integer :: nu = 0
     integer, allocatable :: seg(:)
   end type layout_t
@@ -211,7 +214,8 @@ contains
     l%odelay = l%os + m%nw*m%ny
     l%oudelay = l%odelay + m%ny
     l%nu = m%nu
-    l%nth = l%oudelay + m%nu
+    l%ostab = l%oudelay + m%nu
+    l%nth = l%ostab + m%nx*m%ny
   end function model_layout
 
   !> The inputs the aircraft sees: v = u + K x (the recorded u alone when K = 0).

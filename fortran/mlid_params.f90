@@ -113,6 +113,11 @@ contains
       msg = 'free flags must be 0 or 1'
       return
     end if
+    if (any(isfree(l%ostab + 1:l%nth) == 1) .or. any(tie%to > l%ostab)) then
+      msg = 'stab, the gain of the stabilized output error, is a setting, not a parameter: '// &
+            'it may be neither free nor tied'
+      return
+    end if
     do i = 1, size(tie%to)
       k = tie%to(i)
       j = tie%from(i)

@@ -17,7 +17,8 @@ HERE = Path(__file__).resolve().parent
 REFS = HERE.parents[2] / "shared" / "data" / "refs"
 CASES = {"tc06": "unstab_ac_tc06_regstart_fvsysid_octave.txt",
          "tc07": "unstab_ac_tc07_eqdecoup_fvsysid_octave.txt",
-         "tc08": "unstab_ac_tc08_oem_fvsysid_octave.txt"}
+         "tc08": "unstab_ac_tc08_oem_fvsysid_octave.txt",
+         "tc09": "unstab_ac_tc09_stabilized_fvsysid_octave.txt"}
 
 
 def main():

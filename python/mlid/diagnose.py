@@ -258,6 +258,7 @@ def _lagged(model, i, tau):
     common = model._common()
     x0 = np.r_[model.x0, model.H[i] @ model.x0]
     common["x0"] = x0
+    common["stab"] = np.vstack([model.stab, np.zeros((1, model.ny))])   # the lag state: none
     # element names move with the new state only for F(i,j), G(i,j) (same indices)
     return LinearModel(F, G, H, D, Gamma=Gamma, K=K, bx=np.r_[model.bx, 0.0], **common)
 
@@ -280,6 +281,7 @@ def _lagged2(model, i, wn, zeta):
     K = np.hstack([m.K, np.zeros((model.nu, 1))])
     common = model._common()
     common["x0"] = np.r_[m.x0, 0.0]
+    common["stab"] = np.vstack([m.stab, np.zeros((1, model.ny))])
     return LinearModel(F, G, H, m.D, Gamma=Gamma, K=K, bx=np.r_[m.bx, 0.0], **common)
 
 

@@ -67,7 +67,12 @@ _COMMON_PARAMETERS = """x0 : array_like (nx,), optional
         Each input's time delay in s (default zero), by the same rule: the
         aircraft sees the recorded input at t - udelay.  A parameter
         'udelay(j)'; output error only; free only with the kinds that give
-        their input Jacobians (linear, equations, sixdof, flight path)."""
+        their input Jacobians (linear, equations, sixdof, flight path).
+    stab : array_like (nx, ny), optional
+        The gain K of the stabilized output error (textbook eq. 9.37; default
+        zero: plain output error): after each sample's outputs the state
+        moves by K (z - yhat) toward the measurements, which keeps an
+        unstable model's integration from diverging.  A setting, never free."""
 #: What every model constructor raises.
 _COMMON_RAISES = """InputError
         Wrong sizes or shapes, an element that does not exist, a parameter
@@ -156,6 +161,7 @@ class Model:
     x0, bias, q, r, S = _Block("x0"), _Block("bias"), _Block("q"), _Block("r"), _Block("s")
     delay = _Block("delay")
     udelay = _Block("udelay")
+    stab = _Block("stab")
 
     def _init_layout(self, nx, nu, ny, nw):
         self.nx, self.nu, self.ny, self.nw = nx, nu, ny, nw
@@ -175,9 +181,9 @@ class Model:
         self._theta[self._layout.slice(key)] = a.reshape(shape).ravel(order="F")
 
     def _init_common(self, x0, bias, q, r, S, free, names, ties, input_hold, substeps,
-                     delay=None, udelay=None):
+                     delay=None, udelay=None, stab=None):
         for key, value in (("x0", x0), ("bias", bias), ("q", q), ("r", r), ("S", S),
-                           ("delay", delay), ("udelay", udelay)):
+                           ("delay", delay), ("udelay", udelay), ("stab", stab)):
             if value is not None:
                 setattr(self, key, value)
         if input_hold not in INPUT_HOLDS:
@@ -214,7 +220,7 @@ class Model:
         return dict(x0=self.x0, bias=self.bias, q=self.q, r=self.r, S=self.S, free=self.free,
                     names=self.names, ties=self.ties, input_hold=self.input_hold,
                     substeps=self.substeps, delay=self.delay,
-                    udelay=self.udelay)
+                    udelay=self.udelay, stab=self.stab)
 
     # -- parameter vector ------------------------------------------------
     @property
@@ -526,7 +532,7 @@ class LinearModel(Model):
 
     def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
-                 ties=None, K=None, bx=None, delay=None, udelay=None):
+                 ties=None, K=None, bx=None, delay=None, udelay=None, stab=None):
         F, G, H = np.atleast_2d(real_array("F", F)), real_array("G", G), np.atleast_2d(real_array("H", H))
         nx = F.shape[0]
         if F.shape != (nx, nx):
@@ -551,7 +557,7 @@ class LinearModel(Model):
         if bx is not None:
             self.bx = bx
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                          udelay)
+                          udelay, stab)
 
 
 #: Regressors of the longitudinal model (fortran/mlid_aero_long.f90), in
@@ -597,7 +603,7 @@ class LongitudinalModel(Model):
 
     def __init__(self, regressors, coefficients, constants, x0=None, bias=None, free=(),
                  names=None, input_hold="linear", substeps=1, r=None, ties=None, q=None, S=None,
-                 delay=None, udelay=None):
+                 delay=None, udelay=None, stab=None):
         self.regressors = {k: list(regressors.get(k, [])) for k in self._COEFFICIENTS}
         unknown = set(regressors) - set(self.regressors)
         if unknown:
@@ -625,7 +631,7 @@ class LongitudinalModel(Model):
             self._put(block, vals, key)
         # process noise (q, 4 variances) adds to each state equation: turbulence
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                          udelay)
+                          udelay, stab)
 
     @property
     def coefficients(self):
@@ -661,7 +667,7 @@ class UserModel(Model):
 
     def __init__(self, p, iconst=(), rconst=(), x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, q=None, r=None, S=None, ties=None, delay=None,
-                 udelay=None):
+                 udelay=None, stab=None):
         self.iconst = np.asarray(iconst, dtype=np.int32).ravel()
         self.rconst = np.asarray(rconst, dtype=float).ravel()
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
@@ -670,7 +676,7 @@ class UserModel(Model):
             raise InputError(f"the user model has {self.np} parameters p, got {p.size} values")
         self.p = p
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                          udelay)
+                          udelay, stab)
 
 
 @_documented
@@ -699,14 +705,14 @@ class X22Model(Model):
     p = _Block("p")
 
     def __init__(self, p, x0=None, bias=None, free=(), names=None, input_hold="linear",
-                 substeps=1, q=None, r=None, S=None, ties=None, delay=None, udelay=None):
+                 substeps=1, q=None, r=None, S=None, ties=None, delay=None, udelay=None, stab=None):
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
         p = np.asarray(p, dtype=float).ravel()
         if p.size != self.np:
             raise InputError(f"the X-22 model has {self.np} coefficients, got {p.size}")
         self.p = p
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                          udelay)
+                          udelay, stab)
 
 
 #: The X-22's 23 coefficients (report Appendix A), from the core: each
@@ -756,10 +762,10 @@ class EquationModel(Model):
 
     def __init__(self, outputs, states=None, inputs=(), params=None, definitions=None, x0=None,
                  bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
-                 S=None, ties=None, delay=None, udelay=None):
+                 S=None, ties=None, delay=None, udelay=None, stab=None):
         self._build(outputs, states or {}, inputs, params, definitions, "", "",
                     (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                     udelay))
+                     udelay, stab))
 
     def _build(self, outputs, states, inputs, params, definitions, pre, post, common):
         """The model's text from its parts (pre and post: lines a generator
@@ -863,7 +869,7 @@ class SixDofModel(EquationModel):
 
     def __init__(self, constants, states, outputs, inputs=(), params=None, definitions=None,
                  x0=None, bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None,
-                 r=None, S=None, ties=None, delay=None, udelay=None):
+                 r=None, S=None, ties=None, delay=None, udelay=None, stab=None):
         missing = [k for k in SIXDOF_CONSTANTS if k not in constants]
         if missing or len(constants) != len(SIXDOF_CONSTANTS):
             raise InputError(f"constants must give {', '.join(SIXDOF_CONSTANTS)}; "
@@ -878,7 +884,7 @@ class SixDofModel(EquationModel):
                          if line.strip())
         self._build(outputs, equations, inputs, params, definitions, pre.decode().strip(),
                     post.decode().strip(), (x0, bias, q, r, S, free, names, ties, input_hold,
-                                            substeps, delay, udelay))
+                                            substeps, delay, udelay, stab))
 
 
 #: The flight-path model's constants, corrections, outputs and inputs, in
@@ -925,7 +931,7 @@ class FlightPathModel(EquationModel):
 
     def __init__(self, constants, corrections=None, outputs=FLIGHTPATH_OUTPUTS, x0=None,
                  bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
-                 S=None, ties=None, delay=None, udelay=None):
+                 S=None, ties=None, delay=None, udelay=None, stab=None):
         missing = [k for k in FLIGHTPATH_CONSTANTS if k not in constants]
         if missing or len(constants) != len(FLIGHTPATH_CONSTANTS):
             raise InputError(f"constants must give {', '.join(FLIGHTPATH_CONSTANTS)}; "
@@ -940,7 +946,7 @@ class FlightPathModel(EquationModel):
         check_status(status, msg)
         self._from_text(text.decode().rstrip(), list(corrections.values()),
                         (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                         udelay))
+                         udelay, stab))
 
 
 def _one_line(expression):

@@ -43,18 +43,18 @@ contains
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
-    real(wp) :: theta(11), e(2), a, b, tt, exact
+    real(wp) :: theta(12), e(2), a, b, tt, exact
     real(wp), allocatable :: t(:), u(:, :), y(:, :)
     integer :: status, k, n, j
     character(len=256) :: msg
 
     call model_create(MODEL_LINEAR, 1, 1, 1, 0, [integer ::], [real(wp) ::], m, status, msg)
-    call param_map_create(model_layout(m), [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0], no_ties(11), &
+    call param_map_create(model_layout(m), [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0], no_ties(12), &
                           pm, status, msg)
     a = -2.0_wp
     b = 3.0_wp
-    ! F G H D K bx x0 bias r delay udelay
-    theta = [a, b, 1.0_wp, 0.0_wp, 0.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 0.0_wp]
+    ! F G H D K bx x0 bias r delay udelay stab
+    theta = [a, b, 1.0_wp, 0.0_wp, 0.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 0.0_wp, 0.0_wp]
     do k = 1, 2
       n = 10*2**k
       allocate (t(n + 1), u(1, n + 1), y(1, n + 1))
@@ -79,7 +79,8 @@ contains
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm, none
-    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2 + 2 + 2 + 2 + 2 + 1), tp(size(theta)), tm(size(theta))
+    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2 + 2 + 2 + 2 + 2 + 1 + 4), tp(size(theta))
+    real(wp) :: tm(size(theta))
     real(wp) :: h
     integer :: isfree(size(theta))
     real(wp), allocatable :: t(:), u(:, :), y(:, :), yp(:, :), ym(:, :), dy(:, :, :)
@@ -92,7 +93,8 @@ contains
     ! F = [[-1.2, 0.8], [-0.5, -0.3]] col-major, G, H = [[1, 0.2], [0, 1]], D, K, bx, x0, bias, r
     theta = [-1.2_wp, -0.5_wp, 0.8_wp, -0.3_wp, 0.4_wp, -1.1_wp, 1.0_wp, 0.0_wp, 0.2_wp, 1.0_wp, &
              0.05_wp, -0.02_wp, 0.3_wp, -0.2_wp, 0.05_wp, -0.1_wp, 0.3_wp, -0.1_wp, 0.01_wp, &
-             0.02_wp, 1.0_wp, 1.0_wp, 0.013_wp, -0.02_wp, 0.031_wp]
+             0.02_wp, 1.0_wp, 1.0_wp, 0.013_wp, -0.02_wp, 0.031_wp, 0.0_wp, 0.0_wp, 0.0_wp, &
+             0.0_wp]
     ifree = [1, 3, 4, 6, 9, 12, 13, 14, 15, 16, 17, 18, 20, 23, 24, 25]   ! ... delay udelay
     isfree = 0
     isfree(ifree) = 1
