@@ -142,7 +142,11 @@ contains
           return
         end if
         call delayed_inputs(theta, pm, t, u, j0, j1, ud, dud)
-        call integrate(ud, dud)
+        if (size(pm%iu) > 0) then            ! only a moving delay forces the sensitivities
+          call integrate(ud, dud)
+        else
+          call integrate(ud)
+        end if
       else
         call integrate(u)
       end if

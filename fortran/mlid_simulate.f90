@@ -84,6 +84,11 @@ contains
       return
     end if
 
+    if (any(theta(l%ostab + 1:l%nth) /= 0.0_wp)) then
+      msg = 'a model with a stabilizing gain (stab) runs only against its measured outputs: '// &
+            'simulate or predict it with stab = 0'
+      return
+    end if
     ! inputs that reach the aircraft late (mlid_delay)
     call delay_check(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), 1, msg, 'udelay')
     if (len_trim(msg) > 0) return

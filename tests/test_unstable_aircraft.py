@@ -72,6 +72,11 @@ def test_the_stabilizing_gain_is_a_setting():
     with pytest.raises(mlid.MlidError, match="takes no output time delays"):
         mlid.fit(mlid.LinearModel(F=F9, G=G9, H=np.eye(2), stab=np.eye(2) * 0.1, delay=[0, 0.01],
                                   free=["f(1,1)"]), _tiny_record())
+    with pytest.raises(mlid.MlidError, match="runs only against its measured outputs"):
+        mlid.simulate(m, np.arange(10) * 0.05, np.zeros((10, 1)))
+    with pytest.raises(mlid.InputError, match="the stabilizing gain feeds output 1 back"):
+        mlid.reduce_measured_state(mlid.LinearModel(F=F9, G=G9, H=np.eye(2),
+                                                    stab=[[0.0, 0.0], [0.1, 0.0]]), 1, 1)
     with pytest.raises(mlid.MlidError, match="is for output error; the filter has its own"):
         mlid.fit(mlid.LinearModel(F=F9, G=G9, H=np.eye(2), stab=np.eye(2) * 0.1,
                                   Gamma=[[1.0], [0.0]], q=[1e-3], r=[1e-4, 1e-4],

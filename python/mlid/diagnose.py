@@ -195,9 +195,9 @@ def _library(model, data, families, nx):
                     cands.append(Candidate("feedback loop (SAS)",
                                            f"{_state_name(model, st, outs)} fed back to {ins[j]}",
                                            param=name))
-    # process noise means the filter, which takes no output delays
+    # process noise means the filter, which takes no delays and has its own gain
     if "noise" in families and isinstance(model, LinearModel) and model.nw == 0 \
-            and not np.any(model.delay) and not np.any(model.udelay) \
+            and not np.any(model.delay) and not np.any(model.udelay) and not np.any(model.stab) \
             and not any("delay(" in n for n in model.free):
         for s in range(model.nx):   # one turbulence model at a time
             cands.append(Candidate("process noise", f"turbulence on state {s + 1}", state=s))

@@ -84,6 +84,8 @@ def reduce_measured_state(model, state, output):
         raise InputError("the reduction takes a model without state feedback (K = 0)")
     if model.delay[o] != 0:
         raise InputError(f"output {output} has a time delay: it cannot stand in for the state")
+    if np.any(np.delete(model.stab[:, o], k) != 0):
+        raise InputError(f"the stabilizing gain feeds output {output} back: it cannot leave")
     keep = [i for i in range(model.nx) if i != k]
     outs = [i for i in range(model.ny) if i != o]
     F = model.F[np.ix_(keep, keep)]
