@@ -372,7 +372,7 @@ contains
     character(len=256), intent(out) :: msg
     associate (c => opened(k))
       call channels_read(c%data_files(j), c%chan, c%win_start(j), c%win_end(j), taken, &
-                         status, msg)
+                         status, msg, manoeuvre=j)
     end associate
     nt = taken_samples(status)
   end subroutine mlid_deck_case_record
@@ -389,7 +389,7 @@ contains
     associate (c => opened(k))
       call channels_table(c%data_files(j), x, split_lines(names, ncol, NAMELEN), &
                           split_lines(units, ncol, UNITLEN), c%chan, c%win_start(j), &
-                          c%win_end(j), taken, status, msg)
+                          c%win_end(j), taken, status, msg, manoeuvre=j)
     end associate
     nt = taken_samples(status)
   end subroutine mlid_deck_case_table

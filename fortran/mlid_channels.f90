@@ -137,19 +137,22 @@ contains
   !> A text record's channels, through the one record reader.  The header
   !> is read first (names, units, number of columns); then only the columns
   !> the case needs are converted.
-  subroutine channels_read(path, spec, t_start, t_end, set, status, msg)
+  subroutine channels_read(path, spec_in, t_start, t_end, set, status, msg, manoeuvre)
     character(len=*), intent(in) :: path
-    type(channels_t), intent(in) :: spec
+    type(channels_t), intent(in) :: spec_in
     real(wp), intent(in) :: t_start, t_end
     type(channel_set_t), intent(out) :: set
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    integer, intent(in), optional :: manoeuvre   !< the file's place in the case's list
+    type(channels_t) :: spec
     type(record_t) :: rec
     type(plan_t) :: plan
     real(wp), allocatable :: ch(:, :)
     integer, allocatable :: cols(:)
     integer :: k
 
+    spec = with_manoeuvre(spec_in, manoeuvre)
     if (binary_format(path)) then
       status = MLID_ERR_INPUT
       msg = 'data file '//short_path(path)//': MATLAB and HDF5 files are read by the Python '// &
@@ -177,21 +180,25 @@ contains
   !> A table's channels: x(nrow, ncol) with its columns' names and units
   !> (either may be blank), read by the Python front end from a .mat or
   !> HDF5 file or a DataFrame; source names it in messages.
-  subroutine channels_table(source, x, names, units, spec, t_start, t_end, set, status, msg)
+  subroutine channels_table(source, x, names, units, spec_in, t_start, t_end, set, status, msg, &
+                            manoeuvre)
     character(len=*), intent(in) :: source
     real(wp), intent(in) :: x(:, :)
     character(len=*), intent(in) :: names(:), units(:)
-    type(channels_t), intent(in) :: spec
+    type(channels_t), intent(in) :: spec_in
     real(wp), intent(in) :: t_start, t_end
     type(channel_set_t), intent(out) :: set
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    integer, intent(in), optional :: manoeuvre   !< the table's place in the case's list
+    type(channels_t) :: spec
     type(plan_t) :: plan
     real(wp), allocatable :: ch(:, :)
     character(len=NAMELEN) :: nm(size(names))
     character(len=UNITLEN) :: un(size(units))
     integer :: k, r
 
+    spec = with_manoeuvre(spec_in, manoeuvre)
     nm = names
     un = units
     call make_plan(spec, nm, un, plan, status, msg)
@@ -214,6 +221,19 @@ contains
     call take(plan, ch, [(k, k=1, size(x, 1))], 'data '//short_path(source), 'row', t_start, &
               t_end, spec%dt, set, status, msg)
   end subroutine channels_table
+
+  !> A case's file k carries the channel 'manoeuvre' = k (a derived channel
+  !> before the deck's own, so they may use it): per-manoeuvre parameters
+  !> are then stated with indicator channels, step(manoeuvre - 1.5), ...
+  function with_manoeuvre(spec_in, manoeuvre) result(spec)
+    type(channels_t), intent(in) :: spec_in
+    integer, intent(in), optional :: manoeuvre
+    type(channels_t) :: spec
+    spec = spec_in
+    if (.not. present(manoeuvre)) return
+    if (.not. allocated(spec%derived)) allocate (spec%derived(0))
+    spec%derived = [line_t('manoeuvre = '//itoa(manoeuvre)), spec%derived]
+  end function with_manoeuvre
 
   !> Names and units of the columns and derived channels, the derived
   !> channels compiled, the channels picked, and which columns are needed.

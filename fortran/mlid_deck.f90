@@ -1301,7 +1301,8 @@ contains
     character(len=UNITLEN), allocatable, intent(inout), optional :: units(:)
     character(len=NAMELEN), allocatable, intent(inout), optional :: names(:)
     type(channel_set_t) :: set
-    call channels_read(c%data_files(k), c%chan, c%win_start(k), c%win_end(k), set, status, msg)
+    call channels_read(c%data_files(k), c%chan, c%win_start(k), c%win_end(k), set, status, msg, &
+                       manoeuvre=k)
     if (status /= MLID_OK) return
     if (present(units)) then           ! the first file's; every file declares the same
       if (.not. allocated(units)) units = set%units

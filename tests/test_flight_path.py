@@ -1,6 +1,7 @@
 """Flight-path reconstruction on three real ATTAS manoeuvres
-(cases/flight_path, FVSysID test cases 22, its variant 22b and 33 with time
-delays): each deck against its reference fit, in both front ends."""
+(cases/flight_path, FVSysID test cases 22, its variant 22b, 32 with biases per
+manoeuvre and 33 with time delays): each deck against its reference fit, in
+both front ends."""
 
 import pytest
 
@@ -11,6 +12,7 @@ DATA = REPO.parent / "shared" / "data"
 HERE = REPO / "cases" / "flight_path"
 REFS = {"tc22": "attas_fpr_tc22_fvsysid_octave.txt",
         "tc22b": "attas_fpr_tc22b_albe_fvsysid_octave.txt",
+        "tc32": "attas_fpr_tc32_segbias_fvsysid_octave.txt",
         "tc33": "attas_fpr_tc33_delays_fvsysid_octave.txt"}
 needs_data = pytest.mark.skipif(not (DATA / "fAttasElv1_pqrDot.asc").is_file(),
                                 reason="the ATTAS records are not in ../shared/data")

@@ -150,3 +150,36 @@ def test_several_manoeuvres_in_a_deck_through_both_front_ends(tmp_path):
     for name, truth in (("a11", -1.2), ("a21", -1.0), ("b1", 1.5), ("x0(1)#1", 0.2),
                         ("x0(1)#2", -0.1), ("x0(2)#2", 0.05), ("bias(2)#2", 0.03)):
         assert abs(est[name] - truth) < 4 * sig[name], (name, est[name], sig[name])
+
+
+MANOEUVRE_DECK = """&case title = 'manoeuvre channel', job = 'estimate' /
+&model kind = 'linear', nx = 1, nu = 2, ny = 1, f = -1, g = 1, 0, h = 1,
+    free = 'f(1,1)', 'g(1,2)' /
+&data file = 'a.dat', 'b.dat', 'a.dat', columns = 't', 'u', 'y', time_col = 't',
+    derived = 'k = manoeuvre', 'last = step(manoeuvre - 2.5)',
+    input_cols = 'u', 'last', output_cols = 'y' /
+"""
+
+
+def test_each_file_carries_its_place_in_the_list(tmp_path):
+    """The channel 'manoeuvre' is a file's place in the case's list (a
+    file listed twice is two manoeuvres), for indicator channels of
+    per-manoeuvre parameters; a file that has a column of that name is
+    refused in one line, in both front ends."""
+    import subprocess
+    from conftest import BIN
+    t = np.arange(50) * 0.1
+    for name in ("a", "b"):
+        np.savetxt(tmp_path / f"{name}.dat", np.column_stack([t, np.sin(t), np.cos(t)]))
+    (tmp_path / "m.nml").write_text(MANOEUVRE_DECK)
+    case = mlid.read_deck(tmp_path / "m.nml")[0]
+    records = case.record()
+    assert [list(np.unique(r.u[:, 1])) for r in records] == [[0.0], [0.0], [1.0]]
+    (tmp_path / "bad.nml").write_text(MANOEUVRE_DECK.replace("'t', 'u', 'y'",
+                                                             "'t', 'u', 'manoeuvre'").replace(
+        "output_cols = 'y'", "output_cols = 'manoeuvre'"))
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        run = subprocess.run([str(BIN / exe), *pre, str(tmp_path / "bad.nml")],
+                             capture_output=True, text=True, cwd=tmp_path)
+        assert run.returncode == 1 and "a channel named manoeuvre exists already" in run.stderr, \
+            run.stderr

@@ -1,6 +1,7 @@
 """ATTAS flight-path reconstruction: the decks tc22.nml (sensor biases),
-tc22b.nml (and vane calibration) and tc33.nml (and time delays, each
-manoeuvre's initial state free), FVSysID test cases 22, its variant and 33,
+tc22b.nml (and vane calibration), tc32.nml (biases per manoeuvre) and
+tc33.nml (time delays, each manoeuvre's initial state free), FVSysID test
+cases 22, its variant, 32 and 33, and compatibility.nml (tc22b by the kind),
 run through the Python front end and compared with the reference fits of the
 textbook software; every number README.md quotes is printed here.
 
@@ -22,6 +23,7 @@ HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"
 DECKS = {"tc22.nml": "attas_fpr_tc22_fvsysid_octave.txt",
          "tc22b.nml": "attas_fpr_tc22b_albe_fvsysid_octave.txt",
+         "tc32.nml": "attas_fpr_tc32_segbias_fvsysid_octave.txt",
          "tc33.nml": "attas_fpr_tc33_delays_fvsysid_octave.txt",
          "compatibility.nml": "attas_fpr_tc22b_albe_fvsysid_octave.txt"}
 
