@@ -229,8 +229,9 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     type(candidate_t) :: best
+    type(fit_result_t) :: stash        ! the full evaluation of a first trial (best_of_ranks)
     real(wp) :: step(st%nf), decrement, jnow, dj
-    logical :: first
+    logical :: first, stashed
 
     associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt, ex => pb%ex)
       first = .true.
@@ -253,7 +254,8 @@ contains
         end if
         ! ranks above the number of usable eigenvalues (ndrop from the full-rank
         ! step just taken) would repeat the same step
-        call best_of_ranks(pb, st, res, rlo, min(st%nf - st%ndrop, rhi), jnow, best, status, msg)
+        call best_of_ranks(pb, st, res, rlo, min(st%nf - st%ndrop, rhi), jnow, best, status, &
+                           msg, stash, stashed)
         if (status /= MLID_OK) then
           res%reason = STOP_FAILED
           return
@@ -273,8 +275,15 @@ contains
         first = .false.
         res%rank = max(res%rank, best%rank)   ! late steps are small in every direction
         res%theta = best%theta
-        call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                        status, msg, res%grad, res%info, wsens=res%wsens, msens=res%msens)
+        if (stashed) then                  ! evaluated in full already: the same numbers
+          stashed = all(stash%theta == best%theta)
+        end if
+        if (stashed) then
+          call take_stash(stash, res)
+        else
+          call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
+                          status, msg, res%grad, res%info, wsens=res%wsens, msens=res%msens)
+        end if
         if (status /= MLID_OK) then
           res%reason = STOP_FAILED
           return
@@ -325,7 +334,7 @@ contains
   !> the best of all.  Ranks run upward: a higher rank must lower the cost
   !> by more than RANK_GAIN (a likelihood-ratio test per direction), or the
   !> weak directions stay where they are (report §5.3.6).
-  subroutine best_of_ranks(pb, st, res, rlo, rmax, jnow, best, status, msg)
+  subroutine best_of_ranks(pb, st, res, rlo, rmax, jnow, best, status, msg, stash, stashed)
     type(problem_t), intent(in) :: pb
     real(wp), intent(in) :: jnow
     type(search_t), intent(inout) :: st
@@ -334,12 +343,18 @@ contains
     type(candidate_t), intent(out) :: best
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    !> Output error with one rank: the first trial is evaluated in full
+    !> (sensitivities, information), so the accepted step, usually that one,
+    !> needs no second integration; stashed says whether stash holds it.
+    type(fit_result_t), intent(inout) :: stash
+    logical, intent(out) :: stashed
     real(wp) :: step(st%nf), trial(size(res%theta)), decrement, scale, jt
     real(wp), allocatable :: rt(:, :), yt(:, :)   ! on the heap: worker threads have small stacks
     integer :: rank, ih, tstat
     logical :: better
     character(len=len(msg)) :: tmsg
 
+    stashed = .false.
     associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt, ex => pb%ex)
       allocate (rt(m%ny, m%ny), yt(m%ny, size(t)))
       best%cost = huge(1.0_wp)
@@ -356,7 +371,17 @@ contains
           if (allocated(ex%lower)) &   ! no rounding across a bound
             trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
           call apply_ties(pm%tie, trial)
-          call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
+          if (ih == 0 .and. rlo >= rmax .and. opt%method /= 1) then
+            if (.not. allocated(stash%wsens)) stash = res
+            stash%theta = trial
+            call likelihood(m, trial, pm, t, u, y, opt, stash%cost, stash%rhat, stash%yhat, &
+                            tstat, tmsg, stash%grad, stash%info, wsens=stash%wsens, &
+                            msens=stash%msens)
+            jt = stash%cost
+            stashed = tstat == MLID_OK
+          else
+            call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
+          end if
           if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
             jt = jt + prior_cost(ex, pm, trial, st%s)
             if (rank > best%rank .and. best%rank > 0) then
@@ -372,6 +397,19 @@ contains
       end do
     end associate
   end subroutine best_of_ranks
+
+  !> The full evaluation best_of_ranks kept, as the iterate's.
+  subroutine take_stash(stash, res)
+    type(fit_result_t), intent(in) :: stash
+    type(fit_result_t), intent(inout) :: res
+    res%cost = stash%cost
+    res%rhat = stash%rhat
+    res%yhat = stash%yhat
+    res%grad = stash%grad
+    res%info = stash%info
+    res%wsens = stash%wsens
+    res%msens = stash%msens
+  end subroutine take_stash
 
   !> Cramer-Rao bound at the final estimate, with the prior's weight and
   !> the rank of the last step; a singular information or an iteration that
