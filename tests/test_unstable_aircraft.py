@@ -1,5 +1,5 @@
 """The simulated unstable aircraft (cases/unstable_aircraft, FVSysID test cases
-6, 7, 8, 9): each deck against its reference fit, in both front ends; the
+6 to 10): each deck against its reference fit, in both front ends; the
 stabilized output error's sensitivities against central differences."""
 
 import numpy as np
@@ -14,7 +14,8 @@ HERE = REPO / "cases" / "unstable_aircraft"
 REFS = {"tc06": "unstab_ac_tc06_regstart_fvsysid_octave.txt",
         "tc07": "unstab_ac_tc07_eqdecoup_fvsysid_octave.txt",
         "tc08": "unstab_ac_tc08_oem_fvsysid_octave.txt",
-        "tc09": "unstab_ac_tc09_stabilized_fvsysid_octave.txt"}
+        "tc09": "unstab_ac_tc09_stabilized_fvsysid_octave.txt",
+        "tc10": "unstab_ac_tc10_eigtransf_fvsysid_octave.txt"}
 needs_data = pytest.mark.skipif(not (DATA / "unStabAC_sim.asc").is_file(),
                                 reason="the simulated record is not in ../shared/data")
 
