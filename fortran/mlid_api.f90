@@ -370,12 +370,28 @@ contains
     integer(c_int), intent(in) :: k, j
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
+    nt = 0
+    if (.not. has_file(k, j, status, msg)) return
     associate (c => opened(k))
       call channels_read(c%data_files(j), c%chan, c%win_start(j), c%win_end(j), taken, &
-                         status, msg, manoeuvre=j)
+                         status, msg, manoeuvre=c%file_no(j))
     end associate
     nt = taken_samples(status)
   end subroutine mlid_deck_case_record
+
+  !> Whether case k has a data file j (a simulate case has none).
+  logical function has_file(k, j, status, msg)
+    integer(c_int), intent(in) :: k, j
+    integer(c_int), intent(out) :: status
+    character(len=*), intent(out) :: msg
+    status = MLID_OK
+    msg = ''
+    has_file = .false.
+    if (allocated(opened(k)%data_files)) has_file = j >= 1 .and. j <= size(opened(k)%data_files)
+    if (has_file) return
+    status = MLID_ERR_INPUT
+    write (msg, '(a,i0,a,i0)') 'case ', k, ' has no data file ', j
+  end function has_file
 
   !> The same for a table the Python front end read from data file j of
   !> case k (.mat or HDF5): x(nrow, ncol) with its columns' names and units
@@ -386,10 +402,12 @@ contains
     character(len=*), intent(in) :: names, units
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
+    nt = 0
+    if (.not. has_file(k, j, status, msg)) return
     associate (c => opened(k))
       call channels_table(c%data_files(j), x, split_lines(names, ncol, NAMELEN), &
                           split_lines(units, ncol, UNITLEN), c%chan, c%win_start(j), &
-                          c%win_end(j), taken, status, msg, manoeuvre=j)
+                          c%win_end(j), taken, status, msg, manoeuvre=c%file_no(j))
     end associate
     nt = taken_samples(status)
   end subroutine mlid_deck_case_table

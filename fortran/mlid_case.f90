@@ -42,6 +42,7 @@ module mlid_case
     real(wp) :: ropt(NOPT) = 0.0_wp
     !> the records, one per manoeuvre (relative paths are resolved from the deck)
     character(len=PATHLEN), allocatable :: data_files(:)
+    integer, allocatable :: file_no(:)        !< each record's place in the deck's file list
     type(channels_t) :: chan                  !< the channels taken of each record
     real(wp), allocatable :: win_start(:), win_end(:)  !< time window of each record
     integer, allocatable :: holdout(:)                 !< validate: the files predicted

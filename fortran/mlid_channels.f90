@@ -40,6 +40,7 @@ module mlid_channels
     !> the recorded time used only to cut the window (a recording gap is then
     !> integrated across, as the textbook software does); 0: the record's time.
     real(wp) :: dt = 0.0_wp
+    integer :: manoeuvre = 0    !< > 0: the file's place in its case's list (with_manoeuvre)
   end type channels_t
 
   !> One manoeuvre's channels as taken, in the core's units: t(nt),
@@ -231,6 +232,7 @@ contains
     type(channels_t) :: spec
     spec = spec_in
     if (.not. present(manoeuvre)) return
+    spec%manoeuvre = manoeuvre
     if (.not. allocated(spec%derived)) allocate (spec%derived(0))
     spec%derived = [line_t('manoeuvre = '//itoa(manoeuvre)), spec%derived]
   end function with_manoeuvre
@@ -265,6 +267,12 @@ contains
       do k = 1, size(spec%columns)
         call name_and_unit(spec%columns(k), plan%name(k), plan%declared(k))
       end do
+    end if
+    if (spec%manoeuvre > 0 .and. any(to_lower(plan%name(1:ncol)) == 'manoeuvre')) then
+      msg = 'column '//trim(plan%name(findloc(to_lower(plan%name(1:ncol)), 'manoeuvre', 1)))// &
+            ': the name manoeuvre is reserved (each file''s place in the case''s list); '// &
+            'rename the column with columns = ...'
+      return
     end if
     call declared_units(spec, plan, msg)
     if (len_trim(msg) > 0) return

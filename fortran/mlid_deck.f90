@@ -862,7 +862,7 @@ contains
                               columns(MAXCOL), units(MAXCOL), show(MAXCOL)
     character(len=EXPRLEN) :: derived(MAXDER)
     real(wp) :: t_start(MAXSEG), t_end(MAXSEG), dt
-    integer :: skip_rows, ios, status, holdout(MAXSEG)
+    integer :: skip_rows, ios, status, holdout(MAXSEG), i
     character(len=msg_len) :: iomsg, msg
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
       derived, show, t_start, t_end, holdout, dt
@@ -885,6 +885,7 @@ contains
     call group_status(rd, 'data', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
     c%data_files = pack(file, len_trim(file) > 0)
+    c%file_no = [(i, i=1, size(c%data_files))]
     call data_windows(c, t_start, t_end)
     call data_holdout(c, holdout)
     call check_data_group(c, [time_col, input_cols, output_cols, columns, units, show], &
@@ -1302,7 +1303,7 @@ contains
     character(len=NAMELEN), allocatable, intent(inout), optional :: names(:)
     type(channel_set_t) :: set
     call channels_read(c%data_files(k), c%chan, c%win_start(k), c%win_end(k), set, status, msg, &
-                       manoeuvre=k)
+                       manoeuvre=c%file_no(k))
     if (status /= MLID_OK) return
     if (present(units)) then           ! the first file's; every file declares the same
       if (.not. allocated(units)) units = set%units

@@ -181,5 +181,45 @@ def test_each_file_carries_its_place_in_the_list(tmp_path):
     for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
         run = subprocess.run([str(BIN / exe), *pre, str(tmp_path / "bad.nml")],
                              capture_output=True, text=True, cwd=tmp_path)
-        assert run.returncode == 1 and "a channel named manoeuvre exists already" in run.stderr, \
-            run.stderr
+        assert run.returncode == 1 and "column manoeuvre: the name manoeuvre is reserved" in \
+            run.stderr, run.stderr
+
+
+def test_a_held_out_file_keeps_its_number_in_both_front_ends(tmp_path):
+    """validate splits the files into fitted and held out; each keeps its
+    place in the deck's list as its manoeuvre number (mlid-batch used to
+    number the split lists)."""
+    import json
+    import subprocess
+    from conftest import BIN
+    t = np.arange(80) * 0.1
+    u = np.sin(t)
+    for k, name in enumerate(("a", "b", "c")):
+        x = np.zeros(80)
+        for j in range(1, 80):                 # xdot = -x + u + 0.1 in the third file only
+            x[j] = x[j - 1] + 0.1 * (-x[j - 1] + u[j - 1] + (0.1 if k == 2 else 0.0))
+        np.savetxt(tmp_path / f"{name}.dat", np.column_stack([t, u, x]))
+    (tmp_path / "v.nml").write_text(
+        "&case title = 'holdout numbering', job = 'validate' /\n"
+        "&model kind = 'linear', nx = 1, nu = 2, ny = 1, f = -1, g = 1, 0, h = 1,\n"
+        "    free = 'f(1,1)', 'g(1,2)' /\n"
+        "&data file = 'a.dat', 'b.dat', 'c.dat', columns = 't', 'u', 'y', time_col = 't',\n"
+        "    derived = 'm3 = step(manoeuvre - 2.5)', input_cols = 'u', 'm3', output_cols = 'y',\n"
+        "    holdout = 2 /\n")
+    outs = []
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        run = subprocess.run([str(BIN / exe), *pre, str(tmp_path / "v.nml"), "--json",
+                              str(tmp_path / f"{exe}.json")], capture_output=True, text=True,
+                             cwd=tmp_path)
+        assert run.returncode == 0, run.stderr
+        outs.append(json.loads((tmp_path / f"{exe}.json").read_text())[0])
+    assert outs[0] == outs[1]
+    k = outs[0]["parameters"].index("g(1,2)")
+    assert abs(outs[0]["estimate"][k] - 0.1) < 0.01
+
+
+def test_a_case_without_data_files_says_so():
+    from conftest import REPO
+    case = mlid.read_deck(REPO / "cases" / "c8_short_period" / "c8.nml")[0]
+    with pytest.raises(mlid.MlidError, match="has no data file 1"):
+        case.record()

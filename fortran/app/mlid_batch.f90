@@ -298,6 +298,7 @@ contains
     type(case_t) :: part
     part = c
     part%data_files = pack(c%data_files, keep)
+    part%file_no = pack(c%file_no, keep)          ! the manoeuvre channel keeps its number
     part%win_start = pack(c%win_start, keep)
     part%win_end = pack(c%win_end, keep)
   end function files_of
