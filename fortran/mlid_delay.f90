@@ -13,7 +13,7 @@
 !> output): its sensitivity is the chain rule through the interpolation,
 !> the negative slope between the two samples used.
 module mlid_delay
-  use mlid_kinds, only: wp
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   implicit none
   private
   public :: delay_outputs, delay_check
@@ -80,15 +80,16 @@ contains
 
   !> A delay as long as its manoeuvre leaves nothing to fit, and a lead of a
   !> sample or more is beyond the rule (extrapolated from the sample before):
-  !> msg names the output and the manoeuvre, or is blank when every delay is
-  !> fine.
-  pure subroutine delay_check(tau, t, j0, j1, iseg, msg, what)
+  !> status MLID_ERR_INPUT and msg naming the channel and the manoeuvre.
+  pure subroutine delay_check(tau, t, j0, j1, iseg, what, status, msg)
     real(wp), intent(in) :: tau(:), t(:)
     integer, intent(in) :: j0, j1, iseg
-    character(len=*), intent(out) :: msg
     character(len=*), intent(in) :: what        !< the block: 'delay' or 'udelay'
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
     real(wp) :: step
     integer :: i
+    status = MLID_OK
     msg = ''
     step = huge(1.0_wp)
     if (j1 > j0) step = minval(t(j0 + 1:j1) - t(j0:j1 - 1))
@@ -101,7 +102,9 @@ contains
           ' s leads by a sample or more (manoeuvre ', iseg, ' steps by ', num(step), &
           ' s): a lead is extrapolated within a sample only; shift the channel in the record'
       end if
-      if (len_trim(msg) > 0) return
+      if (len_trim(msg) == 0) cycle
+      status = MLID_ERR_INPUT
+      return
     end do
   end subroutine delay_check
 

@@ -13,7 +13,7 @@
 module mlid_equation_error
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR
   use mlid_models, only: model_t, layout_t
-  use mlid_params, only: param_map_t, apply_ties, input_delays
+  use mlid_params, only: param_map_t, apply_ties, input_delays, output_delays, stabilized
   use mlid_linalg, only: info_inverse
   implicit none
   private
@@ -58,8 +58,7 @@ contains
             'the noise statistics'
       return
     end if
-    if (size(pm%id) > 0 .or. any(theta(l%odelay + 1:l%odelay + ny) /= 0.0_wp) .or. &
-        input_delays(theta, pm) .or. any(theta(l%ostab + 1:l%nth) /= 0.0_wp)) then
+    if (output_delays(theta, pm) .or. input_delays(theta, pm) .or. stabilized(theta, l)) then
       msg = 'equation-error start-up takes the measured states as they are: no '// &
             'time delays or stabilizing gain (start without them)'
       return

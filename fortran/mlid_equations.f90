@@ -255,13 +255,14 @@ contains
 
   !> Values and Jacobians of a program's expressions: one forward sweep,
   !> one reverse sweep each: val(i), and dx(i, :) = d/dx, dp(i, k) =
-  !> d/dp(idx(k)) of expression i.
-  pure subroutine sweep(self, prog, t, x, u, p, idx, val, dx, dp)
+  !> d/dp(idx(k)) of expression i; du(i, :) = d/du if asked for.
+  pure subroutine sweep(self, prog, t, x, u, p, idx, val, dx, dp, du)
     class(equations_t), intent(in) :: self
     type(program_t), intent(in) :: prog
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: val(:), dx(:, :), dp(:, :)
+    real(wp), intent(out), optional :: du(:, :)
     real(wp) :: v(MAXVAR), g(MAXVAR), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
     integer :: i, k, op
     call point(self, t, x, u, p, v)
@@ -274,6 +275,7 @@ contains
       do k = 1, size(idx)
         dp(i, k) = g(op + idx(k))
       end do
+      if (present(du)) du(i, 1:self%nu) = g(self%nx + 1:op)
     end do
   end subroutine sweep
 
@@ -299,34 +301,20 @@ contains
     eq_input_jacobians = .true.
   end function eq_input_jacobians
 
-  !> b(i, :) = d/du of expression i (inputs: v(nx+1 : nx+nu)).
-  pure subroutine sweep_u(self, prog, t, x, u, p, b)
-    class(equations_t), intent(in) :: self
-    type(program_t), intent(in) :: prog
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: b(:, :)
-    real(wp) :: v(MAXVAR), g(MAXVAR), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
-    integer :: i
-    call point(self, t, x, u, p, v)
-    call program_forward(prog, v(1:self%nvar), nv, d1, d2)
-    do i = 1, size(prog%root)
-      call program_reverse(prog, i, d1, d2, g(1:self%nvar))
-      b(i, 1:self%nu) = g(self%nx + 1:self%nx + self%nu)
-    end do
-  end subroutine sweep_u
-
   pure subroutine eq_dfdu(self, t, x, u, p, b)
     class(equations_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
-    call sweep_u(self, self%fprog, t, x, u, p, b)
+    real(wp) :: val(MAXOUT), a(MAXOUT, MAXOUT), none(MAXOUT, 0)
+    call sweep(self, self%fprog, t, x, u, p, [integer ::], val, a, none, b)
   end subroutine eq_dfdu
 
   pure subroutine eq_dhdu(self, t, x, u, p, b)
     class(equations_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
-    call sweep_u(self, self%hprog, t, x, u, p, b)
+    real(wp) :: val(MAXOUT), c(MAXOUT, MAXOUT), none(MAXOUT, 0)
+    call sweep(self, self%hprog, t, x, u, p, [integer ::], val, c, none, b)
   end subroutine eq_dhdu
 
   pure subroutine eq_dfdx(self, t, x, u, p, a)

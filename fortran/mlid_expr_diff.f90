@@ -242,19 +242,7 @@ contains
     integer, intent(in) :: op
     real(wp), intent(in) :: a, b
     real(wp), intent(out) :: c, da, db
-    select case (op)
-    case (OP_ADD)
-      c = a + b
-      da = 1.0_wp
-      db = 1.0_wp
-    case (OP_SUB)
-      c = a - b
-      da = 1.0_wp
-      db = -1.0_wp
-    case (OP_MUL)
-      c = a*b
-      da = b
-      db = a
+    select case (op)                  ! + - * are inline in program_forward
     case (OP_DIV)
       c = a/b
       da = 1.0_wp/b

@@ -32,7 +32,7 @@ module mlid_filter
   use mlid_linalg, only: chol_inverse
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
-  use mlid_params, only: param_map_t, input_delays
+  use mlid_params, only: param_map_t, input_delays, output_delays, stabilized
   use mlid_rk, only: rk4_step, rk4_interval, input_sens_t
   use mlid_delay, only: delay_outputs, delay_check
   implicit none
@@ -118,17 +118,16 @@ contains
     real(wp), intent(in), optional :: z(:, :)
     real(wp), allocatable :: ud(:, :), dud(:, :)
     real(wp) :: gain(m%nx, m%ny)
-    logical :: stabilized
+    logical :: stab
 
     status = MLID_OK
     msg = ''
     associate (l => pm%l)
       gain = reshape(theta(l%ostab + 1:l%ostab + m%nx*m%ny), [m%nx, m%ny])
-      stabilized = any(gain /= 0.0_wp)
-      if (stabilized .and. .not. present(z)) then
+      stab = stabilized(theta, l)
+      if (stab .and. .not. present(z)) then
         msg = 'the stabilized output error (stab) needs the measured outputs'
-      else if (stabilized .and. (size(pm%id) > 0 .or. &
-               any(theta(l%odelay + 1:l%odelay + l%ny) /= 0.0_wp))) then
+      else if (stab .and. output_delays(theta, pm)) then
         msg = 'the stabilized output error (stab) takes no output time delays'
       end if
       if (len_trim(msg) > 0) then
@@ -136,26 +135,22 @@ contains
         return
       end if
       if (input_delays(theta, pm)) then
-        call delay_check(theta(l%oudelay + 1:l%oudelay + l%nu), t, j0, j1, iseg, msg, 'udelay')
-        if (len_trim(msg) > 0) then
-          status = MLID_ERR_INPUT
-          return
-        end if
-        call delayed_inputs(theta, pm, t, u, j0, j1, ud, dud)
-        if (size(pm%iu) > 0) then            ! only a moving delay forces the sensitivities
+        call delay_check(theta(l%oudelay + 1:l%oudelay + l%nu), t, j0, j1, iseg, 'udelay', &
+                         status, msg)
+        if (status /= MLID_OK) return
+        if (present(dy) .and. size(pm%iu) > 0) then   ! a moving delay forces the sensitivities
+          call delayed_inputs(theta, pm, t, u, j0, j1, ud, dud)
           call integrate(ud, dud)
         else
+          call delayed_inputs(theta, pm, t, u, j0, j1, ud)
           call integrate(ud)
         end if
       else
         call integrate(u)
       end if
       if (status /= MLID_OK) return
-      call delay_check(theta(l%odelay + 1:l%odelay + l%ny), t, j0, j1, iseg, msg, 'delay')
-      if (len_trim(msg) > 0) then
-        status = MLID_ERR_INPUT
-        return
-      end if
+      call delay_check(theta(l%odelay + 1:l%odelay + l%ny), t, j0, j1, iseg, 'delay', status, msg)
+      if (status /= MLID_OK) return
       if (present(dy)) then                  ! sensors that report late (mlid_delay)
         call delay_outputs(theta(l%odelay + 1:l%odelay + l%ny), t, j0, j1, yhat, dy, pm%id, &
                            pm%cd, pm%wd)
@@ -208,7 +203,7 @@ contains
             end do
           end if
         end if
-        if (.not. stabilized) cycle
+        if (.not. stab) cycle
         x = x + matmul(gain, z(:, j) - yhat(:, j))
         if (present(dy)) s = s - matmul(gain, dy(:, :, j))
       end do
@@ -217,26 +212,32 @@ contains
   end subroutine oe_segment
 
 
-  !> The inputs with segment j0..j1 delayed (mlid_delay), and du(k, j): the
-  !> moving input delay k's effect on its input at sample j (a tie's scale
-  !> in it).
+  !> The inputs with segment j0..j1 delayed (mlid_delay) and, if asked for,
+  !> du(k, j): the moving input delay k's effect on its input at sample j (a
+  !> tie's scale in it).
   subroutine delayed_inputs(theta, pm, t, u, j0, j1, ud, du)
     real(wp), intent(in) :: theta(:), t(:), u(:, :)
     type(param_map_t), intent(in) :: pm
     integer, intent(in) :: j0, j1
-    real(wp), allocatable, intent(out) :: ud(:, :), du(:, :)
+    real(wp), allocatable, intent(out) :: ud(:, :)
+    real(wp), allocatable, intent(out), optional :: du(:, :)
     real(wp), allocatable :: dall(:, :, :)
     integer :: k, nk
-    nk = size(pm%iu)
-    ud = u
-    allocate (dall(pm%l%nu, nk, size(t)), du(nk, size(t)))
-    dall(:, :, j0:j1) = 0.0_wp
-    call delay_outputs(theta(pm%l%oudelay + 1:pm%l%oudelay + pm%l%nu), t, j0, j1, ud, dall, &
-                       pm%iu, [(k, k=1, nk)], pm%wu)
-    du = 0.0_wp
-    do k = 1, nk
-      du(k, j0:j1) = dall(pm%iu(k), k, j0:j1)
-    end do
+    associate (tau => theta(pm%l%oudelay + 1:pm%l%oudelay + pm%l%nu))
+      ud = u
+      if (.not. present(du)) then
+        call delay_outputs(tau, t, j0, j1, ud)
+        return
+      end if
+      nk = size(pm%iu)
+      allocate (dall(pm%l%nu, nk, size(t)), du(nk, size(t)))
+      dall(:, :, j0:j1) = 0.0_wp
+      call delay_outputs(tau, t, j0, j1, ud, dall, pm%iu, [(k, k=1, nk)], pm%wu)
+      du = 0.0_wp
+      do k = 1, nk
+        du(k, j0:j1) = dall(pm%iu(k), k, j0:j1)
+      end do
+    end associate
   end subroutine delayed_inputs
 
   !> Innovations nu(ny, nt) and their covariances through binv(ny, ny, nt)

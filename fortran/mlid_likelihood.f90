@@ -23,7 +23,7 @@ module mlid_likelihood
   use mlid_linalg, only: chol_inverse
   use mlid_models, only: model_t
   use mlid_options, only: options_t
-  use mlid_params, only: param_map_t, apply_ties, input_delays
+  use mlid_params, only: param_map_t, apply_ties, input_delays, output_delays, stabilized
   use mlid_filter, only: oe_predict, kf_innovations
   implicit none
   private
@@ -60,12 +60,11 @@ contains
     real(wp), intent(out), optional :: wsens(:, :, :), msens(:, :)
 
     cost = huge(1.0_wp)
-    if (opt%method == 1 .and. (size(pm%id) > 0 .or. input_delays(theta, pm) .or. &
-        any(theta(pm%l%odelay + 1:pm%l%odelay + m%ny) /= 0.0_wp))) then
+    if (opt%method == 1 .and. (output_delays(theta, pm) .or. input_delays(theta, pm))) then
       status = MLID_ERR_INPUT
       msg = 'time delays are for output error (method = ''output_error''), not the filter'
       return
-    else if (opt%method == 1 .and. any(theta(pm%l%ostab + 1:pm%l%nth) /= 0.0_wp)) then
+    else if (opt%method == 1 .and. stabilized(theta, pm%l)) then
       status = MLID_ERR_INPUT
       msg = 'stab, the gain of the stabilized output error, is for output error; the filter '// &
             'has its own'
@@ -255,13 +254,13 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: yh(:, :), nup(:, :), bi(:, :, :), ld(:), bp(:, :, :)
     real(wp) :: th(size(theta)), h
-    integer :: k, i, ny, nt, blk(9), kstat(pm%nf)
+    integer :: k, i, ny, nt, blk(10), kstat(pm%nf)
     character(len=len(msg)) :: kmsg(pm%nf)
 
     ny = m%ny
     nt = size(t)
     blk = [0, pm%l%ox0, pm%l%obias, pm%l%oq, pm%l%or, pm%l%os, pm%l%odelay, pm%l%oudelay, &
-           pm%l%nth]
+           pm%l%ostab, pm%l%nth]
     kstat = MLID_OK
     ! one whole filter run per parameter, independent of the others
     !$omp parallel do schedule(dynamic) default(shared) private(k, i, h, th, yh, nup, bi, ld, bp)

@@ -10,7 +10,7 @@ module mlid_params
   use mlid_models, only: layout_t
   implicit none
   private
-  public :: param_map_t, tie_t, param_map_create, apply_ties, no_ties, input_delays
+  public :: param_map_t, tie_t, param_map_create, apply_ties, no_ties, input_delays, output_delays, stabilized
 
   !> Affine ties: term i gives theta(to(i)) the part scale(i)*theta(from(i));
   !> offset(k) is the constant of a tied entry k (0 for the others).
@@ -168,5 +168,20 @@ contains
     input_delays = size(pm%iu) > 0 .or. &
                    any(theta(pm%l%oudelay + 1:pm%l%oudelay + pm%l%nu) /= 0.0_wp)
   end function input_delays
+
+  !> Whether any output is delayed or its delay free.
+  pure logical function output_delays(theta, pm)
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    output_delays = size(pm%id) > 0 .or. &
+                    any(theta(pm%l%odelay + 1:pm%l%odelay + pm%l%ny) /= 0.0_wp)
+  end function output_delays
+
+  !> Whether the stabilized output error's gain (block stab) is set.
+  pure logical function stabilized(theta, l)
+    real(wp), intent(in) :: theta(:)
+    type(layout_t), intent(in) :: l
+    stabilized = any(theta(l%ostab + 1:l%nth) /= 0.0_wp)
+  end function stabilized
 
 end module mlid_params

@@ -30,7 +30,7 @@ contains
   !> only propagate through df/dx, plus sforce, a constant forcing of every
   !> column (the filter's held noise estimate).  ua, ub may carry the noise
   !> inputs after the control inputs.
-  subroutine rk4_step(m, p, t0, dt, ua, ub, x, idxm, colm, wcol, s, sforce, us)
+  subroutine rk4_step(m, p, t0, dt, ua, ub, x, idxm, colm, wcol, s, sforce, us, uf)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), t0, dt, ua(:), ub(:)
     real(wp), intent(inout) :: x(:)
@@ -38,7 +38,8 @@ contains
     real(wp), intent(in) :: wcol(:)            !< weight of each (1, or a tie's scale)
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
-    type(input_sens_t), intent(in), optional :: us   !< delayed inputs (d0, d1 at t0, t0 + dt)
+    type(input_sens_t), intent(in), optional :: us   !< delayed inputs over the sample interval
+    real(wp), intent(in), optional :: uf(2)   !< where the step starts and ends in it (0..1)
     real(wp) :: um(size(ua)), th
     real(wp), dimension(size(x)) :: k1, k2, k3, k4
 
@@ -90,13 +91,14 @@ contains
     subroutine input_forcing(t, xs, ui, c, sd)
       real(wp), intent(in) :: t, xs(:), ui(:), c
       real(wp), intent(inout) :: sd(:, :)
-      real(wp) :: bu(size(xs), m%nu)
+      real(wp) :: bu(size(xs), m%nu), a
       integer :: k
       if (size(us%input) == 0) return
       call m%dfdu(t, xs, ui, p, bu)
+      a = uf(1) + c*(uf(2) - uf(1))         ! the stage's place in the sample interval
       do k = 1, size(us%input)
         sd(:, us%col(k)) = sd(:, us%col(k)) + bu(:, us%input(k))* &
-                           ((1.0_wp - c)*us%d0(k) + c*us%d1(k))
+                           ((1.0_wp - a)*us%d0(k) + a*us%d1(k))
       end do
     end subroutine input_forcing
 
@@ -117,8 +119,7 @@ contains
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
     type(input_sens_t), intent(in), optional :: us   !< delayed inputs, at t0 and t1
-    type(input_sens_t) :: sub
-    real(wp) :: ua(size(u0) + size(w)), ub(size(u0) + size(w)), h, ts
+    real(wp) :: ua(size(u0) + size(w)), ub(size(u0) + size(w)), h, ts, uf(2)
     integer :: isub, nu
 
     nu = size(u0)
@@ -135,14 +136,8 @@ contains
         ub(1:nu) = u0 + (u1 - u0)*(real(isub, wp)/nsub)
       end if
       if (present(us)) then          ! the delayed inputs' sensitivities, held or linear
-        sub = us
-        if (.not. hold) then
-          sub%d0 = us%d0 + (us%d1 - us%d0)*(real(isub - 1, wp)/nsub)
-          sub%d1 = us%d0 + (us%d1 - us%d0)*(real(isub, wp)/nsub)
-        else
-          sub%d1 = us%d0
-        end if
-        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, s, sforce, sub)
+        uf = merge([0.0_wp, 0.0_wp], [real(isub - 1, wp), real(isub, wp)]/nsub, hold)
+        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, s, sforce, us, uf)
       else if (present(s)) then
         call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, s, sforce)
       else

@@ -15,6 +15,7 @@ module mlid_simulate
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_linalg, only: psd_factor
   use mlid_models, only: model_t, layout_t, model_layout
+  use mlid_params, only: stabilized
   use mlid_options, only: options_t
   use mlid_delay, only: delay_outputs, delay_check
   use mlid_rk, only: rk4_interval
@@ -84,14 +85,14 @@ contains
       return
     end if
 
-    if (any(theta(l%ostab + 1:l%nth) /= 0.0_wp)) then
+    if (stabilized(theta, l)) then
       msg = 'a model with a stabilizing gain (stab) runs only against its measured outputs: '// &
             'simulate or predict it with stab = 0'
       return
     end if
     ! inputs that reach the aircraft late (mlid_delay)
-    call delay_check(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), 1, msg, 'udelay')
-    if (len_trim(msg) > 0) return
+    call delay_check(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), 1, 'udelay', status, msg)
+    if (status /= MLID_OK) return
     ud = u
     call delay_outputs(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), ud)
     allocate (none(0))
@@ -132,8 +133,8 @@ contains
       end if
     end do
     ! sensors that report late (mlid_delay), then their own noise
-    call delay_check(theta(l%odelay + 1:l%odelay + ny), t, 1, size(t), 1, msg, 'delay')
-    if (len_trim(msg) > 0) return
+    call delay_check(theta(l%odelay + 1:l%odelay + ny), t, 1, size(t), 1, 'delay', status, msg)
+    if (status /= MLID_OK) return
     call delay_outputs(theta(l%odelay + 1:l%odelay + ny), t, 1, size(t), y)
     y = y + noise
     status = MLID_OK

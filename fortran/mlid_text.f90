@@ -87,7 +87,8 @@ contains
   end function split_lines
 
   !> Every line of text, each newline-ended: names one a line, as the flat
-  !> interface passes them.
+  !> interface passes them.  (Not split_lines at the names' length: gfortran
+  !> 12 fails on that internally.)
   subroutine name_lines(text, names)
     character(len=*), intent(in) :: text
     character(len=*), allocatable, intent(out) :: names(:)
