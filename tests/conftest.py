@@ -71,12 +71,25 @@ def finite_difference(fn, theta, idx, rel=1e-6, floor=1.0, five_point=False):
     return np.array(out)
 
 
+def run_both(deck, *args, cwd=None):
+    """`mlid run deck` and `mlid-batch deck`, each with args ('{exe}' in an
+    argument becomes the front end's name): their completed processes."""
+    return [subprocess.run([str(BIN / exe), *pre, str(deck), *(a.format(exe=exe) for a in args)],
+                           capture_output=True, text=True, cwd=cwd)
+            for exe, pre in (("mlid", ["run"]), ("mlid-batch", []))]
+
+
+def refused_by_both(deck, message, cwd=None):
+    """Both front ends fail on deck, the first line of each one's errors
+    saying message."""
+    for run in run_both(deck, cwd=cwd):
+        assert run.returncode == 1 and message in run.stderr.splitlines()[0], run.stderr
+
+
 def both_front_ends_json(deck, tmp_path):
     """Run a deck through `mlid run` and mlid-batch; assert the same report
     and the same JSON, and return the first case's JSON object."""
-    runs = [subprocess.run([str(BIN / exe), *pre, str(deck), "--json", str(tmp_path / f"{exe}.json")],
-                           capture_output=True, text=True)
-            for exe, pre in (("mlid", ["run"]), ("mlid-batch", []))]
+    runs = run_both(deck, "--json", str(tmp_path / "{exe}.json"))
     assert runs[0].returncode == 0 and runs[0].stdout == runs[1].stdout, runs[0].stderr
     py, fo = (json.loads((tmp_path / f"{exe}.json").read_text())[0]
               for exe in ("mlid", "mlid-batch"))

@@ -6,15 +6,13 @@ every correction and a wind, a wind read as the physics says, the corrected
 record refits to neutral corrections, and bad input in one line in both
 front ends."""
 
-import subprocess
-
 import numpy as np
 import pytest
 
 import mlid
 from mlid import compatibility
 from mlid.model import FLIGHTPATH_CORRECTIONS, FLIGHTPATH_INPUTS
-from conftest import BIN, REPO, both_front_ends_json
+from conftest import REPO, both_front_ends_json, refused_by_both
 
 HERE = REPO / "cases" / "flight_path"
 DATA = REPO.parent / "shared" / "data"
@@ -102,11 +100,7 @@ def test_bad_input_is_one_line_in_both_front_ends(tmp_path, entry, message):
     deck.write_text(f"&case title = 'bad', job = 'estimate' /\n"
                     f"&model kind = 'flight_path', {constants} {entry} /\n"
                     f"&data file = 'r.dat', time_col = 1 /\n")
-    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
-        run = subprocess.run([str(BIN / exe), *pre, str(deck)], capture_output=True, text=True,
-                             cwd=tmp_path)
-        lines = run.stderr.strip().splitlines()
-        assert run.returncode == 1 and message in lines[0], run.stderr
+    refused_by_both(deck, message, cwd=tmp_path)
     with pytest.raises(mlid.InputError, match="is not a correction"):
         mlid.FlightPathModel(ATTAS, {"b_xx": 0.0})
     assert len(FLIGHTPATH_INPUTS) == 9

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import mlid
-from conftest import finite_difference
+from conftest import REPO, both_front_ends_json, finite_difference, refused_by_both
 from test_hfb320 import COEFFS, _hfb_like, _inputs
 
 
@@ -166,8 +166,6 @@ def test_each_file_carries_its_place_in_the_list(tmp_path):
     file listed twice is two manoeuvres), for indicator channels of
     per-manoeuvre parameters; a file that has a column of that name is
     refused in one line, in both front ends."""
-    import subprocess
-    from conftest import BIN
     t = np.arange(50) * 0.1
     for name in ("a", "b"):
         np.savetxt(tmp_path / f"{name}.dat", np.column_stack([t, np.sin(t), np.cos(t)]))
@@ -178,20 +176,14 @@ def test_each_file_carries_its_place_in_the_list(tmp_path):
     (tmp_path / "bad.nml").write_text(MANOEUVRE_DECK.replace("'t', 'u', 'y'",
                                                              "'t', 'u', 'manoeuvre'").replace(
         "output_cols = 'y'", "output_cols = 'manoeuvre'"))
-    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
-        run = subprocess.run([str(BIN / exe), *pre, str(tmp_path / "bad.nml")],
-                             capture_output=True, text=True, cwd=tmp_path)
-        assert run.returncode == 1 and "column manoeuvre: the name manoeuvre is reserved" in \
-            run.stderr, run.stderr
+    refused_by_both(tmp_path / "bad.nml", "column manoeuvre: the name manoeuvre is reserved",
+                    cwd=tmp_path)
 
 
 def test_a_held_out_file_keeps_its_number_in_both_front_ends(tmp_path):
     """validate splits the files into fitted and held out; each keeps its
     place in the deck's list as its manoeuvre number (mlid-batch used to
     number the split lists)."""
-    import json
-    import subprocess
-    from conftest import BIN
     t = np.arange(80) * 0.1
     u = np.sin(t)
     for k, name in enumerate(("a", "b", "c")):
@@ -206,20 +198,12 @@ def test_a_held_out_file_keeps_its_number_in_both_front_ends(tmp_path):
         "&data file = 'a.dat', 'b.dat', 'c.dat', columns = 't', 'u', 'y', time_col = 't',\n"
         "    derived = 'm3 = step(manoeuvre - 2.5)', input_cols = 'u', 'm3', output_cols = 'y',\n"
         "    holdout = 2 /\n")
-    outs = []
-    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
-        run = subprocess.run([str(BIN / exe), *pre, str(tmp_path / "v.nml"), "--json",
-                              str(tmp_path / f"{exe}.json")], capture_output=True, text=True,
-                             cwd=tmp_path)
-        assert run.returncode == 0, run.stderr
-        outs.append(json.loads((tmp_path / f"{exe}.json").read_text())[0])
-    assert outs[0] == outs[1]
-    k = outs[0]["parameters"].index("g(1,2)")
-    assert abs(outs[0]["estimate"][k] - 0.1) < 0.01
+    fit = both_front_ends_json(tmp_path / "v.nml", tmp_path)
+    k = fit["parameters"].index("g(1,2)")
+    assert abs(fit["estimate"][k] - 0.1) < 0.01
 
 
 def test_a_case_without_data_files_says_so():
-    from conftest import REPO
     case = mlid.read_deck(REPO / "cases" / "c8_short_period" / "c8.nml")[0]
     with pytest.raises(mlid.MlidError, match="has no data file 1"):
         case.record()

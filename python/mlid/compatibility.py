@@ -106,15 +106,14 @@ def _own_names(model, labels):
     """Each label's parameter by its own name (the label given by names=
     taken back): a renamed scale factor is still a scale factor."""
     element = {v: k for k, v in model.names.items()}
-    own = dict(zip(model._layout.names, model._layout.labels))
+    own = dict(zip(model.element_names(), model.element_labels()))
     bases = [label.split("#")[0] for label in labels]
     return [own.get(element.get(b, b), b) for b in bases]
 
 
 def _corrections(model):
     """The model's own parameters, {name: value}."""
-    sl = model._layout.slice("p")
-    return dict(zip(model._layout.labels[sl], model.p))
+    return dict(zip(model.element_labels()[:model.np], model.p))
 
 
 def _output_names(model):

@@ -243,6 +243,17 @@ class Model:
         """
         return list(self._layout.names)
 
+    def element_labels(self):
+        """The core's own label of every entry of theta, in order (the
+        default labels, before any ``names``): 'C_Lalpha', an equations
+        model's parameters by their own names, else the element name.
+
+        Returns
+        -------
+        list of str
+        """
+        return list(self._layout.labels)
+
     def param_units(self, input_units, output_units):
         """The unit of every entry of theta, in order, from the units of the
         record's channels (the core's units, as ``FlightData.input_units``
@@ -870,11 +881,7 @@ class SixDofModel(EquationModel):
     def __init__(self, constants, states, outputs, inputs=(), params=None, definitions=None,
                  x0=None, bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None,
                  r=None, S=None, ties=None, delay=None, udelay=None, stab=None):
-        missing = [k for k in SIXDOF_CONSTANTS if k not in constants]
-        if missing or len(constants) != len(SIXDOF_CONSTANTS):
-            raise InputError(f"constants must give {', '.join(SIXDOF_CONSTANTS)}; "
-                             f"missing {missing or 'none'}, unknown "
-                             f"{sorted(set(constants) - set(SIXDOF_CONSTANTS)) or 'none'}")
+        _check_constants(constants, SIXDOF_CONSTANTS)
         definitions = dict(definitions or {})
         pre, post, xs, status, msg = _api.mlid_sixdof_text(
             [float(constants[k]) for k in SIXDOF_CONSTANTS], "".join(f"{n}\n" for n in states),
@@ -932,11 +939,7 @@ class FlightPathModel(EquationModel):
     def __init__(self, constants, corrections=None, outputs=FLIGHTPATH_OUTPUTS, x0=None,
                  bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
                  S=None, ties=None, delay=None, udelay=None, stab=None):
-        missing = [k for k in FLIGHTPATH_CONSTANTS if k not in constants]
-        if missing or len(constants) != len(FLIGHTPATH_CONSTANTS):
-            raise InputError(f"constants must give {', '.join(FLIGHTPATH_CONSTANTS)}; "
-                             f"missing {missing or 'none'}, unknown "
-                             f"{sorted(set(constants) - set(FLIGHTPATH_CONSTANTS)) or 'none'}")
+        _check_constants(constants, FLIGHTPATH_CONSTANTS)
         if isinstance(outputs, (str, bytes)):
             raise InputError(f"outputs must be a list of names, got the string {outputs!r}")
         corrections = dict(corrections or {})
@@ -947,6 +950,14 @@ class FlightPathModel(EquationModel):
         self._from_text(text.decode().rstrip(), list(corrections.values()),
                         (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
                          udelay, stab))
+
+
+def _check_constants(constants, names):
+    """constants, a dict, gives exactly the names."""
+    missing = [k for k in names if k not in constants]
+    if missing or len(constants) != len(names):
+        raise InputError(f"constants must give {', '.join(names)}; missing {missing or 'none'}, "
+                         f"unknown {sorted(set(constants) - set(names)) or 'none'}")
 
 
 def _one_line(expression):
