@@ -434,8 +434,8 @@ contains
     character(len=*), intent(in), optional :: pre, post   !< lines around the definitions (sixdof)
     character(len=:), allocatable :: text
     character(len=NAMELEN) :: name
+    character(len=NAMELEN), allocatable :: pnames(:)
     integer :: k
-    real(wp) :: v
 
     text = ''
     allocate (pstart(0))
@@ -454,11 +454,10 @@ contains
     do k = 1, count(len_trim(inputs) > 0)
       text = text//'u '//trim(inputs(k))//achar(10)
     end do
-    do k = 1, count(len_trim(params) > 0)
-      call param_entry(c, params(k), name, v)
-      if (c%status /= MLID_OK) return
-      text = text//'p '//trim(name)//achar(10)
-      pstart = [pstart, v]
+    call param_entries(c, params, pnames, pstart)
+    if (c%status /= MLID_OK) return
+    do k = 1, size(pnames)
+      text = text//'p '//trim(pnames(k))//achar(10)
     end do
     if (present(pre)) text = text//pre
     do k = 1, count(len_trim(definitions) > 0)
@@ -532,25 +531,19 @@ contains
     character(len=*), intent(inout) :: inputs(:), ynames(:)
     real(wp), allocatable, intent(out) :: pstart(:)
     character(len=NAMELEN), allocatable :: pnames(:)
-    character(len=NAMELEN) :: name
     character(len=:), allocatable :: text
     character(len=msg_len) :: iomsg
-    real(wp) :: v
-    integer :: k, ios
+    integer :: ios
 
-    allocate (pstart(0), pnames(0))
+    allocate (pstart(0))
     if (any(len_trim([states, xdot, inputs, outputs, definitions]) > 0)) then
       call fail(c, 'group &model: kind = ''flight_path'' writes its states, inputs and '// &
                 'equations itself (no state_names, xdot, input_names, outputs, definitions)')
       return
     end if
     if (has_gap(c, 'params', params) .or. has_gap(c, 'output_names', ynames)) return
-    do k = 1, count(len_trim(params) > 0)
-      call param_entry(c, params(k), name, v)
-      if (c%status /= MLID_OK) return
-      pnames = [pnames, name]
-      pstart = [pstart, v]
-    end do
+    call param_entries(c, params, pnames, pstart)
+    if (c%status /= MLID_OK) return
     if (all(len_trim(ynames) == 0)) ynames(1:size(FLIGHTPATH_OUTPUTS)) = FLIGHTPATH_OUTPUTS
     call flightpath_text(pack(constants, constants /= UNSET), pnames, &
                          pack(ynames, len_trim(ynames) > 0), text, ios, iomsg)
@@ -561,6 +554,21 @@ contains
     inputs(1:size(FLIGHTPATH_INPUTS)) = FLIGHTPATH_INPUTS
     c%iconst = equations_text_codes(text)
   end subroutine flightpath_deck
+
+  !> The params entries' names and start values, in order.
+  subroutine param_entries(c, params, names, values)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: params(:)
+    character(len=NAMELEN), allocatable, intent(out) :: names(:)
+    real(wp), allocatable, intent(out) :: values(:)
+    integer :: k, n
+    n = count(len_trim(params) > 0)
+    allocate (names(n), values(n))
+    do k = 1, n
+      call param_entry(c, params(k), names(k), values(k))
+      if (c%status /= MLID_OK) return
+    end do
+  end subroutine param_entries
 
   !> A params entry: 'NAME' (start value 0) or 'NAME = value', the value an
   !> expression of numbers ('-3/2', '2*pi'), never read loosely.
