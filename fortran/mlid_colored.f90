@@ -31,6 +31,7 @@
 !> is O(N L ny^2 nf): each segment takes the cheaper (fourier_cheaper).
 module mlid_colored
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_linalg, only: add_sym_atb
   use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_length, fft_real_pair
   implicit none
   private
@@ -69,12 +70,14 @@ contains
       msg = 'colored covariance: residuals must be ny x nt like the sensitivities'
       return
     end if
+    ! the lag is chosen from the autocorrelations up to the longest allowed
     lag = lag_in
-    if (lag < 0) lag = colored_lag(v, seg)
+    if (lag < 0) lag = lag_cap(size(v, 2))
     lag = min(lag, size(v, 2) - 1)
     allocate (rvv(size(v, 1), size(v, 1), 0:lag))
     call residual_autocov(v, seg, rvv)
-    call colored_sandwich(cov, info, msens, a, rvv, seg, cov_c, status, msg)
+    if (lag_in < 0) lag = colored_lag(rvv, size(v, 2))
+    call colored_sandwich(cov, info, msens, a, rvv(:, :, 0:lag), seg, cov_c, status, msg)
   end subroutine colored_covariance
 
   !> Cov_c = cov [info - msens + bracket] cov with Rvv(0:L) given
@@ -143,16 +146,18 @@ contains
   !> One segment's bracket (Bartlett weights of lag L; rvv up to the
   !> segment's own longest lag): A(f) = the transforms of a's rows, then
   !> Re sum_f A(f)^H K(f) A(f)/n over f = 0 .. n/2, the inner ones twice
-  !> (f and n - f are conjugate for real series): Re(A^H G) = Ar' Gr + Ai' Gi.
+  !> (f and n - f are conjugate for real series): Re(A^H G) = Ar' Gr + Ai' Gi,
+  !> symmetric as K(f) is Hermitian.
   function segment_bracket(a, rvv, lag) result(b)
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
     integer, intent(in) :: lag
     real(wp) :: b(size(a, 3), size(a, 3))
     real(wp), allocatable :: kr(:, :, :), ki(:, :, :), sr(:, :, :), si(:, :, :), gr(:, :, :), &
                              gi(:, :, :)
-    complex(wp), allocatable :: z(:), xf(:), yf(:)
+    complex(wp), allocatable :: xf(:), yf(:)
+    integer, allocatable :: pr(:), pq(:)
     type(fft_plan_t) :: plan
-    integer :: ny, nt, nf, n, nfreq, l, r, q
+    integer :: ny, nt, nf, n, nfreq, l, r, q, p2
 
     ny = size(a, 1)
     nt = size(a, 2)
@@ -161,15 +166,20 @@ contains
     nfreq = n/2 + 1
     plan = fft_plan(n)
     allocate (kr(nfreq, ny, ny), ki(nfreq, ny, ny), sr(nfreq, ny, nf), si(nfreq, ny, nf), &
-              gr(nfreq, ny, nf), gi(nfreq, ny, nf), z(0:n - 1))
-    do q = 1, ny                                 ! the kernel's transform, entry by entry
-      do r = 1, ny
-        z(:) = kernel_row(rvv, lag, r, q, n)
-        call fft_forward(plan, z)
-        kr(:, r, q) = real(z(0:nfreq - 1), wp)
-        ki(:, r, q) = aimag(z(0:nfreq - 1))
-      end do
+              gr(nfreq, ny, nf), gi(nfreq, ny, nf))
+    ! the kernel's transform, two entries r <= q to a transform: K(q, r)(d) =
+    ! K(r, q)(-d), so its transform is the conjugate
+    pr = [((r, q=r, ny), r=1, ny)]
+    pq = [((q, q=r, ny), r=1, ny)]
+    allocate (xf(0:nfreq - 1), yf(0:nfreq - 1))
+    do l = 1, size(pr), 2
+      p2 = min(l + 1, size(pr))
+      call fft_real_pair(plan, kernel_row(rvv, lag, pr(l), pq(l), n), &
+                         kernel_row(rvv, lag, pr(p2), pq(p2), n), xf, yf)
+      call put_kernel(pr(p2), pq(p2), yf)
+      call put_kernel(pr(l), pq(l), xf)
     end do
+    deallocate (xf, yf)
     ! each parameter's transforms and filtered transforms on their own (the
     ! result does not depend on the threads)
     !$omp parallel do private(r, q, xf, yf) schedule(static)
@@ -197,9 +207,21 @@ contains
     end do
     !$omp end parallel do
     b = 0.0_wp
-    call add_atb(nfreq*ny, nf, sr, gr, b)
-    call add_atb(nfreq*ny, nf, si, gi, b)
+    call add_sym_atb(nfreq*ny, nf, sr, gr, b)
+    call add_sym_atb(nfreq*ny, nf, si, gi, b)
     b = b/real(n, wp)
+
+  contains
+
+    subroutine put_kernel(r, q, kf)
+      integer, intent(in) :: r, q
+      complex(wp), intent(in) :: kf(0:)
+      kr(:, q, r) = real(kf, wp)
+      ki(:, q, r) = -aimag(kf)
+      kr(:, r, q) = real(kf, wp)
+      ki(:, r, q) = aimag(kf)
+      if (r == q) ki(:, r, q) = 0.0_wp       ! K(r, r)(d) is even: its transform is real
+    end subroutine put_kernel
   end function segment_bracket
 
   !> The kernel entry K(d)(r, q) = w(|d|) Rvv(d)(r, q) at index d mod n,
@@ -207,7 +229,7 @@ contains
   function kernel_row(rvv, lag, r, q, n) result(z)
     real(wp), intent(in) :: rvv(:, :, 0:)
     integer, intent(in) :: lag, r, q, n
-    complex(wp) :: z(0:n - 1)
+    real(wp) :: z(0:n - 1)
     real(wp) :: w
     integer :: k
     z = 0.0_wp
@@ -255,15 +277,6 @@ contains
     b = b + transpose(b)
   end function segment_direct
 
-  !> b = b + x' y (x, y: m x nf, the spectra flattened by sequence
-  !> association).
-  subroutine add_atb(m, nf, x, y, b)
-    integer, intent(in) :: m, nf
-    real(wp), intent(in) :: x(m, nf), y(m, nf)
-    real(wp), intent(inout) :: b(nf, nf)
-    b = b + matmul(transpose(x), y)
-  end subroutine add_atb
-
   !> y = y + r x on contiguous blocks of columns (x, y: n x m).
   pure subroutine add_product(n, m, r, x, y)
     integer, intent(in) :: n, m
@@ -283,47 +296,118 @@ contains
     real(wp), intent(in) :: v(:, :)
     integer, intent(in) :: seg(:)
     real(wp), intent(out) :: rvv(:, :, 0:)
-    integer :: k, s, i0, i1, nt
+    integer :: s, i0, i1, nt, lag
 
     nt = size(v, 2)
     rvv = 0.0_wp
     do s = 1, size(seg)
       call segment_bounds(seg, s, nt, i0, i1)
-      do k = 0, min(ubound(rvv, 3), i1 - i0)
-        rvv(:, :, k) = rvv(:, :, k) + matmul(v(:, i0:i1 - k), transpose(v(:, i0 + k:i1)))
-      end do
+      lag = min(ubound(rvv, 3), i1 - i0)
+      rvv(:, :, 0:lag) = rvv(:, :, 0:lag) + segment_autocov(v(:, i0:i1), lag)
     end do
     rvv = rvv/real(nt, wp)
   end subroutine residual_autocov
 
-  !> The lag: LAG_FACTOR times the lag by which every output's
-  !> autocorrelation has first come inside +-2/sqrt(N) (each output its own
-  !> first crossing: coloured noise makes the sample autocorrelation at
-  !> long lags scatter wider than that band, so all outputs inside it at
-  !> one lag is a rare event), at most N/LAG_CAP_DIV.
-  integer function colored_lag(v, seg) result(lag)
-    real(wp), intent(in) :: v(:, :)
-    integer, intent(in) :: seg(:)
-    real(wp) :: c0(size(v, 1)), ck(size(v, 1)), band
-    logical :: crossed(size(v, 1))
-    integer :: k, s, i0, i1, nt, cap
+  !> One segment's sums c(:, :, k) = sum_i x(i) x(i+k)', k = 0 .. lag
+  !> (lag < its length), through the Fourier transform, zero-padded beyond
+  !> the length plus the lag: row r's and q's cross-spectrum conj(X_r) X_q
+  !> transformed back gives c(r, q, k) at k and c(q, r, k) at n - k; the
+  !> pairs r <= q go back two to a transform (each one a real series).
+  function segment_autocov(x, lag) result(c)
+    real(wp), intent(in) :: x(:, :)
+    integer, intent(in) :: lag
+    real(wp) :: c(size(x, 1), size(x, 1), 0:lag)
+    complex(wp), allocatable :: xf(:, :), z(:)
+    integer, allocatable :: pr(:), pq(:)
+    type(fft_plan_t) :: plan
+    integer :: ny, n, nh, p, r, q
 
-    nt = size(v, 2)
-    cap = max(1, nt/LAG_CAP_DIV)
-    lag = min(cap, nt - 1)
-    c0 = sum(v**2, dim=2)
+    ny = size(x, 1)
+    n = fft_length(size(x, 2) + lag)
+    nh = n/2
+    plan = fft_plan(n)
+    allocate (xf(0:nh, ny), z(0:n - 1))
+    call row_spectra(plan, x, xf)
+    pr = [((r, q=r, ny), r=1, ny)]
+    pq = [((q, q=r, ny), r=1, ny)]
+    do p = 1, size(pr), 2
+      z = 0.0_wp
+      call add_cross(z, xf(:, pr(p)), xf(:, pq(p)), (1.0_wp, 0.0_wp))
+      if (p < size(pr)) call add_cross(z, xf(:, pr(p + 1)), xf(:, pq(p + 1)), (0.0_wp, 1.0_wp))
+      call fft_forward(plan, z)
+      z = z/real(n, wp)
+      call put(pr(p), pq(p), real(z, wp))
+      if (p < size(pr)) call put(pr(p + 1), pq(p + 1), aimag(z))
+    end do
+
+  contains
+
+    !> z = z + s Q, Q the conjugate of the cross-spectrum conj(Xr) Xq over
+    !> all n frequencies (Q(n - f) = conj(Q(f)): the series is real).
+    subroutine add_cross(z, xr, xq, s)
+      complex(wp), intent(inout) :: z(0:)
+      complex(wp), intent(in) :: xr(0:), xq(0:), s
+      complex(wp) :: w(0:nh)
+      w = xr*conjg(xq)
+      z(0:nh) = z(0:nh) + s*w
+      z(nh + 1:n - 1) = z(nh + 1:n - 1) + s*conjg(w(nh - 1:1:-1))
+    end subroutine add_cross
+
+    subroutine put(r, q, cr)
+      integer, intent(in) :: r, q
+      real(wp), intent(in) :: cr(0:)
+      integer :: k
+      c(r, q, 0) = cr(0)
+      c(q, r, 0) = cr(0)
+      do k = 1, lag
+        c(r, q, k) = cr(k)
+        c(q, r, k) = cr(n - k)
+      end do
+    end subroutine put
+  end function segment_autocov
+
+  !> The transforms (f = 0 .. n/2) of x's rows, two rows to a transform.
+  subroutine row_spectra(plan, x, xf)
+    type(fft_plan_t), intent(in) :: plan
+    real(wp), intent(in) :: x(:, :)
+    complex(wp), intent(out) :: xf(0:, :)
+    complex(wp) :: yf(0:plan%n/2)
+    integer :: r, q
+    do r = 1, size(x, 1), 2
+      q = min(r + 1, size(x, 1))
+      call fft_real_pair(plan, x(r, :), x(q, :), xf(:, r), yf)
+      xf(:, q) = yf
+    end do
+  end subroutine row_spectra
+
+  !> The longest lag the choice considers: N/LAG_CAP_DIV (at least 1), below N.
+  pure integer function lag_cap(nt)
+    integer, intent(in) :: nt
+    lag_cap = min(max(1, nt/LAG_CAP_DIV), nt - 1)
+  end function lag_cap
+
+  !> The lag, from the autocovariance rvv up to lag_cap(nt): LAG_FACTOR
+  !> times the lag by which every output's autocorrelation has first come
+  !> inside +-2/sqrt(N) (each output its own first crossing: coloured noise
+  !> makes the sample autocorrelation at long lags scatter wider than that
+  !> band, so all outputs inside it at one lag is a rare event), at most
+  !> the cap.
+  integer function colored_lag(rvv, nt) result(lag)
+    real(wp), intent(in) :: rvv(:, :, 0:)
+    integer, intent(in) :: nt
+    real(wp) :: c0(size(rvv, 1)), band
+    logical :: crossed(size(rvv, 1))
+    integer :: k, r
+
+    lag = ubound(rvv, 3)
+    c0 = [(rvv(r, r, 0), r=1, size(rvv, 1))]
     if (any(.not. (c0 > 0.0_wp))) return       ! a zero residual: no basis for a choice
     band = 2.0_wp/sqrt(real(nt, wp))
     crossed = .false.
-    do k = 1, cap
-      ck = 0.0_wp
-      do s = 1, size(seg)
-        call segment_bounds(seg, s, nt, i0, i1)
-        if (i1 - i0 >= k) ck = ck + sum(v(:, i0:i1 - k)*v(:, i0 + k:i1), dim=2)
-      end do
-      crossed = crossed .or. abs(ck/c0) < band
+    do k = 1, ubound(rvv, 3)
+      crossed = crossed .or. [(abs(rvv(r, r, k)/c0(r)) < band, r=1, size(rvv, 1))]
       if (all(crossed)) then
-        lag = min(LAG_FACTOR*k, cap, nt - 1)
+        lag = min(LAG_FACTOR*k, ubound(rvv, 3))
         return
       end if
     end do

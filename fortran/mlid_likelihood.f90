@@ -20,7 +20,7 @@
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, first_failure
-  use mlid_linalg, only: chol_inverse
+  use mlid_linalg, only: add_sym_atb, chol_inverse
   use mlid_models, only: model_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, apply_ties, input_delays, output_delays, stabilized
@@ -98,9 +98,9 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
-    real(wp), allocatable :: dy(:, :, :), nu(:, :), w(:, :)
+    real(wp), allocatable :: dy(:, :, :), nu(:, :), s(:, :, :), a(:, :, :)
     real(wp) :: rinv(m%ny, m%ny), logdet
-    integer :: ny, nt, nf, j, i, ierr
+    integer :: ny, nt, nf, j, i, k, ierr
 
     ny = m%ny
     nt = size(t)
@@ -138,15 +138,19 @@ contains
     cost = 0.5_wp*(sum(nu*matmul(rinv, nu)) + nt*logdet)
 
     if (present(grad) .and. present(info)) then
-      grad = 0.0_wp
-      info = 0.0_wp
-      allocate (w(ny, nf))
+      ! sample-major sensitivities s(:, j, k) and weighted ones a = R^-1 s:
+      ! the information is one symmetric product over samples and outputs
+      allocate (s(ny, nt, nf), a(ny, nt, nf))
       do j = 1, nt
-        w = matmul(rinv, dy(:, :, j))
-        grad = grad - matmul(nu(:, j), w)
-        info = info + matmul(transpose(dy(:, :, j)), w)
-        if (present(wsens)) wsens(:, j, :) = w
+        s(:, j, :) = dy(:, :, j)
       end do
+      do k = 1, nf
+        a(:, :, k) = matmul(rinv, s(:, :, k))
+        grad(k) = -sum(nu*a(:, :, k))
+      end do
+      info = 0.0_wp
+      call add_sym_atb(ny*nt, nf, s, a, info)
+      if (present(wsens)) wsens = a
       if (present(msens)) msens = info
       if (present(sens)) call sensitivity_norms(dy, rhat, sens)
     end if

@@ -5,7 +5,7 @@ module mlid_linalg
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: sym_eig, chol_inverse, psd_factor, info_inverse, info_eig, eig_inverse, expm, solve
+  public :: add_sym_atb, sym_eig, chol_inverse, psd_factor, info_inverse, info_eig, eig_inverse, expm, solve
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -45,6 +45,43 @@ module mlid_linalg
   integer, parameter :: SMALL_N = 12
 
 contains
+
+  !> b = b + x' y where that is symmetric (x, y: m x n, as sequences: a
+  !> sum over samples and outputs flattened): the upper triangle by dot
+  !> products, mirrored; half the work of the full product.
+  subroutine add_sym_atb(m, n, x, y, b)
+    integer, intent(in) :: m, n
+    real(wp), intent(in) :: x(m, n), y(m, n)
+    real(wp), intent(inout) :: b(n, n)
+    real(wp) :: d
+    integer :: k, l
+    do l = 1, n
+      do k = 1, l
+        d = dot8(m, x(:, k), y(:, l))
+        b(k, l) = b(k, l) + d
+        if (k < l) b(l, k) = b(l, k) + d
+      end do
+    end do
+  end subroutine add_sym_atb
+
+  !> x . y with eight partial sums: independent chains the processor
+  !> pipelines and vectorizes (one running sum waits on each addition),
+  !> added in a fixed order.
+  pure real(wp) function dot8(m, x, y) result(d)
+    integer, intent(in) :: m
+    real(wp), intent(in) :: x(m), y(m)
+    real(wp) :: s(8)
+    integer :: i, m8
+    s = 0.0_wp
+    m8 = m - mod(m, 8)
+    do i = 1, m8, 8
+      s = s + x(i:i + 7)*y(i:i + 7)
+    end do
+    d = ((s(1) + s(5)) + (s(2) + s(6))) + ((s(3) + s(7)) + (s(4) + s(8)))
+    do i = m8 + 1, m
+      d = d + x(i)*y(i)
+    end do
+  end function dot8
 
   !> All eigenvalues (ascending) and eigenvectors of a symmetric matrix.
   !> info /= 0 reports a LAPACK failure.

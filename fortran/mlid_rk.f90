@@ -122,6 +122,7 @@ contains
     real(wp) :: ua(size(u0) + size(w)), ub(size(u0) + size(w)), h, ts, uf(2)
     integer :: isub, nu
 
+    if (size(x) == 0) return         ! no states (a regression): nothing to integrate
     nu = size(u0)
     ua(nu + 1:) = w
     ub(nu + 1:) = w
