@@ -14,6 +14,13 @@
 !> are computed from converted values, in order, each from the columns and
 !> the derived channels before it; a derived channel has the unit its
 !> channels share (none when they differ).
+!>
+!> Joined files (join): text files whose columns extend the data files'
+!> rows, row for row.  Read one after another, the join files' rows match
+!> the case's data files' rows read one after another (one join file per
+!> data file, or one for all of them, or any split): the totals must agree.
+!> Their columns come after the data file's, named by join_columns or
+!> their header, and are used like any other column.
 module mlid_channels
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
@@ -24,8 +31,8 @@ module mlid_channels
   use mlid_units, only: unit_to_core
   implicit none
   private
-  public :: channels_t, channel_set_t, channels_spec, channels_read, channels_table, NAMELEN, &
-            UNITLEN
+  public :: channels_t, channel_set_t, channels_spec, channels_join, channels_read, &
+            channels_table, NAMELEN, UNITLEN
 
   !> What a case takes of its records.
   type :: channels_t
@@ -41,6 +48,9 @@ module mlid_channels
     !> integrated across, as the textbook software does); 0: the record's time.
     real(wp) :: dt = 0.0_wp
     integer :: manoeuvre = 0    !< > 0: the file's place in its case's list (with_manoeuvre)
+    type(line_t), allocatable :: join(:)       !< files whose columns extend the rows
+    character(len=NAMELEN + UNITLEN + 2), allocatable :: join_columns(:)  !< names them
+    type(line_t), allocatable :: files(:)      !< the case's data files in order (join's rows)
   end type channels_t
 
   !> One manoeuvre's channels as taken, in the core's units: t(nt),
@@ -149,9 +159,11 @@ contains
     type(channels_t) :: spec
     type(record_t) :: rec
     type(plan_t) :: plan
-    real(wp), allocatable :: ch(:, :)
+    real(wp), allocatable :: ch(:, :), jx(:, :)
+    character(len=NAMELEN), allocatable :: names(:)
+    character(len=UNITLEN), allocatable :: units(:)
     integer, allocatable :: cols(:)
-    integer :: k
+    integer :: k, ndat
 
     spec = with_manoeuvre(spec_in, manoeuvre)
     if (binary_format(path)) then
@@ -162,20 +174,32 @@ contains
     end if
     call record_read(path, [integer ::], spec%skip_rows, rec, status, msg, header_only=.true.)
     if (status /= MLID_OK) return
-    call make_plan(spec, rec%names, rec%units, plan, status, msg)
+    names = rec%names
+    units = rec%units
+    ndat = size(names)
+    if (joining(spec)) then
+      call join_header(spec, names, units, status, msg)
+      if (status /= MLID_OK) return
+    end if
+    call make_plan(spec, names, units, plan, status, msg)
     if (status /= MLID_OK) then
       msg = 'data file '//short_path(path)//': '//trim(msg)
       return
     end if
-    cols = pack([(k, k=1, plan%ncol)], plan%need(1:plan%ncol))
+    cols = pack([(k, k=1, ndat)], plan%need(1:ndat))
     call record_read(path, cols, spec%skip_rows, rec, status, msg)
     if (status /= MLID_OK) return
     allocate (ch(size(rec%x, 2), size(plan%name)))
     ch = 0.0_wp
     ch(:, cols) = transpose(rec%x)
+    if (joining(spec)) then
+      cols = pack([(k, k=1, plan%ncol - ndat)], plan%need(ndat + 1:plan%ncol))
+      call join_rows(spec, path, size(ch, 1), cols, jx, status, msg)
+      if (status /= MLID_OK) return
+      ch(:, ndat + cols) = transpose(jx)
+    end if
     call take(plan, ch, rec%line, 'data file '//short_path(path), 'line', t_start, t_end, &
-              spec%dt, set, &
-              status, msg)
+              spec%dt, set, status, msg)
   end subroutine channels_read
 
   !> A table's channels: x(nrow, ncol) with its columns' names and units
@@ -200,6 +224,11 @@ contains
     integer :: k, r
 
     spec = with_manoeuvre(spec_in, manoeuvre)
+    if (joining(spec)) then
+      status = MLID_ERR_INPUT
+      msg = 'data '//short_path(source)//': join extends text records; this one is a table'
+      return
+    end if
     nm = names
     un = units
     call make_plan(spec, nm, un, plan, status, msg)
@@ -222,6 +251,118 @@ contains
     call take(plan, ch, [(k, k=1, size(x, 1))], 'data '//short_path(source), 'row', t_start, &
               t_end, spec%dt, set, status, msg)
   end subroutine channels_table
+
+  !> The join files, their columns' names (one per line, may be blank: the
+  !> header's) and the case's data files in order, as the deck gives them.
+  subroutine channels_join(spec, join, join_columns, files, status, msg)
+    type(channels_t), intent(inout) :: spec
+    type(line_t), intent(in) :: join(:), join_columns(:), files(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    status = MLID_ERR_INPUT
+    if (size(join) == 0 .and. size(join_columns) > 0) then
+      msg = 'join_columns names the columns of join files, and join lists none'
+      return
+    end if
+    if (size(join) > 0 .and. size(files) == 0) then
+      msg = 'join extends the data files, and there are none'
+      return
+    end if
+    spec%join = join
+    spec%join_columns = names_of_lines(join_columns)
+    spec%files = files
+    status = MLID_OK
+    msg = ''
+  end subroutine channels_join
+
+  logical function joining(spec)
+    type(channels_t), intent(in) :: spec
+    joining = .false.
+    if (allocated(spec%join)) joining = size(spec%join) > 0
+  end function joining
+
+  !> names and units extended by the join files' columns: named by
+  !> join_columns, else by the first join file's header.
+  subroutine join_header(spec, names, units, status, msg)
+    type(channels_t), intent(in) :: spec
+    character(len=NAMELEN), allocatable, intent(inout) :: names(:)
+    character(len=UNITLEN), allocatable, intent(inout) :: units(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(record_t) :: rec
+    integer :: k
+    call record_read(spec%join(1)%s, [integer ::], 0, rec, status, msg, header_only=.true.)
+    if (status /= MLID_OK) then
+      msg = 'join '//trim(msg)
+      return
+    end if
+    if (size(spec%join_columns) > rec%ncol) then
+      status = MLID_ERR_INPUT
+      msg = 'join file '//short_path(spec%join(1)%s)//': '//itoa(size(spec%join_columns))// &
+            ' join_columns named, the file has '//itoa(rec%ncol)
+      return
+    end if
+    do k = 1, size(spec%join_columns)
+      call name_and_unit(spec%join_columns(k), rec%names(k), rec%units(k))
+    end do
+    names = [names, rec%names]
+    units = [units, rec%units]
+  end subroutine join_header
+
+  !> Columns cols of the join files' rows that match data file path's n
+  !> rows: the rows after those of the data files before it in the case's
+  !> list.  The join files must have as many rows as all the data files.
+  subroutine join_rows(spec, path, n, cols, x, status, msg)
+    type(channels_t), intent(in) :: spec
+    character(len=*), intent(in) :: path
+    integer, intent(in) :: n, cols(:)
+    real(wp), allocatable, intent(out) :: x(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(record_t) :: rec
+    real(wp), allocatable :: all(:, :)
+    integer :: k, before, total, ncol
+
+    before = 0
+    total = 0
+    do k = 1, merge(size(spec%files), 0, spec%manoeuvre > 0)
+      if (k == spec%manoeuvre) then
+        total = total + n
+        before = total - n
+        cycle
+      end if
+      call record_read(spec%files(k)%s, [integer ::], spec%skip_rows, rec, status, msg)
+      if (status /= MLID_OK) return
+      total = total + size(rec%line)
+    end do
+    if (spec%manoeuvre == 0) total = n       ! a file on its own, not a case's
+    allocate (all(size(cols), 0))
+    do k = 1, size(spec%join)
+      call record_read(spec%join(k)%s, cols, 0, rec, status, msg)
+      if (status /= MLID_OK) then
+        msg = 'join '//trim(msg)
+        return
+      end if
+      if (k == 1) ncol = rec%ncol
+      if (rec%ncol /= ncol) then
+        status = MLID_ERR_INPUT
+        msg = 'join file '//short_path(spec%join(k)%s)//': '//itoa(rec%ncol)// &
+              ' columns, the first join file has '//itoa(ncol)
+        return
+      end if
+      all = reshape([all, rec%x], [size(cols), size(all, 2) + size(rec%x, 2)])
+    end do
+    if (size(all, 2) /= total) then
+      status = MLID_ERR_INPUT
+      msg = 'data file '//short_path(path)//': the join files have '//itoa(size(all, 2))// &
+            ' rows, the data files '//itoa(total)//' (matched row for row, one file '// &
+            'after another)'
+      return
+    end if
+    x = all(:, before + 1:before + n)
+    status = MLID_OK
+    msg = ''
+  end subroutine join_rows
 
   !> A case's file k carries the channel 'manoeuvre' = k (a derived channel
   !> before the deck's own, so they may use it): per-manoeuvre parameters

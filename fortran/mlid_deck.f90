@@ -14,7 +14,8 @@
 !>   &data     file, time_col, input_cols, output_cols (numbers or names),
 !>             skip_rows, columns, units, derived, t_start, t_end,
 !>             holdout (validate: the files predicted, not fitted), dt (a uniform
-!>             time step replacing the record's time)               (estimate, validate)
+!>             time step replacing the record's time), join, join_columns (files
+!>             whose columns extend the records' rows)              (estimate, validate)
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
 !>             t_start, pulse_width                                  (simulate)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
@@ -27,7 +28,7 @@
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower, itoa, joined, read_text, line_t
+  use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
@@ -39,7 +40,7 @@ module mlid_deck
   use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
-  use mlid_channels, only: channel_set_t, channels_read, channels_spec, UNITLEN
+  use mlid_channels, only: channel_set_t, channels_read, channels_spec, channels_join, UNITLEN
   use mlid_param_units, only: param_units
   use mlid_ties, only: tie_parse, MAXTERM
   use mlid_params, only: no_ties
@@ -138,6 +139,14 @@ contains
       end do
     end if
     if (len_trim(c%out_file) > 0) c%out_file = resolve(dir, c%out_file)
+    if (allocated(c%chan%join)) then
+      do k = 1, size(c%chan%join)
+        c%chan%join(k)%s = trim(resolve(dir, c%chan%join(k)%s))
+      end do
+      do k = 1, size(c%chan%files)
+        c%chan%files(k)%s = trim(resolve(dir, c%chan%files(k)%s))
+      end do
+    end if
   end subroutine resolve_paths
 
   !> Parse one case from its lines (first is the &case line, number line0):
@@ -865,17 +874,19 @@ contains
   subroutine read_data_group(rd, c)
     type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
-    character(len=PATHLEN) :: file(MAXSEG)
+    character(len=PATHLEN) :: file(MAXSEG), join(MAXSEG)
     character(len=CHANLEN) :: time_col, input_cols(MAXCOL), output_cols(MAXCOL), &
-                              columns(MAXCOL), units(MAXCOL), show(MAXCOL)
+                              columns(MAXCOL), units(MAXCOL), show(MAXCOL), join_columns(MAXCOL)
     character(len=EXPRLEN) :: derived(MAXDER)
     real(wp) :: t_start(MAXSEG), t_end(MAXSEG), dt
     integer :: skip_rows, ios, status, holdout(MAXSEG), i
     character(len=msg_len) :: iomsg, msg
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
-      derived, show, t_start, t_end, holdout, dt
+      derived, show, t_start, t_end, holdout, dt, join, join_columns
 
     file = ''
+    join = ''
+    join_columns = ''
     time_col = '1'
     input_cols = ''
     output_cols = ''
@@ -896,12 +907,15 @@ contains
     c%file_no = [(i, i=1, size(c%data_files))]
     call data_windows(c, t_start, t_end)
     call data_holdout(c, holdout)
-    call check_data_group(c, [time_col, input_cols, output_cols, columns, units, show], &
-                          derived)
+    call check_data_group(c, [time_col, input_cols, output_cols, columns, units, show, &
+                              join_columns], derived)
     if (c%status /= MLID_OK) return
     call channels_spec(time_col, as_text(input_cols), as_text(output_cols), as_text(columns), &
                        as_text(units), as_text(derived), as_text(show), skip_rows, c%chan, &
                        status, msg)
+    if (status == MLID_OK) call channels_join(c%chan, text_lines(as_text(join)), &
+                                              text_lines(as_text(join_columns)), &
+                                              text_lines(as_text(c%data_files)), status, msg)
     if (status /= MLID_OK) call fail(c, 'group &data: '//trim(msg))
     if (.not. dt >= 0.0_wp) call fail(c, 'group &data: dt must be > 0 (a uniform time step '// &
                                          'replacing the record''s time), or left out')
