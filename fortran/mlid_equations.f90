@@ -263,19 +263,19 @@ contains
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: val(:), dx(:, :), dp(:, :)
     real(wp), intent(out), optional :: du(:, :)
-    real(wp) :: v(MAXVAR), g(MAXVAR), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
+    real(wp) :: v(MAXVAR), g(size(prog%root), self%nvar), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
     integer :: i, k, op
     call point(self, t, x, u, p, v)
     call program_forward(prog, v(1:self%nvar), nv, d1, d2)
+    call program_reverse(prog, d1, d2, g)
     op = self%nx + self%nu
     do i = 1, size(prog%root)
       val(i) = nv(prog%root(i))
-      call program_reverse(prog, i, d1, d2, g(1:self%nvar))
-      dx(i, 1:self%nx) = g(1:self%nx)
+      dx(i, 1:self%nx) = g(i, 1:self%nx)
       do k = 1, size(idx)
-        dp(i, k) = g(op + idx(k))
+        dp(i, k) = g(i, op + idx(k))
       end do
-      if (present(du)) du(i, 1:self%nu) = g(self%nx + 1:op)
+      if (present(du)) du(i, 1:self%nu) = g(i, self%nx + 1:op)
     end do
   end subroutine sweep
 

@@ -36,11 +36,18 @@ module mlid_expr_diff
 
   !> Expressions of a graph: their roots, the nodes any of them needs
   !> (ascending: the forward sweep), and each root's own nodes, descending
-  !> (its reverse sweep): ridx(rptr(i) : rptr(i+1) - 1).
+  !> (its reverse sweep): ridx(rptr(i) : rptr(i+1) - 1).  shared: the
+  !> expressions share so much that one reverse sweep over all the needed
+  !> nodes, an adjoint per expression, costs less than one sweep each.
   type :: program_t
     type(graph_t) :: g
     integer, allocatable :: root(:), fwd(:), rptr(:), ridx(:)
+    logical :: shared = .false.
   end type program_t
+
+  !> A node's visit in a reverse sweep costs about this many updates of one
+  !> adjoint (the operation's dispatch and its operands' indices).
+  integer, parameter :: VISIT_COST = 8
 
 contains
 
@@ -154,6 +161,7 @@ contains
       any_need = any_need .or. need
     end do
     p%fwd = pack([(k, k=1, g%n)], any_need)
+    p%shared = VISIT_COST*size(p%ridx) > (VISIT_COST + size(roots))*size(p%fwd)
   end function program_of
 
   !> Every needed node's value nv and partials to its operands d1, d2.
@@ -199,13 +207,30 @@ contains
     end do
   end subroutine program_forward
 
-  !> The gradient gr(1:nvar) of expression i after program_forward.
-  pure subroutine program_reverse(p, i, d1, d2, gr)
+  !> The gradients gr(i, 1:nvar) of all the program's expressions after
+  !> program_forward: one sweep each over its own nodes, or, when they
+  !> share much (p%shared), one sweep over all carrying an adjoint each.
+  pure subroutine program_reverse(p, d1, d2, gr)
+    type(program_t), intent(in) :: p
+    real(wp), intent(in) :: d1(:), d2(:)
+    real(wp), intent(out) :: gr(:, :)
+    integer :: i
+    if (p%shared) then
+      call shared_reverse(p, d1, d2, gr)
+    else
+      do i = 1, size(p%root)
+        call root_reverse(p, i, d1, d2, gr(i, :))
+      end do
+    end if
+  end subroutine program_reverse
+
+  !> The gradient gr(1:nvar) of expression i.
+  pure subroutine root_reverse(p, i, d1, d2, gr)
     type(program_t), intent(in) :: p
     integer, intent(in) :: i
     real(wp), intent(in) :: d1(:), d2(:)
     real(wp), intent(out) :: gr(:)
-    real(wp) :: adj(MAXNODE)
+    real(wp) :: adj(p%g%n)
     integer :: j, k
 
     gr = 0.0_wp
@@ -225,7 +250,35 @@ contains
         end select
       end do
     end associate
-  end subroutine program_reverse
+  end subroutine root_reverse
+
+  !> All the gradients gr(i, 1:nvar) in one sweep over the needed nodes.
+  pure subroutine shared_reverse(p, d1, d2, gr)
+    type(program_t), intent(in) :: p
+    real(wp), intent(in) :: d1(:), d2(:)
+    real(wp), intent(out) :: gr(:, :)
+    real(wp) :: adj(size(p%root), p%g%n)
+    integer :: i, j, k
+
+    gr = 0.0_wp
+    associate (g => p%g)
+      adj(:, p%fwd) = 0.0_wp
+      do i = 1, size(p%root)
+        adj(i, p%root(i)) = 1.0_wp
+      end do
+      do j = size(p%fwd), 1, -1
+        k = p%fwd(j)
+        select case (g%op(k))
+        case (OP_NUM)
+        case (OP_VAR)
+          gr(:, g%arg(k)) = gr(:, g%arg(k)) + adj(:, k)
+        case default
+          adj(:, g%c1(k)) = adj(:, g%c1(k)) + adj(:, k)*d1(k)
+          if (g%c2(k) > 0) adj(:, g%c2(k)) = adj(:, g%c2(k)) + adj(:, k)*d2(k)
+        end select
+      end do
+    end associate
+  end subroutine shared_reverse
 
   !> The values of the program's expressions at v.
   pure subroutine program_values(p, v, val)

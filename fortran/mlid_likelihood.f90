@@ -32,6 +32,8 @@ module mlid_likelihood
   !> Blocks of samples summed in order in the filter-error gradient and
   !> information, whatever the number of threads.
   integer, parameter :: NBLOCK = 64
+  !> Samples a block of the output-error information takes (its arrays stay small).
+  integer, parameter :: SAMPLE_BLOCK = 256
 
 contains
 
@@ -100,7 +102,7 @@ contains
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: dy(:, :, :), nu(:, :), s(:, :, :), a(:, :, :)
     real(wp) :: rinv(m%ny, m%ny), logdet
-    integer :: ny, nt, nf, j, i, k, ierr
+    integer :: ny, nt, nf, j, i, k, j0, j1, ierr
 
     ny = m%ny
     nt = size(t)
@@ -138,19 +140,23 @@ contains
     cost = 0.5_wp*(sum(nu*matmul(rinv, nu)) + nt*logdet)
 
     if (present(grad) .and. present(info)) then
-      ! sample-major sensitivities s(:, j, k) and weighted ones a = R^-1 s:
-      ! the information is one symmetric product over samples and outputs
-      allocate (s(ny, nt, nf), a(ny, nt, nf))
-      do j = 1, nt
-        s(:, j, :) = dy(:, :, j)
-      end do
-      do k = 1, nf
-        a(:, :, k) = matmul(rinv, s(:, :, k))
-        grad(k) = -sum(nu*a(:, :, k))
-      end do
+      ! sample-major sensitivities s(:, j, k) and weighted ones a = R^-1 s, a
+      ! block of samples at a time (small arrays, no large temporaries): the
+      ! information is a symmetric product over samples and outputs
+      grad = 0.0_wp
       info = 0.0_wp
-      call add_sym_atb(ny*nt, nf, s, a, info)
-      if (present(wsens)) wsens = a
+      do j0 = 1, nt, SAMPLE_BLOCK
+        j1 = min(nt, j0 + SAMPLE_BLOCK - 1)
+        allocate (s(ny, j1 - j0 + 1, nf), a(ny, j1 - j0 + 1, nf))
+        do k = 1, nf
+          s(:, :, k) = dy(:, k, j0:j1)
+          a(:, :, k) = matmul(rinv, s(:, :, k))
+          grad(k) = grad(k) - sum(nu(:, j0:j1)*a(:, :, k))
+        end do
+        call add_sym_atb(ny*(j1 - j0 + 1), nf, s, a, info)
+        if (present(wsens)) wsens(:, j0:j1, :) = a
+        deallocate (s, a)
+      end do
       if (present(msens)) msens = info
       if (present(sens)) call sensitivity_norms(dy, rhat, sens)
     end if
