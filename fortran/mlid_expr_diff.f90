@@ -48,6 +48,9 @@ module mlid_expr_diff
   !> A node's visit in a reverse sweep costs about this many updates of one
   !> adjoint (the operation's dispatch and its operands' indices).
   integer, parameter :: VISIT_COST = 8
+  !> The shared sweep's adjoints (expressions x nodes) live on the stack of
+  !> the thread that runs it: at most this many.
+  integer, parameter :: SHARED_MAX = 16384
 
 contains
 
@@ -161,7 +164,8 @@ contains
       any_need = any_need .or. need
     end do
     p%fwd = pack([(k, k=1, g%n)], any_need)
-    p%shared = VISIT_COST*size(p%ridx) > (VISIT_COST + size(roots))*size(p%fwd)
+    p%shared = VISIT_COST*size(p%ridx) > (VISIT_COST + size(roots))*size(p%fwd) .and. &
+               size(roots)*g%n <= SHARED_MAX
   end function program_of
 
   !> Every needed node's value nv and partials to its operands d1, d2.
