@@ -35,7 +35,7 @@ module mlid_colored
   use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_length, fft_real_pair
   implicit none
   private
-  public :: colored_covariance, colored_sandwich, residual_autocov, colored_lag, colored_bracket
+  public :: colored_covariance, colored_sandwich, colored_bracket
   public :: BRACKET_AUTO, BRACKET_FOURIER, BRACKET_DIRECT
 
   !> How the bracket is taken: the cheaper way per segment, or one way.
@@ -154,7 +154,7 @@ contains
     real(wp) :: b(size(a, 3), size(a, 3))
     real(wp), allocatable :: kr(:, :, :), ki(:, :, :), sr(:, :, :), si(:, :, :), gr(:, :, :), &
                              gi(:, :, :)
-    complex(wp), allocatable :: xf(:), yf(:)
+    complex(wp), allocatable :: xf(:), yf(:), af(:, :)
     integer, allocatable :: pr(:), pq(:)
     type(fft_plan_t) :: plan
     integer :: ny, nt, nf, n, nfreq, l, r, q, p2
@@ -169,8 +169,7 @@ contains
               gr(nfreq, ny, nf), gi(nfreq, ny, nf))
     ! the kernel's transform, two entries r <= q to a transform: K(q, r)(d) =
     ! K(r, q)(-d), so its transform is the conjugate
-    pr = [((r, q=r, ny), r=1, ny)]
-    pq = [((q, q=r, ny), r=1, ny)]
+    call upper_pairs(ny, pr, pq)
     allocate (xf(0:nfreq - 1), yf(0:nfreq - 1))
     do l = 1, size(pr), 2
       p2 = min(l + 1, size(pr))
@@ -182,17 +181,12 @@ contains
     deallocate (xf, yf)
     ! each parameter's transforms and filtered transforms on their own (the
     ! result does not depend on the threads)
-    !$omp parallel do private(r, q, xf, yf) schedule(static)
+    !$omp parallel do private(r, q, af) schedule(static)
     do l = 1, nf
-      allocate (xf(0:nfreq - 1), yf(0:nfreq - 1))
-      do r = 1, ny, 2                          ! two rows a transform
-        q = min(r + 1, ny)
-        call fft_real_pair(plan, a(r, :, l), a(q, :, l), xf, yf)
-        sr(:, r, l) = real(xf, wp)
-        si(:, r, l) = aimag(xf)
-        sr(:, q, l) = real(yf, wp)
-        si(:, q, l) = aimag(yf)
-      end do
+      allocate (af(0:nfreq - 1, ny))
+      call row_spectra(plan, a(:, :, l), af)
+      sr(:, :, l) = real(af, wp)
+      si(:, :, l) = aimag(af)
       gr(:, :, l) = 0.0_wp
       gi(:, :, l) = 0.0_wp
       do q = 1, ny                             ! G(f) = K(f) A(f), all f at once
@@ -203,7 +197,7 @@ contains
       end do
       gr(2:nfreq - 1, :, l) = 2.0_wp*gr(2:nfreq - 1, :, l)   ! f and n - f
       gi(2:nfreq - 1, :, l) = 2.0_wp*gi(2:nfreq - 1, :, l)
-      deallocate (xf, yf)
+      deallocate (af)
     end do
     !$omp end parallel do
     b = 0.0_wp
@@ -320,7 +314,7 @@ contains
     complex(wp), allocatable :: xf(:, :), z(:)
     integer, allocatable :: pr(:), pq(:)
     type(fft_plan_t) :: plan
-    integer :: ny, n, nh, p, r, q
+    integer :: ny, n, nh, p
 
     ny = size(x, 1)
     n = fft_length(size(x, 2) + lag)
@@ -328,8 +322,7 @@ contains
     plan = fft_plan(n)
     allocate (xf(0:nh, ny), z(0:n - 1))
     call row_spectra(plan, x, xf)
-    pr = [((r, q=r, ny), r=1, ny)]
-    pq = [((q, q=r, ny), r=1, ny)]
+    call upper_pairs(ny, pr, pq)
     do p = 1, size(pr), 2
       z = 0.0_wp
       call add_cross(z, xf(:, pr(p)), xf(:, pq(p)), (1.0_wp, 0.0_wp))
@@ -379,6 +372,15 @@ contains
       xf(:, q) = yf
     end do
   end subroutine row_spectra
+
+  !> The pairs (pr(p), pq(p)) of 1 .. ny with pr <= pq, row by row.
+  pure subroutine upper_pairs(ny, pr, pq)
+    integer, intent(in) :: ny
+    integer, allocatable, intent(out) :: pr(:), pq(:)
+    integer :: r, q
+    pr = [((r, q=r, ny), r=1, ny)]
+    pq = [((q, q=r, ny), r=1, ny)]
+  end subroutine upper_pairs
 
   !> The longest lag the choice considers: N/LAG_CAP_DIV (at least 1), below N.
   pure integer function lag_cap(nt)
