@@ -26,7 +26,8 @@ module mlid_equations
   use mlid_models, only: model_t
   use mlid_expr, only: expr_t, expr_compile, split_definition, is_name
   use mlid_expr_diff, only: graph_t, program_t, graph_add, program_of, program_forward, &
-                            program_reverse, program_values, MAXNODE
+                            program_reverse, program_reverse_shared, program_values, &
+                            MAXNODE, SHARED_MAX
   use mlid_text, only: to_lower
   implicit none
   private
@@ -220,8 +221,8 @@ contains
         hroot = [hroot, root]
       end select
     end do
-    m%fprog = program_of(g, froot)
-    m%hprog = program_of(g, hroot)
+    m%fprog = program_of(g, froot, m%nvar)
+    m%hprog = program_of(g, hroot, m%nvar)
   end subroutine compile_all
 
   !> v = [x, u, p, t] (fixed size: this runs several times per sample).
@@ -263,19 +264,25 @@ contains
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: val(:), dx(:, :), dp(:, :)
     real(wp), intent(out), optional :: du(:, :)
-    real(wp) :: v(MAXVAR), g(size(prog%root), self%nvar), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
-    integer :: i, k, op
+    real(wp) :: v(MAXVAR), g(MAXVAR), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE), gs(SHARED_MAX)
+    integer :: i, k, op, nr
     call point(self, t, x, u, p, v)
     call program_forward(prog, v(1:self%nvar), nv, d1, d2)
-    call program_reverse(prog, d1, d2, g)
     op = self%nx + self%nu
-    do i = 1, size(prog%root)
+    nr = size(prog%root)
+    if (prog%shared) call program_reverse_shared(prog, self%nvar, d1, d2, gs)
+    do i = 1, nr
       val(i) = nv(prog%root(i))
-      dx(i, 1:self%nx) = g(i, 1:self%nx)
+      if (prog%shared) then
+        g(1:self%nvar) = gs(i:nr*self%nvar:nr)     ! row i of gs taken as (nr, nvar)
+      else
+        call program_reverse(prog, i, d1, d2, g(1:self%nvar))
+      end if
+      dx(i, 1:self%nx) = g(1:self%nx)
       do k = 1, size(idx)
-        dp(i, k) = g(i, op + idx(k))
+        dp(i, k) = g(op + idx(k))
       end do
-      if (present(du)) du(i, 1:self%nu) = g(i, self%nx + 1:op)
+      if (present(du)) du(i, 1:self%nu) = g(self%nx + 1:op)
     end do
   end subroutine sweep
 

@@ -19,7 +19,8 @@ module mlid_expr_diff
   implicit none
   private
   public :: graph_t, program_t, graph_add, program_of, program_forward, program_reverse, &
-            program_values, MAXNODE
+            program_reverse_shared, &
+            program_values, MAXNODE, SHARED_MAX
 
   !> The most nodes a model's graph may have: the sweeps work in fixed
   !> local arrays, because gfortran puts arrays sized at run time on the
@@ -48,9 +49,11 @@ module mlid_expr_diff
   !> A node's visit in a reverse sweep costs about this many updates of one
   !> adjoint (the operation's dispatch and its operands' indices).
   integer, parameter :: VISIT_COST = 8
-  !> The shared sweep's adjoints (expressions x nodes) live on the stack of
-  !> the thread that runs it: at most this many.
-  integer, parameter :: SHARED_MAX = 16384
+  !> The shared sweep's adjoints (expressions x nodes) and gradients
+  !> (expressions x variables) are fixed buffers of this size on the running
+  !> thread's stack (no allocation per point): larger programs sweep each
+  !> expression on its own.
+  integer, parameter :: SHARED_MAX = 8192
 
 contains
 
@@ -139,10 +142,11 @@ contains
     g%num = [g%num, spread(0.0_wp, 1, extra)]
   end subroutine reserve
 
-  !> The program of the graph's expressions at the nodes roots.
-  pure function program_of(g, roots) result(p)
+  !> The program of the graph's expressions at the nodes roots, over nvar
+  !> variables.
+  pure function program_of(g, roots, nvar) result(p)
     type(graph_t), intent(in) :: g
-    integer, intent(in) :: roots(:)
+    integer, intent(in) :: roots(:), nvar
     type(program_t) :: p
     logical :: need(g%n), any_need(g%n)
     integer :: i, k
@@ -165,7 +169,7 @@ contains
     end do
     p%fwd = pack([(k, k=1, g%n)], any_need)
     p%shared = VISIT_COST*size(p%ridx) > (VISIT_COST + size(roots))*size(p%fwd) .and. &
-               size(roots)*g%n <= SHARED_MAX
+               size(roots)*max(g%n, nvar) <= SHARED_MAX
   end function program_of
 
   !> Every needed node's value nv and partials to its operands d1, d2.
@@ -211,30 +215,14 @@ contains
     end do
   end subroutine program_forward
 
-  !> The gradients gr(i, 1:nvar) of all the program's expressions after
-  !> program_forward: one sweep each over its own nodes, or, when they
-  !> share much (p%shared), one sweep over all carrying an adjoint each.
-  pure subroutine program_reverse(p, d1, d2, gr)
-    type(program_t), intent(in) :: p
-    real(wp), intent(in) :: d1(:), d2(:)
-    real(wp), intent(out) :: gr(:, :)
-    integer :: i
-    if (p%shared) then
-      call shared_reverse(p, d1, d2, gr)
-    else
-      do i = 1, size(p%root)
-        call root_reverse(p, i, d1, d2, gr(i, :))
-      end do
-    end if
-  end subroutine program_reverse
-
-  !> The gradient gr(1:nvar) of expression i.
-  pure subroutine root_reverse(p, i, d1, d2, gr)
+  !> The gradient gr(1:nvar) of expression i after program_forward (not
+  !> p%shared).
+  pure subroutine program_reverse(p, i, d1, d2, gr)
     type(program_t), intent(in) :: p
     integer, intent(in) :: i
     real(wp), intent(in) :: d1(:), d2(:)
     real(wp), intent(out) :: gr(:)
-    real(wp) :: adj(p%g%n)
+    real(wp) :: adj(MAXNODE)
     integer :: j, k
 
     gr = 0.0_wp
@@ -254,14 +242,25 @@ contains
         end select
       end do
     end associate
-  end subroutine root_reverse
+  end subroutine program_reverse
 
-  !> All the gradients gr(i, 1:nvar) in one sweep over the needed nodes.
-  pure subroutine shared_reverse(p, d1, d2, gr)
+  !> All the gradients gr(i, 1:nvar) after program_forward (p%shared), in
+  !> one sweep over the needed nodes with an adjoint per expression; gr is
+  !> a caller's buffer of SHARED_MAX taken as (expressions, nvar).
+  pure subroutine program_reverse_shared(p, nvar, d1, d2, gr)
+    type(program_t), intent(in) :: p
+    integer, intent(in) :: nvar
+    real(wp), intent(in) :: d1(:), d2(:)
+    real(wp), intent(out) :: gr(size(p%root), nvar)
+    real(wp) :: buf(SHARED_MAX)
+    call sweep_all(p, d1, d2, gr, buf)
+  end subroutine program_reverse_shared
+
+  pure subroutine sweep_all(p, d1, d2, gr, adj)
     type(program_t), intent(in) :: p
     real(wp), intent(in) :: d1(:), d2(:)
     real(wp), intent(out) :: gr(:, :)
-    real(wp) :: adj(size(p%root), p%g%n)
+    real(wp), intent(out) :: adj(size(p%root), p%g%n)
     integer :: i, j, k
 
     gr = 0.0_wp
@@ -282,7 +281,7 @@ contains
         end select
       end do
     end associate
-  end subroutine shared_reverse
+  end subroutine sweep_all
 
   !> The values of the program's expressions at v.
   pure subroutine program_values(p, v, val)
