@@ -12,7 +12,7 @@ MODEL = ("&case title = 'join', job = 'estimate' /\n"
          "    free = 'f(1,1)', 'g(1,1)' /\n")
 
 
-def _records(tmp_path):
+def _records():
     """Two manoeuvres of xdot = -x + u, y = x + noise: each file t, u, y."""
     rng = np.random.default_rng(4)
     out = []
@@ -31,7 +31,7 @@ def _deck(data):
 
 
 def test_a_joined_fit_is_the_fit_of_one_file_however_the_rows_are_split(tmp_path):
-    recs = _records(tmp_path)
+    recs = _records()
     for k, r in enumerate(recs):
         np.savetxt(tmp_path / f"whole{k}.dat", r, header="t u y", comments="")
         np.savetxt(tmp_path / f"tu{k}.dat", r[:, :2], header="t u", comments="")
@@ -57,7 +57,7 @@ def test_a_joined_fit_is_the_fit_of_one_file_however_the_rows_are_split(tmp_path
 
 
 def test_join_mismatches_are_one_line_in_both_front_ends(tmp_path):
-    recs = _records(tmp_path)
+    recs = _records()
     for k, r in enumerate(recs):
         np.savetxt(tmp_path / f"tu{k}.dat", r[:, :2], header="t u", comments="")
     y = np.vstack([r[:, 2:] for r in recs])

@@ -3,13 +3,12 @@ bx + Gamma w): analytic partials against finite differences, the same fit
 as the old trick of a constant input of ones, recovery within the
 Cramer-Rao bound, filter error, and the deck in both front ends."""
 
-import subprocess
 
 import numpy as np
 import pytest
 
 import mlid
-from conftest import BIN, refused_by_both
+from conftest import refused_by_both, run_both
 
 F = [[-1.0, 0.9], [-4.0, -1.5]]
 G = [[-0.1], [-6.0]]
@@ -81,9 +80,7 @@ def test_the_deck_gives_the_same_report_in_both_front_ends(tmp_path):
     record().save(tmp_path / "r.dat")
     (tmp_path / "ok.nml").write_text(DECK.format(bx="0.0, 0.0"))
     (tmp_path / "bad.nml").write_text(DECK.format(bx="0.0, 0.0, 1.0"))
-    outs = [subprocess.run([str(BIN / exe), *pre, str(tmp_path / "ok.nml")], capture_output=True,
-                           text=True, cwd=tmp_path) for exe, pre in (("mlid", ["run"]),
-                                                                      ("mlid-batch", []))]
+    outs = run_both(tmp_path / "ok.nml", cwd=tmp_path)
     assert outs[0].returncode == 0 and outs[0].stdout == outs[1].stdout, outs[0].stderr
     assert " Z_0              rad/s" in outs[0].stdout and " M_0              rad/s2" in outs[0].stdout
     refused_by_both(tmp_path / "bad.nml", "bx has 3 values, it needs 2", cwd=tmp_path)
