@@ -25,9 +25,9 @@ module mlid_equations
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
   use mlid_expr, only: expr_t, expr_compile, split_definition, is_name
-  use mlid_expr_diff, only: graph_t, program_t, graph_add, program_of, program_forward, &
-                            program_reverse, program_reverse_shared, program_values, &
-                            MAXNODE, SHARED_MAX
+  use mlid_expr_diff, only: graph_t, program_t, graph_add, graph_fold, program_of, &
+                            program_forward, program_reverse, program_reverse_shared, &
+                            program_values, program_reads, MAXNODE, SHARED_MAX
   use mlid_text, only: to_lower
   implicit none
   private
@@ -56,6 +56,8 @@ module mlid_equations
     procedure :: has_input_jacobians => eq_input_jacobians
     procedure :: dfdu => eq_dfdu
     procedure :: dhdu => eq_dhdu
+    procedure :: fold_inputs => eq_fold_inputs
+    procedure :: uses_params => eq_uses_params
   end type equations_t
 
   !> One line of the text: its kind letter, name and expression.
@@ -224,6 +226,42 @@ contains
     m%fprog = program_of(g, froot, m%nvar)
     m%hprog = program_of(g, hroot, m%nvar)
   end subroutine compile_all
+
+  !> The equations with the fixed inputs' values folded in: over one
+  !> manoeuvre, b1*m1 + b2*m2 + b3*m3 (m the manoeuvres' indicators) is b1.
+  !> Nothing when no input is fixed.
+  subroutine eq_fold_inputs(self, fixed, val, folded)
+    class(equations_t), intent(in) :: self
+    logical, intent(in) :: fixed(:)
+    real(wp), intent(in) :: val(:)
+    class(model_t), allocatable, intent(out) :: folded
+    type(equations_t) :: e
+    type(graph_t) :: g
+    logical :: vfixed(self%nvar)
+    real(wp) :: vval(self%nvar)
+    integer :: map(self%fprog%g%n)
+
+    if (.not. any(fixed(1:self%nu))) return
+    vfixed = .false.
+    vval = 0.0_wp
+    vfixed(self%nx + 1:self%nx + self%nu) = fixed(1:self%nu)
+    vval(self%nx + 1:self%nx + self%nu) = val(1:self%nu)
+    call graph_fold(self%fprog%g, vfixed, vval, g, map)    ! fprog and hprog share one graph
+    e = self
+    e%fprog = program_of(g, map(self%fprog%root), self%nvar)
+    e%hprog = program_of(g, map(self%hprog%root), self%nvar)
+    allocate (folded, source=e)
+  end subroutine eq_fold_inputs
+
+  pure subroutine eq_uses_params(self, used)
+    class(equations_t), intent(in) :: self
+    logical, intent(out) :: used(:)
+    integer :: k, v
+    do k = 1, self%np
+      v = self%nx + self%nu + k
+      used(k) = program_reads(self%fprog, v) .or. program_reads(self%hprog, v)
+    end do
+  end subroutine eq_uses_params
 
   !> v = [x, u, p, t] (fixed size: this runs several times per sample).
   pure subroutine point(self, t, x, u, p, v)

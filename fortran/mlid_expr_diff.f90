@@ -18,9 +18,9 @@ module mlid_expr_diff
                        F_ATAN2, F_SQRT, F_ABS, F_EXP, F_LOG, F_LOG10, F_MIN, F_MAX, F_TANH, F_STEP
   implicit none
   private
-  public :: graph_t, program_t, graph_add, program_of, program_forward, program_reverse, &
-            program_reverse_shared, &
-            program_values, MAXNODE, SHARED_MAX
+  public :: graph_t, program_t, graph_add, graph_fold, program_of, program_forward, &
+            program_reverse, program_reverse_shared, program_values, program_reads, MAXNODE, &
+            SHARED_MAX
 
   !> The most nodes a model's graph may have: the sweeps work in fixed
   !> local arrays, because gfortran puts arrays sized at run time on the
@@ -43,12 +43,20 @@ module mlid_expr_diff
   type :: program_t
     type(graph_t) :: g
     integer, allocatable :: root(:), fwd(:), rptr(:), ridx(:)
+    !> Each expression's reverse sweep as two lists: its operations,
+    !> descending, onode(optr(i) : optr(i+1) - 1) with their operands oc1,
+    !> oc2 (0: none, a scratch adjoint), and its variables' nodes vnode with
+    !> their numbers varg (vptr likewise): no branch per node.
+    integer, allocatable :: optr(:), onode(:), oc1(:), oc2(:), vptr(:), vnode(:), varg(:)
     logical :: shared = .false.
   end type program_t
 
-  !> A node's visit in a reverse sweep costs about this many updates of one
-  !> adjoint (the operation's dispatch and its operands' indices).
-  integer, parameter :: VISIT_COST = 8
+  !> The cost of a node's visit in a reverse sweep (the operation's dispatch
+  !> and its operands' indices) and of the shared sweep's update of one
+  !> expression's adjoint, in updates of one adjoint of a single sweep
+  !> (measured: the flight-path equations, 7 states, 113 nodes each used 1.9
+  !> times, sweep faster one expression at a time).
+  integer, parameter :: VISIT_COST = 8, LANE_COST = 2
   !> The shared sweep's adjoints (expressions x nodes) and gradients
   !> (expressions x variables) are fixed buffers of this size on the running
   !> thread's stack (no allocation per point): larger programs sweep each
@@ -142,6 +150,122 @@ contains
     g%num = [g%num, spread(0.0_wp, 1, extra)]
   end subroutine reserve
 
+  !> The graph with the variables marked fixed replaced by their values val
+  !> and the constants folded: a node of constants becomes a constant, x*0
+  !> and 0*x become 0, x*1, 1*x, x+0, 0+x, x-0 and x/1 become x, 0-x becomes
+  !> -x.  Node k of g is node map(k) of gf.  Values and gradients are those
+  !> of g (a zero factor also drops an operand that is not finite: the
+  !> fixed variables are inputs known over a stretch of record, such as a
+  !> manoeuvre's indicator).
+  pure subroutine graph_fold(g, fixed, val, gf, map)
+    type(graph_t), intent(in) :: g
+    logical, intent(in) :: fixed(:)
+    real(wp), intent(in) :: val(:)
+    type(graph_t), intent(out) :: gf
+    integer, intent(out) :: map(:)
+    integer :: k, a, b
+
+    allocate (gf%op(0), gf%arg(0), gf%c1(0), gf%c2(0), gf%num(0))
+    call reserve(gf, g%n)
+    do k = 1, g%n
+      a = 0
+      b = 0
+      if (g%c1(k) > 0) a = map(g%c1(k))
+      if (g%c2(k) > 0) b = map(g%c2(k))
+      if (g%op(k) == OP_VAR .and. fixed(g%arg(k))) then
+        call add_node(gf, OP_NUM, 0, val(g%arg(k)), 0, 0, map(k))
+      else if (g%op(k) /= OP_NUM .and. g%op(k) /= OP_VAR .and. is(a) .and. &
+               (b == 0 .or. is(b))) then
+        call add_node(gf, OP_NUM, 0, constant(g%op(k), g%arg(k), gf%num(a), num_of(b)), 0, 0, &
+                      map(k))
+      else if (is(a, 0.0_wp) .and. g%op(k) == OP_SUB) then
+        call add_node(gf, OP_NEG, 0, 0.0_wp, b, 0, map(k))
+      else if ((is(a, 0.0_wp) .or. is(b, 0.0_wp)) .and. g%op(k) == OP_MUL) then
+        call add_node(gf, OP_NUM, 0, 0.0_wp, 0, 0, map(k))
+      else if ((is(a, 1.0_wp) .and. g%op(k) == OP_MUL) .or. &
+               (is(a, 0.0_wp) .and. g%op(k) == OP_ADD)) then
+        map(k) = b
+      else if ((is(b, 1.0_wp) .and. (g%op(k) == OP_MUL .or. g%op(k) == OP_DIV)) .or. &
+               (is(b, 0.0_wp) .and. (g%op(k) == OP_ADD .or. g%op(k) == OP_SUB))) then
+        map(k) = a
+      else
+        call add_node(gf, g%op(k), g%arg(k), g%num(k), a, b, map(k))
+      end if
+    end do
+
+  contains
+
+    !> Whether folded node j is a constant (equal to c, if given).
+    pure logical function is(j, c)
+      integer, intent(in) :: j
+      real(wp), intent(in), optional :: c
+      is = .false.
+      if (j > 0) is = gf%op(j) == OP_NUM
+      if (is .and. present(c)) is = gf%num(j) == c
+    end function is
+
+    pure real(wp) function num_of(j)
+      integer, intent(in) :: j
+      num_of = 0.0_wp
+      if (j > 0) num_of = gf%num(j)
+    end function num_of
+
+  end subroutine graph_fold
+
+  !> k: the node op(arg, num) of operands a, b in g, the one there is or a new one.
+  pure subroutine add_node(g, op, arg, num, a, b, k)
+    type(graph_t), intent(inout) :: g
+    integer, intent(in) :: op, arg, a, b
+    real(wp), intent(in) :: num
+    integer, intent(out) :: k
+    k = same_node(g, op, arg, num, a, b)
+    if (k > 0) return
+    call reserve(g, g%n + 1)
+    g%n = g%n + 1
+    k = g%n
+    g%op(k) = op
+    g%arg(k) = arg
+    g%num(k) = num
+    g%c1(k) = a
+    g%c2(k) = b
+  end subroutine add_node
+
+  !> The value of op on constants, computed as program_forward does.
+  pure real(wp) function constant(op, arg, a, b) result(c)
+    integer, intent(in) :: op, arg
+    real(wp), intent(in) :: a, b
+    real(wp) :: da, db
+    select case (op)
+    case (OP_NEG)
+      c = -a
+    case (OP_ADD)
+      c = a + b
+    case (OP_SUB)
+      c = a - b
+    case (OP_MUL)
+      c = a*b
+    case (OP_FUN)
+      if (FUN_ARGS(arg) == 2) then
+        call fun2(arg, a, b, c, da, db)
+      else
+        call fun1(arg, a, c, da)
+      end if
+    case default
+      call binary(op, a, b, c, da, db)
+    end select
+  end function constant
+
+  !> Whether the program reads variable v (a node of it is v).
+  pure logical function program_reads(p, v)
+    type(program_t), intent(in) :: p
+    integer, intent(in) :: v
+    integer :: j
+    program_reads = .false.
+    do j = 1, size(p%fwd)
+      if (p%g%op(p%fwd(j)) == OP_VAR .and. p%g%arg(p%fwd(j)) == v) program_reads = .true.
+    end do
+  end function program_reads
+
   !> The program of the graph's expressions at the nodes roots, over nvar
   !> variables.
   pure function program_of(g, roots, nvar) result(p)
@@ -168,7 +292,21 @@ contains
       any_need = any_need .or. need
     end do
     p%fwd = pack([(k, k=1, g%n)], any_need)
-    p%shared = VISIT_COST*size(p%ridx) > (VISIT_COST + size(roots))*size(p%fwd) .and. &
+    allocate (p%optr(size(roots) + 1), p%vptr(size(roots) + 1), p%onode(0), p%vnode(0))
+    p%optr(1) = 1
+    p%vptr(1) = 1
+    do i = 1, size(roots)
+      associate (list => p%ridx(p%rptr(i):p%rptr(i + 1) - 1))
+        p%onode = [p%onode, pack(list, g%op(list) /= OP_NUM .and. g%op(list) /= OP_VAR)]
+        p%vnode = [p%vnode, pack(list, g%op(list) == OP_VAR)]
+      end associate
+      p%optr(i + 1) = size(p%onode) + 1
+      p%vptr(i + 1) = size(p%vnode) + 1
+    end do
+    p%oc1 = g%c1(p%onode)
+    p%oc2 = g%c2(p%onode)
+    p%varg = g%arg(p%vnode)
+    p%shared = VISIT_COST*size(p%ridx) > (VISIT_COST + LANE_COST*size(roots))*size(p%fwd) .and. &
                size(roots)*max(g%n, nvar) <= SHARED_MAX
   end function program_of
 
@@ -190,6 +328,7 @@ contains
         case (OP_NEG)
           nv(k) = -nv(g%c1(k))
           d1(k) = -1.0_wp
+          d2(k) = 0.0_wp               ! an operation of one operand: d2 for the sweep's scratch
         case (OP_ADD)                 ! the common operations inline, the rest in helpers
           nv(k) = nv(g%c1(k)) + nv(g%c2(k))
           d1(k) = 1.0_wp
@@ -207,6 +346,7 @@ contains
             call fun2(g%arg(k), nv(g%c1(k)), nv(g%c2(k)), nv(k), d1(k), d2(k))
           else
             call fun1(g%arg(k), nv(g%c1(k)), nv(k), d1(k))
+            d2(k) = 0.0_wp
           end if
         case default
           call binary(g%op(k), nv(g%c1(k)), nv(g%c2(k)), nv(k), d1(k), d2(k))
@@ -222,26 +362,22 @@ contains
     integer, intent(in) :: i
     real(wp), intent(in) :: d1(:), d2(:)
     real(wp), intent(out) :: gr(:)
-    real(wp) :: adj(MAXNODE)
+    real(wp) :: adj(0:MAXNODE)
     integer :: j, k
 
     gr = 0.0_wp
-    associate (g => p%g, list => p%ridx(p%rptr(i):p%rptr(i + 1) - 1))
-      adj(list) = 0.0_wp
-      adj(p%root(i)) = 1.0_wp
-      do j = 1, size(list)
-        k = list(j)
-        if (adj(k) == 0.0_wp) cycle
-        select case (g%op(k))
-        case (OP_NUM)
-        case (OP_VAR)
-          gr(g%arg(k)) = gr(g%arg(k)) + adj(k)
-        case default
-          adj(g%c1(k)) = adj(g%c1(k)) + adj(k)*d1(k)
-          if (g%c2(k) > 0) adj(g%c2(k)) = adj(g%c2(k)) + adj(k)*d2(k)
-        end select
-      end do
-    end associate
+    do j = p%rptr(i), p%rptr(i + 1) - 1     ! a loop: a vector subscript would allocate
+      adj(p%ridx(j)) = 0.0_wp
+    end do
+    adj(p%root(i)) = 1.0_wp
+    do j = p%optr(i), p%optr(i + 1) - 1
+      k = p%onode(j)
+      adj(p%oc1(j)) = adj(p%oc1(j)) + adj(k)*d1(k)
+      adj(p%oc2(j)) = adj(p%oc2(j)) + adj(k)*d2(k)
+    end do
+    do j = p%vptr(i), p%vptr(i + 1) - 1
+      gr(p%varg(j)) = adj(p%vnode(j))
+    end do
   end subroutine program_reverse
 
   !> All the gradients gr(i, 1:nvar) after program_forward (p%shared), in

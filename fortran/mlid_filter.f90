@@ -32,7 +32,7 @@ module mlid_filter
   use mlid_linalg, only: chol_inverse
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
-  use mlid_params, only: param_map_t, input_delays, output_delays, stabilized
+  use mlid_params, only: param_map_t, segment_map, input_delays, output_delays, stabilized
   use mlid_rk, only: rk4_step, rk4_interval, input_sens_t
   use mlid_delay, only: delay_outputs, delay_check
   implicit none
@@ -70,7 +70,7 @@ contains
   !> (segments) are independent, each from its own initial state, and are
   !> integrated in parallel: each writes only its own samples, so the result
   !> does not depend on the threads; a failure is the first segment's.
-  subroutine oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy, xhist, z)
+  subroutine oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy, xhist, z, moves)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -82,7 +82,10 @@ contains
     real(wp), intent(out), optional :: dy(:, :, :)
     real(wp), intent(out), optional :: xhist(:, :)
     real(wp), intent(in), optional :: z(:, :)     !< the measured outputs (stabilized output error)
+    !> with dy: moves(c, k) is false where column c of dy is zero throughout segment k
+    logical, intent(out), optional :: moves(:, :)
     integer :: k, nseg, first(pm%l%nseg + 1), kstat(pm%l%nseg)
+    logical :: mv(pm%nf, pm%l%nseg)
     character(len=len(msg)) :: kmsg(pm%l%nseg)
 
     nseg = pm%l%nseg
@@ -90,12 +93,60 @@ contains
     first(nseg + 1) = size(t) + 1
     !$omp parallel do schedule(dynamic, 1) if (nseg > 1)
     do k = 1, nseg
-      call oe_segment(m, theta, pm, t, u, opt, k, first(k), first(k + 1) - 1, yhat, &
-                      kstat(k), kmsg(k), dy, xhist, z)
+      call oe_manoeuvre(m, theta, pm, t, u, opt, k, first(k), first(k + 1) - 1, yhat, &
+                        kstat(k), kmsg(k), mv(:, k), dy, xhist, z)
     end do
     !$omp end parallel do
     call first_failure(kstat, kmsg, status, msg)
+    if (present(moves)) moves = mv
   end subroutine oe_predict
+
+  !> oe_segment on the model with the inputs that keep one value over the
+  !> segment folded in (model_t%fold_inputs), and with sensitivities only
+  !> for the free parameters that can move it (mlid_params' segment_map):
+  !> a bias of another manoeuvre, stated with that one's indicator input,
+  !> costs this one nothing.  Results are those of oe_segment on m.
+  subroutine oe_manoeuvre(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, moves, dy, &
+                          xhist, z)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :)
+    type(options_t), intent(in) :: opt
+    integer, intent(in) :: iseg, j0, j1
+    real(wp), intent(inout) :: yhat(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    logical, intent(out) :: moves(:)       !< the columns of dy the segment may move
+    real(wp), intent(inout), optional :: dy(:, :, :), xhist(:, :)
+    real(wp), intent(in), optional :: z(:, :)
+    class(model_t), allocatable :: mf
+    type(param_map_t) :: pk
+    integer, allocatable :: cols(:)
+    real(wp), allocatable :: dyk(:, :, :)
+    logical :: fixed(m%nu), used(m%np)
+    integer :: i
+
+    do i = 1, m%nu
+      fixed(i) = all(u(i, j0:j1) == u(i, j0))
+    end do
+    call m%fold_inputs(fixed, u(:, j0), mf)
+    moves = .true.
+    if (.not. allocated(mf)) then
+      call oe_segment(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, dy, xhist, z)
+    else if (.not. present(dy)) then
+      call oe_segment(mf, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, xhist=xhist, z=z)
+    else
+      call mf%uses_params(used)
+      call segment_map(pm, iseg, used, pk, cols)
+      allocate (dyk(m%ny, pk%nf, size(t)))
+      call oe_segment(mf, theta, pk, t, u, opt, iseg, j0, j1, yhat, status, msg, dyk, xhist, z)
+      dy(:, :, j0:j1) = 0.0_wp
+      dy(:, cols, j0:j1) = dyk(:, :, j0:j1)
+      moves = .false.
+      moves(cols) = .true.
+    end if
+  end subroutine oe_manoeuvre
 
   !> oe_predict over the samples j0..j1 of segment iseg.  Inputs that a
   !> delay moves (udelay) are delayed first (mlid_delay), and force the

@@ -100,16 +100,17 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
-    real(wp), allocatable :: dy(:, :, :), nu(:, :), s(:, :, :), a(:, :, :)
+    real(wp), allocatable :: dy(:, :, :), nu(:, :)
     real(wp) :: rinv(m%ny, m%ny), logdet
-    integer :: ny, nt, nf, j, i, k, j0, j1, ierr
+    logical :: moves(pm%nf, pm%l%nseg)
+    integer :: ny, nt, nf, i, k, ierr
 
     ny = m%ny
     nt = size(t)
     nf = pm%nf
     if (present(grad)) then
       allocate (dy(ny, nf, nt))
-      call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy=dy, z=y)
+      call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy=dy, z=y, moves=moves)
     else
       call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, z=y)
     end if
@@ -140,26 +141,54 @@ contains
     cost = 0.5_wp*(sum(nu*matmul(rinv, nu)) + nt*logdet)
 
     if (present(grad) .and. present(info)) then
-      ! sample-major sensitivities s(:, j, k) and weighted ones a = R^-1 s, a
-      ! block of samples at a time (small arrays, no large temporaries): the
-      ! information is a symmetric product over samples and outputs
       grad = 0.0_wp
       info = 0.0_wp
-      do j0 = 1, nt, SAMPLE_BLOCK
-        j1 = min(nt, j0 + SAMPLE_BLOCK - 1)
-        allocate (s(ny, j1 - j0 + 1, nf), a(ny, j1 - j0 + 1, nf))
-        do k = 1, nf
-          s(:, :, k) = dy(:, k, j0:j1)
-          a(:, :, k) = matmul(rinv, s(:, :, k))
-          grad(k) = grad(k) - sum(nu(:, j0:j1)*a(:, :, k))
-        end do
-        call add_sym_atb(ny*(j1 - j0 + 1), nf, s, a, info)
-        if (present(wsens)) wsens(:, j0:j1, :) = a
-        deallocate (s, a)
+      if (present(wsens)) wsens = 0.0_wp
+      do k = 1, pm%l%nseg
+        call segment_information(k)
       end do
       if (present(msens)) msens = info
       if (present(sens)) call sensitivity_norms(dy, rhat, sens)
     end if
+
+  contains
+
+    !> Segment iseg's part of grad and info (and its rows of wsens), over
+    !> the columns it moves only (a bias of another manoeuvre adds zeros):
+    !> sample-major sensitivities s(:, j, k) and weighted ones a = R^-1 s,
+    !> a block of samples at a time (small arrays, no large temporaries);
+    !> the information is a symmetric product over samples and outputs.
+    subroutine segment_information(iseg)
+      integer, intent(in) :: iseg
+      real(wp), allocatable :: s(:, :, :), a(:, :, :), part(:, :)
+      integer, allocatable :: cols(:)
+      integer :: j0, j1, jend, c, i
+      cols = pack([(c, c=1, nf)], moves(:, iseg))
+      allocate (part(size(cols), size(cols)))
+      part = 0.0_wp
+      jend = nt
+      if (iseg < pm%l%nseg) jend = pm%l%seg(iseg + 1) - 1
+      do j0 = pm%l%seg(iseg), jend, SAMPLE_BLOCK
+        j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
+        allocate (s(ny, j1 - j0 + 1, size(cols)), a(ny, j1 - j0 + 1, size(cols)))
+        do c = 1, size(cols)
+          s(:, :, c) = dy(:, cols(c), j0:j1)
+          if (opt%full_r) then
+            a(:, :, c) = matmul(rinv, s(:, :, c))
+          else                              ! R diagonal: scale the rows
+            do i = 1, ny
+              a(i, :, c) = rinv(i, i)*s(i, :, c)
+            end do
+          end if
+          grad(cols(c)) = grad(cols(c)) - sum(nu(:, j0:j1)*a(:, :, c))
+          if (present(wsens)) wsens(:, j0:j1, cols(c)) = a(:, :, c)
+        end do
+        call add_sym_atb(ny*(j1 - j0 + 1), size(cols), s, a, part)
+        deallocate (s, a)
+      end do
+      info(cols, cols) = info(cols, cols) + part
+    end subroutine segment_information
+
   end subroutine oe_likelihood
 
   subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &

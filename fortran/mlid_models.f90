@@ -47,6 +47,12 @@ module mlid_models
     procedure :: has_input_jacobians => no_input_jacobians
     procedure :: dfdu => zero_input_jacobian
     procedure :: dhdu => zero_input_jacobian
+    !> The model over a stretch of record where some inputs keep one value
+    !> (a manoeuvre's indicator): a model that gets cheaper with them known
+    !> returns itself so specialised, and says which of its parameters it
+    !> still reads; the others leave it unallocated.
+    procedure :: fold_inputs => no_folding
+    procedure :: uses_params => reads_every_param
   end type model_t
 
   abstract interface
@@ -169,6 +175,20 @@ contains
     real(wp), intent(out) :: b(:, :)
     b = 0.0_wp
   end subroutine zero_input_jacobian
+
+  subroutine no_folding(self, fixed, val, folded)
+    class(model_t), intent(in) :: self
+    logical, intent(in) :: fixed(:)           !< the inputs that keep one value
+    real(wp), intent(in) :: val(:)            !< the inputs' values (those of the fixed ones count)
+    class(model_t), allocatable, intent(out) :: folded
+  end subroutine no_folding
+
+  !> used(k): whether parameter k enters f or h.
+  pure subroutine reads_every_param(self, used)
+    class(model_t), intent(in) :: self
+    logical, intent(out) :: used(:)
+    used = .true.
+  end subroutine reads_every_param
 
   !> xdot = f, a = df/dx and b = df/dp(idx) at one point: what the
   !> sensitivity equations need at every RK4 stage.  A model that gets them

@@ -10,7 +10,7 @@ module mlid_params
   use mlid_models, only: layout_t
   implicit none
   private
-  public :: param_map_t, tie_t, param_map_create, apply_ties, no_ties, input_delays, output_delays, stabilized
+  public :: param_map_t, tie_t, param_map_create, segment_map, apply_ties, no_ties, input_delays, output_delays, stabilized
 
   !> Affine ties: term i gives theta(to(i)) the part scale(i)*theta(from(i));
   !> offset(k) is the constant of a tied entry k (0 for the others).
@@ -91,6 +91,58 @@ contains
     end subroutine block
 
   end subroutine param_map_create
+
+  !> The map of one manoeuvre's sensitivities: only the free columns that
+  !> can move segment iseg (its own initial state and biases, the model
+  !> parameters the model reads there, used(k) for p(k), and the other
+  !> blocks' entries), renumbered; cols(c) is new column c's old number.
+  subroutine segment_map(pm, iseg, used, pk, cols)
+    type(param_map_t), intent(in) :: pm
+    integer, intent(in) :: iseg
+    logical, intent(in) :: used(:)
+    type(param_map_t), intent(out) :: pk
+    integer, allocatable, intent(out) :: cols(:)
+    logical :: km(size(pm%im)), kx0(size(pm%ix0)), kb(size(pm%ib)), keep(pm%nf)
+    integer :: new(pm%nf), k
+
+    km = used(pm%im)
+    kx0 = (pm%ix0 - 1)/max(pm%l%nx, 1) + 1 == iseg
+    kb = (pm%ib - 1)/max(pm%l%ny, 1) + 1 == iseg
+    keep = .false.
+    keep(pack(pm%cm, km)) = .true.
+    keep(pack(pm%cx0, kx0)) = .true.
+    keep(pack(pm%cb, kb)) = .true.
+    keep([pm%cq, pm%cr, pm%cs, pm%cd, pm%cu]) = .true.
+    cols = pack([(k, k=1, pm%nf)], keep)
+    new = 0
+    new(cols) = [(k, k=1, size(cols))]
+    pk%l = pm%l
+    pk%tie = pm%tie
+    pk%nf = size(cols)
+    pk%ifree = pm%ifree(cols)
+    call entries(pm%im, pm%cm, pm%wm, km, pk%im, pk%cm, pk%wm)
+    call entries(pm%ix0, pm%cx0, pm%wx0, kx0, pk%ix0, pk%cx0, pk%wx0)
+    call entries(pm%ib, pm%cb, pm%wb, kb, pk%ib, pk%cb, pk%wb)
+    call entries(pm%iq, pm%cq, pm%wq, spread(.true., 1, size(pm%iq)), pk%iq, pk%cq, pk%wq)
+    call entries(pm%ir, pm%cr, pm%wr, spread(.true., 1, size(pm%ir)), pk%ir, pk%cr, pk%wr)
+    call entries(pm%is, pm%cs, pm%ws, spread(.true., 1, size(pm%is)), pk%is, pk%cs, pk%ws)
+    call entries(pm%id, pm%cd, pm%wd, spread(.true., 1, size(pm%id)), pk%id, pk%cd, pk%wd)
+    call entries(pm%iu, pm%cu, pm%wu, spread(.true., 1, size(pm%iu)), pk%iu, pk%cu, pk%wu)
+
+  contains
+
+    subroutine entries(idx, col, w, kept, kidx, kcol, kw)
+      integer, intent(in) :: idx(:), col(:)
+      real(wp), intent(in) :: w(:)
+      logical, intent(in) :: kept(:)
+      integer, allocatable, intent(out) :: kidx(:), kcol(:)
+      real(wp), allocatable, intent(out) :: kw(:)
+      kidx = pack(idx, kept)
+      kcol = new(pack(col, kept))
+      kw = pack(w, kept)
+    end subroutine entries
+
+  end subroutine segment_map
 
   !> The free flags and the ties: each term names two entries; a tied entry
   !> is not free; a source is not itself tied (no chains, hence no cycles).

@@ -3,7 +3,8 @@
 program test_numerics
   use mlid_kinds, only: wp, MLID_OK
   use mlid_models, only: model_t, model_layout
-  use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG
+  use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_EQUATIONS
+  use mlid_equations, only: equations_text_codes
   use mlid_params, only: param_map_t, param_map_create, no_ties
   use mlid_jacobian_check, only: check_jacobians
   use mlid_options, only: options_t
@@ -16,6 +17,7 @@ program test_numerics
   call test_rk4_order()
   call test_sensitivities()
   call test_aero_jacobians()
+  call test_folded_manoeuvres()
   call test_linalg()
   call test_random()
   if (nfail > 0) then
@@ -144,6 +146,88 @@ contains
     call check(err < 1.0e-7_wp, 'longitudinal model: df/dx, df/dp, dh/dx, dh/dp, df/dw match '// &
                'central differences')
   end subroutine test_aero_jacobians
+
+  !> A bias per manoeuvre stated with indicator inputs (m1, m2) on a record
+  !> of two manoeuvres: each manoeuvre's model has its indicators folded in
+  !> (the same values and Jacobians as the whole model there), and the
+  !> output sensitivities, the other manoeuvre's bias exactly zero, match
+  !> central differences.
+  subroutine test_folded_manoeuvres()
+    character(len=*), parameter :: text = 'u e'//new_line('a')//'u m1'//new_line('a')// &
+      'u m2'//new_line('a')//'p a'//new_line('a')//'p k'//new_line('a')//'p b1'// &
+      new_line('a')//'p b2'//new_line('a')//'l b = b1*m1 + b2*m2'//new_line('a')// &
+      'x x1 = a*x1 + k*(e - b)'//new_line('a')//'x x2 = x1 - 2*x2*m1 - x2^2*m2'// &
+      new_line('a')//'y y1 = x1 + 0.5*b'//new_line('a')//'y y2 = sin(x2)'
+    class(model_t), allocatable :: m, mf
+    type(options_t) :: opt
+    type(param_map_t) :: pm, none
+    ! p(4), x0(2 x 2), bias(2 x 2), r(2), delay(2), udelay(3), stab(2 x 2)
+    real(wp) :: theta(4 + 4 + 4 + 2 + 2 + 3 + 4), tp(size(theta)), tm(size(theta))
+    real(wp) :: xd(2), xdf(2), a(2, 2), af(2, 2), b(2, 4), bf(2, 4), c(2, 2), cf(2, 2), d(2, 4), &
+                df(2, 4), err, h
+    integer :: isfree(size(theta)), status, j, k
+    integer, allocatable :: ifree(:)
+    logical :: used(4)
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), yp(:, :), ym(:, :), dy(:, :, :)
+    character(len=256) :: msg
+
+    call model_create(MODEL_EQUATIONS, 2, 3, 2, 0, equations_text_codes(text), [real(wp) ::], m, &
+                      status, msg)
+    call check(status == MLID_OK, 'equations model with indicators created: '//trim(msg))
+    if (status /= MLID_OK) return
+    call m%fold_inputs([.false., .true., .true.], [0.0_wp, 0.0_wp, 1.0_wp], mf)
+    call check(allocated(mf), 'the equations model folds inputs it is told are fixed')
+    if (.not. allocated(mf)) return
+    call mf%uses_params(used)
+    call check(all(used .eqv. [.true., .true., .false., .true.]), &
+               'over manoeuvre 2 the folded model reads a, k, b2, not b1')
+    call m%f_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, 0.2_wp, &
+                 -0.3_wp], [1, 2, 3, 4], xd, a, b)
+    call mf%f_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, &
+                  0.2_wp, -0.3_wp], [1, 2, 3, 4], xdf, af, bf)
+    call m%h_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, 0.2_wp, &
+                 -0.3_wp], [1, 2, 3, 4], c, d)
+    call mf%h_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, &
+                  0.2_wp, -0.3_wp], [1, 2, 3, 4], cf, df)
+    call check(all(xd == xdf) .and. all(a == af) .and. all(b == bf) .and. all(c == cf) .and. &
+               all(d == df), 'the folded model: the same values and Jacobians, to the bit')
+
+    theta = 0.0_wp
+    theta(1:4) = [-0.8_wp, 0.5_wp, 0.15_wp, -0.25_wp]
+    theta(5:8) = [0.1_wp, 0.0_wp, -0.2_wp, 0.3_wp]        ! x0 of manoeuvres 1 and 2
+    theta(9:12) = [0.01_wp, 0.0_wp, 0.0_wp, -0.02_wp]      ! biases of manoeuvres 1 and 2
+    theta(13:14) = 1.0_wp
+    ifree = [1, 2, 3, 4, 7, 9, 12]                          ! p, x0(1) of 2, bias(1) of 1, bias(2) of 2
+    isfree = 0
+    isfree(ifree) = 1
+    call param_map_create(model_layout(m, [1, 52]), isfree, no_ties(size(theta)), pm, status, msg)
+    isfree = 0
+    call param_map_create(model_layout(m, [1, 52]), isfree, no_ties(size(theta)), none, status, msg)
+    allocate (t(101), u(3, 101), y(2, 101), yp(2, 101), ym(2, 101), dy(2, size(ifree), 101))
+    t = [(0.05_wp*j, j=0, 100)]
+    u(1, :) = sin(2.0_wp*t) + merge(1.0_wp, 0.0_wp, t > 1.0_wp)
+    u(2, :) = merge(1.0_wp, 0.0_wp, t < 2.53_wp)           ! samples 1-51: manoeuvre 1
+    u(3, :) = 1.0_wp - u(2, :)
+    call oe_predict(m, theta, pm, t, u, opt, y, status, msg, dy=dy)
+    call check(status == MLID_OK, 'two manoeuvres predicted: '//trim(msg))
+    call check(all(dy(:, 4, 1:51) == 0.0_wp) .and. all(dy(:, 3, 52:) == 0.0_wp) .and. &
+               all(dy(:, 5, 1:51) == 0.0_wp) .and. all(dy(:, 6, 52:) == 0.0_wp) .and. &
+               any(dy(:, 3, 1:51) /= 0.0_wp) .and. any(dy(:, 4, 52:) /= 0.0_wp), &
+               'a manoeuvre''s bias and initial state move only that manoeuvre')
+    err = 0.0_wp
+    do k = 1, size(ifree)
+      h = 1.0e-6_wp
+      tp = theta
+      tm = theta
+      tp(ifree(k)) = tp(ifree(k)) + h
+      tm(ifree(k)) = tm(ifree(k)) - h
+      call oe_predict(m, tp, none, t, u, opt, yp, status, msg)
+      call oe_predict(m, tm, none, t, u, opt, ym, status, msg)
+      err = max(err, maxval(abs((yp - ym)/(2*h) - dy(:, k, :)))/max(1.0_wp, maxval(abs(dy(:, k, :)))))
+    end do
+    call check(err < 1.0e-7_wp, 'two manoeuvres with indicators: output sensitivities match '// &
+               'central differences')
+  end subroutine test_folded_manoeuvres
 
   subroutine test_linalg()
     real(wp) :: a(3, 3), w(3), v(3, 3), ainv(3, 3), logdet
