@@ -115,18 +115,24 @@ contains
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
     integer, intent(in) :: seg(:), how
     real(wp) :: b(size(a, 3), size(a, 3))
-    integer :: s, i0, i1, lag
+    integer, allocatable :: cols(:)
+    integer :: s, i0, i1, lag, c
     logical :: fourier
     b = 0.0_wp
     do s = 1, size(seg)
       call segment_bounds(seg, s, size(a, 2), i0, i1)
       lag = min(ubound(rvv, 3), i1 - i0)
+      ! the columns that move in this segment (a parameter of another
+      ! manoeuvre adds zeros)
+      cols = pack([(c, c=1, size(a, 3))], [(any(a(:, i0:i1, c) /= 0.0_wp), c=1, size(a, 3))])
       fourier = how == BRACKET_FOURIER .or. (how == BRACKET_AUTO .and. &
-                fourier_cheaper(size(a, 1), i1 - i0 + 1, size(a, 3), lag))
+                fourier_cheaper(size(a, 1), i1 - i0 + 1, size(cols), lag))
       if (fourier) then
-        b = b + segment_bracket(a(:, i0:i1, :), rvv(:, :, 0:lag), ubound(rvv, 3))
+        b(cols, cols) = b(cols, cols) + segment_bracket(a(:, i0:i1, cols), rvv(:, :, 0:lag), &
+                                                        ubound(rvv, 3))
       else
-        b = b + segment_direct(a(:, i0:i1, :), rvv(:, :, 0:lag), ubound(rvv, 3))
+        b(cols, cols) = b(cols, cols) + segment_direct(a(:, i0:i1, cols), rvv(:, :, 0:lag), &
+                                                       ubound(rvv, 3))
       end if
     end do
   end function colored_bracket

@@ -70,7 +70,7 @@ contains
   !> (segments) are independent, each from its own initial state, and are
   !> integrated in parallel: each writes only its own samples, so the result
   !> does not depend on the threads; a failure is the first segment's.
-  subroutine oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy, xhist, z, moves)
+  subroutine oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy, xhist, z)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -82,10 +82,7 @@ contains
     real(wp), intent(out), optional :: dy(:, :, :)
     real(wp), intent(out), optional :: xhist(:, :)
     real(wp), intent(in), optional :: z(:, :)     !< the measured outputs (stabilized output error)
-    !> with dy: moves(c, k) is false where column c of dy is zero throughout segment k
-    logical, intent(out), optional :: moves(:, :)
     integer :: k, nseg, first(pm%l%nseg + 1), kstat(pm%l%nseg)
-    logical :: mv(pm%nf, pm%l%nseg)
     character(len=len(msg)) :: kmsg(pm%l%nseg)
 
     nseg = pm%l%nseg
@@ -94,11 +91,10 @@ contains
     !$omp parallel do schedule(dynamic, 1) if (nseg > 1)
     do k = 1, nseg
       call oe_manoeuvre(m, theta, pm, t, u, opt, k, first(k), first(k + 1) - 1, yhat, &
-                        kstat(k), kmsg(k), mv(:, k), dy, xhist, z)
+                        kstat(k), kmsg(k), dy, xhist, z)
     end do
     !$omp end parallel do
     call first_failure(kstat, kmsg, status, msg)
-    if (present(moves)) moves = mv
   end subroutine oe_predict
 
   !> oe_segment on the model with the inputs that keep one value over the
@@ -106,8 +102,8 @@ contains
   !> for the free parameters that can move it (mlid_params' segment_map):
   !> a bias of another manoeuvre, stated with that one's indicator input,
   !> costs this one nothing.  Results are those of oe_segment on m.
-  subroutine oe_manoeuvre(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, moves, dy, &
-                          xhist, z)
+  subroutine oe_manoeuvre(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, dy, xhist, &
+                          z)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -117,7 +113,6 @@ contains
     real(wp), intent(inout) :: yhat(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    logical, intent(out) :: moves(:)       !< the columns of dy the segment may move
     real(wp), intent(inout), optional :: dy(:, :, :), xhist(:, :)
     real(wp), intent(in), optional :: z(:, :)
     class(model_t), allocatable :: mf
@@ -125,13 +120,12 @@ contains
     integer, allocatable :: cols(:)
     real(wp), allocatable :: dyk(:, :, :)
     logical :: fixed(m%nu), used(m%np)
-    integer :: i
+    integer :: i, c
 
     do i = 1, m%nu
       fixed(i) = all(u(i, j0:j1) == u(i, j0))
     end do
     call m%fold_inputs(fixed, u(:, j0), mf)
-    moves = .true.
     if (.not. allocated(mf)) then
       call oe_segment(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, dy, xhist, z)
     else if (.not. present(dy)) then
@@ -141,10 +135,10 @@ contains
       call segment_map(pm, iseg, used, pk, cols)
       allocate (dyk(m%ny, pk%nf, size(t)))
       call oe_segment(mf, theta, pk, t, u, opt, iseg, j0, j1, yhat, status, msg, dyk, xhist, z)
-      dy(:, :, j0:j1) = 0.0_wp
+      do c = 1, pm%nf
+        if (all(cols /= c)) dy(:, c, j0:j1) = 0.0_wp
+      end do
       dy(:, cols, j0:j1) = dyk(:, :, j0:j1)
-      moves = .false.
-      moves(cols) = .true.
     end if
   end subroutine oe_manoeuvre
 

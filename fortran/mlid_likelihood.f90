@@ -102,7 +102,7 @@ contains
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: dy(:, :, :), nu(:, :)
     real(wp) :: rinv(m%ny, m%ny), logdet
-    logical :: moves(pm%nf, pm%l%nseg)
+    real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
     integer :: ny, nt, nf, i, k, ierr
 
     ny = m%ny
@@ -110,7 +110,7 @@ contains
     nf = pm%nf
     if (present(grad)) then
       allocate (dy(ny, nf, nt))
-      call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy=dy, z=y, moves=moves)
+      call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy=dy, z=y)
     else
       call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, z=y)
     end if
@@ -141,11 +141,19 @@ contains
     cost = 0.5_wp*(sum(nu*matmul(rinv, nu)) + nt*logdet)
 
     if (present(grad) .and. present(info)) then
+      ! segments in parallel, their parts added in order: the result does
+      ! not depend on the number of threads
+      allocate (gpart(nf, pm%l%nseg), ipart(nf, nf, pm%l%nseg))
+      !$omp parallel do schedule(dynamic, 1) if (pm%l%nseg > 1)
+      do k = 1, pm%l%nseg
+        call segment_information(k, gpart(:, k), ipart(:, :, k))
+      end do
+      !$omp end parallel do
       grad = 0.0_wp
       info = 0.0_wp
-      if (present(wsens)) wsens = 0.0_wp
       do k = 1, pm%l%nseg
-        call segment_information(k)
+        grad = grad + gpart(:, k)
+        info = info + ipart(:, :, k)
       end do
       if (present(msens)) msens = info
       if (present(sens)) call sensitivity_norms(dy, rhat, sens)
@@ -154,21 +162,31 @@ contains
   contains
 
     !> Segment iseg's part of grad and info (and its rows of wsens), over
-    !> the columns it moves only (a bias of another manoeuvre adds zeros):
-    !> sample-major sensitivities s(:, j, k) and weighted ones a = R^-1 s,
-    !> a block of samples at a time (small arrays, no large temporaries);
-    !> the information is a symmetric product over samples and outputs.
-    subroutine segment_information(iseg)
+    !> the columns that move in it only (a bias of another manoeuvre adds
+    !> zeros): sample-major sensitivities s(:, j, c) and weighted ones
+    !> a = R^-1 s, a block of samples at a time (small arrays, no large
+    !> temporaries); the information is a symmetric product over samples
+    !> and outputs.
+    subroutine segment_information(iseg, g, f)
       integer, intent(in) :: iseg
+      real(wp), intent(out) :: g(:), f(:, :)
       real(wp), allocatable :: s(:, :, :), a(:, :, :), part(:, :)
       integer, allocatable :: cols(:)
-      integer :: j0, j1, jend, c, i
-      cols = pack([(c, c=1, nf)], moves(:, iseg))
-      allocate (part(size(cols), size(cols)))
-      part = 0.0_wp
+      integer :: j0, j1, jbeg, jend, c, i
+      jbeg = pm%l%seg(iseg)
       jend = nt
       if (iseg < pm%l%nseg) jend = pm%l%seg(iseg + 1) - 1
-      do j0 = pm%l%seg(iseg), jend, SAMPLE_BLOCK
+      cols = pack([(c, c=1, nf)], [(any(dy(:, c, jbeg:jend) /= 0.0_wp), c=1, nf)])
+      allocate (part(size(cols), size(cols)))
+      part = 0.0_wp
+      g = 0.0_wp
+      f = 0.0_wp
+      if (present(wsens)) then
+        do c = 1, nf
+          if (all(cols /= c)) wsens(:, jbeg:jend, c) = 0.0_wp
+        end do
+      end if
+      do j0 = jbeg, jend, SAMPLE_BLOCK
         j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
         allocate (s(ny, j1 - j0 + 1, size(cols)), a(ny, j1 - j0 + 1, size(cols)))
         do c = 1, size(cols)
@@ -180,13 +198,13 @@ contains
               a(i, :, c) = rinv(i, i)*s(i, :, c)
             end do
           end if
-          grad(cols(c)) = grad(cols(c)) - sum(nu(:, j0:j1)*a(:, :, c))
+          g(cols(c)) = g(cols(c)) - sum(nu(:, j0:j1)*a(:, :, c))
           if (present(wsens)) wsens(:, j0:j1, cols(c)) = a(:, :, c)
         end do
         call add_sym_atb(ny*(j1 - j0 + 1), size(cols), s, a, part)
         deallocate (s, a)
       end do
-      info(cols, cols) = info(cols, cols) + part
+      f(cols, cols) = part
     end subroutine segment_information
 
   end subroutine oe_likelihood

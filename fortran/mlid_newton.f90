@@ -398,17 +398,23 @@ contains
     end associate
   end subroutine best_of_ranks
 
-  !> The full evaluation best_of_ranks kept, as the iterate's.
+  !> The full evaluation best_of_ranks kept, as the iterate's: the large
+  !> arrays swapped, not copied (the stash takes the old ones, of the same
+  !> shapes, for the next trial to overwrite).
   subroutine take_stash(stash, res)
-    type(fit_result_t), intent(in) :: stash
-    type(fit_result_t), intent(inout) :: res
+    type(fit_result_t), intent(inout) :: stash, res
+    real(wp), allocatable :: y2(:, :), w3(:, :, :)
     res%cost = stash%cost
     res%rhat = stash%rhat
-    res%yhat = stash%yhat
     res%grad = stash%grad
     res%info = stash%info
-    res%wsens = stash%wsens
     res%msens = stash%msens
+    call move_alloc(res%yhat, y2)
+    call move_alloc(stash%yhat, res%yhat)
+    call move_alloc(y2, stash%yhat)
+    call move_alloc(res%wsens, w3)
+    call move_alloc(stash%wsens, res%wsens)
+    call move_alloc(w3, stash%wsens)
   end subroutine take_stash
 
   !> Cramer-Rao bound at the final estimate, with the prior's weight and
