@@ -33,7 +33,7 @@ module mlid_filter
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, segment_map, input_delays, output_delays, stabilized
-  use mlid_rk, only: rk4_step, rk4_interval, input_sens_t
+  use mlid_rk, only: rk4_step, rk4_interval, input_sens_t, rk_work_t
   use mlid_delay, only: delay_outputs, delay_check
   implicit none
   private
@@ -213,6 +213,7 @@ contains
       real(wp), intent(in), optional :: du(:, :)
       real(wp), allocatable :: s(:, :), c(:, :), d(:, :), hu(:, :)
       type(input_sens_t) :: us
+      type(rk_work_t) :: wk
       real(wp) :: x(m%nx)
       integer :: j, k
 
@@ -225,11 +226,11 @@ contains
           if (present(dy) .and. present(du)) then
             us%d0 = du(:, j - 1)
             us%d1 = du(:, j)
-            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x, s, us=us)
+            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x, wk, s, us=us)
           else if (present(dy)) then
-            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x, s)
+            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x, wk, s)
           else
-            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x)
+            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x, wk)
           end if
           if (.not. all(ieee_is_finite(x))) then
             call diverged(t(j), status, msg)
@@ -307,6 +308,7 @@ contains
     real(wp), allocatable :: s(:, :), c(:, :), d(:, :), what(:), dwhat(:, :)
     real(wp), allocatable :: sj(:, :), fj(:, :)
     real(wp) :: x(m%nx), dhw(m%ny, m%nw), sb(m%nw, m%ny)
+    type(rk_work_t) :: wk
     integer :: j, k, nf, nx, nw, ns, iseg
     logical :: sens, partials, ekf
 
@@ -359,17 +361,17 @@ contains
           end do
           fj(:, ns + nx + 1:) = sys%g
           if (sens) then
-            call advance(m, theta, pm, t, u, opt, j - 1, what, x, sj, fj)
+            call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk, sj, fj)
             s = sj(:, 1:nf)
           else          ! no parameter columns: nothing may force them
-            call advance_plain(m, theta, pm, t, u, opt, j - 1, what, x, sj, fj)
+            call advance_plain(m, theta, pm, t, u, opt, j - 1, what, x, wk, sj, fj)
           end if
           sys%phi = sj(:, ns + 1:ns + nx)
           sys%w = sj(:, ns + nx + 1:)
         else if (sens) then
-          call advance(m, theta, pm, t, u, opt, j - 1, what, x, s, matmul(sys%g, dwhat))
+          call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk, s, matmul(sys%g, dwhat))
         else
-          call advance(m, theta, pm, t, u, opt, j - 1, what, x)
+          call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk)
         end if
         if (.not. all(ieee_is_finite(x))) then
           call diverged(t(j), status, msg)
@@ -573,10 +575,11 @@ contains
       real(wp), intent(inout) :: x(:), sx(:, :)
       real(wp), intent(in) :: uh(:)
       real(wp) :: h
+      type(rk_work_t) :: wk
       integer :: isub
       h = dt/o1%substeps
       do isub = 1, o1%substeps
-        call rk4_step(m, theta(1:l%np), t(1), h, uh, uh, x, pm%im, pm%cm, pm%wm, sx)
+        call rk4_step(m, theta(1:l%np), t(1), h, uh, uh, x, pm%im, pm%cm, pm%wm, wk, sx)
       end do
     end subroutine integrate
 
@@ -730,7 +733,7 @@ contains
 
   !> Integrate x (and s) over sample interval j -> j+1 with the noise inputs
   !> held at what; sforce: constant forcing of the sensitivities.
-  subroutine advance(m, theta, pm, t, u, opt, j, what, x, s, sforce, us)
+  subroutine advance(m, theta, pm, t, u, opt, j, what, x, wk, s, sforce, us)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -739,6 +742,7 @@ contains
     integer, intent(in) :: j
     real(wp), intent(in) :: what(:)
     real(wp), intent(inout) :: x(:)
+    type(rk_work_t), intent(inout) :: wk          !< the integration's work arrays (mlid_rk)
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
     type(input_sens_t), intent(in), optional :: us
@@ -747,11 +751,11 @@ contains
     w = 0.0_wp
     if (size(what) > 0) w = what
     call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), w, opt%hold, &
-                      opt%substeps, x, pm%im, pm%cm, pm%wm, s, sforce, us)
+                      opt%substeps, x, pm%im, pm%cm, pm%wm, wk, s, sforce, us)
   end subroutine advance
 
   !> As advance, for columns that no model parameter forces (Phi and W).
-  subroutine advance_plain(m, theta, pm, t, u, opt, j, what, x, s, sforce)
+  subroutine advance_plain(m, theta, pm, t, u, opt, j, what, x, wk, s, sforce)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -760,11 +764,12 @@ contains
     integer, intent(in) :: j
     real(wp), intent(in) :: what(:)
     real(wp), intent(inout) :: x(:), s(:, :)
+    type(rk_work_t), intent(inout) :: wk
     real(wp), intent(in) :: sforce(:, :)
     integer :: none(0)
 
     call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), what, opt%hold, &
-                      opt%substeps, x, none, none, [real(wp) ::], s, sforce)
+                      opt%substeps, x, none, none, [real(wp) ::], wk, s, sforce)
   end subroutine advance_plain
 
   !> Sensitivities of the initial state of segment iseg: a unit column for

@@ -9,7 +9,7 @@ module mlid_rk
   use mlid_models, only: model_t
   implicit none
   private
-  public :: rk4_step, rk4_interval, input_sens_t
+  public :: rk4_step, rk4_interval, input_sens_t, rk_work_t
 
   !> How delayed inputs move the sensitivities: entry k, d u(input(k)) /
   !> d theta(col(k)) at the interval's ends (d0, d1; a tie's scale in it),
@@ -20,7 +20,32 @@ module mlid_rk
     real(wp), allocatable :: d0(:), d1(:)
   end type input_sens_t
 
+  !> The stages' work arrays, kept by the caller from one step to the next:
+  !> sized at the first step (and when a size changes), not allocated at
+  !> every step.  k: the stage derivatives; sd: the sensitivities' (nx, ns,
+  !> 4); xs, ss: a stage's state and sensitivities; a, b, bu: df/dx,
+  !> df/dp(idx), df/du; um: the inputs in a step's middle; ua, ub: at its
+  !> ends (rk4_interval's, which rk4_step only reads).
+  type :: rk_work_t
+    real(wp), allocatable :: k(:, :), sd(:, :, :), xs(:), ss(:, :), a(:, :), b(:, :), bu(:, :)
+    real(wp), allocatable :: um(:), ua(:), ub(:)
+  end type rk_work_t
+
 contains
+
+  !> Size wk's stage arrays for nx states, ns sensitivity columns, nb model
+  !> parameters forcing them, nu inputs and nv input values (inputs and noise).
+  subroutine stage_work(wk, nx, ns, nb, nu, nv)
+    type(rk_work_t), intent(inout) :: wk
+    integer, intent(in) :: nx, ns, nb, nu, nv
+    if (allocated(wk%sd)) then
+      if (all(shape(wk%sd) == [nx, ns, 4]) .and. all(shape(wk%b) == [nx, nb]) .and. &
+          all(shape(wk%bu) == [nx, nu]) .and. size(wk%um) == nv) return
+      deallocate (wk%k, wk%sd, wk%xs, wk%ss, wk%a, wk%b, wk%bu, wk%um)
+    end if
+    allocate (wk%k(nx, 4), wk%sd(nx, ns, 4), wk%xs(nx), wk%ss(nx, ns), wk%a(nx, nx), &
+              wk%b(nx, nb), wk%bu(nx, nu), wk%um(nv))
+  end subroutine stage_work
 
   !> Advance x (and s, if given) from t0 to t0+dt.
   !>
@@ -29,44 +54,59 @@ contains
   !> through df/dp (several may share a column: ties); the other columns
   !> only propagate through df/dx, plus sforce, a constant forcing of every
   !> column (the filter's held noise estimate).  ua, ub may carry the noise
-  !> inputs after the control inputs.
-  subroutine rk4_step(m, p, t0, dt, ua, ub, x, idxm, colm, wcol, s, sforce, us, uf)
+  !> inputs after the control inputs.  wk: the caller's work arrays.
+  subroutine rk4_step(m, p, t0, dt, ua, ub, x, idxm, colm, wcol, wk, s, sforce, us, uf)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), t0, dt, ua(:), ub(:)
     real(wp), intent(inout) :: x(:)
     integer, intent(in) :: idxm(:), colm(:)
     real(wp), intent(in) :: wcol(:)            !< weight of each (1, or a tie's scale)
+    type(rk_work_t), intent(inout) :: wk
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
     type(input_sens_t), intent(in), optional :: us   !< delayed inputs over the sample interval
     real(wp), intent(in), optional :: uf(2)   !< where the step starts and ends in it (0..1)
-    real(wp) :: um(size(ua)), th
-    real(wp), dimension(size(x)) :: k1, k2, k3, k4
+    real(wp) :: th
+    integer :: ns
 
+    ns = 0
+    if (present(s)) ns = size(s, 2)
+    call stage_work(wk, size(x), ns, size(idxm), m%nu, size(ua))
     th = t0 + 0.5_wp*dt
-    um = 0.5_wp*(ua + ub)
-    if (present(s)) then
-      call step_sens(s, size(s, 2))
-    else
-      call m%f(t0, x, ua, p, k1)
-      call m%f(th, x + 0.5_wp*dt*k1, um, p, k2)
-      call m%f(th, x + 0.5_wp*dt*k2, um, p, k3)
-      call m%f(t0 + dt, x + dt*k3, ub, p, k4)
-    end if
-    x = x + (dt/6.0_wp)*(k1 + 2.0_wp*(k2 + k3) + k4)
+    wk%um = 0.5_wp*(ua + ub)
+    associate (k => wk%k, xs => wk%xs)
+      if (present(s)) then
+        call step_sens(s)
+      else
+        call m%f(t0, x, ua, p, k(:, 1))
+        xs = x + 0.5_wp*dt*k(:, 1)
+        call m%f(th, xs, wk%um, p, k(:, 2))
+        xs = x + 0.5_wp*dt*k(:, 2)
+        call m%f(th, xs, wk%um, p, k(:, 3))
+        xs = x + dt*k(:, 3)
+        call m%f(t0 + dt, xs, ub, p, k(:, 4))
+      end if
+      x = x + (dt/6.0_wp)*(k(:, 1) + 2.0_wp*(k(:, 2) + k(:, 3)) + k(:, 4))
+    end associate
 
   contains
 
-    !> The stages with the sensitivities (on the stack: this runs per step).
-    subroutine step_sens(s, ns)
-      integer, intent(in) :: ns
+    !> The stages with the sensitivities.
+    subroutine step_sens(s)
       real(wp), intent(inout) :: s(:, :)
-      real(wp), dimension(size(x), ns) :: s1, s2, s3, s4
-      call deriv(t0, x, ua, k1, s, s1, 0.0_wp)
-      call deriv(th, x + 0.5_wp*dt*k1, um, k2, s + 0.5_wp*dt*s1, s2, 0.5_wp)
-      call deriv(th, x + 0.5_wp*dt*k2, um, k3, s + 0.5_wp*dt*s2, s3, 0.5_wp)
-      call deriv(t0 + dt, x + dt*k3, ub, k4, s + dt*s3, s4, 1.0_wp)
-      s = s + (dt/6.0_wp)*(s1 + 2.0_wp*(s2 + s3) + s4)
+      associate (k => wk%k, sd => wk%sd, xs => wk%xs, ss => wk%ss)
+        call deriv(t0, x, ua, k(:, 1), s, sd(:, :, 1), 0.0_wp)
+        xs = x + 0.5_wp*dt*k(:, 1)
+        ss = s + 0.5_wp*dt*sd(:, :, 1)
+        call deriv(th, xs, wk%um, k(:, 2), ss, sd(:, :, 2), 0.5_wp)
+        xs = x + 0.5_wp*dt*k(:, 2)
+        ss = s + 0.5_wp*dt*sd(:, :, 2)
+        call deriv(th, xs, wk%um, k(:, 3), ss, sd(:, :, 3), 0.5_wp)
+        xs = x + dt*k(:, 3)
+        ss = s + dt*sd(:, :, 3)
+        call deriv(t0 + dt, xs, ub, k(:, 4), ss, sd(:, :, 4), 1.0_wp)
+        s = s + (dt/6.0_wp)*(sd(:, :, 1) + 2.0_wp*(sd(:, :, 2) + sd(:, :, 3)) + sd(:, :, 4))
+      end associate
     end subroutine step_sens
 
     !> xd = f, sd = (df/dx) s + wcol df/dp(idxm) (into columns colm) + sforce
@@ -74,16 +114,13 @@ contains
     subroutine deriv(t, xs, ui, xd, ss, sd, c)
       real(wp), intent(in) :: t, xs(:), ui(:), ss(:, :), c
       real(wp), intent(out) :: xd(:), sd(:, :)
-      real(wp) :: a(size(xs), size(xs)), b(size(xs), size(idxm))
       integer :: k
 
-      call m%f_jac(t, xs, ui, p, idxm, xd, a, b)
-      sd = matmul(a, ss)
-      if (size(idxm) > 0) then
-        do k = 1, size(idxm)
-          sd(:, colm(k)) = sd(:, colm(k)) + wcol(k)*b(:, k)
-        end do
-      end if
+      call m%f_jac(t, xs, ui, p, idxm, xd, wk%a, wk%b)
+      sd = matmul(wk%a, ss)
+      do k = 1, size(idxm)
+        sd(:, colm(k)) = sd(:, colm(k)) + wcol(k)*wk%b(:, k)
+      end do
       if (present(sforce)) sd = sd + sforce
       if (present(us)) call input_forcing(t, xs, ui, c, sd)
     end subroutine deriv
@@ -91,13 +128,13 @@ contains
     subroutine input_forcing(t, xs, ui, c, sd)
       real(wp), intent(in) :: t, xs(:), ui(:), c
       real(wp), intent(inout) :: sd(:, :)
-      real(wp) :: bu(size(xs), m%nu), a
+      real(wp) :: a
       integer :: k
       if (size(us%input) == 0) return
-      call m%dfdu(t, xs, ui, p, bu)
+      call m%dfdu(t, xs, ui, p, wk%bu)
       a = uf(1) + c*(uf(2) - uf(1))         ! the stage's place in the sample interval
       do k = 1, size(us%input)
-        sd(:, us%col(k)) = sd(:, us%col(k)) + bu(:, us%input(k))* &
+        sd(:, us%col(k)) = sd(:, us%col(k)) + wk%bu(:, us%input(k))* &
                            ((1.0_wp - a)*us%d0(k) + a*us%d1(k))
       end do
     end subroutine input_forcing
@@ -107,8 +144,8 @@ contains
   !> Integrate over the sample interval [t0, t1] in nsub RK4 steps: the
   !> control inputs linear from u0 to u1 (or held at u0 when hold), the
   !> noise inputs w held throughout.  Arguments after x as in rk4_step.
-  subroutine rk4_interval(m, p, t0, t1, u0, u1, w, hold, nsub, x, idxm, colm, wcol, s, sforce, &
-                          us)
+  subroutine rk4_interval(m, p, t0, t1, u0, u1, w, hold, nsub, x, idxm, colm, wcol, wk, s, &
+                          sforce, us)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), t0, t1, u0(:), u1(:), w(:)
     logical, intent(in) :: hold
@@ -116,35 +153,42 @@ contains
     real(wp), intent(inout) :: x(:)
     integer, intent(in) :: idxm(:), colm(:)
     real(wp), intent(in) :: wcol(:)
+    type(rk_work_t), intent(inout) :: wk
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
     type(input_sens_t), intent(in), optional :: us   !< delayed inputs, at t0 and t1
-    real(wp) :: ua(size(u0) + size(w)), ub(size(u0) + size(w)), h, ts, uf(2)
+    real(wp) :: h, ts, uf(2)
     integer :: isub, nu
 
     if (size(x) == 0) return         ! no states (a regression): nothing to integrate
     nu = size(u0)
-    ua(nu + 1:) = w
-    ub(nu + 1:) = w
-    h = (t1 - t0)/nsub
-    do isub = 1, nsub
-      ts = t0 + (isub - 1)*h
-      if (hold) then
-        ua(1:nu) = u0
-        ub(1:nu) = u0
-      else
-        ua(1:nu) = u0 + (u1 - u0)*(real(isub - 1, wp)/nsub)
-        ub(1:nu) = u0 + (u1 - u0)*(real(isub, wp)/nsub)
-      end if
-      if (present(us)) then          ! the delayed inputs' sensitivities, held or linear
-        uf = merge([0.0_wp, 0.0_wp], [real(isub - 1, wp), real(isub, wp)]/nsub, hold)
-        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, s, sforce, us, uf)
-      else if (present(s)) then
-        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, s, sforce)
-      else
-        call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol)
-      end if
-    end do
+    if (allocated(wk%ua)) then
+      if (size(wk%ua) /= nu + size(w)) deallocate (wk%ua, wk%ub)
+    end if
+    if (.not. allocated(wk%ua)) allocate (wk%ua(nu + size(w)), wk%ub(nu + size(w)))
+    associate (ua => wk%ua, ub => wk%ub)
+      ua(nu + 1:) = w
+      ub(nu + 1:) = w
+      h = (t1 - t0)/nsub
+      do isub = 1, nsub
+        ts = t0 + (isub - 1)*h
+        if (hold) then
+          ua(1:nu) = u0
+          ub(1:nu) = u0
+        else
+          ua(1:nu) = u0 + (u1 - u0)*(real(isub - 1, wp)/nsub)
+          ub(1:nu) = u0 + (u1 - u0)*(real(isub, wp)/nsub)
+        end if
+        if (present(us)) then          ! the delayed inputs' sensitivities, held or linear
+          uf = merge([0.0_wp, 0.0_wp], [real(isub - 1, wp), real(isub, wp)]/nsub, hold)
+          call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, wk, s, sforce, us, uf)
+        else if (present(s)) then
+          call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, wk, s, sforce)
+        else
+          call rk4_step(m, p, ts, h, ua, ub, x, idxm, colm, wcol, wk)
+        end if
+      end do
+    end associate
   end subroutine rk4_interval
 
 end module mlid_rk

@@ -18,7 +18,7 @@ module mlid_simulate
   use mlid_params, only: stabilized
   use mlid_options, only: options_t
   use mlid_delay, only: delay_outputs, delay_check
-  use mlid_rk, only: rk4_interval
+  use mlid_rk, only: rk4_interval, rk_work_t
   use mlid_random, only: rng_t, rng_seed, rng_normal
   implicit none
   private
@@ -42,6 +42,7 @@ contains
     real(wp) :: z(m%nw + m%ny), wv(m%nw + m%ny), wprev(m%nw), dhw(m%ny, m%nw)
     logical :: ok, backward
     real(wp) :: x(m%nx)
+    type(rk_work_t) :: wk     !< the integration's work arrays
     integer :: i, j, nw, ny
     integer, allocatable :: none(:)
     real(wp) :: noise(m%ny, size(t)), ud(size(u, 1), size(u, 2))
@@ -125,7 +126,7 @@ contains
       end if
       if (j == size(t)) exit
       call rk4_interval(m, theta(1:l%np), t(j), t(j + 1), ud(:, j), ud(:, j + 1), wv(1:nw), &
-                        opt%hold, opt%substeps, x, none, none, [real(wp) ::])
+                        opt%hold, opt%substeps, x, none, none, [real(wp) ::], wk)
       if (.not. all(ieee_is_finite(x))) then
         status = MLID_ERR_DIVERGED
         write (msg, '(a,g0.6)') 'simulation diverged: state non-finite at t = ', t(j + 1)
