@@ -1,8 +1,10 @@
 """Speed of every case deck that names a reference fit of the textbook
 software (a line `! reference: ../../../shared/data/refs/<file>`) against the
 time that reference records (its header's Octave wall time).  Each deck's
-first case is fitted in-process (median of 20, after one warm-up call), side
-by side in one run.  Target of issue 14: at least 300 times faster.
+first case is fitted in-process: the median of 20 calls, taken in 5 rounds
+over all the decks in turn, each deck's 4 calls after an untimed one (a busy
+spell of the shared machine falls on all of them).  Target of issue 14: at least 300
+times faster.
 
     python benchmarks/bench_references.py
 """
@@ -12,7 +14,7 @@ from pathlib import Path
 
 import mlid
 from mlid.reference import read_reference
-from timing import median
+from timing import interleaved_medians
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -31,11 +33,14 @@ def main():
     if not decks or not decks[0][1].is_file():
         sys.exit("skipped: the references under ../shared/data/refs are not there")
     print(f"{'deck':<38}{'N':>6}{'nf':>4}{'it':>4}{'fit ms':>10}{'reference s':>13}{'ratio':>8}")
+    runs = []
     for deck, ref in decks:
         case = mlid.read_deck(deck)[0]
         data, opts = case.record(), case.options()
         res = mlid.fit(case.model, data, **opts)
-        t = median(lambda: mlid.fit(case.model, data, **opts), 20)
+        runs.append((deck, ref, data, res, lambda m=case.model, d=data, o=opts: mlid.fit(m, d, **o)))
+    times = interleaved_medians([r[-1] for r in runs], 5, 4)
+    for (deck, ref, data, res, _), t in zip(runs, times):
         seconds = read_reference(ref).seconds
         nt = sum(d.nt for d in data) if isinstance(data, list) else data.nt
         print(f"{str(deck.relative_to(REPO / 'cases')):<38}{nt:>6}{len(res.names):>4}"
