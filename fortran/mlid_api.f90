@@ -34,9 +34,11 @@ module mlid_api
   use mlid_case, only: case_t, NAMELEN
   use mlid_text, only: join_lines, split_lines, name_lines, joined
   use mlid_sixdof, only: sixdof_parts, SIXDOF_CONSTANTS
-  use mlid_flightpath, only: flightpath_text, FLIGHTPATH_CONSTANTS, FLIGHTPATH_CORRECTIONS, &
-                             FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
-  use mlid_record, only: record_check_segments
+  use mlid_flightpath, only: flightpath_text, flightpath_corrected, FLIGHTPATH_CONSTANTS, &
+                             FLIGHTPATH_CORRECTIONS, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
+  use mlid_record, only: record_check_segments, record_text
+  use mlid_equations, only: equations_t, equations_create
+  use mlid_files, only: temporary_for, write_whole
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, &
                            channels_table, taken, UNITLEN
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
@@ -60,7 +62,8 @@ module mlid_api
             mlid_channels_table, mlid_channels_get, mlid_check_time, mlid_parameter_units, &
             mlid_deck_case_holdout, mlid_deck_case_initial_states, mlid_prediction_stats, mlid_report_validation, &
             mlid_deck_case_ties, mlid_tie_parse, mlid_sixdof_text, mlid_sixdof_constants, &
-            mlid_flightpath_lists, mlid_flightpath_model_text, &
+            mlid_flightpath_lists, mlid_flightpath_model_text, mlid_flightpath_corrected, &
+            mlid_deck_case_corrected, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
@@ -336,6 +339,47 @@ contains
     text = ''
     if (status == MLID_OK) text = a
   end subroutine mlid_flightpath_model_text
+
+  !> One manoeuvre of a flight-path model's fit with its corrections undone
+  !> (mlid_flightpath's flightpath_corrected): the model by its text
+  !> (iconst), its corrections p, the manoeuvre's output biases and delays,
+  !> its record (t, u, y) -> uc, yc; when path is not blank, also written
+  !> there whole or not at all (mlid_record's record_text: the channels'
+  !> names and units one a line, inputs then outputs).
+  subroutine mlid_flightpath_corrected(nic, iconst, np, p, ny, bias, delay, nt, t, nu, u, y, &
+                                       names, units, path, uc, yc, status, msg)
+    integer(c_int), intent(in) :: nic, iconst(nic), np, ny, nt, nu
+    real(c_double), intent(in) :: p(np), bias(ny), delay(ny), t(nt), u(nu, nt), y(ny, nt)
+    character(len=*), intent(in) :: names, units, path
+    real(c_double), intent(out) :: uc(nu, nt), yc(ny, nt)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(equations_t) :: eqs
+    character(len=:), allocatable :: tmp
+
+    uc = u
+    yc = y
+    call equations_create(iconst, [real(wp) ::], eqs, status, msg)
+    if (status == MLID_OK) call flightpath_corrected(eqs%pnames, p, eqs%ynames, bias, delay, t, uc, &
+                                                     yc, status, msg)
+    if (status /= MLID_OK .or. len_trim(path) == 0) return
+    call temporary_for(trim(path), tmp, status, msg)
+    if (status == MLID_OK) call write_whole(trim(path), tmp, record_text(split_lines(names, nu + &
+                                           ny, NAMELEN), split_lines(units, nu + ny, NAMELEN), &
+                                           t, uc, yc), status, msg)
+  end subroutine mlid_flightpath_corrected
+
+  !> Where estimate case k writes manoeuvre j's corrected record (blank: nowhere).
+  subroutine mlid_deck_case_corrected(k, j, path)
+    integer(c_int), intent(in) :: k, j
+    character(len=512), intent(out) :: path
+    path = ''
+    associate (c => opened(k))
+      if (allocated(c%corrected)) then
+        if (j >= 1 .and. j <= size(c%corrected)) path = c%corrected(j)
+      end if
+    end associate
+  end subroutine mlid_deck_case_corrected
 
   !> The files validate case k predicts (numbers into its file list).
   subroutine mlid_deck_case_holdout(k, nmax, n, holdout)

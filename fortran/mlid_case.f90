@@ -47,6 +47,10 @@ module mlid_case
     real(wp), allocatable :: win_start(:), win_end(:)  !< time window of each record
     integer, allocatable :: holdout(:)                 !< validate: the files predicted
     character(len=PATHLEN) :: out_file = ''
+    !> kind = 'flight_path': where each manoeuvre's record is written with
+    !> the fit's corrections undone (&estimate corrected), if anywhere
+    logical :: flight_path = .false.
+    character(len=PATHLEN), allocatable :: corrected(:)
     real(wp) :: t_end = 0.0_wp, dt = 0.0_wp
     integer :: seed = 0
     real(wp), allocatable :: noise_std(:), amplitude(:)

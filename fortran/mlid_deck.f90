@@ -21,7 +21,7 @@
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
 !>             tol_cost, tol_step, tol_grad, rcond, prior, prior_weight,
 !>             prior_decay, rank_min, rank_max, rank_rule, lower, upper (per free parameter, in the
-!>             order of free)
+!>             order of free), corrected (kind flight_path: one record per data file)
 !> A problem in one case is kept in that case (status, msg) and the others
 !> are still read.  Python reads decks through this reader too (mlid_api's
 !> mlid_deck_* routines; python/mlid/deck.py).
@@ -50,7 +50,7 @@ module mlid_deck
   implicit none
   private
   public :: case_t, deck_read, deck_open, case_record, case_time_input, manoeuvre_layout, &
-            case_param_units, holdout_case, NAMELEN, PATHLEN, UNITLEN
+            case_param_units, holdout_case, manoeuvre_block, NAMELEN, PATHLEN, UNITLEN
 
   !> The cases of the deck last opened by deck_open, for the flat interface.
   type(case_t), allocatable, protected, public :: opened(:)
@@ -139,6 +139,11 @@ contains
       end do
     end if
     if (len_trim(c%out_file) > 0) c%out_file = resolve(dir, c%out_file)
+    if (allocated(c%corrected)) then
+      do k = 1, size(c%corrected)
+        c%corrected(k) = resolve(dir, c%corrected(k))
+      end do
+    end if
     if (allocated(c%chan%join)) then
       do k = 1, size(c%chan%join)
         c%chan%join(k)%s = trim(resolve(dir, c%chan%join(k)%s))
@@ -562,6 +567,7 @@ contains
     end if
     inputs(1:size(FLIGHTPATH_INPUTS)) = FLIGHTPATH_INPUTS
     c%iconst = equations_text_codes(text)
+    c%flight_path = .true.
   end subroutine flightpath_deck
 
   !> The params entries' names and start values, in order.
@@ -1026,11 +1032,12 @@ contains
     logical :: partials, steady_state
     real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay
     real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
+    character(len=PATHLEN) :: corrected(MAXSEG)
     character(len=msg_len) :: iomsg
     type(options_t) :: opt
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
       tol_cost, tol_step, tol_grad, rcond, prior, prior_weight, prior_decay, rank_min, &
-      rank_max, rank_rule, lower, upper
+      rank_max, rank_rule, lower, upper, corrected
 
     call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
     max_iter = opt%max_iter
@@ -1052,9 +1059,12 @@ contains
     prior_weight = UNSET
     lower = UNSET
     upper = UNSET
+    corrected = ''
     rewind (rd%unit)
     read (rd%unit, nml=estimate, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'estimate', ios, iomsg, .false., c)
+    if (c%status /= MLID_OK) return
+    call take_corrected(c, corrected)
     if (c%status /= MLID_OK) return
     opt%max_iter = max_iter
     opt%halvings = halvings
@@ -1074,6 +1084,50 @@ contains
     call set_option(c, 'group &estimate: ', 'noise', noise)
     if (c%status == MLID_OK) call put_extras(c, free_idx, prior, prior_weight, lower, upper)
   end subroutine read_estimate_group
+
+  !> The entries of theta's block key (laid out for nseg manoeuvres,
+  !> manoeuvre_layout) that hold for manoeuvre j: its own, or the shared ones.
+  function manoeuvre_block(c, nseg, theta, j, key) result(v)
+    type(case_t), intent(in) :: c
+    integer, intent(in) :: nseg, j
+    real(wp), intent(in) :: theta(:)
+    character(len=*), intent(in) :: key
+    real(wp), allocatable :: v(:)
+    type(layout_table_t) :: lt
+    integer, allocatable :: map(:), seg(:)
+    character(len=msg_len) :: iomsg
+    integer :: b, ios
+    allocate (v(0))
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
+    if (ios /= MLID_OK) return
+    call manoeuvre_map(lt, nseg, map, seg)
+    b = findloc(lt%key, key, 1)
+    if (b == 0 .or. size(map) /= size(theta)) return
+    v = pack(theta, map > lt%off(b) .and. map <= lt%off(b + 1) .and. (seg == 0 .or. seg == j))
+  end function manoeuvre_block
+
+  !> &estimate corrected: one record to write per data file, for a fit of
+  !> kind 'flight_path' (the corrections it undoes are that kind's).
+  subroutine take_corrected(c, corrected)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: corrected(:)
+    character(len=msg_len) :: iomsg
+    if (all(len_trim(corrected) == 0)) return
+    if (.not. c%flight_path) then
+      call fail(c, 'group &estimate: corrected writes the records with a flight-path fit''s '// &
+                'corrections undone: it needs &model kind = ''flight_path''')
+    else if (c%job /= 'estimate') then
+      call fail(c, 'group &estimate: corrected is for job = ''estimate''')
+    else if (count(len_trim(corrected) > 0) /= size(c%data_files) .or. &
+             any(len_trim(corrected(1:size(c%data_files))) == 0)) then
+      write (iomsg, '(a,i0,a,i0,a)') 'group &estimate: corrected names ', &
+        count(len_trim(corrected) > 0), ' files; the case has ', size(c%data_files), &
+        ' data files (one record written per data file, in their order)'
+      call fail(c, iomsg)
+    else
+      c%corrected = corrected(1:size(c%data_files))
+    end if
+  end subroutine take_corrected
 
   !> A priori values and weights and bounds, given per free parameter in
   !> the order of free, into theta's order.
@@ -1261,9 +1315,11 @@ contains
   !> its times moved to follow the one before; segstart(k) is the first
   !> sample of manoeuvre k.  The reader's warnings (values that look wrong
   !> for their declared unit), one per file, in notes.
-  subroutine case_record(c, t, u, y, status, msg, segstart, units, names, notes)
+  subroutine case_record(c, t, u, y, status, msg, segstart, units, names, notes, own_t)
     type(case_t), intent(in) :: c
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
+    !> each manoeuvre's time as its file gives it (t moves them one after another)
+    real(wp), allocatable, intent(out), optional :: own_t(:)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer, allocatable, intent(out), optional :: segstart(:)
@@ -1277,6 +1333,7 @@ contains
     nseg = size(c%data_files)
     allocate (t(0), u(c%nu, 0), y(c%ny, 0))
     if (present(notes)) allocate (notes(0))
+    if (present(own_t)) allocate (own_t(0))
     do k = 1, nseg
       call read_record(c, k, tk, uk, yk, status, msg, units, names)
       if (status /= MLID_OK) return
@@ -1289,6 +1346,7 @@ contains
         return
       end if
       starts(k) = size(t) + 1
+      if (present(own_t)) own_t = [own_t, tk]
       ! each manoeuvre follows the one before, in mlid/maneuvers.py's join's arithmetic
       if (k > 1) tk = tk + (t(size(t)) + (tk(2) - tk(1)) - tk(1))
       t = [t, tk]

@@ -21,8 +21,8 @@ module mlid_flightpath
   use mlid_text, only: joined
   implicit none
   private
-  public :: flightpath_text, FLIGHTPATH_CONSTANTS, FLIGHTPATH_CORRECTIONS, &
-            FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
+  public :: flightpath_text, flightpath_corrected, FLIGHTPATH_CONSTANTS, &
+            FLIGHTPATH_CORRECTIONS, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
 
   character(len=*), parameter :: FLIGHTPATH_CONSTANTS = 'xA, yA, zA, xN, yN, zN, g'
   character(len=2), parameter :: CONST_NAME(7) = [character(len=2) :: 'xA', 'yA', 'zA', 'xN', &
@@ -125,6 +125,90 @@ contains
     end function output
 
   end subroutine flightpath_text
+
+  !> One manoeuvre's record (t, u(9, n), y(ny, n)) with a flight-path fit's
+  !> corrections undone, for the next step (the aerodynamic model): the
+  !> accelerometers and gyros a = (a_m - b)/f; each output taken back by its
+  !> delay (the measurement at t + delay, linear between samples, held
+  !> beyond the manoeuvre), less its bias, and the air data (V, alpha,
+  !> beta) = (y_m - b)/f.  pnames, p: the model's corrections and their
+  !> values; ynames: its outputs; bias, delay: the manoeuvre's.
+  subroutine flightpath_corrected(pnames, p, ynames, bias, delay, t, u, y, status, msg)
+    character(len=*), intent(in) :: pnames(:), ynames(:)
+    real(wp), intent(in) :: p(:), bias(:), delay(:), t(:)
+    real(wp), intent(inout) :: u(:, :), y(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: k, i
+
+    status = MLID_ERR_INPUT
+    if (size(u, 1) /= size(FLIGHTPATH_INPUTS) .or. any(.not. [(any(FLIGHTPATH_CORRECTIONS == &
+        pnames(k)), k=1, size(pnames))]) .or. any(.not. [(any(FLIGHTPATH_OUTPUTS == ynames(i)), &
+        i=1, size(ynames))])) then
+      msg = 'corrected record: not a flight-path model (inputs '//joined(FLIGHTPATH_INPUTS)// &
+            '; corrections and outputs of mlid_flightpath)'
+      return
+    end if
+    if (size(p) /= size(pnames) .or. size(y, 1) /= size(ynames) .or. size(bias) /= size(ynames) &
+        .or. size(delay) /= size(ynames) .or. size(u, 2) /= size(t) .or. size(y, 2) /= size(t)) then
+      msg = 'corrected record: p, bias, delay and the record disagree in size with the model'
+      return
+    end if
+    do k = 1, 6                                  ! accelerometers and gyros
+      u(k, :) = (u(k, :) - value('b_'//FLIGHTPATH_INPUTS(k), 0.0_wp))/ &
+                value('f_'//FLIGHTPATH_INPUTS(k), 1.0_wp)
+    end do
+    do i = 1, size(ynames)
+      y(i, :) = shifted(y(i, :), delay(i)) - bias(i)
+      select case (trim(ynames(i)))
+      case ('V')
+        y(i, :) = (y(i, :) - value('b_V', 0.0_wp))/value('f_V', 1.0_wp)
+      case ('alpha')
+        y(i, :) = (y(i, :) - value('b_al', 0.0_wp))/value('f_al', 1.0_wp)
+      case ('beta')
+        y(i, :) = (y(i, :) - value('b_be', 0.0_wp))/value('f_be', 1.0_wp)
+      end select
+    end do
+    status = MLID_OK
+    msg = ''
+
+  contains
+
+    !> The value of correction name, or its neutral value when the model has none.
+    real(wp) function value(name, neutral)
+      character(len=*), intent(in) :: name
+      real(wp), intent(in) :: neutral
+      integer :: j
+      j = findloc(pnames, trim(name), 1)
+      value = neutral
+      if (j > 0) value = p(j)
+    end function value
+
+    !> s at t + tau, linear between samples, held beyond the ends.
+    function shifted(s, tau) result(r)
+      real(wp), intent(in) :: s(:), tau
+      real(wp) :: r(size(s)), tj
+      integer :: j, m
+      m = 1
+      do j = 1, size(t)
+        tj = t(j) + tau
+        if (tj <= t(1)) then
+          r(j) = s(1)
+        else if (tj >= t(size(t))) then
+          r(j) = s(size(t))
+        else
+          do while (t(m + 1) < tj)             ! t(m) < tj <= t(m+1): m only grows with j
+            m = m + 1
+          end do
+          do while (t(m) >= tj)
+            m = m - 1
+          end do
+          r(j) = s(m) + (s(m + 1) - s(m))*(tj - t(m))/(t(m + 1) - t(m))
+        end if
+      end do
+    end function shifted
+
+  end subroutine flightpath_corrected
 
   !> The velocity relative to the air at the centre of gravity (ua, va, wa)
   !> and at the boom (uN, vN, wN), with the wind turned into body axes when

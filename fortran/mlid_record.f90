@@ -18,8 +18,8 @@ module mlid_record
   use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close
   implicit none
   private
-  public :: record_t, record_read, record_check_time, record_check_segments, short_path, &
-            seconds, number_text, GAP_FACTOR, NAMELEN, UNITLEN
+  public :: record_t, record_read, record_text, record_check_time, record_check_segments, &
+            short_path, seconds, number_text, GAP_FACTOR, NAMELEN, UNITLEN
 
   !> A time step larger than this times the median step is a gap.
   real(wp), parameter :: GAP_FACTOR = 1.5_wp
@@ -339,6 +339,41 @@ contains
       end if
     end do
   end subroutine names_of
+
+  !> The text of a record as this reader reads it back: a '#' header line
+  !> naming the columns with their units ('t[s] ax[m/s2] ...') and a row
+  !> per sample, every value to 17 digits (exact).
+  function record_text(names, units, t, u, y) result(text)
+    character(len=*), intent(in) :: names(:), units(:)   !< the inputs', then the outputs'
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    character(len=:), allocatable :: text
+    character(len=25) :: field
+    integer :: j, k, w
+
+    text = '# t[s]'
+    do k = 1, size(names)
+      text = text//' '//trim(names(k))
+      if (len_trim(units(k)) > 0) text = text//'['//trim(units(k))//']'
+    end do
+    w = len(text) + 1
+    text = text//repeat(' ', 25*(1 + size(u, 1) + size(y, 1))*size(t) + size(t) + 1)
+    text(w:w) = achar(10)
+    do j = 1, size(t)
+      do k = 0, size(u, 1) + size(y, 1)
+        if (k == 0) then
+          write (field, '(es25.16e3)') t(j)
+        else if (k <= size(u, 1)) then
+          write (field, '(es25.16e3)') u(k, j)
+        else
+          write (field, '(es25.16e3)') y(k - size(u, 1), j)
+        end if
+        text(w + 1:w + 25) = field
+        w = w + 25
+      end do
+      w = w + 1
+      text(w:w) = achar(10)
+    end do
+  end function record_text
 
   !> Time must increase, and a step larger than GAP_FACTOR times the median
   !> step is a gap: two manoeuvres joined.  at: the sample where it happens.

@@ -3,8 +3,9 @@ fortran/mlid_flightpath.f90) and the compatibility step after it
 (mlid.compatibility): the kind written from sensor positions gives the fit
 of the same equations stated by hand (test case 22b), exact Jacobians with
 every correction and a wind, a wind read as the physics says, the corrected
-record refits to neutral corrections, and bad input in one line in both
-front ends."""
+record refits to neutral corrections and is written by a deck (&estimate
+corrected) to the same bytes by both front ends, and bad input in one line
+in both front ends."""
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ import pytest
 import mlid
 from mlid import compatibility
 from mlid.model import FLIGHTPATH_CORRECTIONS, FLIGHTPATH_INPUTS
-from conftest import REPO, both_front_ends_json, refused_by_both
+from conftest import REPO, both_front_ends_json, refused_by_both, run_both
 
 HERE = REPO / "cases" / "flight_path"
 DATA = REPO.parent / "shared" / "data"
@@ -84,6 +85,88 @@ def test_the_corrected_record_refits_to_neutral_corrections(tmp_path):
     back = mlid.FlightData.load(tmp_path / "elv1_corrected.dat", 1, list(range(2, 11)),
                                 list(range(11, 18)))
     np.testing.assert_array_equal(back.u, fixed[0].u)
+
+
+def _deck_with_corrected(folder, files):
+    """compatibility.nml (tc22b by the kind) with the alpha, beta and psi
+    delays (tc33's) and the phi bias of each manoeuvre free, its records
+    named absolutely, writing the corrected records to files (in folder)."""
+    text = (HERE / "compatibility.nml").read_text().replace("'../../../shared/data/", f"'{DATA}/")
+    text = text.replace("'f_be', 'b_be' /", "'f_be', 'b_be', 'delay(2)', 'delay(3)', 'delay(6)', "
+                        "'bias(4)', delay = 7*0.0 /")
+    head, _, rest = text.partition("&estimate")
+    folder.mkdir()
+    deck = folder / "deck.nml"
+    deck.write_text(head + "&estimate corrected = " + ", ".join(f"'{f}'" for f in files) + ","
+                    + rest)
+    return deck
+
+
+@needs_data
+def test_a_deck_writes_the_corrected_records_alike_in_both_front_ends(tmp_path):
+    """&estimate corrected: each manoeuvre's record with the fit's corrections
+    undone, the same bytes from mlid run and mlid-batch, the values those of
+    the rule written out here with numpy (accelerometers and gyros (a - b)/f,
+    outputs taken back by their delays, less their biases, air data (y -
+    b)/f), read back by the one reader with the model's channel names."""
+    names = ["elv1.asc", "ail1.asc", "rud1.asc"]
+    decks = [_deck_with_corrected(tmp_path / d, names) for d in ("a", "b")]
+    runs = [run_both(deck, cwd=deck.parent)[k] for k, deck in enumerate(decks)]
+    assert [r.returncode for r in runs] == [0, 0], runs[0].stderr + runs[1].stderr
+    assert runs[0].stdout == runs[1].stdout.replace(str(tmp_path / "b"), str(tmp_path / "a"))
+    assert runs[0].stdout.count(" corrected record of manoeuvre ") == 3
+    for name in names:
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+
+    case = mlid.read_deck(decks[0])[0]
+    res = mlid.fit(case.model, case.record(), **case.options())
+    own = dict(zip(res.model.element_labels()[:res.model.np], res.model.p))
+    for name, rec, m in zip(names, case.record(), res.manoeuvres):
+        back = mlid.FlightData.load(tmp_path / "a" / name, 1, list(range(2, 11)),
+                                    list(range(11, 18)))
+        assert back.input_names == list(FLIGHTPATH_INPUTS) and back.output_names[:2] == ["V", "alpha"]
+        u, y = rec.u.copy(), rec.y.copy()
+        for j, s in enumerate(FLIGHTPATH_INPUTS[:6]):
+            u[:, j] = (u[:, j] - own.get(f"b_{s}", 0.0)) / own.get(f"f_{s}", 1.0)
+        for i, s in enumerate(back.output_names):
+            f, b = {"V": ("f_V", "b_V"), "alpha": ("f_al", "b_al"),
+                    "beta": ("f_be", "b_be")}.get(s, ("", ""))
+            y[:, i] = (np.interp(rec.t + m.delay[i], rec.t, y[:, i]) - m.bias[i]
+                       - own.get(b, 0.0)) / own.get(f, 1.0)
+        np.testing.assert_array_equal(back.t, rec.t)
+        np.testing.assert_allclose(back.u, u, rtol=1e-14, atol=1e-15)
+        np.testing.assert_allclose(back.y, y, rtol=1e-12, atol=1e-12)
+    assert max(abs(d) for d in res.manoeuvres[0].delay) > 0.005   # the delays were used
+    assert len({m.bias[3] for m in res.manoeuvres}) == 3          # a bias per manoeuvre
+
+
+BAD_CORRECTED = [
+    ("kind = 'equations', state_names = 'x', input_names = 'u', output_names = 'y', "
+     "xdot = '-x + u', outputs = 'x'", "input_cols = 2, output_cols = 3", "corrected = 'a.asc'",
+     "corrected writes the records with a flight-path fit's corrections undone: it needs "
+     "&model kind = 'flight_path'"),
+    ("kind = 'flight_path', constants = 0, 0, 0, 0, 0, 0, 9.81",
+     "input_cols = 2, 3, 4, 5, 6, 7, 8, 9, 10, output_cols = 11, 12, 13, 14, 15, 16, 17",
+     "corrected = 'a.asc', 'b.asc'", "corrected names 2 files; the case has 1 data files")]
+
+
+@pytest.mark.parametrize("model, channels, entry, message", BAD_CORRECTED)
+def test_bad_corrected_is_one_line_in_both_front_ends(tmp_path, model, channels, entry, message):
+    deck = tmp_path / "bad.nml"
+    deck.write_text(f"&case title = 'bad', job = 'estimate' /\n&model {model} /\n"
+                    f"&data file = 'r.dat', time_col = 1, {channels} /\n&estimate {entry} /\n")
+    refused_by_both(deck, message, cwd=tmp_path)
+
+
+@needs_data
+def test_a_corrected_record_that_cannot_be_written_fails_the_case_after_its_report(tmp_path):
+    deck = _deck_with_corrected(tmp_path / "a", ["no/elv1.asc", "ail1.asc", "rud1.asc"])
+    runs = run_both(deck, cwd=deck.parent)
+    for run in runs:
+        assert run.returncode == 1 and "sigma" in run.stdout, run.stdout
+        assert "cannot write" in run.stderr.splitlines()[0] and "no/elv1.asc" in run.stderr
+    assert runs[0].stdout == runs[1].stdout
+    assert not (tmp_path / "a" / "ail1.asc").exists()
 
 
 BAD = [("params = 'b_xx = 0'", "'b_xx' is not a correction; the corrections are b_ax, "),

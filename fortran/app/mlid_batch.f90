@@ -6,11 +6,12 @@
 program mlid_batch
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_NOCONV, MLID_ERR_SINGULAR
   use mlid_case, only: case_t
-  use mlid_text, only: line_t
+  use mlid_text, only: line_t, join_lines
   use mlid_deck, only: deck_read, case_record, case_time_input, manoeuvre_layout, &
-                       case_param_units, holdout_case, UNITLEN, NAMELEN
+                       case_param_units, holdout_case, manoeuvre_block, UNITLEN, NAMELEN
   use mlid_validate, only: prediction_stats
-  use mlid_api, only: mlid_fit, mlid_simulate
+  use mlid_api, only: mlid_fit, mlid_simulate, mlid_flightpath_corrected
+  use mlid_files, only: temporary_for, write_whole, commit
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, json_list, &
                          validation_report, validation_json
   implicit none
@@ -170,16 +171,61 @@ contains
     character(len=:), allocatable, intent(out) :: json
     integer, intent(out) :: cstat
     character(len=*), intent(out) :: cmsg
-    real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :)
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :), own_t(:)
     integer, allocatable :: segstart(:)
     character(len=UNITLEN), allocatable :: units(:)
     type(line_t), allocatable :: notes(:)
 
-    call case_record(c, t, u, y, cstat, cmsg, segstart, units, notes=notes)
+    call case_record(c, t, u, y, cstat, cmsg, segstart, units, notes=notes, own_t=own_t)
     if (allocated(notes)) call say_notes(k, c, notes)
     if (cstat == MLID_OK) call fit_record(k, c, t, u, y, segstart, units, .true., json, cstat, &
                                           cmsg, theta, rhat, yhat)
+    if (cstat == MLID_OK .and. allocated(c%corrected)) then
+      call write_corrected(c, own_t, u, y, segstart, units, theta, cstat, cmsg)
+      if (cstat /= MLID_OK) deallocate (json)   ! the case failed: its message, not the fit's
+    end if
   end subroutine fit_case
+
+  !> Each manoeuvre's record with the fit's corrections undone, written
+  !> where &estimate corrected says (mlid_api's mlid_flightpath_corrected,
+  !> as the Python front end writes it), its channels named as the model
+  !> names its inputs and outputs.
+  subroutine write_corrected(c, t, u, y, segstart, units, theta, cstat, cmsg)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: t(:)                !< each manoeuvre's own time (its file's)
+    real(wp), intent(in) :: u(:, :), y(:, :), theta(:)
+    integer, intent(in) :: segstart(:)
+    character(len=*), allocatable, intent(in) :: units(:)
+    integer, intent(out) :: cstat
+    character(len=*), intent(out) :: cmsg
+    real(wp), allocatable :: p(:), bias(:), delay(:), uc(:, :), yc(:, :)
+    character(len=NAMELEN), allocatable :: names(:)
+    integer :: j, j0, j1, n
+    character(len=256) :: msg
+
+    names = [c%input_names, c%output_names]
+
+    do j = 1, size(segstart)
+      j0 = segstart(j)
+      j1 = size(t)
+      if (j < size(segstart)) j1 = segstart(j + 1) - 1
+      n = j1 - j0 + 1
+      p = manoeuvre_block(c, size(segstart), theta, j, 'p')
+      bias = manoeuvre_block(c, size(segstart), theta, j, 'bias')
+      delay = manoeuvre_block(c, size(segstart), theta, j, 'delay')
+      allocate (uc(c%nu, n), yc(c%ny, n))
+      call mlid_flightpath_corrected(size(c%iconst), c%iconst, size(p), p, c%ny, bias, delay, n, &
+                                     t(j0:j1), c%nu, u(:, j0:j1), y(:, j0:j1), &
+                                     join_lines(names), &
+                                     join_lines(units), trim(c%corrected(j)), &
+                                     uc, yc, cstat, msg)
+      cmsg = msg
+      if (cstat /= MLID_OK) return
+      write (*, '(a,i0,a)') ' corrected record of manoeuvre ', j, ' written to '// &
+        trim(c%corrected(j))
+      deallocate (uc, yc)
+    end do
+  end subroutine write_corrected
 
   !> Fit case c to a record (several manoeuvres: segstart), print the
   !> report if asked, and return the JSON object, theta, R-hat and outputs.
@@ -328,59 +374,6 @@ contains
       if (cstat /= MLID_OK) return
     end do
   end subroutine predict
-
-  !> A temporary name beside path, and a check that it can be written there.
-  subroutine temporary_for(path, tmp, status, msg)
-    character(len=*), intent(in) :: path
-    character(len=:), allocatable, intent(out) :: tmp
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    character(len=16) :: pid
-    integer :: unit, slash
-
-    write (pid, '(i0)') getpid()
-    slash = index(path, '/', back=.true.)
-    tmp = path(1:slash)//'.'//path(slash + 1:)//'.tmp-'//trim(pid)
-    open (newunit=unit, file=tmp, status='replace', action='write', iostat=status)
-    if (status /= 0) then
-      status = MLID_ERR_INPUT
-      msg = 'cannot write '//path//' (its folder is missing or not writable)'
-      return
-    end if
-    close (unit, status='delete')
-    status = MLID_OK
-    msg = ''
-  end subroutine temporary_for
-
-  !> Write text to tmp and rename it onto path.
-  subroutine write_whole(path, tmp, text, status, msg)
-    character(len=*), intent(in) :: path, tmp, text
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer :: unit
-    open (newunit=unit, file=tmp, status='replace', action='write', access='stream', &
-          form='unformatted', iostat=status)
-    if (status == 0) write (unit, iostat=status) text
-    if (status /= 0) then
-      msg = 'cannot write '//path
-      status = MLID_ERR_INPUT
-      return
-    end if
-    close (unit)
-    call commit(tmp, path, status, msg)
-  end subroutine write_whole
-
-  subroutine commit(tmp, path, status, msg)
-    character(len=*), intent(in) :: tmp, path
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    call rename(tmp, path, status)
-    msg = ''
-    if (status /= 0) then
-      status = MLID_ERR_INPUT
-      msg = 'cannot write '//path
-    end if
-  end subroutine commit
 
   !> An optional array, or zeros of the size the interface wants.
   function or_zero(a, n) result(out)

@@ -11,17 +11,19 @@ The corrected record undoes each estimated correction of the model
 (mlid.FlightPathModel, or a deck of kind 'flight_path'): accelerometers and
 gyros a = (a_m - b)/f; air data V = (V_m - b_V)/f_V, alpha and beta alike;
 each output's bias(i) (per manoeuvre) removed and its delay(i) taken back
-(y(t) = y_m(t + tau), interpolated within the manoeuvre).
+(y(t) = y_m(t + tau), interpolated within the manoeuvre).  The rule is the
+core's (fortran/mlid_flightpath.f90, flightpath_corrected), which a deck's
+``&estimate corrected`` also uses, in both front ends.
 """
 
 import numpy as np
 
+from . import _core
 from .data import FlightData
-from .errors import InputError
+from .errors import InputError, check_status
 from .model import FLIGHTPATH_INPUTS
 
-#: Output -> (scale factor, bias) of the air-data corrections.
-AIR_DATA = {"V": ("f_V", "b_V"), "alpha": ("f_al", "b_al"), "beta": ("f_be", "b_be")}
+_api = _core.mlid_api
 
 
 def neutral(name):
@@ -85,21 +87,32 @@ def corrected_record(result):
     return out if isinstance(data, (list, tuple)) else out[0]
 
 
-def _corrected(model, rec):
-    own = _corrections(model)
+def write_corrected(result, paths):
+    """Write each manoeuvre's corrected record to its path, whole or not at
+    all, as mlid-batch writes it (the core's text: a '# t[s] name[unit] ...'
+    header, 17 digits).  Returns the paths written."""
+    data = result.evaluate_args[0]
+    records = list(data) if isinstance(data, (list, tuple)) else [data]
+    for model, rec, path in zip(result.manoeuvres, records, paths):
+        _corrected(model, rec, str(path))
+    return list(paths)
+
+
+def _corrected(model, rec, path=""):
     if rec.u.shape[1] != len(FLIGHTPATH_INPUTS):
         raise InputError(f"corrected_record: the record has {rec.u.shape[1]} inputs; a flight-path "
                          f"model has {len(FLIGHTPATH_INPUTS)}: {', '.join(FLIGHTPATH_INPUTS)}")
-    u = rec.u.copy()
-    for j, name in enumerate(FLIGHTPATH_INPUTS[:6]):    # accelerometers and gyros
-        u[:, j] = (u[:, j] - own.get(f"b_{name}", 0.0)) / own.get(f"f_{name}", 1.0)
-    y = rec.y.copy()
-    for i, name in enumerate(_output_names(model)):
-        shifted = np.interp(rec.t + model.delay[i], rec.t, y[:, i])   # held beyond the ends
-        f, b = AIR_DATA.get(name, (None, None))
-        y[:, i] = (shifted - model.bias[i] - own.get(b, 0.0)) / own.get(f, 1.0)
-    return FlightData(rec.t, u, y, input_names=rec.input_names, output_names=rec.output_names,
-                      input_units=rec.input_units, output_units=rec.output_units)
+    names = "".join(f"{n}\n" for n in rec.input_names + rec.output_names)
+    units = "".join(f"{u or ''}\n" for u in list(rec.input_units) + list(rec.output_units))
+    uc, yc, status, msg = _api.mlid_flightpath_corrected(
+        model.iconst, np.asarray(model.p, dtype=float), np.asarray(model.bias, dtype=float),
+        np.asarray(model.delay, dtype=float), np.ascontiguousarray(rec.t, dtype=float),
+        np.ascontiguousarray(rec.u, dtype=float).T, np.ascontiguousarray(rec.y, dtype=float).T,
+        names, units, path)
+    check_status(status, msg)
+    return FlightData(rec.t, uc.T, yc.T, input_names=rec.input_names,
+                      output_names=rec.output_names, input_units=rec.input_units,
+                      output_units=rec.output_units)
 
 
 def _own_names(model, labels):
@@ -109,13 +122,3 @@ def _own_names(model, labels):
     own = dict(zip(model.element_names(), model.element_labels()))
     bases = [label.split("#")[0] for label in labels]
     return [own.get(element.get(b, b), b) for b in bases]
-
-
-def _corrections(model):
-    """The model's own parameters, {name: value}."""
-    return dict(zip(model.element_labels()[:model.np], model.p))
-
-
-def _output_names(model):
-    """The model's outputs, by the names its text gives them."""
-    return [line.split()[1] for line in model.text.splitlines() if line.startswith("y ")]

@@ -46,6 +46,9 @@ class Case:
         self._files = [_api.mlid_deck_case_data(k, j) for j in range(1, max(nfile, 1) + 1)]
         n, holdout = _api.mlid_deck_case_holdout(k, max(nfile, 1))
         self.holdout = [int(j) for j in holdout[:n]]   # validate: the files predicted
+        # kind flight_path: where each manoeuvre's corrected record goes (&estimate corrected)
+        self.corrected = [p for p in (_text(_api.mlid_deck_case_corrected(k, j))
+                                      for j in range(1, nfile + 1)) if p]
         n, x0 = _api.mlid_deck_case_initial_states(k, max(nx, 1) * max(nfile, 1))
         if n and nfile > 1:                            # each manoeuvre's own x0
             self._options["initial_states"] = list(x0[:n].reshape(-1, nx))
@@ -165,12 +168,26 @@ def run_case(case):
         result = _validate_case(case)
     else:
         result = core.fit(case.model, case.record(), **case.options())
+        if case.corrected and result.status == 0:
+            _write_corrected(result, case.corrected)
     out = {"title": case.title, "job": case.job, "status": result.status,
            "message": result.message}
     out.update(result.as_dict())
     if getattr(result, "validation", None) is not None:
         out["validation"] = result.validation.as_dict()
     return out, result
+
+
+def _write_corrected(result, paths):
+    """The manoeuvres' corrected records, as mlid-batch writes them; the
+    paths written are the result's (the report names them).  A failure is
+    the case's, after the fit's report."""
+    from .compatibility import write_corrected
+    try:
+        result.corrected_paths = write_corrected(result, paths)
+    except MlidError as exc:
+        exc.result, exc.reported_only = result, True
+        raise
 
 
 def _validate_case(case):

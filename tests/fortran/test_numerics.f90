@@ -2,7 +2,7 @@
 !> against finite differences, LAPACK wrappers, the random stream.
 program test_numerics
   use mlid_kinds, only: wp, MLID_OK
-  use mlid_models, only: model_t, model_layout
+  use mlid_models, only: model_t, model_layout, layout_t
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_EQUATIONS
   use mlid_equations, only: equations_text_codes
   use mlid_params, only: param_map_t, param_map_create, no_ties
@@ -80,14 +80,12 @@ contains
   subroutine test_sensitivities()
     class(model_t), allocatable :: m
     type(options_t) :: opt
-    type(param_map_t) :: pm, none
-    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2 + 2 + 2 + 2 + 2 + 1 + 4), tp(size(theta))
-    real(wp) :: tm(size(theta))
-    real(wp) :: h
+    type(param_map_t) :: pm
+    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2 + 2 + 2 + 2 + 2 + 1 + 4)
     integer :: isfree(size(theta))
-    real(wp), allocatable :: t(:), u(:, :), y(:, :), yp(:, :), ym(:, :), dy(:, :, :)
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), dy(:, :, :)
     integer, allocatable :: ifree(:)
-    integer :: status, j, k
+    integer :: status, j
     real(wp) :: err
     character(len=256) :: msg
 
@@ -101,15 +99,33 @@ contains
     isfree = 0
     isfree(ifree) = 1
     call param_map_create(model_layout(m), isfree, no_ties(size(theta)), pm, status, msg)
-    isfree = 0
-    call param_map_create(model_layout(m), isfree, no_ties(size(theta)), none, status, msg)
-    allocate (t(101), u(1, 101), y(2, 101), yp(2, 101), ym(2, 101), dy(2, size(ifree), 101))
+    allocate (t(101), u(1, 101), y(2, 101), dy(2, size(ifree), 101))
     t = [(0.05_wp*j, j=0, 100)]
     u(1, :) = sin(2.0_wp*t) + merge(1.0_wp, 0.0_wp, t > 1.0_wp)
     call oe_predict(m, theta, pm, t, u, opt, y, status, msg, dy=dy)
+    err = central_difference_error(m, theta, pm%l, ifree, t, u, dy)
+    call check(err < 1.0e-7_wp, 'output sensitivities match central differences (F, G, H, D, K, '// &
+               'bx, x0, bias, delay, udelay)')
+  end subroutine test_sensitivities
+
+  !> The largest difference, relative to the column's size (at least 1),
+  !> between the output sensitivities dy of the free entries ifree and
+  !> central differences of whole predictions.
+  real(wp) function central_difference_error(m, theta, l, ifree, t, u, dy) result(err)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:), t(:), u(:, :), dy(:, :, :)
+    type(layout_t), intent(in) :: l
+    integer, intent(in) :: ifree(:)
+    type(options_t) :: opt
+    type(param_map_t) :: none
+    real(wp) :: tp(size(theta)), tm(size(theta)), yp(size(dy, 1), size(t)), &
+                ym(size(dy, 1), size(t))
+    real(wp), parameter :: h = 1.0e-6_wp
+    integer :: k, status
+    character(len=256) :: msg
+    call param_map_create(l, [(0, k=1, size(theta))], no_ties(size(theta)), none, status, msg)
     err = 0.0_wp
     do k = 1, size(ifree)
-      h = 1.0e-6_wp
       tp = theta
       tm = theta
       tp(ifree(k)) = tp(ifree(k)) + h
@@ -118,9 +134,7 @@ contains
       call oe_predict(m, tm, none, t, u, opt, ym, status, msg)
       err = max(err, maxval(abs((yp - ym)/(2*h) - dy(:, k, :)))/max(1.0_wp, maxval(abs(dy(:, k, :)))))
     end do
-    call check(err < 1.0e-7_wp, 'output sensitivities match central differences (F, G, H, D, K, '// &
-               'bx, x0, bias, delay, udelay)')
-  end subroutine test_sensitivities
+  end function central_difference_error
 
   !> Analytic Jacobians of the longitudinal model (every regressor used)
   !> against central differences.
@@ -160,15 +174,15 @@ contains
       new_line('a')//'y y1 = x1 + 0.5*b'//new_line('a')//'y y2 = sin(x2)'
     class(model_t), allocatable :: m, mf
     type(options_t) :: opt
-    type(param_map_t) :: pm, none
+    type(param_map_t) :: pm
     ! p(4), x0(2 x 2), bias(2 x 2), r(2), delay(2), udelay(3), stab(2 x 2)
-    real(wp) :: theta(4 + 4 + 4 + 2 + 2 + 3 + 4), tp(size(theta)), tm(size(theta))
+    real(wp) :: theta(4 + 4 + 4 + 2 + 2 + 3 + 4)
     real(wp) :: xd(2), xdf(2), a(2, 2), af(2, 2), b(2, 4), bf(2, 4), c(2, 2), cf(2, 2), d(2, 4), &
-                df(2, 4), err, h
-    integer :: isfree(size(theta)), status, j, k
+                df(2, 4), err
+    integer :: isfree(size(theta)), status, j
     integer, allocatable :: ifree(:)
     logical :: used(4)
-    real(wp), allocatable :: t(:), u(:, :), y(:, :), yp(:, :), ym(:, :), dy(:, :, :)
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), dy(:, :, :)
     character(len=256) :: msg
 
     call model_create(MODEL_EQUATIONS, 2, 3, 2, 0, equations_text_codes(text), [real(wp) ::], m, &
@@ -201,9 +215,7 @@ contains
     isfree = 0
     isfree(ifree) = 1
     call param_map_create(model_layout(m, [1, 52]), isfree, no_ties(size(theta)), pm, status, msg)
-    isfree = 0
-    call param_map_create(model_layout(m, [1, 52]), isfree, no_ties(size(theta)), none, status, msg)
-    allocate (t(101), u(3, 101), y(2, 101), yp(2, 101), ym(2, 101), dy(2, size(ifree), 101))
+    allocate (t(101), u(3, 101), y(2, 101), dy(2, size(ifree), 101))
     t = [(0.05_wp*j, j=0, 100)]
     u(1, :) = sin(2.0_wp*t) + merge(1.0_wp, 0.0_wp, t > 1.0_wp)
     u(2, :) = merge(1.0_wp, 0.0_wp, t < 2.53_wp)           ! samples 1-51: manoeuvre 1
@@ -214,17 +226,7 @@ contains
                all(dy(:, 5, 1:51) == 0.0_wp) .and. all(dy(:, 6, 52:) == 0.0_wp) .and. &
                any(dy(:, 3, 1:51) /= 0.0_wp) .and. any(dy(:, 4, 52:) /= 0.0_wp), &
                'a manoeuvre''s bias and initial state move only that manoeuvre')
-    err = 0.0_wp
-    do k = 1, size(ifree)
-      h = 1.0e-6_wp
-      tp = theta
-      tm = theta
-      tp(ifree(k)) = tp(ifree(k)) + h
-      tm(ifree(k)) = tm(ifree(k)) - h
-      call oe_predict(m, tp, none, t, u, opt, yp, status, msg)
-      call oe_predict(m, tm, none, t, u, opt, ym, status, msg)
-      err = max(err, maxval(abs((yp - ym)/(2*h) - dy(:, k, :)))/max(1.0_wp, maxval(abs(dy(:, k, :)))))
-    end do
+    err = central_difference_error(m, theta, pm%l, ifree, t, u, dy)
     call check(err < 1.0e-7_wp, 'two manoeuvres with indicators: output sensitivities match '// &
                'central differences')
   end subroutine test_folded_manoeuvres

@@ -1,0 +1,65 @@
+!> Files written whole or not at all: to a temporary name in the same
+!> folder, renamed onto the path when complete (a crash or a full disk
+!> leaves the old file or none, never half of one).
+module mlid_files
+  use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
+  implicit none
+  private
+  public :: temporary_for, write_whole, commit
+
+contains
+
+  !> A temporary name beside path, and a check that it can be written there.
+  subroutine temporary_for(path, tmp, status, msg)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable, intent(out) :: tmp
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=16) :: pid
+    integer :: unit, slash
+
+    write (pid, '(i0)') getpid()
+    slash = index(path, '/', back=.true.)
+    tmp = path(1:slash)//'.'//path(slash + 1:)//'.tmp-'//trim(pid)
+    open (newunit=unit, file=tmp, status='replace', action='write', iostat=status)
+    if (status /= 0) then
+      status = MLID_ERR_INPUT
+      msg = 'cannot write '//path//' (its folder is missing or not writable)'
+      return
+    end if
+    close (unit, status='delete')
+    status = MLID_OK
+    msg = ''
+  end subroutine temporary_for
+
+  !> Write text to tmp and rename it onto path.
+  subroutine write_whole(path, tmp, text, status, msg)
+    character(len=*), intent(in) :: path, tmp, text
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: unit
+    open (newunit=unit, file=tmp, status='replace', action='write', access='stream', &
+          form='unformatted', iostat=status)
+    if (status == 0) write (unit, iostat=status) text
+    if (status /= 0) then
+      msg = 'cannot write '//path
+      status = MLID_ERR_INPUT
+      return
+    end if
+    close (unit)
+    call commit(tmp, path, status, msg)
+  end subroutine write_whole
+
+  subroutine commit(tmp, path, status, msg)
+    character(len=*), intent(in) :: tmp, path
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    call rename(tmp, path, status)
+    msg = ''
+    if (status /= 0) then
+      status = MLID_ERR_INPUT
+      msg = 'cannot write '//path
+    end if
+  end subroutine commit
+
+end module mlid_files
