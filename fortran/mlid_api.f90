@@ -63,7 +63,7 @@ module mlid_api
             mlid_deck_case_holdout, mlid_deck_case_initial_states, mlid_prediction_stats, mlid_report_validation, &
             mlid_deck_case_ties, mlid_tie_parse, mlid_sixdof_text, mlid_sixdof_constants, &
             mlid_flightpath_lists, mlid_flightpath_model_text, mlid_flightpath_corrected, &
-            mlid_deck_case_corrected, &
+            mlid_deck_case_corrected, mlid_check_writable, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
@@ -342,14 +342,16 @@ contains
 
   !> One manoeuvre of a flight-path model's fit with its corrections undone
   !> (mlid_flightpath's flightpath_corrected): the model by its text
-  !> (iconst), its corrections p, the manoeuvre's output biases and delays,
-  !> its record (t, u, y) -> uc, yc; when path is not blank, also written
-  !> there whole or not at all (mlid_record's record_text: the channels'
-  !> names and units one a line, inputs then outputs).
-  subroutine mlid_flightpath_corrected(nic, iconst, np, p, ny, bias, delay, nt, t, nu, u, y, &
-                                       names, units, path, uc, yc, status, msg)
-    integer(c_int), intent(in) :: nic, iconst(nic), np, ny, nt, nu
-    real(c_double), intent(in) :: p(np), bias(ny), delay(ny), t(nt), u(nu, nt), y(ny, nt)
+  !> (iconst), its corrections p, the manoeuvre's output biases and delays
+  !> and input delays, its record (t, u, y) -> uc, yc; when path is not
+  !> blank, also written there whole or not at all (mlid_record's
+  !> record_text: the channels' names and units one a line, inputs then
+  !> outputs).
+  subroutine mlid_flightpath_corrected(nic, iconst, np, p, ny, bias, delay, nu, udelay, nt, t, u, &
+                                       y, names, units, path, uc, yc, status, msg)
+    integer(c_int), intent(in) :: nic, iconst(nic), np, ny, nu, nt
+    real(c_double), intent(in) :: p(np), bias(ny), delay(ny), udelay(nu), t(nt), u(nu, nt), &
+                                  y(ny, nt)
     character(len=*), intent(in) :: names, units, path
     real(c_double), intent(out) :: uc(nu, nt), yc(ny, nt)
     integer(c_int), intent(out) :: status
@@ -360,14 +362,28 @@ contains
     uc = u
     yc = y
     call equations_create(iconst, [real(wp) ::], eqs, status, msg)
-    if (status == MLID_OK) call flightpath_corrected(eqs%pnames, p, eqs%ynames, bias, delay, t, uc, &
-                                                     yc, status, msg)
+    if (status /= MLID_OK) then
+      msg = 'corrected record: not a flight-path model ('//trim(msg)//')'
+      return
+    end if
+    call flightpath_corrected(eqs%unames, eqs%pnames, p, eqs%ynames, bias, delay, udelay, t, uc, &
+                              yc, status, msg)
     if (status /= MLID_OK .or. len_trim(path) == 0) return
     call temporary_for(trim(path), tmp, status, msg)
     if (status == MLID_OK) call write_whole(trim(path), tmp, record_text(split_lines(names, nu + &
                                            ny, NAMELEN), split_lines(units, nu + ny, NAMELEN), &
                                            t, uc, yc), status, msg)
   end subroutine mlid_flightpath_corrected
+
+  !> Whether path can be written (its folder exists and takes a file): one
+  !> line naming it if not.
+  subroutine mlid_check_writable(path, status, msg)
+    character(len=*), intent(in) :: path
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    character(len=:), allocatable :: tmp
+    call temporary_for(trim(path), tmp, status, msg)
+  end subroutine mlid_check_writable
 
   !> Where estimate case k writes manoeuvre j's corrected record (blank: nowhere).
   subroutine mlid_deck_case_corrected(k, j, path)

@@ -143,6 +143,12 @@ contains
       do k = 1, size(c%corrected)
         c%corrected(k) = resolve(dir, c%corrected(k))
       end do
+      do k = 1, size(c%corrected)   ! the names as resolved from the deck's folder
+        if (c%status == MLID_OK .and. (count(c%corrected == c%corrected(k)) > 1 .or. &
+            any(c%data_files == c%corrected(k)))) &
+          call fail(c, 'group &estimate: corrected names '''//trim(c%corrected(k))// &
+                    ''' twice, or a data file: each record goes to a file of its own')
+      end do
     end if
     if (allocated(c%chan%join)) then
       do k = 1, size(c%chan%join)
@@ -1096,14 +1102,16 @@ contains
     type(layout_table_t) :: lt
     integer, allocatable :: map(:), seg(:)
     character(len=msg_len) :: iomsg
-    integer :: b, ios
+    integer :: b, ios, last
     allocate (v(0))
     call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
     if (ios /= MLID_OK) return
     call manoeuvre_map(lt, nseg, map, seg)
     b = findloc(lt%key, key, 1)
     if (b == 0 .or. size(map) /= size(theta)) return
-    v = pack(theta, map > lt%off(b) .and. map <= lt%off(b + 1) .and. (seg == 0 .or. seg == j))
+    last = lt%nth                              ! the block ends where the next begins
+    if (b < lt%nblock) last = lt%off(b + 1)
+    v = pack(theta, map > lt%off(b) .and. map <= last .and. (seg == 0 .or. seg == j))
   end function manoeuvre_block
 
   !> &estimate corrected: one record to write per data file, for a fit of
@@ -1112,20 +1120,25 @@ contains
     type(case_t), intent(inout) :: c
     character(len=*), intent(in) :: corrected(:)
     character(len=msg_len) :: iomsg
+    integer :: n
+    n = size(c%data_files)
     if (all(len_trim(corrected) == 0)) return
     if (.not. c%flight_path) then
       call fail(c, 'group &estimate: corrected writes the records with a flight-path fit''s '// &
                 'corrections undone: it needs &model kind = ''flight_path''')
     else if (c%job /= 'estimate') then
       call fail(c, 'group &estimate: corrected is for job = ''estimate''')
-    else if (count(len_trim(corrected) > 0) /= size(c%data_files) .or. &
-             any(len_trim(corrected(1:size(c%data_files))) == 0)) then
-      write (iomsg, '(a,i0,a,i0,a)') 'group &estimate: corrected names ', &
-        count(len_trim(corrected) > 0), ' files; the case has ', size(c%data_files), &
-        ' data files (one record written per data file, in their order)'
+    else if (any(len_trim(corrected(n + 1:)) > 0)) then
+      write (iomsg, '(a,i0,a)') 'group &estimate: corrected names more files than the case''s ', &
+        n, ' data files (one record written per data file, in their order)'
+      call fail(c, iomsg)
+    else if (any(len_trim(corrected(1:n)) == 0)) then
+      write (iomsg, '(a,i0,a,i0,a)') 'group &estimate: corrected has no file for data file ', &
+        findloc(len_trim(corrected(1:n)) == 0, .true., 1), ' (one record written per data '// &
+        'file, in their order; the case has ', n, ')'
       call fail(c, iomsg)
     else
-      c%corrected = corrected(1:size(c%data_files))
+      c%corrected = corrected(1:n)
     end if
   end subroutine take_corrected
 

@@ -32,33 +32,44 @@ contains
     msg = ''
   end subroutine temporary_for
 
-  !> Write text to tmp and rename it onto path.
+  !> Write text to tmp and rename it onto path; on failure nothing is left
+  !> behind (tmp deleted, path as it was).
   subroutine write_whole(path, tmp, text, status, msg)
     character(len=*), intent(in) :: path, tmp, text
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    integer :: unit
+    integer :: unit, ios
     open (newunit=unit, file=tmp, status='replace', action='write', access='stream', &
           form='unformatted', iostat=status)
-    if (status == 0) write (unit, iostat=status) text
     if (status /= 0) then
-      msg = 'cannot write '//path
       status = MLID_ERR_INPUT
+      msg = 'cannot write '//path
+      return
+    end if
+    write (unit, iostat=status) text
+    if (status /= 0) then
+      close (unit, status='delete', iostat=ios)
+      status = MLID_ERR_INPUT
+      msg = 'cannot write '//path//' (the disk is full or the file went away)'
       return
     end if
     close (unit)
     call commit(tmp, path, status, msg)
   end subroutine write_whole
 
+  !> Rename tmp onto path; on failure tmp is deleted.
   subroutine commit(tmp, path, status, msg)
     character(len=*), intent(in) :: tmp, path
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    integer :: unit, ios
     call rename(tmp, path, status)
     msg = ''
     if (status /= 0) then
+      open (newunit=unit, file=tmp, status='old', iostat=ios)
+      if (ios == 0) close (unit, status='delete')
       status = MLID_ERR_INPUT
-      msg = 'cannot write '//path
+      msg = 'cannot write '//path//' (a folder of that name, or no permission)'
     end if
   end subroutine commit
 

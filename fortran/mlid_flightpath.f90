@@ -127,36 +127,45 @@ contains
   end subroutine flightpath_text
 
   !> One manoeuvre's record (t, u(9, n), y(ny, n)) with a flight-path fit's
-  !> corrections undone, for the next step (the aerodynamic model): the
-  !> accelerometers and gyros a = (a_m - b)/f; each output taken back by its
-  !> delay (the measurement at t + delay, linear between samples, held
-  !> beyond the manoeuvre), less its bias, and the air data (V, alpha,
-  !> beta) = (y_m - b)/f.  pnames, p: the model's corrections and their
-  !> values; ynames: its outputs; bias, delay: the manoeuvre's.
-  subroutine flightpath_corrected(pnames, p, ynames, bias, delay, t, u, y, status, msg)
-    character(len=*), intent(in) :: pnames(:), ynames(:)
-    real(wp), intent(in) :: p(:), bias(:), delay(:), t(:)
+  !> corrections undone, for the next step (the aerodynamic model): each
+  !> input taken back by its delay (the model sees the measurement at t -
+  !> udelay), the accelerometers and gyros then a = (a_m - b)/f; each output
+  !> taken back by its delay (the measurement at t + delay), less its bias,
+  !> and the air data (V, alpha, beta) = (y_m - b)/f.  A shift is linear
+  !> between samples and held beyond the manoeuvre.  unames, pnames, ynames:
+  !> the model's inputs, corrections and outputs; p: the corrections'
+  !> values; bias, delay, udelay: the manoeuvre's.
+  subroutine flightpath_corrected(unames, pnames, p, ynames, bias, delay, udelay, t, u, y, &
+                                  status, msg)
+    character(len=*), intent(in) :: unames(:), pnames(:), ynames(:)
+    real(wp), intent(in) :: p(:), bias(:), delay(:), udelay(:), t(:)
     real(wp), intent(inout) :: u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer :: k, i
 
     status = MLID_ERR_INPUT
-    if (size(u, 1) /= size(FLIGHTPATH_INPUTS) .or. any(.not. [(any(FLIGHTPATH_CORRECTIONS == &
-        pnames(k)), k=1, size(pnames))]) .or. any(.not. [(any(FLIGHTPATH_OUTPUTS == ynames(i)), &
-        i=1, size(ynames))])) then
-      msg = 'corrected record: not a flight-path model (inputs '//joined(FLIGHTPATH_INPUTS)// &
-            '; corrections and outputs of mlid_flightpath)'
+    if (size(unames) /= size(FLIGHTPATH_INPUTS)) then
+      msg = 'corrected record: not a flight-path model (its inputs are not '// &
+            joined(FLIGHTPATH_INPUTS)//')'
+      return
+    else if (any(unames /= FLIGHTPATH_INPUTS) .or. any(.not. [(any(FLIGHTPATH_CORRECTIONS == &
+             pnames(k)), k=1, size(pnames))]) .or. any(.not. [(any(FLIGHTPATH_OUTPUTS == &
+             ynames(i)), i=1, size(ynames))])) then
+      msg = 'corrected record: not a flight-path model (its inputs are not '// &
+            joined(FLIGHTPATH_INPUTS)//', or it has parameters or outputs the kind has not)'
       return
     end if
     if (size(p) /= size(pnames) .or. size(y, 1) /= size(ynames) .or. size(bias) /= size(ynames) &
-        .or. size(delay) /= size(ynames) .or. size(u, 2) /= size(t) .or. size(y, 2) /= size(t)) then
-      msg = 'corrected record: p, bias, delay and the record disagree in size with the model'
+        .or. size(delay) /= size(ynames) .or. size(udelay) /= size(unames) .or. &
+        size(u, 1) /= size(unames) .or. size(u, 2) /= size(t) .or. size(y, 2) /= size(t)) then
+      msg = 'corrected record: p, bias, delay, udelay and the record disagree in size with the model'
       return
     end if
-    do k = 1, 6                                  ! accelerometers and gyros
-      u(k, :) = (u(k, :) - value('b_'//FLIGHTPATH_INPUTS(k), 0.0_wp))/ &
-                value('f_'//FLIGHTPATH_INPUTS(k), 1.0_wp)
+    do k = 1, size(unames)
+      u(k, :) = shifted(u(k, :), -udelay(k))
+      if (k <= 6) u(k, :) = (u(k, :) - value('b_'//FLIGHTPATH_INPUTS(k), 0.0_wp))/ &
+                            value('f_'//FLIGHTPATH_INPUTS(k), 1.0_wp)
     end do
     do i = 1, size(ynames)
       y(i, :) = shifted(y(i, :), delay(i)) - bias(i)
@@ -184,11 +193,14 @@ contains
       if (j > 0) value = p(j)
     end function value
 
-    !> s at t + tau, linear between samples, held beyond the ends.
+    !> s at t + tau, linear between samples, held beyond the ends; a sample
+    !> hit exactly is that sample (tau = 0 changes nothing).
     function shifted(s, tau) result(r)
       real(wp), intent(in) :: s(:), tau
       real(wp) :: r(size(s)), tj
       integer :: j, m
+      r = s
+      if (tau == 0.0_wp) return
       m = 1
       do j = 1, size(t)
         tj = t(j) + tau
@@ -197,13 +209,14 @@ contains
         else if (tj >= t(size(t))) then
           r(j) = s(size(t))
         else
-          do while (t(m + 1) < tj)             ! t(m) < tj <= t(m+1): m only grows with j
+          do while (t(m + 1) <= tj)            ! t(m) <= tj < t(m+1): m only grows with j
             m = m + 1
           end do
-          do while (t(m) >= tj)
+          do while (t(m) > tj)
             m = m - 1
           end do
-          r(j) = s(m) + (s(m + 1) - s(m))*(tj - t(m))/(t(m + 1) - t(m))
+          r(j) = s(m)
+          if (tj > t(m)) r(j) = s(m) + (s(m + 1) - s(m))*(tj - t(m))/(t(m + 1) - t(m))
         end if
       end do
     end function shifted

@@ -14,6 +14,7 @@ module mlid_record
   use, intrinsic :: iso_c_binding, only: c_char, c_double, c_ptr, c_null_char, c_loc, &
                                          c_intptr_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
+  use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close
   implicit none
@@ -348,7 +349,8 @@ contains
     real(wp), intent(in) :: t(:), u(:, :), y(:, :)
     character(len=:), allocatable :: text
     character(len=25) :: field
-    integer :: j, k, w
+    integer(int64) :: w
+    integer :: j, k
 
     text = '# t[s]'
     do k = 1, size(names)
@@ -356,7 +358,8 @@ contains
       if (len_trim(units(k)) > 0) text = text//'['//trim(units(k))//']'
     end do
     w = len(text) + 1
-    text = text//repeat(' ', 25*(1 + size(u, 1) + size(y, 1))*size(t) + size(t) + 1)
+    ! rows of 25 characters a value and a newline (64-bit: a long record passes 2**31)
+    text = text//repeat(' ', (25_int64*(1 + size(u, 1) + size(y, 1)) + 1)*size(t) + 1)
     text(w:w) = achar(10)
     do j = 1, size(t)
       do k = 0, size(u, 1) + size(y, 1)

@@ -89,11 +89,12 @@ def test_the_corrected_record_refits_to_neutral_corrections(tmp_path):
 
 def _deck_with_corrected(folder, files):
     """compatibility.nml (tc22b by the kind) with the alpha, beta and psi
-    delays (tc33's) and the phi bias of each manoeuvre free, its records
-    named absolutely, writing the corrected records to files (in folder)."""
+    delays (tc33's), the roll gyro's delay and the phi bias of each
+    manoeuvre free, its records named absolutely, writing the corrected
+    records to files (in folder)."""
     text = (HERE / "compatibility.nml").read_text().replace("'../../../shared/data/", f"'{DATA}/")
     text = text.replace("'f_be', 'b_be' /", "'f_be', 'b_be', 'delay(2)', 'delay(3)', 'delay(6)', "
-                        "'bias(4)', delay = 7*0.0 /")
+                        "'udelay(4)', 'bias(4)', delay = 7*0.0, udelay = 9*0.0 /")
     head, _, rest = text.partition("&estimate")
     folder.mkdir()
     deck = folder / "deck.nml"
@@ -106,9 +107,11 @@ def _deck_with_corrected(folder, files):
 def test_a_deck_writes_the_corrected_records_alike_in_both_front_ends(tmp_path):
     """&estimate corrected: each manoeuvre's record with the fit's corrections
     undone, the same bytes from mlid run and mlid-batch, the values those of
-    the rule written out here with numpy (accelerometers and gyros (a - b)/f,
-    outputs taken back by their delays, less their biases, air data (y -
-    b)/f), read back by the one reader with the model's channel names."""
+    the rule written out here with numpy (inputs taken back by their delays,
+    accelerometers and gyros (a - b)/f, outputs taken back by their delays,
+    less their biases, air data (y - b)/f; an output without delay, bias or
+    scale as measured, to the bit), read back by the one reader with the
+    model's channel names."""
     names = ["elv1.asc", "ail1.asc", "rud1.asc"]
     decks = [_deck_with_corrected(tmp_path / d, names) for d in ("a", "b")]
     runs = [run_both(deck, cwd=deck.parent)[k] for k, deck in enumerate(decks)]
@@ -126,8 +129,10 @@ def test_a_deck_writes_the_corrected_records_alike_in_both_front_ends(tmp_path):
                                     list(range(11, 18)))
         assert back.input_names == list(FLIGHTPATH_INPUTS) and back.output_names[:2] == ["V", "alpha"]
         u, y = rec.u.copy(), rec.y.copy()
-        for j, s in enumerate(FLIGHTPATH_INPUTS[:6]):
-            u[:, j] = (u[:, j] - own.get(f"b_{s}", 0.0)) / own.get(f"f_{s}", 1.0)
+        for j, s in enumerate(FLIGHTPATH_INPUTS):
+            u[:, j] = np.interp(rec.t - m.udelay[j], rec.t, u[:, j])
+            if j < 6:
+                u[:, j] = (u[:, j] - own.get(f"b_{s}", 0.0)) / own.get(f"f_{s}", 1.0)
         for i, s in enumerate(back.output_names):
             f, b = {"V": ("f_V", "b_V"), "alpha": ("f_al", "b_al"),
                     "beta": ("f_be", "b_be")}.get(s, ("", ""))
@@ -136,37 +141,49 @@ def test_a_deck_writes_the_corrected_records_alike_in_both_front_ends(tmp_path):
         np.testing.assert_array_equal(back.t, rec.t)
         np.testing.assert_allclose(back.u, u, rtol=1e-14, atol=1e-15)
         np.testing.assert_allclose(back.y, y, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(back.y[:, 4], rec.y[:, 4])   # theta: nothing to undo
     assert max(abs(d) for d in res.manoeuvres[0].delay) > 0.005   # the delays were used
+    assert abs(res.manoeuvres[0].udelay[3]) > 0.001
     assert len({m.bias[3] for m in res.manoeuvres}) == 3          # a bias per manoeuvre
 
 
+FP = "kind = 'flight_path', constants = 0, 0, 0, 0, 0, 0, 9.81"
+FP_CHANNELS = "input_cols = 2, 3, 4, 5, 6, 7, 8, 9, 10, output_cols = 11, 12, 13, 14, 15, 16, 17"
 BAD_CORRECTED = [
     ("kind = 'equations', state_names = 'x', input_names = 'u', output_names = 'y', "
-     "xdot = '-x + u', outputs = 'x'", "input_cols = 2, output_cols = 3", "corrected = 'a.asc'",
+     "xdot = '-x + u', outputs = 'x'", "'r.dat', input_cols = 2, output_cols = 3",
+     "corrected = 'a.asc'",
      "corrected writes the records with a flight-path fit's corrections undone: it needs "
      "&model kind = 'flight_path'"),
-    ("kind = 'flight_path', constants = 0, 0, 0, 0, 0, 0, 9.81",
-     "input_cols = 2, 3, 4, 5, 6, 7, 8, 9, 10, output_cols = 11, 12, 13, 14, 15, 16, 17",
-     "corrected = 'a.asc', 'b.asc'", "corrected names 2 files; the case has 1 data files")]
+    (FP, f"'r.dat', {FP_CHANNELS}", "corrected = 'a.asc', 'b.asc'",
+     "corrected names more files than the case's 1 data files"),
+    (FP, f"'r.dat', 's.dat', {FP_CHANNELS}", "corrected(2) = 'b.asc'",
+     "corrected has no file for data file 1 (one record written per data file"),
+    (FP, f"'r.dat', 's.dat', {FP_CHANNELS}", "corrected = 'a.asc', 'a.asc'",
+     "a.asc' twice, or a data file: each record goes to a file of its own"),
+    (FP, f"'r.dat', {FP_CHANNELS}", "corrected = 'r.dat'",
+     "r.dat' twice, or a data file: each record goes to a file of its own")]
 
 
-@pytest.mark.parametrize("model, channels, entry, message", BAD_CORRECTED)
-def test_bad_corrected_is_one_line_in_both_front_ends(tmp_path, model, channels, entry, message):
+@pytest.mark.parametrize("model, data, entry, message", BAD_CORRECTED)
+def test_bad_corrected_is_one_line_in_both_front_ends(tmp_path, model, data, entry, message):
     deck = tmp_path / "bad.nml"
     deck.write_text(f"&case title = 'bad', job = 'estimate' /\n&model {model} /\n"
-                    f"&data file = 'r.dat', time_col = 1, {channels} /\n&estimate {entry} /\n")
+                    f"&data file = {data}, time_col = 1 /\n&estimate {entry} /\n")
     refused_by_both(deck, message, cwd=tmp_path)
 
 
 @needs_data
-def test_a_corrected_record_that_cannot_be_written_fails_the_case_after_its_report(tmp_path):
-    deck = _deck_with_corrected(tmp_path / "a", ["no/elv1.asc", "ail1.asc", "rud1.asc"])
+def test_a_corrected_record_that_cannot_be_written_fails_the_case_before_its_fit(tmp_path):
+    """Every path is tried before the fit (a long fit is not lost to a
+    typo): one line in both front ends, nothing written."""
+    deck = _deck_with_corrected(tmp_path / "a", ["elv1.asc", "no/ail1.asc", "rud1.asc"])
     runs = run_both(deck, cwd=deck.parent)
     for run in runs:
-        assert run.returncode == 1 and "sigma" in run.stdout, run.stdout
-        assert "cannot write" in run.stderr.splitlines()[0] and "no/elv1.asc" in run.stderr
+        assert run.returncode == 1 and "sigma" not in run.stdout, run.stdout
+        assert "cannot write" in run.stderr.splitlines()[0] and "no/ail1.asc" in run.stderr
     assert runs[0].stdout == runs[1].stdout
-    assert not (tmp_path / "a" / "ail1.asc").exists()
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == ["deck.nml"]
 
 
 BAD = [("params = 'b_xx = 0'", "'b_xx' is not a correction; the corrections are b_ax, "),

@@ -10,7 +10,7 @@ program mlid_batch
   use mlid_deck, only: deck_read, case_record, case_time_input, manoeuvre_layout, &
                        case_param_units, holdout_case, manoeuvre_block, UNITLEN, NAMELEN
   use mlid_validate, only: prediction_stats
-  use mlid_api, only: mlid_fit, mlid_simulate, mlid_flightpath_corrected
+  use mlid_api, only: mlid_fit, mlid_simulate, mlid_flightpath_corrected, mlid_check_writable
   use mlid_files, only: temporary_for, write_whole, commit
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, json_list, &
                          validation_report, validation_json
@@ -178,13 +178,34 @@ contains
 
     call case_record(c, t, u, y, cstat, cmsg, segstart, units, notes=notes, own_t=own_t)
     if (allocated(notes)) call say_notes(k, c, notes)
+    if (cstat == MLID_OK) call corrected_writable(c, cstat, cmsg)   ! before a long fit
     if (cstat == MLID_OK) call fit_record(k, c, t, u, y, segstart, units, .true., json, cstat, &
                                           cmsg, theta, rhat, yhat)
-    if (cstat == MLID_OK .and. allocated(c%corrected)) then
+    if (.not. allocated(c%corrected)) return
+    if (cstat == MLID_OK) then
       call write_corrected(c, own_t, u, y, segstart, units, theta, cstat, cmsg)
       if (cstat /= MLID_OK) deallocate (json)   ! the case failed: its message, not the fit's
+    else if (cstat == MLID_ERR_NOCONV .or. cstat == MLID_ERR_SINGULAR) then   ! reported
+      write (*, '(a)') ' corrected records not written: the fit did not end well'
     end if
   end subroutine fit_case
+
+  !> Whether every corrected record's path can be written.
+  subroutine corrected_writable(c, cstat, cmsg)
+    type(case_t), intent(in) :: c
+    integer, intent(out) :: cstat
+    character(len=*), intent(out) :: cmsg
+    integer :: j
+    character(len=256) :: msg
+    cstat = MLID_OK
+    cmsg = ''
+    if (.not. allocated(c%corrected)) return
+    do j = 1, size(c%corrected)
+      call mlid_check_writable(trim(c%corrected(j)), cstat, msg)
+      cmsg = msg
+      if (cstat /= MLID_OK) return
+    end do
+  end subroutine corrected_writable
 
   !> Each manoeuvre's record with the fit's corrections undone, written
   !> where &estimate corrected says (mlid_api's mlid_flightpath_corrected,
@@ -198,7 +219,7 @@ contains
     character(len=*), allocatable, intent(in) :: units(:)
     integer, intent(out) :: cstat
     character(len=*), intent(out) :: cmsg
-    real(wp), allocatable :: p(:), bias(:), delay(:), uc(:, :), yc(:, :)
+    real(wp), allocatable :: p(:), bias(:), delay(:), udelay(:), uc(:, :), yc(:, :)
     character(len=NAMELEN), allocatable :: names(:)
     integer :: j, j0, j1, n
     character(len=256) :: msg
@@ -213,9 +234,10 @@ contains
       p = manoeuvre_block(c, size(segstart), theta, j, 'p')
       bias = manoeuvre_block(c, size(segstart), theta, j, 'bias')
       delay = manoeuvre_block(c, size(segstart), theta, j, 'delay')
+      udelay = manoeuvre_block(c, size(segstart), theta, j, 'udelay')
       allocate (uc(c%nu, n), yc(c%ny, n))
-      call mlid_flightpath_corrected(size(c%iconst), c%iconst, size(p), p, c%ny, bias, delay, n, &
-                                     t(j0:j1), c%nu, u(:, j0:j1), y(:, j0:j1), &
+      call mlid_flightpath_corrected(size(c%iconst), c%iconst, size(p), p, c%ny, bias, delay, &
+                                     c%nu, udelay, n, t(j0:j1), u(:, j0:j1), y(:, j0:j1), &
                                      join_lines(names), &
                                      join_lines(units), trim(c%corrected(j)), &
                                      uc, yc, cstat, msg)

@@ -113,6 +113,8 @@ def _show_case(args, case, out, result, error, tables):
             print(checked.report())
         for j, path in enumerate(getattr(result, "corrected_paths", []), 1):
             print(f" corrected record of manoeuvre {j} written to {path}")
+        if getattr(result, "corrected_note", None):
+            print(f" {result.corrected_note}")
         if result.message.startswith("warning:"):
             print(f"mlid: {case.where()}: {result.message}", file=sys.stderr)
     if args.table and result is not None:

@@ -11,7 +11,8 @@ The corrected record undoes each estimated correction of the model
 (mlid.FlightPathModel, or a deck of kind 'flight_path'): accelerometers and
 gyros a = (a_m - b)/f; air data V = (V_m - b_V)/f_V, alpha and beta alike;
 each output's bias(i) (per manoeuvre) removed and its delay(i) taken back
-(y(t) = y_m(t + tau), interpolated within the manoeuvre).  The rule is the
+(y(t) = y_m(t + tau), interpolated within the manoeuvre), each input's
+udelay(j) likewise (u(t) = u_m(t - tau)).  The rule is the
 core's (fortran/mlid_flightpath.f90, flightpath_corrected), which a deck's
 ``&estimate corrected`` also uses, in both front ends.
 """
@@ -79,7 +80,9 @@ def corrected_record(result):
     Raises
     ------
     InputError
-        If the model's inputs are not those of a flight-path model.
+        If the fit is not of a flight-path model (its inputs
+        FLIGHTPATH_INPUTS in that order, its parameters and outputs the
+        kind's).
     """
     data = result.evaluate_args[0]
     records = list(data) if isinstance(data, (list, tuple)) else [data]
@@ -87,28 +90,31 @@ def corrected_record(result):
     return out if isinstance(data, (list, tuple)) else out[0]
 
 
-def write_corrected(result, paths):
+def write_corrected(result, paths, written=None):
     """Write each manoeuvre's corrected record to its path, whole or not at
     all, as mlid-batch writes it (the core's text: a '# t[s] name[unit] ...'
-    header, 17 digits).  Returns the paths written."""
+    header, 17 digits).  ``written``, a list if given, receives each path
+    as it is written (a later one may fail)."""
     data = result.evaluate_args[0]
     records = list(data) if isinstance(data, (list, tuple)) else [data]
+    written = [] if written is None else written
     for model, rec, path in zip(result.manoeuvres, records, paths):
         _corrected(model, rec, str(path))
-    return list(paths)
+        written.append(str(path))
+    return written
 
 
 def _corrected(model, rec, path=""):
-    if rec.u.shape[1] != len(FLIGHTPATH_INPUTS):
-        raise InputError(f"corrected_record: the record has {rec.u.shape[1]} inputs; a flight-path "
-                         f"model has {len(FLIGHTPATH_INPUTS)}: {', '.join(FLIGHTPATH_INPUTS)}")
+    if not hasattr(model, "iconst") or not hasattr(model, "text"):
+        raise InputError("corrected_record: the fit is not of a flight-path model "
+                         "(mlid.FlightPathModel, or a deck of kind 'flight_path')")
     names = "".join(f"{n}\n" for n in rec.input_names + rec.output_names)
     units = "".join(f"{u or ''}\n" for u in list(rec.input_units) + list(rec.output_units))
     uc, yc, status, msg = _api.mlid_flightpath_corrected(
         model.iconst, np.asarray(model.p, dtype=float), np.asarray(model.bias, dtype=float),
-        np.asarray(model.delay, dtype=float), np.ascontiguousarray(rec.t, dtype=float),
-        np.ascontiguousarray(rec.u, dtype=float).T, np.ascontiguousarray(rec.y, dtype=float).T,
-        names, units, path)
+        np.asarray(model.delay, dtype=float), np.asarray(model.udelay, dtype=float),
+        np.ascontiguousarray(rec.t, dtype=float), np.ascontiguousarray(rec.u, dtype=float).T,
+        np.ascontiguousarray(rec.y, dtype=float).T, names, units, path)
     check_status(status, msg)
     return FlightData(rec.t, uc.T, yc.T, input_names=rec.input_names,
                       output_names=rec.output_names, input_units=rec.input_units,

@@ -167,9 +167,14 @@ def run_case(case):
     if case.job == "validate":
         result = _validate_case(case)
     else:
-        result = core.fit(case.model, case.record(), **case.options())
+        data = case.record()
+        for path in case.corrected:          # before a long fit, as mlid-batch checks them
+            check_status(*_api.mlid_check_writable(path))
+        result = core.fit(case.model, data, **case.options())
         if case.corrected and result.status == 0:
             _write_corrected(result, case.corrected)
+        elif case.corrected:
+            result.corrected_note = "corrected records not written: the fit did not end well"
     out = {"title": case.title, "job": case.job, "status": result.status,
            "message": result.message}
     out.update(result.as_dict())
@@ -180,11 +185,12 @@ def run_case(case):
 
 def _write_corrected(result, paths):
     """The manoeuvres' corrected records, as mlid-batch writes them; the
-    paths written are the result's (the report names them).  A failure is
-    the case's, after the fit's report."""
+    paths written go to the result as they are written (the report names
+    them).  A failure is the case's, after the fit's report."""
     from .compatibility import write_corrected
+    result.corrected_paths = []
     try:
-        result.corrected_paths = write_corrected(result, paths)
+        write_corrected(result, paths, result.corrected_paths)
     except MlidError as exc:
         exc.result, exc.reported_only = result, True
         raise
