@@ -51,11 +51,11 @@ module mlid_expr_diff
     logical :: shared = .false.
   end type program_t
 
-  !> The cost of a node's visit in a reverse sweep (the operation's dispatch
-  !> and its operands' indices) and of the shared sweep's update of one
-  !> expression's adjoint, in updates of one adjoint of a single sweep
-  !> (measured: the flight-path equations, 7 states, 113 nodes each used 1.9
-  !> times, sweep faster one expression at a time).
+  !> The cost of a node's visit in a reverse sweep (its operands' indices;
+  !> the shared sweep also dispatches on the operation) and of the shared
+  !> sweep's update of one expression's adjoint, in updates of one adjoint
+  !> of a single sweep (measured: the flight-path equations, 7 states, 113
+  !> nodes each used 1.9 times, sweep faster one expression at a time).
   integer, parameter :: VISIT_COST = 8, LANE_COST = 2
   !> The shared sweep's adjoints (expressions x nodes) and gradients
   !> (expressions x variables) are fixed buffers of this size on the running
@@ -154,9 +154,11 @@ contains
   !> and the constants folded: a node of constants becomes a constant, x*0
   !> and 0*x become 0, x*1, 1*x, x+0, 0+x, x-0 and x/1 become x, 0-x becomes
   !> -x.  Node k of g is node map(k) of gf.  Values and gradients are those
-  !> of g (a zero factor also drops an operand that is not finite: the
-  !> fixed variables are inputs known over a stretch of record, such as a
-  !> manoeuvre's indicator).
+  !> of g up to rounding (where folding merges two nodes, their adjoints add
+  !> in another order; x+0 -> x keeps the sign of a zero x), except that a
+  !> zero factor also drops an operand that is not finite: the fixed
+  !> variables are inputs known over a stretch of record, such as a
+  !> manoeuvre's indicator.
   pure subroutine graph_fold(g, fixed, val, gf, map)
     type(graph_t), intent(in) :: g
     logical, intent(in) :: fixed(:)
@@ -172,9 +174,13 @@ contains
       b = 0
       if (g%c1(k) > 0) a = map(g%c1(k))
       if (g%c2(k) > 0) b = map(g%c2(k))
-      if (g%op(k) == OP_VAR .and. fixed(g%arg(k))) then
-        call add_node(gf, OP_NUM, 0, val(g%arg(k)), 0, 0, map(k))
-      else if (g%op(k) /= OP_NUM .and. g%op(k) /= OP_VAR .and. is(a) .and. &
+      if (g%op(k) == OP_VAR) then                 ! (no short circuit in Fortran)
+        if (fixed(g%arg(k))) then
+          call add_node(gf, OP_NUM, 0, val(g%arg(k)), 0, 0, map(k))
+        else
+          call add_node(gf, OP_VAR, g%arg(k), 0.0_wp, 0, 0, map(k))
+        end if
+      else if (g%op(k) /= OP_NUM .and. is(a) .and. &
                (b == 0 .or. is(b))) then
         call add_node(gf, OP_NUM, 0, constant(g%op(k), g%arg(k), gf%num(a), num_of(b)), 0, 0, &
                       map(k))
@@ -362,20 +368,24 @@ contains
     integer, intent(in) :: i
     real(wp), intent(in) :: d1(:), d2(:)
     real(wp), intent(out) :: gr(:)
-    real(wp) :: adj(0:MAXNODE)
+    real(wp) :: adj(0:MAXNODE), a
     integer :: j, k
 
     gr = 0.0_wp
+    adj(0) = 0.0_wp                         ! the scratch of one-operand operations
     do j = p%rptr(i), p%rptr(i + 1) - 1     ! a loop: a vector subscript would allocate
       adj(p%ridx(j)) = 0.0_wp
     end do
     adj(p%root(i)) = 1.0_wp
     do j = p%optr(i), p%optr(i + 1) - 1
       k = p%onode(j)
-      adj(p%oc1(j)) = adj(p%oc1(j)) + adj(k)*d1(k)
-      adj(p%oc2(j)) = adj(p%oc2(j)) + adj(k)*d2(k)
+      a = adj(k)
+      ! a node the expression does not depend on passes nothing on, even
+      ! where its partial is infinite (sqrt at 0): a select, not a branch
+      adj(p%oc1(j)) = adj(p%oc1(j)) + merge(a*d1(k), 0.0_wp, a /= 0.0_wp)
+      adj(p%oc2(j)) = adj(p%oc2(j)) + merge(a*d2(k), 0.0_wp, a /= 0.0_wp)
     end do
-    do j = p%vptr(i), p%vptr(i + 1) - 1
+    do j = p%vptr(i), p%vptr(i + 1) - 1     ! a variable is one node (same_node)
       gr(p%varg(j)) = adj(p%vnode(j))
     end do
   end subroutine program_reverse
@@ -411,9 +421,10 @@ contains
         case (OP_NUM)
         case (OP_VAR)
           gr(:, g%arg(k)) = gr(:, g%arg(k)) + adj(:, k)
-        case default
-          adj(:, g%c1(k)) = adj(:, g%c1(k)) + adj(:, k)*d1(k)
-          if (g%c2(k) > 0) adj(:, g%c2(k)) = adj(:, g%c2(k)) + adj(:, k)*d2(k)
+        case default                  ! a zero adjoint passes nothing on (see program_reverse)
+          adj(:, g%c1(k)) = adj(:, g%c1(k)) + merge(adj(:, k)*d1(k), 0.0_wp, adj(:, k) /= 0.0_wp)
+          if (g%c2(k) > 0) adj(:, g%c2(k)) = adj(:, g%c2(k)) + &
+                                            merge(adj(:, k)*d2(k), 0.0_wp, adj(:, k) /= 0.0_wp)
         end select
       end do
     end associate

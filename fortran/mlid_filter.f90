@@ -101,7 +101,8 @@ contains
   !> segment folded in (model_t%fold_inputs), and with sensitivities only
   !> for the free parameters that can move it (mlid_params' segment_map):
   !> a bias of another manoeuvre, stated with that one's indicator input,
-  !> costs this one nothing.  Results are those of oe_segment on m.
+  !> costs this one nothing.  Results are those of oe_segment on m up to
+  !> rounding (mlid_expr_diff's graph_fold).
   subroutine oe_manoeuvre(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, dy, xhist, &
                           z)
     class(model_t), intent(in) :: m

@@ -109,10 +109,14 @@ contains
     kx0 = (pm%ix0 - 1)/max(pm%l%nx, 1) + 1 == iseg
     kb = (pm%ib - 1)/max(pm%l%ny, 1) + 1 == iseg
     keep = .false.
-    keep(pack(pm%cm, km)) = .true.
-    keep(pack(pm%cx0, kx0)) = .true.
-    keep(pack(pm%cb, kb)) = .true.
-    keep([pm%cq, pm%cr, pm%cs, pm%cd, pm%cu]) = .true.
+    call mark(pm%cm, km)
+    call mark(pm%cx0, kx0)
+    call mark(pm%cb, kb)
+    call mark(pm%cq, spread(.true., 1, size(pm%cq)))
+    call mark(pm%cr, spread(.true., 1, size(pm%cr)))
+    call mark(pm%cs, spread(.true., 1, size(pm%cs)))
+    call mark(pm%cd, spread(.true., 1, size(pm%cd)))
+    call mark(pm%cu, spread(.true., 1, size(pm%cu)))
     cols = pack([(k, k=1, pm%nf)], keep)
     new = 0
     new(cols) = [(k, k=1, size(cols))]
@@ -130,6 +134,16 @@ contains
     call entries(pm%iu, pm%cu, pm%wu, spread(.true., 1, size(pm%iu)), pk%iu, pk%cu, pk%wu)
 
   contains
+
+    !> keep the columns of the entries kept (a loop: ties repeat a column)
+    subroutine mark(col, kept)
+      integer, intent(in) :: col(:)
+      logical, intent(in) :: kept(:)
+      integer :: e
+      do e = 1, size(col)
+        if (kept(e)) keep(col(e)) = .true.
+      end do
+    end subroutine mark
 
     subroutine entries(idx, col, w, kept, kidx, kcol, kw)
       integer, intent(in) :: idx(:), col(:)

@@ -18,6 +18,7 @@ program test_numerics
   call test_sensitivities()
   call test_aero_jacobians()
   call test_folded_manoeuvres()
+  call test_infinite_partial_unused()
   call test_linalg()
   call test_random()
   if (nfail > 0) then
@@ -107,6 +108,30 @@ contains
     call check(err < 1.0e-7_wp, 'output sensitivities match central differences (F, G, H, D, K, '// &
                'bx, x0, bias, delay, udelay)')
   end subroutine test_sensitivities
+
+  !> A term whose factor is zero passes nothing to the rest of its
+  !> expression, even where its own partial is infinite: k*sqrt(x) at k = 0,
+  !> x = 0 has df/dx = 0 (not 0*Inf = NaN); likewise e*sqrt(k) shared by
+  !> three outputs (whichever sweep the cost rule picks).
+  subroutine test_infinite_partial_unused()
+    character(len=*), parameter :: one = 'u e'//new_line('a')//'p k'//new_line('a')// &
+      'x x1 = k*sqrt(x1) + e'//new_line('a')//'y y1 = x1'
+    character(len=*), parameter :: three = 'u e'//new_line('a')//'p k'//new_line('a')// &
+      'l s = e*sqrt(k)'//new_line('a')//'y y1 = s + 1'//new_line('a')//'y y2 = 2*s'// &
+      new_line('a')//'y y3 = s*s + e'
+    class(model_t), allocatable :: m
+    real(wp) :: xd(1), a(1, 1), b(1, 1), c(3, 0), d(3, 1), none(0)
+    integer :: status
+    character(len=256) :: msg
+    call model_create(MODEL_EQUATIONS, 1, 1, 1, 0, equations_text_codes(one), [real(wp) ::], m, &
+                      status, msg)
+    call m%f_jac(0.0_wp, [0.0_wp], [0.5_wp], [0.0_wp], [1], xd, a, b)
+    call check(a(1, 1) == 0.0_wp, 'k*sqrt(x) at k = 0, x = 0: df/dx = 0 (no 0*Inf)')
+    call model_create(MODEL_EQUATIONS, 0, 1, 3, 0, equations_text_codes(three), [real(wp) ::], &
+                      m, status, msg)
+    call m%h_jac(0.0_wp, none, [0.0_wp], [0.0_wp], [1], c, d)
+    call check(all(d(:, 1) == 0.0_wp), 'e*sqrt(k) at e = 0, k = 0 in three outputs: dh/dk = 0')
+  end subroutine test_infinite_partial_unused
 
   !> The largest difference, relative to the column's size (at least 1),
   !> between the output sensitivities dy of the free entries ifree and
