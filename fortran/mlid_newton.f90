@@ -52,6 +52,7 @@ module mlid_newton
     real(wp), allocatable :: g(:), mt(:, :), cov(:, :)   !< gradient, information with the prior, step inverse
     real(wp), allocatable :: sc(:), w(:), v(:, :)        !< eigen-decomposition of mt
     real(wp), allocatable :: scr(:), wr(:), vr(:, :)     !< ... in the search's units
+    logical :: deficient = .false.     !< scr, wr, vr hold this iteration's decomposition
   end type search_t
 
   !> The best trial point of one iteration over its ranks.
@@ -326,6 +327,7 @@ contains
       call info_eig(st%mt, st%sc, st%w, st%v, status, msg)
       if (status == MLID_OK .and. deficient) call info_eig(st%mt, st%scr, st%wr, st%vr, status, &
                                                           msg, st%unit)
+      st%deficient = deficient
     end associate
   end subroutine newton_system
 
@@ -523,7 +525,9 @@ contains
       nf = st%nf
       status = MLID_OK
       msg = ''
-      if (rank < nf) then
+      ! a rank below nf in the search's units when a rank-deficient search
+      ! runs; else only the singular directions are left out (rank nf - ndrop)
+      if (rank < nf .and. st%deficient) then
         call eig_inverse(st%scr, st%wr, st%vr, opt%rcond, rank, st%cov, st%ndrop, res%bad_param)
       else
         call eig_inverse(st%sc, st%w, st%v, opt%rcond, rank, st%cov, st%ndrop, res%bad_param)

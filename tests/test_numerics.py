@@ -132,6 +132,23 @@ def test_singular_information_names_the_parameter():
     assert exc.value.result is not None
 
 
+def test_an_unidentifiable_parameter_leaves_the_others_estimated():
+    """One free parameter without effect (F(1,2) on a state that never
+    moves): the fit still estimates the others, from a start away from the
+    truth, as the fit without it does (the step leaves out only the
+    singular direction), and then says which parameter it could not have."""
+    truth = mlid.LinearModel([[-1.0, 0.5], [0.0, -2.0]], [[1.0], [0.0]], np.eye(2))
+    t = np.arange(200) * 0.02
+    data, _ = mlid.simulate(truth, t, np.sin(3 * t)[:, None], [0.01, 0.01], seed=3)
+    start = dict(F=[[-0.6, 0.5], [0.0, -2.0]], G=[[1.4], [0.0]], H=np.eye(2))
+    without = mlid.fit(mlid.LinearModel(**start, free=["f(1,1)", "g(1,1)"]), data)
+    with pytest.raises(mlid.SingularInformationError, match=r"'f\(1,2\)'") as exc:
+        mlid.fit(mlid.LinearModel(**start, free=["f(1,1)", "f(1,2)", "g(1,1)"]), data)
+    res = exc.value.result
+    assert res.iterations >= 3
+    np.testing.assert_allclose(res.estimate[[0, 2]], without.estimate, rtol=1e-8)
+
+
 def test_divergence_is_reported(c8_data):
     F = C8_F.copy()
     F[2, 2] = 200.0                    # wildly unstable start
