@@ -112,36 +112,34 @@ contains
     call mark(pm%cm, km)
     call mark(pm%cx0, kx0)
     call mark(pm%cb, kb)
-    call mark(pm%cq, spread(.true., 1, size(pm%cq)))
-    call mark(pm%cr, spread(.true., 1, size(pm%cr)))
-    call mark(pm%cs, spread(.true., 1, size(pm%cs)))
-    call mark(pm%cd, spread(.true., 1, size(pm%cd)))
-    call mark(pm%cu, spread(.true., 1, size(pm%cu)))
+    call mark([pm%cq, pm%cr, pm%cs, pm%cd, pm%cu])
     cols = pack([(k, k=1, pm%nf)], keep)
     new = 0
     new(cols) = [(k, k=1, size(cols))]
-    pk%l = pm%l
-    pk%tie = pm%tie
+    pk = pm                                    ! the other blocks' entries all stay
     pk%nf = size(cols)
     pk%ifree = pm%ifree(cols)
     call entries(pm%im, pm%cm, pm%wm, km, pk%im, pk%cm, pk%wm)
     call entries(pm%ix0, pm%cx0, pm%wx0, kx0, pk%ix0, pk%cx0, pk%wx0)
     call entries(pm%ib, pm%cb, pm%wb, kb, pk%ib, pk%cb, pk%wb)
-    call entries(pm%iq, pm%cq, pm%wq, spread(.true., 1, size(pm%iq)), pk%iq, pk%cq, pk%wq)
-    call entries(pm%ir, pm%cr, pm%wr, spread(.true., 1, size(pm%ir)), pk%ir, pk%cr, pk%wr)
-    call entries(pm%is, pm%cs, pm%ws, spread(.true., 1, size(pm%is)), pk%is, pk%cs, pk%ws)
-    call entries(pm%id, pm%cd, pm%wd, spread(.true., 1, size(pm%id)), pk%id, pk%cd, pk%wd)
-    call entries(pm%iu, pm%cu, pm%wu, spread(.true., 1, size(pm%iu)), pk%iu, pk%cu, pk%wu)
+    pk%cq = new(pm%cq)
+    pk%cr = new(pm%cr)
+    pk%cs = new(pm%cs)
+    pk%cd = new(pm%cd)
+    pk%cu = new(pm%cu)
 
   contains
 
-    !> keep the columns of the entries kept (a loop: ties repeat a column)
+    !> keep the columns of the entries kept, or of all (a loop: ties repeat a column)
     subroutine mark(col, kept)
       integer, intent(in) :: col(:)
-      logical, intent(in) :: kept(:)
+      logical, intent(in), optional :: kept(:)
       integer :: e
       do e = 1, size(col)
-        if (kept(e)) keep(col(e)) = .true.
+        if (present(kept)) then
+          if (.not. kept(e)) cycle
+        end if
+        keep(col(e)) = .true.
       end do
     end subroutine mark
 
