@@ -30,7 +30,7 @@ module mlid_api
   use mlid_simulate, only: simulate_outputs
   use mlid_monte_carlo, only: monte_carlo
   use mlid_inputs, only: input_signal
-  use mlid_deck, only: opened, deck_open, case_time_input
+  use mlid_deck, only: opened, deck_open, case_time_input, corrected_writable
   use mlid_case, only: case_t, NAMELEN
   use mlid_text, only: join_lines, split_lines, name_lines, joined
   use mlid_sixdof, only: sixdof_parts, SIXDOF_CONSTANTS
@@ -63,7 +63,7 @@ module mlid_api
             mlid_deck_case_holdout, mlid_deck_case_initial_states, mlid_prediction_stats, mlid_report_validation, &
             mlid_deck_case_ties, mlid_tie_parse, mlid_sixdof_text, mlid_sixdof_constants, &
             mlid_flightpath_lists, mlid_flightpath_model_text, mlid_flightpath_corrected, &
-            mlid_deck_case_corrected, mlid_check_writable, &
+            mlid_deck_case_corrected, mlid_deck_case_corrected_writable, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
@@ -375,15 +375,14 @@ contains
                                            t, uc, yc), status, msg)
   end subroutine mlid_flightpath_corrected
 
-  !> Whether path can be written (its folder exists and takes a file): one
-  !> line naming it if not.
-  subroutine mlid_check_writable(path, status, msg)
-    character(len=*), intent(in) :: path
+  !> Whether every corrected record of case k can be written (mlid_deck's
+  !> corrected_writable): one line naming the path if not.
+  subroutine mlid_deck_case_corrected_writable(k, status, msg)
+    integer(c_int), intent(in) :: k
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    character(len=:), allocatable :: tmp
-    call temporary_for(trim(path), tmp, status, msg)
-  end subroutine mlid_check_writable
+    call corrected_writable(opened(k), status, msg)
+  end subroutine mlid_deck_case_corrected_writable
 
   !> Where estimate case k writes manoeuvre j's corrected record (blank: nowhere).
   subroutine mlid_deck_case_corrected(k, j, path)

@@ -29,6 +29,7 @@ module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines
+  use mlid_files, only: temporary_for
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
@@ -50,7 +51,8 @@ module mlid_deck
   implicit none
   private
   public :: case_t, deck_read, deck_open, case_record, case_time_input, manoeuvre_layout, &
-            case_param_units, holdout_case, manoeuvre_block, NAMELEN, PATHLEN, UNITLEN
+            case_param_units, holdout_case, manoeuvre_block, corrected_writable, NAMELEN, &
+            PATHLEN, UNITLEN
 
   !> The cases of the deck last opened by deck_open, for the flat interface.
   type(case_t), allocatable, protected, public :: opened(:)
@@ -1113,6 +1115,23 @@ contains
     if (b < lt%nblock) last = lt%off(b + 1)
     v = pack(theta, map > lt%off(b) .and. map <= last .and. (seg == 0 .or. seg == j))
   end function manoeuvre_block
+
+  !> Whether every corrected record's path can be written: both front ends
+  !> ask before the fit, so that a typo does not cost one.
+  subroutine corrected_writable(c, status, msg)
+    type(case_t), intent(in) :: c
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=:), allocatable :: tmp
+    integer :: j
+    status = MLID_OK
+    msg = ''
+    if (.not. allocated(c%corrected)) return
+    do j = 1, size(c%corrected)
+      call temporary_for(trim(c%corrected(j)), tmp, status, msg)
+      if (status /= MLID_OK) return
+    end do
+  end subroutine corrected_writable
 
   !> &estimate corrected: one record to write per data file, for a fit of
   !> kind 'flight_path' (the corrections it undoes are that kind's).

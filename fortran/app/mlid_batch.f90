@@ -8,9 +8,10 @@ program mlid_batch
   use mlid_case, only: case_t
   use mlid_text, only: line_t, join_lines
   use mlid_deck, only: deck_read, case_record, case_time_input, manoeuvre_layout, &
-                       case_param_units, holdout_case, manoeuvre_block, UNITLEN, NAMELEN
+                       case_param_units, holdout_case, manoeuvre_block, corrected_writable, &
+                       UNITLEN, NAMELEN
   use mlid_validate, only: prediction_stats
-  use mlid_api, only: mlid_fit, mlid_simulate, mlid_flightpath_corrected, mlid_check_writable
+  use mlid_api, only: mlid_fit, mlid_simulate, mlid_flightpath_corrected
   use mlid_files, only: temporary_for, write_whole, commit
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, json_list, &
                          validation_report, validation_json
@@ -189,23 +190,6 @@ contains
       write (*, '(a)') ' corrected records not written: the fit did not end well'
     end if
   end subroutine fit_case
-
-  !> Whether every corrected record's path can be written.
-  subroutine corrected_writable(c, cstat, cmsg)
-    type(case_t), intent(in) :: c
-    integer, intent(out) :: cstat
-    character(len=*), intent(out) :: cmsg
-    integer :: j
-    character(len=256) :: msg
-    cstat = MLID_OK
-    cmsg = ''
-    if (.not. allocated(c%corrected)) return
-    do j = 1, size(c%corrected)
-      call mlid_check_writable(trim(c%corrected(j)), cstat, msg)
-      cmsg = msg
-      if (cstat /= MLID_OK) return
-    end do
-  end subroutine corrected_writable
 
   !> Each manoeuvre's record with the fit's corrections undone, written
   !> where &estimate corrected says (mlid_api's mlid_flightpath_corrected,

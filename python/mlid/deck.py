@@ -168,8 +168,8 @@ def run_case(case):
         result = _validate_case(case)
     else:
         data = case.record()
-        for path in case.corrected:          # before a long fit, as mlid-batch checks them
-            check_status(*_api.mlid_check_writable(path))
+        if case.corrected:                   # before a long fit, as mlid-batch checks them
+            check_status(*_api.mlid_deck_case_corrected_writable(case.index))
         result = core.fit(case.model, data, **case.options())
         if case.corrected and result.status == 0:
             _write_corrected(result, case.corrected)
