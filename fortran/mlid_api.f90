@@ -11,7 +11,7 @@
 !>                           affine ties: theta(to) := offset(to) + sum scale*theta(from)
 !>   iconst, rconst          model constants (unused by the linear model)
 !>   t(nt), u(nu,nt), y(ny,nt)   the record, one column per sample
-!>   iopt(12), ropt(12)      options, layout in mlid_options
+!>   iopt(16), ropt(16)      options, layout in mlid_options
 !>   status, msg             0 and '' on success, see mlid_kinds
 module mlid_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
@@ -84,8 +84,8 @@ contains
 
   !> The default options, so that Python and decks share one set.
   subroutine mlid_default_options(iopt, ropt)
-    integer(c_int), intent(out) :: iopt(12)
-    real(c_double), intent(out) :: ropt(12)
+    integer(c_int), intent(out) :: iopt(16)
+    real(c_double), intent(out) :: ropt(16)
     call options_to_flat(options_t(), iopt, ropt)
   end subroutine mlid_default_options
 
@@ -103,8 +103,8 @@ contains
 
   !> Set an option by name from its text in the flat arrays.
   subroutine mlid_option_set(iopt, ropt, name, text, status, msg)
-    integer(c_int), intent(inout) :: iopt(12)
-    real(c_double), intent(inout) :: ropt(12)
+    integer(c_int), intent(inout) :: iopt(16)
+    real(c_double), intent(inout) :: ropt(16)
     character(len=*), intent(in) :: name, text
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
@@ -113,8 +113,8 @@ contains
 
   !> An option's value as text, by name.
   subroutine mlid_option_get(iopt, ropt, name, text)
-    integer(c_int), intent(in) :: iopt(12)
-    real(c_double), intent(in) :: ropt(12)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
     character(len=*), intent(in) :: name
     character(len=32), intent(out) :: text
     text = option_get(iopt, ropt, name)
@@ -122,8 +122,8 @@ contains
 
   !> Check a whole set of flat options (ranges, limits) before any work.
   subroutine mlid_options_check(iopt, ropt, status, msg)
-    integer(c_int), intent(in) :: iopt(12)
-    real(c_double), intent(in) :: ropt(12)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     type(options_t) :: opt
@@ -204,9 +204,9 @@ contains
                                   iopt, ropt, labels, use_prior, prior, pweight, use_bounds, &
                                   lower, upper)
     integer(c_int), intent(in) :: k, nth, nf, nic, nrc
-    real(c_double), intent(out) :: theta(nth), rconst(nrc), ropt(12), prior(nth), pweight(nf, nf)
+    real(c_double), intent(out) :: theta(nth), rconst(nrc), ropt(16), prior(nth), pweight(nf, nf)
     real(c_double), intent(out) :: lower(nth), upper(nth)
-    integer(c_int), intent(out) :: isfree(nth), iconst(nic), iopt(12), use_prior, &
+    integer(c_int), intent(out) :: isfree(nth), iconst(nic), iopt(16), use_prior, &
                                    use_bounds
     character(len=8192), intent(out) :: labels
 
@@ -571,7 +571,7 @@ contains
   subroutine mlid_report_fit(nf, ny, nh, labels, units, iopt, start, est, sig, sigc, lag, cov, eigval, &
                              eigvec, rhat, hist, cost, niter, reason, converged, nrank, title, job, &
                              status, msg, report, nreport, json, njson)
-    integer(c_int), intent(in) :: nf, ny, nh, iopt(12), niter, reason, converged, nrank, status, lag
+    integer(c_int), intent(in) :: nf, ny, nh, iopt(16), niter, reason, converged, nrank, status, lag
     character(len=*), intent(in) :: labels, units, title, job, msg
     real(c_double), intent(in) :: start(nf), est(nf), sig(nf), sigc(nf), cov(nf, nf), eigval(nf), &
                                   eigvec(nf, nf), rhat(ny, ny), hist(nh), cost
@@ -851,8 +851,8 @@ contains
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
-    integer(c_int), intent(in) :: iopt(12)
-    real(c_double), intent(in) :: ropt(12)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
     real(c_double), intent(out) :: theta_start(nth), theta(nth), sigma(nth), cov(nf, nf)
     real(c_double), intent(out) :: info(nf, nf), grad(nf)
     real(c_double), intent(out) :: eigval(nf), eigvec(nf, nf), rhat(ny, ny), yhat(ny, nt)
@@ -949,8 +949,8 @@ contains
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
-    integer(c_int), intent(in) :: iopt(12)
-    real(c_double), intent(in) :: ropt(12)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
     real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny), yhat(ny, nt)
     real(c_double), intent(out) :: sens(ny, nf)
     real(c_double), intent(out) :: wsens(ny, nt, nf), msens(nf, nf)
@@ -1019,8 +1019,8 @@ contains
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt)
-    integer(c_int), intent(in) :: iopt(12)
-    real(c_double), intent(in) :: ropt(12)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
     real(c_double), intent(out) :: y(ny, nt), x(nx, nt)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
@@ -1054,8 +1054,8 @@ contains
     integer(c_int), intent(in) :: iconst(nic)
     real(c_double), intent(in) :: rconst(nrc)
     real(c_double), intent(in) :: t(nt), u(nu, nt)
-    integer(c_int), intent(in) :: iopt(12)
-    real(c_double), intent(in) :: ropt(12)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
     real(c_double), intent(out) :: est(nf, nrun), sig(nf, nrun), info(nf, nf, nrun)
     integer(c_int), intent(out) :: iters(nrun), run_status(nrun), status
     character(len=256), intent(out) :: msg
@@ -1294,8 +1294,8 @@ contains
     integer(c_int), intent(in) :: isfree(:), iconst(:)
     type(tie_t), intent(in) :: tie
     real(c_double), intent(in) :: rconst(:), t(:), u(:, :), y(:, :)
-    integer(c_int), intent(in) :: iopt(12)
-    real(c_double), intent(in) :: ropt(12)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
     class(model_t), allocatable, intent(out) :: m
     type(options_t), intent(out) :: opt
     type(param_map_t), intent(out) :: pm

@@ -29,12 +29,13 @@ module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_SINGULAR, &
                         MLID_ERR_NOCONV, first_failure
-  use mlid_linalg, only: chol_inverse
+  use mlid_linalg, only: chol_inverse, expm
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, segment_map, input_delays, output_delays, stabilized
   use mlid_rk, only: rk4_step, rk4_interval, input_sens_t, rk_work_t
   use mlid_delay, only: delay_outputs, delay_check
+  use mlid_riccati, only: dare_solve, stein_solve
   implicit none
   private
   public :: oe_predict, kf_innovations
@@ -59,6 +60,12 @@ module mlid_filter
     !> Which partials are non-zero, per free parameter (most are zero:
     !> only F and Gamma move Phi and W, only q, r, s move Q, R, S).
     logical, allocatable :: nz_phi(:), nz_w(:), nz_c(:), nz_q(:), nz_r(:), nz_s(:)
+    !> The process noise as it reaches the state over an interval, W Q W'
+    !> (held noise) or the integral of the continuous noise's covariance
+    !> (noise_reach), its correlation G = W S with the measurement noise,
+    !> and their partials.
+    real(wp), allocatable :: wqw(:, :), dwqw(:, :, :), gs(:, :), dgs(:, :, :)
+    logical, allocatable :: nz_wqw(:), nz_gs(:)
     real(wp) :: dt = -1.0_wp
   end type lti_t
 
@@ -289,7 +296,9 @@ contains
 
   !> Innovations nu(ny, nt) and their covariances through binv(ny, ny, nt)
   !> and logdet(nt); with dnu present also their sensitivities
-  !> dnu(ny, nf, nt) and, with opt%partials, db(ny, ny, nf, nt).
+  !> dnu(ny, nf, nt) and, with opt%partials, db(ny, ny, nf, nt); with
+  !> opt%steady B is the same at every sample and db holds it once
+  !> (db(:, :, :, 1)).
   !> yhat(ny, nt) receives the one-step predictions.
   subroutine kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
                             dnu, db, bhist)
@@ -308,7 +317,7 @@ contains
     type(cov_t) :: cv
     real(wp), allocatable :: s(:, :), c(:, :), d(:, :), what(:), dwhat(:, :)
     real(wp), allocatable :: sj(:, :), fj(:, :)
-    real(wp) :: x(m%nx), dhw(m%ny, m%nw), sb(m%nw, m%ny)
+    real(wp) :: x(m%nx), dhw(m%ny, m%nw), sb(m%nw, m%ny), ax(m%nx, m%nx)
     type(rk_work_t) :: wk
     integer :: j, k, nf, nx, nw, ns, iseg
     logical :: sens, partials, ekf
@@ -351,6 +360,8 @@ contains
       else
         if (ekf) then               ! linearise the interval about x(j-1|j-1), eq. 4.27
           call m%dfdw(t(j - 1), x, [u(:, j - 1), what], theta(1:l%np), sys%g)
+          if (opt%process_noise /= 0) call m%dfdx(t(j - 1), x, [u(:, j - 1), what], &
+                                                   theta(1:l%np), ax)
           sj = 0.0_wp
           fj = 0.0_wp
           if (sens) then
@@ -369,6 +380,8 @@ contains
           end if
           sys%phi = sj(:, ns + 1:ns + nx)
           sys%w = sj(:, ns + nx + 1:)
+          call noise_reach(sys, opt%process_noise, ax, status, msg)
+          if (status /= MLID_OK) return
         else if (sens) then
           call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk, s, matmul(sys%g, dwhat))
         else
@@ -385,7 +398,12 @@ contains
         ! outputs that carry the process noise of the next interval, (dh/dw) w:
         ! the effective R and S at this sample (report §5.1.7)
         call m%dhdw(t(j), x, u(:, j), theta(1:l%np), dhw)
-        if (any(dhw /= 0.0_wp)) then
+        if (any(dhw /= 0.0_wp) .and. opt%process_noise /= 0) then
+          status = MLID_ERR_INPUT
+          msg = 'outputs that carry the process noise (accelerations) need held noise, '// &
+                'process_noise = ''held'''
+          return
+        else if (any(dhw /= 0.0_wp)) then
           sys%r = sys%r0 + matmul(dhw, matmul(sys%q, transpose(dhw)))
           sys%s = sys%s0 + matmul(sys%q, transpose(dhw))
         end if
@@ -415,7 +433,8 @@ contains
         s = s + matmul(cv%k, dnu(:, :, j))
         dwhat = matmul(sb, dnu(:, :, j))
         if (partials) then
-          db(:, :, :, j) = cv%db
+          if (.not. opt%steady) db(:, :, :, j) = cv%db
+          if (opt%steady .and. j == 1) db(:, :, :, 1) = cv%db
           do k = 1, nf
             s(:, k) = s(:, k) + matmul(cv%dk(:, :, k), nu(:, j))
             dwhat(:, k) = dwhat(:, k) + matmul(sys%ds(:, :, k), matmul(cv%binv, nu(:, j))) &
@@ -537,8 +556,8 @@ contains
     sys%dq = 0.0_wp
     sys%dr = 0.0_wp
     sys%ds = 0.0_wp
-    do k = 1, nw
-      sys%q(k, k) = theta(l%oq + k)
+    do k = 1, nw                   ! continuous_sd: q is a standard deviation
+      sys%q(k, k) = merge(theta(l%oq + k)**2, theta(l%oq + k), opt%process_noise == 2)
     end do
     do k = 1, ny
       sys%r(k, k) = theta(l%or + k)
@@ -547,7 +566,9 @@ contains
     sys%r0 = sys%r
     sys%s0 = sys%s
     do k = 1, size(pm%iq)
-      sys%dq(pm%iq(k), pm%iq(k), pm%cq(k)) = sys%dq(pm%iq(k), pm%iq(k), pm%cq(k)) + pm%wq(k)
+      i = pm%iq(k)
+      sys%dq(i, i, pm%cq(k)) = sys%dq(i, i, pm%cq(k)) + pm%wq(k)* &
+                               merge(2.0_wp*theta(l%oq + i), 1.0_wp, opt%process_noise == 2)
     end do
     do k = 1, size(pm%ir)
       sys%dr(pm%ir(k), pm%ir(k), pm%cr(k)) = sys%dr(pm%ir(k), pm%ir(k), pm%cr(k)) + pm%wr(k)
@@ -567,6 +588,24 @@ contains
       sys%nz_r(k) = any(sys%dr(:, :, k) /= 0.0_wp)
       sys%nz_s(k) = any(sys%ds(:, :, k) /= 0.0_wp)
     end do
+    if (opt%process_noise /= 0 .and. (any(sys%s /= 0.0_wp) .or. any(sys%nz_s))) then
+      msg = 'the cross-covariance s of process and measurement noise needs held noise, '// &
+            'process_noise = ''held'''
+      return
+    end if
+    allocate (sys%wqw(nx, nx), sys%gs(nx, ny))
+    if (m%linear) then
+      call noise_reach(sys, opt%process_noise, a, status, msg)
+      if (status /= MLID_OK) return
+      call noise_reach_partials(m, theta, pm, t, opt%process_noise, a, sys, status, msg)
+      if (status /= MLID_OK) return
+    else                            ! set per interval (kf_innovations); no analytic partials
+      allocate (sys%dwqw(nx, nx, nf), sys%dgs(nx, ny, nf))
+      sys%dwqw = 0.0_wp
+      sys%dgs = 0.0_wp
+      sys%nz_wqw = [(.false., k=1, nf)]
+      sys%nz_gs = sys%nz_wqw
+    end if
     status = MLID_OK
     msg = ''
 
@@ -628,36 +667,30 @@ contains
     end do
   end subroutine cov_update
 
-  !> Time update: P- of the next sample from P+ (and the partials), with the
-  !> products shared by all parameters formed once and zero partials skipped.
+  !> Time update: P- of the next sample from P+ (and the partials),
+  !>
+  !>   P- = Phi P+ Phi' + V - G B^-1 G' - Phi K G' - G K' Phi'
+  !>
+  !> with V the process noise as it reaches the state and G = W S its
+  !> correlation with the measurement noise (noise_reach); the products
+  !> shared by all parameters formed once and zero partials skipped.
   subroutine cov_predict(sys, cv, partials)
     type(lti_t), intent(in) :: sys
     type(cov_t), intent(inout) :: cv
     logical, intent(in) :: partials
-    integer :: nx, nw, ny, k
-    real(wp) :: sb(size(sys%s, 1), size(sys%s, 2)), qt(size(sys%q, 1), size(sys%q, 1))
-    real(wp) :: kst(size(cv%k, 1), size(sys%s, 1)), a(size(cv%pm, 1), size(cv%pm, 1))
-    real(wp) :: phit(size(cv%pm, 1), size(cv%pm, 1)), ppt(size(cv%pm, 1), size(cv%pm, 1))
-    real(wp) :: qwt(size(sys%q, 1), size(cv%pm, 1)), wt(size(sys%w, 2), size(cv%pm, 1))
-    real(wp) :: dqt(size(sys%q, 1), size(sys%q, 1)), dkst(size(cv%k, 1), size(sys%s, 1))
-    real(wp) :: da(size(cv%pm, 1), size(cv%pm, 1)), tmp(size(cv%pm, 1), size(cv%pm, 1))
+    integer :: k
+    real(wp), dimension(size(cv%pm, 1), size(cv%pm, 1)) :: phit, ppt, a, da, tmp
+    real(wp), dimension(size(cv%k, 1), size(cv%k, 2)) :: gb
     logical :: corr
 
-    nx = size(cv%pm, 1)
-    nw = size(sys%q, 1)
-    ny = size(sys%s, 2)
-    corr = any(sys%s /= 0.0_wp)
+    corr = any(sys%gs /= 0.0_wp)
     phit = transpose(sys%phi)
-    wt = transpose(sys%w)
-    sb = matmul(sys%s, cv%binv)
-    qt = sys%q - matmul(sb, transpose(sys%s))          ! Q - S B^-1 S'
-    kst = matmul(cv%k, transpose(sys%s))                ! K S'
     ppt = matmul(cv%pp, phit)                           ! P+ Phi'
-    qwt = matmul(qt, wt)                                ! Q~ W'
-    cv%pm = matmul(sys%phi, ppt) + matmul(sys%w, qwt)
+    cv%pm = matmul(sys%phi, ppt) + sys%wqw
     if (corr) then
-      a = matmul(matmul(sys%phi, kst), wt)              ! Phi K S' W'
-      cv%pm = cv%pm - a - transpose(a)
+      gb = matmul(sys%gs, cv%binv)                      ! G B^-1
+      a = matmul(sys%phi, matmul(cv%k, transpose(sys%gs)))   ! Phi K G'
+      cv%pm = cv%pm - matmul(gb, transpose(sys%gs)) - a - transpose(a)
     end if
     if (.not. partials) return
     do k = 1, size(cv%dpm, 3)
@@ -666,55 +699,218 @@ contains
         da = matmul(sys%dphi(:, :, k), ppt)
         tmp = tmp + da + transpose(da)
       end if
-      if (sys%nz_w(k)) then
-        da = matmul(sys%dw(:, :, k), qwt)
-        tmp = tmp + da + transpose(da)
-      end if
-      if (corr .or. sys%nz_q(k) .or. sys%nz_s(k)) then
-        dqt = sys%dq(:, :, k)
-        if (corr .or. sys%nz_s(k)) dqt = dqt - matmul(sys%ds(:, :, k), transpose(sb)) &
-                                   + matmul(matmul(sb, cv%db(:, :, k)), transpose(sb)) &
-                                   - matmul(sb, transpose(sys%ds(:, :, k)))
-        tmp = tmp + matmul(sys%w, matmul(dqt, wt))
-      end if
-      if (corr .or. sys%nz_s(k)) then
-        dkst = matmul(cv%dk(:, :, k), transpose(sys%s)) + matmul(cv%k, transpose(sys%ds(:, :, k)))
-        da = matmul(matmul(sys%phi, dkst), wt)
-        if (sys%nz_phi(k)) da = da + matmul(matmul(sys%dphi(:, :, k), kst), wt)
-        if (sys%nz_w(k)) da = da + matmul(matmul(sys%phi, kst), transpose(sys%dw(:, :, k)))
+      if (sys%nz_wqw(k)) tmp = tmp + sys%dwqw(:, :, k)
+      if (corr .or. sys%nz_gs(k)) then
+        ! d(G B^-1 G') = dG B^-1 G' + G B^-1 dG' - G B^-1 dB B^-1 G'
+        da = matmul(sys%dgs(:, :, k), transpose(gb))
+        tmp = tmp - da - transpose(da) + matmul(gb, matmul(cv%db(:, :, k), transpose(gb)))
+        ! d(Phi K G') = dPhi K G' + Phi dK G' + Phi K dG'
+        da = matmul(sys%phi, matmul(cv%dk(:, :, k), transpose(sys%gs)) + &
+                             matmul(cv%k, transpose(sys%dgs(:, :, k))))
+        if (sys%nz_phi(k)) da = da + matmul(sys%dphi(:, :, k), matmul(cv%k, transpose(sys%gs)))
         tmp = tmp - da - transpose(da)
       end if
       cv%dpm(:, :, k) = tmp
     end do
   end subroutine cov_predict
 
-  !> Iterate update and prediction from P = 0 until P(j|j-1) (and its
-  !> partials) stop changing; leave the converged update in cv.
+  !> V, the process noise as it reaches the state over one interval, and
+  !> G = W S: for held noise (code 0) V = W Q W'; for continuous white noise
+  !> of density Q (codes 1, 2) V = int_0^dt e^{A s} Gamma Q Gamma' e^{A' s} ds
+  !> exactly (van_loan), with a = A and Gamma = df/dw, and G = 0.
+  subroutine noise_reach(sys, code, a, status, msg)
+    type(lti_t), intent(inout) :: sys
+    integer, intent(in) :: code
+    real(wp), intent(in) :: a(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    status = MLID_OK
+    msg = ''
+    if (code == 0) then
+      sys%wqw = matmul(sys%w, matmul(sys%q, transpose(sys%w)))
+      sys%gs = matmul(sys%w, sys%s)
+    else
+      call van_loan(a, matmul(sys%g, matmul(sys%q, transpose(sys%g))), sys%dt, sys%wqw, status, msg)
+      sys%gs = 0.0_wp
+    end if
+  end subroutine noise_reach
+
+  !> The partials of V and G (noise_reach) for a linear model.  Continuous
+  !> noise needs those of A and Gamma: df/dp at unit states (unit noise)
+  !> less df/dp at zero, the model being linear.
+  subroutine noise_reach_partials(m, theta, pm, t, code, a, sys, status, msg)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:), t(:), a(:, :)
+    type(param_map_t), intent(in) :: pm
+    integer, intent(in) :: code
+    type(lti_t), intent(inout) :: sys
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: da(m%nx, m%nx, pm%nf), dgam(m%nx, m%nw, pm%nf), dv(m%nx, m%nx, pm%nf)
+    real(wp) :: b0(m%nx, size(pm%im)), b1(m%nx, size(pm%im)), e(m%nx), ua(m%nu + m%nw)
+    real(wp) :: y(m%nx, m%nx)
+    integer :: i, k, nf
+    logical :: nz(pm%nf)
+
+    nf = pm%nf
+    status = MLID_OK
+    msg = ''
+    allocate (sys%dwqw(m%nx, m%nx, nf), sys%dgs(m%nx, m%ny, nf), sys%nz_wqw(nf), sys%nz_gs(nf))
+    if (code == 0) then
+      do k = 1, nf
+        sys%dwqw(:, :, k) = 0.0_wp
+        if (sys%nz_w(k)) then
+          y = matmul(sys%dw(:, :, k), matmul(sys%q, transpose(sys%w)))
+          sys%dwqw(:, :, k) = y + transpose(y)
+        end if
+        if (sys%nz_q(k)) sys%dwqw(:, :, k) = sys%dwqw(:, :, k) + &
+                                             matmul(sys%w, matmul(sys%dq(:, :, k), transpose(sys%w)))
+        sys%dgs(:, :, k) = matmul(sys%dw(:, :, k), sys%s) + matmul(sys%w, sys%ds(:, :, k))
+      end do
+    else
+      e = 0.0_wp
+      ua = 0.0_wp
+      da = 0.0_wp
+      dgam = 0.0_wp
+      call m%dfdp(t(1), e, ua, theta(1:pm%l%np), pm%im, b0)
+      do i = 1, m%nx + m%nw
+        e = 0.0_wp
+        ua = 0.0_wp
+        if (i <= m%nx) e(i) = 1.0_wp
+        if (i > m%nx) ua(m%nu + i - m%nx) = 1.0_wp
+        call m%dfdp(t(1), e, ua, theta(1:pm%l%np), pm%im, b1)
+        do k = 1, size(pm%im)
+          if (i <= m%nx) da(:, i, pm%cm(k)) = da(:, i, pm%cm(k)) + pm%wm(k)*(b1(:, k) - b0(:, k))
+          if (i > m%nx) dgam(:, i - m%nx, pm%cm(k)) = dgam(:, i - m%nx, pm%cm(k)) + &
+                                                        pm%wm(k)*(b1(:, k) - b0(:, k))
+        end do
+      end do
+      do k = 1, nf
+        y = matmul(dgam(:, :, k), matmul(sys%q, transpose(sys%g)))
+        dv(:, :, k) = y + transpose(y) + matmul(sys%g, matmul(sys%dq(:, :, k), transpose(sys%g)))
+        nz(k) = any(da(:, :, k) /= 0.0_wp) .or. any(dv(:, :, k) /= 0.0_wp)
+      end do
+      call van_loan_partials(a, matmul(sys%g, matmul(sys%q, transpose(sys%g))), sys%dt, da, dv, &
+                             nz, sys%dwqw, status, msg)
+      sys%dgs = 0.0_wp
+    end if
+    do k = 1, nf
+      sys%nz_wqw(k) = any(sys%dwqw(:, :, k) /= 0.0_wp)
+      sys%nz_gs(k) = any(sys%dgs(:, :, k) /= 0.0_wp)
+    end do
+  end subroutine noise_reach_partials
+
+  !> qd = int_0^h e^{A s} v e^{A' s} ds by one matrix exponential (Van Loan,
+  !> 1978): e^{M h} with M = [-A, v; 0, A'] holds e^{A' h} and e^{-A h} qd
+  !> in its right-hand blocks.
+  subroutine van_loan(a, v, h, qd, status, msg)
+    real(wp), intent(in) :: a(:, :), v(:, :), h
+    real(wp), intent(out) :: qd(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: mh(2*size(a, 1), 2*size(a, 1)), e(2*size(a, 1), 2*size(a, 1))
+    integer :: n, info
+    n = size(a, 1)
+    mh = van_loan_matrix(a, v, h)
+    call expm(mh, e, info)
+    if (info /= 0) then
+      status = MLID_ERR_DIVERGED
+      msg = 'continuous process noise: its covariance over a sample interval is not finite'
+      qd = 0.0_wp
+      return
+    end if
+    qd = matmul(transpose(e(n + 1:, n + 1:)), e(1:n, n + 1:))
+    qd = 0.5_wp*(qd + transpose(qd))
+    status = MLID_OK
+    msg = ''
+  end subroutine van_loan
+
+  !> The partials of van_loan's qd for each k with nz(k) (zero for the
+  !> others), from the derivative of the exponential: the upper right block
+  !> of e^{[M, dM; 0, M] h} is d(e^{M h}).
+  subroutine van_loan_partials(a, v, h, da, dv, nz, dqd, status, msg)
+    real(wp), intent(in) :: a(:, :), v(:, :), h, da(:, :, :), dv(:, :, :)
+    logical, intent(in) :: nz(:)
+    real(wp), intent(out) :: dqd(:, :, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: big(4*size(a, 1), 4*size(a, 1)), eb(4*size(a, 1), 4*size(a, 1))
+    real(wp) :: e(2*size(a, 1), 2*size(a, 1)), de(2*size(a, 1), 2*size(a, 1))
+    integer :: n, k, info
+    n = size(a, 1)
+    dqd = 0.0_wp
+    status = MLID_OK
+    msg = ''
+    big = 0.0_wp
+    big(1:2*n, 1:2*n) = van_loan_matrix(a, v, h)
+    big(2*n + 1:, 2*n + 1:) = big(1:2*n, 1:2*n)
+    do k = 1, size(nz)
+      if (.not. nz(k)) cycle
+      big(1:2*n, 2*n + 1:) = van_loan_matrix(da(:, :, k), dv(:, :, k), h)
+      call expm(big, eb, info)
+      if (info /= 0) then
+        status = MLID_ERR_DIVERGED
+        msg = 'continuous process noise: the partials of its covariance are not finite'
+        return
+      end if
+      e = eb(1:2*n, 1:2*n)
+      de = eb(1:2*n, 2*n + 1:)
+      dqd(:, :, k) = matmul(transpose(de(n + 1:, n + 1:)), e(1:n, n + 1:)) + &
+                     matmul(transpose(e(n + 1:, n + 1:)), de(1:n, n + 1:))
+      dqd(:, :, k) = 0.5_wp*(dqd(:, :, k) + transpose(dqd(:, :, k)))
+    end do
+  end subroutine van_loan_partials
+
+  pure function van_loan_matrix(a, v, h) result(mh)
+    real(wp), intent(in) :: a(:, :), v(:, :), h
+    real(wp) :: mh(2*size(a, 1), 2*size(a, 1))
+    integer :: n
+    n = size(a, 1)
+    mh = 0.0_wp
+    mh(1:n, 1:n) = -a*h
+    mh(1:n, n + 1:) = v*h
+    mh(n + 1:, n + 1:) = transpose(a)*h
+  end function van_loan_matrix
+
+  !> The steady-state P(j|j-1) from the Riccati equation (mlid_riccati) and,
+  !> with partials, its partials from the Stein equations; leaves the
+  !> update of that P (B, K, P+ and their partials) in cv.
   subroutine steady_state(sys, cv, partials, status, msg)
     type(lti_t), intent(in) :: sys
     type(cov_t), intent(inout) :: cv
     logical, intent(in) :: partials
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), allocatable :: p0(:, :), dp0(:, :, :)
-    integer :: it
-    integer, parameter :: max_it = 100000
+    real(wp), dimension(size(cv%pm, 1), size(cv%pm, 1)) :: ac, y, pac
+    real(wp), dimension(size(cv%k, 1), size(cv%k, 2)) :: kp
+    real(wp), allocatable :: e(:, :, :)
+    integer :: k, info
 
-    do it = 1, max_it
-      call cov_update(sys, cv, partials, status, msg)
+    call dare_solve(sys%phi, sys%c, sys%wqw, sys%r, sys%gs, cv%pm, status, msg)
+    if (status /= MLID_OK) return
+    if (partials) then
+      call cov_update(sys, cv, .false., status, msg)
       if (status /= MLID_OK) return
-      p0 = cv%pm
-      dp0 = cv%dpm
-      call cov_predict(sys, cv, partials)
-      if (maxval(abs(cv%pm - p0)) <= 1.0e-14_wp*max(tiny(1.0_wp), maxval(abs(cv%pm)))) then
-        if (.not. partials) exit
-        if (maxval(abs(cv%dpm - dp0)) <= 1.0e-12_wp*max(tiny(1.0_wp), maxval(abs(cv%dpm)))) exit
+      kp = matmul(matmul(sys%phi, matmul(cv%pm, transpose(sys%c))) + sys%gs, cv%binv)
+      ac = sys%phi - matmul(kp, sys%c)
+      pac = matmul(cv%pm, transpose(ac))
+      allocate (e(size(ac, 1), size(ac, 1), size(cv%dpm, 3)))
+      do k = 1, size(e, 3)
+        y = 0.0_wp
+        if (sys%nz_phi(k)) y = matmul(sys%dphi(:, :, k), pac)
+        if (sys%nz_c(k)) y = y - matmul(transpose(pac), matmul(transpose(sys%dc(:, :, k)), &
+                                                               transpose(kp)))
+        if (sys%nz_gs(k)) y = y - matmul(sys%dgs(:, :, k), transpose(kp))
+        e(:, :, k) = y + transpose(y)
+        if (sys%nz_wqw(k)) e(:, :, k) = e(:, :, k) + sys%dwqw(:, :, k)
+        if (sys%nz_r(k)) e(:, :, k) = e(:, :, k) + matmul(kp, matmul(sys%dr(:, :, k), transpose(kp)))
+      end do
+      call stein_solve(ac, e, cv%dpm, info)
+      if (info /= 0) then
+        status = MLID_ERR_NOCONV
+        msg = 'steady-state Kalman filter: its closed loop is not stable (no partials of P)'
+        return
       end if
-    end do
-    if (it > max_it) then
-      status = MLID_ERR_NOCONV
-      msg = 'steady-state Kalman filter: the Riccati iteration did not converge'
-      return
     end if
     call cov_update(sys, cv, partials, status, msg)
   end subroutine steady_state

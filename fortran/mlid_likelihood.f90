@@ -222,10 +222,10 @@ contains
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
     real(wp), allocatable :: b0(:, :, :)
-    real(wp) :: w(m%ny, pm%nf), bnu(m%ny), e(m%ny, m%ny, pm%nf), ev(m%ny*m%ny, pm%nf), &
-                evt(m%ny*m%ny, pm%nf)
-    real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
+    real(wp) :: w(m%ny, pm%nf), bnu(m%ny)
+    real(wp), allocatable :: gpart(:, :), ipart(:, :, :), vv(:, :, :)
     integer :: ny, nt, nf, j, k, b, nblk
+    logical :: tv
 
     ny = m%ny
     nt = size(t)
@@ -238,7 +238,7 @@ contains
       if (status == MLID_OK) call numerical_partials(m, theta, pm, t, u, y, opt, nu, b0, dnu, db, &
                                                      status, msg)
     else if (present(grad)) then
-      allocate (dnu(ny, nf, nt), db(ny, ny, nf, nt))
+      allocate (dnu(ny, nf, nt), db(ny, ny, nf, merge(1, nt, opt%steady)))
       db = 0.0_wp
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, db)
     else
@@ -256,27 +256,27 @@ contains
     ! samples in parallel, in NBLOCK fixed blocks whose sums are added in
     ! order: the result does not depend on the number of threads
     nblk = min(NBLOCK, nt)
-    allocate (gpart(nf, nblk), ipart(nf, nf, nblk))
-    !$omp parallel do schedule(static) default(shared) private(b, j, k, bnu, w, e, ev, evt)
+    allocate (gpart(nf, nblk), ipart(nf, nf, nblk), vv(ny, ny, nblk))
+    tv = opt%partials .and. .not. opt%steady
+    !$omp parallel do schedule(static) default(shared) private(b, j, k, bnu, w)
     do b = 1, nblk
       gpart(:, b) = 0.0_wp
       ipart(:, :, b) = 0.0_wp
+      vv(:, :, b) = 0.0_wp
       do j = (b - 1)*nt/nblk + 1, b*nt/nblk
         bnu = matmul(binv(:, :, j), nu(:, j))
         w = matmul(binv(:, :, j), dnu(:, :, j))
         gpart(:, b) = gpart(:, b) + matmul(bnu, dnu(:, :, j))
         ipart(:, :, b) = ipart(:, :, b) + matmul(transpose(dnu(:, :, j)), w)
         if (present(wsens)) wsens(:, j, :) = w
-        if (.not. opt%partials) cycle
-        do k = 1, nf
-          e(:, :, k) = matmul(binv(:, :, j), db(:, :, k, j))   ! B^-1 dB_k
-          gpart(k, b) = gpart(k, b) + 0.5_wp*(trace(e(:, :, k)) - &
-                                              dot_product(bnu, matmul(db(:, :, k, j), bnu)))
-          ev(:, k) = reshape(e(:, :, k), [ny*ny])
-          evt(:, k) = reshape(transpose(e(:, :, k)), [ny*ny])
-        end do
-        ! 1/2 tr(E_k E_l) for all k, l in one product
-        ipart(:, :, b) = ipart(:, :, b) + 0.5_wp*matmul(transpose(ev), evt)
+        if (opt%steady) then          ! sum B^-1 nu nu' B^-1, for the constant dB below
+          do k = 1, ny
+            vv(:, k, b) = vv(:, k, b) + bnu*bnu(k)
+          end do
+        end if
+        if (tv) call add_b_partials(binv(:, :, j), db(:, :, :, j), &
+                                    spread(bnu, 2, ny)*spread(bnu, 1, ny), 1.0_wp, gpart(:, b), &
+                                    ipart(:, :, b))
       end do
     end do
     !$omp end parallel do
@@ -286,6 +286,11 @@ contains
       grad = grad + gpart(:, b)
       info = info + ipart(:, :, b)
     end do
+    if (opt%partials .and. opt%steady) then
+      ! B and dB the same at every sample: their terms once, times the samples
+      vv(:, :, 1) = sum(vv, dim=3)
+      call add_b_partials(binv(:, :, 1), db(:, :, :, 1), vv(:, :, 1), real(nt, wp), grad, info)
+    end if
     if (present(msens)) then    ! without the noise-covariance term 1/2 tr(..)
       msens = 0.0_wp
       do j = 1, nt
@@ -293,6 +298,26 @@ contains
       end do
     end if
   end subroutine fe_likelihood
+
+  !> The terms of grad and info through dB (eqs 4.30, 4.37) over n samples
+  !> with the same B and dB: 1/2 (n tr(B^-1 dB_k) - tr(dB_k V)) and
+  !> n/2 tr(B^-1 dB_k B^-1 dB_l), where V is B^-1 nu nu' B^-1 summed over
+  !> those samples.
+  pure subroutine add_b_partials(binv, db, v, n, g, f)
+    real(wp), intent(in) :: binv(:, :), db(:, :, :), v(:, :), n
+    real(wp), intent(inout) :: g(:), f(:, :)
+    real(wp) :: e(size(binv, 1), size(binv, 1)), ev(size(binv, 1)**2, size(db, 3)), &
+                evt(size(binv, 1)**2, size(db, 3))
+    integer :: k, ny
+    ny = size(binv, 1)
+    do k = 1, size(db, 3)
+      e = matmul(binv, db(:, :, k))                   ! B^-1 dB_k
+      g(k) = g(k) + 0.5_wp*(n*trace(e) - sum(db(:, :, k)*v))
+      ev(:, k) = reshape(e, [ny*ny])
+      evt(:, k) = reshape(transpose(e), [ny*ny])
+    end do
+    f = f + (0.5_wp*n)*matmul(transpose(ev), evt)    ! tr(E_k E_l) for all k, l at once
+  end subroutine add_b_partials
 
   !> dnu/dtheta and dB/dtheta of the filter by forward differences from the
   !> nominal run (nu0, b0): Gauss-Newton needs them to a relative 1e-6, not

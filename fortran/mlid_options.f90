@@ -1,6 +1,6 @@
 !> Estimator and integration options, and their flat encoding.
 !>
-!> The flat interface carries options as iopt(12) and ropt(12) so that f2py
+!> The flat interface carries options as iopt(16) and ropt(16) so that f2py
 !> and the deck reader need no derived types; this module is the one place
 !> that knows the layout.
 module mlid_options
@@ -12,7 +12,7 @@ module mlid_options
   public :: options_t, options_from_flat, options_to_flat, NOPT
   public :: NOPTION, OPTION_NAMES, option_kind, option_set, option_get
 
-  integer, parameter :: NOPT = 12  !< length of iopt and ropt
+  integer, parameter :: NOPT = 16  !< length of iopt and ropt
   !> Limits checked before any work starts: beyond them a run would hang or
   !> allocate without bound, and no real case comes near them.
   integer, parameter, public :: MAX_ITER_LIMIT = 10000, HALVINGS_LIMIT = 60, SUBSTEPS_LIMIT = 1000
@@ -20,14 +20,15 @@ module mlid_options
   !> The options by name, for Python and any other caller that should not
   !> know the flat layout: option k lives in iopt(k) for k <= NIOPT, else in
   !> ropt(k - NIOPT).  Choices are listed in the order of their codes 0, 1.
-  integer, parameter :: NOPTION = 17, NIOPT = 12
-  character(len=12), parameter :: OPTION_NAMES(NOPTION) = [character(len=12) :: &
+  integer, parameter :: NOPTION = 18, NIOPT = 13
+  character(len=16), parameter :: OPTION_NAMES(NOPTION) = [character(len=16) :: &
     'max_iter', 'halvings', 'noise', 'input_hold', 'substeps', 'method', 'partials', &
-    'steady_state', 'startup', 'rank_min', 'rank_max', 'rank_rule', &
+    'steady_state', 'startup', 'rank_min', 'rank_max', 'rank_rule', 'process_noise', &
     'tol_cost', 'tol_step', 'tol_grad', 'rcond', 'prior_decay']
-  character(len=26), parameter :: OPTION_CHOICES(NOPTION) = [character(len=26) :: &
+  character(len=32), parameter :: OPTION_CHOICES(NOPTION) = [character(len=32) :: &
     '', '', 'diagonal full', 'linear zoh', '', 'output_error filter_error', 'false true', &
-    'false true', 'none equation_error', '', '', 'iteration staged', '', '', '', '', '']
+    'false true', 'none equation_error', '', '', 'iteration staged', &
+    'held continuous continuous_sd', '', '', '', '', '']
 
   type :: options_t
     integer :: max_iter = 30      !< iopt(1): Newton iterations at most
@@ -43,6 +44,11 @@ module mlid_options
     integer :: rank_max = 0       !< iopt(11): ... up to this rank (0: full rank)
     integer :: rank_rule = 0      !< iopt(12): 0 best rank each iteration (report §4.6 blocks 7-10),
                                   !<   1 staged: converge at each rank, one more direction at a time
+    !> iopt(13): what the q parameters are (mlid_filter's lti_setup):
+    !>   0 held: variances of process noise held over each sample interval,
+    !>   1 continuous: spectral densities of continuous white noise,
+    !>   2 continuous_sd: standard deviations of continuous white noise (density q^2)
+    integer :: process_noise = 0
     real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
     real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
     real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
@@ -71,6 +77,7 @@ contains
     iopt(10) = opt%rank_min
     iopt(11) = opt%rank_max
     iopt(12) = opt%rank_rule
+    iopt(13) = opt%process_noise
     ropt(1) = opt%tol_cost
     ropt(2) = opt%tol_step
     ropt(3) = opt%tol_grad
@@ -101,6 +108,7 @@ contains
     opt%rank_min = iopt(10)
     opt%rank_max = iopt(11)
     opt%rank_rule = iopt(12)
+    opt%process_noise = iopt(13)
     opt%tol_cost = ropt(1)
     opt%tol_step = ropt(2)
     opt%tol_grad = ropt(3)
@@ -129,6 +137,9 @@ contains
       msg = 'rank_min and rank_max must be >= 0'
     else if (opt%rank_rule /= 0 .and. opt%rank_rule /= 1) then
       write (msg, '(a,i0)') 'rank rule code must be 0 (each iteration) or 1 (staged), got ', iopt(12)
+    else if (opt%process_noise < 0 .or. opt%process_noise > 2) then
+      write (msg, '(a,i0)') 'process noise code must be 0 (held), 1 (continuous) or 2 '// &
+        '(continuous_sd), got ', iopt(13)
     else if (opt%rank_max > 0 .and. opt%rank_max < opt%rank_min) then
       write (msg, '(a,i0,a,i0)') 'rank_max = ', opt%rank_max, ' is below rank_min = ', opt%rank_min
     else if (.not. (opt%prior_decay > 0.0_wp .and. opt%prior_decay <= 1.0_wp)) then
