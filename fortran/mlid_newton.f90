@@ -14,6 +14,7 @@ module mlid_newton
   use mlid_likelihood, only: likelihood
   use mlid_params, only: param_map_t, apply_ties
   use mlid_colored, only: colored_covariance
+  use mlid_text, only: itoa
   implicit none
   private
   public :: fit_result_t, extras_t, newton_fit
@@ -122,12 +123,47 @@ contains
     else
       call iterate(pb, st, res, min(rmin, rtop), rtop, status, msg)
     end if
-    if (status /= MLID_OK) return
+    if (status /= MLID_OK) then
+      call noise_free_outputs(opt, pm, res, msg)
+      return
+    end if
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
     call final_bound(opt, ex, st, res, status, msg)
     if (any(status == [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) &
       call colored_bound(pm, y, res, status, msg)
+    if (status /= MLID_OK) call noise_free_outputs(opt, pm, res, msg)
   end subroutine newton_fit
+
+  !> A filter-error fit with R free that fails with some r(i) far below its
+  !> output's innovation variance: those outputs carry (almost) no
+  !> measurement noise, and exact ML has no maximum there (the likelihood
+  !> grows as r(i) -> 0).  The message then says so, and names them and the
+  !> remedy, in place of the symptom (a singular B or information matrix).
+  subroutine noise_free_outputs(opt, pm, res, msg)
+    type(options_t), intent(in) :: opt
+    type(param_map_t), intent(in) :: pm
+    type(fit_result_t), intent(in) :: res
+    character(len=*), intent(inout) :: msg
+    real(wp), parameter :: NOISE_FREE_RATIO = 1.0e-4_wp   !< r(i)/B(i,i) below this: noise-free
+    character(len=len(msg)) :: names, ratios, buf
+    integer :: k, i
+
+    if (opt%method /= 1 .or. .not. allocated(res%rhat) .or. .not. allocated(res%theta)) return
+    names = ''
+    ratios = ''
+    do k = 1, size(pm%ir)
+      i = pm%ir(k)
+      if (.not. res%theta(pm%l%or + i) < NOISE_FREE_RATIO*res%rhat(i, i)) cycle
+      if (index(names, 'r('//itoa(i)//')') > 0) cycle
+      write (buf, '(es8.1)') res%theta(pm%l%or + i)/res%rhat(i, i)
+      names = trim(names)//merge(', ', '  ', len_trim(names) > 0)//'r('//itoa(i)//')'
+      ratios = trim(ratios)//merge(', ', '  ', len_trim(ratios) > 0)//trim(adjustl(buf))
+    end do
+    if (len_trim(names) == 0) return
+    msg = 'outputs with '//trim(adjustl(names))//' look noise-free (r/B = '// &
+          trim(adjustl(ratios))//'): exact ML with R free has no maximum there; '// &
+          'give those r a lower bound (lower) or fix them ('//trim(msg)//')'
+  end subroutine noise_free_outputs
 
   !> The Cramer-Rao covariance corrected for coloured residuals
   !> (mlid_colored) from the weighted sensitivities kept with the last

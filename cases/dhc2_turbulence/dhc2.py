@@ -1,0 +1,189 @@
+"""A lateral record flown in turbulence, its outputs free of measurement noise
+(like the textbook's DHC-2 filter-error example; the record and the numbers are
+ours): process noise on the roll- and yaw-rate equations as standard deviations
+of continuous white noise, 24 parameters, the steady-state filter.
+
+    python dhc2.py [--record FILE]
+
+Fits (README.md gives the numbers and their sources):
+  1. exact ML with R free: no maximum, since the outputs carry no noise; the
+     fit must end with one line that names them and the remedy;
+  2. exact ML with a lower bound on R (R_FLOOR): the derivatives and process
+     noise against the truth, the estimated noise against the noise actually
+     realised in the record.
+"""
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+import mlid
+
+DT, T_END = 0.05, 30.0
+SUB = 50                      # steps per sample in the truth simulation
+SEED = 7
+
+# the truth (ours): p, r [rad/s]; inputs aileron, rudder [rad], lateral velocity v [m/s]
+F = np.array([[-5.0, 2.4], [-0.6, -1.1]])
+G = np.array([[-9.0, 1.1, -0.12], [-0.35, -2.6, 0.045]])
+AY = np.array([-0.3, 0.8, -0.05, 1.4, -0.18])          # a_y = Y_p p + Y_r r + Y_da da + Y_dr dr + Y_v v
+BX = np.array([0.01, -0.005])                          # state-equation biases
+BIAS = np.array([0.002, -0.001, 0.05, 0.003, -0.002])  # output biases: pdot, rdot, a_y, p, r
+SIGMA = np.array([0.25, 0.09])                         # continuous turbulence, sd on pdot, rdot
+R_FLOOR = 1e-8                                         # lower bound of every r (fit 2)
+
+NAMES = {"f(1,1)": "L_p", "f(1,2)": "L_r", "f(2,1)": "N_p", "f(2,2)": "N_r",
+         "g(1,1)": "L_da", "g(1,2)": "L_dr", "g(1,3)": "L_v",
+         "g(2,1)": "N_da", "g(2,2)": "N_dr", "g(2,3)": "N_v",
+         "h(3,1)": "Y_p", "h(3,2)": "Y_r", "d(3,1)": "Y_da", "d(3,2)": "Y_dr", "d(3,3)": "Y_v",
+         "bx(1)": "b_pdot", "bx(2)": "b_rdot", "q(1)": "sigma_p", "q(2)": "sigma_r",
+         **{f"bias({i})": f"bias_{o}" for i, o in enumerate(["pdot", "rdot", "ay", "p", "r"], 1)},
+         **{f"r({i})": f"R_{o}" for i, o in enumerate(["pdot", "rdot", "ay", "p", "r"], 1)}}
+# the pdot and rdot outputs are the state equations themselves
+TIES = {"h(1,1)": "f(1,1)", "h(1,2)": "f(1,2)", "h(2,1)": "f(2,1)", "h(2,2)": "f(2,2)",
+        **{f"d({i},{j})": f"g({i},{j})" for i in (1, 2) for j in (1, 2, 3)}}
+FREE = [n for n in NAMES if not n.startswith("r(")]     # 24
+
+
+def model(f, g, ay, bx, bias, sigma, r, free=FREE):
+    H = np.vstack([f, np.eye(2)[:0], np.zeros((3, 2))])
+    H[2] = ay[:2]
+    H[3:] = np.eye(2)
+    D = np.zeros((5, 3))
+    D[:2] = g
+    D[2] = ay[2:]
+    return mlid.LinearModel(f, g, H, D, x0=[0.0, 0.0], bias=bias, bx=bx, Gamma=np.eye(2),
+                            q=list(sigma), r=list(r), free=list(free), names=NAMES, ties=TIES)
+
+
+def truth():
+    return model(F, G, AY, BX, BIAS, SIGMA, [R_FLOOR] * 5)
+
+
+def truth_by_label(realised):
+    """The truth by parameter label; the process noise as realised."""
+    v = {"f(1,1)": F[0, 0], "f(1,2)": F[0, 1], "f(2,1)": F[1, 0], "f(2,2)": F[1, 1],
+         **{f"g({i},{j})": G[i - 1, j - 1] for i in (1, 2) for j in (1, 2, 3)},
+         "h(3,1)": AY[0], "h(3,2)": AY[1], "d(3,1)": AY[2], "d(3,2)": AY[3], "d(3,3)": AY[4],
+         "bx(1)": BX[0], "bx(2)": BX[1], "q(1)": realised[0], "q(2)": realised[1],
+         **{f"bias({i})": BIAS[i - 1] for i in range(1, 6)}}
+    return {NAMES[k]: x for k, x in v.items()}
+
+
+def inputs(t):
+    da = mlid.core.input_signal("3211", 0.08, 1.0, 0.5, DT, t.size)
+    dr = mlid.core.input_signal("doublet", 0.06, 9.0, 1.0, DT, t.size)
+    # the lateral velocity, measured and used as an input: a lightly damped
+    # response to the rudder, as the Dutch roll gives it
+    v, vd, om, ze = 0.0, 0.0, 1.8, 0.15
+    out = np.zeros_like(t)
+    h = DT / SUB
+    for j in range(t.size):
+        out[j] = v
+        for _ in range(SUB):
+            vd += h * (-2 * ze * om * vd - om**2 * v - 40.0 * dr[j])
+            v += h * vd
+    return np.column_stack([da, dr, out])
+
+
+def rk4(x, ua, ub, h):
+    def f(x, u):
+        return F @ x + G @ u + BX
+    um = 0.5 * (ua + ub)
+    k1 = f(x, ua)
+    k2 = f(x + 0.5 * h * k1, um)
+    k3 = f(x + 0.5 * h * k2, um)
+    k4 = f(x + h * k3, ub)
+    return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+def record():
+    """The truth simulated with continuous white noise on pdot and rdot
+    (SUB steps a sample: a Runge-Kutta step of the deterministic part plus the
+    noise's increment, inputs linear between samples), the
+    outputs sampled without noise; and the turbulence's realised sd."""
+    rng = np.random.default_rng(SEED)
+    t = np.arange(0.0, T_END + DT / 2, DT)
+    u = inputs(t)
+    h = DT / SUB
+    x = np.zeros(2)
+    xs = np.zeros((t.size, 2))
+    sq = np.zeros(2)
+    for j in range(t.size):
+        xs[j] = x
+        if j + 1 == t.size:
+            break
+        for k in range(SUB):
+            ua, ub = (u[j] + (k + e) / SUB * (u[j + 1] - u[j]) for e in (0.0, 1.0))
+            dw = rng.standard_normal(2) * np.sqrt(h) * SIGMA
+            sq += dw**2
+            x = rk4(x, ua, ub, h) + dw
+    m = truth()
+    y = xs @ m.H.T + u @ m.D.T + BIAS
+    y[:, :2] += BX                          # pdot, rdot: the state equations, bias included
+    realised = np.sqrt(sq / t[-1])
+    data = mlid.FlightData(t, u, y, input_names=["delta_a", "delta_r", "v"],
+                           output_names=["pdot", "rdot", "a_y", "p", "r"],
+                           input_units=["rad", "rad", "m/s"],
+                           output_units=["rad/s2", "rad/s2", "m/s2", "rad/s", "rad/s"])
+    return data, realised
+
+
+def start():
+    """The truth 30% off, alternately up and down (ours); r at 1e-4 of each
+    output's variance, process noise sd at 0.1."""
+    k = np.array([1.3, 0.7])
+    f = F * np.resize(k, 4).reshape(2, 2)
+    g = G * np.resize(k[::-1], 6).reshape(2, 3)
+    return f, g, AY * np.resize(k, 5), BX * 0.0, BIAS * 0.0, np.array([0.1, 0.1])
+
+
+def fit(data, r_free, bounds):
+    f, g, ay, bx, bias, sigma = start()
+    r0 = 1e-4 * np.var(data.y, axis=0)
+    free = FREE + ([f"r({i})" for i in range(1, 6)] if r_free else [])
+    m = model(f, g, ay, bx, bias, sigma, r0, free)
+    return mlid.fit(m, data, method="filter_error", steady_state=True,
+                    process_noise="continuous_sd", max_iter=50, bounds=bounds)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--record", help="also write the generated record here")
+    args = ap.parse_args(argv)
+    data, realised = record()
+    if args.record:
+        data.save(args.record)
+    print(f"record: {data.nt} samples at {DT} s; turbulence sd realised "
+          f"{realised[0]:.4f}, {realised[1]:.4f} (truth {SIGMA[0]}, {SIGMA[1]}; ours)")
+
+    print("\n1. exact ML, R free (29 parameters):")
+    try:
+        r1 = fit(data, True, None)
+        print("   converged (unexpected: the outputs carry no noise):",
+              {n: f"{v:.3g}" for n, v in zip(r1.names, r1.estimate) if n[:2] in ("R_", "si")},
+              r1.iterations, r1.cost)
+    except mlid.MlidError as e:
+        print(f"   {type(e).__name__}: {e}")
+
+    print(f"\n2. exact ML, every r bounded below by {R_FLOOR:g} (24 + 5 parameters):")
+    lower = {f"r({i})": R_FLOOR for i in range(1, 6)} | {"q(1)": 0.0, "q(2)": 0.0}
+    t0 = time.perf_counter()
+    res = fit(data, True, {k: (v, None) for k, v in lower.items()})
+    wall = time.perf_counter() - t0
+    print(f"   {res.iterations} iterations, converged: {res.converged}, {wall:.2f} s")
+    tv = truth_by_label(realised)
+    print(f"   {'parameter':10s} {'truth':>10s} {'estimate':>11s} {'sigma':>9s} {'error/sigma':>11s}")
+    for n, est, sd in zip(res.names, res.estimate, res.sigma):
+        if n.startswith("R_"):
+            note = "(at bound)" if est <= R_FLOOR * 1.0001 else ""
+            print(f"   {n:10s} {0.0:10.4f} {est:11.3e} {sd:9.2e} {note:>11s}")
+        else:
+            print(f"   {n:10s} {tv[n]:10.4f} {est:11.4f} {sd:9.4f} {(est - tv[n]) / sd:11.2f}")
+    return res
+
+
+if __name__ == "__main__":
+    sys.exit(0 if main() is not None else 1)
