@@ -271,17 +271,3 @@ def test_a_killed_run_leaves_the_previous_json_whole(tmp_path, who):
     leftovers = [p.name for p in tmp_path.iterdir()
                  if p.name not in ("pipe.dat", "deck.nml", "out.json", "small.dat")]
     assert all(".tmp" in name for name in leftovers), leftovers
-
-
-def test_results_do_not_depend_on_the_thread_count(tmp_path):
-    """The X-22 deck (extended Kalman filter, gain partials over OpenMP
-    threads): the same JSON bytes with one thread and with two."""
-    import os
-    out = []
-    for n in ("1", "2"):
-        path = tmp_path / f"threads{n}.json"
-        run = subprocess.run([str(BIN / "mlid-batch"), str(DECKS["x22"][0]), "--json", str(path)],
-                             capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": n})
-        assert run.returncode == 0, run.stderr
-        out.append(path.read_bytes())
-    assert out[0] == out[1]
