@@ -223,7 +223,7 @@ contains
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
     real(wp), allocatable :: b0(:, :, :)
     real(wp) :: w(m%ny, pm%nf), bnu(m%ny)
-    real(wp), allocatable :: gpart(:, :), ipart(:, :, :), mpart(:, :, :), vv(:, :, :)
+    real(wp), allocatable :: gpart(:, :), ipart(:, :, :), vv(:, :, :)
     integer :: ny, nt, nf, j, k, b, nblk
     logical :: tv
 
@@ -256,19 +256,18 @@ contains
     ! samples in parallel, in NBLOCK fixed blocks whose sums are added in
     ! order: the result does not depend on the number of threads
     nblk = min(NBLOCK, nt)
-    allocate (gpart(nf, nblk), ipart(nf, nf, nblk), mpart(nf, nf, nblk), vv(ny, ny, nblk))
+    allocate (gpart(nf, nblk), ipart(nf, nf, nblk), vv(ny, ny, nblk))
     tv = opt%partials .and. .not. opt%steady
     !$omp parallel do schedule(static) default(shared) private(b, j, k, bnu, w)
     do b = 1, nblk
       gpart(:, b) = 0.0_wp
       ipart(:, :, b) = 0.0_wp
-      mpart(:, :, b) = 0.0_wp
       vv(:, :, b) = 0.0_wp
       do j = (b - 1)*nt/nblk + 1, b*nt/nblk
         bnu = matmul(binv(:, :, j), nu(:, j))
         w = matmul(binv(:, :, j), dnu(:, :, j))
         gpart(:, b) = gpart(:, b) + matmul(bnu, dnu(:, :, j))
-        mpart(:, :, b) = mpart(:, :, b) + matmul(transpose(dnu(:, :, j)), w)
+        ipart(:, :, b) = ipart(:, :, b) + matmul(transpose(dnu(:, :, j)), w)
         if (present(wsens)) wsens(:, j, :) = w
         if (opt%steady) then          ! sum B^-1 nu nu' B^-1, for the constant dB below
           do k = 1, ny
@@ -285,16 +284,18 @@ contains
     info = 0.0_wp
     do b = 1, nblk
       grad = grad + gpart(:, b)
-      info = info + mpart(:, :, b)
-    end do
-    if (present(msens)) msens = info    ! without the noise-covariance term 1/2 tr(..)
-    do b = 1, nblk
       info = info + ipart(:, :, b)
     end do
     if (opt%partials .and. opt%steady) then
       ! B and dB the same at every sample: their terms once, times the samples
       vv(:, :, 1) = sum(vv, dim=3)
       call add_b_partials(binv(:, :, 1), db(:, :, :, 1), vv(:, :, 1), real(nt, wp), grad, info)
+    end if
+    if (present(msens)) then    ! without the noise-covariance term 1/2 tr(..)
+      msens = 0.0_wp
+      do j = 1, nt
+        msens = msens + matmul(transpose(dnu(:, :, j)), matmul(binv(:, :, j), dnu(:, :, j)))
+      end do
     end if
   end subroutine fe_likelihood
 

@@ -125,7 +125,6 @@ def test_the_x22_readme_table_holds_with_one_and_two_threads():
     ours = json.loads(runs[0].stdout)
     table = readme_table()
     assert set(table) == {"M_q", "M_w", "M_de", "X_de", "Z_o", "Z_de"}
-    assert table["M_de"]["step, low"].endswith("(1.09)")
     for name, row in table.items():
         assert agrees(ours["step, low"][name][2], row["truth"]), (name, "truth")
         for column, quoted in row.items():
