@@ -222,10 +222,9 @@ contains
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
     real(wp), allocatable :: b0(:, :, :)
-    real(wp) :: w(m%ny, pm%nf), bnu(m%ny)
+    real(wp) :: w(m%ny, pm%nf), bnu(m%ny), v1(m%ny, m%ny)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :), vv(:, :, :)
     integer :: ny, nt, nf, j, k, b, nblk
-    logical :: tv
 
     ny = m%ny
     nt = size(t)
@@ -257,8 +256,7 @@ contains
     ! order: the result does not depend on the number of threads
     nblk = min(NBLOCK, nt)
     allocate (gpart(nf, nblk), ipart(nf, nf, nblk), vv(ny, ny, nblk))
-    tv = opt%partials .and. .not. opt%steady
-    !$omp parallel do schedule(static) default(shared) private(b, j, k, bnu, w)
+    !$omp parallel do schedule(static) default(shared) private(b, j, k, bnu, w, v1)
     do b = 1, nblk
       gpart(:, b) = 0.0_wp
       ipart(:, :, b) = 0.0_wp
@@ -269,14 +267,16 @@ contains
         gpart(:, b) = gpart(:, b) + matmul(bnu, dnu(:, :, j))
         ipart(:, :, b) = ipart(:, :, b) + matmul(transpose(dnu(:, :, j)), w)
         if (present(wsens)) wsens(:, j, :) = w
-        if (opt%steady) then          ! sum B^-1 nu nu' B^-1, for the constant dB below
-          do k = 1, ny
-            vv(:, k, b) = vv(:, k, b) + bnu*bnu(k)
-          end do
+        if (.not. opt%partials) cycle
+        do k = 1, ny                  ! B^-1 nu nu' B^-1
+          v1(:, k) = bnu*bnu(k)
+        end do
+        if (opt%steady) then          ! summed, for the constant dB below
+          vv(:, :, b) = vv(:, :, b) + v1
+        else
+          call add_b_partials(binv(:, :, j), db(:, :, :, j), v1, 1.0_wp, gpart(:, b), &
+                              ipart(:, :, b))
         end if
-        if (tv) call add_b_partials(binv(:, :, j), db(:, :, :, j), &
-                                    spread(bnu, 2, ny)*spread(bnu, 1, ny), 1.0_wp, gpart(:, b), &
-                                    ipart(:, :, b))
       end do
     end do
     !$omp end parallel do
