@@ -16,7 +16,7 @@
 module mlid_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, stop_reason_text
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, stop_reason_text, fit_outcome
   use mlid_models, only: model_t, model_layout, layout_t
   use mlid_model_factory, only: model_create
   use mlid_options, only: options_t, options_from_flat, options_to_flat, NOPTION, OPTION_NAMES, &
@@ -55,7 +55,7 @@ module mlid_api
   private
   public :: mlid_input_signal, mlid_default_options, mlid_model_sizes, &
             mlid_option_info, mlid_option_set, mlid_option_get, mlid_options_check, &
-            mlid_stop_reason, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
+            mlid_stop_reason, mlid_fit_outcome, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
             mlid_deck_case_data, mlid_deck_case_time_input, mlid_report_fit, mlid_case_json, &
             mlid_layout_size, mlid_layout, mlid_name_list, mlid_manoeuvre_map, &
             mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
@@ -136,6 +136,14 @@ contains
     character(len=64), intent(out) :: text
     text = stop_reason_text(reason)
   end subroutine mlid_stop_reason
+
+  !> What a fit that ended with status and reason has to show (mlid_kinds
+  !> FIT_*: 0 estimates, 1 failed, only the last values, 2 not run).
+  subroutine mlid_fit_outcome(status, reason, outcome)
+    integer(c_int), intent(in) :: status, reason
+    integer(c_int), intent(out) :: outcome
+    outcome = fit_outcome(status, reason)
+  end subroutine mlid_fit_outcome
 
   !> Read a deck with the core's reader and keep its cases for the calls
   !> below (sizes first, then arrays).  status /= 0: the deck as a whole
@@ -583,7 +591,7 @@ contains
     s = fit_summary_t(split_lines(labels, nf, NAMELEN), start, est, sig, sigc, cov, eigval, eigvec, &
                       rhat, hist, cost, niter, reason, nrank, lag, converged == 1, &
                       split_lines(units, nf, UNITLEN))
-    text = fit_report(s, iopt)
+    text = fit_report(s, iopt, status, msg)
     nreport = min(len(text), len(report))
     report = text
     text = fit_json(title, job, status, msg, s)

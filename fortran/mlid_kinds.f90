@@ -32,7 +32,12 @@ module mlid_kinds
   integer, parameter, public :: STOP_NO_DECREASE = 5 !< no cost decrease after all halvings
   integer, parameter, public :: STOP_FAILED = 6     !< an error ended the iteration
 
-  public :: stop_reason_text, first_failure
+  !> What a fit that ended with a status and a stop reason has to show.
+  integer, parameter, public :: FIT_ESTIMATES = 0  !< estimates and sigma, converged or not
+  integer, parameter, public :: FIT_FAILED = 1     !< an error ended it: only the last values reached
+  integer, parameter, public :: FIT_NOT_RUN = 2    !< bad input: nothing was fitted
+
+  public :: stop_reason_text, first_failure, fit_outcome
 
 contains
 
@@ -50,6 +55,23 @@ contains
     case default;            text = 'not started'
     end select
   end function stop_reason_text
+
+  !> What a fit has to show (FIT_*).  Running out of iterations or of step
+  !> halvings leaves a result (status MLID_ERR_NOCONV, reason MAXITER or
+  !> NO_DECREASE) whose sigma still mean something; any other error, and a
+  !> NOCONV from inside a step (the steady-state Riccati iteration), leaves
+  !> no estimates: a singular information has no inverse, a diverged or
+  !> non-positive-definite likelihood no value.
+  pure integer function fit_outcome(status, reason)
+    integer, intent(in) :: status, reason
+    if (status == MLID_ERR_INPUT) then
+      fit_outcome = FIT_NOT_RUN
+    else if (status == MLID_OK .or. (status == MLID_ERR_NOCONV .and. reason /= STOP_FAILED)) then
+      fit_outcome = FIT_ESTIMATES
+    else
+      fit_outcome = FIT_FAILED
+    end if
+  end function fit_outcome
 
   !> The first failure of work done in parallel (item by item, so the
   !> message does not depend on the threads): its status and message.

@@ -4,7 +4,7 @@
 !> ends agree byte for byte.
 module mlid_report
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, stop_reason_text
+  use mlid_kinds, only: wp, stop_reason_text, fit_outcome, FIT_FAILED
   use mlid_linalg, only: chol_inverse
   use mlid_options, only: NOPT, option_get
   use mlid_record, only: UNITLEN
@@ -32,14 +32,21 @@ contains
 
   !> The report: how the iteration ended, the table of start, estimate and
   !> Cramer-Rao sigma, cost and noise, identifiability; every line ends in NL.
-  function fit_report(s, iopt) result(text)
+  !> A failed fit (fit_outcome) has none of these: failed_report says so.
+  function fit_report(s, iopt, status, msg) result(text)
     type(fit_summary_t), intent(in) :: s
     integer, intent(in) :: iopt(NOPT)
+    integer, intent(in) :: status      !< the fit's (mlid_kinds)
+    character(len=*), intent(in) :: msg
     character(len=:), allocatable :: text, method
     character(len=512) :: buf
     logical :: oe
     integer :: k
 
+    if (fit_outcome(status, s%reason) == FIT_FAILED) then
+      text = failed_report(s, iopt, msg)
+      return
+    end if
     method = method_text(iopt)
     oe = method(1:6) == 'output'
     write (buf, '(a,i0,a)') ' '//method//': ', s%niter, ' iterations, '// &
@@ -73,6 +80,32 @@ contains
     end do
     text = text//NL//identifiability(s%labels, s%eigval, s%eigvec, s%cov)
   end function fit_report
+
+  !> The report of a failed fit: its first line says it failed, the table
+  !> has only the start and the last values reached, and the last line is
+  !> the error.  Whatever the failure left in sigma, cost, R and the
+  !> information (never computed, or from a matrix with no inverse) is not
+  !> printed.
+  function failed_report(s, iopt, msg) result(text)
+    type(fit_summary_t), intent(in) :: s
+    integer, intent(in) :: iopt(NOPT)
+    character(len=*), intent(in) :: msg
+    character(len=:), allocatable :: text
+    character(len=512) :: buf
+    integer :: k
+
+    write (buf, '(a,i0,a)') ' '//method_text(iopt)//': failed after ', s%niter, &
+      ' iterations, no estimates'
+    text = trim(buf)//NL
+    write (buf, '(1x,a16,1x,a10,a15,a15)') 'parameter       ', 'unit      ', 'start', 'last value'
+    text = text//trim(buf)//NL
+    do k = 1, size(s%labels)
+      write (buf, '(1x,a16,1x,a10,2es15.6e2)') s%labels(k), unit_of(s, k), s%start(k), s%est(k)
+      text = text//trim(buf)//NL
+    end do
+    text = text//' last value: where the fit stopped, not an estimate (a failed fit has no '// &
+           'sigma, correlations or cost)'//NL//' FAILED: '//trim(msg)//NL
+  end function failed_report
 
   !> The estimator, as the report's first line names it.
   function method_text(iopt) result(text)
@@ -205,31 +238,38 @@ contains
     if (allocated(s%units)) unit = s%units(k)
   end function unit_of
 
-  !> The JSON object of a fitted case.
+  !> The JSON object of a fitted case; a failed one (fit_outcome) has its
+  !> last values and null for every statistic of the fit.
   function fit_json(title, job, status, msg, s) result(text)
     character(len=*), intent(in) :: title, job, msg
     integer, intent(in) :: status
     type(fit_summary_t), intent(in) :: s
     character(len=:), allocatable :: text
-    character(len=16) :: buf
     integer :: k
+    logical :: failed
 
+    failed = fit_outcome(status, s%reason) == FIT_FAILED
     text = case_json(title, job, status, msg)
-    text = text(1:len(text) - 1)//','//NL//'"parameters": '//strings(s%labels)//','//NL// &
+    text = text(1:len(text) - 1)//', "failed": '//trim(merge('true ', 'false', failed))//','//NL// &
+           '"parameters": '//strings(s%labels)//','//NL// &
            '"units": '//strings([(unit_of(s, k), k=1, size(s%labels))])//','//NL// &
-           '"start": '//numbers(s%start)//','//NL// &
-           '"estimate": '//numbers(s%est)//','//NL//'"sigma": '//numbers(s%sig)//','//NL// &
-           '"sigma_corrected": '//numbers(s%sigc)//', "colored_lag": '//itoa(s%lag)// &
-           ','//NL// &
-           '"correlation": '//matrix(correlation(s%cov))//','//NL// &
-           '"R": '//matrix(s%rhat)//','//NL//'"det_R": '//number(det_r(s%rhat))// &
-           ', "cost": '//number(s%cost)//','//NL//'"cost_history": '//numbers(s%hist)//','//NL
-    write (buf, '(i0)') s%niter
-    text = text//'"iterations": '//trim(buf)//', "converged": '// &
-           trim(merge('true ', 'false', s%converged))
-    write (buf, '(i0)') s%rank
-    text = text//', "rank": '//trim(buf)//', "reason": '// &
-           json_string(trim(stop_reason_text(s%reason)))//'}'
+           '"start": '//numbers(s%start)//','//NL
+    if (failed) then
+      text = text//'"estimate": null, "last_values": '//numbers(s%est)//','//NL// &
+             '"sigma": null, "sigma_corrected": null, "colored_lag": null, "correlation": null,'// &
+             NL//'"R": null, "det_R": null, "cost": null, "cost_history": null,'//NL// &
+             '"iterations": '//itoa(s%niter)//', "converged": false, "rank": null'
+    else
+      text = text//'"estimate": '//numbers(s%est)//','//NL//'"sigma": '//numbers(s%sig)//','//NL// &
+             '"sigma_corrected": '//numbers(s%sigc)//', "colored_lag": '//itoa(s%lag)// &
+             ','//NL// &
+             '"correlation": '//matrix(correlation(s%cov))//','//NL// &
+             '"R": '//matrix(s%rhat)//','//NL//'"det_R": '//number(det_r(s%rhat))// &
+             ', "cost": '//number(s%cost)//','//NL//'"cost_history": '//numbers(s%hist)//','//NL// &
+             '"iterations": '//itoa(s%niter)//', "converged": '// &
+             trim(merge('true ', 'false', s%converged))//', "rank": '//itoa(s%rank)
+    end if
+    text = text//', "reason": '//json_string(trim(stop_reason_text(s%reason)))//'}'
   end function fit_json
 
   !> The JSON object of a case without a fit: title, job, status, message

@@ -4,7 +4,8 @@
 !> if any case failed.  Records and the JSON file are written whole or not
 !> at all: to a temporary name in the same folder, renamed when complete.
 program mlid_batch
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_NOCONV, MLID_ERR_SINGULAR
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_NOCONV, fit_outcome, FIT_ESTIMATES, &
+                        FIT_FAILED, FIT_NOT_RUN
   use mlid_case, only: case_t
   use mlid_text, only: line_t, join_lines
   use mlid_deck, only: deck_read, case_record, case_time_input, manoeuvre_layout, &
@@ -85,20 +86,21 @@ contains
     integer, intent(in) :: k
     type(case_t), intent(inout) :: c
     character(len=:), allocatable :: json
-    integer :: cstat
+    integer :: cstat, outcome
     character(len=256) :: cmsg
 
     write (*, '(/,a,i0,a)') ' case ', k, ': '//trim(c%title)
     cstat = c%status
     cmsg = c%msg
+    outcome = FIT_NOT_RUN
     if (cstat /= MLID_OK) then
       json = case_json(c%title, c%job, cstat, cmsg)
     else if (c%job == 'simulate') then
       call simulate_case(c, json, cstat, cmsg)
     else if (c%job == 'validate') then
-      call validate_case(k, c, json, cstat, cmsg)
+      call validate_case(k, c, json, cstat, cmsg, outcome)
     else
-      call fit_case(k, c, json, cstat, cmsg)
+      call fit_case(k, c, json, cstat, cmsg, outcome)
     end if
     ! a job that stopped before its result has only its message to give
     if (.not. allocated(json)) json = case_json(c%title, c%job, cstat, cmsg)
@@ -107,7 +109,8 @@ contains
     if (cstat /= MLID_OK) then
       nfail = nfail + 1
       call say(k, c, cmsg)
-      write (*, '(a)') ' FAILED: '//trim(cmsg)
+      ! a failed fit's report ends with this line already
+      if (outcome /= FIT_FAILED) write (*, '(a)') ' FAILED: '//trim(cmsg)
     end if
   end subroutine run_case
 
@@ -166,28 +169,37 @@ contains
     json = case_json(c%title, c%job, cstat, cmsg, size(t), trim(c%out_file))
   end subroutine simulate_case
 
-  subroutine fit_case(k, c, json, cstat, cmsg)
+  !> Fit an estimate case and write its corrected records.  A fit that did
+  !> not converge is a result with a warning, not a failure of the case.
+  subroutine fit_case(k, c, json, cstat, cmsg, outcome)
     integer, intent(in) :: k
     type(case_t), intent(inout) :: c
     character(len=:), allocatable, intent(out) :: json
     integer, intent(out) :: cstat
     character(len=*), intent(out) :: cmsg
+    integer, intent(out) :: outcome       !< of the fit (mlid_kinds FIT_*)
     real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :), own_t(:)
     integer, allocatable :: segstart(:)
     character(len=UNITLEN), allocatable :: units(:)
     type(line_t), allocatable :: notes(:)
 
+    outcome = FIT_NOT_RUN
     call case_record(c, t, u, y, cstat, cmsg, segstart, units, notes=notes, own_t=own_t)
     if (allocated(notes)) call say_notes(k, c, notes)
     if (cstat == MLID_OK) call corrected_writable(c, cstat, cmsg)   ! before a long fit
     if (cstat == MLID_OK) call fit_record(k, c, t, u, y, segstart, units, .true., json, cstat, &
-                                          cmsg, theta, rhat, yhat)
-    if (.not. allocated(c%corrected)) return
-    if (cstat == MLID_OK) then
-      call write_corrected(c, own_t, u, y, segstart, units, theta, cstat, cmsg)
-      if (cstat /= MLID_OK) deallocate (json)   ! the case failed: its message, not the fit's
-    else if (cstat == MLID_ERR_NOCONV .or. cstat == MLID_ERR_SINGULAR) then   ! reported
-      write (*, '(a)') ' corrected records not written: the fit did not end well'
+                                          cmsg, theta, rhat, yhat, outcome)
+    if (allocated(c%corrected)) then
+      if (cstat == MLID_OK) then
+        call write_corrected(c, own_t, u, y, segstart, units, theta, cstat, cmsg)
+        if (cstat /= MLID_OK) deallocate (json)   ! the case failed: its message, not the fit's
+      else if (outcome == FIT_ESTIMATES) then     ! not converged, reported
+        write (*, '(a)') ' corrected records not written: the fit did not end well'
+      end if
+    end if
+    if (cstat == MLID_ERR_NOCONV .and. outcome == FIT_ESTIMATES) then
+      call say(k, c, 'warning: '//cmsg)
+      cstat = MLID_OK
     end if
   end subroutine fit_case
 
@@ -236,7 +248,7 @@ contains
   !> Fit case c to a record (several manoeuvres: segstart), print the
   !> report if asked, and return the JSON object, theta, R-hat and outputs.
   subroutine fit_record(k, c, t, u, y, segstart, units, report, json, cstat, cmsg, theta, &
-                        rhat, yhat)
+                        rhat, yhat, outcome)
     integer, intent(in) :: k
     type(case_t), intent(inout) :: c
     real(wp), intent(in) :: t(:), u(:, :), y(:, :)
@@ -247,11 +259,13 @@ contains
     integer, intent(out) :: cstat
     character(len=*), intent(out) :: cmsg
     real(wp), allocatable, intent(out) :: theta(:), rhat(:, :), yhat(:, :)
+    integer, intent(out) :: outcome       !< of the fit (mlid_kinds FIT_*)
     real(wp), allocatable :: theta0(:), sigma(:), grad(:), sigc(:), hist(:), info(:, :), covc(:, :)
     type(fit_summary_t) :: s
     integer :: bad, nf, nth, converged
     logical, allocatable :: free(:)
 
+    outcome = FIT_NOT_RUN
     call case_param_units(c, size(segstart), units, s%units, cstat, cmsg)
     ! several data files: several manoeuvres, each its own x0 and biases
     if (cstat == MLID_OK) call manoeuvre_layout(c, size(segstart), cstat, cmsg)
@@ -270,9 +284,9 @@ contains
                   info, grad, s%eigval, s%eigvec, rhat, yhat, hist, s%cost, s%niter, s%reason, &
                   converged, s%rank, bad, sigc, covc, s%lag, cstat, cmsg)
     if (cstat /= MLID_OK .and. bad > 0) cmsg = replace_index(cmsg, bad, c%labels)
-    ! a fit that ended singular or unconverged still has a result to report
-    if (all(cstat /= [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) return
-    if (.not. report) return
+    ! a fit that ran has a report: its estimates, or its last values if it failed
+    outcome = fit_outcome(cstat, s%reason)
+    if (outcome == FIT_NOT_RUN .or. .not. report) return
     free = c%isfree == 1
     s%labels = c%labels
     s%start = pack(theta0, free)
@@ -282,19 +296,20 @@ contains
     s%rhat = rhat
     s%hist = hist(1:s%niter + 1)
     s%converged = converged == 1
-    write (*, '(a)', advance='no') fit_report(s, c%iopt)
+    write (*, '(a)', advance='no') fit_report(s, c%iopt, cstat, cmsg)
     json = fit_json(c%title, c%job, cstat, cmsg, s)
     if (cstat == MLID_OK .and. cmsg(1:min(8, len(cmsg))) == 'warning:') call say(k, c, cmsg)
   end subroutine fit_record
 
   !> Validate case c: fit on the files not held out (reported as an estimate
   !> case is), then predict the held-out ones (holdout_case) and say how well.
-  subroutine validate_case(k, c, json, cstat, cmsg)
+  subroutine validate_case(k, c, json, cstat, cmsg, outcome)
     integer, intent(in) :: k
     type(case_t), intent(inout) :: c
     character(len=:), allocatable, intent(out) :: json
     integer, intent(out) :: cstat
     character(len=*), intent(out) :: cmsg
+    integer, intent(out) :: outcome       !< of the fit (mlid_kinds FIT_*)
     real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :), r0(:, :)
     real(wp), allocatable :: th(:), uh(:, :), yh(:, :), pred(:, :), theil(:), rms(:), ratio(:)
     integer, allocatable :: segstart(:), sh(:)
@@ -304,7 +319,9 @@ contains
     character(len=:), allocatable :: hjson
     type(case_t) :: fitted, held
     logical, allocatable :: out(:)
+    integer :: held_outcome
 
+    outcome = FIT_NOT_RUN
     allocate (out(size(c%data_files)))
     out = .false.
     out(c%holdout) = .true.
@@ -317,13 +334,13 @@ contains
                                            hunits, names, notes)
     if (cstat == MLID_OK) call say_notes(k, c, notes)
     if (cstat == MLID_OK) call fit_record(k, fitted, t, u, y, segstart, units, .true., json, &
-                                          cstat, cmsg, theta, rhat, yhat)
+                                          cstat, cmsg, theta, rhat, yhat, outcome)
     if (cstat /= MLID_OK) return
     call holdout_case(files_of(c, out), theta, count(.not. out), held, cstat, cmsg)
     if (cstat /= MLID_OK) return
     if (count(held%isfree == 1) > 0) then
       call fit_record(k, held, th, uh, yh, sh, hunits, .false., hjson, cstat, cmsg, theta, r0, &
-                      pred)
+                      pred, held_outcome)
     else
       call predict(held, th, uh, sh, pred, cstat, cmsg)
     end if

@@ -92,14 +92,18 @@ def _attempt(what, fn, *args):
         return None, InternalError(f"{what}: {type(exc).__name__}: {exc}")
 
 
-def _failed(case, error):
-    print(f" FAILED: {error}")
+def _failed(case, error, reported=False):
+    """Say that a case failed; reported: the failed fit's report said it."""
+    if not reported:
+        print(f" FAILED: {error}")
     print(f"mlid: {case.where()}: {error}", file=sys.stderr)
 
 
 def _show_case(args, case, out, result, error, tables):
     """Print a case's report and write its table rows and plots; returns the
-    case's error (its own, or the first of a table or a plot)."""
+    case's error (its own, or the first of a table or a plot).  A failed fit
+    has its report (last values) and no table or plot; an estimate that did
+    not converge is a result with a warning, not a failure."""
     from .plots import plot_fit, plot_validation
     from .table import results_table
     print(f"\n case {case.index}: {case.title}")
@@ -117,14 +121,18 @@ def _show_case(args, case, out, result, error, tables):
             print(f" {result.corrected_note}")
         if result.message.startswith("warning:"):
             print(f"mlid: {case.where()}: {result.message}", file=sys.stderr)
-    if args.table and result is not None:
+    fitted = result is not None and not result.failed
+    unconverged = error is None and case.job == "estimate" and fitted and result.status != 0
+    if unconverged:
+        print(f"mlid: {case.where()}: warning: {result.message}", file=sys.stderr)
+    if args.table and fitted:
         table, table_error = _attempt("table", results_table, result, case.index)
         if table is not None:
             tables.append(table)
         error = error or table_error
-    if error is None and (out or {}).get("status", 0) != 0:
+    if error is None and (out or {}).get("status", 0) != 0 and not unconverged:
         error = out["message"]
-    if args.plots and result is not None:
+    if args.plots and fitted:
         plots = [(plot_fit, result)] + ([(plot_validation, checked)] if checked else [])
         for fn, what in plots:
             path, plot_error = _attempt("plot", fn, what, args.plots, f"case{case.index}")
@@ -166,7 +174,7 @@ def _run(args):
         error = _show_case(args, case, out, result, error, tables)
         if error:
             failed += 1
-            _failed(case, error)
+            _failed(case, error, reported=result is not None and result.failed)
         sys.stdout.flush()
         cases.refresh()
     cases.close()

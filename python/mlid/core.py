@@ -9,12 +9,11 @@ import numpy as np
 from . import _core
 from .checks import real_array, whole
 from .data import FlightData
-from .errors import (ConvergenceWarning, InputError, MlidWarning, SingularInformationError,
-                     check_status, guarded, status_text)
+from .errors import ConvergenceWarning, InputError, MlidWarning, check_status, guarded, status_text
 from .maneuvers import Params, join
 from .model import Model
 from .progress import Silent, bar as progress_bar
-from .result import FitResult
+from .result import FitResult, fit_outcome
 
 _api = _core.mlid_api
 #: Options that are the model's (Model.input_hold, Model.substeps), not fit()'s.
@@ -277,11 +276,17 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         does not increase or has a gap; non-uniform sampling for filter
         error.
     SingularInformationError
-        The information matrix is singular (``.result`` holds the fit).
+        The information matrix, or R-hat or the filter's innovation
+        covariance, is singular.
     DivergenceError
         The simulation diverged (a state not finite).
+    NonConvergenceError
+        The steady-state Kalman filter's Riccati iteration did not converge.
     InternalError
         A numerical library call failed.
+
+        Each error but InputError carries the failed fit as ``.result``
+        (``failed`` True): the start and the last values reached, no sigma.
 
     Warns
     -----
@@ -306,7 +311,7 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     free_names = params.free_names()
     if status and bad:                # the core numbers the free parameter; name it
         text = re.sub(rf"free parameter {bad}(?!\d)", repr(free_names[bad - 1]), text)
-    if status not in (0, 2, 4):       # no result to return
+    if fit_outcome(status, reason) == "not run":       # bad input: nothing fitted
         check_status(status, text)
     if status == 0 and text.startswith("warning:"):
         warnings.warn(text[len("warning:"):].strip(), MlidWarning, stacklevel=2)
@@ -323,8 +328,8 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         converged=bool(converged), reason=stop_reason(reason), reason_code=int(reason),
         flat_options=iopt, rank=int(rank),
         status=int(status), message=text, wall_time=wall)
-    if status == 2:
-        raise SingularInformationError(text, result)
+    if result.failed:                 # the error carries the last values
+        check_status(status, text, result=result)
     return result
 
 

@@ -7,7 +7,11 @@ import os
 
 
 class MlidError(Exception):
-    """Base class of every error mlid raises."""
+    """Base class of every error mlid raises.  ``result``: the fit that
+    failed, when a fit did (``result.failed``: its start and the last values
+    it reached, no sigma, correlations or cost); else None."""
+
+    result = None
 
 
 class InputError(MlidError):
@@ -22,7 +26,7 @@ class SingularInformationError(MlidError):
     message : str
         What is singular and, where the core can tell, which parameters.
     result : FitResult, optional
-        The fit as far as it got, when there is one (``.result``).
+        The failed fit, when there is one (``.result``).
     """
 
     def __init__(self, message, result=None):
@@ -35,14 +39,16 @@ class DivergenceError(MlidError):
 
 
 class NonConvergenceError(MlidError):
-    """The iteration ended without meeting a convergence test.
+    """An iteration that must converge to give a result did not (an input
+    design's, the steady-state Kalman filter's).  A fit that runs out of
+    iterations is not an error: its result says ``converged=False``.
 
     Parameters
     ----------
     message : str
-        How the iteration ended.
+        Which iteration, and how it ended.
     result : FitResult, optional
-        The last iterate, when there is one (``.result``).
+        The failed fit, when there is one (``.result``).
     """
 
     def __init__(self, message, result=None):
@@ -90,15 +96,18 @@ def status_text(status):
     return STATUS_TEXT.get(int(status), f"status {int(status)}")
 
 
-def check_status(status, msg, context=""):
-    """Raise the exception for a non-zero core status, with its message."""
+def check_status(status, msg, context="", result=None):
+    """Raise the exception for a non-zero core status, with its message and
+    the failed fit, when there is one, as ``.result``."""
     if status == 0:
         return
     text = msg.decode(errors="replace") if isinstance(msg, bytes) else str(msg)
     text = text.strip()
     if context:
         text = f"{context}: {text}"
-    raise _BY_STATUS.get(int(status), MlidError)(text)
+    error = _BY_STATUS.get(int(status), MlidError)(text)
+    error.result = result
+    raise error
 
 
 #: What a wrong type, shape or value passed in raises inside numpy, f2py or

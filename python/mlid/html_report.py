@@ -221,16 +221,19 @@ def modes_html(model):
 def _status(out, result, error):
     if error is not None:
         return "fail", "failed"
+    if result is not None and not result.converged:   # a result, with a warning
+        return "warn", "not converged"
     if out is not None and out.get("status", 0) != 0:
         return "fail", "failed"
-    if result is not None and not result.converged:
-        return "warn", "not converged"
     if result is not None and str(result.message).startswith("warning:"):
         return "warn", "converged, with a warning"
     return "ok", "converged" if result is not None else "done"
 
 
 def _fit_sections(result):
+    if result.failed:            # no estimates, statistics or figures: the report says why
+        return ["<h3>Last values reached (not estimates)</h3>",
+                f"<pre>{_e(result.report())}</pre>"]
     parts = ["<h3>Estimates</h3>", estimates_table(result)]
     try:
         ident = result.identifiability()

@@ -14,6 +14,7 @@ import numpy as np
 
 from .errors import InputError
 from .files import atomic_savefig
+from .result import require_estimates
 
 #: One colour per role, in every plot.
 COLORS = {"measured": "0.30", "model": "#1f5fa8", "input": "#2a8a3e", "residual": "#b2332a",
@@ -159,6 +160,7 @@ class _Records:
 
     @classmethod
     def of_result(cls, result):
+        require_estimates(result, "plot")
         given = getattr(result, "evaluate_args", (result.data,))[0]
         return cls(given, result.data.t)
 
@@ -545,6 +547,7 @@ def correlation(result, path=None):
     matplotlib.figure.Figure
         The map and its colour bar.
     """
+    require_estimates(result, "plot")
     c = result.correlation
     names = list(result.names)
     n = len(names)
@@ -623,6 +626,7 @@ def _free_positions(result, model):
 def sampled_models(result, samples=BAND_SAMPLES, seed=BAND_SEED):
     """Models with the free parameters drawn from N(estimate, Cramér-Rao
     covariance), seeded; tied parameters follow their ties (affine ones too)."""
+    require_estimates(result, "plot")
     model = result.model
     pos, idx = _free_positions(result, model)
     cov = np.asarray(result.covariance)[np.ix_(idx, idx)]

@@ -6,6 +6,53 @@ import re
 
 import numpy as np
 
+from .errors import InputError
+
+#: The core's fit outcomes (mlid_kinds FIT_*), by code.
+OUTCOMES = ("estimates", "failed", "not run")
+#: What a failed fit does not have: every statistic of the fit (NaN in its
+#: FitResult, null in its JSON).  Its ``estimate`` holds the last values reached.
+NOT_IN_A_FAILED_FIT = ("sigma", "sigma_corrected", "covariance", "covariance_corrected",
+                       "information", "gradient", "eigenvalues", "eigenvectors", "rhat", "yhat",
+                       "cost", "cost_history")
+
+
+def fit_outcome(status, reason):
+    """What a fit that ended with a core status and stop reason has to show.
+
+    Parameters
+    ----------
+    status, reason : int
+        The core's status code and stop reason (mlid_kinds).
+
+    Returns
+    -------
+    str
+        'estimates' (converged or not), 'failed' (an error ended it: only the
+        last values reached) or 'not run' (bad input), as the core decides.
+    """
+    from .core import _api
+    return OUTCOMES[int(_api.mlid_fit_outcome(int(status), int(reason)))]
+
+
+def require_estimates(result, what):
+    """Refuse a failed fit where estimates are needed.
+
+    Parameters
+    ----------
+    result : FitResult
+    what : str
+        What needs them ('plot', 'results table').
+
+    Raises
+    ------
+    InputError
+        If the fit failed: it has only the last values it reached.
+    """
+    if getattr(result, "failed", False):
+        raise InputError(f"no {what} of a failed fit (it has last values, not estimates): "
+                         f"{result.message}")
+
 
 def whiteness(residuals, lags=20):
     """Ljung-Box test of each column of residuals over lags 1..lags.
@@ -46,7 +93,10 @@ class FitResult:
     corrected for coloured residuals (the core's mlid_colored, residual
     autocorrelation up to lag ``colored_lag``).
 
-    Made by ``fit``; in Jupyter it shows as an HTML table.
+    Made by ``fit``; in Jupyter it shows as an HTML table.  A fit that
+    failed (``failed``; the error raised carries it as ``.result``) has no
+    estimates: ``estimate`` holds the last values reached, and every
+    statistic (NOT_IN_A_FAILED_FIT) is NaN.
 
     Parameters
     ----------
@@ -68,8 +118,13 @@ class FitResult:
     cost_history : ndarray (iterations + 1,)
     iterations : int
     converged : bool
+        False for a failed fit.
     reason : str
         Why the iteration stopped, in the report's words.
+    status : int
+        The core's status code (0, or 4 when not converged; others: failed).
+    message : str
+        The core's message: a warning, why it did not converge or why it failed.
     model : Model
         The model at the estimate.
     data : FlightData
@@ -80,6 +135,20 @@ class FitResult:
 
     def __init__(self, **fields):
         self.__dict__.update(fields)
+        if self.failed:             # whatever the failure left there means nothing
+            for name in NOT_IN_A_FAILED_FIT:
+                if name in fields:
+                    self.__dict__[name] = np.full(np.shape(fields[name]), np.nan)
+            self.cost = float("nan")
+            self.converged = False
+
+    @property
+    def failed(self):
+        """True when an error ended the fit (``fit_outcome``): no estimates,
+        only the last values reached.  Running out of iterations is not
+        failing: that result has its sigma and ``converged`` False."""
+        return fit_outcome(getattr(self, "status", 0), getattr(self, "reason_code", 0)) == \
+            "failed"
 
     @property
     def residuals(self):
@@ -106,7 +175,13 @@ class FitResult:
         -------
         list of dict
             As ``mlid.whiteness``.
+
+        Raises
+        ------
+        InputError
+            If the fit failed.
         """
+        require_estimates(self, "whiteness test")
         return whiteness(self.residuals, lags)
 
     @property
@@ -121,28 +196,25 @@ class FitResult:
         -------
         dict
             Parameters, start, estimate, sigmas, correlation, R, cost and its
-            history, iterations, convergence, rank, reason, message, wall time.
+            history, iterations, convergence, rank, reason, message, wall time;
+            for a failed fit, as its JSON: ``failed`` True, ``last_values``,
+            and None for the estimates and every statistic.
         """
-        return {
-            "parameters": list(self.names),
-            "units": list(getattr(self, "param_units", None) or [""] * len(self.names)),
-            "start": self.start.tolist(),
-            "estimate": self.estimate.tolist(),
-            "sigma": self.sigma.tolist(),
-            "sigma_corrected": self.sigma_corrected.tolist(),
-            "colored_lag": self.colored_lag,
-            "correlation": self.correlation.tolist(),
-            "R": self.rhat.tolist(),
-            "det_R": self.det_r,
-            "cost": self.cost,
-            "cost_history": self.cost_history.tolist(),
-            "iterations": self.iterations,
-            "converged": self.converged,
-            "rank": self.rank,
-            "reason": self.reason,
-            "message": self.message,
-            "wall_time_s": self.wall_time,
-        }
+        common = {"failed": self.failed, "parameters": list(self.names),
+                  "units": list(getattr(self, "param_units", None) or [""] * len(self.names)),
+                  "start": self.start.tolist()}
+        end = {"iterations": self.iterations, "converged": self.converged,
+               "reason": self.reason, "message": self.message, "wall_time_s": self.wall_time}
+        if self.failed:
+            return {**common, "last_values": self.estimate.tolist(),
+                    **dict.fromkeys(("estimate", "sigma", "sigma_corrected", "colored_lag",
+                                     "correlation", "R", "det_R", "cost", "cost_history",
+                                     "rank")), **end}
+        return {**common, "estimate": self.estimate.tolist(), "sigma": self.sigma.tolist(),
+                "sigma_corrected": self.sigma_corrected.tolist(),
+                "colored_lag": self.colored_lag, "correlation": self.correlation.tolist(),
+                "R": self.rhat.tolist(), "det_R": self.det_r, "cost": self.cost,
+                "cost_history": self.cost_history.tolist(), "rank": self.rank, **end}
 
     def _texts(self, title="", job="estimate"):
         """The core's report and JSON object of this fit (mlid-batch prints
@@ -178,6 +250,8 @@ class FitResult:
         -------
         list of str
         """
+        if self.failed:
+            return []
         lines = self.report().split("\n")
         k = [i for i, ln in enumerate(lines) if ln.startswith((" R diagonal", " B diagonal"))]
         return lines[k[0] + 1:]
@@ -206,8 +280,14 @@ class FitResult:
         Returns
         -------
         ndarray (ny, nf)
+
+        Raises
+        ------
+        InputError
+            If the fit failed.
         """
         from .core import evaluate
+        require_estimates(self, "sensitivity norms")
         data, x0s, biases = getattr(self, "evaluate_args", (self.data, None, None))
         if isinstance(data, (list, tuple)):      # several manoeuvres: each one's own x0, bias
             x0s = [m.x0 for m in self.manoeuvres]
@@ -258,7 +338,13 @@ class FitResult:
             as the printed report says it.
         rows : list of (str, float)
             Each output's name and its diagonal element (core units).
+
+        Raises
+        ------
+        InputError
+            If the fit failed.
         """
+        require_estimates(self, "noise estimate")
         line = next(ln for ln in self.report().split("\n")
                     if ln.startswith((" R diagonal", " B diagonal")))
         label = re.match(r"\s*(\w diagonal(?: \(mean\))?)", line).group(1)
@@ -267,9 +353,13 @@ class FitResult:
 
     def _repr_html_(self):
         """Jupyter's view: the report's first line (method, iterations,
-        converged and why), the results table, the cost and R-hat's diagonal."""
+        converged and why), the results table, the cost and R-hat's diagonal;
+        for a failed fit the report's lines (what failed, the last values)."""
         from .table import HTML_DIGITS
         e = html.escape
+        if self.failed:
+            return (f'<div class="mlid-fit mlid-failed"><p><b>FitResult</b></p>'
+                    f"<pre>{e(self.report())}</pre></div>")
         head = self.report().split("\n")[0].strip()
         label, rows = self.noise_diagonal()
         noise = "".join(f"<tr><td>{e(name)}</td><td style=\"text-align:right\">"
@@ -284,5 +374,7 @@ class FitResult:
                 f"</tr></thead><tbody>{noise}</tbody></table></div>")
 
     def __repr__(self):
+        if self.failed:
+            return f"FitResult(failed after {self.iterations} iterations: {self.message})"
         return f"FitResult(cost={self.cost:.6g}, iterations={self.iterations}, " \
                f"converged={self.converged})"

@@ -13,6 +13,7 @@ import numpy as np
 
 from .errors import InputError
 from .files import atomic_open
+from .result import require_estimates
 
 #: Column keys (CSV header, JSON keys, DataFrame columns) and LaTeX headings.
 COLUMNS = ("name", "unit", "estimate", "sigma_cr", "sigma_corrected", "relative_sigma_percent",
@@ -56,8 +57,10 @@ def results_table(result, case=None):
     Raises
     ------
     InputError
-        If param_units does not have one entry per free parameter.
+        If param_units does not have one entry per free parameter, or the
+        fit failed (no estimates).
     """
+    require_estimates(result, "results table")
     names = list(result.names)
     units = getattr(result, "param_units", None)
     if units is None:
