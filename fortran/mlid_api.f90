@@ -15,7 +15,7 @@
 !>   status, msg             0 and '' on success, see mlid_kinds
 module mlid_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, stop_reason_text, fit_outcome
   use mlid_models, only: model_t, model_layout, layout_t
   use mlid_model_factory, only: model_create
@@ -578,11 +578,12 @@ contains
   !> sigc: sigma corrected for coloured residuals, lag: its lag.
   subroutine mlid_report_fit(nf, ny, nh, labels, units, iopt, start, est, sig, sigc, lag, cov, eigval, &
                              eigvec, rhat, hist, cost, niter, reason, converged, nrank, title, job, &
-                             status, msg, report, nreport, json, njson)
+                             status, msg, rnoise, report, nreport, json, njson)
     integer(c_int), intent(in) :: nf, ny, nh, iopt(16), niter, reason, converged, nrank, status, lag
     character(len=*), intent(in) :: labels, units, title, job, msg
     real(c_double), intent(in) :: start(nf), est(nf), sig(nf), sigc(nf), cov(nf, nf), eigval(nf), &
                                   eigvec(nf, nf), rhat(ny, ny), hist(nh), cost
+    real(c_double), intent(in) :: rnoise(ny)   !< the innovations criterion's R; NaN: none
     character(len=262144), intent(out) :: report, json
     integer(c_int), intent(out) :: nreport, njson
     type(fit_summary_t) :: s
@@ -591,6 +592,7 @@ contains
     s = fit_summary_t(split_lines(labels, nf, NAMELEN), start, est, sig, sigc, cov, eigval, eigvec, &
                       rhat, hist, cost, niter, reason, nrank, lag, converged == 1, &
                       split_lines(units, nf, UNITLEN))
+    if (all(ieee_is_finite(rnoise))) s%rnoise = rnoise
     text = fit_report(s, iopt, status, msg)
     nreport = min(len(text), len(report))
     report = text
@@ -848,7 +850,7 @@ contains
                       rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, nc, use_prior, prior, &
                       pweight, use_bounds, lower, upper, theta_start, theta, sigma, cov, info, &
                       grad, eigval, eigvec, rhat, yhat, cost_hist, cost, niter, reason, converged, &
-                      rank, bad_param, sigma_c, cov_c, lag, status, msg)
+                      rank, bad_param, sigma_c, cov_c, lag, rnoise, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nc, nseg
     integer(c_int), intent(in) :: segstart(nseg)
     integer(c_int), intent(in) :: use_prior, use_bounds
@@ -868,6 +870,8 @@ contains
     integer(c_int), intent(out) :: niter, reason, converged, rank, bad_param, status
     real(c_double), intent(out) :: sigma_c(nth), cov_c(nf, nf)
     integer(c_int), intent(out) :: lag
+    !> noise_criterion = 'innovations': the R the fit left (diagonal); NaN otherwise
+    real(c_double), intent(out) :: rnoise(ny)
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
     type(options_t) :: opt
@@ -881,6 +885,7 @@ contains
     theta = theta0
     sigma = 0.0_wp
     cov = 0.0_wp
+    rnoise = ieee_value(1.0_wp, ieee_quiet_nan)
     sigma_c = 0.0_wp
     cov_c = 0.0_wp
     lag = 0
@@ -915,6 +920,7 @@ contains
     if (allocated(res%theta_start)) theta_start = res%theta_start
     if (.not. allocated(res%theta)) return
     theta = res%theta
+    if (opt%noise_criterion == 1) rnoise = theta(pm%l%or + 1:pm%l%or + ny)
     cost_hist = res%cost_hist
     if (.not. allocated(res%info)) return
     do k = 1, nf
@@ -941,6 +947,7 @@ contains
     rank = res%rank
     bad_param = res%bad_param
     if (status == MLID_OK) msg = warning
+    if (status == MLID_OK .and. len_trim(warning) == 0) msg = res%note
   end subroutine mlid_fit
 
   !> Cost, gradient, information matrix and output sensitivity norms at

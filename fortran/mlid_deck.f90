@@ -19,7 +19,7 @@
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
 !>             t_start, pulse_width                                  (simulate)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
-!>             process_noise, tol_cost, tol_step, tol_grad, rcond, prior, prior_weight,
+!>             process_noise, noise_criterion, tol_cost, tol_step, tol_grad, rcond, prior, prior_weight,
 !>             prior_decay, rank_min, rank_max, rank_rule, lower, upper (per free parameter, in the
 !>             order of free), corrected (kind flight_path: one record per data file)
 !> A problem in one case is kept in that case (status, msg) and the others
@@ -1035,7 +1035,7 @@ contains
     type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
     integer, intent(in) :: free_idx(:)
-    character(len=32) :: noise, method, startup, rank_rule, process_noise
+    character(len=32) :: noise, method, startup, rank_rule, process_noise, noise_criterion
     integer :: max_iter, halvings, rank_min, rank_max, ios
     logical :: partials, steady_state
     real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay
@@ -1044,8 +1044,8 @@ contains
     character(len=msg_len) :: iomsg
     type(options_t) :: opt
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
-      process_noise, tol_cost, tol_step, tol_grad, rcond, prior, prior_weight, prior_decay, rank_min, &
-      rank_max, rank_rule, lower, upper, corrected
+      process_noise, noise_criterion, tol_cost, tol_step, tol_grad, rcond, prior, prior_weight, &
+      prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected
 
     call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
     max_iter = opt%max_iter
@@ -1064,6 +1064,7 @@ contains
     startup = option_get(c%iopt, c%ropt, 'startup')
     rank_rule = option_get(c%iopt, c%ropt, 'rank_rule')
     process_noise = option_get(c%iopt, c%ropt, 'process_noise')
+    noise_criterion = option_get(c%iopt, c%ropt, 'noise_criterion')
     prior = UNSET
     prior_weight = UNSET
     lower = UNSET
@@ -1092,6 +1093,7 @@ contains
     call set_option(c, 'group &estimate: ', 'rank_rule', rank_rule)
     call set_option(c, 'group &estimate: ', 'noise', noise)
     call set_option(c, 'group &estimate: ', 'process_noise', process_noise)
+    call set_option(c, 'group &estimate: ', 'noise_criterion', noise_criterion)
     if (c%status == MLID_OK) call put_extras(c, free_idx, prior, prior_weight, lower, upper)
   end subroutine read_estimate_group
 

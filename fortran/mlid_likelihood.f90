@@ -41,7 +41,7 @@ contains
   !> when grad and info are present) by the method of opt.  rhat receives
   !> R-hat (output error) or the mean innovation covariance (filter error).
   subroutine likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                        sens, wsens, msens)
+                        sens, wsens, msens, bmean)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -60,6 +60,9 @@ contains
     !> covariance, W(j) dyhat/dtheta at sample j (ny, nt, nf), and the part
     !> of info they make, sum_j S(j)' W(j) S(j) (nf, nf)
     real(wp), intent(out), optional :: wsens(:, :, :), msens(:, :)
+    !> filter error: the innovation covariance B(j) = C P(j) C' + R averaged
+    !> over the samples (ny, ny), for the innovations criterion (mlid_newton)
+    real(wp), intent(out), optional :: bmean(:, :)
 
     cost = huge(1.0_wp)
     if (opt%method == 1 .and. (output_delays(theta, pm) .or. input_delays(theta, pm))) then
@@ -78,7 +81,7 @@ contains
       return
     else if (opt%method == 1) then
       call fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                         sens, wsens, msens)
+                         sens, wsens, msens, bmean)
     else
       call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
                          sens, wsens, msens)
@@ -210,7 +213,7 @@ contains
   end subroutine oe_likelihood
 
   subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
-                           info, sens, wsens, msens)
+                           info, sens, wsens, msens, bmean)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -220,6 +223,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
+    real(wp), intent(out), optional :: bmean(:, :)
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
     real(wp), allocatable :: b0(:, :, :)
     real(wp) :: w(m%ny, pm%nf), bnu(m%ny), v1(m%ny, m%ny)
@@ -230,8 +234,10 @@ contains
     nt = size(t)
     nf = pm%nf
     allocate (nu(ny, nt), binv(ny, ny, nt), logdet(nt))
+    if (present(bmean) .or. (present(grad) .and. .not. m%linear .and. opt%partials)) &
+      allocate (b0(ny, ny, nt))
     if (present(grad) .and. .not. m%linear .and. opt%partials) then
-      allocate (dnu(ny, nf, nt), db(ny, ny, nf, nt), b0(ny, ny, nt))
+      allocate (dnu(ny, nf, nt), db(ny, ny, nf, nt))
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
                           bhist=b0)
       if (status == MLID_OK) call numerical_partials(m, theta, pm, t, u, y, opt, nu, b0, dnu, db, &
@@ -239,11 +245,20 @@ contains
     else if (present(grad)) then
       allocate (dnu(ny, nf, nt), db(ny, ny, nf, merge(1, nt, opt%steady)))
       db = 0.0_wp
-      call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, db)
+      if (present(bmean)) then
+        call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, &
+                            db, bhist=b0)
+      else
+        call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, db)
+      end if
+    else if (present(bmean)) then
+      call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
+                          bhist=b0)
     else
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg)
     end if
     if (status /= MLID_OK) return
+    if (present(bmean)) bmean = sum(b0, dim=3)/nt
     cost = 0.0_wp
     do j = 1, nt
       cost = cost + 0.5_wp*(dot_product(nu(:, j), matmul(binv(:, :, j), nu(:, j))) + logdet(j))

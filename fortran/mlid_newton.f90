@@ -5,6 +5,7 @@
 module mlid_newton
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, MLID_ERR_INTERNAL, &
+                        MLID_ERR_INPUT, &
                         STOP_NONE, STOP_COST, STOP_STEP, STOP_GRAD, STOP_MAXITER, &
                         STOP_NO_DECREASE, STOP_FAILED
   use mlid_linalg, only: info_inverse, info_eig, eig_inverse
@@ -23,6 +24,9 @@ module mlid_newton
   !> to be taken in the rank-deficient search: a likelihood-ratio test at 5%
   !> for one more direction, chi-square(1) 95% point 3.841 over 2.
   real(wp), parameter :: RANK_GAIN = 0.5_wp*3.841_wp
+  !> The innovations criterion's least R(i,i), relative to the mean squared
+  !> innovation of output i: a noise-free output's R stays regular.
+  real(wp), parameter :: NOISE_FLOOR = 1.0e-6_wp
 
   !> The estimator options of report §4.6 beyond plain Newton-Raphson, over
   !> the free parameters: a priori values and weight (block 7), bounds
@@ -78,6 +82,11 @@ module mlid_newton
     real(wp), allocatable :: wsens(:, :, :) !< weighted sensitivities at theta (ny, nt, nf)
     real(wp), allocatable :: msens(:, :)    !< the part of info they make
     real(wp), allocatable :: cov_c(:, :)    !< covariance corrected for coloured residuals
+    !> innovations criterion: the innovation covariance averaged over the
+    !> samples at theta (ny, ny); unallocated otherwise
+    real(wp), allocatable :: bmean(:, :)
+    integer, allocatable :: rmove(:)        !< ... and the sign of each r's last move there
+    character(len=256) :: note = ''         !< what a good fit should still say (a warning)
     integer :: lag = 0                      !< its residual-autocorrelation lag
     real(wp) :: cost = 0.0_wp               !< negative log-likelihood (without the prior term)
     integer :: niter = 0
@@ -105,10 +114,18 @@ contains
     type(problem_t) :: pb
     type(search_t) :: st
     integer :: rmin, rtop, k
+    real(wp) :: djr
 
     pb = problem_t(m, pm, t, u, y, opt, ex)
 
-    call fit_start(m, theta0, pm, t, u, y, opt, res, status, msg)
+    status = MLID_OK
+    if (opt%noise_criterion == 1) call innovation_start(pb, status, msg)
+    if (status /= MLID_OK) return
+    call fit_start(pb, theta0, res, status, msg)
+    if (status == MLID_OK .and. opt%noise_criterion == 1) then
+      call relax_noise(pb, res, djr, status, msg)     ! R from the start's innovations
+      res%cost_hist(1) = res%cost
+    end if
     if (status /= MLID_OK) return
     st%nf = pm%nf
     allocate (st%g(st%nf), st%mt(st%nf, st%nf), st%cov(st%nf, st%nf), st%sc(st%nf), st%w(st%nf), &
@@ -128,6 +145,7 @@ contains
       return
     end if
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
+    if (opt%noise_criterion == 1) call noise_free_note(pm, size(t), res)
     call final_bound(opt, ex, st, res, status, msg)
     if (any(status == [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) &
       call colored_bound(pm, y, res, status, msg)
@@ -135,35 +153,130 @@ contains
   end subroutine newton_fit
 
   !> A filter-error fit with R free that fails with some r(i) far below its
-  !> output's innovation variance: those outputs carry (almost) no
-  !> measurement noise, and exact ML has no maximum there (the likelihood
-  !> grows as r(i) -> 0).  The message then says so, and names them and the
-  !> remedy, in place of the symptom (a singular B or information matrix).
+  !> output's innovation variance, or fallen a hundredfold from its start:
+  !> those outputs carry (almost) no measurement noise, and exact ML has no
+  !> maximum there (the likelihood grows as r(i) -> 0).  The message then says so, and names them and the
+  !> remedies, in place of the symptom (a singular B or information matrix);
+  !> short enough for the interfaces' 256 characters with the symptom.
   subroutine noise_free_outputs(opt, pm, res, msg)
     type(options_t), intent(in) :: opt
     type(param_map_t), intent(in) :: pm
     type(fit_result_t), intent(in) :: res
     character(len=*), intent(inout) :: msg
     real(wp), parameter :: NOISE_FREE_RATIO = 1.0e-4_wp   !< r(i)/B(i,i) below this: noise-free
-    character(len=len(msg)) :: names, ratios, buf
+    real(wp), parameter :: NOISE_FREE_FALL = 1.0e-2_wp    !< or r(i)/(its start) below this
+    character(len=len(msg)) :: names
+    character(len=16) :: buf
+    real(wp) :: worst
     integer :: k, i
 
-    if (opt%method /= 1 .or. .not. allocated(res%rhat) .or. .not. allocated(res%theta)) return
+    if (opt%method /= 1 .or. .not. allocated(res%rhat) .or. .not. allocated(res%theta) .or. &
+        .not. allocated(res%theta_start)) return
     names = ''
-    ratios = ''
+    worst = 0.0_wp
     do k = 1, size(pm%ir)
       i = pm%ir(k)
-      if (.not. res%theta(pm%l%or + i) < NOISE_FREE_RATIO*res%rhat(i, i)) cycle
+      if (.not. (res%theta(pm%l%or + i) < NOISE_FREE_RATIO*res%rhat(i, i) .or. &
+                 res%theta(pm%l%or + i) < NOISE_FREE_FALL*res%theta_start(pm%l%or + i))) cycle
       if (index(names, 'r('//itoa(i)//')') > 0) cycle
-      write (buf, '(es8.1)') res%theta(pm%l%or + i)/res%rhat(i, i)
+      worst = max(worst, res%theta(pm%l%or + i)/res%rhat(i, i))
       names = trim(names)//merge(', ', '  ', len_trim(names) > 0)//'r('//itoa(i)//')'
-      ratios = trim(ratios)//merge(', ', '  ', len_trim(ratios) > 0)//trim(adjustl(buf))
     end do
     if (len_trim(names) == 0) return
-    msg = 'outputs with '//trim(adjustl(names))//' look noise-free (r/B = '// &
-          trim(adjustl(ratios))//'): exact ML with R free has no maximum there; '// &
-          'give those r a lower bound (lower) or fix them ('//trim(msg)//')'
+    write (buf, '(es8.1)') worst
+    msg = 'outputs '//trim(adjustl(names))//' look noise-free (r/B <= '//trim(adjustl(buf))// &
+          '): exact ML has no maximum; fix those r at a floor or use noise_criterion = '// &
+          '''innovations'' ('//trim(msg)//')'
   end subroutine noise_free_outputs
+
+  !> The innovations criterion's outputs whose R is within two standard
+  !> errors of zero, 2 sqrt(2/N) of their mean squared innovation S (the
+  !> sampling error of S itself): they look noise-free, and res%note says so.
+  subroutine noise_free_note(pm, nt, res)
+    type(param_map_t), intent(in) :: pm
+    integer, intent(in) :: nt
+    type(fit_result_t), intent(inout) :: res
+    character(len=len(res%note)) :: names
+    integer :: i
+    names = ''
+    do i = 1, size(res%rhat, 1)
+      if (res%theta(pm%l%or + i) < 2.0_wp*sqrt(2.0_wp/nt)*res%rhat(i, i)) &
+        names = trim(names)//merge(', ', '  ', len_trim(names) > 0)//'r('//itoa(i)//')'
+    end do
+    if (len_trim(names) > 0) res%note = 'warning: '//trim(adjustl(names))//' within sampling '// &
+      'error of zero (below 2 sqrt(2/N) of the mean squared innovation): those outputs look '// &
+      'noise-free'
+  end subroutine noise_free_note
+
+  !> The innovations criterion's start: r are not free (the relaxation
+  !> estimates them); the first evaluation takes the given r.
+  subroutine innovation_start(pb, status, msg)
+    type(problem_t), intent(in) :: pb
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    status = MLID_OK
+    msg = ''
+    if (size(pb%pm%ir) > 0) then
+      status = MLID_ERR_INPUT
+      msg = 'r('//itoa(pb%pm%ir(1))//') is free, but with noise_criterion = ''innovations'' the '// &
+            'r are estimated from the innovations after each step: leave them fixed'
+    end if
+  end subroutine innovation_start
+
+  !> The relaxation's second half (innovations criterion, Maine and Iliff):
+  !> after a Newton step on the other parameters, R becomes what the
+  !> innovations leave for it, R(i,i) = S(i,i) - (C P C')(i,i) with S the
+  !> mean squared innovations and C P C' = mean B - R, at least NOISE_FLOOR
+  !> of S(i,i) (R >= 0 keeps the gain physical; the floor keeps B regular);
+  !> an R that moves against its last move goes halfway (in ratio) only,
+  !> which damps the two-cycle noise-free outputs otherwise fall into.
+  !> Then the likelihood is evaluated again.  djr: the cost's fall from it.
+  subroutine relax_noise(pb, res, djr, status, msg)
+    type(problem_t), intent(in) :: pb
+    type(fit_result_t), intent(inout) :: res
+    real(wp), intent(out) :: djr
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: target
+    integer :: i, k, dir
+
+    associate (m => pb%m, pm => pb%pm)
+      if (.not. allocated(res%rmove)) then
+        allocate (res%rmove(m%ny))
+        res%rmove = 0
+      end if
+      djr = res%cost
+      do i = 1, m%ny
+        k = pm%l%or + i
+        target = max(res%rhat(i, i) - res%bmean(i, i) + res%theta(k), NOISE_FLOOR*res%rhat(i, i))
+        dir = int(sign(1.0_wp, target - res%theta(k)))
+        if (dir*res%rmove(i) < 0) target = sqrt(target*res%theta(k))
+        res%rmove(i) = dir
+        res%theta(k) = target
+      end do
+      call evaluate_full(pb, res, status, msg)
+      djr = djr - res%cost
+    end associate
+  end subroutine relax_noise
+
+  !> The likelihood at res%theta with everything a Newton step needs.
+  subroutine evaluate_full(pb, res, status, msg)
+    type(problem_t), intent(in) :: pb
+    type(fit_result_t), intent(inout) :: res
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt)
+      if (opt%noise_criterion == 1) then
+        if (.not. allocated(res%bmean)) allocate (res%bmean(m%ny, m%ny))
+        call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, status, &
+                        msg, res%grad, res%info, wsens=res%wsens, msens=res%msens, &
+                        bmean=res%bmean)
+      else
+        call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, status, &
+                        msg, res%grad, res%info, wsens=res%wsens, msens=res%msens)
+      end if
+    end associate
+  end subroutine evaluate_full
 
   !> The Cramer-Rao covariance corrected for coloured residuals
   !> (mlid_colored) from the weighted sensitivities kept with the last
@@ -188,39 +301,37 @@ contains
 
   !> The start: res allocated, theta0 with its ties (or the equation-error
   !> start-up), and the likelihood there.
-  subroutine fit_start(m, theta0, pm, t, u, y, opt, res, status, msg)
-    class(model_t), intent(in) :: m
+  subroutine fit_start(pb, theta0, res, status, msg)
+    type(problem_t), intent(in) :: pb
     real(wp), intent(in) :: theta0(:)
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
-    type(options_t), intent(in) :: opt
     type(fit_result_t), intent(inout) :: res
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: ee_sigma(pm%nf)
+    real(wp) :: ee_sigma(pb%pm%nf)
     integer :: nf, ny, nt
 
-    nf = pm%nf
-    ny = m%ny
-    nt = size(t)
-    allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), res%eigvec(nf, nf), &
-              res%rhat(ny, ny), res%yhat(ny, nt), res%cost_hist(opt%max_iter + 1), &
-              res%wsens(ny, nt, nf), res%msens(nf, nf))
-    res%theta = theta0
-    call apply_ties(pm%tie, res%theta)
-    res%cost_hist = 0.0_wp
-    res%rank = nf
-    res%reason = STOP_FAILED
-    if (opt%startup == 1) then
-      call equation_error(m, theta0, pm, t, u, y, res%theta, ee_sigma, status, msg)
+    associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt)
+      nf = pm%nf
+      ny = m%ny
+      nt = size(t)
+      allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), &
+                res%eigvec(nf, nf), res%rhat(ny, ny), res%yhat(ny, nt), &
+                res%cost_hist(opt%max_iter + 1), res%wsens(ny, nt, nf), res%msens(nf, nf))
+      res%theta = theta0
+      call apply_ties(pm%tie, res%theta)
+      res%cost_hist = 0.0_wp
+      res%rank = nf
+      res%reason = STOP_FAILED
+      if (opt%startup == 1) then
+        call equation_error(m, theta0, pm, t, u, y, res%theta, ee_sigma, status, msg)
+        if (status /= MLID_OK) return
+      end if
+      res%theta_start = res%theta
+      call evaluate_full(pb, res, status, msg)
       if (status /= MLID_OK) return
-    end if
-    res%theta_start = res%theta
-    call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                    status, msg, res%grad, res%info, wsens=res%wsens, msens=res%msens)
-    if (status /= MLID_OK) return
-    res%reason = STOP_NONE
-    res%cost_hist(1) = res%cost
+      res%reason = STOP_NONE
+      res%cost_hist(1) = res%cost
+    end associate
   end subroutine fit_start
 
   !> Staged rank-deficient search: converge at the minimum rank, then free
@@ -267,7 +378,7 @@ contains
     character(len=*), intent(out) :: msg
     type(candidate_t) :: best
     type(fit_result_t) :: stash        ! the full evaluation of a first trial (best_of_ranks)
-    real(wp) :: step(st%nf), decrement, jnow, dj
+    real(wp) :: step(st%nf), decrement, jnow, dj, djr
     logical :: first, stashed
 
     associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt, ex => pb%ex)
@@ -318,15 +429,16 @@ contains
         if (stashed) then
           call take_stash(stash, res)
         else
-          call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, &
-                          status, msg, res%grad, res%info, wsens=res%wsens, msens=res%msens)
+          call evaluate_full(pb, res, status, msg)
         end if
+        djr = 0.0_wp
+        if (status == MLID_OK .and. opt%noise_criterion == 1) call relax_noise(pb, res, djr, status, msg)
         if (status /= MLID_OK) then
           res%reason = STOP_FAILED
           return
         end if
         res%cost_hist(st%it + 1) = res%cost
-        if (dj <= opt%tol_cost*max(1.0_wp, abs(best%cost))) then
+        if (max(dj, abs(djr)) <= opt%tol_cost*max(1.0_wp, abs(best%cost))) then
           res%reason = STOP_COST
           exit
         end if

@@ -20,15 +20,15 @@ module mlid_options
   !> The options by name, for Python and any other caller that should not
   !> know the flat layout: option k lives in iopt(k) for k <= NIOPT, else in
   !> ropt(k - NIOPT).  Choices are listed in the order of their codes 0, 1.
-  integer, parameter :: NOPTION = 18, NIOPT = 13
+  integer, parameter :: NOPTION = 19, NIOPT = 14
   character(len=16), parameter :: OPTION_NAMES(NOPTION) = [character(len=16) :: &
     'max_iter', 'halvings', 'noise', 'input_hold', 'substeps', 'method', 'partials', &
     'steady_state', 'startup', 'rank_min', 'rank_max', 'rank_rule', 'process_noise', &
-    'tol_cost', 'tol_step', 'tol_grad', 'rcond', 'prior_decay']
+    'noise_criterion', 'tol_cost', 'tol_step', 'tol_grad', 'rcond', 'prior_decay']
   character(len=32), parameter :: OPTION_CHOICES(NOPTION) = [character(len=32) :: &
     '', '', 'diagonal full', 'linear zoh', '', 'output_error filter_error', 'false true', &
     'false true', 'none equation_error', '', '', 'iteration staged', &
-    'held continuous continuous_sd', '', '', '', '', '']
+    'held continuous continuous_sd', 'exact innovations', '', '', '', '', '']
 
   type :: options_t
     integer :: max_iter = 30      !< iopt(1): Newton iterations at most
@@ -49,6 +49,11 @@ module mlid_options
     !>   1 continuous: spectral densities of continuous white noise,
     !>   2 continuous_sd: standard deviations of continuous white noise (density q^2)
     integer :: process_noise = 0
+    !> iopt(14): how filter error estimates the measurement noise R (mlid_newton):
+    !>   0 exact: r are parameters like any other (free or fixed),
+    !>   1 innovations: r from the innovations after each Newton step on the
+    !>     others, R = mean squared innovations - C P C', at least a floor
+    integer :: noise_criterion = 0
     real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
     real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
     real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
@@ -78,6 +83,7 @@ contains
     iopt(11) = opt%rank_max
     iopt(12) = opt%rank_rule
     iopt(13) = opt%process_noise
+    iopt(14) = opt%noise_criterion
     ropt(1) = opt%tol_cost
     ropt(2) = opt%tol_step
     ropt(3) = opt%tol_grad
@@ -109,6 +115,7 @@ contains
     opt%rank_max = iopt(11)
     opt%rank_rule = iopt(12)
     opt%process_noise = iopt(13)
+    opt%noise_criterion = iopt(14)
     opt%tol_cost = ropt(1)
     opt%tol_step = ropt(2)
     opt%tol_grad = ropt(3)
@@ -140,6 +147,12 @@ contains
     else if (opt%process_noise < 0 .or. opt%process_noise > 2) then
       write (msg, '(a,i0)') 'process noise code must be 0 (held), 1 (continuous) or 2 '// &
         '(continuous_sd), got ', iopt(13)
+    else if (opt%noise_criterion < 0 .or. opt%noise_criterion > 1) then
+      write (msg, '(a,i0)') 'noise criterion code must be 0 (exact) or 1 (innovations), got ', &
+        iopt(14)
+    else if (opt%noise_criterion == 1 .and. opt%method /= 1) then
+      msg = 'noise_criterion = ''innovations'' is for filter error (method = ''filter_error''): '// &
+            'output error estimates R from the residuals anyway'
     else if (opt%rank_max > 0 .and. opt%rank_max < opt%rank_min) then
       write (msg, '(a,i0,a,i0)') 'rank_max = ', opt%rank_max, ' is below rank_min = ', opt%rank_min
     else if (.not. (opt%prior_decay > 0.0_wp .and. opt%prior_decay <= 1.0_wp)) then

@@ -26,6 +26,8 @@ module mlid_report
     integer :: lag = 0           !< lag of the coloured-residual correction (sigc)
     logical :: converged = .false.
     character(len=UNITLEN), allocatable :: units(:)  !< of each parameter (mlid_param_units)
+    !> filter error with noise_criterion = 'innovations': the R it left (diagonal)
+    real(wp), allocatable :: rnoise(:)
   end type fit_summary_t
 
 contains
@@ -78,6 +80,13 @@ contains
       write (buf, '(1x,es10.4e2)') s%rhat(k, k)
       text = text//trim(buf)
     end do
+    if (allocated(s%rnoise)) then
+      text = text//NL//' R diagonal (from the innovations)'
+      do k = 1, size(s%rnoise)
+        write (buf, '(1x,es10.4e2)') s%rnoise(k)
+        text = text//trim(buf)
+      end do
+    end if
     text = text//NL//identifiability(s%labels, s%eigval, s%eigvec, s%cov)
   end function fit_report
 
@@ -257,7 +266,8 @@ contains
     if (failed) then
       text = text//'"estimate": null, "last_values": '//numbers(s%est)//','//NL// &
              '"sigma": null, "sigma_corrected": null, "colored_lag": null, "correlation": null,'// &
-             NL//'"R": null, "det_R": null, "cost": null, "cost_history": null,'//NL// &
+             NL//'"R": null, "det_R": null, "R_innovations": null, "cost": null, "cost_history": null,'// &
+             NL// &
              '"iterations": '//itoa(s%niter)//', "converged": false, "rank": null'
     else
       text = text//'"estimate": '//numbers(s%est)//','//NL//'"sigma": '//numbers(s%sig)//','//NL// &
@@ -265,11 +275,21 @@ contains
              ','//NL// &
              '"correlation": '//matrix(correlation(s%cov))//','//NL// &
              '"R": '//matrix(s%rhat)//','//NL//'"det_R": '//number(det_r(s%rhat))// &
+             ', "R_innovations": '//r_innovations()// &
              ', "cost": '//number(s%cost)//','//NL//'"cost_history": '//numbers(s%hist)//','//NL// &
              '"iterations": '//itoa(s%niter)//', "converged": '// &
              trim(merge('true ', 'false', s%converged))//', "rank": '//itoa(s%rank)
     end if
     text = text//', "reason": '//json_string(trim(stop_reason_text(s%reason)))//'}'
+
+  contains
+
+    function r_innovations() result(v)
+      character(len=:), allocatable :: v
+      v = 'null'
+      if (allocated(s%rnoise)) v = numbers(s%rnoise)
+    end function r_innovations
+
   end function fit_json
 
   !> The JSON object of a case without a fit: title, job, status, message

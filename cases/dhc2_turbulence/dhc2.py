@@ -7,15 +7,18 @@ of continuous white noise, 24 parameters, the steady-state filter.
 
 Fits (README.md gives the numbers and their sources):
   1. exact ML with R free: no maximum, since the outputs carry no noise; the
-     fit must end with one line that names them and the remedy;
-  2. exact ML with a lower bound on R (R_FLOOR): the derivatives and process
-     noise against the truth, the estimated noise against the noise actually
-     realised in the record.
+     fit ends with one line that names them and the remedies;
+  2. exact ML with a lower bound on R (R_FLOOR);
+  3. exact ML with R fixed at a small floor (FIXED_R of each output's variance);
+  4. the innovations criterion (noise_criterion = 'innovations').
+3 and 4: the derivatives against the truth, the process noise against the
+noise actually realised in the record.
 """
 
 import argparse
 import sys
 import time
+import warnings
 
 import numpy as np
 
@@ -33,6 +36,8 @@ BX = np.array([0.01, -0.005])                          # state-equation biases
 BIAS = np.array([0.002, -0.001, 0.05, 0.003, -0.002])  # output biases: pdot, rdot, a_y, p, r
 SIGMA = np.array([0.25, 0.09])                         # continuous turbulence, sd on pdot, rdot
 R_FLOOR = 1e-8                                         # lower bound of every r (fit 2)
+FIXED_R = 1e-6                                         # r fixed at this of each output's variance (fit 3)
+OUTPUTS = ["pdot", "rdot", "ay", "p", "r"]
 
 NAMES = {"f(1,1)": "L_p", "f(1,2)": "L_r", "f(2,1)": "N_p", "f(2,2)": "N_r",
          "g(1,1)": "L_da", "g(1,2)": "L_dr", "g(1,3)": "L_v",
@@ -140,13 +145,40 @@ def start():
     return f, g, AY * np.resize(k, 5), BX * 0.0, BIAS * 0.0, np.array([0.1, 0.1])
 
 
-def fit(data, r_free, bounds):
+def fit(data, r_free=False, bounds=None, r_scale=1e-4, **opts):
+    """From start(); r at r_scale of each output's variance (free or fixed)."""
     f, g, ay, bx, bias, sigma = start()
-    r0 = 1e-4 * np.var(data.y, axis=0)
+    r0 = r_scale * np.var(data.y, axis=0)
     free = FREE + ([f"r({i})" for i in range(1, 6)] if r_free else [])
     m = model(f, g, ay, bx, bias, sigma, r0, free)
     return mlid.fit(m, data, method="filter_error", steady_state=True,
-                    process_noise="continuous_sd", max_iter=50, bounds=bounds)
+                    process_noise="continuous_sd", max_iter=50, bounds=bounds, **opts)
+
+
+def timed(*args, **kw):
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        t0 = time.perf_counter()
+        res = fit(*args, **kw)
+        wall = time.perf_counter() - t0
+    return res, wall, [str(w.message) for w in said]
+
+
+def table(fits, tv):
+    """Estimate, sigma and error/sigma of each fit against the truth (the
+    process noise against the noise realised in the record)."""
+    head = "".join(f" | {k:>26s}" for k in fits)
+    print(f"   {'parameter':10s} {'truth':>9s}{head}")
+    worst = {k: 0.0 for k in fits}
+    first = next(iter(fits.values()))
+    for i, n in enumerate(first.names):
+        row = f"   {n:10s} {tv[n]:9.4f}"
+        for k, r in fits.items():
+            z = (r.estimate[i] - tv[n]) / r.sigma[i]
+            worst[k] = max(worst[k], abs(z))
+            row += f" | {r.estimate[i]:9.4f} {r.sigma[i]:8.4f} {z:7.2f}"
+        print(row)
+    print("   largest |error|/sigma: " + ", ".join(f"{k} {v:.2f}" for k, v in worst.items()))
 
 
 def main(argv=None):
@@ -160,29 +192,35 @@ def main(argv=None):
           f"{realised[0]:.4f}, {realised[1]:.4f} (truth {SIGMA[0]}, {SIGMA[1]}; ours)")
 
     print("\n1. exact ML, R free (29 parameters):")
-    try:
-        r1 = fit(data, True, None)
-        print("   converged (unexpected: the outputs carry no noise):",
-              {n: f"{v:.3g}" for n, v in zip(r1.names, r1.estimate) if n[:2] in ("R_", "si")},
-              r1.iterations, r1.cost)
-    except mlid.MlidError as e:
-        print(f"   {type(e).__name__}: {e}")
+    r1, wall, _ = timed(data, r_free=True)
+    print(f"   {r1.iterations} iterations, converged: {r1.converged}, {wall:.2f} s")
+    print(f"   {r1.message}")
 
-    print(f"\n2. exact ML, every r bounded below by {R_FLOOR:g} (24 + 5 parameters):")
-    lower = {f"r({i})": R_FLOOR for i in range(1, 6)} | {"q(1)": 0.0, "q(2)": 0.0}
-    t0 = time.perf_counter()
-    res = fit(data, True, {k: (v, None) for k, v in lower.items()})
-    wall = time.perf_counter() - t0
-    print(f"   {res.iterations} iterations, converged: {res.converged}, {wall:.2f} s")
-    tv = truth_by_label(realised)
-    print(f"   {'parameter':10s} {'truth':>10s} {'estimate':>11s} {'sigma':>9s} {'error/sigma':>11s}")
-    for n, est, sd in zip(res.names, res.estimate, res.sigma):
-        if n.startswith("R_"):
-            note = "(at bound)" if est <= R_FLOOR * 1.0001 else ""
-            print(f"   {n:10s} {0.0:10.4f} {est:11.3e} {sd:9.2e} {note:>11s}")
-        else:
-            print(f"   {n:10s} {tv[n]:10.4f} {est:11.4f} {sd:9.4f} {(est - tv[n]) / sd:11.2f}")
-    return res
+    print(f"\n2. exact ML, every r bounded below by {R_FLOOR:g}:")
+    lower = {f"r({i})": (R_FLOOR, None) for i in range(1, 6)}
+    r2, wall, _ = timed(data, r_free=True, bounds=lower)
+    est = dict(zip(r2.names, r2.estimate))
+    print(f"   {r2.iterations} iterations, converged: {r2.converged}, {wall:.2f} s; "
+          f"L_p {est['L_p']:.3f} (truth {F[0, 0]}), sigma_p {est['sigma_p']:.3f}, "
+          f"r at the bound: {sum(est[f'R_{o}'] <= R_FLOOR * 1.0001 for o in OUTPUTS)} of 5")
+
+    print(f"\n3. exact ML, every r fixed at {FIXED_R:g} of its output's variance "
+          f"(24 parameters):")
+    r3, wall3, _ = timed(data, r_scale=FIXED_R)
+    print(f"   {r3.iterations} iterations, converged: {r3.converged}, {wall3:.2f} s")
+
+    print("\n4. innovations criterion (24 parameters; R after each step from the innovations):")
+    r4, wall4, said = timed(data, noise_criterion="innovations")
+    print(f"   {r4.iterations} iterations, converged: {r4.converged}, {wall4:.2f} s")
+    for s in said:
+        print(f"   warning: {s}")
+    print("   R from the innovations / mean squared innovation: " +
+          ", ".join(f"{o} {r:.2e}/{b:.2e}" for o, r, b in
+                    zip(OUTPUTS, r4.r_innovations, np.diag(r4.rhat))))
+
+    print("\n   estimate, sigma, error/sigma against the truth (sigma_p, sigma_r: the realised):")
+    table({"3. exact, r fixed": r3, "4. innovations": r4}, truth_by_label(realised))
+    return r4
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@
 !> if any case failed.  Records and the JSON file are written whole or not
 !> at all: to a temporary name in the same folder, renamed when complete.
 program mlid_batch
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_NOCONV, fit_outcome, FIT_ESTIMATES, &
                         FIT_FAILED, FIT_NOT_RUN
   use mlid_case, only: case_t
@@ -261,6 +262,7 @@ contains
     real(wp), allocatable, intent(out) :: theta(:), rhat(:, :), yhat(:, :)
     integer, intent(out) :: outcome       !< of the fit (mlid_kinds FIT_*)
     real(wp), allocatable :: theta0(:), sigma(:), grad(:), sigc(:), hist(:), info(:, :), covc(:, :)
+    real(wp), allocatable :: rnoise(:)
     type(fit_summary_t) :: s
     integer :: bad, nf, nth, converged
     logical, allocatable :: free(:)
@@ -274,7 +276,7 @@ contains
     nf = count(c%isfree == 1)
     allocate (theta(nth), theta0(nth), sigma(nth), sigc(nth), grad(nf), info(nf, nf), rhat(c%ny, c%ny), &
               yhat(c%ny, size(t)), hist(c%iopt(1) + 1), s%cov(nf, nf), s%eigval(nf), &
-              s%eigvec(nf, nf), covc(nf, nf))
+              s%eigvec(nf, nf), covc(nf, nf), rnoise(c%ny))
     call mlid_fit(c%mkind, c%nx, c%nu, c%ny, c%nw, nth, c%theta, c%isfree, size(c%tie%to), &
                   size(c%tie%to), c%tie%to, c%tie%from, c%tie%scale, c%tie%offset, &
                   size(c%iconst), c%iconst, size(c%rconst), c%rconst, size(t), t, u, y, &
@@ -282,7 +284,7 @@ contains
                   or_zero(c%prior, nth), weight_or_zero(c%pweight, nf), c%use_bounds, &
                   or_zero(c%lower, nth), or_zero(c%upper, nth), theta0, theta, sigma, s%cov, &
                   info, grad, s%eigval, s%eigvec, rhat, yhat, hist, s%cost, s%niter, s%reason, &
-                  converged, s%rank, bad, sigc, covc, s%lag, cstat, cmsg)
+                  converged, s%rank, bad, sigc, covc, s%lag, rnoise, cstat, cmsg)
     if (cstat /= MLID_OK .and. bad > 0) cmsg = replace_index(cmsg, bad, c%labels)
     ! a fit that ran has a report: its estimates, or its last values if it failed
     outcome = fit_outcome(cstat, s%reason)
@@ -294,6 +296,7 @@ contains
     s%sig = pack(sigma, free)
     s%sigc = pack(sigc, free)
     s%rhat = rhat
+    if (all(ieee_is_finite(rnoise))) s%rnoise = rnoise
     s%hist = hist(1:s%niter + 1)
     s%converged = converged == 1
     write (*, '(a)', advance='no') fit_report(s, c%iopt, cstat, cmsg)

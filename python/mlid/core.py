@@ -302,7 +302,8 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     nf = int(mask.sum())
     start = time.perf_counter()
     (theta_start, theta, sigma, cov, info, grad, eigval, eigvec, rhat, yhat, cost_hist, cost,
-     niter, reason, converged, rank, bad, sigma_c, cov_c, lag, status, msg) = _api.mlid_fit(
+     niter, reason, converged, rank, bad, sigma_c, cov_c, lag, rnoise, status,
+     msg) = _api.mlid_fit(
         **_model_args(model), theta0=theta0, isfree=mask, **params.ties, t=t, u=u, y=y,
         segstart=starts, iopt=iopt, ropt=ropt, nf=nf, nc=opts["max_iter"] + 1,
         **_extras(params, prior, prior_weight, bounds))
@@ -324,6 +325,7 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
         sigma_corrected=sigma_c[mask == 1], covariance_corrected=cov_c, colored_lag=int(lag),
         eigenvalues=eigval, eigenvectors=eigvec, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
+        r_innovations=rnoise.copy() if np.all(np.isfinite(rnoise)) else None,
         cost_history=cost_hist[:niter + 1].copy(), iterations=int(niter),
         converged=bool(converged), reason=stop_reason(reason), reason_code=int(reason),
         flat_options=iopt, rank=int(rank),

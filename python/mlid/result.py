@@ -112,6 +112,9 @@ class FitResult:
     covariance, covariance_corrected, information : ndarray (nf, nf)
     rhat : ndarray (ny, ny)
         R-hat (output error) or the mean innovation covariance (filter error).
+    r_innovations : ndarray (ny,) or None
+        Filter error with ``noise_criterion='innovations'``: the diagonal of R
+        the relaxation left (the model's r); None otherwise.
     yhat : ndarray (nt, ny)
         Model outputs (one-step predictions for filter error).
     cost : float
@@ -132,6 +135,8 @@ class FitResult:
     options : dict
         The options used, by name.
     """
+
+    r_innovations = None
 
     def __init__(self, **fields):
         self.__dict__.update(fields)
@@ -208,12 +213,15 @@ class FitResult:
         if self.failed:
             return {**common, "last_values": self.estimate.tolist(),
                     **dict.fromkeys(("estimate", "sigma", "sigma_corrected", "colored_lag",
-                                     "correlation", "R", "det_R", "cost", "cost_history",
+                                     "correlation", "R", "det_R", "R_innovations", "cost",
+                                     "cost_history",
                                      "rank")), **end}
         return {**common, "estimate": self.estimate.tolist(), "sigma": self.sigma.tolist(),
                 "sigma_corrected": self.sigma_corrected.tolist(),
                 "colored_lag": self.colored_lag, "correlation": self.correlation.tolist(),
-                "R": self.rhat.tolist(), "det_R": self.det_r, "cost": self.cost,
+                "R": self.rhat.tolist(), "det_R": self.det_r,
+                "R_innovations": None if self.r_innovations is None
+                else self.r_innovations.tolist(), "cost": self.cost,
                 "cost_history": self.cost_history.tolist(), "rank": self.rank, **end}
 
     def _texts(self, title="", job="estimate"):
@@ -228,7 +236,9 @@ class FitResult:
             cov=self.covariance, eigval=self.eigenvalues,
             eigvec=self.eigenvectors, rhat=self.rhat, hist=self.cost_history, cost=self.cost,
             niter=self.iterations, reason=self.reason_code, converged=int(self.converged),
-            nrank=self.rank, title=title, job=job, status=self.status, msg=self.message)
+            nrank=self.rank, title=title, job=job, status=self.status, msg=self.message,
+            rnoise=np.full(self.rhat.shape[0], np.nan) if self.r_innovations is None
+            else self.r_innovations)
         return rep[:nrep].decode(errors="replace"), js[:njs].decode(errors="replace")
 
     def report(self):
