@@ -317,10 +317,11 @@ contains
     type(cov_t) :: cv
     real(wp), allocatable :: s(:, :), c(:, :), d(:, :), what(:), dwhat(:, :)
     real(wp), allocatable :: sj(:, :), fj(:, :)
-    real(wp) :: x(m%nx), dhw(m%ny, m%nw), sb(m%nw, m%ny), ax(m%nx, m%nx)
+    real(wp) :: x(m%nx), dhw(m%ny, m%nw), sb(m%nw, m%ny), ax(m%nx, m%nx), bnu(m%ny)
     type(rk_work_t) :: wk
     integer :: j, k, nf, nx, nw, ns, iseg
     logical :: sens, partials, ekf
+    logical :: corr      !< a measurement noise correlated with the process noise: S or dS /= 0
 
     status = MLID_OK
     msg = ''
@@ -333,6 +334,7 @@ contains
     nw = l%nw
     call lti_setup(m, theta, pm, t, u, opt, sys, status, msg)
     if (status /= MLID_OK) return
+    corr = any(sys%s /= 0.0_wp) .or. any(sys%nz_s)
     ns = merge(nf, 0, sens)
     if (ekf) then
       ! columns: the parameter sensitivities (if wanted), then Phi, then W
@@ -406,6 +408,7 @@ contains
         else if (any(dhw /= 0.0_wp)) then
           sys%r = sys%r0 + matmul(dhw, matmul(sys%q, transpose(dhw)))
           sys%s = sys%s0 + matmul(sys%q, transpose(dhw))
+          corr = .true.
         end if
       end if
       if (.not. opt%steady) then
@@ -425,20 +428,26 @@ contains
         call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dnu(:, :, j), c, d, iseg)
         dnu(:, :, j) = -dnu(:, :, j)
       end if
-      ! state update and the held-noise estimate for the next interval
+      ! state update and the held-noise estimate for the next interval (none
+      ! without a correlation S: skipped, it is most of a sample's work)
       x = x + matmul(cv%k, nu(:, j))
-      sb = matmul(sys%s, cv%binv)
-      what = matmul(sb, nu(:, j))
+      if (corr) then
+        sb = matmul(sys%s, cv%binv)
+        bnu = matmul(cv%binv, nu(:, j))
+        what = matmul(sb, nu(:, j))
+      end if
       if (sens) then                ! eq. 4.36
         s = s + matmul(cv%k, dnu(:, :, j))
-        dwhat = matmul(sb, dnu(:, :, j))
+        if (corr) dwhat = matmul(sb, dnu(:, :, j))
         if (partials) then
           if (.not. opt%steady) db(:, :, :, j) = cv%db
           if (opt%steady .and. j == 1) db(:, :, :, 1) = cv%db
           do k = 1, nf
             s(:, k) = s(:, k) + matmul(cv%dk(:, :, k), nu(:, j))
-            dwhat(:, k) = dwhat(:, k) + matmul(sys%ds(:, :, k), matmul(cv%binv, nu(:, j))) &
-                          - matmul(sb, matmul(cv%db(:, :, k), matmul(cv%binv, nu(:, j))))
+          end do
+          do k = 1, merge(nf, 0, corr)
+            dwhat(:, k) = dwhat(:, k) + matmul(sys%ds(:, :, k), bnu) &
+                          - matmul(sb, matmul(cv%db(:, :, k), bnu))
           end do
         end if
       end if

@@ -301,12 +301,15 @@ contains
       grad = grad + gpart(:, b)
       info = info + ipart(:, :, b)
     end do
+    ! msens: info without the noise-covariance term 1/2 tr(..); the blocks'
+    ! sums are just that unless the time-varying B's terms went into them
+    if (present(msens) .and. (opt%steady .or. .not. opt%partials)) msens = info
     if (opt%partials .and. opt%steady) then
       ! B and dB the same at every sample: their terms once, times the samples
       vv(:, :, 1) = sum(vv, dim=3)
       call add_b_partials(binv(:, :, 1), db(:, :, :, 1), vv(:, :, 1), real(nt, wp), grad, info)
     end if
-    if (present(msens)) then    ! without the noise-covariance term 1/2 tr(..)
+    if (present(msens) .and. opt%partials .and. .not. opt%steady) then
       msens = 0.0_wp
       do j = 1, nt
         msens = msens + matmul(transpose(dnu(:, :, j)), matmul(binv(:, :, j), dnu(:, :, j)))
