@@ -42,8 +42,8 @@ def test_hfb320_both_front_ends_agree(tmp_path):
     assert py.returncode == 0 and fo.returncode == 0, (py.stderr, fo.stderr)
     cases_py = json.loads((tmp_path / "py.json").read_text())
     cases_fo = json.loads((tmp_path / "fo.json").read_text())
-    # plain, from an equation-error start, and filter error (EKF)
-    assert len(cases_py) == len(cases_fo) == 3
+    # plain, from an equation-error start, filter error (EKF) and with the steady-state gain
+    assert len(cases_py) == len(cases_fo) == 4
     for a, b in zip(cases_py, cases_fo):
         assert a["parameters"][:3] == b["parameters"][:3] == ["C_D0", "C_DV", "C_Dalpha"]
         np.testing.assert_allclose(a["estimate"], b["estimate"], rtol=1e-10, atol=0)
@@ -52,6 +52,11 @@ def test_hfb320_both_front_ends_agree(tmp_path):
     np.testing.assert_allclose(cases_py[0]["estimate"], cases_py[1]["estimate"], rtol=1e-5)
     # turbulence (process noise) explains the record far better than output error
     assert cases_py[2]["converged"] and cases_py[2]["cost"] < cases_py[0]["cost"] - 1000
+    # the steady-state gain (linearised at the start) lands near the EKF's maximum
+    ekf, steady = cases_py[2], cases_py[3]
+    assert steady["converged"] and abs(steady["cost"] - ekf["cost"]) < 1.0
+    z = (np.array(steady["estimate"]) - ekf["estimate"]) / np.array(ekf["sigma"])
+    assert np.max(np.abs(z)) < 0.5, z
 
 
 def _hfb_like(free, regressors=None, values=None):
