@@ -250,3 +250,18 @@ def test_the_case_script_prints_and_exports_the_results_table(tmp_path):
                                rtol=1e-12)
     assert json.loads((tmp_path / "hfb320_case3.json").read_text())["rows"][-1]["unit"] == "m2/s4"
     assert r"\toprule" in (tmp_path / "hfb320_case1.tex").read_text()
+    # the README's table of case 3 (EKF) against case 4 (steady-state gain) is the script's
+    block = out.stdout.split("case 3 (extended Kalman filter) against case 4", 1)[1]
+    printed = {f[0]: f[1:6] for f in (ln.split() for ln in block.splitlines()[2:22])}
+    readme = (REPO / "cases" / "hfb320" / "README.md").read_text(encoding="utf-8")
+    table = next(b for b in readme.split("## Filter error with the steady-state gain", 1)[1]
+                 .split("\n\n") if b.startswith("| |"))
+    rows = [[c.strip().replace("−", "-") for c in r.strip("| ").split("|")]
+            for r in table.splitlines()[2:]]
+    rows = [cells for cells in rows if cells[1].endswith(")")]    # estimate (sigma)
+    names = {"C_Dα": "C_Dalpha", "C_Lα": "C_Lalpha", "C_mα": "C_malpha", "C_mδe": "C_mde"}
+    assert len(rows) == len(printed) == 20
+    for cells in rows:
+        name = names.get(cells[0], cells[0].split(",")[0])
+        ekf, steady = (c.replace("(", "").replace(")", "").split() for c in cells[1:3])
+        assert [*ekf, *steady, cells[3]] == printed[name], name
