@@ -4,7 +4,12 @@ Python, median of 20) and end to end through mlid-batch (process start, deck,
 data file, fit, report; median of 10).  Target: under 50 ms in-process; the
 book's own software takes about 9 s (1.9 s per iteration) for the same fit.
 Then the filter-error fit of the same record (extended Kalman filter, 20
-parameters: case 3 of the deck), with and without the gain partials.
+parameters: case 3 of the deck), with and without the gain partials, and
+against case 4, the same fit with the steady-state gain of the model
+linearised at the start of the record: the two fits, and one evaluation of
+cost, gradient and information at the start values, timed in turn round by
+round (timing.interleaved_medians), so that the load of this shared machine
+falls on both.
 """
 
 import subprocess
@@ -16,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 import mlid
+from timing import interleaved_medians
 
 REPO = Path(__file__).resolve().parent.parent
 DECK = REPO / "cases" / "hfb320" / "hfb320.nml"
@@ -68,6 +74,33 @@ def main():
         print(f"  11 coefficients, noise held: {'with' if partials else 'without'} gain partials "
               f"{1e3 * wall:.0f} ms, {r2.iterations} iterations, "
               f"{1e3 * wall / r2.iterations:.1f} ms per iteration, -J = {-r2.cost:.1f}")
+
+    steady_against_ekf(data)
+
+
+def steady_against_ekf(data):
+    """Cases 3 (EKF) and 4 (steady-state gain): whole fits and single
+    evaluations, interleaved."""
+    cases = mlid.read_deck(DECK)[2:4]
+    assert [c.options().get("steady_state", False) for c in cases] == [False, True]
+    results = [mlid.fit(c.model, data, **c.options()) for c in cases]
+    fits = [lambda c=c: mlid.fit(c.model, data, **c.options()) for c in cases]
+    evals = [lambda c=c: mlid.evaluate(c.model, data, **{k: v for k, v in c.options().items()
+                                                        if k != "bounds"}) for c in cases]
+    rounds = 5
+    (t_ekf, t_ss), (e_ekf, e_ss) = (interleaved_medians(fits, rounds=rounds, n=1),
+                                    interleaved_medians(evals, rounds=rounds, n=5))
+    print(f"HFB-320 filter error, EKF (case 3) against the steady-state gain (case 4), "
+          f"medians of {rounds} interleaved rounds:")
+    for name, res, wall, ev in (("EKF", results[0], t_ekf, e_ekf),
+                                ("steady", results[1], t_ss, e_ss)):
+        print(f"  {name:<7}{res.iterations:3d} iterations, fit {1e3 * wall:7.0f} ms, "
+              f"{1e3 * wall / res.iterations:6.1f} ms per iteration; one evaluation "
+              f"(cost, gradient, information) {1e3 * ev:6.1f} ms; -J = {-res.cost:.2f}")
+    per = (t_ss / results[1].iterations) / (t_ekf / results[0].iterations)
+    print(f"  steady/EKF: fit {t_ss / t_ekf:.2f}, per iteration {per:.2f}, one evaluation "
+          f"{e_ss / e_ekf:.2f}")
+
 
 if __name__ == "__main__":
     main()

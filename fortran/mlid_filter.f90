@@ -23,8 +23,11 @@
 !>   partials this routine would form for it hold the linearisation fixed
 !>   (none through Phi, W, C, nor through the effective R and S of outputs
 !>   that carry the process noise), so mlid_likelihood does not ask for
-!>   them: with opt%partials it differences whole filter runs instead.  The
-!>   steady-state gain needs a linear model.
+!>   them: with opt%partials it differences whole filter runs instead.
+!>   With opt%steady a nonlinear model's states still follow the nonlinear
+!>   model, but K and B are the steady state of its linearisation about the
+!>   first initial state and input sample (linearise_once), as in the
+!>   textbook's filter error for nonlinear systems (Jategaonkar ch. 5, ml_fem).
 module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_SINGULAR, &
@@ -320,7 +323,7 @@ contains
     real(wp) :: x(m%nx), dhw(m%ny, m%nw), sb(m%nw, m%ny), ax(m%nx, m%nx), bnu(m%ny)
     type(rk_work_t) :: wk
     integer :: j, k, nf, nx, nw, ns, iseg
-    logical :: sens, partials, ekf
+    logical :: sens, partials, ekf, relin
     logical :: corr      !< a measurement noise correlated with the process noise: S or dS /= 0
 
     status = MLID_OK
@@ -329,23 +332,36 @@ contains
     nf = pm%nf
     sens = present(dnu)
     ekf = .not. m%linear
+    relin = ekf .and. .not. opt%steady      ! linearise every interval (the EKF proper)
     partials = sens .and. opt%partials
     nx = l%nx
     nw = l%nw
     call lti_setup(m, theta, pm, t, u, opt, sys, status, msg)
     if (status /= MLID_OK) return
-    corr = any(sys%s /= 0.0_wp) .or. any(sys%nz_s)
     ns = merge(nf, 0, sens)
-    if (ekf) then
+    if (relin) then
       ! columns: the parameter sensitivities (if wanted), then Phi, then W
       allocate (sj(nx, ns + nx + nw), fj(nx, ns + nx + nw))
     end if
     call cov_alloc(cv, l%nx, l%ny, nf)
     allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf))
-    if (opt%steady) then
+    if (opt%steady .and. ekf) then
+      ! The textbook's filter error for nonlinear systems (ml_fem): the states
+      ! follow the nonlinear model, the gain is the steady state of the model
+      ! linearised once, about the start of the record; it saves the EKF's
+      ! per-interval Jacobian integration and covariance steps.
+      call linearise_once(m, theta, pm, t, u, opt, sys, status, msg)
+      if (status == MLID_OK) call steady_state(sys, cv, partials, status, msg)
+      if (status /= MLID_OK) then
+        msg = trim(msg)//' (steady-state gain of the nonlinear model linearised about x0 and '// &
+              'the first input sample)'
+        return
+      end if
+    else if (opt%steady) then
       call steady_state(sys, cv, partials, status, msg)
       if (status /= MLID_OK) return
     end if
+    corr = any(sys%s /= 0.0_wp) .or. any(sys%nz_s)   ! (a nonlinear model's steady S included)
     iseg = 0
 
     do j = 1, size(t)
@@ -360,7 +376,7 @@ contains
           cv%dpm = 0.0_wp
         end if
       else
-        if (ekf) then               ! linearise the interval about x(j-1|j-1), eq. 4.27
+        if (relin) then             ! linearise the interval about x(j-1|j-1), eq. 4.27
           call m%dfdw(t(j - 1), x, [u(:, j - 1), what], theta(1:l%np), sys%g)
           if (opt%process_noise /= 0) call m%dfdx(t(j - 1), x, [u(:, j - 1), what], &
                                                    theta(1:l%np), ax)
@@ -385,6 +401,8 @@ contains
           call noise_reach(sys, opt%process_noise, ax, status, msg)
           if (status /= MLID_OK) return
         else if (sens) then
+          ! a nonlinear model's df/dw where the interval starts, as the EKF takes it
+          if (ekf) call m%dfdw(t(j - 1), x, [u(:, j - 1), what], theta(1:l%np), sys%g)
           call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk, s, matmul(sys%g, dwhat))
         else
           call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk)
@@ -395,21 +413,12 @@ contains
         end if
         if (.not. opt%steady) call cov_predict(sys, cv, partials)
       end if
-      if (ekf) then
+      if (relin) then
         call m%dhdx(t(j), x, u(:, j), theta(1:l%np), sys%c)
-        ! outputs that carry the process noise of the next interval, (dh/dw) w:
-        ! the effective R and S at this sample (report §5.1.7)
         call m%dhdw(t(j), x, u(:, j), theta(1:l%np), dhw)
-        if (any(dhw /= 0.0_wp) .and. opt%process_noise /= 0) then
-          status = MLID_ERR_INPUT
-          msg = 'outputs that carry the process noise (accelerations) need held noise, '// &
-                'process_noise = ''held'''
-          return
-        else if (any(dhw /= 0.0_wp)) then
-          sys%r = sys%r0 + matmul(dhw, matmul(sys%q, transpose(dhw)))
-          sys%s = sys%s0 + matmul(sys%q, transpose(dhw))
-          corr = .true.
-        end if
+        call output_noise(sys, dhw, opt%process_noise, status, msg)
+        if (status /= MLID_OK) return
+        if (any(dhw /= 0.0_wp)) corr = .true.
       end if
       if (.not. opt%steady) then
         call cov_update(sys, cv, partials, status, msg)
@@ -454,6 +463,76 @@ contains
     end do
   end subroutine kf_innovations
 
+  !> For the steady-state gain of a nonlinear model: Phi, W, V and G
+  !> (noise_reach) of the interval from the first sample, and C and the
+  !> effective R and S there, all about the first manoeuvre's initial state,
+  !> u(:, 1) and zero noise; the EKF's linearisation of one interval.
+  !> Redone at each evaluation of the cost, so the gain follows the
+  !> parameters (and x0) as the textbook's ml_fem has it.
+  subroutine linearise_once(m, theta, pm, t, u, opt, sys, status, msg)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :)
+    type(options_t), intent(in) :: opt
+    type(lti_t), intent(inout) :: sys
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: x0(m%nx), x(m%nx), w0(m%nw), ax(m%nx, m%nx), dhw(m%ny, m%nw)
+    real(wp) :: sj(m%nx, m%nx + m%nw), fj(m%nx, m%nx + m%nw)
+    type(rk_work_t) :: wk
+    integer :: k, nx, np
+
+    nx = m%nx
+    np = pm%l%np
+    x0 = theta(pm%l%ox0 + 1:pm%l%ox0 + nx)
+    w0 = 0.0_wp
+    ax = 0.0_wp
+    call m%dfdw(t(1), x0, [u(:, 1), w0], theta(1:np), sys%g)
+    if (opt%process_noise /= 0) call m%dfdx(t(1), x0, [u(:, 1), w0], theta(1:np), ax)
+    sj = 0.0_wp
+    fj = 0.0_wp
+    do k = 1, nx
+      sj(k, k) = 1.0_wp
+    end do
+    fj(:, nx + 1:) = sys%g
+    x = x0
+    call advance_plain(m, theta, pm, t, u, opt, 1, w0, x, wk, sj, fj)
+    sys%phi = sj(:, 1:nx)
+    sys%w = sj(:, nx + 1:)
+    call m%dhdx(t(1), x0, u(:, 1), theta(1:np), sys%c)
+    call m%dhdw(t(1), x0, u(:, 1), theta(1:np), dhw)
+    if (.not. (all(ieee_is_finite(sj)) .and. all(ieee_is_finite(sys%c)) .and. &
+               all(ieee_is_finite(ax)) .and. all(ieee_is_finite(dhw)))) then
+      status = MLID_ERR_DIVERGED
+      msg = 'the linearisation is not finite'
+      return
+    end if
+    call output_noise(sys, dhw, opt%process_noise, status, msg)
+    if (status == MLID_OK) call noise_reach(sys, opt%process_noise, ax, status, msg)
+  end subroutine linearise_once
+
+  !> Outputs that carry the process noise of the next interval, (dh/dw) w
+  !> (dhw): the effective R and S at this sample (report §5.1.7).
+  subroutine output_noise(sys, dhw, code, status, msg)
+    type(lti_t), intent(inout) :: sys
+    real(wp), intent(in) :: dhw(:, :)
+    integer, intent(in) :: code       !< opt%process_noise
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    status = MLID_OK
+    msg = ''
+    if (all(dhw == 0.0_wp)) return
+    if (code /= 0) then
+      status = MLID_ERR_INPUT
+      msg = 'outputs that carry the process noise (accelerations) need held noise, '// &
+            'process_noise = ''held'''
+      return
+    end if
+    sys%r = sys%r0 + matmul(dhw, matmul(sys%q, transpose(dhw)))
+    sys%s = sys%s0 + matmul(sys%q, transpose(dhw))
+  end subroutine output_noise
+
   !> Everything the filter holds fixed along the record (linear models):
   !> C, Phi, W = held-noise transition, Q, R, S and their partials.
   subroutine lti_setup(m, theta, pm, t, u, opt, sys, status, msg)
@@ -478,11 +557,6 @@ contains
     nx = l%nx
     nw = l%nw
     ny = l%ny
-    if (.not. m%linear .and. opt%steady) then
-      msg = 'the steady-state gain needs a linear model (a nonlinear model uses the extended '// &
-            'Kalman filter with its time-varying gain)'
-      return
-    end if
     dt = t(2) - t(1)
     do k = 2, size(t) - 1
       if (any(l%seg == k + 1)) cycle                  ! a new manoeuvre: its own time base

@@ -42,8 +42,8 @@ def test_hfb320_both_front_ends_agree(tmp_path):
     assert py.returncode == 0 and fo.returncode == 0, (py.stderr, fo.stderr)
     cases_py = json.loads((tmp_path / "py.json").read_text())
     cases_fo = json.loads((tmp_path / "fo.json").read_text())
-    # plain, from an equation-error start, and filter error (EKF)
-    assert len(cases_py) == len(cases_fo) == 3
+    # plain, from an equation-error start, filter error (EKF) and with the steady-state gain
+    assert len(cases_py) == len(cases_fo) == 4
     for a, b in zip(cases_py, cases_fo):
         assert a["parameters"][:3] == b["parameters"][:3] == ["C_D0", "C_DV", "C_Dalpha"]
         np.testing.assert_allclose(a["estimate"], b["estimate"], rtol=1e-10, atol=0)
@@ -52,6 +52,11 @@ def test_hfb320_both_front_ends_agree(tmp_path):
     np.testing.assert_allclose(cases_py[0]["estimate"], cases_py[1]["estimate"], rtol=1e-5)
     # turbulence (process noise) explains the record far better than output error
     assert cases_py[2]["converged"] and cases_py[2]["cost"] < cases_py[0]["cost"] - 1000
+    # the steady-state gain (linearised at the start) lands near the EKF's maximum
+    ekf, steady = cases_py[2], cases_py[3]
+    assert steady["converged"] and abs(steady["cost"] - ekf["cost"]) < 1.0
+    z = (np.array(steady["estimate"]) - ekf["estimate"]) / np.array(ekf["sigma"])
+    assert np.max(np.abs(z)) < 0.5, z
 
 
 def _hfb_like(free, regressors=None, values=None):
@@ -245,3 +250,18 @@ def test_the_case_script_prints_and_exports_the_results_table(tmp_path):
                                rtol=1e-12)
     assert json.loads((tmp_path / "hfb320_case3.json").read_text())["rows"][-1]["unit"] == "m2/s4"
     assert r"\toprule" in (tmp_path / "hfb320_case1.tex").read_text()
+    # the README's table of case 3 (EKF) against case 4 (steady-state gain) is the script's
+    block = out.stdout.split("case 3 (extended Kalman filter) against case 4", 1)[1]
+    printed = {f[0]: f[1:6] for f in (ln.split() for ln in block.splitlines()[2:22])}
+    readme = (REPO / "cases" / "hfb320" / "README.md").read_text(encoding="utf-8")
+    table = next(b for b in readme.split("## Filter error with the steady-state gain", 1)[1]
+                 .split("\n\n") if b.startswith("| |"))
+    rows = [[c.strip().replace("−", "-") for c in r.strip("| ").split("|")]
+            for r in table.splitlines()[2:]]
+    rows = [cells for cells in rows if cells[1].endswith(")")]    # estimate (sigma)
+    names = {"C_Dα": "C_Dalpha", "C_Lα": "C_Lalpha", "C_mα": "C_malpha", "C_mδe": "C_mde"}
+    assert len(rows) == len(printed) == 20
+    for cells in rows:
+        name = names.get(cells[0], cells[0].split(",")[0])
+        ekf, steady = (c.replace("(", "").replace(")", "").split() for c in cells[1:3])
+        assert [*ekf, *steady, cells[3]] == printed[name], name

@@ -30,12 +30,13 @@ def x22_deck(folder):
 
 
 def hfb320_filter_error_deck(folder):
-    """The HFB-320 deck's third case alone (filter error, extended Kalman
-    filter, 20 parameters, real flight data), its data path made absolute."""
+    """The HFB-320 deck's filter-error cases alone (20 parameters, real
+    flight data; case 3 the extended Kalman filter, case 4 the steady-state
+    gain), their data paths made absolute."""
     text = HFB320.read_text()
     starts = [m.start() for m in re.finditer(r"^&case\b", text, flags=re.M)]
     case = text[starts[2]:]
-    assert "filter_error" in case
+    assert case.count("filter_error") == 2 and "steady_state = .true." in case
     case = re.sub(r"file = '([^']+)'",
                   lambda m: f"file = '{(HFB320.parent / m.group(1)).resolve()}'", case)
     deck = folder / "hfb320_fe.nml"

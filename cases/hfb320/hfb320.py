@@ -1,8 +1,10 @@
 """HFB-320 Hansa Jet from the real flight record: the deck hfb320.nml run
 through the Python front end, the output-error estimates compared with the
-reference of ../../../shared/data/README.md, and the results table (unit,
-estimate, Cramer-Rao and coloured-residual sigma, relative sigma, flag)
-printed and exported as CSV, LaTeX and JSON.  Every number README.md
+reference of ../../../shared/data/README.md, the filter-error estimates with
+the extended Kalman filter (case 3) and with the steady-state gain (case 4)
+side by side, and the results table (unit, estimate, Cramer-Rao and
+coloured-residual sigma, relative sigma, flag) printed and exported as CSV,
+LaTeX and JSON.  Every number README.md
 quotes is printed here.
 
     python cases/hfb320/hfb320.py [OUT_DIR]     # exports into OUT_DIR (default: a temp dir)
@@ -63,6 +65,8 @@ def main(out_dir):
           f"det R {res.det_r:.6e} against {ref_det:.4e} "
           f"(relative {abs(res.det_r / ref_det - 1):.1e})")
 
+    compare_gains(results[3], results[4])
+
     for index in (1, 3):
         table = results[index].table()
         ratio = results[index].sigma_corrected / results[index].sigma
@@ -74,6 +78,24 @@ def main(out_dir):
             path = Path(out_dir) / f"hfb320_case{index}.{suffix}"
             table.write(path)
             print(f"  wrote {path}")
+
+
+def compare_gains(ekf, steady):
+    """Case 3 (extended Kalman filter) and case 4 (the steady-state gain of
+    the model linearised at the start of the record) side by side."""
+    z = (steady.estimate - ekf.estimate) / ekf.sigma
+    print("\ncase 3 (extended Kalman filter) against case 4 (steady-state gain, linearised "
+          "about x0 and the first input sample):")
+    print(f"{'parameter':<10}{'EKF':>14}{'sigma':>11}{'steady':>14}{'sigma':>11}"
+          f"{'diff/sigma':>12}{'sigma ratio':>13}")
+    for k, name in enumerate(ekf.names):
+        print(f"{name:<10}{ekf.estimate[k]:14.6g}{ekf.sigma[k]:11.3g}{steady.estimate[k]:14.6g}"
+              f"{steady.sigma[k]:11.3g}{z[k]:12.3f}{steady.sigma[k] / ekf.sigma[k]:13.4f}")
+    print(f"-J: EKF {-ekf.cost:.2f}, steady {-steady.cost:.2f} (steady lower by "
+          f"{steady.cost - ekf.cost:.2f}); iterations {ekf.iterations} and {steady.iterations}; "
+          f"largest |diff|/sigma {np.abs(z).max():.3f} ({ekf.names[np.abs(z).argmax()]}); "
+          f"sigma ratios {(steady.sigma / ekf.sigma).min():.4f} to "
+          f"{(steady.sigma / ekf.sigma).max():.4f}")
 
 
 if __name__ == "__main__":

@@ -239,7 +239,9 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
             states only, and the noise parameters get no gradient (a free
             one then makes the information singular).
         steady_state : bool
-            Filter error, linear models: the steady-state gain.
+            Filter error: the steady-state gain (a nonlinear model's: that of
+            the model linearised about x0 and the first input sample; its
+            states still follow the nonlinear model).
         startup : 'none' or 'equation_error'
             Start from an equation-error least-squares pass (all states
             measured).
@@ -279,7 +281,8 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         The information matrix, or R-hat or the filter's innovation
         covariance, is singular.
     DivergenceError
-        The simulation diverged (a state not finite).
+        The simulation diverged (a state not finite), or a nonlinear
+        model's linearisation for the steady-state gain is not finite.
     NonConvergenceError
         The steady-state Kalman filter's Riccati iteration did not converge.
     InternalError
