@@ -105,13 +105,19 @@ def filter_error():
 
 
 def noise_starts(case, res):
-    """The deck from 12 other start values of q and r (tc08's derivatives):
-    where each ends, in the deck's Cramer-Rao sigma."""
+    """The deck from 12 other start values of q and r (the derivatives'
+    start: tc08's), where each ends (in the deck's Cramer-Rao sigma); and
+    the same starts with the default tol_cost and tol_step, with process
+    noise held over each sample, and with the steady-state gain."""
     print("\nfilter error from other noise start values (the derivatives' start: tc08's)")
-    print(f"{'q start':>16} {'r start':>28} {'it':>3} {'conv':>5} {'cost':>12} "
-          f"{'max |d|/sigma':>13} {'largest eigenvalue':>18}")
+    print(f"{'q start':>16} {'r start':>26} | {'the deck: it':>12} {'conv':>5} {'cost':>11} "
+          f"{'max|d|/sig':>10} {'lambda':>7} | {'default tol':>17} | {'held':>17} | "
+          f"{'steady gain':>17}")
     m, opts = case.model, case.options()
     names = m.element_names()
+    data = case.record()
+    variants = (dict(tol_cost=1e-8, tol_step=1e-8), dict(process_noise="held"),
+                dict(steady_state=True))
     for qs in (0.01, 0.1, 1.0, 10.0):
         for rs in (0.1, 1.0, 10.0):
             theta = m.theta.copy()
@@ -119,11 +125,33 @@ def noise_starts(case, res):
                      "r(3)": 1e-4 * rs}
             for k, v in start.items():
                 theta[names.index(k)] = v
-            other = mlid.fit(m.with_theta(theta), case.record(), **opts)
+            other = mlid.fit(m.with_theta(theta), data, **opts)
             d = np.max(np.abs((other.estimate - res.estimate) / res.sigma)[:len(DERIVATIVES)])
-            print(f"{qs:8.2g} {qs / 10:7.2g} {0.05 * rs:9.2g} {0.02 * rs:9.2g} {1e-4 * rs:8.2g} "
-                  f"{other.iterations:3d} {other.converged!s:>5} {other.cost:12.4f} {d:13.3g} "
-                  f"{np.max(np.linalg.eigvals(other.model.F).real):18.5f}")
+            line = (f"{qs:8.2g} {qs / 10:7.2g} {0.05 * rs:8.2g} {0.02 * rs:8.2g} "
+                    f"{1e-4 * rs:8.2g} | {other.iterations:12d} {other.converged!s:>5} "
+                    f"{other.cost:11.3f} {d:10.2g} "
+                    f"{np.max(np.linalg.eigvals(other.model.F).real):7.4f}")
+            for v in variants:
+                o = mlid.fit(m.with_theta(theta), data, **dict(opts, **v))
+                line += f" | {o.converged!s:>5} {o.cost:11.3f}"
+            print(line)
+
+
+def floors(case, res):
+    """The deck with its lower bounds on r multiplied by 0.01, 100 and 1e4:
+    the derivatives' change in the deck's Cramer-Rao sigma."""
+    print("\nthe floor on r moved (the deck's floor times k)")
+    m, opts = case.model, case.options()
+    data = case.record()
+    for k in (0.01, 100.0, 1e4):
+        bounds = {n: ((lo * k if n in FLOOR else lo), hi) for n, (lo, hi) in opts["bounds"].items()}
+        other = mlid.fit(m, data, **dict(opts, bounds=bounds))
+        d = (other.estimate - res.estimate) / res.sigma
+        rel = np.abs(other.estimate / res.estimate - 1)[:len(DERIVATIVES)]
+        worst = ", ".join(f"{n} {d[res.names.index(n)]:.2g}" for n in DERIVATIVES)
+        r = " ".join(f"{other.model.value(n):.3e}" for n in FLOOR)
+        print(f"k = {k:g}: converged={other.converged}, r {r}; (theirs - the deck's)/sigma: "
+              f"{worst}; largest relative change {rel.max():.1e}")
 
 
 def without_the_floor(case):
@@ -169,6 +197,7 @@ def main():
         print(f"eigenvalues of {what} {np.linalg.eigvals(plant(res.model))}")
     case, res = filter_error()
     noise_starts(case, res)
+    floors(case, res)
     without_the_floor(case)
 
 
