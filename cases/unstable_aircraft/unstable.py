@@ -49,14 +49,20 @@ def short_period(v):
     return np.array([[v["Zw"], U0_ZQ], [v["Mw"], v["Mq"]]])
 
 
+def eigenvalues(f):
+    """The eigenvalues of a real 2 x 2 F with real eigenvalues, largest first."""
+    return np.sort(np.linalg.eigvals(f).real)[::-1]
+
+
 def eigenvalue_sigma(res):
-    """Standard deviations of F's eigenvalues (in np.linalg.eigvals' order)
-    from the corrected covariance of Zw, Mw, Mq, by central differences."""
+    """Standard deviations of F's eigenvalues (largest first, as
+    ``eigenvalues``) from the corrected covariance of Zw, Mw, Mq, by
+    central differences."""
     k = [res.names.index(n) for n in ("Zw", "Mw", "Mq")]
     theta = res.estimate[k]
 
     def eig(t):
-        return np.linalg.eigvals(short_period(dict(zip(("Zw", "Mw", "Mq"), t)))).real
+        return eigenvalues(short_period(dict(zip(("Zw", "Mw", "Mq"), t))))
 
     h = 1e-7
     jac = np.array([(eig(theta + h * e) - eig(theta - h * e)) / (2 * h) for e in np.eye(3)]).T
@@ -79,8 +85,8 @@ def filter_error():
     ours = dict(zip(res.names, res.estimate))
     sig = dict(zip(res.names, res.sigma))
     sigc = dict(zip(res.names, res.sigma_corrected))
-    print(f"eigenvalues of F {np.linalg.eigvals(res.model.F)}; their sigma (corrected, by "
-          f"the delta method) {eigenvalue_sigma(res)}")
+    lam, lam_sigma = eigenvalues(res.model.F), eigenvalue_sigma(res)
+    print(f"eigenvalues of F {lam}; their sigma (corrected, by the delta method) {lam_sigma}")
     refs = {d: read_reference(REFS / CASES[d]) for d in ("tc06", "tc07", "tc08")}
     for deck, ref in refs.items():
         print(f"\nagainst {ref.path.name}")
@@ -93,9 +99,9 @@ def filter_error():
             print(f"{n:<9} {r:16.9e} {sr:11.4e} {z[-1]:21.4g} {(ours[n] - r) / sig[n]:17.4g} "
                   f"{(ours[n] - r) / sigc[n]:13.4g}")
         k = int(np.argmax(np.abs(z)))
-        eig = np.linalg.eigvals(short_period({n: v[0] for n, v in ref.estimates.items()}))
+        eig = eigenvalues(short_period({n: v[0] for n, v in ref.estimates.items()}))
         print(f"largest |ours - ref|/sigma_ref {abs(z[k]):.4g} ({DERIVATIVES[k]}); eigenvalues of "
-              f"the reference's plant {eig}")
+              f"the reference's plant {eig}, (ours - theirs)/sigma corr. {(lam - eig) / lam_sigma}")
     for d in ("tc06", "tc07"):       # the two references' own disagreement, in each one's sigma
         z = [(refs["tc06"].estimates[n][0] - refs["tc07"].estimates[n][0]) / refs[d].estimates[n][1]
              for n in DERIVATIVES]
