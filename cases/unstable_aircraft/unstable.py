@@ -76,7 +76,7 @@ def filter_error():
     if error:
         sys.exit(f"{case.where()}: {error}")
     print(f"\n{case.title}: {res.iterations} iterations, converged={res.converged} "
-          f"({res.reason})")
+          f"({res.reason}), {res.wall_time:.2f} s")
     print(f"{'parameter':<9} {'estimate':>16} {'sigma':>11} {'sigma corr.':>11}")
     for n, v, s, sc in zip(res.names, res.estimate, res.sigma, res.sigma_corrected):
         print(f"{n:<9} {v:16.9e} {s:11.4e} {sc:11.4e}")
@@ -143,6 +143,19 @@ def noise_starts(case, res):
             print(line)
 
 
+def steady_gain(case):
+    """The steady-state gain from the deck's start: where it stops, and how
+    far above its floor r(q) lies after the first iteration (the next step,
+    scaled to keep it there, is almost nothing)."""
+    opts = dict(case.options(), steady_state=True)
+    floor = opts["bounds"]["r(3)"][0]
+    one = mlid.fit(case.model, case.record(), **dict(opts, max_iter=1))
+    full = mlid.fit(case.model, case.record(), **opts)
+    print(f"\nsteady-state gain from the deck's start: r(q) - its floor after one iteration "
+          f"{one.model.value('r(3)') - floor:.2g}; the fit: converged={full.converged} after "
+          f"{full.iterations} iterations ({full.reason}), cost {full.cost:.3f}")
+
+
 def floors(case, res):
     """The deck with its lower bounds on r multiplied by 0.01, 100 and 1e4:
     the derivatives' change in the deck's Cramer-Rao sigma."""
@@ -203,6 +216,7 @@ def main():
         print(f"eigenvalues of {what} {np.linalg.eigvals(plant(res.model))}")
     case, res = filter_error()
     noise_starts(case, res)
+    steady_gain(case)
     floors(case, res)
     without_the_floor(case)
 
