@@ -1,6 +1,7 @@
 """The simulated unstable aircraft (cases/unstable_aircraft, FVSysID test cases
-6 to 10): each deck against its reference fit, in both front ends; the
-stabilized output error's sensitivities against central differences."""
+6 to 10): each deck against its reference fit, in both front ends; filter
+error on test case 8's model against tc06 and tc07; the stabilized output
+error's sensitivities against central differences."""
 
 import numpy as np
 import pytest
@@ -34,6 +35,53 @@ def test_each_deck_reproduces_its_reference_in_both_front_ends(deck, tmp_path):
         case = mlid.read_deck(path)[0]
         _, res = mlid.deck.run_case(case)
         assert np.all(np.linalg.eigvals(res.model.F).real < 0) == (deck == "tc08")
+
+
+FE_DECK = HERE / "tc08_filter_error.nml"
+
+
+@needs_data
+def test_filter_error_keeps_the_unstable_plant_in_both_front_ends(tmp_path):
+    """Filter error on tc08's model, data and start values (where output
+    error settles on a stable model) converges to the unstable plant, the
+    same in both front ends (report and JSON).  The tolerance: tc06 and
+    tc07 disagree with each other by 153 sigma_tc07 and 1e5 sigma_tc06
+    (Zde), since on a record this nearly noise-free their sigma measure the
+    rounding of the file, not each formulation's model error; so neither
+    reference's sigma can bound ours.  Ours is judged by its own Cramer-Rao
+    sigma corrected for the innovations' colour (sigma_c): every derivative
+    within 3 sigma_c of tc06 (measured: 2.7, Mq), the pitching-moment ones
+    within 3 sigma_c of tc07 too (1.3), Zw and Zde (which the az equation
+    pins, as in tc06's regression) within 0.1 sigma_tc06 of tc06 (0.003);
+    and far from tc08's stable model (Mw: 54 sigma_tc08)."""
+    fit = both_front_ends_json(FE_DECK, tmp_path)
+    assert fit["converged"] and fit["status"] == 0
+    est = dict(zip(fit["parameters"], fit["estimate"]))
+    sig_c = dict(zip(fit["parameters"], fit["sigma_corrected"]))
+    lam = np.sort(np.linalg.eigvals([[est["Zw"], 44.5695 - 1.4768], [est["Mw"], est["Mq"]]]).real)
+    assert lam[1] > 0 > lam[0]
+    ref = {d: read_reference(DATA / "refs" / REFS[d]).estimates for d in ("tc06", "tc07", "tc08")}
+    for name in ("Zw", "Zde", "Mw", "Mq", "Mde"):
+        assert abs(est[name] - ref["tc06"][name][0]) < 3 * sig_c[name], name
+    for name in ("Mw", "Mq", "Mde"):
+        assert abs(est[name] - ref["tc07"][name][0]) < 3 * sig_c[name], name
+    for name in ("Zw", "Zde"):
+        assert abs(est[name] - ref["tc06"][name][0]) < 0.1 * ref["tc06"][name][1], name
+    assert est["Mw"] - ref["tc08"]["Mw"][0] > 10 * ref["tc08"]["Mw"][1]
+
+
+@needs_data
+def test_filter_error_without_the_floor_on_r_names_the_noise_free_outputs():
+    """The deck's lower bounds on r are what gives the likelihood a maximum:
+    without them (q >= 0 kept) r(1) and r(3) fall without end, the fit
+    does not converge, and the message names them."""
+    case = mlid.read_deck(FE_DECK)[0]
+    opts = case.options()
+    opts["bounds"] = {k: v for k, v in opts["bounds"].items() if k.startswith("q(")}
+    res = mlid.fit(case.model, case.record(), **opts)
+    assert not res.converged
+    assert "r(1)" in res.message and "r(3)" in res.message and "no maximum" in res.message
+    assert res.model.value("r(1)") < 1e-20 and res.model.value("r(3)") < 1e-20
 
 
 F9 = [[-1.4268, 43.0927], [0.2170, -3.7201]]
