@@ -146,6 +146,7 @@ contains
     end if
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
     if (opt%noise_criterion == 1) call noise_free_note(pm, size(t), res)
+    if (opt%noise_criterion == 0 .and. opt%method == 1) call noise_free_warning(pm, ex, res)
     call final_bound(opt, ex, st, res, status, msg)
     if (any(status == [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) &
       call colored_bound(pm, y, res, status, msg)
@@ -188,6 +189,39 @@ contains
           '): exact ML has no maximum; fix those r at a floor or use noise_criterion = '// &
           '''innovations'' ('//trim(msg)//')'
   end subroutine noise_free_outputs
+
+  !> A filter-error fit with R free that ends with some r(i) far below its
+  !> output's innovation variance (and not on a lower bound the user set):
+  !> the fit stopped on the slope of a likelihood without maximum, which
+  !> res%note says, with the remedies.
+  subroutine noise_free_warning(pm, ex, res)
+    type(param_map_t), intent(in) :: pm
+    type(extras_t), intent(in) :: ex
+    type(fit_result_t), intent(inout) :: res
+    real(wp), parameter :: NOISE_FREE_RATIO = 1.0e-4_wp
+    character(len=len(res%note)) :: names
+    character(len=16) :: buf
+    real(wp) :: worst, r
+    integer :: k, i
+    names = ''
+    worst = 0.0_wp
+    do k = 1, pm%nf
+      i = pm%ifree(k) - pm%l%or
+      if (i < 1 .or. i > size(res%rhat, 1)) cycle
+      r = res%theta(pm%ifree(k))
+      if (.not. r < NOISE_FREE_RATIO*res%rhat(i, i)) cycle
+      if (allocated(ex%lower)) then
+        if (r <= ex%lower(k)*(1.0_wp + 1.0e-9_wp)) cycle
+      end if
+      worst = max(worst, r/res%rhat(i, i))
+      names = trim(names)//merge(', ', '  ', len_trim(names) > 0)//'r('//itoa(i)//')'
+    end do
+    if (len_trim(names) == 0) return
+    write (buf, '(es8.1)') worst
+    res%note = 'warning: outputs '//trim(adjustl(names))//' look noise-free (r/B <= '// &
+      trim(adjustl(buf))//'): exact ML has no maximum there; fix those r at a floor or use '// &
+      'noise_criterion = ''innovations'''
+  end subroutine noise_free_warning
 
   !> The innovations criterion's outputs whose R is within two standard
   !> errors of zero, 2 sqrt(2/N) of their mean squared innovation S (the
@@ -652,9 +686,11 @@ contains
 
   !> The Newton step -M^-1 g of the given rank (and the Newton decrement
   !> sqrt(-g' step)), with the bounds of blocks 11-12: a parameter on a
-  !> bound that the step would push outward is held there and the step
-  !> solved again for the others; then the whole step is scaled so that no
-  !> parameter crosses its bound.
+  !> bound that the step would push outward is held there, one the step
+  !> would carry across its bound goes to the bound exactly, and the step is
+  !> solved again for the others, until none crosses.  (Scaling the whole
+  !> step instead stalls a search whose parameter lies a rounding error off
+  !> its bound: every step shrinks to nothing and looks converged.)
   subroutine bounded_step(pb, st, res, rank, step, dec, status, msg)
     type(problem_t), intent(in) :: pb
     type(search_t), intent(inout) :: st
@@ -663,11 +699,9 @@ contains
     real(wp), intent(out) :: step(:), dec
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: th(st%nf), factor
-    logical :: active(st%nf)
-    integer :: k, nf, nfree_act
-    integer, allocatable :: keep(:)
-    real(wp), allocatable :: sub(:, :), subw(:)
+    real(wp) :: th(st%nf), fixed(st%nf), factor
+    logical :: active(st%nf), cross(st%nf)
+    integer :: k, nf, pass
 
     associate (pm => pb%pm, opt => pb%opt, ex => pb%ex)
       nf = st%nf
@@ -683,30 +717,58 @@ contains
       step = -matmul(st%cov, st%g)
       if (allocated(ex%lower)) then
         th = res%theta(pm%ifree)
+        fixed = 0.0_wp                 ! the step of a parameter held: to its bound
         active = (th <= ex%lower .and. step < 0.0_wp) .or. (th >= ex%upper .and. step > 0.0_wp)
-        if (any(active)) then
-          keep = pack([(k, k=1, nf)], .not. active)
-          nfree_act = size(keep)
-          allocate (sub(nfree_act, nfree_act), subw(nfree_act))
-          step = 0.0_wp
-          if (nfree_act > 0) then
-            call info_inverse(st%mt(keep, keep), opt%rcond, sub, subw, st%ndrop, k, status, msg, &
-                              min(rank, nfree_act))
-            if (status /= MLID_OK) return
-            step(keep) = -matmul(sub, st%g(keep))
-          end if
-        end if
-        factor = 1.0_wp
+        do pass = 1, nf
+          if (any(active)) call held_step(active, fixed, rank, step, status, msg)
+          if (status /= MLID_OK) return
+          cross = .not. active .and. (th + step < ex%lower .or. th + step > ex%upper)
+          if (.not. any(cross)) exit
+          where (cross .and. th + step < ex%lower) fixed = ex%lower - th
+          where (cross .and. th + step > ex%upper) fixed = ex%upper - th
+          active = active .or. cross
+        end do
+        dec = sqrt(max(0.0_wp, -dot_product(st%g, step)))
+        factor = 1.0_wp                ! a safeguard: the passes leave none across
         do k = 1, nf
           if (th(k) + step(k) > ex%upper(k)) factor = min(factor, (ex%upper(k) - th(k))/step(k))
           if (th(k) + step(k) < ex%lower(k)) factor = min(factor, (ex%lower(k) - th(k))/step(k))
         end do
-        dec = sqrt(max(0.0_wp, -dot_product(st%g, step)))
         step = factor*step
       else
         dec = sqrt(max(0.0_wp, -dot_product(st%g, step)))
       end if
     end associate
+
+  contains
+
+    !> The step with the active parameters' steps fixed: the others minimise
+    !> the quadratic model, M_kk s_k = -(g_k + M_ka s_a).
+    subroutine held_step(active, fixed, rank, step, status, msg)
+      logical, intent(in) :: active(:)
+      real(wp), intent(in) :: fixed(:)
+      integer, intent(in) :: rank
+      real(wp), intent(out) :: step(:)
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+      integer, allocatable :: keep(:), act(:)
+      real(wp), allocatable :: sub(:, :), subw(:)
+      integer :: n, j
+      keep = pack([(j, j=1, size(active))], .not. active)
+      act = pack([(j, j=1, size(active))], active)
+      n = size(keep)
+      status = MLID_OK
+      msg = ''
+      step = 0.0_wp
+      step(act) = fixed(act)
+      if (n == 0) return
+      allocate (sub(n, n), subw(n))
+      call info_inverse(st%mt(keep, keep), pb%opt%rcond, sub, subw, st%ndrop, j, status, msg, &
+                        min(rank, n))
+      if (status /= MLID_OK) return
+      step(keep) = -matmul(sub, st%g(keep) + matmul(st%mt(keep, act), fixed(act)))
+    end subroutine held_step
+
   end subroutine bounded_step
 
 end module mlid_newton

@@ -33,7 +33,7 @@ module mlid_riccati
 
   integer, parameter :: MAX_DOUBLINGS = 100
   !> A solution whose residual exceeds this fraction of max(|P|, |Q|) is refused.
-  real(wp), parameter :: RESIDUAL_TOL = 1.0e-8_wp
+  real(wp), parameter :: RESIDUAL_TOL = 1.0e-6_wp
 
 contains
 
