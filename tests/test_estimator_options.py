@@ -45,6 +45,27 @@ def test_bounds_hold_the_estimate_on_the_bound(data):
     assert res.converged
 
 
+def test_a_parameter_a_rounding_error_off_its_bound_does_not_stall_the_others(data):
+    """The step would carry M_q across its bound from 1e-13 (relative) above
+    it: M_q goes to the bound and the others take their full step.  (Scaling
+    the whole step to the bound made every step vanish: a false convergence
+    at the start.)  The fit then equals the one with M_q fixed at the bound."""
+    free = mlid.fit(c8_start(), data)
+    k = free.names.index("M_q")
+    lower = free.estimate[k] + 3 * free.sigma[k]
+    start = c8_start().with_theta(c8_start().theta)
+    th = start.theta.copy()
+    th[np.flatnonzero(start.free_mask)[k]] = lower * (1 + 1e-13) if lower > 0 else lower * (1 - 1e-13)
+    start = start.with_theta(th)
+    res = mlid.fit(start, data, bounds={"M_q": (lower, None)})
+    held = start.with_theta(np.where(np.arange(th.size) == np.flatnonzero(start.free_mask)[k],
+                                     lower, th))
+    fixed = mlid.fit(held.with_free([n for n in start.free if n != start.free[k]]), data)
+    assert res.converged and res.iterations > 1
+    others = [j for j in range(len(res.names)) if j != k]
+    assert np.allclose(res.estimate[others], fixed.estimate, rtol=0, atol=1e-3 * fixed.sigma.min())
+
+
 def test_rank_deficient_solution_handles_a_singular_direction():
     model = mlid.LinearModel([[-1.0, 0.5], [0.0, -2.0]], [[1.0], [0.0]], np.eye(2),
                              free=["f(1,1)", "f(1,2)", "g(1,1)"])

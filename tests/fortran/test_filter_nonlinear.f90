@@ -14,29 +14,14 @@ program test_filter_nonlinear
   use mlid_filter, only: oe_predict
   use mlid_likelihood, only: likelihood
   use mlid_random, only: rng_t, rng_seed, rng_normal
+  use test_checks, only: check, finish, failures
   implicit none
-  integer :: nfail = 0
 
   call test_as_linear('held')
   call test_as_linear('continuous')
-  if (nfail > 0) then
-    write (*, '(i0,a)') nfail, ' checks failed'
-    error stop 1
-  end if
-  write (*, '(a)') 'all checks passed'
+  call finish()
 
 contains
-
-  subroutine check(ok, what)
-    logical, intent(in) :: ok
-    character(len=*), intent(in) :: what
-    if (.not. ok) then
-      nfail = nfail + 1
-      write (*, '(a)') 'FAIL: '//what
-    else
-      write (*, '(a)') 'ok:   '//what
-    end if
-  end subroutine check
 
   !> A body mode and a first-order gust (tests/test_filter_error.py's
   !> gust_model), held noise correlated with the measurement noise or
@@ -107,7 +92,7 @@ contains
     call check(status == MLID_OK, noise//' noise, linear filter: '//trim(msg))
     call likelihood(nl, theta, pm, t, u, y, opt, cb, rhat, yhat, status, msg, gb, fb)
     call check(status == MLID_OK, noise//' noise, nonlinear path: '//trim(msg))
-    if (nfail > 0) return
+    if (failures() > 0) return
     sc = sqrt([(fa(k, k), k=1, nf)])
     write (*, '(a,3(es9.2,a))') '      cost ', abs(cb/ca - 1), ', gradient ', &
       maxval(abs(gb - ga)/sc), ', information ', maxval(abs(fb - fa)/spread_outer(sc)), &

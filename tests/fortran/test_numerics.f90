@@ -11,8 +11,8 @@ program test_numerics
   use mlid_filter, only: oe_predict
   use mlid_linalg, only: sym_eig, chol_inverse
   use mlid_random, only: rng_t, rng_seed, rng_normal
+  use test_checks, only: check, finish
   implicit none
-  integer :: nfail = 0
 
   call test_rk4_order()
   call test_sensitivities()
@@ -21,24 +21,9 @@ program test_numerics
   call test_infinite_partial_unused()
   call test_linalg()
   call test_random()
-  if (nfail > 0) then
-    write (*, '(i0,a)') nfail, ' checks failed'
-    error stop 1
-  end if
-  write (*, '(a)') 'all checks passed'
+  call finish()
 
 contains
-
-  subroutine check(ok, what)
-    logical, intent(in) :: ok
-    character(len=*), intent(in) :: what
-    if (.not. ok) then
-      nfail = nfail + 1
-      write (*, '(a)') 'FAIL: '//what
-    else
-      write (*, '(a)') 'ok:   '//what
-    end if
-  end subroutine check
 
   !> xdot = a x + b u with u = t (linear between samples is exact for a
   !> ramp): RK4 error must fall 16x when dt halves.
