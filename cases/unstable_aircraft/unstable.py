@@ -187,7 +187,8 @@ def noise_starts(case, res):
     from 0.1 to 10 times the deck's; the derivatives' start: tc08's), with
     the time-varying and the steady-state gain: where each ends, the largest
     distance of its derivatives from the deck's fit in the deck's sigma_c,
-    and for exact ML the cost (the two optima) and the r its warning names."""
+    and for exact ML the cost (the two optima), the r above its floor and
+    the r its warning names."""
     print("\nfrom 12 noise start values (the derivatives' start: tc08's); d: largest "
           "|derivative - the deck's|/sigma_c of the deck")
     data = case.record()
@@ -195,7 +196,7 @@ def noise_starts(case, res):
     models = {"exact": exact_ml(case), "innovations": (case.model, case.options())}
     print(f"{'q start':>12} {'r start':>21} |" + " |".join(
         f" {c + ', ' + g:<30}" for c in models for g in ("time-varying", "steady gain"))
-        + " | exact ML warns about")
+        + " | exact ML: r off its floor, warnings")
     print(f"{'':>12} {'':>21} |" + " |".join(
         f" {'it':>3} {'conv':>5} {'cost':>10} {'d':>8}" for _ in range(4)) + " | (t.-v. / steady)")
     ends = {}
@@ -216,9 +217,12 @@ def noise_starts(case, res):
                     key = f"{c}, {'steady gain' if steady else 'time-varying'}"
                     ends.setdefault(key, {}).setdefault(where, 0)
                     ends[key][where] += 1
-                    if c == "exact":
-                        named.append(", ".join(w.split(" look")[0].removeprefix("outputs ")
-                                               for w in said) or "-")
+                    if c == "exact":     # the r above its floor, and what the warning says
+                        off = [f"{n} {o.model.value(n):.2g}" for n, lo in FLOOR.items()
+                               if o.model.value(n) > 1.001 * lo]
+                        warned = [w.split(" look")[0].removeprefix("outputs ") + " warned, "
+                                  + w.split("(")[-1].split(")")[0] for w in said]
+                        named.append(", ".join(off + warned) or "-")
             print(line + " " + " / ".join(named))
     for key, where in ends.items():
         print(f"{key}: " + "; ".join(f"{w} from {n}" for w, n in where.items()))
@@ -277,7 +281,8 @@ def without_the_floor(case):
         if r is not None and not r.failed and r.message:
             print(f"  message: {r.message}")
         for w in said:
-            print(f"  warning: {w}")
+            if r is None or w not in r.message:       # a converged fit's message is its warning
+                print(f"  warning: {w}")
 
 
 def main():
