@@ -1,14 +1,19 @@
 """The simulated unstable aircraft (cases/unstable_aircraft, FVSysID test cases
 6 to 10): each deck against its reference fit, in both front ends; filter
-error on test case 8's model against tc06 and tc07; the stabilized output
-error's sensitivities against central differences."""
+error on test case 8's model (R from the innovations) against tc06 and tc07,
+and exact ML beside it (two local optima with the floor on r, no maximum
+without it); the stabilized output error's sensitivities against central
+differences."""
+
+import json
+import re
 
 import numpy as np
 import pytest
 
 import mlid
 from mlid.reference import read_reference
-from conftest import REPO, assert_reproduces, both_front_ends_json
+from conftest import REPO, assert_reproduces, both_front_ends_json, run_both
 
 DATA = REPO.parent / "shared" / "data"
 HERE = REPO / "cases" / "unstable_aircraft"
@@ -38,49 +43,120 @@ def test_each_deck_reproduces_its_reference_in_both_front_ends(deck, tmp_path):
 
 
 FE_DECK = HERE / "tc08_filter_error.nml"
+DERIVATIVES = ("Zw", "Zde", "Mw", "Mq", "Mde")
+NOISE_FREE = "r(1), r(2), r(3) within sampling error of zero"
+# The record's rounding variance (10^-d)^2/12, d = 6, 6, 7 decimals: exact ML's floor on r
+FLOOR = {"r(1)": 1e-12 / 12, "r(2)": 1e-12 / 12, "r(3)": 1e-14 / 12}
 
 
 @needs_data
 def test_filter_error_keeps_the_unstable_plant_in_both_front_ends(tmp_path):
     """Filter error on tc08's model, data and start values (where output
-    error settles on a stable model) converges to the unstable plant, the
-    same in both front ends (report and JSON).  The tolerance: tc06 and
-    tc07 disagree with each other by 153 sigma_tc07 and 1e5 sigma_tc06
-    (Zde), since on a record this nearly noise-free their sigma measure the
-    rounding of the file, not each formulation's model error; so neither
-    reference's sigma can bound ours.  Ours is judged by its own Cramer-Rao
-    sigma corrected for the innovations' colour (sigma_c): every derivative
-    within 3 sigma_c of tc06 (measured: 2.7, Mq), the pitching-moment ones
-    within 3 sigma_c of tc07 too (1.3), Zw and Zde (which the az equation
-    pins, as in tc06's regression) within 0.1 sigma_tc06 of tc06 (0.003);
-    and far from tc08's stable model (Mw: 54 sigma_tc08)."""
-    fit = both_front_ends_json(FE_DECK, tmp_path)
+    error settles on a stable model), R from the innovations, converges to
+    the unstable plant, the same in both front ends (report, warning and
+    JSON), and warns that all three outputs look noise-free.  The
+    tolerance: tc06 and tc07 disagree with each other by 153 sigma_tc07 and
+    1e5 sigma_tc06 (Zde), since on a record this nearly noise-free their
+    sigma measure the rounding of the file, not each formulation's model
+    error; so neither reference's sigma can bound ours.  Ours is judged by
+    its own Cramer-Rao sigma corrected for the innovations' colour
+    (sigma_c): every derivative within 3 sigma_c of tc06 (measured: 2.73,
+    Mq), the pitching-moment ones within 3 sigma_c of tc07 too (1.29), Zw
+    and Zde (which the az equation pins, as in tc06's regression) within
+    0.1 sigma_tc06 of tc06 (0.0052); and far from tc08's stable model (Mw:
+    54 sigma_tc08)."""
+    py, fo = run_both(FE_DECK, "--json", str(tmp_path / "{exe}.json"))
+    assert py.returncode == fo.returncode == 0, py.stderr + fo.stderr
+    assert py.stdout == fo.stdout
+    assert py.stderr.replace("mlid: ", "mlid-batch: ") == fo.stderr
+    assert NOISE_FREE in fo.stderr
+    fit, other = (json.loads((tmp_path / f"{e}.json").read_text())[0] for e in ("mlid", "mlid-batch"))
+    assert fit == other
     assert fit["converged"] and fit["status"] == 0
+    assert len(fit["R_innovations"]) == 3
     est = dict(zip(fit["parameters"], fit["estimate"]))
     sig_c = dict(zip(fit["parameters"], fit["sigma_corrected"]))
     lam = np.sort(np.linalg.eigvals([[est["Zw"], 44.5695 - 1.4768], [est["Mw"], est["Mq"]]]).real)
     assert lam[1] > 0 > lam[0]
     ref = {d: read_reference(DATA / "refs" / REFS[d]).estimates for d in ("tc06", "tc07", "tc08")}
-    for name in ("Zw", "Zde", "Mw", "Mq", "Mde"):
+    for name in DERIVATIVES:
         assert abs(est[name] - ref["tc06"][name][0]) < 3 * sig_c[name], name
     for name in ("Mw", "Mq", "Mde"):
         assert abs(est[name] - ref["tc07"][name][0]) < 3 * sig_c[name], name
     for name in ("Zw", "Zde"):
         assert abs(est[name] - ref["tc06"][name][0]) < 0.1 * ref["tc06"][name][1], name
     assert est["Mw"] - ref["tc08"]["Mw"][0] > 10 * ref["tc08"]["Mw"][1]
+    case = mlid.read_deck(FE_DECK)[0]
+    with pytest.warns(mlid.MlidWarning, match=re.escape(NOISE_FREE)):
+        res = mlid.fit(case.model, case.record(), **case.options())
+    assert np.allclose(res.estimate, fit["estimate"], rtol=1e-12, atol=0)
+
+
+def exact_ml(**changes):
+    """The deck's model with exact ML instead: r(1), r(2), r(3) free,
+    bounded below by the rounding variance (unstable.py's comparison)."""
+    case = mlid.read_deck(FE_DECK)[0]
+    opts = case.options()
+    bounds = dict(opts["bounds"], **{k: (v, None) for k, v in FLOOR.items()})
+    model = case.model.with_free(case.model.free + list(FLOOR))
+    return model, case.record(), dict(opts, noise_criterion="exact", bounds=bounds, **changes)
+
+
+def noise_start(model, qs, rs):
+    theta = model.theta.copy()
+    start = {"q(1)": qs, "q(2)": qs / 10, "r(1)": 0.05 * rs, "r(2)": 0.02 * rs, "r(3)": 1e-4 * rs}
+    for k, v in start.items():
+        theta[model.element_names().index(k)] = v
+    return model.with_theta(theta)
 
 
 @needs_data
-def test_filter_error_without_the_floor_on_r_names_the_noise_free_outputs():
-    """The deck's lower bounds on r are what gives the likelihood a maximum:
-    without them (q >= 0 kept) r(1) and r(3) fall without end, the fit
-    does not converge, and the message names them."""
+def test_exact_ml_depends_on_the_start_where_the_innovations_criterion_does_not():
+    """Exact ML with r bounded below by the rounding variance converges from
+    the deck's noise start to a second local optimum (measured: cost
+    -6429.3, Q_w on its bound 0, R_w 2.7e-5, Zw 1.7e5 sigma_c from the
+    deck's) and from r ten times the deck's to the deck's plant (cost
+    -7662.9, within 0.004 sigma_c); the innovations criterion reaches the
+    deck's point from both starts and from q ten times the deck's (within
+    2e-6 sigma_c; unstable.py: from all 12 of its starts)."""
     case = mlid.read_deck(FE_DECK)[0]
-    opts = case.options()
+    data, opts = case.record(), case.options()
+    with pytest.warns(mlid.MlidWarning):
+        deck = mlid.fit(case.model, data, **opts)
+    k = [deck.names.index(n) for n in DERIVATIVES]
+
+    def dist(res):
+        return np.max(np.abs(res.estimate[k] - deck.estimate[k]) / deck.sigma_corrected[k])
+
+    model, _, xopts = exact_ml()
+    local = mlid.fit(model, data, **xopts)
+    assert local.converged and local.model.value("q(1)") == 0.0 and local.cost > -7000
+    assert local.model.value("r(2)") > 1e-6 and dist(local) > 100
+    with pytest.warns(mlid.MlidWarning, match="look noise-free"):
+        best = mlid.fit(noise_start(model, 1.0, 10.0), data, **xopts)
+    assert best.converged and best.cost < -7600 and dist(best) < 0.01
+    for qs, rs in ((1.0, 10.0), (10.0, 1.0)):
+        with pytest.warns(mlid.MlidWarning, match=re.escape(NOISE_FREE)):
+            res = mlid.fit(noise_start(case.model, qs, rs), data, **opts)
+        assert res.converged and dist(res) < 1e-4, (qs, rs)
+
+
+@needs_data
+def test_exact_ml_without_the_floor_on_r_names_the_noise_free_outputs():
+    """Without the lower bounds on r (q >= 0 kept) exact ML has no maximum:
+    r(1) and r(3) fall without end.  With the default tolerances the search
+    stops where a relative test happens to end it (measured: 'converged'
+    at r(1) 2e-15, r(3) 5e-17) and warns naming the outputs; with only the
+    Newton decrement to end it, the fit does not converge and its message
+    names them."""
+    model, data, opts = exact_ml()
     opts["bounds"] = {k: v for k, v in opts["bounds"].items() if k.startswith("q(")}
-    res = mlid.fit(case.model, case.record(), **opts)
+    with pytest.warns(mlid.MlidWarning, match=r"outputs r\(1\), r\(2\), r\(3\) look noise-free"):
+        res = mlid.fit(model, data, **opts)
+    assert res.model.value("r(1)") < 1e-14 and res.model.value("r(3)") < 1e-14
+    res = mlid.fit(model, data, **dict(opts, tol_cost=0.0, tol_step=0.0))
     assert not res.converged
-    assert "r(1)" in res.message and "r(3)" in res.message and "no maximum" in res.message
+    assert "r(1), r(2), r(3) look noise-free" in res.message and "no maximum" in res.message
     assert res.model.value("r(1)") < 1e-20 and res.model.value("r(3)") < 1e-20
 
 
