@@ -27,6 +27,12 @@ module mlid_newton
   !> The innovations criterion's least R(i,i), relative to the mean squared
   !> innovation of output i: a noise-free output's R stays regular.
   real(wp), parameter :: NOISE_FLOOR = 1.0e-6_wp
+  !> Exact ML: an r(i) below this of its output's innovation variance looks
+  !> noise-free (the likelihood has no maximum as r(i) -> 0) ...
+  real(wp), parameter :: NOISE_FREE_RATIO = 1.0e-4_wp
+  !> ... and what to do then.
+  character(len=*), parameter :: NOISE_FREE_REMEDY = 'fix those r at a floor or use '// &
+    'noise_criterion = ''innovations'''
 
   !> The estimator options of report §4.6 beyond plain Newton-Raphson, over
   !> the free parameters: a priori values and weight (block 7), bounds
@@ -156,15 +162,15 @@ contains
   !> A filter-error fit with R free that fails with some r(i) far below its
   !> output's innovation variance, or fallen a hundredfold from its start:
   !> those outputs carry (almost) no measurement noise, and exact ML has no
-  !> maximum there (the likelihood grows as r(i) -> 0).  The message then says so, and names them and the
-  !> remedies, in place of the symptom (a singular B or information matrix);
-  !> short enough for the interfaces' 256 characters with the symptom.
+  !> maximum there (the likelihood grows as r(i) -> 0).  The message then
+  !> says so, and names them and the remedies, in place of the symptom (a
+  !> singular B or information matrix); short enough for the interfaces'
+  !> 256 characters with the symptom.
   subroutine noise_free_outputs(opt, pm, res, msg)
     type(options_t), intent(in) :: opt
     type(param_map_t), intent(in) :: pm
     type(fit_result_t), intent(in) :: res
     character(len=*), intent(inout) :: msg
-    real(wp), parameter :: NOISE_FREE_RATIO = 1.0e-4_wp   !< r(i)/B(i,i) below this: noise-free
     real(wp), parameter :: NOISE_FREE_FALL = 1.0e-2_wp    !< or r(i)/(its start) below this
     character(len=len(msg)) :: names
     character(len=16) :: buf
@@ -186,8 +192,7 @@ contains
     if (len_trim(names) == 0) return
     write (buf, '(es8.1)') worst
     msg = 'outputs '//trim(adjustl(names))//' look noise-free (r/B <= '//trim(adjustl(buf))// &
-          '): exact ML has no maximum; fix those r at a floor or use noise_criterion = '// &
-          '''innovations'' ('//trim(msg)//')'
+          '): exact ML has no maximum; '//NOISE_FREE_REMEDY//' ('//trim(msg)//')'
   end subroutine noise_free_outputs
 
   !> A filter-error fit with R free that ends with some r(i) far below its
@@ -198,7 +203,6 @@ contains
     type(param_map_t), intent(in) :: pm
     type(extras_t), intent(in) :: ex
     type(fit_result_t), intent(inout) :: res
-    real(wp), parameter :: NOISE_FREE_RATIO = 1.0e-4_wp
     character(len=len(res%note)) :: names
     character(len=16) :: buf
     real(wp) :: worst, r
@@ -219,8 +223,7 @@ contains
     if (len_trim(names) == 0) return
     write (buf, '(es8.1)') worst
     res%note = 'warning: outputs '//trim(adjustl(names))//' look noise-free (r/B <= '// &
-      trim(adjustl(buf))//'): exact ML has no maximum there; fix those r at a floor or use '// &
-      'noise_criterion = ''innovations'''
+      trim(adjustl(buf))//'): exact ML has no maximum there; '//NOISE_FREE_REMEDY
   end subroutine noise_free_warning
 
   !> The innovations criterion's outputs whose R is within two standard
