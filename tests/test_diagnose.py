@@ -2,6 +2,7 @@
 tests/scenarios.py named first and accepted, nothing accepted when nothing is
 missing, the gap shrinking; the score statistic against a refit."""
 
+import json
 import subprocess
 
 import numpy as np
@@ -122,6 +123,27 @@ def test_diagnose_from_the_command_line(tmp_path):
     bad = subprocess.run([str(BIN / "mlid"), "diagnose", str(tmp_path / "none.nml")],
                          capture_output=True, text=True)
     assert bad.returncode == 1 and "Traceback" not in bad.stderr
+    # the families and the number of effects chosen, the diagnosis as JSON
+    js = tmp_path / "d.json"
+    out = subprocess.run([str(BIN / "mlid"), "diagnose", str(deck), "--json", str(js),
+                          "--families", "bias, derivative", "--max-effects", "1"],
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    cases = json.loads(js.read_text())
+    assert [c["case"] for c in cases] == [1, 2] and cases[0]["diagnosis"] is None
+    d = cases[1]["diagnosis"]
+    assert len(d["rounds"]) == 1 and len(d["effects"]) == 1
+    effect = d["effects"][0]
+    assert effect["family"] == "output bias"
+    assert abs(effect["value"] - 0.05) < 3 * effect["sigma"]
+    families = {c["family"] for r in d["rounds"] for c in r["listed"]}
+    assert families <= {"output bias", "missing derivative"}
+    assert d["cost_after"] < d["cost_before"]
+    for args, said in ((["--families", "bias,turbulence"], "--families: unknown turbulence"),
+                       (["--max-effects", "-1"], "--max-effects must be >= 0")):
+        bad = subprocess.run([str(BIN / "mlid"), "diagnose", str(deck), *args],
+                             capture_output=True, text=True, cwd=tmp_path)
+        assert bad.returncode == 1 and said in bad.stderr and "Traceback" not in bad.stderr
 
 
 def test_start_up_and_bounds_go_to_the_fits():

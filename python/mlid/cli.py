@@ -51,6 +51,12 @@ def _parser():
     diag.add_argument("deck", help="namelist deck (.nml)")
     diag.add_argument("--plots", metavar="DIR", help="residuals before and after, per case")
     diag.add_argument("--alpha", type=float, default=0.05, help="significance (default 0.05)")
+    diag.add_argument("--json", metavar="FILE", help="write every case's diagnosis as JSON")
+    diag.add_argument("--families", metavar="LIST",
+                      help="the candidate families tried, comma-separated (default: all of "
+                           "bias, derivative, nonlinear, delay, scale, lag, noise, feedback)")
+    diag.add_argument("--max-effects", type=int, default=3, metavar="N",
+                      help="effects accepted at most, one per round (default 3)")
     return p
 
 
@@ -199,23 +205,38 @@ def _run(args):
 
 
 def _diagnose(args):
+    import json
     import warnings
 
     from .deck import read_deck, run_case
-    from .diagnose import diagnose
+    from .diagnose import FAMILIES, diagnose
+    from .files import atomic_write_text
 
     _outputs_writable(args)
+    families = FAMILIES
+    if args.families is not None:
+        families = tuple(f.strip() for f in args.families.split(",") if f.strip())
+        unknown = [f for f in families if f not in FAMILIES]
+        if unknown or not families:
+            print(f"mlid: --families: unknown {', '.join(unknown) or '(none given)'}; known: "
+                  f"{', '.join(FAMILIES)}", file=sys.stderr)
+            return 1
+    if args.max_effects < 0:
+        print(f"mlid: --max-effects must be >= 0, got {args.max_effects}", file=sys.stderr)
+        return 1
     warnings.simplefilter("ignore")
-    failed, cases = 0, read_deck(args.deck)
+    failed, cases, objects = 0, read_deck(args.deck), []
     for case in cases:
         print(f"\n case {case.index}: {case.title}")
+        d = None
         if case.job == "simulate" or case.error:
             out, error = _attempt("run", run_case, case)
             if out:
                 print(f" simulated {out[0]['samples']} samples to {out[0]['out']}")
         else:
-            d, error = _attempt("diagnose", lambda: diagnose(case.model, case.record(),
-                                                             alpha=args.alpha, **case.options()))
+            d, error = _attempt("diagnose", lambda: diagnose(
+                case.model, case.record(), families=families, alpha=args.alpha,
+                max_effects=args.max_effects, **case.options()))
             _record_warnings(case)
             if d is not None:
                 print(d.report())
@@ -225,11 +246,20 @@ def _diagnose(args):
                         target = path.with_name(f"case{case.index}_diagnosis.png")
                         path.replace(target)
                         print(f" plot: {target}")
+        objects.append({"case": case.index, "title": case.title, "job": case.job,
+                        "diagnosis": None if d is None else d.as_dict(),
+                        "error": str(error) if error else None})
         if error:
             failed += 1
             _failed(case, error)
     if failed:
         print(f"{failed} of {len(cases)} cases failed", file=sys.stderr)
+    if args.json:
+        _, error = _attempt(f"--json {args.json}", atomic_write_text, args.json,
+                            json.dumps(objects, indent=1, allow_nan=False) + "\n")
+        if error:
+            print(f"mlid: {error}", file=sys.stderr)
+            return 1
     return 1 if failed else 0
 
 

@@ -200,7 +200,9 @@ def _library(model, data, families, nx):
             and not np.any(model.delay) and not np.any(model.udelay) and not np.any(model.stab) \
             and not any("delay(" in n for n in model.free):
         for s in range(model.nx):   # one turbulence model at a time
-            cands.append(Candidate("process noise", f"turbulence on state {s + 1}", state=s))
+            cands.append(Candidate("process noise",
+                                   f"turbulence on the {_state_name(model, s, outs)} equation",
+                                   state=s))
     return cands
 
 
@@ -412,6 +414,37 @@ class Diagnosis:
             lines.append(f"   {b['output']:<8} residual rms {b['rms']:.4g} -> {a['rms']:.4g},  "
                          f"Ljung-Box Q {b['Q']:.1f} -> {a['Q']:.1f} (5% point {b['Q_critical']:.1f})")
         return "\n".join(lines)
+
+    def as_dict(self):
+        """Plain types for JSON (``mlid diagnose --json``): the verdict, the
+        effects with value and sigma (None where the candidate has none, a
+        profiled delay, lag or scale factor), each round's candidates as the
+        report lists them, and the residuals before and after.
+
+        Returns
+        -------
+        dict
+        """
+        def num(x):
+            return None if x is None or not math.isfinite(x) else float(x)
+
+        def cand(c):
+            value, sigma = c.value if c.value is not None else (None, None)
+            return {"family": c.family, "name": c.name, "score": num(c.score),
+                    "signature": num(c.signature), "lr": num(c.lr), "value": num(value),
+                    "sigma": num(sigma), "decision": c.decision, "note": c.note}
+        return {"verdict": self.verdict, "alpha": self.alpha,
+                "cost_before": num(self.base.cost), "cost_after": num(self.fit.cost),
+                "effects": [cand(c) for c in self.effects],
+                "rounds": [{"cost": num(r["cost"]), "threshold": num(r["threshold"]),
+                            "candidates_tried": len(r["candidates"]),
+                            "listed": [cand(c) for c in self._listed(r)],
+                            "confounded": [c.name for c in r["candidates"] if c.confounded]}
+                           for r in self.rounds],
+                "residuals": [{"output": b["output"], "rms_before": num(b["rms"]),
+                               "rms_after": num(a["rms"]), "Q_before": num(b["Q"]),
+                               "Q_after": num(a["Q"]), "Q_critical": num(b["Q_critical"])}
+                              for b, a in zip(self.before, self.after)]}
 
     def _repr_html_(self):
         """Jupyter's view: the verdict, the effects, each round's candidates
