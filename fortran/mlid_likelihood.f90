@@ -234,10 +234,8 @@ contains
     nt = size(t)
     nf = pm%nf
     allocate (nu(ny, nt), binv(ny, ny, nt), logdet(nt))
-    if (present(bmean) .or. (present(grad) .and. .not. m%linear .and. opt%partials)) &
-      allocate (b0(ny, ny, nt))
     if (present(grad) .and. .not. m%linear .and. opt%partials) then
-      allocate (dnu(ny, nf, nt), db(ny, ny, nf, nt))
+      allocate (dnu(ny, nf, nt), db(ny, ny, nf, nt), b0(ny, ny, nt))
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
                           bhist=b0)
       if (status == MLID_OK) call numerical_partials(m, theta, pm, t, u, y, opt, nu, b0, dnu, db, &
@@ -245,20 +243,12 @@ contains
     else if (present(grad)) then
       allocate (dnu(ny, nf, nt), db(ny, ny, nf, merge(1, nt, opt%steady)))
       db = 0.0_wp
-      if (present(bmean)) then
-        call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, &
-                            db, bhist=b0)
-      else
-        call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, db)
-      end if
-    else if (present(bmean)) then
-      call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
-                          bhist=b0)
+      call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, db)
     else
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg)
     end if
     if (status /= MLID_OK) return
-    if (present(bmean)) bmean = sum(b0, dim=3)/nt
+    if (present(bmean)) call mean_covariance(binv, opt%steady, bmean)
     cost = 0.0_wp
     do j = 1, nt
       cost = cost + 0.5_wp*(dot_product(nu(:, j), matmul(binv(:, :, j), nu(:, j))) + logdet(j))
@@ -316,6 +306,22 @@ contains
       end do
     end if
   end subroutine fe_likelihood
+
+  !> The mean of B(j) over the samples from the B(j)^-1 the filter keeps
+  !> (one inverse with the steady-state gain, where they are all the same).
+  subroutine mean_covariance(binv, steady, bmean)
+    real(wp), intent(in) :: binv(:, :, :)
+    logical, intent(in) :: steady
+    real(wp), intent(out) :: bmean(:, :)
+    real(wp) :: b(size(bmean, 1), size(bmean, 1)), logdet
+    integer :: j, ierr
+    bmean = 0.0_wp
+    do j = 1, merge(1, size(binv, 3), steady)
+      call chol_inverse(binv(:, :, j), b, logdet, ierr)
+      bmean = bmean + b
+    end do
+    bmean = bmean/merge(1, size(binv, 3), steady)
+  end subroutine mean_covariance
 
   !> The terms of grad and info through dB (eqs 4.30, 4.37) over n samples
   !> with the same B and dB: 1/2 (n tr(B^-1 dB_k) - tr(dB_k V)) and

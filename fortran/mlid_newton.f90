@@ -147,7 +147,7 @@ contains
       call iterate(pb, st, res, min(rmin, rtop), rtop, status, msg)
     end if
     if (status /= MLID_OK) then
-      call noise_free_outputs(opt, pm, res, msg)
+      call noise_free_outputs(opt, pm, ex, res, msg)
       return
     end if
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
@@ -156,7 +156,7 @@ contains
     call final_bound(opt, ex, st, res, status, msg)
     if (any(status == [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) &
       call colored_bound(pm, y, res, status, msg)
-    if (status /= MLID_OK) call noise_free_outputs(opt, pm, res, msg)
+    if (status /= MLID_OK) call noise_free_outputs(opt, pm, ex, res, msg)
   end subroutine newton_fit
 
   !> A filter-error fit with R free that fails with some r(i) far below its
@@ -166,65 +166,68 @@ contains
   !> says so, and names them and the remedies, in place of the symptom (a
   !> singular B or information matrix); short enough for the interfaces'
   !> 256 characters with the symptom.
-  subroutine noise_free_outputs(opt, pm, res, msg)
+  subroutine noise_free_outputs(opt, pm, ex, res, msg)
     type(options_t), intent(in) :: opt
     type(param_map_t), intent(in) :: pm
+    type(extras_t), intent(in) :: ex
     type(fit_result_t), intent(in) :: res
     character(len=*), intent(inout) :: msg
-    real(wp), parameter :: NOISE_FREE_FALL = 1.0e-2_wp    !< or r(i)/(its start) below this
     character(len=len(msg)) :: names
-    character(len=16) :: buf
-    real(wp) :: worst
-    integer :: k, i
 
     if (opt%method /= 1 .or. .not. allocated(res%rhat) .or. .not. allocated(res%theta) .or. &
         .not. allocated(res%theta_start)) return
-    names = ''
-    worst = 0.0_wp
-    do k = 1, size(pm%ir)
-      i = pm%ir(k)
-      if (.not. (res%theta(pm%l%or + i) < NOISE_FREE_RATIO*res%rhat(i, i) .or. &
-                 res%theta(pm%l%or + i) < NOISE_FREE_FALL*res%theta_start(pm%l%or + i))) cycle
-      if (index(names, 'r('//itoa(i)//')') > 0) cycle
-      worst = max(worst, res%theta(pm%l%or + i)/res%rhat(i, i))
-      names = trim(names)//merge(', ', '  ', len_trim(names) > 0)//'r('//itoa(i)//')'
-    end do
-    if (len_trim(names) == 0) return
-    write (buf, '(es8.1)') worst
-    msg = 'outputs '//trim(adjustl(names))//' look noise-free (r/B <= '//trim(adjustl(buf))// &
-          '): exact ML has no maximum; '//NOISE_FREE_REMEDY//' ('//trim(msg)//')'
+    names = noise_free_names(pm, ex, res, .true.)
+    if (len_trim(names) > 0) msg = trim(names)//'; '//NOISE_FREE_REMEDY//' ('//trim(msg)//')'
   end subroutine noise_free_outputs
 
   !> A filter-error fit with R free that ends with some r(i) far below its
-  !> output's innovation variance (and not on a lower bound the user set):
-  !> the fit stopped on the slope of a likelihood without maximum, which
-  !> res%note says, with the remedies.
+  !> output's innovation variance: it stopped on the slope of a likelihood
+  !> without maximum, which res%note says, with the remedies.
   subroutine noise_free_warning(pm, ex, res)
     type(param_map_t), intent(in) :: pm
     type(extras_t), intent(in) :: ex
     type(fit_result_t), intent(inout) :: res
     character(len=len(res%note)) :: names
+    names = noise_free_names(pm, ex, res, .false.)
+    if (len_trim(names) > 0) res%note = 'warning: '//trim(names)//'; '//NOISE_FREE_REMEDY
+  end subroutine noise_free_warning
+
+  !> 'outputs r(1), r(4) look noise-free (r/B <= 5.7E-05): exact ML has no
+  !> maximum' for the free r(i) below NOISE_FREE_RATIO of their innovation
+  !> variance (with fall: or below NOISE_FREE_FALL of their start), leaving
+  !> out those on a lower bound the user set; '' when there are none.
+  function noise_free_names(pm, ex, res, fall) result(text)
+    type(param_map_t), intent(in) :: pm
+    type(extras_t), intent(in) :: ex
+    type(fit_result_t), intent(in) :: res
+    logical, intent(in) :: fall
+    character(len=256) :: text
+    real(wp), parameter :: NOISE_FREE_FALL = 1.0e-2_wp
     character(len=16) :: buf
     real(wp) :: worst, r
+    logical :: low
     integer :: k, i
-    names = ''
+
+    text = ''
     worst = 0.0_wp
     do k = 1, pm%nf
       i = pm%ifree(k) - pm%l%or
       if (i < 1 .or. i > size(res%rhat, 1)) cycle
       r = res%theta(pm%ifree(k))
-      if (.not. r < NOISE_FREE_RATIO*res%rhat(i, i)) cycle
+      low = r < NOISE_FREE_RATIO*res%rhat(i, i)
+      if (fall) low = low .or. r < NOISE_FREE_FALL*res%theta_start(pm%ifree(k))
+      if (.not. low) cycle
       if (allocated(ex%lower)) then
         if (r <= ex%lower(k)*(1.0_wp + 1.0e-9_wp)) cycle
       end if
       worst = max(worst, r/res%rhat(i, i))
-      names = trim(names)//merge(', ', '  ', len_trim(names) > 0)//'r('//itoa(i)//')'
+      text = trim(text)//merge(', ', '  ', len_trim(text) > 0)//'r('//itoa(i)//')'
     end do
-    if (len_trim(names) == 0) return
+    if (len_trim(text) == 0) return
     write (buf, '(es8.1)') worst
-    res%note = 'warning: outputs '//trim(adjustl(names))//' look noise-free (r/B <= '// &
-      trim(adjustl(buf))//'): exact ML has no maximum there; '//NOISE_FREE_REMEDY
-  end subroutine noise_free_warning
+    text = 'outputs '//trim(adjustl(text))//' look noise-free (r/B <= '//trim(adjustl(buf))// &
+           '): exact ML has no maximum'
+  end function noise_free_names
 
   !> The innovations criterion's outputs whose R is within two standard
   !> errors of zero, 2 sqrt(2/N) of their mean squared innovation S (the
