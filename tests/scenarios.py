@@ -24,7 +24,8 @@ FREE = {"L_p": "f(1,1)", "L_r": "f(1,2)", "L_beta": "f(1,3)", "N_p": "f(2,1)", "
 NOISE = [0.2, 0.1, 0.05, 0.05]          # p, r [deg/s], beta, phi [deg]
 DT, NT = 0.02, 400
 SCENARIOS = ("null", "bias", "derivative", "gust", "delay", "scale", "lag", "nonlinear", "two",
-             "sas")
+             "sas", "nonlinear_lateral")
+L_ABS_BETA = -1.0                       # roll moment |beta| beta [deg/s2 per deg2] (ours)
 K_SAS = 0.5                             # deg rudder per deg/s of yaw rate (ours)
 RUDDER_NOISE = 0.05                     # deg
 # what the workflow must name first: (family, name)
@@ -36,7 +37,8 @@ EXPECTED = {"bias": ("output bias", "bias on beta"),
             "lag": ("sensor lag", "second-order lag on phi"),
             "nonlinear": ("nonlinear term", "alpha^2 in Cm"),
             "two": [("output bias", "bias on beta"), ("input time delay", "delay on delta_a")],
-            "sas": ("feedback loop (SAS)", "r fed back to delta_r")}
+            "sas": ("feedback loop (SAS)", "r fed back to delta_r"),
+            "nonlinear_lateral": ("nonlinear term", "|beta|beta in the p equation")}
 
 
 def matrices(v, y_p=0.0):
@@ -85,6 +87,8 @@ def make(scenario, seed):
     """(analysis model, record) for a scenario and a seed."""
     if scenario == "nonlinear":
         return _longitudinal(seed)
+    if scenario == "nonlinear_lateral":
+        return _nonlinear_lateral(seed)
     if scenario == "sas":
         return _sas(seed)
     t, u = inputs()
@@ -173,3 +177,35 @@ def _longitudinal(seed):
     model = mlid.LongitudinalModel(regs, vals, const, x0=[106.0, 0.11, 0.105, -0.003], r=r,
                                    free=free)
     return model, data
+
+
+def _nonlinear_lateral(seed, sub=10):
+    """The lateral truth with a roll moment L_|beta|beta |beta| beta (calm
+    air), RK4 with sub steps a sample, inputs linear between samples."""
+    t, u = inputs()
+    F, G = matrices(BASE)
+
+    def f(x, uu):
+        xd = F @ x + G @ uu
+        xd[0] += L_ABS_BETA * abs(x[2]) * x[2]
+        return xd
+    h = DT / sub
+    x = np.zeros(4)
+    xs = np.empty((NT, 4))
+    for j in range(NT):
+        xs[j] = x
+        if j + 1 == NT:
+            break
+        for k in range(sub):
+            ua = u[j] + k / sub * (u[j + 1] - u[j])
+            ub = u[j] + (k + 1) / sub * (u[j + 1] - u[j])
+            um = 0.5 * (ua + ub)
+            k1 = f(x, ua)
+            k2 = f(x + 0.5 * h * k1, um)
+            k3 = f(x + 0.5 * h * k2, um)
+            k4 = f(x + h * k3, ub)
+            x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    rng = np.random.default_rng(seed)
+    y = xs + rng.normal(0.0, 1.0, xs.shape) * NOISE
+    return analysis_model(), mlid.FlightData(t, u, y, ["delta_a", "delta_r"],
+                                             ["p", "r", "beta", "phi"])

@@ -58,6 +58,10 @@ def test_estimates_of_the_named_effects():
     d = mlid.diagnose(model, data)
     est, sigma = d.effects[0].value
     assert abs(est - scenarios.K_SAS) < 3 * sigma       # the yaw damper's gain
+    model, data = scenarios.make("nonlinear_lateral", 1)
+    d = mlid.diagnose(model, data)
+    est, sigma = d.effects[0].value
+    assert abs(est - scenarios.L_ABS_BETA) < 3 * sigma  # the roll moment in |beta| beta
 
 
 def test_the_order_of_a_sensor_lag():
