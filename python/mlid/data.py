@@ -188,6 +188,13 @@ class FlightData:
         """Number of samples."""
         return self.t.size
 
+    def head(self, n):
+        """The record's first n samples, its channels' names, units and
+        display as they are (the held-out verdicts fit to a record's head)."""
+        return FlightData(self.t[:n], self.u[:n], self.y[:n], self.input_names,
+                          self.output_names, self.source, self.input_units, self.output_units,
+                          self.input_display, self.output_display)
+
     @classmethod
     def load(cls, path, time_col=1, input_cols=(), output_cols=(), skip_rows=0,
              input_names=None, output_names=None, columns=None, units=None, derived=None,

@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from . import core
+from . import core, holdout
 from .data import FlightData
 from .errors import InputError, MlidError, guarded
 from .files import atomic_savefig
@@ -115,6 +115,8 @@ class Candidate:
         self.signature = None      # residual signature (structural candidates)
         self.confounded = False
         self.lr = None
+        self.holdout = None        # 2 dJ on the held-out part (mlid.holdout)
+        self.explained = None      # the share of the held-out residual it removes
         self.fit = None
         self.decision = "not refitted"
         self.value = None
@@ -160,8 +162,9 @@ def _gain_element(model, i):
     return None
 
 
-def _library(model, data, families, nx):
+def _library(model, data, fit, families, nx):
     cands = []
+    states = _state_estimates(fit.model, fit.yhat)
     ny, nu = model.ny, model.nu
     outs = data.output_names or [f"y{i + 1}" for i in range(ny)]
     ins = data.input_names or [f"u{j + 1}" for j in range(nu)]
@@ -176,9 +179,10 @@ def _library(model, data, families, nx):
     if "nonlinear" in families and isinstance(model, LinearModel):
         for row in _dynamic_rows(model, nx):
             eq = f"the {_state_name(model, row, outs)} equation"
-            for label, values in _regressors(model, data, outs, ins):
+            for label, make in _regressors(model, outs, ins):
                 cands.append(Candidate("nonlinear term", f"{label} in {eq}", row=row,
-                                       regressor=label, values=values))
+                                       regressor=label, make=make,
+                                       values=make(states, data.u)))
     if "nonlinear" in families and isinstance(model, LongitudinalModel):
         for key in ("CD", "CL", "Cm"):
             for reg in REGRESSORS:
@@ -241,23 +245,35 @@ def _measured_states(model, outs):
     return out
 
 
-def _regressors(model, data, outs, ins):
-    """The nonlinear regressors from the measured states and the recorded
-    inputs: x^2 and |x|x of each, x y of each pair, x u of each state and
-    input: (label, values).  From the measurements, so the model stays
-    linear (an equation-error regressor entering as an input)."""
-    ms = [(outs[i], data.y[:, i]) for s, i in _measured_states(model, outs)]
-    us = [(ins[j], data.u[:, j]) for j in range(model.nu) if REGRESSOR_MARK not in ins[j]]
+def _regressors(model, outs, ins):
+    """The nonlinear regressors of the measured states and the recorded
+    inputs: x^2 and |x|x of each state, x y of each pair, x u of each state
+    and input, as (label, function of (states, u)).  The states are the
+    model's own estimate of them (``_state_estimates``), not the
+    measurements: a regressor made of measurements would feed their noise
+    and any turbulence back into the model, which then tracks data it
+    should predict (on a held-out part, too).  The model stays linear: a
+    regressor enters as an input."""
+    ms = [(outs[i], i) for s, i in _measured_states(model, outs)]
+    us = [(ins[j], j) for j in range(model.nu) if REGRESSOR_MARK not in ins[j]]
     regs = []
-    for n, v in ms:
-        regs += [(f"{n}^2", v * v), (f"|{n}|{n}", np.abs(v) * v)]
+    for n, i in ms:
+        regs += [(f"{n}^2", lambda x, u, i=i: x[:, i] ** 2),
+                 (f"|{n}|{n}", lambda x, u, i=i: np.abs(x[:, i]) * x[:, i])]
     for a in range(len(ms)):
         for b in range(a + 1, len(ms)):
-            regs.append((f"{ms[a][0]}*{ms[b][0]}", ms[a][1] * ms[b][1]))
-    for n, v in ms:
-        for m, w in us:
-            regs.append((f"{n}*{m}", v * w))
+            regs.append((f"{ms[a][0]}*{ms[b][0]}",
+                         lambda x, u, i=ms[a][1], k=ms[b][1]: x[:, i] * x[:, k]))
+    for n, i in ms:
+        for m, j in us:
+            regs.append((f"{n}*{m}", lambda x, u, i=i, j=j: x[:, i] * u[:, j]))
     return regs
+
+
+def _state_estimates(model, yhat):
+    """The outputs a model predicts, less their biases: the measured states
+    as the model sees them (the columns ``_regressors`` takes)."""
+    return yhat - model.bias
 
 
 def _with_regressor(model, data, row, label, values):
@@ -466,8 +482,10 @@ class Diagnosis:
                 stat = (f"score {c.score:9.2f}" if c.score is not None
                         else f"signature {c.signature:6.3f}")
                 lr = f"2dJ {c.lr:9.2f}" if c.lr is not None else " " * 13
+                ho = f"held out {c.holdout:+8.2f}" if c.holdout is not None else " " * 17
                 note = f" ({c.note})" if c.note else ""
-                lines.append(f"   {c.family:<20} {c.name:<28} {stat}  {lr}  {c.decision}{note}")
+                lines.append(f"   {c.family:<20} {c.name:<28} {stat}  {lr}  {ho}  "
+                             f"{c.decision}{note}")
             confounded = [c.name for c in rnd["candidates"] if c.confounded]
             if confounded:
                 lines.append("   confounded with the free parameters, not tried: "
@@ -501,7 +519,8 @@ class Diagnosis:
         def cand(c):
             value, sigma = c.value if c.value is not None else (None, None)
             return {"family": c.family, "name": c.name, "score": num(c.score),
-                    "signature": num(c.signature), "lr": num(c.lr), "value": num(value),
+                    "signature": num(c.signature), "lr": num(c.lr),
+                    "holdout_lr": num(c.holdout), "value": num(value),
                     "sigma": num(sigma), "decision": c.decision, "note": c.note}
         return {"verdict": self.verdict, "alpha": self.alpha,
                 "cost_before": num(self.base.cost), "cost_after": num(self.fit.cost),
@@ -532,8 +551,8 @@ class Diagnosis:
             parts.append(f"<p>{_esc(self._round_header(k, rnd))}</p>")
             parts.append(_html_table(
                 "mlid-candidates", ("family", "candidate", "score", "signature", "2dJ",
-                                    "decision"),
-                [(c.family, c.name, c.score, c.signature, c.lr,
+                                    "held-out 2dJ", "decision"),
+                [(c.family, c.name, c.score, c.signature, c.lr, c.holdout,
                   c.decision + (f" ({c.note})" if c.note else "")) for c in self._listed(rnd)]))
             confounded = [c.name for c in rnd["candidates"] if c.confounded]
             if confounded:
@@ -625,12 +644,9 @@ def _rank_key(c):
 
 
 FAMILIES = ("bias", "derivative", "nonlinear", "delay", "scale", "lag", "noise", "feedback")
-#: turbulence (a filter) absorbs much of any deterministic misfit: it is
-#: accepted over the best significant deterministic candidate of its round
-#: only when that one's 2 dJ is below this share of its own (measured on
-#: tests/scenarios.py: a sensor lag closes 0.81 of what turbulence on the
-#: phi equation closes, |beta| beta 0.54; the gust's best deterministic
-#: stand-in 0.31)
+#: turbulence (a filter) absorbs much of any deterministic misfit: a
+#: deterministic candidate goes before it when it explains at least this
+#: share of what turbulence explains of the held-out residual
 DETERMINISTIC_FIRST = 0.5
 #: a parameter candidate with less than this share of its information left once
 #: the free parameters are partialled out lies in their span: confounded
@@ -700,7 +716,7 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, max_del
     current, fit, cur_data = model.with_theta(base.model.theta), base, data
     effects, rounds = [], []
     while len(effects) < max_effects:
-        cands = _library(current, cur_data, families, model.nx)
+        cands = _library(current, cur_data, fit, families, model.nx)
         cands = [c for c in cands if not any(_same(c, e) for e in effects)]
         if not cands:
             break
@@ -729,25 +745,109 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, max_del
             if c.lr is not None and c not in good:
                 c.decision = "rejected"
         rounds.append({"cost": fit.cost, "candidates": cands, "threshold": threshold})
-        if not good:
+        best = _choose(good, current, cur_data, fit, options)
+        if best is None:
             break
-        best = max(good, key=lambda c: c.lr)
-        if best.family == "process noise":     # deterministic before stochastic
-            det = [c for c in good if c.family != "process noise"]
-            if det and max(c.lr for c in det) >= DETERMINISTIC_FIRST * best.lr:
-                best.decision = (f"significant; a deterministic effect explains at least "
-                                 f"{DETERMINISTIC_FIRST:g} of it, so it goes first")
-                best = max(det, key=lambda c: c.lr)
-        if best.family == "sensor lag":
-            _lag_order(best, current, cur_data, fit, options)
-        best.decision = "ACCEPTED"
         for c in good:
-            if c is not best and not c.decision.startswith("significant;"):
+            if c is not best and c.decision == "refitted":
                 c.decision = "significant, not the best this round"
         effects.append(best)
         current, fit, cur_data = best.spec["model"], best.fit, best.spec["data"]
         options = best.spec["options"]
     return Diagnosis(base, fit, current, effects, rounds, alpha)
+
+
+#: held-out checks a round makes at most (two fits each)
+MAX_CHECKS = 3
+
+
+def _choose(good, model, data, fit, options):
+    """The effect a round accepts, or None.  The significant candidates are
+    checked on the held-out part (mlid.holdout) in order of 2dJ; the first
+    whose fit to the rest predicts it better than the model's own is
+    accepted.  When turbulence leads, deterministic candidates are checked
+    first and one goes before it when it explains at least
+    DETERMINISTIC_FIRST of the held-out residual that turbulence explains:
+    a filter absorbs any deterministic misfit, so turbulence is accepted
+    only when no deterministic effect explains the unseen data about as
+    well."""
+    order = sorted(good, key=lambda c: c.lr, reverse=True)
+    if not order:
+        return None
+    n = holdout.split(data)
+    base = None
+    if n is not None:
+        try:
+            base = holdout.heldout_cost(model, data, n, options)
+        except MlidError:
+            pass
+    if base is None:                 # nothing to hold out: the in-sample test decides
+        best = order[0]
+        _finish(best, model, data, fit, options)
+        best.decision = "ACCEPTED (in-sample test only: the record is too short to hold out)"
+        return best
+    weight = np.linalg.inv(base[1].rhat)
+    base_ss = _weighted_ss(data.y[n:] - base[2][n:], weight)
+    noise = order[0] if order[0].family == "process noise" else None
+    if noise is not None:
+        if not _check(noise, model, data, fit, options, n, base, weight, base_ss):
+            noise = None
+        order = [c for c in order if c.family != "process noise"]
+    for c in order[:MAX_CHECKS]:
+        if not _check(c, model, data, fit, options, n, base, weight, base_ss):
+            continue
+        if noise is not None and c.explained < DETERMINISTIC_FIRST * noise.explained:
+            c.decision = (f"significant, holds out; explains {c.explained:.0%} of the held-out "
+                          f"residual, turbulence {noise.explained:.0%}")
+            continue
+        c.decision = "ACCEPTED"
+        if noise is not None:
+            noise.decision = (f"significant, holds out; {c.name} explains {c.explained:.0%} of "
+                              f"the held-out residual against its {noise.explained:.0%}: "
+                              "deterministic first")
+        return c
+    if noise is not None:
+        noise.decision = "ACCEPTED"
+    return noise
+
+
+def _check(c, model, data, fit, options, n, base, weight, base_ss):
+    """A candidate's held-out check: c.holdout (2dJ on the held-out part)
+    and c.explained (the share of the base's weighted held-out residual its
+    prediction removes).  True when it holds (2dJ > 0)."""
+    _finish(c, model, data, fit, options)
+    d = c.spec["data"]
+    if "make" in c.spec:        # its regressor from the held-in fit's own outputs
+        d = _last_input(d, c.spec["make"](_state_estimates(base[1].model, base[2]), d.u))
+    try:
+        cost, _, yhat = holdout.heldout_cost(c.spec["model"], d, n, c.spec["options"])
+    except MlidError as exc:
+        c.decision = f"significant; its fit to the held-in part failed: {exc}"
+        return False
+    c.holdout = float(2 * (base[0] - cost))
+    c.explained = 1.0 - _weighted_ss(data.y[n:] - yhat[n:], weight) / base_ss
+    if c.holdout <= 0:
+        c.decision = "significant, fails its held-out check"
+        return False
+    return True
+
+
+def _weighted_ss(e, weight):
+    return float(np.einsum("ki,ij,kj->", e, weight, e))
+
+
+def _last_input(data, values):
+    """The record with its last input column replaced by values."""
+    return FlightData(data.t, np.column_stack([data.u[:, :-1], values]), data.y,
+                      data.input_names, data.output_names)
+
+
+def _finish(c, model, data, fit, options):
+    """A candidate's last form before its held-out check: a sensor lag's
+    order."""
+    if c.family == "sensor lag" and "order_checked" not in c.spec:
+        c.spec["order_checked"] = True
+        _lag_order(c, model, data, fit, options)
 
 
 def _same(c, e):
