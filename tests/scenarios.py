@@ -88,7 +88,9 @@ def make(scenario, seed):
     if scenario == "nonlinear":
         return _longitudinal(seed)
     if scenario == "nonlinear_lateral":
-        return _nonlinear_lateral(seed)
+        return _rk4_lateral(seed, L_ABS_BETA)
+    if scenario == "null":
+        return _rk4_lateral(seed, 0.0)
     if scenario == "sas":
         return _sas(seed)
     t, u = inputs()
@@ -179,15 +181,17 @@ def _longitudinal(seed):
     return model, data
 
 
-def _nonlinear_lateral(seed, sub=10):
-    """The lateral truth with a roll moment L_|beta|beta |beta| beta (calm
-    air), RK4 with sub steps a sample, inputs linear between samples."""
+def _rk4_lateral(seed, l_abs_beta, sub=10):
+    """The lateral truth with a roll moment l_abs_beta |beta| beta (calm
+    air), integrated here (RK4, sub steps a sample, inputs linear between
+    samples), not by mlid: with l_abs_beta = 0 the null record is truly
+    null, made by another integrator than the one that fits it."""
     t, u = inputs()
     F, G = matrices(BASE)
 
     def f(x, uu):
         xd = F @ x + G @ uu
-        xd[0] += L_ABS_BETA * abs(x[2]) * x[2]
+        xd[0] += l_abs_beta * abs(x[2]) * x[2]
         return xd
     h = DT / sub
     x = np.zeros(4)

@@ -201,8 +201,8 @@ def test_diagnosis_html_rounds_match_the_report(diagnosis):
         listed = d._listed(rnd)
         assert [r[1] for r in table["rows"]] == [c.name for c in listed]
         for row, c in zip(table["rows"], listed):
-            assert row[5].startswith(c.decision)
-            for text, value in zip(row[2:5], (c.score, c.signature, c.lr)):
+            assert row[6].startswith(c.decision)
+            for text, value in zip(row[2:6], (c.score, c.signature, c.lr, c.holdout)):
                 if value is None:
                     assert text == ""
                 else:
