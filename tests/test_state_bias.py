@@ -114,7 +114,7 @@ def test_rebuilt_models_keep_their_state_biases():
     import importlib
     dg = importlib.import_module("mlid.diagnose")
     m = mlid.LinearModel(F=F, G=G, H=np.eye(2), bx=BX, free=["bx(1)", "f(2,1)"])
-    assert list(dg._scaled(m, 0, 0.1).bx) == BX and list(dg._noisy(m, 1).bx) == BX
+    assert list(dg._scaled(m, 0, 0.1).bx) == BX and list(dg._noisy(m, [1]).bx) == BX
     assert list(dg._lagged(m, 0, 0.2).bx) == BX + [0.0]
     assert list(dg._lagged2(m, 0, 5.0, 0.7).bx) == BX + [0.0, 0.0]
     r = mlid.reduce_measured_state(m.with_free(["bx(1)"]), state=2, output=2)

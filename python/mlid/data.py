@@ -189,8 +189,20 @@ class FlightData:
         return self.t.size
 
     def head(self, n):
-        """The record's first n samples, its channels' names, units and
-        display as they are (the held-out verdicts fit to a record's head)."""
+        """The record's first n samples (the held-out verdicts fit to a
+        record's head).
+
+        Parameters
+        ----------
+        n : int
+            Samples kept.
+
+        Returns
+        -------
+        FlightData
+            The first n samples, the channels' names, units and display as
+            they are.
+        """
         return FlightData(self.t[:n], self.u[:n], self.y[:n], self.input_names,
                           self.output_names, self.source, self.input_units, self.output_units,
                           self.input_display, self.output_display)
