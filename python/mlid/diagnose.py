@@ -565,6 +565,8 @@ class Diagnosis:
                  f'<span class="verdict">{_esc(self.verdict)}</span>; cost '
                  f'<span class="cost-before">{_g(self.base.cost)}</span> &rarr; '
                  f'<span class="cost-after">{_g(self.fit.cost)}</span></p>']
+        if self.coloured:
+            parts.append(f'<p class="warning">warning: {_esc(self.coloured)}</p>')
         if self.effects:
             parts.append(_html_table(
                 "mlid-effects", ("family", "effect", "value", "σ", "2dJ"),
