@@ -42,12 +42,13 @@ import math
 
 import numpy as np
 
-from . import core, holdout
+from . import core, holdout, score_test, terms
 from .data import FlightData
 from .errors import InputError, MlidError, guarded
 from .files import atomic_savefig
 from .progress import bar as progress_bar, bump
-from .model import REGRESSORS, LinearModel, LongitudinalModel
+from .model import (REGRESSORS, EquationModel, FlightPathModel, LinearModel,
+                    LongitudinalModel)
 from .result import whiteness
 from .table import HTML_DIGITS
 
@@ -183,6 +184,10 @@ def _library(model, data, fit, families, nx):
                 cands.append(Candidate("nonlinear term", f"{label} in {eq}", row=row,
                                        regressor=label, make=make,
                                        values=make(states, data.u)))
+    if "nonlinear" in families and isinstance(model, EquationModel) \
+            and not isinstance(model, FlightPathModel):
+        for t in terms.candidates(model, data):
+            cands.append(Candidate("nonlinear term", f"{t.label} in {t.equation}", term=t))
     if "nonlinear" in families and isinstance(model, LongitudinalModel):
         for key in ("CD", "CL", "Cm"):
             for reg in REGRESSORS:
@@ -906,6 +911,15 @@ def _score(model, fit, data, cands, options):
                 c.confounded, c.decision = True, "confounded"
                 continue
             _lm(ev, m.free_names(), model.free_names(), [m.names.get(new, new)], [c])
+    written = [c for c in cands if "term" in c.spec]
+    if written:
+        try:
+            m, params = terms.extended(model, [c.spec["term"] for c in written])
+            ev = core.evaluate(m, data, **_evaluate_options(options))
+            _lm(ev, m.free_names(), model.free_names(), params, written)
+        except MlidError:
+            for c in written:
+                c.confounded, c.decision = True, "confounded"
     noise = [c for c in cands if c.family == "process noise"]
     if noise:
         _noise_score(model, fit, data, noise, options)
@@ -934,30 +948,19 @@ def _score_together(model, data, batch, options):
 
 
 def _lm(ev, names, base, extra, cands, one_sided=False):
-    """The LM statistic g_c^2 / (M_cc - M_cb M_bb^-1 M_bc) of each extra
-    parameter with the base ones partialled out (their gradient is ~0 at
-    their optimum, but partialled out too); one_sided: only a cost that
+    """Each candidate's score statistic (mlid.score_test) for its extra
+    parameter, the base ones partialled out; one_sided: only a cost that
     falls as the parameter grows counts.  A candidate with less than
     CONFOUNDED of its information left lies in the span of the base: it is
     marked confounded."""
-    g, M = ev["gradient"], ev["information"]
-    b = [names.index(n) for n in base]
-    e = [names.index(n) for n in extra]
-    try:
-        x = np.linalg.solve(M[np.ix_(b, b)], np.column_stack([M[np.ix_(b, e)], g[b]]))
-    except np.linalg.LinAlgError:
-        x = np.linalg.lstsq(M[np.ix_(b, b)], np.column_stack([M[np.ix_(b, e)], g[b]]),
-                            rcond=None)[0]
-    mee = M[e, e]
-    left = mee - np.einsum("be,be->e", M[np.ix_(b, e)], x[:, :-1])
-    gc = g[e] - M[np.ix_(e, b)] @ x[:, -1]
-    for c, mcc, lft, gk in zip(cands, mee, left, gc):
-        if not mcc > 0 or lft < CONFOUNDED * mcc:     # the free parameters already span it
+    score, share, signed = score_test.statistics(
+        ev["gradient"], ev["information"], [names.index(n) for n in base],
+        [names.index(n) for n in extra])
+    for c, sc, sh, gk in zip(cands, score, share, signed):
+        if sh < CONFOUNDED:                 # the free parameters already span it
             c.confounded, c.decision, c.score = True, "confounded", 0.0
-        elif one_sided and gk >= 0:
-            c.score = 0.0
         else:
-            c.score = float(gk**2 / lft)
+            c.score = 0.0 if one_sided and gk >= 0 else float(sc)
 
 
 #: the process-noise variance at which its score is taken (q -> 0+: the
@@ -1083,6 +1086,12 @@ def _refit(model, data, fit, c, options, max_delay):
             res, d, opts = core.fit(m, data, **options), data, options
             c.spec["label"] = m.names.get(new, new)
             k = res.names.index(c.spec["label"])
+            c.value = (float(res.estimate[k]), float(res.sigma[k]))
+        elif "term" in c.spec:
+            m, new = c.spec["term"].extend()
+            res, d, opts = core.fit(m, data, **options), data, options
+            c.spec["label"] = new
+            k = res.names.index(new)
             c.value = (float(res.estimate[k]), float(res.sigma[k]))
         elif "regressor" in c.spec:
             m, d, new = _with_regressor(model, data, c.spec["row"], c.spec["regressor"],

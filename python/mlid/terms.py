@@ -36,7 +36,7 @@ import re
 
 import numpy as np
 
-from . import core
+from . import core, score_test
 from .errors import DivergenceError, InputError
 from .model import EquationModel, FlightPathModel, SixDofModel
 
@@ -104,19 +104,8 @@ class Term:
         param : str
             The coefficient's name, as a fit's ``names`` gives it.
         """
-        base = self._model
-        lines = _text_lines(base)
-        lines[self._line] += f" + {self.param}*{self.expression}"
-        # after the last parameter (p(np+1) is the new one), else after the inputs
-        kinds = [line[:1] for line in lines]
-        last = "p" if "p" in kinds else "u"
-        lines.insert(max((k + 1 for k, c in enumerate(kinds) if c == last), default=0),
-                     f"p {self.param}")
-        common = base._common()
-        common["free"] = list(base.free) + [f"p({base.np + 1})"]
-        model = object.__new__(type(base))        # the constructor path of the class's text
-        model._from_text("\n".join(lines), np.r_[base.p, 0.0], tuple(common[k] for k in _COMMON))
-        return model, self.param
+        model, params = extended(self._model, [self])
+        return model, params[0]
 
     def score(self, data, **options):
         """The score (Lagrange-multiplier) statistic of the term at the
@@ -147,21 +136,50 @@ class Term:
         """
         model, param = self.extend()
         ev = core.evaluate(model, data, **options)
-        g, M = ev["gradient"], ev["information"]
-        c = model.free_names().index(param)
-        t = [k for k in range(len(g)) if k != c]
-        mcc = M[c, c]
-        try:            # the free parameters' part (g_t ~ 0 at a converged base fit)
-            a = np.linalg.solve(M[np.ix_(t, t)], M[t, c]) if t else np.zeros(0)
-        except np.linalg.LinAlgError:
-            return 0.0
-        left = mcc - M[c, t] @ a
-        if not mcc > 0 or left <= CONFOUNDED * mcc:
-            return 0.0
-        return float((g[c] - a @ g[t]) ** 2 / left)
+        names = model.free_names()
+        c = names.index(param)
+        score, share, _ = score_test.statistics(ev["gradient"], ev["information"],
+                                                [k for k in range(len(names)) if k != c], [c])
+        return float(score[0]) if share[0] > CONFOUNDED else 0.0
 
     def __repr__(self):
         return f"Term({self.label!r} in {self.equation}, coefficient {self.param})"
+
+
+def extended(model, terms):
+    """The model with each term appended to its equation, each with its own
+    coefficient: new parameters after the existing p (every existing element
+    keeps its name and index), start value 0, free; x0, biases, noise,
+    delays, ties, labels and the free set are kept.
+
+    Parameters
+    ----------
+    model : EquationModel or SixDofModel
+        The model the terms were made for.
+    terms : sequence of Term
+        From ``candidates(model, ...)``.
+
+    Returns
+    -------
+    model : EquationModel or SixDofModel
+        The same kind, len(terms) parameters more.
+    params : list of str
+        The coefficients' names, as a fit's ``names`` gives them.
+    """
+    lines = _text_lines(model)
+    for t in terms:
+        lines[t._line] += f" + {t.param}*{t.expression}"
+    # after the last parameter (p(np+1) is the first new one), else after the inputs
+    kinds = [line[:1] for line in lines]
+    last = "p" if "p" in kinds else "u"
+    at = max((k + 1 for k, c in enumerate(kinds) if c == last), default=0)
+    lines[at:at] = [f"p {t.param}" for t in terms]
+    common = model._common()
+    common["free"] = list(model.free) + [f"p({model.np + 1 + k})" for k in range(len(terms))]
+    m = object.__new__(type(model))        # the constructor path of the class's text
+    m._from_text("\n".join(lines), np.r_[model.p, np.zeros(len(terms))],
+                 tuple(common[k] for k in _COMMON))
+    return m, [t.param for t in terms]
 
 
 def candidates(model, data):
