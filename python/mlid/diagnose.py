@@ -167,8 +167,9 @@ def _library(model, data, fit, families, nx):
     cands = []
     states = _state_estimates(fit.model, fit.yhat)
     ny, nu = model.ny, model.nu
-    outs = data.output_names or [f"y{i + 1}" for i in range(ny)]
-    ins = data.input_names or [f"u{j + 1}" for j in range(nu)]
+    first = holdout.records(data)[0]
+    outs = first.output_names or [f"y{i + 1}" for i in range(ny)]
+    ins = first.input_names or [f"u{j + 1}" for j in range(nu)]
     if "bias" in families:
         for i in range(ny):
             if f"bias({i + 1})" not in model.free:
@@ -183,7 +184,7 @@ def _library(model, data, fit, families, nx):
             for label, make in _regressors(model, outs, ins):
                 cands.append(Candidate("nonlinear term", f"{label} in {eq}", row=row,
                                        regressor=label, make=make,
-                                       values=make(states, data.u)))
+                                       values=make(states, _joined(data, "u"))))
     if "nonlinear" in families and isinstance(model, EquationModel) \
             and not isinstance(model, FlightPathModel):
         for t in terms.candidates(model, data):
@@ -290,9 +291,10 @@ def _with_inputs(model, data, columns):
     m = LinearModel(model.F, np.hstack([model.G, np.zeros((model.nx, k))]), model.H,
                     np.hstack([model.D, np.zeros((model.ny, k))]), Gamma=model.Gamma,
                     K=np.vstack([model.K, np.zeros((k, model.nx))]), bx=model.bx, **common)
-    ins = list(data.input_names or [f"u{j + 1}" for j in range(nu)])
-    d = FlightData(data.t, np.column_stack([data.u] + [v for _, v in columns]), data.y,
-                   ins + [REGRESSOR_MARK + lab for lab, _ in columns], data.output_names)
+    names = [REGRESSOR_MARK + lab for lab, _ in columns]
+    d = _per_record(data, lambda r, rows: FlightData(
+        r.t, np.column_stack([r.u] + [v[rows] for _, v in columns]), r.y,
+        list(r.input_names) + names, r.output_names))
     return m, d
 
 
@@ -401,10 +403,12 @@ def _noisy(model, states):
 
 
 def _delayed(data, j, k):
-    u = data.u.copy()
-    u[k:, j] = data.u[:-k, j]
-    u[:k, j] = data.u[0, j]
-    return FlightData(data.t, u, data.y, data.input_names, data.output_names)
+    def shifted(r, rows):
+        u = r.u.copy()
+        u[k:, j] = r.u[:-k, j]
+        u[:k, j] = r.u[0, j]
+        return FlightData(r.t, u, r.y, r.input_names, r.output_names)
+    return _per_record(data, shifted)
 
 
 def _golden(f, a, b, n=18):
@@ -443,6 +447,9 @@ class Diagnosis:
         likelihood-ratio ``threshold``.
     alpha : float
         The significance level, before the Bonferroni division.
+    held_out : str or None
+        The part of the data the effects were checked on ('the last third
+        of the record', 'the last manoeuvre'); None: too short to hold out.
 
     Attributes
     ----------
@@ -452,9 +459,10 @@ class Diagnosis:
         ``residual_diagnostics`` of ``base`` and of ``final``.
     """
 
-    def __init__(self, base, final, model, effects, rounds, alpha):
+    def __init__(self, base, final, model, effects, rounds, alpha, held_out=None):
         self.base, self.fit, self.model = base, final, model
         self.effects, self.rounds, self.alpha = effects, rounds, alpha
+        self.held_out = held_out
         self.before = residual_diagnostics(base)
         self.after = residual_diagnostics(final)
 
@@ -473,6 +481,13 @@ class Diagnosis:
         rest = sorted([c for c in rnd["candidates"] if c.decision == "not refitted"],
                       key=_rank_key, reverse=True)
         return tried + rest[:max(0, 8 - len(tried))]
+
+    @property
+    def held_out_text(self):
+        """What the held-out checks used."""
+        if self.held_out is None:
+            return "no held-out checks (the record is too short to hold a part out)"
+        return f"effects checked on {self.held_out}, held out from their fits"
 
     @property
     def coloured(self):
@@ -501,7 +516,7 @@ class Diagnosis:
         -------
         str
         """
-        lines = [" model-discrepancy diagnosis"]
+        lines = [" model-discrepancy diagnosis; " + self.held_out_text]
         for k, rnd in enumerate(self.rounds, 1):
             lines.append(" " + self._round_header(k, rnd))
             for c in self._listed(rnd):
@@ -551,6 +566,7 @@ class Diagnosis:
                     "holdout_lr": num(c.holdout), "value": num(value),
                     "sigma": num(sigma), "decision": c.decision, "note": c.note}
         return {"verdict": self.verdict, "alpha": self.alpha, "warning": self.coloured,
+                "held_out": self.held_out,
                 "cost_before": num(self.base.cost), "cost_after": num(self.fit.cost),
                 "effects": [cand(c) for c in self.effects],
                 "rounds": [{"cost": num(r["cost"]), "threshold": num(r["threshold"]),
@@ -788,7 +804,9 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, max_del
         effects.append(best)
         current, fit, cur_data = best.spec["model"], best.fit, best.spec["data"]
         options = best.spec["options"]
-    return Diagnosis(base, fit, current, effects, rounds, alpha)
+    split = holdout.Split.of(data)
+    return Diagnosis(base, fit, current, effects, rounds, alpha,
+                     split.what if split else None)
 
 
 #: why a refit can end above the fit it started from
@@ -811,7 +829,7 @@ def _choose(good, model, data, fit, options):
     order = sorted(good, key=lambda c: c.lr, reverse=True)
     if not order:
         return None
-    n = holdout.split(data)
+    n = holdout.Split.of(data)
     base = None
     if n is not None:
         try:
@@ -824,7 +842,8 @@ def _choose(good, model, data, fit, options):
         best.decision = "ACCEPTED (in-sample test only: the record is too short to hold out)"
         return best
     weight = np.linalg.inv(base[1].rhat)
-    base_ss = _weighted_ss(data.y[n:] - base[2][n:], weight)
+    y = _joined(data, "y")
+    base_ss = _weighted_ss(n.held(y - base[2]), weight)
     noise = order[0] if order[0].family == "process noise" else None
     if noise is not None:
         if not _check(noise, model, data, fit, options, n, base, weight, base_ss):
@@ -855,14 +874,15 @@ def _check(c, model, data, fit, options, n, base, weight, base_ss):
     _finish(c, model, data, fit, options)
     d = c.spec["data"]
     if "make" in c.spec:        # its regressor from the held-in fit's own outputs
-        d = _last_input(d, c.spec["make"](_state_estimates(base[1].model, base[2]), d.u))
+        d = _last_input(d, c.spec["make"](_state_estimates(base[1].model, base[2]),
+                                          _joined(d, "u")))
     try:
         cost, _, yhat = holdout.heldout_cost(c.spec["model"], d, n, c.spec["options"])
     except MlidError as exc:
         c.decision = f"significant; its fit to the held-in part failed: {exc}"
         return False
     c.holdout = float(2 * (base[0] - cost))
-    c.explained = 1.0 - _weighted_ss(data.y[n:] - yhat[n:], weight) / base_ss
+    c.explained = 1.0 - _weighted_ss(n.held(_joined(data, "y") - yhat), weight) / base_ss
     if c.holdout <= 0:
         c.decision = "significant, fails its held-out check"
         return False
@@ -874,9 +894,32 @@ def _weighted_ss(e, weight):
 
 
 def _last_input(data, values):
-    """The record with its last input column replaced by values."""
-    return FlightData(data.t, np.column_stack([data.u[:, :-1], values]), data.y,
-                      data.input_names, data.output_names)
+    """The data with its last input column replaced by values (over the
+    records joined)."""
+    return _per_record(data, lambda r, rows: FlightData(
+        r.t, np.column_stack([r.u[:, :-1], values[rows]]), r.y, r.input_names,
+        r.output_names))
+
+
+def _joined(data, what):
+    """The inputs ('u') or outputs ('y') of the records joined."""
+    return np.vstack([getattr(r, what) for r in holdout.records(data)])
+
+
+def _interval(data):
+    """The sample interval (of the first record)."""
+    t = holdout.records(data)[0].t
+    return float(t[1] - t[0])
+
+
+def _per_record(data, make):
+    """make(record, rows) for each record, rows its slice of the records
+    joined: a list for a list, one for one."""
+    out, k = [], 0
+    for r in holdout.records(data):
+        out.append(make(r, slice(k, k + r.nt)))
+        k += r.nt
+    return out if isinstance(data, (list, tuple)) else out[0]
 
 
 def _finish(c, model, data, fit, options):
@@ -1034,7 +1077,7 @@ def _profile_lag(model, data, i, options, order):
     the integrator's step, to 50) or second-order lag (natural frequency
     1/tau over the same range, damping LAG2_DAMPING) on output i: the fit,
     its model and tau or omega_n."""
-    dt = data.t[1] - data.t[0]
+    dt = _interval(data)
     cache = {}
 
     def build(lt):
@@ -1109,7 +1152,7 @@ def _refit(model, data, fit, c, options, max_delay):
                     best = (r, dd, lag)
             res, d, opts = best[0], best[1], options
             m = model
-            c.value = (float(best[2] * (data.t[1] - data.t[0])), float("nan"))
+            c.value = (float(best[2] * _interval(data)), float("nan"))
         elif f == "sensor scale factor":
             i = c.spec["output"]
             cache = {}
