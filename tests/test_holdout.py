@@ -19,9 +19,10 @@ import scenarios  # noqa: E402
 def test_the_split_of_one_record_and_of_several():
     _, data = scenarios.make("null", 1)
     s = holdout.Split.of(data)
-    assert (s.head.nt, s.rows, s.what) == (267, 133, "the last third of the record")
-    s = holdout.Split.of([data, data.head(200)])
-    assert (len(s.head), s.rows, s.what) == (1, 200, "the last manoeuvre")
+    assert (s.head(data).nt, s.rows, s.what) == (267, 133, "the last third of the record")
+    two = [data, data.head(200)]
+    s = holdout.Split.of(two)
+    assert (len(s.head(two)), s.rows, s.what) == (1, 200, "the last manoeuvre")
     assert holdout.Split.of(data.head(80)) is None          # 27 samples held out < 30
 
 

@@ -37,12 +37,18 @@ def records(data):
 
 
 class Split:
-    """Which part of the data is fitted (``head``) and which held out (the
-    last ``rows`` samples of the records joined); ``what`` names the
-    held-out part.  ``Split.of`` makes one."""
+    """Which part of the data is fitted (the first ``n`` records of several,
+    or samples of one) and which held out (the last ``rows`` samples of the
+    records joined); ``what`` names the held-out part.  ``Split.of`` makes
+    one; it applies to any data of the same layout (a candidate's record
+    with an input added or shifted)."""
 
-    def __init__(self, head, rows, what):
-        self.head, self.rows, self.what = head, rows, what
+    def __init__(self, n, rows, what, several):
+        self.n, self.rows, self.what, self.several = n, rows, what, several
+
+    def head(self, data):
+        """The fitted part of data."""
+        return records(data)[:self.n] if self.several else records(data)[0].head(self.n)
 
     @classmethod
     def of(cls, data, share=HOLDOUT):
@@ -51,13 +57,13 @@ class Split:
         than MIN_SAMPLES."""
         recs = records(data)
         if len(recs) > 1:
-            return cls(recs[:-1], recs[-1].nt, "the last manoeuvre")
+            return cls(len(recs) - 1, recs[-1].nt, "the last manoeuvre", True)
         rec = recs[0]
         n = int(round(rec.nt * (1 - share)))
         if n < MIN_SAMPLES or rec.nt - n < MIN_SAMPLES:
             return None
-        return cls(rec.head(n), rec.nt - n, f"the last {share:.0%} of the record"
-                   if share != 1 / 3 else "the last third of the record")
+        return cls(n, rec.nt - n, f"the last {share:.0%} of the record"
+                   if share != 1 / 3 else "the last third of the record", False)
 
     def held(self, array):
         """The held-out rows of an array over the records joined."""
@@ -84,11 +90,12 @@ def heldout_cost(model, data, split, options):
     MlidError
         What the fit or the prediction raises.
     """
-    res = core.fit(model, split.head, **options)
+    head = split.head(data)
+    res = core.fit(model, head, **options)
     m, ev_opts = res.model, _evaluate_options(options)
     whole = core.evaluate(m, data, **ev_opts)
     if options.get("method") == "filter_error":
-        part = core.evaluate(m, split.head, **ev_opts)["cost"]
+        part = core.evaluate(m, head, **ev_opts)["cost"]
         return float(whole["cost"] - part), res, whole["yhat"]
     y = np.vstack([r.y for r in records(data)])
     e = split.held(y - whole["yhat"])
