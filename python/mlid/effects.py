@@ -240,8 +240,8 @@ def sensor_lag(model, data, i, order=1, start=None):
     Order 1: a new state z, zdot = a (H_i x + D_i u - z), y_i = z (+ bias),
     a = 1/tau free as f(z,z) = -a.  Order 2: new states z, zdot with
     z'' = wn^2 (H_i x + D_i u - z) - 2 zeta wn z'; f(z2,z) = -wn^2 and
-    f(z2,z2) = -2 zeta wn free (two parameters, so that the fit stays linear
-    in each element).  The other elements of the driven row are tied to the
+    f(z2,z2) = -2 zeta wn free (matrix elements themselves, so that the row's
+    other elements stay affine in them: wn and zeta would need products).  The other elements of the driven row are tied to the
     free one through each fixed element of H_i, D_i (F[z,j] = -H_ij f(z,z));
     a free or tied element of H_i, D_i cannot be tied (a product) and its
     element of row z is made free instead: it then estimates the derivative
