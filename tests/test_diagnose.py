@@ -49,7 +49,8 @@ def test_estimates_of_the_named_effects():
     assert abs(est - 0.15) < 3 * sigma                  # the hidden bias on beta
     model, data = scenarios.make("delay", 1)
     d = mlid.diagnose(model, data)
-    assert d.effects[0].value[0] == pytest.approx(3 * scenarios.DT)   # 3 samples
+    est, sigma = d.effects[0].value
+    assert abs(est - 3 * scenarios.DT) < 3 * sigma      # 3 samples, a continuous udelay
     model, data = scenarios.make("scale", 1)
     d = mlid.diagnose(model, data)
     est, sigma = d.effects[0].value

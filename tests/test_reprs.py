@@ -184,9 +184,12 @@ def test_diagnosis_html_verdict_and_effects(diagnosis):
     assert float(parsed.spans["cost-before"]) == pytest.approx(d.base.cost, rel=RTOL)
     assert float(parsed.spans["cost-after"]) == pytest.approx(d.fit.cost, rel=RTOL)
     effects = _table(parsed, "mlid-effects")
-    assert [r[:2] for r in effects["rows"]] == [[c.family, c.name] for c in d.effects]
-    np.testing.assert_allclose([[float(x) for x in r[2:]] for r in effects["rows"]],
-                               [[*c.value, c.lr] for c in d.effects], rtol=RTOL)
+    quantities = [(c, q) for c in d.effects for q in c.quantities]
+    assert [r[:3] + r[5:7] for r in effects["rows"]] == [
+        [c.family, c.name, q[0], q[3], q[4]] for c, q in quantities]
+    np.testing.assert_allclose([[float(x) for x in r[3:5] + r[7:]] for r in effects["rows"]],
+                               [[q[1], q[2], c.lr, c.holdout] for c, q in quantities],
+                               rtol=RTOL)
 
 
 def test_diagnosis_html_rounds_match_the_report(diagnosis):

@@ -109,13 +109,16 @@ def test_filter_error_is_the_same_as_with_a_constant_input_of_ones(steady):
 
 
 def test_rebuilt_models_keep_their_state_biases():
-    """diagnose's candidate models and the perfect-state reduction carry bx
-    (a lag state gets none of its own)."""
+    """diagnose's candidate models (mlid.effects) and the perfect-state
+    reduction carry bx (a lag or gust state gets none of its own)."""
     import importlib
     dg = importlib.import_module("mlid.diagnose")
+    from mlid import effects
     m = mlid.LinearModel(F=F, G=G, H=np.eye(2), bx=BX, free=["bx(1)", "f(2,1)"])
-    assert list(dg._scaled(m, 0, 0.1).bx) == BX and list(dg._noisy(m, [1]).bx) == BX
-    assert list(dg._lagged(m, 0, 0.2).bx) == BX + [0.0]
-    assert list(dg._lagged2(m, 0, 5.0, 0.7).bx) == BX + [0.0, 0.0]
+    d = mlid.FlightData(np.arange(50) * 0.1, np.zeros((50, 1)), np.zeros((50, 2)))
+    assert list(effects.scale_factor(m, d, 1).model.bx) == BX
+    assert list(dg._noisy(m, [1]).bx) == BX
+    assert list(effects.sensor_lag(m, d, 1).model.bx) == BX + [0.0]
+    assert list(effects.sensor_lag(m, d, 1, order=2).model.bx) == BX + [0.0, 0.0]
     r = mlid.reduce_measured_state(m.with_free(["bx(1)"]), state=2, output=2)
     assert list(r.bx) == BX[:1] and r.free == ["bx(1)"]

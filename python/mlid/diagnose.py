@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from . import core, holdout, score_test, terms
+from . import core, effects, holdout, score_test, terms
 from .data import FlightData
 from .errors import InputError, MlidError, guarded
 from .files import atomic_savefig
@@ -116,12 +116,17 @@ class Candidate:
         self.signature = None      # residual signature (structural candidates)
         self.confounded = False
         self.lr = None
+        self.quantities = None     # what its refit estimates (_refit)
         self.holdout = None        # 2 dJ on the held-out part (mlid.holdout)
         self.explained = None      # the share of the held-out residual it removes
         self.fit = None
         self.decision = "not refitted"
-        self.value = None
         self.note = ""
+
+    @property
+    def value(self):
+        """(estimate, sigma) of its first quantity, or None before a refit."""
+        return None if not self.quantities else tuple(self.quantities[0][1:3])
 
     def __repr__(self):
         return f"Candidate({self.family}: {self.name})"
@@ -194,9 +199,12 @@ def _library(model, data, fit, families, nx):
             for reg in REGRESSORS:
                 if reg not in model.regressors[key]:
                     cands.append(Candidate("nonlinear term", f"{reg} in {key}", coef=key, reg=reg))
-    if "delay" in families:
+    # a continuous input delay (udelay) is an output-error parameter of the
+    # kinds that give their input Jacobians
+    if "delay" in families and isinstance(model, (LinearModel, EquationModel)) \
+            and model.nw == 0:
         for j in range(nu):
-            if REGRESSOR_MARK in ins[j]:
+            if REGRESSOR_MARK in ins[j] or f"udelay({j + 1})" in model.free:
                 continue
             cands.append(Candidate("input time delay", f"delay on {ins[j]}", input=j))
     if "scale" in families and isinstance(model, LinearModel):
@@ -231,9 +239,16 @@ def _library(model, data, fit, families, nx):
             cands.append(Candidate("process noise",
                                    f"turbulence on the {_state_name(model, s, outs)} equation",
                                    state=s))
+        for s, i in _measured_states(model, outs):
+            if outs[i].lower() in ANGLES:
+                cands.append(Candidate("process noise", f"first-order gust on {outs[i]}",
+                                       k=2, state=s, angle=s))
     return cands
 
 
+#: outputs (by name, any case) that read an aerodynamic angle: the state
+#: each reads alone gets a first-order gust candidate (mlid.effects.gust)
+ANGLES = ("alpha", "beta", "aoa", "aos")
 #: marks an input that a nonlinear-term candidate made from the measurements
 #: (no delay or feedback candidate for it)
 REGRESSOR_MARK = "="
@@ -333,60 +348,6 @@ def _extended_longitudinal(model, coef, reg):
     return m.with_free(list(model.free) + [new]), new
 
 
-def _scaled(model, i, k):
-    H, D = model.H.copy(), model.D.copy()
-    H[i] *= 1 + k
-    D[i] *= 1 + k
-    m = LinearModel(model.F, model.G, H, D, Gamma=model.Gamma, K=model.K, bx=model.bx,
-                    **model._common())
-    return m
-
-
-def _lagged(model, i, tau):
-    """A first-order lag on output i: a new state z, zdot = (H_i x + D_i u - z)/tau."""
-    nx = model.nx
-    F = np.zeros((nx + 1, nx + 1))
-    F[:nx, :nx] = model.F
-    F[nx, :nx] = model.H[i] / tau
-    F[nx, nx] = -1.0 / tau
-    G = np.vstack([model.G, model.D[i] / tau])
-    H = np.hstack([model.H, np.zeros((model.ny, 1))])
-    H[i] = 0.0
-    H[i, nx] = 1.0
-    D = model.D.copy()
-    D[i] = 0.0
-    Gamma = np.vstack([model.Gamma, np.zeros((1, model.nw))])
-    K = np.hstack([model.K, np.zeros((model.nu, 1))])
-    common = model._common()
-    x0 = np.r_[model.x0, model.H[i] @ model.x0]
-    common["x0"] = x0
-    common["stab"] = np.vstack([model.stab, np.zeros((1, model.ny))])   # the lag state: none
-    # element names move with the new state only for F(i,j), G(i,j) (same indices)
-    return LinearModel(F, G, H, D, Gamma=Gamma, K=K, bx=np.r_[model.bx, 0.0], **common)
-
-
-def _lagged2(model, i, wn, zeta):
-    """A second-order lag on output i: new states z, zdot with
-    z'' = wn^2 (H_i x + D_i u - z) - 2 zeta wn z'."""
-    m = _lagged(model, i, 1.0)              # z in place, then the second state
-    nx = model.nx
-    F = np.zeros((nx + 2, nx + 2))
-    F[:nx + 1, :nx + 1] = m.F
-    F[nx, :] = 0.0
-    F[nx, nx + 1] = 1.0
-    F[nx + 1, :nx] = wn * wn * model.H[i]
-    F[nx + 1, nx] = -wn * wn
-    F[nx + 1, nx + 1] = -2.0 * zeta * wn
-    G = np.vstack([model.G, np.zeros((1, model.nu)), wn * wn * model.D[i]])
-    H = np.hstack([m.H, np.zeros((model.ny, 1))])
-    Gamma = np.vstack([m.Gamma, np.zeros((1, model.nw))])
-    K = np.hstack([m.K, np.zeros((model.nu, 1))])
-    common = model._common()
-    common["x0"] = np.r_[m.x0, 0.0]
-    common["stab"] = np.vstack([m.stab, np.zeros((1, model.ny))])
-    return LinearModel(F, G, H, m.D, Gamma=Gamma, K=K, bx=np.r_[m.bx, 0.0], **common)
-
-
 def _noisy(model, states):
     """Process noise on each of the states (a list): Gamma = e_s for each,
     the q and r free (filter error)."""
@@ -400,32 +361,6 @@ def _noisy(model, states):
                     **common)
     return m.with_free(list(model.free) + [f"q({k + 1})" for k in range(len(states))]
                        + [f"r({i + 1})" for i in range(ny)])
-
-
-def _delayed(data, j, k):
-    def shifted(r, rows):
-        u = r.u.copy()
-        u[k:, j] = r.u[:-k, j]
-        u[:k, j] = r.u[0, j]
-        return FlightData(r.t, u, r.y, r.input_names, r.output_names)
-    return _per_record(data, shifted)
-
-
-def _golden(f, a, b, n=18):
-    """Minimise f on [a, b] (golden section), n steps."""
-    g = (math.sqrt(5) - 1) / 2
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = f(c), f(d)
-    for _ in range(n):
-        if fc < fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = f(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = f(d)
-    return (c, fc) if fc < fd else (d, fd)
 
 
 class Diagnosis:
@@ -534,8 +469,11 @@ class Diagnosis:
         if self.effects:
             lines.append(" effects found:")
             for c in self.effects:
-                val = "" if c.value is None else f" = {c.value[0]:.5g} +- {c.value[1]:.2g}"
-                lines.append(f"   {c.family}: {c.name}{val} (2dJ {c.lr:.1f})")
+                held = "" if c.holdout is None else f", held out {c.holdout:+.1f}"
+                lines.append(f"   {c.family}: {c.name} (2dJ {c.lr:.1f}{held})")
+                for q, v, sd, unit, meaning in c.quantities or []:
+                    lines.append(f"      {q} = {v:.5g} +- {sd:.2g}{' ' + unit if unit else ''}"
+                                 f"  ({meaning})")
         else:
             lines.append(" " + self.verdict)
         lines.append(f" cost {self.base.cost:.2f} -> {self.fit.cost:.2f}")
@@ -563,8 +501,12 @@ class Diagnosis:
             value, sigma = c.value if c.value is not None else (None, None)
             return {"family": c.family, "name": c.name, "score": num(c.score),
                     "signature": num(c.signature), "lr": num(c.lr),
-                    "holdout_lr": num(c.holdout), "value": num(value),
-                    "sigma": num(sigma), "decision": c.decision, "note": c.note}
+                    "holdout_lr": num(c.holdout), "explained": num(c.explained),
+                    "value": num(value), "sigma": num(sigma),
+                    "quantities": [{"quantity": q, "value": num(v), "sigma": num(sd),
+                                    "unit": unit, "meaning": meaning}
+                                   for q, v, sd, unit, meaning in c.quantities or []],
+                    "decision": c.decision, "note": c.note}
         return {"verdict": self.verdict, "alpha": self.alpha, "warning": self.coloured,
                 "held_out": self.held_out,
                 "cost_before": num(self.base.cost), "cost_after": num(self.fit.cost),
@@ -590,9 +532,10 @@ class Diagnosis:
             parts.append(f'<p class="warning">warning: {_esc(self.coloured)}</p>')
         if self.effects:
             parts.append(_html_table(
-                "mlid-effects", ("family", "effect", "value", "σ", "2dJ"),
-                [(c.family, c.name) + (c.value if c.value is not None else (None, None))
-                 + (c.lr,) for c in self.effects]))
+                "mlid-effects", ("family", "effect", "quantity", "value", "σ", "unit",
+                                 "meaning", "2dJ", "held-out 2dJ"),
+                [(c.family, c.name, q, v, sd, unit, meaning, c.lr, c.holdout)
+                 for c in self.effects for q, v, sd, unit, meaning in c.quantities or []]))
         for k, rnd in enumerate(self.rounds, 1):
             parts.append(f"<p>{_esc(self._round_header(k, rnd))}</p>")
             parts.append(_html_table(
@@ -705,7 +648,7 @@ CONFOUNDED = 1e-7
 
 @guarded
 def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effects=3,
-             max_delay=6, progress=None, **options):
+             progress=None, **options):
     """What is the model missing?  Fit, rank the candidate effects, refit
     the best, accept one per round by likelihood ratio and Akaike, repeat
     (the module's docstring says how).
@@ -728,8 +671,6 @@ def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effec
         residual signature.
     max_effects : int
         Rounds at most (one effect accepted per round).
-    max_delay : int
-        The longest input delay tried, in samples.
     progress : None, bool or stream
         A bar over the fits as they run (None: when stderr is a terminal;
         ``mlid.progress.bar`` says more).
@@ -757,11 +698,11 @@ def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effec
         base = core.fit(model, data, **options)
         b.update()
         options["startup"] = "none"
-        return _rounds(model, data, base, families, alpha, refit_best, max_effects, max_delay,
+        return _rounds(model, data, base, families, alpha, refit_best, max_effects,
                        options, b)
 
 
-def _rounds(model, data, base, families, alpha, refit_best, max_effects, max_delay, options, b):
+def _rounds(model, data, base, families, alpha, refit_best, max_effects, options, b):
     """diagnose's rounds after the first fit; b counts the fits."""
     current, fit, cur_data = model.with_theta(base.model.theta), base, data
     effects, rounds = [], []
@@ -781,13 +722,16 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, max_del
                         key=lambda c: c.signature, reverse=True)
         tried = scored[:refit_best // 2] + signed[:refit_best - refit_best // 2]
         # turbulence competes with the deterministic effects by its refit, not
-        # by a score of another kind: the best-scored one always gets a slot
-        noise = [c for c in scored if c.family == "process noise" and c.score > 0]
-        if noise and noise[0] not in tried:
-            tried.append(noise[0])
+        # by a score of another kind: the best-scored white and coloured
+        # candidates always get a slot
+        for coloured in (False, True):
+            noise = [c for c in scored if c.family == "process noise" and c.score > 0
+                     and ("angle" in c.spec) == coloured]
+            if noise and noise[0] not in tried:
+                tried.append(noise[0])
         bump(b, b.n + len(tried))
         for c in tried:
-            _refit(current, cur_data, fit, c, options, max_delay)
+            _refit(current, cur_data, fit, c, options)
             b.update()
         good = [c for c in tried if c.lr is not None and c.lr > chi2_quantile(
             alpha / len(cands), c.k) and c.lr / 2 > c.k]
@@ -1067,133 +1011,117 @@ def _evaluate_options(options):
     return {k: v for k, v in options.items() if k not in _FIT_ONLY}
 
 
-#: damping of the second-order sensor-lag candidate (a typical sensor or
-#: anti-aliasing filter); its natural frequency is profiled
-LAG2_DAMPING = 0.7
+#: what a parameter candidate's estimate means, by family
+MEANING = {"output bias": "constant offset of the sensor",
+           "missing derivative": "a fixed element of the model, set free",
+           "nonlinear term": "coefficient of the term in its equation",
+           "feedback loop (SAS)": "surface motion per unit of the state fed back",
+           "sensor scale factor": "the sensor's gain on the quantity it reads (1: none)",
+           "process noise": "variance of the process noise held over a sample on the equation"}
+#: an input delay's starts, in samples: its cost has a kink at each whole
+#: sample (the interpolation), so Newton is started in three intervals
+DELAY_STARTS = (0.5, 2.5, 5.5)
+#: the significance at which a second-order lag replaces a first-order one
+#: (one parameter more: chi-square(1))
+LAG_ORDER_ALPHA = 0.05
 
 
-def _profile_lag(model, data, i, options, order):
-    """The best first-order lag (time constant tau, from one sample interval,
-    the integrator's step, to 50) or second-order lag (natural frequency
-    1/tau over the same range, damping LAG2_DAMPING) on output i: the fit,
-    its model and tau or omega_n."""
-    dt = _interval(data)
-    cache = {}
+def _build(model, data, fit, c, options, start=None):
+    """A candidate's model: (model, record, fit options, labels of its new
+    parameters, value) with value(res) its quantities (mlid.effects'
+    Extension.value), or None for a parameter candidate."""
+    f, first = c.family, holdout.records(data)[0]
+    if "param" in c.spec:
+        m = _with_param(model, c.spec["param"])
+        return m, data, options, [m.names.get(c.spec["param"], c.spec["param"])], None
+    if "coef" in c.spec:
+        m, new = _extended_longitudinal(model, c.spec["coef"], c.spec["reg"])
+        return m, data, options, [m.names.get(new, new)], None
+    if "term" in c.spec:
+        m, new = c.spec["term"].extend()
+        return m, data, options, [new], None
+    if "regressor" in c.spec:
+        m, d, new = _with_regressor(model, data, c.spec["row"], c.spec["regressor"],
+                                    c.spec["values"])
+        return m, d, options, [new], None
+    if f == "process noise" and "angle" not in c.spec:
+        m = _noisy(model.with_theta(fit.model.theta), [c.spec["state"]])
+        m.r = np.diag(fit.rhat).copy()
+        q = m.names.get("q(1)", "q(1)")
+        return m, data, _merged(options, {"method": "filter_error",
+                                          "bounds": {"q(1)": (0.0, None)}}), [q], None
+    if f == "input time delay":
+        ext = effects.input_delay(model, first, c.spec["input"] + 1, start=start)
+    elif f == "sensor scale factor":
+        ext = effects.scale_factor(model, first, c.spec["output"] + 1)
+    elif f == "sensor lag":
+        ext = effects.sensor_lag(model, first, c.spec["output"] + 1,
+                                 order=c.spec.get("order", 1), start=start)
+    else:                                   # a first-order gust on an angle
+        ext = effects.gust(model.with_theta(fit.model.theta), first, c.spec["angle"] + 1)
+    return ext.model, data, _merged(options, ext.options), ext.params, ext.value
 
-    def build(lt):
-        if order == 1:
-            return _lagged(model, i, math.exp(lt))
-        return _lagged2(model, i, math.exp(-lt), LAG2_DAMPING)
 
-    def cost(lt):
-        try:
-            cache[lt] = core.fit(build(lt), data, **options)
-        except MlidError:          # a trial the model cannot take: not the optimum
-            return math.inf
-        return cache[lt].cost
-    lt, jt = _golden(cost, math.log(dt), math.log(50 * dt))
-    if not math.isfinite(jt):
-        raise MlidError("no lag in the range fits")
-    return cache[lt], build(lt), float(math.exp(lt) if order == 1 else math.exp(-lt))
+def _merged(options, extra):
+    """The fit options with a candidate's own (its bounds added to the
+    user's)."""
+    out = dict(options, **{k: v for k, v in extra.items() if k != "bounds"})
+    if "bounds" in extra:
+        out["bounds"] = dict(options.get("bounds") or {}, **extra["bounds"])
+    return out
 
 
-def _lag_order(c, model, data, fit, options):
-    """An accepted first-order lag: does a second-order one fit better?  Both
-    have one profiled parameter, so the lower cost decides."""
+def _refit(model, data, fit, c, options):
+    """Refit with the candidate: c.lr = 2 (J0 - J1), c.fit, c.quantities
+    (what it estimates: name, value, sigma, unit, meaning), its model, record
+    and options in c.spec; a failure goes in c.decision."""
     try:
-        res, _, wn = _profile_lag(model, data, c.spec["output"], options, 2)
-    except MlidError:
-        return
-    if res.cost < c.fit.cost:
-        c.note = (f"second order (damping {LAG2_DAMPING}) beats first order by "
-                  f"2dJ {2 * (c.fit.cost - res.cost):.1f}")
-        c.name = "second-order " + c.name
-        c.value = (wn, float("nan"))
-        c.lr = float(2 * (fit.cost - res.cost))
-        c.fit = res
-        c.spec.update(model=res.model, data=data, options=options)
-
-
-def _refit(model, data, fit, c, options, max_delay):
-    """Refit with the candidate; c.lr = 2 (J0 - J1)."""
-    f = c.family
-    try:
-        if "param" in c.spec:
-            m = _with_param(model, c.spec["param"])
-            res, d, opts = core.fit(m, data, **options), data, options
-            c.spec["label"] = m.names.get(c.spec["param"], c.spec["param"])
-            k = res.names.index(c.spec["label"])
-            c.value = (float(res.estimate[k]), float(res.sigma[k]))
-        elif "coef" in c.spec:
-            m, new = _extended_longitudinal(model, c.spec["coef"], c.spec["reg"])
-            res, d, opts = core.fit(m, data, **options), data, options
-            c.spec["label"] = m.names.get(new, new)
-            k = res.names.index(c.spec["label"])
-            c.value = (float(res.estimate[k]), float(res.sigma[k]))
-        elif "term" in c.spec:
-            m, new = c.spec["term"].extend()
-            res, d, opts = core.fit(m, data, **options), data, options
-            c.spec["label"] = new
-            k = res.names.index(new)
-            c.value = (float(res.estimate[k]), float(res.sigma[k]))
-        elif "regressor" in c.spec:
-            m, d, new = _with_regressor(model, data, c.spec["row"], c.spec["regressor"],
-                                        c.spec["values"])
-            res, opts = core.fit(m, d, **options), options
-            c.spec["label"] = new
-            k = res.names.index(new)
-            c.value = (float(res.estimate[k]), float(res.sigma[k]))
-        elif f == "input time delay":
-            best = None
-            for lag in range(1, max_delay + 1):
-                dd = _delayed(data, c.spec["input"], lag)
-                r = core.fit(model, dd, **options)
-                if best is None or r.cost < best[0].cost:
-                    best = (r, dd, lag)
-            res, d, opts = best[0], best[1], options
-            m = model
-            c.value = (float(best[2] * _interval(data)), float("nan"))
-        elif f == "sensor scale factor":
-            i = c.spec["output"]
-            cache = {}
-
-            def cost(k):
-                try:
-                    cache[k] = core.fit(_scaled(model, i, k), data, **options)
-                except MlidError:          # a trial the model cannot take: not the optimum
-                    return math.inf
-                return cache[k].cost
-            k, jk = _golden(cost, -0.5, 0.5)
-            if not math.isfinite(jk):
-                raise MlidError("no scale factor in the range fits")
-            res, d, opts, m = cache[k], data, options, _scaled(model, i, k)
-            c.value = (float(k), float("nan"))
-        elif f == "sensor lag":
-            res, m, tau = _profile_lag(model, data, c.spec["output"], options, 1)
-            d, opts = data, options
-            c.value = (tau, float("nan"))
-        elif f == "process noise":
-            m = _noisy(model.with_theta(fit.model.theta), [c.spec["state"]])
-            m.r = np.diag(fit.rhat).copy()
-            opts = dict(options, method="filter_error")
-            opts["bounds"] = dict(opts.get("bounds") or {}, **{"q(1)": (0.0, None)})
-            res = core.fit(m, data, **opts)
-            d = data
-            c.value = (float(res.estimate[res.names.index(m.names.get("q(1)", "q(1)"))]),
-                       float(res.sigma[res.names.index(m.names.get("q(1)", "q(1)"))]))
-        else:
-            return
+        starts = ([s * _interval(data) for s in DELAY_STARTS]
+                  if c.family == "input time delay" else [c.spec.get("start")])
+        best = None
+        for s in starts:
+            m, d, opts, labels, value = _build(model, data, fit, c, options, s)
+            res = core.fit(m, d, **opts)
+            if best is None or res.cost < best[0].cost:
+                best = (res, d, opts, labels, value)
+        res, d, opts, labels, value = best
+        c.quantities = value(res) if value else _param_quantities(res, labels, c.family)
     except MlidError as exc:
         c.decision = f"refit failed: {exc}"
         return
     c.lr = float(2 * (fit.cost - res.cost))
     c.fit = res
-    if "label" in c.spec:
-        k = res.names.index(c.spec["label"])
-        corr = np.delete(res.correlation[k], k)
-        if corr.size and np.max(np.abs(corr)) > 0.95:
-            j = int(np.argmax(np.abs(corr)))
-            other = [n for i, n in enumerate(res.names) if i != k][j]
-            c.note = f"correlated {corr[j]:+.3f} with {other}"
-    c.spec.update(model=res.model if hasattr(res, "model") else m, data=d, options=opts)
+    k = res.names.index(labels[0])
+    corr = np.delete(res.correlation[k], [res.names.index(n) for n in labels])
+    others = [n for n in res.names if n not in labels]
+    if corr.size and np.max(np.abs(corr)) > 0.95:
+        j = int(np.argmax(np.abs(corr)))
+        c.note = f"correlated {corr[j]:+.3f} with {others[j]}"
+    c.spec.update(model=res.model, data=d, options=opts)
     c.decision = "refitted"
+
+
+def _param_quantities(res, labels, family):
+    """A parameter candidate's estimate as a quantity: its label, value,
+    sigma, unit (the fit's) and what it means."""
+    units = list(getattr(res, "param_units", None) or [""] * len(res.names))
+    return [(n, float(res.estimate[res.names.index(n)]), float(res.sigma[res.names.index(n)]),
+             units[res.names.index(n)], MEANING[family]) for n in labels]
+
+
+def _lag_order(c, model, data, fit, options):
+    """An accepted first-order lag: does a second-order one (two parameters,
+    wn and zeta, from wn = 1/tau) fit better by chi-square(1) at
+    LAG_ORDER_ALPHA?"""
+    tau = c.quantities[0][1]
+    second = Candidate(c.family, c.name, k=2, output=c.spec["output"], order=2,
+                       start=(1.0 / tau, effects.LAG2_ZETA))
+    _refit(model, data, fit, second, options)
+    if second.fit is None or 2 * (c.fit.cost - second.fit.cost) <= chi2_quantile(
+            LAG_ORDER_ALPHA):
+        return
+    c.note = (f"second order beats first order by 2dJ "
+              f"{2 * (c.fit.cost - second.fit.cost):.1f}")
+    c.name, c.k = "second-order " + c.name, 2
+    c.quantities, c.lr, c.fit = second.quantities, second.lr, second.fit
+    c.spec.update(model=second.spec["model"], order=2)
