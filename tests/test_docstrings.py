@@ -11,7 +11,7 @@ import textwrap
 import pytest
 
 import mlid
-from mlid.diagnose import Diagnosis
+from mlid.diagnosis import Diagnosis
 from mlid.table import ResultsTable, results_table
 
 #: Public objects not in mlid.__all__ that public functions return.

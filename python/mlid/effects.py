@@ -525,7 +525,7 @@ def gust(model, data, state, tau=0.5, intensity=None):
              and not model.D[i].any()]
     angle = _name(data.output_names, alone[0], "y") if alone else f"x{s + 1}"
     unit = data.output_units[alone[0]] if alone else ""
-    dt, nx, nw, g = _dt(data), model.nx, model.nw, model.nx
+    dt, nw, g = _dt(data), model.nw, model.nx
     parts = _parts(model, 1, 1)
     parts["F"][g, g] = -1.0 / tau
     for r in _dynamic_rows(model):
