@@ -13,12 +13,14 @@ Every number and where it comes from: README.md in this folder.
 """
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
 import numpy as np
 
 import mlid
+from mlid import effects
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "m2f3_gusts"))
@@ -66,6 +68,10 @@ def main(argv=None):
         print(" 1. M2/F3, the gust hidden")
         d = m2f3_demo()
         print(d.report())
+        rms = math.sqrt(effects.gust_variance(m2f3.TAU, m2f3.DT)[0] * m2f3.Q_GUST)
+        print(f"  truth (cases/m2f3_gusts, ours): gust time constant {m2f3.TAU} s, gust "
+              f"standard deviation {rms:.4g} deg (mlid.effects.gust_variance, q = "
+              f"{m2f3.Q_GUST})")
         if args.plots:
             print(f" plot: {d.plot(Path(args.plots) / 'm2f3')}")
         print("\n 2. HL-10, Y_p and Y_r hidden")

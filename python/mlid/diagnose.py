@@ -1,40 +1,55 @@
-"""What is the model missing?  Fit, diagnose the residuals, rank candidate
-effects from a library, refit the best, accept by likelihood ratio and
-Akaike, repeat (issue 7; the report did it by hand in §5.2-5.3).
+"""What is the model missing?  Fit, rank candidate effects from a library,
+refit the best, accept one per round when it is significant and holds on
+data its fit did not see, repeat (issues 7 and 16; the report did it by hand
+in §5.2-5.3).
 
     d = mlid.diagnose(model, data)
     print(d.report())
-    d.effects            # the accepted effects, in order, with estimate and sigma
+    d.effects            # the accepted effects, in order, with their quantities
     d.fit                # the final fit
 
 Candidate families (each with the name a flight-test engineer would use):
 
     output bias           a constant offset on one output (free bias(i))
-    missing derivative    a fixed element of F, G, H or D set free (e.g. Y_p)
-    input time delay      an input recorded ahead of the surface by k samples
-    sensor scale factor   an output read as (1 + k) times the truth
-    sensor lag            a first-order lag between the quantity and its sensor;
-                          once accepted, a second-order one (damping 0.7) if it
-                          fits better
-    process noise         turbulence on one state equation: filter error
-    nonlinear term        a further regressor (alpha^2, ...) in C_D, C_L or C_m;
-                          in a linear model's state equations, a power (x^2, |x|x),
-                          a product of two measured states or of a measured state
-                          and an input, from the measurements (a regressor input)
+    missing derivative    a fixed element of F or G set free (e.g. Y_p)
+    input time delay      the aircraft sees an input late: udelay(j) free
+                          (output error; mlid.effects.input_delay)
+    sensor scale factor   an output read as (1 + k) times the truth (the gain
+                          h(i,j) free, else mlid.effects.scale_factor)
+    sensor lag            a first-order lag tau between the quantity and its
+                          sensor; once chosen, a second-order one (wn, zeta)
+                          if it beats it by chi-square(1) (mlid.effects)
+    process noise         turbulence on one state equation (white, filter
+                          error), or a first-order gust on an angle (alpha,
+                          beta) entering wherever the angle does, with its time
+                          constant and intensity (mlid.effects.gust)
+    nonlinear term        linear model: x^2, |x|x, x*y, x*u and breakpoints
+                          max(x - b, 0) of the measured states (as the model
+                          simulates them) and inputs, in each state equation
+                          with a free derivative and each output with a free
+                          element; longitudinal model: a further regressor in
+                          C_D, C_L or C_m; equations and six-DOF models: terms
+                          written into their own equations (mlid.terms)
     feedback loop (SAS)   a state fed back to an input: the surface moves by
                           k x_s on top of the recorded command (free k(j,s))
 
-Candidates that are parameters of the model (bias, derivative, nonlinear
-term, feedback, a scale factor that is an element of H) are ranked by the
-score (Lagrange-multiplier) statistic from the gradient and information at
-the current fit, the nuisance parameters partialled out; the others by the match of the residuals to their
-signature.  The best few are refitted; one is accepted per round when its
-likelihood ratio 2 dJ beats the chi-square(k) point at alpha divided by the
-number of candidates tried (Bonferroni) and its cost drop beats Akaike's k.
-A candidate whose direction the free parameters already span (less than
-1e-7 of its information left once they are partialled out) is flagged as
-confounded, never picked; a refitted one strongly correlated with a free
-parameter (above 0.95) says so in its decision.
+Parameter candidates are ranked by the score (Lagrange-multiplier)
+statistic at the current fit, the free parameters partialled out
+(mlid.score_test), all from one evaluation; process noise by the filter's
+score in q at q -> 0+; delays, lags and scale factors outside the model's
+elements by the match of the residuals to their signature.  The best few
+are refitted, every new parameter inside the Newton iteration with its
+Cramer-Rao sigma.  A candidate is significant when its likelihood ratio
+2 dJ beats the chi-square(k) point at alpha over the number of candidates
+(Bonferroni) and its cost drop beats Akaike's k.  A significant one is
+accepted when it holds out (mlid.holdout): fitted to all but the last third
+of the record (or the last manoeuvre), it predicts that part better, by the
+chi-square(k) point at HOLDOUT_ALPHA.  Deterministic before stochastic:
+when turbulence leads, a deterministic candidate that holds out and leaves
+at most DETERMINISTIC_FIRST times the held-out residual turbulence leaves
+is accepted first.  A candidate whose direction the free parameters
+already span is flagged as confounded; a refitted one strongly correlated
+with a free parameter (above 0.95) says so.
 """
 
 import math
@@ -147,11 +162,14 @@ def _library(model, data, fit, families, nx, options):
         for e in _linear_elements(model, nx):
             cands.append(Candidate("missing derivative", model.names.get(e, e), param=e))
     if "nonlinear" in families and isinstance(model, LinearModel):
-        for row in _dynamic_rows(model, nx):
-            eq = f"the {_state_name(model, row, outs)} equation"
-            for label, make in _regressors(model, outs, ins):
+        regs = _regressors(model, outs, ins, states)
+        where = [("g", row, f"the {_state_name(model, row, outs)} equation")
+                 for row in _dynamic_rows(model, nx)]
+        where += [("d", i, f"the {outs[i]} output") for i in _dynamic_outputs(model)]
+        for block, row, eq in where:
+            for label, make in regs:
                 cands.append(Candidate("nonlinear term", f"{label} in {eq}", row=row,
-                                       regressor=label, make=make,
+                                       block=block, regressor=label, make=make,
                                        values=make(states, _joined(data, "u"))))
     if "nonlinear" in families and isinstance(model, EquationModel) \
             and not isinstance(model, FlightPathModel):
@@ -229,10 +247,24 @@ def _measured_states(model, outs):
     return out
 
 
-def _regressors(model, outs, ins):
+def _dynamic_outputs(model):
+    """The outputs with a free element of H or D (an accelerometer's
+    derivatives), among the model's own (not a regressor's)."""
+    free = set(model.free)
+    return [i for i in range(model.ny) if any(f"{k}({i + 1},{j + 1})" in free
+                                              for k, a in (("h", model.H), ("d", model.D))
+                                              for j in range(a.shape[1]))]
+
+
+#: where the breakpoint terms max(x - b, 0) go: these quantiles of the state
+BREAKPOINTS = (0.25, 0.5, 0.75)
+
+
+def _regressors(model, outs, ins, states):
     """The nonlinear regressors of the measured states and the recorded
     inputs: x^2 and |x|x of each state, x y of each pair, x u of each state
-    and input, as (label, function of (states, u)).  The states are the
+    and input, and breakpoints max(x - b, 0) at the BREAKPOINTS quantiles of
+    the states, as (label, function of (states, u)).  The states are the
     model's own estimate of them (``_state_estimates``), not the
     measurements: a regressor made of measurements would feed their noise
     and any turbulence back into the model, which then tracks data it
@@ -251,6 +283,10 @@ def _regressors(model, outs, ins):
     for n, i in ms:
         for m, j in us:
             regs.append((f"{n}*{m}", lambda x, u, i=i, j=j: x[:, i] * u[:, j]))
+    for n, i in ms:       # a slope that changes at b (stall, a saturation)
+        for b in np.quantile(states[:, i], BREAKPOINTS):
+            regs.append((f"max({n} - {b:.4g}, 0)",
+                         lambda x, u, i=i, b=b: np.maximum(x[:, i] - b, 0.0)))
     return regs
 
 
@@ -283,11 +319,19 @@ def _with_inputs(model, data, columns):
     return m, d
 
 
-def _with_regressor(model, data, row, label, values):
-    """The model with one more input, the regressor, entering state
-    equation row through a free g(row, nu + 1); the record with its column."""
-    m, d = _with_inputs(model, data, [(label, values)])
-    param = f"g({row + 1},{model.nu + 1})"
+def _regressor_element(c, column):
+    """The element through which a regressor candidate enters: g(row, column)
+    of a state equation or d(row, column) of an output."""
+    return f"{c.spec['block']}({c.spec['row'] + 1},{column})"
+
+
+def _with_regressor(model, data, c):
+    """The model with one more input, the candidate's regressor, entering its
+    equation through a free element (_regressor_element); the record with
+    its column."""
+    label = c.spec["regressor"]
+    m, d = _with_inputs(model, data, [(label, c.spec["values"])])
+    param = _regressor_element(c, model.nu + 1)
     return m.with_free(list(model.free) + [param], names={**model.names, param: label}), d, label
 
 
@@ -626,7 +670,7 @@ def _score_together(model, data, batch, options):
         values = {c.spec["regressor"]: c.spec["values"] for c in batch if "regressor" in c.spec}
         m, d = _with_inputs(model, data, [(lab, values[lab]) for lab in labels])
     extra = [c.spec["param"] if "param" in c.spec
-             else f"g({c.spec['row'] + 1},{model.nu + 1 + labels.index(c.spec['regressor'])})"
+             else _regressor_element(c, model.nu + 1 + labels.index(c.spec["regressor"]))
              for c in batch]
     try:
         m = m.with_free(list(model.free) + extra)
@@ -748,8 +792,7 @@ def _build(model, data, fit, c, options, start=None):
         m, new = c.spec["term"].extend()
         return m, data, options, [new], None
     if "regressor" in c.spec:
-        m, d, new = _with_regressor(model, data, c.spec["row"], c.spec["regressor"],
-                                    c.spec["values"])
+        m, d, new = _with_regressor(model, data, c)
         return m, d, options, [new], None
     if f == "process noise" and "angle" not in c.spec:
         m = _noisy(model.with_theta(fit.model.theta), [c.spec["state"]])
