@@ -31,7 +31,7 @@ module mlid_api
   use mlid_monte_carlo, only: monte_carlo
   use mlid_inputs, only: input_signal
   use mlid_deck, only: opened, deck_open, case_time_input, corrected_writable
-  use mlid_case, only: case_t, NAMELEN
+  use mlid_case, only: case_t, NAMELEN, NCONDITION, CONDITION_NAMES
   use mlid_text, only: join_lines, split_lines, name_lines, joined
   use mlid_sixdof, only: sixdof_parts, SIXDOF_CONSTANTS
   use mlid_flightpath, only: flightpath_text, flightpath_corrected, FLIGHTPATH_CONSTANTS, &
@@ -56,6 +56,7 @@ module mlid_api
   public :: mlid_input_signal, mlid_default_options, mlid_model_sizes, &
             mlid_option_info, mlid_option_set, mlid_option_get, mlid_options_check, &
             mlid_stop_reason, mlid_fit_outcome, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
+            mlid_deck_case_condition, mlid_condition_names, &
             mlid_deck_case_data, mlid_deck_case_time_input, mlid_report_fit, mlid_case_json, &
             mlid_layout_size, mlid_layout, mlid_name_list, mlid_manoeuvre_map, &
             mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
@@ -205,6 +206,36 @@ contains
     if (allocated(c%data_files)) nfile = size(c%data_files)
     if (c%job == 'simulate') nt = nint(c%t_end/c%dt) + 1
   end subroutine mlid_deck_case
+
+  !> The numeric flight-condition items of &case (mlid_case), comma-separated.
+  subroutine mlid_condition_names(names)
+    character(len=128), intent(out) :: names
+    names = joined(CONDITION_NAMES)
+  end subroutine mlid_condition_names
+
+  !> The flight condition of case k (&case): the n numeric items in the
+  !> order of mlid_condition_names (given(i) = 0 where the deck gives none),
+  !> config and tags.
+  subroutine mlid_deck_case_condition(k, n, values, given, config, tags)
+    integer(c_int), intent(in) :: k, n
+    real(c_double), intent(out) :: values(n)
+    integer(c_int), intent(out) :: given(n)
+    character(len=64), intent(out) :: config
+    character(len=256), intent(out) :: tags
+    integer :: m
+
+    values = 0.0_c_double
+    given = 0
+    config = ''
+    tags = ''
+    if (.not. allocated(opened)) return
+    if (k < 1 .or. k > size(opened)) return
+    m = min(n, NCONDITION)
+    values(:m) = opened(k)%condition(:m)
+    given(:m) = merge(1, 0, opened(k)%condition_given(:m))
+    config = opened(k)%config
+    tags = opened(k)%tags
+  end subroutine mlid_deck_case_condition
 
   !> The model, options, prior and bounds of case k (sizes from
   !> mlid_deck_case); labels of the free parameters, one per line.

@@ -12,7 +12,7 @@ module mlid_case
   use mlid_params, only: tie_t
   implicit none
   private
-  public :: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
+  public :: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512
   integer, parameter :: MAXSEG = 20     !< manoeuvres (data files) per case
@@ -20,12 +20,23 @@ module mlid_case
   !> allocated (a real manoeuvre has thousands).
   integer, parameter :: MAX_SAMPLES = 10000000
 
+  !> The numeric flight-condition items of &case, in order.
+  integer, parameter :: NCONDITION = 3
+  character(len=10), parameter :: CONDITION_NAMES(NCONDITION) = &
+    [character(len=10) :: 'mach', 'altitude', 'alpha_trim']
+
   type :: case_t
     integer :: status = MLID_OK
     character(len=msg_len) :: msg = ''
     integer :: line = 0                       !< line of &case in the deck
     character(len=128) :: title = ''
     character(len=16) :: job = ''
+    !> the flight condition (&case), for campaign tables: CONDITION_NAMES'
+    !> values where given, the configuration and free-text tags
+    real(wp) :: condition(NCONDITION) = 0.0_wp
+    logical :: condition_given(NCONDITION) = .false.
+    character(len=64) :: config = ''
+    character(len=256) :: tags = ''
     integer :: mkind = MODEL_LINEAR
     integer, allocatable :: iconst(:)         !< model constants (longitudinal: regressor codes)
     real(wp), allocatable :: rconst(:)

@@ -1,7 +1,8 @@
 !> Batch decks: Fortran namelist groups, several cases stacked in one file.
 !>
 !> A case starts at each line whose first word is &case and holds the groups
-!>   &case     title, job ('estimate', 'validate' or 'simulate')
+!>   &case     title, job ('estimate', 'validate' or 'simulate'); the flight
+!>             condition for campaign tables: mach, altitude, alpha_trim, config, tags
 !>   &model    kind ('linear', 'longitudinal', 'x22', 'user' or 'equations'), nx, nu,
 !>             ny, nw, f, g, h, d, gamma (row by row), cd_regressors, cl_regressors,
 !>             cm_regressors, cd, cl, cm, constants (longitudinal), p,
@@ -30,7 +31,7 @@ module mlid_deck
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines
   use mlid_files, only: temporary_for
-  use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES
+  use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
                                 MODEL_EQUATIONS
@@ -263,24 +264,49 @@ contains
     c%msg = text
   end subroutine fail
 
-  !> &case: title and job.
+  !> &case: title, job and the flight condition (mach, altitude, alpha_trim,
+  !> config, tags: for campaign tables; not given is not zero).
   subroutine read_case_group(rd, c)
     type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
     character(len=128) :: title
     character(len=16) :: job
+    character(len=64) :: config
+    character(len=256) :: tags
+    real(wp) :: mach, altitude, alpha_trim, given(NCONDITION)
     character(len=msg_len) :: iomsg
-    integer :: ios
-    namelist /case/ title, job
+    integer :: ios, i
+    namelist /case/ title, job, mach, altitude, alpha_trim, config, tags
 
     title = ''
     job = ''
+    config = ''
+    tags = ''
+    mach = huge(1.0_wp)
+    altitude = huge(1.0_wp)
+    alpha_trim = huge(1.0_wp)
     rewind (rd%unit)
     read (rd%unit, nml=case, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'case', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
     c%title = title
     c%job = to_lower(job)
+    c%config = config
+    c%tags = tags
+    given = [mach, altitude, alpha_trim]
+    do i = 1, NCONDITION
+      if (given(i) == huge(1.0_wp)) cycle
+      if (.not. ieee_is_finite(given(i))) then
+        call fail(c, 'group &case: '//trim(CONDITION_NAMES(i))//' is not a finite number')
+        return
+      end if
+      c%condition(i) = given(i)
+      c%condition_given(i) = .true.
+    end do
+    if (c%condition_given(1) .and. c%condition(1) < 0.0_wp) then
+      call fail(c, 'group &case: mach must be >= 0')
+      return
+    end if
     if (all(c%job /= [character(len=8) :: 'estimate', 'validate', 'simulate'])) &
       call fail(c, 'group &case: job must be ''estimate'', ''validate'' or ''simulate'', got '''// &
                 trim(job)//'''')

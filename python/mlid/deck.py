@@ -13,6 +13,10 @@ from .errors import InputError, MlidError, check_status, guarded, status_of
 from .model import _lines, from_core
 
 
+#: The numeric flight-condition items of &case, in the core's order.
+CONDITIONS = tuple(n.strip() for n in _text(_api.mlid_condition_names()).split(","))
+
+
 class Case:
     """Case k of a deck: what to run, or why it cannot run (``error``)."""
 
@@ -22,6 +26,12 @@ class Case:
         self.index, self.deck, self.title, self.job = k, Path(deck), _text(title), _text(job)
         self._title = title.rstrip()      # the deck's own bytes, for the core's JSON
         self.error = _text(msg) if status else None
+        values, given, config, tags = _api.mlid_deck_case_condition(k, len(CONDITIONS))
+        self._condition = {n: float(v) for n, v, g in zip(CONDITIONS, values, given) if g}
+        if _text(config):
+            self._condition["config"] = _text(config)
+        if _text(tags):
+            self._condition["tags"] = [t.strip() for t in _text(tags).split(",") if t.strip()]
         self.model = None
         self.warnings = []                # the records' (record()), as mlid-batch says them
         if self.error:
@@ -61,6 +71,14 @@ class Case:
 
     def where(self):
         return f"{self.deck} case {self.index} (line {self.line}) '{self.title}'"
+
+    @property
+    def condition(self):
+        """The flight condition the deck gives in &case: {name: value} of
+        the numeric items given (CONDITIONS), 'config' and 'tags' (a list)
+        when given."""
+        return dict(self._condition)
+
 
     def channel_names(self):
         """The deck's input and output names (None where not given)."""
