@@ -60,6 +60,7 @@ LEVELS = {"low": 1.0, "moderate": 5.0}
 STEP = 0.1          # single step, units of stick (ours; Fig. 5.1 lost)
 MULTISTEP = 0.6     # the multistep's pulse (ours; Fig. 5.2 lost; README: how it was chosen)
 SCAN = (0.5, 0.7)   # the multistep's amplitude either side of ours, to show what it sets
+RADIAN_MULTISTEP = 0.1   # the case's former multistep, read in radians
 SEED = 3            # ours
 FREE = [f"p({k})" for k in range(1, 24)]
 RECORDS = [("step", "low"), ("multistep", "low"), ("step", "moderate"),
@@ -86,9 +87,9 @@ def model(p, level, free=FREE, x0=(U0, W0, THETA0, 0.0), noise=1.0):
                          free=free)
 
 
-def record(kind, level, seed=SEED, timing="forward", amplitude=None):
+def record(kind, level, seed=SEED, timing="forward", amplitude=None, truth=TRUTH):
     t = np.arange(NT) * DT
-    data, states = mlid.simulate(model(TRUTH, level), t, elevator(kind, amplitude)[:, None],
+    data, states = mlid.simulate(model(truth, level), t, elevator(kind, amplitude)[:, None],
                                  seed=seed, timing=timing)
     data.input_names = ["delta_es"]
     data.output_names = ["u", "w", "theta", "q", "qdot", "n_x", "n_z"]
@@ -150,6 +151,10 @@ def run(plots=None):
     for a in SCAN:
         data, states = record("multistep", "low", amplitude=a)
         fits["scan", a] = {"best": identify(data, "low"), "states": states}
+    # the former reading: Table 5.1 in rad/s^2, with the multistep of 0.1
+    # the case had then (0.6 would leave the model's range)
+    data, _ = record("multistep", "low", amplitude=RADIAN_MULTISTEP, truth=TABLE_5_1)
+    fits["radians"] = identify(data, "low")
     if plots:
         plot_derivatives(fits["multistep", "low"], fits["step", "low"], plots)
     return fits
@@ -216,6 +221,8 @@ def _summary(r):
 
 
 def print_units():
+    print(f" trim: u {U0:g} ft/s, w {W0:.4f} ft/s, theta {np.degrees(THETA0):.4f} deg, delta_es "
+          f"{DELTA0:.5f}")
     for label, p in (("radians (M in rad/s^2)", TABLE_5_1), ("degrees (M in deg/s^2)", TRUTH)):
         ev = trim_modes(p)
         sp, ph = sorted([e for e in ev if e.imag > 0], key=lambda e: -abs(e))
@@ -275,6 +282,20 @@ def print_amplitude(fits):
               f"equation-error start-up, sigma / column 3 median {np.nanmedian(r):.2f} (range "
               f"{np.nanmin(r):.2f} to {np.nanmax(r):.2f}); mean sigma(c0)/sigma(c1) of the "
               f"first-order derivatives {c:.0f} (report {rep:.0f})")
+
+
+def print_radians(fits):
+    """Table 5.1 read in rad/s^2: the sigmas' pattern, not only their level,
+    differs from the report's."""
+    res = fits["radians"]
+    r = _ratios(res.sigma, SIGMA_COL3)
+    groups = {g: r[[k for k, lab in enumerate(X22_LABELS) if lab[0] == g]] for g in "MXZ"}
+    print(f" Table 5.1 read in radians, multistep of {RADIAN_MULTISTEP}: "
+          f"{'converged' if res.converged else 'stopped'} from the equation-error start-up, "
+          f"sigma / column 3 median {np.nanmedian(r):.2f}, range {np.nanmin(r):.2f} to "
+          f"{np.nanmax(r):.2f}; " + ", ".join(
+              f"{g} coefficients {np.nanmin(v):.2f} to {np.nanmax(v):.2f}"
+              for g, v in groups.items()))
 
 
 def print_fits(fits):
@@ -342,6 +363,7 @@ def main(argv=None):
     print_fits(fits)
     print_sigmas(fits)
     print_amplitude(fits)
+    print_radians(fits)
     print_derivatives(fits)
     print_partials(fits)
     return 0
