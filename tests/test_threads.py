@@ -92,8 +92,10 @@ def readme_rows(section):
     text = (X22 / "README.md").read_text(encoding="utf-8")
     body = text.split(section, 1)[1].split("\n## ", 1)[0]
     rows = [line for line in body.splitlines() if line.startswith("|")]
-    return [[c.strip().replace("−", "-").replace("δ", "de") for c in row.strip().strip("|").split("|")]
-            for row in rows if not set(row) <= set("|-: ")][1:]
+    cells = [[c.strip().replace("−", "-").replace("δ", "de")
+              for c in row.strip().strip("|").split("|")]
+             for row in rows if not set(row) <= set("|-: ")]
+    return cells[1:]
 
 
 def printed_rows(out, start, stop):
