@@ -86,19 +86,20 @@ def search_truth(r=c8.R_SAMPLE):
     """Every truth a priori x f, f in SEARCH_LEVELS for each unknown,
     scored by the rms of log(mlid / report) over Table 8.1's bound sigma
     and expected information traces (eq. 7.12 at that truth): a list of
-    (score, factors), best first."""
+    (score, factors, the optimal input's Z_delta bound), best first."""
     us = inputs(r)
     ref = {k: TABLE_8_1[k] for k in us}
     out = []
     for f in itertools.product(SEARCH_LEVELS, repeat=5):
         d = c8.design(c8.DESIGN_VALUES * np.array(f), r)
-        logs = []
+        logs, sig = [], {}
         for name, u in us.items():
             s = mlid.design.summary(d.information(c8.T, u))
+            sig[name] = s["sigma"]
             keep = slice(0, 4) if name == "optimal" else slice(0, 5)
             logs += list(np.log(s["sigma"][keep] / np.array(ref[name]["CR sigma"])[keep]))
             logs.append(np.log(s["trace"] / ref[name]["expected info trace"]))
-        out.append((float(np.sqrt(np.mean(np.square(logs)))), np.array(f)))
+        out.append((float(np.sqrt(np.mean(np.square(logs)))), np.array(f), sig["optimal"][4]))
     out.sort(key=lambda sf: sf[0])
     return out
 
@@ -158,21 +159,27 @@ def _fit_from_first_sample(start, data):
     return res.estimate if res.converged else None
 
 
-def two_sided(theta):
-    """§8.3 at theta: the 2 s optimal input followed by its negative (the
-    speed returns to trim), scaled to energy 101.25 over 4 s, through a
-    0.2 s first-order servo; against doublets of equal energy through the
-    same servo: the one of our rule (amplitude the command's first value)
-    and one of 2 s halves."""
+def two_sided_inputs():
+    """§8.3's inputs on 200 cells of DT: the 2 s optimal input followed by
+    its negative (the speed returns to trim), scaled to energy 101.25 over
+    4 s; doublets of equal energy: the one of our rule (amplitude the
+    command's first value), one of 1 s halves (amplitude sqrt(E / 2)) and
+    one of 2 s halves."""
     half = inputs()["optimal"]
     u = np.vstack([half, -half])
     u = u * np.sqrt(E_TWO_SIDED / (np.sum(u**2) * c8.DT))
     n = len(u)
+    return {"optimal": u, "doublet": doublet(abs(u[0, 0]), E_TWO_SIDED, n),
+            "doublet, 1 s halves": doublet(np.sqrt(E_TWO_SIDED / 2.0), E_TWO_SIDED, n),
+            "doublet, 2 s halves": doublet(np.sqrt(E_TWO_SIDED / 4.0), E_TWO_SIDED, n)}
+
+
+def two_sided(theta):
+    """§8.3 at theta: the information of each two-sided input through the
+    0.2 s first-order servo."""
     d = c8.servo_design(theta, SERVO_TAU)
-    full = np.where(np.arange(n) < n // 2, 1.0, -1.0)[:, None] * np.sqrt(E_TWO_SIDED / T_TWO_SIDED)
-    cands = {"optimal": u, "doublet": doublet(abs(u[0, 0]), E_TWO_SIDED, n),
-             "doublet, 2 s halves": full}
-    return {k: mlid.design.summary(d.information(T_TWO_SIDED, v)) for k, v in cands.items()}
+    return {k: mlid.design.summary(d.information(T_TWO_SIDED, v))
+            for k, v in two_sided_inputs().items()}
 
 
 def run(runs=50, scheduler=None, plots=None, workers=None):
@@ -249,6 +256,12 @@ def table_rows(out):
                      "most" if name == "optimal" else "-", f"{np.mean(err[:, 1] <= 1):.0%}",
                      "agrees" if name == "doublet" or np.mean(err[:, 1] <= 1) > 0.5 else "differs"))
     o, dd = out["optimal"], out["doublet"]
+    zd = min(z for _, _, z in out["search"])
+    rows.append((f"optimal: CR sigma Z_delta, smallest of the {len(out['search'])} candidates",
+                 fmt(TABLE_8_1["optimal"]["CR sigma"][4]), fmt(zd), verdict(zd, 0.000247)))
+    ref = TABLE_8_1["optimal"]["expected info trace"] / TABLE_8_1["doublet"]["expected info trace"]
+    mine = o["expected info trace"] / dd["expected info trace"]
+    rows.append(("expected info trace, optimal / doublet", fmt(ref), fmt(mine), verdict(mine, ref)))
     ratio_ref = TABLE_8_1["doublet"]["sample cov det"] / TABLE_8_1["optimal"]["sample cov det"]
     ratio = dd["sample cov det"] / o["sample cov det"]
     rows.append(("det sample cov, doublet / optimal", fmt(ratio_ref), fmt(ratio),
@@ -263,9 +276,10 @@ def table_rows(out):
             mine = ts["optimal"][key] / ts["doublet"][key]
             rows.append((f"§8.3 at the {where}: {key} optimal / doublet", fmt(ref), fmt(mine),
                          verdict(mine, ref)))
-            mine = ts["optimal"][key] / ts["doublet, 2 s halves"][key]
-            rows.append((f"§8.3 at the {where}: {key} optimal / doublet of 2 s halves", "-",
-                         fmt(mine), "ours"))
+            for other in ("doublet, 1 s halves", "doublet, 2 s halves"):
+                mine = ts["optimal"][key] / ts[other][key]
+                rows.append((f"§8.3 at the {where}: {key} optimal / {other}", "-", fmt(mine),
+                             "ours"))
         larger = int(np.sum(ts["optimal"]["eigenvalues"] > ts["doublet"]["eigenvalues"]))
         rows.append((f"§8.3 at the {where}: eigenvalues larger for optimal", "3 of 5",
                      f"{larger} of 5", "agrees" if larger == 3 else "differs"))
@@ -317,8 +331,13 @@ def print_readings():
     """The truth search's best score under each reading of the noise line."""
     print(" Noise line '.125 .125 .250': best truth-search score (rms log mlid/report) per reading")
     for label, r in c8.R_READINGS.items():
-        score, f = search_truth(r)[0]
+        score, f, _ = search_truth(r)[0]
         print(f"  {label:<32} {score:.3f}  factors {np.round(f, 3).tolist()}")
+
+
+def _nonzero(u):
+    """Seconds from the start to the input's last non-zero cell."""
+    return f"{(np.flatnonzero(u[:, 0])[-1] + 1) * c8.DT:.2f}"
 
 
 def print_results(out, runs):
@@ -326,7 +345,7 @@ def print_results(out, runs):
           f"per sample")
     print("  truth search (a priori x factors), best five of "
           f"{len(out['search'])}: score = rms log(mlid/report)")
-    for score, f in out["search"][:5]:
+    for score, f, _ in out["search"][:5]:
         print(f"    {score:.4f}  {np.round(f, 3).tolist()}")
     print(f"  {'':<24}" + "".join(f"{n:>12}" for n in NAMES))
     print(f"  {'truth':<24}" + "".join(f"{v:12.5g}" for v in out["truth"]))
@@ -334,9 +353,13 @@ def print_results(out, runs):
     for name in ("optimal", "doublet"):
         s = out[name]
         amp = out["inputs"][name]
-        print(f"\n  {name}: first value {amp[0, 0]:.3f}, {s['runs']} runs ({s['failed']} failed)")
+        print(f"\n  {name}: first value {amp[0, 0]:.3f}, {_nonzero(amp)} s long, {s['runs']} runs "
+              f"({s['failed']} failed)")
         for label in ("mean", "sample sigma", "CR sigma"):
             print(f"  {label:<24}" + "".join(f"{v:12.4g}" for v in s[label]))
+    print(f"\n  §8.3 inputs, energy {E_TWO_SIDED} over {T_TWO_SIDED:g} s: " + "; ".join(
+        f"{k}: first value {abs(v[0, 0]):.2f}, {_nonzero(v)} s long"
+        for k, v in two_sided_inputs().items()))
     xf = out["optimal"]["per run"]["x0 first"]
     print(f"\n  optimal, x0 held at the first data point (§8.2.3): {xf['runs']} of {runs} runs "
           "converged")
