@@ -4,21 +4,18 @@ the optimal input by the operator method (median of 5).  Target: under 0.5 s.
 Also the amplitude-limited design (|u| <= the optimal's peak, 0.1 s cells).
 """
 
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-import mlid
-
-F = [[-0.02, -32.2, 0, 33.74], [0, 0, 1, 0], [0.003, 0, -1.588, -0.562],
-     [-0.004, 0, 1, -0.737]]
-G = [[0], [0], [-1.658], [0.005]]
-R = np.diag([0.125, 0.125, 0.25, 0.25])       # CASES.md §1 (OCR ".125 .125 .250"), ours
-UNKNOWNS = ["f(3,3)", "f(3,4)", "f(4,4)", "g(3,1)", "g(4,1)"]
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "cases" / "c8_monte_carlo"))
+import c8_longitudinal as c8  # noqa: E402  the model and the reading of its noise line
 
 
 def main():
-    d = mlid.InputDesign(F, G, np.eye(4), R, UNKNOWNS)
+    d = c8.design()
     for cells in (100, 200):
         times = []
         for _ in range(5):
