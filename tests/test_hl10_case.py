@@ -45,3 +45,37 @@ def test_sensitivity_norms_make_up_the_information():
     k, j = res.names.index("N_r"), res.names.index("N_dr")
     np.testing.assert_allclose(s[:, k], s[:, j], rtol=0.05)
     assert len(res.sensitivity_table()) == 2 + 13
+
+
+def test_report_runs_against_table_5_3():
+    """Table 5.3's runs on the case record: Y_p = Y_r = 0 flips L_r, N_p, N_r
+    but not L_p; identified Y_p, Y_r put the four within 3 Cramer-Rao sigma
+    of the truth; the prior keeps every sign and costs no fit unless the
+    model is wrong (Y_p, Y_r held 20% off), where it costs about 10%."""
+    runs = hl10.report_runs(hl10.record())
+    est = {k: dict(zip(r.names, r.estimate)) for k, r in runs.items()}
+    flips = {n for n in hl10.FOUR if np.sign(est["output error"][n]) != np.sign(hl10.WT[n])}
+    assert flips == {"L_r", "N_p", "N_r"}
+    run2 = runs["output error, Y_p Y_r free"]
+    for n in hl10.FOUR:
+        k = run2.names.index(n)
+        assert abs(run2.estimate[k] - hl10.WT[n]) < 3 * run2.sigma[k]
+        for key in ("a priori", "a priori, biases", "held: a priori"):
+            assert np.sign(est[key][n]) == np.sign(hl10.WT[n])
+    n = len(run2.data.t)
+    assert hl10._ratio(runs["a priori, biases"].cost - run2.cost, n) < 1.01
+    held = hl10._ratio(runs["held: a priori"].cost - runs["held: output error"].cost, n)
+    assert 1.05 < held < 1.2
+    rows = hl10.report_table(runs)
+    assert len(rows) == 4 * 4 + 8 + len(hl10.T53_OE) + 5
+
+
+def test_flip_scan_l_p_and_n_p_never_flip():
+    """L_p is 7 or more Cramer-Rao sigma from zero in every set-up scanned and
+    N_p 1.3 or more: neither flips (seeds 1-5); without the yaw damper
+    nothing flips."""
+    scan = hl10.flip_scan(seeds=range(1, 6))
+    for r in scan:
+        assert r["count"]["L_p"] == 0 and r["count"]["N_p"] == 0
+        if r["label"].startswith("no yaw damper"):
+            assert sum(r["count"].values()) == 0

@@ -49,18 +49,19 @@ def matrices(v):
     return F, G, H, D
 
 
-def record():
+def record(seed=SEED, k_yaw=K_YAW, noise_scale=1.0, nt=NT, rudder=0.2):
     """Closed loop: the rudder surface is the pilot's input plus K r; the
-    record holds the surface positions, as a flight record would."""
+    record holds the surface positions, as a flight record would.  The
+    keywords vary the set-up for the scan of flips (defaults: the case)."""
     F, G, H, D = matrices(WT)
-    loop = np.outer(G[:, 1], [0.0, K_YAW, 0.0, 0.0])
-    closed = mlid.LinearModel(F + loop, G, H + np.outer(D[:, 1], [0.0, K_YAW, 0.0, 0.0]), D,
-                              r=np.square(NOISE_STD))
-    t = np.arange(NT) * DT
-    da = mlid.core.input_signal("3211", 2.0, 0.5, 0.3, DT, NT)       # aileron, deg
-    dr_pilot = mlid.core.input_signal("doublet", 0.2, 3.5, 0.3, DT, NT)   # weak rudder, deg
-    sim, x = mlid.simulate(closed, t, np.column_stack([da, dr_pilot]), seed=SEED)
-    return mlid.FlightData(t, np.column_stack([da, dr_pilot + K_YAW * x[:, 1]]), sim.y,
+    loop = np.outer(G[:, 1], [0.0, k_yaw, 0.0, 0.0])
+    closed = mlid.LinearModel(F + loop, G, H + np.outer(D[:, 1], [0.0, k_yaw, 0.0, 0.0]), D,
+                              r=np.square(np.multiply(NOISE_STD, noise_scale)))
+    t = np.arange(nt) * DT
+    da = mlid.core.input_signal("3211", 2.0, 0.5, 0.3, DT, nt)       # aileron, deg
+    dr_pilot = mlid.core.input_signal("doublet", rudder, 3.5, 0.3, DT, nt)   # weak rudder, deg
+    sim, x = mlid.simulate(closed, t, np.column_stack([da, dr_pilot]), seed=seed)
+    return mlid.FlightData(t, np.column_stack([da, dr_pilot + k_yaw * x[:, 1]]), sim.y,
                            ["delta_a", "delta_r"], ["p", "r", "beta", "phi", "a_y'"])
 
 
@@ -101,6 +102,130 @@ def summary(name, res):
             "dist": float(dist), "rank": res.rank, "k": len(res.names)}
 
 
+# --- the report's own runs (§5.2.3-5.2.7, Table 5.3) on this record -------------------
+FOUR = ["L_p", "L_r", "N_p", "N_r"]        # the signs the report's output-error fit flipped
+STAR = {"Y_p*": "f(3,1)", "Y_r*": "f(3,2)"}   # identified as Y_p + sin(alpha), Y_r - cos(alpha)
+# Table 5.3: the four and the likelihood value of each maximum-likelihood column
+T53 = {"output error": {"L_p": 0.915, "L_r": -1.363, "N_p": -0.160, "N_r": 0.432, "J": -2243},
+       "output error, Y_p Y_r free": {"L_p": 0.395, "L_r": 0.0671, "N_p": -0.187, "N_r": 0.548,
+                                      "J": -2359},
+       "a priori": {"L_p": -0.295, "L_r": 1.574, "N_p": 0.0380, "N_r": -0.111, "J": -1552},
+       "a priori, biases": {"L_p": -0.271, "L_r": 1.349, "N_p": 0.0550, "N_r": -0.0896,
+                            "J": -2264}}
+# output-error column: the four, and two strong ones, value and Cramer-Rao sigma
+T53_OE = {"L_p": (0.915, 0.025), "L_r": (-1.363, 0.138), "N_p": (-0.160, 0.00429),
+          "N_r": (0.432, 0.0187), "L_beta": (-56.489, 0.305), "Y_beta": (-1.471, 0.0202)}
+
+
+def report_model(y_free, y_zero=False, biases=False):
+    """The report's model of each run, from the a priori values: Y_p, Y_r
+    zero (its first run) or identified as Y_p*, Y_r* (the others), output
+    biases on beta, phi, a_y' (the outputs §5.2.7 found biased; p and r
+    would duplicate the initial state and constant terms)."""
+    v = dict(wind_tunnel(), **({"Y_p": 0.0, "Y_r": 0.0} if y_zero else {}))
+    F, G, H, D = matrices(v)
+    free, names, ties = [ELEMENT[n] for n in ELEMENT], {e: n for n, e in ELEMENT.items()}, dict(TIES)
+    if y_free:      # a_y' carries Y_p, Y_r: h(5,1) = Y_p* - sin(alpha), h(5,2) = Y_r* + cos(alpha)
+        free += list(STAR.values())
+        names |= {e: n for n, e in STAR.items()}
+        ties |= {"h(5,1)": f"{-float(np.sin(ALPHA))!r} + f(3,1)",
+                 "h(5,2)": f"{float(np.cos(ALPHA))!r} + f(3,2)"}
+    return mlid.LinearModel(F, G, H, D, free=free + (["bias(3)", "bias(4)", "bias(5)"] if biases
+                                                     else []), names=names, ties=ties)
+
+
+def report_runs(data):
+    """Table 5.3's four maximum-likelihood runs, from the a priori values.
+    The FRC weights the report used are not printed: ours weight every
+    derivative with sigma 30% of its a priori value."""
+    wt = wind_tunnel()
+    w = {n: 1.0 / (0.3 * wt[n]) ** 2 for n in ELEMENT}
+    return {"output error": mlid.fit(report_model(False, y_zero=True), data),
+            "output error, Y_p Y_r free": mlid.fit(report_model(True), data),
+            "a priori": mlid.fit(report_model(True), data, prior_weight=w),
+            "a priori, biases": mlid.fit(report_model(True, biases=True), data, prior_weight=w),
+            # the remedies' model, Y_p and Y_r held 20% off: a model the data dispute
+            "held: output error": mlid.fit(model(list(ELEMENT)), data),
+            "held: a priori": mlid.fit(model(list(ELEMENT)), data, prior_weight=w)}
+
+
+def _ratio(dj, n):
+    """|R|^(1/ny) after over before, from a change of J = N/2 ln|R| + const."""
+    return float(np.exp(2.0 * dj / (n * 5)))
+
+
+def report_table(runs):
+    """Rows (quantity, report, mlid, verdict) for every number the README
+    quotes from Table 5.3."""
+    rows = []
+    for run, res in runs.items():
+        est = dict(zip(res.names, res.estimate))
+        if run not in T53:      # no report column: the sign against the wind tunnel's
+            rows += [(f"{run}: {n}", "-", f"{est[n]:.4g}", "right sign" if np.sign(est[n]) ==
+                      np.sign(WT[n]) else "wrong sign") for n in FOUR]
+            continue
+        for n in FOUR:
+            rep, ours = T53[run][n], est[n]
+            flipped = np.sign(rep) != np.sign(WT[n])
+            same = np.sign(ours) == np.sign(rep)
+            verdict = ("flip reproduced" if same else "flip not reproduced") if flipped else \
+                ("sign kept" if same else "sign not kept")
+            rows.append((f"{run}: {n}", f"{rep:.4g}", f"{ours:.4g}", verdict))
+    res = runs["output error"]
+    for n, (rep, sig) in T53_OE.items():   # how far from the wind tunnel, in the fit's sigma
+        k = res.names.index(n)
+        rows.append((f"output error: ({n} - wind tunnel)/sigma", f"{(rep - WT[n]) / sig:.1f}",
+                     f"{(res.estimate[k] - WT[n]) / res.sigma[k]:.1f}", "size"))
+    n = len(res.data.t)
+    for a, b, note in [("output error", "output error, Y_p Y_r free", "Y_p, Y_r freed"),
+                       ("output error, Y_p Y_r free", "a priori", "a priori, no biases"),
+                       ("output error, Y_p Y_r free", "a priori, biases", "the '10% worse fit'"),
+                       ("output error", "a priori, biases", "a priori + biases vs first run")]:
+        rep = _ratio(T53[b]["J"] - T53[a]["J"], 327)
+        ours = _ratio(runs[b].cost - runs[a].cost, n)
+        verdict = "reproduced" if abs(ours - rep) < 0.05 else "not reproduced (no change)" \
+            if abs(ours - 1) < 0.01 else "direction only" if (ours - 1) * (rep - 1) > 0 \
+            else "not reproduced"
+        rows.append((f"|R|^(1/5) {note}", f"{rep:.3f} (dJ {T53[b]['J'] - T53[a]['J']:+d})",
+                     f"{ours:.3f} (dJ {runs[b].cost - runs[a].cost:+.0f})", verdict))
+    dj = runs["held: a priori"].cost - runs["held: output error"].cost
+    ours = _ratio(dj, n)
+    rows.append(("|R|^(1/5) a priori, Y_p Y_r held 20% off", "1.123 (dJ +95)",
+                 f"{ours:.3f} (dJ {dj:+.0f})",
+                 "reproduced" if abs(ours - 1.123) < 0.05 else "not reproduced"))
+    return rows
+
+
+SCAN = {"the case": {}, "no yaw damper (K 0)": {"k_yaw": 0.0}, "K 2": {"k_yaw": 2.0},
+        "noise x3": {"noise_scale": 3.0}, "227 samples": {"nt": 227},
+        "rudder doublet 2 deg": {"rudder": 2.0}}
+
+
+def flip_scan(seeds=range(1, 21)):
+    """How often each of the four flips, over seeds, for set-ups around the
+    case's, with Y_p, Y_r held at the a priori values (the remedies' model)
+    and identified (the report's later runs); median Cramer-Rao sigmas."""
+    out = []
+    for label, kw in SCAN.items():
+        for y_free in (False, True):
+            count, sig, failed = dict.fromkeys(FOUR, 0), [], 0
+            for seed in seeds:
+                m = report_model(True) if y_free else model(list(ELEMENT))
+                try:
+                    res = mlid.fit(m, record(seed=seed, **kw))
+                except mlid.SingularInformationError:   # counted, not hidden
+                    failed += 1
+                    continue
+                est, s = dict(zip(res.names, res.estimate)), dict(zip(res.names, res.sigma))
+                for n in FOUR:
+                    count[n] += int(np.sign(est[n]) != np.sign(WT[n]))
+                sig.append([s[n] for n in FOUR])
+            out.append({"label": label, "y_free": y_free, "count": count, "n": len(seeds) - failed,
+                        "failed": failed,
+                        "sigma": np.median(sig, axis=0)})
+    return out
+
+
 def run(plots=None):
     data = record()
     results = fits(data)
@@ -129,9 +254,12 @@ def run(plots=None):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--plots", metavar="DIR")
+    p.add_argument("--scan", action="store_true", help="also the flip counts over 20 seeds")
     args = p.parse_args(argv)
     try:
         results, rows, table, pred = run(args.plots)
+        runs = report_runs(record())
+        scan = flip_scan() if args.scan else []
     except mlid.MlidError as exc:
         print(f"hl10: {exc}", file=sys.stderr)
         return 1
@@ -156,6 +284,16 @@ def main(argv=None):
           .split("\n")[0])
     print(" " + results["unconstrained"].identifiability()[1].strip())
     print(" " + results["unconstrained"].identifiability()[2].strip())
+    print("\n Table 5.3's runs on this record, from the a priori values: report | mlid | verdict")
+    for q, rep, ours, verdict in report_table(runs):
+        print(f"  {q:<46} | {rep:>16} | {ours:>16} | {verdict}")
+    if scan:
+        print("\n flips of the four over seeds 1-20 (Y_p, Y_r held / identified); median sigma")
+        for r in scan:
+            print(f"  {r['label']:<22} {'identified' if r['y_free'] else 'held':<11}"
+                  + "".join(f" {n} {r['count'][n]:2d}/{r['n']}" for n in FOUR)
+                  + "  sigma " + " ".join(f"{v:.4f}" for v in r["sigma"])
+                  + (f"  ({r['failed']} singular)" if r["failed"] else ""))
     return 0
 
 
