@@ -51,8 +51,10 @@ module mlid_api
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, &
                          transition_length, costate_input, input_information, mu_for_length, &
                          amplitude_limited_input
+  use mlid_design, only: design_state_penalty, input_response
   implicit none
   private
+  public :: mlid_design_mu_penalty, mlid_design_length_penalty, mlid_design_response
   public :: mlid_input_signal, mlid_default_options, mlid_model_sizes, &
             mlid_option_info, mlid_option_set, mlid_option_get, mlid_options_check, &
             mlid_stop_reason, mlid_fit_outcome, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
@@ -1322,6 +1324,77 @@ contains
     call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
     if (status == MLID_OK) call mu_for_length(d, td, mu1, mu2, mu, status, msg)
   end subroutine mlid_design_mu_for_length
+
+  !> mlid_design_mu with the state-limit penalty of report 7.6: the largest
+  !> eigenvalue mu of tr(WM) - int x' K x dt under unit energy, K = kx(nx,nx)
+  !> (symmetric, >= 0); u its input on 2 ncell cells (unit energy).
+  subroutine mlid_design_mu_penalty(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, kx, t, &
+                                    ncell, mu, u, status, msg)
+    integer(c_int), intent(in) :: nx, nu, ny, m, ncell
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), &
+                                  kx(nx, nx), t
+    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+    real(c_double), intent(out) :: mu, u(2*ncell*nu)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(design_t) :: d
+    mu = 0.0_wp
+    u = 0.0_wp
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
+    if (status == MLID_OK) call design_state_penalty(d, kx, status, msg)
+    if (status == MLID_OK) call operator_mu(d, t, ncell, mu, u, status, msg)
+    if (status /= MLID_OK .and. mu <= 0.0_wp .and. any(kx /= 0.0_wp) .and. &
+        index(msg, 'do not affect') > 0) then
+      msg = 'the state penalty outweighs the information of every input: lower its weight'
+    end if
+  end subroutine mlid_design_mu_penalty
+
+  !> mlid_design_length with the state-limit penalty kx(nx,nx) of report 7.6.
+  subroutine mlid_design_length_penalty(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, kx, &
+                                        mu, tmax, method, na, t, lam0, status, msg)
+    integer(c_int), intent(in) :: nx, nu, ny, m, method, na
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), &
+                                  kx(nx, nx), mu, tmax
+    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+    real(c_double), intent(out) :: t, lam0(na)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(design_t) :: d
+    t = 0.0_wp
+    lam0 = 0.0_wp
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
+    if (status == MLID_OK) call design_state_penalty(d, kx, status, msg)
+    if (status /= MLID_OK) return
+    if (na /= d%na) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0)') 'lam0 needs (m+1) nx = ', d%na
+    else if (method == 1) then
+      call riccati_length(d, mu, tmax, t, status, msg)
+    else if (method == 2) then
+      call transition_length(d, mu, tmax, t, lam0, status, msg)
+    else
+      status = MLID_ERR_INPUT
+      msg = 'method must be 1 (Riccati) or 2 (transition matrix)'
+    end if
+  end subroutine mlid_design_length_penalty
+
+  !> The states x(nx, 0:ncell ns) of x' = F x + G u, x(0) = 0, under the input
+  !> u held over ncell cells of [0, T], at ns substeps per cell.
+  subroutine mlid_design_response(nx, nu, f, g, t, ncell, ns, u, x, status, msg)
+    integer(c_int), intent(in) :: nx, nu, ncell, ns
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), t, u(ncell*nu)
+    real(c_double), intent(out) :: x(nx, ncell*ns + 1)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    x = 0.0_wp
+    if (.not. (all(ieee_is_finite(u)) .and. all(ieee_is_finite(f)) .and. &
+               all(ieee_is_finite(g)))) then
+      status = MLID_ERR_INPUT
+      msg = 'F, G and the input must be finite'
+      return
+    end if
+    call input_response(f, g, t, ncell, ns, u, x, status, msg)
+  end subroutine mlid_design_response
 
   !> The ties of the flat interface: the first ntie terms (no more than given).
   pure function ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset) result(tie)

@@ -29,7 +29,8 @@ module mlid_design
   implicit none
   private
   public :: design_t, design_create, operator_mu, riccati_length, transition_length, &
-            costate_input, input_information, mu_for_length, amplitude_limited_input
+            costate_input, input_information, mu_for_length, amplitude_limited_input, &
+            design_state_penalty, input_response
 
   type :: design_t
     integer :: nx = 0, nu = 0, ny = 0, m = 0, na = 0
@@ -191,24 +192,35 @@ contains
 
   !> One input cell of length h, exactly (Van Loan): x_A(k+1) = phi x_A(k)
   !> + gam c_k, and int over the cell of z' Qz z = z_k' qd z_k with
-  !> z = [x_A; c], Qz = [[Q_A, 0], [0, 0]].
+  !> z = [x_A; c], Qz = [[Q_A, 0], [0, 0]].  A stiff F_A (|F_A| h > 1, e.g.
+  !> the fast pole of a Kalman filter on a nearly noise-free output) would
+  !> put exp(|F_A| h) into the Van Loan blocks and lose every digit of qd:
+  !> the cell is then built from 2^k exact pieces by doubling.
   subroutine cell(d, h, phi, gam, qd, status)
     type(design_t), intent(in) :: d
     real(wp), intent(in) :: h
     real(wp), intent(out) :: phi(:, :), gam(:, :), qd(:, :)
     integer, intent(out) :: status
-    integer :: na, nz
-    real(wp), allocatable :: c(:, :), e(:, :)
+    integer :: na, nz, k, i, halvings
+    real(wp), allocatable :: c(:, :), e(:, :), z(:, :)
+    real(wp) :: hk
 
     na = d%na
     nz = na + d%nu
-    allocate (c(2*nz, 2*nz), e(2*nz, 2*nz))
+    halvings = 0
+    hk = h*maxval(sum(abs(d%fa), dim=1))
+    do while (hk > 1.0_wp .and. halvings < 60)
+      hk = 0.5_wp*hk
+      halvings = halvings + 1
+    end do
+    hk = h/2.0_wp**halvings
+    allocate (c(2*nz, 2*nz), e(2*nz, 2*nz), z(nz, nz))
     c = 0.0_wp
-    c(1:na, 1:na) = -transpose(d%fa)*h
-    c(na + 1:nz, 1:na) = -transpose(d%ga)*h
-    c(1:na, nz + 1:nz + na) = d%qa*h
-    c(nz + 1:nz + na, nz + 1:nz + na) = d%fa*h
-    c(nz + 1:nz + na, nz + na + 1:) = d%ga*h
+    c(1:na, 1:na) = -transpose(d%fa)*hk
+    c(na + 1:nz, 1:na) = -transpose(d%ga)*hk
+    c(1:na, nz + 1:nz + na) = d%qa*hk
+    c(nz + 1:nz + na, nz + 1:nz + na) = d%fa*hk
+    c(nz + 1:nz + na, nz + na + 1:) = d%ga*hk
     call expm(c, e, status)
     if (status /= 0) return
     ! e = [[., F12], [0, F22]], F22 = e^{A h}, int_0^h e^{A't} Qz e^{At} dt = F22' F12
@@ -216,6 +228,18 @@ contains
     gam = e(nz + 1:nz + na, nz + na + 1:)
     qd = matmul(transpose(e(nz + 1:, nz + 1:)), e(1:nz, nz + 1:))
     qd = 0.5_wp*(qd + transpose(qd))
+    do k = 1, halvings          ! two pieces: z after the first is Z z, Z = [[phi, gam], [0, I]]
+      z = 0.0_wp
+      z(1:na, 1:na) = phi
+      z(1:na, na + 1:) = gam
+      do i = na + 1, nz
+        z(i, i) = 1.0_wp
+      end do
+      qd = qd + matmul(transpose(z), matmul(qd, z))
+      qd = 0.5_wp*(qd + transpose(qd))
+      gam = matmul(phi, gam) + gam
+      phi = matmul(phi, phi)
+    end do
   end subroutine cell
 
   !> The weighted-trace operator on n cells of [0, T]: tr(WM) = c' q c for
@@ -695,37 +719,130 @@ contains
   end subroutine amplitude_limited_input
 
   !> mu_max for a given length T by the secant iteration of eq. 7.89 on the
-  !> Riccati critical length, from the two brackets mu1, mu2.
+  !> Riccati critical length, from the two brackets mu1, mu2: 1/mu linear in
+  !> T through two pairs.  Once a pair brackets td it is kept (Illinois: the
+  !> end that stays has its T error halved), since mu_max(T) can be nearly
+  !> flat over a stretch of T (where the leading eigenfunction changes) and
+  !> the plain secant then jumps across it without converging (measured on
+  !> the second-order example of §7.4.3 near T = 4 s).
   subroutine mu_for_length(d, td, mu1, mu2, mu, status, msg)
     type(design_t), intent(in) :: d
     real(wp), intent(in) :: td, mu1, mu2
     real(wp), intent(out) :: mu
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: a, b, ta, tb, c
+    real(wp) :: xa, xb, xc, fa, fb, fc, t
     integer :: it
 
-    a = mu1
-    b = mu2
-    call riccati_length(d, a, 10.0_wp*td, ta, status, msg)
+    mu = 0.0_wp
+    xa = 1.0_wp/mu1
+    xb = 1.0_wp/mu2
+    call riccati_length(d, mu1, 10.0_wp*td, t, status, msg)
     if (status /= MLID_OK) return
-    call riccati_length(d, b, 10.0_wp*td, tb, status, msg)
+    fa = t - td
+    call riccati_length(d, mu2, 10.0_wp*td, t, status, msg)
     if (status /= MLID_OK) return
-    do it = 1, 60
-      ! eq. 7.89: 1/mu linear in T through the two latest pairs
-      c = 1.0_wp/(1.0_wp/a + (td - ta)*(1.0_wp/b - 1.0_wp/a)/(tb - ta))
-      a = b
-      ta = tb
-      b = c
-      call riccati_length(d, b, 10.0_wp*td, tb, status, msg)
+    fb = t - td
+    do it = 1, 100
+      if (abs(fb) <= 1.0e-10_wp*td .or. fb == fa) exit
+      xc = xb - fb*(xb - xa)/(fb - fa)             ! eq. 7.89
+      if (.not. (xc > 0.0_wp .and. ieee_is_finite(xc))) exit
+      call riccati_length(d, 1.0_wp/xc, 10.0_wp*td, t, status, msg)
       if (status /= MLID_OK) return
-      if (abs(tb - td) <= 1.0e-10_wp*td) exit
+      fc = t - td
+      if (fa*fb < 0.0_wp .and. fc*fb > 0.0_wp) then
+        fa = 0.5_wp*fa                             ! bracket kept: Illinois
+      else
+        xa = xb
+        fa = fb
+      end if
+      xb = xc
+      fb = fc
+      if (abs(xb - xa) <= 1.0e-13_wp*xb) exit
     end do
-    mu = b
-    if (abs(tb - td) > 1.0e-6_wp*td) then
+    mu = 1.0_wp/xb
+    if (abs(fb) > 1.0e-6_wp*td) then
       status = MLID_ERR_NOCONV
       msg = 'mu for the given length: the secant iteration (eq. 7.89) did not converge'
+    else
+      status = MLID_OK
+      msg = ''
     end if
   end subroutine mu_for_length
+
+  !> The state-limit penalty of §7.6 added to the criterion:
+  !> tr(WM) - int x' K x dt, x the model's states under the input (the first
+  !> block of x_A) and K (nx x nx) symmetric and >= 0.  The criterion stays a
+  !> quadratic form in u, so every solver applies unchanged to the largest
+  !> eigenvalue of the penalised operator: Q_A loses K on its state block.
+  subroutine design_state_penalty(d, k, status, msg)
+    type(design_t), intent(inout) :: d
+    real(wp), intent(in) :: k(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: ev(d%nx), vec(d%nx, d%nx)
+    integer :: info
+
+    status = MLID_ERR_INPUT
+    if (size(k, 1) /= d%nx .or. size(k, 2) /= d%nx) then
+      write (msg, '(a,i0,a,i0)') 'the state penalty must be ', d%nx, ' x ', d%nx
+      return
+    end if
+    if (.not. all(ieee_is_finite(k))) then
+      msg = 'the state penalty must be finite'
+      return
+    end if
+    if (any(abs(k - transpose(k)) > 1.0e-12_wp*maxval(abs(k)))) then
+      msg = 'the state penalty must be symmetric'
+      return
+    end if
+    call sym_eig(k, ev, vec, info)
+    if (info /= 0 .or. ev(1) < -1.0e-12_wp*max(maxval(abs(ev)), tiny(1.0_wp))) then
+      msg = 'the state penalty must be positive semi-definite'
+      return
+    end if
+    d%qa(1:d%nx, 1:d%nx) = d%qa(1:d%nx, 1:d%nx) - k
+    status = MLID_OK
+    msg = ''
+  end subroutine design_state_penalty
+
+  !> The states x(nx, 0:n ns) of x' = F x + G u, x(0) = 0, under the input u
+  !> held over n cells of [0, T] (nu per cell), at ns substeps per cell,
+  !> exact (the matrix exponential of one substep).
+  subroutine input_response(f, g, t, n, ns, u, x, status, msg)
+    real(wp), intent(in) :: f(:, :), g(:, :), t, u(:)
+    integer, intent(in) :: n, ns
+    real(wp), intent(out) :: x(:, 0:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: c(size(f, 1) + size(g, 2), size(f, 1) + size(g, 2)), e(size(c, 1), size(c, 2))
+    integer :: nx, nu, k, j
+
+    nx = size(f, 1)
+    nu = size(g, 2)
+    x = 0.0_wp
+    status = MLID_ERR_INPUT
+    if (.not. (t > 0.0_wp .and. ieee_is_finite(t)) .or. n < 1 .or. ns < 1) then
+      msg = 'the response needs T > 0, at least one cell and one substep'
+      return
+    end if
+    c = 0.0_wp
+    c(1:nx, 1:nx) = f*(t/(n*ns))
+    c(1:nx, nx + 1:) = g*(t/(n*ns))
+    call expm(c, e, status)
+    if (status /= 0) then
+      status = MLID_ERR_INTERNAL
+      msg = 'matrix exponential failed'
+      return
+    end if
+    do k = 0, n - 1
+      do j = 1, ns
+        x(:, k*ns + j) = matmul(e(1:nx, 1:nx), x(:, k*ns + j - 1)) + &
+                         matmul(e(1:nx, nx + 1:), u(k*nu + 1:(k + 1)*nu))
+      end do
+    end do
+    status = MLID_OK
+    msg = ''
+  end subroutine input_response
 
 end module mlid_design

@@ -229,7 +229,9 @@ class InputDesign:
         method : {'operator', 'riccati'}
             'operator': eq. 7.39 on cells and 2*cells input cells,
             Richardson-extrapolated; 'riccati': the secant of eq. 7.89 on the
-            Riccati critical length, started from the operator's value.
+            Riccati critical length, started from the operator's value +-0.1%
+            (near mu's supremum over T, a wider bracket has no conjugate
+            point).
 
         Returns
         -------
@@ -255,7 +257,7 @@ class InputDesign:
         if method != "riccati":
             raise InputError(f"method must be 'operator' or 'riccati', got {method!r}")
         mu2, status, msg = _api.mlid_design_mu_for_length(w=self.weights, td=float(T),
-                                                          mu1=0.9 * mu, mu2=1.1 * mu,
+                                                          mu1=0.999 * mu, mu2=1.001 * mu,
                                                           **self._args())
         check_status(status, msg)
         return float(mu2)
@@ -472,3 +474,139 @@ class InputDesign:
             else:
                 a *= 0.5
         return best, ratios
+
+    # -- the state-limit penalty of §7.6 ----------------------------------
+    def _penalty(self, penalty):
+        nx = self.F.shape[0]
+        K = real_array("penalty", penalty)
+        K = np.diag(K) if K.ndim == 1 else K          # one weight per state
+        if K.shape != (nx, nx):
+            raise InputError(f"penalty: one weight per state ({nx}) or an {nx}x{nx} matrix, "
+                             f"got shape {K.shape}")
+        return np.asfortranarray(K)
+
+    def state_penalised(self, T, energy, penalty, cells=200):
+        """The input on [0, T] of the given energy that maximises
+        tr(W M) - int x' K x dt: the state-limit penalty of §7.6 (x the
+        model's states under the input from x(0) = 0).  The criterion is
+        still a quadratic form in u; mu is the largest eigenvalue of the
+        penalised operator, so mu * energy is the penalised criterion.
+
+        Parameters
+        ----------
+        T, energy, cells
+            As for ``optimal_input``.
+        penalty : array_like (nx,) or (nx, nx)
+            K: one weight per state (diagonal) or a symmetric matrix >= 0,
+            in units of the information per state unit squared per second.
+
+        Returns
+        -------
+        DesignedInput
+            Its ``mu`` the penalised eigenvalue, ``M`` the (unpenalised)
+            information, ``state_penalty`` K.
+
+        Raises
+        ------
+        InputError
+            As for ``optimal_input``; K not nx x nx, not symmetric, not >= 0;
+            a penalty that outweighs the information of every input.
+        """
+        self._check_t(T)
+        self._check_t(energy, "energy")
+        K = self._penalty(penalty)
+        mu, u, status, msg = _api.mlid_design_mu_penalty(w=self.weights, kx=K, t=float(T),
+                                                          ncell=self._cells(cells),
+                                                          **self._args())
+        check_status(status, msg)
+        u = u.reshape(-1, self.G.shape[1]) * np.sqrt(energy)
+        edges = np.linspace(0.0, T, len(u) + 1)
+        inp = DesignedInput(edges, u, self.information(T, u), mu=float(mu), energy=energy,
+                            weights=self.weights.copy())
+        inp.state_penalty = K
+        return inp
+
+    def penalised_length(self, mu, penalty, method="riccati", tmax=100.0):
+        """``critical_length`` of the criterion with the state penalty K
+        (``state_penalised``): the T whose largest penalised eigenvalue is mu.
+
+        Parameters
+        ----------
+        mu, method, tmax
+            As for ``critical_length``.
+        penalty : array_like (nx,) or (nx, nx)
+            As for ``state_penalised``.
+
+        Returns
+        -------
+        float or (float, ndarray)
+            As for ``critical_length``.
+
+        Raises
+        ------
+        InputError, NonConvergenceError
+            As for ``critical_length``; a bad penalty.
+        """
+        if not mu > 0:
+            raise InputError(f"mu must be > 0, got {mu}")
+        na = (len(self.unknowns) + 1) * self.F.shape[0]
+        T, lam0, status, msg = _api.mlid_design_length_penalty(
+            w=self.weights, kx=self._penalty(penalty), mu=float(mu), tmax=float(tmax),
+            method=self._solver(method), na=na, **self._args())
+        check_status(status, msg)
+        return (float(T), lam0) if method == "transition" else float(T)
+
+    def response(self, T, u, substeps=4):
+        """The model's states under an input held over equal cells of [0, T],
+        from x(0) = 0, exact at ``substeps`` points per cell.
+
+        Parameters
+        ----------
+        T : float
+            Length [s], > 0.
+        u : array_like (cells, nu)
+            The input on each cell (a vector for one input).
+        substeps : int
+            Samples per cell (even: ``state_integral`` uses Simpson's rule).
+
+        Returns
+        -------
+        t : ndarray (cells * substeps + 1,)
+        x : ndarray (cells * substeps + 1, nx)
+
+        Raises
+        ------
+        InputError
+            T not > 0, u not one row per cell, substeps not >= 1.
+        """
+        self._check_t(T)
+        u = real_array("u", u)
+        nu = self.G.shape[1]
+        u = u.reshape(-1, 1) if u.ndim == 1 and nu == 1 else u
+        if u.ndim != 2 or u.shape[1] != nu:
+            raise InputError(f"u has shape {u.shape}; expected (cells, {nu}), one row per cell")
+        ns = whole("substeps", substeps, 1, 1000)
+        x, status, msg = _api.mlid_design_response(f=self.F, g=self.G, t=float(T), ncell=len(u),
+                                                   ns=ns, u=u.ravel())
+        check_status(status, msg)
+        return np.linspace(0.0, T, len(u) * ns + 1), x.T
+
+    def state_integral(self, T, u):
+        """int_0^T x x' dt of the model's states under the input (Simpson's
+        rule on four exact samples per cell): the excursions the penalty of
+        ``state_penalised`` weighs, int x' K x dt = sum(K * state_integral).
+
+        Parameters
+        ----------
+        T, u
+            As for ``response``.
+
+        Returns
+        -------
+        ndarray (nx, nx)
+        """
+        t, x = self.response(T, u, substeps=4)
+        w = np.ones(len(t))
+        w[1:-1:2], w[2:-1:2] = 4.0, 2.0
+        w *= (t[1] - t[0]) / 3.0
+        return np.einsum("k,ki,kj->ij", w, x, x)
