@@ -120,8 +120,9 @@ contains
     p0 = size(pm%ip0) > 0 .or. any(theta(pm%l%op0 + 1:pm%l%nth) /= 0.0_wp)
     status = MLID_ERR_INPUT
     if (size(pm%ik) > 0 .and. .not. gain) then
-      msg = 'stab(i,j) is free only as the filter''s gain K, with method = ''filter_error'' '// &
-            'and filter_params = ''gain'' (report eqs 4.19-4.21)'
+      msg = 'stab, the gain of the stabilized output error, is a setting: free only as the '// &
+            'filter''s gain K, with method = ''filter_error'' and filter_params = ''gain'' '// &
+            '(report eqs 4.19-4.21)'
     else if (gain .and. size([pm%iq, pm%ir, pm%is]) > 0) then
       msg = 'with filter_params = ''gain'' the gain K (stab) and B replace q, r and s: '// &
             'leave those fixed'
