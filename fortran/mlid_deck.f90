@@ -20,7 +20,8 @@
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
 !>             t_start, pulse_width                                  (simulate)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
-!>             process_noise, noise_criterion, tol_cost, tol_step, tol_grad, rcond, prior, prior_weight,
+!>             process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond,
+!>             prior, prior_weight,
 !>             prior_decay, rank_min, rank_max, rank_rule, lower, upper (per free parameter, in the
 !>             order of free), corrected (kind flight_path: one record per data file)
 !> A problem in one case is kept in that case (status, msg) and the others
@@ -331,7 +332,7 @@ contains
     character(len=TIELEN) :: params(MAXFREE)
     character(len=TIELEN), allocatable :: xs(:)
     character(len=:), allocatable :: pre, post
-    real(wp) :: initial_states(MAXX*MAXSEG), delay(MAXY), udelay(MAXU), stab(MAXX*MAXY)
+    real(wp) :: initial_states(MAXX*MAXSEG), delay(MAXY), udelay(MAXU), stab(MAXX*MAXY), p0(MAXX)
     character(len=msg_len) :: iomsg
     integer, allocatable :: codes(:)
     real(wp), allocatable :: pstart(:)
@@ -340,7 +341,7 @@ contains
     namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, k, bx, x0, bias, q, r, s, free, names, &
       tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
       cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst, &
-      xdot, outputs, definitions, params, initial_states, delay, udelay, stab
+      xdot, outputs, definitions, params, initial_states, delay, udelay, stab, p0
 
     kind = 'linear'
     nx = 0
@@ -385,6 +386,7 @@ contains
     delay = UNSET
     udelay = UNSET
     stab = UNSET
+    p0 = UNSET
     rewind (rd%unit)
     read (rd%unit, nml=model, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'model', ios, iomsg, .true., c)
@@ -454,6 +456,7 @@ contains
     call put_matrix(c, lt, 'delay', delay, required=.false.)
     call put_matrix(c, lt, 'udelay', udelay, required=.false.)
     call put_matrix(c, lt, 'stab', stab, required=.false.)
+    call put_matrix(c, lt, 'p0', p0, required=.false.)
     if (c%status == MLID_OK) call set_free(c, lt, free, names, free_idx)
     if (c%status == MLID_OK) call set_ties(c, lt, tie)
     if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'input_hold', input_hold)
@@ -1061,7 +1064,8 @@ contains
     type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
     integer, intent(in) :: free_idx(:)
-    character(len=32) :: noise, method, startup, rank_rule, process_noise, noise_criterion
+    character(len=32) :: noise, method, startup, rank_rule, process_noise, noise_criterion, &
+                         filter_params
     integer :: max_iter, halvings, rank_min, rank_max, ios
     logical :: partials, steady_state
     real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay
@@ -1070,8 +1074,8 @@ contains
     character(len=msg_len) :: iomsg
     type(options_t) :: opt
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
-      process_noise, noise_criterion, tol_cost, tol_step, tol_grad, rcond, prior, prior_weight, &
-      prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected
+      process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond, prior, &
+      prior_weight, prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected
 
     call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
     max_iter = opt%max_iter
@@ -1091,6 +1095,7 @@ contains
     rank_rule = option_get(c%iopt, c%ropt, 'rank_rule')
     process_noise = option_get(c%iopt, c%ropt, 'process_noise')
     noise_criterion = option_get(c%iopt, c%ropt, 'noise_criterion')
+    filter_params = option_get(c%iopt, c%ropt, 'filter_params')
     prior = UNSET
     prior_weight = UNSET
     lower = UNSET
@@ -1120,6 +1125,7 @@ contains
     call set_option(c, 'group &estimate: ', 'noise', noise)
     call set_option(c, 'group &estimate: ', 'process_noise', process_noise)
     call set_option(c, 'group &estimate: ', 'noise_criterion', noise_criterion)
+    call set_option(c, 'group &estimate: ', 'filter_params', filter_params)
     if (c%status == MLID_OK) call put_extras(c, free_idx, prior, prior_weight, lower, upper)
   end subroutine read_estimate_group
 

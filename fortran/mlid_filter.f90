@@ -159,6 +159,8 @@ contains
   !> (theta's block stab, nx x ny), the stabilized output error of the
   !> textbook (its eq. 9.37): after the outputs of each sample, x <- x +
   !> K (z - yhat) and its sensitivities s <- s - K dy, before integrating on.
+  !> A free K (filter_params = 'gain', report eq. 4.19) adds dK (z - yhat)
+  !> to its own column.
   subroutine oe_segment(m, theta, pm, t, u, opt, iseg, j0, j1, yhat, status, msg, dy, xhist, z)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
@@ -180,7 +182,7 @@ contains
     msg = ''
     associate (l => pm%l)
       gain = reshape(theta(l%ostab + 1:l%ostab + m%nx*m%ny), [m%nx, m%ny])
-      stab = stabilized(theta, l)
+      stab = stabilized(theta, l) .or. size(pm%ik) > 0
       if (stab .and. .not. present(z)) then
         msg = 'the stabilized output error (stab) needs the measured outputs'
       else if (stab .and. output_delays(theta, pm)) then
@@ -262,7 +264,14 @@ contains
         end if
         if (.not. stab) cycle
         x = x + matmul(gain, z(:, j) - yhat(:, j))
-        if (present(dy)) s = s - matmul(gain, dy(:, :, j))
+        if (present(dy)) then
+          s = s - matmul(gain, dy(:, :, j))
+          do k = 1, size(pm%ik)            ! K(i, c): column-major in block stab
+            associate (ix => mod(pm%ik(k) - 1, m%nx) + 1, iy => (pm%ik(k) - 1)/m%nx + 1)
+              s(ix, pm%ck(k)) = s(ix, pm%ck(k)) + pm%wk(k)*(z(iy, j) - yhat(iy, j))
+            end associate
+          end do
+        end if
       end do
     end subroutine integrate
 
@@ -371,10 +380,7 @@ contains
         s = initial_sensitivity(pm, iseg)
         what = 0.0_wp
         dwhat = 0.0_wp
-        if (j > 1 .and. .not. opt%steady) then
-          cv%pm = 0.0_wp
-          cv%dpm = 0.0_wp
-        end if
+        if (.not. opt%steady) call initial_covariance(theta, pm, cv)
       else
         if (relin) then             ! linearise the interval about x(j-1|j-1), eq. 4.27
           call m%dfdw(t(j - 1), x, [u(:, j - 1), what], theta(1:l%np), sys%g)
@@ -997,6 +1003,25 @@ contains
     end if
     call cov_update(sys, cv, partials, status, msg)
   end subroutine steady_state
+
+  !> P(1|0) = diag(p0) at the start of a manoeuvre (the report's P(0|0)
+  !> carried to the first sample; zero: a known initial state), and its
+  !> partials: a unit entry for each free p0.
+  pure subroutine initial_covariance(theta, pm, cv)
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    type(cov_t), intent(inout) :: cv
+    integer :: i, k
+    cv%pm = 0.0_wp
+    cv%dpm = 0.0_wp
+    do i = 1, pm%l%nx
+      cv%pm(i, i) = theta(pm%l%op0 + i)
+    end do
+    do k = 1, size(pm%ip0)
+      i = pm%ip0(k)
+      cv%dpm(i, i, pm%cp0(k)) = cv%dpm(i, i, pm%cp0(k)) + pm%wp0(k)
+    end do
+  end subroutine initial_covariance
 
   subroutine cov_alloc(cv, nx, ny, nf)
     type(cov_t), intent(out) :: cv

@@ -1,5 +1,5 @@
 !> The layout of every model kind's parameter vector
-!>   theta = [p, x0, bias, q, r, s, delay, udelay, stab]
+!>   theta = [p, x0, bias, q, r, s, delay, udelay, stab, p0]
 !> as a table of blocks (key, rows, columns, offset), with the element name
 !> ('f(1,2)', 'x0(3)') and default label ('C_Lalpha', 'M_q.u') of every
 !> entry.  The deck reader and, through mlid_api, Python ask this module;
@@ -18,7 +18,7 @@ module mlid_layout
   public :: layout_table_t, layout_table, layout_of, element_index, element_name, &
             default_label, block_list, manoeuvre_map, NBLOCK
 
-  integer, parameter :: NBLOCK = 15   !< the linear model's blocks, the most any kind has
+  integer, parameter :: NBLOCK = 16   !< the linear model's blocks, the most any kind has
   !> Suffix of a longitudinal coefficient's default label, per regressor
   !> code (C_D0, C_DV, C_Lalpha, C_mq, ...).
   character(len=8), parameter :: SUFFIX(NREG) = &
@@ -48,17 +48,17 @@ contains
     select case (mkind)
     case (MODEL_LINEAR)
       call set_blocks(lt, [character(len=8) :: 'f', 'g', 'h', 'd', 'gamma', 'k', 'bx', 'x0', &
-                      'bias', 'q', 'r', 's', 'delay', 'udelay', 'stab'], [nx, nx, ny, ny, nx, nu, &
-                      nx, nx, ny, nw, ny, nw, ny, nu, nx], [nx, nu, nx, nu, nw, nx, -1, -1, -1, -1, &
-                      -1, ny, -1, -1, ny])
+                      'bias', 'q', 'r', 's', 'delay', 'udelay', 'stab', 'p0'], [nx, nx, ny, ny, nx, &
+                      nu, nx, nx, ny, nw, ny, nw, ny, nu, nx, nx], [nx, nu, nx, nu, nw, nx, -1, -1, &
+                      -1, -1, -1, ny, -1, -1, ny, -1])
     case (MODEL_AERO_LONG)
       call set_blocks(lt, [character(len=8) :: 'cd', 'cl', 'cm', 'x0', 'bias', 'q', 'r', 's', &
-                      'delay', 'udelay', 'stab'], [ncoef, nx, ny, nw, ny, nw, ny, nu, nx], &
-                      [-1, -1, -1, -1, -1, -1, -1, ny, -1, -1, ny])
+                      'delay', 'udelay', 'stab', 'p0'], [ncoef, nx, ny, nw, ny, nw, ny, nu, nx, nx], &
+                      [-1, -1, -1, -1, -1, -1, -1, ny, -1, -1, ny, -1])
     case default
       call set_blocks(lt, [character(len=8) :: 'p', 'x0', 'bias', 'q', 'r', 's', 'delay', &
-                      'udelay', 'stab'], [ncoef(1), nx, ny, nw, ny, nw, ny, nu, nx], &
-                      [-1, -1, -1, -1, -1, ny, -1, -1, ny])
+                      'udelay', 'stab', 'p0'], [ncoef(1), nx, ny, nw, ny, nw, ny, nu, nx, nx], &
+                      [-1, -1, -1, -1, -1, ny, -1, -1, ny, -1])
     end select
     lt%np = lt%off(findloc(lt%key, 'x0', 1))
   end function layout_table

@@ -12,6 +12,14 @@
 !>     J = 1/2 sum_j [ nu_j' B_j^-1 nu_j + ln|B_j| ]
 !>     M_kl = sum_j [ dnu_k' B^-1 dnu_l + 1/2 tr(B^-1 dB_k B^-1 dB_l) ]
 !>
+!>   The time-varying filter starts each manoeuvre from P(1|0) = diag(p0)
+!>   (zero by default: a known initial state).
+!> filter error with K and B as the parameters (opt%filter_params, report
+!>   eqs 4.19-4.21): the gain K (block stab) is a parameter like F and G, the
+!>   predictor is the stabilized output error's, and B is estimated from the
+!>   innovations as output error estimates R (eq. 4.20); the constraints that
+!>   tie K and B to some Q and R (eqs 4.9, 4.15-4.18) are not imposed, as the
+!>   report has it.
 !>   A nonlinear model's extended Kalman filter takes dnu and dB with the
 !>   gain partials (opt%partials) from forward differences of whole filter
 !>   runs: its gain depends on the parameters also through the
@@ -65,7 +73,13 @@ contains
     real(wp), intent(out), optional :: bmean(:, :)
 
     cost = huge(1.0_wp)
-    if (opt%method == 1 .and. (output_delays(theta, pm) .or. input_delays(theta, pm))) then
+    call filter_check(theta, pm, opt, status, msg)
+    if (status /= MLID_OK) return
+    if (opt%method == 1 .and. opt%filter_params == 1) then
+      ! K and B as the parameters: the predictor with the gain K, B = R-hat
+      call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                         sens, wsens, msens)
+    else if (opt%method == 1 .and. (output_delays(theta, pm) .or. input_delays(theta, pm))) then
       status = MLID_ERR_INPUT
       msg = 'time delays are for output error (method = ''output_error''), not the filter'
       return
@@ -91,6 +105,37 @@ contains
       msg = 'cost is not finite'
     end if
   end subroutine likelihood
+
+  !> What each estimator does not take: a free gain K (block stab) but with
+  !> filter_params = 'gain'; then no free noise statistics; an initial
+  !> covariance p0 but for the time-varying Kalman filter.
+  subroutine filter_check(theta, pm, opt, status, msg)
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    type(options_t), intent(in) :: opt
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    logical :: gain, p0
+    gain = opt%method == 1 .and. opt%filter_params == 1
+    p0 = size(pm%ip0) > 0 .or. any(theta(pm%l%op0 + 1:pm%l%nth) /= 0.0_wp)
+    status = MLID_ERR_INPUT
+    if (size(pm%ik) > 0 .and. .not. gain) then
+      msg = 'stab, the gain of the stabilized output error, is a setting: free only as the '// &
+            'filter''s gain K, with method = ''filter_error'' and filter_params = ''gain'' '// &
+            '(report eqs 4.19-4.21)'
+    else if (gain .and. size([pm%iq, pm%ir, pm%is]) > 0) then
+      msg = 'with filter_params = ''gain'' the gain K (stab) and B replace q, r and s: '// &
+            'leave those fixed'
+    else if (p0 .and. (opt%method /= 1 .or. gain .or. opt%steady)) then
+      msg = 'p0, the initial state covariance, is the time-varying Kalman filter''s '// &
+            '(method = ''filter_error'', steady_state = false, filter_params = ''noise'')'
+    else if (any(theta(pm%l%op0 + 1:pm%l%nth) < 0.0_wp)) then
+      msg = 'the initial state covariance p0 must be >= 0'
+    else
+      status = MLID_OK
+      msg = ''
+    end if
+  end subroutine filter_check
 
   subroutine oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
                            info, sens, wsens, msens)
@@ -360,13 +405,13 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: yh(:, :), nup(:, :), bi(:, :, :), ld(:), bp(:, :, :)
     real(wp) :: th(size(theta)), h
-    integer :: k, i, ny, nt, blk(10), kstat(pm%nf)
+    integer :: k, i, ny, nt, blk(11), kstat(pm%nf)
     character(len=len(msg)) :: kmsg(pm%nf)
 
     ny = m%ny
     nt = size(t)
     blk = [0, pm%l%ox0, pm%l%obias, pm%l%oq, pm%l%or, pm%l%os, pm%l%odelay, pm%l%oudelay, &
-           pm%l%ostab, pm%l%nth]
+           pm%l%ostab, pm%l%op0, pm%l%nth]
     kstat = MLID_OK
     ! one whole filter run per parameter, independent of the others
     !$omp parallel do schedule(dynamic) default(shared) private(k, i, h, th, yh, nup, bi, ld, bp)

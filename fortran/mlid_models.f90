@@ -6,12 +6,14 @@
 !> full parameter vector (offsets in layout_t)
 !>
 !>     theta = [ p(np), x0(nx), bias(ny), q(nw), r(ny), s(nw*ny), delay(ny), udelay(nu),
-!>               stab(nx*ny) ]
+!>               stab(nx*ny), p0(nx) ]
 !>
 !> with q and r the variances of process and measurement noise (diagonal Q
 !> and R), s their cross-covariance S (nw x ny, column-major) and delay each
 !> output's time delay (s, mlid_delay), udelay each input's, stab the fixed
-!> gain of the stabilized output error (mlid_filter).  Initial states, biases, noise
+!> gain of the stabilized output error (mlid_filter) or, with filter_params =
+!> 'gain', the filter's steady-state gain K (report eq. 4.19), and p0 the
+!> diagonal of the Kalman filter's initial covariance P(1|0) (mlid_filter).  Initial states, biases, noise
 !> statistics and delays are thus parameters of every model,
 !> free or fixed like any other; the model itself only sees p.
 !> A model whose outputs carry the process noise too (accelerometers, §5.1)
@@ -124,7 +126,8 @@ module mlid_models
   !> segment k.
   type :: layout_t
     integer :: np = 0, nx = 0, ny = 0, nw = 0, nseg = 1
-    integer :: ox0 = 0, obias = 0, oq = 0, or = 0, os = 0, odelay = 0, oudelay = 0, ostab = 0
+    integer :: ox0 = 0, obias = 0, oq = 0, or = 0, os = 0, odelay = 0, oudelay = 0, ostab = 0, &
+               op0 = 0
     integer :: nth = 0
     integer :: nu = 0
     integer, allocatable :: seg(:)
@@ -235,7 +238,8 @@ contains
     l%oudelay = l%odelay + m%ny
     l%nu = m%nu
     l%ostab = l%oudelay + m%nu
-    l%nth = l%ostab + m%nx*m%ny
+    l%op0 = l%ostab + m%nx*m%ny
+    l%nth = l%op0 + m%nx
   end function model_layout
 
   !> The inputs the aircraft sees: v = u + K x (the recorded u alone when K = 0).

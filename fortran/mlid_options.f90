@@ -20,15 +20,15 @@ module mlid_options
   !> The options by name, for Python and any other caller that should not
   !> know the flat layout: option k lives in iopt(k) for k <= NIOPT, else in
   !> ropt(k - NIOPT).  Choices are listed in the order of their codes 0, 1.
-  integer, parameter :: NOPTION = 19, NIOPT = 14
+  integer, parameter :: NOPTION = 20, NIOPT = 15
   character(len=16), parameter :: OPTION_NAMES(NOPTION) = [character(len=16) :: &
     'max_iter', 'halvings', 'noise', 'input_hold', 'substeps', 'method', 'partials', &
     'steady_state', 'startup', 'rank_min', 'rank_max', 'rank_rule', 'process_noise', &
-    'noise_criterion', 'tol_cost', 'tol_step', 'tol_grad', 'rcond', 'prior_decay']
+    'noise_criterion', 'filter_params', 'tol_cost', 'tol_step', 'tol_grad', 'rcond', 'prior_decay']
   character(len=32), parameter :: OPTION_CHOICES(NOPTION) = [character(len=32) :: &
     '', '', 'diagonal full', 'linear zoh', '', 'output_error filter_error', 'false true', &
     'false true', 'none equation_error', '', '', 'iteration staged', &
-    'held continuous continuous_sd', 'exact innovations', '', '', '', '', '']
+    'held continuous continuous_sd', 'exact innovations', 'noise gain', '', '', '', '', '']
 
   type :: options_t
     integer :: max_iter = 30      !< iopt(1): Newton iterations at most
@@ -54,6 +54,12 @@ module mlid_options
     !>   1 innovations: r from the innovations after each Newton step on the
     !>     others, R = mean squared innovations - C P C', at least a floor
     integer :: noise_criterion = 0
+    !> iopt(15): what filter error estimates besides the system parameters:
+    !>   0 noise: the noise statistics q, r, S (eq. 4.17 with eqs 4.8-4.18),
+    !>   1 gain: the steady-state gain K (block stab, nx x ny) and B (report
+    !>     eqs 4.19-4.21): the predictor x(j|j) = x(j|j-1) + K nu(j) with K
+    !>     a parameter, B = (1/N) sum nu nu' (eq. 4.20) as output error's R
+    integer :: filter_params = 0
     real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
     real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
     real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
@@ -84,6 +90,7 @@ contains
     iopt(12) = opt%rank_rule
     iopt(13) = opt%process_noise
     iopt(14) = opt%noise_criterion
+    iopt(15) = opt%filter_params
     ropt(1) = opt%tol_cost
     ropt(2) = opt%tol_step
     ropt(3) = opt%tol_grad
@@ -116,6 +123,7 @@ contains
     opt%rank_rule = iopt(12)
     opt%process_noise = iopt(13)
     opt%noise_criterion = iopt(14)
+    opt%filter_params = iopt(15)
     opt%tol_cost = ropt(1)
     opt%tol_step = ropt(2)
     opt%tol_grad = ropt(3)
@@ -153,6 +161,13 @@ contains
     else if (opt%noise_criterion == 1 .and. opt%method /= 1) then
       msg = 'noise_criterion = ''innovations'' is for filter error (method = ''filter_error''): '// &
             'output error estimates R from the residuals anyway'
+    else if (opt%filter_params < 0 .or. opt%filter_params > 1) then
+      write (msg, '(a,i0)') 'filter parameters code must be 0 (noise) or 1 (gain), got ', iopt(15)
+    else if (opt%filter_params == 1 .and. opt%method /= 1) then
+      msg = 'filter_params = ''gain'' is for filter error (method = ''filter_error'')'
+    else if (opt%filter_params == 1 .and. opt%noise_criterion == 1) then
+      msg = 'filter_params = ''gain'' estimates B from the innovations (eq. 4.20), not R: '// &
+            'leave noise_criterion = ''exact'''
     else if (opt%rank_max > 0 .and. opt%rank_max < opt%rank_min) then
       write (msg, '(a,i0,a,i0)') 'rank_max = ', opt%rank_max, ' is below rank_min = ', opt%rank_min
     else if (.not. (opt%prior_decay > 0.0_wp .and. opt%prior_decay <= 1.0_wp)) then

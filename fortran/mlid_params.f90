@@ -34,7 +34,9 @@ module mlid_params
     integer, allocatable :: is(:), cs(:)        !< cross-covariances
     integer, allocatable :: id(:), cd(:)        !< output delays
     integer, allocatable :: iu(:), cu(:)        !< input delays
-    real(wp), allocatable :: wm(:), wx0(:), wb(:), wq(:), wr(:), ws(:), wd(:), wu(:)
+    integer, allocatable :: ik(:), ck(:)        !< gain K (block stab, filter_params = 'gain')
+    integer, allocatable :: ip0(:), cp0(:)      !< the filter's initial covariance diagonal
+    real(wp), allocatable :: wm(:), wx0(:), wb(:), wq(:), wr(:), ws(:), wd(:), wu(:), wk(:), wp0(:)
   end type param_map_t
 
 contains
@@ -76,6 +78,8 @@ contains
     call block(l%os, l%nw*l%ny, pm%is, pm%cs, pm%ws)
     call block(l%odelay, l%ny, pm%id, pm%cd, pm%wd)
     call block(l%oudelay, l%nu, pm%iu, pm%cu, pm%wu)
+    call block(l%ostab, l%nx*l%ny, pm%ik, pm%ck, pm%wk)
+    call block(l%op0, l%nx, pm%ip0, pm%cp0, pm%wp0)
 
   contains
 
@@ -112,7 +116,7 @@ contains
     call mark(pm%cm, km)
     call mark(pm%cx0, kx0)
     call mark(pm%cb, kb)
-    call mark([pm%cq, pm%cr, pm%cs, pm%cd, pm%cu])
+    call mark([pm%cq, pm%cr, pm%cs, pm%cd, pm%cu, pm%ck, pm%cp0])
     cols = pack([(k, k=1, pm%nf)], keep)
     new = 0
     new(cols) = [(k, k=1, size(cols))]
@@ -127,6 +131,8 @@ contains
     pk%cs = new(pm%cs)
     pk%cd = new(pm%cd)
     pk%cu = new(pm%cu)
+    pk%ck = new(pm%ck)
+    pk%cp0 = new(pm%cp0)
 
   contains
 
@@ -175,11 +181,6 @@ contains
     end if
     if (any(isfree /= 0 .and. isfree /= 1)) then
       msg = 'free flags must be 0 or 1'
-      return
-    end if
-    if (any(isfree(l%ostab + 1:l%nth) == 1) .or. any(tie%to > l%ostab)) then
-      msg = 'stab, the gain of the stabilized output error, is a setting, not a parameter: '// &
-            'it may be neither free nor tied'
       return
     end if
     do i = 1, size(tie%to)
@@ -245,7 +246,7 @@ contains
   pure logical function stabilized(theta, l)
     real(wp), intent(in) :: theta(:)
     type(layout_t), intent(in) :: l
-    stabilized = any(theta(l%ostab + 1:l%nth) /= 0.0_wp)
+    stabilized = any(theta(l%ostab + 1:l%op0) /= 0.0_wp)
   end function stabilized
 
 end module mlid_params

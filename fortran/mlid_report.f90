@@ -75,6 +75,11 @@ contains
     write (buf, '(a,es17.10e2,a,es13.6e2)') ' cost J = ', s%cost, '   det '// &
       trim(merge('R', 'B', oe))//' = ', det_r(s%rhat)
     text = text//trim(buf)//NL
+    if (.not. oe) then
+      write (buf, '(a,es17.10e2,a)') ' cost J'' = ', cost_prime(s%rhat), &
+        '   (1/2N) sum nu''nu, unweighted (report 5.1.6)'
+      text = text//trim(buf)//NL
+    end if
     text = text//' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', oe))
     do k = 1, size(s%rhat, 1)
       write (buf, '(1x,es10.4e2)') s%rhat(k, k)
@@ -122,7 +127,11 @@ contains
     character(len=:), allocatable :: text
     real(wp) :: ropt(NOPT)
     ropt = 0.0_wp
-    if (option_get(iopt, ropt, 'method') == 'filter_error') then
+    if (option_get(iopt, ropt, 'method') == 'filter_error' .and. &
+        option_get(iopt, ropt, 'filter_params') == 'gain') then
+      text = 'filter-error ML, steady-state gain K and B as the parameters (eqs 4.19-4.21), B '// &
+             trim(option_get(iopt, ropt, 'noise'))
+    else if (option_get(iopt, ropt, 'method') == 'filter_error') then
       text = 'filter-error ML, '//trim(merge('steady-state gain', 'time-varying gain', &
              option_get(iopt, ropt, 'steady_state') == 'true'))//', '// &
              trim(merge('with gain partials   ', 'without gain partials', &
@@ -188,6 +197,15 @@ contains
     write (s, '(es10.3e2)') x
     s = adjustl(s)
   end function fmt_e
+
+  !> The report's J' (its §5.1.6): (1/2N) sum_j nu_j' nu_j, the unweighted
+  !> mean square of the one-step prediction errors, from their mean square
+  !> rhat = (1/N) sum nu nu' (the innovations' for filter error): half its trace.
+  pure real(wp) function cost_prime(rhat)
+    real(wp), intent(in) :: rhat(:, :)
+    integer :: i
+    cost_prime = 0.5_wp*sum([(rhat(i, i), i=1, size(rhat, 1))])
+  end function cost_prime
 
   !> det R of the (positive-definite) noise or innovation covariance, from
   !> the Cholesky log-determinant; 0 if it is not positive definite.
@@ -266,7 +284,8 @@ contains
     if (failed) then
       text = text//'"estimate": null, "last_values": '//numbers(s%est)//','//NL// &
              '"sigma": null, "sigma_corrected": null, "colored_lag": null, "correlation": null,'// &
-             NL//'"R": null, "det_R": null, "R_innovations": null, "cost": null, "cost_history": null,'// &
+             NL//'"R": null, "det_R": null, "R_innovations": null, "cost": null, "cost_prime": null, '// &
+             '"cost_history": null,'// &
              NL// &
              '"iterations": '//itoa(s%niter)//', "converged": false, "rank": null'
     else
@@ -276,7 +295,8 @@ contains
              '"correlation": '//matrix(correlation(s%cov))//','//NL// &
              '"R": '//matrix(s%rhat)//','//NL//'"det_R": '//number(det_r(s%rhat))// &
              ', "R_innovations": '//r_innovations()// &
-             ', "cost": '//number(s%cost)//','//NL//'"cost_history": '//numbers(s%hist)//','//NL// &
+             ', "cost": '//number(s%cost)//', "cost_prime": '//number(cost_prime(s%rhat))// &
+             ','//NL//'"cost_history": '//numbers(s%hist)//','//NL// &
              '"iterations": '//itoa(s%niter)//', "converged": '// &
              trim(merge('true ', 'false', s%converged))//', "rank": '//itoa(s%rank)
     end if

@@ -75,7 +75,8 @@ def _rk4(f, x, ua, ub, h):
 
 
 def numpy_filter(m, data, steady=False):
-    """The same filter written out directly: predict, update, cost."""
+    """The same filter written out directly: predict, update, cost; the
+    time-varying filter from P(1|0) = diag(m.p0)."""
     nu, nw = m.nu, m.nw
     Q, R, S = np.diag(m.q), np.diag(m.r), m.S
 
@@ -98,7 +99,7 @@ def numpy_filter(m, data, steady=False):
         A = phi @ K @ S.T @ W.T
         return phi @ Pp @ phi.T + W @ (Q - S @ Bi @ S.T) @ W.T - A - A.T
 
-    P = np.zeros((m.nx, m.nx))
+    P = np.diag(m.p0)
     if steady:
         for _ in range(5000):
             B, Bi, K, Pp = update(P)

@@ -242,6 +242,13 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
             Filter error: the steady-state gain (a nonlinear model's: that of
             the model linearised about x0 and the first input sample; its
             states still follow the nonlinear model).
+        filter_params : 'noise' or 'gain'
+            Filter error: what the filter's parameters are.  'noise': q, r
+            and S (eqs 4.8-4.18).  'gain': the steady-state gain K (the
+            model's block stab, its free entries 'stab(i,j)') and B
+            estimated from the innovations (eqs 4.19-4.21; ``noise`` makes
+            B diagonal or full); q, r and S are then not parameters.  The
+            time-varying filter starts from the model's p0 (P(1|0)).
         startup : 'none' or 'equation_error'
             Start from an equation-error least-squares pass (all states
             measured).

@@ -158,7 +158,7 @@ def _sd(grad, cov):
 def _parts(model, n=0, nw=0):
     """The LinearModel arguments of model with n more states and nw more
     process noises, all zero (their rows and columns of F, G, H, Gamma, K,
-    bx, x0, stab, q and S).  New ones come last, so every old element keeps
+    bx, x0, stab, p0, q and S).  New ones come last, so every old element keeps
     its name, and free, ties and labels carry over (as copies to edit)."""
     def grow(a, rows, cols):
         return np.pad(np.asarray(a, dtype=float), ((0, rows), (0, cols)))
@@ -167,7 +167,8 @@ def _parts(model, n=0, nw=0):
                  D=model.D.copy(), Gamma=grow(model.Gamma, n, nw), K=grow(model.K, 0, n),
                  bx=np.r_[model.bx, np.zeros(n)], x0=np.r_[model.x0, np.zeros(n)],
                  q=np.r_[model.q, np.zeros(nw)], S=grow(model.S, nw, 0),
-                 stab=grow(model.stab, n, 0), bias=model.bias.copy(), r=model.r.copy(),
+                 stab=grow(model.stab, n, 0), p0=np.r_[model.p0, np.zeros(n)],
+                 bias=model.bias.copy(), r=model.r.copy(),
                  free=list(model.free), names=dict(model.names), ties=dict(model.ties))
     return parts
 

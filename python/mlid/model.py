@@ -72,7 +72,13 @@ _COMMON_PARAMETERS = """x0 : array_like (nx,), optional
         The gain K of the stabilized output error (textbook eq. 9.37; default
         zero: plain output error): after each sample's outputs the state
         moves by K (z - yhat) toward the measurements, which keeps an
-        unstable model's integration from diverging.  A setting, never free."""
+        unstable model's integration from diverging.  Free ('stab(i,j)') only
+        as the Kalman filter's steady-state gain of filter error with
+        ``filter_params='gain'`` (report eqs 4.19-4.21).
+    p0 : array_like (nx,), optional
+        The diagonal of the Kalman filter's initial state covariance P(1|0)
+        (default zero: the initial state x0 known); the time-varying filter
+        of filter error starts each manoeuvre from it.  A parameter 'p0(i)'."""
 #: What every model constructor raises.
 _COMMON_RAISES = """InputError
         Wrong sizes or shapes, an element that does not exist, a parameter
@@ -162,6 +168,7 @@ class Model:
     delay = _Block("delay")
     udelay = _Block("udelay")
     stab = _Block("stab")
+    p0 = _Block("p0")
 
     def _init_layout(self, nx, nu, ny, nw):
         self.nx, self.nu, self.ny, self.nw = nx, nu, ny, nw
@@ -181,9 +188,9 @@ class Model:
         self._theta[self._layout.slice(key)] = a.reshape(shape).ravel(order="F")
 
     def _init_common(self, x0, bias, q, r, S, free, names, ties, input_hold, substeps,
-                     delay=None, udelay=None, stab=None):
+                     delay=None, udelay=None, stab=None, p0=None):
         for key, value in (("x0", x0), ("bias", bias), ("q", q), ("r", r), ("S", S),
-                           ("delay", delay), ("udelay", udelay), ("stab", stab)):
+                           ("delay", delay), ("udelay", udelay), ("stab", stab), ("p0", p0)):
             if value is not None:
                 setattr(self, key, value)
         if input_hold not in INPUT_HOLDS:
@@ -220,7 +227,7 @@ class Model:
         return dict(x0=self.x0, bias=self.bias, q=self.q, r=self.r, S=self.S, free=self.free,
                     names=self.names, ties=self.ties, input_hold=self.input_hold,
                     substeps=self.substeps, delay=self.delay,
-                    udelay=self.udelay, stab=self.stab)
+                    udelay=self.udelay, stab=self.stab, p0=self.p0)
 
     # -- parameter vector ------------------------------------------------
     @property
@@ -543,7 +550,7 @@ class LinearModel(Model):
 
     def __init__(self, F, G, H, D=None, x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, Gamma=None, q=None, r=None, S=None,
-                 ties=None, K=None, bx=None, delay=None, udelay=None, stab=None):
+                 ties=None, K=None, bx=None, delay=None, udelay=None, stab=None, p0=None):
         F, G, H = np.atleast_2d(real_array("F", F)), real_array("G", G), np.atleast_2d(real_array("H", H))
         nx = F.shape[0]
         if F.shape != (nx, nx):
@@ -568,7 +575,7 @@ class LinearModel(Model):
         if bx is not None:
             self.bx = bx
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                          udelay, stab)
+                          udelay, stab, p0)
 
 
 #: Regressors of the longitudinal model (fortran/mlid_aero_long.f90), in
@@ -614,7 +621,7 @@ class LongitudinalModel(Model):
 
     def __init__(self, regressors, coefficients, constants, x0=None, bias=None, free=(),
                  names=None, input_hold="linear", substeps=1, r=None, ties=None, q=None, S=None,
-                 delay=None, udelay=None, stab=None):
+                 delay=None, udelay=None, stab=None, p0=None):
         self.regressors = {k: list(regressors.get(k, [])) for k in self._COEFFICIENTS}
         unknown = set(regressors) - set(self.regressors)
         if unknown:
@@ -642,7 +649,7 @@ class LongitudinalModel(Model):
             self._put(block, vals, key)
         # process noise (q, 4 variances) adds to each state equation: turbulence
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                          udelay, stab)
+                          udelay, stab, p0)
 
     @property
     def coefficients(self):
@@ -678,7 +685,7 @@ class UserModel(Model):
 
     def __init__(self, p, iconst=(), rconst=(), x0=None, bias=None, free=(), names=None,
                  input_hold="linear", substeps=1, q=None, r=None, S=None, ties=None, delay=None,
-                 udelay=None, stab=None):
+                 udelay=None, stab=None, p0=None):
         self.iconst = np.asarray(iconst, dtype=np.int32).ravel()
         self.rconst = np.asarray(rconst, dtype=float).ravel()
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
@@ -687,7 +694,7 @@ class UserModel(Model):
             raise InputError(f"the user model has {self.np} parameters p, got {p.size} values")
         self.p = p
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                          udelay, stab)
+                          udelay, stab, p0)
 
 
 @_documented
@@ -716,14 +723,14 @@ class X22Model(Model):
     p = _Block("p")
 
     def __init__(self, p, x0=None, bias=None, free=(), names=None, input_hold="linear",
-                 substeps=1, q=None, r=None, S=None, ties=None, delay=None, udelay=None, stab=None):
+                 substeps=1, q=None, r=None, S=None, ties=None, delay=None, udelay=None, stab=None, p0=None):
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
         p = np.asarray(p, dtype=float).ravel()
         if p.size != self.np:
             raise InputError(f"the X-22 model has {self.np} coefficients, got {p.size}")
         self.p = p
         self._init_common(x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                          udelay, stab)
+                          udelay, stab, p0)
 
 
 #: The X-22's 23 coefficients (report Appendix A), from the core: each
@@ -773,10 +780,10 @@ class EquationModel(Model):
 
     def __init__(self, outputs, states=None, inputs=(), params=None, definitions=None, x0=None,
                  bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
-                 S=None, ties=None, delay=None, udelay=None, stab=None):
+                 S=None, ties=None, delay=None, udelay=None, stab=None, p0=None):
         self._build(outputs, states or {}, inputs, params, definitions, "", "",
                     (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                     udelay, stab))
+                     udelay, stab, p0))
 
     def _build(self, outputs, states, inputs, params, definitions, pre, post, common):
         """The model's text from its parts (pre and post: lines a generator
@@ -880,7 +887,7 @@ class SixDofModel(EquationModel):
 
     def __init__(self, constants, states, outputs, inputs=(), params=None, definitions=None,
                  x0=None, bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None,
-                 r=None, S=None, ties=None, delay=None, udelay=None, stab=None):
+                 r=None, S=None, ties=None, delay=None, udelay=None, stab=None, p0=None):
         _check_constants(constants, SIXDOF_CONSTANTS)
         definitions = dict(definitions or {})
         pre, post, xs, status, msg = _api.mlid_sixdof_text(
@@ -891,7 +898,7 @@ class SixDofModel(EquationModel):
                          if line.strip())
         self._build(outputs, equations, inputs, params, definitions, pre.decode().strip(),
                     post.decode().strip(), (x0, bias, q, r, S, free, names, ties, input_hold,
-                                            substeps, delay, udelay, stab))
+                                            substeps, delay, udelay, stab, p0))
 
 
 #: The flight-path model's constants, corrections, outputs and inputs, in
@@ -938,7 +945,7 @@ class FlightPathModel(EquationModel):
 
     def __init__(self, constants, corrections=None, outputs=FLIGHTPATH_OUTPUTS, x0=None,
                  bias=None, free=(), names=None, input_hold="linear", substeps=1, q=None, r=None,
-                 S=None, ties=None, delay=None, udelay=None, stab=None):
+                 S=None, ties=None, delay=None, udelay=None, stab=None, p0=None):
         _check_constants(constants, FLIGHTPATH_CONSTANTS)
         if isinstance(outputs, (str, bytes)):
             raise InputError(f"outputs must be a list of names, got the string {outputs!r}")
@@ -949,7 +956,7 @@ class FlightPathModel(EquationModel):
         check_status(status, msg)
         self._from_text(text.decode().rstrip(), list(corrections.values()),
                         (x0, bias, q, r, S, free, names, ties, input_hold, substeps, delay,
-                         udelay, stab))
+                         udelay, stab, p0))
 
 
 def _check_constants(constants, names):

@@ -103,7 +103,8 @@ def reduce_measured_state(model, state, output):
     return LinearModel(F, G, H, D, model.x0[keep], model.bias[outs], free=free, names=names,
                        r=model.r[outs], input_hold=model.input_hold, substeps=model.substeps,
                        bx=model.bx[keep], delay=model.delay[outs],
-                       udelay=np.r_[model.udelay, 0.0], stab=model.stab[np.ix_(keep, outs)])
+                       udelay=np.r_[model.udelay, 0.0], stab=model.stab[np.ix_(keep, outs)],
+                       p0=model.p0[keep])
 
 
 @guarded

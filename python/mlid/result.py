@@ -190,6 +190,13 @@ class FitResult:
         return whiteness(self.residuals, lags)
 
     @property
+    def cost_prime(self):
+        """The report's J' (§5.1.6): (1/2N) sum nu'nu, the unweighted mean
+        square of the one-step prediction errors (half the trace of R-hat,
+        their mean square; the core's report prints it for filter error)."""
+        return float(0.5 * np.trace(self.rhat))
+
+    @property
     def det_r(self):
         """The determinant of R-hat (the report's det R, or det B)."""
         return float(np.linalg.det(self.rhat))
@@ -214,14 +221,14 @@ class FitResult:
             return {**common, "last_values": self.estimate.tolist(),
                     **dict.fromkeys(("estimate", "sigma", "sigma_corrected", "colored_lag",
                                      "correlation", "R", "det_R", "R_innovations", "cost",
-                                     "cost_history",
+                                     "cost_prime", "cost_history",
                                      "rank")), **end}
         return {**common, "estimate": self.estimate.tolist(), "sigma": self.sigma.tolist(),
                 "sigma_corrected": self.sigma_corrected.tolist(),
                 "colored_lag": self.colored_lag, "correlation": self.correlation.tolist(),
                 "R": self.rhat.tolist(), "det_R": self.det_r,
                 "R_innovations": None if self.r_innovations is None
-                else self.r_innovations.tolist(), "cost": self.cost,
+                else self.r_innovations.tolist(), "cost": self.cost, "cost_prime": self.cost_prime,
                 "cost_history": self.cost_history.tolist(), "rank": self.rank, **end}
 
     def _texts(self, title="", job="estimate"):

@@ -31,18 +31,19 @@ contains
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
-    real(wp) :: theta(12), e(2), a, b, tt, exact
+    real(wp) :: theta(13), e(2), a, b, tt, exact
     real(wp), allocatable :: t(:), u(:, :), y(:, :)
     integer :: status, k, n, j
     character(len=256) :: msg
 
     call model_create(MODEL_LINEAR, 1, 1, 1, 0, [integer ::], [real(wp) ::], m, status, msg)
-    call param_map_create(model_layout(m), [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0], no_ties(12), &
+    call param_map_create(model_layout(m), [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0], no_ties(13), &
                           pm, status, msg)
     a = -2.0_wp
     b = 3.0_wp
-    ! F G H D K bx x0 bias r delay udelay stab
-    theta = [a, b, 1.0_wp, 0.0_wp, 0.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 0.0_wp, 0.0_wp]
+    ! F G H D K bx x0 bias r delay udelay stab p0
+    theta = [a, b, 1.0_wp, 0.0_wp, 0.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, 0.0_wp, 0.0_wp, &
+             0.0_wp]
     do k = 1, 2
       n = 10*2**k
       allocate (t(n + 1), u(1, n + 1), y(1, n + 1))
@@ -67,7 +68,7 @@ contains
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
-    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2 + 2 + 2 + 2 + 2 + 1 + 4)
+    real(wp) :: theta(2*2 + 2 + 2*2 + 2 + 2 + 2 + 2 + 2 + 2 + 2 + 1 + 4 + 2)
     integer :: isfree(size(theta))
     real(wp), allocatable :: t(:), u(:, :), y(:, :), dy(:, :, :)
     integer, allocatable :: ifree(:)
@@ -80,7 +81,7 @@ contains
     theta = [-1.2_wp, -0.5_wp, 0.8_wp, -0.3_wp, 0.4_wp, -1.1_wp, 1.0_wp, 0.0_wp, 0.2_wp, 1.0_wp, &
              0.05_wp, -0.02_wp, 0.3_wp, -0.2_wp, 0.05_wp, -0.1_wp, 0.3_wp, -0.1_wp, 0.01_wp, &
              0.02_wp, 1.0_wp, 1.0_wp, 0.013_wp, -0.02_wp, 0.031_wp, 0.0_wp, 0.0_wp, 0.0_wp, &
-             0.0_wp]
+             0.0_wp, 0.0_wp, 0.0_wp]
     ifree = [1, 3, 4, 6, 9, 12, 13, 14, 15, 16, 17, 18, 20, 23, 24, 25]   ! ... delay udelay
     isfree = 0
     isfree(ifree) = 1
@@ -186,7 +187,7 @@ contains
     type(options_t) :: opt
     type(param_map_t) :: pm
     ! p(4), x0(2 x 2), bias(2 x 2), r(2), delay(2), udelay(3), stab(2 x 2)
-    real(wp) :: theta(4 + 4 + 4 + 2 + 2 + 3 + 4)
+    real(wp) :: theta(4 + 4 + 4 + 2 + 2 + 3 + 4 + 2)
     real(wp) :: xd(2), xdf(2), a(2, 2), af(2, 2), b(2, 4), bf(2, 4), c(2, 2), cf(2, 2), d(2, 4), &
                 df(2, 4), err
     integer :: isfree(size(theta)), status, j
