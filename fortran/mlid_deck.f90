@@ -1,7 +1,8 @@
 !> Batch decks: Fortran namelist groups, several cases stacked in one file.
 !>
 !> A case starts at each line whose first word is &case and holds the groups
-!>   &case     title, job ('estimate', 'validate' or 'simulate')
+!>   &case     title, job ('estimate', 'validate', 'simulate', 'design' or
+!>             'monte_carlo')
 !>   &model    kind ('linear', 'longitudinal', 'x22', 'user' or 'equations'), nx, nu,
 !>             ny, nw, f, g, h, d, gamma (row by row), cd_regressors, cl_regressors,
 !>             cm_regressors, cd, cl, cm, constants (longitudinal), p,
@@ -17,7 +18,15 @@
 !>             time step replacing the record's time), join, join_columns (files
 !>             whose columns extend the records' rows)              (estimate, validate)
 !>   &simulate out, t_end, dt, seed, noise_std, input_shape, amplitude,
-!>             t_start, pulse_width                                  (simulate)
+!>             t_start, pulse_width, input_file (a record's time and inputs
+!>             instead of t_end, dt and a shape)                     (simulate)
+!>   &design   unknowns (elements of F, G, H; default the free ones), t_end,
+!>             dt, energy (operator, riccati, equalised) or peak and
+!>             min_width (amplitude), weights, servo (time constant per
+!>             input), process_noise (Gamma Q Gamma'), method, iterations,
+!>             out (the record of t and the inputs)                  (design)
+!>   &monte_carlo runs, seed, truth (per free parameter), input_file;
+!>             &estimate's options for the fits                 (monte_carlo)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
 !>             process_noise, noise_criterion, tol_cost, tol_step, tol_grad, rcond, prior, prior_weight,
 !>             prior_decay, rank_min, rank_max, rank_rule, lower, upper (per free parameter, in the
