@@ -161,7 +161,9 @@ def read_deck(path):
 
 @guarded
 def run_case(case):
-    """Run one case; returns a dict (JSON-ready) and, for fits, the FitResult."""
+    """Run one case; returns a dict (JSON-ready) and, for fits, the FitResult.
+    Simulate, design and monte_carlo cases run whole in the core: their dict
+    is a JobOutput (with the report and JSON the core wrote) and no FitResult."""
     case.warnings = []
     if case.error:
         raise InputError(case.error)
