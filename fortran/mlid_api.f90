@@ -17,7 +17,7 @@ module mlid_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, stop_reason_text, fit_outcome
-  use mlid_models, only: model_t, model_layout, layout_t
+  use mlid_models, only: model_t
   use mlid_model_factory, only: model_create
   use mlid_options, only: options_t, options_from_flat, options_to_flat, NOPTION, OPTION_NAMES, &
                           option_kind, option_set, option_get
@@ -29,6 +29,7 @@ module mlid_api
   use mlid_linalg, only: sym_eig
   use mlid_simulate, only: simulate_outputs
   use mlid_monte_carlo, only: monte_carlo
+  use mlid_setup, only: setup
   use mlid_inputs, only: input_signal
   use mlid_deck, only: opened, deck_open, case_time_input, corrected_writable
   use mlid_case, only: case_t, NAMELEN, NCONDITION, CONDITION_NAMES
@@ -44,14 +45,15 @@ module mlid_api
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
                          validation_json
   use mlid_validate, only: prediction_stats
-  use mlid_aero_long, only: aero_long_t, check_longitudinal_record, REGRESSOR_NAMES, CONSTANT_NAMES
+  use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
   use mlid_param_units, only: param_units
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
   use mlid_jacobian_check, only: check_jacobians
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, &
                          transition_length, costate_input, input_information, mu_for_length, &
-                         amplitude_limited_input
+                         amplitude_limited_input, equalised_input
   use mlid_design, only: design_state_penalty, input_response
+  use mlid_jobs, only: job_run, JOB_RUNS
   implicit none
   private
   public :: mlid_design_mu_penalty, mlid_design_length_penalty, mlid_design_response
@@ -70,7 +72,8 @@ module mlid_api
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
-            mlid_design_mu_for_length, mlid_design_amplitude
+            mlid_design_mu_for_length, mlid_design_amplitude, mlid_design_equalised, &
+            mlid_deck_case_run
 
 contains
 
@@ -206,7 +209,7 @@ contains
     nic = size(c%iconst)
     nrc = size(c%rconst)
     if (allocated(c%data_files)) nfile = size(c%data_files)
-    if (c%job == 'simulate') nt = nint(c%t_end/c%dt) + 1
+    if (c%job == 'simulate' .and. len_trim(c%input_file) == 0) nt = nint(c%t_end/c%dt) + 1
   end subroutine mlid_deck_case
 
   !> The numeric flight-condition items of &case (mlid_case), comma-separated.
@@ -810,6 +813,8 @@ contains
       end do
     case ('constants')
       text = CONSTANT_NAMES
+    case ('core_jobs')            ! the deck jobs mlid_jobs runs whole (mlid_deck_case_run)
+      text = JOB_RUNS
     end select
   end subroutine mlid_name_list
 
@@ -1190,9 +1195,6 @@ contains
     msg = ''
   end subroutine extras
 
-  !> Build the model, options and parameter map and check everything the
-  !> estimators assume of their arguments, with a message that names the
-  !> offending item.
   !> Input design (mlid_design).  Common arguments: the linear model F(nx,nx),
   !> G(nx,nu), H(ny,nx), the noise spectral density R(ny,ny), the process
   !> noise Gamma Q Gamma' gq(nx,nx) (zero: none), the m unknowns
@@ -1396,6 +1398,50 @@ contains
     call input_response(f, g, t, ncell, ns, u, x, status, msg)
   end subroutine mlid_design_response
 
+  !> The weighted-trace design of report 7.8 (mlid_design equalised_input): from
+  !> weights w0, at most iterations updates of eq. 7.88 from step alpha; w
+  !> the weights kept, u the input on 2 ncell cells (energy e, nu per
+  !> cell), mu, mm its unweighted information, ratios(1:nratio) the
+  !> diag(WM) max/min of each design kept.
+  subroutine mlid_design_equalised(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w0, t, &
+                                   ncell, e, iterations, alpha, w, u, mu, mm, ratios, nratio, &
+                                   status, msg)
+    integer(c_int), intent(in) :: nx, nu, ny, m, ncell, iterations
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), &
+                                  w0(m), t, e, alpha
+    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+    real(c_double), intent(out) :: w(m), u(2*ncell*nu), mu, mm(m, m), ratios(iterations + 1)
+    integer(c_int), intent(out) :: nratio, status
+    character(len=256), intent(out) :: msg
+    call equalised_input(f, g, h, r, gq, ukind, urow, ucol, w0, t, ncell, e, iterations, alpha, &
+                         w, u, mu, mm, ratios, nratio, status, msg)
+  end subroutine mlid_design_equalised
+
+  !> Run job k of the opened deck when it runs whole in the core
+  !> (simulate, design, monte_carlo: mlid_jobs), as mlid-batch runs it:
+  !> its files written, its report and JSON object returned (empty when it
+  !> failed: status, msg).
+  subroutine mlid_deck_case_run(k, report, nreport, json, njson, status, msg)
+    integer(c_int), intent(in) :: k
+    character(len=262144), intent(out) :: report, json
+    integer(c_int), intent(out) :: nreport, njson, status
+    character(len=256), intent(out) :: msg
+    character(len=:), allocatable :: rtext, jtext
+    report = ''
+    json = ''
+    nreport = 0
+    njson = 0
+    status = MLID_ERR_INPUT
+    msg = 'no such case'
+    if (.not. allocated(opened)) return
+    if (k < 1 .or. k > size(opened)) return
+    call job_run(opened(k), rtext, jtext, status, msg)
+    nreport = min(len(rtext), len(report))
+    report = rtext
+    njson = min(len(jtext), len(json))
+    json = jtext
+  end subroutine mlid_deck_case_run
+
   !> The ties of the flat interface: the first ntie terms (no more than given).
   pure function ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset) result(tie)
     integer(c_int), intent(in) :: ntie, tie_to(:), tie_from(:)
@@ -1406,116 +1452,5 @@ contains
     tie = tie_t(tie_to(1:n), tie_from(1:n), tie_scale(1:n), tie_offset)
   end function ties_of
 
-  subroutine setup(mkind, nx, nu, ny, nw, theta, isfree, tie, iconst, rconst, t, u, y, iopt, &
-                   ropt, nf, m, opt, pm, status, msg, segstart)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nf
-    real(c_double), intent(in) :: theta(:)
-    integer(c_int), intent(in) :: isfree(:), iconst(:)
-    type(tie_t), intent(in) :: tie
-    real(c_double), intent(in) :: rconst(:), t(:), u(:, :), y(:, :)
-    integer(c_int), intent(in) :: iopt(16)
-    real(c_double), intent(in) :: ropt(16)
-    class(model_t), allocatable, intent(out) :: m
-    type(options_t), intent(out) :: opt
-    type(param_map_t), intent(out) :: pm
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer(c_int), intent(in), optional :: segstart(:)   !< first sample of each manoeuvre
-    integer :: k, j, nt
-    type(layout_t) :: l
-
-    call model_create(mkind, nx, nu, ny, nw, iconst, rconst, m, status, msg)
-    if (status /= MLID_OK) return
-    call options_from_flat(iopt, ropt, opt, status, msg)
-    if (status /= MLID_OK) return
-    status = MLID_ERR_INPUT
-    nt = size(t)
-    if (present(segstart)) then
-      if (size(segstart) < 1) then
-        msg = 'at least one manoeuvre (segment) is needed'
-        return
-      end if
-      if (segstart(1) /= 1) then
-        msg = 'the first manoeuvre must start at sample 1'
-        return
-      end if
-      do k = 2, size(segstart)
-        if (segstart(k) < segstart(k - 1) + 2 .or. segstart(k) > nt - 1) then
-          write (msg, '(a,i0,a)') 'manoeuvre ', k - 1, ' has fewer than 2 samples, or '// &
-            'the manoeuvre starts are not increasing within the record'
-          return
-        end if
-      end do
-      l = model_layout(m, segstart)
-    else
-      l = model_layout(m)
-    end if
-    if (size(theta) /= l%nth) then
-      write (msg, '(a,i0,a,i0)') 'parameter vector has ', size(theta), &
-        ' entries, the model needs ', l%nth
-      return
-    end if
-    call param_map_create(l, isfree, tie, pm, status, msg)
-    if (status /= MLID_OK) return
-    status = MLID_ERR_INPUT
-    if (pm%nf /= nf) then
-      write (msg, '(a,i0,a,i0,a)') 'nf = ', nf, ' but ', pm%nf, ' parameters are free'
-      return
-    end if
-    do k = 1, size(theta)
-      if (.not. ieee_is_finite(theta(k))) then
-        write (msg, '(a,i0,a)') 'parameter ', k, ' is not finite'
-        return
-      end if
-    end do
-    if (nt < 2) then
-      write (msg, '(a,i0,a)') 'record has ', nt, ' samples, at least 2 are needed'
-      return
-    end if
-    if (nf > 0 .and. (nt < nf .or. nt*ny <= nf)) then
-      write (msg, '(a,i0,a,i0,a)') 'record has ', nt, ' samples for ', nf, &
-        ' free parameters: too few to estimate them'
-      return
-    end if
-    do j = 1, nt
-      if (.not. ieee_is_finite(t(j))) then
-        write (msg, '(a,i0)') 'data: time is not finite at sample ', j
-        return
-      end if
-      if (j > 1) then
-        if (.not. t(j) > t(j - 1)) then
-          write (msg, '(a,i0,a,g0.6)') 'data: time does not increase at sample ', j, &
-            ', t = ', t(j)
-          return
-        end if
-      end if
-      do k = 1, nu
-        if (.not. ieee_is_finite(u(k, j))) then
-          write (msg, '(a,i0,a,i0,a,g0.6,a)') 'data: input ', k, ' is NaN or infinite at sample ', &
-            j, ' (t = ', t(j), ')'
-          return
-        end if
-      end do
-      do k = 1, ny
-        if (.not. ieee_is_finite(y(k, j))) then
-          write (msg, '(a,i0,a,i0,a,g0.6,a)') 'data: output ', k, &
-            ' is NaN or infinite at sample ', j, ' (t = ', t(j), ')'
-          return
-        end if
-      end do
-    end do
-    ! a jump in time is two manoeuvres joined: named, for every method
-    if (present(segstart)) then
-      call record_check_segments(t, segstart, status, msg)
-      if (status /= MLID_OK) return
-    end if
-    status = MLID_OK
-    msg = ''
-    ! model-specific checks of the record (units); may leave a warning in msg
-    select type (m)
-    type is (aero_long_t)
-      if (any(y /= 0.0_wp)) call check_longitudinal_record(u, y, status, msg)
-    end select
-  end subroutine setup
 
 end module mlid_api

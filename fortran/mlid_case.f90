@@ -67,6 +67,22 @@ module mlid_case
     real(wp), allocatable :: noise_std(:), amplitude(:)
     character(len=16), allocatable :: input_shape(:)   !< per input
     real(wp), allocatable :: t_start(:), pulse_width(:)  !< per input
+    !> simulate and monte_carlo: a record whose time and first nu columns
+    !> after it are the inputs (a designed input), instead of input_shape
+    character(len=PATHLEN) :: input_file = ''
+    !> design (&design; t_end is T, dt the record's step): the unknowns by
+    !> block (1 F, 2 G, 3 H), row and column, and their labels
+    integer, allocatable :: ukind(:), urow(:), ucol(:)
+    character(len=NAMELEN), allocatable :: unknowns(:)
+    real(wp), allocatable :: weights(:)       !< per unknown
+    real(wp), allocatable :: servo(:)         !< servo time constant per input (0: none)
+    real(wp), allocatable :: gq(:, :)         !< process noise Gamma Q Gamma' (nx, nx)
+    character(len=16) :: design_method = ''
+    real(wp) :: energy = 0.0_wp, peak = 0.0_wp, min_width = 0.0_wp
+    integer :: iterations = 0                 !< equalised: weight updates tried
+    !> monte_carlo (&monte_carlo): runs (seed as simulate's), the true parameters
+    integer :: runs = 0
+    real(wp), allocatable :: theta_true(:)
   end type case_t
 
 end module mlid_case

@@ -22,7 +22,7 @@
 !>
 !> R is the spectral density of the continuous measurement noise (eq. 7.11).
 module mlid_design
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, &
                         MLID_ERR_INTERNAL
   use mlid_linalg, only: expm, sym_eig, solve, chol_inverse
@@ -30,7 +30,8 @@ module mlid_design
   private
   public :: design_t, design_create, operator_mu, riccati_length, transition_length, &
             costate_input, input_information, mu_for_length, amplitude_limited_input, &
-            design_state_penalty, input_response
+            design_state_penalty, input_response, energy_input, equalised_input, &
+            information_summary, servo_model
 
   type :: design_t
     integer :: nx = 0, nu = 0, ny = 0, m = 0, na = 0
@@ -844,5 +845,152 @@ contains
     status = MLID_OK
     msg = ''
   end subroutine input_response
+
+  !> The energy-optimal input for weights w (operator method on n and 2n
+  !> cells of [0, T], eq. 7.39) scaled to energy e: u on the 2n cells, its
+  !> mu and its unweighted information mm.
+  subroutine energy_input(f, g, h, r, gq, ukind, urow, ucol, w, t, n, e, u, mu, mm, status, msg)
+    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), r(:, :), gq(:, :), w(:), t, e
+    integer, intent(in) :: ukind(:), urow(:), ucol(:), n
+    real(wp), intent(out) :: u(:), mu, mm(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(design_t) :: d
+
+    u = 0.0_wp
+    mu = 0.0_wp
+    mm = 0.0_wp
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
+    if (status == MLID_OK) call operator_mu(d, t, n, mu, u, status, msg)
+    if (status /= MLID_OK) return
+    u = u*sqrt(e)
+    call input_information(d, t, 2*n, u, mm, status, msg)
+  end subroutine energy_input
+
+  !> The weighted-trace design of §7.8: from weights w0, eq. 7.88
+  !> w <- w + alpha (1/m_ii - w), scaled to a largest weight of 1, toward an
+  !> equal diagonal of W M; a trial is kept when the ratio of the largest to
+  !> the smallest element of diag(W M) falls, else alpha is halved; at most
+  !> iterations trials.  w, u, mu, mm: the best design (u on 2n cells, energy
+  !> e); ratios(1:nratio) the ratio of each design kept, the first w0's.
+  subroutine equalised_input(f, g, h, r, gq, ukind, urow, ucol, w0, t, n, e, iterations, alpha, &
+                             w, u, mu, mm, ratios, nratio, status, msg)
+    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), r(:, :), gq(:, :), w0(:), t, e, alpha
+    integer, intent(in) :: ukind(:), urow(:), ucol(:), n, iterations
+    real(wp), intent(out) :: w(:), u(:), mu, mm(:, :), ratios(:)
+    integer, intent(out) :: nratio, status
+    character(len=*), intent(out) :: msg
+    real(wp) :: wt(size(w0)), ut(size(u)), mt(size(w0), size(w0)), mut, a, ratio
+    integer :: it, i
+
+    w = w0
+    ratios = 0.0_wp
+    nratio = 0
+    call energy_input(f, g, h, r, gq, ukind, urow, ucol, w, t, n, e, u, mu, mm, status, msg)
+    if (status /= MLID_OK) return
+    nratio = 1
+    ratios(1) = spread_of([(mm(i, i)*w(i), i=1, size(w))])
+    a = alpha
+    do it = 1, iterations
+      wt = w + a*(1.0_wp/[(mm(i, i), i=1, size(w))] - w)
+      wt = wt/maxval(wt)
+      call energy_input(f, g, h, r, gq, ukind, urow, ucol, wt, t, n, e, ut, mut, mt, status, msg)
+      if (status /= MLID_OK) return
+      ratio = spread_of([(mt(i, i)*wt(i), i=1, size(wt))])
+      if (ratio < ratios(nratio) .and. nratio < size(ratios)) then
+        w = wt
+        u = ut
+        mu = mut
+        mm = mt
+        nratio = nratio + 1
+        ratios(nratio) = ratio
+      else
+        a = 0.5_wp*a
+      end if
+    end do
+
+  contains
+
+    real(wp) function spread_of(v)
+      real(wp), intent(in) :: v(:)
+      spread_of = maxval(v)/minval(v)
+    end function spread_of
+
+  end subroutine equalised_input
+
+  !> What the report tabulates of an information matrix (§8.1): det, trace,
+  !> Cramer-Rao sigma (square roots of the diagonal of M^-1) and eigenvalues
+  !> (ascending).  A singular M (smallest eigenvalue <= 1e-13 the largest:
+  !> an unknown the input does not reach) has det 0 and sigma from the
+  !> pseudo-inverse, infinite where M's diagonal is zero.
+  subroutine information_summary(mm, det, trace, sigma, eig, status)
+    real(wp), intent(in) :: mm(:, :)
+    real(wp), intent(out) :: det, trace, sigma(:), eig(:)
+    integer, intent(out) :: status
+    real(wp) :: vec(size(mm, 1), size(mm, 1)), inv(size(mm, 1))
+    integer :: k
+
+    trace = 0.0_wp
+    do k = 1, size(mm, 1)
+      trace = trace + mm(k, k)
+    end do
+    call sym_eig(0.5_wp*(mm + transpose(mm)), eig, vec, status)
+    det = 0.0_wp
+    sigma = ieee_value(1.0_wp, ieee_positive_inf)
+    if (status /= 0 .or. size(eig) == 0) return
+    if (eig(1) > 1.0e-13_wp*eig(size(eig))) then
+      det = product(eig)
+      inv = 1.0_wp/eig
+    else
+      inv = merge(1.0_wp/eig, 0.0_wp, eig > 1.0e-13_wp*eig(size(eig)))
+    end if
+    do k = 1, size(mm, 1)
+      if (mm(k, k) > 0.0_wp) sigma(k) = sqrt(sum(vec(k, :)**2*inv))
+    end do
+  end subroutine information_summary
+
+  !> The model with a first-order servo between the command and input j
+  !> wherever tau(j) > 0 (§8.3): a state s_j, s_j' = (c_j - s_j)/tau_j, feeds
+  !> G(:, j) instead of the command, so the design is the command's.  The
+  !> unknowns' block, row and column move with it (g(i,j) becomes f(i, s_j)),
+  !> and the process noise gains zero rows and columns.
+  subroutine servo_model(f, g, h, gq, tau, ukind, ucol, fs, gs, hs, gqs, ks, cs)
+    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), gq(:, :), tau(:)
+    integer, intent(in) :: ukind(:), ucol(:)
+    real(wp), allocatable, intent(out) :: fs(:, :), gs(:, :), hs(:, :), gqs(:, :)
+    integer, intent(out) :: ks(size(ukind)), cs(size(ukind))
+    integer :: nx, ns, j, s, k
+
+    nx = size(f, 1)
+    ns = count(tau > 0.0_wp)
+    allocate (fs(nx + ns, nx + ns), gs(nx + ns, size(g, 2)), hs(size(h, 1), nx + ns), &
+              gqs(nx + ns, nx + ns))
+    fs = 0.0_wp
+    gs = 0.0_wp
+    hs = 0.0_wp
+    gqs = 0.0_wp
+    fs(1:nx, 1:nx) = f
+    hs(:, 1:nx) = h
+    gqs(1:nx, 1:nx) = gq
+    ks = ukind
+    cs = ucol
+    s = nx
+    do j = 1, size(g, 2)
+      if (tau(j) > 0.0_wp) then
+        s = s + 1
+        fs(1:nx, s) = g(:, j)
+        fs(s, s) = -1.0_wp/tau(j)
+        gs(s, j) = 1.0_wp/tau(j)
+        do k = 1, size(ukind)
+          if (ukind(k) == 2 .and. ucol(k) == j) then
+            ks(k) = 1
+            cs(k) = s
+          end if
+        end do
+      else
+        gs(1:nx, j) = g(:, j)
+      end if
+    end do
+  end subroutine servo_model
 
 end module mlid_design

@@ -15,7 +15,7 @@ module mlid_layout
   use mlid_user_model, only: user_model_t, user_model_create
   implicit none
   private
-  public :: layout_table_t, layout_table, layout_of, element_index, element_name, &
+  public :: layout_table_t, layout_table, layout_of, element_index, element_name, locate, &
             default_label, block_list, manoeuvre_map, NBLOCK
 
   integer, parameter :: NBLOCK = 16   !< the linear model's blocks, the most any kind has

@@ -11,7 +11,8 @@ module mlid_report
   use mlid_text, only: itoa
   implicit none
   private
-  public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string, &
+  public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string, number, &
+            numbers, strings, matrix, &
             validation_report, validation_json
 
   character, parameter :: NL = achar(10)

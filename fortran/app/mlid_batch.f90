@@ -9,12 +9,13 @@ program mlid_batch
                         FIT_FAILED, FIT_NOT_RUN
   use mlid_case, only: case_t
   use mlid_text, only: line_t, join_lines
-  use mlid_deck, only: deck_read, case_record, case_time_input, manoeuvre_layout, &
+  use mlid_deck, only: deck_read, case_record, manoeuvre_layout, &
                        case_param_units, holdout_case, manoeuvre_block, corrected_writable, &
                        UNITLEN, NAMELEN
   use mlid_validate, only: prediction_stats
   use mlid_api, only: mlid_fit, mlid_simulate, mlid_flightpath_corrected
-  use mlid_files, only: temporary_for, write_whole, commit
+  use mlid_jobs, only: job_run, JOB_RUNS
+  use mlid_files, only: temporary_for, write_whole
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, json_list, &
                          validation_report, validation_json
   implicit none
@@ -35,7 +36,8 @@ program mlid_batch
       k = k + 1
     else if (arg == '-h' .or. arg == '--help') then
       write (*, '(a)') 'usage: mlid-batch DECK [--json FILE]', &
-        '  runs every case of a namelist deck (jobs: estimate, validate, simulate) and prints the report'
+        '  runs every case of a namelist deck (jobs: estimate, validate, simulate, design, '// &
+        'monte_carlo) and prints the report'
       stop
     else if (arg(1:1) == '-') then
       write (0, '(a)') 'mlid-batch: unknown option '//trim(arg)
@@ -96,8 +98,8 @@ contains
     outcome = FIT_NOT_RUN
     if (cstat /= MLID_OK) then
       json = case_json(c%title, c%job, cstat, cmsg)
-    else if (c%job == 'simulate') then
-      call simulate_case(c, json, cstat, cmsg)
+    else if (index(JOB_RUNS, ' '//trim(c%job)//' ') > 0) then
+      call job_case(c, json, cstat, cmsg)
     else if (c%job == 'validate') then
       call validate_case(k, c, json, cstat, cmsg, outcome)
     else
@@ -135,40 +137,19 @@ contains
     end do
   end subroutine say_notes
 
-  subroutine simulate_case(c, json, cstat, cmsg)
+  !> A job run whole in the core (mlid_jobs: simulate, design,
+  !> monte_carlo), its report printed as Python prints it.
+  subroutine job_case(c, json, cstat, cmsg)
     type(case_t), intent(in) :: c
     character(len=:), allocatable, intent(out) :: json
     integer, intent(out) :: cstat
     character(len=*), intent(out) :: cmsg
-    real(wp), allocatable :: t(:), u(:, :), y(:, :), x(:, :)
-    character(len=:), allocatable :: tmp
-    integer :: ou, j
-
-    call case_time_input(c, t, u, cstat, cmsg)
+    character(len=:), allocatable :: report, text
+    call job_run(c, report, text, cstat, cmsg)
     if (cstat /= MLID_OK) return
-    allocate (y(c%ny, size(t)), x(c%nx, size(t)))
-    call mlid_simulate(c%mkind, c%nx, c%nu, c%ny, c%nw, size(c%theta), c%theta, size(c%iconst), &
-                       c%iconst, size(c%rconst), c%rconst, size(t), t, u, c%seed, 0, &
-                       c%iopt, c%ropt, y, x, cstat, cmsg)
-    if (cstat /= MLID_OK) return
-    call temporary_for(trim(c%out_file), tmp, cstat, cmsg)
-    if (cstat /= MLID_OK) return
-    open (newunit=ou, file=tmp, status='replace', action='write', iostat=cstat)
-    if (cstat /= 0) then
-      cstat = MLID_ERR_INPUT
-      cmsg = 'cannot write '//trim(c%out_file)
-      return
-    end if
-    write (ou, '(a)') '# t, inputs, outputs (mlid simulate)'
-    do j = 1, size(t)
-      write (ou, '(*(es25.16e3))') t(j), u(:, j), y(:, j)
-    end do
-    close (ou)
-    call commit(tmp, trim(c%out_file), cstat, cmsg)
-    if (cstat /= MLID_OK) return
-    write (*, '(a,i0,a)') ' simulated ', size(t), ' samples to '//trim(c%out_file)
-    json = case_json(c%title, c%job, cstat, cmsg, size(t), trim(c%out_file))
-  end subroutine simulate_case
+    write (*, '(a)', advance='no') report
+    json = text
+  end subroutine job_case
 
   !> Fit an estimate case and write its corrected records.  A fit that did
   !> not converge is a result with a warning, not a failure of the case.

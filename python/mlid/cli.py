@@ -17,8 +17,12 @@ JOBS = """jobs:
                  'validate'  an estimate fit on the files not listed in &data
                              holdout, then a prediction of those that are:
                              Theil's U and rms/sigma per output
-                 'simulate'  write a record from a model, a standard input and
-                             seeded measurement noise
+                 'simulate'  write a record from a model, a standard input (or
+                             a record's, input_file) and seeded measurement noise
+                 'design'    the optimal input for the unknowns (report ch. 7),
+                             written as a record; its information summary
+                 'monte_carlo'  seeded runs: simulate from the truth, fit,
+                             repeat; the statistics of Table 8.1
   diagnose DECK  what the model of each estimate case misses
 """
 
@@ -114,8 +118,8 @@ def _show_case(args, case, out, result, error, tables):
     from .table import results_table
     print(f"\n case {case.index}: {case.title}")
     _record_warnings(case)
-    if out is not None and case.job == "simulate":
-        print(f" simulated {out['samples']} samples to {out['out']}")
+    if getattr(out, "report", None):      # a job the core ran whole: its own lines
+        print(out.report, end="")
     checked = getattr(result, "validation", None)
     if result is not None:
         print(result.report())
@@ -208,7 +212,7 @@ def _diagnose(args):
     import json
     import warnings
 
-    from .deck import read_deck, run_case
+    from .deck import CORE_JOBS, read_deck, run_case
     from .diagnose import FAMILIES, diagnose
     from .files import atomic_write_text
 
@@ -229,10 +233,10 @@ def _diagnose(args):
     for case in cases:
         print(f"\n case {case.index}: {case.title}")
         d = None
-        if case.job == "simulate" or case.error:
+        if case.job in CORE_JOBS or case.error:
             out, error = _attempt("run", run_case, case)
             if out:
-                print(f" simulated {out[0]['samples']} samples to {out[0]['out']}")
+                print(out[0].report, end="")
         else:
             d, error = _attempt("diagnose", lambda: diagnose(
                 case.model, case.record(), families=families, alpha=args.alpha,

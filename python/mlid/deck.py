@@ -2,6 +2,7 @@
 mlid-batch uses: Python only turns each case spec into objects.  See
 README.md for every group and name."""
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -64,10 +65,6 @@ class Case:
             self._options["initial_states"] = list(x0[:n].reshape(-1, nx))
         elif n:
             self.model.x0 = x0[:n]
-        if self.job == "simulate":
-            t, u, self.seed, out, status, msg = _api.mlid_deck_case_time_input(k, nu, nt)
-            self._time_input, self.out = (t, u.T.copy()), _text(out)
-            self.error = _text(msg) if status else None
 
     def where(self):
         return f"{self.deck} case {self.index} (line {self.line}) '{self.title}'"
@@ -110,20 +107,32 @@ class Case:
             records.append(FlightData._taken(*self._sizes, nt, path, inputs, outputs))
         return records[0] if len(records) == 1 and files is None else records
 
-    def time_input(self):
-        """Time base and inputs (nt, nu) of a simulate case."""
-        return self._time_input
-
     def options(self):
         """Options for fit(): the &estimate group by name, with prior,
         prior_weight and bounds where the deck gives them."""
         return dict(self._options)
 
 
+#: The deck jobs the core runs whole, for both front ends (fortran/mlid_jobs.f90).
+CORE_JOBS = tuple(_text(_api.mlid_name_list("core_jobs")).split())
+
+
+class JobOutput(dict):
+    """What a job the core runs whole (simulate, design, monte_carlo) gave:
+    its JSON object as a dict, ``report`` (the lines mlid-batch prints) and
+    ``json_text`` (the bytes mlid-batch writes)."""
+
+    def __init__(self, report, json_text):
+        super().__init__(json.loads(json_text))
+        self.report, self.json_text = report, json_text
+
+
 def case_json(case, out=None, result=None, error=None):
     """The JSON object of a case as the core writes it (mlid-batch writes the
-    same bytes): a fit's when there is one, else title, job, status, message
-    and, for a simulate case, the samples written and where."""
+    same bytes): a fit's when there is one, a core job's, else title, job,
+    status and message."""
+    if isinstance(out, JobOutput) and error is None:
+        return out.json_text
     if result is not None and not getattr(error, "reported_only", False):
         text = result.json(case._title, case.job)
         validation = getattr(result, "validation", None)
@@ -170,18 +179,17 @@ def read_deck(path):
 
 @guarded
 def run_case(case):
-    """Run one case; returns a dict (JSON-ready) and, for fits, the FitResult."""
+    """Run one case; returns a dict (JSON-ready) and, for fits, the FitResult.
+    Simulate, design and monte_carlo cases run whole in the core: their dict
+    is a JobOutput (with the report and JSON the core wrote) and no FitResult."""
     case.warnings = []
     if case.error:
         raise InputError(case.error)
-    if case.job == "simulate":
-        t, u = case.time_input()
-        inputs, outputs = case.channel_names()
-        data, _ = core.simulate(case.model, t, u, seed=case.seed, output_names=outputs,
-                                input_names=inputs)
-        data.save(case.out)
-        return {"title": case.title, "job": case.job, "status": 0, "message": "",
-                "samples": int(data.nt), "out": str(case.out)}, None
+    if case.job in CORE_JOBS:              # run whole by the core, as mlid-batch runs it
+        report, nreport, text, njson, status, msg = _api.mlid_deck_case_run(case.index)
+        check_status(status, msg)
+        return JobOutput(report[:nreport].decode(errors="replace"),
+                         text[:njson].decode(errors="replace")), None
     if case.job == "validate":
         result = _validate_case(case)
     else:

@@ -433,7 +433,7 @@ class InputDesign:
         """The weighted-trace design of §7.8: weights updated by eq. 7.88,
         w <- w + alpha (1/m_ii - w), toward an equal diagonal of W M, alpha
         halved whenever the ratio of its largest to smallest element does not
-        fall.
+        fall (the core's, fortran/mlid_design.f90, which deck designs use).
 
         Parameters
         ----------
@@ -457,23 +457,19 @@ class InputDesign:
         InputError
             As for ``optimal_input``.
         """
-        design, ratios = self, []
-        best = design.optimal_input(T, energy, cells)
-        wm = np.diag(best.M) * design.weights
-        ratios.append(float(wm.max() / wm.min()))
-        a = alpha
-        for _ in range(iterations):
-            w = design.weights + a * (1.0 / np.diag(best.M) - design.weights)
-            trial_design = design.with_weights(w / w.max())
-            trial = trial_design.optimal_input(T, energy, cells)
-            wm = np.diag(trial.M) * trial_design.weights
-            ratio = float(wm.max() / wm.min())
-            if ratio < ratios[-1]:
-                design, best = trial_design, trial
-                ratios.append(ratio)
-            else:
-                a *= 0.5
-        return best, ratios
+        self._check_t(T)
+        self._check_t(energy, "energy")
+        iterations = whole("iterations", iterations, 0, 10**4)
+        if not (np.isfinite(alpha) and alpha > 0):
+            raise InputError(f"alpha must be > 0, got {alpha}")
+        w, u, mu, M, ratios, n, status, msg = _api.mlid_design_equalised(
+            w0=self.weights, t=float(T), ncell=self._cells(cells), e=float(energy),
+            iterations=iterations, alpha=float(alpha), **self._args())
+        check_status(status, msg)
+        u = u.reshape(-1, self.G.shape[1])
+        best = DesignedInput(np.linspace(0.0, T, len(u) + 1), u, M, mu=float(mu),
+                             energy=energy, weights=w.copy())
+        return best, [float(r) for r in ratios[:n]]
 
     # -- the state-limit penalty of §7.6 ----------------------------------
     def _penalty(self, penalty):

@@ -283,9 +283,11 @@ def case_html(case, out, result, error):
         (out or {}).get("message") or (getattr(result, "message", "") if result else ""))
     if message:
         parts.append(f'<div class="error">{_e(message)}</div>')
-    if out is not None and "samples" in out:
+    if out is not None and out.get("job") == "simulate" and "samples" in out:
         parts.append(f"<p>simulated {_e(out['samples'])} samples to "
                      f"<code>{_e(Path(out['out']).name)}</code></p>")
+    elif getattr(out, "report", None):        # a design or Monte Carlo: the core's lines
+        parts.append(f"<pre>{_e(out.report)}</pre>")
     if result is not None:
         parts += _fit_sections(result)
     parts.append("</section>")

@@ -1,0 +1,181 @@
+!> The printed report and the JSON object of the jobs of mlid_jobs
+!> (simulate, design, monte_carlo), built once as text for both front ends.
+module mlid_job_report
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp
+  use mlid_text, only: itoa
+  use mlid_report, only: case_json, json_string, number, numbers, strings, matrix
+  implicit none
+  private
+  public :: design_summary_t, design_report, design_json, mc_summary_t, mc_report, mc_json, &
+            simulate_report, simulate_json
+
+  character, parameter :: NL = achar(10)
+
+  !> A designed input and its information (unknowns in the case's order).
+  type :: design_summary_t
+    character(len=16) :: method = ''
+    character(len=32), allocatable :: labels(:), inputs(:)
+    real(wp), allocatable :: weights(:), servo(:), mm(:, :), sigma(:), eig(:), ratios(:)
+    real(wp) :: t = 0.0_wp, energy = 0.0_wp, peak = 0.0_wp, mu = 0.0_wp, det = 0.0_wp
+    real(wp) :: trace = 0.0_wp
+    integer :: cells = 0, samples = 0, nratio = 0
+    logical :: noise = .false.          !< designed with process noise (§7.5)
+    character(len=512) :: out = ''
+  end type design_summary_t
+
+  !> The statistics of a Monte Carlo (free parameters, theta order).
+  type :: mc_summary_t
+    character(len=32), allocatable :: labels(:)
+    real(wp), allocatable :: truth(:), start(:), mean(:), sample_sigma(:), cr_sigma(:)
+    real(wp) :: cov_det = 0.0_wp, cov_trace = 0.0_wp, info_trace = 0.0_wp, info_det = 0.0_wp
+    integer :: runs = 0, ok = 0, seed = 0, samples = 0
+    character(len=512) :: input_file = ''
+  end type mc_summary_t
+
+contains
+
+  function simulate_report(samples, out) result(text)
+    integer, intent(in) :: samples
+    character(len=*), intent(in) :: out
+    character(len=:), allocatable :: text
+    text = ' simulated '//itoa(samples)//' samples to '//trim(out)//NL
+  end function simulate_report
+
+  function simulate_json(title, job, samples, out) result(text)
+    character(len=*), intent(in) :: title, job, out
+    integer, intent(in) :: samples
+    character(len=:), allocatable :: text
+    text = case_json(title, job, 0, '', samples, trim(out))
+  end function simulate_json
+
+  !> The method and its limit, the unknowns' weights and Cramer-Rao sigma,
+  !> tr M, det M and the eigenvalues, and where the input went.
+  function design_report(s) result(text)
+    type(design_summary_t), intent(in) :: s
+    character(len=:), allocatable :: text
+    character(len=256) :: buf
+    integer :: k
+
+    write (buf, '(a,es10.4e2,a,i0,a,es10.4e2,a)') ' input design, method '''// &
+      trim(s%method)//''' (report ch. 7): T = ', s%t, ' s, ', s%cells, ' cells of ', &
+      s%t/s%cells, ' s'
+    text = trim(buf)//NL
+    do k = 1, size(s%servo)
+      if (s%servo(k) > 0.0_wp) then
+        write (buf, '(a,es10.4e2,a)') ' servo on '//trim(s%inputs(k))//': first order, '// &
+          'time constant ', s%servo(k), ' s (the input is its command, report 8.3)'
+        text = text//trim(buf)//NL
+      end if
+    end do
+    if (s%noise) text = text//' process noise: the steady-state filter''s sensitivities '// &
+                       '(report 7.5)'//NL
+    write (buf, '(a,es14.7e2,a,es14.7e2)') ' energy ', s%energy, '   peak ', s%peak
+    text = text//trim(buf)
+    if (ieee_is_finite(s%mu)) then
+      write (buf, '(a,es14.7e2,a)') '   mu ', s%mu, ' (max tr(WM) = mu E)'
+      text = text//trim(buf)
+    end if
+    text = text//NL
+    if (s%nratio > 0) then
+      write (buf, '(a,f0.4,a,f0.4,a,i0,a)') ' equalised weights (eq. 7.88): diag(WM) max/min ', &
+        s%ratios(1), ' -> ', s%ratios(s%nratio), ' (', s%nratio - 1, ' updates kept)'
+      text = text//trim(buf)//NL
+    end if
+    write (buf, '(1x,a16,a13,a15)') 'unknown         ', 'weight', 'sigma (CR)'
+    text = text//trim(buf)//NL
+    do k = 1, size(s%labels)
+      write (buf, '(1x,a16,es13.4e2,es15.6e2)') s%labels(k), s%weights(k), s%sigma(k)
+      text = text//trim(buf)//NL
+    end do
+    write (buf, '(a,es14.7e2,a,es14.7e2)') ' tr M = ', s%trace, '   det M = ', s%det
+    text = text//trim(buf)//NL//' eigenvalues of M:'
+    do k = 1, size(s%eig)
+      write (buf, '(es11.4e2)') s%eig(k)
+      text = text//trim(buf)
+    end do
+    text = text//NL//' designed input written to '//trim(s%out)//' ('//itoa(s%samples)// &
+           ' samples)'//NL
+  end function design_report
+
+  function design_json(title, job, s) result(text)
+    character(len=*), intent(in) :: title, job
+    type(design_summary_t), intent(in) :: s
+    character(len=:), allocatable :: text
+    text = case_json(title, job, 0, '')
+    text = text(1:len(text) - 1)//','//NL// &
+           '"method": '//json_string(trim(s%method))//', "T": '//number(s%t)//', "cells": '// &
+           itoa(s%cells)//','//NL// &
+           '"unknowns": '//strings(s%labels)//','//NL// &
+           '"weights": '//numbers(s%weights)//','//NL// &
+           '"servo": '//numbers(s%servo)//', "process_noise": '// &
+           trim(merge('true ', 'false', s%noise))//','//NL// &
+           '"energy": '//number(s%energy)//', "peak": '//number(s%peak)//', "mu": '// &
+           number(s%mu)//','//NL// &
+           '"trace_M": '//number(s%trace)//', "det_M": '//number(s%det)//','//NL// &
+           '"sigma": '//numbers(s%sigma)//','//NL// &
+           '"eigenvalues": '//numbers(s%eig)//','//NL// &
+           '"M": '//matrix(s%mm)//','//NL// &
+           '"equalise_ratios": '//ratios()//','//NL// &
+           '"samples": '//itoa(s%samples)//', "out": '//json_string(trim(s%out))//'}'
+
+  contains
+
+    function ratios() result(v)
+      character(len=:), allocatable :: v
+      v = 'null'
+      if (s%nratio > 0) v = numbers(s%ratios(1:s%nratio))
+    end function ratios
+
+  end function design_json
+
+  !> Runs and failures, then per free parameter truth, start, mean, sample
+  !> sigma and mean Cramer-Rao sigma; the sample covariance and the mean
+  !> information.
+  function mc_report(s) result(text)
+    type(mc_summary_t), intent(in) :: s
+    character(len=:), allocatable :: text
+    character(len=256) :: buf
+    integer :: k
+
+    text = ' Monte Carlo: '//itoa(s%runs)//' runs from seed '//itoa(s%seed)//', '// &
+           itoa(s%runs - s%ok)//' failed; input from '//trim(s%input_file)//' ('// &
+           itoa(s%samples)//' samples)'//NL
+    write (buf, '(1x,a16,5a14)') 'parameter       ', 'truth', 'start', 'mean', 'sample sigma', &
+      'mean CR sigma'
+    text = text//trim(buf)//NL
+    do k = 1, size(s%labels)
+      write (buf, '(1x,a16,5es14.5e2)') s%labels(k), s%truth(k), s%start(k), s%mean(k), &
+        s%sample_sigma(k), s%cr_sigma(k)
+      text = text//trim(buf)//NL
+    end do
+    write (buf, '(a,es12.5e2,a,es12.5e2)') ' sample covariance: det ', s%cov_det, '   trace ', &
+      s%cov_trace
+    text = text//trim(buf)//NL
+    write (buf, '(a,es12.5e2,a,es12.5e2)') ' information (mean over the runs): trace ', &
+      s%info_trace, '   det ', s%info_det
+    text = text//trim(buf)//NL
+  end function mc_report
+
+  function mc_json(title, job, s) result(text)
+    character(len=*), intent(in) :: title, job
+    type(mc_summary_t), intent(in) :: s
+    character(len=:), allocatable :: text
+    text = case_json(title, job, 0, '')
+    text = text(1:len(text) - 1)//','//NL// &
+           '"runs": '//itoa(s%runs)//', "failed": '//itoa(s%runs - s%ok)//', "seed": '// &
+           itoa(s%seed)//', "input_file": '//json_string(trim(s%input_file))//', "samples": '// &
+           itoa(s%samples)//','//NL// &
+           '"parameters": '//strings(s%labels)//','//NL// &
+           '"truth": '//numbers(s%truth)//','//NL// &
+           '"start": '//numbers(s%start)//','//NL// &
+           '"mean": '//numbers(s%mean)//','//NL// &
+           '"sample_sigma": '//numbers(s%sample_sigma)//','//NL// &
+           '"mean_cr_sigma": '//numbers(s%cr_sigma)//','//NL// &
+           '"sample_cov_det": '//number(s%cov_det)//', "sample_cov_trace": '// &
+           number(s%cov_trace)//','//NL// &
+           '"mean_info_trace": '//number(s%info_trace)//', "mean_info_det": '// &
+           number(s%info_det)//'}'
+  end function mc_json
+
+end module mlid_job_report

@@ -1,0 +1,374 @@
+!> The deck jobs that run whole in the core, for both front ends alike
+!> (mlid-batch calls job_run, Python through mlid_api's mlid_deck_case_run):
+!>   simulate     a record from the model, a standard input or input_file
+!>   design       the optimal input of &design (report §7), written as a
+!>                record of t and the inputs, its information summarised
+!>   monte_carlo  seeded runs: simulate from the truth, fit from &model
+!> Each returns the report lines and the JSON object of the case (written
+!> once, in mlid_job_report); files are written whole or not at all.
+module mlid_jobs
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_case, only: case_t, NAMELEN
+  use mlid_deck, only: case_time_input
+  use mlid_layout, only: layout_table_t, layout_of
+  use mlid_models, only: model_t
+  use mlid_options, only: options_t
+  use mlid_params, only: param_map_t, no_ties
+  use mlid_setup, only: setup
+  use mlid_simulate, only: simulate_outputs
+  use mlid_monte_carlo, only: monte_carlo
+  use mlid_linalg, only: sym_eig
+  use mlid_record, only: record_text, UNITLEN
+  use mlid_files, only: temporary_for, write_whole
+  use mlid_text, only: itoa
+  use mlid_design, only: design_t, design_create, operator_mu, mu_for_length, transition_length, &
+                         costate_input, input_information, amplitude_limited_input, &
+                         energy_input, equalised_input, information_summary, servo_model
+  use mlid_job_report, only: design_summary_t, design_report, design_json, mc_summary_t, &
+                             mc_report, mc_json, simulate_report, simulate_json
+  implicit none
+  private
+  public :: job_run, JOB_RUNS
+
+  !> The jobs run here (the others are fits, run by the front ends)
+  character(len=*), parameter :: JOB_RUNS = ' simulate design monte_carlo '
+  character, parameter :: NL = achar(10)
+
+contains
+
+  !> Run case c's job; report and json are empty when it failed (status,
+  !> msg say why).
+  subroutine job_run(c, report, json, status, msg)
+    type(case_t), intent(in) :: c
+    character(len=:), allocatable, intent(out) :: report, json
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+
+    report = ''
+    json = ''
+    status = c%status
+    msg = c%msg
+    if (status /= MLID_OK) return
+    select case (c%job)
+    case ('simulate')
+      call simulate_job(c, report, json, status, msg)
+    case ('design')
+      call design_job(c, report, json, status, msg)
+    case ('monte_carlo')
+      call monte_carlo_job(c, report, json, status, msg)
+    case default
+      status = MLID_ERR_INPUT
+      msg = 'job '''//trim(c%job)//''' is a fit, not run by job_run'
+    end select
+    if (status /= MLID_OK) then
+      report = ''
+      json = ''
+    end if
+  end subroutine job_run
+
+  !> simulate: the outputs with the seeded noise of r, written with t and
+  !> the inputs to out.
+  subroutine simulate_job(c, report, json, status, msg)
+    type(case_t), intent(in) :: c
+    character(len=:), allocatable, intent(inout) :: report, json
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), x(:, :)
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    type(param_map_t) :: pm
+    character(len=:), allocatable :: text
+    character(len=NAMELEN), allocatable :: names(:)
+    character(len=UNITLEN), allocatable :: units(:)
+    integer :: nofree(size(c%theta))
+
+    call case_time_input(c, t, u, status, msg)
+    if (status /= MLID_OK) return
+    allocate (y(c%ny, size(t)), x(c%nx, size(t)))
+    y = 0.0_wp
+    nofree = 0
+    call setup(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, nofree, no_ties(size(c%theta)), &
+               c%iconst, c%rconst, t, u, y, c%iopt, c%ropt, 0, m, opt, pm, status, msg)
+    if (status /= MLID_OK) return
+    call simulate_outputs(m, c%theta, t, u, opt, c%seed, y, x, status, msg)
+    if (status /= MLID_OK) return
+    ! the header mlid has always written here; the rows are the reader's own
+    allocate (names(c%nu + c%ny), units(c%nu + c%ny))
+    names = ''
+    units = ''
+    text = record_text(names, units, t, u, y)
+    text = '# t, inputs, outputs (mlid simulate)'//text(index(text, NL):)
+    call write_file(c%out_file, text, status, msg)
+    if (status /= MLID_OK) return
+    report = simulate_report(size(t), c%out_file)
+    json = simulate_json(c%title, c%job, size(t), c%out_file)
+  end subroutine simulate_job
+
+  !> design: the optimal input of &design on the model of &model (through
+  !> its servo, if any), held over the record's steps and written to out.
+  subroutine design_job(c, report, json, status, msg)
+    type(case_t), intent(in) :: c
+    character(len=:), allocatable, intent(inout) :: report, json
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(design_summary_t) :: s
+    real(wp), allocatable :: f(:, :), g(:, :), h(:, :), r(:, :), gq(:, :), u(:), t(:), uc(:, :)
+    integer :: ks(size(c%ukind)), cs(size(c%ukind)), n, k, m
+    character(len=NAMELEN), allocatable :: names(:)
+    character(len=UNITLEN), allocatable :: units(:)
+    real(wp), allocatable :: none(:, :)
+
+    m = size(c%ukind)
+    n = nint(c%t_end/c%dt)
+    call design_matrices(c, f, g, h, r, gq, ks, cs, status, msg)
+    if (status /= MLID_OK) return
+    s%method = c%design_method
+    s%weights = c%weights
+    allocate (s%mm(m, m))
+    call design_input(c, f, g, h, r, gq, ks, cs, n, s, u, status, msg)
+    if (status /= MLID_OK) return
+    ! the record: sample k holds the cell it starts, the last the one before
+    s%cells = size(u)/c%nu
+    t = [(c%t_end*(real(k, wp)/n), k=0, n)]
+    allocate (uc(c%nu, n + 1))
+    do k = 1, n
+      uc(:, k) = u(((k - 1)*s%cells/n)*c%nu + 1:((k - 1)*s%cells/n + 1)*c%nu)
+    end do
+    uc(:, n + 1) = uc(:, n)
+    s%energy = sum(u**2)*c%t_end/s%cells
+    s%peak = maxval(abs(u))
+    s%t = c%t_end
+    s%labels = c%unknowns
+    s%servo = c%servo
+    s%noise = any(c%gq /= 0.0_wp)
+    s%samples = n + 1
+    s%out = c%out_file
+    allocate (s%sigma(m), s%eig(m))
+    call information_summary(s%mm, s%det, s%trace, s%sigma, s%eig, status)
+    if (status /= 0) then
+      status = MLID_ERR_INPUT
+      msg = 'the information matrix of the design could not be decomposed'
+      return
+    end if
+    allocate (names(c%nu), units(c%nu), none(0, n + 1))
+    do k = 1, c%nu
+      names(k) = input_name(c, k)
+    end do
+    units = ''
+    call write_file(c%out_file, record_text(names, units, t, uc, none), status, msg)
+    if (status /= MLID_OK) return
+    s%inputs = names
+    report = design_report(s)
+    json = design_json(c%title, c%job, s)
+  end subroutine design_job
+
+  !> The design's F, G, H (through the servo) and noise: R = r dt, the
+  !> spectral density of the sampled noise of variance r; the unknowns'
+  !> blocks and columns as the servo moved them.
+  subroutine design_matrices(c, f, g, h, r, gq, ks, cs, status, msg)
+    type(case_t), intent(in) :: c
+    real(wp), allocatable, intent(out) :: f(:, :), g(:, :), h(:, :), r(:, :), gq(:, :)
+    integer, intent(out) :: ks(:), cs(:), status
+    character(len=*), intent(out) :: msg
+    type(layout_table_t) :: lt
+    real(wp), allocatable :: rv(:)
+    integer :: k
+
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, status, msg)
+    if (status /= MLID_OK) return
+    call servo_model(block(lt, 'f'), block(lt, 'g'), block(lt, 'h'), c%gq, c%servo, c%ukind, &
+                     c%ucol, f, g, h, gq, ks, cs)
+    rv = pack(block(lt, 'r'), .true.)
+    allocate (r(c%ny, c%ny))
+    r = 0.0_wp
+    do k = 1, c%ny
+      r(k, k) = rv(k)*c%dt
+    end do
+
+  contains
+
+    !> Block key of theta as a matrix (a vector: one column).
+    function block(lt, key) result(a)
+      type(layout_table_t), intent(in) :: lt
+      character(len=*), intent(in) :: key
+      real(wp), allocatable :: a(:, :)
+      integer :: b
+      b = findloc(lt%key, key, 1)
+      a = reshape(c%theta(lt%off(b) + 1:lt%off(b) + lt%rows(b)*max(1, lt%cols(b))), &
+                  [lt%rows(b), max(1, lt%cols(b))])
+    end function block
+
+  end subroutine design_matrices
+
+  !> The input of the case's method on its cells (nu per cell, cell after
+  !> cell), its mu (NaN for amplitude), information and the weights used.
+  subroutine design_input(c, f, g, h, r, gq, ks, cs, n, s, u, status, msg)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), r(:, :), gq(:, :)
+    integer, intent(in) :: ks(:), cs(:), n
+    type(design_summary_t), intent(inout) :: s
+    real(wp), allocatable, intent(out) :: u(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(design_t) :: d
+    real(wp) :: mu0, tc, trwm
+    real(wp), allocatable :: lam0(:)
+    integer :: cells
+
+    s%mu = ieee_value(1.0_wp, ieee_quiet_nan)
+    select case (c%design_method)
+    case ('operator')
+      allocate (u(n*c%nu))
+      call energy_input(f, g, h, r, gq, ks, c%urow, cs, c%weights, c%t_end, n/2, c%energy, u, &
+                        s%mu, s%mm, status, msg)
+    case ('equalised')
+      allocate (u(n*c%nu), s%ratios(c%iterations + 1))
+      call equalised_input(f, g, h, r, gq, ks, c%urow, cs, c%weights, c%t_end, n/2, c%energy, &
+                           c%iterations, 1.0_wp, s%weights, u, s%mu, s%mm, s%ratios, s%nratio, &
+                           status, msg)
+    case ('riccati')
+      ! mu of T by the secant of eq. 7.89 from the operator's; the input from
+      ! the costate of the conjugate point (eqs 7.23-7.29)
+      allocate (u(n*c%nu))
+      call design_create(f, g, h, r, ks, c%urow, cs, c%weights, d, status, msg, gq)
+      if (status == MLID_OK) call operator_mu(d, c%t_end, n/2, mu0, u, status, msg)
+      if (status == MLID_OK) call mu_for_length(d, c%t_end, 0.9_wp*mu0, 1.1_wp*mu0, s%mu, &
+                                                status, msg)
+      allocate (lam0(d%na))
+      if (status == MLID_OK) call transition_length(d, s%mu, 10.0_wp*c%t_end, tc, lam0, &
+                                                    status, msg)
+      if (status == MLID_OK) call costate_input(d, s%mu, c%t_end, lam0, n, u, status, msg)
+      u = u*sqrt(c%energy)
+      if (status == MLID_OK) call input_information(d, c%t_end, n, u, s%mm, status, msg)
+    case default        ! amplitude: the widest cells no shorter than min_width that fit the steps
+      cells = int(c%t_end/c%min_width + 1.0e-9_wp)
+      do while (mod(n, cells) /= 0)
+        cells = cells - 1
+      end do
+      allocate (u(cells*c%nu))
+      call design_create(f, g, h, r, ks, c%urow, cs, c%weights, d, status, msg, gq)
+      if (status == MLID_OK) call amplitude_limited_input(d, c%t_end, cells, c%peak, u, trwm, &
+                                                          status, msg)
+      if (status == MLID_OK) call input_information(d, c%t_end, cells, u, s%mm, status, msg)
+    end select
+  end subroutine design_input
+
+  !> monte_carlo: runs seed, seed + 1, ... simulated from the truth with
+  !> the input of input_file, each fitted from &model's values.
+  subroutine monte_carlo_job(c, report, json, status, msg)
+    type(case_t), intent(in) :: c
+    character(len=:), allocatable, intent(inout) :: report, json
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), est(:, :), sig(:, :), info(:, :, :)
+    integer, allocatable :: iters(:), run_status(:)
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    type(param_map_t) :: pm
+    type(mc_summary_t) :: s
+    integer :: nf
+
+    call case_time_input(c, t, u, status, msg)
+    if (status /= MLID_OK) return
+    nf = count(c%isfree == 1)
+    allocate (y(c%ny, size(t)))
+    y = 0.0_wp
+    call setup(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, c%isfree, c%tie, c%iconst, c%rconst, &
+               t, u, y, c%iopt, c%ropt, nf, m, opt, pm, status, msg)
+    if (status /= MLID_OK) return
+    allocate (est(nf, c%runs), sig(nf, c%runs), info(nf, nf, c%runs), iters(c%runs), &
+              run_status(c%runs))
+    call monte_carlo(m, c%theta_true, c%theta, pm, t, u, opt, c%seed, est, sig, iters, &
+                     run_status, info)
+    s%labels = c%labels
+    s%truth = c%theta_true(pm%ifree)
+    s%start = c%theta(pm%ifree)
+    s%seed = c%seed
+    s%input_file = c%input_file
+    s%samples = size(t)
+    call mc_statistics(est, sig, info, run_status, s)
+    report = mc_report(s)
+    json = mc_json(c%title, c%job, s)
+  end subroutine monte_carlo_job
+
+  !> Table 8.1's statistics over the runs that converged: mean, sample sigma
+  !> (n - 1), mean Cramer-Rao sigma, det and trace of the sample covariance,
+  !> trace and det of the mean information.  NaN where too few runs.
+  subroutine mc_statistics(est, sig, info, run_status, s)
+    real(wp), intent(in) :: est(:, :), sig(:, :), info(:, :, :)
+    integer, intent(in) :: run_status(:)
+    type(mc_summary_t), intent(inout) :: s
+    real(wp) :: cov(size(est, 1), size(est, 1)), mi(size(est, 1), size(est, 1))
+    real(wp) :: d(size(est, 1)), nan
+    logical :: ok(size(run_status))
+    integer :: nf, k, l, n
+
+    nf = size(est, 1)
+    nan = ieee_value(1.0_wp, ieee_quiet_nan)
+    ok = run_status == MLID_OK
+    n = count(ok)
+    s%runs = size(run_status)
+    s%ok = n
+    allocate (s%mean(nf), s%sample_sigma(nf), s%cr_sigma(nf))
+    s%mean = nan
+    s%sample_sigma = nan
+    s%cr_sigma = nan
+    s%cov_det = nan
+    s%cov_trace = nan
+    s%info_trace = nan
+    s%info_det = nan
+    if (n == 0) return
+    do k = 1, nf
+      s%mean(k) = sum(est(k, :), mask=ok)/n
+      s%cr_sigma(k) = sum(sig(k, :), mask=ok)/n
+      do l = 1, nf
+        mi(k, l) = sum(info(k, l, :), mask=ok)/n
+      end do
+    end do
+    s%info_trace = sum([(mi(k, k), k=1, nf)])
+    s%info_det = det_sym(mi)
+    if (n < 2) return
+    do k = 1, nf
+      do l = 1, nf
+        cov(k, l) = sum((est(k, :) - s%mean(k))*(est(l, :) - s%mean(l)), mask=ok)/(n - 1)
+      end do
+      d(k) = cov(k, k)
+    end do
+    s%sample_sigma = sqrt(d)
+    s%cov_trace = sum(d)
+    s%cov_det = det_sym(cov)
+  end subroutine mc_statistics
+
+  !> det of a symmetric matrix: the product of its eigenvalues.
+  real(wp) function det_sym(a)
+    real(wp), intent(in) :: a(:, :)
+    real(wp) :: ev(size(a, 1)), vec(size(a, 1), size(a, 1))
+    integer :: info
+    call sym_eig(0.5_wp*(a + transpose(a)), ev, vec, info)
+    det_sym = product(ev)
+    if (info /= 0) det_sym = ieee_value(1.0_wp, ieee_quiet_nan)
+  end function det_sym
+
+  !> Input k's name: &model's, else u<k>.
+  function input_name(c, k) result(name)
+    type(case_t), intent(in) :: c
+    integer, intent(in) :: k
+    character(len=NAMELEN) :: name
+    name = 'u'//itoa(k)
+    if (allocated(c%input_names)) then
+      if (size(c%input_names) == c%nu) name = c%input_names(k)
+    end if
+  end function input_name
+
+  !> text to path, whole or not at all.
+  subroutine write_file(path, text, status, msg)
+    character(len=*), intent(in) :: path, text
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=:), allocatable :: tmp
+    call temporary_for(trim(path), tmp, status, msg)
+    if (status == MLID_OK) call write_whole(trim(path), tmp, text, status, msg)
+  end subroutine write_file
+
+end module mlid_jobs
