@@ -52,7 +52,7 @@ module mlid_api
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, &
                          transition_length, costate_input, input_information, mu_for_length, &
                          amplitude_limited_input, equalised_input
-  use mlid_design, only: design_state_penalty, input_response
+  use mlid_design, only: design_state_penalty, input_response, RICCATI_BRACKET
   use mlid_jobs, only: job_run, JOB_RUNS
   implicit none
   private
@@ -1312,11 +1312,11 @@ contains
   end subroutine mlid_design_amplitude
 
   !> mu_max for the length td by the secant iteration of eq. 7.89 on the
-  !> Riccati critical length, started from mu1 and mu2.
+  !> Riccati critical length, started within RICCATI_BRACKET of mu0 (the operator's).
   subroutine mlid_design_mu_for_length(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, td, &
-                                       mu1, mu2, mu, status, msg)
+                                       mu0, mu, status, msg)
     integer(c_int), intent(in) :: nx, nu, ny, m
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), td, mu1, mu2
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), td, mu0
     integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
     real(c_double), intent(out) :: mu
     integer(c_int), intent(out) :: status
@@ -1324,7 +1324,8 @@ contains
     type(design_t) :: d
     mu = 0.0_wp
     call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
-    if (status == MLID_OK) call mu_for_length(d, td, mu1, mu2, mu, status, msg)
+    if (status == MLID_OK) call mu_for_length(d, td, (1.0_wp - RICCATI_BRACKET)*mu0, &
+                                              (1.0_wp + RICCATI_BRACKET)*mu0, mu, status, msg)
   end subroutine mlid_design_mu_for_length
 
   !> mlid_design_mu with the state-limit penalty of report 7.6: the largest

@@ -43,6 +43,10 @@ module mlid_design
   !> Input cells times inputs at the most for the operator solver: its
   !> matrices are (2 cells inputs)^2 (about 256 MB at the limit).
   integer, parameter, public :: MAX_CELLS = 2000
+  !> The secant of eq. 7.89 starts within this share of the operator's mu: a
+  !> wider bracket has no conjugate point once it passes the supremum of
+  !> mu(T) (the C-8 design at T = 8 s)
+  real(wp), parameter, public :: RICCATI_BRACKET = 1.0e-3_wp
 
 contains
 

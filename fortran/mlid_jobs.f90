@@ -23,6 +23,7 @@ module mlid_jobs
   use mlid_files, only: temporary_for, write_whole
   use mlid_text, only: itoa
   use mlid_design, only: design_t, design_create, operator_mu, mu_for_length, transition_length, &
+                         RICCATI_BRACKET, &
                          costate_input, input_information, amplitude_limited_input, &
                          energy_input, equalised_input, information_summary, servo_model
   use mlid_job_report, only: design_summary_t, design_report, design_json, mc_summary_t, &
@@ -233,8 +234,8 @@ contains
       allocate (u(n*c%nu))
       call design_create(f, g, h, r, ks, c%urow, cs, c%weights, d, status, msg, gq)
       if (status == MLID_OK) call operator_mu(d, c%t_end, n/2, mu0, u, status, msg)
-      if (status == MLID_OK) call mu_for_length(d, c%t_end, 0.9_wp*mu0, 1.1_wp*mu0, s%mu, &
-                                                status, msg)
+      if (status == MLID_OK) call mu_for_length(d, c%t_end, (1.0_wp - RICCATI_BRACKET)*mu0, &
+                                                (1.0_wp + RICCATI_BRACKET)*mu0, s%mu, status, msg)
       allocate (lam0(d%na))
       if (status == MLID_OK) call transition_length(d, s%mu, 10.0_wp*c%t_end, tc, lam0, &
                                                     status, msg)

@@ -256,8 +256,7 @@ class InputDesign:
             return float(mu)
         if method != "riccati":
             raise InputError(f"method must be 'operator' or 'riccati', got {method!r}")
-        mu2, status, msg = _api.mlid_design_mu_for_length(w=self.weights, td=float(T),
-                                                          mu1=0.999 * mu, mu2=1.001 * mu,
+        mu2, status, msg = _api.mlid_design_mu_for_length(w=self.weights, td=float(T), mu0=mu,
                                                           **self._args())
         check_status(status, msg)
         return float(mu2)
