@@ -5,7 +5,7 @@ import argparse
 import os
 import sys
 
-from .errors import InternalError, MlidError
+from .errors import InputError, InternalError, MlidError
 
 JOBS = """jobs:
   run DECK       run every case of a namelist deck in order.  Deck jobs:
@@ -41,7 +41,20 @@ def _parser():
                        help="no progress bars")
     sub = p.add_subparsers(dest="job", metavar="JOB")
     run = sub.add_parser("run", help="run every case of a deck", parents=[quiet])
-    run.add_argument("deck", help="namelist deck (.nml)")
+    run.add_argument("deck", nargs="+", help="namelist decks (.nml), or folders of them: a "
+                     "campaign, its cases run side by side")
+    run.add_argument("--workers", type=int, metavar="N", help="local processes running cases "
+                     "side by side (default: 1 for one deck, the cores for several); the "
+                     "output is a serial run's")
+    run.add_argument("--scheduler", metavar="ADDRESS", help="run the cases on a Dask cluster "
+                     "(dask.distributed), e.g. tcp://127.0.0.1:8786")
+    run.add_argument("--campaign", metavar="FILE", help="the campaign table: one row per case "
+                     "with its flight condition (&case mach, altitude, alpha_trim, config, "
+                     "tags) and the estimates with sigma; .csv or .json")
+    run.add_argument("--campaign-plots", metavar="DIR", help="each estimate against the flight "
+                     "condition --against, with sigma bars, one PNG each")
+    run.add_argument("--against", default="mach", metavar="CONDITION",
+                     help="the condition of --campaign-plots (default mach)")
     run.add_argument("--plots", metavar="DIR", help="write PNG plots of each fit into DIR")
     run.add_argument("--json", metavar="FILE", help="write every case's results as JSON")
     run.add_argument("--table", metavar="FILE",
@@ -72,22 +85,27 @@ def _outputs_writable(args):
     from .files import check_writable
     if getattr(args, "json", None):
         check_writable(args.json, "--json")
+    if getattr(args, "campaign", None):
+        from .campaign import FORMATS
+        if Path(args.campaign).suffix.lower().lstrip(".") not in FORMATS:
+            raise InputError(f"--campaign {args.campaign}: the suffix must be .csv or .json")
+        check_writable(args.campaign, "--campaign")
     if getattr(args, "table", None):
         from .table import WRITERS
         if Path(args.table).suffix.lower().lstrip(".") not in WRITERS:
             raise InputError(f"--table {args.table}: the suffix must be one of "
                              f"{', '.join('.' + s for s in WRITERS)}")
         check_writable(args.table, "--table")
-    for option in ("plots", "report"):
+    for option in ("plots", "report", "campaign_plots"):
         folder = getattr(args, option, None)
         if not folder:
             continue
         try:
             Path(folder).mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise InputError(f"cannot make --{option} folder {folder}: {exc.strerror}") \
-                from None
-        check_writable(Path(folder) / "plot.png", f"--{option} into")
+            raise InputError(f"cannot make --{option.replace('_', '-')} folder {folder}: "
+                             f"{exc.strerror}") from None
+        check_writable(Path(folder) / "plot.png", f"--{option.replace('_', '-')} into")
 
 
 def _attempt(what, fn, *args):
@@ -159,33 +177,89 @@ def _record_warnings(case):
         print(f"mlid: {case.where()}: warning: {text}", file=sys.stderr)
 
 
+def _case_task(deck, k, plots, table):
+    """Run case k of deck as a serial run would, its printout captured:
+    (stdout, stderr, JSON object, table rows, failed, campaign row, what
+    --report needs or None outside this process).  A worker's task
+    (mlid.campaign.outcomes)."""
+    import io
+    from contextlib import redirect_stderr, redirect_stdout
+    from types import SimpleNamespace
+
+    from . import campaign
+    from .deck import case_json, run_cases
+    if plots:
+        from .plots import use_file_backend
+        use_file_backend()
+    case = campaign.opened(deck)[k - 1]
+    out_text, err_text, tables = io.StringIO(), io.StringIO(), []
+    with redirect_stdout(out_text), redirect_stderr(err_text):
+        case, out, result, error = next(run_cases([case]))
+        obj = case_json(case, out, result, error)
+        shown = _show_case(SimpleNamespace(plots=plots, table=table), case, out, result,
+                           error, tables)
+        if shown:
+            _failed(case, shown, reported=result is not None and result.failed)
+    return (out_text.getvalue(), err_text.getvalue(), obj, tables, bool(shown),
+            campaign.row(case, result), (case, out, result, error))
+
+
+def _jobs(args):
+    """(deck, case) of every case of the decks, and the decks that cannot
+    be read (said on stderr, counted as failed)."""
+    from . import campaign
+    from .deck import read_deck
+    jobs, unread = [], 0
+    for deck in campaign.decks(args.deck):
+        try:
+            n = len(read_deck(deck))
+        except MlidError as exc:
+            if len(args.deck) == 1:
+                raise
+            print(f"mlid: {exc}", file=sys.stderr)
+            unread += 1
+            continue
+        jobs += [(str(deck), k, args.plots, bool(args.table)) for k in range(1, n + 1)]
+    return jobs, unread
+
+
 def _run(args):
     import warnings
 
-    from .deck import case_json, json_list, read_deck, run_cases
+    from . import campaign
+    from .deck import json_list
     from .files import atomic_write_text
     from .plots import use_file_backend
     from .progress import bar
     from .table import ResultsTable
 
     _outputs_writable(args)
-    if args.plots or args.report:
+    campaign.check_scheduler(args.scheduler)
+    if args.plots or args.report or args.campaign_plots:
         use_file_backend()
     warnings.simplefilter("ignore")       # the core's warnings are printed with each case
-    failed, objects, tables, ran = 0, [], [], []
-    deck = read_deck(args.deck)             # read once: the bar's length and the cases
-    cases = bar(None if len(deck) > 1 else False, len(deck), "mlid run", "case")
-    for case, out, result, error in run_cases(deck):
+    jobs, failed = _jobs(args)
+    workers = args.workers or (1 if len(args.deck) == 1 else (os.cpu_count() or 1))
+    if workers < 1:
+        raise InputError(f"--workers must be >= 1, got {workers}")
+    if args.report and (workers > 1 or args.scheduler):
+        raise InputError("--report needs the cases in this process: --workers 1, no "
+                         "--scheduler")
+    objects, tables, ran, rows = [], [], [], []
+    cases = bar(None if len(jobs) > 1 else False, len(jobs), "mlid run", "case")
+    for text, err, obj, rows_of, bad, crow, done in campaign.outcomes(
+            _case_task, jobs, min(workers, max(len(jobs), 1)), args.scheduler):
         cases.update()
-        if args.report:
-            ran.append((case, out, result, error))
         cases.clear()                     # the case's lines go above the bar
-        objects.append(case_json(case, out, result, error))
-        error = _show_case(args, case, out, result, error, tables)
-        if error:
-            failed += 1
-            _failed(case, error, reported=result is not None and result.failed)
+        sys.stdout.write(text)
         sys.stdout.flush()
+        sys.stderr.write(err)
+        objects.append(obj)
+        tables += rows_of
+        rows.append(crow)
+        if args.report:
+            ran.append(done)
+        failed += bad
         cases.refresh()
     cases.close()
     if failed:
@@ -195,9 +269,12 @@ def _run(args):
         writes.append((f"--json {args.json}", atomic_write_text, args.json, json_list(objects)))
     if args.table:
         writes.append((f"--table {args.table}", ResultsTable.concat(tables).write, args.table))
+    if args.campaign:
+        writes.append((f"--campaign {args.campaign}", campaign.Campaign(rows).write,
+                       args.campaign))
     if args.report:
         from .html_report import write_report
-        writes.append((f"--report {args.report}", write_report, args.report, args.deck, ran))
+        writes.append((f"--report {args.report}", write_report, args.report, args.deck[0], ran))
     for what, fn, *fn_args in writes:
         path, error = _attempt(what, fn, *fn_args)
         if error:
@@ -205,7 +282,25 @@ def _run(args):
             return 1
         if what.startswith("--report"):
             print(f" report: {path}")
+    if args.campaign_plots:
+        failed += _campaign_plots(campaign.Campaign(rows), args)
     return 1 if failed else 0
+
+
+def _campaign_plots(table, args):
+    """Each estimate against --against, one PNG each; 1 if one failed."""
+    from pathlib import Path
+    params = [c[:-len("_sigma")] for c in table.columns if c.endswith("_sigma")]
+    bad = 0
+    for p in params:
+        path, error = _attempt("--campaign-plots", table.plot, p, args.against,
+                               Path(args.campaign_plots) / f"{p}_vs_{args.against}.png")
+        if error:
+            print(f"mlid: {error}", file=sys.stderr)
+            bad = 1
+        else:
+            print(f" plot: {path}")
+    return bad
 
 
 def _diagnose(args):
