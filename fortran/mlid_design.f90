@@ -616,21 +616,14 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer, parameter :: ns = 4
-    real(wp) :: c(d%na + d%nu, d%na + d%nu), e(d%na + d%nu, d%na + d%nu), x(d%na), h
+    real(wp) :: e(d%na + d%nu, d%na + d%nu), x(d%na), h
     real(wp) :: y(d%ny, d%m), wgt
     integer :: k, j, i, l
 
     mm = 0.0_wp
     h = t/(n*ns)
-    c = 0.0_wp
-    c(1:d%na, 1:d%na) = d%fa*h
-    c(1:d%na, d%na + 1:) = d%ga*h
-    call expm(c, e, status)
-    if (status /= 0) then
-      status = MLID_ERR_INTERNAL
-      msg = 'matrix exponential failed'
-      return
-    end if
+    call held_step(d%fa, d%ga, h, e, status, msg)
+    if (status /= MLID_OK) return
     x = 0.0_wp
     do k = 0, n - 1
       do j = 0, ns
@@ -811,6 +804,30 @@ contains
     msg = ''
   end subroutine design_state_penalty
 
+  !> exp([F G; 0 0] h): in its first rows the transition matrix and the
+  !> input matrix of a step h with the input held over it.
+  subroutine held_step(f, g, h, e, status, msg)
+    real(wp), intent(in) :: f(:, :), g(:, :), h
+    real(wp), intent(out) :: e(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: c(size(e, 1), size(e, 2))
+    integer :: nx
+
+    nx = size(f, 1)
+    c = 0.0_wp
+    c(1:nx, 1:nx) = f*h
+    c(1:nx, nx + 1:) = g*h
+    call expm(c, e, status)
+    if (status /= 0) then
+      status = MLID_ERR_INTERNAL
+      msg = 'matrix exponential failed'
+      return
+    end if
+    status = MLID_OK
+    msg = ''
+  end subroutine held_step
+
   !> The states x(nx, 0:n ns) of x' = F x + G u, x(0) = 0, under the input u
   !> held over n cells of [0, T] (nu per cell), at ns substeps per cell,
   !> exact (the matrix exponential of one substep).
@@ -820,7 +837,7 @@ contains
     real(wp), intent(out) :: x(:, 0:)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: c(size(f, 1) + size(g, 2), size(f, 1) + size(g, 2)), e(size(c, 1), size(c, 2))
+    real(wp) :: e(size(f, 1) + size(g, 2), size(f, 1) + size(g, 2))
     integer :: nx, nu, k, j
 
     nx = size(f, 1)
@@ -831,15 +848,8 @@ contains
       msg = 'the response needs T > 0, at least one cell and one substep'
       return
     end if
-    c = 0.0_wp
-    c(1:nx, 1:nx) = f*(t/(n*ns))
-    c(1:nx, nx + 1:) = g*(t/(n*ns))
-    call expm(c, e, status)
-    if (status /= 0) then
-      status = MLID_ERR_INTERNAL
-      msg = 'matrix exponential failed'
-      return
-    end if
+    call held_step(f, g, t/(n*ns), e, status, msg)
+    if (status /= MLID_OK) return
     do k = 0, n - 1
       do j = 1, ns
         x(:, k*ns + j) = matmul(e(1:nx, 1:nx), x(:, k*ns + j - 1)) + &

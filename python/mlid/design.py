@@ -212,6 +212,15 @@ class InputDesign:
     def _cells(cells):
         return whole("cells", cells, 4, 10**6)     # the core bounds cells x inputs too
 
+    def _cells_input(self, u):
+        """u as (cells, nu), one row per cell (a vector for one input)."""
+        u = real_array("u", u)
+        nu = self.G.shape[1]
+        u = u.reshape(-1, 1) if u.ndim == 1 and nu == 1 else u
+        if u.ndim != 2 or u.shape[1] != nu:
+            raise InputError(f"u has shape {u.shape}; expected (cells, {nu}), one row per cell")
+        return u
+
     def _check_t(self, T, what="T"):
         if isinstance(T, (str, bytes)) or not (np.isfinite(T) and T > 0):
             raise InputError(f"{what} must be > 0, got {T}")
@@ -326,11 +335,7 @@ class InputDesign:
             T not > 0, u not one row per cell.
         """
         self._check_t(T)
-        u = real_array("u", u)
-        nu = self.G.shape[1]
-        u = u.reshape(-1, 1) if u.ndim == 1 and nu == 1 else u
-        if u.ndim != 2 or u.shape[1] != nu:
-            raise InputError(f"u has shape {u.shape}; expected (cells, {nu}), one row per cell")
+        u = self._cells_input(u)
         M, status, msg = _api.mlid_design_information(t=float(T), ncell=len(u), u=u.ravel(),
                                                        **self._args())
         check_status(status, msg)
@@ -575,11 +580,7 @@ class InputDesign:
             T not > 0, u not one row per cell, substeps not >= 1.
         """
         self._check_t(T)
-        u = real_array("u", u)
-        nu = self.G.shape[1]
-        u = u.reshape(-1, 1) if u.ndim == 1 and nu == 1 else u
-        if u.ndim != 2 or u.shape[1] != nu:
-            raise InputError(f"u has shape {u.shape}; expected (cells, {nu}), one row per cell")
+        u = self._cells_input(u)
         ns = whole("substeps", substeps, 1, 1000)
         x, status, msg = _api.mlid_design_response(f=self.F, g=self.G, t=float(T), ncell=len(u),
                                                    ns=ns, u=u.ravel())
