@@ -51,6 +51,7 @@ def run(path, extra, out):
 
 
 def main(n=200):
+    os.environ["OMP_NUM_THREADS"] = "1"         # the cluster's workers too: one thread a fit
     from distributed import LocalCluster
     with tempfile.TemporaryDirectory() as tmp:
         path = deck(tmp, n)

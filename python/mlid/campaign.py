@@ -161,6 +161,8 @@ def outcomes(task, jobs, workers=1, scheduler=None):
         from distributed import Client
         client = scheduler if hasattr(scheduler, "gather") else Client(scheduler)
         try:
+            # one OpenMP thread a fit: the cluster's workers are its parallelism
+            client.run(_worker_init, 1)
             futures = [client.submit(task, *j, pure=False) for j in jobs]
             for f in futures:
                 yield f.result()
