@@ -13,16 +13,22 @@ import pytest
 from conftest import BIN, REPO
 
 C8 = REPO / "cases" / "c8_short_period" / "c8.nml"
-ESTIMATE = C8.read_text().split("&case title = 'C-8 short period: output-error fit'")[1]
+SIMULATE, ESTIMATE = C8.read_text().split("&case title = 'C-8 short period: output-error fit'")
 ESTIMATE = ESTIMATE[ESTIMATE.index("\n&model"):]              # the groups after &case
 MACHS = (0.3, 0.4, 0.5)
 
 
 def _decks(folder):
     """Three one-case decks, each the C-8 fit on its own window of the
-    record, at its own Mach number; a fourth case that cannot run."""
-    data = (REPO / "cases" / "c8_short_period" / "c8_doublet.dat").resolve()
-    body = ESTIMATE.replace("file = 'c8_doublet.dat'", f"file = '{data}'")
+    record (which c8.nml's simulate case writes first, into a subfolder that
+    holds no campaign deck), at its own Mach number; a fourth case that
+    cannot run."""
+    sim = folder / "record"                   # the record, made by c8.nml's simulate case
+    sim.mkdir()
+    (sim / "sim.nml").write_text(SIMULATE)
+    subprocess.run([str(BIN / "mlid-batch"), str(sim / "sim.nml")], check=True,
+                   capture_output=True, timeout=120)
+    body = ESTIMATE.replace("file = 'c8_doublet.dat'", f"file = '{sim / 'c8_doublet.dat'}'")
     for k, (mach, t_end) in enumerate(zip(MACHS, (4.0, 5.0, 6.0)), 1):
         text = (f"&case title = 'window {t_end}', job = 'estimate', mach = {mach}, "
                 f"altitude = {1000 * k}., config = 'clean', tags = 'short period, doublet' /"
