@@ -177,11 +177,11 @@ def _record_warnings(case):
         print(f"mlid: {case.where()}: warning: {text}", file=sys.stderr)
 
 
-def _case_task(deck, k, plots, table):
+def _case_task(deck, k, plots, table, keep):
     """Run case k of deck as a serial run would, its printout captured:
-    (stdout, stderr, JSON object, table rows, failed, campaign row, what
-    --report needs or None outside this process).  A worker's task
-    (mlid.campaign.outcomes)."""
+    (stdout, stderr, JSON object, table rows, failed, campaign row, and with
+    keep what --report needs, else None: the fit stays in the worker).  A
+    worker's task (mlid.campaign.outcomes)."""
     import io
     from contextlib import redirect_stderr, redirect_stdout
     from types import SimpleNamespace
@@ -201,7 +201,7 @@ def _case_task(deck, k, plots, table):
         if shown:
             _failed(case, shown, reported=result is not None and result.failed)
     return (out_text.getvalue(), err_text.getvalue(), obj, tables, bool(shown),
-            campaign.row(case, result), (case, out, result, error))
+            campaign.row(case, result), (case, out, result, error) if keep else None)
 
 
 def _jobs(args):
@@ -219,7 +219,8 @@ def _jobs(args):
             print(f"mlid: {exc}", file=sys.stderr)
             unread += 1
             continue
-        jobs += [(str(deck), k, args.plots, bool(args.table)) for k in range(1, n + 1)]
+        jobs += [(str(deck), k, args.plots, bool(args.table), bool(args.report))
+                 for k in range(1, n + 1)]
     return jobs, unread
 
 
