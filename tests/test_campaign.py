@@ -105,3 +105,14 @@ def test_campaign_plots_and_bad_options(runs, tmp_path):
     assert code == 1 and "give an address" in err
     code, _, err = _run([folder / "nothing.nml"])
     assert code == 1 and "file not found" in err           # the core's words, as mlid-batch
+
+
+def test_a_deck_whose_cases_depend_on_each_other_runs_in_order(tmp_path):
+    """c8.nml's estimate case reads the record its simulate case writes: on
+    two workers, two such decks give the serial run's output."""
+    for name in ("a", "b"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "c8.nml").write_text(C8.read_text())
+    serial = _run([tmp_path / "a", tmp_path / "b", "--workers", "1"])
+    assert serial[0] == 0 and serial[1].count("converged") >= 2
+    assert _run([tmp_path / "a", tmp_path / "b", "--workers", "2"]) == serial

@@ -1,9 +1,11 @@
 """Flight-test campaigns (issue 18): the cases of many decks run side by
 side, in local processes or on a Dask cluster, and the campaign table.
 
-Each case is one task: a worker reads its deck (the core holds one deck at a
-time, so each process keeps the last it read) and runs the case as a serial
-run would, its printout captured.  The parent prints the captured text and
+Each case is one task (a deck with a case that writes a record a later case
+may read, a simulate or design job, is one task, its cases in order): a
+worker reads its deck (the core holds one deck at a time, so each process
+keeps the last it read) and runs the case as a serial run would, its
+printout captured.  The parent prints the captured text and
 collects the JSON objects and table rows in submission order, so the output
 is a serial run's whatever the workers and the order they finish in.
 

@@ -177,11 +177,11 @@ def _record_warnings(case):
         print(f"mlid: {case.where()}: warning: {text}", file=sys.stderr)
 
 
-def _case_task(deck, k, plots, table, keep):
-    """Run case k of deck as a serial run would, its printout captured:
-    (stdout, stderr, JSON object, table rows, failed, campaign row, and with
-    keep what --report needs, else None: the fit stays in the worker).  A
-    worker's task (mlid.campaign.outcomes)."""
+def _case_task(deck, ks, plots, table, keep):
+    """Run cases ks of deck in order as a serial run would, each one's
+    printout captured: per case (stdout, stderr, JSON object, table rows,
+    failed, campaign row, and with keep what --report needs, else None: the
+    fit stays in the worker).  A worker's task (mlid.campaign.outcomes)."""
     import io
     from contextlib import redirect_stderr, redirect_stdout
     from types import SimpleNamespace
@@ -191,36 +191,47 @@ def _case_task(deck, k, plots, table, keep):
     if plots:
         from .plots import use_file_backend
         use_file_backend()
-    case = campaign.opened(deck)[k - 1]
-    out_text, err_text, tables = io.StringIO(), io.StringIO(), []
-    with redirect_stdout(out_text), redirect_stderr(err_text):
-        case, out, result, error = next(run_cases([case]))
-        obj = case_json(case, out, result, error)
-        shown = _show_case(SimpleNamespace(plots=plots, table=table), case, out, result,
-                           error, tables)
-        if shown:
-            _failed(case, shown, reported=result is not None and result.failed)
-    return (out_text.getvalue(), err_text.getvalue(), obj, tables, bool(shown),
-            campaign.row(case, result), (case, out, result, error) if keep else None)
+    done = []
+    for k in ks:
+        case = campaign.opened(deck)[k - 1]
+        out_text, err_text, tables = io.StringIO(), io.StringIO(), []
+        with redirect_stdout(out_text), redirect_stderr(err_text):
+            case, out, result, error = next(run_cases([case]))
+            obj = case_json(case, out, result, error)
+            shown = _show_case(SimpleNamespace(plots=plots, table=table), case, out, result,
+                               error, tables)
+            if shown:
+                _failed(case, shown, reported=result is not None and result.failed)
+        done.append((out_text.getvalue(), err_text.getvalue(), obj, tables, bool(shown),
+                     campaign.row(case, result), (case, out, result, error) if keep else None))
+    return done
+
+
+#: jobs whose cases write a record a later case of the deck may read: such a
+#: deck runs as one task, its cases in order
+WRITING_JOBS = ("simulate", "design")
 
 
 def _jobs(args):
-    """(deck, case) of every case of the decks, and the decks that cannot
-    be read (said on stderr, counted as failed)."""
+    """The tasks: (deck, its case numbers, ...) with one case each, or all of
+    a deck's cases when one writes a record (WRITING_JOBS); and the number
+    of decks that cannot be read (said on stderr, counted as failed)."""
     from . import campaign
     from .deck import read_deck
     jobs, unread = [], 0
     for deck in campaign.decks(args.deck):
         try:
-            n = len(read_deck(deck))
+            cases = read_deck(deck)
         except MlidError as exc:
             if len(args.deck) == 1:
                 raise
             print(f"mlid: {exc}", file=sys.stderr)
             unread += 1
             continue
-        jobs += [(str(deck), k, args.plots, bool(args.table), bool(args.report))
-                 for k in range(1, n + 1)]
+        ks = list(range(1, len(cases) + 1))
+        groups = [ks] if any(c.job in WRITING_JOBS for c in cases) else [[k] for k in ks]
+        jobs += [(str(deck), g, args.plots, bool(args.table), bool(args.report))
+                 for g in groups]
     return jobs, unread
 
 
@@ -247,9 +258,11 @@ def _run(args):
         raise InputError("--report needs the cases in this process: --workers 1, no "
                          "--scheduler")
     objects, tables, ran, rows = [], [], [], []
-    cases = bar(None if len(jobs) > 1 else False, len(jobs), "mlid run", "case")
-    for text, err, obj, rows_of, bad, crow, done in campaign.outcomes(
-            _case_task, jobs, min(workers, max(len(jobs), 1)), args.scheduler):
+    n = sum(len(j[1]) for j in jobs)
+    cases = bar(None if n > 1 else False, n, "mlid run", "case")
+    for text, err, obj, rows_of, bad, crow, done in (
+            c for task in campaign.outcomes(_case_task, jobs, min(workers, max(len(jobs), 1)),
+                                            args.scheduler) for c in task):
         cases.update()
         cases.clear()                     # the case's lines go above the bar
         sys.stdout.write(text)
