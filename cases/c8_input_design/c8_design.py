@@ -214,11 +214,14 @@ def make_plots(out, folder):
 
 
 def _save(fig, folder, name):
+    """The figure written whole or not at all (mlid.files.atomic_savefig)."""
     import matplotlib.pyplot as plt
     from pathlib import Path
+
+    from mlid.files import atomic_savefig
     fig.tight_layout()
     path = Path(folder) / name
-    fig.savefig(path, dpi=110)
+    atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
     return path
 

@@ -131,6 +131,15 @@ def _record(model, data):
     return np.ascontiguousarray(data.t, dtype=float), u, y
 
 
+#: fit()'s options that evaluate() does not take (they shape the iteration)
+FIT_ONLY = ("prior", "prior_weight", "bounds")
+
+
+def evaluate_options(options):
+    """A fit's options as evaluate() takes them (FIT_ONLY left out)."""
+    return {k: v for k, v in options.items() if k not in FIT_ONLY}
+
+
 def _extras(params, prior, prior_weight, bounds):
     """A priori values/weight and bounds in the core's layout."""
     theta = params.theta

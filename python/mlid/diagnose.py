@@ -296,7 +296,7 @@ def _state_estimates(model, data, options):
     (output error) even when the model has process noise: a filter's
     predictions carry the measurements, and a regressor made of them would
     track the turbulence."""
-    opts = dict(_evaluate_options(options), method="output_error")
+    opts = dict(core.evaluate_options(options), method="output_error")
     opts.pop("steady_state", None)
     opts.pop("noise_criterion", None)
     return core.evaluate(model, data, **opts)["yhat"] - model.bias
@@ -644,7 +644,7 @@ def _score(model, fit, data, cands, options):
         if "coef" in c.spec:
             try:
                 m, new = _extended_longitudinal(model, c.spec["coef"], c.spec["reg"])
-                ev = core.evaluate(m, data, **_evaluate_options(options))
+                ev = core.evaluate(m, data, **core.evaluate_options(options))
             except MlidError:
                 c.confounded, c.decision = True, "confounded"
                 continue
@@ -653,7 +653,7 @@ def _score(model, fit, data, cands, options):
     if written:
         try:
             m, params = terms.extended(model, [c.spec["term"] for c in written])
-            ev = core.evaluate(m, data, **_evaluate_options(options))
+            ev = core.evaluate(m, data, **core.evaluate_options(options))
             _lm(ev, m.free_names(), model.free_names(), params, written)
         except MlidError:
             for c in written:
@@ -674,7 +674,7 @@ def _score_together(model, data, batch, options):
              for c in batch]
     try:
         m = m.with_free(list(model.free) + extra)
-        ev = core.evaluate(m, d, **_evaluate_options(options))
+        ev = core.evaluate(m, d, **core.evaluate_options(options))
     except MlidError:               # one by one: the failing ones are confounded
         if len(batch) > 1:
             for c in batch:
@@ -717,7 +717,7 @@ def _noise_score(model, fit, data, cands, options):
     m.r = np.diag(fit.rhat).copy()
     m.q = np.full(len(states), Q_SCORE)
     try:
-        ev = core.evaluate(m, data, **dict(_evaluate_options(options), method="filter_error"))
+        ev = core.evaluate(m, data, **dict(core.evaluate_options(options), method="filter_error"))
     except MlidError:
         for c in cands:
             c.confounded, c.decision = True, "confounded"
@@ -744,9 +744,6 @@ def _signatures(fit, cands, diag):
         elif f == "sensor lag":
             i = c.spec["output"]
             c.signature = abs(_corr(e[:, i], np.gradient(yhat[:, i])))
-        elif f == "process noise":
-            c.signature = float(np.mean([abs(_corr(e[1:, i], e[:-1, i]))
-                                         for i in range(e.shape[1])]))
 
 
 def _corr(a, b):
@@ -755,11 +752,6 @@ def _corr(a, b):
     return float(a @ b / den) if den > 0 else 0.0
 
 
-_FIT_ONLY = ("prior", "prior_weight", "bounds")
-
-
-def _evaluate_options(options):
-    return {k: v for k, v in options.items() if k not in _FIT_ONLY}
 
 
 #: what a parameter candidate's estimate means, by family

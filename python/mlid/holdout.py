@@ -71,10 +71,6 @@ class Split:
         return array[-self.rows:]
 
 
-def _evaluate_options(options):
-    return {k: v for k, v in options.items() if k not in ("prior", "prior_weight", "bounds")}
-
-
 def heldout_cost(model, data, split, options):
     """Fit model (from its current parameters) to the split's head and score
     its prediction of the held-out samples (the module's J).
@@ -91,7 +87,7 @@ def heldout_cost(model, data, split, options):
         What the fit or the prediction raises.
     """
     res = core.fit(model, split.head(data), **options)
-    yhat = core.evaluate(res.model, data, **_evaluate_options(options))["yhat"]
+    yhat = core.evaluate(res.model, data, **core.evaluate_options(options))["yhat"]
     y = np.vstack([r.y for r in records(data)])
     return criterion(split.held(y - yhat)), res, yhat
 
