@@ -309,7 +309,10 @@ def test_bode_measured_plot(fitted, tmp_path):
     assert [ax.get_ylabel() for ax in (ag, ap, ac)] == ["gain [dB]", "phase [deg]",
                                                          "coherence γ²"]
     labels = [ln.get_label() for ln in ag.get_lines()]
-    assert labels == ["identified model", "measured (record)", "LOES (1/2, delay)"]
+    assert labels == ["identified model", "measured (record)", "measured, γ² < 0.6",
+                      "LOES (1/2, delay)"]
+    good = meas.coherence >= plots.COHERENCE_SHOWN
+    np.testing.assert_allclose(ag.get_lines()[1].get_xdata(), meas.frequency[good])
     model_line = ag.get_lines()[0]
     ref = mlid.model_response(fitted, model_line.get_xdata(), "de", "q")
     np.testing.assert_allclose(model_line.get_ydata(), ref.gain)
@@ -340,3 +343,21 @@ def test_cli_bode(tmp_path):
     bad = subprocess.run([BIN / "mlid", "bode", tmp_path / "sp.nml", "--case", "2", "--out", out],
                          capture_output=True, text=True)
     assert bad.returncode == 1 and bad.stderr.strip().endswith("the deck has 1 cases")
+
+
+def test_record_spectra_against_scipy():
+    """A second implementation: scipy.signal's csd and welch with the same
+    periodic Hann window, overlap, mean removal and one-sided densities."""
+    signal = pytest.importorskip("scipy.signal")
+    d = _record([0.01, 0.03]).head(5000)
+    r = mlid.record_response(d, "de", "q", segment=512, overlap=0.5)
+    u, y = d.u[:, 0], d.y[:, 1]
+    kw = dict(fs=1 / DT, window="hann", nperseg=512, noverlap=256, detrend="constant")
+    f, guy = signal.csd(u, y, **kw)
+    _, guu = signal.welch(u, **kw)
+    _, gyy = signal.welch(y, **kw)
+    np.testing.assert_allclose(r.frequency, f[1:], rtol=1e-12)
+    np.testing.assert_allclose(r.input_spectrum, guu[1:], rtol=1e-9)
+    np.testing.assert_allclose(r.output_spectrum, gyy[1:], rtol=1e-9)
+    np.testing.assert_allclose(r.response, guy[1:] / guu[1:], rtol=1e-9)
+    np.testing.assert_allclose(r.coherence, abs(guy[1:])**2 / (guu[1:] * gyy[1:]), rtol=1e-9)

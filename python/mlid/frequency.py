@@ -44,6 +44,14 @@ DB = 20.0 / np.log(10.0)
 class FrequencyResponse:
     """Gain and phase of one output over one input at a set of frequencies.
 
+    Made by ``record_response`` and ``model_response`` (and
+    ``TransferFunctionFit.response``).
+
+    Parameters
+    ----------
+    **fields
+        The attributes, by name.
+
     Attributes
     ----------
     frequency : ndarray (nf,)
@@ -77,7 +85,19 @@ class FrequencyResponse:
 
     def band(self, f_min=None, f_max=None, min_coherence=None):
         """The points within [f_min, f_max] Hz (and of coherence at least
-        min_coherence, for a record's), as a boolean mask."""
+        min_coherence, for a record's) where gain and phase are finite.
+
+        Parameters
+        ----------
+        f_min, f_max : float, optional
+            Hz; no bound where None.
+        min_coherence : float, optional
+            Ignored for a response without coherence.
+
+        Returns
+        -------
+        ndarray of bool (nf,)
+        """
         keep = np.isfinite(self.gain) & np.isfinite(self.phase)
         if f_min is not None:
             keep &= self.frequency >= f_min
@@ -278,6 +298,11 @@ class TransferFunctionFit:
     """A transfer function (b_m s^m + ... + b_0) / (s^n + ... + a_0) e^(-tau s)
     fitted to a frequency response (``fit_transfer_function``).
 
+    Parameters
+    ----------
+    **fields
+        The attributes, by name (``fit_transfer_function`` sets them).
+
     Attributes
     ----------
     m, n : int
@@ -306,33 +331,58 @@ class TransferFunctionFit:
 
     @property
     def numerator(self):
+        """Numerator coefficients b_m .. b_0, highest power first."""
         return self.estimate[:self.m + 1][::-1].copy()
 
     @property
     def denominator(self):
+        """Denominator coefficients 1, a_(n-1) .. a_0, highest power first."""
         return np.concatenate([[1.0], self.estimate[self.m + 1:self.m + 1 + self.n][::-1]])
 
     @property
     def delay(self):
+        """The time delay tau (s); 0 when none was fitted."""
         return float(self.estimate[-1]) if self.has_delay else 0.0
 
     @property
     def poles(self):
+        """Roots of the denominator."""
         return np.roots(self.denominator)
 
     @property
     def zeros(self):
+        """Roots of the numerator."""
         return np.roots(self.numerator)
 
     def value(self, name):
-        """A parameter ('b0', 'a1', 'tau') by name."""
+        """A parameter by name.
+
+        Parameters
+        ----------
+        name : str
+            'b0', 'a1', 'tau', ...
+
+        Returns
+        -------
+        float
+
+        Raises
+        ------
+        InputError
+            If the fit has no such parameter.
+        """
         if name not in self.names:
             raise InputError(f"no parameter {name!r}; the fit has {self.names}")
         return float(self.estimate[self.names.index(name)])
 
     def second_order(self):
-        """Damping ratio and natural frequency (rad/s) of each complex pole
-        pair: [(zeta, omega_n), ...]."""
+        """Damping ratio and natural frequency of each complex pole pair.
+
+        Returns
+        -------
+        list of (float, float)
+            (zeta, omega_n in rad/s), one per pair with positive imaginary part.
+        """
         out = []
         for p in self.poles:
             if p.imag > 0:
@@ -342,7 +392,18 @@ class TransferFunctionFit:
 
     @guarded
     def response(self, frequency):
-        """The fitted transfer function's FrequencyResponse at frequency (Hz)."""
+        """The fitted transfer function's response.
+
+        Parameters
+        ----------
+        frequency : array_like
+            Hz.
+
+        Returns
+        -------
+        FrequencyResponse
+            Gain (dB) and phase (deg, unwrapped); no sigma.
+        """
         f = real_array("frequency", frequency).ravel()
         gain, phase = _api.mlid_tf_response(w=2 * np.pi * f, m=self.m, n=self.n,
                                              delay=int(self.has_delay), x=self.estimate)
@@ -353,7 +414,13 @@ class TransferFunctionFit:
             output_unit=self.output_unit, source="transfer function")
 
     def report(self):
-        """The fit as text: parameters with sigma, poles, mismatch."""
+        """The fit as text.
+
+        Returns
+        -------
+        str
+            Orders, range, parameters with sigma, pole pairs and the mismatch.
+        """
         lines = [f"transfer function {self.output_name}/{self.input_name}: numerator order "
                  f"{self.m}, denominator order {self.n}"
                  + (", with time delay" if self.has_delay else ""),
@@ -463,8 +530,21 @@ def fit_transfer_function(response, m, n, delay=True, f_min=None, f_max=None,
 
 @guarded
 def transfer_mismatch(fit, response, coherence_weighting=False):
-    """The mismatch of a TransferFunctionFit against a response at the
-    response's points in the fit's range (the core's residuals, r'r)."""
+    """The handling-qualities mismatch of a fitted transfer function against
+    a response, at the response's points in the fit's frequency range.
+
+    Parameters
+    ----------
+    fit : TransferFunctionFit
+    response : FrequencyResponse
+    coherence_weighting : bool
+        Weight by the response's coherence.
+
+    Returns
+    -------
+    float
+        20/n sum W [(dG)^2 + 0.01745 (dP)^2] (the core's residuals, r'r).
+    """
     keep = response.band(*fit.frequency_range)
     coh = response.coherence[keep] if response.coherence is not None else np.ones(keep.sum())
     r, _ = _api.mlid_tf_residuals(w=2 * np.pi * response.frequency[keep],

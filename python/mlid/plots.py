@@ -891,13 +891,18 @@ def _declared_db(record, i, j):
     return 20 * np.log10(abs(su / sy)), unit_ratio(uy, uu)
 
 
+#: Coherence below which the Bode plot draws a measured point hollow (less trusted).
+COHERENCE_SHOWN = 0.6
+
+
 @_styled
 def bode_measured(result, input=0, output=0, measured=None, loes=None, frequencies=200,
                   path=None):
     """Bode plot of an identified linear model against the record's
     measured frequency response: gain and phase of the model with its ±2σ
     Cramér-Rao band (delta method, the core's analytic derivatives), the
-    measured response as points, its coherence in a third panel, and a
+    measured response as points (hollow where the coherence is below
+    COHERENCE_SHOWN), its coherence in a third panel, and a
     fitted transfer function (LOES) when given.  Gains in dB of the
     declared units' ratio.
 
@@ -941,7 +946,11 @@ def bode_measured(result, input=0, output=0, measured=None, loes=None, frequenci
         ax.fill_between(fm, ym - 2 * s, ym + 2 * s, color=COLORS["band"], alpha=0.2, lw=0,
                         label="model ±2σ (Cramér-Rao)")
         ax.plot(fm, ym, color=COLORS["model"], label="identified model")
-        ax.plot(f, y, "o", ms=2.5, color=COLORS["measured"], label="measured (record)")
+        good = measured.coherence >= COHERENCE_SHOWN
+        ax.plot(f[good], y[good], "o", ms=2.5, color=COLORS["measured"],
+                label="measured (record)")
+        ax.plot(f[~good], y[~good], "o", ms=2.5, mfc="none", mew=0.6, color="0.6",
+                label=f"measured, γ² < {COHERENCE_SHOWN}")
         if loes is not None:
             fl = fm[(fm >= loes.frequency_range[0]) & (fm <= loes.frequency_range[1])]
             r = loes.response(fl)
@@ -951,6 +960,7 @@ def bode_measured(result, input=0, output=0, measured=None, loes=None, frequenci
                     + (", delay" if loes.has_delay else "") + ")")
         ax.set_xscale("log")
     ac.plot(f, measured.coherence, "o", ms=2.5, color=COLORS["measured"])
+    ac.axhline(COHERENCE_SHOWN, color="0.6", lw=0.7, ls=(0, (4, 3)))
     ac.set_ylim(0, 1.05)
     ag.set_ylabel("gain [dB]")
     ap.set_ylabel("phase [deg]")
@@ -958,7 +968,7 @@ def bode_measured(result, input=0, output=0, measured=None, loes=None, frequenci
     ac.set_xlabel("frequency [Hz]")
     ag.set_title(f"{measured.input_name} → {measured.output_name}"
                  + (f"  [{ratio}]" if ratio else ""), loc="left")
-    _legend_above(ag, "right", ncols=2)
+    _legend_above(ag, "right", ncols=3)
     fig.suptitle(f"frequency response: identified model and record ({measured.averages} "
                  f"averages of {measured.segment} samples)", fontsize=9.5)
     return _finish(fig, path)
