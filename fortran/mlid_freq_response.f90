@@ -207,7 +207,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kk(m%nu, m%nx)
-    complex(wp) :: r(m%nx, m%nx), p(m%ny, m%nx), q(m%nx, m%nu), kq(m%nu, m%nu), s
+    complex(wp) :: r(m%nx, m%nx), p(m%ny, m%nx), pt(m%nx, m%ny), q(m%nx, m%nu), kq(m%nu, m%nu), s
     complex(wp) :: ph(m%ny, m%nu)
     integer :: nx, nu, ny, i, j, info, ipiv(m%nx)
     nx = m%nx
@@ -232,9 +232,9 @@ contains
       return
     end if
     ! P = C R: solve (sI - A)' P' = C' with the same factors
-    p = transpose(h + matmul(d, kk))
-    call zgetrs('T', nx, ny, r, nx, ipiv, p, nx, info)
-    p = transpose(p)
+    pt = transpose(h + matmul(d, kk))
+    call zgetrs('T', nx, ny, r, nx, ipiv, pt, nx, info)
+    p = transpose(pt)
     kq = matmul(kk, q)
     do j = 1, nu
       kq(j, j) = kq(j, j) + 1.0_wp                     ! e_j' + K(j,:) Q, row j

@@ -98,15 +98,18 @@ def test_record_response_refuses_bad_input():
 
 
 def _feedback_model():
-    """Feedback K, D, an input and an output delay, and a tie: every path
-    of the analytic derivatives."""
-    K = np.array([[0.3, -0.2]])
-    m = mlid.LinearModel(F, G, np.array([[1.0, 0.0], [0.2, 1.0]]), D=np.array([[0.0], [0.4]]),
-                         free=["f(1,1)", "f(2,1)", "f(2,2)", "g(2,1)", "h(2,1)", "d(2,1)",
-                               "k(1,2)", "udelay(1)", "delay(2)"],
+    """Two inputs, three outputs, feedback K, D, input and output delays and
+    a tie: every path of the analytic derivatives."""
+    G2 = np.column_stack([G, [0.3, -2.0]])
+    H3 = np.array([[1.0, 0.0], [0.2, 1.0], [0.5, 0.1]])
+    D3 = np.array([[0.0, 0.0], [0.4, 0.0], [0.1, -0.2]])
+    m = mlid.LinearModel(F, G2, H3, D=D3,
+                         free=["f(1,1)", "f(2,1)", "f(2,2)", "g(2,1)", "g(1,2)", "h(2,1)",
+                               "h(3,2)", "d(2,1)", "d(3,2)", "k(2,1)", "k(1,2)", "udelay(1)",
+                               "udelay(2)", "delay(2)"],
                          ties={"f(1,2)": "0.5 + 2*f(1,1)"})
-    return m.with_theta(_set(m, {"k(1,1)": K[0, 0], "k(1,2)": K[0, 1], "udelay(1)": 0.03,
-                                 "delay(2)": 0.02}))
+    return m.with_theta(_set(m, {"k(1,1)": 0.3, "k(1,2)": -0.2, "k(2,1)": 0.1,
+                                 "udelay(1)": 0.03, "udelay(2)": 0.01, "delay(2)": 0.02}))
 
 
 def _set(model, values):
@@ -120,35 +123,39 @@ def _set(model, values):
 def test_model_response_against_numpy_with_feedback_and_delays():
     m = _feedback_model()
     f = np.logspace(-1, 1, 7)
-    r = mlid.model_response(m, f, 0, 1)
     A = m.F + m.G @ m.K
     C = m.H + m.D @ m.K
     w = 2 * np.pi * f
-    direct = _numpy_response(A, m.G, C, m.D, f)[:, 1, 0] * np.exp(
-        -1j * w * (m.udelay[0] + m.delay[1]))
-    np.testing.assert_allclose(r.response, direct, rtol=1e-12)
-    np.testing.assert_allclose(r.gain, 20 * np.log10(abs(direct)), rtol=1e-12)
-    dphase = (r.phase - np.degrees(np.angle(direct)) + 180) % 360 - 180
-    np.testing.assert_allclose(dphase, 0, atol=1e-9)
-    assert np.all(abs(np.diff(r.phase)) < 180)          # unwrapped
+    for i, j in ((0, 1), (1, 2), (1, 0)):
+        r = mlid.model_response(m, f, i, j)
+        direct = _numpy_response(A, m.G, C, m.D, f)[:, j, i] * np.exp(
+            -1j * w * (m.udelay[i] + m.delay[j]))
+        np.testing.assert_allclose(r.response, direct, rtol=1e-12)
+        np.testing.assert_allclose(r.gain, 20 * np.log10(abs(direct)), rtol=1e-12)
+        dphase = (r.phase - np.degrees(np.angle(direct)) + 180) % 360 - 180
+        np.testing.assert_allclose(dphase, 0, atol=1e-9)
+        assert np.all(abs(np.diff(r.phase)) < 180)          # unwrapped
 
 
 def test_model_response_derivatives_against_finite_differences():
     m = _feedback_model()
     f = np.array([0.05, 0.4, 2.0, 9.0])
-    r = mlid.model_response(m, f, 0, 1)
     free = np.flatnonzero(m.free_mask)                  # theta order, as the derivatives
     terms = m.tie_terms()
-    for c, k in enumerate(free):
-        h = 1e-6 * max(1.0, abs(m.theta[k]))
-        out = []
-        for sign in (1, -1):
-            theta = m.theta
-            theta[k] += sign * h
-            out.append(mlid.model_response(m.with_theta(m.tied(theta, terms)), f, 0, 1).response)
-        fd = (out[0] - out[1]) / (2 * h)
-        np.testing.assert_allclose(r.derivatives[:, c], fd, rtol=1e-6,
-                                   atol=1e-7 * abs(fd).max(), err_msg=m.element_names()[k])
+    for i, j in ((0, 1), (1, 2)):
+        r = mlid.model_response(m, f, i, j)
+        for c, k in enumerate(free):
+            h = 1e-6 * max(1.0, abs(m.theta[k]))
+            out = []
+            for sign in (1, -1):
+                theta = m.theta
+                theta[k] += sign * h
+                out.append(mlid.model_response(m.with_theta(m.tied(theta, terms)), f, i,
+                                               j).response)
+            fd = (out[0] - out[1]) / (2 * h)
+            np.testing.assert_allclose(r.derivatives[:, c], fd, rtol=1e-6,
+                                       atol=1e-7 * max(abs(fd).max(), abs(r.response).max()),
+                                       err_msg=f"{m.element_names()[k]} ({i}, {j})")
 
 
 def test_model_response_refuses_a_nonlinear_model():
@@ -189,7 +196,7 @@ def test_model_bands_are_the_delta_method_of_the_cramer_rao_covariance(fitted):
     assert np.all(r.sigma_gain > 0)
 
 
-def test_free_map_of_several_manoeuvres_skips_their_own_entries(fitted):
+def test_free_map_of_several_manoeuvres_skips_their_own_entries():
     data = _record([0.01, 0.03])
     res = mlid.fit(_truth().with_free(_truth().free + ["x0(1)"]),
                    [data.head(1500), data.head(2000)])
