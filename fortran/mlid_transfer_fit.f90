@@ -31,6 +31,7 @@ module mlid_transfer_fit
   real(wp), parameter :: DEG = 180.0_wp/PI
   real(wp), parameter :: PHASE_WEIGHT = 0.01745_wp     !< dB^2 per deg^2 of the mismatch
   integer, parameter :: SK_PASSES = 8
+  real(wp), parameter :: MATCHED = 1.0e-24_wp  !< mismatch (dB^2) of an exactly matched response
   integer, parameter :: DELAY_STARTS = 10     !< delay starts tried (tf_start)
 
 contains
@@ -239,7 +240,9 @@ contains
         end if
       end do
       if (done) exit
-      done = cost - costn <= 1.0e-15_wp*cost .or. &
+      ! converged: the cost no longer falls, the step is at rounding, or the
+      ! response is matched to 1e-12 dB (an exact one: the cost keeps falling)
+      done = cost - costn <= 1.0e-15_wp*cost .or. costn <= MATCHED .or. &
              maxval(abs(step(:, 1))/(abs(x) + 1.0e-12_wp)) <= 1.0e-12_wp
       x = xn
       r = rn

@@ -166,7 +166,13 @@ def test_model_response_refuses_a_nonlinear_model():
 
 @pytest.fixture(scope="module")
 def fitted():
-    data = _record([0.01, 0.03])
+    """A fit to 3000 samples of the record, the elevator declared in deg
+    (the core's values stay in rad) and q shown in rad/s."""
+    d = _record([0.01, 0.03])
+    data = mlid.FlightData(d.t, d.u, d.y, d.input_names, d.output_names, input_units=["rad"],
+                           output_units=["rad", "rad/s"],
+                           input_display=[("deg", np.pi / 180, 0.0)],
+                           output_display=[("deg", np.pi / 180, 0.0), ("rad/s", 1.0, 0.0)])
     start = _truth().with_theta(_truth().theta * 0.8)
     return mlid.fit(start, data.head(3000))
 
@@ -312,7 +318,7 @@ def test_bode_measured_plot(fitted, tmp_path):
     fig = plots.bode_measured(fitted, "de", "q", measured=meas, loes=loes, path=out)
     assert isinstance(fig, Figure) and out.stat().st_size > 10000
     ag, ap, ac = fig.axes[:3]
-    assert ag.get_title(loc="left") == "de → q"
+    assert ag.get_title(loc="left") == "de → q  [(rad/s)/deg]"
     assert [ax.get_ylabel() for ax in (ag, ap, ac)] == ["gain [dB]", "phase [deg]",
                                                          "coherence γ²"]
     labels = [ln.get_label() for ln in ag.get_lines()]
@@ -322,7 +328,9 @@ def test_bode_measured_plot(fitted, tmp_path):
     np.testing.assert_allclose(ag.get_lines()[1].get_xdata(), meas.frequency[good])
     model_line = ag.get_lines()[0]
     ref = mlid.model_response(fitted, model_line.get_xdata(), "de", "q")
-    np.testing.assert_allclose(model_line.get_ydata(), ref.gain)
+    # in the declared units: (q [rad/s]) / (de [deg]) = (q/de in core units) * pi/180
+    np.testing.assert_allclose(model_line.get_ydata(), ref.gain + 20 * np.log10(np.pi / 180))
+    assert (ref.input_unit, ref.output_unit) == ("rad", "rad/s")
     np.testing.assert_allclose(ac.get_lines()[0].get_ydata(), meas.coherence)
     plots.close(fig)
 
