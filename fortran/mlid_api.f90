@@ -1459,12 +1459,13 @@ contains
   end subroutine mlid_freq_count
 
   !> The frequency response y/u of a record (mlid_freq_response): segments
-  !> of lseg samples overlapping by nover; f (Hz), H, coherence, spectra,
-  !> gain (dB), phase (deg, unwrapped), their random errors (1 sigma) and the
+  !> of lseg samples overlapping by nover within each of its nseg manoeuvres
+  !> (starting at samples segstart); f (Hz), H, coherence, spectra, gain
+  !> (dB), phase (deg, unwrapped), their random errors (1 sigma) and the
   !> number of averages nd.  nfreq from mlid_freq_count.
-  subroutine mlid_freq_response(nt, u, y, dt, lseg, nover, nfreq, f, h_re, h_im, coh, guu, gyy, &
-                                gain, phase, sgain, sphase, nd, status, msg)
-    integer(c_int), intent(in) :: nt, lseg, nover, nfreq
+  subroutine mlid_freq_response(nt, u, y, dt, nseg, segstart, lseg, nover, nfreq, f, h_re, h_im, &
+                                coh, guu, gyy, gain, phase, sgain, sphase, nd, status, msg)
+    integer(c_int), intent(in) :: nt, lseg, nover, nfreq, nseg, segstart(nseg)
     real(c_double), intent(in) :: u(nt), y(nt), dt
     real(c_double), intent(out), dimension(nfreq) :: f, h_re, h_im, coh, guu, gyy, gain, phase, &
                                                      sgain, sphase
@@ -1490,7 +1491,7 @@ contains
       msg = 'frequency response: the input or output channel has a value that is not finite'
       return
     end if
-    call welch_spectra(u, y, dt, lseg, nover, ff, uu, yy, uy, ndi, st, msg)
+    call welch_spectra(u, y, dt, lseg, nover, segstart, ff, uu, yy, uy, ndi, st, msg)
     status = st
     if (st /= MLID_OK) return
     if (size(ff) /= nfreq) then

@@ -40,10 +40,12 @@ contains
 
   !> One-sided auto and cross spectral densities of u and y at the
   !> frequencies k / (nfft dt), k = 1 .. nfft/2 (nfft = fft_length(lseg)):
-  !> segments of lseg samples overlapping by nover, Hann-windowed.
-  subroutine welch_spectra(u, y, dt, lseg, nover, f, guu, gyy, guy, nd, status, msg)
+  !> segments of lseg samples overlapping by nover, Hann-windowed, laid
+  !> within each piece of the record (pieces start at samples starts(:),
+  !> the manoeuvres of a joined record: no segment spans a join).
+  subroutine welch_spectra(u, y, dt, lseg, nover, starts, f, guu, gyy, guy, nd, status, msg)
     real(wp), intent(in) :: u(:), y(:), dt
-    integer, intent(in) :: lseg, nover
+    integer, intent(in) :: lseg, nover, starts(:)
     real(wp), allocatable, intent(out) :: f(:), guu(:), gyy(:)
     complex(wp), allocatable, intent(out) :: guy(:)
     integer, intent(out) :: nd, status
@@ -52,15 +54,26 @@ contains
     real(wp), allocatable :: win(:)
     complex(wp), allocatable :: uf(:), yf(:)
     real(wp) :: scale
-    integer :: nfft, k, s, j0
+    integer :: nfft, k, s, j0, piece, ends(size(starts))
     status = MLID_OK
     msg = ''
-    nd = segment_count(size(u), lseg, nover)
-    if (size(y) /= size(u) .or. nd < 1 .or. .not. dt > 0.0_wp) then
+    nd = 0
+    ends = [starts(2:) - 1, size(u)]
+    k = 0                                                ! the first piece too short, if any
+    if (size(starts) > 0) then
+      if (starts(1) == 1 .and. all(ends >= starts)) then
+        k = findloc([(segment_count(ends(s) - starts(s) + 1, lseg, nover) > 0, &
+                      s=1, size(starts))], .false., 1)
+        nd = sum([(segment_count(ends(s) - starts(s) + 1, lseg, nover), s=1, size(starts))])
+      end if
+    end if
+    if (size(y) /= size(u) .or. nd < 1 .or. k > 0 .or. .not. dt > 0.0_wp) then
       status = MLID_ERR_INPUT
-      write (msg, '(a,i0,a,i0,a,i0,a)') 'frequency response: segments of ', lseg, &
-        ' samples overlapping by ', nover, ' need a record of at least that many (it has ', &
-        size(u), ') and 0 <= overlap < segment >= 2, dt > 0'
+      s = size(u)
+      if (k > 0) s = ends(k) - starts(k) + 1
+      write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'frequency response: segments of ', lseg, &
+        ' samples overlapping by ', nover, ' need a manoeuvre of at least that many (', &
+        s, ' in manoeuvre ', max(k, 1), '), 0 <= overlap < segment >= 2 and dt > 0'
       return
     end if
     nfft = fft_length(lseg)
@@ -71,13 +84,15 @@ contains
     guu = 0.0_wp
     gyy = 0.0_wp
     guy = 0.0_wp
-    do s = 1, nd
-      j0 = (s - 1)*(lseg - nover)
-      call fft_real_pair(p, win*(u(j0 + 1:j0 + lseg) - sum(u(j0 + 1:j0 + lseg))/lseg), &
-                         win*(y(j0 + 1:j0 + lseg) - sum(y(j0 + 1:j0 + lseg))/lseg), uf, yf)
-      guu = guu + abs(uf(1:))**2
-      gyy = gyy + abs(yf(1:))**2
-      guy = guy + conjg(uf(1:))*yf(1:)
+    do piece = 1, size(starts)
+      do s = 1, segment_count(ends(piece) - starts(piece) + 1, lseg, nover)
+        j0 = starts(piece) - 1 + (s - 1)*(lseg - nover)
+        call fft_real_pair(p, win*(u(j0 + 1:j0 + lseg) - sum(u(j0 + 1:j0 + lseg))/lseg), &
+                           win*(y(j0 + 1:j0 + lseg) - sum(y(j0 + 1:j0 + lseg))/lseg), uf, yf)
+        guu = guu + abs(uf(1:))**2
+        gyy = gyy + abs(yf(1:))**2
+        guy = guy + conjg(uf(1:))*yf(1:)
+      end do
     end do
     scale = 2.0_wp*dt/(lseg*(sum(win**2)/lseg)*nd)
     guu = scale*guu

@@ -376,3 +376,23 @@ def test_record_spectra_against_scipy():
     np.testing.assert_allclose(r.output_spectrum, gyy[1:], rtol=1e-9)
     np.testing.assert_allclose(r.response, guy[1:] / guu[1:], rtol=1e-9)
     np.testing.assert_allclose(r.coherence, abs(guy[1:])**2 / (guu[1:] * gyy[1:]), rtol=1e-9)
+
+
+def test_record_response_of_several_manoeuvres_averages_their_segments():
+    """No segment spans a join: the spectra of two manoeuvres together are
+    those of each, weighted by their numbers of segments."""
+    d = _record([0.01, 0.03])
+    a, b = d.head(3000), d.head(5000)
+    b = mlid.FlightData(b.t[1700:] - b.t[1700], b.u[1700:], b.y[1700:], b.input_names,
+                        b.output_names)
+    ra, rb = (mlid.record_response(x, "de", "q", segment=512) for x in (a, b))
+    both = mlid.record_response([a, b], "de", "q", segment=512)
+    assert both.averages == ra.averages + rb.averages == 10 + 11
+    for key in ("input_spectrum", "output_spectrum"):
+        mean = (ra.averages * getattr(ra, key) + rb.averages * getattr(rb, key)) / both.averages
+        np.testing.assert_allclose(getattr(both, key), mean, rtol=1e-12)
+    cross = (ra.averages * ra.response * ra.input_spectrum
+             + rb.averages * rb.response * rb.input_spectrum) / both.averages
+    np.testing.assert_allclose(both.response * both.input_spectrum, cross, rtol=1e-10)
+    with pytest.raises(mlid.InputError, match=r"at least that many \(100 in manoeuvre 2\)"):
+        mlid.record_response([a, b.head(100)], "de", "q", segment=512)

@@ -125,7 +125,8 @@ def _bode(args):
     if case.job != "estimate":
         raise InputError(f"{args.deck}: case {args.case} is a '{case.job}' case, not 'estimate'")
     _, result = run_case(case)
-    measured = record_response(result.data, _channel_arg(args.input), _channel_arg(args.output),
+    manoeuvres = result.evaluate_args[0]         # the records as given: no segment spans two
+    measured = record_response(manoeuvres, _channel_arg(args.input), _channel_arg(args.output),
                                segment=args.segment)
     print(f"case {args.case}: {case.title}: {measured.output_name}/{measured.input_name}, "
           f"{measured.averages} averages of {measured.segment} samples")

@@ -142,13 +142,15 @@ def record_response(data, input=0, output=0, segment=None, overlap=0.5):
 
     Parameters
     ----------
-    data : FlightData
-        A uniformly sampled record.
+    data : FlightData or list of FlightData
+        A uniformly sampled record, or several manoeuvres of one sampling
+        (their segments are averaged together; none spans two of them).
     input, output : str or int
         The channels, by name or index.
     segment : int, optional
         Samples per segment (default: the largest power of two not above a
-        quarter of the record); transformed zero-padded to a power of two.
+        quarter of the longest manoeuvre); transformed zero-padded to a
+        power of two.
     overlap : float
         Fraction of a segment shared with the next, in [0, 1).
 
@@ -163,20 +165,27 @@ def record_response(data, input=0, output=0, segment=None, overlap=0.5):
         Unknown channel, non-uniform time, a segment longer than the record,
         an overlap outside [0, 1), or a value that is not finite.
     """
+    records = list(data) if isinstance(data, (list, tuple)) else [data]
+    dts = [_sample_time(r.t) for r in records]
+    if max(dts) - min(dts) > 1e-6 * min(dts):
+        raise InputError("the manoeuvres of a frequency response need one sampling interval")
+    dt = dts[0]
+    starts = np.cumsum([1] + [r.nt for r in records[:-1]]).astype(np.int32)
+    data = records[0]
     i = _channel(data.input_names, input, "input")
     j = _channel(data.output_names, output, "output")
-    dt = _sample_time(data.t)
-    nt = data.nt
+    u = np.concatenate([r.u[:, i] for r in records])
+    y = np.concatenate([r.y[:, j] for r in records])
     if segment is None:
-        segment = 2 ** int(np.floor(np.log2(max(nt / 4, 2))))
+        longest = max(r.nt for r in records)
+        segment = 2 ** int(np.floor(np.log2(max(longest / 4, 2))))
     segment = whole("segment", segment, 2)
     if not 0 <= overlap < 1:
         raise InputError(f"overlap must lie in [0, 1), got {overlap}")
     nfreq = int(_api.mlid_freq_count(segment))
     (f, h_re, h_im, coh, guu, gyy, gain, phase, sgain, sphase, nd, status,
      msg) = _api.mlid_freq_response(
-        u=np.ascontiguousarray(data.u[:, i], dtype=float),
-        y=np.ascontiguousarray(data.y[:, j], dtype=float), dt=dt, lseg=segment,
+        u=u, y=y, dt=dt, segstart=starts, lseg=segment,
         nover=int(round(overlap * segment)), nfreq=nfreq)
     check_status(status, msg)
     return FrequencyResponse(

@@ -914,7 +914,7 @@ def bode_measured(result, input=0, output=0, measured=None, loes=None, frequenci
         The pair, by channel name or index.
     measured : FrequencyResponse, optional
         The record's response (default: ``mlid.record_response`` of the
-        fit's record for the pair).
+        fit's record, or of its manoeuvres together, for the pair).
     loes : TransferFunctionFit, optional
         Drawn over its frequency range.
     frequencies : int
@@ -930,7 +930,7 @@ def bode_measured(result, input=0, output=0, measured=None, loes=None, frequenci
     require_estimates(result, "plot")
     recs = _Records.of_result(result)
     if measured is None:
-        measured = record_response(result.data, input, output)
+        measured = record_response(recs.records, input, output)
     i = recs.names("u").index(measured.input_name)
     j = recs.names("y").index(measured.output_name)
     f = measured.frequency
