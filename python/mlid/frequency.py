@@ -119,8 +119,7 @@ def _channel(names, which, what):
         if which not in names:
             raise InputError(f"no {what} channel {which!r}; the record has {names}")
         return names.index(which)
-    k = whole(what, which, 0, len(names) - 1) if names else whole(what, which, 0, 0)
-    return k
+    return whole(what, which, 0, max(len(names) - 1, 0))
 
 
 def _sample_time(t):
@@ -196,23 +195,24 @@ def record_response(data, input=0, output=0, segment=None, overlap=0.5):
         input_unit=data.input_units[i], output_unit=data.output_units[j], source="record")
 
 
-def free_map(result):
-    """d theta / d q: how the model's theta (one manoeuvre's layout) moves
-    with each free parameter q of a fit, ties included.  A manoeuvre's own
-    entries (initial states, biases) map to nothing: they do not enter a
-    frequency response.
+def free_map(fit_or_model):
+    """d theta / d q: how a model's theta (one manoeuvre's layout) moves with
+    each free parameter q (of a fit, or of the model), ties included.  A
+    manoeuvre's own entries (initial states, biases) map to nothing: they do
+    not enter a frequency response.
 
     Parameters
     ----------
-    result : FitResult
+    fit_or_model : FitResult or Model
 
     Returns
     -------
     ndarray (nth, nf)
     """
     from .maneuvers import Params
-    model = result.start_model
-    params = Params(model, len(getattr(result, "manoeuvres", [None])) or 1)
+    fitted = isinstance(fit_or_model, FitResult)
+    model = getattr(fit_or_model, "start_model", fit_or_model.model) if fitted else fit_or_model
+    params = Params(model, len(getattr(fit_or_model, "manoeuvres", ())) or 1)
     jac = np.zeros((model.theta.size, int(params.mask.sum())))
     for c, k in enumerate(np.flatnonzero(params.mask)):
         if params.seg[k] == 0:
@@ -267,11 +267,7 @@ def model_response(fit_or_model, frequency, input=0, output=0, covariance=None):
         units_u, units_y = data.input_units, data.output_units
     else:
         model = fit_or_model
-        mask = model.free_mask
-        jac = np.zeros((model.theta.size, int(mask.sum())))
-        jac[np.flatnonzero(mask), np.arange(jac.shape[1])] = 1.0
-        for a, (_, sources) in model.tie_terms().items():
-            jac[a] += sum(s * jac[j] for j, s in sources)
+        jac = free_map(model)
         cov = np.zeros((jac.shape[1],) * 2) if covariance is None else covariance
         names_u = [f"u{k + 1}" for k in range(model.nu)]
         names_y = [f"y{k + 1}" for k in range(model.ny)]
