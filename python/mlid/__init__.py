@@ -16,6 +16,8 @@ from .design import InputDesign, DesignedInput
 from .parallel import monte_carlo_parallel
 from .diagnose import diagnose
 from .validate import validate, Validation
+from .frequency import (FrequencyResponse, TransferFunctionFit, record_response, model_response,
+                        fit_transfer_function)
 
 
 
@@ -37,4 +39,5 @@ __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceErr
            "X22Model", "EquationModel", "SixDofModel", "FlightPathModel", "InputDesign", "DesignedInput", "monte_carlo_parallel", "diagnose", "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
-           "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation"]
+           "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation", "FrequencyResponse",
+           "TransferFunctionFit", "record_response", "model_response", "fit_transfer_function"]
