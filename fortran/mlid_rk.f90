@@ -9,7 +9,7 @@ module mlid_rk
   use mlid_models, only: model_t
   implicit none
   private
-  public :: rk4_step, rk4_interval, input_sens_t, rk_work_t
+  public :: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product
 
   !> How delayed inputs move the sensitivities: entry k, d u(input(k)) /
   !> d theta(col(k)) at the interval's ends (d0, d1; a tie's scale in it),
@@ -25,17 +25,23 @@ module mlid_rk
   !> every step.  k: the stage derivatives; sd: the sensitivities' (nx, ns,
   !> 4); xs, ss: a stage's state and sensitivities; a, b, bu: df/dx,
   !> df/dp(idx), df/du; um: the inputs in a step's middle; ua, ub: at its
-  !> ends (rk4_interval's, which rk4_step only reads).
+  !> ends (rk4_interval's, which rk4_step only reads).  first_known: the
+  !> caller has already put the first stage's f in k(:, 1) (and, when the
+  !> sensitivities are integrated, df/dx and df/dp in a and b) at the
+  !> point the next step starts from (the outputs of a sample evaluate the
+  !> model there anyway); the next step uses them and clears it.
   type :: rk_work_t
     real(wp), allocatable :: k(:, :), sd(:, :, :), xs(:), ss(:, :), a(:, :), b(:, :), bu(:, :)
     real(wp), allocatable :: um(:), ua(:), ub(:)
+    logical :: first_known = .false.
   end type rk_work_t
 
 contains
 
   !> Size wk's stage arrays for nx states, ns sensitivity columns, nb model
-  !> parameters forcing them, nu inputs and nv input values (inputs and noise).
-  subroutine stage_work(wk, nx, ns, nb, nu, nv)
+  !> parameters forcing them, nu inputs and nv input values (inputs and
+  !> noise); kept when they have the size already.
+  subroutine rk_work_size(wk, nx, ns, nb, nu, nv)
     type(rk_work_t), intent(inout) :: wk
     integer, intent(in) :: nx, ns, nb, nu, nv
     if (allocated(wk%sd)) then
@@ -43,9 +49,10 @@ contains
           all(shape(wk%bu) == [nx, nu]) .and. size(wk%um) == nv) return
       deallocate (wk%k, wk%sd, wk%xs, wk%ss, wk%a, wk%b, wk%bu, wk%um)
     end if
+    wk%first_known = .false.
     allocate (wk%k(nx, 4), wk%sd(nx, ns, 4), wk%xs(nx), wk%ss(nx, ns), wk%a(nx, nx), &
               wk%b(nx, nb), wk%bu(nx, nu), wk%um(nv))
-  end subroutine stage_work
+  end subroutine rk_work_size
 
   !> Advance x (and s, if given) from t0 to t0+dt.
   !>
@@ -71,14 +78,14 @@ contains
 
     ns = 0
     if (present(s)) ns = size(s, 2)
-    call stage_work(wk, size(x), ns, size(idxm), m%nu, size(ua))
+    call rk_work_size(wk, size(x), ns, size(idxm), m%nu, size(ua))
     th = t0 + 0.5_wp*dt
     wk%um = 0.5_wp*(ua + ub)
     associate (k => wk%k, xs => wk%xs)
       if (present(s)) then
         call step_sens(s)
       else
-        call m%f(t0, x, ua, p, k(:, 1))
+        if (.not. wk%first_known) call m%f(t0, x, ua, p, k(:, 1))
         xs = x + 0.5_wp*dt*k(:, 1)
         call m%f(th, xs, wk%um, p, k(:, 2))
         xs = x + 0.5_wp*dt*k(:, 2)
@@ -88,6 +95,7 @@ contains
       end if
       x = x + (dt/6.0_wp)*(k(:, 1) + 2.0_wp*(k(:, 2) + k(:, 3)) + k(:, 4))
     end associate
+    wk%first_known = .false.
 
   contains
 
@@ -110,14 +118,17 @@ contains
     end subroutine step_sens
 
     !> xd = f, sd = (df/dx) s + wcol df/dp(idxm) (into columns colm) + sforce
-    !> + the delayed inputs' forcing at fraction c of the step.
+    !> + the delayed inputs' forcing at fraction c of the step (at c = 0,
+    !> f, df/dx and df/dp may be known already: wk%first_known).
     subroutine deriv(t, xs, ui, xd, ss, sd, c)
       real(wp), intent(in) :: t, xs(:), ui(:), ss(:, :), c
-      real(wp), intent(out) :: xd(:), sd(:, :)
+      real(wp), intent(inout) :: xd(:)
+      real(wp), intent(out) :: sd(:, :)
       integer :: k
 
-      call m%f_jac(t, xs, ui, p, idxm, xd, wk%a, wk%b)
-      sd = matmul(wk%a, ss)
+      if (.not. (c == 0.0_wp .and. wk%first_known)) &
+        call m%eval(t, xs, ui, p, idxm, xdot=xd, a=wk%a, b=wk%b)
+      call small_product(wk%a, ss, sd)
       do k = 1, size(idxm)
         sd(:, colm(k)) = sd(:, colm(k)) + wcol(k)*wk%b(:, k)
       end do
@@ -190,5 +201,33 @@ contains
       end do
     end associate
   end subroutine rk4_interval
+
+  !> c = a b for the small matrices of the sensitivity equations, column by
+  !> column (the sums in matmul's order, without its zeroing and
+  !> temporaries: this runs at every stage and sample).
+  subroutine small_product(a, b, c)
+    real(wp), intent(in) :: a(:, :), b(:, :)
+    real(wp), intent(out) :: c(:, :)
+    if (size(a, 2) == 0) then
+      c = 0.0_wp
+    else               ! the arrays are contiguous here: no copies
+      call product_columns(size(a, 1), size(a, 2), size(b, 2), a, b, c)
+    end if
+  end subroutine small_product
+
+  !> c = a b, all contiguous (explicit shape, so the loops run on unit
+  !> strides).
+  pure subroutine product_columns(n, m, l, a, b, c)
+    integer, intent(in) :: n, m, l
+    real(wp), intent(in) :: a(n, m), b(m, l)
+    real(wp), intent(out) :: c(n, l)
+    integer :: j, k
+    do j = 1, l
+      c(:, j) = a(:, 1)*b(1, j)
+      do k = 2, m
+        c(:, j) = c(:, j) + a(:, k)*b(k, j)
+      end do
+    end do
+  end subroutine product_columns
 
 end module mlid_rk

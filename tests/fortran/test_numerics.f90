@@ -111,11 +111,11 @@ contains
     character(len=256) :: msg
     call model_create(MODEL_EQUATIONS, 1, 1, 1, 0, equations_text_codes(one), [real(wp) ::], m, &
                       status, msg)
-    call m%f_jac(0.0_wp, [0.0_wp], [0.5_wp], [0.0_wp], [1], xd, a, b)
+    call m%eval(0.0_wp, [0.0_wp], [0.5_wp], [0.0_wp], [1], xdot=xd, a=a, b=b)
     call check(a(1, 1) == 0.0_wp, 'k*sqrt(x) at k = 0, x = 0: df/dx = 0 (no 0*Inf)')
     call model_create(MODEL_EQUATIONS, 0, 1, 3, 0, equations_text_codes(three), [real(wp) ::], &
                       m, status, msg)
-    call m%h_jac(0.0_wp, none, [0.0_wp], [0.0_wp], [1], c, d)
+    call m%eval(0.0_wp, none, [0.0_wp], [0.0_wp], [1], c=c, d=d)
     call check(all(d(:, 1) == 0.0_wp), 'e*sqrt(k) at e = 0, k = 0 in three outputs: dh/dk = 0')
   end subroutine test_infinite_partial_unused
 
@@ -206,14 +206,10 @@ contains
     call mf%uses_params(used)
     call check(all(used .eqv. [.true., .true., .false., .true.]), &
                'over manoeuvre 2 the folded model reads a, k, b2, not b1')
-    call m%f_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, 0.2_wp, &
-                 -0.3_wp], [1, 2, 3, 4], xd, a, b)
-    call mf%f_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, &
-                  0.2_wp, -0.3_wp], [1, 2, 3, 4], xdf, af, bf)
-    call m%h_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, 0.2_wp, &
-                 -0.3_wp], [1, 2, 3, 4], c, d)
-    call mf%h_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, &
-                  0.2_wp, -0.3_wp], [1, 2, 3, 4], cf, df)
+    call m%eval(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, 0.2_wp, &
+                -0.3_wp], [1, 2, 3, 4], xdot=xd, a=a, b=b, c=c, d=d)
+    call mf%eval(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, &
+                 0.2_wp, -0.3_wp], [1, 2, 3, 4], xdot=xdf, a=af, b=bf, c=cf, d=df)
     call check(all(xd == xdf) .and. all(a == af) .and. all(b == bf) .and. all(c == cf) .and. &
                all(d == df), 'the folded model: the same values and Jacobians, to the bit')
 
