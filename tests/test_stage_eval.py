@@ -7,7 +7,6 @@ step from the outputs' evaluation at the sample, against central
 differences of whole predictions (one and two substeps, linear and held
 inputs)."""
 
-
 import numpy as np
 import pytest
 
