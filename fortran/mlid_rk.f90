@@ -105,15 +105,15 @@ contains
       associate (k => wk%k, sd => wk%sd, xs => wk%xs, ss => wk%ss)
         call deriv(t0, x, ua, k(:, 1), s, sd(:, :, 1), 0.0_wp)
         xs = x + 0.5_wp*dt*k(:, 1)
-        ss = s + 0.5_wp*dt*sd(:, :, 1)
+        call stage_point(size(s), s, 0.5_wp*dt, sd(:, :, 1), ss)
         call deriv(th, xs, wk%um, k(:, 2), ss, sd(:, :, 2), 0.5_wp)
         xs = x + 0.5_wp*dt*k(:, 2)
-        ss = s + 0.5_wp*dt*sd(:, :, 2)
+        call stage_point(size(s), s, 0.5_wp*dt, sd(:, :, 2), ss)
         call deriv(th, xs, wk%um, k(:, 3), ss, sd(:, :, 3), 0.5_wp)
         xs = x + dt*k(:, 3)
-        ss = s + dt*sd(:, :, 3)
+        call stage_point(size(s), s, dt, sd(:, :, 3), ss)
         call deriv(t0 + dt, xs, ub, k(:, 4), ss, sd(:, :, 4), 1.0_wp)
-        s = s + (dt/6.0_wp)*(sd(:, :, 1) + 2.0_wp*(sd(:, :, 2) + sd(:, :, 3)) + sd(:, :, 4))
+        call rk4_combine(size(s), dt/6.0_wp, sd(:, :, 1), sd(:, :, 2), sd(:, :, 3), sd(:, :, 4), s)
       end associate
     end subroutine step_sens
 
@@ -202,6 +202,24 @@ contains
     end associate
   end subroutine rk4_interval
 
+  !> y = x + h d over n values: a stage's point (the arrays as vectors of
+  !> explicit size, so that the loop runs on unit strides).
+  pure subroutine stage_point(n, x, h, d, y)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(n), h, d(n)
+    real(wp), intent(out) :: y(n)
+    y = x + h*d
+  end subroutine stage_point
+
+  !> x = x + h6 (d1 + 2 (d2 + d3) + d4) over n values: RK4's step from its
+  !> stages' derivatives, h6 = dt/6.
+  pure subroutine rk4_combine(n, h6, d1, d2, d3, d4, x)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: h6, d1(n), d2(n), d3(n), d4(n)
+    real(wp), intent(inout) :: x(n)
+    x = x + h6*(d1 + 2.0_wp*(d2 + d3) + d4)
+  end subroutine rk4_combine
+
   !> c = a b for the small matrices of the sensitivity equations, column by
   !> column (the sums in matmul's order, without its zeroing and
   !> temporaries: this runs at every stage and sample).
@@ -216,15 +234,30 @@ contains
   end subroutine small_product
 
   !> c = a b, all contiguous (explicit shape, so the loops run on unit
-  !> strides).
+  !> strides); four terms of each sum at a time, added left to right, so
+  !> the sums are matmul's to the bit.
   pure subroutine product_columns(n, m, l, a, b, c)
     integer, intent(in) :: n, m, l
     real(wp), intent(in) :: a(n, m), b(m, l)
     real(wp), intent(out) :: c(n, l)
-    integer :: j, k
+    integer :: j, k, kend
+    if (m < 4) then
+      do j = 1, l
+        c(:, j) = a(:, 1)*b(1, j)
+        do k = 2, m
+          c(:, j) = c(:, j) + a(:, k)*b(k, j)
+        end do
+      end do
+      return
+    end if
+    kend = 4 + 4*((m - 4)/4)                 ! the last term of the whole blocks of four
     do j = 1, l
-      c(:, j) = a(:, 1)*b(1, j)
-      do k = 2, m
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
+      do k = 5, kend - 3, 4
+        c(:, j) = c(:, j) + a(:, k)*b(k, j) + a(:, k + 1)*b(k + 1, j) + a(:, k + 2)*b(k + 2, j) &
+                  + a(:, k + 3)*b(k + 3, j)
+      end do
+      do k = kend + 1, m
         c(:, j) = c(:, j) + a(:, k)*b(k, j)
       end do
     end do
