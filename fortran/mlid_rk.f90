@@ -124,14 +124,11 @@ contains
       real(wp), intent(in) :: t, xs(:), ui(:), ss(:, :), c
       real(wp), intent(inout) :: xd(:)
       real(wp), intent(out) :: sd(:, :)
-      integer :: k
 
       if (.not. (c == 0.0_wp .and. wk%first_known)) &
         call m%eval(t, xs, ui, p, idxm, xdot=xd, a=wk%a, b=wk%b)
       call small_product(wk%a, ss, sd)
-      do k = 1, size(idxm)
-        sd(:, colm(k)) = sd(:, colm(k)) + wcol(k)*wk%b(:, k)
-      end do
+      call add_forcing(size(sd, 1), size(sd, 2), size(idxm), wk%b, colm, wcol, sd)
       if (present(sforce)) sd = sd + sforce
       if (present(us)) call input_forcing(t, xs, ui, c, sd)
     end subroutine deriv
@@ -201,6 +198,18 @@ contains
       end do
     end associate
   end subroutine rk4_interval
+
+  !> sd(:, col(k)) += w(k) b(:, k): the model parameters' forcing of their
+  !> sensitivity columns (explicit shapes: unit strides).
+  pure subroutine add_forcing(nx, ns, nb, b, col, w, sd)
+    integer, intent(in) :: nx, ns, nb, col(nb)
+    real(wp), intent(in) :: b(nx, nb), w(nb)
+    real(wp), intent(inout) :: sd(nx, ns)
+    integer :: k
+    do k = 1, nb
+      sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
+    end do
+  end subroutine add_forcing
 
   !> y = x + h d over n values: a stage's point (the arrays as vectors of
   !> explicit size, so that the loop runs on unit strides).
