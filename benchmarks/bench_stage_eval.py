@@ -60,14 +60,15 @@ def run_child(pkg, nfits, timed, prefix=()):
 
 
 def allocator_calls(path):
-    """Calls of malloc, calloc and realloc in a callgrind output file."""
+    """Calls of malloc, calloc and realloc in a callgrind output file (names
+    are given once, at a function's first mention as fn= or cfn=)."""
     names, total, pending = {}, 0, False
     for line in Path(path).read_text(errors="replace").splitlines():
-        m = re.match(r"cfn=\((\d+)\)(?: (.*))?", line)
+        m = re.match(r"c?fn=\((\d+)\)(?: (.*))?", line)
         if m:
             if m.group(2):
                 names[m.group(1)] = m.group(2).strip()
-            pending = names.get(m.group(1), "") in ALLOCATORS
+            pending = line.startswith("cfn=") and names.get(m.group(1), "") in ALLOCATORS
         elif line.startswith("calls=") and pending:
             total += int(line.split("=")[1].split()[0])
             pending = False
