@@ -46,10 +46,10 @@ module mlid_aero_long
     procedure :: dhdxp => al_dhdxp
   end type aero_long_t
 
-  !> What f, h and their Jacobians share at one point, computed once:
-  !> the regressors, the coefficients and their x-gradients, the dynamic pressure and the
-  !> sines and cosines of the thrust line (alpha + sigma) and of the
-  !> flight-path angle (alpha - theta).  The dynamic pressure is there
+  !> What f, h and their Jacobians share at one point, computed once: the
+  !> regressors, the coefficients and their x-gradients, the dynamic
+  !> pressure and the sines and cosines of the thrust line (alpha + sigma)
+  !> and of the flight-path angle (alpha - theta).  The dynamic pressure is there
   !> twice, qbar = (rho/2 V) V for f and df/dx, qbar2 = rho/2 V^2 for the
   !> outputs and the parameter Jacobians: equal up to rounding, each as
   !> those quantities have always been formed, so that every fit stays the
