@@ -12,6 +12,15 @@ Two builds cannot be loaded into one process (one module name), hence
 processes.  Needs valgrind for the first two (skipped without it).
 
     .venv/bin/python benchmarks/bench_stage_eval.py [--baseline DIR] [--fits N]
+
+Measured (ours, branch stage-eval against main at afd597e, one thread):
+230.9 M -> 138.5 M instructions per fit (54.9 k -> 32.9 k per sample and
+iteration, 7 iterations), 7248 -> 2464 allocations per fit (averaged over 3
+fits: the 4800 of the per-step noise array are gone; what is left is
+outside the per-sample loops, in the information matrix's eigensolver, the
+coloured-residual correction, Newton); wall clock 46.2 -> 32.8 ms on a
+loaded machine (the processes alternating), where main alone took 14.7 ms
+when quiet.  Every case deck's results are unchanged to the bit.
 """
 
 import argparse
