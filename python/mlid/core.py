@@ -705,7 +705,10 @@ def check_jacobians(model, x, u, w=None):
         The largest relative difference for each of 'df/dx', 'df/dp',
         'dh/dx', 'dh/dp', 'df/dw' and 'dh/dw' ('dh/dw': how far dh/dw changes
         with w; the output noise must be linear in it).  Values near 1e-8 or
-        below mean the Jacobians are right.
+        below mean the Jacobians are right.  The Jacobians are those of the
+        model's one evaluation of everything at the point (what the
+        integration uses); asked for a part, it must give the same numbers,
+        and a difference counts in the first four.
 
     Raises
     ------
