@@ -54,6 +54,7 @@ module mlid_api
                          amplitude_limited_input, equalised_input
   use mlid_design, only: design_state_penalty, input_response, RICCATI_BRACKET
   use mlid_jobs, only: job_run, JOB_RUNS
+  use mlid_fourier, only: fourier_transform
   implicit none
   private
   public :: mlid_design_mu_penalty, mlid_design_length_penalty, mlid_design_response
@@ -73,9 +74,38 @@ module mlid_api
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude, mlid_design_equalised, &
-            mlid_deck_case_run
+            mlid_deck_case_run, mlid_fourier_transform
 
 contains
+
+  !> The finite Fourier transform (mlid_fourier) of the channels x(nch, n)
+  !> sampled at t0, t0 + dt, ... at the frequencies w(nw) (rad/s): the
+  !> integral of their piecewise-linear interpolant times exp(-i w t),
+  !> real and imaginary parts (nch, nw).
+  subroutine mlid_fourier_transform(nch, n, x, dt, t0, nw, w, xre, xim, status, msg)
+    integer(c_int), intent(in) :: nch, n, nw
+    real(c_double), intent(in) :: x(nch, n), dt, t0, w(nw)
+    real(c_double), intent(out) :: xre(nch, nw), xim(nch, nw)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    complex(wp) :: xf(nch, nw)
+    xre = 0.0_wp
+    xim = 0.0_wp
+    status = MLID_ERR_INPUT
+    if (n < 2) then
+      msg = 'a record to transform needs at least two samples'
+    else if (.not. (dt > 0.0_wp .and. ieee_is_finite(dt) .and. ieee_is_finite(t0))) then
+      msg = 'the sample interval must be positive and finite'
+    else if (.not. (all(ieee_is_finite(x)) .and. all(ieee_is_finite(w)))) then
+      msg = 'samples and frequencies must be finite'
+    else
+      call fourier_transform(x, dt, t0, w, xf)
+      xre = real(xf, wp)
+      xim = aimag(xf)
+      status = MLID_OK
+      msg = ''
+    end if
+  end subroutine mlid_fourier_transform
 
   !> A standard input shape (mlid_inputs) on t = 0, dt, ..., (nt-1)*dt.
   subroutine mlid_input_signal(shape, amplitude, t_start, pulse_width, dt, nt, u, status, msg)

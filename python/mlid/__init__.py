@@ -16,6 +16,7 @@ from .design import InputDesign, DesignedInput
 from .parallel import monte_carlo_parallel
 from .diagnose import diagnose
 from .validate import validate, Validation
+from .fourier import fourier_transform
 
 
 
@@ -37,4 +38,4 @@ __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceErr
            "X22Model", "EquationModel", "SixDofModel", "FlightPathModel", "InputDesign", "DesignedInput", "monte_carlo_parallel", "diagnose", "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
-           "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation"]
+           "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation", "fourier_transform"]
