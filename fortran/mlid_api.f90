@@ -20,7 +20,7 @@ module mlid_api
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create
   use mlid_options, only: options_t, options_from_flat, options_to_flat, NOPTION, OPTION_NAMES, &
-                          option_kind, option_set, option_get
+                          option_kind, option_set, option_get, frequency_method
   use mlid_params, only: param_map_t, param_map_create, apply_ties, tie_t, no_ties
   use mlid_ties, only: tie_parse, MAXTERM
   use mlid_likelihood, only: likelihood
@@ -55,6 +55,7 @@ module mlid_api
   use mlid_design, only: design_state_penalty, input_response, RICCATI_BRACKET
   use mlid_jobs, only: job_run, JOB_RUNS
   use mlid_fourier, only: fourier_transform
+  use mlid_frequency, only: freq_record, freq_likelihood, freq_grid
   implicit none
   private
   public :: mlid_design_mu_penalty, mlid_design_length_penalty, mlid_design_response
@@ -74,7 +75,7 @@ module mlid_api
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude, mlid_design_equalised, &
-            mlid_deck_case_run, mlid_fourier_transform
+            mlid_deck_case_run, mlid_fourier_transform, mlid_freq_residuals
 
 contains
 
@@ -642,10 +643,11 @@ contains
   !> prints and writes); labels one per line; the text ends where its
   !> length says.
   !> sigc: sigma corrected for coloured residuals, lag: its lag.
-  subroutine mlid_report_fit(nf, ny, nh, labels, units, iopt, start, est, sig, sigc, lag, cov, eigval, &
+  subroutine mlid_report_fit(nf, ny, nh, labels, units, iopt, ropt, start, est, sig, sigc, lag, cov, eigval, &
                              eigvec, rhat, hist, cost, niter, reason, converged, nrank, title, job, &
                              status, msg, rnoise, report, nreport, json, njson)
     integer(c_int), intent(in) :: nf, ny, nh, iopt(16), niter, reason, converged, nrank, status, lag
+    real(c_double), intent(in) :: ropt(16)
     character(len=*), intent(in) :: labels, units, title, job, msg
     real(c_double), intent(in) :: start(nf), est(nf), sig(nf), sigc(nf), cov(nf, nf), eigval(nf), &
                                   eigvec(nf, nf), rhat(ny, ny), hist(nh), cost
@@ -659,7 +661,7 @@ contains
                       rhat, hist, cost, niter, reason, nrank, lag, converged == 1, &
                       split_lines(units, nf, UNITLEN))
     if (all(ieee_is_finite(rnoise))) s%rnoise = rnoise
-    text = fit_report(s, iopt, status, msg)
+    text = fit_report(s, iopt, ropt, status, msg)
     nreport = min(len(text), len(report))
     report = text
     text = fit_json(title, job, status, msg, s)
@@ -1007,7 +1009,8 @@ contains
     eigval = res%eigval
     eigvec = res%eigvec
     rhat = res%rhat
-    yhat = res%yhat
+    ! the frequency-domain methods' outputs are transforms: mlid_freq_residuals
+    if (.not. frequency_method(opt)) yhat = res%yhat
     cost = res%cost
     niter = res%niter
     reason = res%reason
@@ -1017,6 +1020,69 @@ contains
     if (status == MLID_OK) msg = warning
     if (status == MLID_OK .and. len_trim(warning) == 0) msg = res%note
   end subroutine mlid_fit
+
+  !> The frequency-domain methods' data and fit at theta (mlid_frequency):
+  !> freq(nk) the frequencies (Hz, manoeuvre after manoeuvre, nk = n_freq
+  !> times the manoeuvres), z the measured left-hand sides (output error:
+  !> the outputs' transforms Y; equation error: i w Y for the outputs that
+  !> measure a state), zhat the model's, real and imaginary parts (ny, nk).
+  subroutine mlid_freq_residuals(mkind, nx, nu, ny, nw, nth, theta, isfree, ntie, mtie, tie_to, &
+                                 tie_from, tie_scale, tie_offset, nic, iconst, nrc, rconst, nt, &
+                                 t, u, y, nseg, segstart, iopt, ropt, nk, freq, zre, zim, &
+                                 zhre, zhim, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nseg, nk
+    integer(c_int), intent(in) :: segstart(nseg)
+    real(c_double), intent(in) :: theta(nth)
+    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
+    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
+    real(c_double), intent(out) :: freq(nk), zre(ny, nk), zim(ny, nk), zhre(ny, nk), zhim(ny, nk)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    type(param_map_t) :: pm
+    real(wp), allocatable :: tf(:), uf(:, :), yf(:, :), yh(:, :)
+    real(wp) :: th(nth), cost, rhat(ny, ny)
+    integer :: nf
+
+    freq = 0.0_wp
+    zre = 0.0_wp
+    zim = 0.0_wp
+    zhre = 0.0_wp
+    zhim = 0.0_wp
+    nf = count(isfree == 1)
+    call setup(mkind, nx, nu, ny, nw, theta, isfree, &
+               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, y, iopt, &
+               ropt, nf, m, opt, pm, status, msg, segstart)
+    if (status /= MLID_OK) return
+    status = MLID_ERR_INPUT
+    if (.not. frequency_method(opt)) then
+      msg = 'frequency residuals are for method = ''frequency_output_error'' or '// &
+            '''frequency_equation_error'''
+      return
+    else if (nk /= opt%n_freq*nseg) then
+      write (msg, '(a,i0,a,i0)') 'nk = ', nk, ' must be n_freq times the manoeuvres = ', &
+        opt%n_freq*nseg
+      return
+    end if
+    th = theta
+    call apply_ties(pm%tie, th)
+    call freq_record(m, th, pm, t, u, y, opt, tf, uf, yf, status, msg)
+    if (status /= MLID_OK) return
+    allocate (yh(ny, 2*nk))
+    call freq_likelihood(m, th, pm, tf, uf, yf, opt, cost, rhat, yh, status, msg)
+    if (status /= MLID_OK) return
+    freq = reshape(spread(freq_grid(opt), 2, nseg), [nk])
+    zre = yf(:, 1::2)
+    zim = yf(:, 2::2)
+    zhre = yh(:, 1::2)
+    zhim = yh(:, 2::2)
+  end subroutine mlid_freq_residuals
 
   !> Cost, gradient, information matrix and output sensitivity norms at
   !> theta, without iterating.
@@ -1057,6 +1123,12 @@ contains
                ropt, &
                nf, m, opt, pm, status, msg, segstart)
     if (status /= MLID_OK) return
+    if (frequency_method(opt)) then
+      status = MLID_ERR_INPUT
+      msg = 'evaluate works on the time-domain record: the frequency-domain methods are for '// &
+            'fit (their residuals: the fit''s frequency_residuals)'
+      return
+    end if
     th = theta
     call apply_ties(pm%tie, th)
     call likelihood(m, th, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, sens, &
