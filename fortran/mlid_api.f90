@@ -75,7 +75,7 @@ module mlid_api
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude, mlid_design_equalised, &
-            mlid_deck_case_run, mlid_fourier_transform, mlid_freq_residuals
+            mlid_deck_case_run, mlid_fourier_transform, mlid_freq_evaluate
 
 contains
 
@@ -1009,7 +1009,7 @@ contains
     eigval = res%eigval
     eigvec = res%eigvec
     rhat = res%rhat
-    ! the frequency-domain methods' outputs are transforms: mlid_freq_residuals
+    ! the frequency-domain methods' outputs are transforms: mlid_freq_evaluate
     if (.not. frequency_method(opt)) yhat = res%yhat
     cost = res%cost
     niter = res%niter
@@ -1025,12 +1025,14 @@ contains
   !> freq(nk) the frequencies (Hz, manoeuvre after manoeuvre, nk = n_freq
   !> times the manoeuvres), z the measured left-hand sides (output error:
   !> the outputs' transforms Y; equation error: i w Y for the outputs that
-  !> measure a state), zhat the model's, real and imaginary parts (ny, nk).
-  subroutine mlid_freq_residuals(mkind, nx, nu, ny, nw, nth, theta, isfree, ntie, mtie, tie_to, &
+  !> measure a state), zhat the model's, real and imaginary parts (ny, nk);
+  !> the cost, its gradient and information over the nf free parameters and
+  !> S-hat (rhat) there.
+  subroutine mlid_freq_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, ntie, mtie, tie_to, &
                                  tie_from, tie_scale, tie_offset, nic, iconst, nrc, rconst, nt, &
                                  t, u, y, nseg, segstart, iopt, ropt, nk, freq, zre, zim, &
-                                 zhre, zhim, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nseg, nk
+                                 zhre, zhim, nf, cost, grad, info, rhat, nterms, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nseg, nk, nf
     integer(c_int), intent(in) :: segstart(nseg)
     real(c_double), intent(in) :: theta(nth)
     integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
@@ -1041,21 +1043,27 @@ contains
     integer(c_int), intent(in) :: iopt(16)
     real(c_double), intent(in) :: ropt(16)
     real(c_double), intent(out) :: freq(nk), zre(ny, nk), zim(ny, nk), zhre(ny, nk), zhim(ny, nk)
+    real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny)
+    integer(c_int), intent(out) :: nterms      !< the transient terms estimated (mlid_frequency)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
     real(wp), allocatable :: tf(:), uf(:, :), yf(:, :), yh(:, :)
-    real(wp) :: th(nth), cost, rhat(ny, ny)
-    integer :: nf
+    real(wp) :: th(nth)
+    integer :: k
 
     freq = 0.0_wp
+    nterms = 0
+    cost = 0.0_wp
+    grad = 0.0_wp
+    info = 0.0_wp
+    rhat = 0.0_wp
     zre = 0.0_wp
     zim = 0.0_wp
     zhre = 0.0_wp
     zhim = 0.0_wp
-    nf = count(isfree == 1)
     call setup(mkind, nx, nu, ny, nw, theta, isfree, &
                ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, y, iopt, &
                ropt, nf, m, opt, pm, status, msg, segstart)
@@ -1074,15 +1082,22 @@ contains
     call apply_ties(pm%tie, th)
     call freq_record(m, th, pm, t, u, y, opt, tf, uf, yf, status, msg)
     if (status /= MLID_OK) return
+    if (nf /= pm%nf) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0,a)') 'nf = ', nf, ' but ', pm%nf, ' parameters are free'
+      return
+    end if
     allocate (yh(ny, 2*nk))
-    call freq_likelihood(m, th, pm, tf, uf, yf, opt, cost, rhat, yh, status, msg)
+    call freq_likelihood(m, th, pm, tf, uf, yf, opt, cost, rhat, yh, status, msg, grad, info, &
+                         nterms=k)
+    nterms = k
     if (status /= MLID_OK) return
     freq = reshape(spread(freq_grid(opt), 2, nseg), [nk])
     zre = yf(:, 1::2)
     zim = yf(:, 2::2)
     zhre = yh(:, 1::2)
     zhim = yh(:, 2::2)
-  end subroutine mlid_freq_residuals
+  end subroutine mlid_freq_evaluate
 
   !> Cost, gradient, information matrix and output sensitivity norms at
   !> theta, without iterating.
@@ -1125,8 +1140,8 @@ contains
     if (status /= MLID_OK) return
     if (frequency_method(opt)) then
       status = MLID_ERR_INPUT
-      msg = 'evaluate works on the time-domain record: the frequency-domain methods are for '// &
-            'fit (their residuals: the fit''s frequency_residuals)'
+      msg = 'evaluate works on the time-domain record: the frequency-domain methods have '// &
+            'frequency_evaluate'
       return
     end if
     th = theta

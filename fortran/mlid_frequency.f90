@@ -32,13 +32,25 @@
 !> below it) and in its last row the weight c_k, y the measured left-hand
 !> sides Y (equation error: i w Y for the outputs that measure a state).
 !>
-!> What the frequency domain leaves out: each channel's mean over the
-!> manoeuvre is removed before the transform, so constant biases and trim
-!> values drop out exactly (x0, output biases and the state biases bx are
-!> not parameters here); slow drifts and the initial and final states enter
-!> only through the transform's leakage, which falls as 1/w away from zero:
-!> choose f_min a few times 1/T above them.  Free x0, biases, noise
-!> statistics, delays, Gamma, K or bx are refused with a message.
+!> What the transform brings in besides the transfer function: over a
+!> manoeuvre from t0 to t1 the state equations' transform holds the
+!> initial and final states, x(t0) exp(-i w t0) - x(t1) exp(-i w t1), and
+!> any constant forcing k (trim, state biases) times E(w), the transform of
+!> 1; the outputs hold their offsets o (biases, trim) times E and their
+!> drift rates d times R(w), the transform of t - t0.  These transient
+!> terms eta = [x(t0), x(t1), k, o, d] of each manoeuvre are linear in the
+!> residuals: for each theta the cost's minimum over them (and S) is taken
+!> by weighted least squares (terms linearly dependent on the others left
+!> out), and the information of theta is that with them unknown (the Schur
+!> complement).  So constant biases, trim values and linear drifts drop out
+!> exactly, and the band may start below 1/T.  Each channel's mean is
+!> removed before the transform (for the numbers' size only: the terms
+!> take it up).  x0, the output biases and bx are therefore not parameters
+!> here: free x0, biases, noise statistics, delays, Gamma, K or bx are
+!> refused with a message.  With p parameters and transient terms fitted to
+!> N effective real data (2 ny sum_k c_k), the weights are multiplied by (N
+!> - p)/N: the information at the unbiased S (the Monte Carlo check of
+!> tests/test_frequency_fit.py).
 module mlid_frequency
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR
@@ -46,13 +58,23 @@ module mlid_frequency
   use mlid_options, only: options_t, METHOD_FREQ_EE
   use mlid_params, only: param_map_t, input_delays, output_delays, stabilized
   use mlid_fourier, only: fourier_transform
-  use mlid_linalg, only: chol_inverse
+  use mlid_linalg, only: chol_inverse, info_inverse
   use mlid_text, only: itoa
   implicit none
   private
   public :: freq_record, freq_likelihood, freq_grid
 
   real(wp), parameter :: TWO_PI = 8.0_wp*atan(1.0_wp)
+  !> Rows of the transformed record's u after the inputs (and measured
+  !> states): exp(-i w t0), exp(-i w t1) (complex, packed as the data), the
+  !> weight c_k, the manoeuvre, its length t1 - t0.
+  integer, parameter :: NEXTRA = 5
+  !> The transient terms: eigenvalues of their normalised information below
+  !> ETA_RCOND of the largest are left out (near-dependent columns), and the
+  !> alternation with S stops when the cost changes by less than ETA_TOL
+  !> (relative), after ETA_SWEEPS at most.
+  real(wp), parameter :: ETA_RCOND = 1.0e-12_wp, ETA_TOL = 1.0e-14_wp
+  integer, parameter :: ETA_SWEEPS = 200
   complex(wp), parameter :: IU = (0.0_wp, 1.0_wp)
 
 contains
@@ -79,8 +101,9 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: w(:), x(:, :)
     complex(wp), allocatable :: xf(:, :)
-    integer :: xout(m%nx), nseg, nk, s, j0, j1, k, c, i, nu, ny
+    integer :: xout(m%nx), nseg, nk, s, j0, j1, k, c, i, nu, ny, ie
     real(wp) :: dt
+    complex(wp) :: p0, p1
 
     call freq_check(m, theta, pm, opt, xout, status, msg)
     if (status /= MLID_OK) return
@@ -89,8 +112,9 @@ contains
     nseg = pm%l%nseg
     nk = opt%n_freq
     w = TWO_PI*freq_grid(opt)
-    allocate (tf(2*nk*nseg), uf(nu + merge(m%nx, 0, opt%method == METHOD_FREQ_EE) + 1, &
+    allocate (tf(2*nk*nseg), uf(nu + merge(m%nx, 0, opt%method == METHOD_FREQ_EE) + NEXTRA, &
               2*nk*nseg), yf(ny, 2*nk*nseg))
+    ie = size(uf, 1) - NEXTRA
     status = MLID_ERR_INPUT
     do s = 1, nseg
       j0 = pm%l%seg(s)
@@ -123,7 +147,13 @@ contains
       do k = 1, nk
         c = 2*((s - 1)*nk + k) - 1
         tf(c:c + 1) = w(k)
-        uf(size(uf, 1), c:c + 1) = min(1.0_wp, (opt%f_max - opt%f_min)/(nk - 1)*(t(j1) - t(j0)))
+        p0 = exp(-IU*w(k)*t(j0))
+        p1 = exp(-IU*w(k)*t(j1))
+        uf(ie + 1, c:c + 1) = [real(p0, wp), aimag(p0)]
+        uf(ie + 2, c:c + 1) = [real(p1, wp), aimag(p1)]
+        uf(ie + 3, c:c + 1) = min(1.0_wp, (opt%f_max - opt%f_min)/(nk - 1)*(t(j1) - t(j0)))
+        uf(ie + 4, c:c + 1) = s
+        uf(ie + 5, c:c + 1) = t(j1) - t(j0)
         uf(1:nu, c) = real(xf(1:nu, k), wp)
         uf(1:nu, c + 1) = aimag(xf(1:nu, k))
         yf(:, c) = real(xf(nu + 1:, k), wp)
@@ -218,11 +248,12 @@ contains
       'output h = x with no free parameter): state '//itoa(findloc(xout, 0, 1))//' is not'
   end subroutine state_outputs
 
-  !> Cost, S-hat (rhat), the fitted left-hand sides (yhat, the layout above)
-  !> and with grad and info their gradient and information at S-hat; sens,
-  !> wsens, msens as mlid_likelihood's.
+  !> Cost, S-hat (rhat), the fitted left-hand sides (yhat, the layout above,
+  !> with the transient terms) and with grad and info their gradient and
+  !> information at S-hat and the transient terms' estimate; sens, wsens,
+  !> msens as mlid_likelihood's.
   subroutine freq_likelihood(m, theta, pm, tf, uf, yf, opt, cost, rhat, yhat, status, msg, grad, &
-                             info, sens, wsens, msens)
+                             info, sens, wsens, msens, nterms)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), tf(:), uf(:, :), yf(:, :)
     type(param_map_t), intent(in) :: pm
@@ -231,71 +262,83 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
-    real(wp), allocatable :: dy(:, :, :), r(:, :), a(:, :), cw(:), rw(:, :)
-    real(wp) :: sinv(m%ny, m%ny), logdet, n
-    integer :: xout(m%nx), nc, i, f, ierr
+    integer, intent(out), optional :: nterms    !< the transient terms estimated (independent)
+    real(wp), allocatable :: dy(:, :, :), bas(:, :, :), r0(:, :), r(:, :), a(:, :), cw(:), &
+                             eta(:), mee(:, :), mte(:, :), mtt(:, :), c(:, :), ev(:)
+    complex(wp), allocatable :: ainv(:, :, :), xs(:, :)
+    real(wp) :: sinv(m%ny, m%ny), logdet, dof
+    integer :: xout(m%nx), nc, ne, i, f, ndrop, bad
 
     cost = huge(1.0_wp)
     nc = size(tf)
     status = MLID_ERR_INPUT
-    if (mod(nc, 2) /= 0 .or. nc == 0) then
-      msg = 'the frequency-domain likelihood takes the transformed record (mlid_frequency)'
-      return
-    else if (any(tf(1::2) /= tf(2::2))) then
-      msg = 'the frequency-domain likelihood takes the transformed record (mlid_frequency)'
-      return
-    end if
+    msg = 'the frequency-domain likelihood takes the transformed record (mlid_frequency)'
+    if (mod(nc, 2) /= 0 .or. nc == 0) return
+    if (any(tf(1::2) /= tf(2::2))) return
     call freq_check(m, theta, pm, opt, xout, status, msg)
     if (status /= MLID_OK) return
-    allocate (dy(m%ny, pm%nf, nc))
+    cw = uf(size(uf, 1) - NEXTRA + 3, :)               ! each column's weight c_k
+    ne = nint(maxval(uf(size(uf, 1) - NEXTRA + 4, :)))*(3*m%nx + 2*m%ny)
+    allocate (bas(m%ny, ne, nc), ainv(m%nx, m%nx, nc/2), xs(m%nx, nc/2), eta(ne))
     select type (m)
     type is (linear_model_t)
-      call predict(m, theta, pm, tf, uf, opt%method == METHOD_FREQ_EE, xout, yhat, dy, &
-                   present(grad), status, msg)
+      call model_terms(m, theta, tf, uf, opt%method == METHOD_FREQ_EE, xout, yhat, bas, ainv, xs, &
+                       status, msg)
     end select
     if (status /= MLID_OK) return
-    r = yf - yhat
-    cw = uf(size(uf, 1), :)                            ! each column's weight c_k
-    n = 0.5_wp*sum(cw)
-    rw = r*spread(cw, 1, m%ny)
-    rhat = matmul(rw, transpose(r))/n                  ! S = (1/n) sum c Re(V V^*)
-    if (.not. opt%full_r) then
-      do i = 1, m%ny
-        rhat(:i - 1, i) = 0.0_wp
-        rhat(i + 1:, i) = 0.0_wp
-      end do
-    end if
-    if (.not. all([(rhat(i, i) > tiny(1.0_wp), i=1, m%ny)])) then
-      status = MLID_ERR_SINGULAR
-      msg = 'a residual spectrum is zero or not finite: an output fitted exactly '// &
-            '(noise-free data?)'
+    r0 = yf - yhat
+    call transients(r0, bas, cw, opt%full_r, eta, r, rhat, sinv, logdet, ndrop, status, msg)
+    if (status /= MLID_OK) return
+    ! S-hat is the residuals' mean square; with p parameters and transient
+    ! terms fitted to N effective real data it is low by (N - p)/N, and an
+    ! information taken with it high by N/(N - p): the weights times (N -
+    ! p)/N make cost, gradient and information those at the unbiased S
+    ! (S-hat itself, a weighted mean, does not change)
+    dof = m%ny*sum(cw) - (pm%nf + ne - ndrop)
+    if (.not. dof > 0.0_wp) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0,a)') 'the band holds too few independent frequencies for the ', &
+        pm%nf, ' parameters and ', ne - ndrop, ' transient terms: widen it or add frequencies'
       return
     end if
-    call chol_inverse(rhat, sinv, logdet, ierr)
-    if (ierr /= 0) then
-      status = MLID_ERR_SINGULAR
-      msg = 'residual covariance is singular (outputs linearly dependent): use noise = ''diagonal'''
-      return
-    end if
-    cost = sum(rw*matmul(sinv, r)) + n*logdet
+    cw = cw*dof/(m%ny*sum(cw))
+    if (present(nterms)) nterms = ne - ndrop
+    yhat = yf - r
+    cost = sum(r*spread(cw, 1, m%ny)*matmul(sinv, r)) + 0.5_wp*sum(cw)*logdet
     if (.not. ieee_is_finite(cost)) then
       status = MLID_ERR_SINGULAR
       msg = 'cost is not finite'
       return
     end if
     if (.not. (present(grad) .and. present(info))) return
-    allocate (a(m%ny, nc))
-    grad = 0.0_wp
-    info = 0.0_wp
+
+    allocate (dy(m%ny, pm%nf, nc))
+    select type (m)
+    type is (linear_model_t)
+      call sensitivities(m, theta, pm, tf, uf, opt%method == METHOD_FREQ_EE, xout, ainv, xs, eta, &
+                         dy)
+    end select
+    ! information of (theta, transients), the transients eliminated (Schur
+    ! complement): the information of theta with them unknown
+    allocate (a(m%ny, nc), mtt(pm%nf, pm%nf), mte(pm%nf, ne))
     do f = 1, pm%nf
       a = 2.0_wp*matmul(sinv, dy(:, f, :))*spread(cw, 1, m%ny)     ! 2 c S^-1 dV
       grad(f) = -sum(a*r)
       if (present(wsens)) wsens(:, :, f) = a
       do i = 1, f
-        info(i, f) = sum(dy(:, i, :)*a)
-        info(f, i) = info(i, f)
+        mtt(i, f) = sum(dy(:, i, :)*a)
+        mtt(f, i) = mtt(i, f)
+      end do
+      do i = 1, ne
+        mte(f, i) = sum(bas(:, i, :)*a)
       end do
     end do
+    mee = information_of(bas, sinv, cw)
+    allocate (c(ne, ne), ev(ne))
+    call info_inverse(mee, ETA_RCOND, c, ev, i, bad, status, msg)
+    if (status /= MLID_OK) return
+    info = mtt - matmul(mte, matmul(c, transpose(mte)))
+    info = 0.5_wp*(info + transpose(info))
     if (present(msens)) msens = info
     if (present(sens)) then
       do i = 1, m%ny
@@ -304,75 +347,226 @@ contains
     end if
   end subroutine freq_likelihood
 
-  !> yhat and its sensitivities dy (ny, nf, nc) at every frequency.  Output
-  !> error: X = A^-1 G U, A = i w I - Fe, V = U + K X, Y = H X + D V; with
-  !> P = He A^-1, dY/dF_ij = P(:, i) X_j, dY/dG_ij = P(:, i) V_j, dY/dH_ij
-  !> = e_i X_j, dY/dD_ij = e_i V_j.  Equation error: X measured, the state
-  !> rows' dY/dF_kj = X_j, dY/dG_kj = V_j, the others' as output error's H, D.
-  subroutine predict(m, theta, pm, tf, uf, ee, xout, yhat, dy, want_dy, status, msg)
+  !> 2 sum_c c b_c' S^-1 b_c over the columns c of b (ny, n, nc).
+  function information_of(b, sinv, cw) result(mm)
+    real(wp), intent(in) :: b(:, :, :), sinv(:, :), cw(:)
+    real(wp) :: mm(size(b, 2), size(b, 2))
+    real(wp) :: a(size(b, 1), size(b, 3))
+    integer :: i, j
+    do j = 1, size(b, 2)
+      a = 2.0_wp*matmul(sinv, b(:, j, :))*spread(cw, 1, size(b, 1))
+      do i = 1, j
+        mm(i, j) = sum(b(:, i, :)*a)
+        mm(j, i) = mm(i, j)
+      end do
+    end do
+  end function information_of
+
+  !> The transient terms' estimate eta and S-hat together: the cost's
+  !> minimum over both, alternating the weighted least squares for eta
+  !> (given S) and S = (1/n) sum c Re(V V^*) (given eta) until the cost
+  !> settles; r the residuals left, sinv and logdet of S.
+  subroutine transients(r0, bas, cw, full, eta, r, s, sinv, logdet, ndrop, status, msg)
+    real(wp), intent(in) :: r0(:, :), bas(:, :, :), cw(:)
+    logical, intent(in) :: full
+    real(wp), intent(out) :: eta(:), s(:, :), sinv(:, :), logdet
+    real(wp), allocatable, intent(out) :: r(:, :)
+    integer, intent(out) :: ndrop           !< transient terms left out (dependent)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: c(size(eta), size(eta)), ev(size(eta)), g(size(eta)), cost, last
+    real(wp) :: a(size(r0, 1), size(r0, 2))
+    integer :: it, i, j, bad, ierr, ny
+    ny = size(r0, 1)
+    ndrop = 0
+    eta = 0.0_wp
+    r = r0
+    last = huge(1.0_wp)
+    do it = 1, ETA_SWEEPS
+      ! S given the residuals
+      s = matmul(r*spread(cw, 1, ny), transpose(r))/(0.5_wp*sum(cw))
+      if (.not. full) then
+        do i = 1, ny
+          s(:i - 1, i) = 0.0_wp
+          s(i + 1:, i) = 0.0_wp
+        end do
+      end if
+      if (.not. all([(s(i, i) > tiny(1.0_wp), i=1, ny)])) then
+        status = MLID_ERR_SINGULAR
+        msg = 'a residual spectrum is zero or not finite: an output fitted exactly '// &
+              '(noise-free data?)'
+        return
+      end if
+      call chol_inverse(s, sinv, logdet, ierr)
+      if (ierr /= 0) then
+        status = MLID_ERR_SINGULAR
+        msg = 'residual covariance is singular (outputs linearly dependent): use noise = '// &
+              '''diagonal'''
+        return
+      end if
+      cost = sum(r*spread(cw, 1, ny)*matmul(sinv, r)) + 0.5_wp*sum(cw)*logdet
+      if (size(eta) == 0 .or. abs(last - cost) <= ETA_TOL*max(1.0_wp, abs(cost))) exit
+      last = cost
+      ! eta given S: the weighted least squares on r0
+      a = 2.0_wp*matmul(sinv, r0)*spread(cw, 1, ny)
+      do j = 1, size(eta)
+        g(j) = sum(bas(:, j, :)*a)
+      end do
+      call info_inverse(information_of(bas, sinv, cw), ETA_RCOND, c, ev, ndrop, bad, status, msg)
+      if (status /= MLID_OK) return
+      eta = matmul(c, g)
+      r = r0
+      do j = 1, size(eta)
+        r = r - eta(j)*bas(:, j, :)
+      end do
+    end do
+    status = MLID_OK
+    msg = ''
+  end subroutine transients
+
+  !> The model's left-hand sides without the transient terms (y0), the
+  !> transient terms' columns (bas: d y / d eta), and what the
+  !> sensitivities need: (i w I - Fe)^-1 and the states' transforms xs
+  !> (output error: driven by U; equation error: measured).  Output error:
+  !> X = A^-1 (G U + N eta), N = [p0 I, -p1 I, E I] over the manoeuvre's
+  !> x(t0), x(t1) and constant forcing k (trim, state biases), E = (p0 -
+  !> p1)/(i w) the transform of 1, Y = He X + D U + E o + R d with the
+  !> outputs' offsets o and drift rates d, R = (E - (t1 - t0) p1)/(i w) the
+  !> transform of t - t0.  Equation error: state row k: (F X + G V)_k + (N
+  !> eta)_k + R d_k, the other rows (H X + D V)_i + E o_i + R d_i.
+  subroutine model_terms(m, theta, tf, uf, ee, xout, y0, bas, ainv, xs, status, msg)
     type(linear_model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), tf(:), uf(:, :)
-    type(param_map_t), intent(in) :: pm
-    logical, intent(in) :: ee, want_dy
+    logical, intent(in) :: ee
     integer, intent(in) :: xout(:)
-    real(wp), intent(out) :: yhat(:, :), dy(:, :, :)
+    real(wp), intent(out) :: y0(:, :), bas(:, :, :)
+    complex(wp), intent(out) :: ainv(:, :, :), xs(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
-    complex(wp) :: a(m%nx, m%nx), ainv(m%nx, m%nx), p(m%ny, m%nx), x(m%nx), v(m%nu), &
-                   uu(m%nu), yy(m%ny), dz(m%ny)
-    integer :: c, k, e, blk, i, j, row(m%nx), nx, nu, ny
+    complex(wp) :: a(m%nx, m%nx), p(m%ny, m%nx), uu(m%nu), v(m%nu), yy(m%ny), p0, p1, e, ramp, &
+                   b(m%ny, 3*m%nx + 2*m%ny)
+    integer :: c, k, i, ie, ne, s, nx, nu, ny
     logical :: ok
 
     nx = m%nx
     nu = m%nu
     ny = m%ny
-    f = reshape(theta(m%of + 1:m%of + nx*nx), [nx, nx])
-    g = reshape(theta(m%og + 1:m%og + nx*nu), [nx, nu])
-    h = reshape(theta(m%oh + 1:m%oh + ny*nx), [ny, nx])
-    d = reshape(theta(m%od + 1:m%od + ny*nu), [ny, nu])
-    kf = reshape(theta(m%ok + 1:m%ok + nu*nx), [nu, nx])
-    row = xout
+    call matrices(m, theta, f, g, h, d, kf)
+    ie = size(uf, 1) - NEXTRA
+    ne = 3*nx + 2*ny
     status = MLID_OK
     msg = ''
-    dy = 0.0_wp
+    bas = 0.0_wp
     do c = 1, size(tf), 2
+      k = (c + 1)/2
       uu = cmplx(uf(1:nu, c), uf(1:nu, c + 1), wp)
+      p0 = cmplx(uf(ie + 1, c), uf(ie + 1, c + 1), wp)
+      p1 = cmplx(uf(ie + 2, c), uf(ie + 2, c + 1), wp)
+      e = (p0 - p1)/(IU*tf(c))
+      ramp = (e - uf(ie + 5, c)*p1)/(IU*tf(c))       ! the transform of t - t0
+      s = nint(uf(ie + 4, c))
+      b = 0.0_wp
+      do i = 1, ny
+        b(i, 3*nx + i) = e
+        b(i, 3*nx + ny + i) = ramp
+      end do
       if (ee) then
-        x = cmplx(uf(nu + 1:nu + nx, c), uf(nu + 1:nu + nx, c + 1), wp)
-        v = uu + matmul(kf, x)
-        yy = matmul(h, x) + matmul(d, v)
-        yy(row) = matmul(f, x) + matmul(g, v)
+        xs(:, k) = cmplx(uf(nu + 1:nu + nx, c), uf(nu + 1:nu + nx, c + 1), wp)
+        v = uu + matmul(kf, xs(:, k))
+        yy = matmul(h, xs(:, k)) + matmul(d, v)
+        yy(xout) = matmul(f, xs(:, k)) + matmul(g, v)
+        do i = 1, nx
+          b(xout(i), 3*nx + xout(i)) = 0.0_wp      ! a state equation has no output offset
+          b(xout(i), i) = p0
+          b(xout(i), nx + i) = -p1
+          b(xout(i), 2*nx + i) = e
+        end do
       else
         a = -(f + matmul(g, kf))
         do i = 1, nx
           a(i, i) = a(i, i) + IU*tf(c)
         end do
-        call complex_inverse(a, ainv, ok)
+        call complex_inverse(a, ainv(:, :, k), ok)
         if (.not. ok) then
           status = MLID_ERR_SINGULAR
           write (msg, '(a,g0.6,a)') 'i w I - F is singular at ', tf(c)/TWO_PI, &
             ' Hz: the model has a pole on the imaginary axis there'
           return
         end if
-        x = matmul(ainv, matmul(g, uu))
-        v = uu + matmul(kf, x)
-        yy = matmul(h, x) + matmul(d, v)
-        p = matmul(h + matmul(d, kf), ainv)
+        xs(:, k) = matmul(ainv(:, :, k), matmul(g, uu))
+        yy = matmul(h + matmul(d, kf), xs(:, k)) + matmul(d, uu)
+        p = matmul(h + matmul(d, kf), ainv(:, :, k))
+        b(:, 1:nx) = p0*p
+        b(:, nx + 1:2*nx) = -p1*p
+        b(:, 2*nx + 1:3*nx) = e*p
       end if
-      yhat(:, c) = real(yy, wp)
-      yhat(:, c + 1) = aimag(yy)
-      if (.not. want_dy) cycle
-      do k = 1, size(pm%im)                 ! each moving entry into its free column
-        e = pm%im(k)
-        call element(e, blk, i, j)
+      y0(:, c) = real(yy, wp)
+      y0(:, c + 1) = aimag(yy)
+      bas(:, (s - 1)*ne + 1:s*ne, c) = real(b, wp)
+      bas(:, (s - 1)*ne + 1:s*ne, c + 1) = aimag(b)
+    end do
+  end subroutine model_terms
+
+  !> F, G, H, D and the input feedback K of the linear model at theta.
+  pure subroutine matrices(m, theta, f, g, h, d, kf)
+    type(linear_model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    real(wp), intent(out) :: f(:, :), g(:, :), h(:, :), d(:, :), kf(:, :)
+    f = reshape(theta(m%of + 1:m%of + m%nx*m%nx), [m%nx, m%nx])
+    g = reshape(theta(m%og + 1:m%og + m%nx*m%nu), [m%nx, m%nu])
+    h = reshape(theta(m%oh + 1:m%oh + m%ny*m%nx), [m%ny, m%nx])
+    d = reshape(theta(m%od + 1:m%od + m%ny*m%nu), [m%ny, m%nu])
+    kf = reshape(theta(m%ok + 1:m%ok + m%nu*m%nx), [m%nu, m%nx])
+  end subroutine matrices
+
+  !> dy (ny, nf, nc): the sensitivities of the left-hand sides to the free
+  !> parameters at the transient terms eta.  Output error: X = xs + A^-1 N
+  !> eta, V = U + K X, P = He A^-1; dY/dF_ij = P(:, i) X_j, dY/dG_ij = P(:,
+  !> i) V_j, dY/dH_ij = e_i X_j, dY/dD_ij = e_i V_j.  Equation error: X
+  !> measured, the state rows' dY/dF_kj = X_j, dY/dG_kj = V_j, the others'
+  !> as output error's H, D.
+  subroutine sensitivities(m, theta, pm, tf, uf, ee, xout, ainv, xs, eta, dy)
+    type(linear_model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:), tf(:), uf(:, :), eta(:)
+    type(param_map_t), intent(in) :: pm
+    logical, intent(in) :: ee
+    integer, intent(in) :: xout(:)
+    complex(wp), intent(in) :: ainv(:, :, :), xs(:, :)
+    real(wp), intent(out) :: dy(:, :, :)
+    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
+    complex(wp) :: p(m%ny, m%nx), x(m%nx), v(m%nu), dz(m%ny), p0, p1, e
+    integer :: c, k, q, blk, i, j, ie, ne, s, nx, nu, ny
+
+    nx = m%nx
+    nu = m%nu
+    ny = m%ny
+    call matrices(m, theta, f, g, h, d, kf)
+    ie = size(uf, 1) - NEXTRA
+    ne = 3*nx + 2*ny
+    dy = 0.0_wp
+    do c = 1, size(tf), 2
+      k = (c + 1)/2
+      x = xs(:, k)
+      if (.not. ee) then        ! the states' transient part
+        p0 = cmplx(uf(ie + 1, c), uf(ie + 1, c + 1), wp)
+        p1 = cmplx(uf(ie + 2, c), uf(ie + 2, c + 1), wp)
+        e = (p0 - p1)/(IU*tf(c))
+        s = (nint(uf(ie + 4, c)) - 1)*ne
+        x = x + matmul(ainv(:, :, k), p0*eta(s + 1:s + nx) - p1*eta(s + nx + 1:s + 2*nx) + &
+                       e*eta(s + 2*nx + 1:s + 3*nx))
+        p = matmul(h + matmul(d, kf), ainv(:, :, k))
+      end if
+      v = cmplx(uf(1:nu, c), uf(1:nu, c + 1), wp) + matmul(kf, x)
+      do q = 1, size(pm%im)                 ! each moving entry into its free column
+        call element(pm%im(q), blk, i, j)
         dz = 0.0_wp
         select case (blk)
         case (1, 2)                         ! F(i, j), G(i, j): X_j or V_j
           if (ee .and. blk == 1) then
-            dz(row(i)) = x(j)
+            dz(xout(i)) = x(j)
           else if (ee) then
-            dz(row(i)) = v(j)
+            dz(xout(i)) = v(j)
           else if (blk == 1) then
             dz = p(:, i)*x(j)
           else
@@ -383,8 +577,8 @@ contains
         case (4)                            ! D(i, j)
           dz(i) = v(j)
         end select
-        dy(:, pm%cm(k), c) = dy(:, pm%cm(k), c) + pm%wm(k)*real(dz, wp)
-        dy(:, pm%cm(k), c + 1) = dy(:, pm%cm(k), c + 1) + pm%wm(k)*aimag(dz)
+        dy(:, pm%cm(q), c) = dy(:, pm%cm(q), c) + pm%wm(q)*real(dz, wp)
+        dy(:, pm%cm(q), c + 1) = dy(:, pm%cm(q), c + 1) + pm%wm(q)*aimag(dz)
       end do
     end do
 
@@ -403,7 +597,7 @@ contains
       j = q/nr(blk) + 1
     end subroutine element
 
-  end subroutine predict
+  end subroutine sensitivities
 
   !> ainv = a^-1 by Gauss-Jordan elimination with partial pivoting (a is
   !> small: the model's states); ok false when a pivot vanishes.

@@ -381,13 +381,61 @@ def _frequency_fields(model, params, theta, t, u, y, starts, iopt, ropt, opts, s
     model's, complex (nk, ny); {} for a time-domain fit or a failed one."""
     if opts["method"] not in FREQUENCY_METHODS or fit_outcome(status, reason) == "failed":
         return {}
+    ev = _frequency_call(model, params, theta, t, u, y, starts, iopt, ropt, opts)
+    return {"frequencies": ev["frequencies"], "z": ev["z"], "zhat": ev["zhat"],
+            "yhat": ev["zhat"]}
+
+
+def _frequency_call(model, params, theta, t, u, y, starts, iopt, ropt, opts):
     nk = opts["n_freq"] * len(starts)
-    freq, zre, zim, zhre, zhim, st, msg = _api.mlid_freq_residuals(
+    (freq, zre, zim, zhre, zhim, cost, grad, info, rhat, nterms, status,
+     msg) = _api.mlid_freq_evaluate(
         **_model_args(model), theta=theta, isfree=params.mask, **params.ties, t=t, u=u, y=y,
-        segstart=starts, iopt=iopt, ropt=ropt, nk=nk)
-    check_status(st, msg)
-    zhat = (zhre + 1j * zhim).T.copy()
-    return {"frequencies": freq, "z": (zre + 1j * zim).T.copy(), "zhat": zhat, "yhat": zhat}
+        segstart=starts, iopt=iopt, ropt=ropt, nk=nk, nf=int(params.mask.sum()))
+    check_status(status, msg)
+    return {"frequencies": freq, "z": (zre + 1j * zim).T.copy(),
+            "zhat": (zhre + 1j * zhim).T.copy(), "cost": float(cost), "gradient": grad,
+            "information": info, "rhat": rhat, "transient_terms": int(nterms)}
+
+
+@guarded
+def frequency_evaluate(model, data, **options):
+    """A frequency-domain method's cost, gradient and information at the
+    model's values, without iterating (``evaluate``'s counterpart).
+
+    Parameters
+    ----------
+    model : LinearModel
+    data : FlightData or list of FlightData
+    **options
+        As for ``fit``; ``method`` one of 'frequency_output_error',
+        'frequency_equation_error', and the band ``f_min``, ``f_max``,
+        ``n_freq``.
+
+    Returns
+    -------
+    dict
+        ``frequencies`` (Hz), ``z`` and ``zhat`` (complex (nk, ny): the
+        measured left-hand sides and the model's), ``cost``, ``gradient``
+        and ``information`` over the free parameters, ``rhat`` (S-hat),
+        ``transient_terms`` (how many of the initial and final states,
+        constant forcing, output offsets and drift rates were estimated:
+        those not linearly dependent on the others).
+
+    Raises
+    ------
+    InputError
+        As ``fit``; a time-domain method.
+    """
+    _check_model(model)
+    _check_data(data)
+    iopt, ropt, opts = _flat_options(model, options)
+    if opts["method"] not in FREQUENCY_METHODS:
+        raise InputError(f"frequency_evaluate takes method {' or '.join(FREQUENCY_METHODS)}, "
+                         f"got {opts['method']!r}")
+    params, record, starts = _manoeuvres(model, data, None, None)
+    t, u, y = _record(model, record)
+    return _frequency_call(model, params, params.theta, t, u, y, starts, iopt, ropt, opts)
 
 
 def _free_units(model, record, params):
