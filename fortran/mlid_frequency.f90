@@ -58,7 +58,7 @@ module mlid_frequency
   use mlid_options, only: options_t, METHOD_FREQ_EE
   use mlid_params, only: param_map_t, input_delays, output_delays, stabilized
   use mlid_fourier, only: fourier_transform
-  use mlid_linalg, only: chol_inverse, info_inverse
+  use mlid_linalg, only: chol_inverse, info_eig
   use mlid_text, only: itoa
   implicit none
   private
@@ -263,11 +263,11 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     integer, intent(out), optional :: nterms    !< the transient terms estimated (independent)
-    real(wp), allocatable :: dy(:, :, :), bas(:, :, :), r0(:, :), r(:, :), a(:, :), cw(:), &
-                             eta(:), mee(:, :), mte(:, :), mtt(:, :), c(:, :), ev(:)
+    real(wp), allocatable :: d(:, :, :), bas(:, :, :), r0(:, :), r(:, :), a(:, :, :), cw(:), &
+                             eta(:), xi(:), tmap(:, :), mm(:, :), c(:, :)
     complex(wp), allocatable :: ainv(:, :, :), xs(:, :)
     real(wp) :: sinv(m%ny, m%ny), logdet, dof
-    integer :: xout(m%nx), nc, ne, i, f, ndrop, bad
+    integer :: xout(m%nx), nc, ne, i, f, ndrop
 
     cost = huge(1.0_wp)
     nc = size(tf)
@@ -279,7 +279,7 @@ contains
     if (status /= MLID_OK) return
     cw = uf(size(uf, 1) - NEXTRA + 3, :)               ! each column's weight c_k
     ne = nint(maxval(uf(size(uf, 1) - NEXTRA + 4, :)))*(3*m%nx + 2*m%ny)
-    allocate (bas(m%ny, ne, nc), ainv(m%nx, m%nx, nc/2), xs(m%nx, nc/2), eta(ne))
+    allocate (bas(m%ny, nc, ne), ainv(m%nx, m%nx, nc/2), xs(m%nx, nc/2))
     select type (m)
     type is (linear_model_t)
       call model_terms(m, theta, tf, uf, opt%method == METHOD_FREQ_EE, xout, yhat, bas, ainv, xs, &
@@ -287,8 +287,13 @@ contains
     end select
     if (status /= MLID_OK) return
     r0 = yf - yhat
-    call transients(r0, bas, cw, opt%full_r, eta, r, rhat, sinv, logdet, ndrop, status, msg)
+    call independent_terms(bas, r0, cw, tmap, status, msg)
     if (status /= MLID_OK) return
+    ndrop = ne - size(bas, 3)
+    allocate (xi(size(bas, 3)))
+    call transients(r0, bas, cw, opt%full_r, xi, r, rhat, sinv, logdet, status, msg)
+    if (status /= MLID_OK) return
+    eta = matmul(tmap, xi)
     ! S-hat is the residuals' mean square; with p parameters and transient
     ! terms fitted to N effective real data it is low by (N - p)/N, and an
     ! information taken with it high by N/(N - p): the weights times (N -
@@ -312,73 +317,122 @@ contains
     end if
     if (.not. (present(grad) .and. present(info))) return
 
-    allocate (dy(m%ny, pm%nf, nc))
+    allocate (d(m%ny, nc, pm%nf + size(bas, 3)))
     select type (m)
     type is (linear_model_t)
       call sensitivities(m, theta, pm, tf, uf, opt%method == METHOD_FREQ_EE, xout, ainv, xs, eta, &
-                         dy)
+                         d(:, :, 1:pm%nf))
     end select
+    d(:, :, pm%nf + 1:) = bas
     ! information of (theta, transients), the transients eliminated (Schur
     ! complement): the information of theta with them unknown
-    allocate (a(m%ny, nc), mtt(pm%nf, pm%nf), mte(pm%nf, ne))
+    mm = information_of(d, sinv, cw)
+    a = weighted(reshape(r, [m%ny, nc, 1]), sinv, cw)
     do f = 1, pm%nf
-      a = 2.0_wp*matmul(sinv, dy(:, f, :))*spread(cw, 1, m%ny)     ! 2 c S^-1 dV
-      grad(f) = -sum(a*r)
-      if (present(wsens)) wsens(:, :, f) = a
-      do i = 1, f
-        mtt(i, f) = sum(dy(:, i, :)*a)
-        mtt(f, i) = mtt(i, f)
-      end do
-      do i = 1, ne
-        mte(f, i) = sum(bas(:, i, :)*a)
-      end do
+      grad(f) = -sum(d(:, :, f)*a(:, :, 1))
     end do
-    mee = information_of(bas, sinv, cw)
-    allocate (c(ne, ne), ev(ne))
-    call info_inverse(mee, ETA_RCOND, c, ev, i, bad, status, msg)
-    if (status /= MLID_OK) return
-    info = mtt - matmul(mte, matmul(c, transpose(mte)))
+    if (present(wsens)) wsens = weighted(d(:, :, 1:pm%nf), sinv, cw)
+    allocate (c(size(bas, 3), size(bas, 3)))
+    call chol_inverse(mm(pm%nf + 1:, pm%nf + 1:), c, logdet, i)
+    if (i /= 0) then
+      status = MLID_ERR_SINGULAR
+      msg = 'the transient terms'' information is singular'
+      return
+    end if
+    info = mm(:pm%nf, :pm%nf) - matmul(mm(:pm%nf, pm%nf + 1:), matmul(c, mm(pm%nf + 1:, :pm%nf)))
     info = 0.5_wp*(info + transpose(info))
     if (present(msens)) msens = info
     if (present(sens)) then
       do i = 1, m%ny
-        sens(i, :) = sqrt(matmul(dy(i, :, :)**2, cw)/rhat(i, i))
+        sens(i, :) = sqrt(matmul(cw, d(i, :, 1:pm%nf)**2)/rhat(i, i))
       end do
     end if
   end subroutine freq_likelihood
 
-  !> 2 sum_c c b_c' S^-1 b_c over the columns c of b (ny, n, nc).
+  !> 2 sum_c c b_c' S^-1 b_c over the columns c of b (ny, nc, n): one
+  !> product of the columns with their weighted copies.
   function information_of(b, sinv, cw) result(mm)
     real(wp), intent(in) :: b(:, :, :), sinv(:, :), cw(:)
-    real(wp) :: mm(size(b, 2), size(b, 2))
-    real(wp) :: a(size(b, 1), size(b, 3))
-    integer :: i, j
-    do j = 1, size(b, 2)
-      a = 2.0_wp*matmul(sinv, b(:, j, :))*spread(cw, 1, size(b, 1))
-      do i = 1, j
-        mm(i, j) = sum(b(:, i, :)*a)
-        mm(j, i) = mm(i, j)
-      end do
-    end do
+    real(wp) :: mm(size(b, 3), size(b, 3))
+    real(wp), allocatable :: a(:, :, :)
+    integer :: nr
+    nr = size(b, 1)*size(b, 2)
+    a = weighted(b, sinv, cw)
+    mm = matmul(transpose(reshape(b, [nr, size(b, 3)])), reshape(a, [nr, size(b, 3)]))
+    mm = 0.5_wp*(mm + transpose(mm))
   end function information_of
+
+  !> 2 c S^-1 b_c for each column c of b (ny, nc, n): rows scaled when S is
+  !> diagonal.
+  function weighted(b, sinv, cw) result(a)
+    real(wp), intent(in) :: b(:, :, :), sinv(:, :), cw(:)
+    real(wp) :: a(size(b, 1), size(b, 2), size(b, 3))
+    real(wp) :: w(size(b, 1), size(b, 2))
+    integer :: i, j, c
+    if (count(sinv /= 0.0_wp) == size(sinv, 1)) then
+      do c = 1, size(b, 2)
+        do i = 1, size(b, 1)
+          w(i, c) = 2.0_wp*cw(c)*sinv(i, i)
+        end do
+      end do
+      do j = 1, size(b, 3)
+        a(:, :, j) = w*b(:, :, j)
+      end do
+    else
+      do j = 1, size(b, 3)
+        a(:, :, j) = 2.0_wp*matmul(sinv, b(:, :, j))*spread(cw, 1, size(b, 1))
+      end do
+    end if
+  end function weighted
+
+  !> The transient terms' columns b (ny, nc, n) replaced by an independent
+  !> set spanning the same, b t: t (n, nk) the eigenvectors of their
+  !> normalised information (weighted by the residuals r0's mean squares)
+  !> above ETA_RCOND of the largest.  Exact dependencies occur: with every
+  !> state measured (H invertible) the output offsets are the states'.
+  subroutine independent_terms(b, r0, cw, t, status, msg)
+    real(wp), allocatable, intent(inout) :: b(:, :, :)
+    real(wp), intent(in) :: r0(:, :), cw(:)
+    real(wp), allocatable, intent(out) :: t(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: w0(size(r0, 1), size(r0, 1)), sc(size(b, 3)), ev(size(b, 3)), &
+                v(size(b, 3), size(b, 3))
+    real(wp), allocatable :: bm(:, :)
+    integer :: i, n, nk, nr
+    n = size(b, 3)
+    nr = size(b, 1)*size(b, 2)
+    status = MLID_OK
+    msg = ''
+    allocate (t(n, 0))
+    if (n == 0) return
+    w0 = 0.0_wp
+    do i = 1, size(r0, 1)
+      w0(i, i) = sum(cw)/max(sum(cw*r0(i, :)**2), tiny(1.0_wp))
+    end do
+    call info_eig(information_of(b, w0, cw), sc, ev, v, status, msg)
+    if (status /= MLID_OK) return
+    nk = count(ev > ETA_RCOND*ev(n))
+    t = v(:, n - nk + 1:)*spread(sc, 2, nk)
+    bm = matmul(reshape(b, [nr, n]), t)
+    b = reshape(bm, [size(b, 1), size(b, 2), nk])
+  end subroutine independent_terms
 
   !> The transient terms' estimate eta and S-hat together: the cost's
   !> minimum over both, alternating the weighted least squares for eta
   !> (given S) and S = (1/n) sum c Re(V V^*) (given eta) until the cost
   !> settles; r the residuals left, sinv and logdet of S.
-  subroutine transients(r0, bas, cw, full, eta, r, s, sinv, logdet, ndrop, status, msg)
+  subroutine transients(r0, bas, cw, full, eta, r, s, sinv, logdet, status, msg)
     real(wp), intent(in) :: r0(:, :), bas(:, :, :), cw(:)
     logical, intent(in) :: full
     real(wp), intent(out) :: eta(:), s(:, :), sinv(:, :), logdet
     real(wp), allocatable, intent(out) :: r(:, :)
-    integer, intent(out) :: ndrop           !< transient terms left out (dependent)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: c(size(eta), size(eta)), ev(size(eta)), g(size(eta)), cost, last
+    real(wp) :: c(size(eta), size(eta)), g(size(eta)), cost, last, ld
     real(wp) :: a(size(r0, 1), size(r0, 2))
-    integer :: it, i, j, bad, ierr, ny
+    integer :: it, i, j, ierr, ny
     ny = size(r0, 1)
-    ndrop = 0
     eta = 0.0_wp
     r = r0
     last = huge(1.0_wp)
@@ -408,17 +462,19 @@ contains
       if (size(eta) == 0 .or. abs(last - cost) <= ETA_TOL*max(1.0_wp, abs(cost))) exit
       last = cost
       ! eta given S: the weighted least squares on r0
-      a = 2.0_wp*matmul(sinv, r0)*spread(cw, 1, ny)
+      a = reshape(weighted(reshape(r0, [ny, size(r0, 2), 1]), sinv, cw), shape(r0))
       do j = 1, size(eta)
-        g(j) = sum(bas(:, j, :)*a)
+        g(j) = sum(bas(:, :, j)*a)
       end do
-      call info_inverse(information_of(bas, sinv, cw), ETA_RCOND, c, ev, ndrop, bad, status, msg)
-      if (status /= MLID_OK) return
+      call chol_inverse(information_of(bas, sinv, cw), c, ld, ierr)
+      if (ierr /= 0) then
+        status = MLID_ERR_SINGULAR
+        msg = 'the transient terms'' information is singular'
+        return
+      end if
       eta = matmul(c, g)
-      r = r0
-      do j = 1, size(eta)
-        r = r - eta(j)*bas(:, j, :)
-      end do
+      r = r0 - reshape(matmul(reshape(bas, [size(bas, 1)*size(bas, 2), size(eta)]), eta), &
+                       shape(r0))
     end do
     status = MLID_OK
     msg = ''
@@ -439,7 +495,7 @@ contains
     real(wp), intent(in) :: theta(:), tf(:), uf(:, :)
     logical, intent(in) :: ee
     integer, intent(in) :: xout(:)
-    real(wp), intent(out) :: y0(:, :), bas(:, :, :)
+    real(wp), intent(out) :: y0(:, :), bas(:, :, :)     !< bas (ny, nc, neta)
     complex(wp), intent(out) :: ainv(:, :, :), xs(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
@@ -503,8 +559,8 @@ contains
       end if
       y0(:, c) = real(yy, wp)
       y0(:, c + 1) = aimag(yy)
-      bas(:, (s - 1)*ne + 1:s*ne, c) = real(b, wp)
-      bas(:, (s - 1)*ne + 1:s*ne, c + 1) = aimag(b)
+      bas(:, c, (s - 1)*ne + 1:s*ne) = real(b, wp)
+      bas(:, c + 1, (s - 1)*ne + 1:s*ne) = aimag(b)
     end do
   end subroutine model_terms
 
@@ -520,7 +576,7 @@ contains
     kf = reshape(theta(m%ok + 1:m%ok + m%nu*m%nx), [m%nu, m%nx])
   end subroutine matrices
 
-  !> dy (ny, nf, nc): the sensitivities of the left-hand sides to the free
+  !> dy (ny, nc, nf): the sensitivities of the left-hand sides to the free
   !> parameters at the transient terms eta.  Output error: X = xs + A^-1 N
   !> eta, V = U + K X, P = He A^-1; dY/dF_ij = P(:, i) X_j, dY/dG_ij = P(:,
   !> i) V_j, dY/dH_ij = e_i X_j, dY/dD_ij = e_i V_j.  Equation error: X
@@ -577,8 +633,8 @@ contains
         case (4)                            ! D(i, j)
           dz(i) = v(j)
         end select
-        dy(:, pm%cm(q), c) = dy(:, pm%cm(q), c) + pm%wm(q)*real(dz, wp)
-        dy(:, pm%cm(q), c + 1) = dy(:, pm%cm(q), c + 1) + pm%wm(q)*aimag(dz)
+        dy(:, c, pm%cm(q)) = dy(:, c, pm%cm(q)) + pm%wm(q)*real(dz, wp)
+        dy(:, c + 1, pm%cm(q)) = dy(:, c + 1, pm%cm(q)) + pm%wm(q)*aimag(dz)
       end do
     end do
 
