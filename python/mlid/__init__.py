@@ -17,7 +17,7 @@ from .design import InputDesign, DesignedInput
 from .parallel import monte_carlo_parallel
 from .diagnose import diagnose
 from .validate import validate, Validation
-from .fourier import fourier_transform
+from .fourier import fourier_transform, recursive_frequency_fit
 
 
 
@@ -40,4 +40,4 @@ __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceErr
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
            "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation", "fourier_transform",
-           "frequency_evaluate"]
+           "frequency_evaluate", "recursive_frequency_fit"]
