@@ -69,11 +69,15 @@ def test_information_matches_finite_differences(c8_data, method):
     transforms (whose transient terms follow theta: their projection), at
     the truth.  c: the weight min(1, df T) times the degrees-of-freedom
     factor (N - p)/N of mlid_frequency, p the free parameters and the
-    transient terms estimated.  The differences also carry terms that
-    Gauss-Newton's information leaves out (output error's transient columns
-    move with theta): measured 0.4% of the diagonal at a thousandth of the
-    C-8 noise, 0.8% at the full noise; equation error's columns do not move
-    (1e-8).  Tolerance 2% (output error), 1e-6 (equation error)."""
+    transient terms estimated.  The information holds S at S-hat (as the
+    time domain's output error holds R); the differences let S move with
+    theta, and output error's transient terms, shared by all outputs
+    through (i w I - F)^-1, are a weighted least squares that moves with S
+    (a change of S scaled with the noise: it does not vanish with less
+    noise): 0.4% of the diagonal at a thousandth of the C-8 noise, 0.8% at
+    the full noise.  Equation error's terms are each state equation's own,
+    whose least squares S does not move: 1e-8.  Tolerance 2% (output
+    error), 1e-6 (equation error)."""
     t, u = c8_data.t, c8_data.u
     quiet = mlid.simulate(c8_truth(), t, u, C8_STD * 1e-3, seed=3)[0]
     theta = np.array([C8_F[2, 2], C8_F[2, 3], C8_F[3, 3], C8_G[2, 0], C8_G[3, 0]])
