@@ -73,9 +73,9 @@ def test_information_matches_finite_differences(c8_data, method):
     time domain's output error holds R); the differences let S move with
     theta, and output error's transient terms, shared by all outputs
     through (i w I - F)^-1, are a weighted least squares that moves with S
-    (a change of S scaled with the noise: it does not vanish with less
-    noise): 0.4% of the diagonal at a thousandth of the C-8 noise, 0.8% at
-    the full noise.  Equation error's terms are each state equation's own,
+    (our reading of why the difference does not vanish with less noise; not
+    verified term by term): 0.4% of the diagonal at a thousandth of the C-8
+    noise, 0.8% at the full noise.  Equation error's terms are each state equation's own,
     whose least squares S does not move: 1e-8.  Tolerance 2% (output
     error), 1e-6 (equation error)."""
     t, u = c8_data.t, c8_data.u
