@@ -56,6 +56,11 @@ module mlid_api
   use mlid_jobs, only: job_run, JOB_RUNS
   use mlid_fourier, only: fourier_transform
   use mlid_frequency, only: freq_record, freq_likelihood, freq_grid
+  use mlid_fft, only: fft_length
+  use mlid_freq_response, only: welch_spectra, response_from_spectra, model_response, response_bands, &
+                                unwrap_deg
+  use mlid_transfer_fit, only: tf_size, tf_start, tf_fit, tf_residuals, tf_log_response, &
+                               coherence_weight
   implicit none
   private
   public :: mlid_design_mu_penalty, mlid_design_length_penalty, mlid_design_response
@@ -76,6 +81,8 @@ module mlid_api
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude, mlid_design_equalised, &
             mlid_deck_case_run, mlid_fourier_transform, mlid_freq_evaluate
+  public :: mlid_freq_count, mlid_freq_response, mlid_model_freq_response, mlid_tf_fit, &
+            mlid_tf_residuals, mlid_tf_response
 
 contains
 
@@ -1559,6 +1566,195 @@ contains
     njson = min(len(jtext), len(json))
     json = jtext
   end subroutine mlid_deck_case_run
+
+  !> The number of frequencies of a measured response from segments of lseg
+  !> samples (those of the transform's length fft_length(lseg), but 0 Hz).
+  subroutine mlid_freq_count(lseg, nfreq)
+    integer(c_int), intent(in) :: lseg
+    integer(c_int), intent(out) :: nfreq
+    nfreq = fft_length(max(lseg, 2))/2
+  end subroutine mlid_freq_count
+
+  !> The frequency response y/u of a record (mlid_freq_response): segments
+  !> of lseg samples overlapping by nover within each of its nseg manoeuvres
+  !> (starting at samples segstart); f (Hz), H, coherence, spectra, gain
+  !> (dB), phase (deg, unwrapped), their random errors (1 sigma) and the
+  !> number of averages nd.  nfreq from mlid_freq_count.
+  subroutine mlid_freq_response(nt, u, y, dt, nseg, segstart, lseg, nover, nfreq, f, h_re, h_im, &
+                                coh, guu, gyy, gain, phase, sgain, sphase, nd, status, msg)
+    integer(c_int), intent(in) :: nt, lseg, nover, nfreq, nseg, segstart(nseg)
+    real(c_double), intent(in) :: u(nt), y(nt), dt
+    real(c_double), intent(out), dimension(nfreq) :: f, h_re, h_im, coh, guu, gyy, gain, phase, &
+                                                     sgain, sphase
+    integer(c_int), intent(out) :: nd, status
+    character(len=256), intent(out) :: msg
+    real(wp), allocatable :: ff(:), uu(:), yy(:)
+    complex(wp), allocatable :: uy(:)
+    complex(wp) :: h(nfreq)
+    integer :: ndi, st
+    f = 0.0_wp
+    h_re = 0.0_wp
+    h_im = 0.0_wp
+    coh = 0.0_wp
+    guu = 0.0_wp
+    gyy = 0.0_wp
+    gain = 0.0_wp
+    phase = 0.0_wp
+    sgain = 0.0_wp
+    sphase = 0.0_wp
+    nd = 0
+    if (.not. (all(ieee_is_finite(u)) .and. all(ieee_is_finite(y)))) then
+      status = MLID_ERR_INPUT
+      msg = 'frequency response: the input or output channel has a value that is not finite'
+      return
+    end if
+    call welch_spectra(u, y, dt, lseg, nover, segstart, ff, uu, yy, uy, ndi, st, msg)
+    status = st
+    if (st /= MLID_OK) return
+    if (size(ff) /= nfreq) then
+      status = MLID_ERR_INPUT
+      msg = 'frequency response: nfreq is not mlid_freq_count(lseg)'
+      return
+    end if
+    call response_from_spectra(uu, yy, uy, ndi, h, coh, gain, phase, sgain, sphase)
+    f = ff
+    guu = uu
+    gyy = yy
+    h_re = real(h)
+    h_im = aimag(h)
+    nd = ndi
+  end subroutine mlid_freq_response
+
+  !> The frequency response T (ny, nu, nfreq) of a linear model at w (rad/s)
+  !> with its derivatives dT/dq (ny, nu, nfreq, nq) through jac = dtheta/dq,
+  !> and gain (dB), phase (deg, unwrapped) and their sigmas from cov(q) by
+  !> the delta method (mlid_freq_response).
+  subroutine mlid_model_freq_response(mkind, nx, nu, ny, nw, nth, theta, nic, iconst, nrc, rconst, &
+                                      nq, jac, cov, nfreq, w, t_re, t_im, dt_re, dt_im, gain, &
+                                      phase, sgain, sphase, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nq, nfreq
+    real(c_double), intent(in) :: theta(nth), rconst(nrc), jac(nth, nq), cov(nq, nq), w(nfreq)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(out), dimension(ny, nu, nfreq) :: t_re, t_im, gain, phase, sgain, sphase
+    real(c_double), intent(out), dimension(ny, nu, nfreq, nq) :: dt_re, dt_im
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+    complex(wp) :: t(ny, nu, nfreq), dt(ny, nu, nfreq, nq)
+    t_re = 0.0_wp
+    t_im = 0.0_wp
+    dt_re = 0.0_wp
+    dt_im = 0.0_wp
+    gain = 0.0_wp
+    phase = 0.0_wp
+    sgain = 0.0_wp
+    sphase = 0.0_wp
+    call model_create(mkind, nx, nu, ny, nw, iconst, rconst, m, status, msg)
+    if (status /= MLID_OK) return
+    call model_response(m, theta, w, jac, t, dt, status, msg)
+    if (status /= MLID_OK) return
+    call response_bands(t, dt, cov, gain, phase, sgain, sphase)
+    t_re = real(t)
+    t_im = aimag(t)
+    dt_re = real(dt)
+    dt_im = aimag(dt)
+  end subroutine mlid_model_freq_response
+
+  !> Weights of the transfer-function mismatch: 1, or by coherence.
+  pure function tf_weights(coh, use_coh) result(wt)
+    real(c_double), intent(in) :: coh(:)
+    integer(c_int), intent(in) :: use_coh
+    real(wp) :: wt(size(coh))
+    wt = 1.0_wp
+    if (use_coh /= 0) wt = coherence_weight(coh)
+  end function tf_weights
+
+  !> Fit T(s) = N(s)/D(s) e^(-tau s) (orders m, n; delay when delay = 1)
+  !> to gain (dB) and phase (deg) at w (rad/s) by the handling-qualities
+  !> mismatch (mlid_transfer_fit), weighted by coherence when use_coh = 1;
+  !> from x0 when use_start = 1, else from Levy's least squares with the
+  !> delay at tau0.  x: [b_0..b_m, a_0..a_(n-1), tau]; xs the start used.
+  !> Parameters with isfree = 0 keep their value in x0.
+  subroutine mlid_tf_fit(nfreq, w, gain, phase, coh, use_coh, m, n, delay, tau0, use_start, &
+                         np, x0, isfree, max_iter, xs, x, cov, cost, niter, status, msg)
+    integer(c_int), intent(in) :: nfreq, use_coh, m, n, delay, use_start, np, max_iter
+    integer(c_int), intent(in) :: isfree(np)
+    real(c_double), intent(in) :: w(nfreq), gain(nfreq), phase(nfreq), coh(nfreq), tau0, x0(np)
+    real(c_double), intent(out) :: xs(np), x(np), cov(np, np), cost
+    integer(c_int), intent(out) :: niter, status
+    character(len=256), intent(out) :: msg
+    real(wp) :: xw(np), cw(np, np), cst
+    integer :: it
+    xs = 0.0_wp
+    x = 0.0_wp
+    cov = 0.0_wp
+    cost = 0.0_wp
+    niter = 0
+    call tf_check(nfreq, w, gain, phase, m, n, delay, np, status, msg)
+    if (status /= MLID_OK) return
+    if (use_start /= 0) then
+      xw = x0
+    else
+      xw = x0                                           ! the fixed ones' values
+      call tf_start(m, n, delay /= 0, tau0, w, gain, phase, tf_weights(coh, use_coh), isfree /= 0, &
+                    xw, status, msg)
+      if (status /= MLID_OK) return
+    end if
+    xs = xw
+    call tf_fit(m, n, delay /= 0, w, gain, phase, tf_weights(coh, use_coh), isfree /= 0, max_iter, &
+                xw, cst, cw, it, status, msg)
+    x = xw
+    cov = cw
+    cost = cst
+    niter = it
+  end subroutine mlid_tf_fit
+
+  !> Orders, sizes and frequencies of a transfer-function fit.
+  subroutine tf_check(nfreq, w, gain, phase, m, n, delay, np, status, msg)
+    integer(c_int), intent(in) :: nfreq, m, n, delay, np
+    real(c_double), intent(in) :: w(:), gain(:), phase(:)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    status = MLID_ERR_INPUT
+    if (m < 0 .or. n < 1 .or. np /= tf_size(m, n, delay /= 0)) then
+      write (msg, '(a,i0,a,i0,a)') 'transfer-function fit: orders m = ', m, ', n = ', n, &
+        ' must be m >= 0, n >= 1 (np their parameter count)'
+    else if (2*nfreq < np + 1) then
+      write (msg, '(a,i0,a,i0,a)') 'transfer-function fit: ', nfreq, &
+        ' frequencies are too few for ', np, ' parameters'
+    else if (.not. (all(ieee_is_finite(w)) .and. all(ieee_is_finite(gain)) .and. &
+                    all(ieee_is_finite(phase)))) then
+      msg = 'transfer-function fit: a frequency, gain or phase is not finite'
+    else if (any(w <= 0.0_wp)) then
+      msg = 'transfer-function fit: frequencies must be positive'
+    else
+      status = MLID_OK
+      msg = ''
+    end if
+  end subroutine tf_check
+
+  !> The mismatch's residuals r (2 nfreq, r'r = cost) and their Jacobian.
+  subroutine mlid_tf_residuals(nfreq, w, gain, phase, coh, use_coh, m, n, delay, np, x, r, jr)
+    integer(c_int), intent(in) :: nfreq, use_coh, m, n, delay, np
+    real(c_double), intent(in) :: w(nfreq), gain(nfreq), phase(nfreq), coh(nfreq), x(np)
+    real(c_double), intent(out) :: r(2*nfreq), jr(2*nfreq, np)
+    call tf_residuals(m, n, delay /= 0, x, w, gain, phase, tf_weights(coh, use_coh), r, jr)
+  end subroutine mlid_tf_residuals
+
+  !> Gain (dB) and phase (deg, unwrapped) of a fitted transfer function at w.
+  subroutine mlid_tf_response(nfreq, w, m, n, delay, np, x, gain, phase)
+    integer(c_int), intent(in) :: nfreq, m, n, delay, np
+    real(c_double), intent(in) :: w(nfreq), x(np)
+    real(c_double), intent(out) :: gain(nfreq), phase(nfreq)
+    complex(wp) :: lt, dlt(np)
+    integer :: k
+    do k = 1, nfreq
+      call tf_log_response(m, n, delay /= 0, x, w(k), lt, dlt)
+      gain(k) = 20.0_wp/log(10.0_wp)*real(lt)
+      phase(k) = 45.0_wp/atan(1.0_wp)*aimag(lt)
+    end do
+    call unwrap_deg(phase)
+  end subroutine mlid_tf_response
 
   !> The ties of the flat interface: the first ntie terms (no more than given).
   pure function ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset) result(tie)

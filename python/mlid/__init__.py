@@ -18,6 +18,8 @@ from .parallel import monte_carlo_parallel
 from .diagnose import diagnose
 from .validate import validate, Validation
 from .fourier import fourier_transform
+from .frequency import (FrequencyResponse, TransferFunctionFit, record_response, model_response,
+                        fit_transfer_function)
 
 
 
@@ -40,4 +42,5 @@ __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceErr
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
            "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation", "fourier_transform",
-           "frequency_evaluate"]
+           "frequency_evaluate", "FrequencyResponse",
+           "TransferFunctionFit", "record_response", "model_response", "fit_transfer_function"]
