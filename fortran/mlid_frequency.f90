@@ -29,8 +29,10 @@
 !> arrays' places (so mlid_newton needs no second interface): column pair
 !> 2k-1, 2k holds frequency k's real and imaginary parts, t(2k-1) = t(2k) =
 !> its w (rad/s); u holds U (and for equation error the measured states X
-!> below it) and in its last row the weight c_k, y the measured left-hand
-!> sides Y (equation error: i w Y for the outputs that measure a state).
+!> below it) and below them the NEXTRA rows of each frequency's manoeuvre
+!> (its phases at t0 and t1, weight c_k, number, length), y the measured
+!> left-hand sides Y (equation error: i w Y for the outputs that measure a
+!> state).
 !>
 !> What the transform brings in besides the transfer function: over a
 !> manoeuvre from t0 to t1 the state equations' transform holds the

@@ -260,3 +260,12 @@ def test_deck_bad_band(tmp_path, band, message):
         line = [ln for ln in run.stderr.splitlines() if message in ln]
         assert line and "fd.nml" in line[0] and "case 2" in line[0] and "line 11" in line[0], \
             run.stderr
+
+
+def test_fit_plot(c8_data, tmp_path):
+    """The fit figure of a frequency-domain fit: the transforms against
+    frequency, written whole."""
+    from mlid.plots import plot_fit
+    fit = mlid.fit(c8_start(), c8_data, method=FDOE, **BAND)
+    path = plot_fit(fit, tmp_path, "fd")
+    assert path.exists() and path.stat().st_size > 10000

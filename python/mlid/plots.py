@@ -371,9 +371,39 @@ def residuals(result, path=None):
 
 
 @_styled
+@_styled
+def frequency_overview(result, path=None):
+    """A frequency-domain fit: for each output the magnitude of the measured
+    transform (or equation error's left-hand side) and the model's against
+    frequency, and of their difference: the figure ``plot_fit`` writes for it.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axis per output.
+    """
+    ny = result.z.shape[1]
+    fig, axes = _figure(ny, 1, 6.5, 1.6, sharex=True)
+    order = np.argsort(result.frequencies, kind="stable")
+    f = result.frequencies[order]
+    for i, ax in enumerate(axes[:, 0]):
+        ax.semilogy(f, np.abs(result.z[order, i]), ".", ms=3, color=COLORS["measured"],
+                    label="measured")
+        ax.semilogy(f, np.abs(result.zhat[order, i]), color=COLORS["model"], lw=1,
+                    label="model")
+        ax.semilogy(f, np.abs(result.residuals[order, i]), color=COLORS["residual"], lw=0.8,
+                    label="residual")
+        ax.set_ylabel(f"|Z_{i + 1}|")
+    axes[-1, 0].set_xlabel("frequency (Hz)")
+    axes[0, 0].legend(fontsize=7, ncol=3, loc="upper right")
+    fig.suptitle(f"{result.options['method'].replace('_', ' ')}: transforms", fontsize=10)
+    return _finish(fig, path)
+
+
 def fit_overview(result, path=None):
     """Outputs (with the inputs) on the left, residuals on the right, rows
-    aligned per output: the figure ``plot_fit`` writes.
+    aligned per output: the figure ``plot_fit`` writes (``frequency_overview``
+    for a frequency-domain fit).
 
     Returns
     -------
@@ -381,6 +411,8 @@ def fit_overview(result, path=None):
         nu + ny axes on the left, ny on the right.
     """
     import matplotlib.pyplot as plt
+    if getattr(result, "frequencies", None) is not None:
+        return frequency_overview(result, path)
     recs = _Records.of_result(result)
     nu, ny = result.data.u.shape[1], result.data.y.shape[1]
     fig = plt.figure(figsize=(12, 1.3 * (nu + ny) + 0.8), layout="constrained")
