@@ -12,7 +12,7 @@ against the record's measured frequency response with coherence.
 
     python cases/frequency_domain/frequency_domain.py [--plots DIR] [--quick]
 
---quick leaves out the ATTAS part (the tests use it).  Every number README.md
+--quick leaves out the ATTAS part.  Every number README.md
 quotes is printed here; where it comes from: README.md in this folder.
 """
 
@@ -35,9 +35,9 @@ import hl10  # noqa: E402  (the HL-10 lateral model, its truth and start values:
 
 FDOE, FDEE = "frequency_output_error", "frequency_equation_error"
 METHODS = {"output_error": "TD OE", FDOE: "FD OE", FDEE: "FD EE"}
-# The bands (ours): from about 0.6/T (T the record's length; below 1/T the
-# transient terms take up what is there) past the short period (~0.4 Hz) and
-# the HL-10 Dutch roll (~0.45 Hz), where the inputs' power has faded.
+# The bands (ours): C-8 from 0.6/T (T = 6 s; below 1/T the transient terms
+# take up what is there) past the short period (0.21 Hz); HL-10 from near its
+# roll mode (0.03 Hz) past the Dutch roll (0.59 Hz); the modes: modes_line.
 C8_BAND = dict(f_min=0.1, f_max=2.0, n_freq=40)
 HL10_BAND = dict(f_min=0.05, f_max=2.0, n_freq=80)
 # The HL-10 record for this case (ours): hl10.py's 3211 aileron, the yaw
@@ -157,6 +157,15 @@ def bias_drift_table(start, spoiled, band, clean_fits):
     return lines, moved
 
 
+def modes_line(fit):
+    """The eigenvalues of the fitted model's F, rad/s and their |.| in Hz."""
+    ev = np.linalg.eigvals(fit.model.F)
+    ev = ev[np.argsort(-np.abs(ev))]
+    return "modes of the TD OE model: " + ", ".join(
+        f"{e.real:.3g}{e.imag:+.3g}j rad/s ({abs(e) / (2 * np.pi):.3g} Hz)" if e.imag else
+        f"{e.real:.3g} rad/s ({abs(e) / (2 * np.pi):.3g} Hz)" for e in ev if e.imag >= 0)
+
+
 def print_block(title, lines):
     print(f"\n{title}\n" + "\n".join(lines))
 
@@ -175,6 +184,7 @@ def c8():
     lines, worst = side_by_side(fits)
     print_block("C-8 short period (c8_frequency.nml): estimate ± Cramér-Rao sigma", lines)
     print(sigma_ratio_line(fits))
+    print(modes_line(fits["TD OE"]))
     clean = mlid.FlightData.load(HERE / "c8_doublet.dat", time_col=1, input_cols=[2],
                                  output_cols=[3, 4, 5, 6])
     start = next(c for c in mlid.read_deck(HERE / "c8_frequency.nml")
@@ -208,6 +218,7 @@ def hl10_case():
     print_block(f"HL-10 lateral ({data.nt} samples at {hl10.DT} s, yaw damper off): estimate ± "
                 "Cramér-Rao sigma", lines)
     print(sigma_ratio_line(fits))
+    print(modes_line(fits["TD OE"]))
     names = list(fits["FD OE"].names)
     truth = np.array([hl10.WT[n] for n in names])
     print("largest |estimate - truth (Table 5.3)| / sigma: " + ", ".join(
@@ -246,6 +257,7 @@ def attas(plots_dir=None):
                 "across the gap, 7 biases; TD OE 2m: the two manoeuvres, 7 biases each; FD: the "
                 "two manoeuvres, attas_lat_frequency.nml)", lines)
     print(sigma_ratio_line(fits))
+    print(modes_line(td))
     for k in ("TD OE 2m", "FD OE", "FD EE"):
         r = fits[k]
         print(f"{k}: {r.iterations} iterations, converged={r.converged}")
