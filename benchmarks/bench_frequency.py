@@ -87,6 +87,10 @@ def main():
               f"core {1e3 * wall:7.2f} ms, fit() {1e3 * t:7.2f} ms; "
               f"max |est - TD| / combined sigma {dev:.2f}")
     print(f"   ratio time domain / frequency output error (fit()): {times[0] / times[1]:.1f}")
+    (t_rec,) = interleaved_medians([lambda: mlid.recursive_frequency_fit(
+        start, data, window=1000, stride=1, **BAND)], rounds=3, n=3)
+    print(f"3. recursive frequency equation error, 1000-sample window every sample "
+          f"({NT - 999} windows): {1e3 * t_rec:.1f} ms, {1e6 * t_rec / (NT - 999):.0f} us a window")
 
 
 if __name__ == "__main__":

@@ -56,6 +56,7 @@ module mlid_api
   use mlid_jobs, only: job_run, JOB_RUNS
   use mlid_fourier, only: fourier_transform
   use mlid_frequency, only: freq_record, freq_likelihood, freq_grid
+  use mlid_recursive_fd, only: recursive_fdee
   use mlid_fft, only: fft_length
   use mlid_freq_response, only: welch_spectra, response_from_spectra, model_response, response_bands, &
                                 unwrap_deg
@@ -80,7 +81,8 @@ module mlid_api
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude, mlid_design_equalised, &
-            mlid_deck_case_run, mlid_fourier_transform, mlid_freq_evaluate
+            mlid_deck_case_run, mlid_fourier_transform, mlid_freq_evaluate, &
+            mlid_recursive_fdee
   public :: mlid_freq_count, mlid_freq_response, mlid_model_freq_response, mlid_tf_fit, &
             mlid_tf_residuals, mlid_tf_response
 
@@ -114,6 +116,35 @@ contains
       msg = ''
     end if
   end subroutine mlid_fourier_transform
+
+  !> Recursive frequency-domain equation error (mlid_recursive_fd) over a
+  !> moving window of `window` samples, one fit every `stride`: the measured
+  !> states x(nx, nt), inputs u(nu, nt), F0 and G0 with the free entries
+  !> marked (freef, freeg: 1 free), frequencies w(nk) in rad/s; est and sig
+  !> (np, nwin) the free entries (F column by column, then G) per window,
+  !> tend(nwin) each window's last time.
+  subroutine mlid_recursive_fdee(nx, nu, nt, t, x, u, f0, g0, freef, freeg, nk, w, window, &
+                                 stride, nwin, np, tend, est, sig, status, msg)
+    integer(c_int), intent(in) :: nx, nu, nt, nk, window, stride, nwin, np
+    real(c_double), intent(in) :: t(nt), x(nx, nt), u(nu, nt), f0(nx, nx), g0(nx, nu), w(nk)
+    integer(c_int), intent(in) :: freef(nx, nx), freeg(nx, nu)
+    real(c_double), intent(out) :: tend(nwin), est(np, nwin), sig(np, nwin)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    tend = 0.0_wp
+    est = 0.0_wp
+    sig = 0.0_wp
+    status = MLID_ERR_INPUT
+    if (np /= count(freef == 1) + count(freeg == 1) .or. np == 0) then
+      msg = 'np must count the free entries of F and G (at least one)'
+    else if (.not. (all(ieee_is_finite(t)) .and. all(ieee_is_finite(x)) .and. &
+                    all(ieee_is_finite(u)) .and. all(ieee_is_finite(w)))) then
+      msg = 'time, states, inputs and frequencies must be finite'
+    else
+      call recursive_fdee(t, x, u, f0, g0, freef == 1, freeg == 1, w, window, stride, tend, est, &
+                          sig, status, msg)
+    end if
+  end subroutine mlid_recursive_fdee
 
   !> A standard input shape (mlid_inputs) on t = 0, dt, ..., (nt-1)*dt.
   subroutine mlid_input_signal(shape, amplitude, t_start, pulse_width, dt, nt, u, status, msg)
