@@ -9,9 +9,15 @@
     python benchmarks/compare_cases.py compare A B
         compares two such folders case by case: the largest absolute and
         relative differences of the estimates, their sigma (Cramer-Rao and
-        coloured-residual corrected) and the cost, and 'bitwise' where the
-        two JSON objects are the same (the core writes every number with 17
-        significant digits, so that equal text is equal doubles).
+        coloured-residual corrected) and the cost (of every number of
+        another job's output), and the largest difference of the estimates
+        in their sigma.  'bitwise' where the two JSON objects are the same
+        (the core writes every number with 17 significant digits, so that
+        equal text is equal doubles); 'rounding' where nothing differs by
+        more than 1e-9 relative; 'in-tol' where estimates differ by less than
+        1e-3 sigma (a fit stops at a relative cost change of 1e-8, which leaves
+        its estimates uncertain by some 1e-3 sigma and more: rounding that
+        changes a step moves them within that band); else 'DIFFERS'.
 
 The decks run from this checkout's cases/ (records that decks simulate are
 written there, as by `mlid run`), so that another build's mlid (say main's
@@ -89,10 +95,19 @@ def differences(a, b):
     return da, dr
 
 
+def in_sigma(a, b):
+    """Largest difference of a fit's estimates in their (first) sigma; 0 for other jobs."""
+    try:
+        return max((abs(p - q) / s for p, q, s in zip(a["estimate"], b["estimate"], a["sigma"])
+                    if s), default=0.0)
+    except (KeyError, TypeError):
+        return 0.0
+
+
 def compare(a_dir, b_dir):
     names = sorted({p.name for p in a_dir.glob("*.json")} | {p.name for p in b_dir.glob("*.json")})
     print(f"{'deck':<38}{'case':>5}  {'result':<10}{'max abs diff':>14}{'max rel diff':>14}"
-          f"  iterations")
+          f"{'est/sigma':>11}  iterations")
     counts = {}
     for name in names:
         pa, pb = a_dir / name, b_dir / name
@@ -101,16 +116,17 @@ def compare(a_dir, b_dir):
             continue
         ca, cb = json.loads(pa.read_text()), json.loads(pb.read_text())
         for k, (x, y) in enumerate(zip(ca, cb), 1):
+            ds = in_sigma(x, y)
             if x == y:
                 verdict, da, dr = "bitwise", 0.0, 0.0
             elif x.get("status") != y.get("status"):
                 verdict, da, dr = "status", float("nan"), float("nan")
             else:
                 da, dr = differences(x, y)
-                verdict = "rounding" if dr < 1e-6 else "DIFFERS"
+                verdict = ("rounding" if dr < 1e-9 else "in-tol" if ds < 1e-3 else "DIFFERS")
             counts[verdict] = counts.get(verdict, 0) + 1
             its = f"{x.get('iterations', '')}/{y.get('iterations', '')}" if "iterations" in x else ""
-            print(f"{name[:-5]:<38}{k:>5}  {verdict:<10}{da:>14.3e}{dr:>14.3e}  {its}")
+            print(f"{name[:-5]:<38}{k:>5}  {verdict:<10}{da:>14.3e}{dr:>14.3e}{ds:>11.1e}  {its}")
     print("; ".join(f"{n} {v}" for v, n in sorted(counts.items())))
 
 

@@ -28,7 +28,7 @@
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, first_failure
-  use mlid_linalg, only: add_syrk, add_atv, chol_inverse, psd_factor
+  use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, chol_inverse, psd_factor
   use mlid_models, only: model_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, apply_ties, input_delays, output_delays, stabilized
@@ -314,9 +314,9 @@ contains
     real(wp), intent(out), optional :: bmean(:, :)
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
     real(wp), allocatable :: b0(:, :, :)
-    real(wp) :: w(m%ny, pm%nf), bnu(m%ny), v1(m%ny, m%ny)
-    real(wp), allocatable :: gpart(:, :), ipart(:, :, :), vv(:, :, :)
-    integer :: ny, nt, nf, j, k, b, nblk
+    real(wp), allocatable :: gpart(:, :), ipart(:, :, :), bpart(:, :, :), vv(:, :, :)
+    integer :: ny, nt, nf, j, b, nblk, j0, j1
+    logical :: tv
 
     ny = m%ny
     nt = size(t)
@@ -348,29 +348,27 @@ contains
     ! samples in parallel, in NBLOCK fixed blocks whose sums are added in
     ! order: the result does not depend on the number of threads
     nblk = min(NBLOCK, nt)
-    allocate (gpart(nf, nblk), ipart(nf, nf, nblk), vv(ny, ny, nblk))
-    !$omp parallel do schedule(static) default(shared) private(b, j, k, bnu, w, v1)
+    tv = opt%partials .and. .not. opt%steady       ! B's terms at every sample
+    allocate (gpart(nf, nblk), ipart(nf, nf, nblk), bpart(nf, nf, nblk), vv(ny, ny, nblk))
+    !$omp parallel do schedule(static) default(shared) private(b, j0, j1)
     do b = 1, nblk
-      gpart(:, b) = 0.0_wp
-      ipart(:, :, b) = 0.0_wp
-      vv(:, :, b) = 0.0_wp
-      do j = (b - 1)*nt/nblk + 1, b*nt/nblk
-        bnu = matmul(binv(:, :, j), nu(:, j))
-        w = matmul(binv(:, :, j), dnu(:, :, j))
-        gpart(:, b) = gpart(:, b) + matmul(bnu, dnu(:, :, j))
-        ipart(:, :, b) = ipart(:, :, b) + matmul(transpose(dnu(:, :, j)), w)
-        if (present(wsens)) wsens(:, j, :) = w
-        if (.not. opt%partials) cycle
-        do k = 1, ny                  ! B^-1 nu nu' B^-1
-          v1(:, k) = bnu*bnu(k)
-        end do
-        if (opt%steady) then          ! summed, for the constant dB below
-          vv(:, :, b) = vv(:, :, b) + v1
-        else
-          call add_b_partials(binv(:, :, j), db(:, :, :, j), v1, 1.0_wp, gpart(:, b), &
-                              ipart(:, :, b))
-        end if
-      end do
+      j0 = (b - 1)*nt/nblk + 1
+      j1 = b*nt/nblk
+      if (tv .and. present(wsens)) then
+        call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
+                      gpart(:, b), ipart(:, :, b), vv(:, :, b), wsens(:, j0:j1, :), &
+                      bpart(:, :, b), db(:, :, :, j0:j1))
+      else if (tv) then
+        call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
+                      gpart(:, b), ipart(:, :, b), vv(:, :, b), fb=bpart(:, :, b), &
+                      db=db(:, :, :, j0:j1))
+      else if (present(wsens)) then
+        call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
+                      gpart(:, b), ipart(:, :, b), vv(:, :, b), wsens(:, j0:j1, :))
+      else
+        call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
+                      gpart(:, b), ipart(:, :, b), vv(:, :, b))
+      end if
     end do
     !$omp end parallel do
     grad = 0.0_wp
@@ -379,21 +377,77 @@ contains
       grad = grad + gpart(:, b)
       info = info + ipart(:, :, b)
     end do
-    ! msens: info without the noise-covariance term 1/2 tr(..); the blocks'
-    ! sums are just that unless the time-varying B's terms went into them
-    if (present(msens) .and. (opt%steady .or. .not. opt%partials)) msens = info
+    ! msens: info without the noise-covariance terms 1/2 tr(..)
+    if (present(msens)) msens = info
+    if (tv) then
+      do b = 1, nblk
+        info = info + bpart(:, :, b)
+      end do
+    end if
     if (opt%partials .and. opt%steady) then
       ! B and dB the same at every sample: their terms once, times the samples
       vv(:, :, 1) = sum(vv, dim=3)
       call add_b_partials(binv(:, :, 1), db(:, :, :, 1), vv(:, :, 1), real(nt, wp), grad, info)
     end if
-    if (present(msens) .and. opt%partials .and. .not. opt%steady) then
-      msens = 0.0_wp
-      do j = 1, nt
-        msens = msens + matmul(transpose(dnu(:, :, j)), matmul(binv(:, :, j), dnu(:, :, j)))
-      end do
-    end if
   end subroutine fe_likelihood
+
+  !> One block of samples' part of the filter-error gradient and information
+  !> (eqs 4.30, 4.37): g = sum dnu' B^-1 nu, f = sum dnu' B^-1 dnu as one
+  !> symmetric product over the block's samples and outputs (add_sym_atb);
+  !> vv = sum B^-1 nu nu' B^-1 (for B's terms, with partials); ws, the
+  !> weighted sensitivities B^-1 dnu; and with db (B's partials at every
+  !> sample) fb = 1/2 sum tr(B^-1 dB_k B^-1 dB_l), a symmetric product too,
+  !> and B's terms of g.  The block's arrays are made once, not per sample.
+  subroutine fe_block(binv, nu, dnu, partials, g, f, vv, ws, fb, db)
+    real(wp), intent(in) :: binv(:, :, :), nu(:, :), dnu(:, :, :)
+    logical, intent(in) :: partials
+    real(wp), intent(out) :: g(:), f(:, :), vv(:, :)
+    real(wp), intent(inout), optional :: ws(:, :, :)
+    real(wp), intent(out), optional :: fb(:, :)
+    real(wp), intent(in), optional :: db(:, :, :, :)
+    real(wp), allocatable :: x(:, :), w(:, :), v(:), e(:, :), et(:, :)
+    real(wp) :: bnu(size(nu, 1)), v1(size(nu, 1), size(nu, 1)), ek(size(nu, 1), size(nu, 1))
+    integer :: ny, nf, nb, j, k, i, r, q
+
+    ny = size(nu, 1)
+    nf = size(dnu, 2)
+    nb = size(nu, 2)
+    allocate (x(ny*nb, nf), w(ny*nb, nf), v(ny*nb))
+    if (present(db)) allocate (e(ny*ny*nb, nf), et(ny*ny*nb, nf))
+    g = 0.0_wp
+    f = 0.0_wp
+    vv = 0.0_wp
+    do j = 1, nb
+      r = ny*(j - 1)
+      bnu = matmul(binv(:, :, j), nu(:, j))
+      v(r + 1:r + ny) = bnu
+      x(r + 1:r + ny, :) = dnu(:, :, j)
+      w(r + 1:r + ny, :) = matmul(binv(:, :, j), dnu(:, :, j))
+      if (present(ws)) ws(:, j, :) = w(r + 1:r + ny, :)
+      if (.not. partials) cycle
+      do k = 1, ny                  ! B^-1 nu nu' B^-1
+        v1(:, k) = bnu*bnu(k)
+      end do
+      vv = vv + v1
+      if (.not. present(db)) cycle
+      q = ny*ny*(j - 1)
+      do k = 1, nf                  ! E_k = B^-1 dB_k, as columns vec(E_k), vec(E_k')
+        ek = matmul(binv(:, :, j), db(:, :, k, j))
+        g(k) = g(k) + 0.5_wp*(trace(ek) - sum(db(:, :, k, j)*v1))
+        do i = 1, ny
+          e(q + ny*(i - 1) + 1:q + ny*i, k) = ek(:, i)
+          et(q + ny*(i - 1) + 1:q + ny*i, k) = ek(i, :)
+        end do
+      end do
+    end do
+    call add_atv(ny*nb, nf, x, v, g)
+    call add_sym_atb(ny*nb, nf, x, w, f)
+    if (present(db)) then
+      fb = 0.0_wp
+      call add_sym_atb(ny*ny*nb, nf, e, et, fb)
+      fb = 0.5_wp*fb
+    end if
+  end subroutine fe_block
 
   !> The mean of B(j) over the samples from the B(j)^-1 the filter keeps
   !> (one inverse with the steady-state gain, where they are all the same).
