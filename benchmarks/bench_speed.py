@@ -25,7 +25,8 @@ for scalar code (2 fused multiply-adds a cycle: 4 flops) and for vector code
 (two 256-bit FMA pipes, AVX-512 double-pumped on Zen 4: 16 flops a cycle).
 The cost-only evaluations of the step halvings and the final covariance
 (coloured-residual correction) are not in the floor: the ratio is the whole
-fit's time over it, so it says how far the fit as a whole is from the floor.
+fit's CPU time (one thread; on a shared machine its wall time also holds the
+others' work) over it, so it says how far the fit as a whole is from the floor.
 """
 
 import os
@@ -88,7 +89,7 @@ def floor_report(name, seconds, res, nt, nx, nu, ny, nf, model_flops):
     print(f"  flops per sample and evaluation: {counts['total']} (RK4 with sensitivities "
           f"{counts['rk4']}, outputs {counts['outputs']}, accumulation {counts['accumulation']}); "
           f"{evaluations} evaluations x {nt} samples")
-    print(f"  measured {1e9 * per_sample:.0f} ns per sample and evaluation; floor at "
+    print(f"  measured (CPU time) {1e9 * per_sample:.0f} ns per sample and evaluation; floor at "
           f"{hz / 1e9:.2f} GHz: scalar {1e9 * scalar:.0f} ns (ratio {per_sample / scalar:.1f}), "
           f"vector {1e9 * vector:.0f} ns (ratio {per_sample / vector:.1f})")
 
@@ -146,7 +147,7 @@ def hfb320():
     # the aerodynamic model per stage: 3 coefficients (11 regressor terms), forces
     # and moments with sin/cos, 4 state derivatives, their 4 x 4 Jacobian and
     # 4 x 11 parameter Jacobian: about 300 flops (an estimate from the code)
-    floor_report("HFB-320", t_mlid, res, len(data.t), model.nx, model.nu, model.ny,
+    floor_report("HFB-320", c_mlid, res, len(data.t), model.nx, model.nu, model.ny,
                  int(mask.sum()), 300)
 
 
@@ -166,7 +167,7 @@ def linear_case(label, deck, index, make_record=None):
     print(f"{label}, {len(data.t)} samples, {nf} parameters, {res.iterations} iterations: "
           f"{1e3 * t_fit:.2f} ms (median of 15; CPU time {1e3 * c_fit:.2f} ms)")
     # a linear model's f = F x + G u per stage; its Jacobians are F and G as they are
-    floor_report(label, t_fit, res, len(data.t), model.nx, model.nu, model.ny, nf,
+    floor_report(label, c_fit, res, len(data.t), model.nx, model.nu, model.ny, nf,
                  2 * model.nx * (model.nx + model.nu))
     return t_fit
 
