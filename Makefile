@@ -35,6 +35,7 @@ bench: install
 	$(VPY) benchmarks/peer_statsmodels_m2f3.py
 	$(VPY) benchmarks/bench_rank_search.py
 	$(VPY) benchmarks/bench_x22.py
+	$(VPY) benchmarks/bench_freq_tools.py
 	$(VPY) benchmarks/bench_design.py
 	$(VPY) benchmarks/monte_carlo_10k.py
 	$(VPY) benchmarks/diagnose_scenarios.py

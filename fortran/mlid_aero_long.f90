@@ -39,16 +39,24 @@ module mlid_aero_long
     integer, allocatable :: code(:)      !< regressor code of each parameter
     integer, allocatable :: coef(:)      !< 1 = C_D, 2 = C_L, 3 = C_m for each parameter
     real(wp) :: g = 0, sm = 0, sc = 0, lt = 0, v0 = 0, mass = 0, sigma = 0, rho = 0, c2 = 0
+    real(wp) :: csig = 1, ssig = 0       !< cos and sin of sigma
   contains
-    procedure :: f => al_f
-    procedure :: h => al_h
-    procedure :: dfdx => al_dfdx
-    procedure :: dfdp => al_dfdp
-    procedure :: dhdx => al_dhdx
-    procedure :: dhdp => al_dhdp
+    procedure :: eval => al_eval
     procedure :: dfdw => al_dfdw
     procedure :: dhdxp => al_dhdxp
   end type aero_long_t
+
+  !> What f, h and their Jacobians share at one point, computed once: the
+  !> regressors, the coefficients and their x-gradients, the dynamic
+  !> pressure and the sines and cosines of the thrust line (alpha + sigma)
+  !> and of the flight-path angle (alpha - theta).  The dynamic pressure is there
+  !> twice, qbar = (rho/2 V) V for f and df/dx, qbar2 = rho/2 V^2 for the
+  !> outputs and the parameter Jacobians: equal up to rounding, each as
+  !> those quantities have always been formed, so that every fit stays the
+  !> same to the bit (one product more).
+  type :: air_t
+    real(wp) :: r(NREG), dr(4, NREG), cf(3), dc(4, 3), v, ft, qbar, qbar2, sas, cas, sat, cat
+  end type air_t
 
 contains
 
@@ -98,6 +106,8 @@ contains
     m%v0 = rconst(5)
     m%mass = rconst(6)
     m%sigma = rconst(7)
+    m%csig = cos(m%sigma)
+    m%ssig = sin(m%sigma)
     m%rho = rconst(8)
     m%c2 = rconst(9)
     status = MLID_OK
@@ -130,190 +140,180 @@ contains
     end if
   end subroutine check_longitudinal_record
 
-  !> Regressor values and their derivatives with respect to (V, alpha, q).
-  pure subroutine regressor(self, k, x, u, r, dr)
+  !> The regressors' values r(code) and their derivatives dr(:, code) with
+  !> respect to x, each code once.
+  pure subroutine regressors(self, x, u, r, dr)
     class(aero_long_t), intent(in) :: self
-    integer, intent(in) :: k
     real(wp), intent(in) :: x(:), u(:)
-    real(wp), intent(out) :: r, dr(4)
+    real(wp), intent(out) :: r(NREG), dr(4, NREG)
     dr = 0.0_wp
-    select case (self%code(k))
-    case (1)
-      r = 1.0_wp
-    case (2)
-      r = x(1)/self%v0
-      dr(1) = 1.0_wp/self%v0
-    case (3)
-      r = x(2)
-      dr(2) = 1.0_wp
-    case (4)
-      r = x(2)**2
-      dr(2) = 2.0_wp*x(2)
-    case (5)
-      r = x(4)*self%c2/self%v0
-      dr(4) = self%c2/self%v0
-    case default
-      r = u(1)
-    end select
-  end subroutine regressor
+    r(1) = 1.0_wp
+    r(2) = x(1)/self%v0
+    dr(1, 2) = 1.0_wp/self%v0
+    r(3) = x(2)
+    dr(2, 3) = 1.0_wp
+    r(4) = x(2)**2
+    dr(2, 4) = 2.0_wp*x(2)
+    r(5) = x(4)*self%c2/self%v0
+    dr(4, 5) = self%c2/self%v0
+    r(6) = u(1)
+  end subroutine regressors
 
-  !> C_D, C_L, C_m and their gradients with respect to x.
-  pure subroutine coefficients(self, x, u, p, c, dc)
+  !> C_D, C_L, C_m and their gradients with respect to x, from the
+  !> regressors r, dr.
+  pure subroutine coefficients(self, p, r, dr, c, dc)
     class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: x(:), u(:), p(:)
+    real(wp), intent(in) :: p(:), r(NREG), dr(4, NREG)
     real(wp), intent(out) :: c(3), dc(4, 3)
-    real(wp) :: r, dr(4)
     integer :: k
     c = 0.0_wp
     dc = 0.0_wp
     do k = 1, self%np
-      call regressor(self, k, x, u, r, dr)
-      c(self%coef(k)) = c(self%coef(k)) + p(k)*r
-      dc(:, self%coef(k)) = dc(:, self%coef(k)) + p(k)*dr
+      c(self%coef(k)) = c(self%coef(k)) + p(k)*r(self%code(k))
+      dc(:, self%coef(k)) = dc(:, self%coef(k)) + p(k)*dr(:, self%code(k))
     end do
   end subroutine coefficients
 
-  pure subroutine al_f(self, t, x, u, p, xdot)
+  !> The model at one point (model_t%eval): the shared quantities once
+  !> (air_t), then what is asked for.  y(5) = qdot and c(5, :) are f's and
+  !> a's fourth rows.
+  pure subroutine al_eval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
     class(aero_long_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: xdot(:)
-    real(wp) :: c(3), dc(4, 3), qbar, v, al, th, ft
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    type(air_t) :: s
+    real(wp) :: xd(4), ax(4, 4)
 
-    call coefficients(self, x, u, p, c, dc)
-    v = x(1)
-    al = x(2)
-    th = x(3)
-    ft = u(2)
-    qbar = 0.5_wp*self%rho*v*v
-    xdot(1) = -self%sm*qbar*c(1) + ft*cos(al + self%sigma)/self%mass + self%g*sin(al - th)
-    xdot(2) = -self%sm*qbar/v*c(2) - ft*sin(al + self%sigma)/(self%mass*v) + x(4) &
-              + self%g*cos(al - th)/v
-    xdot(3) = x(4)
-    xdot(4) = self%sc*qbar*c(3) + self%lt*ft
-    if (size(u) >= 2 + self%nw) xdot = xdot + u(3:2 + self%nw)   ! process noise, if given
-  end subroutine al_f
+    call regressors(self, x, u, s%r, s%dr)
+    call coefficients(self, p, s%r, s%dr, s%cf, s%dc)
+    s%v = x(1)
+    s%ft = u(2)
+    s%qbar = 0.5_wp*self%rho*s%v*s%v
+    s%qbar2 = 0.5_wp*self%rho*x(1)**2
+    s%sas = sin(x(2) + self%sigma)
+    s%cas = cos(x(2) + self%sigma)
+    s%sat = sin(x(2) - x(3))
+    s%cat = cos(x(2) - x(3))
+    if (present(xdot) .or. present(y)) call state_rates(self, s, x, u, xd)
+    if (present(xdot)) xdot = xd
+    if (present(a) .or. present(c)) call state_jacobian(self, s, ax)
+    if (present(a)) a = ax
+    if (present(b)) call state_param_jacobian(self, s, idx, b)
+    if (present(y) .or. present(c) .or. present(d)) &
+      call outputs(self, s, x, idx, xd, ax, y, c, d)
+  end subroutine al_eval
 
-  pure subroutine al_dfdx(self, t, x, u, p, a)
+  !> xd = f, with the process noise if u carries it.
+  pure subroutine state_rates(self, s, x, u, xd)
     class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: a(:, :)
-    real(wp) :: c(3), dc(4, 3), qbar, v, al, th, ft, hrv
+    type(air_t), intent(in) :: s
+    real(wp), intent(in) :: x(:), u(:)
+    real(wp), intent(out) :: xd(4)
+    xd(1) = -self%sm*s%qbar*s%cf(1) + s%ft*s%cas/self%mass + self%g*s%sat
+    xd(2) = -self%sm*s%qbar/s%v*s%cf(2) - s%ft*s%sas/(self%mass*s%v) + x(4) &
+            + self%g*s%cat/s%v
+    xd(3) = x(4)
+    xd(4) = self%sc*s%qbar*s%cf(3) + self%lt*s%ft
+    if (size(u) >= 2 + self%nw) xd = xd + u(3:2 + self%nw)   ! process noise, if given
+  end subroutine state_rates
 
-    call coefficients(self, x, u, p, c, dc)
-    v = x(1)
-    al = x(2)
-    th = x(3)
-    ft = u(2)
-    qbar = 0.5_wp*self%rho*v*v
+  !> a = df/dx.
+  pure subroutine state_jacobian(self, s, a)
+    class(aero_long_t), intent(in) :: self
+    type(air_t), intent(in) :: s
+    real(wp), intent(out) :: a(4, 4)
+    real(wp) :: v, hrv
+    v = s%v
     hrv = 0.5_wp*self%rho*v                       ! qbar/V
     a = 0.0_wp
-    a(1, :) = -self%sm*qbar*dc(:, 1)
-    a(1, 1) = a(1, 1) - self%sm*self%rho*v*c(1)
-    a(1, 2) = a(1, 2) - ft*sin(al + self%sigma)/self%mass + self%g*cos(al - th)
-    a(1, 3) = a(1, 3) - self%g*cos(al - th)
-    a(2, :) = -self%sm*hrv*dc(:, 2)
-    a(2, 1) = a(2, 1) - self%sm*0.5_wp*self%rho*c(2) + ft*sin(al + self%sigma)/(self%mass*v*v) &
-              - self%g*cos(al - th)/(v*v)
-    a(2, 2) = a(2, 2) - ft*cos(al + self%sigma)/(self%mass*v) - self%g*sin(al - th)/v
-    a(2, 3) = a(2, 3) + self%g*sin(al - th)/v
+    a(1, :) = -self%sm*s%qbar*s%dc(:, 1)
+    a(1, 1) = a(1, 1) - self%sm*self%rho*v*s%cf(1)
+    a(1, 2) = a(1, 2) - s%ft*s%sas/self%mass + self%g*s%cat
+    a(1, 3) = a(1, 3) - self%g*s%cat
+    a(2, :) = -self%sm*hrv*s%dc(:, 2)
+    a(2, 1) = a(2, 1) - self%sm*0.5_wp*self%rho*s%cf(2) + s%ft*s%sas/(self%mass*v*v) &
+              - self%g*s%cat/(v*v)
+    a(2, 2) = a(2, 2) - s%ft*s%cas/(self%mass*v) - self%g*s%sat/v
+    a(2, 3) = a(2, 3) + self%g*s%sat/v
     a(2, 4) = a(2, 4) + 1.0_wp
     a(3, 4) = 1.0_wp
-    a(4, :) = self%sc*qbar*dc(:, 3)
-    a(4, 1) = a(4, 1) + self%sc*self%rho*v*c(3)
-  end subroutine al_dfdx
+    a(4, :) = self%sc*s%qbar*s%dc(:, 3)
+    a(4, 1) = a(4, 1) + self%sc*self%rho*v*s%cf(3)
+  end subroutine state_jacobian
 
-  pure subroutine al_dfdp(self, t, x, u, p, idx, b)
+  !> b(:, k) = df/dp(idx(k)): the coefficient's regressor times its factor.
+  pure subroutine state_param_jacobian(self, s, idx, b)
     class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    type(air_t), intent(in) :: s
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: b(:, :)
-    real(wp) :: r, dr(4), qbar
+    real(wp) :: r
     integer :: k
-
-    qbar = 0.5_wp*self%rho*x(1)**2
     b = 0.0_wp
     do k = 1, size(idx)
-      call regressor(self, idx(k), x, u, r, dr)
+      r = s%r(self%code(idx(k)))
       select case (self%coef(idx(k)))
       case (1)
-        b(1, k) = -self%sm*qbar*r
+        b(1, k) = -self%sm*s%qbar2*r
       case (2)
-        b(2, k) = -self%sm*0.5_wp*self%rho*x(1)*r
+        b(2, k) = -self%sm*0.5_wp*self%rho*s%v*r
       case (3)
-        b(4, k) = self%sc*qbar*r
+        b(4, k) = self%sc*s%qbar2*r
       end select
     end do
-  end subroutine al_dfdp
+  end subroutine state_param_jacobian
 
-  pure subroutine al_h(self, t, x, u, p, y)
+  !> y = h, c = dh/dx, d = dh/dp(idx), each if present; xd and a are f and
+  !> df/dx at the point (for qdot; xd is set when y is present, a when c is).
+  pure subroutine outputs(self, s, x, idx, xd, a, y, c, d)
     class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: y(:)
-    real(wp) :: c(3), dc(4, 3), qbar, xd(4), sa, ca
-
-    call coefficients(self, x, u, p, c, dc)
-    call al_f(self, t, x, u, p, xd)
-    qbar = 0.5_wp*self%rho*x(1)**2
-    sa = sin(x(2))
-    ca = cos(x(2))
-    y(1:4) = x
-    y(5) = xd(4)
-    y(6) = qbar*self%sm*(c(2)*sa - c(1)*ca) + u(2)*cos(self%sigma)/self%mass
-    y(7) = qbar*self%sm*(-c(2)*ca - c(1)*sa) - u(2)*sin(self%sigma)/self%mass
-  end subroutine al_h
-
-  pure subroutine al_dhdx(self, t, x, u, p, c)
-    class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: c(:, :)
-    real(wp) :: cf(3), dc(4, 3), qbar, sa, ca, a(4, 4), rv
-    integer :: i
-
-    call coefficients(self, x, u, p, cf, dc)
-    call al_dfdx(self, t, x, u, p, a)
-    qbar = 0.5_wp*self%rho*x(1)**2
-    rv = self%rho*x(1)                           ! d qbar / dV
-    sa = sin(x(2))
-    ca = cos(x(2))
-    c = 0.0_wp
-    do i = 1, 4
-      c(i, i) = 1.0_wp
-    end do
-    c(5, :) = a(4, :)
-    c(6, :) = qbar*self%sm*(dc(:, 2)*sa - dc(:, 1)*ca)
-    c(6, 1) = c(6, 1) + rv*self%sm*(cf(2)*sa - cf(1)*ca)
-    c(6, 2) = c(6, 2) + qbar*self%sm*(cf(2)*ca + cf(1)*sa)
-    c(7, :) = qbar*self%sm*(-dc(:, 2)*ca - dc(:, 1)*sa)
-    c(7, 1) = c(7, 1) + rv*self%sm*(-cf(2)*ca - cf(1)*sa)
-    c(7, 2) = c(7, 2) + qbar*self%sm*(cf(2)*sa - cf(1)*ca)
-  end subroutine al_dhdx
-
-  pure subroutine al_dhdp(self, t, x, u, p, idx, d)
-    class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    type(air_t), intent(in) :: s
+    real(wp), intent(in) :: x(:), xd(4), a(4, 4)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: d(:, :)
-    real(wp) :: r, dr(4), qbar, sa, ca
-    integer :: k
+    real(wp), intent(out), optional :: y(:), c(:, :), d(:, :)
+    real(wp) :: sa, ca, rv, r, qs
+    integer :: i, k
 
-    qbar = 0.5_wp*self%rho*x(1)**2
     sa = sin(x(2))
     ca = cos(x(2))
+    qs = s%qbar2*self%sm
+    if (present(y)) then
+      y(1:4) = x(1:4)
+      y(5) = xd(4)
+      y(6) = qs*(s%cf(2)*sa - s%cf(1)*ca) + s%ft*self%csig/self%mass
+      y(7) = qs*(-s%cf(2)*ca - s%cf(1)*sa) - s%ft*self%ssig/self%mass
+    end if
+    if (present(c)) then
+      rv = self%rho*s%v                            ! d qbar / dV
+      c = 0.0_wp
+      do i = 1, 4
+        c(i, i) = 1.0_wp
+      end do
+      c(5, :) = a(4, :)
+      c(6, :) = qs*(s%dc(:, 2)*sa - s%dc(:, 1)*ca)
+      c(6, 1) = c(6, 1) + rv*self%sm*(s%cf(2)*sa - s%cf(1)*ca)
+      c(6, 2) = c(6, 2) + qs*(s%cf(2)*ca + s%cf(1)*sa)
+      c(7, :) = qs*(-s%dc(:, 2)*ca - s%dc(:, 1)*sa)
+      c(7, 1) = c(7, 1) + rv*self%sm*(-s%cf(2)*ca - s%cf(1)*sa)
+      c(7, 2) = c(7, 2) + qs*(s%cf(2)*sa - s%cf(1)*ca)
+    end if
+    if (.not. present(d)) return
     d = 0.0_wp
     do k = 1, size(idx)
-      call regressor(self, idx(k), x, u, r, dr)
+      r = s%r(self%code(idx(k)))
       select case (self%coef(idx(k)))
       case (1)
-        d(6, k) = -qbar*self%sm*ca*r
-        d(7, k) = -qbar*self%sm*sa*r
+        d(6, k) = -qs*ca*r
+        d(7, k) = -qs*sa*r
       case (2)
-        d(6, k) = qbar*self%sm*sa*r
-        d(7, k) = -qbar*self%sm*ca*r
+        d(6, k) = qs*sa*r
+        d(7, k) = -qs*ca*r
       case (3)
-        d(5, k) = self%sc*qbar*r
+        d(5, k) = self%sc*s%qbar2*r
       end select
     end do
-  end subroutine al_dhdp
+  end subroutine outputs
 
   pure subroutine al_dfdw(self, t, x, u, p, g)
     class(aero_long_t), intent(in) :: self

@@ -32,7 +32,8 @@
 !>             process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond,
 !>             prior, prior_weight,
 !>             prior_decay, rank_min, rank_max, rank_rule, lower, upper (per free parameter, in the
-!>             order of free), corrected (kind flight_path: one record per data file)
+!>             order of free), corrected (kind flight_path: one record per data file),
+!>             f_min, f_max, n_freq (the band of the frequency-domain methods, Hz)
 !> A problem in one case is kept in that case (status, msg) and the others
 !> are still read.  Python reads decks through this reader too (mlid_api's
 !> mlid_deck_* routines; python/mlid/deck.py).
@@ -1089,16 +1090,17 @@ contains
     integer, intent(in) :: free_idx(:)
     character(len=32) :: noise, method, startup, rank_rule, process_noise, noise_criterion, &
                          filter_params
-    integer :: max_iter, halvings, rank_min, rank_max, ios
+    integer :: max_iter, halvings, rank_min, rank_max, ios, n_freq
     logical :: partials, steady_state
-    real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay
+    real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay, f_min, f_max
     real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
     character(len=PATHLEN) :: corrected(MAXSEG)
     character(len=msg_len) :: iomsg
     type(options_t) :: opt
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
       process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond, prior, &
-      prior_weight, prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected
+      prior_weight, prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected, f_min, &
+      f_max, n_freq
 
     call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
     max_iter = opt%max_iter
@@ -1112,6 +1114,9 @@ contains
     prior_decay = opt%prior_decay
     rank_min = opt%rank_min
     rank_max = opt%rank_max
+    n_freq = opt%n_freq
+    f_min = opt%f_min
+    f_max = opt%f_max
     noise = option_get(c%iopt, c%ropt, 'noise')
     method = option_get(c%iopt, c%ropt, 'method')
     startup = option_get(c%iopt, c%ropt, 'startup')
@@ -1141,6 +1146,9 @@ contains
     opt%prior_decay = prior_decay
     opt%rank_min = rank_min
     opt%rank_max = rank_max
+    opt%n_freq = n_freq
+    opt%f_min = f_min
+    opt%f_max = f_max
     call options_to_flat(opt, c%iopt, c%ropt)
     call set_option(c, 'group &estimate: ', 'method', method)
     call set_option(c, 'group &estimate: ', 'startup', startup)

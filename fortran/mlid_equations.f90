@@ -43,16 +43,9 @@ module mlid_equations
     type(program_t) :: fprog, hprog                     !< state derivatives, outputs
     character(len=NAMELEN), allocatable :: xnames(:), unames(:), pnames(:), ynames(:)
   contains
-    procedure :: f => eq_f
-    procedure :: h => eq_h
-    procedure :: dfdx => eq_dfdx
-    procedure :: dfdp => eq_dfdp
-    procedure :: dhdx => eq_dhdx
-    procedure :: dhdp => eq_dhdp
+    procedure :: eval => eq_eval
     procedure :: dfdw => eq_dfdw
     procedure :: dhdxp => eq_dhdxp
-    procedure :: f_jac => eq_f_jac
-    procedure :: h_jac => eq_h_jac
     procedure :: has_input_jacobians => eq_input_jacobians
     procedure :: dfdu => eq_dfdu
     procedure :: dhdu => eq_dhdu
@@ -274,37 +267,66 @@ contains
     v(self%nvar) = t
   end subroutine point
 
-  pure subroutine eq_f(self, t, x, u, p, xdot)
+  !> The model at one point (model_t%eval): the state program and the
+  !> output program each once, a reverse sweep only for the Jacobians.
+  pure subroutine eq_eval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
     class(equations_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: xdot(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
     real(wp) :: v(MAXVAR)
     call point(self, t, x, u, p, v)
-    call program_values(self%fprog, v(1:self%nvar), xdot(1:self%nx))
-  end subroutine eq_f
+    if (present(a) .or. present(b)) then
+      call program_point(self, self%fprog, v, idx, xdot, a, b)
+    else if (present(xdot)) then
+      call program_values(self%fprog, v(1:self%nvar), xdot(1:self%nx))
+    end if
+    if (present(c) .or. present(d)) then
+      call program_point(self, self%hprog, v, idx, y, c, d)
+    else if (present(y)) then
+      call program_values(self%hprog, v(1:self%nvar), y(1:self%ny))
+    end if
+  end subroutine eq_eval
 
-  pure subroutine eq_h(self, t, x, u, p, y)
+  !> A program's values val, Jacobian dx and parameter Jacobian dp at the
+  !> point v, into local arrays for those not asked for (sweep fills all).
+  pure subroutine program_point(self, prog, v, idx, val, dx, dp)
     class(equations_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: y(:)
-    real(wp) :: v(MAXVAR)
-    call point(self, t, x, u, p, v)
-    call program_values(self%hprog, v(1:self%nvar), y(1:self%ny))
-  end subroutine eq_h
+    type(program_t), intent(in) :: prog
+    real(wp), intent(in) :: v(MAXVAR)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out), optional :: val(:), dx(:, :), dp(:, :)
+    real(wp) :: vl(MAXOUT), dxl(MAXOUT, MAXOUT), dpl(MAXOUT, 0)
+    integer :: none(0)
+    if (present(dp)) then
+      if (present(val) .and. present(dx)) then
+        call sweep(self, prog, v, idx, val, dx, dp)
+      else if (present(val)) then
+        call sweep(self, prog, v, idx, val, dxl, dp)
+      else if (present(dx)) then
+        call sweep(self, prog, v, idx, vl, dx, dp)
+      else
+        call sweep(self, prog, v, idx, vl, dxl, dp)
+      end if
+    else if (present(val)) then
+      call sweep(self, prog, v, none, val, dx, dpl)
+    else
+      call sweep(self, prog, v, none, vl, dx, dpl)
+    end if
+  end subroutine program_point
 
   !> Values and Jacobians of a program's expressions: one forward sweep,
   !> one reverse sweep each: val(i), and dx(i, :) = d/dx, dp(i, k) =
   !> d/dp(idx(k)) of expression i; du(i, :) = d/du if asked for.
-  pure subroutine sweep(self, prog, t, x, u, p, idx, val, dx, dp, du)
+  pure subroutine sweep(self, prog, v, idx, val, dx, dp, du)
     class(equations_t), intent(in) :: self
     type(program_t), intent(in) :: prog
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: v(MAXVAR)               !< the point (mlid_equations' point)
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: val(:), dx(:, :), dp(:, :)
     real(wp), intent(out), optional :: du(:, :)
-    real(wp) :: v(MAXVAR), g(MAXVAR), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE), gs(SHARED_MAX)
+    real(wp) :: g(MAXVAR), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE), gs(SHARED_MAX)
     integer :: i, k, op, nr
-    call point(self, t, x, u, p, v)
     call program_forward(prog, v(1:self%nvar), nv, d1, d2)
     op = self%nx + self%nu
     nr = size(prog%root)
@@ -324,23 +346,6 @@ contains
     end do
   end subroutine sweep
 
-  pure subroutine eq_f_jac(self, t, x, u, p, idx, xdot, a, b)
-    class(equations_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: xdot(:), a(:, :), b(:, :)
-    call sweep(self, self%fprog, t, x, u, p, idx, xdot, a, b)
-  end subroutine eq_f_jac
-
-  pure subroutine eq_h_jac(self, t, x, u, p, idx, c, d)
-    class(equations_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: c(:, :), d(:, :)
-    real(wp) :: y(MAXOUT)
-    call sweep(self, self%hprog, t, x, u, p, idx, y, c, d)
-  end subroutine eq_h_jac
-
   pure logical function eq_input_jacobians(self)
     class(equations_t), intent(in) :: self
     eq_input_jacobians = .true.
@@ -350,51 +355,21 @@ contains
     class(equations_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
-    real(wp) :: val(MAXOUT), a(MAXOUT, MAXOUT), none(MAXOUT, 0)
-    call sweep(self, self%fprog, t, x, u, p, [integer ::], val, a, none, b)
+    real(wp) :: v(MAXVAR), val(MAXOUT), a(MAXOUT, MAXOUT), none(MAXOUT, 0)
+    integer :: noidx(0)
+    call point(self, t, x, u, p, v)
+    call sweep(self, self%fprog, v, noidx, val, a, none, b)
   end subroutine eq_dfdu
 
   pure subroutine eq_dhdu(self, t, x, u, p, b)
     class(equations_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
-    real(wp) :: val(MAXOUT), c(MAXOUT, MAXOUT), none(MAXOUT, 0)
-    call sweep(self, self%hprog, t, x, u, p, [integer ::], val, c, none, b)
+    real(wp) :: v(MAXVAR), val(MAXOUT), c(MAXOUT, MAXOUT), none(MAXOUT, 0)
+    integer :: noidx(0)
+    call point(self, t, x, u, p, v)
+    call sweep(self, self%hprog, v, noidx, val, c, none, b)
   end subroutine eq_dhdu
-
-  pure subroutine eq_dfdx(self, t, x, u, p, a)
-    class(equations_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: a(:, :)
-    real(wp) :: xdot(MAXOUT), b(MAXOUT, 0)
-    call sweep(self, self%fprog, t, x, u, p, [integer ::], xdot, a, b)
-  end subroutine eq_dfdx
-
-  pure subroutine eq_dfdp(self, t, x, u, p, idx, b)
-    class(equations_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: b(:, :)
-    real(wp) :: xdot(MAXOUT), a(MAXOUT, MAXOUT)
-    call sweep(self, self%fprog, t, x, u, p, idx, xdot, a, b)
-  end subroutine eq_dfdp
-
-  pure subroutine eq_dhdx(self, t, x, u, p, c)
-    class(equations_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: c(:, :)
-    real(wp) :: y(MAXOUT), d(MAXOUT, 0)
-    call sweep(self, self%hprog, t, x, u, p, [integer ::], y, c, d)
-  end subroutine eq_dhdx
-
-  pure subroutine eq_dhdp(self, t, x, u, p, idx, d)
-    class(equations_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: d(:, :)
-    real(wp) :: y(MAXOUT), c(MAXOUT, MAXOUT)
-    call sweep(self, self%hprog, t, x, u, p, idx, y, c, d)
-  end subroutine eq_dhdp
 
   !> No process noise enters the equations model.
   pure subroutine eq_dfdw(self, t, x, u, p, g)
@@ -417,9 +392,9 @@ contains
       step = 1.0e-6_wp*max(1.0_wp, abs(p(idx(k))))
       pp = p
       pp(idx(k)) = p(idx(k)) + step
-      call eq_dhdx(self, t, x, u, pp, cp)
+      call self%dhdx(t, x, u, pp, cp)
       pp(idx(k)) = p(idx(k)) - step
-      call eq_dhdx(self, t, x, u, pp, cm)
+      call self%dhdx(t, x, u, pp, cm)
       dc(:, :, k) = (cp - cm)/(2.0_wp*step)
     end do
   end subroutine eq_dhdxp

@@ -36,7 +36,7 @@ module mlid_filter
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, segment_map, input_delays, output_delays, stabilized
-  use mlid_rk, only: rk4_step, rk4_interval, input_sens_t, rk_work_t
+  use mlid_rk, only: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product
   use mlid_delay, only: delay_outputs, delay_check
   use mlid_riccati, only: dare_solve, stein_solve
   implicit none
@@ -220,30 +220,44 @@ contains
   contains
 
     !> States, outputs and sensitivities over the segment on the inputs uu;
-    !> du(k, j): how moving input delay k moves its input at sample j.
+    !> du(k, j): how moving input delay k moves its input at sample j.  The
+    !> model is evaluated once at each sample for the outputs and for the
+    !> first stage of the step that starts there (same t, x and u, the noise
+    !> zero), unless the stabilizing gain moves x in between.  Every work
+    !> array is allocated here, once per segment.
     subroutine integrate(uu, du)
       real(wp), intent(in) :: uu(:, :)
       real(wp), intent(in), optional :: du(:, :)
-      real(wp), allocatable :: s(:, :), c(:, :), d(:, :), hu(:, :)
+      real(wp), allocatable :: s(:, :), c(:, :), d(:, :), hu(:, :), ue(:), w0(:)
       type(input_sens_t) :: us
       type(rk_work_t) :: wk
       real(wp) :: x(m%nx)
-      integer :: j, k
+      integer :: j, k, np
+      logical :: step
 
+      np = pm%l%np
+      allocate (ue(m%nu + m%nw), w0(m%nw))
+      w0 = 0.0_wp
+      ue(m%nu + 1:) = w0                   ! the stage's inputs: no process noise in output error
       if (present(dy)) allocate (c(m%ny, m%nx), d(m%ny, size(pm%im)), hu(m%ny, m%nu))
       x = theta(pm%l%ox0 + (iseg - 1)*m%nx + 1:pm%l%ox0 + iseg*m%nx)
-      if (present(dy)) s = initial_sensitivity(pm, iseg)
+      if (present(dy)) then
+        s = initial_sensitivity(pm, iseg)
+        call rk_work_size(wk, m%nx, pm%nf, size(pm%im), m%nu, m%nu + m%nw)
+      else
+        call rk_work_size(wk, m%nx, 0, size(pm%im), m%nu, m%nu + m%nw)
+      end if
       if (present(du)) us = input_sens_t(pm%iu, pm%cu, du(:, j0), du(:, j0))
       do j = j0, j1
         if (j > j0) then
           if (present(dy) .and. present(du)) then
             us%d0 = du(:, j - 1)
             us%d1 = du(:, j)
-            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x, wk, s, us=us)
+            call advance(m, theta, pm, t, uu, opt, j - 1, w0, x, wk, s, us=us)
           else if (present(dy)) then
-            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x, wk, s)
+            call advance(m, theta, pm, t, uu, opt, j - 1, w0, x, wk, s)
           else
-            call advance(m, theta, pm, t, uu, opt, j - 1, [real(wp) ::], x, wk)
+            call advance(m, theta, pm, t, uu, opt, j - 1, w0, x, wk)
           end if
           if (.not. all(ieee_is_finite(x))) then
             call diverged(t(j), status, msg)
@@ -251,12 +265,24 @@ contains
           end if
         end if
         if (present(xhist)) xhist(:, j) = x
-        call m%h(t(j), x, uu(:, j), theta(1:pm%l%np), yhat(:, j))
+        step = j < j1 .and. .not. stab .and. m%nx > 0
+        ue(1:m%nu) = uu(:, j)
+        if (present(dy) .and. step) then
+          call m%eval(t(j), x, ue, theta(1:np), pm%im, xdot=wk%k(:, 1), a=wk%a, b=wk%b, &
+                      y=yhat(:, j), c=c, d=d)
+        else if (present(dy)) then
+          call m%eval(t(j), x, ue, theta(1:np), pm%im, y=yhat(:, j), c=c, d=d)
+        else if (step) then
+          call m%eval(t(j), x, ue, theta(1:np), pm%im, xdot=wk%k(:, 1), y=yhat(:, j))
+        else
+          call m%eval(t(j), x, ue, theta(1:np), pm%im, y=yhat(:, j))
+        end if
+        wk%first_known = step
         yhat(:, j) = yhat(:, j) + theta(pm%l%obias + (iseg - 1)*m%ny + 1:pm%l%obias + iseg*m%ny)
         if (present(dy)) then
-          call output_sensitivity(m, theta, pm, t(j), x, uu(:, j), s, dy(:, :, j), c, d, iseg)
+          call output_rows(pm, s, c, d, iseg, dy(:, :, j))
           if (present(du)) then
-            call m%dhdu(t(j), x, uu(:, j), theta(1:pm%l%np), hu)
+            call m%dhdu(t(j), x, uu(:, j), theta(1:np), hu)
             do k = 1, size(pm%iu)
               dy(:, pm%cu(k), j) = dy(:, pm%cu(k), j) + hu(:, pm%iu(k))*du(k, j)
             end do
@@ -1037,7 +1063,7 @@ contains
   end subroutine cov_alloc
 
   !> Integrate x (and s) over sample interval j -> j+1 with the noise inputs
-  !> held at what; sforce: constant forcing of the sensitivities.
+  !> held at what (nw values); sforce: constant forcing of the sensitivities.
   subroutine advance(m, theta, pm, t, u, opt, j, what, x, wk, s, sforce, us)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
@@ -1051,11 +1077,8 @@ contains
     real(wp), intent(inout), optional :: s(:, :)
     real(wp), intent(in), optional :: sforce(:, :)
     type(input_sens_t), intent(in), optional :: us
-    real(wp) :: w(m%nw)
 
-    w = 0.0_wp
-    if (size(what) > 0) w = what
-    call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), w, opt%hold, &
+    call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), what, opt%hold, &
                       opt%substeps, x, pm%im, pm%cm, pm%wm, wk, s, sforce, us)
   end subroutine advance
 
@@ -1101,17 +1124,29 @@ contains
     if (segment_starts) iseg = iseg + 1
   end function segment_starts
 
-  !> dy/dtheta at one sample of segment iseg: C s + dh/dp + its bias columns.
+  !> dy/dtheta at one sample of segment iseg: C s + dh/dp + its bias
+  !> columns, with c = dh/dx and d = dh/dp evaluated here.
   subroutine output_sensitivity(m, theta, pm, t, x, u, s, dy, c, d, iseg)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), t, x(:), u(:), s(:, :)
     type(param_map_t), intent(in) :: pm
     real(wp), intent(out) :: dy(:, :), c(:, :), d(:, :)
     integer, intent(in) :: iseg
+    call m%eval(t, x, u, theta(1:pm%l%np), pm%im, c=c, d=d)
+    call output_rows(pm, s, c, d, iseg, dy)
+  end subroutine output_sensitivity
+
+  !> dy = c s + d (into the columns of the model parameters) + the bias
+  !> columns of segment iseg: the output sensitivities from c = dh/dx and
+  !> d = dh/dp(pm%im).
+  subroutine output_rows(pm, s, c, d, iseg, dy)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: s(:, :), c(:, :), d(:, :)
+    integer, intent(in) :: iseg
+    real(wp), intent(out) :: dy(:, :)
     integer :: k, i
 
-    call m%h_jac(t, x, u, theta(1:pm%l%np), pm%im, c, d)
-    dy = matmul(c, s)
+    call small_product(c, s, dy)
     if (size(pm%im) > 0) then
       do k = 1, size(pm%im)
         dy(:, pm%cm(k)) = dy(:, pm%cm(k)) + pm%wm(k)*d(:, k)
@@ -1121,7 +1156,7 @@ contains
       i = pm%ib(k) - (iseg - 1)*pm%l%ny
       if (i >= 1 .and. i <= pm%l%ny) dy(i, pm%cb(k)) = dy(i, pm%cb(k)) + pm%wb(k)
     end do
-  end subroutine output_sensitivity
+  end subroutine output_rows
 
   subroutine diverged(t, status, msg)
     real(wp), intent(in) :: t

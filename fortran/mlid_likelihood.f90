@@ -30,7 +30,8 @@ module mlid_likelihood
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, first_failure
   use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, chol_inverse, psd_factor
   use mlid_models, only: model_t
-  use mlid_options, only: options_t
+  use mlid_options, only: options_t, frequency_method
+  use mlid_frequency, only: freq_likelihood
   use mlid_params, only: param_map_t, apply_ties, input_delays, output_delays, stabilized
   use mlid_filter, only: oe_predict, kf_innovations
   implicit none
@@ -76,7 +77,10 @@ contains
     cost = huge(1.0_wp)
     call filter_check(theta, pm, opt, status, msg)
     if (status /= MLID_OK) return
-    if (opt%method == 1 .and. opt%filter_params == 1) then
+    if (frequency_method(opt)) then      ! t, u, y are the transformed record
+      call freq_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
+                           info, sens, wsens, msens)
+    else if (opt%method == 1 .and. opt%filter_params == 1) then
       ! K and B as the parameters: the predictor with the gain K, B = R-hat
       call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
                          sens, wsens, msens)

@@ -33,17 +33,18 @@ module mlid_models
     integer :: np = 0  !< model parameters (before x0 and bias)
     logical :: linear = .false.  !< f and h linear in x and u (the Kalman filter needs it)
   contains
-    procedure(f_iface), deferred :: f
-    procedure(h_iface), deferred :: h
-    procedure(dfdx_iface), deferred :: dfdx
-    procedure(dfdp_iface), deferred :: dfdp
-    procedure(dhdx_iface), deferred :: dhdx
-    procedure(dhdp_iface), deferred :: dhdp
+    !> The model at one point: what a model writes.  f, h and their
+    !> Jacobians below ask it for one quantity each.
+    procedure(eval_iface), deferred :: eval
+    procedure :: f => point_f
+    procedure :: h => point_h
+    procedure :: dfdx => point_dfdx
+    procedure :: dfdp => point_dfdp
+    procedure :: dhdx => point_dhdx
+    procedure :: dhdp => point_dhdp
     procedure(dfdw_iface), deferred :: dfdw
     procedure(dhdxp_iface), deferred :: dhdxp
     procedure :: dhdw => no_output_noise
-    procedure :: f_jac => f_with_jacobians
-    procedure :: h_jac => h_jacobians
     !> df/du and dh/du (nx or ny, nu): what input time delays need; a model
     !> that gives them says so in has_input_jacobians.
     procedure :: has_input_jacobians => no_input_jacobians
@@ -58,50 +59,20 @@ module mlid_models
   end type model_t
 
   abstract interface
-    !> State derivative xdot = f(t, x, u, p).
-    pure subroutine f_iface(self, t, x, u, p, xdot)
-      import :: model_t, wp
-      class(model_t), intent(in) :: self
-      real(wp), intent(in) :: t, x(:), u(:), p(:)
-      real(wp), intent(out) :: xdot(:)
-    end subroutine f_iface
-    !> Output y = h(t, x, u, p), without bias.
-    pure subroutine h_iface(self, t, x, u, p, y)
-      import :: model_t, wp
-      class(model_t), intent(in) :: self
-      real(wp), intent(in) :: t, x(:), u(:), p(:)
-      real(wp), intent(out) :: y(:)
-    end subroutine h_iface
-    !> a = df/dx (nx, nx).
-    pure subroutine dfdx_iface(self, t, x, u, p, a)
-      import :: model_t, wp
-      class(model_t), intent(in) :: self
-      real(wp), intent(in) :: t, x(:), u(:), p(:)
-      real(wp), intent(out) :: a(:, :)
-    end subroutine dfdx_iface
-    !> b(:, k) = df/dp(idx(k)) for the requested model parameters.
-    pure subroutine dfdp_iface(self, t, x, u, p, idx, b)
+    !> The model at (t, x, u): each quantity asked for (present) of
+    !>   xdot = f(t, x, u, p),  a = df/dx (nx, nx),  b(:, k) = df/dp(idx(k)),
+    !>   y = h(t, x, u, p) (without bias),  c = dh/dx (ny, nx),  d(:, k) = dh/dp(idx(k)),
+    !> from one computation of what they share (the sensitivity equations
+    !> want f, a and b at every RK4 stage, the outputs y, c and d at every
+    !> sample, and both at once at a sample where a step starts).  u may
+    !> carry the process noise after the inputs (f takes it, h does not).
+    pure subroutine eval_iface(self, t, x, u, p, idx, xdot, a, b, y, c, d)
       import :: model_t, wp
       class(model_t), intent(in) :: self
       real(wp), intent(in) :: t, x(:), u(:), p(:)
       integer, intent(in) :: idx(:)
-      real(wp), intent(out) :: b(:, :)
-    end subroutine dfdp_iface
-    !> c = dh/dx (ny, nx).
-    pure subroutine dhdx_iface(self, t, x, u, p, c)
-      import :: model_t, wp
-      class(model_t), intent(in) :: self
-      real(wp), intent(in) :: t, x(:), u(:), p(:)
-      real(wp), intent(out) :: c(:, :)
-    end subroutine dhdx_iface
-    !> d(:, k) = dh/dp(idx(k)) for the requested model parameters.
-    pure subroutine dhdp_iface(self, t, x, u, p, idx, d)
-      import :: model_t, wp
-      class(model_t), intent(in) :: self
-      real(wp), intent(in) :: t, x(:), u(:), p(:)
-      integer, intent(in) :: idx(:)
-      real(wp), intent(out) :: d(:, :)
-    end subroutine dhdp_iface
+      real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    end subroutine eval_iface
     !> g = df/dw (nx, nw): how the process noise enters.
     pure subroutine dfdw_iface(self, t, x, u, p, g)
       import :: model_t, wp
@@ -142,12 +113,7 @@ module mlid_models
   type, extends(model_t) :: linear_model_t
     integer :: of = 0, og = 0, oh = 0, od = 0, ogam = 0, ok = 0, obx = 0  !< offsets in p
   contains
-    procedure :: f => lin_f
-    procedure :: h => lin_h
-    procedure :: dfdx => lin_dfdx
-    procedure :: dfdp => lin_dfdp
-    procedure :: dhdx => lin_dhdx
-    procedure :: dhdp => lin_dhdp
+    procedure :: eval => lin_eval
     procedure :: dfdw => lin_dfdw
     procedure :: dhdxp => lin_dhdxp
     procedure :: has_input_jacobians => lin_input_jacobians
@@ -193,28 +159,59 @@ contains
     used = .true.
   end subroutine reads_every_param
 
-  !> xdot = f, a = df/dx and b = df/dp(idx) at one point: what the
-  !> sensitivity equations need at every RK4 stage.  A model that gets them
-  !> cheaper together (the equations model: one sweep) overrides this.
-  pure subroutine f_with_jacobians(self, t, x, u, p, idx, xdot, a, b)
+  !> xdot = f(t, x, u, p): the model's eval asked for f alone.
+  pure subroutine point_f(self, t, x, u, p, xdot)
     class(model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
-    integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: xdot(:), a(:, :), b(:, :)
-    call self%f(t, x, u, p, xdot)
-    call self%dfdx(t, x, u, p, a)
-    if (size(idx) > 0) call self%dfdp(t, x, u, p, idx, b)
-  end subroutine f_with_jacobians
+    real(wp), intent(out) :: xdot(:)
+    integer :: none(0)
+    call self%eval(t, x, u, p, none, xdot=xdot)
+  end subroutine point_f
 
-  !> c = dh/dx and d = dh/dp(idx) at one point, as f_with_jacobians.
-  pure subroutine h_jacobians(self, t, x, u, p, idx, c, d)
+  !> y = h(t, x, u, p), without bias.
+  pure subroutine point_h(self, t, x, u, p, y)
+    class(model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: y(:)
+    integer :: none(0)
+    call self%eval(t, x, u, p, none, y=y)
+  end subroutine point_h
+
+  !> a = df/dx (nx, nx).
+  pure subroutine point_dfdx(self, t, x, u, p, a)
+    class(model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: a(:, :)
+    integer :: none(0)
+    call self%eval(t, x, u, p, none, a=a)
+  end subroutine point_dfdx
+
+  !> b(:, k) = df/dp(idx(k)).
+  pure subroutine point_dfdp(self, t, x, u, p, idx, b)
     class(model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: c(:, :), d(:, :)
-    call self%dhdx(t, x, u, p, c)
-    if (size(idx) > 0) call self%dhdp(t, x, u, p, idx, d)
-  end subroutine h_jacobians
+    real(wp), intent(out) :: b(:, :)
+    call self%eval(t, x, u, p, idx, b=b)
+  end subroutine point_dfdp
+
+  !> c = dh/dx (ny, nx).
+  pure subroutine point_dhdx(self, t, x, u, p, c)
+    class(model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: c(:, :)
+    integer :: none(0)
+    call self%eval(t, x, u, p, none, c=c)
+  end subroutine point_dhdx
+
+  !> d(:, k) = dh/dp(idx(k)).
+  pure subroutine point_dhdp(self, t, x, u, p, idx, d)
+    class(model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: d(:, :)
+    call self%eval(t, x, u, p, idx, d=d)
+  end subroutine point_dhdp
 
   !> The blocks of theta for a model, on a record of one segment or of the
   !> segments starting at the samples seg.
@@ -242,18 +239,33 @@ contains
     l%nth = l%op0 + m%nx
   end function model_layout
 
-  !> The inputs the aircraft sees: v = u + K x (the recorded u alone when K = 0).
-  pure function lin_surface(self, x, u, p) result(v)
+  !> Input j as the aircraft sees it: v_j = u_j + K(j, :) x (the recorded
+  !> u_j alone when K = 0); one at a time, so nothing is allocated per call.
+  pure real(wp) function surface(self, x, u, p, j) result(v)
     class(linear_model_t), intent(in) :: self
     real(wp), intent(in) :: x(:), u(:), p(:)
-    real(wp) :: v(self%nu)
-    integer :: s, nu
-    nu = self%nu
-    v = u(1:nu)
+    integer, intent(in) :: j
+    integer :: s
+    v = u(j)
     do s = 1, self%nx
-      v = v + p(self%ok + (s - 1)*nu + 1:self%ok + s*nu)*x(s)
+      v = v + p(self%ok + (s - 1)*self%nu + j)*x(s)
     end do
-  end function lin_surface
+  end function surface
+
+  !> The linear model at one point (model_t%eval): each quantity is a
+  !> block of p or a product with x and v, nothing is shared.
+  pure subroutine lin_eval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    if (present(xdot)) call lin_f(self, x, u, p, xdot)
+    if (present(a)) call block_plus_feedback(self, p, self%of, self%og, self%nx, a)   ! F + G K
+    if (present(b)) call lin_dfdp(self, x, u, p, idx, b)
+    if (present(y)) call lin_h(self, x, u, p, y)
+    if (present(c)) call block_plus_feedback(self, p, self%oh, self%od, self%ny, c)   ! H + D K
+    if (present(d)) call lin_dhdp(self, x, u, p, idx, d)
+  end subroutine lin_eval
 
   !> a = the nr x nc block of p after offset o, plus B K when the model
   !> feeds states back (B the nr x nu block after ob, K p's feedback block);
@@ -263,8 +275,8 @@ contains
     real(wp), intent(in) :: p(:)
     integer, intent(in) :: o, ob, nr
     real(wp), intent(out) :: a(:, :)
-    real(wp) :: bk(nr)
-    integer :: j, s, nu
+    real(wp) :: bk
+    integer :: i, j, s, nu
     nu = self%nu
     do j = 1, size(a, 2)
       a(:, j) = p(o + (j - 1)*nr + 1:o + j*nr)
@@ -272,11 +284,13 @@ contains
     if (nu == 0) return
     if (all(p(self%ok + 1:self%ok + nu*self%nx) == 0.0_wp)) return
     do j = 1, size(a, 2)
-      bk = 0.0_wp
-      do s = 1, nu
-        bk = bk + p(ob + (s - 1)*nr + 1:ob + s*nr)*p(self%ok + (j - 1)*nu + s)
+      do i = 1, nr
+        bk = 0.0_wp
+        do s = 1, nu
+          bk = bk + p(ob + (s - 1)*nr + i)*p(self%ok + (j - 1)*nu + s)
+        end do
+        a(i, j) = a(i, j) + bk
       end do
-      a(:, j) = a(:, j) + bk
     end do
   end subroutine block_plus_feedback
 
@@ -301,20 +315,18 @@ contains
     b = reshape(p(self%od + 1:self%od + self%ny*self%nu), [self%ny, self%nu])
   end subroutine lin_dhdu
 
-  pure subroutine lin_f(self, t, x, u, p, xdot)
+  pure subroutine lin_f(self, x, u, p, xdot)
     class(linear_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: x(:), u(:), p(:)
     real(wp), intent(out) :: xdot(:)
-    real(wp) :: v(self%nu)
     integer :: j, n
     n = self%nx
-    v = lin_surface(self, x, u, p)
     xdot = 0.0_wp
     do j = 1, n
       xdot = xdot + p(self%of + (j - 1)*n + 1:self%of + j*n)*x(j)
     end do
     do j = 1, self%nu
-      xdot = xdot + p(self%og + (j - 1)*n + 1:self%og + j*n)*v(j)
+      xdot = xdot + p(self%og + (j - 1)*n + 1:self%og + j*n)*surface(self, x, u, p, j)
     end do
     do j = 1, min(self%nw, size(u) - self%nu)          ! process noise, if given
       xdot = xdot + p(self%ogam + (j - 1)*n + 1:self%ogam + j*n)*u(self%nu + j)
@@ -322,40 +334,28 @@ contains
     xdot = xdot + p(self%obx + 1:self%obx + n)
   end subroutine lin_f
 
-  pure subroutine lin_h(self, t, x, u, p, y)
+  pure subroutine lin_h(self, x, u, p, y)
     class(linear_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: x(:), u(:), p(:)
     real(wp), intent(out) :: y(:)
-    real(wp) :: v(self%nu)
     integer :: j, m
     m = self%ny
-    v = lin_surface(self, x, u, p)
     y = 0.0_wp
     do j = 1, self%nx
       y = y + p(self%oh + (j - 1)*m + 1:self%oh + j*m)*x(j)
     end do
     do j = 1, self%nu
-      y = y + p(self%od + (j - 1)*m + 1:self%od + j*m)*v(j)
+      y = y + p(self%od + (j - 1)*m + 1:self%od + j*m)*surface(self, x, u, p, j)
     end do
   end subroutine lin_h
 
-  !> a = F + G K
-  pure subroutine lin_dfdx(self, t, x, u, p, a)
+  pure subroutine lin_dfdp(self, x, u, p, idx, b)
     class(linear_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: a(:, :)
-    call block_plus_feedback(self, p, self%of, self%og, self%nx, a)
-  end subroutine lin_dfdx
-
-  pure subroutine lin_dfdp(self, t, x, u, p, idx, b)
-    class(linear_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: b(:, :)
-    real(wp) :: v(self%nu)
     integer :: k, q, i, j, n
     n = self%nx
-    v = lin_surface(self, x, u, p)
     b = 0.0_wp
     do k = 1, size(idx)
       q = idx(k)
@@ -368,7 +368,7 @@ contains
         q = q - self%og - 1
         i = mod(q, n) + 1
         j = q/n + 1
-        b(i, k) = v(j)
+        b(i, k) = surface(self, x, u, p, j)
       else if (q > self%ogam .and. q <= self%ok) then  ! Gamma(i, j): df_i/dGamma(i, j) = w_j
         q = q - self%ogam - 1
         i = mod(q, n) + 1
@@ -385,23 +385,13 @@ contains
     end do
   end subroutine lin_dfdp
 
-  !> c = H + D K
-  pure subroutine lin_dhdx(self, t, x, u, p, c)
+  pure subroutine lin_dhdp(self, x, u, p, idx, d)
     class(linear_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: c(:, :)
-    call block_plus_feedback(self, p, self%oh, self%od, self%ny, c)
-  end subroutine lin_dhdx
-
-  pure subroutine lin_dhdp(self, t, x, u, p, idx, d)
-    class(linear_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: d(:, :)
-    real(wp) :: v(self%nu)
     integer :: k, q, i, j, m
     m = self%ny
-    v = lin_surface(self, x, u, p)
     d = 0.0_wp
     do k = 1, size(idx)
       q = idx(k)
@@ -414,7 +404,7 @@ contains
         q = q - self%od - 1
         i = mod(q, m) + 1
         j = q/m + 1
-        d(i, k) = v(j)
+        d(i, k) = surface(self, x, u, p, j)
       else if (q > self%ok .and. q <= self%obx) then  ! K(j, s): dh/dK(j, s) = D(:, j) x_s
         q = q - self%ok - 1
         j = mod(q, self%nu) + 1

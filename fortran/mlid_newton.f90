@@ -11,7 +11,8 @@ module mlid_newton
   use mlid_linalg, only: info_inverse, info_eig, eig_inverse
   use mlid_equation_error, only: equation_error
   use mlid_models, only: model_t
-  use mlid_options, only: options_t
+  use mlid_options, only: options_t, frequency_method
+  use mlid_frequency, only: freq_record
   use mlid_likelihood, only: likelihood
   use mlid_params, only: param_map_t, apply_ties
   use mlid_colored, only: colored_covariance
@@ -121,8 +122,15 @@ contains
     type(search_t) :: st
     integer :: rmin, rtop, k
     real(wp) :: djr
+    real(wp), allocatable, target :: tf(:), uf(:, :), yf(:, :)
 
-    pb = problem_t(m, pm, t, u, y, opt, ex)
+    if (frequency_method(opt)) then    ! the record's transform, once (mlid_frequency)
+      call freq_record(m, theta0, pm, t, u, y, opt, tf, uf, yf, status, msg)
+      if (status /= MLID_OK) return
+      pb = problem_t(m, pm, tf, uf, yf, opt, ex)
+    else
+      pb = problem_t(m, pm, t, u, y, opt, ex)
+    end if
 
     status = MLID_OK
     if (opt%noise_criterion == 1) call innovation_start(pb, status, msg)
@@ -154,8 +162,11 @@ contains
     if (opt%noise_criterion == 1) call noise_free_note(pm, size(t), res)
     if (opt%noise_criterion == 0 .and. opt%method == 1) call noise_free_warning(pm, ex, res)
     call final_bound(opt, ex, st, res, status, msg)
-    if (any(status == [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) &
+    if (frequency_method(opt) .and. allocated(res%cov)) then
+      res%cov_c = res%cov     ! no coloured-residual correction in the frequency domain
+    else if (any(status == [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) then
       call colored_bound(pm, y, res, status, msg)
+    end if
     if (status /= MLID_OK) call noise_free_outputs(opt, pm, ex, res, msg)
   end subroutine newton_fit
 

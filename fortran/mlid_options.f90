@@ -11,24 +11,31 @@ module mlid_options
   private
   public :: options_t, options_from_flat, options_to_flat, NOPT
   public :: NOPTION, OPTION_NAMES, option_kind, option_set, option_get
+  public :: METHOD_FREQ_OE, METHOD_FREQ_EE, frequency_method
 
   integer, parameter :: NOPT = 16  !< length of iopt and ropt
   !> Limits checked before any work starts: beyond them a run would hang or
   !> allocate without bound, and no real case comes near them.
-  integer, parameter, public :: MAX_ITER_LIMIT = 10000, HALVINGS_LIMIT = 60, SUBSTEPS_LIMIT = 1000
+  integer, parameter, public :: MAX_ITER_LIMIT = 10000, HALVINGS_LIMIT = 60, SUBSTEPS_LIMIT = 1000, &
+                                NFREQ_LIMIT = 100000
+  !> The frequency-domain methods' codes of option method (mlid_frequency).
+  integer, parameter :: METHOD_FREQ_OE = 2, METHOD_FREQ_EE = 3
 
   !> The options by name, for Python and any other caller that should not
   !> know the flat layout: option k lives in iopt(k) for k <= NIOPT, else in
   !> ropt(k - NIOPT).  Choices are listed in the order of their codes 0, 1.
-  integer, parameter :: NOPTION = 20, NIOPT = 15
+  integer, parameter :: NOPTION = 23, NIOPT = 16
   character(len=16), parameter :: OPTION_NAMES(NOPTION) = [character(len=16) :: &
     'max_iter', 'halvings', 'noise', 'input_hold', 'substeps', 'method', 'partials', &
     'steady_state', 'startup', 'rank_min', 'rank_max', 'rank_rule', 'process_noise', &
-    'noise_criterion', 'filter_params', 'tol_cost', 'tol_step', 'tol_grad', 'rcond', 'prior_decay']
-  character(len=32), parameter :: OPTION_CHOICES(NOPTION) = [character(len=32) :: &
-    '', '', 'diagonal full', 'linear zoh', '', 'output_error filter_error', 'false true', &
+    'noise_criterion', 'filter_params', 'n_freq', 'tol_cost', 'tol_step', 'tol_grad', 'rcond', &
+    'prior_decay', 'f_min', 'f_max']
+  character(len=80), parameter :: OPTION_CHOICES(NOPTION) = [character(len=80) :: &
+    '', '', 'diagonal full', 'linear zoh', '', &
+    'output_error filter_error frequency_output_error frequency_equation_error', 'false true', &
     'false true', 'none equation_error', '', '', 'iteration staged', &
-    'held continuous continuous_sd', 'exact innovations', 'noise gain', '', '', '', '', '']
+    'held continuous continuous_sd', 'exact innovations', 'noise gain', '', '', '', '', '', &
+    '', '', '']
 
   type :: options_t
     integer :: max_iter = 30      !< iopt(1): Newton iterations at most
@@ -36,7 +43,9 @@ module mlid_options
     logical :: full_r = .false.   !< iopt(3): 0 diagonal R, 1 full R
     logical :: hold = .false.     !< iopt(4): 0 input linear between samples, 1 zero-order hold
     integer :: substeps = 1       !< iopt(5): RK4 steps per sample interval
-    integer :: method = 0         !< iopt(6): 0 output error, 1 filter error (Kalman filter)
+    !> iopt(6): 0 output error, 1 filter error (Kalman filter), 2 frequency-domain output
+    !> error, 3 frequency-domain equation error (mlid_frequency)
+    integer :: method = 0
     logical :: partials = .true.  !< iopt(7): filter error with covariance/gain partials (eqs 4.32-4.34)
     logical :: steady = .false.   !< iopt(8): filter error with the steady-state gain
     integer :: startup = 0        !< iopt(9): 0 from the given values, 1 equation-error start-up
@@ -60,11 +69,16 @@ module mlid_options
     !>     eqs 4.19-4.21): the predictor x(j|j) = x(j|j-1) + K nu(j) with K
     !>     a parameter, B = (1/N) sum nu nu' (eq. 4.20) as output error's R
     integer :: filter_params = 0
+    !> iopt(16): frequencies of the band of the frequency-domain methods, evenly
+    !> spaced from f_min to f_max (both included)
+    integer :: n_freq = 50
     real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
     real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
     real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
     real(wp) :: rcond = 1.0e-10_wp    !< ropt(4): eigenvalues of M below rcond*max are singular
     real(wp) :: prior_decay = 1.0_wp  !< ropt(5): a priori weights times this each iteration (§4.5.2)
+    !> ropt(6), ropt(7): the band of the frequency-domain methods, Hz (0: not given)
+    real(wp) :: f_min = 0.0_wp, f_max = 0.0_wp
   end type options_t
 
 contains
@@ -91,11 +105,14 @@ contains
     iopt(13) = opt%process_noise
     iopt(14) = opt%noise_criterion
     iopt(15) = opt%filter_params
+    iopt(16) = opt%n_freq
     ropt(1) = opt%tol_cost
     ropt(2) = opt%tol_step
     ropt(3) = opt%tol_grad
     ropt(4) = opt%rcond
     ropt(5) = opt%prior_decay
+    ropt(6) = opt%f_min
+    ropt(7) = opt%f_max
   end subroutine options_to_flat
 
   !> Decode and check the flat options.  Zero or negative entries where a
@@ -124,11 +141,14 @@ contains
     opt%process_noise = iopt(13)
     opt%noise_criterion = iopt(14)
     opt%filter_params = iopt(15)
+    opt%n_freq = iopt(16)
     opt%tol_cost = ropt(1)
     opt%tol_step = ropt(2)
     opt%tol_grad = ropt(3)
     opt%rcond = ropt(4)
     opt%prior_decay = ropt(5)
+    opt%f_min = ropt(6)
+    opt%f_max = ropt(7)
     if (opt%max_iter < 0 .or. opt%max_iter > MAX_ITER_LIMIT) then
       write (msg, '(a,i0,a,i0)') 'max_iter must lie in 0 to ', MAX_ITER_LIMIT, ', got ', opt%max_iter
     else if (opt%halvings < 0 .or. opt%halvings > HALVINGS_LIMIT) then
@@ -137,8 +157,9 @@ contains
       write (msg, '(a,i0)') 'noise code must be 0 (diagonal) or 1 (full), got ', iopt(3)
     else if (iopt(4) /= 0 .and. iopt(4) /= 1) then
       write (msg, '(a,i0)') 'input hold code must be 0 (linear) or 1 (zero-order), got ', iopt(4)
-    else if (opt%method /= 0 .and. opt%method /= 1) then
-      write (msg, '(a,i0)') 'method code must be 0 (output error) or 1 (filter error), got ', iopt(6)
+    else if (opt%method < 0 .or. opt%method > METHOD_FREQ_EE) then
+      write (msg, '(a,i0)') 'method code must be 0 (output error), 1 (filter error), 2 '// &
+        '(frequency output error) or 3 (frequency equation error), got ', iopt(6)
     else if (any(iopt(7:9) /= 0 .and. iopt(7:9) /= 1)) then
       msg = 'partials, steady and startup flags must be 0 or 1'
     else if (opt%substeps < 1 .or. opt%substeps > SUBSTEPS_LIMIT) then
@@ -173,10 +194,38 @@ contains
     else if (.not. (opt%prior_decay > 0.0_wp .and. opt%prior_decay <= 1.0_wp)) then
       msg = 'prior_decay must lie in (0, 1]'
     else
-      status = MLID_OK
-      msg = ''
+      call band_check(opt, msg)
+      if (len_trim(msg) == 0) status = MLID_OK
     end if
   end subroutine options_from_flat
+
+  !> The frequency-domain methods' options: the band 0 < f_min < f_max and
+  !> 2 <= n_freq (the Nyquist limit needs the record: mlid_frequency), no
+  !> equation-error start-up; the band given to a time-domain method is an
+  !> error, not ignored.  msg = '' when they are fine.
+  subroutine band_check(opt, msg)
+    type(options_t), intent(in) :: opt
+    character(len=*), intent(out) :: msg
+    msg = ''
+    if (.not. frequency_method(opt)) then
+      if (opt%f_min /= 0.0_wp .or. opt%f_max /= 0.0_wp) msg = 'f_min and f_max are the band '// &
+        'of the frequency-domain methods (method = ''frequency_output_error'' or '// &
+        '''frequency_equation_error'')'
+    else if (.not. (opt%f_min > 0.0_wp .and. opt%f_max > opt%f_min)) then
+      msg = 'the frequency-domain methods need the band 0 < f_min < f_max (Hz)'
+    else if (opt%n_freq < 2 .or. opt%n_freq > NFREQ_LIMIT) then
+      write (msg, '(a,i0,a,i0)') 'n_freq must lie in 2 to ', NFREQ_LIMIT, ', got ', opt%n_freq
+    else if (opt%startup /= 0) then
+      msg = 'startup = ''equation_error'' is a time-domain start: the frequency-domain '// &
+            'methods start from the given values (frequency_equation_error needs no start)'
+    end if
+  end subroutine band_check
+
+  !> Whether opt's method works on the Fourier transform of the record.
+  pure logical function frequency_method(opt)
+    type(options_t), intent(in) :: opt
+    frequency_method = opt%method == METHOD_FREQ_OE .or. opt%method == METHOD_FREQ_EE
+  end function frequency_method
 
   !> 'int', 'real', 'bool' or 'choice' (with the words of OPTION_CHOICES);
   !> '' for a name that is no option.

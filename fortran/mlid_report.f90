@@ -36,22 +36,24 @@ contains
   !> The report: how the iteration ended, the table of start, estimate and
   !> Cramer-Rao sigma, cost and noise, identifiability; every line ends in NL.
   !> A failed fit (fit_outcome) has none of these: failed_report says so.
-  function fit_report(s, iopt, status, msg) result(text)
+  function fit_report(s, iopt, ropt, status, msg) result(text)
     type(fit_summary_t), intent(in) :: s
     integer, intent(in) :: iopt(NOPT)
+    real(wp), intent(in) :: ropt(NOPT)
     integer, intent(in) :: status      !< the fit's (mlid_kinds)
     character(len=*), intent(in) :: msg
     character(len=:), allocatable :: text, method
     character(len=512) :: buf
-    logical :: oe
+    logical :: oe, fd
     integer :: k
 
     if (fit_outcome(status, s%reason) == FIT_FAILED) then
-      text = failed_report(s, iopt, msg)
+      text = failed_report(s, iopt, ropt, msg)
       return
     end if
-    method = method_text(iopt)
+    method = method_text(iopt, ropt)
     oe = method(1:6) == 'output'
+    fd = method(1:9) == 'frequency'
     write (buf, '(a,i0,a)') ' '//method//': ', s%niter, ' iterations, '// &
       trim(merge('converged    ', 'NOT converged', s%converged))//' ('// &
       trim(stop_reason_text(s%reason))//')'
@@ -71,17 +73,24 @@ contains
     end do
     write (buf, '(a,i0,a)') ' sigma col.: Cramer-Rao sigma corrected for coloured residuals ' // &
       '(residual autocorrelation to lag ', s%lag, ')'
+    if (fd) buf = ' sigma col.: the same as sigma (no coloured-residual correction in the '// &
+                  'frequency domain)'
     text = text//trim(buf)//NL
     ! output error estimates R; filter error reports the mean innovation covariance B
     write (buf, '(a,es17.10e2,a,es13.6e2)') ' cost J = ', s%cost, '   det '// &
-      trim(merge('R', 'B', oe))//' = ', det_r(s%rhat)
+      trim(merge('R', 'B', oe .or. fd))//' = ', det_r(s%rhat)
+    if (fd) buf(index(buf, 'det R'):index(buf, 'det R') + 4) = 'det S'
     text = text//trim(buf)//NL
-    if (.not. oe) then
+    if (.not. (oe .or. fd)) then
       write (buf, '(a,es17.10e2,a)') ' cost J'' = ', cost_prime(s%rhat), &
         '   (1/2N) sum nu''nu, unweighted (report 5.1.6)'
       text = text//trim(buf)//NL
     end if
-    text = text//' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', oe))
+    if (fd) then      ! the residual spectrum S of the transformed outputs
+      text = text//' S diagonal:      '
+    else
+      text = text//' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', oe))
+    end if
     do k = 1, size(s%rhat, 1)
       write (buf, '(1x,es10.4e2)') s%rhat(k, k)
       text = text//trim(buf)
@@ -101,15 +110,16 @@ contains
   !> the error.  Whatever the failure left in sigma, cost, R and the
   !> information (never computed, or from a matrix with no inverse) is not
   !> printed.
-  function failed_report(s, iopt, msg) result(text)
+  function failed_report(s, iopt, ropt, msg) result(text)
     type(fit_summary_t), intent(in) :: s
     integer, intent(in) :: iopt(NOPT)
+    real(wp), intent(in) :: ropt(NOPT)
     character(len=*), intent(in) :: msg
     character(len=:), allocatable :: text
     character(len=512) :: buf
     integer :: k
 
-    write (buf, '(a,i0,a)') ' '//method_text(iopt)//': failed after ', s%niter, &
+    write (buf, '(a,i0,a)') ' '//method_text(iopt, ropt)//': failed after ', s%niter, &
       ' iterations, no estimates'
     text = trim(buf)//NL
     write (buf, '(1x,a16,1x,a10,a15,a15)') 'parameter       ', 'unit      ', 'start', 'last value'
@@ -123,12 +133,19 @@ contains
   end function failed_report
 
   !> The estimator, as the report's first line names it.
-  function method_text(iopt) result(text)
+  function method_text(iopt, ropt) result(text)
     integer, intent(in) :: iopt(NOPT)
+    real(wp), intent(in) :: ropt(NOPT)
     character(len=:), allocatable :: text
-    real(wp) :: ropt(NOPT)
-    ropt = 0.0_wp
-    if (option_get(iopt, ropt, 'method') == 'filter_error' .and. &
+    character(len=160) :: buf
+    if (any(option_get(iopt, ropt, 'method') == [character(len=32) :: 'frequency_output_error', &
+                                                  'frequency_equation_error'])) then
+      write (buf, '(a,g0.6,a,g0.6,a,a,a)') ', S '//trim(option_get(iopt, ropt, 'noise'))// &
+        ', band ', ropt_value('f_min'), ' to ', ropt_value('f_max'), ' Hz, ', &
+        trim(option_get(iopt, ropt, 'n_freq')), ' frequencies'
+      text = trim(merge('frequency-domain output-error ML  ', 'frequency-domain equation error   ', &
+                        option_get(iopt, ropt, 'method') == 'frequency_output_error'))//trim(buf)
+    else if (option_get(iopt, ropt, 'method') == 'filter_error' .and. &
         option_get(iopt, ropt, 'filter_params') == 'gain') then
       text = 'filter-error ML, steady-state gain K and B as the parameters (eqs 4.19-4.21), B '// &
              trim(option_get(iopt, ropt, 'noise'))
@@ -140,6 +157,16 @@ contains
     else
       text = 'output-error ML, R '//trim(option_get(iopt, ropt, 'noise'))
     end if
+
+  contains
+
+    real(wp) function ropt_value(name)
+      character(len=*), intent(in) :: name
+      character(len=32) :: word
+      word = option_get(iopt, ropt, name)
+      read (word, *) ropt_value
+    end function ropt_value
+
   end function method_text
 
   !> What the information says about the parameters (report §4.5, §5.3.5):

@@ -9,7 +9,7 @@ module mlid_rk
   use mlid_models, only: model_t
   implicit none
   private
-  public :: rk4_step, rk4_interval, input_sens_t, rk_work_t
+  public :: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product
 
   !> How delayed inputs move the sensitivities: entry k, d u(input(k)) /
   !> d theta(col(k)) at the interval's ends (d0, d1; a tie's scale in it),
@@ -25,17 +25,23 @@ module mlid_rk
   !> every step.  k: the stage derivatives; sd: the sensitivities' (nx, ns,
   !> 4); xs, ss: a stage's state and sensitivities; a, b, bu: df/dx,
   !> df/dp(idx), df/du; um: the inputs in a step's middle; ua, ub: at its
-  !> ends (rk4_interval's, which rk4_step only reads).
+  !> ends (rk4_interval's, which rk4_step only reads).  first_known: the
+  !> caller has already put the first stage's f in k(:, 1) (and, when the
+  !> sensitivities are integrated, df/dx and df/dp in a and b) at the
+  !> point the next step starts from (the outputs of a sample evaluate the
+  !> model there anyway); the next step uses them and clears it.
   type :: rk_work_t
     real(wp), allocatable :: k(:, :), sd(:, :, :), xs(:), ss(:, :), a(:, :), b(:, :), bu(:, :)
     real(wp), allocatable :: um(:), ua(:), ub(:)
+    logical :: first_known = .false.
   end type rk_work_t
 
 contains
 
   !> Size wk's stage arrays for nx states, ns sensitivity columns, nb model
-  !> parameters forcing them, nu inputs and nv input values (inputs and noise).
-  subroutine stage_work(wk, nx, ns, nb, nu, nv)
+  !> parameters forcing them, nu inputs and nv input values (inputs and
+  !> noise); kept when they have the size already.
+  subroutine rk_work_size(wk, nx, ns, nb, nu, nv)
     type(rk_work_t), intent(inout) :: wk
     integer, intent(in) :: nx, ns, nb, nu, nv
     if (allocated(wk%sd)) then
@@ -43,9 +49,10 @@ contains
           all(shape(wk%bu) == [nx, nu]) .and. size(wk%um) == nv) return
       deallocate (wk%k, wk%sd, wk%xs, wk%ss, wk%a, wk%b, wk%bu, wk%um)
     end if
+    wk%first_known = .false.
     allocate (wk%k(nx, 4), wk%sd(nx, ns, 4), wk%xs(nx), wk%ss(nx, ns), wk%a(nx, nx), &
               wk%b(nx, nb), wk%bu(nx, nu), wk%um(nv))
-  end subroutine stage_work
+  end subroutine rk_work_size
 
   !> Advance x (and s, if given) from t0 to t0+dt.
   !>
@@ -71,14 +78,14 @@ contains
 
     ns = 0
     if (present(s)) ns = size(s, 2)
-    call stage_work(wk, size(x), ns, size(idxm), m%nu, size(ua))
+    call rk_work_size(wk, size(x), ns, size(idxm), m%nu, size(ua))
     th = t0 + 0.5_wp*dt
     wk%um = 0.5_wp*(ua + ub)
     associate (k => wk%k, xs => wk%xs)
       if (present(s)) then
         call step_sens(s)
       else
-        call m%f(t0, x, ua, p, k(:, 1))
+        if (.not. wk%first_known) call m%f(t0, x, ua, p, k(:, 1))
         xs = x + 0.5_wp*dt*k(:, 1)
         call m%f(th, xs, wk%um, p, k(:, 2))
         xs = x + 0.5_wp*dt*k(:, 2)
@@ -88,6 +95,7 @@ contains
       end if
       x = x + (dt/6.0_wp)*(k(:, 1) + 2.0_wp*(k(:, 2) + k(:, 3)) + k(:, 4))
     end associate
+    wk%first_known = .false.
 
   contains
 
@@ -97,30 +105,30 @@ contains
       associate (k => wk%k, sd => wk%sd, xs => wk%xs, ss => wk%ss)
         call deriv(t0, x, ua, k(:, 1), s, sd(:, :, 1), 0.0_wp)
         xs = x + 0.5_wp*dt*k(:, 1)
-        ss = s + 0.5_wp*dt*sd(:, :, 1)
+        call stage_point(size(s), s, 0.5_wp*dt, sd(:, :, 1), ss)
         call deriv(th, xs, wk%um, k(:, 2), ss, sd(:, :, 2), 0.5_wp)
         xs = x + 0.5_wp*dt*k(:, 2)
-        ss = s + 0.5_wp*dt*sd(:, :, 2)
+        call stage_point(size(s), s, 0.5_wp*dt, sd(:, :, 2), ss)
         call deriv(th, xs, wk%um, k(:, 3), ss, sd(:, :, 3), 0.5_wp)
         xs = x + dt*k(:, 3)
-        ss = s + dt*sd(:, :, 3)
+        call stage_point(size(s), s, dt, sd(:, :, 3), ss)
         call deriv(t0 + dt, xs, ub, k(:, 4), ss, sd(:, :, 4), 1.0_wp)
-        s = s + (dt/6.0_wp)*(sd(:, :, 1) + 2.0_wp*(sd(:, :, 2) + sd(:, :, 3)) + sd(:, :, 4))
+        call rk4_combine(size(s), dt/6.0_wp, sd(:, :, 1), sd(:, :, 2), sd(:, :, 3), sd(:, :, 4), s)
       end associate
     end subroutine step_sens
 
     !> xd = f, sd = (df/dx) s + wcol df/dp(idxm) (into columns colm) + sforce
-    !> + the delayed inputs' forcing at fraction c of the step.
+    !> + the delayed inputs' forcing at fraction c of the step (at c = 0,
+    !> f, df/dx and df/dp may be known already: wk%first_known).
     subroutine deriv(t, xs, ui, xd, ss, sd, c)
       real(wp), intent(in) :: t, xs(:), ui(:), ss(:, :), c
-      real(wp), intent(out) :: xd(:), sd(:, :)
-      integer :: k
+      real(wp), intent(inout) :: xd(:)
+      real(wp), intent(out) :: sd(:, :)
 
-      call m%f_jac(t, xs, ui, p, idxm, xd, wk%a, wk%b)
-      sd = matmul(wk%a, ss)
-      do k = 1, size(idxm)
-        sd(:, colm(k)) = sd(:, colm(k)) + wcol(k)*wk%b(:, k)
-      end do
+      if (.not. (c == 0.0_wp .and. wk%first_known)) &
+        call m%eval(t, xs, ui, p, idxm, xdot=xd, a=wk%a, b=wk%b)
+      call small_product(wk%a, ss, sd)
+      call add_forcing(size(sd, 1), size(sd, 2), size(idxm), wk%b, colm, wcol, sd)
       if (present(sforce)) sd = sd + sforce
       if (present(us)) call input_forcing(t, xs, ui, c, sd)
     end subroutine deriv
@@ -190,5 +198,78 @@ contains
       end do
     end associate
   end subroutine rk4_interval
+
+  !> sd(:, col(k)) += w(k) b(:, k): the model parameters' forcing of their
+  !> sensitivity columns (explicit shapes: unit strides).
+  pure subroutine add_forcing(nx, ns, nb, b, col, w, sd)
+    integer, intent(in) :: nx, ns, nb, col(nb)
+    real(wp), intent(in) :: b(nx, nb), w(nb)
+    real(wp), intent(inout) :: sd(nx, ns)
+    integer :: k
+    do k = 1, nb
+      sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
+    end do
+  end subroutine add_forcing
+
+  !> y = x + h d over n values: a stage's point (the arrays as vectors of
+  !> explicit size, so that the loop runs on unit strides).
+  pure subroutine stage_point(n, x, h, d, y)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(n), h, d(n)
+    real(wp), intent(out) :: y(n)
+    y = x + h*d
+  end subroutine stage_point
+
+  !> x = x + h6 (d1 + 2 (d2 + d3) + d4) over n values: RK4's step from its
+  !> stages' derivatives, h6 = dt/6.
+  pure subroutine rk4_combine(n, h6, d1, d2, d3, d4, x)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: h6, d1(n), d2(n), d3(n), d4(n)
+    real(wp), intent(inout) :: x(n)
+    x = x + h6*(d1 + 2.0_wp*(d2 + d3) + d4)
+  end subroutine rk4_combine
+
+  !> c = a b for the small matrices of the sensitivity equations, column by
+  !> column (the sums in matmul's order, without its zeroing and
+  !> temporaries: this runs at every stage and sample).
+  subroutine small_product(a, b, c)
+    real(wp), intent(in) :: a(:, :), b(:, :)
+    real(wp), intent(out) :: c(:, :)
+    if (size(a, 2) == 0) then
+      c = 0.0_wp
+    else               ! the arrays are contiguous here: no copies
+      call product_columns(size(a, 1), size(a, 2), size(b, 2), a, b, c)
+    end if
+  end subroutine small_product
+
+  !> c = a b, all contiguous (explicit shape, so the loops run on unit
+  !> strides); four terms of each sum at a time, added left to right, so
+  !> the sums are matmul's to the bit.
+  pure subroutine product_columns(n, m, l, a, b, c)
+    integer, intent(in) :: n, m, l
+    real(wp), intent(in) :: a(n, m), b(m, l)
+    real(wp), intent(out) :: c(n, l)
+    integer :: j, k, kend
+    if (m < 4) then
+      do j = 1, l
+        c(:, j) = a(:, 1)*b(1, j)
+        do k = 2, m
+          c(:, j) = c(:, j) + a(:, k)*b(k, j)
+        end do
+      end do
+      return
+    end if
+    kend = 4 + 4*((m - 4)/4)                 ! the last term of the whole blocks of four
+    do j = 1, l
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
+      do k = 5, kend - 3, 4
+        c(:, j) = c(:, j) + a(:, k)*b(k, j) + a(:, k + 1)*b(k + 1, j) + a(:, k + 2)*b(k + 2, j) &
+                  + a(:, k + 3)*b(k + 3, j)
+      end do
+      do k = kend + 1, m
+        c(:, j) = c(:, j) + a(:, k)*b(k, j)
+      end do
+    end do
+  end subroutine product_columns
 
 end module mlid_rk

@@ -4,8 +4,12 @@
 !> equations and letting the program do the rest.  To bring your own model:
 !>
 !>   1. Edit this file (keep the module and type names): set the sizes in
-!>      user_model_create, write f and h, and their Jacobians with respect to
-!>      x and to the parameters p.  Constants come in through iconst/rconst.
+!>      user_model_create, and write um_eval: f and h, and their Jacobians
+!>      with respect to x and to the parameters p, at one point.  It is
+!>      asked for any of them at once (present arguments): compute what they
+!>      share once (here the state equations, which the output qdot reuses),
+!>      fill those present, never touch the absent ones.  Constants come in
+!>      through iconst/rconst.
 !>   2. Rebuild (make test, or pip install .): the model is then in both the
 !>      Python extension and mlid-batch, as kind = 'user' in a deck or
 !>      mlid.UserModel in Python.
@@ -31,12 +35,7 @@ module mlid_user_model
 
   type, extends(model_t) :: user_model_t
   contains
-    procedure :: f => um_f
-    procedure :: h => um_h
-    procedure :: dfdx => um_dfdx
-    procedure :: dfdp => um_dfdp
-    procedure :: dhdx => um_dhdx
-    procedure :: dhdp => um_dhdp
+    procedure :: eval => um_eval
     procedure :: dfdw => um_dfdw
     procedure :: dhdxp => um_dhdxp
   end type user_model_t
@@ -65,67 +64,42 @@ contains
     msg = ''
   end subroutine user_model_create
 
-  pure subroutine um_f(self, t, x, u, p, xdot)
-    class(user_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: xdot(:)
-    xdot(1) = p(1)*x(1) + x(2) + p(2)*u(1)
-    xdot(2) = p(3)*x(1) + p(4)*x(1)**3 + p(5)*x(2) + p(6)*u(1)
-  end subroutine um_f
-
-  pure subroutine um_h(self, t, x, u, p, y)
-    class(user_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: y(:)
-    real(wp) :: xdot(2)
-    call um_f(self, t, x, u, p, xdot)
-    y = [x(1), x(2), xdot(2)]
-  end subroutine um_h
-
-  !> a(i, j) = d f_i / d x_j
-  pure subroutine um_dfdx(self, t, x, u, p, a)
-    class(user_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: a(:, :)
-    a(1, :) = [p(1), 1.0_wp]
-    a(2, :) = [p(3) + 3.0_wp*p(4)*x(1)**2, p(5)]
-  end subroutine um_dfdx
-
-  !> b(i, k) = d f_i / d p(idx(k)): only the requested parameters.
-  pure subroutine um_dfdp(self, t, x, u, p, idx, b)
+  !> The model at (t, x, u): each argument present, of
+  !>   xdot = f,  a(i, j) = d f_i/d x_j,  b(i, k) = d f_i/d p(idx(k)),
+  !>   y = h,     c(i, j) = d h_i/d x_j,  d(i, k) = d h_i/d p(idx(k)).
+  !> u may carry process noise after the inputs (none here).
+  pure subroutine um_eval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
     class(user_model_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: b(:, :)
-    real(wp) :: full(2, 6)
-    full = 0.0_wp
-    full(1, 1:2) = [x(1), u(1)]
-    full(2, 3:6) = [x(1), x(1)**3, x(2), u(1)]
-    b = full(:, idx)
-  end subroutine um_dfdp
+    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    real(wp) :: fx(2), fa(2, 2), fb(2, 6)      ! f, df/dx and df/dp for all of p
 
-  pure subroutine um_dhdx(self, t, x, u, p, c)
-    class(user_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: c(:, :)
-    real(wp) :: a(2, 2)
-    call um_dfdx(self, t, x, u, p, a)
-    c = 0.0_wp
-    c(1, 1) = 1.0_wp
-    c(2, 2) = 1.0_wp
-    c(3, :) = a(2, :)
-  end subroutine um_dhdx
+    ! What f and h share, once: the state equations and their Jacobians.
+    fx(1) = p(1)*x(1) + x(2) + p(2)*u(1)
+    fx(2) = p(3)*x(1) + p(4)*x(1)**3 + p(5)*x(2) + p(6)*u(1)
+    fa(1, :) = [p(1), 1.0_wp]
+    fa(2, :) = [p(3) + 3.0_wp*p(4)*x(1)**2, p(5)]
+    fb = 0.0_wp
+    fb(1, 1:2) = [x(1), u(1)]
+    fb(2, 3:6) = [x(1), x(1)**3, x(2), u(1)]
 
-  pure subroutine um_dhdp(self, t, x, u, p, idx, d)
-    class(user_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: d(:, :)
-    real(wp) :: b(2, size(idx))
-    call um_dfdp(self, t, x, u, p, idx, b)
-    d = 0.0_wp
-    d(3, :) = b(2, :)
-  end subroutine um_dhdp
+    if (present(xdot)) xdot = fx
+    if (present(a)) a = fa
+    if (present(b)) b = fb(:, idx)               ! only the requested parameters
+    ! Outputs alpha, q, qdot: qdot is the second state equation.
+    if (present(y)) y = [x(1), x(2), fx(2)]
+    if (present(c)) then
+      c = 0.0_wp
+      c(1, 1) = 1.0_wp
+      c(2, 2) = 1.0_wp
+      c(3, :) = fa(2, :)
+    end if
+    if (present(d)) then
+      d = 0.0_wp
+      d(3, :) = fb(2, idx)
+    end if
+  end subroutine um_eval
 
   !> How process noise enters (none here: nw = 0).
   pure subroutine um_dfdw(self, t, x, u, p, g)

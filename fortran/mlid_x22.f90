@@ -50,12 +50,7 @@ module mlid_x22
 
   type, extends(model_t) :: x22_t
   contains
-    procedure :: f => xf
-    procedure :: h => xh
-    procedure :: dfdx => xdfdx
-    procedure :: dfdp => xdfdp
-    procedure :: dhdx => xdhdx
-    procedure :: dhdp => xdhdp
+    procedure :: eval => xeval
     procedure :: dfdw => xdfdw
     procedure :: dhdw => xdhdw
     procedure :: dhdxp => xdhdxp
@@ -130,89 +125,90 @@ contains
     a(3) = sum(p(1:9)*r(1:9))
   end function aero
 
-  pure subroutine xf(self, t, x, u, p, xdot)
-    class(x22_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: xdot(:)
-    real(wp) :: r(NPX), ru(NPX), rw(NPX), rq(NPX), rv(NPX, 3), a(3)
-    call regressors(x, u, gusts(self, u), r, ru, rw, rq, rv)
-    a = aero(p, r)
-    xdot(1) = a(1) - x(4)*x(2) - G0*sin(x(3))
-    xdot(2) = a(2) + x(4)*x(1) + G0*cos(x(3))
-    xdot(3) = x(4)
-    xdot(4) = a(3)
-  end subroutine xf
-
-  pure subroutine xh(self, t, x, u, p, y)
-    class(x22_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: y(:)
-    real(wp) :: r(NPX), ru(NPX), rw(NPX), rq(NPX), rv(NPX, 3), a(3)
-    call regressors(x, u(1:1), [0.0_wp, 0.0_wp, 0.0_wp], r, ru, rw, rq, rv)
-    a = aero(p, r)
-    y(1:4) = x(1:4)
-    y(5) = a(3)
-    y(6) = a(1)/G0
-    y(7) = a(2)/G0
-  end subroutine xh
-
-  pure subroutine xdfdx(self, t, x, u, p, a)
-    class(x22_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: a(:, :)
-    real(wp) :: r(NPX), ru(NPX), rw(NPX), rq(NPX), rv(NPX, 3)
-    call regressors(x, u, gusts(self, u), r, ru, rw, rq, rv)
-    a = 0.0_wp
-    a(1, :) = [sum(p(10:16)*ru(10:16)), sum(p(10:16)*rw(10:16)) - x(4), -G0*cos(x(3)), -x(2)]
-    a(2, :) = [sum(p(17:23)*ru(17:23)) + x(4), sum(p(17:23)*rw(17:23)), -G0*sin(x(3)), x(1)]
-    a(3, 4) = 1.0_wp
-    a(4, :) = [sum(p(1:9)*ru(1:9)), sum(p(1:9)*rw(1:9)), 0.0_wp, sum(p(1:9)*rq(1:9))]
-  end subroutine xdfdx
-
-  pure subroutine xdfdp(self, t, x, u, p, idx, b)
+  !> The model at one point (model_t%eval): the regressors once (f's at
+  !> the gusts u carries, h's without gusts: once more only when the gusts
+  !> are not zero), then what is asked for.
+  pure subroutine xeval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
     class(x22_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: b(:, :)
-    real(wp) :: r(NPX), ru(NPX), rw(NPX), rq(NPX), rv(NPX, 3)
-    integer :: k
-    call regressors(x, u, gusts(self, u), r, ru, rw, rq, rv)
-    b = 0.0_wp
-    do k = 1, size(idx)
-      b(ROW(idx(k)), k) = r(idx(k))
-    end do
-  end subroutine xdfdp
+    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    real(wp) :: r(NPX), ru(NPX), rw(NPX), rq(NPX), rv(NPX, 3), v(3)
+    logical :: wantf, wanth
 
-  pure subroutine xdhdx(self, t, x, u, p, c)
-    class(x22_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
-    real(wp), intent(out) :: c(:, :)
-    real(wp) :: r(NPX), ru(NPX), rw(NPX), rq(NPX), rv(NPX, 3)
-    integer :: k
-    call regressors(x, u(1:1), [0.0_wp, 0.0_wp, 0.0_wp], r, ru, rw, rq, rv)
-    c = 0.0_wp
-    do k = 1, 4
-      c(k, k) = 1.0_wp
-    end do
-    c(5, :) = [sum(p(1:9)*ru(1:9)), sum(p(1:9)*rw(1:9)), 0.0_wp, sum(p(1:9)*rq(1:9))]
-    c(6, :) = [sum(p(10:16)*ru(10:16)), sum(p(10:16)*rw(10:16)), 0.0_wp, 0.0_wp]/G0
-    c(7, :) = [sum(p(17:23)*ru(17:23)), sum(p(17:23)*rw(17:23)), 0.0_wp, 0.0_wp]/G0
-  end subroutine xdhdx
+    wantf = present(xdot) .or. present(a) .or. present(b)
+    wanth = present(y) .or. present(c) .or. present(d)
+    v = gusts(self, u)
+    if (wantf .or. all(v == 0.0_wp)) then
+      call regressors(x, u, v, r, ru, rw, rq, rv)
+      if (wantf) call state_part(x, p, idx, r, ru, rw, rq, xdot, a, b)
+    end if
+    if (.not. wanth) return
+    if (any(v /= 0.0_wp)) call regressors(x, u, [0.0_wp, 0.0_wp, 0.0_wp], r, ru, rw, rq, rv)
+    call output_part(x, p, idx, r, ru, rw, rq, y, c, d)
+  end subroutine xeval
 
-  pure subroutine xdhdp(self, t, x, u, p, idx, d)
-    class(x22_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+  !> f, df/dx and df/dp(idx), each if present, from the regressors.
+  pure subroutine state_part(x, p, idx, r, ru, rw, rq, xdot, a, b)
+    real(wp), intent(in) :: x(:), p(:), r(NPX), ru(NPX), rw(NPX), rq(NPX)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: d(:, :)
-    real(wp) :: r(NPX), ru(NPX), rw(NPX), rq(NPX), rv(NPX, 3)
+    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :)
+    real(wp) :: ae(3)
+    integer :: k
+    if (present(xdot)) then
+      ae = aero(p, r)
+      xdot(1) = ae(1) - x(4)*x(2) - G0*sin(x(3))
+      xdot(2) = ae(2) + x(4)*x(1) + G0*cos(x(3))
+      xdot(3) = x(4)
+      xdot(4) = ae(3)
+    end if
+    if (present(a)) then
+      a = 0.0_wp
+      a(1, :) = [sum(p(10:16)*ru(10:16)), sum(p(10:16)*rw(10:16)) - x(4), -G0*cos(x(3)), -x(2)]
+      a(2, :) = [sum(p(17:23)*ru(17:23)) + x(4), sum(p(17:23)*rw(17:23)), -G0*sin(x(3)), x(1)]
+      a(3, 4) = 1.0_wp
+      a(4, :) = [sum(p(1:9)*ru(1:9)), sum(p(1:9)*rw(1:9)), 0.0_wp, sum(p(1:9)*rq(1:9))]
+    end if
+    if (present(b)) then
+      b = 0.0_wp
+      do k = 1, size(idx)
+        b(ROW(idx(k)), k) = r(idx(k))
+      end do
+    end if
+  end subroutine state_part
+
+  !> h, dh/dx and dh/dp(idx), each if present, from the regressors
+  !> without gusts.
+  pure subroutine output_part(x, p, idx, r, ru, rw, rq, y, c, d)
+    real(wp), intent(in) :: x(:), p(:), r(NPX), ru(NPX), rw(NPX), rq(NPX)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out), optional :: y(:), c(:, :), d(:, :)
     integer, parameter :: OUT_ROW(4) = [6, 7, 0, 5]     ! udot -> n_x, wdot -> n_z, qdot -> qdot
+    real(wp) :: ae(3)
     integer :: k
-    call regressors(x, u(1:1), [0.0_wp, 0.0_wp, 0.0_wp], r, ru, rw, rq, rv)
-    d = 0.0_wp
-    do k = 1, size(idx)            ! the accelerometers are in g units
-      d(OUT_ROW(ROW(idx(k))), k) = merge(r(idx(k)), r(idx(k))/G0, ROW(idx(k)) == 4)
-    end do
-  end subroutine xdhdp
+    if (present(y)) then
+      ae = aero(p, r)
+      y(1:4) = x(1:4)
+      y(5) = ae(3)
+      y(6) = ae(1)/G0
+      y(7) = ae(2)/G0
+    end if
+    if (present(c)) then
+      c = 0.0_wp
+      do k = 1, 4
+        c(k, k) = 1.0_wp
+      end do
+      c(5, :) = [sum(p(1:9)*ru(1:9)), sum(p(1:9)*rw(1:9)), 0.0_wp, sum(p(1:9)*rq(1:9))]
+      c(6, :) = [sum(p(10:16)*ru(10:16)), sum(p(10:16)*rw(10:16)), 0.0_wp, 0.0_wp]/G0
+      c(7, :) = [sum(p(17:23)*ru(17:23)), sum(p(17:23)*rw(17:23)), 0.0_wp, 0.0_wp]/G0
+    end if
+    if (present(d)) then
+      d = 0.0_wp
+      do k = 1, size(idx)            ! the accelerometers are in g units
+        d(OUT_ROW(ROW(idx(k))), k) = merge(r(idx(k)), r(idx(k))/G0, ROW(idx(k)) == 4)
+      end do
+    end if
+  end subroutine output_part
 
   !> g(x, p) of Appendix A: the gust derivatives dA/d(u, w, q).
   pure subroutine xdfdw(self, t, x, u, p, g)

@@ -280,7 +280,7 @@ contains
     if (all(ieee_is_finite(rnoise))) s%rnoise = rnoise
     s%hist = hist(1:s%niter + 1)
     s%converged = converged == 1
-    write (*, '(a)', advance='no') fit_report(s, c%iopt, cstat, cmsg)
+    write (*, '(a)', advance='no') fit_report(s, c%iopt, c%ropt, cstat, cmsg)
     json = fit_json(c%title, c%job, cstat, cmsg, s)
     if (cstat == MLID_OK .and. cmsg(1:min(8, len(cmsg))) == 'warning:') call say(k, c, cmsg)
   end subroutine fit_record

@@ -9,13 +9,17 @@ from .model import LinearModel, LongitudinalModel, UserModel, X22Model, Equation
 from .data import FlightData
 from .result import FitResult, whiteness
 from .reduction import reduce_measured_state, reduced_data, recover_disturbance
-from .core import fit, evaluate, simulate, monte_carlo, default_options, check_jacobians
+from .core import fit, evaluate, simulate, monte_carlo, default_options, check_jacobians, \
+    frequency_evaluate
 from .deck import read_deck, run_deck
 from .analysis import fpe, compare_models, predict
 from .design import InputDesign, DesignedInput
 from .parallel import monte_carlo_parallel
 from .diagnose import diagnose
 from .validate import validate, Validation
+from .fourier import fourier_transform, recursive_frequency_fit
+from .frequency import (FrequencyResponse, TransferFunctionFit, record_response, model_response,
+                        fit_transfer_function)
 
 
 
@@ -37,4 +41,7 @@ __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceErr
            "X22Model", "EquationModel", "SixDofModel", "FlightPathModel", "InputDesign", "DesignedInput", "monte_carlo_parallel", "diagnose", "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",
-           "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation"]
+           "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation",
+           "FrequencyResponse", "TransferFunctionFit", "record_response", "model_response",
+           "fit_transfer_function", "fourier_transform", "frequency_evaluate",
+           "recursive_frequency_fit"]

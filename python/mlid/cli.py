@@ -24,6 +24,9 @@ JOBS = """jobs:
                  'monte_carlo'  seeded runs: simulate from the truth, fit,
                              repeat; the statistics of Table 8.1
   diagnose DECK  what the model of each estimate case misses
+  bode DECK      fit one estimate case of a linear model and draw its Bode plot
+                 (Cramer-Rao bands) against the record's measured frequency
+                 response and coherence, optionally with a transfer-function fit
 """
 
 
@@ -74,7 +77,69 @@ def _parser():
                            "bias, derivative, nonlinear, delay, scale, lag, noise, feedback)")
     diag.add_argument("--max-effects", type=int, default=3, metavar="N",
                       help="effects accepted at most, one per round (default 3)")
+    bode = sub.add_parser("bode", help="Bode plot of a case's identified linear model against "
+                          "its record's frequency response", parents=[quiet])
+    bode.add_argument("deck", help="namelist deck (.nml)")
+    bode.add_argument("--case", type=int, default=1, metavar="K",
+                      help="the estimate case, from 1 (default 1)")
+    bode.add_argument("--input", default="0", metavar="NAME", help="input channel (default the first)")
+    bode.add_argument("--output", default="0", metavar="NAME",
+                      help="output channel (default the first)")
+    bode.add_argument("--out", required=True, metavar="FILE", help="the figure (.png)")
+    bode.add_argument("--segment", type=int, metavar="N",
+                      help="samples per averaged segment (default: a power of two, a quarter "
+                      "of the record or less)")
+    bode.add_argument("--loes", metavar="M,N", help="also fit and draw a transfer function of "
+                      "numerator order M, denominator order N with a time delay")
+    bode.add_argument("--band", metavar="FMIN,FMAX", help="the LOES fit's range in Hz")
     return p
+
+
+def _pair_list(text, what, kind):
+    try:
+        a, b = (kind(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"{what} must be two numbers 'a,b', got {text!r}") from None
+    return a, b
+
+
+def _channel_arg(text):
+    """A channel given on the command line: an index when it is a number."""
+    return int(text) if text.isdigit() else text
+
+
+def _bode(args):
+    """Fit one case, draw its Bode plot against the record's response."""
+    from . import plots
+    from .deck import read_deck, run_case
+    from .files import check_writable
+    from .frequency import fit_transfer_function, record_response
+
+    check_writable(args.out, "--out")
+    loes = _pair_list(args.loes, "--loes", int) if args.loes else None
+    band = _pair_list(args.band, "--band", float) if args.band else (None, None)
+    cases = read_deck(args.deck)
+    if not 1 <= args.case <= len(cases):
+        raise InputError(f"{args.deck}: --case {args.case}: the deck has {len(cases)} cases")
+    case = cases[args.case - 1]
+    if case.job != "estimate":
+        raise InputError(f"{args.deck}: case {args.case} is a '{case.job}' case, not 'estimate'")
+    _, result = run_case(case)
+    manoeuvres = result.evaluate_args[0]         # the records as given: no segment spans two
+    measured = record_response(manoeuvres, _channel_arg(args.input), _channel_arg(args.output),
+                               segment=args.segment)
+    print(f"case {args.case}: {case.title}: {measured.output_name}/{measured.input_name}, "
+          f"{measured.averages} averages of {measured.segment} samples")
+    fit = None
+    if loes:
+        fit = fit_transfer_function(measured, *loes, f_min=band[0], f_max=band[1])
+        print(fit.report())
+    plots.use_file_backend()
+    fig = plots.bode_measured(result, measured.input_name, measured.output_name, measured,
+                              loes=fit, path=args.out)
+    plots.close(fig)
+    print(f"wrote {args.out}")
+    return 0
 
 
 def _outputs_writable(args):
@@ -393,6 +458,8 @@ def _main(args):
     try:
         if args.job == "diagnose":
             return _diagnose(args)
+        if args.job == "bode":
+            return _bode(args)
         return _run(args)
     except BrokenPipeError:
         # the reader went away (mlid run deck | head): end quietly, as a

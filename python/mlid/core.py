@@ -222,12 +222,26 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     **options
         Estimator options by name (defaults: ``default_options()``):
 
-        method : 'output_error' or 'filter_error'
+        method : 'output_error', 'filter_error', 'frequency_output_error' or \
+'frequency_equation_error'
             Output error (§4.4): R estimated from the residuals.  Filter
             error (§4.1, §4.3): the Kalman filter with the model's process
             noise; q, r and S are parameters like any other.  A nonlinear
             model gets the extended Kalman filter, linearised over each
-            sample interval.
+            sample interval.  The frequency-domain methods (linear models
+            only, fortran/mlid_frequency.f90) fit the record's finite
+            Fourier transform over the band: output error the transfer
+            function's outputs H (iwI - F)^-1 G U + D U, equation error the
+            state equations iw X = F X + G U with the measured states; the
+            noise spectrum S estimated from the residuals.  Each channel's
+            mean is removed first, so biases and trim drop out; x0 and
+            biases are not parameters there.  The result's ``frequencies``,
+            ``z`` (measured) and ``zhat`` (model) are the transforms, and
+            ``residuals`` their difference.
+        f_min, f_max : float
+            The frequency-domain methods' band, Hz (required by them).
+        n_freq : int
+            Frequencies evenly spaced over the band, both ends included.
         noise : 'diagonal' or 'full'
             Output error: the R estimated from the residuals.
         partials : bool
@@ -335,6 +349,9 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         check_status(status, text)
     if status == 0 and text.startswith("warning:"):
         warnings.warn(text[len("warning:"):].strip(), MlidWarning, stacklevel=2)
+    fields = dict(yhat=yhat.T.copy())
+    fields.update(_frequency_fields(model, params, theta, t, u, y, starts, iopt, ropt, opts, status,
+                                    reason))
     result = FitResult(
         model=params.model_of(theta), start_model=model, data=record, options=opts,
         manoeuvres=[params.model_of(theta, k) for k in range(params.n)],
@@ -343,15 +360,82 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         start=theta_start[mask == 1], estimate=theta[mask == 1],
         sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
         sigma_corrected=sigma_c[mask == 1], covariance_corrected=cov_c, colored_lag=int(lag),
-        eigenvalues=eigval, eigenvectors=eigvec, rhat=rhat, yhat=yhat.T.copy(), cost=float(cost),
+        eigenvalues=eigval, eigenvectors=eigvec, rhat=rhat, cost=float(cost),
         r_innovations=rnoise.copy() if np.all(np.isfinite(rnoise)) else None,
         cost_history=cost_hist[:niter + 1].copy(), iterations=int(niter),
         converged=bool(converged), reason=stop_reason(reason), reason_code=int(reason),
-        flat_options=iopt, rank=int(rank),
-        status=int(status), message=text, wall_time=wall)
+        flat_options=iopt, flat_real_options=ropt, rank=int(rank),
+        status=int(status), message=text, wall_time=wall, **fields)
     if result.failed:                 # the error carries the last values
         check_status(status, text, result=result)
     return result
+
+
+#: The methods that fit the record's Fourier transform (fortran/mlid_frequency.f90).
+FREQUENCY_METHODS = ("frequency_output_error", "frequency_equation_error")
+
+
+def _frequency_fields(model, params, theta, t, u, y, starts, iopt, ropt, opts, status, reason):
+    """A frequency-domain fit's data and fit at the estimate: ``frequencies``
+    (Hz), ``z`` the measured left-hand sides and ``zhat`` (= ``yhat``) the
+    model's, complex (nk, ny); {} for a time-domain fit or a failed one."""
+    if opts["method"] not in FREQUENCY_METHODS or fit_outcome(status, reason) == "failed":
+        return {}
+    ev = _frequency_call(model, params, theta, t, u, y, starts, iopt, ropt, opts)
+    return {"frequencies": ev["frequencies"], "z": ev["z"], "zhat": ev["zhat"],
+            "yhat": ev["zhat"]}
+
+
+def _frequency_call(model, params, theta, t, u, y, starts, iopt, ropt, opts):
+    nk = opts["n_freq"] * len(starts)
+    (freq, zre, zim, zhre, zhim, cost, grad, info, rhat, nterms, status,
+     msg) = _api.mlid_freq_evaluate(
+        **_model_args(model), theta=theta, isfree=params.mask, **params.ties, t=t, u=u, y=y,
+        segstart=starts, iopt=iopt, ropt=ropt, nk=nk, nf=int(params.mask.sum()))
+    check_status(status, msg)
+    return {"frequencies": freq, "z": (zre + 1j * zim).T.copy(),
+            "zhat": (zhre + 1j * zhim).T.copy(), "cost": float(cost), "gradient": grad,
+            "information": info, "rhat": rhat, "transient_terms": int(nterms)}
+
+
+@guarded
+def frequency_evaluate(model, data, **options):
+    """A frequency-domain method's cost, gradient and information at the
+    model's values, without iterating (``evaluate``'s counterpart).
+
+    Parameters
+    ----------
+    model : LinearModel
+    data : FlightData or list of FlightData
+    **options
+        As for ``fit``; ``method`` one of 'frequency_output_error',
+        'frequency_equation_error', and the band ``f_min``, ``f_max``,
+        ``n_freq``.
+
+    Returns
+    -------
+    dict
+        ``frequencies`` (Hz), ``z`` and ``zhat`` (complex (nk, ny): the
+        measured left-hand sides and the model's), ``cost``, ``gradient``
+        and ``information`` over the free parameters, ``rhat`` (S-hat),
+        ``transient_terms`` (how many of the initial and final states,
+        constant forcing, output offsets and drift rates were estimated:
+        those not linearly dependent on the others).
+
+    Raises
+    ------
+    InputError
+        As ``fit``; a time-domain method.
+    """
+    _check_model(model)
+    _check_data(data)
+    iopt, ropt, opts = _flat_options(model, options)
+    if opts["method"] not in FREQUENCY_METHODS:
+        raise InputError(f"frequency_evaluate takes method {' or '.join(FREQUENCY_METHODS)}, "
+                         f"got {opts['method']!r}")
+    params, record, starts = _manoeuvres(model, data, None, None)
+    t, u, y = _record(model, record)
+    return _frequency_call(model, params, params.theta, t, u, y, starts, iopt, ropt, opts)
 
 
 def _free_units(model, record, params):
@@ -705,7 +789,10 @@ def check_jacobians(model, x, u, w=None):
         The largest relative difference for each of 'df/dx', 'df/dp',
         'dh/dx', 'dh/dp', 'df/dw' and 'dh/dw' ('dh/dw': how far dh/dw changes
         with w; the output noise must be linear in it).  Values near 1e-8 or
-        below mean the Jacobians are right.
+        below mean the Jacobians are right.  The Jacobians are those of the
+        model's one evaluation of everything at the point (what the
+        integration uses); asked for a part, it must give the same numbers,
+        and a difference counts in the first four.
 
     Raises
     ------

@@ -371,9 +371,39 @@ def residuals(result, path=None):
 
 
 @_styled
+@_styled
+def frequency_overview(result, path=None):
+    """A frequency-domain fit: for each output the magnitude of the measured
+    transform (or equation error's left-hand side) and the model's against
+    frequency, and of their difference: the figure ``plot_fit`` writes for it.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axis per output.
+    """
+    ny = result.z.shape[1]
+    fig, axes = _figure(ny, 1, 6.5, 1.6, sharex=True)
+    order = np.argsort(result.frequencies, kind="stable")
+    f = result.frequencies[order]
+    for i, ax in enumerate(axes[:, 0]):
+        ax.semilogy(f, np.abs(result.z[order, i]), ".", ms=3, color=COLORS["measured"],
+                    label="measured")
+        ax.semilogy(f, np.abs(result.zhat[order, i]), color=COLORS["model"], lw=1,
+                    label="model")
+        ax.semilogy(f, np.abs(result.residuals[order, i]), color=COLORS["residual"], lw=0.8,
+                    label="residual")
+        ax.set_ylabel(f"|Z_{i + 1}|")
+    axes[-1, 0].set_xlabel("frequency (Hz)")
+    axes[0, 0].legend(fontsize=7, ncol=3, loc="upper right")
+    fig.suptitle(f"{result.options['method'].replace('_', ' ')}: transforms", fontsize=10)
+    return _finish(fig, path)
+
+
 def fit_overview(result, path=None):
     """Outputs (with the inputs) on the left, residuals on the right, rows
-    aligned per output: the figure ``plot_fit`` writes.
+    aligned per output: the figure ``plot_fit`` writes (``frequency_overview``
+    for a frequency-domain fit).
 
     Returns
     -------
@@ -381,6 +411,8 @@ def fit_overview(result, path=None):
         nu + ny axes on the left, ny on the right.
     """
     import matplotlib.pyplot as plt
+    if getattr(result, "frequencies", None) is not None:
+        return frequency_overview(result, path)
     recs = _Records.of_result(result)
     nu, ny = result.data.u.shape[1], result.data.y.shape[1]
     fig = plt.figure(figsize=(12, 1.3 * (nu + ny) + 0.8), layout="constrained")
@@ -880,4 +912,95 @@ def validation(v, path=None):
     held = ", ".join(str(k) for k in v.holdout)
     fig.suptitle(f"validation: held-out manoeuvre{'s' * (len(v.holdout) > 1)} {held} "
                  "predicted by the identified model", fontsize=10)
+    return _finish(fig, path)
+
+
+def _declared_db(record, i, j):
+    """dB to add to a gain of output j over input i in core units to have it
+    in the declared units, and the ratio's unit ('(rad/s)/deg')."""
+    uu, su, _ = _display(record, "u", i)
+    uy, sy, _ = _display(record, "y", j)
+    return 20 * np.log10(abs(su / sy)), unit_ratio(uy, uu)
+
+
+#: Coherence below which the Bode plot draws a measured point hollow (less trusted).
+COHERENCE_SHOWN = 0.6
+
+
+@_styled
+def bode_measured(result, input=0, output=0, measured=None, loes=None, frequencies=200,
+                  path=None):
+    """Bode plot of an identified linear model against the record's
+    measured frequency response: gain and phase of the model with its ±2σ
+    Cramér-Rao band (delta method, the core's analytic derivatives), the
+    measured response as points (hollow where the coherence is below
+    COHERENCE_SHOWN), its coherence in a third panel, and a
+    fitted transfer function (LOES) when given.  Gains in dB of the
+    declared units' ratio.
+
+    Parameters
+    ----------
+    result : FitResult
+        A fit of a LinearModel.
+    input, output : str or int
+        The pair, by channel name or index.
+    measured : FrequencyResponse, optional
+        The record's response (default: ``mlid.record_response`` of the
+        fit's record, or of its manoeuvres together, for the pair).
+    loes : TransferFunctionFit, optional
+        Drawn over its frequency range.
+    frequencies : int
+        Points of the model's curve, log-spaced over the measured range.
+    path : str or Path, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three axes sharing the frequency axis: gain, phase, coherence.
+    """
+    from .frequency import model_response, record_response
+    require_estimates(result, "plot")
+    recs = _Records.of_result(result)
+    if measured is None:
+        measured = record_response(recs.records, input, output)
+    i = recs.names("u").index(measured.input_name)
+    j = recs.names("y").index(measured.output_name)
+    f = measured.frequency
+    fm = np.logspace(np.log10(f[0]), np.log10(f[-1]), int(frequencies))
+    mod = model_response(result, fm, i, j)
+    shift, ratio = _declared_db(recs.first, i, j)
+    fig, axes = _figure(3, 1, 6.8, 1.6, sharex=True, height_ratios=[1.3, 1.3, 0.8])
+    ag, ap, ac = axes[:, 0]
+    # the measured phase on the model's branch (the same complex response)
+    mph = measured.phase - 360 * np.round((measured.phase - np.interp(f, fm, mod.phase)) / 360)
+    for ax, y, ym, s in ((ag, measured.gain + shift, mod.gain + shift, mod.sigma_gain),
+                         (ap, mph, mod.phase, mod.sigma_phase)):
+        ax.fill_between(fm, ym - 2 * s, ym + 2 * s, color=COLORS["band"], alpha=0.2, lw=0,
+                        label="model ±2σ (Cramér-Rao)")
+        ax.plot(fm, ym, color=COLORS["model"], label="identified model")
+        good = measured.coherence >= COHERENCE_SHOWN
+        ax.plot(f[good], y[good], "o", ms=2.5, color=COLORS["measured"],
+                label="measured (record)")
+        ax.plot(f[~good], y[~good], "o", ms=2.5, mfc="none", mew=0.6, color="0.6",
+                label=f"measured, γ² < {COHERENCE_SHOWN}")
+        if loes is not None:
+            fl = fm[(fm >= loes.frequency_range[0]) & (fm <= loes.frequency_range[1])]
+            r = loes.response(fl)
+            yl = r.gain + shift if ax is ag else r.phase - 360 * np.round(
+                (r.phase - np.interp(fl, fm, mod.phase)) / 360)
+            ax.plot(fl, yl, "--", color=COLORS["mean"], label=f"LOES ({loes.m}/{loes.n}"
+                    + (", delay" if loes.has_delay else "") + ")")
+        ax.set_xscale("log")
+    ac.plot(f, measured.coherence, "o", ms=2.5, color=COLORS["measured"])
+    ac.axhline(COHERENCE_SHOWN, color="0.6", lw=0.7, ls=(0, (4, 3)))
+    ac.set_ylim(0, 1.05)
+    ag.set_ylabel("gain [dB]")
+    ap.set_ylabel("phase [deg]")
+    ac.set_ylabel("coherence γ²")
+    ac.set_xlabel("frequency [Hz]")
+    ag.set_title(f"{measured.input_name} → {measured.output_name}"
+                 + (f"  [{ratio}]" if ratio else ""), loc="left")
+    _legend_above(ag, "right", ncols=3)
+    fig.suptitle(f"frequency response: identified model and record ({measured.averages} "
+                 f"averages of {measured.segment} samples)", fontsize=9.5)
     return _finish(fig, path)

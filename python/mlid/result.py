@@ -116,7 +116,13 @@ class FitResult:
         Filter error with ``noise_criterion='innovations'``: the diagonal of R
         the relaxation left (the model's r); None otherwise.
     yhat : ndarray (nt, ny)
-        Model outputs (one-step predictions for filter error).
+        Model outputs (one-step predictions for filter error; for the
+        frequency-domain methods ``zhat``).
+    frequencies, z, zhat : ndarray or None
+        Frequency-domain fits: the frequencies (Hz, each manoeuvre's in
+        turn), the measured left-hand sides (output error: the outputs'
+        transforms; equation error: i w Y for the outputs that measure a
+        state) and the model's, complex (nk, ny).
     cost : float
     cost_history : ndarray (iterations + 1,)
     iterations : int
@@ -137,6 +143,8 @@ class FitResult:
     """
 
     r_innovations = None
+    #: frequency-domain fits: the frequencies (Hz), measured and model transforms
+    frequencies = z = zhat = None
 
     def __init__(self, **fields):
         self.__dict__.update(fields)
@@ -157,7 +165,10 @@ class FitResult:
 
     @property
     def residuals(self):
-        """Measured minus model outputs, (nt, ny)."""
+        """Measured minus model outputs, (nt, ny); for a frequency-domain fit
+        the transforms' (complex, one row per frequency)."""
+        if self.frequencies is not None:
+            return self.z - self.zhat
         return self.data.y - self.yhat
 
     @property
@@ -238,7 +249,7 @@ class FitResult:
         rep, nrep, js, njs = _api.mlid_report_fit(
             labels="\n".join(self.names) + "\n",
             units="\n".join(getattr(self, "param_units", None) or [""] * len(self.names)) + "\n",
-            iopt=self.flat_options, start=self.start,
+            iopt=self.flat_options, ropt=self.flat_real_options, start=self.start,
             est=self.estimate, sig=self.sigma, sigc=self.sigma_corrected, lag=self.colored_lag,
             cov=self.covariance, eigval=self.eigenvalues,
             eigvec=self.eigenvectors, rhat=self.rhat, hist=self.cost_history, cost=self.cost,

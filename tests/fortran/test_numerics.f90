@@ -1,3 +1,54 @@
+!> A model whose evaluation of everything at once disagrees with its parts
+!> by slip in df/dx (a model that shares a quantity wrongly): what
+!> check_jacobians must catch.  xdot = p x + u, y = x.
+module split_model
+  use mlid_kinds, only: wp
+  use mlid_models, only: model_t
+  implicit none
+  private
+  public :: split_model_t
+
+  type, extends(model_t) :: split_model_t
+    real(wp) :: slip = 0.0_wp
+  contains
+    procedure :: eval => split_eval
+    procedure :: dfdw => split_dfdw
+    procedure :: dhdxp => split_dhdxp
+  end type split_model_t
+
+contains
+
+  pure subroutine split_eval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
+    class(split_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    if (present(xdot)) xdot = p(1)*x + u(1)
+    if (present(a)) a = p(1)
+    if (present(a) .and. present(y)) a = p(1) + self%slip       ! wrong only all at once
+    if (present(b)) b(:, 1:size(idx)) = spread(x, 2, size(idx))
+    if (present(y)) y = x
+    if (present(c)) c = 1.0_wp
+    if (present(d)) d = 0.0_wp
+  end subroutine split_eval
+
+  pure subroutine split_dfdw(self, t, x, u, p, g)
+    class(split_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(out) :: g(:, :)
+    g = 0.0_wp
+  end subroutine split_dfdw
+
+  pure subroutine split_dhdxp(self, t, x, u, p, idx, dc)
+    class(split_model_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    integer, intent(in) :: idx(:)
+    real(wp), intent(out) :: dc(:, :, :)
+    dc = 0.0_wp
+  end subroutine split_dhdxp
+
+end module split_model
+
 !> Unit tests of the core numerics: RK4 order and exactness, sensitivities
 !> against finite differences, LAPACK wrappers, the random stream.
 program test_numerics
@@ -12,11 +63,13 @@ program test_numerics
   use mlid_linalg, only: sym_eig, chol_inverse
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use test_checks, only: check, finish
+  use split_model, only: split_model_t
   implicit none
 
   call test_rk4_order()
   call test_sensitivities()
   call test_aero_jacobians()
+  call test_split_evaluation()
   call test_folded_manoeuvres()
   call test_infinite_partial_unused()
   call test_linalg()
@@ -111,11 +164,11 @@ contains
     character(len=256) :: msg
     call model_create(MODEL_EQUATIONS, 1, 1, 1, 0, equations_text_codes(one), [real(wp) ::], m, &
                       status, msg)
-    call m%f_jac(0.0_wp, [0.0_wp], [0.5_wp], [0.0_wp], [1], xd, a, b)
+    call m%eval(0.0_wp, [0.0_wp], [0.5_wp], [0.0_wp], [1], xdot=xd, a=a, b=b)
     call check(a(1, 1) == 0.0_wp, 'k*sqrt(x) at k = 0, x = 0: df/dx = 0 (no 0*Inf)')
     call model_create(MODEL_EQUATIONS, 0, 1, 3, 0, equations_text_codes(three), [real(wp) ::], &
                       m, status, msg)
-    call m%h_jac(0.0_wp, none, [0.0_wp], [0.0_wp], [1], c, d)
+    call m%eval(0.0_wp, none, [0.0_wp], [0.0_wp], [1], c=c, d=d)
     call check(all(d(:, 1) == 0.0_wp), 'e*sqrt(k) at e = 0, k = 0 in three outputs: dh/dk = 0')
   end subroutine test_infinite_partial_unused
 
@@ -149,6 +202,23 @@ contains
 
   !> Analytic Jacobians of the longitudinal model (every regressor used)
   !> against central differences.
+  !> check_jacobians checks the evaluation of everything at once (what the
+  !> output-error integration uses at each sample) against its parts.
+  subroutine test_split_evaluation()
+    type(split_model_t) :: m
+    real(wp) :: err(6)
+    m%nx = 1
+    m%nu = 1
+    m%ny = 1
+    m%np = 1
+    call check_jacobians(m, 0.0_wp, [0.4_wp], [0.2_wp], [-1.5_wp], err)
+    call check(maxval(err) < 1.0e-8_wp, 'a model whose parts agree passes the check')
+    m%slip = 1.0e-3_wp
+    call check_jacobians(m, 0.0_wp, [0.4_wp], [0.2_wp], [-1.5_wp], err)
+    call check(err(1) > 0.5e-3_wp, 'df/dx of the evaluation of everything at once that '// &
+               'disagrees with df/dx alone is caught')
+  end subroutine test_split_evaluation
+
   subroutine test_aero_jacobians()
     class(model_t), allocatable :: m
     ! inputs delta_e, thrust, then the four process-noise values
@@ -206,14 +276,10 @@ contains
     call mf%uses_params(used)
     call check(all(used .eqv. [.true., .true., .false., .true.]), &
                'over manoeuvre 2 the folded model reads a, k, b2, not b1')
-    call m%f_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, 0.2_wp, &
-                 -0.3_wp], [1, 2, 3, 4], xd, a, b)
-    call mf%f_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, &
-                  0.2_wp, -0.3_wp], [1, 2, 3, 4], xdf, af, bf)
-    call m%h_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, 0.2_wp, &
-                 -0.3_wp], [1, 2, 3, 4], c, d)
-    call mf%h_jac(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, &
-                  0.2_wp, -0.3_wp], [1, 2, 3, 4], cf, df)
+    call m%eval(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, 0.2_wp, &
+                -0.3_wp], [1, 2, 3, 4], xdot=xd, a=a, b=b, c=c, d=d)
+    call mf%eval(0.3_wp, [0.7_wp, -0.4_wp], [0.2_wp, 0.0_wp, 1.0_wp], [-1.1_wp, 0.6_wp, &
+                 0.2_wp, -0.3_wp], [1, 2, 3, 4], xdot=xdf, a=af, b=bf, c=cf, d=df)
     call check(all(xd == xdf) .and. all(a == af) .and. all(b == bf) .and. all(c == cf) .and. &
                all(d == df), 'the folded model: the same values and Jacobians, to the bit')
 

@@ -1,0 +1,97 @@
+"""Speed of the frequency-domain methods (fortran/mlid_fourier.f90,
+fortran/mlid_frequency.f90), side by side with the time domain.
+
+1. The finite Fourier transform of a 1,500-sample record at 50 frequencies:
+   one channel and the lateral record's six (2 inputs, 4 outputs), through
+   the core's flat routine and through mlid.fourier_transform.  Target: <= 1 ms.
+2. A 12-parameter lateral-directional linear model (states beta, p, r, phi;
+   inputs aileron, rudder; outputs beta, p, r, phi) on that record (30 s,
+   dt = 0.02 s, doublets on both inputs), fitted in the frequency domain
+   over 50 frequencies from 0.1 to 2 Hz (output error and equation error),
+   and in the time domain (output error), from the same start 30% off the
+   truth.  Target for a frequency-domain fit after the transform: <= 2 ms.
+   The fit's time includes its transform (item 1), so the fit after it is
+   the difference.
+
+Medians of interleaved runs (benchmarks/timing.py), wall clock, this machine.
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import mlid
+from mlid.core import _api, input_signal
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from timing import interleaved_medians  # noqa: E402
+
+DT, NT = 0.02, 1500
+BAND = dict(f_min=0.1, f_max=2.0, n_freq=50)
+
+# A light aircraft's lateral-directional derivatives (1/s, rad): states beta, p, r, phi.
+F = np.array([[-0.25, 0.0, -1.0, 0.19],
+              [-8.0, -3.5, 1.1, 0.0],
+              [4.0, -0.15, -0.45, 0.0],
+              [0.0, 1.0, 0.0, 0.0]])
+G = np.array([[0.0, 0.04], [-18.0, 2.0], [-0.8, -4.0], [0.0, 0.0]])
+FREE = ["f(1,1)", "f(2,1)", "f(2,2)", "f(2,3)", "f(3,1)", "f(3,2)", "f(3,3)",
+        "g(1,2)", "g(2,1)", "g(2,2)", "g(3,1)", "g(3,2)"]
+NOISE = np.radians([0.2, 0.5, 0.3, 0.2])
+
+
+def lateral(scale=1.0):
+    f, g = F.copy(), G.copy()
+    for name in FREE:
+        block, (i, j) = name[0], (int(k) - 1 for k in name[2:-1].split(","))
+        (f if block == "f" else g)[i, j] *= scale
+    return mlid.LinearModel(f, g, np.eye(4), free=FREE)
+
+
+def record():
+    t = np.arange(NT) * DT
+    u = np.column_stack([input_signal("doublet", np.radians(5), 2.0, 1.0, DT, NT),
+                         input_signal("doublet", np.radians(5), 12.0, 1.5, DT, NT)])
+    return mlid.simulate(lateral(), t, u, NOISE, seed=7)[0]
+
+
+def main():
+    data = record()
+    w = 2 * np.pi * np.linspace(BAND["f_min"], BAND["f_max"], BAND["n_freq"])
+    one = np.asfortranarray(data.y[:, :1].T)
+    six = np.asfortranarray(np.column_stack([data.u, data.y]).T)
+    f_hz = w / (2 * np.pi)
+    t_one, t_six, t_py = interleaved_medians(
+        [lambda: _api.mlid_fourier_transform(one, DT, 0.0, w),
+         lambda: _api.mlid_fourier_transform(six, DT, 0.0, w),
+         lambda: mlid.fourier_transform(data.t, data.y, f_hz)], rounds=5, n=40)
+    print(f"1. transform of {NT} samples at {len(w)} frequencies (target <= 1 ms):")
+    print(f"   1 channel {1e3 * t_one:.3f} ms, 6 channels {1e3 * t_six:.3f} ms (core), "
+          f"4 channels through mlid.fourier_transform {1e3 * t_py:.3f} ms")
+
+    start = lateral(1.3)
+    fits = {"time-domain output error": dict(),
+            "frequency output error": dict(method="frequency_output_error", **BAND),
+            "frequency equation error": dict(method="frequency_equation_error", **BAND)}
+    results = {name: mlid.fit(start, data, **opts) for name, opts in fits.items()}
+    times = interleaved_medians([lambda o=o: mlid.fit(start, data, **o) for o in fits.values()],
+                                rounds=3, n=5)
+    print(f"2. 12-parameter lateral fit, {NT} samples; frequency domain over {len(w)} "
+          f"frequencies {BAND['f_min']}-{BAND['f_max']} Hz (target <= 2 ms after the transform):")
+    td = results["time-domain output error"]
+    for (name, res), t in zip(results.items(), times):
+        wall = np.median([mlid.fit(start, data, **fits[name]).wall_time for _ in range(5)])
+        dev = np.max(np.abs(res.estimate - td.estimate) / np.hypot(res.sigma, td.sigma))
+        print(f"   {name:26s} {res.iterations:2d} iterations, converged {res.converged}: "
+              f"core {1e3 * wall:7.2f} ms, fit() {1e3 * t:7.2f} ms; "
+              f"max |est - TD| / combined sigma {dev:.2f}")
+    print(f"   ratio time domain / frequency output error (fit()): {times[0] / times[1]:.1f}")
+    (t_rec,) = interleaved_medians([lambda: mlid.recursive_frequency_fit(
+        start, data, window=1000, stride=1, **BAND)], rounds=3, n=3)
+    print(f"3. recursive frequency equation error, 1000-sample window every sample "
+          f"({NT - 999} windows): {1e3 * t_rec:.1f} ms, {1e6 * t_rec / (NT - 999):.0f} us a window")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,130 @@
+"""Cost of the HFB-320 output-error fit (cases/hfb320 case 1: 601 samples, 11
+parameters, nonlinear longitudinal model) in this build and, with
+--baseline DIR, in another build's mlid package (DIR holds its `mlid`
+folder, e.g. a copy of main's site-packages/mlid), as
+  - callgrind instruction counts of N fits inside the core's mlid_fit
+    (repeatable on a shared machine), per fit and per sample and iteration;
+  - the calls of malloc, calloc and realloc inside mlid_fit per fit (from
+    the same callgrind run: what the per-sample loops allocate shows here);
+  - wall-clock medians of in-process fits, the builds' processes taking
+    turns round by round so that the machine's load falls on both.
+Two builds cannot be loaded into one process (one module name), hence
+processes.  Needs valgrind for the first two (skipped without it).
+
+    .venv/bin/python benchmarks/bench_stage_eval.py [--baseline DIR] [--fits N]
+
+Measured (ours, branch stage-eval against main at afd597e, one thread):
+230.9 M -> 138.5 M instructions per fit (54.9 k -> 32.9 k per sample and
+iteration, 7 iterations), 7248 -> 2464 allocations per fit (averaged over 3
+fits: the 4800 of the per-step noise array are gone; what is left is
+outside the per-sample loops, in the information matrix's eigensolver, the
+coloured-residual correction, Newton); wall clock 46.2 -> 32.8 ms on a
+loaded machine (the processes alternating), where main alone took 14.7 ms
+when quiet.  Every case deck's results are unchanged to the bit.
+"""
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+DECK = REPO / "cases" / "hfb320" / "hfb320.nml"
+DATA = REPO.parent / "shared" / "data" / "hfb320_1_10.asc"
+ENTRY = "__mlid_api_MOD_mlid_fit"       # the core's fit: what callgrind counts
+ALLOCATORS = ("malloc", "calloc", "realloc")
+
+
+def child(nfits, timed):
+    """In a child process: nfits fits; with timed, the median wall time of
+    each after a warm-up fit.  Prints 'iterations nt median_s'."""
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import mlid
+    from timing import median
+    case = mlid.read_deck(DECK)[0]
+    data = case.record()
+    opts = case.options()
+    fit = lambda: mlid.fit(case.model, data, **opts)       # noqa: E731
+    res = fit() if timed else None
+    wall = median(fit, nfits) if timed else 0.0
+    if not timed:
+        for _ in range(nfits):
+            res = fit()
+    print(res.iterations, len(data.t), wall)
+
+
+def run_child(pkg, nfits, timed, prefix=()):
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    if pkg:
+        env["PYTHONPATH"] = str(pkg)
+    out = subprocess.run([*prefix, sys.executable, __file__, "--child", str(nfits),
+                          *(["--timed"] if timed else [])],
+                         env=env, capture_output=True, text=True, check=True, cwd="/")
+    iters, nt, wall = out.stdout.split()[-3:]
+    return int(iters), int(nt), float(wall), out.stderr
+
+
+def allocator_calls(path):
+    """Calls of malloc, calloc and realloc in a callgrind output file (names
+    are given once, at a function's first mention as fn= or cfn=)."""
+    names, total, pending = {}, 0, False
+    for line in Path(path).read_text(errors="replace").splitlines():
+        m = re.match(r"c?fn=\((\d+)\)(?: (.*))?", line)
+        if m:
+            if m.group(2):
+                names[m.group(1)] = m.group(2).strip()
+            pending = line.startswith("cfn=") and names.get(m.group(1), "") in ALLOCATORS
+        elif line.startswith("calls=") and pending:
+            total += int(line.split("=")[1].split()[0])
+            pending = False
+    return total
+
+
+def callgrind(pkg, nfits):
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "cg.out"
+        iters, nt, _, err = run_child(pkg, nfits, False, (
+            "valgrind", "--tool=callgrind", f"--toggle-collect={ENTRY}",
+            f"--callgrind-out-file={out}", "--compress-strings=yes"))
+        ir = int(re.search(r"Collected : (\d+)", err).group(1))
+        return ir / nfits, allocator_calls(out) / nfits, iters, nt
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--baseline", type=Path, help="folder holding another build's mlid package")
+    ap.add_argument("--fits", type=int, default=3, help="fits per callgrind run")
+    ap.add_argument("--rounds", type=int, default=5, help="wall-clock rounds (10 fits each)")
+    ap.add_argument("--child", type=int)
+    ap.add_argument("--timed", action="store_true")
+    a = ap.parse_args()
+    if a.child is not None:
+        return child(a.child, a.timed)
+    if not DATA.is_file():
+        print(f"skipped: real flight data not found at {DATA}")
+        return
+    builds = [("this build", None)] + ([("baseline", a.baseline.resolve())] if a.baseline else [])
+    if shutil.which("valgrind"):
+        for name, pkg in builds:
+            ir, allocs, iters, nt = callgrind(pkg, a.fits)
+            print(f"{name}: {ir / 1e6:.1f} M instructions per fit ({iters} iterations, {nt} "
+                  f"samples: {ir / (iters * nt):.0f} per sample and iteration), "
+                  f"{allocs:.0f} allocations per fit")
+    else:
+        print("valgrind not found: no instruction counts")
+    walls = {name: [] for name, _ in builds}
+    for _ in range(a.rounds):
+        for name, pkg in builds:
+            walls[name].append(run_child(pkg, 10, True)[2])
+    for name, _ in builds:
+        w = sorted(walls[name])[len(walls[name]) // 2]
+        print(f"{name}: {1e3 * w:.2f} ms per fit in-process (median of {a.rounds} processes' "
+              f"medians of 10, one thread)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,690 @@
+!> Frequency-domain estimation of linear models (kind 'linear'), beside the
+!> time-domain methods: the record's finite Fourier transform (mlid_fourier)
+!> at n_freq frequencies evenly spaced over the band f_min .. f_max (both
+!> included), each manoeuvre's own, and a likelihood of the transformed
+!> data that the modified Newton-Raphson (mlid_newton) iterates as it does
+!> the time-domain ones, with the same free/fixed/tie/prior/bounds machinery
+!> and Cramer-Rao bounds.
+!>
+!> frequency output error: Y(w) = He (i w I - Fe)^-1 G U(w) + D U(w), with
+!>   Fe = F + G K, He = H + D K (K, the model's fixed input feedback);
+!> frequency equation error: every state measured by an output (h_i = x_k,
+!>   no parameter in it), the state equations i w X_k(w) = (F X + G V)_k and
+!>   the other outputs' Y_i = (H X + D V)_i with the measured states in X and
+!>   V = U + K X: residuals linear in F, G, H, D, so a quadratic cost that
+!>   the Newton iteration solves in one step (and a second to settle S).
+!>
+!> Both take the cost of complex Gaussian residuals V_k at the frequencies,
+!>   J = sum_k c_k V_k^* S^-1 V_k + n ln|S|,  S = (1/n) sum_k c_k Re(V_k V_k^*),
+!> n = sum_k c_k (S diagonal unless noise = 'full'), its gradient -2 sum c_k
+!> Re(dV^* S^-1 V) and information 2 sum c_k Re(dV^* S^-1 dV) at S-hat, as
+!> output error takes R.  The transforms of white noise at frequencies
+!> closer than 1/T (T the manoeuvre's length) are correlated, and a grid
+!> of spacing df finer than that holds only df T independent frequencies
+!> per frequency: the weight c_k = min(1, df T) makes the information that
+!> of the independent ones (with c_k = 1 a dense grid would claim sigmas
+!> too small by sqrt(df T)).
+!>
+!> The transformed record is carried to the likelihood in the time-domain
+!> arrays' places (so mlid_newton needs no second interface): column pair
+!> 2k-1, 2k holds frequency k's real and imaginary parts, t(2k-1) = t(2k) =
+!> its w (rad/s); u holds U (and for equation error the measured states X
+!> below it) and below them the NEXTRA rows of each frequency's manoeuvre
+!> (its phases at t0 and t1, weight c_k, number, length), y the measured
+!> left-hand sides Y (equation error: i w Y for the outputs that measure a
+!> state).
+!>
+!> What the transform brings in besides the transfer function: over a
+!> manoeuvre from t0 to t1 the state equations' transform holds the
+!> initial and final states, x(t0) exp(-i w t0) - x(t1) exp(-i w t1), and
+!> any constant forcing k (trim, state biases) times E(w), the transform of
+!> 1; the outputs hold their offsets o (biases, trim) times E and their
+!> drift rates d times R(w), the transform of t - t0.  These transient
+!> terms eta = [x(t0), x(t1), k, o, d] of each manoeuvre are linear in the
+!> residuals: for each theta the cost's minimum over them (and S) is taken
+!> by weighted least squares (terms linearly dependent on the others left
+!> out), and the information of theta is that with them unknown (the Schur
+!> complement).  So constant biases, trim values and linear drifts drop out
+!> exactly, and the band may start below 1/T.  Each channel's mean is
+!> removed before the transform (for the numbers' size only: the terms
+!> take it up).  x0, the output biases and bx are therefore not parameters
+!> here: free x0, biases, noise statistics, delays, Gamma, K or bx are
+!> refused with a message.  With p parameters and transient terms fitted to
+!> N effective real data (2 ny sum_k c_k), the weights are multiplied by (N
+!> - p)/N: the information at the unbiased S (the Monte Carlo check of
+!> tests/test_frequency_fit.py).
+module mlid_frequency
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR
+  use mlid_models, only: model_t, linear_model_t
+  use mlid_options, only: options_t, METHOD_FREQ_EE
+  use mlid_params, only: param_map_t, input_delays, output_delays, stabilized
+  use mlid_fourier, only: fourier_transform
+  use mlid_linalg, only: chol_inverse, info_eig
+  use mlid_text, only: itoa
+  implicit none
+  private
+  public :: freq_record, freq_likelihood, freq_grid
+
+  real(wp), parameter :: TWO_PI = 8.0_wp*atan(1.0_wp)
+  !> Rows of the transformed record's u after the inputs (and measured
+  !> states): exp(-i w t0), exp(-i w t1) (complex, packed as the data), the
+  !> weight c_k, the manoeuvre, its length t1 - t0.
+  integer, parameter :: NEXTRA = 5
+  !> The transient terms: eigenvalues of their normalised information below
+  !> ETA_RCOND of the largest are left out (near-dependent columns), and the
+  !> alternation with S stops when the cost changes by less than ETA_TOL
+  !> (relative), after ETA_SWEEPS at most.
+  real(wp), parameter :: ETA_RCOND = 1.0e-12_wp, ETA_TOL = 1.0e-14_wp
+  integer, parameter :: ETA_SWEEPS = 200
+  complex(wp), parameter :: IU = (0.0_wp, 1.0_wp)
+
+contains
+
+  !> The band's frequencies, Hz: n_freq evenly from f_min to f_max.
+  pure function freq_grid(opt) result(f)
+    type(options_t), intent(in) :: opt
+    real(wp) :: f(opt%n_freq)
+    integer :: k
+    f = [(opt%f_min + (opt%f_max - opt%f_min)*(k - 1)/real(opt%n_freq - 1, wp), &
+          k=1, opt%n_freq)]
+  end function freq_grid
+
+  !> The transformed record (the layout above) of t, u, y with the
+  !> manoeuvres starting at the samples pm%l%seg, after the checks of model,
+  !> parameters, sampling and band.
+  subroutine freq_record(m, theta, pm, t, u, y, opt, tf, uf, yf, status, msg)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:), t(:), u(:, :), y(:, :)
+    type(param_map_t), intent(in) :: pm
+    type(options_t), intent(in) :: opt
+    real(wp), allocatable, intent(out) :: tf(:), uf(:, :), yf(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: w(:), x(:, :)
+    complex(wp), allocatable :: xf(:, :)
+    integer :: xout(m%nx), nseg, nk, s, j0, j1, k, c, i, nu, ny, ie
+    real(wp) :: dt
+    complex(wp) :: p0, p1
+
+    call freq_check(m, theta, pm, opt, xout, status, msg)
+    if (status /= MLID_OK) return
+    nu = m%nu
+    ny = m%ny
+    nseg = pm%l%nseg
+    nk = opt%n_freq
+    w = TWO_PI*freq_grid(opt)
+    allocate (tf(2*nk*nseg), uf(nu + merge(m%nx, 0, opt%method == METHOD_FREQ_EE) + NEXTRA, &
+              2*nk*nseg), yf(ny, 2*nk*nseg))
+    ie = size(uf, 1) - NEXTRA
+    status = MLID_ERR_INPUT
+    do s = 1, nseg
+      j0 = pm%l%seg(s)
+      j1 = size(t)
+      if (s < nseg) j1 = pm%l%seg(s + 1) - 1
+      if (j1 - j0 < 2) then
+        msg = 'manoeuvre '//itoa(s)//' has fewer than three samples to transform'
+        return
+      end if
+      dt = (t(j1) - t(j0))/(j1 - j0)
+      if (maxval(abs(t(j0 + 1:j1) - t(j0:j1 - 1) - dt)) > 1.0e-6_wp*dt) then
+        msg = 'the frequency-domain methods need uniform sampling: manoeuvre '//itoa(s)// &
+              ' is not uniformly sampled'
+        return
+      end if
+      if (opt%f_max >= 0.5_wp/dt) then
+        write (msg, '(a,g0.6,a,g0.6,a,i0)') 'f_max = ', opt%f_max, ' Hz is not below the '// &
+          'Nyquist frequency ', 0.5_wp/dt, ' Hz of manoeuvre ', s
+        return
+      end if
+      ! each channel less its mean: constant biases and trim drop out
+      allocate (x(nu + ny, j1 - j0 + 1))
+      x(1:nu, :) = u(:, j0:j1)
+      x(nu + 1:, :) = y(:, j0:j1)
+      do i = 1, nu + ny
+        x(i, :) = x(i, :) - sum(x(i, :))/size(x, 2)
+      end do
+      allocate (xf(nu + ny, nk))
+      call fourier_transform(x, dt, t(j0), w, xf)
+      do k = 1, nk
+        c = 2*((s - 1)*nk + k) - 1
+        tf(c:c + 1) = w(k)
+        p0 = exp(-IU*w(k)*t(j0))
+        p1 = exp(-IU*w(k)*t(j1))
+        uf(ie + 1, c:c + 1) = [real(p0, wp), aimag(p0)]
+        uf(ie + 2, c:c + 1) = [real(p1, wp), aimag(p1)]
+        uf(ie + 3, c:c + 1) = min(1.0_wp, (opt%f_max - opt%f_min)/(nk - 1)*(t(j1) - t(j0)))
+        uf(ie + 4, c:c + 1) = s
+        uf(ie + 5, c:c + 1) = t(j1) - t(j0)
+        uf(1:nu, c) = real(xf(1:nu, k), wp)
+        uf(1:nu, c + 1) = aimag(xf(1:nu, k))
+        yf(:, c) = real(xf(nu + 1:, k), wp)
+        yf(:, c + 1) = aimag(xf(nu + 1:, k))
+        if (opt%method == METHOD_FREQ_EE) then
+          uf(nu + 1:, c) = yf(xout, c)            ! the measured states
+          uf(nu + 1:, c + 1) = yf(xout, c + 1)
+          do i = 1, m%nx                          ! i w X: the state equations' left side
+            yf(xout(i), c) = -w(k)*uf(nu + i, c + 1)
+            yf(xout(i), c + 1) = w(k)*uf(nu + i, c)
+          end do
+        end if
+      end do
+      deallocate (xf, x)
+    end do
+    status = MLID_OK
+    msg = ''
+  end subroutine freq_record
+
+  !> What the frequency-domain methods take: the linear model kind, free
+  !> entries of F, G, H, D only, no time delays or stabilizing gain; for
+  !> equation error every state measured (xout(k): the output measuring
+  !> state k).
+  subroutine freq_check(m, theta, pm, opt, xout, status, msg)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    type(options_t), intent(in) :: opt
+    integer, intent(out) :: xout(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=*), parameter :: WHY = ' has no meaning in the frequency domain (the '// &
+      'transform leaves out trim, biases and initial states): fix it'
+    status = MLID_ERR_INPUT
+    xout = 0
+    select type (m)
+    type is (linear_model_t)
+      if (size(pm%ix0) > 0) then
+        msg = 'a free initial state x0'//WHY
+      else if (size(pm%ib) > 0) then
+        msg = 'a free output bias'//WHY
+      else if (size([pm%iq, pm%ir, pm%is, pm%ip0, pm%ik]) > 0) then
+        msg = 'the frequency-domain methods estimate the noise covariance from the residuals: '// &
+              'fix q, r, s, p0 and stab'
+      else if (size(pm%id) + size(pm%iu) > 0 .or. output_delays(theta, pm) .or. &
+               input_delays(theta, pm) .or. stabilized(theta, pm%l)) then
+        msg = 'time delays and the stabilizing gain are not taken by the frequency-domain '// &
+              'methods: leave them zero and fixed'
+      else if (any(pm%im > m%od + m%ny*m%nu)) then
+        msg = 'the frequency-domain methods estimate entries of F, G, H and D: fix gamma, '// &
+              'the input feedback k and the state biases bx'
+      else if (opt%method == METHOD_FREQ_EE) then
+        call state_outputs(m, theta, pm, xout, msg)
+        if (len_trim(msg) == 0) status = MLID_OK
+      else
+        status = MLID_OK
+        msg = ''
+      end if
+    class default
+      msg = 'the frequency-domain methods are for the linear model kind (kind = ''linear'')'
+    end select
+  end subroutine freq_check
+
+  !> The output that measures each state (row e_k of H, zero row of D,
+  !> neither moving): the equation-error method's measured states.
+  subroutine state_outputs(m, theta, pm, xout, msg)
+    type(linear_model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    integer, intent(out) :: xout(:)
+    character(len=*), intent(out) :: msg
+    real(wp) :: h(m%ny, m%nx), d(m%ny, m%nu)
+    logical :: moving(m%ny)
+    integer :: i, k, e
+    h = reshape(theta(m%oh + 1:m%oh + m%ny*m%nx), [m%ny, m%nx])
+    d = reshape(theta(m%od + 1:m%od + m%ny*m%nu), [m%ny, m%nu])
+    moving = .false.
+    do k = 1, size(pm%im)
+      e = pm%im(k)
+      if (e > m%oh .and. e <= m%oh + m%ny*m%nx) moving(mod(e - m%oh - 1, m%ny) + 1) = .true.
+      if (e > m%od .and. e <= m%od + m%ny*m%nu) moving(mod(e - m%od - 1, m%ny) + 1) = .true.
+    end do
+    xout = 0
+    do k = 1, m%nx
+      do i = 1, m%ny
+        if (xout(k) == 0 .and. .not. moving(i) .and. all(d(i, :) == 0.0_wp) .and. &
+            h(i, k) == 1.0_wp .and. count(h(i, :) /= 0.0_wp) == 1) xout(k) = i
+      end do
+    end do
+    msg = ''
+    if (any(xout == 0)) msg = 'frequency_equation_error needs every state measured (an '// &
+      'output h = x with no free parameter): state '//itoa(findloc(xout, 0, 1))//' is not'
+  end subroutine state_outputs
+
+  !> Cost, S-hat (rhat), the fitted left-hand sides (yhat, the layout above,
+  !> with the transient terms) and with grad and info their gradient and
+  !> information at S-hat and the transient terms' estimate; sens, wsens,
+  !> msens as mlid_likelihood's.
+  subroutine freq_likelihood(m, theta, pm, tf, uf, yf, opt, cost, rhat, yhat, status, msg, grad, &
+                             info, sens, wsens, msens, nterms)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:), tf(:), uf(:, :), yf(:, :)
+    type(param_map_t), intent(in) :: pm
+    type(options_t), intent(in) :: opt
+    real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
+    integer, intent(out), optional :: nterms    !< the transient terms estimated (independent)
+    real(wp), allocatable :: d(:, :, :), bas(:, :, :), r0(:, :), r(:, :), a(:, :, :), cw(:), &
+                             eta(:), xi(:), tmap(:, :), mm(:, :), c(:, :)
+    complex(wp), allocatable :: ainv(:, :, :), xs(:, :)
+    real(wp) :: sinv(m%ny, m%ny), logdet, dof
+    integer :: xout(m%nx), nc, ne, i, f, ndrop
+
+    cost = huge(1.0_wp)
+    nc = size(tf)
+    status = MLID_ERR_INPUT
+    msg = 'the frequency-domain likelihood takes the transformed record (mlid_frequency)'
+    if (mod(nc, 2) /= 0 .or. nc == 0) return
+    if (any(tf(1::2) /= tf(2::2))) return
+    call freq_check(m, theta, pm, opt, xout, status, msg)
+    if (status /= MLID_OK) return
+    cw = uf(size(uf, 1) - NEXTRA + 3, :)               ! each column's weight c_k
+    ne = nint(maxval(uf(size(uf, 1) - NEXTRA + 4, :)))*(3*m%nx + 2*m%ny)
+    allocate (bas(m%ny, nc, ne), ainv(m%nx, m%nx, nc/2), xs(m%nx, nc/2))
+    select type (m)
+    type is (linear_model_t)
+      call model_terms(m, theta, tf, uf, opt%method == METHOD_FREQ_EE, xout, yhat, bas, ainv, xs, &
+                       status, msg)
+    end select
+    if (status /= MLID_OK) return
+    r0 = yf - yhat
+    call independent_terms(bas, r0, cw, tmap, status, msg)
+    if (status /= MLID_OK) return
+    ndrop = ne - size(bas, 3)
+    allocate (xi(size(bas, 3)))
+    call transients(r0, bas, cw, opt%full_r, xi, r, rhat, sinv, logdet, status, msg)
+    if (status /= MLID_OK) return
+    eta = matmul(tmap, xi)
+    ! S-hat is the residuals' mean square; with p parameters and transient
+    ! terms fitted to N effective real data it is low by (N - p)/N, and an
+    ! information taken with it high by N/(N - p): the weights times (N -
+    ! p)/N make cost, gradient and information those at the unbiased S
+    ! (S-hat itself, a weighted mean, does not change)
+    dof = m%ny*sum(cw) - (pm%nf + ne - ndrop)
+    if (.not. dof > 0.0_wp) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0,a)') 'the band holds too few independent frequencies for the ', &
+        pm%nf, ' parameters and ', ne - ndrop, ' transient terms: widen it or add frequencies'
+      return
+    end if
+    cw = cw*dof/(m%ny*sum(cw))
+    if (present(nterms)) nterms = ne - ndrop
+    yhat = yf - r
+    cost = sum(r*spread(cw, 1, m%ny)*matmul(sinv, r)) + 0.5_wp*sum(cw)*logdet
+    if (.not. ieee_is_finite(cost)) then
+      status = MLID_ERR_SINGULAR
+      msg = 'cost is not finite'
+      return
+    end if
+    if (.not. (present(grad) .and. present(info))) return
+
+    allocate (d(m%ny, nc, pm%nf + size(bas, 3)))
+    select type (m)
+    type is (linear_model_t)
+      call sensitivities(m, theta, pm, tf, uf, opt%method == METHOD_FREQ_EE, xout, ainv, xs, eta, &
+                         d(:, :, 1:pm%nf))
+    end select
+    d(:, :, pm%nf + 1:) = bas
+    ! information of (theta, transients), the transients eliminated (Schur
+    ! complement): the information of theta with them unknown
+    mm = information_of(d, sinv, cw)
+    a = weighted(reshape(r, [m%ny, nc, 1]), sinv, cw)
+    do f = 1, pm%nf
+      grad(f) = -sum(d(:, :, f)*a(:, :, 1))
+    end do
+    if (present(wsens)) wsens = weighted(d(:, :, 1:pm%nf), sinv, cw)
+    allocate (c(size(bas, 3), size(bas, 3)))
+    call chol_inverse(mm(pm%nf + 1:, pm%nf + 1:), c, logdet, i)
+    if (i /= 0) then
+      status = MLID_ERR_SINGULAR
+      msg = 'the transient terms'' information is singular'
+      return
+    end if
+    info = mm(:pm%nf, :pm%nf) - matmul(mm(:pm%nf, pm%nf + 1:), matmul(c, mm(pm%nf + 1:, :pm%nf)))
+    info = 0.5_wp*(info + transpose(info))
+    if (present(msens)) msens = info
+    if (present(sens)) then
+      do i = 1, m%ny
+        sens(i, :) = sqrt(matmul(cw, d(i, :, 1:pm%nf)**2)/rhat(i, i))
+      end do
+    end if
+  end subroutine freq_likelihood
+
+  !> 2 sum_c c b_c' S^-1 b_c over the columns c of b (ny, nc, n): one
+  !> product of the columns with their weighted copies.
+  function information_of(b, sinv, cw) result(mm)
+    real(wp), intent(in) :: b(:, :, :), sinv(:, :), cw(:)
+    real(wp) :: mm(size(b, 3), size(b, 3))
+    real(wp), allocatable :: a(:, :, :)
+    integer :: nr
+    nr = size(b, 1)*size(b, 2)
+    a = weighted(b, sinv, cw)
+    mm = matmul(transpose(reshape(b, [nr, size(b, 3)])), reshape(a, [nr, size(b, 3)]))
+    mm = 0.5_wp*(mm + transpose(mm))
+  end function information_of
+
+  !> 2 c S^-1 b_c for each column c of b (ny, nc, n): rows scaled when S is
+  !> diagonal.
+  function weighted(b, sinv, cw) result(a)
+    real(wp), intent(in) :: b(:, :, :), sinv(:, :), cw(:)
+    real(wp) :: a(size(b, 1), size(b, 2), size(b, 3))
+    real(wp) :: w(size(b, 1), size(b, 2))
+    integer :: i, j, c
+    if (count(sinv /= 0.0_wp) == size(sinv, 1)) then
+      do c = 1, size(b, 2)
+        do i = 1, size(b, 1)
+          w(i, c) = 2.0_wp*cw(c)*sinv(i, i)
+        end do
+      end do
+      do j = 1, size(b, 3)
+        a(:, :, j) = w*b(:, :, j)
+      end do
+    else
+      do j = 1, size(b, 3)
+        a(:, :, j) = 2.0_wp*matmul(sinv, b(:, :, j))*spread(cw, 1, size(b, 1))
+      end do
+    end if
+  end function weighted
+
+  !> The transient terms' columns b (ny, nc, n) replaced by an independent
+  !> set spanning the same, b t: t (n, nk) the eigenvectors of their
+  !> normalised information (weighted by the residuals r0's mean squares)
+  !> above ETA_RCOND of the largest.  Exact dependencies occur: with every
+  !> state measured (H invertible) the output offsets are the states'.
+  subroutine independent_terms(b, r0, cw, t, status, msg)
+    real(wp), allocatable, intent(inout) :: b(:, :, :)
+    real(wp), intent(in) :: r0(:, :), cw(:)
+    real(wp), allocatable, intent(out) :: t(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: w0(size(r0, 1), size(r0, 1)), sc(size(b, 3)), ev(size(b, 3)), &
+                v(size(b, 3), size(b, 3))
+    real(wp), allocatable :: bm(:, :)
+    integer :: i, n, nk, nr
+    n = size(b, 3)
+    nr = size(b, 1)*size(b, 2)
+    status = MLID_OK
+    msg = ''
+    allocate (t(n, 0))
+    if (n == 0) return
+    w0 = 0.0_wp
+    do i = 1, size(r0, 1)
+      w0(i, i) = sum(cw)/max(sum(cw*r0(i, :)**2), tiny(1.0_wp))
+    end do
+    call info_eig(information_of(b, w0, cw), sc, ev, v, status, msg)
+    if (status /= MLID_OK) return
+    nk = count(ev > ETA_RCOND*ev(n))
+    t = v(:, n - nk + 1:)*spread(sc, 2, nk)
+    bm = matmul(reshape(b, [nr, n]), t)
+    b = reshape(bm, [size(b, 1), size(b, 2), nk])
+  end subroutine independent_terms
+
+  !> The transient terms' estimate eta and S-hat together: the cost's
+  !> minimum over both, alternating the weighted least squares for eta
+  !> (given S) and S = (1/n) sum c Re(V V^*) (given eta) until the cost
+  !> settles; r the residuals left, sinv and logdet of S.
+  subroutine transients(r0, bas, cw, full, eta, r, s, sinv, logdet, status, msg)
+    real(wp), intent(in) :: r0(:, :), bas(:, :, :), cw(:)
+    logical, intent(in) :: full
+    real(wp), intent(out) :: eta(:), s(:, :), sinv(:, :), logdet
+    real(wp), allocatable, intent(out) :: r(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: c(size(eta), size(eta)), g(size(eta)), cost, last, ld
+    real(wp) :: a(size(r0, 1), size(r0, 2))
+    integer :: it, i, j, ierr, ny
+    ny = size(r0, 1)
+    eta = 0.0_wp
+    r = r0
+    last = huge(1.0_wp)
+    do it = 1, ETA_SWEEPS
+      ! S given the residuals
+      s = matmul(r*spread(cw, 1, ny), transpose(r))/(0.5_wp*sum(cw))
+      if (.not. full) then
+        do i = 1, ny
+          s(:i - 1, i) = 0.0_wp
+          s(i + 1:, i) = 0.0_wp
+        end do
+      end if
+      if (.not. all([(s(i, i) > tiny(1.0_wp), i=1, ny)])) then
+        status = MLID_ERR_SINGULAR
+        msg = 'a residual spectrum is zero or not finite: an output fitted exactly '// &
+              '(noise-free data?)'
+        return
+      end if
+      call chol_inverse(s, sinv, logdet, ierr)
+      if (ierr /= 0) then
+        status = MLID_ERR_SINGULAR
+        msg = 'residual covariance is singular (outputs linearly dependent): use noise = '// &
+              '''diagonal'''
+        return
+      end if
+      cost = sum(r*spread(cw, 1, ny)*matmul(sinv, r)) + 0.5_wp*sum(cw)*logdet
+      if (size(eta) == 0 .or. abs(last - cost) <= ETA_TOL*max(1.0_wp, abs(cost))) exit
+      last = cost
+      ! eta given S: the weighted least squares on r0
+      a = reshape(weighted(reshape(r0, [ny, size(r0, 2), 1]), sinv, cw), shape(r0))
+      do j = 1, size(eta)
+        g(j) = sum(bas(:, :, j)*a)
+      end do
+      call chol_inverse(information_of(bas, sinv, cw), c, ld, ierr)
+      if (ierr /= 0) then
+        status = MLID_ERR_SINGULAR
+        msg = 'the transient terms'' information is singular'
+        return
+      end if
+      eta = matmul(c, g)
+      r = r0 - reshape(matmul(reshape(bas, [size(bas, 1)*size(bas, 2), size(eta)]), eta), &
+                       shape(r0))
+    end do
+    status = MLID_OK
+    msg = ''
+  end subroutine transients
+
+  !> The model's left-hand sides without the transient terms (y0), the
+  !> transient terms' columns (bas: d y / d eta), and what the
+  !> sensitivities need: (i w I - Fe)^-1 and the states' transforms xs
+  !> (output error: driven by U; equation error: measured).  Output error:
+  !> X = A^-1 (G U + N eta), N = [p0 I, -p1 I, E I] over the manoeuvre's
+  !> x(t0), x(t1) and constant forcing k (trim, state biases), E = (p0 -
+  !> p1)/(i w) the transform of 1, Y = He X + D U + E o + R d with the
+  !> outputs' offsets o and drift rates d, R = (E - (t1 - t0) p1)/(i w) the
+  !> transform of t - t0.  Equation error: state row k: (F X + G V)_k + (N
+  !> eta)_k + R d_k, the other rows (H X + D V)_i + E o_i + R d_i.
+  subroutine model_terms(m, theta, tf, uf, ee, xout, y0, bas, ainv, xs, status, msg)
+    type(linear_model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:), tf(:), uf(:, :)
+    logical, intent(in) :: ee
+    integer, intent(in) :: xout(:)
+    real(wp), intent(out) :: y0(:, :), bas(:, :, :)     !< bas (ny, nc, neta)
+    complex(wp), intent(out) :: ainv(:, :, :), xs(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
+    complex(wp) :: a(m%nx, m%nx), p(m%ny, m%nx), uu(m%nu), v(m%nu), yy(m%ny), p0, p1, e, ramp, &
+                   b(m%ny, 3*m%nx + 2*m%ny)
+    integer :: c, k, i, ie, ne, s, nx, nu, ny
+    logical :: ok
+
+    nx = m%nx
+    nu = m%nu
+    ny = m%ny
+    call matrices(m, theta, f, g, h, d, kf)
+    ie = size(uf, 1) - NEXTRA
+    ne = 3*nx + 2*ny
+    status = MLID_OK
+    msg = ''
+    bas = 0.0_wp
+    do c = 1, size(tf), 2
+      k = (c + 1)/2
+      uu = cmplx(uf(1:nu, c), uf(1:nu, c + 1), wp)
+      p0 = cmplx(uf(ie + 1, c), uf(ie + 1, c + 1), wp)
+      p1 = cmplx(uf(ie + 2, c), uf(ie + 2, c + 1), wp)
+      e = (p0 - p1)/(IU*tf(c))
+      ramp = (e - uf(ie + 5, c)*p1)/(IU*tf(c))       ! the transform of t - t0
+      s = nint(uf(ie + 4, c))
+      b = 0.0_wp
+      do i = 1, ny
+        b(i, 3*nx + i) = e
+        b(i, 3*nx + ny + i) = ramp
+      end do
+      if (ee) then
+        xs(:, k) = cmplx(uf(nu + 1:nu + nx, c), uf(nu + 1:nu + nx, c + 1), wp)
+        v = uu + matmul(kf, xs(:, k))
+        yy = matmul(h, xs(:, k)) + matmul(d, v)
+        yy(xout) = matmul(f, xs(:, k)) + matmul(g, v)
+        do i = 1, nx
+          b(xout(i), 3*nx + xout(i)) = 0.0_wp      ! a state equation has no output offset
+          b(xout(i), i) = p0
+          b(xout(i), nx + i) = -p1
+          b(xout(i), 2*nx + i) = e
+        end do
+      else
+        a = -(f + matmul(g, kf))
+        do i = 1, nx
+          a(i, i) = a(i, i) + IU*tf(c)
+        end do
+        call complex_inverse(a, ainv(:, :, k), ok)
+        if (.not. ok) then
+          status = MLID_ERR_SINGULAR
+          write (msg, '(a,g0.6,a)') 'i w I - F is singular at ', tf(c)/TWO_PI, &
+            ' Hz: the model has a pole on the imaginary axis there'
+          return
+        end if
+        xs(:, k) = matmul(ainv(:, :, k), matmul(g, uu))
+        yy = matmul(h + matmul(d, kf), xs(:, k)) + matmul(d, uu)
+        p = matmul(h + matmul(d, kf), ainv(:, :, k))
+        b(:, 1:nx) = p0*p
+        b(:, nx + 1:2*nx) = -p1*p
+        b(:, 2*nx + 1:3*nx) = e*p
+      end if
+      y0(:, c) = real(yy, wp)
+      y0(:, c + 1) = aimag(yy)
+      bas(:, c, (s - 1)*ne + 1:s*ne) = real(b, wp)
+      bas(:, c + 1, (s - 1)*ne + 1:s*ne) = aimag(b)
+    end do
+  end subroutine model_terms
+
+  !> F, G, H, D and the input feedback K of the linear model at theta.
+  pure subroutine matrices(m, theta, f, g, h, d, kf)
+    type(linear_model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    real(wp), intent(out) :: f(:, :), g(:, :), h(:, :), d(:, :), kf(:, :)
+    f = reshape(theta(m%of + 1:m%of + m%nx*m%nx), [m%nx, m%nx])
+    g = reshape(theta(m%og + 1:m%og + m%nx*m%nu), [m%nx, m%nu])
+    h = reshape(theta(m%oh + 1:m%oh + m%ny*m%nx), [m%ny, m%nx])
+    d = reshape(theta(m%od + 1:m%od + m%ny*m%nu), [m%ny, m%nu])
+    kf = reshape(theta(m%ok + 1:m%ok + m%nu*m%nx), [m%nu, m%nx])
+  end subroutine matrices
+
+  !> dy (ny, nc, nf): the sensitivities of the left-hand sides to the free
+  !> parameters at the transient terms eta.  Output error: X = xs + A^-1 N
+  !> eta, V = U + K X, P = He A^-1; dY/dF_ij = P(:, i) X_j, dY/dG_ij = P(:,
+  !> i) V_j, dY/dH_ij = e_i X_j, dY/dD_ij = e_i V_j.  Equation error: X
+  !> measured, the state rows' dY/dF_kj = X_j, dY/dG_kj = V_j, the others'
+  !> as output error's H, D.
+  subroutine sensitivities(m, theta, pm, tf, uf, ee, xout, ainv, xs, eta, dy)
+    type(linear_model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:), tf(:), uf(:, :), eta(:)
+    type(param_map_t), intent(in) :: pm
+    logical, intent(in) :: ee
+    integer, intent(in) :: xout(:)
+    complex(wp), intent(in) :: ainv(:, :, :), xs(:, :)
+    real(wp), intent(out) :: dy(:, :, :)
+    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
+    complex(wp) :: p(m%ny, m%nx), x(m%nx), v(m%nu), dz(m%ny), p0, p1, e
+    integer :: c, k, q, blk, i, j, ie, ne, s, nx, nu, ny
+
+    nx = m%nx
+    nu = m%nu
+    ny = m%ny
+    call matrices(m, theta, f, g, h, d, kf)
+    ie = size(uf, 1) - NEXTRA
+    ne = 3*nx + 2*ny
+    dy = 0.0_wp
+    do c = 1, size(tf), 2
+      k = (c + 1)/2
+      x = xs(:, k)
+      if (.not. ee) then        ! the states' transient part
+        p0 = cmplx(uf(ie + 1, c), uf(ie + 1, c + 1), wp)
+        p1 = cmplx(uf(ie + 2, c), uf(ie + 2, c + 1), wp)
+        e = (p0 - p1)/(IU*tf(c))
+        s = (nint(uf(ie + 4, c)) - 1)*ne
+        x = x + matmul(ainv(:, :, k), p0*eta(s + 1:s + nx) - p1*eta(s + nx + 1:s + 2*nx) + &
+                       e*eta(s + 2*nx + 1:s + 3*nx))
+        p = matmul(h + matmul(d, kf), ainv(:, :, k))
+      end if
+      v = cmplx(uf(1:nu, c), uf(1:nu, c + 1), wp) + matmul(kf, x)
+      do q = 1, size(pm%im)                 ! each moving entry into its free column
+        call element(pm%im(q), blk, i, j)
+        dz = 0.0_wp
+        select case (blk)
+        case (1, 2)                         ! F(i, j), G(i, j): X_j or V_j
+          if (ee .and. blk == 1) then
+            dz(xout(i)) = x(j)
+          else if (ee) then
+            dz(xout(i)) = v(j)
+          else if (blk == 1) then
+            dz = p(:, i)*x(j)
+          else
+            dz = p(:, i)*v(j)
+          end if
+        case (3)                            ! H(i, j)
+          dz(i) = x(j)
+        case (4)                            ! D(i, j)
+          dz(i) = v(j)
+        end select
+        dy(:, c, pm%cm(q)) = dy(:, c, pm%cm(q)) + pm%wm(q)*real(dz, wp)
+        dy(:, c + 1, pm%cm(q)) = dy(:, c + 1, pm%cm(q)) + pm%wm(q)*aimag(dz)
+      end do
+    end do
+
+  contains
+
+    !> Block (1 F, 2 G, 3 H, 4 D), row and column of p entry e.
+    subroutine element(e, blk, i, j)
+      integer, intent(in) :: e
+      integer, intent(out) :: blk, i, j
+      integer :: off(4), nr(4), q
+      off = [m%of, m%og, m%oh, m%od]
+      nr = [nx, nx, ny, ny]
+      blk = count(e > off)
+      q = e - off(blk) - 1
+      i = mod(q, nr(blk)) + 1
+      j = q/nr(blk) + 1
+    end subroutine element
+
+  end subroutine sensitivities
+
+  !> ainv = a^-1 by Gauss-Jordan elimination with partial pivoting (a is
+  !> small: the model's states); ok false when a pivot vanishes.
+  pure subroutine complex_inverse(a, ainv, ok)
+    complex(wp), intent(in) :: a(:, :)
+    complex(wp), intent(out) :: ainv(:, :)
+    logical, intent(out) :: ok
+    complex(wp) :: w(size(a, 1), 2*size(a, 1)), tmp(2*size(a, 1))
+    integer :: n, k, piv, i
+    n = size(a, 1)
+    w = 0.0_wp
+    w(:, 1:n) = a
+    do i = 1, n
+      w(i, n + i) = 1.0_wp
+    end do
+    ok = .false.
+    do k = 1, n
+      piv = maxloc(abs(w(k:, k)), 1) + k - 1
+      if (.not. abs(w(piv, k)) > 1.0e-14_wp*max(1.0_wp, maxval(abs(a)))) return
+      tmp = w(k, :)
+      w(k, :) = w(piv, :)
+      w(piv, :) = tmp
+      w(k, :) = w(k, :)/w(k, k)
+      do i = 1, n
+        if (i /= k) w(i, :) = w(i, :) - w(i, k)*w(k, :)
+      end do
+    end do
+    ainv = w(:, n + 1:)
+    ok = .true.
+  end subroutine complex_inverse
+
+end module mlid_frequency

@@ -1,0 +1,137 @@
+"""The finite Fourier transform of records at chosen frequencies (the core's
+mlid_fourier): what the frequency-domain methods of ``fit`` work on; and the
+recursive frequency-domain equation error over a moving window."""
+
+import numpy as np
+
+from . import _core
+from .checks import real_array
+from .errors import InputError, check_status, guarded
+
+_api = _core.mlid_api
+
+
+@guarded
+def fourier_transform(t, x, freq):
+    """X(f) = integral over the record of x(t) exp(-i 2 pi f t) dt.
+
+    Exact (to rounding) for the straight lines between the samples: the sum
+    over the samples times the interior weight W(w dt) plus end-point terms
+    (fortran/mlid_fourier.f90), at any frequencies, not an FFT grid.
+
+    Parameters
+    ----------
+    t : array_like (n,)
+        Uniformly spaced sample times.
+    x : array_like (n,) or (n, nch)
+        The channels, one column each.
+    freq : array_like (nf,)
+        Frequencies in Hz.
+
+    Returns
+    -------
+    ndarray, complex (nf,) or (nf, nch)
+        The transform of each channel at each frequency.
+
+    Raises
+    ------
+    InputError
+        Fewer than two samples, sampling not uniform, values not finite.
+    """
+    t = real_array("t", t)
+    xa = real_array("x", x)
+    one = xa.ndim == 1
+    xa = xa.reshape(len(xa), -1) if one else xa
+    f = np.atleast_1d(real_array("freq", freq))
+    if t.ndim != 1 or xa.ndim != 2 or len(t) != xa.shape[0]:
+        raise InputError(f"x must have one row per sample of t ({len(t)}), got shape "
+                         f"{np.shape(x)}")
+    if len(t) < 2:
+        raise InputError("a record to transform needs at least two samples")
+    dt = (t[-1] - t[0]) / (len(t) - 1)
+    if not np.allclose(np.diff(t), dt, rtol=1e-6, atol=0.0):
+        raise InputError("the Fourier transform needs uniformly spaced samples")
+    xre, xim, status, msg = _api.mlid_fourier_transform(
+        np.asfortranarray(xa.T), dt, t[0], 2.0 * np.pi * f)
+    check_status(status, msg)
+    xf = (xre + 1j * xim).T
+    return xf[:, 0] if one else xf
+
+
+@guarded
+def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=None, n_freq=20):
+    """Frequency-domain equation error over a moving window, recursively.
+
+    The window's Fourier transform is updated sample by sample (each
+    frequency's sum gains the entering sample and loses the leaving one:
+    a complex multiply-add each), and every ``stride`` samples the state
+    equations i w X = F X + G U are solved by least squares over it, with
+    the transient terms of ``fit``'s frequency equation error: a window over
+    the whole record gives its estimates and Cramer-Rao sigmas
+    (fortran/mlid_recursive_fd.f90).
+
+    Parameters
+    ----------
+    model : LinearModel
+        Outputs the states (H the identity, D zero); its free entries of F
+        and G are estimated, the others held.
+    data : FlightData
+        Uniformly sampled.
+    window, stride : int
+        Samples in a window, and between the ends of successive windows.
+    f_min, f_max : float
+        The band, Hz.
+    n_freq : int
+        Frequencies evenly spaced over the band.
+
+    Returns
+    -------
+    dict
+        ``t_end`` (nwin,) each window's last time, ``estimates`` and
+        ``sigma`` (nwin, np), ``names`` of the free parameters.
+
+    Raises
+    ------
+    InputError
+        Not a linear model measuring its states, a free entry outside F and
+        G, a bad window, stride or band, non-uniform sampling.
+    SingularInformationError
+        A window whose regressors are dependent.
+    """
+    from .model import LinearModel
+    from .data import FlightData
+    if not isinstance(model, LinearModel) or not isinstance(data, FlightData):
+        raise InputError("recursive_frequency_fit takes a LinearModel and a FlightData")
+    if model.H.shape != (model.nx, model.nx) or not np.array_equal(model.H, np.eye(model.nx)) \
+            or np.any(model.D != 0):
+        raise InputError("recursive_frequency_fit needs the states as the outputs (H the "
+                         "identity, D zero)")
+    free_f = np.zeros((model.nx, model.nx), dtype=np.int32)
+    free_g = np.zeros((model.nx, model.nu), dtype=np.int32)
+    order = []
+    for name in model.free:
+        block, _, idx = name.partition("(")
+        if block not in ("f", "g"):
+            raise InputError(f"recursive_frequency_fit estimates entries of F and G, not "
+                             f"{name!r}")
+        i, j = (int(v) - 1 for v in idx.rstrip(")").split(","))
+        (free_f if block == "f" else free_g)[i, j] = 1
+        order.append((0 if block == "f" else 1, j, i, name))
+    if f_min is None or f_max is None or not 0 < f_min < f_max or n_freq < 2:
+        raise InputError("recursive_frequency_fit needs the band 0 < f_min < f_max (Hz) and "
+                         "n_freq >= 2")
+    window = int(window)
+    stride = int(stride)
+    nt = len(data.t)
+    nwin = (nt - window) // stride + 1 if 3 <= window <= nt and stride >= 1 else 1
+    w = 2 * np.pi * np.linspace(f_min, f_max, n_freq)
+    tend, est, sig, status, msg = _api.mlid_recursive_fdee(
+        np.asarray(data.t, dtype=float), np.asfortranarray(data.y.T), np.asfortranarray(data.u.T),
+        np.asfortranarray(model.F), np.asfortranarray(model.G), np.asfortranarray(free_f),
+        np.asfortranarray(free_g), w, window, stride, nwin, len(order))
+    check_status(status, msg)
+    # the core orders F's free entries column by column, then G's
+    names = [name for *_, name in sorted(order)]
+    labels = dict(zip(model.free, model.free_names()))
+    return {"t_end": tend, "estimates": est.T.copy(), "sigma": sig.T.copy(),
+            "names": [labels[n] for n in names]}
