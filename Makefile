@@ -1,12 +1,15 @@
 # Two commands do all set-up on a fresh Debian machine with Python 3.11 (as root):
 #   make demo   install what is missing, then run the C-8 case and print the report
 #   make test   install what is missing, then pytest (installed package) and meson test
+# make install NATIVE=true builds the Fortran core for this machine's processor
+# (meson option native: -march=native); make install alone goes back to the portable core.
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
 VPY := $(VENV)/bin/python
 BUILD := build
-STAMP := $(VENV)/.mlid-installed
+NATIVE ?= false
+STAMP := $(VENV)/.mlid-installed-native-$(NATIVE)
 DEPS := $(VENV)/.mlid-deps
 SOURCES := $(shell find fortran python -name '*.f90' -o -name '*.py' -o -name 'meson.build') \
            meson.build meson.options pyproject.toml
@@ -25,6 +28,7 @@ bench: install
 	$(VPY) -m pip install -q statsmodels
 	$(VPY) benchmarks/bench_fit.py
 	$(VPY) benchmarks/bench_hfb320.py
+	$(VPY) benchmarks/bench_speed.py
 	$(VPY) benchmarks/bench_deck.py
 	$(VPY) benchmarks/monte_carlo_c8.py
 	$(VPY) benchmarks/monte_carlo_m2f3.py
@@ -60,9 +64,14 @@ $(DEPS): $(VPY) Makefile
 	$(VPY) -m pip install -q meson meson-python ninja numpy matplotlib scipy h5py pandas pytest dask distributed hypothesis tqdm
 	touch $(DEPS)
 
-# Build with meson-python into ./build (kept, so meson test can run there).
+# Build with meson-python into ./build (kept, so meson test can run there); the
+# stamp names the native setting, so that changing it builds again.  A build
+# directory set up before meson.options gained an option takes -D for it only
+# after a plain reconfigure.
 $(STAMP): $(DEPS) $(SOURCES)
-	$(VPY) -m pip install -q --no-build-isolation -Cbuild-dir=$(BUILD) .
+	if [ -f $(BUILD)/build.ninja ]; then $(VENV)/bin/meson setup --reconfigure $(BUILD) >/dev/null 2>&1 || true; fi
+	$(VPY) -m pip install -q --no-build-isolation -Cbuild-dir=$(BUILD) -Csetup-args=-Dnative=$(NATIVE) .
+	rm -f $(VENV)/.mlid-installed*
 	touch $(STAMP)
 
 clean:

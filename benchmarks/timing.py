@@ -15,8 +15,9 @@ def median(fn, n):
     return float(np.median(times))
 
 
-def interleaved_medians(fns, rounds, n):
-    """Median wall time of each of fns over rounds x n calls, in seconds:
+def interleaved_medians(fns, rounds, n, clock=time.perf_counter):
+    """Median wall time (or the time of another clock, such as
+    time.process_time) of each of fns over rounds x n calls, in seconds:
     round by round, n calls of each in turn after one untimed call (the
     caches and threads the others left cold), so that a busy spell of a
     shared machine falls on all of them rather than on one."""
@@ -25,7 +26,7 @@ def interleaved_medians(fns, rounds, n):
         for k, fn in enumerate(fns):
             fn()
             for _ in range(n):
-                t0 = time.perf_counter()
+                t0 = clock()
                 fn()
-                times[k].append(time.perf_counter() - t0)
+                times[k].append(clock() - t0)
     return [float(np.median(t)) for t in times]

@@ -28,7 +28,7 @@
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, first_failure
-  use mlid_linalg, only: add_sym_atb, chol_inverse
+  use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, chol_inverse, psd_factor
   use mlid_models, only: model_t
   use mlid_options, only: options_t, frequency_method
   use mlid_frequency, only: freq_likelihood
@@ -41,8 +41,9 @@ module mlid_likelihood
   !> Blocks of samples summed in order in the filter-error gradient and
   !> information, whatever the number of threads.
   integer, parameter :: NBLOCK = 64
-  !> Samples a block of the output-error information takes (its arrays stay small).
-  integer, parameter :: SAMPLE_BLOCK = 256
+  !> Samples a block of the output-error information takes: its weighted
+  !> sensitivities (7 outputs, 11 parameters: 39 kB) stay in the cache.
+  integer, parameter :: SAMPLE_BLOCK = 64
 
 contains
 
@@ -153,9 +154,10 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: dy(:, :, :), nu(:, :)
-    real(wp) :: rinv(m%ny, m%ny), logdet
+    real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny), lwd(m%ny), rdiag(m%ny)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
     integer :: ny, nt, nf, i, k, ierr
+    logical :: ok
 
     ny = m%ny
     nt = size(t)
@@ -169,11 +171,12 @@ contains
     if (status /= MLID_OK) return
 
     nu = y - yhat
-    rhat = matmul(nu, transpose(nu))/nt
-    if (.not. opt%full_r) then
+    if (opt%full_r) then
+      rhat = matmul(nu, transpose(nu))/nt
+    else                                    ! the diagonal only
+      rhat = 0.0_wp
       do i = 1, ny
-        rhat(:i - 1, i) = 0.0_wp
-        rhat(i + 1:, i) = 0.0_wp
+        rhat(i, i) = sum(nu(i, :)**2)/nt
       end do
     end if
     do i = 1, ny
@@ -195,6 +198,12 @@ contains
     if (present(grad) .and. present(info)) then
       ! segments in parallel, their parts added in order: the result does
       ! not depend on the number of threads
+      ! the weights: R^-1 = L L' (L = diag(sqrt(1/R_ii)) for a diagonal R)
+      do i = 1, ny
+        rdiag(i) = rinv(i, i)
+      end do
+      lwd = sqrt(rdiag)
+      if (opt%full_r) call psd_factor(rinv, lw, ok)
       allocate (gpart(nf, pm%l%nseg), ipart(nf, nf, pm%l%nseg))
       !$omp parallel do schedule(dynamic, 1) if (pm%l%nseg > 1)
       do k = 1, pm%l%nseg
@@ -215,22 +224,24 @@ contains
 
     !> Segment iseg's part of grad and info (and its rows of wsens), over
     !> the columns that move in it only (a bias of another manoeuvre adds
-    !> zeros): sample-major sensitivities s(:, j, c) and weighted ones
-    !> a = R^-1 s, a block of samples at a time (small arrays, no large
-    !> temporaries); the information is a symmetric product over samples
-    !> and outputs.
+    !> zeros).  With R^-1 = L L', the weighted sensitivities w = L' dy/dtheta
+    !> of a block of samples (samples and outputs down, parameters across)
+    !> give the information as one symmetric rank-k update, w'w, and the
+    !> gradient as one product, -w' (L' nu); the block's arrays are made once.
     subroutine segment_information(iseg, g, f)
       integer, intent(in) :: iseg
       real(wp), intent(out) :: g(:), f(:, :)
-      real(wp), allocatable :: s(:, :, :), a(:, :, :), part(:, :)
+      real(wp), allocatable :: w(:, :), v(:), part(:, :), gp(:)
       integer, allocatable :: cols(:)
-      integer :: j0, j1, jbeg, jend, c, i
+      integer :: j0, j1, jbeg, jend, c, r, nc
       jbeg = pm%l%seg(iseg)
       jend = nt
       if (iseg < pm%l%nseg) jend = pm%l%seg(iseg + 1) - 1
       cols = pack([(c, c=1, nf)], [(any(dy(:, c, jbeg:jend) /= 0.0_wp), c=1, nf)])
-      allocate (part(size(cols), size(cols)))
+      nc = size(cols)
+      allocate (w(ny*SAMPLE_BLOCK, nc), v(ny*SAMPLE_BLOCK), part(nc, nc), gp(nc))
       part = 0.0_wp
+      gp = 0.0_wp
       g = 0.0_wp
       f = 0.0_wp
       if (present(wsens)) then
@@ -240,26 +251,58 @@ contains
       end if
       do j0 = jbeg, jend, SAMPLE_BLOCK
         j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
-        allocate (s(ny, j1 - j0 + 1, size(cols)), a(ny, j1 - j0 + 1, size(cols)))
-        do c = 1, size(cols)
-          s(:, :, c) = dy(:, cols(c), j0:j1)
-          if (opt%full_r) then
-            a(:, :, c) = matmul(rinv, s(:, :, c))
-          else                              ! R diagonal: scale the rows
-            do i = 1, ny
-              a(i, :, c) = rinv(i, i)*s(i, :, c)
-            end do
-          end if
-          g(cols(c)) = g(cols(c)) - sum(nu(:, j0:j1)*a(:, :, c))
-          if (present(wsens)) wsens(:, j0:j1, cols(c)) = a(:, :, c)
-        end do
-        call add_sym_atb(ny*(j1 - j0 + 1), size(cols), s, a, part)
-        deallocate (s, a)
+        call weigh_block(opt%full_r, cols, lw, lwd, dy(:, :, j0:j1), nu(:, j0:j1), w, v)
+        if (present(wsens)) call weigh_columns(opt%full_r, cols, rinv, rdiag, &
+                                               dy(:, :, j0:j1), wsens, j0)
+        r = ny*(j1 - j0 + 1)
+        call add_syrk(r, nc, w, part)
+        call add_atv(r, nc, w, v, gp)
       end do
+      g(cols) = -gp
       f(cols, cols) = part
     end subroutine segment_information
 
   end subroutine oe_likelihood
+
+  !> The weighted sensitivities w = L' dy(:, cols, j) of a block of samples,
+  !> samples and outputs down the rows of w, and v = L' nu (lwd: the diagonal
+  !> of L for a diagonal R).
+  subroutine weigh_block(full, cols, lw, lwd, dy, nu, w, v)
+    logical, intent(in) :: full
+    integer, intent(in) :: cols(:)
+    real(wp), intent(in) :: lw(:, :), lwd(:), dy(:, :, :), nu(:, :)
+    real(wp), intent(out) :: w(size(lwd), SAMPLE_BLOCK, size(cols)), v(size(lwd), SAMPLE_BLOCK)
+    integer :: j, c
+    do j = 1, size(dy, 3)
+      if (full) then
+        v(:, j) = matmul(nu(:, j), lw)
+        w(:, j, :) = matmul(transpose(lw), dy(:, cols, j))
+      else
+        v(:, j) = lwd*nu(:, j)
+        do c = 1, size(cols)
+          w(:, j, c) = lwd*dy(:, cols(c), j)
+        end do
+      end if
+    end do
+  end subroutine weigh_block
+
+  !> wsens(:, j0 + j - 1, cols) = R^-1 dy(:, cols, j) over a block of samples.
+  subroutine weigh_columns(full, cols, rinv, rdiag, dy, wsens, j0)
+    logical, intent(in) :: full
+    integer, intent(in) :: cols(:), j0
+    real(wp), intent(in) :: rinv(:, :), rdiag(:), dy(:, :, :)
+    real(wp), intent(inout) :: wsens(:, :, :)
+    integer :: j, c
+    do c = 1, size(cols)
+      do j = 1, size(dy, 3)
+        if (full) then
+          wsens(:, j0 + j - 1, cols(c)) = matmul(rinv, dy(:, cols(c), j))
+        else
+          wsens(:, j0 + j - 1, cols(c)) = rdiag*dy(:, cols(c), j)
+        end if
+      end do
+    end do
+  end subroutine weigh_columns
 
   subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
                            info, sens, wsens, msens, bmean)
@@ -275,9 +318,9 @@ contains
     real(wp), intent(out), optional :: bmean(:, :)
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
     real(wp), allocatable :: b0(:, :, :)
-    real(wp) :: w(m%ny, pm%nf), bnu(m%ny), v1(m%ny, m%ny)
-    real(wp), allocatable :: gpart(:, :), ipart(:, :, :), vv(:, :, :)
-    integer :: ny, nt, nf, j, k, b, nblk
+    real(wp), allocatable :: gpart(:, :), ipart(:, :, :), bpart(:, :, :), vv(:, :, :)
+    integer :: ny, nt, nf, j, b, nblk, j0, j1
+    logical :: tv
 
     ny = m%ny
     nt = size(t)
@@ -309,29 +352,27 @@ contains
     ! samples in parallel, in NBLOCK fixed blocks whose sums are added in
     ! order: the result does not depend on the number of threads
     nblk = min(NBLOCK, nt)
-    allocate (gpart(nf, nblk), ipart(nf, nf, nblk), vv(ny, ny, nblk))
-    !$omp parallel do schedule(static) default(shared) private(b, j, k, bnu, w, v1)
+    tv = opt%partials .and. .not. opt%steady       ! B's terms at every sample
+    allocate (gpart(nf, nblk), ipart(nf, nf, nblk), bpart(nf, nf, nblk), vv(ny, ny, nblk))
+    !$omp parallel do schedule(static) default(shared) private(b, j0, j1)
     do b = 1, nblk
-      gpart(:, b) = 0.0_wp
-      ipart(:, :, b) = 0.0_wp
-      vv(:, :, b) = 0.0_wp
-      do j = (b - 1)*nt/nblk + 1, b*nt/nblk
-        bnu = matmul(binv(:, :, j), nu(:, j))
-        w = matmul(binv(:, :, j), dnu(:, :, j))
-        gpart(:, b) = gpart(:, b) + matmul(bnu, dnu(:, :, j))
-        ipart(:, :, b) = ipart(:, :, b) + matmul(transpose(dnu(:, :, j)), w)
-        if (present(wsens)) wsens(:, j, :) = w
-        if (.not. opt%partials) cycle
-        do k = 1, ny                  ! B^-1 nu nu' B^-1
-          v1(:, k) = bnu*bnu(k)
-        end do
-        if (opt%steady) then          ! summed, for the constant dB below
-          vv(:, :, b) = vv(:, :, b) + v1
-        else
-          call add_b_partials(binv(:, :, j), db(:, :, :, j), v1, 1.0_wp, gpart(:, b), &
-                              ipart(:, :, b))
-        end if
-      end do
+      j0 = (b - 1)*nt/nblk + 1
+      j1 = b*nt/nblk
+      if (tv .and. present(wsens)) then
+        call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
+                      gpart(:, b), ipart(:, :, b), vv(:, :, b), wsens(:, j0:j1, :), &
+                      bpart(:, :, b), db(:, :, :, j0:j1))
+      else if (tv) then
+        call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
+                      gpart(:, b), ipart(:, :, b), vv(:, :, b), fb=bpart(:, :, b), &
+                      db=db(:, :, :, j0:j1))
+      else if (present(wsens)) then
+        call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
+                      gpart(:, b), ipart(:, :, b), vv(:, :, b), wsens(:, j0:j1, :))
+      else
+        call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
+                      gpart(:, b), ipart(:, :, b), vv(:, :, b))
+      end if
     end do
     !$omp end parallel do
     grad = 0.0_wp
@@ -340,21 +381,77 @@ contains
       grad = grad + gpart(:, b)
       info = info + ipart(:, :, b)
     end do
-    ! msens: info without the noise-covariance term 1/2 tr(..); the blocks'
-    ! sums are just that unless the time-varying B's terms went into them
-    if (present(msens) .and. (opt%steady .or. .not. opt%partials)) msens = info
+    ! msens: info without the noise-covariance terms 1/2 tr(..)
+    if (present(msens)) msens = info
+    if (tv) then
+      do b = 1, nblk
+        info = info + bpart(:, :, b)
+      end do
+    end if
     if (opt%partials .and. opt%steady) then
       ! B and dB the same at every sample: their terms once, times the samples
       vv(:, :, 1) = sum(vv, dim=3)
       call add_b_partials(binv(:, :, 1), db(:, :, :, 1), vv(:, :, 1), real(nt, wp), grad, info)
     end if
-    if (present(msens) .and. opt%partials .and. .not. opt%steady) then
-      msens = 0.0_wp
-      do j = 1, nt
-        msens = msens + matmul(transpose(dnu(:, :, j)), matmul(binv(:, :, j), dnu(:, :, j)))
-      end do
-    end if
   end subroutine fe_likelihood
+
+  !> One block of samples' part of the filter-error gradient and information
+  !> (eqs 4.30, 4.37): g = sum dnu' B^-1 nu, f = sum dnu' B^-1 dnu as one
+  !> symmetric product over the block's samples and outputs (add_sym_atb);
+  !> vv = sum B^-1 nu nu' B^-1 (for B's terms, with partials); ws, the
+  !> weighted sensitivities B^-1 dnu; and with db (B's partials at every
+  !> sample) fb = 1/2 sum tr(B^-1 dB_k B^-1 dB_l), a symmetric product too,
+  !> and B's terms of g.  The block's arrays are made once, not per sample.
+  subroutine fe_block(binv, nu, dnu, partials, g, f, vv, ws, fb, db)
+    real(wp), intent(in) :: binv(:, :, :), nu(:, :), dnu(:, :, :)
+    logical, intent(in) :: partials
+    real(wp), intent(out) :: g(:), f(:, :), vv(:, :)
+    real(wp), intent(inout), optional :: ws(:, :, :)
+    real(wp), intent(out), optional :: fb(:, :)
+    real(wp), intent(in), optional :: db(:, :, :, :)
+    real(wp), allocatable :: x(:, :), w(:, :), v(:), e(:, :), et(:, :)
+    real(wp) :: bnu(size(nu, 1)), v1(size(nu, 1), size(nu, 1)), ek(size(nu, 1), size(nu, 1))
+    integer :: ny, nf, nb, j, k, i, r, q
+
+    ny = size(nu, 1)
+    nf = size(dnu, 2)
+    nb = size(nu, 2)
+    allocate (x(ny*nb, nf), w(ny*nb, nf), v(ny*nb))
+    if (present(db)) allocate (e(ny*ny*nb, nf), et(ny*ny*nb, nf))
+    g = 0.0_wp
+    f = 0.0_wp
+    vv = 0.0_wp
+    do j = 1, nb
+      r = ny*(j - 1)
+      bnu = matmul(binv(:, :, j), nu(:, j))
+      v(r + 1:r + ny) = bnu
+      x(r + 1:r + ny, :) = dnu(:, :, j)
+      w(r + 1:r + ny, :) = matmul(binv(:, :, j), dnu(:, :, j))
+      if (present(ws)) ws(:, j, :) = w(r + 1:r + ny, :)
+      if (.not. partials) cycle
+      do k = 1, ny                  ! B^-1 nu nu' B^-1
+        v1(:, k) = bnu*bnu(k)
+      end do
+      vv = vv + v1
+      if (.not. present(db)) cycle
+      q = ny*ny*(j - 1)
+      do k = 1, nf                  ! E_k = B^-1 dB_k, as columns vec(E_k), vec(E_k')
+        ek = matmul(binv(:, :, j), db(:, :, k, j))
+        g(k) = g(k) + 0.5_wp*(trace(ek) - sum(db(:, :, k, j)*v1))
+        do i = 1, ny
+          e(q + ny*(i - 1) + 1:q + ny*i, k) = ek(:, i)
+          et(q + ny*(i - 1) + 1:q + ny*i, k) = ek(i, :)
+        end do
+      end do
+    end do
+    call add_atv(ny*nb, nf, x, v, g)
+    call add_sym_atb(ny*nb, nf, x, w, f)
+    if (present(db)) then
+      fb = 0.0_wp
+      call add_sym_atb(ny*ny*nb, nf, e, et, fb)
+      fb = 0.5_wp*fb
+    end if
+  end subroutine fe_block
 
   !> The mean of B(j) over the samples from the B(j)^-1 the filter keeps
   !> (one inverse with the steady-state gain, where they are all the same).

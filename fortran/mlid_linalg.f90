@@ -5,7 +5,7 @@ module mlid_linalg
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: add_sym_atb, sym_eig, chol_inverse, psd_factor, info_inverse, info_eig, eig_inverse, expm, solve
+  public :: add_sym_atb, add_syrk, add_atv, sym_eig, chol_inverse, psd_factor, info_inverse, info_eig, eig_inverse, expm, solve
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -63,6 +63,37 @@ contains
       end do
     end do
   end subroutine add_sym_atb
+
+  !> c = c + w' w (w: m x n), the symmetric rank-m update: the upper
+  !> triangle by dot products over the rows (samples and outputs), mirrored.
+  !> BLAS dsyrk does the same; the reference BLAS that Debian links by
+  !> default takes three to seven times as long for n ~ 10 (its dot products
+  !> are one dependent chain), and OpenBLAS takes about as long at that size.
+  subroutine add_syrk(m, n, w, c)
+    integer, intent(in) :: m, n
+    real(wp), intent(in), contiguous :: w(:, :)
+    real(wp), intent(inout) :: c(n, n)
+    real(wp) :: d
+    integer :: k, l
+    do l = 1, n
+      do k = 1, l
+        d = dot8(m, w(:, k), w(:, l))
+        c(k, l) = c(k, l) + d
+        if (k < l) c(l, k) = c(l, k) + d
+      end do
+    end do
+  end subroutine add_syrk
+
+  !> g = g + w' v over the first m rows of w and v (as dgemv).
+  subroutine add_atv(m, n, w, v, g)
+    integer, intent(in) :: m, n
+    real(wp), intent(in), contiguous :: w(:, :), v(:)
+    real(wp), intent(inout) :: g(n)
+    integer :: k
+    do k = 1, n
+      g(k) = g(k) + dot8(m, w(:, k), v)
+    end do
+  end subroutine add_atv
 
   !> x . y with eight partial sums: independent chains the processor
   !> pipelines and vectorizes (one running sum waits on each addition),

@@ -37,6 +37,25 @@ def test_information_matrix_matches_finite_difference_sensitivities(c8_data):
     assert np.max(np.abs(m_fd - ev["information"]) / scale) < 1e-6
 
 
+@pytest.mark.parametrize("noise", ["diagonal", "full"])
+def test_information_and_gradient_are_the_weighted_sensitivities_products(c8_data, noise):
+    # The core forms them from L' dy (R^-1 = L L') by blocks of 64 samples (301
+    # here: a short last block); the weighted sensitivities it returns are
+    # R^-1 dy, formed apart: sum_t dy' R^-1 dy and -sum_t (R^-1 dy)' nu from them
+    # agree to rounding.
+    model = _with_extra_free(c8_start(), ["x0(3)", "bias(2)"])
+    ev = mlid.evaluate(model, c8_data, noise=noise)
+    ws = ev["weighted_sensitivity"]                          # (ny, nt, nf)
+    dy = np.einsum("pq,qtk->ptk", ev["rhat"], ws)
+    info = np.einsum("ptk,ptl->kl", dy, ws)
+    grad = -np.einsum("ptk,tp->k", ws, c8_data.y - ev["yhat"])
+    scale = np.sqrt(np.outer(np.diag(info), np.diag(info)))
+    assert np.max(np.abs(info - ev["information"]) / scale) < 1e-12
+    assert np.max(np.abs(grad - ev["gradient"]) / np.sqrt(np.diag(info))) < 1e-12
+    if noise == "diagonal":
+        assert np.count_nonzero(ev["rhat"] - np.diag(np.diag(ev["rhat"]))) == 0
+
+
 def _expm(a):
     """Matrix exponential by scaling and squaring of a Taylor series."""
     s = max(0, int(np.ceil(np.log2(max(np.linalg.norm(a, 1), 1e-300)))) + 1)
