@@ -3,10 +3,10 @@
 !> Cramer-Rao standard deviations; repeat.
 module mlid_monte_carlo
   use mlid_kinds, only: wp, MLID_OK
-  use mlid_models, only: model_t
+  use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t
-  use mlid_simulate, only: simulate_outputs
+  use mlid_simulate, only: simulate_outputs, simulate_noise
   use mlid_newton, only: fit_result_t, extras_t, newton_fit
   implicit none
   private
@@ -15,7 +15,10 @@ module mlid_monte_carlo
 contains
 
   !> Run r uses seed seed0 + r - 1.  A failed run is recorded in
-  !> run_status(r) and does not stop the others.
+  !> run_status(r) and does not stop the others.  Without process noise
+  !> every run's states are the same: the record without measurement noise
+  !> is simulated once and each run adds its own draw (simulate_noise, the
+  !> draws of simulate_outputs: the same record to the bit).
   subroutine monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, &
                          run_status, info)
     class(model_t), intent(in) :: m
@@ -27,20 +30,32 @@ contains
     real(wp), intent(out) :: est(:, :), sig(:, :)
     integer, intent(out) :: iters(:), run_status(:)
     real(wp), intent(out), optional :: info(:, :, :)   !< each run's information matrix
-    real(wp) :: y(m%ny, size(t)), x(m%nx, size(t))
+    real(wp) :: y(m%ny, size(t)), x(m%nx, size(t)), yclean(m%ny, size(t))
+    real(wp), allocatable :: w(:, :), v(:, :)
     type(fit_result_t) :: res
     type(extras_t) :: none
     character(len=256) :: msg
-    integer :: r, k
+    integer :: r, k, cstat
+    logical :: quiet
 
     est = 0.0_wp
     sig = 0.0_wp
     iters = 0
     if (present(info)) info = 0.0_wp
+    quiet = no_process_noise(theta_true, pm%l)
+    if (quiet) call clean_record(cstat)
     do r = 1, size(run_status)
-      call simulate_outputs(m, theta_true, t, u, opt, seed0 + r - 1, y, x, run_status(r), msg)
+      if (quiet) then
+        run_status(r) = cstat
+        if (cstat == MLID_OK) call simulate_noise(m, theta_true, size(t), seed0 + r - 1, .false., &
+                                                  w, v, run_status(r), msg)
+        if (run_status(r) == MLID_OK) y = yclean + v
+      else
+        call simulate_outputs(m, theta_true, t, u, opt, seed0 + r - 1, y, x, run_status(r), msg)
+      end if
       if (run_status(r) /= MLID_OK) cycle
-      call newton_fit(m, theta_start, pm, t, u, y, opt, none, res, run_status(r), msg)
+      call newton_fit(m, theta_start, pm, t, u, y, opt, none, res, run_status(r), msg, &
+                      plain_bound=.true.)
       if (.not. allocated(res%theta)) cycle
       est(:, r) = res%theta(pm%ifree)
       do k = 1, pm%nf
@@ -49,6 +64,30 @@ contains
       iters(r) = res%niter
       if (present(info) .and. allocated(res%info)) info(:, :, r) = res%info
     end do
+
+  contains
+
+    !> The truth's record with its measurement noise variances zero (the
+    !> draws then add exact zeros), the noise checked as simulate_outputs
+    !> checks it.
+    subroutine clean_record(stat)
+      integer, intent(out) :: stat
+      real(wp) :: th(size(theta_true))
+      th = theta_true
+      th(pm%l%or + 1:pm%l%or + m%ny) = 0.0_wp
+      call simulate_noise(m, theta_true, size(t), seed0, .false., w, v, stat, msg)
+      if (stat == MLID_OK) call simulate_outputs(m, th, t, u, opt, seed0, yclean, x, stat, msg)
+    end subroutine clean_record
+
   end subroutine monte_carlo
+
+  !> Whether theta has no process noise: q and s zero (the process-noise
+  !> draws are then exact zeros).
+  pure logical function no_process_noise(theta, l)
+    real(wp), intent(in) :: theta(:)
+    type(layout_t), intent(in) :: l
+    no_process_noise = all(theta(l%oq + 1:l%oq + l%nw) == 0.0_wp) .and. &
+                       all(theta(l%os + 1:l%os + l%nw*l%ny) == 0.0_wp)
+  end function no_process_noise
 
 end module mlid_monte_carlo
