@@ -2,15 +2,17 @@
 !> noise seed, fit it from the start values, keep the estimates and their
 !> Cramer-Rao standard deviations; repeat.
 module mlid_monte_carlo
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t
   use mlid_simulate, only: simulate_outputs, simulate_noise
   use mlid_newton, only: fit_result_t, extras_t, newton_fit
+  use mlid_linalg, only: sym_eig
   implicit none
   private
-  public :: monte_carlo
+  public :: monte_carlo, mc_statistics
 
 contains
 
@@ -89,5 +91,66 @@ contains
     no_process_noise = all(theta(l%oq + 1:l%oq + l%nw) == 0.0_wp) .and. &
                        all(theta(l%os + 1:l%os + l%nw*l%ny) == 0.0_wp)
   end function no_process_noise
+
+  !> Table 8.1's statistics over the runs that succeeded (run_status 0, nok
+  !> of them): the mean estimate, the sample sigma (n - 1), the mean
+  !> Cramer-Rao sigma, trace and det of the sample covariance (n - 1), trace
+  !> and det of the mean information.  NaN where too few runs.  The one
+  !> summary of both front ends: the deck job and mlid.monte_carlo.
+  subroutine mc_statistics(est, sig, info, run_status, nok, mean, sample_sigma, cr_sigma, &
+                           cov_trace, cov_det, info_trace, info_det)
+    real(wp), intent(in) :: est(:, :), sig(:, :), info(:, :, :)   !< (nf, runs), (nf, nf, runs)
+    integer, intent(in) :: run_status(:)
+    integer, intent(out) :: nok
+    real(wp), intent(out) :: mean(:), sample_sigma(:), cr_sigma(:)
+    real(wp), intent(out) :: cov_trace, cov_det, info_trace, info_det
+    real(wp) :: cov(size(est, 1), size(est, 1)), mi(size(est, 1), size(est, 1))
+    real(wp) :: d(size(est, 1)), nan
+    logical :: ok(size(run_status))
+    integer :: nf, k, l, n
+
+    nf = size(est, 1)
+    nan = ieee_value(1.0_wp, ieee_quiet_nan)
+    ok = run_status == MLID_OK
+    n = count(ok)
+    nok = n
+    mean = nan
+    sample_sigma = nan
+    cr_sigma = nan
+    cov_det = nan
+    cov_trace = nan
+    info_trace = nan
+    info_det = nan
+    if (n == 0) return
+    do k = 1, nf
+      mean(k) = sum(est(k, :), mask=ok)/n
+      cr_sigma(k) = sum(sig(k, :), mask=ok)/n
+      do l = 1, nf
+        mi(k, l) = sum(info(k, l, :), mask=ok)/n
+      end do
+    end do
+    info_trace = sum([(mi(k, k), k=1, nf)])
+    info_det = det_sym(mi)
+    if (n < 2) return
+    do k = 1, nf
+      do l = 1, nf
+        cov(k, l) = sum((est(k, :) - mean(k))*(est(l, :) - mean(l)), mask=ok)/(n - 1)
+      end do
+      d(k) = cov(k, k)
+    end do
+    sample_sigma = sqrt(d)
+    cov_trace = sum(d)
+    cov_det = det_sym(cov)
+  end subroutine mc_statistics
+
+  !> det of a symmetric matrix: the product of its eigenvalues.
+  real(wp) function det_sym(a)
+    real(wp), intent(in) :: a(:, :)
+    real(wp) :: ev(size(a, 1)), vec(size(a, 1), size(a, 1))
+    integer :: info
+    call sym_eig(0.5_wp*(a + transpose(a)), ev, vec, info)
+    det_sym = product(ev)
+    if (info /= 0) det_sym = ieee_value(1.0_wp, ieee_quiet_nan)
+  end function det_sym
 
 end module mlid_monte_carlo
