@@ -45,7 +45,10 @@ module mlid_lti_predict
     real(wp), allocatable :: a(:, :), b(:, :), bx(:), c(:, :), d(:, :)
     real(wp), allocatable :: da(:, :, :), db(:, :, :), dbx(:, :), dc(:, :, :), dd(:, :, :)
     logical, allocatable :: moves(:)    !< column k moves the state equation
-    logical :: dc_zero = .true., dd_zero = .true.   !< no free column moves C, D
+    !> The non-zero entries of dC_k and dD_k (few: one per free H or D entry):
+    !> term t adds cv(t) x(cl(t)) to dy(ci(t), ck(t)), du likewise with u.
+    integer, allocatable :: ci(:), ck(:), cl(:), di(:), dk(:), dl(:)
+    real(wp), allocatable :: cv(:), dv(:)
   end type lti_sys_t
 
   !> One RK4 step's polynomials in M = h A (P the state's, Ea and Eb the
@@ -57,7 +60,8 @@ module mlid_lti_predict
   end type step_t
 
   !> The sample interval's map and its partials, stacked by column for
-  !> the products: dphi(:, k, :) is dPhi_k, and (nx nf, nx) to gemm.
+  !> the products: dphi(:, c, :) is dPhi of live column c, and (nx nlive,
+  !> nx) to gemm.
   type :: lti_map_t
     real(wp), allocatable :: phi(:, :), g0(:, :), g1(:, :), c(:)
     real(wp), allocatable :: dphi(:, :, :), dg0(:, :, :), dg1(:, :, :), dc(:, :)
@@ -105,6 +109,7 @@ contains
     type(lti_sys_t) :: sys
     type(lti_map_t) :: mp
     real(wp), allocatable :: x(:, :), ys(:, :)
+    integer, allocatable :: live(:)
     real(wp) :: dt, phit(m%nx, m%nx), acc
     integer :: n, nx, nu, ny, i, j, l
 
@@ -119,7 +124,12 @@ contains
     type is (linear_model_t)
       call system_of(m, theta(1:pm%l%np), pm, present(dy), sys)
     end select
-    call interval_map(sys, dt, opt%substeps, opt%hold, present(dy), mp)
+    if (present(dy)) then   ! the columns with states' sensitivities: moving f, or x0
+      live = pack([(j, j=1, pm%nf)], sys%moves .or. [(any(s0(:, j) /= 0.0_wp), j=1, pm%nf)])
+      call interval_map(sys, dt, opt%substeps, opt%hold, mp, live)
+    else
+      call interval_map(sys, dt, opt%substeps, opt%hold, mp)
+    end if
     ! states: the inputs' part of every interval by two products, then the
     ! recursion
     allocate (x(nx, n))
@@ -152,31 +162,31 @@ contains
         yhat(:, j0 + j - 1) = ys(:, j) + bias
       end do
     end associate
-    if (present(dy)) call sensitivities(ny, nx, nu, pm%nf, n, pm, iseg, sys, mp, opt%hold, x, &
-                                        u(:, j0:j1), s0, dy(:, :, j0:j1))
+    if (present(dy)) call sensitivities(ny, nx, nu, pm%nf, n, size(live), live, pm, iseg, sys, &
+                                        mp, opt%hold, x, u(:, j0:j1), s0(:, live), &
+                                        dy(:, :, j0:j1))
   end subroutine lti_segment
 
-  !> dy(ny, nf, n) over n samples, BLOCK samples at a time: the forcing of
-  !> the sensitivities by products over the block, their recursion, then
-  !> C s + dC x + dD u + dbias.  Only the live columns (those the state
-  !> equation or s0 moves) have states' sensitivities; the others stay zero.
-  subroutine sensitivities(ny, nx, nu, nf, n, pm, iseg, sys, mp, hold, x, u, s0, dy)
-    integer, intent(in) :: ny, nx, nu, nf, n, iseg
+  !> dy(ny, nf, n) over n samples, BLOCK samples at a time.  The states'
+  !> sensitivities s(nx, nl) are those of the live columns live(1:nl) only
+  !> (the others stay zero), from s0 (nx, nl): their forcing by products over
+  !> the block, their recursion, then dy = C s + the few terms of dC x and
+  !> dD u + dbias.
+  subroutine sensitivities(ny, nx, nu, nf, n, nl, live, pm, iseg, sys, mp, hold, x, u, s0, dy)
+    integer, intent(in) :: ny, nx, nu, nf, n, nl, live(nl), iseg
     type(param_map_t), intent(in) :: pm
     type(lti_sys_t), intent(in) :: sys
     type(lti_map_t), intent(in) :: mp
     logical, intent(in) :: hold
-    real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nf)
+    real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
     real(wp), intent(out) :: dy(ny, nf, n)
     real(wp), allocatable :: s(:, :, :)
     real(wp) :: phit(nx, nx), ct(nx, ny), acc
-    integer, allocatable :: live(:)
-    integer :: jb, je, nb, k0, k, j, c, l, i, col
+    integer :: jb, je, nb, k0, k, j, c, l, i
 
     phit = transpose(mp%phi)
     ct = transpose(sys%c)
-    live = pack([(c, c=1, nf)], sys%moves .or. [(any(s0(:, c) /= 0.0_wp), c=1, nf)])
-    allocate (s(nx, nf, 0:min(n, BLOCK)))    ! s(:, :, 0): the sample before the block
+    allocate (s(nx, nl, 0:min(n, BLOCK)))    ! s(:, :, 0): the sample before the block
     do jb = 1, n, BLOCK
       je = min(n, jb + BLOCK - 1)
       nb = je - jb + 1
@@ -189,39 +199,43 @@ contains
       end if
       if (k0 <= nb) then                ! the forcing of the intervals into samples jb+k0-1..je
         j = jb + k0 - 2                 ! the first of them starts at sample j
-        call gemm(nx*nf, nb - k0 + 1, nx, mp%dphi, x(:, j:je - 1), s(:, :, k0:nb), 0.0_wp)
-        call gemm(nx*nf, nb - k0 + 1, nu, mp%dg0, u(:, j:je - 1), s(:, :, k0:nb), 1.0_wp)
-        if (.not. hold) call gemm(nx*nf, nb - k0 + 1, nu, mp%dg1, u(:, j + 1:je), &
+        call gemm(nx*nl, nb - k0 + 1, nx, mp%dphi, x(:, j:je - 1), s(:, :, k0:nb), 0.0_wp)
+        call gemm(nx*nl, nb - k0 + 1, nu, mp%dg0, u(:, j:je - 1), s(:, :, k0:nb), 1.0_wp)
+        if (.not. hold) call gemm(nx*nl, nb - k0 + 1, nu, mp%dg1, u(:, j + 1:je), &
                                   s(:, :, k0:nb), 1.0_wp)
       end if
       ! the recursion and C s: short dot products, summed in registers
       do k = k0, nb
-        do c = 1, size(live)
-          col = live(c)
+        do c = 1, nl
           do i = 1, nx
-            acc = s(i, col, k) + mp%dc(i, col)
+            acc = s(i, c, k) + mp%dc(i, c)
             do l = 1, nx
-              acc = acc + phit(l, i)*s(l, col, k - 1)
+              acc = acc + phit(l, i)*s(l, c, k - 1)
             end do
-            s(i, col, k) = acc
+            s(i, c, k) = acc
           end do
         end do
       end do
       dy(:, :, jb:je) = 0.0_wp
       do k = 1, nb
-        do c = 1, size(live)
-          col = live(c)
+        do c = 1, nl
           do i = 1, ny
             acc = 0.0_wp
             do l = 1, nx
-              acc = acc + ct(l, i)*s(l, col, k)
+              acc = acc + ct(l, i)*s(l, c, k)
             end do
-            dy(i, col, jb + k - 1) = acc
+            dy(i, live(c), jb + k - 1) = acc
           end do
         end do
       end do
-      if (.not. sys%dc_zero) call gemm(ny*nf, nb, nx, sys%dc, x(:, jb:je), dy(:, :, jb:je), 1.0_wp)
-      if (.not. sys%dd_zero) call gemm(ny*nf, nb, nu, sys%dd, u(:, jb:je), dy(:, :, jb:je), 1.0_wp)
+      do k = 1, size(sys%cv)
+        dy(sys%ci(k), sys%ck(k), jb:je) = dy(sys%ci(k), sys%ck(k), jb:je) + &
+                                          sys%cv(k)*x(sys%cl(k), jb:je)
+      end do
+      do k = 1, size(sys%dv)
+        dy(sys%di(k), sys%dk(k), jb:je) = dy(sys%di(k), sys%dk(k), jb:je) + &
+                                          sys%dv(k)*u(sys%dl(k), jb:je)
+      end do
     end do
     do k = 1, size(pm%ib)               ! the segment's free biases
       i = pm%ib(k) - (iseg - 1)*ny
@@ -287,13 +301,36 @@ contains
         sys%dbx(q - m%obx, c) = sys%dbx(q - m%obx, c) + w
       end if                                       ! Gamma: no noise in output error
     end do
-    sys%dc_zero = all(sys%dc == 0.0_wp)
-    sys%dd_zero = all(sys%dd == 0.0_wp)
+    call nonzeros(sys%dc, sys%ci, sys%ck, sys%cl, sys%cv)
+    call nonzeros(sys%dd, sys%di, sys%dk, sys%dl, sys%dv)
     do k = 1, nf
       sys%moves(k) = any(sys%da(:, :, k) /= 0.0_wp) .or. any(sys%db(:, :, k) /= 0.0_wp) .or. &
                      any(sys%dbx(:, k) /= 0.0_wp)
     end do
   end subroutine system_of
+
+  !> The non-zero entries a(i(t), k(t), l(t)) = v(t) of a.
+  pure subroutine nonzeros(a, i, k, l, v)
+    real(wp), intent(in) :: a(:, :, :)
+    integer, allocatable, intent(out) :: i(:), k(:), l(:)
+    real(wp), allocatable, intent(out) :: v(:)
+    integer :: p, q, r, t
+    t = count(a /= 0.0_wp)
+    allocate (i(t), k(t), l(t), v(t))
+    t = 0
+    do r = 1, size(a, 3)
+      do q = 1, size(a, 2)
+        do p = 1, size(a, 1)
+          if (a(p, q, r) == 0.0_wp) cycle
+          t = t + 1
+          i(t) = p
+          k(t) = q
+          l(t) = r
+          v(t) = a(p, q, r)
+        end do
+      end do
+    end do
+  end subroutine nonzeros
 
   !> Row i and column j of entry q (from 1) of a column-major block of nr rows.
   pure subroutine ij(q, nr, i, j)
@@ -307,31 +344,33 @@ contains
   !> of each column that moves the state equation by the product rule on
   !> the same polynomials: the partials of the discrete map the RK4 path's
   !> sensitivity equations integrate, up to rounding.
-  subroutine interval_map(sys, dt, nsub, hold, partials, mp)
+  subroutine interval_map(sys, dt, nsub, hold, mp, live)
     type(lti_sys_t), intent(in) :: sys
     real(wp), intent(in) :: dt
     integer, intent(in) :: nsub
-    logical, intent(in) :: hold, partials
+    logical, intent(in) :: hold
     type(lti_map_t), intent(out) :: mp
+    integer, intent(in), optional :: live(:)   !< the columns to give partials of
     type(step_t) :: st
     real(wp), dimension(size(sys%a, 1), size(sys%a, 1)) :: dm, dm2, dm3, dp, dea, deb, dphi
     real(wp), dimension(size(sys%b, 1), size(sys%b, 2)) :: deab, debb, dg0, dg1
     real(wp) :: dcb(size(sys%a, 1)), dc(size(sys%a, 1)), h
-    integer :: nx, nu, nf, k, i
+    integer :: nx, nu, nf, k, i, c
     logical :: da
 
     nx = size(sys%a, 1)
     nu = size(sys%b, 2)
     h = dt/nsub
     call rk4_map(sys%a, sys%b, sys%bx, h, nsub, hold, st, mp%phi, mp%g0, mp%g1, mp%c)
-    if (.not. partials) return
-    nf = size(sys%moves)
+    if (.not. present(live)) return
+    nf = size(live)
     allocate (mp%dphi(nx, nf, nx), mp%dg0(nx, nf, nu), mp%dg1(nx, nf, nu), mp%dc(nx, nf))
     mp%dphi = 0.0_wp
     mp%dg0 = 0.0_wp
     mp%dg1 = 0.0_wp
     mp%dc = 0.0_wp
-    do k = 1, nf
+    do c = 1, nf
+      k = live(c)
       if (.not. sys%moves(k)) cycle
       da = any(sys%da(:, :, k) /= 0.0_wp)
       dp = 0.0_wp
@@ -359,10 +398,10 @@ contains
         dg1 = matmul(dp, st%g1(:, :, i - 1)) + matmul(st%p, dg1) + st%fa(i)*deab + st%fb(i)*debb
         dc = matmul(dp, st%c(:, i - 1)) + matmul(st%p, dc) + dcb
       end do
-      mp%dphi(:, k, :) = dphi
-      mp%dg0(:, k, :) = dg0
-      mp%dg1(:, k, :) = dg1
-      mp%dc(:, k) = dc
+      mp%dphi(:, c, :) = dphi
+      mp%dg0(:, c, :) = dg0
+      mp%dg1(:, c, :) = dg1
+      mp%dc(:, c) = dc
     end do
   end subroutine interval_map
 
