@@ -15,7 +15,8 @@ module mlid_simulate
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_linalg, only: psd_factor
   use mlid_models, only: model_t, layout_t, model_layout
-  use mlid_params, only: stabilized
+  use mlid_params, only: stabilized, param_map_t, param_map_create, no_ties
+  use mlid_lti_predict, only: lti_exact, lti_segment
   use mlid_options, only: options_t
   use mlid_delay, only: delay_outputs, delay_check
   use mlid_rk, only: rk4_interval, rk_work_t
@@ -39,7 +40,7 @@ contains
     type(layout_t) :: l
     real(wp) :: dhw(m%ny, m%nw), x(m%nx)
     real(wp), allocatable :: w(:, :), noise(:, :)
-    logical :: backward
+    logical :: backward, done
     type(rk_work_t) :: wk     !< the integration's work arrays
     integer :: j, nw, ny
     integer, allocatable :: none(:)
@@ -71,28 +72,10 @@ contains
     ud = u
     call delay_outputs(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), ud)
     allocate (none(0))
-    x = theta(l%ox0 + 1:l%ox0 + m%nx)
-    do j = 1, size(t)
-      xhist(:, j) = x
-      call m%h(t(j), x, ud(:, j), theta(1:l%np), y(:, j))
-      y(:, j) = y(:, j) + theta(l%obias + 1:l%obias + ny)
-      if (nw > 0) then
-        call m%dhdw(t(j), x, ud(:, j), theta(1:l%np), dhw)
-        if (backward) then          ! the noise of the interval before the sample
-          y(:, j) = y(:, j) + matmul(dhw, w(:, j - 1))
-        else
-          y(:, j) = y(:, j) + matmul(dhw, w(:, j))
-        end if
-      end if
-      if (j == size(t)) exit
-      call rk4_interval(m, theta(1:l%np), t(j), t(j + 1), ud(:, j), ud(:, j + 1), w(:, j), &
-                        opt%hold, opt%substeps, x, none, none, [real(wp) ::], wk)
-      if (.not. all(ieee_is_finite(x))) then
-        status = MLID_ERR_DIVERGED
-        write (msg, '(a,g0.6)') 'simulation diverged: state non-finite at t = ', t(j + 1)
-        return
-      end if
-    end do
+    done = .false.
+    if (all(w == 0.0_wp)) done = as_predicted()
+    if (.not. done) call integrate()
+    if (status /= MLID_OK) return
     ! sensors that report late (mlid_delay), then their own noise
     call delay_check(theta(l%odelay + 1:l%odelay + ny), t, 1, size(t), 1, 'delay', status, msg)
     if (status /= MLID_OK) return
@@ -100,6 +83,53 @@ contains
     y = y + noise
     status = MLID_OK
     msg = ''
+
+  contains
+
+    !> Without process noise, a model the output-error predictor takes to
+    !> mlid_lti_predict (a linear one) is simulated there too: a noise-free
+    !> record is then the predictor's at these parameters to the bit.
+    !> False (and nothing done) for the others, or when a state is not
+    !> finite (integrate then says where).
+    logical function as_predicted()
+      type(param_map_t) :: pm
+      real(wp) :: s0(m%nx, 0)
+      integer :: pstat
+      character(len=len(msg)) :: pmsg
+      as_predicted = .false.
+      call param_map_create(l, [(0, j=1, l%nth)], no_ties(l%nth), pm, pstat, pmsg)
+      if (pstat /= MLID_OK) return
+      if (.not. lti_exact(m, theta, pm, t, 1, size(t))) return
+      call lti_segment(m, theta, pm, t, ud, opt, 1, 1, size(t), s0, y, pstat, xhist=xhist)
+      as_predicted = pstat == MLID_OK
+    end function as_predicted
+
+    !> The states and outputs by RK4, sample by sample, with the process noise.
+    subroutine integrate()
+      x = theta(l%ox0 + 1:l%ox0 + m%nx)
+      do j = 1, size(t)
+        xhist(:, j) = x
+        call m%h(t(j), x, ud(:, j), theta(1:l%np), y(:, j))
+        y(:, j) = y(:, j) + theta(l%obias + 1:l%obias + ny)
+        if (nw > 0) then
+          call m%dhdw(t(j), x, ud(:, j), theta(1:l%np), dhw)
+          if (backward) then          ! the noise of the interval before the sample
+            y(:, j) = y(:, j) + matmul(dhw, w(:, j - 1))
+          else
+            y(:, j) = y(:, j) + matmul(dhw, w(:, j))
+          end if
+        end if
+        if (j == size(t)) exit
+        call rk4_interval(m, theta(1:l%np), t(j), t(j + 1), ud(:, j), ud(:, j + 1), w(:, j), &
+                          opt%hold, opt%substeps, x, none, none, [real(wp) ::], wk)
+        if (.not. all(ieee_is_finite(x))) then
+          status = MLID_ERR_DIVERGED
+          write (msg, '(a,g0.6)') 'simulation diverged: state non-finite at t = ', t(j + 1)
+          return
+        end if
+      end do
+    end subroutine integrate
+
   end subroutine simulate_outputs
 
   !> The noise simulate_outputs draws with seed over nt samples: the process
