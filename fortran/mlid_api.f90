@@ -28,7 +28,7 @@ module mlid_api
   use mlid_colored, only: colored_covariance, colored_sandwich
   use mlid_linalg, only: sym_eig
   use mlid_simulate, only: simulate_outputs
-  use mlid_monte_carlo, only: monte_carlo
+  use mlid_monte_carlo, only: monte_carlo, mc_statistics
   use mlid_setup, only: setup
   use mlid_inputs, only: input_signal
   use mlid_deck, only: opened, deck_open, case_time_input, corrected_writable
@@ -78,6 +78,7 @@ module mlid_api
             mlid_flightpath_lists, mlid_flightpath_model_text, mlid_flightpath_corrected, &
             mlid_deck_case_corrected, mlid_deck_case_corrected_writable, &
             mlid_check_jacobians, mlid_fit, mlid_evaluate, mlid_simulate, mlid_monte_carlo, &
+            mlid_monte_carlo_summary, &
             mlid_colored_cov, mlid_colored_cov_rvv, &
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude, mlid_design_equalised, &
@@ -1290,6 +1291,24 @@ contains
     call monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, run_status, &
                      info)
   end subroutine mlid_monte_carlo
+
+  !> The statistics of Monte Carlo runs (mlid_monte_carlo's mc_statistics,
+  !> those of the deck job too) over the runs with run_status 0 (nok):
+  !> mean, sample sigma and mean Cramer-Rao sigma of each free parameter
+  !> (nf), and stats = [trace, det of the sample covariance, trace, det of
+  !> the mean information]; NaN where too few runs.
+  subroutine mlid_monte_carlo_summary(nf, nrun, est, sig, info, run_status, nok, mean, &
+                                      sample_sigma, cr_sigma, stats)
+    integer(c_int), intent(in) :: nf, nrun
+    real(c_double), intent(in) :: est(nf, nrun), sig(nf, nrun), info(nf, nf, nrun)
+    integer(c_int), intent(in) :: run_status(nrun)
+    integer(c_int), intent(out) :: nok
+    real(c_double), intent(out) :: mean(nf), sample_sigma(nf), cr_sigma(nf), stats(4)
+    integer :: n
+    call mc_statistics(est, sig, info, run_status, n, mean, sample_sigma, cr_sigma, stats(1), &
+                       stats(2), stats(3), stats(4))
+    nok = n
+  end subroutine mlid_monte_carlo_summary
 
   !> Check and gather the a priori values and weight and the bounds of the
   !> free parameters; messages name the free parameter by its number.

@@ -38,6 +38,7 @@ module mlid_filter
   use mlid_params, only: param_map_t, segment_map, input_delays, output_delays, stabilized
   use mlid_rk, only: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product
   use mlid_delay, only: delay_outputs, delay_check
+  use mlid_lti_predict, only: lti_exact, lti_segment
   use mlid_riccati, only: dare_solve, stein_solve
   implicit none
   private
@@ -107,8 +108,9 @@ contains
     call first_failure(kstat, kmsg, status, msg)
   end subroutine oe_predict
 
-  !> oe_segment on the model with the inputs that keep one value over the
-  !> segment folded in (model_t%fold_inputs), and with sensitivities only
+  !> A linear time-invariant model goes to mlid_lti_predict where it gives
+  !> the same results up to rounding (lti_exact); else oe_segment on the
+  !> model with the inputs that keep one value over the segment folded in (model_t%fold_inputs), and with sensitivities only
   !> for the free parameters that can move it (mlid_params' segment_map):
   !> a bias of another manoeuvre, stated with that one's indicator input,
   !> costs this one nothing.  Results are those of oe_segment on m up to
@@ -133,6 +135,12 @@ contains
     logical :: fixed(m%nu), used(m%np)
     integer :: i, c
 
+    if (lti_exact(m, theta, pm, t, j0, j1)) then     ! a linear model: its step is a matrix
+      call lti_segment(m, theta, pm, t, u, opt, iseg, j0, j1, initial_sensitivity(pm, iseg), &
+                       yhat, status, dy, xhist)
+      msg = ''
+      if (status == MLID_OK) return                  ! else diverged: the RK4 path says where
+    end if
     do i = 1, m%nu
       fixed(i) = all(u(i, j0:j1) == u(i, j0))
     end do

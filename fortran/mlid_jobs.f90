@@ -17,8 +17,7 @@ module mlid_jobs
   use mlid_params, only: param_map_t, no_ties
   use mlid_setup, only: setup
   use mlid_simulate, only: simulate_outputs
-  use mlid_monte_carlo, only: monte_carlo
-  use mlid_linalg, only: sym_eig
+  use mlid_monte_carlo, only: monte_carlo, mc_statistics
   use mlid_record, only: record_text, UNITLEN
   use mlid_files, only: temporary_for, write_whole
   use mlid_text, only: itoa
@@ -288,68 +287,13 @@ contains
     s%seed = c%seed
     s%input_file = c%input_file
     s%samples = size(t)
-    call mc_statistics(est, sig, info, run_status, s)
+    s%runs = c%runs
+    allocate (s%mean(nf), s%sample_sigma(nf), s%cr_sigma(nf))
+    call mc_statistics(est, sig, info, run_status, s%ok, s%mean, s%sample_sigma, s%cr_sigma, &
+                       s%cov_trace, s%cov_det, s%info_trace, s%info_det)
     report = mc_report(s)
     json = mc_json(c%title, c%job, s)
   end subroutine monte_carlo_job
-
-  !> Table 8.1's statistics over the runs that converged: mean, sample sigma
-  !> (n - 1), mean Cramer-Rao sigma, det and trace of the sample covariance,
-  !> trace and det of the mean information.  NaN where too few runs.
-  subroutine mc_statistics(est, sig, info, run_status, s)
-    real(wp), intent(in) :: est(:, :), sig(:, :), info(:, :, :)
-    integer, intent(in) :: run_status(:)
-    type(mc_summary_t), intent(inout) :: s
-    real(wp) :: cov(size(est, 1), size(est, 1)), mi(size(est, 1), size(est, 1))
-    real(wp) :: d(size(est, 1)), nan
-    logical :: ok(size(run_status))
-    integer :: nf, k, l, n
-
-    nf = size(est, 1)
-    nan = ieee_value(1.0_wp, ieee_quiet_nan)
-    ok = run_status == MLID_OK
-    n = count(ok)
-    s%runs = size(run_status)
-    s%ok = n
-    allocate (s%mean(nf), s%sample_sigma(nf), s%cr_sigma(nf))
-    s%mean = nan
-    s%sample_sigma = nan
-    s%cr_sigma = nan
-    s%cov_det = nan
-    s%cov_trace = nan
-    s%info_trace = nan
-    s%info_det = nan
-    if (n == 0) return
-    do k = 1, nf
-      s%mean(k) = sum(est(k, :), mask=ok)/n
-      s%cr_sigma(k) = sum(sig(k, :), mask=ok)/n
-      do l = 1, nf
-        mi(k, l) = sum(info(k, l, :), mask=ok)/n
-      end do
-    end do
-    s%info_trace = sum([(mi(k, k), k=1, nf)])
-    s%info_det = det_sym(mi)
-    if (n < 2) return
-    do k = 1, nf
-      do l = 1, nf
-        cov(k, l) = sum((est(k, :) - s%mean(k))*(est(l, :) - s%mean(l)), mask=ok)/(n - 1)
-      end do
-      d(k) = cov(k, k)
-    end do
-    s%sample_sigma = sqrt(d)
-    s%cov_trace = sum(d)
-    s%cov_det = det_sym(cov)
-  end subroutine mc_statistics
-
-  !> det of a symmetric matrix: the product of its eigenvalues.
-  real(wp) function det_sym(a)
-    real(wp), intent(in) :: a(:, :)
-    real(wp) :: ev(size(a, 1)), vec(size(a, 1), size(a, 1))
-    integer :: info
-    call sym_eig(0.5_wp*(a + transpose(a)), ev, vec, info)
-    det_sym = product(ev)
-    if (info /= 0) det_sym = ieee_value(1.0_wp, ieee_quiet_nan)
-  end function det_sym
 
   !> Input k's name: &model's, else u<k>.
   function input_name(c, k) result(name)

@@ -107,8 +107,10 @@ contains
 
   !> Fit the free parameters of theta0 (map pm) by maximum likelihood, with
   !> the method of opt and the options in ex.  On a non-zero status res still
-  !> holds the last iterate.
-  subroutine newton_fit(m, theta0, pm, t, u, y, opt, ex, res, status, msg)
+  !> holds the last iterate.  plain_bound: leave out the bound corrected for
+  !> coloured residuals (res%cov_c), which a caller that keeps only res%cov
+  !> (the Monte Carlo) does not need.
+  subroutine newton_fit(m, theta0, pm, t, u, y, opt, ex, res, status, msg, plain_bound)
     class(model_t), intent(in), target :: m
     real(wp), intent(in) :: theta0(:)
     type(param_map_t), intent(in), target :: pm
@@ -118,9 +120,11 @@ contains
     type(fit_result_t), intent(out) :: res
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    logical, intent(in), optional :: plain_bound
     type(problem_t) :: pb
     type(search_t) :: st
     integer :: rmin, rtop, k
+    logical :: colored
     real(wp) :: djr
     real(wp), allocatable, target :: tf(:), uf(:, :), yf(:, :)
 
@@ -162,9 +166,11 @@ contains
     if (opt%noise_criterion == 1) call noise_free_note(pm, size(t), res)
     if (opt%noise_criterion == 0 .and. opt%method == 1) call noise_free_warning(pm, ex, res)
     call final_bound(opt, ex, st, res, status, msg)
+    colored = .true.
+    if (present(plain_bound)) colored = .not. plain_bound
     if (frequency_method(opt) .and. allocated(res%cov)) then
       res%cov_c = res%cov     ! no coloured-residual correction in the frequency domain
-    else if (any(status == [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) then
+    else if (colored .and. any(status == [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) then
       call colored_bound(pm, y, res, status, msg)
     end if
     if (status /= MLID_OK) call noise_free_outputs(opt, pm, ex, res, msg)

@@ -178,7 +178,7 @@ contains
     character(len=:), allocatable :: text, line
     character(len=16) :: num
     integer :: n, k, l, order(size(eigval)), shown
-    real(wp) :: c
+    real(wp) :: c, sgn
 
     text = ''
     n = size(eigval)
@@ -195,9 +195,10 @@ contains
     end do
     line = ' weakest direction:'
     shown = 0
+    sgn = sign(1.0_wp, eigvec(order(1), 1))   ! an eigenvector's sign is arbitrary: largest +
     do k = 1, n
       if (abs(eigvec(order(k), 1)) < 0.1_wp .or. shown == 5) exit
-      write (num, '(sp,f5.2)') eigvec(order(k), 1)
+      write (num, '(sp,f5.2)') sgn*eigvec(order(k), 1)
       line = line//' '//trim(num)//' '//trim(labels(order(k)))
       shown = shown + 1
     end do

@@ -30,6 +30,15 @@ def test_parallel_runs_do_not_depend_on_how_they_are_split():
     procs = mlid.monte_carlo_parallel(truth, start, t, u, runs=12, seed=5, workers=2, chunk=5)
     np.testing.assert_array_equal(one["estimates"], procs["estimates"])
     np.testing.assert_array_equal(one["information"], procs["information"])
+    for key, value in one["summary"].items():       # the core's summary of the same runs
+        np.testing.assert_array_equal(value, procs["summary"][key], err_msg=key)
+    # Without process noise the core simulates the truth once and each run
+    # adds its own noise: the record of run k is simulate()'s with seed 5 + k,
+    # and the run is fit() of it (the estimates and sigma to the bit).
+    for k in (0, 7):
+        res = mlid.fit(start, mlid.simulate(truth, t, u, seed=5 + k)[0])
+        np.testing.assert_array_equal(res.estimate, one["estimates"][k])
+        np.testing.assert_array_equal(res.sigma, one["sigma"][k])
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, \

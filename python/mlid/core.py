@@ -660,23 +660,28 @@ def _mc_chunks(runs, seed, chunk):
     return [(seed + k, min(chunk, runs - k)) for k in range(0, runs, chunk)]
 
 
-#: What the summary of a Monte Carlo holds, over the runs with status 0.
-SUMMARY = ("runs", "mean", "sample_sigma", "mean_cr_sigma")
+#: What the summary of a Monte Carlo holds, over the runs with status 0 (the
+#: core's statistics, those of the deck job 'monte_carlo' too): their number,
+#: the mean estimate, sample sigma and mean Cramer-Rao sigma of each free
+#: parameter, trace and det of the sample covariance and of the mean
+#: information.
+SUMMARY = ("runs", "mean", "sample_sigma", "mean_cr_sigma", "sample_cov_trace", "sample_cov_det",
+           "mean_info_trace", "mean_info_det")
 
 
 def _mc_result(parts, names, truth, stacklevel=4):
     """The runs of parts joined in order, the summary over the runs that
-    succeeded, and a ConvergenceWarning naming how many did not."""
+    succeeded (the core's), and a ConvergenceWarning naming how many did not."""
     out = {key: np.concatenate([p[key] for p in parts])
            for key in ("estimates", "sigma", "information", "iterations", "status")}
     out["names"], out["truth"] = names, truth
+    nok, mean, sample_sigma, cr_sigma, stats = _api.mlid_monte_carlo_summary(
+        est=np.asfortranarray(out["estimates"].T), sig=np.asfortranarray(out["sigma"].T),
+        info=np.asfortranarray(np.moveaxis(out["information"], 0, 2)),
+        run_status=out["status"])
+    out["summary"] = dict(zip(SUMMARY, (int(nok), mean, sample_sigma, cr_sigma,
+                                        *(float(v) for v in stats))))
     ok = out["status"] == 0
-    est, sig = out["estimates"][ok], out["sigma"][ok]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out["summary"] = dict(zip(SUMMARY, (
-            int(ok.sum()), est.mean(axis=0) if ok.any() else np.full(len(names), np.nan),
-            est.std(axis=0, ddof=1) if ok.sum() > 1 else np.full(len(names), np.nan),
-            sig.mean(axis=0) if ok.any() else np.full(len(names), np.nan))))
     bad = out["status"][~ok]
     if bad.size:
         kinds = ", ".join(f"{int((bad == s).sum())} {status_text(s)}"
@@ -728,8 +733,10 @@ def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, progress=N
         (runs,), status 0 for a converged run, else the core's status code
         (4 not converged, 2 singular information, 3 diverged); ``names`` and
         ``truth`` of the free parameters; ``summary``: over the runs with
-        status 0, their number ``runs``, ``mean`` estimate, ``sample_sigma``
-        and ``mean_cr_sigma``.
+        status 0, their number ``runs``, ``mean`` estimate, ``sample_sigma``,
+        ``mean_cr_sigma``, and ``sample_cov_trace``, ``sample_cov_det``,
+        ``mean_info_trace``, ``mean_info_det`` (the core's statistics, the
+        same numbers as the deck job 'monte_carlo' reports).
 
     Raises
     ------

@@ -1,0 +1,478 @@
+!> Output-error prediction of a linear time-invariant model (linear_model_t)
+!> as linear maps, the fast path of mlid_filter's oe_manoeuvre.
+!>
+!> With F, G, H, D (and the feedback K) constant over a record and the input
+!> linear between samples (or held), one RK4 step of length h of
+!> xdot = A x + B u + b, A = F + G K, B = G, b = bx, is itself linear:
+!>
+!>   x+ = P x + Ea B u_a + Eb B u_b + (Ea + Eb) b,   M = h A,
+!>   P  = I + M + M^2/2 + M^3/6 + M^4/24,
+!>   Ea = h (I/2 + M/3 + M^2/8 + M^3/24),  Eb = h (I/2 + M/6 + M^2/24)
+!>
+!> (u_a, u_b the inputs at the step's ends, the mid-step stages taking their
+!> mean), and nsub steps make the sample interval's map
+!>
+!>   x(j+1) = Phi x(j) + Gam0 u(j) + Gam1 u(j+1) + c.
+!>
+!> This is the RK4 polynomial, not expm: the states equal those of mlid_rk
+!> up to rounding.  The sensitivity equations the RK4 path integrates with
+!> the state form, with it, the linear system [x; s_k] of matrix
+!> [A, 0; dA_k, A], whose RK4 step is the same polynomial, with the
+!> partials of the map above (product rule) in its lower blocks: so the
+!> partials dPhi_k, dGam0_k, dGam1_k, dc_k give the RK4 path's sensitivities
+!> up to rounding.  States then follow by the recursion above; the forcing
+!> of the sensitivities, s(j+1) = Phi s(j) + dPhi x(j) + dGam0 u(j) +
+!> dGam1 u(j+1) + dc, and the outputs y = C x + D u + bias, dy = C s + dC x
+!> + dD u + dbias (C = H + D K) are matrix products over blocks of samples.
+!> Those products are the compiler's loops, not BLAS dgemm: the matrices are
+!> a few rows deep (nx, ny, nx nf), where the reference BLAS took twice the
+!> instructions (callgrind, the C-8 Monte Carlo).
+module mlid_lti_predict
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED
+  use mlid_models, only: model_t, linear_model_t
+  use mlid_options, only: options_t
+  use mlid_params, only: param_map_t, input_delays, output_delays, stabilized
+  implicit none
+  private
+  public :: lti_exact, lti_segment
+
+  !> Samples per block of the sensitivities (bounds their memory).
+  integer, parameter :: BLOCK = 512
+
+  !> The model's matrices at theta and their partials by free column.
+  type :: lti_sys_t
+    real(wp), allocatable :: a(:, :), b(:, :), bx(:), c(:, :), d(:, :)
+    real(wp), allocatable :: da(:, :, :), db(:, :, :), dbx(:, :), dc(:, :, :), dd(:, :, :)
+    logical, allocatable :: moves(:)    !< column k moves the state equation
+    !> The non-zero entries of dC_k and dD_k (few: one per free H or D entry):
+    !> term t adds cv(t) x(cl(t)) to dy(ci(t), ck(t)), du likewise with u.
+    integer, allocatable :: ci(:), ck(:), cl(:), di(:), dk(:), dl(:)
+    real(wp), allocatable :: cv(:), dv(:)
+  end type lti_sys_t
+
+  !> One RK4 step's polynomials in M = h A (P the state's, Ea and Eb the
+  !> step's first and last input's) and the interval's map after each of
+  !> its nsub steps (index 0: none), with the steps' input fractions.
+  type :: step_t
+    real(wp), allocatable :: m(:, :), m2(:, :), m3(:, :), p(:, :), ea(:, :), eb(:, :)
+    real(wp), allocatable :: phi(:, :, :), g0(:, :, :), g1(:, :, :), c(:, :), fa(:), fb(:)
+  end type step_t
+
+  !> The sample interval's map and its partials, stacked by column for
+  !> the products: dphi(:, c, :) is dPhi of live column c, and (nx nlive,
+  !> nx) to gemm.
+  type :: lti_map_t
+    real(wp), allocatable :: phi(:, :), g0(:, :), g1(:, :), c(:)
+    real(wp), allocatable :: dphi(:, :, :), dg0(:, :, :), dg1(:, :, :), dc(:, :)
+  end type lti_map_t
+
+contains
+
+  !> Whether lti_segment gives samples j0..j1 exactly (up to rounding): a
+  !> linear_model_t, no input or output delays, no stabilized output error,
+  !> and samples evenly spaced (to the rounding of times t0 + k dt).
+  logical function lti_exact(m, theta, pm, t, j0, j1)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:), t(:)
+    type(param_map_t), intent(in) :: pm
+    integer, intent(in) :: j0, j1
+    real(wp) :: dt, tol
+    lti_exact = .false.
+    select type (m)
+    type is (linear_model_t)
+      if (input_delays(theta, pm) .or. output_delays(theta, pm)) return
+      if (stabilized(theta, pm%l) .or. size(pm%ik) > 0) return
+      if (j1 > j0) then
+        dt = (t(j1) - t(j0))/(j1 - j0)
+        tol = 16*epsilon(1.0_wp)*max(abs(t(j0)), abs(t(j1)), dt)
+        if (any(abs((t(j0 + 1:j1) - t(j0:j1 - 1)) - dt) > tol)) return
+      end if
+      lti_exact = .true.
+    end select
+  end function lti_exact
+
+  !> oe_segment's outputs yhat(:, j0:j1) of segment iseg, and dy(:, :, j0:j1)
+  !> and xhist(:, j0:j1) if present, for a model lti_exact accepts.  s0: the
+  !> segment's initial sensitivities (nx, nf).  A state that is not finite
+  !> returns MLID_ERR_DIVERGED and nothing else: the caller's RK4 path then
+  !> says where, as it always has.
+  subroutine lti_segment(m, theta, pm, t, u, opt, iseg, j0, j1, s0, yhat, status, dy, xhist)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:), t(:), u(:, :), s0(:, :)
+    type(param_map_t), intent(in) :: pm
+    type(options_t), intent(in) :: opt
+    integer, intent(in) :: iseg, j0, j1
+    real(wp), intent(inout) :: yhat(:, :)
+    integer, intent(out) :: status
+    real(wp), intent(inout), optional :: dy(:, :, :), xhist(:, :)
+    type(lti_sys_t) :: sys
+    type(lti_map_t) :: mp
+    real(wp), allocatable :: x(:, :), ys(:, :)
+    integer, allocatable :: live(:)
+    real(wp) :: dt, phit(m%nx, m%nx), acc
+    integer :: n, nx, nu, ny, i, j, l
+
+    status = MLID_OK
+    n = j1 - j0 + 1
+    nx = m%nx
+    nu = m%nu
+    ny = m%ny
+    dt = 0.0_wp
+    if (n > 1) dt = (t(j1) - t(j0))/(n - 1)
+    select type (m)
+    type is (linear_model_t)
+      call system_of(m, theta(1:pm%l%np), pm, present(dy), sys)
+    end select
+    if (present(dy)) then   ! the columns with states' sensitivities: moving f, or x0
+      live = pack([(j, j=1, pm%nf)], sys%moves .or. [(any(s0(:, j) /= 0.0_wp), j=1, pm%nf)])
+      call interval_map(sys, dt, opt%substeps, opt%hold, mp, live)
+    else
+      call interval_map(sys, dt, opt%substeps, opt%hold, mp)
+    end if
+    ! states: the inputs' part of every interval by two products, then the
+    ! recursion
+    allocate (x(nx, n))
+    x(:, 1) = theta(pm%l%ox0 + (iseg - 1)*nx + 1:pm%l%ox0 + iseg*nx)
+    if (n > 1) then
+      call gemm(nx, n - 1, nu, mp%g0, u(:, j0:j1 - 1), x(:, 2:n), 0.0_wp)
+      if (.not. opt%hold) call gemm(nx, n - 1, nu, mp%g1, u(:, j0 + 1:j1), x(:, 2:n), 1.0_wp)
+    end if
+    phit = transpose(mp%phi)
+    do j = 2, n
+      do i = 1, nx
+        acc = x(i, j) + mp%c(i)
+        do l = 1, nx
+          acc = acc + phit(l, i)*x(l, j - 1)
+        end do
+        x(i, j) = acc
+      end do
+    end do
+    if (.not. all(ieee_is_finite(x))) then
+      status = MLID_ERR_DIVERGED
+      return
+    end if
+    if (present(xhist)) xhist(:, j0:j1) = x
+    ! outputs y = C x + D u + the segment's biases
+    allocate (ys(ny, n))
+    call gemm(ny, n, nx, sys%c, x, ys, 0.0_wp)
+    call gemm(ny, n, nu, sys%d, u(:, j0:j1), ys, 1.0_wp)
+    associate (bias => theta(pm%l%obias + (iseg - 1)*ny + 1:pm%l%obias + iseg*ny))
+      do j = 1, n
+        yhat(:, j0 + j - 1) = ys(:, j) + bias
+      end do
+    end associate
+    if (present(dy)) call sensitivities(ny, nx, nu, pm%nf, n, size(live), live, pm, iseg, sys, &
+                                        mp, opt%hold, x, u(:, j0:j1), s0(:, live), &
+                                        dy(:, :, j0:j1))
+  end subroutine lti_segment
+
+  !> dy(ny, nf, n) over n samples, BLOCK samples at a time.  The states'
+  !> sensitivities s(nx, nl) are those of the live columns live(1:nl) only
+  !> (the others stay zero), from s0 (nx, nl): their forcing by products over
+  !> the block, their recursion, then dy = C s + the few terms of dC x and
+  !> dD u + dbias.
+  subroutine sensitivities(ny, nx, nu, nf, n, nl, live, pm, iseg, sys, mp, hold, x, u, s0, dy)
+    integer, intent(in) :: ny, nx, nu, nf, n, nl, live(nl), iseg
+    type(param_map_t), intent(in) :: pm
+    type(lti_sys_t), intent(in) :: sys
+    type(lti_map_t), intent(in) :: mp
+    logical, intent(in) :: hold
+    real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
+    real(wp), intent(out) :: dy(ny, nf, n)
+    real(wp), allocatable :: s(:, :, :)
+    real(wp) :: phit(nx, nx), ct(nx, ny), acc
+    integer :: jb, je, nb, k0, k, j, c, l, i
+
+    phit = transpose(mp%phi)
+    ct = transpose(sys%c)
+    allocate (s(nx, nl, 0:min(n, BLOCK)))    ! s(:, :, 0): the sample before the block
+    do jb = 1, n, BLOCK
+      je = min(n, jb + BLOCK - 1)
+      nb = je - jb + 1
+      k0 = 1
+      if (jb == 1) then                 ! the first sample has no forcing: it is s0
+        s(:, :, 1) = s0
+        k0 = 2
+      else
+        s(:, :, 0) = s(:, :, BLOCK)
+      end if
+      if (k0 <= nb) then                ! the forcing of the intervals into samples jb+k0-1..je
+        j = jb + k0 - 2                 ! the first of them starts at sample j
+        call gemm(nx*nl, nb - k0 + 1, nx, mp%dphi, x(:, j:je - 1), s(:, :, k0:nb), 0.0_wp)
+        call gemm(nx*nl, nb - k0 + 1, nu, mp%dg0, u(:, j:je - 1), s(:, :, k0:nb), 1.0_wp)
+        if (.not. hold) call gemm(nx*nl, nb - k0 + 1, nu, mp%dg1, u(:, j + 1:je), &
+                                  s(:, :, k0:nb), 1.0_wp)
+      end if
+      ! the recursion and C s: short dot products, summed in registers
+      do k = k0, nb
+        do c = 1, nl
+          do i = 1, nx
+            acc = s(i, c, k) + mp%dc(i, c)
+            do l = 1, nx
+              acc = acc + phit(l, i)*s(l, c, k - 1)
+            end do
+            s(i, c, k) = acc
+          end do
+        end do
+      end do
+      dy(:, :, jb:je) = 0.0_wp
+      do k = 1, nb
+        do c = 1, nl
+          do i = 1, ny
+            acc = 0.0_wp
+            do l = 1, nx
+              acc = acc + ct(l, i)*s(l, c, k)
+            end do
+            dy(i, live(c), jb + k - 1) = acc
+          end do
+        end do
+      end do
+      do k = 1, size(sys%cv)
+        dy(sys%ci(k), sys%ck(k), jb:je) = dy(sys%ci(k), sys%ck(k), jb:je) + &
+                                          sys%cv(k)*x(sys%cl(k), jb:je)
+      end do
+      do k = 1, size(sys%dv)
+        dy(sys%di(k), sys%dk(k), jb:je) = dy(sys%di(k), sys%dk(k), jb:je) + &
+                                          sys%dv(k)*u(sys%dl(k), jb:je)
+      end do
+    end do
+    do k = 1, size(pm%ib)               ! the segment's free biases
+      i = pm%ib(k) - (iseg - 1)*ny
+      if (i >= 1 .and. i <= ny) dy(i, pm%cb(k), :) = dy(i, pm%cb(k), :) + pm%wb(k)
+    end do
+  end subroutine sensitivities
+
+  !> A, B, b, C, D at the model parameters p and, with partials, their
+  !> partials by free column (a tie adds its term's scale), read through the
+  !> linear model's offsets, p = [vec F, vec G, vec H, vec D, vec Gamma,
+  !> vec K, bx] (mlid_models), with the feedback K: A = F + G K, C = H + D K.
+  subroutine system_of(m, p, pm, partials, sys)
+    type(linear_model_t), intent(in) :: m
+    real(wp), intent(in) :: p(:)
+    type(param_map_t), intent(in) :: pm
+    logical, intent(in) :: partials
+    type(lti_sys_t), intent(out) :: sys
+    real(wp) :: kf(m%nu, m%nx), w
+    integer :: nx, nu, ny, nf, k, q, i, j, c
+
+    nx = m%nx
+    nu = m%nu
+    ny = m%ny
+    nf = pm%nf
+    kf = reshape(p(m%ok + 1:m%ok + nu*nx), [nu, nx])
+    sys%b = reshape(p(m%og + 1:m%og + nx*nu), [nx, nu])
+    sys%d = reshape(p(m%od + 1:m%od + ny*nu), [ny, nu])
+    sys%a = reshape(p(m%of + 1:m%of + nx*nx), [nx, nx]) + matmul(sys%b, kf)
+    sys%c = reshape(p(m%oh + 1:m%oh + ny*nx), [ny, nx]) + matmul(sys%d, kf)
+    sys%bx = p(m%obx + 1:m%obx + nx)
+    if (.not. partials) return
+    ! dc(:, k, :) is dC_k and dd(:, k, :) dD_k: stacked by column for gemm
+    allocate (sys%da(nx, nx, nf), sys%db(nx, nu, nf), sys%dbx(nx, nf), sys%dc(ny, nf, nx), &
+              sys%dd(ny, nf, nu), sys%moves(nf))
+    sys%da = 0.0_wp
+    sys%db = 0.0_wp
+    sys%dbx = 0.0_wp
+    sys%dc = 0.0_wp
+    sys%dd = 0.0_wp
+    do k = 1, size(pm%im)
+      q = pm%im(k)
+      c = pm%cm(k)
+      w = pm%wm(k)
+      if (q <= m%og) then                          ! F(i, j)
+        call ij(q - m%of, nx, i, j)
+        sys%da(i, j, c) = sys%da(i, j, c) + w
+      else if (q <= m%oh) then                     ! G(i, j): B, and A through K
+        call ij(q - m%og, nx, i, j)
+        sys%db(i, j, c) = sys%db(i, j, c) + w
+        sys%da(i, :, c) = sys%da(i, :, c) + w*kf(j, :)
+      else if (q <= m%od) then                     ! H(i, j)
+        call ij(q - m%oh, ny, i, j)
+        sys%dc(i, c, j) = sys%dc(i, c, j) + w
+      else if (q <= m%ogam) then                   ! D(i, j): D, and C through K
+        call ij(q - m%od, ny, i, j)
+        sys%dd(i, c, j) = sys%dd(i, c, j) + w
+        sys%dc(i, c, :) = sys%dc(i, c, :) + w*kf(j, :)
+      else if (q > m%ok .and. q <= m%obx) then     ! K(j, i): G(:, j), D(:, j) in column i
+        call ij(q - m%ok, nu, j, i)
+        sys%da(:, i, c) = sys%da(:, i, c) + w*sys%b(:, j)
+        sys%dc(:, c, i) = sys%dc(:, c, i) + w*sys%d(:, j)
+      else if (q > m%obx) then                     ! bx(i)
+        sys%dbx(q - m%obx, c) = sys%dbx(q - m%obx, c) + w
+      end if                                       ! Gamma: no noise in output error
+    end do
+    call nonzeros(sys%dc, sys%ci, sys%ck, sys%cl, sys%cv)
+    call nonzeros(sys%dd, sys%di, sys%dk, sys%dl, sys%dv)
+    do k = 1, nf
+      sys%moves(k) = any(sys%da(:, :, k) /= 0.0_wp) .or. any(sys%db(:, :, k) /= 0.0_wp) .or. &
+                     any(sys%dbx(:, k) /= 0.0_wp)
+    end do
+  end subroutine system_of
+
+  !> The non-zero entries a(i(t), k(t), l(t)) = v(t) of a.
+  pure subroutine nonzeros(a, i, k, l, v)
+    real(wp), intent(in) :: a(:, :, :)
+    integer, allocatable, intent(out) :: i(:), k(:), l(:)
+    real(wp), allocatable, intent(out) :: v(:)
+    integer :: p, q, r, t
+    t = count(a /= 0.0_wp)
+    allocate (i(t), k(t), l(t), v(t))
+    t = 0
+    do r = 1, size(a, 3)
+      do q = 1, size(a, 2)
+        do p = 1, size(a, 1)
+          if (a(p, q, r) == 0.0_wp) cycle
+          t = t + 1
+          i(t) = p
+          k(t) = q
+          l(t) = r
+          v(t) = a(p, q, r)
+        end do
+      end do
+    end do
+  end subroutine nonzeros
+
+  !> Row i and column j of entry q (from 1) of a column-major block of nr rows.
+  pure subroutine ij(q, nr, i, j)
+    integer, intent(in) :: q, nr
+    integer, intent(out) :: i, j
+    i = mod(q - 1, nr) + 1
+    j = (q - 1)/nr + 1
+  end subroutine ij
+
+  !> The sample interval's map of sys (rk4_map) and, with partials, those
+  !> of each column that moves the state equation by the product rule on
+  !> the same polynomials: the partials of the discrete map the RK4 path's
+  !> sensitivity equations integrate, up to rounding.
+  subroutine interval_map(sys, dt, nsub, hold, mp, live)
+    type(lti_sys_t), intent(in) :: sys
+    real(wp), intent(in) :: dt
+    integer, intent(in) :: nsub
+    logical, intent(in) :: hold
+    type(lti_map_t), intent(out) :: mp
+    integer, intent(in), optional :: live(:)   !< the columns to give partials of
+    type(step_t) :: st
+    real(wp), dimension(size(sys%a, 1), size(sys%a, 1)) :: dm, dm2, dm3, dp, dea, deb, dphi
+    real(wp), dimension(size(sys%b, 1), size(sys%b, 2)) :: deab, debb, dg0, dg1
+    real(wp) :: dcb(size(sys%a, 1)), dc(size(sys%a, 1)), h
+    integer :: nx, nu, nf, k, i, c
+    logical :: da
+
+    nx = size(sys%a, 1)
+    nu = size(sys%b, 2)
+    h = dt/nsub
+    call rk4_map(sys%a, sys%b, sys%bx, h, nsub, hold, st, mp%phi, mp%g0, mp%g1, mp%c)
+    if (.not. present(live)) return
+    nf = size(live)
+    allocate (mp%dphi(nx, nf, nx), mp%dg0(nx, nf, nu), mp%dg1(nx, nf, nu), mp%dc(nx, nf))
+    mp%dphi = 0.0_wp
+    mp%dg0 = 0.0_wp
+    mp%dg1 = 0.0_wp
+    mp%dc = 0.0_wp
+    do c = 1, nf
+      k = live(c)
+      if (.not. sys%moves(k)) cycle
+      da = any(sys%da(:, :, k) /= 0.0_wp)
+      dp = 0.0_wp
+      dea = 0.0_wp
+      deb = 0.0_wp
+      if (da) then                       ! d(M^n) = d(M^(n-1)) M + M^(n-1) dM
+        dm = h*sys%da(:, :, k)
+        dm2 = matmul(dm, st%m) + matmul(st%m, dm)
+        dm3 = matmul(dm2, st%m) + matmul(st%m2, dm)
+        dp = dm + dm2/2.0_wp + dm3/6.0_wp + (matmul(dm3, st%m) + matmul(st%m3, dm))/24.0_wp
+        dea = h*(dm/3.0_wp + dm2/8.0_wp + dm3/24.0_wp)
+        deb = h*(dm/6.0_wp + dm2/24.0_wp)
+      end if
+      deab = matmul(dea, sys%b) + matmul(st%ea, sys%db(:, :, k))
+      debb = matmul(deb, sys%b) + matmul(st%eb, sys%db(:, :, k))
+      dcb = matmul(dea + deb, sys%bx) + matmul(st%ea + st%eb, sys%dbx(:, k))
+      dphi = dp                          ! the first step (from phi = I, g0 = g1 = c = 0)
+      dg0 = (1.0_wp - st%fa(1))*deab + (1.0_wp - st%fb(1))*debb
+      dg1 = st%fa(1)*deab + st%fb(1)*debb
+      dc = dcb
+      do i = 2, nsub                     ! the product rule on rk4_map's recursion
+        dphi = matmul(dp, st%phi(:, :, i - 1)) + matmul(st%p, dphi)
+        dg0 = matmul(dp, st%g0(:, :, i - 1)) + matmul(st%p, dg0) + &
+              (1.0_wp - st%fa(i))*deab + (1.0_wp - st%fb(i))*debb
+        dg1 = matmul(dp, st%g1(:, :, i - 1)) + matmul(st%p, dg1) + st%fa(i)*deab + st%fb(i)*debb
+        dc = matmul(dp, st%c(:, i - 1)) + matmul(st%p, dc) + dcb
+      end do
+      mp%dphi(:, c, :) = dphi
+      mp%dg0(:, c, :) = dg0
+      mp%dg1(:, c, :) = dg1
+      mp%dc(:, c) = dc
+    end do
+  end subroutine interval_map
+
+  !> nsub RK4 steps of length h of xdot = a x + b u + bx, u linear over the
+  !> interval from u0 to u1 (held at u0 when hold): the interval's map
+  !> x(nsub h) = phi x(0) + g0 u0 + g1 u1 + c, and in st the step's
+  !> polynomials and the map after each step (for the partials).
+  subroutine rk4_map(a, b, bx, h, nsub, hold, st, phi, g0, g1, c)
+    real(wp), intent(in) :: a(:, :), b(:, :), bx(:), h
+    integer, intent(in) :: nsub
+    logical, intent(in) :: hold
+    type(step_t), intent(out) :: st
+    real(wp), allocatable, intent(out) :: phi(:, :), g0(:, :), g1(:, :), c(:)
+    real(wp), dimension(size(a, 1), size(a, 1)) :: eye
+    real(wp), dimension(size(b, 1), size(b, 2)) :: eab, ebb
+    real(wp) :: cb(size(a, 1))
+    integer :: n, nu, i
+
+    n = size(a, 1)
+    nu = size(b, 2)
+    eye = 0.0_wp
+    do i = 1, n
+      eye(i, i) = 1.0_wp
+    end do
+    st%m = h*a
+    st%m2 = matmul(st%m, st%m)
+    st%m3 = matmul(st%m2, st%m)
+    st%p = eye + st%m + st%m2/2.0_wp + st%m3/6.0_wp + matmul(st%m3, st%m)/24.0_wp
+    st%ea = h*(eye/2.0_wp + st%m/3.0_wp + st%m2/8.0_wp + st%m3/24.0_wp)  ! the step's first input
+    st%eb = h*(eye/2.0_wp + st%m/6.0_wp + st%m2/24.0_wp)                 ! and its last
+    eab = matmul(st%ea, b)
+    ebb = matmul(st%eb, b)
+    cb = matmul(st%ea + st%eb, bx)
+    allocate (st%phi(n, n, 0:nsub), st%g0(n, nu, 0:nsub), st%g1(n, nu, 0:nsub), st%c(n, 0:nsub), &
+              st%fa(nsub), st%fb(nsub))
+    st%phi(:, :, 0) = eye
+    st%g0(:, :, 0) = 0.0_wp
+    st%g1(:, :, 0) = 0.0_wp
+    st%c(:, 0) = 0.0_wp
+    do i = 1, nsub
+      st%fa(i) = 0.0_wp                  ! the step's ends in the interval, as rk4_interval's
+      st%fb(i) = 0.0_wp
+      if (.not. hold) then
+        st%fa(i) = real(i - 1, wp)/nsub
+        st%fb(i) = real(i, wp)/nsub
+      end if
+      st%phi(:, :, i) = matmul(st%p, st%phi(:, :, i - 1))
+      st%g0(:, :, i) = matmul(st%p, st%g0(:, :, i - 1)) + (1.0_wp - st%fa(i))*eab + &
+                       (1.0_wp - st%fb(i))*ebb
+      st%g1(:, :, i) = matmul(st%p, st%g1(:, :, i - 1)) + st%fa(i)*eab + st%fb(i)*ebb
+      st%c(:, i) = matmul(st%p, st%c(:, i - 1)) + cb
+    end do
+    phi = st%phi(:, :, nsub)
+    g0 = st%g0(:, :, nsub)
+    g1 = st%g1(:, :, nsub)
+    c = st%c(:, nsub)
+  end subroutine rk4_map
+
+  !> c = a b + beta c (beta 0 or 1), c (m, n), a (m, k), b (k, n): column
+  !> by column, the long dimension m innermost.
+  pure subroutine gemm(m, n, k, a, b, c, beta)
+    integer, intent(in) :: m, n, k
+    real(wp), intent(in) :: a(m, k), b(k, n), beta
+    real(wp), intent(inout) :: c(m, n)
+    integer :: j, l
+    if (beta == 0.0_wp) c = 0.0_wp
+    do j = 1, n
+      do l = 1, k
+        c(:, j) = c(:, j) + a(:, l)*b(l, j)
+      end do
+    end do
+  end subroutine gemm
+
+end module mlid_lti_predict
