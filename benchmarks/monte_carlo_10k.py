@@ -19,10 +19,13 @@ import c8_mc  # noqa: E402
 
 
 def main(runs=10000):
-    truth, start = c8_mc.models()
-    t, us, _ = c8_mc.inputs()
+    c8 = c8_mc.c8
+    truth = c8.model(c8.DESIGN_VALUES * c8_mc.search_truth()[0][1])   # the case's truth
+    start = c8.model()
+    u = c8_mc.held(c8_mc.inputs()["optimal"])
+    t = np.arange(len(u)) * c8.DT
     t0 = time.perf_counter()
-    mc = mlid.monte_carlo_parallel(truth, start, t, us["optimal"], runs=runs, seed=1)
+    mc = mlid.monte_carlo_parallel(truth, start, t, u, runs=runs, seed=1)
     wall = time.perf_counter() - t0
     ok = mc["status"] == 0
     print(f"{runs} C-8 identifications on {os.cpu_count()} cores: {wall:.1f} s "
