@@ -228,11 +228,7 @@ contains
     nx = m%nx
     nu = m%nu
     ny = m%ny
-    f = reshape(theta(m%of + 1:m%of + nx*nx), [nx, nx])
-    g = reshape(theta(m%og + 1:m%og + nx*nu), [nx, nu])
-    h = reshape(theta(m%oh + 1:m%oh + ny*nx), [ny, nx])
-    d = reshape(theta(m%od + 1:m%od + ny*nu), [ny, nu])
-    kk = reshape(theta(m%ok + 1:m%ok + nu*nx), [nu, nx])
+    call m%matrices(theta, f, g, h, d, kk)
     s = cmplx(0.0_wp, w, wp)
     r = -(f + matmul(g, kk))
     do i = 1, nx

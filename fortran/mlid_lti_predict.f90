@@ -253,18 +253,17 @@ contains
     type(param_map_t), intent(in) :: pm
     logical, intent(in) :: partials
     type(lti_sys_t), intent(out) :: sys
-    real(wp) :: kf(m%nu, m%nx), w
+    real(wp) :: kf(m%nu, m%nx), f(m%nx, m%nx), h(m%ny, m%nx), w
     integer :: nx, nu, ny, nf, k, q, i, j, c
 
     nx = m%nx
     nu = m%nu
     ny = m%ny
     nf = pm%nf
-    kf = reshape(p(m%ok + 1:m%ok + nu*nx), [nu, nx])
-    sys%b = reshape(p(m%og + 1:m%og + nx*nu), [nx, nu])
-    sys%d = reshape(p(m%od + 1:m%od + ny*nu), [ny, nu])
-    sys%a = reshape(p(m%of + 1:m%of + nx*nx), [nx, nx]) + matmul(sys%b, kf)
-    sys%c = reshape(p(m%oh + 1:m%oh + ny*nx), [ny, nx]) + matmul(sys%d, kf)
+    allocate (sys%b(nx, nu), sys%d(ny, nu))
+    call m%matrices(p, f, sys%b, h, sys%d, kf)
+    sys%a = f + matmul(sys%b, kf)
+    sys%c = h + matmul(sys%d, kf)
     sys%bx = p(m%obx + 1:m%obx + nx)
     if (.not. partials) return
     ! dc(:, k, :) is dC_k and dd(:, k, :) dD_k: stacked by column for gemm

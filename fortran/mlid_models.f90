@@ -119,6 +119,7 @@ module mlid_models
     procedure :: has_input_jacobians => lin_input_jacobians
     procedure :: dfdu => lin_dfdu
     procedure :: dhdu => lin_dhdu
+    procedure :: matrices => lin_matrices
   end type linear_model_t
 
 contains
@@ -151,6 +152,22 @@ contains
     real(wp), intent(in) :: val(:)            !< the inputs' values (those of the fixed ones count)
     class(model_t), allocatable, intent(out) :: folded
   end subroutine no_folding
+
+  !> F, G, H, D and the input feedback K of the linear model at p: the one
+  !> place that knows how they lie in p (the fast path, the frequency
+  !> domain and the frequency responses read them here).
+  pure subroutine lin_matrices(self, p, f, g, h, d, k)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: p(:)
+    real(wp), intent(out) :: f(:, :), g(:, :), h(:, :), d(:, :), k(:, :)
+    associate (nx => self%nx, nu => self%nu, ny => self%ny)
+      f = reshape(p(self%of + 1:self%of + nx*nx), [nx, nx])
+      g = reshape(p(self%og + 1:self%og + nx*nu), [nx, nu])
+      h = reshape(p(self%oh + 1:self%oh + ny*nx), [ny, nx])
+      d = reshape(p(self%od + 1:self%od + ny*nu), [ny, nu])
+      k = reshape(p(self%ok + 1:self%ok + nu*nx), [nu, nx])
+    end associate
+  end subroutine lin_matrices
 
   !> used(k): whether parameter k enters f or h.
   pure subroutine reads_every_param(self, used)
