@@ -458,9 +458,10 @@ contains
     t = v(:, n - nk + 1:)*spread(sc, 2, nk)
     deallocate (gm)
     allocate (gm(nk, nk, ny, ny))
+    gm = 0.0_wp
     do j = 1, ny
       do i = 1, ny
-        gm(:, :, i, j) = matmul(transpose(t), matmul(g0(:, :, i, j), t))
+        if (i == j .or. full) gm(:, :, i, j) = matmul(transpose(t), matmul(g0(:, :, i, j), t))
       end do
     end do
     bm = matmul(reshape(b, [nr, n]), t)
