@@ -292,9 +292,9 @@ contains
     r0 = yf - yhat
     call independent_terms(bas, r0, cw, opt%full_r, tmap, gm, status, msg)
     if (status /= MLID_OK) return
-    ndrop = ne - size(bas, 3)
-    allocate (xi(size(bas, 3)))
-    call transients(r0, bas, gm, cw, opt%full_r, xi, r, rhat, sinv, logdet, status, msg)
+    ndrop = ne - size(tmap, 2)
+    allocate (xi(size(tmap, 2)))
+    call transients(r0, bas, tmap, gm, cw, opt%full_r, xi, r, rhat, sinv, logdet, status, msg)
     if (status /= MLID_OK) return
     eta = matmul(tmap, xi)
     ! S-hat is the residuals' mean square; with p parameters and transient
@@ -336,9 +336,10 @@ contains
     ! their per-output products gm)
     a = weighted(d, sinv, cw)
     if (present(wsens)) wsens = a
-    allocate (c(size(bas, 3), size(bas, 3)))
+    allocate (c(size(tmap, 2), size(tmap, 2)))
     mtt = matmul(transpose(reshape(d, [m%ny*nc, pm%nf])), reshape(a, [m%ny*nc, pm%nf]))
-    mbt = matmul(transpose(reshape(bas, [m%ny*nc, size(bas, 3)])), reshape(a, [m%ny*nc, pm%nf]))
+    mbt = matmul(transpose(tmap), matmul(transpose(reshape(bas, [m%ny*nc, ne])), &
+                                         reshape(a, [m%ny*nc, pm%nf])))
     mbb = shrink*combined(gm, sinv)       ! gm: of the weights before the shrink
     call chol_inverse(mbb, c, logdet, i)
     if (i /= 0) then
@@ -423,26 +424,24 @@ contains
     end if
   end function weighted
 
-  !> The transient terms' columns b (ny, nc, n) replaced by an independent
-  !> set spanning the same, b t: t (n, nk) the eigenvectors of their
+  !> An independent set of the transient terms' columns b (ny, nc, n)
+  !> spanning the same, b t: t (n, nk) the eigenvectors of their
   !> normalised information (weighted by the residuals r0's mean squares)
   !> above ETA_RCOND of the largest.  Exact dependencies occur: with every
   !> state measured (H invertible) the output offsets are the states'.
   !> gm: the new columns' grams (the pairs S couples, full or diagonal).
   subroutine independent_terms(b, r0, cw, full, t, gm, status, msg)
-    real(wp), allocatable, intent(inout) :: b(:, :, :)
-    real(wp), intent(in) :: r0(:, :), cw(:)
+    real(wp), intent(in) :: b(:, :, :), r0(:, :), cw(:)
     logical, intent(in) :: full
     real(wp), allocatable, intent(out) :: t(:, :), gm(:, :, :, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: w0(size(r0, 1), size(r0, 1)), sc(size(b, 3)), ev(size(b, 3)), &
                 v(size(b, 3), size(b, 3))
-    real(wp), allocatable :: bm(:, :), g0(:, :, :, :)
-    integer :: i, j, n, nk, nr, ny
+    real(wp), allocatable :: g0(:, :, :, :)
+    integer :: i, j, n, nk, ny
     n = size(b, 3)
     ny = size(b, 1)
-    nr = ny*size(b, 2)
     status = MLID_OK
     msg = ''
     allocate (t(n, 0), gm(0, 0, ny, ny))
@@ -464,26 +463,26 @@ contains
         if (i == j .or. full) gm(:, :, i, j) = matmul(transpose(t), matmul(g0(:, :, i, j), t))
       end do
     end do
-    bm = matmul(reshape(b, [nr, n]), t)
-    b = reshape(bm, [size(b, 1), size(b, 2), nk])
   end subroutine independent_terms
 
   !> The transient terms' estimate eta and S-hat together: the cost's
   !> minimum over both, alternating the weighted least squares for eta
   !> (given S) and S = (1/n) sum c Re(V V^*) (given eta) until the cost
-  !> settles; r the residuals left, sinv and logdet of S.
-  subroutine transients(r0, bas, gm, cw, full, eta, r, s, sinv, logdet, status, msg)
-    real(wp), intent(in) :: r0(:, :), bas(:, :, :), gm(:, :, :, :), cw(:)  !< gm: grams
+  !> settles; r the residuals left, sinv and logdet of S.  The terms are
+  !> eta of the independent columns bas t (independent_terms; gm their grams).
+  subroutine transients(r0, bas, t, gm, cw, full, eta, r, s, sinv, logdet, status, msg)
+    real(wp), intent(in) :: r0(:, :), bas(:, :, :), t(:, :), gm(:, :, :, :), cw(:)
     logical, intent(in) :: full
     real(wp), intent(out) :: eta(:), s(:, :), sinv(:, :), logdet
     real(wp), allocatable, intent(out) :: r(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: c(size(eta), size(eta)), g(size(eta)), cost, last, ld
-    real(wp) :: hr(size(eta), size(r0, 1), size(r0, 1)), wr(size(r0, 2))
+    real(wp) :: hr(size(eta), size(r0, 1), size(r0, 1)), h0(size(bas, 3)), wr(size(r0, 2)), &
+                e0(size(bas, 3))
     integer :: it, i, j, k, ierr, ny
     ny = size(r0, 1)
-    ! the columns' weighted products with r0, hr(:, i, j) = sum_c c_c
+    ! the columns' weighted products with r0, hr(:, i, j) = t' sum_c c_c
     ! bas(i, c, :) r0(j, c): the least squares' right-hand side is then
     ! sum_ij 2 S^-1_ij hr(:, i, j) for any S (as gm its matrix)
     hr = 0.0_wp
@@ -491,9 +490,10 @@ contains
       wr = cw*r0(j, :)
       do i = 1, ny
         if (i /= j .and. .not. full) cycle
-        do k = 1, size(eta)
-          hr(k, i, j) = dot_product(bas(i, :, k), wr)
+        do k = 1, size(bas, 3)
+          h0(k) = dot_product(bas(i, :, k), wr)
         end do
+        hr(:, i, j) = matmul(h0, t)
       end do
     end do
     eta = 0.0_wp
@@ -538,9 +538,10 @@ contains
         return
       end if
       eta = matmul(c, g)
+      e0 = matmul(t, eta)
       r = r0
-      do k = 1, size(eta)
-        r = r - eta(k)*bas(:, :, k)
+      do k = 1, size(bas, 3)
+        r = r - e0(k)*bas(:, :, k)
       end do
     end do
     status = MLID_OK
