@@ -567,16 +567,19 @@ contains
     complex(wp), intent(out) :: ainv(:, :, :), xs(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
+    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx), &
+                fe(m%nx, m%nx), he(m%ny, m%nx), big
     complex(wp) :: a(m%nx, m%nx), p(m%ny, m%nx), uu(m%nu), v(m%nu), yy(m%ny), p0, p1, e, ramp, &
-                   b(m%ny, 3*m%nx + 2*m%ny)
-    integer :: c, k, i, ie, ne, s, nx, nu, ny
+                   b(m%ny, 3*m%nx + 2*m%ny), gu(m%nx)
+    integer :: c, k, i, j, ie, ne, s, nx, nu, ny
     logical :: ok
 
     nx = m%nx
     nu = m%nu
     ny = m%ny
     call matrices(m, theta, f, g, h, d, kf)
+    fe = f + matmul(g, kf)
+    he = h + matmul(d, kf)
     ie = size(uf, 1) - NEXTRA
     ne = 3*nx + 2*ny
     status = MLID_OK
@@ -607,20 +610,37 @@ contains
           b(xout(i), 2*nx + i) = e
         end do
       else
-        a = -(f + matmul(g, kf))
+        a = -fe
         do i = 1, nx
           a(i, i) = a(i, i) + IU*tf(c)
         end do
-        call complex_inverse(a, ainv(:, :, k), ok)
+        big = max(1.0_wp, maxval(abs(a)))
+        call complex_inverse(a, big, ainv(:, :, k), ok)
         if (.not. ok) then
           status = MLID_ERR_SINGULAR
           write (msg, '(a,g0.6,a)') 'i w I - F is singular at ', tf(c)/TWO_PI, &
             ' Hz: the model has a pole on the imaginary axis there'
           return
         end if
-        xs(:, k) = matmul(ainv(:, :, k), matmul(g, uu))
-        yy = matmul(h + matmul(d, kf), xs(:, k)) + matmul(d, uu)
-        p = matmul(h + matmul(d, kf), ainv(:, :, k))
+        gu = 0.0_wp
+        do j = 1, nu
+          gu = gu + g(:, j)*uu(j)
+        end do
+        xs(:, k) = 0.0_wp
+        do j = 1, nx
+          xs(:, k) = xs(:, k) + ainv(:, j, k)*gu(j)
+        end do
+        p = 0.0_wp
+        yy = 0.0_wp
+        do j = 1, nx
+          do i = 1, nx
+            p(:, j) = p(:, j) + he(:, i)*ainv(i, j, k)
+          end do
+          yy = yy + he(:, j)*xs(j, k)
+        end do
+        do j = 1, nu
+          yy = yy + d(:, j)*uu(j)
+        end do
         b(:, 1:nx) = p0*p
         b(:, nx + 1:2*nx) = -p1*p
         b(:, 2*nx + 1:3*nx) = e*p
@@ -724,9 +744,11 @@ contains
   end subroutine sensitivities
 
   !> ainv = a^-1 by Gauss-Jordan elimination with partial pivoting (a is
-  !> small: the model's states); ok false when a pivot vanishes.
-  pure subroutine complex_inverse(a, ainv, ok)
+  !> small: the model's states); ok false when a pivot vanishes (below
+  !> 1e-14 big, big = max(1, max |a_ij|), the caller's).
+  pure subroutine complex_inverse(a, big, ainv, ok)
     complex(wp), intent(in) :: a(:, :)
+    real(wp), intent(in) :: big
     complex(wp), intent(out) :: ainv(:, :)
     logical, intent(out) :: ok
     complex(wp) :: w(size(a, 1), 2*size(a, 1)), tmp(2*size(a, 1))
@@ -740,13 +762,14 @@ contains
     ok = .false.
     do k = 1, n
       piv = maxloc(abs(w(k:, k)), 1) + k - 1
-      if (.not. abs(w(piv, k)) > 1.0e-14_wp*max(1.0_wp, maxval(abs(a)))) return
-      tmp = w(k, :)
-      w(k, :) = w(piv, :)
-      w(piv, :) = tmp
-      w(k, :) = w(k, :)/w(k, k)
+      if (.not. abs(w(piv, k)) > 1.0e-14_wp*big) return
+      ! columns before k are done (unit vectors): zero in rows k and piv
+      tmp(k:) = w(k, k:)
+      w(k, k:) = w(piv, k:)
+      w(piv, k:) = tmp(k:)
+      w(k, k:) = w(k, k:)/w(k, k)
       do i = 1, n
-        if (i /= k) w(i, :) = w(i, :) - w(i, k)*w(k, :)
+        if (i /= k) w(i, k:) = w(i, k:) - w(i, k)*w(k, k:)
       end do
     end do
     ainv = w(:, n + 1:)
