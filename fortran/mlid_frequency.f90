@@ -337,9 +337,8 @@ contains
     a = weighted(d, sinv, cw)
     if (present(wsens)) wsens = a
     allocate (c(size(tmap, 2), size(tmap, 2)))
-    mtt = matmul(transpose(reshape(d, [m%ny*nc, pm%nf])), reshape(a, [m%ny*nc, pm%nf]))
-    mbt = matmul(transpose(tmap), matmul(transpose(reshape(bas, [m%ny*nc, ne])), &
-                                         reshape(a, [m%ny*nc, pm%nf])))
+    mtt = cross(d, a, m%ny*nc, pm%nf, pm%nf)
+    mbt = matmul(transpose(tmap), cross(bas, a, m%ny*nc, ne, pm%nf))
     mbb = shrink*combined(gm, sinv)       ! gm: of the weights before the shrink
     call chol_inverse(mbb, c, logdet, i)
     if (i /= 0) then
@@ -361,30 +360,48 @@ contains
   !> gm(:, :, i, j) = sum_c c_c b(i, c, :)' b(j, c, :), for the pairs that
   !> S couples (i = j only unless full): the information 2 sum_c c_c b_c'
   !> S^-1 b_c of any S is then sum_ij 2 S^-1_ij gm_ij (combined), so the
-  !> alternation with S costs no pass over the columns.
+  !> alternation with S costs no pass over the columns.  Each output's
+  !> columns that are zero there (another output's offset or drift) are
+  !> left out of its products.
   subroutine grams(b, cw, full, gm)
     real(wp), intent(in) :: b(:, :, :), cw(:)
     logical, intent(in) :: full
     real(wp), allocatable, intent(out) :: gm(:, :, :, :)
     real(wp), allocatable :: bi(:, :), wbj(:, :)
-    integer :: i, j, k, n, nc, ny
+    logical :: used(size(b, 3), size(b, 1))
+    integer :: i, j, k, n, ny
+    integer, allocatable :: ki(:), kj(:)
     ny = size(b, 1)
-    nc = size(b, 2)
     n = size(b, 3)
-    allocate (gm(n, n, ny, ny), bi(nc, n), wbj(nc, n))
+    allocate (gm(n, n, ny, ny))
     gm = 0.0_wp
     if (n == 0) return
+    do i = 1, ny
+      used(:, i) = [(any(b(i, :, k) /= 0.0_wp), k=1, n)]
+    end do
     do j = 1, ny
-      do k = 1, n
-        wbj(:, k) = cw*b(j, :, k)
+      kj = pack([(k, k=1, n)], used(:, j))
+      wbj = b(j, :, kj)
+      do k = 1, size(kj)
+        wbj(:, k) = cw*wbj(:, k)
       end do
       do i = 1, ny
         if (i /= j .and. .not. full) cycle
-        bi = b(i, :, :)
-        gm(:, :, i, j) = matmul(transpose(bi), wbj)
+        ki = pack([(k, k=1, n)], used(:, i))
+        bi = b(i, :, ki)
+        gm(ki, kj, i, j) = matmul(transpose(bi), wbj)
       end do
     end do
   end subroutine grams
+
+  !> x' y of x (nr, n1) and y (nr, n2), as the columns of arrays of any
+  !> shape with nr rows' worth of elements (no reshaped copies).
+  pure function cross(x, y, nr, n1, n2) result(z)
+    integer, intent(in) :: nr, n1, n2
+    real(wp), intent(in) :: x(nr, n1), y(nr, n2)
+    real(wp) :: z(n1, n2)
+    z = matmul(transpose(x), y)
+  end function cross
 
   !> sum_ij 2 sinv_ij gm(:, :, i, j) (grams): the information 2 sum_c c_c
   !> b_c' S^-1 b_c, symmetric.
