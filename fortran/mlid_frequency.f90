@@ -403,6 +403,18 @@ contains
     z = matmul(transpose(x), y)
   end function cross
 
+  !> r = r0 - b e of b (nr, n), as cross takes its arrays.
+  pure subroutine less_columns(r0, b, e, nr, n, r)
+    integer, intent(in) :: nr, n
+    real(wp), intent(in) :: r0(nr), b(nr, n), e(n)
+    real(wp), intent(out) :: r(nr)
+    integer :: k
+    r = r0
+    do k = 1, n
+      r = r - e(k)*b(:, k)
+    end do
+  end subroutine less_columns
+
   !> sum_ij 2 sinv_ij gm(:, :, i, j) (grams): the information 2 sum_c c_c
   !> b_c' S^-1 b_c, symmetric.
   function combined(gm, sinv) result(mm)
@@ -477,7 +489,7 @@ contains
     gm = 0.0_wp
     do j = 1, ny
       do i = 1, ny
-        if (i == j .or. full) gm(:, :, i, j) = matmul(transpose(t), matmul(g0(:, :, i, j), t))
+        if (i == j .or. full) gm(:, :, i, j) = cross(t, matmul(g0(:, :, i, j), t), n, nk, nk)
       end do
     end do
   end subroutine independent_terms
@@ -556,10 +568,7 @@ contains
       end if
       eta = matmul(c, g)
       e0 = matmul(t, eta)
-      r = r0
-      do k = 1, size(bas, 3)
-        r = r - e0(k)*bas(:, :, k)
-      end do
+      call less_columns(r0, bas, e0, size(r0), size(bas, 3), r)
     end do
     status = MLID_OK
     msg = ''
