@@ -14,6 +14,26 @@ fortran/mlid_frequency.f90), side by side with the time domain.
    the difference.
 
 Medians of interleaved runs (benchmarks/timing.py), wall clock, this machine.
+
+Frequency output error before and after the transient terms' normal
+equations were formed from per-output grams (issue 19), the same estimates
+and sigmas to rounding (largest relative difference 3e-12 over this fit,
+the C-8 tests' fits and cases/frequency_domain's decks):
+  callgrind, one fit of item 2 (7 Newton iterations, 11 evaluations of the
+  likelihood, about 5 sweeps of the transient terms' alternation with S in
+  each), instructions:      before    after
+    the core's fit          66.0 M    33.3 M
+    its transform            8.5 M     8.5 M
+    each evaluation          6.0 M     2.7 M
+  wall clock, the core's fit (transform included), the two builds run
+  alternately on a shared 2-core machine, medians of 5 x 30 fits:
+    quieter spell            5.3 ms    3.3 ms (before the last two changes)
+    busier spell             7.4 ms    4.8 ms
+  So about 2.5 ms after the transform when the machine is quiet: the 2 ms
+  target is not met yet.  Where the 2.7 M of an evaluation go: the
+  independent set of transient terms (their eigen-decomposition, LAPACK)
+  0.8 M, the model's responses and the transient columns 0.6 M, the
+  alternation 0.5 M, the sensitivities 0.3 M.
 """
 
 import sys
