@@ -704,7 +704,8 @@ contains
     integer, intent(in) :: xout(:)
     complex(wp), intent(in) :: ainv(:, :, :), xs(:, :)
     real(wp), intent(out) :: dy(:, :, :)
-    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
+    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx), &
+                he(m%ny, m%nx)
     complex(wp) :: p(m%ny, m%nx), x(m%nx), v(m%nu), dz(m%ny), p0, p1, e
     integer :: c, k, q, blk, i, j, ie, ne, s, nx, nu, ny
 
@@ -712,6 +713,7 @@ contains
     nu = m%nu
     ny = m%ny
     call matrices(m, theta, f, g, h, d, kf)
+    he = h + matmul(d, kf)
     ie = size(uf, 1) - NEXTRA
     ne = 3*nx + 2*ny
     dy = 0.0_wp
@@ -725,7 +727,7 @@ contains
         s = (nint(uf(ie + 4, c)) - 1)*ne
         x = x + matmul(ainv(:, :, k), p0*eta(s + 1:s + nx) - p1*eta(s + nx + 1:s + 2*nx) + &
                        e*eta(s + 2*nx + 1:s + 3*nx))
-        p = matmul(h + matmul(d, kf), ainv(:, :, k))
+        p = matmul(he, ainv(:, :, k))
       end if
       v = cmplx(uf(1:nu, c), uf(1:nu, c + 1), wp) + matmul(kf, x)
       do q = 1, size(pm%im)                 ! each moving entry into its free column
