@@ -14,6 +14,29 @@ fortran/mlid_frequency.f90), side by side with the time domain.
    the difference.
 
 Medians of interleaved runs (benchmarks/timing.py), wall clock, this machine.
+
+Frequency output error before and after the transient terms' normal
+equations were formed from per-output grams (issue 19), the same estimates
+and sigmas to rounding (largest relative difference 3e-12 over this fit,
+the C-8 tests' fits and cases/frequency_domain's decks):
+  callgrind, one fit of item 2 (7 Newton iterations, 11 evaluations of the
+  likelihood, about 5 sweeps of the transient terms' alternation with S in
+  each), instructions:      before    after
+    the core's fit          66.0 M    33.1 M
+    its transform            8.5 M     8.5 M
+    the fit after it        57.5 M    24.6 M
+    each evaluation          6.0 M     2.7 M
+    (equation error's fit   13.2 M     9.9 M, after the transform 4.6 M, 1.3 M)
+  wall clock, the core's fit (transform 0.2-0.3 ms included), the two
+  builds run alternately on a shared 2-core machine, medians of 5 x 30 fits:
+    one spell                7.3 ms    4.6 ms
+    a quieter one            5.3 ms    3.3 ms (before the last three changes)
+  The wall clock falls less than the instructions (1.6x against 2.3x after
+  the transform), and the 2 ms target is not met: about 3-4.5 ms after the
+  transform.  Where an evaluation's 2.7 M instructions go: the independent
+  set of transient terms (their eigen-decomposition, LAPACK, 0.3 M) 0.8 M,
+  the model's responses and the transient columns 0.6 M, the alternation
+  0.5 M, the sensitivities 0.3 M.
 """
 
 import sys

@@ -703,7 +703,7 @@ contains
     text = fit_report(s, iopt, ropt, status, msg)
     nreport = min(len(text), len(report))
     report = text
-    text = fit_json(title, job, status, msg, s)
+    text = fit_json(title, job, status, msg, s, iopt, ropt)
     njson = min(len(text), len(json))
     json = text
   end subroutine mlid_report_fit

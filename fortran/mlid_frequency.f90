@@ -266,9 +266,10 @@ contains
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     integer, intent(out), optional :: nterms    !< the transient terms estimated (independent)
     real(wp), allocatable :: d(:, :, :), bas(:, :, :), r0(:, :), r(:, :), a(:, :, :), cw(:), &
-                             eta(:), xi(:), tmap(:, :), mm(:, :), c(:, :)
+                             eta(:), xi(:), tmap(:, :), c(:, :), gm(:, :, :, :), mtt(:, :), &
+                             mbt(:, :), mbb(:, :)
     complex(wp), allocatable :: ainv(:, :, :), xs(:, :)
-    real(wp) :: sinv(m%ny, m%ny), logdet, dof
+    real(wp) :: sinv(m%ny, m%ny), logdet, dof, shrink
     integer :: xout(m%nx), nc, ne, i, f, ndrop
 
     cost = huge(1.0_wp)
@@ -289,11 +290,11 @@ contains
     end select
     if (status /= MLID_OK) return
     r0 = yf - yhat
-    call independent_terms(bas, r0, cw, tmap, status, msg)
+    call independent_terms(bas, r0, cw, opt%full_r, tmap, gm, status, msg)
     if (status /= MLID_OK) return
-    ndrop = ne - size(bas, 3)
-    allocate (xi(size(bas, 3)))
-    call transients(r0, bas, cw, opt%full_r, xi, r, rhat, sinv, logdet, status, msg)
+    ndrop = ne - size(tmap, 2)
+    allocate (xi(size(tmap, 2)))
+    call transients(r0, bas, tmap, gm, cw, opt%full_r, xi, r, rhat, sinv, logdet, status, msg)
     if (status /= MLID_OK) return
     eta = matmul(tmap, xi)
     ! S-hat is the residuals' mean square; with p parameters and transient
@@ -308,7 +309,8 @@ contains
         pm%nf, ' parameters and ', ne - ndrop, ' transient terms: widen it or add frequencies'
       return
     end if
-    cw = cw*dof/(m%ny*sum(cw))
+    shrink = dof/(m%ny*sum(cw))
+    cw = cw*shrink
     if (present(nterms)) nterms = ne - ndrop
     yhat = yf - r
     cost = sum(r*spread(cw, 1, m%ny)*matmul(sinv, r)) + 0.5_wp*sum(cw)*logdet
@@ -319,29 +321,32 @@ contains
     end if
     if (.not. (present(grad) .and. present(info))) return
 
-    allocate (d(m%ny, nc, pm%nf + size(bas, 3)))
+    allocate (d(m%ny, nc, pm%nf))
     select type (m)
     type is (linear_model_t)
-      call sensitivities(m, theta, pm, tf, uf, opt%method == METHOD_FREQ_EE, xout, ainv, xs, eta, &
-                         d(:, :, 1:pm%nf))
+      call sensitivities(m, theta, pm, tf, uf, opt%method == METHOD_FREQ_EE, xout, ainv, xs, eta, d)
     end select
-    d(:, :, pm%nf + 1:) = bas
-    ! information of (theta, transients), the transients eliminated (Schur
-    ! complement): the information of theta with them unknown
-    mm = information_of(d, sinv, cw)
     a = weighted(reshape(r, [m%ny, nc, 1]), sinv, cw)
     do f = 1, pm%nf
       grad(f) = -sum(d(:, :, f)*a(:, :, 1))
     end do
-    if (present(wsens)) wsens = weighted(d(:, :, 1:pm%nf), sinv, cw)
-    allocate (c(size(bas, 3), size(bas, 3)))
-    call chol_inverse(mm(pm%nf + 1:, pm%nf + 1:), c, logdet, i)
+    ! information of (theta, transients), the transients eliminated (Schur
+    ! complement): the information of theta with them unknown; the blocks
+    ! of theta (mtt), transients by theta (mbt) and transients (mbb, from
+    ! their per-output products gm)
+    a = weighted(d, sinv, cw)
+    if (present(wsens)) wsens = a
+    allocate (c(size(tmap, 2), size(tmap, 2)))
+    mtt = cross(d, a, m%ny*nc, pm%nf, pm%nf)
+    mbt = matmul(transpose(tmap), cross(bas, a, m%ny*nc, ne, pm%nf))
+    mbb = shrink*combined(gm, sinv)       ! gm: of the weights before the shrink
+    call chol_inverse(mbb, c, logdet, i)
     if (i /= 0) then
       status = MLID_ERR_SINGULAR
       msg = 'the transient terms'' information is singular'
       return
     end if
-    info = mm(:pm%nf, :pm%nf) - matmul(mm(:pm%nf, pm%nf + 1:), matmul(c, mm(pm%nf + 1:, :pm%nf)))
+    info = 0.5_wp*(mtt + transpose(mtt)) - matmul(transpose(mbt), matmul(c, mbt))
     info = 0.5_wp*(info + transpose(info))
     if (present(msens)) msens = info
     if (present(sens)) then
@@ -351,18 +356,79 @@ contains
     end if
   end subroutine freq_likelihood
 
-  !> 2 sum_c c b_c' S^-1 b_c over the columns c of b (ny, nc, n): one
-  !> product of the columns with their weighted copies.
-  function information_of(b, sinv, cw) result(mm)
-    real(wp), intent(in) :: b(:, :, :), sinv(:, :), cw(:)
-    real(wp) :: mm(size(b, 3), size(b, 3))
-    real(wp), allocatable :: a(:, :, :)
-    integer :: nr
-    nr = size(b, 1)*size(b, 2)
-    a = weighted(b, sinv, cw)
-    mm = matmul(transpose(reshape(b, [nr, size(b, 3)])), reshape(a, [nr, size(b, 3)]))
+  !> The weighted products of the columns b (ny, nc, n) output by output,
+  !> gm(:, :, i, j) = sum_c c_c b(i, c, :)' b(j, c, :), for the pairs that
+  !> S couples (i = j only unless full): the information 2 sum_c c_c b_c'
+  !> S^-1 b_c of any S is then sum_ij 2 S^-1_ij gm_ij (combined), so the
+  !> alternation with S costs no pass over the columns.  Each output's
+  !> columns that are zero there (another output's offset or drift) are
+  !> left out of its products.
+  subroutine grams(b, cw, full, gm)
+    real(wp), intent(in) :: b(:, :, :), cw(:)
+    logical, intent(in) :: full
+    real(wp), allocatable, intent(out) :: gm(:, :, :, :)
+    real(wp), allocatable :: bi(:, :), wbj(:, :)
+    logical :: used(size(b, 3), size(b, 1))
+    integer :: i, j, k, n, ny
+    integer, allocatable :: ki(:), kj(:)
+    ny = size(b, 1)
+    n = size(b, 3)
+    allocate (gm(n, n, ny, ny))
+    gm = 0.0_wp
+    if (n == 0) return
+    do i = 1, ny
+      used(:, i) = [(any(b(i, :, k) /= 0.0_wp), k=1, n)]
+    end do
+    do j = 1, ny
+      kj = pack([(k, k=1, n)], used(:, j))
+      wbj = b(j, :, kj)
+      do k = 1, size(kj)
+        wbj(:, k) = cw*wbj(:, k)
+      end do
+      do i = 1, ny
+        if (i /= j .and. .not. full) cycle
+        ki = pack([(k, k=1, n)], used(:, i))
+        bi = b(i, :, ki)
+        gm(ki, kj, i, j) = matmul(transpose(bi), wbj)
+      end do
+    end do
+  end subroutine grams
+
+  !> x' y of x (nr, n1) and y (nr, n2), as the columns of arrays of any
+  !> shape with nr rows' worth of elements (no reshaped copies).
+  pure function cross(x, y, nr, n1, n2) result(z)
+    integer, intent(in) :: nr, n1, n2
+    real(wp), intent(in) :: x(nr, n1), y(nr, n2)
+    real(wp) :: z(n1, n2)
+    z = matmul(transpose(x), y)
+  end function cross
+
+  !> r = r0 - b e of b (nr, n), as cross takes its arrays.
+  pure subroutine less_columns(r0, b, e, nr, n, r)
+    integer, intent(in) :: nr, n
+    real(wp), intent(in) :: r0(nr), b(nr, n), e(n)
+    real(wp), intent(out) :: r(nr)
+    integer :: k
+    r = r0
+    do k = 1, n
+      r = r - e(k)*b(:, k)
+    end do
+  end subroutine less_columns
+
+  !> sum_ij 2 sinv_ij gm(:, :, i, j) (grams): the information 2 sum_c c_c
+  !> b_c' S^-1 b_c, symmetric.
+  function combined(gm, sinv) result(mm)
+    real(wp), intent(in) :: gm(:, :, :, :), sinv(:, :)
+    real(wp) :: mm(size(gm, 1), size(gm, 2))
+    integer :: i, j
+    mm = 0.0_wp
+    do j = 1, size(sinv, 2)
+      do i = 1, size(sinv, 1)
+        if (sinv(i, j) /= 0.0_wp) mm = mm + 2.0_wp*sinv(i, j)*gm(:, :, i, j)
+      end do
+    end do
     mm = 0.5_wp*(mm + transpose(mm))
-  end function information_of
+  end function combined
 
   !> 2 c S^-1 b_c for each column c of b (ny, nc, n): rows scaled when S is
   !> diagonal.
@@ -387,66 +453,90 @@ contains
     end if
   end function weighted
 
-  !> The transient terms' columns b (ny, nc, n) replaced by an independent
-  !> set spanning the same, b t: t (n, nk) the eigenvectors of their
+  !> An independent set of the transient terms' columns b (ny, nc, n)
+  !> spanning the same, b t: t (n, nk) the eigenvectors of their
   !> normalised information (weighted by the residuals r0's mean squares)
   !> above ETA_RCOND of the largest.  Exact dependencies occur: with every
   !> state measured (H invertible) the output offsets are the states'.
-  subroutine independent_terms(b, r0, cw, t, status, msg)
-    real(wp), allocatable, intent(inout) :: b(:, :, :)
-    real(wp), intent(in) :: r0(:, :), cw(:)
-    real(wp), allocatable, intent(out) :: t(:, :)
+  !> gm: the new columns' grams (the pairs S couples, full or diagonal).
+  subroutine independent_terms(b, r0, cw, full, t, gm, status, msg)
+    real(wp), intent(in) :: b(:, :, :), r0(:, :), cw(:)
+    logical, intent(in) :: full
+    real(wp), allocatable, intent(out) :: t(:, :), gm(:, :, :, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: w0(size(r0, 1), size(r0, 1)), sc(size(b, 3)), ev(size(b, 3)), &
                 v(size(b, 3), size(b, 3))
-    real(wp), allocatable :: bm(:, :)
-    integer :: i, n, nk, nr
+    real(wp), allocatable :: g0(:, :, :, :)
+    integer :: i, j, n, nk, ny
     n = size(b, 3)
-    nr = size(b, 1)*size(b, 2)
+    ny = size(b, 1)
     status = MLID_OK
     msg = ''
-    allocate (t(n, 0))
+    allocate (t(n, 0), gm(0, 0, ny, ny))
     if (n == 0) return
     w0 = 0.0_wp
     do i = 1, size(r0, 1)
       w0(i, i) = sum(cw)/max(sum(cw*r0(i, :)**2), tiny(1.0_wp))
     end do
-    call info_eig(information_of(b, w0, cw), sc, ev, v, status, msg)
+    call grams(b, cw, full, g0)
+    call info_eig(combined(g0, w0), sc, ev, v, status, msg)
     if (status /= MLID_OK) return
     nk = count(ev > ETA_RCOND*ev(n))
     t = v(:, n - nk + 1:)*spread(sc, 2, nk)
-    bm = matmul(reshape(b, [nr, n]), t)
-    b = reshape(bm, [size(b, 1), size(b, 2), nk])
+    deallocate (gm)
+    allocate (gm(nk, nk, ny, ny))
+    gm = 0.0_wp
+    do j = 1, ny
+      do i = 1, ny
+        if (i == j .or. full) gm(:, :, i, j) = cross(t, matmul(g0(:, :, i, j), t), n, nk, nk)
+      end do
+    end do
   end subroutine independent_terms
 
   !> The transient terms' estimate eta and S-hat together: the cost's
   !> minimum over both, alternating the weighted least squares for eta
   !> (given S) and S = (1/n) sum c Re(V V^*) (given eta) until the cost
-  !> settles; r the residuals left, sinv and logdet of S.
-  subroutine transients(r0, bas, cw, full, eta, r, s, sinv, logdet, status, msg)
-    real(wp), intent(in) :: r0(:, :), bas(:, :, :), cw(:)
+  !> settles; r the residuals left, sinv and logdet of S.  The terms are
+  !> eta of the independent columns bas t (independent_terms; gm their grams).
+  subroutine transients(r0, bas, t, gm, cw, full, eta, r, s, sinv, logdet, status, msg)
+    real(wp), intent(in) :: r0(:, :), bas(:, :, :), t(:, :), gm(:, :, :, :), cw(:)
     logical, intent(in) :: full
     real(wp), intent(out) :: eta(:), s(:, :), sinv(:, :), logdet
     real(wp), allocatable, intent(out) :: r(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: c(size(eta), size(eta)), g(size(eta)), cost, last, ld
-    real(wp) :: a(size(r0, 1), size(r0, 2))
-    integer :: it, i, j, ierr, ny
+    real(wp) :: hr(size(eta), size(r0, 1), size(r0, 1)), h0(size(bas, 3)), wr(size(r0, 2)), &
+                e0(size(bas, 3))
+    integer :: it, i, j, k, ierr, ny
     ny = size(r0, 1)
+    ! the columns' weighted products with r0, hr(:, i, j) = t' sum_c c_c
+    ! bas(i, c, :) r0(j, c): the least squares' right-hand side is then
+    ! sum_ij 2 S^-1_ij hr(:, i, j) for any S (as gm its matrix)
+    hr = 0.0_wp
+    do j = 1, ny
+      wr = cw*r0(j, :)
+      do i = 1, ny
+        if (i /= j .and. .not. full) cycle
+        do k = 1, size(bas, 3)
+          h0(k) = dot_product(bas(i, :, k), wr)
+        end do
+        hr(:, i, j) = matmul(h0, t)
+      end do
+    end do
     eta = 0.0_wp
     r = r0
     last = huge(1.0_wp)
     do it = 1, ETA_SWEEPS
       ! S given the residuals
-      s = matmul(r*spread(cw, 1, ny), transpose(r))/(0.5_wp*sum(cw))
-      if (.not. full) then
+      s = 0.0_wp
+      do j = 1, ny
+        wr = cw*r(j, :)
         do i = 1, ny
-          s(:i - 1, i) = 0.0_wp
-          s(i + 1:, i) = 0.0_wp
+          if (i == j .or. full) s(i, j) = dot_product(r(i, :), wr)/(0.5_wp*sum(cw))
         end do
-      end if
+      end do
       if (.not. all([(s(i, i) > tiny(1.0_wp), i=1, ny)])) then
         status = MLID_ERR_SINGULAR
         msg = 'a residual spectrum is zero or not finite: an output fitted exactly '// &
@@ -460,23 +550,25 @@ contains
               '''diagonal'''
         return
       end if
-      cost = sum(r*spread(cw, 1, ny)*matmul(sinv, r)) + 0.5_wp*sum(cw)*logdet
+      cost = 0.5_wp*sum(cw)*(sum(sinv*s) + logdet)
       if (size(eta) == 0 .or. abs(last - cost) <= ETA_TOL*max(1.0_wp, abs(cost))) exit
       last = cost
       ! eta given S: the weighted least squares on r0
-      a = reshape(weighted(reshape(r0, [ny, size(r0, 2), 1]), sinv, cw), shape(r0))
-      do j = 1, size(eta)
-        g(j) = sum(bas(:, :, j)*a)
+      g = 0.0_wp
+      do j = 1, ny
+        do i = 1, ny
+          if (i == j .or. full) g = g + 2.0_wp*sinv(i, j)*hr(:, i, j)
+        end do
       end do
-      call chol_inverse(information_of(bas, sinv, cw), c, ld, ierr)
+      call chol_inverse(combined(gm, sinv), c, ld, ierr)
       if (ierr /= 0) then
         status = MLID_ERR_SINGULAR
         msg = 'the transient terms'' information is singular'
         return
       end if
       eta = matmul(c, g)
-      r = r0 - reshape(matmul(reshape(bas, [size(bas, 1)*size(bas, 2), size(eta)]), eta), &
-                       shape(r0))
+      e0 = matmul(t, eta)
+      call less_columns(r0, bas, e0, size(r0), size(bas, 3), r)
     end do
     status = MLID_OK
     msg = ''
@@ -501,16 +593,19 @@ contains
     complex(wp), intent(out) :: ainv(:, :, :), xs(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
+    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx), &
+                fe(m%nx, m%nx), he(m%ny, m%nx), big
     complex(wp) :: a(m%nx, m%nx), p(m%ny, m%nx), uu(m%nu), v(m%nu), yy(m%ny), p0, p1, e, ramp, &
-                   b(m%ny, 3*m%nx + 2*m%ny)
-    integer :: c, k, i, ie, ne, s, nx, nu, ny
+                   b(m%ny, 3*m%nx + 2*m%ny), gu(m%nx)
+    integer :: c, k, i, j, ie, ne, s, nx, nu, ny
     logical :: ok
 
     nx = m%nx
     nu = m%nu
     ny = m%ny
     call matrices(m, theta, f, g, h, d, kf)
+    fe = f + matmul(g, kf)
+    he = h + matmul(d, kf)
     ie = size(uf, 1) - NEXTRA
     ne = 3*nx + 2*ny
     status = MLID_OK
@@ -541,20 +636,37 @@ contains
           b(xout(i), 2*nx + i) = e
         end do
       else
-        a = -(f + matmul(g, kf))
+        a = -fe
         do i = 1, nx
           a(i, i) = a(i, i) + IU*tf(c)
         end do
-        call complex_inverse(a, ainv(:, :, k), ok)
+        big = max(1.0_wp, maxval(abs(a)))
+        call complex_inverse(a, big, ainv(:, :, k), ok)
         if (.not. ok) then
           status = MLID_ERR_SINGULAR
           write (msg, '(a,g0.6,a)') 'i w I - F is singular at ', tf(c)/TWO_PI, &
             ' Hz: the model has a pole on the imaginary axis there'
           return
         end if
-        xs(:, k) = matmul(ainv(:, :, k), matmul(g, uu))
-        yy = matmul(h + matmul(d, kf), xs(:, k)) + matmul(d, uu)
-        p = matmul(h + matmul(d, kf), ainv(:, :, k))
+        gu = 0.0_wp
+        do j = 1, nu
+          gu = gu + g(:, j)*uu(j)
+        end do
+        xs(:, k) = 0.0_wp
+        do j = 1, nx
+          xs(:, k) = xs(:, k) + ainv(:, j, k)*gu(j)
+        end do
+        p = 0.0_wp
+        yy = 0.0_wp
+        do j = 1, nx
+          do i = 1, nx
+            p(:, j) = p(:, j) + he(:, i)*ainv(i, j, k)
+          end do
+          yy = yy + he(:, j)*xs(j, k)
+        end do
+        do j = 1, nu
+          yy = yy + d(:, j)*uu(j)
+        end do
         b(:, 1:nx) = p0*p
         b(:, nx + 1:2*nx) = -p1*p
         b(:, 2*nx + 1:3*nx) = e*p
@@ -592,7 +704,8 @@ contains
     integer, intent(in) :: xout(:)
     complex(wp), intent(in) :: ainv(:, :, :), xs(:, :)
     real(wp), intent(out) :: dy(:, :, :)
-    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
+    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx), &
+                he(m%ny, m%nx)
     complex(wp) :: p(m%ny, m%nx), x(m%nx), v(m%nu), dz(m%ny), p0, p1, e
     integer :: c, k, q, blk, i, j, ie, ne, s, nx, nu, ny
 
@@ -600,6 +713,7 @@ contains
     nu = m%nu
     ny = m%ny
     call matrices(m, theta, f, g, h, d, kf)
+    he = h + matmul(d, kf)
     ie = size(uf, 1) - NEXTRA
     ne = 3*nx + 2*ny
     dy = 0.0_wp
@@ -613,7 +727,7 @@ contains
         s = (nint(uf(ie + 4, c)) - 1)*ne
         x = x + matmul(ainv(:, :, k), p0*eta(s + 1:s + nx) - p1*eta(s + nx + 1:s + 2*nx) + &
                        e*eta(s + 2*nx + 1:s + 3*nx))
-        p = matmul(h + matmul(d, kf), ainv(:, :, k))
+        p = matmul(he, ainv(:, :, k))
       end if
       v = cmplx(uf(1:nu, c), uf(1:nu, c + 1), wp) + matmul(kf, x)
       do q = 1, size(pm%im)                 ! each moving entry into its free column
@@ -658,9 +772,11 @@ contains
   end subroutine sensitivities
 
   !> ainv = a^-1 by Gauss-Jordan elimination with partial pivoting (a is
-  !> small: the model's states); ok false when a pivot vanishes.
-  pure subroutine complex_inverse(a, ainv, ok)
+  !> small: the model's states); ok false when a pivot vanishes (below
+  !> 1e-14 big, big = max(1, max |a_ij|), the caller's).
+  pure subroutine complex_inverse(a, big, ainv, ok)
     complex(wp), intent(in) :: a(:, :)
+    real(wp), intent(in) :: big
     complex(wp), intent(out) :: ainv(:, :)
     logical, intent(out) :: ok
     complex(wp) :: w(size(a, 1), 2*size(a, 1)), tmp(2*size(a, 1))
@@ -674,13 +790,14 @@ contains
     ok = .false.
     do k = 1, n
       piv = maxloc(abs(w(k:, k)), 1) + k - 1
-      if (.not. abs(w(piv, k)) > 1.0e-14_wp*max(1.0_wp, maxval(abs(a)))) return
-      tmp = w(k, :)
-      w(k, :) = w(piv, :)
-      w(piv, :) = tmp
-      w(k, :) = w(k, :)/w(k, k)
+      if (.not. abs(w(piv, k)) > 1.0e-14_wp*big) return
+      ! columns before k are done (unit vectors): zero in rows k and piv
+      tmp(k:) = w(k, k:)
+      w(k, k:) = w(piv, k:)
+      w(piv, k:) = tmp(k:)
+      w(k, k:) = w(k, k:)/w(k, k)
       do i = 1, n
-        if (i /= k) w(i, :) = w(i, :) - w(i, k)*w(k, :)
+        if (i /= k) w(i, k:) = w(i, k:) - w(i, k)*w(k, k:)
       end do
     end do
     ainv = w(:, n + 1:)

@@ -295,11 +295,15 @@ contains
   end function unit_of
 
   !> The JSON object of a fitted case; a failed one (fit_outcome) has its
-  !> last values and null for every statistic of the fit.
-  function fit_json(title, job, status, msg, s) result(text)
+  !> last values and null for every statistic of the fit.  "method" names
+  !> the estimator (the option's word); "band" is the frequency-domain
+  !> methods' f_min, f_max (Hz) and n_freq, null for the time domain.
+  function fit_json(title, job, status, msg, s, iopt, ropt) result(text)
     character(len=*), intent(in) :: title, job, msg
     integer, intent(in) :: status
     type(fit_summary_t), intent(in) :: s
+    integer, intent(in) :: iopt(NOPT)
+    real(wp), intent(in) :: ropt(NOPT)
     character(len=:), allocatable :: text
     integer :: k
     logical :: failed
@@ -307,6 +311,8 @@ contains
     failed = fit_outcome(status, s%reason) == FIT_FAILED
     text = case_json(title, job, status, msg)
     text = text(1:len(text) - 1)//', "failed": '//trim(merge('true ', 'false', failed))//','//NL// &
+           '"method": '//json_string(trim(option_get(iopt, ropt, 'method')))//', "band": '// &
+           band_json(iopt, ropt)//','//NL// &
            '"parameters": '//strings(s%labels)//','//NL// &
            '"units": '//strings([(unit_of(s, k), k=1, size(s%labels))])//','//NL// &
            '"start": '//numbers(s%start)//','//NL
@@ -340,6 +346,25 @@ contains
     end function r_innovations
 
   end function fit_json
+
+  !> The band of a frequency-domain fit as JSON, {"f_min": .., "f_max": ..,
+  !> "n_freq": ..}; null for a time-domain one.
+  function band_json(iopt, ropt) result(text)
+    integer, intent(in) :: iopt(NOPT)
+    real(wp), intent(in) :: ropt(NOPT)
+    character(len=:), allocatable :: text
+    real(wp) :: f(2)
+    character(len=32) :: word
+    text = 'null'
+    if (all(option_get(iopt, ropt, 'method') /= [character(len=32) :: 'frequency_output_error', &
+                                                  'frequency_equation_error'])) return
+    word = option_get(iopt, ropt, 'f_min')
+    read (word, *) f(1)
+    word = option_get(iopt, ropt, 'f_max')
+    read (word, *) f(2)
+    text = '{"f_min": '//number(f(1))//', "f_max": '//number(f(2))//', "n_freq": '// &
+           trim(option_get(iopt, ropt, 'n_freq'))//'}'
+  end function band_json
 
   !> The JSON object of a case without a fit: title, job, status, message
   !> and, for a simulate case, the samples written and where.

@@ -14,7 +14,7 @@ from conftest import (C8_F, C8_FREE, C8_G, C8_NAMES, C8_STD, c8_record, c8_start
                       run_both)
 
 FDOE, FDEE = "frequency_output_error", "frequency_equation_error"
-# A band from 0.6/T (T = 6 s) past the short period (~0.4 Hz): below 1/T the transient
+# A band from 0.6/T (T = 6 s) past the short period (~0.21 Hz): below 1/T the transient
 # terms (mlid_frequency) keep the initial and final states out.
 BAND = dict(f_min=0.1, f_max=2.0, n_freq=40)
 
@@ -250,6 +250,29 @@ def test_deck_both_front_ends(tmp_path, method):
                                 output_cols=[3, 4, 5, 6])
     fit = mlid.fit(c8_start(), data, method=method, **BAND)
     np.testing.assert_allclose(py[1]["estimate"], fit.estimate, rtol=1e-9)
+
+
+def test_json_records_method_and_band(tmp_path):
+    """The JSON of a fit names its method and, for the frequency domain, its
+    band (f_min, f_max in Hz, n_freq), byte for byte the same from both
+    front ends; a time-domain fit's band is null.  FitResult.as_dict says
+    the same."""
+    deck = tmp_path / "fd.nml"
+    time_domain = DECK[DECK.index("&case title = 'C-8: {method}'"):]
+    deck.write_text(DECK.format(method=FDOE, band="f_min = 0.15, f_max = 1.75, n_freq = 33")
+                    + time_domain.format(method="output_error", band="noise = 'diagonal'"))
+    runs = run_both(deck, "--json", str(tmp_path / "{exe}.json"))
+    assert runs[0].returncode == 0 and runs[0].stdout == runs[1].stdout, runs[0].stderr
+    text = [(tmp_path / f"{exe}.json").read_bytes() for exe in ("mlid", "mlid-batch")]
+    assert text[0] == text[1]
+    fits = [obj for obj in json.loads(text[0]) if obj["job"] == "estimate"]
+    assert [f["method"] for f in fits] == [FDOE, "output_error"]
+    assert fits[0]["band"] == {"f_min": 0.15, "f_max": 1.75, "n_freq": 33}
+    assert fits[1]["band"] is None
+    data = mlid.FlightData.load(tmp_path / "c8.dat", time_col=1, input_cols=[2],
+                                output_cols=[3, 4, 5, 6])
+    own = mlid.fit(c8_start(), data, method=FDOE, f_min=0.15, f_max=1.75, n_freq=33).as_dict()
+    assert (own["method"], own["band"]) == (FDOE, fits[0]["band"])
 
 
 @pytest.mark.parametrize("band, message", [

@@ -281,7 +281,7 @@ contains
     s%hist = hist(1:s%niter + 1)
     s%converged = converged == 1
     write (*, '(a)', advance='no') fit_report(s, c%iopt, c%ropt, cstat, cmsg)
-    json = fit_json(c%title, c%job, cstat, cmsg, s)
+    json = fit_json(c%title, c%job, cstat, cmsg, s, c%iopt, c%ropt)
     if (cstat == MLID_OK .and. cmsg(1:min(8, len(cmsg))) == 'warning:') call say(k, c, cmsg)
   end subroutine fit_record
 

@@ -2,6 +2,7 @@
 HTML form for Jupyter, and the whiteness test of its residuals."""
 
 import html
+import json
 import re
 
 import numpy as np
@@ -218,12 +219,15 @@ class FitResult:
         Returns
         -------
         dict
-            Parameters, start, estimate, sigmas, correlation, R, cost and its
+            Method and band (frequency domain; None for the time domain),
+            parameters, start, estimate, sigmas, correlation, R, cost and its
             history, iterations, convergence, rank, reason, message, wall time;
             for a failed fit, as its JSON: ``failed`` True, ``last_values``,
             and None for the estimates and every statistic.
         """
-        common = {"failed": self.failed, "parameters": list(self.names),
+        core = json.loads(self._texts()[1])           # the estimator and band, as the core words them
+        common = {"failed": self.failed, "method": core["method"], "band": core["band"],
+                  "parameters": list(self.names),
                   "units": list(getattr(self, "param_units", None) or [""] * len(self.names)),
                   "start": self.start.tolist()}
         end = {"iterations": self.iterations, "converged": self.converged,
