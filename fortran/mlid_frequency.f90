@@ -227,11 +227,10 @@ contains
     type(param_map_t), intent(in) :: pm
     integer, intent(out) :: xout(:)
     character(len=*), intent(out) :: msg
-    real(wp) :: h(m%ny, m%nx), d(m%ny, m%nu)
+    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
     logical :: moving(m%ny)
     integer :: i, k, e
-    h = reshape(theta(m%oh + 1:m%oh + m%ny*m%nx), [m%ny, m%nx])
-    d = reshape(theta(m%od + 1:m%od + m%ny*m%nu), [m%ny, m%nu])
+    call m%matrices(theta, f, g, h, d, kf)
     moving = .false.
     do k = 1, size(pm%im)
       e = pm%im(k)
@@ -603,7 +602,7 @@ contains
     nx = m%nx
     nu = m%nu
     ny = m%ny
-    call matrices(m, theta, f, g, h, d, kf)
+    call m%matrices(theta, f, g, h, d, kf)
     fe = f + matmul(g, kf)
     he = h + matmul(d, kf)
     ie = size(uf, 1) - NEXTRA
@@ -678,18 +677,6 @@ contains
     end do
   end subroutine model_terms
 
-  !> F, G, H, D and the input feedback K of the linear model at theta.
-  pure subroutine matrices(m, theta, f, g, h, d, kf)
-    type(linear_model_t), intent(in) :: m
-    real(wp), intent(in) :: theta(:)
-    real(wp), intent(out) :: f(:, :), g(:, :), h(:, :), d(:, :), kf(:, :)
-    f = reshape(theta(m%of + 1:m%of + m%nx*m%nx), [m%nx, m%nx])
-    g = reshape(theta(m%og + 1:m%og + m%nx*m%nu), [m%nx, m%nu])
-    h = reshape(theta(m%oh + 1:m%oh + m%ny*m%nx), [m%ny, m%nx])
-    d = reshape(theta(m%od + 1:m%od + m%ny*m%nu), [m%ny, m%nu])
-    kf = reshape(theta(m%ok + 1:m%ok + m%nu*m%nx), [m%nu, m%nx])
-  end subroutine matrices
-
   !> dy (ny, nc, nf): the sensitivities of the left-hand sides to the free
   !> parameters at the transient terms eta.  Output error: X = xs + A^-1 N
   !> eta, V = U + K X, P = He A^-1; dY/dF_ij = P(:, i) X_j, dY/dG_ij = P(:,
@@ -712,7 +699,7 @@ contains
     nx = m%nx
     nu = m%nu
     ny = m%ny
-    call matrices(m, theta, f, g, h, d, kf)
+    call m%matrices(theta, f, g, h, d, kf)
     he = h + matmul(d, kf)
     ie = size(uf, 1) - NEXTRA
     ne = 3*nx + 2*ny
