@@ -32,6 +32,12 @@ module mlid_aero_long
   integer, parameter :: NREG = 6
   character(len=8), parameter :: REGRESSOR_NAMES(NREG) = &
     [character(len=8) :: '1', 'V/V0', 'alpha', 'alpha^2', 'qhat', 'de']
+  !> The one state each regressor depends on (1 = V, 2 = alpha, 4 = q; 0:
+  !> none): its gradient's only nonzero, so that the coefficients' gradients
+  !> add that entry alone (the zeros the others would add change no bit).
+  integer, parameter :: DR_STATE(NREG) = [0, 1, 2, 2, 4, 0]
+  !> The state equation each coefficient (C_D, C_L, C_m) forces.
+  integer, parameter :: COEF_ROW(3) = [1, 2, 4]
   !> The constants rconst, in order.
   character(len=*), parameter :: CONSTANT_NAMES = 'g, S/m, S cbar/Iy, lT/Iy, V0, m, sigma_T, rho, cbar/2'
 
@@ -55,7 +61,7 @@ module mlid_aero_long
   !> those quantities have always been formed, so that every fit stays the
   !> same to the bit (one product more).
   type :: air_t
-    real(wp) :: r(NREG), dr(4, NREG), cf(3), dc(4, 3), v, ft, qbar, qbar2, sas, cas, sat, cat
+    real(wp) :: r(NREG), dr(NREG), cf(3), dc(4, 3), v, ft, qbar, qbar2, sas, cas, sat, cat
   end type air_t
 
 contains
@@ -140,37 +146,40 @@ contains
     end if
   end subroutine check_longitudinal_record
 
-  !> The regressors' values r(code) and their derivatives dr(:, code) with
-  !> respect to x, each code once.
+  !> The regressors' values r(code) and their derivatives dr(code) with
+  !> respect to x(DR_STATE(code)), each code once.
   pure subroutine regressors(self, x, u, r, dr)
     class(aero_long_t), intent(in) :: self
     real(wp), intent(in) :: x(:), u(:)
-    real(wp), intent(out) :: r(NREG), dr(4, NREG)
-    dr = 0.0_wp
+    real(wp), intent(out) :: r(NREG), dr(NREG)
     r(1) = 1.0_wp
+    dr(1) = 0.0_wp
     r(2) = x(1)/self%v0
-    dr(1, 2) = 1.0_wp/self%v0
+    dr(2) = 1.0_wp/self%v0
     r(3) = x(2)
-    dr(2, 3) = 1.0_wp
+    dr(3) = 1.0_wp
     r(4) = x(2)**2
-    dr(2, 4) = 2.0_wp*x(2)
+    dr(4) = 2.0_wp*x(2)
     r(5) = x(4)*self%c2/self%v0
-    dr(4, 5) = self%c2/self%v0
+    dr(5) = self%c2/self%v0
     r(6) = u(1)
+    dr(6) = 0.0_wp
   end subroutine regressors
 
   !> C_D, C_L, C_m and their gradients with respect to x, from the
   !> regressors r, dr.
   pure subroutine coefficients(self, p, r, dr, c, dc)
     class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: p(:), r(NREG), dr(4, NREG)
+    real(wp), intent(in) :: p(:), r(NREG), dr(NREG)
     real(wp), intent(out) :: c(3), dc(4, 3)
-    integer :: k
+    integer :: k, i, j
     c = 0.0_wp
     dc = 0.0_wp
     do k = 1, self%np
-      c(self%coef(k)) = c(self%coef(k)) + p(k)*r(self%code(k))
-      dc(:, self%coef(k)) = dc(:, self%coef(k)) + p(k)*dr(:, self%code(k))
+      i = self%code(k)
+      j = self%coef(k)
+      c(j) = c(j) + p(k)*r(i)
+      if (DR_STATE(i) > 0) dc(DR_STATE(i), j) = dc(DR_STATE(i), j) + p(k)*dr(i)
     end do
   end subroutine coefficients
 
@@ -248,19 +257,14 @@ contains
     type(air_t), intent(in) :: s
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: b(:, :)
-    real(wp) :: r
-    integer :: k
-    b = 0.0_wp
+    real(wp) :: fac(3)
+    integer :: k, j
+    ! each coefficient's factor, as it has always been formed (negation is exact)
+    fac = [-self%sm*s%qbar2, -self%sm*0.5_wp*self%rho*s%v, self%sc*s%qbar2]
     do k = 1, size(idx)
-      r = s%r(self%code(idx(k)))
-      select case (self%coef(idx(k)))
-      case (1)
-        b(1, k) = -self%sm*s%qbar2*r
-      case (2)
-        b(2, k) = -self%sm*0.5_wp*self%rho*s%v*r
-      case (3)
-        b(4, k) = self%sc*s%qbar2*r
-      end select
+      j = self%coef(idx(k))
+      b(1:4, k) = 0.0_wp         ! four states: a fixed size, no call of memset per column
+      b(COEF_ROW(j), k) = fac(j)*s%r(self%code(idx(k)))
     end do
   end subroutine state_param_jacobian
 
