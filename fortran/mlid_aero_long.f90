@@ -46,6 +46,8 @@ module mlid_aero_long
     integer, allocatable :: coef(:)      !< 1 = C_D, 2 = C_L, 3 = C_m for each parameter
     real(wp) :: g = 0, sm = 0, sc = 0, lt = 0, v0 = 0, mass = 0, sigma = 0, rho = 0, c2 = 0
     real(wp) :: csig = 1, ssig = 0       !< cos and sin of sigma
+    !> the regressors' constant derivatives 1/V0 and (cbar/2)/V0, divided once
+    real(wp) :: dv0 = 0, dq0 = 0
   contains
     procedure :: eval => al_eval
     procedure :: dfdw => al_dfdw
@@ -116,6 +118,8 @@ contains
     m%ssig = sin(m%sigma)
     m%rho = rconst(8)
     m%c2 = rconst(9)
+    m%dv0 = 1.0_wp/m%v0
+    m%dq0 = m%c2/m%v0
     status = MLID_OK
     msg = ''
   end subroutine aero_long_create
@@ -155,13 +159,13 @@ contains
     r(1) = 1.0_wp
     dr(1) = 0.0_wp
     r(2) = x(1)/self%v0
-    dr(2) = 1.0_wp/self%v0
+    dr(2) = self%dv0
     r(3) = x(2)
     dr(3) = 1.0_wp
     r(4) = x(2)**2
     dr(4) = 2.0_wp*x(2)
     r(5) = x(4)*self%c2/self%v0
-    dr(5) = self%c2/self%v0
+    dr(5) = self%dq0
     r(6) = u(1)
     dr(6) = 0.0_wp
   end subroutine regressors

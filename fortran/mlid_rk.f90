@@ -127,7 +127,11 @@ contains
 
       if (.not. (c == 0.0_wp .and. wk%first_known)) &
         call m%eval(t, xs, ui, p, idxm, xdot=xd, a=wk%a, b=wk%b)
-      call small_product(wk%a, ss, sd)
+      if (size(xs) == 4) then       ! four states: the fixed-size kernel, no dispatch
+        call product_4x4(size(ss, 2), wk%a, ss, sd)
+      else
+        call small_product(wk%a, ss, sd)
+      end if
       call add_forcing(size(sd, 1), size(sd, 2), size(idxm), wk%b, colm, wcol, sd)
       if (present(sforce)) sd = sd + sforce
       if (present(us)) call input_forcing(t, xs, ui, c, sd)
