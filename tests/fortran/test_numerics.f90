@@ -65,6 +65,7 @@ program test_numerics
   use test_checks, only: check, finish
   use split_model, only: split_model_t
   use mlid_rk, only: small_product
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward
   implicit none
 
   call test_rk4_order()
@@ -76,9 +77,39 @@ program test_numerics
   call test_linalg()
   call test_random()
   call test_small_product()
+  call test_fft()
   call finish()
 
 contains
+
+  !> fft_forward against the sum that defines the transform, at lengths
+  !> whose stages run both loop orders (few twiddles and many butterflies
+  !> each, and the other way round): within rounding of the sum's size.
+  subroutine test_fft()
+    type(rng_t) :: r
+    type(fft_plan_t) :: plan
+    complex(wp), allocatable :: z(:), e(:)
+    real(wp), parameter :: two_pi = 8.0_wp*atan(1.0_wp)
+    real(wp) :: scale
+    integer, parameter :: lengths(3) = [2, 8, 64]
+    integer :: n, k, f, i
+    call rng_seed(r, 5)
+    do i = 1, size(lengths)
+      n = lengths(i)
+      plan = fft_plan(n)
+      allocate (z(0:n - 1), e(0:n - 1))
+      do k = 0, n - 1
+        z(k) = cmplx(rng_normal(r), rng_normal(r), wp)
+      end do
+      do f = 0, n - 1
+        e(f) = sum([(z(k)*exp(cmplx(0.0_wp, -two_pi*mod(f*k, n)/n, wp)), k=0, n - 1)])
+      end do
+      scale = sum(abs(z))
+      call fft_forward(plan, z)
+      call check(maxval(abs(z - e)) < 1.0e-13_wp*scale, 'fft_forward is the discrete Fourier transform')
+      deallocate (z, e)
+    end do
+  end subroutine test_fft
 
   !> small_product, its fixed-size 4 x 4 kernel and its general loops,
   !> against the sums written out: within rounding (4 eps sum |a||b|, as a
