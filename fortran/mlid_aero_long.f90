@@ -294,7 +294,7 @@ contains
     end if
     if (present(c)) then
       rv = self%rho*s%v                            ! d qbar / dV
-      c = 0.0_wp
+      c(1:7, 1:4) = 0.0_wp       ! seven outputs, four states: fixed sizes, no memset calls
       do i = 1, 4
         c(i, i) = 1.0_wp
       end do
@@ -307,8 +307,8 @@ contains
       c(7, 2) = c(7, 2) + qs*(s%cf(2)*sa - s%cf(1)*ca)
     end if
     if (.not. present(d)) return
-    d = 0.0_wp
     do k = 1, size(idx)
+      d(1:7, k) = 0.0_wp
       r = s%r(self%code(idx(k)))
       select case (self%coef(idx(k)))
       case (1)
