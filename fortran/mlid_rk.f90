@@ -121,9 +121,10 @@ contains
     !> + the delayed inputs' forcing at fraction c of the step (at c = 0,
     !> f, df/dx and df/dp may be known already: wk%first_known).
     subroutine deriv(t, xs, ui, xd, ss, sd, c)
-      real(wp), intent(in) :: t, xs(:), ui(:), ss(:, :), c
-      real(wp), intent(inout) :: xd(:)
-      real(wp), intent(out) :: sd(:, :)
+      real(wp), intent(in) :: t, xs(:), ui(:), c
+      real(wp), intent(in) :: ss(size(x), ns)      ! explicit shapes: contiguous sections
+      real(wp), intent(inout) :: xd(:)             ! pass without descriptors
+      real(wp), intent(out) :: sd(size(x), ns)
 
       if (.not. (c == 0.0_wp .and. wk%first_known)) &
         call m%eval(t, xs, ui, p, idxm, xdot=xd, a=wk%a, b=wk%b)
