@@ -36,10 +36,10 @@ df/dp columns from their one nonzero each and no memset calls (al_eval
 FFT stages and G = K A with their loops reordered or fused (fft_forward
 10.5 -> 9.6 M, the G loop 4.6 -> 3.8 M per fit).  Least CPU time 10.31 ->
 8.52 ms per fit (wall medians 17.2 -> 12.7 ms, the machine loaded).  The
-issue's 3 ms stays out of reach this way: what is left is spread thin (the
-model's point ~1,100 instructions and its two sincos, the stage product and
-RK4 bookkeeping ~40 %, the coloured-residual correction ~20 %, the
-information's rank-k update ~8 %).  Every case deck's results are unchanged
+issue's 3 ms stays out of reach this way: what is left is spread thin (of
+the instructions, the model's points 25 % with their sincos, the RK4 stages'
+products and bookkeeping besides them 24 %, the coloured-residual correction
+20 %, the outputs' sensitivities 9 %, the information's rank-k update 6 %).  Every case deck's results are unchanged
 to the bit (benchmarks/compare_cases.py: 40 of 40 bitwise).
 """
 
