@@ -96,8 +96,8 @@ contains
     complex(wp), intent(out) :: xf(0:), yf(0:)
     complex(wp) :: z(0:p%n - 1), a, b
     integer :: f
-    z = 0.0_wp
     z(0:size(x) - 1) = cmplx(x, y, wp)
+    z(size(x):) = 0.0_wp                      ! the zero padding only
     call fft_forward(p, z)
     do f = 0, p%n/2
       a = z(f)
