@@ -26,16 +26,17 @@ loaded machine (the processes alternating), where main alone took 14.7 ms
 when quiet.  Every case deck's results are unchanged to the bit.
 
 Measured (ours, branch hfb-speed against main at 67d9318, one thread, the
-steps in its commits): 133.0 M -> 103.2 M instructions per fit (31.6 k ->
-24.5 k per sample and iteration): the RK4 stage product A S by a fixed-size
+steps in its commits): 133.0 M -> 102.5 M instructions per fit (31.6 k ->
+24.4 k per sample and iteration): the RK4 stage product A S by a fixed-size
 4 x 4 kernel called straight from the stage (1,400 -> 357 instructions per
 call), the forcing and the outputs' C S at fixed sizes, the stage's blocks
 without descriptors; the longitudinal model's coefficient gradients and
 df/dp columns from their one nonzero each and no memset calls (al_eval
 1,416 -> 1,090 instructions per point); the coloured-residual bracket's
-FFT stages and G = K A with their loops reordered or fused (fft_forward
-10.5 -> 9.6 M, the G loop 4.6 -> 3.8 M per fit).  Least CPU time 10.31 ->
-8.52 ms per fit (wall medians 17.2 -> 12.7 ms, the machine loaded).  The
+FFT stages and G = K A with their loops reordered or fused, only the
+padding zeroed (fft_forward 10.5 -> 9.6 M, the G loop 4.6 -> 3.8 M per
+fit).  Least CPU time 10.3-10.5 -> 8.5-8.8 ms per fit (two runs of 5 and 7
+rounds; wall medians 16.6-17.2 -> 10.2-12.7 ms, the machine loaded).  The
 issue's 3 ms stays out of reach this way: what is left is spread thin (of
 the instructions, the model's points 25 % with their sincos, the RK4 stages'
 products and bookkeeping besides them 24 %, the coloured-residual correction
