@@ -32,6 +32,12 @@ module mlid_aero_long
   integer, parameter :: NREG = 6
   character(len=8), parameter :: REGRESSOR_NAMES(NREG) = &
     [character(len=8) :: '1', 'V/V0', 'alpha', 'alpha^2', 'qhat', 'de']
+  !> The one state each regressor depends on (1 = V, 2 = alpha, 4 = q; 0:
+  !> none): its gradient's only nonzero, so that the coefficients' gradients
+  !> add that entry alone (the zeros the others would add change no bit).
+  integer, parameter :: DR_STATE(NREG) = [0, 1, 2, 2, 4, 0]
+  !> The state equation each coefficient (C_D, C_L, C_m) forces.
+  integer, parameter :: COEF_ROW(3) = [1, 2, 4]
   !> The constants rconst, in order.
   character(len=*), parameter :: CONSTANT_NAMES = 'g, S/m, S cbar/Iy, lT/Iy, V0, m, sigma_T, rho, cbar/2'
 
@@ -40,6 +46,8 @@ module mlid_aero_long
     integer, allocatable :: coef(:)      !< 1 = C_D, 2 = C_L, 3 = C_m for each parameter
     real(wp) :: g = 0, sm = 0, sc = 0, lt = 0, v0 = 0, mass = 0, sigma = 0, rho = 0, c2 = 0
     real(wp) :: csig = 1, ssig = 0       !< cos and sin of sigma
+    !> the regressors' constant derivatives 1/V0 and (cbar/2)/V0, divided once
+    real(wp) :: dv0 = 0, dq0 = 0
   contains
     procedure :: eval => al_eval
     procedure :: dfdw => al_dfdw
@@ -55,7 +63,7 @@ module mlid_aero_long
   !> those quantities have always been formed, so that every fit stays the
   !> same to the bit (one product more).
   type :: air_t
-    real(wp) :: r(NREG), dr(4, NREG), cf(3), dc(4, 3), v, ft, qbar, qbar2, sas, cas, sat, cat
+    real(wp) :: r(NREG), dr(NREG), cf(3), dc(4, 3), v, ft, qbar, qbar2, sas, cas, sat, cat
   end type air_t
 
 contains
@@ -110,6 +118,8 @@ contains
     m%ssig = sin(m%sigma)
     m%rho = rconst(8)
     m%c2 = rconst(9)
+    m%dv0 = 1.0_wp/m%v0
+    m%dq0 = m%c2/m%v0
     status = MLID_OK
     msg = ''
   end subroutine aero_long_create
@@ -140,37 +150,40 @@ contains
     end if
   end subroutine check_longitudinal_record
 
-  !> The regressors' values r(code) and their derivatives dr(:, code) with
-  !> respect to x, each code once.
+  !> The regressors' values r(code) and their derivatives dr(code) with
+  !> respect to x(DR_STATE(code)), each code once.
   pure subroutine regressors(self, x, u, r, dr)
     class(aero_long_t), intent(in) :: self
     real(wp), intent(in) :: x(:), u(:)
-    real(wp), intent(out) :: r(NREG), dr(4, NREG)
-    dr = 0.0_wp
+    real(wp), intent(out) :: r(NREG), dr(NREG)
     r(1) = 1.0_wp
+    dr(1) = 0.0_wp
     r(2) = x(1)/self%v0
-    dr(1, 2) = 1.0_wp/self%v0
+    dr(2) = self%dv0
     r(3) = x(2)
-    dr(2, 3) = 1.0_wp
+    dr(3) = 1.0_wp
     r(4) = x(2)**2
-    dr(2, 4) = 2.0_wp*x(2)
+    dr(4) = 2.0_wp*x(2)
     r(5) = x(4)*self%c2/self%v0
-    dr(4, 5) = self%c2/self%v0
+    dr(5) = self%dq0
     r(6) = u(1)
+    dr(6) = 0.0_wp
   end subroutine regressors
 
   !> C_D, C_L, C_m and their gradients with respect to x, from the
   !> regressors r, dr.
   pure subroutine coefficients(self, p, r, dr, c, dc)
     class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: p(:), r(NREG), dr(4, NREG)
+    real(wp), intent(in) :: p(:), r(NREG), dr(NREG)
     real(wp), intent(out) :: c(3), dc(4, 3)
-    integer :: k
+    integer :: k, i, j
     c = 0.0_wp
     dc = 0.0_wp
     do k = 1, self%np
-      c(self%coef(k)) = c(self%coef(k)) + p(k)*r(self%code(k))
-      dc(:, self%coef(k)) = dc(:, self%coef(k)) + p(k)*dr(:, self%code(k))
+      i = self%code(k)
+      j = self%coef(k)
+      c(j) = c(j) + p(k)*r(i)
+      if (DR_STATE(i) > 0) dc(DR_STATE(i), j) = dc(DR_STATE(i), j) + p(k)*dr(i)
     end do
   end subroutine coefficients
 
@@ -248,19 +261,14 @@ contains
     type(air_t), intent(in) :: s
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: b(:, :)
-    real(wp) :: r
-    integer :: k
-    b = 0.0_wp
+    real(wp) :: fac(3)
+    integer :: k, j
+    ! each coefficient's factor, as it has always been formed (negation is exact)
+    fac = [-self%sm*s%qbar2, -self%sm*0.5_wp*self%rho*s%v, self%sc*s%qbar2]
     do k = 1, size(idx)
-      r = s%r(self%code(idx(k)))
-      select case (self%coef(idx(k)))
-      case (1)
-        b(1, k) = -self%sm*s%qbar2*r
-      case (2)
-        b(2, k) = -self%sm*0.5_wp*self%rho*s%v*r
-      case (3)
-        b(4, k) = self%sc*s%qbar2*r
-      end select
+      j = self%coef(idx(k))
+      b(1:4, k) = 0.0_wp         ! four states: a fixed size, no call of memset per column
+      b(COEF_ROW(j), k) = fac(j)*s%r(self%code(idx(k)))
     end do
   end subroutine state_param_jacobian
 
@@ -286,7 +294,7 @@ contains
     end if
     if (present(c)) then
       rv = self%rho*s%v                            ! d qbar / dV
-      c = 0.0_wp
+      c(1:7, 1:4) = 0.0_wp       ! seven outputs, four states: fixed sizes, no memset calls
       do i = 1, 4
         c(i, i) = 1.0_wp
       end do
@@ -299,8 +307,8 @@ contains
       c(7, 2) = c(7, 2) + qs*(s%cf(2)*sa - s%cf(1)*ca)
     end if
     if (.not. present(d)) return
-    d = 0.0_wp
     do k = 1, size(idx)
+      d(1:7, k) = 0.0_wp
       r = s%r(self%code(idx(k)))
       select case (self%coef(idx(k)))
       case (1)

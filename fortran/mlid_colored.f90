@@ -197,8 +197,8 @@ contains
       gi(:, :, l) = 0.0_wp
       do q = 1, ny                             ! G(f) = K(f) A(f), all f at once
         do r = 1, ny
-          gr(:, r, l) = gr(:, r, l) + kr(:, r, q)*sr(:, q, l) - ki(:, r, q)*si(:, q, l)
-          gi(:, r, l) = gi(:, r, l) + kr(:, r, q)*si(:, q, l) + ki(:, r, q)*sr(:, q, l)
+          call add_kernel_product(nfreq, kr(:, r, q), ki(:, r, q), sr(:, q, l), si(:, q, l), &
+                                  gr(:, r, l), gi(:, r, l))
         end do
       end do
       gr(2:nfreq - 1, :, l) = 2.0_wp*gr(2:nfreq - 1, :, l)   ! f and n - f
@@ -223,6 +223,19 @@ contains
       if (r == q) ki(:, r, q) = 0.0_wp       ! K(r, r)(d) is even: its transform is real
     end subroutine put_kernel
   end function segment_bracket
+
+  !> g = g + k s over n frequencies, real and imaginary parts apart (kr, ki;
+  !> sr, si; gr, gi): one pass that reads each operand once.
+  pure subroutine add_kernel_product(n, kr, ki, sr, si, gr, gi)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: kr(n), ki(n), sr(n), si(n)
+    real(wp), intent(inout) :: gr(n), gi(n)
+    integer :: f
+    do f = 1, n
+      gr(f) = gr(f) + kr(f)*sr(f) - ki(f)*si(f)
+      gi(f) = gi(f) + kr(f)*si(f) + ki(f)*sr(f)
+    end do
+  end subroutine add_kernel_product
 
   !> The kernel entry K(d)(r, q) = w(|d|) Rvv(d)(r, q) at index d mod n,
   !> d = -L' .. L' (L' = ubound(rvv, 3)), zero elsewhere.

@@ -65,14 +65,24 @@ contains
     half = 1
     do while (half < p%n)
       step = p%n/(2*half)                     ! twiddle stride at this stage
-      do j = 0, half - 1                      ! one twiddle over all its butterflies
-        w = p%w(j*step)
-        do start = j, p%n - 1, 2*half
-          t = w*z(start + half)
-          z(start + half) = z(start) - t
-          z(start) = z(start) + t
+      if (half < step) then
+        do j = 0, half - 1                    ! one twiddle over all its butterflies
+          w = p%w(j*step)
+          do start = j, p%n - 1, 2*half
+            t = w*z(start + half)
+            z(start + half) = z(start) - t
+            z(start) = z(start) + t
+          end do
         end do
-      end do
+      else                                    ! more twiddles than butterflies each: the
+        do start = 0, p%n - 1, 2*half         ! same butterflies, the long loop innermost
+          do j = start, start + half - 1
+            t = p%w((j - start)*step)*z(j + half)
+            z(j + half) = z(j) - t
+            z(j) = z(j) + t
+          end do
+        end do
+      end if
       half = 2*half
     end do
   end subroutine fft_forward
@@ -86,8 +96,8 @@ contains
     complex(wp), intent(out) :: xf(0:), yf(0:)
     complex(wp) :: z(0:p%n - 1), a, b
     integer :: f
-    z = 0.0_wp
     z(0:size(x) - 1) = cmplx(x, y, wp)
+    z(size(x):) = 0.0_wp                      ! the zero padding only
     call fft_forward(p, z)
     do f = 0, p%n/2
       a = z(f)

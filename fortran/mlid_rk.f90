@@ -121,13 +121,18 @@ contains
     !> + the delayed inputs' forcing at fraction c of the step (at c = 0,
     !> f, df/dx and df/dp may be known already: wk%first_known).
     subroutine deriv(t, xs, ui, xd, ss, sd, c)
-      real(wp), intent(in) :: t, xs(:), ui(:), ss(:, :), c
-      real(wp), intent(inout) :: xd(:)
-      real(wp), intent(out) :: sd(:, :)
+      real(wp), intent(in) :: t, xs(:), ui(:), c
+      real(wp), intent(in) :: ss(size(x), ns)      ! explicit shapes: contiguous sections
+      real(wp), intent(inout) :: xd(:)             ! pass without descriptors
+      real(wp), intent(out) :: sd(size(x), ns)
 
       if (.not. (c == 0.0_wp .and. wk%first_known)) &
         call m%eval(t, xs, ui, p, idxm, xdot=xd, a=wk%a, b=wk%b)
-      call small_product(wk%a, ss, sd)
+      if (size(xs) == 4) then       ! four states: the fixed-size kernel, no dispatch
+        call product_4x4(size(ss, 2), wk%a, ss, sd)
+      else
+        call small_product(wk%a, ss, sd)
+      end if
       call add_forcing(size(sd, 1), size(sd, 2), size(idxm), wk%b, colm, wcol, sd)
       if (present(sforce)) sd = sd + sforce
       if (present(us)) call input_forcing(t, xs, ui, c, sd)
@@ -206,10 +211,26 @@ contains
     real(wp), intent(in) :: b(nx, nb), w(nb)
     real(wp), intent(inout) :: sd(nx, ns)
     integer :: k
+    if (nx == 4) then
+      call add_forcing_4(ns, nb, b, col, w, sd)
+      return
+    end if
     do k = 1, nb
       sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
     end do
   end subroutine add_forcing
+
+  !> add_forcing for four states: the columns' size known to the compiler
+  !> (two vector multiply-adds a column, no loop over rows).
+  pure subroutine add_forcing_4(ns, nb, b, col, w, sd)
+    integer, intent(in) :: ns, nb, col(nb)
+    real(wp), intent(in) :: b(4, nb), w(nb)
+    real(wp), intent(inout) :: sd(4, ns)
+    integer :: k
+    do k = 1, nb
+      sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
+    end do
+  end subroutine add_forcing_4
 
   !> y = x + h d over n values: a stage's point (the arrays as vectors of
   !> explicit size, so that the loop runs on unit strides).
@@ -237,6 +258,10 @@ contains
     real(wp), intent(out) :: c(:, :)
     if (size(a, 2) == 0) then
       c = 0.0_wp
+    else if (size(a, 1) == 4 .and. size(a, 2) == 4) then   ! four states: fixed-size kernel
+      call product_4x4(size(b, 2), a, b, c)
+    else if (size(a, 2) == 4) then                            ! outputs of four states
+      call product_nx4(size(a, 1), size(b, 2), a, b, c)
     else               ! the arrays are contiguous here: no copies
       call product_columns(size(a, 1), size(a, 2), size(b, 2), a, b, c)
     end if
@@ -271,5 +296,32 @@ contains
       end do
     end do
   end subroutine product_columns
+
+  !> c = a b for a 4 x 4 (four states, as the longitudinal models have):
+  !> the sizes known to the compiler, so each column is four whole-vector
+  !> multiply-adds without loop overhead; the terms added left to right as
+  !> in product_columns' first block of four, so the sums are the same to
+  !> the bit.
+  pure subroutine product_4x4(l, a, b, c)
+    integer, intent(in) :: l
+    real(wp), intent(in) :: a(4, 4), b(4, l)
+    real(wp), intent(out) :: c(4, l)
+    integer :: j
+    do j = 1, l
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
+    end do
+  end subroutine product_4x4
+
+  !> c = a b for an n x 4 (the outputs' C S of four states): as product_4x4
+  !> with the rows' count known at run time only, the same sums.
+  pure subroutine product_nx4(n, l, a, b, c)
+    integer, intent(in) :: n, l
+    real(wp), intent(in) :: a(n, 4), b(4, l)
+    real(wp), intent(out) :: c(n, l)
+    integer :: j
+    do j = 1, l
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
+    end do
+  end subroutine product_nx4
 
 end module mlid_rk

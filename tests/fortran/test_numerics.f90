@@ -64,6 +64,8 @@ program test_numerics
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use test_checks, only: check, finish
   use split_model, only: split_model_t
+  use mlid_rk, only: small_product
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward
   implicit none
 
   call test_rk4_order()
@@ -74,9 +76,79 @@ program test_numerics
   call test_infinite_partial_unused()
   call test_linalg()
   call test_random()
+  call test_small_product()
+  call test_fft()
   call finish()
 
 contains
+
+  !> fft_forward against the sum that defines the transform, at lengths
+  !> whose stages run both loop orders (few twiddles and many butterflies
+  !> each, and the other way round): within rounding of the sum's size.
+  subroutine test_fft()
+    type(rng_t) :: r
+    type(fft_plan_t) :: plan
+    complex(wp), allocatable :: z(:), e(:)
+    real(wp), parameter :: two_pi = 8.0_wp*atan(1.0_wp)
+    real(wp) :: scale
+    integer, parameter :: lengths(3) = [2, 8, 64]
+    integer :: n, k, f, i
+    call rng_seed(r, 5)
+    do i = 1, size(lengths)
+      n = lengths(i)
+      plan = fft_plan(n)
+      allocate (z(0:n - 1), e(0:n - 1))
+      do k = 0, n - 1
+        z(k) = cmplx(rng_normal(r), rng_normal(r), wp)
+      end do
+      do f = 0, n - 1
+        e(f) = sum([(z(k)*exp(cmplx(0.0_wp, -two_pi*mod(f*k, n)/n, wp)), k=0, n - 1)])
+      end do
+      scale = sum(abs(z))
+      call fft_forward(plan, z)
+      call check(maxval(abs(z - e)) < 1.0e-13_wp*scale, 'fft_forward is the discrete Fourier transform')
+      deallocate (z, e)
+    end do
+  end subroutine test_fft
+
+  !> small_product, its fixed-size 4 x 4 kernel and its general loops,
+  !> against the sums written out: within rounding (4 eps sum |a||b|, as a
+  !> native build may fuse multiply-adds differently; the portable build's
+  !> sums are the same to the bit, which benchmarks/compare_cases.py checks
+  !> on every deck).
+  subroutine test_small_product()
+    type(rng_t) :: r
+    real(wp) :: a(7, 5), b(5, 11), c(7, 11), e(7, 11), g(7, 11)
+    integer :: i, j, k, n, m
+    call rng_seed(r, 11)
+    do j = 1, size(a, 2)
+      do i = 1, size(a, 1)
+        a(i, j) = rng_normal(r)
+      end do
+    end do
+    do j = 1, size(b, 2)
+      do i = 1, size(b, 1)
+        b(i, j) = rng_normal(r)
+      end do
+    end do
+    do m = 3, 5              ! m = 4: the kernels of whole blocks of four
+      do n = 4, 7, 3         ! n = m = 4: the fixed-size kernel
+        call small_product(a(1:n, 1:m), b(1:m, :), c(1:n, :))
+        do j = 1, size(b, 2)
+          do i = 1, n
+            e(i, j) = a(i, 1)*b(1, j)
+            g(i, j) = abs(a(i, 1)*b(1, j))
+            do k = 2, m
+              e(i, j) = e(i, j) + a(i, k)*b(k, j)
+              g(i, j) = g(i, j) + abs(a(i, k)*b(k, j))
+            end do
+          end do
+        end do
+        call check(all(abs(c(1:n, :) - e(1:n, :)) <= 4*epsilon(1.0_wp)*g(1:n, :)), &
+                   'small_product is the product a b')
+      end do
+    end do
+  end subroutine test_small_product
 
   !> xdot = a x + b u with u = t (linear between samples is exact for a
   !> ramp): RK4 error must fall 16x when dt halves.
