@@ -36,6 +36,7 @@ bench: install
 	$(VPY) benchmarks/bench_rank_search.py
 	$(VPY) benchmarks/bench_x22.py
 	$(VPY) benchmarks/bench_freq_tools.py
+	$(VPY) benchmarks/bench_frequency.py
 	$(VPY) benchmarks/bench_design.py
 	$(VPY) benchmarks/monte_carlo_10k.py
 	$(VPY) benchmarks/diagnose_scenarios.py
