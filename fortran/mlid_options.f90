@@ -18,6 +18,7 @@ module mlid_options
   !> allocate without bound, and no real case comes near them.
   integer, parameter, public :: MAX_ITER_LIMIT = 10000, HALVINGS_LIMIT = 60, SUBSTEPS_LIMIT = 1000, &
                                 NFREQ_LIMIT = 100000
+  integer, parameter :: DEFAULT_N_FREQ = 50   !< frequencies in the band unless n_freq says
   !> The frequency-domain methods' codes of option method (mlid_frequency).
   integer, parameter :: METHOD_FREQ_OE = 2, METHOD_FREQ_EE = 3
 
@@ -71,7 +72,7 @@ module mlid_options
     integer :: filter_params = 0
     !> iopt(16): frequencies of the band of the frequency-domain methods, evenly
     !> spaced from f_min to f_max (both included)
-    integer :: n_freq = 50
+    integer :: n_freq = DEFAULT_N_FREQ
     real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
     real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
     real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
@@ -208,7 +209,8 @@ contains
     character(len=*), intent(out) :: msg
     msg = ''
     if (.not. frequency_method(opt)) then
-      if (opt%f_min /= 0.0_wp .or. opt%f_max /= 0.0_wp) msg = 'f_min and f_max are the band '// &
+      if (opt%f_min /= 0.0_wp .or. opt%f_max /= 0.0_wp .or. opt%n_freq /= DEFAULT_N_FREQ) &
+        msg = 'f_min, f_max and n_freq are the band '// &
         'of the frequency-domain methods (method = ''frequency_output_error'' or '// &
         '''frequency_equation_error'')'
     else if (.not. (opt%f_min > 0.0_wp .and. opt%f_max > opt%f_min)) then

@@ -118,7 +118,8 @@ contains
     xt = x
     do k = 0, kmax
       tau = tau0
-      if (delay) then
+      if (delay) then                    ! a fixed delay keeps the value it was given
+        tau = x(size(x))
         if (free(size(x))) tau = tau0 + k*0.5_wp*PI/maxval(w)/DELAY_STARTS
         xt(size(x)) = tau
       end if

@@ -252,6 +252,16 @@ def test_transfer_fit_with_a_fixed_integrator():
     np.testing.assert_allclose(fit.numerator, PITCH_B, rtol=1e-8)
 
 
+
+def test_transfer_fit_holds_a_fixed_delay_at_its_value():
+    """A fixed tau is the value given, not the delay search's start."""
+    f = np.logspace(-1, 1, 50)
+    fit = mlid.fit_transfer_function(_tf_response(PITCH_B, PITCH_A, PITCH_TAU, f), 1, 2,
+                                     fixed={"tau": PITCH_TAU})
+    assert fit.delay == PITCH_TAU
+    np.testing.assert_allclose(fit.numerator, PITCH_B, rtol=1e-8)
+    np.testing.assert_allclose(fit.denominator, PITCH_A, rtol=1e-8)
+
 def test_transfer_fit_of_a_noisy_response_within_its_sigma():
     """Gain noise 0.2 dB and phase noise 0.2/sqrt(0.01745) deg weigh alike in
     the mismatch, so its residuals are homoscedastic and the least-squares
@@ -358,6 +368,9 @@ def test_cli_bode(tmp_path):
     bad = subprocess.run([BIN / "mlid", "bode", tmp_path / "sp.nml", "--case", "2", "--out", out],
                          capture_output=True, text=True)
     assert bad.returncode == 1 and bad.stderr.strip().endswith("the deck has 1 cases")
+    alone = subprocess.run([BIN / "mlid", "bode", tmp_path / "sp.nml", "--out", out, "--band",
+                            "0.2,5"], capture_output=True, text=True)
+    assert alone.returncode == 1 and "give --loes" in alone.stderr
 
 
 def test_record_spectra_against_scipy():

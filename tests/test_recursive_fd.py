@@ -71,3 +71,7 @@ def test_bad_input(c8_data):
                                      window=200, **BAND)
     with pytest.raises(mlid.InputError, match="Nyquist"):
         mlid.recursive_frequency_fit(c8_start(), c8_data, window=200, f_min=1.0, f_max=30.0)
+    with pytest.raises(mlid.InputError, match="no ties, input feedback K or delays"):
+        m = c8_start()
+        m.K = np.ones((1, 4))
+        mlid.recursive_frequency_fit(m, c8_data, window=200, **BAND)

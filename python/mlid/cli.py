@@ -117,6 +117,8 @@ def _bode(args):
 
     check_writable(args.out, "--out")
     loes = _pair_list(args.loes, "--loes", int) if args.loes else None
+    if args.band and not args.loes:
+        raise InputError("--band is the LOES fit's frequency range: give --loes M,N with it")
     band = _pair_list(args.band, "--band", float) if args.band else (None, None)
     cases = read_deck(args.deck)
     if not 1 <= args.case <= len(cases):

@@ -106,6 +106,10 @@ def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=Non
             or np.any(model.D != 0):
         raise InputError("recursive_frequency_fit needs the states as the outputs (H the "
                          "identity, D zero)")
+    if model.ties or np.any(model.K != 0) or np.any(np.asarray(model.delay) != 0) \
+            or np.any(np.asarray(model.udelay) != 0):
+        raise InputError("recursive_frequency_fit takes no ties, input feedback K or delays "
+                         "(its state equations are x' = F x + G u)")
     free_f = np.zeros((model.nx, model.nx), dtype=np.int32)
     free_g = np.zeros((model.nx, model.nu), dtype=np.int32)
     order = []
