@@ -59,7 +59,7 @@ module mlid_api
   use mlid_recursive_fd, only: recursive_fdee
   use mlid_fft, only: fft_length
   use mlid_freq_response, only: welch_spectra, response_from_spectra, model_response, response_bands, &
-                                unwrap_deg
+                                unwrap_deg, DB, DEG
   use mlid_transfer_fit, only: tf_size, tf_start, tf_fit, tf_residuals, tf_log_response, &
                                coherence_weight
   implicit none
@@ -1800,8 +1800,8 @@ contains
     integer :: k
     do k = 1, nfreq
       call tf_log_response(m, n, delay /= 0, x, w(k), lt, dlt)
-      gain(k) = 20.0_wp/log(10.0_wp)*real(lt)
-      phase(k) = 45.0_wp/atan(1.0_wp)*aimag(lt)
+      gain(k) = DB*real(lt)
+      phase(k) = DEG*aimag(lt)
     end do
     call unwrap_deg(phase)
   end subroutine mlid_tf_response

@@ -22,11 +22,12 @@ module mlid_freq_response
   implicit none
   private
   public :: welch_spectra, response_from_spectra, unwrap_deg, model_response, &
-            response_bands, segment_count
+            response_bands, segment_count, PI, DB, DEG
 
+  !> Gains in dB and phases in degrees, here and for mlid_transfer_fit and the api.
   real(wp), parameter :: PI = 4.0_wp*atan(1.0_wp)
   real(wp), parameter :: DB = 20.0_wp/log(10.0_wp)     !< dB per neper
-  real(wp), parameter :: DEG = 180.0_wp/PI
+  real(wp), parameter :: DEG = 180.0_wp/PI             !< degrees per radian
 
 contains
 

@@ -21,14 +21,12 @@
 module mlid_transfer_fit
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR, MLID_ERR_NOCONV
   use mlid_linalg, only: solve
+  use mlid_freq_response, only: PI, DB, DEG
   implicit none
   private
   public :: tf_size, tf_log_response, tf_residuals, tf_start, tf_fit, coherence_weight, &
             PHASE_WEIGHT
 
-  real(wp), parameter :: PI = 4.0_wp*atan(1.0_wp)
-  real(wp), parameter :: DB = 20.0_wp/log(10.0_wp)
-  real(wp), parameter :: DEG = 180.0_wp/PI
   real(wp), parameter :: PHASE_WEIGHT = 0.01745_wp     !< dB^2 per deg^2 of the mismatch
   integer, parameter :: SK_PASSES = 8
   real(wp), parameter :: MATCHED = 1.0e-24_wp  !< mismatch (dB^2) of an exactly matched response
