@@ -60,7 +60,7 @@ module mlid_frequency
   use mlid_options, only: options_t, METHOD_FREQ_EE
   use mlid_params, only: param_map_t, input_delays, output_delays, stabilized
   use mlid_fourier, only: fourier_transform
-  use mlid_linalg, only: chol_inverse, info_eig
+  use mlid_linalg, only: chol_inverse, chol_solve, info_eig
   use mlid_text, only: itoa
   implicit none
   private
@@ -505,7 +505,7 @@ contains
     real(wp), allocatable, intent(out) :: r(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: c(size(eta), size(eta)), g(size(eta)), cost, last, ld
+    real(wp) :: g(size(eta)), cost, last
     real(wp) :: hr(size(eta), size(r0, 1), size(r0, 1)), h0(size(bas, 3)), wr(size(r0, 2)), &
                 e0(size(bas, 3))
     integer :: it, i, j, k, ierr, ny
@@ -559,13 +559,12 @@ contains
           if (i == j .or. full) g = g + 2.0_wp*sinv(i, j)*hr(:, i, j)
         end do
       end do
-      call chol_inverse(combined(gm, sinv), c, ld, ierr)
+      call chol_solve(combined(gm, sinv), g, eta, ierr)
       if (ierr /= 0) then
         status = MLID_ERR_SINGULAR
         msg = 'the transient terms'' information is singular'
         return
       end if
-      eta = matmul(c, g)
       e0 = matmul(t, eta)
       call less_columns(r0, bas, e0, size(r0), size(bas, 3), r)
     end do
