@@ -638,7 +638,7 @@ contains
         do i = 1, nx
           a(i, i) = a(i, i) + IU*tf(c)
         end do
-        big = max(1.0_wp, maxval(abs(a)))
+        big = max(1.0_wp, maxval(mag(a)))
         call complex_inverse(a, big, ainv(:, :, k), ok)
         if (.not. ok) then
           status = MLID_ERR_SINGULAR
@@ -757,9 +757,17 @@ contains
 
   end subroutine sensitivities
 
+  !> |Re z| + |Im z|, within a factor sqrt(2) of |z|: enough to choose
+  !> pivots and to scale, without abs's hypot (model_terms' largest cost).
+  elemental function mag(z) result(r)
+    complex(wp), intent(in) :: z
+    real(wp) :: r
+    r = abs(real(z, wp)) + abs(aimag(z))
+  end function mag
+
   !> ainv = a^-1 by Gauss-Jordan elimination with partial pivoting (a is
   !> small: the model's states); ok false when a pivot vanishes (below
-  !> 1e-14 big, big = max(1, max |a_ij|), the caller's).
+  !> 1e-14 big, big = max(1, max mag(a_ij)), the caller's; sizes by mag).
   pure subroutine complex_inverse(a, big, ainv, ok)
     complex(wp), intent(in) :: a(:, :)
     real(wp), intent(in) :: big
@@ -775,8 +783,8 @@ contains
     end do
     ok = .false.
     do k = 1, n
-      piv = maxloc(abs(w(k:, k)), 1) + k - 1
-      if (.not. abs(w(piv, k)) > 1.0e-14_wp*big) return
+      piv = maxloc(mag(w(k:, k)), 1) + k - 1
+      if (.not. mag(w(piv, k)) > 1.0e-14_wp*big) return
       ! columns before k are done (unit vectors): zero in rows k and piv
       tmp(k:) = w(k, k:)
       w(k, k:) = w(piv, k:)
