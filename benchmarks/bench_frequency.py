@@ -37,6 +37,37 @@ the C-8 tests' fits and cases/frequency_domain's decks):
   set of transient terms (their eigen-decomposition, LAPACK, 0.3 M) 0.8 M,
   the model's responses and the transient columns 0.6 M, the alternation
   0.5 M, the sensitivities 0.3 M.
+
+Then (issue 19, continued) the transient terms' least squares solved in each
+sweep of the alternation by a plain Cholesky solve (mlid_linalg's
+chol_solve) instead of an inverse through LAPACK, and the complex inverse
+of model_terms pivoting by |Re| + |Im| instead of abs (hypot).  Estimates
+and sigmas of cases/frequency_domain's decks (c8_frequency.nml,
+attas_lat_frequency.nml, mlid run --json) the same to 5e-15 (relative),
+correlations to 1.3e-14 (absolute).  callgrind, one fit of item 2,
+instructions:               before    after
+    the core's fit          33.1 M    30.5 M
+    its freq_record          4.3 M     4.3 M   (transform and set-up)
+    the 11 evaluations      26.5 M    23.9 M
+      the alternation        5.4 M     3.4 M
+      the responses          6.0 M     5.4 M
+      the independent set    8.1 M     8.0 M   (its LAPACK eigen-
+                                               decomposition 3.4 M)
+  wall clock, the core's fit, the two builds' processes taking turns, five
+  rounds of the median of 30 fits: 3.07-3.42 ms before, 2.87-2.99 ms after
+  (about 6% less).  The 2 ms target is still not met.  What is left is
+  arithmetic redone at every evaluation: the eigen-decomposition choosing
+  the independent transient terms (0.3 M per evaluation, whatever LAPACK
+  driver: dsyevr, dsyev and dsyevd all take 0.27-0.30 M for n = 20 here)
+  and the transient columns' grams (0.35 M), and about 5 sweeps of the
+  alternation from eta = 0.  Reusing either across evaluations needs state
+  carried from one evaluation to the next (mlid_newton -> likelihood).  A
+  basis chosen once per fit would span the same columns at other theta (the
+  exact dependencies, e.g. constant forcing k = F v against x(t0) = x(t1) =
+  v and offsets H v, move with F and H, so the dropped directions move,
+  not the span), giving the same cost, gradient and information, but
+  another particular eta, and so other raw sensitivities (the report's
+  sensitivity norms) and no check that no dependency appeared.
 """
 
 import sys

@@ -60,7 +60,7 @@ module mlid_frequency
   use mlid_options, only: options_t, METHOD_FREQ_EE
   use mlid_params, only: param_map_t, input_delays, output_delays, stabilized
   use mlid_fourier, only: fourier_transform
-  use mlid_linalg, only: chol_inverse, info_eig
+  use mlid_linalg, only: chol_inverse, chol_solve, info_eig
   use mlid_text, only: itoa
   implicit none
   private
@@ -505,7 +505,7 @@ contains
     real(wp), allocatable, intent(out) :: r(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: c(size(eta), size(eta)), g(size(eta)), cost, last, ld
+    real(wp) :: g(size(eta)), cost, last
     real(wp) :: hr(size(eta), size(r0, 1), size(r0, 1)), h0(size(bas, 3)), wr(size(r0, 2)), &
                 e0(size(bas, 3))
     integer :: it, i, j, k, ierr, ny
@@ -559,13 +559,12 @@ contains
           if (i == j .or. full) g = g + 2.0_wp*sinv(i, j)*hr(:, i, j)
         end do
       end do
-      call chol_inverse(combined(gm, sinv), c, ld, ierr)
+      call chol_solve(combined(gm, sinv), g, eta, ierr)
       if (ierr /= 0) then
         status = MLID_ERR_SINGULAR
         msg = 'the transient terms'' information is singular'
         return
       end if
-      eta = matmul(c, g)
       e0 = matmul(t, eta)
       call less_columns(r0, bas, e0, size(r0), size(bas, 3), r)
     end do
@@ -639,7 +638,7 @@ contains
         do i = 1, nx
           a(i, i) = a(i, i) + IU*tf(c)
         end do
-        big = max(1.0_wp, maxval(abs(a)))
+        big = max(1.0_wp, maxval(mag(a)))
         call complex_inverse(a, big, ainv(:, :, k), ok)
         if (.not. ok) then
           status = MLID_ERR_SINGULAR
@@ -758,9 +757,17 @@ contains
 
   end subroutine sensitivities
 
+  !> |Re z| + |Im z|, within a factor sqrt(2) of |z|: enough to choose
+  !> pivots and to scale, without abs's hypot (model_terms' largest cost).
+  elemental function mag(z) result(r)
+    complex(wp), intent(in) :: z
+    real(wp) :: r
+    r = abs(real(z, wp)) + abs(aimag(z))
+  end function mag
+
   !> ainv = a^-1 by Gauss-Jordan elimination with partial pivoting (a is
   !> small: the model's states); ok false when a pivot vanishes (below
-  !> 1e-14 big, big = max(1, max |a_ij|), the caller's).
+  !> 1e-14 big, big = max(1, max mag(a_ij)), the caller's; sizes by mag).
   pure subroutine complex_inverse(a, big, ainv, ok)
     complex(wp), intent(in) :: a(:, :)
     real(wp), intent(in) :: big
@@ -776,8 +783,8 @@ contains
     end do
     ok = .false.
     do k = 1, n
-      piv = maxloc(abs(w(k:, k)), 1) + k - 1
-      if (.not. abs(w(piv, k)) > 1.0e-14_wp*big) return
+      piv = maxloc(mag(w(k:, k)), 1) + k - 1
+      if (.not. mag(w(piv, k)) > 1.0e-14_wp*big) return
       ! columns before k are done (unit vectors): zero in rows k and piv
       tmp(k:) = w(k, k:)
       w(k, k:) = w(piv, k:)

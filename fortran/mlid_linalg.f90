@@ -5,7 +5,8 @@ module mlid_linalg
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: add_sym_atb, add_syrk, add_atv, sym_eig, chol_inverse, psd_factor, info_inverse, info_eig, eig_inverse, expm, solve
+  public :: add_sym_atb, add_syrk, add_atv, sym_eig, chol_inverse, chol_solve, psd_factor, &
+            info_inverse, info_eig, eig_inverse, expm, solve
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -183,6 +184,40 @@ contains
       end do
     end do
   end subroutine small_chol_inverse
+
+  !> x = A^-1 b for a symmetric positive-definite A by a plain Cholesky
+  !> factorisation and two substitutions: for the small systems solved
+  !> many times over (the frequency domain's transient terms), where
+  !> forming the inverse through LAPACK costs several times more.  info =
+  !> k > 0: the leading minor of order k is not positive definite.
+  pure subroutine chol_solve(a, b, x, info)
+    real(wp), intent(in) :: a(:, :), b(:)
+    real(wp), intent(out) :: x(:)
+    integer, intent(out) :: info
+    real(wp) :: l(size(a, 1), size(a, 1)), d
+    integer :: n, i, j
+
+    n = size(a, 1)
+    info = 0
+    x = 0.0_wp
+    do j = 1, n
+      d = a(j, j) - sum(l(j, 1:j - 1)**2)
+      if (.not. d > 0.0_wp) then
+        info = j
+        return
+      end if
+      l(j, j) = sqrt(d)
+      do i = j + 1, n
+        l(i, j) = (a(i, j) - sum(l(i, 1:j - 1)*l(j, 1:j - 1)))/l(j, j)
+      end do
+    end do
+    do i = 1, n                    ! L z = b
+      x(i) = (b(i) - sum(l(i, 1:i - 1)*x(1:i - 1)))/l(i, i)
+    end do
+    do i = n, 1, -1                ! L' x = z
+      x(i) = (x(i) - sum(l(i + 1:n, i)*x(i + 1:n)))/l(i, i)
+    end do
+  end subroutine chol_solve
 
   !> Inverse and log-determinant of a symmetric positive-definite matrix.
   !> info > 0 means the matrix is not positive definite.

@@ -60,7 +60,7 @@ program test_numerics
   use mlid_jacobian_check, only: check_jacobians
   use mlid_options, only: options_t
   use mlid_filter, only: oe_predict
-  use mlid_linalg, only: sym_eig, chol_inverse
+  use mlid_linalg, only: sym_eig, chol_inverse, chol_solve
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use test_checks, only: check, finish
   use split_model, only: split_model_t
@@ -419,6 +419,13 @@ contains
     call chol_inverse(a, ainv, logdet, info)
     call check(info == 0 .and. maxval(abs(matmul(a, ainv) - e)) < 1.0e-10_wp .and. &
                abs(logdet - sum(log(w))) < 1.0e-10_wp, 'Cholesky inverse and log|A| of an SPD matrix')
+    ! chol_solve: A x = b to rounding, and a matrix that is not positive definite refused
+    call chol_solve(a, b(:, 1), w, info)
+    call check(info == 0 .and. maxval(abs(matmul(a, w) - b(:, 1))) < 1.0e-10_wp*maxval(abs(b)), &
+               'Cholesky solve of an SPD system')
+    a(n, n) = -1.0_wp
+    call chol_solve(a, b(:, 1), w, info)
+    call check(info == n, 'Cholesky solve refuses a matrix that is not positive definite')
   end subroutine check_both_choleskys
 
   function eye3() result(e)
