@@ -220,6 +220,9 @@ contains
     else if (opt%startup /= 0) then
       msg = 'startup = ''equation_error'' is a time-domain start: the frequency-domain '// &
             'methods start from the given values (frequency_equation_error needs no start)'
+    else if (opt%hold) then
+      msg = 'input_hold = ''zoh'' is not for the frequency-domain methods: their transform '// &
+            'takes straight lines between the samples (mlid_fourier)'
     end if
   end subroutine band_check
 

@@ -192,6 +192,10 @@ def test_bad_input(c8_data):
         mlid.fit(c8_start(), c8_data, f_min=0.2, f_max=2.0)
     with pytest.raises(mlid.InputError, match="band of the frequency-domain methods"):
         mlid.fit(c8_start(), c8_data, n_freq=20)         # not silently ignored
+    with pytest.raises(mlid.InputError, match="input_hold = 'zoh' is not for"):
+        zoh = c8_start()
+        zoh.input_hold = "zoh"
+        mlid.fit(zoh, c8_data, method=FDOE, f_min=0.2, f_max=2.0)
     with pytest.raises(mlid.InputError, match="n_freq must lie"):
         mlid.fit(c8_start(), c8_data, method=FDOE, f_min=0.2, f_max=2.0, n_freq=1)
     with pytest.raises(mlid.InputError, match="initial state x0 has no meaning"):
