@@ -64,7 +64,7 @@ module mlid_api
                                coherence_weight
   implicit none
   private
-  public :: mlid_design_mu_penalty, mlid_design_length_penalty, mlid_design_response
+  public :: mlid_design_response
   public :: mlid_input_signal, mlid_default_options, mlid_model_sizes, &
             mlid_option_info, mlid_option_set, mlid_option_get, mlid_options_check, &
             mlid_stop_reason, mlid_fit_outcome, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
@@ -1375,10 +1375,13 @@ contains
   !> by block ukind (1 F, 2 G, 3 H), row urow and column ucol, weights w(m).
   !> mu_max on [0, T] by the operator method on ncell and 2 ncell cells; u:
   !> the optimal input on the 2 ncell cells (unit energy, nu per cell).
-  subroutine mlid_design_mu(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, t, ncell, mu, u, &
-                            status, msg)
+  !> kx(nx,nx), symmetric >= 0, the state-limit penalty of report 7.6 (mu the
+  !> largest eigenvalue of tr(WM) - int x' K x dt); zero for none.
+  subroutine mlid_design_mu(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, kx, t, ncell, mu, &
+                            u, status, msg)
     integer(c_int), intent(in) :: nx, nu, ny, m, ncell
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), t
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), &
+                                  kx(nx, nx), t
     integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
     real(c_double), intent(out) :: mu, u(2*ncell*nu)
     integer(c_int), intent(out) :: status
@@ -1386,17 +1389,22 @@ contains
     type(design_t) :: d
     mu = 0.0_wp
     u = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
+    call design_with_penalty(f, g, h, r, gq, ukind, urow, ucol, w, kx, d, status, msg)
     if (status == MLID_OK) call operator_mu(d, t, ncell, mu, u, status, msg)
+    if (status /= MLID_OK .and. mu <= 0.0_wp .and. any(kx /= 0.0_wp) .and. &
+        index(msg, 'do not affect') > 0) then
+      msg = 'the state penalty outweighs the information of every input: lower its weight'
+    end if
   end subroutine mlid_design_mu
 
   !> The critical length T of mu (method 1 Riccati, 2 transition matrix),
   !> searched up to tmax; lam0(na), na = (m+1) nx: the costate lambda(0)
-  !> (transition method only).
-  subroutine mlid_design_length(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, mu, tmax, &
+  !> (transition method only); kx the state penalty as in mlid_design_mu.
+  subroutine mlid_design_length(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, kx, mu, tmax, &
                                 method, na, t, lam0, status, msg)
     integer(c_int), intent(in) :: nx, nu, ny, m, method, na
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), mu, tmax
+    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), &
+                                  kx(nx, nx), mu, tmax
     integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
     real(c_double), intent(out) :: t, lam0(na)
     integer(c_int), intent(out) :: status
@@ -1404,7 +1412,7 @@ contains
     type(design_t) :: d
     t = 0.0_wp
     lam0 = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
+    call design_with_penalty(f, g, h, r, gq, ukind, urow, ucol, w, kx, d, status, msg)
     if (status /= MLID_OK) return
     if (na /= d%na) then
       status = MLID_ERR_INPUT
@@ -1501,59 +1509,6 @@ contains
     if (status == MLID_OK) call mu_for_length(d, td, (1.0_wp - RICCATI_BRACKET)*mu0, &
                                               (1.0_wp + RICCATI_BRACKET)*mu0, mu, status, msg)
   end subroutine mlid_design_mu_for_length
-
-  !> mlid_design_mu with the state-limit penalty of report 7.6: the largest
-  !> eigenvalue mu of tr(WM) - int x' K x dt under unit energy, K = kx(nx,nx)
-  !> (symmetric, >= 0); u its input on 2 ncell cells (unit energy).
-  subroutine mlid_design_mu_penalty(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, kx, t, &
-                                    ncell, mu, u, status, msg)
-    integer(c_int), intent(in) :: nx, nu, ny, m, ncell
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), &
-                                  kx(nx, nx), t
-    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
-    real(c_double), intent(out) :: mu, u(2*ncell*nu)
-    integer(c_int), intent(out) :: status
-    character(len=256), intent(out) :: msg
-    type(design_t) :: d
-    mu = 0.0_wp
-    u = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
-    if (status == MLID_OK) call design_state_penalty(d, kx, status, msg)
-    if (status == MLID_OK) call operator_mu(d, t, ncell, mu, u, status, msg)
-    if (status /= MLID_OK .and. mu <= 0.0_wp .and. any(kx /= 0.0_wp) .and. &
-        index(msg, 'do not affect') > 0) then
-      msg = 'the state penalty outweighs the information of every input: lower its weight'
-    end if
-  end subroutine mlid_design_mu_penalty
-
-  !> mlid_design_length with the state-limit penalty kx(nx,nx) of report 7.6.
-  subroutine mlid_design_length_penalty(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, kx, &
-                                        mu, tmax, method, na, t, lam0, status, msg)
-    integer(c_int), intent(in) :: nx, nu, ny, m, method, na
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), &
-                                  kx(nx, nx), mu, tmax
-    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
-    real(c_double), intent(out) :: t, lam0(na)
-    integer(c_int), intent(out) :: status
-    character(len=256), intent(out) :: msg
-    type(design_t) :: d
-    t = 0.0_wp
-    lam0 = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
-    if (status == MLID_OK) call design_state_penalty(d, kx, status, msg)
-    if (status /= MLID_OK) return
-    if (na /= d%na) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0)') 'lam0 needs (m+1) nx = ', d%na
-    else if (method == 1) then
-      call riccati_length(d, mu, tmax, t, status, msg)
-    else if (method == 2) then
-      call transition_length(d, mu, tmax, t, lam0, status, msg)
-    else
-      status = MLID_ERR_INPUT
-      msg = 'method must be 1 (Riccati) or 2 (transition matrix)'
-    end if
-  end subroutine mlid_design_length_penalty
 
   !> The states x(nx, 0:ncell ns) of x' = F x + G u, x(0) = 0, under the input
   !> u held over ncell cells of [0, T], at ns substeps per cell.
@@ -1805,6 +1760,18 @@ contains
     end do
     call unwrap_deg(phase)
   end subroutine mlid_tf_response
+
+  !> The design problem, with the state-limit penalty kx(nx,nx) of report
+  !> 7.6 when kx is not zero (a zero kx is no penalty: the plain design).
+  subroutine design_with_penalty(f, g, h, r, gq, ukind, urow, ucol, w, kx, d, status, msg)
+    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), r(:, :), gq(:, :), w(:), kx(:, :)
+    integer(c_int), intent(in) :: ukind(:), urow(:), ucol(:)
+    type(design_t), intent(out) :: d
+    integer(c_int), intent(out) :: status
+    character(len=*), intent(out) :: msg
+    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
+    if (status == MLID_OK .and. any(kx /= 0.0_wp)) call design_state_penalty(d, kx, status, msg)
+  end subroutine design_with_penalty
 
   !> The ties of the flat interface: the first ntie terms (no more than given).
   pure function ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset) result(tie)

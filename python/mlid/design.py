@@ -258,7 +258,7 @@ class InputDesign:
             'riccati', the secant did not.
         """
         self._check_t(T)
-        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, t=float(T),
+        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, kx=self._penalty(), t=float(T),
                                                   ncell=self._cells(cells), **self._args())
         check_status(status, msg)
         if method == "operator":
@@ -308,7 +308,7 @@ class InputDesign:
             raise InputError(f"mu must be > 0, got {mu}")
         na = (len(self.unknowns) + 1) * self.F.shape[0]
         T, lam0, status, msg = _api.mlid_design_length(
-            w=self.weights, mu=float(mu), tmax=float(tmax),
+            w=self.weights, kx=self._penalty(), mu=float(mu), tmax=float(tmax),
             method=self._solver(method), na=na, **self._args())
         check_status(status, msg)
         return (float(T), lam0) if method == "transition" else float(T)
@@ -373,7 +373,7 @@ class InputDesign:
         """
         self._check_t(T)
         self._check_t(energy, "energy")
-        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, t=float(T),
+        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, kx=self._penalty(), t=float(T),
                                                   ncell=self._cells(cells), **self._args())
         check_status(status, msg)
         nu = self.G.shape[1]
@@ -476,8 +476,11 @@ class InputDesign:
         return best, [float(r) for r in ratios[:n]]
 
     # -- the state-limit penalty of §7.6 ----------------------------------
-    def _penalty(self, penalty):
+    def _penalty(self, penalty=None):
+        """The state penalty K of §7.6 for the core (zero: none)."""
         nx = self.F.shape[0]
+        if penalty is None:
+            return np.zeros((nx, nx), order="F")
         K = real_array("penalty", penalty)
         K = np.diag(K) if K.ndim == 1 else K          # one weight per state
         if K.shape != (nx, nx):
@@ -515,7 +518,7 @@ class InputDesign:
         self._check_t(T)
         self._check_t(energy, "energy")
         K = self._penalty(penalty)
-        mu, u, status, msg = _api.mlid_design_mu_penalty(w=self.weights, kx=K, t=float(T),
+        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, kx=K, t=float(T),
                                                           ncell=self._cells(cells),
                                                           **self._args())
         check_status(status, msg)
@@ -550,7 +553,7 @@ class InputDesign:
         if not mu > 0:
             raise InputError(f"mu must be > 0, got {mu}")
         na = (len(self.unknowns) + 1) * self.F.shape[0]
-        T, lam0, status, msg = _api.mlid_design_length_penalty(
+        T, lam0, status, msg = _api.mlid_design_length(
             w=self.weights, kx=self._penalty(penalty), mu=float(mu), tmax=float(tmax),
             method=self._solver(method), na=na, **self._args())
         check_status(status, msg)
