@@ -54,6 +54,28 @@ contains
     integer, intent(in) :: m, n
     real(wp), intent(in) :: x(m, n), y(m, n)
     real(wp), intent(inout) :: b(n, n)
+    call sym_atb(m, m, n, x, y, b)
+  end subroutine add_sym_atb
+
+  !> c = c + w' w over the first m rows of w (m x n used), the symmetric
+  !> rank-m update.  BLAS dsyrk does the same; the reference BLAS that Debian
+  !> links by default takes three to seven times as long for n ~ 10 (its dot
+  !> products are one dependent chain), and OpenBLAS takes about as long at
+  !> that size.
+  subroutine add_syrk(m, n, w, c)
+    integer, intent(in) :: m, n
+    real(wp), intent(in), contiguous :: w(:, :)
+    real(wp), intent(inout) :: c(n, n)
+    call sym_atb(m, size(w, 1), n, w, w, c)
+  end subroutine add_syrk
+
+  !> b = b + x(1:m, :)' y(1:m, :) where that is symmetric, x and y with
+  !> leading dimension ld: the upper triangle by dot products, mirrored
+  !> (half the work of the full product).
+  subroutine sym_atb(m, ld, n, x, y, b)
+    integer, intent(in) :: m, ld, n
+    real(wp), intent(in) :: x(ld, n), y(ld, n)
+    real(wp), intent(inout) :: b(n, n)
     real(wp) :: d
     integer :: k, l
     do l = 1, n
@@ -63,27 +85,7 @@ contains
         if (k < l) b(l, k) = b(l, k) + d
       end do
     end do
-  end subroutine add_sym_atb
-
-  !> c = c + w' w (w: m x n), the symmetric rank-m update: the upper
-  !> triangle by dot products over the rows (samples and outputs), mirrored.
-  !> BLAS dsyrk does the same; the reference BLAS that Debian links by
-  !> default takes three to seven times as long for n ~ 10 (its dot products
-  !> are one dependent chain), and OpenBLAS takes about as long at that size.
-  subroutine add_syrk(m, n, w, c)
-    integer, intent(in) :: m, n
-    real(wp), intent(in), contiguous :: w(:, :)
-    real(wp), intent(inout) :: c(n, n)
-    real(wp) :: d
-    integer :: k, l
-    do l = 1, n
-      do k = 1, l
-        d = dot8(m, w(:, k), w(:, l))
-        c(k, l) = c(k, l) + d
-        if (k < l) c(l, k) = c(l, k) + d
-      end do
-    end do
-  end subroutine add_syrk
+  end subroutine sym_atb
 
   !> g = g + w' v over the first m rows of w and v (as dgemv).
   subroutine add_atv(m, n, w, v, g)
