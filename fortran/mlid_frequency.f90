@@ -60,7 +60,7 @@ module mlid_frequency
   use mlid_options, only: options_t, METHOD_FREQ_EE
   use mlid_params, only: param_map_t, input_delays, output_delays, stabilized
   use mlid_fourier, only: fourier_transform
-  use mlid_linalg, only: chol_inverse, chol_solve, info_eig
+  use mlid_linalg, only: chol_inverse, chol_solve, independent_columns
   use mlid_text, only: itoa
   implicit none
   private
@@ -71,8 +71,9 @@ module mlid_frequency
   !> states): exp(-i w t0), exp(-i w t1) (complex, packed as the data), the
   !> weight c_k, the manoeuvre, its length t1 - t0.
   integer, parameter :: NEXTRA = 5
-  !> The transient terms: eigenvalues of their normalised information below
-  !> ETA_RCOND of the largest are left out (near-dependent columns), and the
+  !> The transient terms: a term whose column's squared distance from the
+  !> span of those kept is below ETA_RCOND of its squared length is left
+  !> out (near-dependent columns; mlid_linalg's independent_columns), and the
   !> alternation with S stops when the cost changes by less than ETA_TOL
   !> (relative), after ETA_SWEEPS at most.
   real(wp), parameter :: ETA_RCOND = 1.0e-12_wp, ETA_TOL = 1.0e-14_wp
@@ -265,9 +266,10 @@ contains
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     integer, intent(out), optional :: nterms    !< the transient terms estimated (independent)
     real(wp), allocatable :: d(:, :, :), bas(:, :, :), r0(:, :), r(:, :), a(:, :, :), cw(:), &
-                             eta(:), xi(:), tmap(:, :), c(:, :), gm(:, :, :, :), mtt(:, :), &
+                             eta(:), xi(:), tsc(:), c(:, :), gm(:, :, :, :), mtt(:, :), &
                              mbt(:, :), mbb(:, :)
-    complex(wp), allocatable :: ainv(:, :, :), xs(:, :)
+    integer, allocatable :: keep(:)
+    complex(wp), allocatable :: ainv(:, :, :), pa(:, :, :), xs(:, :)
     real(wp) :: sinv(m%ny, m%ny), logdet, dof, shrink
     integer :: xout(m%nx), nc, ne, i, f, ndrop
 
@@ -281,21 +283,23 @@ contains
     if (status /= MLID_OK) return
     cw = uf(size(uf, 1) - NEXTRA + 3, :)               ! each column's weight c_k
     ne = nint(maxval(uf(size(uf, 1) - NEXTRA + 4, :)))*(3*m%nx + 2*m%ny)
-    allocate (bas(m%ny, nc, ne), ainv(m%nx, m%nx, nc/2), xs(m%nx, nc/2))
+    allocate (bas(m%ny, nc, ne), ainv(m%nx, m%nx, nc/2), pa(m%ny, m%nx, nc/2), xs(m%nx, nc/2))
     select type (m)
     type is (linear_model_t)
-      call model_terms(m, theta, tf, uf, opt%method == METHOD_FREQ_EE, xout, yhat, bas, ainv, xs, &
-                       status, msg)
+      call model_terms(m, theta, tf, uf, opt%method == METHOD_FREQ_EE, xout, yhat, bas, ainv, pa, &
+                       xs, status, msg)
     end select
     if (status /= MLID_OK) return
     r0 = yf - yhat
-    call independent_terms(bas, r0, cw, opt%full_r, tmap, gm, status, msg)
+    call independent_terms(bas, r0, cw, opt%full_r, keep, tsc, gm)
+    ndrop = ne - size(keep)
+    allocate (xi(size(keep)))
+    call transients(r0, bas, keep, tsc, gm, cw, opt%full_r, xi, r, rhat, sinv, logdet, status, &
+                    msg)
     if (status /= MLID_OK) return
-    ndrop = ne - size(tmap, 2)
-    allocate (xi(size(tmap, 2)))
-    call transients(r0, bas, tmap, gm, cw, opt%full_r, xi, r, rhat, sinv, logdet, status, msg)
-    if (status /= MLID_OK) return
-    eta = matmul(tmap, xi)
+    allocate (eta(ne))
+    eta = 0.0_wp
+    eta(keep) = tsc*xi
     ! S-hat is the residuals' mean square; with p parameters and transient
     ! terms fitted to N effective real data it is low by (N - p)/N, and an
     ! information taken with it high by N/(N - p): the weights times (N -
@@ -323,7 +327,8 @@ contains
     allocate (d(m%ny, nc, pm%nf))
     select type (m)
     type is (linear_model_t)
-      call sensitivities(m, theta, pm, tf, uf, opt%method == METHOD_FREQ_EE, xout, ainv, xs, eta, d)
+      call sensitivities(m, theta, pm, tf, uf, opt%method == METHOD_FREQ_EE, xout, ainv, pa, xs, &
+                         eta, d)
     end select
     a = weighted(reshape(r, [m%ny, nc, 1]), sinv, cw)
     do f = 1, pm%nf
@@ -335,9 +340,9 @@ contains
     ! their per-output products gm)
     a = weighted(d, sinv, cw)
     if (present(wsens)) wsens = a
-    allocate (c(size(tmap, 2), size(tmap, 2)))
+    allocate (c(size(keep), size(keep)))
     mtt = cross(d, a, m%ny*nc, pm%nf, pm%nf)
-    mbt = matmul(transpose(tmap), cross(bas, a, m%ny*nc, ne, pm%nf))
+    mbt = spread(tsc, 2, pm%nf)*cross(bas(:, :, keep), a, m%ny*nc, size(keep), pm%nf)
     mbb = shrink*combined(gm, sinv)       ! gm: of the weights before the shrink
     call chol_inverse(mbb, c, logdet, i)
     if (i /= 0) then
@@ -402,15 +407,15 @@ contains
     z = matmul(transpose(x), y)
   end function cross
 
-  !> r = r0 - b e of b (nr, n), as cross takes its arrays.
-  pure subroutine less_columns(r0, b, e, nr, n, r)
-    integer, intent(in) :: nr, n
-    real(wp), intent(in) :: r0(nr), b(nr, n), e(n)
+  !> r = r0 - b(:, keep) e of b (nr, n), as cross takes its arrays.
+  pure subroutine less_columns(r0, b, keep, e, nr, n, r)
+    integer, intent(in) :: nr, n, keep(:)
+    real(wp), intent(in) :: r0(nr), b(nr, n), e(:)
     real(wp), intent(out) :: r(nr)
     integer :: k
     r = r0
-    do k = 1, n
-      r = r - e(k)*b(:, k)
+    do k = 1, size(keep)
+      r = r - e(k)*b(:, keep(k))
     end do
   end subroutine less_columns
 
@@ -453,42 +458,39 @@ contains
   end function weighted
 
   !> An independent set of the transient terms' columns b (ny, nc, n)
-  !> spanning the same, b t: t (n, nk) the eigenvectors of their
-  !> normalised information (weighted by the residuals r0's mean squares)
-  !> above ETA_RCOND of the largest.  Exact dependencies occur: with every
-  !> state measured (H invertible) the output offsets are the states'.
-  !> gm: the new columns' grams (the pairs S couples, full or diagonal).
-  subroutine independent_terms(b, r0, cw, full, t, gm, status, msg)
+  !> spanning the same, keep (independent_columns of their normalised
+  !> information, weighted by the residuals r0's mean squares), and their
+  !> scales tsc (that normalisation).  Exact dependencies occur: with every
+  !> state measured (H invertible) the output offsets are the states'.  gm:
+  !> the grams of the kept columns times their scales (the pairs S couples,
+  !> full or diagonal).
+  subroutine independent_terms(b, r0, cw, full, keep, tsc, gm)
     real(wp), intent(in) :: b(:, :, :), r0(:, :), cw(:)
     logical, intent(in) :: full
-    real(wp), allocatable, intent(out) :: t(:, :), gm(:, :, :, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    real(wp) :: w0(size(r0, 1), size(r0, 1)), sc(size(b, 3)), ev(size(b, 3)), &
-                v(size(b, 3), size(b, 3))
+    integer, allocatable, intent(out) :: keep(:)
+    real(wp), allocatable, intent(out) :: tsc(:), gm(:, :, :, :)
+    real(wp) :: w0(size(r0, 1), size(r0, 1)), m0(size(b, 3), size(b, 3))
     real(wp), allocatable :: g0(:, :, :, :)
-    integer :: i, j, n, nk, ny
+    integer :: i, j, k, n, nk, ny
     n = size(b, 3)
     ny = size(b, 1)
-    status = MLID_OK
-    msg = ''
-    allocate (t(n, 0), gm(0, 0, ny, ny))
-    if (n == 0) return
     w0 = 0.0_wp
-    do i = 1, size(r0, 1)
+    do i = 1, ny
       w0(i, i) = sum(cw)/max(sum(cw*r0(i, :)**2), tiny(1.0_wp))
     end do
     call grams(b, cw, full, g0)
-    call info_eig(combined(g0, w0), sc, ev, v, status, msg)
-    if (status /= MLID_OK) return
-    nk = count(ev > ETA_RCOND*ev(n))
-    t = v(:, n - nk + 1:)*spread(sc, 2, nk)
-    deallocate (gm)
+    m0 = combined(g0, w0)
+    call independent_columns(m0, ETA_RCOND, keep)
+    nk = size(keep)
+    tsc = [(1.0_wp/sqrt(m0(keep(k), keep(k))), k=1, nk)]
     allocate (gm(nk, nk, ny, ny))
     gm = 0.0_wp
     do j = 1, ny
       do i = 1, ny
-        if (i == j .or. full) gm(:, :, i, j) = cross(t, matmul(g0(:, :, i, j), t), n, nk, nk)
+        if (i /= j .and. .not. full) cycle
+        do k = 1, nk
+          gm(:, k, i, j) = tsc*g0(keep, keep(k), i, j)*tsc(k)
+        end do
       end do
     end do
   end subroutine independent_terms
@@ -497,31 +499,31 @@ contains
   !> minimum over both, alternating the weighted least squares for eta
   !> (given S) and S = (1/n) sum c Re(V V^*) (given eta) until the cost
   !> settles; r the residuals left, sinv and logdet of S.  The terms are
-  !> eta of the independent columns bas t (independent_terms; gm their grams).
-  subroutine transients(r0, bas, t, gm, cw, full, eta, r, s, sinv, logdet, status, msg)
-    real(wp), intent(in) :: r0(:, :), bas(:, :, :), t(:, :), gm(:, :, :, :), cw(:)
+  !> eta of the independent columns bas(:, :, keep) times tsc
+  !> (independent_terms; gm their grams).
+  subroutine transients(r0, bas, keep, tsc, gm, cw, full, eta, r, s, sinv, logdet, status, msg)
+    real(wp), intent(in) :: r0(:, :), bas(:, :, :), tsc(:), gm(:, :, :, :), cw(:)
+    integer, intent(in) :: keep(:)
     logical, intent(in) :: full
     real(wp), intent(out) :: eta(:), s(:, :), sinv(:, :), logdet
     real(wp), allocatable, intent(out) :: r(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: g(size(eta)), cost, last
-    real(wp) :: hr(size(eta), size(r0, 1), size(r0, 1)), h0(size(bas, 3)), wr(size(r0, 2)), &
-                e0(size(bas, 3))
+    real(wp) :: hr(size(eta), size(r0, 1), size(r0, 1)), wr(size(r0, 2))
     integer :: it, i, j, k, ierr, ny
     ny = size(r0, 1)
-    ! the columns' weighted products with r0, hr(:, i, j) = t' sum_c c_c
-    ! bas(i, c, :) r0(j, c): the least squares' right-hand side is then
+    ! the columns' weighted products with r0, hr(k, i, j) = tsc_k sum_c
+    ! c_c bas(i, c, keep_k) r0(j, c): the least squares' right-hand side is then
     ! sum_ij 2 S^-1_ij hr(:, i, j) for any S (as gm its matrix)
     hr = 0.0_wp
     do j = 1, ny
       wr = cw*r0(j, :)
       do i = 1, ny
         if (i /= j .and. .not. full) cycle
-        do k = 1, size(bas, 3)
-          h0(k) = dot_product(bas(i, :, k), wr)
+        do k = 1, size(keep)
+          hr(k, i, j) = tsc(k)*dot_product(bas(i, :, keep(k)), wr)
         end do
-        hr(:, i, j) = matmul(h0, t)
       end do
     end do
     eta = 0.0_wp
@@ -565,8 +567,7 @@ contains
         msg = 'the transient terms'' information is singular'
         return
       end if
-      e0 = matmul(t, eta)
-      call less_columns(r0, bas, e0, size(r0), size(bas, 3), r)
+      call less_columns(r0, bas, keep, tsc*eta, size(r0), size(bas, 3), r)
     end do
     status = MLID_OK
     msg = ''
@@ -574,7 +575,8 @@ contains
 
   !> The model's left-hand sides without the transient terms (y0), the
   !> transient terms' columns (bas: d y / d eta), and what the
-  !> sensitivities need: (i w I - Fe)^-1 and the states' transforms xs
+  !> sensitivities need: (i w I - Fe)^-1 (ainv), He (i w I - Fe)^-1 (pa)
+  !> and the states' transforms xs
   !> (output error: driven by U; equation error: measured).  Output error:
   !> X = A^-1 (G U + N eta), N = [p0 I, -p1 I, E I] over the manoeuvre's
   !> x(t0), x(t1) and constant forcing k (trim, state biases), E = (p0 -
@@ -582,20 +584,20 @@ contains
   !> outputs' offsets o and drift rates d, R = (E - (t1 - t0) p1)/(i w) the
   !> transform of t - t0.  Equation error: state row k: (F X + G V)_k + (N
   !> eta)_k + R d_k, the other rows (H X + D V)_i + E o_i + R d_i.
-  subroutine model_terms(m, theta, tf, uf, ee, xout, y0, bas, ainv, xs, status, msg)
+  subroutine model_terms(m, theta, tf, uf, ee, xout, y0, bas, ainv, pa, xs, status, msg)
     type(linear_model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), tf(:), uf(:, :)
     logical, intent(in) :: ee
     integer, intent(in) :: xout(:)
     real(wp), intent(out) :: y0(:, :), bas(:, :, :)     !< bas (ny, nc, neta)
-    complex(wp), intent(out) :: ainv(:, :, :), xs(:, :)
+    complex(wp), intent(out) :: ainv(:, :, :), pa(:, :, :), xs(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx), &
                 fe(m%nx, m%nx), he(m%ny, m%nx), big
     complex(wp) :: a(m%nx, m%nx), p(m%ny, m%nx), uu(m%nu), v(m%nu), yy(m%ny), p0, p1, e, ramp, &
-                   b(m%ny, 3*m%nx + 2*m%ny), gu(m%nx)
-    integer :: c, k, i, j, ie, ne, s, nx, nu, ny
+                   b(m%ny, 3*m%nx + 2*m%ny), gu(m%nx), z
+    integer :: c, k, i, j, l, ie, ne, s, nx, nu, ny
     logical :: ok
 
     nx = m%nx
@@ -654,89 +656,109 @@ contains
         do j = 1, nx
           xs(:, k) = xs(:, k) + ainv(:, j, k)*gu(j)
         end do
-        p = 0.0_wp
         yy = 0.0_wp
         do j = 1, nx
-          do i = 1, nx
-            p(:, j) = p(:, j) + he(:, i)*ainv(i, j, k)
+          do i = 1, ny
+            z = 0.0_wp
+            do l = 1, nx
+              z = z + he(i, l)*ainv(l, j, k)
+            end do
+            p(i, j) = z
           end do
           yy = yy + he(:, j)*xs(j, k)
         end do
         do j = 1, nu
           yy = yy + d(:, j)*uu(j)
         end do
+        pa(:, :, k) = p
         b(:, 1:nx) = p0*p
         b(:, nx + 1:2*nx) = -p1*p
         b(:, 2*nx + 1:3*nx) = e*p
       end if
       y0(:, c) = real(yy, wp)
       y0(:, c + 1) = aimag(yy)
-      bas(:, c, (s - 1)*ne + 1:s*ne) = real(b, wp)
-      bas(:, c + 1, (s - 1)*ne + 1:s*ne) = aimag(b)
+      do j = 1, ne
+        do i = 1, ny
+          bas(i, c, (s - 1)*ne + j) = real(b(i, j), wp)
+          bas(i, c + 1, (s - 1)*ne + j) = aimag(b(i, j))
+        end do
+      end do
     end do
   end subroutine model_terms
 
   !> dy (ny, nc, nf): the sensitivities of the left-hand sides to the free
   !> parameters at the transient terms eta.  Output error: X = xs + A^-1 N
-  !> eta, V = U + K X, P = He A^-1; dY/dF_ij = P(:, i) X_j, dY/dG_ij = P(:,
-  !> i) V_j, dY/dH_ij = e_i X_j, dY/dD_ij = e_i V_j.  Equation error: X
+  !> eta, V = U + K X, P = He A^-1 (pa); dY/dF_ij = P(:, i) X_j, dY/dG_ij =
+  !> P(:, i) V_j, dY/dH_ij = e_i X_j, dY/dD_ij = e_i V_j.  Equation error: X
   !> measured, the state rows' dY/dF_kj = X_j, dY/dG_kj = V_j, the others'
   !> as output error's H, D.
-  subroutine sensitivities(m, theta, pm, tf, uf, ee, xout, ainv, xs, eta, dy)
+  subroutine sensitivities(m, theta, pm, tf, uf, ee, xout, ainv, pa, xs, eta, dy)
     type(linear_model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), tf(:), uf(:, :), eta(:)
     type(param_map_t), intent(in) :: pm
     logical, intent(in) :: ee
     integer, intent(in) :: xout(:)
-    complex(wp), intent(in) :: ainv(:, :, :), xs(:, :)
+    complex(wp), intent(in) :: ainv(:, :, :), pa(:, :, :), xs(:, :)
     real(wp), intent(out) :: dy(:, :, :)
-    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx), &
-                he(m%ny, m%nx)
-    complex(wp) :: p(m%ny, m%nx), x(m%nx), v(m%nu), dz(m%ny), p0, p1, e
-    integer :: c, k, q, blk, i, j, ie, ne, s, nx, nu, ny
+    real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
+    complex(wp) :: x(m%nx), v(m%nu), z(m%nx), dz, p0, p1, e
+    integer :: blk(size(pm%im)), row(size(pm%im)), col(size(pm%im))
+    integer :: c, k, q, i, j, ie, ne, s, nx, nu, ny, r
 
     nx = m%nx
     nu = m%nu
     ny = m%ny
     call m%matrices(theta, f, g, h, d, kf)
-    he = h + matmul(d, kf)
+    do q = 1, size(pm%im)
+      call element(pm%im(q), blk(q), row(q), col(q))
+    end do
     ie = size(uf, 1) - NEXTRA
     ne = 3*nx + 2*ny
     dy = 0.0_wp
     do c = 1, size(tf), 2
       k = (c + 1)/2
       x = xs(:, k)
-      if (.not. ee) then        ! the states' transient part
+      if (.not. ee) then        ! the states' transient part, A^-1 N eta
         p0 = cmplx(uf(ie + 1, c), uf(ie + 1, c + 1), wp)
         p1 = cmplx(uf(ie + 2, c), uf(ie + 2, c + 1), wp)
         e = (p0 - p1)/(IU*tf(c))
         s = (nint(uf(ie + 4, c)) - 1)*ne
-        x = x + matmul(ainv(:, :, k), p0*eta(s + 1:s + nx) - p1*eta(s + nx + 1:s + 2*nx) + &
-                       e*eta(s + 2*nx + 1:s + 3*nx))
-        p = matmul(he, ainv(:, :, k))
+        z = p0*eta(s + 1:s + nx) - p1*eta(s + nx + 1:s + 2*nx) + e*eta(s + 2*nx + 1:s + 3*nx)
+        do j = 1, nx
+          x = x + ainv(:, j, k)*z(j)
+        end do
       end if
-      v = cmplx(uf(1:nu, c), uf(1:nu, c + 1), wp) + matmul(kf, x)
+      v = cmplx(uf(1:nu, c), uf(1:nu, c + 1), wp)
+      do j = 1, nx
+        v = v + kf(:, j)*x(j)
+      end do
       do q = 1, size(pm%im)                 ! each moving entry into its free column
-        call element(pm%im(q), blk, i, j)
-        dz = 0.0_wp
-        select case (blk)
+        i = row(q)
+        j = col(q)
+        r = pm%cm(q)
+        select case (blk(q))
         case (1, 2)                         ! F(i, j), G(i, j): X_j or V_j
-          if (ee .and. blk == 1) then
-            dz(xout(i)) = x(j)
-          else if (ee) then
-            dz(xout(i)) = v(j)
-          else if (blk == 1) then
-            dz = p(:, i)*x(j)
+          if (blk(q) == 1) then
+            dz = x(j)
           else
-            dz = p(:, i)*v(j)
+            dz = v(j)
           end if
-        case (3)                            ! H(i, j)
-          dz(i) = x(j)
-        case (4)                            ! D(i, j)
-          dz(i) = v(j)
+          if (ee) then
+            dy(xout(i), c, r) = dy(xout(i), c, r) + pm%wm(q)*real(dz, wp)
+            dy(xout(i), c + 1, r) = dy(xout(i), c + 1, r) + pm%wm(q)*aimag(dz)
+          else
+            dy(:, c, r) = dy(:, c, r) + pm%wm(q)*real(pa(:, i, k)*dz, wp)
+            dy(:, c + 1, r) = dy(:, c + 1, r) + pm%wm(q)*aimag(pa(:, i, k)*dz)
+          end if
+        case (3, 4)                         ! H(i, j), D(i, j): e_i X_j or e_i V_j
+          if (blk(q) == 3) then
+            dz = x(j)
+          else
+            dz = v(j)
+          end if
+          dy(i, c, r) = dy(i, c, r) + pm%wm(q)*real(dz, wp)
+          dy(i, c + 1, r) = dy(i, c + 1, r) + pm%wm(q)*aimag(dz)
         end select
-        dy(:, c, pm%cm(q)) = dy(:, c, pm%cm(q)) + pm%wm(q)*real(dz, wp)
-        dy(:, c + 1, pm%cm(q)) = dy(:, c + 1, pm%cm(q)) + pm%wm(q)*aimag(dz)
       end do
     end do
 
@@ -766,36 +788,66 @@ contains
   end function mag
 
   !> ainv = a^-1 by Gauss-Jordan elimination with partial pivoting (a is
-  !> small: the model's states); ok false when a pivot vanishes (below
-  !> 1e-14 big, big = max(1, max mag(a_ij)), the caller's; sizes by mag).
+  !> small: the model's states; scalar loops, as array operations on rows
+  !> this short cost more in their set-up than in their arithmetic); ok
+  !> false when a pivot vanishes (below 1e-14 big, big = max(1, max
+  !> mag(a_ij)), the caller's; sizes by mag).
   pure subroutine complex_inverse(a, big, ainv, ok)
     complex(wp), intent(in) :: a(:, :)
     real(wp), intent(in) :: big
     complex(wp), intent(out) :: ainv(:, :)
     logical, intent(out) :: ok
-    complex(wp) :: w(size(a, 1), 2*size(a, 1)), tmp(2*size(a, 1))
-    integer :: n, k, piv, i
+    complex(wp) :: w(size(a, 1), size(a, 1)), f
+    real(wp) :: best
+    integer :: n, k, piv, i, j
+
     n = size(a, 1)
-    w = 0.0_wp
-    w(:, 1:n) = a
+    w = a
+    ainv = 0.0_wp
     do i = 1, n
-      w(i, n + i) = 1.0_wp
+      ainv(i, i) = 1.0_wp
     end do
     ok = .false.
     do k = 1, n
-      piv = maxloc(mag(w(k:, k)), 1) + k - 1
-      if (.not. mag(w(piv, k)) > 1.0e-14_wp*big) return
-      ! columns before k are done (unit vectors): zero in rows k and piv
-      tmp(k:) = w(k, k:)
-      w(k, k:) = w(piv, k:)
-      w(piv, k:) = tmp(k:)
-      w(k, k:) = w(k, k:)/w(k, k)
+      piv = k
+      best = mag(w(k, k))
+      do i = k + 1, n
+        if (mag(w(i, k)) > best) then
+          piv = i
+          best = mag(w(i, k))
+        end if
+      end do
+      if (.not. best > 1.0e-14_wp*big) return
+      if (piv /= k) then       ! w's columns before k are done (unit vectors)
+        call swap(w(k, k:), w(piv, k:))
+        call swap(ainv(k, :), ainv(piv, :))
+      end if
+      f = 1.0_wp/w(k, k)
+      w(k, k + 1:) = w(k, k + 1:)*f
+      ainv(k, :) = ainv(k, :)*f
       do i = 1, n
-        if (i /= k) w(i, k:) = w(i, k:) - w(i, k)*w(k, k:)
+        if (i == k) cycle
+        f = w(i, k)
+        do j = k + 1, n
+          w(i, j) = w(i, j) - f*w(k, j)
+        end do
+        do j = 1, n
+          ainv(i, j) = ainv(i, j) - f*ainv(k, j)
+        end do
       end do
     end do
-    ainv = w(:, n + 1:)
     ok = .true.
+
+  contains
+
+    pure subroutine swap(x, y)
+      complex(wp), intent(inout) :: x(:), y(:)
+      complex(wp) :: t(size(x))
+      t = x
+      x = y
+      y = t
+    end subroutine swap
+
   end subroutine complex_inverse
 
 end module mlid_frequency

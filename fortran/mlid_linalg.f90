@@ -6,7 +6,7 @@ module mlid_linalg
   implicit none
   private
   public :: add_sym_atb, add_syrk, add_atv, sym_eig, chol_inverse, chol_solve, psd_factor, &
-            info_inverse, info_eig, eig_inverse, expm, solve
+            info_inverse, info_eig, eig_inverse, expm, solve, independent_columns
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -220,6 +220,40 @@ contains
       x(i) = (x(i) - sum(l(i + 1:n, i)*x(i + 1:n)))/l(i, i)
     end do
   end subroutine chol_solve
+
+  !> The columns of a symmetric positive semi-definite A that a pivoted
+  !> Cholesky factorisation of its unit-diagonal scaling keeps: each next
+  !> the one farthest from the span of those kept, while its squared
+  !> distance from it (relative to its own length) exceeds tol.  keep:
+  !> their indices, ascending; zero columns are never kept.  O(n^2 k) for
+  !> k kept, where an eigen-decomposition choosing a basis costs O(n^3)
+  !> several times over.
+  pure subroutine independent_columns(a, tol, keep)
+    real(wp), intent(in) :: a(:, :), tol
+    integer, allocatable, intent(out) :: keep(:)
+    real(wp) :: l(size(a, 1), size(a, 1)), d(size(a, 1)), sc(size(a, 1))
+    logical :: taken(size(a, 1))
+    integer :: n, k, j, i
+
+    n = size(a, 1)
+    do i = 1, n
+      sc(i) = 0.0_wp
+      if (a(i, i) > 0.0_wp) sc(i) = 1.0_wp/sqrt(a(i, i))
+    end do
+    d = merge(1.0_wp, 0.0_wp, sc > 0.0_wp)   ! the Schur complement's diagonal
+    taken = .false.
+    do k = 1, n
+      j = maxloc(d, 1, mask=.not. taken)
+      if (.not. d(j) > tol) exit
+      taken(j) = .true.
+      do i = 1, n
+        l(i, k) = (sc(i)*a(i, j)*sc(j) - sum(l(i, 1:k - 1)*l(j, 1:k - 1)))/sqrt(d(j))
+      end do
+      d = d - l(:, k)**2
+      if (all(taken)) exit
+    end do
+    keep = pack([(i, i=1, n)], taken)
+  end subroutine independent_columns
 
   !> Inverse and log-determinant of a symmetric positive-definite matrix.
   !> info > 0 means the matrix is not positive definite.
