@@ -331,9 +331,8 @@ contains
                          eta, d)
     end select
     a = weighted(reshape(r, [m%ny, nc, 1]), sinv, cw)
-    do f = 1, pm%nf
-      grad(f) = -sum(d(:, :, f)*a(:, :, 1))
-    end do
+    mtt = cross(d, a, m%ny*nc, pm%nf, 1)
+    grad = -mtt(:, 1)
     ! information of (theta, transients), the transients eliminated (Schur
     ! complement): the information of theta with them unknown; the blocks
     ! of theta (mtt), transients by theta (mbt) and transients (mbb, from
@@ -596,7 +595,7 @@ contains
     real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx), &
                 fe(m%nx, m%nx), he(m%ny, m%nx), big
     complex(wp) :: a(m%nx, m%nx), p(m%ny, m%nx), uu(m%nu), v(m%nu), yy(m%ny), p0, p1, e, ramp, &
-                   b(m%ny, 3*m%nx + 2*m%ny), gu(m%nx), z
+                   gu(m%nx), z
     integer :: c, k, i, j, l, ie, ne, s, nx, nu, ny
     logical :: ok
 
@@ -618,11 +617,10 @@ contains
       p1 = cmplx(uf(ie + 2, c), uf(ie + 2, c + 1), wp)
       e = (p0 - p1)/(IU*tf(c))
       ramp = (e - uf(ie + 5, c)*p1)/(IU*tf(c))       ! the transform of t - t0
-      s = nint(uf(ie + 4, c))
-      b = 0.0_wp
+      s = (nint(uf(ie + 4, c)) - 1)*ne       ! this manoeuvre's terms: bas(:, :, s + 1:s + ne)
       do i = 1, ny
-        b(i, 3*nx + i) = e
-        b(i, 3*nx + ny + i) = ramp
+        call put(i, s + 3*nx + i, e)
+        call put(i, s + 3*nx + ny + i, ramp)
       end do
       if (ee) then
         xs(:, k) = cmplx(uf(nu + 1:nu + nx, c), uf(nu + 1:nu + nx, c + 1), wp)
@@ -630,10 +628,10 @@ contains
         yy = matmul(h, xs(:, k)) + matmul(d, v)
         yy(xout) = matmul(f, xs(:, k)) + matmul(g, v)
         do i = 1, nx
-          b(xout(i), 3*nx + xout(i)) = 0.0_wp      ! a state equation has no output offset
-          b(xout(i), i) = p0
-          b(xout(i), nx + i) = -p1
-          b(xout(i), 2*nx + i) = e
+          call put(xout(i), s + 3*nx + xout(i), (0.0_wp, 0.0_wp))   ! a state equation has no
+          call put(xout(i), s + i, p0)                                ! output offset
+          call put(xout(i), s + nx + i, -p1)
+          call put(xout(i), s + 2*nx + i, e)
         end do
       else
         a = -fe
@@ -671,19 +669,28 @@ contains
           yy = yy + d(:, j)*uu(j)
         end do
         pa(:, :, k) = p
-        b(:, 1:nx) = p0*p
-        b(:, nx + 1:2*nx) = -p1*p
-        b(:, 2*nx + 1:3*nx) = e*p
+        do j = 1, nx
+          do i = 1, ny
+            call put(i, s + j, p0*p(i, j))
+            call put(i, s + nx + j, -p1*p(i, j))
+            call put(i, s + 2*nx + j, e*p(i, j))
+          end do
+        end do
       end if
       y0(:, c) = real(yy, wp)
       y0(:, c + 1) = aimag(yy)
-      do j = 1, ne
-        do i = 1, ny
-          bas(i, c, (s - 1)*ne + j) = real(b(i, j), wp)
-          bas(i, c + 1, (s - 1)*ne + j) = aimag(b(i, j))
-        end do
-      end do
     end do
+
+  contains
+
+    !> bas's element of output i and term j at this frequency (columns c, c + 1).
+    subroutine put(i, j, z)
+      integer, intent(in) :: i, j
+      complex(wp), intent(in) :: z
+      bas(i, c, j) = real(z, wp)
+      bas(i, c + 1, j) = aimag(z)
+    end subroutine put
+
   end subroutine model_terms
 
   !> dy (ny, nc, nf): the sensitivities of the left-hand sides to the free
@@ -703,7 +710,7 @@ contains
     real(wp) :: f(m%nx, m%nx), g(m%nx, m%nu), h(m%ny, m%nx), d(m%ny, m%nu), kf(m%nu, m%nx)
     complex(wp) :: x(m%nx), v(m%nu), z(m%nx), dz, p0, p1, e
     integer :: blk(size(pm%im)), row(size(pm%im)), col(size(pm%im))
-    integer :: c, k, q, i, j, ie, ne, s, nx, nu, ny, r
+    integer :: c, k, q, i, j, l, ie, ne, s, nx, nu, ny, r
 
     nx = m%nx
     nu = m%nu
@@ -747,8 +754,13 @@ contains
             dy(xout(i), c, r) = dy(xout(i), c, r) + pm%wm(q)*real(dz, wp)
             dy(xout(i), c + 1, r) = dy(xout(i), c + 1, r) + pm%wm(q)*aimag(dz)
           else
-            dy(:, c, r) = dy(:, c, r) + pm%wm(q)*real(pa(:, i, k)*dz, wp)
-            dy(:, c + 1, r) = dy(:, c + 1, r) + pm%wm(q)*aimag(pa(:, i, k)*dz)
+            dz = pm%wm(q)*dz
+            do l = 1, ny
+              dy(l, c, r) = dy(l, c, r) + (real(pa(l, i, k), wp)*real(dz, wp) - &
+                                           aimag(pa(l, i, k))*aimag(dz))
+              dy(l, c + 1, r) = dy(l, c + 1, r) + (real(pa(l, i, k), wp)*aimag(dz) + &
+                                                   aimag(pa(l, i, k))*real(dz, wp))
+            end do
           end if
         case (3, 4)                         ! H(i, j), D(i, j): e_i X_j or e_i V_j
           if (blk(q) == 3) then
