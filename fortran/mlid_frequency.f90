@@ -509,52 +509,45 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: g(size(eta)), cost, last
-    real(wp) :: hr(size(eta), size(r0, 1), size(r0, 1)), wr(size(r0, 2))
+    real(wp) :: hr(size(eta), size(r0, 1), size(r0, 1)), q0(size(r0, 1), size(r0, 1)), &
+                wr(size(r0, 2))
     integer :: it, i, j, k, ierr, ny
     ny = size(r0, 1)
-    ! the columns' weighted products with r0, hr(k, i, j) = tsc_k sum_c
-    ! c_c bas(i, c, keep_k) r0(j, c): the least squares' right-hand side is then
-    ! sum_ij 2 S^-1_ij hr(:, i, j) for any S (as gm its matrix)
+    ! r0's and the columns' weighted products, q0(i, j) = sum_c c_c r0(i,
+    ! c) r0(j, c) and hr(k, i, j) = tsc_k sum_c c_c bas(i, c, keep_k) r0(j,
+    ! c): the least squares' right-hand side is sum_ij 2 S^-1_ij hr(:, i, j)
+    ! and (with gm) the residuals' products sum_c c_c r(i, c) r(j, c) at any
+    ! eta are q0 - eta' (hr(:, i, j) + hr(:, j, i)) + eta' gm(:, :, i, j)
+    ! eta, so a sweep makes no pass over the columns
+    q0 = 0.0_wp
     hr = 0.0_wp
     do j = 1, ny
       wr = cw*r0(j, :)
       do i = 1, ny
         if (i /= j .and. .not. full) cycle
+        q0(i, j) = dot_product(r0(i, :), wr)
         do k = 1, size(keep)
           hr(k, i, j) = tsc(k)*dot_product(bas(i, :, keep(k)), wr)
         end do
       end do
     end do
     eta = 0.0_wp
-    r = r0
+    s = 0.0_wp
     last = huge(1.0_wp)
     do it = 1, ETA_SWEEPS
-      ! S given the residuals
-      s = 0.0_wp
-      do j = 1, ny
-        wr = cw*r(j, :)
+      do j = 1, ny             ! S given eta
         do i = 1, ny
-          if (i == j .or. full) s(i, j) = dot_product(r(i, :), wr)/(0.5_wp*sum(cw))
+          if (i == j .or. full) s(i, j) = (q0(i, j) - dot_product(eta, hr(:, i, j) + hr(:, j, i)) &
+                                           + dot_product(eta, matmul(gm(:, :, i, j), eta))) &
+                                          /(0.5_wp*sum(cw))
         end do
       end do
-      if (.not. all([(s(i, i) > tiny(1.0_wp), i=1, ny)])) then
-        status = MLID_ERR_SINGULAR
-        msg = 'a residual spectrum is zero or not finite: an output fitted exactly '// &
-              '(noise-free data?)'
-        return
-      end if
-      call chol_inverse(s, sinv, logdet, ierr)
-      if (ierr /= 0) then
-        status = MLID_ERR_SINGULAR
-        msg = 'residual covariance is singular (outputs linearly dependent): use noise = '// &
-              '''diagonal'''
-        return
-      end if
+      call spectrum(s, sinv, logdet, status, msg)
+      if (status /= MLID_OK) return
       cost = 0.5_wp*sum(cw)*(sum(sinv*s) + logdet)
       if (size(eta) == 0 .or. abs(last - cost) <= ETA_TOL*max(1.0_wp, abs(cost))) exit
       last = cost
-      ! eta given S: the weighted least squares on r0
-      g = 0.0_wp
+      g = 0.0_wp               ! eta given S: the weighted least squares on r0
       do j = 1, ny
         do i = 1, ny
           if (i == j .or. full) g = g + 2.0_wp*sinv(i, j)*hr(:, i, j)
@@ -566,11 +559,44 @@ contains
         msg = 'the transient terms'' information is singular'
         return
       end if
-      call less_columns(r0, bas, keep, tsc*eta, size(r0), size(bas, 3), r)
     end do
+    ! the residuals, and S from them: the products above lose the digits
+    ! the transient terms take from r0
+    allocate (r(ny, size(r0, 2)))
+    call less_columns(r0, bas, keep, tsc*eta, size(r0), size(bas, 3), r)
+    do j = 1, ny
+      wr = cw*r(j, :)
+      do i = 1, ny
+        if (i == j .or. full) s(i, j) = dot_product(r(i, :), wr)/(0.5_wp*sum(cw))
+      end do
+    end do
+    call spectrum(s, sinv, logdet, status, msg)
+  end subroutine transients
+
+  !> S^-1 and ln|S| of the residual spectrum S, or why there are none.
+  subroutine spectrum(s, sinv, logdet, status, msg)
+    real(wp), intent(in) :: s(:, :)
+    real(wp), intent(out) :: sinv(:, :), logdet
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: i, ierr
+    status = MLID_ERR_SINGULAR
+    sinv = 0.0_wp
+    logdet = 0.0_wp
+    if (.not. all([(s(i, i) > tiny(1.0_wp), i=1, size(s, 1))])) then
+      msg = 'a residual spectrum is zero or not finite: an output fitted exactly '// &
+            '(noise-free data?)'
+      return
+    end if
+    call chol_inverse(s, sinv, logdet, ierr)
+    if (ierr /= 0) then
+      msg = 'residual covariance is singular (outputs linearly dependent): use noise = '// &
+            '''diagonal'''
+      return
+    end if
     status = MLID_OK
     msg = ''
-  end subroutine transients
+  end subroutine spectrum
 
   !> The model's left-hand sides without the transient terms (y0), the
   !> transient terms' columns (bas: d y / d eta), and what the
