@@ -419,18 +419,26 @@ contains
   end subroutine less_columns
 
   !> sum_ij 2 sinv_ij gm(:, :, i, j) (grams): the information 2 sum_c c_c
-  !> b_c' S^-1 b_c, symmetric.
+  !> b_c' S^-1 b_c, symmetric (gm(:, :, j, i) = gm(:, :, i, j)' and sinv
+  !> symmetric: the lower triangle, mirrored).
   function combined(gm, sinv) result(mm)
     real(wp), intent(in) :: gm(:, :, :, :), sinv(:, :)
     real(wp) :: mm(size(gm, 1), size(gm, 2))
-    integer :: i, j
+    integer :: i, j, k, l
     mm = 0.0_wp
     do j = 1, size(sinv, 2)
       do i = 1, size(sinv, 1)
-        if (sinv(i, j) /= 0.0_wp) mm = mm + 2.0_wp*sinv(i, j)*gm(:, :, i, j)
+        if (sinv(i, j) == 0.0_wp) cycle
+        do l = 1, size(mm, 2)
+          mm(l:, l) = mm(l:, l) + 2.0_wp*sinv(i, j)*gm(l:, l, i, j)
+        end do
       end do
     end do
-    mm = 0.5_wp*(mm + transpose(mm))
+    do l = 2, size(mm, 2)
+      do k = 1, l - 1
+        mm(k, l) = mm(l, k)
+      end do
+    end do
   end function combined
 
   !> 2 c S^-1 b_c for each column c of b (ny, nc, n): rows scaled when S is
@@ -508,7 +516,7 @@ contains
     real(wp), allocatable, intent(out) :: r(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: g(size(eta)), cost, last
+    real(wp) :: g(size(eta)), cost, last, q
     real(wp) :: hr(size(eta), size(r0, 1), size(r0, 1)), q0(size(r0, 1), size(r0, 1)), &
                 wr(size(r0, 2))
     integer :: it, i, j, k, ierr, ny
@@ -537,9 +545,12 @@ contains
     do it = 1, ETA_SWEEPS
       do j = 1, ny             ! S given eta
         do i = 1, ny
-          if (i == j .or. full) s(i, j) = (q0(i, j) - dot_product(eta, hr(:, i, j) + hr(:, j, i)) &
-                                           + dot_product(eta, matmul(gm(:, :, i, j), eta))) &
-                                          /(0.5_wp*sum(cw))
+          if (i /= j .and. .not. full) cycle
+          q = q0(i, j)
+          do k = 1, size(eta)
+            q = q + eta(k)*(dot_product(gm(:, k, i, j), eta) - hr(k, i, j) - hr(k, j, i))
+          end do
+          s(i, j) = q/(0.5_wp*sum(cw))
         end do
       end do
       call spectrum(s, sinv, logdet, status, msg)
