@@ -60,7 +60,7 @@ program test_numerics
   use mlid_jacobian_check, only: check_jacobians
   use mlid_options, only: options_t
   use mlid_filter, only: oe_predict
-  use mlid_linalg, only: sym_eig, chol_inverse, chol_solve
+  use mlid_linalg, only: sym_eig, chol_inverse, chol_solve, independent_columns
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use test_checks, only: check, finish
   use split_model, only: split_model_t
@@ -78,9 +78,55 @@ program test_numerics
   call test_random()
   call test_small_product()
   call test_fft()
+  call test_independent_columns()
   call finish()
 
 contains
+
+  !> independent_columns on the gram of columns of very different sizes
+  !> with two exact dependencies and a zero column: it keeps as many as the
+  !> rank, never the zero one, and the kept columns span every column (the
+  !> least-squares residual of each on them within rounding of its size);
+  !> independent columns are all kept.
+  subroutine test_independent_columns()
+    type(rng_t) :: r
+    real(wp) :: b(40, 7), a(7, 7), x(7), res(40), worst
+    integer, allocatable :: keep(:)
+    integer :: j, info
+    call rng_seed(r, 11)
+    do j = 1, 7
+      b(:, j) = normals(r, 40)*10.0_wp**(j - 4)
+    end do
+    b(:, 5) = 3.0e2_wp*b(:, 1) - b(:, 3)
+    b(:, 6) = 0.0_wp
+    b(:, 7) = b(:, 2) + 1.0e-3_wp*b(:, 4)
+    a = matmul(transpose(b), b)
+    call independent_columns(a, 1.0e-12_wp, keep)
+    call check(size(keep) == 4, 'independent_columns keeps the rank''s number of columns')
+    call check(all(keep /= 6), 'independent_columns never keeps a zero column')
+    worst = 0.0_wp
+    do j = 1, 7
+      call chol_solve(a(keep, keep), a(keep, j), x(1:size(keep)), info)
+      res = b(:, j) - matmul(b(:, keep), x(1:size(keep)))
+      worst = max(worst, norm2(res)/max(norm2(b(:, j)), tiny(1.0_wp)))
+    end do
+    call check(info == 0 .and. worst < 1.0e-8_wp, 'the kept columns span every column')
+    b(:, 5) = b(:, 5) + 1.0e-2_wp*normals(r, 40)
+    b(:, 6) = normals(r, 40)
+    b(:, 7) = normals(r, 40)
+    call independent_columns(matmul(transpose(b), b), 1.0e-12_wp, keep)
+    call check(size(keep) == 7, 'independent_columns keeps independent columns all')
+  end subroutine test_independent_columns
+
+  function normals(r, n) result(z)
+    type(rng_t), intent(inout) :: r
+    integer, intent(in) :: n
+    real(wp) :: z(n)
+    integer :: i
+    do i = 1, n
+      z(i) = rng_normal(r)
+    end do
+  end function normals
 
   !> fft_forward against the sum that defines the transform, at lengths
   !> whose stages run both loop orders (few twiddles and many butterflies
