@@ -1720,11 +1720,10 @@ contains
     real(c_double), intent(in) :: w(:), gain(:), phase(:)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    call tf_orders(m, n, delay, np, status, msg)
+    if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
-    if (m < 0 .or. n < 1 .or. np /= tf_size(m, n, delay /= 0)) then
-      write (msg, '(a,i0,a,i0,a)') 'transfer-function fit: orders m = ', m, ', n = ', n, &
-        ' must be m >= 0, n >= 1 (np their parameter count)'
-    else if (2*nfreq < np + 1) then
+    if (2*nfreq < np + 1) then
       write (msg, '(a,i0,a,i0,a)') 'transfer-function fit: ', nfreq, &
         ' frequencies are too few for ', np, ' parameters'
     else if (.not. (all(ieee_is_finite(w)) .and. all(ieee_is_finite(gain)) .and. &
@@ -1739,20 +1738,52 @@ contains
   end subroutine tf_check
 
   !> The mismatch's residuals r (2 nfreq, r'r = cost) and their Jacobian.
-  subroutine mlid_tf_residuals(nfreq, w, gain, phase, coh, use_coh, m, n, delay, np, x, r, jr)
+  subroutine mlid_tf_residuals(nfreq, w, gain, phase, coh, use_coh, m, n, delay, np, x, r, jr, &
+                               status, msg)
     integer(c_int), intent(in) :: nfreq, use_coh, m, n, delay, np
     real(c_double), intent(in) :: w(nfreq), gain(nfreq), phase(nfreq), coh(nfreq), x(np)
     real(c_double), intent(out) :: r(2*nfreq), jr(2*nfreq, np)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    r = 0.0_wp
+    jr = 0.0_wp
+    call tf_orders(m, n, delay, np, status, msg)
+    if (status /= MLID_OK) return
     call tf_residuals(m, n, delay /= 0, x, w, gain, phase, tf_weights(coh, use_coh), r, jr)
   end subroutine mlid_tf_residuals
 
+  !> Orders m >= 0, n >= 1 and np = tf_size, the length of x: the
+  !> parameters b_0..b_m, a_0..a_(n-1) and tau when delay = 1.
+  subroutine tf_orders(m, n, delay, np, status, msg)
+    integer(c_int), intent(in) :: m, n, delay, np
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    status = MLID_OK
+    msg = ''
+    if (m < 0 .or. n < 1) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0,a)') 'transfer function: orders m = ', m, ', n = ', n, &
+        ' must be m >= 0, n >= 1'
+    else if (np /= tf_size(m, n, delay /= 0)) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0,a,i0,a,i0,a,i0)') 'transfer function: orders m = ', m, ', n = ', &
+        n, ' (delay ', delay, ') take ', tf_size(m, n, delay /= 0), ' parameters, got ', np
+    end if
+  end subroutine tf_orders
+
   !> Gain (dB) and phase (deg, unwrapped) of a fitted transfer function at w.
-  subroutine mlid_tf_response(nfreq, w, m, n, delay, np, x, gain, phase)
+  subroutine mlid_tf_response(nfreq, w, m, n, delay, np, x, gain, phase, status, msg)
     integer(c_int), intent(in) :: nfreq, m, n, delay, np
     real(c_double), intent(in) :: w(nfreq), x(np)
     real(c_double), intent(out) :: gain(nfreq), phase(nfreq)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
     complex(wp) :: lt, dlt(np)
     integer :: k
+    gain = 0.0_wp
+    phase = 0.0_wp
+    call tf_orders(m, n, delay, np, status, msg)
+    if (status /= MLID_OK) return
     do k = 1, nfreq
       call tf_log_response(m, n, delay /= 0, x, w(k), lt, dlt)
       gain(k) = DB*real(lt)

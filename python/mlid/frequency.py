@@ -408,10 +408,17 @@ class TransferFunctionFit:
         -------
         FrequencyResponse
             Gain (dB) and phase (deg, unwrapped); no sigma.
+
+        Raises
+        ------
+        InputError
+            An estimate whose length is not the orders' parameter count.
         """
         f = real_array("frequency", frequency).ravel()
-        gain, phase = _api.mlid_tf_response(w=2 * np.pi * f, m=self.m, n=self.n,
-                                             delay=int(self.has_delay), x=self.estimate)
+        gain, phase, status, msg = _api.mlid_tf_response(
+            w=2 * np.pi * f, m=self.m, n=self.n, delay=int(self.has_delay),
+            x=real_array("estimate", self.estimate).ravel())
+        check_status(status, msg)
         return FrequencyResponse(
             frequency=f, gain=gain, phase=phase, sigma_gain=np.zeros_like(f),
             sigma_phase=np.zeros_like(f), input_name=self.input_name,
@@ -549,11 +556,17 @@ def transfer_mismatch(fit, response, coherence_weighting=False):
     -------
     float
         20/n sum W [(dG)^2 + 0.01745 (dP)^2] (the core's residuals, r'r).
+
+    Raises
+    ------
+    InputError
+        An estimate whose length is not the orders' parameter count.
     """
     keep = response.band(*fit.frequency_range)
     coh = response.coherence[keep] if response.coherence is not None else np.ones(keep.sum())
-    r, _ = _api.mlid_tf_residuals(w=2 * np.pi * response.frequency[keep],
-                                  gain=response.gain[keep], phase=response.phase[keep], coh=coh,
-                                  use_coh=int(coherence_weighting), m=fit.m, n=fit.n,
-                                  delay=int(fit.has_delay), x=fit.estimate)
+    r, _, status, msg = _api.mlid_tf_residuals(
+        w=2 * np.pi * response.frequency[keep], gain=response.gain[keep],
+        phase=response.phase[keep], coh=coh, use_coh=int(coherence_weighting), m=fit.m, n=fit.n,
+        delay=int(fit.has_delay), x=real_array("estimate", fit.estimate).ravel())
+    check_status(status, msg)
     return float(r @ r)
