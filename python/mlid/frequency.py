@@ -34,6 +34,7 @@ import numpy as np
 from . import _core
 from .checks import real_array, whole
 from .errors import InputError, check_status, guarded
+from .fourier import sample_step
 from .result import FitResult, require_estimates
 
 _api = _core.mlid_api
@@ -122,11 +123,31 @@ def _channel(names, which, what):
     return whole(what, which, 0, max(len(names) - 1, 0))
 
 
-def _sample_time(t):
-    dt = np.diff(t)
-    if dt.size == 0 or not np.all(dt > 0) or np.ptp(dt) > 1e-6 * np.mean(dt):
-        raise InputError("a frequency response needs uniformly sampled time")
-    return float(np.mean(dt))
+def _record_columns(records, input, output):
+    """The columns of the input and output channel in each record: named
+    (or numbered) in the first, found by name in every one, in the same
+    unit; else an InputError naming the record and the channel."""
+    first = records[0]
+    names = (first.input_names[_channel(first.input_names, input, "input")],
+             first.output_names[_channel(first.output_names, output, "output")])
+    columns = []
+    for k, r in enumerate(records, 1):
+        where = f"record {k}" + (f" ({r.source})" if r.source else "")
+        cols = []
+        for what, name, have, units, unit0 in (
+                ("input", names[0], r.input_names, r.input_units, first.input_units),
+                ("output", names[1], r.output_names, r.output_units, first.output_units)):
+            if name not in have:
+                raise InputError(f"{where}: no {what} channel {name!r} (record 1 has it); "
+                                 f"this record has {have}")
+            c = have.index(name)
+            c0 = (first.input_names if what == "input" else first.output_names).index(name)
+            if units[c] != unit0[c0]:
+                raise InputError(f"{where}: {what} channel {name!r} is in {units[c]!r}, in "
+                                 f"record 1 in {unit0[c0]!r}")
+            cols.append(c)
+        columns.append(cols)
+    return names, columns
 
 
 @guarded
@@ -145,7 +166,8 @@ def record_response(data, input=0, output=0, segment=None, overlap=0.5):
         A uniformly sampled record, or several manoeuvres of one sampling
         (their segments are averaged together; none spans two of them).
     input, output : str or int
-        The channels, by name or index.
+        The channels, by name or index (an index is the first record's);
+        each record's own column of that name is taken.
     segment : int, optional
         Samples per segment (default: the largest power of two not above a
         quarter of the longest manoeuvre); transformed zero-padded to a
@@ -161,20 +183,20 @@ def record_response(data, input=0, output=0, segment=None, overlap=0.5):
     Raises
     ------
     InputError
-        Unknown channel, non-uniform time, a segment longer than the record,
-        an overlap outside [0, 1), or a value that is not finite.
+        Unknown channel (in any record), a channel in another unit than in
+        the first record, non-uniform time or manoeuvres of different
+        sampling, a segment longer than the record, an overlap outside
+        [0, 1), or a value that is not finite.
     """
     records = list(data) if isinstance(data, (list, tuple)) else [data]
-    dts = [_sample_time(r.t) for r in records]
-    if max(dts) - min(dts) > 1e-6 * min(dts):
-        raise InputError("the manoeuvres of a frequency response need one sampling interval")
-    dt = dts[0]
+    if not records:
+        raise InputError("record_response needs a record (or a list of manoeuvres)")
     starts = np.cumsum([1] + [r.nt for r in records[:-1]]).astype(np.int32)
-    data = records[0]
-    i = _channel(data.input_names, input, "input")
-    j = _channel(data.output_names, output, "output")
-    u = np.concatenate([r.u[:, i] for r in records])
-    y = np.concatenate([r.y[:, j] for r in records])
+    dt = sample_step(np.concatenate([r.t for r in records]), starts)
+    (uname, yname), columns = _record_columns(records, input, output)
+    u = np.concatenate([r.u[:, i] for r, (i, _) in zip(records, columns)])
+    y = np.concatenate([r.y[:, j] for r, (_, j) in zip(records, columns)])
+    data, (i, j) = records[0], columns[0]
     if segment is None:
         longest = max(r.nt for r in records)
         segment = 2 ** int(np.floor(np.log2(max(longest / 4, 2))))
