@@ -153,7 +153,7 @@ def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=Non
     tend, est, sig, status, msg = _api.mlid_recursive_fdee(
         np.asarray(data.t, dtype=float), np.asfortranarray(data.y.T), np.asfortranarray(data.u.T),
         np.asfortranarray(model.F), np.asfortranarray(model.G), np.asfortranarray(free_f),
-        np.asfortranarray(free_g), whole("n_freq", n_freq, 0), _band_edge("f_min", f_min),
+        np.asfortranarray(free_g), whole("n_freq", n_freq, -2**31), _band_edge("f_min", f_min),
         _band_edge("f_max", f_max), window, stride, nwin, int(mask.sum()))
     check_status(status, msg)
     return {"t_end": tend, "estimates": est.T.copy(), "sigma": sig.T.copy(),
