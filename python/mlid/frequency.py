@@ -123,31 +123,20 @@ def _channel(names, which, what):
     return whole(what, which, 0, max(len(names) - 1, 0))
 
 
-def _record_columns(records, input, output):
-    """The columns of the input and output channel in each record: named
-    (or numbered) in the first, found by name in every one, in the same
-    unit; else an InputError naming the record and the channel."""
-    first = records[0]
-    names = (first.input_names[_channel(first.input_names, input, "input")],
-             first.output_names[_channel(first.output_names, output, "output")])
-    columns = []
-    for k, r in enumerate(records, 1):
-        where = f"record {k}" + (f" ({r.source})" if r.source else "")
-        cols = []
-        for what, name, have, units, unit0 in (
-                ("input", names[0], r.input_names, r.input_units, first.input_units),
-                ("output", names[1], r.output_names, r.output_units, first.output_units)):
-            if name not in have:
-                raise InputError(f"{where}: no {what} channel {name!r} (record 1 has it); "
-                                 f"this record has {have}")
-            c = have.index(name)
-            c0 = (first.input_names if what == "input" else first.output_names).index(name)
-            if units[c] != unit0[c0]:
-                raise InputError(f"{where}: {what} channel {name!r} is in {units[c]!r}, in "
-                                 f"record 1 in {unit0[c0]!r}")
-            cols.append(c)
-        columns.append(cols)
-    return names, columns
+def _column(record, k, what, name, unit):
+    """The column of channel ``name`` ('input' or 'output') in record k
+    (1-based), by name and in ``unit``; else one line naming both."""
+    names, units = ((record.input_names, record.input_units) if what == "input"
+                    else (record.output_names, record.output_units))
+    where = f"record {k}" + (f" ({record.source})" if record.source else "")
+    if name not in names:
+        raise InputError(f"{where}: no {what} channel {name!r} (record 1 has it); this record "
+                         f"has {names}")
+    c = names.index(name)
+    if units[c] != unit:
+        raise InputError(f"{where}: {what} channel {name!r} is in {units[c]!r}, in record 1 in "
+                         f"{unit!r}")
+    return c
 
 
 @guarded
@@ -193,10 +182,15 @@ def record_response(data, input=0, output=0, segment=None, overlap=0.5):
         raise InputError("record_response needs a record (or a list of manoeuvres)")
     starts = np.cumsum([1] + [r.nt for r in records[:-1]]).astype(np.int32)
     dt = sample_step(np.concatenate([r.t for r in records]), starts)
-    (uname, yname), columns = _record_columns(records, input, output)
-    u = np.concatenate([r.u[:, i] for r, (i, _) in zip(records, columns)])
-    y = np.concatenate([r.y[:, j] for r, (_, j) in zip(records, columns)])
-    data, (i, j) = records[0], columns[0]
+    data = records[0]
+    i = _channel(data.input_names, input, "input")
+    j = _channel(data.output_names, output, "output")
+    # each manoeuvre's own columns of the first one's channels
+    u = np.concatenate([r.u[:, _column(r, k, "input", data.input_names[i], data.input_units[i])]
+                        for k, r in enumerate(records, 1)])
+    y = np.concatenate([r.y[:, _column(r, k, "output", data.output_names[j],
+                                       data.output_units[j])]
+                        for k, r in enumerate(records, 1)])
     if segment is None:
         longest = max(r.nt for r in records)
         segment = 2 ** int(np.floor(np.log2(max(longest / 4, 2))))
