@@ -20,7 +20,8 @@ module mlid_api
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create
   use mlid_options, only: options_t, options_from_flat, options_to_flat, NOPTION, OPTION_NAMES, &
-                          option_kind, option_set, option_get, frequency_method
+                          option_kind, option_set, option_get, frequency_method, NOPT, &
+                          METHOD_FREQ_EE
   use mlid_params, only: param_map_t, param_map_create, apply_ties, tie_t, no_ties
   use mlid_ties, only: tie_parse, MAXTERM
   use mlid_likelihood, only: likelihood
@@ -37,7 +38,7 @@ module mlid_api
   use mlid_sixdof, only: sixdof_parts, SIXDOF_CONSTANTS
   use mlid_flightpath, only: flightpath_text, flightpath_corrected, FLIGHTPATH_CONSTANTS, &
                              FLIGHTPATH_CORRECTIONS, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
-  use mlid_record, only: record_check_segments, record_text
+  use mlid_record, only: record_check_segments, record_text, record_common_step
   use mlid_equations, only: equations_t, equations_create
   use mlid_files, only: temporary_for, write_whole
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, &
@@ -83,7 +84,7 @@ module mlid_api
             mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_mu_for_length, mlid_design_amplitude, mlid_design_equalised, &
             mlid_deck_case_run, mlid_fourier_transform, mlid_freq_evaluate, &
-            mlid_recursive_fdee
+            mlid_recursive_fdee, mlid_uniform_step
   public :: mlid_freq_count, mlid_freq_response, mlid_model_freq_response, mlid_tf_fit, &
             mlid_tf_residuals, mlid_tf_response
 
@@ -118,29 +119,71 @@ contains
     end if
   end subroutine mlid_fourier_transform
 
+  !> The one sample step dt of a record whose nseg manoeuvres start at
+  !> samples segstart: each uniformly sampled and all at one step
+  !> (mlid_record's record_common_step, the check of every frequency-domain
+  !> tool), else the message why not.
+  subroutine mlid_uniform_step(nt, t, nseg, segstart, dt, status, msg)
+    integer(c_int), intent(in) :: nt, nseg, segstart(nseg)
+    real(c_double), intent(in) :: t(nt)
+    real(c_double), intent(out) :: dt
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call record_common_step(t, segstart, dt, status, msg)
+  end subroutine mlid_uniform_step
+
+  !> The band of the frequency-domain methods (rad/s), checked as their
+  !> options are (mlid_options' band_check): n_freq frequencies from f_min
+  !> to f_max Hz (mlid_frequency's freq_grid).
+  subroutine band_omega(n_freq, f_min, f_max, w, status, msg)
+    integer(c_int), intent(in) :: n_freq
+    real(c_double), intent(in) :: f_min, f_max
+    real(wp), allocatable, intent(out) :: w(:)
+    integer(c_int), intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(options_t) :: opt
+    integer :: iopt(NOPT)
+    real(wp) :: ropt(NOPT)
+    opt%method = METHOD_FREQ_EE
+    opt%n_freq = n_freq
+    opt%f_min = f_min
+    opt%f_max = f_max
+    call options_to_flat(opt, iopt, ropt)
+    call options_from_flat(iopt, ropt, opt, status, msg)
+    if (status == MLID_OK) then
+      w = 8.0_wp*atan(1.0_wp)*freq_grid(opt)
+    else
+      allocate (w(0))
+    end if
+  end subroutine band_omega
+
   !> Recursive frequency-domain equation error (mlid_recursive_fd) over a
   !> moving window of `window` samples, one fit every `stride`: the measured
   !> states x(nx, nt), inputs u(nu, nt), F0 and G0 with the free entries
-  !> marked (freef, freeg: 1 free), frequencies w(nk) in rad/s; est and sig
+  !> marked (freef, freeg: 1 free), the band n_freq, f_min, f_max (Hz; the
+  !> frequency-domain methods' band, checked as theirs); est and sig
   !> (np, nwin) the free entries (F column by column, then G) per window,
   !> tend(nwin) each window's last time.
-  subroutine mlid_recursive_fdee(nx, nu, nt, t, x, u, f0, g0, freef, freeg, nk, w, window, &
-                                 stride, nwin, np, tend, est, sig, status, msg)
-    integer(c_int), intent(in) :: nx, nu, nt, nk, window, stride, nwin, np
-    real(c_double), intent(in) :: t(nt), x(nx, nt), u(nu, nt), f0(nx, nx), g0(nx, nu), w(nk)
+  subroutine mlid_recursive_fdee(nx, nu, nt, t, x, u, f0, g0, freef, freeg, n_freq, f_min, f_max, &
+                                 window, stride, nwin, np, tend, est, sig, status, msg)
+    integer(c_int), intent(in) :: nx, nu, nt, n_freq, window, stride, nwin, np
+    real(c_double), intent(in) :: t(nt), x(nx, nt), u(nu, nt), f0(nx, nx), g0(nx, nu), f_min, f_max
     integer(c_int), intent(in) :: freef(nx, nx), freeg(nx, nu)
     real(c_double), intent(out) :: tend(nwin), est(np, nwin), sig(np, nwin)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    real(wp), allocatable :: w(:)
     tend = 0.0_wp
     est = 0.0_wp
     sig = 0.0_wp
+    call band_omega(n_freq, f_min, f_max, w, status, msg)
+    if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
     if (np /= count(freef == 1) + count(freeg == 1) .or. np == 0) then
       msg = 'np must count the free entries of F and G (at least one)'
     else if (.not. (all(ieee_is_finite(t)) .and. all(ieee_is_finite(x)) .and. &
-                    all(ieee_is_finite(u)) .and. all(ieee_is_finite(w)))) then
-      msg = 'time, states, inputs and frequencies must be finite'
+                    all(ieee_is_finite(u)))) then
+      msg = 'time, states and inputs must be finite'
     else
       call recursive_fdee(t, x, u, f0, g0, freef == 1, freeg == 1, w, window, stride, tend, est, &
                           sig, status, msg)
@@ -1720,11 +1763,10 @@ contains
     real(c_double), intent(in) :: w(:), gain(:), phase(:)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    call tf_orders(m, n, delay, np, status, msg)
+    if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
-    if (m < 0 .or. n < 1 .or. np /= tf_size(m, n, delay /= 0)) then
-      write (msg, '(a,i0,a,i0,a)') 'transfer-function fit: orders m = ', m, ', n = ', n, &
-        ' must be m >= 0, n >= 1 (np their parameter count)'
-    else if (2*nfreq < np + 1) then
+    if (2*nfreq < np + 1) then
       write (msg, '(a,i0,a,i0,a)') 'transfer-function fit: ', nfreq, &
         ' frequencies are too few for ', np, ' parameters'
     else if (.not. (all(ieee_is_finite(w)) .and. all(ieee_is_finite(gain)) .and. &
@@ -1739,20 +1781,52 @@ contains
   end subroutine tf_check
 
   !> The mismatch's residuals r (2 nfreq, r'r = cost) and their Jacobian.
-  subroutine mlid_tf_residuals(nfreq, w, gain, phase, coh, use_coh, m, n, delay, np, x, r, jr)
+  subroutine mlid_tf_residuals(nfreq, w, gain, phase, coh, use_coh, m, n, delay, np, x, r, jr, &
+                               status, msg)
     integer(c_int), intent(in) :: nfreq, use_coh, m, n, delay, np
     real(c_double), intent(in) :: w(nfreq), gain(nfreq), phase(nfreq), coh(nfreq), x(np)
     real(c_double), intent(out) :: r(2*nfreq), jr(2*nfreq, np)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    r = 0.0_wp
+    jr = 0.0_wp
+    call tf_orders(m, n, delay, np, status, msg)
+    if (status /= MLID_OK) return
     call tf_residuals(m, n, delay /= 0, x, w, gain, phase, tf_weights(coh, use_coh), r, jr)
   end subroutine mlid_tf_residuals
 
+  !> Orders m >= 0, n >= 1 and np = tf_size, the length of x: the
+  !> parameters b_0..b_m, a_0..a_(n-1) and tau when delay = 1.
+  subroutine tf_orders(m, n, delay, np, status, msg)
+    integer(c_int), intent(in) :: m, n, delay, np
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    status = MLID_OK
+    msg = ''
+    if (m < 0 .or. n < 1) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0,a)') 'transfer function: orders m = ', m, ', n = ', n, &
+        ' must be m >= 0, n >= 1'
+    else if (np /= tf_size(m, n, delay /= 0)) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0,a,i0,a,i0,a,i0)') 'transfer function: orders m = ', m, ', n = ', &
+        n, ' (delay ', delay, ') take ', tf_size(m, n, delay /= 0), ' parameters, got ', np
+    end if
+  end subroutine tf_orders
+
   !> Gain (dB) and phase (deg, unwrapped) of a fitted transfer function at w.
-  subroutine mlid_tf_response(nfreq, w, m, n, delay, np, x, gain, phase)
+  subroutine mlid_tf_response(nfreq, w, m, n, delay, np, x, gain, phase, status, msg)
     integer(c_int), intent(in) :: nfreq, m, n, delay, np
     real(c_double), intent(in) :: w(nfreq), x(np)
     real(c_double), intent(out) :: gain(nfreq), phase(nfreq)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
     complex(wp) :: lt, dlt(np)
     integer :: k
+    gain = 0.0_wp
+    phase = 0.0_wp
+    call tf_orders(m, n, delay, np, status, msg)
+    if (status /= MLID_OK) return
     do k = 1, nfreq
       call tf_log_response(m, n, delay /= 0, x, w(k), lt, dlt)
       gain(k) = DB*real(lt)

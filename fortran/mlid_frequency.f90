@@ -62,6 +62,7 @@ module mlid_frequency
   use mlid_fourier, only: fourier_transform
   use mlid_linalg, only: chol_inverse, chol_solve, independent_columns
   use mlid_text, only: itoa
+  use mlid_record, only: record_uniform_step
   implicit none
   private
   public :: freq_record, freq_likelihood, freq_grid
@@ -127,12 +128,12 @@ contains
         msg = 'manoeuvre '//itoa(s)//' has fewer than three samples to transform'
         return
       end if
-      dt = (t(j1) - t(j0))/(j1 - j0)
-      if (maxval(abs(t(j0 + 1:j1) - t(j0:j1 - 1) - dt)) > 1.0e-6_wp*dt) then
-        msg = 'the frequency-domain methods need uniform sampling: manoeuvre '//itoa(s)// &
-              ' is not uniformly sampled'
+      call record_uniform_step(t(j0:j1), dt, status, msg)
+      if (status /= MLID_OK) then
+        if (nseg > 1) msg = 'manoeuvre '//itoa(s)//': '//trim(msg)
         return
       end if
+      status = MLID_ERR_INPUT
       if (opt%f_max >= 0.5_wp/dt) then
         write (msg, '(a,g0.6,a,g0.6,a,i0)') 'f_max = ', opt%f_max, ' Hz is not below the '// &
           'Nyquist frequency ', 0.5_wp/dt, ' Hz of manoeuvre ', s

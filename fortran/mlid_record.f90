@@ -20,10 +20,14 @@ module mlid_record
   implicit none
   private
   public :: record_t, record_read, record_text, record_check_time, record_check_segments, &
-            short_path, seconds, number_text, GAP_FACTOR, NAMELEN, UNITLEN
+            record_uniform_step, record_common_step, short_path, seconds, number_text, &
+            GAP_FACTOR, UNIFORM_TOL, NAMELEN, UNITLEN
 
   !> A time step larger than this times the median step is a gap.
   real(wp), parameter :: GAP_FACTOR = 1.5_wp
+  !> Uniform sampling: every step within this fraction of the mean step (the
+  !> Fourier transforms, mlid_fourier's and mlid_fft's, take equal steps).
+  real(wp), parameter :: UNIFORM_TOL = 1.0e-6_wp
   integer, parameter :: NAMELEN = 32, UNITLEN = 16
 
   !> A record as read: the columns asked for, x(size(cols), nrow), the
@@ -437,6 +441,82 @@ contains
       end if
     end do
   end subroutine record_check_segments
+
+  !> dt, the mean step of t, when t is uniformly sampled (every step within
+  !> UNIFORM_TOL of dt): what the frequency-domain tools take.  Else a
+  !> message naming the sample whose step is farthest from dt.
+  subroutine record_uniform_step(t, dt, status, msg)
+    real(wp), intent(in) :: t(:)
+    real(wp), intent(out) :: dt
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: n, k
+    n = size(t)
+    dt = 0.0_wp
+    status = MLID_ERR_INPUT
+    if (n < 2) then
+      msg = 'a record to transform needs at least two samples'
+      return
+    else if (.not. all(ieee_is_finite(t))) then
+      msg = 'time is not finite at sample '//itoa(findloc(ieee_is_finite(t), .false., 1))
+      return
+    end if
+    dt = (t(n) - t(1))/(n - 1)
+    if (.not. dt > 0.0_wp) then
+      msg = 'time must increase over a record to transform'
+      return
+    end if
+    k = maxloc(abs(t(2:) - t(:n - 1) - dt), 1)
+    if (abs(t(k + 1) - t(k) - dt) > UNIFORM_TOL*dt) then
+      msg = 'time is not uniformly sampled: the step to sample '//itoa(k + 1)//' (t = '// &
+            seconds(t(k + 1))//') is '//precise(t(k + 1) - t(k))//' s, the mean step '// &
+            precise(dt)//' s (the frequency-domain tools need equal steps, to 1e-6 of the mean)'
+      return
+    end if
+    status = MLID_OK
+    msg = ''
+  end subroutine record_uniform_step
+
+  !> A step for a message, to the digits that UNIFORM_TOL tells apart.
+  function precise(x) result(text)
+    real(wp), intent(in) :: x
+    character(len=:), allocatable :: text
+    character(len=24) :: buf
+    write (buf, '(es16.9)') x
+    text = trim(adjustl(buf))
+  end function precise
+
+  !> The one step dt of the manoeuvres of t starting at samples starts: each
+  !> uniformly sampled (record_uniform_step), all at the first's step to
+  !> UNIFORM_TOL; the message names the manoeuvre when there are several.
+  subroutine record_common_step(t, starts, dt, status, msg)
+    real(wp), intent(in) :: t(:)
+    integer, intent(in) :: starts(:)
+    real(wp), intent(out) :: dt
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: d
+    integer :: k, j0, j1
+    dt = 0.0_wp
+    status = MLID_ERR_INPUT
+    msg = 'a record to transform needs at least two samples'
+    do k = 1, size(starts)
+      j0 = max(1, starts(k))
+      j1 = size(t)
+      if (k < size(starts)) j1 = min(size(t), starts(k + 1) - 1)
+      call record_uniform_step(t(j0:j1), d, status, msg)
+      if (status == MLID_OK .and. k > 1 .and. .not. abs(d - dt) <= UNIFORM_TOL*dt) then
+        status = MLID_ERR_INPUT
+        msg = 'its step '//precise(d)//' s is not manoeuvre 1''s '//precise(dt)// &
+              ' s: the manoeuvres of a frequency response need one sampling interval'
+      end if
+      if (status /= MLID_OK) then
+        if (size(starts) > 1) msg = 'manoeuvre '//itoa(k)//': '//trim(msg)
+        return
+      end if
+      if (k == 1) dt = d
+    end do
+  end subroutine record_common_step
 
   !> A path for a message: its last 60 characters, so the problem fits.
   function short_path(path) result(text)

@@ -21,6 +21,7 @@ module mlid_recursive_fd
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR
   use mlid_fourier, only: fourier_weights
   use mlid_linalg, only: chol_inverse
+  use mlid_record, only: record_uniform_step
   implicit none
   private
   public :: recursive_fdee
@@ -60,11 +61,10 @@ contains
         'be at least 1, got ', window, ' and ', stride
       return
     end if
-    dt = (t(nt) - t(1))/(nt - 1)
-    if (maxval(abs(t(2:) - t(:nt - 1) - dt)) > 1.0e-6_wp*dt) then
-      msg = 'recursive frequency-domain estimation needs uniform sampling'
-      return
-    else if (maxval(w) >= acos(-1.0_wp)/dt .or. minval(w) <= 0.0_wp) then
+    call record_uniform_step(t, dt, status, msg)
+    if (status /= MLID_OK) return
+    status = MLID_ERR_INPUT
+    if (maxval(w) >= acos(-1.0_wp)/dt .or. minval(w) <= 0.0_wp) then
       msg = 'the frequencies must lie between zero and the Nyquist frequency'
       return
     else if (size(tend) /= (nt - window)/stride + 1) then

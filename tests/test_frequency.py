@@ -300,7 +300,8 @@ def test_transfer_residual_jacobian_against_finite_differences():
     x = np.array([4.0, 2.5, 14.0, 3.1, 0.05, ])
     args = dict(w=2 * np.pi * f, gain=meas.gain, phase=meas.phase, coh=np.full(f.size, 0.8),
                 use_coh=1, m=1, n=2, delay=1)
-    _, jr = _api.mlid_tf_residuals(x=x, **args)
+    _, jr, status, _ = _api.mlid_tf_residuals(x=x, **args)
+    assert status == 0
     for k in range(x.size):
         h = 1e-6 * max(1.0, abs(x[k]))
         e = np.zeros_like(x)

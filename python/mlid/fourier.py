@@ -5,10 +5,39 @@ recursive frequency-domain equation error over a moving window."""
 import numpy as np
 
 from . import _core
-from .checks import real_array
+from .checks import real_array, whole
 from .errors import InputError, check_status, guarded
 
 _api = _core.mlid_api
+
+
+def sample_step(t, starts=(1,)):
+    """The one sample step of a record whose manoeuvres start at samples
+    ``starts`` (1-based): each uniformly sampled, all at one step, as the
+    core checks it for every frequency-domain tool (fortran/mlid_record.f90,
+    record_common_step).
+
+    Parameters
+    ----------
+    t : ndarray (n,)
+        Times, the manoeuvres one after another.
+    starts : sequence of int
+        The first sample of each manoeuvre.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    InputError
+        Fewer than two samples, or sampling not uniform, naming the sample
+        (and the manoeuvre, when there are several).
+    """
+    dt, status, msg = _api.mlid_uniform_step(np.asarray(t, dtype=float),
+                                             np.asarray(starts, dtype=np.int32))
+    check_status(status, msg)
+    return float(dt)
 
 
 @guarded
@@ -46,11 +75,7 @@ def fourier_transform(t, x, freq):
     if t.ndim != 1 or xa.ndim != 2 or len(t) != xa.shape[0]:
         raise InputError(f"x must have one row per sample of t ({len(t)}), got shape "
                          f"{np.shape(x)}")
-    if len(t) < 2:
-        raise InputError("a record to transform needs at least two samples")
-    dt = (t[-1] - t[0]) / (len(t) - 1)
-    if not np.allclose(np.diff(t), dt, rtol=1e-6, atol=0.0):
-        raise InputError("the Fourier transform needs uniformly spaced samples")
+    dt = sample_step(t)
     xre, xim, status, msg = _api.mlid_fourier_transform(
         np.asfortranarray(xa.T), dt, t[0], 2.0 * np.pi * f)
     check_status(status, msg)
@@ -110,32 +135,32 @@ def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=Non
             or np.any(np.asarray(model.udelay) != 0):
         raise InputError("recursive_frequency_fit takes no ties, input feedback K or delays "
                          "(its state equations are x' = F x + G u)")
-    free_f = np.zeros((model.nx, model.nx), dtype=np.int32)
-    free_g = np.zeros((model.nx, model.nu), dtype=np.int32)
-    order = []
-    for name in model.free:
-        block, _, idx = name.partition("(")
-        if block not in ("f", "g"):
-            raise InputError(f"recursive_frequency_fit estimates entries of F and G, not "
-                             f"{name!r}")
-        i, j = (int(v) - 1 for v in idx.rstrip(")").split(","))
-        (free_f if block == "f" else free_g)[i, j] = 1
-        order.append((0 if block == "f" else 1, j, i, name))
-    if f_min is None or f_max is None or not 0 < f_min < f_max or n_freq < 2:
-        raise InputError("recursive_frequency_fit needs the band 0 < f_min < f_max (Hz) and "
-                         "n_freq >= 2")
+    # the free entries by the core's layout of theta: F, then G, each column by column
+    mask = model.free_mask
+    f, g = model._layout.slice("f"), model._layout.slice("g")
+    outside = mask.astype(bool)
+    outside[f] = outside[g] = False
+    outside = np.flatnonzero(outside)
+    if outside.size:
+        raise InputError(f"recursive_frequency_fit estimates entries of F and G, not "
+                         f"{model.element_names()[outside[0]]!r}")
+    free_f = mask[f].reshape((model.nx, model.nx), order="F")
+    free_g = mask[g].reshape((model.nx, model.nu), order="F")
     window = int(window)
     stride = int(stride)
     nt = len(data.t)
     nwin = (nt - window) // stride + 1 if 3 <= window <= nt and stride >= 1 else 1
-    w = 2 * np.pi * np.linspace(f_min, f_max, n_freq)
     tend, est, sig, status, msg = _api.mlid_recursive_fdee(
         np.asarray(data.t, dtype=float), np.asfortranarray(data.y.T), np.asfortranarray(data.u.T),
         np.asfortranarray(model.F), np.asfortranarray(model.G), np.asfortranarray(free_f),
-        np.asfortranarray(free_g), w, window, stride, nwin, len(order))
+        np.asfortranarray(free_g), whole("n_freq", n_freq, -2**31), _band_edge("f_min", f_min),
+        _band_edge("f_max", f_max), window, stride, nwin, int(mask.sum()))
     check_status(status, msg)
-    # the core orders F's free entries column by column, then G's
-    names = [name for *_, name in sorted(order)]
-    labels = dict(zip(model.free, model.free_names()))
     return {"t_end": tend, "estimates": est.T.copy(), "sigma": sig.T.copy(),
-            "names": [labels[n] for n in names]}
+            "names": model.free_names()}
+
+
+def _band_edge(name, value):
+    """f_min or f_max as the core takes it: 0 (not given, refused by the
+    core's band check) when None."""
+    return 0.0 if value is None else float(real_array(name, value))

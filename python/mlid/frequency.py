@@ -34,6 +34,7 @@ import numpy as np
 from . import _core
 from .checks import real_array, whole
 from .errors import InputError, check_status, guarded
+from .fourier import sample_step
 from .result import FitResult, require_estimates
 
 _api = _core.mlid_api
@@ -122,11 +123,20 @@ def _channel(names, which, what):
     return whole(what, which, 0, max(len(names) - 1, 0))
 
 
-def _sample_time(t):
-    dt = np.diff(t)
-    if dt.size == 0 or not np.all(dt > 0) or np.ptp(dt) > 1e-6 * np.mean(dt):
-        raise InputError("a frequency response needs uniformly sampled time")
-    return float(np.mean(dt))
+def _column(record, k, what, name, unit):
+    """The column of channel ``name`` ('input' or 'output') in record k
+    (1-based), by name and in ``unit``; else one line naming both."""
+    names, units = ((record.input_names, record.input_units) if what == "input"
+                    else (record.output_names, record.output_units))
+    where = f"record {k}" + (f" ({record.source})" if record.source else "")
+    if name not in names:
+        raise InputError(f"{where}: no {what} channel {name!r} (record 1 has it); this record "
+                         f"has {names}")
+    c = names.index(name)
+    if units[c] != unit:
+        raise InputError(f"{where}: {what} channel {name!r} is in {units[c]!r}, in record 1 in "
+                         f"{unit!r}")
+    return c
 
 
 @guarded
@@ -145,7 +155,8 @@ def record_response(data, input=0, output=0, segment=None, overlap=0.5):
         A uniformly sampled record, or several manoeuvres of one sampling
         (their segments are averaged together; none spans two of them).
     input, output : str or int
-        The channels, by name or index.
+        The channels, by name or index (an index is the first record's);
+        each record's own column of that name is taken.
     segment : int, optional
         Samples per segment (default: the largest power of two not above a
         quarter of the longest manoeuvre); transformed zero-padded to a
@@ -161,20 +172,25 @@ def record_response(data, input=0, output=0, segment=None, overlap=0.5):
     Raises
     ------
     InputError
-        Unknown channel, non-uniform time, a segment longer than the record,
-        an overlap outside [0, 1), or a value that is not finite.
+        Unknown channel (in any record), a channel in another unit than in
+        the first record, non-uniform time or manoeuvres of different
+        sampling, a segment longer than the record, an overlap outside
+        [0, 1), or a value that is not finite.
     """
     records = list(data) if isinstance(data, (list, tuple)) else [data]
-    dts = [_sample_time(r.t) for r in records]
-    if max(dts) - min(dts) > 1e-6 * min(dts):
-        raise InputError("the manoeuvres of a frequency response need one sampling interval")
-    dt = dts[0]
+    if not records:
+        raise InputError("record_response needs a record (or a list of manoeuvres)")
     starts = np.cumsum([1] + [r.nt for r in records[:-1]]).astype(np.int32)
+    dt = sample_step(np.concatenate([r.t for r in records]), starts)
     data = records[0]
     i = _channel(data.input_names, input, "input")
     j = _channel(data.output_names, output, "output")
-    u = np.concatenate([r.u[:, i] for r in records])
-    y = np.concatenate([r.y[:, j] for r in records])
+    # each manoeuvre's own columns of the first one's channels
+    u = np.concatenate([r.u[:, _column(r, k, "input", data.input_names[i], data.input_units[i])]
+                        for k, r in enumerate(records, 1)])
+    y = np.concatenate([r.y[:, _column(r, k, "output", data.output_names[j],
+                                       data.output_units[j])]
+                        for k, r in enumerate(records, 1)])
     if segment is None:
         longest = max(r.nt for r in records)
         segment = 2 ** int(np.floor(np.log2(max(longest / 4, 2))))
@@ -408,10 +424,17 @@ class TransferFunctionFit:
         -------
         FrequencyResponse
             Gain (dB) and phase (deg, unwrapped); no sigma.
+
+        Raises
+        ------
+        InputError
+            An estimate whose length is not the orders' parameter count.
         """
         f = real_array("frequency", frequency).ravel()
-        gain, phase = _api.mlid_tf_response(w=2 * np.pi * f, m=self.m, n=self.n,
-                                             delay=int(self.has_delay), x=self.estimate)
+        gain, phase, status, msg = _api.mlid_tf_response(
+            w=2 * np.pi * f, m=self.m, n=self.n, delay=int(self.has_delay),
+            x=real_array("estimate", self.estimate).ravel())
+        check_status(status, msg)
         return FrequencyResponse(
             frequency=f, gain=gain, phase=phase, sigma_gain=np.zeros_like(f),
             sigma_phase=np.zeros_like(f), input_name=self.input_name,
@@ -549,11 +572,17 @@ def transfer_mismatch(fit, response, coherence_weighting=False):
     -------
     float
         20/n sum W [(dG)^2 + 0.01745 (dP)^2] (the core's residuals, r'r).
+
+    Raises
+    ------
+    InputError
+        An estimate whose length is not the orders' parameter count.
     """
     keep = response.band(*fit.frequency_range)
     coh = response.coherence[keep] if response.coherence is not None else np.ones(keep.sum())
-    r, _ = _api.mlid_tf_residuals(w=2 * np.pi * response.frequency[keep],
-                                  gain=response.gain[keep], phase=response.phase[keep], coh=coh,
-                                  use_coh=int(coherence_weighting), m=fit.m, n=fit.n,
-                                  delay=int(fit.has_delay), x=fit.estimate)
+    r, _, status, msg = _api.mlid_tf_residuals(
+        w=2 * np.pi * response.frequency[keep], gain=response.gain[keep],
+        phase=response.phase[keep], coh=coh, use_coh=int(coherence_weighting), m=fit.m, n=fit.n,
+        delay=int(fit.has_delay), x=real_array("estimate", fit.estimate).ravel())
+    check_status(status, msg)
     return float(r @ r)
