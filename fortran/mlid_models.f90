@@ -66,6 +66,9 @@ module mlid_models
     !> want f, a and b at every RK4 stage, the outputs y, c and d at every
     !> sample, and both at once at a sample where a step starts).  u may
     !> carry the process noise after the inputs (f takes it, h does not).
+    !> x and the results have explicit shapes (nx, ny and size(idx)): a
+    !> point, asked for at every stage and sample, sets up no array
+    !> descriptors for them, and the model's loops run on unit strides.
     pure subroutine eval_iface(self, t, x, u, p, idx, xdot, a, b, y, c, d)
       import :: model_t, wp
       class(model_t), intent(in) :: self

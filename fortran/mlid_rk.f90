@@ -261,6 +261,8 @@ contains
       c = 0.0_wp
     else if (size(a, 1) == 4 .and. size(a, 2) == 4) then   ! four states: fixed-size kernel
       call product_4x4(size(b, 2), a, b, c)
+    else if (size(a, 1) == 7 .and. size(a, 2) == 4) then   ! seven outputs of four states
+      call product_7x4(size(b, 2), a, b, c)
     else if (size(a, 2) == 4) then                            ! outputs of four states
       call product_nx4(size(a, 1), size(b, 2), a, b, c)
     else               ! the arrays are contiguous here: no copies
@@ -312,6 +314,19 @@ contains
       c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
     end do
   end subroutine product_4x4
+
+  !> c = a b for a 7 x 4 (the outputs' C S of the longitudinal models and
+  !> the X-22's: seven outputs, four states): product_nx4 with the rows'
+  !> count known to the compiler (no loop over them), the same sums.
+  pure subroutine product_7x4(l, a, b, c)
+    integer, intent(in) :: l
+    real(wp), intent(in) :: a(7, 4), b(4, l)
+    real(wp), intent(out) :: c(7, l)
+    integer :: j
+    do j = 1, l
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
+    end do
+  end subroutine product_7x4
 
   !> c = a b for an n x 4 (the outputs' C S of four states): as product_4x4
   !> with the rows' count known at run time only, the same sums.

@@ -9,7 +9,8 @@
 !>      asked for any of them at once (present arguments): compute what they
 !>      share once (here the state equations, which the output qdot reuses),
 !>      fill those present, never touch the absent ones.  Constants come in
-!>      through iconst/rconst.
+!>      through iconst/rconst.  Keep um_eval's argument declarations as they
+!>      are: they are the model interface's (mlid_models' eval_iface).
 !>   2. Rebuild (make test, or pip install .): the model is then in both the
 !>      Python extension and mlid-batch, as kind = 'user' in a deck or
 !>      mlid.UserModel in Python.
