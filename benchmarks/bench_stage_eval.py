@@ -1,7 +1,9 @@
 """Cost of the HFB-320 output-error fit (cases/hfb320 case 1: 601 samples, 11
-parameters, nonlinear longitudinal model) in this build and, with
---baseline DIR, in another build's mlid package (DIR holds its `mlid`
-folder, e.g. a copy of main's site-packages/mlid), as
+parameters, nonlinear longitudinal model; with --case, of the C-8 short
+period's fit (cases/c8_short_period case 2, on the record its case 1 makes)
+or ATTAS lateral's (cases/attas_lateral case 1), or of all three) in this
+build and, with --baseline DIR, in another build's mlid package (DIR holds
+its `mlid` folder, e.g. main's .venv/lib/python3.11/site-packages), as
   - callgrind instruction counts of N fits inside the core's mlid_fit
     (repeatable on a shared machine), per fit and per sample and iteration;
   - the calls of malloc, calloc and realloc inside mlid_fit per fit (from
@@ -15,6 +17,7 @@ Two builds cannot be loaded into one process (one module name), hence
 processes.  Needs valgrind for the first two (skipped without it).
 
     .venv/bin/python benchmarks/bench_stage_eval.py [--baseline DIR] [--fits N]
+        [--case hfb320|c8|attas_lat|all]
 
 Measured (ours, branch stage-eval against main at afd597e, one thread):
 230.9 M -> 138.5 M instructions per fit (54.9 k -> 32.9 k per sample and
@@ -42,6 +45,32 @@ the instructions, the model's points 25 % with their sincos, the RK4 stages'
 products and bookkeeping besides them 24 %, the coloured-residual correction
 20 %, the outputs' sensitivities 9 %, the information's rank-k update 6 %).  Every case deck's results are unchanged
 to the bit (benchmarks/compare_cases.py: 40 of 40 bitwise).
+
+Measured (ours, branch hfb-eval against main at d84cbd5, one thread, the
+steps in its commits; --case all --rounds 7 on a loaded machine):
+  HFB-320    102.5 M -> 93.4 M instructions per fit (24.4 k -> 22.2 k per
+             sample and iteration); least CPU time 8.52 -> 7.73 ms per fit
+             (wall medians 38.3 -> 33.3 ms: the machine's other work);
+  C-8        10.4 M -> 10.0 M (6.94 k -> 6.64 k); 1.05 -> 1.03 ms CPU;
+  ATTAS lat. 206.4 M -> 203.6 M (19.6 k -> 19.4 k); 18.0 -> 17.6 ms CPU.
+The HFB-320 steps: the model interface's eval takes x and its results at
+explicit shapes (every kind, the user template): no array descriptors per
+point (the model's own instructions 21.0 -> 17.2 M per fit, the stages'
+call sites fewer too); the weighted sensitivities of the information at
+explicit shapes and a diagonal R^-1's cost without matmul; RK4's state stages through the stage
+kernels and the work arrays' sizes checked without shape arrays; the
+outputs' C S of seven outputs by a fixed-size kernel.  Tried and dropped
+(no gain or a loss in instructions): the outputs' dh/dp forcing through
+add_forcing (it then stops being inlined in the stages), a stage product
+with the forcing fused into it (a branch per column), the coefficients
+summed in registers, df/dx written straight into a (two calls of the
+kernels instead of one inlined).  Left: the arithmetic of the stages
+(A S, the forcing, the stage points: SSE2 in the portable build, some
+30 instructions a 4 x 4 column), the model's sincos (two per stage, three per sample: the compiler
+already pairs each angle's sin and cos), the coloured-residual correction
+(about 20 %).  The issue's 3 ms stays out of reach without changing the
+sums (every case deck's results are unchanged to the bit:
+benchmarks/compare_cases.py, 40 of 40 bitwise).
 """
 
 import argparse
@@ -54,28 +83,38 @@ import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-DECK = REPO / "cases" / "hfb320" / "hfb320.nml"
 DATA = REPO.parent / "shared" / "data" / "hfb320_1_10.asc"
+#: the fits measured: deck, the case fitted, the case that makes its record (or None)
+CASES = {
+    "hfb320": (REPO / "cases" / "hfb320" / "hfb320.nml", 0, None),
+    "c8": (REPO / "cases" / "c8_short_period" / "c8.nml", 1, 0),
+    "attas_lat": (REPO / "cases" / "attas_lateral" / "attas_lat.nml", 0, None),
+}
 ENTRY = "__mlid_api_MOD_mlid_fit"       # the core's fit: what callgrind counts
 ALLOCATORS = ("malloc", "calloc", "realloc")
 
 
-def child(nfits, timed):
-    """In a child process: nfits fits; with timed, after a warm-up fit, the
-    median wall time and the least CPU time of one.  Prints 'iterations nt
-    wall_s cpu_s'."""
+def child(name, nfits, timed):
+    """In a child process: nfits fits of case name; with timed, after a
+    warm-up fit, the median wall time (timing.interleaved_medians) and the
+    least CPU time of one.  Prints 'iterations nt wall_s cpu_s'."""
     sys.path.insert(0, str(REPO / "benchmarks"))
     import time
     import mlid
-    from timing import median
-    case = mlid.read_deck(DECK)[0]
+    from mlid.deck import run_case
+    from timing import interleaved_medians
+    deck, index, make = CASES[name]
+    cases = mlid.read_deck(deck)
+    if make is not None:
+        run_case(cases[make])
+    case = cases[index]
     data = case.record()
     opts = case.options()
     fit = lambda: mlid.fit(case.model, data, **opts)       # noqa: E731
     res = fit()
     wall = cpu = 0.0
     if timed:
-        wall = median(fit, nfits)
+        (wall,) = interleaved_medians([fit], 1, nfits)
         cpus = []
         for _ in range(nfits):
             c0 = time.process_time()
@@ -88,11 +127,11 @@ def child(nfits, timed):
     print(res.iterations, len(data.t), wall, cpu)
 
 
-def run_child(pkg, nfits, timed, prefix=()):
+def run_child(name, pkg, nfits, timed, prefix=()):
     env = dict(os.environ, OMP_NUM_THREADS="1")
     if pkg:
         env["PYTHONPATH"] = str(pkg)
-    out = subprocess.run([*prefix, sys.executable, __file__, "--child", str(nfits),
+    out = subprocess.run([*prefix, sys.executable, __file__, "--case", name, "--child", str(nfits),
                           *(["--timed"] if timed else [])],
                          env=env, capture_output=True, text=True, check=True, cwd="/")
     iters, nt, wall, cpu = out.stdout.split()[-4:]
@@ -115,10 +154,10 @@ def allocator_calls(path):
     return total
 
 
-def callgrind(pkg, nfits):
+def callgrind(name, pkg, nfits):
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "cg.out"
-        iters, nt, _, _, err = run_child(pkg, nfits, False, (
+        iters, nt, _, _, err = run_child(name, pkg, nfits, False, (
             "valgrind", "--tool=callgrind", f"--toggle-collect={ENTRY}",
             f"--callgrind-out-file={out}", "--compress-strings=yes"))
         ir = int(re.search(r"Collected : (\d+)", err).group(1))
@@ -130,33 +169,42 @@ def main():
     ap.add_argument("--baseline", type=Path, help="folder holding another build's mlid package")
     ap.add_argument("--fits", type=int, default=3, help="fits per callgrind run")
     ap.add_argument("--rounds", type=int, default=5, help="timed rounds (20 + 20 fits each)")
+    ap.add_argument("--case", choices=[*CASES, "all"], default="hfb320",
+                    help="the fit measured: HFB-320 (default), C-8 short period, ATTAS lateral")
     ap.add_argument("--child", type=int)
     ap.add_argument("--timed", action="store_true")
     a = ap.parse_args()
     if a.child is not None:
-        return child(a.child, a.timed)
+        return child(a.case, a.child, a.timed)
     if not DATA.is_file():
         print(f"skipped: real flight data not found at {DATA}")
         return
+    for name in (CASES if a.case == "all" else [a.case]):
+        measure(name, a)
+
+
+def measure(case, a):
+    """Instruction counts and times of one case's fit in each build."""
     builds = [("this build", None)] + ([("baseline", a.baseline.resolve())] if a.baseline else [])
+    print(f"{case}:")
     if shutil.which("valgrind"):
         for name, pkg in builds:
-            ir, allocs, iters, nt = callgrind(pkg, a.fits)
-            print(f"{name}: {ir / 1e6:.1f} M instructions per fit ({iters} iterations, {nt} "
+            ir, allocs, iters, nt = callgrind(case, pkg, a.fits)
+            print(f"  {name}: {ir / 1e6:.1f} M instructions per fit ({iters} iterations, {nt} "
                   f"samples: {ir / (iters * nt):.0f} per sample and iteration), "
                   f"{allocs:.0f} allocations per fit")
     else:
-        print("valgrind not found: no instruction counts")
+        print("  valgrind not found: no instruction counts")
     walls = {name: [] for name, _ in builds}
     cpus = {name: [] for name, _ in builds}
     for _ in range(a.rounds):
         for name, pkg in builds:
-            _, _, wall, cpu, _ = run_child(pkg, 20, True)
+            _, _, wall, cpu, _ = run_child(case, pkg, 20, True)
             walls[name].append(wall)
             cpus[name].append(cpu)
     for name, _ in builds:
         w = sorted(walls[name])[len(walls[name]) // 2]
-        print(f"{name}: {1e3 * w:.2f} ms wall (median of {a.rounds} processes' medians of 20), "
+        print(f"  {name}: {1e3 * w:.2f} ms wall (median of {a.rounds} processes' medians of 20), "
               f"{1e3 * min(cpus[name]):.2f} ms CPU (least of {a.rounds} x 20) per fit "
               f"in-process, one thread")
 

@@ -154,7 +154,7 @@ contains
   !> respect to x(DR_STATE(code)), each code once.
   pure subroutine regressors(self, x, u, r, dr)
     class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: x(:), u(:)
+    real(wp), intent(in) :: x(4), u(:)
     real(wp), intent(out) :: r(NREG), dr(NREG)
     r(1) = 1.0_wp
     dr(1) = 0.0_wp
@@ -192,9 +192,10 @@ contains
   !> a's fourth rows.
   pure subroutine al_eval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
     class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: t, x(self%nx), u(:), p(:)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    real(wp), intent(out), optional :: xdot(self%nx), a(self%nx, self%nx), b(self%nx, size(idx)), &
+                                       y(self%ny), c(self%ny, self%nx), d(self%ny, size(idx))
     type(air_t) :: s
     real(wp) :: xd(4), ax(4, 4)
 
@@ -221,7 +222,7 @@ contains
   pure subroutine state_rates(self, s, x, u, xd)
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
-    real(wp), intent(in) :: x(:), u(:)
+    real(wp), intent(in) :: x(4), u(:)
     real(wp), intent(out) :: xd(4)
     xd(1) = -self%sm*s%qbar*s%cf(1) + s%ft*s%cas/self%mass + self%g*s%sat
     xd(2) = -self%sm*s%qbar/s%v*s%cf(2) - s%ft*s%sas/(self%mass*s%v) + x(4) &
@@ -260,7 +261,7 @@ contains
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
     integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: b(:, :)
+    real(wp), intent(out) :: b(4, size(idx))
     real(wp) :: fac(3)
     integer :: k, j
     ! each coefficient's factor, as it has always been formed (negation is exact)
@@ -277,9 +278,9 @@ contains
   pure subroutine outputs(self, s, x, idx, xd, a, y, c, d)
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
-    real(wp), intent(in) :: x(:), xd(4), a(4, 4)
+    real(wp), intent(in) :: x(4), xd(4), a(4, 4)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out), optional :: y(:), c(:, :), d(:, :)
+    real(wp), intent(out), optional :: y(7), c(7, 4), d(7, size(idx))
     real(wp) :: sa, ca, rv, r, qs
     integer :: i, k
 

@@ -271,9 +271,10 @@ contains
   !> output program each once, a reverse sweep only for the Jacobians.
   pure subroutine eq_eval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
     class(equations_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: t, x(self%nx), u(:), p(:)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    real(wp), intent(out), optional :: xdot(self%nx), a(self%nx, self%nx), b(self%nx, size(idx)), &
+                                       y(self%ny), c(self%ny, self%nx), d(self%ny, size(idx))
     real(wp) :: v(MAXVAR)
     call point(self, t, x, u, p, v)
     if (present(a) .or. present(b)) then

@@ -193,15 +193,25 @@ contains
       msg = 'residual covariance is singular (outputs linearly dependent): use noise = ''diagonal'''
       return
     end if
-    cost = 0.5_wp*(sum(nu*matmul(rinv, nu)) + nt*logdet)
+    do i = 1, ny
+      rdiag(i) = rinv(i, i)
+    end do
+    if (diagonal(rinv)) then     ! R^-1 nu by rows: matmul's sums, whose other terms are zeros
+      cost = 0.0_wp
+      do k = 1, nt                 ! in sum's order
+        do i = 1, ny
+          cost = cost + nu(i, k)*(rdiag(i)*nu(i, k))
+        end do
+      end do
+      cost = 0.5_wp*(cost + nt*logdet)
+    else
+      cost = 0.5_wp*(sum(nu*matmul(rinv, nu)) + nt*logdet)
+    end if
 
     if (present(grad) .and. present(info)) then
       ! segments in parallel, their parts added in order: the result does
       ! not depend on the number of threads
       ! the weights: R^-1 = L L' (L = diag(sqrt(1/R_ii)) for a diagonal R)
-      do i = 1, ny
-        rdiag(i) = rinv(i, i)
-      end do
       lwd = sqrt(rdiag)
       if (opt%full_r) call psd_factor(rinv, lw, ok)
       allocate (gpart(nf, pm%l%nseg), ipart(nf, nf, pm%l%nseg))
@@ -251,9 +261,14 @@ contains
       end if
       do j0 = jbeg, jend, SAMPLE_BLOCK
         j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
-        call weigh_block(opt%full_r, cols, lw, lwd, dy(:, :, j0:j1), nu(:, j0:j1), w, v)
-        if (present(wsens)) call weigh_columns(opt%full_r, cols, rinv, rdiag, &
-                                               dy(:, :, j0:j1), wsens, j0)
+        call weigh_block(opt%full_r, ny, nf, j1 - j0 + 1, cols, lw, lwd, dy(:, :, j0:j1), &
+                         nu(:, j0:j1), w, v)
+        if (present(wsens)) then
+          do c = 1, nc
+            call weigh_columns(opt%full_r, ny, nf, j1 - j0 + 1, cols(c), rinv, rdiag, &
+                               dy(:, :, j0:j1), wsens(:, j0:j1, cols(c)))
+          end do
+        end if
         r = ny*(j1 - j0 + 1)
         call add_syrk(r, nc, w, part)
         call add_atv(r, nc, w, v, gp)
@@ -264,16 +279,30 @@ contains
 
   end subroutine oe_likelihood
 
+  !> Whether a is diagonal (every entry off the diagonal zero).
+  pure logical function diagonal(a)
+    real(wp), intent(in) :: a(:, :)
+    integer :: i, j
+    diagonal = .false.
+    do j = 1, size(a, 2)
+      do i = 1, size(a, 1)
+        if (i /= j .and. a(i, j) /= 0.0_wp) return
+      end do
+    end do
+    diagonal = .true.
+  end function diagonal
+
   !> The weighted sensitivities w = L' dy(:, cols, j) of a block of samples,
   !> samples and outputs down the rows of w, and v = L' nu (lwd: the diagonal
-  !> of L for a diagonal R).
-  subroutine weigh_block(full, cols, lw, lwd, dy, nu, w, v)
+  !> of L for a diagonal R).  Explicit shapes (ny outputs, nf parameters, nb
+  !> samples): the block is contiguous, its columns run on unit strides.
+  subroutine weigh_block(full, ny, nf, nb, cols, lw, lwd, dy, nu, w, v)
     logical, intent(in) :: full
-    integer, intent(in) :: cols(:)
-    real(wp), intent(in) :: lw(:, :), lwd(:), dy(:, :, :), nu(:, :)
-    real(wp), intent(out) :: w(size(lwd), SAMPLE_BLOCK, size(cols)), v(size(lwd), SAMPLE_BLOCK)
+    integer, intent(in) :: ny, nf, nb, cols(:)
+    real(wp), intent(in) :: lw(ny, ny), lwd(ny), dy(ny, nf, nb), nu(ny, nb)
+    real(wp), intent(out) :: w(ny, SAMPLE_BLOCK, size(cols)), v(ny, SAMPLE_BLOCK)
     integer :: j, c
-    do j = 1, size(dy, 3)
+    do j = 1, nb
       if (full) then
         v(:, j) = matmul(nu(:, j), lw)
         w(:, j, :) = matmul(transpose(lw), dy(:, cols, j))
@@ -286,21 +315,21 @@ contains
     end do
   end subroutine weigh_block
 
-  !> wsens(:, j0 + j - 1, cols) = R^-1 dy(:, cols, j) over a block of samples.
-  subroutine weigh_columns(full, cols, rinv, rdiag, dy, wsens, j0)
+  !> ws = R^-1 dy(:, c, :) over a block of nb samples: parameter c's
+  !> columns of the weighted sensitivities (shapes as in weigh_block; ws is
+  !> a contiguous section of wsens, passed without copies).
+  subroutine weigh_columns(full, ny, nf, nb, c, rinv, rdiag, dy, ws)
     logical, intent(in) :: full
-    integer, intent(in) :: cols(:), j0
-    real(wp), intent(in) :: rinv(:, :), rdiag(:), dy(:, :, :)
-    real(wp), intent(inout) :: wsens(:, :, :)
-    integer :: j, c
-    do c = 1, size(cols)
-      do j = 1, size(dy, 3)
-        if (full) then
-          wsens(:, j0 + j - 1, cols(c)) = matmul(rinv, dy(:, cols(c), j))
-        else
-          wsens(:, j0 + j - 1, cols(c)) = rdiag*dy(:, cols(c), j)
-        end if
-      end do
+    integer, intent(in) :: ny, nf, nb, c
+    real(wp), intent(in) :: rinv(ny, ny), rdiag(ny), dy(ny, nf, nb)
+    real(wp), intent(out) :: ws(ny, nb)
+    integer :: j
+    do j = 1, nb
+      if (full) then
+        ws(:, j) = matmul(rinv, dy(:, c, j))
+      else
+        ws(:, j) = rdiag*dy(:, c, j)
+      end if
     end do
   end subroutine weigh_columns
 

@@ -66,12 +66,16 @@ module mlid_models
     !> want f, a and b at every RK4 stage, the outputs y, c and d at every
     !> sample, and both at once at a sample where a step starts).  u may
     !> carry the process noise after the inputs (f takes it, h does not).
+    !> x and the results have explicit shapes (nx, ny and size(idx)): a
+    !> point, asked for at every stage and sample, sets up no array
+    !> descriptors for them, and the model's loops run on unit strides.
     pure subroutine eval_iface(self, t, x, u, p, idx, xdot, a, b, y, c, d)
       import :: model_t, wp
       class(model_t), intent(in) :: self
-      real(wp), intent(in) :: t, x(:), u(:), p(:)
+      real(wp), intent(in) :: t, x(self%nx), u(:), p(:)
       integer, intent(in) :: idx(:)
-      real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+      real(wp), intent(out), optional :: xdot(self%nx), a(self%nx, self%nx), b(self%nx, size(idx)), &
+                                           y(self%ny), c(self%ny, self%nx), d(self%ny, size(idx))
     end subroutine eval_iface
     !> g = df/dw (nx, nw): how the process noise enters.
     pure subroutine dfdw_iface(self, t, x, u, p, g)
@@ -273,9 +277,10 @@ contains
   !> block of p or a product with x and v, nothing is shared.
   pure subroutine lin_eval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
     class(linear_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: t, x(self%nx), u(:), p(:)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    real(wp), intent(out), optional :: xdot(self%nx), a(self%nx, self%nx), b(self%nx, size(idx)), &
+                                       y(self%ny), c(self%ny, self%nx), d(self%ny, size(idx))
     if (present(xdot)) call lin_f(self, x, u, p, xdot)
     if (present(a)) call block_plus_feedback(self, p, self%of, self%og, self%nx, a)   ! F + G K
     if (present(b)) call lin_dfdp(self, x, u, p, idx, b)

@@ -44,9 +44,9 @@ contains
   subroutine rk_work_size(wk, nx, ns, nb, nu, nv)
     type(rk_work_t), intent(inout) :: wk
     integer, intent(in) :: nx, ns, nb, nu, nv
-    if (allocated(wk%sd)) then
-      if (all(shape(wk%sd) == [nx, ns, 4]) .and. all(shape(wk%b) == [nx, nb]) .and. &
-          all(shape(wk%bu) == [nx, nu]) .and. size(wk%um) == nv) return
+    if (allocated(wk%sd)) then       ! (one size at a time: no shape arrays at every step)
+      if (size(wk%sd, 1) == nx .and. size(wk%sd, 2) == ns .and. size(wk%b, 2) == nb .and. &
+          size(wk%bu, 2) == nu .and. size(wk%um) == nv) return
       deallocate (wk%k, wk%sd, wk%xs, wk%ss, wk%a, wk%b, wk%bu, wk%um)
     end if
     wk%first_known = .false.
@@ -74,8 +74,9 @@ contains
     type(input_sens_t), intent(in), optional :: us   !< delayed inputs over the sample interval
     real(wp), intent(in), optional :: uf(2)   !< where the step starts and ends in it (0..1)
     real(wp) :: th
-    integer :: ns
+    integer :: ns, nx
 
+    nx = size(x)
     ns = 0
     if (present(s)) ns = size(s, 2)
     call rk_work_size(wk, size(x), ns, size(idxm), m%nu, size(ua))
@@ -86,14 +87,14 @@ contains
         call step_sens(s)
       else
         if (.not. wk%first_known) call m%f(t0, x, ua, p, k(:, 1))
-        xs = x + 0.5_wp*dt*k(:, 1)
+        call stage_point(nx, x, 0.5_wp*dt, k(:, 1), xs)
         call m%f(th, xs, wk%um, p, k(:, 2))
-        xs = x + 0.5_wp*dt*k(:, 2)
+        call stage_point(nx, x, 0.5_wp*dt, k(:, 2), xs)
         call m%f(th, xs, wk%um, p, k(:, 3))
-        xs = x + dt*k(:, 3)
+        call stage_point(nx, x, dt, k(:, 3), xs)
         call m%f(t0 + dt, xs, ub, p, k(:, 4))
       end if
-      x = x + (dt/6.0_wp)*(k(:, 1) + 2.0_wp*(k(:, 2) + k(:, 3)) + k(:, 4))
+      call rk4_combine(nx, dt/6.0_wp, k(:, 1), k(:, 2), k(:, 3), k(:, 4), x)
     end associate
     wk%first_known = .false.
 
@@ -104,13 +105,13 @@ contains
       real(wp), intent(inout) :: s(:, :)
       associate (k => wk%k, sd => wk%sd, xs => wk%xs, ss => wk%ss)
         call deriv(t0, x, ua, k(:, 1), s, sd(:, :, 1), 0.0_wp)
-        xs = x + 0.5_wp*dt*k(:, 1)
+        call stage_point(nx, x, 0.5_wp*dt, k(:, 1), xs)
         call stage_point(size(s), s, 0.5_wp*dt, sd(:, :, 1), ss)
         call deriv(th, xs, wk%um, k(:, 2), ss, sd(:, :, 2), 0.5_wp)
-        xs = x + 0.5_wp*dt*k(:, 2)
+        call stage_point(nx, x, 0.5_wp*dt, k(:, 2), xs)
         call stage_point(size(s), s, 0.5_wp*dt, sd(:, :, 2), ss)
         call deriv(th, xs, wk%um, k(:, 3), ss, sd(:, :, 3), 0.5_wp)
-        xs = x + dt*k(:, 3)
+        call stage_point(nx, x, dt, k(:, 3), xs)
         call stage_point(size(s), s, dt, sd(:, :, 3), ss)
         call deriv(t0 + dt, xs, ub, k(:, 4), ss, sd(:, :, 4), 1.0_wp)
         call rk4_combine(size(s), dt/6.0_wp, sd(:, :, 1), sd(:, :, 2), sd(:, :, 3), sd(:, :, 4), s)
@@ -121,10 +122,10 @@ contains
     !> + the delayed inputs' forcing at fraction c of the step (at c = 0,
     !> f, df/dx and df/dp may be known already: wk%first_known).
     subroutine deriv(t, xs, ui, xd, ss, sd, c)
-      real(wp), intent(in) :: t, xs(:), ui(:), c
-      real(wp), intent(in) :: ss(size(x), ns)      ! explicit shapes: contiguous sections
-      real(wp), intent(inout) :: xd(:)             ! pass without descriptors
-      real(wp), intent(out) :: sd(size(x), ns)
+      real(wp), intent(in) :: t, xs(nx), ui(:), c
+      real(wp), intent(in) :: ss(nx, ns)           ! explicit shapes: contiguous sections
+      real(wp), intent(inout) :: xd(nx)            ! pass without descriptors
+      real(wp), intent(out) :: sd(nx, ns)
 
       if (.not. (c == 0.0_wp .and. wk%first_known)) &
         call m%eval(t, xs, ui, p, idxm, xdot=xd, a=wk%a, b=wk%b)
@@ -260,6 +261,8 @@ contains
       c = 0.0_wp
     else if (size(a, 1) == 4 .and. size(a, 2) == 4) then   ! four states: fixed-size kernel
       call product_4x4(size(b, 2), a, b, c)
+    else if (size(a, 1) == 7 .and. size(a, 2) == 4) then   ! seven outputs of four states
+      call product_7x4(size(b, 2), a, b, c)
     else if (size(a, 2) == 4) then                            ! outputs of four states
       call product_nx4(size(a, 1), size(b, 2), a, b, c)
     else               ! the arrays are contiguous here: no copies
@@ -311,6 +314,19 @@ contains
       c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
     end do
   end subroutine product_4x4
+
+  !> c = a b for a 7 x 4 (the outputs' C S of the longitudinal models and
+  !> the X-22's: seven outputs, four states): product_nx4 with the rows'
+  !> count known to the compiler (no loop over them), the same sums.
+  pure subroutine product_7x4(l, a, b, c)
+    integer, intent(in) :: l
+    real(wp), intent(in) :: a(7, 4), b(4, l)
+    real(wp), intent(out) :: c(7, l)
+    integer :: j
+    do j = 1, l
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
+    end do
+  end subroutine product_7x4
 
   !> c = a b for an n x 4 (the outputs' C S of four states): as product_4x4
   !> with the rows' count known at run time only, the same sums.

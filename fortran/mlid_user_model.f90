@@ -9,7 +9,8 @@
 !>      asked for any of them at once (present arguments): compute what they
 !>      share once (here the state equations, which the output qdot reuses),
 !>      fill those present, never touch the absent ones.  Constants come in
-!>      through iconst/rconst.
+!>      through iconst/rconst.  Keep um_eval's argument declarations as they
+!>      are: they are the model interface's (mlid_models' eval_iface).
 !>   2. Rebuild (make test, or pip install .): the model is then in both the
 !>      Python extension and mlid-batch, as kind = 'user' in a deck or
 !>      mlid.UserModel in Python.
@@ -70,9 +71,10 @@ contains
   !> u may carry process noise after the inputs (none here).
   pure subroutine um_eval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
     class(user_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: t, x(self%nx), u(:), p(:)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    real(wp), intent(out), optional :: xdot(self%nx), a(self%nx, self%nx), b(self%nx, size(idx)), &
+                                       y(self%ny), c(self%ny, self%nx), d(self%ny, size(idx))
     real(wp) :: fx(2), fa(2, 2), fb(2, 6)      ! f, df/dx and df/dp for all of p
 
     ! What f and h share, once: the state equations and their Jacobians.

@@ -130,9 +130,10 @@ contains
   !> are not zero), then what is asked for.
   pure subroutine xeval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
     class(x22_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: t, x(self%nx), u(:), p(:)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    real(wp), intent(out), optional :: xdot(self%nx), a(self%nx, self%nx), b(self%nx, size(idx)), &
+                                       y(self%ny), c(self%ny, self%nx), d(self%ny, size(idx))
     real(wp) :: r(NPX), ru(NPX), rw(NPX), rq(NPX), rv(NPX, 3), v(3)
     logical :: wantf, wanth
 

@@ -20,9 +20,10 @@ contains
 
   pure subroutine split_eval(self, t, x, u, p, idx, xdot, a, b, y, c, d)
     class(split_model_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:), u(:), p(:)
+    real(wp), intent(in) :: t, x(self%nx), u(:), p(:)
     integer, intent(in) :: idx(:)
-    real(wp), intent(out), optional :: xdot(:), a(:, :), b(:, :), y(:), c(:, :), d(:, :)
+    real(wp), intent(out), optional :: xdot(self%nx), a(self%nx, self%nx), b(self%nx, size(idx)), &
+                                       y(self%ny), c(self%ny, self%nx), d(self%ny, size(idx))
     if (present(xdot)) xdot = p(1)*x + u(1)
     if (present(a)) a = p(1)
     if (present(a) .and. present(y)) a = p(1) + self%slip       ! wrong only all at once
