@@ -146,18 +146,20 @@ contains
 
   !> The same by a plain Cholesky factorisation for small n, where LAPACK's
   !> call overhead outweighs the arithmetic.  info = k > 0: the leading minor
-  !> of order k is not positive definite.
+  !> of order k is not positive definite.  n <= SMALL_N: the factors live in
+  !> fixed-size locals, so that the filter's call at every sample allocates
+  !> nothing.
   pure subroutine small_chol_inverse(a, ainv, logdet, info)
     real(wp), intent(in) :: a(:, :)
     real(wp), intent(out) :: ainv(:, :), logdet
     integer, intent(out) :: info
-    real(wp) :: l(size(a, 1), size(a, 1)), li(size(a, 1), size(a, 1)), d
+    real(wp) :: l(SMALL_N, SMALL_N), li(SMALL_N, SMALL_N), d
     integer :: n, i, j, k
 
     n = size(a, 1)
     info = 0
     logdet = 0.0_wp
-    l = 0.0_wp
+    l(1:n, 1:n) = 0.0_wp
     do j = 1, n
       d = a(j, j) - sum(l(j, 1:j - 1)**2)
       if (.not. d > 0.0_wp) then
@@ -172,7 +174,7 @@ contains
       end do
     end do
     ! L^-1 by forward substitution, then A^-1 = L^-T L^-1
-    li = 0.0_wp
+    li(1:n, 1:n) = 0.0_wp
     do k = 1, n
       li(k, k) = 1.0_wp/l(k, k)
       do i = k + 1, n
