@@ -32,7 +32,7 @@ module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_SINGULAR, &
                         MLID_ERR_NOCONV, first_failure
-  use mlid_linalg, only: chol_inverse, expm
+  use mlid_linalg, only: chol_inverse, expm, expm_into, expm_work_size, expm_work_t
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, segment_map, input_delays, output_delays, stabilized
@@ -78,8 +78,9 @@ module mlid_filter
     logical, allocatable :: nz_wqw(:), nz_gs(:)
     real(wp) :: dt = -1.0_wp
     !> Work arrays of noise_reach and output_noise (nw x nx, nx x nx, nw x ny,
-    !> ny x ny), sized by lti_setup.
-    real(wp), allocatable :: qw(:, :), gqg(:, :), qd(:, :), ryy(:, :)
+    !> ny x ny; van_loan's 2nx x 2nx and its exponential's), sized by lti_setup.
+    real(wp), allocatable :: qw(:, :), gqg(:, :), qd(:, :), ryy(:, :), vm(:, :), ve(:, :)
+    type(expm_work_t) :: ew
   end type lti_t
 
 contains
@@ -433,7 +434,36 @@ contains
         ue(1:m%nu) = u(:, j - 1)          ! the model's inputs where the interval starts
         ue(m%nu + 1:) = what
         if (relin) then
-          call linearised_interval()
+          ! the interval from x(j-1|j-1), eq. 4.27: Phi and W integrated with
+          ! the state (and its sensitivities) as extra columns; df/dx and the
+          ! first RK4 stage from one evaluation of the model
+          call m%dfdw(t(j - 1), x, ue, theta(1:l%np), sys%g)
+          if (sens) then
+            call m%eval(t(j - 1), x, ue, theta(1:l%np), pm%im, xdot=wk%k(:, 1), a=wk%a, b=wk%b)
+          else
+            call m%eval(t(j - 1), x, ue, theta(1:l%np), none, xdot=wk%k(:, 1), a=wk%a, b=wk%b)
+          end if
+          wk%first_known = .true.
+          if (opt%process_noise /= 0) ax = wk%a
+          sj = 0.0_wp
+          fj = 0.0_wp
+          if (sens) then
+            sj(:, 1:nf) = s
+            fj(:, 1:nf) = matmul(sys%g, dwhat)
+          end if
+          do k = 1, nx
+            sj(k, ns + k) = 1.0_wp
+          end do
+          fj(:, ns + nx + 1:) = sys%g
+          if (sens) then
+            call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk, sj, fj)
+            s(:, :) = sj(:, 1:nf)
+          else          ! no parameter columns: nothing may force them
+            call advance_plain(m, theta, pm, t, u, opt, j - 1, what, x, wk, sj, fj)
+          end if
+          sys%phi(:, :) = sj(:, ns + 1:ns + nx)
+          sys%w(:, :) = sj(:, ns + nx + 1:)
+          call noise_reach(sys, opt%process_noise, ax, status, msg)
           if (status /= MLID_OK) return
         else if (sens) then
           ! a nonlinear model's df/dw where the interval starts, as the EKF takes it
@@ -486,48 +516,9 @@ contains
         end if
         dnu(:, :, j) = -dnu(:, :, j)
       end if
-      call state_update()
-    end do
-
-  contains
-
-    !> The EKF's interval from x(j-1|j-1), eq. 4.27: Phi and W integrated
-    !> with the state (and its sensitivities) as extra columns, df/dx and
-    !> the first RK4 stage from one evaluation of the model, then V and G.
-    subroutine linearised_interval()
-      call m%dfdw(t(j - 1), x, ue, theta(1:l%np), sys%g)
-      if (sens) then
-        call m%eval(t(j - 1), x, ue, theta(1:l%np), pm%im, xdot=wk%k(:, 1), a=wk%a, b=wk%b)
-      else
-        call m%eval(t(j - 1), x, ue, theta(1:l%np), none, xdot=wk%k(:, 1), a=wk%a, b=wk%b)
-      end if
-      wk%first_known = .true.
-      if (opt%process_noise /= 0) ax = wk%a
-      sj = 0.0_wp
-      fj = 0.0_wp
-      if (sens) then
-        sj(:, 1:nf) = s
-        fj(:, 1:nf) = matmul(sys%g, dwhat)
-      end if
-      do k = 1, nx
-        sj(k, ns + k) = 1.0_wp
-      end do
-      fj(:, ns + nx + 1:) = sys%g
-      if (sens) then
-        call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk, sj, fj)
-        s(:, :) = sj(:, 1:nf)
-      else          ! no parameter columns: nothing may force them
-        call advance_plain(m, theta, pm, t, u, opt, j - 1, what, x, wk, sj, fj)
-      end if
-      sys%phi(:, :) = sj(:, ns + 1:ns + nx)
-      sys%w(:, :) = sj(:, ns + nx + 1:)
-      call noise_reach(sys, opt%process_noise, ax, status, msg)
-    end subroutine linearised_interval
-
-    !> x(j|j) and its sensitivities (eq. 4.36), and the held-noise estimate
-    !> for the next interval (none without a correlation S: skipped, it is
-    !> most of a sample's work).
-    subroutine state_update()
+      ! x(j|j) and its sensitivities (eq. 4.36), and the held-noise estimate for
+      ! the next interval (none without a correlation S: skipped, it is most
+      ! of a sample's work)
       kn = matmul(cv%k, nu(:, j))
       x = x + kn
       if (corr) then
@@ -535,24 +526,26 @@ contains
         bnu = matmul(cv%binv, nu(:, j))
         what(:) = matmul(sb, nu(:, j))
       end if
-      if (.not. sens) return
-      ks(:, :) = matmul(cv%k, dnu(:, :, j))
-      s(:, :) = s + ks
-      if (corr) dwhat(:, :) = matmul(sb, dnu(:, :, j))
-      if (.not. partials) return
-      if (.not. opt%steady) db(:, :, :, j) = cv%db
-      if (opt%steady .and. j == 1) db(:, :, :, 1) = cv%db
-      do k = 1, nf
-        kn = matmul(cv%dk(:, :, k), nu(:, j))
-        s(:, k) = s(:, k) + kn
-      end do
-      do k = 1, merge(nf, 0, corr)
-        vw = matmul(sys%ds(:, :, k), bnu)
-        vy = matmul(cv%db(:, :, k), bnu)
-        vw2 = matmul(sb, vy)
-        dwhat(:, k) = dwhat(:, k) + vw - vw2
-      end do
-    end subroutine state_update
+      if (sens) then
+        ks(:, :) = matmul(cv%k, dnu(:, :, j))
+        s(:, :) = s + ks
+        if (corr) dwhat(:, :) = matmul(sb, dnu(:, :, j))
+        if (partials) then
+          if (.not. opt%steady) db(:, :, :, j) = cv%db
+          if (opt%steady .and. j == 1) db(:, :, :, 1) = cv%db
+          do k = 1, nf
+            kn = matmul(cv%dk(:, :, k), nu(:, j))
+            s(:, k) = s(:, k) + kn
+          end do
+          do k = 1, merge(nf, 0, corr)
+            vw = matmul(sys%ds(:, :, k), bnu)
+            vy = matmul(cv%db(:, :, k), bnu)
+            vw2 = matmul(sb, vy)
+            dwhat(:, k) = dwhat(:, k) + vw - vw2
+          end do
+        end if
+      end if
+    end do
 
   end subroutine kf_innovations
 
@@ -676,7 +669,9 @@ contains
               sys%w(nx, nw), sys%dw(nx, nw, nf), sys%q(nw, nw), sys%dq(nw, nw, nf), &
               sys%r(ny, ny), sys%dr(ny, ny, nf), sys%s(nw, ny), sys%ds(nw, ny, nf), &
               sys%g(nx, nw), sk(nx, nf), s0step(nx, nf))
-    allocate (sys%qw(nw, nx), sys%gqg(nx, nx), sys%qd(nw, ny), sys%ryy(ny, ny))
+    allocate (sys%qw(nw, nx), sys%gqg(nx, nx), sys%qd(nw, ny), sys%ryy(ny, ny), &
+              sys%vm(2*nx, 2*nx), sys%ve(2*nx, 2*nx))
+    call expm_work_size(sys%ew, 2*nx)
     sys%dt = dt
     ua = 0.0_wp
     e = theta(l%ox0 + 1:l%ox0 + nx)
@@ -950,7 +945,7 @@ contains
     else
       sys%qw(:, :) = matmul(sys%q, transpose(sys%g))
       sys%gqg(:, :) = matmul(sys%g, sys%qw)
-      call van_loan(a, sys%gqg, sys%dt, sys%wqw, status, msg)
+      call van_loan(a, sys%gqg, sys%dt, sys%wqw, status, msg, sys%vm, sys%ve, sys%ew)
       sys%gs = 0.0_wp
     end if
   end subroutine noise_reach
@@ -1022,17 +1017,19 @@ contains
 
   !> qd = int_0^h e^{A s} v e^{A' s} ds by one matrix exponential (Van Loan,
   !> 1978): e^{M h} with M = [-A, v; 0, A'] holds e^{A' h} and e^{-A h} qd
-  !> in its right-hand blocks.
-  subroutine van_loan(a, v, h, qd, status, msg)
+  !> in its right-hand blocks.  mh, e (2n x 2n) and ew: the caller's work
+  !> arrays (the EKF's at every interval).
+  subroutine van_loan(a, v, h, qd, status, msg, mh, e, ew)
     real(wp), intent(in) :: a(:, :), v(:, :), h
     real(wp), intent(out) :: qd(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: mh(2*size(a, 1), 2*size(a, 1)), e(2*size(a, 1), 2*size(a, 1))
+    real(wp), intent(out) :: mh(:, :), e(:, :)
+    type(expm_work_t), intent(inout) :: ew
     integer :: n, info
     n = size(a, 1)
-    mh = van_loan_matrix(a, v, h)
-    call expm(mh, e, info)
+    call van_loan_matrix(a, v, h, mh)
+    call expm_into(mh, e, info, ew)
     if (info /= 0) then
       status = MLID_ERR_DIVERGED
       msg = 'continuous process noise: its covariance over a sample interval is not finite'
@@ -1040,7 +1037,7 @@ contains
       return
     end if
     qd = matmul(transpose(e(n + 1:, n + 1:)), e(1:n, n + 1:))
-    qd = 0.5_wp*(qd + transpose(qd))
+    call symmetrize(qd)
     status = MLID_OK
     msg = ''
   end subroutine van_loan
@@ -1062,11 +1059,11 @@ contains
     status = MLID_OK
     msg = ''
     big = 0.0_wp
-    big(1:2*n, 1:2*n) = van_loan_matrix(a, v, h)
+    call van_loan_matrix(a, v, h, big(1:2*n, 1:2*n))
     big(2*n + 1:, 2*n + 1:) = big(1:2*n, 1:2*n)
     do k = 1, size(nz)
       if (.not. nz(k)) cycle
-      big(1:2*n, 2*n + 1:) = van_loan_matrix(da(:, :, k), dv(:, :, k), h)
+      call van_loan_matrix(da(:, :, k), dv(:, :, k), h, big(1:2*n, 2*n + 1:))
       call expm(big, eb, info)
       if (info /= 0) then
         status = MLID_ERR_DIVERGED
@@ -1081,16 +1078,17 @@ contains
     end do
   end subroutine van_loan_partials
 
-  pure function van_loan_matrix(a, v, h) result(mh)
+  !> mh = [-A, v; 0, A'] h (2n x 2n).
+  pure subroutine van_loan_matrix(a, v, h, mh)
     real(wp), intent(in) :: a(:, :), v(:, :), h
-    real(wp) :: mh(2*size(a, 1), 2*size(a, 1))
+    real(wp), intent(out) :: mh(:, :)
     integer :: n
     n = size(a, 1)
     mh = 0.0_wp
     mh(1:n, 1:n) = -a*h
     mh(1:n, n + 1:) = v*h
     mh(n + 1:, n + 1:) = transpose(a)*h
-  end function van_loan_matrix
+  end subroutine van_loan_matrix
 
   !> The steady-state P(j|j-1) from the Riccati equation (mlid_riccati) and,
   !> with partials, its partials from the Stein equations; leaves the
