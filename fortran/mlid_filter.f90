@@ -1231,18 +1231,6 @@ contains
     if (segment_starts) iseg = iseg + 1
   end function segment_starts
 
-  !> dy/dtheta at one sample of segment iseg: C s + dh/dp + its bias
-  !> columns, with c = dh/dx and d = dh/dp evaluated here.
-  subroutine output_sensitivity(m, theta, pm, t, x, u, s, dy, c, d, iseg)
-    class(model_t), intent(in) :: m
-    real(wp), intent(in) :: theta(:), t, x(:), u(:), s(:, :)
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(out) :: dy(:, :), c(:, :), d(:, :)
-    integer, intent(in) :: iseg
-    call m%eval(t, x, u, theta(1:pm%l%np), pm%im, c=c, d=d)
-    call output_rows(pm, s, c, d, iseg, dy)
-  end subroutine output_sensitivity
-
   !> dy = c s + d (into the columns of the model parameters) + the bias
   !> columns of segment iseg: the output sensitivities from c = dh/dx and
   !> d = dh/dp(pm%im).
