@@ -32,7 +32,7 @@ module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_SINGULAR, &
                         MLID_ERR_NOCONV, first_failure
-  use mlid_linalg, only: chol_inverse, expm
+  use mlid_linalg, only: chol_inverse, expm, expm_into, expm_work_size, expm_work_t
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, segment_map, input_delays, output_delays, stabilized
@@ -51,6 +51,12 @@ module mlid_filter
     real(wp), allocatable :: b(:, :), binv(:, :), db(:, :, :)
     real(wp), allocatable :: k(:, :), dk(:, :, :)
     real(wp) :: logdet = 0.0_wp
+    !> Work arrays of cov_update and cov_predict (nx x ny, nx x nx, ny x ny,
+    !> ny x nx), sized by cov_alloc: nothing is allocated per sample.
+    real(wp), allocatable :: ct(:, :), pct(:, :), dpct(:, :), gb(:, :), xy(:, :)
+    real(wp), allocatable :: phit(:, :), ppt(:, :), a(:, :), da(:, :), tmp(:, :), x1(:, :), &
+                             x2(:, :)
+    real(wp), allocatable :: yy(:, :), yx(:, :)
   end type cov_t
 
   !> What the filter needs that does not change along a record.
@@ -71,6 +77,10 @@ module mlid_filter
     real(wp), allocatable :: wqw(:, :), dwqw(:, :, :), gs(:, :), dgs(:, :, :)
     logical, allocatable :: nz_wqw(:), nz_gs(:)
     real(wp) :: dt = -1.0_wp
+    !> Work arrays of noise_reach and output_noise (nw x nx, nx x nx, nw x ny,
+    !> ny x ny; van_loan's 2nx x 2nx and its exponential's), sized by lti_setup.
+    real(wp), allocatable :: qw(:, :), gqg(:, :), qd(:, :), ryy(:, :), vm(:, :), ve(:, :)
+    type(expm_work_t) :: ew
   end type lti_t
 
 contains
@@ -361,11 +371,14 @@ contains
     type(layout_t) :: l
     type(lti_t) :: sys
     type(cov_t) :: cv
-    real(wp), allocatable :: s(:, :), c(:, :), d(:, :), what(:), dwhat(:, :)
+    ! every work array sized here, once per run: nothing is allocated per sample
+    real(wp), allocatable :: s(:, :), c(:, :), d(:, :), what(:), dwhat(:, :), ks(:, :), gdw(:, :)
     real(wp), allocatable :: sj(:, :), fj(:, :)
     real(wp) :: x(m%nx), dhw(m%ny, m%nw), sb(m%nw, m%ny), ax(m%nx, m%nx), bnu(m%ny)
+    real(wp) :: ue(m%nu + m%nw), kn(m%nx), vw(m%nw), vw2(m%nw), vy(m%ny)
     type(rk_work_t) :: wk
     integer :: j, k, nf, nx, nw, ns, iseg
+    integer :: none(0)
     logical :: sens, partials, ekf, relin
     logical :: corr      !< a measurement noise correlated with the process noise: S or dS /= 0
 
@@ -385,9 +398,11 @@ contains
     if (relin) then
       ! columns: the parameter sensitivities (if wanted), then Phi, then W
       allocate (sj(nx, ns + nx + nw), fj(nx, ns + nx + nw))
+      call rk_work_size(wk, nx, ns + nx + nw, merge(size(pm%im), 0, sens), m%nu, m%nu + nw)
     end if
     call cov_alloc(cv, l%nx, l%ny, nf)
-    allocate (c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf))
+    allocate (s(nx, nf), c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf), &
+              ks(nx, nf), gdw(nx, nf))
     if (opt%steady .and. ekf) then
       ! The textbook's filter error for nonlinear systems (ml_fem): the states
       ! follow the nonlinear model, the gain is the steady state of the model
@@ -411,15 +426,25 @@ contains
       if (segment_starts(l, j, iseg)) then
         ! each manoeuvre from its own (known) initial state: P = 0
         x = theta(l%ox0 + (iseg - 1)*l%nx + 1:l%ox0 + iseg*l%nx)
-        s = initial_sensitivity(pm, iseg)
+        s(:, :) = initial_sensitivity(pm, iseg)
         what = 0.0_wp
         dwhat = 0.0_wp
         if (.not. opt%steady) call initial_covariance(theta, pm, cv)
       else
-        if (relin) then             ! linearise the interval about x(j-1|j-1), eq. 4.27
-          call m%dfdw(t(j - 1), x, [u(:, j - 1), what], theta(1:l%np), sys%g)
-          if (opt%process_noise /= 0) call m%dfdx(t(j - 1), x, [u(:, j - 1), what], &
-                                                   theta(1:l%np), ax)
+        ue(1:m%nu) = u(:, j - 1)          ! the model's inputs where the interval starts
+        ue(m%nu + 1:) = what
+        if (relin) then
+          ! the interval from x(j-1|j-1), eq. 4.27: Phi and W integrated with
+          ! the state (and its sensitivities) as extra columns; df/dx and the
+          ! first RK4 stage from one evaluation of the model
+          call m%dfdw(t(j - 1), x, ue, theta(1:l%np), sys%g)
+          if (sens) then
+            call m%eval(t(j - 1), x, ue, theta(1:l%np), pm%im, xdot=wk%k(:, 1), a=wk%a, b=wk%b)
+          else
+            call m%eval(t(j - 1), x, ue, theta(1:l%np), none, xdot=wk%k(:, 1), a=wk%a, b=wk%b)
+          end if
+          wk%first_known = .true.
+          if (opt%process_noise /= 0) ax = wk%a
           sj = 0.0_wp
           fj = 0.0_wp
           if (sens) then
@@ -432,18 +457,19 @@ contains
           fj(:, ns + nx + 1:) = sys%g
           if (sens) then
             call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk, sj, fj)
-            s = sj(:, 1:nf)
+            s(:, :) = sj(:, 1:nf)
           else          ! no parameter columns: nothing may force them
             call advance_plain(m, theta, pm, t, u, opt, j - 1, what, x, wk, sj, fj)
           end if
-          sys%phi = sj(:, ns + 1:ns + nx)
-          sys%w = sj(:, ns + nx + 1:)
+          sys%phi(:, :) = sj(:, ns + 1:ns + nx)
+          sys%w(:, :) = sj(:, ns + nx + 1:)
           call noise_reach(sys, opt%process_noise, ax, status, msg)
           if (status /= MLID_OK) return
         else if (sens) then
           ! a nonlinear model's df/dw where the interval starts, as the EKF takes it
-          if (ekf) call m%dfdw(t(j - 1), x, [u(:, j - 1), what], theta(1:l%np), sys%g)
-          call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk, s, matmul(sys%g, dwhat))
+          if (ekf) call m%dfdw(t(j - 1), x, ue, theta(1:l%np), sys%g)
+          gdw(:, :) = matmul(sys%g, dwhat)
+          call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk, s, gdw)
         else
           call advance(m, theta, pm, t, u, opt, j - 1, what, x, wk)
         end if
@@ -453,8 +479,18 @@ contains
         end if
         if (.not. opt%steady) call cov_predict(sys, cv, partials)
       end if
+      ! the model once at x(j|j-1): the outputs, C = dh/dx (the EKF's, every
+      ! sample) and dh/dp (for the sensitivities)
+      if (relin .and. sens) then
+        call m%eval(t(j), x, u(:, j), theta(1:l%np), pm%im, y=yhat(:, j), c=sys%c, d=d)
+      else if (relin) then
+        call m%eval(t(j), x, u(:, j), theta(1:l%np), none, y=yhat(:, j), c=sys%c)
+      else if (sens) then
+        call m%eval(t(j), x, u(:, j), theta(1:l%np), pm%im, y=yhat(:, j), c=c, d=d)
+      else
+        call m%eval(t(j), x, u(:, j), theta(1:l%np), none, y=yhat(:, j))
+      end if
       if (relin) then
-        call m%dhdx(t(j), x, u(:, j), theta(1:l%np), sys%c)
         call m%dhdw(t(j), x, u(:, j), theta(1:l%np), dhw)
         call output_noise(sys, dhw, opt%process_noise, status, msg)
         if (status /= MLID_OK) return
@@ -467,40 +503,50 @@ contains
           return
         end if
       end if
-      call m%h(t(j), x, u(:, j), theta(1:l%np), yhat(:, j))
       yhat(:, j) = yhat(:, j) + theta(l%obias + (iseg - 1)*l%ny + 1:l%obias + iseg*l%ny)
       nu(:, j) = y(:, j) - yhat(:, j)
       binv(:, :, j) = cv%binv
       logdet(j) = cv%logdet
       if (present(bhist)) bhist(:, :, j) = cv%b
       if (sens) then                ! d nu = -(C dx(j|j-1) + dh/dp + d bias), eq. 4.31
-        call output_sensitivity(m, theta, pm, t(j), x, u(:, j), s, dnu(:, :, j), c, d, iseg)
+        if (relin) then
+          call output_rows(pm, s, sys%c, d, iseg, dnu(:, :, j))
+        else
+          call output_rows(pm, s, c, d, iseg, dnu(:, :, j))
+        end if
         dnu(:, :, j) = -dnu(:, :, j)
       end if
-      ! state update and the held-noise estimate for the next interval (none
-      ! without a correlation S: skipped, it is most of a sample's work)
-      x = x + matmul(cv%k, nu(:, j))
+      ! x(j|j) and its sensitivities (eq. 4.36), and the held-noise estimate for
+      ! the next interval (none without a correlation S: skipped, it is most
+      ! of a sample's work)
+      kn = matmul(cv%k, nu(:, j))
+      x = x + kn
       if (corr) then
         sb = matmul(sys%s, cv%binv)
         bnu = matmul(cv%binv, nu(:, j))
-        what = matmul(sb, nu(:, j))
+        what(:) = matmul(sb, nu(:, j))
       end if
-      if (sens) then                ! eq. 4.36
-        s = s + matmul(cv%k, dnu(:, :, j))
-        if (corr) dwhat = matmul(sb, dnu(:, :, j))
+      if (sens) then
+        ks(:, :) = matmul(cv%k, dnu(:, :, j))
+        s(:, :) = s + ks
+        if (corr) dwhat(:, :) = matmul(sb, dnu(:, :, j))
         if (partials) then
           if (.not. opt%steady) db(:, :, :, j) = cv%db
           if (opt%steady .and. j == 1) db(:, :, :, 1) = cv%db
           do k = 1, nf
-            s(:, k) = s(:, k) + matmul(cv%dk(:, :, k), nu(:, j))
+            kn = matmul(cv%dk(:, :, k), nu(:, j))
+            s(:, k) = s(:, k) + kn
           end do
           do k = 1, merge(nf, 0, corr)
-            dwhat(:, k) = dwhat(:, k) + matmul(sys%ds(:, :, k), bnu) &
-                          - matmul(sb, matmul(cv%db(:, :, k), bnu))
+            vw = matmul(sys%ds(:, :, k), bnu)
+            vy = matmul(cv%db(:, :, k), bnu)
+            vw2 = matmul(sb, vy)
+            dwhat(:, k) = dwhat(:, k) + vw - vw2
           end do
         end if
       end if
     end do
+
   end subroutine kf_innovations
 
   !> For the steady-state gain of a nonlinear model: Phi, W, V and G
@@ -569,8 +615,10 @@ contains
             'process_noise = ''held'''
       return
     end if
-    sys%r = sys%r0 + matmul(dhw, matmul(sys%q, transpose(dhw)))
-    sys%s = sys%s0 + matmul(sys%q, transpose(dhw))
+    sys%qd(:, :) = matmul(sys%q, transpose(dhw))
+    sys%ryy(:, :) = matmul(dhw, sys%qd)
+    sys%r(:, :) = sys%r0 + sys%ryy
+    sys%s(:, :) = sys%s0 + sys%qd
   end subroutine output_noise
 
   !> Everything the filter holds fixed along the record (linear models):
@@ -621,6 +669,9 @@ contains
               sys%w(nx, nw), sys%dw(nx, nw, nf), sys%q(nw, nw), sys%dq(nw, nw, nf), &
               sys%r(ny, ny), sys%dr(ny, ny, nf), sys%s(nw, ny), sys%ds(nw, ny, nf), &
               sys%g(nx, nw), sk(nx, nf), s0step(nx, nf))
+    allocate (sys%qw(nw, nx), sys%gqg(nx, nx), sys%qd(nw, ny), sys%ryy(ny, ny), &
+              sys%vm(2*nx, 2*nx), sys%ve(2*nx, 2*nx))
+    call expm_work_size(sys%ew, 2*nx)
     sys%dt = dt
     ua = 0.0_wp
     e = theta(l%ox0 + 1:l%ox0 + nx)
@@ -755,39 +806,51 @@ contains
     logical, intent(in) :: partials
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: pct(size(cv%pm, 1), size(sys%c, 1)), dpct(size(cv%pm, 1), size(sys%c, 1))
-    real(wp) :: ct(size(sys%c, 2), size(sys%c, 1))
     integer :: k, ierr
 
     status = MLID_OK
     msg = ''
-    ct = transpose(sys%c)
-    pct = matmul(cv%pm, ct)
-    cv%b = matmul(sys%c, pct) + sys%r
-    cv%b = 0.5_wp*(cv%b + transpose(cv%b))
-    call chol_inverse(cv%b, cv%binv, cv%logdet, ierr)
-    if (ierr /= 0) then
-      status = MLID_ERR_SINGULAR
-      msg = 'innovation covariance B = C P C'' + R is not positive definite'
-      return
-    end if
-    cv%k = matmul(pct, cv%binv)
-    cv%pp = cv%pm - matmul(cv%k, transpose(pct))
-    cv%pp = 0.5_wp*(cv%pp + transpose(cv%pp))
-    if (.not. partials) return
-    do k = 1, size(cv%dpm, 3)
-      dpct = matmul(cv%dpm(:, :, k), ct)
-      if (sys%nz_c(k)) dpct = dpct + matmul(cv%pm, transpose(sys%dc(:, :, k)))
-      cv%db(:, :, k) = matmul(sys%c, dpct)
-      if (sys%nz_c(k)) cv%db(:, :, k) = cv%db(:, :, k) + matmul(sys%dc(:, :, k), pct)
-      if (sys%nz_r(k)) cv%db(:, :, k) = cv%db(:, :, k) + sys%dr(:, :, k)
-      cv%db(:, :, k) = 0.5_wp*(cv%db(:, :, k) + transpose(cv%db(:, :, k)))
-      cv%dk(:, :, k) = matmul(dpct - matmul(cv%k, cv%db(:, :, k)), cv%binv)
-      ! dP+ = dP- - dK (C P-) - K d(C P-), with C P- = pct'
-      cv%dpp(:, :, k) = cv%dpm(:, :, k) - matmul(cv%dk(:, :, k), transpose(pct)) &
-                        - matmul(cv%k, transpose(dpct))
-      cv%dpp(:, :, k) = 0.5_wp*(cv%dpp(:, :, k) + transpose(cv%dpp(:, :, k)))
-    end do
+    associate (ct => cv%ct, pct => cv%pct, dpct => cv%dpct, xy => cv%xy, xx => cv%x1, yy => cv%yy)
+      ct(:, :) = transpose(sys%c)
+      pct(:, :) = matmul(cv%pm, ct)
+      yy(:, :) = matmul(sys%c, pct)
+      cv%b(:, :) = yy + sys%r
+      call symmetrize(cv%b)
+      call chol_inverse(cv%b, cv%binv, cv%logdet, ierr)
+      if (ierr /= 0) then
+        status = MLID_ERR_SINGULAR
+        msg = 'innovation covariance B = C P C'' + R is not positive definite'
+        return
+      end if
+      cv%k(:, :) = matmul(pct, cv%binv)
+      xx(:, :) = matmul(cv%k, transpose(pct))
+      cv%pp(:, :) = cv%pm - xx
+      call symmetrize(cv%pp)
+      if (.not. partials) return
+      do k = 1, size(cv%dpm, 3)
+        dpct(:, :) = matmul(cv%dpm(:, :, k), ct)
+        if (sys%nz_c(k)) then
+          xy(:, :) = matmul(cv%pm, transpose(sys%dc(:, :, k)))
+          dpct(:, :) = dpct + xy
+        end if
+        cv%db(:, :, k) = matmul(sys%c, dpct)
+        if (sys%nz_c(k)) then
+          yy(:, :) = matmul(sys%dc(:, :, k), pct)
+          cv%db(:, :, k) = cv%db(:, :, k) + yy
+        end if
+        if (sys%nz_r(k)) cv%db(:, :, k) = cv%db(:, :, k) + sys%dr(:, :, k)
+        call symmetrize(cv%db(:, :, k))
+        xy(:, :) = matmul(cv%k, cv%db(:, :, k))
+        xy(:, :) = dpct - xy
+        cv%dk(:, :, k) = matmul(xy, cv%binv)
+        ! dP+ = dP- - dK (C P-) - K d(C P-), with C P- = pct'
+        xx(:, :) = matmul(cv%dk(:, :, k), transpose(pct))
+        cv%dpp(:, :, k) = cv%dpm(:, :, k) - xx
+        xx(:, :) = matmul(cv%k, transpose(dpct))
+        cv%dpp(:, :, k) = cv%dpp(:, :, k) - xx
+        call symmetrize(cv%dpp(:, :, k))
+      end do
+    end associate
   end subroutine cov_update
 
   !> Time update: P- of the next sample from P+ (and the partials),
@@ -802,40 +865,66 @@ contains
     type(cov_t), intent(inout) :: cv
     logical, intent(in) :: partials
     integer :: k
-    real(wp), dimension(size(cv%pm, 1), size(cv%pm, 1)) :: phit, ppt, a, da, tmp
-    real(wp), dimension(size(cv%k, 1), size(cv%k, 2)) :: gb
     logical :: corr
 
     corr = any(sys%gs /= 0.0_wp)
-    phit = transpose(sys%phi)
-    ppt = matmul(cv%pp, phit)                           ! P+ Phi'
-    cv%pm = matmul(sys%phi, ppt) + sys%wqw
-    if (corr) then
-      gb = matmul(sys%gs, cv%binv)                      ! G B^-1
-      a = matmul(sys%phi, matmul(cv%k, transpose(sys%gs)))   ! Phi K G'
-      cv%pm = cv%pm - matmul(gb, transpose(sys%gs)) - a - transpose(a)
-    end if
-    if (.not. partials) return
-    do k = 1, size(cv%dpm, 3)
-      tmp = matmul(sys%phi, matmul(cv%dpp(:, :, k), phit))
-      if (sys%nz_phi(k)) then
-        da = matmul(sys%dphi(:, :, k), ppt)
-        tmp = tmp + da + transpose(da)
+    associate (phit => cv%phit, ppt => cv%ppt, a => cv%a, da => cv%da, tmp => cv%tmp, &
+               x1 => cv%x1, x2 => cv%x2, gb => cv%gb, yx => cv%yx)
+      phit(:, :) = transpose(sys%phi)
+      ppt(:, :) = matmul(cv%pp, phit)                        ! P+ Phi'
+      tmp(:, :) = matmul(sys%phi, ppt)
+      cv%pm(:, :) = tmp + sys%wqw
+      if (corr) then
+        gb(:, :) = matmul(sys%gs, cv%binv)                   ! G B^-1
+        x1(:, :) = matmul(cv%k, transpose(sys%gs))
+        a(:, :) = matmul(sys%phi, x1)                        ! Phi K G'
+        tmp(:, :) = matmul(gb, transpose(sys%gs))
+        cv%pm(:, :) = cv%pm - tmp - a - transpose(a)
       end if
-      if (sys%nz_wqw(k)) tmp = tmp + sys%dwqw(:, :, k)
-      if (corr .or. sys%nz_gs(k)) then
-        ! d(G B^-1 G') = dG B^-1 G' + G B^-1 dG' - G B^-1 dB B^-1 G'
-        da = matmul(sys%dgs(:, :, k), transpose(gb))
-        tmp = tmp - da - transpose(da) + matmul(gb, matmul(cv%db(:, :, k), transpose(gb)))
-        ! d(Phi K G') = dPhi K G' + Phi dK G' + Phi K dG'
-        da = matmul(sys%phi, matmul(cv%dk(:, :, k), transpose(sys%gs)) + &
-                             matmul(cv%k, transpose(sys%dgs(:, :, k))))
-        if (sys%nz_phi(k)) da = da + matmul(sys%dphi(:, :, k), matmul(cv%k, transpose(sys%gs)))
-        tmp = tmp - da - transpose(da)
-      end if
-      cv%dpm(:, :, k) = tmp
-    end do
+      if (.not. partials) return
+      do k = 1, size(cv%dpm, 3)
+        x1(:, :) = matmul(cv%dpp(:, :, k), phit)
+        tmp(:, :) = matmul(sys%phi, x1)
+        if (sys%nz_phi(k)) then
+          da(:, :) = matmul(sys%dphi(:, :, k), ppt)
+          tmp(:, :) = tmp + da + transpose(da)
+        end if
+        if (sys%nz_wqw(k)) tmp(:, :) = tmp + sys%dwqw(:, :, k)
+        if (corr .or. sys%nz_gs(k)) then
+          ! d(G B^-1 G') = dG B^-1 G' + G B^-1 dG' - G B^-1 dB B^-1 G'
+          da(:, :) = matmul(sys%dgs(:, :, k), transpose(gb))
+          yx(:, :) = matmul(cv%db(:, :, k), transpose(gb))
+          x1(:, :) = matmul(gb, yx)
+          tmp(:, :) = tmp - da - transpose(da) + x1
+          ! d(Phi K G') = dPhi K G' + Phi dK G' + Phi K dG'
+          x1(:, :) = matmul(cv%dk(:, :, k), transpose(sys%gs))
+          x2(:, :) = matmul(cv%k, transpose(sys%dgs(:, :, k)))
+          x1(:, :) = x1 + x2
+          da(:, :) = matmul(sys%phi, x1)
+          if (sys%nz_phi(k)) then
+            x1(:, :) = matmul(cv%k, transpose(sys%gs))
+            x2(:, :) = matmul(sys%dphi(:, :, k), x1)
+            da(:, :) = da + x2
+          end if
+          tmp(:, :) = tmp - da - transpose(da)
+        end if
+        cv%dpm(:, :, k) = tmp
+      end do
+    end associate
   end subroutine cov_predict
+
+  !> a = (a + a')/2 in place: the covariances kept symmetric against rounding.
+  pure subroutine symmetrize(a)
+    real(wp), intent(inout) :: a(:, :)
+    integer :: i, j
+    do j = 1, size(a, 2)
+      do i = 1, j - 1
+        a(i, j) = 0.5_wp*(a(i, j) + a(j, i))
+        a(j, i) = a(i, j)
+      end do
+      a(j, j) = 0.5_wp*(a(j, j) + a(j, j))
+    end do
+  end subroutine symmetrize
 
   !> V, the process noise as it reaches the state over one interval, and
   !> G = W S: for held noise (code 0) V = W Q W'; for continuous white noise
@@ -850,10 +939,13 @@ contains
     status = MLID_OK
     msg = ''
     if (code == 0) then
-      sys%wqw = matmul(sys%w, matmul(sys%q, transpose(sys%w)))
-      sys%gs = matmul(sys%w, sys%s)
+      sys%qw(:, :) = matmul(sys%q, transpose(sys%w))
+      sys%wqw(:, :) = matmul(sys%w, sys%qw)
+      sys%gs(:, :) = matmul(sys%w, sys%s)
     else
-      call van_loan(a, matmul(sys%g, matmul(sys%q, transpose(sys%g))), sys%dt, sys%wqw, status, msg)
+      sys%qw(:, :) = matmul(sys%q, transpose(sys%g))
+      sys%gqg(:, :) = matmul(sys%g, sys%qw)
+      call van_loan(a, sys%gqg, sys%dt, sys%wqw, status, msg, sys%vm, sys%ve, sys%ew)
       sys%gs = 0.0_wp
     end if
   end subroutine noise_reach
@@ -925,17 +1017,19 @@ contains
 
   !> qd = int_0^h e^{A s} v e^{A' s} ds by one matrix exponential (Van Loan,
   !> 1978): e^{M h} with M = [-A, v; 0, A'] holds e^{A' h} and e^{-A h} qd
-  !> in its right-hand blocks.
-  subroutine van_loan(a, v, h, qd, status, msg)
+  !> in its right-hand blocks.  mh, e (2n x 2n) and ew: the caller's work
+  !> arrays (the EKF's at every interval).
+  subroutine van_loan(a, v, h, qd, status, msg, mh, e, ew)
     real(wp), intent(in) :: a(:, :), v(:, :), h
     real(wp), intent(out) :: qd(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: mh(2*size(a, 1), 2*size(a, 1)), e(2*size(a, 1), 2*size(a, 1))
+    real(wp), intent(out) :: mh(:, :), e(:, :)
+    type(expm_work_t), intent(inout) :: ew
     integer :: n, info
     n = size(a, 1)
-    mh = van_loan_matrix(a, v, h)
-    call expm(mh, e, info)
+    call van_loan_matrix(a, v, h, mh)
+    call expm_into(mh, e, info, ew)
     if (info /= 0) then
       status = MLID_ERR_DIVERGED
       msg = 'continuous process noise: its covariance over a sample interval is not finite'
@@ -943,7 +1037,7 @@ contains
       return
     end if
     qd = matmul(transpose(e(n + 1:, n + 1:)), e(1:n, n + 1:))
-    qd = 0.5_wp*(qd + transpose(qd))
+    call symmetrize(qd)
     status = MLID_OK
     msg = ''
   end subroutine van_loan
@@ -965,11 +1059,11 @@ contains
     status = MLID_OK
     msg = ''
     big = 0.0_wp
-    big(1:2*n, 1:2*n) = van_loan_matrix(a, v, h)
+    call van_loan_matrix(a, v, h, big(1:2*n, 1:2*n))
     big(2*n + 1:, 2*n + 1:) = big(1:2*n, 1:2*n)
     do k = 1, size(nz)
       if (.not. nz(k)) cycle
-      big(1:2*n, 2*n + 1:) = van_loan_matrix(da(:, :, k), dv(:, :, k), h)
+      call van_loan_matrix(da(:, :, k), dv(:, :, k), h, big(1:2*n, 2*n + 1:))
       call expm(big, eb, info)
       if (info /= 0) then
         status = MLID_ERR_DIVERGED
@@ -984,16 +1078,17 @@ contains
     end do
   end subroutine van_loan_partials
 
-  pure function van_loan_matrix(a, v, h) result(mh)
+  !> mh = [-A, v; 0, A'] h (2n x 2n).
+  pure subroutine van_loan_matrix(a, v, h, mh)
     real(wp), intent(in) :: a(:, :), v(:, :), h
-    real(wp) :: mh(2*size(a, 1), 2*size(a, 1))
+    real(wp), intent(out) :: mh(:, :)
     integer :: n
     n = size(a, 1)
     mh = 0.0_wp
     mh(1:n, 1:n) = -a*h
     mh(1:n, n + 1:) = v*h
     mh(n + 1:, n + 1:) = transpose(a)*h
-  end function van_loan_matrix
+  end subroutine van_loan_matrix
 
   !> The steady-state P(j|j-1) from the Riccati equation (mlid_riccati) and,
   !> with partials, its partials from the Stein equations; leaves the
@@ -1062,6 +1157,9 @@ contains
     integer, intent(in) :: nx, ny, nf
     allocate (cv%pm(nx, nx), cv%dpm(nx, nx, nf), cv%pp(nx, nx), cv%dpp(nx, nx, nf), &
               cv%b(ny, ny), cv%binv(ny, ny), cv%db(ny, ny, nf), cv%k(nx, ny), cv%dk(nx, ny, nf))
+    allocate (cv%ct(nx, ny), cv%pct(nx, ny), cv%dpct(nx, ny), cv%gb(nx, ny), cv%xy(nx, ny), &
+              cv%phit(nx, nx), cv%ppt(nx, nx), cv%a(nx, nx), cv%da(nx, nx), cv%tmp(nx, nx), &
+              cv%x1(nx, nx), cv%x2(nx, nx), cv%yy(ny, ny), cv%yx(ny, nx))
     cv%pm = 0.0_wp
     cv%dpm = 0.0_wp
     cv%pp = 0.0_wp
@@ -1103,9 +1201,10 @@ contains
     type(rk_work_t), intent(inout) :: wk
     real(wp), intent(in) :: sforce(:, :)
     integer :: none(0)
+    real(wp) :: nothing(0)
 
     call rk4_interval(m, theta(1:pm%l%np), t(j), t(j + 1), u(:, j), u(:, j + 1), what, opt%hold, &
-                      opt%substeps, x, none, none, [real(wp) ::], wk, s, sforce)
+                      opt%substeps, x, none, none, nothing, wk, s, sforce)
   end subroutine advance_plain
 
   !> Sensitivities of the initial state of segment iseg: a unit column for
@@ -1131,18 +1230,6 @@ contains
     if (iseg < l%nseg) segment_starts = l%seg(iseg + 1) == j
     if (segment_starts) iseg = iseg + 1
   end function segment_starts
-
-  !> dy/dtheta at one sample of segment iseg: C s + dh/dp + its bias
-  !> columns, with c = dh/dx and d = dh/dp evaluated here.
-  subroutine output_sensitivity(m, theta, pm, t, x, u, s, dy, c, d, iseg)
-    class(model_t), intent(in) :: m
-    real(wp), intent(in) :: theta(:), t, x(:), u(:), s(:, :)
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(out) :: dy(:, :), c(:, :), d(:, :)
-    integer, intent(in) :: iseg
-    call m%eval(t, x, u, theta(1:pm%l%np), pm%im, c=c, d=d)
-    call output_rows(pm, s, c, d, iseg, dy)
-  end subroutine output_sensitivity
 
   !> dy = c s + d (into the columns of the model parameters) + the bias
   !> columns of segment iseg: the output sensitivities from c = dh/dx and

@@ -348,6 +348,7 @@ contains
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
     real(wp), allocatable :: b0(:, :, :)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :), bpart(:, :, :), vv(:, :, :)
+    real(wp) :: bnu(m%ny)
     integer :: ny, nt, nf, j, b, nblk, j0, j1
     logical :: tv
 
@@ -371,8 +372,9 @@ contains
     if (status /= MLID_OK) return
     if (present(bmean)) call mean_covariance(binv, opt%steady, bmean)
     cost = 0.0_wp
-    do j = 1, nt
-      cost = cost + 0.5_wp*(dot_product(nu(:, j), matmul(binv(:, :, j), nu(:, j))) + logdet(j))
+    do j = 1, nt                    ! B^-1 nu into bnu: no temporary per sample
+      bnu = matmul(binv(:, :, j), nu(:, j))
+      cost = cost + 0.5_wp*(dot_product(nu(:, j), bnu) + logdet(j))
     end do
     rhat = matmul(nu, transpose(nu))/nt
     if (.not. (present(grad) .and. present(info))) return

@@ -6,7 +6,8 @@ module mlid_linalg
   implicit none
   private
   public :: add_sym_atb, add_syrk, add_atv, sym_eig, chol_inverse, chol_solve, psd_factor, &
-            info_inverse, info_eig, eig_inverse, expm, solve, independent_columns
+            info_inverse, info_eig, eig_inverse, expm, expm_into, expm_work_size, expm_work_t, &
+            solve, independent_columns
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -44,6 +45,13 @@ module mlid_linalg
 
   !> Below this size chol_inverse factorises without LAPACK.
   integer, parameter :: SMALL_N = 12
+
+  !> expm_into's work arrays (n x n, and the LU's pivots), kept by a caller
+  !> that takes exponentials of one size over and over.
+  type :: expm_work_t
+    real(wp), allocatable :: x(:, :), n(:, :), d(:, :), as(:, :), t(:, :), colsum(:)
+    integer, allocatable :: ipiv(:)
+  end type expm_work_t
 
 contains
 
@@ -146,18 +154,20 @@ contains
 
   !> The same by a plain Cholesky factorisation for small n, where LAPACK's
   !> call overhead outweighs the arithmetic.  info = k > 0: the leading minor
-  !> of order k is not positive definite.
+  !> of order k is not positive definite.  n <= SMALL_N: the factors live in
+  !> fixed-size locals, so that the filter's call at every sample allocates
+  !> nothing.
   pure subroutine small_chol_inverse(a, ainv, logdet, info)
     real(wp), intent(in) :: a(:, :)
     real(wp), intent(out) :: ainv(:, :), logdet
     integer, intent(out) :: info
-    real(wp) :: l(size(a, 1), size(a, 1)), li(size(a, 1), size(a, 1)), d
+    real(wp) :: l(SMALL_N, SMALL_N), li(SMALL_N, SMALL_N), d
     integer :: n, i, j, k
 
     n = size(a, 1)
     info = 0
     logdet = 0.0_wp
-    l = 0.0_wp
+    l(1:n, 1:n) = 0.0_wp
     do j = 1, n
       d = a(j, j) - sum(l(j, 1:j - 1)**2)
       if (.not. d > 0.0_wp) then
@@ -172,7 +182,7 @@ contains
       end do
     end do
     ! L^-1 by forward substitution, then A^-1 = L^-T L^-1
-    li = 0.0_wp
+    li(1:n, 1:n) = 0.0_wp
     do k = 1, n
       li(k, k) = 1.0_wp/l(k, k)
       do i = k + 1, n
@@ -443,44 +453,76 @@ contains
     real(wp), intent(in) :: a(:, :)
     real(wp), intent(out) :: e(:, :)
     integer, intent(out) :: info
+    type(expm_work_t) :: w
+    call expm_work_size(w, size(a, 1))
+    call expm_into(a, e, info, w)
+  end subroutine expm
+
+  !> Size expm_into's work arrays for n x n matrices (kept when they have it).
+  subroutine expm_work_size(w, n)
+    type(expm_work_t), intent(inout) :: w
+    integer, intent(in) :: n
+    if (allocated(w%x)) then
+      if (size(w%x, 1) == n) return
+      deallocate (w%x, w%n, w%d, w%as, w%t, w%colsum, w%ipiv)
+    end if
+    allocate (w%x(n, n), w%n(n, n), w%d(n, n), w%as(n, n), w%t(n, n), w%colsum(n), w%ipiv(n))
+  end subroutine expm_work_size
+
+  !> expm with the caller's work arrays w (expm_work_size): for exponentials
+  !> taken at every sample, which then allocate nothing.
+  subroutine expm_into(a, e, info, w)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: e(:, :)
+    integer, intent(out) :: info
+    type(expm_work_t), intent(inout) :: w
     integer, parameter :: q = 6
-    real(wp) :: x(size(a, 1), size(a, 1)), n(size(a, 1), size(a, 1)), d(size(a, 1), size(a, 1))
-    real(wp) :: as(size(a, 1), size(a, 1)), c, anorm
-    integer :: k, sq, i
+    real(wp) :: c, anorm
+    integer :: k, sq, i, m
 
     info = 0
-    anorm = maxval(sum(abs(a), dim=1))
+    m = size(a, 1)
+    do i = 1, m
+      w%colsum(i) = sum(abs(a(:, i)))
+    end do
+    anorm = maxval(w%colsum)
     if (.not. ieee_is_finite(anorm)) then
       info = -1
       e = 0.0_wp
       return
     end if
-    sq = max(0, exponent(anorm) + 1)
-    as = a/2.0_wp**sq
-    x = as
-    c = 0.5_wp
-    n = c*as
-    d = -c*as
-    do i = 1, size(a, 1)
-      n(i, i) = n(i, i) + 1.0_wp
-      d(i, i) = d(i, i) + 1.0_wp
-    end do
-    do k = 2, q
-      c = c*real(q - k + 1, wp)/real(k*(2*q - k + 1), wp)
-      x = matmul(as, x)
-      n = n + c*x
-      if (mod(k, 2) == 0) then
-        d = d + c*x
-      else
-        d = d - c*x
-      end if
-    end do
-    call solve(d, n, e, info)
-    if (info /= 0) return
-    do k = 1, sq
-      e = matmul(e, e)
-    end do
-  end subroutine expm
+    associate (x => w%x, n => w%n, d => w%d, as => w%as, t => w%t)
+      sq = max(0, exponent(anorm) + 1)
+      as(:, :) = a/2.0_wp**sq
+      x(:, :) = as
+      c = 0.5_wp
+      n(:, :) = c*as
+      d(:, :) = -c*as
+      do i = 1, m
+        n(i, i) = n(i, i) + 1.0_wp
+        d(i, i) = d(i, i) + 1.0_wp
+      end do
+      do k = 2, q
+        c = c*real(q - k + 1, wp)/real(k*(2*q - k + 1), wp)
+        t(:, :) = matmul(as, x)
+        x(:, :) = t
+        n(:, :) = n + c*x
+        if (mod(k, 2) == 0) then
+          d(:, :) = d + c*x
+        else
+          d(:, :) = d - c*x
+        end if
+      end do
+      e = n                        ! solve's steps: D^-1 N by LU, D overwritten
+      if (m == 0) return
+      call dgesv(m, m, d, m, w%ipiv, e, m, info)
+      if (info /= 0) return
+      do k = 1, sq
+        t(:, :) = matmul(e, e)
+        e = t
+      end do
+    end associate
+  end subroutine expm_into
 
   pure function info_diag(a) result(d)
     real(wp), intent(in) :: a(:, :)
