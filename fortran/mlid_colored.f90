@@ -32,7 +32,7 @@
 module mlid_colored
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_linalg, only: add_sym_atb
-  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_length, fft_real_pair
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_many, fft_length, fft_real_many
   implicit none
   private
   public :: colored_covariance, colored_sandwich, colored_bracket
@@ -159,11 +159,9 @@ contains
     integer, intent(in) :: lag
     real(wp) :: b(size(a, 3), size(a, 3))
     real(wp), allocatable :: kr(:, :, :), ki(:, :, :), sr(:, :, :), si(:, :, :), gr(:, :, :), &
-                             gi(:, :, :)
-    complex(wp), allocatable :: xf(:), yf(:), af(:, :)
-    integer, allocatable :: pr(:), pq(:)
+                             gi(:, :, :), x(:, :)
     type(fft_plan_t) :: plan
-    integer :: ny, nt, nf, n, nfreq, l, r, q, p2
+    integer :: ny, nt, nf, n, nfreq, l, r, q, i
 
     ny = size(a, 1)
     nt = size(a, 2)
@@ -173,26 +171,20 @@ contains
     plan = fft_plan(n)
     allocate (kr(nfreq, ny, ny), ki(nfreq, ny, ny), sr(nfreq, ny, nf), si(nfreq, ny, nf), &
               gr(nfreq, ny, nf), gi(nfreq, ny, nf))
-    ! the kernel's transform, two entries r <= q to a transform: K(q, r)(d) =
-    ! K(r, q)(-d), so its transform is the conjugate
-    call upper_pairs(ny, pr, pq)
-    allocate (xf(0:nfreq - 1), yf(0:nfreq - 1))
-    do l = 1, size(pr), 2
-      p2 = min(l + 1, size(pr))
-      call fft_real_pair(plan, kernel_row(rvv, lag, pr(l), pq(l), n), &
-                         kernel_row(rvv, lag, pr(p2), pq(p2), n), xf, yf)
-      call put_kernel(pr(p2), pq(p2), yf)
-      call put_kernel(pr(l), pq(l), xf)
-    end do
-    deallocate (xf, yf)
-    ! each parameter's transforms and filtered transforms on their own (the
-    ! result does not depend on the threads)
-    !$omp parallel do private(r, q, af) schedule(static)
+    call kernel_spectra(plan, rvv, lag, kr, ki)
+    ! every parameter's rows at once, row r of parameter l as series r + ny (l - 1)
+    allocate (x(ny*nf, nt))
     do l = 1, nf
-      allocate (af(0:nfreq - 1, ny))
-      call row_spectra(plan, a(:, :, l), af)
-      sr(:, :, l) = real(af, wp)
-      si(:, :, l) = aimag(af)
+      do i = 1, nt
+        x(1 + ny*(l - 1):ny*l, i) = a(:, i, l)
+      end do
+    end do
+    call fft_real_many(plan, x, sr, si)
+    deallocate (x)
+    ! each parameter's filtered transforms on their own (the result does
+    ! not depend on the threads)
+    !$omp parallel do private(r, q) schedule(static)
+    do l = 1, nf
       gr(:, :, l) = 0.0_wp
       gi(:, :, l) = 0.0_wp
       do q = 1, ny                             ! G(f) = K(f) A(f), all f at once
@@ -203,26 +195,41 @@ contains
       end do
       gr(2:nfreq - 1, :, l) = 2.0_wp*gr(2:nfreq - 1, :, l)   ! f and n - f
       gi(2:nfreq - 1, :, l) = 2.0_wp*gi(2:nfreq - 1, :, l)
-      deallocate (af)
     end do
     !$omp end parallel do
     b = 0.0_wp
     call add_sym_atb(nfreq*ny, nf, sr, gr, b)
     call add_sym_atb(nfreq*ny, nf, si, gi, b)
     b = b/real(n, wp)
-
-  contains
-
-    subroutine put_kernel(r, q, kf)
-      integer, intent(in) :: r, q
-      complex(wp), intent(in) :: kf(0:)
-      kr(:, q, r) = real(kf, wp)
-      ki(:, q, r) = -aimag(kf)
-      kr(:, r, q) = real(kf, wp)
-      ki(:, r, q) = aimag(kf)
-      if (r == q) ki(:, r, q) = 0.0_wp       ! K(r, r)(d) is even: its transform is real
-    end subroutine put_kernel
   end function segment_bracket
+
+  !> The kernel's transform K(f) = kr + i ki (f = 0 .. n/2), all entries r
+  !> <= q at once: K(q, r)(d) = K(r, q)(-d), so its transform is the conjugate.
+  subroutine kernel_spectra(plan, rvv, lag, kr, ki)
+    type(fft_plan_t), intent(in) :: plan
+    real(wp), intent(in) :: rvv(:, :, 0:)
+    integer, intent(in) :: lag
+    real(wp), intent(out) :: kr(0:, :, :), ki(0:, :, :)
+    real(wp), allocatable :: z(:, :), fr(:, :), fi(:, :)
+    integer, allocatable :: pr(:), pq(:)
+    integer :: p, r, q
+
+    call upper_pairs(size(rvv, 1), pr, pq)
+    allocate (z(size(pr), 0:plan%n - 1), fr(0:plan%n/2, size(pr)), fi(0:plan%n/2, size(pr)))
+    do p = 1, size(pr)
+      z(p, :) = kernel_row(rvv, lag, pr(p), pq(p), plan%n)
+    end do
+    call fft_real_many(plan, z, fr, fi)
+    do p = 1, size(pr)
+      r = pr(p)
+      q = pq(p)
+      kr(:, q, r) = fr(:, p)
+      ki(:, q, r) = -fi(:, p)
+      kr(:, r, q) = fr(:, p)
+      ki(:, r, q) = fi(:, p)
+      if (r == q) ki(:, r, q) = 0.0_wp       ! K(r, r)(d) is even: its transform is real
+    end do
+  end subroutine kernel_spectra
 
   !> g = g + k s over n frequencies, real and imaginary parts apart (kr, ki;
   !> sr, si; gr, gi): one pass that reads each operand once.
@@ -325,44 +332,63 @@ contains
   !> (lag < its length), through the Fourier transform, zero-padded beyond
   !> the length plus the lag: row r's and q's cross-spectrum conj(X_r) X_q
   !> transformed back gives c(r, q, k) at k and c(q, r, k) at n - k; the
-  !> pairs r <= q go back two to a transform (each one a real series).
+  !> pairs r <= q go back two to a transform (each one a real series), the
+  !> first half of them in the real parts, the rest in the imaginary parts.
   function segment_autocov(x, lag) result(c)
     real(wp), intent(in) :: x(:, :)
     integer, intent(in) :: lag
     real(wp) :: c(size(x, 1), size(x, 1), 0:lag)
-    complex(wp), allocatable :: xf(:, :), z(:)
+    real(wp), allocatable :: xr(:, :), xi(:, :), zr(:, :), zi(:, :)
     integer, allocatable :: pr(:), pq(:)
     type(fft_plan_t) :: plan
-    integer :: ny, n, nh, p
+    integer :: ny, n, nh, p, m
 
     ny = size(x, 1)
     n = fft_length(size(x, 2) + lag)
     nh = n/2
     plan = fft_plan(n)
-    allocate (xf(0:nh, ny), z(0:n - 1))
-    call row_spectra(plan, x, xf)
+    allocate (xr(0:nh, ny), xi(0:nh, ny))
+    call fft_real_many(plan, x, xr, xi)
     call upper_pairs(ny, pr, pq)
-    do p = 1, size(pr), 2
-      z = 0.0_wp
-      call add_cross(z, xf(:, pr(p)), xf(:, pq(p)), (1.0_wp, 0.0_wp))
-      if (p < size(pr)) call add_cross(z, xf(:, pr(p + 1)), xf(:, pq(p + 1)), (0.0_wp, 1.0_wp))
-      call fft_forward(plan, z)
-      z = z/real(n, wp)
-      call put(pr(p), pq(p), real(z, wp))
-      if (p < size(pr)) call put(pr(p + 1), pq(p + 1), aimag(z))
+    m = (size(pr) + 1)/2
+    allocate (zr(m, 0:n - 1), zi(m, 0:n - 1))
+    zr = 0.0_wp
+    zi = 0.0_wp
+    do p = 1, size(pr)
+      call add_cross(p, xr(:, pr(p)), xi(:, pr(p)), xr(:, pq(p)), xi(:, pq(p)))
+    end do
+    call fft_many(plan, m, zr, zi)
+    zr = zr/real(n, wp)
+    zi = zi/real(n, wp)
+    do p = 1, m
+      call put(pr(p), pq(p), zr(p, :))
+    end do
+    do p = m + 1, size(pr)
+      call put(pr(p), pq(p), zi(p - m, :))
     end do
 
   contains
 
-    !> z = z + s Q, Q the conjugate of the cross-spectrum conj(Xr) Xq over
-    !> all n frequencies (Q(n - f) = conj(Q(f)): the series is real).
-    subroutine add_cross(z, xr, xq, s)
-      complex(wp), intent(inout) :: z(0:)
-      complex(wp), intent(in) :: xr(0:), xq(0:), s
-      complex(wp) :: w(0:nh)
-      w = xr*conjg(xq)
-      z(0:nh) = z(0:nh) + s*w
-      z(nh + 1:n - 1) = z(nh + 1:n - 1) + s*conjg(w(nh - 1:1:-1))
+    !> Pair p's Q = Xr conj(Xq), the conjugate of the cross-spectrum, over
+    !> all n frequencies (Q(n - f) = conj(Q(f)): the series is real), into
+    !> the real part of series p (p <= m) or the imaginary part of p - m.
+    subroutine add_cross(p, ar, ai, br, bi)
+      integer, intent(in) :: p
+      real(wp), intent(in) :: ar(0:), ai(0:), br(0:), bi(0:)
+      real(wp) :: wr(0:nh), wi(0:nh)
+      wr = ar*br + ai*bi
+      wi = ai*br - ar*bi
+      if (p <= m) then
+        zr(p, 0:nh) = wr
+        zi(p, 0:nh) = wi
+        zr(p, nh + 1:n - 1) = wr(nh - 1:1:-1)
+        zi(p, nh + 1:n - 1) = -wi(nh - 1:1:-1)
+      else                                   ! i Q: i (wr + i wi) = -wi + i wr
+        zr(p - m, 0:nh) = zr(p - m, 0:nh) - wi
+        zi(p - m, 0:nh) = zi(p - m, 0:nh) + wr
+        zr(p - m, nh + 1:n - 1) = zr(p - m, nh + 1:n - 1) + wi(nh - 1:1:-1)
+        zi(p - m, nh + 1:n - 1) = zi(p - m, nh + 1:n - 1) + wr(nh - 1:1:-1)
+      end if
     end subroutine add_cross
 
     subroutine put(r, q, cr)
@@ -377,20 +403,6 @@ contains
       end do
     end subroutine put
   end function segment_autocov
-
-  !> The transforms (f = 0 .. n/2) of x's rows, two rows to a transform.
-  subroutine row_spectra(plan, x, xf)
-    type(fft_plan_t), intent(in) :: plan
-    real(wp), intent(in) :: x(:, :)
-    complex(wp), intent(out) :: xf(0:, :)
-    complex(wp) :: yf(0:plan%n/2)
-    integer :: r, q
-    do r = 1, size(x, 1), 2
-      q = min(r + 1, size(x, 1))
-      call fft_real_pair(plan, x(r, :), x(q, :), xf(:, r), yf)
-      xf(:, q) = yf
-    end do
-  end subroutine row_spectra
 
   !> The pairs (pr(p), pq(p)) of 1 .. ny with pr <= pq, row by row.
   pure subroutine upper_pairs(ny, pr, pq)
