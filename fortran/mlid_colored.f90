@@ -32,7 +32,7 @@
 module mlid_colored
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_linalg, only: add_sym_atb
-  use mlid_fft, only: fft_plan_t, fft_plan, fft_many, fft_length, fft_real_many
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_many, fft_smooth_length, fft_real_many
   implicit none
   private
   public :: colored_covariance, colored_sandwich, colored_bracket
@@ -138,15 +138,25 @@ contains
   end function colored_bracket
 
   !> Whether the transform costs less than the direct filter for one
-  !> segment: operation counts, the transform's weighted 4:1 (measured,
-  !> benchmarks/bench_colored_bracket.f90: it loses at lag 1, wins 4-8
-  !> times at lag 212).
+  !> segment: each way's loops counted, each count weighted by the
+  !> instructions it takes (callgrind, benchmarks/bench_colored_bracket.f90;
+  !> the sums below come within 6% (transform) and 20% (filter) of the
+  !> measured counts for ny 1-7, N 200-2128, nf 2-30, lags 0-64).  The
+  !> transform: R = ny nf + ny (ny+1)/2 real series of n points (n log2 n
+  !> each), K A and A^H G at n/2 + 1 frequencies, and what runs once per
+  !> point (the plan, packing, zeroing); the filter: (L+1) ny^2 nf and
+  !> ny nf^2 multiply-adds per sample, and its transposes.
   pure logical function fourier_cheaper(ny, nt, nf, lag)
     integer, intent(in) :: ny, nt, nf, lag
-    real(wp) :: n
-    n = real(fft_length(nt + lag), wp)
-    fourier_cheaper = 4.0_wp*n*(ny*nf*log(n)/log(2.0_wp)/2 + ny*ny*nf + ny*nf*nf) < &
-                      real(nt, wp)*(lag + 1)*ny*ny*nf
+    real(wp) :: n, nfreq, y, f, t
+    n = real(fft_smooth_length(nt + lag), wp)
+    nfreq = real(fft_smooth_length(nt + lag)/2 + 1, wp)
+    y = real(ny, wp)
+    f = real(nf, wp)
+    t = real(nt, wp)
+    fourier_cheaper = 1.2_wp*(y*f + y*(y + 1)/2)*n*log(n)/log(2.0_wp) + &
+                      30.0_wp*nfreq*y*y*f + 3.7_wp*nfreq*y*f*f + 800.0_wp*n < &
+                      3.8_wp*t*(lag + 1)*y*y*f + 1.9_wp*t*y*f*f + 37.0_wp*t*y*f
   end function fourier_cheaper
 
   !> One segment's bracket (Bartlett weights of lag L; rvv up to the
@@ -166,7 +176,7 @@ contains
     ny = size(a, 1)
     nt = size(a, 2)
     nf = size(a, 3)
-    n = fft_length(nt + ubound(rvv, 3))
+    n = fft_smooth_length(nt + ubound(rvv, 3))
     nfreq = n/2 + 1
     plan = fft_plan(n)
     allocate (kr(nfreq, ny, ny), ki(nfreq, ny, ny), sr(nfreq, ny, nf), si(nfreq, ny, nf), &
@@ -270,45 +280,37 @@ contains
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
     integer, intent(in) :: lag
     real(wp) :: b(size(a, 3), size(a, 3))
-    real(wp), allocatable :: g(:, :, :), rk(:, :, :)
-    integer :: ny, nt, nf, k, l
+    real(wp), allocatable :: at(:, :, :), g(:, :, :)
+    real(wp) :: w
+    integer :: ny, nt, nf, k, l, j, r
 
     ny = size(a, 1)
     nt = size(a, 2)
     nf = size(a, 3)
-    allocate (g(ny, nt, nf), rk(ny, ny, 0:ubound(rvv, 3)))
-    do k = 0, ubound(rvv, 3)
-      rk(:, :, k) = (1.0_wp - real(k, wp)/real(lag + 1, wp))*transpose(rvv(:, :, k))
-    end do
-    rk(:, :, 0) = 0.5_wp*rk(:, :, 0)
+    ! time first (a and g transposed): each term of the filter is one long
+    ! contiguous loop over the samples
+    allocate (at(nt, ny, nf), g(nt, ny, nf))
     ! each parameter's column on its own (threads share no sum, so the
     ! result does not depend on their number)
-    !$omp parallel do private(k) schedule(static)
+    !$omp parallel do private(k, j, r, w) schedule(static)
     do l = 1, nf
+      at(:, :, l) = transpose(a(:, :, l))
       g(:, :, l) = 0.0_wp
       do k = 0, ubound(rvv, 3)
-        call add_product(ny, nt - k, rk(:, :, k), a(:, 1 + k:nt, l), g(:, 1:nt - k, l))
-      end do
-      do k = 1, nf
-        b(k, l) = sum(a(:, :, k)*g(:, :, l))
+        w = 1.0_wp - real(k, wp)/real(lag + 1, wp)
+        if (k == 0) w = 0.5_wp
+        do r = 1, ny
+          do j = 1, ny                         ! g(r, i) += w Rvv(k)(j, r) a(j, i+k)
+            g(1:nt - k, r, l) = g(1:nt - k, r, l) + (w*rvv(j, r, k))*at(1 + k:nt, j, l)
+          end do
+        end do
       end do
     end do
     !$omp end parallel do
-    b = b + transpose(b)
+    b = 0.0_wp                                 ! P + P', P = A' G: both triangles' dot products
+    call add_sym_atb(ny*nt, nf, at, g, b)
+    call add_sym_atb(ny*nt, nf, g, at, b)
   end function segment_direct
-
-  !> y = y + r x on contiguous blocks of columns (x, y: n x m).
-  pure subroutine add_product(n, m, r, x, y)
-    integer, intent(in) :: n, m
-    real(wp), intent(in) :: r(n, n), x(n, m)
-    real(wp), intent(inout) :: y(n, m)
-    integer :: c, j
-    do c = 1, m                     ! in place: no temporary of the product
-      do j = 1, n
-        y(:, c) = y(:, c) + r(:, j)*x(j, c)
-      end do
-    end do
-  end subroutine add_product
 
   !> Rvv(:, :, k) = (1/N) sum v(i) v(i+k)' over the pairs within one
   !> segment, k = 0 .. ubound(rvv, 3).
@@ -344,7 +346,7 @@ contains
     integer :: ny, n, nh, p, m
 
     ny = size(x, 1)
-    n = fft_length(size(x, 2) + lag)
+    n = fft_smooth_length(size(x, 2) + lag)
     nh = n/2
     plan = fft_plan(n)
     allocate (xr(0:nh, ny), xi(0:nh, ny))

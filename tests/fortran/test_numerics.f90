@@ -65,6 +65,7 @@ program test_numerics
   use test_checks, only: check, finish
   use split_model, only: split_model_t
   use mlid_rk, only: small_product
+  use mlid_colored, only: colored_bracket, BRACKET_FOURIER, BRACKET_DIRECT, BRACKET_AUTO
   use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_many, fft_real_many, fft_smooth_length
   implicit none
 
@@ -78,6 +79,7 @@ program test_numerics
   call test_random()
   call test_small_product()
   call test_fft()
+  call test_colored_paths()
   call finish()
 
 contains
@@ -181,6 +183,65 @@ contains
     end do
     call check(err < 1.0e-13_wp, 'fft_real_many: each row its transform, f = 0 .. n/2')
   end subroutine test_fft_real_many
+
+  !> The coloured-residual bracket sum_i sum_j a(i)' w(|i-j|) Rvv(i-j) a(j)
+  !> (mlid_colored) by the transform, by the direct filter and as the core
+  !> chooses, against that double sum written out: three segments (14, 1
+  !> and 25 samples: transforms of 18 and 30 points, radices 2, 3 and 5),
+  !> lags 0, 3 and 24, a random kernel (not symmetric at lags > 0).
+  subroutine test_colored_paths()
+    integer, parameter :: ny = 3, nt = 40, nf = 4, seg(3) = [1, 15, 16]
+    integer, parameter :: lags(3) = [0, 3, 24]
+    type(rng_t) :: r
+    real(wp) :: a(ny, nt, nf), want(nf, nf), got(nf, nf), scale
+    real(wp), allocatable :: rvv(:, :, :)
+    integer :: i, j, k, l, c, s, hows(3), h, lag, ends(3)
+    hows = [BRACKET_FOURIER, BRACKET_DIRECT, BRACKET_AUTO]
+    ends = [14, 15, 40]
+    call rng_seed(r, 23)
+    do l = 1, nf
+      do i = 1, nt
+        do j = 1, ny
+          a(j, i, l) = rng_normal(r)
+        end do
+      end do
+    end do
+    do c = 1, size(lags)
+      lag = lags(c)
+      allocate (rvv(ny, ny, 0:lag))
+      do k = 0, lag
+        do i = 1, ny
+          do j = 1, ny
+            rvv(j, i, k) = rng_normal(r)/(1 + k)
+          end do
+        end do
+      end do
+      rvv(:, :, 0) = 0.5_wp*(rvv(:, :, 0) + transpose(rvv(:, :, 0)))
+      want = 0.0_wp
+      do s = 1, size(seg)
+        do i = seg(s), ends(s)
+          do j = seg(s), ends(s)
+            k = abs(i - j)
+            if (k > lag) cycle
+            if (i >= j) then                  ! Rvv(i - j), Rvv(-k) = Rvv(k)'
+              want = want + (1 - real(k, wp)/(lag + 1))* &
+                     matmul(transpose(a(:, i, :)), matmul(rvv(:, :, k), a(:, j, :)))
+            else
+              want = want + (1 - real(k, wp)/(lag + 1))* &
+                     matmul(transpose(a(:, i, :)), matmul(transpose(rvv(:, :, k)), a(:, j, :)))
+            end if
+          end do
+        end do
+      end do
+      scale = maxval(abs(want))
+      do h = 1, size(hows)
+        got = colored_bracket(a, rvv, seg, hows(h))
+        call check(maxval(abs(got - want)) < 1.0e-12_wp*scale, &
+                   'colored_bracket (transform, filter, chosen) is the double sum')
+      end do
+      deallocate (rvv)
+    end do
+  end subroutine test_colored_paths
 
   !> small_product, its fixed-size 4 x 4 kernel and its general loops,
   !> against the sums written out: within rounding (4 eps sum |a||b|, as a
