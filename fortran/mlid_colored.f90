@@ -128,10 +128,10 @@ contains
       fourier = how == BRACKET_FOURIER .or. (how == BRACKET_AUTO .and. &
                 fourier_cheaper(size(a, 1), i1 - i0 + 1, size(cols), lag))
       if (fourier) then
-        b(cols, cols) = b(cols, cols) + segment_bracket(a(:, i0:i1, cols), rvv(:, :, 0:lag), &
+        b(cols, cols) = b(cols, cols) + segment_bracket(a(:, i0:i1, :), cols, rvv(:, :, 0:lag), &
                                                         ubound(rvv, 3))
       else
-        b(cols, cols) = b(cols, cols) + segment_direct(a(:, i0:i1, cols), rvv(:, :, 0:lag), &
+        b(cols, cols) = b(cols, cols) + segment_direct(a(:, i0:i1, :), cols, rvv(:, :, 0:lag), &
                                                        ubound(rvv, 3))
       end if
     end do
@@ -160,14 +160,14 @@ contains
   end function fourier_cheaper
 
   !> One segment's bracket (Bartlett weights of lag L; rvv up to the
-  !> segment's own longest lag): A(f) = the transforms of a's rows, then
-  !> Re sum_f A(f)^H K(f) A(f)/n over f = 0 .. n/2, the inner ones twice
-  !> (f and n - f are conjugate for real series): Re(A^H G) = Ar' Gr + Ai' Gi,
-  !> symmetric as K(f) is Hermitian.
-  function segment_bracket(a, rvv, lag) result(b)
+  !> segment's own longest lag) over the columns cols of a: A(f) = the
+  !> transforms of their rows, then Re sum_f A(f)^H K(f) A(f)/n over f = 0
+  !> .. n/2, the inner ones twice (f and n - f are conjugate for real
+  !> series): Re(A^H G) = Ar' Gr + Ai' Gi, symmetric as K(f) is Hermitian.
+  function segment_bracket(a, cols, rvv, lag) result(b)
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
-    integer, intent(in) :: lag
-    real(wp) :: b(size(a, 3), size(a, 3))
+    integer, intent(in) :: cols(:), lag
+    real(wp) :: b(size(cols), size(cols))
     real(wp), allocatable :: kr(:, :, :), ki(:, :, :), sr(:, :, :), si(:, :, :), gr(:, :, :), &
                              gi(:, :, :), x(:, :)
     type(fft_plan_t) :: plan
@@ -175,7 +175,7 @@ contains
 
     ny = size(a, 1)
     nt = size(a, 2)
-    nf = size(a, 3)
+    nf = size(cols)
     n = fft_smooth_length(nt + ubound(rvv, 3))
     nfreq = n/2 + 1
     plan = fft_plan(n)
@@ -186,25 +186,19 @@ contains
     allocate (x(ny*nf, nt))
     do l = 1, nf
       do i = 1, nt
-        x(1 + ny*(l - 1):ny*l, i) = a(:, i, l)
+        x(1 + ny*(l - 1):ny*l, i) = a(:, i, cols(l))
       end do
     end do
     call fft_real_many(plan, x, sr, si)
     deallocate (x)
     ! each parameter's filtered transforms on their own (the result does
     ! not depend on the threads)
-    !$omp parallel do private(r, q) schedule(static)
+    !$omp parallel do private(r) schedule(static)
     do l = 1, nf
-      gr(:, :, l) = 0.0_wp
-      gi(:, :, l) = 0.0_wp
-      do q = 1, ny                             ! G(f) = K(f) A(f), all f at once
-        do r = 1, ny
-          call add_kernel_product(nfreq, kr(:, r, q), ki(:, r, q), sr(:, q, l), si(:, q, l), &
-                                  gr(:, r, l), gi(:, r, l))
-        end do
+      do r = 1, ny                             ! G(f) = K(f) A(f), all f at once
+        call kernel_product(nfreq, ny, kr(:, :, r), ki(:, :, r), sr(:, :, l), si(:, :, l), &
+                            gr(:, r, l), gi(:, r, l))
       end do
-      gr(2:nfreq - 1, :, l) = 2.0_wp*gr(2:nfreq - 1, :, l)   ! f and n - f
-      gi(2:nfreq - 1, :, l) = 2.0_wp*gi(2:nfreq - 1, :, l)
     end do
     !$omp end parallel do
     b = 0.0_wp
@@ -213,8 +207,11 @@ contains
     b = b/real(n, wp)
   end function segment_bracket
 
-  !> The kernel's transform K(f) = kr + i ki (f = 0 .. n/2), all entries r
-  !> <= q at once: K(q, r)(d) = K(r, q)(-d), so its transform is the conjugate.
+  !> The kernel's transform K(f)(r, q) = kr(f, q, r) + i ki(f, q, r) (f = 0
+  !> .. n/2; row r of K(f) a contiguous column), the inner frequencies
+  !> doubled (f and n - f: the sum over f = 0 .. n/2 counts each twice),
+  !> all entries r <= q at once: K(q, r)(d) = K(r, q)(-d), so its transform
+  !> is the conjugate.
   subroutine kernel_spectra(plan, rvv, lag, kr, ki)
     type(fft_plan_t), intent(in) :: plan
     real(wp), intent(in) :: rvv(:, :, 0:)
@@ -222,37 +219,55 @@ contains
     real(wp), intent(out) :: kr(0:, :, :), ki(0:, :, :)
     real(wp), allocatable :: z(:, :), fr(:, :), fi(:, :)
     integer, allocatable :: pr(:), pq(:)
-    integer :: p, r, q
+    integer :: p, r, q, nh
 
+    nh = plan%n/2
     call upper_pairs(size(rvv, 1), pr, pq)
-    allocate (z(size(pr), 0:plan%n - 1), fr(0:plan%n/2, size(pr)), fi(0:plan%n/2, size(pr)))
+    allocate (z(size(pr), 0:plan%n - 1), fr(0:nh, size(pr)), fi(0:nh, size(pr)))
     do p = 1, size(pr)
       z(p, :) = kernel_row(rvv, lag, pr(p), pq(p), plan%n)
     end do
     call fft_real_many(plan, z, fr, fi)
+    fr(1:nh - 1, :) = 2.0_wp*fr(1:nh - 1, :)
+    fi(1:nh - 1, :) = 2.0_wp*fi(1:nh - 1, :)
     do p = 1, size(pr)
       r = pr(p)
       q = pq(p)
       kr(:, q, r) = fr(:, p)
-      ki(:, q, r) = -fi(:, p)
+      ki(:, q, r) = fi(:, p)
       kr(:, r, q) = fr(:, p)
-      ki(:, r, q) = fi(:, p)
-      if (r == q) ki(:, r, q) = 0.0_wp       ! K(r, r)(d) is even: its transform is real
+      ki(:, r, q) = -fi(:, p)
+      if (r == q) ki(:, q, r) = 0.0_wp       ! K(r, r)(d) is even: its transform is real
     end do
   end subroutine kernel_spectra
 
-  !> g = g + k s over n frequencies, real and imaginary parts apart (kr, ki;
-  !> sr, si; gr, gi): one pass that reads each operand once.
-  pure subroutine add_kernel_product(n, kr, ki, sr, si, gr, gi)
-    integer, intent(in) :: n
-    real(wp), intent(in) :: kr(n), ki(n), sr(n), si(n)
-    real(wp), intent(inout) :: gr(n), gi(n)
-    integer :: f
-    do f = 1, n
-      gr(f) = gr(f) + kr(f)*sr(f) - ki(f)*si(f)
-      gi(f) = gi(f) + kr(f)*si(f) + ki(f)*sr(f)
+  !> g = sum_q k(:, q) s(:, q) over n frequencies (row r of K(f) times
+  !> A(f)), real and imaginary parts apart, two q to a pass: each pass
+  !> reads and writes g once.
+  pure subroutine kernel_product(n, ny, kr, ki, sr, si, gr, gi)
+    integer, intent(in) :: n, ny
+    real(wp), intent(in) :: kr(n, ny), ki(n, ny), sr(n, ny), si(n, ny)
+    real(wp), intent(out) :: gr(n), gi(n)
+    integer :: f, q
+    q = 1
+    if (mod(ny, 2) == 1) then
+      gr = kr(:, 1)*sr(:, 1) - ki(:, 1)*si(:, 1)
+      gi = kr(:, 1)*si(:, 1) + ki(:, 1)*sr(:, 1)
+      q = 2
+    else
+      gr = 0.0_wp
+      gi = 0.0_wp
+    end if
+    do q = q, ny - 1, 2
+      !GCC$ ivdep
+      do f = 1, n
+        gr(f) = gr(f) + (kr(f, q)*sr(f, q) - ki(f, q)*si(f, q)) + &
+                (kr(f, q + 1)*sr(f, q + 1) - ki(f, q + 1)*si(f, q + 1))
+        gi(f) = gi(f) + (kr(f, q)*si(f, q) + ki(f, q)*sr(f, q)) + &
+                (kr(f, q + 1)*si(f, q + 1) + ki(f, q + 1)*sr(f, q + 1))
+      end do
     end do
-  end subroutine add_kernel_product
+  end subroutine kernel_product
 
   !> The kernel entry K(d)(r, q) = w(|d|) Rvv(d)(r, q) at index d mod n,
   !> d = -L' .. L' (L' = ubound(rvv, 3)), zero elsewhere.
@@ -272,21 +287,21 @@ contains
   end function kernel_row
 
   !> One segment's bracket by the direct FIR filter (Bartlett weights of
-  !> lag L; rvv up to the segment's own longest lag), as P + P' with
-  !> P = sum_i a(i)' g(i), g(i) = Rvv(0) a(i)/2 + sum_k>0 w(k) Rvv(k)' a(i+k):
+  !> lag L; rvv up to the segment's own longest lag) over the columns cols
+  !> of a, as P + P' with P = sum_i a(i)' g(i), g(i) = Rvv(0) a(i)/2 + sum_k>0 w(k) Rvv(k)' a(i+k):
   !> the pair (i, j = i+k) gives a(i)' Rvv(-k) a(i+k) = a(i)' Rvv(k)' a(i+k),
   !> the pair (i+k, i) its transpose.
-  function segment_direct(a, rvv, lag) result(b)
+  function segment_direct(a, cols, rvv, lag) result(b)
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
-    integer, intent(in) :: lag
-    real(wp) :: b(size(a, 3), size(a, 3))
+    integer, intent(in) :: cols(:), lag
+    real(wp) :: b(size(cols), size(cols))
     real(wp), allocatable :: at(:, :, :), g(:, :, :)
     real(wp) :: w
     integer :: ny, nt, nf, k, l, j, r
 
     ny = size(a, 1)
     nt = size(a, 2)
-    nf = size(a, 3)
+    nf = size(cols)
     ! time first (a and g transposed): each term of the filter is one long
     ! contiguous loop over the samples
     allocate (at(nt, ny, nf), g(nt, ny, nf))
@@ -294,7 +309,7 @@ contains
     ! result does not depend on their number)
     !$omp parallel do private(k, j, r, w) schedule(static)
     do l = 1, nf
-      at(:, :, l) = transpose(a(:, :, l))
+      at(:, :, l) = transpose(a(:, :, cols(l)))
       g(:, :, l) = 0.0_wp
       do k = 0, ubound(rvv, 3)
         w = 1.0_wp - real(k, wp)/real(lag + 1, wp)
