@@ -73,9 +73,13 @@ contains
         j = j/RADICES(i)
       end do
     end do
-    do k = 0, n - 1
+    do k = 0, n/2                             ! the rest their conjugates
       p%wr(k) = cos(two_pi*k/n)
       p%wi(k) = -sin(two_pi*k/n)
+    end do
+    do k = n/2 + 1, n - 1
+      p%wr(k) = p%wr(n - k)
+      p%wi(k) = -p%wi(n - k)
     end do
     if (mod(n, 4) == 0) then                  ! exactly -i, -1, i
       p%wr(n/4) = 0.0_wp
@@ -103,25 +107,36 @@ contains
     integer, intent(in) :: m
     real(wp), intent(inout) :: zr(m*p%n), zi(m*p%n)
     real(wp), allocatable :: yr(:), yi(:)     ! the buffer (on the heap: long records)
-    integer :: s, i
-    logical :: in_z
+    logical :: in_y
     allocate (yr(m*p%n), yi(m*p%n))
-    s = 1                                     ! stride: transforms of n/s points, s of them
-    in_z = .true.
-    do i = 1, size(p%radix)
-      if (in_z) then
-        call stage(p, p%radix(i), m*s, s, zr, zi, yr, yi)
-      else
-        call stage(p, p%radix(i), m*s, s, yr, yi, zr, zi)
-      end if
-      in_z = .not. in_z
-      s = s*p%radix(i)
-    end do
-    if (.not. in_z) then
+    call stages(p, m, zr, zi, yr, yi, in_y)
+    if (in_y) then
       zr = yr
       zi = yi
     end if
   end subroutine fft_many
+
+  !> fft_many between z and the buffer y, the transforms left in y when
+  !> in_y (an odd number of stages), else in z.
+  pure subroutine stages(p, m, zr, zi, yr, yi, in_y)
+    type(fft_plan_t), intent(in) :: p
+    integer, intent(in) :: m
+    real(wp), intent(inout) :: zr(m*p%n), zi(m*p%n)
+    real(wp), intent(out) :: yr(m*p%n), yi(m*p%n)
+    logical, intent(out) :: in_y
+    integer :: s, i
+    s = 1                                     ! stride: transforms of n/s points, s of them
+    in_y = .false.
+    do i = 1, size(p%radix)
+      if (in_y) then
+        call stage(p, p%radix(i), m*s, s, yr, yi, zr, zi)
+      else
+        call stage(p, p%radix(i), m*s, s, zr, zi, yr, yi)
+      end if
+      in_y = .not. in_y
+      s = s*p%radix(i)
+    end do
+  end subroutine stages
 
   !> One stage of radix r at stride s: x holds r h blocks of c = m s values
   !> (h = n/(r s)); block p + h j, j < r, make the r-point transforms whose
@@ -340,10 +355,11 @@ contains
     type(fft_plan_t), intent(in) :: p
     real(wp), intent(in) :: x(:, :)
     real(wp), intent(out) :: fr(0:, :), fi(0:, :)
-    real(wp), allocatable :: zr(:, :), zi(:, :)
-    integer :: m, m2, nt, f, g
+    real(wp), allocatable :: zr(:, :), zi(:, :), yr(:, :), yi(:, :)
+    integer :: m, m2, nt
+    logical :: in_y
     m = (size(x, 1) + 1)/2
-    allocate (zr(m, 0:p%n - 1), zi(m, 0:p%n - 1))
+    allocate (zr(m, 0:p%n - 1), zi(m, 0:p%n - 1), yr(m, 0:p%n - 1), yi(m, 0:p%n - 1))
     m2 = size(x, 1) - m
     nt = size(x, 2)
     zr(:, 0:nt - 1) = x(1:m, :)
@@ -351,14 +367,29 @@ contains
     zi(1:m2, 0:nt - 1) = x(m + 1:, :)
     zi(m2 + 1:, 0:nt - 1) = 0.0_wp
     zi(:, nt:) = 0.0_wp
-    call fft_many(p, m, zr, zi)
-    do f = 0, p%n/2
-      g = mod(p%n - f, p%n)
+    call stages(p, m, zr, zi, yr, yi, in_y)
+    if (in_y) then
+      call unpack(p%n, m2, yr, yi, fr, fi)
+    else
+      call unpack(p%n, m2, zr, zi, fr, fi)
+    end if
+  end subroutine real_block
+
+  !> The real series' transforms from z = x1 + i x2 (m series, the first
+  !> m2 with a second one), f = 0 .. n/2.
+  pure subroutine unpack(n, m2, zr, zi, fr, fi)
+    integer, intent(in) :: n, m2
+    real(wp), intent(in) :: zr(:, 0:), zi(:, 0:)
+    real(wp), intent(out) :: fr(0:, :), fi(0:, :)
+    integer :: f, g, m
+    m = size(zr, 1)
+    do f = 0, n/2
+      g = mod(n - f, n)
       fr(f, 1:m) = 0.5_wp*(zr(:, f) + zr(:, g))
       fi(f, 1:m) = 0.5_wp*(zi(:, f) - zi(:, g))
       fr(f, m + 1:) = 0.5_wp*(zi(1:m2, f) + zi(1:m2, g))
       fi(f, m + 1:) = 0.5_wp*(zr(1:m2, g) - zr(1:m2, f))
     end do
-  end subroutine real_block
+  end subroutine unpack
 
 end module mlid_fft
