@@ -24,11 +24,15 @@
 !>
 !> Cost: the bracket is sum_i a(i)' c(i), c = K * a the convolution of the
 !> weighted sensitivities with the kernel K(d) = w(|d|) Rvv(d).  It is taken
-!> through the Fourier transform, each manoeuvre zero-padded to a power of
-!> two beyond its length plus the lag (so the circular convolution is the
-!> linear one), by Parseval: (1/n) sum_f A(f)^H K(f) A(f).  That is
-!> O(N log N ny nf + N ny^2 nf + N ny nf^2), where the direct FIR filter
-!> is O(N L ny^2 nf): each segment takes the cheaper (fourier_cheaper).
+!> through the Fourier transform, each manoeuvre zero-padded to the next
+!> even length 2^a 3^b 5^c not below its length plus the lag (so the
+!> circular convolution is the linear one), by Parseval: (1/n) sum_f
+!> A(f)^H K(f) A(f).  That is O(N log N ny nf + N ny^2 nf + N ny nf^2),
+!> where the direct FIR filter is O(N L ny^2 nf + N ny nf^2): each segment
+!> takes the cheaper (fourier_cheaper).  Rvv is estimated through the
+!> transform too, up to the longest lag allowed before the lag is chosen:
+!> the transform's length, N plus that lag, is about the bracket's, so
+!> stopping at the chosen lag would save little.
 module mlid_colored
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_linalg, only: add_sym_atb
@@ -171,7 +175,7 @@ contains
     real(wp), allocatable :: kr(:, :, :), ki(:, :, :), sr(:, :, :), si(:, :, :), gr(:, :, :), &
                              gi(:, :, :), x(:, :)
     type(fft_plan_t) :: plan
-    integer :: ny, nt, nf, n, nfreq, l, r, q, i
+    integer :: ny, nt, nf, n, nfreq, l, r, i
 
     ny = size(a, 1)
     nt = size(a, 2)
@@ -356,7 +360,7 @@ contains
     integer, intent(in) :: lag
     real(wp) :: c(size(x, 1), size(x, 1), 0:lag)
     real(wp), allocatable :: xr(:, :), xi(:, :), zr(:, :), zi(:, :)
-    integer, allocatable :: pr(:), pq(:)
+    integer, allocatable :: pr(:), pq(:), e(:)
     type(fft_plan_t) :: plan
     integer :: ny, n, nh, p, m
 
@@ -368,7 +372,7 @@ contains
     call fft_real_many(plan, x, xr, xi)
     call upper_pairs(ny, pr, pq)
     m = (size(pr) + 1)/2
-    allocate (zr(m, 0:n - 1), zi(m, 0:n - 1))
+    allocate (zr(m, 0:n - 1), zi(m, 0:n - 1), e(size(pr)))
     zr = 0.0_wp
     zi = 0.0_wp
     do p = 1, size(pr)
@@ -378,23 +382,29 @@ contains
     zr = zr/real(n, wp)
     zi = zi/real(n, wp)
     do p = 1, m
-      call put(pr(p), pq(p), zr(p, :))
+      call put(pr(p), pq(p), scale(zr(p, :), e(p)))
     end do
     do p = m + 1, size(pr)
-      call put(pr(p), pq(p), zi(p - m, :))
+      call put(pr(p), pq(p), scale(zi(p - m, :), e(p)))
     end do
 
   contains
 
     !> Pair p's Q = Xr conj(Xq), the conjugate of the cross-spectrum, over
     !> all n frequencies (Q(n - f) = conj(Q(f)): the series is real), into
-    !> the real part of series p (p <= m) or the imaginary part of p - m.
+    !> the real part of series p (p <= m) or the imaginary part of p - m,
+    !> scaled by 2^-e(p) to a largest value near 1 (exact: the pair's
+    !> partner may be orders of magnitude larger, and the transform's
+    !> rounding is relative to the larger).
     subroutine add_cross(p, ar, ai, br, bi)
       integer, intent(in) :: p
       real(wp), intent(in) :: ar(0:), ai(0:), br(0:), bi(0:)
       real(wp) :: wr(0:nh), wi(0:nh)
       wr = ar*br + ai*bi
       wi = ai*br - ar*bi
+      e(p) = exponent(max(maxval(abs(wr)), maxval(abs(wi))))
+      wr = scale(wr, -e(p))
+      wi = scale(wi, -e(p))
       if (p <= m) then
         zr(p, 0:nh) = wr
         zi(p, 0:nh) = wi

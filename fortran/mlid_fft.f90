@@ -93,6 +93,7 @@ contains
     type(fft_plan_t), intent(in) :: p
     complex(wp), intent(inout) :: z(0:)
     real(wp), allocatable :: zr(:), zi(:)
+    allocate (zr(p%n), zi(p%n))
     zr = real(z(0:p%n - 1), wp)
     zi = aimag(z(0:p%n - 1))
     call fft_many(p, 1, zr, zi)
@@ -356,15 +357,21 @@ contains
     real(wp), intent(in) :: x(:, :)
     real(wp), intent(out) :: fr(0:, :), fi(0:, :)
     real(wp), allocatable :: zr(:, :), zi(:, :), yr(:, :), yi(:, :)
-    integer :: m, m2, nt
+    integer :: m, m2, nt, t, j, e(size(x, 1))
     logical :: in_y
     m = (size(x, 1) + 1)/2
     allocate (zr(m, 0:p%n - 1), zi(m, 0:p%n - 1), yr(m, 0:p%n - 1), yi(m, 0:p%n - 1))
     m2 = size(x, 1) - m
     nt = size(x, 2)
-    zr(:, 0:nt - 1) = x(1:m, :)
+    ! each series scaled by a power of two to a largest value near 1 (exact):
+    ! a transform's rounding is relative to its largest values, and a pair's
+    ! two series may differ in size by orders of magnitude
+    e = [(exponent(maxval(abs(x(j, :)))), j=1, size(x, 1))]
+    do t = 0, nt - 1
+      zr(:, t) = scale(x(1:m, t + 1), -e(1:m))
+      zi(1:m2, t) = scale(x(m + 1:, t + 1), -e(m + 1:))
+    end do
     zr(:, nt:) = 0.0_wp                       ! the zero padding
-    zi(1:m2, 0:nt - 1) = x(m + 1:, :)
     zi(m2 + 1:, 0:nt - 1) = 0.0_wp
     zi(:, nt:) = 0.0_wp
     call stages(p, m, zr, zi, yr, yi, in_y)
@@ -373,6 +380,10 @@ contains
     else
       call unpack(p%n, m2, zr, zi, fr, fi)
     end if
+    do j = 1, size(x, 1)
+      fr(:, j) = scale(fr(:, j), e(j))
+      fi(:, j) = scale(fi(:, j), e(j))
+    end do
   end subroutine real_block
 
   !> The real series' transforms from z = x1 + i x2 (m series, the first
