@@ -360,7 +360,8 @@ contains
     integer, intent(in) :: lag
     real(wp) :: c(size(x, 1), size(x, 1), 0:lag)
     real(wp), allocatable :: xr(:, :), xi(:, :), zr(:, :), zi(:, :)
-    integer, allocatable :: pr(:), pq(:), e(:)
+    integer, allocatable :: pr(:), pq(:)
+    real(wp), allocatable :: down(:)
     type(fft_plan_t) :: plan
     integer :: ny, n, nh, p, m
 
@@ -372,7 +373,7 @@ contains
     call fft_real_many(plan, x, xr, xi)
     call upper_pairs(ny, pr, pq)
     m = (size(pr) + 1)/2
-    allocate (zr(m, 0:n - 1), zi(m, 0:n - 1), e(size(pr)))
+    allocate (zr(m, 0:n - 1), zi(m, 0:n - 1), down(size(pr)))
     zr = 0.0_wp
     zi = 0.0_wp
     do p = 1, size(pr)
@@ -382,10 +383,10 @@ contains
     zr = zr/real(n, wp)
     zi = zi/real(n, wp)
     do p = 1, m
-      call put(pr(p), pq(p), scale(zr(p, :), e(p)))
+      call put(pr(p), pq(p), zr(p, :)*(1.0_wp/down(p)))
     end do
     do p = m + 1, size(pr)
-      call put(pr(p), pq(p), scale(zi(p - m, :), e(p)))
+      call put(pr(p), pq(p), zi(p - m, :)*(1.0_wp/down(p)))
     end do
 
   contains
@@ -393,18 +394,18 @@ contains
     !> Pair p's Q = Xr conj(Xq), the conjugate of the cross-spectrum, over
     !> all n frequencies (Q(n - f) = conj(Q(f)): the series is real), into
     !> the real part of series p (p <= m) or the imaginary part of p - m,
-    !> scaled by 2^-e(p) to a largest value near 1 (exact: the pair's
-    !> partner may be orders of magnitude larger, and the transform's
-    !> rounding is relative to the larger).
+    !> scaled by down(p), a power of two, to a largest value near 1
+    !> (exact: the pair's partner may be orders of magnitude larger, and
+    !> the transform's rounding is relative to the larger).
     subroutine add_cross(p, ar, ai, br, bi)
       integer, intent(in) :: p
       real(wp), intent(in) :: ar(0:), ai(0:), br(0:), bi(0:)
       real(wp) :: wr(0:nh), wi(0:nh)
       wr = ar*br + ai*bi
       wi = ai*br - ar*bi
-      e(p) = exponent(max(maxval(abs(wr)), maxval(abs(wi))))
-      wr = scale(wr, -e(p))
-      wi = scale(wi, -e(p))
+      down(p) = scale(1.0_wp, -exponent(max(maxval(abs(wr)), maxval(abs(wi)))))
+      wr = down(p)*wr
+      wi = down(p)*wi
       if (p <= m) then
         zr(p, 0:nh) = wr
         zi(p, 0:nh) = wi

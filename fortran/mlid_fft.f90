@@ -357,7 +357,8 @@ contains
     real(wp), intent(in) :: x(:, :)
     real(wp), intent(out) :: fr(0:, :), fi(0:, :)
     real(wp), allocatable :: zr(:, :), zi(:, :), yr(:, :), yi(:, :)
-    integer :: m, m2, nt, t, j, e(size(x, 1))
+    integer :: m, m2, nt, t, j
+    real(wp) :: down(size(x, 1))
     logical :: in_y
     m = (size(x, 1) + 1)/2
     allocate (zr(m, 0:p%n - 1), zi(m, 0:p%n - 1), yr(m, 0:p%n - 1), yi(m, 0:p%n - 1))
@@ -366,10 +367,14 @@ contains
     ! each series scaled by a power of two to a largest value near 1 (exact):
     ! a transform's rounding is relative to its largest values, and a pair's
     ! two series may differ in size by orders of magnitude
-    e = [(exponent(maxval(abs(x(j, :)))), j=1, size(x, 1))]
+    down = 0.0_wp
+    do t = 1, nt                              ! the rows' largest values, column by column
+      down = max(down, abs(x(:, t)))
+    end do
+    down = [(scale(1.0_wp, -exponent(down(j))), j=1, size(x, 1))]
     do t = 0, nt - 1
-      zr(:, t) = scale(x(1:m, t + 1), -e(1:m))
-      zi(1:m2, t) = scale(x(m + 1:, t + 1), -e(m + 1:))
+      zr(:, t) = down(1:m)*x(1:m, t + 1)
+      zi(1:m2, t) = down(m + 1:)*x(m + 1:, t + 1)
     end do
     zr(:, nt:) = 0.0_wp                       ! the zero padding
     zi(m2 + 1:, 0:nt - 1) = 0.0_wp
@@ -381,13 +386,13 @@ contains
       call unpack(p%n, m2, zr, zi, fr, fi)
     end if
     do j = 1, size(x, 1)
-      fr(:, j) = scale(fr(:, j), e(j))
-      fi(:, j) = scale(fi(:, j), e(j))
+      fr(:, j) = fr(:, j)*(0.5_wp/down(j))   ! and unpack's 1/2
+      fi(:, j) = fi(:, j)*(0.5_wp/down(j))
     end do
   end subroutine real_block
 
-  !> The real series' transforms from z = x1 + i x2 (m series, the first
-  !> m2 with a second one), f = 0 .. n/2.
+  !> Twice the real series' transforms from z = x1 + i x2 (m series, the
+  !> first m2 with a second one), f = 0 .. n/2.
   pure subroutine unpack(n, m2, zr, zi, fr, fi)
     integer, intent(in) :: n, m2
     real(wp), intent(in) :: zr(:, 0:), zi(:, 0:)
@@ -396,10 +401,10 @@ contains
     m = size(zr, 1)
     do f = 0, n/2
       g = mod(n - f, n)
-      fr(f, 1:m) = 0.5_wp*(zr(:, f) + zr(:, g))
-      fi(f, 1:m) = 0.5_wp*(zi(:, f) - zi(:, g))
-      fr(f, m + 1:) = 0.5_wp*(zi(1:m2, f) + zi(1:m2, g))
-      fi(f, m + 1:) = 0.5_wp*(zr(1:m2, g) - zr(1:m2, f))
+      fr(f, 1:m) = zr(:, f) + zr(:, g)
+      fi(f, 1:m) = zi(:, f) - zi(:, g)
+      fr(f, m + 1:) = zi(1:m2, f) + zi(1:m2, g)
+      fi(f, m + 1:) = zr(1:m2, g) - zr(1:m2, f)
     end do
   end subroutine unpack
 
