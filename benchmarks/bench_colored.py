@@ -18,23 +18,31 @@ processes.  One thread.  Needs valgrind for the counts (skipped without).
 
     .venv/bin/python benchmarks/bench_colored.py [--baseline DIR] [--rounds N]
 
-Measured (ours, branch colored-fast against main at d84cbd5, one thread;
-instructions per fit, the correction's share of the fit in brackets):
-  HFB-320 output error (lag 60):  correction 19.7 M -> 8.6 M (19.2 % -> 9.4 %),
-                                  fit 102.4 M -> 91.3 M;
-  HFB-320 filter error (lag 60):  see the run below;
-  ATTAS lateral (lag 150):        correction 48.8 M -> 24.4 M (23.7 % -> 13.4 %),
-                                  fit 206.4 M -> 182.0 M.
-Where they went (callgrind_annotate on the fits, before -> after): the
-transforms (radix-2 with bit reversal, one series at a time, padded to a
-power of two: 1024 points for HFB-320) 11.3 M -> 4.2 M on HFB-320 (Stockham
-stages of radix 4, 2, 3, 5 over blocks of 8 series, the series innermost and
-vectorized, padded to the next even 2^a 3^b 5^c: 720 points), the kernel
-product G = K A 3.8 M -> 1.9 M (fewer frequencies, two kernel columns a
-pass, the factor 2 of the inner frequencies folded into the kernel), the
-rest (temporaries, zeroing, plan twiddles) 3.4 M -> 1.6 M.  What is left
-on ATTAS lateral: the transforms 11.5 M, Re sum A^H G (dot products) 5.5 M,
-G = K A 4.7 M.  The wall-clock lines are in the run's output.
+Measured (ours, branch colored-fast against main at d84cbd5 (its venv), one
+thread, the machine shared; instructions per fit, the correction's share of
+the fit in brackets):
+  HFB-320 output error (lag 60):  correction 19.70 M -> 9.43 M (19.2 % -> 10.2 %),
+      fit 102.5 M -> 92.2 M; wall: fit 8.50 -> 7.91 ms, correction alone
+      (with its Python call) 1.90 -> 1.28 ms;
+  ATTAS lateral (lag 150):        correction 48.85 M -> 26.27 M (23.7 % -> 14.3 %),
+      fit 206.4 M -> 183.8 M; wall: fit 25.4 -> 23.9 ms, correction alone
+      8.38 -> 4.14 ms.
+  (HFB-320 filter error, case 3: 32.0 M -> 14.1 M, 0.2 % -> 0.1 % of a
+  15,000 M fit, left out of the run for its callgrind time.)
+Where they went (callgrind_annotate, HFB-320 before -> after): the
+transforms, radix 2 with bit reversal, one series at a time, padded to a
+power of two (1024 points), 11.3 M -> 4.7 M: Stockham stages of radix 4, 2,
+3 and 5 over blocks of 8 series, the series innermost and vectorized, padded
+to the next even 2^a 3^b 5^c (720 points), each series scaled by a power
+of two (0.5 M of the 4.7 M: exact, and it makes a small parameter's entries
+accurate to rounding of their own size, where sharing a transform with a
+series 1e7 larger had left them wrong by 1e-9 of the largest entry); G = K
+A 3.8 M -> 1.9 M (fewer frequencies, two kernel columns a pass, the inner
+frequencies' factor 2 in the kernel); the autocovariance and the rest
+(temporaries, zeroing, twiddles) 4.6 M -> 2.8 M.  What is left on ATTAS
+lateral (26.3 M): the transforms 13.0 M, Re sum A^H G (dot products) 5.5 M,
+G = K A 4.7 M.  The direct filter (chosen for short lags) runs time-first:
+7.9 -> 3.8 instructions per multiply-add (benchmarks/bench_colored_bracket.f90).
 """
 
 import argparse
