@@ -145,7 +145,8 @@ contains
   !> segment: each way's loops counted, each count weighted by the
   !> instructions it takes (callgrind, benchmarks/bench_colored_bracket.f90;
   !> the sums below come within 6% (transform) and 20% (filter) of the
-  !> measured counts for ny 1-7, N 200-2128, nf 2-30, lags 0-64).  The
+  !> measured counts for ny 1-7, N 200-2128, nf 2-30, lags 0-64, before
+  !> the series' scaling added some 5 % to the transform).  The
   !> transform: R = ny nf + ny (ny+1)/2 real series of n points (n log2 n
   !> each), K A and A^H G at n/2 + 1 frequencies, and what runs once per
   !> point (the plan, packing, zeroing); the filter: (L+1) ny^2 nf and
