@@ -24,15 +24,19 @@
 !>
 !> Cost: the bracket is sum_i a(i)' c(i), c = K * a the convolution of the
 !> weighted sensitivities with the kernel K(d) = w(|d|) Rvv(d).  It is taken
-!> through the Fourier transform, each manoeuvre zero-padded to a power of
-!> two beyond its length plus the lag (so the circular convolution is the
-!> linear one), by Parseval: (1/n) sum_f A(f)^H K(f) A(f).  That is
-!> O(N log N ny nf + N ny^2 nf + N ny nf^2), where the direct FIR filter
-!> is O(N L ny^2 nf): each segment takes the cheaper (fourier_cheaper).
+!> through the Fourier transform, each manoeuvre zero-padded to the next
+!> even length 2^a 3^b 5^c not below its length plus the lag (so the
+!> circular convolution is the linear one), by Parseval: (1/n) sum_f
+!> A(f)^H K(f) A(f).  That is O(N log N ny nf + N ny^2 nf + N ny nf^2),
+!> where the direct FIR filter is O(N L ny^2 nf + N ny nf^2): each segment
+!> takes the cheaper (fourier_cheaper).  Rvv is estimated through the
+!> transform too, up to the longest lag allowed before the lag is chosen:
+!> the transform's length, N plus that lag, is about the bracket's, so
+!> stopping at the chosen lag would save little.
 module mlid_colored
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_linalg, only: add_sym_atb
-  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_length, fft_real_pair
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_many, fft_smooth_length, fft_real_many
   implicit none
   private
   public :: colored_covariance, colored_sandwich, colored_bracket
@@ -128,114 +132,147 @@ contains
       fourier = how == BRACKET_FOURIER .or. (how == BRACKET_AUTO .and. &
                 fourier_cheaper(size(a, 1), i1 - i0 + 1, size(cols), lag))
       if (fourier) then
-        b(cols, cols) = b(cols, cols) + segment_bracket(a(:, i0:i1, cols), rvv(:, :, 0:lag), &
+        b(cols, cols) = b(cols, cols) + segment_bracket(a(:, i0:i1, :), cols, rvv(:, :, 0:lag), &
                                                         ubound(rvv, 3))
       else
-        b(cols, cols) = b(cols, cols) + segment_direct(a(:, i0:i1, cols), rvv(:, :, 0:lag), &
+        b(cols, cols) = b(cols, cols) + segment_direct(a(:, i0:i1, :), cols, rvv(:, :, 0:lag), &
                                                        ubound(rvv, 3))
       end if
     end do
   end function colored_bracket
 
   !> Whether the transform costs less than the direct filter for one
-  !> segment: operation counts, the transform's weighted 4:1 (measured,
-  !> benchmarks/bench_colored_bracket.f90: it loses at lag 1, wins 4-8
-  !> times at lag 212).
+  !> segment: each way's loops counted, each count weighted by the
+  !> instructions it takes (callgrind, benchmarks/bench_colored_bracket.f90;
+  !> the sums below come within 6% (transform) and 20% (filter) of the
+  !> measured counts for ny 1-7, N 200-2128, nf 2-30, lags 0-64, before
+  !> the series' scaling added some 5 % to the transform).  The
+  !> transform: R = ny nf + ny (ny+1)/2 real series of n points (n log2 n
+  !> each), K A and A^H G at n/2 + 1 frequencies, and what runs once per
+  !> point (the plan, packing, zeroing); the filter: (L+1) ny^2 nf and
+  !> ny nf^2 multiply-adds per sample, and its transposes.
   pure logical function fourier_cheaper(ny, nt, nf, lag)
     integer, intent(in) :: ny, nt, nf, lag
-    real(wp) :: n
-    n = real(fft_length(nt + lag), wp)
-    fourier_cheaper = 4.0_wp*n*(ny*nf*log(n)/log(2.0_wp)/2 + ny*ny*nf + ny*nf*nf) < &
-                      real(nt, wp)*(lag + 1)*ny*ny*nf
+    real(wp) :: n, nfreq, y, f, t
+    n = real(fft_smooth_length(nt + lag), wp)
+    nfreq = real(fft_smooth_length(nt + lag)/2 + 1, wp)
+    y = real(ny, wp)
+    f = real(nf, wp)
+    t = real(nt, wp)
+    fourier_cheaper = 1.2_wp*(y*f + y*(y + 1)/2)*n*log(n)/log(2.0_wp) + &
+                      30.0_wp*nfreq*y*y*f + 3.7_wp*nfreq*y*f*f + 800.0_wp*n < &
+                      3.8_wp*t*(lag + 1)*y*y*f + 1.9_wp*t*y*f*f + 37.0_wp*t*y*f
   end function fourier_cheaper
 
   !> One segment's bracket (Bartlett weights of lag L; rvv up to the
-  !> segment's own longest lag): A(f) = the transforms of a's rows, then
-  !> Re sum_f A(f)^H K(f) A(f)/n over f = 0 .. n/2, the inner ones twice
-  !> (f and n - f are conjugate for real series): Re(A^H G) = Ar' Gr + Ai' Gi,
-  !> symmetric as K(f) is Hermitian.
-  function segment_bracket(a, rvv, lag) result(b)
+  !> segment's own longest lag) over the columns cols of a: A(f) = the
+  !> transforms of their rows, then Re sum_f A(f)^H K(f) A(f)/n over f = 0
+  !> .. n/2, the inner ones twice (f and n - f are conjugate for real
+  !> series): Re(A^H G) = Ar' Gr + Ai' Gi, symmetric as K(f) is Hermitian.
+  function segment_bracket(a, cols, rvv, lag) result(b)
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
-    integer, intent(in) :: lag
-    real(wp) :: b(size(a, 3), size(a, 3))
+    integer, intent(in) :: cols(:), lag
+    real(wp) :: b(size(cols), size(cols))
     real(wp), allocatable :: kr(:, :, :), ki(:, :, :), sr(:, :, :), si(:, :, :), gr(:, :, :), &
-                             gi(:, :, :)
-    complex(wp), allocatable :: xf(:), yf(:), af(:, :)
-    integer, allocatable :: pr(:), pq(:)
+                             gi(:, :, :), x(:, :)
     type(fft_plan_t) :: plan
-    integer :: ny, nt, nf, n, nfreq, l, r, q, p2
+    integer :: ny, nt, nf, n, nfreq, l, r, i
 
     ny = size(a, 1)
     nt = size(a, 2)
-    nf = size(a, 3)
-    n = fft_length(nt + ubound(rvv, 3))
+    nf = size(cols)
+    n = fft_smooth_length(nt + ubound(rvv, 3))
     nfreq = n/2 + 1
     plan = fft_plan(n)
     allocate (kr(nfreq, ny, ny), ki(nfreq, ny, ny), sr(nfreq, ny, nf), si(nfreq, ny, nf), &
               gr(nfreq, ny, nf), gi(nfreq, ny, nf))
-    ! the kernel's transform, two entries r <= q to a transform: K(q, r)(d) =
-    ! K(r, q)(-d), so its transform is the conjugate
-    call upper_pairs(ny, pr, pq)
-    allocate (xf(0:nfreq - 1), yf(0:nfreq - 1))
-    do l = 1, size(pr), 2
-      p2 = min(l + 1, size(pr))
-      call fft_real_pair(plan, kernel_row(rvv, lag, pr(l), pq(l), n), &
-                         kernel_row(rvv, lag, pr(p2), pq(p2), n), xf, yf)
-      call put_kernel(pr(p2), pq(p2), yf)
-      call put_kernel(pr(l), pq(l), xf)
-    end do
-    deallocate (xf, yf)
-    ! each parameter's transforms and filtered transforms on their own (the
-    ! result does not depend on the threads)
-    !$omp parallel do private(r, q, af) schedule(static)
+    call kernel_spectra(plan, rvv, lag, kr, ki)
+    ! every parameter's rows at once, row r of parameter l as series r + ny (l - 1)
+    allocate (x(ny*nf, nt))
     do l = 1, nf
-      allocate (af(0:nfreq - 1, ny))
-      call row_spectra(plan, a(:, :, l), af)
-      sr(:, :, l) = real(af, wp)
-      si(:, :, l) = aimag(af)
-      gr(:, :, l) = 0.0_wp
-      gi(:, :, l) = 0.0_wp
-      do q = 1, ny                             ! G(f) = K(f) A(f), all f at once
-        do r = 1, ny
-          call add_kernel_product(nfreq, kr(:, r, q), ki(:, r, q), sr(:, q, l), si(:, q, l), &
-                                  gr(:, r, l), gi(:, r, l))
-        end do
+      do i = 1, nt
+        x(1 + ny*(l - 1):ny*l, i) = a(:, i, cols(l))
       end do
-      gr(2:nfreq - 1, :, l) = 2.0_wp*gr(2:nfreq - 1, :, l)   ! f and n - f
-      gi(2:nfreq - 1, :, l) = 2.0_wp*gi(2:nfreq - 1, :, l)
-      deallocate (af)
+    end do
+    call fft_real_many(plan, x, sr, si)
+    deallocate (x)
+    ! each parameter's filtered transforms on their own (the result does
+    ! not depend on the threads)
+    !$omp parallel do private(r) schedule(static)
+    do l = 1, nf
+      do r = 1, ny                             ! G(f) = K(f) A(f), all f at once
+        call kernel_product(nfreq, ny, kr(:, :, r), ki(:, :, r), sr(:, :, l), si(:, :, l), &
+                            gr(:, r, l), gi(:, r, l))
+      end do
     end do
     !$omp end parallel do
     b = 0.0_wp
     call add_sym_atb(nfreq*ny, nf, sr, gr, b)
     call add_sym_atb(nfreq*ny, nf, si, gi, b)
     b = b/real(n, wp)
-
-  contains
-
-    subroutine put_kernel(r, q, kf)
-      integer, intent(in) :: r, q
-      complex(wp), intent(in) :: kf(0:)
-      kr(:, q, r) = real(kf, wp)
-      ki(:, q, r) = -aimag(kf)
-      kr(:, r, q) = real(kf, wp)
-      ki(:, r, q) = aimag(kf)
-      if (r == q) ki(:, r, q) = 0.0_wp       ! K(r, r)(d) is even: its transform is real
-    end subroutine put_kernel
   end function segment_bracket
 
-  !> g = g + k s over n frequencies, real and imaginary parts apart (kr, ki;
-  !> sr, si; gr, gi): one pass that reads each operand once.
-  pure subroutine add_kernel_product(n, kr, ki, sr, si, gr, gi)
-    integer, intent(in) :: n
-    real(wp), intent(in) :: kr(n), ki(n), sr(n), si(n)
-    real(wp), intent(inout) :: gr(n), gi(n)
-    integer :: f
-    do f = 1, n
-      gr(f) = gr(f) + kr(f)*sr(f) - ki(f)*si(f)
-      gi(f) = gi(f) + kr(f)*si(f) + ki(f)*sr(f)
+  !> The kernel's transform K(f)(r, q) = kr(f, q, r) + i ki(f, q, r) (f = 0
+  !> .. n/2; row r of K(f) a contiguous column), the inner frequencies
+  !> doubled (f and n - f: the sum over f = 0 .. n/2 counts each twice),
+  !> all entries r <= q at once: K(q, r)(d) = K(r, q)(-d), so its transform
+  !> is the conjugate.
+  subroutine kernel_spectra(plan, rvv, lag, kr, ki)
+    type(fft_plan_t), intent(in) :: plan
+    real(wp), intent(in) :: rvv(:, :, 0:)
+    integer, intent(in) :: lag
+    real(wp), intent(out) :: kr(0:, :, :), ki(0:, :, :)
+    real(wp), allocatable :: z(:, :), fr(:, :), fi(:, :)
+    integer, allocatable :: pr(:), pq(:)
+    integer :: p, r, q, nh
+
+    nh = plan%n/2
+    call upper_pairs(size(rvv, 1), pr, pq)
+    allocate (z(size(pr), 0:plan%n - 1), fr(0:nh, size(pr)), fi(0:nh, size(pr)))
+    do p = 1, size(pr)
+      z(p, :) = kernel_row(rvv, lag, pr(p), pq(p), plan%n)
     end do
-  end subroutine add_kernel_product
+    call fft_real_many(plan, z, fr, fi)
+    fr(1:nh - 1, :) = 2.0_wp*fr(1:nh - 1, :)
+    fi(1:nh - 1, :) = 2.0_wp*fi(1:nh - 1, :)
+    do p = 1, size(pr)
+      r = pr(p)
+      q = pq(p)
+      kr(:, q, r) = fr(:, p)
+      ki(:, q, r) = fi(:, p)
+      kr(:, r, q) = fr(:, p)
+      ki(:, r, q) = -fi(:, p)
+      if (r == q) ki(:, q, r) = 0.0_wp       ! K(r, r)(d) is even: its transform is real
+    end do
+  end subroutine kernel_spectra
+
+  !> g = sum_q k(:, q) s(:, q) over n frequencies (row r of K(f) times
+  !> A(f)), real and imaginary parts apart, two q to a pass: each pass
+  !> reads and writes g once.
+  pure subroutine kernel_product(n, ny, kr, ki, sr, si, gr, gi)
+    integer, intent(in) :: n, ny
+    real(wp), intent(in) :: kr(n, ny), ki(n, ny), sr(n, ny), si(n, ny)
+    real(wp), intent(out) :: gr(n), gi(n)
+    integer :: f, q
+    q = 1
+    if (mod(ny, 2) == 1) then
+      gr = kr(:, 1)*sr(:, 1) - ki(:, 1)*si(:, 1)
+      gi = kr(:, 1)*si(:, 1) + ki(:, 1)*sr(:, 1)
+      q = 2
+    else
+      gr = 0.0_wp
+      gi = 0.0_wp
+    end if
+    do q = q, ny - 1, 2
+      !GCC$ ivdep
+      do f = 1, n
+        gr(f) = gr(f) + (kr(f, q)*sr(f, q) - ki(f, q)*si(f, q)) + &
+                (kr(f, q + 1)*sr(f, q + 1) - ki(f, q + 1)*si(f, q + 1))
+        gi(f) = gi(f) + (kr(f, q)*si(f, q) + ki(f, q)*sr(f, q)) + &
+                (kr(f, q + 1)*si(f, q + 1) + ki(f, q + 1)*sr(f, q + 1))
+      end do
+    end do
+  end subroutine kernel_product
 
   !> The kernel entry K(d)(r, q) = w(|d|) Rvv(d)(r, q) at index d mod n,
   !> d = -L' .. L' (L' = ubound(rvv, 3)), zero elsewhere.
@@ -255,53 +292,45 @@ contains
   end function kernel_row
 
   !> One segment's bracket by the direct FIR filter (Bartlett weights of
-  !> lag L; rvv up to the segment's own longest lag), as P + P' with
-  !> P = sum_i a(i)' g(i), g(i) = Rvv(0) a(i)/2 + sum_k>0 w(k) Rvv(k)' a(i+k):
+  !> lag L; rvv up to the segment's own longest lag) over the columns cols
+  !> of a, as P + P' with P = sum_i a(i)' g(i), g(i) = Rvv(0) a(i)/2 + sum_k>0 w(k) Rvv(k)' a(i+k):
   !> the pair (i, j = i+k) gives a(i)' Rvv(-k) a(i+k) = a(i)' Rvv(k)' a(i+k),
   !> the pair (i+k, i) its transpose.
-  function segment_direct(a, rvv, lag) result(b)
+  function segment_direct(a, cols, rvv, lag) result(b)
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
-    integer, intent(in) :: lag
-    real(wp) :: b(size(a, 3), size(a, 3))
-    real(wp), allocatable :: g(:, :, :), rk(:, :, :)
-    integer :: ny, nt, nf, k, l
+    integer, intent(in) :: cols(:), lag
+    real(wp) :: b(size(cols), size(cols))
+    real(wp), allocatable :: at(:, :, :), g(:, :, :)
+    real(wp) :: w
+    integer :: ny, nt, nf, k, l, j, r
 
     ny = size(a, 1)
     nt = size(a, 2)
-    nf = size(a, 3)
-    allocate (g(ny, nt, nf), rk(ny, ny, 0:ubound(rvv, 3)))
-    do k = 0, ubound(rvv, 3)
-      rk(:, :, k) = (1.0_wp - real(k, wp)/real(lag + 1, wp))*transpose(rvv(:, :, k))
-    end do
-    rk(:, :, 0) = 0.5_wp*rk(:, :, 0)
+    nf = size(cols)
+    ! time first (a and g transposed): each term of the filter is one long
+    ! contiguous loop over the samples
+    allocate (at(nt, ny, nf), g(nt, ny, nf))
     ! each parameter's column on its own (threads share no sum, so the
     ! result does not depend on their number)
-    !$omp parallel do private(k) schedule(static)
+    !$omp parallel do private(k, j, r, w) schedule(static)
     do l = 1, nf
+      at(:, :, l) = transpose(a(:, :, cols(l)))
       g(:, :, l) = 0.0_wp
       do k = 0, ubound(rvv, 3)
-        call add_product(ny, nt - k, rk(:, :, k), a(:, 1 + k:nt, l), g(:, 1:nt - k, l))
-      end do
-      do k = 1, nf
-        b(k, l) = sum(a(:, :, k)*g(:, :, l))
+        w = 1.0_wp - real(k, wp)/real(lag + 1, wp)
+        if (k == 0) w = 0.5_wp
+        do r = 1, ny
+          do j = 1, ny                         ! g(r, i) += w Rvv(k)(j, r) a(j, i+k)
+            g(1:nt - k, r, l) = g(1:nt - k, r, l) + (w*rvv(j, r, k))*at(1 + k:nt, j, l)
+          end do
+        end do
       end do
     end do
     !$omp end parallel do
-    b = b + transpose(b)
+    b = 0.0_wp                                 ! P + P', P = A' G: both triangles' dot products
+    call add_sym_atb(ny*nt, nf, at, g, b)
+    call add_sym_atb(ny*nt, nf, g, at, b)
   end function segment_direct
-
-  !> y = y + r x on contiguous blocks of columns (x, y: n x m).
-  pure subroutine add_product(n, m, r, x, y)
-    integer, intent(in) :: n, m
-    real(wp), intent(in) :: r(n, n), x(n, m)
-    real(wp), intent(inout) :: y(n, m)
-    integer :: c, j
-    do c = 1, m                     ! in place: no temporary of the product
-      do j = 1, n
-        y(:, c) = y(:, c) + r(:, j)*x(j, c)
-      end do
-    end do
-  end subroutine add_product
 
   !> Rvv(:, :, k) = (1/N) sum v(i) v(i+k)' over the pairs within one
   !> segment, k = 0 .. ubound(rvv, 3).
@@ -325,44 +354,70 @@ contains
   !> (lag < its length), through the Fourier transform, zero-padded beyond
   !> the length plus the lag: row r's and q's cross-spectrum conj(X_r) X_q
   !> transformed back gives c(r, q, k) at k and c(q, r, k) at n - k; the
-  !> pairs r <= q go back two to a transform (each one a real series).
+  !> pairs r <= q go back two to a transform (each one a real series), the
+  !> first half of them in the real parts, the rest in the imaginary parts.
   function segment_autocov(x, lag) result(c)
     real(wp), intent(in) :: x(:, :)
     integer, intent(in) :: lag
     real(wp) :: c(size(x, 1), size(x, 1), 0:lag)
-    complex(wp), allocatable :: xf(:, :), z(:)
+    real(wp), allocatable :: xr(:, :), xi(:, :), zr(:, :), zi(:, :)
     integer, allocatable :: pr(:), pq(:)
+    real(wp), allocatable :: down(:)
     type(fft_plan_t) :: plan
-    integer :: ny, n, nh, p
+    integer :: ny, n, nh, p, m
 
     ny = size(x, 1)
-    n = fft_length(size(x, 2) + lag)
+    n = fft_smooth_length(size(x, 2) + lag)
     nh = n/2
     plan = fft_plan(n)
-    allocate (xf(0:nh, ny), z(0:n - 1))
-    call row_spectra(plan, x, xf)
+    allocate (xr(0:nh, ny), xi(0:nh, ny))
+    call fft_real_many(plan, x, xr, xi)
     call upper_pairs(ny, pr, pq)
-    do p = 1, size(pr), 2
-      z = 0.0_wp
-      call add_cross(z, xf(:, pr(p)), xf(:, pq(p)), (1.0_wp, 0.0_wp))
-      if (p < size(pr)) call add_cross(z, xf(:, pr(p + 1)), xf(:, pq(p + 1)), (0.0_wp, 1.0_wp))
-      call fft_forward(plan, z)
-      z = z/real(n, wp)
-      call put(pr(p), pq(p), real(z, wp))
-      if (p < size(pr)) call put(pr(p + 1), pq(p + 1), aimag(z))
+    m = (size(pr) + 1)/2
+    allocate (zr(m, 0:n - 1), zi(m, 0:n - 1), down(size(pr)))
+    zr = 0.0_wp
+    zi = 0.0_wp
+    do p = 1, size(pr)
+      call add_cross(p, xr(:, pr(p)), xi(:, pr(p)), xr(:, pq(p)), xi(:, pq(p)))
+    end do
+    call fft_many(plan, m, zr, zi)
+    zr = zr/real(n, wp)
+    zi = zi/real(n, wp)
+    do p = 1, m
+      call put(pr(p), pq(p), zr(p, :)*(1.0_wp/down(p)))
+    end do
+    do p = m + 1, size(pr)
+      call put(pr(p), pq(p), zi(p - m, :)*(1.0_wp/down(p)))
     end do
 
   contains
 
-    !> z = z + s Q, Q the conjugate of the cross-spectrum conj(Xr) Xq over
-    !> all n frequencies (Q(n - f) = conj(Q(f)): the series is real).
-    subroutine add_cross(z, xr, xq, s)
-      complex(wp), intent(inout) :: z(0:)
-      complex(wp), intent(in) :: xr(0:), xq(0:), s
-      complex(wp) :: w(0:nh)
-      w = xr*conjg(xq)
-      z(0:nh) = z(0:nh) + s*w
-      z(nh + 1:n - 1) = z(nh + 1:n - 1) + s*conjg(w(nh - 1:1:-1))
+    !> Pair p's Q = Xr conj(Xq), the conjugate of the cross-spectrum, over
+    !> all n frequencies (Q(n - f) = conj(Q(f)): the series is real), into
+    !> the real part of series p (p <= m) or the imaginary part of p - m,
+    !> scaled by down(p), a power of two, to a largest value near 1
+    !> (exact: the pair's partner may be orders of magnitude larger, and
+    !> the transform's rounding is relative to the larger).
+    subroutine add_cross(p, ar, ai, br, bi)
+      integer, intent(in) :: p
+      real(wp), intent(in) :: ar(0:), ai(0:), br(0:), bi(0:)
+      real(wp) :: wr(0:nh), wi(0:nh)
+      wr = ar*br + ai*bi
+      wi = ai*br - ar*bi
+      down(p) = scale(1.0_wp, -exponent(max(maxval(abs(wr)), maxval(abs(wi)))))
+      wr = down(p)*wr
+      wi = down(p)*wi
+      if (p <= m) then
+        zr(p, 0:nh) = wr
+        zi(p, 0:nh) = wi
+        zr(p, nh + 1:n - 1) = wr(nh - 1:1:-1)
+        zi(p, nh + 1:n - 1) = -wi(nh - 1:1:-1)
+      else                                   ! i Q: i (wr + i wi) = -wi + i wr
+        zr(p - m, 0:nh) = zr(p - m, 0:nh) - wi
+        zi(p - m, 0:nh) = zi(p - m, 0:nh) + wr
+        zr(p - m, nh + 1:n - 1) = zr(p - m, nh + 1:n - 1) + wi(nh - 1:1:-1)
+        zi(p - m, nh + 1:n - 1) = zi(p - m, nh + 1:n - 1) + wr(nh - 1:1:-1)
+      end if
     end subroutine add_cross
 
     subroutine put(r, q, cr)
@@ -377,20 +432,6 @@ contains
       end do
     end subroutine put
   end function segment_autocov
-
-  !> The transforms (f = 0 .. n/2) of x's rows, two rows to a transform.
-  subroutine row_spectra(plan, x, xf)
-    type(fft_plan_t), intent(in) :: plan
-    real(wp), intent(in) :: x(:, :)
-    complex(wp), intent(out) :: xf(0:, :)
-    complex(wp) :: yf(0:plan%n/2)
-    integer :: r, q
-    do r = 1, size(x, 1), 2
-      q = min(r + 1, size(x, 1))
-      call fft_real_pair(plan, x(r, :), x(q, :), xf(:, r), yf)
-      xf(:, q) = yf
-    end do
-  end subroutine row_spectra
 
   !> The pairs (pr(p), pq(p)) of 1 .. ny with pr <= pq, row by row.
   pure subroutine upper_pairs(ny, pr, pq)

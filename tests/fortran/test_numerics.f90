@@ -66,7 +66,8 @@ program test_numerics
   use test_checks, only: check, finish
   use split_model, only: split_model_t
   use mlid_rk, only: small_product
-  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward
+  use mlid_colored, only: colored_bracket, BRACKET_FOURIER, BRACKET_DIRECT, BRACKET_AUTO
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_many, fft_real_many, fft_smooth_length
   implicit none
 
   call test_rk4_order()
@@ -80,6 +81,7 @@ program test_numerics
   call test_small_product()
   call test_fft()
   call test_independent_columns()
+  call test_colored_paths()
   call finish()
 
 contains
@@ -130,33 +132,169 @@ contains
   end function normals
 
   !> fft_forward against the sum that defines the transform, at lengths
-  !> whose stages run both loop orders (few twiddles and many butterflies
-  !> each, and the other way round): within rounding of the sum's size.
+  !> whose stages take every radix (4, 2, 3, 5; powers of two with an odd
+  !> and an even number of factors 2, 3 and 5 alone and mixed): within
+  !> rounding of the sum's size.
   subroutine test_fft()
     type(rng_t) :: r
     type(fft_plan_t) :: plan
     complex(wp), allocatable :: z(:), e(:)
-    real(wp), parameter :: two_pi = 8.0_wp*atan(1.0_wp)
     real(wp) :: scale
-    integer, parameter :: lengths(3) = [2, 8, 64]
-    integer :: n, k, f, i
+    integer, parameter :: lengths(12) = [2, 8, 64, 128, 3, 6, 10, 25, 30, 90, 120, 250]
+    integer :: n, k, i
     call rng_seed(r, 5)
     do i = 1, size(lengths)
       n = lengths(i)
       plan = fft_plan(n)
-      allocate (z(0:n - 1), e(0:n - 1))
+      allocate (z(0:n - 1))
       do k = 0, n - 1
         z(k) = cmplx(rng_normal(r), rng_normal(r), wp)
       end do
-      do f = 0, n - 1
-        e(f) = sum([(z(k)*exp(cmplx(0.0_wp, -two_pi*mod(f*k, n)/n, wp)), k=0, n - 1)])
-      end do
+      e = dft(z)
       scale = sum(abs(z))
       call fft_forward(plan, z)
       call check(maxval(abs(z - e)) < 1.0e-13_wp*scale, 'fft_forward is the discrete Fourier transform')
       deallocate (z, e)
     end do
+    call test_fft_many(r)
+    call test_fft_real_many(r)
+    call check(fft_smooth_length(601 + 60) == 720 .and. fft_smooth_length(1) == 2 .and. &
+               fft_smooth_length(1652) == 1728 .and. fft_smooth_length(15) == 16, &
+               'fft_smooth_length: the next even 2^a 3^b 5^c')
   end subroutine test_fft
+
+  !> The transform by its defining sum.
+  function dft(z) result(e)
+    complex(wp), intent(in) :: z(0:)
+    complex(wp) :: e(0:size(z) - 1)
+    real(wp), parameter :: two_pi = 8.0_wp*atan(1.0_wp)
+    integer :: n, k, f
+    n = size(z)
+    do f = 0, n - 1
+      e(f) = sum([(z(k)*exp(cmplx(0.0_wp, -two_pi*mod(f*k, n)/n, wp)), k=0, n - 1)])
+    end do
+  end function dft
+
+  !> fft_many on 5 series at once (length 60: radices 4, 3, 5): each row the
+  !> defining sum of its series, and the same to the bit as that series alone.
+  subroutine test_fft_many(r)
+    type(rng_t), intent(inout) :: r
+    integer, parameter :: m = 5, n = 60
+    type(fft_plan_t) :: plan
+    real(wp) :: zr(m, 0:n - 1), zi(m, 0:n - 1), xr(1, 0:n - 1), xi(1, 0:n - 1)
+    complex(wp) :: z0(m, 0:n - 1)
+    real(wp) :: err
+    integer :: j, k
+    do k = 0, n - 1
+      do j = 1, m
+        z0(j, k) = cmplx(rng_normal(r), rng_normal(r), wp)
+      end do
+    end do
+    zr = real(z0, wp)
+    zi = aimag(z0)
+    xr(1, :) = zr(3, :)
+    xi(1, :) = zi(3, :)
+    plan = fft_plan(n)
+    call fft_many(plan, m, zr, zi)
+    call fft_many(plan, 1, xr, xi)
+    err = 0.0_wp
+    do j = 1, m
+      err = max(err, maxval(abs(cmplx(zr(j, :), zi(j, :), wp) - dft(z0(j, :))))/sum(abs(z0(j, :))))
+    end do
+    call check(err < 1.0e-13_wp, 'fft_many: each series its discrete Fourier transform')
+    call check(all(xr(1, :) == zr(3, :)) .and. all(xi(1, :) == zi(3, :)), &
+               'fft_many: a series alone is the same to the bit as one of many')
+  end subroutine test_fft_many
+
+  !> fft_real_many on 19 real series of 45 samples zero-padded to 60 (two
+  !> blocks, the second with an odd count), sizes from 1e-6 to 1e6 (series
+  !> that share a transform differ by up to 1e12): frequencies 0 .. 30 of
+  !> each against the defining sum of the padded series, within rounding of
+  !> the series' own size.
+  subroutine test_fft_real_many(r)
+    type(rng_t), intent(inout) :: r
+    integer, parameter :: nr = 19, nt = 45, n = 60
+    type(fft_plan_t) :: plan
+    real(wp) :: x(nr, nt), fr(0:n/2, nr), fi(0:n/2, nr), err
+    complex(wp) :: e(0:n - 1)
+    integer :: j, k
+    do k = 1, nt
+      do j = 1, nr
+        x(j, k) = rng_normal(r)*10.0_wp**merge(6, -6, j <= 8 .or. j > 16)   ! pairs j, j + 8
+      end do
+    end do
+    plan = fft_plan(n)
+    call fft_real_many(plan, x, fr, fi)
+    err = 0.0_wp
+    do j = 1, nr
+      e = dft([cmplx(x(j, :), 0.0_wp, wp), (cmplx(0.0_wp, 0.0_wp, wp), k=nt, n - 1)])
+      err = max(err, maxval(abs(cmplx(fr(:, j), fi(:, j), wp) - e(0:n/2)))/sum(abs(x(j, :))))
+    end do
+    call check(err < 1.0e-13_wp, 'fft_real_many: each row its transform, f = 0 .. n/2')
+  end subroutine test_fft_real_many
+
+  !> The coloured-residual bracket sum_i sum_j a(i)' w(|i-j|) Rvv(i-j) a(j)
+  !> (mlid_colored) by the transform, by the direct filter and as the core
+  !> chooses, against that double sum written out: three segments (14, 1
+  !> and 25 samples: transforms of 18 and 30 points, radices 2, 3 and 5),
+  !> lags 0, 3 and 24, a random kernel (not symmetric at lags > 0), one
+  !> parameter's sensitivities 1e-7 times the others': each entry within
+  !> rounding of its own parameters' sizes, |a_k| |a_l| sum |Rvv|.
+  subroutine test_colored_paths()
+    integer, parameter :: ny = 3, nt = 40, nf = 4, seg(3) = [1, 15, 16]
+    integer, parameter :: lags(3) = [0, 3, 24]
+    type(rng_t) :: r
+    real(wp) :: a(ny, nt, nf), want(nf, nf), got(nf, nf), tol(nf, nf), na(nf)
+    real(wp), allocatable :: rvv(:, :, :)
+    integer :: i, j, k, l, c, s, hows(3), h, lag, ends(3)
+    hows = [BRACKET_FOURIER, BRACKET_DIRECT, BRACKET_AUTO]
+    ends = [14, 15, 40]
+    call rng_seed(r, 23)
+    do l = 1, nf
+      do i = 1, nt
+        do j = 1, ny
+          a(j, i, l) = rng_normal(r)
+        end do
+      end do
+    end do
+    a(:, :, 2) = 1.0e-7_wp*a(:, :, 2)
+    na = [(sqrt(sum(a(:, :, l)**2)), l=1, nf)]
+    do c = 1, size(lags)
+      lag = lags(c)
+      allocate (rvv(ny, ny, 0:lag))
+      do k = 0, lag
+        do i = 1, ny
+          do j = 1, ny
+            rvv(j, i, k) = rng_normal(r)/(1 + k)
+          end do
+        end do
+      end do
+      rvv(:, :, 0) = 0.5_wp*(rvv(:, :, 0) + transpose(rvv(:, :, 0)))
+      want = 0.0_wp
+      do s = 1, size(seg)
+        do i = seg(s), ends(s)
+          do j = seg(s), ends(s)
+            k = abs(i - j)
+            if (k > lag) cycle
+            if (i >= j) then                  ! Rvv(i - j), Rvv(-k) = Rvv(k)'
+              want = want + (1 - real(k, wp)/(lag + 1))* &
+                     matmul(transpose(a(:, i, :)), matmul(rvv(:, :, k), a(:, j, :)))
+            else
+              want = want + (1 - real(k, wp)/(lag + 1))* &
+                     matmul(transpose(a(:, i, :)), matmul(transpose(rvv(:, :, k)), a(:, j, :)))
+            end if
+          end do
+        end do
+      end do
+      tol = 1.0e-13_wp*sum(abs(rvv))*spread(na, 1, nf)*spread(na, 2, nf)
+      do h = 1, size(hows)
+        got = colored_bracket(a, rvv, seg, hows(h))
+        call check(all(abs(got - want) < tol), &
+                   'colored_bracket (transform, filter, chosen) is the double sum')
+      end do
+      deallocate (rvv)
+    end do
+  end subroutine test_colored_paths
 
   !> small_product, its fixed-size 4 x 4 kernel and its general loops,
   !> against the sums written out: within rounding (4 eps sum |a||b|, as a
