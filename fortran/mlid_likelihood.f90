@@ -28,7 +28,7 @@
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, first_failure
-  use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, chol_inverse, psd_factor
+  use mlid_linalg, only: add_atv, add_sym_atb, sym_atb_t, tile_rows, chol_inverse, psd_factor
   use mlid_models, only: model_t
   use mlid_options, only: options_t, frequency_method
   use mlid_frequency, only: freq_likelihood
@@ -41,9 +41,9 @@ module mlid_likelihood
   !> Blocks of samples summed in order in the filter-error gradient and
   !> information, whatever the number of threads.
   integer, parameter :: NBLOCK = 64
-  !> Samples a block of the output-error information takes: its weighted
-  !> sensitivities (7 outputs, 11 parameters: 39 kB) stay in the cache.
-  integer, parameter :: SAMPLE_BLOCK = 64
+  !> Samples a block of the output-error information takes: an output's
+  !> weighted sensitivities (up to 39 columns: 40 kB) stay in the cache.
+  integer, parameter :: SAMPLE_BLOCK = 128
 
 contains
 
@@ -154,7 +154,7 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: dy(:, :, :), nu(:, :)
-    real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny), lwd(m%ny), rdiag(m%ny)
+    real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
     integer :: ny, nt, nf, i, k, ierr
     logical :: ok
@@ -199,11 +199,7 @@ contains
       ! segments in parallel, their parts added in order: the result does
       ! not depend on the number of threads
       ! the weights: R^-1 = L L' (L = diag(sqrt(1/R_ii)) for a diagonal R)
-      do i = 1, ny
-        rdiag(i) = rinv(i, i)
-      end do
-      lwd = sqrt(rdiag)
-      if (opt%full_r) call psd_factor(rinv, lw, ok)
+      call psd_factor(rinv, lw, ok)
       allocate (gpart(nf, pm%l%nseg), ipart(nf, nf, pm%l%nseg))
       !$omp parallel do schedule(dynamic, 1) if (pm%l%nseg > 1)
       do k = 1, pm%l%nseg
@@ -225,23 +221,28 @@ contains
     !> Segment iseg's part of grad and info (and its rows of wsens), over
     !> the columns that move in it only (a bias of another manoeuvre adds
     !> zeros).  With R^-1 = L L', the weighted sensitivities w = L' dy/dtheta
-    !> of a block of samples (samples and outputs down, parameters across)
-    !> give the information as one symmetric rank-k update, w'w, and the
-    !> gradient as one product, -w' (L' nu); the block's arrays are made once.
+    !> give the information as the sum of w_i' w_i over the weighted outputs
+    !> i and the gradient as -w_i' (L' nu)_i: each output's over the columns
+    !> that move it only (an output's own bias, a coefficient of one output
+    !> equation: most columns touch few outputs), a block of samples at a
+    !> time, the output's residual as the last column of the same
+    !> symmetric product (sym_atb_t: samples across, columns down).
     subroutine segment_information(iseg, g, f)
       integer, intent(in) :: iseg
       real(wp), intent(out) :: g(:), f(:, :)
-      real(wp), allocatable :: w(:, :), v(:), part(:, :), gp(:)
-      integer, allocatable :: cols(:)
-      integer :: j0, j1, jbeg, jend, c, r, nc
+      real(wp), allocatable :: wt(:, :), part(:)
+      integer, allocatable :: cols(:), rows(:), ci(:), off(:), nci(:)
+      integer :: j0, j1, jbeg, jend, c, i, r, n, q
+      logical :: moves(ny, nf)
       jbeg = pm%l%seg(iseg)
       jend = nt
       if (iseg < pm%l%nseg) jend = pm%l%seg(iseg + 1) - 1
-      cols = pack([(c, c=1, nf)], [(any(dy(:, c, jbeg:jend) /= 0.0_wp), c=1, nf)])
-      nc = size(cols)
-      allocate (w(ny*SAMPLE_BLOCK, nc), v(ny*SAMPLE_BLOCK), part(nc, nc), gp(nc))
-      part = 0.0_wp
-      gp = 0.0_wp
+      do c = 1, nf
+        do i = 1, ny
+          moves(i, c) = any(dy(i, c, jbeg:jend) /= 0.0_wp)
+        end do
+      end do
+      cols = pack([(c, c=1, nf)], any(moves, dim=1))
       g = 0.0_wp
       f = 0.0_wp
       if (present(wsens)) then
@@ -249,57 +250,106 @@ contains
           if (all(cols /= c)) wsens(:, jbeg:jend, c) = 0.0_wp
         end do
       end if
+      ! weighted output i's columns ci(off(i)+1:off(i)+nci(i)): those moving
+      ! an output r that L(r, i) weighs in; its product's sums part(...)
+      allocate (off(ny + 1), nci(ny), ci(0))
+      off(1) = 0
+      n = 0
+      do i = 1, ny
+        rows = pack([(r, r=1, ny)], lw(:, i) /= 0.0_wp)
+        ci = [ci, pack(cols, [(any(moves(rows, cols(q))), q=1, size(cols))])]
+        nci(i) = size(ci) - n
+        n = size(ci)
+        off(i + 1) = off(i) + (nci(i) + 1)**2
+      end do
+      allocate (part(off(ny + 1)), wt(tile_rows(size(cols) + 1), SAMPLE_BLOCK))
+      part = 0.0_wp
       do j0 = jbeg, jend, SAMPLE_BLOCK
         j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
-        call weigh_block(opt%full_r, cols, lw, lwd, dy(:, :, j0:j1), nu(:, j0:j1), w, v)
-        if (present(wsens)) call weigh_columns(opt%full_r, cols, rinv, rdiag, &
-                                               dy(:, :, j0:j1), wsens, j0)
-        r = ny*(j1 - j0 + 1)
-        call add_syrk(r, nc, w, part)
-        call add_atv(r, nc, w, v, gp)
+        do i = 1, ny
+          n = sum(nci(1:i - 1))
+          call weigh_output(i, ny, nf, j1 - j0 + 1, nci(i), ci(n + 1:n + nci(i)), lw, &
+                            dy(:, :, j0:j1), nu(:, j0:j1), size(wt, 1), wt)
+          call sym_atb_t(j1 - j0 + 1, size(wt, 1), nci(i) + 1, wt, wt, part(off(i) + 1))
+        end do
+        if (present(wsens)) call weigh_columns(opt%full_r, ny, nf, nt, j0, j1, cols, rinv, dy, &
+                                               wsens)
       end do
-      g(cols) = -gp
-      f(cols, cols) = part
+      n = 0
+      do i = 1, ny
+        call add_output(ci(n + 1:n + nci(i)), part(off(i) + 1), g, f)
+        n = n + nci(i)
+      end do
     end subroutine segment_information
 
   end subroutine oe_likelihood
 
-  !> The weighted sensitivities w = L' dy(:, cols, j) of a block of samples,
-  !> samples and outputs down the rows of w, and v = L' nu (lwd: the diagonal
-  !> of L for a diagonal R).
-  subroutine weigh_block(full, cols, lw, lwd, dy, nu, w, v)
-    logical, intent(in) :: full
-    integer, intent(in) :: cols(:)
-    real(wp), intent(in) :: lw(:, :), lwd(:), dy(:, :, :), nu(:, :)
-    real(wp), intent(out) :: w(size(lwd), SAMPLE_BLOCK, size(cols)), v(size(lwd), SAMPLE_BLOCK)
-    integer :: j, c
-    do j = 1, size(dy, 3)
-      if (full) then
-        v(:, j) = matmul(nu(:, j), lw)
-        w(:, j, :) = matmul(transpose(lw), dy(:, cols, j))
-      else
-        v(:, j) = lwd*nu(:, j)
-        do c = 1, size(cols)
-          w(:, j, c) = lwd*dy(:, cols(c), j)
+  !> Weighted output i of a block of nb samples, transposed for sym_atb_t:
+  !> wt(q, j) = (L' dy(:, cols(q), j))_i, wt(nc+1, j) = (L' nu(:, j))_i, zero
+  !> below to the tile's edge.  Only the outputs L(:, i) weighs go in (one
+  !> for a diagonal R).
+  subroutine weigh_output(i, ny, nf, nb, nc, cols, lw, dy, nu, ld, wt)
+    integer, intent(in) :: i, ny, nf, nb, nc, cols(nc), ld
+    real(wp), intent(in) :: lw(ny, ny), dy(ny, nf, nb), nu(ny, nb)
+    real(wp), intent(out) :: wt(ld, nb)
+    integer :: j, q, r
+    wt(nc + 2:tile_rows(nc + 1), :) = 0.0_wp
+    if (count(lw(:, i) /= 0.0_wp) == 1 .and. lw(i, i) /= 0.0_wp) then   ! a diagonal R
+      do j = 1, nb
+        do q = 1, nc
+          wt(q, j) = lw(i, i)*dy(i, cols(q), j)
         end do
-      end if
+        wt(nc + 1, j) = lw(i, i)*nu(i, j)
+      end do
+      return
+    end if
+    wt(1:nc + 1, :) = 0.0_wp
+    do j = 1, nb
+      do r = i, ny
+        if (lw(r, i) == 0.0_wp) cycle
+        do q = 1, nc
+          wt(q, j) = wt(q, j) + lw(r, i)*dy(r, cols(q), j)
+        end do
+        wt(nc + 1, j) = wt(nc + 1, j) + lw(r, i)*nu(r, j)
+      end do
     end do
-  end subroutine weigh_block
+  end subroutine weigh_output
 
-  !> wsens(:, j0 + j - 1, cols) = R^-1 dy(:, cols, j) over a block of samples.
-  subroutine weigh_columns(full, cols, rinv, rdiag, dy, wsens, j0)
+  !> Adds output's product p (nc+1 x nc+1: its columns cols, then the
+  !> residual) to the information f and the gradient g.
+  subroutine add_output(cols, p, g, f)
+    integer, intent(in) :: cols(:)
+    real(wp), intent(in) :: p(size(cols) + 1, size(cols) + 1)
+    real(wp), intent(inout) :: g(:), f(:, :)
+    integer :: nc
+    nc = size(cols)
+    f(cols, cols) = f(cols, cols) + p(1:nc, 1:nc)
+    g(cols) = g(cols) - p(1:nc, nc + 1)
+  end subroutine add_output
+
+  !> wsens(:, j, cols) = R^-1 dy(:, cols, j) over the samples j0..j1.
+  subroutine weigh_columns(full, ny, nf, nt, j0, j1, cols, rinv, dy, wsens)
     logical, intent(in) :: full
-    integer, intent(in) :: cols(:), j0
-    real(wp), intent(in) :: rinv(:, :), rdiag(:), dy(:, :, :)
-    real(wp), intent(inout) :: wsens(:, :, :)
-    integer :: j, c
+    integer, intent(in) :: ny, nf, nt, j0, j1, cols(:)
+    real(wp), intent(in) :: rinv(ny, ny), dy(ny, nf, nt)
+    real(wp), intent(inout) :: wsens(ny, nt, nf)
+    integer :: j, c, i, r
     do c = 1, size(cols)
-      do j = 1, size(dy, 3)
-        if (full) then
-          wsens(:, j0 + j - 1, cols(c)) = matmul(rinv, dy(:, cols(c), j))
-        else
-          wsens(:, j0 + j - 1, cols(c)) = rdiag*dy(:, cols(c), j)
-        end if
+      if (.not. full) then              ! along the samples: long loops
+        do i = 1, ny
+          do j = j0, j1
+            wsens(i, j, cols(c)) = rinv(i, i)*dy(i, cols(c), j)
+          end do
+        end do
+        cycle
+      end if
+      do j = j0, j1
+        do i = 1, ny
+          wsens(i, j, cols(c)) = 0.0_wp
+          do r = 1, ny
+            wsens(i, j, cols(c)) = wsens(i, j, cols(c)) + rinv(i, r)*dy(r, cols(c), j)
+          end do
+        end do
       end do
     end do
   end subroutine weigh_columns

@@ -5,7 +5,7 @@ module mlid_linalg
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: add_sym_atb, add_syrk, add_atv, sym_eig, chol_inverse, chol_solve, psd_factor, &
+  public :: add_sym_atb, add_atv, sym_atb_t, tile_rows, sym_eig, chol_inverse, chol_solve, psd_factor, &
             info_inverse, info_eig, eig_inverse, expm, solve
 
   interface
@@ -57,35 +57,80 @@ contains
     call sym_atb(m, m, n, x, y, b)
   end subroutine add_sym_atb
 
-  !> c = c + w' w over the first m rows of w (m x n used), the symmetric
-  !> rank-m update.  BLAS dsyrk does the same; the reference BLAS that Debian
-  !> links by default takes three to seven times as long for n ~ 10 (its dot
-  !> products are one dependent chain), and OpenBLAS takes about as long at
-  !> that size.
-  subroutine add_syrk(m, n, w, c)
-    integer, intent(in) :: m, n
-    real(wp), intent(in), contiguous :: w(:, :)
-    real(wp), intent(inout) :: c(n, n)
-    call sym_atb(m, size(w, 1), n, w, w, c)
-  end subroutine add_syrk
-
   !> b = b + x(1:m, :)' y(1:m, :) where that is symmetric, x and y with
-  !> leading dimension ld: the upper triangle by dot products, mirrored
-  !> (half the work of the full product).
+  !> leading dimension ld: ROWS rows at a time transposed into buffers
+  !> (columns down, zero past the last), then sym_atb_t.
   subroutine sym_atb(m, ld, n, x, y, b)
     integer, intent(in) :: m, ld, n
     real(wp), intent(in) :: x(ld, n), y(ld, n)
     real(wp), intent(inout) :: b(n, n)
-    real(wp) :: d
-    integer :: k, l
-    do l = 1, n
-      do k = 1, l
-        d = dot8(m, x(:, k), y(:, l))
-        b(k, l) = b(k, l) + d
-        if (k < l) b(l, k) = b(l, k) + d
+    integer, parameter :: ROWS = 128
+    real(wp), allocatable :: xt(:, :), yt(:, :)
+    integer :: i0, mr, i, k
+    allocate (xt(tile_rows(n), ROWS), yt(tile_rows(n), ROWS))
+    xt = 0.0_wp
+    yt = 0.0_wp
+    do i0 = 1, m, ROWS
+      mr = min(ROWS, m - i0 + 1)
+      do i = 1, mr
+        do k = 1, n
+          xt(k, i) = x(i0 + i - 1, k)
+          yt(k, i) = y(i0 + i - 1, k)
+        end do
       end do
+      call sym_atb_t(mr, size(xt, 1), n, xt, yt, b)
     end do
   end subroutine sym_atb
+
+  !> The rows a transposed operand of sym_atb_t needs for n columns: whole
+  !> tiles of four.
+  pure integer function tile_rows(n)
+    integer, intent(in) :: n
+    tile_rows = 4*((n + 3)/4)
+  end function tile_rows
+
+  !> b = b + xt(1:n, 1:m) yt(1:n, 1:m)' where that is symmetric: the upper
+  !> triangle (each entry k <= l the sum over the columns j of xt(k, j)
+  !> yt(l, j), in order, then added to b), mirrored.  xt and yt (ld >=
+  !> tile_rows(n), rows n+1..ld zero) go by tiles of 4 x 4 entries: each
+  !> column's four x values and four y values serve sixteen sums, kept in
+  !> eight vector registers.
+  subroutine sym_atb_t(m, ld, n, xt, yt, b)
+    integer, intent(in) :: m, ld, n
+    real(wp), intent(in) :: xt(ld, m), yt(ld, m)
+    real(wp), intent(inout) :: b(n, n)
+    real(wp) :: d(4, 4)
+    integer :: k0, l0, k, l, p, q
+    do l0 = 1, n, 4
+      do k0 = 1, l0, 4
+        call tile_4x4(m, ld, xt(k0, 1), yt(l0, 1), d)
+        do q = 1, min(4, n - l0 + 1)
+          l = l0 + q - 1
+          do p = 1, min(4, l - k0 + 1)
+            k = k0 + p - 1
+            b(k, l) = b(k, l) + d(p, q)
+            if (k < l) b(l, k) = b(l, k) + d(p, q)
+          end do
+        end do
+      end do
+    end do
+  end subroutine sym_atb_t
+
+  !> d(p, q) = sum over the m columns j of xt(p, j) yt(q, j), p, q <= 4
+  !> (xt and yt start at the tile's first row, leading dimension ld).
+  pure subroutine tile_4x4(m, ld, xt, yt, d)
+    integer, intent(in) :: m, ld
+    real(wp), intent(in) :: xt(ld, *), yt(ld, *)
+    real(wp), intent(out) :: d(4, 4)
+    integer :: j
+    d = 0.0_wp
+    do j = 1, m
+      d(:, 1) = d(:, 1) + xt(1:4, j)*yt(1, j)
+      d(:, 2) = d(:, 2) + xt(1:4, j)*yt(2, j)
+      d(:, 3) = d(:, 3) + xt(1:4, j)*yt(3, j)
+      d(:, 4) = d(:, 4) + xt(1:4, j)*yt(4, j)
+    end do
+  end subroutine tile_4x4
 
   !> g = g + w' v over the first m rows of w and v (as dgemv).
   subroutine add_atv(m, n, w, v, g)
