@@ -20,11 +20,10 @@
 !> [A, 0; dA_k, A], whose RK4 step is the same polynomial, with the
 !> partials of the map above (product rule) in its lower blocks: so the
 !> partials dPhi_k, dGam0_k, dGam1_k, dc_k give the RK4 path's sensitivities
-!> up to rounding.  States then follow by the recursion above, their inputs'
-!> part and the outputs y = C x + D u + bias by products over the record;
-!> the sensitivities s(j+1) = Phi s(j) + dPhi x(j) + dGam0 u(j) + dGam1
-!> u(j+1) + dc and dy = C s + dC x + dD u + dbias (C = H + D K) sample by
-!> sample, each product a vector operation down the parameter columns.
+!> up to rounding.  States then follow by the recursion above; the forcing
+!> of the sensitivities, s(j+1) = Phi s(j) + dPhi x(j) + dGam0 u(j) +
+!> dGam1 u(j+1) + dc, and the outputs y = C x + D u + bias, dy = C s + dC x
+!> + dD u + dbias (C = H + D K) are matrix products over blocks of samples.
 !> Those products are the compiler's loops, not BLAS dgemm: the matrices are
 !> a few rows deep (nx, ny, nx nf), where the reference BLAS took twice the
 !> instructions (callgrind, the C-8 Monte Carlo).
@@ -37,6 +36,9 @@ module mlid_lti_predict
   implicit none
   private
   public :: lti_exact, lti_segment
+
+  !> Samples per block of the sensitivities (bounds their memory).
+  integer, parameter :: BLOCK = 512
 
   !> The model's matrices at theta and their partials by free column.
   type :: lti_sys_t
@@ -57,14 +59,12 @@ module mlid_lti_predict
     real(wp), allocatable :: phi(:, :, :), g0(:, :, :), g1(:, :, :), c(:, :), fa(:), fb(:)
   end type step_t
 
-  !> The sample interval's map and its partials, the live columns first:
-  !> dm(c, :, i) is row i of [dPhi, dGam0, dGam1, dc] of live column c
-  !> (without dGam1 when the input is held), the forcing's coefficients of
-  !> [x(j); u(j); u(j+1); 1], so that the sensitivities' products run down
-  !> the columns (vectors of length nlive).
+  !> The sample interval's map and its partials, stacked by column for
+  !> the products: dphi(:, c, :) is dPhi of live column c, and (nx nlive,
+  !> nx) to gemm.
   type :: lti_map_t
     real(wp), allocatable :: phi(:, :), g0(:, :), g1(:, :), c(:)
-    real(wp), allocatable :: dm(:, :, :)
+    real(wp), allocatable :: dphi(:, :, :), dg0(:, :, :), dg1(:, :, :), dc(:, :)
   end type lti_map_t
 
 contains
@@ -167,13 +167,11 @@ contains
                                         dy(:, :, j0:j1))
   end subroutine lti_segment
 
-  !> dy(ny, nf, n) over n samples.  The states' sensitivities s(nl, nx) are
-  !> those of the live columns live(1:nl) only (the others stay zero), from
-  !> s0 (nx, nl), the columns down, so that every product is a vector
-  !> operation over them (add_terms): at each sample their forcing dPhi x +
-  !> dGam0 u + dGam1 u+ + dc and the recursion Phi s, then dy = C s + the
-  !> few terms of dC x and dD u + dbias.  Each sum is taken in the order of
-  !> the block products this replaced (same results to the bit).
+  !> dy(ny, nf, n) over n samples, BLOCK samples at a time.  The states'
+  !> sensitivities s(nx, nl) are those of the live columns live(1:nl) only
+  !> (the others stay zero), from s0 (nx, nl): their forcing by products over
+  !> the block, their recursion, then dy = C s + the few terms of dC x and
+  !> dD u + dbias.
   subroutine sensitivities(ny, nx, nu, nf, n, nl, live, pm, iseg, sys, mp, hold, x, u, s0, dy)
     integer, intent(in) :: ny, nx, nu, nf, n, nl, live(nl), iseg
     type(param_map_t), intent(in) :: pm
@@ -182,44 +180,61 @@ contains
     logical, intent(in) :: hold
     real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
     real(wp), intent(out) :: dy(ny, nf, n)
-    real(wp) :: s(nl, nx), sp(nl, nx), f(nl), phit(nx, nx), ct(nx, ny), z(size(mp%dm, 2))
-    integer, allocatable :: dead(:)
-    integer :: j, c, i, k, nq
+    real(wp), allocatable :: s(:, :, :)
+    real(wp) :: phit(nx, nx), ct(nx, ny), acc
+    integer :: jb, je, nb, k0, k, j, c, l, i
 
-    dead = pack([(c, c=1, nf)], [(all(live /= c), c=1, nf)])
     phit = transpose(mp%phi)
     ct = transpose(sys%c)
-    nq = size(z)
-    z(nq) = 1.0_wp                      ! dc's
-    s = transpose(s0)
-    do j = 1, n
-      if (j > 1) then                   ! the interval from sample j - 1
-        sp = s
-        z(1:nx) = x(:, j - 1)
-        z(nx + 1:nx + nu) = u(:, j - 1)
-        if (.not. hold) z(nx + nu + 1:nx + 2*nu) = u(:, j)
-        do i = 1, nx
-          f = 0.0_wp
-          call add_terms(nl, nq, mp%dm(:, :, i), z, f)
-          call add_terms(nl, nx, sp, phit(:, i), f)
-          s(:, i) = f
-        end do
+    allocate (s(nx, nl, 0:min(n, BLOCK)))    ! s(:, :, 0): the sample before the block
+    do jb = 1, n, BLOCK
+      je = min(n, jb + BLOCK - 1)
+      nb = je - jb + 1
+      k0 = 1
+      if (jb == 1) then                 ! the first sample has no forcing: it is s0
+        s(:, :, 1) = s0
+        k0 = 2
+      else
+        s(:, :, 0) = s(:, :, BLOCK)
       end if
-      do c = 1, size(dead)
-        dy(:, dead(c), j) = 0.0_wp
-      end do
-      do i = 1, ny
-        f = 0.0_wp
-        call add_terms(nl, nx, s, ct(:, i), f)
+      if (k0 <= nb) then                ! the forcing of the intervals into samples jb+k0-1..je
+        j = jb + k0 - 2                 ! the first of them starts at sample j
+        call gemm(nx*nl, nb - k0 + 1, nx, mp%dphi, x(:, j:je - 1), s(:, :, k0:nb), 0.0_wp)
+        call gemm(nx*nl, nb - k0 + 1, nu, mp%dg0, u(:, j:je - 1), s(:, :, k0:nb), 1.0_wp)
+        if (.not. hold) call gemm(nx*nl, nb - k0 + 1, nu, mp%dg1, u(:, j + 1:je), &
+                                  s(:, :, k0:nb), 1.0_wp)
+      end if
+      ! the recursion and C s: short dot products, summed in registers
+      do k = k0, nb
         do c = 1, nl
-          dy(i, live(c), j) = f(c)
+          do i = 1, nx
+            acc = s(i, c, k) + mp%dc(i, c)
+            do l = 1, nx
+              acc = acc + phit(l, i)*s(l, c, k - 1)
+            end do
+            s(i, c, k) = acc
+          end do
+        end do
+      end do
+      dy(:, :, jb:je) = 0.0_wp
+      do k = 1, nb
+        do c = 1, nl
+          do i = 1, ny
+            acc = 0.0_wp
+            do l = 1, nx
+              acc = acc + ct(l, i)*s(l, c, k)
+            end do
+            dy(i, live(c), jb + k - 1) = acc
+          end do
         end do
       end do
       do k = 1, size(sys%cv)
-        dy(sys%ci(k), sys%ck(k), j) = dy(sys%ci(k), sys%ck(k), j) + sys%cv(k)*x(sys%cl(k), j)
+        dy(sys%ci(k), sys%ck(k), jb:je) = dy(sys%ci(k), sys%ck(k), jb:je) + &
+                                          sys%cv(k)*x(sys%cl(k), jb:je)
       end do
       do k = 1, size(sys%dv)
-        dy(sys%di(k), sys%dk(k), j) = dy(sys%di(k), sys%dk(k), j) + sys%dv(k)*u(sys%dl(k), j)
+        dy(sys%di(k), sys%dk(k), jb:je) = dy(sys%di(k), sys%dk(k), jb:je) + &
+                                          sys%dv(k)*u(sys%dl(k), jb:je)
       end do
     end do
     do k = 1, size(pm%ib)               ! the segment's free biases
@@ -227,26 +242,6 @@ contains
       if (i >= 1 .and. i <= ny) dy(i, pm%cb(k), :) = dy(i, pm%cb(k), :) + pm%wb(k)
     end do
   end subroutine sensitivities
-
-  !> f = f + a(:, 1) z(1) + ... + a(:, m) z(m), the terms added left to
-  !> right, four to a statement (one pass over f for four terms).
-  pure subroutine add_terms(n, m, a, z, f)
-    integer, intent(in) :: n, m
-    real(wp), intent(in) :: a(n, m), z(m)
-    real(wp), intent(inout) :: f(n)
-    integer :: k
-    do k = 1, m - 3, 4
-      f = f + a(:, k)*z(k) + a(:, k + 1)*z(k + 1) + a(:, k + 2)*z(k + 2) + a(:, k + 3)*z(k + 3)
-    end do
-    select case (mod(m, 4))
-    case (1)
-      f = f + a(:, m)*z(m)
-    case (2)
-      f = f + a(:, m - 1)*z(m - 1) + a(:, m)*z(m)
-    case (3)
-      f = f + a(:, m - 2)*z(m - 2) + a(:, m - 1)*z(m - 1) + a(:, m)*z(m)
-    end select
-  end subroutine add_terms
 
   !> A, B, b, C, D at the model parameters p and, with partials, their
   !> partials by free column (a tie adds its term's scale), read through the
@@ -359,7 +354,7 @@ contains
     real(wp), dimension(size(sys%a, 1), size(sys%a, 1)) :: dm, dm2, dm3, dp, dea, deb, dphi
     real(wp), dimension(size(sys%b, 1), size(sys%b, 2)) :: deab, debb, dg0, dg1
     real(wp) :: dcb(size(sys%a, 1)), dc(size(sys%a, 1)), h
-    integer :: nx, nu, nf, k, i, c, q
+    integer :: nx, nu, nf, k, i, c
     logical :: da
 
     nx = size(sys%a, 1)
@@ -368,10 +363,11 @@ contains
     call rk4_map(sys%a, sys%b, sys%bx, h, nsub, hold, st, mp%phi, mp%g0, mp%g1, mp%c)
     if (.not. present(live)) return
     nf = size(live)
-    q = nx + nu                          ! dm's columns: dPhi, dGam0, [dGam1,] dc
-    if (.not. hold) q = q + nu
-    allocate (mp%dm(nf, q + 1, nx))
-    mp%dm = 0.0_wp
+    allocate (mp%dphi(nx, nf, nx), mp%dg0(nx, nf, nu), mp%dg1(nx, nf, nu), mp%dc(nx, nf))
+    mp%dphi = 0.0_wp
+    mp%dg0 = 0.0_wp
+    mp%dg1 = 0.0_wp
+    mp%dc = 0.0_wp
     do c = 1, nf
       k = live(c)
       if (.not. sys%moves(k)) cycle
@@ -401,12 +397,10 @@ contains
         dg1 = matmul(dp, st%g1(:, :, i - 1)) + matmul(st%p, dg1) + st%fa(i)*deab + st%fb(i)*debb
         dc = matmul(dp, st%c(:, i - 1)) + matmul(st%p, dc) + dcb
       end do
-      do i = 1, nx
-        mp%dm(c, 1:nx, i) = dphi(i, :)
-        mp%dm(c, nx + 1:nx + nu, i) = dg0(i, :)
-        if (.not. hold) mp%dm(c, nx + nu + 1:q, i) = dg1(i, :)
-        mp%dm(c, q + 1, i) = dc(i)
-      end do
+      mp%dphi(:, c, :) = dphi
+      mp%dg0(:, c, :) = dg0
+      mp%dg1(:, c, :) = dg1
+      mp%dc(:, c) = dc
     end do
   end subroutine interval_map
 
