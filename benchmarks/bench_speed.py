@@ -22,9 +22,9 @@ in-process, each against the floating-point work it cannot avoid.
     iterations): the information by output over the columns that move it
     (535 products a sample instead of 1,265, but 4 x 4 tiles compute 880)
     and the gradient as the same product's last column.  What is left, per
-    fit: the symmetric products 19 M, gathering the weighted outputs and
-    wsens 25 M, the sensitivities 48 M, the coloured-residual correction's
-    FFT 28 M.  The C-8 fit went the other way (10.4 M -> 11.3 M: five
+    fit: the symmetric products 38 M (the coloured correction's 6 M of
+    them), gathering the weighted outputs and wsens 32 M, the sensitivities
+    48 M, the coloured-residual correction's FFT 23 M.  The C-8 fit went the other way (10.4 M -> 11.3 M: five
     columns, the tiles' waste and the calls' set-up outweigh the saving).
 (c) C-8 short period (cases/c8_short_period/c8.nml: its simulated doublet
     record, 301 samples, made by the deck's first case).
