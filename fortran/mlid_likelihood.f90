@@ -245,9 +245,11 @@ contains
       cols = pack([(c, c=1, nf)], any(moves, dim=1))
       g = 0.0_wp
       f = 0.0_wp
-      if (present(wsens)) then
+      if (present(wsens)) then                ! what no sensitivity reaches
         do c = 1, nf
-          if (all(cols /= c)) wsens(:, jbeg:jend, c) = 0.0_wp
+          do i = 1, ny
+            if (.not. moves(i, c) .or. opt%full_r) wsens(i, jbeg:jend, c) = 0.0_wp
+          end do
         end do
       end if
       ! weighted output i's columns ci(off(i)+1:off(i)+nci(i)): those moving
@@ -271,9 +273,11 @@ contains
           call weigh_output(i, ny, nf, j1 - j0 + 1, nci(i), ci(n + 1:n + nci(i)), lw, &
                             dy(:, :, j0:j1), nu(:, j0:j1), size(wt, 1), wt)
           call sym_atb_t(j1 - j0 + 1, size(wt, 1), nci(i) + 1, wt, wt, part(off(i) + 1))
+          if (present(wsens) .and. .not. opt%full_r) &   ! R^-1 = L L' diagonal: row i alone
+            call weigh_row(i, ny, nf, nt, j0, j1, ci(n + 1:n + nci(i)), rinv(i, i), dy, wsens)
         end do
-        if (present(wsens)) call weigh_columns(opt%full_r, ny, nf, nt, j0, j1, cols, rinv, dy, &
-                                               wsens)
+        if (present(wsens) .and. opt%full_r) call weigh_columns(ny, nf, nt, j0, j1, cols, rinv, &
+                                                                dy, wsens)
       end do
       n = 0
       do i = 1, ny
@@ -328,21 +332,12 @@ contains
   end subroutine add_output
 
   !> wsens(:, j, cols) = R^-1 dy(:, cols, j) over the samples j0..j1.
-  subroutine weigh_columns(full, ny, nf, nt, j0, j1, cols, rinv, dy, wsens)
-    logical, intent(in) :: full
+  subroutine weigh_columns(ny, nf, nt, j0, j1, cols, rinv, dy, wsens)
     integer, intent(in) :: ny, nf, nt, j0, j1, cols(:)
     real(wp), intent(in) :: rinv(ny, ny), dy(ny, nf, nt)
     real(wp), intent(inout) :: wsens(ny, nt, nf)
     integer :: j, c, i, r
     do c = 1, size(cols)
-      if (.not. full) then              ! along the samples: long loops
-        do i = 1, ny
-          do j = j0, j1
-            wsens(i, j, cols(c)) = rinv(i, i)*dy(i, cols(c), j)
-          end do
-        end do
-        cycle
-      end if
       do j = j0, j1
         do i = 1, ny
           wsens(i, j, cols(c)) = 0.0_wp
@@ -353,6 +348,20 @@ contains
       end do
     end do
   end subroutine weigh_columns
+
+  !> wsens(i, j, cols) = rii dy(i, cols, j) over the samples j0..j1: row i
+  !> of R^-1 dy for a diagonal R.
+  subroutine weigh_row(i, ny, nf, nt, j0, j1, cols, rii, dy, wsens)
+    integer, intent(in) :: i, ny, nf, nt, j0, j1, cols(:)
+    real(wp), intent(in) :: rii, dy(ny, nf, nt)
+    real(wp), intent(inout) :: wsens(ny, nt, nf)
+    integer :: j, c
+    do c = 1, size(cols)
+      do j = j0, j1
+        wsens(i, j, cols(c)) = rii*dy(i, cols(c), j)
+      end do
+    end do
+  end subroutine weigh_row
 
   subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
                            info, sens, wsens, msens, bmean)
