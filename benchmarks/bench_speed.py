@@ -15,17 +15,20 @@ in-process, each against the floating-point work it cannot avoid.
 (b) ATTAS lateral (cases/attas_lateral/attas_lat.nml: the real record, 1,502
     samples, 22 free parameters of the linear model).  Measured (branch
     attas-acc against main at d84cbd5, one thread, the machine loaded: wall
-    times 83 ms for both): CPU time 20.3 ms (main) and 21.3 ms (attas-acc),
-    1,690 and 1,770 ns per sample and evaluation, 3.5x and 3.6x the scalar
-    floor: no gain in time.  callgrind, inside mlid_fit: 206.4 M -> 195.1 M
-    instructions per fit (19.6 k -> 18.6 k per sample and iteration, 7
-    iterations): the information by output over the columns that move it
-    (535 products a sample instead of 1,265, but 4 x 4 tiles compute 880)
-    and the gradient as the same product's last column.  What is left, per
-    fit: the symmetric products 38 M (the coloured correction's 6 M of
-    them), gathering the weighted outputs and wsens 32 M, the sensitivities
-    48 M, the coloured-residual correction's FFT 23 M.  The C-8 fit went the other way (10.4 M -> 11.3 M: five
-    columns, the tiles' waste and the calls' set-up outweigh the saving).
+    times 77-79 ms for both, the two builds' processes alternating): CPU
+    time 19.7 and 20.0 ms (main), 19.2 and 21.5 ms (attas-acc), 3.4x and
+    3.3-3.7x the scalar floor: no gain in time to be seen.  callgrind, inside
+    mlid_fit: 206.4 M -> 188.4 M instructions per fit (19.6 k -> 17.9 k per
+    sample and iteration, 7 iterations): the information by output over the
+    columns that move it (535 products a sample instead of 1,265, but the
+    4 x 4 tiles compute 880), the gradient as the same product's last
+    column, wsens row by row.  What is left, per fit: the sensitivities
+    48 M, the symmetric products 38 M (the coloured correction's 6 M of
+    them), gathering the weighted outputs 11 M, the coloured-residual
+    correction's FFT 23 M.  The C-8 fit went the other way (10.4 M -> 11.2 M
+    instructions; five columns: the tiles' waste and the calls' set-up
+    outweigh the saving), its Monte Carlo 3,940 -> 3,650 fits per CPU second
+    (benchmarks/bench_lti.py, 5 rounds).
 (c) C-8 short period (cases/c8_short_period/c8.nml: its simulated doublet
     record, 301 samples, made by the deck's first case).
 
