@@ -5,8 +5,8 @@ module mlid_linalg
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: add_sym_atb, add_atv, sym_atb_t, tile_rows, sym_eig, chol_inverse, chol_solve, psd_factor, &
-            info_inverse, info_eig, eig_inverse, expm, solve
+  public :: add_sym_atb, add_atv, sym_atb_t, tile_rows, sym_eig, chol_inverse, chol_solve, &
+            psd_factor, info_inverse, info_eig, eig_inverse, expm, solve
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -58,27 +58,20 @@ contains
   end subroutine add_sym_atb
 
   !> b = b + x(1:m, :)' y(1:m, :) where that is symmetric, x and y with
-  !> leading dimension ld: ROWS rows at a time transposed into buffers
-  !> (columns down, zero past the last), then sym_atb_t.
+  !> leading dimension ld: the upper triangle by dot products, mirrored
+  !> (half the work of the full product).
   subroutine sym_atb(m, ld, n, x, y, b)
     integer, intent(in) :: m, ld, n
     real(wp), intent(in) :: x(ld, n), y(ld, n)
     real(wp), intent(inout) :: b(n, n)
-    integer, parameter :: ROWS = 128
-    real(wp), allocatable :: xt(:, :), yt(:, :)
-    integer :: i0, mr, i, k
-    allocate (xt(tile_rows(n), ROWS), yt(tile_rows(n), ROWS))
-    xt = 0.0_wp
-    yt = 0.0_wp
-    do i0 = 1, m, ROWS
-      mr = min(ROWS, m - i0 + 1)
-      do i = 1, mr
-        do k = 1, n
-          xt(k, i) = x(i0 + i - 1, k)
-          yt(k, i) = y(i0 + i - 1, k)
-        end do
+    real(wp) :: d
+    integer :: k, l
+    do l = 1, n
+      do k = 1, l
+        d = dot8(m, x(:, k), y(:, l))
+        b(k, l) = b(k, l) + d
+        if (k < l) b(l, k) = b(l, k) + d
       end do
-      call sym_atb_t(mr, size(xt, 1), n, xt, yt, b)
     end do
   end subroutine sym_atb
 
@@ -94,7 +87,8 @@ contains
   !> yt(l, j), in order, then added to b), mirrored.  xt and yt (ld >=
   !> tile_rows(n), rows n+1..ld zero) go by tiles of 4 x 4 entries: each
   !> column's four x values and four y values serve sixteen sums, kept in
-  !> eight vector registers.
+  !> eight vector registers (4 x 2 for the last one or two columns: the
+  !> padding's sums not made).
   subroutine sym_atb_t(m, ld, n, xt, yt, b)
     integer, intent(in) :: m, ld, n
     real(wp), intent(in) :: xt(ld, m), yt(ld, m)
@@ -103,7 +97,11 @@ contains
     integer :: k0, l0, k, l, p, q
     do l0 = 1, n, 4
       do k0 = 1, l0, 4
-        call tile_4x4(m, ld, xt(k0, 1), yt(l0, 1), d)
+        if (n - l0 < 2) then                 ! the last one or two columns: half a tile
+          call tile_4x2(m, ld, xt(k0, 1), yt(l0, 1), d)
+        else
+          call tile_4x4(m, ld, xt(k0, 1), yt(l0, 1), d)
+        end if
         do q = 1, min(4, n - l0 + 1)
           l = l0 + q - 1
           do p = 1, min(4, l - k0 + 1)
@@ -131,6 +129,20 @@ contains
       d(:, 4) = d(:, 4) + xt(1:4, j)*yt(4, j)
     end do
   end subroutine tile_4x4
+
+  !> d(p, q) = sum over the m columns j of xt(p, j) yt(q, j), p <= 4, q <= 2:
+  !> tile_4x4's sums for the first two q.
+  pure subroutine tile_4x2(m, ld, xt, yt, d)
+    integer, intent(in) :: m, ld
+    real(wp), intent(in) :: xt(ld, *), yt(ld, *)
+    real(wp), intent(out) :: d(4, 4)
+    integer :: j
+    d = 0.0_wp
+    do j = 1, m
+      d(:, 1) = d(:, 1) + xt(1:4, j)*yt(1, j)
+      d(:, 2) = d(:, 2) + xt(1:4, j)*yt(2, j)
+    end do
+  end subroutine tile_4x2
 
   !> g = g + w' v over the first m rows of w and v (as dgemv).
   subroutine add_atv(m, n, w, v, g)

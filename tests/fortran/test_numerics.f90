@@ -112,11 +112,11 @@ contains
     end do
   end subroutine test_fft
 
-  !> add_sym_atb and sym_atb_t (the information's symmetric products, tiles
-  !> of 4 x 4 entries) against the sums written out, for column counts on
-  !> and off the tiles' edges, odd and even row counts: within rounding (4 eps sum |x||y|: the
-  !> tiles add the terms in another order), both triangles, and what b held
-  !> before kept.  The product's upper triangle is taken, mirrored, whether
+  !> add_sym_atb (dot products) and sym_atb_t (transposed operands, tiles of
+  !> 4 x 4 and 4 x 2 entries) against the sums written out, for column
+  !> counts on and off the tiles' edges, odd and even row counts: within
+  !> rounding (4 eps sum |x||y|: they add the terms in another order), both
+  !> triangles, and what b held before kept.  The product's upper triangle is taken, mirrored, whether
   !> or not x' y is symmetric: so y may be any matrix here.
   subroutine test_sym_products()
     type(rng_t) :: r
