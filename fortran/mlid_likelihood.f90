@@ -28,7 +28,8 @@
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, first_failure
-  use mlid_linalg, only: add_atv, add_sym_atb, sym_atb_t, tile_rows, chol_inverse, psd_factor
+  use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, sym_atb_t, tile_rows, chol_inverse, &
+                         psd_factor
   use mlid_models, only: model_t
   use mlid_options, only: options_t, frequency_method
   use mlid_frequency, only: freq_likelihood
@@ -41,9 +42,9 @@ module mlid_likelihood
   !> Blocks of samples summed in order in the filter-error gradient and
   !> information, whatever the number of threads.
   integer, parameter :: NBLOCK = 64
-  !> Samples a block of the output-error information takes: an output's
-  !> weighted sensitivities (up to 39 columns: 40 kB) stay in the cache.
-  integer, parameter :: SAMPLE_BLOCK = 128
+  !> Samples a block of the output-error information takes: its weighted
+  !> sensitivities (7 outputs, 11 parameters: 39 kB) stay in the cache.
+  integer, parameter :: SAMPLE_BLOCK = 64
 
 contains
 
@@ -264,6 +265,10 @@ contains
         n = size(ci)
         off(i + 1) = off(i) + (nci(i) + 1)**2
       end do
+      if (n == ny*size(cols)) then             ! every column moves every output
+        call stacked_outputs(cols, jbeg, jend, g, f)
+        return
+      end if
       allocate (part(off(ny + 1)), wt(tile_rows(size(cols) + 1), SAMPLE_BLOCK))
       part = 0.0_wp
       do j0 = jbeg, jend, SAMPLE_BLOCK
@@ -286,7 +291,63 @@ contains
       end do
     end subroutine segment_information
 
+    !> segment_information's sums when every column moves every output: the
+    !> outputs of a block of samples stacked (samples and outputs down, the
+    !> columns across: one product, without the per-output tiles' padding),
+    !> the gradient as -w' (L' nu).
+    subroutine stacked_outputs(cols, jbeg, jend, g, f)
+      integer, intent(in) :: cols(:), jbeg, jend
+      real(wp), intent(inout) :: g(:), f(:, :)
+      real(wp), allocatable :: w(:, :), v(:), part(:, :), gp(:)
+      integer :: j0, j1, i, nc
+      nc = size(cols)
+      allocate (w(ny*SAMPLE_BLOCK, nc), v(ny*SAMPLE_BLOCK), part(nc, nc), gp(nc))
+      part = 0.0_wp
+      gp = 0.0_wp
+      do j0 = jbeg, jend, SAMPLE_BLOCK
+        j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
+        call weigh_block(opt%full_r, cols, lw, dy(:, :, j0:j1), nu(:, j0:j1), w, v)
+        if (present(wsens) .and. opt%full_r) then
+          call weigh_columns(ny, nf, nt, j0, j1, cols, rinv, dy, wsens)
+        else if (present(wsens)) then
+          do i = 1, ny
+            call weigh_row(i, ny, nf, nt, j0, j1, cols, rinv(i, i), dy, wsens)
+          end do
+        end if
+        call add_syrk(ny*(j1 - j0 + 1), nc, w, part)
+        call add_atv(ny*(j1 - j0 + 1), nc, w, v, gp)
+      end do
+      g(cols) = -gp
+      f(cols, cols) = part
+    end subroutine stacked_outputs
+
   end subroutine oe_likelihood
+
+  !> The weighted sensitivities w = L' dy(:, cols, j) of a block of samples,
+  !> samples and outputs down the rows of w, and v = L' nu.
+  subroutine weigh_block(full, cols, lw, dy, nu, w, v)
+    logical, intent(in) :: full
+    integer, intent(in) :: cols(:)
+    real(wp), intent(in) :: lw(:, :), dy(:, :, :), nu(:, :)
+    real(wp), intent(out) :: w(size(lw, 1), SAMPLE_BLOCK, size(cols)), &
+                             v(size(lw, 1), SAMPLE_BLOCK)
+    real(wp) :: lwd(size(lw, 1))
+    integer :: j, c
+    do j = 1, size(lwd)
+      lwd(j) = lw(j, j)
+    end do
+    do j = 1, size(dy, 3)
+      if (full) then
+        v(:, j) = matmul(nu(:, j), lw)
+        w(:, j, :) = matmul(transpose(lw), dy(:, cols, j))
+      else
+        v(:, j) = lwd*nu(:, j)
+        do c = 1, size(cols)
+          w(:, j, c) = lwd*dy(:, cols(c), j)
+        end do
+      end if
+    end do
+  end subroutine weigh_block
 
   !> Weighted output i of a block of nb samples, transposed for sym_atb_t:
   !> wt(q, j) = (L' dy(:, cols(q), j))_i, wt(nc+1, j) = (L' nu(:, j))_i, zero
