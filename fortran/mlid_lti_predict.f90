@@ -209,15 +209,19 @@ contains
         s(:, :, k) = s(:, :, k) + mp%dc
         call gemm(nx, nl, nx, mp%phi, s(:, :, k - 1), s(:, :, k), 1.0_wp)
       end do
-      call gemm(ny, nl*nb, nx, sys%c, s(:, :, 1:nb), ys, 0.0_wp)
-      do k = 1, nb
-        do c = 1, size(dead)
-          dy(:, dead(c), jb + k - 1) = 0.0_wp
+      if (nl == nf) then                 ! every column live, in order: C s is dy
+        call gemm(ny, nf*nb, nx, sys%c, s(:, :, 1:nb), dy(:, :, jb:je), 0.0_wp)
+      else
+        call gemm(ny, nl*nb, nx, sys%c, s(:, :, 1:nb), ys, 0.0_wp)
+        do k = 1, nb
+          do c = 1, size(dead)
+            dy(:, dead(c), jb + k - 1) = 0.0_wp
+          end do
+          do c = 1, nl
+            dy(:, live(c), jb + k - 1) = ys(:, c, k)
+          end do
         end do
-        do c = 1, nl
-          dy(:, live(c), jb + k - 1) = ys(:, c, k)
-        end do
-      end do
+      end if
       do k = 1, size(sys%cv)
         dy(sys%ci(k), sys%ck(k), jb:je) = dy(sys%ci(k), sys%ck(k), jb:je) + &
                                           sys%cv(k)*x(sys%cl(k), jb:je)
