@@ -13,22 +13,22 @@ in-process, each against the floating-point work it cannot avoid.
     by sqrt(R-hat_ii), R-hat again from the residuals, until the estimates
     stop moving.  Both estimates are checked to agree within 0.01 sigma.
 (b) ATTAS lateral (cases/attas_lateral/attas_lat.nml: the real record, 1,502
-    samples, 22 free parameters of the linear model).  Measured (branch
-    attas-acc against main at d84cbd5, one thread, the machine loaded: wall
-    times 77-79 ms for both, the two builds' processes alternating): CPU
-    time 19.7 and 20.0 ms (main), 19.2 and 21.5 ms (attas-acc), 3.4x and
-    3.3-3.7x the scalar floor: no gain in time to be seen.  callgrind, inside
-    mlid_fit: 206.4 M -> 188.4 M instructions per fit (19.6 k -> 17.9 k per
-    sample and iteration, 7 iterations): the information by output over the
-    columns that move it (535 products a sample instead of 1,265, but the
-    4 x 4 tiles compute 880), the gradient as the same product's last
-    column, wsens row by row.  What is left, per fit: the sensitivities
-    48 M, the symmetric products 38 M (the coloured correction's 6 M of
-    them), gathering the weighted outputs 11 M, the coloured-residual
-    correction's FFT 23 M.  The C-8 fit went the other way (10.4 M -> 11.2 M
-    instructions; five columns: the tiles' waste and the calls' set-up
-    outweigh the saving), its Monte Carlo 3,940 -> 3,650 fits per CPU second
-    (benchmarks/bench_lti.py, 5 rounds).
+    samples, 22 free parameters of the linear model).  Measured on branch
+    attas-acc against main at d84cbd5 (one thread; callgrind inside
+    mlid_fit): 206.4 M -> 171.2 M instructions per fit (19.6 k -> 16.3 k
+    per sample and iteration, 7 iterations): the information by weighted
+    output over the columns that move it (an output's own bias, one
+    equation's coefficients: 535 products a sample instead of 1,265; the
+    4 x 4 and 4 x 2 tiles compute 752), the gradient as the same product's
+    last column, wsens row by row, and the sensitivities' recursion and
+    C s as block products with four terms to a statement.  What is left,
+    per fit: the LTI products 35 M and the rest of the sensitivities 11 M,
+    the tiles 28 M, gathering the weighted outputs and wsens 26 M, the
+    coloured-residual correction about 45 M (its FFT 23 M).  Wall time,
+    the builds' processes alternating (benchmarks/bench_lti.py) on a
+    loaded machine: see the report of the branch; the target (10 ms) is
+    not met.  The C-8 fit: 10.44 M -> 10.25 M (every column moves every
+    output there: the stacked product of main, the same sums).
 (c) C-8 short period (cases/c8_short_period/c8.nml: its simulated doublet
     record, 301 samples, made by the deck's first case).
 
