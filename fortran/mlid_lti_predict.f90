@@ -180,13 +180,13 @@ contains
     logical, intent(in) :: hold
     real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
     real(wp), intent(out) :: dy(ny, nf, n)
-    real(wp), allocatable :: s(:, :, :), ys(:, :, :)
-    integer, allocatable :: dead(:)
-    integer :: jb, je, nb, k0, k, j, c, i
+    real(wp), allocatable :: s(:, :, :)
+    real(wp) :: phit(nx, nx), ct(nx, ny), acc
+    integer :: jb, je, nb, k0, k, j, c, l, i
 
-    dead = pack([(c, c=1, nf)], [(all(live /= c), c=1, nf)])
+    phit = transpose(mp%phi)
+    ct = transpose(sys%c)
     allocate (s(nx, nl, 0:min(n, BLOCK)))    ! s(:, :, 0): the sample before the block
-    allocate (ys(ny, nl, min(n, BLOCK)))
     do jb = 1, n, BLOCK
       je = min(n, jb + BLOCK - 1)
       nb = je - jb + 1
@@ -204,24 +204,30 @@ contains
         if (.not. hold) call gemm(nx*nl, nb - k0 + 1, nu, mp%dg1, u(:, j + 1:je), &
                                   s(:, :, k0:nb), 1.0_wp)
       end if
-      ! the recursion, s(:, :, k) = (forcing + dc) + Phi s(:, :, k-1), then C s
+      ! the recursion and C s: short dot products, summed in registers
       do k = k0, nb
-        s(:, :, k) = s(:, :, k) + mp%dc
-        call gemm(nx, nl, nx, mp%phi, s(:, :, k - 1), s(:, :, k), 1.0_wp)
-      end do
-      if (nl == nf) then                 ! every column live, in order: C s is dy
-        call gemm(ny, nf*nb, nx, sys%c, s(:, :, 1:nb), dy(:, :, jb:je), 0.0_wp)
-      else
-        call gemm(ny, nl*nb, nx, sys%c, s(:, :, 1:nb), ys, 0.0_wp)
-        do k = 1, nb
-          do c = 1, size(dead)
-            dy(:, dead(c), jb + k - 1) = 0.0_wp
-          end do
-          do c = 1, nl
-            dy(:, live(c), jb + k - 1) = ys(:, c, k)
+        do c = 1, nl
+          do i = 1, nx
+            acc = s(i, c, k) + mp%dc(i, c)
+            do l = 1, nx
+              acc = acc + phit(l, i)*s(l, c, k - 1)
+            end do
+            s(i, c, k) = acc
           end do
         end do
-      end if
+      end do
+      dy(:, :, jb:je) = 0.0_wp
+      do k = 1, nb
+        do c = 1, nl
+          do i = 1, ny
+            acc = 0.0_wp
+            do l = 1, nx
+              acc = acc + ct(l, i)*s(l, c, k)
+            end do
+            dy(i, live(c), jb + k - 1) = acc
+          end do
+        end do
+      end do
       do k = 1, size(sys%cv)
         dy(sys%ci(k), sys%ck(k), jb:je) = dy(sys%ci(k), sys%ck(k), jb:je) + &
                                           sys%cv(k)*x(sys%cl(k), jb:je)
@@ -454,9 +460,7 @@ contains
   end subroutine rk4_map
 
   !> c = a b + beta c (beta 0 or 1), c (m, n), a (m, k), b (k, n): column
-  !> by column, the long dimension m innermost, each column's terms added
-  !> to it left to right, four to a statement (one pass over the column for
-  !> four terms: the columns are short).
+  !> by column, the long dimension m innermost.
   pure subroutine gemm(m, n, k, a, b, c, beta)
     integer, intent(in) :: m, n, k
     real(wp), intent(in) :: a(m, k), b(k, n), beta
@@ -464,18 +468,9 @@ contains
     integer :: j, l
     if (beta == 0.0_wp) c = 0.0_wp
     do j = 1, n
-      do l = 1, k - 3, 4
-        c(:, j) = c(:, j) + a(:, l)*b(l, j) + a(:, l + 1)*b(l + 1, j) + a(:, l + 2)*b(l + 2, j) &
-                  + a(:, l + 3)*b(l + 3, j)
+      do l = 1, k
+        c(:, j) = c(:, j) + a(:, l)*b(l, j)
       end do
-      select case (mod(k, 4))
-      case (1)
-        c(:, j) = c(:, j) + a(:, k)*b(k, j)
-      case (2)
-        c(:, j) = c(:, j) + a(:, k - 1)*b(k - 1, j) + a(:, k)*b(k, j)
-      case (3)
-        c(:, j) = c(:, j) + a(:, k - 2)*b(k - 2, j) + a(:, k - 1)*b(k - 1, j) + a(:, k)*b(k, j)
-      end select
     end do
   end subroutine gemm
 
