@@ -13,7 +13,25 @@ in-process, each against the floating-point work it cannot avoid.
     by sqrt(R-hat_ii), R-hat again from the residuals, until the estimates
     stop moving.  Both estimates are checked to agree within 0.01 sigma.
 (b) ATTAS lateral (cases/attas_lateral/attas_lat.nml: the real record, 1,502
-    samples, 22 free parameters of the linear model).
+    samples, 22 free parameters of the linear model).  Measured on branch
+    attas-acc against main at d84cbd5, one thread.  callgrind inside
+    mlid_fit: 206.4 M -> 183.3 M instructions per fit (19.6 k -> 17.4 k per
+    sample and iteration, 7 iterations): the information by weighted output
+    over the columns that move it (an output's own bias, one equation's
+    coefficients: 535 products a sample instead of 1,265; the 4 x 4 and
+    4 x 2 tiles compute 752), the gradient as the same product's last
+    column, wsens row by row.  CPU time of the fit (this script's linear_case,
+    the builds alternating, twice): 17.0 and 16.9 ms (main), 16.1 and 16.4
+    ms (attas-acc), 2.9x and 2.8x the scalar floor; wall 17.8 -> 16.9 ms
+    (benchmarks/bench_lti.py, 5 rounds).  The target (10 ms, 2x the floor)
+    is not met.  What is left, per fit: the LTI sensitivities 40 M and their
+    block products 19 M, the tiles 28 M, gathering the weighted outputs and
+    wsens 26 M, the coloured-residual correction about 45 M (its FFT 23 M).
+    The LTI products with four terms to a statement took 12 M more off but
+    no time, and cost the C-8 Monte Carlo 6 %: not kept.  C-8 (every column
+    moves every output: main's stacked product, the same sums): 10.44 M ->
+    10.39 M a fit, 1.06 ms CPU both; its Monte Carlo 4,140 -> 4,010 fits
+    per CPU second (-3 %: the per-output bookkeeping of each fit).
 (c) C-8 short period (cases/c8_short_period/c8.nml: its simulated doublet
     record, 301 samples, made by the deck's first case).
 

@@ -28,7 +28,8 @@
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, first_failure
-  use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, chol_inverse, psd_factor
+  use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, sym_atb_t, tile_rows, chol_inverse, &
+                         psd_factor
   use mlid_models, only: model_t
   use mlid_options, only: options_t, frequency_method
   use mlid_frequency, only: freq_likelihood
@@ -154,7 +155,7 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: dy(:, :, :), nu(:, :)
-    real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny), lwd(m%ny), rdiag(m%ny)
+    real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
     integer :: ny, nt, nf, i, k, ierr
     logical :: ok
@@ -212,8 +213,7 @@ contains
       ! segments in parallel, their parts added in order: the result does
       ! not depend on the number of threads
       ! the weights: R^-1 = L L' (L = diag(sqrt(1/R_ii)) for a diagonal R)
-      lwd = sqrt(rdiag)
-      if (opt%full_r) call psd_factor(rinv, lw, ok)
+      call psd_factor(rinv, lw, ok)
       allocate (gpart(nf, pm%l%nseg), ipart(nf, nf, pm%l%nseg))
       !$omp parallel do schedule(dynamic, 1) if (pm%l%nseg > 1)
       do k = 1, pm%l%nseg
@@ -235,47 +235,104 @@ contains
     !> Segment iseg's part of grad and info (and its rows of wsens), over
     !> the columns that move in it only (a bias of another manoeuvre adds
     !> zeros).  With R^-1 = L L', the weighted sensitivities w = L' dy/dtheta
-    !> of a block of samples (samples and outputs down, parameters across)
-    !> give the information as one symmetric rank-k update, w'w, and the
-    !> gradient as one product, -w' (L' nu); the block's arrays are made once.
+    !> give the information as the sum of w_i' w_i over the weighted outputs
+    !> i and the gradient as -w_i' (L' nu)_i: each output's over the columns
+    !> that move it only (an output's own bias, a coefficient of one output
+    !> equation: most columns touch few outputs), a block of samples at a
+    !> time, the output's residual as the last column of the same
+    !> symmetric product (sym_atb_t: samples across, columns down).
     subroutine segment_information(iseg, g, f)
       integer, intent(in) :: iseg
       real(wp), intent(out) :: g(:), f(:, :)
-      real(wp), allocatable :: w(:, :), v(:), part(:, :), gp(:)
-      integer, allocatable :: cols(:)
-      integer :: j0, j1, jbeg, jend, c, r, nc
+      real(wp), allocatable :: wt(:, :), part(:)
+      integer, allocatable :: cols(:), rows(:), ci(:), off(:), nci(:)
+      integer :: j0, j1, jbeg, jend, c, i, r, n, q
+      logical :: moves(ny, nf)
       jbeg = pm%l%seg(iseg)
       jend = nt
       if (iseg < pm%l%nseg) jend = pm%l%seg(iseg + 1) - 1
-      cols = pack([(c, c=1, nf)], [(any(dy(:, c, jbeg:jend) /= 0.0_wp), c=1, nf)])
+      do c = 1, nf
+        do i = 1, ny
+          moves(i, c) = any(dy(i, c, jbeg:jend) /= 0.0_wp)
+        end do
+      end do
+      cols = pack([(c, c=1, nf)], any(moves, dim=1))
+      g = 0.0_wp
+      f = 0.0_wp
+      if (present(wsens)) then                ! what no sensitivity reaches
+        do c = 1, nf
+          do i = 1, ny
+            if (.not. moves(i, c) .or. opt%full_r) wsens(i, jbeg:jend, c) = 0.0_wp
+          end do
+        end do
+      end if
+      ! weighted output i's columns ci(off(i)+1:off(i)+nci(i)): those moving
+      ! an output r that L(r, i) weighs in; its product's sums part(...)
+      allocate (off(ny + 1), nci(ny), ci(0))
+      off(1) = 0
+      n = 0
+      do i = 1, ny
+        rows = pack([(r, r=1, ny)], lw(:, i) /= 0.0_wp)
+        ci = [ci, pack(cols, [(any(moves(rows, cols(q))), q=1, size(cols))])]
+        nci(i) = size(ci) - n
+        n = size(ci)
+        off(i + 1) = off(i) + (nci(i) + 1)**2
+      end do
+      if (n == ny*size(cols)) then             ! every column moves every output
+        call stacked_outputs(cols, jbeg, jend, g, f)
+        return
+      end if
+      allocate (part(off(ny + 1)), wt(tile_rows(size(cols) + 1), SAMPLE_BLOCK))
+      part = 0.0_wp
+      do j0 = jbeg, jend, SAMPLE_BLOCK
+        j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
+        do i = 1, ny
+          n = sum(nci(1:i - 1))
+          call weigh_output(i, ny, nf, j1 - j0 + 1, nci(i), ci(n + 1:n + nci(i)), lw, &
+                            dy(:, :, j0:j1), nu(:, j0:j1), size(wt, 1), wt)
+          call sym_atb_t(j1 - j0 + 1, size(wt, 1), nci(i) + 1, wt, wt, part(off(i) + 1))
+          if (present(wsens) .and. .not. opt%full_r) &   ! R^-1 = L L' diagonal: row i alone
+            call weigh_row(i, ny, nf, nt, j0, j1, ci(n + 1:n + nci(i)), rinv(i, i), dy, wsens)
+        end do
+        if (present(wsens) .and. opt%full_r) call weigh_columns(ny, nf, nt, j0, j1, cols, rinv, &
+                                                                dy, wsens)
+      end do
+      n = 0
+      do i = 1, ny
+        call add_output(ci(n + 1:n + nci(i)), part(off(i) + 1), g, f)
+        n = n + nci(i)
+      end do
+    end subroutine segment_information
+
+    !> segment_information's sums when every column moves every output: the
+    !> outputs of a block of samples stacked (samples and outputs down, the
+    !> columns across: one product, without the per-output tiles' padding),
+    !> the gradient as -w' (L' nu).
+    subroutine stacked_outputs(cols, jbeg, jend, g, f)
+      integer, intent(in) :: cols(:), jbeg, jend
+      real(wp), intent(inout) :: g(:), f(:, :)
+      real(wp), allocatable :: w(:, :), v(:), part(:, :), gp(:)
+      integer :: j0, j1, i, nc
       nc = size(cols)
       allocate (w(ny*SAMPLE_BLOCK, nc), v(ny*SAMPLE_BLOCK), part(nc, nc), gp(nc))
       part = 0.0_wp
       gp = 0.0_wp
-      g = 0.0_wp
-      f = 0.0_wp
-      if (present(wsens)) then
-        do c = 1, nf
-          if (all(cols /= c)) wsens(:, jbeg:jend, c) = 0.0_wp
-        end do
-      end if
       do j0 = jbeg, jend, SAMPLE_BLOCK
         j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
-        call weigh_block(opt%full_r, ny, nf, j1 - j0 + 1, cols, lw, lwd, dy(:, :, j0:j1), &
-                         nu(:, j0:j1), w, v)
-        if (present(wsens)) then
-          do c = 1, nc
-            call weigh_columns(opt%full_r, ny, nf, j1 - j0 + 1, cols(c), rinv, rdiag, &
-                               dy(:, :, j0:j1), wsens(:, j0:j1, cols(c)))
+        call weigh_block(opt%full_r, cols, lw, dy(:, :, j0:j1), nu(:, j0:j1), w, v)
+        if (present(wsens) .and. opt%full_r) then
+          call weigh_columns(ny, nf, nt, j0, j1, cols, rinv, dy, wsens)
+        else if (present(wsens)) then
+          do i = 1, ny
+            call weigh_row(i, ny, nf, nt, j0, j1, cols, rinv(i, i), dy, wsens)
           end do
         end if
-        r = ny*(j1 - j0 + 1)
-        call add_syrk(r, nc, w, part)
-        call add_atv(r, nc, w, v, gp)
+        call add_syrk(ny*(j1 - j0 + 1), nc, w, part)
+        call add_atv(ny*(j1 - j0 + 1), nc, w, v, gp)
       end do
       g(cols) = -gp
       f(cols, cols) = part
-    end subroutine segment_information
+    end subroutine stacked_outputs
 
   end subroutine oe_likelihood
 
@@ -293,16 +350,19 @@ contains
   end function diagonal
 
   !> The weighted sensitivities w = L' dy(:, cols, j) of a block of samples,
-  !> samples and outputs down the rows of w, and v = L' nu (lwd: the diagonal
-  !> of L for a diagonal R).  Explicit shapes (ny outputs, nf parameters, nb
-  !> samples): the block is contiguous, its columns run on unit strides.
-  subroutine weigh_block(full, ny, nf, nb, cols, lw, lwd, dy, nu, w, v)
+  !> samples and outputs down the rows of w, and v = L' nu.
+  subroutine weigh_block(full, cols, lw, dy, nu, w, v)
     logical, intent(in) :: full
-    integer, intent(in) :: ny, nf, nb, cols(:)
-    real(wp), intent(in) :: lw(ny, ny), lwd(ny), dy(ny, nf, nb), nu(ny, nb)
-    real(wp), intent(out) :: w(ny, SAMPLE_BLOCK, size(cols)), v(ny, SAMPLE_BLOCK)
+    integer, intent(in) :: cols(:)
+    real(wp), intent(in) :: lw(:, :), dy(:, :, :), nu(:, :)
+    real(wp), intent(out) :: w(size(lw, 1), SAMPLE_BLOCK, size(cols)), &
+                             v(size(lw, 1), SAMPLE_BLOCK)
+    real(wp) :: lwd(size(lw, 1))
     integer :: j, c
-    do j = 1, nb
+    do j = 1, size(lwd)
+      lwd(j) = lw(j, j)
+    end do
+    do j = 1, size(dy, 3)
       if (full) then
         v(:, j) = matmul(nu(:, j), lw)
         w(:, j, :) = matmul(transpose(lw), dy(:, cols, j))
@@ -315,23 +375,80 @@ contains
     end do
   end subroutine weigh_block
 
-  !> ws = R^-1 dy(:, c, :) over a block of nb samples: parameter c's
-  !> columns of the weighted sensitivities (shapes as in weigh_block; ws is
-  !> a contiguous section of wsens, passed without copies).
-  subroutine weigh_columns(full, ny, nf, nb, c, rinv, rdiag, dy, ws)
-    logical, intent(in) :: full
-    integer, intent(in) :: ny, nf, nb, c
-    real(wp), intent(in) :: rinv(ny, ny), rdiag(ny), dy(ny, nf, nb)
-    real(wp), intent(out) :: ws(ny, nb)
-    integer :: j
+  !> Weighted output i of a block of nb samples, transposed for sym_atb_t:
+  !> wt(q, j) = (L' dy(:, cols(q), j))_i, wt(nc+1, j) = (L' nu(:, j))_i, zero
+  !> below to the tile's edge.  Only the outputs L(:, i) weighs go in (one
+  !> for a diagonal R).
+  subroutine weigh_output(i, ny, nf, nb, nc, cols, lw, dy, nu, ld, wt)
+    integer, intent(in) :: i, ny, nf, nb, nc, cols(nc), ld
+    real(wp), intent(in) :: lw(ny, ny), dy(ny, nf, nb), nu(ny, nb)
+    real(wp), intent(out) :: wt(ld, nb)
+    integer :: j, q, r
+    wt(nc + 2:tile_rows(nc + 1), :) = 0.0_wp
+    if (count(lw(:, i) /= 0.0_wp) == 1 .and. lw(i, i) /= 0.0_wp) then   ! a diagonal R
+      do j = 1, nb
+        do q = 1, nc
+          wt(q, j) = lw(i, i)*dy(i, cols(q), j)
+        end do
+        wt(nc + 1, j) = lw(i, i)*nu(i, j)
+      end do
+      return
+    end if
+    wt(1:nc + 1, :) = 0.0_wp
     do j = 1, nb
-      if (full) then
-        ws(:, j) = matmul(rinv, dy(:, c, j))
-      else
-        ws(:, j) = rdiag*dy(:, c, j)
-      end if
+      do r = i, ny
+        if (lw(r, i) == 0.0_wp) cycle
+        do q = 1, nc
+          wt(q, j) = wt(q, j) + lw(r, i)*dy(r, cols(q), j)
+        end do
+        wt(nc + 1, j) = wt(nc + 1, j) + lw(r, i)*nu(r, j)
+      end do
+    end do
+  end subroutine weigh_output
+
+  !> Adds output's product p (nc+1 x nc+1: its columns cols, then the
+  !> residual) to the information f and the gradient g.
+  subroutine add_output(cols, p, g, f)
+    integer, intent(in) :: cols(:)
+    real(wp), intent(in) :: p(size(cols) + 1, size(cols) + 1)
+    real(wp), intent(inout) :: g(:), f(:, :)
+    integer :: nc
+    nc = size(cols)
+    f(cols, cols) = f(cols, cols) + p(1:nc, 1:nc)
+    g(cols) = g(cols) - p(1:nc, nc + 1)
+  end subroutine add_output
+
+  !> wsens(:, j, cols) = R^-1 dy(:, cols, j) over the samples j0..j1.
+  subroutine weigh_columns(ny, nf, nt, j0, j1, cols, rinv, dy, wsens)
+    integer, intent(in) :: ny, nf, nt, j0, j1, cols(:)
+    real(wp), intent(in) :: rinv(ny, ny), dy(ny, nf, nt)
+    real(wp), intent(inout) :: wsens(ny, nt, nf)
+    integer :: j, c, i, r
+    do c = 1, size(cols)
+      do j = j0, j1
+        do i = 1, ny
+          wsens(i, j, cols(c)) = 0.0_wp
+          do r = 1, ny
+            wsens(i, j, cols(c)) = wsens(i, j, cols(c)) + rinv(i, r)*dy(r, cols(c), j)
+          end do
+        end do
+      end do
     end do
   end subroutine weigh_columns
+
+  !> wsens(i, j, cols) = rii dy(i, cols, j) over the samples j0..j1: row i
+  !> of R^-1 dy for a diagonal R.
+  subroutine weigh_row(i, ny, nf, nt, j0, j1, cols, rii, dy, wsens)
+    integer, intent(in) :: i, ny, nf, nt, j0, j1, cols(:)
+    real(wp), intent(in) :: rii, dy(ny, nf, nt)
+    real(wp), intent(inout) :: wsens(ny, nt, nf)
+    integer :: j, c
+    do c = 1, size(cols)
+      do j = j0, j1
+        wsens(i, j, cols(c)) = rii*dy(i, cols(c), j)
+      end do
+    end do
+  end subroutine weigh_row
 
   subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
                            info, sens, wsens, msens, bmean)

@@ -5,9 +5,9 @@ module mlid_linalg
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: add_sym_atb, add_syrk, add_atv, sym_eig, chol_inverse, chol_solve, psd_factor, &
-            info_inverse, info_eig, eig_inverse, expm, expm_into, expm_work_size, expm_work_t, &
-            solve, independent_columns
+  public :: add_sym_atb, add_syrk, add_atv, sym_atb_t, tile_rows, sym_eig, chol_inverse, chol_solve, &
+            psd_factor, info_inverse, info_eig, eig_inverse, expm, expm_into, expm_work_size, &
+            expm_work_t, solve, independent_columns
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -94,6 +94,75 @@ contains
       end do
     end do
   end subroutine sym_atb
+
+  !> The rows a transposed operand of sym_atb_t needs for n columns: whole
+  !> tiles of four.
+  pure integer function tile_rows(n)
+    integer, intent(in) :: n
+    tile_rows = 4*((n + 3)/4)
+  end function tile_rows
+
+  !> b = b + xt(1:n, 1:m) yt(1:n, 1:m)' where that is symmetric: the upper
+  !> triangle (each entry k <= l the sum over the columns j of xt(k, j)
+  !> yt(l, j), in order, then added to b), mirrored.  xt and yt (ld >=
+  !> tile_rows(n), rows n+1..ld zero) go by tiles of 4 x 4 entries: each
+  !> column's four x values and four y values serve sixteen sums, kept in
+  !> eight vector registers (4 x 2 for the last one or two columns: the
+  !> padding's sums not made).
+  subroutine sym_atb_t(m, ld, n, xt, yt, b)
+    integer, intent(in) :: m, ld, n
+    real(wp), intent(in) :: xt(ld, m), yt(ld, m)
+    real(wp), intent(inout) :: b(n, n)
+    real(wp) :: d(4, 4)
+    integer :: k0, l0, k, l, p, q
+    do l0 = 1, n, 4
+      do k0 = 1, l0, 4
+        if (n - l0 < 2) then                 ! the last one or two columns: half a tile
+          call tile_4x2(m, ld, xt(k0, 1), yt(l0, 1), d)
+        else
+          call tile_4x4(m, ld, xt(k0, 1), yt(l0, 1), d)
+        end if
+        do q = 1, min(4, n - l0 + 1)
+          l = l0 + q - 1
+          do p = 1, min(4, l - k0 + 1)
+            k = k0 + p - 1
+            b(k, l) = b(k, l) + d(p, q)
+            if (k < l) b(l, k) = b(l, k) + d(p, q)
+          end do
+        end do
+      end do
+    end do
+  end subroutine sym_atb_t
+
+  !> d(p, q) = sum over the m columns j of xt(p, j) yt(q, j), p, q <= 4
+  !> (xt and yt start at the tile's first row, leading dimension ld).
+  pure subroutine tile_4x4(m, ld, xt, yt, d)
+    integer, intent(in) :: m, ld
+    real(wp), intent(in) :: xt(ld, *), yt(ld, *)
+    real(wp), intent(out) :: d(4, 4)
+    integer :: j
+    d = 0.0_wp
+    do j = 1, m
+      d(:, 1) = d(:, 1) + xt(1:4, j)*yt(1, j)
+      d(:, 2) = d(:, 2) + xt(1:4, j)*yt(2, j)
+      d(:, 3) = d(:, 3) + xt(1:4, j)*yt(3, j)
+      d(:, 4) = d(:, 4) + xt(1:4, j)*yt(4, j)
+    end do
+  end subroutine tile_4x4
+
+  !> d(p, q) = sum over the m columns j of xt(p, j) yt(q, j), p <= 4, q <= 2:
+  !> tile_4x4's sums for the first two q.
+  pure subroutine tile_4x2(m, ld, xt, yt, d)
+    integer, intent(in) :: m, ld
+    real(wp), intent(in) :: xt(ld, *), yt(ld, *)
+    real(wp), intent(out) :: d(4, 4)
+    integer :: j
+    d = 0.0_wp
+    do j = 1, m
+      d(:, 1) = d(:, 1) + xt(1:4, j)*yt(1, j)
+      d(:, 2) = d(:, 2) + xt(1:4, j)*yt(2, j)
+    end do
+  end subroutine tile_4x2
 
   !> g = g + w' v over the first m rows of w and v (as dgemv).
   subroutine add_atv(m, n, w, v, g)

@@ -61,7 +61,8 @@ program test_numerics
   use mlid_jacobian_check, only: check_jacobians
   use mlid_options, only: options_t
   use mlid_filter, only: oe_predict
-  use mlid_linalg, only: sym_eig, chol_inverse, chol_solve, independent_columns
+  use mlid_linalg, only: sym_eig, chol_inverse, chol_solve, independent_columns, add_sym_atb, &
+                         sym_atb_t, tile_rows
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use test_checks, only: check, finish
   use split_model, only: split_model_t
@@ -79,6 +80,7 @@ program test_numerics
   call test_linalg()
   call test_random()
   call test_small_product()
+  call test_sym_products()
   call test_fft()
   call test_independent_columns()
   call test_colored_paths()
@@ -295,6 +297,68 @@ contains
       deallocate (rvv)
     end do
   end subroutine test_colored_paths
+
+  !> add_sym_atb (dot products) and sym_atb_t (transposed operands, tiles of
+  !> 4 x 4 and 4 x 2 entries) against the sums written out, for column
+  !> counts on and off the tiles' edges, odd and even row counts: within
+  !> rounding (4 eps sum |x||y|: they add the terms in another order), both
+  !> triangles, and what b held before kept.  The product's upper triangle is taken, mirrored, whether
+  !> or not x' y is symmetric: so y may be any matrix here.
+  subroutine test_sym_products()
+    type(rng_t) :: r
+    real(wp) :: x(9, 13), y(9, 13), q(13, 13), b(13, 13), e(13, 13), g(13, 13), w(9, 13)
+    real(wp), allocatable :: wt(:, :)
+    integer :: i, j, k, m, n, nn(6), mm(3)
+    call rng_seed(r, 17)
+    do j = 1, 13
+      do i = 1, 13
+        q(i, j) = rng_normal(r)
+      end do
+      do i = 1, 9
+        x(i, j) = rng_normal(r)
+        w(i, j) = rng_normal(r)
+      end do
+    end do
+    nn = [1, 2, 3, 5, 8, 13]
+    mm = [1, 8, 9]
+    do k = 1, size(nn)
+      n = nn(k)
+      if (allocated(wt)) deallocate (wt)
+      allocate (wt(tile_rows(n), size(w, 1)))
+      do m = 1, size(mm)
+        y = w                   ! x' y need not be symmetric: the upper triangle's, mirrored
+        b = q
+        call add_sym_atb(mm(m), n, x(1:mm(m), 1:n), y(1:mm(m), 1:n), b(1:n, 1:n))
+        call sym_expected(mm(m), n, q, x, y, e, g)
+        call check(all(abs(b(1:n, 1:n) - e(1:n, 1:n)) <= 4*epsilon(1.0_wp)*g(1:n, 1:n)), &
+                   'add_sym_atb is b + x''y (upper triangle, mirrored)')
+        b = q                   ! the transposed operands, zero to the tiles' edge
+        wt = 0.0_wp
+        wt(1:n, 1:mm(m)) = transpose(w(1:mm(m), 1:n))
+        call sym_atb_t(mm(m), tile_rows(n), n, wt, wt, b(1:n, 1:n))
+        call sym_expected(mm(m), n, q, w, w, e, g)
+        call check(all(abs(b(1:n, 1:n) - e(1:n, 1:n)) <= 4*epsilon(1.0_wp)*g(1:n, 1:n)), &
+                   'sym_atb_t is b + w''w over the first m rows')
+      end do
+    end do
+  end subroutine test_sym_products
+
+  !> e = q + x' y over the first m rows for k <= l, mirrored (the triangle
+  !> the symmetric products compute), and g the sums of the terms' magnitudes.
+  subroutine sym_expected(m, n, q, x, y, e, g)
+    integer, intent(in) :: m, n
+    real(wp), intent(in) :: q(:, :), x(:, :), y(:, :)
+    real(wp), intent(out) :: e(:, :), g(:, :)
+    integer :: k, l
+    do l = 1, n
+      do k = 1, l
+        e(k, l) = q(k, l) + sum(x(1:m, k)*y(1:m, l))
+        g(k, l) = abs(q(k, l)) + sum(abs(x(1:m, k)*y(1:m, l)))
+        e(l, k) = q(l, k) + sum(x(1:m, k)*y(1:m, l))
+        g(l, k) = abs(q(l, k)) + sum(abs(x(1:m, k)*y(1:m, l)))
+      end do
+    end do
+  end subroutine sym_expected
 
   !> small_product, its fixed-size 4 x 4 kernel and its general loops,
   !> against the sums written out: within rounding (4 eps sum |a||b|, as a
