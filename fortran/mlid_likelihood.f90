@@ -155,7 +155,7 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: dy(:, :, :), nu(:, :)
-    real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny)
+    real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny), rdiag(m%ny)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
     integer :: ny, nt, nf, i, k, ierr
     logical :: ok
