@@ -317,7 +317,8 @@ contains
     cw = cw*shrink
     if (present(nterms)) nterms = ne - ndrop
     yhat = yf - r
-    cost = sum(r*spread(cw, 1, m%ny)*matmul(sinv, r)) + 0.5_wp*sum(cw)*logdet
+    ! sum_c c_c r' S^-1 r = (1/2) sum(c) tr(S^-1 S-hat), S-hat of the same residuals
+    cost = 0.5_wp*sum(cw)*(sum(sinv*rhat) + logdet)
     if (.not. ieee_is_finite(cost)) then
       status = MLID_ERR_SINGULAR
       msg = 'cost is not finite'
@@ -331,14 +332,15 @@ contains
       call sensitivities(m, theta, pm, tf, uf, opt%method == METHOD_FREQ_EE, xout, ainv, pa, xs, &
                          eta, d)
     end select
-    a = weighted(reshape(r, [m%ny, nc, 1]), sinv, cw)
+    allocate (a(m%ny, nc, pm%nf))
+    call weigh(reshape(r, [m%ny, nc, 1]), sinv, cw, a(:, :, 1:1))
     mtt = cross(d, a, m%ny*nc, pm%nf, 1)
     grad = -mtt(:, 1)
     ! information of (theta, transients), the transients eliminated (Schur
     ! complement): the information of theta with them unknown; the blocks
     ! of theta (mtt), transients by theta (mbt) and transients (mbb, from
     ! their per-output products gm)
-    a = weighted(d, sinv, cw)
+    call weigh(d, sinv, cw, a)
     if (present(wsens)) wsens = a
     allocate (c(size(keep), size(keep)))
     mtt = cross(d, a, m%ny*nc, pm%nf, pm%nf)
@@ -371,7 +373,7 @@ contains
     real(wp), intent(in) :: b(:, :, :), cw(:)
     logical, intent(in) :: full
     real(wp), allocatable, intent(out) :: gm(:, :, :, :)
-    real(wp), allocatable :: bi(:, :), wbj(:, :)
+    real(wp), allocatable :: bj(:, :), wbj(:, :)
     logical :: used(size(b, 3), size(b, 1))
     integer :: i, j, k, n, ny
     integer, allocatable :: ki(:), kj(:)
@@ -385,16 +387,20 @@ contains
     end do
     do j = 1, ny
       kj = pack([(k, k=1, n)], used(:, j))
-      wbj = b(j, :, kj)
+      bj = b(j, :, kj)            ! gathered once (the strided read), weighted apart
+      allocate (wbj, mold=bj)
       do k = 1, size(kj)
-        wbj(:, k) = cw*wbj(:, k)
+        wbj(:, k) = cw*bj(:, k)
       end do
       do i = 1, ny
-        if (i /= j .and. .not. full) cycle
-        ki = pack([(k, k=1, n)], used(:, i))
-        bi = b(i, :, ki)
-        gm(ki, kj, i, j) = matmul(transpose(bi), wbj)
+        if (i == j) then
+          gm(kj, kj, j, j) = matmul(transpose(bj), wbj)
+        else if (full) then
+          ki = pack([(k, k=1, n)], used(:, i))
+          gm(ki, kj, i, j) = matmul(transpose(b(i, :, ki)), wbj)
+        end if
       end do
+      deallocate (wbj)
     end do
   end subroutine grams
 
@@ -442,11 +448,11 @@ contains
     end do
   end function combined
 
-  !> 2 c S^-1 b_c for each column c of b (ny, nc, n): rows scaled when S is
-  !> diagonal.
-  function weighted(b, sinv, cw) result(a)
+  !> a = 2 c S^-1 b_c for each column c of b (ny, nc, n): rows scaled when
+  !> S is diagonal.
+  subroutine weigh(b, sinv, cw, a)
     real(wp), intent(in) :: b(:, :, :), sinv(:, :), cw(:)
-    real(wp) :: a(size(b, 1), size(b, 2), size(b, 3))
+    real(wp), intent(out) :: a(:, :, :)
     real(wp) :: w(size(b, 1), size(b, 2))
     integer :: i, j, c
     if (count(sinv /= 0.0_wp) == size(sinv, 1)) then
@@ -463,7 +469,7 @@ contains
         a(:, :, j) = 2.0_wp*matmul(sinv, b(:, :, j))*spread(cw, 1, size(b, 1))
       end do
     end if
-  end function weighted
+  end subroutine weigh
 
   !> An independent set of the transient terms' columns b (ny, nc, n)
   !> spanning the same, keep (independent_columns of their normalised
@@ -686,7 +692,7 @@ contains
         end if
         gu = 0.0_wp
         do j = 1, nu
-          gu = gu + g(:, j)*uu(j)
+          gu = gu + scaled(g(:, j), uu(j))
         end do
         xs(:, k) = 0.0_wp
         do j = 1, nx
@@ -697,14 +703,14 @@ contains
           do i = 1, ny
             z = 0.0_wp
             do l = 1, nx
-              z = z + he(i, l)*ainv(l, j, k)
+              z = z + scaled(he(i, l), ainv(l, j, k))
             end do
             p(i, j) = z
           end do
-          yy = yy + he(:, j)*xs(j, k)
+          yy = yy + scaled(he(:, j), xs(j, k))
         end do
         do j = 1, nu
-          yy = yy + d(:, j)*uu(j)
+          yy = yy + scaled(d(:, j), uu(j))
         end do
         pa(:, :, k) = p
         do j = 1, nx
@@ -775,7 +781,7 @@ contains
       end if
       v = cmplx(uf(1:nu, c), uf(1:nu, c + 1), wp)
       do j = 1, nx
-        v = v + kf(:, j)*x(j)
+        v = v + scaled(kf(:, j), x(j))
       end do
       do q = 1, size(pm%im)                 ! each moving entry into its free column
         i = row(q)
@@ -828,6 +834,15 @@ contains
     end subroutine element
 
   end subroutine sensitivities
+
+  !> r z, as r (r + 0 i) z is, without the complex product that promoting r
+  !> to complex makes (the zeros' terms are exact zeros).
+  elemental function scaled(r, z) result(y)
+    real(wp), intent(in) :: r
+    complex(wp), intent(in) :: z
+    complex(wp) :: y
+    y = cmplx(r*real(z, wp), r*aimag(z), wp)
+  end function scaled
 
   !> |Re z| + |Im z|, within a factor sqrt(2) of |z|: enough to choose
   !> pivots and to scale, without abs's hypot (model_terms' largest cost).
