@@ -149,8 +149,8 @@ contains
   pure subroutine stage(p, r, c, s, xr, xi, yr, yi)
     type(fft_plan_t), intent(in) :: p
     integer, intent(in) :: r, c, s
-    real(wp), intent(in) :: xr(c*p%n/s), xi(c*p%n/s)
-    real(wp), intent(out) :: yr(c*p%n/s), yi(c*p%n/s)
+    real(wp), intent(in) :: xr((c/s)*p%n), xi((c/s)*p%n)      ! c/s first: no overflow
+    real(wp), intent(out) :: yr((c/s)*p%n), yi((c/s)*p%n)
     integer :: h
     h = p%n/(r*s)
     select case (r)

@@ -922,7 +922,6 @@ contains
         a(i, j) = 0.5_wp*(a(i, j) + a(j, i))
         a(j, i) = a(i, j)
       end do
-      a(j, j) = 0.5_wp*(a(j, j) + a(j, j))
     end do
   end subroutine symmetrize
 

@@ -78,6 +78,9 @@ module mlid_frequency
   !> alternation with S stops when the cost changes by less than ETA_TOL
   !> (relative), after ETA_SWEEPS at most.
   real(wp), parameter :: ETA_RCOND = 1.0e-12_wp, ETA_TOL = 1.0e-14_wp
+  !> A sweep's S from the weighted products only while each output's stays
+  !> above CANCEL of r0's (at most six digits lost to cancellation).
+  real(wp), parameter :: CANCEL = 1.0e-6_wp
   integer, parameter :: ETA_SWEEPS = 200
   complex(wp), parameter :: IU = (0.0_wp, 1.0_wp)
 
@@ -272,7 +275,7 @@ contains
     integer, allocatable :: keep(:)
     complex(wp), allocatable :: ainv(:, :, :), pa(:, :, :), xs(:, :)
     real(wp) :: sinv(m%ny, m%ny), logdet, dof, shrink
-    integer :: xout(m%nx), nc, ne, i, f, ndrop
+    integer :: xout(m%nx), nc, ne, i, ndrop
 
     cost = huge(1.0_wp)
     nc = size(tf)
@@ -332,10 +335,12 @@ contains
       call sensitivities(m, theta, pm, tf, uf, opt%method == METHOD_FREQ_EE, xout, ainv, pa, xs, &
                          eta, d)
     end select
-    allocate (a(m%ny, nc, pm%nf))
-    call weigh(reshape(r, [m%ny, nc, 1]), sinv, cw, a(:, :, 1:1))
+    allocate (a(m%ny, nc, 1))
+    call weigh(reshape(r, [m%ny, nc, 1]), sinv, cw, a)
     mtt = cross(d, a, m%ny*nc, pm%nf, 1)
     grad = -mtt(:, 1)
+    deallocate (a)
+    allocate (a(m%ny, nc, pm%nf))
     ! information of (theta, transients), the transients eliminated (Schur
     ! complement): the information of theta with them unknown; the blocks
     ! of theta (mtt), transients by theta (mbt) and transients (mbb, from
@@ -546,6 +551,7 @@ contains
         end do
       end do
     end do
+    allocate (r(ny, size(r0, 2)))
     eta = 0.0_wp
     s = 0.0_wp
     last = huge(1.0_wp)
@@ -560,6 +566,12 @@ contains
           s(i, j) = q/(0.5_wp*sum(cw))
         end do
       end do
+      ! the products cancel when the terms take nearly all of r0: then this
+      ! sweep's S from the residuals themselves
+      if (any([(s(i, i) < CANCEL*q0(i, i)/(0.5_wp*sum(cw)), i=1, ny)])) then
+        call less_columns(r0, bas, keep, tsc*eta, size(r0), size(bas, 3), r)
+        call residual_products(r, cw, full, s)
+      end if
       call spectrum(s, sinv, logdet, status, msg)
       if (status /= MLID_OK) return
       cost = 0.5_wp*sum(cw)*(sum(sinv*s) + logdet)
@@ -580,16 +592,25 @@ contains
     end do
     ! the residuals, and S from them: the products above lose the digits
     ! the transient terms take from r0
-    allocate (r(ny, size(r0, 2)))
     call less_columns(r0, bas, keep, tsc*eta, size(r0), size(bas, 3), r)
-    do j = 1, ny
+    call residual_products(r, cw, full, s)
+    call spectrum(s, sinv, logdet, status, msg)
+  end subroutine transients
+
+  !> S = (1/n) sum_c c_c r_c r_c' of the residuals r (the pairs S couples).
+  subroutine residual_products(r, cw, full, s)
+    real(wp), intent(in) :: r(:, :), cw(:)
+    logical, intent(in) :: full
+    real(wp), intent(inout) :: s(:, :)
+    real(wp) :: wr(size(r, 2))
+    integer :: i, j
+    do j = 1, size(r, 1)
       wr = cw*r(j, :)
-      do i = 1, ny
+      do i = 1, size(r, 1)
         if (i == j .or. full) s(i, j) = dot_product(r(i, :), wr)/(0.5_wp*sum(cw))
       end do
     end do
-    call spectrum(s, sinv, logdet, status, msg)
-  end subroutine transients
+  end subroutine residual_products
 
   !> S^-1 and ln|S| of the residual spectrum S, or why there are none.
   subroutine spectrum(s, sinv, logdet, status, msg)

@@ -1,5 +1,7 @@
-!> LAPACK wrappers: symmetric eigen-decomposition and Cholesky-based
-!> inverse with log-determinant.
+!> Dense linear algebra of the core: LAPACK wrappers (symmetric
+!> eigen-decomposition, Cholesky inverse with log-determinant), the
+!> symmetric products' kernels, a pivoted Cholesky choosing independent
+!> columns, and the matrix exponential.
 module mlid_linalg
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL

@@ -321,3 +321,40 @@ def test_ties_prior_and_bounds(c8_data):
     pinned = mlid.fit(c8_start(), c8_data, method=FDOE, prior={"M_q": -1.5},
                       prior_weight={"M_q": 1e8}, **BAND)
     assert abs(pinned.estimate[0] + 1.5) < 1e-3 * free_fit.sigma[0]
+
+
+@pytest.mark.parametrize("method", [FDOE, FDEE])
+def test_nothing_free_evaluates(c8_data, method):
+    """With no parameter free the frequency-domain likelihood still gives
+    its residual spectrum S-hat (the same as with the C-8 parameters free at
+    the same values: the free set changes only the cost's (N - p)/N
+    weighting), an empty gradient and an empty information matrix."""
+    theta = np.array([C8_F[2, 2], C8_F[2, 3], C8_F[3, 3], C8_G[2, 0], C8_G[3, 0]])
+    some = mlid.frequency_evaluate(c8_model(theta), c8_data, method=method, **BAND)
+    model = c8_model(theta)
+    none = mlid.frequency_evaluate(mlid.LinearModel(model.F, model.G, np.eye(4), free=[]),
+                                   c8_data, method=method, **BAND)
+    assert none["gradient"].shape == (0,) and none["information"].shape == (0, 0)
+    assert np.isfinite(none["cost"])
+    np.testing.assert_allclose(none["rhat"], some["rhat"], rtol=1e-12)
+
+
+@pytest.mark.parametrize("method", [FDOE, FDEE])
+def test_nearly_noise_free_with_offsets_and_drift(method):
+    """Noise 1e-8 of the C-8 record's, output offsets and a drift: the
+    transient terms take nearly all of the residuals, so the weighted
+    products that the alternation forms S from cancel; S is then taken from
+    the residuals themselves, and the likelihood at the truth with a full S
+    is evaluated (not refused as singular), its S-hat positive definite and
+    the mean of Re(V V^*) of the residuals it returns (equal weights here)."""
+    t = np.arange(301) * 0.02
+    u = mlid.core.input_signal("doublet", 0.08, 1.0, 0.5, 0.02, len(t))
+    data, _ = mlid.simulate(c8_truth(), t, u[:, None], 1e-8 * np.asarray(C8_STD), seed=3)
+    y = data.y + np.array([0.01, -0.02, 0.005, 0.03]) + np.outer(t, [1e-3, 0, -2e-3, 5e-4])
+    data = mlid.FlightData(data.t, data.u, y)
+    truth = np.array([C8_F[2, 2], C8_F[2, 3], C8_F[3, 3], C8_G[2, 0], C8_G[3, 0]])
+    ev = mlid.frequency_evaluate(c8_model(truth), data, method=method, noise="full", **BAND)
+    assert np.all(np.linalg.eigvalsh(ev["rhat"]) > 0)
+    v = ev["z"] - ev["zhat"]
+    np.testing.assert_allclose(ev["rhat"], (v.T @ v.conj()).real / len(v), rtol=1e-6,
+                               atol=1e-6 * np.max(np.diag(ev["rhat"])))

@@ -11,6 +11,7 @@ from .errors import InputError, check_status, guarded
 _api = _core.mlid_api
 
 
+@guarded
 def sample_step(t, starts=(1,)):
     """The one sample step of a record whose manoeuvres start at samples
     ``starts`` (1-based): each uniformly sampled, all at one step, as the
