@@ -153,8 +153,7 @@ contains
     real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), msens(:, :)
-    real(wp), intent(out), optional, contiguous :: wsens(:, :, :)   ! no copies per thread
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
     real(wp), allocatable :: dy(:, :, :), nu(:, :)
     real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny), rdiag(m%ny)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
