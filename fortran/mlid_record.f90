@@ -429,9 +429,7 @@ contains
     status = MLID_OK
     msg = ''
     do k = 1, size(segstart)
-      first = max(1, segstart(k))
-      last = size(t)
-      if (k < size(segstart)) last = min(size(t), segstart(k + 1) - 1)
+      call manoeuvre_bounds(segstart, k, size(t), first, last)
       if (last <= first) cycle
       call record_check_time(t(first:last), at, status, msg)
       if (status /= MLID_OK) then
@@ -501,9 +499,7 @@ contains
     status = MLID_ERR_INPUT
     msg = 'a record to transform needs at least two samples'
     do k = 1, size(starts)
-      j0 = max(1, starts(k))
-      j1 = size(t)
-      if (k < size(starts)) j1 = min(size(t), starts(k + 1) - 1)
+      call manoeuvre_bounds(starts, k, size(t), j0, j1)
       call record_uniform_step(t(j0:j1), d, status, msg)
       if (status == MLID_OK .and. k > 1 .and. .not. abs(d - dt) <= UNIFORM_TOL*dt) then
         status = MLID_ERR_INPUT
@@ -517,6 +513,16 @@ contains
       if (k == 1) dt = d
     end do
   end subroutine record_common_step
+
+  !> The first and last sample of manoeuvre k of n samples whose manoeuvres
+  !> start at the samples starts (clipped to 1 .. n).
+  pure subroutine manoeuvre_bounds(starts, k, n, first, last)
+    integer, intent(in) :: starts(:), k, n
+    integer, intent(out) :: first, last
+    first = max(1, starts(k))
+    last = n
+    if (k < size(starts)) last = min(n, starts(k + 1) - 1)
+  end subroutine manoeuvre_bounds
 
   !> A path for a message: its last 60 characters, so the problem fits.
   function short_path(path) result(text)
