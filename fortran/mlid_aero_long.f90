@@ -51,10 +51,12 @@ module mlid_aero_long
   type, extends(model_t) :: aero_long_t
     integer, allocatable :: code(:)      !< regressor code of each parameter
     integer, allocatable :: coef(:)      !< 1 = C_D, 2 = C_L, 3 = C_m for each parameter
-    !> where each parameter's terms go in a point's coefficients cx (air_t),
-    !> as indices of cx's columns laid end to end: its coefficient's value
-    !> and its regressor's gradient (row GRAD_NONE when it has none)
-    integer, allocatable :: at_value(:), at_grad(:)
+    !> Looked up once here, what each parameter's terms ask at every point:
+    !> where they go in the point's coefficients cx (air_t), as indices of
+    !> cx's columns laid end to end (its coefficient's value; its regressor's
+    !> gradient, row GRAD_NONE when it has none), and the state equation it
+    !> forces (COEF_ROW of its coefficient).
+    integer, allocatable :: at_value(:), at_grad(:), brow(:)
     real(wp) :: g = 0, sm = 0, sc = 0, lt = 0, v0 = 0, mass = 0, sigma = 0, rho = 0, c2 = 0
     real(wp) :: csig = 1, ssig = 0       !< cos and sin of sigma
     !> the regressors' constant derivatives 1/V0 and (cbar/2)/V0, divided once
@@ -69,9 +71,10 @@ module mlid_aero_long
   end type aero_long_t
 
   !> What f, h and their Jacobians share at one point, computed once: the
-  !> regressors, the coefficients and their x-gradients, the dynamic
-  !> pressure and the sines and cosines of the thrust line (alpha + sigma)
-  !> and of the flight-path angle (alpha - theta).  The dynamic pressure is there
+  !> regressors, the coefficients and their x-gradients (cx), the dynamic
+  !> pressure and its products with S/m and S cbar/Iy, the sines and cosines
+  !> of the thrust line (alpha + sigma) and of the flight-path angle
+  !> (alpha - theta).  The dynamic pressure is there
   !> twice, qbar = (rho/2 V) V for f and df/dx, qbar2 = rho/2 V^2 for the
   !> outputs and the parameter Jacobians: equal up to rounding, each as
   !> those quantities have always been formed, so that every fit stays the
@@ -122,6 +125,7 @@ contains
     m%np = np
     m%code = iconst(4:)
     m%coef = [(1, k=1, n(1)), (2, k=1, n(2)), (3, k=1, n(3))]
+    m%brow = COEF_ROW(m%coef)
     m%at_value = (GRAD_NONE + 1)*(m%coef - 1) + 1
     m%at_grad = m%at_value + merge(DR_STATE(m%code), GRAD_NONE, DR_STATE(m%code) > 0)
     m%g = rconst(1)
@@ -199,7 +203,7 @@ contains
     real(wp), intent(in) :: p(:), r(NREG), dr(NREG)
     real(wp), intent(out) :: cx((GRAD_NONE + 1)*3)   ! air_t's cx, its columns end to end
     integer :: k, i
-    cx(1:9) = 0.0_wp
+    cx(1:9) = 0.0_wp      ! in halves: stores, where the whole is a rep stos (an instruction an entry)
     cx(10:) = 0.0_wp
     do k = 1, self%np
       i = self%code(k)
@@ -290,14 +294,14 @@ contains
     type(air_t), intent(in) :: s
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: b(4, size(idx))
-    real(wp) :: fac(3)
-    integer :: k, j
-    ! each coefficient's factor, as it has always been formed (negation is exact)
-    fac = [-self%sm*s%qbar2, -self%smhr*s%v, self%sc*s%qbar2]
+    real(wp) :: fac(4)
+    integer :: k, i
+    ! each state equation's factor, as it has always been formed (negation is exact)
+    fac = [-self%sm*s%qbar2, -self%smhr*s%v, 0.0_wp, self%sc*s%qbar2]
     do k = 1, size(idx)
-      j = self%coef(idx(k))
+      i = self%brow(idx(k))
       b(1:4, k) = 0.0_wp         ! four states: a fixed size, no call of memset per column
-      b(COEF_ROW(j), k) = fac(j)*s%r(self%code(idx(k)))
+      b(i, k) = fac(i)*s%r(self%code(idx(k)))
     end do
   end subroutine state_param_jacobian
 
