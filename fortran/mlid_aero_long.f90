@@ -38,8 +38,6 @@ module mlid_aero_long
   integer, parameter :: DR_STATE(NREG) = [0, 1, 2, 2, 4, 0]
   !> The state equation each coefficient (C_D, C_L, C_m) forces.
   integer, parameter :: COEF_ROW(3) = [1, 2, 4]
-  !> The outputs each coefficient forces (a_x and a_z; C_m: qdot, twice).
-  integer, parameter :: COEF_OUT(2, 3) = reshape([6, 7, 6, 7, 5, 5], [2, 3])
   !> A point's coefficients cx(0:GRAD_NONE, 3): each column the coefficient
   !> (row 0) and its gradient along the four states (rows 1 to 4); row
   !> GRAD_NONE sums the terms of the regressors without a gradient and is
@@ -313,7 +311,7 @@ contains
     real(wp), intent(in) :: x(4), xd(4)
     integer, intent(in) :: idx(:)
     real(wp), intent(out), optional :: y(7), c(7, 4), d(7, size(idx))
-    real(wp) :: sa, ca, rv, r, qs, fd(2, 3), g(4), ax(4), az(4)
+    real(wp) :: sa, ca, rv, r, qs, fa(2, 2), fm, g(4), ax(4), az(4)
     integer :: i, k, j
 
     sa = sin(x(2))
@@ -343,16 +341,22 @@ contains
       end if
     end associate
     if (.not. present(d)) return
-    ! each coefficient's factors on its outputs COEF_OUT (negation is exact)
-    fd(:, 1) = [-qs*ca, -qs*sa]
-    fd(:, 2) = [qs*sa, -qs*ca]
-    fd(:, 3) = self%sc*s%qbar2
+    ! the coefficients' factors, as they have always been formed (negation is
+    ! exact): C_D's and C_L's on a_x and a_z, C_m's on qdot
+    fa(:, 1) = [-qs*ca, -qs*sa]
+    fa(:, 2) = [qs*sa, -qs*ca]
+    fm = self%sc*s%qbar2
     do k = 1, size(idx)
       j = self%coef(idx(k))
       r = s%r(self%code(idx(k)))
-      d(1:7, k) = 0.0_wp
-      d(COEF_OUT(1, j), k) = fd(1, j)*r
-      d(COEF_OUT(2, j), k) = fd(2, j)*r
+      if (j == 3) then
+        d(1:7, k) = 0.0_wp
+        d(5, k) = fm*r
+      else
+        d(1:5, k) = 0.0_wp
+        d(6, k) = fa(1, j)*r
+        d(7, k) = fa(2, j)*r
+      end if
     end do
   end subroutine outputs
 
