@@ -48,12 +48,11 @@ module mlid_aero_long
 
   type, extends(model_t) :: aero_long_t
     integer, allocatable :: code(:)      !< regressor code of each parameter
-    integer, allocatable :: coef(:)      !< 1 = C_D, 2 = C_L, 3 = C_m for each parameter
     !> Looked up once here, what each parameter's terms ask at every point:
     !> where they go in the point's coefficients cx (air_t), as indices of
     !> cx's columns laid end to end (its coefficient's value; its regressor's
     !> gradient, row GRAD_NONE when it has none), and the state equation it
-    !> forces (COEF_ROW of its coefficient).
+    !> forces (COEF_ROW of its coefficient: 1 for C_D, 2 for C_L, 4 for C_m).
     integer, allocatable :: at_value(:), at_grad(:), brow(:)
     real(wp) :: g = 0, sm = 0, sc = 0, lt = 0, v0 = 0, mass = 0, sigma = 0, rho = 0, c2 = 0
     real(wp) :: csig = 1, ssig = 0       !< cos and sin of sigma
@@ -91,6 +90,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer :: n(3), np, k
+    integer, allocatable :: coef(:)     ! 1 = C_D, 2 = C_L, 3 = C_m for each parameter
 
     status = MLID_ERR_INPUT
     if (size(iconst) < 3) then
@@ -122,9 +122,9 @@ contains
     m%nw = 4      ! process noise (turbulence) adds to each state equation
     m%np = np
     m%code = iconst(4:)
-    m%coef = [(1, k=1, n(1)), (2, k=1, n(2)), (3, k=1, n(3))]
-    m%brow = COEF_ROW(m%coef)
-    m%at_value = (GRAD_NONE + 1)*(m%coef - 1) + 1
+    coef = [(1, k=1, n(1)), (2, k=1, n(2)), (3, k=1, n(3))]
+    m%brow = COEF_ROW(coef)
+    m%at_value = (GRAD_NONE + 1)*(coef - 1) + 1
     m%at_grad = m%at_value + merge(DR_STATE(m%code), GRAD_NONE, DR_STATE(m%code) > 0)
     m%g = rconst(1)
     m%sm = rconst(2)
@@ -342,14 +342,15 @@ contains
     end associate
     if (.not. present(d)) return
     ! the coefficients' factors, as they have always been formed (negation is
-    ! exact): C_D's and C_L's on a_x and a_z, C_m's on qdot
+    ! exact): C_D's and C_L's on a_x and a_z (fa by the state equation the
+    ! coefficient forces, brow 1 and 2), C_m's on qdot
     fa(:, 1) = [-qs*ca, -qs*sa]
     fa(:, 2) = [qs*sa, -qs*ca]
     fm = self%sc*s%qbar2
     do k = 1, size(idx)
-      j = self%coef(idx(k))
+      j = self%brow(idx(k))
       r = s%r(self%code(idx(k)))
-      if (j == 3) then
+      if (j == COEF_ROW(3)) then
         d(1:7, k) = 0.0_wp
         d(5, k) = fm*r
       else
