@@ -222,6 +222,10 @@ contains
     type(air_t) :: s
     real(wp) :: xd(4)
 
+    s%sas = sin(x(2) + self%sigma)     ! first: the calls of sincos keep little else live
+    s%cas = cos(x(2) + self%sigma)
+    s%sat = sin(x(2) - x(3))
+    s%cat = cos(x(2) - x(3))
     call regressors(self, x, u, s%r, s%dr)
     call coefficients(self, p, s%r, s%dr, s%cx)
     s%v = x(1)
@@ -230,10 +234,6 @@ contains
     s%qbar2 = self%hr*x(1)**2
     s%sq = self%sm*s%qbar
     s%scq = self%sc*s%qbar
-    s%sas = sin(x(2) + self%sigma)
-    s%cas = cos(x(2) + self%sigma)
-    s%sat = sin(x(2) - x(3))
-    s%cat = cos(x(2) - x(3))
     if (present(xdot) .or. present(y)) call state_rates(self, s, x, u, xd)
     if (present(xdot)) xdot = xd
     if (present(a)) call state_jacobian(self, s, a)
