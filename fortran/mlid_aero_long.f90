@@ -89,8 +89,7 @@ contains
     type(aero_long_t), intent(out) :: m
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    integer :: n(3), np, k
-    integer, allocatable :: coef(:)     ! 1 = C_D, 2 = C_L, 3 = C_m for each parameter
+    integer :: n(3), np, k, j, i
 
     status = MLID_ERR_INPUT
     if (size(iconst) < 3) then
@@ -122,10 +121,17 @@ contains
     m%nw = 4      ! process noise (turbulence) adds to each state equation
     m%np = np
     m%code = iconst(4:)
-    coef = [(1, k=1, n(1)), (2, k=1, n(2)), (3, k=1, n(3))]
-    m%brow = COEF_ROW(coef)
-    m%at_value = (GRAD_NONE + 1)*(coef - 1) + 1
-    m%at_grad = m%at_value + merge(DR_STATE(m%code), GRAD_NONE, DR_STATE(m%code) > 0)
+    allocate (m%at_value(np), m%at_grad(np), m%brow(np))
+    k = 0
+    do j = 1, 3                       ! coefficient j's parameters follow j - 1's
+      do i = 1, n(j)
+        k = k + 1
+        m%at_value(k) = (GRAD_NONE + 1)*(j - 1) + 1
+        m%at_grad(k) = m%at_value(k) + GRAD_NONE
+        if (DR_STATE(m%code(k)) > 0) m%at_grad(k) = m%at_value(k) + DR_STATE(m%code(k))
+        m%brow(k) = COEF_ROW(j)
+      end do
+    end do
     m%g = rconst(1)
     m%sm = rconst(2)
     m%sc = rconst(3)
