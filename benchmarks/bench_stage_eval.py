@@ -102,7 +102,7 @@ instructions a parameter for the coefficients and for each df/dp column,
 20 for each dh/dp column: loads of the index tables, zero stores), the
 interface's descriptors (some 50 instructions a point), sincos (rounding:
 sin(alpha + sigma) from sin alpha would change every fit's last bits for
-some 0.5 M a fit).  Every case deck's results are unchanged to the bit
+some 0.4 M a fit, the third sincos of a sample).  Every case deck's results are unchanged to the bit
 (benchmarks/compare_cases.py: 40 of 40 bitwise; HFB-320's four cases
 among them).
 """
