@@ -101,10 +101,10 @@ rates then stop being inlined).  Left: the per-parameter loops (some 15
 instructions a parameter for the coefficients and for each df/dp column,
 20 for each dh/dp column: loads of the index tables, zero stores), the
 interface's descriptors (some 50 instructions a point), sincos (rounding:
-sin(alpha + sigma) from sin alpha would change every fit's last bits for
-some 0.4 M a fit, the third sincos of a sample).  Every case deck's results are unchanged to the bit
-(benchmarks/compare_cases.py: 40 of 40 bitwise; HFB-320's four cases
-among them).
+sin(alpha + sigma) from sin alpha, saving a sample's third sincos, would
+change every fit's last bits for some 0.4 M a fit).  Every case deck's
+results are unchanged to the bit (benchmarks/compare_cases.py: 40 of 40
+bitwise; HFB-320's four cases among them).
 """
 
 import argparse
