@@ -71,6 +71,40 @@ already pairs each angle's sin and cos), the coloured-residual correction
 (about 20 %).  The issue's 3 ms stays out of reach without changing the
 sums (every case deck's results are unchanged to the bit:
 benchmarks/compare_cases.py, 40 of 40 bitwise).
+
+Measured (ours, branch aero-eval against main at e34fe4f, one thread; the
+longitudinal model's point, fortran/mlid_aero_long.f90, alone):
+  HFB-320    82.8 M -> 80.3 M instructions per fit (19.7 k -> 19.1 k per
+             sample and iteration): al_eval 17.2 M -> 14.7 M self (the
+             sincos calls unchanged, 4.5 M); a stage's point (f, df/dx,
+             df/dp) 769 -> 662 instructions, a sample's (with h, dh/dx,
+             dh/dp) 1,239 -> 1,051 (a driver of the model alone at the
+             deck's parameters, callgrind); 3343 -> 3341 allocations per
+             fit; least CPU time 7.65 -> 6.95 ms (wall medians 15.8 -> 12.1
+             ms: one --rounds 3 run on a loaded machine, noisy);
+  C-8, ATTAS lateral: unchanged (9.0 M, 158.1 M: other models).
+The steps: each parameter's place in the point's coefficients and the
+state equation it forces looked up once at creation (a flat loop of
+fixed-index sums: no coefficient lookup or branch per parameter, the
+terms of a regressor without gradient summed into a row never read);
+the constants' products (rho/2, (S/m) rho, ...) and (S/m) qbar, (S cbar/Iy)
+qbar formed once, each as before; df/dx straight into a; c column by
+column; dh/dp's columns by coefficient (C_m on qdot, C_D and C_L on a_x
+and a_z), zeros written once; the coefficients' zeroing in two halves
+(gfortran's rep stos for the whole costs an instruction an entry); the
+sines and cosines first (fewer values live across the calls).  Tried and
+dropped: df/dp and dh/dp in one pass over idx (with the optional
+arguments tested per column it costs the stages more than it saves the
+samples; written out per case it saves 0.2 M a fit for three copies of
+the loop), the outputs' sincos moved first, xdot written straight (the
+rates then stop being inlined).  Left: the per-parameter loops (some 15
+instructions a parameter for the coefficients and for each df/dp column,
+20 for each dh/dp column: loads of the index tables, zero stores), the
+interface's descriptors (some 50 instructions a point), sincos (rounding:
+sin(alpha + sigma) from sin alpha, saving a sample's third sincos, would
+change every fit's last bits for some 0.4 M a fit).  Every case deck's
+results are unchanged to the bit (benchmarks/compare_cases.py: 40 of 40
+bitwise; HFB-320's four cases among them).
 """
 
 import argparse

@@ -38,16 +38,29 @@ module mlid_aero_long
   integer, parameter :: DR_STATE(NREG) = [0, 1, 2, 2, 4, 0]
   !> The state equation each coefficient (C_D, C_L, C_m) forces.
   integer, parameter :: COEF_ROW(3) = [1, 2, 4]
+  !> A point's coefficients cx(0:GRAD_NONE, 3): each column the coefficient
+  !> (row 0) and its gradient along the four states (rows 1 to 4); row
+  !> GRAD_NONE sums the terms of the regressors without a gradient and is
+  !> never read (no branch per parameter).
+  integer, parameter :: GRAD_NONE = 5
   !> The constants rconst, in order.
   character(len=*), parameter :: CONSTANT_NAMES = 'g, S/m, S cbar/Iy, lT/Iy, V0, m, sigma_T, rho, cbar/2'
 
   type, extends(model_t) :: aero_long_t
     integer, allocatable :: code(:)      !< regressor code of each parameter
-    integer, allocatable :: coef(:)      !< 1 = C_D, 2 = C_L, 3 = C_m for each parameter
+    !> Looked up once here, what each parameter's terms ask at every point:
+    !> where they go in the point's coefficients cx (air_t), as indices of
+    !> cx's columns laid end to end (its coefficient's value; its regressor's
+    !> gradient, row GRAD_NONE when it has none), and the state equation it
+    !> forces (COEF_ROW of its coefficient: 1 for C_D, 2 for C_L, 4 for C_m).
+    integer, allocatable :: at_value(:), at_grad(:), brow(:)
     real(wp) :: g = 0, sm = 0, sc = 0, lt = 0, v0 = 0, mass = 0, sigma = 0, rho = 0, c2 = 0
     real(wp) :: csig = 1, ssig = 0       !< cos and sin of sigma
     !> the regressors' constant derivatives 1/V0 and (cbar/2)/V0, divided once
     real(wp) :: dv0 = 0, dq0 = 0
+    !> products of constants, each formed once as the points have always
+    !> formed it: rho/2, (S/m) rho, (S/m)/2 rho, (S cbar/Iy) rho
+    real(wp) :: hr = 0, smr = 0, smhr = 0, scr = 0
   contains
     procedure :: eval => al_eval
     procedure :: dfdw => al_dfdw
@@ -55,15 +68,17 @@ module mlid_aero_long
   end type aero_long_t
 
   !> What f, h and their Jacobians share at one point, computed once: the
-  !> regressors, the coefficients and their x-gradients, the dynamic
-  !> pressure and the sines and cosines of the thrust line (alpha + sigma)
-  !> and of the flight-path angle (alpha - theta).  The dynamic pressure is there
+  !> regressors, the coefficients and their x-gradients (cx), the dynamic
+  !> pressure and its products with S/m and S cbar/Iy, the sines and cosines
+  !> of the thrust line (alpha + sigma) and of the flight-path angle
+  !> (alpha - theta).  The dynamic pressure is there
   !> twice, qbar = (rho/2 V) V for f and df/dx, qbar2 = rho/2 V^2 for the
   !> outputs and the parameter Jacobians: equal up to rounding, each as
   !> those quantities have always been formed, so that every fit stays the
   !> same to the bit (one product more).
   type :: air_t
-    real(wp) :: r(NREG), dr(NREG), cf(3), dc(4, 3), v, ft, qbar, qbar2, sas, cas, sat, cat
+    real(wp) :: r(NREG), dr(NREG), cx(0:GRAD_NONE, 3), v, ft, qbar, qbar2, sas, cas, sat, cat
+    real(wp) :: sq, scq       !< (S/m) qbar and (S cbar/Iy) qbar
   end type air_t
 
 contains
@@ -74,7 +89,7 @@ contains
     type(aero_long_t), intent(out) :: m
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    integer :: n(3), np, k
+    integer :: n(3), np, k, j, i
 
     status = MLID_ERR_INPUT
     if (size(iconst) < 3) then
@@ -106,7 +121,17 @@ contains
     m%nw = 4      ! process noise (turbulence) adds to each state equation
     m%np = np
     m%code = iconst(4:)
-    m%coef = [(1, k=1, n(1)), (2, k=1, n(2)), (3, k=1, n(3))]
+    allocate (m%at_value(np), m%at_grad(np), m%brow(np))
+    k = 0
+    do j = 1, 3                       ! coefficient j's parameters follow j - 1's
+      do i = 1, n(j)
+        k = k + 1
+        m%at_value(k) = (GRAD_NONE + 1)*(j - 1) + 1
+        m%at_grad(k) = m%at_value(k) + GRAD_NONE
+        if (DR_STATE(m%code(k)) > 0) m%at_grad(k) = m%at_value(k) + DR_STATE(m%code(k))
+        m%brow(k) = COEF_ROW(j)
+      end do
+    end do
     m%g = rconst(1)
     m%sm = rconst(2)
     m%sc = rconst(3)
@@ -120,6 +145,10 @@ contains
     m%c2 = rconst(9)
     m%dv0 = 1.0_wp/m%v0
     m%dq0 = m%c2/m%v0
+    m%hr = 0.5_wp*m%rho
+    m%smr = m%sm*m%rho
+    m%smhr = m%sm*0.5_wp*m%rho
+    m%scr = m%sc*m%rho
     status = MLID_OK
     msg = ''
   end subroutine aero_long_create
@@ -170,20 +199,20 @@ contains
     dr(6) = 0.0_wp
   end subroutine regressors
 
-  !> C_D, C_L, C_m and their gradients with respect to x, from the
-  !> regressors r, dr.
-  pure subroutine coefficients(self, p, r, dr, c, dc)
+  !> The coefficients C_D, C_L, C_m and their gradients with respect to x
+  !> (cx, air_t), from the regressors r, dr: the parameters in order, each
+  !> term added where at_value and at_grad say.
+  pure subroutine coefficients(self, p, r, dr, cx)
     class(aero_long_t), intent(in) :: self
     real(wp), intent(in) :: p(:), r(NREG), dr(NREG)
-    real(wp), intent(out) :: c(3), dc(4, 3)
-    integer :: k, i, j
-    c = 0.0_wp
-    dc = 0.0_wp
+    real(wp), intent(out) :: cx((GRAD_NONE + 1)*3)   ! air_t's cx, its columns end to end
+    integer :: k, i
+    cx(1:9) = 0.0_wp      ! in halves: stores, where the whole is a rep stos (an instruction an entry)
+    cx(10:) = 0.0_wp
     do k = 1, self%np
       i = self%code(k)
-      j = self%coef(k)
-      c(j) = c(j) + p(k)*r(i)
-      if (DR_STATE(i) > 0) dc(DR_STATE(i), j) = dc(DR_STATE(i), j) + p(k)*dr(i)
+      cx(self%at_value(k)) = cx(self%at_value(k)) + p(k)*r(i)
+      cx(self%at_grad(k)) = cx(self%at_grad(k)) + p(k)*dr(i)
     end do
   end subroutine coefficients
 
@@ -197,25 +226,26 @@ contains
     real(wp), intent(out), optional :: xdot(self%nx), a(self%nx, self%nx), b(self%nx, size(idx)), &
                                        y(self%ny), c(self%ny, self%nx), d(self%ny, size(idx))
     type(air_t) :: s
-    real(wp) :: xd(4), ax(4, 4)
+    real(wp) :: xd(4)
 
-    call regressors(self, x, u, s%r, s%dr)
-    call coefficients(self, p, s%r, s%dr, s%cf, s%dc)
-    s%v = x(1)
-    s%ft = u(2)
-    s%qbar = 0.5_wp*self%rho*s%v*s%v
-    s%qbar2 = 0.5_wp*self%rho*x(1)**2
-    s%sas = sin(x(2) + self%sigma)
+    s%sas = sin(x(2) + self%sigma)     ! first: the calls of sincos keep little else live
     s%cas = cos(x(2) + self%sigma)
     s%sat = sin(x(2) - x(3))
     s%cat = cos(x(2) - x(3))
+    call regressors(self, x, u, s%r, s%dr)
+    call coefficients(self, p, s%r, s%dr, s%cx)
+    s%v = x(1)
+    s%ft = u(2)
+    s%qbar = self%hr*s%v*s%v
+    s%qbar2 = self%hr*x(1)**2
+    s%sq = self%sm*s%qbar
+    s%scq = self%sc*s%qbar
     if (present(xdot) .or. present(y)) call state_rates(self, s, x, u, xd)
     if (present(xdot)) xdot = xd
-    if (present(a) .or. present(c)) call state_jacobian(self, s, ax)
-    if (present(a)) a = ax
+    if (present(a)) call state_jacobian(self, s, a)
     if (present(b)) call state_param_jacobian(self, s, idx, b)
     if (present(y) .or. present(c) .or. present(d)) &
-      call outputs(self, s, x, idx, xd, ax, y, c, d)
+      call outputs(self, s, x, idx, xd, y, c, d)
   end subroutine al_eval
 
   !> xd = f, with the process noise if u carries it.
@@ -224,11 +254,11 @@ contains
     type(air_t), intent(in) :: s
     real(wp), intent(in) :: x(4), u(:)
     real(wp), intent(out) :: xd(4)
-    xd(1) = -self%sm*s%qbar*s%cf(1) + s%ft*s%cas/self%mass + self%g*s%sat
-    xd(2) = -self%sm*s%qbar/s%v*s%cf(2) - s%ft*s%sas/(self%mass*s%v) + x(4) &
+    xd(1) = -s%sq*s%cx(0, 1) + s%ft*s%cas/self%mass + self%g*s%sat
+    xd(2) = -s%sq/s%v*s%cx(0, 2) - s%ft*s%sas/(self%mass*s%v) + x(4) &
             + self%g*s%cat/s%v
     xd(3) = x(4)
-    xd(4) = self%sc*s%qbar*s%cf(3) + self%lt*s%ft
+    xd(4) = s%scq*s%cx(0, 3) + self%lt*s%ft
     if (size(u) >= 2 + self%nw) xd = xd + u(3:2 + self%nw)   ! process noise, if given
   end subroutine state_rates
 
@@ -237,24 +267,30 @@ contains
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
     real(wp), intent(out) :: a(4, 4)
-    real(wp) :: v, hrv
+    real(wp) :: v
     v = s%v
-    hrv = 0.5_wp*self%rho*v                       ! qbar/V
-    a = 0.0_wp
-    a(1, :) = -self%sm*s%qbar*s%dc(:, 1)
-    a(1, 1) = a(1, 1) - self%sm*self%rho*v*s%cf(1)
+    a(1, :) = -s%sq*s%cx(1:4, 1)
+    a(1, 1) = a(1, 1) - self%smr*v*s%cx(0, 1)
     a(1, 2) = a(1, 2) - s%ft*s%sas/self%mass + self%g*s%cat
     a(1, 3) = a(1, 3) - self%g*s%cat
-    a(2, :) = -self%sm*hrv*s%dc(:, 2)
-    a(2, 1) = a(2, 1) - self%sm*0.5_wp*self%rho*s%cf(2) + s%ft*s%sas/(self%mass*v*v) &
+    a(2, :) = -self%sm*(self%hr*v)*s%cx(1:4, 2)    ! (S/m) qbar/V
+    a(2, 1) = a(2, 1) - self%smhr*s%cx(0, 2) + s%ft*s%sas/(self%mass*v*v) &
               - self%g*s%cat/(v*v)
     a(2, 2) = a(2, 2) - s%ft*s%cas/(self%mass*v) - self%g*s%sat/v
     a(2, 3) = a(2, 3) + self%g*s%sat/v
     a(2, 4) = a(2, 4) + 1.0_wp
-    a(3, 4) = 1.0_wp
-    a(4, :) = self%sc*s%qbar*s%dc(:, 3)
-    a(4, 1) = a(4, 1) + self%sc*self%rho*v*s%cf(3)
+    a(3, :) = [0.0_wp, 0.0_wp, 0.0_wp, 1.0_wp]
+    a(4, :) = qdot_gradient(self, s)
   end subroutine state_jacobian
+
+  !> d qdot / dx: a's fourth row and c's fifth.
+  pure function qdot_gradient(self, s) result(g)
+    class(aero_long_t), intent(in) :: self
+    type(air_t), intent(in) :: s
+    real(wp) :: g(4)
+    g = s%scq*s%cx(1:4, 3)
+    g(1) = g(1) + self%scr*s%v*s%cx(0, 3)
+  end function qdot_gradient
 
   !> b(:, k) = df/dp(idx(k)): the coefficient's regressor times its factor.
   pure subroutine state_param_jacobian(self, s, idx, b)
@@ -262,65 +298,72 @@ contains
     type(air_t), intent(in) :: s
     integer, intent(in) :: idx(:)
     real(wp), intent(out) :: b(4, size(idx))
-    real(wp) :: fac(3)
-    integer :: k, j
-    ! each coefficient's factor, as it has always been formed (negation is exact)
-    fac = [-self%sm*s%qbar2, -self%sm*0.5_wp*self%rho*s%v, self%sc*s%qbar2]
+    real(wp) :: fac(4)
+    integer :: k, i
+    ! each state equation's factor, as it has always been formed (negation is exact)
+    fac = [-self%sm*s%qbar2, -self%smhr*s%v, 0.0_wp, self%sc*s%qbar2]
     do k = 1, size(idx)
-      j = self%coef(idx(k))
+      i = self%brow(idx(k))
       b(1:4, k) = 0.0_wp         ! four states: a fixed size, no call of memset per column
-      b(COEF_ROW(j), k) = fac(j)*s%r(self%code(idx(k)))
+      b(i, k) = fac(i)*s%r(self%code(idx(k)))
     end do
   end subroutine state_param_jacobian
 
-  !> y = h, c = dh/dx, d = dh/dp(idx), each if present; xd and a are f and
-  !> df/dx at the point (for qdot; xd is set when y is present, a when c is).
-  pure subroutine outputs(self, s, x, idx, xd, a, y, c, d)
+  !> y = h, c = dh/dx, d = dh/dp(idx), each if present; xd is f at the
+  !> point (for qdot; set when y is present).
+  pure subroutine outputs(self, s, x, idx, xd, y, c, d)
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
-    real(wp), intent(in) :: x(4), xd(4), a(4, 4)
+    real(wp), intent(in) :: x(4), xd(4)
     integer, intent(in) :: idx(:)
     real(wp), intent(out), optional :: y(7), c(7, 4), d(7, size(idx))
-    real(wp) :: sa, ca, rv, r, qs
-    integer :: i, k
+    real(wp) :: sa, ca, rv, r, qs, fa(2, 2), fm, g(4), ax(4), az(4)
+    integer :: i, k, j
 
     sa = sin(x(2))
     ca = cos(x(2))
     qs = s%qbar2*self%sm
-    if (present(y)) then
-      y(1:4) = x(1:4)
-      y(5) = xd(4)
-      y(6) = qs*(s%cf(2)*sa - s%cf(1)*ca) + s%ft*self%csig/self%mass
-      y(7) = qs*(-s%cf(2)*ca - s%cf(1)*sa) - s%ft*self%ssig/self%mass
-    end if
-    if (present(c)) then
-      rv = self%rho*s%v                            ! d qbar / dV
-      c(1:7, 1:4) = 0.0_wp       ! seven outputs, four states: fixed sizes, no memset calls
-      do i = 1, 4
-        c(i, i) = 1.0_wp
-      end do
-      c(5, :) = a(4, :)
-      c(6, :) = qs*(s%dc(:, 2)*sa - s%dc(:, 1)*ca)
-      c(6, 1) = c(6, 1) + rv*self%sm*(s%cf(2)*sa - s%cf(1)*ca)
-      c(6, 2) = c(6, 2) + qs*(s%cf(2)*ca + s%cf(1)*sa)
-      c(7, :) = qs*(-s%dc(:, 2)*ca - s%dc(:, 1)*sa)
-      c(7, 1) = c(7, 1) + rv*self%sm*(-s%cf(2)*ca - s%cf(1)*sa)
-      c(7, 2) = c(7, 2) + qs*(s%cf(2)*sa - s%cf(1)*ca)
-    end if
+    associate (cf => s%cx(0, :), dc => s%cx(1:4, :))
+      if (present(y)) then
+        y(1:4) = x(1:4)
+        y(5) = xd(4)
+        y(6) = qs*(cf(2)*sa - cf(1)*ca) + s%ft*self%csig/self%mass
+        y(7) = qs*(-cf(2)*ca - cf(1)*sa) - s%ft*self%ssig/self%mass
+      end if
+      if (present(c)) then
+        rv = self%rho*s%v                            ! d qbar / dV
+        ax = qs*(dc(:, 2)*sa - dc(:, 1)*ca)
+        ax(1) = ax(1) + rv*self%sm*(cf(2)*sa - cf(1)*ca)
+        ax(2) = ax(2) + qs*(cf(2)*ca + cf(1)*sa)
+        az = qs*(-dc(:, 2)*ca - dc(:, 1)*sa)
+        az(1) = az(1) + rv*self%sm*(-cf(2)*ca - cf(1)*sa)
+        az(2) = az(2) + qs*(cf(2)*sa - cf(1)*ca)
+        g = qdot_gradient(self, s)
+        do i = 1, 4                ! column by column: the state itself, qdot, a_x, a_z
+          c(1:4, i) = 0.0_wp
+          c(i, i) = 1.0_wp
+          c(5:7, i) = [g(i), ax(i), az(i)]
+        end do
+      end if
+    end associate
     if (.not. present(d)) return
+    ! the coefficients' factors, as they have always been formed (negation is
+    ! exact): C_D's and C_L's on a_x and a_z (fa by the state equation the
+    ! coefficient forces, brow 1 and 2), C_m's on qdot
+    fa(:, 1) = [-qs*ca, -qs*sa]
+    fa(:, 2) = [qs*sa, -qs*ca]
+    fm = self%sc*s%qbar2
     do k = 1, size(idx)
-      d(1:7, k) = 0.0_wp
+      j = self%brow(idx(k))
       r = s%r(self%code(idx(k)))
-      select case (self%coef(idx(k)))
-      case (1)
-        d(6, k) = -qs*ca*r
-        d(7, k) = -qs*sa*r
-      case (2)
-        d(6, k) = qs*sa*r
-        d(7, k) = -qs*ca*r
-      case (3)
-        d(5, k) = self%sc*s%qbar2*r
-      end select
+      if (j == COEF_ROW(3)) then
+        d(1:7, k) = 0.0_wp
+        d(5, k) = fm*r
+      else
+        d(1:5, k) = 0.0_wp
+        d(6, k) = fa(1, j)*r
+        d(7, k) = fa(2, j)*r
+      end if
     end do
   end subroutine outputs
 

@@ -74,6 +74,7 @@ program test_numerics
   call test_rk4_order()
   call test_sensitivities()
   call test_aero_jacobians()
+  call test_aero_parameter_layouts()
   call test_split_evaluation()
   call test_folded_manoeuvres()
   call test_infinite_partial_unused()
@@ -562,6 +563,54 @@ contains
     call check(err < 1.0e-7_wp, 'longitudinal model: df/dx, df/dp, dh/dx, dh/dp, df/dw match '// &
                'central differences')
   end subroutine test_aero_jacobians
+
+  !> The longitudinal model's parameters in any layout the deck allows: a
+  !> coefficient's regressors out of order and one named twice (its terms
+  !> add), a coefficient without regressors.  Its Jacobians match central
+  !> differences; the model equals the one with the repeated regressor's
+  !> parameters summed, to rounding; and asked for a shuffled subset of the
+  !> parameters, df/dp and dh/dp are the full ones' columns, to the bit.
+  subroutine test_aero_parameter_layouts()
+    class(model_t), allocatable :: m, ms
+    real(wp), parameter :: x(4) = [101.0_wp, -0.04_wp, 0.09_wp, -0.05_wp], u(2) = [0.03_wp, 9.0e3_wp]
+    real(wp), parameter :: rconst(9) = [9.80665_wp, 4.028e-3_wp, 8.0027e-4_wp, -7.0153e-6_wp, &
+                                        104.67_wp, 7472.0_wp, 0.0524_wp, 0.792_wp, 1.215_wp]
+    ! C_D: alpha, 1, alpha; C_L: none; C_m: de, qhat, V/V0, alpha^2
+    real(wp), parameter :: p(7) = [0.4_wp, 0.02_wp, 0.3_wp, -1.1_wp, -25.0_wp, 0.05_wp, -0.6_wp]
+    integer, parameter :: sub(4) = [6, 2, 7, 4]
+    real(wp) :: errs(6), f(4), a(4, 4), b(4, 7), y(7), c(7, 4), d(7, 7)
+    real(wp) :: fs(4), as(4, 4), bs(4, 4), ys(7), cs(7, 4), ds(7, 4)
+    integer :: status, k
+    character(len=256) :: msg
+
+    call model_create(MODEL_AERO_LONG, 4, 2, 7, 4, [3, 0, 4, 3, 1, 3, 6, 5, 2, 4], rconst, m, &
+                      status, msg)
+    call check(status == MLID_OK, 'longitudinal model, regressors in any order: created: '//trim(msg))
+    if (status /= MLID_OK) return
+    call check_jacobians(m, 0.0_wp, x, u, p, errs)
+    call check(maxval(errs) < 1.0e-7_wp, 'longitudinal model, a regressor named twice, a '// &
+               'coefficient without regressors: the Jacobians match central differences')
+
+    ! the same model with C_D's two alpha terms as one: C_D: 1, alpha
+    call model_create(MODEL_AERO_LONG, 4, 2, 7, 4, [2, 0, 4, 1, 3, 6, 5, 2, 4], rconst, ms, &
+                      status, msg)
+    call check(status == MLID_OK, 'longitudinal model, each regressor once: created: '//trim(msg))
+    if (status /= MLID_OK) return
+    call m%eval(0.0_wp, x, u, p, [(k, k=1, 7)], xdot=f, a=a, y=y, c=c)
+    call ms%eval(0.0_wp, x, u, [p(2), p(1) + p(3), p(4:7)], [(k, k=1, 6)], xdot=fs, a=as, y=ys, &
+                 c=cs)
+    call check(maxval(abs(f - fs)/(1.0_wp + abs(f))) < 1.0e-13_wp .and. &
+               maxval(abs(a - as)/(1.0_wp + abs(a))) < 1.0e-13_wp .and. &
+               maxval(abs(y - ys)/(1.0_wp + abs(y))) < 1.0e-13_wp .and. &
+               maxval(abs(c - cs)/(1.0_wp + abs(c))) < 1.0e-13_wp, &
+               'longitudinal model: a regressor named twice adds its terms')
+
+    call m%eval(0.0_wp, x, u, p, [(k, k=1, 7)], xdot=f, a=a, b=b, y=y, c=c, d=d)
+    call m%eval(0.0_wp, x, u, p, sub, xdot=fs, a=as, b=bs, y=ys, c=cs, d=ds)
+    call check(all(fs == f) .and. all(as == a) .and. all(ys == y) .and. all(cs == c) .and. &
+               all(bs == b(:, sub)) .and. all(ds == d(:, sub)), 'longitudinal model: a '// &
+               'shuffled subset of the parameters gets the full Jacobians'' columns')
+  end subroutine test_aero_parameter_layouts
 
   !> A bias per manoeuvre stated with indicator inputs (m1, m2) on a record
   !> of two manoeuvres: each manoeuvre's model has its indicators folded in
