@@ -200,10 +200,12 @@ contains
     ! not depend on the threads)
     !$omp parallel do private(r) schedule(static)
     do l = 1, nf
-      do r = 1, ny                             ! G(f) = K(f) A(f), all f at once
-        call kernel_product(nfreq, ny, kr(:, :, r), ki(:, :, r), sr(:, :, l), si(:, :, l), &
-                            gr(:, r, l), gi(:, r, l))
+      do r = 1, ny - 1, 2                      ! G(f) = K(f) A(f), all f at once, two rows a pass
+        call kernel_product(nfreq, ny, kr(:, :, r:r + 1), ki(:, :, r:r + 1), sr(:, :, l), &
+                            si(:, :, l), gr(:, r:r + 1, l), gi(:, r:r + 1, l))
       end do
+      if (mod(ny, 2) == 1) call kernel_row_product(nfreq, ny, kr(:, :, ny), ki(:, :, ny), &
+                                                   sr(:, :, l), si(:, :, l), gr(:, ny, l), gi(:, ny, l))
     end do
     !$omp end parallel do
     b = 0.0_wp
@@ -247,9 +249,9 @@ contains
   end subroutine kernel_spectra
 
   !> g = sum_q k(:, q) s(:, q) over n frequencies (row r of K(f) times
-  !> A(f)), real and imaginary parts apart, two q to a pass: each pass
-  !> reads and writes g once.
-  pure subroutine kernel_product(n, ny, kr, ki, sr, si, gr, gi)
+  !> A(f)), real and imaginary parts apart, two q to a pass (the first pass
+  !> three when ny is odd): each pass reads and writes g once.
+  pure subroutine kernel_row_product(n, ny, kr, ki, sr, si, gr, gi)
     integer, intent(in) :: n, ny
     real(wp), intent(in) :: kr(n, ny), ki(n, ny), sr(n, ny), si(n, ny)
     real(wp), intent(out) :: gr(n), gi(n)
@@ -272,7 +274,57 @@ contains
                 (kr(f, q + 1)*si(f, q + 1) + ki(f, q + 1)*sr(f, q + 1))
       end do
     end do
+  end subroutine kernel_row_product
+
+  !> kernel_row_product for two rows at once (k(:, :, 1:2): rows r, r + 1;
+  !> g(:, 1:2) theirs), ny >= 2: each pass over the frequencies reads s
+  !> once for both; the first pass takes q = 1, 2 (and 3 when ny is odd),
+  !> g's first sum as kernel_row_product's, without its store and load.
+  pure subroutine kernel_product(n, ny, kr, ki, sr, si, gr, gi)
+    integer, intent(in) :: n, ny
+    real(wp), intent(in) :: kr(n, ny, 2), ki(n, ny, 2), sr(n, ny), si(n, ny)
+    real(wp), intent(out) :: gr(n, 2), gi(n, 2)
+    integer :: f, q, j, c
+    if (mod(ny, 2) == 1) then
+      c = 2                                    ! (k1 s1) + k2 s2 + k3 s3
+      !GCC$ ivdep
+      do f = 1, n
+        do j = 1, 2
+          gr(f, j) = (kr(f, 1, j)*sr(f, 1) - ki(f, 1, j)*si(f, 1)) + &
+                     (kr(f, 2, j)*sr(f, 2) - ki(f, 2, j)*si(f, 2)) + &
+                     (kr(f, 3, j)*sr(f, 3) - ki(f, 3, j)*si(f, 3))
+          gi(f, j) = (kr(f, 1, j)*si(f, 1) + ki(f, 1, j)*sr(f, 1)) + &
+                     (kr(f, 2, j)*si(f, 2) + ki(f, 2, j)*sr(f, 2)) + &
+                     (kr(f, 3, j)*si(f, 3) + ki(f, 3, j)*sr(f, 3))
+        end do
+      end do
+    else
+      c = 1                                    ! 0 + k1 s1 + k2 s2
+      !GCC$ ivdep
+      do f = 1, n
+        do j = 1, 2
+          gr(f, j) = 0.0_wp + (kr(f, 1, j)*sr(f, 1) - ki(f, 1, j)*si(f, 1)) + &
+                     (kr(f, 2, j)*sr(f, 2) - ki(f, 2, j)*si(f, 2))
+          gi(f, j) = 0.0_wp + (kr(f, 1, j)*si(f, 1) + ki(f, 1, j)*sr(f, 1)) + &
+                     (kr(f, 2, j)*si(f, 2) + ki(f, 2, j)*sr(f, 2))
+        end do
+      end do
+    end if
+    do q = c + 2, ny - 1, 2
+      !GCC$ ivdep
+      do f = 1, n
+        gr(f, 1) = gr(f, 1) + (kr(f, q, 1)*sr(f, q) - ki(f, q, 1)*si(f, q)) + &
+                   (kr(f, q + 1, 1)*sr(f, q + 1) - ki(f, q + 1, 1)*si(f, q + 1))
+        gi(f, 1) = gi(f, 1) + (kr(f, q, 1)*si(f, q) + ki(f, q, 1)*sr(f, q)) + &
+                   (kr(f, q + 1, 1)*si(f, q + 1) + ki(f, q + 1, 1)*sr(f, q + 1))
+        gr(f, 2) = gr(f, 2) + (kr(f, q, 2)*sr(f, q) - ki(f, q, 2)*si(f, q)) + &
+                   (kr(f, q + 1, 2)*sr(f, q + 1) - ki(f, q + 1, 2)*si(f, q + 1))
+        gi(f, 2) = gi(f, 2) + (kr(f, q, 2)*si(f, q) + ki(f, q, 2)*sr(f, q)) + &
+                   (kr(f, q + 1, 2)*si(f, q + 1) + ki(f, q + 1, 2)*sr(f, q + 1))
+      end do
+    end do
   end subroutine kernel_product
+
 
   !> The kernel entry K(d)(r, q) = w(|d|) Rvv(d)(r, q) at index d mod n,
   !> d = -L' .. L' (L' = ubound(rvv, 3)), zero elsewhere.
