@@ -189,9 +189,11 @@ contains
     call kernel_spectra(plan, rvv, lag, kr, ki)
     ! every parameter's rows at once, row r of parameter l as series r + ny (l - 1)
     allocate (x(ny*nf, nt))
-    do l = 1, nf
-      do i = 1, nt
-        x(1 + ny*(l - 1):ny*l, i) = a(:, i, cols(l))
+    do i = 1, nt                               ! (a loop: the sections' copies called memcpy)
+      do l = 1, nf
+        do r = 1, ny
+          x(r + ny*(l - 1), i) = a(r, i, cols(l))
+        end do
       end do
     end do
     call fft_real_many(plan, x, sr, si)
@@ -231,8 +233,9 @@ contains
     nh = plan%n/2
     call upper_pairs(size(rvv, 1), pr, pq)
     allocate (z(size(pr), 0:plan%n - 1), fr(0:nh, size(pr)), fi(0:nh, size(pr)))
+    z = 0.0_wp
     do p = 1, size(pr)
-      z(p, :) = kernel_row(rvv, lag, pr(p), pq(p), plan%n)
+      call kernel_row(rvv, lag, pr(p), pq(p), z(p, :))
     end do
     call fft_real_many(plan, z, fr, fi)
     fr(1:nh - 1, :) = 2.0_wp*fr(1:nh - 1, :)
@@ -326,22 +329,22 @@ contains
   end subroutine kernel_product
 
 
-  !> The kernel entry K(d)(r, q) = w(|d|) Rvv(d)(r, q) at index d mod n,
-  !> d = -L' .. L' (L' = ubound(rvv, 3)), zero elsewhere.
-  function kernel_row(rvv, lag, r, q, n) result(z)
+  !> The kernel entry K(d)(r, q) = w(|d|) Rvv(d)(r, q) at index d mod n of
+  !> z (n values, zero elsewhere already), d = -L' .. L' (L' = ubound(rvv, 3)).
+  pure subroutine kernel_row(rvv, lag, r, q, z)
     real(wp), intent(in) :: rvv(:, :, 0:)
-    integer, intent(in) :: lag, r, q, n
-    real(wp) :: z(0:n - 1)
+    integer, intent(in) :: lag, r, q
+    real(wp), intent(inout) :: z(0:)
     real(wp) :: w
-    integer :: k
-    z = 0.0_wp
+    integer :: k, n
+    n = size(z)
     z(0) = 0.5_wp*(rvv(r, q, 0) + rvv(q, r, 0))   ! Rvv(0) symmetric, as the direct filter takes it
     do k = 1, ubound(rvv, 3)
       w = 1.0_wp - real(k, wp)/real(lag + 1, wp)
       z(k) = w*rvv(r, q, k)
       z(n - k) = w*rvv(q, r, k)              ! Rvv(-k) = Rvv(k)'
     end do
-  end function kernel_row
+  end subroutine kernel_row
 
   !> One segment's bracket by the direct FIR filter (Bartlett weights of
   !> lag L; rvv up to the segment's own longest lag) over the columns cols
@@ -433,13 +436,11 @@ contains
       call add_cross(p, xr(:, pr(p)), xi(:, pr(p)), xr(:, pq(p)), xi(:, pq(p)))
     end do
     call fft_many(plan, m, zr, zi)
-    zr = zr/real(n, wp)
-    zi = zi/real(n, wp)
     do p = 1, m
-      call put(pr(p), pq(p), zr(p, :)*(1.0_wp/down(p)))
+      call put(pr(p), pq(p), zr(p, :), 1.0_wp/down(p))
     end do
     do p = m + 1, size(pr)
-      call put(pr(p), pq(p), zi(p - m, :)*(1.0_wp/down(p)))
+      call put(pr(p), pq(p), zi(p - m, :), 1.0_wp/down(p))
     end do
 
   contains
@@ -472,15 +473,17 @@ contains
       end if
     end subroutine add_cross
 
-    subroutine put(r, q, cr)
+    !> c's entries of the pair (r, q) from its transform back, cr/n undone
+    !> by the factor up (only the lags wanted: the rest is not used).
+    subroutine put(r, q, cr, up)
       integer, intent(in) :: r, q
-      real(wp), intent(in) :: cr(0:)
+      real(wp), intent(in) :: cr(0:), up
       integer :: k
-      c(r, q, 0) = cr(0)
-      c(q, r, 0) = cr(0)
+      c(r, q, 0) = (cr(0)/real(n, wp))*up
+      c(q, r, 0) = c(r, q, 0)
       do k = 1, lag
-        c(r, q, k) = cr(k)
-        c(q, r, k) = cr(n - k)
+        c(r, q, k) = (cr(k)/real(n, wp))*up
+        c(q, r, k) = (cr(n - k)/real(n, wp))*up
       end do
     end subroutine put
   end function segment_autocov
