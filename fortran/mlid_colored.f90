@@ -430,8 +430,6 @@ contains
     call upper_pairs(ny, pr, pq)
     m = (size(pr) + 1)/2
     allocate (zr(m, 0:n - 1), zi(m, 0:n - 1), down(size(pr)))
-    zr = 0.0_wp
-    zi = 0.0_wp
     do p = 1, size(pr)
       call add_cross(p, xr(:, pr(p)), xi(:, pr(p)), xr(:, pq(p)), xi(:, pq(p)))
     end do
@@ -454,22 +452,34 @@ contains
     subroutine add_cross(p, ar, ai, br, bi)
       integer, intent(in) :: p
       real(wp), intent(in) :: ar(0:), ai(0:), br(0:), bi(0:)
-      real(wp) :: wr(0:nh), wi(0:nh)
-      wr = ar*br + ai*bi
-      wi = ai*br - ar*bi
-      down(p) = scale(1.0_wp, -exponent(max(maxval(abs(wr)), maxval(abs(wi)))))
-      wr = down(p)*wr
-      wi = down(p)*wi
-      if (p <= m) then
-        zr(p, 0:nh) = wr
-        zi(p, 0:nh) = wi
-        zr(p, nh + 1:n - 1) = wr(nh - 1:1:-1)
-        zi(p, nh + 1:n - 1) = -wi(nh - 1:1:-1)
+      real(wp) :: wr(0:nh), wi(0:nh), big, d
+      integer :: f
+      big = 0.0_wp
+      do f = 0, nh
+        wr(f) = ar(f)*br(f) + ai(f)*bi(f)
+        wi(f) = ai(f)*br(f) - ar(f)*bi(f)
+        big = max(big, abs(wr(f)), abs(wi(f)))
+      end do
+      d = scale(1.0_wp, -exponent(big))
+      down(p) = d
+      if (p <= m) then                       ! (every entry of rows 1 .. m set here first)
+        do f = 0, nh
+          zr(p, f) = d*wr(f)
+          zi(p, f) = d*wi(f)
+        end do
+        do f = 1, nh - 1
+          zr(p, n - f) = d*wr(f)
+          zi(p, n - f) = -(d*wi(f))
+        end do
       else                                   ! i Q: i (wr + i wi) = -wi + i wr
-        zr(p - m, 0:nh) = zr(p - m, 0:nh) - wi
-        zi(p - m, 0:nh) = zi(p - m, 0:nh) + wr
-        zr(p - m, nh + 1:n - 1) = zr(p - m, nh + 1:n - 1) + wi(nh - 1:1:-1)
-        zi(p - m, nh + 1:n - 1) = zi(p - m, nh + 1:n - 1) + wr(nh - 1:1:-1)
+        do f = 0, nh
+          zr(p - m, f) = zr(p - m, f) - d*wi(f)
+          zi(p - m, f) = zi(p - m, f) + d*wr(f)
+        end do
+        do f = 1, nh - 1
+          zr(p - m, n - f) = zr(p - m, n - f) + d*wi(f)
+          zi(p - m, n - f) = zi(p - m, n - f) + d*wr(f)
+        end do
       end if
     end subroutine add_cross
 
