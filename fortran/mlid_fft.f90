@@ -416,30 +416,36 @@ contains
 
   !> The real series' transforms from z = x1 + i x2 (m series, the first m2
   !> with a second one), f = 0 .. n/2, each series' scaling down undone:
-  !> series by series, so that its frequencies are written in turn.
+  !> series by series (its frequencies written in turn), both of a pair
+  !> from one pass over z.
   pure subroutine unpack(n, m2, zr, zi, down, fr, fi)
     integer, intent(in) :: n, m2
     real(wp), intent(in) :: zr(:, 0:), zi(:, 0:), down(:)
     real(wp), intent(out) :: fr(0:, :), fi(0:, :)
-    real(wp) :: h
+    real(wp) :: h, h2
     integer :: f, j, m
     m = size(zr, 1)
-    do j = 1, m
+    do j = 1, m2
+      h = 0.5_wp/down(j)
+      h2 = 0.5_wp/down(m + j)
+      fr(0, j) = (zr(j, 0) + zr(j, 0))*h     ! f = 0: its partner n - f is itself
+      fi(0, j) = (zi(j, 0) - zi(j, 0))*h
+      fr(0, m + j) = (zi(j, 0) + zi(j, 0))*h2
+      fi(0, m + j) = (zr(j, 0) - zr(j, 0))*h2
+      do f = 1, n/2
+        fr(f, j) = (zr(j, f) + zr(j, n - f))*h
+        fi(f, j) = (zi(j, f) - zi(j, n - f))*h
+        fr(f, m + j) = (zi(j, f) + zi(j, n - f))*h2
+        fi(f, m + j) = (zr(j, n - f) - zr(j, f))*h2
+      end do
+    end do
+    do j = m2 + 1, m
       h = 0.5_wp/down(j)
       fr(0, j) = (zr(j, 0) + zr(j, 0))*h
       fi(0, j) = (zi(j, 0) - zi(j, 0))*h
       do f = 1, n/2
         fr(f, j) = (zr(j, f) + zr(j, n - f))*h
         fi(f, j) = (zi(j, f) - zi(j, n - f))*h
-      end do
-    end do
-    do j = 1, m2
-      h = 0.5_wp/down(m + j)
-      fr(0, m + j) = (zi(j, 0) + zi(j, 0))*h
-      fi(0, m + j) = (zr(j, 0) - zr(j, 0))*h
-      do f = 1, n/2
-        fr(f, m + j) = (zi(j, f) + zi(j, n - f))*h
-        fi(f, m + j) = (zr(j, n - f) - zr(j, f))*h
       end do
     end do
   end subroutine unpack
