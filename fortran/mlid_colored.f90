@@ -189,7 +189,7 @@ contains
     call kernel_spectra(plan, rvv, lag, kr, ki)
     ! every parameter's rows at once, row r of parameter l as series r + ny (l - 1)
     allocate (x(ny*nf, nt))
-    do i = 1, nt                               ! (a loop: the sections' copies called memcpy)
+    do i = 1, nt                               ! (sample by sample: the cheapest order measured)
       do l = 1, nf
         do r = 1, ny
           x(r + ny*(l - 1), i) = a(r, i, cols(l))
