@@ -241,9 +241,19 @@ contains
   !> and 25 samples: transforms of 18 and 30 points, radices 2, 3 and 5),
   !> lags 0, 3 and 24, a random kernel (not symmetric at lags > 0), one
   !> parameter's sensitivities 1e-7 times the others': each entry within
-  !> rounding of its own parameters' sizes, |a_k| |a_l| sum |Rvv|.
+  !> rounding of its own parameters' sizes, |a_k| |a_l| sum |Rvv|.  Outputs
+  !> 1 to 7: the kernel product's passes for an odd and an even number of
+  !> kernel columns, two rows a pass and a row alone.
   subroutine test_colored_paths()
-    integer, parameter :: ny = 3, nt = 40, nf = 4, seg(3) = [1, 15, 16]
+    integer :: ny
+    do ny = 1, 7
+      call colored_paths(ny)
+    end do
+  end subroutine test_colored_paths
+
+  subroutine colored_paths(ny)
+    integer, intent(in) :: ny
+    integer, parameter :: nt = 40, nf = 4, seg(3) = [1, 15, 16]
     integer, parameter :: lags(3) = [0, 3, 24]
     type(rng_t) :: r
     real(wp) :: a(ny, nt, nf), want(nf, nf), got(nf, nf), tol(nf, nf), na(nf)
@@ -251,7 +261,7 @@ contains
     integer :: i, j, k, l, c, s, hows(3), h, lag, ends(3)
     hows = [BRACKET_FOURIER, BRACKET_DIRECT, BRACKET_AUTO]
     ends = [14, 15, 40]
-    call rng_seed(r, 23)
+    call rng_seed(r, 23 + ny)
     do l = 1, nf
       do i = 1, nt
         do j = 1, ny
@@ -296,7 +306,7 @@ contains
       end do
       deallocate (rvv)
     end do
-  end subroutine test_colored_paths
+  end subroutine colored_paths
 
   !> add_sym_atb (dot products) and sym_atb_t (transposed operands, tiles of
   !> 4 x 4 and 4 x 2 entries) against the sums written out, for column
