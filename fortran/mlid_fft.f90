@@ -325,8 +325,10 @@ contains
     type(fft_plan_t), intent(in) :: p
     real(wp), intent(in) :: x(:), y(:)
     complex(wp), intent(out) :: xf(0:), yf(0:)
-    real(wp) :: fr(0:p%n/2, 2), fi(0:p%n/2, 2)
-    call real_block(p, transpose(reshape([x, y], [size(x), 2])), 1, 2, fr, fi)
+    real(wp) :: fr(0:p%n/2, 2), fi(0:p%n/2, 2), xy(2, size(x))
+    xy(1, :) = x
+    xy(2, :) = y
+    call real_block(p, xy, 1, 2, fr, fi)
     xf(0:p%n/2) = cmplx(fr(:, 1), fi(:, 1), wp)
     yf(0:p%n/2) = cmplx(fr(:, 2), fi(:, 2), wp)
   end subroutine fft_real_pair

@@ -68,7 +68,8 @@ program test_numerics
   use split_model, only: split_model_t
   use mlid_rk, only: small_product
   use mlid_colored, only: colored_bracket, BRACKET_FOURIER, BRACKET_DIRECT, BRACKET_AUTO
-  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_many, fft_real_many, fft_smooth_length
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_many, fft_real_many, fft_smooth_length, &
+                      fft_real_pair
   implicit none
 
   call test_rk4_order()
@@ -160,6 +161,7 @@ contains
     end do
     call test_fft_many(r)
     call test_fft_real_many(r)
+    call test_fft_real_pair(r)
     call check(fft_smooth_length(601 + 60) == 720 .and. fft_smooth_length(1) == 2 .and. &
                fft_smooth_length(1652) == 1728 .and. fft_smooth_length(15) == 16, &
                'fft_smooth_length: the next even 2^a 3^b 5^c')
@@ -234,6 +236,29 @@ contains
     end do
     call check(err < 1.0e-13_wp, 'fft_real_many: each row its transform, f = 0 .. n/2')
   end subroutine test_fft_real_many
+
+  !> fft_real_pair (the frequency responses' transforms) against the sum that
+  !> defines the transform: two series 1e12 apart in size, 50 samples
+  !> zero-padded to 64, each within rounding of its own size.
+  subroutine test_fft_real_pair(r)
+    type(rng_t), intent(inout) :: r
+    integer, parameter :: nt = 50, n = 64
+    type(fft_plan_t) :: plan
+    real(wp) :: x(nt), y(nt)
+    complex(wp) :: xf(0:n/2), yf(0:n/2), ex(0:n - 1), ey(0:n - 1)
+    integer :: k
+    do k = 1, nt
+      x(k) = 1.0e6_wp*rng_normal(r)
+      y(k) = 1.0e-6_wp*rng_normal(r)
+    end do
+    plan = fft_plan(n)
+    call fft_real_pair(plan, x, y, xf, yf)
+    ex = dft([cmplx(x, 0.0_wp, wp), (cmplx(0.0_wp, 0.0_wp, wp), k=nt, n - 1)])
+    ey = dft([cmplx(y, 0.0_wp, wp), (cmplx(0.0_wp, 0.0_wp, wp), k=nt, n - 1)])
+    call check(maxval(abs(xf - ex(0:n/2))) < 1.0e-13_wp*sum(abs(x)) .and. &
+               maxval(abs(yf - ey(0:n/2))) < 1.0e-13_wp*sum(abs(y)), &
+               'fft_real_pair: each series its transform, f = 0 .. n/2')
+  end subroutine test_fft_real_pair
 
   !> The coloured-residual bracket sum_i sum_j a(i)' w(|i-j|) Rvv(i-j) a(j)
   !> (mlid_colored) by the transform, by the direct filter and as the core
