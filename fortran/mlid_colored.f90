@@ -252,8 +252,8 @@ contains
   end subroutine kernel_spectra
 
   !> g = sum_q k(:, q) s(:, q) over n frequencies (row r of K(f) times
-  !> A(f)), real and imaginary parts apart, two q to a pass (the first pass
-  !> three when ny is odd): each pass reads and writes g once.
+  !> A(f)), real and imaginary parts apart, two q to a pass (the first q
+  !> alone when ny is odd): each pass reads and writes g once.
   pure subroutine kernel_row_product(n, ny, kr, ki, sr, si, gr, gi)
     integer, intent(in) :: n, ny
     real(wp), intent(in) :: kr(n, ny), ki(n, ny), sr(n, ny), si(n, ny)
