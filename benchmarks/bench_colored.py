@@ -43,6 +43,20 @@ frequencies' factor 2 in the kernel); the autocovariance and the rest
 lateral (26.3 M): the transforms 13.0 M, Re sum A^H G (dot products) 5.5 M,
 G = K A 4.7 M.  The direct filter (chosen for short lags) runs time-first:
 7.9 -> 3.8 instructions per multiply-add (benchmarks/bench_colored_bracket.f90).
+
+Measured (ours, branch colored-cut against main at e34fe4f (its venv), one
+thread, --rounds 5, the machine loaded: load average 4-5):
+  HFB-320 output error (lag 60):  correction 9.43 M -> 7.73 M (11.4 % -> 9.5 %),
+      fit 82.8 M -> 81.1 M; wall: fit 16.3 -> 15.5 ms, correction alone
+      1.35 -> 1.22 ms;
+  ATTAS lateral (lag 150):        correction 26.27 M -> 22.40 M (16.6 % -> 14.5 %),
+      fit 158.1 M -> 154.3 M; wall: fit 35.5 -> 37.0 ms, correction alone
+      9.10 -> 9.29 ms (noise of the load: 200 calls of the correction alone
+      in turn, least of six runs, 8.76 -> 8.52 ms).
+The same sums (every case deck bitwise, benchmarks/compare_cases.py), fewer
+instructions around them: the transforms' packing, scaling and unpacking,
+G = K A two kernel rows a pass, the kernel's and the autocovariance's
+series written in place (benchmarks/bench_stage_eval.py has the steps).
 """
 
 import argparse

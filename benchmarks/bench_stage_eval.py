@@ -105,6 +105,43 @@ sin(alpha + sigma) from sin alpha, saving a sample's third sincos, would
 change every fit's last bits for some 0.4 M a fit).  Every case deck's
 results are unchanged to the bit (benchmarks/compare_cases.py: 40 of 40
 bitwise; HFB-320's four cases among them).
+
+Measured (ours, branch colored-cut against main at e34fe4f, one thread;
+--case all --rounds 3 on a loaded machine, load average 4-5):
+  HFB-320    82.8 M -> 81.1 M instructions per fit (19.7 k -> 19.3 k per
+             sample and iteration); least CPU time 7.15 -> 6.86 ms;
+  C-8        9.0 M -> 8.9 M; 0.99 -> 0.99 ms CPU;
+  ATTAS lat. 158.1 M -> 154.3 M (15.0 k -> 14.7 k); 14.2 -> 16.1 ms CPU
+             (noise: the correction alone, 200 calls in turn, least of
+             six runs: 8.76 -> 8.52 ms; HFB-320's 1.73 -> 1.50 ms).
+All of it in the coloured-residual correction (benchmarks/bench_colored.py:
+colored_covariance 9.43 -> 7.73 M per HFB-320 fit, 26.27 -> 22.40 M per
+ATTAS fit), by its instructions around the arithmetic (the steps below
+counted by a driver, not kept, calling colored_covariance once on each
+fit's inputs: HFB-320 9.44 -> 7.76 M, ATTAS 26.28 -> 22.44 M):
+fft_real_many's rows scaled and packed by explicit loops (a fixed length
+for a full block of 16 rows) and unpacked with the scaling undone in the
+same pass (-0.83 M, -2.38 M), both series of a complex transform from one
+pass over it (-0.13 M, -0.36 M); G = K A two kernel rows a pass, its
+first pass taking three (or two) columns without storing and reloading G
+(-0.24 M, -0.68 M); the kernel's rows written in place, the
+autocovariance's back-transforms divided only at the lags kept, its
+cross-spectra made, sized and mirrored in one loop each (-0.47 M,
+-0.42 M).  Every case deck's results are unchanged to the bit
+(benchmarks/compare_cases.py: 40 of 40 bitwise; the same JSON with 1 and
+2 threads).  Tried and dropped: the first radix-4 stage at a fixed length
+(-0.02 M, -0.07 M), the gather of the parameters' rows in other loop
+orders (more), odd transform lengths (675 points for HFB-320's 661:
+-0.18 M, but sigma corrected moves by up to 8e-11 relative; ATTAS keeps
+1728), blocks of 16 complex series (-0.1 M, -0.3 M; other pairs, other
+rounding), radix-3 butterflies without twiddles at j = 0 (-0.44 M on
+ATTAS, where radix 3 is the last stage; it needs a variant in each of
+the four stages, and is exact but for the sign of zero).  Left: the
+stages (2.96 M of HFB-320's 7.76 M: some 75 SSE2 instructions per
+radix-4 butterfly of two series where its loads, stores and arithmetic
+are some 50, gcc reloading inputs for want of registers), G = K A
+(1.67 M), the bracket's dot products in linalg's add_sym_atb (0.84 M;
+5.5 M on ATTAS, its largest part).
 """
 
 import argparse

@@ -189,9 +189,11 @@ contains
     call kernel_spectra(plan, rvv, lag, kr, ki)
     ! every parameter's rows at once, row r of parameter l as series r + ny (l - 1)
     allocate (x(ny*nf, nt))
-    do l = 1, nf
-      do i = 1, nt
-        x(1 + ny*(l - 1):ny*l, i) = a(:, i, cols(l))
+    do i = 1, nt                               ! (sample by sample: the cheapest order measured)
+      do l = 1, nf
+        do r = 1, ny
+          x(r + ny*(l - 1), i) = a(r, i, cols(l))
+        end do
       end do
     end do
     call fft_real_many(plan, x, sr, si)
@@ -200,10 +202,12 @@ contains
     ! not depend on the threads)
     !$omp parallel do private(r) schedule(static)
     do l = 1, nf
-      do r = 1, ny                             ! G(f) = K(f) A(f), all f at once
-        call kernel_product(nfreq, ny, kr(:, :, r), ki(:, :, r), sr(:, :, l), si(:, :, l), &
-                            gr(:, r, l), gi(:, r, l))
+      do r = 1, ny - 1, 2                      ! G(f) = K(f) A(f), all f at once, two rows a pass
+        call kernel_product(nfreq, ny, kr(:, :, r:r + 1), ki(:, :, r:r + 1), sr(:, :, l), &
+                            si(:, :, l), gr(:, r:r + 1, l), gi(:, r:r + 1, l))
       end do
+      if (mod(ny, 2) == 1) call kernel_row_product(nfreq, ny, kr(:, :, ny), ki(:, :, ny), &
+                                                   sr(:, :, l), si(:, :, l), gr(:, ny, l), gi(:, ny, l))
     end do
     !$omp end parallel do
     b = 0.0_wp
@@ -229,8 +233,9 @@ contains
     nh = plan%n/2
     call upper_pairs(size(rvv, 1), pr, pq)
     allocate (z(size(pr), 0:plan%n - 1), fr(0:nh, size(pr)), fi(0:nh, size(pr)))
+    z = 0.0_wp
     do p = 1, size(pr)
-      z(p, :) = kernel_row(rvv, lag, pr(p), pq(p), plan%n)
+      call kernel_row(rvv, lag, pr(p), pq(p), z(p, :))
     end do
     call fft_real_many(plan, z, fr, fi)
     fr(1:nh - 1, :) = 2.0_wp*fr(1:nh - 1, :)
@@ -247,9 +252,9 @@ contains
   end subroutine kernel_spectra
 
   !> g = sum_q k(:, q) s(:, q) over n frequencies (row r of K(f) times
-  !> A(f)), real and imaginary parts apart, two q to a pass: each pass
-  !> reads and writes g once.
-  pure subroutine kernel_product(n, ny, kr, ki, sr, si, gr, gi)
+  !> A(f)), real and imaginary parts apart, two q to a pass (the first q
+  !> alone when ny is odd): each pass reads and writes g once.
+  pure subroutine kernel_row_product(n, ny, kr, ki, sr, si, gr, gi)
     integer, intent(in) :: n, ny
     real(wp), intent(in) :: kr(n, ny), ki(n, ny), sr(n, ny), si(n, ny)
     real(wp), intent(out) :: gr(n), gi(n)
@@ -272,24 +277,74 @@ contains
                 (kr(f, q + 1)*si(f, q + 1) + ki(f, q + 1)*sr(f, q + 1))
       end do
     end do
+  end subroutine kernel_row_product
+
+  !> kernel_row_product for two rows at once (k(:, :, 1:2): rows r, r + 1;
+  !> g(:, 1:2) theirs), ny >= 2: each pass over the frequencies reads s
+  !> once for both; the first pass takes q = 1, 2 (and 3 when ny is odd),
+  !> g's first sum as kernel_row_product's, without its store and load.
+  pure subroutine kernel_product(n, ny, kr, ki, sr, si, gr, gi)
+    integer, intent(in) :: n, ny
+    real(wp), intent(in) :: kr(n, ny, 2), ki(n, ny, 2), sr(n, ny), si(n, ny)
+    real(wp), intent(out) :: gr(n, 2), gi(n, 2)
+    integer :: f, q, j, c
+    if (mod(ny, 2) == 1) then
+      c = 2                                    ! (k1 s1) + k2 s2 + k3 s3
+      !GCC$ ivdep
+      do f = 1, n
+        do j = 1, 2
+          gr(f, j) = (kr(f, 1, j)*sr(f, 1) - ki(f, 1, j)*si(f, 1)) + &
+                     (kr(f, 2, j)*sr(f, 2) - ki(f, 2, j)*si(f, 2)) + &
+                     (kr(f, 3, j)*sr(f, 3) - ki(f, 3, j)*si(f, 3))
+          gi(f, j) = (kr(f, 1, j)*si(f, 1) + ki(f, 1, j)*sr(f, 1)) + &
+                     (kr(f, 2, j)*si(f, 2) + ki(f, 2, j)*sr(f, 2)) + &
+                     (kr(f, 3, j)*si(f, 3) + ki(f, 3, j)*sr(f, 3))
+        end do
+      end do
+    else
+      c = 1                                    ! 0 + k1 s1 + k2 s2
+      !GCC$ ivdep
+      do f = 1, n
+        do j = 1, 2
+          gr(f, j) = 0.0_wp + (kr(f, 1, j)*sr(f, 1) - ki(f, 1, j)*si(f, 1)) + &
+                     (kr(f, 2, j)*sr(f, 2) - ki(f, 2, j)*si(f, 2))
+          gi(f, j) = 0.0_wp + (kr(f, 1, j)*si(f, 1) + ki(f, 1, j)*sr(f, 1)) + &
+                     (kr(f, 2, j)*si(f, 2) + ki(f, 2, j)*sr(f, 2))
+        end do
+      end do
+    end if
+    do q = c + 2, ny - 1, 2
+      !GCC$ ivdep
+      do f = 1, n
+        gr(f, 1) = gr(f, 1) + (kr(f, q, 1)*sr(f, q) - ki(f, q, 1)*si(f, q)) + &
+                   (kr(f, q + 1, 1)*sr(f, q + 1) - ki(f, q + 1, 1)*si(f, q + 1))
+        gi(f, 1) = gi(f, 1) + (kr(f, q, 1)*si(f, q) + ki(f, q, 1)*sr(f, q)) + &
+                   (kr(f, q + 1, 1)*si(f, q + 1) + ki(f, q + 1, 1)*sr(f, q + 1))
+        gr(f, 2) = gr(f, 2) + (kr(f, q, 2)*sr(f, q) - ki(f, q, 2)*si(f, q)) + &
+                   (kr(f, q + 1, 2)*sr(f, q + 1) - ki(f, q + 1, 2)*si(f, q + 1))
+        gi(f, 2) = gi(f, 2) + (kr(f, q, 2)*si(f, q) + ki(f, q, 2)*sr(f, q)) + &
+                   (kr(f, q + 1, 2)*si(f, q + 1) + ki(f, q + 1, 2)*sr(f, q + 1))
+      end do
+    end do
   end subroutine kernel_product
 
-  !> The kernel entry K(d)(r, q) = w(|d|) Rvv(d)(r, q) at index d mod n,
-  !> d = -L' .. L' (L' = ubound(rvv, 3)), zero elsewhere.
-  function kernel_row(rvv, lag, r, q, n) result(z)
+
+  !> The kernel entry K(d)(r, q) = w(|d|) Rvv(d)(r, q) at index d mod n of
+  !> z (n values, zero elsewhere already), d = -L' .. L' (L' = ubound(rvv, 3)).
+  pure subroutine kernel_row(rvv, lag, r, q, z)
     real(wp), intent(in) :: rvv(:, :, 0:)
-    integer, intent(in) :: lag, r, q, n
-    real(wp) :: z(0:n - 1)
+    integer, intent(in) :: lag, r, q
+    real(wp), intent(inout) :: z(0:)
     real(wp) :: w
-    integer :: k
-    z = 0.0_wp
+    integer :: k, n
+    n = size(z)
     z(0) = 0.5_wp*(rvv(r, q, 0) + rvv(q, r, 0))   ! Rvv(0) symmetric, as the direct filter takes it
     do k = 1, ubound(rvv, 3)
       w = 1.0_wp - real(k, wp)/real(lag + 1, wp)
       z(k) = w*rvv(r, q, k)
       z(n - k) = w*rvv(q, r, k)              ! Rvv(-k) = Rvv(k)'
     end do
-  end function kernel_row
+  end subroutine kernel_row
 
   !> One segment's bracket by the direct FIR filter (Bartlett weights of
   !> lag L; rvv up to the segment's own longest lag) over the columns cols
@@ -375,19 +430,15 @@ contains
     call upper_pairs(ny, pr, pq)
     m = (size(pr) + 1)/2
     allocate (zr(m, 0:n - 1), zi(m, 0:n - 1), down(size(pr)))
-    zr = 0.0_wp
-    zi = 0.0_wp
     do p = 1, size(pr)
       call add_cross(p, xr(:, pr(p)), xi(:, pr(p)), xr(:, pq(p)), xi(:, pq(p)))
     end do
     call fft_many(plan, m, zr, zi)
-    zr = zr/real(n, wp)
-    zi = zi/real(n, wp)
     do p = 1, m
-      call put(pr(p), pq(p), zr(p, :)*(1.0_wp/down(p)))
+      call put(pr(p), pq(p), zr(p, :), 1.0_wp/down(p))
     end do
     do p = m + 1, size(pr)
-      call put(pr(p), pq(p), zi(p - m, :)*(1.0_wp/down(p)))
+      call put(pr(p), pq(p), zi(p - m, :), 1.0_wp/down(p))
     end do
 
   contains
@@ -401,34 +452,48 @@ contains
     subroutine add_cross(p, ar, ai, br, bi)
       integer, intent(in) :: p
       real(wp), intent(in) :: ar(0:), ai(0:), br(0:), bi(0:)
-      real(wp) :: wr(0:nh), wi(0:nh)
-      wr = ar*br + ai*bi
-      wi = ai*br - ar*bi
-      down(p) = scale(1.0_wp, -exponent(max(maxval(abs(wr)), maxval(abs(wi)))))
-      wr = down(p)*wr
-      wi = down(p)*wi
-      if (p <= m) then
-        zr(p, 0:nh) = wr
-        zi(p, 0:nh) = wi
-        zr(p, nh + 1:n - 1) = wr(nh - 1:1:-1)
-        zi(p, nh + 1:n - 1) = -wi(nh - 1:1:-1)
+      real(wp) :: wr(0:nh), wi(0:nh), big, d
+      integer :: f
+      big = 0.0_wp
+      do f = 0, nh
+        wr(f) = ar(f)*br(f) + ai(f)*bi(f)
+        wi(f) = ai(f)*br(f) - ar(f)*bi(f)
+        big = max(big, abs(wr(f)), abs(wi(f)))
+      end do
+      d = scale(1.0_wp, -exponent(big))
+      down(p) = d
+      if (p <= m) then                       ! (every entry of rows 1 .. m set here first)
+        do f = 0, nh
+          zr(p, f) = d*wr(f)
+          zi(p, f) = d*wi(f)
+        end do
+        do f = 1, nh - 1
+          zr(p, n - f) = d*wr(f)
+          zi(p, n - f) = -(d*wi(f))
+        end do
       else                                   ! i Q: i (wr + i wi) = -wi + i wr
-        zr(p - m, 0:nh) = zr(p - m, 0:nh) - wi
-        zi(p - m, 0:nh) = zi(p - m, 0:nh) + wr
-        zr(p - m, nh + 1:n - 1) = zr(p - m, nh + 1:n - 1) + wi(nh - 1:1:-1)
-        zi(p - m, nh + 1:n - 1) = zi(p - m, nh + 1:n - 1) + wr(nh - 1:1:-1)
+        do f = 0, nh
+          zr(p - m, f) = zr(p - m, f) - d*wi(f)
+          zi(p - m, f) = zi(p - m, f) + d*wr(f)
+        end do
+        do f = 1, nh - 1
+          zr(p - m, n - f) = zr(p - m, n - f) + d*wi(f)
+          zi(p - m, n - f) = zi(p - m, n - f) + d*wr(f)
+        end do
       end if
     end subroutine add_cross
 
-    subroutine put(r, q, cr)
+    !> c's entries of the pair (r, q) from its transform back, cr/n undone
+    !> by the factor up (only the lags wanted: the rest is not used).
+    subroutine put(r, q, cr, up)
       integer, intent(in) :: r, q
-      real(wp), intent(in) :: cr(0:)
+      real(wp), intent(in) :: cr(0:), up
       integer :: k
-      c(r, q, 0) = cr(0)
-      c(q, r, 0) = cr(0)
+      c(r, q, 0) = (cr(0)/real(n, wp))*up
+      c(q, r, 0) = c(r, q, 0)
       do k = 1, lag
-        c(r, q, k) = cr(k)
-        c(q, r, k) = cr(n - k)
+        c(r, q, k) = (cr(k)/real(n, wp))*up
+        c(q, r, k) = (cr(n - k)/real(n, wp))*up
       end do
     end subroutine put
   end function segment_autocov

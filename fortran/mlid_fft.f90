@@ -325,8 +325,10 @@ contains
     type(fft_plan_t), intent(in) :: p
     real(wp), intent(in) :: x(:), y(:)
     complex(wp), intent(out) :: xf(0:), yf(0:)
-    real(wp) :: fr(0:p%n/2, 2), fi(0:p%n/2, 2)
-    call real_block(p, transpose(reshape([x, y], [size(x), 2])), fr, fi)
+    real(wp) :: fr(0:p%n/2, 2), fi(0:p%n/2, 2), xy(2, size(x))
+    xy(1, :) = x
+    xy(2, :) = y
+    call real_block(p, xy, 1, 2, fr, fi)
     xf(0:p%n/2) = cmplx(fr(:, 1), fi(:, 1), wp)
     yf(0:p%n/2) = cmplx(fr(:, 2), fi(:, 2), wp)
   end subroutine fft_real_pair
@@ -339,72 +341,114 @@ contains
   !> threads).
   subroutine fft_real_many(p, x, fr, fi)
     type(fft_plan_t), intent(in) :: p
-    real(wp), intent(in) :: x(:, :)
+    real(wp), contiguous, intent(in) :: x(:, :)
     real(wp), intent(out) :: fr(0:p%n/2, size(x, 1)), fi(0:p%n/2, size(x, 1))
     integer :: r0, nr
     !$omp parallel do private(nr) schedule(static)
     do r0 = 1, size(x, 1), 2*BLOCK
       nr = min(2*BLOCK, size(x, 1) - r0 + 1)
-      call real_block(p, x(r0:r0 + nr - 1, :), fr(:, r0:r0 + nr - 1), fi(:, r0:r0 + nr - 1))
+      call real_block(p, x, r0, nr, fr(:, r0:r0 + nr - 1), fi(:, r0:r0 + nr - 1))
     end do
     !$omp end parallel do
   end subroutine fft_real_many
 
-  !> fft_real_many on one block of rows: the first half of them in the real
-  !> parts, the rest in the imaginary parts.
-  pure subroutine real_block(p, x, fr, fi)
+  !> fft_real_many on the rows r0 .. r0 + nr - 1 of x: the first half of
+  !> them in the real parts, the rest in the imaginary parts.  (The block's
+  !> rows are picked by explicit loops: as an array section they cost
+  !> several times the copy.)
+  pure subroutine real_block(p, x, r0, nr, fr, fi)
     type(fft_plan_t), intent(in) :: p
-    real(wp), intent(in) :: x(:, :)
+    real(wp), contiguous, intent(in) :: x(:, :)
+    integer, intent(in) :: r0, nr
     real(wp), intent(out) :: fr(0:, :), fi(0:, :)
     real(wp), allocatable :: zr(:, :), zi(:, :), yr(:, :), yi(:, :)
-    integer :: m, m2, nt, t, j
-    real(wp) :: down(size(x, 1))
+    integer :: m, m2, nt
+    real(wp) :: down(nr)
     logical :: in_y
-    m = (size(x, 1) + 1)/2
+    m = (nr + 1)/2
     allocate (zr(m, 0:p%n - 1), zi(m, 0:p%n - 1), yr(m, 0:p%n - 1), yi(m, 0:p%n - 1))
-    m2 = size(x, 1) - m
+    m2 = nr - m
     nt = size(x, 2)
     ! each series scaled by a power of two to a largest value near 1 (exact):
     ! a transform's rounding is relative to its largest values, and a pair's
     ! two series may differ in size by orders of magnitude
-    down = 0.0_wp
-    do t = 1, nt                              ! the rows' largest values, column by column
-      down = max(down, abs(x(:, t)))
-    end do
-    down = [(scale(1.0_wp, -exponent(down(j))), j=1, size(x, 1))]
-    do t = 0, nt - 1
-      zr(:, t) = down(1:m)*x(1:m, t + 1)
-      zi(1:m2, t) = down(m + 1:)*x(m + 1:, t + 1)
-    end do
+    if (nr == 2*BLOCK) then                   ! the usual block: its loops at a fixed length
+      call scaled_rows(2*BLOCK, BLOCK, x, r0, down, zr, zi)
+    else
+      call scaled_rows(nr, m, x, r0, down, zr, zi)
+    end if
     zr(:, nt:) = 0.0_wp                       ! the zero padding
-    zi(m2 + 1:, 0:nt - 1) = 0.0_wp
+    if (m2 < m) zi(m, 0:nt - 1) = 0.0_wp
     zi(:, nt:) = 0.0_wp
     call stages(p, m, zr, zi, yr, yi, in_y)
     if (in_y) then
-      call unpack(p%n, m2, yr, yi, fr, fi)
+      call unpack(p%n, m2, yr, yi, down, fr, fi)
     else
-      call unpack(p%n, m2, zr, zi, fr, fi)
+      call unpack(p%n, m2, zr, zi, down, fr, fi)
     end if
-    do j = 1, size(x, 1)
-      fr(:, j) = fr(:, j)*(0.5_wp/down(j))   ! and unpack's 1/2
-      fi(:, j) = fi(:, j)*(0.5_wp/down(j))
-    end do
   end subroutine real_block
 
-  !> Twice the real series' transforms from z = x1 + i x2 (m series, the
-  !> first m2 with a second one), f = 0 .. n/2.
-  pure subroutine unpack(n, m2, zr, zi, fr, fi)
+  !> down(j) = the power of two that scales row r0 - 1 + j of x to a
+  !> largest value near 1 (j = 1 .. nr), and the rows so scaled: the first
+  !> m in zr, the rest in zi (columns 0 .. nt - 1).
+  pure subroutine scaled_rows(nr, m, x, r0, down, zr, zi)
+    integer, intent(in) :: nr, m, r0
+    real(wp), contiguous, intent(in) :: x(:, :)
+    real(wp), intent(out) :: down(nr)
+    real(wp), intent(inout) :: zr(:, 0:), zi(:, 0:)
+    integer :: t, j
+    down = 0.0_wp
+    do t = 1, size(x, 2)                      ! the rows' largest values, column by column
+      do j = 1, nr
+        down(j) = max(down(j), abs(x(r0 - 1 + j, t)))
+      end do
+    end do
+    do j = 1, nr
+      down(j) = scale(1.0_wp, -exponent(down(j)))
+    end do
+    do t = 1, size(x, 2)
+      do j = 1, m
+        zr(j, t - 1) = down(j)*x(r0 - 1 + j, t)
+      end do
+      do j = 1, nr - m
+        zi(j, t - 1) = down(m + j)*x(r0 - 1 + m + j, t)
+      end do
+    end do
+  end subroutine scaled_rows
+
+  !> The real series' transforms from z = x1 + i x2 (m series, the first m2
+  !> with a second one), f = 0 .. n/2, each series' scaling down undone:
+  !> series by series (its frequencies written in turn), both of a pair
+  !> from one pass over z.
+  pure subroutine unpack(n, m2, zr, zi, down, fr, fi)
     integer, intent(in) :: n, m2
-    real(wp), intent(in) :: zr(:, 0:), zi(:, 0:)
+    real(wp), intent(in) :: zr(:, 0:), zi(:, 0:), down(:)
     real(wp), intent(out) :: fr(0:, :), fi(0:, :)
-    integer :: f, g, m
+    real(wp) :: h, h2
+    integer :: f, j, m
     m = size(zr, 1)
-    do f = 0, n/2
-      g = mod(n - f, n)
-      fr(f, 1:m) = zr(:, f) + zr(:, g)
-      fi(f, 1:m) = zi(:, f) - zi(:, g)
-      fr(f, m + 1:) = zi(1:m2, f) + zi(1:m2, g)
-      fi(f, m + 1:) = zr(1:m2, g) - zr(1:m2, f)
+    do j = 1, m2
+      h = 0.5_wp/down(j)
+      h2 = 0.5_wp/down(m + j)
+      fr(0, j) = (zr(j, 0) + zr(j, 0))*h     ! f = 0: its partner n - f is itself
+      fi(0, j) = (zi(j, 0) - zi(j, 0))*h
+      fr(0, m + j) = (zi(j, 0) + zi(j, 0))*h2
+      fi(0, m + j) = (zr(j, 0) - zr(j, 0))*h2
+      do f = 1, n/2
+        fr(f, j) = (zr(j, f) + zr(j, n - f))*h
+        fi(f, j) = (zi(j, f) - zi(j, n - f))*h
+        fr(f, m + j) = (zi(j, f) + zi(j, n - f))*h2
+        fi(f, m + j) = (zr(j, n - f) - zr(j, f))*h2
+      end do
+    end do
+    do j = m2 + 1, m
+      h = 0.5_wp/down(j)
+      fr(0, j) = (zr(j, 0) + zr(j, 0))*h
+      fi(0, j) = (zi(j, 0) - zi(j, 0))*h
+      do f = 1, n/2
+        fr(f, j) = (zr(j, f) + zr(j, n - f))*h
+        fi(f, j) = (zi(j, f) - zi(j, n - f))*h
+      end do
     end do
   end subroutine unpack
 

@@ -68,7 +68,8 @@ program test_numerics
   use split_model, only: split_model_t
   use mlid_rk, only: small_product
   use mlid_colored, only: colored_bracket, BRACKET_FOURIER, BRACKET_DIRECT, BRACKET_AUTO
-  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_many, fft_real_many, fft_smooth_length
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_many, fft_real_many, fft_smooth_length, &
+                      fft_real_pair
   implicit none
 
   call test_rk4_order()
@@ -161,6 +162,7 @@ contains
     end do
     call test_fft_many(r)
     call test_fft_real_many(r)
+    call test_fft_real_pair(r)
     call check(fft_smooth_length(601 + 60) == 720 .and. fft_smooth_length(1) == 2 .and. &
                fft_smooth_length(1652) == 1728 .and. fft_smooth_length(15) == 16, &
                'fft_smooth_length: the next even 2^a 3^b 5^c')
@@ -236,15 +238,48 @@ contains
     call check(err < 1.0e-13_wp, 'fft_real_many: each row its transform, f = 0 .. n/2')
   end subroutine test_fft_real_many
 
+  !> fft_real_pair (the frequency responses' transforms) against the sum that
+  !> defines the transform: two series 1e12 apart in size, 50 samples
+  !> zero-padded to 64, each within rounding of its own size.
+  subroutine test_fft_real_pair(r)
+    type(rng_t), intent(inout) :: r
+    integer, parameter :: nt = 50, n = 64
+    type(fft_plan_t) :: plan
+    real(wp) :: x(nt), y(nt)
+    complex(wp) :: xf(0:n/2), yf(0:n/2), ex(0:n - 1), ey(0:n - 1)
+    integer :: k
+    do k = 1, nt
+      x(k) = 1.0e6_wp*rng_normal(r)
+      y(k) = 1.0e-6_wp*rng_normal(r)
+    end do
+    plan = fft_plan(n)
+    call fft_real_pair(plan, x, y, xf, yf)
+    ex = dft([cmplx(x, 0.0_wp, wp), (cmplx(0.0_wp, 0.0_wp, wp), k=nt, n - 1)])
+    ey = dft([cmplx(y, 0.0_wp, wp), (cmplx(0.0_wp, 0.0_wp, wp), k=nt, n - 1)])
+    call check(maxval(abs(xf - ex(0:n/2))) < 1.0e-13_wp*sum(abs(x)) .and. &
+               maxval(abs(yf - ey(0:n/2))) < 1.0e-13_wp*sum(abs(y)), &
+               'fft_real_pair: each series its transform, f = 0 .. n/2')
+  end subroutine test_fft_real_pair
+
   !> The coloured-residual bracket sum_i sum_j a(i)' w(|i-j|) Rvv(i-j) a(j)
   !> (mlid_colored) by the transform, by the direct filter and as the core
   !> chooses, against that double sum written out: three segments (14, 1
   !> and 25 samples: transforms of 18 and 30 points, radices 2, 3 and 5),
   !> lags 0, 3 and 24, a random kernel (not symmetric at lags > 0), one
   !> parameter's sensitivities 1e-7 times the others': each entry within
-  !> rounding of its own parameters' sizes, |a_k| |a_l| sum |Rvv|.
+  !> rounding of its own parameters' sizes, |a_k| |a_l| sum |Rvv|.  Outputs
+  !> 1 to 7: the kernel product's passes for an odd and an even number of
+  !> kernel columns, two rows a pass and a row alone.
   subroutine test_colored_paths()
-    integer, parameter :: ny = 3, nt = 40, nf = 4, seg(3) = [1, 15, 16]
+    integer :: ny
+    do ny = 1, 7
+      call colored_paths(ny)
+    end do
+  end subroutine test_colored_paths
+
+  subroutine colored_paths(ny)
+    integer, intent(in) :: ny
+    integer, parameter :: nt = 40, nf = 4, seg(3) = [1, 15, 16]
     integer, parameter :: lags(3) = [0, 3, 24]
     type(rng_t) :: r
     real(wp) :: a(ny, nt, nf), want(nf, nf), got(nf, nf), tol(nf, nf), na(nf)
@@ -252,7 +287,7 @@ contains
     integer :: i, j, k, l, c, s, hows(3), h, lag, ends(3)
     hows = [BRACKET_FOURIER, BRACKET_DIRECT, BRACKET_AUTO]
     ends = [14, 15, 40]
-    call rng_seed(r, 23)
+    call rng_seed(r, 23 + ny)
     do l = 1, nf
       do i = 1, nt
         do j = 1, ny
@@ -297,7 +332,7 @@ contains
       end do
       deallocate (rvv)
     end do
-  end subroutine test_colored_paths
+  end subroutine colored_paths
 
   !> add_sym_atb (dot products) and sym_atb_t (transposed operands, tiles of
   !> 4 x 4 and 4 x 2 entries) against the sums written out, for column
