@@ -37,8 +37,8 @@ module mlid_lti_predict
   private
   public :: lti_exact, lti_segment
 
-  !> Samples per block of the sensitivities (bounds their memory).
-  integer, parameter :: BLOCK = 512
+  !> Rows of the transposed sensitivities summed at a time (in registers).
+  integer, parameter :: STRIP = 4
 
   !> The model's matrices at theta and their partials by free column.
   type :: lti_sys_t
@@ -59,12 +59,13 @@ module mlid_lti_predict
     real(wp), allocatable :: phi(:, :, :), g0(:, :, :), g1(:, :, :), c(:, :), fa(:), fb(:)
   end type step_t
 
-  !> The sample interval's map and its partials, stacked by column for
-  !> the products: dphi(:, c, :) is dPhi of live column c, and (nx nlive,
-  !> nx) to gemm.
+  !> The sample interval's map and its partials by live column c,
+  !> transposed for sensitivities: w(c, :, :) = [dPhi_c, dGam0_c, dGam1_c]
+  !> and dc(c, :) = dc_c, the rows past the live columns zero to a multiple
+  !> of STRIP.
   type :: lti_map_t
     real(wp), allocatable :: phi(:, :), g0(:, :), g1(:, :), c(:)
-    real(wp), allocatable :: dphi(:, :, :), dg0(:, :, :), dg1(:, :, :), dc(:, :)
+    real(wp), allocatable :: w(:, :, :), dc(:, :)
   end type lti_map_t
 
 contains
@@ -167,11 +168,13 @@ contains
                                         dy(:, :, j0:j1))
   end subroutine lti_segment
 
-  !> dy(ny, nf, n) over n samples, BLOCK samples at a time.  The states'
-  !> sensitivities s(nx, nl) are those of the live columns live(1:nl) only
-  !> (the others stay zero), from s0 (nx, nl): their forcing by products over
-  !> the block, their recursion, then dy = C s + the few terms of dC x and
-  !> dD u + dbias.
+  !> dy(ny, nf, n) over n samples, sample by sample.  The states'
+  !> sensitivities of the live columns live(1:nl) (the others' dy stay
+  !> zero) start from s0 (nx, nl) and are kept transposed, s(c, i) (rows
+  !> padded to a multiple of STRIP): advanced by the recursion with its
+  !> forcing (advance), then dy = C s (c_times_s) + the few terms of dC x and
+  !> dD u + dbias.  Each element sums its terms in the order the products
+  !> over blocks of samples did before, so the results are those to the bit.
   subroutine sensitivities(ny, nx, nu, nf, n, nl, live, pm, iseg, sys, mp, hold, x, u, s0, dy)
     integer, intent(in) :: ny, nx, nu, nf, n, nl, live(nl), iseg
     type(param_map_t), intent(in) :: pm
@@ -179,69 +182,99 @@ contains
     type(lti_map_t), intent(in) :: mp
     logical, intent(in) :: hold
     real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
-    real(wp), intent(out) :: dy(ny, nf, n)
-    real(wp), allocatable :: s(:, :, :)
-    real(wp) :: phit(nx, nx), ct(nx, ny), acc
-    integer :: jb, je, nb, k0, k, j, c, l, i
+    real(wp), intent(out) :: dy(ny*nf, n)
+    real(wp) :: s(size(mp%dc, 1), nx, 2), z(nx + 2*nu)
+    integer :: off(nl), bi(size(pm%ib)), nb, nk, k, t, i, now
 
-    phit = transpose(mp%phi)
-    ct = transpose(sys%c)
-    allocate (s(nx, nl, 0:min(n, BLOCK)))    ! s(:, :, 0): the sample before the block
-    do jb = 1, n, BLOCK
-      je = min(n, jb + BLOCK - 1)
-      nb = je - jb + 1
-      k0 = 1
-      if (jb == 1) then                 ! the first sample has no forcing: it is s0
-        s(:, :, 1) = s0
-        k0 = 2
-      else
-        s(:, :, 0) = s(:, :, BLOCK)
-      end if
-      if (k0 <= nb) then                ! the forcing of the intervals into samples jb+k0-1..je
-        j = jb + k0 - 2                 ! the first of them starts at sample j
-        call gemm(nx*nl, nb - k0 + 1, nx, mp%dphi, x(:, j:je - 1), s(:, :, k0:nb), 0.0_wp)
-        call gemm(nx*nl, nb - k0 + 1, nu, mp%dg0, u(:, j:je - 1), s(:, :, k0:nb), 1.0_wp)
-        if (.not. hold) call gemm(nx*nl, nb - k0 + 1, nu, mp%dg1, u(:, j + 1:je), &
-                                  s(:, :, k0:nb), 1.0_wp)
-      end if
-      ! the recursion and C s: short dot products, summed in registers
-      do k = k0, nb
-        do c = 1, nl
-          do i = 1, nx
-            acc = s(i, c, k) + mp%dc(i, c)
-            do l = 1, nx
-              acc = acc + phit(l, i)*s(l, c, k - 1)
-            end do
-            s(i, c, k) = acc
-          end do
-        end do
-      end do
-      dy(:, :, jb:je) = 0.0_wp
-      do k = 1, nb
-        do c = 1, nl
-          do i = 1, ny
-            acc = 0.0_wp
-            do l = 1, nx
-              acc = acc + ct(l, i)*s(l, c, k)
-            end do
-            dy(i, live(c), jb + k - 1) = acc
-          end do
-        end do
-      end do
-      do k = 1, size(sys%cv)
-        dy(sys%ci(k), sys%ck(k), jb:je) = dy(sys%ci(k), sys%ck(k), jb:je) + &
-                                          sys%cv(k)*x(sys%cl(k), jb:je)
-      end do
-      do k = 1, size(sys%dv)
-        dy(sys%di(k), sys%dk(k), jb:je) = dy(sys%di(k), sys%dk(k), jb:je) + &
-                                          sys%dv(k)*u(sys%dl(k), jb:je)
-      end do
-    end do
-    do k = 1, size(pm%ib)               ! the segment's free biases
+    s = 0.0_wp
+    s(1:nl, :, 1) = transpose(s0)
+    off = (live - 1)*ny                 ! dy(i, live(c)) is dy(off(c) + i)
+    nb = 0                              ! the segment's free biases, as offsets
+    do k = 1, size(pm%ib)
       i = pm%ib(k) - (iseg - 1)*ny
-      if (i >= 1 .and. i <= ny) dy(i, pm%cb(k), :) = dy(i, pm%cb(k), :) + pm%wb(k)
+      if (i < 1 .or. i > ny) cycle
+      nb = nb + 1
+      bi(nb) = k
+    end do
+    nk = nx + nu                        ! the forcing's columns: x, u0 and (not held) u1
+    if (.not. hold) nk = nx + 2*nu
+    now = 1
+    do k = 1, n
+      if (k > 1) then                   ! s(k) from s(k-1) and the interval's forcing
+        z(1:nx) = x(:, k - 1)
+        z(nx + 1:nx + nu) = u(:, k - 1)
+        if (.not. hold) z(nx + nu + 1:) = u(:, k)
+        call advance(size(s, 1), nx, nk, mp%w, z, mp%dc, mp%phi, s(:, :, now), s(:, :, 3 - now))
+        now = 3 - now
+      end if
+      dy(:, k) = 0.0_wp
+      call c_times_s(size(s, 1), nx, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
+      do t = 1, size(sys%cv)
+        i = sys%ci(t) + (sys%ck(t) - 1)*ny
+        dy(i, k) = dy(i, k) + sys%cv(t)*x(sys%cl(t), k)
+      end do
+      do t = 1, size(sys%dv)
+        i = sys%di(t) + (sys%dk(t) - 1)*ny
+        dy(i, k) = dy(i, k) + sys%dv(t)*u(sys%dl(t), k)
+      end do
+      do t = 1, nb
+        i = pm%ib(bi(t)) - (iseg - 1)*ny + (pm%cb(bi(t)) - 1)*ny
+        dy(i, k) = dy(i, k) + pm%wb(bi(t))
+      end do
     end do
   end subroutine sensitivities
+
+  !> One interval of the transposed sensitivities s(c, i) (STRIP rows at a
+  !> time, the strip's sums in registers):
+  !> sn(c, i) = ((0 + sum_l w(c, i, l) z(l)) + dc(c, i)) + sum_l Phi(i, l) s(c, l),
+  !> each sum's terms in order (z = [x; u0; u1]: dPhi x, dGam0 u0, dGam1 u1).
+  !> The padding rows compute what no one reads.
+  pure subroutine advance(np, nx, nk, w, z, dc, phi, s, sn)
+    integer, intent(in) :: np, nx, nk
+    real(wp), intent(in) :: w(np, nx, *), z(nk), dc(np, nx), phi(nx, nx), s(np, nx)
+    real(wp), intent(out) :: sn(np, nx)
+    real(wp) :: acc(STRIP)
+    integer :: c, i, l
+
+    do i = 1, nx
+      do c = 1, np, STRIP
+        acc = 0.0_wp
+        !GCC$ novector
+        do l = 1, nk
+          acc = acc + w(c:c + STRIP - 1, i, l)*z(l)
+        end do
+        acc = acc + dc(c:c + STRIP - 1, i)
+        !GCC$ novector
+        do l = 1, nx
+          acc = acc + s(c:c + STRIP - 1, l)*phi(i, l)
+        end do
+        sn(c:c + STRIP - 1, i) = acc
+      end do
+    end do
+  end subroutine advance
+
+  !> dy(off(c) + i) = (C s^T)(i, c) for the nl live columns, its terms
+  !> summed in order from 0, STRIP columns at a time.
+  pure subroutine c_times_s(np, nx, ny, nf, nl, off, cm, s, dy)
+    integer, intent(in) :: np, nx, ny, nf, nl, off(nl)
+    real(wp), intent(in) :: cm(ny, nx), s(np, nx)
+    real(wp), intent(inout) :: dy(ny*nf)
+    real(wp) :: acc(STRIP)
+    integer :: c, i, l, j
+
+    do i = 1, ny
+      do c = 1, nl, STRIP
+        acc = 0.0_wp
+        !GCC$ novector
+        do l = 1, nx
+          acc = acc + s(c:c + STRIP - 1, l)*cm(i, l)
+        end do
+        do j = 0, min(STRIP, nl - c + 1) - 1
+          dy(off(c + j) + i) = acc(j + 1)
+        end do
+      end do
+    end do
+  end subroutine c_times_s
 
   !> A, B, b, C, D at the model parameters p and, with partials, their
   !> partials by free column (a tie adds its term's scale), read through the
@@ -354,7 +387,7 @@ contains
     real(wp), dimension(size(sys%a, 1), size(sys%a, 1)) :: dm, dm2, dm3, dp, dea, deb, dphi
     real(wp), dimension(size(sys%b, 1), size(sys%b, 2)) :: deab, debb, dg0, dg1
     real(wp) :: dcb(size(sys%a, 1)), dc(size(sys%a, 1)), h
-    integer :: nx, nu, nf, k, i, c
+    integer :: nx, nu, nf, np, k, i, c
     logical :: da
 
     nx = size(sys%a, 1)
@@ -363,10 +396,9 @@ contains
     call rk4_map(sys%a, sys%b, sys%bx, h, nsub, hold, st, mp%phi, mp%g0, mp%g1, mp%c)
     if (.not. present(live)) return
     nf = size(live)
-    allocate (mp%dphi(nx, nf, nx), mp%dg0(nx, nf, nu), mp%dg1(nx, nf, nu), mp%dc(nx, nf))
-    mp%dphi = 0.0_wp
-    mp%dg0 = 0.0_wp
-    mp%dg1 = 0.0_wp
+    np = STRIP*((nf + STRIP - 1)/STRIP)
+    allocate (mp%w(np, nx, nx + 2*nu), mp%dc(np, nx))
+    mp%w = 0.0_wp
     mp%dc = 0.0_wp
     do c = 1, nf
       k = live(c)
@@ -397,10 +429,10 @@ contains
         dg1 = matmul(dp, st%g1(:, :, i - 1)) + matmul(st%p, dg1) + st%fa(i)*deab + st%fb(i)*debb
         dc = matmul(dp, st%c(:, i - 1)) + matmul(st%p, dc) + dcb
       end do
-      mp%dphi(:, c, :) = dphi
-      mp%dg0(:, c, :) = dg0
-      mp%dg1(:, c, :) = dg1
-      mp%dc(:, c) = dc
+      mp%w(c, :, 1:nx) = dphi
+      mp%w(c, :, nx + 1:nx + nu) = dg0
+      mp%w(c, :, nx + nu + 1:) = dg1
+      mp%dc(c, :) = dc
     end do
   end subroutine interval_map
 
