@@ -183,18 +183,21 @@ contains
     logical, intent(in) :: hold
     real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
     real(wp), intent(out) :: dy(ny*nf, n)
-    real(wp) :: s(size(mp%dc, 1), nx, 2), z(nx + 2*nu)
-    integer :: off(nl), bi(size(pm%ib)), nb, nk, k, t, i, now
+    real(wp) :: s(size(mp%dc, 1), nx, 2), z(nx + 2*nu), wb(size(pm%ib))
+    integer :: off(nl), oc(size(sys%cv)), od(size(sys%dv)), ob(size(pm%ib)), nb, nk, k, t, i, now
 
     s = 0.0_wp
     s(1:nl, :, 1) = transpose(s0)
     off = (live - 1)*ny                 ! dy(i, live(c)) is dy(off(c) + i)
-    nb = 0                              ! the segment's free biases, as offsets
+    oc = sys%ci + (sys%ck - 1)*ny       ! the dC, dD terms' places in dy(:, k)
+    od = sys%di + (sys%dk - 1)*ny
+    nb = 0                              ! the segment's free biases
     do k = 1, size(pm%ib)
       i = pm%ib(k) - (iseg - 1)*ny
       if (i < 1 .or. i > ny) cycle
       nb = nb + 1
-      bi(nb) = k
+      ob(nb) = i + (pm%cb(k) - 1)*ny
+      wb(nb) = pm%wb(k)
     end do
     nk = nx + nu                        ! the forcing's columns: x, u0 and (not held) u1
     if (.not. hold) nk = nx + 2*nu
@@ -209,17 +212,14 @@ contains
       end if
       dy(:, k) = 0.0_wp
       call c_times_s(size(s, 1), nx, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
-      do t = 1, size(sys%cv)
-        i = sys%ci(t) + (sys%ck(t) - 1)*ny
-        dy(i, k) = dy(i, k) + sys%cv(t)*x(sys%cl(t), k)
+      do t = 1, size(oc)
+        dy(oc(t), k) = dy(oc(t), k) + sys%cv(t)*x(sys%cl(t), k)
       end do
-      do t = 1, size(sys%dv)
-        i = sys%di(t) + (sys%dk(t) - 1)*ny
-        dy(i, k) = dy(i, k) + sys%dv(t)*u(sys%dl(t), k)
+      do t = 1, size(od)
+        dy(od(t), k) = dy(od(t), k) + sys%dv(t)*u(sys%dl(t), k)
       end do
       do t = 1, nb
-        i = pm%ib(bi(t)) - (iseg - 1)*ny + (pm%cb(bi(t)) - 1)*ny
-        dy(i, k) = dy(i, k) + pm%wb(bi(t))
+        dy(ob(t), k) = dy(ob(t), k) + wb(t)
       end do
     end do
   end subroutine sensitivities
