@@ -240,6 +240,7 @@ contains
       do c = 1, np, STRIP
         acc = 0.0_wp
         !GCC$ novector
+        !GCC$ unroll 2
         do l = 1, nk
           acc = acc + w(c:c + STRIP - 1, i, l)*z(l)
         end do
