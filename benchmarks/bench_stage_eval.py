@@ -71,6 +71,24 @@ already pairs each angle's sin and cos), the coloured-residual correction
 (about 20 %).  The issue's 3 ms stays out of reach without changing the
 sums (every case deck's results are unchanged to the bit:
 benchmarks/compare_cases.py, 40 of 40 bitwise).
+
+Measured (ours, branch lti-vec against main at e34fe4f, one thread; --case
+all --rounds 3 on a loaded machine): the linear model's sensitivities
+(mlid_lti_predict) sample by sample, kept transposed s(c, i) and summed four
+rows at a time in registers (the forcing, the recursion and C s each in the
+order the block products summed), no gemm over blocks, dy zeroed per sample
+in one piece (the 5-double memset per column and sample is gone), the dC,
+dD and bias terms by precomputed places:
+  ATTAS lat. 158.1 M -> 136.8 M instructions per fit (15.0 k -> 13.0 k per
+             sample and iteration); sensitivities with their gemm and
+             memset 55.9 M -> 34.6 M; least CPU time 15.2 -> 14.1 ms;
+  C-8        9.0 M -> 8.8 M; 1.02 -> 1.00 ms CPU;
+  HFB-320    82.8 M both (not this path).
+Left in the file: the states' and outputs' gemm (7.4 M per ATTAS fit, rows
+of 2 and 5).  Elsewhere: _gfortran_spread (2.3 M) is mlid_linalg's
+eig_inverse (the rank-one sums and scalings), the remaining memset mostly
+segment_information (mlid_likelihood) and gemm's beta = 0.  Every case
+deck's results are unchanged to the bit (compare_cases: 40 of 40 bitwise).
 """
 
 import argparse

@@ -22,7 +22,7 @@ program test_lti_predict
   end type rk_linear_t
 
   call short_period_held(101)
-  call short_period_held(1300)        ! three blocks of mlid_lti_predict's sensitivities
+  call short_period_held(1300)        ! a long record: the sensitivities carried over many samples
   call feedback_ties_segments()
   call finish()
 
