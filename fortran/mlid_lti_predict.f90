@@ -211,7 +211,14 @@ contains
         now = 3 - now
       end if
       dy(:, k) = 0.0_wp
-      call c_times_s(size(s, 1), nx, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
+      select case (nx)
+      case (2)
+        call c_times_s(size(s, 1), 2, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
+      case (4)
+        call c_times_s(size(s, 1), 4, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
+      case default
+        call c_times_s(size(s, 1), nx, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
+      end select
       do t = 1, size(oc)
         dy(oc(t), k) = dy(oc(t), k) + sys%cv(t)*x(sys%cl(t), k)
       end do
@@ -255,24 +262,34 @@ contains
   end subroutine advance
 
   !> dy(off(c) + i) = (C s^T)(i, c) for the nl live columns, its terms
-  !> summed in order from 0, STRIP columns at a time.
+  !> summed in order from 0: STRIP rows of every column at a time, then
+  !> the rows left one by one.
   pure subroutine c_times_s(np, nx, ny, nf, nl, off, cm, s, dy)
-    integer, intent(in) :: np, nx, ny, nf, nl, off(nl)
+    integer, intent(in) :: np, ny, nf, nl, off(nl)
+    integer, value :: nx                ! by value: a constant nx makes a clone
     real(wp), intent(in) :: cm(ny, nx), s(np, nx)
     real(wp), intent(inout) :: dy(ny*nf)
-    real(wp) :: acc(STRIP)
-    integer :: c, i, l, j
+    real(wp) :: acc(STRIP), a
+    integer :: c, i, l, last
 
-    do i = 1, ny
-      do c = 1, nl, STRIP
+    last = ny - mod(ny, STRIP)          ! the rows in whole strips
+    do i = 1, last, STRIP               ! (C's strip stays in registers over the columns)
+      do c = 1, nl
         acc = 0.0_wp
         !GCC$ novector
         do l = 1, nx
-          acc = acc + s(c:c + STRIP - 1, l)*cm(i, l)
+          acc = acc + cm(i:i + STRIP - 1, l)*s(c, l)
         end do
-        do j = 0, min(STRIP, nl - c + 1) - 1
-          dy(off(c + j) + i) = acc(j + 1)
+        dy(off(c) + i:off(c) + i + STRIP - 1) = acc
+      end do
+    end do
+    do i = last + 1, ny
+      do c = 1, nl
+        a = 0.0_wp
+        do l = 1, nx
+          a = a + cm(i, l)*s(c, l)
         end do
+        dy(off(c) + i) = a
       end do
     end do
   end subroutine c_times_s
