@@ -23,10 +23,13 @@
 !> up to rounding.  States then follow by the recursion above; the forcing
 !> of the sensitivities, s(j+1) = Phi s(j) + dPhi x(j) + dGam0 u(j) +
 !> dGam1 u(j+1) + dc, and the outputs y = C x + D u + bias, dy = C s + dC x
-!> + dD u + dbias (C = H + D K) are matrix products over blocks of samples.
-!> Those products are the compiler's loops, not BLAS dgemm: the matrices are
-!> a few rows deep (nx, ny, nx nf), where the reference BLAS took twice the
-!> instructions (callgrind, the C-8 Monte Carlo).
+!> + dD u + dbias (C = H + D K) are small matrix products, taken sample by
+!> sample: the matrices are a few rows deep (nx, ny, nx nf), too few for
+!> BLAS (the reference dgemm took twice the instructions, callgrind, the C-8
+!> Monte Carlo) or for the compiler's loops over blocks of samples (their
+!> overhead per column outweighed the arithmetic).  Rows go by strips of
+!> STRIP whose sums stay in vector registers; every sum keeps its terms'
+!> order, so the results are the same to the bit as the products' were.
 module mlid_lti_predict
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED
@@ -109,10 +112,10 @@ contains
     real(wp), intent(inout), optional :: dy(:, :, :), xhist(:, :)
     type(lti_sys_t) :: sys
     type(lti_map_t) :: mp
-    real(wp), allocatable :: x(:, :), ys(:, :)
+    real(wp), allocatable :: x(:, :)
     integer, allocatable :: live(:)
-    real(wp) :: dt, phit(m%nx, m%nx), acc
-    integer :: n, nx, nu, ny, i, j, l
+    real(wp) :: dt
+    integer :: n, nx, nu, ny, j
 
     status = MLID_OK
     n = j1 - j0 + 1
@@ -131,42 +134,105 @@ contains
     else
       call interval_map(sys, dt, opt%substeps, opt%hold, mp)
     end if
-    ! states: the inputs' part of every interval by two products, then the
-    ! recursion
     allocate (x(nx, n))
     x(:, 1) = theta(pm%l%ox0 + (iseg - 1)*nx + 1:pm%l%ox0 + iseg*nx)
-    if (n > 1) then
-      call gemm(nx, n - 1, nu, mp%g0, u(:, j0:j1 - 1), x(:, 2:n), 0.0_wp)
-      if (.not. opt%hold) call gemm(nx, n - 1, nu, mp%g1, u(:, j0 + 1:j1), x(:, 2:n), 1.0_wp)
-    end if
-    phit = transpose(mp%phi)
-    do j = 2, n
-      do i = 1, nx
-        acc = x(i, j) + mp%c(i)
-        do l = 1, nx
-          acc = acc + phit(l, i)*x(l, j - 1)
-        end do
-        x(i, j) = acc
-      end do
-    end do
+    select case (nx)                    ! the common sizes as constants: loops unrolled
+    case (2)
+      call states(2, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
+    case (4)
+      call states(4, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
+    case default
+      call states(nx, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
+    end select
     if (.not. all(ieee_is_finite(x))) then
       status = MLID_ERR_DIVERGED
       return
     end if
     if (present(xhist)) xhist(:, j0:j1) = x
-    ! outputs y = C x + D u + the segment's biases
-    allocate (ys(ny, n))
-    call gemm(ny, n, nx, sys%c, x, ys, 0.0_wp)
-    call gemm(ny, n, nu, sys%d, u(:, j0:j1), ys, 1.0_wp)
-    associate (bias => theta(pm%l%obias + (iseg - 1)*ny + 1:pm%l%obias + iseg*ny))
-      do j = 1, n
-        yhat(:, j0 + j - 1) = ys(:, j) + bias
-      end do
-    end associate
+    call outputs(ny, nx, nu, n, sys%c, sys%d, &
+                 theta(pm%l%obias + (iseg - 1)*ny + 1:pm%l%obias + iseg*ny), x, u(:, j0:j1), &
+                 yhat(:, j0:j1))
     if (present(dy)) call sensitivities(ny, nx, nu, pm%nf, n, size(live), live, pm, iseg, sys, &
                                         mp, opt%hold, x, u(:, j0:j1), s0(:, live), &
                                         dy(:, :, j0:j1))
   end subroutine lti_segment
+
+  !> The states x(:, 2:n) from x(:, 1), sample by sample:
+  !> x(j) = (((0 + Gam0 u(j-1)) + Gam1 u(j)) + c) + Phi x(j-1), each
+  !> product's terms in order (the order of the products over the record
+  !> before).
+  pure subroutine states(nx, nu, n, hold, phi, g0, g1, c, u, x)
+    integer, value :: nx                ! by value: a constant nx makes a clone
+    integer, intent(in) :: nu, n
+    logical, intent(in) :: hold
+    real(wp), intent(in) :: phi(nx, nx), g0(nx, nu), g1(nx, nu), c(nx), u(nu, n)
+    real(wp), intent(inout) :: x(nx, n)
+    real(wp) :: a
+    integer :: i, j, l
+
+    do j = 2, n
+      do i = 1, nx
+        a = 0.0_wp
+        !GCC$ novector
+        do l = 1, nu
+          a = a + g0(i, l)*u(l, j - 1)
+        end do
+        if (.not. hold) then
+          !GCC$ novector
+          do l = 1, nu
+            a = a + g1(i, l)*u(l, j)
+          end do
+        end if
+        a = a + c(i)
+        !GCC$ novector
+        do l = 1, nx
+          a = a + phi(i, l)*x(l, j - 1)
+        end do
+        x(i, j) = a
+      end do
+    end do
+  end subroutine states
+
+  !> The outputs y = ((0 + C x) + D u) + bias of n samples (each product's
+  !> terms in order), STRIP rows of every sample at a time (C's and D's strips
+  !> in registers), then the rows left one by one.
+  pure subroutine outputs(ny, nx, nu, n, cm, dm, bias, x, u, y)
+    integer, intent(in) :: ny, nx, nu, n
+    real(wp), intent(in) :: cm(ny, nx), dm(ny, nu), bias(ny), x(nx, n), u(nu, n)
+    real(wp), intent(inout) :: y(ny, n)
+    real(wp) :: acc(STRIP), a
+    integer :: i, j, l, last
+
+    last = ny - mod(ny, STRIP)
+    do i = 1, last, STRIP
+      do j = 1, n
+        acc = 0.0_wp
+        !GCC$ novector
+        do l = 1, nx
+          acc = acc + cm(i:i + STRIP - 1, l)*x(l, j)
+        end do
+        !GCC$ novector
+        do l = 1, nu
+          acc = acc + dm(i:i + STRIP - 1, l)*u(l, j)
+        end do
+        y(i:i + STRIP - 1, j) = acc + bias(i:i + STRIP - 1)
+      end do
+    end do
+    do i = last + 1, ny
+      do j = 1, n
+        a = 0.0_wp
+        !GCC$ novector
+        do l = 1, nx
+          a = a + cm(i, l)*x(l, j)
+        end do
+        !GCC$ novector
+        do l = 1, nu
+          a = a + dm(i, l)*u(l, j)
+        end do
+        y(i, j) = a + bias(i)
+      end do
+    end do
+  end subroutine outputs
 
   !> dy(ny, nf, n) over n samples, sample by sample.  The states'
   !> sensitivities of the live columns live(1:nl) (the others' dy stay
@@ -317,7 +383,7 @@ contains
     sys%c = h + matmul(sys%d, kf)
     sys%bx = p(m%obx + 1:m%obx + nx)
     if (.not. partials) return
-    ! dc(:, k, :) is dC_k and dd(:, k, :) dD_k: stacked by column for gemm
+    ! dc(:, k, :) is dC_k and dd(:, k, :) dD_k (nonzeros lists their entries)
     allocate (sys%da(nx, nx, nf), sys%db(nx, nu, nf), sys%dbx(nx, nf), sys%dc(ny, nf, nx), &
               sys%dd(ny, nf, nu), sys%moves(nf))
     sys%da = 0.0_wp
@@ -508,20 +574,5 @@ contains
     g1 = st%g1(:, :, nsub)
     c = st%c(:, nsub)
   end subroutine rk4_map
-
-  !> c = a b + beta c (beta 0 or 1), c (m, n), a (m, k), b (k, n): column
-  !> by column, the long dimension m innermost.
-  pure subroutine gemm(m, n, k, a, b, c, beta)
-    integer, intent(in) :: m, n, k
-    real(wp), intent(in) :: a(m, k), b(k, n), beta
-    real(wp), intent(inout) :: c(m, n)
-    integer :: j, l
-    if (beta == 0.0_wp) c = 0.0_wp
-    do j = 1, n
-      do l = 1, k
-        c(:, j) = c(:, j) + a(:, l)*b(l, j)
-      end do
-    end do
-  end subroutine gemm
 
 end module mlid_lti_predict
