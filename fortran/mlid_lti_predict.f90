@@ -194,7 +194,7 @@ contains
   end subroutine states
 
   !> The outputs y = ((0 + C x) + D u) + bias of n samples (each product's
-  !> terms in order), STRIP rows of every sample at a time (C's and D's strips
+  !> terms in order), STRIP rows of every sample at a time (the strip's sums
   !> in registers), then the rows left one by one.
   pure subroutine outputs(ny, nx, nu, n, cm, dm, bias, x, u, y)
     integer, intent(in) :: ny, nx, nu, n
@@ -234,7 +234,7 @@ contains
     end do
   end subroutine outputs
 
-  !> dy(ny, nf, n) over n samples, sample by sample.  The states'
+  !> dy(ny, nf, n) (as dy(ny nf, n)) over n samples, sample by sample.  The states'
   !> sensitivities of the live columns live(1:nl) (the others' dy stay
   !> zero) start from s0 (nx, nl) and are kept transposed, s(c, i) (rows
   !> padded to a multiple of STRIP): advanced by the recursion with its
@@ -339,7 +339,7 @@ contains
     integer :: c, i, l, last
 
     last = ny - mod(ny, STRIP)          ! the rows in whole strips
-    do i = 1, last, STRIP               ! (C's strip stays in registers over the columns)
+    do i = 1, last, STRIP               ! (C's strip reused over the columns)
       do c = 1, nl
         acc = 0.0_wp
         !GCC$ novector
