@@ -142,6 +142,31 @@ radix-4 butterfly of two series where its loads, stores and arithmetic
 are some 50, gcc reloading inputs for want of registers), G = K A
 (1.67 M), the bracket's dot products in linalg's add_sym_atb (0.84 M;
 5.5 M on ATTAS, its largest part).
+
+Measured (ours, branch lti-vec against main at e34fe4f, one thread; --case
+all --rounds 3 on a loaded machine): the linear model's fast path
+(mlid_lti_predict) sample by sample instead of products over blocks: the
+sensitivities kept transposed s(c, i) and summed four rows at a time in
+vector registers (the forcing, the recursion and C s each in the order the
+block products summed), dy zeroed per sample in one piece (the 5-double
+memset per column and sample is gone), the dC, dD and bias terms by
+precomputed places; the states and outputs likewise (gemm gone); nx by
+value so that 2 and 4 states make unrolled clones:
+  ATTAS lat. 158.1 M -> 122.4 M instructions per fit (15.0 k -> 11.6 k per
+             sample and iteration); lti_segment inclusive 66.6 M -> 30.8 M;
+             least CPU time 15.1 -> 13.2 ms;
+  C-8        9.0 M -> 7.4 M (6.0 k -> 4.9 k); 1.00 -> 0.93 ms CPU;
+             benchmarks/monte_carlo_10k.py on two cores 6.1-6.4 s -> 5.5 s,
+             the same estimates;
+  HFB-320    82.8 M both (not this path).
+Tried and dropped: the rows by pairs (the compiler vectorized the short
+sums over the columns instead, in order, scalar: more instructions), the
+forcing's kernel as a clone for fixed nx (it then lost its vectorization).
+Not in this file: _gfortran_spread (2.3 M per ATTAS fit) is mlid_linalg's
+eig_inverse (spread in its rank-one sums and scalings).  memset 5.2 M ->
+2.1 M per ATTAS fit: left, dy's zeroing once per sample (0.85 M) and
+segment_information's (mlid_likelihood, 0.8 M).  Every case deck's
+results are unchanged to the bit (compare_cases: 40 of 40 bitwise).
 """
 
 import argparse

@@ -23,10 +23,13 @@
 !> up to rounding.  States then follow by the recursion above; the forcing
 !> of the sensitivities, s(j+1) = Phi s(j) + dPhi x(j) + dGam0 u(j) +
 !> dGam1 u(j+1) + dc, and the outputs y = C x + D u + bias, dy = C s + dC x
-!> + dD u + dbias (C = H + D K) are matrix products over blocks of samples.
-!> Those products are the compiler's loops, not BLAS dgemm: the matrices are
-!> a few rows deep (nx, ny, nx nf), where the reference BLAS took twice the
-!> instructions (callgrind, the C-8 Monte Carlo).
+!> + dD u + dbias (C = H + D K) are small matrix products, taken sample by
+!> sample: the matrices are a few rows deep (nx, ny, nx nf), too few for
+!> BLAS (the reference dgemm took twice the instructions, callgrind, the C-8
+!> Monte Carlo) or for the compiler's loops over blocks of samples (their
+!> overhead per column outweighed the arithmetic).  Rows go by strips of
+!> STRIP whose sums stay in vector registers; every sum keeps its terms'
+!> order, so the results are the same to the bit as the products' were.
 module mlid_lti_predict
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED
@@ -37,8 +40,8 @@ module mlid_lti_predict
   private
   public :: lti_exact, lti_segment
 
-  !> Samples per block of the sensitivities (bounds their memory).
-  integer, parameter :: BLOCK = 512
+  !> Rows of the transposed sensitivities summed at a time (in registers).
+  integer, parameter :: STRIP = 4
 
   !> The model's matrices at theta and their partials by free column.
   type :: lti_sys_t
@@ -59,12 +62,13 @@ module mlid_lti_predict
     real(wp), allocatable :: phi(:, :, :), g0(:, :, :), g1(:, :, :), c(:, :), fa(:), fb(:)
   end type step_t
 
-  !> The sample interval's map and its partials, stacked by column for
-  !> the products: dphi(:, c, :) is dPhi of live column c, and (nx nlive,
-  !> nx) to gemm.
+  !> The sample interval's map and its partials by live column c,
+  !> transposed for sensitivities: w(c, :, :) = [dPhi_c, dGam0_c, dGam1_c]
+  !> and dc(c, :) = dc_c, the rows past the live columns zero to a multiple
+  !> of STRIP.
   type :: lti_map_t
     real(wp), allocatable :: phi(:, :), g0(:, :), g1(:, :), c(:)
-    real(wp), allocatable :: dphi(:, :, :), dg0(:, :, :), dg1(:, :, :), dc(:, :)
+    real(wp), allocatable :: w(:, :, :), dc(:, :)
   end type lti_map_t
 
 contains
@@ -108,10 +112,10 @@ contains
     real(wp), intent(inout), optional :: dy(:, :, :), xhist(:, :)
     type(lti_sys_t) :: sys
     type(lti_map_t) :: mp
-    real(wp), allocatable :: x(:, :), ys(:, :)
+    real(wp), allocatable :: x(:, :)
     integer, allocatable :: live(:)
-    real(wp) :: dt, phit(m%nx, m%nx), acc
-    integer :: n, nx, nu, ny, i, j, l
+    real(wp) :: dt
+    integer :: n, nx, nu, ny, j
 
     status = MLID_OK
     n = j1 - j0 + 1
@@ -130,48 +134,113 @@ contains
     else
       call interval_map(sys, dt, opt%substeps, opt%hold, mp)
     end if
-    ! states: the inputs' part of every interval by two products, then the
-    ! recursion
     allocate (x(nx, n))
     x(:, 1) = theta(pm%l%ox0 + (iseg - 1)*nx + 1:pm%l%ox0 + iseg*nx)
-    if (n > 1) then
-      call gemm(nx, n - 1, nu, mp%g0, u(:, j0:j1 - 1), x(:, 2:n), 0.0_wp)
-      if (.not. opt%hold) call gemm(nx, n - 1, nu, mp%g1, u(:, j0 + 1:j1), x(:, 2:n), 1.0_wp)
-    end if
-    phit = transpose(mp%phi)
-    do j = 2, n
-      do i = 1, nx
-        acc = x(i, j) + mp%c(i)
-        do l = 1, nx
-          acc = acc + phit(l, i)*x(l, j - 1)
-        end do
-        x(i, j) = acc
-      end do
-    end do
+    select case (nx)                    ! the common sizes as constants: loops unrolled
+    case (2)
+      call states(2, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
+    case (4)
+      call states(4, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
+    case default
+      call states(nx, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
+    end select
     if (.not. all(ieee_is_finite(x))) then
       status = MLID_ERR_DIVERGED
       return
     end if
     if (present(xhist)) xhist(:, j0:j1) = x
-    ! outputs y = C x + D u + the segment's biases
-    allocate (ys(ny, n))
-    call gemm(ny, n, nx, sys%c, x, ys, 0.0_wp)
-    call gemm(ny, n, nu, sys%d, u(:, j0:j1), ys, 1.0_wp)
-    associate (bias => theta(pm%l%obias + (iseg - 1)*ny + 1:pm%l%obias + iseg*ny))
-      do j = 1, n
-        yhat(:, j0 + j - 1) = ys(:, j) + bias
-      end do
-    end associate
+    call outputs(ny, nx, nu, n, sys%c, sys%d, &
+                 theta(pm%l%obias + (iseg - 1)*ny + 1:pm%l%obias + iseg*ny), x, u(:, j0:j1), &
+                 yhat(:, j0:j1))
     if (present(dy)) call sensitivities(ny, nx, nu, pm%nf, n, size(live), live, pm, iseg, sys, &
                                         mp, opt%hold, x, u(:, j0:j1), s0(:, live), &
                                         dy(:, :, j0:j1))
   end subroutine lti_segment
 
-  !> dy(ny, nf, n) over n samples, BLOCK samples at a time.  The states'
-  !> sensitivities s(nx, nl) are those of the live columns live(1:nl) only
-  !> (the others stay zero), from s0 (nx, nl): their forcing by products over
-  !> the block, their recursion, then dy = C s + the few terms of dC x and
-  !> dD u + dbias.
+  !> The states x(:, 2:n) from x(:, 1), sample by sample:
+  !> x(j) = (((0 + Gam0 u(j-1)) + Gam1 u(j)) + c) + Phi x(j-1), each
+  !> product's terms in order (the order of the products over the record
+  !> before).
+  pure subroutine states(nx, nu, n, hold, phi, g0, g1, c, u, x)
+    integer, value :: nx                ! by value: a constant nx makes a clone
+    integer, intent(in) :: nu, n
+    logical, intent(in) :: hold
+    real(wp), intent(in) :: phi(nx, nx), g0(nx, nu), g1(nx, nu), c(nx), u(nu, n)
+    real(wp), intent(inout) :: x(nx, n)
+    real(wp) :: a
+    integer :: i, j, l
+
+    do j = 2, n
+      do i = 1, nx
+        a = 0.0_wp
+        !GCC$ novector
+        do l = 1, nu
+          a = a + g0(i, l)*u(l, j - 1)
+        end do
+        if (.not. hold) then
+          !GCC$ novector
+          do l = 1, nu
+            a = a + g1(i, l)*u(l, j)
+          end do
+        end if
+        a = a + c(i)
+        !GCC$ novector
+        do l = 1, nx
+          a = a + phi(i, l)*x(l, j - 1)
+        end do
+        x(i, j) = a
+      end do
+    end do
+  end subroutine states
+
+  !> The outputs y = ((0 + C x) + D u) + bias of n samples (each product's
+  !> terms in order), STRIP rows of every sample at a time (the strip's sums
+  !> in registers), then the rows left one by one.
+  pure subroutine outputs(ny, nx, nu, n, cm, dm, bias, x, u, y)
+    integer, intent(in) :: ny, nx, nu, n
+    real(wp), intent(in) :: cm(ny, nx), dm(ny, nu), bias(ny), x(nx, n), u(nu, n)
+    real(wp), intent(inout) :: y(ny, n)
+    real(wp) :: acc(STRIP), a
+    integer :: i, j, l, last
+
+    last = ny - mod(ny, STRIP)
+    do i = 1, last, STRIP
+      do j = 1, n
+        acc = 0.0_wp
+        !GCC$ novector
+        do l = 1, nx
+          acc = acc + cm(i:i + STRIP - 1, l)*x(l, j)
+        end do
+        !GCC$ novector
+        do l = 1, nu
+          acc = acc + dm(i:i + STRIP - 1, l)*u(l, j)
+        end do
+        y(i:i + STRIP - 1, j) = acc + bias(i:i + STRIP - 1)
+      end do
+    end do
+    do i = last + 1, ny
+      do j = 1, n
+        a = 0.0_wp
+        !GCC$ novector
+        do l = 1, nx
+          a = a + cm(i, l)*x(l, j)
+        end do
+        !GCC$ novector
+        do l = 1, nu
+          a = a + dm(i, l)*u(l, j)
+        end do
+        y(i, j) = a + bias(i)
+      end do
+    end do
+  end subroutine outputs
+
+  !> dy(ny, nf, n) (as dy(ny nf, n)) over n samples, sample by sample.  The states'
+  !> sensitivities of the live columns live(1:nl) (the others' dy stay
+  !> zero) start from s0 (nx, nl) and are kept transposed, s(c, i) (rows
+  !> padded to a multiple of STRIP): advanced by the recursion with its
+  !> forcing (advance), then dy = C s (c_times_s) + the few terms of dC x and
+  !> dD u + dbias.  Each element sums its terms in the order the products
+  !> over blocks of samples did before, so the results are those to the bit.
   subroutine sensitivities(ny, nx, nu, nf, n, nl, live, pm, iseg, sys, mp, hold, x, u, s0, dy)
     integer, intent(in) :: ny, nx, nu, nf, n, nl, live(nl), iseg
     type(param_map_t), intent(in) :: pm
@@ -179,69 +248,117 @@ contains
     type(lti_map_t), intent(in) :: mp
     logical, intent(in) :: hold
     real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
-    real(wp), intent(out) :: dy(ny, nf, n)
-    real(wp), allocatable :: s(:, :, :)
-    real(wp) :: phit(nx, nx), ct(nx, ny), acc
-    integer :: jb, je, nb, k0, k, j, c, l, i
+    real(wp), intent(out) :: dy(ny*nf, n)
+    real(wp) :: s(size(mp%dc, 1), nx, 2), z(nx + 2*nu), wb(size(pm%ib))
+    integer :: off(nl), oc(size(sys%cv)), od(size(sys%dv)), ob(size(pm%ib)), nb, nk, k, t, i, now
 
-    phit = transpose(mp%phi)
-    ct = transpose(sys%c)
-    allocate (s(nx, nl, 0:min(n, BLOCK)))    ! s(:, :, 0): the sample before the block
-    do jb = 1, n, BLOCK
-      je = min(n, jb + BLOCK - 1)
-      nb = je - jb + 1
-      k0 = 1
-      if (jb == 1) then                 ! the first sample has no forcing: it is s0
-        s(:, :, 1) = s0
-        k0 = 2
-      else
-        s(:, :, 0) = s(:, :, BLOCK)
-      end if
-      if (k0 <= nb) then                ! the forcing of the intervals into samples jb+k0-1..je
-        j = jb + k0 - 2                 ! the first of them starts at sample j
-        call gemm(nx*nl, nb - k0 + 1, nx, mp%dphi, x(:, j:je - 1), s(:, :, k0:nb), 0.0_wp)
-        call gemm(nx*nl, nb - k0 + 1, nu, mp%dg0, u(:, j:je - 1), s(:, :, k0:nb), 1.0_wp)
-        if (.not. hold) call gemm(nx*nl, nb - k0 + 1, nu, mp%dg1, u(:, j + 1:je), &
-                                  s(:, :, k0:nb), 1.0_wp)
-      end if
-      ! the recursion and C s: short dot products, summed in registers
-      do k = k0, nb
-        do c = 1, nl
-          do i = 1, nx
-            acc = s(i, c, k) + mp%dc(i, c)
-            do l = 1, nx
-              acc = acc + phit(l, i)*s(l, c, k - 1)
-            end do
-            s(i, c, k) = acc
-          end do
-        end do
-      end do
-      dy(:, :, jb:je) = 0.0_wp
-      do k = 1, nb
-        do c = 1, nl
-          do i = 1, ny
-            acc = 0.0_wp
-            do l = 1, nx
-              acc = acc + ct(l, i)*s(l, c, k)
-            end do
-            dy(i, live(c), jb + k - 1) = acc
-          end do
-        end do
-      end do
-      do k = 1, size(sys%cv)
-        dy(sys%ci(k), sys%ck(k), jb:je) = dy(sys%ci(k), sys%ck(k), jb:je) + &
-                                          sys%cv(k)*x(sys%cl(k), jb:je)
-      end do
-      do k = 1, size(sys%dv)
-        dy(sys%di(k), sys%dk(k), jb:je) = dy(sys%di(k), sys%dk(k), jb:je) + &
-                                          sys%dv(k)*u(sys%dl(k), jb:je)
-      end do
-    end do
-    do k = 1, size(pm%ib)               ! the segment's free biases
+    s = 0.0_wp
+    s(1:nl, :, 1) = transpose(s0)
+    off = (live - 1)*ny                 ! dy(i, live(c)) is dy(off(c) + i)
+    oc = sys%ci + (sys%ck - 1)*ny       ! the dC, dD terms' places in dy(:, k)
+    od = sys%di + (sys%dk - 1)*ny
+    nb = 0                              ! the segment's free biases
+    do k = 1, size(pm%ib)
       i = pm%ib(k) - (iseg - 1)*ny
-      if (i >= 1 .and. i <= ny) dy(i, pm%cb(k), :) = dy(i, pm%cb(k), :) + pm%wb(k)
+      if (i < 1 .or. i > ny) cycle
+      nb = nb + 1
+      ob(nb) = i + (pm%cb(k) - 1)*ny
+      wb(nb) = pm%wb(k)
+    end do
+    nk = nx + nu                        ! the forcing's columns: x, u0 and (not held) u1
+    if (.not. hold) nk = nx + 2*nu
+    now = 1
+    do k = 1, n
+      if (k > 1) then                   ! s(k) from s(k-1) and the interval's forcing
+        z(1:nx) = x(:, k - 1)
+        z(nx + 1:nx + nu) = u(:, k - 1)
+        if (.not. hold) z(nx + nu + 1:) = u(:, k)
+        call advance(size(s, 1), nx, nk, mp%w, z, mp%dc, mp%phi, s(:, :, now), s(:, :, 3 - now))
+        now = 3 - now
+      end if
+      dy(:, k) = 0.0_wp
+      select case (nx)
+      case (2)
+        call c_times_s(size(s, 1), 2, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
+      case (4)
+        call c_times_s(size(s, 1), 4, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
+      case default
+        call c_times_s(size(s, 1), nx, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
+      end select
+      do t = 1, size(oc)
+        dy(oc(t), k) = dy(oc(t), k) + sys%cv(t)*x(sys%cl(t), k)
+      end do
+      do t = 1, size(od)
+        dy(od(t), k) = dy(od(t), k) + sys%dv(t)*u(sys%dl(t), k)
+      end do
+      do t = 1, nb
+        dy(ob(t), k) = dy(ob(t), k) + wb(t)
+      end do
     end do
   end subroutine sensitivities
+
+  !> One interval of the transposed sensitivities s(c, i) (STRIP rows at a
+  !> time, the strip's sums in registers):
+  !> sn(c, i) = ((0 + sum_l w(c, i, l) z(l)) + dc(c, i)) + sum_l Phi(i, l) s(c, l),
+  !> each sum's terms in order (z = [x; u0; u1]: dPhi x, dGam0 u0, dGam1 u1).
+  !> The padding rows compute what no one reads.
+  pure subroutine advance(np, nx, nk, w, z, dc, phi, s, sn)
+    integer, intent(in) :: np, nx, nk
+    real(wp), intent(in) :: w(np, nx, *), z(nk), dc(np, nx), phi(nx, nx), s(np, nx)
+    real(wp), intent(out) :: sn(np, nx)
+    real(wp) :: acc(STRIP)
+    integer :: c, i, l
+
+    do i = 1, nx
+      do c = 1, np, STRIP
+        acc = 0.0_wp
+        !GCC$ novector
+        !GCC$ unroll 2
+        do l = 1, nk
+          acc = acc + w(c:c + STRIP - 1, i, l)*z(l)
+        end do
+        acc = acc + dc(c:c + STRIP - 1, i)
+        !GCC$ novector
+        do l = 1, nx
+          acc = acc + s(c:c + STRIP - 1, l)*phi(i, l)
+        end do
+        sn(c:c + STRIP - 1, i) = acc
+      end do
+    end do
+  end subroutine advance
+
+  !> dy(off(c) + i) = (C s^T)(i, c) for the nl live columns, its terms
+  !> summed in order from 0: STRIP rows of every column at a time, then
+  !> the rows left one by one.
+  pure subroutine c_times_s(np, nx, ny, nf, nl, off, cm, s, dy)
+    integer, intent(in) :: np, ny, nf, nl, off(nl)
+    integer, value :: nx                ! by value: a constant nx makes a clone
+    real(wp), intent(in) :: cm(ny, nx), s(np, nx)
+    real(wp), intent(inout) :: dy(ny*nf)
+    real(wp) :: acc(STRIP), a
+    integer :: c, i, l, last
+
+    last = ny - mod(ny, STRIP)          ! the rows in whole strips
+    do i = 1, last, STRIP               ! (C's strip reused over the columns)
+      do c = 1, nl
+        acc = 0.0_wp
+        !GCC$ novector
+        do l = 1, nx
+          acc = acc + cm(i:i + STRIP - 1, l)*s(c, l)
+        end do
+        dy(off(c) + i:off(c) + i + STRIP - 1) = acc
+      end do
+    end do
+    do i = last + 1, ny
+      do c = 1, nl
+        a = 0.0_wp
+        do l = 1, nx
+          a = a + cm(i, l)*s(c, l)
+        end do
+        dy(off(c) + i) = a
+      end do
+    end do
+  end subroutine c_times_s
 
   !> A, B, b, C, D at the model parameters p and, with partials, their
   !> partials by free column (a tie adds its term's scale), read through the
@@ -266,7 +383,7 @@ contains
     sys%c = h + matmul(sys%d, kf)
     sys%bx = p(m%obx + 1:m%obx + nx)
     if (.not. partials) return
-    ! dc(:, k, :) is dC_k and dd(:, k, :) dD_k: stacked by column for gemm
+    ! dc(:, k, :) is dC_k and dd(:, k, :) dD_k (nonzeros lists their entries)
     allocate (sys%da(nx, nx, nf), sys%db(nx, nu, nf), sys%dbx(nx, nf), sys%dc(ny, nf, nx), &
               sys%dd(ny, nf, nu), sys%moves(nf))
     sys%da = 0.0_wp
@@ -354,7 +471,7 @@ contains
     real(wp), dimension(size(sys%a, 1), size(sys%a, 1)) :: dm, dm2, dm3, dp, dea, deb, dphi
     real(wp), dimension(size(sys%b, 1), size(sys%b, 2)) :: deab, debb, dg0, dg1
     real(wp) :: dcb(size(sys%a, 1)), dc(size(sys%a, 1)), h
-    integer :: nx, nu, nf, k, i, c
+    integer :: nx, nu, nf, np, k, i, c
     logical :: da
 
     nx = size(sys%a, 1)
@@ -363,10 +480,9 @@ contains
     call rk4_map(sys%a, sys%b, sys%bx, h, nsub, hold, st, mp%phi, mp%g0, mp%g1, mp%c)
     if (.not. present(live)) return
     nf = size(live)
-    allocate (mp%dphi(nx, nf, nx), mp%dg0(nx, nf, nu), mp%dg1(nx, nf, nu), mp%dc(nx, nf))
-    mp%dphi = 0.0_wp
-    mp%dg0 = 0.0_wp
-    mp%dg1 = 0.0_wp
+    np = STRIP*((nf + STRIP - 1)/STRIP)
+    allocate (mp%w(np, nx, nx + 2*nu), mp%dc(np, nx))
+    mp%w = 0.0_wp
     mp%dc = 0.0_wp
     do c = 1, nf
       k = live(c)
@@ -397,10 +513,10 @@ contains
         dg1 = matmul(dp, st%g1(:, :, i - 1)) + matmul(st%p, dg1) + st%fa(i)*deab + st%fb(i)*debb
         dc = matmul(dp, st%c(:, i - 1)) + matmul(st%p, dc) + dcb
       end do
-      mp%dphi(:, c, :) = dphi
-      mp%dg0(:, c, :) = dg0
-      mp%dg1(:, c, :) = dg1
-      mp%dc(:, c) = dc
+      mp%w(c, :, 1:nx) = dphi
+      mp%w(c, :, nx + 1:nx + nu) = dg0
+      mp%w(c, :, nx + nu + 1:) = dg1
+      mp%dc(c, :) = dc
     end do
   end subroutine interval_map
 
@@ -458,20 +574,5 @@ contains
     g1 = st%g1(:, :, nsub)
     c = st%c(:, nsub)
   end subroutine rk4_map
-
-  !> c = a b + beta c (beta 0 or 1), c (m, n), a (m, k), b (k, n): column
-  !> by column, the long dimension m innermost.
-  pure subroutine gemm(m, n, k, a, b, c, beta)
-    integer, intent(in) :: m, n, k
-    real(wp), intent(in) :: a(m, k), b(k, n), beta
-    real(wp), intent(inout) :: c(m, n)
-    integer :: j, l
-    if (beta == 0.0_wp) c = 0.0_wp
-    do j = 1, n
-      do l = 1, k
-        c(:, j) = c(:, j) + a(:, l)*b(l, j)
-      end do
-    end do
-  end subroutine gemm
 
 end module mlid_lti_predict

@@ -22,8 +22,9 @@ program test_lti_predict
   end type rk_linear_t
 
   call short_period_held(101)
-  call short_period_held(1300)        ! three blocks of mlid_lti_predict's sensitivities
+  call short_period_held(1300)        ! a long record: the sensitivities carried over many samples
   call feedback_ties_segments()
+  call three_states_five_outputs()
   call finish()
 
 contains
@@ -111,6 +112,49 @@ contains
     call compare('feedback, ties, two manoeuvres, linear input, 3 substeps', lin, theta, isfree, &
                  tie, [1, 141], t, u, opt)
   end subroutine feedback_ties_segments
+
+  !> A lateral-directional model with three states (beta, p, r): a state
+  !> count without the fast path's fixed-size kernels, five outputs (a
+  !> strip of four rows and one left over), seven columns with states'
+  !> sensitivities (not a whole number of strips: padding rows), one free H
+  !> and one free D entry that do not move the states, an initial state and
+  !> a bias free; input linear between samples over two RK4 steps.
+  subroutine three_states_five_outputs()
+    integer, parameter :: nx = 3, nu = 2, ny = 5, nt = 400
+    type(linear_model_t) :: lin
+    type(options_t) :: opt
+    real(wp), allocatable :: theta(:), t(:), u(:, :)
+    integer, allocatable :: isfree(:)
+    type(layout_t) :: l
+    integer :: j
+
+    call linear(nx, nu, ny, lin)
+    l = model_layout(lin)
+    allocate (theta(l%nth), isfree(l%nth))
+    theta = 0.0_wp
+    isfree = 0
+    theta(lin%of + 1:lin%of + 9) = [-0.15_wp, -4.0_wp, 2.0_wp, 0.05_wp, -1.5_wp, -0.05_wp, &
+                                    -0.98_wp, 0.6_wp, -0.25_wp]
+    theta(lin%og + 1:lin%og + 6) = [0.0_wp, -3.0_wp, 0.1_wp, 0.03_wp, 0.5_wp, -1.2_wp]
+    theta(lin%oh + 1:lin%oh + 15) = [1.0_wp, 0.0_wp, 0.0_wp, -2.0_wp, 0.5_wp, &
+                                     0.0_wp, 1.0_wp, 0.0_wp, 0.1_wp, 0.0_wp, &
+                                     0.0_wp, 0.0_wp, 1.0_wp, 0.3_wp, -0.2_wp]
+    theta(lin%od + [4, 9]) = [0.05_wp, 0.2_wp]
+    isfree(lin%of + [2, 5, 7, 9]) = 1
+    isfree(lin%og + [2, 6]) = 1
+    isfree(lin%oh + 4) = 1
+    isfree(lin%od + 9) = 1
+    theta(l%ox0 + 1:l%ox0 + 3) = [0.02_wp, 0.0_wp, -0.01_wp]
+    isfree(l%ox0 + 2) = 1
+    isfree(l%obias + 4) = 1
+    allocate (t(nt), u(nu, nt))
+    t = [(0.04_wp*(j - 1), j=1, nt)]
+    u(1, :) = [(0.1_wp*sin(0.17_wp*j) + merge(0.05_wp, 0.0_wp, mod(j, 120) < 15), j=1, nt)]
+    u(2, :) = [(0.05_wp*cos(0.11_wp*j), j=1, nt)]
+    opt%substeps = 2
+    call compare('three states, five outputs, linear input, 2 substeps', lin, theta, isfree, &
+                 no_ties(l%nth), [1], t, u, opt)
+  end subroutine three_states_five_outputs
 
   subroutine linear(nx, nu, ny, lin)
     integer, intent(in) :: nx, nu, ny
