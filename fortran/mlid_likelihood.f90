@@ -384,10 +384,14 @@ contains
     integer, intent(in) :: ny, nf, nt, jbeg, jend
     logical, intent(in) :: moves(ny, nf)
     real(wp), intent(inout) :: wsens(ny, nt, nf)
-    integer :: c, i
+    integer :: c, i, j
     do c = 1, nf
       do i = 1, ny
-        if (.not. moves(i, c)) wsens(i, jbeg:jend, c) = 0.0_wp
+        if (moves(i, c)) cycle
+        !GCC$ unroll 4
+        do j = jbeg, jend
+          wsens(i, j, c) = 0.0_wp
+        end do
       end do
     end do
   end subroutine zero_unmoved
@@ -476,6 +480,7 @@ contains
       dst = i + int(ny, int64)*(j0 - 2) + int(ny, int64)*nt*(cols - 1)
       do j = 1, nb
         k = int(ny, int64)*j
+        !GCC$ unroll 4
         do q = 1, nc
           x = dy(src(q), j)
           wt(q, j) = sl*x

@@ -144,6 +144,7 @@ contains
     real(wp), intent(out) :: d(4, 4)
     integer :: j
     d = 0.0_wp
+    !GCC$ unroll 2
     do j = 1, m
       d(:, 1) = d(:, 1) + xt(1:4, j)*yt(1, j)
       d(:, 2) = d(:, 2) + xt(1:4, j)*yt(2, j)
@@ -160,6 +161,7 @@ contains
     real(wp), intent(out) :: d(4, 4)
     integer :: j
     d = 0.0_wp
+    !GCC$ unroll 2
     do j = 1, m
       d(:, 1) = d(:, 1) + xt(1:4, j)*yt(1, j)
       d(:, 2) = d(:, 2) + xt(1:4, j)*yt(2, j)
