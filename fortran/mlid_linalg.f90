@@ -189,6 +189,7 @@ contains
     integer :: i, m8
     s = 0.0_wp
     m8 = m - mod(m, 8)
+    !GCC$ unroll 2
     do i = 1, m8, 8
       s = s + x(i:i + 7)*y(i:i + 7)
     end do
