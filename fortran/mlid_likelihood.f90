@@ -247,6 +247,7 @@ contains
       real(wp), intent(out) :: g(:), f(:, :)
       real(wp), allocatable :: wt(:), part(:)
       integer, allocatable :: cols(:), rows(:), ci(:), first(:), nci(:), pw(:), pp(:)
+      integer(int64), allocatable :: src(:), dst(:)
       integer :: j0, j1, jbeg, jend, c, i, r, q, ld
       logical :: moves(ny, nf)
       jbeg = pm%l%seg(iseg)
@@ -281,7 +282,13 @@ contains
         pw(i + 1) = pw(i) + tile_rows(nci(i) + 1)*SAMPLE_BLOCK
         pp(i + 1) = pp(i) + (nci(i) + 1)**2
       end do
-      allocate (wt(pw(ny + 1)), part(pp(ny + 1)))
+      allocate (wt(pw(ny + 1)), part(pp(ny + 1)), src(size(ci)), dst(size(ci)))
+      do i = 1, ny                  ! weigh_diagonal's offsets of output i's entries
+        do q = first(i), first(i) + nci(i) - 1
+          src(q) = i + ny*(ci(q) - 1)
+          dst(q) = i + int(ny, int64)*nt*(ci(q) - 1)
+        end do
+      end do
       wt = 0.0_wp
       part = 0.0_wp
       do j0 = jbeg, jend, SAMPLE_BLOCK
@@ -293,11 +300,12 @@ contains
               call weigh_output(i, ny, nf, j1 - j0 + 1, nci(i), cc, lw, dy(:, :, j0:j1), &
                                 nu(:, j0:j1), ld, wt(pw(i) + 1))
             else if (present(wsens) .and. .not. opt%full_r) then   ! and output i's wsens
-              call weigh_diagonal(i, ny, nf, j1 - j0 + 1, nci(i), cc, lw(i, i), dy(:, :, j0:j1), &
-                                  nu(:, j0:j1), ld, wt(pw(i) + 1), rinv(i, i), nt, j0, wsens)
+              call weigh_diagonal(i, ny, nf, j1 - j0 + 1, nci(i), src(first(i)), lw(i, i), &
+                                  dy(:, :, j0:j1), nu(:, j0:j1), ld, wt(pw(i) + 1), rinv(i, i), &
+                                  j0, dst(first(i)), wsens)
             else
-              call weigh_diagonal(i, ny, nf, j1 - j0 + 1, nci(i), cc, lw(i, i), dy(:, :, j0:j1), &
-                                  nu(:, j0:j1), ld, wt(pw(i) + 1))
+              call weigh_diagonal(i, ny, nf, j1 - j0 + 1, nci(i), src(first(i)), lw(i, i), &
+                                  dy(:, :, j0:j1), nu(:, j0:j1), ld, wt(pw(i) + 1))
             end if
           end associate
           call sym_atb_t(j1 - j0 + 1, ld, nci(i) + 1, wt(pw(i) + 1), wt(pw(i) + 1), &
@@ -459,27 +467,28 @@ contains
 
   !> weigh_output for an output L weighs alone (L(i, i) = s, R^-1
   !> diagonal): wt(q, j) = s dy(i, cols(q), j), wt(nc+1, j) = s nu(i, j);
-  !> with ws, output i's wsens of the block too, ws(i, j0-1+j, cols(q)) =
-  !> rii dy(i, cols(q), j).  The entries are read at offsets within a
-  !> sample worked out once (src, dst, 64-bit: no index arithmetic per
-  !> entry).
-  subroutine weigh_diagonal(i, ny, nf, nb, nc, cols, s, dy, nu, ld, wt, rii, nt, j0, ws)
-    integer, intent(in) :: i, ny, nf, nb, nc, cols(nc), ld
+  !> with ws, output i's wsens of the block (samples j0..) too,
+  !> ws(i, j0-1+j, cols(q)) = rii dy(i, cols(q), j).  The entries are at
+  !> offsets worked out once a segment (64-bit, no index arithmetic per
+  !> entry): src(q), (i, cols(q)) within a sample's dy(:, :, j), and
+  !> dst(q), (i, 0, cols(q)) in wsens (ny, nt, nf).
+  subroutine weigh_diagonal(i, ny, nf, nb, nc, src, s, dy, nu, ld, wt, rii, j0, dst, ws)
+    integer, intent(in) :: i, ny, nf, nb, nc, ld
+    integer(int64), intent(in) :: src(nc)
     real(wp), intent(in) :: s, dy(ny*nf, nb), nu(ny, nb)
     real(wp), intent(inout) :: wt(ld, nb)
     real(wp), intent(in), optional :: rii
-    integer, intent(in), optional :: nt, j0
+    integer, intent(in), optional :: j0
+    integer(int64), intent(in), optional :: dst(nc)
     real(wp), intent(inout), optional :: ws(*)
-    integer(int64) :: src(nc), dst(nc), k
+    integer(int64) :: k
     integer :: j, q
     real(wp) :: sl, rl, x
-    src = i + ny*(cols - 1)
     sl = s
     if (present(ws)) then
       rl = rii
-      dst = i + int(ny, int64)*(j0 - 2) + int(ny, int64)*nt*(cols - 1)
       do j = 1, nb
-        k = int(ny, int64)*j
+        k = int(ny, int64)*(j0 - 1 + j - 1)
         !GCC$ unroll 4
         do q = 1, nc
           x = dy(src(q), j)
