@@ -167,6 +167,47 @@ eig_inverse (spread in its rank-one sums and scalings).  memset 5.2 M ->
 2.1 M per ATTAS fit: left, dy's zeroing once per sample (0.85 M) and
 segment_information's (mlid_likelihood, 0.8 M).  Every case deck's
 results are unchanged to the bit (compare_cases: 40 of 40 bitwise).
+
+Measured (ours, branch info-acc against main at e34fe4f, one thread;
+--case all --rounds 3, twice; the output-error gradient and information's
+accumulation, mlid_likelihood and mlid_linalg only):
+  HFB-320    82.8 M -> 81.3 M instructions per fit; least CPU time 7.05 ->
+             6.68 ms and 7.58 -> 7.10 ms (two runs, the machine loaded);
+  C-8        9.0 M -> 8.9 M; 0.99 -> 0.98-0.99 ms CPU;
+  ATTAS lat. 158.1 M -> 145.7 M (15.0 k -> 13.9 k per sample and
+             iteration); CPU 15.3 -> 14.8 ms in one run, 11.7 -> 14.5 ms in
+             the other (a test run beside it: noise, not the build).
+Every case deck's results are unchanged to the bit (compare_cases: 40 of
+40 bitwise; ATTAS and the three-manoeuvre tc23 the same JSON with one and
+two threads).  The sums are the same; what is cheaper is the bookkeeping
+around them (callgrind, per ATTAS fit): segment_information 54.3 -> 42.5 M
+inclusive, 25.7 -> 17.0 M self: the exact scan for the (output, column)
+pairs that move, four samples a test (3.8 -> 2.4 M); the weighted
+sensitivities wsens written by the gather from the same load, at 64-bit
+offsets worked out once a segment (gather, its tiles' padding and
+weigh_row 18.9 -> 12.6 M; its loops unrolled by four); wsens zeroed only
+where nothing moves, in a loop of explicit shape (3.3 -> 1.5 M); each
+output's tile block allocated and padded once a segment; sym_atb_t 27.6 ->
+24.9 M (the upper triangle only, mirrored once by add_output; the tiles'
+sample loop unrolled by two: 37 -> 35.5 instructions a 4 x 4 tile and
+sample).  HFB-320: dot8 7.6 -> 7.0 M (its loop unrolled by two, the same
+eight partial sums), the stacked path's gradient as the product's last
+column (one add_syrk, no add_atv), weigh_block writing wsens from the same
+load (segment_information's own and its helpers' 5.2 -> 4.3 M).  Tried
+and dropped: two dot products sharing y's loads (dot8x2, the same sums:
+gfortran 12 vectorizes it across the partial sums, 2.6 times dot8's
+instructions); the dense path by the 4 x 4 tiles on each output's
+transposed gather (the stacked gather's tile count): HFB-320 85.8 M
+against 81.9 M per fit, C-8 9.40 M against 8.94 M, so dot8 stays; a
+symmetric diagonal tile (44 instructions a sample against 37); zeroing
+wsens a column at a time (one large memset each: memset's count 14.7 M ->
+30.9 M over three ATTAS fits); weigh_block's samples in runs per output or
+its outputs unrolled (no gain, or a loss).  Left: the tile kernel at about
+2.2 instructions per multiply-add (SSE2: the portable build); the gather
+at about 13 instructions an entry with wsens (two stores each); mlid_newton
+asks for wsens at every full evaluation though the coloured correction
+uses the last one only (its writes and zeros about 5 M per
+ATTAS fit, 2.3 M per HFB-320 fit), outside these files.
 """
 
 import argparse

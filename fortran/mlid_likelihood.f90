@@ -27,6 +27,7 @@
 !>   of f and h.  Without partials the analytic sensitivities hold the gain.
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, first_failure
   use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, sym_atb_t, tile_rows, chol_inverse, &
                          psd_factor
@@ -244,94 +245,106 @@ contains
     subroutine segment_information(iseg, g, f)
       integer, intent(in) :: iseg
       real(wp), intent(out) :: g(:), f(:, :)
-      real(wp), allocatable :: wt(:, :), part(:)
-      integer, allocatable :: cols(:), rows(:), ci(:), off(:), nci(:)
-      integer :: j0, j1, jbeg, jend, c, i, r, n, q
+      real(wp), allocatable :: wt(:), part(:)
+      integer, allocatable :: cols(:), rows(:), ci(:), first(:), nci(:), pw(:), pp(:)
+      integer(int64), allocatable :: src(:), dst(:)
+      integer :: j0, j1, jbeg, jend, c, i, r, q, ld
       logical :: moves(ny, nf)
       jbeg = pm%l%seg(iseg)
       jend = nt
       if (iseg < pm%l%nseg) jend = pm%l%seg(iseg + 1) - 1
-      do c = 1, nf
-        do i = 1, ny
-          moves(i, c) = any(dy(i, c, jbeg:jend) /= 0.0_wp)
-        end do
-      end do
+      call moving_outputs(ny, nf, jend - jbeg + 1, dy(:, :, jbeg:jend), moves)
       cols = pack([(c, c=1, nf)], any(moves, dim=1))
       g = 0.0_wp
       f = 0.0_wp
-      if (present(wsens)) then                ! what no sensitivity reaches
-        do c = 1, nf
-          do i = 1, ny
-            if (.not. moves(i, c) .or. opt%full_r) wsens(i, jbeg:jend, c) = 0.0_wp
-          end do
-        end do
-      end if
-      ! weighted output i's columns ci(off(i)+1:off(i)+nci(i)): those moving
-      ! an output r that L(r, i) weighs in; its product's sums part(...)
-      allocate (off(ny + 1), nci(ny), ci(0))
-      off(1) = 0
-      n = 0
+      if (present(wsens)) call zero_unmoved(ny, nf, nt, jbeg, jend, moves, wsens)
+      ! weighted output i's columns ci(first(i):first(i)+nci(i)-1): those
+      ! moving an output r that L(r, i) weighs in (a diagonal R: output i,
+      ! whose columns write wsens's row i)
+      allocate (first(ny), nci(ny), ci(0))
       do i = 1, ny
-        rows = pack([(r, r=1, ny)], lw(:, i) /= 0.0_wp)
+        first(i) = size(ci) + 1
+        rows = [i]
+        if (opt%full_r) rows = pack([(r, r=1, ny)], lw(:, i) /= 0.0_wp)
         ci = [ci, pack(cols, [(any(moves(rows, cols(q))), q=1, size(cols))])]
-        nci(i) = size(ci) - n
-        n = size(ci)
-        off(i + 1) = off(i) + (nci(i) + 1)**2
+        nci(i) = size(ci) - first(i) + 1
       end do
-      if (n == ny*size(cols)) then             ! every column moves every output
+      if (size(ci) == ny*size(cols)) then             ! every column moves every output
         call stacked_outputs(cols, jbeg, jend, g, f)
         return
       end if
-      allocate (part(off(ny + 1)), wt(tile_rows(size(cols) + 1), SAMPLE_BLOCK))
+      ! output i's block of weighted sensitivities at wt(pw(i)+1) (its tiles'
+      ! padding rows zero once here), its product at part(pp(i)+1)
+      allocate (pw(ny + 1), pp(ny + 1))
+      pw(1) = 0
+      pp(1) = 0
+      do i = 1, ny
+        pw(i + 1) = pw(i) + tile_rows(nci(i) + 1)*SAMPLE_BLOCK
+        pp(i + 1) = pp(i) + (nci(i) + 1)**2
+      end do
+      allocate (wt(pw(ny + 1)), part(pp(ny + 1)), src(size(ci)), dst(size(ci)))
+      do i = 1, ny                  ! weigh_diagonal's offsets of output i's entries
+        do q = first(i), first(i) + nci(i) - 1
+          src(q) = i + ny*(ci(q) - 1)
+          dst(q) = i + int(ny, int64)*nt*(ci(q) - 1)
+        end do
+      end do
+      wt = 0.0_wp
       part = 0.0_wp
       do j0 = jbeg, jend, SAMPLE_BLOCK
         j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
         do i = 1, ny
-          n = sum(nci(1:i - 1))
-          call weigh_output(i, ny, nf, j1 - j0 + 1, nci(i), ci(n + 1:n + nci(i)), lw, &
-                            dy(:, :, j0:j1), nu(:, j0:j1), size(wt, 1), wt)
-          call sym_atb_t(j1 - j0 + 1, size(wt, 1), nci(i) + 1, wt, wt, part(off(i) + 1))
-          if (present(wsens) .and. .not. opt%full_r) &   ! R^-1 = L L' diagonal: row i alone
-            call weigh_row(i, ny, nf, nt, j0, j1, ci(n + 1:n + nci(i)), rinv(i, i), dy, wsens)
+          ld = tile_rows(nci(i) + 1)
+          associate (cc => ci(first(i):first(i) + nci(i) - 1))
+            if (count(lw(:, i) /= 0.0_wp) > 1) then
+              call weigh_output(i, ny, nf, j1 - j0 + 1, nci(i), cc, lw, dy(:, :, j0:j1), &
+                                nu(:, j0:j1), ld, wt(pw(i) + 1))
+            else if (present(wsens) .and. .not. opt%full_r) then   ! and output i's wsens
+              call weigh_diagonal(i, ny, nf, j1 - j0 + 1, nci(i), src(first(i)), lw(i, i), &
+                                  dy(:, :, j0:j1), nu(:, j0:j1), ld, wt(pw(i) + 1), rinv(i, i), &
+                                  j0, dst(first(i)), wsens)
+            else
+              call weigh_diagonal(i, ny, nf, j1 - j0 + 1, nci(i), src(first(i)), lw(i, i), &
+                                  dy(:, :, j0:j1), nu(:, j0:j1), ld, wt(pw(i) + 1))
+            end if
+          end associate
+          call sym_atb_t(j1 - j0 + 1, ld, nci(i) + 1, wt(pw(i) + 1), wt(pw(i) + 1), &
+                         part(pp(i) + 1))
         end do
         if (present(wsens) .and. opt%full_r) call weigh_columns(ny, nf, nt, j0, j1, cols, rinv, &
                                                                 dy, wsens)
       end do
-      n = 0
       do i = 1, ny
-        call add_output(ci(n + 1:n + nci(i)), part(off(i) + 1), g, f)
-        n = n + nci(i)
+        call add_output(ci(first(i):first(i) + nci(i) - 1), part(pp(i) + 1), g, f)
       end do
     end subroutine segment_information
 
     !> segment_information's sums when every column moves every output: the
     !> outputs of a block of samples stacked (samples and outputs down, the
-    !> columns across: one product, without the per-output tiles' padding),
-    !> the gradient as -w' (L' nu).
+    !> columns across, L' nu the last: one product, without the per-output
+    !> tiles' padding), the gradient as -w' (L' nu).
     subroutine stacked_outputs(cols, jbeg, jend, g, f)
       integer, intent(in) :: cols(:), jbeg, jend
       real(wp), intent(inout) :: g(:), f(:, :)
-      real(wp), allocatable :: w(:, :), v(:), part(:, :), gp(:)
-      integer :: j0, j1, i, nc
+      real(wp), allocatable :: w(:, :), part(:, :)
+      integer :: j0, j1, nc
       nc = size(cols)
-      allocate (w(ny*SAMPLE_BLOCK, nc), v(ny*SAMPLE_BLOCK), part(nc, nc), gp(nc))
+      allocate (w(ny*SAMPLE_BLOCK, nc + 1), part(nc + 1, nc + 1))
       part = 0.0_wp
-      gp = 0.0_wp
       do j0 = jbeg, jend, SAMPLE_BLOCK
         j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
-        call weigh_block(opt%full_r, cols, lw, dy(:, :, j0:j1), nu(:, j0:j1), w, v)
-        if (present(wsens) .and. opt%full_r) then
-          call weigh_columns(ny, nf, nt, j0, j1, cols, rinv, dy, wsens)
-        else if (present(wsens)) then
-          do i = 1, ny
-            call weigh_row(i, ny, nf, nt, j0, j1, cols, rinv(i, i), dy, wsens)
-          end do
+        if (present(wsens) .and. .not. opt%full_r) then      ! and wsens, R^-1 diagonal
+          call weigh_block(opt%full_r, ny, nf, nt, j0, j1, nc, cols, lw, dy(:, :, j0:j1), &
+                           nu(:, j0:j1), w, rdiag, wsens)
+        else
+          call weigh_block(opt%full_r, ny, nf, nt, j0, j1, nc, cols, lw, dy(:, :, j0:j1), &
+                           nu(:, j0:j1), w)
+          if (present(wsens)) call weigh_columns(ny, nf, nt, j0, j1, cols, rinv, dy, wsens)
         end if
-        call add_syrk(ny*(j1 - j0 + 1), nc, w, part)
-        call add_atv(ny*(j1 - j0 + 1), nc, w, v, gp)
+        call add_syrk(ny*(j1 - j0 + 1), nc + 1, w, part)
       end do
-      g(cols) = -gp
-      f(cols, cols) = part
+      g(cols) = -part(1:nc, nc + 1)
+      f(cols, cols) = part(1:nc, 1:nc)
     end subroutine stacked_outputs
 
   end subroutine oe_likelihood
@@ -349,26 +362,82 @@ contains
     diagonal = .true.
   end function diagonal
 
-  !> The weighted sensitivities w = L' dy(:, cols, j) of a block of samples,
-  !> samples and outputs down the rows of w, and v = L' nu.
-  subroutine weigh_block(full, cols, lw, dy, nu, w, v)
+  !> moves(i, c): whether any of the n samples' dy(i, c, j) is not zero,
+  !> exactly (however small).  A column that moves an output mostly shows
+  !> it at once; the others are read to the end, four samples a test (a
+  !> sum of magnitudes is zero only when each is; NaN is not zero).
+  pure subroutine moving_outputs(ny, nf, n, dy, moves)
+    integer, intent(in) :: ny, nf, n
+    real(wp), intent(in) :: dy(ny, nf, n)
+    logical, intent(out) :: moves(ny, nf)
+    integer :: i, c, j
+    do c = 1, nf
+      outputs: do i = 1, ny
+        moves(i, c) = .true.
+        do j = 1, n - 3, 4
+          if (abs(dy(i, c, j)) + abs(dy(i, c, j + 1)) + abs(dy(i, c, j + 2)) &
+              + abs(dy(i, c, j + 3)) /= 0.0_wp) cycle outputs
+        end do
+        do j = n - mod(n, 4) + 1, n
+          if (dy(i, c, j) /= 0.0_wp) cycle outputs
+        end do
+        moves(i, c) = .false.
+      end do outputs
+    end do
+  end subroutine moving_outputs
+
+  !> wsens(i, jbeg:jend, c) = 0 where column c leaves output i unmoved (no
+  !> sensitivity there; the rest is written with the products).
+  subroutine zero_unmoved(ny, nf, nt, jbeg, jend, moves, wsens)
+    integer, intent(in) :: ny, nf, nt, jbeg, jend
+    logical, intent(in) :: moves(ny, nf)
+    real(wp), intent(inout) :: wsens(ny, nt, nf)
+    integer :: c, i, j
+    do c = 1, nf
+      do i = 1, ny
+        if (moves(i, c)) cycle
+        !GCC$ unroll 4
+        do j = jbeg, jend
+          wsens(i, j, c) = 0.0_wp
+        end do
+      end do
+    end do
+  end subroutine zero_unmoved
+
+  !> The weighted sensitivities w(:, j, c) = L' dy(:, cols(c), j) of the
+  !> block of samples j0..j1 (dy and nu: the block's), samples and outputs
+  !> down the rows of w, and w(:, j, nc+1) = L' nu(:, j).  With ws (R^-1
+  !> diagonal, rd its diagonal): the block's rows of wsens too,
+  !> ws(:, j0-1+j, cols(c)) = rd dy(:, cols(c), j).
+  subroutine weigh_block(full, ny, nf, nt, j0, j1, nc, cols, lw, dy, nu, w, rd, ws)
     logical, intent(in) :: full
-    integer, intent(in) :: cols(:)
-    real(wp), intent(in) :: lw(:, :), dy(:, :, :), nu(:, :)
-    real(wp), intent(out) :: w(size(lw, 1), SAMPLE_BLOCK, size(cols)), &
-                             v(size(lw, 1), SAMPLE_BLOCK)
-    real(wp) :: lwd(size(lw, 1))
-    integer :: j, c
-    do j = 1, size(lwd)
+    integer, intent(in) :: ny, nf, nt, j0, j1, nc, cols(nc)
+    real(wp), intent(in) :: lw(ny, ny), dy(ny, nf, j1 - j0 + 1), nu(ny, j1 - j0 + 1)
+    real(wp), intent(out) :: w(ny, SAMPLE_BLOCK, nc + 1)
+    real(wp), intent(in), optional :: rd(ny)
+    real(wp), intent(inout), optional :: ws(ny, nt, nf)
+    real(wp) :: lwd(ny), rdl(ny), x
+    integer :: j, c, i
+    do j = 1, ny
       lwd(j) = lw(j, j)
     end do
-    do j = 1, size(dy, 3)
+    if (present(rd)) rdl = rd
+    do j = 1, j1 - j0 + 1
       if (full) then
-        v(:, j) = matmul(nu(:, j), lw)
-        w(:, j, :) = matmul(transpose(lw), dy(:, cols, j))
+        w(:, j, nc + 1) = matmul(nu(:, j), lw)
+        w(:, j, 1:nc) = matmul(transpose(lw), dy(:, cols, j))
+      else if (present(ws)) then
+        w(:, j, nc + 1) = lwd*nu(:, j)
+        do c = 1, nc
+          do i = 1, ny
+            x = dy(i, cols(c), j)
+            w(i, j, c) = lwd(i)*x
+            ws(i, j0 - 1 + j, cols(c)) = rdl(i)*x
+          end do
+        end do
       else
-        v(:, j) = lwd*nu(:, j)
-        do c = 1, size(cols)
+        w(:, j, nc + 1) = lwd*nu(:, j)
+        do c = 1, nc
           w(:, j, c) = lwd*dy(:, cols(c), j)
         end do
       end if
@@ -376,24 +445,14 @@ contains
   end subroutine weigh_block
 
   !> Weighted output i of a block of nb samples, transposed for sym_atb_t:
-  !> wt(q, j) = (L' dy(:, cols(q), j))_i, wt(nc+1, j) = (L' nu(:, j))_i, zero
-  !> below to the tile's edge.  Only the outputs L(:, i) weighs go in (one
-  !> for a diagonal R).
+  !> wt(q, j) = (L' dy(:, cols(q), j))_i, wt(nc+1, j) = (L' nu(:, j))_i,
+  !> over the outputs L(:, i) weighs (rows nc+2.. of wt, the tiles'
+  !> padding, left as they are: zero).
   subroutine weigh_output(i, ny, nf, nb, nc, cols, lw, dy, nu, ld, wt)
     integer, intent(in) :: i, ny, nf, nb, nc, cols(nc), ld
     real(wp), intent(in) :: lw(ny, ny), dy(ny, nf, nb), nu(ny, nb)
-    real(wp), intent(out) :: wt(ld, nb)
+    real(wp), intent(inout) :: wt(ld, nb)
     integer :: j, q, r
-    wt(nc + 2:tile_rows(nc + 1), :) = 0.0_wp
-    if (count(lw(:, i) /= 0.0_wp) == 1 .and. lw(i, i) /= 0.0_wp) then   ! a diagonal R
-      do j = 1, nb
-        do q = 1, nc
-          wt(q, j) = lw(i, i)*dy(i, cols(q), j)
-        end do
-        wt(nc + 1, j) = lw(i, i)*nu(i, j)
-      end do
-      return
-    end if
     wt(1:nc + 1, :) = 0.0_wp
     do j = 1, nb
       do r = i, ny
@@ -406,16 +465,62 @@ contains
     end do
   end subroutine weigh_output
 
-  !> Adds output's product p (nc+1 x nc+1: its columns cols, then the
-  !> residual) to the information f and the gradient g.
+  !> weigh_output for an output L weighs alone (L(i, i) = s, R^-1
+  !> diagonal): wt(q, j) = s dy(i, cols(q), j), wt(nc+1, j) = s nu(i, j);
+  !> with ws, output i's wsens of the block (samples j0..) too,
+  !> ws(i, j0-1+j, cols(q)) = rii dy(i, cols(q), j).  The entries are at
+  !> offsets worked out once a segment (64-bit, no index arithmetic per
+  !> entry): src(q), (i, cols(q)) within a sample's dy(:, :, j), and
+  !> dst(q), (i, 0, cols(q)) in wsens (ny, nt, nf).
+  subroutine weigh_diagonal(i, ny, nf, nb, nc, src, s, dy, nu, ld, wt, rii, j0, dst, ws)
+    integer, intent(in) :: i, ny, nf, nb, nc, ld
+    integer(int64), intent(in) :: src(nc)
+    real(wp), intent(in) :: s, dy(ny*nf, nb), nu(ny, nb)
+    real(wp), intent(inout) :: wt(ld, nb)
+    real(wp), intent(in), optional :: rii
+    integer, intent(in), optional :: j0
+    integer(int64), intent(in), optional :: dst(nc)
+    real(wp), intent(inout), optional :: ws(*)
+    integer(int64) :: k
+    integer :: j, q
+    real(wp) :: sl, rl, x
+    sl = s
+    if (present(ws)) then
+      rl = rii
+      do j = 1, nb
+        k = int(ny, int64)*(j0 - 1 + j - 1)
+        !GCC$ unroll 4
+        do q = 1, nc
+          x = dy(src(q), j)
+          wt(q, j) = sl*x
+          ws(dst(q) + k) = rl*x
+        end do
+        wt(nc + 1, j) = sl*nu(i, j)
+      end do
+    else
+      do j = 1, nb
+        do q = 1, nc
+          wt(q, j) = sl*dy(src(q), j)
+        end do
+        wt(nc + 1, j) = sl*nu(i, j)
+      end do
+    end if
+  end subroutine weigh_diagonal
+
+  !> Adds output's product p (nc+1 x nc+1, its upper triangle: its columns
+  !> cols, then the residual) to the information f and the gradient g.
   subroutine add_output(cols, p, g, f)
     integer, intent(in) :: cols(:)
     real(wp), intent(in) :: p(size(cols) + 1, size(cols) + 1)
     real(wp), intent(inout) :: g(:), f(:, :)
-    integer :: nc
-    nc = size(cols)
-    f(cols, cols) = f(cols, cols) + p(1:nc, 1:nc)
-    g(cols) = g(cols) - p(1:nc, nc + 1)
+    integer :: k, l
+    do l = 1, size(cols)
+      do k = 1, l
+        f(cols(k), cols(l)) = f(cols(k), cols(l)) + p(k, l)
+        if (k < l) f(cols(l), cols(k)) = f(cols(l), cols(k)) + p(k, l)
+      end do
+      g(cols(l)) = g(cols(l)) - p(l, size(cols) + 1)
+    end do
   end subroutine add_output
 
   !> wsens(:, j, cols) = R^-1 dy(:, cols, j) over the samples j0..j1.
@@ -435,20 +540,6 @@ contains
       end do
     end do
   end subroutine weigh_columns
-
-  !> wsens(i, j, cols) = rii dy(i, cols, j) over the samples j0..j1: row i
-  !> of R^-1 dy for a diagonal R.
-  subroutine weigh_row(i, ny, nf, nt, j0, j1, cols, rii, dy, wsens)
-    integer, intent(in) :: i, ny, nf, nt, j0, j1, cols(:)
-    real(wp), intent(in) :: rii, dy(ny, nf, nt)
-    real(wp), intent(inout) :: wsens(ny, nt, nf)
-    integer :: j, c
-    do c = 1, size(cols)
-      do j = j0, j1
-        wsens(i, j, cols(c)) = rii*dy(i, cols(c), j)
-      end do
-    end do
-  end subroutine weigh_row
 
   subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
                            info, sens, wsens, msens, bmean)

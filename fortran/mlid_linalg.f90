@@ -104,34 +104,34 @@ contains
     tile_rows = 4*((n + 3)/4)
   end function tile_rows
 
-  !> b = b + xt(1:n, 1:m) yt(1:n, 1:m)' where that is symmetric: the upper
-  !> triangle (each entry k <= l the sum over the columns j of xt(k, j)
-  !> yt(l, j), in order, then added to b), mirrored.  xt and yt (ld >=
-  !> tile_rows(n), rows n+1..ld zero) go by tiles of 4 x 4 entries: each
-  !> column's four x values and four y values serve sixteen sums, kept in
-  !> eight vector registers (4 x 2 for the last one or two columns: the
-  !> padding's sums not made).
+  !> The upper triangle of b = b + xt(1:n, 1:m) yt(1:n, 1:m)' where that
+  !> is symmetric (each entry k <= l the sum over the columns j of xt(k, j)
+  !> yt(l, j), in order, then added to b; the caller mirrors it once, when
+  !> its sums are done).  xt and yt (ld >= tile_rows(n), rows n+1..ld
+  !> zero) go by tiles of 4 x 4 entries: each column's four x values and
+  !> four y values serve sixteen sums, kept in eight vector registers (4 x
+  !> 2 for the last one or two columns: the padding's sums not made).
   subroutine sym_atb_t(m, ld, n, xt, yt, b)
     integer, intent(in) :: m, ld, n
     real(wp), intent(in) :: xt(ld, m), yt(ld, m)
     real(wp), intent(inout) :: b(n, n)
     real(wp) :: d(4, 4)
-    integer :: k0, l0, k, l, p, q
+    integer :: k0, l0, nq, q
     do l0 = 1, n, 4
+      nq = min(4, n - l0 + 1)
       do k0 = 1, l0, 4
-        if (n - l0 < 2) then                 ! the last one or two columns: half a tile
+        if (nq < 3) then                     ! the last one or two columns: half a tile
           call tile_4x2(m, ld, xt(k0, 1), yt(l0, 1), d)
         else
           call tile_4x4(m, ld, xt(k0, 1), yt(l0, 1), d)
         end if
-        do q = 1, min(4, n - l0 + 1)
-          l = l0 + q - 1
-          do p = 1, min(4, l - k0 + 1)
-            k = k0 + p - 1
-            b(k, l) = b(k, l) + d(p, q)
-            if (k < l) b(l, k) = b(l, k) + d(p, q)
+        if (k0 < l0) then                    ! above the diagonal: all of it
+          b(k0:k0 + 3, l0:l0 + nq - 1) = b(k0:k0 + 3, l0:l0 + nq - 1) + d(:, 1:nq)
+        else                                 ! on it: its upper triangle
+          do q = 1, nq
+            b(k0:k0 + q - 1, l0 + q - 1) = b(k0:k0 + q - 1, l0 + q - 1) + d(1:q, q)
           end do
-        end do
+        end if
       end do
     end do
   end subroutine sym_atb_t
@@ -144,6 +144,7 @@ contains
     real(wp), intent(out) :: d(4, 4)
     integer :: j
     d = 0.0_wp
+    !GCC$ unroll 2
     do j = 1, m
       d(:, 1) = d(:, 1) + xt(1:4, j)*yt(1, j)
       d(:, 2) = d(:, 2) + xt(1:4, j)*yt(2, j)
@@ -160,6 +161,7 @@ contains
     real(wp), intent(out) :: d(4, 4)
     integer :: j
     d = 0.0_wp
+    !GCC$ unroll 2
     do j = 1, m
       d(:, 1) = d(:, 1) + xt(1:4, j)*yt(1, j)
       d(:, 2) = d(:, 2) + xt(1:4, j)*yt(2, j)
@@ -187,6 +189,7 @@ contains
     integer :: i, m8
     s = 0.0_wp
     m8 = m - mod(m, 8)
+    !GCC$ unroll 2
     do i = 1, m8, 8
       s = s + x(i:i + 7)*y(i:i + 7)
     end do

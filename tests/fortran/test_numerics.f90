@@ -338,8 +338,9 @@ contains
   !> 4 x 4 and 4 x 2 entries) against the sums written out, for column
   !> counts on and off the tiles' edges, odd and even row counts: within
   !> rounding (4 eps sum |x||y|: they add the terms in another order), both
-  !> triangles, and what b held before kept.  The product's upper triangle is taken, mirrored, whether
-  !> or not x' y is symmetric: so y may be any matrix here.
+  !> triangles (sym_atb_t: the upper one, the lower left as it was), and
+  !> what b held before kept.  The product's upper triangle is taken,
+  !> mirrored, whether or not x' y is symmetric: so y may be any matrix here.
   subroutine test_sym_products()
     type(rng_t) :: r
     real(wp) :: x(9, 13), y(9, 13), q(13, 13), b(13, 13), e(13, 13), g(13, 13), w(9, 13)
@@ -373,8 +374,11 @@ contains
         wt(1:n, 1:mm(m)) = transpose(w(1:mm(m), 1:n))
         call sym_atb_t(mm(m), tile_rows(n), n, wt, wt, b(1:n, 1:n))
         call sym_expected(mm(m), n, q, w, w, e, g)
-        call check(all(abs(b(1:n, 1:n) - e(1:n, 1:n)) <= 4*epsilon(1.0_wp)*g(1:n, 1:n)), &
-                   'sym_atb_t is b + w''w over the first m rows')
+        do j = 1, n               ! its upper triangle only; below it b as it was
+          call check(all(abs(b(1:j, j) - e(1:j, j)) <= 4*epsilon(1.0_wp)*g(1:j, j)) .and. &
+                     all(b(j + 1:n, j) == q(j + 1:n, j)), &
+                     'sym_atb_t is b + w''w over the first m rows, the upper triangle')
+        end do
       end do
     end do
   end subroutine test_sym_products
