@@ -441,7 +441,7 @@ contains
     else
       where (info_diag(info) > 0.0_wp) sc = 1.0_wp/sqrt(info_diag(info))
     end if
-    call sym_eig(info*spread(sc, 1, n)*spread(sc, 2, n), w, v, ierr)
+    call sym_eig(scaled(info, sc), w, v, ierr)
     if (ierr /= 0) then
       status = MLID_ERR_INTERNAL
       write (msg, '(a,i0)') 'eigen-decomposition of the information matrix failed, dsyevr info = ', ierr
@@ -487,7 +487,8 @@ contains
     integer, intent(in) :: rank
     real(wp), intent(out) :: cov(:, :)
     integer, intent(out) :: ndrop, bad
-    integer :: n, k
+    real(wp) :: vw(size(w))
+    integer :: n, k, j
 
     n = size(w)
     ndrop = 0
@@ -496,14 +497,30 @@ contains
     if (n == 0) return
     do k = 1, n
       if (w(k) > rcond*w(n) .and. w(n) > 0.0_wp) then
-        if (k > n - rank) cov = cov + spread(v(:, k), 2, n)*spread(v(:, k)/w(k), 1, n)
+        if (k > n - rank) then       ! cov += v_k (v_k / w_k)', column by column
+          vw = v(:, k)/w(k)
+          do j = 1, n
+            cov(:, j) = cov(:, j) + v(:, k)*vw(j)
+          end do
+        end if
       else
         ndrop = ndrop + 1
       end if
     end do
-    cov = cov*spread(sc, 1, n)*spread(sc, 2, n)
+    cov = scaled(cov, sc)
     if (ndrop > 0) bad = maxloc(abs(v(:, 1)), 1)
   end subroutine eig_inverse
+
+  !> a(i, j) sc(j) sc(i), in that order: a symmetric scaling D a D,
+  !> D = diag(sc), column by column (no spread temporaries).
+  pure function scaled(a, sc) result(b)
+    real(wp), intent(in) :: a(:, :), sc(:)
+    real(wp) :: b(size(a, 1), size(a, 2))
+    integer :: j
+    do j = 1, size(a, 2)
+      b(:, j) = a(:, j)*sc(j)*sc
+    end do
+  end function scaled
 
   !> x = A^-1 b for a general square A (LU, LAPACK dgesv); info > 0: singular.
   subroutine solve(a, b, x, info)
