@@ -56,6 +56,21 @@ ratio 57x -> 61-62x, scalar floor ratio 3.4-3.5 -> 3.0; (b) ATTAS lateral
 1.05 / 1.09 ms -> 1.01 ms (one of the merged build's rounds 1.52 ms, the
 machine's other work), floor ratio 3.7.  Issue 18's 3 ms, 500x, 10 ms and
 2x-floor targets: not met.
+
+Measured (ours, one thread) at the stop that merged aero-eval, colored-cut,
+lti-vec and info-acc (and eig_inverse without spread), against main at
+e34fe4f, the builds' processes taking turns (benchmarks/bench_stage_eval.py
+--case all --rounds 5, least CPU time of 100 fits each): (a) HFB-320 82.8 ->
+77.1 M instructions, 6.79 -> 6.44 ms CPU (scalar floor ratio 2.6); (b) ATTAS
+lateral 158.1 -> 103.3 M instructions, 14.42 -> 11.65 ms CPU (floor ratio
+2.0); (c) C-8 9.0 -> 7.2 M, 0.98 -> 0.90 ms (floor ratio 3.3).  Native
+build (-Dnative=true) beside the portable one, alternating, least CPU of
+140 fits: ATTAS 9.6 against 11.9 ms, C-8 0.85 against 0.90 ms, HFB-320 6.4
+against 6.5 ms.  The portable build's 3 ms, 500x and 10 ms targets: not
+met; the 2x floor: met by ATTAS lateral only, borderline.  A branch (rk-fuse)
+that took each sensitivity column's RK4 step in registers cut HFB-320 by
+another 4.9 M instructions but not its time (6.77 against 6.75 ms CPU: a
+column's four stages are one dependent chain) and was not merged.
 """
 
 import os
