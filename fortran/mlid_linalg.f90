@@ -106,8 +106,8 @@ contains
 
   !> The upper triangle of b = b + xt(1:n, 1:m) yt(1:n, 1:m)' where that
   !> is symmetric (each entry k <= l the sum over the columns j of xt(k, j)
-  !> yt(l, j), in order, then added to b; the caller mirrors it once, when
-  !> its sums are done).  xt and yt (ld >= tile_rows(n), rows n+1..ld
+  !> yt(l, j), in order, then added to b; the lower triangle is left as it
+  !> is: the caller reads the upper one).  xt and yt (ld >= tile_rows(n), rows n+1..ld
   !> zero) go by tiles of 4 x 4 entries: each column's four x values and
   !> four y values serve sixteen sums, kept in eight vector registers (4 x
   !> 2 for the last one or two columns: the padding's sums not made).
@@ -384,8 +384,10 @@ contains
     n = size(a, 1)
     l = 0.0_wp
     ok = .true.
-    tol = 1.0e-12_wp*max(tiny(1.0_wp), maxval(abs(a)))
     do j = 1, n
+      ! a pivot is zero against its own diagonal entry, not the largest
+      ! entry: a variable a million times smaller than another keeps its factor
+      tol = 1.0e-12_wp*max(tiny(1.0_wp), abs(a(j, j)))
       d = a(j, j) - sum(l(j, 1:j - 1)**2)
       if (d < -tol) then
         ok = .false.

@@ -125,3 +125,25 @@ def test_every_column_moves_every_output(noise):
     data = _record(80, drop_ay=True)
     model = _model(DENSE, drop_ay=True)
     _check_sums(model, data, noise=noise)
+
+
+@pytest.mark.parametrize("noise", ["diagonal", "full"])
+def test_information_does_not_depend_on_an_outputs_units(noise):
+    """An output in units 1e7 times larger (its noise too: residual variance
+    1e14 times the other's) moves nothing: the information and gradient are
+    the same.  A weight factor cut off against the largest entry of R^-1
+    used to drop that output from both without a word."""
+    f = [[-3.5, 0.47], [-0.09, -0.17]]
+    g = [[-4.9], [-0.19]]
+    nt, dt = 200, 0.04
+    t = np.arange(nt) * dt
+    u = mlid.core.input_signal("doublet", 0.05, 1.0, 0.5, dt, nt).reshape(-1, 1)
+    got = []
+    for scale in (1.0, 1.0e7):
+        h = [[scale, 0.0], [0.0, 1.0]]
+        data, _ = mlid.simulate(mlid.LinearModel(f, g, h), t, u, [1e-3 * scale, 1e-3], seed=1)
+        m = mlid.LinearModel(np.array(f) * 1.1, g, h, free=["f(1,1)", "f(1,2)", "g(1,1)"])
+        got.append(mlid.evaluate(m, data, noise=noise))
+    a, b = got
+    assert np.allclose(b["information"], a["information"], rtol=1e-6, atol=0)
+    assert np.allclose(b["gradient"], a["gradient"], rtol=1e-6, atol=1e-9 * np.abs(a["gradient"]).max())

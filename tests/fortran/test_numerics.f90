@@ -61,7 +61,7 @@ program test_numerics
   use mlid_jacobian_check, only: check_jacobians
   use mlid_options, only: options_t
   use mlid_filter, only: oe_predict
-  use mlid_linalg, only: sym_eig, chol_inverse, chol_solve, independent_columns, add_sym_atb, &
+  use mlid_linalg, only: sym_eig, chol_inverse, chol_solve, independent_columns, add_sym_atb, psd_factor, &
                          sym_atb_t, tile_rows
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use test_checks, only: check, finish
@@ -734,7 +734,29 @@ contains
     call check(info > 0, 'indefinite matrix reported, not inverted')
     call check_both_choleskys(8)
     call check_both_choleskys(20)
+    call test_psd_factor()
   end subroutine test_linalg
+
+  !> psd_factor: a variance 1e-14 times another keeps its factor (the
+  !> weights of output error: an output in other units must not drop out),
+  !> a singular matrix scaled so gets its zero pivot all the same, an
+  !> indefinite one is refused.
+  subroutine test_psd_factor()
+    real(wp) :: a(2, 2), l(2, 2), d(2, 2)
+    logical :: ok
+    a = reshape([1.0e-14_wp, 0.0_wp, 0.0_wp, 1.0_wp], [2, 2])
+    call psd_factor(a, l, ok)
+    call check(ok .and. abs(l(1, 1) - 1.0e-7_wp) < 1.0e-22_wp .and. l(2, 2) == 1.0_wp, &
+               'psd_factor keeps a small variable''s factor')
+    d = reshape([1.0e-7_wp, 0.0_wp, 0.0_wp, 1.0_wp], [2, 2])
+    a = matmul(d, matmul(reshape([1.0_wp, 1.0_wp, 1.0_wp, 1.0_wp], [2, 2]), d))
+    call psd_factor(a, l, ok)
+    call check(ok .and. l(2, 2) == 0.0_wp .and. maxval(abs(matmul(l, transpose(l)) - a)) < 1.0e-15_wp, &
+               'psd_factor: a scaled singular matrix has its zero pivot')
+    a = reshape([1.0e-14_wp, 0.0_wp, 0.0_wp, -1.0_wp], [2, 2])
+    call psd_factor(a, l, ok)
+    call check(.not. ok, 'psd_factor refuses an indefinite matrix')
+  end subroutine test_psd_factor
 
   !> The small-matrix path (n <= 12) and LAPACK's agree with the definition.
   subroutine check_both_choleskys(n)
