@@ -443,7 +443,7 @@ contains
     else
       where (info_diag(info) > 0.0_wp) sc = 1.0_wp/sqrt(info_diag(info))
     end if
-    call sym_eig(scaled(info, sc), w, v, ierr)
+    call sym_eig(diag_scaled(info, sc), w, v, ierr)
     if (ierr /= 0) then
       status = MLID_ERR_INTERNAL
       write (msg, '(a,i0)') 'eigen-decomposition of the information matrix failed, dsyevr info = ', ierr
@@ -509,20 +509,20 @@ contains
         ndrop = ndrop + 1
       end if
     end do
-    cov = scaled(cov, sc)
+    cov = diag_scaled(cov, sc)
     if (ndrop > 0) bad = maxloc(abs(v(:, 1)), 1)
   end subroutine eig_inverse
 
   !> a(i, j) sc(j) sc(i), in that order: a symmetric scaling D a D,
   !> D = diag(sc), column by column (no spread temporaries).
-  pure function scaled(a, sc) result(b)
+  pure function diag_scaled(a, sc) result(b)
     real(wp), intent(in) :: a(:, :), sc(:)
     real(wp) :: b(size(a, 1), size(a, 2))
     integer :: j
     do j = 1, size(a, 2)
       b(:, j) = a(:, j)*sc(j)*sc
     end do
-  end function scaled
+  end function diag_scaled
 
   !> x = A^-1 b for a general square A (LU, LAPACK dgesv); info > 0: singular.
   subroutine solve(a, b, x, info)
