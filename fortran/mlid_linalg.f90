@@ -148,8 +148,9 @@ contains
   !> d(:, 2p) of xt(2p-1:2p, j) yt(2:1:-1, j) (the y pair swapped: one
   !> shuffle a column, then one vector product and sum for each half of the
   !> pair block, where one y value each would take two to broadcast).
-  !> Compiled as written (no vectorizing across j: that would reorder the sums);
-  !> eight accumulators, independent chains that keep both adders busy.
+  !> Eight accumulators: independent chains that keep both adders busy.
+  !> novector: gfortran 12's loop vectorizer, allowed at it, swaps each x pair
+  !> too (five shuffles a sample, not one; the same sums either way).
   pure subroutine pairs_4(m, ld, xt, yt, d)
     integer, intent(in) :: m, ld
     real(wp), intent(in) :: xt(ld, *), yt(ld, *)
