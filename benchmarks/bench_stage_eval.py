@@ -208,6 +208,43 @@ at about 13 instructions an entry with wsens (two stores each); mlid_newton
 asks for wsens at every full evaluation though the coloured correction
 uses the last one only (its writes and zeros about 5 M per
 ATTAS fit, 2.3 M per HFB-320 fit), outside these files.
+
+Measured (ours, branch tiles against main at da56406, one thread; --case
+all --rounds 3 and 7; mlid_linalg's sym_atb_t only):
+  HFB-320    76.6 M -> 76.6 M instructions per fit (the stacked path, dot8:
+             untouched); least CPU time 6.38 -> 6.33 ms (noise);
+  C-8        7.1 M -> 7.1 M; 0.89 -> 0.89 ms CPU;
+  ATTAS lat. 103.3 M -> 97.4 M (9.83 k -> 9.26 k per sample and
+             iteration); least CPU time 11.82 -> 11.29 ms and 11.73 ->
+             11.46 ms (two runs, the machine shared).
+sym_atb_t 24.9 -> 19.0 M per ATTAS fit (callgrind, 1,080 calls a fit: five
+outputs of 14, 14, 19, 14, 14 columns, 64-sample blocks).  The tiles go by
+pairs of columns, down to the diagonal in one to four pairs of rows: each
+sample's y pair loaded once and swapped once (one shufpd), then one mulpd
+and addpd for each half of a 2 x 2 block, where the 4 x 4 tile broadcast
+each y value (two instructions each in SSE2); the triangle in 2 x 2 blocks
+(14 columns: 112 products a sample where the 4 x 4 and 4 x 2 tiles made
+128).  Inner loops (objdump, per sample): four pairs of rows 28.75
+instructions for 16 multiply-adds (was 36.5 the 4 x 4 tile), three 22.75,
+two 16.75, one 9.75; the floor of this scheme in two-operand SSE2 is three
+instructions a product pair (copy, mulpd, addpd) plus the loads and the
+swap: 26.5 for four pairs.  The same products summed in the same order:
+every case deck bitwise (compare_cases: 40 of 40; ATTAS and tc23 the same
+JSON with one and two threads).  Tried and dropped: wider tiles (five or
+six pairs of rows, 4 x 6, 6 x 4: twelve accumulators spill); 4 x 4 tiles
+of the same swapped pairs with a triangular diagonal tile (220 against 213
+loop instructions a sample for 14 columns); a swapped copy of the y
+rows made once (three array pointers: no fewer instructions); the kernels
+without !GCC$ novector (gfortran 12 then swaps every x pair too: 32.75 a
+sample for four pairs); unrolling by 2 or 8 (29.5, 28.4); the blocks added
+to b as vector pairs (more instructions).  Native build (-march=native,
+the kernels alone): 12 % faster than main's tiles, but the one-pair kernel
+is not contracted to FMA where the others are, so its results differ from
+main's native build at rounding level (the portable build is the target
+and is bitwise).  Left: the odd column count's padding column (half the
+products of its last pair of columns, 2-3 % of sym_atb_t in ATTAS)
+and the per-call bookkeeping (calls, zeroing, adding the blocks to b:
+about 10 % of sym_atb_t at 64 samples a block).
 """
 
 import argparse

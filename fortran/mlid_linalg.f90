@@ -98,75 +98,135 @@ contains
   end subroutine sym_atb
 
   !> The rows a transposed operand of sym_atb_t needs for n columns: whole
-  !> tiles of four.
+  !> pairs (the padding row of an odd n zero).
   pure integer function tile_rows(n)
     integer, intent(in) :: n
-    tile_rows = 4*((n + 3)/4)
+    tile_rows = 2*((n + 1)/2)
   end function tile_rows
 
   !> The upper triangle of b = b + xt(1:n, 1:m) yt(1:n, 1:m)' where that
   !> is symmetric (each entry k <= l the sum over the columns j of xt(k, j)
   !> yt(l, j), in order, then added to b; the lower triangle is left as it
-  !> is: the caller reads the upper one).  xt and yt (ld >= tile_rows(n), rows n+1..ld
-  !> zero) go by tiles of 4 x 4 entries: each column's four x values and
-  !> four y values serve sixteen sums, kept in eight vector registers (4 x
-  !> 2 for the last one or two columns: the padding's sums not made).
+  !> is: the caller reads the upper one).  xt and yt (ld >= tile_rows(n),
+  !> row n+1 of an odd n zero) go by pairs of columns l0, l0+1 of b, each
+  !> down to the diagonal in tiles of up to four pairs of rows (pairs_4):
+  !> the triangle in blocks of 2 x 2, none below the diagonal's.
   subroutine sym_atb_t(m, ld, n, xt, yt, b)
     integer, intent(in) :: m, ld, n
     real(wp), intent(in) :: xt(ld, m), yt(ld, m)
     real(wp), intent(inout) :: b(n, n)
-    real(wp) :: d(4, 4)
-    integer :: k0, l0, nq, q
-    do l0 = 1, n, 4
-      nq = min(4, n - l0 + 1)
-      do k0 = 1, l0, 4
-        if (nq < 3) then                     ! the last one or two columns: half a tile
-          call tile_4x2(m, ld, xt(k0, 1), yt(l0, 1), d)
-        else
-          call tile_4x4(m, ld, xt(k0, 1), yt(l0, 1), d)
-        end if
-        if (k0 < l0) then                    ! above the diagonal: all of it
-          b(k0:k0 + 3, l0:l0 + nq - 1) = b(k0:k0 + 3, l0:l0 + nq - 1) + d(:, 1:nq)
-        else                                 ! on it: its upper triangle
-          do q = 1, nq
-            b(k0:k0 + q - 1, l0 + q - 1) = b(k0:k0 + q - 1, l0 + q - 1) + d(1:q, q)
-          end do
-        end if
+    real(wp) :: d(2, 8)
+    integer :: k0, l0, np, p, k
+    do l0 = 1, n, 2
+      do k0 = 1, l0, 8
+        np = min(4, (l0 - k0)/2 + 1)         ! pairs of rows, down to the diagonal's
+        select case (np)
+        case (1)
+          call pairs_1(m, ld, xt(k0, 1), yt(l0, 1), d)
+        case (2)
+          call pairs_2(m, ld, xt(k0, 1), yt(l0, 1), d)
+        case (3)
+          call pairs_3(m, ld, xt(k0, 1), yt(l0, 1), d)
+        case default
+          call pairs_4(m, ld, xt(k0, 1), yt(l0, 1), d)
+        end select
+        do p = 1, np                         ! pair p's block: d(:, 2p-1) straight, d(:, 2p) swapped
+          k = k0 + 2*p - 2
+          b(k, l0) = b(k, l0) + d(1, 2*p - 1)
+          if (k < l0) b(k + 1, l0) = b(k + 1, l0) + d(2, 2*p)     ! not below the diagonal
+          if (l0 < n) then                   ! not the padding
+            b(k, l0 + 1) = b(k, l0 + 1) + d(1, 2*p)
+            b(k + 1, l0 + 1) = b(k + 1, l0 + 1) + d(2, 2*p - 1)
+          end if
+        end do
       end do
     end do
   end subroutine sym_atb_t
 
-  !> d(p, q) = sum over the m columns j of xt(p, j) yt(q, j), p, q <= 4
-  !> (xt and yt start at the tile's first row, leading dimension ld).
-  pure subroutine tile_4x4(m, ld, xt, yt, d)
+  !> For the pairs p = 1..4 of xt's rows 2p-1, 2p and yt's rows 1, 2, the sums
+  !> over the m columns j, in order: d(:, 2p-1) of xt(2p-1:2p, j) yt(1:2, j),
+  !> d(:, 2p) of xt(2p-1:2p, j) yt(2:1:-1, j) (the y pair swapped: one
+  !> shuffle a column, then one vector product and sum for each half of the
+  !> pair block, where one y value each would take two to broadcast).
+  !> Eight accumulators: independent chains that keep both adders busy.
+  !> novector: gfortran 12's loop vectorizer, allowed at it, swaps each x pair
+  !> too (five shuffles a sample, not one; the same sums either way).
+  pure subroutine pairs_4(m, ld, xt, yt, d)
     integer, intent(in) :: m, ld
     real(wp), intent(in) :: xt(ld, *), yt(ld, *)
-    real(wp), intent(out) :: d(4, 4)
-    integer :: j
+    real(wp), intent(out) :: d(2, 8)
+    real(wp) :: y(2), r(2)
+    integer :: j, p
     d = 0.0_wp
-    !GCC$ unroll 2
+    !GCC$ novector
+    !GCC$ unroll 4
     do j = 1, m
-      d(:, 1) = d(:, 1) + xt(1:4, j)*yt(1, j)
-      d(:, 2) = d(:, 2) + xt(1:4, j)*yt(2, j)
-      d(:, 3) = d(:, 3) + xt(1:4, j)*yt(3, j)
-      d(:, 4) = d(:, 4) + xt(1:4, j)*yt(4, j)
+      y = yt(1:2, j)
+      r = y(2:1:-1)
+      do concurrent (p = 1:4)
+        d(:, 2*p - 1) = d(:, 2*p - 1) + xt(2*p - 1:2*p, j)*y
+        d(:, 2*p) = d(:, 2*p) + xt(2*p - 1:2*p, j)*r
+      end do
     end do
-  end subroutine tile_4x4
+  end subroutine pairs_4
 
-  !> d(p, q) = sum over the m columns j of xt(p, j) yt(q, j), p <= 4, q <= 2:
-  !> tile_4x4's sums for the first two q.
-  pure subroutine tile_4x2(m, ld, xt, yt, d)
+  !> pairs_4 for one pair of rows.
+  pure subroutine pairs_1(m, ld, xt, yt, d)
     integer, intent(in) :: m, ld
     real(wp), intent(in) :: xt(ld, *), yt(ld, *)
-    real(wp), intent(out) :: d(4, 4)
+    real(wp), intent(out) :: d(2, 2)
+    real(wp) :: y(2), r(2)
     integer :: j
     d = 0.0_wp
-    !GCC$ unroll 2
+    !GCC$ novector
+    !GCC$ unroll 4
     do j = 1, m
-      d(:, 1) = d(:, 1) + xt(1:4, j)*yt(1, j)
-      d(:, 2) = d(:, 2) + xt(1:4, j)*yt(2, j)
+      y = yt(1:2, j)
+      r = y(2:1:-1)
+      d(:, 1) = d(:, 1) + xt(1:2, j)*y
+      d(:, 2) = d(:, 2) + xt(1:2, j)*r
     end do
-  end subroutine tile_4x2
+  end subroutine pairs_1
+
+  !> pairs_4 for two pairs of rows.
+  pure subroutine pairs_2(m, ld, xt, yt, d)
+    integer, intent(in) :: m, ld
+    real(wp), intent(in) :: xt(ld, *), yt(ld, *)
+    real(wp), intent(out) :: d(2, 4)
+    real(wp) :: y(2), r(2)
+    integer :: j, p
+    d = 0.0_wp
+    !GCC$ novector
+    !GCC$ unroll 4
+    do j = 1, m
+      y = yt(1:2, j)
+      r = y(2:1:-1)
+      do concurrent (p = 1:2)
+        d(:, 2*p - 1) = d(:, 2*p - 1) + xt(2*p - 1:2*p, j)*y
+        d(:, 2*p) = d(:, 2*p) + xt(2*p - 1:2*p, j)*r
+      end do
+    end do
+  end subroutine pairs_2
+
+  !> pairs_4 for three pairs of rows.
+  pure subroutine pairs_3(m, ld, xt, yt, d)
+    integer, intent(in) :: m, ld
+    real(wp), intent(in) :: xt(ld, *), yt(ld, *)
+    real(wp), intent(out) :: d(2, 6)
+    real(wp) :: y(2), r(2)
+    integer :: j, p
+    d = 0.0_wp
+    !GCC$ novector
+    !GCC$ unroll 4
+    do j = 1, m
+      y = yt(1:2, j)
+      r = y(2:1:-1)
+      do concurrent (p = 1:3)
+        d(:, 2*p - 1) = d(:, 2*p - 1) + xt(2*p - 1:2*p, j)*y
+        d(:, 2*p) = d(:, 2*p) + xt(2*p - 1:2*p, j)*r
+      end do
+    end do
+  end subroutine pairs_3
 
   !> g = g + w' v over the first m rows of w and v (as dgemv).
   subroutine add_atv(m, n, w, v, g)

@@ -64,6 +64,7 @@ program test_numerics
   use mlid_linalg, only: sym_eig, chol_inverse, chol_solve, independent_columns, add_sym_atb, psd_factor, &
                          sym_atb_t, tile_rows
   use mlid_random, only: rng_t, rng_seed, rng_normal
+  use mlid_text, only: itoa
   use test_checks, only: check, finish
   use split_model, only: split_model_t
   use mlid_rk, only: small_product
@@ -335,8 +336,10 @@ contains
   end subroutine colored_paths
 
   !> add_sym_atb (dot products) and sym_atb_t (transposed operands, tiles of
-  !> 4 x 4 and 4 x 2 entries) against the sums written out, for column
-  !> counts on and off the tiles' edges, odd and even row counts: within
+  !> one to four pairs of rows by a pair of columns) against the sums
+  !> written out, for every column count 1..13 (odd ones with the padding
+  !> row, each size of the tiles at the diagonal and above it) and row count
+  !> 1..9 (the kernels' loops unrolled by four: each remainder): within
   !> rounding (4 eps sum |x||y|: they add the terms in another order), both
   !> triangles (sym_atb_t: the upper one, the lower left as it was), and
   !> what b held before kept.  The product's upper triangle is taken,
@@ -345,7 +348,8 @@ contains
     type(rng_t) :: r
     real(wp) :: x(9, 13), y(9, 13), q(13, 13), b(13, 13), e(13, 13), g(13, 13), w(9, 13)
     real(wp), allocatable :: wt(:, :)
-    integer :: i, j, k, m, n, nn(6), mm(3)
+    integer :: i, j, m, n
+    logical :: ok_dot, ok_tiles
     call rng_seed(r, 17)
     do j = 1, 13
       do i = 1, 13
@@ -356,30 +360,30 @@ contains
         w(i, j) = rng_normal(r)
       end do
     end do
-    nn = [1, 2, 3, 5, 8, 13]
-    mm = [1, 8, 9]
-    do k = 1, size(nn)
-      n = nn(k)
+    do n = 1, 13
       if (allocated(wt)) deallocate (wt)
       allocate (wt(tile_rows(n), size(w, 1)))
-      do m = 1, size(mm)
+      ok_dot = .true.
+      ok_tiles = .true.
+      do m = 1, 9
         y = w                   ! x' y need not be symmetric: the upper triangle's, mirrored
         b = q
-        call add_sym_atb(mm(m), n, x(1:mm(m), 1:n), y(1:mm(m), 1:n), b(1:n, 1:n))
-        call sym_expected(mm(m), n, q, x, y, e, g)
-        call check(all(abs(b(1:n, 1:n) - e(1:n, 1:n)) <= 4*epsilon(1.0_wp)*g(1:n, 1:n)), &
-                   'add_sym_atb is b + x''y (upper triangle, mirrored)')
+        call add_sym_atb(m, n, x(1:m, 1:n), y(1:m, 1:n), b(1:n, 1:n))
+        call sym_expected(m, n, q, x, y, e, g)
+        ok_dot = ok_dot .and. all(abs(b(1:n, 1:n) - e(1:n, 1:n)) <= 4*epsilon(1.0_wp)*g(1:n, 1:n))
         b = q                   ! the transposed operands, zero to the tiles' edge
         wt = 0.0_wp
-        wt(1:n, 1:mm(m)) = transpose(w(1:mm(m), 1:n))
-        call sym_atb_t(mm(m), tile_rows(n), n, wt, wt, b(1:n, 1:n))
-        call sym_expected(mm(m), n, q, w, w, e, g)
+        wt(1:n, 1:m) = transpose(w(1:m, 1:n))
+        call sym_atb_t(m, tile_rows(n), n, wt, wt, b(1:n, 1:n))
+        call sym_expected(m, n, q, w, w, e, g)
         do j = 1, n               ! its upper triangle only; below it b as it was
-          call check(all(abs(b(1:j, j) - e(1:j, j)) <= 4*epsilon(1.0_wp)*g(1:j, j)) .and. &
-                     all(b(j + 1:n, j) == q(j + 1:n, j)), &
-                     'sym_atb_t is b + w''w over the first m rows, the upper triangle')
+          ok_tiles = ok_tiles .and. all(abs(b(1:j, j) - e(1:j, j)) <= 4*epsilon(1.0_wp)*g(1:j, j)) &
+                     .and. all(b(j + 1:n, j) == q(j + 1:n, j))
         end do
       end do
+      call check(ok_dot, 'add_sym_atb is b + x''y (upper triangle, mirrored), n = '//itoa(n)//', m = 1..9')
+      call check(ok_tiles, 'sym_atb_t is b + w''w over the first m rows, the upper triangle, n = '// &
+                 itoa(n)//', m = 1..9')
     end do
   end subroutine test_sym_products
 
