@@ -96,7 +96,8 @@ contains
     type(sens_keep_t), intent(inout), optional :: keep
     type(sens_keep_t) :: own
 
-    if (present(wsens) .and. .not. frequency_method(opt)) then   ! from what is kept, here
+    ! wsens (evaluate's) is made as a fit makes it: from what the evaluation keeps
+    if (present(wsens) .and. .not. frequency_method(opt)) then
       call likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
                       sens, msens=msens, bmean=bmean, keep=own)
       if (status == MLID_OK .and. allocated(own%dy)) call weighted_sensitivities(own, pm%l%seg, &
