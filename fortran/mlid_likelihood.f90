@@ -184,7 +184,7 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), msens(:, :)
     type(sens_keep_t), intent(inout), optional :: keep
-    real(wp), allocatable :: dy(:, :, :), nu(:, :)
+    real(wp), allocatable :: dy(:, :, :), nu(:, :), w1(:, :, :)
     real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny), rdiag(m%ny)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
     integer :: ny, nt, nf, i, k, ierr
@@ -261,7 +261,10 @@ contains
       if (present(sens)) call sensitivity_norms(dy, rhat, sens)
       if (present(keep)) then
         call move_alloc(dy, keep%dy)
-        keep%w = reshape(rinv, [ny, ny, 1])
+        call reuse(keep%w, [ny, ny, 1], w1)
+        if (.not. allocated(w1)) allocate (w1(ny, ny, 1))
+        w1(:, :, 1) = rinv
+        call move_alloc(w1, keep%w)
         keep%filter = .false.
         keep%full_r = opt%full_r
       end if
