@@ -319,8 +319,8 @@ contains
         pw(i + 1) = pw(i) + tile_rows(nci(i) + 1)*SAMPLE_BLOCK
         pp(i + 1) = pp(i) + (nci(i) + 1)**2
       end do
-      ! src, dst: one entry past the last, so that src(first(i)) of an output
-      ! with no moving columns (nci(i) = 0, nothing read) is inside them
+      ! src: one entry past the last, so that src(first(i)) of an output
+      ! with no moving columns (nci(i) = 0, nothing read) is inside it
       allocate (wt(pw(ny + 1)), part(pp(ny + 1)), src(size(ci) + 1))
       do i = 1, ny                  ! weigh_diagonal's offsets of output i's entries
         do q = first(i), first(i) + nci(i) - 1
