@@ -210,14 +210,16 @@ uses the last one only (its writes and zeros about 5 M per
 ATTAS fit, 2.3 M per HFB-320 fit), outside these files.
 
 Measured (ours, branch wsens-once against main at da56406, one thread;
---case all, callgrind of 3 fits, timing --rounds 9 on a loaded machine):
+--case all, callgrind of 3 fits, timing two runs of --rounds 9 on a
+loaded machine):
   ATTAS lat. 103.3 M -> 96.9 M instructions per fit (9.83 k -> 9.22 k per
              sample and iteration), 3486 -> 3475 allocations; least CPU
-             time 11.54 -> 11.06 ms (an earlier run of 3 rounds 12.16 ->
-             9.34 ms: noise);
+             time 11.54 -> 11.06 ms and 9.55 -> 8.62 ms;
   HFB-320    76.6 M -> 75.5 M (18.2 k -> 18.0 k), 2559 -> 2478
-             allocations; 6.22 -> 6.04 ms CPU;
-  C-8        7.1 M -> 7.0 M, 1942 -> 1913 allocations; 0.90 -> 0.87 ms.
+             allocations; 6.22 -> 6.04 ms and 6.04 -> 6.25 ms CPU (the
+             1.4 % in instructions is below this machine's noise);
+  C-8        7.1 M -> 7.0 M, 1942 -> 1913 allocations; 0.90 -> 0.87 ms and
+             0.89 -> 0.88 ms.
 The weighted sensitivities wsens of the coloured-residual correction are
 made once per fit, at its estimate, from what the last accepted full
 evaluation kept (mlid_likelihood's sens_keep_t: the sensitivities, which
