@@ -245,6 +245,35 @@ and is bitwise).  Left: the odd column count's padding column (half the
 products of its last pair of columns, 2-3 % of sym_atb_t in ATTAS)
 and the per-call bookkeeping (calls, zeroing, adding the blocks to b:
 about 10 % of sym_atb_t at 64 samples a block).
+
+Measured (ours, branch wsens-once against main at da56406, one thread;
+--case all, callgrind of 3 fits, timing two runs of --rounds 9 on a
+loaded machine):
+  ATTAS lat. 103.3 M -> 96.9 M instructions per fit (9.83 k -> 9.22 k per
+             sample and iteration), 3486 -> 3475 allocations; least CPU
+             time 11.54 -> 11.06 ms and 9.55 -> 8.62 ms;
+  HFB-320    76.6 M -> 75.5 M (18.2 k -> 18.0 k), 2559 -> 2478
+             allocations; 6.22 -> 6.04 ms and 6.04 -> 6.25 ms CPU (the
+             1.4 % in instructions is below this machine's noise);
+  C-8        7.1 M -> 7.0 M, 1942 -> 1913 allocations; 0.90 -> 0.87 ms and
+             0.89 -> 0.88 ms.
+The weighted sensitivities wsens of the coloured-residual correction are
+made once per fit, at its estimate, from what the last accepted full
+evaluation kept (mlid_likelihood's sens_keep_t: the sensitivities, which
+every evaluation makes anyway, and R^-1, or filter error's B(j)^-1), not
+written and zeroed by the information's gather at every evaluation; the
+kept arrays are the next evaluation's (allocated once a fit for the
+iterate and once for the trial, not at each evaluation).  Per ATTAS fit:
+segment_information with its scan 17.0 M -> 9.6 M (6.9 M, and the scan,
+no longer inlined, 2.7 M), the one weighing at the end 0.94 M; per
+HFB-320 fit: weigh_block 4.2 ->
+2.9 M, the weighing at the end 0.29 M (its loops over seven outputs cost
+about 6 instructions an entry).  M2/F3 filter error (mlid run, all its
+cases): 1641.6 -> 1639.8 M (its wsens was a copy of products made
+anyway).  Every case deck's results are unchanged to the bit
+(compare_cases: 40 of 40 bitwise; tc33 and hfb320 the same JSON with one
+and two threads).  Left: weigh_block's own loop (the stacked path's
+L' dy, about 7 instructions an entry).
 """
 
 import argparse

@@ -38,7 +38,23 @@ module mlid_likelihood
   use mlid_filter, only: oe_predict, kf_innovations
   implicit none
   private
-  public :: likelihood
+  public :: likelihood, sens_keep_t, weighted_sensitivities
+
+  !> What the weighted sensitivities (wsens: W(j) dyhat/dtheta, for the
+  !> coloured-residual correction, mlid_colored) are made from, kept from a
+  !> full evaluation: the sensitivities and their weights come with every
+  !> evaluation anyway, and a fit weighs them once, at its estimate
+  !> (weighted_sensitivities), not at every evaluation.
+  type :: sens_keep_t
+    !> output error: the output sensitivities (ny, nf, nt); filter error:
+    !> the innovations'
+    real(wp), allocatable :: dy(:, :, :)
+    !> the weights: output error R^-1 (ny, ny, 1), filter error B(j)^-1
+    !> (ny, ny, nt)
+    real(wp), allocatable :: w(:, :, :)
+    logical :: filter = .false.   !< filter error's weights, one per sample
+    logical :: full_r = .false.   !< output error with the full R (else its diagonal)
+  end type sens_keep_t
 
   !> Blocks of samples summed in order in the filter-error gradient and
   !> information, whatever the number of threads.
@@ -52,8 +68,8 @@ contains
   !> Cost at theta (and gradient and information for the free parameters
   !> when grad and info are present) by the method of opt.  rhat receives
   !> R-hat (output error) or the mean innovation covariance (filter error).
-  subroutine likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                        sens, wsens, msens, bmean)
+  recursive subroutine likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, &
+                                  grad, info, sens, wsens, msens, bmean, keep)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -75,7 +91,19 @@ contains
     !> filter error: the innovation covariance B(j) = C P(j) C' + R averaged
     !> over the samples (ny, ny), for the innovations criterion (mlid_newton)
     real(wp), intent(out), optional :: bmean(:, :)
+    !> with grad and info (time domain): what wsens is made from, for a fit
+    !> to weigh once at its estimate (its arrays are reused when they fit)
+    type(sens_keep_t), intent(inout), optional :: keep
+    type(sens_keep_t) :: own
 
+    ! wsens (evaluate's) is made as a fit makes it: from what the evaluation keeps
+    if (present(wsens) .and. .not. frequency_method(opt)) then
+      call likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                      sens, msens=msens, bmean=bmean, keep=own)
+      if (status == MLID_OK .and. allocated(own%dy)) call weighted_sensitivities(own, pm%l%seg, &
+                                                                                  wsens)
+      return
+    end if
     cost = huge(1.0_wp)
     call filter_check(theta, pm, opt, status, msg)
     if (status /= MLID_OK) return
@@ -85,7 +113,7 @@ contains
     else if (opt%method == 1 .and. opt%filter_params == 1) then
       ! K and B as the parameters: the predictor with the gain K, B = R-hat
       call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                         sens, wsens, msens)
+                         sens, msens, keep)
     else if (opt%method == 1 .and. (output_delays(theta, pm) .or. input_delays(theta, pm))) then
       status = MLID_ERR_INPUT
       msg = 'time delays are for output error (method = ''output_error''), not the filter'
@@ -102,10 +130,10 @@ contains
       return
     else if (opt%method == 1) then
       call fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                         sens, wsens, msens, bmean)
+                         sens, msens, bmean, keep)
     else
       call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                         sens, wsens, msens)
+                         sens, msens, keep)
     end if
     if (status == MLID_OK .and. .not. ieee_is_finite(cost)) then
       status = MLID_ERR_SINGULAR
@@ -145,7 +173,7 @@ contains
   end subroutine filter_check
 
   subroutine oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
-                           info, sens, wsens, msens)
+                           info, sens, msens, keep)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -154,8 +182,9 @@ contains
     real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
-    real(wp), allocatable :: dy(:, :, :), nu(:, :)
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), msens(:, :)
+    type(sens_keep_t), intent(inout), optional :: keep
+    real(wp), allocatable :: dy(:, :, :), nu(:, :), w1(:, :, :)
     real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny), rdiag(m%ny)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
     integer :: ny, nt, nf, i, k, ierr
@@ -165,7 +194,8 @@ contains
     nt = size(t)
     nf = pm%nf
     if (present(grad)) then
-      allocate (dy(ny, nf, nt))
+      if (present(keep)) call reuse(keep%dy, [ny, nf, nt], dy)
+      if (.not. allocated(dy)) allocate (dy(ny, nf, nt))
       call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy=dy, z=y)
     else
       call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, z=y)
@@ -229,11 +259,20 @@ contains
       end do
       if (present(msens)) msens = info
       if (present(sens)) call sensitivity_norms(dy, rhat, sens)
+      if (present(keep)) then
+        call move_alloc(dy, keep%dy)
+        call reuse(keep%w, [ny, ny, 1], w1)
+        if (.not. allocated(w1)) allocate (w1(ny, ny, 1))
+        w1(:, :, 1) = rinv
+        call move_alloc(w1, keep%w)
+        keep%filter = .false.
+        keep%full_r = opt%full_r
+      end if
     end if
 
   contains
 
-    !> Segment iseg's part of grad and info (and its rows of wsens), over
+    !> Segment iseg's part of grad and info, over
     !> the columns that move in it only (a bias of another manoeuvre adds
     !> zeros).  With R^-1 = L L', the weighted sensitivities w = L' dy/dtheta
     !> give the information as the sum of w_i' w_i over the weighted outputs
@@ -247,7 +286,7 @@ contains
       real(wp), intent(out) :: g(:), f(:, :)
       real(wp), allocatable :: wt(:), part(:)
       integer, allocatable :: cols(:), rows(:), ci(:), first(:), nci(:), pw(:), pp(:)
-      integer(int64), allocatable :: src(:), dst(:)
+      integer(int64), allocatable :: src(:)
       integer :: j0, j1, jbeg, jend, c, i, r, q, ld
       logical :: moves(ny, nf)
       jbeg = pm%l%seg(iseg)
@@ -257,10 +296,8 @@ contains
       cols = pack([(c, c=1, nf)], any(moves, dim=1))
       g = 0.0_wp
       f = 0.0_wp
-      if (present(wsens)) call zero_unmoved(ny, nf, nt, jbeg, jend, moves, wsens)
       ! weighted output i's columns ci(first(i):first(i)+nci(i)-1): those
-      ! moving an output r that L(r, i) weighs in (a diagonal R: output i,
-      ! whose columns write wsens's row i)
+      ! moving an output r that L(r, i) weighs in (a diagonal R: output i)
       allocate (first(ny), nci(ny), ci(0))
       do i = 1, ny
         first(i) = size(ci) + 1
@@ -282,13 +319,12 @@ contains
         pw(i + 1) = pw(i) + tile_rows(nci(i) + 1)*SAMPLE_BLOCK
         pp(i + 1) = pp(i) + (nci(i) + 1)**2
       end do
-      ! src, dst: one entry past the last, so that src(first(i)) of an output
-      ! with no moving columns (nci(i) = 0, nothing read) is inside them
-      allocate (wt(pw(ny + 1)), part(pp(ny + 1)), src(size(ci) + 1), dst(size(ci) + 1))
+      ! src: one entry past the last, so that src(first(i)) of an output
+      ! with no moving columns (nci(i) = 0, nothing read) is inside it
+      allocate (wt(pw(ny + 1)), part(pp(ny + 1)), src(size(ci) + 1))
       do i = 1, ny                  ! weigh_diagonal's offsets of output i's entries
         do q = first(i), first(i) + nci(i) - 1
           src(q) = i + ny*(ci(q) - 1)
-          dst(q) = i + int(ny, int64)*nt*(ci(q) - 1)
         end do
       end do
       wt = 0.0_wp
@@ -301,10 +337,6 @@ contains
             if (count(lw(:, i) /= 0.0_wp) > 1) then
               call weigh_output(i, ny, nf, j1 - j0 + 1, nci(i), cc, lw, dy(:, :, j0:j1), &
                                 nu(:, j0:j1), ld, wt(pw(i) + 1))
-            else if (present(wsens) .and. .not. opt%full_r) then   ! and output i's wsens
-              call weigh_diagonal(i, ny, nf, j1 - j0 + 1, nci(i), src(first(i)), lw(i, i), &
-                                  dy(:, :, j0:j1), nu(:, j0:j1), ld, wt(pw(i) + 1), rinv(i, i), &
-                                  j0, dst(first(i)), wsens)
             else
               call weigh_diagonal(i, ny, nf, j1 - j0 + 1, nci(i), src(first(i)), lw(i, i), &
                                   dy(:, :, j0:j1), nu(:, j0:j1), ld, wt(pw(i) + 1))
@@ -313,8 +345,6 @@ contains
           call sym_atb_t(j1 - j0 + 1, ld, nci(i) + 1, wt(pw(i) + 1), wt(pw(i) + 1), &
                          part(pp(i) + 1))
         end do
-        if (present(wsens) .and. opt%full_r) call weigh_columns(ny, nf, nt, j0, j1, cols, rinv, &
-                                                                dy, wsens)
       end do
       do i = 1, ny
         call add_output(ci(first(i):first(i) + nci(i) - 1), part(pp(i) + 1), g, f)
@@ -335,14 +365,8 @@ contains
       part = 0.0_wp
       do j0 = jbeg, jend, SAMPLE_BLOCK
         j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
-        if (present(wsens) .and. .not. opt%full_r) then      ! and wsens, R^-1 diagonal
-          call weigh_block(opt%full_r, ny, nf, nt, j0, j1, nc, cols, lw, dy(:, :, j0:j1), &
-                           nu(:, j0:j1), w, rdiag, wsens)
-        else
-          call weigh_block(opt%full_r, ny, nf, nt, j0, j1, nc, cols, lw, dy(:, :, j0:j1), &
-                           nu(:, j0:j1), w)
-          if (present(wsens)) call weigh_columns(ny, nf, nt, j0, j1, cols, rinv, dy, wsens)
-        end if
+        call weigh_block(opt%full_r, ny, nf, j0, j1, nc, cols, lw, dy(:, :, j0:j1), &
+                         nu(:, j0:j1), w)
         call add_syrk(ny*(j1 - j0 + 1), nc + 1, w, part)
       end do
       g(cols) = -part(1:nc, nc + 1)
@@ -408,35 +432,21 @@ contains
 
   !> The weighted sensitivities w(:, j, c) = L' dy(:, cols(c), j) of the
   !> block of samples j0..j1 (dy and nu: the block's), samples and outputs
-  !> down the rows of w, and w(:, j, nc+1) = L' nu(:, j).  With ws (R^-1
-  !> diagonal, rd its diagonal): the block's rows of wsens too,
-  !> ws(:, j0-1+j, cols(c)) = rd dy(:, cols(c), j).
-  subroutine weigh_block(full, ny, nf, nt, j0, j1, nc, cols, lw, dy, nu, w, rd, ws)
+  !> down the rows of w, and w(:, j, nc+1) = L' nu(:, j).
+  subroutine weigh_block(full, ny, nf, j0, j1, nc, cols, lw, dy, nu, w)
     logical, intent(in) :: full
-    integer, intent(in) :: ny, nf, nt, j0, j1, nc, cols(nc)
+    integer, intent(in) :: ny, nf, j0, j1, nc, cols(nc)
     real(wp), intent(in) :: lw(ny, ny), dy(ny, nf, j1 - j0 + 1), nu(ny, j1 - j0 + 1)
     real(wp), intent(out) :: w(ny, SAMPLE_BLOCK, nc + 1)
-    real(wp), intent(in), optional :: rd(ny)
-    real(wp), intent(inout), optional :: ws(ny, nt, nf)
-    real(wp) :: lwd(ny), rdl(ny), x
-    integer :: j, c, i
+    real(wp) :: lwd(ny)
+    integer :: j, c
     do j = 1, ny
       lwd(j) = lw(j, j)
     end do
-    if (present(rd)) rdl = rd
     do j = 1, j1 - j0 + 1
       if (full) then
         w(:, j, nc + 1) = matmul(nu(:, j), lw)
         w(:, j, 1:nc) = matmul(transpose(lw), dy(:, cols, j))
-      else if (present(ws)) then
-        w(:, j, nc + 1) = lwd*nu(:, j)
-        do c = 1, nc
-          do i = 1, ny
-            x = dy(i, cols(c), j)
-            w(i, j, c) = lwd(i)*x
-            ws(i, j0 - 1 + j, cols(c)) = rdl(i)*x
-          end do
-        end do
       else
         w(:, j, nc + 1) = lwd*nu(:, j)
         do c = 1, nc
@@ -468,45 +478,23 @@ contains
   end subroutine weigh_output
 
   !> weigh_output for an output L weighs alone (L(i, i) = s, R^-1
-  !> diagonal): wt(q, j) = s dy(i, cols(q), j), wt(nc+1, j) = s nu(i, j);
-  !> with ws, output i's wsens of the block (samples j0..) too,
-  !> ws(i, j0-1+j, cols(q)) = rii dy(i, cols(q), j).  The entries are at
-  !> offsets worked out once a segment (64-bit, no index arithmetic per
-  !> entry): src(q), (i, cols(q)) within a sample's dy(:, :, j), and
-  !> dst(q), (i, 0, cols(q)) in wsens (ny, nt, nf).
-  subroutine weigh_diagonal(i, ny, nf, nb, nc, src, s, dy, nu, ld, wt, rii, j0, dst, ws)
+  !> diagonal): wt(q, j) = s dy(i, cols(q), j), wt(nc+1, j) = s nu(i, j).
+  !> The entries are at offsets worked out once a segment (64-bit, no index
+  !> arithmetic per entry): src(q), (i, cols(q)) within a sample's dy(:, :, j).
+  subroutine weigh_diagonal(i, ny, nf, nb, nc, src, s, dy, nu, ld, wt)
     integer, intent(in) :: i, ny, nf, nb, nc, ld
     integer(int64), intent(in) :: src(nc)
     real(wp), intent(in) :: s, dy(ny*nf, nb), nu(ny, nb)
     real(wp), intent(inout) :: wt(ld, nb)
-    real(wp), intent(in), optional :: rii
-    integer, intent(in), optional :: j0
-    integer(int64), intent(in), optional :: dst(nc)
-    real(wp), intent(inout), optional :: ws(*)
-    integer(int64) :: k
     integer :: j, q
-    real(wp) :: sl, rl, x
+    real(wp) :: sl
     sl = s
-    if (present(ws)) then
-      rl = rii
-      do j = 1, nb
-        k = int(ny, int64)*(j0 - 1 + j - 1)
-        !GCC$ unroll 4
-        do q = 1, nc
-          x = dy(src(q), j)
-          wt(q, j) = sl*x
-          ws(dst(q) + k) = rl*x
-        end do
-        wt(nc + 1, j) = sl*nu(i, j)
+    do j = 1, nb
+      do q = 1, nc
+        wt(q, j) = sl*dy(src(q), j)
       end do
-    else
-      do j = 1, nb
-        do q = 1, nc
-          wt(q, j) = sl*dy(src(q), j)
-        end do
-        wt(nc + 1, j) = sl*nu(i, j)
-      end do
-    end if
+      wt(nc + 1, j) = sl*nu(i, j)
+    end do
   end subroutine weigh_diagonal
 
   !> Adds output's product p (nc+1 x nc+1, its upper triangle: its columns
@@ -543,8 +531,71 @@ contains
     end do
   end subroutine weigh_columns
 
+  !> The weighted sensitivities wsens (ny, nt, nf) from what a full
+  !> evaluation kept (likelihood's keep), with segment starts seg: filter
+  !> error's B(j)^-1 dnu(j) (fe_block's products); output error's R^-1 dy
+  !> over each segment's moving columns (R^-1's diagonal: output i's
+  !> columns that move it; the full R^-1: the columns that move any output),
+  !> zero where a column leaves an output unmoved.
+  subroutine weighted_sensitivities(keep, seg, wsens)
+    type(sens_keep_t), intent(in) :: keep
+    integer, intent(in) :: seg(:)
+    real(wp), intent(out) :: wsens(:, :, :)
+    logical, allocatable :: moves(:, :)
+    integer, allocatable :: cols(:)
+    real(wp), allocatable :: rd(:)
+    integer :: ny, nf, nt, s, jbeg, jend, c, i, j
+
+    ny = size(keep%dy, 1)
+    nf = size(keep%dy, 2)
+    nt = size(keep%dy, 3)
+    if (keep%filter) then
+      do j = 1, nt
+        wsens(:, j, :) = matmul(keep%w(:, :, j), keep%dy(:, :, j))
+      end do
+      return
+    end if
+    allocate (moves(ny, nf), rd(ny))
+    do i = 1, ny
+      rd(i) = keep%w(i, i, 1)
+    end do
+    do s = 1, size(seg)
+      jbeg = seg(s)
+      jend = nt
+      if (s < size(seg)) jend = seg(s + 1) - 1
+      call moving_outputs(ny, nf, jend - jbeg + 1, keep%dy(:, :, jbeg:jend), moves)
+      call zero_unmoved(ny, nf, nt, jbeg, jend, moves, wsens)
+      if (keep%full_r) then
+        cols = pack([(c, c=1, nf)], any(moves, dim=1))
+        call weigh_columns(ny, nf, nt, jbeg, jend, cols, keep%w(:, :, 1), keep%dy, wsens)
+        cycle
+      end if
+      do c = 1, nf
+        if (all(moves(:, c))) then       ! (most columns: down the outputs at once)
+          do j = jbeg, jend
+            wsens(:, j, c) = rd*keep%dy(:, c, j)
+          end do
+          cycle
+        end if
+        do i = 1, ny
+          if (moves(i, c)) wsens(i, jbeg:jend, c) = rd(i)*keep%dy(i, c, jbeg:jend)
+        end do
+      end do
+    end do
+  end subroutine weighted_sensitivities
+
+  !> b takes a's array when its shape is sh (a kept buffer used again);
+  !> else b is left as it is.
+  subroutine reuse(a, sh, b)
+    real(wp), allocatable, intent(inout) :: a(:, :, :), b(:, :, :)
+    integer, intent(in) :: sh(3)
+    if (allocated(a)) then
+      if (all(shape(a) == sh)) call move_alloc(a, b)
+    end if
+  end subroutine reuse
+
   subroutine fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
-                           info, sens, wsens, msens, bmean)
+                           info, sens, msens, bmean, keep)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -553,8 +604,9 @@ contains
     real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), msens(:, :)
     real(wp), intent(out), optional :: bmean(:, :)
+    type(sens_keep_t), intent(inout), optional :: keep
     real(wp), allocatable :: nu(:, :), binv(:, :, :), logdet(:), dnu(:, :, :), db(:, :, :, :)
     real(wp), allocatable :: b0(:, :, :)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :), bpart(:, :, :), vv(:, :, :)
@@ -565,15 +617,21 @@ contains
     ny = m%ny
     nt = size(t)
     nf = pm%nf
-    allocate (nu(ny, nt), binv(ny, ny, nt), logdet(nt))
+    if (present(keep) .and. present(grad)) then
+      call reuse(keep%w, [ny, ny, nt], binv)
+      call reuse(keep%dy, [ny, nf, nt], dnu)
+    end if
+    if (.not. allocated(binv)) allocate (binv(ny, ny, nt))
+    if (present(grad) .and. .not. allocated(dnu)) allocate (dnu(ny, nf, nt))
+    allocate (nu(ny, nt), logdet(nt))
     if (present(grad) .and. .not. m%linear .and. opt%partials) then
-      allocate (dnu(ny, nf, nt), db(ny, ny, nf, nt), b0(ny, ny, nt))
+      allocate (db(ny, ny, nf, nt), b0(ny, ny, nt))
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
                           bhist=b0)
       if (status == MLID_OK) call numerical_partials(m, theta, pm, t, u, y, opt, nu, b0, dnu, db, &
                                                      status, msg)
     else if (present(grad)) then
-      allocate (dnu(ny, nf, nt), db(ny, ny, nf, merge(1, nt, opt%steady)))
+      allocate (db(ny, ny, nf, merge(1, nt, opt%steady)))
       db = 0.0_wp
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, db)
     else
@@ -599,17 +657,10 @@ contains
     do b = 1, nblk
       j0 = (b - 1)*nt/nblk + 1
       j1 = b*nt/nblk
-      if (tv .and. present(wsens)) then
+      if (tv) then
         call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
-                      gpart(:, b), ipart(:, :, b), vv(:, :, b), wsens(:, j0:j1, :), &
-                      bpart(:, :, b), db(:, :, :, j0:j1))
-      else if (tv) then
-        call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
-                      gpart(:, b), ipart(:, :, b), vv(:, :, b), fb=bpart(:, :, b), &
-                      db=db(:, :, :, j0:j1))
-      else if (present(wsens)) then
-        call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
-                      gpart(:, b), ipart(:, :, b), vv(:, :, b), wsens(:, j0:j1, :))
+                      gpart(:, b), ipart(:, :, b), vv(:, :, b), bpart(:, :, b), &
+                      db(:, :, :, j0:j1))
       else
         call fe_block(binv(:, :, j0:j1), nu(:, j0:j1), dnu(:, :, j0:j1), opt%partials, &
                       gpart(:, b), ipart(:, :, b), vv(:, :, b))
@@ -634,20 +685,24 @@ contains
       vv(:, :, 1) = sum(vv, dim=3)
       call add_b_partials(binv(:, :, 1), db(:, :, :, 1), vv(:, :, 1), real(nt, wp), grad, info)
     end if
+    if (present(keep)) then
+      call move_alloc(dnu, keep%dy)
+      call move_alloc(binv, keep%w)
+      keep%filter = .true.
+      keep%full_r = .false.
+    end if
   end subroutine fe_likelihood
 
   !> One block of samples' part of the filter-error gradient and information
   !> (eqs 4.30, 4.37): g = sum dnu' B^-1 nu, f = sum dnu' B^-1 dnu as one
   !> symmetric product over the block's samples and outputs (add_sym_atb);
-  !> vv = sum B^-1 nu nu' B^-1 (for B's terms, with partials); ws, the
-  !> weighted sensitivities B^-1 dnu; and with db (B's partials at every
-  !> sample) fb = 1/2 sum tr(B^-1 dB_k B^-1 dB_l), a symmetric product too,
-  !> and B's terms of g.  The block's arrays are made once, not per sample.
-  subroutine fe_block(binv, nu, dnu, partials, g, f, vv, ws, fb, db)
+  !> vv = sum B^-1 nu nu' B^-1 (for B's terms, with partials); and with db
+  !> (B's partials at every sample) fb = 1/2 sum tr(B^-1 dB_k B^-1 dB_l), a
+  !> symmetric product too, and B's terms of g.  The block's arrays are made once, not per sample.
+  subroutine fe_block(binv, nu, dnu, partials, g, f, vv, fb, db)
     real(wp), intent(in) :: binv(:, :, :), nu(:, :), dnu(:, :, :)
     logical, intent(in) :: partials
     real(wp), intent(out) :: g(:), f(:, :), vv(:, :)
-    real(wp), intent(inout), optional :: ws(:, :, :)
     real(wp), intent(out), optional :: fb(:, :)
     real(wp), intent(in), optional :: db(:, :, :, :)
     real(wp), allocatable :: x(:, :), w(:, :), v(:), e(:, :), et(:, :)
@@ -668,7 +723,6 @@ contains
       v(r + 1:r + ny) = bnu
       x(r + 1:r + ny, :) = dnu(:, :, j)
       w(r + 1:r + ny, :) = matmul(binv(:, :, j), dnu(:, :, j))
-      if (present(ws)) ws(:, j, :) = w(r + 1:r + ny, :)
       if (.not. partials) cycle
       do k = 1, ny                  ! B^-1 nu nu' B^-1
         v1(:, k) = bnu*bnu(k)

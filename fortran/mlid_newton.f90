@@ -13,7 +13,7 @@ module mlid_newton
   use mlid_models, only: model_t
   use mlid_options, only: options_t, frequency_method
   use mlid_frequency, only: freq_record
-  use mlid_likelihood, only: likelihood
+  use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
   use mlid_params, only: param_map_t, apply_ties
   use mlid_colored, only: colored_covariance
   use mlid_text, only: itoa
@@ -86,7 +86,9 @@ module mlid_newton
     real(wp), allocatable :: rhat(:, :)     !< measurement noise covariance estimate
     real(wp), allocatable :: yhat(:, :)     !< model outputs at theta
     real(wp), allocatable :: cost_hist(:)   !< likelihood before iteration 1, then after each
-    real(wp), allocatable :: wsens(:, :, :) !< weighted sensitivities at theta (ny, nt, nf)
+    !> what the weighted sensitivities at theta are made from (made once,
+    !> for the bound corrected for coloured residuals)
+    type(sens_keep_t), allocatable :: keep
     real(wp), allocatable :: msens(:, :)    !< the part of info they make
     real(wp), allocatable :: cov_c(:, :)    !< covariance corrected for coloured residuals
     !> innovations criterion: the innovation covariance averaged over the
@@ -326,29 +328,32 @@ contains
       if (opt%noise_criterion == 1) then
         if (.not. allocated(res%bmean)) allocate (res%bmean(m%ny, m%ny))
         call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, status, &
-                        msg, res%grad, res%info, wsens=res%wsens, msens=res%msens, &
-                        bmean=res%bmean)
+                        msg, res%grad, res%info, msens=res%msens, bmean=res%bmean, &
+                        keep=res%keep)
       else
         call likelihood(m, res%theta, pm, t, u, y, opt, res%cost, res%rhat, res%yhat, status, &
-                        msg, res%grad, res%info, wsens=res%wsens, msens=res%msens)
+                        msg, res%grad, res%info, msens=res%msens, keep=res%keep)
       end if
     end associate
   end subroutine evaluate_full
 
   !> The Cramer-Rao covariance corrected for coloured residuals
-  !> (mlid_colored) from the weighted sensitivities kept with the last
-  !> information matrix; a failure there replaces only an OK status.
+  !> (mlid_colored) from the weighted sensitivities of the last information
+  !> matrix's evaluation, made here from what it kept; a failure there
+  !> replaces only an OK status.
   subroutine colored_bound(pm, y, res, status, msg)
     type(param_map_t), intent(in) :: pm
     real(wp), intent(in) :: y(:, :)
     type(fit_result_t), intent(inout) :: res
     integer, intent(inout) :: status
     character(len=*), intent(inout) :: msg
+    real(wp), allocatable :: wsens(:, :, :)
     integer :: cstat
     character(len=len(msg)) :: cmsg
 
-    allocate (res%cov_c(pm%nf, pm%nf))
-    call colored_covariance(res%cov, res%info, res%msens, res%wsens, y - res%yhat, pm%l%seg, -1, &
+    allocate (res%cov_c(pm%nf, pm%nf), wsens(size(y, 1), size(y, 2), pm%nf))
+    call weighted_sensitivities(res%keep, pm%l%seg, wsens)
+    call colored_covariance(res%cov, res%info, res%msens, wsens, y - res%yhat, pm%l%seg, -1, &
                             res%cov_c, res%lag, cstat, cmsg)
     if (cstat /= MLID_OK .and. status == MLID_OK) then
       status = cstat
@@ -373,7 +378,7 @@ contains
       nt = size(t)
       allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), &
                 res%eigvec(nf, nf), res%rhat(ny, ny), res%yhat(ny, nt), &
-                res%cost_hist(opt%max_iter + 1), res%wsens(ny, nt, nf), res%msens(nf, nf))
+                res%cost_hist(opt%max_iter + 1), res%keep, res%msens(nf, nf))
       res%theta = theta0
       call apply_ties(pm%tie, res%theta)
       res%cost_hist = 0.0_wp
@@ -579,11 +584,11 @@ contains
             trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
           call apply_ties(pm%tie, trial)
           if (ih == 0 .and. rlo >= rmax .and. opt%method /= 1) then
-            if (.not. allocated(stash%wsens)) stash = res
+            if (.not. allocated(stash%keep)) stash = res
             stash%theta = trial
             call likelihood(m, trial, pm, t, u, y, opt, stash%cost, stash%rhat, stash%yhat, &
-                            tstat, tmsg, stash%grad, stash%info, wsens=stash%wsens, &
-                            msens=stash%msens)
+                            tstat, tmsg, stash%grad, stash%info, msens=stash%msens, &
+                            keep=stash%keep)
             jt = stash%cost
             stashed = tstat == MLID_OK
           else
@@ -610,7 +615,8 @@ contains
   !> shapes, for the next trial to overwrite).
   subroutine take_stash(stash, res)
     type(fit_result_t), intent(inout) :: stash, res
-    real(wp), allocatable :: y2(:, :), w3(:, :, :)
+    real(wp), allocatable :: y2(:, :)
+    type(sens_keep_t), allocatable :: k
     res%cost = stash%cost
     res%rhat = stash%rhat
     res%grad = stash%grad
@@ -619,9 +625,9 @@ contains
     call move_alloc(res%yhat, y2)
     call move_alloc(stash%yhat, res%yhat)
     call move_alloc(y2, stash%yhat)
-    call move_alloc(res%wsens, w3)
-    call move_alloc(stash%wsens, res%wsens)
-    call move_alloc(w3, stash%wsens)
+    call move_alloc(res%keep, k)
+    call move_alloc(stash%keep, res%keep)
+    call move_alloc(k, stash%keep)
   end subroutine take_stash
 
   !> Cramer-Rao bound at the final estimate, with the prior's weight and

@@ -151,6 +151,41 @@ def test_fit_reports_the_correction():
     assert '"sigma_corrected"' in res.json()
 
 
+@pytest.mark.parametrize("opts, converged, reason", [
+    ({}, True, "tol_cost"),
+    # the budget spent: the last full evaluation is the last step's
+    ({"max_iter": 2}, False, "iteration limit"),
+    ({"noise": "full", "max_iter": 3}, False, "iteration limit"),
+    # no tolerance can be met: the fit ends on an iteration none of whose
+    # trials lowers the cost, and its last full evaluation (the first trial's)
+    # is not at the estimate it returns
+    ({"tol_cost": 0.0, "tol_step": 0.0, "tol_grad": 0.0, "max_iter": 40}, False,
+     "no cost decrease"),
+    ({"method": "filter_error", "max_iter": 2}, False, "iteration limit"),
+])
+def test_fit_correction_is_at_the_estimate_however_the_fit_ends(opts, converged, reason):
+    """The weighted sensitivities are made once, at the end of a fit, from
+    what its last accepted evaluation kept: the corrected covariance is, to
+    the bit, the routine's on evaluate's sensitivities and residuals at the
+    estimate returned, whether the fit converged, ran out of iterations or
+    stopped without a decrease."""
+    truth, t, u, y = _c8()
+    rng = np.random.default_rng(5)
+    data = mlid.FlightData(t, u, y + STD * _ar1(rng, (NT, 4), PHI))
+    if opts.get("method") == "filter_error":      # the noise statistics the filter needs
+        truth = mlid.LinearModel(F0, G0, np.eye(4), free=FREE, names=NAMES, r=list(STD**2))
+    start = truth.with_theta(truth.theta * np.where(truth.free_mask == 1, 1.3, 1.0))
+    res = mlid.fit(start, data, **opts)
+    assert res.converged == converged and reason in res.reason
+    ev = evaluate(res.model, data, **{k: v for k, v in opts.items() if k in ("noise", "method")})
+    cov_c, lag = colored_covariance(ev["weighted_sensitivity"], data.y - ev["yhat"],
+                                    res.covariance, ev["information"],
+                                    ev["information_sensitivity"])
+    assert lag == res.colored_lag
+    np.testing.assert_array_equal(res.covariance_corrected, cov_c)
+    assert not np.array_equal(res.covariance_corrected, res.covariance)
+
+
 def test_monte_carlo_ar1_noise():
     """AR(1) measurement noise (phi = 0.8) on every output of the C-8 case,
     RUNS seeded records fitted by output error: the sample sigma of the
