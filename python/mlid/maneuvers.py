@@ -41,20 +41,28 @@ class Params:
         # a tie points at the new places of its shared entries
         shared = np.where(own, -1, self.map)
         self.ties = model.tie_args(shared if n > 1 else None, terms)
-        self.labels = self._tagged([model.names.get(e, e) for e in model._layout.names])
+        self._names = dict(model.names)                 # the labels as they are now
 
-    def _tagged(self, seq):
-        """seq (one per entry of the model's theta) for each entry here, an
+    def _tagged(self, name_of, free_only=False):
+        """name_of(element name) for each entry here (the free ones only), an
         own entry's with its manoeuvre number after '#' (several manoeuvres)."""
-        if self.n == 1:
-            return [seq[i] for i in self.map.tolist()]
-        return [seq[i] + (f"#{k}" if k else "") for i, k in zip(self.map.tolist(),
-                                                                self.seg.tolist())]
+        at = self.mask == 1 if free_only else slice(None)
+        elements, n = self.model._layout.names, self.n
+        return [name_of(elements[i]) + (f"#{k}" if k and n > 1 else "")
+                for i, k in zip(self.map[at].tolist(), self.seg[at].tolist())]
+
+    def _label(self, element):
+        return self._names.get(element, element)
+
+    @functools.cached_property
+    def labels(self):
+        """Each entry's label ('C_Lalpha', 'x0(1)#2')."""
+        return self._tagged(self._label)
 
     @functools.cached_property
     def elements(self):
         """Each entry's element name ('f(1,2)', 'x0(1)#2')."""
-        return self._tagged(self.model._layout.names)
+        return self._tagged(str)
 
     def _put_own(self, key, given, what):
         """Each manoeuvre's own x0 or bias block: the model's, or given per manoeuvre."""
@@ -74,7 +82,7 @@ class Params:
             self.theta[at] = g
 
     def free_names(self):
-        return [lab for lab, f in zip(self.labels, self.mask.tolist()) if f]
+        return self._tagged(self._label, free_only=True)
 
     def index(self, name):
         """Position in theta of a free parameter given by element name or label."""
