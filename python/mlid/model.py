@@ -135,10 +135,13 @@ class _Layout:
     def tie(self, text):
         """A tie 'a = c + s*b + ...' parsed by the core (mlid_tie_parse): the
         tied entry (0-based), the offset and ((source, scale), ...); kept,
-        as the layout is (a fit parses its model's ties each time)."""
+        as the layout is (a fit parses its model's ties each time; cleared
+        when full)."""
         if text not in self._ties:
             to, offset, n, frm, scale, status, msg = _api.mlid_tie_parse(**self._args, text=text)
             check_status(status, msg)
+            if len(self._ties) >= 1024:
+                self._ties.clear()
             self._ties[text] = (int(to) - 1, float(offset),
                                 tuple((int(j) - 1, float(s)) for j, s in zip(frm[:n], scale[:n])))
         return self._ties[text]
@@ -447,7 +450,8 @@ class Model:
         list of str
             Each free parameter's label, or its element name when it has none.
         """
-        return [self.names.get(n, n) for n, f in zip(self._layout.names, self.free_mask.tolist()) if f]
+        return [self.names.get(n, n)
+                for n, f in zip(self._layout.names, self.free_mask.tolist()) if f]
 
     def value(self, name):
         """The value of one parameter, by element name or label.
