@@ -12,10 +12,9 @@ import functools
 
 import numpy as np
 
-from ._core import mlid_api as _api
 from .checks import real_array
 from .data import FlightData
-from .errors import InputError, check_status
+from .errors import InputError
 
 
 class Params:
