@@ -208,6 +208,36 @@ at about 13 instructions an entry with wsens (two stores each); mlid_newton
 asks for wsens at every full evaluation though the coloured correction
 uses the last one only (its writes and zeros about 5 M per
 ATTAS fit, 2.3 M per HFB-320 fit), outside these files.
+
+Measured (ours, branch py-overhead against main at da56406, one thread;
+--case all --rounds 3 --wrapper): the Python around the core call
+(python/mlid only; the core untouched, its counts the same):
+  HFB-320    4.49 M -> 0.67 M instructions per fit; timed, 0.51 -> 0.17 ms
+             and 0.69 -> 0.26 ms (least of 3 x 20, two runs, the machine
+             loaded);
+  C-8        4.17 M -> 0.61 M; 0.42 -> 0.11 ms and 0.42 -> 0.105 ms (of
+             a 0.90 -> 0.56 ms CPU fit);
+  ATTAS lat. 5.04 M -> 0.84 M; 0.60 -> 0.23 ms and 0.88 -> 0.41 ms.
+The same Python with the core call stubbed (its answer replayed) takes
+60-80 us on all three: the rest is the caches and branch predictors the
+core's run leaves cold, the more so the longer it runs.  The steps: the
+core's option arrays kept by the (name, text) pairs given (the core set
+each option and read every one back, about 40 f2py calls a fit; an error
+is never kept, the message the core's); the manoeuvre map and the parsed
+ties kept by the layout (ATTAS: 10 mlid_tie_parse calls a fit); the fit
+outcome and stop reason kept; a FitResult's model, manoeuvres and
+param_units made when first asked for, from a copy of the model and the
+record's units taken at the fit (the units alone were 75-95 us); labels
+for the free parameters only.  evaluate() and simulate() share the
+helpers: C-8 0.30 -> 0.11 ms and 0.13 -> 0.06 ms.  f2py's own argument
+handling (its routine less mlid_fit) is 61 k, 86 k and 129 k instructions
+per fit, nothing copied (the arrays go in Fortran-ordered float64): left
+as it is.  The allocation counts inside mlid_fit differ (1942 -> 1924 per
+C-8 fit) only by glibc realloc moving or not with the heap Python left.
+Monte Carlo (benchmarks/monte_carlo_10k.py, two cores): 3.2-4.2 s both,
+the runs being the core's (mlid_monte_carlo), one wrapper call a chunk.
+Every case deck's results are unchanged to the bit (compare_cases: 40 of
+40 bitwise; the same with one and two threads).
 """
 
 import argparse
