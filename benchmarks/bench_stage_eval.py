@@ -274,6 +274,36 @@ anyway).  Every case deck's results are unchanged to the bit
 (compare_cases: 40 of 40 bitwise; tc33 and hfb320 the same JSON with one
 and two threads).  Left: weigh_block's own loop (the stacked path's
 L' dy, about 7 instructions an entry).
+
+Measured (ours, branch py-overhead against main at da56406, one thread;
+--case all --rounds 3 --wrapper): the Python around the core call
+(python/mlid only; the core untouched, its counts the same):
+  HFB-320    4.49 M -> 0.67 M instructions per fit; timed, 0.51 -> 0.17 ms
+             and 0.69 -> 0.26 ms (least of 3 x 20, two runs, the machine
+             loaded);
+  C-8        4.17 M -> 0.61 M; 0.42 -> 0.11 ms and 0.42 -> 0.105 ms (of
+             a 0.90 -> 0.56 ms CPU fit);
+  ATTAS lat. 5.04 M -> 0.84 M; 0.60 -> 0.23 ms and 0.88 -> 0.41 ms.
+The same Python with the core call stubbed (its answer replayed) takes
+60-80 us on all three: the rest is the caches and branch predictors the
+core's run leaves cold, the more so the longer it runs.  The steps: the
+core's option arrays kept by the (name, text) pairs given (the core set
+each option and read every one back, about 40 f2py calls a fit; an error
+is never kept, the message the core's); the manoeuvre map and the parsed
+ties kept by the layout (ATTAS: 10 mlid_tie_parse calls a fit); the fit
+outcome and stop reason kept; a FitResult's model, manoeuvres and
+param_units made when first asked for, from a copy of the model and the
+record's units taken at the fit (the units alone were 75-95 us); labels
+for the free parameters only.  evaluate() and simulate() share the
+helpers: C-8 0.30 -> 0.11 ms and 0.13 -> 0.06 ms.  f2py's own argument
+handling (its routine less mlid_fit) is 61 k, 86 k and 129 k instructions
+per fit, nothing copied (the arrays go in Fortran-ordered float64): left
+as it is.  The allocation counts inside mlid_fit differ (1942 -> 1924 per
+C-8 fit) only by glibc realloc moving or not with the heap Python left.
+Monte Carlo (benchmarks/monte_carlo_10k.py, two cores): 3.2-4.2 s both,
+the runs being the core's (mlid_monte_carlo), one wrapper call a chunk.
+Every case deck's results are unchanged to the bit (compare_cases: 40 of
+40 bitwise; the same with one and two threads).
 """
 
 import argparse
@@ -294,13 +324,16 @@ CASES = {
     "attas_lat": (REPO / "cases" / "attas_lateral" / "attas_lat.nml", 0, None),
 }
 ENTRY = "__mlid_api_MOD_mlid_fit"       # the core's fit: what callgrind counts
+F2PY_ENTRY = "f2py_rout__core_mlid_api_mlid_fit"     # f2py's routine around it
 ALLOCATORS = ("malloc", "calloc", "realloc")
 
 
 def child(name, nfits, timed):
     """In a child process: nfits fits of case name; with timed, after a
-    warm-up fit, the median wall time (timing.interleaved_medians) and the
-    least CPU time of one.  Prints 'iterations nt wall_s cpu_s'."""
+    warm-up fit, the median wall time (timing.interleaved_medians), the
+    least CPU time of one and the least time of the Python around the core
+    call (mlid.fit's wall time less its result's wall_time, the core call
+    alone).  Prints 'iterations nt wall_s cpu_s wrapper_s'."""
     sys.path.insert(0, str(REPO / "benchmarks"))
     import time
     import mlid
@@ -315,19 +348,24 @@ def child(name, nfits, timed):
     opts = case.options()
     fit = lambda: mlid.fit(case.model, data, **opts)       # noqa: E731
     res = fit()
-    wall = cpu = 0.0
+    wall = cpu = wrapper = 0.0
     if timed:
         (wall,) = interleaved_medians([fit], 1, nfits)
-        cpus = []
+        cpus, wrappers = [], []
         for _ in range(nfits):
             c0 = time.process_time()
             fit()
             cpus.append(time.process_time() - c0)
-        cpu = min(cpus)
+        kept = []                     # freeing the last result is not the fit's
+        for _ in range(nfits):
+            w0 = time.perf_counter()
+            kept.append(fit())
+            wrappers.append(time.perf_counter() - w0 - kept[-1].wall_time)
+        cpu, wrapper = min(cpus), min(wrappers)
     else:
         for _ in range(nfits - 1):
             res = fit()
-    print(res.iterations, len(data.t), wall, cpu)
+    print(res.iterations, len(data.t), wall, cpu, wrapper)
 
 
 def run_child(name, pkg, nfits, timed, prefix=()):
@@ -337,8 +375,8 @@ def run_child(name, pkg, nfits, timed, prefix=()):
     out = subprocess.run([*prefix, sys.executable, __file__, "--case", name, "--child", str(nfits),
                           *(["--timed"] if timed else [])],
                          env=env, capture_output=True, text=True, check=True, cwd="/")
-    iters, nt, wall, cpu = out.stdout.split()[-4:]
-    return int(iters), int(nt), float(wall), float(cpu), out.stderr
+    iters, nt, wall, cpu, wrapper = out.stdout.split()[-5:]
+    return int(iters), int(nt), float(wall), float(cpu), float(wrapper), out.stderr
 
 
 def allocator_calls(path):
@@ -357,14 +395,28 @@ def allocator_calls(path):
     return total
 
 
-def callgrind(name, pkg, nfits):
+def callgrind(name, pkg, nfits, entry=ENTRY):
+    """Instructions and allocator calls per fit inside entry (all of the
+    process's, entry None), the iterations and samples."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "cg.out"
-        iters, nt, _, _, err = run_child(name, pkg, nfits, False, (
-            "valgrind", "--tool=callgrind", f"--toggle-collect={ENTRY}",
+        toggle = [f"--toggle-collect={entry}"] if entry else []
+        iters, nt, _, _, _, err = run_child(name, pkg, nfits, False, (
+            "valgrind", "--tool=callgrind", *toggle,
             f"--callgrind-out-file={out}", "--compress-strings=yes"))
         ir = int(re.search(r"Collected : (\d+)", err).group(1))
         return ir / nfits, allocator_calls(out) / nfits, iters, nt
+
+
+def wrapper_instructions(name, pkg, nfits):
+    """Instructions per fit of the Python around the core call (the whole
+    process's with 2 + nfits fits less with 2, per fit, less the f2py
+    routine's), and of f2py's argument handling (its routine's less
+    mlid_fit's).  PYTHONHASHSEED fixed: the runs differ by the fits alone."""
+    os.environ["PYTHONHASHSEED"] = "0"
+    few, many = (callgrind(name, pkg, n, None)[0] * n for n in (2, 2 + nfits))
+    f2py = callgrind(name, pkg, nfits, F2PY_ENTRY)[0]
+    return (many - few) / nfits - f2py, f2py - callgrind(name, pkg, nfits)[0]
 
 
 def main():
@@ -374,6 +426,8 @@ def main():
     ap.add_argument("--rounds", type=int, default=5, help="timed rounds (20 + 20 fits each)")
     ap.add_argument("--case", choices=[*CASES, "all"], default="hfb320",
                     help="the fit measured: HFB-320 (default), C-8 short period, ATTAS lateral")
+    ap.add_argument("--wrapper", action="store_true",
+                    help="also the instructions of the Python and f2py around the core call")
     ap.add_argument("--child", type=int)
     ap.add_argument("--timed", action="store_true")
     a = ap.parse_args()
@@ -396,20 +450,27 @@ def measure(case, a):
             print(f"  {name}: {ir / 1e6:.1f} M instructions per fit ({iters} iterations, {nt} "
                   f"samples: {ir / (iters * nt):.0f} per sample and iteration), "
                   f"{allocs:.0f} allocations per fit")
+            if a.wrapper:
+                python, f2py = wrapper_instructions(case, pkg, a.fits)
+                print(f"  {name}: around the core call {python / 1e6:.2f} M instructions per "
+                      f"fit of Python, {f2py / 1e3:.0f} k of f2py's argument handling")
     else:
         print("  valgrind not found: no instruction counts")
     walls = {name: [] for name, _ in builds}
     cpus = {name: [] for name, _ in builds}
+    wrappers = {name: [] for name, _ in builds}
     for _ in range(a.rounds):
         for name, pkg in builds:
-            _, _, wall, cpu, _ = run_child(case, pkg, 20, True)
+            _, _, wall, cpu, wrapper, _ = run_child(case, pkg, 20, True)
             walls[name].append(wall)
             cpus[name].append(cpu)
+            wrappers[name].append(wrapper)
     for name, _ in builds:
         w = sorted(walls[name])[len(walls[name]) // 2]
         print(f"  {name}: {1e3 * w:.2f} ms wall (median of {a.rounds} processes' medians of 20), "
               f"{1e3 * min(cpus[name]):.2f} ms CPU (least of {a.rounds} x 20) per fit "
-              f"in-process, one thread")
+              f"in-process, one thread; {1e3 * min(wrappers[name]):.3f} ms of it around the "
+              f"core call (least of {a.rounds} x 20)")
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 """Thin wrappers over the Fortran core (mlid._core): arrays in, arrays out."""
 
+import functools
 import re
 import time
 import warnings
@@ -52,6 +53,8 @@ def _as_dict(iopt, ropt):
 
 
 def _as_text(value):
+    if type(value) is str:          # a choice: as it is
+        return value
     if isinstance(value, (bool, np.bool_)):
         return "true" if value else "false"
     if isinstance(value, (float, np.floating)):
@@ -71,25 +74,47 @@ def default_options():
     return _as_dict(*_api.mlid_default_options())
 
 
+#: _flat_options' answers by the (name, text) pairs the core was given: the
+#: core's options are a function of them, and asking it costs about 40 f2py
+#: calls a fit (each option set, then every one read back).  Errors are
+#: raised before anything is kept; cleared when full.
+_OPTIONS_MADE = {}
+_OPTIONS_KEPT = 256
+
+
 def _flat_options(model, options):
     """The core's flat option arrays for fit() options and the model's own,
-    set by name (the core checks names and values), and the options by name."""
-    iopt, ropt = _api.mlid_default_options()
+    set by name (the core checks names and values), and the options by name
+    (copies: the caller may keep or change them)."""
     given = dict(options)
     unknown = [n for n in given if n not in _KINDS or n in _MODEL_OPTIONS]
     if unknown:
         raise InputError(f"unknown option {unknown[0]!r}; known: {', '.join(default_options())}")
     given.update(input_hold=model.input_hold, substeps=model.substeps)
-    for name, value in given.items():
-        status, msg = _api.mlid_option_set(iopt, ropt, name, _as_text(value))
-        check_status(status, msg)
-    check_status(*_api.mlid_options_check(iopt, ropt))
-    return iopt, ropt, _as_dict(iopt, ropt)
+    pairs = tuple((name, _as_text(value)) for name, value in given.items())
+    made = _OPTIONS_MADE.get(pairs)
+    if made is None:
+        iopt, ropt = _api.mlid_default_options()
+        for name, text in pairs:
+            status, msg = _api.mlid_option_set(iopt, ropt, name, text)
+            check_status(status, msg)
+        check_status(*_api.mlid_options_check(iopt, ropt))
+        made = iopt, ropt, _as_dict(iopt, ropt)
+        if len(_OPTIONS_MADE) >= _OPTIONS_KEPT:
+            _OPTIONS_MADE.clear()
+        _OPTIONS_MADE[pairs] = made
+    iopt, ropt, opts = made
+    return iopt.copy(), ropt.copy(), dict(opts)
 
 
 def stop_reason(code):
     """Why an iteration stopped, in the report's words (from the core)."""
-    return _text(_api.mlid_stop_reason(int(code)))
+    return _stop_text(int(code))
+
+
+@functools.lru_cache(maxsize=256)
+def _stop_text(code):
+    return _text(_api.mlid_stop_reason(code))
 
 
 def _check_model(model, name="model"):
@@ -140,10 +165,13 @@ def evaluate_options(options):
     return {k: v for k, v in options.items() if k not in FIT_ONLY}
 
 
+#: no bound
+_HUGE = np.finfo(float).max
+
+
 def _extras(params, prior, prior_weight, bounds):
     """A priori values/weight and bounds in the core's layout."""
     theta = params.theta
-    free = list(np.flatnonzero(params.mask))
     pvec = theta.copy()
     for what, given in (("prior", prior), ("bounds", bounds)):
         if given is not None and not isinstance(given, dict):
@@ -151,10 +179,11 @@ def _extras(params, prior, prior_weight, bounds):
                              f"{type(given).__name__}")
     for name, value in (prior or {}).items():
         pvec[params.index(name)] = value
-    nf = len(free)
+    nf = int(params.mask.sum())
     if prior_weight is None:
         weight = np.zeros((nf, nf))
     elif isinstance(prior_weight, dict):
+        free = list(np.flatnonzero(params.mask))
         weight = np.zeros((nf, nf))
         for name, w in prior_weight.items():
             k = free.index(params.index(name))
@@ -164,8 +193,8 @@ def _extras(params, prior, prior_weight, bounds):
         if weight.shape != (nf, nf):
             raise InputError(f"prior_weight must be {nf}x{nf} (free parameters), got "
                              f"{weight.shape}")
-    lower = np.full(theta.size, -np.finfo(float).max)
-    upper = np.full(theta.size, np.finfo(float).max)
+    lower = np.full(theta.size, -_HUGE)
+    upper = np.full(theta.size, _HUGE)
     for name, pair in (bounds or {}).items():
         if not isinstance(pair, (tuple, list)) or len(pair) != 2 or \
                 any(v is not None and not np.isfinite(v) for v in pair):
@@ -173,8 +202,8 @@ def _extras(params, prior, prior_weight, bounds):
                              f"got {pair!r}")
         lo, hi = pair
         k = params.index(name)
-        lower[k] = -np.finfo(float).max if lo is None else lo
-        upper[k] = np.finfo(float).max if hi is None else hi
+        lower[k] = -_HUGE if lo is None else lo
+        upper[k] = _HUGE if hi is None else hi
     return {"use_prior": int(prior_weight is not None), "prior": pvec,
             "pweight": np.asfortranarray(weight), "use_bounds": int(bool(bounds)),
             "lower": lower, "upper": upper}
@@ -332,17 +361,16 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     params, record, starts = _manoeuvres(model, data, initial_states, biases)
     t, u, y = _record(model, record)
     theta0, mask = params.theta, params.mask
-    nf = int(mask.sum())
+    free_names = params.free_names()
+    call = dict(**_model_args(model), theta0=theta0, isfree=mask, **params.ties, t=t, u=u, y=y,
+                segstart=starts, iopt=iopt, ropt=ropt, nf=int(mask.sum()),
+                nc=opts["max_iter"] + 1, **_extras(params, prior, prior_weight, bounds))
     start = time.perf_counter()
     (theta_start, theta, sigma, cov, info, grad, eigval, eigvec, rhat, yhat, cost_hist, cost,
      niter, reason, converged, rank, bad, sigma_c, cov_c, lag, rnoise, status,
-     msg) = _api.mlid_fit(
-        **_model_args(model), theta0=theta0, isfree=mask, **params.ties, t=t, u=u, y=y,
-        segstart=starts, iopt=iopt, ropt=ropt, nf=nf, nc=opts["max_iter"] + 1,
-        **_extras(params, prior, prior_weight, bounds))
-    wall = time.perf_counter() - start
+     msg) = _api.mlid_fit(**call)
+    wall = time.perf_counter() - start           # the core call alone
     text = msg.decode(errors="replace").strip()
-    free_names = params.free_names()
     if status and bad:                # the core numbers the free parameter; name it
         text = re.sub(rf"free parameter {bad}(?!\d)", repr(free_names[bad - 1]), text)
     if fit_outcome(status, reason) == "not run":       # bad input: nothing fitted
@@ -352,14 +380,14 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     fields = dict(yhat=yhat.T.copy())
     fields.update(_frequency_fields(model, params, theta, t, u, y, starts, iopt, ropt, opts, status,
                                     reason))
+    free = mask == 1
     result = FitResult(
-        model=params.model_of(theta), start_model=model, data=record, options=opts,
-        manoeuvres=[params.model_of(theta, k) for k in range(params.n)],
-        evaluate_args=(data, initial_states, biases),
-        names=free_names, param_units=_free_units(model, record, params),
-        start=theta_start[mask == 1], estimate=theta[mask == 1],
-        sigma=sigma[mask == 1], covariance=cov, information=info, gradient=grad,
-        sigma_corrected=sigma_c[mask == 1], covariance_corrected=cov_c, colored_lag=int(lag),
+        start_model=model, data=record, options=opts,
+        evaluate_args=(data, initial_states, biases), names=free_names,
+        later=_later_fields(model, record, params, theta),
+        start=theta_start[free], estimate=theta[free],
+        sigma=sigma[free], covariance=cov, information=info, gradient=grad,
+        sigma_corrected=sigma_c[free], covariance_corrected=cov_c, colored_lag=int(lag),
         eigenvalues=eigval, eigenvectors=eigvec, rhat=rhat, cost=float(cost),
         r_innovations=rnoise.copy() if np.all(np.isfinite(rnoise)) else None,
         cost_history=cost_hist[:niter + 1].copy(), iterations=int(niter),
@@ -369,6 +397,22 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     if result.failed:                 # the error carries the last values
         check_status(status, text, result=result)
     return result
+
+
+def _later_fields(model, record, params, theta):
+    """What makes a fit's ``model``, ``manoeuvres`` and ``param_units`` when
+    first asked for (FitResult.later): from a copy of the model and of the
+    record's units as they are now, the fit's own theta and params (its map
+    and mask), so that what they show does not depend on when they are made."""
+    start = model.with_theta(model.theta)
+    units = list(record.input_units), list(record.output_units)
+    return {"model": functools.partial(params.model_of, theta, 0, start),
+            "manoeuvres": functools.partial(_manoeuvre_models, params, theta, start),
+            "param_units": functools.partial(_free_units, start, *units, params)}
+
+
+def _manoeuvre_models(params, theta, base):
+    return [params.model_of(theta, k, base) for k in range(params.n)]
 
 
 #: The methods that fit the record's Fourier transform (fortran/mlid_frequency.f90).
@@ -438,9 +482,9 @@ def frequency_evaluate(model, data, **options):
     return _frequency_call(model, params, params.theta, t, u, y, starts, iopt, ropt, opts)
 
 
-def _free_units(model, record, params):
+def _free_units(model, input_units, output_units, params):
     """The unit of each free parameter of a fit (mlid_param_units)."""
-    units = model.param_units(record.input_units, record.output_units)
+    units = model.param_units(input_units, output_units)
     return [units[i] for i, f in zip(params.map, params.mask) if f]
 
 

@@ -8,12 +8,13 @@ manoeuvre_map).  A manoeuvre's own entries are named like the model's with the
 manoeuvre number after '#', e.g. 'x0(1)#2' or 'V0#2'.
 """
 
+import functools
+
 import numpy as np
 
-from ._core import mlid_api as _api
 from .checks import real_array
 from .data import FlightData
-from .errors import InputError, check_status
+from .errors import InputError
 
 
 class Params:
@@ -22,20 +23,16 @@ class Params:
 
     def __init__(self, model, n=1, initial_states=None, biases=None):
         self.model, self.n = model, n
-        nmax = n * model.theta.size
-        m, mp, sg, status, msg = _api.mlid_manoeuvre_map(
-            mkind=model.kind, nx=model.nx, nu=model.nu, ny=model.ny, nw=model.nw,
-            iconst=model.iconst, rconst=model.rconst, nseg=n, nmax=nmax)
-        check_status(status, msg)
-        self.map, self.seg = mp[:m] - 1, sg[:m]         # 0-based entries of one manoeuvre
+        self.map, self.seg = model._layout.manoeuvre_map(n)   # 0-based entries of one manoeuvre
         own = self.seg > 0
         theta, mask, terms = model.theta, model.free_mask, model.tie_terms()
-        own_old = np.zeros(theta.size, dtype=bool)
-        own_old[self.map[own]] = True
-        tied = [k for k in terms] + [j for _, src in terms.values() for j, _ in src]
-        if n > 1 and any(own_old[k] for k in tied):
-            raise InputError("ties to or from initial states and biases are not available "
-                             "with several manoeuvres")
+        if n > 1 and terms:
+            own_old = np.zeros(theta.size, dtype=bool)
+            own_old[self.map[own]] = True
+            tied = [k for k in terms] + [j for _, src in terms.values() for j, _ in src]
+            if any(own_old[k] for k in tied):
+                raise InputError("ties to or from initial states and biases are not available "
+                                 "with several manoeuvres")
         self.theta = theta[self.map]
         for key, given in (("x0", initial_states), ("bias", biases)):
             self._put_own(key, given, "initial_states" if key == "x0" else "biases")
@@ -43,13 +40,28 @@ class Params:
         # a tie points at the new places of its shared entries
         shared = np.where(own, -1, self.map)
         self.ties = model.tie_args(shared if n > 1 else None, terms)
-        names = model.element_names()
-        labels = [model.names.get(e, e) for e in names]
+        self._names = dict(model.names)                 # the labels as they are now
 
-        def tagged(seq):
-            return [seq[i] + (f"#{k}" if k and n > 1 else "") for i, k in zip(self.map, self.seg)]
+    def _tagged(self, name_of, free_only=False):
+        """name_of(element name) for each entry here (the free ones only), an
+        own entry's with its manoeuvre number after '#' (several manoeuvres)."""
+        at = self.mask == 1 if free_only else slice(None)
+        elements, n = self.model._layout.names, self.n
+        return [name_of(elements[i]) + (f"#{k}" if k and n > 1 else "")
+                for i, k in zip(self.map[at].tolist(), self.seg[at].tolist())]
 
-        self.elements, self.labels = tagged(names), tagged(labels)
+    def _label(self, element):
+        return self._names.get(element, element)
+
+    @functools.cached_property
+    def labels(self):
+        """Each entry's label ('C_Lalpha', 'x0(1)#2')."""
+        return self._tagged(self._label)
+
+    @functools.cached_property
+    def elements(self):
+        """Each entry's element name ('f(1,2)', 'x0(1)#2')."""
+        return self._tagged(str)
 
     def _put_own(self, key, given, what):
         """Each manoeuvre's own x0 or bias block: the model's, or given per manoeuvre."""
@@ -69,7 +81,7 @@ class Params:
             self.theta[at] = g
 
     def free_names(self):
-        return [lab for lab, f in zip(self.labels, self.mask) if f]
+        return self._tagged(self._label, free_only=True)
 
     def index(self, name):
         """Position in theta of a free parameter given by element name or label."""
@@ -86,12 +98,14 @@ class Params:
             raise InputError(f"{name!r} is not a free parameter")
         return k
 
-    def model_of(self, theta, k=0):
-        """The model with the shared parameters of theta and manoeuvre k's own."""
-        one = np.empty(self.model.theta.size)
+    def model_of(self, theta, k=0, base=None):
+        """The model (or base, a copy of it) with the shared parameters of
+        theta and manoeuvre k's own."""
+        base = self.model if base is None else base
+        one = np.empty(base.theta.size)
         at = (self.seg == 0) | (self.seg == k + 1)
         one[self.map[at]] = np.asarray(theta)[at]
-        return self.model.with_theta(one)
+        return base.with_theta(one)
 
 
 def join(records):

@@ -113,7 +113,38 @@ class _Layout:
         self.blocks = {k: (int(o), int(r), int(c))
                        for k, r, c, o in zip(_lines(keys), rows, cols, offs)}
         self.names, self.labels = _lines(names), _lines(labels)
+        self.place = {name: k for k, name in enumerate(self.names)}
         self.np = self.blocks["x0"][0]
+        self._args = dict(args, iconst=np.array(iconst), rconst=np.array(rconst))
+        self._maps, self._ties = {}, {}
+
+    def manoeuvre_map(self, n):
+        """The core's map of theta on n manoeuvres (mlid_manoeuvre_map): the
+        0-based entry of one manoeuvre's theta and the manoeuvre it is own to
+        (0 shared), per entry; kept (read-only), as the layout is."""
+        if n not in self._maps:
+            m, mp, sg, status, msg = _api.mlid_manoeuvre_map(**self._args, nseg=n,
+                                                             nmax=n * self.nth)
+            check_status(status, msg)
+            entry, seg = mp[:m] - 1, sg[:m].copy()
+            entry.setflags(write=False)
+            seg.setflags(write=False)
+            self._maps[n] = entry, seg
+        return self._maps[n]
+
+    def tie(self, text):
+        """A tie 'a = c + s*b + ...' parsed by the core (mlid_tie_parse): the
+        tied entry (0-based), the offset and ((source, scale), ...); kept,
+        as the layout is (a fit parses its model's ties each time; cleared
+        when full)."""
+        if text not in self._ties:
+            to, offset, n, frm, scale, status, msg = _api.mlid_tie_parse(**self._args, text=text)
+            check_status(status, msg)
+            if len(self._ties) >= 1024:
+                self._ties.clear()
+            self._ties[text] = (int(to) - 1, float(offset),
+                                tuple((int(j) - 1, float(s)) for j, s in zip(frm[:n], scale[:n])))
+        return self._ties[text]
 
     @classmethod
     def of(cls, kind, sizes, iconst, rconst):
@@ -335,10 +366,9 @@ class Model:
     @property
     def free_mask(self):
         """1 for each free entry of theta, else 0 (int32, as the core takes it)."""
-        names = self._layout.names
+        names, place = self._layout.names, self._layout.place
         mask = np.zeros(len(names), dtype=np.int32)
-        for n in self.free:
-            mask[names.index(n)] = 1
+        mask[[place[n] if n in place else names.index(n) for n in self.free]] = 1
         return mask
 
     def tie_terms(self):
@@ -356,12 +386,8 @@ class Model:
         """
         out = {}
         for a, rhs in self.ties.items():
-            to, offset, n, frm, scale, status, msg = _api.mlid_tie_parse(
-                mkind=self.kind, nx=self.nx, nu=self.nu, ny=self.ny, nw=self.nw,
-                iconst=self.iconst, rconst=self.rconst, text=f"{a} = {rhs}")
-            check_status(status, msg)
-            out[int(to) - 1] = (float(offset), [(int(j) - 1, float(s))
-                                                for j, s in zip(frm[:n], scale[:n])])
+            to, offset, sources = self._layout.tie(f"{a} = {rhs}")
+            out[to] = (offset, list(sources))
         return out
 
     def tied(self, theta, terms=None):
@@ -402,7 +428,7 @@ class Model:
         """
         terms = self.tie_terms() if terms is None else terms
         where = np.arange(self._theta.size) if entries is None else np.asarray(entries)
-        new_of = {int(e): k for k, e in enumerate(where)}
+        new_of = dict(zip(where.tolist(), range(len(where)))) if terms else {}
         to, frm, scale = [], [], []
         offset = np.zeros(len(where))
         for k, (c, sources) in terms.items():
@@ -424,7 +450,8 @@ class Model:
         list of str
             Each free parameter's label, or its element name when it has none.
         """
-        return [self.names.get(n, n) for n, f in zip(self._layout.names, self.free_mask) if f]
+        return [self.names.get(n, n)
+                for n, f in zip(self._layout.names, self.free_mask.tolist()) if f]
 
     def value(self, name):
         """The value of one parameter, by element name or label.

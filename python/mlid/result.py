@@ -1,6 +1,7 @@
 """The result of a fit, its printed report (report Table 5.3 style), its
 HTML form for Jupyter, and the whiteness test of its residuals."""
 
+import functools
 import html
 import json
 import re
@@ -32,8 +33,14 @@ def fit_outcome(status, reason):
         'estimates' (converged or not), 'failed' (an error ended it: only the
         last values reached) or 'not run' (bad input), as the core decides.
     """
+    return OUTCOMES[_outcome_code(int(status), int(reason))]
+
+
+@functools.lru_cache(maxsize=256)
+def _outcome_code(status, reason):
+    """The core's answer, kept: a fit asks it three times."""
     from .core import _api
-    return OUTCOMES[int(_api.mlid_fit_outcome(int(status), int(reason)))]
+    return int(_api.mlid_fit_outcome(status, reason))
 
 
 def require_estimates(result, what):
@@ -146,6 +153,10 @@ class FitResult:
     r_innovations = None
     #: frequency-domain fits: the frequencies (Hz), measured and model transforms
     frequencies = z = zhat = None
+    #: {name: what makes it}: fields made when first asked for (``fit``
+    #: leaves ``model``, ``manoeuvres`` and ``param_units`` so: few fits are
+    #: looked at that closely, and a fit is short enough for them to count)
+    later = {}
 
     def __init__(self, **fields):
         self.__dict__.update(fields)
@@ -163,6 +174,28 @@ class FitResult:
         failing: that result has its sigma and ``converged`` False."""
         return fit_outcome(getattr(self, "status", 0), getattr(self, "reason_code", 0)) == \
             "failed"
+
+    def _made(self, name):
+        if name not in self.later:
+            raise AttributeError(name)
+        return self.later[name]()
+
+    @functools.cached_property
+    def model(self):
+        """The model at the estimate (``later``)."""
+        return self._made("model")
+
+    @functools.cached_property
+    def manoeuvres(self):
+        """Each manoeuvre's model at the estimate: the shared parameters and
+        its own x0 and bias (``later``)."""
+        return self._made("manoeuvres")
+
+    @functools.cached_property
+    def param_units(self):
+        """The unit of each free parameter, the core's mlid_param_units
+        (``later``)."""
+        return self._made("param_units")
 
     @property
     def residuals(self):

@@ -1,0 +1,146 @@
+"""What fit() does around the core call: the core's option arrays kept by the
+options given (the core still checks every name and value: a bad one gives
+the core's message every time), and the fields a FitResult makes when first
+asked for (model, manoeuvres, param_units), which must be those of the fit
+as it was made, whatever happens to the model afterwards."""
+
+import pickle
+
+import numpy as np
+import pytest
+
+import mlid
+from mlid.core import _api
+from conftest import c8_record, c8_start
+
+GIVEN = {"max_iter": 7, "tol_cost": 1e-7, "noise": "full", "partials": False,
+         "rank_rule": "staged"}
+
+
+@pytest.fixture(scope="module")
+def data():
+    return c8_record()
+
+
+def test_a_fits_options_are_the_defaults_with_the_given_ones(data):
+    want = mlid.default_options()
+    assert mlid.fit(c8_start(), data).options == want
+    want.update(GIVEN)
+    first = mlid.fit(c8_start(), data, **GIVEN)
+    assert first.options == want and first.iterations <= 7
+    # what a result holds is its own: changing it changes no later fit
+    first.options["max_iter"] = 1
+    first.flat_options[:] = 0
+    first.flat_real_options[:] = 0
+    second = mlid.fit(c8_start(), data, **GIVEN)
+    assert second.options == want
+    assert second.estimate.tolist() == mlid.fit(c8_start(), data, **GIVEN).estimate.tolist()
+    # numpy scalars are the same options as Python's
+    numpy_given = dict(GIVEN, max_iter=np.int64(7), tol_cost=np.float64(1e-7),
+                       partials=np.bool_(False))
+    assert mlid.fit(c8_start(), data, **numpy_given).options == want
+    # the model's own options are the model's, not the fit's
+    assert "input_hold" not in second.options and "substeps" not in second.options
+
+
+def _core_says(name, text):
+    """The core's message for one option set by name on the defaults."""
+    iopt, ropt = _api.mlid_default_options()
+    status, msg = _api.mlid_option_set(iopt, ropt, name, text)
+    if status == 0:
+        status, msg = _api.mlid_options_check(iopt, ropt)
+    assert status != 0
+    return msg.decode().strip()
+
+
+@pytest.mark.parametrize("name, value, text", [
+    ("noise", "bogus", "bogus"), ("max_iter", -1, "-1"), ("max_iter", 2.5, "2.5"),
+    ("tol_cost", float("nan"), "nan"), ("partials", 3, "3")])
+def test_a_bad_option_gives_the_cores_message_every_time(data, name, value, text):
+    for _ in range(2):                  # an error is never kept as an answer
+        with pytest.raises(mlid.InputError) as exc:
+            mlid.fit(c8_start(), data, **{name: value})
+        assert str(exc.value) == _core_says(name, text)
+    with pytest.raises(mlid.InputError) as exc:
+        mlid.evaluate(c8_start(), data, **{name: value})
+    assert str(exc.value) == _core_says(name, text)
+    # the option's good values still go through
+    good = mlid.default_options()[name]
+    assert mlid.fit(c8_start(), data, **{name: good}).options[name] == good
+
+
+def test_an_unknown_option_and_a_bad_model_option(data):
+    for _ in range(2):
+        with pytest.raises(mlid.InputError, match="^unknown option 'bogus'; known: max_iter, "):
+            mlid.fit(c8_start(), data, bogus=1)
+    model = c8_start()
+    model.substeps = 0
+    with pytest.raises(mlid.InputError) as exc:
+        mlid.fit(model, data)
+    assert str(exc.value) == _core_says("substeps", "0")
+
+
+def _made_now(res):
+    """The fields a result makes when asked, asked for now."""
+    return (res.model.theta.tolist(), res.model.free_names(), dict(res.model.names),
+            [m.theta.tolist() for m in res.manoeuvres], list(res.param_units))
+
+
+def _change(model):
+    """Everything of a model a user might change after fitting it."""
+    model.x0 = [1.0, 2.0, 3.0, 4.0]
+    model.F[1, 1] = 7.0
+    model.names["f(2,2)"] = "renamed"
+    model.free = model.free[:2]
+
+
+def test_fields_made_later_are_those_of_the_fit(data):
+    model = c8_start()
+    eager = _made_now(mlid.fit(model, data))
+    late = mlid.fit(model, data)
+    _change(model)
+    assert _made_now(late) == eager
+    # and they are what they say: the start model with the estimates put in
+    start = c8_start()
+    mask = start.free_mask == 1
+    theta = start.theta
+    theta[mask] = late.estimate
+    assert late.model.theta.tolist() == theta.tolist()
+    assert late.model.free_names() == late.names
+    assert late.manoeuvres[0].theta.tolist() == theta.tolist()
+    assert late.manoeuvres[0] is not late.model
+    units = start.param_units(data.input_units, data.output_units)
+    assert late.param_units == [u for u, f in zip(units, mask) if f]
+    assert late.model is late.model     # made once
+    # a result travels with them made or not
+    copy = pickle.loads(pickle.dumps(mlid.fit(c8_start(), data)))
+    assert _made_now(copy) == eager
+
+
+def test_several_manoeuvres_fields_made_later(data):
+    records = [data, c8_record(seed=2)]
+    x0s = [np.zeros(4), np.full(4, 0.01)]
+
+    def joint(model):
+        return mlid.fit(model, records, initial_states=x0s, biases=[np.zeros(4)] * 2)
+
+    model = c8_start()
+    eager = _made_now(joint(model))
+    late = joint(model)
+    _change(model)
+    assert _made_now(late) == eager
+    assert [m.x0.tolist() for m in late.manoeuvres] == [x.tolist() for x in x0s]
+
+
+def test_a_failed_fit_makes_them_too():
+    truth = mlid.LinearModel([[-1.0, 0.5], [0.0, -2.0]], [[1.0], [0.0]], np.eye(2))
+    t = np.arange(200) * 0.02
+    record = mlid.simulate(truth, t, np.sin(3 * t)[:, None], [0.01, 0.01], seed=3)[0]
+    model = mlid.LinearModel([[1000.0, 0.5], [0.0, -2.0]], [[1.0], [0.0]], np.eye(2),
+                             free=["f(1,1)"])
+    with pytest.raises(mlid.DivergenceError) as exc:
+        mlid.fit(model, record)
+    res = exc.value.result
+    assert res.failed and res.model.F[0, 0] == 1000.0
+    assert res.manoeuvres[0].theta.tolist() == model.theta.tolist()
+    assert res.param_units == [""]
