@@ -40,8 +40,10 @@ module mlid_lti_predict
   private
   public :: lti_exact, lti_segment
 
-  !> Rows of the transposed sensitivities summed at a time (in registers).
+  !> Rows of C s summed at a time (in registers).
   integer, parameter :: STRIP = 4
+  !> States whose sums advance keeps in registers at a time.
+  integer, parameter :: GROUP = 4
 
   !> The model's matrices at theta and their partials by free column.
   type :: lti_sys_t
@@ -62,10 +64,9 @@ module mlid_lti_predict
     real(wp), allocatable :: phi(:, :, :), g0(:, :, :), g1(:, :, :), c(:, :), fa(:), fb(:)
   end type step_t
 
-  !> The sample interval's map and its partials by live column c,
-  !> transposed for sensitivities: w(c, :, :) = [dPhi_c, dGam0_c, dGam1_c]
-  !> and dc(c, :) = dc_c, the rows past the live columns zero to a multiple
-  !> of STRIP.
+  !> The sample interval's map and its partials by live column c:
+  !> w(:, c, :) = [dPhi_c, dGam0_c, dGam1_c] and dc(:, c) = dc_c (zero for a
+  !> column that moves only x0).
   type :: lti_map_t
     real(wp), allocatable :: phi(:, :), g0(:, :), g1(:, :), c(:)
     real(wp), allocatable :: w(:, :, :), dc(:, :)
@@ -235,12 +236,12 @@ contains
   end subroutine outputs
 
   !> dy(ny, nf, n) (as dy(ny nf, n)) over n samples, sample by sample.  The states'
-  !> sensitivities of the live columns live(1:nl) (the others' dy stay
-  !> zero) start from s0 (nx, nl) and are kept transposed, s(c, i) (rows
-  !> padded to a multiple of STRIP): advanced by the recursion with its
-  !> forcing (advance), then dy = C s (c_times_s) + the few terms of dC x and
-  !> dD u + dbias.  Each element sums its terms in the order the products
-  !> over blocks of samples did before, so the results are those to the bit.
+  !> sensitivities of the live columns live(1:nl) (the others' dy hold
+  !> only their dC x, dD u and dbias terms) start from s0 (nx, nl) and are
+  !> kept transposed, s(c, i): advanced by the recursion with its forcing
+  !> (advance), then dy = C s (c_times_s) + the few terms of dC x and dD u
+  !> + dbias.  Each element sums its terms in the order the products over
+  !> blocks of samples did before, so the results are those to the bit.
   subroutine sensitivities(ny, nx, nu, nf, n, nl, live, pm, iseg, sys, mp, hold, x, u, s0, dy)
     integer, intent(in) :: ny, nx, nu, nf, n, nl, live(nl), iseg
     type(param_map_t), intent(in) :: pm
@@ -249,11 +250,10 @@ contains
     logical, intent(in) :: hold
     real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
     real(wp), intent(out) :: dy(ny*nf, n)
-    real(wp) :: s(size(mp%dc, 1), nx, 2), z(nx + 2*nu), wb(size(pm%ib))
-    integer :: off(nl), oc(size(sys%cv)), od(size(sys%dv)), ob(size(pm%ib)), nb, nk, k, t, i, now
+    real(wp) :: wb(size(pm%ib))
+    integer :: off(nl), oc(size(sys%cv)), od(size(sys%dv)), ob(size(pm%ib)), nb, k, i, z0, z1
+    logical :: dead(nf)
 
-    s = 0.0_wp
-    s(1:nl, :, 1) = transpose(s0)
     off = (live - 1)*ny                 ! dy(i, live(c)) is dy(off(c) + i)
     oc = sys%ci + (sys%ck - 1)*ny       ! the dC, dD terms' places in dy(:, k)
     od = sys%di + (sys%dk - 1)*ny
@@ -265,75 +265,137 @@ contains
       ob(nb) = i + (pm%cb(k) - 1)*ny
       wb(nb) = pm%wb(k)
     end do
-    nk = nx + nu                        ! the forcing's columns: x, u0 and (not held) u1
-    if (.not. hold) nk = nx + 2*nu
+    dead = .true.                       ! dy(z0:z1, k) spans the columns C s does not write
+    dead(live) = .false.
+    z0 = 1
+    z1 = 0
+    if (any(dead)) then
+      z0 = (findloc(dead, .true., dim=1) - 1)*ny + 1
+      z1 = findloc(dead, .true., dim=1, back=.true.)*ny
+    end if
+    select case (nx)                    ! the common sizes as constants: loops unrolled
+    case (1)
+      call sweep(1, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+    case (2)
+      call sweep(2, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+    case (3)
+      call sweep(3, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+    case (4)
+      call sweep(4, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+    case default
+      call sweep(nx, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+    end select
+  end subroutine sensitivities
+
+  !> sensitivities' sample loop (nx by value: a constant nx makes a clone),
+  !> s(:, :, now) the sensitivities at sample k.
+  subroutine sweep(nx, ny, nu, nf, n, nl, hold, off, oc, od, ob, wb, z0, z1, sys, w, dc, &
+                   phi, cm, x, u, s0, dy)
+    integer, value :: nx
+    integer, intent(in) :: ny, nu, nf, n, nl, off(nl), oc(:), od(:), ob(:), z0, z1
+    logical, intent(in) :: hold
+    real(wp), intent(in) :: wb(:), w(nx, nl, nx + 2*nu), dc(nx, nl), phi(nx, nx), cm(ny, nx), &
+                            x(nx, n), u(nu, n), s0(nx, nl)
+    type(lti_sys_t), intent(in) :: sys
+    real(wp), intent(inout) :: dy(ny*nf, n)
+    real(wp) :: s(nx, nl, 2), ub(GROUP, 2*nu)
+    integer :: k, t, now
+
+    s(:, :, 1) = s0
     now = 1
     do k = 1, n
       if (k > 1) then                   ! s(k) from s(k-1) and the interval's forcing
-        z(1:nx) = x(:, k - 1)
-        z(nx + 1:nx + nu) = u(:, k - 1)
-        if (.not. hold) z(nx + nu + 1:) = u(:, k)
-        call advance(size(s, 1), nx, nk, mp%w, z, mp%dc, mp%phi, s(:, :, now), s(:, :, 3 - now))
+        do t = 1, nu                    ! each input in every lane of a vector
+          ub(:, t) = u(t, k - 1)
+          ub(:, nu + t) = u(t, k)
+        end do
+        call advance(nx, nu, nl, hold, w, x(:, k - 1), ub, dc, phi, s(:, :, now), &
+                     s(:, :, 3 - now))
         now = 3 - now
       end if
-      dy(:, k) = 0.0_wp
-      select case (nx)
-      case (2)
-        call c_times_s(size(s, 1), 2, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
-      case (4)
-        call c_times_s(size(s, 1), 4, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
-      case default
-        call c_times_s(size(s, 1), nx, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
-      end select
+      dy(z0:z1, k) = 0.0_wp
+      call c_times_s(nl, nx, ny, nf, off, cm, s(:, :, now), dy(:, k))
       do t = 1, size(oc)
         dy(oc(t), k) = dy(oc(t), k) + sys%cv(t)*x(sys%cl(t), k)
       end do
       do t = 1, size(od)
         dy(od(t), k) = dy(od(t), k) + sys%dv(t)*u(sys%dl(t), k)
       end do
-      do t = 1, nb
+      do t = 1, size(ob)
         dy(ob(t), k) = dy(ob(t), k) + wb(t)
       end do
     end do
-  end subroutine sensitivities
+  end subroutine sweep
 
-  !> One interval of the transposed sensitivities s(c, i) (STRIP rows at a
-  !> time, the strip's sums in registers):
-  !> sn(c, i) = ((0 + sum_l w(c, i, l) z(l)) + dc(c, i)) + sum_l Phi(i, l) s(c, l),
-  !> each sum's terms in order (z = [x; u0; u1]: dPhi x, dGam0 u0, dGam1 u1).
-  !> The padding rows compute what no one reads.
-  pure subroutine advance(np, nx, nk, w, z, dc, phi, s, sn)
-    integer, intent(in) :: np, nx, nk
-    real(wp), intent(in) :: w(np, nx, *), z(nk), dc(np, nx), phi(nx, nx), s(np, nx)
-    real(wp), intent(out) :: sn(np, nx)
-    real(wp) :: acc(STRIP)
-    integer :: c, i, l
+  !> One interval of the sensitivities s(:, c) of the nl live columns:
+  !> sn(i, c) = ((0 + sum_l w(i, c, l) z(l)) + dc(i, c)) + sum_l Phi(i, l) s(l, c),
+  !> each sum's terms in order (z = [x0; u0; u1]: dPhi x, dGam0 u0, dGam1 u1,
+  !> u1 none when held; ub(:, l) holds u0 then u1 in every lane).  GROUP states at a time, their sums in (vector)
+  !> registers; with nx a constant the x0 and Phi terms' factors stay in
+  !> registers over the columns.  The sums have a fixed size: an automatic
+  !> array would be allocated on the heap at every call.
+  pure subroutine advance(nx, nu, nl, hold, w, x0, ub, dc, phi, s, sn)
+    integer, value :: nx                ! by value: a constant nx makes a clone
+    integer, intent(in) :: nu, nl
+    logical, intent(in) :: hold
+    real(wp), intent(in) :: w(nx, nl, nx + 2*nu), x0(nx), ub(GROUP, 2*nu), dc(nx, nl), &
+                            phi(nx, nx), s(nx, nl)
+    real(wp), intent(out) :: sn(nx, nl)
+    integer :: c, g, nk, r
 
-    do i = 1, nx
-      do c = 1, np, STRIP
-        acc = 0.0_wp
-        !GCC$ novector
-        !GCC$ unroll 2
-        do l = 1, nk
-          acc = acc + w(c:c + STRIP - 1, i, l)*z(l)
-        end do
-        acc = acc + dc(c:c + STRIP - 1, i)
-        !GCC$ novector
-        do l = 1, nx
-          acc = acc + s(c:c + STRIP - 1, l)*phi(i, l)
-        end do
-        sn(c:c + STRIP - 1, i) = acc
+    nk = 2*nu                           ! the inputs' columns
+    if (hold) nk = nu
+    r = mod(nx, GROUP)
+    do c = 1, nl
+      do g = 0, nx - GROUP, GROUP       ! whole groups (a constant size: unrolled)
+        call advance_group(GROUP, g, nx, nu, nk, w(:, c, :), x0, ub, dc(:, c), phi, s(:, c), &
+                           sn(:, c))
       end do
+      if (r > 0) call advance_group(r, nx - r, nx, nu, nk, w(:, c, :), x0, ub, dc(:, c), phi, &
+                                    s(:, c), sn(:, c))
     end do
   end subroutine advance
 
-  !> dy(off(c) + i) = (C s^T)(i, c) for the nl live columns, its terms
+  !> advance's sums of states g+1..g+m of one column (m by value: a
+  !> constant m makes a clone).
+  pure subroutine advance_group(m, g, nx, nu, nk, w, x0, ub, dc, phi, s, sn)
+    integer, value :: m
+    integer, intent(in) :: g, nx, nu, nk
+    real(wp), intent(in) :: w(:, :), x0(nx), ub(GROUP, 2*nu), dc(nx), phi(nx, nx), s(nx)
+    real(wp), intent(inout) :: sn(nx)
+    real(wp) :: a(GROUP)
+    integer :: l
+
+    a = 0.0_wp
+    !GCC$ novector
+    do l = 1, nx
+      a(1:m) = a(1:m) + w(g + 1:g + m, l)*x0(l)
+    end do
+    !GCC$ novector
+    !GCC$ unroll 2
+    do l = 1, nk
+      a(1:m) = a(1:m) + w(g + 1:g + m, nx + l)*ub(1:m, l)
+    end do
+    a(1:m) = a(1:m) + dc(g + 1:g + m)
+    !GCC$ novector
+    do l = 1, nx
+      a(1:m) = a(1:m) + phi(g + 1:g + m, l)*s(l)
+    end do
+    sn(g + 1:g + m) = a(1:m)
+  end subroutine advance_group
+
+  !> dy(off(c) + i) = (C s)(i, c) for the nl live columns, its terms
   !> summed in order from 0: STRIP rows of every column at a time, then
   !> the rows left one by one.
-  pure subroutine c_times_s(np, nx, ny, nf, nl, off, cm, s, dy)
-    integer, intent(in) :: np, ny, nf, nl, off(nl)
+  pure subroutine c_times_s(nl, nx, ny, nf, off, cm, s, dy)
+    integer, intent(in) :: ny, nf, nl, off(nl)
     integer, value :: nx                ! by value: a constant nx makes a clone
-    real(wp), intent(in) :: cm(ny, nx), s(np, nx)
+    real(wp), intent(in) :: cm(ny, nx), s(nx, nl)
     real(wp), intent(inout) :: dy(ny*nf)
     real(wp) :: acc(STRIP), a
     integer :: c, i, l, last
@@ -344,7 +406,7 @@ contains
         acc = 0.0_wp
         !GCC$ novector
         do l = 1, nx
-          acc = acc + cm(i:i + STRIP - 1, l)*s(c, l)
+          acc = acc + cm(i:i + STRIP - 1, l)*s(l, c)
         end do
         dy(off(c) + i:off(c) + i + STRIP - 1) = acc
       end do
@@ -353,7 +415,7 @@ contains
       do c = 1, nl
         a = 0.0_wp
         do l = 1, nx
-          a = a + cm(i, l)*s(c, l)
+          a = a + cm(i, l)*s(l, c)
         end do
         dy(off(c) + i) = a
       end do
@@ -471,7 +533,7 @@ contains
     real(wp), dimension(size(sys%a, 1), size(sys%a, 1)) :: dm, dm2, dm3, dp, dea, deb, dphi
     real(wp), dimension(size(sys%b, 1), size(sys%b, 2)) :: deab, debb, dg0, dg1
     real(wp) :: dcb(size(sys%a, 1)), dc(size(sys%a, 1)), h
-    integer :: nx, nu, nf, np, k, i, c
+    integer :: nx, nu, nf, k, i, c
     logical :: da
 
     nx = size(sys%a, 1)
@@ -480,8 +542,7 @@ contains
     call rk4_map(sys%a, sys%b, sys%bx, h, nsub, hold, st, mp%phi, mp%g0, mp%g1, mp%c)
     if (.not. present(live)) return
     nf = size(live)
-    np = STRIP*((nf + STRIP - 1)/STRIP)
-    allocate (mp%w(np, nx, nx + 2*nu), mp%dc(np, nx))
+    allocate (mp%w(nx, nf, nx + 2*nu), mp%dc(nx, nf))
     mp%w = 0.0_wp
     mp%dc = 0.0_wp
     do c = 1, nf
@@ -513,10 +574,10 @@ contains
         dg1 = matmul(dp, st%g1(:, :, i - 1)) + matmul(st%p, dg1) + st%fa(i)*deab + st%fb(i)*debb
         dc = matmul(dp, st%c(:, i - 1)) + matmul(st%p, dc) + dcb
       end do
-      mp%w(c, :, 1:nx) = dphi
-      mp%w(c, :, nx + 1:nx + nu) = dg0
-      mp%w(c, :, nx + nu + 1:) = dg1
-      mp%dc(c, :) = dc
+      mp%w(:, c, 1:nx) = dphi
+      mp%w(:, c, nx + 1:nx + nu) = dg0
+      mp%w(:, c, nx + nu + 1:) = dg1
+      mp%dc(:, c) = dc
     end do
   end subroutine interval_map
 
