@@ -303,19 +303,25 @@ contains
                             x(nx, n), u(nu, n), s0(nx, nl)
     type(lti_sys_t), intent(in) :: sys
     real(wp), intent(inout) :: dy(ny*nf, n)
-    real(wp) :: s(nx, nl, 2), ub(GROUP, 2*nu)
-    integer :: k, t, now
+    real(wp) :: s(nx, nl, 2), zb(GROUP, nx + 2*nu)
+    integer :: k, t, now, nz
 
+    nz = nx + 2*nu                      ! the forcing's columns (u1 none when held)
+    if (hold) nz = nx + nu
     s(:, :, 1) = s0
     now = 1
     do k = 1, n
       if (k > 1) then                   ! s(k) from s(k-1) and the interval's forcing
-        do t = 1, nu                    ! each input in every lane of a vector
-          ub(:, t) = u(t, k - 1)
-          ub(:, nu + t) = u(t, k)
+        if (nx <= 2) then               ! z = [x0; u0; u1], each in every lane of a vector
+          do t = 1, nx
+            zb(:, t) = x(t, k - 1)
+          end do
+        end if
+        do t = 1, nu
+          zb(:, nx + t) = u(t, k - 1)
+          zb(:, nx + nu + t) = u(t, k)
         end do
-        call advance(nx, nu, nl, hold, w, x(:, k - 1), ub, dc, phi, s(:, :, now), &
-                     s(:, :, 3 - now))
+        call advance(nx, nz, nl, w, x(:, k - 1), zb, dc, phi, s(:, :, now), s(:, :, 3 - now))
         now = 3 - now
       end if
       dy(z0:z1, k) = 0.0_wp
@@ -334,39 +340,79 @@ contains
 
   !> One interval of the sensitivities s(:, c) of the nl live columns:
   !> sn(i, c) = ((0 + sum_l w(i, c, l) z(l)) + dc(i, c)) + sum_l Phi(i, l) s(l, c),
-  !> each sum's terms in order (z = [x0; u0; u1]: dPhi x, dGam0 u0, dGam1 u1,
-  !> u1 none when held; ub(:, l) holds u0 then u1 in every lane).  GROUP states at a time, their sums in (vector)
-  !> registers; with nx a constant the x0 and Phi terms' factors stay in
-  !> registers over the columns.  The sums have a fixed size: an automatic
-  !> array would be allocated on the heap at every call.
-  pure subroutine advance(nx, nu, nl, hold, w, x0, ub, dc, phi, s, sn)
+  !> each sum's terms in order (z = [x0; u0; u1]: dPhi x, dGam0 u0, dGam1 u1;
+  !> nz = nx + nu when held, u1 none; zb(:, l) holds z(l) in every lane).
+  !> The sums stay in (vector) registers and have a fixed size (an
+  !> automatic array would be allocated on the heap at every call).  One
+  !> or two states: the forcing of all columns as one vector (rows
+  !> i + nx (c - 1), GROUP at a time), then Phi s column by column; more:
+  !> column by column, GROUP states at a time (callgrind, gcc 12: fewer
+  !> instructions each way for those sizes).
+  pure subroutine advance(nx, nz, nl, w, x0, zb, dc, phi, s, sn)
     integer, value :: nx                ! by value: a constant nx makes a clone
-    integer, intent(in) :: nu, nl
-    logical, intent(in) :: hold
-    real(wp), intent(in) :: w(nx, nl, nx + 2*nu), x0(nx), ub(GROUP, 2*nu), dc(nx, nl), &
-                            phi(nx, nx), s(nx, nl)
+    integer, intent(in) :: nz, nl
+    real(wp), intent(in) :: w(nx, nl, nz), x0(nx), zb(GROUP, nz), dc(nx, nl), phi(nx, nx), &
+                            s(nx, nl)
     real(wp), intent(out) :: sn(nx, nl)
-    integer :: c, g, nk, r
+    real(wp) :: a(GROUP)
+    integer :: c, l
 
-    nk = 2*nu                           ! the inputs' columns
-    if (hold) nk = nu
-    r = mod(nx, GROUP)
-    do c = 1, nl
-      do g = 0, nx - GROUP, GROUP       ! whole groups (a constant size: unrolled)
-        call advance_group(GROUP, g, nx, nu, nk, w(:, c, :), x0, ub, dc(:, c), phi, s(:, c), &
-                           sn(:, c))
+    if (nx <= 2) then
+      call forcing(nx*nl, nz, w, zb, dc, sn)
+      do c = 1, nl
+        a(1:nx) = sn(:, c)
+        !GCC$ novector
+        do l = 1, nx
+          a(1:nx) = a(1:nx) + phi(:, l)*s(l, c)
+        end do
+        sn(:, c) = a(1:nx)
       end do
-      if (r > 0) call advance_group(r, nx - r, nx, nu, nk, w(:, c, :), x0, ub, dc(:, c), phi, &
-                                    s(:, c), sn(:, c))
+      return
+    end if
+    if (nx > GROUP) then
+      call advance_wide(nx, nz, nl, w, x0, zb, dc, phi, s, sn)
+      return
+    end if
+    do c = 1, nl                        ! one group (of a constant size in nx's clones)
+      call advance_group(nx, 0, nx, nz, w(:, c, :), x0, zb, dc(:, c), phi, s(:, c), sn(:, c))
     end do
   end subroutine advance
 
+  !> advance for more than GROUP states: whole groups, then the r states
+  !> left (r made a constant).
+  pure subroutine advance_wide(nx, nz, nl, w, x0, zb, dc, phi, s, sn)
+    integer, intent(in) :: nx, nz, nl
+    real(wp), intent(in) :: w(nx, nl, nz), x0(nx), zb(GROUP, nz), dc(nx, nl), phi(nx, nx), &
+                            s(nx, nl)
+    real(wp), intent(out) :: sn(nx, nl)
+    integer :: c, g, r
+
+    r = mod(nx, GROUP)
+    do c = 1, nl
+      do g = 0, nx - GROUP, GROUP
+        call advance_group(GROUP, g, nx, nz, w(:, c, :), x0, zb, dc(:, c), phi, s(:, c), &
+                           sn(:, c))
+      end do
+      select case (r)
+      case (1)
+        call advance_group(1, nx - 1, nx, nz, w(:, c, :), x0, zb, dc(:, c), phi, s(:, c), &
+                           sn(:, c))
+      case (2)
+        call advance_group(2, nx - 2, nx, nz, w(:, c, :), x0, zb, dc(:, c), phi, s(:, c), &
+                           sn(:, c))
+      case (3)
+        call advance_group(3, nx - 3, nx, nz, w(:, c, :), x0, zb, dc(:, c), phi, s(:, c), &
+                           sn(:, c))
+      end select
+    end do
+  end subroutine advance_wide
+
   !> advance's sums of states g+1..g+m of one column (m by value: a
   !> constant m makes a clone).
-  pure subroutine advance_group(m, g, nx, nu, nk, w, x0, ub, dc, phi, s, sn)
+  pure subroutine advance_group(m, g, nx, nz, w, x0, zb, dc, phi, s, sn)
     integer, value :: m
-    integer, intent(in) :: g, nx, nu, nk
-    real(wp), intent(in) :: w(:, :), x0(nx), ub(GROUP, 2*nu), dc(nx), phi(nx, nx), s(nx)
+    integer, intent(in) :: g, nx, nz
+    real(wp), intent(in) :: w(:, :), x0(nx), zb(GROUP, nz), dc(nx), phi(nx, nx), s(nx)
     real(wp), intent(inout) :: sn(nx)
     real(wp) :: a(GROUP)
     integer :: l
@@ -378,8 +424,8 @@ contains
     end do
     !GCC$ novector
     !GCC$ unroll 2
-    do l = 1, nk
-      a(1:m) = a(1:m) + w(g + 1:g + m, nx + l)*ub(1:m, l)
+    do l = nx + 1, nz
+      a(1:m) = a(1:m) + w(g + 1:g + m, l)*zb(1:m, l)
     end do
     a(1:m) = a(1:m) + dc(g + 1:g + m)
     !GCC$ novector
@@ -388,6 +434,36 @@ contains
     end do
     sn(g + 1:g + m) = a(1:m)
   end subroutine advance_group
+
+  !> f(r) = (0 + sum_l w(r, l) z(l)) + dc(r) for the nr rows, GROUP at a
+  !> time, then the rows left one by one.  nz is not a constant: the loop
+  !> over l stays a loop and the sums vectors (gcc 12 leaves the sums of
+  !> a loop it unrolls scalar).
+  pure subroutine forcing(nr, nz, w, zb, dc, f)
+    integer, intent(in) :: nr, nz
+    real(wp), intent(in) :: w(nr, nz), zb(GROUP, nz), dc(nr)
+    real(wp), intent(out) :: f(nr)
+    real(wp) :: a(GROUP), b
+    integer :: r, l, last
+
+    last = nr - mod(nr, GROUP)
+    do r = 1, last, GROUP
+      a = 0.0_wp
+      !GCC$ novector
+      !GCC$ unroll 2
+      do l = 1, nz
+        a = a + w(r:r + GROUP - 1, l)*zb(:, l)
+      end do
+      f(r:r + GROUP - 1) = a + dc(r:r + GROUP - 1)
+    end do
+    do r = last + 1, nr
+      b = 0.0_wp
+      do l = 1, nz
+        b = b + w(r, l)*zb(1, l)
+      end do
+      f(r) = b + dc(r)
+    end do
+  end subroutine forcing
 
   !> dy(off(c) + i) = (C s)(i, c) for the nl live columns, its terms
   !> summed in order from 0: STRIP rows of every column at a time, then
