@@ -44,6 +44,8 @@ module mlid_lti_predict
   integer, parameter :: STRIP = 4
   !> States whose sums advance keeps in registers at a time.
   integer, parameter :: GROUP = 4
+  !> Rows of the forcing summed at a time.
+  integer, parameter :: FROWS = 8
 
   !> The model's matrices at theta and their partials by free column.
   type :: lti_sys_t
@@ -435,26 +437,28 @@ contains
     sn(g + 1:g + m) = a(1:m)
   end subroutine advance_group
 
-  !> f(r) = (0 + sum_l w(r, l) z(l)) + dc(r) for the nr rows, GROUP at a
-  !> time, then the rows left one by one.  nz is not a constant: the loop
-  !> over l stays a loop and the sums vectors (gcc 12 leaves the sums of
-  !> a loop it unrolls scalar).
+  !> f(r) = (0 + sum_l w(r, l) z(l)) + dc(r) for the nr rows, FROWS at a
+  !> time in pairs of lanes (each z(l) loaded once as a pair), then the
+  !> rows left one by one.  nz is not a constant: the loop over l stays a
+  !> loop and its sums vectors (gcc 12 left the sums of a loop it unrolled
+  !> scalar; with the rows left in pairs, it split the main loop's pairs).
   pure subroutine forcing(nr, nz, w, zb, dc, f)
     integer, intent(in) :: nr, nz
     real(wp), intent(in) :: w(nr, nz), zb(GROUP, nz), dc(nr)
     real(wp), intent(out) :: f(nr)
-    real(wp) :: a(GROUP), b
-    integer :: r, l, last
+    real(wp) :: a(FROWS), b
+    integer :: r, l, last, q
 
-    last = nr - mod(nr, GROUP)
-    do r = 1, last, GROUP
+    last = nr - mod(nr, FROWS)
+    do r = 1, last, FROWS
       a = 0.0_wp
       !GCC$ novector
-      !GCC$ unroll 2
       do l = 1, nz
-        a = a + w(r:r + GROUP - 1, l)*zb(:, l)
+        do q = 0, FROWS - 2, 2
+          a(q + 1:q + 2) = a(q + 1:q + 2) + w(r + q:r + q + 1, l)*zb(1:2, l)
+        end do
       end do
-      f(r:r + GROUP - 1) = a + dc(r:r + GROUP - 1)
+      f(r:r + FROWS - 1) = a + dc(r:r + FROWS - 1)
     end do
     do r = last + 1, nr
       b = 0.0_wp
