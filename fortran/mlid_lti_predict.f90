@@ -140,8 +140,12 @@ contains
     allocate (x(nx, n))
     x(:, 1) = theta(pm%l%ox0 + (iseg - 1)*nx + 1:pm%l%ox0 + iseg*nx)
     select case (nx)                    ! the common sizes as constants: loops unrolled
+    case (1)
+      call states(1, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
     case (2)
       call states(2, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
+    case (3)
+      call states(3, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
     case (4)
       call states(4, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
     case default
@@ -163,16 +167,39 @@ contains
   !> The states x(:, 2:n) from x(:, 1), sample by sample:
   !> x(j) = (((0 + Gam0 u(j-1)) + Gam1 u(j)) + c) + Phi x(j-1), each
   !> product's terms in order (the order of the products over the record
-  !> before).
+  !> before).  Up to GROUP states as one vector sum (a constant nx: in
+  !> registers), more state by state.
   pure subroutine states(nx, nu, n, hold, phi, g0, g1, c, u, x)
     integer, value :: nx                ! by value: a constant nx makes a clone
     integer, intent(in) :: nu, n
     logical, intent(in) :: hold
     real(wp), intent(in) :: phi(nx, nx), g0(nx, nu), g1(nx, nu), c(nx), u(nu, n)
     real(wp), intent(inout) :: x(nx, n)
-    real(wp) :: a
+    real(wp) :: a, v(GROUP)
     integer :: i, j, l
 
+    if (nx <= GROUP) then
+      do j = 2, n
+        v = 0.0_wp
+        !GCC$ novector
+        do l = 1, nu
+          v(1:nx) = v(1:nx) + g0(:, l)*u(l, j - 1)
+        end do
+        if (.not. hold) then
+          !GCC$ novector
+          do l = 1, nu
+            v(1:nx) = v(1:nx) + g1(:, l)*u(l, j)
+          end do
+        end if
+        v(1:nx) = v(1:nx) + c
+        !GCC$ novector
+        do l = 1, nx
+          v(1:nx) = v(1:nx) + phi(:, l)*x(l, j - 1)
+        end do
+        x(:, j) = v(1:nx)
+      end do
+      return
+    end if
     do j = 2, n
       do i = 1, nx
         a = 0.0_wp
