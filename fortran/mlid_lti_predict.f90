@@ -281,7 +281,6 @@ contains
     real(wp), intent(out) :: dy(ny*nf, n)
     real(wp) :: wb(size(pm%ib))
     integer :: off(nl), oc(size(sys%cv)), od(size(sys%dv)), ob(size(pm%ib)), nb, k, i, z0, z1
-    logical :: dead(nf)
 
     off = (live - 1)*ny                 ! dy(i, live(c)) is dy(off(c) + i)
     oc = sys%ci + (sys%ck - 1)*ny       ! the dC, dD terms' places in dy(:, k)
@@ -294,13 +293,19 @@ contains
       ob(nb) = i + (pm%cb(k) - 1)*ny
       wb(nb) = pm%wb(k)
     end do
-    dead = .true.                       ! dy(z0:z1, k) spans the columns C s does not write
-    dead(live) = .false.
-    z0 = 1
-    z1 = 0
-    if (any(dead)) then
-      z0 = (findloc(dead, .true., dim=1) - 1)*ny + 1
-      z1 = findloc(dead, .true., dim=1, back=.true.)*ny
+    z0 = 1                              ! dy(z0:z1, k) spans the columns C s does not write
+    z1 = 0                              ! (live ascending: the first and last not in it)
+    if (nl < nf) then
+      i = 0
+      do k = 1, nl
+        if (live(k) == k) i = k
+      end do
+      z0 = i*ny + 1
+      i = nl + 1
+      do k = nl, 1, -1
+        if (live(k) == nf - nl + k) i = k
+      end do
+      z1 = (nf - (nl + 1 - i))*ny
     end if
     select case (nx)                    ! the common sizes as constants: loops unrolled
     case (1)
