@@ -27,9 +27,10 @@
 !> sample: the matrices are a few rows deep (nx, ny, nx nf), too few for
 !> BLAS (the reference dgemm took twice the instructions, callgrind, the C-8
 !> Monte Carlo) or for the compiler's loops over blocks of samples (their
-!> overhead per column outweighed the arithmetic).  Rows go by strips of
-!> STRIP whose sums stay in vector registers; every sum keeps its terms'
-!> order, so the results are the same to the bit as the products' were.
+!> overhead per column outweighed the arithmetic).  The sums go a few at a
+!> time in vector registers (the states of a sample or a column, the rows
+!> of C s, the forcing's rows); every sum keeps its terms' order, so the
+!> results are the same to the bit as the products' were.
 module mlid_lti_predict
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED
@@ -266,10 +267,9 @@ contains
 
   !> dy(ny, nf, n) (as dy(ny nf, n)) over n samples, sample by sample.  The states'
   !> sensitivities of the live columns live(1:nl) (the others' dy hold
-  !> only their dC x, dD u and dbias terms) start from s0 (nx, nl) and are
-  !> kept transposed, s(c, i): advanced by the recursion with its forcing
-  !> (advance), then dy = C s (c_times_s) + the few terms of dC x and dD u
-  !> + dbias.  Each element sums its terms in the order the products over
+  !> only their dC x, dD u and dbias terms) start from s0 (nx, nl), s(:, c)
+  !> column c's: advanced by the recursion with its forcing (advance), then
+  !> dy = C s (c_times_s) + the few terms of dC x and dD u + dbias.  Each element sums its terms in the order the products over
   !> blocks of samples did before, so the results are those to the bit.
   subroutine sensitivities(ny, nx, nu, nf, n, nl, live, pm, iseg, sys, mp, hold, x, u, s0, dy)
     integer, intent(in) :: ny, nx, nu, nf, n, nl, live(nl), iseg
