@@ -33,6 +33,7 @@
 !> results are the same to the bit as the products' were.
 module mlid_lti_predict
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED
   use mlid_models, only: model_t, linear_model_t
   use mlid_options, only: options_t
@@ -280,7 +281,8 @@ contains
     real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
     real(wp), intent(out) :: dy(ny*nf, n)
     real(wp) :: wb(size(pm%ib))
-    integer :: off(nl), oc(size(sys%cv)), od(size(sys%dv)), ob(size(pm%ib)), nb, k, i, z0, z1
+    integer(int64) :: off(nl)            ! 64-bit: no widening at each use
+    integer :: oc(size(sys%cv)), od(size(sys%dv)), ob(size(pm%ib)), nb, k, i, z0, z1
 
     off = (live - 1)*ny                 ! dy(i, live(c)) is dy(off(c) + i)
     oc = sys%ci + (sys%ck - 1)*ny       ! the dC, dD terms' places in dy(:, k)
@@ -331,7 +333,8 @@ contains
   subroutine sweep(nx, ny, nu, nf, n, nl, hold, off, oc, od, ob, wb, z0, z1, sys, w, dc, &
                    phi, cm, x, u, s0, dy)
     integer, value :: nx
-    integer, intent(in) :: ny, nu, nf, n, nl, off(nl), oc(:), od(:), ob(:), z0, z1
+    integer, intent(in) :: ny, nu, nf, n, nl, oc(:), od(:), ob(:), z0, z1
+    integer(int64), intent(in) :: off(nl)
     logical, intent(in) :: hold
     real(wp), intent(in) :: wb(:), w(nx, nl, nx + 2*nu), dc(nx, nl), phi(nx, nx), cm(ny, nx), &
                             x(nx, n), u(nu, n), s0(nx, nl)
@@ -505,7 +508,8 @@ contains
   !> summed in order from 0: STRIP rows of every column at a time, then
   !> the rows left one by one.
   pure subroutine c_times_s(nl, nx, ny, nf, off, cm, s, dy)
-    integer, intent(in) :: ny, nf, nl, off(nl)
+    integer, intent(in) :: ny, nf, nl
+    integer(int64), intent(in) :: off(nl)
     integer, value :: nx                ! by value: a constant nx makes a clone
     real(wp), intent(in) :: cm(ny, nx), s(nx, nl)
     real(wp), intent(inout) :: dy(ny*nf)
