@@ -304,6 +304,55 @@ Monte Carlo (benchmarks/monte_carlo_10k.py, two cores): 3.2-4.2 s both,
 the runs being the core's (mlid_monte_carlo), one wrapper call a chunk.
 Every case deck's results are unchanged to the bit (compare_cases: 40 of
 40 bitwise; the same with one and two threads).
+
+Measured (ours, branch lti-sens against main at da56406, one thread; the
+linear model's fast path, fortran/mlid_lti_predict.f90, only; callgrind
+per fit, --case all):
+  C-8        7.1 M -> 5.4 M instructions per fit (4.71 k -> 3.58 k per
+             sample and iteration): the sensitivities 2.89 -> 1.53 M
+             (1,600 -> 850 instructions a sample), lti_segment 0.66 ->
+             0.43 M; least CPU time 0.89-0.90 -> 0.82 ms per fit (three
+             runs of 5-7 rounds); the C-8 Monte Carlo (monte_carlo_10k's
+             10,000 fits, two cores, three alternating runs) 4,873 -> 5,566
+             fits per CPU-second at the least CPU time (2.05 -> 1.80 s),
+             the same estimates to the last digit;
+  ATTAS lat. 103.3 M -> 98.8 M (9.83 k -> 9.40 k): the sensitivities and
+             their forcing 23.7 -> 20.8 M (1,750 -> 1,540 a sample),
+             lti_segment 5.1 -> 4.1 M, memcpy 2.2 -> 1.9 M (the forcing's
+             copies into z gone); least CPU time per fit no change beyond
+             the noise (six runs of 5-11 rounds: 9.9/9.8, 11.9/12.3,
+             11.1/9.4, 11.2/11.7, 11.5/11.5, 11.5/10.1 ms this/main, load
+             average 1.5-3); the fast path alone in a scratch program
+             (lti_segment with sensitivities, ATTAS's sizes, 4.5 M
+             samples, alternating): 0.51-0.60 -> 0.44-0.50 s user time
+             (C-8's sizes: 0.35 -> 0.24 s);
+  HFB-320    76.6 M both (not this path).
+The sums and their terms' order are the same (every case deck's results
+unchanged to the bit: compare_cases, 40 of 40 bitwise; ATTAS and C-8 the
+same JSON with one and two threads; a scratch program comparing this
+file's lti_segment with main's on 400 random linear models, one to six
+states, held and linear inputs, one to three RK4 steps, one or two
+segments: yhat, dy and the states equal to the bit). The steps: the
+states' sensitivities kept by column, s(:, c), and summed GROUP = 4 states
+at a time as one vector (gcc 12 keeps such sums in registers when the
+state count is a constant: clones for one to four states; the row strips
+of the transposed form summed padding rows, C-8's five live columns eight
+rows); for one or two states the forcing of all live columns as one
+vector, eight rows at a time with each z(l) loaded once as a pair of lanes
+(ATTAS's forcing 9.2 -> 7.2 M), then Phi s by column; z handed over
+without copies, dy zeroed only over the columns C s does not write (none
+for C-8), C s's places in dy as 64-bit offsets; the states likewise as one
+vector sum (lti_segment). Tried and dropped: the row-strip form with every
+state's sums in registers (gcc 12 left the sums scalar once it unrolled
+the loop over x: no gain on an ATTAS-sized scratch case), paired-lane
+remainders of the forcing (gcc then split the main loop's pairs), C s
+fused column by column (C reloaded: +220 a sample on the scratch case),
+the u loop unrolled by four (a loss). Five or more states go through whole
+groups and a remainder of constant size (8 % more than main's count in a
+five-state scratch case: 4,770 against 4,420 a sample). Left: C s (ATTAS
+430 a sample: 36 instructions a live column for five outputs, three of
+them the sums' "0 +"), the dC, dD and bias terms (200 a sample on ATTAS:
+about eleven instructions a term), the outputs' strips in lti_segment.
 """
 
 import argparse

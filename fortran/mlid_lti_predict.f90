@@ -27,11 +27,13 @@
 !> sample: the matrices are a few rows deep (nx, ny, nx nf), too few for
 !> BLAS (the reference dgemm took twice the instructions, callgrind, the C-8
 !> Monte Carlo) or for the compiler's loops over blocks of samples (their
-!> overhead per column outweighed the arithmetic).  Rows go by strips of
-!> STRIP whose sums stay in vector registers; every sum keeps its terms'
-!> order, so the results are the same to the bit as the products' were.
+!> overhead per column outweighed the arithmetic).  The sums go a few at a
+!> time in vector registers (the states of a sample or a column, the rows
+!> of C s, the forcing's rows); every sum keeps its terms' order, so the
+!> results are the same to the bit as the products' were.
 module mlid_lti_predict
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED
   use mlid_models, only: model_t, linear_model_t
   use mlid_options, only: options_t
@@ -40,8 +42,12 @@ module mlid_lti_predict
   private
   public :: lti_exact, lti_segment
 
-  !> Rows of the transposed sensitivities summed at a time (in registers).
+  !> Rows of C s summed at a time (in registers).
   integer, parameter :: STRIP = 4
+  !> States whose sums advance keeps in registers at a time.
+  integer, parameter :: GROUP = 4
+  !> Rows of the forcing summed at a time.
+  integer, parameter :: FROWS = 8
 
   !> The model's matrices at theta and their partials by free column.
   type :: lti_sys_t
@@ -62,10 +68,9 @@ module mlid_lti_predict
     real(wp), allocatable :: phi(:, :, :), g0(:, :, :), g1(:, :, :), c(:, :), fa(:), fb(:)
   end type step_t
 
-  !> The sample interval's map and its partials by live column c,
-  !> transposed for sensitivities: w(c, :, :) = [dPhi_c, dGam0_c, dGam1_c]
-  !> and dc(c, :) = dc_c, the rows past the live columns zero to a multiple
-  !> of STRIP.
+  !> The sample interval's map and its partials by live column c:
+  !> w(:, c, :) = [dPhi_c, dGam0_c, dGam1_c] and dc(:, c) = dc_c (zero for a
+  !> column that moves only x0).
   type :: lti_map_t
     real(wp), allocatable :: phi(:, :), g0(:, :), g1(:, :), c(:)
     real(wp), allocatable :: w(:, :, :), dc(:, :)
@@ -137,8 +142,12 @@ contains
     allocate (x(nx, n))
     x(:, 1) = theta(pm%l%ox0 + (iseg - 1)*nx + 1:pm%l%ox0 + iseg*nx)
     select case (nx)                    ! the common sizes as constants: loops unrolled
+    case (1)
+      call states(1, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
     case (2)
       call states(2, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
+    case (3)
+      call states(3, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
     case (4)
       call states(4, nu, n, opt%hold, mp%phi, mp%g0, mp%g1, mp%c, u(:, j0:j1), x)
     case default
@@ -160,16 +169,39 @@ contains
   !> The states x(:, 2:n) from x(:, 1), sample by sample:
   !> x(j) = (((0 + Gam0 u(j-1)) + Gam1 u(j)) + c) + Phi x(j-1), each
   !> product's terms in order (the order of the products over the record
-  !> before).
+  !> before).  Up to GROUP states as one vector sum (a constant nx: in
+  !> registers), more state by state.
   pure subroutine states(nx, nu, n, hold, phi, g0, g1, c, u, x)
     integer, value :: nx                ! by value: a constant nx makes a clone
     integer, intent(in) :: nu, n
     logical, intent(in) :: hold
     real(wp), intent(in) :: phi(nx, nx), g0(nx, nu), g1(nx, nu), c(nx), u(nu, n)
     real(wp), intent(inout) :: x(nx, n)
-    real(wp) :: a
+    real(wp) :: a, v(GROUP)
     integer :: i, j, l
 
+    if (nx <= GROUP) then
+      do j = 2, n
+        v = 0.0_wp
+        !GCC$ novector
+        do l = 1, nu
+          v(1:nx) = v(1:nx) + g0(:, l)*u(l, j - 1)
+        end do
+        if (.not. hold) then
+          !GCC$ novector
+          do l = 1, nu
+            v(1:nx) = v(1:nx) + g1(:, l)*u(l, j)
+          end do
+        end if
+        v(1:nx) = v(1:nx) + c
+        !GCC$ novector
+        do l = 1, nx
+          v(1:nx) = v(1:nx) + phi(:, l)*x(l, j - 1)
+        end do
+        x(:, j) = v(1:nx)
+      end do
+      return
+    end if
     do j = 2, n
       do i = 1, nx
         a = 0.0_wp
@@ -235,12 +267,11 @@ contains
   end subroutine outputs
 
   !> dy(ny, nf, n) (as dy(ny nf, n)) over n samples, sample by sample.  The states'
-  !> sensitivities of the live columns live(1:nl) (the others' dy stay
-  !> zero) start from s0 (nx, nl) and are kept transposed, s(c, i) (rows
-  !> padded to a multiple of STRIP): advanced by the recursion with its
-  !> forcing (advance), then dy = C s (c_times_s) + the few terms of dC x and
-  !> dD u + dbias.  Each element sums its terms in the order the products
-  !> over blocks of samples did before, so the results are those to the bit.
+  !> sensitivities of the live columns live(1:nl) (the others' dy hold
+  !> only their dC x, dD u and dbias terms) start from s0 (nx, nl), s(:, c)
+  !> column c's: advanced by the recursion with its forcing (advance), then
+  !> dy = C s (c_times_s) + the few terms of dC x and dD u + dbias.  Each element sums its terms in the order the products over
+  !> blocks of samples did before, so the results are those to the bit.
   subroutine sensitivities(ny, nx, nu, nf, n, nl, live, pm, iseg, sys, mp, hold, x, u, s0, dy)
     integer, intent(in) :: ny, nx, nu, nf, n, nl, live(nl), iseg
     type(param_map_t), intent(in) :: pm
@@ -249,11 +280,10 @@ contains
     logical, intent(in) :: hold
     real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
     real(wp), intent(out) :: dy(ny*nf, n)
-    real(wp) :: s(size(mp%dc, 1), nx, 2), z(nx + 2*nu), wb(size(pm%ib))
-    integer :: off(nl), oc(size(sys%cv)), od(size(sys%dv)), ob(size(pm%ib)), nb, nk, k, t, i, now
+    real(wp) :: wb(size(pm%ib))
+    integer(int64) :: off(nl)            ! 64-bit: no widening at each use
+    integer :: oc(size(sys%cv)), od(size(sys%dv)), ob(size(pm%ib)), nb, k, i, z0, z1
 
-    s = 0.0_wp
-    s(1:nl, :, 1) = transpose(s0)
     off = (live - 1)*ny                 ! dy(i, live(c)) is dy(off(c) + i)
     oc = sys%ci + (sys%ck - 1)*ny       ! the dC, dD terms' places in dy(:, k)
     od = sys%di + (sys%dk - 1)*ny
@@ -265,75 +295,223 @@ contains
       ob(nb) = i + (pm%cb(k) - 1)*ny
       wb(nb) = pm%wb(k)
     end do
-    nk = nx + nu                        ! the forcing's columns: x, u0 and (not held) u1
-    if (.not. hold) nk = nx + 2*nu
+    z0 = 1                              ! dy(z0:z1, k) spans the columns C s does not write
+    z1 = 0                              ! (live ascending: the first and last not in it)
+    if (nl < nf) then
+      i = 0
+      do k = 1, nl
+        if (live(k) == k) i = k
+      end do
+      z0 = i*ny + 1
+      i = nl + 1
+      do k = nl, 1, -1
+        if (live(k) == nf - nl + k) i = k
+      end do
+      z1 = (nf - (nl + 1 - i))*ny
+    end if
+    select case (nx)                    ! the common sizes as constants: loops unrolled
+    case (1)
+      call sweep(1, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+    case (2)
+      call sweep(2, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+    case (3)
+      call sweep(3, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+    case (4)
+      call sweep(4, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+    case default
+      call sweep(nx, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+    end select
+  end subroutine sensitivities
+
+  !> sensitivities' sample loop (nx by value: a constant nx makes a clone),
+  !> s(:, :, now) the sensitivities at sample k.
+  subroutine sweep(nx, ny, nu, nf, n, nl, hold, off, oc, od, ob, wb, z0, z1, sys, w, dc, &
+                   phi, cm, x, u, s0, dy)
+    integer, value :: nx
+    integer, intent(in) :: ny, nu, nf, n, nl, oc(:), od(:), ob(:), z0, z1
+    integer(int64), intent(in) :: off(nl)
+    logical, intent(in) :: hold
+    real(wp), intent(in) :: wb(:), w(nx, nl, nx + 2*nu), dc(nx, nl), phi(nx, nx), cm(ny, nx), &
+                            x(nx, n), u(nu, n), s0(nx, nl)
+    type(lti_sys_t), intent(in) :: sys
+    real(wp), intent(inout) :: dy(ny*nf, n)
+    real(wp) :: s(nx, nl, 2), zb(GROUP, nx + 2*nu)
+    integer :: k, t, now, nz
+
+    nz = nx + 2*nu                      ! the forcing's columns (u1 none when held)
+    if (hold) nz = nx + nu
+    s(:, :, 1) = s0
     now = 1
     do k = 1, n
       if (k > 1) then                   ! s(k) from s(k-1) and the interval's forcing
-        z(1:nx) = x(:, k - 1)
-        z(nx + 1:nx + nu) = u(:, k - 1)
-        if (.not. hold) z(nx + nu + 1:) = u(:, k)
-        call advance(size(s, 1), nx, nk, mp%w, z, mp%dc, mp%phi, s(:, :, now), s(:, :, 3 - now))
+        if (nx <= 2) then               ! z = [x0; u0; u1], each in every lane of a vector
+          do t = 1, nx
+            zb(:, t) = x(t, k - 1)
+          end do
+        end if
+        do t = 1, nu
+          zb(:, nx + t) = u(t, k - 1)
+          zb(:, nx + nu + t) = u(t, k)
+        end do
+        call advance(nx, nz, nl, w, x(:, k - 1), zb, dc, phi, s(:, :, now), s(:, :, 3 - now))
         now = 3 - now
       end if
-      dy(:, k) = 0.0_wp
-      select case (nx)
-      case (2)
-        call c_times_s(size(s, 1), 2, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
-      case (4)
-        call c_times_s(size(s, 1), 4, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
-      case default
-        call c_times_s(size(s, 1), nx, ny, nf, nl, off, sys%c, s(:, :, now), dy(:, k))
-      end select
+      dy(z0:z1, k) = 0.0_wp
+      call c_times_s(nl, nx, ny, nf, off, cm, s(:, :, now), dy(:, k))
       do t = 1, size(oc)
         dy(oc(t), k) = dy(oc(t), k) + sys%cv(t)*x(sys%cl(t), k)
       end do
       do t = 1, size(od)
         dy(od(t), k) = dy(od(t), k) + sys%dv(t)*u(sys%dl(t), k)
       end do
-      do t = 1, nb
+      do t = 1, size(ob)
         dy(ob(t), k) = dy(ob(t), k) + wb(t)
       end do
     end do
-  end subroutine sensitivities
+  end subroutine sweep
 
-  !> One interval of the transposed sensitivities s(c, i) (STRIP rows at a
-  !> time, the strip's sums in registers):
-  !> sn(c, i) = ((0 + sum_l w(c, i, l) z(l)) + dc(c, i)) + sum_l Phi(i, l) s(c, l),
-  !> each sum's terms in order (z = [x; u0; u1]: dPhi x, dGam0 u0, dGam1 u1).
-  !> The padding rows compute what no one reads.
-  pure subroutine advance(np, nx, nk, w, z, dc, phi, s, sn)
-    integer, intent(in) :: np, nx, nk
-    real(wp), intent(in) :: w(np, nx, *), z(nk), dc(np, nx), phi(nx, nx), s(np, nx)
-    real(wp), intent(out) :: sn(np, nx)
-    real(wp) :: acc(STRIP)
-    integer :: c, i, l
+  !> One interval of the sensitivities s(:, c) of the nl live columns:
+  !> sn(i, c) = ((0 + sum_l w(i, c, l) z(l)) + dc(i, c)) + sum_l Phi(i, l) s(l, c),
+  !> each sum's terms in order (z = [x0; u0; u1]: dPhi x, dGam0 u0, dGam1 u1;
+  !> nz = nx + nu when held, u1 none; zb(:, l) holds z(l) in every lane).
+  !> The sums stay in (vector) registers and have a fixed size (an
+  !> automatic array would be allocated on the heap at every call).  One
+  !> or two states: the forcing of all columns as one vector (rows
+  !> i + nx (c - 1), GROUP at a time), then Phi s column by column; more:
+  !> column by column, GROUP states at a time (callgrind, gcc 12: fewer
+  !> instructions each way for those sizes).
+  pure subroutine advance(nx, nz, nl, w, x0, zb, dc, phi, s, sn)
+    integer, value :: nx                ! by value: a constant nx makes a clone
+    integer, intent(in) :: nz, nl
+    real(wp), intent(in) :: w(nx, nl, nz), x0(nx), zb(GROUP, nz), dc(nx, nl), phi(nx, nx), &
+                            s(nx, nl)
+    real(wp), intent(out) :: sn(nx, nl)
+    real(wp) :: a(GROUP)
+    integer :: c, l
 
-    do i = 1, nx
-      do c = 1, np, STRIP
-        acc = 0.0_wp
-        !GCC$ novector
-        !GCC$ unroll 2
-        do l = 1, nk
-          acc = acc + w(c:c + STRIP - 1, i, l)*z(l)
-        end do
-        acc = acc + dc(c:c + STRIP - 1, i)
+    if (nx <= 2) then
+      call forcing(nx*nl, nz, w, zb, dc, sn)
+      do c = 1, nl
+        a(1:nx) = sn(:, c)
         !GCC$ novector
         do l = 1, nx
-          acc = acc + s(c:c + STRIP - 1, l)*phi(i, l)
+          a(1:nx) = a(1:nx) + phi(:, l)*s(l, c)
         end do
-        sn(c:c + STRIP - 1, i) = acc
+        sn(:, c) = a(1:nx)
       end do
+      return
+    end if
+    if (nx > GROUP) then
+      call advance_wide(nx, nz, nl, w, x0, zb, dc, phi, s, sn)
+      return
+    end if
+    do c = 1, nl                        ! one group (of a constant size in nx's clones)
+      call advance_group(nx, 0, nx, nz, w(:, c, :), x0, zb, dc(:, c), phi, s(:, c), sn(:, c))
     end do
   end subroutine advance
 
-  !> dy(off(c) + i) = (C s^T)(i, c) for the nl live columns, its terms
+  !> advance for more than GROUP states: whole groups, then the r states
+  !> left (r made a constant).
+  pure subroutine advance_wide(nx, nz, nl, w, x0, zb, dc, phi, s, sn)
+    integer, intent(in) :: nx, nz, nl
+    real(wp), intent(in) :: w(nx, nl, nz), x0(nx), zb(GROUP, nz), dc(nx, nl), phi(nx, nx), &
+                            s(nx, nl)
+    real(wp), intent(out) :: sn(nx, nl)
+    integer :: c, g, r
+
+    r = mod(nx, GROUP)
+    do c = 1, nl
+      do g = 0, nx - GROUP, GROUP
+        call advance_group(GROUP, g, nx, nz, w(:, c, :), x0, zb, dc(:, c), phi, s(:, c), &
+                           sn(:, c))
+      end do
+      select case (r)
+      case (1)
+        call advance_group(1, nx - 1, nx, nz, w(:, c, :), x0, zb, dc(:, c), phi, s(:, c), &
+                           sn(:, c))
+      case (2)
+        call advance_group(2, nx - 2, nx, nz, w(:, c, :), x0, zb, dc(:, c), phi, s(:, c), &
+                           sn(:, c))
+      case (3)
+        call advance_group(3, nx - 3, nx, nz, w(:, c, :), x0, zb, dc(:, c), phi, s(:, c), &
+                           sn(:, c))
+      end select
+    end do
+  end subroutine advance_wide
+
+  !> advance's sums of states g+1..g+m of one column (m by value: a
+  !> constant m makes a clone).
+  pure subroutine advance_group(m, g, nx, nz, w, x0, zb, dc, phi, s, sn)
+    integer, value :: m
+    integer, intent(in) :: g, nx, nz
+    real(wp), intent(in) :: w(:, :), x0(nx), zb(GROUP, nz), dc(nx), phi(nx, nx), s(nx)
+    real(wp), intent(inout) :: sn(nx)
+    real(wp) :: a(GROUP)
+    integer :: l
+
+    a = 0.0_wp
+    !GCC$ novector
+    do l = 1, nx
+      a(1:m) = a(1:m) + w(g + 1:g + m, l)*x0(l)
+    end do
+    !GCC$ novector
+    !GCC$ unroll 2
+    do l = nx + 1, nz
+      a(1:m) = a(1:m) + w(g + 1:g + m, l)*zb(1:m, l)
+    end do
+    a(1:m) = a(1:m) + dc(g + 1:g + m)
+    !GCC$ novector
+    do l = 1, nx
+      a(1:m) = a(1:m) + phi(g + 1:g + m, l)*s(l)
+    end do
+    sn(g + 1:g + m) = a(1:m)
+  end subroutine advance_group
+
+  !> f(r) = (0 + sum_l w(r, l) z(l)) + dc(r) for the nr rows, FROWS at a
+  !> time in pairs of lanes (each z(l) loaded once as a pair), then the
+  !> rows left one by one.  nz is not a constant: the loop over l stays a
+  !> loop and its sums vectors (gcc 12 left the sums of a loop it unrolled
+  !> scalar; with the rows left in pairs, it split the main loop's pairs).
+  pure subroutine forcing(nr, nz, w, zb, dc, f)
+    integer, intent(in) :: nr, nz
+    real(wp), intent(in) :: w(nr, nz), zb(GROUP, nz), dc(nr)
+    real(wp), intent(out) :: f(nr)
+    real(wp) :: a(FROWS), b
+    integer :: r, l, last, q
+
+    last = nr - mod(nr, FROWS)
+    do r = 1, last, FROWS
+      a = 0.0_wp
+      !GCC$ novector
+      do l = 1, nz
+        do q = 0, FROWS - 2, 2
+          a(q + 1:q + 2) = a(q + 1:q + 2) + w(r + q:r + q + 1, l)*zb(1:2, l)
+        end do
+      end do
+      f(r:r + FROWS - 1) = a + dc(r:r + FROWS - 1)
+    end do
+    do r = last + 1, nr
+      b = 0.0_wp
+      do l = 1, nz
+        b = b + w(r, l)*zb(1, l)
+      end do
+      f(r) = b + dc(r)
+    end do
+  end subroutine forcing
+
+  !> dy(off(c) + i) = (C s)(i, c) for the nl live columns, its terms
   !> summed in order from 0: STRIP rows of every column at a time, then
   !> the rows left one by one.
-  pure subroutine c_times_s(np, nx, ny, nf, nl, off, cm, s, dy)
-    integer, intent(in) :: np, ny, nf, nl, off(nl)
+  pure subroutine c_times_s(nl, nx, ny, nf, off, cm, s, dy)
+    integer, intent(in) :: ny, nf, nl
+    integer(int64), intent(in) :: off(nl)
     integer, value :: nx                ! by value: a constant nx makes a clone
-    real(wp), intent(in) :: cm(ny, nx), s(np, nx)
+    real(wp), intent(in) :: cm(ny, nx), s(nx, nl)
     real(wp), intent(inout) :: dy(ny*nf)
     real(wp) :: acc(STRIP), a
     integer :: c, i, l, last
@@ -344,7 +522,7 @@ contains
         acc = 0.0_wp
         !GCC$ novector
         do l = 1, nx
-          acc = acc + cm(i:i + STRIP - 1, l)*s(c, l)
+          acc = acc + cm(i:i + STRIP - 1, l)*s(l, c)
         end do
         dy(off(c) + i:off(c) + i + STRIP - 1) = acc
       end do
@@ -353,7 +531,7 @@ contains
       do c = 1, nl
         a = 0.0_wp
         do l = 1, nx
-          a = a + cm(i, l)*s(c, l)
+          a = a + cm(i, l)*s(l, c)
         end do
         dy(off(c) + i) = a
       end do
@@ -471,7 +649,7 @@ contains
     real(wp), dimension(size(sys%a, 1), size(sys%a, 1)) :: dm, dm2, dm3, dp, dea, deb, dphi
     real(wp), dimension(size(sys%b, 1), size(sys%b, 2)) :: deab, debb, dg0, dg1
     real(wp) :: dcb(size(sys%a, 1)), dc(size(sys%a, 1)), h
-    integer :: nx, nu, nf, np, k, i, c
+    integer :: nx, nu, nf, k, i, c
     logical :: da
 
     nx = size(sys%a, 1)
@@ -480,8 +658,7 @@ contains
     call rk4_map(sys%a, sys%b, sys%bx, h, nsub, hold, st, mp%phi, mp%g0, mp%g1, mp%c)
     if (.not. present(live)) return
     nf = size(live)
-    np = STRIP*((nf + STRIP - 1)/STRIP)
-    allocate (mp%w(np, nx, nx + 2*nu), mp%dc(np, nx))
+    allocate (mp%w(nx, nf, nx + 2*nu), mp%dc(nx, nf))
     mp%w = 0.0_wp
     mp%dc = 0.0_wp
     do c = 1, nf
@@ -513,10 +690,10 @@ contains
         dg1 = matmul(dp, st%g1(:, :, i - 1)) + matmul(st%p, dg1) + st%fa(i)*deab + st%fb(i)*debb
         dc = matmul(dp, st%c(:, i - 1)) + matmul(st%p, dc) + dcb
       end do
-      mp%w(c, :, 1:nx) = dphi
-      mp%w(c, :, nx + 1:nx + nu) = dg0
-      mp%w(c, :, nx + nu + 1:) = dg1
-      mp%dc(c, :) = dc
+      mp%w(:, c, 1:nx) = dphi
+      mp%w(:, c, nx + 1:nx + nu) = dg0
+      mp%w(:, c, nx + nu + 1:) = dg1
+      mp%dc(:, c) = dc
     end do
   end subroutine interval_map
 

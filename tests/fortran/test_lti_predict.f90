@@ -25,6 +25,8 @@ program test_lti_predict
   call short_period_held(1300)        ! a long record: the sensitivities carried over many samples
   call feedback_ties_segments()
   call three_states_five_outputs()
+  call other_sizes(5)                 ! a whole group of four states and one left
+  call other_sizes(1)
   call finish()
 
 contains
@@ -155,6 +157,48 @@ contains
     call compare('three states, five outputs, linear input, 2 substeps', lin, theta, isfree, &
                  no_ties(l%nth), [1], t, u, opt)
   end subroutine three_states_five_outputs
+
+  !> nx states in a chain (state i driven by i-1 and the input), two
+  !> outputs, the input held over each sample, one RK4 step: the state
+  !> counts the fast path takes in groups of four (five: one group and one
+  !> state left) or alone (one); free: the diagonal of F, G(1), x0(nx),
+  !> one H entry and no bias (no column with only a bias term).
+  subroutine other_sizes(nx)
+    integer, intent(in) :: nx
+    integer, parameter :: nu = 1, ny = 2, nt = 250
+    character(len=16) :: n
+    type(linear_model_t) :: lin
+    type(options_t) :: opt
+    real(wp), allocatable :: theta(:), t(:), u(:, :)
+    integer, allocatable :: isfree(:)
+    type(layout_t) :: l
+    integer :: i, j
+
+    call linear(nx, nu, ny, lin)
+    l = model_layout(lin)
+    allocate (theta(l%nth), isfree(l%nth))
+    theta = 0.0_wp
+    isfree = 0
+    do i = 1, nx
+      theta(lin%of + (i - 1)*nx + i) = -0.8_wp - 0.3_wp*i      ! F(i, i)
+      isfree(lin%of + (i - 1)*nx + i) = 1
+      if (i > 1) theta(lin%of + (i - 2)*nx + i) = 0.5_wp       ! F(i, i-1)
+    end do
+    theta(lin%og + 1:lin%og + nx) = [(1.0_wp/i, i=1, nx)]
+    isfree(lin%og + 1) = 1
+    theta(lin%oh + 1) = 1.0_wp                                   ! H(1, 1)
+    theta(lin%oh + 2*nx) = 1.0_wp                                ! H(2, nx)
+    isfree(lin%oh + 2*nx) = 1
+    theta(l%ox0 + nx) = 0.05_wp
+    isfree(l%ox0 + nx) = 1
+    allocate (t(nt), u(nu, nt))
+    t = [(0.05_wp*(j - 1), j=1, nt)]
+    u(1, :) = [(sin(0.15_wp*j) + merge(0.5_wp, 0.0_wp, mod(j, 60) < 8), j=1, nt)]
+    opt%hold = .true.
+    write (n, '(i0)') nx
+    call compare(trim(n)//' states in a chain, held input, no free bias', lin, theta, isfree, &
+                 no_ties(l%nth), [1], t, u, opt)
+  end subroutine other_sizes
 
   subroutine linear(nx, nu, ny, lin)
     integer, intent(in) :: nx, nu, ny
