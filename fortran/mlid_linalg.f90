@@ -47,6 +47,9 @@ module mlid_linalg
 
   !> Below this size chol_inverse factorises without LAPACK.
   integer, parameter :: SMALL_N = 12
+  !> Rows a pass of dot8_6 and dot8_3 (a multiple of eight): seven columns'
+  !> worth (28 kB) stays in the L1 cache for the four passes over them.
+  integer, parameter :: DOT_ROWS = 512
 
   !> expm_into's work arrays (n x n, and the LU's pivots), kept by a caller
   !> that takes exponentials of one size over and over.
@@ -286,26 +289,31 @@ contains
 
   !> dot8 of x with six columns y(:, 1:6) at once: d(q) = x . y(:, q),
   !> each with dot8's eight partial sums (each in order), added in dot8's
-  !> order.  The partial sums a pair at a time over all the rows (two
-  !> vector registers' worth for the six columns), so a pair of x's values
-  !> is read once for the six products.
+  !> order.  The partial sums a pair at a time over DOT_ROWS rows (one
+  !> vector register for each column), so a pair of x's values is read
+  !> once for the six products; the rows in blocks that stay in the L1
+  !> cache for the four passes.
   pure subroutine dot8_6(m, ld, x, y, d)
     integer, intent(in) :: m, ld
     real(wp), intent(in) :: x(m), y(ld, 6)
     real(wp), intent(out) :: d(6)
     real(wp) :: s(8, 6), a(2, 6)
-    integer :: i, m8, p, q
+    integer :: i, i0, i1, m8, p, q
+    s = 0.0_wp
     m8 = m - mod(m, 8)
-    do p = 0, 6, 2                    ! partial sums p+1 and p+2
-      a = 0.0_wp
-      !GCC$ novector
-      !GCC$ unroll 2
-      do i = p + 1, m8, 8
-        do q = 1, 6
-          a(:, q) = a(:, q) + x(i:i + 1)*y(i:i + 1, q)
+    do i0 = 1, m8, DOT_ROWS
+      i1 = min(m8, i0 + DOT_ROWS - 1)
+      do p = 0, 6, 2                  ! partial sums p+1 and p+2
+        a = s(p + 1:p + 2, :)
+        !GCC$ novector
+        !GCC$ unroll 2
+        do i = i0 + p, i1, 8
+          do q = 1, 6
+            a(:, q) = a(:, q) + x(i:i + 1)*y(i:i + 1, q)
+          end do
         end do
+        s(p + 1:p + 2, :) = a
       end do
-      s(p + 1:p + 2, :) = a
     end do
     do q = 1, 6
       d(q) = ((s(1, q) + s(5, q)) + (s(2, q) + s(6, q))) + ((s(3, q) + s(7, q)) + (s(4, q) + s(8, q)))
@@ -321,18 +329,22 @@ contains
     real(wp), intent(in) :: x(m), y(ld, 3)
     real(wp), intent(out) :: d(3)
     real(wp) :: s(8, 3), a(2, 3)
-    integer :: i, m8, p, q
+    integer :: i, i0, i1, m8, p, q
+    s = 0.0_wp
     m8 = m - mod(m, 8)
-    do p = 0, 6, 2
-      a = 0.0_wp
-      !GCC$ novector
-      !GCC$ unroll 2
-      do i = p + 1, m8, 8
-        do q = 1, 3
-          a(:, q) = a(:, q) + x(i:i + 1)*y(i:i + 1, q)
+    do i0 = 1, m8, DOT_ROWS
+      i1 = min(m8, i0 + DOT_ROWS - 1)
+      do p = 0, 6, 2
+        a = s(p + 1:p + 2, :)
+        !GCC$ novector
+        !GCC$ unroll 2
+        do i = i0 + p, i1, 8
+          do q = 1, 3
+            a(:, q) = a(:, q) + x(i:i + 1)*y(i:i + 1, q)
+          end do
         end do
+        s(p + 1:p + 2, :) = a
       end do
-      s(p + 1:p + 2, :) = a
     end do
     do q = 1, 3
       d(q) = ((s(1, q) + s(5, q)) + (s(2, q) + s(6, q))) + ((s(3, q) + s(7, q)) + (s(4, q) + s(8, q)))

@@ -394,11 +394,11 @@ contains
   !> ((1+5)+(2+6))+((3+7)+(4+8)); then the remainder rows in order), for
   !> every column count 1..13 (each mix of six, three and single columns)
   !> and row counts with and without a remainder, one to several rounds of
-  !> eight.
+  !> eight, one and several passes of the kernels' rows (DOT_ROWS, 512).
   subroutine test_sym_order()
-    integer, parameter :: ms(7) = [1, 7, 8, 9, 23, 40, 61]
+    integer, parameter :: ms(9) = [1, 7, 8, 9, 23, 40, 61, 512, 1109]
     type(rng_t) :: r
-    real(wp) :: x(61, 13), y(61, 13), q(13, 13), b(13, 13), e(13, 13), s(8), d
+    real(wp) :: x(1109, 13), y(1109, 13), q(13, 13), b(13, 13), e(13, 13), s(8), d
     integer :: i, j, k, l, m, n, c
     logical :: ok
     call rng_seed(r, 19)
@@ -406,7 +406,7 @@ contains
       do i = 1, 13
         q(i, j) = rng_normal(r)
       end do
-      do i = 1, 61
+      do i = 1, size(x, 1)
         x(i, j) = rng_normal(r)
         y(i, j) = rng_normal(r)
       end do
