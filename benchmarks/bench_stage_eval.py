@@ -301,7 +301,7 @@ The stacked syrk (sym_atb: dot8 for each entry of the triangle) 7.0 M ->
 time, dot8's partial sums a pair at a time over all the rows (one vector
 register each column), x's pair read once for the columns: 1.76
 instructions a multiply-add for six (standalone callgrind, m = 448, n =
-12), 2.2 for three, dot8 alone 2.35; rows in blocks of 512 so the four
+12), 2.14 for three, dot8 alone 2.35; rows in blocks of 512 so the four
 passes stay in L1 for long columns.  The same sums in the same order:
 every case deck bitwise (compare_cases: 40 of 40; all 24 decks' JSON the
 same with one and two threads); tests to the bit: product_7x4_add against
@@ -311,7 +311,7 @@ for three columns at once (gfortran 12 goes scalar or shuffles: slower),
 four partial sums a pass (twelve accumulators for six columns spill:
 2x the instructions); columns in pairs for C S (the strided stores and
 the pairs of b cost as much as the broadcasts).  Left: the triangle's
-short rows (three and one entries: 1.9 M of the 6.3 M), output_rows'
+short rows (three and one entries: about 2.5 M of the 6.3 M), output_rows'
 per-call checks (pm%cm = 1, 2, .. tested each sample; a flag in
 param_map_t would drop it, outside these files).
 """
