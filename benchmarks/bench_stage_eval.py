@@ -353,6 +353,46 @@ five-state scratch case: 4,770 against 4,420 a sample). Left: C s (ATTAS
 430 a sample: 36 instructions a live column for five outputs, three of
 them the sums' "0 +"), the dC, dD and bias terms (200 a sample on ATTAS:
 about eleven instructions a term), the outputs' strips in lti_segment.
+
+Measured (ours, branch hfb-outputs against integ34 at 85d78a0 = main at
+da56406 with tiles and wsens-once, one thread; callgrind of 3 fits;
+CPU: least thread time of 40 fits, six processes of each build taking
+turns, a shared machine):
+  HFB-320    75.5 M -> 70.3 M instructions per fit (17.96 k -> 16.72 k per
+             sample and iteration; main 76.6 M); least CPU time 6.62 ->
+             6.18 ms (bench_stage_eval --rounds 7: 6.60 -> 5.86 ms, its
+             wall medians 6.38 -> 6.61 ms: noise);
+  C-8        7.0 M -> 6.9 M;
+  ATTAS lat. 91.0 M -> 90.1 M (add_sym_atb in the coloured correction);
+             least CPU time 10.50 -> 10.46 ms (noise).
+Per HFB-320 fit: the outputs' sensitivities (output_rows with small_product)
+7.6 M -> 4.9 M (1,590 -> 1,025 instructions a sample): seven outputs of
+four states with the model parameters the first columns (pm%cm = 1, 2, ..)
+make each column of C S and add its w d column in one pass at fixed sizes
+(product_7x4_add, about 76 instructions a column for 35 multiply-adds;
+its own inner loop is two-operand SSE2's floor for a 7 x 4: the b
+broadcasts, the row 7 in scalars), no second pass through dy with
+descriptors; output_rows' own descriptor and check code is the 0.9 M left.
+The stacked path's L' dy (weigh_block_7, seven rows at a fixed size, L's
+diagonal in registers) 2.9 M -> 1.3 M (7.2 -> 3.2 instructions an entry).
+The stacked syrk (sym_atb: dot8 for each entry of the triangle) 7.0 M ->
+6.3 M: a row of the triangle six (dot8_6) or three (dot8_3) entries at a
+time, dot8's partial sums a pair at a time over all the rows (one vector
+register each column), x's pair read once for the columns: 1.76
+instructions a multiply-add for six (standalone callgrind, m = 448, n =
+12), 2.14 for three, dot8 alone 2.35; rows in blocks of 512 so the four
+passes stay in L1 for long columns.  The same sums in the same order:
+every case deck bitwise (compare_cases: 40 of 40; all 24 decks' JSON the
+same with one and two threads); tests to the bit: product_7x4_add against
+small_product then the columns added, add_sym_atb against dot8's order
+written out (n 1..13, m 1..1109).  Tried and dropped: dot8's eight sums
+for three columns at once (gfortran 12 goes scalar or shuffles: slower),
+four partial sums a pass (twelve accumulators for six columns spill:
+2x the instructions); columns in pairs for C S (the strided stores and
+the pairs of b cost as much as the broadcasts).  Left: the triangle's
+short rows (three and one entries: about 2.5 M of the 6.3 M), output_rows'
+per-call checks (pm%cm = 1, 2, .. tested each sample; a flag in
+param_map_t would drop it, outside these files).
 """
 
 import argparse

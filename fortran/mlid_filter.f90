@@ -36,7 +36,8 @@ module mlid_filter
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, segment_map, input_delays, output_delays, stabilized
-  use mlid_rk, only: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product
+  use mlid_rk, only: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product, &
+                    product_7x4_add
   use mlid_delay, only: delay_outputs, delay_check
   use mlid_lti_predict, only: lti_exact, lti_segment
   use mlid_riccati, only: dare_solve, stein_solve
@@ -1235,13 +1236,17 @@ contains
   !> d = dh/dp(pm%im).
   subroutine output_rows(pm, s, c, d, iseg, dy)
     type(param_map_t), intent(in) :: pm
-    real(wp), intent(in) :: s(:, :), c(:, :), d(:, :)
+    real(wp), intent(in), contiguous :: s(:, :), c(:, :), d(:, :)
     integer, intent(in) :: iseg
     real(wp), intent(out) :: dy(:, :)
     integer :: k, i
 
-    call small_product(c, s, dy)
-    if (size(pm%im) > 0) then
+    if (size(c, 1) == 7 .and. size(c, 2) == 4 .and. leading(pm%cm)) then
+      ! seven outputs of four states, the model parameters the first
+      ! columns: d's added as each column of C S is made (the same sums)
+      call product_7x4_add(size(s, 2), size(pm%im), c, s, d, pm%wm, dy)
+    else
+      call small_product(c, s, dy)
       do k = 1, size(pm%im)
         dy(:, pm%cm(k)) = dy(:, pm%cm(k)) + pm%wm(k)*d(:, k)
       end do
@@ -1251,6 +1256,17 @@ contains
       if (i >= 1 .and. i <= pm%l%ny) dy(i, pm%cb(k)) = dy(i, pm%cb(k)) + pm%wb(k)
     end do
   end subroutine output_rows
+
+  !> Whether a(k) = k for every k (the columns 1, 2, .., each once).
+  pure logical function leading(a)
+    integer, intent(in) :: a(:)
+    integer :: k
+    leading = .false.
+    do k = 1, size(a)
+      if (a(k) /= k) return
+    end do
+    leading = .true.
+  end function leading
 
   subroutine diverged(t, status, msg)
     real(wp), intent(in) :: t

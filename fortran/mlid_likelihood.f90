@@ -443,6 +443,10 @@ contains
     do j = 1, ny
       lwd(j) = lw(j, j)
     end do
+    if (ny == 7 .and. .not. full) then
+      call weigh_block_7(j1 - j0 + 1, nf, nc, cols, lwd, dy, nu, w)
+      return
+    end if
     do j = 1, j1 - j0 + 1
       if (full) then
         w(:, j, nc + 1) = matmul(nu(:, j), lw)
@@ -455,6 +459,22 @@ contains
       end if
     end do
   end subroutine weigh_block
+
+  !> weigh_block's diagonal R for seven outputs (the longitudinal models'):
+  !> the rows' count known to the compiler, so each column is a few whole
+  !> vector products with lwd held in registers (the same products).
+  subroutine weigh_block_7(nb, nf, nc, cols, lwd, dy, nu, w)
+    integer, intent(in) :: nb, nf, nc, cols(nc)
+    real(wp), intent(in) :: lwd(7), dy(7, nf, nb), nu(7, nb)
+    real(wp), intent(out) :: w(7, SAMPLE_BLOCK, nc + 1)
+    integer :: j, c
+    do j = 1, nb
+      w(:, j, nc + 1) = lwd*nu(:, j)
+      do c = 1, nc
+        w(:, j, c) = lwd*dy(:, cols(c), j)
+      end do
+    end do
+  end subroutine weigh_block_7
 
   !> Weighted output i of a block of nb samples, transposed for sym_atb_t:
   !> wt(q, j) = (L' dy(:, cols(q), j))_i, wt(nc+1, j) = (L' nu(:, j))_i,

@@ -47,6 +47,9 @@ module mlid_linalg
 
   !> Below this size chol_inverse factorises without LAPACK.
   integer, parameter :: SMALL_N = 12
+  !> Rows a pass of dot8_6 and dot8_3 (a multiple of eight): seven columns'
+  !> worth (28 kB) stays in the L1 cache for the four passes over them.
+  integer, parameter :: DOT_ROWS = 512
 
   !> expm_into's work arrays (n x n, and the LU's pivots), kept by a caller
   !> that takes exponentials of one size over and over.
@@ -80,21 +83,46 @@ contains
   end subroutine add_syrk
 
   !> b = b + x(1:m, :)' y(1:m, :) where that is symmetric, x and y with
-  !> leading dimension ld: the upper triangle by dot products, mirrored
-  !> (half the work of the full product).
+  !> leading dimension ld: the upper triangle by dot products (dot8's),
+  !> mirrored (half the work of the full product); a row of the triangle
+  !> six or three entries at a time (x(:, k) read once for them).
   subroutine sym_atb(m, ld, n, x, y, b)
     integer, intent(in) :: m, ld, n
     real(wp), intent(in) :: x(ld, n), y(ld, n)
     real(wp), intent(inout) :: b(n, n)
-    real(wp) :: d
-    integer :: k, l
-    do l = 1, n
-      do k = 1, l
-        d = dot8(m, x(:, k), y(:, l))
-        b(k, l) = b(k, l) + d
-        if (k < l) b(l, k) = b(l, k) + d
+    real(wp) :: d(6)
+    integer :: k, l, q
+    do k = 1, n
+      l = k
+      do while (l + 5 <= n)
+        call dot8_6(m, ld, x(:, k), y(:, l), d)
+        do q = 0, 5
+          call add_entry(k, l + q, d(q + 1))
+        end do
+        l = l + 6
+      end do
+      if (l + 2 <= n) then
+        call dot8_3(m, ld, x(:, k), y(:, l), d)
+        do q = 0, 2
+          call add_entry(k, l + q, d(q + 1))
+        end do
+        l = l + 3
+      end if
+      do l = l, n
+        call add_entry(k, l, dot8(m, x(:, k), y(:, l)))
       end do
     end do
+
+  contains
+
+    !> b(k, l) and its mirror b(l, k) plus d (k <= l).
+    subroutine add_entry(k, l, d)
+      integer, intent(in) :: k, l
+      real(wp), intent(in) :: d
+      b(k, l) = b(k, l) + d
+      if (k < l) b(l, k) = b(l, k) + d
+    end subroutine add_entry
+
   end subroutine sym_atb
 
   !> The rows a transposed operand of sym_atb_t needs for n columns: whole
@@ -258,6 +286,73 @@ contains
       d = d + x(i)*y(i)
     end do
   end function dot8
+
+  !> dot8 of x with six columns y(:, 1:6) at once: d(q) = x . y(:, q),
+  !> each with dot8's eight partial sums (each in order), added in dot8's
+  !> order.  The partial sums a pair at a time over DOT_ROWS rows (one
+  !> vector register for each column), so a pair of x's values is read
+  !> once for the six products; the rows in blocks that stay in the L1
+  !> cache for the four passes.
+  pure subroutine dot8_6(m, ld, x, y, d)
+    integer, intent(in) :: m, ld
+    real(wp), intent(in) :: x(m), y(ld, 6)
+    real(wp), intent(out) :: d(6)
+    real(wp) :: s(8, 6), a(2, 6)
+    integer :: i, i0, i1, m8, p, q
+    s = 0.0_wp
+    m8 = m - mod(m, 8)
+    do i0 = 1, m8, DOT_ROWS
+      i1 = min(m8, i0 + DOT_ROWS - 1)
+      do p = 0, 6, 2                  ! partial sums p+1 and p+2
+        a = s(p + 1:p + 2, :)
+        !GCC$ novector
+        !GCC$ unroll 2
+        do i = i0 + p, i1, 8
+          do q = 1, 6
+            a(:, q) = a(:, q) + x(i:i + 1)*y(i:i + 1, q)
+          end do
+        end do
+        s(p + 1:p + 2, :) = a
+      end do
+    end do
+    do q = 1, 6
+      d(q) = ((s(1, q) + s(5, q)) + (s(2, q) + s(6, q))) + ((s(3, q) + s(7, q)) + (s(4, q) + s(8, q)))
+      do i = m8 + 1, m
+        d(q) = d(q) + x(i)*y(i, q)
+      end do
+    end do
+  end subroutine dot8_6
+
+  !> dot8_6 for three columns.
+  pure subroutine dot8_3(m, ld, x, y, d)
+    integer, intent(in) :: m, ld
+    real(wp), intent(in) :: x(m), y(ld, 3)
+    real(wp), intent(out) :: d(3)
+    real(wp) :: s(8, 3), a(2, 3)
+    integer :: i, i0, i1, m8, p, q
+    s = 0.0_wp
+    m8 = m - mod(m, 8)
+    do i0 = 1, m8, DOT_ROWS
+      i1 = min(m8, i0 + DOT_ROWS - 1)
+      do p = 0, 6, 2
+        a = s(p + 1:p + 2, :)
+        !GCC$ novector
+        !GCC$ unroll 2
+        do i = i0 + p, i1, 8
+          do q = 1, 3
+            a(:, q) = a(:, q) + x(i:i + 1)*y(i:i + 1, q)
+          end do
+        end do
+        s(p + 1:p + 2, :) = a
+      end do
+    end do
+    do q = 1, 3
+      d(q) = ((s(1, q) + s(5, q)) + (s(2, q) + s(6, q))) + ((s(3, q) + s(7, q)) + (s(4, q) + s(8, q)))
+      do i = m8 + 1, m
+        d(q) = d(q) + x(i)*y(i, q)
+      end do
+    end do
+  end subroutine dot8_3
 
   !> All eigenvalues (ascending) and eigenvectors of a symmetric matrix.
   !> info /= 0 reports a LAPACK failure.

@@ -10,6 +10,7 @@ module mlid_rk
   implicit none
   private
   public :: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product
+  public :: product_7x4_add
 
   !> How delayed inputs move the sensitivities: entry k, d u(input(k)) /
   !> d theta(col(k)) at the interval's ends (d0, d1; a tie's scale in it),
@@ -327,6 +328,25 @@ contains
       c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
     end do
   end subroutine product_7x4
+
+  !> c = a b + the first columns of d for a 7 x 4 a: c(:, j) = a b(:, j) +
+  !> w(j) d(:, j) for j <= nd, a b(:, j) after; each sum product_7x4's, then
+  !> d's term added, in one pass: the sums of product_7x4 followed by
+  !> c(:, j) += w(j) d(:, j), to the bit (the outputs' sensitivities
+  !> C S + dh/dp when the model parameters are the first columns).
+  pure subroutine product_7x4_add(l, nd, a, b, d, w, c)
+    integer, intent(in) :: l, nd
+    real(wp), intent(in) :: a(7, 4), b(4, l), d(7, nd), w(nd)
+    real(wp), intent(out) :: c(7, l)
+    integer :: j
+    do j = 1, nd
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j) &
+                + w(j)*d(:, j)
+    end do
+    do j = nd + 1, l
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
+    end do
+  end subroutine product_7x4_add
 
   !> c = a b for an n x 4 (the outputs' C S of four states): as product_4x4
   !> with the rows' count known at run time only, the same sums.

@@ -67,7 +67,7 @@ program test_numerics
   use mlid_text, only: itoa
   use test_checks, only: check, finish
   use split_model, only: split_model_t
-  use mlid_rk, only: small_product
+  use mlid_rk, only: small_product, product_7x4_add
   use mlid_colored, only: colored_bracket, BRACKET_FOURIER, BRACKET_DIRECT, BRACKET_AUTO
   use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_many, fft_real_many, fft_smooth_length, &
                       fft_real_pair
@@ -84,6 +84,7 @@ program test_numerics
   call test_random()
   call test_small_product()
   call test_sym_products()
+  call test_sym_order()
   call test_fft()
   call test_independent_columns()
   call test_colored_paths()
@@ -387,6 +388,56 @@ contains
     end do
   end subroutine test_sym_products
 
+  !> add_sym_atb (a row of the triangle six or three dot products at a
+  !> time) to the bit against each entry's dot product in dot8's order
+  !> written out (eight partial sums by row mod 8, each in order; added
+  !> ((1+5)+(2+6))+((3+7)+(4+8)); then the remainder rows in order), for
+  !> every column count 1..13 (each mix of six, three and single columns)
+  !> and row counts with and without a remainder, one to several rounds of
+  !> eight, one and several passes of the kernels' rows (DOT_ROWS, 512).
+  subroutine test_sym_order()
+    integer, parameter :: ms(9) = [1, 7, 8, 9, 23, 40, 61, 512, 1109]
+    type(rng_t) :: r
+    real(wp) :: x(1109, 13), y(1109, 13), q(13, 13), b(13, 13), e(13, 13), s(8), d
+    integer :: i, j, k, l, m, n, c
+    logical :: ok
+    call rng_seed(r, 19)
+    do j = 1, 13
+      do i = 1, 13
+        q(i, j) = rng_normal(r)
+      end do
+      do i = 1, size(x, 1)
+        x(i, j) = rng_normal(r)
+        y(i, j) = rng_normal(r)
+      end do
+    end do
+    do n = 1, 13
+      ok = .true.
+      do c = 1, size(ms)
+        m = ms(c)
+        b = q
+        call add_sym_atb(m, n, x(1:m, 1:n), y(1:m, 1:n), b(1:n, 1:n))
+        e = q
+        do l = 1, n
+          do k = 1, l
+            s = 0.0_wp
+            do i = 1, m - mod(m, 8)
+              s(mod(i - 1, 8) + 1) = s(mod(i - 1, 8) + 1) + x(i, k)*y(i, l)
+            end do
+            d = ((s(1) + s(5)) + (s(2) + s(6))) + ((s(3) + s(7)) + (s(4) + s(8)))
+            do i = m - mod(m, 8) + 1, m
+              d = d + x(i, k)*y(i, l)
+            end do
+            e(k, l) = e(k, l) + d
+            if (k < l) e(l, k) = e(l, k) + d
+          end do
+        end do
+        ok = ok .and. all(b(1:n, 1:n) == e(1:n, 1:n))
+      end do
+      call check(ok, 'add_sym_atb is dot8''s sums to the bit, n = '//itoa(n))
+    end do
+  end subroutine test_sym_order
+
   !> e = q + x' y over the first m rows for k <= l, mirrored (the triangle
   !> the symmetric products compute), and g the sums of the terms' magnitudes.
   subroutine sym_expected(m, n, q, x, y, e, g)
@@ -441,7 +492,35 @@ contains
                    'small_product is the product a b')
       end do
     end do
+    call test_product_add(a(:, 1:4), b(1:4, :))
   end subroutine test_small_product
+
+  !> product_7x4_add (C S + dh/dp in one pass) is to the bit small_product
+  !> followed by the first nd columns' w(k) d(:, k) added, for nd = 0 (no
+  !> model parameter free), some and every column.
+  subroutine test_product_add(a, b)
+    real(wp), intent(in) :: a(7, 4), b(4, 11)
+    type(rng_t) :: r
+    real(wp) :: d(7, 11), w(11), c(7, 11), e(7, 11)
+    integer, parameter :: nds(3) = [0, 5, 11]
+    integer :: i, k, q, nd
+    call rng_seed(r, 12)
+    do k = 1, 11
+      w(k) = rng_normal(r)
+      do i = 1, 7
+        d(i, k) = rng_normal(r)
+      end do
+    end do
+    do q = 1, size(nds)
+      nd = nds(q)
+      call product_7x4_add(11, nd, a, b, d(:, 1:nd), w(1:nd), c)
+      call small_product(a, b, e)
+      do k = 1, nd
+        e(:, k) = e(:, k) + w(k)*d(:, k)
+      end do
+      call check(all(c == e), 'product_7x4_add is small_product + w d to the bit, nd = '//itoa(nd))
+    end do
+  end subroutine test_product_add
 
   !> xdot = a x + b u with u = t (linear between samples is exact for a
   !> ramp): RK4 error must fall 16x when dt halves.
