@@ -29,7 +29,7 @@ module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, first_failure
-  use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, sym_atb_t, tile_rows, chol_inverse, &
+  use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, sym_atb_t, pair_rows, chol_inverse, &
                          psd_factor
   use mlid_models, only: model_t
   use mlid_options, only: options_t, frequency_method
@@ -50,7 +50,7 @@ module mlid_likelihood
     !> the innovations'
     real(wp), allocatable :: dy(:, :, :)
     !> the weights: output error R^-1 (ny, ny, 1), filter error B(j)^-1
-    !> (ny, ny, nt)
+    !> (ny, ny, nt; the steady-state filter's one B^-1: (ny, ny, 1))
     real(wp), allocatable :: w(:, :, :)
     logical :: filter = .false.   !< filter error's weights, one per sample
     logical :: full_r = .false.   !< output error with the full R (else its diagonal)
@@ -272,9 +272,8 @@ contains
 
   contains
 
-    !> Segment iseg's part of grad and info, over
-    !> the columns that move in it only (a bias of another manoeuvre adds
-    !> zeros).  With R^-1 = L L', the weighted sensitivities w = L' dy/dtheta
+    !> Segment iseg's part of grad and info, over the columns that move in
+    !> it only (a bias of another manoeuvre adds zeros).  With R^-1 = L L', the weighted sensitivities w = L' dy/dtheta
     !> give the information as the sum of w_i' w_i over the weighted outputs
     !> i and the gradient as -w_i' (L' nu)_i: each output's over the columns
     !> that move it only (an output's own bias, a coefficient of one output
@@ -310,13 +309,13 @@ contains
         call stacked_outputs(cols, jbeg, jend, g, f)
         return
       end if
-      ! output i's block of weighted sensitivities at wt(pw(i)+1) (its tiles'
-      ! padding rows zero once here), its product at part(pp(i)+1)
+      ! output i's block of weighted sensitivities at wt(pw(i)+1) (an odd
+      ! column count's padding row zeroed once here), its product at part(pp(i)+1)
       allocate (pw(ny + 1), pp(ny + 1))
       pw(1) = 0
       pp(1) = 0
       do i = 1, ny
-        pw(i + 1) = pw(i) + tile_rows(nci(i) + 1)*SAMPLE_BLOCK
+        pw(i + 1) = pw(i) + pair_rows(nci(i) + 1)*SAMPLE_BLOCK
         pp(i + 1) = pp(i) + (nci(i) + 1)**2
       end do
       ! src: one entry past the last, so that src(first(i)) of an output
@@ -332,7 +331,7 @@ contains
       do j0 = jbeg, jend, SAMPLE_BLOCK
         j1 = min(jend, j0 + SAMPLE_BLOCK - 1)
         do i = 1, ny
-          ld = tile_rows(nci(i) + 1)
+          ld = pair_rows(nci(i) + 1)
           associate (cc => ci(first(i):first(i) + nci(i) - 1))
             if (count(lw(:, i) /= 0.0_wp) > 1) then
               call weigh_output(i, ny, nf, j1 - j0 + 1, nci(i), cc, lw, dy(:, :, j0:j1), &
@@ -571,7 +570,7 @@ contains
     nt = size(keep%dy, 3)
     if (keep%filter) then
       do j = 1, nt
-        wsens(:, j, :) = matmul(keep%w(:, :, j), keep%dy(:, :, j))
+        wsens(:, j, :) = matmul(keep%w(:, :, min(j, size(keep%w, 3))), keep%dy(:, :, j))
       end do
       return
     end if
@@ -707,7 +706,11 @@ contains
     end if
     if (present(keep)) then
       call move_alloc(dnu, keep%dy)
-      call move_alloc(binv, keep%w)
+      if (opt%steady) then              ! B the same at every sample: one kept
+        keep%w = binv(:, :, 1:1)
+      else
+        call move_alloc(binv, keep%w)
+      end if
       keep%filter = .true.
       keep%full_r = .false.
     end if

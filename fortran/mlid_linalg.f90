@@ -7,7 +7,7 @@ module mlid_linalg
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
   implicit none
   private
-  public :: add_sym_atb, add_syrk, add_atv, sym_atb_t, tile_rows, sym_eig, chol_inverse, chol_solve, &
+  public :: add_sym_atb, add_syrk, add_atv, sym_atb_t, pair_rows, sym_eig, chol_inverse, chol_solve, &
             psd_factor, info_inverse, info_eig, eig_inverse, expm, expm_into, expm_work_size, &
             expm_work_t, solve, independent_columns
 
@@ -47,7 +47,7 @@ module mlid_linalg
 
   !> Below this size chol_inverse factorises without LAPACK.
   integer, parameter :: SMALL_N = 12
-  !> Rows a pass of dot8_6 and dot8_3 (a multiple of eight): seven columns'
+  !> Rows a pass of dot8_cols (a multiple of eight): seven columns'
   !> worth (28 kB) stays in the L1 cache for the four passes over them.
   integer, parameter :: DOT_ROWS = 512
 
@@ -95,14 +95,14 @@ contains
     do k = 1, n
       l = k
       do while (l + 5 <= n)
-        call dot8_6(m, ld, x(:, k), y(:, l), d)
+        call dot8_cols(6, m, ld, x(1, k), y(1, l), d)
         do q = 0, 5
           call add_entry(k, l + q, d(q + 1))
         end do
         l = l + 6
       end do
       if (l + 2 <= n) then
-        call dot8_3(m, ld, x(:, k), y(:, l), d)
+        call dot8_cols(3, m, ld, x(1, k), y(1, l), d)
         do q = 0, 2
           call add_entry(k, l + q, d(q + 1))
         end do
@@ -126,18 +126,19 @@ contains
   end subroutine sym_atb
 
   !> The rows a transposed operand of sym_atb_t needs for n columns: whole
-  !> pairs (the padding row of an odd n zero).
-  pure integer function tile_rows(n)
+  !> pairs (an odd n's padding row is read, its sums never reach b; the
+  !> caller zeroes it so that it holds no NaN or infinity to trap on).
+  pure integer function pair_rows(n)
     integer, intent(in) :: n
-    tile_rows = 2*((n + 1)/2)
-  end function tile_rows
+    pair_rows = 2*((n + 1)/2)
+  end function pair_rows
 
   !> The upper triangle of b = b + xt(1:n, 1:m) yt(1:n, 1:m)' where that
   !> is symmetric (each entry k <= l the sum over the columns j of xt(k, j)
   !> yt(l, j), in order, then added to b; the lower triangle is left as it
-  !> is: the caller reads the upper one).  xt and yt (ld >= tile_rows(n),
-  !> row n+1 of an odd n zero) go by pairs of columns l0, l0+1 of b, each
-  !> down to the diagonal in tiles of up to four pairs of rows (pairs_4):
+  !> is: the caller reads the upper one).  xt and yt (ld >= pair_rows(n);
+  !> an odd n's row n+1 read, not added to b) go by pairs of columns l0, l0+1 of b, each
+  !> down to the diagonal in tiles of up to four pairs of rows (pairs):
   !> the triangle in blocks of 2 x 2, none below the diagonal's.
   subroutine sym_atb_t(m, ld, n, xt, yt, b)
     integer, intent(in) :: m, ld, n
@@ -148,15 +149,15 @@ contains
     do l0 = 1, n, 2
       do k0 = 1, l0, 8
         np = min(4, (l0 - k0)/2 + 1)         ! pairs of rows, down to the diagonal's
-        select case (np)
+        select case (np)                     ! a constant np each: pairs' clones
         case (1)
-          call pairs_1(m, ld, xt(k0, 1), yt(l0, 1), d)
+          call pairs(1, m, ld, xt(k0, 1), yt(l0, 1), d)
         case (2)
-          call pairs_2(m, ld, xt(k0, 1), yt(l0, 1), d)
+          call pairs(2, m, ld, xt(k0, 1), yt(l0, 1), d)
         case (3)
-          call pairs_3(m, ld, xt(k0, 1), yt(l0, 1), d)
+          call pairs(3, m, ld, xt(k0, 1), yt(l0, 1), d)
         case default
-          call pairs_4(m, ld, xt(k0, 1), yt(l0, 1), d)
+          call pairs(4, m, ld, xt(k0, 1), yt(l0, 1), d)
         end select
         do p = 1, np                         ! pair p's block: d(:, 2p-1) straight, d(:, 2p) swapped
           k = k0 + 2*p - 2
@@ -171,15 +172,18 @@ contains
     end do
   end subroutine sym_atb_t
 
-  !> For the pairs p = 1..4 of xt's rows 2p-1, 2p and yt's rows 1, 2, the sums
-  !> over the m columns j, in order: d(:, 2p-1) of xt(2p-1:2p, j) yt(1:2, j),
-  !> d(:, 2p) of xt(2p-1:2p, j) yt(2:1:-1, j) (the y pair swapped: one
-  !> shuffle a column, then one vector product and sum for each half of the
-  !> pair block, where one y value each would take two to broadcast).
-  !> Eight accumulators: independent chains that keep both adders busy.
-  !> novector: gfortran 12's loop vectorizer, allowed at it, swaps each x pair
-  !> too (five shuffles a sample, not one; the same sums either way).
-  pure subroutine pairs_4(m, ld, xt, yt, d)
+  !> For the pairs p = 1..np (np <= 4) of xt's rows 2p-1, 2p and yt's rows
+  !> 1, 2, the sums over the m columns j, in order: d(:, 2p-1) of
+  !> xt(2p-1:2p, j) yt(1:2, j), d(:, 2p) of xt(2p-1:2p, j) yt(2:1:-1, j)
+  !> (the y pair swapped: one shuffle a column, then one vector product and
+  !> sum for each half of the pair block, where one y value each would take
+  !> two to broadcast).  Up to eight accumulators: independent chains that
+  !> keep both adders busy.  np by value: each call's constant np makes a
+  !> clone with the loop over p unrolled.  novector: gfortran 12's loop
+  !> vectorizer, allowed at it, swaps each x pair too (five shuffles a
+  !> sample, not one; the same sums either way).
+  pure subroutine pairs(np, m, ld, xt, yt, d)
+    integer, value :: np
     integer, intent(in) :: m, ld
     real(wp), intent(in) :: xt(ld, *), yt(ld, *)
     real(wp), intent(out) :: d(2, 8)
@@ -191,70 +195,12 @@ contains
     do j = 1, m
       y = yt(1:2, j)
       r = y(2:1:-1)
-      do concurrent (p = 1:4)
+      do concurrent (p = 1:np)
         d(:, 2*p - 1) = d(:, 2*p - 1) + xt(2*p - 1:2*p, j)*y
         d(:, 2*p) = d(:, 2*p) + xt(2*p - 1:2*p, j)*r
       end do
     end do
-  end subroutine pairs_4
-
-  !> pairs_4 for one pair of rows.
-  pure subroutine pairs_1(m, ld, xt, yt, d)
-    integer, intent(in) :: m, ld
-    real(wp), intent(in) :: xt(ld, *), yt(ld, *)
-    real(wp), intent(out) :: d(2, 2)
-    real(wp) :: y(2), r(2)
-    integer :: j
-    d = 0.0_wp
-    !GCC$ novector
-    !GCC$ unroll 4
-    do j = 1, m
-      y = yt(1:2, j)
-      r = y(2:1:-1)
-      d(:, 1) = d(:, 1) + xt(1:2, j)*y
-      d(:, 2) = d(:, 2) + xt(1:2, j)*r
-    end do
-  end subroutine pairs_1
-
-  !> pairs_4 for two pairs of rows.
-  pure subroutine pairs_2(m, ld, xt, yt, d)
-    integer, intent(in) :: m, ld
-    real(wp), intent(in) :: xt(ld, *), yt(ld, *)
-    real(wp), intent(out) :: d(2, 4)
-    real(wp) :: y(2), r(2)
-    integer :: j, p
-    d = 0.0_wp
-    !GCC$ novector
-    !GCC$ unroll 4
-    do j = 1, m
-      y = yt(1:2, j)
-      r = y(2:1:-1)
-      do concurrent (p = 1:2)
-        d(:, 2*p - 1) = d(:, 2*p - 1) + xt(2*p - 1:2*p, j)*y
-        d(:, 2*p) = d(:, 2*p) + xt(2*p - 1:2*p, j)*r
-      end do
-    end do
-  end subroutine pairs_2
-
-  !> pairs_4 for three pairs of rows.
-  pure subroutine pairs_3(m, ld, xt, yt, d)
-    integer, intent(in) :: m, ld
-    real(wp), intent(in) :: xt(ld, *), yt(ld, *)
-    real(wp), intent(out) :: d(2, 6)
-    real(wp) :: y(2), r(2)
-    integer :: j, p
-    d = 0.0_wp
-    !GCC$ novector
-    !GCC$ unroll 4
-    do j = 1, m
-      y = yt(1:2, j)
-      r = y(2:1:-1)
-      do concurrent (p = 1:3)
-        d(:, 2*p - 1) = d(:, 2*p - 1) + xt(2*p - 1:2*p, j)*y
-        d(:, 2*p) = d(:, 2*p) + xt(2*p - 1:2*p, j)*r
-      end do
-    end do
-  end subroutine pairs_3
+  end subroutine pairs
 
   !> g = g + w' v over the first m rows of w and v (as dgemv).
   subroutine add_atv(m, n, w, v, g)
@@ -281,22 +227,24 @@ contains
     do i = 1, m8, 8
       s = s + x(i:i + 7)*y(i:i + 7)
     end do
-    d = ((s(1) + s(5)) + (s(2) + s(6))) + ((s(3) + s(7)) + (s(4) + s(8)))
+    d = dot8_total(s)
     do i = m8 + 1, m
       d = d + x(i)*y(i)
     end do
   end function dot8
 
-  !> dot8 of x with six columns y(:, 1:6) at once: d(q) = x . y(:, q),
+  !> dot8 of x with nq (<= 6) columns y(:, 1:nq) at once: d(q) = x . y(:, q),
   !> each with dot8's eight partial sums (each in order), added in dot8's
   !> order.  The partial sums a pair at a time over DOT_ROWS rows (one
   !> vector register for each column), so a pair of x's values is read
-  !> once for the six products; the rows in blocks that stay in the L1
-  !> cache for the four passes.
-  pure subroutine dot8_6(m, ld, x, y, d)
+  !> once for the nq products; the rows in blocks that stay in the L1
+  !> cache for the four passes.  nq by value: each call's constant makes a
+  !> clone.
+  pure subroutine dot8_cols(nq, m, ld, x, y, d)
+    integer, value :: nq
     integer, intent(in) :: m, ld
-    real(wp), intent(in) :: x(m), y(ld, 6)
-    real(wp), intent(out) :: d(6)
+    real(wp), intent(in) :: x(m), y(ld, nq)
+    real(wp), intent(out) :: d(nq)
     real(wp) :: s(8, 6), a(2, 6)
     integer :: i, i0, i1, m8, p, q
     s = 0.0_wp
@@ -304,55 +252,31 @@ contains
     do i0 = 1, m8, DOT_ROWS
       i1 = min(m8, i0 + DOT_ROWS - 1)
       do p = 0, 6, 2                  ! partial sums p+1 and p+2
-        a = s(p + 1:p + 2, :)
+        a(:, 1:nq) = s(p + 1:p + 2, 1:nq)
         !GCC$ novector
         !GCC$ unroll 2
         do i = i0 + p, i1, 8
-          do q = 1, 6
+          do q = 1, nq
             a(:, q) = a(:, q) + x(i:i + 1)*y(i:i + 1, q)
           end do
         end do
-        s(p + 1:p + 2, :) = a
+        s(p + 1:p + 2, 1:nq) = a(:, 1:nq)
       end do
     end do
-    do q = 1, 6
-      d(q) = ((s(1, q) + s(5, q)) + (s(2, q) + s(6, q))) + ((s(3, q) + s(7, q)) + (s(4, q) + s(8, q)))
+    do q = 1, nq
+      d(q) = dot8_total(s(:, q))
       do i = m8 + 1, m
         d(q) = d(q) + x(i)*y(i, q)
       end do
     end do
-  end subroutine dot8_6
+  end subroutine dot8_cols
 
-  !> dot8_6 for three columns.
-  pure subroutine dot8_3(m, ld, x, y, d)
-    integer, intent(in) :: m, ld
-    real(wp), intent(in) :: x(m), y(ld, 3)
-    real(wp), intent(out) :: d(3)
-    real(wp) :: s(8, 3), a(2, 3)
-    integer :: i, i0, i1, m8, p, q
-    s = 0.0_wp
-    m8 = m - mod(m, 8)
-    do i0 = 1, m8, DOT_ROWS
-      i1 = min(m8, i0 + DOT_ROWS - 1)
-      do p = 0, 6, 2
-        a = s(p + 1:p + 2, :)
-        !GCC$ novector
-        !GCC$ unroll 2
-        do i = i0 + p, i1, 8
-          do q = 1, 3
-            a(:, q) = a(:, q) + x(i:i + 1)*y(i:i + 1, q)
-          end do
-        end do
-        s(p + 1:p + 2, :) = a
-      end do
-    end do
-    do q = 1, 3
-      d(q) = ((s(1, q) + s(5, q)) + (s(2, q) + s(6, q))) + ((s(3, q) + s(7, q)) + (s(4, q) + s(8, q)))
-      do i = m8 + 1, m
-        d(q) = d(q) + x(i)*y(i, q)
-      end do
-    end do
-  end subroutine dot8_3
+  !> dot8's eight partial sums added in its fixed order (the one place of
+  !> that order: dot8 and dot8_cols agree to the bit through it).
+  pure real(wp) function dot8_total(s)
+    real(wp), intent(in) :: s(8)
+    dot8_total = ((s(1) + s(5)) + (s(2) + s(6))) + ((s(3) + s(7)) + (s(4) + s(8)))
+  end function dot8_total
 
   !> All eigenvalues (ascending) and eigenvectors of a symmetric matrix.
   !> info /= 0 reports a LAPACK failure.

@@ -352,6 +352,14 @@ contains
     character(len=len(msg)) :: cmsg
 
     allocate (res%cov_c(pm%nf, pm%nf), wsens(size(y, 1), size(y, 2), pm%nf))
+    if (.not. kept(res)) then            ! (no path gets here without them: a guard)
+      res%cov_c = res%cov
+      if (status == MLID_OK) then
+        status = MLID_ERR_INTERNAL
+        msg = 'coloured-residual correction: the estimate''s sensitivities were not kept'
+      end if
+      return
+    end if
     call weighted_sensitivities(res%keep, pm%l%seg, wsens)
     call colored_covariance(res%cov, res%info, res%msens, wsens, y - res%yhat, pm%l%seg, -1, &
                             res%cov_c, res%lag, cstat, cmsg)
@@ -360,6 +368,14 @@ contains
       msg = cmsg
     end if
   end subroutine colored_bound
+
+  !> Whether res holds its evaluation's sensitivities and weights.
+  logical function kept(res)
+    type(fit_result_t), intent(in) :: res
+    kept = .false.
+    if (.not. allocated(res%keep)) return
+    kept = allocated(res%keep%dy) .and. allocated(res%keep%w)
+  end function kept
 
   !> The start: res allocated, theta0 with its ties (or the equation-error
   !> start-up), and the likelihood there.

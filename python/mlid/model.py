@@ -97,6 +97,12 @@ def _lines(text):
     return [s for s in text.decode(errors="replace").rstrip().split("\n") if s]
 
 
+#: Layouts kept by _Layout.of, and parsed ties kept by each layout (bounds
+#: on what a long campaign's worker holds).
+LAYOUTS_KEPT = 256
+TIES_KEPT = 1024
+
+
 class _Layout:
     """The core's layout of theta for one model kind and its sizes."""
 
@@ -137,21 +143,29 @@ class _Layout:
         tied entry (0-based), the offset and ((source, scale), ...); kept,
         as the layout is (a fit parses its model's ties each time; cleared
         when full)."""
-        if text not in self._ties:
+        tie = self._ties.get(text)
+        if tie is None:             # (a local: another thread may clear the store meanwhile)
             to, offset, n, frm, scale, status, msg = _api.mlid_tie_parse(**self._args, text=text)
             check_status(status, msg)
-            if len(self._ties) >= 1024:
+            tie = (int(to) - 1, float(offset),
+                   tuple((int(j) - 1, float(s)) for j, s in zip(frm[:n], scale[:n])))
+            if len(self._ties) >= TIES_KEPT:
                 self._ties.clear()
-            self._ties[text] = (int(to) - 1, float(offset),
-                                tuple((int(j) - 1, float(s)) for j, s in zip(frm[:n], scale[:n])))
-        return self._ties[text]
+            self._ties[text] = tie
+        return tie
 
     @classmethod
     def of(cls, kind, sizes, iconst, rconst):
+        """The layout of these sizes and constants, kept (the oldest of
+        LAYOUTS_KEPT dropped: a campaign's cases each have their own)."""
         key = (kind, tuple(sizes), tuple(iconst), tuple(rconst))
-        if key not in cls._cache:
-            cls._cache[key] = cls(kind, sizes, iconst, rconst)
-        return cls._cache[key]
+        layout = cls._cache.get(key)
+        if layout is None:
+            layout = cls(kind, sizes, iconst, rconst)
+            if len(cls._cache) >= LAYOUTS_KEPT:
+                cls._cache.pop(next(iter(cls._cache), None), None)
+            cls._cache[key] = layout
+        return layout
 
     def shape(self, key):
         _, r, c = self.blocks[key]
@@ -366,9 +380,9 @@ class Model:
     @property
     def free_mask(self):
         """1 for each free entry of theta, else 0 (int32, as the core takes it)."""
-        names, place = self._layout.names, self._layout.place
-        mask = np.zeros(len(names), dtype=np.int32)
-        mask[[place[n] if n in place else names.index(n) for n in self.free]] = 1
+        place = self._layout.place
+        mask = np.zeros(len(self._layout.names), dtype=np.int32)
+        mask[[place[n] for n in self.free]] = 1
         return mask
 
     def tie_terms(self):
@@ -498,6 +512,9 @@ class Model:
         m = copy.copy(self)
         m._theta = theta.copy()
         m.names, m.free, m.ties = dict(self.names), list(self.free), dict(self.ties)
+        m.iconst, m.rconst = self.iconst.copy(), self.rconst.copy()
+        if "constants" in vars(self):
+            m.constants = dict(self.constants)
         return m
 
     def with_free(self, free, names=None):

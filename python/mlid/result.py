@@ -5,6 +5,7 @@ import functools
 import html
 import json
 import re
+import types
 
 import numpy as np
 
@@ -156,7 +157,7 @@ class FitResult:
     #: {name: what makes it}: fields made when first asked for (``fit``
     #: leaves ``model``, ``manoeuvres`` and ``param_units`` so: few fits are
     #: looked at that closely, and a fit is short enough for them to count)
-    later = {}
+    later = types.MappingProxyType({})
 
     def __init__(self, **fields):
         self.__dict__.update(fields)

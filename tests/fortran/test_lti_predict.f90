@@ -27,6 +27,8 @@ program test_lti_predict
   call three_states_five_outputs()
   call other_sizes(5)                 ! a whole group of four states and one left
   call other_sizes(1)
+  call other_sizes(6)                 ! advance_wide: a group and two left
+  call other_sizes(7)
   call finish()
 
 contains

@@ -62,7 +62,7 @@ program test_numerics
   use mlid_options, only: options_t
   use mlid_filter, only: oe_predict
   use mlid_linalg, only: sym_eig, chol_inverse, chol_solve, independent_columns, add_sym_atb, psd_factor, &
-                         sym_atb_t, tile_rows
+                         sym_atb_t, pair_rows
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use mlid_text, only: itoa
   use test_checks, only: check, finish
@@ -363,7 +363,7 @@ contains
     end do
     do n = 1, 13
       if (allocated(wt)) deallocate (wt)
-      allocate (wt(tile_rows(n), size(w, 1)))
+      allocate (wt(pair_rows(n), size(w, 1)))
       ok_dot = .true.
       ok_tiles = .true.
       do m = 1, 9
@@ -375,7 +375,7 @@ contains
         b = q                   ! the transposed operands, zero to the tiles' edge
         wt = 0.0_wp
         wt(1:n, 1:m) = transpose(w(1:m, 1:n))
-        call sym_atb_t(m, tile_rows(n), n, wt, wt, b(1:n, 1:n))
+        call sym_atb_t(m, pair_rows(n), n, wt, wt, b(1:n, 1:n))
         call sym_expected(m, n, q, w, w, e, g)
         do j = 1, n               ! its upper triangle only; below it b as it was
           ok_tiles = ok_tiles .and. all(abs(b(1:j, j) - e(1:j, j)) <= 4*epsilon(1.0_wp)*g(1:j, j)) &
