@@ -2,6 +2,7 @@
 derivatives (NASA CR-2200 and beyond).  The numerics live in the Fortran core
 (mlid._core); this package holds the objects, I/O, command line and plots."""
 
+from .heap import keep_freed_memory as _keep_freed_memory
 from .errors import (MlidError, InputError, SingularInformationError, DivergenceError,
                      NonConvergenceError, InternalError, MlidWarning)
 from .model import LinearModel, LongitudinalModel, UserModel, X22Model, EquationModel, SixDofModel, \
@@ -35,6 +36,8 @@ def _version():
 
 
 __version__ = _version()
+#: Whether freed memory is kept for the next fit (heap.py; MLID_MALLOC=system: not).
+KEEPS_FREED_MEMORY = _keep_freed_memory()
 
 __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
            "NonConvergenceError", "InternalError", "MlidWarning", "LinearModel", "LongitudinalModel", "UserModel",
