@@ -14,7 +14,8 @@ in-process, each against the floating-point work it cannot avoid.
     stop moving.  Both estimates are checked to agree within 0.01 sigma.
 (b) ATTAS lateral (cases/attas_lateral/attas_lat.nml: the real record, 1,502
     samples, 22 free parameters of the linear model).  Measured on branch
-    attas-acc against main at d84cbd5, one thread.  callgrind inside
+    attas-acc against main at d84cbd5, one thread (an old measurement: the
+    tiles and the wsens are different now, see the end).  callgrind inside
     mlid_fit: 206.4 M -> 183.3 M instructions per fit (19.6 k -> 17.4 k per
     sample and iteration, 7 iterations): the information by weighted output
     over the columns that move it (an output's own bias, one equation's
@@ -71,6 +72,19 @@ met; the 2x floor: met by ATTAS lateral only, borderline.  A branch (rk-fuse)
 that took each sensitivity column's RK4 step in registers cut HFB-320 by
 another 4.9 M instructions but not its time (6.77 against 6.75 ms CPU: a
 column's four stages are one dependent chain) and was not merged.
+
+Measured (ours, one thread) at the stop that merged tiles, wsens-once,
+py-overhead, lti-sens and hfb-outputs and made the allocator keep freed
+memory (python/mlid/heap.py), this script on a quiet spell: (a) HFB-320
+5.18 ms CPU (was 6.44-6.62 ms), scalar floor ratio 2.1 (was 2.6-2.7),
+scipy's ratio 70x (scipy's side runs mlid.simulate, itself faster: 363 ms
+against 398-428 ms); (b) ATTAS lateral 6.92 ms CPU (was 11.65-11.98 ms),
+floor ratio 1.2 (was 2.0); (c) C-8 0.48 ms (was 0.90-0.97 ms), floor
+ratio 1.7 (was 3.3-3.6).  A third of ATTAS lateral's time and a fifth of
+HFB-320's had been the kernel's page faults: each fit's freed work arrays
+went back to the system and came back as fresh pages (about 1,850 faults a
+fit, getrusage's ru_minflt).  Issue 18's 10 ms and the 2x floor of ATTAS
+and C-8: met; HFB-320's 3 ms, 500x and 2x floor: not met.
 """
 
 import os

@@ -393,6 +393,28 @@ the pairs of b cost as much as the broadcasts).  Left: the triangle's
 short rows (three and one entries: about 2.5 M of the 6.3 M), output_rows'
 per-call checks (pm%cm = 1, 2, .. tested each sample; a flag in
 param_map_t would drop it, outside these files).
+
+Measured (ours, the five branches above merged with the review's fixes
+and python/mlid/heap.py, against main at da56406, one thread; --case all
+--rounds 7 on a quiet spell):
+  HFB-320    76.6 M -> 70.4 M instructions per fit, 2559 -> 2389
+             allocations; wall 6.82 -> 5.28 ms (median of 7 processes'
+             medians), CPU 6.21 -> 5.10 ms (least of 7 x 20); the Python
+             around the core 0.57 -> 0.18 ms;
+  C-8        7.1 M -> 5.2 M, 1942 -> 1895; wall 0.94 -> 0.50 ms, CPU 0.89
+             -> 0.47 ms; Python 0.41 -> 0.11 ms;
+  ATTAS lat. 103.3 M -> 85.7 M, 3486 -> 3332; wall 12.38 -> 6.92 ms, CPU
+             11.65 -> 6.63 ms; Python 0.66 -> 0.28 ms.
+Before heap.py, the same build's least CPU time varied from process to
+process (ATTAS lateral 6.8 to 11.2 ms over ten processes): glibc returned
+each fit's freed work arrays to the system, and the next fit took them back
+as fresh pages, 600 or 1,850 page faults a fit (getrusage) depending on
+the heap's state, 1.6-4 ms of system time.  With the thresholds raised no
+fit takes a fresh page once the heap has grown (tests/test_heap.py).  The
+native build beside this one (five processes each, alternating, least CPU
+of 100 fits): ATTAS lateral 6.49 against 6.50 ms, HFB-320 4.92 against
+5.11 ms, C-8 0.45 against 0.47 ms.  Every case deck bitwise
+(compare_cases: 40 of 40).
 """
 
 import argparse
