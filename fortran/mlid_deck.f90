@@ -583,7 +583,14 @@ contains
     a = 1                                   ! 'x NAME = EXPR' lines -> the EXPRs
     do while (a < len(lines))
       b = a + index(lines(a:), achar(10)) - 1
-      xs = [xs, lines(a + index(lines(a:b), '=') + 1:b - 1)]
+      k = a + index(lines(a:b), '=') + 1    ! the EXPR: lines(k:b-1)
+      if (b - k > TIELEN) then
+        write (iomsg, '(a,i0,a,i0,a)') 'group &model: a state equation of kind = ''sixdof'' has ', &
+          b - k, ' characters, more than the ', TIELEN, ' an equation may have'
+        call fail(c, trim(iomsg))
+        return
+      end if
+      xs = [character(len=TIELEN) :: xs, lines(k:b - 1)]
       a = b + 1
     end do
   end subroutine sixdof_deck
@@ -611,7 +618,8 @@ contains
     integer :: ios
 
     allocate (pstart(0))
-    if (any(len_trim([states, xdot, inputs, outputs, definitions]) > 0)) then
+    if (any(len_trim(states) > 0) .or. any(len_trim(xdot) > 0) .or. any(len_trim(inputs) > 0) &
+        .or. any(len_trim(outputs) > 0) .or. any(len_trim(definitions) > 0)) then
       call fail(c, 'group &model: kind = ''flight_path'' writes its states, inputs and '// &
                 'equations itself (no state_names, xdot, input_names, outputs, definitions)')
       return
