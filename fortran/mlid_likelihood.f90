@@ -68,8 +68,8 @@ contains
   !> Cost at theta (and gradient and information for the free parameters
   !> when grad and info are present) by the method of opt.  rhat receives
   !> R-hat (output error) or the mean innovation covariance (filter error).
-  recursive subroutine likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, &
-                                  grad, info, sens, wsens, msens, bmean, keep)
+  subroutine likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                        sens, wsens, msens, bmean, keep)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -96,14 +96,34 @@ contains
     type(sens_keep_t), intent(inout), optional :: keep
     type(sens_keep_t) :: own
 
-    ! wsens (evaluate's) is made as a fit makes it: from what the evaluation keeps
     if (present(wsens) .and. .not. frequency_method(opt)) then
-      call likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                      sens, msens=msens, bmean=bmean, keep=own)
+      ! evaluate's wsens, made as a fit makes it: from what the evaluation keeps
+      call by_method(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                     sens, msens=msens, bmean=bmean, keep=own)
       if (status == MLID_OK .and. allocated(own%dy)) call weighted_sensitivities(own, pm%l%seg, &
                                                                                   wsens)
-      return
+    else
+      call by_method(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                     sens, wsens, msens, bmean, keep)
     end if
+  end subroutine likelihood
+
+  !> likelihood's evaluation by the method of opt (its arguments; wsens the
+  !> frequency-domain methods' only).
+  subroutine by_method(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                       sens, wsens, msens, bmean, keep)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(options_t), intent(in) :: opt
+    real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), &
+                                       msens(:, :), bmean(:, :)
+    type(sens_keep_t), intent(inout), optional :: keep
+
     cost = huge(1.0_wp)
     call filter_check(theta, pm, opt, status, msg)
     if (status /= MLID_OK) return
@@ -139,7 +159,7 @@ contains
       status = MLID_ERR_SINGULAR
       msg = 'cost is not finite'
     end if
-  end subroutine likelihood
+  end subroutine by_method
 
   !> What each estimator does not take: a free gain K (block stab) but with
   !> filter_params = 'gain'; then no free noise statistics; an initial
@@ -438,34 +458,32 @@ contains
     real(wp), intent(in) :: lw(ny, ny), dy(ny, nf, j1 - j0 + 1), nu(ny, j1 - j0 + 1)
     real(wp), intent(out) :: w(ny, SAMPLE_BLOCK, nc + 1)
     real(wp) :: lwd(ny)
-    integer :: j, c
-    do j = 1, ny
-      lwd(j) = lw(j, j)
-    end do
-    if (ny == 7 .and. .not. full) then
-      call weigh_block_7(j1 - j0 + 1, nf, nc, cols, lwd, dy, nu, w)
+    integer :: j
+    if (.not. full) then
+      do j = 1, ny
+        lwd(j) = lw(j, j)
+      end do
+      if (ny == 7) then             ! the longitudinal models' seven outputs: a clone
+        call weigh_diagonal_block(7, j1 - j0 + 1, nf, nc, cols, lwd, dy, nu, w)
+      else
+        call weigh_diagonal_block(ny, j1 - j0 + 1, nf, nc, cols, lwd, dy, nu, w)
+      end if
       return
     end if
     do j = 1, j1 - j0 + 1
-      if (full) then
-        w(:, j, nc + 1) = matmul(nu(:, j), lw)
-        w(:, j, 1:nc) = matmul(transpose(lw), dy(:, cols, j))
-      else
-        w(:, j, nc + 1) = lwd*nu(:, j)
-        do c = 1, nc
-          w(:, j, c) = lwd*dy(:, cols(c), j)
-        end do
-      end if
+      w(:, j, nc + 1) = matmul(nu(:, j), lw)
+      w(:, j, 1:nc) = matmul(transpose(lw), dy(:, cols, j))
     end do
   end subroutine weigh_block
 
-  !> weigh_block's diagonal R for seven outputs (the longitudinal models'):
-  !> the rows' count known to the compiler, so each column is a few whole
-  !> vector products with lwd held in registers (the same products).
-  subroutine weigh_block_7(nb, nf, nc, cols, lwd, dy, nu, w)
+  !> weigh_block for a diagonal R (L's diagonal lwd): each column the
+  !> outputs times lwd (ny by value: a constant ny makes a clone whose
+  !> rows are whole vector products with lwd held in registers).
+  subroutine weigh_diagonal_block(ny, nb, nf, nc, cols, lwd, dy, nu, w)
+    integer, value :: ny
     integer, intent(in) :: nb, nf, nc, cols(nc)
-    real(wp), intent(in) :: lwd(7), dy(7, nf, nb), nu(7, nb)
-    real(wp), intent(out) :: w(7, SAMPLE_BLOCK, nc + 1)
+    real(wp), intent(in) :: lwd(ny), dy(ny, nf, nb), nu(ny, nb)
+    real(wp), intent(out) :: w(ny, SAMPLE_BLOCK, nc + 1)
     integer :: j, c
     do j = 1, nb
       w(:, j, nc + 1) = lwd*nu(:, j)
@@ -473,7 +491,7 @@ contains
         w(:, j, c) = lwd*dy(:, cols(c), j)
       end do
     end do
-  end subroutine weigh_block_7
+  end subroutine weigh_diagonal_block
 
   !> Weighted output i of a block of nb samples, transposed for sym_atb_t:
   !> wt(q, j) = (L' dy(:, cols(q), j))_i, wt(nc+1, j) = (L' nu(:, j))_i,
