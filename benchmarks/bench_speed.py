@@ -190,6 +190,8 @@ def hfb320():
     (t_mlid, t_scipy) = interleaved_medians([mlid_fit, scipy_fit], rounds=3, n=1)
     (c_mlid, c_scipy) = interleaved_medians([mlid_fit, scipy_fit], rounds=3, n=1,
                                             clock=time.process_time)
+    (c_sim,) = interleaved_medians([lambda: outputs(start)], rounds=3, n=20,
+                                   clock=time.process_time)
     dev = np.max(np.abs(p - res.estimate) / res.sigma)
     print(f"(a) HFB-320 output error, {len(data.t)} samples, {mask.sum()} parameters, "
           f"{res.iterations} iterations (medians of 3 interleaved rounds):")
@@ -198,6 +200,14 @@ def hfb320():
           f"ratio {t_scipy / t_mlid:.0f}x (target >= 500x)")
     print(f"  CPU time (a loaded machine's other work left out): mlid.fit {1e3 * c_mlid:.2f} ms, "
           f"scipy {1e3 * c_scipy:.0f} ms, ratio {c_scipy / c_mlid:.0f}x")
+    # scipy's time is its simulations': the ratio is calls x (one simulation) / (one fit),
+    # so 500x asks a fit to cost calls/500 simulations, while the fit itself integrates
+    # the record (iterations + 1) times, with 11 sensitivity columns besides the state
+    need = calls[1] / 500
+    print(f"  one simulation (mlid.simulate, CPU) {1e3 * c_sim:.3f} ms: scipy's time is "
+          f"{c_scipy / (calls[1] * c_sim):.2f} x its {calls[1]} simulations; 500x would need the "
+          f"fit in {1e3 * need * c_sim:.2f} ms = {need:.2f} simulations, where it integrates the "
+          f"record {res.iterations + 1} times with sensitivities")
     print(f"  issue 18's target of 3 ms CPU time per fit: {'met' if c_mlid <= 0.003 else 'NOT met'} "
           f"(benchmarks/bench_stage_eval.py counts its instructions)")
     # both stop at a relative change of about 1e-8: a hundredth of a standard error
