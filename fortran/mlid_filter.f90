@@ -262,7 +262,7 @@ contains
       x = theta(pm%l%ox0 + (iseg - 1)*m%nx + 1:pm%l%ox0 + iseg*m%nx)
       if (present(dy)) then
         s = initial_sensitivity(pm, iseg)
-        call rk_work_size(wk, m%nx, pm%nf, size(pm%im), m%nu, m%nu + m%nw)
+        call rk_work_size(wk, m%nx, pm%nf, size(pm%im), m%nu, m%nu + m%nw, m, pm%im)
       else
         call rk_work_size(wk, m%nx, 0, size(pm%im), m%nu, m%nu + m%nw)
       end if
@@ -399,7 +399,11 @@ contains
     if (relin) then
       ! columns: the parameter sensitivities (if wanted), then Phi, then W
       allocate (sj(nx, ns + nx + nw), fj(nx, ns + nx + nw))
-      call rk_work_size(wk, nx, ns + nx + nw, merge(size(pm%im), 0, sens), m%nu, m%nu + nw)
+      if (sens) then
+        call rk_work_size(wk, nx, ns + nx + nw, size(pm%im), m%nu, m%nu + nw, m, pm%im)
+      else
+        call rk_work_size(wk, nx, ns + nx + nw, 0, m%nu, m%nu + nw)
+      end if
     end if
     call cov_alloc(cv, l%nx, l%ny, nf)
     allocate (s(nx, nf), c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf), &
