@@ -10,7 +10,7 @@ module mlid_rk
   implicit none
   private
   public :: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product
-  public :: product_7x4_add
+  public :: product_7x4_add, product_7x4_add_tail, past_states
 
   !> How delayed inputs move the sensitivities: entry k, d u(input(k)) /
   !> d theta(col(k)) at the interval's ends (d0, d1; a tie's scale in it),
@@ -414,6 +414,32 @@ contains
       c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
     end do
   end subroutine product_7x4_add
+
+  !> product_7x4_add where d(1:4, :) is zero (model_t%param_rows: dh/dp
+  !> moves outputs 5 to 7 alone, as the longitudinal model's): d's last
+  !> three rows alone added, the same sums to the bit but for a zero's sign
+  !> (add_forcing_rows).
+  pure subroutine product_7x4_add_tail(l, nd, a, b, d, w, c)
+    integer, intent(in) :: l, nd
+    real(wp), intent(in) :: a(7, 4), b(4, l), d(7, nd), w(nd)
+    real(wp), intent(out) :: c(7, l)
+    integer :: j
+    do j = 1, nd
+      c(1:4, j) = a(1:4, 1)*b(1, j) + a(1:4, 2)*b(2, j) + a(1:4, 3)*b(3, j) + a(1:4, 4)*b(4, j)
+      c(5:7, j) = a(5:7, 1)*b(1, j) + a(5:7, 2)*b(2, j) + a(5:7, 3)*b(3, j) + a(5:7, 4)*b(4, j) &
+                  + w(j)*d(5:7, j)
+    end do
+    do j = nd + 1, l
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
+    end do
+  end subroutine product_7x4_add_tail
+
+  !> Whether dh/dp with the structure hrow (model_t%param_rows) is zero in
+  !> its first four rows: product_7x4_add_tail's condition.
+  pure logical function past_states(hrow)
+    integer, intent(in) :: hrow(:, :)
+    past_states = all(hrow(1, :) >= 5) .and. all(hrow == 0 .or. hrow >= 5)
+  end function past_states
 
   !> c = a b for an n x 4 (the outputs' C S of four states): as product_4x4
   !> with the rows' count known at run time only, the same sums.
