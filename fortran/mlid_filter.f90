@@ -411,6 +411,8 @@ contains
       else
         call rk_work_size(wk, nx, ns + nx + nw, 0, m%nu, m%nu + nw)
       end if
+    else if (sens) then           ! the forcing's structure, for every interval's steps
+      call rk_work_size(wk, nx, nf, size(pm%im), m%nu, m%nu + nw, m, pm%im)
     end if
     call cov_alloc(cv, l%nx, l%ny, nf)
     allocate (s(nx, nf), c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf), &

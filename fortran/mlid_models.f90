@@ -107,7 +107,6 @@ module mlid_models
     end subroutine dhdxp_iface
   end interface
 
-
   !> Where each block of theta starts (offset: block entry k is theta(o + k)).
   !> A record of several manoeuvres (segments) has an initial state and a
   !> bias vector per segment: the x0 block holds nx*nseg entries, segment
