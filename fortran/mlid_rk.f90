@@ -57,13 +57,7 @@ contains
     integer, intent(in) :: nx, ns, nb, nu, nv
     class(model_t), intent(in), optional :: m
     integer, intent(in), optional :: idxm(nb)
-    integer :: hrow(NZ_HROWS, nb)
-    if (present(m)) then
-      if (allocated(wk%frow)) deallocate (wk%frow)
-      allocate (wk%frow(nb))
-      call m%param_rows(idxm, wk%frow, hrow)
-      wk%sparse = any(wk%frow > 0)
-    end if
+    if (present(m)) call forcing_rows(m, idxm, wk)
     if (allocated(wk%sd)) then       ! (one size at a time: no shape arrays at every step)
       if (size(wk%sd, 1) == nx .and. size(wk%sd, 2) == ns .and. size(wk%b, 2) == nb .and. &
           size(wk%bu, 2) == nu .and. size(wk%um) == nv) return
@@ -74,6 +68,20 @@ contains
     allocate (wk%k(nx, 4), wk%sd(nx, ns, 4), wk%xs(nx), wk%ss(nx, ns), wk%a(nx, nx), &
               wk%b(nx, nb), wk%bu(nx, nu), wk%um(nv))
   end subroutine rk_work_size
+
+  !> wk%frow and wk%sparse for the model parameters idxm of m (rk_work_t);
+  !> apart from rk_work_size, which every step calls: its d's rows would be
+  !> an array allocated at every step.
+  subroutine forcing_rows(m, idxm, wk)
+    class(model_t), intent(in) :: m
+    integer, intent(in) :: idxm(:)
+    type(rk_work_t), intent(inout) :: wk
+    integer :: hrow(NZ_HROWS, size(idxm))
+    if (allocated(wk%frow)) deallocate (wk%frow)
+    allocate (wk%frow(size(idxm)))
+    call m%param_rows(idxm, wk%frow, hrow)
+    wk%sparse = any(wk%frow > 0)
+  end subroutine forcing_rows
 
   !> Advance x (and s, if given) from t0 to t0+dt.
   !>
