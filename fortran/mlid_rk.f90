@@ -425,8 +425,10 @@ contains
 
   !> product_7x4_add where d(1:4, :) is zero (model_t%param_rows: dh/dp
   !> moves outputs 5 to 7 alone, as the longitudinal model's): d's last
-  !> three rows alone added, the same sums to the bit but for a zero's sign
-  !> (add_forcing_rows).
+  !> three rows alone added, the same sums to the bit (w*0 left out, as in
+  !> add_forcing_rows).  A zero's sign could differ only where all four
+  !> products of a row of C S are -0; the longitudinal model's first four
+  !> rows of C are the identity's, and the sensitivities are never -0.
   pure subroutine product_7x4_add_tail(l, nd, a, b, d, w, c)
     integer, intent(in) :: l, nd
     real(wp), intent(in) :: a(7, 4), b(4, l), d(7, nd), w(nd)
