@@ -415,6 +415,31 @@ native build beside this one (five processes each, alternating, least CPU
 of 100 fits): ATTAS lateral 6.49 against 6.50 ms, HFB-320 4.92 against
 5.11 ms, C-8 0.45 against 0.47 ms.  Every case deck bitwise
 (compare_cases: 40 of 40).
+
+Measured (ours, branch sparse-forcing against main at 85893d4, one
+thread): the model says which rows of df/dp and dh/dp can be nonzero
+(model_t%param_rows; the longitudinal model from brow and COEF_OUTPUTS,
+every other kind dense by default), asked once per integration.
+  HFB-320    70.4 M -> 68.0 M instructions per fit (16.7 k -> 16.2 k per
+             sample and iteration), 2389 -> 2421 allocations (four a
+             likelihood evaluation: the rows' arrays): the RK4 forcing adds
+             the one entry of each df/dp column instead of four (deriv
+             8.20 -> 6.03 M, its scalar loop 27 -> 14 instructions a
+             parameter); the outputs' C S + dh/dp adds d's last three rows
+             alone (product_7x4_add_tail 4.04 -> 3.70 M).  Least CPU of 100
+             fits (/tmp script, the builds' processes alternating, two runs
+             of 5 rounds): main 4.91-5.06 ms, ours 4.77-5.11 ms, medians
+             5.00 -> 4.86 and 4.97 -> 4.84 ms (8 of 10 pairs ours faster,
+             about 0.12 ms).
+  C-8, ATTAS lateral: unchanged (linear models, dense; C-8's +10 k a fit is
+             in malloc's internals, the same calls).
+Tried and dropped: dh/dp's one or two rows added entry by entry (each
+column of C S in registers cannot take a row known at run time: more
+instructions than the seven rows), the rows re-derived in rk4_step when
+the parameters change (compared at every step: some 140 instructions a
+step as first written, most of them the malloc of an automatic array of
+dh/dp's rows; the caller now tells rk_work_size once instead).  Every case deck bitwise (compare_cases: 40 of
+40); hfb320's JSON the same with one and two threads and from mlid-batch.
 """
 
 import argparse

@@ -22,7 +22,7 @@
 !> p = [theta_D, theta_L, theta_m]
 module mlid_aero_long
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_models, only: model_t
+  use mlid_models, only: model_t, NZ_HROWS
   implicit none
   private
   public :: aero_long_t, aero_long_create, check_longitudinal_record, REGRESSOR_NAMES, NREG, &
@@ -38,6 +38,9 @@ module mlid_aero_long
   integer, parameter :: DR_STATE(NREG) = [0, 1, 2, 2, 4, 0]
   !> The state equation each coefficient (C_D, C_L, C_m) forces.
   integer, parameter :: COEF_ROW(3) = [1, 2, 4]
+  !> The outputs each coefficient's parameters move (rows of dh/dp, 0 for
+  !> none): C_D and C_L a_x and a_z (6, 7), C_m qdot (5), as outputs writes d.
+  integer, parameter :: COEF_OUTPUTS(2, 3) = reshape([6, 7, 6, 7, 5, 0], [2, 3])
   !> A point's coefficients cx(0:GRAD_NONE, 3): each column the coefficient
   !> (row 0) and its gradient along the four states (rows 1 to 4); row
   !> GRAD_NONE sums the terms of the regressors without a gradient and is
@@ -65,6 +68,7 @@ module mlid_aero_long
     procedure :: eval => al_eval
     procedure :: dfdw => al_dfdw
     procedure :: dhdxp => al_dhdxp
+    procedure :: param_rows => al_param_rows
   end type aero_long_t
 
   !> What f, h and their Jacobians share at one point, computed once: the
@@ -366,6 +370,21 @@ contains
       end if
     end do
   end subroutine outputs
+
+  !> The rows of df/dp and dh/dp a parameter moves (model_t%param_rows):
+  !> the state equation its coefficient forces, brow as state_param_jacobian
+  !> fills b, and the outputs of that coefficient (COEF_OUTPUTS).
+  pure subroutine al_param_rows(self, idx, frow, hrow)
+    class(aero_long_t), intent(in) :: self
+    integer, intent(in) :: idx(:)
+    integer, intent(out) :: frow(size(idx)), hrow(NZ_HROWS, size(idx))
+    integer :: k
+    hrow = 0
+    do k = 1, size(idx)
+      frow(k) = self%brow(idx(k))
+      hrow(1:2, k) = COEF_OUTPUTS(:, findloc(COEF_ROW, frow(k), 1))
+    end do
+  end subroutine al_param_rows
 
   pure subroutine al_dfdw(self, t, x, u, p, g)
     class(aero_long_t), intent(in) :: self

@@ -33,11 +33,11 @@ module mlid_filter
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_SINGULAR, &
                         MLID_ERR_NOCONV, first_failure
   use mlid_linalg, only: chol_inverse, expm, expm_into, expm_work_size, expm_work_t
-  use mlid_models, only: model_t, layout_t
+  use mlid_models, only: model_t, layout_t, NZ_HROWS
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, segment_map, input_delays, output_delays, stabilized
   use mlid_rk, only: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product, &
-                    product_7x4_add
+                    product_7x4_add, product_7x4_add_tail, past_states
   use mlid_delay, only: delay_outputs, delay_check
   use mlid_lti_predict, only: lti_exact, lti_segment
   use mlid_riccati, only: dare_solve, stein_solve
@@ -252,17 +252,24 @@ contains
       type(rk_work_t) :: wk
       real(wp) :: x(m%nx)
       integer :: j, k, np
+      integer, allocatable :: frow(:), hrow(:, :)
+      logical :: tail
       logical :: step
 
       np = pm%l%np
       allocate (ue(m%nu + m%nw), w0(m%nw))
       w0 = 0.0_wp
       ue(m%nu + 1:) = w0                   ! the stage's inputs: no process noise in output error
-      if (present(dy)) allocate (c(m%ny, m%nx), d(m%ny, size(pm%im)), hu(m%ny, m%nu))
+      if (present(dy)) then
+        allocate (c(m%ny, m%nx), d(m%ny, size(pm%im)), hu(m%ny, m%nu), frow(size(pm%im)), &
+                  hrow(NZ_HROWS, size(pm%im)))
+        call m%param_rows(pm%im, frow, hrow)    ! once per segment, for output_rows
+        tail = past_states(hrow)
+      end if
       x = theta(pm%l%ox0 + (iseg - 1)*m%nx + 1:pm%l%ox0 + iseg*m%nx)
       if (present(dy)) then
         s = initial_sensitivity(pm, iseg)
-        call rk_work_size(wk, m%nx, pm%nf, size(pm%im), m%nu, m%nu + m%nw)
+        call rk_work_size(wk, m%nx, pm%nf, size(pm%im), m%nu, m%nu + m%nw, m, pm%im)
       else
         call rk_work_size(wk, m%nx, 0, size(pm%im), m%nu, m%nu + m%nw)
       end if
@@ -299,7 +306,7 @@ contains
         wk%first_known = step
         yhat(:, j) = yhat(:, j) + theta(pm%l%obias + (iseg - 1)*m%ny + 1:pm%l%obias + iseg*m%ny)
         if (present(dy)) then
-          call output_rows(pm, s, c, d, iseg, dy(:, :, j))
+          call output_rows(pm, s, c, d, iseg, dy(:, :, j), tail)
           if (present(du)) then
             call m%dhdu(t(j), x, uu(:, j), theta(1:np), hu)
             do k = 1, size(pm%iu)
@@ -399,7 +406,13 @@ contains
     if (relin) then
       ! columns: the parameter sensitivities (if wanted), then Phi, then W
       allocate (sj(nx, ns + nx + nw), fj(nx, ns + nx + nw))
-      call rk_work_size(wk, nx, ns + nx + nw, merge(size(pm%im), 0, sens), m%nu, m%nu + nw)
+      if (sens) then
+        call rk_work_size(wk, nx, ns + nx + nw, size(pm%im), m%nu, m%nu + nw, m, pm%im)
+      else
+        call rk_work_size(wk, nx, ns + nx + nw, 0, m%nu, m%nu + nw)
+      end if
+    else if (sens) then           ! the forcing's structure, for every interval's steps
+      call rk_work_size(wk, nx, nf, size(pm%im), m%nu, m%nu + nw, m, pm%im)
     end if
     call cov_alloc(cv, l%nx, l%ny, nf)
     allocate (s(nx, nf), c(l%ny, l%nx), d(l%ny, size(pm%im)), what(l%nw), dwhat(l%nw, nf), &
@@ -511,9 +524,9 @@ contains
       if (present(bhist)) bhist(:, :, j) = cv%b
       if (sens) then                ! d nu = -(C dx(j|j-1) + dh/dp + d bias), eq. 4.31
         if (relin) then
-          call output_rows(pm, s, sys%c, d, iseg, dnu(:, :, j))
+          call output_rows(pm, s, sys%c, d, iseg, dnu(:, :, j), .false.)
         else
-          call output_rows(pm, s, c, d, iseg, dnu(:, :, j))
+          call output_rows(pm, s, c, d, iseg, dnu(:, :, j), .false.)
         end if
         dnu(:, :, j) = -dnu(:, :, j)
       end if
@@ -1233,18 +1246,24 @@ contains
 
   !> dy = c s + d (into the columns of the model parameters) + the bias
   !> columns of segment iseg: the output sensitivities from c = dh/dx and
-  !> d = dh/dp(pm%im).
-  subroutine output_rows(pm, s, c, d, iseg, dy)
+  !> d = dh/dp(pm%im); tail: d's first four rows are zero (param_rows).
+  subroutine output_rows(pm, s, c, d, iseg, dy, tail)
     type(param_map_t), intent(in) :: pm
     real(wp), intent(in), contiguous :: s(:, :), c(:, :), d(:, :)
     integer, intent(in) :: iseg
     real(wp), intent(out) :: dy(:, :)
+    logical, intent(in) :: tail
     integer :: k, i
 
     if (size(c, 1) == 7 .and. size(c, 2) == 4 .and. leading(pm%cm)) then
       ! seven outputs of four states, the model parameters the first
-      ! columns: d's added as each column of C S is made (the same sums)
-      call product_7x4_add(size(s, 2), size(pm%im), c, s, d, pm%wm, dy)
+      ! columns: d's added as each column of C S is made (the same sums),
+      ! its last three rows alone when the others are zero
+      if (tail) then
+        call product_7x4_add_tail(size(s, 2), size(pm%im), c, s, d, pm%wm, dy)
+      else
+        call product_7x4_add(size(s, 2), size(pm%im), c, s, d, pm%wm, dy)
+      end if
     else
       call small_product(c, s, dy)
       do k = 1, size(pm%im)

@@ -23,7 +23,7 @@ module mlid_models
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: model_t, linear_model_t, layout_t, model_layout
+  public :: model_t, linear_model_t, layout_t, model_layout, NZ_HROWS
 
   type, abstract :: model_t
     integer :: nx = 0  !< states
@@ -56,7 +56,20 @@ module mlid_models
     !> still reads; the others leave it unallocated.
     procedure :: fold_inputs => no_folding
     procedure :: uses_params => reads_every_param
+    !> param_rows(idx, frow, hrow): the structure of eval's b and d for the
+    !> parameters idx, for the sensitivity recursions to add the entries
+    !> that can be nonzero alone.  b(:, k) = df/dp(idx(k)) is zero outside
+    !> row frow(k), d(:, k) = dh/dp(idx(k)) outside the rows hrow(:, k)
+    !> (NZ_HROWS or fewer, the rest 0); frow(k) = 0 or hrow(1, k) = 0: any
+    !> row can be nonzero, as by default.  A promise for every x, u and p:
+    !> the rows not named are exactly zero (eval writes them as 0), so a
+    !> sum that leaves them out has the same value.  Naming a row that
+    !> happens to be zero is allowed; leaving out one that is not is wrong.
+    procedure :: param_rows => every_param_row
   end type model_t
+
+  !> How many rows of a column of dh/dp param_rows can name.
+  integer, parameter :: NZ_HROWS = 2
 
   abstract interface
     !> The model at (t, x, u): each quantity asked for (present) of
@@ -172,6 +185,15 @@ contains
       k = reshape(p(self%ok + 1:self%ok + nu*nx), [nu, nx])
     end associate
   end subroutine lin_matrices
+
+  !> Dense Jacobians (param_rows): any row of df/dp and dh/dp can be nonzero.
+  pure subroutine every_param_row(self, idx, frow, hrow)
+    class(model_t), intent(in) :: self
+    integer, intent(in) :: idx(:)
+    integer, intent(out) :: frow(size(idx)), hrow(NZ_HROWS, size(idx))
+    frow = 0
+    hrow = 0
+  end subroutine every_param_row
 
   !> used(k): whether parameter k enters f or h.
   pure subroutine reads_every_param(self, used)

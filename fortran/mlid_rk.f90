@@ -6,11 +6,11 @@
 !> throughout with a zero-order hold, chosen by the caller).
 module mlid_rk
   use mlid_kinds, only: wp
-  use mlid_models, only: model_t
+  use mlid_models, only: model_t, NZ_HROWS
   implicit none
   private
   public :: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product
-  public :: product_7x4_add
+  public :: product_7x4_add, product_7x4_add_tail, past_states
 
   !> How delayed inputs move the sensitivities: entry k, d u(input(k)) /
   !> d theta(col(k)) at the interval's ends (d0, d1; a tie's scale in it),
@@ -31,29 +31,57 @@ module mlid_rk
   !> sensitivities are integrated, df/dx and df/dp in a and b) at the
   !> point the next step starts from (the outputs of a sample evaluate the
   !> model there anyway); the next step uses them and clears it.
+  !> frow: the row of each column of b that can be nonzero (0: any), the
+  !> model's param_rows for its parameters idxm as rk_work_size was told
+  !> them (the steps that follow must be given the same idxm); sparse: some
+  !> frow > 0, so the forcing adds those entries alone (add_forcing_rows).
+  !> Dense (sparse false) unless told.
   type :: rk_work_t
     real(wp), allocatable :: k(:, :), sd(:, :, :), xs(:), ss(:, :), a(:, :), b(:, :), bu(:, :)
     real(wp), allocatable :: um(:), ua(:), ub(:)
     logical :: first_known = .false.
+    integer, allocatable :: frow(:)
+    logical :: sparse = .false.
   end type rk_work_t
 
 contains
 
   !> Size wk's stage arrays for nx states, ns sensitivity columns, nb model
   !> parameters forcing them, nu inputs and nv input values (inputs and
-  !> noise); kept when they have the size already.
-  subroutine rk_work_size(wk, nx, ns, nb, nu, nv)
+  !> noise); kept when they have the size already.  Given the model m and
+  !> its nb parameters idxm, the forcing's structure too (rk_work_t's frow):
+  !> asked once here, where the caller sets up an integration, not at every
+  !> step; arrays sized anew without them forget it.
+  subroutine rk_work_size(wk, nx, ns, nb, nu, nv, m, idxm)
     type(rk_work_t), intent(inout) :: wk
     integer, intent(in) :: nx, ns, nb, nu, nv
+    class(model_t), intent(in), optional :: m
+    integer, intent(in), optional :: idxm(nb)
+    if (present(m)) call forcing_rows(m, idxm, wk)
     if (allocated(wk%sd)) then       ! (one size at a time: no shape arrays at every step)
       if (size(wk%sd, 1) == nx .and. size(wk%sd, 2) == ns .and. size(wk%b, 2) == nb .and. &
           size(wk%bu, 2) == nu .and. size(wk%um) == nv) return
       deallocate (wk%k, wk%sd, wk%xs, wk%ss, wk%a, wk%b, wk%bu, wk%um)
     end if
+    if (.not. present(m)) wk%sparse = .false.
     wk%first_known = .false.
     allocate (wk%k(nx, 4), wk%sd(nx, ns, 4), wk%xs(nx), wk%ss(nx, ns), wk%a(nx, nx), &
               wk%b(nx, nb), wk%bu(nx, nu), wk%um(nv))
   end subroutine rk_work_size
+
+  !> wk%frow and wk%sparse for the model parameters idxm of m (rk_work_t);
+  !> apart from rk_work_size, which every step calls: its d's rows would be
+  !> an array allocated at every step.
+  subroutine forcing_rows(m, idxm, wk)
+    class(model_t), intent(in) :: m
+    integer, intent(in) :: idxm(:)
+    type(rk_work_t), intent(inout) :: wk
+    integer :: hrow(NZ_HROWS, size(idxm))
+    if (allocated(wk%frow)) deallocate (wk%frow)
+    allocate (wk%frow(size(idxm)))
+    call m%param_rows(idxm, wk%frow, hrow)
+    wk%sparse = any(wk%frow > 0)
+  end subroutine forcing_rows
 
   !> Advance x (and s, if given) from t0 to t0+dt.
   !>
@@ -135,7 +163,11 @@ contains
       else
         call small_product(wk%a, ss, sd)
       end if
-      call add_forcing(size(sd, 1), size(sd, 2), size(idxm), wk%b, colm, wcol, sd)
+      if (wk%sparse) then
+        call add_forcing_rows(size(sd, 1), size(sd, 2), size(idxm), wk%b, colm, wcol, wk%frow, sd)
+      else
+        call add_forcing(size(sd, 1), size(sd, 2), size(idxm), wk%b, colm, wcol, sd)
+      end if
       if (present(sforce)) sd = sd + sforce
       if (present(us)) call input_forcing(t, xs, ui, c, sd)
     end subroutine deriv
@@ -233,6 +265,49 @@ contains
       sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
     end do
   end subroutine add_forcing_4
+
+  !> add_forcing where b(:, k) is zero outside row row(k) (row(k) = 0: any
+  !> row; model_t%param_rows): that entry alone is added.  Each entry of sd
+  !> gets the same nonzero terms in the same order (a tie's several
+  !> parameters in one column included), so the sums are add_forcing's to
+  !> the bit: the terms left out are w(k)*0, and s + 0 = s.  Only the sign
+  !> of a zero can differ (-0 + 0 is +0), which nothing downstream sees: sd
+  !> is only ever added to the sensitivities, which start at +0, and a sum
+  !> with a +0 or nonzero term is never -0.
+  pure subroutine add_forcing_rows(nx, ns, nb, b, col, w, row, sd)
+    integer, intent(in) :: nx, ns, nb, col(nb), row(nb)
+    real(wp), intent(in) :: b(nx, nb), w(nb)
+    real(wp), intent(inout) :: sd(nx, ns)
+    integer :: k, i
+    if (nx == 4) then
+      call add_forcing_rows_4(ns, nb, b, col, w, row, sd)
+      return
+    end if
+    do k = 1, nb
+      i = row(k)
+      if (i > 0) then
+        sd(i, col(k)) = sd(i, col(k)) + w(k)*b(i, k)
+      else
+        sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
+      end if
+    end do
+  end subroutine add_forcing_rows
+
+  !> add_forcing_rows for four states (the sizes known to the compiler).
+  pure subroutine add_forcing_rows_4(ns, nb, b, col, w, row, sd)
+    integer, intent(in) :: ns, nb, col(nb), row(nb)
+    real(wp), intent(in) :: b(4, nb), w(nb)
+    real(wp), intent(inout) :: sd(4, ns)
+    integer :: k, i
+    do k = 1, nb
+      i = row(k)
+      if (i > 0) then
+        sd(i, col(k)) = sd(i, col(k)) + w(k)*b(i, k)
+      else
+        sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
+      end if
+    end do
+  end subroutine add_forcing_rows_4
 
   !> y = x + h d over n values: a stage's point (the arrays as vectors of
   !> explicit size, so that the loop runs on unit strides).
@@ -347,6 +422,34 @@ contains
       c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
     end do
   end subroutine product_7x4_add
+
+  !> product_7x4_add where d(1:4, :) is zero (model_t%param_rows: dh/dp
+  !> moves outputs 5 to 7 alone, as the longitudinal model's): d's last
+  !> three rows alone added, the same sums to the bit (w*0 left out, as in
+  !> add_forcing_rows).  A zero's sign could differ only where all four
+  !> products of a row of C S are -0; the longitudinal model's first four
+  !> rows of C are the identity's, and the sensitivities are never -0.
+  pure subroutine product_7x4_add_tail(l, nd, a, b, d, w, c)
+    integer, intent(in) :: l, nd
+    real(wp), intent(in) :: a(7, 4), b(4, l), d(7, nd), w(nd)
+    real(wp), intent(out) :: c(7, l)
+    integer :: j
+    do j = 1, nd
+      c(1:4, j) = a(1:4, 1)*b(1, j) + a(1:4, 2)*b(2, j) + a(1:4, 3)*b(3, j) + a(1:4, 4)*b(4, j)
+      c(5:7, j) = a(5:7, 1)*b(1, j) + a(5:7, 2)*b(2, j) + a(5:7, 3)*b(3, j) + a(5:7, 4)*b(4, j) &
+                  + w(j)*d(5:7, j)
+    end do
+    do j = nd + 1, l
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
+    end do
+  end subroutine product_7x4_add_tail
+
+  !> Whether dh/dp with the structure hrow (model_t%param_rows) is zero in
+  !> its first four rows: product_7x4_add_tail's condition.
+  pure logical function past_states(hrow)
+    integer, intent(in) :: hrow(:, :)
+    past_states = all(hrow(1, :) >= 5) .and. all(hrow == 0 .or. hrow >= 5)
+  end function past_states
 
   !> c = a b for an n x 4 (the outputs' C S of four states): as product_4x4
   !> with the rows' count known at run time only, the same sums.
