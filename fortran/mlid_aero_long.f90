@@ -49,11 +49,12 @@ module mlid_aero_long
   type, extends(model_t) :: aero_long_t
     integer, allocatable :: code(:)      !< regressor code of each parameter
     !> Looked up once here, what each parameter's terms ask at every point:
-    !> where they go in the point's coefficients cx (air_t), as indices of
-    !> cx's columns laid end to end (its coefficient's value; its regressor's
-    !> gradient, row GRAD_NONE when it has none), and the state equation it
-    !> forces (COEF_ROW of its coefficient: 1 for C_D, 2 for C_L, 4 for C_m).
-    integer, allocatable :: at_value(:), at_grad(:), brow(:)
+    !> where its gradient term goes in the point's coefficients cx (air_t), as
+    !> an index of cx's columns laid end to end (row GRAD_NONE when its
+    !> regressor has no gradient), and the state equation it forces (COEF_ROW
+    !> of its coefficient: 1 for C_D, 2 for C_L, 4 for C_m).
+    integer, allocatable :: at_grad(:), brow(:)
+    integer :: first(4) = 1      !< coefficient j's parameters are first(j) to first(j + 1) - 1
     real(wp) :: g = 0, sm = 0, sc = 0, lt = 0, v0 = 0, mass = 0, sigma = 0, rho = 0, c2 = 0
     real(wp) :: csig = 1, ssig = 0       !< cos and sin of sigma
     !> the regressors' constant derivatives 1/V0 and (cbar/2)/V0, divided once
@@ -121,16 +122,16 @@ contains
     m%nw = 4      ! process noise (turbulence) adds to each state equation
     m%np = np
     m%code = iconst(4:)
-    allocate (m%at_value(np), m%at_grad(np), m%brow(np))
+    allocate (m%at_grad(np), m%brow(np))
     k = 0
     do j = 1, 3                       ! coefficient j's parameters follow j - 1's
       do i = 1, n(j)
         k = k + 1
-        m%at_value(k) = (GRAD_NONE + 1)*(j - 1) + 1
-        m%at_grad(k) = m%at_value(k) + GRAD_NONE
-        if (DR_STATE(m%code(k)) > 0) m%at_grad(k) = m%at_value(k) + DR_STATE(m%code(k))
+        m%at_grad(k) = (GRAD_NONE + 1)*(j - 1) + 1 + GRAD_NONE     ! column j's row GRAD_NONE
+        if (DR_STATE(m%code(k)) > 0) m%at_grad(k) = (GRAD_NONE + 1)*(j - 1) + 1 + DR_STATE(m%code(k))
         m%brow(k) = COEF_ROW(j)
       end do
+      m%first(j + 1) = k + 1
     end do
     m%g = rconst(1)
     m%sm = rconst(2)
@@ -200,19 +201,27 @@ contains
   end subroutine regressors
 
   !> The coefficients C_D, C_L, C_m and their gradients with respect to x
-  !> (cx, air_t), from the regressors r, dr: the parameters in order, each
-  !> term added where at_value and at_grad say.
-  pure subroutine coefficients(self, p, r, dr, cx)
-    class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: p(:), r(NREG), dr(NREG)
+  !> (cx, air_t), from the regressors r, dr: each coefficient's terms in
+  !> order, its value summed in a register (not through memory: a chain of
+  !> stores and loads), each gradient term added where at_grad says.  The
+  !> model's tables and p at explicit shapes: no descriptors in the loops.
+  pure subroutine coefficients(np, first, code, at_grad, p, r, dr, cx)
+    integer, intent(in) :: np, first(4), code(np), at_grad(np)
+    real(wp), intent(in) :: p(np), r(NREG), dr(NREG)
     real(wp), intent(out) :: cx((GRAD_NONE + 1)*3)   ! air_t's cx, its columns end to end
-    integer :: k, i
+    integer :: k, i, j
+    real(wp) :: v
     cx(1:9) = 0.0_wp      ! in halves: stores, where the whole is a rep stos (an instruction an entry)
     cx(10:) = 0.0_wp
-    do k = 1, self%np
-      i = self%code(k)
-      cx(self%at_value(k)) = cx(self%at_value(k)) + p(k)*r(i)
-      cx(self%at_grad(k)) = cx(self%at_grad(k)) + p(k)*dr(i)
+    !GCC$ unroll 3
+    do j = 1, 3
+      v = 0.0_wp
+      do k = first(j), first(j + 1) - 1
+        i = code(k)
+        v = v + p(k)*r(i)
+        cx(at_grad(k)) = cx(at_grad(k)) + p(k)*dr(i)
+      end do
+      cx((GRAD_NONE + 1)*(j - 1) + 1) = v
     end do
   end subroutine coefficients
 
@@ -233,7 +242,7 @@ contains
     s%sat = sin(x(2) - x(3))
     s%cat = cos(x(2) - x(3))
     call regressors(self, x, u, s%r, s%dr)
-    call coefficients(self, p, s%r, s%dr, s%cx)
+    call coefficients(self%np, self%first, self%code, self%at_grad, p, s%r, s%dr, s%cx)
     s%v = x(1)
     s%ft = u(2)
     s%qbar = self%hr*s%v*s%v
