@@ -38,10 +38,13 @@ module mlid_aero_long
   integer, parameter :: DR_STATE(NREG) = [0, 1, 2, 2, 4, 0]
   !> The state equation each coefficient (C_D, C_L, C_m) forces.
   integer, parameter :: COEF_ROW(3) = [1, 2, 4]
-  !> A point's coefficients cx(0:GRAD_NONE, 3): each column the coefficient
-  !> (row 0) and its gradient along the four states (rows 1 to 4); row
-  !> GRAD_NONE sums the terms of the regressors without a gradient and is
-  !> never read (no branch per parameter).
+  !> A point's coefficients cx(3, 0:GRAD_NONE): cx(j, 0) coefficient j,
+  !> cx(j, 1:4) its gradient along the four states; cx(j, GRAD_NONE) sums
+  !> the terms of the regressors without a gradient and is never read (no
+  !> branch per parameter).  The coefficient index first: a gradient is read
+  !> as four single loads, each from the one store that wrote it (a 16-byte
+  !> load of two entries the parameters' loop stored one by one waits until
+  !> those stores reach the cache).
   integer, parameter :: GRAD_NONE = 5
   !> The constants rconst, in order.
   character(len=*), parameter :: CONSTANT_NAMES = 'g, S/m, S cbar/Iy, lT/Iy, V0, m, sigma_T, rho, cbar/2'
@@ -50,7 +53,7 @@ module mlid_aero_long
     integer, allocatable :: code(:)      !< regressor code of each parameter
     !> Looked up once here, what each parameter's terms ask at every point:
     !> where its gradient term goes in the point's coefficients cx (air_t), as
-    !> an index of cx's columns laid end to end (row GRAD_NONE when its
+    !> an index of cx's columns laid end to end (cx(j, GRAD_NONE) when its
     !> regressor has no gradient), and the state equation it forces (COEF_ROW
     !> of its coefficient: 1 for C_D, 2 for C_L, 4 for C_m).
     integer, allocatable :: at_grad(:), brow(:)
@@ -78,7 +81,7 @@ module mlid_aero_long
   !> those quantities have always been formed, so that every fit stays the
   !> same to the bit (one product more).
   type :: air_t
-    real(wp) :: r(NREG), dr(NREG), cx(0:GRAD_NONE, 3), v, ft, qbar, qbar2, sas, cas, sat, cat
+    real(wp) :: r(NREG), dr(NREG), cx(3, 0:GRAD_NONE), v, ft, qbar, qbar2, sas, cas, sat, cat
     real(wp) :: sq, scq       !< (S/m) qbar and (S cbar/Iy) qbar
   end type air_t
 
@@ -127,8 +130,8 @@ contains
     do j = 1, 3                       ! coefficient j's parameters follow j - 1's
       do i = 1, n(j)
         k = k + 1
-        m%at_grad(k) = (GRAD_NONE + 1)*(j - 1) + 1 + GRAD_NONE     ! column j's row GRAD_NONE
-        if (DR_STATE(m%code(k)) > 0) m%at_grad(k) = (GRAD_NONE + 1)*(j - 1) + 1 + DR_STATE(m%code(k))
+        m%at_grad(k) = j + 3*GRAD_NONE           ! cx(j, GRAD_NONE)
+        if (DR_STATE(m%code(k)) > 0) m%at_grad(k) = j + 3*DR_STATE(m%code(k))
         m%brow(k) = COEF_ROW(j)
       end do
       m%first(j + 1) = k + 1
@@ -208,7 +211,7 @@ contains
   pure subroutine coefficients(np, first, code, at_grad, p, r, dr, cx)
     integer, intent(in) :: np, first(4), code(np), at_grad(np)
     real(wp), intent(in) :: p(np), r(NREG), dr(NREG)
-    real(wp), intent(out) :: cx((GRAD_NONE + 1)*3)   ! air_t's cx, its columns end to end
+    real(wp), intent(out) :: cx(3*(GRAD_NONE + 1))   ! air_t's cx, its columns end to end
     integer :: k, i, j
     real(wp) :: v
     cx(1:9) = 0.0_wp      ! in halves: stores, where the whole is a rep stos (an instruction an entry)
@@ -221,7 +224,7 @@ contains
         v = v + p(k)*r(i)
         cx(at_grad(k)) = cx(at_grad(k)) + p(k)*dr(i)
       end do
-      cx((GRAD_NONE + 1)*(j - 1) + 1) = v
+      cx(j) = v
     end do
   end subroutine coefficients
 
@@ -235,7 +238,7 @@ contains
     real(wp), intent(out), optional :: xdot(self%nx), a(self%nx, self%nx), b(self%nx, size(idx)), &
                                        y(self%ny), c(self%ny, self%nx), d(self%ny, size(idx))
     type(air_t) :: s
-    real(wp) :: xd(4)
+    real(wp) :: xd(4), g(4)
 
     s%sas = sin(x(2) + self%sigma)     ! first: the calls of sincos keep little else live
     s%cas = cos(x(2) + self%sigma)
@@ -251,10 +254,11 @@ contains
     s%scq = self%sc*s%qbar
     if (present(xdot) .or. present(y)) call state_rates(self, s, x, u, xd)
     if (present(xdot)) xdot = xd
-    if (present(a)) call state_jacobian(self, s, a)
-    if (present(b)) call state_param_jacobian(self, s, idx, b)
+    if (present(a) .or. present(c)) g = qdot_gradient(self, s)     ! a's fourth row, c's fifth
+    if (present(a)) call state_jacobian(self, s, g, a)
+    if (present(b)) call state_param_jacobian(self, s, size(idx), idx, self%brow, self%code, b)
     if (present(y) .or. present(c) .or. present(d)) &
-      call outputs(self, s, x, idx, xd, y, c, d)
+      call outputs(self, s, x, idx, xd, g, y, c, d)
   end subroutine al_eval
 
   !> xd = f, with the process noise if u carries it.
@@ -263,33 +267,34 @@ contains
     type(air_t), intent(in) :: s
     real(wp), intent(in) :: x(4), u(:)
     real(wp), intent(out) :: xd(4)
-    xd(1) = -s%sq*s%cx(0, 1) + s%ft*s%cas/self%mass + self%g*s%sat
-    xd(2) = -s%sq/s%v*s%cx(0, 2) - s%ft*s%sas/(self%mass*s%v) + x(4) &
+    xd(1) = -s%sq*s%cx(1, 0) + s%ft*s%cas/self%mass + self%g*s%sat
+    xd(2) = -s%sq/s%v*s%cx(2, 0) - s%ft*s%sas/(self%mass*s%v) + x(4) &
             + self%g*s%cat/s%v
     xd(3) = x(4)
-    xd(4) = s%scq*s%cx(0, 3) + self%lt*s%ft
+    xd(4) = s%scq*s%cx(3, 0) + self%lt*s%ft
     if (size(u) >= 2 + self%nw) xd = xd + u(3:2 + self%nw)   ! process noise, if given
   end subroutine state_rates
 
   !> a = df/dx.
-  pure subroutine state_jacobian(self, s, a)
+  pure subroutine state_jacobian(self, s, g, a)
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
+    real(wp), intent(in) :: g(4)                 ! qdot_gradient
     real(wp), intent(out) :: a(4, 4)
     real(wp) :: v
     v = s%v
-    a(1, :) = -s%sq*s%cx(1:4, 1)
-    a(1, 1) = a(1, 1) - self%smr*v*s%cx(0, 1)
+    a(1, :) = -s%sq*s%cx(1, 1:4)
+    a(1, 1) = a(1, 1) - self%smr*v*s%cx(1, 0)
     a(1, 2) = a(1, 2) - s%ft*s%sas/self%mass + self%g*s%cat
     a(1, 3) = a(1, 3) - self%g*s%cat
-    a(2, :) = -self%sm*(self%hr*v)*s%cx(1:4, 2)    ! (S/m) qbar/V
-    a(2, 1) = a(2, 1) - self%smhr*s%cx(0, 2) + s%ft*s%sas/(self%mass*v*v) &
+    a(2, :) = -self%sm*(self%hr*v)*s%cx(2, 1:4)    ! (S/m) qbar/V
+    a(2, 1) = a(2, 1) - self%smhr*s%cx(2, 0) + s%ft*s%sas/(self%mass*v*v) &
               - self%g*s%cat/(v*v)
     a(2, 2) = a(2, 2) - s%ft*s%cas/(self%mass*v) - self%g*s%sat/v
     a(2, 3) = a(2, 3) + self%g*s%sat/v
     a(2, 4) = a(2, 4) + 1.0_wp
     a(3, :) = [0.0_wp, 0.0_wp, 0.0_wp, 1.0_wp]
-    a(4, :) = qdot_gradient(self, s)
+    a(4, :) = g
   end subroutine state_jacobian
 
   !> d qdot / dx: a's fourth row and c's fifth.
@@ -297,42 +302,44 @@ contains
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
     real(wp) :: g(4)
-    g = s%scq*s%cx(1:4, 3)
-    g(1) = g(1) + self%scr*s%v*s%cx(0, 3)
+    g = s%scq*s%cx(3, 1:4)
+    g(1) = g(1) + self%scr*s%v*s%cx(3, 0)
   end function qdot_gradient
 
   !> b(:, k) = df/dp(idx(k)): the coefficient's regressor times its factor.
-  pure subroutine state_param_jacobian(self, s, idx, b)
+  !> The model's tables and idx at explicit shapes: no descriptors in the loop.
+  pure subroutine state_param_jacobian(self, s, nidx, idx, brow, code, b)
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
-    integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: b(4, size(idx))
+    integer, intent(in) :: nidx, idx(nidx), brow(self%np), code(self%np)
+    real(wp), intent(out) :: b(4, nidx)
     real(wp) :: fac(4)
     integer :: k, i
     ! each state equation's factor, as it has always been formed (negation is exact)
     fac = [-self%sm*s%qbar2, -self%smhr*s%v, 0.0_wp, self%sc*s%qbar2]
-    do k = 1, size(idx)
-      i = self%brow(idx(k))
+    do k = 1, nidx
+      i = brow(idx(k))
       b(1:4, k) = 0.0_wp         ! four states: a fixed size, no call of memset per column
-      b(i, k) = fac(i)*s%r(self%code(idx(k)))
+      b(i, k) = fac(i)*s%r(code(idx(k)))
     end do
   end subroutine state_param_jacobian
 
   !> y = h, c = dh/dx, d = dh/dp(idx), each if present; xd is f at the
-  !> point (for qdot; set when y is present).
-  pure subroutine outputs(self, s, x, idx, xd, y, c, d)
+  !> point (for qdot; set when y is present), g qdot's gradient (set when c
+  !> is present).
+  pure subroutine outputs(self, s, x, idx, xd, g, y, c, d)
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
-    real(wp), intent(in) :: x(4), xd(4)
+    real(wp), intent(in) :: x(4), xd(4), g(4)
     integer, intent(in) :: idx(:)
     real(wp), intent(out), optional :: y(7), c(7, 4), d(7, size(idx))
-    real(wp) :: sa, ca, rv, r, qs, fa(2, 2), fm, g(4), ax(4), az(4)
+    real(wp) :: sa, ca, rv, r, qs, fx(2), fz(2), fm, ax(4), az(4)
     integer :: i, k, j
 
     sa = sin(x(2))
     ca = cos(x(2))
     qs = s%qbar2*self%sm
-    associate (cf => s%cx(0, :), dc => s%cx(1:4, :))
+    associate (cf => s%cx(:, 0))
       if (present(y)) then
         y(1:4) = x(1:4)
         y(5) = xd(4)
@@ -341,13 +348,12 @@ contains
       end if
       if (present(c)) then
         rv = self%rho*s%v                            ! d qbar / dV
-        ax = qs*(dc(:, 2)*sa - dc(:, 1)*ca)
+        ax = qs*(s%cx(2, 1:4)*sa - s%cx(1, 1:4)*ca)
         ax(1) = ax(1) + rv*self%sm*(cf(2)*sa - cf(1)*ca)
         ax(2) = ax(2) + qs*(cf(2)*ca + cf(1)*sa)
-        az = qs*(-dc(:, 2)*ca - dc(:, 1)*sa)
+        az = qs*(-s%cx(2, 1:4)*ca - s%cx(1, 1:4)*sa)
         az(1) = az(1) + rv*self%sm*(-cf(2)*ca - cf(1)*sa)
         az(2) = az(2) + qs*(cf(2)*sa - cf(1)*ca)
-        g = qdot_gradient(self, s)
         do i = 1, 4                ! column by column: the state itself, qdot, a_x, a_z
           c(1:4, i) = 0.0_wp
           c(i, i) = 1.0_wp
@@ -357,10 +363,12 @@ contains
     end associate
     if (.not. present(d)) return
     ! the coefficients' factors, as they have always been formed (negation is
-    ! exact): C_D's and C_L's on a_x and a_z (fa by the state equation the
-    ! coefficient forces, brow 1 and 2), C_m's on qdot
-    fa(:, 1) = [-qs*ca, -qs*sa]
-    fa(:, 2) = [qs*sa, -qs*ca]
+    ! exact): C_D's and C_L's on a_x (fx) and a_z (fz) by the state equation
+    ! the coefficient forces (brow 1 and 2), C_m's on qdot; two arrays, not
+    ! one of pairs, so that a column reads each with a single load (a pair
+    ! stored as two would wait for them to reach the cache)
+    fx = [-qs*ca, qs*sa]
+    fz = [-qs*sa, -qs*ca]
     fm = self%sc*s%qbar2
     do k = 1, size(idx)
       j = self%brow(idx(k))
@@ -370,8 +378,8 @@ contains
         d(5, k) = fm*r
       else
         d(1:5, k) = 0.0_wp
-        d(6, k) = fa(1, j)*r
-        d(7, k) = fa(2, j)*r
+        d(6, k) = fx(j)*r
+        d(7, k) = fz(j)*r
       end if
     end do
   end subroutine outputs
