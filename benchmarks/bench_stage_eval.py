@@ -440,6 +440,56 @@ the parameters change (compared at every step: some 140 instructions a
 step as first written, most of them the malloc of an automatic array of
 dh/dp's rows; the caller now tells rk_work_size once instead).  Every case deck bitwise (compare_cases: 40 of
 40); hfb320's JSON the same with one and two threads and from mlid-batch.
+
+Measured (ours, branch al-eval-lean against main at 85893d4, one thread;
+the longitudinal model's point, fortran/mlid_aero_long.f90, alone):
+  HFB-320    70.4 M -> 69.8 M instructions per fit (16.73 k -> 16.60 k per
+             sample and iteration), al_eval 14.74 -> 14.20 M self (19,208
+             points a fit: 14,400 stages asking f, df/dx, df/dp, 4,808
+             samples asking h, dh/dx, dh/dp too); a stage's point 670 ->
+             640 instructions, a sample's 1,059 -> 1,036 (callgrind, a
+             driver of the model alone, sincos not counted); 2389 -> 2384
+             allocations; least CPU time 5.06 -> 4.72 ms (t.py, 5 rounds
+             alternating with main, median ratio 0.941; again with 7
+             rounds, the machine busier: 5.02 -> 4.86 ms, 0.969;
+             bench_stage_eval --rounds 3: 5.28 -> 4.93 ms).
+Most of the time came without instructions: main summed each coefficient
+through memory (cx(at_value(k)) loaded, added to, stored, for the next term
+to load again): a chain of store forwarding, on whose store 22 % of
+al_eval's perf samples sat.  Each coefficient's value now sums in a
+register, coefficient by coefficient (first step: 14.74 -> 14.80 M, least
+CPU 4.97 -> 4.85 ms, median ratio of 7 rounds 0.961).  Then: df/dp's loop
+with the tables and idx at explicit shapes (13 -> 11 instructions a
+column), qdot's gradient once at a sample, the coefficients laid out
+coefficient first and dh/dp's a_x and a_z factors in two arrays, so that
+every entry is read by a single load from the single store that wrote it
+(14.80 -> 14.20 M; ratio 0.991 against the first step).  Tried and
+dropped: df/dp's (and dh/dp's) columns written in the coefficients' pass
+when idx turns out to be 1..np (checked without a branch): 14.80 -> 13.88
+M instructions but the fit 2.5-3 % slower (three runs of 5-7 rounds, both
+orders), with b alone 14.12 M and 4 % slower, d alone 14.25 M and 1.3 %
+slower; perf put the time in product_4x4, rk4_interval and integrate:
+written there, b's columns come before a, so that a's sixteen 8-byte
+stores are the last before deriv's product_4x4 loads a's columns 16 bytes
+at a time (a load spanning two stores waits until they reach the cache),
+and gfortran splits a column's zero pairs into 8-byte stores, which
+add_forcing_4's 16-byte loads cannot take either.  Also dropped: the
+sums in four lanes (value and the three gradients in registers, zeros
+added where a regressor has none: 16.8 M, gfortran half-vectorises),
+outputs' dh/dp loop with explicit-shape tables (+0.02 M), the quotients
+of f and df/dx formed before the coefficients (+0.44 M, no faster), the
+sincos calls in a routine of their own (gfortran 12 has no noinline).
+Not done: eval's interface with explicit-shape p, u and idx (the
+descriptors cost about 30 instructions a point, 0.6 M a fit: under 1 %,
+for a change to every model kind).  Left: a is written with 8-byte
+stores, and each column of b, c and d has an 8-byte store over its pairs
+of zeros, while mlid_rk's kernels read them 16 bytes at a time (a store
+of each pair would let those loads forward; gfortran does not build the
+pairs from these expressions), the parameters' loops (about 12
+instructions a term for the coefficients, 11 a column for df/dp), the
+divisions (nine a stage, each kept as formed).  Every case deck's results
+are unchanged to the bit (benchmarks/compare_cases.py: 40 of 40 bitwise;
+HFB-320's JSON the same with one and two threads).
 """
 
 import argparse

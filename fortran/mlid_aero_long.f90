@@ -38,13 +38,18 @@ module mlid_aero_long
   integer, parameter :: DR_STATE(NREG) = [0, 1, 2, 2, 4, 0]
   !> The state equation each coefficient (C_D, C_L, C_m) forces.
   integer, parameter :: COEF_ROW(3) = [1, 2, 4]
+  !> The outputs the coefficients move: qdot, a_x, a_z (rows of y).
+  integer, parameter :: Y_QDOT = 5, Y_AX = 6, Y_AZ = 7
   !> The outputs each coefficient's parameters move (rows of dh/dp, 0 for
-  !> none): C_D and C_L a_x and a_z (6, 7), C_m qdot (5), as outputs writes d.
-  integer, parameter :: COEF_OUTPUTS(2, 3) = reshape([6, 7, 6, 7, 5, 0], [2, 3])
-  !> A point's coefficients cx(0:GRAD_NONE, 3): each column the coefficient
-  !> (row 0) and its gradient along the four states (rows 1 to 4); row
-  !> GRAD_NONE sums the terms of the regressors without a gradient and is
-  !> never read (no branch per parameter).
+  !> none): C_D and C_L a_x and a_z, C_m qdot, as outputs writes d.
+  integer, parameter :: COEF_OUTPUTS(2, 3) = reshape([Y_AX, Y_AZ, Y_AX, Y_AZ, Y_QDOT, 0], [2, 3])
+  !> A point's coefficients cx(3, 0:GRAD_NONE): cx(j, 0) coefficient j,
+  !> cx(j, 1:4) its gradient along the four states; cx(j, GRAD_NONE) sums
+  !> the terms of the regressors without a gradient and is never read (no
+  !> branch per parameter).  The coefficient index first: a gradient is read
+  !> as four single loads, each from the one store that wrote it (a 16-byte
+  !> load of two entries the parameters' loop stored one by one waits until
+  !> those stores reach the cache).
   integer, parameter :: GRAD_NONE = 5
   !> The constants rconst, in order.
   character(len=*), parameter :: CONSTANT_NAMES = 'g, S/m, S cbar/Iy, lT/Iy, V0, m, sigma_T, rho, cbar/2'
@@ -52,11 +57,12 @@ module mlid_aero_long
   type, extends(model_t) :: aero_long_t
     integer, allocatable :: code(:)      !< regressor code of each parameter
     !> Looked up once here, what each parameter's terms ask at every point:
-    !> where they go in the point's coefficients cx (air_t), as indices of
-    !> cx's columns laid end to end (its coefficient's value; its regressor's
-    !> gradient, row GRAD_NONE when it has none), and the state equation it
-    !> forces (COEF_ROW of its coefficient: 1 for C_D, 2 for C_L, 4 for C_m).
-    integer, allocatable :: at_value(:), at_grad(:), brow(:)
+    !> where its gradient term goes in the point's coefficients cx (air_t), as
+    !> an index of cx's columns laid end to end (cx(j, GRAD_NONE) when its
+    !> regressor has no gradient), and the state equation it forces (COEF_ROW
+    !> of its coefficient: 1 for C_D, 2 for C_L, 4 for C_m).
+    integer, allocatable :: at_grad(:), brow(:)
+    integer :: first(4) = 1      !< coefficient j's parameters are first(j) to first(j + 1) - 1
     real(wp) :: g = 0, sm = 0, sc = 0, lt = 0, v0 = 0, mass = 0, sigma = 0, rho = 0, c2 = 0
     real(wp) :: csig = 1, ssig = 0       !< cos and sin of sigma
     !> the regressors' constant derivatives 1/V0 and (cbar/2)/V0, divided once
@@ -81,7 +87,7 @@ module mlid_aero_long
   !> those quantities have always been formed, so that every fit stays the
   !> same to the bit (one product more).
   type :: air_t
-    real(wp) :: r(NREG), dr(NREG), cx(0:GRAD_NONE, 3), v, ft, qbar, qbar2, sas, cas, sat, cat
+    real(wp) :: r(NREG), dr(NREG), cx(3, 0:GRAD_NONE), v, ft, qbar, qbar2, sas, cas, sat, cat
     real(wp) :: sq, scq       !< (S/m) qbar and (S cbar/Iy) qbar
   end type air_t
 
@@ -125,16 +131,16 @@ contains
     m%nw = 4      ! process noise (turbulence) adds to each state equation
     m%np = np
     m%code = iconst(4:)
-    allocate (m%at_value(np), m%at_grad(np), m%brow(np))
+    allocate (m%at_grad(np), m%brow(np))
     k = 0
     do j = 1, 3                       ! coefficient j's parameters follow j - 1's
       do i = 1, n(j)
         k = k + 1
-        m%at_value(k) = (GRAD_NONE + 1)*(j - 1) + 1
-        m%at_grad(k) = m%at_value(k) + GRAD_NONE
-        if (DR_STATE(m%code(k)) > 0) m%at_grad(k) = m%at_value(k) + DR_STATE(m%code(k))
+        m%at_grad(k) = j + 3*GRAD_NONE           ! cx(j, GRAD_NONE)
+        if (DR_STATE(m%code(k)) > 0) m%at_grad(k) = j + 3*DR_STATE(m%code(k))
         m%brow(k) = COEF_ROW(j)
       end do
+      m%first(j + 1) = k + 1
     end do
     m%g = rconst(1)
     m%sm = rconst(2)
@@ -204,19 +210,27 @@ contains
   end subroutine regressors
 
   !> The coefficients C_D, C_L, C_m and their gradients with respect to x
-  !> (cx, air_t), from the regressors r, dr: the parameters in order, each
-  !> term added where at_value and at_grad say.
-  pure subroutine coefficients(self, p, r, dr, cx)
-    class(aero_long_t), intent(in) :: self
-    real(wp), intent(in) :: p(:), r(NREG), dr(NREG)
-    real(wp), intent(out) :: cx((GRAD_NONE + 1)*3)   ! air_t's cx, its columns end to end
-    integer :: k, i
+  !> (cx, air_t), from the regressors r, dr: each coefficient's terms in
+  !> order, its value summed in a register (not through memory: a chain of
+  !> stores and loads), each gradient term added where at_grad says.  The
+  !> model's tables and p at explicit shapes: no descriptors in the loops.
+  pure subroutine coefficients(np, first, code, at_grad, p, r, dr, cx)
+    integer, intent(in) :: np, first(4), code(np), at_grad(np)
+    real(wp), intent(in) :: p(np), r(NREG), dr(NREG)
+    real(wp), intent(out) :: cx(3*(GRAD_NONE + 1))   ! air_t's cx, its columns end to end
+    integer :: k, i, j
+    real(wp) :: v
     cx(1:9) = 0.0_wp      ! in halves: stores, where the whole is a rep stos (an instruction an entry)
     cx(10:) = 0.0_wp
-    do k = 1, self%np
-      i = self%code(k)
-      cx(self%at_value(k)) = cx(self%at_value(k)) + p(k)*r(i)
-      cx(self%at_grad(k)) = cx(self%at_grad(k)) + p(k)*dr(i)
+    !GCC$ unroll 3
+    do j = 1, 3
+      v = 0.0_wp
+      do k = first(j), first(j + 1) - 1
+        i = code(k)
+        v = v + p(k)*r(i)
+        cx(at_grad(k)) = cx(at_grad(k)) + p(k)*dr(i)
+      end do
+      cx(j) = v
     end do
   end subroutine coefficients
 
@@ -230,14 +244,14 @@ contains
     real(wp), intent(out), optional :: xdot(self%nx), a(self%nx, self%nx), b(self%nx, size(idx)), &
                                        y(self%ny), c(self%ny, self%nx), d(self%ny, size(idx))
     type(air_t) :: s
-    real(wp) :: xd(4)
+    real(wp) :: xd(4), g(4)
 
     s%sas = sin(x(2) + self%sigma)     ! first: the calls of sincos keep little else live
     s%cas = cos(x(2) + self%sigma)
     s%sat = sin(x(2) - x(3))
     s%cat = cos(x(2) - x(3))
     call regressors(self, x, u, s%r, s%dr)
-    call coefficients(self, p, s%r, s%dr, s%cx)
+    call coefficients(self%np, self%first, self%code, self%at_grad, p, s%r, s%dr, s%cx)
     s%v = x(1)
     s%ft = u(2)
     s%qbar = self%hr*s%v*s%v
@@ -246,10 +260,11 @@ contains
     s%scq = self%sc*s%qbar
     if (present(xdot) .or. present(y)) call state_rates(self, s, x, u, xd)
     if (present(xdot)) xdot = xd
-    if (present(a)) call state_jacobian(self, s, a)
-    if (present(b)) call state_param_jacobian(self, s, idx, b)
+    if (present(a) .or. present(c)) g = qdot_gradient(self, s)     ! a's fourth row, c's fifth
+    if (present(a)) call state_jacobian(self, s, g, a)
+    if (present(b)) call state_param_jacobian(self, s, size(idx), idx, self%brow, self%code, b)
     if (present(y) .or. present(c) .or. present(d)) &
-      call outputs(self, s, x, idx, xd, y, c, d)
+      call outputs(self, s, x, idx, xd, g, y, c, d)
   end subroutine al_eval
 
   !> xd = f, with the process noise if u carries it.
@@ -258,33 +273,34 @@ contains
     type(air_t), intent(in) :: s
     real(wp), intent(in) :: x(4), u(:)
     real(wp), intent(out) :: xd(4)
-    xd(1) = -s%sq*s%cx(0, 1) + s%ft*s%cas/self%mass + self%g*s%sat
-    xd(2) = -s%sq/s%v*s%cx(0, 2) - s%ft*s%sas/(self%mass*s%v) + x(4) &
+    xd(1) = -s%sq*s%cx(1, 0) + s%ft*s%cas/self%mass + self%g*s%sat
+    xd(2) = -s%sq/s%v*s%cx(2, 0) - s%ft*s%sas/(self%mass*s%v) + x(4) &
             + self%g*s%cat/s%v
     xd(3) = x(4)
-    xd(4) = s%scq*s%cx(0, 3) + self%lt*s%ft
+    xd(4) = s%scq*s%cx(3, 0) + self%lt*s%ft
     if (size(u) >= 2 + self%nw) xd = xd + u(3:2 + self%nw)   ! process noise, if given
   end subroutine state_rates
 
   !> a = df/dx.
-  pure subroutine state_jacobian(self, s, a)
+  pure subroutine state_jacobian(self, s, g, a)
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
+    real(wp), intent(in) :: g(4)                 ! qdot_gradient
     real(wp), intent(out) :: a(4, 4)
     real(wp) :: v
     v = s%v
-    a(1, :) = -s%sq*s%cx(1:4, 1)
-    a(1, 1) = a(1, 1) - self%smr*v*s%cx(0, 1)
+    a(1, :) = -s%sq*s%cx(1, 1:4)
+    a(1, 1) = a(1, 1) - self%smr*v*s%cx(1, 0)
     a(1, 2) = a(1, 2) - s%ft*s%sas/self%mass + self%g*s%cat
     a(1, 3) = a(1, 3) - self%g*s%cat
-    a(2, :) = -self%sm*(self%hr*v)*s%cx(1:4, 2)    ! (S/m) qbar/V
-    a(2, 1) = a(2, 1) - self%smhr*s%cx(0, 2) + s%ft*s%sas/(self%mass*v*v) &
+    a(2, :) = -self%sm*(self%hr*v)*s%cx(2, 1:4)    ! (S/m) qbar/V
+    a(2, 1) = a(2, 1) - self%smhr*s%cx(2, 0) + s%ft*s%sas/(self%mass*v*v) &
               - self%g*s%cat/(v*v)
     a(2, 2) = a(2, 2) - s%ft*s%cas/(self%mass*v) - self%g*s%sat/v
     a(2, 3) = a(2, 3) + self%g*s%sat/v
     a(2, 4) = a(2, 4) + 1.0_wp
     a(3, :) = [0.0_wp, 0.0_wp, 0.0_wp, 1.0_wp]
-    a(4, :) = qdot_gradient(self, s)
+    a(4, :) = g
   end subroutine state_jacobian
 
   !> d qdot / dx: a's fourth row and c's fifth.
@@ -292,42 +308,44 @@ contains
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
     real(wp) :: g(4)
-    g = s%scq*s%cx(1:4, 3)
-    g(1) = g(1) + self%scr*s%v*s%cx(0, 3)
+    g = s%scq*s%cx(3, 1:4)
+    g(1) = g(1) + self%scr*s%v*s%cx(3, 0)
   end function qdot_gradient
 
   !> b(:, k) = df/dp(idx(k)): the coefficient's regressor times its factor.
-  pure subroutine state_param_jacobian(self, s, idx, b)
+  !> The model's tables and idx at explicit shapes: no descriptors in the loop.
+  pure subroutine state_param_jacobian(self, s, nidx, idx, brow, code, b)
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
-    integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: b(4, size(idx))
+    integer, intent(in) :: nidx, idx(nidx), brow(self%np), code(self%np)
+    real(wp), intent(out) :: b(4, nidx)
     real(wp) :: fac(4)
     integer :: k, i
     ! each state equation's factor, as it has always been formed (negation is exact)
     fac = [-self%sm*s%qbar2, -self%smhr*s%v, 0.0_wp, self%sc*s%qbar2]
-    do k = 1, size(idx)
-      i = self%brow(idx(k))
+    do k = 1, nidx
+      i = brow(idx(k))
       b(1:4, k) = 0.0_wp         ! four states: a fixed size, no call of memset per column
-      b(i, k) = fac(i)*s%r(self%code(idx(k)))
+      b(i, k) = fac(i)*s%r(code(idx(k)))
     end do
   end subroutine state_param_jacobian
 
   !> y = h, c = dh/dx, d = dh/dp(idx), each if present; xd is f at the
-  !> point (for qdot; set when y is present).
-  pure subroutine outputs(self, s, x, idx, xd, y, c, d)
+  !> point (for qdot; set when y is present), g qdot's gradient (set when c
+  !> is present).
+  pure subroutine outputs(self, s, x, idx, xd, g, y, c, d)
     class(aero_long_t), intent(in) :: self
     type(air_t), intent(in) :: s
-    real(wp), intent(in) :: x(4), xd(4)
+    real(wp), intent(in) :: x(4), xd(4), g(4)
     integer, intent(in) :: idx(:)
     real(wp), intent(out), optional :: y(7), c(7, 4), d(7, size(idx))
-    real(wp) :: sa, ca, rv, r, qs, fa(2, 2), fm, g(4), ax(4), az(4)
+    real(wp) :: sa, ca, rv, r, qs, fx(2), fz(2), fm, ax(4), az(4)
     integer :: i, k, j
 
     sa = sin(x(2))
     ca = cos(x(2))
     qs = s%qbar2*self%sm
-    associate (cf => s%cx(0, :), dc => s%cx(1:4, :))
+    associate (cf => s%cx(:, 0))
       if (present(y)) then
         y(1:4) = x(1:4)
         y(5) = xd(4)
@@ -336,13 +354,12 @@ contains
       end if
       if (present(c)) then
         rv = self%rho*s%v                            ! d qbar / dV
-        ax = qs*(dc(:, 2)*sa - dc(:, 1)*ca)
+        ax = qs*(s%cx(2, 1:4)*sa - s%cx(1, 1:4)*ca)
         ax(1) = ax(1) + rv*self%sm*(cf(2)*sa - cf(1)*ca)
         ax(2) = ax(2) + qs*(cf(2)*ca + cf(1)*sa)
-        az = qs*(-dc(:, 2)*ca - dc(:, 1)*sa)
+        az = qs*(-s%cx(2, 1:4)*ca - s%cx(1, 1:4)*sa)
         az(1) = az(1) + rv*self%sm*(-cf(2)*ca - cf(1)*sa)
         az(2) = az(2) + qs*(cf(2)*sa - cf(1)*ca)
-        g = qdot_gradient(self, s)
         do i = 1, 4                ! column by column: the state itself, qdot, a_x, a_z
           c(1:4, i) = 0.0_wp
           c(i, i) = 1.0_wp
@@ -352,21 +369,23 @@ contains
     end associate
     if (.not. present(d)) return
     ! the coefficients' factors, as they have always been formed (negation is
-    ! exact): C_D's and C_L's on a_x and a_z (fa by the state equation the
-    ! coefficient forces, brow 1 and 2), C_m's on qdot
-    fa(:, 1) = [-qs*ca, -qs*sa]
-    fa(:, 2) = [qs*sa, -qs*ca]
+    ! exact): C_D's and C_L's on a_x (fx) and a_z (fz) by the state equation
+    ! the coefficient forces (brow 1 and 2), C_m's on qdot; two arrays, not
+    ! one of pairs, so that a column reads each with a single load (a pair
+    ! stored as two would wait for them to reach the cache)
+    fx = [-qs*ca, qs*sa]
+    fz = [-qs*sa, -qs*ca]
     fm = self%sc*s%qbar2
     do k = 1, size(idx)
       j = self%brow(idx(k))
       r = s%r(self%code(idx(k)))
       if (j == COEF_ROW(3)) then
         d(1:7, k) = 0.0_wp
-        d(5, k) = fm*r
+        d(Y_QDOT, k) = fm*r
       else
-        d(1:5, k) = 0.0_wp
-        d(6, k) = fa(1, j)*r
-        d(7, k) = fa(2, j)*r
+        d(1:Y_AX - 1, k) = 0.0_wp      ! (a_x and a_z are the last two)
+        d(Y_AX, k) = fx(j)*r
+        d(Y_AZ, k) = fz(j)*r
       end if
     end do
   end subroutine outputs

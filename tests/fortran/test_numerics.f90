@@ -691,7 +691,8 @@ contains
   !> add), a coefficient without regressors.  Its Jacobians match central
   !> differences; the model equals the one with the repeated regressor's
   !> parameters summed, to rounding; and asked for a shuffled subset of the
-  !> parameters, df/dp and dh/dp are the full ones' columns, to the bit.
+  !> parameters, or all of them shuffled, df/dp and dh/dp are the full ones'
+  !> columns, to the bit.
   subroutine test_aero_parameter_layouts()
     class(model_t), allocatable :: m, ms
     real(wp), parameter :: x(4) = [101.0_wp, -0.04_wp, 0.09_wp, -0.05_wp], u(2) = [0.03_wp, 9.0e3_wp]
@@ -699,8 +700,8 @@ contains
                                         104.67_wp, 7472.0_wp, 0.0524_wp, 0.792_wp, 1.215_wp]
     ! C_D: alpha, 1, alpha; C_L: none; C_m: de, qhat, V/V0, alpha^2
     real(wp), parameter :: p(7) = [0.4_wp, 0.02_wp, 0.3_wp, -1.1_wp, -25.0_wp, 0.05_wp, -0.6_wp]
-    integer, parameter :: sub(4) = [6, 2, 7, 4]
-    real(wp) :: errs(6), f(4), a(4, 4), b(4, 7), y(7), c(7, 4), d(7, 7)
+    integer, parameter :: sub(4) = [6, 2, 7, 4], perm(7) = [3, 1, 7, 2, 6, 4, 5]
+    real(wp) :: errs(6), f(4), a(4, 4), b(4, 7), y(7), c(7, 4), d(7, 7), bp(4, 7), dp(7, 7)
     real(wp) :: fs(4), as(4, 4), bs(4, 4), ys(7), cs(7, 4), ds(7, 4)
     integer :: status, k
     character(len=256) :: msg
@@ -732,6 +733,19 @@ contains
     call check(all(fs == f) .and. all(as == a) .and. all(ys == y) .and. all(cs == c) .and. &
                all(bs == b(:, sub)) .and. all(ds == d(:, sub)), 'longitudinal model: a '// &
                'shuffled subset of the parameters gets the full Jacobians'' columns')
+    ! every parameter, not in order (the model writes the columns of 1..np
+    ! while it sums the coefficients, and again when idx is not that), asked
+    ! for everything, for a stage's part and for an output's part
+    call m%eval(0.0_wp, x, u, p, perm, xdot=fs, a=as, b=bp, y=ys, c=cs, d=dp)
+    call check(all(fs == f) .and. all(as == a) .and. all(ys == y) .and. all(cs == c) .and. &
+               all(bp == b(:, perm)) .and. all(dp == d(:, perm)), 'longitudinal model: every '// &
+               'parameter out of order gets the Jacobians'' columns in that order')
+    call m%eval(0.0_wp, x, u, p, perm, xdot=fs, a=as, b=bp)
+    call check(all(fs == f) .and. all(as == a) .and. all(bp == b(:, perm)), 'longitudinal '// &
+               'model: a stage''s part, every parameter out of order')
+    call m%eval(0.0_wp, x, u, p, perm, y=ys, c=cs, d=dp)
+    call check(all(ys == y) .and. all(cs == c) .and. all(dp == d(:, perm)), 'longitudinal '// &
+               'model: an output''s part, every parameter out of order')
   end subroutine test_aero_parameter_layouts
 
   !> A bias per manoeuvre stated with indicator inputs (m1, m2) on a record
