@@ -33,15 +33,14 @@ module mlid_rk
   !> model there anyway); the next step uses them and clears it.
   !> frow: the row of each column of b that can be nonzero (0: any), the
   !> model's param_rows for its parameters idxm as rk_work_size was told
-  !> them (the steps that follow must be given the same idxm); sparse: some
-  !> frow > 0, so the forcing adds those entries alone (add_forcing_rows).
-  !> Dense (sparse false) unless told.
+  !> them (the steps that follow must be given the same idxm), for the
+  !> forcing to add those entries alone (add_forcing).  All 0 (dense)
+  !> unless told.
   type :: rk_work_t
     real(wp), allocatable :: k(:, :), sd(:, :, :), xs(:), ss(:, :), a(:, :), b(:, :), bu(:, :)
     real(wp), allocatable :: um(:), ua(:), ub(:)
     logical :: first_known = .false.
     integer, allocatable :: frow(:)
-    logical :: sparse = .false.
   end type rk_work_t
 
 contains
@@ -63,13 +62,16 @@ contains
           size(wk%bu, 2) == nu .and. size(wk%um) == nv) return
       deallocate (wk%k, wk%sd, wk%xs, wk%ss, wk%a, wk%b, wk%bu, wk%um)
     end if
-    if (.not. present(m)) wk%sparse = .false.
+    if (.not. present(m)) then        ! not told: dense
+      if (allocated(wk%frow)) deallocate (wk%frow)
+      allocate (wk%frow(nb), source=0)
+    end if
     wk%first_known = .false.
     allocate (wk%k(nx, 4), wk%sd(nx, ns, 4), wk%xs(nx), wk%ss(nx, ns), wk%a(nx, nx), &
               wk%b(nx, nb), wk%bu(nx, nu), wk%um(nv))
   end subroutine rk_work_size
 
-  !> wk%frow and wk%sparse for the model parameters idxm of m (rk_work_t);
+  !> wk%frow for the model parameters idxm of m (rk_work_t);
   !> apart from rk_work_size, which every step calls: its d's rows would be
   !> an array allocated at every step.
   subroutine forcing_rows(m, idxm, wk)
@@ -80,7 +82,6 @@ contains
     if (allocated(wk%frow)) deallocate (wk%frow)
     allocate (wk%frow(size(idxm)))
     call m%param_rows(idxm, wk%frow, hrow)
-    wk%sparse = any(wk%frow > 0)
   end subroutine forcing_rows
 
   !> Advance x (and s, if given) from t0 to t0+dt.
@@ -163,10 +164,10 @@ contains
       else
         call small_product(wk%a, ss, sd)
       end if
-      if (wk%sparse) then
-        call add_forcing_rows(size(sd, 1), size(sd, 2), size(idxm), wk%b, colm, wcol, wk%frow, sd)
+      if (nx == 4) then             ! (a literal: the compiler's clone for four states)
+        call add_forcing(4, ns, size(idxm), wk%b, colm, wcol, wk%frow, sd)
       else
-        call add_forcing(size(sd, 1), size(sd, 2), size(idxm), wk%b, colm, wcol, sd)
+        call add_forcing(nx, ns, size(idxm), wk%b, colm, wcol, wk%frow, sd)
       end if
       if (present(sforce)) sd = sd + sforce
       if (present(us)) call input_forcing(t, xs, ui, c, sd)
@@ -239,75 +240,31 @@ contains
   end subroutine rk4_interval
 
   !> sd(:, col(k)) += w(k) b(:, k): the model parameters' forcing of their
-  !> sensitivity columns (explicit shapes: unit strides).
-  pure subroutine add_forcing(nx, ns, nb, b, col, w, sd)
-    integer, intent(in) :: nx, ns, nb, col(nb)
+  !> sensitivity columns (explicit shapes: unit strides), where b(:, k) is
+  !> zero outside row row(k) that entry alone (row(k) = 0: any row;
+  !> model_t%param_rows).  Each entry of sd gets the same nonzero terms in
+  !> the same order (a tie's several parameters in one column included), so
+  !> the sums are the dense ones to the bit: the terms left out are w(k)*0,
+  !> and s + 0 = s.  Only the sign of a zero can differ (-0 + 0 is +0),
+  !> which nothing downstream sees: sd is only ever added to the
+  !> sensitivities, which start at +0, and a sum with a +0 or nonzero term
+  !> is never -0.  nx by value: a literal 4 at the call gets a clone with the
+  !> columns' size known (two vector multiply-adds a dense column).
+  pure subroutine add_forcing(nx, ns, nb, b, col, w, row, sd)
+    integer, value :: nx
+    integer, intent(in) :: ns, nb, col(nb), row(nb)
     real(wp), intent(in) :: b(nx, nb), w(nb)
     real(wp), intent(inout) :: sd(nx, ns)
-    integer :: k
-    if (nx == 4) then
-      call add_forcing_4(ns, nb, b, col, w, sd)
-      return
-    end if
+    integer :: k, i
     do k = 1, nb
-      sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
+      i = row(k)
+      if (i > 0) then
+        sd(i, col(k)) = sd(i, col(k)) + w(k)*b(i, k)
+      else
+        sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
+      end if
     end do
   end subroutine add_forcing
-
-  !> add_forcing for four states: the columns' size known to the compiler
-  !> (two vector multiply-adds a column, no loop over rows).
-  pure subroutine add_forcing_4(ns, nb, b, col, w, sd)
-    integer, intent(in) :: ns, nb, col(nb)
-    real(wp), intent(in) :: b(4, nb), w(nb)
-    real(wp), intent(inout) :: sd(4, ns)
-    integer :: k
-    do k = 1, nb
-      sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
-    end do
-  end subroutine add_forcing_4
-
-  !> add_forcing where b(:, k) is zero outside row row(k) (row(k) = 0: any
-  !> row; model_t%param_rows): that entry alone is added.  Each entry of sd
-  !> gets the same nonzero terms in the same order (a tie's several
-  !> parameters in one column included), so the sums are add_forcing's to
-  !> the bit: the terms left out are w(k)*0, and s + 0 = s.  Only the sign
-  !> of a zero can differ (-0 + 0 is +0), which nothing downstream sees: sd
-  !> is only ever added to the sensitivities, which start at +0, and a sum
-  !> with a +0 or nonzero term is never -0.
-  pure subroutine add_forcing_rows(nx, ns, nb, b, col, w, row, sd)
-    integer, intent(in) :: nx, ns, nb, col(nb), row(nb)
-    real(wp), intent(in) :: b(nx, nb), w(nb)
-    real(wp), intent(inout) :: sd(nx, ns)
-    integer :: k, i
-    if (nx == 4) then
-      call add_forcing_rows_4(ns, nb, b, col, w, row, sd)
-      return
-    end if
-    do k = 1, nb
-      i = row(k)
-      if (i > 0) then
-        sd(i, col(k)) = sd(i, col(k)) + w(k)*b(i, k)
-      else
-        sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
-      end if
-    end do
-  end subroutine add_forcing_rows
-
-  !> add_forcing_rows for four states (the sizes known to the compiler).
-  pure subroutine add_forcing_rows_4(ns, nb, b, col, w, row, sd)
-    integer, intent(in) :: ns, nb, col(nb), row(nb)
-    real(wp), intent(in) :: b(4, nb), w(nb)
-    real(wp), intent(inout) :: sd(4, ns)
-    integer :: k, i
-    do k = 1, nb
-      i = row(k)
-      if (i > 0) then
-        sd(i, col(k)) = sd(i, col(k)) + w(k)*b(i, k)
-      else
-        sd(:, col(k)) = sd(:, col(k)) + w(k)*b(:, k)
-      end if
-    end do
-  end subroutine add_forcing_rows_4
 
   !> y = x + h d over n values: a stage's point (the arrays as vectors of
   !> explicit size, so that the loop runs on unit strides).
@@ -426,7 +383,7 @@ contains
   !> product_7x4_add where d(1:4, :) is zero (model_t%param_rows: dh/dp
   !> moves outputs 5 to 7 alone, as the longitudinal model's): d's last
   !> three rows alone added, the same sums to the bit (w*0 left out, as in
-  !> add_forcing_rows).  A zero's sign could differ only where all four
+  !> add_forcing).  A zero's sign could differ only where all four
   !> products of a row of C S are -0; the longitudinal model's first four
   !> rows of C are the identity's, and the sensitivities are never -0.
   pure subroutine product_7x4_add_tail(l, nd, a, b, d, w, c)

@@ -241,12 +241,12 @@ contains
     call m%param_rows([1, 4, 10, 17, 25], frow, hrow)
     call check(all(frow == 0) .and. all(hrow == 0), 'model_t''s param_rows: any row')
     call rk_work_size(wk, 3, 4, 5, 1, 1, m, [1, 4, 10, 17, 25])
-    call check(.not. wk%sparse, 'a dense model''s forcing stays dense')
+    call check(.not. any(wk%frow > 0), 'a dense model''s forcing stays dense')
     call rk_work_size(wk, 4, 4, 5, 2, 6, al, [1, 4, 10, 12, 13])
-    call check(wk%sparse .and. all(wk%frow == [1, 1, 4, 4, 4]), 'the longitudinal model''s '// &
+    call check(any(wk%frow > 0) .and. all(wk%frow == [1, 1, 4, 4, 4]), 'the longitudinal model''s '// &
                'forcing by rows: C_D''s state equation 1, C_m''s 4')
     call rk_work_size(wk, 4, 5, 5, 2, 6)
-    call check(.not. wk%sparse, 'work arrays sized anew without the model: dense again')
+    call check(.not. any(wk%frow > 0), 'work arrays sized anew without the model: dense again')
   end subroutine test_default_dense
 
   !> 25 RK4 steps of the longitudinal model's state and sensitivities, every
@@ -302,7 +302,7 @@ contains
       else
         call rk_work_size(wk, 4, ns, nb, 2, 6)
       end if
-      sp = wk%sparse
+      sp = any(wk%frow > 0)
       xe = [95.0_wp, 0.12_wp, 0.08_wp, 0.03_wp]
       se = s0
       do n = 1, 25
@@ -362,7 +362,7 @@ contains
       real(wp) :: t
       integer :: n
       call rk_work_size(wk, 3, ns, size(idxm), 1, 1, m, idxm)
-      sp = wk%sparse
+      sp = any(wk%frow > 0)
       xe = [0.4_wp, -0.2_wp, 0.1_wp]
       se = s0
       do n = 1, 20
