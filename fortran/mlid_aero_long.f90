@@ -23,6 +23,7 @@
 module mlid_aero_long
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t, NZ_HROWS
+  use mlid_trig, only: sin_cos
   implicit none
   private
   public :: aero_long_t, aero_long_create, check_longitudinal_record, REGRESSOR_NAMES, NREG, &
@@ -246,10 +247,8 @@ contains
     type(air_t) :: s
     real(wp) :: xd(4), g(4)
 
-    s%sas = sin(x(2) + self%sigma)     ! first: the calls of sincos keep little else live
-    s%cas = cos(x(2) + self%sigma)
-    s%sat = sin(x(2) - x(3))
-    s%cat = cos(x(2) - x(3))
+    call sin_cos(x(2) + self%sigma, s%sas, s%cas)
+    call sin_cos(x(2) - x(3), s%sat, s%cat)
     call regressors(self, x, u, s%r, s%dr)
     call coefficients(self%np, self%first, self%code, self%at_grad, p, s%r, s%dr, s%cx)
     s%v = x(1)
@@ -342,8 +341,7 @@ contains
     real(wp) :: sa, ca, rv, r, qs, fx(2), fz(2), fm, ax(4), az(4)
     integer :: i, k, j
 
-    sa = sin(x(2))
-    ca = cos(x(2))
+    call sin_cos(x(2), sa, ca)
     qs = s%qbar2*self%sm
     associate (cf => s%cx(:, 0))
       if (present(y)) then
