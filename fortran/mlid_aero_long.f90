@@ -43,7 +43,7 @@ module mlid_aero_long
   integer, parameter :: Y_QDOT = 5, Y_AX = 6, Y_AZ = 7
   !> The outputs each coefficient's parameters move (rows of dh/dp, 0 for
   !> none): C_D and C_L a_x and a_z, C_m qdot, as outputs writes d.
-  integer, parameter :: COEF_OUTPUTS(2, 3) = reshape([Y_AX, Y_AZ, Y_AX, Y_AZ, Y_QDOT, 0], [2, 3])
+  integer, parameter :: COEF_OUTPUTS(NZ_HROWS, 3) = reshape([Y_AX, Y_AZ, Y_AX, Y_AZ, Y_QDOT, 0], [NZ_HROWS, 3])
   !> A point's coefficients cx(3, 0:GRAD_NONE): cx(j, 0) coefficient j,
   !> cx(j, 1:4) its gradient along the four states; cx(j, GRAD_NONE) sums
   !> the terms of the regressors without a gradient and is never read (no
@@ -346,9 +346,9 @@ contains
     associate (cf => s%cx(:, 0))
       if (present(y)) then
         y(1:4) = x(1:4)
-        y(5) = xd(4)
-        y(6) = qs*(cf(2)*sa - cf(1)*ca) + s%ft*self%csig/self%mass
-        y(7) = qs*(-cf(2)*ca - cf(1)*sa) - s%ft*self%ssig/self%mass
+        y(Y_QDOT) = xd(4)
+        y(Y_AX) = qs*(cf(2)*sa - cf(1)*ca) + s%ft*self%csig/self%mass
+        y(Y_AZ) = qs*(-cf(2)*ca - cf(1)*sa) - s%ft*self%ssig/self%mass
       end if
       if (present(c)) then
         rv = self%rho*s%v                            ! d qbar / dV
@@ -361,7 +361,9 @@ contains
         do i = 1, 4                ! column by column: the state itself, qdot, a_x, a_z
           c(1:4, i) = 0.0_wp
           c(i, i) = 1.0_wp
-          c(5:7, i) = [g(i), ax(i), az(i)]
+          c(Y_QDOT, i) = g(i)
+          c(Y_AX, i) = ax(i)
+          c(Y_AZ, i) = az(i)
         end do
       end if
     end associate
@@ -396,10 +398,9 @@ contains
     integer, intent(in) :: idx(:)
     integer, intent(out) :: frow(size(idx)), hrow(NZ_HROWS, size(idx))
     integer :: k
-    hrow = 0
     do k = 1, size(idx)
       frow(k) = self%brow(idx(k))
-      hrow(1:2, k) = COEF_OUTPUTS(:, findloc(COEF_ROW, frow(k), 1))
+      hrow(:, k) = COEF_OUTPUTS(:, findloc(COEF_ROW, frow(k), 1))
     end do
   end subroutine al_param_rows
 

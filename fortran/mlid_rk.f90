@@ -56,7 +56,7 @@ contains
     integer, intent(in) :: nx, ns, nb, nu, nv
     class(model_t), intent(in), optional :: m
     integer, intent(in), optional :: idxm(nb)
-    if (present(m)) call forcing_rows(m, idxm, wk)
+    if (present(m) .and. present(idxm)) call forcing_rows(m, idxm, wk)   ! (given together)
     if (allocated(wk%sd)) then       ! (one size at a time: no shape arrays at every step)
       if (size(wk%sd, 1) == nx .and. size(wk%sd, 2) == ns .and. size(wk%b, 2) == nb .and. &
           size(wk%bu, 2) == nu .and. size(wk%um) == nv) return
@@ -251,7 +251,7 @@ contains
   !> is never -0.  nx by value: a literal 4 at the call gets a clone with the
   !> columns' size known (two vector multiply-adds a dense column).
   pure subroutine add_forcing(nx, ns, nb, b, col, w, row, sd)
-    integer, value :: nx
+    integer, value, intent(in) :: nx
     integer, intent(in) :: ns, nb, col(nb), row(nb)
     real(wp), intent(in) :: b(nx, nb), w(nb)
     real(wp), intent(inout) :: sd(nx, ns)
@@ -383,9 +383,10 @@ contains
   !> product_7x4_add where d(1:4, :) is zero (model_t%param_rows: dh/dp
   !> moves outputs 5 to 7 alone, as the longitudinal model's): d's last
   !> three rows alone added, the same sums to the bit (w*0 left out, as in
-  !> add_forcing).  A zero's sign could differ only where all four
-  !> products of a row of C S are -0; the longitudinal model's first four
-  !> rows of C are the identity's, and the sensitivities are never -0.
+  !> add_forcing).  At most the sign of a zero in c can differ (where all
+  !> four products of a row of C S are -0 and d's entry +0: never for the
+  !> longitudinal model, whose first four rows of C are the identity's and
+  !> whose sensitivities are never -0), which no sum or product of c sees.
   pure subroutine product_7x4_add_tail(l, nd, a, b, d, w, c)
     integer, intent(in) :: l, nd
     real(wp), intent(in) :: a(7, 4), b(4, l), d(7, nd), w(nd)

@@ -4,8 +4,8 @@
 !> take, Taylor polynomials through x^17 (sine) and x^16 (cosine), whose
 !> truncation is below 1e-17 there (x^19/19!, x^18/18!): within one unit in the
 !> last place of the intrinsics (tests/fortran/test_trig.f90), at a fraction
-!> of a library call's cost, and the same bits on every machine whatever
-!> its libm.  Beyond pi/4, below 2^-26, for a NaN or an infinity: the
+!> of a library call's cost, and the same bits whatever the libm (for a
+!> given build: a native one may fuse multiply-adds).  Beyond pi/4, below 2^-26, for a NaN or an infinity: the
 !> intrinsics.
 module mlid_trig
   use mlid_kinds, only: wp

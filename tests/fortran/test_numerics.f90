@@ -733,9 +733,9 @@ contains
     call check(all(fs == f) .and. all(as == a) .and. all(ys == y) .and. all(cs == c) .and. &
                all(bs == b(:, sub)) .and. all(ds == d(:, sub)), 'longitudinal model: a '// &
                'shuffled subset of the parameters gets the full Jacobians'' columns')
-    ! every parameter, not in order (the model writes the columns of 1..np
-    ! while it sums the coefficients, and again when idx is not that), asked
-    ! for everything, for a stage's part and for an output's part
+    ! every parameter, not in order: the Jacobians' columns come out in
+    ! idx's order, asked for everything, for a stage's part and for an
+    ! output's part
     call m%eval(0.0_wp, x, u, p, perm, xdot=fs, a=as, b=bp, y=ys, c=cs, d=dp)
     call check(all(fs == f) .and. all(as == a) .and. all(ys == y) .and. all(cs == c) .and. &
                all(bp == b(:, perm)) .and. all(dp == d(:, perm)), 'longitudinal model: every '// &

@@ -92,7 +92,7 @@ module param_rows_checks
   use mlid_rk, only: rk4_step, rk_work_t, rk_work_size, input_sens_t
   use mlid_params, only: param_map_t, param_map_create, no_ties
   use mlid_options, only: options_t
-  use mlid_filter, only: oe_predict
+  use mlid_filter, only: oe_predict, kf_innovations
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use mlid_text, only: itoa
   use test_checks, only: check, finish
@@ -130,6 +130,7 @@ contains
     call test_rk4_forcing_aero()
     call test_rk4_forcing_linear()
     call test_output_sensitivities()
+    call test_filter_sensitivities()
     call finish()
   end subroutine run_checks
 
@@ -302,7 +303,6 @@ contains
       else
         call rk_work_size(wk, 4, ns, nb, 2, 6)
       end if
-      sp = any(wk%frow > 0)
       xe = [95.0_wp, 0.12_wp, 0.08_wp, 0.03_wp]
       se = s0
       do n = 1, 25
@@ -315,6 +315,7 @@ contains
           call rk4_step(m, P, t, 0.05_wp, ua, ub, xe, idxm, colm, wcol, wk, se, sf)
         end if
       end do
+      sp = any(wk%frow > 0)          ! after the steps: none of them forgot the rows
     end subroutine steps
 
   end subroutine test_rk4_forcing_aero
@@ -362,7 +363,6 @@ contains
       real(wp) :: t
       integer :: n
       call rk_work_size(wk, 3, ns, size(idxm), 1, 1, m, idxm)
-      sp = any(wk%frow > 0)
       xe = [0.4_wp, -0.2_wp, 0.1_wp]
       se = s0
       do n = 1, 20
@@ -370,6 +370,7 @@ contains
         call rk4_step(m, pr, t, 0.1_wp, [sin(t)], [sin(t + 0.1_wp)], xe, idxm, colm, wcol, wk, &
                       se, sf, us, [0.0_wp, 1.0_wp])
       end do
+      sp = any(wk%frow > 0)          ! after the steps: none of them forgot the rows
     end subroutine steps
 
   end subroutine test_rk4_forcing_linear
@@ -410,6 +411,59 @@ contains
     call check(bits_equal(y1, y2) .and. bits_equal(dy1, dy2), 'output error outputs and '// &
                'sensitivities with param_rows known and told dense: the same to the bit')
   end subroutine test_output_sensitivities
+
+  !> The filter error's innovations, their sensitivities and B's (the
+  !> extended Kalman filter and the steady gain, with the partials; the
+  !> coefficients, an initial state, q(1) and r(6) free) with param_rows
+  !> known and told dense: the same to the bit.
+  subroutine test_filter_sensitivities()
+    integer, parameter :: N = 121
+    type(layout_t) :: l
+    type(param_map_t) :: pm
+    type(options_t) :: opt
+    real(wp), allocatable :: theta(:), t(:), u(:, :), y(:, :), yh(:, :, :), nu(:, :, :), &
+                             bi(:, :, :, :), ld(:, :), dnu(:, :, :, :), db(:, :, :, :, :)
+    integer, allocatable :: isfree(:)
+    integer :: j, k, st(2)
+    l = model_layout(al)
+    allocate (theta(l%nth), isfree(l%nth), t(N), u(2, N), y(7, N))
+    theta = 0.0_wp
+    theta(1:13) = P
+    theta(l%ox0 + 1:l%ox0 + 4) = [95.0_wp, 0.12_wp, 0.08_wp, 0.03_wp]
+    theta(l%or + 1:l%or + 7) = 1.0e-4_wp
+    theta(l%oq + 1:l%oq + 4) = [1.0e-2_wp, 1.0e-4_wp, 0.0_wp, 1.0e-4_wp]
+    isfree = 0
+    isfree(1:13) = 1
+    isfree([l%ox0 + 2, l%oq + 1, l%or + 6]) = 1
+    call param_map_create(l, isfree, no_ties(l%nth), pm, status, msg)
+    t = [(0.05_wp*j, j=0, N - 1)]
+    u(1, :) = merge(0.03_wp, 0.0_wp, t > 1.0_wp .and. t < 2.0_wp) &
+              - merge(0.03_wp, 0.0_wp, t >= 2.0_wp .and. t < 3.0_wp)
+    u(2, :) = 1.2e4_wp
+    call oe_predict(al, theta, pm, t, u, opt, y, status, msg)
+    y = y + 0.01_wp*sin(reshape([(real(j, wp), j=1, 7*N)], [7, N]))    ! residuals to filter
+    allocate (yh(7, N, 2), nu(7, N, 2), bi(7, 7, N, 2), ld(N, 2), dnu(7, pm%nf, N, 2), &
+              db(7, 7, pm%nf, N, 2))
+    do j = 1, 2
+      opt%steady = j == 2
+      call kf_innovations(al, theta, pm, t, u, y, opt, yh(:, :, 1), nu(:, :, 1), bi(:, :, :, 1), &
+                          ld(:, 1), st(1), msg, dnu=dnu(:, :, :, 1), db=db(:, :, :, :, 1))
+      call kf_innovations(dl, theta, pm, t, u, y, opt, yh(:, :, 2), nu(:, :, 2), bi(:, :, :, 2), &
+                          ld(:, 2), st(2), msg, dnu=dnu(:, :, :, 2), db=db(:, :, :, :, 2))
+      k = size(db(:, :, :, :, 1))
+      call check(all(st == MLID_OK) .and. maxval(abs(dnu)) > 0.0_wp .and. &
+                 bits_equal(nu(:, :, 1), nu(:, :, 2)) .and. &
+                 bits_equal(dnu(:, :, :, 1), dnu(:, :, :, 2)) .and. &
+                 bits_equal(reshape(db(:, :, :, :, 1), [k]), reshape(db(:, :, :, :, 2), [k])), &
+                 'filter error ('//trim(merge('steady gain    ', 'extended Kalman',  &
+                 opt%steady))//'): innovations, their and B''s sensitivities with param_rows '// &
+                 'known and told dense, the same to the bit')
+      call kf_innovations(wl, theta, pm, t, u, y, opt, yh(:, :, 2), nu(:, :, 2), bi(:, :, :, 2), &
+                          ld(:, 2), st(2), msg, dnu=dnu(:, :, :, 2), db=db(:, :, :, :, 2))
+      call check(.not. bits_equal(dnu(:, :, :, 1), dnu(:, :, :, 2)), 'filter error: a wrong '// &
+                 'row of df/dp changes the innovations'' sensitivities')
+    end do
+  end subroutine test_filter_sensitivities
 
   !> a and b the same to the bit (a zero's sign included).
   logical function bits_equal(a, b)
