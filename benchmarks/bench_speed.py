@@ -85,6 +85,19 @@ HFB-320's had been the kernel's page faults: each fit's freed work arrays
 went back to the system and came back as fresh pages (about 1,850 faults a
 fit, getrusage's ru_minflt).  Issue 18's 10 ms and the 2x floor of ATTAS
 and C-8: met; HFB-320's 3 ms, 500x and 2x floor: not met.
+
+Measured (ours, one thread) at the stop that merged sparse-forcing (the
+model names the rows of df/dp and dh/dp its parameters move: model_t's
+param_rows), al-eval-lean (the longitudinal model's coefficients summed in
+registers) and gave the longitudinal model its own sine and cosine
+(fortran/mlid_trig.f90): (a) HFB-320 4.70 ms CPU (was 5.18 ms), scalar floor
+ratio 1.9 (was 2.1): the 2x floor met; scipy's ratio 77x (364 ms: 561
+simulations of 0.44 ms and scipy's own work; 500x would ask the fit to
+cost 1.1 simulations while it integrates the record 8 times with 11
+sensitivity columns, so on mlid's own simulator 500x cannot be reached:
+the issue set it when the simulator, and so scipy's side, was four times
+slower, where 3 ms was the same goal); (b) ATTAS lateral 6.72 ms, ratio 1.2;
+(c) C-8 0.49 ms, ratio 1.8 (both unchanged).  Issue 18's 3 ms: not met.
 """
 
 import os

@@ -490,6 +490,21 @@ instructions a term for the coefficients, 11 a column for df/dp), the
 divisions (nine a stage, each kept as formed).  Every case deck's results
 are unchanged to the bit (benchmarks/compare_cases.py: 40 of 40 bitwise;
 HFB-320's JSON the same with one and two threads).
+Measured (ours, one thread) after merging sparse-forcing and al-eval-lean,
+one add_forcing for both (the rows a model names, any row else) and the
+longitudinal model's sine and cosine from mlid_trig, against main at
+85893d4 (--case all --rounds 5): HFB-320 70.4 -> 65.8 M instructions per
+fit (16.7 k -> 15.6 k per sample and iteration), least CPU time 5.13 ->
+4.61 ms, wall medians 5.41 -> 4.76 ms; C-8 and ATTAS lateral unchanged
+(5.3 M and 85.6 M; their models are linear).  sin_cos alone (least CPU
+of 300 fits, six and five rounds each taking turns with main's process):
+4.71-4.88 ms before it against main's 4.90-4.97, 4.41-4.48 ms with it
+against main's 4.86-4.96 (glibc's sincos had taken 9.7 % of the
+fit's time, its own 5.8 %); a first version by Horner's rule gained a
+third of that: its chain of dependent multiply-adds is what the model's
+next stage waits on.  It moves hfb320.nml's output-error cases by rounding
+(1.4e-12 sigma) and its filter-error cases 3 and 4 within tolerance
+(7e-5 sigma); every other deck bitwise.
 """
 
 import argparse
