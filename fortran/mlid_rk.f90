@@ -375,9 +375,7 @@ contains
       c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j) &
                 + w(j)*d(:, j)
     end do
-    do j = nd + 1, l
-      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
-    end do
+    if (l > nd) call product_7x4(l - nd, a, b(1, nd + 1), c(1, nd + 1))
   end subroutine product_7x4_add
 
   !> product_7x4_add where d(1:4, :) is zero (model_t%param_rows: dh/dp
@@ -397,9 +395,7 @@ contains
       c(5:7, j) = a(5:7, 1)*b(1, j) + a(5:7, 2)*b(2, j) + a(5:7, 3)*b(3, j) + a(5:7, 4)*b(4, j) &
                   + w(j)*d(5:7, j)
     end do
-    do j = nd + 1, l
-      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
-    end do
+    if (l > nd) call product_7x4(l - nd, a, b(1, nd + 1), c(1, nd + 1))
   end subroutine product_7x4_add_tail
 
   !> Whether dh/dp with the structure hrow (model_t%param_rows) is zero in

@@ -67,7 +67,7 @@ program test_numerics
   use mlid_text, only: itoa
   use test_checks, only: check, finish
   use split_model, only: split_model_t
-  use mlid_rk, only: small_product, product_7x4_add
+  use mlid_rk, only: small_product, product_7x4_add, product_7x4_add_tail
   use mlid_colored, only: colored_bracket, BRACKET_FOURIER, BRACKET_DIRECT, BRACKET_AUTO
   use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_many, fft_real_many, fft_smooth_length, &
                       fft_real_pair
@@ -497,11 +497,12 @@ contains
 
   !> product_7x4_add (C S + dh/dp in one pass) is to the bit small_product
   !> followed by the first nd columns' w(k) d(:, k) added, for nd = 0 (no
-  !> model parameter free), some and every column.
+  !> model parameter free), some and every column; with d's first four rows
+  !> zero, product_7x4_add_tail the same.
   subroutine test_product_add(a, b)
     real(wp), intent(in) :: a(7, 4), b(4, 11)
     type(rng_t) :: r
-    real(wp) :: d(7, 11), w(11), c(7, 11), e(7, 11)
+    real(wp) :: d(7, 11), d4(7, 11), w(11), c(7, 11), e(7, 11)
     integer, parameter :: nds(3) = [0, 5, 11]
     integer :: i, k, q, nd
     call rng_seed(r, 12)
@@ -519,6 +520,12 @@ contains
         e(:, k) = e(:, k) + w(k)*d(:, k)
       end do
       call check(all(c == e), 'product_7x4_add is small_product + w d to the bit, nd = '//itoa(nd))
+      d4 = d
+      d4(1:4, :) = 0.0_wp
+      call product_7x4_add(11, nd, a, b, d4(:, 1:nd), w(1:nd), e)
+      call product_7x4_add_tail(11, nd, a, b, d4(:, 1:nd), w(1:nd), c)
+      call check(all(c == e), 'product_7x4_add_tail (rows 5 to 7 alone where d''s first four '// &
+                 'are zero) is product_7x4_add to the bit, nd = '//itoa(nd))
     end do
   end subroutine test_product_add
 
