@@ -1,12 +1,13 @@
 !> The sine and cosine of one angle together, for the models' points.
 !>
-!> On |x| <= pi/4, the angles a flight record's attitude and flow angles
-!> take, Taylor polynomials through x^17 (sine) and x^16 (cosine), whose
-!> truncation is below 1e-17 there (x^19/19!, x^18/18!): within one unit in the
-!> last place of the intrinsics (tests/fortran/test_trig.f90), at a fraction
-!> of a library call's cost, and the same bits whatever the libm (for a
-!> given build: a native one may fuse multiply-adds).  Beyond pi/4, below 2^-26, for a NaN or an infinity: the
-!> intrinsics.
+!> On 2^-26 <= |x| <= pi/4, the angles a flight record's attitude and
+!> flow angles take, Taylor polynomials through x^17 (sine) and x^16
+!> (cosine), whose truncation is below 1e-17 there (x^19/19!, x^18/18!):
+!> within one unit in the last place of the intrinsics
+!> (tests/fortran/test_trig.f90), at a fraction of a library call's cost,
+!> and the same bits whatever the libm (for a given build: a native one may
+!> fuse multiply-adds).  Elsewhere (beyond pi/4, below 2^-26, a NaN or an
+!> infinity) the intrinsics.
 module mlid_trig
   use mlid_kinds, only: wp
   implicit none
