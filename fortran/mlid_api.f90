@@ -24,7 +24,7 @@ module mlid_api
                           METHOD_FREQ_EE
   use mlid_params, only: param_map_t, param_map_create, apply_ties, tie_t, no_ties
   use mlid_ties, only: tie_parse, MAXTERM
-  use mlid_likelihood, only: likelihood
+  use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
   use mlid_newton, only: fit_result_t, extras_t, newton_fit
   use mlid_colored, only: colored_covariance, colored_sandwich
   use mlid_linalg, only: sym_eig
@@ -1206,6 +1206,7 @@ contains
     type(options_t) :: opt
     type(param_map_t) :: pm
     real(wp) :: th(nth)
+    type(sens_keep_t) :: keep
 
     cost = 0.0_wp
     grad = 0.0_wp
@@ -1228,8 +1229,11 @@ contains
     end if
     th = theta
     call apply_ties(pm%tie, th)
+    ! wsens made as a fit makes it at its estimate: from what the evaluation keeps
     call likelihood(m, th, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, sens, &
-                    wsens, msens)
+                    msens, keep=keep)
+    if (status == MLID_OK .and. allocated(keep%dy)) call weighted_sensitivities(keep, pm%l%seg, &
+                                                                                wsens)
   end subroutine mlid_evaluate
 
   !> The covariance corrected for coloured residuals (mlid_colored) from

@@ -256,10 +256,10 @@ contains
 
   !> Cost, S-hat (rhat), the fitted left-hand sides (yhat, the layout above,
   !> with the transient terms) and with grad and info their gradient and
-  !> information at S-hat and the transient terms' estimate; sens, wsens,
+  !> information at S-hat and the transient terms' estimate; sens and
   !> msens as mlid_likelihood's.
   subroutine freq_likelihood(m, theta, pm, tf, uf, yf, opt, cost, rhat, yhat, status, msg, grad, &
-                             info, sens, wsens, msens, nterms)
+                             info, sens, msens, nterms)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), tf(:), uf(:, :), yf(:, :)
     type(param_map_t), intent(in) :: pm
@@ -267,7 +267,7 @@ contains
     real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), msens(:, :)
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), msens(:, :)
     integer, intent(out), optional :: nterms    !< the transient terms estimated (independent)
     real(wp), allocatable :: d(:, :, :), bas(:, :, :), r0(:, :), r(:, :), a(:, :, :), cw(:), &
                              eta(:), xi(:), tsc(:), c(:, :), gm(:, :, :, :), mtt(:, :), &
@@ -346,7 +346,6 @@ contains
     ! of theta (mtt), transients by theta (mbt) and transients (mbb, from
     ! their per-output products gm)
     call weigh(d, sinv, cw, a)
-    if (present(wsens)) wsens = a
     allocate (c(size(keep), size(keep)))
     mtt = cross(d, a, m%ny*nc, pm%nf, pm%nf)
     mbt = spread(tsc, 2, pm%nf)*cross(bas(:, :, keep), a, m%ny*nc, size(keep), pm%nf)

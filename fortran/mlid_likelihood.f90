@@ -69,7 +69,7 @@ contains
   !> when grad and info are present) by the method of opt.  rhat receives
   !> R-hat (output error) or the mean innovation covariance (filter error).
   subroutine likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                        sens, wsens, msens, bmean, keep)
+                        sens, msens, bmean, keep)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -84,44 +84,15 @@ contains
     !> (innovations for filter error); needs grad and info
     real(wp), intent(out), optional :: sens(:, :)
     !> for the coloured-residual correction (mlid_colored), with grad and
-    !> info: the sensitivities weighted by the inverse noise (innovation)
-    !> covariance, W(j) dyhat/dtheta at sample j (ny, nt, nf), and the part
-    !> of info they make, sum_j S(j)' W(j) S(j) (nf, nf)
-    real(wp), intent(out), optional :: wsens(:, :, :), msens(:, :)
+    !> info: the part of info the sensitivities make, sum_j S(j)' W(j) S(j)
+    !> (nf, nf)
+    real(wp), intent(out), optional :: msens(:, :)
     !> filter error: the innovation covariance B(j) = C P(j) C' + R averaged
     !> over the samples (ny, ny), for the innovations criterion (mlid_newton)
     real(wp), intent(out), optional :: bmean(:, :)
-    !> with grad and info (time domain): what wsens is made from, for a fit
+    !> with grad and info (time domain): what the weighted sensitivities
+    !> W(j) dyhat/dtheta are made from (weighted_sensitivities), for a fit
     !> to weigh once at its estimate (its arrays are reused when they fit)
-    type(sens_keep_t), intent(inout), optional :: keep
-    type(sens_keep_t) :: own
-
-    if (present(wsens) .and. .not. frequency_method(opt)) then
-      ! evaluate's wsens, made as a fit makes it: from what the evaluation keeps
-      call by_method(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                     sens, msens=msens, bmean=bmean, keep=own)
-      if (status == MLID_OK .and. allocated(own%dy)) call weighted_sensitivities(own, pm%l%seg, &
-                                                                                  wsens)
-    else
-      call by_method(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                     sens, wsens, msens, bmean, keep)
-    end if
-  end subroutine likelihood
-
-  !> likelihood's evaluation by the method of opt (its arguments; wsens the
-  !> frequency-domain methods' only).
-  subroutine by_method(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
-                       sens, wsens, msens, bmean, keep)
-    class(model_t), intent(in) :: m
-    real(wp), intent(in) :: theta(:)
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
-    type(options_t), intent(in) :: opt
-    real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), wsens(:, :, :), &
-                                       msens(:, :), bmean(:, :)
     type(sens_keep_t), intent(inout), optional :: keep
 
     cost = huge(1.0_wp)
@@ -129,7 +100,7 @@ contains
     if (status /= MLID_OK) return
     if (frequency_method(opt)) then      ! t, u, y are the transformed record
       call freq_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
-                           info, sens, wsens, msens)
+                           info, sens, msens)
     else if (opt%method == 1 .and. opt%filter_params == 1) then
       ! K and B as the parameters: the predictor with the gain K, B = R-hat
       call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
@@ -159,7 +130,7 @@ contains
       status = MLID_ERR_SINGULAR
       msg = 'cost is not finite'
     end if
-  end subroutine by_method
+  end subroutine likelihood
 
   !> What each estimator does not take: a free gain K (block stab) but with
   !> filter_params = 'gain'; then no free noise statistics; an initial
