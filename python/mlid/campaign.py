@@ -150,9 +150,9 @@ def _worker_init(threads):
     """A worker process: the core's OpenMP teams sized to its share of the
     cores, the core's warnings printed with each case (as a serial run)."""
     import warnings
-    from .parallel import _omp_threads
+    from .openmp import team_size
     warnings.simplefilter("ignore")
-    _omp_threads(threads)
+    team_size(threads)
 
 
 def outcomes(task, jobs, workers=1, scheduler=None):

@@ -8,7 +8,6 @@ script needs no ``if __name__ == "__main__":`` guard) or, given a scheduler
 address, to a Dask cluster.
 """
 
-import ctypes
 import os
 from concurrent.futures import ThreadPoolExecutor, as_completed
 
@@ -17,18 +16,8 @@ import numpy as np
 from . import core
 from .checks import whole
 from .errors import InputError, guarded
+from .openmp import team_size
 from .progress import bar as progress_bar
-
-
-def _omp_threads(n):
-    """Each fit in this thread opens OpenMP teams of n threads (the OpenMP
-    thread count is a per-thread setting): workers x n threads stay within
-    the cores.  Results do not depend on it.  Nothing if the core was built
-    without OpenMP's runtime library."""
-    try:
-        ctypes.CDLL("libgomp.so.1").omp_set_num_threads(ctypes.c_int(n))
-    except (OSError, AttributeError):
-        pass
 
 
 @guarded
@@ -92,7 +81,7 @@ def monte_carlo_parallel(truth, start, t, u, runs=100, seed=1, workers=None, sch
         else:
             n = min(workers, len(jobs))
             omp = max(1, (os.cpu_count() or 1) // n)
-            with ThreadPoolExecutor(n, initializer=_omp_threads, initargs=(omp,)) as pool:
+            with ThreadPoolExecutor(n, initializer=team_size, initargs=(omp,)) as pool:
                 futures = {pool.submit(core._mc_runs, call, s, n): k
                            for k, (s, n) in enumerate(jobs)}
                 for f in as_completed(futures):

@@ -1,0 +1,124 @@
+"""CPU and wall time of a fit on two OpenMP threads, the threads that wait
+between the core's parallel regions spinning (OpenMP's default, libgomp's
+GOMP_SPINCOUNT 300000) against sleeping at once (passive: mlid's default,
+python/mlid/openmp.py, and mlid-batch's, fortran/app/mlid_wait_policy.f90),
+with one thread for reference; and the same for mlid-batch on the whole
+HFB-320 deck (user + system CPU time against wall time).  Each setting in
+its own process (libgomp reads the setting once, when loaded), the
+settings taking turns round by round so that the shared machine's load
+falls on all of them; the figures are the medians over the rounds of each
+process's least and median.
+
+    .venv/bin/python benchmarks/bench_threads.py [--rounds N]
+
+The fits: HFB-320 output error (cases/hfb320 case 1), ATTAS lateral
+(cases/attas_lateral), HFB-320 filter error (cases/hfb320 case 3, a few
+fits: about a second each).  The values computed are the same in every
+setting (the core's sums do not depend on the threads); only the time
+differs.
+
+Measured (ours, 2 cores, --rounds 5; CPU and wall medians, ms):
+                          1 thread      2 threads spinning   2 threads passive
+  HFB-320 output error    4.69 / 4.70    8.65 / 4.64          4.92 / 4.74
+  ATTAS lateral           6.98 / 6.99   14.14 / 6.31          6.96 / 6.64
+  HFB-320 filter error     926 / 926     1069 / 536            955 / 531
+  mlid-batch hfb320.nml   1166 / 1168    1318 / 672           1182 / 677
+The output-error fits' only parallel regions are the coloured-residual
+correction's, at the fit's end: the spinning after them nearly doubles
+their CPU time and saves nothing of the wall time worth having.
+"""
+
+import argparse
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+#: name: (deck, case index, fits per process)
+FITS = {"HFB-320 output error": (REPO / "cases/hfb320/hfb320.nml", 0, 60),
+        "ATTAS lateral": (REPO / "cases/attas_lateral/attas_lat.nml", 0, 40),
+        "HFB-320 filter error": (REPO / "cases/hfb320/hfb320.nml", 2, 3)}
+#: setting: the environment it adds (and OMP_WAIT_POLICY, GOMP_SPINCOUNT removed)
+SETTINGS = {"1 thread": {"OMP_NUM_THREADS": "1"},
+            "2 threads, spinning": {"OMP_NUM_THREADS": "2", "GOMP_SPINCOUNT": "300000"},
+            "2 threads, passive": {"OMP_NUM_THREADS": "2"}}
+
+CHILD = """
+import sys, time, mlid
+case = mlid.read_deck(sys.argv[1])[int(sys.argv[2])]
+data, opts = case.record(), case.options()
+mlid.fit(case.model, data, **opts)
+cpu, wall = [], []
+for _ in range(int(sys.argv[3])):
+    c0, w0 = time.process_time(), time.perf_counter()
+    mlid.fit(case.model, data, **opts)
+    cpu.append(time.process_time() - c0)
+    wall.append(time.perf_counter() - w0)
+cpu.sort(); wall.sort()
+print(cpu[0], cpu[len(cpu) // 2], wall[0], wall[len(wall) // 2])
+"""
+
+
+def environment(setting):
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+    env.update(SETTINGS[setting])
+    return env
+
+
+def fit_times(fit, setting):
+    """Least and median CPU and wall time (ms) of one process's fits."""
+    deck, index, n = FITS[fit]
+    out = subprocess.run([sys.executable, "-c", CHILD, str(deck), str(index), str(n)],
+                         env=environment(setting), capture_output=True, text=True, check=True)
+    return [1e3 * float(v) for v in out.stdout.split()]
+
+
+def batch_times(setting):
+    """CPU (user + system) and wall time (s) of mlid-batch on the HFB-320 deck."""
+    batch = REPO / "build" / "fortran" / "mlid-batch"
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    w0 = time.perf_counter()
+    subprocess.run([str(batch), "hfb320.nml"], cwd=REPO / "cases/hfb320", env=environment(setting),
+                   capture_output=True, check=True)
+    wall = time.perf_counter() - w0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return [cpu, wall]
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rounds", type=int, default=5)
+    args = parser.parse_args()
+    print(f"{os.cpu_count()} cores; {args.rounds} rounds, the settings taking turns")
+    for fit in FITS:
+        runs = {s: [] for s in SETTINGS}
+        for _ in range(args.rounds):
+            for s in SETTINGS:
+                runs[s].append(fit_times(fit, s))
+        print(f"{fit} ({FITS[fit][2]} fits a process): CPU least / median, wall least / median, ms")
+        for s, r in runs.items():
+            c0, c1, w0, w1 = np.median(np.array(r), axis=0)
+            print(f"  {s:22s} CPU {c0:8.2f} / {c1:8.2f}   wall {w0:8.2f} / {w1:8.2f}   "
+                  f"CPU/wall {c1 / w1:4.2f}")
+    batch = REPO / "build" / "fortran" / "mlid-batch"
+    if not batch.exists():
+        print("mlid-batch: not built (build/fortran/mlid-batch)")
+        return
+    runs = {s: [] for s in SETTINGS}
+    for _ in range(args.rounds):
+        for s in SETTINGS:
+            runs[s].append(batch_times(s))
+    print("mlid-batch hfb320.nml (4 cases): CPU and wall time, s (medians)")
+    for s, r in runs.items():
+        cpu, wall = np.median(np.array(r), axis=0)
+        print(f"  {s:22s} CPU {cpu:6.3f}   wall {wall:6.3f}   CPU/wall {cpu / wall:4.2f}")
+
+
+if __name__ == "__main__":
+    main()
