@@ -29,6 +29,7 @@ bench: install
 	$(VPY) benchmarks/bench_fit.py
 	$(VPY) benchmarks/bench_hfb320.py
 	$(VPY) benchmarks/bench_speed.py
+	$(VPY) benchmarks/bench_threads.py --rounds 3
 	$(VPY) benchmarks/bench_deck.py
 	$(VPY) benchmarks/monte_carlo_c8.py
 	$(VPY) benchmarks/monte_carlo_m2f3.py
