@@ -38,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mlid.openmp import WAIT_VARIABLES
+
 REPO = Path(__file__).resolve().parent.parent
 #: name: (deck, case index, fits per process)
 FITS = {"HFB-320 output error": (REPO / "cases/hfb320/hfb320.nml", 0, 60),
@@ -65,7 +67,7 @@ print(cpu[0], cpu[len(cpu) // 2], wall[0], wall[len(wall) // 2])
 
 
 def environment(setting):
-    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+    env = {k: v for k, v in os.environ.items() if k not in WAIT_VARIABLES}
     env.update(SETTINGS[setting])
     return env
 

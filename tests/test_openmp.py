@@ -2,8 +2,9 @@
 (python/mlid/openmp.py, fortran/app/mlid_wait_policy.f90): passive when the
 environment does not choose, the environment's choice otherwise.  What
 libgomp took is what it displays when loaded (OMP_DISPLAY_ENV=verbose; the
-last display, as mlid-batch starts itself again): GOMP_SPINCOUNT 0 is
-passive waiting, OpenMP's default spins 300000 times."""
+last display, as mlid-batch starts itself again).  Only the spin count
+tells the policies apart (GOMP_SPINCOUNT 0: passive; libgomp's default
+300000): unset, the policy is displayed as PASSIVE too."""
 
 import os
 import re
@@ -13,31 +14,40 @@ import sys
 import pytest
 
 from conftest import BIN, REPO
+from mlid.openmp import WAIT_VARIABLES
 
 #: front end: the command that loads the core
 FRONT_ENDS = {"python": [sys.executable, "-c", "import mlid; print(mlid.PASSIVE_WAIT)"],
               "mlid-batch": [str(BIN / "mlid-batch"), "--help"]}
 
 
-def _loaded(front_end, **env_vars):
-    """(libgomp's wait policy, its spin count, the process's output) with
-    env_vars added to an environment that chooses nothing."""
-    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
-    env.update(env_vars, OMP_DISPLAY_ENV="verbose")
-    out = subprocess.run(FRONT_ENDS[front_end], env=env, capture_output=True, text=True,
-                         check=True, cwd=REPO)
+def _environment(**env_vars):
+    """This one with env_vars added, where nothing chooses how threads wait
+    or binds them."""
+    env = {k: v for k, v in os.environ.items()
+           if k not in WAIT_VARIABLES + ("OMP_PROC_BIND", "OMP_PLACES", "GOMP_CPU_AFFINITY")}
+    env.update(env_vars)
+    return env
+
+
+def _loaded(front_end, command=None, **env_vars):
+    """(libgomp's wait policy, its spin count, the process's output, the
+    number of times libgomp was loaded) with env_vars added."""
+    out = subprocess.run(command or FRONT_ENDS[front_end],
+                         env=_environment(OMP_DISPLAY_ENV="verbose", **env_vars),
+                         capture_output=True, text=True, check=True, cwd=REPO)
     shown = out.stderr.split("OPENMP DISPLAY ENVIRONMENT BEGIN")
     if len(shown) < 2:
         pytest.skip("the core was built without OpenMP's runtime (libgomp)")
     policy = re.search(r"OMP_WAIT_POLICY = '(\w+)'", shown[-1]).group(1)
     spin = int(re.search(r"GOMP_SPINCOUNT = '(\d+)'", shown[-1]).group(1))
-    return policy, spin, out.stdout
+    return policy, spin, out.stdout, len(shown) - 1
 
 
 @pytest.mark.parametrize("front_end", FRONT_ENDS)
 def test_threads_sleep_when_the_environment_does_not_choose(front_end):
-    policy, spin, out = _loaded(front_end)
-    assert (policy, spin) == ("PASSIVE", 0)
+    policy, spin, out, loads = _loaded(front_end)
+    assert (policy, spin, loads) == ("PASSIVE", 0, 1 if front_end == "python" else 2)
     if front_end == "python":
         assert out.split() == ["True"]
     else:
@@ -48,8 +58,35 @@ def test_threads_sleep_when_the_environment_does_not_choose(front_end):
 def test_the_environment_chooses_first(front_end):
     """OMP_WAIT_POLICY=active spins (libgomp: 30 billion times); a spin count
     of its own is kept too."""
-    policy, spin, out = _loaded(front_end, OMP_WAIT_POLICY="active")
-    assert policy == "ACTIVE" and spin > 300000
+    policy, spin, out, loads = _loaded(front_end, OMP_WAIT_POLICY="active")
+    assert policy == "ACTIVE" and spin > 300000 and loads == 1
     assert _loaded(front_end, GOMP_SPINCOUNT="1000")[:2] == ("PASSIVE", 1000)
     if front_end == "python":
         assert out.split() == ["False"]
+
+
+def test_too_late_when_libgomp_is_loaded_already():
+    """Then mlid says it did not choose, and leaves the environment alone."""
+    command = [sys.executable, "-c", "import ctypes, os; ctypes.CDLL('libgomp.so.1'); import mlid; "
+               "print(mlid.PASSIVE_WAIT, 'OMP_WAIT_POLICY' in os.environ)"]
+    policy, spin, out, _ = _loaded("python", command)
+    assert spin == 300000 and out.split() == ["False", "False"]
+
+
+def test_mlid_batch_stays_as_it_is_when_threads_are_bound():
+    """libgomp has bound the process to one CPU when it loaded: started
+    again, all its threads would share that CPU."""
+    policy, spin, _, loads = _loaded("mlid-batch", OMP_PROC_BIND="true")
+    assert (spin, loads) == (300000, 1)
+
+
+@pytest.mark.parametrize("args", [[""], ["no such deck.nml"], ["a b", "--json", ""]])
+def test_mlid_batch_started_again_says_the_same(args, tmp_path):
+    """Its arguments (empty, with blanks) arrive as they were: the exit code
+    and both streams as without starting again."""
+    runs = [subprocess.run([str(BIN / "mlid-batch"), *args], env=_environment(**extra),
+                           capture_output=True, text=True, cwd=tmp_path)
+            for extra in ({}, {"OMP_WAIT_POLICY": "passive"})]
+    assert runs[0].returncode != 0 and runs[0].stderr
+    assert [(r.returncode, r.stdout, r.stderr) for r in runs[:1]] == \
+        [(r.returncode, r.stdout, r.stderr) for r in runs[1:]]

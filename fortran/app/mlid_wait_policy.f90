@@ -1,20 +1,31 @@
 !> Passive waiting for mlid-batch's OpenMP threads, as mlid's Python
-!> package asks for it (python/mlid/openmp.py, which says why: OpenMP's
+!> package asks for it (python/mlid/openmp.py, which says why: libgomp's
 !> default spins a waiting thread for milliseconds, and the core's parallel
 !> regions are short and far apart).  libgomp reads OMP_WAIT_POLICY once,
 !> when it is loaded, before this program starts; so when the environment
-!> does not choose (neither OMP_WAIT_POLICY nor GOMP_SPINCOUNT set), the
-!> program sets it and starts itself again, once, with the same arguments.
-!> If that cannot be done (no /proc), it goes on as it is: only the CPU
-!> time differs, not the values computed.
+!> does not choose (WAIT_VARIABLES: openmp.py's WAIT_VARIABLES), the program
+!> sets it and starts itself again, once, with the same arguments.  Not
+!> when threads are bound (BINDING_VARIABLES): libgomp has bound this
+!> process to one CPU already, and the binding would outlast the start
+!> (one CPU for all the threads); not under valgrind, whose tool would not
+!> follow.  If it cannot start again it goes on as it is: only the CPU
+!> time differs, never the values computed.
 module mlid_wait_policy
-  use, intrinsic :: iso_c_binding, only: c_char, c_int, c_ptr, c_loc, c_null_ptr, c_null_char
+  use, intrinsic :: iso_c_binding, only: c_char, c_int, c_long, c_size_t, c_ptr, c_loc, &
+                                         c_null_ptr, c_null_char
   implicit none
   private
   public :: wait_passive
 
   !> The variables by which the environment chooses how threads wait.
   character(len=*), parameter :: WAIT_VARIABLES(2) = ['OMP_WAIT_POLICY', 'GOMP_SPINCOUNT ']
+  !> The variables with which libgomp binds threads (the first on loading).
+  character(len=*), parameter :: BINDING_VARIABLES(3) = ['OMP_PROC_BIND     ', &
+                                                         'OMP_PLACES        ', &
+                                                         'GOMP_CPU_AFFINITY ']
+  !> The link to this program (read, not run: the path it names is the
+  !> program a tool that hides itself says it runs).
+  character(len=*), parameter :: SELF = '/proc/self/exe'
 
   interface
     integer(c_int) function setenv(name, value, overwrite) bind(C, name='setenv')
@@ -22,6 +33,12 @@ module mlid_wait_policy
       character(kind=c_char), intent(in) :: name(*), value(*)
       integer(c_int), value, intent(in) :: overwrite
     end function setenv
+    integer(c_long) function readlink(path, buf, size) bind(C, name='readlink')   ! ssize_t
+      import :: c_char, c_long, c_size_t
+      character(kind=c_char), intent(in) :: path(*)
+      character(kind=c_char), intent(out) :: buf(*)
+      integer(c_size_t), value, intent(in) :: size
+    end function readlink
     integer(c_int) function execv(path, argv) bind(C, name='execv')
       import :: c_char, c_int, c_ptr
       character(kind=c_char), intent(in) :: path(*)
@@ -32,20 +49,41 @@ module mlid_wait_policy
 contains
 
   !> Set OMP_WAIT_POLICY=passive and start again, unless the environment
-  !> chooses; returns only when it does not start again.
+  !> chooses, binds threads or runs valgrind; returns only when it does not
+  !> start again.
   subroutine wait_passive()
+    character(kind=c_char, len=4096) :: path
+    character(len=4096) :: preload
+    integer(c_long) :: n
+
+    if (any(is_set(WAIT_VARIABLES)) .or. any(is_set(BINDING_VARIABLES))) return
+    call get_environment_variable('LD_PRELOAD', preload)
+    if (index(preload, 'vgpreload') > 0) return          ! valgrind's own libraries
+    n = readlink(SELF//c_null_char, path, int(len(path) - 1, c_size_t))
+    if (n <= 0 .or. n >= len(path) - 1) return
+    if (setenv('OMP_WAIT_POLICY'//c_null_char, 'passive'//c_null_char, 1_c_int) /= 0) return
+    call start_again(path(1:n)//c_null_char)
+  end subroutine wait_passive
+
+  !> Whether each variable is set (even empty).
+  impure elemental logical function is_set(name)
+    character(len=*), intent(in) :: name
+    integer :: status
+    call get_environment_variable(trim(name), status=status)
+    is_set = status == 0
+  end function is_set
+
+  !> execv the program at path (null-terminated) with this one's arguments;
+  !> returns only when that fails.
+  subroutine start_again(path)
+    character(kind=c_char, len=*), intent(in) :: path
     type :: c_string_t
       character(kind=c_char, len=:), allocatable :: s
     end type c_string_t
     type(c_string_t), allocatable, target :: args(:)
     type(c_ptr), allocatable :: argv(:)
-    integer :: k, n, length, status
+    integer :: k, n, length
 
-    do k = 1, size(WAIT_VARIABLES)
-      call get_environment_variable(trim(WAIT_VARIABLES(k)), length=length, status=status)
-      if (status /= 1) return                 ! set (even empty), or no environment
-    end do
-    if (setenv('OMP_WAIT_POLICY'//c_null_char, 'passive'//c_null_char, 1_c_int) /= 0) return
     n = command_argument_count()
     allocate (args(0:n), argv(0:n + 1))
     do k = 0, n
@@ -56,7 +94,7 @@ contains
       argv(k) = c_loc(args(k)%s)
     end do
     argv(n + 1) = c_null_ptr
-    status = execv('/proc/self/exe'//c_null_char, argv)
-  end subroutine wait_passive
+    k = execv(path, argv)
+  end subroutine start_again
 
 end module mlid_wait_policy
