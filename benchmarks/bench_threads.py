@@ -1,7 +1,8 @@
-"""CPU and wall time of a fit on two OpenMP threads, the threads that wait
-between the core's parallel regions spinning (OpenMP's default, libgomp's
-GOMP_SPINCOUNT 300000) against sleeping at once (passive: mlid's default,
-python/mlid/openmp.py, and mlid-batch's, fortran/app/mlid_wait_policy.f90),
+"""CPU and wall time of a fit on two OpenMP threads as the threads that
+wait between the core's parallel regions spin or sleep: libgomp's default
+(spin 300,000 rounds, about 7 ms here, then sleep), passive (sleep at
+once), and mlid's (spin python/mlid/openmp.py's SPIN_COUNT rounds, about
+0.2 ms, then sleep; mlid-batch's too, fortran/app/mlid_wait_policy.f90),
 with one thread for reference; and the same for mlid-batch on the whole
 HFB-320 deck (user + system CPU time against wall time).  Each setting in
 its own process (libgomp reads the setting once, when loaded), the
@@ -12,20 +13,29 @@ process's least and median.
     .venv/bin/python benchmarks/bench_threads.py [--rounds N]
 
 The fits: HFB-320 output error (cases/hfb320 case 1), ATTAS lateral
-(cases/attas_lateral), HFB-320 filter error (cases/hfb320 case 3, a few
-fits: about a second each).  The values computed are the same in every
+(cases/attas_lateral), ATTAS short period on two manoeuvres
+(cases/attas_channels case 2), the flight-path reconstruction of test case
+22 (cases/flight_path/tc22.nml) and HFB-320 filter error (cases/hfb320 case
+3, about a second a fit).  The values computed are the same in every
 setting (the core's sums do not depend on the threads); only the time
 differs.
 
-Measured (ours, 2 cores, --rounds 5; CPU and wall medians, ms):
-                          1 thread      2 threads spinning   2 threads passive
-  HFB-320 output error    4.69 / 4.70    8.65 / 4.64          4.92 / 4.74
-  ATTAS lateral           6.98 / 6.99   14.14 / 6.31          6.96 / 6.64
-  HFB-320 filter error     926 / 926     1069 / 536            955 / 531
-  mlid-batch hfb320.nml   1166 / 1168    1318 / 672           1182 / 677
-The output-error fits' only parallel regions are the coloured-residual
-correction's, at the fit's end: the spinning after them nearly doubles
-their CPU time and saves nothing of the wall time worth having.
+Measured (ours, 2 cores, --rounds 5; median CPU / median wall time, ms):
+                          1 thread     spin 300000   passive       mlid's (10000)
+  HFB-320 output error    4.69 / 4.69   9.05 / 5.03   5.07 / 4.87   5.38 / 4.68
+  ATTAS lateral           7.00 / 7.00  14.29 / 6.42   7.32 / 6.67   8.03 / 6.60
+  ATTAS, 2 manoeuvres     1.54 / 1.54   1.22 / 1.21   2.38 / 2.13   1.19 / 1.19
+  flight path tc22        70.6 / 70.6   97.1 / 49.2   77.0 / 46.8   83.8 / 48.4
+  HFB-320 filter error     962 / 962    1111 / 557     995 / 562     985 / 541
+  mlid-batch hfb320.nml   1170 / 1171   1609 / 820    1351 / 772    1479 / 822
+The output-error fits of one manoeuvre have no parallel region but the
+coloured-residual correction's, at the fit's end: the long spin after it
+nearly doubles their CPU time for nothing.  Sleeping at once costs a
+wake-up at every region instead: the two-manoeuvre fit runs its
+manoeuvres side by side every evaluation, a few hundred microseconds
+apart, and took 80 % more wall time passive than spinning.  The short spin
+keeps the second thread's gain there and most of passive's saving
+elsewhere.
 """
 
 import argparse
@@ -44,11 +54,14 @@ REPO = Path(__file__).resolve().parent.parent
 #: name: (deck, case index, fits per process)
 FITS = {"HFB-320 output error": (REPO / "cases/hfb320/hfb320.nml", 0, 60),
         "ATTAS lateral": (REPO / "cases/attas_lateral/attas_lat.nml", 0, 40),
+        "ATTAS short period, 2 manoeuvres": (REPO / "cases/attas_channels/attas_sp.nml", 1, 60),
+        "flight path tc22": (REPO / "cases/flight_path/tc22.nml", 0, 6),
         "HFB-320 filter error": (REPO / "cases/hfb320/hfb320.nml", 2, 3)}
-#: setting: the environment it adds (and OMP_WAIT_POLICY, GOMP_SPINCOUNT removed)
+#: setting: the environment it adds (to one where WAIT_VARIABLES are not set)
 SETTINGS = {"1 thread": {"OMP_NUM_THREADS": "1"},
-            "2 threads, spinning": {"OMP_NUM_THREADS": "2", "GOMP_SPINCOUNT": "300000"},
-            "2 threads, passive": {"OMP_NUM_THREADS": "2"}}
+            "2 threads, spin 300000": {"OMP_NUM_THREADS": "2", "GOMP_SPINCOUNT": "300000"},
+            "2 threads, passive": {"OMP_NUM_THREADS": "2", "OMP_WAIT_POLICY": "passive"},
+            "2 threads, mlid's": {"OMP_NUM_THREADS": "2"}}
 
 CHILD = """
 import sys, time, mlid

@@ -1,10 +1,10 @@
 """How the core's OpenMP threads wait, in both front ends
-(python/mlid/openmp.py, fortran/app/mlid_wait_policy.f90): passive when the
-environment does not choose, the environment's choice otherwise.  What
-libgomp took is what it displays when loaded (OMP_DISPLAY_ENV=verbose; the
-last display, as mlid-batch starts itself again).  Only the spin count
-tells the policies apart (GOMP_SPINCOUNT 0: passive; libgomp's default
-300000): unset, the policy is displayed as PASSIVE too."""
+(python/mlid/openmp.py, fortran/app/mlid_wait_policy.f90): a spin of
+SPIN_COUNT rounds when the environment does not choose, the environment's
+choice otherwise.  What libgomp took is what it displays when loaded
+(OMP_DISPLAY_ENV=verbose; the last display, as mlid-batch starts itself
+again): its spin count (libgomp's default 300000) and its policy (ACTIVE
+only when asked; unset, it is displayed as PASSIVE)."""
 
 import os
 import re
@@ -14,10 +14,10 @@ import sys
 import pytest
 
 from conftest import BIN, REPO
-from mlid.openmp import WAIT_VARIABLES
+from mlid.openmp import SPIN_COUNT, WAIT_VARIABLES
 
 #: front end: the command that loads the core
-FRONT_ENDS = {"python": [sys.executable, "-c", "import mlid; print(mlid.PASSIVE_WAIT)"],
+FRONT_ENDS = {"python": [sys.executable, "-c", "import mlid; print(mlid.OPENMP_SPIN)"],
               "mlid-batch": [str(BIN / "mlid-batch"), "--help"]}
 
 
@@ -45,32 +45,34 @@ def _loaded(front_end, command=None, **env_vars):
 
 
 @pytest.mark.parametrize("front_end", FRONT_ENDS)
-def test_threads_sleep_when_the_environment_does_not_choose(front_end):
+def test_threads_spin_briefly_when_the_environment_does_not_choose(front_end):
     policy, spin, out, loads = _loaded(front_end)
-    assert (policy, spin, loads) == ("PASSIVE", 0, 1 if front_end == "python" else 2)
+    assert (spin, loads) == (SPIN_COUNT, 1 if front_end == "python" else 2)
+    assert 0 < SPIN_COUNT < 300000
     if front_end == "python":
-        assert out.split() == ["True"]
+        assert out.split() == [str(SPIN_COUNT)]
     else:
         assert out.startswith("usage: mlid-batch")     # the arguments kept on starting again
 
 
 @pytest.mark.parametrize("front_end", FRONT_ENDS)
 def test_the_environment_chooses_first(front_end):
-    """OMP_WAIT_POLICY=active spins (libgomp: 30 billion times); a spin count
-    of its own is kept too."""
+    """OMP_WAIT_POLICY=active spins (libgomp: 30 billion times), passive
+    not at all; a spin count of its own is kept too."""
     policy, spin, out, loads = _loaded(front_end, OMP_WAIT_POLICY="active")
     assert policy == "ACTIVE" and spin > 300000 and loads == 1
+    assert _loaded(front_end, OMP_WAIT_POLICY="passive")[:2] == ("PASSIVE", 0)
     assert _loaded(front_end, GOMP_SPINCOUNT="1000")[:2] == ("PASSIVE", 1000)
     if front_end == "python":
-        assert out.split() == ["False"]
+        assert out.split() == ["None"]
 
 
 def test_too_late_when_libgomp_is_loaded_already():
     """Then mlid says it did not choose, and leaves the environment alone."""
     command = [sys.executable, "-c", "import ctypes, os; ctypes.CDLL('libgomp.so.1'); import mlid; "
-               "print(mlid.PASSIVE_WAIT, 'OMP_WAIT_POLICY' in os.environ)"]
+               "print(mlid.OPENMP_SPIN, 'GOMP_SPINCOUNT' in os.environ)"]
     policy, spin, out, _ = _loaded("python", command)
-    assert spin == 300000 and out.split() == ["False", "False"]
+    assert spin == 300000 and out.split() == ["None", "False"]
 
 
 def test_mlid_batch_stays_as_it_is_when_threads_are_bound():
@@ -86,7 +88,7 @@ def test_mlid_batch_started_again_says_the_same(args, tmp_path):
     and both streams as without starting again."""
     runs = [subprocess.run([str(BIN / "mlid-batch"), *args], env=_environment(**extra),
                            capture_output=True, text=True, cwd=tmp_path)
-            for extra in ({}, {"OMP_WAIT_POLICY": "passive"})]
+            for extra in ({}, {"GOMP_SPINCOUNT": str(SPIN_COUNT)})]
     assert runs[0].returncode != 0 and runs[0].stderr
     assert [(r.returncode, r.stdout, r.stderr) for r in runs[:1]] == \
         [(r.returncode, r.stdout, r.stderr) for r in runs[1:]]

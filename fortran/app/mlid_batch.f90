@@ -18,7 +18,7 @@ program mlid_batch
   use mlid_files, only: temporary_for, write_whole
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, json_list, &
                          validation_report, validation_json
-  use mlid_wait_policy, only: wait_passive
+  use mlid_wait_policy, only: brief_spin
   implicit none
   character(len=4096) :: deck, arg, json_path
   type(case_t), allocatable :: cases(:)
@@ -26,7 +26,7 @@ program mlid_batch
   character(len=256) :: msg
   character(len=:), allocatable :: objects, json_tmp
 
-  call wait_passive()
+  call brief_spin()
   nargs = command_argument_count()
   json_path = ''
   deck = ''

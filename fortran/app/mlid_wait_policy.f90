@@ -1,10 +1,10 @@
-!> Passive waiting for mlid-batch's OpenMP threads, as mlid's Python
+!> A brief spin for mlid-batch's waiting OpenMP threads, as mlid's Python
 !> package asks for it (python/mlid/openmp.py, which says why: libgomp's
-!> default spins a waiting thread for milliseconds, and the core's parallel
-!> regions are short and far apart).  libgomp reads OMP_WAIT_POLICY once,
-!> when it is loaded, before this program starts; so when the environment
-!> does not choose (WAIT_VARIABLES: openmp.py's WAIT_VARIABLES), the program
-!> sets it and starts itself again, once, with the same arguments.  Not
+!> default spins a waiting thread for milliseconds, passive waiting pays a
+!> wake-up at every region).  libgomp reads GOMP_SPINCOUNT once, when it is
+!> loaded, before this program starts; so when the environment does not
+!> choose (WAIT_VARIABLES: openmp.py's WAIT_VARIABLES), the program sets it
+!> and starts itself again, once, with the same arguments.  Not
 !> when threads are bound (BINDING_VARIABLES): libgomp has bound this
 !> process to one CPU already, and the binding would outlast the start
 !> (one CPU for all the threads); not under valgrind, whose tool would not
@@ -15,7 +15,7 @@ module mlid_wait_policy
                                          c_null_ptr, c_null_char
   implicit none
   private
-  public :: wait_passive
+  public :: brief_spin
 
   !> The variables by which the environment chooses how threads wait.
   character(len=*), parameter :: WAIT_VARIABLES(2) = ['OMP_WAIT_POLICY', 'GOMP_SPINCOUNT ']
@@ -23,6 +23,8 @@ module mlid_wait_policy
   character(len=*), parameter :: BINDING_VARIABLES(3) = ['OMP_PROC_BIND     ', &
                                                          'OMP_PLACES        ', &
                                                          'GOMP_CPU_AFFINITY ']
+  !> Rounds a waiting thread spins before it sleeps (openmp.py's SPIN_COUNT).
+  character(len=*), parameter :: SPIN_COUNT = '10000'
   !> The link to this program (read, not run: the path it names is the
   !> program a tool that hides itself says it runs).
   character(len=*), parameter :: SELF = '/proc/self/exe'
@@ -48,10 +50,10 @@ module mlid_wait_policy
 
 contains
 
-  !> Set OMP_WAIT_POLICY=passive and start again, unless the environment
+  !> Set GOMP_SPINCOUNT=SPIN_COUNT and start again, unless the environment
   !> chooses, binds threads or runs valgrind; returns only when it does not
   !> start again.
-  subroutine wait_passive()
+  subroutine brief_spin()
     character(kind=c_char, len=4096) :: path
     character(len=4096) :: preload
     integer(c_long) :: n
@@ -61,9 +63,9 @@ contains
     if (index(preload, 'vgpreload') > 0) return          ! valgrind's own libraries
     n = readlink(SELF//c_null_char, path, int(len(path) - 1, c_size_t))
     if (n <= 0 .or. n >= len(path) - 1) return
-    if (setenv('OMP_WAIT_POLICY'//c_null_char, 'passive'//c_null_char, 1_c_int) /= 0) return
+    if (setenv('GOMP_SPINCOUNT'//c_null_char, SPIN_COUNT//c_null_char, 1_c_int) /= 0) return
     call start_again(path(1:n)//c_null_char)
-  end subroutine wait_passive
+  end subroutine brief_spin
 
   !> Whether each variable is set (even empty).
   impure elemental logical function is_set(name)

@@ -2,11 +2,11 @@
 derivatives (NASA CR-2200 and beyond).  The numerics live in the Fortran core
 (mlid._core); this package holds the objects, I/O, command line and plots."""
 
-from .openmp import passive_wait as _passive_wait
+from .openmp import brief_spin as _brief_spin
 
-#: Whether mlid chose passive waiting for the core's OpenMP threads (openmp.py;
-#: before the core is loaded, below).
-PASSIVE_WAIT = _passive_wait()
+#: The spin count mlid chose for the core's waiting OpenMP threads, None when
+#: the environment chose or it was too late (openmp.py; before the core loads).
+OPENMP_SPIN = _brief_spin()
 
 from .heap import keep_freed_memory as _keep_freed_memory
 from .errors import (MlidError, InputError, SingularInformationError, DivergenceError,

@@ -1,19 +1,23 @@
-"""The core's OpenMP threads: how they wait between parallel regions, and
-how many a fit's regions use.
+"""The core's OpenMP threads: how long they spin waiting between parallel
+regions, and how many a fit's regions use.
 
-libgomp's default (OMP_WAIT_POLICY unset) keeps a thread that has finished
-its part of a region spinning for milliseconds before it sleeps.  The
-core's regions are short and far apart (the coloured-residual correction
-at a fit's end, the filter error's blocks once an evaluation), so that
-spinning takes a core and does nothing: an output-error fit on two threads
-took nearly twice its CPU time for no less wall time (the figures:
-benchmarks/bench_threads.py).  So mlid asks for the passive policy (sleep
-at once) unless the environment chooses (WAIT_VARIABLES set).  libgomp
-reads it once, when it is loaded, with the core: so it is set in
-os.environ before that, where child processes inherit it too, and not at
-all when libgomp is in the process already.  mlid-batch does the same
-(fortran/app/mlid_wait_policy.f90).  The values computed do not depend on
-it.
+libgomp's default (OMP_WAIT_POLICY and GOMP_SPINCOUNT unset) keeps a thread
+that has done its part of a region spinning for 300,000 rounds, about 7 ms
+here, before it sleeps.  Between the core's regions there is mostly
+longer: the coloured-residual correction comes once at a fit's end, the
+filter error's blocks once an evaluation.  All that spinning took a core
+and did nothing: an output-error fit on two threads took twice its CPU
+time for no less wall time.  Passive waiting (sleep at once) costs a
+wake-up at every region instead, some tens of microseconds on this
+machine: a two-manoeuvre fit, whose regions come every few hundred
+microseconds, took 80 % more wall time.  So mlid asks libgomp to
+spin SPIN_COUNT rounds (about 0.2 ms) and then sleep, unless the
+environment chooses (WAIT_VARIABLES set): the figures of each choice are
+in benchmarks/bench_threads.py.  libgomp reads it once, when it is loaded
+with the core: so it is set in os.environ before that, where child
+processes inherit it too, and not at all when libgomp is in the process
+already.  mlid-batch does the same (fortran/app/mlid_wait_policy.f90).
+The values computed do not depend on it.
 """
 
 import ctypes
@@ -21,16 +25,19 @@ import os
 
 #: The variables by which the environment chooses how threads wait.
 WAIT_VARIABLES = ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")
+#: Rounds a waiting thread spins before it sleeps (mlid-batch's SPIN_COUNT
+#: too; tests/test_openmp.py checks both).
+SPIN_COUNT = 10000
 
 
-def passive_wait():
-    """OMP_WAIT_POLICY=passive unless the environment chooses or libgomp is
-    loaded already (too late: it has read the environment); True when this
-    set it."""
+def brief_spin():
+    """GOMP_SPINCOUNT=SPIN_COUNT unless the environment chooses or libgomp
+    is loaded already (too late: it has read the environment); the count
+    set, or None."""
     if any(v in os.environ for v in WAIT_VARIABLES) or _libgomp_loaded():
-        return False
-    os.environ["OMP_WAIT_POLICY"] = "passive"
-    return True
+        return None
+    os.environ["GOMP_SPINCOUNT"] = str(SPIN_COUNT)
+    return SPIN_COUNT
 
 
 def _libgomp_loaded():
