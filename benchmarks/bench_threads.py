@@ -1,8 +1,8 @@
 """CPU and wall time of a fit on two OpenMP threads as the threads that
 wait between the core's parallel regions spin or sleep: libgomp's default
 (spin 300,000 rounds, about 7 ms here, then sleep), passive (sleep at
-once), and mlid's (spin python/mlid/openmp.py's SPIN_COUNT rounds, about
-0.2 ms, then sleep; mlid-batch's too, fortran/app/mlid_wait_policy.f90),
+once), and mlid's (spin python/mlid/openmp.py's SPIN_COUNT rounds, a
+quarter of a millisecond, then sleep; mlid-batch's too, fortran/app/mlid_wait_policy.f90),
 with one thread for reference; and the same for mlid-batch on the whole
 HFB-320 deck (user + system CPU time against wall time).  Each setting in
 its own process (libgomp reads the setting once, when loaded), the
@@ -33,9 +33,10 @@ coloured-residual correction's, at the fit's end: the long spin after it
 nearly doubles their CPU time for nothing.  Sleeping at once costs a
 wake-up at every region instead: the two-manoeuvre fit runs its
 manoeuvres side by side every evaluation, a few hundred microseconds
-apart, and took 80 % more wall time passive than spinning.  The short spin
-keeps the second thread's gain there and most of passive's saving
-elsewhere.
+apart, and took nearly 80 % more wall time passive than spinning.  The
+short spin keeps the second thread's gain there, and costs 6-10 % more CPU
+time than passive on the single-manoeuvre fits (against libgomp's 80-95 %
+more) and 9-10 % more on tc22 and the whole deck.
 """
 
 import argparse
@@ -51,13 +52,17 @@ import numpy as np
 from mlid.openmp import WAIT_VARIABLES
 
 REPO = Path(__file__).resolve().parent.parent
+#: The variables with which libgomp binds threads (mlid-batch does not start
+#: again under them: fortran/app/mlid_wait_policy.f90).
+BINDING = ("OMP_PROC_BIND", "OMP_PROC_BIND_ALL", "OMP_PLACES", "GOMP_CPU_AFFINITY")
 #: name: (deck, case index, fits per process)
 FITS = {"HFB-320 output error": (REPO / "cases/hfb320/hfb320.nml", 0, 60),
         "ATTAS lateral": (REPO / "cases/attas_lateral/attas_lat.nml", 0, 40),
         "ATTAS short period, 2 manoeuvres": (REPO / "cases/attas_channels/attas_sp.nml", 1, 60),
         "flight path tc22": (REPO / "cases/flight_path/tc22.nml", 0, 6),
         "HFB-320 filter error": (REPO / "cases/hfb320/hfb320.nml", 2, 3)}
-#: setting: the environment it adds (to one where WAIT_VARIABLES are not set)
+#: setting: the environment it adds (to one where nothing chooses how
+#: threads wait or binds them)
 SETTINGS = {"1 thread": {"OMP_NUM_THREADS": "1"},
             "2 threads, spin 300000": {"OMP_NUM_THREADS": "2", "GOMP_SPINCOUNT": "300000"},
             "2 threads, passive": {"OMP_NUM_THREADS": "2", "OMP_WAIT_POLICY": "passive"},
@@ -80,7 +85,7 @@ print(cpu[0], cpu[len(cpu) // 2], wall[0], wall[len(wall) // 2])
 
 
 def environment(setting):
-    env = {k: v for k, v in os.environ.items() if k not in WAIT_VARIABLES}
+    env = {k: v for k, v in os.environ.items() if k not in WAIT_VARIABLES + BINDING}
     env.update(SETTINGS[setting])
     return env
 

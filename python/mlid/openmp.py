@@ -10,8 +10,8 @@ and did nothing: an output-error fit on two threads took twice its CPU
 time for no less wall time.  Passive waiting (sleep at once) costs a
 wake-up at every region instead, some tens of microseconds on this
 machine: a two-manoeuvre fit, whose regions come every few hundred
-microseconds, took 80 % more wall time.  So mlid asks libgomp to
-spin SPIN_COUNT rounds (about 0.2 ms) and then sleep, unless the
+microseconds, took nearly 80 % more wall time.  So mlid asks libgomp to
+spin SPIN_COUNT rounds (a quarter of a millisecond) and then sleep, unless the
 environment chooses (WAIT_VARIABLES set): the figures of each choice are
 in benchmarks/bench_threads.py.  libgomp reads it once, when it is loaded
 with the core: so it is set in os.environ before that, where child
@@ -23,8 +23,9 @@ The values computed do not depend on it.
 import ctypes
 import os
 
-#: The variables by which the environment chooses how threads wait.
-WAIT_VARIABLES = ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")
+#: The variables by which the environment chooses how threads wait (the _ALL
+#: form is newer libgomp's).
+WAIT_VARIABLES = ("OMP_WAIT_POLICY", "OMP_WAIT_POLICY_ALL", "GOMP_SPINCOUNT")
 #: Rounds a waiting thread spins before it sleeps (mlid-batch's SPIN_COUNT
 #: too; tests/test_openmp.py checks both).
 SPIN_COUNT = 10000
