@@ -3,21 +3,22 @@ regions, and how many a fit's regions use.
 
 libgomp's default (OMP_WAIT_POLICY and GOMP_SPINCOUNT unset) keeps a thread
 that has done its part of a region spinning for 300,000 rounds, about 7 ms
-here, before it sleeps.  Between the core's regions there is mostly
-longer: the coloured-residual correction comes once at a fit's end, the
-filter error's blocks once an evaluation.  All that spinning took a core
-and did nothing: an output-error fit on two threads took twice its CPU
-time for no less wall time.  Passive waiting (sleep at once) costs a
+here, before it sleeps.  Most of the core's regions are further apart than
+that (the coloured-residual correction comes once at a fit's end, the
+filter error's blocks once an evaluation), so all that spinning took a
+core and did nothing: an output-error fit on two threads took twice its
+CPU time for no less wall time.  Passive waiting (sleep at once) costs a
 wake-up at every region instead, some tens of microseconds on this
 machine: a two-manoeuvre fit, whose regions come every few hundred
 microseconds, took nearly 80 % more wall time.  So mlid asks libgomp to
-spin SPIN_COUNT rounds (a quarter of a millisecond) and then sleep, unless the
-environment chooses (WAIT_VARIABLES set): the figures of each choice are
-in benchmarks/bench_threads.py.  libgomp reads it once, when it is loaded
-with the core: so it is set in os.environ before that, where child
-processes inherit it too, and not at all when libgomp is in the process
-already.  mlid-batch does the same (fortran/app/mlid_wait_policy.f90).
-The values computed do not depend on it.
+spin SPIN_COUNT rounds (a quarter of a millisecond) and then sleep, unless
+the environment chooses (WAIT_VARIABLES set); benchmarks/bench_threads.py
+has the figures of each choice.  libgomp reads the variable once, when it
+is loaded with the core: so it is set in os.environ before that, where
+child processes inherit it too, and not at all when libgomp is in the
+process already.  mlid-batch does the same
+(fortran/app/mlid_wait_policy.f90).  The values computed do not depend on
+it.
 """
 
 import ctypes
