@@ -49,12 +49,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mlid.openmp import WAIT_VARIABLES
+from mlid.openmp import BINDING_VARIABLES, WAIT_VARIABLES
 
 REPO = Path(__file__).resolve().parent.parent
-#: The variables with which libgomp binds threads (mlid-batch does not start
-#: again under them: fortran/app/mlid_wait_policy.f90).
-BINDING = ("OMP_PROC_BIND", "OMP_PROC_BIND_ALL", "OMP_PLACES", "GOMP_CPU_AFFINITY")
 #: name: (deck, case index, fits per process)
 FITS = {"HFB-320 output error": (REPO / "cases/hfb320/hfb320.nml", 0, 60),
         "ATTAS lateral": (REPO / "cases/attas_lateral/attas_lat.nml", 0, 40),
@@ -85,7 +82,7 @@ print(cpu[0], cpu[len(cpu) // 2], wall[0], wall[len(wall) // 2])
 
 
 def environment(setting):
-    env = {k: v for k, v in os.environ.items() if k not in WAIT_VARIABLES + BINDING}
+    env = {k: v for k, v in os.environ.items() if k not in WAIT_VARIABLES + BINDING_VARIABLES}
     env.update(SETTINGS[setting])
     return env
 

@@ -14,16 +14,13 @@ import sys
 import pytest
 
 from conftest import BIN, REPO
-from mlid.openmp import SPIN_COUNT, WAIT_VARIABLES
+from mlid.openmp import BINDING_VARIABLES, SPIN_COUNT, WAIT_VARIABLES
 
 #: front end: the command that loads the core
 FRONT_ENDS = {"python": [sys.executable, "-c", "import mlid; print(mlid.OPENMP_SPIN)"],
               "mlid-batch": [str(BIN / "mlid-batch"), "--help"]}
 
 
-#: The variables with which libgomp binds threads (mlid_wait_policy.f90's
-#: BINDING_VARIABLES): unset here, as the environment's choice of waiting.
-BINDING = ("OMP_PROC_BIND", "OMP_PROC_BIND_ALL", "OMP_PLACES", "GOMP_CPU_AFFINITY")
 #: The dynamic loader, run as a program in one test.
 LOADER = "/lib64/ld-linux-x86-64.so.2"
 
@@ -31,7 +28,7 @@ LOADER = "/lib64/ld-linux-x86-64.so.2"
 def _environment(**env_vars):
     """This one with env_vars added, where nothing chooses how threads wait
     or binds them."""
-    env = {k: v for k, v in os.environ.items() if k not in WAIT_VARIABLES + BINDING}
+    env = {k: v for k, v in os.environ.items() if k not in WAIT_VARIABLES + BINDING_VARIABLES}
     env.update(env_vars)
     return env
 
@@ -80,10 +77,17 @@ def test_too_late_when_libgomp_is_loaded_already():
     assert spin == 300000 and out.split() == ["None", "False"]
 
 
-def test_mlid_batch_stays_as_it_is_when_threads_are_bound():
+#: A value binding threads for each of BINDING_VARIABLES.
+BOUND = {"OMP_PROC_BIND": "true", "OMP_PROC_BIND_ALL": "true", "OMP_PLACES": "cores",
+         "GOMP_CPU_AFFINITY": "0"}
+
+
+@pytest.mark.parametrize("variable", BINDING_VARIABLES)
+def test_mlid_batch_stays_as_it_is_when_threads_are_bound(variable):
     """libgomp has bound the process to one CPU when it loaded: started
-    again, all its threads would share that CPU."""
-    policy, spin, _, loads = _loaded("mlid-batch", OMP_PROC_BIND="true")
+    again, all its threads would share that CPU (every variable of
+    openmp.py's list, so that mlid-batch's own list agrees)."""
+    policy, spin, _, loads = _loaded("mlid-batch", **{variable: BOUND[variable]})
     assert (spin, loads) == (300000, 1)
 
 

@@ -24,7 +24,8 @@ module mlid_wait_policy
   character(len=*), parameter :: WAIT_VARIABLES(3) = ['OMP_WAIT_POLICY    ', &
                                                       'OMP_WAIT_POLICY_ALL', &
                                                       'GOMP_SPINCOUNT     ']
-  !> The variables with which libgomp binds threads (the first on loading).
+  !> The variables with which libgomp binds threads (the first on loading;
+  !> openmp.py's BINDING_VARIABLES).
   character(len=*), parameter :: BINDING_VARIABLES(4) = ['OMP_PROC_BIND     ', &
                                                          'OMP_PROC_BIND_ALL ', &
                                                          'OMP_PLACES        ', &

@@ -27,6 +27,9 @@ import os
 #: The variables by which the environment chooses how threads wait (the _ALL
 #: form is newer libgomp's).
 WAIT_VARIABLES = ("OMP_WAIT_POLICY", "OMP_WAIT_POLICY_ALL", "GOMP_SPINCOUNT")
+#: The variables with which libgomp binds threads: mlid-batch does not start
+#: again under them (fortran/app/mlid_wait_policy.f90's BINDING_VARIABLES).
+BINDING_VARIABLES = ("OMP_PROC_BIND", "OMP_PROC_BIND_ALL", "OMP_PLACES", "GOMP_CPU_AFFINITY")
 #: Rounds a waiting thread spins before it sleeps (mlid-batch's SPIN_COUNT
 #: too; tests/test_openmp.py checks both).
 SPIN_COUNT = 10000
