@@ -44,10 +44,20 @@ module mlid_expr_diff
     type(graph_t) :: g
     integer, allocatable :: root(:), fwd(:), rptr(:), ridx(:)
     !> Each expression's reverse sweep as two lists: its operations,
-    !> descending, onode(optr(i) : optr(i+1) - 1) with their operands oc1,
-    !> oc2 (0: none, a scratch adjoint), and its variables' nodes vnode with
-    !> their numbers varg (vptr likewise): no branch per node.
-    integer, allocatable :: optr(:), onode(:), oc1(:), oc2(:), vptr(:), vnode(:), varg(:)
+    !> descending, onode(optr(i) : optr(i+1) - 1), and its variables' nodes
+    !> with their numbers varg (vptr likewise): no branch per node.  The
+    !> adjoints are the expression's own, numbered by the place of their
+    !> node in its ridx list (its root first): the operation's oloc, its
+    !> operands' oc1, oc2 (0: none, a scratch adjoint), the variable's vloc;
+    !> so a sweep clears one short run of them, not scattered entries.
+    integer, allocatable :: optr(:), onode(:), oloc(:), oc1(:), oc2(:), vptr(:), vloc(:), &
+                            varg(:)
+    !> The forward sweep as a tape beside fwd: each needed node's operation,
+    !> operands (ta: the variable of OP_VAR, else c1; tb: c2), function
+    !> (OP_FUN) and number (OP_NUM) in fwd's order, in arrays of their own:
+    !> the sweep reads them at unit stride, with no descriptor between.
+    integer, allocatable :: top(:), ta(:), tb(:), tfun(:)
+    real(wp), allocatable :: tnum(:)
     logical :: shared = .false.
   end type program_t
 
@@ -279,7 +289,8 @@ contains
     integer, intent(in) :: roots(:), nvar
     type(program_t) :: p
     logical :: need(g%n), any_need(g%n)
-    integer :: i, k
+    integer :: loc(0:g%n), i, k
+    integer, allocatable :: ops(:), vars(:)
     p%g = g
     p%root = roots
     allocate (p%rptr(size(roots) + 1), p%ridx(0))
@@ -298,20 +309,31 @@ contains
       any_need = any_need .or. need
     end do
     p%fwd = pack([(k, k=1, g%n)], any_need)
-    allocate (p%optr(size(roots) + 1), p%vptr(size(roots) + 1), p%onode(0), p%vnode(0))
+    p%top = g%op(p%fwd)
+    p%ta = merge(g%arg(p%fwd), g%c1(p%fwd), p%top == OP_VAR)
+    p%tb = g%c2(p%fwd)
+    p%tfun = g%arg(p%fwd)
+    p%tnum = g%num(p%fwd)
+    allocate (p%optr(size(roots) + 1), p%vptr(size(roots) + 1), p%onode(0), p%oloc(0), &
+              p%oc1(0), p%oc2(0), p%vloc(0), p%varg(0))
     p%optr(1) = 1
     p%vptr(1) = 1
+    loc(0) = 0
     do i = 1, size(roots)
       associate (list => p%ridx(p%rptr(i):p%rptr(i + 1) - 1))
-        p%onode = [p%onode, pack(list, g%op(list) /= OP_NUM .and. g%op(list) /= OP_VAR)]
-        p%vnode = [p%vnode, pack(list, g%op(list) == OP_VAR)]
+        loc(list) = [(k, k=1, size(list))]
+        ops = pack(list, g%op(list) /= OP_NUM .and. g%op(list) /= OP_VAR)
+        vars = pack(list, g%op(list) == OP_VAR)
       end associate
+      p%onode = [p%onode, ops]
+      p%oloc = [p%oloc, loc(ops)]
+      p%oc1 = [p%oc1, loc(g%c1(ops))]
+      p%oc2 = [p%oc2, loc(g%c2(ops))]
+      p%vloc = [p%vloc, loc(vars)]
+      p%varg = [p%varg, g%arg(vars)]
       p%optr(i + 1) = size(p%onode) + 1
-      p%vptr(i + 1) = size(p%vnode) + 1
+      p%vptr(i + 1) = size(p%vloc) + 1
     end do
-    p%oc1 = g%c1(p%onode)
-    p%oc2 = g%c2(p%onode)
-    p%varg = g%arg(p%vnode)
     p%shared = VISIT_COST*size(p%ridx) > (VISIT_COST + LANE_COST*size(roots))*size(p%fwd) .and. &
                size(roots)*max(g%n, nvar) <= SHARED_MAX
   end function program_of
@@ -320,75 +342,98 @@ contains
   pure subroutine program_forward(p, v, nv, d1, d2)
     type(program_t), intent(in) :: p
     real(wp), intent(in) :: v(:)
-    real(wp), intent(out) :: nv(:), d1(:), d2(:)
+    real(wp), intent(out) :: nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
+    call forward_tape(size(p%fwd), p%fwd, p%top, p%ta, p%tb, p%tfun, p%tnum, size(v), v, &
+                      nv, d1, d2)
+  end subroutine program_forward
+
+  !> program_forward over its tape (explicit shapes: the loop reads plain
+  !> arrays).  Entries of other nodes are left as they are.
+  pure subroutine forward_tape(n, node, op, a, b, fun, num, nvar, v, nv, d1, d2)
+    integer, intent(in) :: n, node(n), op(n), a(n), b(n), fun(n), nvar
+    real(wp), intent(in) :: num(n), v(nvar)
+    real(wp), intent(inout) :: nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
     integer :: j, k
 
-    do j = 1, size(p%fwd)
-      k = p%fwd(j)
-      associate (g => p%g)
-        select case (g%op(k))
-        case (OP_NUM)
-          nv(k) = g%num(k)
-        case (OP_VAR)
-          nv(k) = v(g%arg(k))
-        case (OP_NEG)
-          nv(k) = -nv(g%c1(k))
-          d1(k) = -1.0_wp
-          d2(k) = 0.0_wp               ! an operation of one operand: d2 for the sweep's scratch
-        case (OP_ADD)                 ! the common operations inline, the rest in helpers
-          nv(k) = nv(g%c1(k)) + nv(g%c2(k))
-          d1(k) = 1.0_wp
-          d2(k) = 1.0_wp
-        case (OP_SUB)
-          nv(k) = nv(g%c1(k)) - nv(g%c2(k))
-          d1(k) = 1.0_wp
-          d2(k) = -1.0_wp
-        case (OP_MUL)
-          nv(k) = nv(g%c1(k))*nv(g%c2(k))
-          d1(k) = nv(g%c2(k))
-          d2(k) = nv(g%c1(k))
-        case (OP_FUN)
-          if (g%c2(k) > 0) then
-            call fun2(g%arg(k), nv(g%c1(k)), nv(g%c2(k)), nv(k), d1(k), d2(k))
-          else
-            call fun1(g%arg(k), nv(g%c1(k)), nv(k), d1(k))
-            d2(k) = 0.0_wp
-          end if
-        case default
-          call binary(g%op(k), nv(g%c1(k)), nv(g%c2(k)), nv(k), d1(k), d2(k))
-        end select
-      end associate
+    do j = 1, n
+      k = node(j)
+      select case (op(j))
+      case (OP_NUM)
+        nv(k) = num(j)
+      case (OP_VAR)
+        nv(k) = v(a(j))
+      case (OP_NEG)
+        nv(k) = -nv(a(j))
+        d1(k) = -1.0_wp
+        d2(k) = 0.0_wp                 ! an operation of one operand: d2 for the sweep's scratch
+      case (OP_ADD)                   ! the common operations inline, the rest in helpers
+        nv(k) = nv(a(j)) + nv(b(j))
+        d1(k) = 1.0_wp
+        d2(k) = 1.0_wp
+      case (OP_SUB)
+        nv(k) = nv(a(j)) - nv(b(j))
+        d1(k) = 1.0_wp
+        d2(k) = -1.0_wp
+      case (OP_MUL)
+        nv(k) = nv(a(j))*nv(b(j))
+        d1(k) = nv(b(j))
+        d2(k) = nv(a(j))
+      case (OP_FUN)
+        if (b(j) > 0) then
+          call fun2(fun(j), nv(a(j)), nv(b(j)), nv(k), d1(k), d2(k))
+        else
+          call fun1(fun(j), nv(a(j)), nv(k), d1(k))
+          d2(k) = 0.0_wp
+        end if
+      case default
+        call binary(op(j), nv(a(j)), nv(b(j)), nv(k), d1(k), d2(k))
+      end select
     end do
-  end subroutine program_forward
+  end subroutine forward_tape
 
   !> The gradient gr(1:nvar) of expression i after program_forward (not
   !> p%shared).
   pure subroutine program_reverse(p, i, d1, d2, gr)
     type(program_t), intent(in) :: p
     integer, intent(in) :: i
-    real(wp), intent(in) :: d1(:), d2(:)
+    real(wp), intent(in) :: d1(MAXNODE), d2(MAXNODE)
     real(wp), intent(out) :: gr(:)
+    integer :: o0, o1, v0, v1
+    o0 = p%optr(i)
+    o1 = p%optr(i + 1) - 1
+    v0 = p%vptr(i)
+    v1 = p%vptr(i + 1) - 1
+    gr = 0.0_wp
+    call reverse_sweep(p%rptr(i + 1) - p%rptr(i), o1 - o0 + 1, p%onode(o0:o1), p%oloc(o0:o1), &
+                       p%oc1(o0:o1), p%oc2(o0:o1), v1 - v0 + 1, p%vloc(v0:v1), p%varg(v0:v1), &
+                       d1, d2, size(gr), gr)
+  end subroutine program_reverse
+
+  !> program_reverse's sweep over one expression's lists (explicit shapes:
+  !> the loops read plain arrays), its nloc adjoints local (its root the
+  !> first); gr(varg(j)) set, the rest of gr left as it is.
+  pure subroutine reverse_sweep(nloc, nop, node, at, c1, c2, nvx, vloc, varg, d1, d2, nvar, gr)
+    integer, intent(in) :: nloc, nop, node(nop), at(nop), c1(nop), c2(nop), nvx, vloc(nvx), &
+                           varg(nvx), nvar
+    real(wp), intent(in) :: d1(MAXNODE), d2(MAXNODE)
+    real(wp), intent(inout) :: gr(nvar)
     real(wp) :: adj(0:MAXNODE), a
     integer :: j, k
 
-    gr = 0.0_wp
-    adj(0) = 0.0_wp                         ! the scratch of one-operand operations
-    do j = p%rptr(i), p%rptr(i + 1) - 1     ! a loop: a vector subscript would allocate
-      adj(p%ridx(j)) = 0.0_wp
-    end do
-    adj(p%root(i)) = 1.0_wp
-    do j = p%optr(i), p%optr(i + 1) - 1
-      k = p%onode(j)
-      a = adj(k)
+    adj(0:nloc) = 0.0_wp                    ! 0: the scratch of one-operand operations
+    adj(1) = 1.0_wp
+    do j = 1, nop
+      k = node(j)
+      a = adj(at(j))
       ! a node the expression does not depend on passes nothing on, even
       ! where its partial is infinite (sqrt at 0): a select, not a branch
-      adj(p%oc1(j)) = adj(p%oc1(j)) + merge(a*d1(k), 0.0_wp, a /= 0.0_wp)
-      adj(p%oc2(j)) = adj(p%oc2(j)) + merge(a*d2(k), 0.0_wp, a /= 0.0_wp)
+      adj(c1(j)) = adj(c1(j)) + merge(a*d1(k), 0.0_wp, a /= 0.0_wp)
+      adj(c2(j)) = adj(c2(j)) + merge(a*d2(k), 0.0_wp, a /= 0.0_wp)
     end do
-    do j = p%vptr(i), p%vptr(i + 1) - 1     ! a variable is one node (same_node)
-      gr(p%varg(j)) = adj(p%vnode(j))
+    do j = 1, nvx                           ! a variable is one node (same_node)
+      gr(varg(j)) = adj(vloc(j))
     end do
-  end subroutine program_reverse
+  end subroutine reverse_sweep
 
   !> All the gradients gr(i, 1:nvar) after program_forward (p%shared), in
   !> one sweep over the needed nodes with an adjoint per expression; gr is

@@ -296,6 +296,8 @@ contains
       call product_4x4(size(b, 2), a, b, c)
     else if (size(a, 1) == 7 .and. size(a, 2) == 4) then   ! seven outputs of four states
       call product_7x4(size(b, 2), a, b, c)
+    else if (size(a, 1) == 7 .and. size(a, 2) == 7) then   ! seven states (flight path)
+      call product_7x7(size(b, 2), a, b, c)
     else if (size(a, 2) == 4) then                            ! outputs of four states
       call product_nx4(size(a, 1), size(b, 2), a, b, c)
     else               ! the arrays are contiguous here: no copies
@@ -360,6 +362,21 @@ contains
       c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j)
     end do
   end subroutine product_7x4
+
+  !> c = a b for a 7 x 7 (the flight-path models' seven states, and their
+  !> seven outputs' C S): the sizes known to the compiler; the terms added
+  !> left to right, as product_columns adds its first four and then the
+  !> rest one by one, so the sums are the same to the bit.
+  pure subroutine product_7x7(l, a, b, c)
+    integer, intent(in) :: l
+    real(wp), intent(in) :: a(7, 7), b(7, l)
+    real(wp), intent(out) :: c(7, l)
+    integer :: j
+    do j = 1, l
+      c(:, j) = a(:, 1)*b(1, j) + a(:, 2)*b(2, j) + a(:, 3)*b(3, j) + a(:, 4)*b(4, j) &
+                + a(:, 5)*b(5, j) + a(:, 6)*b(6, j) + a(:, 7)*b(7, j)
+    end do
+  end subroutine product_7x7
 
   !> c = a b + the first columns of d for a 7 x 4 a: c(:, j) = a b(:, j) +
   !> w(j) d(:, j) for j <= nd, a b(:, j) after; each sum product_7x4's, then
