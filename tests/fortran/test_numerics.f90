@@ -455,14 +455,14 @@ contains
     end do
   end subroutine sym_expected
 
-  !> small_product, its fixed-size 4 x 4 kernel and its general loops,
-  !> against the sums written out: within rounding (4 eps sum |a||b|, as a
-  !> native build may fuse multiply-adds differently; the portable build's
-  !> sums are the same to the bit, which benchmarks/compare_cases.py checks
-  !> on every deck).
+  !> small_product, its fixed-size 4 x 4, 7 x 4 and 7 x 7 kernels and its
+  !> general loops, against the sums written out: within rounding (4 eps
+  !> sum |a||b|, as a native build may fuse multiply-adds differently; the
+  !> portable build's sums are the same to the bit, which
+  !> benchmarks/compare_cases.py checks on every deck).
   subroutine test_small_product()
     type(rng_t) :: r
-    real(wp) :: a(7, 5), b(5, 11), c(7, 11), e(7, 11), g(7, 11)
+    real(wp) :: a(7, 7), b(7, 11), c(7, 11), e(7, 11), g(7, 11)
     integer :: i, j, k, n, m
     call rng_seed(r, 11)
     do j = 1, size(a, 2)
@@ -475,8 +475,8 @@ contains
         b(i, j) = rng_normal(r)
       end do
     end do
-    do m = 3, 5              ! m = 4: the kernels of whole blocks of four
-      do n = 4, 7, 3         ! n = m = 4: the fixed-size kernel
+    do m = 3, 7              ! m = 4: the kernels of whole blocks of four
+      do n = 4, 7, 3         ! n = m = 4, n = 7 and m = 4 or 7: the fixed-size kernels
         call small_product(a(1:n, 1:m), b(1:m, :), c(1:n, :))
         do j = 1, size(b, 2)
           do i = 1, n
