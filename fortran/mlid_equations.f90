@@ -26,8 +26,8 @@ module mlid_equations
   use mlid_models, only: model_t
   use mlid_expr, only: expr_t, expr_compile, split_definition, is_name
   use mlid_expr_diff, only: graph_t, program_t, graph_add, graph_fold, program_of, &
-                            program_forward, program_reverse, program_reverse_shared, &
-                            program_values, program_reads, MAXNODE, SHARED_MAX
+                            program_forward, program_jacobian, program_values, program_reads, &
+                            MAXNODE, MAXVAR
   use mlid_text, only: to_lower
   implicit none
   private
@@ -35,8 +35,9 @@ module mlid_equations
 
   integer, parameter :: NAMELEN = 32
   !> Limits that let the evaluators work in fixed local arrays: variables
-  !> (states, inputs, parameters and t) and states or outputs.
-  integer, parameter :: MAXVAR = 512, MAXOUT = 64
+  !> (states, inputs, parameters and t: mlid_expr_diff's MAXVAR) and states
+  !> or outputs.
+  integer, parameter :: MAXOUT = 64
 
   type, extends(model_t) :: equations_t
     integer :: nvar = 0                                 !< v = [x, u, p, t]
@@ -298,53 +299,44 @@ contains
     integer, intent(in) :: idx(:)
     real(wp), intent(out), optional :: val(:), dx(:, :), dp(:, :)
     real(wp) :: vl(MAXOUT), dxl(MAXOUT, MAXOUT), dpl(MAXOUT, 0)
-    integer :: none(0)
+    integer :: xv(MAXOUT), pv(MAXVAR), none(0), nx, np, j   ! (fixed sizes: no heap)
+    nx = self%nx
+    np = size(idx)
+    xv(1:nx) = [(j, j=1, nx)]                      ! the states' variables
+    pv(1:np) = nx + self%nu + idx                  ! the parameters'
     if (present(dp)) then
       if (present(val) .and. present(dx)) then
-        call sweep(self, prog, v, idx, val, dx, dp)
+        call sweep(self, prog, v, xv(1:nx), pv(1:np), val, dx, dp)
       else if (present(val)) then
-        call sweep(self, prog, v, idx, val, dxl, dp)
+        call sweep(self, prog, v, xv(1:nx), pv(1:np), val, dxl, dp)
       else if (present(dx)) then
-        call sweep(self, prog, v, idx, vl, dx, dp)
+        call sweep(self, prog, v, xv(1:nx), pv(1:np), vl, dx, dp)
       else
-        call sweep(self, prog, v, idx, vl, dxl, dp)
+        call sweep(self, prog, v, xv(1:nx), pv(1:np), vl, dxl, dp)
       end if
     else if (present(val)) then
-      call sweep(self, prog, v, none, val, dx, dpl)
+      call sweep(self, prog, v, xv(1:nx), none, val, dx, dpl)
     else
-      call sweep(self, prog, v, none, vl, dx, dpl)
+      call sweep(self, prog, v, xv(1:nx), none, vl, dx, dpl)
     end if
   end subroutine program_point
 
-  !> Values and Jacobians of a program's expressions: one forward sweep,
-  !> one reverse sweep each: val(i), and dx(i, :) = d/dx, dp(i, k) =
-  !> d/dp(idx(k)) of expression i; du(i, :) = d/du if asked for.
-  pure subroutine sweep(self, prog, v, idx, val, dx, dp, du)
+  !> Values and partials of a program's expressions: one forward sweep,
+  !> then the reverse sweeps: val(i), and jx(i, j) = d/dv(vx(j)), jp(i, k)
+  !> = d/dv(vp(k)) of expression i.
+  pure subroutine sweep(self, prog, v, vx, vp, val, jx, jp)
     class(equations_t), intent(in) :: self
     type(program_t), intent(in) :: prog
     real(wp), intent(in) :: v(MAXVAR)               !< the point (mlid_equations' point)
-    integer, intent(in) :: idx(:)
-    real(wp), intent(out) :: val(:), dx(:, :), dp(:, :)
-    real(wp), intent(out), optional :: du(:, :)
-    real(wp) :: g(MAXVAR), nv(MAXNODE), d1(MAXNODE), d2(MAXNODE), gs(SHARED_MAX)
-    integer :: i, k, op, nr
+    integer, intent(in) :: vx(:), vp(:)
+    real(wp), intent(out) :: val(:), jx(:, :), jp(:, :)
+    real(wp) :: nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
+    integer :: nr
     call program_forward(prog, v(1:self%nvar), nv, d1, d2)
-    op = self%nx + self%nu
     nr = size(prog%root)
-    if (prog%shared) call program_reverse_shared(prog, self%nvar, d1, d2, gs)
-    do i = 1, nr
-      val(i) = nv(prog%root(i))
-      if (prog%shared) then
-        g(1:self%nvar) = gs(i:nr*self%nvar:nr)     ! row i of gs taken as (nr, nvar)
-      else
-        call program_reverse(prog, i, d1, d2, g(1:self%nvar))
-      end if
-      dx(i, 1:self%nx) = g(1:self%nx)
-      do k = 1, size(idx)
-        dp(i, k) = g(op + idx(k))
-      end do
-      if (present(du)) du(i, 1:self%nu) = g(self%nx + 1:op)
-    end do
+    val(1:nr) = nv(prog%root)
+    call program_jacobian(prog, d1, d2, self%nvar, vx, jx(1:nr, 1:size(vx)), vp, &
+                          jp(1:nr, 1:size(vp)))
   end subroutine sweep
 
   pure logical function eq_input_jacobians(self)
@@ -356,20 +348,22 @@ contains
     class(equations_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
-    real(wp) :: v(MAXVAR), val(MAXOUT), a(MAXOUT, MAXOUT), none(MAXOUT, 0)
-    integer :: noidx(0)
+    real(wp) :: v(MAXVAR), val(MAXOUT), none(MAXOUT, 0)
+    integer :: uv(MAXVAR), noidx(0), j
     call point(self, t, x, u, p, v)
-    call sweep(self, self%fprog, v, noidx, val, a, none, b)
+    uv(1:self%nu) = [(self%nx + j, j=1, self%nu)]  ! the inputs' variables
+    call sweep(self, self%fprog, v, uv(1:self%nu), noidx, val, b, none)
   end subroutine eq_dfdu
 
   pure subroutine eq_dhdu(self, t, x, u, p, b)
     class(equations_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
-    real(wp) :: v(MAXVAR), val(MAXOUT), c(MAXOUT, MAXOUT), none(MAXOUT, 0)
-    integer :: noidx(0)
+    real(wp) :: v(MAXVAR), val(MAXOUT), none(MAXOUT, 0)
+    integer :: uv(MAXVAR), noidx(0), j
     call point(self, t, x, u, p, v)
-    call sweep(self, self%hprog, v, noidx, val, c, none, b)
+    uv(1:self%nu) = [(self%nx + j, j=1, self%nu)]  ! the inputs' variables
+    call sweep(self, self%hprog, v, uv(1:self%nu), noidx, val, b, none)
   end subroutine eq_dhdu
 
   !> No process noise enters the equations model.

@@ -19,13 +19,14 @@ module mlid_expr_diff
   implicit none
   private
   public :: graph_t, program_t, graph_add, graph_fold, program_of, program_forward, &
-            program_reverse, program_reverse_shared, program_values, program_reads, MAXNODE, &
-            SHARED_MAX
+            program_jacobian, program_values, program_reads, MAXNODE, MAXVAR
 
   !> The most nodes a model's graph may have: the sweeps work in fixed
   !> local arrays, because gfortran puts arrays sized at run time on the
   !> heap, and these run several times per sample.
   integer, parameter :: MAXNODE = 4096
+  !> The most variables a program reads (the same fixed local arrays).
+  integer, parameter :: MAXVAR = 512
 
   !> Nodes: op, arg (variable or function number), num (the number of
   !> OP_NUM), c1, c2 the nodes of the operands (earlier ones; 0: none).
@@ -391,61 +392,68 @@ contains
     end do
   end subroutine forward_tape
 
-  !> The gradient gr(1:nvar) of expression i after program_forward (not
-  !> p%shared).
-  pure subroutine program_reverse(p, i, d1, d2, gr)
+  !> The partials of the program's expressions after program_forward (d1,
+  !> d2), over nvar variables: jx(i, j) = d expression i / d v(vx(j)),
+  !> jp(i, k) = d expression i / d v(vp(k)).  One reverse sweep each
+  !> expression, over its own nodes, its adjoints local (its root the
+  !> first), or one sweep for all (p%shared).
+  pure subroutine program_jacobian(p, d1, d2, nvar, vx, jx, vp, jp)
     type(program_t), intent(in) :: p
-    integer, intent(in) :: i
     real(wp), intent(in) :: d1(MAXNODE), d2(MAXNODE)
-    real(wp), intent(out) :: gr(:)
-    integer :: o0, o1, v0, v1
-    o0 = p%optr(i)
-    o1 = p%optr(i + 1) - 1
-    v0 = p%vptr(i)
-    v1 = p%vptr(i + 1) - 1
-    gr = 0.0_wp
-    call reverse_sweep(p%rptr(i + 1) - p%rptr(i), o1 - o0 + 1, p%onode(o0:o1), p%oloc(o0:o1), &
-                       p%oc1(o0:o1), p%oc2(o0:o1), v1 - v0 + 1, p%vloc(v0:v1), p%varg(v0:v1), &
-                       d1, d2, size(gr), gr)
-  end subroutine program_reverse
+    integer, intent(in) :: nvar, vx(:), vp(:)
+    real(wp), intent(out) :: jx(:, :), jp(:, :)
+    real(wp) :: adj(0:MAXNODE), a, gs(SHARED_MAX), g(MAXVAR)
+    integer :: i, j, k
 
-  !> program_reverse's sweep over one expression's lists (explicit shapes:
-  !> the loops read plain arrays), its nloc adjoints local (its root the
-  !> first); gr(varg(j)) set, the rest of gr left as it is.
-  pure subroutine reverse_sweep(nloc, nop, node, at, c1, c2, nvx, vloc, varg, d1, d2, nvar, gr)
-    integer, intent(in) :: nloc, nop, node(nop), at(nop), c1(nop), c2(nop), nvx, vloc(nvx), &
-                           varg(nvx), nvar
-    real(wp), intent(in) :: d1(MAXNODE), d2(MAXNODE)
-    real(wp), intent(inout) :: gr(nvar)
-    real(wp) :: adj(0:MAXNODE), a
-    integer :: j, k
-
-    adj(0:nloc) = 0.0_wp                    ! 0: the scratch of one-operand operations
-    adj(1) = 1.0_wp
-    do j = 1, nop
-      k = node(j)
-      a = adj(at(j))
-      ! a node the expression does not depend on passes nothing on, even
-      ! where its partial is infinite (sqrt at 0): a select, not a branch
-      adj(c1(j)) = adj(c1(j)) + merge(a*d1(k), 0.0_wp, a /= 0.0_wp)
-      adj(c2(j)) = adj(c2(j)) + merge(a*d2(k), 0.0_wp, a /= 0.0_wp)
+    if (p%shared) then
+      call shared_jacobian(p, d1, d2, nvar, gs, vx, jx, vp, jp)
+      return
+    end if
+    g(1:nvar) = 0.0_wp          ! an expression's gradient, back to zero after each
+    do i = 1, size(p%root)
+      adj(0:p%rptr(i + 1) - p%rptr(i)) = 0.0_wp     ! 0: the scratch of one-operand operations
+      adj(1) = 1.0_wp
+      do j = p%optr(i), p%optr(i + 1) - 1
+        k = p%onode(j)
+        a = adj(p%oloc(j))
+        ! a node the expression does not depend on passes nothing on, even
+        ! where its partial is infinite (sqrt at 0): a select, not a branch
+        adj(p%oc1(j)) = adj(p%oc1(j)) + merge(a*d1(k), 0.0_wp, a /= 0.0_wp)
+        adj(p%oc2(j)) = adj(p%oc2(j)) + merge(a*d2(k), 0.0_wp, a /= 0.0_wp)
+      end do
+      do j = p%vptr(i), p%vptr(i + 1) - 1          ! a variable is one node (same_node)
+        g(p%varg(j)) = adj(p%vloc(j))
+      end do
+      do j = 1, size(vx)
+        jx(i, j) = g(vx(j))
+      end do
+      do j = 1, size(vp)
+        jp(i, j) = g(vp(j))
+      end do
+      do j = p%vptr(i), p%vptr(i + 1) - 1
+        g(p%varg(j)) = 0.0_wp
+      end do
     end do
-    do j = 1, nvx                           ! a variable is one node (same_node)
-      gr(varg(j)) = adj(vloc(j))
-    end do
-  end subroutine reverse_sweep
+  end subroutine program_jacobian
 
-  !> All the gradients gr(i, 1:nvar) after program_forward (p%shared), in
-  !> one sweep over the needed nodes with an adjoint per expression; gr is
-  !> a caller's buffer of SHARED_MAX taken as (expressions, nvar).
-  pure subroutine program_reverse_shared(p, nvar, d1, d2, gr)
+  !> program_jacobian by one sweep over all the needed nodes with an
+  !> adjoint per expression (p%shared): every gradient in gs, then the
+  !> columns asked for.
+  pure subroutine shared_jacobian(p, d1, d2, nvar, gs, vx, jx, vp, jp)
     type(program_t), intent(in) :: p
-    integer, intent(in) :: nvar
     real(wp), intent(in) :: d1(:), d2(:)
-    real(wp), intent(out) :: gr(size(p%root), nvar)
+    integer, intent(in) :: nvar, vx(:), vp(:)
+    real(wp), intent(out) :: gs(size(p%root), nvar), jx(:, :), jp(:, :)
     real(wp) :: buf(SHARED_MAX)
-    call sweep_all(p, d1, d2, gr, buf)
-  end subroutine program_reverse_shared
+    integer :: j
+    call sweep_all(p, d1, d2, gs, buf)
+    do j = 1, size(vx)
+      jx(:, j) = gs(:, vx(j))
+    end do
+    do j = 1, size(vp)
+      jp(:, j) = gs(:, vp(j))
+    end do
+  end subroutine shared_jacobian
 
   pure subroutine sweep_all(p, d1, d2, gr, adj)
     type(program_t), intent(in) :: p
@@ -466,7 +474,7 @@ contains
         case (OP_NUM)
         case (OP_VAR)
           gr(:, g%arg(k)) = gr(:, g%arg(k)) + adj(:, k)
-        case default                  ! a zero adjoint passes nothing on (see program_reverse)
+        case default                  ! a zero adjoint passes nothing on (see program_jacobian)
           adj(:, g%c1(k)) = adj(:, g%c1(k)) + merge(adj(:, k)*d1(k), 0.0_wp, adj(:, k) /= 0.0_wp)
           if (g%c2(k) > 0) adj(:, g%c2(k)) = adj(:, g%c2(k)) + &
                                             merge(adj(:, k)*d2(k), 0.0_wp, adj(:, k) /= 0.0_wp)

@@ -105,6 +105,28 @@ def test_parameters_by_name_in_free_ties_and_labels():
     assert m.tied(np.r_[m.p[:4], -4.0, m.theta[5:]])[1] == pytest.approx(-0.08)
 
 
+def test_a_parameter_tied_by_several_terms():
+    """A tie of several terms (Zd = 0.01 Md + 0.002 Mq) names Zd once for
+    each: the parameter Jacobian then has Zd in two columns, each to be its
+    partial (the sweep must not give one of them 0).  Gradient against
+    central differences of the cost, 2e-4 relative as in test_ties."""
+    m = short_period(params=dict(Za=-0.8, Zd=-0.1, Ma=-3.0, Mq=-1.0, Md=-5.0),
+                     free=["Ma", "Mq", "Md"], ties={"Zd": "0.01*Md + 0.002*Mq"})
+    data = record()
+    ev = mlid.evaluate(m, data)
+    free = m.free_mask.nonzero()[0]
+    for k, i in enumerate(free):
+        h = 1e-6 * max(1.0, abs(m.theta[i]))
+        cost = []
+        for step in (h, -h):
+            th = m.theta.copy()
+            th[i] += step
+            cost.append(mlid.evaluate(m.with_theta(m.tied(th)), data)["cost"])
+        fd = (cost[0] - cost[1]) / (2 * h)
+        assert fd == pytest.approx(ev["gradient"][k], rel=2e-4,
+                                   abs=1e-6 * abs(ev["gradient"]).max()), m.free[k]
+
+
 @pytest.mark.parametrize("kw, message", [
     ({"outputs": {"y": "x + zz"}}, "equations model, output y: 'x \\+ zz' at character 5: "
                                    "no variable named zz"),
