@@ -1,7 +1,9 @@
 """Cost of the HFB-320 output-error fit (cases/hfb320 case 1: 601 samples, 11
 parameters, nonlinear longitudinal model; with --case, of the C-8 short
-period's fit (cases/c8_short_period case 2, on the record its case 1 makes)
-or ATTAS lateral's (cases/attas_lateral case 1), or of all three) in this
+period's fit (cases/c8_short_period case 2, on the record its case 1 makes),
+ATTAS lateral's (cases/attas_lateral case 1), one of the flight-path
+reconstructions that state their model as equations (cases/flight_path tc22,
+tc32, tc33), or of all six) in this
 build and, with --baseline DIR, in another build's mlid package (DIR holds
 its `mlid` folder, e.g. main's .venv/lib/python3.11/site-packages), as
   - callgrind instruction counts of N fits inside the core's mlid_fit
@@ -523,6 +525,8 @@ CASES = {
     "hfb320": (REPO / "cases" / "hfb320" / "hfb320.nml", 0, None),
     "c8": (REPO / "cases" / "c8_short_period" / "c8.nml", 1, 0),
     "attas_lat": (REPO / "cases" / "attas_lateral" / "attas_lat.nml", 0, None),
+    **{tc: (REPO / "cases" / "flight_path" / f"{tc}.nml", 0, None)
+       for tc in ("tc22", "tc32", "tc33")},
 }
 ENTRY = "__mlid_api_MOD_mlid_fit"       # the core's fit: what callgrind counts
 F2PY_ENTRY = "f2py_rout__core_mlid_api_mlid_fit"     # f2py's routine around it
@@ -566,7 +570,8 @@ def child(name, nfits, timed):
     else:
         for _ in range(nfits - 1):
             res = fit()
-    print(res.iterations, len(data.t), wall, cpu, wrapper)
+    nt = sum(d.nt for d in data) if isinstance(data, list) else data.nt   # (manoeuvres)
+    print(res.iterations, nt, wall, cpu, wrapper)
 
 
 def run_child(name, pkg, nfits, timed, prefix=()):
@@ -626,7 +631,8 @@ def main():
     ap.add_argument("--fits", type=int, default=3, help="fits per callgrind run")
     ap.add_argument("--rounds", type=int, default=5, help="timed rounds (20 + 20 fits each)")
     ap.add_argument("--case", choices=[*CASES, "all"], default="hfb320",
-                    help="the fit measured: HFB-320 (default), C-8 short period, ATTAS lateral")
+                    help="the fit measured: HFB-320 (default), C-8 short period, ATTAS lateral, "
+                         "flight path tc22, tc32, tc33")
     ap.add_argument("--wrapper", action="store_true",
                     help="also the instructions of the Python and f2py around the core call")
     ap.add_argument("--child", type=int)
