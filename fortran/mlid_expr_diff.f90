@@ -53,12 +53,14 @@ module mlid_expr_diff
     !> so a sweep clears one short run of them, not scattered entries.
     integer, allocatable :: optr(:), onode(:), oloc(:), oc1(:), oc2(:), vptr(:), vloc(:), &
                             varg(:)
-    !> The forward sweep as a tape beside fwd: each needed node's operation,
-    !> operands (ta: the variable of OP_VAR, else c1; tb: c2), function
-    !> (OP_FUN) and number (OP_NUM) in fwd's order, in arrays of their own:
-    !> the sweep reads them at unit stride, with no descriptor between.
-    integer, allocatable :: top(:), ta(:), tb(:), tfun(:)
-    real(wp), allocatable :: tnum(:)
+    !> The forward sweep in arrays of their own, read at unit stride with no
+    !> descriptor between: its leaves first, the variables' nodes lnode
+    !> (variable lvar) and the numbers' cnode (value cval), which depend on
+    !> nothing; then its tape, the other needed nodes tnode in fwd's order
+    !> with their operation, operands ta, tb and function tfun (OP_FUN).
+    integer, allocatable :: lnode(:), lvar(:), cnode(:), tnode(:), top(:), ta(:), tb(:), &
+                            tfun(:)
+    real(wp), allocatable :: cval(:)
     logical :: shared = .false.
   end type program_t
 
@@ -310,11 +312,15 @@ contains
       any_need = any_need .or. need
     end do
     p%fwd = pack([(k, k=1, g%n)], any_need)
-    p%top = g%op(p%fwd)
-    p%ta = merge(g%arg(p%fwd), g%c1(p%fwd), p%top == OP_VAR)
-    p%tb = g%c2(p%fwd)
-    p%tfun = g%arg(p%fwd)
-    p%tnum = g%num(p%fwd)
+    p%lnode = pack(p%fwd, g%op(p%fwd) == OP_VAR)
+    p%lvar = g%arg(p%lnode)
+    p%cnode = pack(p%fwd, g%op(p%fwd) == OP_NUM)
+    p%cval = g%num(p%cnode)
+    p%tnode = pack(p%fwd, g%op(p%fwd) /= OP_VAR .and. g%op(p%fwd) /= OP_NUM)
+    p%top = g%op(p%tnode)
+    p%ta = g%c1(p%tnode)
+    p%tb = g%c2(p%tnode)
+    p%tfun = g%arg(p%tnode)
     allocate (p%optr(size(roots) + 1), p%vptr(size(roots) + 1), p%onode(0), p%oloc(0), &
               p%oc1(0), p%oc2(0), p%vloc(0), p%varg(0))
     p%optr(1) = 1
@@ -344,25 +350,34 @@ contains
     type(program_t), intent(in) :: p
     real(wp), intent(in) :: v(:)
     real(wp), intent(out) :: nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
-    call forward_tape(size(p%fwd), p%fwd, p%top, p%ta, p%tb, p%tfun, p%tnum, size(v), v, &
-                      nv, d1, d2)
+    call leaves(size(p%lnode), p%lnode, p%lvar, size(v), v, size(p%cnode), p%cnode, p%cval, nv)
+    call forward_tape(size(p%tnode), p%tnode, p%top, p%ta, p%tb, p%tfun, nv, d1, d2)
   end subroutine program_forward
 
-  !> program_forward over its tape (explicit shapes: the loop reads plain
-  !> arrays).  Entries of other nodes are left as they are.
-  pure subroutine forward_tape(n, node, op, a, b, fun, num, nvar, v, nv, d1, d2)
-    integer, intent(in) :: n, node(n), op(n), a(n), b(n), fun(n), nvar
-    real(wp), intent(in) :: num(n), v(nvar)
+  !> The leaves' values: the variables' nodes and the numbers'.
+  pure subroutine leaves(nl, lnode, lvar, nvar, v, nc, cnode, cval, nv)
+    integer, intent(in) :: nl, lnode(nl), lvar(nl), nvar, nc, cnode(nc)
+    real(wp), intent(in) :: v(nvar), cval(nc)
+    real(wp), intent(inout) :: nv(MAXNODE)
+    integer :: j
+    do j = 1, nl
+      nv(lnode(j)) = v(lvar(j))
+    end do
+    do j = 1, nc
+      nv(cnode(j)) = cval(j)
+    end do
+  end subroutine leaves
+
+  !> program_forward over its tape, after the leaves (explicit shapes: the
+  !> loop reads plain arrays).  Entries of other nodes are left as they are.
+  pure subroutine forward_tape(n, node, op, a, b, fun, nv, d1, d2)
+    integer, intent(in) :: n, node(n), op(n), a(n), b(n), fun(n)
     real(wp), intent(inout) :: nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
     integer :: j, k
 
     do j = 1, n
       k = node(j)
       select case (op(j))
-      case (OP_NUM)
-        nv(k) = num(j)
-      case (OP_VAR)
-        nv(k) = v(a(j))
       case (OP_NEG)
         nv(k) = -nv(a(j))
         d1(k) = -1.0_wp
