@@ -299,44 +299,43 @@ contains
     integer, intent(in) :: idx(:)
     real(wp), intent(out), optional :: val(:), dx(:, :), dp(:, :)
     real(wp) :: vl(MAXOUT), dxl(MAXOUT, MAXOUT), dpl(MAXOUT, 0)
-    integer :: xv(MAXOUT), pv(MAXVAR), none(0), nx, np, j   ! (fixed sizes: no heap)
-    nx = self%nx
-    np = size(idx)
-    xv(1:nx) = [(j, j=1, nx)]                      ! the states' variables
-    pv(1:np) = nx + self%nu + idx                  ! the parameters'
+    integer :: none(0)
     if (present(dp)) then
       if (present(val) .and. present(dx)) then
-        call sweep(self, prog, v, xv(1:nx), pv(1:np), val, dx, dp)
+        call sweep(self, prog, v, 0, self%nx, idx, val, dx, dp)
       else if (present(val)) then
-        call sweep(self, prog, v, xv(1:nx), pv(1:np), val, dxl, dp)
+        call sweep(self, prog, v, 0, self%nx, idx, val, dxl, dp)
       else if (present(dx)) then
-        call sweep(self, prog, v, xv(1:nx), pv(1:np), vl, dx, dp)
+        call sweep(self, prog, v, 0, self%nx, idx, vl, dx, dp)
       else
-        call sweep(self, prog, v, xv(1:nx), pv(1:np), vl, dxl, dp)
+        call sweep(self, prog, v, 0, self%nx, idx, vl, dxl, dp)
       end if
     else if (present(val)) then
-      call sweep(self, prog, v, xv(1:nx), none, val, dx, dpl)
+      call sweep(self, prog, v, 0, self%nx, none, val, dx, dpl)
     else
-      call sweep(self, prog, v, xv(1:nx), none, vl, dx, dpl)
+      call sweep(self, prog, v, 0, self%nx, none, vl, dx, dpl)
     end if
   end subroutine program_point
 
   !> Values and partials of a program's expressions: one forward sweep,
-  !> then the reverse sweeps: val(i), and jx(i, j) = d/dv(vx(j)), jp(i, k)
-  !> = d/dv(vp(k)) of expression i.
-  pure subroutine sweep(self, prog, v, vx, vp, val, jx, jp)
+  !> then the reverse sweeps: val(i), and jx(i, j) = d/dv(x0 + j) (j = 1 ..
+  !> nj: the states, x0 = 0, or the inputs, x0 = nx), jp(i, k) = d/dp(idx(k))
+  !> of expression i.
+  pure subroutine sweep(self, prog, v, x0, nj, idx, val, jx, jp)
     class(equations_t), intent(in) :: self
     type(program_t), intent(in) :: prog
     real(wp), intent(in) :: v(MAXVAR)               !< the point (mlid_equations' point)
-    integer, intent(in) :: vx(:), vp(:)
+    integer, intent(in) :: x0, nj, idx(:)
     real(wp), intent(out) :: val(:), jx(:, :), jp(:, :)
     real(wp) :: nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
-    integer :: nr
+    integer :: i, nr
     call program_forward(prog, v(1:self%nvar), nv, d1, d2)
     nr = size(prog%root)
-    val(1:nr) = nv(prog%root)
-    call program_jacobian(prog, d1, d2, self%nvar, vx, jx(1:nr, 1:size(vx)), vp, &
-                          jp(1:nr, 1:size(vp)))
+    do i = 1, nr                                    ! (a loop: no temporary for prog%root)
+      val(i) = nv(prog%root(i))
+    end do
+    call program_jacobian(prog, d1, d2, x0, jx(1:nr, 1:nj), self%nx + self%nu, idx, &
+                          jp(1:nr, 1:size(idx)))
   end subroutine sweep
 
   pure logical function eq_input_jacobians(self)
@@ -349,10 +348,9 @@ contains
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
     real(wp) :: v(MAXVAR), val(MAXOUT), none(MAXOUT, 0)
-    integer :: uv(MAXVAR), noidx(0), j
+    integer :: noidx(0)
     call point(self, t, x, u, p, v)
-    uv(1:self%nu) = [(self%nx + j, j=1, self%nu)]  ! the inputs' variables
-    call sweep(self, self%fprog, v, uv(1:self%nu), noidx, val, b, none)
+    call sweep(self, self%fprog, v, self%nx, self%nu, noidx, val, b, none)   ! the inputs'
   end subroutine eq_dfdu
 
   pure subroutine eq_dhdu(self, t, x, u, p, b)
@@ -360,10 +358,9 @@ contains
     real(wp), intent(in) :: t, x(:), u(:), p(:)
     real(wp), intent(out) :: b(:, :)
     real(wp) :: v(MAXVAR), val(MAXOUT), none(MAXOUT, 0)
-    integer :: uv(MAXVAR), noidx(0), j
+    integer :: noidx(0)
     call point(self, t, x, u, p, v)
-    uv(1:self%nu) = [(self%nx + j, j=1, self%nu)]  ! the inputs' variables
-    call sweep(self, self%hprog, v, uv(1:self%nu), noidx, val, b, none)
+    call sweep(self, self%hprog, v, self%nx, self%nu, noidx, val, b, none)   ! the inputs'
   end subroutine eq_dhdu
 
   !> No process noise enters the equations model.

@@ -43,10 +43,11 @@ module mlid_expr_diff
   !> nodes, an adjoint per expression, costs less than one sweep each.
   type :: program_t
     type(graph_t) :: g
+    integer :: nvar = 0                         !< the variables v(1:nvar) it reads
     integer, allocatable :: root(:), fwd(:), rptr(:), ridx(:)
     !> Each expression's reverse sweep as two lists: its operations,
-    !> descending, onode(optr(i) : optr(i+1) - 1), and its variables' nodes
-    !> with their numbers varg (vptr likewise): no branch per node.  The
+    !> descending, onode(optr(i) : optr(i+1) - 1), and its variables, their
+    !> numbers varg and adjoints vloc (vptr likewise): no branch per node.  The
     !> adjoints are the expression's own, numbered by the place of their
     !> node in its ridx list (its root first): the operation's oloc, its
     !> operands' oc1, oc2 (0: none, a scratch adjoint), the variable's vloc;
@@ -295,6 +296,7 @@ contains
     integer :: loc(0:g%n), i, k
     integer, allocatable :: ops(:), vars(:)
     p%g = g
+    p%nvar = nvar
     p%root = roots
     allocate (p%rptr(size(roots) + 1), p%ridx(0))
     any_need = .false.
@@ -348,9 +350,9 @@ contains
   !> Every needed node's value nv and partials to its operands d1, d2.
   pure subroutine program_forward(p, v, nv, d1, d2)
     type(program_t), intent(in) :: p
-    real(wp), intent(in) :: v(:)
+    real(wp), intent(in) :: v(p%nvar)      ! (explicit: passed on as it is, never packed)
     real(wp), intent(out) :: nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
-    call leaves(size(p%lnode), p%lnode, p%lvar, size(v), v, size(p%cnode), p%cnode, p%cval, nv)
+    call leaves(size(p%lnode), p%lnode, p%lvar, p%nvar, v, size(p%cnode), p%cnode, p%cval, nv)
     call forward_tape(size(p%tnode), p%tnode, p%top, p%ta, p%tb, p%tfun, nv, d1, d2)
   end subroutine program_forward
 
@@ -408,23 +410,24 @@ contains
   end subroutine forward_tape
 
   !> The partials of the program's expressions after program_forward (d1,
-  !> d2), over nvar variables: jx(i, j) = d expression i / d v(vx(j)),
-  !> jp(i, k) = d expression i / d v(vp(k)).  One reverse sweep each
-  !> expression, over its own nodes, its adjoints local (its root the
-  !> first), or one sweep for all (p%shared).
-  pure subroutine program_jacobian(p, d1, d2, nvar, vx, jx, vp, jp)
+  !> d2): jx(i, j) = d expression i / d v(x0 + j), a run of variables (the
+  !> states, say), and jp(i, k) = d expression i / d v(p0 + idx(k)) (the
+  !> parameters idx; one may come twice: a tie of several terms).  One
+  !> reverse sweep each expression, over its own nodes, its adjoints local
+  !> (its root the first), or one sweep for all (p%shared).
+  pure subroutine program_jacobian(p, d1, d2, x0, jx, p0, idx, jp)
     type(program_t), intent(in) :: p
     real(wp), intent(in) :: d1(MAXNODE), d2(MAXNODE)
-    integer, intent(in) :: nvar, vx(:), vp(:)
+    integer, intent(in) :: x0, p0, idx(:)
     real(wp), intent(out) :: jx(:, :), jp(:, :)
     real(wp) :: adj(0:MAXNODE), a, gs(SHARED_MAX), g(MAXVAR)
     integer :: i, j, k
 
     if (p%shared) then
-      call shared_jacobian(p, d1, d2, nvar, gs, vx, jx, vp, jp)
+      call shared_jacobian(p, d1, d2, gs, x0, jx, p0, idx, jp)
       return
     end if
-    g(1:nvar) = 0.0_wp          ! an expression's gradient, back to zero after each
+    g(1:p%nvar) = 0.0_wp        ! an expression's gradient, back to zero after each
     do i = 1, size(p%root)
       adj(0:p%rptr(i + 1) - p%rptr(i)) = 0.0_wp     ! 0: the scratch of one-operand operations
       adj(1) = 1.0_wp
@@ -439,11 +442,11 @@ contains
       do j = p%vptr(i), p%vptr(i + 1) - 1          ! a variable is one node (same_node)
         g(p%varg(j)) = adj(p%vloc(j))
       end do
-      do j = 1, size(vx)
-        jx(i, j) = g(vx(j))
+      do j = 1, size(jx, 2)
+        jx(i, j) = g(x0 + j)
       end do
-      do j = 1, size(vp)
-        jp(i, j) = g(vp(j))
+      do j = 1, size(idx)
+        jp(i, j) = g(p0 + idx(j))
       end do
       do j = p%vptr(i), p%vptr(i + 1) - 1
         g(p%varg(j)) = 0.0_wp
@@ -452,21 +455,23 @@ contains
   end subroutine program_jacobian
 
   !> program_jacobian by one sweep over all the needed nodes with an
-  !> adjoint per expression (p%shared): every gradient in gs, then the
-  !> columns asked for.
-  pure subroutine shared_jacobian(p, d1, d2, nvar, gs, vx, jx, vp, jp)
+  !> adjoint per expression (p%shared): every gradient in gs, the caller's
+  !> buffer of SHARED_MAX taken as (expressions, variables) (program_of
+  !> chose the shared sweep only where that fits), then the columns asked
+  !> for.
+  pure subroutine shared_jacobian(p, d1, d2, gs, x0, jx, p0, idx, jp)
     type(program_t), intent(in) :: p
     real(wp), intent(in) :: d1(:), d2(:)
-    integer, intent(in) :: nvar, vx(:), vp(:)
-    real(wp), intent(out) :: gs(size(p%root), nvar), jx(:, :), jp(:, :)
+    real(wp), intent(out) :: gs(size(p%root), p%nvar), jx(:, :), jp(:, :)
+    integer, intent(in) :: x0, p0, idx(:)
     real(wp) :: buf(SHARED_MAX)
     integer :: j
     call sweep_all(p, d1, d2, gs, buf)
-    do j = 1, size(vx)
-      jx(:, j) = gs(:, vx(j))
+    do j = 1, size(jx, 2)
+      jx(:, j) = gs(:, x0 + j)
     end do
-    do j = 1, size(vp)
-      jp(:, j) = gs(:, vp(j))
+    do j = 1, size(idx)
+      jp(:, j) = gs(:, p0 + idx(j))
     end do
   end subroutine shared_jacobian
 
@@ -479,7 +484,9 @@ contains
 
     gr = 0.0_wp
     associate (g => p%g)
-      adj(:, p%fwd) = 0.0_wp
+      do j = 1, size(p%fwd)         ! (a loop: the vector subscript would take a temporary)
+        adj(:, p%fwd(j)) = 0.0_wp
+      end do
       do i = 1, size(p%root)
         adj(i, p%root(i)) = 1.0_wp
       end do
@@ -501,11 +508,14 @@ contains
   !> The values of the program's expressions at v.
   pure subroutine program_values(p, v, val)
     type(program_t), intent(in) :: p
-    real(wp), intent(in) :: v(:)
+    real(wp), intent(in) :: v(p%nvar)
     real(wp), intent(out) :: val(:)
     real(wp) :: nv(MAXNODE), d1(MAXNODE), d2(MAXNODE)
+    integer :: i
     call program_forward(p, v, nv, d1, d2)
-    val = nv(p%root)
+    do i = 1, size(p%root)          ! (a loop: the vector subscript would take a temporary)
+      val(i) = nv(p%root(i))
+    end do
   end subroutine program_values
 
   !> c = a op b and the partials dc/da, dc/db.
@@ -513,7 +523,7 @@ contains
     integer, intent(in) :: op
     real(wp), intent(in) :: a, b
     real(wp), intent(out) :: c, da, db
-    select case (op)                  ! + - * are inline in program_forward
+    select case (op)                  ! + - * are inline in forward_tape
     case (OP_DIV)
       c = a/b
       da = 1.0_wp/b

@@ -31,6 +31,22 @@ def test_jacobians_exact_for_every_operation(x):
     assert max(errs.values()) < 1e-7, errs
 
 
+@pytest.mark.parametrize("x", [[0.2, -0.35, 0.1], [-0.4, 0.55, -0.3]])
+def test_jacobians_exact_where_the_equations_share_most_of_their_nodes(x):
+    """Three state equations built on one large definition: the cost rule
+    (fortran/mlid_expr_diff.f90, program_of) takes one reverse sweep with an
+    adjoint per equation instead of one sweep each; its partials against
+    central differences as above."""
+    m = mlid.EquationModel(
+        definitions={"s": "a*x1 + b*x2 + sin(x1)*cos(x2) + exp(-x1*x2) + (x1 + a)^2*(x2 - b) "
+                          "+ tanh(a*x2 + b*x1) + sqrt(2 + x1*x2) + atan2(x2, 2 + x1)"},
+        states={"x1": "-s + u1", "x2": "a*s - x2", "x3": "b*s + x1*x3"},
+        outputs={"y1": "x1", "y2": "x2 + u1", "y3": "s*x3"},
+        inputs=["u1"], params={"a": 0.7, "b": 1.3}, free=["a", "b"])
+    errs = mlid.check_jacobians(m, x, [0.8])
+    assert max(errs.values()) < 1e-7, errs
+
+
 def short_period(**kw):
     return mlid.EquationModel(
         states={"alpha": "Za*alpha + q + Zd*de", "q": "Ma*alpha + Mq*q + Md*de"},
