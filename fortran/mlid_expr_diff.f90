@@ -293,8 +293,7 @@ contains
     integer, intent(in) :: roots(:), nvar
     type(program_t) :: p
     logical :: need(g%n), any_need(g%n)
-    integer :: loc(0:g%n), i, k
-    integer, allocatable :: ops(:), vars(:)
+    integer :: i, k
     p%g = g
     p%nvar = nvar
     p%root = roots
@@ -314,38 +313,89 @@ contains
       any_need = any_need .or. need
     end do
     p%fwd = pack([(k, k=1, g%n)], any_need)
-    p%lnode = pack(p%fwd, g%op(p%fwd) == OP_VAR)
-    p%lvar = g%arg(p%lnode)
-    p%cnode = pack(p%fwd, g%op(p%fwd) == OP_NUM)
-    p%cval = g%num(p%cnode)
-    p%tnode = pack(p%fwd, g%op(p%fwd) /= OP_VAR .and. g%op(p%fwd) /= OP_NUM)
-    p%top = g%op(p%tnode)
-    p%ta = g%c1(p%tnode)
-    p%tb = g%c2(p%tnode)
-    p%tfun = g%arg(p%tnode)
-    allocate (p%optr(size(roots) + 1), p%vptr(size(roots) + 1), p%onode(0), p%oloc(0), &
-              p%oc1(0), p%oc2(0), p%vloc(0), p%varg(0))
-    p%optr(1) = 1
-    p%vptr(1) = 1
-    loc(0) = 0
-    do i = 1, size(roots)
-      associate (list => p%ridx(p%rptr(i):p%rptr(i + 1) - 1))
-        loc(list) = [(k, k=1, size(list))]
-        ops = pack(list, g%op(list) /= OP_NUM .and. g%op(list) /= OP_VAR)
-        vars = pack(list, g%op(list) == OP_VAR)
-      end associate
-      p%onode = [p%onode, ops]
-      p%oloc = [p%oloc, loc(ops)]
-      p%oc1 = [p%oc1, loc(g%c1(ops))]
-      p%oc2 = [p%oc2, loc(g%c2(ops))]
-      p%vloc = [p%vloc, loc(vars)]
-      p%varg = [p%varg, g%arg(vars)]
-      p%optr(i + 1) = size(p%onode) + 1
-      p%vptr(i + 1) = size(p%vloc) + 1
-    end do
+    call forward_lists(g, p)
+    call reverse_lists(g, p)
     p%shared = VISIT_COST*size(p%ridx) > (VISIT_COST + LANE_COST*size(roots))*size(p%fwd) .and. &
                size(roots)*max(g%n, nvar) <= SHARED_MAX
   end function program_of
+
+  !> The forward sweep's lists (program_t's lnode .. tfun) from fwd, each
+  !> array allocated once (this runs for every manoeuvre's folded model at
+  !> every evaluation).
+  pure subroutine forward_lists(g, p)
+    type(graph_t), intent(in) :: g
+    type(program_t), intent(inout) :: p
+    integer :: nl, nc, nt, j, k
+    nl = count(g%op(p%fwd) == OP_VAR)
+    nc = count(g%op(p%fwd) == OP_NUM)
+    nt = size(p%fwd) - nl - nc
+    allocate (p%lnode(nl), p%lvar(nl), p%cnode(nc), p%cval(nc), p%tnode(nt), p%top(nt), &
+              p%ta(nt), p%tb(nt), p%tfun(nt))
+    nl = 0
+    nc = 0
+    nt = 0
+    do j = 1, size(p%fwd)
+      k = p%fwd(j)
+      select case (g%op(k))
+      case (OP_VAR)
+        nl = nl + 1
+        p%lnode(nl) = k
+        p%lvar(nl) = g%arg(k)
+      case (OP_NUM)
+        nc = nc + 1
+        p%cnode(nc) = k
+        p%cval(nc) = g%num(k)
+      case default
+        nt = nt + 1
+        p%tnode(nt) = k
+        p%top(nt) = g%op(k)
+        p%ta(nt) = g%c1(k)
+        p%tb(nt) = g%c2(k)
+        p%tfun(nt) = g%arg(k)
+      end select
+    end do
+  end subroutine forward_lists
+
+  !> Each expression's reverse lists (program_t's optr .. varg) from its
+  !> ridx list, each array allocated once: its adjoints numbered by their
+  !> node's place in the list (loc).
+  pure subroutine reverse_lists(g, p)
+    type(graph_t), intent(in) :: g
+    type(program_t), intent(inout) :: p
+    integer :: loc(0:g%n), nvar, nop, i, j, k
+    nvar = count(g%op(p%ridx) == OP_VAR)
+    nop = size(p%ridx) - nvar - count(g%op(p%ridx) == OP_NUM)
+    allocate (p%optr(size(p%root) + 1), p%vptr(size(p%root) + 1), p%onode(nop), p%oloc(nop), &
+              p%oc1(nop), p%oc2(nop), p%vloc(nvar), p%varg(nvar))
+    loc(0) = 0                                 ! an operand 0 (none): the scratch adjoint
+    p%optr(1) = 1
+    p%vptr(1) = 1
+    do i = 1, size(p%root)
+      nop = p%optr(i) - 1
+      nvar = p%vptr(i) - 1
+      do j = p%rptr(i), p%rptr(i + 1) - 1
+        loc(p%ridx(j)) = j - p%rptr(i) + 1
+      end do
+      do j = p%rptr(i), p%rptr(i + 1) - 1
+        k = p%ridx(j)
+        select case (g%op(k))
+        case (OP_NUM)
+        case (OP_VAR)
+          nvar = nvar + 1
+          p%vloc(nvar) = loc(k)
+          p%varg(nvar) = g%arg(k)
+        case default
+          nop = nop + 1
+          p%onode(nop) = k
+          p%oloc(nop) = loc(k)
+          p%oc1(nop) = loc(g%c1(k))
+          p%oc2(nop) = loc(g%c2(k))
+        end select
+      end do
+      p%optr(i + 1) = nop + 1
+      p%vptr(i + 1) = nvar + 1
+    end do
+  end subroutine reverse_lists
 
   !> Every needed node's value nv and partials to its operands d1, d2.
   pure subroutine program_forward(p, v, nv, d1, d2)
