@@ -250,7 +250,7 @@ contains
     g%c2(k) = b
   end subroutine add_node
 
-  !> The value of op on constants, computed as program_forward does.
+  !> The value of op on constants, computed as forward_tape does.
   pure real(wp) function constant(op, arg, a, b) result(c)
     integer, intent(in) :: op, arg
     real(wp), intent(in) :: a, b
@@ -326,8 +326,8 @@ contains
     type(graph_t), intent(in) :: g
     type(program_t), intent(inout) :: p
     integer :: nl, nc, nt, j, k
-    nl = count(g%op(p%fwd) == OP_VAR)
-    nc = count(g%op(p%fwd) == OP_NUM)
+    nl = count_op(g, p%fwd, OP_VAR)
+    nc = count_op(g, p%fwd, OP_NUM)
     nt = size(p%fwd) - nl - nc
     allocate (p%lnode(nl), p%lvar(nl), p%cnode(nc), p%cval(nc), p%tnode(nt), p%top(nt), &
               p%ta(nt), p%tb(nt), p%tfun(nt))
@@ -362,17 +362,17 @@ contains
   pure subroutine reverse_lists(g, p)
     type(graph_t), intent(in) :: g
     type(program_t), intent(inout) :: p
-    integer :: loc(0:g%n), nvar, nop, i, j, k
-    nvar = count(g%op(p%ridx) == OP_VAR)
-    nop = size(p%ridx) - nvar - count(g%op(p%ridx) == OP_NUM)
+    integer :: loc(0:g%n), nvn, nop, i, j, k
+    nvn = count_op(g, p%ridx, OP_VAR)
+    nop = size(p%ridx) - nvn - count_op(g, p%ridx, OP_NUM)
     allocate (p%optr(size(p%root) + 1), p%vptr(size(p%root) + 1), p%onode(nop), p%oloc(nop), &
-              p%oc1(nop), p%oc2(nop), p%vloc(nvar), p%varg(nvar))
+              p%oc1(nop), p%oc2(nop), p%vloc(nvn), p%varg(nvn))
     loc(0) = 0                                 ! an operand 0 (none): the scratch adjoint
     p%optr(1) = 1
     p%vptr(1) = 1
     do i = 1, size(p%root)
       nop = p%optr(i) - 1
-      nvar = p%vptr(i) - 1
+      nvn = p%vptr(i) - 1
       do j = p%rptr(i), p%rptr(i + 1) - 1
         loc(p%ridx(j)) = j - p%rptr(i) + 1
       end do
@@ -381,9 +381,9 @@ contains
         select case (g%op(k))
         case (OP_NUM)
         case (OP_VAR)
-          nvar = nvar + 1
-          p%vloc(nvar) = loc(k)
-          p%varg(nvar) = g%arg(k)
+          nvn = nvn + 1
+          p%vloc(nvn) = loc(k)
+          p%varg(nvn) = g%arg(k)
         case default
           nop = nop + 1
           p%onode(nop) = k
@@ -393,9 +393,21 @@ contains
         end select
       end do
       p%optr(i + 1) = nop + 1
-      p%vptr(i + 1) = nvar + 1
+      p%vptr(i + 1) = nvn + 1
     end do
   end subroutine reverse_lists
+
+  !> How many of the nodes have the operation op (a loop: g%op(nodes)
+  !> would take a temporary).
+  pure integer function count_op(g, nodes, op) result(n)
+    type(graph_t), intent(in) :: g
+    integer, intent(in) :: nodes(:), op
+    integer :: j
+    n = 0
+    do j = 1, size(nodes)
+      if (g%op(nodes(j)) == op) n = n + 1
+    end do
+  end function count_op
 
   !> Every needed node's value nv and partials to its operands d1, d2.
   pure subroutine program_forward(p, v, nv, d1, d2)
