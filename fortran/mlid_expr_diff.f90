@@ -38,9 +38,7 @@ module mlid_expr_diff
 
   !> Expressions of a graph: their roots, the nodes any of them needs
   !> (ascending: the forward sweep), and each root's own nodes, descending
-  !> (its reverse sweep): ridx(rptr(i) : rptr(i+1) - 1).  shared: the
-  !> expressions share so much that one reverse sweep over all the needed
-  !> nodes, an adjoint per expression, costs less than one sweep each.
+  !> (its reverse sweep): ridx(rptr(i) : rptr(i+1) - 1).
   type :: program_t
     type(graph_t) :: g
     integer :: nvar = 0                         !< the variables v(1:nvar) it reads
@@ -62,20 +60,7 @@ module mlid_expr_diff
     integer, allocatable :: lnode(:), lvar(:), cnode(:), tnode(:), top(:), ta(:), tb(:), &
                             tfun(:)
     real(wp), allocatable :: cval(:)
-    logical :: shared = .false.
   end type program_t
-
-  !> The cost of a node's visit in a reverse sweep (its operands' indices;
-  !> the shared sweep also dispatches on the operation) and of the shared
-  !> sweep's update of one expression's adjoint, in updates of one adjoint
-  !> of a single sweep (measured: the flight-path equations, 7 states, 113
-  !> nodes each used 1.9 times, sweep faster one expression at a time).
-  integer, parameter :: VISIT_COST = 8, LANE_COST = 2
-  !> The shared sweep's adjoints (expressions x nodes) and gradients
-  !> (expressions x variables) are fixed buffers of this size on the running
-  !> thread's stack (no allocation per point): larger programs sweep each
-  !> expression on its own.
-  integer, parameter :: SHARED_MAX = 8192
 
 contains
 
@@ -315,8 +300,6 @@ contains
     p%fwd = pack([(k, k=1, g%n)], any_need)
     call forward_lists(g, p)
     call reverse_lists(g, p)
-    p%shared = VISIT_COST*size(p%ridx) > (VISIT_COST + LANE_COST*size(roots))*size(p%fwd) .and. &
-               size(roots)*max(g%n, nvar) <= SHARED_MAX
   end function program_of
 
   !> The forward sweep's lists (program_t's lnode .. tfun) from fwd, each
@@ -476,19 +459,18 @@ contains
   !> states, say), and jp(i, k) = d expression i / d v(p0 + idx(k)) (the
   !> parameters idx; one may come twice: a tie of several terms).  One
   !> reverse sweep each expression, over its own nodes, its adjoints local
-  !> (its root the first), or one sweep for all (p%shared).
+  !> (its root the first).  (One sweep for all, an adjoint per expression,
+  !> was slower even where the expressions share most of their nodes: test
+  !> case 27's 593 against 365 M instructions a fit, a six-degree-of-freedom
+  !> fit's 974 against 695 M.)
   pure subroutine program_jacobian(p, d1, d2, x0, jx, p0, idx, jp)
     type(program_t), intent(in) :: p
     real(wp), intent(in) :: d1(MAXNODE), d2(MAXNODE)
     integer, intent(in) :: x0, p0, idx(:)
     real(wp), intent(out) :: jx(:, :), jp(:, :)
-    real(wp) :: adj(0:MAXNODE), a, gs(SHARED_MAX), g(MAXVAR)
+    real(wp) :: adj(0:MAXNODE), a, g(MAXVAR)
     integer :: i, j, k
 
-    if (p%shared) then
-      call shared_jacobian(p, d1, d2, gs, x0, jx, p0, idx, jp)
-      return
-    end if
     g(1:p%nvar) = 0.0_wp        ! an expression's gradient, back to zero after each
     do i = 1, size(p%root)
       adj(0:p%rptr(i + 1) - p%rptr(i)) = 0.0_wp     ! 0: the scratch of one-operand operations
@@ -516,56 +498,6 @@ contains
     end do
   end subroutine program_jacobian
 
-  !> program_jacobian by one sweep over all the needed nodes with an
-  !> adjoint per expression (p%shared): every gradient in gs, the caller's
-  !> buffer of SHARED_MAX taken as (expressions, variables) (program_of
-  !> chose the shared sweep only where that fits), then the columns asked
-  !> for.
-  pure subroutine shared_jacobian(p, d1, d2, gs, x0, jx, p0, idx, jp)
-    type(program_t), intent(in) :: p
-    real(wp), intent(in) :: d1(:), d2(:)
-    real(wp), intent(out) :: gs(size(p%root), p%nvar), jx(:, :), jp(:, :)
-    integer, intent(in) :: x0, p0, idx(:)
-    real(wp) :: buf(SHARED_MAX)
-    integer :: j
-    call sweep_all(p, d1, d2, gs, buf)
-    do j = 1, size(jx, 2)
-      jx(:, j) = gs(:, x0 + j)
-    end do
-    do j = 1, size(idx)
-      jp(:, j) = gs(:, p0 + idx(j))
-    end do
-  end subroutine shared_jacobian
-
-  pure subroutine sweep_all(p, d1, d2, gr, adj)
-    type(program_t), intent(in) :: p
-    real(wp), intent(in) :: d1(:), d2(:)
-    real(wp), intent(out) :: gr(:, :)
-    real(wp), intent(out) :: adj(size(p%root), p%g%n)
-    integer :: i, j, k
-
-    gr = 0.0_wp
-    associate (g => p%g)
-      do j = 1, size(p%fwd)         ! (a loop: the vector subscript would take a temporary)
-        adj(:, p%fwd(j)) = 0.0_wp
-      end do
-      do i = 1, size(p%root)
-        adj(i, p%root(i)) = 1.0_wp
-      end do
-      do j = size(p%fwd), 1, -1
-        k = p%fwd(j)
-        select case (g%op(k))
-        case (OP_NUM)
-        case (OP_VAR)
-          gr(:, g%arg(k)) = gr(:, g%arg(k)) + adj(:, k)
-        case default                  ! a zero adjoint passes nothing on (see program_jacobian)
-          adj(:, g%c1(k)) = adj(:, g%c1(k)) + merge(adj(:, k)*d1(k), 0.0_wp, adj(:, k) /= 0.0_wp)
-          if (g%c2(k) > 0) adj(:, g%c2(k)) = adj(:, g%c2(k)) + &
-                                            merge(adj(:, k)*d2(k), 0.0_wp, adj(:, k) /= 0.0_wp)
-        end select
-      end do
-    end associate
-  end subroutine sweep_all
 
   !> The values of the program's expressions at v.
   pure subroutine program_values(p, v, val)

@@ -33,10 +33,9 @@ def test_jacobians_exact_for_every_operation(x):
 
 @pytest.mark.parametrize("x", [[0.2, -0.35, 0.1], [-0.4, 0.55, -0.3]])
 def test_jacobians_exact_where_the_equations_share_most_of_their_nodes(x):
-    """Three state equations built on one large definition: the cost rule
-    (fortran/mlid_expr_diff.f90, program_of) takes one reverse sweep with an
-    adjoint per equation instead of one sweep each; its partials against
-    central differences as above."""
+    """Three state equations built on one large definition, each swept on
+    its own over the nodes it shares (fortran/mlid_expr_diff.f90): its
+    partials against central differences as above."""
     m = mlid.EquationModel(
         definitions={"s": "a*x1 + b*x2 + sin(x1)*cos(x2) + exp(-x1*x2) + (x1 + a)^2*(x2 - b) "
                           "+ tanh(a*x2 + b*x1) + sqrt(2 + x1*x2) + atan2(x2, 2 + x1)"},

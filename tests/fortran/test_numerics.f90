@@ -56,7 +56,7 @@ program test_numerics
   use mlid_kinds, only: wp, MLID_OK
   use mlid_models, only: model_t, model_layout, layout_t
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_EQUATIONS
-  use mlid_equations, only: equations_t, equations_text_codes
+  use mlid_equations, only: equations_text_codes
   use mlid_params, only: param_map_t, param_map_create, no_ties
   use mlid_jacobian_check, only: check_jacobians
   use mlid_options, only: options_t
@@ -80,7 +80,6 @@ program test_numerics
   call test_split_evaluation()
   call test_folded_manoeuvres()
   call test_infinite_partial_unused()
-  call test_shared_sweep()
   call test_linalg()
   call test_random()
   call test_small_product()
@@ -603,7 +602,7 @@ contains
   !> A term whose factor is zero passes nothing to the rest of its
   !> expression, even where its own partial is infinite: k*sqrt(x) at k = 0,
   !> x = 0 has df/dx = 0 (not 0*Inf = NaN); likewise e*sqrt(k) shared by
-  !> three outputs (whichever sweep the cost rule picks).
+  !> three outputs.
   subroutine test_infinite_partial_unused()
     character(len=*), parameter :: one = 'u e'//new_line('a')//'p k'//new_line('a')// &
       'x x1 = k*sqrt(x1) + e'//new_line('a')//'y y1 = x1'
@@ -623,41 +622,6 @@ contains
     call m%eval(0.0_wp, none, [0.0_wp], [0.0_wp], [1], c=c, d=d)
     call check(all(d(:, 1) == 0.0_wp), 'e*sqrt(k) at e = 0, k = 0 in three outputs: dh/dk = 0')
   end subroutine test_infinite_partial_unused
-
-  !> Three state equations on one large definition: program_of's cost rule
-  !> takes the shared reverse sweep (one sweep, an adjoint per equation),
-  !> whose Jacobians are the per-equation sweeps' (the same sums in the
-  !> same order).
-  subroutine test_shared_sweep()
-    character(len=*), parameter :: nl = new_line('a')
-    character(len=*), parameter :: text = 'u u1'//nl//'p a'//nl//'p b'//nl// &
-      'l s = a*x1 + b*x2 + sin(x1)*cos(x2) + exp(-x1*x2) + (x1 + a)^2*(x2 - b) '// &
-      '+ tanh(a*x2 + b*x1) + sqrt(2 + x1*x2)'//nl//'x x1 = -s + u1'//nl// &
-      'x x2 = a*s - x2'//nl//'x x3 = b*s + x1*x3'//nl//'y y1 = x1'//nl//'y y2 = x2'
-    class(model_t), allocatable :: m
-    type(equations_t) :: e
-    real(wp) :: x(3), p(2), xd(3, 2), a(3, 3, 2), b(3, 2, 2)
-    integer :: status
-    character(len=256) :: msg
-    call model_create(MODEL_EQUATIONS, 3, 1, 2, 0, equations_text_codes(text), [real(wp) ::], m, &
-                      status, msg)
-    call check(status == 0, 'the shared-sweep model: '//trim(msg))
-    if (status /= 0) return
-    x = [0.2_wp, -0.35_wp, 0.1_wp]
-    p = [0.7_wp, 1.3_wp]
-    select type (m)
-    type is (equations_t)
-      call check(m%fprog%shared, 'three equations on one large definition: the shared sweep')
-      e = m
-      e%fprog%shared = .false.
-      call m%eval(0.0_wp, x, [0.8_wp], p, [1, 2], xdot=xd(:, 1), a=a(:, :, 1), b=b(:, :, 1))
-      call e%eval(0.0_wp, x, [0.8_wp], p, [1, 2], xdot=xd(:, 2), a=a(:, :, 2), b=b(:, :, 2))
-      call check(all(xd(:, 1) == xd(:, 2)) .and. all(a(:, :, 1) == a(:, :, 2)) .and. &
-                 all(b(:, :, 1) == b(:, :, 2)), 'the shared sweep: each sweep''s Jacobians')
-    class default
-      call check(.false., 'the shared-sweep model is an equations model')
-    end select
-  end subroutine test_shared_sweep
 
   !> The largest difference, relative to the column's size (at least 1),
   !> between the output sensitivities dy of the free entries ifree and
