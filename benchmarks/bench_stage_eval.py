@@ -529,8 +529,14 @@ products 137 M (product_columns at four instructions a multiply-add for
 variable-to-adjoint map (+20 M: the gather's two-level indexing), the
 reverse lists as one array of records (+4 M), the sweep loop in a helper
 at explicit shapes (-8 M, 1 %, for a routine of nineteen arguments), two
-columns a pass in product_7x7 (-7 M).  Every case deck's results are
-unchanged to the bit (compare_cases: 40 of 40 bitwise).
+columns a pass in product_7x7 (-7 M).  Then the shared reverse sweep (one
+sweep, an adjoint per expression, which program_of's cost rule chose where
+the expressions share most of their nodes) removed: with the lean
+per-expression sweeps it lost on every model that took it, test case 27
+593 -> 364 M and the six-degree-of-freedom fit of
+cases/attas_lateral/sixdof_vs_linear.py 974 -> 695 M instructions (callgrind,
+one fit each); the flight-path decks never took it.  Every case deck's
+results are unchanged to the bit (compare_cases: 40 of 40 bitwise).
 """
 
 import argparse
