@@ -461,7 +461,7 @@ contains
   !> reverse sweep each expression, over its own nodes, its adjoints local
   !> (its root the first).  (One sweep for all, an adjoint per expression,
   !> was slower even where the expressions share most of their nodes: test
-  !> case 27's 593 against 365 M instructions a fit, a six-degree-of-freedom
+  !> case 27's 593 against 364 M instructions a fit, a six-degree-of-freedom
   !> fit's 974 against 695 M.)
   pure subroutine program_jacobian(p, d1, d2, x0, jx, p0, idx, jp)
     type(program_t), intent(in) :: p
