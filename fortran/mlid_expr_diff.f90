@@ -36,27 +36,29 @@ module mlid_expr_diff
     real(wp), allocatable :: num(:)
   end type graph_t
 
-  !> Expressions of a graph: their roots, the nodes any of them needs
-  !> (ascending: the forward sweep), and each root's own nodes, descending
-  !> (its reverse sweep): ridx(rptr(i) : rptr(i+1) - 1).
+  !> Expressions of a graph at their roots, as the lists of a forward sweep
+  !> over the nodes any of them needs and of a reverse sweep over each one's
+  !> own nodes (program_of builds them from the graph).
   type :: program_t
     type(graph_t) :: g
     integer :: nvar = 0                         !< the variables v(1:nvar) it reads
-    integer, allocatable :: root(:), fwd(:), rptr(:), ridx(:)
+    integer, allocatable :: root(:)
     !> Each expression's reverse sweep as two lists: its operations,
     !> descending, onode(optr(i) : optr(i+1) - 1), and its variables, their
     !> numbers varg and adjoints vloc (vptr likewise): no branch per node.  The
-    !> adjoints are the expression's own, numbered by the place of their
-    !> node in its ridx list (its root first): the operation's oloc, its
-    !> operands' oc1, oc2 (0: none, a scratch adjoint), the variable's vloc;
-    !> so a sweep clears one short run of them, not scattered entries.
+    !> adjoints are the expression's own, nloc(i) of them, numbered by their
+    !> node's place among its nodes, descending (its root first): the
+    !> operation's oloc, its operands' oc1, oc2 (0: none, a scratch adjoint),
+    !> the variable's vloc; so a sweep clears one short run of them, not
+    !> scattered entries.
+    integer, allocatable :: nloc(:)
     integer, allocatable :: optr(:), onode(:), oloc(:), oc1(:), oc2(:), vptr(:), vloc(:), &
                             varg(:)
     !> The forward sweep in arrays of their own, read at unit stride with no
     !> descriptor between: its leaves first, the variables' nodes lnode
     !> (variable lvar) and the numbers' cnode (value cval), which depend on
-    !> nothing; then its tape, the other needed nodes tnode in fwd's order
-    !> with their operation, operands ta, tb and function tfun (OP_FUN).
+    !> nothing; then its tape, the other needed nodes tnode, ascending, with
+    !> their operation, operands ta, tb and function tfun (OP_FUN).
     integer, allocatable :: lnode(:), lvar(:), cnode(:), tnode(:), top(:), ta(:), tb(:), &
                             tfun(:)
     real(wp), allocatable :: cval(:)
@@ -264,11 +266,7 @@ contains
   pure logical function program_reads(p, v)
     type(program_t), intent(in) :: p
     integer, intent(in) :: v
-    integer :: j
-    program_reads = .false.
-    do j = 1, size(p%fwd)
-      if (p%g%op(p%fwd(j)) == OP_VAR .and. p%g%arg(p%fwd(j)) == v) program_reads = .true.
-    end do
+    program_reads = any(p%lvar == v)
   end function program_reads
 
   !> The program of the graph's expressions at the nodes roots, over nvar
@@ -278,13 +276,15 @@ contains
     integer, intent(in) :: roots(:), nvar
     type(program_t) :: p
     logical :: need(g%n), any_need(g%n)
+    integer, allocatable :: ridx(:), rptr(:)
     integer :: i, k
     p%g = g
     p%nvar = nvar
     p%root = roots
-    allocate (p%rptr(size(roots) + 1), p%ridx(0))
+    ! each root's nodes, descending: ridx(rptr(i) : rptr(i+1) - 1)
+    allocate (rptr(size(roots) + 1), ridx(0))
     any_need = .false.
-    p%rptr(1) = 1
+    rptr(1) = 1
     do i = 1, size(roots)
       need = .false.
       need(roots(i)) = .true.
@@ -293,32 +293,32 @@ contains
         if (g%c1(k) > 0) need(g%c1(k)) = .true.
         if (g%c2(k) > 0) need(g%c2(k)) = .true.
       end do
-      p%ridx = [p%ridx, pack([(k, k=g%n, 1, -1)], need(g%n:1:-1))]
-      p%rptr(i + 1) = size(p%ridx) + 1
+      ridx = [ridx, pack([(k, k=g%n, 1, -1)], need(g%n:1:-1))]
+      rptr(i + 1) = size(ridx) + 1
       any_need = any_need .or. need
     end do
-    p%fwd = pack([(k, k=1, g%n)], any_need)
-    call forward_lists(g, p)
-    call reverse_lists(g, p)
+    call forward_lists(g, pack([(k, k=1, g%n)], any_need), p)
+    call reverse_lists(g, ridx, rptr, p)
   end function program_of
 
-  !> The forward sweep's lists (program_t's lnode .. tfun) from fwd, each
-  !> array allocated once (this runs for every manoeuvre's folded model at
-  !> every evaluation).
-  pure subroutine forward_lists(g, p)
+  !> The forward sweep's lists (program_t's lnode .. tfun) from the needed
+  !> nodes fwd, ascending, each array allocated once (this runs for every
+  !> manoeuvre's folded model at every evaluation).
+  pure subroutine forward_lists(g, fwd, p)
     type(graph_t), intent(in) :: g
+    integer, intent(in) :: fwd(:)
     type(program_t), intent(inout) :: p
     integer :: nl, nc, nt, j, k
-    nl = count_op(g, p%fwd, OP_VAR)
-    nc = count_op(g, p%fwd, OP_NUM)
-    nt = size(p%fwd) - nl - nc
+    nl = count_op(g, fwd, OP_VAR)
+    nc = count_op(g, fwd, OP_NUM)
+    nt = size(fwd) - nl - nc
     allocate (p%lnode(nl), p%lvar(nl), p%cnode(nc), p%cval(nc), p%tnode(nt), p%top(nt), &
               p%ta(nt), p%tb(nt), p%tfun(nt))
     nl = 0
     nc = 0
     nt = 0
-    do j = 1, size(p%fwd)
-      k = p%fwd(j)
+    do j = 1, size(fwd)
+      k = fwd(j)
       select case (g%op(k))
       case (OP_VAR)
         nl = nl + 1
@@ -339,28 +339,30 @@ contains
     end do
   end subroutine forward_lists
 
-  !> Each expression's reverse lists (program_t's optr .. varg) from its
-  !> ridx list, each array allocated once: its adjoints numbered by their
-  !> node's place in the list (loc).
-  pure subroutine reverse_lists(g, p)
+  !> Each expression's reverse lists (program_t's nloc .. varg) from its
+  !> nodes, descending, ridx(rptr(i) : rptr(i+1) - 1), each array allocated
+  !> once: its adjoints numbered by their node's place in that list (loc).
+  pure subroutine reverse_lists(g, ridx, rptr, p)
     type(graph_t), intent(in) :: g
+    integer, intent(in) :: ridx(:), rptr(:)
     type(program_t), intent(inout) :: p
     integer :: loc(0:g%n), nvn, nop, i, j, k
-    nvn = count_op(g, p%ridx, OP_VAR)
-    nop = size(p%ridx) - nvn - count_op(g, p%ridx, OP_NUM)
+    nvn = count_op(g, ridx, OP_VAR)
+    nop = size(ridx) - nvn - count_op(g, ridx, OP_NUM)
     allocate (p%optr(size(p%root) + 1), p%vptr(size(p%root) + 1), p%onode(nop), p%oloc(nop), &
               p%oc1(nop), p%oc2(nop), p%vloc(nvn), p%varg(nvn))
+    p%nloc = rptr(2:) - rptr(:size(rptr) - 1)
     loc(0) = 0                                 ! an operand 0 (none): the scratch adjoint
     p%optr(1) = 1
     p%vptr(1) = 1
     do i = 1, size(p%root)
       nop = p%optr(i) - 1
       nvn = p%vptr(i) - 1
-      do j = p%rptr(i), p%rptr(i + 1) - 1
-        loc(p%ridx(j)) = j - p%rptr(i) + 1
+      do j = rptr(i), rptr(i + 1) - 1
+        loc(ridx(j)) = j - rptr(i) + 1
       end do
-      do j = p%rptr(i), p%rptr(i + 1) - 1
-        k = p%ridx(j)
+      do j = rptr(i), rptr(i + 1) - 1
+        k = ridx(j)
         select case (g%op(k))
         case (OP_NUM)
         case (OP_VAR)
@@ -473,7 +475,7 @@ contains
 
     g(1:p%nvar) = 0.0_wp        ! an expression's gradient, back to zero after each
     do i = 1, size(p%root)
-      adj(0:p%rptr(i + 1) - p%rptr(i)) = 0.0_wp     ! 0: the scratch of one-operand operations
+      adj(0:p%nloc(i)) = 0.0_wp      ! 0: the scratch of one-operand operations
       adj(1) = 1.0_wp
       do j = p%optr(i), p%optr(i + 1) - 1
         k = p%onode(j)
