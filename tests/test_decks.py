@@ -4,7 +4,9 @@ every bad input into one line naming deck, case and problem while the rest
 of the batch still runs."""
 
 import json
+import os
 import shutil
+import stat
 import subprocess
 
 import numpy as np
@@ -66,6 +68,12 @@ def test_python_and_batch_give_the_same_numbers(name, tmp_path):
     # one report and one JSON writer, in the core: the same bytes from both
     assert (tmp_path / "py.json").read_bytes() == (tmp_path / "fo.json").read_bytes()
     assert _without_plots(py.stdout) == fo.stdout
+    # the files as open() makes them (0666 less the umask), mlid-batch's and the plots alike:
+    # a report in a shared folder is readable by whoever the umask lets read it
+    umask = os.umask(0o022)
+    os.umask(umask)
+    made = [tmp_path / "py.json", tmp_path / "fo.json", *(tmp_path / "plots").iterdir()]
+    assert {stat.S_IMODE(p.stat().st_mode) for p in made} == {0o666 & ~umask}
     a = json.loads((tmp_path / "py.json").read_text())
     b = json.loads((tmp_path / "fo.json").read_text())
     assert [c["job"] for c in a] == [c["job"] for c in b] == ["simulate", "estimate"]

@@ -22,6 +22,7 @@ def atomic_open(path, mode="w"):
     except OSError:
         raise InputError(f"cannot write {path} {NOT_WRITABLE}") from None
     try:
+        os.fchmod(fd, _new_file_mode())        # mkstemp's 0600 is for secrets, not reports
         with os.fdopen(fd, mode) as fh:
             yield fh
             fh.flush()
@@ -30,6 +31,19 @@ def atomic_open(path, mode="w"):
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _new_file_mode():
+    """The mode open() gives a new file, 0666 less the umask: what
+    mlid-batch's files get.  The umask is read from /proc (asking os.umask
+    means setting it, which other threads would see), else asked."""
+    try:
+        with open("/proc/self/status") as fh:
+            umask = next(int(line.split()[1], 8) for line in fh if line.startswith("Umask:"))
+    except (OSError, StopIteration, ValueError, IndexError):
+        umask = os.umask(0o022)
+        os.umask(umask)
+    return 0o666 & ~umask
 
 
 def atomic_write_text(path, text):
