@@ -262,8 +262,8 @@ contains
       write (buf, '(1x,i0)') holdout(k)
       text = text//trim(buf)
     end do
-    text = text//' (initial state and output biases fitted there, every other parameter '// &
-           'held at its estimate)'//NL
+    text = text//' (refitted there: only the initial state and output biases the '// &
+           'identification fitted; every other parameter held at its estimate)'//NL
     write (buf, '(1x,a16,a12,a14,a12)') 'output          ', 'Theil U', 'rms error', 'rms/sigma'
     text = text//trim(buf)//NL
     do k = 1, size(names)

@@ -1,6 +1,6 @@
 !> How well an identified model predicts a record it was not fitted to
-!> (its initial state and output biases fitted there, every other
-!> parameter held): per output Theil's inequality coefficient
+!> (the initial state and output biases the identification fitted are
+!> refitted there, every other parameter held): per output Theil's inequality coefficient
 !>   U = rms(y - yhat) / (rms(y) + rms(yhat))
 !> (0 a perfect prediction, 1 none at all), the rms prediction error and
 !> its ratio to the identification's residual sigma sqrt(R_ii) (near 1: the

@@ -198,7 +198,7 @@ def validation_html(v):
                      _num(v.rms_over_sigma[i], 3)])
     held = ", ".join(str(k) for k in v.holdout)
     return (f"<p>held-out file{'s' * (len(v.holdout) > 1)} {_e(held)}, predicted by the "
-            "identified model (own initial state and biases fitted)</p>"
+            "identified model (refitted there: only the initial state and output biases it fitted)</p>"
             + _table(["output", "Theil U", "rms error", "unit", "rms / σ"], rows))
 
 
