@@ -2,6 +2,7 @@
 !> folder, renamed onto the path when complete (a crash or a full disk
 !> leaves the old file or none, never half of one).
 module mlid_files
+  use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
   implicit none
   private
@@ -9,28 +10,46 @@ module mlid_files
 
 contains
 
-  !> A temporary name beside path, and a check that it can be written there.
-  subroutine temporary_for(path, tmp, status, msg)
+  !> A temporary name beside path, and a check that it can be written there
+  !> (what: the option that names it, for the message).
+  subroutine temporary_for(path, tmp, status, msg, what)
     character(len=*), intent(in) :: path
     character(len=:), allocatable, intent(out) :: tmp
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    character(len=*), intent(in), optional :: what
     character(len=16) :: pid
     integer :: unit, slash
+    logical :: folder
 
+    inquire (file=path//'/.', exist=folder)
+    if (folder) then
+      status = MLID_ERR_INPUT
+      msg = 'cannot write '//named(path, what)//' (a folder of that name)'
+      return
+    end if
     write (pid, '(i0)') getpid()
     slash = index(path, '/', back=.true.)
     tmp = path(1:slash)//'.'//path(slash + 1:)//'.tmp-'//trim(pid)
     open (newunit=unit, file=tmp, status='replace', action='write', iostat=status)
     if (status /= 0) then
       status = MLID_ERR_INPUT
-      msg = 'cannot write '//path//' (its folder is missing or not writable)'
+      msg = 'cannot write '//named(path, what)//' (its folder is missing or not writable)'
       return
     end if
     close (unit, status='delete')
     status = MLID_OK
     msg = ''
   end subroutine temporary_for
+
+  !> path, after the option that names it if any.
+  function named(path, what) result(text)
+    character(len=*), intent(in) :: path
+    character(len=*), intent(in), optional :: what
+    character(len=:), allocatable :: text
+    text = path
+    if (present(what)) text = what//' '//path
+  end function named
 
   !> Write text to tmp and rename it onto path; on failure nothing is left
   !> behind (tmp deleted, path as it was).
@@ -39,6 +58,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer :: unit, ios
+    integer(int64) :: nbytes
     open (newunit=unit, file=tmp, status='replace', action='write', access='stream', &
           form='unformatted', iostat=status)
     if (status /= 0) then
@@ -49,11 +69,21 @@ contains
     write (unit, iostat=status) text
     if (status /= 0) then
       close (unit, status='delete', iostat=ios)
+    else
+      ! the runtime buffers the text and says nothing when writing it out at
+      ! the close fails (a full disk, a file size limit): the size tells
+      close (unit, iostat=status)
+      if (status == 0) inquire (file=tmp, size=nbytes)
+      if (status /= 0 .or. nbytes /= len(text, int64)) then
+        status = 1
+        call delete(tmp)
+      end if
+    end if
+    if (status /= 0) then
       status = MLID_ERR_INPUT
       msg = 'cannot write '//path//' (the disk is full or the file went away)'
       return
     end if
-    close (unit)
     call commit(tmp, path, status, msg)
   end subroutine write_whole
 
@@ -62,15 +92,21 @@ contains
     character(len=*), intent(in) :: tmp, path
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    integer :: unit, ios
     call rename(tmp, path, status)
     msg = ''
     if (status /= 0) then
-      open (newunit=unit, file=tmp, status='old', iostat=ios)
-      if (ios == 0) close (unit, status='delete')
+      call delete(tmp)
       status = MLID_ERR_INPUT
       msg = 'cannot write '//path//' (a folder of that name, or no permission)'
     end if
   end subroutine commit
+
+  !> Remove the file path if it is there.
+  subroutine delete(path)
+    character(len=*), intent(in) :: path
+    integer :: unit, ios
+    open (newunit=unit, file=path, status='old', iostat=ios)
+    if (ios == 0) close (unit, status='delete', iostat=ios)
+  end subroutine delete
 
 end module mlid_files

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import mlid
-from conftest import BIN, REPO
+from conftest import BIN, REPO, run_both
 
 C8_CASE = REPO / "cases" / "c8_short_period"
 
@@ -279,3 +279,72 @@ def test_a_killed_run_leaves_the_previous_json_whole(tmp_path, who):
     leftovers = [p.name for p in tmp_path.iterdir()
                  if p.name not in ("pipe.dat", "deck.nml", "out.json", "small.dat")]
     assert all(".tmp" in name for name in leftovers), leftovers
+
+
+def test_a_file_size_limit_leaves_every_file_whole_in_both_front_ends(tmp_path):
+    """Under a file size limit (ulimit -f, which fails a write as a full disk
+    does), the record of the simulate case and the JSON cannot be written:
+    one line each, the same from both front ends; the previous files stay
+    as they were and nothing is left beside them.  (The Fortran runtime
+    reports no error when a buffered write fails at the close: this is
+    the check that the writer asks the file's size.)"""
+    import resource
+
+    deck = tmp_path / "c8.nml"
+    shutil.copy(C8_CASE / "c8.nml", deck)
+    made = subprocess.run([str(BIN / "mlid-batch"), str(deck)], capture_output=True, text=True,
+                          cwd=tmp_path)
+    assert made.returncode == 0, made.stderr
+    record = (tmp_path / "c8_doublet.dat").read_bytes()
+    assert len(record) > 20000
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (2000, 2000))
+
+    lines = []
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        (tmp_path / "out.json").write_text("old\n")
+        run = subprocess.run([str(BIN / exe), *pre, "c8.nml", "--json", "out.json"],
+                             capture_output=True, text=True, cwd=tmp_path, preexec_fn=limited)
+        assert run.returncode == 1
+        assert (tmp_path / "c8_doublet.dat").read_bytes() == record
+        assert (tmp_path / "out.json").read_text() == "old\n"
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["c8.nml", "c8_doublet.dat",
+                                                              "out.json"]
+        lines.append([line.split(": ", 1)[1] for line in run.stderr.splitlines()
+                      if line.startswith(f"{exe}: ")])
+    assert lines[0] == lines[1]
+    assert lines[0] == ["c8.nml case 1 (line 7) 'C-8 short period: simulate a doublet record': "
+                        "cannot write c8_doublet.dat (the disk is full or the file went away)",
+                        "cannot write out.json (the disk is full or the file went away)"]
+
+
+def test_several_decks_run_one_after_another_in_both_front_ends(tmp_path):
+    """mlid-batch runs every deck named (it ran the last alone), as `mlid run`
+    does: the same report and JSON; a deck that cannot be read is one line,
+    the others still run, and the closing lines count cases and decks."""
+    shutil.copy(C8_CASE / "c8.nml", tmp_path / "a.nml")
+    text = (C8_CASE / "c8.nml").read_text().replace("c8_doublet.dat", "c8_b.dat")
+    (tmp_path / "b.nml").write_text(text)
+    runs = [subprocess.run([str(BIN / exe), *pre, "a.nml", "b.nml", "none.nml", "--json",
+                            f"{exe}.json"], capture_output=True, text=True, cwd=tmp_path)
+            for exe, pre in (("mlid", ["run"]), ("mlid-batch", []))]
+    assert [r.returncode for r in runs] == [1, 1]
+    assert runs[0].stdout == runs[1].stdout
+    assert runs[0].stdout.count(" case 2: C-8 short period: output-error fit") == 2
+    assert (tmp_path / "mlid.json").read_bytes() == (tmp_path / "mlid-batch.json").read_bytes()
+    assert len(json.loads((tmp_path / "mlid.json").read_text())) == 4
+    for run, exe in zip(runs, ("mlid", "mlid-batch")):
+        assert run.stderr.splitlines() == [f"{exe}: file not found: none.nml",
+                                           "1 of 3 decks could not be read"]
+
+
+def test_json_onto_a_folder_is_refused_before_any_case_runs(tmp_path):
+    shutil.copy(C8_CASE / "c8.nml", tmp_path / "c8.nml")
+    (tmp_path / "out").mkdir()
+    for run, exe in zip(run_both(tmp_path / "c8.nml", "--json", str(tmp_path / "out")),
+                        ("mlid", "mlid-batch")):
+        assert run.returncode == 1 and run.stdout == ""
+        assert run.stderr.splitlines() == [f"{exe}: cannot write --json {tmp_path / 'out'} "
+                                           "(a folder of that name)"]
+    assert not (tmp_path / "c8_doublet.dat").exists()

@@ -1,10 +1,13 @@
-!> mlid-batch DECK [--json FILE]: run every case of a deck without Python,
-!> as the original batch program did.  A failing case prints one line
-!> naming deck, case and problem; the others still run; the exit code is 1
-!> if any case failed.  Records and the JSON file are written whole or not
-!> at all: to a temporary name in the same folder, renamed when complete.
+!> mlid-batch DECK... [--json FILE]: run every case of the decks, one deck
+!> after another, without Python, as the original batch program did.  A
+!> failing case prints one line naming deck, case and problem; the others
+!> still run; so do the other decks when one cannot be read; the exit code
+!> is 1 if any case failed or any deck could not be read.  Records and the
+!> JSON file are written whole or not at all: to a temporary name in the
+!> same folder, renamed when complete.
 program mlid_batch
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_NOCONV, fit_outcome, FIT_ESTIMATES, &
                         FIT_FAILED, FIT_NOT_RUN
   use mlid_case, only: case_t
@@ -22,69 +25,101 @@ program mlid_batch
   implicit none
   character(len=4096) :: deck, arg, json_path
   type(case_t), allocatable :: cases(:)
-  integer :: status, nfail, k, nargs
+  integer :: status, nfail, k, nargs, ndeck, nunread, ncases, d
   character(len=256) :: msg
   character(len=:), allocatable :: objects, json_tmp
+  logical, allocatable :: is_deck(:)
 
   call brief_spin()
+  call ignore_file_size_signal()
   nargs = command_argument_count()
+  allocate (is_deck(nargs), source=.false.)
   json_path = ''
-  deck = ''
   k = 1
   do while (k <= nargs)
     call get_command_argument(k, arg)
-    if (arg == '--json' .and. k < nargs) then
+    if (arg == '--json') then
+      if (k == nargs) then
+        write (0, '(a)') 'mlid-batch: --json needs a file name'
+        stop 2, quiet=.true.
+      end if
       call get_command_argument(k + 1, json_path)
       k = k + 1
     else if (arg == '-h' .or. arg == '--help') then
-      write (*, '(a)') 'usage: mlid-batch DECK [--json FILE]', &
-        '  runs every case of a namelist deck (jobs: estimate, validate, simulate, design, '// &
-        'monte_carlo) and prints the report'
+      write (*, '(a)') 'usage: mlid-batch DECK... [--json FILE]', &
+        '  runs every case of the namelist decks, one deck after another (jobs: estimate, '// &
+        'validate, simulate, design, monte_carlo), and prints the report'
       stop
     else if (arg(1:1) == '-') then
       write (0, '(a)') 'mlid-batch: unknown option '//trim(arg)
       stop 2, quiet=.true.
     else
-      deck = arg
+      is_deck(k) = .true.
     end if
     k = k + 1
   end do
-  if (len_trim(deck) == 0) then
-    write (0, '(a)') 'usage: mlid-batch DECK [--json FILE]'
+  ndeck = count(is_deck)
+  if (ndeck == 0) then
+    write (0, '(a)') 'usage: mlid-batch DECK... [--json FILE]'
     stop 2, quiet=.true.
   end if
   ! the JSON destination is tried before any case runs
   if (len_trim(json_path) > 0) then
-    call temporary_for(trim(json_path), json_tmp, status, msg)
+    call temporary_for(trim(json_path), json_tmp, status, msg, '--json')
     if (status /= MLID_OK) then
       write (0, '(a)') 'mlid-batch: '//trim(msg)
       stop 1, quiet=.true.
     end if
   end if
 
-  call deck_read(trim(deck), cases, status, msg)
-  if (status /= MLID_OK) then
-    write (0, '(a)') 'mlid-batch: '//trim(msg)
-    stop 1, quiet=.true.
-  end if
   nfail = 0
+  nunread = 0
+  ncases = 0
   objects = ''
-  do k = 1, size(cases)
-    call run_case(k, cases(k))
-  end do
-  if (len_trim(json_path) > 0) then
-    call write_whole(trim(json_path), json_tmp, json_list(objects, size(cases)), status, msg)
+  do d = 1, nargs
+    if (.not. is_deck(d)) cycle
+    call get_command_argument(d, deck)
+    call deck_read(trim(deck), cases, status, msg)
     if (status /= MLID_OK) then
       write (0, '(a)') 'mlid-batch: '//trim(msg)
-      nfail = nfail + 1
+      if (ndeck == 1) stop 1, quiet=.true.
+      nunread = nunread + 1
+      cycle
+    end if
+    do k = 1, size(cases)
+      call run_case(k, cases(k))
+    end do
+    ncases = ncases + size(cases)
+  end do
+  if (nfail > 0) write (0, '(i0,a,i0,a)') nfail, ' of ', ncases, ' cases failed'
+  if (nunread > 0) write (0, '(i0,a,i0,a)') nunread, ' of ', ndeck, ' decks could not be read'
+  if (len_trim(json_path) > 0) then
+    call write_whole(trim(json_path), json_tmp, json_list(objects, ncases), status, msg)
+    if (status /= MLID_OK) then
+      write (0, '(a)') 'mlid-batch: '//trim(msg)
+      stop 1, quiet=.true.
     end if
   end if
-  if (nfail > 0) then
-    write (0, '(i0,a,i0,a)') nfail, ' of ', size(cases), ' cases failed'
-    stop 1, quiet=.true.
-  end if
+  if (nfail > 0 .or. nunread > 0) stop 1, quiet=.true.
 
 contains
+
+  !> A file over the size limit (ulimit -f) is then a failed write, which the
+  !> writers report in one line and clean up after, as Python's front end
+  !> does, not a signal that kills the run (the runtime's handler prints a
+  !> backtrace).  Linux's numbers: SIGXFSZ 25, SIG_IGN 1.
+  subroutine ignore_file_size_signal()
+    interface
+      function c_signal(signum, handler) bind(c, name='signal') result(previous)
+        import :: c_int, c_intptr_t
+        integer(c_int), value :: signum
+        integer(c_intptr_t), value :: handler
+        integer(c_intptr_t) :: previous
+      end function c_signal
+    end interface
+    integer(c_intptr_t) :: previous
+    previous = c_signal(25_c_int, 1_c_intptr_t)
+  end subroutine ignore_file_size_signal
 
   !> Run case k: print its report, add its JSON object, count a failure.
   subroutine run_case(k, c)

@@ -317,8 +317,11 @@ def _run(args):
     if args.plots or args.report or args.campaign_plots:
         use_file_backend()
     warnings.simplefilter("ignore")       # the core's warnings are printed with each case
-    jobs, failed = _jobs(args)
-    workers = args.workers or (1 if len(args.deck) == 1 else (os.cpu_count() or 1))
+    jobs, unread = _jobs(args)
+    failed = 0
+    workers = args.workers
+    if workers is None:
+        workers = 1 if len(args.deck) == 1 else (os.cpu_count() or 1)
     if workers < 1:
         raise InputError(f"--workers must be >= 1, got {workers}")
     if args.report and (workers > 1 or args.scheduler):
@@ -343,8 +346,7 @@ def _run(args):
         failed += bad
         cases.refresh()
     cases.close()
-    if failed:
-        print(f"{failed} of {len(objects)} cases failed", file=sys.stderr)
+    _say_failures(failed, len(objects), unread, len(campaign.decks(args.deck)))
     writes = []
     if args.json:
         writes.append((f"--json {args.json}", atomic_write_text, args.json, json_list(objects)))
@@ -365,7 +367,15 @@ def _run(args):
             print(f" report: {path}")
     if args.campaign_plots:
         failed += _campaign_plots(campaign.Campaign(rows), args)
-    return 1 if failed else 0
+    return 1 if failed or unread else 0
+
+
+def _say_failures(failed, ncases, unread, ndecks):
+    """The closing lines of a run that did not all go well (mlid-batch's)."""
+    if failed:
+        print(f"{failed} of {ncases} cases failed", file=sys.stderr)
+    if unread:
+        print(f"{unread} of {ndecks} decks could not be read", file=sys.stderr)
 
 
 def _campaign_plots(table, args):

@@ -9,7 +9,11 @@ from pathlib import Path
 
 from .errors import InputError
 
+# the reasons a file cannot be written, in mlid-batch's words (fortran/mlid_files.f90)
 NOT_WRITABLE = "(its folder is missing or not writable)"
+A_FOLDER = "(a folder of that name)"
+FULL = "(the disk is full or the file went away)"
+NOT_RENAMED = "(a folder of that name, or no permission)"
 
 
 @contextlib.contextmanager
@@ -23,11 +27,17 @@ def atomic_open(path, mode="w"):
         raise InputError(f"cannot write {path} {NOT_WRITABLE}") from None
     try:
         os.fchmod(fd, _new_file_mode())        # mkstemp's 0600 is for secrets, not reports
-        with os.fdopen(fd, mode) as fh:
-            yield fh
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
+        try:                    # the close may be what fails, flushing what is left
+            with os.fdopen(fd, mode) as fh:
+                yield fh
+                fh.flush()
+                os.fsync(fh.fileno())
+        except OSError:
+            raise InputError(f"cannot write {path} {FULL}") from None
+        try:
+            os.replace(tmp, path)
+        except OSError:
+            raise InputError(f"cannot write {path} {NOT_RENAMED}") from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -59,6 +69,8 @@ def atomic_savefig(fig, path, **kw):
 
 def check_writable(path, what):
     """One clear line, before any work starts, if path cannot be written."""
+    if Path(path).is_dir():
+        raise InputError(f"cannot write {what} {path} {A_FOLDER}")
     folder = Path(path).parent
     try:
         fd, tmp = tempfile.mkstemp(dir=folder, prefix=".mlid-check.")
