@@ -348,3 +348,11 @@ def test_json_onto_a_folder_is_refused_before_any_case_runs(tmp_path):
         assert run.stderr.splitlines() == [f"{exe}: cannot write --json {tmp_path / 'out'} "
                                            "(a folder of that name)"]
     assert not (tmp_path / "c8_doublet.dat").exists()
+
+
+def test_workers_zero_is_refused(tmp_path):
+    shutil.copy(C8_CASE / "c8.nml", tmp_path / "c8.nml")
+    run = subprocess.run([str(BIN / "mlid"), "run", "c8.nml", "--workers", "0"],
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode == 1 and run.stdout == ""
+    assert run.stderr.splitlines() == ["mlid: --workers must be >= 1, got 0"]
