@@ -136,7 +136,8 @@ def filter_error():
     sig = dict(zip(res.names, res.sigma))
     sigc = dict(zip(res.names, res.sigma_corrected))
     lam, lam_sigma = eigenvalues(res.model.F), eigenvalue_sigma(res)
-    print(f"eigenvalues of F {lam}; their sigma (corrected, by the delta method) {lam_sigma}")
+    print(f"eigenvalues of F {lam}; their sigma (corrected, by the delta method) {lam_sigma}; "
+          f"at the deck's start values {eigenvalues(case.model.F)}")
     refs = {d: read_reference(REFS / CASES[d]) for d in ("tc06", "tc07", "tc08")}
     for deck, ref in refs.items():
         print(f"\nagainst {ref.path.name}")
@@ -199,7 +200,7 @@ def noise_starts(case, res):
         + " | exact ML: r off its floor, warnings")
     print(f"{'':>12} {'':>21} |" + " |".join(
         f" {'it':>3} {'conv':>5} {'cost':>10} {'d':>8}" for _ in range(4)) + " | (t.-v. / steady)")
-    ends = {}
+    ends, failed = {}, []
     for qs in Q_STARTS:
         for rs in R_STARTS:
             line = (f"{qs:5.2g} {qs / 10:6.2g} {R_DECK['r(1)'] * rs:6.2g} {R_DECK['r(2)'] * rs:6.2g} "
@@ -217,6 +218,9 @@ def noise_starts(case, res):
                     key = f"{c}, {'steady gain' if steady else 'time-varying'}"
                     ends.setdefault(key, {}).setdefault(where, 0)
                     ends[key][where] += 1
+                    if not o.converged:
+                        failed.append(f"{key} from q(1) {qs:g}, r {rs:g} times the deck's: "
+                                      f"{o.iterations} iterations, cost {o.cost:.3f} ({o.reason})")
                     if c == "exact":     # the r above its floor, and what the warning says
                         off = [f"{n} {o.model.value(n):.2g}" for n, lo in FLOOR.items()
                                if o.model.value(n) > 1.001 * lo]
@@ -226,6 +230,8 @@ def noise_starts(case, res):
             print(line + " " + " / ".join(named))
     for key, where in ends.items():
         print(f"{key}: " + "; ".join(f"{w} from {n}" for w, n in where.items()))
+    for f in failed:
+        print(f"not converged: {f}")
 
 
 def floors(case, res):
