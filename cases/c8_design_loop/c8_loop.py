@@ -32,8 +32,11 @@ def main():
     print(f"  tr M / (mu E) = {design['trace_M'] / (design['mu'] * design['energy']):.6f}")
     truth = np.array(mc["truth"])
     dev = np.abs(np.array(fit["estimate"]) - truth) / np.array(fit["sigma"])
-    print(" identification from the a priori values: |estimate - truth| / sigma = "
-          + " ".join(f"{d:.2f}" for d in dev))
+    res = runs[2][2]
+    print(f" identification from the a priori values: {res.iterations} iterations; "
+          + ", ".join(f"{n} {e:.4g} +- {s:.3g}" for n, e, s in
+                      zip(res.names, res.estimate, res.sigma)))
+    print("  |estimate - truth| / sigma = " + " ".join(f"{d:.2f}" for d in dev))
     print(mc.report, end="")
     print(f"  {'':<24}{'report':>45}   mlid")
     for key in ("mean_info_trace", "sample_cov_det"):
@@ -41,6 +44,10 @@ def main():
     for key in ("sample_sigma", "mean_cr_sigma"):
         print(f"  {key:<24}" + "".join(f"{v:>9.3g}" for v in REPORT[key]) + "   "
               + " ".join(f"{v:.3g}" for v in mc[key]))
+    for key, band in (("sample_sigma", 0.2), ("mean_cr_sigma", 0.1)):
+        ratio = np.array(mc[key]) / np.array(REPORT[key])
+        print(f"  {key} mlid / report: " + " ".join(f"{v:.3f}" for v in ratio)
+              + f"; {np.sum(np.abs(ratio - 1) <= band)} of {ratio.size} within {band:.0%}")
     own = np.array(mc["sample_sigma"]) / np.array(mc["mean_cr_sigma"])
     report = np.array(REPORT["sample_sigma"]) / np.array(REPORT["mean_cr_sigma"])
     print("  sample sigma / Cramer-Rao sigma: mlid " + " ".join(f"{v:.2f}" for v in own)

@@ -58,6 +58,21 @@ def first_order_example(T=1.0):
     return out
 
 
+def process_noise_example(T, q=3.0, r=1.0):
+    """§7.5.1: x' = -x + theta u + eta (variance q, ours), y = x + noise (r):
+    the steady-state gain k moves the sensitivity pole to -(1 + k), so
+    mu = 1/(r (omega^2 + (1+k)^2)) with tan(omega T) = -omega/(1+k)."""
+    d = mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[r]], ["g(1,1)"], process_noise=[[q]])
+    a = np.sqrt(1.0 + q / r)                  # 1 + k: Sigma/r from -2 Sigma + q - Sigma^2/r = 0
+    lo, hi = np.pi / (2 * T) + 1e-12, np.pi / T
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if np.tan(mid * T) + mid / a < 0 else (lo, mid)
+    omega = 0.5 * (lo + hi)
+    closed, ours = 1.0 / (r * (omega**2 + a**2)), d.mu_max(T)
+    return q, closed, ours
+
+
 def standard_input(kind, T, n, energy=None, peak=None):
     """The standard flight-test inputs on n equal cells of [0, T], scaled to
     an energy or a peak: doublet, 3-2-1-1, multistep (a 2-1-1 pattern of
@@ -114,7 +129,7 @@ def servo_design(T, energy):
 
 
 def run(plots=None):
-    out = {"first order": first_order_example()}
+    out = {"first order": first_order_example(), "process noise": process_noise_example(1.0)}
     d = design()
     t0 = time.perf_counter()
     mu4 = d.mu_max(T_LONG)
@@ -124,8 +139,14 @@ def run(plots=None):
     out["mu(T=4) Riccati"] = d.mu_max(T_LONG, method="riccati")
     out["long"] = long
     out["short"] = d.optimal_input(T_SHORT, E_SHORT, CELLS)
+    # det M at T = 0.77 s converged in the cells, and by the transition-matrix input
+    out["short cells"] = {n: d.optimal_input(T_SHORT, E_SHORT, n).summary["det"]
+                          for n in (100, 400, 800)}
+    out["short transition"] = d.optimal_input(T_SHORT, E_SHORT, CELLS,
+                                              method="transition").summary["det"]
     out["weighted"], out["ratios"] = d.equalised(T_SHORT, E_SHORT, iterations=12)
     out["T changed"] = design(F_CHANGED).critical_length(mu4)
+    out["T changed, transition"] = design(F_CHANGED).critical_length(mu4, "transition")[0]
     # the mu-T curve (Fig. 8.1), for the model and the changed one
     Ts = np.linspace(0.5, 6.0, 23)
     out["curve"] = (Ts, [d.mu_max(T, cells=60) for T in Ts],
@@ -137,8 +158,12 @@ def run(plots=None):
         rows.append((f"{kind}, equal energy", standard_input(kind, T_LONG, 2 * CELLS, E_LONG)))
         rows.append((f"{kind}, equal peak", standard_input(kind, T_LONG, 2 * CELLS, peak=peak)))
     # the best square wave a pilot can fly: |u| <= the optimal's peak, pulses >= 0.2 s
-    rows.append(("square wave, optimal's peak, 0.2 s pulses",
-                 d.amplitude_limited(T_LONG, peak, 0.2).u))
+    square = d.amplitude_limited(T_LONG, peak, 0.2)
+    rows.append(("square wave, optimal's peak, 0.2 s pulses", square.u))
+    # the same under the equalised weights of §7.8 (eq. 7.88) for T = 4 s, E = 311
+    weights = d.equalised(T_LONG, E_LONG, iterations=12)[0].weights
+    out["square, equalised"] = (square.u, design(weights=weights).amplitude_limited(
+        T_LONG, peak, 0.2).u)
     out["table"] = [(name, u, mlid.design.summary(d.information(T_LONG, u))) for name, u in rows]
     # state limit (§7.6): scale the energy so that |alpha| reaches the limit
     t, x = states_of(long.u, T_LONG)
@@ -290,11 +315,18 @@ def main(argv=None):
     print(" First-order example (§7.4.1), T = 1, r = 1")
     for k, v in fo.items():
         print(f"  {k:<28} {v:.7f}")
+    q, closed, ours = out["process noise"]
+    print(f"  with process noise q = {q:g} (§7.5.1): mu {ours:.7f}, closed form {closed:.7f}, "
+          f"relative difference {abs(ours / closed - 1):.1e}")
     print("\n C-8 two-state (§8.1); verdict against the report (README: the rule)")
     print(f"  {'quantity':<46}{'report':>32}{'recomputed':>37}{'mlid':>44}  verdict")
     for q, rep, rec, ours, v in report_rows(out):
         print(f"  {q:<46}{rep:>32}{rec:>37}{ours:>44}  {v}")
     print(f"  design time (mu and the T = 4 s input): {1e3 * out['design seconds']:.0f} ms")
+    det = out["short"].summary["det"]
+    print(f"  T = 0.77 s: det M relative to {CELLS} cells: " + ", ".join(
+        f"{n} cells {v / det - 1:+.1e}" for n, v in out["short cells"].items())
+          + f"; the transition-matrix input {out['short transition'] / det - 1:+.1e}")
     print(f"\n Inputs on T = {T_LONG:g} s (energy of the optimal input {E_LONG:g})")
     print(f"  {'input':<44}{'energy':>9}{'peak':>8}{'tr M':>11}{'det M':>11}{'trM trM^-1':>12}"
           f"{'max sigma/opt':>14}")
@@ -312,6 +344,14 @@ def main(argv=None):
           f"{dbl['trace']:.4g}, det {dbl['det']:.3e}")
     print(f" Gusts (§7.5, Gamma Q Gamma' = 0.5 I): mu_max(T = 4) falls from "
           f"{out['mu(T=4)']:.2f} to {out['gusts']:.2f}")
+    print(f" F changed ~10%: T for the same mu, Riccati {out['T changed']:.7f}, transition "
+          f"{out['T changed, transition']:.7f} (differ by "
+          f"{abs(out['T changed'] / out['T changed, transition'] - 1):.1e} relative)")
+    plain, weighted = out["square, equalised"]
+    steps = lambda u: "a single step" if np.all(u == u[0]) else "several pulses"   # noqa: E731
+    print(f" Amplitude-limited square wave, T = {T_LONG:g} s: unit weights {steps(plain)}, "
+          f"equalised weights (§7.8) {steps(weighted)}; the same cells: "
+          f"{'yes' if np.array_equal(plain, weighted) else 'no'}")
     for path in out.get("plots", []):
         print(f" plot: {path}")
     return 0

@@ -49,6 +49,28 @@ def with_reference_channels(case):
     return mlid.fit(case.model, records, **case.options())
 
 
+def largest_differences(rows):
+    """The largest |estimate - reference| / reference sigma over every free
+    parameter, and over the corrections alone (initial states left out)."""
+    def worst(keep):
+        z = {r[0]: abs(r[4]) for r in rows if keep(r[0])}
+        name = max(z, key=z.get)
+        return f"{z[name]:.4f} sigma ({name})"
+    line = f"largest |difference|, all {len(rows)} parameters: {worst(lambda n: True)}"
+    if any(r[0].startswith("x0") for r in rows):
+        line += f"; the corrections alone: {worst(lambda n: not n.startswith('x0'))}"
+    return line
+
+
+def colored_factors(res):
+    """sigma col. / Cramer-Rao sigma of each correction (initial states left
+    out): how optimistic the Cramer-Rao sigma is on coloured residuals."""
+    f = {n: sc / s for n, s, sc in zip(res.names, res.sigma, res.sigma_corrected)
+         if not n.startswith("x0")}
+    return ("sigma col. / sigma of the corrections: " + " ".join(f"{n} {v:.1f}" for n, v in f.items())
+            + f"; {min(f.values()):.1f} to {max(f.values()):.1f}")
+
+
 def refit_of_corrected(case, res):
     """The records with the estimated corrections undone, fitted again:
     how far from neutral each correction then stands."""
@@ -73,14 +95,21 @@ def main():
         ref = read_reference(DATA / "refs" / ref_name)
         print(f"\n{case.title}: {res.iterations} iterations, converged={res.converged}")
         # each manoeuvre's initial state: x0_u#2 here, x0_u_s2 there
-        print("\n".join(compare(res, ref, {n: n.replace("#", "_s") for n in res.names})["lines"]))
+        cmp = compare(res, ref, {n: n.replace("#", "_s") for n in res.names})
+        print("\n".join(cmp["lines"]))
+        print(largest_differences(cmp["rows"]))
         print(f"diag R relative differences up to "
               f"{np.max(np.abs(np.diag(res.rhat) / ref.diag_r - 1)):.1e}")
         if deck == "tc22.nml":
-            exact = compare(with_reference_channels(case), ref)["lines"][-1]
-            print(f"with the reference's angular accelerations: {exact}")
+            exact = compare(with_reference_channels(case), ref)
+            print(f"with the reference's angular accelerations: {exact['lines'][-1]}; "
+                  + largest_differences(exact["rows"]))
         print("\n".join(compatibility.significance(res)["lines"]))
+        print(colored_factors(res))
         if deck == "tc33.nml":
+            print("time delays: " + ", ".join(
+                f"{n} {1e3 * v:.2f} ms (sigma {1e3 * sd:.1f} ms)"
+                for n, v, sd in zip(res.names, res.estimate, res.sigma) if n.startswith("tau")))
             print(f"the corrected records refitted: {refit_of_corrected(case, res)}")
         print(f"fit {1e3 * res.wall_time:.0f} ms in-process against the reference's {ref.seconds:.1f} s "
               f"(benchmarks/bench_references.py times it side by side)")

@@ -65,6 +65,11 @@ def main(out_dir):
           f"det R {res.det_r:.6e} against {ref_det:.4e} "
           f"(relative {abs(res.det_r / ref_det - 1):.1e})")
 
+    # V's measurement-noise variance: R-hat of output error, the estimate r(1) of filter error
+    r1_oe, r1_fe = res.rhat[0, 0], results[3].estimate[results[3].names.index("r(1)")]
+    print(f"r(1), V: output error (case 1) {r1_oe:.3g}, filter error (case 3) {r1_fe:.3g}: "
+          f"{r1_oe / r1_fe:.0f} times smaller; -J rises by {results[1].cost - results[3].cost:.1f}")
+
     compare_gains(results[3], results[4])
 
     for index in (1, 3):

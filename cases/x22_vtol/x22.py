@@ -63,6 +63,10 @@ SCAN = (0.5, 0.7)   # the multistep's amplitude either side of ours, to show wha
 RADIAN_MULTISTEP = 0.1   # the case's former multistep, read in radians
 SEED = 3            # ours
 FREE = [f"p({k})" for k in range(1, 24)]
+# The values the equation-error start-up begins from (ours): zeros.  The
+# start-up is a linear least-squares problem and needs no prior values; the
+# start enters only through its first weights (the residuals there).
+START_UP = np.zeros(len(TABLE_5_1))
 RECORDS = [("step", "low"), ("multistep", "low"), ("step", "moderate"),
            ("multistep", "moderate")]
 
@@ -97,12 +101,15 @@ def record(kind, level, seed=SEED, timing="forward", amplitude=None, truth=TRUTH
 
 
 def identify(data, level, partials=True, startup="equation_error", start=None):
-    """Filter error from the equation-error start-up, or from the values
-    `start` (startup='none'; the tests also start at the truth).  The raw
-    polynomial coefficients are nearly collinear: rcond is lowered so that
-    no direction is dropped, and the halvings raised.  A fit that stops
+    """Filter error from the equation-error start-up (begun at START_UP
+    unless `start` is given), or from the values `start` (startup='none',
+    which needs them; the tests also start at the truth, as a check).  The
+    raw polynomial coefficients are nearly collinear: rcond is lowered so
+    that no direction is dropped, and the halvings raised.  A fit that stops
     short is returned with converged False, not raised."""
-    begin = model(TRUTH if start is None else start, level)
+    if start is None and startup == "none":
+        raise ValueError("identify: startup='none' needs the start values")
+    begin = model(START_UP if start is None else start, level)
     t0 = time.perf_counter()
     try:
         res = mlid.fit(begin, data, method="filter_error", startup=startup, partials=partials,
@@ -214,6 +221,16 @@ def _ratios(ours, report):
     return np.array([o / r if r else np.nan for o, r in zip(ours, report)])
 
 
+def verdict(ratio):
+    """Table 5.1's rule (README): a sigma ratio within a factor 1.5 either
+    way 'agrees', within 2 'close', else 'differs' by the factor; a dash where
+    the report lost the cell."""
+    if ratio is None or np.isnan(ratio):
+        return "—"
+    f = max(ratio, 1 / ratio)
+    return "agrees" if f <= 1.5 else "close" if f <= 2 else f"differs {f:.1f}×"
+
+
 def _summary(r):
     r = r[~np.isnan(r)]
     return (f"{r.size} cells: median {np.median(r):.2f}, range {r.min():.2f} to {r.max():.2f}, "
@@ -238,15 +255,17 @@ def print_sigmas(fits):
     em = multi.estimate * REPORT_UNITS
     print(" Table 5.1 against mlid, low noise, report units: truth; column 3 (multistep) estimate "
           "(sigma); mlid multistep estimate (sigma); sigma ratio mlid/report; column 1 (single "
-          "step) sigma; mlid single step sigma; ratio")
+          "step) sigma; mlid single step sigma; ratio; verdicts (multistep, single step)")
     for k, lab in enumerate(X22_LABELS):
         c3 = (f"{ESTIMATE_COL3[k]:10.4g} ({SIGMA_COL3[k]:9.3g})" if SIGMA_COL3[k]
               else f"{'lost':>22}")
         r3 = f"{sm[k] / SIGMA_COL3[k]:6.2f}" if SIGMA_COL3[k] else f"{'':>6}"
         c1 = f"{SIGMA_COL1[k]:9.4g}" if SIGMA_COL1[k] else f"{'lost':>9}"
-        r1 = f"{ss[k] / SIGMA_COL1[k]:6.2f}" if SIGMA_COL1[k] else ""
+        r1 = f"{ss[k] / SIGMA_COL1[k]:6.2f}" if SIGMA_COL1[k] else f"{'':>6}"
+        v3 = verdict(sm[k] / SIGMA_COL3[k] if SIGMA_COL3[k] else None)
+        v1 = verdict(ss[k] / SIGMA_COL1[k] if SIGMA_COL1[k] else None)
         print(f" {lab:<7}{TABLE_5_1[k]:10.4g}{c3}{em[k]:10.4g} ({sm[k]:9.3g}){r3}"
-              f"{c1}{ss[k]:10.4g}{r1}")
+              f"{c1}{ss[k]:10.4g}{r1}  {v3}, {v1}")
     print(f" multistep sigma / column 3: {_summary(_ratios(sm, SIGMA_COL3))}")
     print(f" single step sigma / column 1: {_summary(_ratios(ss, SIGMA_COL1))}")
     zr = [(e - t) / s for e, t, s in zip(ESTIMATE_COL3, TABLE_5_1, SIGMA_COL3) if s and e]
