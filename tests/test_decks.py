@@ -356,3 +356,17 @@ def test_workers_zero_is_refused(tmp_path):
                          capture_output=True, text=True, cwd=tmp_path)
     assert run.returncode == 1 and run.stdout == ""
     assert run.stderr.splitlines() == ["mlid: --workers must be >= 1, got 0"]
+
+
+def test_against_truth_reads_the_simulating_case_at_the_free_elements(tmp_path):
+    """FitResult.against_truth: the simulate case's values at the estimate
+    case's free elements (f(3,3) ... g(4,1), in the fit's order), and
+    (estimate - truth)/sigma from them."""
+    shutil.copy(C8_CASE / "c8.nml", tmp_path / "c8.nml")
+    (sim_case, _, _, e1), (fit_case, _, res, e2) = mlid.run_deck(tmp_path / "c8.nml")
+    assert e1 is None and e2 is None
+    values, z = res.against_truth(sim_case.model)
+    f, g = np.asarray(sim_case.model.F), np.asarray(sim_case.model.G)
+    np.testing.assert_array_equal(values, [f[2, 2], f[2, 3], f[3, 3], g[2, 0], g[3, 0]])
+    np.testing.assert_array_equal(z, (res.estimate - values) / res.sigma)
+    assert np.all(np.abs(z) < 3)          # the fit is within 3 Cramer-Rao sigma of the truth

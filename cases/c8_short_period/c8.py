@@ -56,10 +56,7 @@ def main(argv=None):
         print(f"c8: {failed}", file=sys.stderr)
         return 1
     (simulate, sim, _, _), (estimate, _, res, _) = runs
-    # the truth: case 1's model (report §8.2.1) at each unknown of case 2
-    free = [n for n, f in zip(estimate.model.element_names(), estimate.model.free_mask) if f]
-    truth = np.array([simulate.model.value(n) for n in free])
-    z = (res.estimate - truth) / res.sigma
+    truth, z = res.against_truth(simulate.model)     # case 1's model: report §8.2.1
     print(f"{estimate.title}: {res.iterations} iterations, converged={res.converged}")
     print(f"{'parameter':<10}{'truth (§8.2.1)':>16}{'start (deck)':>14}{'estimate':>11}"
           f"{'sigma (CR)':>12}{'(est - truth)/sigma':>21}{'start: sigma away':>19}")

@@ -28,10 +28,7 @@ def main():
         print(f"user_model: {failed}", file=sys.stderr)
         return 1
     (simulate, _, _, _), (estimate, _, res, _) = runs
-    # the truth: case 1's model at each parameter case 2 frees (ours, the deck)
-    free = [n for n, f in zip(estimate.model.element_names(), estimate.model.free_mask) if f]
-    truth = np.array([simulate.model.value(n) for n in free])
-    z = (res.estimate - truth) / res.sigma
+    truth, z = res.against_truth(simulate.model)     # case 1's model: the deck's values
     print(f"{estimate.title}: {res.iterations} iterations, converged={res.converged}")
     print(f"{'parameter':<10}{'truth':>10}{'start':>10}{'estimate':>14}{'sigma (CR)':>14}"
           f"{'(est - truth)/sigma':>21}")

@@ -322,6 +322,28 @@ class FitResult:
         k = [i for i, ln in enumerate(lines) if ln.startswith((" R diagonal", " B diagonal"))]
         return lines[k[0] + 1:]
 
+    def against_truth(self, truth):
+        """The estimates against known true values: a simulated record's.
+
+        Parameters
+        ----------
+        truth : Model
+            A model of the fit's kind holding the true values (the model of
+            the deck case that simulated the record), read at the fit's free
+            elements.
+
+        Returns
+        -------
+        values : ndarray
+            The true value of each free parameter, in ``names``' order.
+        deviations : ndarray
+            (estimate - truth) / Cramer-Rao sigma of each.
+        """
+        start = self.start_model
+        free = [n for n, f in zip(start.element_names(), start.free_mask) if f]
+        values = np.array([truth.value(n) for n in free])
+        return values, (self.estimate - values) / self.sigma
+
     def json(self, title="", job="estimate"):
         """The JSON object of this fit as a deck case (``mlid run --json``).
 
