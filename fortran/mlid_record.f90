@@ -16,7 +16,8 @@ module mlid_record
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
   use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close
+  use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close, &
+                       control_character
   implicit none
   private
   public :: record_t, record_read, record_text, record_check_time, record_check_segments, &
@@ -86,7 +87,8 @@ contains
         header = line             ! the last line skipped may name the columns
         cycle
       end if
-      call take_line(line, nline, nrow, header, rec, cols, only_header, msg)
+      msg = control_character(line)
+      if (len_trim(msg) == 0) call take_line(line, nline, nrow, header, rec, cols, only_header, msg)
       if (len_trim(msg) > 0) then
         call text_close(tf)
         msg = 'data file '//short_path(path)//' line '//itoa(nline)//': '//trim(msg)
