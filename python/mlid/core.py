@@ -245,8 +245,9 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         The a priori weights: {name: weight} (diagonal) or an nf x nf matrix
         over the free parameters; none, no a priori term.
     bounds : dict, optional
-        {name: (lower, upper)}, either may be None; steps are limited to
-        them as in §4.6 blocks 11-12.
+        {name: (lower, upper)}, either may be None (-inf, inf: the same);
+        steps are limited to them as in §4.6 blocks 11-12.  NaN, a lower
+        bound of inf or an upper of -inf raise InputError.
     initial_states, biases : list of array_like, optional
         Start values of each manoeuvre's x0 and output bias (several
         manoeuvres only; default the model's).
