@@ -87,8 +87,7 @@ contains
         header = line             ! the last line skipped may name the columns
         cycle
       end if
-      msg = control_character(line)
-      if (len_trim(msg) == 0) call take_line(line, nline, nrow, header, rec, cols, only_header, msg)
+      call take_line(line, nline, nrow, header, rec, cols, only_header, msg)
       if (len_trim(msg) > 0) then
         call text_close(tf)
         msg = 'data file '//short_path(path)//' line '//itoa(nline)//': '//trim(msg)
@@ -123,10 +122,15 @@ contains
     logical, intent(in) :: only_header
     character(len=*), intent(out) :: msg
     integer, allocatable :: first(:), last(:)
-    integer :: hash, ncol
+    integer :: hash, ncol, n
 
-    msg = ''
     hash = index(line, '#')
+    ! a comment after the data begin may hold any bytes; values and the
+    ! lines before, which may name the columns, may not
+    n = len(line)
+    if (hash > 0 .and. rec%ncol > 0) n = hash - 1
+    msg = control_character(line(1:n))
+    if (len_trim(msg) > 0) return
     if (hash > 0) then
       if (rec%ncol == 0 .and. len_trim(line(1:hash - 1)) == 0) header = line(hash + 1:)
       call fields(line(1:hash - 1), first, last, msg)

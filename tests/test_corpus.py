@@ -95,6 +95,10 @@ def _cr_in_row_4(b):
     return b"\n".join(lines)
 
 
+def _nul_in_header(b):
+    return b"# t u\x00 y1 y2\n" + b
+
+
 def _nul_in_title(b):
     return b.replace(b"title = 'middle'", b"title = 'mid\x00dle'", 1)
 
@@ -194,6 +198,8 @@ ENTRIES = {
                                         r"character 1$", {"record": ("good.dat", _nul_in_row_4)}),
     "CR inside a row": ("record.nml", r"rec\.dat line 4: control character \\x0D at "
                                       r"character 17$", {"record": ("good.dat", _cr_in_row_4)}),
+    "NUL byte in the header": ("record.nml", r"rec\.dat line 1: control character \\x00 at "
+                                             r"character 6$", {"record": ("good.dat", _nul_in_header)}),
     "columns beyond the file": ("record_cols_beyond.nml", r"column 7 requested",
                                 {"record": "good.dat"}),
 }
