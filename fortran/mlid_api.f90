@@ -15,7 +15,7 @@
 !>   status, msg             0 and '' on success, see mlid_kinds
 module mlid_api
   use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_quiet_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, stop_reason_text, fit_outcome
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create
@@ -1369,6 +1369,7 @@ contains
     integer, intent(out) :: bad, status
     character(len=*), intent(out) :: msg
     real(wp) :: ev(pm%nf), v(pm%nf, pm%nf)
+    character(len=64) :: what
     integer :: k, ierr
 
     status = MLID_ERR_INPUT
@@ -1399,8 +1400,9 @@ contains
     if (use_bounds == 1) then
       do k = 1, pm%nf
         bad = k
-        if (.not. lower(pm%ifree(k)) <= upper(pm%ifree(k))) then
-          write (msg, '(a,i0,a)') 'free parameter ', k, ': lower bound above upper bound'
+        call bounds_check(lower(pm%ifree(k)), upper(pm%ifree(k)), what)
+        if (len_trim(what) > 0) then
+          write (msg, '(a,i0,a)') 'free parameter ', k, ': '//trim(what)
           return
         end if
         if (theta0(pm%ifree(k)) < lower(pm%ifree(k)) .or. theta0(pm%ifree(k)) > upper(pm%ifree(k))) then
@@ -1415,6 +1417,25 @@ contains
     status = MLID_OK
     msg = ''
   end subroutine extras
+
+  !> What is wrong with the bounds lower, upper of one parameter ('' when
+  !> nothing).  A bound is a number; -Inf below and +Inf above bound nothing.
+  subroutine bounds_check(lower, upper, msg)
+    real(wp), intent(in) :: lower, upper
+    character(len=*), intent(out) :: msg
+    msg = ''
+    if (ieee_is_nan(lower)) then
+      msg = 'lower bound is not a number'
+    else if (ieee_is_nan(upper)) then
+      msg = 'upper bound is not a number'
+    else if (lower > huge(lower)) then
+      msg = 'lower bound is +Inf (no value lies above it)'
+    else if (upper < -huge(upper)) then
+      msg = 'upper bound is -Inf (no value lies below it)'
+    else if (lower > upper) then
+      msg = 'lower bound above upper bound'
+    end if
+  end subroutine bounds_check
 
   !> Input design (mlid_design).  Common arguments: the linear model F(nx,nx),
   !> G(nx,nu), H(ny,nx), the noise spectral density R(ny,ny), the process

@@ -28,7 +28,7 @@ module mlid_channels
   use mlid_record, only: record_t, record_read, record_check_time, short_path, seconds, &
                          number_text, NAMELEN, UNITLEN
   use mlid_expr, only: expr_t, expr_compile, expr_eval, expr_uses, split_definition
-  use mlid_units, only: unit_to_core
+  use mlid_units, only: unit_to_core, units_of
   implicit none
   private
   public :: channels_t, channel_set_t, channels_spec, channels_join, channels_read, &
@@ -623,6 +623,8 @@ contains
       call mark(plan, i)
       if (k == 1) then
         plan%itime = i
+        call time_unit_check(plan, i, msg)
+        if (len_trim(msg) > 0) return
       else
         plan%pick(k - 1) = i
       end if
@@ -630,6 +632,21 @@ contains
     status = MLID_OK
     msg = ''
   end subroutine pick_channels
+
+  !> The time channel i's unit, if one is declared, must convert to s: a
+  !> time in kt or deg would be scaled as if it were one (message, else '').
+  subroutine time_unit_check(plan, i, msg)
+    type(plan_t), intent(in) :: plan
+    integer, intent(in) :: i
+    character(len=*), intent(out) :: msg
+    character(len=:), allocatable :: is_in
+    msg = ''
+    is_in = trim(plan%declared(i))
+    if (len(is_in) == 0) is_in = trim(plan%unit(i))
+    if (len(is_in) == 0 .or. plan%unit(i) == 's') return
+    msg = 'time channel '//label(plan, i)//' is in '//is_in//', not a unit of time ('// &
+          units_of('s')//')'
+  end subroutine time_unit_check
 
   !> The channel named name among the first n of the plan: exactly, else
   !> case-insensitively when unique; 0 and a message when there is none.

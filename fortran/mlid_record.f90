@@ -16,7 +16,8 @@ module mlid_record
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
   use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close
+  use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close, &
+                       control_character
   implicit none
   private
   public :: record_t, record_read, record_text, record_check_time, record_check_segments, &
@@ -121,10 +122,15 @@ contains
     logical, intent(in) :: only_header
     character(len=*), intent(out) :: msg
     integer, allocatable :: first(:), last(:)
-    integer :: hash, ncol
+    integer :: hash, ncol, n
 
-    msg = ''
     hash = index(line, '#')
+    ! a comment after the data begin may hold any bytes; values and the
+    ! lines before, which may name the columns, may not
+    n = len(line)
+    if (hash > 0 .and. rec%ncol > 0) n = hash - 1
+    msg = control_character(line(1:n))
+    if (len_trim(msg) > 0) return
     if (hash > 0) then
       if (rec%ncol == 0 .and. len_trim(line(1:hash - 1)) == 0) header = line(hash + 1:)
       call fields(line(1:hash - 1), first, last, msg)

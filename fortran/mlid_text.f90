@@ -6,7 +6,7 @@ module mlid_text
   implicit none
   private
   public :: to_lower, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
-            text_file_t, text_open, text_line, text_close
+            text_file_t, text_open, text_line, text_close, control_character
 
   integer, parameter :: CHUNK = 4096
   character(len=3), parameter :: BOM = char(239)//char(187)//char(191)   !< UTF-8 byte-order mark
@@ -218,7 +218,25 @@ contains
     if (ios < 0 .and. len(line) > 0) ios = 0      ! a last line without its end
   end subroutine read_line
 
-  !> All lines of a text file.
+  !> The first control character of line (TAB is blank, not one), as
+  !> '\xHH at character k' for a message: a NUL or a stray CR in a deck or
+  !> a record would be read wrong or cut messages short; '' if none.
+  function control_character(line) result(text)
+    character(len=*), intent(in) :: line
+    character(len=:), allocatable :: text
+    character(len=2) :: hex
+    integer :: k, c
+    text = ''
+    do k = 1, len(line)
+      c = iachar(line(k:k))
+      if ((c >= 32 .and. c /= 127) .or. c == 9) cycle
+      write (hex, '(z2.2)') c
+      text = 'control character \x'//hex//' at character '//itoa(k)
+      return
+    end do
+  end function control_character
+
+  !> All lines of a text file; a control character in one is refused.
   subroutine read_text(path, lines, status, msg)
     character(len=*), intent(in) :: path
     type(line_t), allocatable, intent(out) :: lines(:)
@@ -243,6 +261,13 @@ contains
       call text_line(tf, lines(n + 1)%s, ios)
       if (ios /= 0) exit
       n = n + 1
+      msg = control_character(lines(n)%s)
+      if (len_trim(msg) > 0) then
+        call text_close(tf)
+        status = MLID_ERR_INPUT
+        msg = trim(path)//' line '//itoa(n)//': '//trim(msg)
+        return
+      end if
     end do
     call text_close(tf)
     lines = lines(1:n)

@@ -7,7 +7,7 @@ module mlid_units
   use mlid_text, only: to_lower
   implicit none
   private
-  public :: unit_to_core, unit_names
+  public :: unit_to_core, unit_names, units_of
 
   real(wp), parameter :: DEG = acos(-1.0_wp)/180.0_wp, FT = 0.3048_wp, G0 = 9.80665_wp, &
                          KT = 1852.0_wp/3600.0_wp, LB = 0.45359237_wp
@@ -81,6 +81,19 @@ contains
     end do
     text = text//'- (none)'
   end function unit_names
+
+  !> The units that convert to core unit core, for messages.
+  function units_of(core) result(text)
+    character(len=*), intent(in) :: core
+    character(len=:), allocatable :: text
+    integer :: k
+    text = ''
+    do k = 1, size(UNITS)
+      if (UNITS(k)%core == core .and. len_trim(UNITS(k)%name) > 0) &
+        text = text//' '//trim(UNITS(k)%name)
+    end do
+    if (len(text) > 0) text = text(2:)
+  end function units_of
 
   !> Blanks removed; '^2', '²' and '^3', '³' written as 2 and 3.
   pure function normal(unit) result(key)

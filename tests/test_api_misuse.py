@@ -64,7 +64,7 @@ MISUSE = {
     "fit biases NaN": (lambda d: mlid.fit(_model(), [d, d], biases=[[0.0, math.nan], [0, 0]]),
                        r"biases\[0\] has a value that is not finite"),
     "fit bounds NaN": (lambda d: mlid.fit(_model(), d, bounds={"f(1,1)": (math.nan, None)}),
-                       r"bounds\['f\(1,1\)'\] must be a pair \(lower, upper\) o"),
+                       r"^'f\(1,1\)': lower bound is not a number$"),   # as the decks say
     "diagnose data None": (lambda d: mlid.diagnose(_model(), None), "data must be"),
     "diagnose alpha": (lambda d: mlid.diagnose(_model(), d, alpha=5), r"alpha must lie in \(0, 1\), got 5"),
     "evaluate model None": (lambda d: mlid.evaluate(None, d), "model must be"),

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import mlid
-from conftest import BIN, REPO
+from conftest import BIN, REPO, refused_by_both
 
 DATA = REPO.parent / "shared" / "data"
 needs_data = pytest.mark.skipif(not DATA.is_dir(), reason="real flight data not beside the checkout")
@@ -58,6 +58,34 @@ def test_units_declared_by_the_caller(tmp_path):
         mlid.FlightData.load(path, "t", ["a"], ["b"], units={"a": "furlong"})
     with pytest.raises(mlid.InputError, match="units: no channel named zz"):
         mlid.FlightData.load(path, "t", ["a"], ["b"], units={"zz": "deg"})
+
+
+def test_time_must_be_in_a_unit_of_time(tmp_path):
+    """A time declared in kt, deg or rad would be scaled as one (a fit on a
+    time axis 0.51 or 0.017 times the record's); refused the same way by
+    FlightData.load, mlid run and mlid-batch.  ms and no unit are times."""
+    path = _record(tmp_path)
+    assert np.allclose(mlid.FlightData.load(path, "t", ["a"], ["d"], columns=["t[ms]"]).t,
+                       ROWS[:, 0] * 1e-3, rtol=1e-15)
+    assert np.array_equal(mlid.FlightData.load(path, "t", ["a"], ["d"], columns=["t"]).t,
+                          ROWS[:, 0])
+    with pytest.raises(mlid.InputError, match=r"rec.dat: time channel t is in kt, not a unit "
+                                              r"of time \(s ms\)$"):
+        mlid.FlightData.load(path, "t", ["a"], ["d"], columns=["t[kt]"])
+    with pytest.raises(mlid.InputError, match="time channel t is in deg, not a unit of time"):
+        mlid.FlightData.load(_record(tmp_path, "", ROWS, "bare.dat"), 1, [2], [3],
+                             columns=["t[deg]"])
+    model = ("&case title = 'time unit', job = 'estimate' /\n"
+             "&model kind = 'linear', nx = 1, nu = 1, ny = 1, f = -1.0, g = 1.0, h = 1,\n"
+             "    free = 'f(1,1)' /\n")
+    for data, unit in (("columns = 't[kt]', 'a', 'b'", "kt"),
+                       ("columns = 't', 'a', 'b', units = 't = rad'", "rad"),
+                       ("columns = 't[deg]', 'a', 'b'", "deg")):
+        deck = tmp_path / "bad.nml"
+        deck.write_text(model + f"&data file = 'bare.dat', {data}, time_col = 't', "
+                                "input_cols = 'a', output_cols = 'b' /\n")
+        refused_by_both(deck, f"bare.dat: time channel t is in {unit}, not a unit of "
+                              "time (s ms)", cwd=tmp_path)
 
 
 def test_derived_channels(tmp_path):

@@ -83,6 +83,26 @@ def _long_comment(b):
     return b"#" + b"x" * 100_000 + b"\n" + b
 
 
+def _nul_in_row_4(b):
+    lines = b.split(b"\n")
+    lines[3] = b"\x00" + lines[3][1:]
+    return b"\n".join(lines)
+
+
+def _cr_in_row_4(b):
+    lines = b.split(b"\n")
+    lines[3] = lines[3][:16] + b"\r" + lines[3][16:]
+    return b"\n".join(lines)
+
+
+def _nul_in_header(b):
+    return b"# t u\x00 y1 y2\n" + b
+
+
+def _nul_in_title(b):
+    return b.replace(b"title = 'middle'", b"title = 'mid\x00dle'", 1)
+
+
 # ---- the table ---------------------------------------------------------------
 # name: (middle case file, expectation, extra)
 #   expectation: OK (read fine: all three cases run, same estimates as `same_as`)
@@ -173,6 +193,13 @@ ENTRIES = {
         "record.nml", OK, {"record": ("good.dat", _batch_header), "same_as": "good record"}),
     "100,000-character comment line": ("record.nml", OK, {"record": ("good.dat", _long_comment),
                                                           "same_as": "good record"}),
+    # a NUL cut the message short in mlid run (a C string through f2py), mlid-batch printed it
+    "NUL byte in a row": ("record.nml", r"rec\.dat line 4: control character \\x00 at "
+                                        r"character 1$", {"record": ("good.dat", _nul_in_row_4)}),
+    "CR inside a row": ("record.nml", r"rec\.dat line 4: control character \\x0D at "
+                                      r"character 17$", {"record": ("good.dat", _cr_in_row_4)}),
+    "NUL byte in the header": ("record.nml", r"rec\.dat line 1: control character \\x00 at "
+                                             r"character 6$", {"record": ("good.dat", _nul_in_header)}),
     "columns beyond the file": ("record_cols_beyond.nml", r"column 7 requested",
                                 {"record": "good.dat"}),
 }
@@ -182,8 +209,11 @@ WHOLE = {
     "empty deck": ("empty.nml", r"no &case group"),
     "text before the first &case": ("plain.nml", r"line 1\b.*text before the first &case"),
     "deck that is a directory": (None, r"directory"),
+    "NUL byte in a title": ("plain.nml", r"batch\.nml line 7: control character \\x00 at "
+                                         r"character 19$"),
 }
-WHOLE_TRANSFORM = {"text before the first &case": _text_before}
+WHOLE_TRANSFORM = {"text before the first &case": _text_before,
+                   "NUL byte in a title": _nul_in_title}
 
 FORBIDDEN = ("Traceback", "Error termination", "internal error", "Fortran runtime error",
              "Segmentation fault", "SIGSEGV", "Backtrace", "core dumped", "Program received signal")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import mlid
-from conftest import BIN, c8_record, c8_start, c8_truth
+from conftest import BIN, c8_record, c8_start, c8_truth, run_both
 
 
 @pytest.fixture(scope="module")
@@ -94,6 +94,11 @@ def test_rank_search_on_a_well_determined_case_stays_near_the_full_solution(data
 @pytest.mark.parametrize("kwargs, match", [
     ({"bounds": {"M_q": (-1.0, -2.0)}}, "'M_q': lower bound above upper bound"),
     ({"bounds": {"M_q": (-0.5, 0.0)}}, "'M_q': start value outside its bounds"),
+    ({"bounds": {"M_q": (np.nan, None)}}, "^'M_q': lower bound is not a number$"),
+    ({"bounds": {"M_q": (-2.0, float("nan"))}}, "^'M_q': upper bound is not a number$"),
+    ({"bounds": {"M_q": (None, -np.inf)}}, r"^'M_q': upper bound is -Inf \(no value lies below"),
+    ({"bounds": {"M_q": (np.inf, None)}}, r"^'M_q': lower bound is \+Inf \(no value lies above"),
+    ({"bounds": {"M_q": (-2.0, "0")}}, "must be a pair .lower, upper. of numbers or None"),
     ({"prior_weight": np.diag([1.0, -1.0, 1.0, 1.0, 1.0])}, "positive semi-definite"),
     ({"rank_min": 6}, "larger than the 5 free parameters"),
     ({"rank_min": 4, "rank_max": 3}, "below rank_min"),
@@ -103,6 +108,39 @@ def test_rank_search_on_a_well_determined_case_stays_near_the_full_solution(data
 def test_bad_options(data, kwargs, match):
     with pytest.raises(mlid.InputError, match=match):
         mlid.fit(c8_start(), data, **kwargs)
+
+
+def test_infinite_bounds_bound_nothing(data):
+    plain = mlid.fit(c8_start(), data)
+    res = mlid.fit(c8_start(), data, bounds={"M_q": (-np.inf, np.inf), "M_alpha": (None, np.inf)})
+    assert np.array_equal(res.estimate, plain.estimate)
+
+
+@pytest.mark.parametrize("bounds, message", [
+    ("lower = NaN", "'M_q': lower bound is not a number"),
+    ("upper(1) = nan", "'M_q': upper bound is not a number"),
+    ("lower = -1.0, NaN", "'M_alpha': lower bound is not a number"),
+    ("upper = -Inf", "'M_q': upper bound is -Inf (no value lies below it)"),
+    ("lower = +Infinity", "'M_q': lower bound is +Inf (no value lies above it)"),
+    ("lower = -1.0, upper = -2.0", "'M_q': lower bound above upper bound"),
+])
+def test_bad_bounds_in_decks_are_one_line_in_both_front_ends(tmp_path, bounds, message):
+    """A NaN bound was dropped by mlid run and called 'above the upper
+    bound' by mlid-batch; now both say the core's one line."""
+    data = tmp_path / "d.dat"
+    np.savetxt(data, np.column_stack([np.arange(20) * 0.1, np.ones(20), np.zeros(20)]))
+    deck = tmp_path / "b.nml"
+    deck.write_text(f"""&case title = 'bounds', job = 'estimate' /
+&model kind = 'linear', nx = 1, nu = 1, ny = 1, f = -1.0, g = 1.0, h = 1,
+    free = 'f(1,1)', 'g(1,1)', names = 'M_q', 'M_alpha' /
+&data file = 'd.dat', input_cols = 2, output_cols = 3 /
+&estimate {bounds} /
+""")
+    runs = run_both(deck, cwd=tmp_path)
+    for run in runs:
+        assert run.returncode == 1, run.stderr
+        assert run.stderr.splitlines()[0].endswith("'bounds': " + message), run.stderr
+    assert runs[0].stderr.split(":", 1)[1] == runs[1].stderr.split(":", 1)[1]
 
 
 def test_every_parameter_fixed(data):

@@ -1,6 +1,7 @@
 """Thin wrappers over the Fortran core (mlid._core): arrays in, arrays out."""
 
 import functools
+import numbers
 import re
 import time
 import warnings
@@ -196,8 +197,9 @@ def _extras(params, prior, prior_weight, bounds):
     lower = np.full(theta.size, -_HUGE)
     upper = np.full(theta.size, _HUGE)
     for name, pair in (bounds or {}).items():
+        # NaN and infinite values go on: the core says what is wrong with them
         if not isinstance(pair, (tuple, list)) or len(pair) != 2 or \
-                any(v is not None and not np.isfinite(v) for v in pair):
+                any(v is not None and not isinstance(v, numbers.Real) for v in pair):
             raise InputError(f"bounds[{name!r}] must be a pair (lower, upper) of numbers or None, "
                              f"got {pair!r}")
         lo, hi = pair
@@ -243,8 +245,9 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         The a priori weights: {name: weight} (diagonal) or an nf x nf matrix
         over the free parameters; none, no a priori term.
     bounds : dict, optional
-        {name: (lower, upper)}, either may be None; steps are limited to
-        them as in §4.6 blocks 11-12.
+        {name: (lower, upper)}, either may be None (-inf, inf: the same);
+        steps are limited to them as in §4.6 blocks 11-12.  NaN, a lower
+        bound of inf or an upper of -inf raise InputError.
     initial_states, biases : list of array_like, optional
         Start values of each manoeuvre's x0 and output bias (several
         manoeuvres only; default the model's).

@@ -49,9 +49,10 @@ class Case:
             opts.update(prior=dict(zip(free, prior[isfree == 1])), prior_weight=pweight)
         if use_bounds:
             big = np.finfo(float).max
-            opts["bounds"] = {f: (lo if lo > -big else None, hi if hi < big else None)
+            # a NaN bound goes on to the core, which refuses it as mlid-batch does
+            opts["bounds"] = {f: (None if lo <= -big else lo, None if hi >= big else hi)
                               for f, lo, hi in zip(free, lower[isfree == 1], upper[isfree == 1])
-                              if lo > -big or hi < big}
+                              if not (lo <= -big and hi >= big)}
         self._options = opts
         self._sizes = (nu, ny)
         self._files = [_api.mlid_deck_case_data(k, j) for j in range(1, max(nfile, 1) + 1)]
