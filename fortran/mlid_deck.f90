@@ -41,6 +41,7 @@ module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines
+  use mlid_deck_scan, only: deck_scan
   use mlid_files, only: temporary_for
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
   use mlid_models, only: model_t
@@ -76,7 +77,7 @@ module mlid_deck
   integer, parameter :: TIELEN = 512                                !< a tie's or equation's text
   integer, parameter :: MAXDEF = 100                                !< an equations model's definitions
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
-  character(len=*), parameter :: GROUPS = ' case model data simulate estimate design monte_carlo '
+  character(len=*), parameter :: GROUP_NAMES = ' case model data simulate estimate design monte_carlo '
   !> The jobs of &case, and the methods of &design
   character(len=12), parameter :: JOBS(5) = [character(len=12) :: 'estimate', 'validate', &
                                              'simulate', 'design', 'monte_carlo']
@@ -188,11 +189,12 @@ contains
     integer, intent(in) :: line0
     type(case_t), intent(inout) :: c
     type(reader_t) :: rd
-    type(case_t) :: groups
+    type(case_t) :: scanned
     type(options_t) :: opt
     integer, allocatable :: free_idx(:)
-    character(len=:), allocatable :: seen, text
-    integer :: k
+    type(line_t), allocatable :: stripped(:)
+    character(len=msg_len) :: msg
+    integer :: k, status
 
     ! The case without comments goes to a scratch file that each group's
     ! namelist read rewinds: gfortran and a Python reader disagree on
@@ -200,20 +202,21 @@ contains
     rd%line0 = line0
     rd%lines = lines
     open (newunit=rd%unit, status='scratch', action='readwrite', form='formatted')
-    seen = ' '
+    allocate (stripped(size(lines)))
     do k = 1, size(lines)
-      text = strip_comment(lines(k)%s)
-      write (rd%unit, '(a)') trim(text)
-      if (c%status == MLID_OK) call check_groups(text, line0 + k - 1, c, seen)
+      stripped(k)%s = trim(strip_comment(lines(k)%s))
+      write (rd%unit, '(a)') stripped(k)%s
     end do
+    call deck_scan(stripped, line0, GROUP_NAMES, status, msg)
+    if (status /= MLID_OK) call fail(c, msg)
     call options_to_flat(options_t(), c%iopt, c%ropt)
     ! the title first, so that a message about the groups names the case
-    groups = c
+    scanned = c
     c%status = MLID_OK
     call read_case_group(rd, c)
-    if (groups%status /= MLID_OK) then
-      c%status = groups%status
-      c%msg = groups%msg
+    if (scanned%status /= MLID_OK) then
+      c%status = scanned%status
+      c%msg = scanned%msg
     end if
     if (c%status == MLID_OK) call read_model_group(rd, c, free_idx)
     if (c%status == MLID_OK .and. any(c%job == ['estimate', 'validate'])) then
@@ -1638,48 +1641,6 @@ contains
       end if
     end do
   end function choices
-
-  !> Flag a group name that is not one of GROUPS.
-  subroutine check_groups(text, line, c, seen)
-    character(len=*), intent(in) :: text
-    integer, intent(in) :: line
-    type(case_t), intent(inout) :: c
-    character(len=:), allocatable, intent(inout) :: seen  !< ' group group ... '
-    integer :: k, e
-    logical :: quoted
-    character :: q
-
-    quoted = .false.
-    q = ' '
-    do k = 1, len_trim(text)
-      if (quoted) then
-        if (text(k:k) == q) quoted = .false.
-      else if (text(k:k) == '''' .or. text(k:k) == '"') then
-        quoted = .true.
-        q = text(k:k)
-      else if (text(k:k) == '&') then
-        e = k + 1
-        do while (e <= len_trim(text))
-          if (verify(text(e:e), 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ_0123456789') /= 0) exit
-          e = e + 1
-        end do
-        if (index(GROUPS, ' '//to_lower(text(k + 1:e - 1))//' ') == 0) then
-          c%status = MLID_ERR_INPUT
-          c%msg = 'line '//itoa(line)//': unknown group &'//text(k + 1:e - 1)// &
-                  ' (groups are &case, &model, &data, &simulate, &estimate, &design, '// &
-                  '&monte_carlo)'
-          return
-        end if
-        ! a compiler's namelist read would take the first and ignore the rest
-        if (index(seen, ' '//to_lower(text(k + 1:e - 1))//' ') > 0) then
-          c%status = MLID_ERR_INPUT
-          c%msg = 'line '//itoa(line)//': group &'//text(k + 1:e - 1)//' given twice in one case'
-          return
-        end if
-        seen = seen//to_lower(text(k + 1:e - 1))//' '
-      end if
-    end do
-  end subroutine check_groups
 
   !> The record of an estimate case: time, inputs and outputs from its
   !> data files (paths resolved by the reader).  Several files are

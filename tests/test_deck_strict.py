@@ -1,0 +1,99 @@
+"""Bad decks the namelist reader must not read silently wrong: a name given
+twice, a word for a logical, text outside the groups, a group not closed,
+lists shorter than their items, values out of range, a record written over
+its own input, values longer than their room.  Each is refused by both
+front ends in one line naming the case, the line and the problem, and the
+cases before and after it still run."""
+
+import pytest
+
+from conftest import refused_by_both, run_both
+
+SIM = """&case title = 'make data', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.2, 0.5, -1.0, -2.0,   g = 1.5, 0.3,   h = 1, 0, 0, 1 /
+&simulate out = 'small.dat', t_end = 4.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
+    input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2 /
+"""
+# the middle case (its &case line is line 6 of the deck)
+FIT = """&case title = 'middle', job = 'estimate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1,
+    free = 'f(1,1)', 'f(2,1)', 'g(1,1)', names = 'a11', 'a21', 'b1' /
+&data file = 'small.dat', time_col = 1, input_cols = 2, output_cols = 3, 4 /
+&estimate max_iter = 20, halvings = 5 /
+"""
+GOOD = FIT.replace("'middle'", "'good fit'")
+
+
+def _refused(tmp_path, middle, message):
+    """[simulate, middle, good fit]: both front ends refuse the middle case
+    with message, and run its neighbours."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(SIM + middle + GOOD)
+    refused_by_both(deck, message, cwd=tmp_path)
+    for run in run_both(deck, cwd=tmp_path):
+        errors = [ln for ln in run.stderr.splitlines() if "case 2 (line 6) 'middle'" in ln]
+        assert len(errors) == 1 and message in errors[0], run.stderr
+        assert "simulated 201 samples" in run.stdout and run.stdout.count("converged (") == 1
+        assert "1 of 3 cases failed" in run.stderr
+
+
+# middle case text -> the message (lines of the deck: the middle case's
+# &model is line 7, its &estimate line 11)
+SCANNED = {
+    "a scalar twice": (FIT.replace("halvings = 5", "halvings = 5, max_iter = 3"),
+                       "line 11: max_iter given twice in group &estimate (first at line 11)"),
+    "nx twice": (FIT.replace("nx = 2,", "nx = 2, nx = 3,"),
+                 "line 7: nx given twice in group &model (first at line 7)"),
+    "a list twice, the second shorter": (
+        FIT.replace("'b1' /", "'b1',\n    names = 'A' /"),
+        "line 10: names given twice in group &model (first at line 9)"),
+    "an element set twice by index": (
+        FIT.replace("'b1' /", "'b1', x0 = 1.0, 2.0, x0(2) = 5.0 /"),
+        "line 9: x0(2) given twice in group &model (first at line 9)"),
+    "a logical by its first letter": (FIT.replace("halvings = 5", "steady_state = tomato"),
+                                      "line 11: bad value tomato for steady_state in group "
+                                      "&estimate: not a number, not quoted text and not a "
+                                      "logical"),
+    "a word for a logical": (FIT.replace("halvings = 5", "partials = fish"),
+                             "line 11: bad value fish for partials"),
+    "text after a group's /": (FIT.replace("halvings = 5 /", "halvings = 5 / max_iter = 3"),
+                               "line 11: 'max_iter = 3' is outside any group (a group is "
+                               "&name ... /, a comment starts with !)"),
+    "a stray line": (FIT.replace("&estimate", "max_iter = 3\n&estimate"),
+                     "line 11: 'max_iter = 3' is outside any group"),
+    "a group commented with #": (FIT + "# &estimate max_iter = 3 /\n",
+                                 "line 12: '# &estimate max_iter = 3 /' is outside any group"),
+    "a $group $end": (FIT.replace("&estimate max_iter = 20, halvings = 5 /",
+                                  "$estimate max_iter = 3 $end"),
+                      "line 11: '$estimate': a group starts with &name and ends with / "
+                      "($name ... $end and &end are not read)"),
+    "a group ended by &end": (FIT.replace("halvings = 5 /", "halvings = 5 &end"),
+                              "line 11: '&end': a group starts with &name and ends with /"),
+    "the last group not closed": (FIT.replace("halvings = 5 /", "halvings = 5"),
+                                  "group &estimate at line 11 is not closed with /"),
+    "a group before another not closed": (
+        FIT.replace("output_cols = 3, 4 /", "output_cols = 3, 4"),
+        "group &data at line 10 is not closed with /"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SCANNED))
+def test_the_deck_text_is_read_whole_or_refused(tmp_path, name):
+    middle, message = SCANNED[name]
+    _refused(tmp_path, middle, message)
+
+
+def test_elements_by_index_and_sections_are_read(tmp_path):
+    """x(i) = ... and x(i:j) = ... on elements not given before are read (the
+    bounds of cases/hfb320), and the same as the whole list given once."""
+    deck = tmp_path / "deck.nml"
+    runs = {}
+    for name, est in (("list", "lower = -9, -8, -7, upper = 1e3, 1e3, 1e3"),
+                      ("index", "lower(1) = -9, lower(2:3) = -8, -7, upper = 3*1e3")):
+        deck.write_text(SIM + FIT.replace("halvings = 5", "halvings = 5, " + est))
+        both = run_both(deck, cwd=tmp_path)
+        assert all(r.returncode == 0 for r in both), both[0].stderr
+        runs[name] = [r.stdout for r in both]
+    assert runs["list"] == runs["index"] and runs["list"][0] == runs["list"][1]
