@@ -446,6 +446,11 @@ contains
     call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], constants, &
                     user_iconst, user_rconst, nx, nu, ny, nw, ncoef, codes)
     if (c%status /= MLID_OK) return
+    if (all(count(len_trim(state_names) > 0) /= [0, c%nx])) then
+      call fail(c, 'group &model: state_names names every state (nx = '//itoa(c%nx)// &
+                ') or none; given '//itoa(count(len_trim(state_names) > 0)))
+      return
+    end if
     if (c%mkind == MODEL_EQUATIONS) then             ! its parameters' own names, for free and tie
       call layout_of(c%mkind, nx, nu, ny, nw, c%iconst, c%rconst, lt, ios, iomsg)
       if (ios /= MLID_OK) then
@@ -886,6 +891,11 @@ contains
     if (count(len_trim(names) > 0) > size(free_idx)) then
       call fail(c, 'group &model: more names than free parameters')
       return
+    else if (any(len_trim(names) > 0) .and. count(len_trim(names) > 0) < size(free_idx)) then
+      call fail(c, 'group &model: names has '//itoa(count(len_trim(names) > 0))// &
+                ' labels for '//itoa(size(free_idx))//' free parameters (one per free '// &
+                'parameter, in the order of free, or none)')
+      return
     end if
     c%labels = pack(labels, c%isfree == 1)
   end subroutine set_free
@@ -976,7 +986,7 @@ contains
     t_end = UNSET
     skip_rows = 0
     holdout = 0
-    dt = 0.0_wp
+    dt = UNSET
     rewind (rd%unit)
     read (rd%unit, nml=data, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'data', ios, iomsg, .true., c)
@@ -995,10 +1005,11 @@ contains
                                               text_lines(as_text(join_columns)), &
                                               text_lines(as_text(c%data_files)), status, msg)
     if (status /= MLID_OK) call fail(c, 'group &data: '//trim(msg))
-    if (.not. dt >= 0.0_wp) call fail(c, 'group &data: dt must be > 0 (a uniform time step '// &
-                                         'replacing the record''s time), or left out')
+    if (.not. (dt > 0.0_wp .and. ieee_is_finite(dt))) &
+      call fail(c, 'group &data: dt must be > 0 (a uniform time step replacing the '// &
+                'record''s time), or left out')
     if (c%status /= MLID_OK) return
-    c%chan%dt = dt
+    c%chan%dt = merge(0.0_wp, dt, dt == UNSET)     ! 0: the record's own time
     if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
       write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%chan%inputs), &
         ' input_cols and ', size(c%chan%outputs), ' output_cols given, the model has ', c%nu, &
@@ -1018,6 +1029,10 @@ contains
     c%win_end = merge(huge(1.0_wp), t_end(1:n), t_end(1:n) == UNSET)
     if (any(t_start(n + 1:) /= UNSET) .or. any(t_end(n + 1:) /= UNSET)) then
       call fail(c, 'group &data: more t_start or t_end than files ('//itoa(n)//')')
+    else if (all(count(t_start /= UNSET) /= [0, n]) .or. all(count(t_end /= UNSET) /= [0, n])) then
+      call fail(c, 'group &data: t_start and t_end take one value per file (in the order '// &
+                'of file) or none; given '//itoa(count(t_start /= UNSET))//' and '// &
+                itoa(count(t_end /= UNSET))//' for '//itoa(n)//' files')
     else if (any(c%win_end <= c%win_start)) then
       call fail(c, 'group &data: t_end must be after t_start (file '// &
                 itoa(findloc(c%win_end <= c%win_start, .true., 1))//')')
@@ -1351,6 +1366,9 @@ contains
       write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
         ' values, the model has ', c%ny, ' outputs'
       call fail(c, iomsg)
+    else if (.not. all(c%noise_std >= 0.0_wp .and. c%noise_std < UNSET)) then
+      call fail(c, 'group &simulate: noise_std (the standard deviation of each output''s '// &
+                'noise) must be >= 0 and finite')
     else if (size(c%amplitude) /= c%nu) then
       write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: amplitude has ', size(c%amplitude), &
         ' values, the model has ', c%nu, ' inputs'

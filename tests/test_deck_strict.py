@@ -97,3 +97,34 @@ def test_elements_by_index_and_sections_are_read(tmp_path):
         assert all(r.returncode == 0 for r in both), both[0].stderr
         runs[name] = [r.stdout for r in both]
     assert runs["list"] == runs["index"] and runs["list"][0] == runs["list"][1]
+
+
+# lists of one value per item given too short (none given keeps the default),
+# and values out of range that were taken as something else
+READ = {
+    "names too few": (FIT.replace("names = 'a11', 'a21', 'b1'", "names = 'a11', 'a21'"),
+                      "group &model: names has 2 labels for 3 free parameters (one per free "
+                      "parameter, in the order of free, or none)"),
+    "state_names too few": (FIT.replace("h = 1, 0, 0, 1,", "h = 1, 0, 0, 1, state_names = 'u',"),
+                            "group &model: state_names names every state (nx = 2) or none; "
+                            "given 1"),
+    "t_start for one of two files": (
+        FIT.replace("file = 'small.dat',", "file = 'small.dat', 'small.dat', t_start = 0.5,"),
+        "group &data: t_start and t_end take one value per file (in the order of file) or "
+        "none; given 1 and 0 for 2 files"),
+    "&data dt = 0": (FIT.replace("output_cols = 3, 4 /", "output_cols = 3, 4, dt = 0 /"),
+                     "group &data: dt must be > 0 (a uniform time step replacing the record's "
+                     "time), or left out"),
+    "&simulate noise_std < 0": (
+        SIM.replace("'make data'", "'middle'").replace("noise_std = 0.01, 0.01",
+                                                       "noise_std = 0.01, -0.01")
+        .replace("small.dat", "other.dat"),
+        "group &simulate: noise_std (the standard deviation of each output's noise) must be "
+        ">= 0 and finite"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(READ))
+def test_short_lists_and_values_out_of_range_are_refused(tmp_path, name):
+    middle, message = READ[name]
+    _refused(tmp_path, middle, message)
