@@ -13,15 +13,15 @@ module mlid_deck_scan
   use mlid_text, only: to_lower, itoa, line_t
   implicit none
   private
-  public :: deck_scan
+  public :: deck_scan, assignment_t, WORDLEN
 
   integer, parameter :: WORDLEN = 64
 
-  !> One assignment of a group: its name, where it starts (first = -1 when
-  !> its subscript is not of one dimension), the end of its section (0:
-  !> none), the values given and its line.
+  !> One assignment of a group: its group and name, where it starts (first =
+  !> -1 when its subscript is not of one dimension), the end of its section
+  !> (0: none), the values given and its line.
   type :: assignment_t
-    character(len=WORDLEN) :: key = '', subscript = ''
+    character(len=WORDLEN) :: group = '', key = '', subscript = ''
     integer :: first = 1, section_end = 0, n = 0, line = 0
   end type assignment_t
 
@@ -34,12 +34,14 @@ contains
   !> Check a case's lines (comments stripped; the first is number line0)
   !> against the syntax above; groups: ' name name ... ', the groups known.
   !> status /= MLID_OK: msg is the first problem, naming its line.
-  subroutine deck_scan(lines, line0, groups, status, msg)
+  !> every: the assignments of all groups, in order.
+  subroutine deck_scan(lines, line0, groups, status, msg, every)
     type(line_t), intent(in) :: lines(:)
     integer, intent(in) :: line0
     character(len=*), intent(in) :: groups
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    type(assignment_t), allocatable, intent(out) :: every(:)
     type(assignment_t), allocatable :: given(:)
     character(len=:), allocatable :: s, seen, group, word
     integer :: k, p, e, ln, gline
@@ -51,7 +53,7 @@ contains
     group = ''
     gline = 0
     ingroup = .false.
-    allocate (given(0))
+    allocate (given(0), every(0))
     do k = 1, size(lines)
       s = lines(k)%s
       ln = line0 + k - 1
@@ -87,6 +89,7 @@ contains
           group = word
           gline = ln
           ingroup = .true.
+          every = [every, given]
           deallocate (given)
           allocate (given(0))
           p = e
@@ -101,6 +104,7 @@ contains
       end do
     end do
     if (ingroup) call not_closed()
+    every = [every, given]
 
   contains
 
@@ -151,6 +155,7 @@ contains
         return
       end if
       a%line = ln
+      a%group = to_lower(group)
       call elements(a)
       do j = 1, size(given)
         if (given(j)%key /= a%key) cycle
@@ -181,6 +186,8 @@ contains
                        ' is not closed on its line')
           return
         end if
+        call group_in_text(s(p:e), ln)
+        if (status /= MLID_OK) return
         e = e + 1
       else
         e = scan(s(p:), BLANKS//',/''"')
@@ -210,6 +217,23 @@ contains
       given(size(given))%n = given(size(given))%n + n
       p = e
     end subroutine value
+
+    !> A compiler's namelist read finds a group by &name or $name anywhere,
+    !> quoted or not: quoted text may not hold a group's name so.
+    subroutine group_in_text(text, ln)
+      character(len=*), intent(in) :: text
+      integer, intent(in) :: ln
+      integer :: j, e
+      do j = 1, len(text) - 1
+        if (scan(text(j:j), '&$') /= 1) cycle
+        e = word_end(text, j + 1)
+        if (e == j + 1) cycle
+        if (index(groups, ' '//to_lower(text(j + 1:e - 1))//' ') == 0) cycle
+        call problem('line '//itoa(ln)//': quoted text '//shown(text)//' holds '''// &
+                     text(j:e - 1)//''', which the namelist reads would take for the group')
+        return
+      end do
+    end subroutine group_in_text
 
   end subroutine deck_scan
 

@@ -128,3 +128,77 @@ READ = {
 def test_short_lists_and_values_out_of_range_are_refused(tmp_path, name):
     middle, message = READ[name]
     _refused(tmp_path, middle, message)
+
+
+def _simulate(out, input_file):
+    """A simulate case named 'middle' writing out from input_file."""
+    return (SIM.replace("'make data'", "'middle'")
+            .replace("out = 'small.dat', t_end = 4.0, dt = 0.02,", f"out = '{out}',")
+            .replace("input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2",
+                     f"input_file = '{input_file}'"))
+
+
+def test_a_record_is_not_written_over_its_own_input_or_the_deck(tmp_path):
+    """out naming its input_file (the same file by another name too) or the
+    deck is refused before anything is written; both files stay as they were."""
+    (tmp_path / "sub").mkdir()
+    for out, input_file in (("small.dat", "small.dat"), ("sub/../small.dat", "./small.dat"),
+                            ("deck.nml", "small.dat")):
+        (tmp_path / "small.dat").unlink(missing_ok=True)
+        _refused(tmp_path, _simulate(out, input_file),
+                 f"group &simulate: out '{tmp_path / out}' is the deck or the input_file: the "
+                 "record written would overwrite what it is made from")
+        assert (tmp_path / "deck.nml").read_text().startswith(SIM)
+
+
+LONG = {
+    "a label wider than the report's column": (
+        FIT.replace("names = 'a11'", "names = 'a_rather_long_label'"),
+        "group &model: the label 'a_rather_long_label' of free parameter 1 is longer than the 16 "
+        "characters the report prints (a shorter one in names)"),
+    "a file name over 511 characters": (
+        FIT.replace("file = 'small.dat'", "file = '" + "d/" * 300 + "small.dat'"),
+        "...' is longer than 511 characters (with the deck's folder)"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(LONG))
+def test_values_longer_than_their_room_are_refused(tmp_path, name):
+    """A label wider than the report's column (16), a file name over 511
+    characters: refused, never cut."""
+    middle, message = LONG[name]
+    _refused(tmp_path, middle, message)
+
+
+def test_a_title_longer_than_128_characters_is_refused(tmp_path):
+    deck = tmp_path / "deck.nml"
+    title = "t" * 129
+    deck.write_text(SIM + FIT.replace("'middle'", f"'{title}'") + GOOD)
+    for run in run_both(deck, cwd=tmp_path):
+        assert run.returncode == 1
+        assert f"'{title[:128]}': group &case: title is longer than 128 characters" in run.stderr
+        assert "1 of 3 cases failed" in run.stderr and run.stdout.count("converged (") == 1
+
+
+BLAMED = {
+    "an unknown name after a text value": (
+        FIT.replace("halvings = 5", "noise = 'diagonal', tol_cst = 1e-6"),
+        "group &estimate (line 11): line 11: unknown name tol_cst in group &estimate"),
+    "an index beyond the array": (FIT.replace("'b1' /", "'b1', x0(99) = 1.0 /"),
+                                  "group &model (line 7): line 9: x0(99): the index lies outside "
+                                  "x0"),
+    "more values than a name takes": (
+        FIT.replace("'b1' /", "'b1', x0 = " + "1, " * 40 + "bias = 0, 0 /"),
+        "group &model (line 7): a value stands where a name should be (read as '1'): a "
+        "name given more values than it takes, or a name without ="),
+    "a group's name in quoted text": (
+        FIT.replace("'middle', job", "'middle', config = 'a &estimate b', job"),
+        "line 6: quoted text 'a &estimate b' holds '&estimate', which the namelist reads would "
+        "take for the group"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BLAMED))
+def test_a_namelist_error_names_what_is_wrong(tmp_path, name):
+    middle, message = BLAMED[name]
+    _refused(tmp_path, middle, message)
