@@ -299,7 +299,9 @@ contains
 
     ! The case without comments goes to a scratch file that each group's
     ! namelist read rewinds: gfortran and a Python reader disagree on
-    ! comments after a trailing comma.
+    ! comments after a trailing comma.  deck_scan first checks the text as a
+    ! whole (what a namelist read would pass over or take silently), and
+    ! keeps its assignments for blame.
     rd%line0 = line0
     rd%lines = lines
     open (newunit=rd%unit, status='scratch', action='readwrite', form='formatted')

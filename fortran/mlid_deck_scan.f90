@@ -13,7 +13,7 @@ module mlid_deck_scan
   use mlid_text, only: to_lower, itoa, line_t
   implicit none
   private
-  public :: deck_scan, assignment_t, WORDLEN
+  public :: deck_scan, assignment_t
 
   integer, parameter :: WORDLEN = 64
 
