@@ -374,10 +374,17 @@ contains
     integer :: p, k, q, e, b
     text = trim(iomsg)
     p = index(iomsg, 'namelist variable ')
-    if (p > 0 .and. index(iomsg, 'out of range') > 0) then
+    if (p > 0 .and. index(to_lower(iomsg), 'index') > 0) then
       k = assigned(rd, group, to_lower(trim(iomsg(p + 18:))), .true.)
-      if (k > 0) text = 'line '//itoa(rd%given(k)%line)//': '//trim(rd%given(k)%key)//'('// &
-        trim(rd%given(k)%subscript)//'): the index lies outside '//trim(rd%given(k)%key)
+      if (k == 0) return
+      text = 'line '//itoa(rd%given(k)%line)//': '//trim(rd%given(k)%key)//'('// &
+             trim(rd%given(k)%subscript)//'): '
+      if (index(iomsg, 'out of range') > 0) then
+        text = text//'the index lies outside '//trim(rd%given(k)%key)
+      else
+        text = text//'a deck''s lists take one index, NAME(i) or NAME(i:j) (a matrix is '// &
+               'one list, row by row)'
+      end if
       return
     end if
     p = index(iomsg, 'object name ')

@@ -187,6 +187,9 @@ BLAMED = {
     "an index beyond the array": (FIT.replace("'b1' /", "'b1', x0(99) = 1.0 /"),
                                   "group &model (line 7): line 9: x0(99): the index lies outside "
                                   "x0"),
+    "two indices": (FIT.replace("'b1' /", "'b1', f(1,1) = 2.0 /"),
+                    "group &model (line 7): line 9: f(1,1): a deck's lists take one index, "
+                    "NAME(i) or NAME(i:j) (a matrix is one list, row by row)"),
     "more values than a name takes": (
         FIT.replace("'b1' /", "'b1', x0 = " + "1, " * 40 + "bias = 0, 0 /"),
         "group &model (line 7): a value stands where a name should be (read as '1'): a "
