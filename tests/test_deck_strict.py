@@ -205,3 +205,15 @@ BLAMED = {
 def test_a_namelist_error_names_what_is_wrong(tmp_path, name):
     middle, message = BLAMED[name]
     _refused(tmp_path, middle, message)
+
+
+def test_a_design_is_not_written_over_the_deck(tmp_path):
+    design = """&case title = 'middle', job = 'design' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1, r = 0.01, 0.01,
+    free = 'f(1,1)', 'g(1,1)' /
+&design t_end = 2.0, dt = 0.02, energy = 1.0, out = './deck.nml' /
+"""
+    _refused(tmp_path, design, f"group &design: out '{tmp_path}/./deck.nml' is the deck or the "
+                               "input_file: the record written would overwrite what it is made from")
+    assert (tmp_path / "deck.nml").read_text().startswith(SIM)
