@@ -39,8 +39,10 @@
 !> mlid_deck_* routines; python/mlid/deck.py).
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: iso_c_binding, only: c_char, c_ptr, c_null_char, c_associated
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines
+  use mlid_deck_scan, only: deck_scan, assignment_t
   use mlid_files, only: temporary_for
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
   use mlid_models, only: model_t
@@ -57,6 +59,7 @@ module mlid_deck
   use mlid_record, only: record_t, record_read, record_check_time
   use mlid_param_units, only: param_units
   use mlid_ties, only: tie_parse, MAXTERM
+  use mlid_report, only: LABEL_WIDTH
   use mlid_params, only: no_ties
   use mlid_layout, only: layout_table_t, layout_table, layout_of, element_index, element_name, &
                          default_label, locate, &
@@ -76,18 +79,29 @@ module mlid_deck
   integer, parameter :: TIELEN = 512                                !< a tie's or equation's text
   integer, parameter :: MAXDEF = 100                                !< an equations model's definitions
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
-  character(len=*), parameter :: GROUPS = ' case model data simulate estimate design monte_carlo '
+  character(len=*), parameter :: GROUP_NAMES = ' case model data simulate estimate design monte_carlo '
   !> The jobs of &case, and the methods of &design
   character(len=12), parameter :: JOBS(5) = [character(len=12) :: 'estimate', 'validate', &
                                              'simulate', 'design', 'monte_carlo']
   character(len=10), parameter :: DESIGN_METHODS(4) = [character(len=10) :: 'operator', &
                                                        'riccati', 'amplitude', 'equalised']
 
+  interface
+    !> The C library's canonical absolute name of an existing file.
+    function c_realpath(path, resolved) bind(c, name='realpath') result(p)
+      import :: c_char, c_ptr
+      character(kind=c_char), intent(in) :: path(*)
+      character(kind=c_char), intent(out) :: resolved(*)
+      type(c_ptr) :: p
+    end function c_realpath
+  end interface
+
   !> What the group readers of one case share: the scratch unit with the
   !> case's text and its lines (for line numbers in messages).
   type :: reader_t
     integer :: unit = 0, line0 = 0
     type(line_t), allocatable :: lines(:)
+    type(assignment_t), allocatable :: given(:)   !< the case's assignments (deck_scan)
   end type reader_t
 
 
@@ -145,7 +159,8 @@ contains
     ncases = size(opened)
   end subroutine deck_open
 
-  !> File names of a case are taken from the deck's folder unless absolute.
+  !> File names of a case are taken from the deck's folder unless absolute;
+  !> a record the case writes may not be the deck or a file it reads.
   subroutine resolve_paths(deck, c)
     character(len=*), intent(in) :: deck
     type(case_t), intent(inout) :: c
@@ -155,31 +170,118 @@ contains
     if (index(deck, '/', back=.true.) > 0) dir = deck(1:index(deck, '/', back=.true.) - 1)
     if (allocated(c%data_files)) then
       do k = 1, size(c%data_files)
-        c%data_files(k) = resolve(dir, c%data_files(k))
+        call resolve_into(c, dir, c%data_files(k))
       end do
     end if
-    if (len_trim(c%out_file) > 0) c%out_file = resolve(dir, c%out_file)
-    if (len_trim(c%input_file) > 0) c%input_file = resolve(dir, c%input_file)
+    if (len_trim(c%out_file) > 0) call resolve_into(c, dir, c%out_file)
+    if (len_trim(c%input_file) > 0) call resolve_into(c, dir, c%input_file)
+    if (c%status == MLID_OK .and. len_trim(c%out_file) > 0) then
+      if (read_by_case(deck, c, c%out_file)) &
+        call fail(c, 'group &'//trim(c%job)//': out '''//trim(c%out_file)//''' is the deck '// &
+                  'or the input_file: the record written would overwrite what it is made from')
+    end if
     if (allocated(c%corrected)) then
       do k = 1, size(c%corrected)
-        c%corrected(k) = resolve(dir, c%corrected(k))
+        call resolve_into(c, dir, c%corrected(k))
       end do
       do k = 1, size(c%corrected)   ! the names as resolved from the deck's folder
         if (c%status == MLID_OK .and. (count(c%corrected == c%corrected(k)) > 1 .or. &
-            any(c%data_files == c%corrected(k)))) &
+            read_by_case(deck, c, c%corrected(k)))) &
           call fail(c, 'group &estimate: corrected names '''//trim(c%corrected(k))// &
-                    ''' twice, or a data file: each record goes to a file of its own')
+                    ''' twice, or a data file: each record goes to a file of its own, not one the '// &
+                    'case reads or the deck')
       end do
     end if
     if (allocated(c%chan%join)) then
       do k = 1, size(c%chan%join)
-        c%chan%join(k)%s = trim(resolve(dir, c%chan%join(k)%s))
+        if (len(c%chan%join(k)%s) >= PATHLEN) call path_too_long(c, c%chan%join(k)%s)
+        c%chan%join(k)%s = resolve(dir, c%chan%join(k)%s)
       end do
       do k = 1, size(c%chan%files)
-        c%chan%files(k)%s = trim(resolve(dir, c%chan%files(k)%s))
+        c%chan%files(k)%s = resolve(dir, c%chan%files(k)%s)
       end do
     end if
   end subroutine resolve_paths
+
+  !> A file name of the deck resolved from its folder (dir), or the case's
+  !> message when it does not fit (or may have been cut on reading).
+  subroutine resolve_into(c, dir, path)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: dir
+    character(len=*), intent(inout) :: path
+    character(len=:), allocatable :: full
+    full = resolve(dir, path)
+    if (len_trim(path) == len(path) .or. len(full) >= len(path)) then
+      call path_too_long(c, full)
+    else
+      path = full
+    end if
+  end subroutine resolve_into
+
+  subroutine path_too_long(c, path)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: path
+    if (c%status == MLID_OK) call fail(c, 'file name '''//path(1:min(len(path), 40))// &
+      '...'' is longer than '//itoa(PATHLEN - 1)//' characters (with the deck''s folder)')
+  end subroutine path_too_long
+
+  !> Whether path is the deck, the case's input_file or one of its data
+  !> files (the same file, however named).
+  logical function read_by_case(deck, c, path)
+    character(len=*), intent(in) :: deck, path
+    type(case_t), intent(in) :: c
+    integer :: k
+    read_by_case = same_file(path, deck) .or. same_file(path, c%input_file)
+    if (.not. allocated(c%data_files)) return
+    do k = 1, size(c%data_files)
+      read_by_case = read_by_case .or. same_file(path, c%data_files(k))
+    end do
+  end function read_by_case
+
+  !> Whether a and b name one file (by the C library's realpath: links, .
+  !> and .. resolved; a file not there yet by its folder's).
+  logical function same_file(a, b)
+    character(len=*), intent(in) :: a, b
+    same_file = .false.
+    if (len_trim(a) == 0 .or. len_trim(b) == 0) return
+    same_file = real_path(a) == real_path(b)
+  end function same_file
+
+  function real_path(path) result(r)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable :: r
+    integer :: k
+    r = c_real_path(trim(path))
+    if (len(r) > 0) return
+    k = index(trim(path), '/', back=.true.)
+    if (k == 0) then
+      r = c_real_path('.')
+    else if (k == 1) then
+      r = ''
+    else
+      r = c_real_path(path(1:k - 1))
+    end if
+    if (len(r) == 0) then
+      r = trim(path)                     ! no such folder: the name as written
+    else
+      r = r//'/'//trim(path(k + 1:))
+    end if
+  end function real_path
+
+  !> realpath(path), '' when it fails.
+  function c_real_path(path) result(r)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable :: r
+    character(kind=c_char) :: buf(4097)   ! PATH_MAX and its NUL
+    integer :: k
+    r = ''
+    buf = c_null_char
+    if (.not. c_associated(c_realpath(path//c_null_char, buf))) return
+    do k = 1, size(buf)
+      if (buf(k) == c_null_char) exit
+      r = r//buf(k)
+    end do
+  end function c_real_path
 
   !> Parse one case from its lines (first is the &case line, number line0):
   !> one reader per group, each after the one before succeeded.
@@ -188,32 +290,36 @@ contains
     integer, intent(in) :: line0
     type(case_t), intent(inout) :: c
     type(reader_t) :: rd
-    type(case_t) :: groups
+    type(case_t) :: scanned
     type(options_t) :: opt
     integer, allocatable :: free_idx(:)
-    character(len=:), allocatable :: seen, text
-    integer :: k
+    type(line_t), allocatable :: stripped(:)
+    character(len=msg_len) :: msg
+    integer :: k, status
 
     ! The case without comments goes to a scratch file that each group's
     ! namelist read rewinds: gfortran and a Python reader disagree on
-    ! comments after a trailing comma.
+    ! comments after a trailing comma.  deck_scan first checks the text as a
+    ! whole (what a namelist read would pass over or take silently), and
+    ! keeps its assignments for blame.
     rd%line0 = line0
     rd%lines = lines
     open (newunit=rd%unit, status='scratch', action='readwrite', form='formatted')
-    seen = ' '
+    allocate (stripped(size(lines)))
     do k = 1, size(lines)
-      text = strip_comment(lines(k)%s)
-      write (rd%unit, '(a)') trim(text)
-      if (c%status == MLID_OK) call check_groups(text, line0 + k - 1, c, seen)
+      stripped(k)%s = trim(strip_comment(lines(k)%s))
+      write (rd%unit, '(a)') stripped(k)%s
     end do
+    call deck_scan(stripped, line0, GROUP_NAMES, status, msg, rd%given)
+    if (status /= MLID_OK) call fail(c, msg)
     call options_to_flat(options_t(), c%iopt, c%ropt)
     ! the title first, so that a message about the groups names the case
-    groups = c
+    scanned = c
     c%status = MLID_OK
     call read_case_group(rd, c)
-    if (groups%status /= MLID_OK) then
-      c%status = groups%status
-      c%msg = groups%msg
+    if (scanned%status /= MLID_OK) then
+      c%status = scanned%status
+      c%msg = scanned%msg
     end if
     if (c%status == MLID_OK) call read_model_group(rd, c, free_idx)
     if (c%status == MLID_OK .and. any(c%job == ['estimate', 'validate'])) then
@@ -256,25 +362,51 @@ contains
   end subroutine group_status
 
   !> A namelist read error in words a user can act on: the compiler names
-  !> the token it could not take ("Cannot match namelist object name .5");
-  !> the name assigned just before it on its line is the one with the bad
-  !> value ("max_iter = 2.5").
+  !> the token it could not take ("Cannot match namelist object name .5"):
+  !> a name of the group that is not one of its namelist's, a number where a
+  !> name should be (a value too many), or the rest of a bad value, the name
+  !> assigned just before it on its line being the one with the bad value
+  !> ("max_iter = 2.5"); or the variable whose index is out of range.
   function blame(rd, group, iomsg) result(text)
     type(reader_t), intent(in) :: rd
     character(len=*), intent(in) :: group, iomsg
     character(len=:), allocatable :: text, token, line
     integer :: p, k, q, e, b
     text = trim(iomsg)
+    p = index(iomsg, 'namelist variable ')
+    if (p > 0 .and. index(to_lower(iomsg), 'index') > 0) then
+      k = assigned(rd, group, to_lower(trim(iomsg(p + 18:))), .true.)
+      if (k == 0) return
+      text = 'line '//itoa(rd%given(k)%line)//': '//trim(rd%given(k)%key)//'('// &
+             trim(rd%given(k)%subscript)//'): '
+      if (index(iomsg, 'out of range') > 0) then
+        text = text//'the index lies outside '//trim(rd%given(k)%key)
+      else
+        text = text//'a deck''s lists take one index, NAME(i) or NAME(i:j) (a matrix is '// &
+               'one list, row by row)'
+      end if
+      return
+    end if
     p = index(iomsg, 'object name ')
     if (p == 0) return
     token = trim(iomsg(p + 12:))
     if (len(token) == 0) return
+    k = assigned(rd, group, to_lower(token), .false.)
+    if (k > 0) then
+      text = 'line '//itoa(rd%given(k)%line)//': unknown name '//token//' in group &'//group
+      return
+    end if
+    if (scan(token(1:1), '0123456789+-') == 1) then   ! a whole value: one too many
+      text = 'a value stands where a name should be (read as '''//token//'''): a name '// &
+             'given more values than it takes, or a name without ='
+      return
+    end if
     do k = group_line(rd%lines, rd%line0, group) - rd%line0 + 1, size(rd%lines)
       line = trim(strip_comment(rd%lines(k)%s))
       q = index(line, token)
       if (q == 0) cycle
       e = index(line(1:q - 1), '=', back=.true.)
-      if (e == 0) return
+      if (e == 0) exit
       b = scan(trim(line(1:e - 1)), ' ,', back=.true.)
       text = 'line '//itoa(rd%line0 + k - 1)//': bad value '''// &
              trim(adjustl(line(e + 1:q + len(token) - 1)))//''' for '// &
@@ -282,6 +414,22 @@ contains
       return
     end do
   end function blame
+
+  !> The case's first assignment of name key in group (with a subscript
+  !> when subscripted), 0 when none.
+  integer function assigned(rd, group, key, subscripted)
+    type(reader_t), intent(in) :: rd
+    character(len=*), intent(in) :: group, key
+    logical, intent(in) :: subscripted
+    integer :: k
+    assigned = 0
+    do k = 1, size(rd%given)
+      if (rd%given(k)%group /= group .or. rd%given(k)%key /= key) cycle
+      if (subscripted .and. len_trim(rd%given(k)%subscript) == 0) cycle
+      assigned = k
+      return
+    end do
+  end function assigned
 
   subroutine fail(c, text)
     type(case_t), intent(inout) :: c
@@ -295,7 +443,7 @@ contains
   subroutine read_case_group(rd, c)
     type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
-    character(len=128) :: title
+    character(len=256) :: title             !< longer than the case's, to see a title too long
     character(len=16) :: job
     character(len=64) :: config
     character(len=256) :: tags
@@ -317,6 +465,10 @@ contains
     if (c%status /= MLID_OK) return
     c%title = title
     c%job = to_lower(job)
+    if (len_trim(title) > len(c%title)) then
+      call fail(c, 'group &case: title is longer than '//itoa(len(c%title))//' characters')
+      return
+    end if
     c%config = config
     c%tags = tags
     given = [mach, altitude, alpha_trim]
@@ -443,6 +595,11 @@ contains
     call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], constants, &
                     user_iconst, user_rconst, nx, nu, ny, nw, ncoef, codes)
     if (c%status /= MLID_OK) return
+    if (all(count(len_trim(state_names) > 0) /= [0, c%nx])) then
+      call fail(c, 'group &model: state_names names every state (nx = '//itoa(c%nx)// &
+                ') or none; given '//itoa(count(len_trim(state_names) > 0)))
+      return
+    end if
     if (c%mkind == MODEL_EQUATIONS) then             ! its parameters' own names, for free and tie
       call layout_of(c%mkind, nx, nu, ny, nw, c%iconst, c%rconst, lt, ios, iomsg)
       if (ios /= MLID_OK) then
@@ -879,9 +1036,20 @@ contains
       free_idx = [free_idx, idx]
       labels(idx) = default_label(lt, idx)
       if (len_trim(names(k)) > 0) labels(idx) = names(k)
+      if (len_trim(labels(idx)) > LABEL_WIDTH) then
+        call fail(c, 'group &model: the label '''//trim(labels(idx))//''' of free parameter '// &
+                  itoa(k)//' is longer than the '//itoa(LABEL_WIDTH)//' characters the report '// &
+                  'prints (a shorter one in names)')
+        return
+      end if
     end do
     if (count(len_trim(names) > 0) > size(free_idx)) then
       call fail(c, 'group &model: more names than free parameters')
+      return
+    else if (any(len_trim(names) > 0) .and. count(len_trim(names) > 0) < size(free_idx)) then
+      call fail(c, 'group &model: names has '//itoa(count(len_trim(names) > 0))// &
+                ' labels for '//itoa(size(free_idx))//' free parameters (one per free '// &
+                'parameter, in the order of free, or none)')
       return
     end if
     c%labels = pack(labels, c%isfree == 1)
@@ -973,7 +1141,7 @@ contains
     t_end = UNSET
     skip_rows = 0
     holdout = 0
-    dt = 0.0_wp
+    dt = UNSET
     rewind (rd%unit)
     read (rd%unit, nml=data, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'data', ios, iomsg, .true., c)
@@ -992,10 +1160,11 @@ contains
                                               text_lines(as_text(join_columns)), &
                                               text_lines(as_text(c%data_files)), status, msg)
     if (status /= MLID_OK) call fail(c, 'group &data: '//trim(msg))
-    if (.not. dt >= 0.0_wp) call fail(c, 'group &data: dt must be > 0 (a uniform time step '// &
-                                         'replacing the record''s time), or left out')
+    if (.not. (dt > 0.0_wp .and. ieee_is_finite(dt))) &
+      call fail(c, 'group &data: dt must be > 0 (a uniform time step replacing the '// &
+                'record''s time), or left out')
     if (c%status /= MLID_OK) return
-    c%chan%dt = dt
+    c%chan%dt = merge(0.0_wp, dt, dt == UNSET)     ! 0: the record's own time
     if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
       write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%chan%inputs), &
         ' input_cols and ', size(c%chan%outputs), ' output_cols given, the model has ', c%nu, &
@@ -1015,6 +1184,10 @@ contains
     c%win_end = merge(huge(1.0_wp), t_end(1:n), t_end(1:n) == UNSET)
     if (any(t_start(n + 1:) /= UNSET) .or. any(t_end(n + 1:) /= UNSET)) then
       call fail(c, 'group &data: more t_start or t_end than files ('//itoa(n)//')')
+    else if (all(count(t_start /= UNSET) /= [0, n]) .or. all(count(t_end /= UNSET) /= [0, n])) then
+      call fail(c, 'group &data: t_start and t_end take one value per file (in the order '// &
+                'of file) or none; given '//itoa(count(t_start /= UNSET))//' and '// &
+                itoa(count(t_end /= UNSET))//' for '//itoa(n)//' files')
     else if (any(c%win_end <= c%win_start)) then
       call fail(c, 'group &data: t_end must be after t_start (file '// &
                 itoa(findloc(c%win_end <= c%win_start, .true., 1))//')')
@@ -1348,6 +1521,9 @@ contains
       write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
         ' values, the model has ', c%ny, ' outputs'
       call fail(c, iomsg)
+    else if (.not. all(c%noise_std >= 0.0_wp .and. c%noise_std < UNSET)) then
+      call fail(c, 'group &simulate: noise_std (the standard deviation of each output''s '// &
+                'noise) must be >= 0 and finite')
     else if (size(c%amplitude) /= c%nu) then
       write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: amplitude has ', size(c%amplitude), &
         ' values, the model has ', c%nu, ' inputs'
@@ -1638,48 +1814,6 @@ contains
       end if
     end do
   end function choices
-
-  !> Flag a group name that is not one of GROUPS.
-  subroutine check_groups(text, line, c, seen)
-    character(len=*), intent(in) :: text
-    integer, intent(in) :: line
-    type(case_t), intent(inout) :: c
-    character(len=:), allocatable, intent(inout) :: seen  !< ' group group ... '
-    integer :: k, e
-    logical :: quoted
-    character :: q
-
-    quoted = .false.
-    q = ' '
-    do k = 1, len_trim(text)
-      if (quoted) then
-        if (text(k:k) == q) quoted = .false.
-      else if (text(k:k) == '''' .or. text(k:k) == '"') then
-        quoted = .true.
-        q = text(k:k)
-      else if (text(k:k) == '&') then
-        e = k + 1
-        do while (e <= len_trim(text))
-          if (verify(text(e:e), 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ_0123456789') /= 0) exit
-          e = e + 1
-        end do
-        if (index(GROUPS, ' '//to_lower(text(k + 1:e - 1))//' ') == 0) then
-          c%status = MLID_ERR_INPUT
-          c%msg = 'line '//itoa(line)//': unknown group &'//text(k + 1:e - 1)// &
-                  ' (groups are &case, &model, &data, &simulate, &estimate, &design, '// &
-                  '&monte_carlo)'
-          return
-        end if
-        ! a compiler's namelist read would take the first and ignore the rest
-        if (index(seen, ' '//to_lower(text(k + 1:e - 1))//' ') > 0) then
-          c%status = MLID_ERR_INPUT
-          c%msg = 'line '//itoa(line)//': group &'//text(k + 1:e - 1)//' given twice in one case'
-          return
-        end if
-        seen = seen//to_lower(text(k + 1:e - 1))//' '
-      end if
-    end do
-  end subroutine check_groups
 
   !> The record of an estimate case: time, inputs and outputs from its
   !> data files (paths resolved by the reader).  Several files are
@@ -1994,9 +2128,9 @@ contains
   !> Path relative to the deck's folder unless absolute.
   function resolve(dir, file) result(path)
     character(len=*), intent(in) :: dir, file
-    character(len=PATHLEN) :: path
+    character(len=:), allocatable :: path
     if (file(1:1) == '/' .or. len_trim(dir) == 0) then
-      path = file
+      path = trim(file)
     else
       path = trim(dir)//'/'//trim(file)
     end if

@@ -13,9 +13,10 @@ module mlid_report
   private
   public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string, number, &
             numbers, strings, matrix, &
-            validation_report, validation_json
+            validation_report, validation_json, LABEL_WIDTH
 
   character, parameter :: NL = achar(10)
+  integer, parameter :: LABEL_WIDTH = 16   !< the table's column of parameter labels
 
   !> What a report says of one fit (free parameters only, theta order).
   type :: fit_summary_t
@@ -63,11 +64,11 @@ contains
         size(s%labels), ' (sigma from the same rank)'
       text = text//trim(buf)//NL
     end if
-    write (buf, '(1x,a16,1x,a10,a15,a15,a13,a13)') 'parameter       ', 'unit      ', 'start', &
+    write (buf, label_format('a15,a15,a13,a13')) 'parameter       ', 'unit      ', 'start', &
       'estimate', 'sigma', 'sigma col.'
     text = text//trim(buf)//NL
     do k = 1, size(s%labels)
-      write (buf, '(1x,a16,1x,a10,2es15.6e2,2es13.4e2)') s%labels(k), unit_of(s, k), s%start(k), &
+      write (buf, label_format('2es15.6e2,2es13.4e2')) s%labels(k), unit_of(s, k), s%start(k), &
         s%est(k), s%sig(k), s%sigc(k)
       text = text//trim(buf)//NL
     end do
@@ -122,10 +123,10 @@ contains
     write (buf, '(a,i0,a)') ' '//method_text(iopt, ropt)//': failed after ', s%niter, &
       ' iterations, no estimates'
     text = trim(buf)//NL
-    write (buf, '(1x,a16,1x,a10,a15,a15)') 'parameter       ', 'unit      ', 'start', 'last value'
+    write (buf, label_format('a15,a15')) 'parameter       ', 'unit      ', 'start', 'last value'
     text = text//trim(buf)//NL
     do k = 1, size(s%labels)
-      write (buf, '(1x,a16,1x,a10,2es15.6e2)') s%labels(k), unit_of(s, k), s%start(k), s%est(k)
+      write (buf, label_format('2es15.6e2')) s%labels(k), unit_of(s, k), s%start(k), s%est(k)
       text = text//trim(buf)//NL
     end do
     text = text//' last value: where the fit stopped, not an estimate (a failed fit has no '// &
@@ -524,5 +525,12 @@ contains
     end do
     s = s//']'
   end function numbers
+
+  !> A row of the table of parameters: label, unit, then rest.
+  function label_format(rest) result(f)
+    character(len=*), intent(in) :: rest
+    character(len=:), allocatable :: f
+    f = '(1x,a'//itoa(LABEL_WIDTH)//',1x,a10,'//rest//')'
+  end function label_format
 
 end module mlid_report

@@ -115,7 +115,7 @@ ENTRIES = {
     "unknown group": ("unknown_group.nml", r"unknown group &modle", {}),
     "unknown name": ("unknown_name.nml", r"\bfo\b", {}),
     "second &model group": ("second_model.nml", r"&model given twice", {}),
-    "missing /": ("missing_slash.nml", r"&model.*not terminated|&model.*missing /", {}),
+    "missing /": ("missing_slash.nml", r"group &model at line \d+ is not closed with /", {}),
     "unterminated string": ("unterminated_string.nml", r"(unterminated|unclosed|[Ii]nvalid) string|quote", {}),
     "string for nx": ("string_for_nx.nml", r"\bnx\b", {}),
     "real for max_iter": ("real_for_max_iter.nml", r"max_iter", {}),

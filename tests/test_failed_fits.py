@@ -30,7 +30,9 @@ def case(title, f11=-1.0, g11=1.0, free="'f(1,1)', 'g(1,1)'", extra="", estimate
          job="estimate", data=DATA):
     return "\n".join([f"&case title = '{title}', job = '{job}' /",
                       model(f11, g11, f",{extra}\n    free = {free}"), data,
-                      f"&estimate max_iter = 10 {estimate}/", ""])
+                      # max_iter once: a name given twice is refused
+                      f"&estimate {'' if 'max_iter' in estimate else 'max_iter = 10 '}{estimate}/",
+                      ""])
 
 
 # State 2 never moves: f(1,2) and f(2,2) have no effect on the outputs.

@@ -132,7 +132,7 @@ def test_several_manoeuvres_in_a_deck_through_both_front_ends(tmp_path):
 &case title = 'both together', job = 'estimate' /
 &model kind = 'linear', nx = 2, nu = 1, ny = 2, f = -1.0, 0.5, -0.8, -2.0, g = 1.0, 0.3,
     h = 1, 0, 0, 1, free = 'g(1,1)', 'f(1,1)', 'f(2,1)', 'x0(1)', 'x0(2)', 'bias(2)',
-    names = 'b1', 'a11', 'a21' /
+    names = 'b1', 'a11', 'a21', 'x0(1)', 'x0(2)', 'bias(2)' /
 &data file = 'a.dat', 'b.dat', input_cols = 2, output_cols = 3, 4 /
 """)
     res = []

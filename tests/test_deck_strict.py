@@ -1,0 +1,219 @@
+"""Bad decks the namelist reader must not read silently wrong: a name given
+twice, a word for a logical, text outside the groups, a group not closed,
+lists shorter than their items, values out of range, a record written over
+its own input, values longer than their room.  Each is refused by both
+front ends in one line naming the case, the line and the problem, and the
+cases before and after it still run."""
+
+import pytest
+
+from conftest import refused_by_both, run_both
+
+SIM = """&case title = 'make data', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.2, 0.5, -1.0, -2.0,   g = 1.5, 0.3,   h = 1, 0, 0, 1 /
+&simulate out = 'small.dat', t_end = 4.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
+    input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2 /
+"""
+# the middle case (its &case line is line 6 of the deck)
+FIT = """&case title = 'middle', job = 'estimate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1,
+    free = 'f(1,1)', 'f(2,1)', 'g(1,1)', names = 'a11', 'a21', 'b1' /
+&data file = 'small.dat', time_col = 1, input_cols = 2, output_cols = 3, 4 /
+&estimate max_iter = 20, halvings = 5 /
+"""
+GOOD = FIT.replace("'middle'", "'good fit'")
+
+
+def _refused(tmp_path, middle, message):
+    """[simulate, middle, good fit]: both front ends refuse the middle case
+    with message, and run its neighbours."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(SIM + middle + GOOD)
+    refused_by_both(deck, message, cwd=tmp_path)
+    for run in run_both(deck, cwd=tmp_path):
+        errors = [ln for ln in run.stderr.splitlines() if "case 2 (line 6) 'middle'" in ln]
+        assert len(errors) == 1 and message in errors[0], run.stderr
+        assert "simulated 201 samples" in run.stdout and run.stdout.count("converged (") == 1
+        assert "1 of 3 cases failed" in run.stderr
+
+
+# middle case text -> the message (lines of the deck: the middle case's
+# &model is line 7, its &estimate line 11)
+SCANNED = {
+    "a scalar twice": (FIT.replace("halvings = 5", "halvings = 5, max_iter = 3"),
+                       "line 11: max_iter given twice in group &estimate (first at line 11)"),
+    "nx twice": (FIT.replace("nx = 2,", "nx = 2, nx = 3,"),
+                 "line 7: nx given twice in group &model (first at line 7)"),
+    "a list twice, the second shorter": (
+        FIT.replace("'b1' /", "'b1',\n    names = 'A' /"),
+        "line 10: names given twice in group &model (first at line 9)"),
+    "an element set twice by index": (
+        FIT.replace("'b1' /", "'b1', x0 = 1.0, 2.0, x0(2) = 5.0 /"),
+        "line 9: x0(2) given twice in group &model (first at line 9)"),
+    "a logical by its first letter": (FIT.replace("halvings = 5", "steady_state = tomato"),
+                                      "line 11: bad value tomato for steady_state in group "
+                                      "&estimate: not a number, not quoted text and not a "
+                                      "logical"),
+    "a word for a logical": (FIT.replace("halvings = 5", "partials = fish"),
+                             "line 11: bad value fish for partials"),
+    "text after a group's /": (FIT.replace("halvings = 5 /", "halvings = 5 / max_iter = 3"),
+                               "line 11: 'max_iter = 3' is outside any group (a group is "
+                               "&name ... /, a comment starts with !)"),
+    "a stray line": (FIT.replace("&estimate", "max_iter = 3\n&estimate"),
+                     "line 11: 'max_iter = 3' is outside any group"),
+    "a group commented with #": (FIT + "# &estimate max_iter = 3 /\n",
+                                 "line 12: '# &estimate max_iter = 3 /' is outside any group"),
+    "a $group $end": (FIT.replace("&estimate max_iter = 20, halvings = 5 /",
+                                  "$estimate max_iter = 3 $end"),
+                      "line 11: '$estimate': a group starts with &name and ends with / "
+                      "($name ... $end and &end are not read)"),
+    "a group ended by &end": (FIT.replace("halvings = 5 /", "halvings = 5 &end"),
+                              "line 11: '&end': a group starts with &name and ends with /"),
+    "the last group not closed": (FIT.replace("halvings = 5 /", "halvings = 5"),
+                                  "group &estimate at line 11 is not closed with /"),
+    "a group before another not closed": (
+        FIT.replace("output_cols = 3, 4 /", "output_cols = 3, 4"),
+        "group &data at line 10 is not closed with /"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SCANNED))
+def test_the_deck_text_is_read_whole_or_refused(tmp_path, name):
+    middle, message = SCANNED[name]
+    _refused(tmp_path, middle, message)
+
+
+def test_elements_by_index_and_sections_are_read(tmp_path):
+    """x(i) = ... and x(i:j) = ... on elements not given before are read (the
+    bounds of cases/hfb320), and the same as the whole list given once."""
+    deck = tmp_path / "deck.nml"
+    runs = {}
+    for name, est in (("list", "lower = -9, -8, -7, upper = 1e3, 1e3, 1e3"),
+                      ("index", "lower(1) = -9, lower(2:3) = -8, -7, upper = 3*1e3")):
+        deck.write_text(SIM + FIT.replace("halvings = 5", "halvings = 5, " + est))
+        both = run_both(deck, cwd=tmp_path)
+        assert all(r.returncode == 0 for r in both), both[0].stderr
+        runs[name] = [r.stdout for r in both]
+    assert runs["list"] == runs["index"] and runs["list"][0] == runs["list"][1]
+
+
+# lists of one value per item given too short (none given keeps the default),
+# and values out of range that were taken as something else
+READ = {
+    "names too few": (FIT.replace("names = 'a11', 'a21', 'b1'", "names = 'a11', 'a21'"),
+                      "group &model: names has 2 labels for 3 free parameters (one per free "
+                      "parameter, in the order of free, or none)"),
+    "state_names too few": (FIT.replace("h = 1, 0, 0, 1,", "h = 1, 0, 0, 1, state_names = 'u',"),
+                            "group &model: state_names names every state (nx = 2) or none; "
+                            "given 1"),
+    "t_start for one of two files": (
+        FIT.replace("file = 'small.dat',", "file = 'small.dat', 'small.dat', t_start = 0.5,"),
+        "group &data: t_start and t_end take one value per file (in the order of file) or "
+        "none; given 1 and 0 for 2 files"),
+    "&data dt = 0": (FIT.replace("output_cols = 3, 4 /", "output_cols = 3, 4, dt = 0 /"),
+                     "group &data: dt must be > 0 (a uniform time step replacing the record's "
+                     "time), or left out"),
+    "&simulate noise_std < 0": (
+        SIM.replace("'make data'", "'middle'").replace("noise_std = 0.01, 0.01",
+                                                       "noise_std = 0.01, -0.01")
+        .replace("small.dat", "other.dat"),
+        "group &simulate: noise_std (the standard deviation of each output's noise) must be "
+        ">= 0 and finite"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(READ))
+def test_short_lists_and_values_out_of_range_are_refused(tmp_path, name):
+    middle, message = READ[name]
+    _refused(tmp_path, middle, message)
+
+
+def _simulate(out, input_file):
+    """A simulate case named 'middle' writing out from input_file."""
+    return (SIM.replace("'make data'", "'middle'")
+            .replace("out = 'small.dat', t_end = 4.0, dt = 0.02,", f"out = '{out}',")
+            .replace("input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2",
+                     f"input_file = '{input_file}'"))
+
+
+def test_a_record_is_not_written_over_its_own_input_or_the_deck(tmp_path):
+    """out naming its input_file (the same file by another name too) or the
+    deck is refused before anything is written; both files stay as they were."""
+    (tmp_path / "sub").mkdir()
+    for out, input_file in (("small.dat", "small.dat"), ("sub/../small.dat", "./small.dat"),
+                            ("deck.nml", "small.dat")):
+        (tmp_path / "small.dat").unlink(missing_ok=True)
+        _refused(tmp_path, _simulate(out, input_file),
+                 f"group &simulate: out '{tmp_path / out}' is the deck or the input_file: the "
+                 "record written would overwrite what it is made from")
+        assert (tmp_path / "deck.nml").read_text().startswith(SIM)
+
+
+LONG = {
+    "a label wider than the report's column": (
+        FIT.replace("names = 'a11'", "names = 'a_rather_long_label'"),
+        "group &model: the label 'a_rather_long_label' of free parameter 1 is longer than the 16 "
+        "characters the report prints (a shorter one in names)"),
+    "a file name over 511 characters": (
+        FIT.replace("file = 'small.dat'", "file = '" + "d/" * 300 + "small.dat'"),
+        "...' is longer than 511 characters (with the deck's folder)"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(LONG))
+def test_values_longer_than_their_room_are_refused(tmp_path, name):
+    """A label wider than the report's column (16), a file name over 511
+    characters: refused, never cut."""
+    middle, message = LONG[name]
+    _refused(tmp_path, middle, message)
+
+
+def test_a_title_longer_than_128_characters_is_refused(tmp_path):
+    deck = tmp_path / "deck.nml"
+    title = "t" * 129
+    deck.write_text(SIM + FIT.replace("'middle'", f"'{title}'") + GOOD)
+    for run in run_both(deck, cwd=tmp_path):
+        assert run.returncode == 1
+        assert f"'{title[:128]}': group &case: title is longer than 128 characters" in run.stderr
+        assert "1 of 3 cases failed" in run.stderr and run.stdout.count("converged (") == 1
+
+
+BLAMED = {
+    "an unknown name after a text value": (
+        FIT.replace("halvings = 5", "noise = 'diagonal', tol_cst = 1e-6"),
+        "group &estimate (line 11): line 11: unknown name tol_cst in group &estimate"),
+    "an index beyond the array": (FIT.replace("'b1' /", "'b1', x0(99) = 1.0 /"),
+                                  "group &model (line 7): line 9: x0(99): the index lies outside "
+                                  "x0"),
+    "two indices": (FIT.replace("'b1' /", "'b1', f(1,1) = 2.0 /"),
+                    "group &model (line 7): line 9: f(1,1): a deck's lists take one index, "
+                    "NAME(i) or NAME(i:j) (a matrix is one list, row by row)"),
+    "more values than a name takes": (
+        FIT.replace("'b1' /", "'b1', x0 = " + "1, " * 40 + "bias = 0, 0 /"),
+        "group &model (line 7): a value stands where a name should be (read as '1'): a "
+        "name given more values than it takes, or a name without ="),
+    "a group's name in quoted text": (
+        FIT.replace("'middle', job", "'middle', config = 'a &estimate b', job"),
+        "line 6: quoted text 'a &estimate b' holds '&estimate', which the namelist reads would "
+        "take for the group"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BLAMED))
+def test_a_namelist_error_names_what_is_wrong(tmp_path, name):
+    middle, message = BLAMED[name]
+    _refused(tmp_path, middle, message)
+
+
+def test_a_design_is_not_written_over_the_deck(tmp_path):
+    design = """&case title = 'middle', job = 'design' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1, r = 0.01, 0.01,
+    free = 'f(1,1)', 'g(1,1)' /
+&design t_end = 2.0, dt = 0.02, energy = 1.0, out = './deck.nml' /
+"""
+    _refused(tmp_path, design, f"group &design: out '{tmp_path}/./deck.nml' is the deck or the "
+                               "input_file: the record written would overwrite what it is made from")
+    assert (tmp_path / "deck.nml").read_text().startswith(SIM)
