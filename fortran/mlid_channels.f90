@@ -635,6 +635,7 @@ contains
 
   !> The time channel i's unit, if one is declared, must convert to s: a
   !> time in kt or deg would be scaled as if it were one (message, else '').
+  !> One declared as none ('-' or '1': its core unit is '') is read as it is.
   subroutine time_unit_check(plan, i, msg)
     type(plan_t), intent(in) :: plan
     integer, intent(in) :: i
@@ -643,7 +644,7 @@ contains
     msg = ''
     is_in = trim(plan%declared(i))
     if (len(is_in) == 0) is_in = trim(plan%unit(i))
-    if (len(is_in) == 0 .or. plan%unit(i) == 's') return
+    if (len(is_in) == 0 .or. plan%unit(i) == 's' .or. len_trim(plan%unit(i)) == 0) return
     msg = 'time channel '//label(plan, i)//' is in '//is_in//', not a unit of time ('// &
           units_of('s')//')'
   end subroutine time_unit_check

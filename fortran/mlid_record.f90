@@ -67,7 +67,7 @@ contains
     logical, intent(in), optional :: header_only
     character(len=:), allocatable :: line, header
     type(text_file_t) :: tf
-    integer :: nline, nrow, ios
+    integer :: nline, nrow, ios, hline, hoff
     logical :: only_header
 
     only_header = .false.
@@ -77,6 +77,8 @@ contains
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
     header = ''
+    hline = 0
+    hoff = 0
     nline = 0
     nrow = 0
     do
@@ -85,9 +87,11 @@ contains
       nline = nline + 1
       if (nline <= skip_rows) then
         header = line             ! the last line skipped may name the columns
+        hline = nline
+        hoff = 0
         cycle
       end if
-      call take_line(line, nline, nrow, header, rec, cols, only_header, msg)
+      call take_line(line, nline, nrow, header, hline, hoff, rec, cols, only_header, msg)
       if (len_trim(msg) > 0) then
         call text_close(tf)
         msg = 'data file '//short_path(path)//' line '//itoa(nline)//': '//trim(msg)
@@ -104,6 +108,11 @@ contains
       msg = 'data file '//short_path(path)//': no data rows'
       return
     end if
+    msg = control_character(header, hoff)        ! the line that names the columns
+    if (len_trim(msg) > 0) then
+      msg = 'data file '//short_path(path)//' line '//itoa(hline)//': '//trim(msg)
+      return
+    end if
     rec%x = rec%x(:, 1:nrow)
     rec%line = rec%line(1:nrow)
     call names_of(header, rec%ncol, rec%names, rec%units)
@@ -113,10 +122,10 @@ contains
 
   !> Classify one line (blank, comment, header, data row) and take a data
   !> row's columns into rec; msg is non-blank for a line that is wrong.
-  subroutine take_line(line, nline, nrow, header, rec, cols, only_header, msg)
+  subroutine take_line(line, nline, nrow, header, hline, hoff, rec, cols, only_header, msg)
     character(len=*), intent(in) :: line
     integer, intent(in) :: nline, cols(:)
-    integer, intent(inout) :: nrow
+    integer, intent(inout) :: nrow, hline, hoff   !< the header's line, where it starts less 1
     character(len=:), allocatable, intent(inout) :: header
     type(record_t), intent(inout) :: rec
     logical, intent(in) :: only_header
@@ -125,14 +134,18 @@ contains
     integer :: hash, ncol, n
 
     hash = index(line, '#')
-    ! a comment after the data begin may hold any bytes; values and the
-    ! lines before, which may name the columns, may not
+    ! a comment may hold any bytes (the header that names the columns is
+    ! checked where it is taken, record_read); what is read may not
     n = len(line)
-    if (hash > 0 .and. rec%ncol > 0) n = hash - 1
+    if (hash > 0) n = hash - 1
     msg = control_character(line(1:n))
     if (len_trim(msg) > 0) return
     if (hash > 0) then
-      if (rec%ncol == 0 .and. len_trim(line(1:hash - 1)) == 0) header = line(hash + 1:)
+      if (rec%ncol == 0 .and. len_trim(line(1:hash - 1)) == 0) then
+        header = line(hash + 1:)
+        hline = nline
+        hoff = hash
+      end if
       call fields(line(1:hash - 1), first, last, msg)
     else
       call fields(line, first, last, msg)
@@ -144,6 +157,8 @@ contains
           verify(line(first(1):first(1)), '+-.0123456789') > 0 .and. &
           .not. not_finite_word(line(first(1):last(1)))) then
         header = line                      ! a header line before the first data row
+        hline = nline
+        hoff = 0
         return
       end if
       rec%ncol = ncol

@@ -221,22 +221,44 @@ contains
   !> The first control character of line (TAB is blank, not one), as
   !> '\xHH at character k' for a message: a NUL or a stray CR in a deck or
   !> a record would be read wrong or cut messages short; '' if none.
-  function control_character(line) result(text)
+  function control_character(line, offset) result(text)
     character(len=*), intent(in) :: line
+    integer, intent(in), optional :: offset    !< where line starts in the file's line, less 1
     character(len=:), allocatable :: text
     character(len=2) :: hex
-    integer :: k, c
+    integer :: k, c, at
     text = ''
+    at = 0
+    if (present(offset)) at = offset
     do k = 1, len(line)
       c = iachar(line(k:k))
       if ((c >= 32 .and. c /= 127) .or. c == 9) cycle
       write (hex, '(z2.2)') c
-      text = 'control character \x'//hex//' at character '//itoa(k)
+      text = 'control character \x'//hex//' at character '//itoa(at + k)
       return
     end do
   end function control_character
 
-  !> All lines of a text file; a control character in one is refused.
+  !> Where a deck line's comment starts: its first '!' outside quotes (a
+  !> doubled quote inside quoted text toggles twice); len + 1 if none.
+  pure integer function comment_start(line) result(k)
+    character(len=*), intent(in) :: line
+    character :: quote
+    quote = ' '
+    do k = 1, len(line)
+      if (quote /= ' ') then
+        if (line(k:k) == quote) quote = ' '
+      else if (line(k:k) == '''' .or. line(k:k) == '"') then
+        quote = line(k:k)
+      else if (line(k:k) == '!') then
+        return
+      end if
+    end do
+    k = len(line) + 1
+  end function comment_start
+
+  !> All lines of a deck; a control character outside a comment is refused
+  !> (a comment may hold any bytes: a form feed between cases, say).
   subroutine read_text(path, lines, status, msg)
     character(len=*), intent(in) :: path
     type(line_t), allocatable, intent(out) :: lines(:)
@@ -261,7 +283,7 @@ contains
       call text_line(tf, lines(n + 1)%s, ios)
       if (ios /= 0) exit
       n = n + 1
-      msg = control_character(lines(n)%s)
+      msg = control_character(lines(n)%s(1:comment_start(lines(n)%s) - 1))
       if (len_trim(msg) > 0) then
         call text_close(tf)
         status = MLID_ERR_INPUT

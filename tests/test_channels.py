@@ -69,6 +69,9 @@ def test_time_must_be_in_a_unit_of_time(tmp_path):
                        ROWS[:, 0] * 1e-3, rtol=1e-15)
     assert np.array_equal(mlid.FlightData.load(path, "t", ["a"], ["d"], columns=["t"]).t,
                           ROWS[:, 0])
+    for none in ("t[-]", "t[1]"):            # declared as none: read as it is
+        assert np.array_equal(mlid.FlightData.load(path, "t", ["a"], ["d"], columns=[none]).t,
+                              ROWS[:, 0])
     with pytest.raises(mlid.InputError, match=r"rec.dat: time channel t is in kt, not a unit "
                                               r"of time \(s ms\)$"):
         mlid.FlightData.load(path, "t", ["a"], ["d"], columns=["t[kt]"])

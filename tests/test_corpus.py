@@ -99,6 +99,20 @@ def _nul_in_header(b):
     return b"# t u\x00 y1 y2\n" + b
 
 
+def _esc_in_an_earlier_comment(b):
+    return b"# logger \x1b[0m run 7\n# t u y1 y2\n" + b
+
+
+def _bell_in_a_later_comment(b):
+    lines = b.split(b"\n")
+    lines.insert(100, b"# \x07 operator's note")
+    return b"\n".join(lines)
+
+
+def _form_feed_in_a_deck_comment(b):
+    return b.replace(b"\n", b" ! page\x0c\n", 1)
+
+
 def _nul_in_title(b):
     return b.replace(b"title = 'middle'", b"title = 'mid\x00dle'", 1)
 
@@ -200,6 +214,16 @@ ENTRIES = {
                                       r"character 17$", {"record": ("good.dat", _cr_in_row_4)}),
     "NUL byte in the header": ("record.nml", r"rec\.dat line 1: control character \\x00 at "
                                              r"character 6$", {"record": ("good.dat", _nul_in_header)}),
+    # a comment holds any bytes, but the header that names the columns, and a deck's text
+    # outside its comments, may not
+    "ESC in an earlier # comment": ("record.nml", OK, {"record": ("good.dat",
+                                                                  _esc_in_an_earlier_comment),
+                                                       "same_as": "good record"}),
+    "BEL in a # comment among the rows": ("record.nml", OK, {"record": (
+        "good.dat", _bell_in_a_later_comment), "same_as": "good record"}),
+    "form feed in a deck's ! comment": ("record.nml", OK, {"record": "good.dat",
+                                                           "deck": _form_feed_in_a_deck_comment,
+                                                           "same_as": "good record"}),
     "columns beyond the file": ("record_cols_beyond.nml", r"column 7 requested",
                                 {"record": "good.dat"}),
 }
