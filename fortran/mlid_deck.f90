@@ -39,11 +39,10 @@
 !> mlid_deck_* routines; python/mlid/deck.py).
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use, intrinsic :: iso_c_binding, only: c_char, c_ptr, c_null_char, c_associated
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines
   use mlid_deck_scan, only: deck_scan, assignment_t
-  use mlid_files, only: temporary_for
+  use mlid_files, only: temporary_for, same_file
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
@@ -86,15 +85,6 @@ module mlid_deck
   character(len=10), parameter :: DESIGN_METHODS(4) = [character(len=10) :: 'operator', &
                                                        'riccati', 'amplitude', 'equalised']
 
-  interface
-    !> The C library's canonical absolute name of an existing file.
-    function c_realpath(path, resolved) bind(c, name='realpath') result(p)
-      import :: c_char, c_ptr
-      character(kind=c_char), intent(in) :: path(*)
-      character(kind=c_char), intent(out) :: resolved(*)
-      type(c_ptr) :: p
-    end function c_realpath
-  end interface
 
   !> What the group readers of one case share: the scratch unit with the
   !> case's text and its lines (for line numbers in messages).
@@ -238,50 +228,6 @@ contains
     end do
   end function read_by_case
 
-  !> Whether a and b name one file (by the C library's realpath: links, .
-  !> and .. resolved; a file not there yet by its folder's).
-  logical function same_file(a, b)
-    character(len=*), intent(in) :: a, b
-    same_file = .false.
-    if (len_trim(a) == 0 .or. len_trim(b) == 0) return
-    same_file = real_path(a) == real_path(b)
-  end function same_file
-
-  function real_path(path) result(r)
-    character(len=*), intent(in) :: path
-    character(len=:), allocatable :: r
-    integer :: k
-    r = c_real_path(trim(path))
-    if (len(r) > 0) return
-    k = index(trim(path), '/', back=.true.)
-    if (k == 0) then
-      r = c_real_path('.')
-    else if (k == 1) then
-      r = ''
-    else
-      r = c_real_path(path(1:k - 1))
-    end if
-    if (len(r) == 0) then
-      r = trim(path)                     ! no such folder: the name as written
-    else
-      r = r//'/'//trim(path(k + 1:))
-    end if
-  end function real_path
-
-  !> realpath(path), '' when it fails.
-  function c_real_path(path) result(r)
-    character(len=*), intent(in) :: path
-    character(len=:), allocatable :: r
-    character(kind=c_char) :: buf(4097)   ! PATH_MAX and its NUL
-    integer :: k
-    r = ''
-    buf = c_null_char
-    if (.not. c_associated(c_realpath(path//c_null_char, buf))) return
-    do k = 1, size(buf)
-      if (buf(k) == c_null_char) exit
-      r = r//buf(k)
-    end do
-  end function c_real_path
 
   !> Parse one case from its lines (first is the &case line, number line0):
   !> one reader per group, each after the one before succeeded.

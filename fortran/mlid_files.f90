@@ -3,10 +3,21 @@
 !> leaves the old file or none, never half of one).
 module mlid_files
   use, intrinsic :: iso_fortran_env, only: int64
+  use, intrinsic :: iso_c_binding, only: c_char, c_ptr, c_null_char, c_associated
   use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: temporary_for, write_whole, commit
+  public :: temporary_for, write_whole, commit, same_file
+
+  interface
+    !> The C library's canonical absolute name of an existing file.
+    function c_realpath(path, resolved) bind(c, name='realpath') result(p)
+      import :: c_char, c_ptr
+      character(kind=c_char), intent(in) :: path(*)
+      character(kind=c_char), intent(out) :: resolved(*)
+      type(c_ptr) :: p
+    end function c_realpath
+  end interface
 
 contains
 
@@ -108,5 +119,50 @@ contains
     open (newunit=unit, file=path, status='old', iostat=ios)
     if (ios == 0) close (unit, status='delete', iostat=ios)
   end subroutine delete
+
+  !> Whether a and b name one file (by the C library's realpath: links, .
+  !> and .. resolved; a file not there yet by its folder's).
+  logical function same_file(a, b)
+    character(len=*), intent(in) :: a, b
+    same_file = .false.
+    if (len_trim(a) == 0 .or. len_trim(b) == 0) return
+    same_file = real_path(a) == real_path(b)
+  end function same_file
+
+  function real_path(path) result(r)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable :: r
+    integer :: k
+    r = c_real_path(trim(path))
+    if (len(r) > 0) return
+    k = index(trim(path), '/', back=.true.)
+    if (k == 0) then
+      r = c_real_path('.')
+    else if (k == 1) then
+      r = ''
+    else
+      r = c_real_path(path(1:k - 1))
+    end if
+    if (len(r) == 0) then
+      r = trim(path)                     ! no such folder: the name as written
+    else
+      r = r//'/'//trim(path(k + 1:))
+    end if
+  end function real_path
+
+  !> realpath(path), '' when it fails.
+  function c_real_path(path) result(r)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable :: r
+    character(kind=c_char) :: buf(4097)   ! PATH_MAX and its NUL
+    integer :: k
+    r = ''
+    buf = c_null_char
+    if (.not. c_associated(c_realpath(path//c_null_char, buf))) return
+    do k = 1, size(buf)
+      if (buf(k) == c_null_char) exit
+      r = r//buf(k)
+    end do
+  end function c_real_path
 
 end module mlid_files

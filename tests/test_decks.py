@@ -58,22 +58,22 @@ def test_python_and_batch_give_the_same_numbers(name, tmp_path):
     deck, labels = DECKS[name]
     c8_deck = tmp_path / deck.name
     shutil.copy(deck, c8_deck)
+    # umask 022 (mkstemp's 0600 would then show as a difference, whatever the tests' umask)
     py = subprocess.run([str(BIN / "mlid"), "run", str(c8_deck), "--json",
                          str(tmp_path / "py.json"), "--plots", str(tmp_path / "plots")],
-                        capture_output=True, text=True)
+                        capture_output=True, text=True, preexec_fn=lambda: os.umask(0o022))
     assert py.returncode == 0, py.stderr
     fo = subprocess.run([str(BIN / "mlid-batch"), str(c8_deck), "--json",
-                         str(tmp_path / "fo.json")], capture_output=True, text=True)
+                         str(tmp_path / "fo.json")], capture_output=True, text=True,
+                        preexec_fn=lambda: os.umask(0o022))
     assert fo.returncode == 0, fo.stderr
     # one report and one JSON writer, in the core: the same bytes from both
     assert (tmp_path / "py.json").read_bytes() == (tmp_path / "fo.json").read_bytes()
     assert _without_plots(py.stdout) == fo.stdout
     # the files as open() makes them (0666 less the umask), mlid-batch's and the plots alike:
     # a report in a shared folder is readable by whoever the umask lets read it
-    umask = os.umask(0o022)
-    os.umask(umask)
     made = [tmp_path / "py.json", tmp_path / "fo.json", *(tmp_path / "plots").iterdir()]
-    assert {stat.S_IMODE(p.stat().st_mode) for p in made} == {0o666 & ~umask}
+    assert {stat.S_IMODE(p.stat().st_mode) for p in made} == {0o644}
     a = json.loads((tmp_path / "py.json").read_text())
     b = json.loads((tmp_path / "fo.json").read_text())
     assert [c["job"] for c in a] == [c["job"] for c in b] == ["simulate", "estimate"]
@@ -370,3 +370,37 @@ def test_against_truth_reads_the_simulating_case_at_the_free_elements(tmp_path):
     np.testing.assert_array_equal(values, [f[2, 2], f[2, 3], f[3, 3], g[2, 0], g[3, 0]])
     np.testing.assert_array_equal(z, (res.estimate - values) / res.sigma)
     assert np.all(np.abs(z) < 3)          # the fit is within 3 Cramer-Rao sigma of the truth
+
+
+
+def test_outputs_that_would_overwrite_a_deck_or_name_a_folder_are_refused(tmp_path):
+    """--json naming a deck of the run replaced the deck; 'new/' wrote a
+    file 'new' from mlid run.  Both front ends refuse, before any case."""
+    shutil.copy(C8_CASE / "c8.nml", tmp_path / "c8.nml")
+    deck = (tmp_path / "c8.nml").read_bytes()
+    for target, reason in (("c8.nml", "a deck this run reads"),
+                           ("./c8.nml", "a deck this run reads"),
+                           ("new/", "its folder is missing or not writable")):
+        for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+            for json_args in (["--json", target], [f"--json={target}"]):
+                run = subprocess.run([str(BIN / exe), *pre, "c8.nml", *json_args],
+                                     capture_output=True, text=True, cwd=tmp_path)
+                assert run.returncode == 1 and run.stdout == "", (exe, json_args)
+                assert run.stderr.splitlines() == [f"{exe}: cannot write --json {target} "
+                                                   f"({reason})"], (exe, run.stderr)
+    assert (tmp_path / "c8.nml").read_bytes() == deck
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c8.nml"]
+
+
+def test_a_folder_of_decks_with_one_unreadable_runs_the_others(tmp_path):
+    fold = tmp_path / "fold"
+    fold.mkdir()
+    for name, out in (("a", "c8_a.dat"), ("c", "c8_c.dat")):
+        (fold / f"{name}.nml").write_text((C8_CASE / "c8.nml").read_text()
+                                          .replace("c8_doublet.dat", out))
+    (fold / "b.nml").write_text("no groups here\n")
+    run = subprocess.run([str(BIN / "mlid"), "run", "fold", "--workers", "1"],
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode == 1
+    assert run.stdout.count(" case 2: C-8 short period: output-error fit") == 2
+    assert run.stderr.splitlines()[-1] == "1 of 3 decks could not be read"

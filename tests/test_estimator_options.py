@@ -114,6 +114,9 @@ def test_infinite_bounds_bound_nothing(data):
     plain = mlid.fit(c8_start(), data)
     res = mlid.fit(c8_start(), data, bounds={"M_q": (-np.inf, np.inf), "M_alpha": (None, np.inf)})
     assert np.array_equal(res.estimate, plain.estimate)
+    # numpy scalars and 0-d arrays are numbers too
+    res = mlid.fit(c8_start(), data, bounds={"M_q": (np.array(-np.inf), np.float64(np.inf))})
+    assert np.array_equal(res.estimate, plain.estimate)
 
 
 @pytest.mark.parametrize("bounds, message", [

@@ -18,7 +18,7 @@ program mlid_batch
   use mlid_validate, only: prediction_stats
   use mlid_api, only: mlid_fit, mlid_simulate, mlid_flightpath_corrected
   use mlid_jobs, only: job_run, JOB_RUNS
-  use mlid_files, only: temporary_for, write_whole
+  use mlid_files, only: temporary_for, write_whole, same_file
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, json_list, &
                          validation_report, validation_json
   use mlid_wait_policy, only: brief_spin
@@ -45,6 +45,8 @@ program mlid_batch
       end if
       call get_command_argument(k + 1, json_path)
       k = k + 1
+    else if (arg(1:7) == '--json=') then       ! as Python's argparse takes it
+      json_path = arg(8:)
     else if (arg == '-h' .or. arg == '--help') then
       write (*, '(a)') 'usage: mlid-batch DECK... [--json FILE]', &
         '  runs every case of the namelist decks, one deck after another (jobs: estimate, '// &
@@ -63,8 +65,16 @@ program mlid_batch
     write (0, '(a)') 'usage: mlid-batch DECK... [--json FILE]'
     stop 2, quiet=.true.
   end if
-  ! the JSON destination is tried before any case runs
+  ! the JSON destination is tried before any case runs, and may not be a deck
   if (len_trim(json_path) > 0) then
+    do d = 1, nargs
+      call get_command_argument(d, deck)
+      if (is_deck(d) .and. same_file(json_path, deck)) then
+        write (0, '(a)') 'mlid-batch: cannot write --json '//trim(json_path)// &
+          ' (a deck this run reads)'
+        stop 1, quiet=.true.
+      end if
+    end do
     call temporary_for(trim(json_path), json_tmp, status, msg, '--json')
     if (status /= MLID_OK) then
       write (0, '(a)') 'mlid-batch: '//trim(msg)

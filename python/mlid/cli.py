@@ -148,21 +148,23 @@ def _outputs_writable(args):
     """--json, --plots and --report destinations tried before any case runs."""
     from pathlib import Path
 
+    from .campaign import decks as named_decks
     from .errors import InputError
     from .files import check_writable
+    decks = named_decks(args.deck if isinstance(args.deck, list) else [args.deck])
     if getattr(args, "json", None):
-        check_writable(args.json, "--json")
+        check_writable(args.json, "--json", decks)
     if getattr(args, "campaign", None):
         from .campaign import FORMATS
         if Path(args.campaign).suffix.lower().lstrip(".") not in FORMATS:
             raise InputError(f"--campaign {args.campaign}: the suffix must be .csv or .json")
-        check_writable(args.campaign, "--campaign")
+        check_writable(args.campaign, "--campaign", decks)
     if getattr(args, "table", None):
         from .table import WRITERS
         if Path(args.table).suffix.lower().lstrip(".") not in WRITERS:
             raise InputError(f"--table {args.table}: the suffix must be one of "
                              f"{', '.join('.' + s for s in WRITERS)}")
-        check_writable(args.table, "--table")
+        check_writable(args.table, "--table", decks)
     for option in ("plots", "report", "campaign_plots"):
         folder = getattr(args, option, None)
         if not folder:
@@ -290,7 +292,7 @@ def _jobs(args):
         try:
             cases = read_deck(deck)
         except MlidError as exc:
-            if len(args.deck) == 1:
+            if len(campaign.decks(args.deck)) == 1:
                 raise
             print(f"mlid: {exc}", file=sys.stderr)
             unread += 1

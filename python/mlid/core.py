@@ -170,6 +170,13 @@ def evaluate_options(options):
 _HUGE = np.finfo(float).max
 
 
+def _real_number(v):
+    """A real number: a float, an int, a numpy scalar or 0-d array of one."""
+    return (isinstance(v, numbers.Real) or
+            (isinstance(v, np.ndarray) and v.ndim == 0 and np.isrealobj(v) and
+             v.dtype.kind in "fiu"))
+
+
 def _extras(params, prior, prior_weight, bounds):
     """A priori values/weight and bounds in the core's layout."""
     theta = params.theta
@@ -199,13 +206,13 @@ def _extras(params, prior, prior_weight, bounds):
     for name, pair in (bounds or {}).items():
         # NaN and infinite values go on: the core says what is wrong with them
         if not isinstance(pair, (tuple, list)) or len(pair) != 2 or \
-                any(v is not None and not isinstance(v, numbers.Real) for v in pair):
+                any(v is not None and not _real_number(v) for v in pair):
             raise InputError(f"bounds[{name!r}] must be a pair (lower, upper) of numbers or None, "
                              f"got {pair!r}")
         lo, hi = pair
         k = params.index(name)
-        lower[k] = -_HUGE if lo is None else lo
-        upper[k] = _HUGE if hi is None else hi
+        lower[k] = -_HUGE if lo is None else float(lo)
+        upper[k] = _HUGE if hi is None else float(hi)
     return {"use_prior": int(prior_weight is not None), "prior": pvec,
             "pweight": np.asfortranarray(weight), "use_bounds": int(bool(bounds)),
             "lower": lower, "upper": upper}

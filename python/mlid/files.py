@@ -14,6 +14,7 @@ NOT_WRITABLE = "(its folder is missing or not writable)"
 A_FOLDER = "(a folder of that name)"
 FULL = "(the disk is full or the file went away)"
 NOT_RENAMED = "(a folder of that name, or no permission)"
+A_DECK = "(a deck this run reads)"
 
 
 @contextlib.contextmanager
@@ -26,13 +27,22 @@ def atomic_open(path, mode="w"):
     except OSError:
         raise InputError(f"cannot write {path} {NOT_WRITABLE}") from None
     try:
-        os.fchmod(fd, _new_file_mode())        # mkstemp's 0600 is for secrets, not reports
-        try:                    # the close may be what fails, flushing what is left
-            with os.fdopen(fd, mode) as fh:
-                yield fh
-                fh.flush()
-                os.fsync(fh.fileno())
+        fh = os.fdopen(fd, mode)
+        with contextlib.suppress(OSError):     # best effort: some file systems refuse it
+            os.fchmod(fd, _new_file_mode())    # mkstemp's 0600 is for secrets, not reports
+        try:
+            yield fh                           # the caller's own errors go on as they are
+        except BaseException:
+            with contextlib.suppress(OSError):
+                fh.close()
+            raise
+        try:                    # the flush or the close may be what meets a full disk
+            fh.flush()
+            os.fsync(fh.fileno())
+            fh.close()
         except OSError:
+            with contextlib.suppress(OSError):
+                fh.close()
             raise InputError(f"cannot write {path} {FULL}") from None
         try:
             os.replace(tmp, path)
@@ -58,7 +68,10 @@ def _new_file_mode():
 
 def atomic_write_text(path, text):
     with atomic_open(path) as fh:
-        fh.write(text)
+        try:
+            fh.write(text)
+        except OSError:
+            raise InputError(f"cannot write {path} {FULL}") from None
 
 
 def atomic_savefig(fig, path, **kw):
@@ -67,10 +80,16 @@ def atomic_savefig(fig, path, **kw):
         fig.savefig(fh, format=path.suffix.lstrip(".") or "png", **kw)
 
 
-def check_writable(path, what):
-    """One clear line, before any work starts, if path cannot be written."""
+def check_writable(path, what, decks=()):
+    """One clear line, before any work starts, if path cannot be written: a
+    folder, a name ending in / (a folder, Path would drop the /), a folder
+    missing or not writable, or one of the decks the run reads."""
     if Path(path).is_dir():
         raise InputError(f"cannot write {what} {path} {A_FOLDER}")
+    if str(path).endswith(os.sep):
+        raise InputError(f"cannot write {what} {path} {NOT_WRITABLE}")
+    if any(Path(path).resolve() == Path(d).resolve() for d in decks):
+        raise InputError(f"cannot write {what} {path} {A_DECK}")
     folder = Path(path).parent
     try:
         fd, tmp = tempfile.mkstemp(dir=folder, prefix=".mlid-check.")
