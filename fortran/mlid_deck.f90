@@ -391,8 +391,7 @@ contains
     type(case_t), intent(inout) :: c
     character(len=256) :: title             !< longer than the case's, to see a title too long
     character(len=16) :: job
-    character(len=64) :: config
-    character(len=256) :: tags
+    character(len=1024) :: config, tags     !< longer than the case's too
     real(wp) :: mach, altitude, alpha_trim, given(NCONDITION)
     character(len=msg_len) :: iomsg
     integer :: ios, i
@@ -413,6 +412,11 @@ contains
     c%job = to_lower(job)
     if (len_trim(title) > len(c%title)) then
       call fail(c, 'group &case: title is longer than '//itoa(len(c%title))//' characters')
+      return
+    end if
+    if (len_trim(config) > len(c%config) .or. len_trim(tags) > len(c%tags)) then
+      call fail(c, 'group &case: config is longer than '//itoa(len(c%config))//' characters, '// &
+                'or tags than '//itoa(len(c%tags)))
       return
     end if
     c%config = config

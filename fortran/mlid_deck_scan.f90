@@ -6,8 +6,9 @@
 !>
 !> The syntax taken: groups &name ... / (not $name ... $end, nor &end);
 !> assignments NAME = values or NAME(i) = values or NAME(i:j) = values, the
-!> values separated by commas or blanks, each a number, r*number, quoted
-!> text or a logical (.true., .false., T, F, true, false, any case).
+!> values separated by commas or blanks (two commas: a null value), each
+!> a number, r*number, r*'text', quoted
+!> text or a logical (T, F, true, false, any case, with or without periods).
 module mlid_deck_scan
   use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: to_lower, itoa, line_t
@@ -26,6 +27,8 @@ module mlid_deck_scan
   end type assignment_t
 
   character(len=*), parameter :: BLANKS = ' '//achar(9)
+  !> What the scan met last in an assignment's values (for null values)
+  integer, parameter :: AFTER_EQUALS = 1, AFTER_VALUE = 2, AFTER_COMMA = 3
   character(len=*), parameter :: WORD_CHARS = &
     'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ_0123456789'
 
@@ -44,14 +47,16 @@ contains
     type(assignment_t), allocatable, intent(out) :: every(:)
     type(assignment_t), allocatable :: given(:)
     character(len=:), allocatable :: s, seen, group, word
-    integer :: k, p, e, ln, gline
-    logical :: ingroup
+    integer :: k, p, e, ln, gline, after
+    logical :: ingroup, eq_next
 
     status = MLID_OK
     msg = ''
     seen = ' '
     group = ''
     gline = 0
+    after = 0
+    eq_next = .false.
     ingroup = .false.
     allocate (given(0), every(0))
     do k = 1, size(lines)
@@ -64,6 +69,7 @@ contains
         select case (s(p:p))
         case (',')
           if (.not. ingroup) call outside(s, p, ln)
+          if (size(given) > 0) call null_value(given(size(given)))
           p = p + 1
         case ('/')
           if (.not. ingroup) call outside(s, p, ln)
@@ -83,6 +89,10 @@ contains
           else if (index(seen, ' '//to_lower(word)//' ') > 0) then
             ! a compiler's namelist read would take the first and ignore the rest
             call problem('line '//itoa(ln)//': group &'//word//' given twice in one case')
+          else if (quoted_bang(s(1:p - 1))) then
+            ! the namelist read, looking for a group, skips a line from its first !
+            call problem('line '//itoa(ln)//': start &'//word//' on a line of its own (a ! '// &
+                         'in quoted text before it hides it from the namelist read)')
           end if
           if (status /= MLID_OK) return
           seen = seen//to_lower(word)//' '
@@ -93,6 +103,14 @@ contains
           deallocate (given)
           allocate (given(0))
           p = e
+        case ('=')           ! the = of a name that ends the line before
+          if (.not. (ingroup .and. eq_next)) then
+            if (.not. ingroup) call outside(s, p, ln)
+            if (ingroup) call problem('line '//itoa(ln)//': '''//shown(s(p:))// &
+                                      ''' in group &'//group//' is no NAME = value')
+          end if
+          eq_next = .false.
+          p = p + 1
         case ('''', '"')
           if (.not. ingroup) call outside(s, p, ln)
           if (status == MLID_OK) call value(s, p, ln, given)
@@ -146,13 +164,16 @@ contains
           end if
         end if
       end if
-      if (e == p .or. q == 0) then
+      if (e > p .and. q == 0) eq_next = equals_next(k)
+      if (e == p .or. (q == 0 .and. .not. eq_next)) then
         call value(s, p, ln, given)
         return
       end if
-      if (s(q:q) /= '=') then
-        call value(s, p, ln, given)
-        return
+      if (q > 0) then
+        if (s(q:q) /= '=') then
+          call value(s, p, ln, given)
+          return
+        end if
       end if
       a%line = ln
       a%group = to_lower(group)
@@ -167,8 +188,40 @@ contains
         end if
       end do
       given = [given, a]
-      p = q + 1
+      after = AFTER_EQUALS
+      p = len(s) + 1                     ! the = on the next line: eq_next
+      if (q > 0) p = q + 1
     end subroutine name_or_value
+
+    !> Whether the first text after line kl opens with = (a name ending
+    !> its line, its = on the next).
+    logical function equals_next(kl)
+      integer, intent(in) :: kl
+      integer :: j, c
+      equals_next = .false.
+      do j = kl + 1, size(lines)
+        c = next_char(lines(j)%s, 1)
+        if (c == 0) cycle
+        equals_next = lines(j)%s(c:c) == '='
+        return
+      end do
+    end function equals_next
+
+    !> A comma: after = or after another comma it stands for a null value,
+    !> which keeps its element as it was: one at the start moves where the
+    !> assignment starts setting (x0 = , 0.02 sets x0(2) alone), one later
+    !> is a position counted.
+    subroutine null_value(a)
+      type(assignment_t), intent(inout) :: a
+      if (after == AFTER_EQUALS .or. after == AFTER_COMMA) then
+        if (a%n == 0 .and. a%first > 0) then
+          a%first = a%first + 1
+        else
+          a%n = a%n + 1
+        end if
+      end if
+      after = AFTER_COMMA
+    end subroutine null_value
 
     !> A value at p (quoted text, or an unquoted word up to a blank, a comma
     !> or /), counted to the last assignment; p moves past it.
@@ -179,6 +232,13 @@ contains
       type(assignment_t), intent(inout) :: given(:)
       integer :: e, n
       n = 1
+      e = scan(s(p:), '*')
+      if (e > 1 .and. verify(s(p:p + e - 2), '0123456789') == 0 .and. p + e <= len(s)) then
+        if (scan(s(p + e:p + e), '''"') == 1) then      ! r*'text': r copies of the text
+          read (s(p:p + e - 2), *) n
+          p = p + e
+        end if
+      end if
       if (s(p:p) == '''' .or. s(p:p) == '"') then
         e = quote_end(s, p)
         if (e == 0) then
@@ -204,7 +264,7 @@ contains
             call problem('line '//itoa(ln)//': bad value '//s(p:e - 1)//' for '// &
                          trim(given(size(given))%key)//' in group &'//group//': not a '// &
                          'number, not quoted text and not a logical (.true., .false., T, F, '// &
-                         'true or false)')
+                         'true or false, with or without periods)')
           end if
           return
         end if
@@ -215,6 +275,7 @@ contains
         return
       end if
       given(size(given))%n = given(size(given))%n + n
+      after = AFTER_VALUE
       p = e
     end subroutine value
 
@@ -236,6 +297,23 @@ contains
     end subroutine group_in_text
 
   end subroutine deck_scan
+
+  !> Whether text holds a ! inside quotes.
+  logical function quoted_bang(text)
+    character(len=*), intent(in) :: text
+    integer :: k, e
+    quoted_bang = .false.
+    k = 1
+    do while (k <= len(text))
+      if (scan(text(k:k), '''"') == 1) then
+        e = quote_end(text, k)
+        if (e == 0) e = len(text)
+        if (index(text(k:e), '!') > 0) quoted_bang = .true.
+        k = e
+      end if
+      k = k + 1
+    end do
+  end function quoted_bang
 
   !> Where an assignment starts, from its subscript: (i) or (i:j) or none.
   subroutine elements(a)
@@ -294,10 +372,27 @@ contains
       v = w(star + 1:)
       if (len_trim(v) == 0) return
     end if
-    plain_value = is_number(trim(v)) .or. any(to_lower(trim(v)) == [character(len=9) :: &
-      '.true.', '.false.', 't', 'f', 'true', 'false', 'nan', 'inf', '+inf', '-inf', &
+    plain_value = is_number(trim(v)) .or. is_logical(trim(v)) .or. &
+      any(to_lower(trim(v)) == [character(len=9) :: 'nan', 'inf', '+inf', '-inf', &
       'infinity', '+infinity', '-infinity'])
   end function plain_value
+
+  !> A logical as Fortran writes one: t, f, true or false, any case, with
+  !> or without a period before and after (.t., .false, T.): not any word
+  !> that starts with t or f, as the namelist read would take it.
+  logical function is_logical(w)
+    character(len=*), intent(in) :: w
+    integer :: a, b
+    a = 1
+    b = len(w)
+    if (b > 0) then
+      if (w(1:1) == '.') a = 2
+    end if
+    if (b >= a) then
+      if (w(b:b) == '.') b = b - 1
+    end if
+    is_logical = any(to_lower(w(a:b)) == [character(len=5) :: 't', 'f', 'true', 'false'])
+  end function is_logical
 
   !> [sign] digits [. digits] [e|d [sign] digits], at least one digit.
   logical function is_number(w)

@@ -99,6 +99,42 @@ def test_elements_by_index_and_sections_are_read(tmp_path):
     assert runs["list"] == runs["index"] and runs["list"][0] == runs["list"][1]
 
 
+# legal namelist syntax the scan once refused: each must read as the plain deck
+LEGAL = {
+    "logicals with periods": ("halvings = 5", "halvings = 5, steady_state = .f., partials = .T"),
+    "a name with its = on the next line": ("halvings = 5", "halvings\n    = 5"),
+    "a repeat count of quoted text": ("names = 'a11', 'a21', 'b1'",
+                                      "names = 1*'a11', 'a21', names(3) = 'b1'"),
+    "a null value before an element set by index": ("h = 1, 0, 0, 1,",
+                                                    "h = , 0, 0, 1, h(1) = 1,"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(LEGAL))
+def test_legal_namelist_syntax_reads_as_the_plain_deck(tmp_path, name):
+    plain, legal = LEGAL[name]
+    assert plain in FIT
+    deck = tmp_path / "deck.nml"
+    outs = []
+    for middle in (FIT, FIT.replace(plain, legal)):
+        deck.write_text(SIM + middle + GOOD)
+        both = run_both(deck, cwd=tmp_path)
+        assert all(r.returncode == 0 for r in both), both[0].stderr
+        assert both[0].stdout == both[1].stdout
+        outs.append(both[0].stdout)
+    assert outs[0] == outs[1]
+
+
+def test_a_group_after_a_quoted_bang_on_its_line_is_refused(tmp_path):
+    """The namelist read skips a line from its first !, quoted or not, when
+    it looks for a group: the &estimate after 't!s' was never read (the fit
+    ran with the default options)."""
+    middle = FIT.replace("output_cols = 3, 4 /\n&estimate", "output_cols = 3, 4, "
+                         "output_names = 'y!1', 'y2' / &estimate")
+    _refused(tmp_path, middle, "line 10: start &estimate on a line of its own (a ! in quoted "
+                               "text before it hides it from the namelist read)")
+
+
 # lists of one value per item given too short (none given keeps the default),
 # and values out of range that were taken as something else
 READ = {
@@ -168,6 +204,14 @@ def test_values_longer_than_their_room_are_refused(tmp_path, name):
     characters: refused, never cut."""
     middle, message = LONG[name]
     _refused(tmp_path, middle, message)
+
+
+@pytest.mark.parametrize("entry", ["config = '{}'".format("c" * 65),
+                                   "tags = '{}'".format("t" * 257)])
+def test_a_config_or_tags_longer_than_their_room_is_refused(tmp_path, entry):
+    """They were cut without a word (a campaign table's column)."""
+    _refused(tmp_path, FIT.replace("job = 'estimate' /", f"job = 'estimate', {entry} /"),
+             "group &case: config is longer than 64 characters, or tags than 256")
 
 
 def test_a_title_longer_than_128_characters_is_refused(tmp_path):
