@@ -8,13 +8,7 @@ cases before and after it still run."""
 import pytest
 
 from conftest import refused_by_both, run_both
-
-SIM = """&case title = 'make data', job = 'simulate' /
-&model kind = 'linear', nx = 2, nu = 1, ny = 2,
-    f = -1.2, 0.5, -1.0, -2.0,   g = 1.5, 0.3,   h = 1, 0, 0, 1 /
-&simulate out = 'small.dat', t_end = 4.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
-    input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2 /
-"""
+from test_corpus import SIM      # the first case: the record the others fit
 # the middle case (its &case line is line 6 of the deck)
 FIT = """&case title = 'middle', job = 'estimate' /
 &model kind = 'linear', nx = 2, nu = 1, ny = 2,
