@@ -97,6 +97,27 @@ module mlid_deck
 
 contains
 
+  !> Whether quoted text given to one of keys in group is longer than room,
+  !> the characters its variable holds (the namelist read would cut it
+  !> without a word): the case fails naming key, line and room.
+  logical function too_long(rd, c, group, keys, room)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: group, keys(:)
+    integer, intent(in) :: room
+    integer :: k
+    too_long = .false.
+    do k = 1, size(rd%given)
+      associate (a => rd%given(k))
+        if (a%group /= group .or. all(a%key /= keys) .or. a%longest <= room) cycle
+        call fail(c, 'line '//itoa(a%line)//': a value of '//trim(a%key)//' in group &'// &
+                  group//' is longer than its '//itoa(room)//' characters')
+        too_long = .true.
+        return
+      end associate
+    end do
+  end function too_long
+
   !> Read every case of a deck.  status /= 0 only when the deck as a whole
   !> cannot be used (missing file, no &case); per-case problems are kept in
   !> the cases.
@@ -545,6 +566,8 @@ contains
     call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], constants, &
                     user_iconst, user_rconst, nx, nu, ny, nw, ncoef, codes)
     if (c%status /= MLID_OK) return
+    if (too_long(rd, c, 'model', ['state_names ', 'input_names ', 'output_names'], NAMELEN)) &
+      return
     if (all(count(len_trim(state_names) > 0) /= [0, c%nx])) then
       call fail(c, 'group &model: state_names names every state (nx = '//itoa(c%nx)// &
                 ') or none; given '//itoa(count(len_trim(state_names) > 0)))

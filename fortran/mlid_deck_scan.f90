@@ -20,10 +20,11 @@ module mlid_deck_scan
 
   !> One assignment of a group: its group and name, where it starts (first =
   !> -1 when its subscript is not of one dimension), the end of its section
-  !> (0: none), the values given and its line.
+  !> (0: none), the values given, its line and the longest quoted text among
+  !> them (a namelist read cuts text to its variable's room without a word).
   type :: assignment_t
     character(len=WORDLEN) :: group = '', key = '', subscript = ''
-    integer :: first = 1, section_end = 0, n = 0, line = 0
+    integer :: first = 1, section_end = 0, n = 0, line = 0, longest = 0
   end type assignment_t
 
   character(len=*), parameter :: BLANKS = ' '//achar(9)
@@ -248,6 +249,8 @@ contains
         end if
         call group_in_text(s(p:e), ln)
         if (status /= MLID_OK) return
+        if (size(given) > 0) given(size(given))%longest = max(given(size(given))%longest, &
+                                                              text_length(s(p:e)))
         e = e + 1
       else
         e = scan(s(p:), BLANKS//',/''"')
@@ -297,6 +300,19 @@ contains
     end subroutine group_in_text
 
   end subroutine deck_scan
+
+  !> The length of quoted text (its quotes off, a doubled quote one).
+  integer function text_length(quoted)
+    character(len=*), intent(in) :: quoted
+    integer :: k
+    text_length = 0
+    k = 2
+    do while (k < len(quoted))
+      text_length = text_length + 1
+      if (quoted(k:k) == quoted(1:1)) k = k + 1
+      k = k + 1
+    end do
+  end function text_length
 
   !> Whether text holds a ! inside quotes.
   logical function quoted_bang(text)

@@ -186,6 +186,13 @@ LONG = {
         FIT.replace("names = 'a11'", "names = 'a_rather_long_label'"),
         "group &model: the label 'a_rather_long_label' of free parameter 1 is longer than the 16 "
         "characters the report prints (a shorter one in names)"),
+    "an output name over 32 characters": (
+        FIT.replace("h = 1, 0, 0, 1,", "h = 1, 0, 0, 1, output_names = 'y1', '" + "y" * 33 + "',"),
+        "line 8: a value of output_names in group &model is longer than its 32 characters"),
+    "a state name over 32 characters, its quotes doubled": (
+        FIT.replace("h = 1, 0, 0, 1,", "h = 1, 0, 0, 1, state_names = 'x1', '" + "x''" * 16
+                    + "x',"),
+        "line 8: a value of state_names in group &model is longer than its 32 characters"),
     "a file name over 511 characters": (
         FIT.replace("file = 'small.dat'", "file = '" + "d/" * 300 + "small.dat'"),
         "...' is longer than 511 characters (with the deck's folder)"),
