@@ -642,9 +642,9 @@ contains
     character(len=*), intent(out) :: msg
     character(len=:), allocatable :: is_in
     msg = ''
+    if (plan%unit(i) == 's' .or. len_trim(plan%unit(i)) == 0) return
     is_in = trim(plan%declared(i))
     if (len(is_in) == 0) is_in = trim(plan%unit(i))
-    if (len(is_in) == 0 .or. plan%unit(i) == 's' .or. len_trim(plan%unit(i)) == 0) return
     msg = 'time channel '//label(plan, i)//' is in '//is_in//', not a unit of time ('// &
           units_of('s')//')'
   end subroutine time_unit_check

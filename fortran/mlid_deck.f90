@@ -40,7 +40,7 @@
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines
+  use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines, comment_start
   use mlid_deck_scan, only: deck_scan, assignment_t
   use mlid_files, only: temporary_for, same_file
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
@@ -85,7 +85,6 @@ module mlid_deck
   character(len=10), parameter :: DESIGN_METHODS(4) = [character(len=10) :: 'operator', &
                                                        'riccati', 'amplitude', 'equalised']
 
-
   !> What the group readers of one case share: the scratch unit with the
   !> case's text and its lines (for line numbers in messages).
   type :: reader_t
@@ -96,27 +95,6 @@ module mlid_deck
 
 
 contains
-
-  !> Whether quoted text given to one of keys in group is longer than room,
-  !> the characters its variable holds (the namelist read would cut it
-  !> without a word): the case fails naming key, line and room.
-  logical function too_long(rd, c, group, keys, room)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: group, keys(:)
-    integer, intent(in) :: room
-    integer :: k
-    too_long = .false.
-    do k = 1, size(rd%given)
-      associate (a => rd%given(k))
-        if (a%group /= group .or. all(a%key /= keys) .or. a%longest <= room) cycle
-        call fail(c, 'line '//itoa(a%line)//': a value of '//trim(a%key)//' in group &'// &
-                  group//' is longer than its '//itoa(room)//' characters')
-        too_long = .true.
-        return
-      end associate
-    end do
-  end function too_long
 
   !> Read every case of a deck.  status /= 0 only when the deck as a whole
   !> cannot be used (missing file, no &case); per-case problems are kept in
@@ -248,7 +226,6 @@ contains
       read_by_case = read_by_case .or. same_file(path, c%data_files(k))
     end do
   end function read_by_case
-
 
   !> Parse one case from its lines (first is the &case line, number line0):
   !> one reader per group, each after the one before succeeded.
@@ -397,6 +374,27 @@ contains
       return
     end do
   end function assigned
+
+  !> Whether quoted text given to one of keys in group is longer than room,
+  !> the characters its variable holds (the namelist read would cut it
+  !> without a word): the case fails naming key, line and room.
+  logical function too_long(rd, c, group, keys, room)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: group, keys(:)
+    integer, intent(in) :: room
+    integer :: k
+    too_long = .false.
+    do k = 1, size(rd%given)
+      associate (a => rd%given(k))
+        if (a%group /= group .or. all(a%key /= keys) .or. a%longest <= room) cycle
+        call fail(c, 'line '//itoa(a%line)//': a value of '//trim(a%key)//' in group &'// &
+                  group//' is longer than its '//itoa(room)//' characters')
+        too_long = .true.
+        return
+      end associate
+    end do
+  end function too_long
 
   subroutine fail(c, text)
     type(case_t), intent(inout) :: c
@@ -2109,27 +2107,12 @@ contains
     end if
   end function resolve
 
-  !> The line without its comment (from the first '!' outside quotes).
+  !> The line without its comment (from the first '!' outside quotes:
+  !> mlid_text's comment_start).
   function strip_comment(line) result(s)
     character(len=*), intent(in) :: line
     character(len=len(line)) :: s
-    character :: q
-    logical :: quoted
-    integer :: k
-    s = line
-    quoted = .false.
-    q = ' '
-    do k = 1, len_trim(line)
-      if (quoted) then
-        if (line(k:k) == q) quoted = .false.
-      else if (line(k:k) == '''' .or. line(k:k) == '"') then
-        quoted = .true.
-        q = line(k:k)
-      else if (line(k:k) == '!') then
-        s = line(1:k - 1)
-        return
-      end if
-    end do
+    s = line(1:comment_start(line) - 1)
   end function strip_comment
 
   function first_word(line) result(w)

@@ -6,7 +6,7 @@ module mlid_text
   implicit none
   private
   public :: to_lower, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
-            text_file_t, text_open, text_line, text_close, control_character
+            text_file_t, text_open, text_line, text_close, control_character, comment_start
 
   integer, parameter :: CHUNK = 4096
   character(len=3), parameter :: BOM = char(239)//char(187)//char(191)   !< UTF-8 byte-order mark

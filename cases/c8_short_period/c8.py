@@ -30,8 +30,7 @@ def monte_carlo(simulate, estimate, data, runs):
     """The deck's experiment flown `runs` times with new noise: case 1's
     model (its noise variances) as the truth, case 2's model and options as
     the fit, on case 2's record's time and input."""
-    free = [n for n, f in zip(estimate.model.element_names(), estimate.model.free_mask) if f]
-    truth = simulate.model.with_free(free, estimate.model.names)
+    truth = simulate.model.with_free(estimate.model.free, estimate.model.names)
     mc = mlid.monte_carlo(truth, estimate.model, data.t, data.u, runs=runs, seed=SEED,
                           progress=False, **estimate.options())
     ok = mc["status"] == 0

@@ -283,16 +283,18 @@ WRITING_JOBS = ("simulate", "design")
 
 def _jobs(args):
     """The tasks: (deck, its case numbers, ...) with one case each, or all of
-    a deck's cases when one writes a record (WRITING_JOBS); and the number
-    of decks that cannot be read (said on stderr, counted as failed)."""
+    a deck's cases when one writes a record (WRITING_JOBS); the number of
+    decks that cannot be read (said on stderr) and of decks named (a
+    folder's counted)."""
     from . import campaign
     from .deck import read_deck
     jobs, unread = [], 0
-    for deck in campaign.decks(args.deck):
+    decks = campaign.decks(args.deck)
+    for deck in decks:
         try:
             cases = read_deck(deck)
         except MlidError as exc:
-            if len(campaign.decks(args.deck)) == 1:
+            if len(decks) == 1:
                 raise
             print(f"mlid: {exc}", file=sys.stderr)
             unread += 1
@@ -301,7 +303,7 @@ def _jobs(args):
         groups = [ks] if any(c.job in WRITING_JOBS for c in cases) else [[k] for k in ks]
         jobs += [(str(deck), g, args.plots, bool(args.table), bool(args.report))
                  for g in groups]
-    return jobs, unread
+    return jobs, unread, len(decks)
 
 
 def _run(args):
@@ -319,7 +321,7 @@ def _run(args):
     if args.plots or args.report or args.campaign_plots:
         use_file_backend()
     warnings.simplefilter("ignore")       # the core's warnings are printed with each case
-    jobs, unread = _jobs(args)
+    jobs, unread, ndecks = _jobs(args)
     failed = 0
     workers = args.workers
     if workers is None:
@@ -348,7 +350,7 @@ def _run(args):
         failed += bad
         cases.refresh()
     cases.close()
-    _say_failures(failed, len(objects), unread, len(campaign.decks(args.deck)))
+    _say_failures(failed, len(objects), unread, ndecks)
     writes = []
     if args.json:
         writes.append((f"--json {args.json}", atomic_write_text, args.json, json_list(objects)))

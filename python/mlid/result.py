@@ -339,9 +339,7 @@ class FitResult:
         deviations : ndarray
             (estimate - truth) / Cramer-Rao sigma of each.
         """
-        start = self.start_model
-        free = [n for n, f in zip(start.element_names(), start.free_mask) if f]
-        values = np.array([truth.value(n) for n in free])
+        values = truth.theta[self.start_model.free_mask == 1]    # theta order, as estimate
         return values, (self.estimate - values) / self.sigma
 
     def json(self, title="", job="estimate"):
