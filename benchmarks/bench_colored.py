@@ -1,5 +1,5 @@
 """Cost of the coloured-residual correction of the Cramer-Rao bound
-(fortran/mlid_colored.f90, fortran/mlid_fft.f90) against the fit it corrects,
+(fortran/estimation/time_domain/mlid_colored.f90, fortran/numerics/mlid_fft.f90) against the fit it corrects,
 on the real records: HFB-320 output error (cases/hfb320 case 1: 601 samples,
 7 outputs, 11 coefficients) and the ATTAS lateral linear model (cases/attas_lateral: 1,502 samples, 5
 outputs, 22 parameters); then the size of the brief, N = 3000 samples, ny =

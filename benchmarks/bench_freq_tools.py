@@ -1,5 +1,5 @@
-"""Cost of the frequency-domain tools (fortran/mlid_freq_response.f90,
-fortran/mlid_transfer_fit.f90) on the C-8 longitudinal model (4 states,
+"""Cost of the frequency-domain tools (fortran/estimation/frequency_domain/mlid_freq_response.f90,
+fortran/estimation/frequency_domain/mlid_transfer_fit.f90) on the C-8 longitudinal model (4 states,
 5 free derivatives), measured side by side in one run:
 
 - the frequency response q/delta_e of a 1,500-sample record (Welch, 256-sample

@@ -1,5 +1,5 @@
-"""Speed of the frequency-domain methods (fortran/mlid_fourier.f90,
-fortran/mlid_frequency.f90), side by side with the time domain.
+"""Speed of the frequency-domain methods (fortran/numerics/mlid_fourier.f90,
+fortran/estimation/frequency_domain/mlid_frequency.f90), side by side with the time domain.
 
 1. The finite Fourier transform of a 1,500-sample record at 50 frequencies:
    one channel and the lateral record's six (2 inputs, 4 outputs), through

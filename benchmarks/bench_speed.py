@@ -90,7 +90,7 @@ Measured (ours, one thread) at the stop that merged sparse-forcing (the
 model names the rows of df/dp and dh/dp its parameters move: model_t's
 param_rows), al-eval-lean (the longitudinal model's coefficients summed in
 registers) and gave the longitudinal model its own sine and cosine
-(fortran/mlid_trig.f90): (a) HFB-320 4.70 ms CPU (was 5.18 ms), scalar floor
+(fortran/base/mlid_trig.f90): (a) HFB-320 4.70 ms CPU (was 5.18 ms), scalar floor
 ratio 1.9 (was 2.1): the 2x floor met; scipy's ratio 77x (364 ms: 561
 simulations of 0.44 ms and scipy's own work; 500x would ask the fit to
 cost 1.1 simulations while it integrates the record 8 times with 11

@@ -75,7 +75,7 @@ sums (every case deck's results are unchanged to the bit:
 benchmarks/compare_cases.py, 40 of 40 bitwise).
 
 Measured (ours, branch aero-eval against main at e34fe4f, one thread; the
-longitudinal model's point, fortran/mlid_aero_long.f90, alone):
+longitudinal model's point, fortran/models/mlid_aero_long.f90, alone):
   HFB-320    82.8 M -> 80.3 M instructions per fit (19.7 k -> 19.1 k per
              sample and iteration): al_eval 17.2 M -> 14.7 M self (the
              sincos calls unchanged, 4.5 M); a stage's point (f, df/dx,
@@ -308,7 +308,7 @@ Every case deck's results are unchanged to the bit (compare_cases: 40 of
 40 bitwise; the same with one and two threads).
 
 Measured (ours, branch lti-sens against main at da56406, one thread; the
-linear model's fast path, fortran/mlid_lti_predict.f90, only; callgrind
+linear model's fast path, fortran/estimation/time_domain/mlid_lti_predict.f90, only; callgrind
 per fit, --case all):
   C-8        7.1 M -> 5.4 M instructions per fit (4.71 k -> 3.58 k per
              sample and iteration): the sensitivities 2.89 -> 1.53 M
@@ -444,7 +444,7 @@ dh/dp's rows; the caller now tells rk_work_size once instead).  Every case deck 
 40); hfb320's JSON the same with one and two threads and from mlid-batch.
 
 Measured (ours, branch al-eval-lean against main at 85893d4, one thread;
-the longitudinal model's point, fortran/mlid_aero_long.f90, alone):
+the longitudinal model's point, fortran/models/mlid_aero_long.f90, alone):
   HFB-320    70.4 M -> 69.8 M instructions per fit (16.73 k -> 16.60 k per
              sample and iteration), al_eval 14.74 -> 14.20 M self (19,208
              points a fit: 14,400 stages asking f, df/dx, df/dp, 4,808
@@ -509,7 +509,7 @@ next stage waits on.  It moves hfb320.nml's output-error cases by rounding
 (7e-5 sigma); every other deck bitwise.
 
 Measured (ours, one thread) at the stop that made the equations model's
-sweeps lean (fortran/mlid_expr_diff.f90: the forward sweep from a tape of
+sweeps lean (fortran/models/mlid_expr_diff.f90: the forward sweep from a tape of
 plain arrays, its leaves first; every expression's reverse sweep in one
 routine with adjoints local to the expression and the partials read from
 one gradient cleared entry by entry; each folded model's lists allocated

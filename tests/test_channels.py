@@ -1,4 +1,4 @@
-"""Flight-data channels (fortran/mlid_channels.f90 and its helpers
+"""Flight-data channels (fortran/case/mlid_channels.f90 and its helpers
 mlid_units, mlid_expr): channels by name, units converted on reading and
 shown back, derived channels in a small safe language, time windows,
 segments cut from one file, and the binary formats the Python front end

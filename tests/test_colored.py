@@ -1,4 +1,4 @@
-"""The Cramer-Rao covariance corrected for coloured residuals (fortran/mlid_colored.f90):
+"""The Cramer-Rao covariance corrected for coloured residuals (fortran/estimation/time_domain/mlid_colored.f90):
 the white-noise identity, a straightforward O(N^2) NumPy double sum, the fit's
 own numbers, and a Monte Carlo with AR(1) measurement noise."""
 

@@ -1,4 +1,4 @@
-"""Output time delays (fortran/mlid_delay.f90): a parameter like any other,
+"""Output time delays (fortran/numerics/mlid_delay.f90): a parameter like any other,
 recovered within the Cramer-Rao bound, refused where it has no meaning
 (filter error, a delay as long as the manoeuvre), and the same deck in both
 front ends.  The sensitivities against central differences are in

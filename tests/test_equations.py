@@ -1,4 +1,4 @@
-"""The equations model (kind 'equations', fortran/mlid_equations.f90): exact
+"""The equations model (kind 'equations', fortran/models/mlid_equations.f90): exact
 Jacobians against finite differences for every operation and function, the
 same fit as the built-in linear model and as linear least squares, names in
 free and tie lists, and bad input as one line in both front ends."""
@@ -34,7 +34,7 @@ def test_jacobians_exact_for_every_operation(x):
 @pytest.mark.parametrize("x", [[0.2, -0.35, 0.1], [-0.4, 0.55, -0.3]])
 def test_jacobians_exact_where_the_equations_share_most_of_their_nodes(x):
     """Three state equations built on one large definition, each swept on
-    its own over the nodes it shares (fortran/mlid_expr_diff.f90): its
+    its own over the nodes it shares (fortran/models/mlid_expr_diff.f90): its
     partials against central differences as above."""
     m = mlid.EquationModel(
         definitions={"s": "a*x1 + b*x2 + sin(x1)*cos(x2) + exp(-x1*x2) + (x1 + a)^2*(x2 - b) "

@@ -1,5 +1,5 @@
 """The flight-path model (kind 'flight_path', mlid.FlightPathModel,
-fortran/mlid_flightpath.f90) and the compatibility step after it
+fortran/models/mlid_flightpath.f90) and the compatibility step after it
 (mlid.compatibility): the kind written from sensor positions gives the fit
 of the same equations stated by hand (test case 22b), exact Jacobians with
 every correction and a wind, a wind read as the physics says, the corrected

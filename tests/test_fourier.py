@@ -1,4 +1,4 @@
-"""The finite Fourier transform at chosen frequencies (fortran/mlid_fourier.f90)
+"""The finite Fourier transform at chosen frequencies (fortran/numerics/mlid_fourier.f90)
 against closed forms and a brute-force segment-by-segment integral."""
 
 import numpy as np

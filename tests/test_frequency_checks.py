@@ -1,5 +1,5 @@
 """The frequency-domain tools' input checks, each one fact in the core:
-uniform sampling (fortran/mlid_record.f90, record_uniform_step and
+uniform sampling (fortran/case/mlid_record.f90, record_uniform_step and
 record_common_step) asked by the Fourier transform, the measured frequency
 response, the recursive fit and fit()'s frequency-domain methods, with one
 message from all of them and from both front ends; the transfer function's

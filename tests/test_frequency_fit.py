@@ -1,4 +1,4 @@
-"""Frequency-domain output error and equation error (fortran/mlid_frequency.f90)
+"""Frequency-domain output error and equation error (fortran/estimation/frequency_domain/mlid_frequency.f90)
 on the C-8 short-period record: analytic sensitivities against finite
 differences, equation error against a least-squares solve of its own,
 agreement with the time domain, insensitivity to output biases and drift,

@@ -1,4 +1,4 @@
-"""join in &data (fortran/mlid_channels.f90): text files whose columns extend
+"""join in &data (fortran/case/mlid_channels.f90): text files whose columns extend
 the data files' rows, row for row, the rows of each side read one file after
 another.  A joined fit equals the fit of the same columns in one file, however
 the join files split the rows; a mismatch is one line in both front ends."""

@@ -33,7 +33,7 @@ def _record(model, n=300, seed=2):
 
 
 def _f(p, c, x, u, w):
-    """The longitudinal model's state equations (fortran/mlid_aero_long.f90,
+    """The longitudinal model's state equations (fortran/models/mlid_aero_long.f90,
     the HFB-320 regressors) written out again; complex-safe."""
     V, al, th, q = x
     de, ft = u

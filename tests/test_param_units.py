@@ -1,4 +1,4 @@
-"""Units of the parameters (fortran/mlid_param_units.f90) from the channels'
+"""Units of the parameters (fortran/models/mlid_param_units.f90) from the channels'
 units, in the report and JSON of both front ends."""
 
 import json

@@ -1,5 +1,5 @@
 """Recursive frequency-domain equation error over a moving window
-(fortran/mlid_recursive_fd.f90): over the whole record it is fit()'s
+(fortran/estimation/frequency_domain/mlid_recursive_fd.f90): over the whole record it is fit()'s
 frequency equation error; over moving windows it follows a derivative that
 changes during the record."""
 

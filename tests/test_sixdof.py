@@ -1,5 +1,5 @@
 """The six-degree-of-freedom model (kind 'sixdof', mlid.SixDofModel,
-fortran/mlid_sixdof.f90): exact Jacobians of the full coupled model, the
+fortran/models/mlid_sixdof.f90): exact Jacobians of the full coupled model, the
 longitudinal decoupled form against the built-in longitudinal model (a second
 implementation of the same physics in other axes), a lateral fit recovering
 its truth within the Cramer-Rao bound in both front ends, and bad input."""

@@ -1,4 +1,4 @@
-"""Affine ties theta_a = c + sum s*theta_b (fortran/mlid_ties.f90,
+"""Affine ties theta_a = c + sum s*theta_b (fortran/models/mlid_ties.f90,
 mlid_params.f90): the gradient and information of a tied model against
 finite differences of the cost, recovery of the truth, the deck in both
 front ends, and one clear line for every bad tie."""

@@ -4,7 +4,7 @@ the deck's values, case 2 fits all six parameters from values 30% off) and
 every number README.md quotes: the iterations, and truth, start, estimate,
 Cramer-Rao sigma and (estimate - truth)/sigma of each parameter.
 
-Needs the example compiled in (fortran/mlid_user_model.f90, kind = 'user').
+Needs the example compiled in (fortran/models/mlid_user_model.f90, kind = 'user').
 
     python user_model.py        (here; writes cubic_doublet.dat beside the deck)
 

@@ -127,7 +127,7 @@ def trim_modes(p):
     def f(x):
         m = model(p, "low", x0=x, noise=0.0)
         y = mlid.simulate(m, [0.0, DT], np.full((2, 1), DELTA0))[0].y[0]
-        g = 32.174           # as fortran/mlid_x22.f90
+        g = 32.174           # as fortran/models/mlid_x22.f90
         return np.array([g * y[5] - x[3] * x[1] - g * np.sin(x[2]),
                          g * y[6] + x[3] * x[0] + g * np.cos(x[2]), x[3], y[4]])
     x0, a = np.array([U0, W0, THETA0, 0.0]), np.zeros((4, 4))

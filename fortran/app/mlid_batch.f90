@@ -14,7 +14,8 @@ program mlid_batch
   use mlid_text, only: line_t, join_lines
   use mlid_deck, only: deck_read, case_record, manoeuvre_layout, &
                        case_param_units, holdout_case, manoeuvre_block, corrected_writable, &
-                       UNITLEN, NAMELEN
+                       NAMELEN
+  use mlid_units, only: UNITLEN
   use mlid_validate, only: prediction_stats
   use mlid_api, only: mlid_fit, mlid_simulate, mlid_flightpath_corrected
   use mlid_jobs, only: job_run, JOB_RUNS

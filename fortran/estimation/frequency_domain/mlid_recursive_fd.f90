@@ -21,7 +21,7 @@ module mlid_recursive_fd
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR
   use mlid_fourier, only: fourier_weights
   use mlid_linalg, only: chol_inverse
-  use mlid_record, only: record_uniform_step
+  use mlid_sampling, only: record_uniform_step
   implicit none
   private
   public :: recursive_fdee

@@ -54,8 +54,10 @@ module mlid_deck
   use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
   use mlid_inputs, only: input_signal
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
-  use mlid_channels, only: channel_set_t, channels_read, channels_spec, channels_join, UNITLEN
-  use mlid_record, only: record_t, record_read, record_check_time
+  use mlid_channels, only: channel_set_t, channels_read, channels_spec, channels_join
+  use mlid_units, only: UNITLEN
+  use mlid_record, only: record_t, record_read
+  use mlid_sampling, only: record_check_time
   use mlid_param_units, only: param_units
   use mlid_ties, only: tie_parse, MAXTERM
   use mlid_report, only: LABEL_WIDTH
@@ -67,7 +69,7 @@ module mlid_deck
   private
   public :: case_t, deck_read, deck_open, case_record, case_time_input, manoeuvre_layout, &
             case_param_units, holdout_case, manoeuvre_block, corrected_writable, NAMELEN, &
-            PATHLEN, UNITLEN
+            PATHLEN
 
   !> The cases of the deck last opened by deck_open, for the flat interface.
   type(case_t), allocatable, protected, public :: opened(:)

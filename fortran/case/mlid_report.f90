@@ -7,7 +7,7 @@ module mlid_report
   use mlid_kinds, only: wp, stop_reason_text, fit_outcome, FIT_FAILED
   use mlid_linalg, only: chol_inverse
   use mlid_options, only: NOPT, option_get
-  use mlid_record, only: UNITLEN
+  use mlid_units, only: UNITLEN
   use mlid_text, only: itoa
   implicit none
   private

@@ -62,7 +62,7 @@ module mlid_frequency
   use mlid_fourier, only: fourier_transform
   use mlid_linalg, only: chol_inverse, chol_solve, independent_columns
   use mlid_text, only: itoa
-  use mlid_record, only: record_uniform_step
+  use mlid_sampling, only: record_uniform_step
   implicit none
   private
   public :: freq_record, freq_likelihood, freq_grid

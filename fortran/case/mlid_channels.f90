@@ -24,15 +24,16 @@
 module mlid_channels
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: itoa, to_lower, line_t, joined, text_lines
-  use mlid_record, only: record_t, record_read, record_check_time, short_path, seconds, &
-                         number_text, NAMELEN, UNITLEN
+  use mlid_text, only: itoa, to_lower, line_t, joined, text_lines, short_path, seconds, &
+                       number_text
+  use mlid_record, only: record_t, record_read, NAMELEN
+  use mlid_sampling, only: record_check_time
   use mlid_expr, only: expr_t, expr_compile, expr_eval, expr_uses, split_definition
-  use mlid_units, only: unit_to_core, units_of
+  use mlid_units, only: unit_to_core, units_of, UNITLEN
   implicit none
   private
   public :: channels_t, channel_set_t, channels_spec, channels_join, channels_read, &
-            channels_table, NAMELEN, UNITLEN
+            channels_table, NAMELEN
 
   !> What a case takes of its records.
   type :: channels_t

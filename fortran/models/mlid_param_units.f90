@@ -6,7 +6,7 @@
 !> shows, the X-22's and user models' own parameters, process noise).
 module mlid_param_units
   use mlid_kinds, only: wp
-  use mlid_record, only: UNITLEN
+  use mlid_units, only: UNITLEN
   use mlid_layout, only: layout_table_t
   use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG
   implicit none

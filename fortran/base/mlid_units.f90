@@ -7,7 +7,10 @@ module mlid_units
   use mlid_text, only: to_lower
   implicit none
   private
-  public :: unit_to_core, unit_names, units_of
+  public :: unit_to_core, unit_names, units_of, UNITLEN
+
+  !> Room for a unit's name in records, reports and the flat interface.
+  integer, parameter :: UNITLEN = 16
 
   real(wp), parameter :: DEG = acos(-1.0_wp)/180.0_wp, FT = 0.3048_wp, G0 = 9.80665_wp, &
                          KT = 1852.0_wp/3600.0_wp, LB = 0.45359237_wp

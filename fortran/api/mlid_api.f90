@@ -38,11 +38,13 @@ module mlid_api
   use mlid_sixdof, only: sixdof_parts, SIXDOF_CONSTANTS
   use mlid_flightpath, only: flightpath_text, flightpath_corrected, FLIGHTPATH_CONSTANTS, &
                              FLIGHTPATH_CORRECTIONS, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
-  use mlid_record, only: record_check_segments, record_text, record_common_step
+  use mlid_record, only: record_text
+  use mlid_sampling, only: record_check_segments, record_common_step
   use mlid_equations, only: equations_t, equations_create
   use mlid_files, only: temporary_for, write_whole
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, &
-                           channels_table, taken, UNITLEN
+                           channels_table, taken
+  use mlid_units, only: UNITLEN
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
                          validation_json
   use mlid_validate, only: prediction_stats

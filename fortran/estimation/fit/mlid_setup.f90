@@ -9,7 +9,7 @@ module mlid_setup
   use mlid_model_factory, only: model_create
   use mlid_options, only: options_t, options_from_flat
   use mlid_params, only: param_map_t, param_map_create, tie_t
-  use mlid_record, only: record_check_segments
+  use mlid_sampling, only: record_check_segments
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record
   implicit none
   private

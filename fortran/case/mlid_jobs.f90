@@ -18,7 +18,8 @@ module mlid_jobs
   use mlid_setup, only: setup
   use mlid_simulate, only: simulate_outputs
   use mlid_monte_carlo, only: monte_carlo, mc_statistics
-  use mlid_record, only: record_text, UNITLEN
+  use mlid_record, only: record_text
+  use mlid_units, only: UNITLEN
   use mlid_files, only: temporary_for, write_whole
   use mlid_text, only: itoa
   use mlid_design, only: design_t, design_create, operator_mu, mu_for_length, transition_length, &

@@ -2,11 +2,12 @@
 !> the opening and reading of text files of any line length.
 module mlid_text
   use, intrinsic :: iso_fortran_env, only: int64
-  use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   implicit none
   private
   public :: to_lower, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
-            text_file_t, text_open, text_line, text_close, control_character, comment_start
+            text_file_t, text_open, text_line, text_close, control_character, comment_start, &
+            short_path, seconds, number_text
 
   integer, parameter :: CHUNK = 4096
   character(len=3), parameter :: BOM = char(239)//char(187)//char(191)   !< UTF-8 byte-order mark
@@ -298,5 +299,43 @@ contains
       msg = trim(path)//': cannot be read'
     end if
   end subroutine read_text
+
+  !> A path for a message: its last 60 characters, so the problem fits.
+  function short_path(path) result(text)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable :: text
+    text = trim(path)
+    if (len(text) > 60) text = '...'//text(len(text) - 56:)
+  end function short_path
+
+  !> A time in seconds for a message: '12.34 s', '0.02 s', '1.5E+07 s'.
+  function seconds(x) result(text)
+    real(wp), intent(in) :: x
+    character(len=:), allocatable :: text
+    text = number_text(x)//' s'
+  end function seconds
+
+  !> A value for a message: '12.34', '0.02', '-57.29578', '1.5E+07'.
+  function number_text(x) result(text)
+    real(wp), intent(in) :: x
+    character(len=:), allocatable :: text
+    character(len=32) :: buf
+    integer :: k
+    if ((abs(x) >= 1.0e-3_wp .and. abs(x) < 1.0e7_wp) .or. x == 0.0_wp) then
+      write (buf, '(f0.6)') x
+      k = len_trim(buf)
+      do while (buf(k:k) == '0')
+        k = k - 1
+      end do
+      if (buf(k:k) == '.') k = k - 1
+      text = trim(adjustl(buf(1:k)))
+      if (len(text) == 0) text = '0'
+      if (text(1:1) == '.') text = '0'//text
+      if (text(1:2) == '-.') text = '-0'//text(2:)
+    else
+      write (buf, '(es10.3)') x
+      text = trim(adjustl(buf))
+    end if
+  end function number_text
 
 end module mlid_text

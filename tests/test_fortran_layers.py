@@ -1,0 +1,68 @@
+"""The Fortran core's layers are its folders: a module uses only modules of
+its own layer and of those below (docs/architecture.md), and only
+ fortran/app/ may stop.  Reads the source tree beside
+this file; skips where the tree is not there (an installed package alone)."""
+
+import re
+from pathlib import Path
+
+import pytest
+
+FORTRAN = Path(__file__).resolve().parents[1] / "fortran"
+
+#: Layers, lowest first; a folder below a layer (estimation/fit) is that layer,
+#: ranked by its own entry where it has one.
+RANK = ["base", "numerics", "models", "estimation",
+        "estimation/time_domain", "estimation/frequency_domain", "estimation/fit",
+        "design", "case", "api", "app"]
+#: Sub-layers that are siblings: neither uses the other.
+SIBLINGS = {("estimation/time_domain", "estimation/frequency_domain")}
+
+pytestmark = pytest.mark.skipif(not FORTRAN.is_dir(), reason="no source tree beside the tests")
+
+USE = re.compile(r"^\s*use\s+(mlid_\w+)", re.I | re.M)
+DEFINES = re.compile(r"^\s*(?:module|submodule\s*\(\s*\w+\s*\))\s+(mlid_\w+)\s*$", re.I | re.M)
+
+
+def layer_of(path):
+    rel = path.parent.relative_to(FORTRAN).as_posix()
+    while rel not in RANK:
+        assert "/" in rel, f"{path}: folder {rel} is no layer"
+        rel = rel.rsplit("/", 1)[0]
+    return rel
+
+
+def sources():
+    return sorted(FORTRAN.rglob("*.f90"))
+
+
+def test_every_file_is_in_a_layer_folder():
+    assert sources()
+    for f in sources():
+        assert f.parent != FORTRAN, f"{f.name} sits at the top of fortran/, in no layer"
+        layer_of(f)
+
+
+def test_modules_use_only_their_layer_and_below():
+    home = {}
+    for f in sources():
+        for name in DEFINES.findall(f.read_text()):
+            home[name.lower()] = layer_of(f)
+    wrong = []
+    for f in sources():
+        mine = layer_of(f)
+        for used in USE.findall(f.read_text()):
+            theirs = home.get(used.lower())
+            if theirs is None:
+                continue                      # a module of the app's own file
+            if RANK.index(theirs) > RANK.index(mine) or (mine, theirs) in SIBLINGS \
+                    or (theirs, mine) in SIBLINGS:
+                wrong.append(f"{f.relative_to(FORTRAN)} ({mine}) uses {used} ({theirs})")
+    assert not wrong, "upward or sideways uses:\n" + "\n".join(wrong)
+
+
+def test_only_the_programs_stop():
+    stop = re.compile(r"^\s*(error\s+)?stop\b", re.I | re.M)
+    found = [str(f.relative_to(FORTRAN)) for f in sources()
+             if layer_of(f) != "app" and stop.search(f.read_text())]
+    assert not found, f"library code must return a status, not stop: {found}"
