@@ -14,7 +14,7 @@
 !>   iopt(16), ropt(16)      options, layout in mlid_options
 !>   status, msg             0 and '' on success, see mlid_kinds
 module mlid_api
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, stop_reason_text, fit_outcome
   use mlid_models, only: model_t
@@ -25,14 +25,16 @@ module mlid_api
   use mlid_params, only: param_map_t, param_map_create, apply_ties, tie_t, no_ties
   use mlid_ties, only: tie_parse, MAXTERM
   use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
-  use mlid_newton, only: fit_result_t, extras_t, newton_fit
+  use mlid_newton, only: fit_result_t
+  use mlid_fit_driver, only: fit_solve
   use mlid_colored, only: colored_covariance, colored_sandwich
   use mlid_linalg, only: sym_eig
-  use mlid_simulate, only: simulate_outputs
+  use mlid_simulate, only: simulate_outputs, simulate_flat
   use mlid_monte_carlo, only: monte_carlo, mc_statistics
   use mlid_setup, only: setup
   use mlid_inputs, only: input_signal
-  use mlid_deck, only: opened, deck_open, case_time_input, corrected_writable
+  use mlid_deck, only: deck_read, corrected_writable
+  use mlid_handles, only: session_t, handle_new, handle_session, handle_free
   use mlid_case, only: case_t, NAMELEN, NCONDITION, CONDITION_NAMES
   use mlid_text, only: join_lines, split_lines, name_lines, joined
   use mlid_sixdof, only: sixdof_parts, SIXDOF_CONSTANTS
@@ -43,7 +45,7 @@ module mlid_api
   use mlid_equations, only: equations_t, equations_create
   use mlid_files, only: temporary_for, write_whole
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, &
-                           channels_table, taken
+                           channels_table
   use mlid_units, only: UNITLEN
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
                          validation_json
@@ -57,6 +59,7 @@ module mlid_api
                          amplitude_limited_input, equalised_input
   use mlid_design, only: design_state_penalty, input_response, RICCATI_BRACKET
   use mlid_jobs, only: job_run, JOB_RUNS
+  use mlid_run, only: corrected_record
   use mlid_fourier, only: fourier_transform
   use mlid_frequency, only: freq_record, freq_likelihood, freq_grid
   use mlid_recursive_fd, only: recursive_fdee
@@ -68,11 +71,12 @@ module mlid_api
   implicit none
   private
   public :: mlid_design_response
+  public :: mlid_handle_new, mlid_handle_free
   public :: mlid_input_signal, mlid_default_options, mlid_model_sizes, &
             mlid_option_info, mlid_option_set, mlid_option_get, mlid_options_check, &
             mlid_stop_reason, mlid_fit_outcome, mlid_deck_open, mlid_deck_case, mlid_deck_case_model, &
             mlid_deck_case_condition, mlid_condition_names, &
-            mlid_deck_case_data, mlid_deck_case_time_input, mlid_report_fit, mlid_case_json, &
+            mlid_deck_case_data, mlid_report_fit, mlid_case_json, &
             mlid_layout_size, mlid_layout, mlid_name_list, mlid_manoeuvre_map, &
             mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
             mlid_channels_table, mlid_channels_get, mlid_check_time, mlid_parameter_units, &
@@ -266,28 +270,51 @@ contains
     outcome = fit_outcome(status, reason)
   end subroutine mlid_fit_outcome
 
-  !> Read a deck with the core's reader and keep its cases for the calls
-  !> below (sizes first, then arrays).  status /= 0: the deck as a whole
-  !> cannot be used; a case that cannot run carries its own status.
-  subroutine mlid_deck_open(path, ncases, status, msg)
+  !> A new handle (mlid_handles): what the calls below keep between them,
+  !> a deck's cases or the channels last read, for this caller alone.
+  subroutine mlid_handle_new(h, status, msg)
+    integer(c_int64_t), intent(out) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call handle_new(h, status, msg)
+  end subroutine mlid_handle_new
+
+  !> Free handle h (0 after; 0 is freed as nothing).
+  subroutine mlid_handle_free(h)
+    integer(c_int64_t), intent(inout) :: h
+    call handle_free(h)
+  end subroutine mlid_handle_free
+
+  !> Read a deck with the core's reader into handle h, for the calls below
+  !> (sizes first, then arrays).  status /= 0: the deck as a whole cannot be
+  !> used; a case that cannot run carries its own status.
+  subroutine mlid_deck_open(h, path, ncases, status, msg)
+    integer(c_int64_t), intent(in) :: h
     character(len=*), intent(in) :: path
     integer(c_int), intent(out) :: ncases, status
     character(len=256), intent(out) :: msg
-    call deck_open(path, ncases, status, msg)
+    type(session_t), pointer :: s
+    ncases = 0
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    call deck_read(path, s%cases, status, msg)
+    if (allocated(s%runs)) deallocate (s%runs)
+    ncases = size(s%cases)
   end subroutine mlid_deck_open
 
-  !> Case k of the opened deck: where it is, what it does, its sizes.
+  !> Case k of handle h's deck: where it is, what it does, its sizes.
   !> nt is the number of samples of a simulate case; nfile the data files of
   !> an estimate case.
-  subroutine mlid_deck_case(k, line, title, job, cstatus, cmsg, mkind, nx, nu, ny, nw, nth, nf, &
+  subroutine mlid_deck_case(h, k, line, title, job, cstatus, cmsg, mkind, nx, nu, ny, nw, nth, nf, &
                             nic, nrc, nfile, nt)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k
     integer(c_int), intent(out) :: line, cstatus, mkind, nx, nu, ny, nw, nth, nf, nic, nrc, &
                                    nfile, nt
     character(len=128), intent(out) :: title
     character(len=16), intent(out) :: job
     character(len=256), intent(out) :: cmsg
-    type(case_t) :: c
+    type(case_t), pointer :: c
 
     line = 0
     title = ''
@@ -305,9 +332,8 @@ contains
     nrc = 0
     nfile = 0
     nt = 0
-    if (.not. allocated(opened)) return
-    if (k < 1 .or. k > size(opened)) return
-    c = opened(k)
+    c => case_at(h, k)
+    if (.not. associated(c)) return
     line = c%line
     title = c%title
     job = c%job
@@ -336,90 +362,98 @@ contains
   !> The flight condition of case k (&case): the n numeric items in the
   !> order of mlid_condition_names (given(i) = 0 where the deck gives none),
   !> config and tags.
-  subroutine mlid_deck_case_condition(k, n, values, given, config, tags)
+  subroutine mlid_deck_case_condition(h, k, n, values, given, config, tags)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k, n
     real(c_double), intent(out) :: values(n)
     integer(c_int), intent(out) :: given(n)
     character(len=64), intent(out) :: config
     character(len=256), intent(out) :: tags
+    type(case_t), pointer :: c
     integer :: m
 
     values = 0.0_c_double
     given = 0
     config = ''
     tags = ''
-    if (.not. allocated(opened)) return
-    if (k < 1 .or. k > size(opened)) return
+    c => case_at(h, k)
+    if (.not. associated(c)) return
     m = min(n, NCONDITION)
-    values(:m) = opened(k)%condition(:m)
-    given(:m) = merge(1, 0, opened(k)%condition_given(:m))
-    config = opened(k)%config
-    tags = opened(k)%tags
+    values(:m) = c%condition(:m)
+    given(:m) = merge(1, 0, c%condition_given(:m))
+    config = c%config
+    tags = c%tags
   end subroutine mlid_deck_case_condition
 
   !> The model, options, prior and bounds of case k (sizes from
   !> mlid_deck_case); labels of the free parameters, one per line.
-  subroutine mlid_deck_case_model(k, nth, nf, nic, nrc, theta, isfree, iconst, rconst, &
+  subroutine mlid_deck_case_model(h, k, nth, nf, nic, nrc, theta, isfree, iconst, rconst, &
                                   iopt, ropt, labels, use_prior, prior, pweight, use_bounds, &
                                   lower, upper)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k, nth, nf, nic, nrc
     real(c_double), intent(out) :: theta(nth), rconst(nrc), ropt(16), prior(nth), pweight(nf, nf)
     real(c_double), intent(out) :: lower(nth), upper(nth)
     integer(c_int), intent(out) :: isfree(nth), iconst(nic), iopt(16), use_prior, &
                                    use_bounds
     character(len=8192), intent(out) :: labels
+    type(case_t), pointer :: c
 
-    associate (c => opened(k))
-      theta = c%theta
-      isfree = c%isfree
-      iconst = c%iconst
-      rconst = c%rconst
-      iopt = c%iopt
-      ropt = c%ropt
-      labels = join_lines(c%labels)
-      use_prior = c%use_prior
-      use_bounds = c%use_bounds
-      prior = theta
-      pweight = 0.0_wp
-      lower = -huge(1.0_wp)
-      upper = huge(1.0_wp)
-      if (allocated(c%prior)) prior = c%prior
-      if (allocated(c%pweight)) pweight = c%pweight
-      if (allocated(c%lower)) lower = c%lower
-      if (allocated(c%upper)) upper = c%upper
-    end associate
+    c => case_at(h, k)
+    if (.not. associated(c)) return
+    theta = c%theta
+    isfree = c%isfree
+    iconst = c%iconst
+    rconst = c%rconst
+    iopt = c%iopt
+    ropt = c%ropt
+    labels = join_lines(c%labels)
+    use_prior = c%use_prior
+    use_bounds = c%use_bounds
+    prior = theta
+    pweight = 0.0_wp
+    lower = -huge(1.0_wp)
+    upper = huge(1.0_wp)
+    if (allocated(c%prior)) prior = c%prior
+    if (allocated(c%pweight)) pweight = c%pweight
+    if (allocated(c%lower)) lower = c%lower
+    if (allocated(c%upper)) upper = c%upper
   end subroutine mlid_deck_case_model
 
   !> Data file j of estimate case k (its path resolved from the deck's
   !> folder), and the deck's channel names (&model input_names, output_names).
-  subroutine mlid_deck_case_data(k, j, path, input_names, output_names)
+  subroutine mlid_deck_case_data(h, k, j, path, input_names, output_names)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k, j
     character(len=512), intent(out) :: path
     character(len=4096), intent(out) :: input_names, output_names
-    associate (c => opened(k))
-      input_names = join_lines(c%input_names)
-      output_names = join_lines(c%output_names)
-      path = ''
-      if (allocated(c%data_files)) path = c%data_files(j)
-    end associate
+    type(case_t), pointer :: c
+    c => case_at(h, k)
+    if (.not. associated(c)) return
+    input_names = join_lines(c%input_names)
+    output_names = join_lines(c%output_names)
+    path = ''
+    if (allocated(c%data_files)) path = c%data_files(j)
   end subroutine mlid_deck_case_data
 
   !> The ties of case k: n terms (to, from, scale; nmax at most) and the
   !> offset of every entry.
-  subroutine mlid_deck_case_ties(k, nth, nmax, n, to, from, scale, offset)
+  subroutine mlid_deck_case_ties(h, k, nth, nmax, n, to, from, scale, offset)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k, nth, nmax
     integer(c_int), intent(out) :: n, to(nmax), from(nmax)
     real(c_double), intent(out) :: scale(nmax), offset(nth)
-    associate (c => opened(k))
-      n = min(size(c%tie%to), nmax)
-      to = 0
-      from = 0
-      scale = 0.0_wp
-      to(1:n) = c%tie%to(1:n)
-      from(1:n) = c%tie%from(1:n)
-      scale(1:n) = c%tie%scale(1:n)
-      offset = c%tie%offset
-    end associate
+    type(case_t), pointer :: c
+    c => case_at(h, k)
+    if (.not. associated(c)) return
+    n = min(size(c%tie%to), nmax)
+    to = 0
+    from = 0
+    scale = 0.0_wp
+    to(1:n) = c%tie%to(1:n)
+    from(1:n) = c%tie%from(1:n)
+    scale(1:n) = c%tie%scale(1:n)
+    offset = c%tie%offset
   end subroutine mlid_deck_case_ties
 
   !> A tie written as text (mlid_ties) for a model: the tied entry, its
@@ -515,97 +549,101 @@ contains
     real(c_double), intent(out) :: uc(nu, nt), yc(ny, nt)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    type(equations_t) :: eqs
-    character(len=:), allocatable :: tmp
-
-    uc = u
-    yc = y
-    call equations_create(iconst, [real(wp) ::], eqs, status, msg)
-    if (status /= MLID_OK) then
-      msg = 'corrected record: not a flight-path model ('//trim(msg)//')'
-      return
-    end if
-    call flightpath_corrected(eqs%unames, eqs%pnames, p, eqs%ynames, bias, delay, udelay, t, uc, &
-                              yc, status, msg)
-    if (status /= MLID_OK .or. len_trim(path) == 0) return
-    call temporary_for(trim(path), tmp, status, msg)
-    if (status == MLID_OK) call write_whole(trim(path), tmp, record_text(split_lines(names, nu + &
-                                           ny, NAMELEN), split_lines(units, nu + ny, NAMELEN), &
-                                           t, uc, yc), status, msg)
+    call corrected_record(iconst, p, bias, delay, udelay, t, u, y, split_lines(names, nu + ny, &
+                          NAMELEN), split_lines(units, nu + ny, NAMELEN), path, uc, yc, status, msg)
   end subroutine mlid_flightpath_corrected
 
   !> Whether every corrected record of case k can be written (mlid_deck's
   !> corrected_writable): one line naming the path if not.
-  subroutine mlid_deck_case_corrected_writable(k, status, msg)
+  subroutine mlid_deck_case_corrected_writable(h, k, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    call corrected_writable(opened(k), status, msg)
+    type(case_t), pointer :: c
+    c => case_at(h, k)
+    call no_case(c, status, msg)
+    if (status == MLID_OK) call corrected_writable(c, status, msg)
   end subroutine mlid_deck_case_corrected_writable
 
   !> Where estimate case k writes manoeuvre j's corrected record (blank: nowhere).
-  subroutine mlid_deck_case_corrected(k, j, path)
+  subroutine mlid_deck_case_corrected(h, k, j, path)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k, j
     character(len=512), intent(out) :: path
+    type(case_t), pointer :: c
     path = ''
-    associate (c => opened(k))
-      if (allocated(c%corrected)) then
-        if (j >= 1 .and. j <= size(c%corrected)) path = c%corrected(j)
-      end if
-    end associate
+    c => case_at(h, k)
+    if (.not. associated(c)) return
+    if (allocated(c%corrected)) then
+      if (j >= 1 .and. j <= size(c%corrected)) path = c%corrected(j)
+    end if
   end subroutine mlid_deck_case_corrected
 
   !> The files validate case k predicts (numbers into its file list).
-  subroutine mlid_deck_case_holdout(k, nmax, n, holdout)
+  subroutine mlid_deck_case_holdout(h, k, nmax, n, holdout)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k, nmax
     integer(c_int), intent(out) :: n, holdout(nmax)
+    type(case_t), pointer :: c
     holdout = 0
     n = 0
-    associate (c => opened(k))
-      if (allocated(c%holdout)) n = min(size(c%holdout), nmax)
-      if (n > 0) holdout(1:n) = c%holdout(1:n)
-    end associate
+    c => case_at(h, k)
+    if (.not. associated(c)) return
+    if (allocated(c%holdout)) n = min(size(c%holdout), nmax)
+    if (n > 0) holdout(1:n) = c%holdout(1:n)
   end subroutine mlid_deck_case_holdout
 
   !> The initial states case k gives per manoeuvre (n = 0: none; else nx per
   !> data file, manoeuvre after manoeuvre).
-  subroutine mlid_deck_case_initial_states(k, nmax, n, x0)
+  subroutine mlid_deck_case_initial_states(h, k, nmax, n, x0)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k, nmax
     integer(c_int), intent(out) :: n
     real(c_double), intent(out) :: x0(nmax)
+    type(case_t), pointer :: c
     x0 = 0.0_wp
     n = 0
-    associate (c => opened(k))
-      if (allocated(c%initial_states)) n = min(size(c%initial_states), nmax)
-      if (n > 0) x0(1:n) = c%initial_states(1:n)
-    end associate
+    c => case_at(h, k)
+    if (.not. associated(c)) return
+    if (allocated(c%initial_states)) n = min(size(c%initial_states), nmax)
+    if (n > 0) x0(1:n) = c%initial_states(1:n)
   end subroutine mlid_deck_case_initial_states
 
   !> Read data file j of estimate case k as the case takes it (channels,
   !> units, derived channels, units shown, window) and keep it for
   !> mlid_channels_get; a warning as mlid_channels_read gives it.
-  subroutine mlid_deck_case_record(k, j, nt, status, msg)
+  subroutine mlid_deck_case_record(h, k, j, nt, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k, j
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    type(case_t), pointer :: c
     nt = 0
-    if (.not. has_file(k, j, status, msg)) return
-    associate (c => opened(k))
-      call channels_read(c%data_files(j), c%chan, c%win_start(j), c%win_end(j), taken, &
-                         status, msg, manoeuvre=c%file_no(j))
-    end associate
-    nt = taken_samples(status)
+    if (.not. has_file(h, k, j, s, c, status, msg)) return
+    call channels_read(c%data_files(j), c%chan, c%win_start(j), c%win_end(j), s%taken, status, &
+                       msg, manoeuvre=c%file_no(j))
+    nt = taken_samples(s%taken, status)
   end subroutine mlid_deck_case_record
 
-  !> Whether case k has a data file j (a simulate case has none).
-  logical function has_file(k, j, status, msg)
+  !> Whether case k of handle h (its session s, the case c) has a data
+  !> file j (a simulate case has none).
+  logical function has_file(h, k, j, s, c, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k, j
+    type(session_t), pointer, intent(out) :: s
+    type(case_t), pointer, intent(out) :: c
     integer(c_int), intent(out) :: status
     character(len=*), intent(out) :: msg
-    status = MLID_OK
-    msg = ''
     has_file = .false.
-    if (allocated(opened(k)%data_files)) has_file = j >= 1 .and. j <= size(opened(k)%data_files)
+    c => null()
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    c => case_at(h, k)
+    call no_case(c, status, msg)
+    if (status /= MLID_OK) return
+    if (allocated(c%data_files)) has_file = j >= 1 .and. j <= size(c%data_files)
     if (has_file) return
     status = MLID_ERR_INPUT
     write (msg, '(a,i0,a,i0)') 'case ', k, ' has no data file ', j
@@ -614,50 +652,57 @@ contains
   !> The same for a table the Python front end read from data file j of
   !> case k (.mat or HDF5): x(nrow, ncol) with its columns' names and units
   !> one per line (blank where unknown).
-  subroutine mlid_deck_case_table(k, j, nrow, ncol, x, names, units, nt, status, msg)
+  subroutine mlid_deck_case_table(h, k, j, nrow, ncol, x, names, units, nt, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k, j, nrow, ncol
     real(c_double), intent(in) :: x(nrow, ncol)
     character(len=*), intent(in) :: names, units
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    type(case_t), pointer :: c
     nt = 0
-    if (.not. has_file(k, j, status, msg)) return
-    associate (c => opened(k))
-      call channels_table(c%data_files(j), x, split_lines(names, ncol, NAMELEN), &
-                          split_lines(units, ncol, UNITLEN), c%chan, c%win_start(j), &
-                          c%win_end(j), taken, status, msg, manoeuvre=c%file_no(j))
-    end associate
-    nt = taken_samples(status)
+    if (.not. has_file(h, k, j, s, c, status, msg)) return
+    call channels_table(c%data_files(j), x, split_lines(names, ncol, NAMELEN), &
+                        split_lines(units, ncol, UNITLEN), c%chan, c%win_start(j), c%win_end(j), &
+                        s%taken, status, msg, manoeuvre=c%file_no(j))
+    nt = taken_samples(s%taken, status)
   end subroutine mlid_deck_case_table
 
   !> Read a text record's channels (mlid_channels) and keep them for
   !> mlid_channels_get.  The spec as channels_spec takes it: one entry per
   !> line; t_start, t_end: the window.  Status OK with msg 'warning: ...'
   !> when a channel looks wrong for its declared unit (degrees in rad).
-  subroutine mlid_channels_read(path, time, inputs, outputs, columns, units, derived, show, &
+  subroutine mlid_channels_read(h, path, time, inputs, outputs, columns, units, derived, show, &
                                 skip_rows, t_start, t_end, dt, nt, status, msg)
+    integer(c_int64_t), intent(in) :: h
     character(len=*), intent(in) :: path, time, inputs, outputs, columns, units, derived, show
     integer(c_int), intent(in) :: skip_rows
     real(c_double), intent(in) :: t_start, t_end, dt
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
     type(channels_t) :: spec
+    type(session_t), pointer :: s
+    nt = 0
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
     call channels_spec(time, inputs, outputs, columns, units, derived, show, skip_rows, spec, &
                        status, msg)
     spec%dt = dt
     if (status == MLID_OK) then
-      call channels_read(path, spec, t_start, t_end, taken, status, msg)
+      call channels_read(path, spec, t_start, t_end, s%taken, status, msg)
     else
       msg = 'data file '//trim(path)//': '//trim(msg)
     end if
-    nt = taken_samples(status)
+    nt = taken_samples(s%taken, status)
   end subroutine mlid_channels_read
 
   !> The same for a table x(nrow, ncol) the Python front end read (source
   !> names it in messages), with its columns' names and units one per line.
-  subroutine mlid_channels_table(source, nrow, ncol, x, names, col_units, time, inputs, &
+  subroutine mlid_channels_table(h, source, nrow, ncol, x, names, col_units, time, inputs, &
                                  outputs, columns, units, derived, show, t_start, t_end, dt, &
                                  nt, status, msg)
+    integer(c_int64_t), intent(in) :: h
     character(len=*), intent(in) :: source, names, col_units, time, inputs, outputs, columns, &
                                     units, derived, show
     integer(c_int), intent(in) :: nrow, ncol
@@ -665,63 +710,96 @@ contains
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
     type(channels_t) :: spec
+    type(session_t), pointer :: s
+    nt = 0
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
     call channels_spec(time, inputs, outputs, columns, units, derived, show, 0, spec, status, &
                        msg)
     spec%dt = dt
     if (status == MLID_OK) then
       call channels_table(source, x, split_lines(names, ncol, NAMELEN), &
-                          split_lines(col_units, ncol, UNITLEN), spec, t_start, t_end, taken, &
+                          split_lines(col_units, ncol, UNITLEN), spec, t_start, t_end, s%taken, &
                           status, msg)
     else
       msg = 'data '//trim(source)//': '//trim(msg)
     end if
-    nt = taken_samples(status)
+    nt = taken_samples(s%taken, status)
   end subroutine mlid_channels_table
 
-  !> The channels last taken: t(nt), u(nu, nt), y(ny, nt), the file line
-  !> (or table row) of each sample; per channel (inputs, then outputs) the
-  !> name, the core's unit and the unit declared one per line, and
-  !> scale and offset: core = scale*declared + offset.
-  subroutine mlid_channels_get(nu, ny, nt, t, u, y, line, names, units, shown, scale, offset)
+  !> The channels handle h took last: t(nt), u(nu, nt), y(ny, nt), the
+  !> file line (or table row) of each sample; per channel (inputs, then
+  !> outputs) the name, the core's unit and the unit declared one per line,
+  !> and scale and offset: core = scale*declared + offset.  Sizes other
+  !> than those taken give zeros and blanks.
+  subroutine mlid_channels_get(h, nu, ny, nt, t, u, y, line, names, units, shown, scale, offset)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: nu, ny, nt
     real(c_double), intent(out) :: t(nt), u(nu, nt), y(ny, nt), scale(nu + ny), offset(nu + ny)
     integer(c_int), intent(out) :: line(nt)
     character(len=65536), intent(out) :: names, units, shown
-    t = taken%t
-    u = taken%u
-    y = taken%y
-    line = taken%line
-    names = join_lines(taken%names)
-    units = join_lines(taken%units)
-    shown = join_lines(taken%shown)
-    scale = taken%scale
-    offset = taken%offset
+    type(session_t), pointer :: s
+    integer :: status
+    character(len=64) :: msg
+    t = 0.0_wp
+    u = 0.0_wp
+    y = 0.0_wp
+    line = 0
+    names = ''
+    units = ''
+    shown = ''
+    scale = 0.0_wp
+    offset = 0.0_wp
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    if (.not. allocated(s%taken%t)) return
+    if (size(s%taken%t) /= nt .or. size(s%taken%u, 1) /= nu .or. size(s%taken%y, 1) /= ny) return
+    t = s%taken%t
+    u = s%taken%u
+    y = s%taken%y
+    line = s%taken%line
+    names = join_lines(s%taken%names)
+    units = join_lines(s%taken%units)
+    shown = join_lines(s%taken%shown)
+    scale = s%taken%scale
+    offset = s%taken%offset
   end subroutine mlid_channels_get
 
-  !> Samples of the set taken (0 when it could not be), its channels cleared then.
-  integer function taken_samples(status) result(nt)
+  !> Samples of the set taken (0 when it could not be).
+  integer function taken_samples(taken, status) result(nt)
+    type(channel_set_t), intent(in) :: taken
     integer, intent(in) :: status
     nt = 0
     if (status == MLID_OK) nt = size(taken%t)
   end function taken_samples
 
-  !> Time base and inputs of simulate case k, the seed, and the record to write.
-  subroutine mlid_deck_case_time_input(k, nu, nt, t, u, seed, out, status, msg)
-    integer(c_int), intent(in) :: k, nu, nt
-    real(c_double), intent(out) :: t(nt), u(nu, nt)
-    integer(c_int), intent(out) :: seed, status
-    character(len=512), intent(out) :: out
-    character(len=256), intent(out) :: msg
-    real(wp), allocatable :: tc(:), uc(:, :)
-    t = 0.0_wp
-    u = 0.0_wp
-    seed = opened(k)%seed
-    out = opened(k)%out_file
-    call case_time_input(opened(k), tc, uc, status, msg)
+  !> Case k of the deck in handle h; null when there is none.
+  function case_at(h, k) result(c)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: k
+    type(case_t), pointer :: c
+    type(session_t), pointer :: s
+    integer :: status
+    character(len=64) :: msg
+    c => null()
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    t = tc
-    u = uc
-  end subroutine mlid_deck_case_time_input
+    if (.not. allocated(s%cases)) return
+    if (k < 1 .or. k > size(s%cases)) return
+    c => s%cases(k)
+  end function case_at
+
+  !> 'no such case' when c is null.
+  subroutine no_case(c, status, msg)
+    type(case_t), pointer, intent(in) :: c
+    integer(c_int), intent(out) :: status
+    character(len=*), intent(out) :: msg
+    status = MLID_OK
+    msg = ''
+    if (associated(c)) return
+    status = MLID_ERR_INPUT
+    msg = 'no such case (or not a live handle)'
+  end subroutine no_case
 
   !> The printed report and the JSON object of a fit (the text mlid-batch
   !> prints and writes); labels one per line; the text ends where its
@@ -1027,12 +1105,9 @@ contains
     !> noise_criterion = 'innovations': the R the fit left (diagonal); NaN otherwise
     real(c_double), intent(out) :: rnoise(ny)
     character(len=256), intent(out) :: msg
-    class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
     type(fit_result_t) :: res
-    type(extras_t) :: ex
-    character(len=256) :: warning
     integer :: k
 
     theta_start = theta0
@@ -1056,21 +1131,16 @@ contains
     converged = 0
     rank = 0
     bad_param = 0
-    call setup(mkind, nx, nu, ny, nw, theta0, isfree, &
-               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, y, iopt, &
-               ropt, nf, m, opt, pm, status, msg, segstart)
-    if (status /= MLID_OK) return
-    warning = msg
-    call extras(pm, opt, theta0, use_prior, prior, pweight, use_bounds, lower, upper, ex, &
-                bad_param, status, msg)
-    if (status /= MLID_OK) return
-    if (nc /= opt%max_iter + 1) then
+    if (nc /= iopt(1) + 1) then
       status = MLID_ERR_INPUT
       write (msg, '(a,i0,a,i0)') 'cost history length ', nc, ' must be max_iter + 1 = ', &
-        opt%max_iter + 1
+        iopt(1) + 1
       return
     end if
-    call newton_fit(m, theta0, pm, t, u, y, opt, ex, res, status, msg)
+    call fit_solve(mkind, nx, nu, ny, nw, theta0, isfree, &
+                   ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, &
+                   y, segstart, iopt, ropt, nf, use_prior, prior, pweight, use_bounds, lower, &
+                   upper, res, pm, opt, bad_param, status, msg)
     if (allocated(res%theta_start)) theta_start = res%theta_start
     if (.not. allocated(res%theta)) return
     theta = res%theta
@@ -1101,8 +1171,6 @@ contains
     converged = merge(1, 0, res%converged)
     rank = res%rank
     bad_param = res%bad_param
-    if (status == MLID_OK) msg = warning
-    if (status == MLID_OK .and. len_trim(warning) == 0) msg = res%note
   end subroutine mlid_fit
 
   !> The frequency-domain methods' data and fit at theta (mlid_frequency):
@@ -1282,19 +1350,8 @@ contains
     real(c_double), intent(out) :: y(ny, nt), x(nx, nt)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    class(model_t), allocatable :: m
-    type(options_t) :: opt
-    type(param_map_t) :: pm
-    integer :: nofree(nth)
-
-    y = 0.0_wp
-    x = 0.0_wp
-    nofree = 0
-    ! No measurements yet: check the time base and inputs against themselves.
-    call setup(mkind, nx, nu, ny, nw, theta, nofree, no_ties(nth), iconst, rconst, t, u, y, iopt, &
-               ropt, 0, m, opt, pm, status, msg)
-    if (status /= MLID_OK) return
-    call simulate_outputs(m, theta, t, u, opt, seed, y, x, status, msg, timing)
+    call simulate_flat(mkind, nx, nu, ny, nw, theta, iconst, rconst, t, u, iopt, ropt, seed, y, x, &
+                       status, msg, timing)
   end subroutine mlid_simulate
 
   !> nrun identifications: data from theta_true with seeds seed0, seed0+1, ...,
@@ -1358,86 +1415,6 @@ contains
                        stats(2), stats(3), stats(4))
     nok = n
   end subroutine mlid_monte_carlo_summary
-
-  !> Check and gather the a priori values and weight and the bounds of the
-  !> free parameters; messages name the free parameter by its number.
-  subroutine extras(pm, opt, theta0, use_prior, prior, pweight, use_bounds, lower, upper, ex, &
-                    bad, status, msg)
-    type(param_map_t), intent(in) :: pm
-    type(options_t), intent(in) :: opt
-    real(c_double), intent(in) :: theta0(:), prior(:), pweight(:, :), lower(:), upper(:)
-    integer(c_int), intent(in) :: use_prior, use_bounds
-    type(extras_t), intent(out) :: ex
-    integer, intent(out) :: bad, status
-    character(len=*), intent(out) :: msg
-    real(wp) :: ev(pm%nf), v(pm%nf, pm%nf)
-    character(len=64) :: what
-    integer :: k, ierr
-
-    status = MLID_ERR_INPUT
-    bad = 0
-    if (pm%nf == 0) then
-      msg = 'every parameter is fixed: there is nothing to estimate'
-      return
-    end if
-    if (max(opt%rank_min, opt%rank_max) > pm%nf) then
-      write (msg, '(a,i0,a,i0,a)') 'rank_min/rank_max = ', max(opt%rank_min, opt%rank_max), &
-        ' is larger than the ', pm%nf, ' free parameters'
-      return
-    end if
-    if (use_prior == 1) then
-      if (.not. all(ieee_is_finite(pweight)) .or. .not. all(ieee_is_finite(prior))) then
-        msg = 'a priori values and weights must be finite'
-        return
-      end if
-      call sym_eig(0.5_wp*(pweight + transpose(pweight)), ev, v, ierr)
-      if (ierr /= 0 .or. maxval(abs(pweight - transpose(pweight))) > 0.0_wp .or. &
-          minval(ev) < -1.0e-12_wp*max(1.0_wp, maxval(abs(ev)))) then
-        msg = 'the a priori weight matrix must be symmetric positive semi-definite'
-        return
-      end if
-      ex%prior = prior(pm%ifree)
-      ex%weight = pweight
-    end if
-    if (use_bounds == 1) then
-      do k = 1, pm%nf
-        bad = k
-        call bounds_check(lower(pm%ifree(k)), upper(pm%ifree(k)), what)
-        if (len_trim(what) > 0) then
-          write (msg, '(a,i0,a)') 'free parameter ', k, ': '//trim(what)
-          return
-        end if
-        if (theta0(pm%ifree(k)) < lower(pm%ifree(k)) .or. theta0(pm%ifree(k)) > upper(pm%ifree(k))) then
-          write (msg, '(a,i0,a)') 'free parameter ', k, ': start value outside its bounds'
-          return
-        end if
-      end do
-      ex%lower = lower(pm%ifree)
-      ex%upper = upper(pm%ifree)
-    end if
-    bad = 0
-    status = MLID_OK
-    msg = ''
-  end subroutine extras
-
-  !> What is wrong with the bounds lower, upper of one parameter ('' when
-  !> nothing).  A bound is a number; -Inf below and +Inf above bound nothing.
-  subroutine bounds_check(lower, upper, msg)
-    real(wp), intent(in) :: lower, upper
-    character(len=*), intent(out) :: msg
-    msg = ''
-    if (ieee_is_nan(lower)) then
-      msg = 'lower bound is not a number'
-    else if (ieee_is_nan(upper)) then
-      msg = 'upper bound is not a number'
-    else if (lower > huge(lower)) then
-      msg = 'lower bound is +Inf (no value lies above it)'
-    else if (upper < -huge(upper)) then
-      msg = 'upper bound is -Inf (no value lies below it)'
-    else if (lower > upper) then
-      msg = 'lower bound above upper bound'
-    end if
-  end subroutine bounds_check
 
   !> Input design (mlid_design).  Common arguments: the linear model F(nx,nx),
   !> G(nx,nu), H(ny,nx), the noise spectral density R(ny,ny), the process
@@ -1617,25 +1594,26 @@ contains
                          w, u, mu, mm, ratios, nratio, status, msg)
   end subroutine mlid_design_equalised
 
-  !> Run job k of the opened deck when it runs whole in the core
+  !> Run job k of handle h's deck when it runs whole in the core
   !> (simulate, design, monte_carlo: mlid_jobs), as mlid-batch runs it:
   !> its files written, its report and JSON object returned (empty when it
   !> failed: status, msg).
-  subroutine mlid_deck_case_run(k, report, nreport, json, njson, status, msg)
+  subroutine mlid_deck_case_run(h, k, report, nreport, json, njson, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k
     character(len=262144), intent(out) :: report, json
     integer(c_int), intent(out) :: nreport, njson, status
     character(len=256), intent(out) :: msg
     character(len=:), allocatable :: rtext, jtext
+    type(case_t), pointer :: c
     report = ''
     json = ''
     nreport = 0
     njson = 0
-    status = MLID_ERR_INPUT
-    msg = 'no such case'
-    if (.not. allocated(opened)) return
-    if (k < 1 .or. k > size(opened)) return
-    call job_run(opened(k), rtext, jtext, status, msg)
+    c => case_at(h, k)
+    call no_case(c, status, msg)
+    if (status /= MLID_OK) return
+    call job_run(c, rtext, jtext, status, msg)
     nreport = min(len(rtext), len(report))
     report = rtext
     njson = min(len(jtext), len(json))

@@ -66,10 +66,6 @@ module mlid_channels
     integer, allocatable :: line(:)
   end type channel_set_t
 
-  !> The set last taken through the flat interface (mlid_api), held here
-  !> for it to hand to Python channel by channel.
-  type(channel_set_t), public, save :: taken
-
   !> The channels of one source: its columns, then the derived ones.  Each
   !> has the unit its record declares, converted to the core's unit by
   !> core = factor*declared + offset, and the unit it is shown in

@@ -35,8 +35,8 @@
 !>             order of free), corrected (kind flight_path: one record per data file),
 !>             f_min, f_max, n_freq (the band of the frequency-domain methods, Hz)
 !> A problem in one case is kept in that case (status, msg) and the others
-!> are still read.  Python reads decks through this reader too (mlid_api's
-!> mlid_deck_* routines; python/mlid/deck.py).
+!> are still read.  Python reads decks through this reader too, into a handle
+!> (mlid_handles; mlid_api's mlid_deck_* routines).
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
@@ -67,12 +67,9 @@ module mlid_deck
                          block_list, manoeuvre_map
   implicit none
   private
-  public :: case_t, deck_read, deck_open, case_record, case_time_input, manoeuvre_layout, &
+  public :: case_t, deck_read, case_record, case_time_input, manoeuvre_layout, &
             case_param_units, holdout_case, manoeuvre_block, corrected_writable, NAMELEN, &
             PATHLEN
-
-  !> The cases of the deck last opened by deck_open, for the flat interface.
-  type(case_t), allocatable, protected, public :: opened(:)
 
   integer, parameter :: MAXX = 30, MAXU = 30, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
   integer, parameter :: MAXR = 12   !< regressors of each coefficient
@@ -140,15 +137,6 @@ contains
       call resolve_paths(path, cases(k))
     end do
   end subroutine deck_read
-
-  !> Read a deck and keep its cases (opened) for the flat interface.
-  subroutine deck_open(path, ncases, status, msg)
-    character(len=*), intent(in) :: path
-    integer, intent(out) :: ncases, status
-    character(len=*), intent(out) :: msg
-    call deck_read(path, opened, status, msg)
-    ncases = size(opened)
-  end subroutine deck_open
 
   !> File names of a case are taken from the deck's folder unless absolute;
   !> a record the case writes may not be the deck or a file it reads.

@@ -14,9 +14,9 @@ module mlid_jobs
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_models, only: model_t
   use mlid_options, only: options_t
-  use mlid_params, only: param_map_t, no_ties
+  use mlid_params, only: param_map_t
   use mlid_setup, only: setup
-  use mlid_simulate, only: simulate_outputs
+  use mlid_simulate, only: simulate_flat
   use mlid_monte_carlo, only: monte_carlo, mc_statistics
   use mlid_record, only: record_text
   use mlid_units, only: UNITLEN
@@ -76,23 +76,15 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: t(:), u(:, :), y(:, :), x(:, :)
-    class(model_t), allocatable :: m
-    type(options_t) :: opt
-    type(param_map_t) :: pm
     character(len=:), allocatable :: text
     character(len=NAMELEN), allocatable :: names(:)
     character(len=UNITLEN), allocatable :: units(:)
-    integer :: nofree(size(c%theta))
 
     call case_time_input(c, t, u, status, msg)
     if (status /= MLID_OK) return
     allocate (y(c%ny, size(t)), x(c%nx, size(t)))
-    y = 0.0_wp
-    nofree = 0
-    call setup(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, nofree, no_ties(size(c%theta)), &
-               c%iconst, c%rconst, t, u, y, c%iopt, c%ropt, 0, m, opt, pm, status, msg)
-    if (status /= MLID_OK) return
-    call simulate_outputs(m, c%theta, t, u, opt, c%seed, y, x, status, msg)
+    call simulate_flat(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, c%iconst, c%rconst, t, u, c%iopt, &
+                       c%ropt, c%seed, y, x, status, msg)
     if (status /= MLID_OK) return
     ! the header mlid has always written here; the rows are the reader's own
     allocate (names(c%nu + c%ny), units(c%nu + c%ny))

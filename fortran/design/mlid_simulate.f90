@@ -11,6 +11,7 @@
 !> interval before the sample, with the backward timing (timing = 1; at the
 !> first sample a draw of its own).
 module mlid_simulate
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_DIVERGED
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_linalg, only: psd_factor
@@ -21,11 +22,40 @@ module mlid_simulate
   use mlid_delay, only: delay_outputs, delay_check
   use mlid_rk, only: rk4_interval, rk_work_t
   use mlid_random, only: rng_t, rng_seed, rng_normal
+  use mlid_setup, only: setup
   implicit none
   private
-  public :: simulate_outputs, simulate_noise
+  public :: simulate_outputs, simulate_noise, simulate_flat
 
 contains
+
+  !> simulate_outputs of a model from its flat description (kind, sizes,
+  !> constants, options), checked first: the outputs y and states x along
+  !> t with inputs u, the noise of theta drawn with seed.
+  subroutine simulate_flat(mkind, nx, nu, ny, nw, theta, iconst, rconst, t, u, iopt, ropt, seed, &
+                           y, x, status, msg, timing)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, seed
+    real(c_double), intent(in) :: theta(:), rconst(:), t(:), u(:, :)
+    integer(c_int), intent(in) :: iconst(:), iopt(16)
+    real(c_double), intent(in) :: ropt(16)
+    real(c_double), intent(out) :: y(:, :), x(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer, intent(in), optional :: timing   !< 0 forward (default), 1 backward
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    type(param_map_t) :: pm
+    integer :: nofree(size(theta))
+
+    y = 0.0_wp
+    x = 0.0_wp
+    nofree = 0
+    ! No measurements yet: check the time base and inputs against themselves.
+    call setup(mkind, nx, nu, ny, nw, theta, nofree, no_ties(size(theta)), iconst, rconst, t, u, &
+               y, iopt, ropt, 0, m, opt, pm, status, msg)
+    if (status /= MLID_OK) return
+    call simulate_outputs(m, theta, t, u, opt, seed, y, x, status, msg, timing)
+  end subroutine simulate_flat
 
   !> y(ny, nt) and states xhist(nx, nt) along t with inputs u.
   subroutine simulate_outputs(m, theta, t, u, opt, seed, y, xhist, status, msg, timing)

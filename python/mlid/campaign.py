@@ -46,8 +46,8 @@ _OPENED = {"deck": None, "cases": None}
 
 
 def opened(deck):
-    """The cases of deck, read once per process (the core holds the deck
-    last read, which a case's record comes from)."""
+    """The cases of deck, read once per process (a worker runs a deck's
+    cases one task at a time)."""
     from .deck import read_deck
     if _OPENED["deck"] != str(deck):
         _OPENED.update(deck=None, cases=read_deck(deck))

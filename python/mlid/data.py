@@ -11,6 +11,7 @@ from ._core import mlid_api as _api
 from .checks import real_array
 from .errors import InputError, MlidWarning, check_status, guarded_class
 from .files import atomic_open
+from .handle import Handle
 
 
 def _channels(a, nt, what, name):
@@ -274,14 +275,17 @@ class FlightData:
         spec = _spec(time_col, input_cols, output_cols, columns, units, derived, show)
         window = _window(t_start, t_end, dt)
         path = str(path)
+        handle = Handle()
         if formats.is_binary(path):
             x, names, col_units = formats.read_table(path, variable)
             nt, status, msg = _api.mlid_channels_table(
-                path, x, "\n".join(names) + "\n", "\n".join(col_units) + "\n", *spec, *window)
+                handle.value, path, x, "\n".join(names) + "\n", "\n".join(col_units) + "\n",
+                *spec, *window)
         else:
-            nt, status, msg = _api.mlid_channels_read(path, *spec, int(skip_rows), *window)
+            nt, status, msg = _api.mlid_channels_read(handle.value, path, *spec, int(skip_rows),
+                                                      *window)
         read_status(status, msg)
-        return cls._taken(*_counts(spec), nt, path, input_names, output_names)
+        return cls._taken(handle, *_counts(spec), nt, path, input_names, output_names)
 
     @classmethod
     def from_frame(cls, frame, time_col, input_cols=(), output_cols=(), units=None,
@@ -327,16 +331,18 @@ class FlightData:
         names = [s[0].strip() if u else n for s, n, u in zip(split, names, col_units)]
         spec = _spec(time_col, input_cols, output_cols, None, units, derived, show)
         window = _window(t_start, t_end, dt)
+        handle = Handle()
         nt, status, msg = _api.mlid_channels_table(
-            source, np.asfortranarray(x), "\n".join(names) + "\n", "\n".join(col_units) + "\n",
-            *spec, *window)
+            handle.value, source, np.asfortranarray(x), "\n".join(names) + "\n",
+            "\n".join(col_units) + "\n", *spec, *window)
         read_status(status, msg)
-        return cls._taken(*_counts(spec), nt, source, input_names, output_names)
+        return cls._taken(handle, *_counts(spec), nt, source, input_names, output_names)
 
     @classmethod
-    def _taken(cls, nu, ny, nt, source, input_names=None, output_names=None):
-        """The channels the core took last (mlid_channels_get)."""
-        t, u, y, _, names, units, shown, scale, offset = _api.mlid_channels_get(nu, ny, nt)
+    def _taken(cls, handle, nu, ny, nt, source, input_names=None, output_names=None):
+        """The channels the core took last into handle (mlid_channels_get)."""
+        t, u, y, _, names, units, shown, scale, offset = _api.mlid_channels_get(handle.value, nu,
+                                                                                  ny, nt)
         names, units, shown = (_text_lines(v, nu + ny) for v in (names, units, shown))
         names = [n or (f"u{i + 1}" if i < nu else f"y{i - nu + 1}") for i, n in enumerate(names)]
         display = list(zip(shown, scale, offset))

@@ -11,6 +11,7 @@ from . import core, formats
 from .core import _api, _text
 from .data import FlightData, read_status
 from .errors import InputError, MlidError, check_status, guarded, status_of
+from .handle import Handle
 from .model import _lines, from_core
 
 
@@ -19,15 +20,18 @@ CONDITIONS = tuple(n.strip() for n in _text(_api.mlid_condition_names()).split("
 
 
 class Case:
-    """Case k of a deck: what to run, or why it cannot run (``error``)."""
+    """Case k of a deck: what to run, or why it cannot run (``error``).  The
+    deck's cases stay in the core, in the handle its cases share."""
 
-    def __init__(self, deck, k):
+    def __init__(self, deck, handle, k):
+        self._handle = handle
+        h = handle.value
         (self.line, title, job, status, msg, mkind, nx, nu, ny, nw, nth, nf, nic, nrc, nfile,
-         nt) = _api.mlid_deck_case(k)
+         nt) = _api.mlid_deck_case(h, k)
         self.index, self.deck, self.title, self.job = k, Path(deck), _text(title), _text(job)
         self._title = title.rstrip()      # the deck's own bytes, for the core's JSON
         self.error = _text(msg) if status else None
-        values, given, config, tags = _api.mlid_deck_case_condition(k, len(CONDITIONS))
+        values, given, config, tags = _api.mlid_deck_case_condition(h, k, len(CONDITIONS))
         self._condition = {n: float(v) for n, v, g in zip(CONDITIONS, values, given) if g}
         if _text(config):
             self._condition["config"] = _text(config)
@@ -38,9 +42,9 @@ class Case:
         if self.error:
             return
         (theta, isfree, iconst, rconst, iopt, ropt, labels, use_prior, prior, pweight,
-         use_bounds, lower, upper) = _api.mlid_deck_case_model(k, nth, nf, nic, nrc)
+         use_bounds, lower, upper) = _api.mlid_deck_case_model(h, k, nth, nf, nic, nrc)
         opts = core.options_by_name(iopt, ropt)
-        n, to, frm, scale, offset = _api.mlid_deck_case_ties(k, nth, 16 * nth)
+        n, to, frm, scale, offset = _api.mlid_deck_case_ties(h, k, nth, 16 * nth)
         ties = (to[:n], frm[:n], scale[:n], offset)
         self.model = from_core(mkind, (nx, nu, ny, nw), iconst, rconst, theta, isfree, ties,
                                _lines(labels), opts.pop("input_hold"), opts.pop("substeps"))
@@ -55,13 +59,13 @@ class Case:
                               if not (lo <= -big and hi >= big)}
         self._options = opts
         self._sizes = (nu, ny)
-        self._files = [_api.mlid_deck_case_data(k, j) for j in range(1, max(nfile, 1) + 1)]
-        n, holdout = _api.mlid_deck_case_holdout(k, max(nfile, 1))
+        self._files = [_api.mlid_deck_case_data(h, k, j) for j in range(1, max(nfile, 1) + 1)]
+        n, holdout = _api.mlid_deck_case_holdout(h, k, max(nfile, 1))
         self.holdout = [int(j) for j in holdout[:n]]   # validate: the files predicted
         # kind flight_path: where each manoeuvre's corrected record goes (&estimate corrected)
-        self.corrected = [p for p in (_text(_api.mlid_deck_case_corrected(k, j))
+        self.corrected = [p for p in (_text(_api.mlid_deck_case_corrected(h, k, j))
                                       for j in range(1, nfile + 1)) if p]
-        n, x0 = _api.mlid_deck_case_initial_states(k, max(nx, 1) * max(nfile, 1))
+        n, x0 = _api.mlid_deck_case_initial_states(h, k, max(nx, 1) * max(nfile, 1))
         if n and nfile > 1:                            # each manoeuvre's own x0
             self._options["initial_states"] = list(x0[:n].reshape(-1, nx))
         elif n:
@@ -99,13 +103,15 @@ class Case:
             if formats.is_binary(path):
                 x, names, units = formats.read_table(path)
                 nt, status, msg = _api.mlid_deck_case_table(
-                    self.index, j, x, "\n".join(names) + "\n", "\n".join(units) + "\n")
+                    self._handle.value, self.index, j, x, "\n".join(names) + "\n",
+                    "\n".join(units) + "\n")
             else:
-                nt, status, msg = _api.mlid_deck_case_record(self.index, j)
+                nt, status, msg = _api.mlid_deck_case_record(self._handle.value, self.index, j)
             note = read_status(status, msg)
             if note:
                 self.warnings.append(note)
-            records.append(FlightData._taken(*self._sizes, nt, path, inputs, outputs))
+            records.append(FlightData._taken(self._handle, *self._sizes, nt, path, inputs,
+                                             outputs))
         return records[0] if len(records) == 1 and files is None else records
 
     def options(self):
@@ -173,9 +179,10 @@ def read_deck(path):
         If the deck cannot be read at all (missing, empty, unreadable).
     """
     path = Path(path)
-    ncases, status, msg = _api.mlid_deck_open(str(path))
+    handle = Handle()
+    ncases, status, msg = _api.mlid_deck_open(handle.value, str(path))
     check_status(status, msg)
-    return [Case(path, k) for k in range(1, ncases + 1)]
+    return [Case(path, handle, k) for k in range(1, ncases + 1)]
 
 
 @guarded
@@ -187,7 +194,7 @@ def run_case(case):
     if case.error:
         raise InputError(case.error)
     if case.job in CORE_JOBS:              # run whole by the core, as mlid-batch runs it
-        report, nreport, text, njson, status, msg = _api.mlid_deck_case_run(case.index)
+        report, nreport, text, njson, status, msg = _api.mlid_deck_case_run(case._handle.value, case.index)
         check_status(status, msg)
         return JobOutput(report[:nreport].decode(errors="replace"),
                          text[:njson].decode(errors="replace")), None
@@ -196,7 +203,8 @@ def run_case(case):
     else:
         data = case.record()
         if case.corrected:                   # before a long fit, as mlid-batch checks them
-            check_status(*_api.mlid_deck_case_corrected_writable(case.index))
+            check_status(*_api.mlid_deck_case_corrected_writable(case._handle.value,
+                                                                  case.index))
         result = core.fit(case.model, data, **case.options())
         if case.corrected and result.status == 0:
             _write_corrected(result, case.corrected)

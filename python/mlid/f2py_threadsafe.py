@@ -3,11 +3,10 @@ read, with '!f2py threadsafe' in the numerical routines named below, so their
 wrappers release the GIL while the core runs (Python threads then run fits
 side by side: mlid.monte_carlo_parallel).
 
-Only routines that touch no module variable of the core may be listed: the
-deck and record readers keep what they read in module variables (mlid_deck's
-`opened`, mlid_record's `kept`) and stay under the GIL.  The core is built
-with OpenMP, so gfortran compiles it -frecursive: locals live on each
-thread's stack.
+The core keeps no module state: what a caller keeps between calls is in a
+handle of its own (fortran/case/mlid_handles.f90), and the core is compiled
+-frecursive (locals on each thread's stack).  The routines that read decks
+and records stay under the GIL as before.
 
     python f2py_threadsafe.py IN.f90 OUT.f90
 """

@@ -1,0 +1,443 @@
+!> The job runner: run_case runs one case of a deck, whatever its job
+!> (estimate, validate, and those of mlid_jobs: simulate, design,
+!> monte_carlo), and gives back what the case prints (its report lines),
+!> its JSON object and its notes (warnings and the failure, one line each,
+!> for the front end to print on stderr after its own prefix).  Files the
+!> case writes (records, corrected records) are written here, whole or not
+!> at all.  mlid-batch is a loop over a deck's cases calling it.
+module mlid_run
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_quiet_nan
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_NOCONV, fit_outcome, FIT_ESTIMATES, FIT_FAILED, &
+                        FIT_NOT_RUN
+  use mlid_case, only: case_t, NAMELEN
+  use mlid_text, only: line_t, join_lines, split_lines, itoa
+  use mlid_units, only: UNITLEN
+  use mlid_deck, only: case_record, manoeuvre_layout, case_param_units, holdout_case, &
+                       manoeuvre_block, corrected_writable
+  use mlid_validate, only: prediction_stats
+  use mlid_equations, only: equations_t, equations_create
+  use mlid_flightpath, only: flightpath_corrected
+  use mlid_params, only: param_map_t
+  use mlid_options, only: options_t, frequency_method
+  use mlid_newton, only: fit_result_t
+  use mlid_fit_driver, only: fit_solve
+  use mlid_simulate, only: simulate_flat
+  use mlid_jobs, only: job_run, JOB_RUNS
+  use mlid_files, only: temporary_for, write_whole
+  use mlid_record, only: record_text
+  use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
+                         validation_json
+  implicit none
+  private
+  public :: case_run_t, run_case, corrected_record
+
+  !> What running a case gave.
+  type :: case_run_t
+    character(len=:), allocatable :: report   !< its lines for stdout (after its heading)
+    character(len=:), allocatable :: json     !< its JSON object
+    type(line_t), allocatable :: notes(:)     !< warnings and the failure, for stderr
+    integer :: status = MLID_OK               !< of the case: a fit that did not converge is OK
+    character(len=256) :: msg = ''
+  end type case_run_t
+
+  character, parameter :: NL = achar(10)
+
+contains
+
+  !> Run case c.  A failed case has its message as the last note, and a
+  !> ' FAILED:' line ends its report unless a failed fit's report says it.
+  subroutine run_case(c, r)
+    type(case_t), intent(inout) :: c
+    type(case_run_t), intent(out) :: r
+    character(len=:), allocatable :: json, report, text
+    integer :: outcome
+
+    r%report = ''
+    allocate (r%notes(0))
+    r%status = c%status
+    r%msg = c%msg
+    outcome = FIT_NOT_RUN
+    if (r%status /= MLID_OK) then
+      continue
+    else if (index(JOB_RUNS, ' '//trim(c%job)//' ') > 0) then
+      call job_run(c, report, text, r%status, r%msg)
+      if (r%status == MLID_OK) then
+        r%report = report
+        json = text
+      end if
+    else if (c%job == 'validate') then
+      call validate_case(c, r, json, outcome)
+    else
+      call fit_case(c, r, json, outcome)
+    end if
+    ! a job that stopped before its result has only its message to give
+    if (.not. allocated(json)) json = case_json(c%title, c%job, r%status, r%msg)
+    r%json = json
+    if (r%status /= MLID_OK) then
+      call note(r, r%msg)
+      ! a failed fit's report ends with this line already
+      if (outcome /= FIT_FAILED) r%report = r%report//' FAILED: '//trim(r%msg)//NL
+    end if
+  end subroutine run_case
+
+  subroutine note(r, text)
+    type(case_run_t), intent(inout) :: r
+    character(len=*), intent(in) :: text
+    type(line_t), allocatable :: more(:)
+    integer :: j
+    ! grown by hand: gfortran 12 garbles an array constructor of line_t
+    allocate (more(size(r%notes) + 1))
+    do j = 1, size(r%notes)
+      call move_alloc(r%notes(j)%s, more(j)%s)
+    end do
+    more(size(more))%s = trim(text)
+    call move_alloc(more, r%notes)
+  end subroutine note
+
+  subroutine notes_from(r, notes)
+    type(case_run_t), intent(inout) :: r
+    type(line_t), allocatable, intent(in) :: notes(:)
+    integer :: j
+    if (.not. allocated(notes)) return
+    do j = 1, size(notes)
+      call note(r, notes(j)%s)
+    end do
+  end subroutine notes_from
+
+  !> Fit an estimate case and write its corrected records.  A fit that did
+  !> not converge is a result with a warning, not a failure of the case.
+  subroutine fit_case(c, r, json, outcome)
+    type(case_t), intent(inout) :: c
+    type(case_run_t), intent(inout) :: r
+    character(len=:), allocatable, intent(out) :: json
+    integer, intent(out) :: outcome       !< of the fit (mlid_kinds FIT_*)
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :), own_t(:)
+    integer, allocatable :: segstart(:)
+    character(len=UNITLEN), allocatable :: units(:)
+    type(line_t), allocatable :: notes(:)
+
+    outcome = FIT_NOT_RUN
+    call case_record(c, t, u, y, r%status, r%msg, segstart, units, notes=notes, own_t=own_t)
+    call notes_from(r, notes)
+    if (r%status == MLID_OK) call corrected_writable(c, r%status, r%msg)   ! before a long fit
+    if (r%status == MLID_OK) call fit_record(c, t, u, y, segstart, units, r, json, theta, rhat, &
+                                             yhat, outcome)
+    if (allocated(c%corrected)) then
+      if (r%status == MLID_OK) then
+        call write_corrected(c, own_t, u, y, segstart, units, theta, r)
+        if (r%status /= MLID_OK) deallocate (json)   ! the case failed: its message, not the fit's
+      else if (outcome == FIT_ESTIMATES) then        ! not converged, reported
+        r%report = r%report//' corrected records not written: the fit did not end well'//NL
+      end if
+    end if
+    if (r%status == MLID_ERR_NOCONV .and. outcome == FIT_ESTIMATES) then
+      call note(r, 'warning: '//r%msg)
+      r%status = MLID_OK
+    end if
+  end subroutine fit_case
+
+  !> Each manoeuvre's record with the fit's corrections undone, written
+  !> where &estimate corrected says, its channels named as the model names
+  !> its inputs and outputs.
+  subroutine write_corrected(c, t, u, y, segstart, units, theta, r)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: t(:)                !< each manoeuvre's own time (its file's)
+    real(wp), intent(in) :: u(:, :), y(:, :), theta(:)
+    integer, intent(in) :: segstart(:)
+    character(len=*), intent(in) :: units(:)
+    type(case_run_t), intent(inout) :: r
+    real(wp), allocatable :: uc(:, :), yc(:, :)
+    integer :: j, j0, j1, n
+
+    do j = 1, size(segstart)
+      j0 = segstart(j)
+      j1 = size(t)
+      if (j < size(segstart)) j1 = segstart(j + 1) - 1
+      n = j1 - j0 + 1
+      allocate (uc(c%nu, n), yc(c%ny, n))
+      call corrected_record(c%iconst, manoeuvre_block(c, size(segstart), theta, j, 'p'), &
+                            manoeuvre_block(c, size(segstart), theta, j, 'bias'), &
+                            manoeuvre_block(c, size(segstart), theta, j, 'delay'), &
+                            manoeuvre_block(c, size(segstart), theta, j, 'udelay'), t(j0:j1), &
+                            u(:, j0:j1), y(:, j0:j1), [c%input_names, c%output_names], units, &
+                            trim(c%corrected(j)), uc, yc, r%status, r%msg)
+      if (r%status /= MLID_OK) return
+      r%report = r%report//' corrected record of manoeuvre '//itoa(j)//' written to '// &
+                 trim(c%corrected(j))//NL
+      deallocate (uc, yc)
+    end do
+  end subroutine write_corrected
+
+  !> One manoeuvre of a flight-path model's fit with its corrections undone
+  !> (mlid_flightpath's flightpath_corrected): the model by its text
+  !> (iconst), its corrections p, the manoeuvre's output biases and delays
+  !> and input delays, its record (t, u, y) -> uc, yc; when path is not
+  !> blank, also written there whole or not at all (record_text: the
+  !> channels' names and units, inputs then outputs).
+  subroutine corrected_record(iconst, p, bias, delay, udelay, t, u, y, names, units, path, uc, yc, &
+                              status, msg)
+    integer, intent(in) :: iconst(:)
+    real(wp), intent(in) :: p(:), bias(:), delay(:), udelay(:), t(:), u(:, :), y(:, :)
+    character(len=*), intent(in) :: names(:), units(:), path
+    real(wp), intent(out) :: uc(:, :), yc(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(equations_t) :: eqs
+    character(len=:), allocatable :: tmp
+
+    uc = u
+    yc = y
+    call equations_create(iconst, [real(wp) ::], eqs, status, msg)
+    if (status /= MLID_OK) then
+      msg = 'corrected record: not a flight-path model ('//trim(msg)//')'
+      return
+    end if
+    call flightpath_corrected(eqs%unames, eqs%pnames, p, eqs%ynames, bias, delay, udelay, t, uc, &
+                              yc, status, msg)
+    if (status /= MLID_OK .or. len_trim(path) == 0) return
+    call temporary_for(trim(path), tmp, status, msg)
+    if (status == MLID_OK) call write_whole(trim(path), tmp, record_text(names, units, t, uc, yc), &
+                                            status, msg)
+  end subroutine corrected_record
+
+  !> Fit case c to a record (several manoeuvres: segstart); with json
+  !> present, add its report to r and return its JSON object.  theta, R-hat
+  !> and the outputs of the fit are returned.
+  subroutine fit_record(c, t, u, y, segstart, units, r, json, theta, rhat, yhat, outcome)
+    type(case_t), intent(inout) :: c
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    integer, intent(in) :: segstart(:)
+    character(len=*), intent(in) :: units(:)
+    type(case_run_t), intent(inout) :: r
+    character(len=:), allocatable, intent(out), optional :: json
+    real(wp), allocatable, intent(out) :: theta(:), rhat(:, :), yhat(:, :)
+    integer, intent(out) :: outcome       !< of the fit (mlid_kinds FIT_*)
+    type(fit_result_t) :: res
+    type(param_map_t) :: pm
+    type(options_t) :: opt
+    type(fit_summary_t) :: s
+    integer :: bad, nth, nf
+
+    outcome = FIT_NOT_RUN
+    call case_param_units(c, size(segstart), units, s%units, r%status, r%msg)
+    ! several data files: several manoeuvres, each its own x0 and biases
+    if (r%status == MLID_OK) call manoeuvre_layout(c, size(segstart), r%status, r%msg)
+    if (r%status /= MLID_OK) return
+    nth = size(c%theta)
+    nf = count(c%isfree == 1)
+    call fit_solve(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, c%isfree, c%tie, c%iconst, c%rconst, &
+                   t, u, y, segstart, c%iopt, c%ropt, nf, c%use_prior, or_zero(c%prior, nth), &
+                   weight_or_zero(c%pweight, nf), c%use_bounds, or_zero(c%lower, nth), &
+                   or_zero(c%upper, nth), res, pm, opt, bad, r%status, r%msg)
+    call summary(c, res, pm, opt, nf, size(t), s, theta, yhat)
+    rhat = s%rhat
+    if (allocated(res%info)) bad = res%bad_param
+    if (r%status /= MLID_OK .and. bad > 0) r%msg = replace_index(r%msg, bad, c%labels)
+    ! a fit that ran has a report: its estimates, or its last values if it failed
+    outcome = fit_outcome(r%status, s%reason)
+    if (outcome == FIT_NOT_RUN .or. .not. present(json)) return
+    r%report = r%report//fit_report(s, c%iopt, c%ropt, r%status, r%msg)
+    json = fit_json(c%title, c%job, r%status, r%msg, s, c%iopt, c%ropt)
+    if (r%status == MLID_OK .and. r%msg(1:min(8, len(r%msg))) == 'warning:') call note(r, r%msg)
+  end subroutine fit_record
+
+  !> The report's view of a fit (estimates, sigma, history, noise), theta
+  !> and the outputs: a fit that stopped before its last values keeps the
+  !> start, one without an information matrix has no statistics.
+  subroutine summary(c, res, pm, opt, nf, nt, s, theta, yhat)
+    type(case_t), intent(in) :: c
+    type(fit_result_t), intent(in) :: res
+    type(param_map_t), intent(in) :: pm
+    type(options_t), intent(in) :: opt
+    integer, intent(in) :: nf, nt
+    type(fit_summary_t), intent(inout) :: s
+    real(wp), allocatable, intent(out) :: theta(:), yhat(:, :)
+    real(wp) :: start(size(c%theta)), sigma(size(c%theta)), sigc(size(c%theta)), rnoise(c%ny)
+    logical :: free(size(c%theta))
+    integer :: k
+
+    free = c%isfree == 1
+    theta = c%theta
+    start = c%theta
+    sigma = 0.0_wp
+    sigc = 0.0_wp
+    rnoise = ieee_value(1.0_wp, ieee_quiet_nan)
+    allocate (yhat(c%ny, nt), s%cov(nf, nf), s%eigval(nf), s%eigvec(nf, nf), &
+              s%rhat(c%ny, c%ny), s%hist(1))
+    yhat = 0.0_wp
+    s%hist = 0.0_wp
+    s%cov = 0.0_wp
+    s%eigval = 0.0_wp
+    s%eigvec = 0.0_wp
+    s%rhat = 0.0_wp
+    s%cost = 0.0_wp
+    s%niter = 0
+    s%reason = 0
+    s%rank = 0
+    s%lag = 0
+    s%converged = .false.
+    if (allocated(res%theta_start)) start = res%theta_start
+    if (allocated(res%theta)) then
+      theta = res%theta
+      if (opt%noise_criterion == 1) rnoise = theta(pm%l%or + 1:pm%l%or + c%ny)
+      s%hist = res%cost_hist(1:1)
+    end if
+    if (allocated(res%theta) .and. allocated(res%info)) then
+      do k = 1, nf
+        sigma(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov(k, k)))
+      end do
+      s%cov = res%cov
+      if (allocated(res%cov_c)) then
+        do k = 1, nf
+          sigc(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov_c(k, k)))
+        end do
+        s%lag = res%lag
+      end if
+      s%eigval = res%eigval
+      s%eigvec = res%eigvec
+      s%rhat = res%rhat
+      ! the frequency-domain methods' outputs are transforms, not the record's
+      if (.not. frequency_method(opt)) yhat = res%yhat
+      s%cost = res%cost
+      s%niter = res%niter
+      s%reason = res%reason
+      s%rank = res%rank
+      s%converged = res%converged
+      s%hist = res%cost_hist(1:s%niter + 1)
+    end if
+    s%labels = c%labels
+    s%start = pack(start, free)
+    s%est = pack(theta, free)
+    s%sig = pack(sigma, free)
+    s%sigc = pack(sigc, free)
+    if (all(ieee_is_finite(rnoise))) s%rnoise = rnoise
+  end subroutine summary
+
+  !> Validate case c: fit on the files not held out (reported as an estimate
+  !> case is), then predict the held-out ones (holdout_case) and say how well.
+  subroutine validate_case(c, r, json, outcome)
+    type(case_t), intent(inout) :: c
+    type(case_run_t), intent(inout) :: r
+    character(len=:), allocatable, intent(out) :: json
+    integer, intent(out) :: outcome       !< of the fit (mlid_kinds FIT_*)
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :), r0(:, :)
+    real(wp), allocatable :: th(:), uh(:, :), yh(:, :), pred(:, :), theil(:), rms(:), ratio(:)
+    integer, allocatable :: segstart(:), sh(:)
+    character(len=UNITLEN), allocatable :: units(:), hunits(:)
+    character(len=NAMELEN), allocatable :: names(:)
+    type(line_t), allocatable :: notes(:)
+    type(case_t) :: fitted, held
+    logical, allocatable :: out(:)
+    integer :: held_outcome
+
+    outcome = FIT_NOT_RUN
+    allocate (out(size(c%data_files)))
+    out = .false.
+    out(c%holdout) = .true.
+    ! every part read before the fit: the files fitted, then those held out
+    fitted = files_of(c, .not. out)
+    call case_record(fitted, t, u, y, r%status, r%msg, segstart, units, notes=notes)
+    call notes_from(r, notes)
+    if (r%status == MLID_OK) call case_record(files_of(c, out), th, uh, yh, r%status, r%msg, sh, &
+                                              hunits, names, notes)
+    if (r%status == MLID_OK) call notes_from(r, notes)
+    if (r%status == MLID_OK) call fit_record(fitted, t, u, y, segstart, units, r, json, theta, &
+                                             rhat, yhat, outcome)
+    if (r%status /= MLID_OK) return
+    call holdout_case(files_of(c, out), theta, count(.not. out), held, r%status, r%msg)
+    if (r%status /= MLID_OK) return
+    if (count(held%isfree == 1) > 0) then
+      call fit_record(held, th, uh, yh, sh, hunits, r, theta=theta, rhat=r0, yhat=pred, &
+                      outcome=held_outcome)
+    else
+      call predict(held, th, uh, sh, pred, r%status, r%msg)
+    end if
+    if (r%status /= MLID_OK) then         ! the case failed: its JSON says why, not the fit's
+      r%msg = 'prediction of the held-out files: '//trim(r%msg)
+      deallocate (json)
+      return
+    end if
+    allocate (theil(c%ny), rms(c%ny), ratio(c%ny))
+    call prediction_stats(yh, pred, rhat, theil, rms, ratio)
+    if (allocated(c%output_names)) then
+      if (all(len_trim(c%output_names) > 0)) names(c%nu + 1:) = c%output_names
+    end if
+    r%report = r%report//validation_report(names(c%nu + 1:), c%holdout, theil, rms, ratio)
+    json = json(1:len(json) - 1)//','//NL// &
+           validation_json(names(c%nu + 1:), c%holdout, theil, rms, ratio)//'}'
+  end subroutine validate_case
+
+  !> Case c with only the data files where keep is true.
+  function files_of(c, keep) result(part)
+    type(case_t), intent(in) :: c
+    logical, intent(in) :: keep(:)
+    type(case_t) :: part
+    part = c
+    part%data_files = pack(c%data_files, keep)
+    part%file_no = pack(c%file_no, keep)          ! the manoeuvre channel keeps its number
+    part%win_start = pack(c%win_start, keep)
+    part%win_end = pack(c%win_end, keep)
+  end function files_of
+
+  !> The outputs of case h (nothing free) on each manoeuvre, simulated
+  !> without noise.
+  subroutine predict(h, t, u, segstart, y, status, msg)
+    type(case_t), intent(in) :: h
+    real(wp), intent(in) :: t(:), u(:, :)
+    integer, intent(in) :: segstart(:)
+    real(wp), allocatable, intent(out) :: y(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: x(:, :)
+    integer :: j, i0, i1
+
+    allocate (y(h%ny, size(t)), x(h%nx, size(t)))
+    status = MLID_OK
+    do j = 1, size(segstart)
+      i0 = segstart(j)
+      i1 = size(t)
+      if (j < size(segstart)) i1 = segstart(j + 1) - 1
+      call simulate_flat(h%mkind, h%nx, h%nu, h%ny, h%nw, h%theta, h%iconst, h%rconst, &
+                         t(i0:i1), u(:, i0:i1), h%iopt, h%ropt, 0, y(:, i0:i1), x(:, i0:i1), &
+                         status, msg)
+      if (status /= MLID_OK) return
+    end do
+  end subroutine predict
+
+  !> An optional array, or zeros of the size the fit wants.
+  function or_zero(a, n) result(out)
+    real(wp), allocatable, intent(in) :: a(:)
+    integer, intent(in) :: n
+    real(wp) :: out(n)
+    out = 0.0_wp
+    if (allocated(a)) out = a
+  end function or_zero
+
+  function weight_or_zero(a, n) result(out)
+    real(wp), allocatable, intent(in) :: a(:, :)
+    integer, intent(in) :: n
+    real(wp) :: out(n, n)
+    out = 0.0_wp
+    if (allocated(a)) out = a
+  end function weight_or_zero
+
+  !> Put the name of free parameter bad in place of "free parameter <bad>".
+  function replace_index(text, bad, labels) result(out)
+    character(len=*), intent(in) :: text
+    integer, intent(in) :: bad
+    character(len=*), intent(in) :: labels(:)
+    character(len=256) :: out
+    character(len=32) :: key
+    integer :: p, e
+    write (key, '(a,i0)') 'free parameter ', bad
+    p = index(text, trim(key))
+    out = text
+    if (p == 0) return
+    e = p + len_trim(key)
+    if (e <= len(text)) then
+      if (index('0123456789', text(e:e)) > 0) return
+    end if
+    out = text(1:p - 1)//''''//trim(labels(bad))//''''//text(e:)
+  end function replace_index
+
+end module mlid_run

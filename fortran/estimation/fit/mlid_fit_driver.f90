@@ -1,0 +1,143 @@
+!> The fit driver: a fit from its flat description (model kind and sizes,
+!> parameters and which are free, ties, constants, record, options), with
+!> its a priori values and bounds checked, run by the method the options
+!> name.  The one way in to a fit for the job runner (mlid_run) and the
+!> flat interface (mlid_api's mlid_fit) alike.
+module mlid_fit_driver
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_models, only: model_t
+  use mlid_options, only: options_t
+  use mlid_params, only: param_map_t, tie_t
+  use mlid_linalg, only: sym_eig
+  use mlid_setup, only: setup
+  use mlid_newton, only: fit_result_t, extras_t, newton_fit
+  implicit none
+  private
+  public :: fit_solve, bounds_check
+
+contains
+
+  !> Fit the free parameters of theta0 (isfree) of the model mkind to the
+  !> record t, u, y (manoeuvres from segstart).  use_prior, prior, pweight:
+  !> the a priori values and weight (report §4.6); use_bounds, lower,
+  !> upper: the bounds (over all parameters; those of the free ones are
+  !> used).  res holds the fit (its last iterate when status says it
+  !> failed), pm the parameter map, opt the options; bad names the free
+  !> parameter a message of the checks is about (0 none; a singular fit's
+  !> is res%bad_param).  msg of a good fit is the
+  !> set-up's warning, else the fit's note.
+  subroutine fit_solve(mkind, nx, nu, ny, nw, theta0, isfree, tie, iconst, rconst, t, u, y, &
+                       segstart, iopt, ropt, nf, use_prior, prior, pweight, use_bounds, lower, &
+                       upper, res, pm, opt, bad, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nf, use_prior, use_bounds
+    real(c_double), intent(in) :: theta0(:), rconst(:), t(:), u(:, :), y(:, :)
+    integer(c_int), intent(in) :: isfree(:), iconst(:), segstart(:)
+    type(tie_t), intent(in) :: tie
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16), prior(:), pweight(:, :), lower(:), upper(:)
+    type(fit_result_t), intent(out) :: res
+    type(param_map_t), intent(out) :: pm
+    type(options_t), intent(out) :: opt
+    integer, intent(out) :: bad, status
+    character(len=*), intent(out) :: msg
+    class(model_t), allocatable :: m
+    type(extras_t) :: ex
+    character(len=len(msg)) :: warning
+
+    bad = 0
+    call setup(mkind, nx, nu, ny, nw, theta0, isfree, tie, iconst, rconst, t, u, y, iopt, ropt, &
+               nf, m, opt, pm, status, msg, segstart)
+    if (status /= MLID_OK) return
+    warning = msg
+    call fit_extras(pm, opt, theta0, use_prior, prior, pweight, use_bounds, lower, upper, ex, &
+                    bad, status, msg)
+    if (status /= MLID_OK) return
+    call newton_fit(m, theta0, pm, t, u, y, opt, ex, res, status, msg)
+    if (status /= MLID_OK) return
+    msg = warning
+    if (len_trim(warning) == 0) msg = res%note
+  end subroutine fit_solve
+
+  !> Check and gather the a priori values and weight and the bounds of the
+  !> free parameters; messages name the free parameter by its number.
+  subroutine fit_extras(pm, opt, theta0, use_prior, prior, pweight, use_bounds, lower, upper, ex, &
+                        bad, status, msg)
+    type(param_map_t), intent(in) :: pm
+    type(options_t), intent(in) :: opt
+    real(c_double), intent(in) :: theta0(:), prior(:), pweight(:, :), lower(:), upper(:)
+    integer(c_int), intent(in) :: use_prior, use_bounds
+    type(extras_t), intent(out) :: ex
+    integer, intent(out) :: bad, status
+    character(len=*), intent(out) :: msg
+    real(wp) :: ev(pm%nf), v(pm%nf, pm%nf)
+    character(len=64) :: what
+    integer :: k, ierr
+
+    status = MLID_ERR_INPUT
+    bad = 0
+    if (pm%nf == 0) then
+      msg = 'every parameter is fixed: there is nothing to estimate'
+      return
+    end if
+    if (max(opt%rank_min, opt%rank_max) > pm%nf) then
+      write (msg, '(a,i0,a,i0,a)') 'rank_min/rank_max = ', max(opt%rank_min, opt%rank_max), &
+        ' is larger than the ', pm%nf, ' free parameters'
+      return
+    end if
+    if (use_prior == 1) then
+      if (.not. all(ieee_is_finite(pweight)) .or. .not. all(ieee_is_finite(prior))) then
+        msg = 'a priori values and weights must be finite'
+        return
+      end if
+      call sym_eig(0.5_wp*(pweight + transpose(pweight)), ev, v, ierr)
+      if (ierr /= 0 .or. maxval(abs(pweight - transpose(pweight))) > 0.0_wp .or. &
+          minval(ev) < -1.0e-12_wp*max(1.0_wp, maxval(abs(ev)))) then
+        msg = 'the a priori weight matrix must be symmetric positive semi-definite'
+        return
+      end if
+      ex%prior = prior(pm%ifree)
+      ex%weight = pweight
+    end if
+    if (use_bounds == 1) then
+      do k = 1, pm%nf
+        bad = k
+        call bounds_check(lower(pm%ifree(k)), upper(pm%ifree(k)), what)
+        if (len_trim(what) > 0) then
+          write (msg, '(a,i0,a)') 'free parameter ', k, ': '//trim(what)
+          return
+        end if
+        if (theta0(pm%ifree(k)) < lower(pm%ifree(k)) .or. theta0(pm%ifree(k)) > upper(pm%ifree(k))) then
+          write (msg, '(a,i0,a)') 'free parameter ', k, ': start value outside its bounds'
+          return
+        end if
+      end do
+      ex%lower = lower(pm%ifree)
+      ex%upper = upper(pm%ifree)
+    end if
+    bad = 0
+    status = MLID_OK
+    msg = ''
+  end subroutine fit_extras
+
+  !> What is wrong with the bounds lower, upper of one parameter ('' when
+  !> nothing).  A bound is a number; -Inf below and +Inf above bound nothing.
+  subroutine bounds_check(lower, upper, msg)
+    real(wp), intent(in) :: lower, upper
+    character(len=*), intent(out) :: msg
+    msg = ''
+    if (ieee_is_nan(lower)) then
+      msg = 'lower bound is not a number'
+    else if (ieee_is_nan(upper)) then
+      msg = 'upper bound is not a number'
+    else if (lower > huge(lower)) then
+      msg = 'lower bound is +Inf (no value lies above it)'
+    else if (upper < -huge(upper)) then
+      msg = 'upper bound is -Inf (no value lies below it)'
+    else if (lower > upper) then
+      msg = 'lower bound above upper bound'
+    end if
+  end subroutine bounds_check
+
+end module mlid_fit_driver
