@@ -26,7 +26,7 @@ module mlid_api
   use mlid_ties, only: tie_parse, MAXTERM
   use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
   use mlid_newton, only: fit_result_t
-  use mlid_fit_driver, only: fit_solve
+  use mlid_fit_driver, only: fit_solve, fit_view, fit_view_t
   use mlid_colored, only: colored_covariance, colored_sandwich
   use mlid_linalg, only: sym_eig
   use mlid_simulate, only: simulate_outputs, simulate_flat
@@ -1108,29 +1108,9 @@ contains
     type(options_t) :: opt
     type(param_map_t) :: pm
     type(fit_result_t) :: res
-    integer :: k
+    type(fit_view_t) :: v
+    integer :: bad
 
-    theta_start = theta0
-    theta = theta0
-    sigma = 0.0_wp
-    cov = 0.0_wp
-    rnoise = ieee_value(1.0_wp, ieee_quiet_nan)
-    sigma_c = 0.0_wp
-    cov_c = 0.0_wp
-    lag = 0
-    info = 0.0_wp
-    grad = 0.0_wp
-    eigval = 0.0_wp
-    eigvec = 0.0_wp
-    rhat = 0.0_wp
-    yhat = 0.0_wp
-    cost_hist = 0.0_wp
-    cost = 0.0_wp
-    niter = 0
-    reason = 0
-    converged = 0
-    rank = 0
-    bad_param = 0
     if (nc /= iopt(1) + 1) then
       status = MLID_ERR_INPUT
       write (msg, '(a,i0,a,i0)') 'cost history length ', nc, ' must be max_iter + 1 = ', &
@@ -1140,37 +1120,38 @@ contains
     call fit_solve(mkind, nx, nu, ny, nw, theta0, isfree, &
                    ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, &
                    y, segstart, iopt, ropt, nf, use_prior, prior, pweight, use_bounds, lower, &
-                   upper, res, pm, opt, bad_param, status, msg)
-    if (allocated(res%theta_start)) theta_start = res%theta_start
-    if (.not. allocated(res%theta)) return
-    theta = res%theta
-    if (opt%noise_criterion == 1) rnoise = theta(pm%l%or + 1:pm%l%or + ny)
-    cost_hist = res%cost_hist
-    if (.not. allocated(res%info)) return
-    do k = 1, nf
-      sigma(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov(k, k)))
-    end do
-    cov = res%cov
-    if (allocated(res%cov_c)) then
-      cov_c = res%cov_c
-      do k = 1, nf
-        sigma_c(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov_c(k, k)))
-      end do
-      lag = res%lag
+                   upper, res, pm, opt, bad, status, msg)
+    v = fit_view(res, pm, opt, theta0, ny, nt, bad)
+    theta_start = v%theta_start
+    theta = v%theta
+    sigma = v%sigma
+    cov = 0.0_wp
+    info = 0.0_wp
+    grad = 0.0_wp
+    eigval = 0.0_wp
+    eigvec = 0.0_wp
+    sigma_c = v%sigma_c
+    cov_c = 0.0_wp
+    if (size(v%cov, 1) == nf) then        ! a fit that got as far as its set-up
+      cov = v%cov
+      cov_c = v%cov_c
+      info = v%info
+      grad = v%grad
+      eigval = v%eigval
+      eigvec = v%eigvec
     end if
-    info = res%info
-    grad = res%grad
-    eigval = res%eigval
-    eigvec = res%eigvec
-    rhat = res%rhat
-    ! the frequency-domain methods' outputs are transforms: mlid_freq_evaluate
-    if (.not. frequency_method(opt)) yhat = res%yhat
-    cost = res%cost
-    niter = res%niter
-    reason = res%reason
-    converged = merge(1, 0, res%converged)
-    rank = res%rank
-    bad_param = res%bad_param
+    rhat = v%rhat
+    yhat = v%yhat
+    cost_hist = 0.0_wp
+    if (size(v%hist) == nc) cost_hist = v%hist
+    cost = v%cost
+    niter = v%niter
+    reason = v%reason
+    converged = merge(1, 0, v%converged)
+    rank = v%rank
+    bad_param = v%bad
+    lag = v%lag
+    rnoise = v%rnoise
   end subroutine mlid_fit
 
   !> The frequency-domain methods' data and fit at theta (mlid_frequency):

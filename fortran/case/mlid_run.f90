@@ -6,7 +6,7 @@
 !> case writes (records, corrected records) are written here, whole or not
 !> at all.  mlid-batch is a loop over a deck's cases calling it.
 module mlid_run
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_quiet_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_NOCONV, fit_outcome, FIT_ESTIMATES, FIT_FAILED, &
                         FIT_NOT_RUN
   use mlid_case, only: case_t, NAMELEN
@@ -18,9 +18,9 @@ module mlid_run
   use mlid_equations, only: equations_t, equations_create
   use mlid_flightpath, only: flightpath_corrected
   use mlid_params, only: param_map_t
-  use mlid_options, only: options_t, frequency_method
+  use mlid_options, only: options_t
   use mlid_newton, only: fit_result_t
-  use mlid_fit_driver, only: fit_solve
+  use mlid_fit_driver, only: fit_solve, fit_view, fit_view_t
   use mlid_simulate, only: simulate_flat
   use mlid_jobs, only: job_run, JOB_RUNS
   use mlid_files, only: temporary_for, write_whole
@@ -216,6 +216,7 @@ contains
     type(param_map_t) :: pm
     type(options_t) :: opt
     type(fit_summary_t) :: s
+    type(fit_view_t) :: v
     integer :: bad, nth, nf
 
     outcome = FIT_NOT_RUN
@@ -229,10 +230,12 @@ contains
                    t, u, y, segstart, c%iopt, c%ropt, nf, c%use_prior, or_zero(c%prior, nth), &
                    weight_or_zero(c%pweight, nf), c%use_bounds, or_zero(c%lower, nth), &
                    or_zero(c%upper, nth), res, pm, opt, bad, r%status, r%msg)
-    call summary(c, res, pm, opt, nf, size(t), s, theta, yhat)
-    rhat = s%rhat
-    if (allocated(res%info)) bad = res%bad_param
-    if (r%status /= MLID_OK .and. bad > 0) r%msg = replace_index(r%msg, bad, c%labels)
+    v = fit_view(res, pm, opt, c%theta, c%ny, size(t), bad)
+    call summary(c, v, s)
+    theta = v%theta
+    rhat = v%rhat
+    yhat = v%yhat
+    if (r%status /= MLID_OK .and. v%bad > 0) r%msg = replace_index(r%msg, v%bad, c%labels)
     ! a fit that ran has a report: its estimates, or its last values if it failed
     outcome = fit_outcome(r%status, s%reason)
     if (outcome == FIT_NOT_RUN .or. .not. present(json)) return
@@ -241,76 +244,31 @@ contains
     if (r%status == MLID_OK .and. r%msg(1:min(8, len(r%msg))) == 'warning:') call note(r, r%msg)
   end subroutine fit_record
 
-  !> The report's view of a fit (estimates, sigma, history, noise), theta
-  !> and the outputs: a fit that stopped before its last values keeps the
-  !> start, one without an information matrix has no statistics.
-  subroutine summary(c, res, pm, opt, nf, nt, s, theta, yhat)
+  !> The report's view of fit v of case c: the free parameters' values.
+  subroutine summary(c, v, s)
     type(case_t), intent(in) :: c
-    type(fit_result_t), intent(in) :: res
-    type(param_map_t), intent(in) :: pm
-    type(options_t), intent(in) :: opt
-    integer, intent(in) :: nf, nt
+    type(fit_view_t), intent(in) :: v
     type(fit_summary_t), intent(inout) :: s
-    real(wp), allocatable, intent(out) :: theta(:), yhat(:, :)
-    real(wp) :: start(size(c%theta)), sigma(size(c%theta)), sigc(size(c%theta)), rnoise(c%ny)
     logical :: free(size(c%theta))
-    integer :: k
 
     free = c%isfree == 1
-    theta = c%theta
-    start = c%theta
-    sigma = 0.0_wp
-    sigc = 0.0_wp
-    rnoise = ieee_value(1.0_wp, ieee_quiet_nan)
-    allocate (yhat(c%ny, nt), s%cov(nf, nf), s%eigval(nf), s%eigvec(nf, nf), &
-              s%rhat(c%ny, c%ny), s%hist(1))
-    yhat = 0.0_wp
-    s%hist = 0.0_wp
-    s%cov = 0.0_wp
-    s%eigval = 0.0_wp
-    s%eigvec = 0.0_wp
-    s%rhat = 0.0_wp
-    s%cost = 0.0_wp
-    s%niter = 0
-    s%reason = 0
-    s%rank = 0
-    s%lag = 0
-    s%converged = .false.
-    if (allocated(res%theta_start)) start = res%theta_start
-    if (allocated(res%theta)) then
-      theta = res%theta
-      if (opt%noise_criterion == 1) rnoise = theta(pm%l%or + 1:pm%l%or + c%ny)
-      s%hist = res%cost_hist(1:1)
-    end if
-    if (allocated(res%theta) .and. allocated(res%info)) then
-      do k = 1, nf
-        sigma(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov(k, k)))
-      end do
-      s%cov = res%cov
-      if (allocated(res%cov_c)) then
-        do k = 1, nf
-          sigc(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov_c(k, k)))
-        end do
-        s%lag = res%lag
-      end if
-      s%eigval = res%eigval
-      s%eigvec = res%eigvec
-      s%rhat = res%rhat
-      ! the frequency-domain methods' outputs are transforms, not the record's
-      if (.not. frequency_method(opt)) yhat = res%yhat
-      s%cost = res%cost
-      s%niter = res%niter
-      s%reason = res%reason
-      s%rank = res%rank
-      s%converged = res%converged
-      s%hist = res%cost_hist(1:s%niter + 1)
-    end if
     s%labels = c%labels
-    s%start = pack(start, free)
-    s%est = pack(theta, free)
-    s%sig = pack(sigma, free)
-    s%sigc = pack(sigc, free)
-    if (all(ieee_is_finite(rnoise))) s%rnoise = rnoise
+    s%start = pack(v%theta_start, free)
+    s%est = pack(v%theta, free)
+    s%sig = pack(v%sigma, free)
+    s%sigc = pack(v%sigma_c, free)
+    s%cov = v%cov
+    s%eigval = v%eigval
+    s%eigvec = v%eigvec
+    s%rhat = v%rhat
+    s%hist = v%hist(1:v%niter + 1)
+    s%cost = v%cost
+    s%niter = v%niter
+    s%reason = v%reason
+    s%rank = v%rank
+    s%lag = v%lag
+    s%converged = v%converged
+    if (all(ieee_is_finite(v%rnoise))) s%rnoise = v%rnoise
   end subroutine summary
 
   !> Validate case c: fit on the files not held out (reported as an estimate

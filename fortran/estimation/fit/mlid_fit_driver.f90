@@ -5,17 +5,31 @@
 !> flat interface (mlid_api's mlid_fit) alike.
 module mlid_fit_driver
   use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
-  use mlid_options, only: options_t
+  use mlid_options, only: options_t, frequency_method
   use mlid_params, only: param_map_t, tie_t
   use mlid_linalg, only: sym_eig
   use mlid_setup, only: setup
   use mlid_newton, only: fit_result_t, extras_t, newton_fit
   implicit none
   private
-  public :: fit_solve, bounds_check
+  public :: fit_solve, bounds_check, fit_view_t, fit_view
+
+  !> A fit as its callers see it: every parameter (fixed ones as given),
+  !> sigma over every parameter (0 where fixed), the matrices over the free
+  !> ones.  What the fit did not reach is zero (no information matrix: no
+  !> statistics, iterations 0); r_innovations NaN unless the innovations
+  !> criterion set it.
+  type :: fit_view_t
+    real(wp), allocatable :: theta_start(:), theta(:), sigma(:), sigma_c(:)
+    real(wp), allocatable :: cov(:, :), cov_c(:, :), info(:, :), grad(:), eigval(:), eigvec(:, :)
+    real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), rnoise(:)
+    real(wp) :: cost = 0.0_wp
+    integer :: niter = 0, reason = 0, rank = 0, bad = 0, lag = 0
+    logical :: converged = .false.
+  end type fit_view_t
 
 contains
 
@@ -139,5 +153,67 @@ contains
       msg = 'lower bound above upper bound'
     end if
   end subroutine bounds_check
+
+  !> The view of fit res (map pm, options opt) from start theta0, for ny
+  !> outputs over nt samples; bad: the checks' free parameter (fit_solve).
+  function fit_view(res, pm, opt, theta0, ny, nt, bad) result(v)
+    type(fit_result_t), intent(in) :: res
+    type(param_map_t), intent(in) :: pm
+    type(options_t), intent(in) :: opt
+    real(wp), intent(in) :: theta0(:)
+    integer, intent(in) :: ny, nt, bad
+    type(fit_view_t) :: v
+    integer :: nf, k
+
+    nf = pm%nf
+    v%theta_start = theta0
+    v%theta = theta0
+    allocate (v%sigma(size(theta0)), v%sigma_c(size(theta0)), v%cov(nf, nf), v%cov_c(nf, nf), &
+              v%info(nf, nf), v%grad(nf), v%eigval(nf), v%eigvec(nf, nf), v%rhat(ny, ny), &
+              v%yhat(ny, nt), v%rnoise(ny), v%hist(opt%max_iter + 1))
+    v%sigma = 0.0_wp
+    v%sigma_c = 0.0_wp
+    v%cov = 0.0_wp
+    v%cov_c = 0.0_wp
+    v%info = 0.0_wp
+    v%grad = 0.0_wp
+    v%eigval = 0.0_wp
+    v%eigvec = 0.0_wp
+    v%rhat = 0.0_wp
+    v%yhat = 0.0_wp
+    v%hist = 0.0_wp
+    v%rnoise = ieee_value(1.0_wp, ieee_quiet_nan)
+    v%bad = bad
+    if (allocated(res%theta_start)) v%theta_start = res%theta_start
+    if (.not. allocated(res%theta)) return
+    v%theta = res%theta
+    if (opt%noise_criterion == 1) v%rnoise = v%theta(pm%l%or + 1:pm%l%or + ny)
+    v%hist = res%cost_hist
+    if (.not. allocated(res%info)) return
+    do k = 1, nf
+      v%sigma(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov(k, k)))
+    end do
+    v%cov = res%cov
+    if (allocated(res%cov_c)) then
+      v%cov_c = res%cov_c
+      do k = 1, nf
+        v%sigma_c(pm%ifree(k)) = sqrt(max(0.0_wp, res%cov_c(k, k)))
+      end do
+      v%lag = res%lag
+    end if
+    v%info = res%info
+    v%grad = res%grad
+    v%eigval = res%eigval
+    v%eigvec = res%eigvec
+    v%rhat = res%rhat
+    ! the frequency-domain methods' outputs are transforms, not the record's
+    if (.not. frequency_method(opt)) v%yhat = res%yhat
+    v%cost = res%cost
+    v%niter = res%niter
+    v%reason = res%reason
+    v%converged = res%converged
+    v%rank = res%rank
+    v%bad = res%bad_param
+  end function fit_view
 
 end module mlid_fit_driver
