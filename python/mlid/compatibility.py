@@ -19,12 +19,11 @@ core's (fortran/mlid_flightpath.f90, flightpath_corrected), which a deck's
 
 import numpy as np
 
-from . import _core
+from ._bridge import api as _api
 from .data import FlightData
 from .errors import InputError, check_status
 from .model import FLIGHTPATH_INPUTS
 
-_api = _core.mlid_api
 
 
 def neutral(name):

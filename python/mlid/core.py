@@ -8,7 +8,7 @@ import warnings
 
 import numpy as np
 
-from . import _core
+from ._bridge import api as _api, text as _text
 from .checks import real_array, whole
 from .data import FlightData
 from .errors import ConvergenceWarning, InputError, MlidWarning, check_status, guarded, status_text
@@ -17,13 +17,8 @@ from .model import Model
 from .progress import Silent, bar as progress_bar
 from .result import FitResult, fit_outcome
 
-_api = _core.mlid_api
 #: Options that are the model's (Model.input_hold, Model.substeps), not fit()'s.
 _MODEL_OPTIONS = ("input_hold", "substeps")
-
-
-def _text(b):
-    return b.decode(errors="replace").strip()
 
 
 def _option_kinds():

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from . import formats
-from ._core import mlid_api as _api
+from ._bridge import api as _api
 from .checks import real_array
 from .errors import InputError, MlidWarning, check_status, guarded_class
 from .files import atomic_open

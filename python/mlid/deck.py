@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from . import core, formats
-from .core import _api, _text
+from ._bridge import api as _api, lines as _lines, text as _text
 from .data import FlightData, read_status
 from .errors import InputError, MlidError, check_status, guarded, status_of
-from .model import _lines, from_core
+from .model import from_core
 
 
 #: The numeric flight-condition items of &case, in the core's order.

@@ -13,11 +13,10 @@ import re
 
 import numpy as np
 
-from . import _core
+from ._bridge import api as _api
 from .checks import real_array, whole
 from .errors import InputError, check_status, guarded, guarded_class
 
-_api = _core.mlid_api
 _UNKNOWN = re.compile(r"^\s*([fgh])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*$", re.IGNORECASE)
 
 

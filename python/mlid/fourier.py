@@ -4,11 +4,10 @@ recursive frequency-domain equation error over a moving window."""
 
 import numpy as np
 
-from . import _core
+from ._bridge import api as _api
 from .checks import real_array, whole
 from .errors import InputError, check_status, guarded
 
-_api = _core.mlid_api
 
 
 @guarded

@@ -31,13 +31,12 @@ output's unit per the input's.
 
 import numpy as np
 
-from . import _core
+from ._bridge import api as _api
 from .checks import real_array, whole
 from .errors import InputError, check_status, guarded
 from .fourier import sample_step
 from .result import FitResult, require_estimates
 
-_api = _core.mlid_api
 
 DB = 20.0 / np.log(10.0)
 

@@ -18,7 +18,7 @@ import re
 
 import numpy as np
 
-from ._core import mlid_api as _api
+from ._bridge import api as _api, lines as _lines
 from .checks import real_array
 from .errors import InputError, check_status, guarded_class
 
@@ -91,10 +91,6 @@ def _documented(cls):
     cls.__doc__ = cls.__doc__.replace("{common}", _COMMON_PARAMETERS).replace(
         "{raises}", _COMMON_RAISES)
     return cls
-
-
-def _lines(text):
-    return [s for s in text.decode(errors="replace").rstrip().split("\n") if s]
 
 
 #: Layouts kept by _Layout.of, and parsed ties kept by each layout (bounds

@@ -9,6 +9,7 @@ import types
 
 import numpy as np
 
+from ._bridge import api as _api
 from .errors import InputError
 
 #: The core's fit outcomes (mlid_kinds FIT_*), by code.
@@ -40,7 +41,6 @@ def fit_outcome(status, reason):
 @functools.lru_cache(maxsize=256)
 def _outcome_code(status, reason):
     """The core's answer, kept: a fit asks it three times."""
-    from .core import _api
     return int(_api.mlid_fit_outcome(status, reason))
 
 
@@ -283,7 +283,6 @@ class FitResult:
     def _texts(self, title="", job="estimate"):
         """The core's report and JSON object of this fit (mlid-batch prints
         and writes the same text)."""
-        from .core import _api
         rep, nrep, js, njs = _api.mlid_report_fit(
             labels="\n".join(self.names) + "\n",
             units="\n".join(getattr(self, "param_units", None) or [""] * len(self.names)) + "\n",

@@ -12,7 +12,7 @@ same through fortran/mlid_deck.f90's holdout_case)."""
 import numpy as np
 
 from . import core
-from .core import _api
+from ._bridge import api as _api
 from .data import FlightData
 from .errors import InputError, check_status, guarded
 from .maneuvers import join
