@@ -8,6 +8,7 @@ from .openmp import brief_spin as _brief_spin
 #: the environment chose or it was too late (openmp.py; before the core loads).
 OPENMP_SPIN = _brief_spin()
 
+from ._version import installed_version as _installed_version
 from .heap import keep_freed_memory as _keep_freed_memory
 from .errors import (MlidError, InputError, SingularInformationError, DivergenceError,
                      NonConvergenceError, InternalError, MlidWarning)
@@ -30,18 +31,7 @@ from .frequency import (FrequencyResponse, TransferFunctionFit, record_response,
 
 
 
-def _version():
-    """The installed package's version (its metadata), else the one meson wrote
-    at build time from meson.build."""
-    from importlib.metadata import PackageNotFoundError, version
-    try:
-        return version("mlid")
-    except PackageNotFoundError:
-        from ._version import VERSION
-        return VERSION
-
-
-__version__ = _version()
+__version__ = _installed_version()
 #: Whether freed memory is kept for the next fit (heap.py; MLID_MALLOC=system: not).
 KEEPS_FREED_MEMORY = _keep_freed_memory()
 

@@ -5,6 +5,7 @@ import argparse
 import os
 import sys
 
+from ._version import installed_version
 from .errors import InputError, InternalError, MlidError
 
 JOBS = """jobs:
@@ -35,8 +36,7 @@ def _parser():
         prog="mlid", description="Maximum-likelihood identification of aircraft stability and "
         "control derivatives (NASA CR-2200 and beyond).", epilog=JOBS,
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    from . import __version__
-    p.add_argument("--version", action="version", version=f"mlid {__version__}")
+    p.add_argument("--version", action="version", version=f"mlid {installed_version()}")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bars (they show only when stderr is a terminal)")
     quiet = argparse.ArgumentParser(add_help=False)     # also after the job's name

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from . import plots
+from ._version import installed_version
 from .errors import InputError
 from .files import atomic_write_text
 
@@ -306,12 +307,11 @@ def _toc(entries):
 
 def report_html(deck_path, cases):
     """The whole page as text (see write_report)."""
-    from . import __version__
     entries = list(cases)
     name = Path(deck_path).name
     body = [f"<h1>mlid report: {_e(name)}</h1>",
             f'<p class="meta">deck {_e(deck_path)} &middot; {len(entries)} cases &middot; '
-            f"mlid {_e(__version__)}</p>", _toc(entries)]
+            f"mlid {_e(installed_version())}</p>", _toc(entries)]
     body += [case_html(*entry) for entry in entries]
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<title>mlid: {_e(name)}</title><style>{CSS}</style></head><body>\n"
