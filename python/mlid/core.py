@@ -15,7 +15,8 @@ from .errors import ConvergenceWarning, InputError, MlidWarning, check_status, g
 from .maneuvers import Params, join
 from .model import Model
 from .progress import Silent, bar as progress_bar
-from .result import FitResult, fit_outcome
+from .outcome import fit_outcome
+from .result import FitResult
 
 #: Options that are the model's (Model.input_hold, Model.substeps), not fit()'s.
 _MODEL_OPTIONS = ("input_hold", "substeps")

@@ -35,7 +35,8 @@ from ._bridge import api as _api
 from .checks import real_array, whole
 from .errors import InputError, check_status, guarded
 from .fourier import sample_step
-from .result import FitResult, require_estimates
+from .outcome import require_estimates
+from .result import FitResult
 
 
 DB = 20.0 / np.log(10.0)

@@ -14,7 +14,7 @@ import numpy as np
 
 from .errors import InputError
 from .files import atomic_savefig
-from .result import require_estimates
+from .outcome import require_estimates
 
 #: One colour per role, in every plot.
 COLORS = {"measured": "0.30", "model": "#1f5fa8", "input": "#2a8a3e", "residual": "#b2332a",

@@ -10,57 +10,14 @@ import types
 import numpy as np
 
 from ._bridge import api as _api
-from .errors import InputError
+from .outcome import fit_outcome, require_estimates
+from .table import HTML_DIGITS, results_table
 
-#: The core's fit outcomes (mlid_kinds FIT_*), by code.
-OUTCOMES = ("estimates", "failed", "not run")
 #: What a failed fit does not have: every statistic of the fit (NaN in its
 #: FitResult, null in its JSON).  Its ``estimate`` holds the last values reached.
 NOT_IN_A_FAILED_FIT = ("sigma", "sigma_corrected", "covariance", "covariance_corrected",
                        "information", "gradient", "eigenvalues", "eigenvectors", "rhat", "yhat",
                        "cost", "cost_history")
-
-
-def fit_outcome(status, reason):
-    """What a fit that ended with a core status and stop reason has to show.
-
-    Parameters
-    ----------
-    status, reason : int
-        The core's status code and stop reason (mlid_kinds).
-
-    Returns
-    -------
-    str
-        'estimates' (converged or not), 'failed' (an error ended it: only the
-        last values reached) or 'not run' (bad input), as the core decides.
-    """
-    return OUTCOMES[_outcome_code(int(status), int(reason))]
-
-
-@functools.lru_cache(maxsize=256)
-def _outcome_code(status, reason):
-    """The core's answer, kept: a fit asks it three times."""
-    return int(_api.mlid_fit_outcome(status, reason))
-
-
-def require_estimates(result, what):
-    """Refuse a failed fit where estimates are needed.
-
-    Parameters
-    ----------
-    result : FitResult
-    what : str
-        What needs them ('plot', 'results table').
-
-    Raises
-    ------
-    InputError
-        If the fit failed: it has only the last values it reached.
-    """
-    if getattr(result, "failed", False):
-        raise InputError(f"no {what} of a failed fit (it has last values, not estimates): "
-                         f"{result.message}")
 
 
 def whiteness(residuals, lags=20):
@@ -409,7 +366,6 @@ class FitResult:
         InputError
             If ``param_units`` does not have one entry per free parameter.
         """
-        from .table import results_table
         return results_table(self)
 
     def noise_diagonal(self):
@@ -440,7 +396,6 @@ class FitResult:
         """Jupyter's view: the report's first line (method, iterations,
         converged and why), the results table, the cost and R-hat's diagonal;
         for a failed fit the report's lines (what failed, the last values)."""
-        from .table import HTML_DIGITS
         e = html.escape
         if self.failed:
             return (f'<div class="mlid-fit mlid-failed"><p><b>FitResult</b></p>'

@@ -13,7 +13,7 @@ import numpy as np
 
 from .errors import InputError
 from .files import atomic_open
-from .result import require_estimates
+from .outcome import require_estimates
 
 #: Column keys (CSV header, JSON keys, DataFrame columns) and LaTeX headings.
 COLUMNS = ("name", "unit", "estimate", "sigma_cr", "sigma_corrected", "relative_sigma_percent",
