@@ -17,8 +17,12 @@ from .model import LinearModel, LongitudinalModel, UserModel, X22Model, Equation
 from .data import FlightData
 from .result import FitResult, whiteness
 from .reduction import reduce_measured_state, reduced_data, recover_disturbance
-from .core import fit, evaluate, simulate, monte_carlo, default_options, check_jacobians, \
-    frequency_evaluate
+from .fit import fit
+from .evaluate import evaluate, frequency_evaluate
+from .simulate import simulate
+from .monte_carlo import monte_carlo
+from .options import default_options
+from .jacobians import check_jacobians
 from .deck import read_deck, run_deck
 from .analysis import fpe, compare_models, predict
 from .design import InputDesign, DesignedInput

@@ -4,10 +4,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import core
 from .data import FlightData
 from .errors import guarded
 from .files import atomic_savefig
+from .simulate import simulate
 
 
 @guarded
@@ -101,7 +101,7 @@ def predict(result, data, start):
     InputError
         data that does not fit the model.
     """
-    predicted, _ = core.simulate(result.model, data.t, data.u)
+    predicted, _ = simulate(result.model, data.t, data.u)
     err = data.y[start:] - predicted.y[start:]
     rms = np.sqrt(np.mean(err**2, axis=0))
     noise = np.sqrt(np.diag(result.rhat))

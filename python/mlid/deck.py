@@ -7,11 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import core, formats
+from . import formats
 from ._bridge import api as _api, lines as _lines, text as _text
 from .data import FlightData, read_status
 from .errors import InputError, MlidError, check_status, guarded, status_of
+from .fit import fit
 from .model import from_core
+from .options import options_by_name
 
 
 #: The numeric flight-condition items of &case, in the core's order.
@@ -39,7 +41,7 @@ class Case:
             return
         (theta, isfree, iconst, rconst, iopt, ropt, labels, use_prior, prior, pweight,
          use_bounds, lower, upper) = _api.mlid_deck_case_model(k, nth, nf, nic, nrc)
-        opts = core.options_by_name(iopt, ropt)
+        opts = options_by_name(iopt, ropt)
         n, to, frm, scale, offset = _api.mlid_deck_case_ties(k, nth, 16 * nth)
         ties = (to[:n], frm[:n], scale[:n], offset)
         self.model = from_core(mkind, (nx, nu, ny, nw), iconst, rconst, theta, isfree, ties,
@@ -197,7 +199,7 @@ def run_case(case):
         data = case.record()
         if case.corrected:                   # before a long fit, as mlid-batch checks them
             check_status(*_api.mlid_deck_case_corrected_writable(case.index))
-        result = core.fit(case.model, data, **case.options())
+        result = fit(case.model, data, **case.options())
         if case.corrected and result.status == 0:
             _write_corrected(result, case.corrected)
         elif case.corrected:
@@ -234,7 +236,7 @@ def _validate_case(case):
     kept = sorted(case.holdout)
     by_number = dict(zip(kept, case.record(kept)))
     held = [by_number[j] for j in kept]    # joined in file order, as mlid-batch joins them
-    result = core.fit(case.model, fitted if len(fitted) > 1 else fitted[0], **case.options())
+    result = fit(case.model, fitted if len(fitted) > 1 else fitted[0], **case.options())
     if result.status != 0:                 # no prediction from a fit that did not end well
         return result
     try:

@@ -57,9 +57,12 @@ import warnings
 
 import numpy as np
 
-from . import core, effects, holdout, score_test, terms
+from . import effects, holdout, score_test, terms
 from .data import FlightData
 from .errors import InputError, MlidError, guarded
+from .evaluate import evaluate
+from .fit import fit as fit_model
+from .options import evaluate_options
 from .progress import bar as progress_bar, bump
 from .model import (REGRESSORS, EquationModel, FlightPathModel, LinearModel,
                     LongitudinalModel)
@@ -296,10 +299,10 @@ def _state_estimates(model, data, options):
     (output error) even when the model has process noise: a filter's
     predictions carry the measurements, and a regressor made of them would
     track the turbulence."""
-    opts = dict(core.evaluate_options(options), method="output_error")
+    opts = dict(evaluate_options(options), method="output_error")
     opts.pop("steady_state", None)
     opts.pop("noise_criterion", None)
-    return core.evaluate(model, data, **opts)["yhat"] - model.bias
+    return evaluate(model, data, **opts)["yhat"] - model.bias
 
 
 def _with_inputs(model, data, columns):
@@ -443,7 +446,7 @@ def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effec
         raise InputError(f"alpha must lie in (0, 1), got {alpha}")
     options = dict(options)
     with progress_bar(progress, 1, "diagnose", "fit") as b:
-        base = core.fit(model, data, **options)
+        base = fit_model(model, data, **options)
         b.update()
         options["startup"] = "none"
         return _rounds(model, data, base, families, alpha, refit_best, max_effects,
@@ -644,7 +647,7 @@ def _score(model, fit, data, cands, options):
         if "coef" in c.spec:
             try:
                 m, new = _extended_longitudinal(model, c.spec["coef"], c.spec["reg"])
-                ev = core.evaluate(m, data, **core.evaluate_options(options))
+                ev = evaluate(m, data, **evaluate_options(options))
             except MlidError:
                 c.confounded, c.decision = True, "confounded"
                 continue
@@ -653,7 +656,7 @@ def _score(model, fit, data, cands, options):
     if written:
         try:
             m, params = terms.extended(model, [c.spec["term"] for c in written])
-            ev = core.evaluate(m, data, **core.evaluate_options(options))
+            ev = evaluate(m, data, **evaluate_options(options))
             _lm(ev, m.free_names(), model.free_names(), params, written)
         except MlidError:
             for c in written:
@@ -674,7 +677,7 @@ def _score_together(model, data, batch, options):
              for c in batch]
     try:
         m = m.with_free(list(model.free) + extra)
-        ev = core.evaluate(m, d, **core.evaluate_options(options))
+        ev = evaluate(m, d, **evaluate_options(options))
     except MlidError:               # one by one: the failing ones are confounded
         if len(batch) > 1:
             for c in batch:
@@ -717,7 +720,7 @@ def _noise_score(model, fit, data, cands, options):
     m.r = np.diag(fit.rhat).copy()
     m.q = np.full(len(states), Q_SCORE)
     try:
-        ev = core.evaluate(m, data, **dict(core.evaluate_options(options), method="filter_error"))
+        ev = evaluate(m, data, **dict(evaluate_options(options), method="filter_error"))
     except MlidError:
         for c in cands:
             c.confounded, c.decision = True, "confounded"
@@ -823,7 +826,7 @@ def _refit(model, data, fit, c, options):
         best = None
         for s in starts:
             m, d, opts, labels, value = _build(model, data, fit, c, options, s)
-            res, said = _quietly(core.fit, m, d, **opts)
+            res, said = _quietly(fit_model, m, d, **opts)
             if best is None or res.cost < best[0].cost:
                 best = (res, d, opts, labels, value, said)
         res, d, opts, labels, value, said = best

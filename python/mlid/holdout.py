@@ -24,7 +24,9 @@ deterministic effects against turbulence by the residual each leaves.
 
 import numpy as np
 
-from . import core
+from .evaluate import evaluate
+from .fit import fit
+from .options import evaluate_options
 
 #: the share of a single record held out: its last third
 HOLDOUT = 1 / 3
@@ -86,8 +88,8 @@ def heldout_cost(model, data, split, options):
     MlidError
         What the fit or the prediction raises.
     """
-    res = core.fit(model, split.head(data), **options)
-    yhat = core.evaluate(res.model, data, **core.evaluate_options(options))["yhat"]
+    res = fit(model, split.head(data), **options)
+    yhat = evaluate(res.model, data, **evaluate_options(options))["yhat"]
     y = np.vstack([r.y for r in records(data)])
     return criterion(split.held(y - yhat)), res, yhat
 

@@ -13,7 +13,7 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 
 import numpy as np
 
-from . import core
+from .monte_carlo import _mc_chunks, _mc_result, _mc_runs, _mc_setup
 from .checks import whole
 from .errors import InputError, guarded
 from .openmp import team_size
@@ -55,22 +55,22 @@ def monte_carlo_parallel(truth, start, t, u, runs=100, seed=1, workers=None, sch
     ConvergenceWarning
         When runs fail: how many of how many, and what ``summary`` leaves out.
     """
-    call, runs, seed, names, truth_free = core._mc_setup(truth, start, t, u, noise_std, runs,
-                                                         seed, options)
+    call, runs, seed, names, truth_free = _mc_setup(truth, start, t, u, noise_std, runs, seed,
+                                                    options)
     if scheduler is not None and not isinstance(scheduler, str) and \
             not hasattr(scheduler, "gather"):
         raise InputError("scheduler must be an address such as 'tcp://127.0.0.1:8786' or a "
                          f"distributed.Client, got {type(scheduler).__name__}")
     workers = (os.cpu_count() or 1) if workers is None else whole("workers", workers, 1, 4096)
     chunk = whole("chunk", chunk or max(1, int(np.ceil(runs / (4 * workers)))), 1, 10**7)
-    jobs = core._mc_chunks(runs, seed, chunk)
+    jobs = _mc_chunks(runs, seed, chunk)
     parts = [None] * len(jobs)
     with progress_bar(progress, runs, "Monte Carlo", "run") as b:
         if scheduler is not None:
             from distributed import Client, as_completed as dask_completed
             client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
             try:
-                futures = [client.submit(core._mc_runs, call, s, n, pure=False) for s, n in jobs]
+                futures = [client.submit(_mc_runs, call, s, n, pure=False) for s, n in jobs]
                 index = {f.key: k for k, f in enumerate(futures)}
                 for f in dask_completed(futures):
                     parts[index[f.key]] = f.result()
@@ -82,9 +82,9 @@ def monte_carlo_parallel(truth, start, t, u, runs=100, seed=1, workers=None, sch
             n = min(workers, len(jobs))
             omp = max(1, (os.cpu_count() or 1) // n)
             with ThreadPoolExecutor(n, initializer=team_size, initargs=(omp,)) as pool:
-                futures = {pool.submit(core._mc_runs, call, s, n): k
+                futures = {pool.submit(_mc_runs, call, s, n): k
                            for k, (s, n) in enumerate(jobs)}
                 for f in as_completed(futures):
                     parts[futures[f]] = f.result()
                     b.update(jobs[futures[f]][1])
-    return core._mc_result(parts, names, truth_free)
+    return _mc_result(parts, names, truth_free)

@@ -17,7 +17,7 @@ import numpy as np
 from .data import FlightData
 from .errors import InputError, guarded
 from .model import LinearModel
-from . import core
+from .simulate import simulate
 
 
 def _rename(name, keep, removed, nu, outs, output):
@@ -158,9 +158,9 @@ def recover_disturbance(model, fitted, data, state, output):
     """
     k, o = state - 1, output - 1
     keep = [i for i in range(model.nx) if i != k]
-    _, states = core.simulate(fitted, data.t, np.column_stack([data.u, data.y[:, o]]))
+    _, states = simulate(fitted, data.t, np.column_stack([data.u, data.y[:, o]]))
     inputs = np.column_stack([states, data.y[:, o], data.u])
     coeff = np.r_[model.F[k, keep], model.F[k, k], model.G[k]]
     one = LinearModel([[0.0]], coeff[None, :], [[1.0]], x0=[model.x0[k]])
-    sim, _ = core.simulate(one, data.t, inputs)
+    sim, _ = simulate(one, data.t, inputs)
     return sim.y[:, 0], data.y[:, o] - sim.y[:, 0]

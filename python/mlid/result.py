@@ -10,6 +10,7 @@ import types
 import numpy as np
 
 from ._bridge import api as _api
+from .evaluate import evaluate
 from .outcome import fit_outcome, require_estimates
 from .table import HTML_DIGITS, results_table
 
@@ -328,7 +329,6 @@ class FitResult:
         InputError
             If the fit failed.
         """
-        from .core import evaluate
         require_estimates(self, "sensitivity norms")
         data, x0s, biases = getattr(self, "evaluate_args", (self.data, None, None))
         if isinstance(data, (list, tuple)):      # several manoeuvres: each one's own x0, bias

@@ -36,7 +36,9 @@ import re
 
 import numpy as np
 
-from . import core, score_test
+from . import score_test
+from .evaluate import evaluate
+from .simulate import simulate
 from .errors import DivergenceError, InputError
 from .model import EquationModel, FlightPathModel, SixDofModel
 
@@ -135,7 +137,7 @@ class Term:
             As ``mlid.evaluate`` raises.
         """
         model, param = self.extend()
-        ev = core.evaluate(model, data, **options)
+        ev = evaluate(model, data, **options)
         names = model.free_names()
         c = names.index(param)
         score, share, _ = score_test.statistics(ev["gradient"], ev["information"],
@@ -324,7 +326,7 @@ def _varying(model, records, variables):
                      (model.x0, None, None, None, None, [], None, None, model.input_hold,
                       model.substeps, None, model.udelay, None))
     try:
-        values = np.vstack([core.simulate(probe, d.t, d.u)[0].y for d in records])
+        values = np.vstack([simulate(probe, d.t, d.u)[0].y for d in records])
     except DivergenceError:
         return set(variables)
     spread = np.ptp(values, axis=0)

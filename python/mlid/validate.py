@@ -11,12 +11,13 @@ same through fortran/mlid_deck.f90's holdout_case)."""
 
 import numpy as np
 
-from . import core
 from ._bridge import api as _api
 from .data import FlightData
 from .errors import InputError, check_status, guarded
+from .fit import fit
 from .maneuvers import join
 from .result import FitResult
+from .simulate import simulate
 
 #: The blocks of theta each manoeuvre has of its own (fitted on held-out data).
 OWN_BLOCKS = ("x0", "bias")
@@ -116,7 +117,7 @@ def _prediction_model(result):
 
 def _predict(model, records):
     """Outputs of a model with nothing free on each record, without noise."""
-    parts = [core.simulate(model, r.t, r.u)[0].y for r in records]
+    parts = [simulate(model, r.t, r.u)[0].y for r in records]
     return np.vstack(parts)
 
 
@@ -159,7 +160,7 @@ def validate(result, data, holdout=None):
     joined = join(records)[0] if len(records) > 1 else records[0]
     if model.free:
         opts = {**result.options, **PREDICTION_OPTIONS}
-        prediction = core.fit(model, records if len(records) > 1 else records[0], **opts)
+        prediction = fit(model, records if len(records) > 1 else records[0], **opts)
         check_status(prediction.status, prediction.message)    # not converged: no prediction
         yhat = prediction.yhat
     else:
