@@ -9,13 +9,15 @@ import ast
 from pathlib import Path
 
 import mlid
+from mlid.design.signals import input_signal
 
 #: Cross-cutting helpers at the top of the package, below everything else.
 BASE = {"errors", "checks", "files", "heap", "openmp", "progress", "_version"}
 #: The rank of each part of the package (a subpackage, a top-level module, or
 #: "base" for BASE).  A module imports its own part and parts of lower rank
-#: only; parts of equal rank (siblings) do not import each other.  mlid's
-#: __init__ (the public names) and __main__ sit on top.
+#: only; parts of equal rank (siblings) do not import each other.  core (an
+#: old documented path, input_signal), mlid's __init__ (the public
+#: names) and __main__ sit on top.
 RANK = {
     "base": 0,
     "_bridge": 1,
@@ -27,8 +29,9 @@ RANK = {
     "discrepancy": 6,
     "report": 7,
     "cli": 8,
-    "__init__": 9,
-    "__main__": 9,
+    "core": 9,
+    "__init__": 10,
+    "__main__": 10,
 }
 EXTENSION = "mlid._core"
 BRIDGE = "mlid._bridge"

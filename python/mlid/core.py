@@ -1,14 +1,7 @@
-"""The core's wrappers were this one module; they are now split by what they
-do (options, calls, evaluate, colored, fit, simulate, monte_carlo, signals,
-jacobians).  Their names stay reachable here for the tests, benchmarks and
-cases until those import the new modules."""
+"""The path mlid.core.input_signal, which the README documented when the
+core's wrappers were one module here, kept working.  The wrappers now live in
+their layers (estimate.fit, design.simulate, design.signals, ...)."""
 
-from ._bridge import api as _api, text as _text  # noqa: F401
-from .colored import colored_covariance  # noqa: F401
-from .evaluate import evaluate, frequency_evaluate  # noqa: F401
-from .fit import fit  # noqa: F401
-from .jacobians import check_jacobians  # noqa: F401
-from .monte_carlo import monte_carlo  # noqa: F401
-from .options import default_options, evaluate_options, options_by_name  # noqa: F401
-from .signals import input_signal  # noqa: F401
-from .simulate import simulate  # noqa: F401
+from .design.signals import input_signal
+
+__all__ = ["input_signal"]
