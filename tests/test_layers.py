@@ -166,3 +166,18 @@ def test_no_import_cycle():
 
 def test_imports_run_down_the_layers():
     assert upward(graph(ROOT)) == []
+
+
+def test_paths_documented_before_the_layers_still_work():
+    """mlid.core.input_signal and the modules mlid.campaign, compatibility,
+    plots and reference, as the README had them, are the moved ones."""
+    from mlid import plots
+    from mlid.cli import campaign
+    from mlid.design.signals import input_signal
+    from mlid.estimate import compatibility
+    from mlid.report import reference
+    assert mlid.core.input_signal is input_signal
+    assert (mlid.campaign, mlid.compatibility, mlid.reference) == (campaign, compatibility,
+                                                                   reference)
+    assert plots.__name__ == "mlid.report.plots" and mlid.plots is plots
+    assert all(hasattr(mlid, name) for name in mlid.__all__)
