@@ -83,7 +83,7 @@ CORRECTION = "__mlid_colored_MOD_colored_covariance"
 def correction_inputs(res, data, options):
     """The correction's arguments at the estimate (evaluate takes the fit's
     options but not its prior or bounds)."""
-    from mlid.core import evaluate
+    from mlid.estimate.evaluate import evaluate
     options = {k: v for k, v in options.items() if k not in ("prior", "prior_weight", "bounds")}
     ev = evaluate(res.model, data, **options)
     return (ev["weighted_sensitivity"], data.y - ev["yhat"], res.covariance, ev["information"],
@@ -96,7 +96,7 @@ def child(index, nfits, timed):
     Prints 'lag ny nt nf wall_fit wall_correction'."""
     sys.path.insert(0, str(REPO / "benchmarks"))
     import mlid
-    from mlid.core import colored_covariance
+    from mlid.estimate.colored import colored_covariance
     from timing import median
     _, deck, k, _ = CASES[index]
     case = mlid.read_deck(deck)[k]
@@ -139,7 +139,7 @@ def instructions(pkg, index, nfits, entry):
 
 
 def brief_size():
-    from mlid.core import colored_covariance
+    from mlid.estimate.colored import colored_covariance
     sys.path.insert(0, str(REPO / "benchmarks"))
     from timing import median
     rng = np.random.default_rng(1)

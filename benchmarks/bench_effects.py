@@ -1,4 +1,4 @@
-"""Speed of one fit of each structural effect of mlid.effects (issue 16 item 5)
+"""Speed of one fit of each structural effect of mlid.discrepancy.effects (issue 16 item 5)
 on the discrepancy scenarios' lateral record (400 samples, 11 base
 parameters), from the output-error fit without the effect: wall and CPU time
 (median of 20 fits) and iterations.  Run with OMP_NUM_THREADS=1 for one
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import mlid
-from mlid import effects
+from mlid.discrepancy import effects
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 import scenarios as sc  # noqa: E402

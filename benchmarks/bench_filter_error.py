@@ -125,7 +125,7 @@ def child(name, nt, n):
         print(res.iterations, data.nt)
         return
     for _ in range(n):
-        mlid.evaluate(model, data, **mlid.core.evaluate_options(extra))
+        mlid.evaluate(model, data, **mlid.estimate.options.evaluate_options(extra))
     print(data.nt)
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import mlid
+from mlid.design.signals import input_signal
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "tests"))
@@ -47,8 +48,8 @@ def synthetic_600():
     truth = mlid.LinearModel(F, G, H, D, free=free)
     dt, nt = 0.1, 600
     t = np.arange(nt) * dt
-    u = np.column_stack([mlid.core.input_signal("3211", 0.02, 2.0, 1.0, dt, nt)
-                         + mlid.core.input_signal("pulse", 0.03, 20.0, 2.0, dt, nt),
+    u = np.column_stack([input_signal("3211", 0.02, 2.0, 1.0, dt, nt)
+                         + input_signal("pulse", 0.03, 20.0, 2.0, dt, nt),
                          2000.0 * np.sin(0.2 * t)])
     std = np.array([0.2, 0.002, 0.002, 0.002, 0.01, 0.05, 0.1])
     data, _ = mlid.simulate(truth, t, u, std, seed=11)

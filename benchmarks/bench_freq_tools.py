@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 import mlid
-from mlid import plots
+from mlid.report import plots
 from timing import interleaved_medians
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))

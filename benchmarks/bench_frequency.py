@@ -104,7 +104,8 @@ from pathlib import Path
 import numpy as np
 
 import mlid
-from mlid.core import _api, input_signal
+from mlid._bridge import api as _api
+from mlid.design.signals import input_signal
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from timing import interleaved_medians  # noqa: E402

@@ -38,7 +38,7 @@ C8 = ROOT / "cases" / "c8_monte_carlo"
 def worker(fits, mc_runs):
     """This process's figures (one mlid): a dict, printed as JSON."""
     import mlid
-    from mlid.deck import read_deck
+    from mlid.cli.deck import read_deck
     from timing import median
 
     sys.path.insert(0, str(C8))

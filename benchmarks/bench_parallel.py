@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 import mlid
-from mlid import core
+from mlid.design import monte_carlo
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -43,11 +43,11 @@ def m2():
 
 
 def processes(args, options, runs, workers):
-    call, runs, seed, names, truth = core._mc_setup(*args, None, runs, 1, options)
-    jobs = core._mc_chunks(runs, seed, max(1, runs // (4 * workers)))
+    call, runs, seed, names, truth = monte_carlo._mc_setup(*args, None, runs, 1, options)
+    jobs = monte_carlo._mc_chunks(runs, seed, max(1, runs // (4 * workers)))
     with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
-        parts = list(pool.map(core._mc_runs, *zip(*[(call, s, n) for s, n in jobs])))
-    return core._mc_result(parts, names, truth)
+        parts = list(pool.map(monte_carlo._mc_runs, *zip(*[(call, s, n) for s, n in jobs])))
+    return monte_carlo._mc_result(parts, names, truth)
 
 
 def main(workers=2):

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 import mlid
-from mlid.reference import read_reference
+from mlid.report.reference import read_reference
 from timing import interleaved_medians
 
 REPO = Path(__file__).resolve().parent.parent

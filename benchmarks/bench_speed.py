@@ -117,7 +117,7 @@ import numpy as np  # noqa: E402
 from scipy.optimize import least_squares  # noqa: E402
 
 import mlid  # noqa: E402
-from mlid.deck import run_case  # noqa: E402
+from mlid.cli.deck import run_case  # noqa: E402
 from timing import interleaved_medians  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent

@@ -572,7 +572,7 @@ def child(name, nfits, timed):
     sys.path.insert(0, str(REPO / "benchmarks"))
     import time
     import mlid
-    from mlid.deck import run_case
+    from mlid.cli.deck import run_case
     from timing import interleaved_medians
     deck, index, make = CASES[name]
     cases = mlid.read_deck(deck)

@@ -1,4 +1,4 @@
-"""Nonlinear-term candidates of the equation-based kinds (mlid.terms): how
+"""Nonlinear-term candidates of the equation-based kinds (mlid.discrepancy.terms): how
 many each model gets, and how long candidates() plus one score evaluation
 per candidate takes, on one thread.
 
@@ -29,7 +29,8 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import mlid  # noqa: E402
-from mlid import terms  # noqa: E402
+from mlid.design.signals import input_signal  # noqa: E402
+from mlid.discrepancy import terms  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests"))
@@ -123,7 +124,7 @@ def main():
     x0 = [100.0, 3.0, 9.0, 0.1, -0.05, 0.08, 0.2, 0.1, 0.5, 3000.0]
     model = test_sixdof.full_model(free=["CXa", "CZa", "Cma", "CYb", "Clb", "Cnb"], x0=x0)
     t = np.arange(201) * 0.05
-    u = np.column_stack([mlid.core.input_signal("doublet", 0.03, 1.0, 1.0, 0.05, t.size)] * 3
+    u = np.column_stack([input_signal("doublet", 0.03, 1.0, 1.0, 0.05, t.size)] * 3
                         + [np.full(t.size, 20000.0)])
     data, _ = mlid.simulate(model, t, u)
     cands = terms.candidates(model, data)

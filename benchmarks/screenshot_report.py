@@ -57,8 +57,8 @@ def timing(deck, folder, repeats):
     """Median seconds of running the deck's fits and of writing its report."""
     import matplotlib
     matplotlib.use("Agg")
-    from mlid.deck import run_deck
-    from mlid.html_report import write_report
+    from mlid.cli.deck import run_deck
+    from mlid.report.html_report import write_report
     cases = run_deck(deck)
     fit = median(lambda: run_deck(deck), repeats)
     report = median(lambda: write_report(folder, deck, cases), repeats)

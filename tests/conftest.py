@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -45,7 +46,7 @@ def c8_start(**kw):
 def c8_record(seed=1, t_end=6.0, dt=0.02):
     nt = int(round(t_end / dt)) + 1
     t = np.arange(nt) * dt
-    u = mlid.core.input_signal("doublet", 0.08, 1.0, 0.5, dt, nt)
+    u = input_signal("doublet", 0.08, 1.0, 0.5, dt, nt)
     data, _ = mlid.simulate(c8_truth(), t, u[:, None], C8_STD, seed=seed)
     return data
 

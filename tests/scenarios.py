@@ -12,6 +12,7 @@ the pedal command as the input and the rudder position as a fifth output.
 import numpy as np
 
 import mlid
+from mlid.design.signals import input_signal
 
 ALPHA = np.radians(16.8)
 G_V = 32.174 * np.cos(ALPHA) / 1181.0
@@ -78,8 +79,8 @@ def _sas(seed, rudder_output=True):
 
 def inputs():
     t = np.arange(NT) * DT
-    da = mlid.core.input_signal("3211", 2.0, 0.5, 0.3, DT, NT)
-    dr = mlid.core.input_signal("doublet", 2.0, 4.0, 0.5, DT, NT)
+    da = input_signal("3211", 2.0, 0.5, 0.3, DT, NT)
+    dr = input_signal("doublet", 2.0, 4.0, 0.5, DT, NT)
     return t, np.column_stack([da, dr])
 
 
@@ -160,7 +161,7 @@ def _longitudinal(seed):
             "Cm": ["1", "V/V0", "alpha", "qhat", "de"]}
     vals = {"CD": [0.117758, -0.0517459, 0.234846], "CL": [-0.204711, 0.363549, 3.21232],
             "Cm": [0.134413, -0.0139045, -1.00241, -27.0570, -1.43707]}
-    const = dict(zip(mlid.model.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
+    const = dict(zip(mlid.model.models.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
                                             7472.0, 0.0524, 0.792, 1.215]))
     r = [0.33, 5.2e-6, 1.5e-4, 6.9e-6, 6.2e-5, 6.0e-4, 4.7e-2]
     truth_regs = dict(regs, Cm=regs["Cm"] + ["alpha^2"])
@@ -168,8 +169,8 @@ def _longitudinal(seed):
     truth = mlid.LongitudinalModel(truth_regs, truth_vals, const, x0=[106.0, 0.11, 0.105, -0.003],
                                    r=r)
     t = np.arange(601) * 0.1
-    de = -0.008 + mlid.core.input_signal("3211", 0.03, 2.0, 1.5, 0.1, 601) \
-        + mlid.core.input_signal("pulse", -0.04, 40.0, 2.0, 0.1, 601)
+    de = -0.008 + input_signal("3211", 0.03, 2.0, 1.5, 0.1, 601) \
+        + input_signal("pulse", -0.04, 40.0, 2.0, 0.1, 601)
     u = np.column_stack([de, np.full(601, 11600.0)])
     data, _ = mlid.simulate(truth, t, u, seed=seed,
                             output_names=["V", "alpha", "theta", "q", "qdot", "a_x", "a_z"],

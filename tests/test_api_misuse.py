@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 
 
 def _model(nu=1):
@@ -98,17 +99,17 @@ MISUSE = {
     "monte_carlo memory": (lambda d: mlid.monte_carlo(_model(), _model(), T, U1, runs=BIG - 1),
                            r"runs must lie in 1 to 10000000, got 2147483647"),
     # input_signal
-    "input_signal shape typo": (lambda d: mlid.core.input_signal("dublet", 1, 0, 0.5, 0.02, 10),
+    "input_signal shape typo": (lambda d: input_signal("dublet", 1, 0, 0.5, 0.02, 10),
                                 r"unknown input shape 'dublet': use none, step, pu"),
-    "input_signal shape None": (lambda d: mlid.core.input_signal(None, 1, 0, 0.5, 0.02, 10),
+    "input_signal shape None": (lambda d: input_signal(None, 1, 0, 0.5, 0.02, 10),
                                 r"shape must be a name .*got NoneType"),
-    "input_signal nt huge": (lambda d: mlid.core.input_signal("step", 1, 0, 0.5, 0.02, BIG),
+    "input_signal nt huge": (lambda d: input_signal("step", 1, 0, 0.5, 0.02, BIG),
                              r"nt must lie in 1 to 10000000, got 2147483648"),
-    "input_signal nt zero": (lambda d: mlid.core.input_signal("step", 1, 0, 0.5, 0.02, 0),
+    "input_signal nt zero": (lambda d: input_signal("step", 1, 0, 0.5, 0.02, 0),
                              r"nt must lie in 1 to 10000000, got 0"),
-    "input_signal dt zero": (lambda d: mlid.core.input_signal("step", 1, 0, 0.5, 0.0, 10),
+    "input_signal dt zero": (lambda d: input_signal("step", 1, 0, 0.5, 0.0, 10),
                              "dt must be > 0"),
-    "input_signal amplitude nan": (lambda d: mlid.core.input_signal("step", math.nan, 0, 0.5,
+    "input_signal amplitude nan": (lambda d: input_signal("step", math.nan, 0, 0.5,
                                                                     0.02, 10), "amplitude"),
     # check_jacobians
     "check_jacobians model path": (lambda d: mlid.check_jacobians("user.f90", [0, 0], [0]),
@@ -148,7 +149,8 @@ MISUSE = {
     "design T str": (lambda d: _design().mu_max("1.0"), r"T must be > 0, got 1\.0"),
     "design information u shape": (lambda d: _design().information(1.0, np.ones((4, 3))),
                                    r"expected \(cells, 1\)"),
-    "design summary not square": (lambda d: mlid.design.summary(np.ones((2, 3))), "square"),
+    "design summary not square": (lambda d: mlid.design.input_design.summary(np.ones((2, 3))),
+                                  "square"),
     # parallel
     "parallel truth None": (lambda d: mlid.monte_carlo_parallel(None, _model(), T, U1),
                             "truth must be"),
@@ -187,7 +189,7 @@ def test_right_calls_still_work(record):
     numpy integers, a tuple of records, an upper-case input shape."""
     data, _ = mlid.simulate(_model(), T, U1[:, 0], seed=np.int64(3))
     assert data.u.shape == (101, 1)
-    u = mlid.core.input_signal("DOUBLET", 1.0, 0.2, 0.2, 0.02, np.int32(101))
+    u = input_signal("DOUBLET", 1.0, 0.2, 0.2, 0.02, np.int32(101))
     assert u.shape == (101,) and np.abs(u).max() == 1.0
     res = mlid.fit(_model(), (record,), max_iter=np.int64(10), tol_cost=1e-9)
     assert res.converged

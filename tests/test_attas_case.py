@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid.reference import read_reference
+from mlid.report.reference import read_reference
 from conftest import BIN, REPO
 
 DECK = REPO / "cases" / "attas_channels" / "attas_sp.nml"
@@ -59,7 +59,7 @@ def test_elevator_2_is_predicted_by_the_fit_of_elevator_1():
     prediction of data not fitted is."""
     case = mlid.read_deck(DECK)[2]
     assert case.job == "validate" and case.holdout == [2]
-    from mlid.deck import run_case
+    from mlid.cli.deck import run_case
     out, res = run_case(case)
     v = res.validation
     assert out["validation"]["theil"] == v.theil.tolist()

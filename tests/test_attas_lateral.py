@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid.reference import read_reference
+from mlid.report.reference import read_reference
 from conftest import BIN, REPO
 
 DATA = REPO.parent / "shared" / "data"

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid.core import colored_covariance, evaluate
+from mlid.design.signals import input_signal
+from mlid.estimate.colored import colored_covariance
+from mlid.estimate.evaluate import evaluate
 
 # The C-8 short-period case (cases/c8_short_period): the report's values as the truth.
 F0 = np.array([[-0.02, -32.2, 0, 33.74], [0, 0, 1, 0], [0.003, 0, -1.588, -0.562],
@@ -23,7 +25,7 @@ RUNS = 300
 def _c8():
     truth = mlid.LinearModel(F0, G0, np.eye(4), free=FREE, names=NAMES)
     t = np.arange(NT) * DT
-    u = mlid.core.input_signal("3211", 0.08, 1.0, 0.5, DT, NT).reshape(-1, 1)
+    u = input_signal("3211", 0.08, 1.0, 0.5, DT, NT).reshape(-1, 1)
     clean, _ = mlid.simulate(truth, t, u, noise_std=np.zeros(4))
     return truth, t, u, clean.y
 

@@ -50,7 +50,7 @@ DECKS = {"c8": (C8_CASE / "c8.nml", ["M_q", "M_alpha", "Z_alpha", "M_delta", "Z_
                   ["L_p", "N_p", "L_r", "N_r", "L_beta", "N_beta", "Y_beta", "a_gust", "L_da",
                    "N_da", "Y_da", "L_dr", "N_dr", "Y_dr", "q_gust", "R_p", "R_r", "R_beta",
                    "R_phi", "R_ay"]),
-         "x22": (REPO / "cases" / "x22_vtol" / "x22.nml", list(mlid.model.X22_LABELS))}
+         "x22": (REPO / "cases" / "x22_vtol" / "x22.nml", list(mlid.model.models.X22_LABELS))}
 
 
 @pytest.mark.parametrize("name", sorted(DECKS))

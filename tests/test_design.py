@@ -1,4 +1,4 @@
-"""Optimal input design (fortran/design/mlid_design.f90, python/mlid/design.py)
+"""Optimal input design (fortran/design/mlid_design.f90, python/mlid/design/input_design.py)
 against the closed form of report §7.4.1 and the C-8 numbers of CASES.md §1."""
 
 import numpy as np

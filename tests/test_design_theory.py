@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid import design_closed_forms as cf
+from mlid.design import closed_forms as cf
 from conftest import REPO
 
 sys.path.insert(0, str(REPO / "cases" / "design_theory"))

@@ -12,7 +12,7 @@ import pytest
 
 import mlid
 from conftest import BIN
-from mlid.diagnose import chi2_quantile
+from mlid.discrepancy.diagnose import chi2_quantile
 import scenarios
 
 SEEDS = (1, 2)
@@ -168,7 +168,7 @@ def test_the_gust_is_named_with_its_time_constant_and_intensity():
     and nothing else; T and the gust's standard deviation within 3 sigma of
     the truth (seeds 2 and 3; seed 1's likelihood peaks at T = 0.08 s, from
     the truth too: tests/test_effects.py)."""
-    from mlid import effects
+    from mlid.discrepancy import effects
     truth_sd = math.sqrt(effects.gust_variance(0.5, scenarios.DT)[0] * 4.0)
     for seed in (2, 3):
         model, data = scenarios.make("gust", seed)
@@ -188,7 +188,7 @@ def test_linear_nonlinear_candidates_include_breakpoints_and_outputs():
     y = np.column_stack([data.y, data.y[:, 2] * -0.09])
     data = mlid.FlightData(data.t, data.u, y, data.input_names, data.output_names + ["a_y"])
     fit = mlid.fit(ay, data)
-    dg = importlib.import_module("mlid.diagnose")
+    dg = importlib.import_module("mlid.discrepancy.diagnose")
     cands = dg._library(ay.with_theta(fit.model.theta), data, fit, ("nonlinear",), 4, {})
     names = [c.name for c in cands]
     assert "|beta|beta in the a_y output" in names and "p^2 in the p equation" in names

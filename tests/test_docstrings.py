@@ -11,8 +11,8 @@ import textwrap
 import pytest
 
 import mlid
-from mlid.diagnosis import Diagnosis
-from mlid.table import ResultsTable, results_table
+from mlid.discrepancy.diagnosis import Diagnosis
+from mlid.estimate.table import ResultsTable, results_table
 
 #: Public objects not in mlid.__all__ that public functions return.
 RETURNED = {"Diagnosis": Diagnosis, "ResultsTable": ResultsTable,

@@ -1,4 +1,4 @@
-"""Structural effects as Newton parameters (python/mlid/effects.py): at the
+"""Structural effects as Newton parameters (python/mlid/discrepancy/effects.py): at the
 null each extended model gives the base model's outputs; the core's gradient
 in each new parameter is the cost's; a fit from an off start recovers each
 effect within 3 Cramer-Rao sigma, with value()'s sigma the delta method's;
@@ -19,7 +19,7 @@ import pytest
 
 import mlid
 import scenarios as sc
-from mlid import effects
+from mlid.discrepancy import effects
 
 DT = sc.DT
 

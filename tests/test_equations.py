@@ -202,7 +202,7 @@ def test_a_deck_fits_in_both_front_ends(tmp_path):
     assert run.returncode == 0, run.stderr
     out = run.stdout
     case = mlid.read_deck(deck)[0]
-    _, res = mlid.deck.run_case(case)
+    _, res = mlid.cli.deck.run_case(case)
     assert res.converged
     assert np.all(np.abs(np.asarray(res.estimate) - [-2.0, 0.8]) < 4 * np.asarray(res.sigma))
     assert " a " in out and " b " in out

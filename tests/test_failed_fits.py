@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import mlid
-import mlid.plots
+import mlid.report.plots
 from conftest import BIN, run_both
 
 DATA = "&data file = 'two.dat', time_col = 1, input_cols = 2, output_cols = 3, 4 /"
@@ -197,7 +197,7 @@ def test_python_objects_of_a_failed_fit_show_no_statistics(two_states):
     assert repr(res) == f"FitResult(failed after {res.iterations} iterations: {exc})"
     assert "\u03c3" not in res._repr_html_() and "FAILED: " in res._repr_html_()
     assert res.report().split("\n")[-1] == f" FAILED: {exc}"
-    for name in mlid.result.NOT_IN_A_FAILED_FIT:
+    for name in mlid.estimate.result.NOT_IN_A_FAILED_FIT:
         assert np.all(np.isnan(getattr(res, name))), name
     d = res.as_dict()
     assert d["failed"] and d["sigma"] is None and d["correlation"] is None
@@ -206,8 +206,9 @@ def test_python_objects_of_a_failed_fit_show_no_statistics(two_states):
     assert obj["failed"] is True and obj["sigma"] is None and obj["message"] == str(exc)
     assert res.identifiability() == []
     for make in (res.table, res.whiteness, res.noise_diagonal,
-                 lambda: mlid.plots.fit_overview(res), lambda: mlid.plots.correlation(res),
-                 lambda: mlid.plots.bode(res)):
+                 lambda: mlid.report.plots.fit_overview(res),
+                 lambda: mlid.report.plots.correlation(res),
+                 lambda: mlid.report.plots.bode(res)):
         with pytest.raises(mlid.InputError, match="of a failed fit"):
             make()
 

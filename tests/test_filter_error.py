@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import finite_difference
 
 DT = 0.05
@@ -28,7 +29,7 @@ def gust_model(free=(), q=0.05, r=(1e-3, 2e-3), s12=0.0, ties=GUST_TIES):
 
 def record(model, seed=3):
     t = np.arange(NT) * DT
-    u = mlid.core.input_signal("3211", 1.0, 0.5, 0.3, DT, NT)[:, None]
+    u = input_signal("3211", 1.0, 0.5, 0.3, DT, NT)[:, None]
     return mlid.simulate(model, t, u, seed=seed)[0]
 
 

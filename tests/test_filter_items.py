@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import finite_difference, run_both
 from test_filter_error import BODY, DT, FREE, GUST, NT, gust_model, numpy_filter, record
 
@@ -83,7 +84,7 @@ def test_large_p0_discounts_a_wrong_initial_state():
     truth = gust_model()
     truth.x0 = [1.0, -0.5, 0.3]
     t = np.arange(NT) * DT
-    u = mlid.core.input_signal("3211", 1.0, 0.5, 0.3, DT, NT)[:, None]
+    u = input_signal("3211", 1.0, 0.5, 0.3, DT, NT)[:, None]
     data = mlid.simulate(truth, t, u, seed=3)[0]
     worst = {}
     for p0 in (0.0, 10.0):
@@ -145,7 +146,7 @@ def test_gain_and_noise_parameterisations_reach_the_same_maximum(seed):
     recovered from K and B by eq. 4.18, R = (1 - H K) B, equal to the r of
     the q, r fit (measured 3e-5 relative)."""
     t = np.arange(600) * DT
-    u = mlid.core.input_signal("3211", 0.1, 0.5, 0.4, DT, 600)[:, None]
+    u = input_signal("3211", 0.1, 0.5, 0.4, DT, 600)[:, None]
     data = mlid.simulate(_roll([]), t, u, seed=seed)[0]
     a = mlid.fit(_roll(["f(1,1)", "g(1,1)", "q(1)", "r(1)"], q=0.2, r=1e-3), data,
                  **FE, steady_state=True)
@@ -194,7 +195,7 @@ def test_j_prime_on_a_forward_correlated_record(seed):
     apart far more surely than J')."""
     truth = gust_model(s12=0.012, q=0.05, r=(1e-3, 4e-3))
     t = np.arange(NT) * DT
-    u = mlid.core.input_signal("3211", 1.0, 0.5, 0.3, DT, NT)[:, None]
+    u = input_signal("3211", 1.0, 0.5, 0.3, DT, NT)[:, None]
     data = mlid.simulate(truth, t, u, seed=seed)[0]
     fits = [mlid.fit(gust_model(BODY + GUST, s12=s, q=0.05, r=(1e-3, 4e-3)), data, **FE)
             for s in (0.012, 0.0)]

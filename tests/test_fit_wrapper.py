@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid.core import _api
+from mlid._bridge import api as _api
 from conftest import c8_record, c8_start
 
 GIVEN = {"max_iter": 7, "tol_cost": 1e-7, "noise": "full", "partials": False,

@@ -5,7 +5,7 @@ both front ends."""
 
 import pytest
 
-from mlid.reference import read_reference
+from mlid.report.reference import read_reference
 from conftest import REPO, assert_reproduces, both_front_ends_json
 
 DATA = REPO.parent / "shared" / "data"

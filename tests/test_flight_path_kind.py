@@ -1,6 +1,6 @@
 """The flight-path model (kind 'flight_path', mlid.FlightPathModel,
 fortran/models/mlid_flightpath.f90) and the compatibility step after it
-(mlid.compatibility): the kind written from sensor positions gives the fit
+(mlid.estimate.compatibility): the kind written from sensor positions gives the fit
 of the same equations stated by hand (test case 22b), exact Jacobians with
 every correction and a wind, a wind read as the physics says, the corrected
 record refits to neutral corrections and is written by a deck (&estimate
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid import compatibility
-from mlid.model import FLIGHTPATH_CORRECTIONS, FLIGHTPATH_INPUTS
+from mlid.estimate import compatibility
+from mlid.model.models import FLIGHTPATH_CORRECTIONS, FLIGHTPATH_INPUTS
 from conftest import REPO, both_front_ends_json, refused_by_both, run_both
 
 HERE = REPO / "cases" / "flight_path"

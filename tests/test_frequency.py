@@ -12,8 +12,8 @@ import pytest
 from matplotlib.figure import Figure
 
 import mlid
-from mlid import plots
-from mlid.frequency import FrequencyResponse, free_map, transfer_mismatch, _api
+from mlid.report import plots
+from mlid.frequency.responses import FrequencyResponse, free_map, transfer_mismatch, _api
 from conftest import BIN
 
 # A short-period-like pair (alpha, q) driven by the elevator: poles -2.1 +- 3.35j.

@@ -161,7 +161,7 @@ def test_transfer_function_parameter_count():
                                               r"\(delay 1\) take 5 parameters, got 4$"):
         fit.response([0.5])
     with pytest.raises(mlid.InputError, match="take 5 parameters, got 4"):
-        mlid.frequency.transfer_mismatch(fit, resp)
+        mlid.frequency.responses.transfer_mismatch(fit, resp)
 
 
 def _two_channel(data, source, order):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import (C8_F, C8_FREE, C8_G, C8_NAMES, C8_STD, c8_record, c8_start, c8_truth,
                       run_both)
 
@@ -298,7 +299,7 @@ def test_deck_bad_band(tmp_path, band, message):
 def test_fit_plot(c8_data, tmp_path):
     """The fit figure of a frequency-domain fit: the transforms against
     frequency, written whole."""
-    from mlid.plots import plot_fit
+    from mlid.report.plots import plot_fit
     fit = mlid.fit(c8_start(), c8_data, method=FDOE, **BAND)
     path = plot_fit(fit, tmp_path, "fd")
     assert path.exists() and path.stat().st_size > 10000
@@ -348,7 +349,7 @@ def test_nearly_noise_free_with_offsets_and_drift(method):
     is evaluated (not refused as singular), its S-hat positive definite and
     the mean of Re(V V^*) of the residuals it returns (equal weights here)."""
     t = np.arange(301) * 0.02
-    u = mlid.core.input_signal("doublet", 0.08, 1.0, 0.5, 0.02, len(t))
+    u = input_signal("doublet", 0.08, 1.0, 0.5, 0.02, len(t))
     data, _ = mlid.simulate(c8_truth(), t, u[:, None], 1e-8 * np.asarray(C8_STD), seed=3)
     y = data.y + np.array([0.01, -0.02, 0.005, 0.03]) + np.outer(t, [1e-3, 0, -2e-3, 5e-4])
     data = mlid.FlightData(data.t, data.u, y)

@@ -12,7 +12,8 @@ from pathlib import Path
 import pytest
 
 import mlid
-from mlid.deck import case_json, run_cases
+import mlid._bridge
+from mlid.cli.deck import case_json, run_cases
 
 from conftest import REPO
 
@@ -99,7 +100,7 @@ def test_decks_read_and_run_from_threads_give_the_serial_results(tmp_path):
 
 
 def test_no_handle_is_refused_in_words():
-    api = mlid.core._api
+    api = mlid._bridge.api
     *_, status, msg = api.mlid_deck_case_run(0, 1)
     assert status != 0 and b"no such case (or not a live handle)" in msg
     nt, status, msg = api.mlid_deck_case_record(0, 1, 1)

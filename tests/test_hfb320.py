@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import BIN, REPO, finite_difference
 
 DATA = REPO.parent / "shared" / "data" / "hfb320_1_10.asc"
@@ -26,7 +27,7 @@ REF_DET_R = 3.0161e-24
 @needs_data
 def test_hfb320_reproduces_the_reference():
     case = mlid.read_deck(DECK)[0]
-    out, res = mlid.deck.run_case(case)
+    out, res = mlid.cli.deck.run_case(case)
     assert res.converged
     assert np.all(np.abs(res.estimate - REF) / REF_SIGMA < 0.1), (res.estimate - REF) / REF_SIGMA
     assert np.all(np.abs(res.sigma / REF_SIGMA - 1) < 0.05), res.sigma / REF_SIGMA
@@ -63,7 +64,7 @@ def _hfb_like(free, regressors=None, values=None):
     regs = regressors or {"CD": ["1", "V/V0", "alpha"], "CL": ["1", "V/V0", "alpha"],
                           "Cm": ["1", "V/V0", "alpha", "qhat", "de"]}
     values = values or {"CD": REF[:3], "CL": REF[3:6], "Cm": REF[6:]}
-    const = dict(zip(mlid.model.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
+    const = dict(zip(mlid.model.models.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
                                             7472.0, 0.0524, 0.792, 1.215]))
     r = [0.33, 5.2e-6, 1.5e-4, 6.9e-6, 6.2e-5, 6.0e-4, 4.7e-2]   # ~ the HFB residual variances
     return mlid.LongitudinalModel(regs, values, const, x0=[106.0, 0.11, 0.105, -0.003],
@@ -72,8 +73,8 @@ def _hfb_like(free, regressors=None, values=None):
 
 def _inputs():
     t = np.arange(601) * 0.1
-    de = -0.008 + mlid.core.input_signal("3211", 0.03, 2.0, 1.5, 0.1, 601) \
-        + mlid.core.input_signal("pulse", -0.04, 40.0, 2.0, 0.1, 601)
+    de = -0.008 + input_signal("3211", 0.03, 2.0, 1.5, 0.1, 601) \
+        + input_signal("pulse", -0.04, 40.0, 2.0, 0.1, 601)
     return t, np.column_stack([de, np.full(601, 11600.0)])
 
 
@@ -241,7 +242,7 @@ def test_the_case_script_prints_and_exports_the_results_table(tmp_path):
     assert out.returncode == 0, out.stderr
     assert "largest |diff|/sigma 0.01" in out.stdout and "case 1 results table" in out.stdout
     case = mlid.read_deck(DECK)[0]
-    _, res = mlid.deck.run_case(case)
+    _, res = mlid.cli.deck.run_case(case)
     rows = list(csv.DictReader((tmp_path / "hfb320_case1.csv").open()))
     assert [r["name"] for r in rows] == res.names
     assert [r["unit"] for r in rows] == ["-", "-", "1/rad", "-", "-", "1/rad", "-", "-",

@@ -1,4 +1,4 @@
-"""Held-out verdicts of the discrepancy workflow (mlid.holdout, issue 16):
+"""Held-out verdicts of the discrepancy workflow (mlid.discrepancy.holdout, issue 16):
 the split, the held-out criterion against an independent computation, and
 that an effect which does not hold on the held-out part is not accepted."""
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid import holdout
+from mlid.discrepancy import holdout
 
 from conftest import REPO
 

@@ -1,4 +1,4 @@
-"""The HTML report (python/mlid/html_report.py, mlid run DECK --report DIR),
+"""The HTML report (python/mlid/report/html_report.py, mlid run DECK --report DIR),
 parsed back with the standard library: a section per case, the results
 table equal to the fit's numbers, the modes equal to numpy's eigenvalues of
 the identified F, every figure inlined (readable offline), a failing case
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from conftest import REPO
-from mlid.table import HEADINGS
+from mlid.estimate.table import HEADINGS
 
 DECK = REPO / "cases" / "c8_short_period" / "c8.nml"
 # A case whose record is missing: it fails, the report goes on.
@@ -214,7 +214,7 @@ def test_the_page_is_written_whole(run, tmp_path):
     assert [p.name for p in run["dir"].iterdir()] == ["c8.html"]      # no temporary left
     assert run["text"].endswith("</html>\n")
     # a run that breaks while the page is made leaves the previous page as it was
-    from mlid.html_report import write_report
+    from mlid.report.html_report import write_report
     page = tmp_path / "c8.html"
     page.write_text("previous\n")
 
@@ -235,7 +235,7 @@ def test_a_validate_case_shows_its_prediction(tmp_path):
     import matplotlib
     matplotlib.use("Agg")
     import mlid
-    from mlid.html_report import write_report
+    from mlid.report.html_report import write_report
     from test_validate import DECK as VALIDATE, write_manoeuvres
     write_manoeuvres(tmp_path)
     deck = tmp_path / "v.nml"

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import finite_difference
 
 F = [[-3.5, 0.47], [-0.09, -0.17]]
@@ -31,7 +32,7 @@ def _record(pulse_at, seed=3, drop_ay=False):
     dt = 0.04
     t = np.arange(NT) * dt
     u = np.zeros((NT, 3))
-    u[:, 0] = mlid.core.input_signal("doublet", 0.05, 1.0, 0.5, dt, NT)
+    u[:, 0] = input_signal("doublet", 0.05, 1.0, 0.5, dt, NT)
     u[:, 2] = 0.02 * np.sin(1.3 * t)
     u[pulse_at, 1] = 0.03
     n = 1 if drop_ay else 0
@@ -137,7 +138,7 @@ def test_information_does_not_depend_on_an_outputs_units(noise):
     g = [[-4.9], [-0.19]]
     nt, dt = 200, 0.04
     t = np.arange(nt) * dt
-    u = mlid.core.input_signal("doublet", 0.05, 1.0, 0.5, dt, nt).reshape(-1, 1)
+    u = input_signal("doublet", 0.05, 1.0, 0.5, dt, nt).reshape(-1, 1)
     got = []
     for scale in (1.0, 1.0e7):
         h = [[scale, 0.0], [0.0, 1.0]]

@@ -1,5 +1,5 @@
 """Several manoeuvres fitted together: shared aerodynamics, each manoeuvre's
-own initial state and output biases (python/mlid/maneuvers.py, layout_t)."""
+own initial state and output biases (python/mlid/model/maneuvers.py, layout_t)."""
 
 import numpy as np
 import pytest
@@ -58,7 +58,7 @@ def test_joint_gradient_matches_finite_differences():
     m = truth.with_free(free)
     x0s, biases = [truth.x0 * 1.01, other.x0 * 0.99], [np.zeros(7), other.bias]
     ev = mlid.evaluate(m, records, initial_states=x0s, biases=biases)
-    params = mlid.maneuvers.Params(m, 2, x0s, biases)
+    params = mlid.model.maneuvers.Params(m, 2, x0s, biases)
 
     def cost(theta):
         p = params.model_of(theta, 0)

@@ -17,7 +17,7 @@ from conftest import both_front_ends_json, finite_difference
 from test_hfb320 import COEFFS, REF, _hfb_like, _inputs
 
 # the constants of _hfb_like, by name
-CONST = dict(zip(mlid.model.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
+CONST = dict(zip(mlid.model.models.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
                                         7472.0, 0.0524, 0.792, 1.215]))
 
 

@@ -1,4 +1,4 @@
-"""The plots (python/mlid/plots.py), read back from the figures they return:
+"""The plots (python/mlid/report/plots.py), read back from the figures they return:
 channels in the unit the record declared, the ±2σ band from R̂, no line
 across a manoeuvre join, lags in s and spectra in Hz up to Nyquist, the
 correlation map, modes and Bode magnitude against numpy, the Cramér-Rao
@@ -15,7 +15,8 @@ from matplotlib.figure import Figure  # noqa: E402
 from scipy.signal import welch  # noqa: E402
 
 import mlid  # noqa: E402
-from mlid import plots  # noqa: E402
+from mlid.design.signals import input_signal  # noqa: E402
+from mlid.report import plots  # noqa: E402
 
 DT = 0.05
 F0 = np.array([[-1.2, 1.0], [-6.0, -1.8]])       # alpha, q: a short-period pair
@@ -40,7 +41,7 @@ def _start():
 
 def _inputs(nt, t0=1.0):
     t = np.arange(nt) * DT
-    return t, mlid.core.input_signal("3211", np.radians(2.0), t0, 0.6, DT, nt)[:, None]
+    return t, input_signal("3211", np.radians(2.0), t0, 0.6, DT, nt)[:, None]
 
 
 def _record(folder, name, nt, seed):

@@ -10,7 +10,7 @@ import pytest
 
 import mlid
 from conftest import BIN
-from mlid.core import _api, _text
+from mlid._bridge import api as _api, text as _text
 from test_decks import SIM, SMALL
 
 T3 = [0.0, 0.1, 0.2]

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import C8_F, C8_G, C8_FREE, C8_NAMES, C8_STD, c8_start
 
 BAND = dict(f_min=0.1, f_max=2.0, n_freq=40)
@@ -29,7 +30,7 @@ def changing_record(seed=4):
     at 20 s (the second half simulated from the first half's last state)."""
     dt = 0.02
     t = np.arange(0, 20.0, dt)
-    u = sum(mlid.core.input_signal("doublet", 0.05, t0, 0.5, dt, len(t)) for t0 in range(1, 20, 4))
+    u = sum(input_signal("doublet", 0.05, t0, 0.5, dt, len(t)) for t0 in range(1, 20, 4))
     first = mlid.LinearModel(C8_F, C8_G, np.eye(4))
     y1, x1 = mlid.simulate(first, t, u[:, None], C8_STD, seed=seed)
     g2 = C8_G.copy()

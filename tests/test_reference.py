@@ -1,4 +1,4 @@
-"""mlid.reference: the textbook software's reference files read in one place,
+"""mlid.report.reference: the textbook software's reference files read in one place,
 and a fit compared with one."""
 
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid.reference import compare, read_reference
+from mlid.report.reference import compare, read_reference
 
 TEXT = """# a model
 # Result: converged after 5 Gauss-Newton iterations; det(R) = 1.5e-10

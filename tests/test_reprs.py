@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 import scenarios
 from conftest import C8_FREE, C8_STD, c8_start, c8_truth
-from mlid.table import FLAG_RATIO, FLAG_TEXT, HEADINGS, HTML_DIGITS
+from mlid.estimate.table import FLAG_RATIO, FLAG_TEXT, HEADINGS, HTML_DIGITS
 
 # 6 significant digits shown: a relative error of at most 5e-6
 RTOL = 0.5 * 10.0 ** (1 - HTML_DIGITS)
@@ -80,7 +81,7 @@ def _table(parsed, cls):
 @pytest.fixture(scope="module")
 def result():
     t = np.arange(301) * 0.02
-    u = mlid.core.input_signal("3211", 0.08, 1.0, 0.5, 0.02, 301).reshape(-1, 1)
+    u = input_signal("3211", 0.08, 1.0, 0.5, 0.02, 301).reshape(-1, 1)
     sim, _ = mlid.simulate(c8_truth(), t, u, noise_std=C8_STD, seed=5)
     data = mlid.FlightData(t, u, sim.y, ["de"], OUTPUTS, input_units=["rad"],
                            output_units=["m/s", "rad", "rad/s", "rad"])
@@ -139,7 +140,7 @@ def test_filter_error_html_says_innovation_covariance():
     truth = mlid.LinearModel([[-1.5]], [[2.0]], [[1.0]], Gamma=[[1.0]], q=[0.04], r=[0.01],
                              free=["f(1,1)", "g(1,1)"])
     t = np.arange(200) * 0.05
-    u = mlid.core.input_signal("doublet", 1.0, 1.0, 1.0, 0.05, 200).reshape(-1, 1)
+    u = input_signal("doublet", 1.0, 1.0, 1.0, 0.05, 200).reshape(-1, 1)
     data, _ = mlid.simulate(truth, t, u, seed=2)
     res = mlid.fit(truth, data, method="filter_error")
     label, rows = res.noise_diagonal()
@@ -159,8 +160,8 @@ def test_plain_reprs(result):
 
 
 def test_results_table_html_of_several_cases(result):
-    both = mlid.table.ResultsTable.concat([mlid.table.results_table(result, case=k)
-                                           for k in ("a<1>", "b")])
+    both = mlid.estimate.table.ResultsTable.concat(
+        [mlid.estimate.table.results_table(result, case=k) for k in ("a<1>", "b")])
     table = _Tables(both.html_text()).tables[0]
     assert table["head"] == [["Case"] + list(HEADINGS)]
     assert [r[0] for r in table["rows"]] == ["a<1>"] * 5 + ["b"] * 5

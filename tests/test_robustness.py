@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import BIN
 from test_decks import SIM, SMALL
 
@@ -68,7 +69,7 @@ def model():
 @pytest.fixture(scope="module")
 def data(model):
     t = np.arange(101) * 0.02
-    u = mlid.core.input_signal("3211", 1.0, 0.2, 0.2, 0.02, t.size).reshape(-1, 1)
+    u = input_signal("3211", 1.0, 0.2, 0.2, 0.02, t.size).reshape(-1, 1)
     return mlid.simulate(model, t, u, noise_std=[0.01, 0.01], seed=3)[0]
 
 
@@ -101,8 +102,8 @@ def _misuses(model, data):
         "simulate: bad timing": lambda: mlid.simulate(model, t, u, timing="sideways"),
         "monte_carlo: runs 0": lambda: mlid.monte_carlo(model, model, t, u, runs=0),
         "monte_carlo: runs huge": lambda: mlid.monte_carlo(model, model, t, u, runs=2**40),
-        "input_signal: unknown shape": lambda: mlid.core.input_signal("sine", 1, 0, 1, 0.1, 10),
-        "input_signal: nt huge": lambda: mlid.core.input_signal("step", 1, 0, 1, 0.1, 2**40),
+        "input_signal: unknown shape": lambda: input_signal("sine", 1, 0, 1, 0.1, 10),
+        "input_signal: nt huge": lambda: input_signal("step", 1, 0, 1, 0.1, 2**40),
         "check_jacobians: x wrong size": lambda: mlid.check_jacobians(model, [0.0] * 5, [0.0]),
         "LinearModel: F None": lambda: mlid.LinearModel(None, [[1.0]], [[1.0]]),
         "LinearModel: free unknown": lambda: mlid.LinearModel(np.eye(2), [[1], [0]], np.eye(2),

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid import plots
+from mlid.report import plots
 from conftest import BIN, REPO
 
 matplotlib.use("Agg")
@@ -69,7 +69,7 @@ def test_show_changes_the_display_only(tmp_path):
     runs = []
     for deck in _decks(tmp_path):
         case = mlid.read_deck(deck)[0]
-        runs.append((case.record(), mlid.deck.run_case(case)[1]))
+        runs.append((case.record(), mlid.cli.deck.run_case(case)[1]))
     (a, fa), (b, fb) = runs
     assert np.array_equal(a.u, b.u) and np.array_equal(a.y, b.y)
     assert a.output_units == b.output_units == ["rad", "rad/s"]
@@ -95,7 +95,7 @@ def test_show_changes_the_display_only(tmp_path):
         ["de [rad]", "alfa [rad]", "q [rad/s]"]
     plots.close(fig)
     # the HTML report's noise table gives σ in the unit shown
-    from mlid.html_report import noise_table
+    from mlid.report.html_report import noise_table
     assert "<td>deg/s</td>" in noise_table(fb) and "<td>deg/s</td>" not in noise_table(fa)
 
 

@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import both_front_ends_json
 
 # HFB-320-like constants of the built-in longitudinal model's test scenario
-LONG = dict(zip(mlid.model.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
+LONG = dict(zip(mlid.model.models.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
                                        7472.0, 0.0524, 0.792, 1.215]))
 MASS = LONG["m"]
 S, CBAR = LONG["S/m"] * MASS, 2 * LONG["cbar/2"]
@@ -48,7 +49,7 @@ def test_longitudinal_form_is_the_builtin_longitudinal_model():
     builtin = mlid.LongitudinalModel(regs, VALS, LONG, x0=[V0, a0, th0, q0], substeps=4)
     six = longitudinal_sixdof(x0=[V0 * np.cos(a0), V0 * np.sin(a0), q0, th0], substeps=4)
     t = np.arange(601) * 0.1
-    de = -0.008 + mlid.core.input_signal("3211", 0.03, 2.0, 1.5, 0.1, 601)
+    de = -0.008 + input_signal("3211", 0.03, 2.0, 1.5, 0.1, 601)
     thrust = np.full(601, 11600.0)
     a, _ = mlid.simulate(builtin, t, np.column_stack([de, thrust]))
     b, _ = mlid.simulate(six, t, np.column_stack([de, thrust, np.zeros((601, 4))]))
@@ -108,8 +109,8 @@ def lateral_record(path):
                                       "Cl": "Clb*beta + Clp*phat + Clr*rhat + Clda*da",
                                       "Cn": "Cnb*beta + Cnr*rhat + Cndr*dr"})
     t = np.arange(801) * 0.05
-    da = mlid.core.input_signal("doublet", 0.05, 1.0, 1.0, 0.05, 801)
-    dr = mlid.core.input_signal("doublet", 0.05, 12.0, 1.5, 0.05, 801)
+    da = input_signal("doublet", 0.05, 1.0, 1.0, 0.05, 801)
+    dr = input_signal("doublet", 0.05, 12.0, 1.5, 0.05, 801)
     u = np.column_stack([da, dr, np.full(801, 99.0), np.full(801, 8.0), np.zeros(801),
                          np.full(801, 0.08)])
     d, _ = mlid.simulate(m, t, u, noise_std=[2e-3, 2e-3, 2e-3, 2e-3, 0.05], seed=5)
@@ -120,7 +121,7 @@ def test_lateral_decoupled_deck_recovers_the_truth_in_both_front_ends(tmp_path):
     """States v, p, r, phi, the longitudinal quantities measured inputs: the
     eight derivatives within 4 Cramer-Rao sigma of the truth (seeded)."""
     lateral_record(tmp_path / "lat.dat")
-    consts = ", ".join(repr(CONSTANTS[k]) for k in mlid.model.SIXDOF_CONSTANTS)
+    consts = ", ".join(repr(CONSTANTS[k]) for k in mlid.model.models.SIXDOF_CONSTANTS)
     deck = tmp_path / "lat.nml"
     deck.write_text(LATERAL_DECK.format(consts=consts))
     fit = both_front_ends_json(deck, tmp_path)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid.deck import iter_deck
+from mlid.cli.deck import iter_deck
 from conftest import REPO
 
 sys.path.insert(0, str(REPO / "cases" / "attas_lateral"))

@@ -35,7 +35,7 @@ def test_longitudinal_model_with_process_noise():
          "Cm": ["1", "V/V0", "alpha", "alpha^2", "qhat", "de"]},
         {"CD": [0.1, -0.05, 0.23, 0.8], "CL": [-0.2, 3.2, 6.0, 0.3],
          "Cm": [0.13, -0.01, -1.0, -0.4, -27.0, -1.4]},
-        dict(zip(mlid.model.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
+        dict(zip(mlid.model.models.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
                                         7472.0, 0.0524, 0.792, 1.215])),
         q=[0.01, 1e-4, 0.0, 1e-4])
     err = mlid.check_jacobians(m, [98.0, 0.11, 0.07, -0.02], [-0.03, 1.1e4],

@@ -109,11 +109,11 @@ def test_filter_error_is_the_same_as_with_a_constant_input_of_ones(steady):
 
 
 def test_rebuilt_models_keep_their_state_biases():
-    """diagnose's candidate models (mlid.effects) and the perfect-state
+    """diagnose's candidate models (mlid.discrepancy.effects) and the perfect-state
     reduction carry bx (a lag or gust state gets none of its own)."""
     import importlib
-    dg = importlib.import_module("mlid.diagnose")
-    from mlid import effects
+    dg = importlib.import_module("mlid.discrepancy.diagnose")
+    from mlid.discrepancy import effects
     m = mlid.LinearModel(F=F, G=G, H=np.eye(2), bx=BX, free=["bx(1)", "f(2,1)"])
     d = mlid.FlightData(np.arange(50) * 0.1, np.zeros((50, 1)), np.zeros((50, 2)))
     assert list(effects.scale_factor(m, d, 1).model.bx) == BX

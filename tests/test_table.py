@@ -1,4 +1,4 @@
-"""The results table (python/mlid/table.py): CSV and JSON read back to the
+"""The results table (python/mlid/estimate/table.py): CSV and JSON read back to the
 result's numbers, the LaTeX is a well-formed tabular, the DataFrame columns,
 units, the flag, and mlid run --table."""
 
@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import REPO
-from mlid.table import COLUMNS, FLAG_RATIO, ResultsTable, results_table
+from mlid.estimate.table import COLUMNS, FLAG_RATIO, ResultsTable, results_table
 
 F0 = np.array([[-0.02, -32.2, 0, 33.74], [0, 0, 1, 0], [0.003, 0, -1.588, -0.562],
                [-0.004, 0, 1, -0.737]])
@@ -28,7 +29,7 @@ NAMES = {"f(3,3)": "M_q", "f(3,4)": "M_alpha&#", "f(4,4)": "Z_{alpha}", "g(3,1)"
 def result():
     truth = mlid.LinearModel(F0, G0, np.eye(4), free=FREE, names=NAMES)
     t = np.arange(400) * 0.02
-    u = mlid.core.input_signal("3211", 0.08, 1.0, 0.5, 0.02, 400).reshape(-1, 1)
+    u = input_signal("3211", 0.08, 1.0, 0.5, 0.02, 400).reshape(-1, 1)
     data, _ = mlid.simulate(truth, t, u, noise_std=[0.35, 0.006, 0.006, 0.009], seed=3)
     return mlid.fit(truth, data)
 
@@ -153,7 +154,7 @@ def test_concat():
 
 
 def test_text_table_holds_every_row_at_its_printed_precision():
-    from mlid.table import ResultsTable
+    from mlid.estimate.table import ResultsTable
     rows = [{"name": "C_Lalpha", "unit": "1/rad", "estimate": 3.21174, "sigma_cr": 0.0394,
              "sigma_corrected": 0.128, "relative_sigma_percent": 3.987, "flag": True},
             {"name": "C_D0", "unit": "-", "estimate": 0.0, "sigma_cr": 1e-3,

@@ -1,4 +1,4 @@
-"""Nonlinear-term candidates of the equation-based kinds (mlid.terms): a
+"""Nonlinear-term candidates of the equation-based kinds (mlid.discrepancy.terms): a
 term appended to the model's own text leaves the model exact.  For the
 equations kind, the six-DOF kind and an equations model without states, on
 a seeded record simulated from a truth with one such term: the extended
@@ -13,8 +13,9 @@ import pytest
 from scipy.stats import chi2
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import finite_difference
-from mlid import terms
+from mlid.discrepancy import terms
 from test_sixdof import CONSTANTS, LAT_TRUTH
 
 # --- the equations kind: a short period with alpha^2 in the pitching moment --
@@ -36,7 +37,7 @@ def equations_record(coef=SP_COEF):
     """A 3211 on the elevator, 20 s at 50 Hz, noise 1e-3 rad, 2e-3 rad/s,
     0.05 m/s^2 (seeded); the base model fitted from the truth's values."""
     t = np.arange(1001) * 0.02
-    de = mlid.core.input_signal("3211", 0.05, 1.0, 0.5, 0.02, t.size)
+    de = input_signal("3211", 0.05, 1.0, 0.5, 0.02, t.size)
     truth = short_period(" + Maa*alpha^2", dict(SP_TRUTH, Maa=coef))
     data, _ = mlid.simulate(truth, t, de[:, None], noise_std=[1e-3, 2e-3, 5e-2], seed=1)
     return data, mlid.fit(short_period(free=list(SP_TRUTH)), data)
@@ -73,8 +74,8 @@ def sixdof_record(coef=SIX_COEF):
     0.05 m/s^2 (seeded); the base model fitted from the truth's values."""
     n = 801
     t = np.arange(n) * 0.05
-    da = mlid.core.input_signal("doublet", 0.05, 1.0, 1.0, 0.05, n)
-    dr = mlid.core.input_signal("doublet", 0.05, 12.0, 1.5, 0.05, n)
+    da = input_signal("doublet", 0.05, 1.0, 1.0, 0.05, n)
+    dr = input_signal("doublet", 0.05, 12.0, 1.5, 0.05, n)
     u = np.column_stack([da, dr, np.full(n, 99.0), np.full(n, 8.0), np.zeros(n),
                          np.full(n, 0.08)])
     truth = lateral(" + Clbb*abs(beta)*beta", dict(LAT_TRUTH, Clbb=coef))

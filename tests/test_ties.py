@@ -132,7 +132,7 @@ def test_the_deck_in_both_front_ends(tmp_path):
 
 
 def test_the_bode_band_samples_keep_affine_ties():
-    from mlid.plots import sampled_models
+    from mlid.report.plots import sampled_models
     ties = {"f(1,1)": "0.1 - 0.5*f(2,2)"}
     res = mlid.fit(model(ties, ["f(2,1)", "f(2,2)", "g(2,1)"]), record(model(ties, [])))
     draws = sampled_models(res, samples=20)

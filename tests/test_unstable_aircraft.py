@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid.reference import read_reference
+from mlid.report.reference import read_reference
 from conftest import REPO, assert_reproduces, both_front_ends_json, run_both
 
 DATA = REPO.parent / "shared" / "data"
@@ -38,7 +38,7 @@ def test_each_deck_reproduces_its_reference_in_both_front_ends(deck, tmp_path):
     assert_reproduces(both_front_ends_json(path, tmp_path), read_reference(DATA / "refs" / REFS[deck]))
     if deck in ("tc08", "tc09"):           # tc08: the wrong, stable model of the book's example
         case = mlid.read_deck(path)[0]
-        _, res = mlid.deck.run_case(case)
+        _, res = mlid.cli.deck.run_case(case)
         assert np.all(np.linalg.eigvals(res.model.F).real < 0) == (deck == "tc08")
 
 

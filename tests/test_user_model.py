@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import mlid
+from mlid.design.signals import input_signal
 from conftest import BIN, REPO, c8_truth
 
 TRUTH = [-0.8, -0.1, -4.0, 20.0, -1.2, -6.0]        # Z_a, Z_d, M_a, M_a3, M_q, M_d
@@ -21,7 +22,7 @@ TRUTH = [-0.8, -0.1, -4.0, 20.0, -1.2, -6.0]        # Z_a, Z_d, M_a, M_a3, M_q, 
          "Cm": ["1", "V/V0", "alpha", "alpha^2", "qhat", "de"]},
         {"CD": [0.1, -0.05, 0.23, 0.8], "CL": [-0.2, 3.2, 6.0], "Cm": [0.13, -0.01, -1.0, -0.4,
                                                                      -27.0, -1.4]},
-        dict(zip(mlid.model.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
+        dict(zip(mlid.model.models.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
                                         7472.0, 0.0524, 0.792, 1.215]))),
 ], ids=["user", "linear", "longitudinal"])
 def test_jacobians_of_every_model_kind(make):
@@ -35,7 +36,7 @@ def test_jacobians_of_every_model_kind(make):
 def test_user_model_fit_recovers_the_cubic_term():
     truth = mlid.UserModel(TRUTH, free=[f"p({k})" for k in range(1, 7)], r=[4e-6, 2.5e-5, 4e-4])
     t = np.arange(401) * 0.02
-    u = mlid.core.input_signal("doublet", 0.12, 1.0, 1.0, 0.02, 401)[:, None]
+    u = input_signal("doublet", 0.12, 1.0, 1.0, 0.02, 401)[:, None]
     data, _ = mlid.simulate(truth, t, u, seed=9)
     start = truth.with_theta(truth.theta * np.where(truth.free_mask == 1, 0.7, 1.0))
     res = mlid.fit(start, data)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid.model import X22_DERIVATIVES, X22_LABELS
+from mlid.model.models import X22_DERIVATIVES, X22_LABELS
 from conftest import REPO, finite_difference
 
 sys.path.insert(0, str(REPO / "cases" / "x22_vtol"))

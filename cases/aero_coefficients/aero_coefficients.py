@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 import mlid
-from mlid.reference import compare, read_reference
+from mlid.report.reference import compare, read_reference
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"

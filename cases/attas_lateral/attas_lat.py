@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mlid.deck import iter_deck
-from mlid.reference import compare, read_reference
+from mlid.cli.deck import iter_deck
+from mlid.report.reference import compare, read_reference
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 import mlid
-from mlid.deck import iter_deck
+from mlid.cli.deck import iter_deck
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"

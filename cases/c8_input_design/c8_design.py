@@ -164,7 +164,8 @@ def run(plots=None):
     weights = d.equalised(T_LONG, E_LONG, iterations=12)[0].weights
     out["square, equalised"] = (square.u, design(weights=weights).amplitude_limited(
         T_LONG, peak, 0.2).u)
-    out["table"] = [(name, u, mlid.design.summary(d.information(T_LONG, u))) for name, u in rows]
+    out["table"] = [(name, u, mlid.design.input_design.summary(d.information(T_LONG, u)))
+                    for name, u in rows]
     # state limit (§7.6): scale the energy so that |alpha| reaches the limit
     t, x = states_of(long.u, T_LONG)
     scale = ALPHA_LIMIT / np.max(np.abs(x[:, 1]))
@@ -172,7 +173,7 @@ def run(plots=None):
     # servo (§8.3) against a command doublet of equal energy through it
     ds, servo = servo_design(T_LONG, E_LONG)
     dbl = standard_input("doublet", T_LONG, len(servo.u), E_LONG)
-    out["servo"] = (servo, mlid.design.summary(ds.information(T_LONG, dbl)))
+    out["servo"] = (servo, mlid.design.input_design.summary(ds.information(T_LONG, dbl)))
     # gusts (§7.5): process noise on both equations, Gamma Q Gamma' = 0.5 I
     out["gusts"] = design(process_noise=0.5 * np.eye(2)).mu_max(T_LONG)
     if plots:

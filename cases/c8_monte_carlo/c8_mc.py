@@ -94,7 +94,7 @@ def search_truth(r=c8.R_SAMPLE):
         d = c8.design(c8.DESIGN_VALUES * np.array(f), r)
         logs, sig = [], {}
         for name, u in us.items():
-            s = mlid.design.summary(d.information(c8.T, u))
+            s = mlid.design.input_design.summary(d.information(c8.T, u))
             sig[name] = s["sigma"]
             keep = slice(0, 4) if name == "optimal" else slice(0, 5)
             logs += list(np.log(s["sigma"][keep] / np.array(ref[name]["CR sigma"])[keep]))
@@ -111,7 +111,7 @@ def statistics(mc, expected_info):
     est, info = mc["estimates"][ok], mc["information"][ok]
     cov = np.cov(est.T, ddof=0)
     avg = info.mean(axis=0)
-    exp = mlid.design.summary(expected_info)
+    exp = mlid.design.input_design.summary(expected_info)
     return {"runs": int(ok.sum()), "failed": int((~ok).sum()), "estimates": est,
             "mean": est.mean(axis=0), "sample sigma": np.sqrt(np.diag(cov)),
             "sample cov trace": float(np.trace(cov)), "sample cov det": float(np.linalg.det(cov)),
@@ -178,7 +178,7 @@ def two_sided(theta):
     """§8.3 at theta: the information of each two-sided input through the
     0.2 s first-order servo."""
     d = c8.servo_design(theta, SERVO_TAU)
-    return {k: mlid.design.summary(d.information(T_TWO_SIDED, v))
+    return {k: mlid.design.input_design.summary(d.information(T_TWO_SIDED, v))
             for k, v in two_sided_inputs().items()}
 
 

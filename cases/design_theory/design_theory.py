@@ -20,7 +20,7 @@ import sys
 import numpy as np
 
 import mlid
-from mlid import design_closed_forms as cf
+from mlid.design import closed_forms as cf
 
 # 1. Levadi (§7.4.2): x' = -x + b u, y = x + v, E{v v} = c exp(-a|tau|); ours: a, c, T
 A_WIDE, A_NARROW, C_NOISE, T_LEVADI = 3.0, 0.5, 1.0, 2.0
@@ -118,7 +118,8 @@ def state_penalty():
         _, x = d.response(T_C8, p.u)
         s = ALPHA_LIMIT / np.max(np.abs(x[:, 1]))
         rows.append({"k": k, "mu": p.mu, "energy": E_C8 * s**2, "peak q": np.max(np.abs(x[:, 0])) * s,
-                     "peak u": np.max(np.abs(p.u)) * s, "summary": mlid.design.summary(p.M * s**2)})
+                     "peak u": np.max(np.abs(p.u)) * s,
+                     "summary": mlid.design.input_design.summary(p.M * s**2)})
     k_check = 80.0
     mu80 = d.state_penalised(T_C8, E_C8, [0.0, k_check]).mu
     lengths = (d.penalised_length(mu80, [0.0, k_check]),

@@ -25,6 +25,7 @@ import warnings
 import numpy as np
 
 import mlid
+from mlid.design.signals import input_signal
 
 DT, T_END = 0.05, 30.0
 SUB = 50                      # steps per sample in the truth simulation
@@ -81,8 +82,8 @@ def truth_by_label(realised):
 
 
 def inputs(t):
-    da = mlid.core.input_signal("3211", 0.08, 1.0, 0.5, DT, t.size)
-    dr = mlid.core.input_signal("doublet", 0.06, 9.0, 1.0, DT, t.size)
+    da = input_signal("3211", 0.08, 1.0, 0.5, DT, t.size)
+    dr = input_signal("doublet", 0.06, 9.0, 1.0, DT, t.size)
     # the lateral velocity, measured and used as an input: a lightly damped
     # response to the rudder, as the Dutch roll gives it
     v, vd, om, ze = 0.0, 0.0, 1.8, 0.15

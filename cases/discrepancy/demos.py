@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 import mlid
-from mlid import effects
+from mlid.discrepancy import effects
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "m2f3_gusts"))
@@ -55,7 +55,7 @@ def hl10_demo():
 
 def hfb_demo():
     """The real HFB-320 record, every family its model kind takes, the
-    held-out verdicts built in (mlid.holdout: the last third)."""
+    held-out verdicts built in (mlid.discrepancy.holdout: the last third)."""
     case = mlid.read_deck(HFB_DECK)[0]
     return mlid.diagnose(case.model, case.record())
 
@@ -70,7 +70,7 @@ def main(argv=None):
         print(d.report())
         rms = math.sqrt(effects.gust_variance(m2f3.TAU, m2f3.DT)[0] * m2f3.Q_GUST)
         print(f"  truth (cases/m2f3_gusts, ours): gust time constant {m2f3.TAU} s, gust "
-              f"standard deviation {rms:.4g} deg (mlid.effects.gust_variance, q = "
+              f"standard deviation {rms:.4g} deg (mlid.discrepancy.effects.gust_variance, q = "
               f"{m2f3.Q_GUST})")
         if args.plots:
             print(f" plot: {d.plot(Path(args.plots) / 'm2f3')}")

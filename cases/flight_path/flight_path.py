@@ -15,9 +15,9 @@ import numpy as np
 
 import mlid
 
-from mlid import compatibility
-from mlid.deck import iter_deck
-from mlid.reference import compare, read_reference
+from mlid.estimate import compatibility
+from mlid.cli.deck import iter_deck
+from mlid.report.reference import compare, read_reference
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"

@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 
 import mlid
-from mlid import plots
-from mlid.deck import iter_deck
-from mlid.reference import compare, read_reference
+from mlid.report import plots
+from mlid.cli.deck import iter_deck
+from mlid.report.reference import compare, read_reference
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mlid.deck import iter_deck
+from mlid.cli.deck import iter_deck
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"

@@ -19,6 +19,7 @@ import sys
 import numpy as np
 
 import mlid
+from mlid.design.signals import input_signal
 
 ALPHA = np.radians(16.8)          # Table 5.3 heading / §5.2: alpha = 16.8 deg
 V = 1181.0                        # ft/s: Mach 1.22 at 45,000 ft (ours)
@@ -58,8 +59,8 @@ def record(seed=SEED, k_yaw=K_YAW, noise_scale=1.0, nt=NT, rudder=0.2):
     closed = mlid.LinearModel(F + loop, G, H + np.outer(D[:, 1], [0.0, k_yaw, 0.0, 0.0]), D,
                               r=np.square(np.multiply(NOISE_STD, noise_scale)))
     t = np.arange(nt) * DT
-    da = mlid.core.input_signal("3211", 2.0, 0.5, 0.3, DT, nt)       # aileron, deg
-    dr_pilot = mlid.core.input_signal("doublet", rudder, 3.5, 0.3, DT, nt)   # weak rudder, deg
+    da = input_signal("3211", 2.0, 0.5, 0.3, DT, nt)       # aileron, deg
+    dr_pilot = input_signal("doublet", rudder, 3.5, 0.3, DT, nt)   # weak rudder, deg
     sim, x = mlid.simulate(closed, t, np.column_stack([da, dr_pilot]), seed=seed)
     return mlid.FlightData(t, np.column_stack([da, dr_pilot + k_yaw * x[:, 1]]), sim.y,
                            ["delta_a", "delta_r"], ["p", "r", "beta", "phi", "a_y'"])
@@ -264,8 +265,8 @@ def run(plots=None):
     part = mlid.fit(model(list(ELEMENT)), first, rank_min=10, rank_rule="staged")
     pred = mlid.predict(part, data, 227)
     if plots:
-        from mlid.analysis import plot_prediction
-        from mlid.plots import plot_fit
+        from mlid.discrepancy.model_checks import plot_prediction
+        from mlid.report.plots import plot_fit
         plot_fit(results["unconstrained"], plots, "hl10_unconstrained")
         plot_fit(results["rank-def., staged"], plots, "hl10_rank_deficient")
         plot_prediction(data, pred["prediction"], 227, f"{plots}/hl10_prediction.png")

@@ -19,6 +19,7 @@ import sys
 import numpy as np
 
 import mlid
+from mlid.design.signals import input_signal
 
 # --- flight condition and truth (README: sources) -------------------------
 ALPHA = np.radians(1.57)          # Table 5.4 heading / §5.3: alpha = 1.57 deg
@@ -72,8 +73,8 @@ def model(values, a=-1 / TAU, q=Q_GUST, r=None, free=(), gust=True):
 
 def record():
     t = np.arange(NT) * DT
-    da = mlid.core.input_signal("3211", 2.0, 0.5, 0.4, DT, NT)     # aileron, deg
-    dr = mlid.core.input_signal("doublet", 2.0, 4.0, 0.5, DT, NT)  # rudder, deg
+    da = input_signal("3211", 2.0, 0.5, 0.4, DT, NT)     # aileron, deg
+    dr = input_signal("doublet", 2.0, 4.0, 0.5, DT, NT)  # rudder, deg
     data, states = mlid.simulate(model(WT), t, np.column_stack([da, dr]), seed=SEED)
     data.input_names = ["delta_a", "delta_r"]
     data.output_names = ["p", "r", "beta", "phi", "a_y'"]
@@ -131,7 +132,7 @@ def run(plots=None):
     fe = mlid.fit(direct, data, method="filter_error")
     out["filter error"] = fe
     if plots:
-        from mlid.plots import plot_fit
+        from mlid.report.plots import plot_fit
         for key, res, stem in (("output error", oe, "m2f3_output_error"),
                                ("perfect beta", pb, "m2f3_perfect_beta"),
                                ("filter error", fe, "m2f3_filter_error")):

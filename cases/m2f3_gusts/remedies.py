@@ -20,6 +20,7 @@ import numpy as np
 
 import m2f3
 import mlid
+from mlid.design.signals import input_signal
 
 K_ROLL, K_YAW = -0.3, 1.0         # deg surface per deg/s of p and of r, both damping (ours)
 KEY = ["L_p", "N_p", "L_r", "N_r", "L_da", "N_da", "L_dr", "N_dr"]   # the damper-coupled eight
@@ -34,8 +35,8 @@ def record():
     closed = mlid.LinearModel(m.F + m.G @ k, m.G, m.H + m.D @ k, m.D, Gamma=m.Gamma, q=m.q,
                               r=m.r)
     t = np.arange(m2f3.NT) * m2f3.DT
-    pilot = np.column_stack([mlid.core.input_signal("3211", 0.5, 0.5, 0.4, m2f3.DT, m2f3.NT),
-                             mlid.core.input_signal("doublet", 0.1, 4.0, 0.5, m2f3.DT, m2f3.NT)])
+    pilot = np.column_stack([input_signal("3211", 0.5, 0.5, 0.4, m2f3.DT, m2f3.NT),
+                             input_signal("doublet", 0.1, 4.0, 0.5, m2f3.DT, m2f3.NT)])
     sim, x = mlid.simulate(closed, t, pilot, seed=m2f3.SEED)
     return mlid.FlightData(t, pilot + x @ k.T, sim.y, ["delta_a", "delta_r"],
                            ["p", "r", "beta", "phi", "a_y'"])

@@ -23,7 +23,8 @@ import time
 import numpy as np
 
 import mlid
-from mlid.model import X22_DERIVATIVES, X22_LABELS
+from mlid.design.signals import input_signal
+from mlid.model.models import X22_DERIVATIVES, X22_LABELS
 
 D2R = np.pi / 180
 # Table 5.1, first column (CASES.md §2), in the report's units: coefficients of
@@ -76,12 +77,12 @@ def elevator(kind, amplitude=None):
     a 3-2-1-1 and a doublet of 0.6 of its amplitude for the short period
     (Fig. 5.2 is lost)."""
     if kind == "step":
-        d = mlid.core.input_signal("step", amplitude or STEP, 1.0, 0.0, DT, NT)
+        d = input_signal("step", amplitude or STEP, 1.0, 0.0, DT, NT)
     else:
         a = amplitude or MULTISTEP
-        d = (mlid.core.input_signal("pulse", a, 0.5, 3.0, DT, NT)
-             + mlid.core.input_signal("3211", 0.6 * a, 4.5, 0.3, DT, NT)
-             + mlid.core.input_signal("doublet", -0.6 * a, 7.5, 0.6, DT, NT))
+        d = (input_signal("pulse", a, 0.5, 3.0, DT, NT)
+             + input_signal("3211", 0.6 * a, 4.5, 0.3, DT, NT)
+             + input_signal("doublet", -0.6 * a, 7.5, 0.6, DT, NT))
     return DELTA0 + d
 
 

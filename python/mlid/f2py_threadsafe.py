@@ -1,4 +1,4 @@
-"""Build step (not installed): a copy of fortran/mlid_api.f90 for f2py to
+"""Build step (not installed): a copy of fortran/api/mlid_api.f90 for f2py to
 read, with '!f2py threadsafe' in the numerical routines named below, so their
 wrappers release the GIL while the core runs (Python threads then run fits
 side by side: mlid.monte_carlo_parallel).

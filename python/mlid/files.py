@@ -9,7 +9,7 @@ from pathlib import Path
 
 from .errors import InputError
 
-# the reasons a file cannot be written, in mlid-batch's words (fortran/mlid_files.f90)
+# the reasons a file cannot be written, in mlid-batch's words (fortran/base/mlid_files.f90)
 NOT_WRITABLE = "(its folder is missing or not writable)"
 A_FOLDER = "(a folder of that name)"
 FULL = "(the disk is full or the file went away)"

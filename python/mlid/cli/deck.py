@@ -1,0 +1,296 @@
+"""Batch decks, read by the core's reader (fortran/case/mlid_deck.f90), the one
+mlid-batch uses: Python only turns each case spec into objects.  See
+README.md for every group and name."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .._bridge import Handle, api as _api, lines as _lines, text as _text
+from ..data import formats
+from ..data.flight_data import FlightData, read_status
+from ..errors import InputError, MlidError, check_status, guarded, status_of
+from ..estimate.compatibility import write_corrected
+from ..estimate.fit import fit
+from ..estimate.options import options_by_name
+from ..model.models import from_core
+from ..report.validation import validate
+
+
+#: The numeric flight-condition items of &case, in the core's order.
+CONDITIONS = tuple(n.strip() for n in _text(_api.mlid_condition_names()).split(","))
+
+
+class Case:
+    """Case k of a deck: what to run, or why it cannot run (``error``).  The
+    deck's cases stay in the core, in the handle its cases share."""
+
+    def __init__(self, deck, handle, k):
+        self._handle = handle
+        h = handle.value
+        (self.line, title, job, status, msg, mkind, nx, nu, ny, nw, nth, nf, nic, nrc, nfile,
+         nt) = _api.mlid_deck_case(h, k)
+        self.index, self.deck, self.title, self.job = k, Path(deck), _text(title), _text(job)
+        self._title = title.rstrip()      # the deck's own bytes, for the core's JSON
+        self.error = _text(msg) if status else None
+        values, given, config, tags = _api.mlid_deck_case_condition(h, k, len(CONDITIONS))
+        self._condition = {n: float(v) for n, v, g in zip(CONDITIONS, values, given) if g}
+        if _text(config):
+            self._condition["config"] = _text(config)
+        if _text(tags):
+            self._condition["tags"] = [t.strip() for t in _text(tags).split(",") if t.strip()]
+        self.model = None
+        self.warnings = []                # the records' (record()), as mlid-batch says them
+        if self.error:
+            return
+        (theta, isfree, iconst, rconst, iopt, ropt, labels, use_prior, prior, pweight,
+         use_bounds, lower, upper) = _api.mlid_deck_case_model(h, k, nth, nf, nic, nrc)
+        opts = options_by_name(iopt, ropt)
+        n, to, frm, scale, offset = _api.mlid_deck_case_ties(h, k, nth, 16 * nth)
+        ties = (to[:n], frm[:n], scale[:n], offset)
+        self.model = from_core(mkind, (nx, nu, ny, nw), iconst, rconst, theta, isfree, ties,
+                               _lines(labels), opts.pop("input_hold"), opts.pop("substeps"))
+        free = [self.model.element_names()[j] for j in np.flatnonzero(isfree)]
+        if use_prior:
+            opts.update(prior=dict(zip(free, prior[isfree == 1])), prior_weight=pweight)
+        if use_bounds:
+            big = np.finfo(float).max
+            # a NaN bound goes on to the core, which refuses it as mlid-batch does
+            opts["bounds"] = {f: (None if lo <= -big else lo, None if hi >= big else hi)
+                              for f, lo, hi in zip(free, lower[isfree == 1], upper[isfree == 1])
+                              if not (lo <= -big and hi >= big)}
+        self._options = opts
+        self._sizes = (nu, ny)
+        self._files = [_api.mlid_deck_case_data(h, k, j) for j in range(1, max(nfile, 1) + 1)]
+        n, holdout = _api.mlid_deck_case_holdout(h, k, max(nfile, 1))
+        self.holdout = [int(j) for j in holdout[:n]]   # validate: the files predicted
+        # kind flight_path: where each manoeuvre's corrected record goes (&estimate corrected)
+        self.corrected = [p for p in (_text(_api.mlid_deck_case_corrected(h, k, j))
+                                      for j in range(1, nfile + 1)) if p]
+        n, x0 = _api.mlid_deck_case_initial_states(h, k, max(nx, 1) * max(nfile, 1))
+        if n and nfile > 1:                            # each manoeuvre's own x0
+            self._options["initial_states"] = list(x0[:n].reshape(-1, nx))
+        elif n:
+            self.model.x0 = x0[:n]
+
+    def where(self):
+        return f"{self.deck} case {self.index} (line {self.line}) '{self.title}'"
+
+    @property
+    def condition(self):
+        """The flight condition the deck gives in &case: {name: value} of
+        the numeric items given (CONDITIONS), 'config' and 'tags' (a list)
+        when given."""
+        return dict(self._condition)
+
+
+    def channel_names(self):
+        """The deck's input and output names (None where not given)."""
+        return tuple(_lines(n) or None for n in self._files[0][-2:])
+
+    def record(self, files=None):
+        """The FlightData of an estimate case, read from its data files as the
+        core reads them for mlid-batch (channels, units, derived channels,
+        windows, units shown); .mat and HDF5 files are read by this front
+        end into a table the core then takes the same way.  A list when the
+        case names several files (several manoeuvres) or ``files`` is given:
+        the numbers (from 1) of the files to read, in that order.  Warnings
+        of the reader (a channel declared in rad beyond 2 pi) are
+        MlidWarnings, and are added to ``warnings``."""
+        inputs, outputs = self.channel_names()
+        numbers = range(1, len(self._files) + 1) if files is None else files
+        records = []
+        for j in numbers:
+            path = _text(self._files[j - 1][0])
+            if formats.is_binary(path):
+                x, names, units = formats.read_table(path)
+                nt, status, msg = _api.mlid_deck_case_table(
+                    self._handle.value, self.index, j, x, "\n".join(names) + "\n",
+                    "\n".join(units) + "\n")
+            else:
+                nt, status, msg = _api.mlid_deck_case_record(self._handle.value, self.index, j)
+            note = read_status(status, msg)
+            if note:
+                self.warnings.append(note)
+            records.append(FlightData._taken(self._handle, *self._sizes, nt, path, inputs,
+                                             outputs))
+        return records[0] if len(records) == 1 and files is None else records
+
+    def options(self):
+        """Options for fit(): the &estimate group by name, with prior,
+        prior_weight and bounds where the deck gives them."""
+        return dict(self._options)
+
+
+#: The deck jobs the core runs whole, for both front ends (fortran/case/mlid_jobs.f90).
+CORE_JOBS = tuple(_text(_api.mlid_name_list("core_jobs")).split())
+
+
+class JobOutput(dict):
+    """What a job the core runs whole (simulate, design, monte_carlo) gave:
+    its JSON object as a dict, ``report`` (the lines mlid-batch prints) and
+    ``json_text`` (the bytes mlid-batch writes)."""
+
+    def __init__(self, report, json_text):
+        super().__init__(json.loads(json_text))
+        self.report, self.json_text = report, json_text
+
+
+def case_json(case, out=None, result=None, error=None):
+    """The JSON object of a case as the core writes it (mlid-batch writes the
+    same bytes): a fit's when there is one, a core job's, else title, job,
+    status and message."""
+    if isinstance(out, JobOutput) and error is None:
+        return out.json_text
+    if result is not None and not getattr(error, "reported_only", False):
+        text = result.json(case._title, case.job)
+        validation = getattr(result, "validation", None)
+        if validation is not None:        # as mlid-batch adds it
+            text = text[:-1] + ",\n" + validation.json_member() + "}"
+        return text
+    samples, path = (out["samples"], out["out"]) if out and "samples" in out else (-1, "")
+    status = 0 if error is None else status_of(error)
+    text, n = _api.mlid_case_json(case._title, case.job, status, str(error or ""), samples,
+                                  path)
+    return text[:n].decode(errors="replace")
+
+
+def json_list(objects):
+    """The --json file: the cases' objects as one list (as mlid-batch writes it)."""
+    return "[\n" + ",\n".join(objects) + ("\n" if objects else "") + "]\n"
+
+
+@guarded
+def read_deck(path):
+    """All cases of a deck, read by the core's reader (the one mlid-batch uses).
+
+    Parameters
+    ----------
+    path : str or Path
+        The namelist deck.
+
+    Returns
+    -------
+    list of Case
+        One per ``&case``, in order; a case that cannot run carries its
+        ``error`` (one line naming the group and problem) instead of a model.
+
+    Raises
+    ------
+    InputError
+        If the deck cannot be read at all (missing, empty, unreadable).
+    """
+    path = Path(path)
+    handle = Handle()
+    ncases, status, msg = _api.mlid_deck_open(handle.value, str(path))
+    check_status(status, msg)
+    return [Case(path, handle, k) for k in range(1, ncases + 1)]
+
+
+@guarded
+def run_case(case):
+    """Run one case; returns a dict (JSON-ready) and, for fits, the FitResult.
+    Simulate, design and monte_carlo cases run whole in the core: their dict
+    is a JobOutput (with the report and JSON the core wrote) and no FitResult."""
+    case.warnings = []
+    if case.error:
+        raise InputError(case.error)
+    if case.job in CORE_JOBS:              # run whole by the core, as mlid-batch runs it
+        report, nreport, text, njson, status, msg = _api.mlid_deck_case_run(case._handle.value, case.index)
+        check_status(status, msg)
+        return JobOutput(report[:nreport].decode(errors="replace"),
+                         text[:njson].decode(errors="replace")), None
+    if case.job == "validate":
+        result = _validate_case(case)
+    else:
+        data = case.record()
+        if case.corrected:                   # before a long fit, as mlid-batch checks them
+            check_status(*_api.mlid_deck_case_corrected_writable(case._handle.value,
+                                                                  case.index))
+        result = fit(case.model, data, **case.options())
+        if case.corrected and result.status == 0:
+            _write_corrected(result, case.corrected)
+        elif case.corrected:
+            result.corrected_note = "corrected records not written: the fit did not end well"
+    out = {"title": case.title, "job": case.job, "status": result.status,
+           "message": result.message}
+    out.update(result.as_dict())
+    if getattr(result, "validation", None) is not None:
+        out["validation"] = result.validation.as_dict()
+    return out, result
+
+
+def _write_corrected(result, paths):
+    """The manoeuvres' corrected records, as mlid-batch writes them; the
+    paths written go to the result as they are written (the report names
+    them).  A failure is the case's, after the fit's report."""
+    result.corrected_paths = []
+    try:
+        write_corrected(result, paths, result.corrected_paths)
+    except MlidError as exc:
+        exc.result, exc.reported_only = result, True
+        raise
+
+
+def _validate_case(case):
+    """Fit a validate case on the files it does not hold out, then predict
+    those it does (mlid.validate); the FitResult carries the Validation."""
+    # read as mlid-batch reads them (its warnings in the same order): the
+    # files fitted, then those held out, each part in file order
+    numbers = range(1, len(case._files) + 1)
+    fitted = case.record([j for j in numbers if j not in case.holdout])
+    kept = sorted(case.holdout)
+    by_number = dict(zip(kept, case.record(kept)))
+    held = [by_number[j] for j in kept]    # joined in file order, as mlid-batch joins them
+    result = fit(case.model, fitted if len(fitted) > 1 else fitted[0], **case.options())
+    if result.status != 0:                 # no prediction from a fit that did not end well
+        return result
+    try:
+        result.validation = validate(result, held if len(held) > 1 else held[0],
+                                     holdout=case.holdout)
+    except MlidError as exc:                # one line, as mlid-batch says it; the report of
+        err = type(exc)(f"prediction of the held-out files: {exc}")   # the fit, not its JSON
+        err.result, err.reported_only = result, True
+        raise err from None
+    return result
+
+
+def iter_deck(path):
+    """Run every case of a deck in order, yielding (case, output dict or None,
+    FitResult or None, the MlidError or None) as each ends; a failing case
+    does not stop the others."""
+    return run_cases(read_deck(path))
+
+
+def run_cases(cases):
+    """As ``iter_deck`` for cases ``read_deck`` has read already."""
+    for case in cases:
+        try:
+            out, result = run_case(case)
+            yield case, out, result, None
+        except MlidError as exc:
+            yield case, None, getattr(exc, "result", None), exc
+
+
+def run_deck(path):
+    """Every case of a deck run in order.
+
+    Parameters
+    ----------
+    path : str or Path
+        The namelist deck.
+
+    Returns
+    -------
+    list of tuple
+        What ``iter_deck`` yields for each case: (case, output dict or None,
+        FitResult or None, MlidError or None); a failing case does not stop
+        the others.
+
+    Raises
+    ------
+    InputError
+        If the deck cannot be read at all.
+    """
+    return list(iter_deck(path))

@@ -1,0 +1,610 @@
+"""Optimal input design for linear models (report §VII-VIII): thin wrappers
+over fortran/design/mlid_design.f90.
+
+    d = mlid.InputDesign(F, G, H, R, ["f(1,1)", "f(1,2)", "g(1,1)"])
+    mu = d.mu_max(T=4.0)                       # operator method (eq. 7.39)
+    T = d.critical_length(mu, "riccati")      # or "transition" (eqs 7.25-7.34)
+    inp = d.optimal_input(T=4.0, energy=311)  # u(t), M, det M, sigma, ...
+
+R is the spectral density of the continuous measurement noise (eq. 7.11).
+"""
+
+import re
+
+import numpy as np
+
+from .._bridge import api as _api
+from ..checks import real_array, whole
+from ..errors import InputError, check_status, guarded, guarded_class
+
+_UNKNOWN = re.compile(r"^\s*([fgh])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*$", re.IGNORECASE)
+
+
+@guarded
+def summary(M):
+    """What the report tabulates for an information matrix (§8.1).
+
+    Parameters
+    ----------
+    M : array_like (n, n)
+        An information matrix.
+
+    Returns
+    -------
+    dict
+        ``trace``, ``det``, ``eigenvalues`` (ascending), ``trace_product``
+        tr M tr M^-1, ``sigma`` (Cramer-Rao: sqrt of diag M^-1) and
+        ``spread`` (largest over smallest eigenvalue).  A singular M (an
+        unknown the input does not reach) gives det 0, infinite
+        trace_product and spread, and sigma from the pseudo-inverse
+        (infinite where M's diagonal is zero).
+
+    Raises
+    ------
+    InputError
+        If M is not square.
+    """
+    M = real_array("M", M)
+    if M.ndim != 2 or M.shape[0] != M.shape[1]:
+        raise InputError(f"M must be a square information matrix, got shape {M.shape}")
+    eig = np.linalg.eigvalsh(M)
+    if eig[0] <= 1e-13 * eig[-1]:               # an unknown the input does not reach
+        sigma = np.where(np.diag(M) > 0, np.sqrt(np.diag(np.linalg.pinv(M))), np.inf)
+        return {"trace": float(np.trace(M)), "det": 0.0, "eigenvalues": eig,
+                "trace_product": np.inf, "sigma": sigma, "spread": np.inf}
+    inv = np.linalg.inv(M)
+    return {"trace": float(np.trace(M)), "det": float(np.linalg.det(M)), "eigenvalues": eig,
+            "trace_product": float(np.trace(M) * np.trace(inv)),
+            "sigma": np.sqrt(np.diag(inv)), "spread": float(eig[-1] / eig[0])}
+
+
+class DesignedInput:
+    """An input on [0, T] held over equal cells, and its information.
+
+    Parameters
+    ----------
+    t_edges : ndarray (cells + 1,)
+        Cell edges, 0 to T.
+    u : ndarray (cells, nu)
+        The input on each cell.
+    M : ndarray (n, n)
+        Its (unweighted) information matrix; ``summary`` holds
+        ``summary(M)``.
+    mu : float, optional
+        The design operator's eigenvalue, for energy-optimal inputs.
+    energy : float, optional
+        The integral of u'u over [0, T] (default: computed from u).
+    weights : ndarray, optional
+        The weights of the unknowns it was designed for.
+    """
+
+    def __init__(self, t_edges, u, M, mu=None, energy=None, weights=None):
+        self.t_edges, self.u, self.M, self.mu = t_edges, u, M, mu
+        self.energy = float(np.sum(u**2) * (t_edges[1] - t_edges[0])) if energy is None else energy
+        self.weights = weights
+        self.summary = summary(M)
+
+    @property
+    def t(self):
+        """Cell midpoints."""
+        return 0.5 * (self.t_edges[1:] + self.t_edges[:-1])
+
+    def spectrum(self):
+        """|Fourier transform| of the first input (Fig. 8.4), zero-padded eightfold.
+
+        Returns
+        -------
+        omega : ndarray
+            Frequencies [rad/s].
+        magnitude : ndarray
+            |U(omega)|.
+        """
+        dt = self.t_edges[1] - self.t_edges[0]
+        n = 8 * len(self.u)                      # zero padding for a smooth curve
+        spec = np.abs(np.fft.rfft(self.u[:, 0], n)) * dt
+        return 2 * np.pi * np.fft.rfftfreq(n, dt), spec
+
+
+@guarded_class
+class InputDesign:
+    """The linear model x' = F x + G u (+ Gamma eta), z = H x + n
+    (E{n n'} = R delta) and the unknowns, elements of F, G or H named
+    'f(i,j)', 'g(i,j)', 'h(i,j)'.  process_noise: Gamma Q Gamma' (nx x nx);
+    the design then uses the steady-state Kalman filter's sensitivities
+    (§7.5, eq. 7.84).
+
+    Parameters
+    ----------
+    F : array_like (nx, nx)
+    G : array_like (nx, nu)
+    H : array_like (ny, nx)
+    R : array_like (ny, ny)
+        Spectral density of the continuous measurement noise (eq. 7.11).
+    unknowns : list of str
+        The parameters the input is designed for: 'f(i,j)', 'g(i,j)',
+        'h(i,j)', 1-based.
+    weights : array_like, optional
+        One per unknown (default ones): the design maximises tr(W M).
+    process_noise : array_like (nx, nx), optional
+        Gamma Q Gamma' (default none).
+
+    Raises
+    ------
+    InputError
+        Matrices that do not fit together, unknowns that are not elements of
+        F, G or H or are listed twice, weights not one per unknown.
+    """
+
+    def __init__(self, F, G, H, R, unknowns, weights=None, process_noise=None):
+        self.F, self.G, self.H, self.R = (np.asfortranarray(np.atleast_2d(real_array(n, a)))
+                                          for n, a in (("F", F), ("G", G), ("H", H), ("R", R)))
+        nx, nu, ny = self.F.shape[0], self.G.shape[1], self.H.shape[0]
+        if self.F.shape != (nx, nx) or self.G.shape[0] != nx or self.H.shape[1] != nx \
+                or self.R.shape != (ny, ny):
+            raise InputError(f"F {self.F.shape}, G {self.G.shape}, H {self.H.shape} and R "
+                             f"{self.R.shape} do not fit together")
+        if isinstance(unknowns, str):
+            raise InputError("unknowns must be a list of names such as ['f(1,1)', 'g(2,1)']")
+        self.unknowns = list(unknowns)
+        kinds, rows, cols = [], [], []
+        for name in self.unknowns:
+            m = _UNKNOWN.match(str(name))
+            if not m:
+                raise InputError(f"unknown {name!r}: name an element of F, G or H as 'f(i,j)'")
+            key, i, j = m.group(1).lower(), int(m.group(2)), int(m.group(3))
+            shape = {"f": self.F, "g": self.G, "h": self.H}[key].shape
+            if not (1 <= i <= shape[0] and 1 <= j <= shape[1]):
+                raise InputError(f"unknown {name!r} is not an element of {key.upper()} "
+                                 f"({shape[0]}x{shape[1]})")
+            if (key, i, j) in zip(kinds, rows, cols):
+                raise InputError(f"unknown {name!r} is listed twice")
+            kinds.append(key)
+            rows.append(i)
+            cols.append(j)
+        kinds = ["fgh".index(k) + 1 for k in kinds]
+        self._unk = {"ukind": np.array(kinds, np.int32), "urow": np.array(rows, np.int32),
+                     "ucol": np.array(cols, np.int32)}
+        self.weights = np.ones(len(self.unknowns)) if weights is None else \
+            np.asarray(weights, dtype=float)
+        if self.weights.shape != (len(self.unknowns),):
+            raise InputError(f"weights: one per unknown ({len(self.unknowns)})")
+        self.process_noise = np.zeros((nx, nx)) if process_noise is None else \
+            np.asfortranarray(np.asarray(process_noise, dtype=float))
+        if self.process_noise.shape != (nx, nx):
+            raise InputError(f"process_noise must be {nx}x{nx} (Gamma Q Gamma')")
+
+    def _args(self):
+        return dict(f=self.F, g=self.G, h=self.H, r=self.R, gq=self.process_noise, **self._unk)
+
+    def with_weights(self, weights):
+        """The same design problem with other weights.
+
+        Parameters
+        ----------
+        weights : array_like
+            One per unknown.
+
+        Returns
+        -------
+        InputDesign
+        """
+        return InputDesign(self.F, self.G, self.H, self.R, self.unknowns, weights,
+                           self.process_noise)
+
+    def with_model(self, F=None, G=None, H=None):
+        """The same unknowns, R, weights and process noise for other matrices.
+
+        Parameters
+        ----------
+        F, G, H : array_like, optional
+            Replacements (default: the design's own).
+
+        Returns
+        -------
+        InputDesign
+        """
+        return InputDesign(self.F if F is None else F, self.G if G is None else G,
+                           self.H if H is None else H, self.R, self.unknowns, self.weights,
+                           self.process_noise)
+
+    @staticmethod
+    def _cells(cells):
+        return whole("cells", cells, 4, 10**6)     # the core bounds cells x inputs too
+
+    def _cells_input(self, u):
+        """u as (cells, nu), one row per cell (a vector for one input)."""
+        u = real_array("u", u)
+        nu = self.G.shape[1]
+        u = u.reshape(-1, 1) if u.ndim == 1 and nu == 1 else u
+        if u.ndim != 2 or u.shape[1] != nu:
+            raise InputError(f"u has shape {u.shape}; expected (cells, {nu}), one row per cell")
+        return u
+
+    def _check_t(self, T, what="T"):
+        if isinstance(T, (str, bytes)) or not (np.isfinite(T) and T > 0):
+            raise InputError(f"{what} must be > 0, got {T}")
+
+    def mu_max(self, T, cells=200, method="operator"):
+        """The largest eigenvalue mu of the design operator on [0, T]:
+        max tr(WM) = mu E.
+
+        Parameters
+        ----------
+        T : float
+            Length of the input [s], > 0.
+        cells : int
+            Input cells of the operator method (4 or more).
+        method : {'operator', 'riccati'}
+            'operator': eq. 7.39 on cells and 2*cells input cells,
+            Richardson-extrapolated; 'riccati': the secant of eq. 7.89 on the
+            Riccati critical length, started from the operator's value +-0.1%
+            (near mu's supremum over T, a wider bracket has no conjugate
+            point).
+
+        Returns
+        -------
+        float
+
+        Raises
+        ------
+        InputError
+            T not > 0, bad cells or method, matrices the core refuses (R not
+            positive definite, weights not > 0, values not finite).
+        SingularInformationError
+            The unknowns do not affect the outputs.
+        NonConvergenceError
+            With process noise, the steady-state filter did not converge;
+            'riccati', the secant did not.
+        """
+        self._check_t(T)
+        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, kx=self._penalty(), t=float(T),
+                                                  ncell=self._cells(cells), **self._args())
+        check_status(status, msg)
+        if method == "operator":
+            return float(mu)
+        if method != "riccati":
+            raise InputError(f"method must be 'operator' or 'riccati', got {method!r}")
+        mu2, status, msg = _api.mlid_design_mu_for_length(w=self.weights, td=float(T), mu0=mu,
+                                                          **self._args())
+        check_status(status, msg)
+        return float(mu2)
+
+    _SOLVERS = {"riccati": 1, "transition": 2}
+
+    def _solver(self, method):
+        if method not in self._SOLVERS:
+            raise InputError(f"method must be one of {', '.join(map(repr, self._SOLVERS))}, got "
+                             f"{method!r}")
+        return self._SOLVERS[method]
+
+    def critical_length(self, mu, method="riccati", tmax=100.0):
+        """The interval length T whose largest eigenvalue is mu (the first
+        conjugate point).
+
+        Parameters
+        ----------
+        mu : float
+            The eigenvalue, > 0.
+        method : {'riccati', 'transition'}
+            'riccati' (eqs 7.31-7.34, §7.7) or 'transition' (eqs 7.25-7.29).
+        tmax : float
+            The longest T searched.
+
+        Returns
+        -------
+        float or (float, ndarray)
+            T; with 'transition', (T, lambda(0)) (the costate's start, for
+            ``optimal_input``).
+
+        Raises
+        ------
+        InputError
+            mu not > 0, an unknown method.
+        NonConvergenceError
+            No conjugate point up to tmax.
+        """
+        if not mu > 0:
+            raise InputError(f"mu must be > 0, got {mu}")
+        na = (len(self.unknowns) + 1) * self.F.shape[0]
+        T, lam0, status, msg = _api.mlid_design_length(
+            w=self.weights, kx=self._penalty(), mu=float(mu), tmax=float(tmax),
+            method=self._solver(method), na=na, **self._args())
+        check_status(status, msg)
+        return (float(T), lam0) if method == "transition" else float(T)
+
+    def information(self, T, u):
+        """The (unweighted) information matrix of an input held over equal
+        cells of [0, T] (eq. 7.12).
+
+        Parameters
+        ----------
+        T : float
+            Length of the input [s], > 0.
+        u : array_like (cells, nu)
+            The input on each cell (a vector for one input).
+
+        Returns
+        -------
+        ndarray (n, n)
+            Over the unknowns, in their order.
+
+        Raises
+        ------
+        InputError
+            T not > 0, u not one row per cell.
+        """
+        self._check_t(T)
+        u = self._cells_input(u)
+        M, status, msg = _api.mlid_design_information(t=float(T), ncell=len(u), u=u.ravel(),
+                                                       **self._args())
+        check_status(status, msg)
+        return M
+
+    def optimal_input(self, T, energy, cells=200, method="operator"):
+        """The input on [0, T] of the given energy that maximises tr(W M).
+
+        Parameters
+        ----------
+        T : float
+            Length [s], > 0.
+        energy : float
+            The integral of u'u over [0, T], > 0.
+        cells : int
+            Input cells.
+        method : {'operator', 'transition'}
+            'operator': the design operator's eigenvector on 2*cells cells;
+            'transition': u = -G_A' lambda/mu from lambda(0) of the
+            transition-matrix method, on cells cells.
+
+        Returns
+        -------
+        DesignedInput
+
+        Raises
+        ------
+        InputError
+            T or energy not > 0, bad cells or method.
+        SingularInformationError
+            The unknowns do not affect the outputs.
+        NonConvergenceError
+            'transition': no conjugate point; with process noise, the
+            steady-state filter did not converge.
+        """
+        self._check_t(T)
+        self._check_t(energy, "energy")
+        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, kx=self._penalty(), t=float(T),
+                                                  ncell=self._cells(cells), **self._args())
+        check_status(status, msg)
+        nu = self.G.shape[1]
+        if method == "transition":
+            Tc, lam0 = self.critical_length(mu, "transition", tmax=10 * T)
+            na = (len(self.unknowns) + 1) * self.F.shape[0]
+            u, status, msg = _api.mlid_design_input(w=self.weights, mu=mu, t=float(T), na=na,
+                                                    lam0=lam0, ncell=self._cells(cells),
+                                                    **self._args())
+            check_status(status, msg)
+        elif method != "operator":
+            raise InputError(f"method must be 'operator' or 'transition', got {method!r}")
+        u = u.reshape(-1, nu) * np.sqrt(energy)
+        edges = np.linspace(0.0, T, len(u) + 1)
+        return DesignedInput(edges, u, self.information(T, u), mu=float(mu), energy=energy,
+                             weights=self.weights.copy())
+
+    def amplitude_limited(self, T, peak, min_width):
+        """The best square wave under |u| <= peak with no pulse shorter than
+        min_width: tr(WM) is convex in u, so the optimum over the box is a
+        corner (+-peak on every cell); found by local search from the signs
+        of the leading energy-optimal inputs (fortran/design/mlid_design.f90).  The
+        cells are the widest that fit T at least min_width each.
+
+        Parameters
+        ----------
+        T : float
+            Length [s], > 0.
+        peak : float
+            The amplitude limit, > 0.
+        min_width : float
+            The shortest pulse [s], > 0 and not longer than T.
+
+        Returns
+        -------
+        DesignedInput
+
+        Raises
+        ------
+        InputError
+            T, peak or min_width not > 0, or min_width longer than T.
+        SingularInformationError
+            The unknowns do not affect the outputs.
+        """
+        self._check_t(T)
+        self._check_t(peak, "peak")
+        self._check_t(min_width, "min_width")
+        cells = int(np.floor(T / min_width + 1e-9))
+        if cells < 1:
+            raise InputError(f"min_width {min_width} is longer than T = {T}")
+        nu = self.G.shape[1]
+        u, trwm, status, msg = _api.mlid_design_amplitude(w=self.weights, t=float(T),
+                                                          ncell=cells, peak=float(peak),
+                                                          **self._args())
+        check_status(status, msg)
+        u = u.reshape(-1, nu)
+        edges = np.linspace(0.0, T, cells + 1)
+        return DesignedInput(edges, u, self.information(T, u), weights=self.weights.copy())
+
+    def equalised(self, T, energy, iterations=12, alpha=1.0, cells=200):
+        """The weighted-trace design of §7.8: weights updated by eq. 7.88,
+        w <- w + alpha (1/m_ii - w), toward an equal diagonal of W M, alpha
+        halved whenever the ratio of its largest to smallest element does not
+        fall (the core's, fortran/design/mlid_design.f90, which deck designs use).
+
+        Parameters
+        ----------
+        T, energy, cells
+            As for ``optimal_input``.
+        iterations : int
+            Weight updates tried.
+        alpha : float
+            The first step of the update.
+
+        Returns
+        -------
+        design : DesignedInput
+            The best design found (its ``weights`` the ones it used).
+        ratios : list of float
+            The ratio of the largest to the smallest element of diag(W M)
+            of each design accepted, the first the starting one.
+
+        Raises
+        ------
+        InputError
+            As for ``optimal_input``.
+        """
+        self._check_t(T)
+        self._check_t(energy, "energy")
+        iterations = whole("iterations", iterations, 0, 10**4)
+        if not (np.isfinite(alpha) and alpha > 0):
+            raise InputError(f"alpha must be > 0, got {alpha}")
+        w, u, mu, M, ratios, n, status, msg = _api.mlid_design_equalised(
+            w0=self.weights, t=float(T), ncell=self._cells(cells), e=float(energy),
+            iterations=iterations, alpha=float(alpha), **self._args())
+        check_status(status, msg)
+        u = u.reshape(-1, self.G.shape[1])
+        best = DesignedInput(np.linspace(0.0, T, len(u) + 1), u, M, mu=float(mu),
+                             energy=energy, weights=w.copy())
+        return best, [float(r) for r in ratios[:n]]
+
+    # -- the state-limit penalty of §7.6 ----------------------------------
+    def _penalty(self, penalty=None):
+        """The state penalty K of §7.6 for the core (zero: none)."""
+        nx = self.F.shape[0]
+        if penalty is None:
+            return np.zeros((nx, nx), order="F")
+        K = real_array("penalty", penalty)
+        K = np.diag(K) if K.ndim == 1 else K          # one weight per state
+        if K.shape != (nx, nx):
+            raise InputError(f"penalty: one weight per state ({nx}) or an {nx}x{nx} matrix, "
+                             f"got shape {K.shape}")
+        return np.asfortranarray(K)
+
+    def state_penalised(self, T, energy, penalty, cells=200):
+        """The input on [0, T] of the given energy that maximises
+        tr(W M) - int x' K x dt: the state-limit penalty of §7.6 (x the
+        model's states under the input from x(0) = 0).  The criterion is
+        still a quadratic form in u; mu is the largest eigenvalue of the
+        penalised operator, so mu * energy is the penalised criterion.
+
+        Parameters
+        ----------
+        T, energy, cells
+            As for ``optimal_input``.
+        penalty : array_like (nx,) or (nx, nx)
+            K: one weight per state (diagonal) or a symmetric matrix >= 0,
+            in units of the information per state unit squared per second.
+
+        Returns
+        -------
+        DesignedInput
+            Its ``mu`` the penalised eigenvalue, ``M`` the (unpenalised)
+            information, ``state_penalty`` K.
+
+        Raises
+        ------
+        InputError
+            As for ``optimal_input``; K not nx x nx, not symmetric, not >= 0;
+            a penalty that outweighs the information of every input.
+        """
+        self._check_t(T)
+        self._check_t(energy, "energy")
+        K = self._penalty(penalty)
+        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, kx=K, t=float(T),
+                                                          ncell=self._cells(cells),
+                                                          **self._args())
+        check_status(status, msg)
+        u = u.reshape(-1, self.G.shape[1]) * np.sqrt(energy)
+        edges = np.linspace(0.0, T, len(u) + 1)
+        inp = DesignedInput(edges, u, self.information(T, u), mu=float(mu), energy=energy,
+                            weights=self.weights.copy())
+        inp.state_penalty = K
+        return inp
+
+    def penalised_length(self, mu, penalty, method="riccati", tmax=100.0):
+        """``critical_length`` of the criterion with the state penalty K
+        (``state_penalised``): the T whose largest penalised eigenvalue is mu.
+
+        Parameters
+        ----------
+        mu, method, tmax
+            As for ``critical_length``.
+        penalty : array_like (nx,) or (nx, nx)
+            As for ``state_penalised``.
+
+        Returns
+        -------
+        float or (float, ndarray)
+            As for ``critical_length``.
+
+        Raises
+        ------
+        InputError, NonConvergenceError
+            As for ``critical_length``; a bad penalty.
+        """
+        if not mu > 0:
+            raise InputError(f"mu must be > 0, got {mu}")
+        na = (len(self.unknowns) + 1) * self.F.shape[0]
+        T, lam0, status, msg = _api.mlid_design_length(
+            w=self.weights, kx=self._penalty(penalty), mu=float(mu), tmax=float(tmax),
+            method=self._solver(method), na=na, **self._args())
+        check_status(status, msg)
+        return (float(T), lam0) if method == "transition" else float(T)
+
+    def response(self, T, u, substeps=4):
+        """The model's states under an input held over equal cells of [0, T],
+        from x(0) = 0, exact at ``substeps`` points per cell.
+
+        Parameters
+        ----------
+        T : float
+            Length [s], > 0.
+        u : array_like (cells, nu)
+            The input on each cell (a vector for one input).
+        substeps : int
+            Samples per cell (even: ``state_integral`` uses Simpson's rule).
+
+        Returns
+        -------
+        t : ndarray (cells * substeps + 1,)
+        x : ndarray (cells * substeps + 1, nx)
+
+        Raises
+        ------
+        InputError
+            T not > 0, u not one row per cell, substeps not >= 1.
+        """
+        self._check_t(T)
+        u = self._cells_input(u)
+        ns = whole("substeps", substeps, 1, 1000)
+        x, status, msg = _api.mlid_design_response(f=self.F, g=self.G, t=float(T), ncell=len(u),
+                                                   ns=ns, u=u.ravel())
+        check_status(status, msg)
+        return np.linspace(0.0, T, len(u) * ns + 1), x.T
+
+    def state_integral(self, T, u):
+        """int_0^T x x' dt of the model's states under the input (Simpson's
+        rule on four exact samples per cell): the excursions the penalty of
+        ``state_penalised`` weighs, int x' K x dt = sum(K * state_integral).
+
+        Parameters
+        ----------
+        T, u
+            As for ``response``.
+
+        Returns
+        -------
+        ndarray (nx, nx)
+        """
+        t, x = self.response(T, u, substeps=4)
+        w = np.ones(len(t))
+        w[1:-1:2], w[2:-1:2] = 4.0, 2.0
+        w *= (t[1] - t[0]) / 3.0
+        return np.einsum("k,ki,kj->ij", w, x, x)

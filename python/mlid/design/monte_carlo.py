@@ -1,0 +1,151 @@
+"""Seeded Monte Carlo of fits in the core: simulate from the truth, fit from
+the start, repeat.  Run k's noise is seed k's, so the runs may be split over
+calls (mlid.monte_carlo_parallel) without changing the results."""
+
+import warnings
+
+import numpy as np
+
+from .._bridge import api as _api
+from ..checks import real_array, whole
+from ..errors import ConvergenceWarning, InputError, check_status, guarded, status_text
+from ..estimate.options import _flat_options
+from ..model.calls import _check_model, _model_args, _time_and_inputs
+from ..progress import Silent, bar as progress_bar
+
+
+def _mc_setup(truth, start, t, u, noise_std, runs, seed, options):
+    """Checked arguments of Monte Carlo runs: the core call's keywords but the
+    seed and run count, and the names and true values of the free parameters."""
+    _check_model(truth, "truth")
+    _check_model(start, "start")
+    runs = whole("runs", runs, 1, 10**7)
+    seed = whole("seed", seed, 0, 2**31 - runs)     # seeds seed .. seed + runs - 1
+    if truth.theta.size != start.theta.size or list(truth.free) != list(start.free):
+        raise InputError("truth and start models must have the same structure and free set")
+    if noise_std is not None:
+        truth = truth.with_theta(truth.theta)
+        truth.r = real_array("noise_std", noise_std).ravel() ** 2
+    iopt, ropt, _ = _flat_options(start, options)
+    t, u = _time_and_inputs(start, t, u)
+    mask = start.free_mask
+    call = dict(**_model_args(start), theta_true=truth.theta, theta_start=start.theta,
+                isfree=mask, **start.tie_args(), t=t, u=u.T, iopt=iopt, ropt=ropt,
+                nf=int(mask.sum()))
+    return call, runs, seed, start.free_names(), truth.theta[mask == 1]
+
+
+def _mc_runs(call, seed, runs):
+    """Runs seed .. seed + runs - 1 (run k's noise is seed k's whichever
+    call makes it: the results do not depend on how runs are split)."""
+    est, sig, info, iters, run_status, status, msg = _api.mlid_monte_carlo(
+        **call, seed0=int(seed), nrun=int(runs))
+    check_status(status, msg)
+    return {"estimates": est.T.copy(), "sigma": sig.T.copy(),
+            "information": np.moveaxis(info, 2, 0).copy(), "iterations": iters,
+            "status": run_status}
+
+
+def _mc_chunks(runs, seed, chunk):
+    """(seed, runs) of each call: runs in order, chunk at a time."""
+    return [(seed + k, min(chunk, runs - k)) for k in range(0, runs, chunk)]
+
+
+#: What the summary of a Monte Carlo holds, over the runs with status 0 (the
+#: core's statistics, those of the deck job 'monte_carlo' too): their number,
+#: the mean estimate, sample sigma and mean Cramer-Rao sigma of each free
+#: parameter, trace and det of the sample covariance and of the mean
+#: information.
+SUMMARY = ("runs", "mean", "sample_sigma", "mean_cr_sigma", "sample_cov_trace", "sample_cov_det",
+           "mean_info_trace", "mean_info_det")
+
+
+def _mc_result(parts, names, truth, stacklevel=4):
+    """The runs of parts joined in order, the summary over the runs that
+    succeeded (the core's), and a ConvergenceWarning naming how many did not."""
+    out = {key: np.concatenate([p[key] for p in parts])
+           for key in ("estimates", "sigma", "information", "iterations", "status")}
+    out["names"], out["truth"] = names, truth
+    nok, mean, sample_sigma, cr_sigma, stats = _api.mlid_monte_carlo_summary(
+        est=np.asfortranarray(out["estimates"].T), sig=np.asfortranarray(out["sigma"].T),
+        info=np.asfortranarray(np.moveaxis(out["information"], 0, 2)),
+        run_status=out["status"])
+    out["summary"] = dict(zip(SUMMARY, (int(nok), mean, sample_sigma, cr_sigma,
+                                        *(float(v) for v in stats))))
+    ok = out["status"] == 0
+    bad = out["status"][~ok]
+    if bad.size:
+        kinds = ", ".join(f"{int((bad == s).sum())} {status_text(s)}"
+                          for s in np.unique(bad))
+        warnings.warn(
+            f"{bad.size} of {ok.size} Monte Carlo runs failed ({kinds}): result['summary'] "
+            f"is over the {int(ok.sum())} that converged; the per-run arrays hold every run, "
+            "failed ones marked by result['status'] != 0 (estimates of a run that ran out of "
+            "iterations are its last iterate, of a run with no result zeros)",
+            ConvergenceWarning, stacklevel=stacklevel)
+    return out
+
+
+@guarded
+def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, progress=None,
+                **options):
+    """Seeded Monte Carlo of fits: simulate, fit, repeat.
+
+    Run k (k = 0, 1, ...) simulates a record from ``truth`` with noise seed
+    ``seed + k`` and fits it from ``start``; the results do not depend on how
+    the runs are split (see ``monte_carlo_parallel``).
+
+    Parameters
+    ----------
+    truth, start : Model
+        The model the data come from (its process and measurement noise) and
+        the one fitted, from its parameter values; same structure and free set.
+    t : array_like, (nt,)
+        Sample times.
+    u : array_like, (nt, nu)
+        Inputs.
+    noise_std : array_like, (ny,), optional
+        Measurement-noise standard deviations replacing the truth's.
+    runs : int
+        Number of runs, 1 to 10**7.
+    seed : int
+        Seed of the first run.
+    progress : None, bool or stream
+        A progress bar over the runs: None shows one when stderr is a
+        terminal, True or False always or never, a stream writes it there.
+    **options
+        Fit options, as for ``fit``.
+
+    Returns
+    -------
+    dict
+        ``estimates`` and ``sigma`` (Cramer-Rao standard deviations), (runs,
+        nf); ``information`` (runs, nf, nf); ``iterations`` and ``status``
+        (runs,), status 0 for a converged run, else the core's status code
+        (4 not converged, 2 singular information, 3 diverged); ``names`` and
+        ``truth`` of the free parameters; ``summary``: over the runs with
+        status 0, their number ``runs``, ``mean`` estimate, ``sample_sigma``,
+        ``mean_cr_sigma``, and ``sample_cov_trace``, ``sample_cov_det``,
+        ``mean_info_trace``, ``mean_info_det`` (the core's statistics, the
+        same numbers as the deck job 'monte_carlo' reports).
+
+    Raises
+    ------
+    InputError
+        Models of different structure, bad times, inputs, options or sizes.
+
+    Warns
+    -----
+    ConvergenceWarning
+        When runs fail: how many of how many, and what ``summary`` leaves out.
+    """
+    call, runs, seed, names, truth_free = _mc_setup(truth, start, t, u, noise_std, runs, seed,
+                                                    options)
+    bar = progress_bar(progress, runs, "Monte Carlo", "run")
+    chunk = runs if isinstance(bar, Silent) else max(1, runs // 100)
+    parts = []
+    with bar:
+        for s, n in _mc_chunks(runs, seed, chunk):
+            parts.append(_mc_runs(call, s, n))
+            bar.update(n)
+    return _mc_result(parts, names, truth_free)

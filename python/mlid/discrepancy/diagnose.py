@@ -1,0 +1,883 @@
+"""What is the model missing?  Fit, rank candidate effects from a library,
+refit the best, accept one per round when it is significant and holds on
+data its fit did not see, repeat (issues 7 and 16; the report did it by hand
+in §5.2-5.3).
+
+    d = mlid.diagnose(model, data)
+    print(d.report())
+    d.effects            # the accepted effects, in order, with their quantities
+    d.fit                # the final fit
+
+Candidate families (each with the name a flight-test engineer would use):
+
+    output bias           a constant offset on one output (free bias(i))
+    missing derivative    a fixed element of F or G set free (e.g. Y_p)
+    input time delay      the aircraft sees an input late: udelay(j) free
+                          (output error; mlid.discrepancy.effects.input_delay)
+    sensor scale factor   an output read as (1 + k) times the truth (the gain
+                          h(i,j) free, else mlid.discrepancy.effects.scale_factor)
+    sensor lag            a first-order lag tau between the quantity and its
+                          sensor; once chosen, a second-order one (wn, zeta)
+                          if it beats it by chi-square(1) (mlid.discrepancy.effects)
+    process noise         turbulence on one state equation (white, filter
+                          error), or a first-order gust on an angle (alpha,
+                          beta) entering wherever the angle does, with its time
+                          constant and intensity (mlid.discrepancy.effects.gust)
+    nonlinear term        linear model: x^2, |x|x, x*y, x*u and breakpoints
+                          max(x - b, 0) of the measured states (as the model
+                          simulates them) and inputs, in each state equation
+                          with a free derivative and each output with a free
+                          element; longitudinal model: a further regressor in
+                          C_D, C_L or C_m; equations and six-DOF models: terms
+                          written into their own equations (mlid.discrepancy.terms)
+    feedback loop (SAS)   a state fed back to an input: the surface moves by
+                          k x_s on top of the recorded command (free k(j,s))
+
+Parameter candidates are ranked by the score (Lagrange-multiplier)
+statistic at the current fit, the free parameters partialled out
+(mlid.discrepancy.score_test), all from one evaluation; process noise by the filter's
+score in q at q -> 0+; delays, lags and scale factors outside the model's
+elements by the match of the residuals to their signature.  The best few
+are refitted, every new parameter inside the Newton iteration with its
+Cramer-Rao sigma.  A candidate is significant when its likelihood ratio
+2 dJ beats the chi-square(k) point at alpha over the number of candidates
+(Bonferroni) and its cost drop beats Akaike's k.  A significant one is
+accepted when it holds out (mlid.discrepancy.holdout): fitted to all but the last third
+of the record (or the last manoeuvre), it predicts that part better, by the
+chi-square(k) point at HOLDOUT_ALPHA.  Deterministic before stochastic:
+when turbulence leads, a deterministic candidate that holds out and leaves
+at most DETERMINISTIC_FIRST times the held-out residual turbulence leaves
+is accepted first.  A candidate whose direction the free parameters
+already span is flagged as confounded; a refitted one strongly correlated
+with a free parameter (above 0.95) says so.
+"""
+
+import math
+import warnings
+
+import numpy as np
+
+from ..data.flight_data import FlightData
+from ..errors import InputError, MlidError, guarded
+from ..estimate.evaluate import evaluate
+from ..estimate.fit import fit as fit_model
+from ..estimate.options import evaluate_options
+from ..model.models import (REGRESSORS, EquationModel, FlightPathModel, LinearModel,
+                    LongitudinalModel)
+from ..progress import bar as progress_bar, bump
+from . import effects, holdout, score_test, terms
+from .diagnosis import Diagnosis, residual_diagnostics
+
+
+def _normal_upper(p):
+    """z with P(Z > z) = p (bisection on erfc)."""
+    lo, hi = -40.0, 40.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if 0.5 * math.erfc(mid / math.sqrt(2)) > p else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def chi2_quantile(p, k=1):
+    """Upper-p point of chi-square(k): exact for k = 1 (the square of the
+    two-sided normal point), Wilson-Hilferty for k > 1."""
+    if k == 1:
+        return _normal_upper(p / 2) ** 2
+    z = _normal_upper(p)
+    return k * (1 - 2 / (9 * k) + z * math.sqrt(2 / (9 * k))) ** 3
+
+
+class Candidate:
+    """One effect the model might be missing."""
+
+    def __init__(self, family, name, k=1, **spec):
+        self.family, self.name, self.k, self.spec = family, name, k, spec
+        self.score = None          # LM statistic (parameter candidates)
+        self.signature = None      # residual signature (structural candidates)
+        self.confounded = False
+        self.lr = None
+        self.quantities = None     # what its refit estimates (_refit)
+        self.holdout = None        # 2 dJ on the held-out part (mlid.discrepancy.holdout)
+        self.explained = None      # the share of the held-out residual it removes
+        self.fit = None
+        self.decision = "not refitted"
+        self.note = ""
+
+    @property
+    def value(self):
+        """(estimate, sigma) of its first quantity, or None before a refit."""
+        return None if not self.quantities else tuple(self.quantities[0][1:3])
+
+    def __repr__(self):
+        return f"Candidate({self.family}: {self.name})"
+
+
+def _dynamic_rows(model, nx):
+    """The state equations, among the first nx states, that have a free
+    derivative already.  An equation with none is kinematics (phi-dot = p +
+    tan(alpha) r), and states a candidate added (a sensor lag) are not
+    aircraft dynamics."""
+    free = set(model.free)
+    return [i for i in range(nx) if any(f"{k}({i + 1},{j + 1})" in free
+                                        for k, a in (("f", model.F), ("g", model.G))
+                                        for j in range(a.shape[1]))]
+
+
+def _linear_elements(model, nx):
+    """The fixed, untied elements of F and G (the derivatives) in the
+    dynamic state equations (_dynamic_rows)."""
+    free, tied = set(model.free), set(model.ties)
+    rows = _dynamic_rows(model, nx)
+    out = []
+    for key, a in (("f", model.F), ("g", model.G)):
+        for j in range(a.shape[1] if key == "g" else nx):
+            for i in rows:
+                name = f"{key}({i + 1},{j + 1})"
+                if name not in free and name not in tied:
+                    out.append(name)
+    return out
+
+
+def _gain_element(model, i):
+    """h(i,j) when output i measures state j alone (a scale factor is then
+    that element), else None."""
+    row = model.H[i]
+    nz = np.flatnonzero(row)
+    if len(nz) == 1 and not np.any(model.D[i]):
+        return f"h({i + 1},{nz[0] + 1})"
+    return None
+
+
+def _library(model, data, fit, families, nx, options):
+    cands = []
+    states = _state_estimates(fit.model, data, options) if "nonlinear" in families \
+        and isinstance(model, LinearModel) else None
+    ny, nu = model.ny, model.nu
+    first = holdout.records(data)[0]
+    outs = first.output_names or [f"y{i + 1}" for i in range(ny)]
+    ins = first.input_names or [f"u{j + 1}" for j in range(nu)]
+    if "bias" in families:
+        for i in range(ny):
+            if f"bias({i + 1})" not in model.free:
+                cands.append(Candidate("output bias", f"bias on {outs[i]}",
+                                       param=f"bias({i + 1})"))
+    if "derivative" in families and isinstance(model, LinearModel):
+        for e in _linear_elements(model, nx):
+            cands.append(Candidate("missing derivative", model.names.get(e, e), param=e))
+    if "nonlinear" in families and isinstance(model, LinearModel):
+        regs = _regressors(model, outs, ins, states)
+        where = [("g", row, f"the {_state_name(model, row, outs)} equation")
+                 for row in _dynamic_rows(model, nx)]
+        where += [("d", i, f"the {outs[i]} output") for i in _dynamic_outputs(model)]
+        for block, row, eq in where:
+            for label, make in regs:
+                cands.append(Candidate("nonlinear term", f"{label} in {eq}", row=row,
+                                       block=block, regressor=label, make=make,
+                                       values=make(states, _joined(data, "u"))))
+    if "nonlinear" in families and isinstance(model, EquationModel) \
+            and not isinstance(model, FlightPathModel):
+        for t in terms.candidates(model, data):
+            cands.append(Candidate("nonlinear term", f"{t.label} in {t.equation}", term=t))
+    if "nonlinear" in families and isinstance(model, LongitudinalModel):
+        for key in ("CD", "CL", "Cm"):
+            for reg in REGRESSORS:
+                if reg not in model.regressors[key]:
+                    cands.append(Candidate("nonlinear term", f"{reg} in {key}", coef=key, reg=reg))
+    # a continuous input delay (udelay) is an output-error parameter of the
+    # kinds that give their input Jacobians
+    if "delay" in families and isinstance(model, (LinearModel, EquationModel)) \
+            and model.nw == 0:
+        for j in range(nu):
+            if REGRESSOR_MARK in ins[j] or f"udelay({j + 1})" in model.free:
+                continue
+            cands.append(Candidate("input time delay", f"delay on {ins[j]}", input=j))
+    if "scale" in families and isinstance(model, LinearModel):
+        for i in range(ny):
+            gain = _gain_element(model, i)
+            if gain is not None:        # a parameter: the score test applies
+                if gain not in model.free and gain not in model.ties:
+                    cands.append(Candidate("sensor scale factor", f"scale factor on {outs[i]}",
+                                           param=gain))
+            else:
+                cands.append(Candidate("sensor scale factor", f"scale factor on {outs[i]}",
+                                       output=i))
+    if "lag" in families and isinstance(model, LinearModel):
+        for i in range(ny):
+            cands.append(Candidate("sensor lag", f"lag on {outs[i]}", output=i))
+    if "feedback" in families and isinstance(model, LinearModel):
+        known = set(model.free) | set(model.ties)
+        for j in range(nu):
+            if not (np.any(model.G[:nx, j]) or np.any(model.D[:, j])) or REGRESSOR_MARK in ins[j]:
+                continue           # an input that moves nothing carries no loop
+            for st in range(nx):
+                name = f"k({j + 1},{st + 1})"
+                if name not in known:
+                    cands.append(Candidate("feedback loop (SAS)",
+                                           f"{_state_name(model, st, outs)} fed back to {ins[j]}",
+                                           param=name))
+    # process noise means the filter, which takes no delays and has its own gain
+    if "noise" in families and isinstance(model, LinearModel) and model.nw == 0 \
+            and not np.any(model.delay) and not np.any(model.udelay) and not np.any(model.stab) \
+            and not any("delay(" in n for n in model.free):
+        for s in range(model.nx):   # one turbulence model at a time
+            cands.append(Candidate("process noise",
+                                   f"turbulence on the {_state_name(model, s, outs)} equation",
+                                   state=s))
+        for s, i in _measured_states(model, outs):
+            if outs[i].lower() in ANGLES:
+                cands.append(Candidate("process noise", f"first-order gust on {outs[i]}",
+                                       k=2, state=s, angle=s))
+    return cands
+
+
+#: outputs (by name, any case) that read an aerodynamic angle: the state
+#: each reads alone gets a first-order gust candidate (mlid.discrepancy.effects.gust)
+ANGLES = ("alpha", "beta", "aoa", "aos")
+#: marks an input that a nonlinear-term candidate made from the measurements
+#: (no delay or feedback candidate for it)
+REGRESSOR_MARK = "="
+
+
+def _measured_states(model, outs):
+    """(state, output) for each state an output measures alone."""
+    out = []
+    for s in range(model.nx):
+        for i in range(model.ny):
+            row = model.H[i]
+            if row[s] == 1.0 and np.count_nonzero(row) == 1 and not np.any(model.D[i]):
+                out.append((s, i))
+                break
+    return out
+
+
+def _dynamic_outputs(model):
+    """The outputs with a free element of H or D (an accelerometer's
+    derivatives), among the model's own (not a regressor's)."""
+    free = set(model.free)
+    return [i for i in range(model.ny) if any(f"{k}({i + 1},{j + 1})" in free
+                                              for k, a in (("h", model.H), ("d", model.D))
+                                              for j in range(a.shape[1]))]
+
+
+#: where the breakpoint terms max(x - b, 0) go: these quantiles of the state
+BREAKPOINTS = (0.25, 0.5, 0.75)
+
+
+def _regressors(model, outs, ins, states):
+    """The nonlinear regressors of the measured states and the recorded
+    inputs: x^2 and |x|x of each state, x y of each pair, x u of each state
+    and input, and breakpoints max(x - b, 0) at the BREAKPOINTS quantiles of
+    the states, as (label, function of (states, u)).  The states are the
+    model's own estimate of them (``_state_estimates``), not the
+    measurements: a regressor made of measurements would feed their noise
+    and any turbulence back into the model, which then tracks data it
+    should predict (on a held-out part, too).  The model stays linear: a
+    regressor enters as an input."""
+    ms = [(outs[i], i) for s, i in _measured_states(model, outs)]
+    us = [(ins[j], j) for j in range(model.nu) if REGRESSOR_MARK not in ins[j]]
+    regs = []
+    for n, i in ms:
+        regs += [(f"{n}^2", lambda x, u, i=i: x[:, i] ** 2),
+                 (f"|{n}|{n}", lambda x, u, i=i: np.abs(x[:, i]) * x[:, i])]
+    for a in range(len(ms)):
+        for b in range(a + 1, len(ms)):
+            regs.append((f"{ms[a][0]}*{ms[b][0]}",
+                         lambda x, u, i=ms[a][1], k=ms[b][1]: x[:, i] * x[:, k]))
+    for n, i in ms:
+        for m, j in us:
+            regs.append((f"{n}*{m}", lambda x, u, i=i, j=j: x[:, i] * u[:, j]))
+    for n, i in ms:       # a slope that changes at b (stall, a saturation)
+        for b in np.quantile(states[:, i], BREAKPOINTS):
+            regs.append((f"max({n} - {b:.4g}, 0)",
+                         lambda x, u, i=i, b=b: np.maximum(x[:, i] - b, 0.0)))
+    return regs
+
+
+def _state_estimates(model, data, options):
+    """The model's simulated outputs, less their biases: the measured states
+    as the model sees them (the columns ``_regressors`` takes).  Simulated
+    (output error) even when the model has process noise: a filter's
+    predictions carry the measurements, and a regressor made of them would
+    track the turbulence."""
+    opts = dict(evaluate_options(options), method="output_error")
+    opts.pop("steady_state", None)
+    opts.pop("noise_criterion", None)
+    return evaluate(model, data, **opts)["yhat"] - model.bias
+
+
+def _with_inputs(model, data, columns):
+    """The model with more inputs, the regressors (label, values), entering
+    nothing yet (their G and D columns zero); the record with their columns."""
+    k = len(columns)
+    common = model._common()
+    common["udelay"] = np.r_[model.udelay, np.zeros(k)]
+    m = LinearModel(model.F, np.hstack([model.G, np.zeros((model.nx, k))]), model.H,
+                    np.hstack([model.D, np.zeros((model.ny, k))]), Gamma=model.Gamma,
+                    K=np.vstack([model.K, np.zeros((k, model.nx))]), bx=model.bx, **common)
+    names = [REGRESSOR_MARK + lab for lab, _ in columns]
+    d = _per_record(data, lambda r, rows: FlightData(
+        r.t, np.column_stack([r.u] + [v[rows] for _, v in columns]), r.y,
+        list(r.input_names) + names, r.output_names, r.source,
+        list(r.input_units) + [""] * k, r.output_units))
+    return m, d
+
+
+def _regressor_element(c, column):
+    """The element through which a regressor candidate enters: g(row, column)
+    of a state equation or d(row, column) of an output."""
+    return f"{c.spec['block']}({c.spec['row'] + 1},{column})"
+
+
+def _with_regressor(model, data, c):
+    """The model with one more input, the candidate's regressor, entering its
+    equation through a free element (_regressor_element); the record with
+    its column."""
+    label = c.spec["regressor"]
+    m, d = _with_inputs(model, data, [(label, c.spec["values"])])
+    param = _regressor_element(c, model.nu + 1)
+    return m.with_free(list(model.free) + [param], names={**model.names, param: label}), d, label
+
+
+def _state_name(model, s, outs):
+    """A state by the output that measures it alone, else x<s>."""
+    for i in range(model.ny):
+        row = model.H[i]
+        if row[s] == 1.0 and np.count_nonzero(row) == 1 and not np.any(model.D[i]):
+            return outs[i]
+    return f"x{s + 1}"
+
+
+# --- building the candidate models -------------------------------------------
+
+def _with_param(model, name):
+    return model.with_free(list(model.free) + [name])
+
+
+def _extended_longitudinal(model, coef, reg):
+    regs = {k: list(v) for k, v in model.regressors.items()}
+    vals = {k: np.array(v, dtype=float) for k, v in model.coefficients.items()}
+    regs[coef] = regs[coef] + [reg]
+    vals[coef] = np.r_[vals[coef], 0.0]
+    block = {"CD": "cd", "CL": "cl", "Cm": "cm"}[coef]
+    # keep each free name pointing at the same coefficient (new ones go last)
+    m = LongitudinalModel(regs, vals, model.constants, **{**model._common(), "free": []})
+    new = f"{block}({len(regs[coef])})"
+    return m.with_free(list(model.free) + [new]), new
+
+
+def _noisy(model, states):
+    """Process noise on each of the states (a list): Gamma = e_s for each,
+    the q and r free (filter error)."""
+    nx, ny = model.nx, model.ny
+    Gamma = np.zeros((nx, len(states)))
+    for k, s in enumerate(states):
+        Gamma[s, k] = 1.0
+    common = model._common()
+    common.update(q=np.full(len(states), 1e-3), S=np.zeros((len(states), ny)))
+    m = LinearModel(model.F, model.G, model.H, model.D, Gamma=Gamma, K=model.K, bx=model.bx,
+                    **common)
+    return m.with_free(list(model.free) + [f"q({k + 1})" for k in range(len(states))]
+                       + [f"r({i + 1})" for i in range(ny)])
+
+
+FAMILIES = ("bias", "derivative", "nonlinear", "delay", "scale", "lag", "noise", "feedback")
+#: turbulence (a filter) absorbs much of any deterministic misfit: a
+#: deterministic candidate goes before it when the held-out residual it
+#: leaves is at most this multiple of what turbulence leaves.  Measured on
+#: tests/scenarios.py and the demos (cases/discrepancy): true effects leave
+#: 0.37-1.03 of it (|beta|beta 0.37, a delay 0.57, the HL-10's Y_p 0.98, a
+#: second-order lag 0.99-1.02), the gust record's best deterministic
+#: stand-ins 2.4 and more
+DETERMINISTIC_FIRST = 1.5
+#: an effect holds out when its held-out 2dJ beats the chi-square(k) point
+#: at this level (one check of a chosen candidate: no Bonferroni division)
+HOLDOUT_ALPHA = 0.05
+#: a parameter candidate with less than this share of its information left once
+#: the free parameters are partialled out lies in their span: confounded
+CONFOUNDED = 1e-7
+
+
+@guarded
+def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effects=3,
+             progress=None, **options):
+    """What is the model missing?  Fit, rank the candidate effects, refit
+    the best, accept one per round by likelihood ratio and Akaike, repeat
+    (the module's docstring says how).
+
+    Parameters
+    ----------
+    model : Model
+        The model as it stands; candidates other than biases, delays and
+        nonlinear terms need a LinearModel, nonlinear terms a
+        LongitudinalModel.
+    data : FlightData
+        One record.
+    families : sequence of str
+        The candidate families tried, from ``FAMILIES``.
+    alpha : float
+        Significance level in (0, 1), divided by the number of candidates
+        of a round (Bonferroni).
+    refit_best : int
+        Candidates refitted per round: half the best by score, half by
+        residual signature.
+    max_effects : int
+        Rounds at most (one effect accepted per round).
+    progress : None, bool or stream
+        A bar over the fits as they run (None: when stderr is a terminal;
+        ``mlid.progress.bar`` says more).
+    **options
+        Go to every fit (prior, prior_weight and bounds to the fits only,
+        not to the score evaluations); the refits start from the current
+        estimate, so an equation-error start-up runs for the first fit alone.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    InputError
+        alpha outside (0, 1), or what ``fit`` raises for the first fit.
+    MlidError
+        What the first fit raises; a candidate's failed refit is recorded
+        in its decision instead.
+    """
+    if not 0 < alpha < 1:
+        raise InputError(f"alpha must lie in (0, 1), got {alpha}")
+    options = dict(options)
+    with progress_bar(progress, 1, "diagnose", "fit") as b:
+        base = fit_model(model, data, **options)
+        b.update()
+        options["startup"] = "none"
+        return _rounds(model, data, base, families, alpha, refit_best, max_effects,
+                       options, b)
+
+
+def _rounds(model, data, base, families, alpha, refit_best, max_effects, options, b):
+    """diagnose's rounds after the first fit; b counts the fits."""
+    current, fit, cur_data = model.with_theta(base.model.theta), base, data
+    effects, rounds = [], []
+    while len(effects) < max_effects:
+        cands = _library(current, cur_data, fit, families, model.nx, options)
+        cands = [c for c in cands if not any(_same(c, e) for e in effects)]
+        if not cands:
+            break
+        _score(current, fit, cur_data, cands, options)
+        diag = residual_diagnostics(fit)
+        _signatures(fit, cands, diag)
+        threshold = chi2_quantile(alpha / len(cands))
+        # the best of each kind: parameters by score, structures by signature
+        scored = sorted([c for c in cands if c.score is not None and not c.confounded],
+                        key=lambda c: c.score, reverse=True)
+        signed = sorted([c for c in cands if c.signature is not None],
+                        key=lambda c: c.signature, reverse=True)
+        tried = scored[:refit_best // 2] + signed[:refit_best - refit_best // 2]
+        # turbulence competes with the deterministic effects by its refit, not
+        # by a score of another kind: the best-scored white and coloured
+        # candidates always get a slot
+        for coloured in (False, True):
+            noise = [c for c in scored if c.family == "process noise" and c.score > 0
+                     and ("angle" in c.spec) == coloured]
+            if noise and noise[0] not in tried:
+                tried.append(noise[0])
+        bump(b, b.n + len(tried))
+        for c in tried:
+            _refit(current, cur_data, fit, c, options)
+            b.update()
+        good = [c for c in tried if c.lr is not None and c.lr > chi2_quantile(
+            alpha / len(cands), c.k) and c.lr / 2 > c.k]
+        for c in tried:
+            if c.lr is not None and c not in good:
+                c.decision = "rejected" if c.lr >= 0 else NEGATIVE_LR
+        rounds.append({"cost": fit.cost, "candidates": cands, "threshold": threshold})
+        best = _choose(good, current, cur_data, fit, options)
+        if best is None:
+            break
+        for c in good:
+            if c is not best and c.decision == "refitted":
+                c.decision = "significant, not the best this round"
+        effects.append(best)
+        current, fit, cur_data = best.spec["model"], best.fit, best.spec["data"]
+        options = best.spec["options"]
+    split = holdout.Split.of(data)
+    return Diagnosis(base, fit, current, effects, rounds, alpha,
+                     split.what if split else None)
+
+
+#: why a refit can end above the fit it started from
+NEGATIVE_LR = ("rejected: its refit ended above the current fit (2dJ < 0: a worse local "
+               "optimum or an iteration that failed), so it adds nothing")
+#: held-out checks a round makes at most (two fits each)
+MAX_CHECKS = 3
+
+
+def _choose(good, model, data, fit, options):
+    """The effect a round accepts, or None.  The significant candidates are
+    checked on the held-out part (mlid.discrepancy.holdout) in order of 2dJ; the first
+    whose fit to the rest predicts it better than the model's own is
+    accepted.  When turbulence leads, deterministic candidates are checked
+    first and one goes before it when the held-out residual it leaves is at
+    most DETERMINISTIC_FIRST times what turbulence leaves: a filter absorbs
+    any deterministic misfit, so turbulence is accepted only when no
+    deterministic effect explains the unseen data about as well."""
+    order = sorted(good, key=lambda c: c.lr, reverse=True)
+    if not order:
+        return None
+    n = holdout.Split.of(data)
+    base = None
+    if n is not None:
+        try:
+            base, _ = _quietly(holdout.heldout_cost, model, data, n, options)
+        except MlidError:
+            pass
+    if base is None:                 # nothing to hold out: the in-sample test decides
+        best = order[0]
+        _finish(best, model, data, fit, options)
+        best.decision = "ACCEPTED (in-sample test only: the record is too short to hold out)"
+        return best
+    weight = np.linalg.inv(base[1].rhat)
+    y = _joined(data, "y")
+    base_ss = _weighted_ss(n.held(y - base[2]), weight)
+    noise = order[0] if order[0].family == "process noise" else None
+    if noise is not None:
+        if not _check(noise, model, data, fit, options, n, base, weight, base_ss):
+            noise = None
+        order = [c for c in order if c.family != "process noise"]
+    for c in order[:MAX_CHECKS]:
+        if not _check(c, model, data, fit, options, n, base, weight, base_ss):
+            continue
+        if noise is not None and 1 - c.explained > DETERMINISTIC_FIRST * (1 - noise.explained):
+            c.decision = (f"significant, holds out; leaves {1 - c.explained:.0%} of the held-out "
+                          f"residual, turbulence {1 - noise.explained:.0%}")
+            continue
+        c.decision = "ACCEPTED"
+        if noise is not None:
+            noise.decision = (f"significant, holds out; {c.name} leaves {1 - c.explained:.0%} "
+                              f"of the held-out residual against its {1 - noise.explained:.0%}: "
+                              "deterministic first")
+        return c
+    if noise is not None:
+        noise.decision = "ACCEPTED"
+    return noise
+
+
+def _check(c, model, data, fit, options, n, base, weight, base_ss):
+    """A candidate's held-out check: c.holdout (2dJ on the held-out part)
+    and c.explained (the share of the base's weighted held-out residual its
+    prediction removes).  True when it holds (2dJ beyond the chi-square(k)
+    point at HOLDOUT_ALPHA)."""
+    _finish(c, model, data, fit, options)
+    d = c.spec["data"]
+    if "make" in c.spec:        # its regressor from the held-in fit's own outputs
+        d = _last_input(d, c.spec["make"](_state_estimates(base[1].model, data, options),
+                                          _joined(d, "u")))
+    try:
+        (cost, _, yhat), said = _quietly(holdout.heldout_cost, c.spec["model"], d, n,
+                                         c.spec["options"])
+    except MlidError as exc:
+        c.decision = f"significant; its fit to the held-in part failed: {exc}"
+        return False
+    c.holdout = float(2 * (base[0] - cost))
+    if said:
+        c.note = "; ".join(filter(None, (c.note, "held-in fit: " + "; ".join(said))))
+    c.explained = 1.0 - _weighted_ss(n.held(_joined(data, "y") - yhat), weight) / base_ss
+    if c.holdout <= chi2_quantile(HOLDOUT_ALPHA, c.k):
+        c.decision = "significant, fails its held-out check"
+        return False
+    return True
+
+
+def _weighted_ss(e, weight):
+    return float(np.einsum("ki,ij,kj->", e, weight, e))
+
+
+def _last_input(data, values):
+    """The data with its last input column replaced by values (over the
+    records joined)."""
+    return _per_record(data, lambda r, rows: FlightData(
+        r.t, np.column_stack([r.u[:, :-1], values[rows]]), r.y, r.input_names,
+        r.output_names, r.source, r.input_units, r.output_units))
+
+
+def _joined(data, what):
+    """The inputs ('u') or outputs ('y') of the records joined."""
+    return np.vstack([getattr(r, what) for r in holdout.records(data)])
+
+
+def _interval(data):
+    """The sample interval (of the first record)."""
+    t = holdout.records(data)[0].t
+    return float(t[1] - t[0])
+
+
+def _per_record(data, make):
+    """make(record, rows) for each record, rows its slice of the records
+    joined: a list for a list, one for one."""
+    out, k = [], 0
+    for r in holdout.records(data):
+        out.append(make(r, slice(k, k + r.nt)))
+        k += r.nt
+    return out if isinstance(data, (list, tuple)) else out[0]
+
+
+def _finish(c, model, data, fit, options):
+    """A candidate's last form before its held-out check: a sensor lag's
+    order."""
+    if c.family == "sensor lag" and "order_checked" not in c.spec:
+        c.spec["order_checked"] = True
+        _lag_order(c, model, data, fit, options)
+
+
+def _same(c, e):
+    if c.family == e.family == "sensor lag":
+        return c.spec["output"] == e.spec["output"]
+    return c.family == e.family and c.name == e.name
+
+
+def _score(model, fit, data, cands, options):
+    """LM statistics of the parameter candidates at the current estimate,
+    the free parameters partialled out.  The candidates that are elements of
+    the model and the regressors go in one evaluation with every one of them
+    free at zero: the model is the same, and each one's gradient and
+    information entries are those it would have alone."""
+    batch = [c for c in cands if "param" in c.spec or "regressor" in c.spec]
+    if batch:
+        _score_together(model, data, batch, options)
+    for c in cands:
+        if "coef" in c.spec:
+            try:
+                m, new = _extended_longitudinal(model, c.spec["coef"], c.spec["reg"])
+                ev = evaluate(m, data, **evaluate_options(options))
+            except MlidError:
+                c.confounded, c.decision = True, "confounded"
+                continue
+            _lm(ev, m.free_names(), model.free_names(), [m.names.get(new, new)], [c])
+    written = [c for c in cands if "term" in c.spec]
+    if written:
+        try:
+            m, params = terms.extended(model, [c.spec["term"] for c in written])
+            ev = evaluate(m, data, **evaluate_options(options))
+            _lm(ev, m.free_names(), model.free_names(), params, written)
+        except MlidError:
+            for c in written:
+                c.confounded, c.decision = True, "confounded"
+    noise = [c for c in cands if c.family == "process noise"]
+    if noise:
+        _noise_score(model, fit, data, noise, options)
+
+
+def _score_together(model, data, batch, options):
+    labels = list(dict.fromkeys(c.spec["regressor"] for c in batch if "regressor" in c.spec))
+    m, d = model, data
+    if labels:
+        values = {c.spec["regressor"]: c.spec["values"] for c in batch if "regressor" in c.spec}
+        m, d = _with_inputs(model, data, [(lab, values[lab]) for lab in labels])
+    extra = [c.spec["param"] if "param" in c.spec
+             else _regressor_element(c, model.nu + 1 + labels.index(c.spec["regressor"]))
+             for c in batch]
+    try:
+        m = m.with_free(list(model.free) + extra)
+        ev = evaluate(m, d, **evaluate_options(options))
+    except MlidError:               # one by one: the failing ones are confounded
+        if len(batch) > 1:
+            for c in batch:
+                _score_together(model, data, [c], options)
+        else:
+            batch[0].confounded, batch[0].decision = True, "confounded"
+        return
+    _lm(ev, m.free_names(), model.free_names(), [m.names.get(e, e) for e in extra], batch)
+
+
+def _lm(ev, names, base, extra, cands, one_sided=False):
+    """Each candidate's score statistic (mlid.discrepancy.score_test) for its extra
+    parameter, the base ones partialled out; one_sided: only a cost that
+    falls as the parameter grows counts.  A candidate with less than
+    CONFOUNDED of its information left lies in the span of the base: it is
+    marked confounded."""
+    score, share, signed = score_test.statistics(
+        ev["gradient"], ev["information"], [names.index(n) for n in base],
+        [names.index(n) for n in extra])
+    for c, sc, sh, gk in zip(cands, score, share, signed):
+        if sh < CONFOUNDED:                 # the free parameters already span it
+            c.confounded, c.decision, c.score = True, "confounded", 0.0
+        else:
+            c.score = 0.0 if one_sided and gk >= 0 else float(sc)
+
+
+#: the process-noise variance at which its score is taken (q -> 0+: the
+#: output-error fit itself, the filter's gain vanishing)
+Q_SCORE = 1e-12
+
+
+def _noise_score(model, fit, data, cands, options):
+    """The score statistic of turbulence on each state equation: the
+    filter's gradient in q at q -> 0+ with R at the fit's residual
+    variances, the other parameters and R partialled out; one-sided (only a
+    cost that falls as q grows counts).  Each state gets its own, all from
+    one filter run with a q on every state: no tie broken by order."""
+    states = [c.spec["state"] for c in cands]
+    m = _noisy(model.with_theta(fit.model.theta), states)
+    m.r = np.diag(fit.rhat).copy()
+    m.q = np.full(len(states), Q_SCORE)
+    try:
+        ev = evaluate(m, data, **dict(evaluate_options(options), method="filter_error"))
+    except MlidError:
+        for c in cands:
+            c.confounded, c.decision = True, "confounded"
+        return
+    extra = [m.names.get(f"q({k + 1})", f"q({k + 1})") for k in range(len(states))]
+    names = m.free_names()
+    _lm(ev, names, [n for n in names if n not in extra], extra, cands, one_sided=True)
+
+
+def _signatures(fit, cands, diag):
+    e = fit.residuals
+    yhat = fit.yhat
+    for c in cands:
+        if c.score is not None or c.confounded:
+            continue
+        f = c.family
+        if f == "input time delay":     # residuals that follow the input a few samples late
+            lagged = [abs(d["xcorr"][c.spec["input"]][0]) for d in diag
+                      if d["xcorr"][c.spec["input"]][1] > 0]
+            c.signature = max(lagged, default=0.0)
+        elif f == "sensor scale factor":
+            i = c.spec["output"]
+            c.signature = abs(_corr(e[:, i], yhat[:, i]))
+        elif f == "sensor lag":
+            i = c.spec["output"]
+            c.signature = abs(_corr(e[:, i], np.gradient(yhat[:, i])))
+
+
+def _corr(a, b):
+    a, b = a - a.mean(), b - b.mean()
+    den = math.sqrt((a @ a) * (b @ b))
+    return float(a @ b / den) if den > 0 else 0.0
+
+
+
+
+#: what a parameter candidate's estimate means, by family
+MEANING = {"output bias": "constant offset of the sensor",
+           "missing derivative": "a fixed element of the model, set free",
+           "nonlinear term": "coefficient of the term in its equation",
+           "feedback loop (SAS)": "surface motion per unit of the state fed back",
+           "sensor scale factor": "the sensor's gain on the quantity it reads (1: none)",
+           "process noise": "variance of the process noise held over a sample on the equation"}
+#: an input delay's starts, in samples: its cost has a kink at each whole
+#: sample (the interpolation), so Newton is started in three intervals
+DELAY_STARTS = (0.5, 2.5, 5.5)
+#: the significance at which a second-order lag replaces a first-order one
+#: (one parameter more: chi-square(1))
+LAG_ORDER_ALPHA = 0.05
+
+
+def _build(model, data, fit, c, options, start=None):
+    """A candidate's model: (model, record, fit options, labels of its new
+    parameters, value) with value(res) its quantities (mlid.discrepancy.effects'
+    Extension.value), or None for a parameter candidate."""
+    f, first = c.family, holdout.records(data)[0]
+    if "param" in c.spec:
+        m = _with_param(model, c.spec["param"])
+        return m, data, options, [m.names.get(c.spec["param"], c.spec["param"])], None
+    if "coef" in c.spec:
+        m, new = _extended_longitudinal(model, c.spec["coef"], c.spec["reg"])
+        return m, data, options, [m.names.get(new, new)], None
+    if "term" in c.spec:
+        m, new = c.spec["term"].extend()
+        return m, data, options, [new], None
+    if "regressor" in c.spec:
+        m, d, new = _with_regressor(model, data, c)
+        return m, d, options, [new], None
+    if f == "process noise" and "angle" not in c.spec:
+        m = _noisy(model.with_theta(fit.model.theta), [c.spec["state"]])
+        m.r = np.diag(fit.rhat).copy()
+        q = m.names.get("q(1)", "q(1)")
+        return m, data, _merged(options, {"method": "filter_error",
+                                          "bounds": {"q(1)": (0.0, None)}}), [q], None
+    if f == "input time delay":
+        ext = effects.input_delay(model, first, c.spec["input"] + 1, start=start)
+    elif f == "sensor scale factor":
+        ext = effects.scale_factor(model, first, c.spec["output"] + 1)
+    elif f == "sensor lag":
+        ext = effects.sensor_lag(model, first, c.spec["output"] + 1,
+                                 order=c.spec.get("order", 1), start=start)
+    else:                                   # a first-order gust on an angle
+        ext = effects.gust(model.with_theta(fit.model.theta), first, c.spec["angle"] + 1)
+    return ext.model, data, _merged(options, ext.options), ext.params, ext.value
+
+
+def _merged(options, extra):
+    """The fit options with a candidate's own (its bounds added to the
+    user's)."""
+    out = dict(options, **{k: v for k, v in extra.items() if k != "bounds"})
+    if "bounds" in extra:
+        out["bounds"] = dict(options.get("bounds") or {}, **extra["bounds"])
+    return out
+
+
+def _refit(model, data, fit, c, options):
+    """Refit with the candidate: c.lr = 2 (J0 - J1), c.fit, c.quantities
+    (what it estimates: name, value, sigma, unit, meaning), its model, record
+    and options in c.spec; a failure goes in c.decision."""
+    try:
+        starts = ([s * _interval(data) for s in DELAY_STARTS]
+                  if c.family == "input time delay" else [c.spec.get("start")])
+        best = None
+        for s in starts:
+            m, d, opts, labels, value = _build(model, data, fit, c, options, s)
+            res, said = _quietly(fit_model, m, d, **opts)
+            if best is None or res.cost < best[0].cost:
+                best = (res, d, opts, labels, value, said)
+        res, d, opts, labels, value, said = best
+        c.quantities = value(res) if value else _param_quantities(res, labels, c.family)
+    except MlidError as exc:
+        c.decision = f"refit failed: {exc}"
+        return
+    c.lr = float(2 * (fit.cost - res.cost))
+    c.fit = res
+    c.note = "; ".join(said)
+    k = res.names.index(labels[0])
+    corr = np.delete(res.correlation[k], [res.names.index(n) for n in labels])
+    others = [n for n in res.names if n not in labels]
+    if corr.size and np.max(np.abs(corr)) > 0.95:
+        j = int(np.argmax(np.abs(corr)))
+        c.note = "; ".join(filter(None, (f"correlated {corr[j]:+.3f} with {others[j]}",
+                                         c.note)))
+    c.spec.update(model=res.model, data=d, options=opts)
+    c.decision = "refitted"
+
+
+def _quietly(fn, *args, **kwargs):
+    """fn's result and the texts of the warnings it gave: a candidate's
+    warnings belong to it (its note), not to the user's console."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = fn(*args, **kwargs)
+    return out, list(dict.fromkeys(str(w.message) for w in caught))
+
+
+def _param_quantities(res, labels, family):
+    """A parameter candidate's estimate as a quantity: its label, value,
+    sigma, unit (the fit's) and what it means."""
+    units = list(getattr(res, "param_units", None) or [""] * len(res.names))
+    return [(n, float(res.estimate[res.names.index(n)]), float(res.sigma[res.names.index(n)]),
+             units[res.names.index(n)], MEANING[family]) for n in labels]
+
+
+def _lag_order(c, model, data, fit, options):
+    """An accepted first-order lag: does a second-order one (two parameters,
+    wn and zeta, from wn = 1/tau) fit better by chi-square(1) at
+    LAG_ORDER_ALPHA?"""
+    tau = c.quantities[0][1]
+    second = Candidate(c.family, c.name, k=2, output=c.spec["output"], order=2,
+                       start=(1.0 / tau, effects.LAG2_ZETA))
+    _refit(model, data, fit, second, options)
+    if second.fit is None or 2 * (c.fit.cost - second.fit.cost) <= chi2_quantile(
+            LAG_ORDER_ALPHA):
+        return
+    c.note = (f"second order beats first order by 2dJ "
+              f"{2 * (c.fit.cost - second.fit.cost):.1f}")
+    c.name, c.k = "second-order " + c.name, 2
+    c.quantities, c.lr, c.fit = second.quantities, second.lr, second.fit
+    c.spec.update(model=second.spec["model"], order=2)

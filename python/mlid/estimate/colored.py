@@ -1,0 +1,67 @@
+"""The Cramer-Rao covariance corrected for coloured residuals (the core's
+mlid_colored), from what ``evaluate`` gives."""
+
+import numpy as np
+
+from .._bridge import api as _api
+from ..errors import InputError, check_status, guarded
+
+
+@guarded
+def colored_covariance(weighted_sensitivity, residuals, covariance, information,
+                       information_sensitivity, segment_starts=None, lag=None, rvv=None):
+    """The Cramer-Rao covariance corrected for coloured residuals (the core's
+    mlid_colored): cov [M - Ms + sum_i sum_j a(i)' w(|i-j|) Rvv(i-j) a(j)] cov.
+
+    Parameters
+    ----------
+    weighted_sensitivity : array (ny, nt, nf)
+        a(i), as ``evaluate`` returns it.
+    residuals : array (nt, ny)
+        Residuals (innovations) v(i).
+    covariance, information, information_sensitivity : arrays (nf, nf)
+        M^-1, M and Ms.
+    segment_starts : sequence of int, optional
+        First sample (1-based) of each manoeuvre; default one manoeuvre.
+    lag : int, optional
+        Largest lag; default chosen from the residuals by the core.
+    rvv : array (nlag + 1, ny, ny), optional
+        The residual autocovariance Rvv(0..nlag) to use instead of the
+        residuals' (residuals and lag are then ignored).
+
+    Returns
+    -------
+    (cov_c, lag): the corrected covariance (nf, nf) and the lag used.
+
+    Raises
+    ------
+    InputError
+        Sizes that do not agree, or bad segment starts.
+    """
+    a = np.asfortranarray(weighted_sensitivity, dtype=float)
+    if a.ndim != 3:
+        raise InputError("weighted_sensitivity must be (ny, nt, nf)")
+    ny, nt, nf = a.shape
+    seg = np.asarray([1] if segment_starts is None else segment_starts, dtype=np.int32)
+    mats = [np.asfortranarray(m, dtype=float) for m in (covariance, information,
+                                                         information_sensitivity)]
+    if any(m.shape != (nf, nf) for m in mats):
+        raise InputError(f"covariance, information and information_sensitivity must be "
+                         f"{nf} x {nf}")
+    if rvv is not None:
+        r = np.asarray(rvv, dtype=float)
+        if r.ndim != 3 or r.shape[1:] != (ny, ny):
+            raise InputError(f"rvv must be (nlag + 1, {ny}, {ny})")
+        cov_c, status, msg = _api.mlid_colored_cov_rvv(
+            segstart=seg, a=a, nlag=len(r) - 1, rvv=np.asfortranarray(r.transpose(1, 2, 0)),
+            cov=mats[0], info=mats[1], msens=mats[2])
+        check_status(status, msg)
+        return cov_c, len(r) - 1
+    v = np.asarray(residuals, dtype=float)
+    if v.shape != (nt, ny):
+        raise InputError(f"residuals must be ({nt}, {ny}) like the sensitivities")
+    cov_c, used, status, msg = _api.mlid_colored_cov(
+        segstart=seg, a=a, v=np.asfortranarray(v.T), cov=mats[0], info=mats[1], msens=mats[2],
+        lag_in=-1 if lag is None else int(lag))
+    check_status(status, msg)
+    return cov_c, int(used)

@@ -1,0 +1,420 @@
+"""The result of a fit, its printed report (report Table 5.3 style), its
+HTML form for Jupyter, and the whiteness test of its residuals."""
+
+import functools
+import html
+import json
+import re
+import types
+
+import numpy as np
+
+from .._bridge import api as _api
+from .evaluate import evaluate
+from .outcome import fit_outcome, require_estimates
+from .table import HTML_DIGITS, results_table
+
+#: What a failed fit does not have: every statistic of the fit (NaN in its
+#: FitResult, null in its JSON).  Its ``estimate`` holds the last values reached.
+NOT_IN_A_FAILED_FIT = ("sigma", "sigma_corrected", "covariance", "covariance_corrected",
+                       "information", "gradient", "eigenvalues", "eigenvectors", "rhat", "yhat",
+                       "cost", "cost_history")
+
+
+def whiteness(residuals, lags=20):
+    """Ljung-Box test of each column of residuals over lags 1..lags.
+
+    Parameters
+    ----------
+    residuals : array_like (nt, ny) or (nt,)
+        Residuals or innovations, a column per output; each column's mean is
+        removed first.
+    lags : int
+        The largest lag.
+
+    Returns
+    -------
+    list of dict
+        Per column: ``Q``; ``critical``, the 5% point of chi-square(lags)
+        (Wilson-Hilferty); ``white``, Q below it; ``outside``, the fraction
+        of autocorrelations outside +-1.96/sqrt(N).
+    """
+    e = np.asarray(residuals, dtype=float)
+    e = e.reshape(len(e), -1) - e.reshape(len(e), -1).mean(axis=0)
+    n = len(e)
+    crit = lags * (1 - 2 / (9 * lags) + 1.6449 * np.sqrt(2 / (9 * lags))) ** 3
+    out = []
+    for col in e.T:
+        c0 = col @ col
+        rho = np.array([col[k:] @ col[:-k] for k in range(1, lags + 1)]) / c0
+        q = n * (n + 2) * np.sum(rho**2 / (n - np.arange(1, lags + 1)))
+        out.append({"Q": float(q), "critical": float(crit), "white": bool(q < crit),
+                    "outside": float(np.mean(np.abs(rho) > 1.96 / np.sqrt(n)))})
+    return out
+
+
+class FitResult:
+    """Estimates, Cramer-Rao standard deviations, correlations, noise
+    covariance, residuals, cost history and how the iteration ended.
+    ``sigma_corrected`` and ``covariance_corrected``: the Cramer-Rao ones
+    corrected for coloured residuals (the core's mlid_colored, residual
+    autocorrelation up to lag ``colored_lag``).
+
+    Made by ``fit``; in Jupyter it shows as an HTML table.  A fit that
+    failed (``failed``; the error raised carries it as ``.result``) has no
+    estimates: ``estimate`` holds the last values reached, and every
+    statistic (NOT_IN_A_FAILED_FIT) is NaN.
+
+    Parameters
+    ----------
+    **fields
+        The attributes, by name (``fit`` sets those below and more).
+
+    Attributes
+    ----------
+    names : list of str
+        The free parameters' labels.
+    start, estimate, sigma, sigma_corrected : ndarray (nf,)
+        Start values, estimates, Cramer-Rao and corrected sigmas.
+    covariance, covariance_corrected, information : ndarray (nf, nf)
+    rhat : ndarray (ny, ny)
+        R-hat (output error) or the mean innovation covariance (filter error).
+    r_innovations : ndarray (ny,) or None
+        Filter error with ``noise_criterion='innovations'``: the diagonal of R
+        the relaxation left (the model's r); None otherwise.
+    yhat : ndarray (nt, ny)
+        Model outputs (one-step predictions for filter error; for the
+        frequency-domain methods ``zhat``).
+    frequencies, z, zhat : ndarray or None
+        Frequency-domain fits: the frequencies (Hz, each manoeuvre's in
+        turn), the measured left-hand sides (output error: the outputs'
+        transforms; equation error: i w Y for the outputs that measure a
+        state) and the model's, complex (nk, ny).
+    cost : float
+    cost_history : ndarray (iterations + 1,)
+    iterations : int
+    converged : bool
+        False for a failed fit.
+    reason : str
+        Why the iteration stopped, in the report's words.
+    status : int
+        The core's status code (0, or 4 when not converged; others: failed).
+    message : str
+        The core's message: a warning, why it did not converge or why it failed.
+    model : Model
+        The model at the estimate.
+    data : FlightData
+        The record fitted (several manoeuvres joined).
+    options : dict
+        The options used, by name.
+    """
+
+    r_innovations = None
+    #: frequency-domain fits: the frequencies (Hz), measured and model transforms
+    frequencies = z = zhat = None
+    #: {name: what makes it}: fields made when first asked for (``fit``
+    #: leaves ``model``, ``manoeuvres`` and ``param_units`` so: few fits are
+    #: looked at that closely, and a fit is short enough for them to count)
+    later = types.MappingProxyType({})
+
+    def __init__(self, **fields):
+        self.__dict__.update(fields)
+        if self.failed:             # whatever the failure left there means nothing
+            for name in NOT_IN_A_FAILED_FIT:
+                if name in fields:
+                    self.__dict__[name] = np.full(np.shape(fields[name]), np.nan)
+            self.cost = float("nan")
+            self.converged = False
+
+    @property
+    def failed(self):
+        """True when an error ended the fit (``fit_outcome``): no estimates,
+        only the last values reached.  Running out of iterations is not
+        failing: that result has its sigma and ``converged`` False."""
+        return fit_outcome(getattr(self, "status", 0), getattr(self, "reason_code", 0)) == \
+            "failed"
+
+    def _made(self, name):
+        if name not in self.later:
+            raise AttributeError(name)
+        return self.later[name]()
+
+    @functools.cached_property
+    def model(self):
+        """The model at the estimate (``later``)."""
+        return self._made("model")
+
+    @functools.cached_property
+    def manoeuvres(self):
+        """Each manoeuvre's model at the estimate: the shared parameters and
+        its own x0 and bias (``later``)."""
+        return self._made("manoeuvres")
+
+    @functools.cached_property
+    def param_units(self):
+        """The unit of each free parameter, the core's mlid_param_units
+        (``later``)."""
+        return self._made("param_units")
+
+    @property
+    def residuals(self):
+        """Measured minus model outputs, (nt, ny); for a frequency-domain fit
+        the transforms' (complex, one row per frequency)."""
+        if self.frequencies is not None:
+            return self.z - self.zhat
+        return self.data.y - self.yhat
+
+    @property
+    def correlation(self):
+        """Correlation matrix of the estimates, from the Cramer-Rao covariance."""
+        d = np.sqrt(np.clip(np.diag(self.covariance), 0, None))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            c = self.covariance / np.outer(d, d)
+        return np.where(np.outer(d, d) > 0, c, 0.0)
+
+    def whiteness(self, lags=20):
+        """Ljung-Box whiteness test of the residuals (innovations), per output.
+
+        Parameters
+        ----------
+        lags : int
+            The largest lag.
+
+        Returns
+        -------
+        list of dict
+            As ``mlid.whiteness``.
+
+        Raises
+        ------
+        InputError
+            If the fit failed.
+        """
+        require_estimates(self, "whiteness test")
+        return whiteness(self.residuals, lags)
+
+    @property
+    def cost_prime(self):
+        """The report's J' (§5.1.6): (1/2N) sum nu'nu, the unweighted mean
+        square of the one-step prediction errors (half the trace of R-hat,
+        their mean square; the core's report prints it for filter error)."""
+        return float(0.5 * np.trace(self.rhat))
+
+    @property
+    def det_r(self):
+        """The determinant of R-hat (the report's det R, or det B)."""
+        return float(np.linalg.det(self.rhat))
+
+    def as_dict(self):
+        """Plain types for JSON.
+
+        Returns
+        -------
+        dict
+            Method and band (frequency domain; None for the time domain),
+            parameters, start, estimate, sigmas, correlation, R, cost and its
+            history, iterations, convergence, rank, reason, message, wall time;
+            for a failed fit, as its JSON: ``failed`` True, ``last_values``,
+            and None for the estimates and every statistic.
+        """
+        core = json.loads(self._texts()[1])           # the estimator and band, as the core words them
+        common = {"failed": self.failed, "method": core["method"], "band": core["band"],
+                  "parameters": list(self.names),
+                  "units": list(getattr(self, "param_units", None) or [""] * len(self.names)),
+                  "start": self.start.tolist()}
+        end = {"iterations": self.iterations, "converged": self.converged,
+               "reason": self.reason, "message": self.message, "wall_time_s": self.wall_time}
+        if self.failed:
+            return {**common, "last_values": self.estimate.tolist(),
+                    **dict.fromkeys(("estimate", "sigma", "sigma_corrected", "colored_lag",
+                                     "correlation", "R", "det_R", "R_innovations", "cost",
+                                     "cost_prime", "cost_history",
+                                     "rank")), **end}
+        return {**common, "estimate": self.estimate.tolist(), "sigma": self.sigma.tolist(),
+                "sigma_corrected": self.sigma_corrected.tolist(),
+                "colored_lag": self.colored_lag, "correlation": self.correlation.tolist(),
+                "R": self.rhat.tolist(), "det_R": self.det_r,
+                "R_innovations": None if self.r_innovations is None
+                else self.r_innovations.tolist(), "cost": self.cost, "cost_prime": self.cost_prime,
+                "cost_history": self.cost_history.tolist(), "rank": self.rank, **end}
+
+    def _texts(self, title="", job="estimate"):
+        """The core's report and JSON object of this fit (mlid-batch prints
+        and writes the same text)."""
+        rep, nrep, js, njs = _api.mlid_report_fit(
+            labels="\n".join(self.names) + "\n",
+            units="\n".join(getattr(self, "param_units", None) or [""] * len(self.names)) + "\n",
+            iopt=self.flat_options, ropt=self.flat_real_options, start=self.start,
+            est=self.estimate, sig=self.sigma, sigc=self.sigma_corrected, lag=self.colored_lag,
+            cov=self.covariance, eigval=self.eigenvalues,
+            eigvec=self.eigenvectors, rhat=self.rhat, hist=self.cost_history, cost=self.cost,
+            niter=self.iterations, reason=self.reason_code, converged=int(self.converged),
+            nrank=self.rank, title=title, job=job, status=self.status, msg=self.message,
+            rnoise=np.full(self.rhat.shape[0], np.nan) if self.r_innovations is None
+            else self.r_innovations)
+        return rep[:nrep].decode(errors="replace"), js[:njs].decode(errors="replace")
+
+    def report(self):
+        """The printed report (report Table 5.3 layout) with what the
+        information says about identifiability (report §4.5, §5.3.5).
+
+        Returns
+        -------
+        str
+            The core's text, the one mlid-batch prints.
+        """
+        return self._texts()[0].rstrip("\n")
+
+    def identifiability(self):
+        """The report's lines on identifiability: eigenvalue spread of the
+        normalised information, its weakest direction, correlations above 0.9.
+
+        Returns
+        -------
+        list of str
+        """
+        if self.failed:
+            return []
+        lines = self.report().split("\n")
+        k = [i for i, ln in enumerate(lines) if ln.startswith((" R diagonal", " B diagonal"))]
+        return lines[k[0] + 1:]
+
+    def against_truth(self, truth):
+        """The estimates against known true values: a simulated record's.
+
+        Parameters
+        ----------
+        truth : Model
+            A model of the fit's kind holding the true values (the model of
+            the deck case that simulated the record), read at the fit's free
+            elements.
+
+        Returns
+        -------
+        values : ndarray
+            The true value of each free parameter, in ``names``' order.
+        deviations : ndarray
+            (estimate - truth) / Cramer-Rao sigma of each.
+        """
+        values = truth.theta[self.start_model.free_mask == 1]    # theta order, as estimate
+        return values, (self.estimate - values) / self.sigma
+
+    def json(self, title="", job="estimate"):
+        """The JSON object of this fit as a deck case (``mlid run --json``).
+
+        Parameters
+        ----------
+        title, job : str
+            The case's title and job, as a deck gives them.
+
+        Returns
+        -------
+        str
+            The core's JSON text, the one mlid-batch writes.
+        """
+        return self._texts(title, job)[1]
+
+    def sensitivity_norms(self):
+        """Output sensitivity norms at the estimate, (ny, nf): sqrt(sum over
+        the record of (d yhat_i / d theta_k)^2 / R_ii), how many residual
+        sigmas each parameter moves each output (innovations for filter
+        error).  A parameter small in every output is one the data cannot see.
+
+        Returns
+        -------
+        ndarray (ny, nf)
+
+        Raises
+        ------
+        InputError
+            If the fit failed.
+        """
+        require_estimates(self, "sensitivity norms")
+        data, x0s, biases = getattr(self, "evaluate_args", (self.data, None, None))
+        if isinstance(data, (list, tuple)):      # several manoeuvres: each one's own x0, bias
+            x0s = [m.x0 for m in self.manoeuvres]
+            biases = [m.bias for m in self.manoeuvres]
+        return evaluate(self.model, data, initial_states=x0s, biases=biases,
+                        **self.options)["sensitivity"]
+
+    def sensitivity_table(self):
+        """The sensitivity norms as printed lines, a row per parameter.
+
+        Returns
+        -------
+        list of str
+        """
+        s = self.sensitivity_norms()
+        outs = [n[:10] for n in self.data.output_names] or [f"y{i + 1}" for i in range(len(s))]
+        lines = [" output sensitivity norms (residual sigmas over the record)",
+                 f" {'parameter':<16}" + "".join(f"{n:>11}" for n in outs)]
+        for k, name in enumerate(self.names):
+            lines.append(f" {name[:16]:<16}" + "".join(f"{v:11.3E}" for v in s[:, k]))
+        return lines
+
+    def table(self):
+        """The results table: name, unit, estimate, Cramer-Rao and corrected
+        sigma, relative sigma, flag.
+
+        Returns
+        -------
+        mlid.estimate.table.ResultsTable
+            Exports CSV, LaTeX, JSON, HTML and DataFrames.
+
+        Raises
+        ------
+        InputError
+            If ``param_units`` does not have one entry per free parameter.
+        """
+        return results_table(self)
+
+    def noise_diagonal(self):
+        """The diagonal of R-hat by output, in the core report's words.
+
+        Returns
+        -------
+        label : str
+            'R diagonal' (output error: R estimated from the residuals) or
+            'B diagonal (mean)' (filter error: the mean innovation covariance),
+            as the printed report says it.
+        rows : list of (str, float)
+            Each output's name and its diagonal element (core units).
+
+        Raises
+        ------
+        InputError
+            If the fit failed.
+        """
+        require_estimates(self, "noise estimate")
+        line = next(ln for ln in self.report().split("\n")
+                    if ln.startswith((" R diagonal", " B diagonal")))
+        label = re.match(r"\s*(\w diagonal(?: \(mean\))?)", line).group(1)
+        outs = list(self.data.output_names) or [f"y{i + 1}" for i in range(len(self.rhat))]
+        return label, [(name, float(v)) for name, v in zip(outs, np.diag(self.rhat))]
+
+    def _repr_html_(self):
+        """Jupyter's view: the report's first line (method, iterations,
+        converged and why), the results table, the cost and R-hat's diagonal;
+        for a failed fit the report's lines (what failed, the last values)."""
+        e = html.escape
+        if self.failed:
+            return (f'<div class="mlid-fit mlid-failed"><p><b>FitResult</b></p>'
+                    f"<pre>{e(self.report())}</pre></div>")
+        head = self.report().split("\n")[0].strip()
+        label, rows = self.noise_diagonal()
+        noise = "".join(f"<tr><td>{e(name)}</td><td style=\"text-align:right\">"
+                        f"{v:.{HTML_DIGITS}g}</td></tr>" for name, v in rows)
+        return (f'<div class="mlid-fit"><p><b>FitResult</b>: {e(head)}</p>'
+                f"{self.table().html_text()}"
+                f'<p>cost J = <span class="cost">{self.cost:.{HTML_DIGITS}g}</span>, '
+                f'<span class="iterations">{self.iterations}</span> iterations, '
+                f'converged: <span class="converged">{"yes" if self.converged else "no"}'
+                f'</span> (<span class="reason">{e(self.reason)}</span>)</p>'
+                f'<table class="mlid-noise"><thead><tr><th>output</th><th>{e(label)}</th>'
+                f"</tr></thead><tbody>{noise}</tbody></table></div>")
+
+    def __repr__(self):
+        if self.failed:
+            return f"FitResult(failed after {self.iterations} iterations: {self.message})"
+        return f"FitResult(cost={self.cost:.6g}, iterations={self.iterations}, " \
+               f"converged={self.converged})"

@@ -1,0 +1,60 @@
+"""A model's and a record's part of every core call, checked: the model's
+sizes and constants by keyword, the record's arrays in the core's layout,
+and the parameters and joined record of one manoeuvre or several."""
+
+import numpy as np
+
+from ..data.flight_data import FlightData
+from ..errors import InputError
+from .maneuvers import Params, join
+from .models import Model
+
+
+def _check_model(model, name="model"):
+    if not isinstance(model, Model):
+        raise InputError(f"{name} must be a mlid model (LinearModel, LongitudinalModel, X22Model "
+                         f"or UserModel), got {type(model).__name__}")
+
+
+def _check_data(data):
+    records = list(data) if isinstance(data, (list, tuple)) else [data]
+    if not records or not all(isinstance(r, FlightData) for r in records):
+        raise InputError("data must be a FlightData or a list of them (FlightData.load(path, "
+                         f"...) reads a file), got {type(data).__name__}")
+
+
+def _time_and_inputs(model, t, u):
+    """t (nt,) and u (nt, nu) checked as a record's are (u given nu x nt is refused)."""
+    rec = FlightData(t, u, np.zeros((np.size(t), 0)))
+    if rec.u.shape[1] != model.nu:
+        raise InputError(f"u has {rec.u.shape[1]} columns, the model has {model.nu} inputs")
+    return rec.t, rec.u
+
+
+def _model_args(model):
+    """The model's part of every core call, by keyword."""
+    return {"mkind": model.kind, "nx": model.nx, "nu": model.nu, "ny": model.ny,
+            "nw": model.nw, "iconst": model.iconst, "rconst": model.rconst}
+
+
+def _record(model, data):
+    if data.u.shape[1] != model.nu:
+        raise InputError(f"data has {data.u.shape[1]} input columns, the model has {model.nu} inputs")
+    if data.y.shape[1] != model.ny:
+        raise InputError(f"data has {data.y.shape[1]} output columns, the model has "
+                         f"{model.ny} outputs")
+    # (nt, n) C-ordered is the core's (n, nt) Fortran-ordered: no copy.
+    u = np.ascontiguousarray(data.u, dtype=float).T
+    y = np.ascontiguousarray(data.y, dtype=float).T
+    return np.ascontiguousarray(data.t, dtype=float), u, y
+
+
+def _manoeuvres(model, data, initial_states, biases):
+    """The parameters and the record for one manoeuvre or several (a list)."""
+    if isinstance(data, (list, tuple)):
+        record, starts = join(list(data))
+        return Params(model, len(data), initial_states, biases), record, starts
+    if initial_states is not None or biases is not None:
+        raise InputError("initial_states and biases are for several manoeuvres (a list of "
+                         "records); one manoeuvre takes the model's x0 and bias")
+    return Params(model), data, np.array([1], dtype=np.int32)
