@@ -12,13 +12,12 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid import _core
+from mlid._bridge import api as _api
 from conftest import C8_F, C8_FREE, C8_G, C8_NAMES, c8_record, c8_start, run_both
 
-_api = _core.mlid_api
 BAND = dict(f_min=0.1, f_max=2.0, n_freq=40)
 FDOE, FDEE = "frequency_output_error", "frequency_equation_error"
-TOL = 1e-6                      # UNIFORM_TOL of mlid_record: steps to 1e-6 of the mean
+TOL = 1e-6                      # UNIFORM_TOL of mlid_sampling: steps to 1e-6 of the mean
 
 
 def jittered(rel, at=40, seed=1):

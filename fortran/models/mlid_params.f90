@@ -10,7 +10,7 @@ module mlid_params
   use mlid_models, only: layout_t
   implicit none
   private
-  public :: param_map_t, tie_t, param_map_create, segment_map, apply_ties, no_ties, input_delays, output_delays, stabilized
+  public :: param_map_t, tie_t, ties_of, param_map_create, segment_map, apply_ties, no_ties, input_delays, output_delays, stabilized
 
   !> Affine ties: term i gives theta(to(i)) the part scale(i)*theta(from(i));
   !> offset(k) is the constant of a tied entry k (0 for the others).
@@ -248,5 +248,15 @@ contains
     type(layout_t), intent(in) :: l
     stabilized = any(theta(l%ostab + 1:l%op0) /= 0.0_wp)
   end function stabilized
+
+  !> The ties of a flat interface: the first ntie terms (no more than given).
+  pure function ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset) result(tie)
+    integer, intent(in) :: ntie, tie_to(:), tie_from(:)
+    real(wp), intent(in) :: tie_scale(:), tie_offset(:)
+    type(tie_t) :: tie
+    integer :: n
+    n = max(0, min(ntie, size(tie_to), size(tie_from), size(tie_scale)))
+    tie = tie_t(tie_to(1:n), tie_from(1:n), tie_scale(1:n), tie_offset)
+  end function ties_of
 
 end module mlid_params

@@ -1,14 +1,20 @@
 """The one module that imports the extension mlid._core (the Fortran core
-through f2py, fortran/api/mlid_api.f90): its interface object and the helpers
+through f2py, fortran/api/mlid_api_*.f90): its interface object and the helpers
 that read the core's text back.  A core status code becomes an exception in
 errors.py (check_status)."""
 
-from . import _core
+import types
 
+from . import _core
 from .errors import check_status
 
-#: The core's flat interface: every call of the core goes through it.
-api = _core.mlid_api
+#: The core's flat interface, its modules (fortran/api/mlid_api_*.f90) as one:
+#: every call of the core goes through it.
+api = types.SimpleNamespace(**{name: getattr(module, name)
+                               for module in (_core.mlid_api_deck, _core.mlid_api_models,
+                                              _core.mlid_api_fit, _core.mlid_api_frequency,
+                                              _core.mlid_api_design)
+                               for name in dir(module) if name.startswith("mlid_")})
 
 
 class Handle:

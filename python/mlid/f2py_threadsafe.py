@@ -1,14 +1,14 @@
-"""Build step (not installed): a copy of fortran/api/mlid_api.f90 for f2py to
-read, with '!f2py threadsafe' in the numerical routines named below, so their
-wrappers release the GIL while the core runs (Python threads then run fits
-side by side: mlid.monte_carlo_parallel).
+"""Build step (not installed): the modules of fortran/api/ as one file for
+f2py to read, with '!f2py threadsafe' in the numerical routines named below,
+so their wrappers release the GIL while the core runs (Python threads then
+run fits side by side: mlid.monte_carlo_parallel).
 
 The core keeps no module state: what a caller keeps between calls is in a
 handle of its own (fortran/case/mlid_handles.f90), and the core is compiled
 -frecursive (locals on each thread's stack).  The routines that read decks
 and records stay under the GIL as before.
 
-    python f2py_threadsafe.py IN.f90 OUT.f90
+    python f2py_threadsafe.py IN.f90... OUT.f90
 """
 
 import re
@@ -40,8 +40,11 @@ def mark(text):
 
 
 if __name__ == "__main__":
-    src, dst = sys.argv[1:3]
-    with open(src, encoding="utf-8") as f:
-        text = mark(f.read())
+    *sources, dst = sys.argv[1:]
+    parts = []
+    for src in sources:
+        with open(src, encoding="utf-8") as f:
+            parts.append(f.read())
+    text = mark("\n".join(parts))
     with open(dst, "w", encoding="utf-8") as f:
         f.write(text)

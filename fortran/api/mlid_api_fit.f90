@@ -1,0 +1,362 @@
+!> The flat interface's estimation: fit, evaluate, simulate, Monte Carlo,
+!> the coloured-residual covariance, and the report and JSON texts of a
+!> fit and a validation.
+!> Conventions: mlid_api_deck's comment.
+module mlid_api_fit
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_models, only: model_t
+  use mlid_options, only: options_t, frequency_method
+  use mlid_params, only: param_map_t, apply_ties, ties_of
+  use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
+  use mlid_newton, only: fit_result_t
+  use mlid_fit_driver, only: fit_solve, fit_view, fit_view_t
+  use mlid_colored, only: colored_covariance, colored_sandwich
+  use mlid_simulate, only: simulate_flat
+  use mlid_monte_carlo, only: monte_carlo, mc_statistics
+  use mlid_setup, only: setup
+  use mlid_case, only: NAMELEN
+  use mlid_text, only: split_lines
+  use mlid_units, only: UNITLEN
+  use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
+                         validation_json
+  use mlid_validate, only: prediction_stats
+  implicit none
+  private
+  public :: mlid_report_fit, mlid_case_json, mlid_prediction_stats, mlid_report_validation, &
+            mlid_fit, mlid_evaluate, mlid_colored_cov, mlid_colored_cov_rvv, mlid_simulate, &
+            mlid_monte_carlo, mlid_monte_carlo_summary
+
+contains
+
+  !> The printed report and the JSON object of a fit (the text mlid-batch
+  !> prints and writes); labels one per line; the text ends where its
+  !> length says.
+  !> sigc: sigma corrected for coloured residuals, lag: its lag.
+  subroutine mlid_report_fit(nf, ny, nh, labels, units, iopt, ropt, start, est, sig, sigc, lag, cov, eigval, &
+                             eigvec, rhat, hist, cost, niter, reason, converged, nrank, title, job, &
+                             status, msg, rnoise, report, nreport, json, njson)
+    integer(c_int), intent(in) :: nf, ny, nh, iopt(16), niter, reason, converged, nrank, status, lag
+    real(c_double), intent(in) :: ropt(16)
+    character(len=*), intent(in) :: labels, units, title, job, msg
+    real(c_double), intent(in) :: start(nf), est(nf), sig(nf), sigc(nf), cov(nf, nf), eigval(nf), &
+                                  eigvec(nf, nf), rhat(ny, ny), hist(nh), cost
+    real(c_double), intent(in) :: rnoise(ny)   !< the innovations criterion's R; NaN: none
+    character(len=262144), intent(out) :: report, json
+    integer(c_int), intent(out) :: nreport, njson
+    type(fit_summary_t) :: s
+    character(len=:), allocatable :: text
+
+    s = fit_summary_t(split_lines(labels, nf, NAMELEN), start, est, sig, sigc, cov, eigval, eigvec, &
+                      rhat, hist, cost, niter, reason, nrank, lag, converged == 1, &
+                      split_lines(units, nf, UNITLEN))
+    if (all(ieee_is_finite(rnoise))) s%rnoise = rnoise
+    text = fit_report(s, iopt, ropt, status, msg)
+    nreport = min(len(text), len(report))
+    report = text
+    text = fit_json(title, job, status, msg, s, iopt, ropt)
+    njson = min(len(text), len(json))
+    json = text
+  end subroutine mlid_report_fit
+
+  !> The JSON object of a case without a fit (samples >= 0: a simulate
+  !> case that wrote out).
+  subroutine mlid_case_json(title, job, status, msg, samples, out, json, njson)
+    character(len=*), intent(in) :: title, job, msg, out
+    integer(c_int), intent(in) :: status, samples
+    character(len=4096), intent(out) :: json
+    integer(c_int), intent(out) :: njson
+    character(len=:), allocatable :: text
+    if (samples >= 0) then
+      text = case_json(title, job, status, msg, samples, out)
+    else
+      text = case_json(title, job, status, msg)
+    end if
+    njson = min(len(text), len(json))
+    json = text
+  end subroutine mlid_case_json
+
+  !> Theil's U, rms error and rms/sigma per output of a prediction
+  !> (mlid_validate): y, yhat (ny, nt), rhat the identification's.
+  subroutine mlid_prediction_stats(ny, nt, y, yhat, rhat, theil, rms, ratio)
+    integer(c_int), intent(in) :: ny, nt
+    real(c_double), intent(in) :: y(ny, nt), yhat(ny, nt), rhat(ny, ny)
+    real(c_double), intent(out) :: theil(ny), rms(ny), ratio(ny)
+    call prediction_stats(y, yhat, rhat, theil, rms, ratio)
+  end subroutine mlid_prediction_stats
+
+  !> The printed lines and the JSON member of a validation.
+  subroutine mlid_report_validation(ny, nh, names, holdout, theil, rms, ratio, report, nreport, &
+                                    json, njson)
+    integer(c_int), intent(in) :: ny, nh, holdout(nh)
+    character(len=*), intent(in) :: names
+    real(c_double), intent(in) :: theil(ny), rms(ny), ratio(ny)
+    character(len=65536), intent(out) :: report, json
+    integer(c_int), intent(out) :: nreport, njson
+    character(len=:), allocatable :: text
+    text = validation_report(split_lines(names, ny, NAMELEN), holdout, theil, rms, ratio)
+    nreport = min(len(text), len(report))
+    report = text
+    text = validation_json(split_lines(names, ny, NAMELEN), holdout, theil, rms, ratio)
+    njson = min(len(text), len(json))
+    json = text
+  end subroutine mlid_report_validation
+
+  !> Maximum-likelihood fit from theta0 (output or filter error, iopt(6)),
+  !> with the options of report sec. 4.6: a priori values prior(nth) and weight
+  !> pweight(nf, nf) over the free parameters (use_prior = 1), bounds
+  !> lower(nth) <= theta <= upper(nth) (use_bounds = 1), the rank-deficient
+  !> search from iopt(10) (rank: the rank of the last step).
+  !> Out: theta_start (theta0, or the equation-error start-up's values), theta, sigma (Cramer-Rao, 0 for fixed), cov/info/grad/eigval over
+  !> the nf free parameters, rhat (R-hat, or the mean innovation covariance),
+  !> yhat, cost_hist(nc) (nc = max_iter + 1; entries past niter + 1 are 0),
+  !> cost, niter, reason (mlid_kinds STOP_*), converged (0/1), bad_param
+  !> (free index of a singular direction), sigma_c and cov_c (the same
+  !> corrected for coloured residuals, mlid_colored) and lag (its lag).
+  !> Several manoeuvres: the record holds them one after the other, segment k
+  !> from sample segstart(k) (segstart(1) = 1), with an initial state and a
+  !> bias vector each in theta (the x0 and bias blocks nseg times as long).
+  subroutine mlid_fit(mkind, nx, nu, ny, nw, nth, theta0, isfree, ntie, mtie, tie_to, tie_from, &
+                      tie_scale, tie_offset, nic, iconst, nrc, &
+                      rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, nc, use_prior, prior, &
+                      pweight, use_bounds, lower, upper, theta_start, theta, sigma, cov, info, &
+                      grad, eigval, eigvec, rhat, yhat, cost_hist, cost, niter, reason, converged, &
+                      rank, bad_param, sigma_c, cov_c, lag, rnoise, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nc, nseg
+    integer(c_int), intent(in) :: segstart(nseg)
+    integer(c_int), intent(in) :: use_prior, use_bounds
+    real(c_double), intent(in) :: prior(nth), pweight(nf, nf), lower(nth), upper(nth)
+    real(c_double), intent(in) :: theta0(nth)
+    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
+    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
+    real(c_double), intent(out) :: theta_start(nth), theta(nth), sigma(nth), cov(nf, nf)
+    real(c_double), intent(out) :: info(nf, nf), grad(nf)
+    real(c_double), intent(out) :: eigval(nf), eigvec(nf, nf), rhat(ny, ny), yhat(ny, nt)
+    real(c_double), intent(out) :: cost_hist(nc), cost
+    integer(c_int), intent(out) :: niter, reason, converged, rank, bad_param, status
+    real(c_double), intent(out) :: sigma_c(nth), cov_c(nf, nf)
+    integer(c_int), intent(out) :: lag
+    !> noise_criterion = 'innovations': the R the fit left (diagonal); NaN otherwise
+    real(c_double), intent(out) :: rnoise(ny)
+    character(len=256), intent(out) :: msg
+    type(options_t) :: opt
+    type(param_map_t) :: pm
+    type(fit_result_t) :: res
+    type(fit_view_t) :: v
+    integer :: bad
+
+    if (nc /= iopt(1) + 1) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0)') 'cost history length ', nc, ' must be max_iter + 1 = ', &
+        iopt(1) + 1
+      return
+    end if
+    call fit_solve(mkind, nx, nu, ny, nw, theta0, isfree, &
+                   ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, &
+                   y, segstart, iopt, ropt, nf, use_prior, prior, pweight, use_bounds, lower, &
+                   upper, res, pm, opt, bad, status, msg)
+    v = fit_view(res, pm, opt, theta0, ny, nt, bad)
+    theta_start = v%theta_start
+    theta = v%theta
+    sigma = v%sigma
+    cov = 0.0_wp
+    info = 0.0_wp
+    grad = 0.0_wp
+    eigval = 0.0_wp
+    eigvec = 0.0_wp
+    sigma_c = v%sigma_c
+    cov_c = 0.0_wp
+    if (size(v%cov, 1) == nf) then        ! a fit that got as far as its set-up
+      cov = v%cov
+      cov_c = v%cov_c
+      info = v%info
+      grad = v%grad
+      eigval = v%eigval
+      eigvec = v%eigvec
+    end if
+    rhat = v%rhat
+    yhat = v%yhat
+    cost_hist = 0.0_wp
+    if (size(v%hist) == nc) cost_hist = v%hist
+    cost = v%cost
+    niter = v%niter
+    reason = v%reason
+    converged = merge(1, 0, v%converged)
+    rank = v%rank
+    bad_param = v%bad
+    lag = v%lag
+    rnoise = v%rnoise
+  end subroutine mlid_fit
+
+  !> Cost, gradient, information matrix and output sensitivity norms at
+  !> theta, without iterating.
+  subroutine mlid_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, ntie, mtie, tie_to, tie_from, &
+                           tie_scale, tie_offset, nic, iconst, nrc, &
+                           rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, cost, grad, info, &
+                           rhat, yhat, sens, wsens, msens, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nseg
+    integer(c_int), intent(in) :: segstart(nseg)
+    real(c_double), intent(in) :: theta(nth)
+    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
+    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
+    real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny), yhat(ny, nt)
+    real(c_double), intent(out) :: sens(ny, nf)
+    real(c_double), intent(out) :: wsens(ny, nt, nf), msens(nf, nf)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    type(param_map_t) :: pm
+    real(wp) :: th(nth)
+    type(sens_keep_t) :: keep
+
+    cost = 0.0_wp
+    grad = 0.0_wp
+    info = 0.0_wp
+    rhat = 0.0_wp
+    yhat = 0.0_wp
+    sens = 0.0_wp
+    wsens = 0.0_wp
+    msens = 0.0_wp
+    call setup(mkind, nx, nu, ny, nw, theta, isfree, &
+               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, y, iopt, &
+               ropt, &
+               nf, m, opt, pm, status, msg, segstart)
+    if (status /= MLID_OK) return
+    if (frequency_method(opt)) then
+      status = MLID_ERR_INPUT
+      msg = 'evaluate works on the time-domain record: the frequency-domain methods have '// &
+            'frequency_evaluate'
+      return
+    end if
+    th = theta
+    call apply_ties(pm%tie, th)
+    ! wsens made as a fit makes it at its estimate: from what the evaluation keeps
+    call likelihood(m, th, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, sens, &
+                    msens, keep=keep)
+    if (status == MLID_OK .and. allocated(keep%dy)) call weighted_sensitivities(keep, pm%l%seg, &
+                                                                                wsens)
+  end subroutine mlid_evaluate
+
+  !> The covariance corrected for coloured residuals (mlid_colored) from
+  !> weighted sensitivities a(ny, nt, nf), residuals v(ny, nt), the segment
+  !> starts, cov (M^-1), info (M) and msens (the part of M a makes); Rvv up
+  !> to lag_in (< 0: the lag chosen from v, returned in lag).
+  subroutine mlid_colored_cov(ny, nt, nf, nseg, segstart, a, v, cov, info, msens, lag_in, &
+                              cov_c, lag, status, msg)
+    integer(c_int), intent(in) :: ny, nt, nf, nseg, segstart(nseg), lag_in
+    real(c_double), intent(in) :: a(ny, nt, nf), v(ny, nt), cov(nf, nf), info(nf, nf), &
+                                  msens(nf, nf)
+    real(c_double), intent(out) :: cov_c(nf, nf)
+    integer(c_int), intent(out) :: lag, status
+    character(len=256), intent(out) :: msg
+    integer :: lg
+    call colored_covariance(cov, info, msens, a, v, segstart, lag_in, cov_c, lg, status, msg)
+    lag = lg
+  end subroutine mlid_colored_cov
+
+  !> The same with the residual autocovariance given: rvv(:, :, k+1) =
+  !> Rvv(k), k = 0 .. nlag (Bartlett weights at nlag).
+  subroutine mlid_colored_cov_rvv(ny, nt, nf, nseg, segstart, a, nlag, rvv, cov, info, msens, &
+                                  cov_c, status, msg)
+    integer(c_int), intent(in) :: ny, nt, nf, nseg, segstart(nseg), nlag
+    real(c_double), intent(in) :: a(ny, nt, nf), rvv(ny, ny, nlag + 1), cov(nf, nf), &
+                                  info(nf, nf), msens(nf, nf)
+    real(c_double), intent(out) :: cov_c(nf, nf)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call colored_sandwich(cov, info, msens, a, rvv, segstart, cov_c, status, msg)
+  end subroutine mlid_colored_cov_rvv
+
+  !> Outputs y and states x of the model along t with inputs u, with the
+  !> process and measurement noise whose statistics are in theta (seeded).
+  subroutine mlid_simulate(mkind, nx, nu, ny, nw, nth, theta, nic, iconst, nrc, rconst, nt, t, u, &
+                           seed, timing, iopt, ropt, y, x, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed, timing
+    real(c_double), intent(in) :: theta(nth)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    real(c_double), intent(in) :: t(nt), u(nu, nt)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
+    real(c_double), intent(out) :: y(ny, nt), x(nx, nt)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call simulate_flat(mkind, nx, nu, ny, nw, theta, iconst, rconst, t, u, iopt, ropt, seed, y, x, &
+                       status, msg, timing)
+  end subroutine mlid_simulate
+
+  !> nrun identifications: data from theta_true with seeds seed0, seed0+1, ...,
+  !> each fitted from theta_start.  est and sig (nf, nrun) are the estimates
+  !> and Cramer-Rao standard deviations of the free parameters, iters the
+  !> iterations, run_status each run's status (0, or the code it ended on).
+  subroutine mlid_monte_carlo(mkind, nx, nu, ny, nw, nth, theta_true, theta_start, isfree, &
+                              ntie, mtie, tie_to, tie_from, tie_scale, tie_offset, &
+                              nic, iconst, nrc, rconst, nt, t, u, seed0, nrun, iopt, ropt, nf, &
+                              est, sig, info, iters, run_status, status, msg)
+    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed0, nrun, nf
+    real(c_double), intent(in) :: theta_true(nth), theta_start(nth)
+    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
+    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
+    integer(c_int), intent(in) :: iconst(nic)
+    real(c_double), intent(in) :: rconst(nrc)
+    real(c_double), intent(in) :: t(nt), u(nu, nt)
+    integer(c_int), intent(in) :: iopt(16)
+    real(c_double), intent(in) :: ropt(16)
+    real(c_double), intent(out) :: est(nf, nrun), sig(nf, nrun), info(nf, nf, nrun)
+    integer(c_int), intent(out) :: iters(nrun), run_status(nrun), status
+    character(len=256), intent(out) :: msg
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    type(param_map_t) :: pm
+    real(wp) :: yzero(ny, nt)
+
+    est = 0.0_wp
+    info = 0.0_wp
+    sig = 0.0_wp
+    iters = 0
+    run_status = 0
+    yzero = 0.0_wp
+    call setup(mkind, nx, nu, ny, nw, theta_start, isfree, &
+               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, yzero, &
+               iopt, ropt, nf, m, opt, pm, status, msg)
+    if (status /= MLID_OK) return
+    if (.not. all(ieee_is_finite(theta_true))) then
+      status = MLID_ERR_INPUT
+      msg = 'true parameter values must be finite'
+      return
+    end if
+    call monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, run_status, &
+                     info)
+  end subroutine mlid_monte_carlo
+
+  !> The statistics of Monte Carlo runs (mlid_monte_carlo's mc_statistics,
+  !> those of the deck job too) over the runs with run_status 0 (nok):
+  !> mean, sample sigma and mean Cramer-Rao sigma of each free parameter
+  !> (nf), and stats = [trace, det of the sample covariance, trace, det of
+  !> the mean information]; NaN where too few runs.
+  subroutine mlid_monte_carlo_summary(nf, nrun, est, sig, info, run_status, nok, mean, &
+                                      sample_sigma, cr_sigma, stats)
+    integer(c_int), intent(in) :: nf, nrun
+    real(c_double), intent(in) :: est(nf, nrun), sig(nf, nrun), info(nf, nf, nrun)
+    integer(c_int), intent(in) :: run_status(nrun)
+    integer(c_int), intent(out) :: nok
+    real(c_double), intent(out) :: mean(nf), sample_sigma(nf), cr_sigma(nf), stats(4)
+    integer :: n
+    call mc_statistics(est, sig, info, run_status, n, mean, sample_sigma, cr_sigma, stats(1), &
+                       stats(2), stats(3), stats(4))
+    nok = n
+  end subroutine mlid_monte_carlo_summary
+
+end module mlid_api_fit
