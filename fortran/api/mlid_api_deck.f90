@@ -26,7 +26,8 @@ module mlid_api_deck
   use mlid_sampling, only: record_check_segments
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, channels_table
   use mlid_units, only: UNITLEN
-  use mlid_jobs, only: job_run
+  use mlid_run, only: run_case
+  use mlid_named, only: named_t, VALUE_TEXT
   implicit none
   private
   public :: mlid_handle_new, mlid_handle_free, mlid_deck_open, mlid_deck_case, &
@@ -34,7 +35,8 @@ module mlid_api_deck
             mlid_deck_case_data, mlid_deck_case_ties, mlid_deck_case_corrected_writable, &
             mlid_deck_case_corrected, mlid_deck_case_holdout, mlid_deck_case_initial_states, &
             mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
-            mlid_channels_table, mlid_channels_get, mlid_deck_case_run, mlid_check_time
+            mlid_channels_table, mlid_channels_get, mlid_deck_case_run, mlid_case_result_info, &
+            mlid_case_result, mlid_case_result_text, mlid_check_time
 
 contains
 
@@ -472,31 +474,139 @@ contains
     msg = 'no such case (or not a live handle)'
   end subroutine no_case
 
-  !> Run job k of handle h's deck when it runs whole in the core
-  !> (simulate, design, monte_carlo: mlid_jobs), as mlid-batch runs it:
-  !> its files written, its report and JSON object returned (empty when it
-  !> failed: status, msg).
-  subroutine mlid_deck_case_run(h, k, report, nreport, json, njson, status, msg)
+  !> Run case k of handle h's deck, whatever its job (mlid_run's run_case,
+  !> as mlid-batch runs it, on a copy of the case: it can run again): its
+  !> files written, its report lines, JSON object and notes (one a line)
+  !> returned, each ending where its length says; a fit's numbers are kept
+  !> in h for mlid_case_result.  status, msg: the case's.
+  subroutine mlid_deck_case_run(h, k, report, nreport, json, njson, notes, nnotes, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k
     character(len=262144), intent(out) :: report, json
-    integer(c_int), intent(out) :: nreport, njson, status
+    character(len=65536), intent(out) :: notes
+    integer(c_int), intent(out) :: nreport, njson, nnotes, status
     character(len=256), intent(out) :: msg
-    character(len=:), allocatable :: rtext, jtext
+    type(session_t), pointer :: s
     type(case_t), pointer :: c
+    type(case_t) :: work
+    character(len=:), allocatable :: text
+    integer :: j
     report = ''
     json = ''
+    notes = ''
     nreport = 0
     njson = 0
+    nnotes = 0
     c => case_at(h, k)
     call no_case(c, status, msg)
     if (status /= MLID_OK) return
-    call job_run(c, rtext, jtext, status, msg)
-    nreport = min(len(rtext), len(report))
-    report = rtext
-    njson = min(len(jtext), len(json))
-    json = jtext
+    call handle_session(h, s, status, msg)
+    if (.not. allocated(s%runs)) allocate (s%runs(size(s%cases)))
+    work = c
+    call run_case(work, s%runs(k))
+    associate (r => s%runs(k))
+      status = r%status
+      msg = r%msg
+      nreport = min(len(r%report), len(report))
+      report = r%report
+      njson = min(len(r%json), len(json))
+      json = r%json
+      text = ''
+      do j = 1, size(r%notes)
+        text = text//r%notes(j)%s//achar(10)
+      end do
+      nnotes = min(len(text), len(notes))
+      notes = text
+    end associate
   end subroutine mlid_deck_case_run
+
+  !> What the last run of case k of handle h kept under name (a fit's
+  !> numbers: mlid_run's put_fit; a validation's statistics): its kind
+  !> (0 none, mlid_named's VALUE_REAL, VALUE_INT, VALUE_TEXT), rank and
+  !> shape (a text's length).
+  subroutine mlid_case_result_info(h, k, name, kind, rank, shp)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: k
+    character(len=*), intent(in) :: name
+    integer(c_int), intent(out) :: kind, rank, shp(3)
+    type(named_t), pointer :: results
+    integer :: j
+    kind = 0
+    rank = 0
+    shp = 0
+    results => run_results(h, k)
+    if (.not. associated(results)) return
+    j = results%find(name)
+    if (j == 0) return
+    kind = results%v(j)%kind
+    rank = results%v(j)%rank
+    shp = results%v(j)%shape
+    if (kind == VALUE_TEXT) shp(1) = len(results%v(j)%t)
+  end subroutine mlid_case_result_info
+
+  !> The n numbers (Fortran order) kept under name by case k's last run.
+  subroutine mlid_case_result(h, k, name, n, values, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: k, n
+    character(len=*), intent(in) :: name
+    real(c_double), intent(out) :: values(n)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(named_t), pointer :: results
+    integer :: j
+    values = 0.0_wp
+    status = MLID_ERR_INPUT
+    msg = 'case has no result '''//trim(name)//''''
+    results => run_results(h, k)
+    if (.not. associated(results)) return
+    j = results%find(name)
+    if (j == 0) return
+    associate (v => results%v(j))
+      if (allocated(v%r)) then
+        if (size(v%r) /= n) return
+        values = v%r
+      else if (allocated(v%i)) then
+        if (size(v%i) /= n) return
+        values = real(v%i, wp)
+      else
+        return
+      end if
+    end associate
+    status = MLID_OK
+    msg = ''
+  end subroutine mlid_case_result
+
+  !> The text kept under name by case k's last run (a fit's message).
+  subroutine mlid_case_result_text(h, k, name, text)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: k
+    character(len=*), intent(in) :: name
+    character(len=256), intent(out) :: text
+    type(named_t), pointer :: results
+    integer :: j
+    text = ''
+    results => run_results(h, k)
+    if (.not. associated(results)) return
+    j = results%find(name)
+    if (j == 0) return
+    if (allocated(results%v(j)%t)) text = results%v(j)%t
+  end subroutine mlid_case_result_text
+
+  !> The results of case k's last run in handle h; null when it has none.
+  function run_results(h, k) result(results)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: k
+    type(named_t), pointer :: results
+    type(session_t), pointer :: s
+    integer :: status
+    character(len=64) :: msg
+    results => null()
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    if (.not. allocated(s%runs)) return
+    if (k < 1 .or. k > size(s%runs)) return
+    results => s%runs(k)%results
+  end function run_results
 
   !> Time increasing and without gaps (a step over 1.5 times the median),
   !> each manoeuvre of a joined record on its own (segstart: first samples).

@@ -25,6 +25,7 @@ module mlid_api_models
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
   use mlid_jacobian_check, only: check_jacobians
   use mlid_jobs, only: JOB_RUNS
+  use mlid_named, only: VALUE_KIND_NAMES
   use mlid_run, only: corrected_record
   implicit none
   private
@@ -331,8 +332,10 @@ contains
       end do
     case ('constants')
       text = CONSTANT_NAMES
-    case ('core_jobs')            ! the deck jobs mlid_jobs runs whole (mlid_deck_case_run)
+    case ('core_jobs')            ! the deck jobs mlid_jobs runs whole
       text = JOB_RUNS
+    case ('value_kinds')          ! mlid_named's kinds of value, in the order of their codes
+      text = VALUE_KIND_NAMES
     end select
   end subroutine mlid_name_list
 

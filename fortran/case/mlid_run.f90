@@ -21,6 +21,7 @@ module mlid_run
   use mlid_options, only: options_t
   use mlid_newton, only: fit_result_t
   use mlid_fit_driver, only: fit_solve, fit_view, fit_view_t
+  use mlid_named, only: named_t
   use mlid_simulate, only: simulate_flat
   use mlid_jobs, only: job_run, JOB_RUNS
   use mlid_files, only: temporary_for, write_whole
@@ -38,6 +39,9 @@ module mlid_run
     type(line_t), allocatable :: notes(:)     !< warnings and the failure, for stderr
     integer :: status = MLID_OK               !< of the case: a fit that did not converge is OK
     character(len=256) :: msg = ''
+    !> a fit's numbers by name (put_fit), for a front end to read: what
+    !> mlid_fit_driver's fit_view_t holds, and a validation's statistics
+    type(named_t) :: results
   end type case_run_t
 
   character, parameter :: NL = achar(10)
@@ -239,10 +243,43 @@ contains
     ! a fit that ran has a report: its estimates, or its last values if it failed
     outcome = fit_outcome(r%status, s%reason)
     if (outcome == FIT_NOT_RUN .or. .not. present(json)) return
+    call put_fit(r%results, v, r%status, r%msg)
     r%report = r%report//fit_report(s, c%iopt, c%ropt, r%status, r%msg)
     json = fit_json(c%title, c%job, r%status, r%msg, s, c%iopt, c%ropt)
     if (r%status == MLID_OK .and. r%msg(1:min(8, len(r%msg))) == 'warning:') call note(r, r%msg)
   end subroutine fit_record
+
+  !> Fit v by name, as the flat interface's fit gives it (mlid_api_fit's
+  !> mlid_fit): theta_start, theta, sigma, ... over every parameter.
+  subroutine put_fit(results, v, status, msg)
+    type(named_t), intent(inout) :: results
+    type(fit_view_t), intent(in) :: v
+    integer, intent(in) :: status
+    character(len=*), intent(in) :: msg
+    call results%put('theta_start', v%theta_start)
+    call results%put('theta', v%theta)
+    call results%put('sigma', v%sigma)
+    call results%put('sigma_corrected', v%sigma_c)
+    call results%put('covariance', v%cov)
+    call results%put('covariance_corrected', v%cov_c)
+    call results%put('information', v%info)
+    call results%put('gradient', v%grad)
+    call results%put('eigenvalues', v%eigval)
+    call results%put('eigenvectors', v%eigvec)
+    call results%put('rhat', v%rhat)
+    call results%put('yhat', v%yhat)
+    call results%put('cost_history', v%hist)
+    call results%put('cost', v%cost)
+    call results%put('iterations', v%niter)
+    call results%put('reason', v%reason)
+    call results%put('converged', v%converged)
+    call results%put('rank', v%rank)
+    call results%put('bad_param', v%bad)
+    call results%put('colored_lag', v%lag)
+    call results%put('r_innovations', v%rnoise)
+    call results%put('status', status)
+    call results%put('message', trim(msg))
+  end subroutine put_fit
 
   !> The report's view of fit v of case c: the free parameters' values.
   subroutine summary(c, v, s)
@@ -321,6 +358,10 @@ contains
       if (all(len_trim(c%output_names) > 0)) names(c%nu + 1:) = c%output_names
     end if
     r%report = r%report//validation_report(names(c%nu + 1:), c%holdout, theil, rms, ratio)
+    call r%results%put('theil', theil)
+    call r%results%put('rms', rms)
+    call r%results%put('rms_over_sigma', ratio)
+    call r%results%put('prediction', pred)
     json = json(1:len(json) - 1)//','//NL// &
            validation_json(names(c%nu + 1:), c%holdout, theil, rms, ratio)//'}'
   end subroutine validate_case

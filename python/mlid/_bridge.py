@@ -43,3 +43,8 @@ def text(b):
 def lines(b):
     """A newline-separated list of the core as its non-empty lines."""
     return [s for s in b.decode(errors="replace").rstrip().split("\n") if s]
+
+
+#: The kinds of value the core keeps by name (mlid_named), by their code.
+VALUE_REAL, VALUE_INT, VALUE_TEXT = (
+    lines(api.mlid_name_list("value_kinds")).index(k) + 1 for k in ("real", "integer", "text"))

@@ -17,7 +17,7 @@ from ..report.html_report import write_report
 from ..report.plots import plot_fit, plot_validation, use_file_backend
 from . import campaign
 from .campaign import FORMATS, decks as named_decks
-from .deck import CORE_JOBS, case_json, json_list, read_deck, run_case, run_cases
+from .deck import FIT_JOBS, case_json, json_list, read_deck, run_case, run_cases
 
 JOBS = """jobs:
   run DECK       run every case of a namelist deck in order.  Deck jobs:
@@ -191,59 +191,41 @@ def _attempt(what, fn, *args):
         return None, InternalError(f"{what}: {type(exc).__name__}: {exc}")
 
 
-def _failed(case, error, reported=False):
-    """Say that a case failed; reported: the failed fit's report said it."""
-    if not reported:
-        print(f" FAILED: {error}")
+def _failed(case, error):
+    """Say that a case failed, as the core's runner says it."""
+    print(f" FAILED: {error}")
     print(f"mlid: {case.where()}: {error}", file=sys.stderr)
 
 
 def _show_case(args, case, out, result, error, tables):
-    """Print a case's report and write its table rows and plots; returns the
-    case's error (its own, or the first of a table or a plot).  A failed fit
-    has its report (last values) and no table or plot; an estimate that did
-    not converge is a result with a warning, not a failure."""
+    """Print a case's report and write its table rows and plots; returns
+    whether it failed and the error still to say (one the core's run did
+    not: a table's or a plot's, or the case's when it did not run).  The
+    report and notes are the core's (mlid-batch prints the same); a failed
+    fit has its report (last values) and no table or plot; an estimate that
+    did not converge is a result with a warning, not a failure."""
     print(f"\n case {case.index}: {case.title}")
-    _record_warnings(case)
-    if getattr(out, "report", None):      # a job the core ran whole: its own lines
+    if out is not None:
         print(out.report, end="")
-    checked = getattr(result, "validation", None)
-    if result is not None:
-        print(result.report())
-        if checked is not None:
-            print(checked.report())
-        for j, path in enumerate(getattr(result, "corrected_paths", []), 1):
-            print(f" corrected record of manoeuvre {j} written to {path}")
-        if getattr(result, "corrected_note", None):
-            print(f" {result.corrected_note}")
-        if result.message.startswith("warning:"):
-            print(f"mlid: {case.where()}: {result.message}", file=sys.stderr)
+        for note in out.notes:
+            print(f"mlid: {case.where()}: {note}", file=sys.stderr)
+    failed = error is not None
+    unsaid = error if out is None else None
     fitted = result is not None and not result.failed
-    unconverged = error is None and case.job == "estimate" and fitted and result.status != 0
-    if unconverged:
-        print(f"mlid: {case.where()}: warning: {result.message}", file=sys.stderr)
     if args.table and fitted:
         table, table_error = _attempt("table", results_table, result, case.index)
         if table is not None:
             tables.append(table)
-        error = error or table_error
-    if error is None and (out or {}).get("status", 0) != 0 and not unconverged:
-        error = out["message"]
+        unsaid = unsaid or table_error
+    checked = getattr(result, "validation", None)
     if args.plots and fitted:
         plots = [(plot_fit, result)] + ([(plot_validation, checked)] if checked else [])
         for fn, what in plots:
             path, plot_error = _attempt("plot", fn, what, args.plots, f"case{case.index}")
             if path is not None:
                 print(f" plot: {path}")
-            error = error or plot_error
-    return error
-
-
-def _record_warnings(case):
-    """The warnings of the case's records, one line each on stderr, as
-    mlid-batch prints them."""
-    for text in case.warnings:
-        print(f"mlid: {case.where()}: warning: {text}", file=sys.stderr)
+            unsaid = unsaid or plot_error
+    return failed or unsaid is not None, unsaid
 
 
 def _case_task(deck, ks, plots, table, keep):
@@ -264,11 +246,11 @@ def _case_task(deck, ks, plots, table, keep):
         with redirect_stdout(out_text), redirect_stderr(err_text):
             case, out, result, error = next(run_cases([case]))
             obj = case_json(case, out, result, error)
-            shown = _show_case(SimpleNamespace(plots=plots, table=table), case, out, result,
-                               error, tables)
-            if shown:
-                _failed(case, shown, reported=result is not None and result.failed)
-        done.append((out_text.getvalue(), err_text.getvalue(), obj, tables, bool(shown),
+            bad, unsaid = _show_case(SimpleNamespace(plots=plots, table=table), case, out, result,
+                                     error, tables)
+            if unsaid:
+                _failed(case, unsaid)
+        done.append((out_text.getvalue(), err_text.getvalue(), obj, tables, bad,
                      campaign.row(case, result), (case, out, result, error) if keep else None))
     return done
 
@@ -408,7 +390,7 @@ def _diagnose(args):
     for case in cases:
         print(f"\n case {case.index}: {case.title}")
         d = None
-        if case.job in CORE_JOBS or case.error:
+        if case.job not in FIT_JOBS or case.error:
             out, error = _attempt("run", run_case, case)
             if out:
                 print(out[0].report, end="")
@@ -416,7 +398,8 @@ def _diagnose(args):
             d, error = _attempt("diagnose", lambda: diagnose(
                 case.model, case.record(), families=families, alpha=args.alpha,
                 max_effects=args.max_effects, **case.options()))
-            _record_warnings(case)
+            for text in case.warnings:
+                print(f"mlid: {case.where()}: warning: {text}", file=sys.stderr)
             if d is not None:
                 print(d.report())
                 if args.plots:

@@ -7,15 +7,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .._bridge import Handle, api as _api, lines as _lines, text as _text
+from .._bridge import VALUE_INT, VALUE_TEXT, Handle, api as _api, lines as _lines, text as _text
 from ..data import formats
 from ..data.flight_data import FlightData, read_status
 from ..errors import InputError, MlidError, check_status, guarded, status_of
-from ..estimate.compatibility import write_corrected
-from ..estimate.fit import fit
+from ..estimate.fit import FIT_OUTPUTS, fit_result
 from ..estimate.options import options_by_name
 from ..model.models import from_core
-from ..report.validation import validate
+from ..report.validation import validation_of
 
 
 #: The numeric flight-condition items of &case, in the core's order.
@@ -123,36 +122,30 @@ class Case:
         return dict(self._options)
 
 
-#: The deck jobs the core runs whole, for both front ends (fortran/case/mlid_jobs.f90).
-CORE_JOBS = tuple(_text(_api.mlid_name_list("core_jobs")).split())
+class CaseOutput(dict):
+    """What the core's job runner gave for a case (fortran/case/mlid_run.f90,
+    the one mlid-batch runs): its JSON object as a dict, ``report`` (the
+    lines both front ends print), ``json_text`` (the bytes both write),
+    ``notes`` (warnings and the failure, one line each, for stderr),
+    ``status`` and ``message``."""
 
-
-class JobOutput(dict):
-    """What a job the core runs whole (simulate, design, monte_carlo) gave:
-    its JSON object as a dict, ``report`` (the lines mlid-batch prints) and
-    ``json_text`` (the bytes mlid-batch writes)."""
-
-    def __init__(self, report, json_text):
+    def __init__(self, report, json_text, notes, status, message):
         super().__init__(json.loads(json_text))
-        self.report, self.json_text = report, json_text
+        self.report, self.json_text, self.notes = report, json_text, notes
+        self.status, self.message = status, message
+
+
+#: The jobs whose case is a fit (its FitResult made from the run's numbers).
+FIT_JOBS = ("estimate", "validate")
 
 
 def case_json(case, out=None, result=None, error=None):
-    """The JSON object of a case as the core writes it (mlid-batch writes the
-    same bytes): a fit's when there is one, a core job's, else title, job,
-    status and message."""
-    if isinstance(out, JobOutput) and error is None:
+    """The JSON object of a case as the core wrote it (mlid-batch writes the
+    same bytes); for a case that did not run, title, job, status and message."""
+    if isinstance(out, CaseOutput):
         return out.json_text
-    if result is not None and not getattr(error, "reported_only", False):
-        text = result.json(case._title, case.job)
-        validation = getattr(result, "validation", None)
-        if validation is not None:        # as mlid-batch adds it
-            text = text[:-1] + ",\n" + validation.json_member() + "}"
-        return text
-    samples, path = (out["samples"], out["out"]) if out and "samples" in out else (-1, "")
-    status = 0 if error is None else status_of(error)
-    text, n = _api.mlid_case_json(case._title, case.job, status, str(error or ""), samples,
-                                  path)
+    text, n = _api.mlid_case_json(case._title, case.job, status_of(error) if error else 0,
+                                  str(error or ""), -1, "")
     return text[:n].decode(errors="replace")
 
 
@@ -190,70 +183,75 @@ def read_deck(path):
 
 @guarded
 def run_case(case):
-    """Run one case; returns a dict (JSON-ready) and, for fits, the FitResult.
-    Simulate, design and monte_carlo cases run whole in the core: their dict
-    is a JobOutput (with the report and JSON the core wrote) and no FitResult."""
+    """Run one case in the core's job runner, as mlid-batch runs it: its
+    report, JSON and files are the core's (a CaseOutput), and a fit's
+    FitResult is made from the numbers the run kept, read by name (none for
+    the other jobs).  A case that failed raises its MlidError, carrying the
+    FitResult of a failed fit (``result``) and the output (``output``)."""
     case.warnings = []
-    if case.error:
-        raise InputError(case.error)
-    if case.job in CORE_JOBS:              # run whole by the core, as mlid-batch runs it
-        report, nreport, text, njson, status, msg = _api.mlid_deck_case_run(case._handle.value, case.index)
-        check_status(status, msg)
-        return JobOutput(report[:nreport].decode(errors="replace"),
-                         text[:njson].decode(errors="replace")), None
-    if case.job == "validate":
-        result = _validate_case(case)
-    else:
-        data = case.record()
-        if case.corrected:                   # before a long fit, as mlid-batch checks them
-            check_status(*_api.mlid_deck_case_corrected_writable(case._handle.value,
-                                                                  case.index))
-        result = fit(case.model, data, **case.options())
-        if case.corrected and result.status == 0:
-            _write_corrected(result, case.corrected)
-        elif case.corrected:
-            result.corrected_note = "corrected records not written: the fit did not end well"
-    out = {"title": case.title, "job": case.job, "status": result.status,
-           "message": result.message}
-    out.update(result.as_dict())
-    if getattr(result, "validation", None) is not None:
-        out["validation"] = result.validation.as_dict()
+    (report, nreport, text, njson, notes, nnotes, status,
+     msg) = _api.mlid_deck_case_run(case._handle.value, case.index)
+    out = CaseOutput(report[:nreport].decode(errors="replace"),
+                     text[:njson].decode(errors="replace"),
+                     notes[:nnotes].decode(errors="replace").splitlines(), int(status),
+                     _text(msg))
+    result = _fit_of(case) if case.job in FIT_JOBS else None
+    if out.status != 0:
+        try:
+            check_status(out.status, out.message)
+        except MlidError as exc:
+            exc.result, exc.output = result, out
+            raise
     return out, result
 
 
-def _write_corrected(result, paths):
-    """The manoeuvres' corrected records, as mlid-batch writes them; the
-    paths written go to the result as they are written (the report names
-    them).  A failure is the case's, after the fit's report."""
-    result.corrected_paths = []
-    try:
-        write_corrected(result, paths, result.corrected_paths)
-    except MlidError as exc:
-        exc.result, exc.reported_only = result, True
-        raise
-
-
-def _validate_case(case):
-    """Fit a validate case on the files it does not hold out, then predict
-    those it does (mlid.validate); the FitResult carries the Validation."""
-    # read as mlid-batch reads them (its warnings in the same order): the
-    # files fitted, then those held out, each part in file order
+def _fit_of(case):
+    """The FitResult of the fit case's run kept (None when it fitted
+    nothing), with its Validation for a validate case."""
+    h, k = case._handle.value, case.index
+    out = {}
+    for name in FIT_OUTPUTS:
+        kind, rank, shape = _api.mlid_case_result_info(h, k, name)
+        if kind == 0:
+            return None
+        out[name] = _result_value(h, k, name, kind, rank, shape)
     numbers = range(1, len(case._files) + 1)
-    fitted = case.record([j for j in numbers if j not in case.holdout])
-    kept = sorted(case.holdout)
-    by_number = dict(zip(kept, case.record(kept)))
-    held = [by_number[j] for j in kept]    # joined in file order, as mlid-batch joins them
-    result = fit(case.model, fitted if len(fitted) > 1 else fitted[0], **case.options())
-    if result.status != 0:                 # no prediction from a fit that did not end well
-        return result
+    files = [j for j in numbers if j not in case.holdout]
+    data = case.record(files)
     try:
-        result.validation = validate(result, held if len(held) > 1 else held[0],
-                                     holdout=case.holdout)
-    except MlidError as exc:                # one line, as mlid-batch says it; the report of
-        err = type(exc)(f"prediction of the held-out files: {exc}")   # the fit, not its JSON
-        err.result, err.reported_only = result, True
-        raise err from None
+        result = fit_result(case.model, data if len(data) > 1 else data[0], out,
+                            **case.options())
+    except MlidError as exc:           # a failed fit: the error carries it
+        return exc.result
+    if case.job == "validate" and _api.mlid_case_result_info(h, k, "theil")[0]:
+        result.validation = _validation_of(case, result)
     return result
+
+
+def _result_value(h, k, name, kind, rank, shape):
+    if kind == VALUE_TEXT:
+        return _text(_api.mlid_case_result_text(h, k, name))
+    dims = tuple(int(n) for n in shape[:rank])
+    values, status, msg = _api.mlid_case_result(h, k, name, int(np.prod(dims)))
+    check_status(status, msg)
+    if not dims:
+        return int(values[0]) if kind == VALUE_INT else float(values[0])
+    values = values.reshape(dims, order="F")
+    return values.astype(int) if kind == VALUE_INT else values
+
+
+def _validation_of(case, result):
+    """The Validation the run computed: the core's statistics and
+    prediction, the held-out records read as the run read them."""
+    h, k = case._handle.value, case.index
+    kept = sorted(case.holdout)
+    held = case.record(kept)
+    value = {}
+    for name in ("theil", "rms", "rms_over_sigma", "prediction"):
+        kind, rank, shape = _api.mlid_case_result_info(h, k, name)
+        value[name] = _result_value(h, k, name, kind, rank, shape)
+    return validation_of(result, held, kept, value["theil"], value["rms"],
+                         value["rms_over_sigma"], value["prediction"].T.copy())
 
 
 def iter_deck(path):
@@ -270,7 +268,7 @@ def run_cases(cases):
             out, result = run_case(case)
             yield case, out, result, None
         except MlidError as exc:
-            yield case, None, getattr(exc, "result", None), exc
+            yield case, getattr(exc, "output", None), getattr(exc, "result", None), exc
 
 
 def run_deck(path):

@@ -219,43 +219,81 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     """
     _check_model(model)
     _check_data(data)
+    setup = _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options)
+    params, starts, (t, u, y), iopt, ropt = (setup[k] for k in ("params", "starts", "tuy",
+                                                                 "iopt", "ropt"))
+    call = dict(**_model_args(model), theta0=params.theta, isfree=params.mask, **params.ties,
+                t=t, u=u, y=y, segstart=starts, iopt=iopt, ropt=ropt,
+                nf=int(params.mask.sum()), nc=setup["opts"]["max_iter"] + 1,
+                **_extras(params, prior, prior_weight, bounds))
+    start = time.perf_counter()
+    out = dict(zip(FIT_OUTPUTS, _api.mlid_fit(**call)))
+    out["wall_time"] = time.perf_counter() - start      # the core call alone
+    out["message"] = _text(out["message"])
+    return _result(model, data, setup, out, stacklevel=3)
+
+
+#: What the core's fit gives, by name: the order of mlid_api_fit's mlid_fit
+#: outputs, and the names the job runner keeps a deck fit's under
+#: (fortran/case/mlid_run.f90, put_fit).
+FIT_OUTPUTS = ("theta_start", "theta", "sigma", "covariance", "information", "gradient",
+               "eigenvalues", "eigenvectors", "rhat", "yhat", "cost_history", "cost",
+               "iterations", "reason", "converged", "rank", "bad_param", "sigma_corrected",
+               "covariance_corrected", "colored_lag", "r_innovations", "status", "message")
+
+
+def _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options):
+    """What a fit's call and result are made of: the flat options and the
+    options by name, the manoeuvres' parameter map, the record joined and
+    its arrays, each manoeuvre's first sample."""
     iopt, ropt, opts = _flat_options(model, options)
     params, record, starts = _manoeuvres(model, data, initial_states, biases)
-    t, u, y = _record(model, record)
-    theta0, mask = params.theta, params.mask
+    return {"iopt": iopt, "ropt": ropt, "opts": opts, "params": params, "record": record,
+            "starts": starts, "tuy": _record(model, record),
+            "evaluate_args": (data, initial_states, biases)}
+
+
+def fit_result(model, data, out, prior=None, prior_weight=None, bounds=None,
+               initial_states=None, biases=None, **options):
+    """The FitResult of a fit the core has run already (a deck case run by
+    the job runner, its numbers read by name: ``out`` has FIT_OUTPUTS), for
+    ``fit``'s arguments; raises as ``fit`` does when it failed."""
+    setup = _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options)
+    return _result(model, data, setup, dict(out, wall_time=None), stacklevel=3)
+
+
+def _result(model, data, setup, out, stacklevel):
+    params, record, starts, opts = (setup[k] for k in ("params", "record", "starts", "opts"))
+    theta, status, reason, niter = out["theta"], int(out["status"]), int(out["reason"]), \
+        int(out["iterations"])
+    text, bad = out["message"], int(out["bad_param"])
     free_names = params.free_names()
-    call = dict(**_model_args(model), theta0=theta0, isfree=mask, **params.ties, t=t, u=u, y=y,
-                segstart=starts, iopt=iopt, ropt=ropt, nf=int(mask.sum()),
-                nc=opts["max_iter"] + 1, **_extras(params, prior, prior_weight, bounds))
-    start = time.perf_counter()
-    (theta_start, theta, sigma, cov, info, grad, eigval, eigvec, rhat, yhat, cost_hist, cost,
-     niter, reason, converged, rank, bad, sigma_c, cov_c, lag, rnoise, status,
-     msg) = _api.mlid_fit(**call)
-    wall = time.perf_counter() - start           # the core call alone
-    text = msg.decode(errors="replace").strip()
     if status and bad:                # the core numbers the free parameter; name it
         text = re.sub(rf"free parameter {bad}(?!\d)", repr(free_names[bad - 1]), text)
     if fit_outcome(status, reason) == "not run":       # bad input: nothing fitted
         check_status(status, text)
     if status == 0 and text.startswith("warning:"):
-        warnings.warn(text[len("warning:"):].strip(), MlidWarning, stacklevel=2)
-    fields = dict(yhat=yhat.T.copy())
-    fields.update(_frequency_fields(model, params, theta, t, u, y, starts, iopt, ropt, opts, status,
-                                    reason))
-    free = mask == 1
+        warnings.warn(text[len("warning:"):].strip(), MlidWarning, stacklevel=stacklevel)
+    fields = dict(yhat=out["yhat"].T.copy())
+    fields.update(_frequency_fields(model, params, theta, *setup["tuy"], starts, setup["iopt"],
+                                    setup["ropt"], opts, status, reason))
+    free = params.mask == 1
+    rnoise = out["r_innovations"]
     result = FitResult(
         start_model=model, data=record, options=opts,
-        evaluate_args=(data, initial_states, biases), names=free_names,
+        evaluate_args=setup["evaluate_args"], names=free_names,
         later=_later_fields(model, record, params, theta),
-        start=theta_start[free], estimate=theta[free],
-        sigma=sigma[free], covariance=cov, information=info, gradient=grad,
-        sigma_corrected=sigma_c[free], covariance_corrected=cov_c, colored_lag=int(lag),
-        eigenvalues=eigval, eigenvectors=eigvec, rhat=rhat, cost=float(cost),
+        start=out["theta_start"][free], estimate=theta[free],
+        sigma=out["sigma"][free], covariance=out["covariance"], information=out["information"],
+        gradient=out["gradient"], sigma_corrected=out["sigma_corrected"][free],
+        covariance_corrected=out["covariance_corrected"], colored_lag=int(out["colored_lag"]),
+        eigenvalues=out["eigenvalues"], eigenvectors=out["eigenvectors"], rhat=out["rhat"],
+        cost=float(out["cost"]),
         r_innovations=rnoise.copy() if np.all(np.isfinite(rnoise)) else None,
-        cost_history=cost_hist[:niter + 1].copy(), iterations=int(niter),
-        converged=bool(converged), reason=stop_reason(reason), reason_code=int(reason),
-        flat_options=iopt, flat_real_options=ropt, rank=int(rank),
-        status=int(status), message=text, wall_time=wall, **fields)
+        cost_history=out["cost_history"][:niter + 1].copy(), iterations=niter,
+        converged=bool(out["converged"]), reason=stop_reason(reason), reason_code=reason,
+        flat_options=setup["iopt"], flat_real_options=setup["ropt"], rank=int(out["rank"]),
+        status=status, message=text, wall_time=out["wall_time"], **fields)
     if result.failed:                 # the error carries the last values
         check_status(status, text, result=result)
     return result

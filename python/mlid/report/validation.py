@@ -168,10 +168,25 @@ def validate(result, data, holdout=None):
         prediction = FitResult(data=joined, yhat=yhat, model=model,
                                evaluate_args=(records if len(records) > 1 else records[0],
                                               None, None))
-    ny = joined.y.shape[1]
     theil, rms, ratio = _api.mlid_prediction_stats(y=np.asfortranarray(joined.y.T),
                                                    yhat=np.asfortranarray(yhat.T),
                                                    rhat=result.rhat)
+    return _validation(result, joined, holdout, theil, rms, ratio, prediction)
+
+
+def validation_of(result, records, holdout, theil, rms, ratio, yhat):
+    """The Validation of a prediction the core made (a deck's validate case,
+    fortran/case/mlid_run.f90): its statistics and predicted outputs yhat
+    (nt, ny) on the held-out records."""
+    joined = join(records)[0] if len(records) > 1 else records[0]
+    prediction = FitResult(data=joined, yhat=yhat, model=_prediction_model(result),
+                           evaluate_args=(records if len(records) > 1 else records[0],
+                                          None, None))
+    return _validation(result, joined, holdout, theil, rms, ratio, prediction)
+
+
+def _validation(result, joined, holdout, theil, rms, ratio, prediction):
+    ny = joined.y.shape[1]
     return Validation(theil=theil, rms=rms, rms_over_sigma=ratio, holdout=list(holdout),
                       prediction=prediction, identification=result,
                       output_names=list(joined.output_names[:ny]))
