@@ -8,10 +8,10 @@ module mlid_api_models
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, stop_reason_text, fit_outcome
   use mlid_models, only: model_t
-  use mlid_model_factory, only: model_create
+  use mlid_model_factory, only: model_create, MODEL_KIND_NAMES
   use mlid_options, only: options_t, options_from_flat, options_to_flat, NOPTION, OPTION_NAMES, &
                           option_kind, option_set, option_get
-  use mlid_ties, only: tie_parse
+  use mlid_ties, only: tie_parse, MAXTERM
   use mlid_inputs, only: input_signal
   use mlid_case, only: NAMELEN
   use mlid_text, only: join_lines, split_lines, name_lines, joined
@@ -33,7 +33,7 @@ module mlid_api_models
             mlid_option_get, mlid_options_check, mlid_stop_reason, mlid_fit_outcome, &
             mlid_tie_parse, mlid_sixdof_constants, mlid_sixdof_text, mlid_flightpath_lists, &
             mlid_flightpath_model_text, mlid_flightpath_corrected, mlid_layout_size, &
-            mlid_layout, mlid_manoeuvre_map, mlid_parameter_units, mlid_name_list, &
+            mlid_layout, mlid_manoeuvre_map, mlid_parameter_units, mlid_name_list, mlid_limit, &
             mlid_model_sizes, mlid_check_jacobians
 
 contains
@@ -113,7 +113,8 @@ contains
   end subroutine mlid_fit_outcome
 
   !> A tie written as text (mlid_ties) for a model: the tied entry, its
-  !> constant and its terms (n of them, at most 16).
+  !> constant and its terms (n of them, at most MAXTERM: 16 below, a literal
+  !> for f2py, which reads no module parameter).
   subroutine mlid_tie_parse(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, text, to, offset, &
                             n, from, scale, status, msg)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic)
@@ -318,8 +319,22 @@ contains
     units = join_lines(each)
   end subroutine mlid_parameter_units
 
+  !> A limit of the core by name, for the front ends to size their calls:
+  !> 'tie_terms' (the terms of one tie, mlid_ties' MAXTERM); 0 for a name it
+  !> does not know.
+  subroutine mlid_limit(name, value)
+    character(len=*), intent(in) :: name
+    integer(c_int), intent(out) :: value
+    value = 0
+    select case (name)
+    case ('tie_terms')
+      value = MAXTERM
+    end select
+  end subroutine mlid_limit
+
   !> A list of names the core defines, one per line: 'regressors' (of the
-  !> longitudinal model, by code) or 'constants' (its rconst, in order).
+  !> longitudinal model, by code), 'constants' (its rconst, in order),
+  !> 'core_jobs', 'value_kinds' and 'model_kinds' (by code).
   subroutine mlid_name_list(which, text)
     character(len=*), intent(in) :: which
     character(len=1024), intent(out) :: text
@@ -336,6 +351,10 @@ contains
       text = JOB_RUNS
     case ('value_kinds')          ! mlid_named's kinds of value, in the order of their codes
       text = VALUE_KIND_NAMES
+    case ('model_kinds')          ! the model kinds' names, in the order of their codes
+      do k = 1, size(MODEL_KIND_NAMES)
+        text = trim(text)//trim(MODEL_KIND_NAMES(k))//achar(10)
+      end do
     end select
   end subroutine mlid_name_list
 

@@ -45,7 +45,7 @@ module mlid_deck
   use mlid_files, only: temporary_for, same_file
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
   use mlid_models, only: model_t
-  use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
+  use mlid_model_factory, only: model_create, kind_code, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
                                 MODEL_EQUATIONS
   use mlid_equations, only: equations_text_codes
   use mlid_sixdof, only: sixdof_parts
@@ -835,11 +835,11 @@ contains
     allocate (codes(0), c%rconst(0))
     ! a model written as equations has its text in iconst already
     if (.not. written_as_equations(kind) .or. .not. allocated(c%iconst)) c%iconst = [integer ::]
-    select case (to_lower(kind))
-    case ('linear')
-      c%mkind = MODEL_LINEAR
-    case ('longitudinal')
-      c%mkind = MODEL_AERO_LONG
+    c%mkind = kind_code(to_lower(kind))
+    if (written_as_equations(kind)) c%mkind = MODEL_EQUATIONS   ! sixdof, flight_path too
+    select case (c%mkind)
+    case (MODEL_LINEAR)
+    case (MODEL_AERO_LONG)
       call regressor_codes(c, regressors, ncoef, codes)
       if (c%status /= MLID_OK) return
       if (count(constants /= UNSET) /= 9) then
@@ -848,14 +848,10 @@ contains
       end if
       c%iconst = [ncoef, codes]
       c%rconst = constants
-    case ('user')
-      c%mkind = MODEL_USER
+    case (MODEL_USER)
       c%iconst = pack(user_iconst, user_iconst /= -huge(1))
       c%rconst = pack(user_rconst, user_rconst /= UNSET)
-    case ('x22')
-      c%mkind = MODEL_X22
-    case ('equations', 'sixdof', 'flight_path')   ! the latter two written as equations
-      c%mkind = MODEL_EQUATIONS
+    case (MODEL_X22, MODEL_EQUATIONS)
     case default
       call fail(c, 'group &model: unknown kind '''//trim(kind)//''' (available: linear, '// &
                 'longitudinal, x22, user, equations, sixdof, flight_path)')

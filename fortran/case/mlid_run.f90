@@ -7,6 +7,7 @@
 !> at all.  mlid-batch is a loop over a deck's cases calling it.
 module mlid_run
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_NOCONV, fit_outcome, FIT_ESTIMATES, FIT_FAILED, &
                         FIT_NOT_RUN
   use mlid_case, only: case_t, NAMELEN
@@ -222,6 +223,7 @@ contains
     type(fit_summary_t) :: s
     type(fit_view_t) :: v
     integer :: bad, nth, nf
+    integer(int64) :: clock0, clock1, rate      !< the fit's wall time (FitResult.wall_time)
 
     outcome = FIT_NOT_RUN
     call case_param_units(c, size(segstart), units, s%units, r%status, r%msg)
@@ -230,10 +232,12 @@ contains
     if (r%status /= MLID_OK) return
     nth = size(c%theta)
     nf = count(c%isfree == 1)
+    call system_clock(clock0, rate)
     call fit_solve(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, c%isfree, c%tie, c%iconst, c%rconst, &
                    t, u, y, segstart, c%iopt, c%ropt, nf, c%use_prior, or_zero(c%prior, nth), &
                    weight_or_zero(c%pweight, nf), c%use_bounds, or_zero(c%lower, nth), &
                    or_zero(c%upper, nth), res, pm, opt, bad, r%status, r%msg)
+    call system_clock(clock1)
     v = fit_view(res, pm, opt, c%theta, c%ny, size(t), bad)
     call summary(c, v, s)
     theta = v%theta
@@ -244,6 +248,7 @@ contains
     outcome = fit_outcome(r%status, s%reason)
     if (outcome == FIT_NOT_RUN .or. .not. present(json)) return
     call put_fit(r%results, v, r%status, r%msg)
+    call r%results%put('wall_time', real(clock1 - clock0, wp)/real(max(rate, 1_int64), wp))
     r%report = r%report//fit_report(s, c%iopt, c%ropt, r%status, r%msg)
     json = fit_json(c%title, c%job, r%status, r%msg, s, c%iopt, c%ropt)
     if (r%status == MLID_OK .and. r%msg(1:min(8, len(r%msg))) == 'warning:') call note(r, r%msg)

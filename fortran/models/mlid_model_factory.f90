@@ -8,7 +8,8 @@ module mlid_model_factory
   use mlid_equations, only: equations_t, equations_create
   implicit none
   private
-  public :: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, MODEL_EQUATIONS
+  public :: model_create, kind_code, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
+            MODEL_EQUATIONS, MODEL_KIND_NAMES
 
   !> Model kinds of the flat interface.
   integer, parameter :: MODEL_LINEAR = 1      !< linear state space (mlid_models)
@@ -16,8 +17,22 @@ module mlid_model_factory
   integer, parameter :: MODEL_USER = 3        !< the user's own model (mlid_user_model)
   integer, parameter :: MODEL_X22 = 4         !< X-22 VTOL of report Appendix A (mlid_x22)
   integer, parameter :: MODEL_EQUATIONS = 5   !< equations stated as text (mlid_equations)
+  !> Each kind's name (a deck's &model kind, Python's model classes), in
+  !> the order of the codes above.
+  character(len=12), parameter :: MODEL_KIND_NAMES(5) = [character(len=12) :: 'linear', &
+                                                         'longitudinal', 'user', 'x22', 'equations']
 
 contains
+
+  !> The code of the kind called name (MODEL_KIND_NAMES), 0 for none.
+  integer function kind_code(name)
+    character(len=*), intent(in) :: name
+    integer :: k
+    kind_code = 0
+    do k = 1, size(MODEL_KIND_NAMES)
+      if (trim(MODEL_KIND_NAMES(k)) == trim(name)) kind_code = k
+    end do
+  end function kind_code
 
   !> Build a model from the flat description of the interface.
   !> iconst and rconst carry model constants (unused by the linear model).

@@ -17,6 +17,9 @@ from ..model.models import from_core
 from ..report.validation import validation_of
 
 
+#: The most terms one tie has (the core's limit).
+TIE_TERMS = int(_api.mlid_limit("tie_terms"))
+
 #: The numeric flight-condition items of &case, in the core's order.
 CONDITIONS = tuple(n.strip() for n in _text(_api.mlid_condition_names()).split(","))
 
@@ -46,7 +49,7 @@ class Case:
         (theta, isfree, iconst, rconst, iopt, ropt, labels, use_prior, prior, pweight,
          use_bounds, lower, upper) = _api.mlid_deck_case_model(h, k, nth, nf, nic, nrc)
         opts = options_by_name(iopt, ropt)
-        n, to, frm, scale, offset = _api.mlid_deck_case_ties(h, k, nth, 16 * nth)
+        n, to, frm, scale, offset = _api.mlid_deck_case_ties(h, k, nth, TIE_TERMS * nth)
         ties = (to[:n], frm[:n], scale[:n], offset)
         self.model = from_core(mkind, (nx, nu, ny, nw), iconst, rconst, theta, isfree, ties,
                                _lines(labels), opts.pop("input_hold"), opts.pop("substeps"))
@@ -210,7 +213,7 @@ def _fit_of(case):
     nothing), with its Validation for a validate case."""
     h, k = case._handle.value, case.index
     out = {}
-    for name in FIT_OUTPUTS:
+    for name in FIT_OUTPUTS + ("wall_time",):
         kind, rank, shape = _api.mlid_case_result_info(h, k, name)
         if kind == 0:
             return None

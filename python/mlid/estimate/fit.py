@@ -257,9 +257,10 @@ def fit_result(model, data, out, prior=None, prior_weight=None, bounds=None,
                initial_states=None, biases=None, **options):
     """The FitResult of a fit the core has run already (a deck case run by
     the job runner, its numbers read by name: ``out`` has FIT_OUTPUTS), for
-    ``fit``'s arguments; raises as ``fit`` does when it failed."""
+    ``fit``'s arguments, and its ``wall_time``; raises as ``fit`` does when
+    it failed."""
     setup = _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options)
-    return _result(model, data, setup, dict(out, wall_time=None), stacklevel=3)
+    return _result(model, data, setup, out, stacklevel=3)
 
 
 def _result(model, data, setup, out, stacklevel):

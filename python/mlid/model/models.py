@@ -196,13 +196,17 @@ class _Block:
         model._put(self.key, value, self.name)
 
 
+#: The core's model kinds by name, and their codes (mlid_model_factory).
+MODEL_KINDS = {name: k for k, name in enumerate(_lines(_api.mlid_name_list("model_kinds")), 1)}
+
+
 @guarded_class
 class Model:
     """What every model shares: theta in the core's layout, the generic
     blocks and the free, tied and labelled parameters.  Subclasses set kind,
     iconst, rconst and their own blocks."""
 
-    kind = 0
+    kind = 0                # none: each kind's class says (MODEL_KINDS)
     iconst = np.zeros(0, dtype=np.int32)
     rconst = np.zeros(0)
     x0, bias, q, r, S = _Block("x0"), _Block("bias"), _Block("q"), _Block("r"), _Block("s")
@@ -584,7 +588,7 @@ class LinearModel(Model):
     {raises}
     """
 
-    kind = 1
+    kind = MODEL_KINDS["linear"]
     F, G, H, D = _Block("f"), _Block("g"), _Block("h"), _Block("d")
     Gamma, K, bx = _Block("gamma"), _Block("k"), _Block("bx")
 
@@ -656,7 +660,7 @@ class LongitudinalModel(Model):
         Also an unknown coefficient, regressor or missing constant.
     """
 
-    kind = 2
+    kind = MODEL_KINDS["longitudinal"]
     _COEFFICIENTS = {"CD": "cd", "CL": "cl", "Cm": "cm"}
 
     def __init__(self, regressors, coefficients, constants, x0=None, bias=None, free=(),
@@ -720,7 +724,7 @@ class UserModel(Model):
         Also p of the wrong size, or constants the user model refuses.
     """
 
-    kind = 3
+    kind = MODEL_KINDS["user"]
     p = _Block("p")
 
     def __init__(self, p, iconst=(), rconst=(), x0=None, bias=None, free=(), names=None,
@@ -759,7 +763,7 @@ class X22Model(Model):
         Also p of the wrong size.
     """
 
-    kind = 4
+    kind = MODEL_KINDS["x22"]
     p = _Block("p")
 
     def __init__(self, p, x0=None, bias=None, free=(), names=None, input_hold="linear",
@@ -815,7 +819,7 @@ class EquationModel(Model):
         equation and the character), a name given twice.
     """
 
-    kind = 5
+    kind = MODEL_KINDS["equations"]
     p = _Block("p")
 
     def __init__(self, outputs, states=None, inputs=(), params=None, definitions=None, x0=None,
