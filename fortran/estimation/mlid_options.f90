@@ -11,7 +11,8 @@ module mlid_options
   private
   public :: options_t, options_from_flat, options_to_flat, NOPT
   public :: NOPTION, OPTION_NAMES, option_kind, option_set, option_get
-  public :: METHOD_FREQ_OE, METHOD_FREQ_EE, frequency_method
+  public :: METHOD_OUTPUT_ERROR, METHOD_FILTER_ERROR, METHOD_FREQ_OE, METHOD_FREQ_EE, &
+            frequency_method
 
   integer, parameter :: NOPT = 16  !< length of iopt and ropt
   !> Limits checked before any work starts: beyond them a run would hang or
@@ -19,8 +20,11 @@ module mlid_options
   integer, parameter, public :: MAX_ITER_LIMIT = 10000, HALVINGS_LIMIT = 60, SUBSTEPS_LIMIT = 1000, &
                                 NFREQ_LIMIT = 100000
   integer, parameter :: DEFAULT_N_FREQ = 50   !< frequencies in the band unless n_freq says
-  !> The frequency-domain methods' codes of option method (mlid_frequency).
-  integer, parameter :: METHOD_FREQ_OE = 2, METHOD_FREQ_EE = 3
+  !> The codes of option method, in the order of its choices: output error
+  !> (report §4.4), filter error (§4.1, §4.3), and the frequency-domain
+  !> methods (mlid_frequency).
+  integer, parameter :: METHOD_OUTPUT_ERROR = 0, METHOD_FILTER_ERROR = 1, METHOD_FREQ_OE = 2, &
+                        METHOD_FREQ_EE = 3
 
   !> The options by name, for Python and any other caller that should not
   !> know the flat layout: option k lives in iopt(k) for k <= NIOPT, else in
@@ -180,12 +184,12 @@ contains
     else if (opt%noise_criterion < 0 .or. opt%noise_criterion > 1) then
       write (msg, '(a,i0)') 'noise criterion code must be 0 (exact) or 1 (innovations), got ', &
         iopt(14)
-    else if (opt%noise_criterion == 1 .and. opt%method /= 1) then
+    else if (opt%noise_criterion == 1 .and. opt%method /= METHOD_FILTER_ERROR) then
       msg = 'noise_criterion = ''innovations'' is for filter error (method = ''filter_error''): '// &
             'output error estimates R from the residuals anyway'
     else if (opt%filter_params < 0 .or. opt%filter_params > 1) then
       write (msg, '(a,i0)') 'filter parameters code must be 0 (noise) or 1 (gain), got ', iopt(15)
-    else if (opt%filter_params == 1 .and. opt%method /= 1) then
+    else if (opt%filter_params == 1 .and. opt%method /= METHOD_FILTER_ERROR) then
       msg = 'filter_params = ''gain'' is for filter error (method = ''filter_error'')'
     else if (opt%filter_params == 1 .and. opt%noise_criterion == 1) then
       msg = 'filter_params = ''gain'' estimates B from the innovations (eq. 4.20), not R: '// &

@@ -32,7 +32,7 @@ module mlid_likelihood
   use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, sym_atb_t, pair_rows, chol_inverse, &
                          psd_factor
   use mlid_models, only: model_t
-  use mlid_options, only: options_t, frequency_method
+  use mlid_options, only: options_t, frequency_method, METHOD_FILTER_ERROR
   use mlid_frequency, only: freq_likelihood
   use mlid_params, only: param_map_t, apply_ties, input_delays, output_delays, stabilized
   use mlid_filter, only: oe_predict, kf_innovations
@@ -101,15 +101,15 @@ contains
     if (frequency_method(opt)) then      ! t, u, y are the transformed record
       call freq_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
                            info, sens, msens)
-    else if (opt%method == 1 .and. opt%filter_params == 1) then
+    else if (opt%method == METHOD_FILTER_ERROR .and. opt%filter_params == 1) then
       ! K and B as the parameters: the predictor with the gain K, B = R-hat
       call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
                          sens, msens, keep)
-    else if (opt%method == 1 .and. (output_delays(theta, pm) .or. input_delays(theta, pm))) then
+    else if (opt%method == METHOD_FILTER_ERROR .and. (output_delays(theta, pm) .or. input_delays(theta, pm))) then
       status = MLID_ERR_INPUT
       msg = 'time delays are for output error (method = ''output_error''), not the filter'
       return
-    else if (opt%method == 1 .and. stabilized(theta, pm%l)) then
+    else if (opt%method == METHOD_FILTER_ERROR .and. stabilized(theta, pm%l)) then
       status = MLID_ERR_INPUT
       msg = 'stab, the gain of the stabilized output error, is for output error; the filter '// &
             'has its own'
@@ -119,7 +119,7 @@ contains
       msg = 'a free input time delay needs the model''s input Jacobians: kinds linear, '// &
             'equations, sixdof, flight_path'
       return
-    else if (opt%method == 1) then
+    else if (opt%method == METHOD_FILTER_ERROR) then
       call fe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
                          sens, msens, bmean, keep)
     else
@@ -142,7 +142,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     logical :: gain, p0
-    gain = opt%method == 1 .and. opt%filter_params == 1
+    gain = opt%method == METHOD_FILTER_ERROR .and. opt%filter_params == 1
     p0 = size(pm%ip0) > 0 .or. any(theta(pm%l%op0 + 1:pm%l%nth) /= 0.0_wp)
     status = MLID_ERR_INPUT
     if (size(pm%ik) > 0 .and. .not. gain) then
@@ -152,7 +152,7 @@ contains
     else if (gain .and. size([pm%iq, pm%ir, pm%is]) > 0) then
       msg = 'with filter_params = ''gain'' the gain K (stab) and B replace q, r and s: '// &
             'leave those fixed'
-    else if (p0 .and. (opt%method /= 1 .or. gain .or. opt%steady)) then
+    else if (p0 .and. (opt%method /= METHOD_FILTER_ERROR .or. gain .or. opt%steady)) then
       msg = 'p0, the initial state covariance, is the time-varying Kalman filter''s '// &
             '(method = ''filter_error'', steady_state = false, filter_params = ''noise'')'
     else if (any(theta(pm%l%op0 + 1:pm%l%nth) < 0.0_wp)) then

@@ -11,7 +11,7 @@ module mlid_newton
   use mlid_linalg, only: info_inverse, info_eig, eig_inverse
   use mlid_equation_error, only: equation_error
   use mlid_models, only: model_t
-  use mlid_options, only: options_t, frequency_method
+  use mlid_options, only: options_t, frequency_method, METHOD_FILTER_ERROR
   use mlid_frequency, only: freq_record
   use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
   use mlid_params, only: param_map_t, apply_ties
@@ -166,7 +166,7 @@ contains
     end if
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
     if (opt%noise_criterion == 1) call noise_free_note(pm, size(t), res)
-    if (opt%noise_criterion == 0 .and. opt%method == 1) call noise_free_warning(pm, ex, res)
+    if (opt%noise_criterion == 0 .and. opt%method == METHOD_FILTER_ERROR) call noise_free_warning(pm, ex, res)
     call final_bound(opt, ex, st, res, status, msg)
     colored = .true.
     if (present(plain_bound)) colored = .not. plain_bound
@@ -193,7 +193,7 @@ contains
     character(len=*), intent(inout) :: msg
     character(len=len(msg)) :: names
 
-    if (opt%method /= 1 .or. .not. allocated(res%rhat) .or. .not. allocated(res%theta) .or. &
+    if (opt%method /= METHOD_FILTER_ERROR .or. .not. allocated(res%rhat) .or. .not. allocated(res%theta) .or. &
         .not. allocated(res%theta_start)) return
     names = noise_free_names(pm, ex, res, .true.)
     if (len_trim(names) > 0) msg = trim(names)//'; '//NOISE_FREE_REMEDY//' ('//trim(msg)//')'
@@ -599,7 +599,7 @@ contains
           if (allocated(ex%lower)) &   ! no rounding across a bound
             trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
           call apply_ties(pm%tie, trial)
-          if (ih == 0 .and. rlo >= rmax .and. opt%method /= 1) then
+          if (ih == 0 .and. rlo >= rmax .and. opt%method /= METHOD_FILTER_ERROR) then
             if (.not. allocated(stash%keep)) stash = res
             stash%theta = trial
             call likelihood(m, trial, pm, t, u, y, opt, stash%cost, stash%rhat, stash%yhat, &
