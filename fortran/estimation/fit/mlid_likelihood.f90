@@ -105,7 +105,8 @@ contains
       ! K and B as the parameters: the predictor with the gain K, B = R-hat
       call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
                          sens, msens, keep)
-    else if (opt%method == METHOD_FILTER_ERROR .and. (output_delays(theta, pm) .or. input_delays(theta, pm))) then
+    else if (opt%method == METHOD_FILTER_ERROR .and. (output_delays(theta, pm) .or. &
+                                                   input_delays(theta, pm))) then
       status = MLID_ERR_INPUT
       msg = 'time delays are for output error (method = ''output_error''), not the filter'
       return

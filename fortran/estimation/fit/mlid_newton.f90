@@ -166,7 +166,8 @@ contains
     end if
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
     if (opt%noise_criterion == 1) call noise_free_note(pm, size(t), res)
-    if (opt%noise_criterion == 0 .and. opt%method == METHOD_FILTER_ERROR) call noise_free_warning(pm, ex, res)
+    if (opt%noise_criterion == 0 .and. opt%method == METHOD_FILTER_ERROR) &
+      call noise_free_warning(pm, ex, res)
     call final_bound(opt, ex, st, res, status, msg)
     colored = .true.
     if (present(plain_bound)) colored = .not. plain_bound
@@ -193,7 +194,8 @@ contains
     character(len=*), intent(inout) :: msg
     character(len=len(msg)) :: names
 
-    if (opt%method /= METHOD_FILTER_ERROR .or. .not. allocated(res%rhat) .or. .not. allocated(res%theta) .or. &
+    if (opt%method /= METHOD_FILTER_ERROR .or. .not. allocated(res%rhat) .or. &
+        .not. allocated(res%theta) .or. &
         .not. allocated(res%theta_start)) return
     names = noise_free_names(pm, ex, res, .true.)
     if (len_trim(names) > 0) msg = trim(names)//'; '//NOISE_FREE_REMEDY//' ('//trim(msg)//')'
