@@ -26,7 +26,8 @@ DUMP = REPO / "build" / "tests" / "fortran" / "table_dump"
 #: The case decks that read .mat records.
 MAT_DECKS = ["attas_channels/attas_sp.nml", "attas_lateral/attas_lat.nml",
              "frequency_domain/attas_lat_frequency.nml"]
-needs_data = pytest.mark.skipif(not DATA.is_dir(), reason="real flight data not beside the checkout")
+needs_data = pytest.mark.skipif(not DATA.is_dir(),
+                                reason="real flight data not beside the checkout")
 pytestmark = pytest.mark.skipif(not (REPO / "fortran").is_dir(),
                                 reason="no source tree (and build) beside the tests")
 
@@ -290,7 +291,7 @@ def _damaged(tmp_path):
             "longer.mat": (bytes(longer), "truncated at byte"),
             "part.mat": (bytes(part), "real part at byte"),
             "zlib.mat": (bytes(zlib), "zlib"),
-            "cut.h5": (h5[:len(h5) // 2], "cannot be read as HDF5"),
+            "cut.h5": (h5[:len(h5) // 2], "cannot be opened as HDF5"),
             "text.h5": (b"t u y\n0 1 2\n", "not an HDF5 file")}
 
 

@@ -113,7 +113,8 @@ module mlid_hdf5file
       import :: c_int64_t, hid_t
       integer(hid_t), value :: id
     end function H5Sget_simple_extent_npoints
-    integer(c_int) function H5Sget_simple_extent_ndims(id) bind(c, name='H5Sget_simple_extent_ndims')
+    integer(c_int) function H5Sget_simple_extent_ndims(id) &
+        bind(c, name='H5Sget_simple_extent_ndims')
       import :: c_int, hid_t
       integer(hid_t), value :: id
     end function H5Sget_simple_extent_ndims
@@ -202,7 +203,8 @@ contains
     rc = H5Eset_auto2(H5E_DEFAULT, c_null_funptr, c_null_ptr)
     file = H5Fopen(trim(path)//c_null_char, H5F_ACC_RDONLY, H5P_DEFAULT)
     if (file < 0) then
-      msg = 'data file '//short_path(path)//': cannot be read as HDF5 (damaged or cut short)'
+      msg = 'data file '//short_path(path)//': cannot be opened as HDF5 (damaged, cut short, '// &
+            'or locked by a writer)'
     else
       call read_all(file, 'data file '//short_path(path), arrays, n, status, msg)
       if (H5Fclose(file) < 0 .and. status == MLID_OK) then

@@ -202,7 +202,8 @@ contains
     logical, intent(in) :: big, packed
     integer(int8), allocatable :: b(:)
     b = [header(big), &
-         element(matrix(6, 0, [1, 4], 't', MI_DOUBLE, encode(T, MI_DOUBLE, big), big), big, packed), &
+         element(matrix(6, 0, [1, 4], 't', MI_DOUBLE, encode(T, MI_DOUBLE, big), big), big, &
+                 packed), &
          element(matrix(6, 0, [4, 1], 'y', MI_INT16, encode(Y, MI_INT16, big), big), big, packed), &
          element(matrix(9, 0, [1, 4], 'z', MI_UINT8, encode(Z, MI_UINT8, big), big), big, packed), &
          element(matrix(1, 0, [1, 4], 'c', MI_INT32, encode(T, MI_INT32, big), big), big, packed), &
