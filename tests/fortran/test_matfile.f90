@@ -206,10 +206,20 @@ contains
                  packed), &
          element(matrix(6, 0, [4, 1], 'y', MI_INT16, encode(Y, MI_INT16, big), big), big, packed), &
          element(matrix(9, 0, [1, 4], 'z', MI_UINT8, encode(Z, MI_UINT8, big), big), big, packed), &
-         element(matrix(1, 0, [1, 4], 'c', MI_INT32, encode(T, MI_INT32, big), big), big, packed), &
-         element(matrix(6, 2048, [1, 4], 'q', MI_DOUBLE, encode([T, T], MI_DOUBLE, big), big), &
-                 big, packed)]
+         element(cell('c', matrix(6, 0, [1, 1], '', MI_DOUBLE, encode([42.0_wp], MI_DOUBLE, &
+                                  big), big), big), big, packed), &
+         element([matrix(6, 2048, [1, 4], 'q', MI_DOUBLE, encode(T, MI_DOUBLE, big), big), &
+                  part(MI_DOUBLE, encode(Y, MI_DOUBLE, big), big)], big, packed)]
   end function file_b
+
+  !> The parts of a 1 x 1 cell named name holding the matrix of parts inner.
+  function cell(name, inner, big) result(b)
+    character(len=*), intent(in) :: name
+    integer(int8), intent(in) :: inner(:)
+    logical, intent(in) :: big
+    integer(int8), allocatable :: b(:)
+    b = [head(1, 0, [1, 1], name, big), word(MI_MATRIX, big), word(size(inner), big), inner]
+  end function cell
 
   function header(big) result(b)
     logical, intent(in) :: big
@@ -242,28 +252,36 @@ contains
     b = [word(15, big), word(int(zlen), big), z(1:zlen)]
   end function element
 
-  !> The parts of a matrix: flags (class, flag bits), dimensions, the name
-  !> (small element when 4 bytes or fewer), the real part (small when 4
-  !> bytes or fewer).
+  !> The parts of a matrix: flags, dimensions, name (head), the real part
+  !> (a small element when 4 bytes or fewer).
   function matrix(cls, flag_bits, dims, name, typ, data, big) result(b)
     integer, intent(in) :: cls, flag_bits, dims(:), typ
     character(len=*), intent(in) :: name
     integer(int8), intent(in) :: data(:)
     logical, intent(in) :: big
     integer(int8), allocatable :: b(:)
+    b = [head(cls, flag_bits, dims, name, big), part(typ, data, big)]
+  end function matrix
+
+  !> Flags (class, flag bits), dimensions, and the name (a small element
+  !> when 1 to 4 bytes).
+  function head(cls, flag_bits, dims, name, big) result(b)
+    integer, intent(in) :: cls, flag_bits, dims(:)
+    character(len=*), intent(in) :: name
+    logical, intent(in) :: big
+    integer(int8), allocatable :: b(:)
     integer :: j
     b = [word(MI_UINT32, big), word(8, big), word(cls + flag_bits, big), word(0, big), &
          word(MI_INT32, big), word(4*size(dims), big), [(word(dims(j), big), j=1, size(dims))]]
-    b = padded(b)
-    b = [b, part(1, transfer(name, [0_int8]), big), part(typ, data, big)]
-  end function matrix
+    b = [padded(b), part(1, transfer(name, [0_int8], len(name)), big)]
+  end function head
 
   function part(typ, data, big) result(b)
     integer, intent(in) :: typ
     integer(int8), intent(in) :: data(:)
     logical, intent(in) :: big
     integer(int8), allocatable :: b(:)
-    if (size(data) <= 4) then
+    if (size(data) >= 1 .and. size(data) <= 4) then
       b = [word(typ + 65536*size(data), big), data, spread(0_int8, 1, 4 - size(data))]
     else
       b = padded([word(typ, big), word(size(data), big), data])
