@@ -201,6 +201,9 @@ contains
   function file_b(big, packed) result(b)
     logical, intent(in) :: big, packed
     integer(int8), allocatable :: b(:)
+    integer(int8), allocatable :: q(:)
+    q = matrix(6, 2048, [1, 4], 'q', MI_DOUBLE, encode(T, MI_DOUBLE, big), big)
+    q = [q, part(MI_DOUBLE, encode(Y, MI_DOUBLE, big), big)]       ! its imaginary part
     b = [header(big), &
          element(matrix(6, 0, [1, 4], 't', MI_DOUBLE, encode(T, MI_DOUBLE, big), big), big, &
                  packed), &
@@ -208,8 +211,7 @@ contains
          element(matrix(9, 0, [1, 4], 'z', MI_UINT8, encode(Z, MI_UINT8, big), big), big, packed), &
          element(cell('c', matrix(6, 0, [1, 1], '', MI_DOUBLE, encode([42.0_wp], MI_DOUBLE, &
                                   big), big), big), big, packed), &
-         element([matrix(6, 2048, [1, 4], 'q', MI_DOUBLE, encode(T, MI_DOUBLE, big), big), &
-                  part(MI_DOUBLE, encode(Y, MI_DOUBLE, big), big)], big, packed)]
+         element(q, big, packed)]
   end function file_b
 
   !> The parts of a 1 x 1 cell named name holding the matrix of parts inner.
@@ -241,7 +243,10 @@ contains
     logical, intent(in) :: big, packed
     integer(int8), allocatable :: b(:), whole(:), z(:)
     integer(c_long) :: zlen
-    whole = [word(MI_MATRIX, big), word(size(parts), big), parts]
+    allocate (whole(8 + size(parts)))
+    whole(1:4) = word(MI_MATRIX, big)
+    whole(5:8) = word(size(parts), big)
+    whole(9:) = parts
     if (.not. packed) then
       b = whole
       return
