@@ -202,6 +202,7 @@ contains
     logical, intent(in) :: big, packed
     integer(int8), allocatable :: b(:)
     integer(int8), allocatable :: q(:)
+    allocate (q(0))                    ! (gfortran 12 warns of a descriptor otherwise)
     q = matrix(6, 2048, [1, 4], 'q', MI_DOUBLE, encode(T, MI_DOUBLE, big), big)
     q = [q, part(MI_DOUBLE, encode(Y, MI_DOUBLE, big), big)]       ! its imaginary part
     b = [header(big), &
