@@ -51,131 +51,131 @@ module mlid_hdf5file
     end function H5open
     integer(c_int) function H5Eget_auto2(stack, func, data) bind(c, name='H5Eget_auto2')
       import :: c_int, hid_t, c_funptr, c_ptr
-      integer(hid_t), value :: stack
+      integer(hid_t), value, intent(in) :: stack
       type(c_funptr), intent(out) :: func
       type(c_ptr), intent(out) :: data
     end function H5Eget_auto2
     integer(c_int) function H5Eset_auto2(stack, func, data) bind(c, name='H5Eset_auto2')
       import :: c_int, hid_t, c_funptr, c_ptr
-      integer(hid_t), value :: stack
-      type(c_funptr), value :: func
-      type(c_ptr), value :: data
+      integer(hid_t), value, intent(in) :: stack
+      type(c_funptr), value, intent(in) :: func
+      type(c_ptr), value, intent(in) :: data
     end function H5Eset_auto2
     integer(hid_t) function H5Fopen(name, flags, fapl) bind(c, name='H5Fopen')
       import :: hid_t, c_char, c_int
       character(kind=c_char), intent(in) :: name(*)
-      integer(c_int), value :: flags
-      integer(hid_t), value :: fapl
+      integer(c_int), value, intent(in) :: flags
+      integer(hid_t), value, intent(in) :: fapl
     end function H5Fopen
     integer(c_int) function H5Ovisit2(obj, idx, order, op, data, fields) bind(c, name='H5Ovisit2')
       import :: c_int, hid_t, c_funptr, c_ptr
-      integer(hid_t), value :: obj
-      integer(c_int), value :: idx, order, fields
-      type(c_funptr), value :: op
-      type(c_ptr), value :: data
+      integer(hid_t), value, intent(in) :: obj
+      integer(c_int), value, intent(in) :: idx, order, fields
+      type(c_funptr), value, intent(in) :: op
+      type(c_ptr), value, intent(in) :: data
     end function H5Ovisit2
     integer(hid_t) function H5Oopen(loc, name, lapl) bind(c, name='H5Oopen')
       import :: hid_t, c_char
-      integer(hid_t), value :: loc, lapl
+      integer(hid_t), value, intent(in) :: loc, lapl
       character(kind=c_char), intent(in) :: name(*)
     end function H5Oopen
     integer(c_int) function H5Iget_type(id) bind(c, name='H5Iget_type')
       import :: c_int, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Iget_type
     integer(hid_t) function H5Dget_type(id) bind(c, name='H5Dget_type')
       import :: hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Dget_type
     integer(hid_t) function H5Dget_space(id) bind(c, name='H5Dget_space')
       import :: hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Dget_space
     integer(c_int) function H5Dread(id, mtype, mspace, fspace, xfer, buf) bind(c, name='H5Dread')
       import :: c_int, hid_t, c_double
-      integer(hid_t), value :: id, mtype, mspace, fspace, xfer
+      integer(hid_t), value, intent(in) :: id, mtype, mspace, fspace, xfer
       real(c_double), intent(inout) :: buf(*)
     end function H5Dread
     integer(c_int) function H5Tget_class(id) bind(c, name='H5Tget_class')
       import :: c_int, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Tget_class
     integer(c_int) function H5Tis_variable_str(id) bind(c, name='H5Tis_variable_str')
       import :: c_int, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Tis_variable_str
     integer(c_size_t) function H5Tget_size(id) bind(c, name='H5Tget_size')
       import :: c_size_t, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Tget_size
     integer(c_int64_t) function H5Sget_simple_extent_npoints(id) &
         bind(c, name='H5Sget_simple_extent_npoints')
       import :: c_int64_t, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Sget_simple_extent_npoints
     integer(c_int) function H5Sget_simple_extent_ndims(id) &
         bind(c, name='H5Sget_simple_extent_ndims')
       import :: c_int, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Sget_simple_extent_ndims
     integer(c_int) function H5Sget_simple_extent_dims(id, dims, maxdims) &
         bind(c, name='H5Sget_simple_extent_dims')
       import :: c_int, hid_t, hsize_t, c_ptr
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
       integer(hsize_t), intent(out) :: dims(*)
-      type(c_ptr), value :: maxdims
+      type(c_ptr), value, intent(in) :: maxdims
     end function H5Sget_simple_extent_dims
     integer(c_int) function H5Aexists(obj, name) bind(c, name='H5Aexists')
       import :: c_int, hid_t, c_char
-      integer(hid_t), value :: obj
+      integer(hid_t), value, intent(in) :: obj
       character(kind=c_char), intent(in) :: name(*)
     end function H5Aexists
     integer(hid_t) function H5Aopen(obj, name, aapl) bind(c, name='H5Aopen')
       import :: hid_t, c_char
-      integer(hid_t), value :: obj, aapl
+      integer(hid_t), value, intent(in) :: obj, aapl
       character(kind=c_char), intent(in) :: name(*)
     end function H5Aopen
     integer(hid_t) function H5Aget_type(id) bind(c, name='H5Aget_type')
       import :: hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Aget_type
     integer(hid_t) function H5Aget_space(id) bind(c, name='H5Aget_space')
       import :: hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Aget_space
     integer(c_int) function H5Aread(id, mtype, buf) bind(c, name='H5Aread')
       import :: c_int, hid_t, c_ptr
-      integer(hid_t), value :: id, mtype
-      type(c_ptr), value :: buf
+      integer(hid_t), value, intent(in) :: id, mtype
+      type(c_ptr), value, intent(in) :: buf
     end function H5Aread
     integer(c_int) function H5free_memory(p) bind(c, name='H5free_memory')
       import :: c_int, c_ptr
-      type(c_ptr), value :: p
+      type(c_ptr), value, intent(in) :: p
     end function H5free_memory
     integer(c_size_t) function strlen(p) bind(c, name='strlen')
       import :: c_size_t, c_ptr
-      type(c_ptr), value :: p
+      type(c_ptr), value, intent(in) :: p
     end function strlen
     ! closers: H5Fclose, H5Oclose, H5Tclose, H5Sclose, H5Aclose
     integer(c_int) function H5Fclose(id) bind(c, name='H5Fclose')
       import :: c_int, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Fclose
     integer(c_int) function H5Oclose(id) bind(c, name='H5Oclose')
       import :: c_int, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Oclose
     integer(c_int) function H5Tclose(id) bind(c, name='H5Tclose')
       import :: c_int, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Tclose
     integer(c_int) function H5Sclose(id) bind(c, name='H5Sclose')
       import :: c_int, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Sclose
     integer(c_int) function H5Aclose(id) bind(c, name='H5Aclose')
       import :: c_int, hid_t
-      integer(hid_t), value :: id
+      integer(hid_t), value, intent(in) :: id
     end function H5Aclose
   end interface
 
@@ -267,8 +267,8 @@ contains
 
   !> H5Ovisit's operator: keep the path of each object (data: a visit_t).
   integer(c_int) function visited(obj, name, info, data) bind(c, name='mlid_hdf5_visited')
-    integer(hid_t), value :: obj
-    type(c_ptr), value :: name, info, data
+    integer(hid_t), value, intent(in) :: obj
+    type(c_ptr), value, intent(in) :: name, info, data
     type(visit_t), pointer :: seen
     type(line_t), allocatable :: more(:)
     integer :: k, st

@@ -20,7 +20,7 @@ program test_matfile
       integer(c_int8_t), intent(inout) :: dest(*)
       integer(c_long), intent(inout) :: destlen
       integer(c_int8_t), intent(in) :: source(*)
-      integer(c_long), value :: sourcelen
+      integer(c_long), value, intent(in) :: sourcelen
       integer(c_int) :: rc
     end function compress
   end interface
