@@ -39,6 +39,18 @@ module mlid_hdf5file
   !> it is public (a private one is hidden, and a copy of its own is made).
   integer(hid_t), bind(c, name='H5T_NATIVE_DOUBLE_g'), public, protected :: native_double
 
+  !> An error of HDF5's error stack (H5E_error2_t).
+  type, bind(c) :: h5_error_t
+    integer(hid_t) :: cls_id, maj_num, min_num
+    integer(c_int) :: line
+    type(c_ptr) :: func_name, file_name, desc
+  end type h5_error_t
+
+  !> The description of the innermost error, as H5Ewalk2 gives it.
+  type :: detail_t
+    character(len=120) :: desc = ''
+  end type detail_t
+
   !> The objects' paths as H5Ovisit gives them.
   type :: visit_t
     type(line_t), allocatable :: path(:)
@@ -55,6 +67,13 @@ module mlid_hdf5file
       type(c_funptr), intent(out) :: func
       type(c_ptr), intent(out) :: data
     end function H5Eget_auto2
+    integer(c_int) function H5Ewalk2(stack, direction, func, data) bind(c, name='H5Ewalk2')
+      import :: c_int, hid_t, c_funptr, c_ptr
+      integer(hid_t), value, intent(in) :: stack
+      integer(c_int), value, intent(in) :: direction
+      type(c_funptr), value, intent(in) :: func
+      type(c_ptr), value, intent(in) :: data
+    end function H5Ewalk2
     integer(c_int) function H5Eset_auto2(stack, func, data) bind(c, name='H5Eset_auto2')
       import :: c_int, hid_t, c_funptr, c_ptr
       integer(hid_t), value, intent(in) :: stack
@@ -203,8 +222,8 @@ contains
     rc = H5Eset_auto2(H5E_DEFAULT, c_null_funptr, c_null_ptr)
     file = H5Fopen(trim(path)//c_null_char, H5F_ACC_RDONLY, H5P_DEFAULT)
     if (file < 0) then
-      msg = 'data file '//short_path(path)//': cannot be opened as HDF5 (damaged, cut short, '// &
-            'or locked by a writer)'
+      msg = 'data file '//short_path(path)//': cannot be opened as HDF5 '// &
+            why('damaged, cut short, or locked by a writer')
     else
       call read_all(file, 'data file '//short_path(path), arrays, n, status, msg)
       if (H5Fclose(file) < 0 .and. status == MLID_OK) then
@@ -233,7 +252,7 @@ contains
     allocate (seen%path(16))
     if (H5Ovisit2(file, H5_INDEX_NAME, H5_ITER_NATIVE, c_funloc(visited), c_loc(seen), &
                   H5O_INFO_BASIC) < 0) then
-      msg = where//': its groups cannot be read as HDF5 (damaged or cut short)'
+      msg = where//': its groups cannot be read as HDF5 '//why('damaged or cut short')
       return
     end if
     do k = 1, seen%n
@@ -241,7 +260,8 @@ contains
         if (p == '.' .or. p(1:min(1, len(p))) == '#') cycle   ! the root; MATLAB's #refs#
         obj = H5Oopen(file, p//c_null_char, H5P_DEFAULT)
         if (obj < 0) then
-          msg = where//': object '//printable(p)//' cannot be opened (damaged or cut short)'
+          msg = where//': object '//printable(p)//' cannot be opened '// &
+                why('damaged or cut short')
           return
         end if
         numeric = .false.
@@ -287,6 +307,30 @@ contains
     seen%path(seen%n)%s = c_text(name)
     visited = 0
   end function visited
+
+  !> '(what went wrong)': the innermost error of the call that failed just
+  !> before (the next call clears them), else '(otherwise)'.
+  function why(otherwise) result(text)
+    character(len=*), intent(in) :: otherwise
+    character(len=:), allocatable :: text
+    type(detail_t), target :: detail
+    integer(c_int), parameter :: H5E_WALK_UPWARD = 0      ! the innermost first
+    if (H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, c_funloc(innermost), c_loc(detail)) < 0) &
+      detail%desc = ''
+    text = '('//trim(printable(detail%desc))//')'
+    if (len_trim(detail%desc) == 0) text = '('//otherwise//')'
+  end function why
+
+  !> H5Ewalk2's operator: keep the description of error 0 (data: a detail_t).
+  integer(c_int) function innermost(n, err, data) bind(c, name='mlid_hdf5_innermost')
+    integer(c_int), value, intent(in) :: n
+    type(h5_error_t), intent(in) :: err
+    type(c_ptr), value, intent(in) :: data
+    type(detail_t), pointer :: detail
+    call c_f_pointer(data, detail)
+    if (n == 0) detail%desc = c_text(err%desc)
+    innermost = 0
+  end function innermost
 
   !> The NUL-ended C string at p.
   function c_text(p) result(text)
@@ -348,7 +392,10 @@ contains
       msg = where//': cannot hold its '//itoa(np)//' values'
       return
     end if
-    if (H5Dread(d, native_double, H5S_ALL, H5S_ALL, H5P_DEFAULT, item%v) < 0) return
+    if (H5Dread(d, native_double, H5S_ALL, H5S_ALL, H5P_DEFAULT, item%v) < 0) then
+      msg = where//': cannot be read '//why('damaged or cut short')
+      return
+    end if
     item%shape = dims(1:nd)
     if (nd == 2) item%v = reshape(transpose(reshape(item%v, [dims(2), dims(1)])), [np])
     call read_attributes(d, where, item, status, msg)
@@ -398,14 +445,17 @@ contains
     status = MLID_ERR_INPUT
     msg = where//': its attribute '//name//' cannot be read'
     there = H5Aexists(obj, name//c_null_char)
-    if (there < 0) return
     if (there == 0) then
       status = MLID_OK
       msg = ''
       return
     end if
-    attr = H5Aopen(obj, name//c_null_char, H5P_DEFAULT)
-    if (attr < 0) return
+    attr = -1
+    if (there > 0) attr = H5Aopen(obj, name//c_null_char, H5P_DEFAULT)
+    if (attr < 0) then
+      msg = trim(msg)//' '//why('damaged')
+      return
+    end if
     atype = H5Aget_type(attr)
     space = H5Aget_space(attr)
     np = -1
@@ -413,6 +463,7 @@ contains
     if (atype >= 0 .and. np >= 0) then
       if (H5Tget_class(atype) == H5T_STRING) then
         call read_texts(attr, atype, np, texts, status)
+        if (status /= MLID_OK) msg = trim(msg)//' '//why('damaged')
       else
         msg = where//': its attribute '//name//' is not text'
       end if
