@@ -14,7 +14,10 @@
 !> library prints no error stack while a file is read here (put back after):
 !> a damaged file gives one message.  Several threads may read files at
 !> once: Debian's library is built thread-safe, and every id opened here
-!> is closed here.
+!> is closed here.  A cut file is refused when it is opened (HDF5 checks
+!> its end); damaged metadata is the library's to find, and 1.10 does not
+!> find all: a damaged global heap (variable-length strings) can make it
+!> crash or allocate gigabytes, where h5py's newer library reports it.
 module mlid_hdf5file
   use, intrinsic :: iso_c_binding, only: c_int, c_int64_t, c_size_t, c_char, c_ptr, c_funptr, &
                                          c_null_char, c_null_ptr, c_null_funptr, c_loc, &
