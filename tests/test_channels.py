@@ -299,15 +299,15 @@ def test_binary_format_problems(tmp_path):
         mlid.FlightData.load(tmp_path / "nan.mat", 1, [2], [3])
 
 
-def test_batch_names_binary_files_as_python_only(tmp_path):
+def test_batch_reads_binary_files_as_mlid_run_does(tmp_path):
     import scipy.io
     scipy.io.savemat(tmp_path / "r.mat", {"r": ROWS[:, :3]})
     deck = tmp_path / "m.nml"
     deck.write_text(SEGMENTS.format(file="r.mat").replace(", '{file}'".format(file="r.mat"), "")
                     .replace("t_start = 0, 5.5, t_end = 4.5, 10", ""))
-    run = subprocess.run([str(BIN / "mlid-batch"), str(deck)], capture_output=True, text=True)
-    assert run.returncode == 1
-    assert "r.mat: MATLAB and HDF5 files are read by the Python front end" in run.stderr
+    runs = [subprocess.run([str(BIN / exe), *pre, str(deck)], capture_output=True, text=True)
+            for exe, pre in (("mlid", ["run"]), ("mlid-batch", []))]
+    assert runs[0].returncode == runs[1].returncode and runs[0].stdout == runs[1].stdout
     assert len(mlid.read_deck(deck)[0].record().t) == 3
 
 

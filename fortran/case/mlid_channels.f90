@@ -5,8 +5,8 @@
 !> units channels are shown in (display only), and the time window taken of
 !> each file.  A channel declared in rad that goes beyond 2 pi warns.  One
 !> path for every source: a text record read by mlid_record (both front
-!> ends), or a table the Python front end read from a .mat or HDF5 file or a
-!> DataFrame.
+!> ends), the table of a .mat or HDF5 file read by mlid_tablefile, or a
+!> table the Python front end gives (a DataFrame's).
 !>
 !> Names: a column is named by the deck's `columns` (in order), else by the
 !> file's header; 'ALCG[deg]' names ALCG with its unit.  A name is matched
@@ -30,6 +30,7 @@ module mlid_channels
   use mlid_sampling, only: record_check_time
   use mlid_expr, only: expr_t, expr_compile, expr_eval, expr_uses, split_definition
   use mlid_units, only: unit_to_core, units_of, UNITLEN
+  use mlid_tablefile, only: tablefile_read
   implicit none
   private
   public :: channels_t, channel_set_t, channels_spec, channels_join, channels_read, &
@@ -142,9 +143,10 @@ contains
     end do
   end function names_of_lines
 
-  !> A text record's channels, through the one record reader.  The header
-  !> is read first (names, units, number of columns); then only the columns
-  !> the case needs are converted.
+  !> A record's channels: a text record's through the one record reader
+  !> (the header is read first: names, units, number of columns; then only
+  !> the columns the case needs are converted), a .mat or HDF5 file's
+  !> through its table (mlid_tablefile), taken as channels_table takes one.
   subroutine channels_read(path, spec_in, t_start, t_end, set, status, msg, manoeuvre)
     character(len=*), intent(in) :: path
     type(channels_t), intent(in) :: spec_in
@@ -156,17 +158,18 @@ contains
     type(channels_t) :: spec
     type(record_t) :: rec
     type(plan_t) :: plan
-    real(wp), allocatable :: ch(:, :), jx(:, :)
+    real(wp), allocatable :: ch(:, :), jx(:, :), x(:, :)
     character(len=NAMELEN), allocatable :: names(:)
     character(len=UNITLEN), allocatable :: units(:)
     integer, allocatable :: cols(:)
     integer :: k, ndat
 
     spec = with_manoeuvre(spec_in, manoeuvre)
-    if (binary_format(path)) then
-      status = MLID_ERR_INPUT
-      msg = 'data file '//short_path(path)//': MATLAB and HDF5 files are read by the Python '// &
-            'front end (mlid run, mlid.FlightData.load); mlid-batch reads text records'
+    if (binary_format(path)) then        ! a table, taken as a table the front end gives
+      call tablefile_read(path, '', x, names, units, status, msg)
+      if (status /= MLID_OK) return
+      call channels_table(path, x, names, units, spec_in, t_start, t_end, set, status, msg, &
+                          manoeuvre)
       return
     end if
     call record_read(path, [integer ::], spec%skip_rows, rec, status, msg, header_only=.true.)
