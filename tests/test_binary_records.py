@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from conftest import BIN, REPO, run_both
-from mlid import formats
+import binary_reference as formats
 from mlid.errors import InputError
 
 DATA = REPO.parent / "shared" / "data"

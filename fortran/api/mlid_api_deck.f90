@@ -34,7 +34,7 @@ module mlid_api_deck
             mlid_condition_names, mlid_deck_case_condition, mlid_deck_case_model, &
             mlid_deck_case_data, mlid_deck_case_ties, mlid_deck_case_corrected_writable, &
             mlid_deck_case_corrected, mlid_deck_case_holdout, mlid_deck_case_initial_states, &
-            mlid_deck_case_record, mlid_deck_case_table, mlid_channels_read, &
+            mlid_deck_case_record, mlid_channels_read, &
             mlid_channels_table, mlid_channels_get, mlid_deck_case_run, mlid_case_result_info, &
             mlid_case_result, mlid_case_result_text, mlid_check_time
 
@@ -322,34 +322,16 @@ contains
     write (msg, '(a,i0,a,i0)') 'case ', k, ' has no data file ', j
   end function has_file
 
-  !> The same for a table the Python front end read from data file j of
-  !> case k (.mat or HDF5): x(nrow, ncol) with its columns' names and units
-  !> one per line (blank where unknown).
-  subroutine mlid_deck_case_table(h, k, j, nrow, ncol, x, names, units, nt, status, msg)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k, j, nrow, ncol
-    real(c_double), intent(in) :: x(nrow, ncol)
-    character(len=*), intent(in) :: names, units
-    integer(c_int), intent(out) :: nt, status
-    character(len=256), intent(out) :: msg
-    type(session_t), pointer :: s
-    type(case_t), pointer :: c
-    nt = 0
-    if (.not. has_file(h, k, j, s, c, status, msg)) return
-    call channels_table(c%data_files(j), x, split_lines(names, ncol, NAMELEN), &
-                        split_lines(units, ncol, UNITLEN), c%chan, c%win_start(j), c%win_end(j), &
-                        s%taken, status, msg, manoeuvre=c%file_no(j))
-    nt = taken_samples(s%taken, status)
-  end subroutine mlid_deck_case_table
-
-  !> Read a text record's channels (mlid_channels) and keep them for
-  !> mlid_channels_get.  The spec as channels_spec takes it: one entry per
-  !> line; t_start, t_end: the window.  Status OK with msg 'warning: ...'
+  !> Read a record's channels (mlid_channels: text, or a .mat or HDF5 file,
+  !> variable naming its matrix when it holds several, '' for none) and keep
+  !> them in handle h for mlid_channels_get.  The spec as channels_spec takes
+  !> it: one entry per line; t_start, t_end: the window.  Status OK with msg 'warning: ...'
   !> when a channel looks wrong for its declared unit (degrees in rad).
-  subroutine mlid_channels_read(h, path, time, inputs, outputs, columns, units, derived, show, &
-                                skip_rows, t_start, t_end, dt, nt, status, msg)
+  subroutine mlid_channels_read(h, path, variable, time, inputs, outputs, columns, units, derived, &
+                                show, skip_rows, t_start, t_end, dt, nt, status, msg)
     integer(c_int64_t), intent(in) :: h
-    character(len=*), intent(in) :: path, time, inputs, outputs, columns, units, derived, show
+    character(len=*), intent(in) :: path, variable, time, inputs, outputs, columns, units, &
+                                    derived, show
     integer(c_int), intent(in) :: skip_rows
     real(c_double), intent(in) :: t_start, t_end, dt
     integer(c_int), intent(out) :: nt, status
@@ -362,6 +344,7 @@ contains
     call channels_spec(time, inputs, outputs, columns, units, derived, show, skip_rows, spec, &
                        status, msg)
     spec%dt = dt
+    spec%variable = variable
     if (status == MLID_OK) then
       call channels_read(path, spec, t_start, t_end, s%taken, status, msg)
     else

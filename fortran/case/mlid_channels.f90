@@ -45,6 +45,7 @@ module mlid_channels
     type(line_t), allocatable :: derived(:)    !< 'NAME = expression'
     type(line_t), allocatable :: show(:)       !< 'NAME = unit' it is shown in
     integer :: skip_rows = 0
+    character(len=NAMELEN) :: variable = ''   !< the matrix of a .mat or HDF5 file holding several
     !> > 0: the time rebuilt at this step from the window's first sample,
     !> the recorded time used only to cut the window (a recording gap is then
     !> integrated across, as the textbook software does); 0: the record's time.
@@ -166,7 +167,7 @@ contains
 
     spec = with_manoeuvre(spec_in, manoeuvre)
     if (binary_format(path)) then        ! a table, taken as a table the front end gives
-      call tablefile_read(path, '', x, names, units, status, msg)
+      call tablefile_read(path, trim(spec%variable), x, names, units, status, msg)
       if (status /= MLID_OK) return
       call channels_table(path, x, names, units, spec_in, t_start, t_end, set, status, msg, &
                           manoeuvre)

@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 
 from .._bridge import VALUE_INT, VALUE_TEXT, Handle, api as _api, lines as _lines, text as _text
-from ..data import formats
 from ..data.flight_data import FlightData, read_status
 from ..errors import InputError, MlidError, check_status, guarded, status_of
 from ..estimate.fit import FIT_OUTPUTS, fit_result
@@ -105,13 +104,7 @@ class Case:
         records = []
         for j in numbers:
             path = _text(self._files[j - 1][0])
-            if formats.is_binary(path):
-                x, names, units = formats.read_table(path)
-                nt, status, msg = _api.mlid_deck_case_table(
-                    self._handle.value, self.index, j, x, "\n".join(names) + "\n",
-                    "\n".join(units) + "\n")
-            else:
-                nt, status, msg = _api.mlid_deck_case_record(self._handle.value, self.index, j)
+            nt, status, msg = _api.mlid_deck_case_record(self._handle.value, self.index, j)
             note = read_status(status, msg)
             if note:
                 self.warnings.append(note)

@@ -1,2 +1,2 @@
 """Flight records: FlightData (time, inputs, outputs, read by the core's
-record reader) and the binary formats the Python front end reads."""
+record readers: text, MATLAB and HDF5)."""

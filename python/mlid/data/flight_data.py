@@ -10,7 +10,6 @@ from .._bridge import Handle, api as _api
 from ..checks import real_array
 from ..errors import InputError, MlidWarning, check_status, guarded_class
 from ..files import atomic_open
-from . import formats
 
 
 def _channels(a, nt, what, name):
@@ -211,9 +210,10 @@ class FlightData:
     def load(cls, path, time_col=1, input_cols=(), output_cols=(), skip_rows=0,
              input_names=None, output_names=None, columns=None, units=None, derived=None,
              t_start=None, t_end=None, variable=None, show=None, dt=None):
-        """Read a flight record: a text file with the core's reader (the one
-        mlid-batch uses), or a MATLAB .mat (v5, v7.3) or HDF5 file (this
-        front end only; see mlid.data.formats).
+        """Read a flight record with the core's reader (the one mlid-batch
+        uses): a text file, or a MATLAB .mat (v5, compressed or not; v7.3) or
+        HDF5 file (one matrix a row per sample, or vectors a channel each,
+        named by their variable; fortran/case/mlid_tablefile.f90).
 
         Text files: columns separated by blanks, tabs or commas; '#'
         comments; header lines (the last one with a name per column names
@@ -275,14 +275,8 @@ class FlightData:
         window = _window(t_start, t_end, dt)
         path = str(path)
         handle = Handle()
-        if formats.is_binary(path):
-            x, names, col_units = formats.read_table(path, variable)
-            nt, status, msg = _api.mlid_channels_table(
-                handle.value, path, x, "\n".join(names) + "\n", "\n".join(col_units) + "\n",
-                *spec, *window)
-        else:
-            nt, status, msg = _api.mlid_channels_read(handle.value, path, *spec, int(skip_rows),
-                                                      *window)
+        nt, status, msg = _api.mlid_channels_read(handle.value, path, variable or "", *spec,
+                                                  int(skip_rows), *window)
         read_status(status, msg)
         return cls._taken(handle, *_counts(spec), nt, path, input_names, output_names)
 

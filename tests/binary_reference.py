@@ -1,8 +1,8 @@
-"""Flight records in binary formats, read by the Python front end only:
-MATLAB .mat (v5 through scipy.io, v7.3 through h5py) and HDF5 (.h5, .hdf5).
-Each gives a raw table, x (nrow, ncol) with the columns' names and units
-where the file has them; the core (fortran/case/mlid_channels.f90) then takes
-the channels of it exactly as it takes those of a text record.
+"""A second implementation of the core's reader of binary records
+(fortran/case/mlid_tablefile.f90), for the tests to hold it against: MATLAB
+.mat (v5 through scipy.io, v7.3 through h5py) and HDF5 (.h5, .hdf5), each as
+a raw table, x (nrow, ncol) with the columns' names and units where the file
+has them.  (It was the Python front end's reader before the core had one.)
 
 What a file may hold:
 - one 2-D numeric matrix, a row per sample (a MATLAB matrix as MATLAB shows
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from mlid.errors import InputError
 
 SUFFIXES = (".mat", ".h5", ".hdf5")
 
