@@ -42,12 +42,13 @@
 !> and the interfaces of the submodules' procedures that other files call),
 !> deck_read and the case-level driver (read_case, resolve_paths), and the
 !> readers of &case, &model, &data, &estimate, &simulate, &design,
-!> &monte_carlo.  Its submodules: mlid_deck_record (what the front ends ask
-!> of a case once read: its record, its manoeuvres' layout).
+!> &monte_carlo.  Its submodules: mlid_deck_reader (what the group readers
+!> share); mlid_deck_record (what the front ends ask of a case once read:
+!> its record, its manoeuvres' layout).
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines, comment_start
+  use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines
   use mlid_deck_scan, only: deck_scan, assignment_t
   use mlid_files, only: same_file
   use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
@@ -58,7 +59,7 @@ module mlid_deck
   use mlid_sixdof, only: sixdof_parts
   use mlid_flightpath, only: flightpath_text, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
   use mlid_expr, only: split_definition, expr_t, expr_compile, expr_eval
-  use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
+  use mlid_options, only: options_t, options_to_flat, options_from_flat, option_get
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
   use mlid_channels, only: channels_spec, channels_join
   use mlid_units, only: UNITLEN
@@ -98,6 +99,49 @@ module mlid_deck
   end type reader_t
 
   interface
+
+    ! in mlid_deck_reader
+
+    !> A missing group or a namelist read error, as the case's message.
+    module subroutine group_status(rd, group, ios, iomsg, required, c)
+      type(reader_t), intent(in) :: rd
+      character(len=*), intent(in) :: group, iomsg
+      integer, intent(in) :: ios
+      logical, intent(in) :: required
+      type(case_t), intent(inout) :: c
+    end subroutine group_status
+
+    !> Whether quoted text given to one of keys is longer than room (the case fails).
+    module logical function too_long(rd, c, group, keys, room)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: group, keys(:)
+      integer, intent(in) :: room
+    end function too_long
+
+    !> The case fails (MLID_ERR_INPUT) with message text.
+    module subroutine fail(c, text)
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: text
+    end subroutine fail
+
+    !> Set an option of the case by name from the deck's text.
+    module subroutine set_option(c, where, name, text)
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: where, name, text
+    end subroutine set_option
+
+    !> 'a', 'b' or 'c': a list of choices for a message.
+    module function choices(list) result(text)
+      character(len=*), intent(in) :: list(:)
+      character(len=:), allocatable :: text
+    end function choices
+
+    !> The line without its comment.
+    module function strip_comment(line) result(s)
+      character(len=*), intent(in) :: line
+      character(len=len(line)) :: s
+    end function strip_comment
 
     ! in mlid_deck_record
 
@@ -363,120 +407,6 @@ contains
     end if
     close (rd%unit)
   end subroutine read_case
-
-  !> After a group's namelist read: a missing group (an error when the job
-  !> needs it) or a read error becomes the case's message.
-  subroutine group_status(rd, group, ios, iomsg, required, c)
-    type(reader_t), intent(in) :: rd
-    character(len=*), intent(in) :: group, iomsg
-    integer, intent(in) :: ios
-    logical, intent(in) :: required
-    type(case_t), intent(inout) :: c
-    if (ios < 0 .and. required) then
-      call fail(c, 'group &'//group//' is missing (job '''//trim(c%job)//''' needs it)')
-    else if (ios > 0) then
-      call fail(c, 'group &'//group//' (line '//itoa(group_line(rd%lines, rd%line0, group))// &
-                '): '//blame(rd, group, iomsg))
-    end if
-  end subroutine group_status
-
-  !> A namelist read error in words a user can act on: the compiler names
-  !> the token it could not take ("Cannot match namelist object name .5"):
-  !> a name of the group that is not one of its namelist's, a number where a
-  !> name should be (a value too many), or the rest of a bad value, the name
-  !> assigned just before it on its line being the one with the bad value
-  !> ("max_iter = 2.5"); or the variable whose index is out of range.
-  function blame(rd, group, iomsg) result(text)
-    type(reader_t), intent(in) :: rd
-    character(len=*), intent(in) :: group, iomsg
-    character(len=:), allocatable :: text, token, line
-    integer :: p, k, q, e, b
-    text = trim(iomsg)
-    p = index(iomsg, 'namelist variable ')
-    if (p > 0 .and. index(to_lower(iomsg), 'index') > 0) then
-      k = assigned(rd, group, to_lower(trim(iomsg(p + 18:))), .true.)
-      if (k == 0) return
-      text = 'line '//itoa(rd%given(k)%line)//': '//trim(rd%given(k)%key)//'('// &
-             trim(rd%given(k)%subscript)//'): '
-      if (index(iomsg, 'out of range') > 0) then
-        text = text//'the index lies outside '//trim(rd%given(k)%key)
-      else
-        text = text//'a deck''s lists take one index, NAME(i) or NAME(i:j) (a matrix is '// &
-               'one list, row by row)'
-      end if
-      return
-    end if
-    p = index(iomsg, 'object name ')
-    if (p == 0) return
-    token = trim(iomsg(p + 12:))
-    if (len(token) == 0) return
-    k = assigned(rd, group, to_lower(token), .false.)
-    if (k > 0) then
-      text = 'line '//itoa(rd%given(k)%line)//': unknown name '//token//' in group &'//group
-      return
-    end if
-    if (scan(token(1:1), '0123456789+-') == 1) then   ! a whole value: one too many
-      text = 'a value stands where a name should be (read as '''//token//'''): a name '// &
-             'given more values than it takes, or a name without ='
-      return
-    end if
-    do k = group_line(rd%lines, rd%line0, group) - rd%line0 + 1, size(rd%lines)
-      line = trim(strip_comment(rd%lines(k)%s))
-      q = index(line, token)
-      if (q == 0) cycle
-      e = index(line(1:q - 1), '=', back=.true.)
-      if (e == 0) exit
-      b = scan(trim(line(1:e - 1)), ' ,', back=.true.)
-      text = 'line '//itoa(rd%line0 + k - 1)//': bad value '''// &
-             trim(adjustl(line(e + 1:q + len(token) - 1)))//''' for '// &
-             trim(adjustl(line(b + 1:e - 1)))//' ('//trim(iomsg)//')'
-      return
-    end do
-  end function blame
-
-  !> The case's first assignment of name key in group (with a subscript
-  !> when subscripted), 0 when none.
-  integer function assigned(rd, group, key, subscripted)
-    type(reader_t), intent(in) :: rd
-    character(len=*), intent(in) :: group, key
-    logical, intent(in) :: subscripted
-    integer :: k
-    assigned = 0
-    do k = 1, size(rd%given)
-      if (rd%given(k)%group /= group .or. rd%given(k)%key /= key) cycle
-      if (subscripted .and. len_trim(rd%given(k)%subscript) == 0) cycle
-      assigned = k
-      return
-    end do
-  end function assigned
-
-  !> Whether quoted text given to one of keys in group is longer than room,
-  !> the characters its variable holds (the namelist read would cut it
-  !> without a word): the case fails naming key, line and room.
-  logical function too_long(rd, c, group, keys, room)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: group, keys(:)
-    integer, intent(in) :: room
-    integer :: k
-    too_long = .false.
-    do k = 1, size(rd%given)
-      associate (a => rd%given(k))
-        if (a%group /= group .or. all(a%key /= keys) .or. a%longest <= room) cycle
-        call fail(c, 'line '//itoa(a%line)//': a value of '//trim(a%key)//' in group &'// &
-                  group//' is longer than its '//itoa(room)//' characters')
-        too_long = .true.
-        return
-      end associate
-    end do
-  end function too_long
-
-  subroutine fail(c, text)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: text
-    c%status = MLID_ERR_INPUT
-    c%msg = text
-  end subroutine fail
 
   !> &case: title, job and the flight condition (mach, altitude, alpha_trim,
   !> config, tags: for campaign tables; not given is not zero).
@@ -1145,17 +1075,6 @@ contains
     end do
   end subroutine set_ties
 
-  !> Set an option of the case by name from the deck's text (the core's
-  !> option table checks the name and the value).
-  subroutine set_option(c, where, name, text)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: where, name, text
-    character(len=msg_len) :: msg
-    integer :: status
-    call option_set(c%iopt, c%ropt, name, text, status, msg)
-    if (status /= MLID_OK) call fail(c, where//trim(msg))
-  end subroutine set_option
-
   !> &data: the records (one file per manoeuvre), the channels taken of
   !> them (by column number or name), the columns' names and units, derived
   !> channels, the units channels are shown in and the time window of each
@@ -1806,21 +1725,6 @@ contains
     end if
   end subroutine read_monte_carlo_group
 
-  !> 'a', 'b' or 'c': a list of choices for a message.
-  function choices(list) result(text)
-    character(len=*), intent(in) :: list(:)
-    character(len=:), allocatable :: text
-    integer :: k
-    text = ''''//trim(list(1))//''''
-    do k = 2, size(list)
-      if (k == size(list)) then
-        text = text//' or '''//trim(list(k))//''''
-      else
-        text = text//', '''//trim(list(k))//''''
-      end if
-    end do
-  end function choices
-
   !> Path relative to the deck's folder unless absolute.
   function resolve(dir, file) result(path)
     character(len=*), intent(in) :: dir, file
@@ -1832,14 +1736,6 @@ contains
     end if
   end function resolve
 
-  !> The line without its comment (from the first '!' outside quotes:
-  !> mlid_text's comment_start).
-  function strip_comment(line) result(s)
-    character(len=*), intent(in) :: line
-    character(len=len(line)) :: s
-    s = line(1:comment_start(line) - 1)
-  end function strip_comment
-
   function first_word(line) result(w)
     character(len=*), intent(in) :: line
     character(len=16) :: w
@@ -1850,20 +1746,5 @@ contains
     if (e == 0) e = len(s) + 1
     w = to_lower(s(1:min(e - 1, 16)))
   end function first_word
-
-  !> Line number of the first &group in the case (for messages).
-  integer function group_line(lines, line0, group)
-    type(line_t), intent(in) :: lines(:)
-    character(len=*), intent(in) :: group
-    integer, intent(in) :: line0
-    integer :: k
-    group_line = line0
-    do k = 1, size(lines)
-      if (index(to_lower(strip_comment(lines(k)%s)), '&'//group) > 0) then
-        group_line = line0 + k - 1
-        return
-      end if
-    end do
-  end function group_line
 
 end module mlid_deck
