@@ -12,6 +12,7 @@ submodule (mlid_deck) mlid_deck_record
   use mlid_record, only: record_t, record_read
   use mlid_sampling, only: record_check_time
   use mlid_param_units, only: param_units
+  use mlid_params, only: no_ties
   use mlid_layout, only: manoeuvre_map
   implicit none
 
