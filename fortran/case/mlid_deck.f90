@@ -41,21 +41,21 @@
 !> This file holds the interface (the public names, the constants, reader_t,
 !> and the interfaces of the submodules' procedures that other files call),
 !> deck_read and the case-level driver (read_case, resolve_paths), and the
-!> readers of &case, &data, &estimate, &simulate, &design, &monte_carlo.
-!> Its submodules: mlid_deck_model (&model), mlid_deck_equations (the &model
-!> kinds written as equations); mlid_deck_reader (what the group readers
-!> share); mlid_deck_record (what the front ends ask of a case once read:
-!> its record, its manoeuvres' layout).
+!> readers of &case, &simulate, &design, &monte_carlo.  Its submodules:
+!> mlid_deck_model (&model), mlid_deck_equations (the &model kinds written
+!> as equations), mlid_deck_data (&data), mlid_deck_estimate (&estimate);
+!> mlid_deck_reader (what the group readers share); mlid_deck_record (what
+!> the front ends ask of a case once read: its record, its manoeuvres'
+!> layout).
 module mlid_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower, itoa, read_text, line_t, text_lines
+  use mlid_text, only: to_lower, itoa, read_text, line_t
   use mlid_deck_scan, only: deck_scan, assignment_t
   use mlid_files, only: same_file
-  use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
+  use mlid_case, only: case_t, NAMELEN, PATHLEN, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
   use mlid_model_factory, only: MODEL_LINEAR
-  use mlid_options, only: options_t, options_to_flat, options_from_flat, option_get
-  use mlid_channels, only: channels_spec, channels_join
+  use mlid_options, only: options_t, options_to_flat, options_from_flat
   use mlid_units, only: UNITLEN
   use mlid_layout, only: layout_table_t, layout_of, element_index, element_name, locate
   implicit none
@@ -177,6 +177,28 @@ module mlid_deck
       character(len=*), intent(inout) :: inputs(:), ynames(:)
       real(wp), allocatable, intent(out) :: pstart(:)
     end subroutine flightpath_deck
+
+    ! in mlid_deck_data
+
+    !> &data: the records, their channels and windows.
+    module subroutine read_data_group(rd, c)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+    end subroutine read_data_group
+
+    !> initial_states: nx values for each data file.
+    module subroutine check_initial_states(c)
+      type(case_t), intent(inout) :: c
+    end subroutine check_initial_states
+
+    ! in mlid_deck_estimate
+
+    !> &estimate: the estimator's options, prior and bounds.
+    module subroutine read_estimate_group(rd, c, free_idx)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+      integer, intent(in) :: free_idx(:)
+    end subroutine read_estimate_group
 
     ! in mlid_deck_record
 
@@ -497,303 +519,6 @@ contains
     if (all(c%job /= JOBS)) &
       call fail(c, 'group &case: job must be '//choices(JOBS)//', got '''//trim(job)//'''')
   end subroutine read_case_group
-
-  !> &data: the records (one file per manoeuvre), the channels taken of
-  !> them (by column number or name), the columns' names and units, derived
-  !> channels, the units channels are shown in and the time window of each
-  !> file.
-  subroutine read_data_group(rd, c)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    character(len=PATHLEN) :: file(MAXSEG), join(MAXSEG)
-    character(len=CHANLEN) :: time_col, input_cols(MAXCOL), output_cols(MAXCOL), &
-                              columns(MAXCOL), units(MAXCOL), show(MAXCOL), join_columns(MAXCOL)
-    character(len=EXPRLEN) :: derived(MAXDER)
-    real(wp) :: t_start(MAXSEG), t_end(MAXSEG), dt
-    integer :: skip_rows, ios, status, holdout(MAXSEG), i
-    character(len=msg_len) :: iomsg, msg
-    namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
-      derived, show, t_start, t_end, holdout, dt, join, join_columns
-
-    file = ''
-    join = ''
-    join_columns = ''
-    time_col = '1'
-    input_cols = ''
-    output_cols = ''
-    columns = ''
-    units = ''
-    derived = ''
-    show = ''
-    t_start = UNSET
-    t_end = UNSET
-    skip_rows = 0
-    holdout = 0
-    dt = UNSET
-    rewind (rd%unit)
-    read (rd%unit, nml=data, iostat=ios, iomsg=iomsg)
-    call group_status(rd, 'data', ios, iomsg, .true., c)
-    if (c%status /= MLID_OK) return
-    c%data_files = pack(file, len_trim(file) > 0)
-    c%file_no = [(i, i=1, size(c%data_files))]
-    call data_windows(c, t_start, t_end)
-    call data_holdout(c, holdout)
-    call check_data_group(c, [time_col, input_cols, output_cols, columns, units, show, &
-                              join_columns], derived)
-    if (c%status /= MLID_OK) return
-    call channels_spec(time_col, as_text(input_cols), as_text(output_cols), as_text(columns), &
-                       as_text(units), as_text(derived), as_text(show), skip_rows, c%chan, &
-                       status, msg)
-    if (status == MLID_OK) call channels_join(c%chan, text_lines(as_text(join)), &
-                                              text_lines(as_text(join_columns)), &
-                                              text_lines(as_text(c%data_files)), status, msg)
-    if (status /= MLID_OK) call fail(c, 'group &data: '//trim(msg))
-    if (.not. (dt > 0.0_wp .and. ieee_is_finite(dt))) &
-      call fail(c, 'group &data: dt must be > 0 (a uniform time step replacing the '// &
-                'record''s time), or left out')
-    if (c%status /= MLID_OK) return
-    c%chan%dt = merge(0.0_wp, dt, dt == UNSET)     ! 0: the record's own time
-    if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
-      write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%chan%inputs), &
-        ' input_cols and ', size(c%chan%outputs), ' output_cols given, the model has ', c%nu, &
-        ' inputs and ', c%ny, ' outputs'
-      call fail(c, msg)
-    end if
-  end subroutine read_data_group
-
-  !> Each file's window: t_start and t_end in the order of file; a file
-  !> without one takes all of it.
-  subroutine data_windows(c, t_start, t_end)
-    type(case_t), intent(inout) :: c
-    real(wp), intent(in) :: t_start(:), t_end(:)
-    integer :: n
-    n = size(c%data_files)
-    c%win_start = merge(-huge(1.0_wp), t_start(1:n), t_start(1:n) == UNSET)
-    c%win_end = merge(huge(1.0_wp), t_end(1:n), t_end(1:n) == UNSET)
-    if (any(t_start(n + 1:) /= UNSET) .or. any(t_end(n + 1:) /= UNSET)) then
-      call fail(c, 'group &data: more t_start or t_end than files ('//itoa(n)//')')
-    else if (all(count(t_start /= UNSET) /= [0, n]) .or. all(count(t_end /= UNSET) /= [0, n])) then
-      call fail(c, 'group &data: t_start and t_end take one value per file (in the order '// &
-                'of file) or none; given '//itoa(count(t_start /= UNSET))//' and '// &
-                itoa(count(t_end /= UNSET))//' for '//itoa(n)//' files')
-    else if (any(c%win_end <= c%win_start)) then
-      call fail(c, 'group &data: t_end must be after t_start (file '// &
-                itoa(findloc(c%win_end <= c%win_start, .true., 1))//')')
-    end if
-  end subroutine data_windows
-
-  !> The files a validate case predicts: at least one, not all, each once.
-  subroutine data_holdout(c, holdout)
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: holdout(:)
-    integer :: n, k
-    n = size(c%data_files)
-    c%holdout = pack(holdout, holdout /= 0)
-    if (c%status /= MLID_OK) return
-    if (c%job /= 'validate') then
-      if (size(c%holdout) > 0) call fail(c, 'group &data: holdout is for job ''validate''')
-      return
-    end if
-    if (size(c%holdout) == 0 .or. size(c%holdout) >= n) then
-      call fail(c, 'group &data: a validate case needs holdout, the numbers of the files to '// &
-                'predict (at least one of the '//itoa(n)//' files, not all)')
-    else if (any(c%holdout < 1 .or. c%holdout > n)) then
-      call fail(c, 'group &data: holdout '//itoa(c%holdout(findloc(c%holdout < 1 .or. &
-                c%holdout > n, .true., 1)))//' is no file number (1 to '//itoa(n)//')')
-    else
-      do k = 2, size(c%holdout)
-        if (any(c%holdout(:k - 1) == c%holdout(k))) &
-          call fail(c, 'group &data: holdout lists file '//itoa(c%holdout(k))//' twice')
-      end do
-    end if
-  end subroutine data_holdout
-
-  !> What &data must hold.  An entry that fills its whole length was cut.
-  !> initial_states: nx values for each data file (each manoeuvre).
-  subroutine check_initial_states(c)
-    type(case_t), intent(inout) :: c
-    if (.not. allocated(c%initial_states)) return
-    if (size(c%initial_states) == 0) return
-    if (c%job == 'validate') then
-      call fail(c, 'group &model: initial_states is not available with job = ''validate''')
-    else if (size(c%initial_states) /= c%nx*size(c%data_files)) then
-      call fail(c, 'group &model: initial_states has '//itoa(size(c%initial_states))// &
-                ' values; nx = '//itoa(c%nx)//' for each of the '//itoa(size(c%data_files))// &
-                ' data files needs '//itoa(c%nx*size(c%data_files)))
-    end if
-  end subroutine check_initial_states
-
-  subroutine check_data_group(c, entries, derived)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: entries(:), derived(:)
-    integer :: k
-    if (c%status /= MLID_OK) return
-    k = findloc(len_trim(entries) == len(entries), .true., 1)
-    if (size(c%data_files) == 0) then
-      call fail(c, 'group &data: file is missing')
-    else if (k > 0) then
-      call fail(c, 'group &data: "'//entries(k)(1:20)//'..." is longer than '// &
-                itoa(len(entries))//' characters')
-    else if (any(len_trim(derived) == len(derived))) then
-      call fail(c, 'group &data: a derived channel is longer than '//itoa(len(derived))// &
-                ' characters')
-    end if
-  end subroutine check_data_group
-
-  !> The non-blank entries of an array, one per line (channels_spec's form).
-  function as_text(texts) result(text)
-    character(len=*), intent(in) :: texts(:)
-    character(len=:), allocatable :: text
-    integer :: k
-    text = ''
-    do k = 1, size(texts)
-      if (len_trim(texts(k)) > 0) text = text//trim(texts(k))//achar(10)
-    end do
-  end function as_text
-
-  !> &estimate: the estimator's options, and a priori values, weights and
-  !> bounds per free parameter (in the order of free).
-  subroutine read_estimate_group(rd, c, free_idx)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: free_idx(:)
-    character(len=32) :: noise, method, startup, rank_rule, process_noise, noise_criterion, &
-                         filter_params
-    integer :: max_iter, halvings, rank_min, rank_max, ios, n_freq
-    logical :: partials, steady_state
-    real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay, f_min, f_max
-    real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
-    character(len=PATHLEN) :: corrected(MAXSEG)
-    character(len=msg_len) :: iomsg
-    type(options_t) :: opt
-    namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
-      process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond, prior, &
-      prior_weight, prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected, f_min, &
-      f_max, n_freq
-
-    call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
-    max_iter = opt%max_iter
-    halvings = opt%halvings
-    partials = opt%partials
-    steady_state = opt%steady
-    tol_cost = opt%tol_cost
-    tol_step = opt%tol_step
-    tol_grad = opt%tol_grad
-    rcond = opt%rcond
-    prior_decay = opt%prior_decay
-    rank_min = opt%rank_min
-    rank_max = opt%rank_max
-    n_freq = opt%n_freq
-    f_min = opt%f_min
-    f_max = opt%f_max
-    noise = option_get(c%iopt, c%ropt, 'noise')
-    method = option_get(c%iopt, c%ropt, 'method')
-    startup = option_get(c%iopt, c%ropt, 'startup')
-    rank_rule = option_get(c%iopt, c%ropt, 'rank_rule')
-    process_noise = option_get(c%iopt, c%ropt, 'process_noise')
-    noise_criterion = option_get(c%iopt, c%ropt, 'noise_criterion')
-    filter_params = option_get(c%iopt, c%ropt, 'filter_params')
-    prior = UNSET
-    prior_weight = UNSET
-    lower = UNSET
-    upper = UNSET
-    corrected = ''
-    rewind (rd%unit)
-    read (rd%unit, nml=estimate, iostat=ios, iomsg=iomsg)
-    call group_status(rd, 'estimate', ios, iomsg, .false., c)
-    if (c%status /= MLID_OK) return
-    call take_corrected(c, corrected)
-    if (c%status /= MLID_OK) return
-    opt%max_iter = max_iter
-    opt%halvings = halvings
-    opt%partials = partials
-    opt%steady = steady_state
-    opt%tol_cost = tol_cost
-    opt%tol_step = tol_step
-    opt%tol_grad = tol_grad
-    opt%rcond = rcond
-    opt%prior_decay = prior_decay
-    opt%rank_min = rank_min
-    opt%rank_max = rank_max
-    opt%n_freq = n_freq
-    opt%f_min = f_min
-    opt%f_max = f_max
-    call options_to_flat(opt, c%iopt, c%ropt)
-    call set_option(c, 'group &estimate: ', 'method', method)
-    call set_option(c, 'group &estimate: ', 'startup', startup)
-    call set_option(c, 'group &estimate: ', 'rank_rule', rank_rule)
-    call set_option(c, 'group &estimate: ', 'noise', noise)
-    call set_option(c, 'group &estimate: ', 'process_noise', process_noise)
-    call set_option(c, 'group &estimate: ', 'noise_criterion', noise_criterion)
-    call set_option(c, 'group &estimate: ', 'filter_params', filter_params)
-    if (c%status == MLID_OK) call put_extras(c, free_idx, prior, prior_weight, lower, upper)
-  end subroutine read_estimate_group
-
-  !> &estimate corrected: one record to write per data file, for a fit of
-  !> kind 'flight_path' (the corrections it undoes are that kind's).
-  subroutine take_corrected(c, corrected)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: corrected(:)
-    character(len=msg_len) :: iomsg
-    integer :: n
-    if (all(len_trim(corrected) == 0)) return
-    n = 0
-    if (allocated(c%data_files)) n = size(c%data_files)
-    if (.not. c%flight_path) then
-      call fail(c, 'group &estimate: corrected writes the records with a flight-path fit''s '// &
-                'corrections undone: it needs &model kind = ''flight_path''')
-    else if (c%job /= 'estimate') then
-      call fail(c, 'group &estimate: corrected is for job = ''estimate''')
-    else if (any(len_trim(corrected(n + 1:)) > 0)) then
-      write (iomsg, '(a,i0,a)') 'group &estimate: corrected names more files than the case''s ', &
-        n, ' data files (one record written per data file, in their order)'
-      call fail(c, iomsg)
-    else if (any(len_trim(corrected(1:n)) == 0)) then
-      write (iomsg, '(a,i0,a,i0,a)') 'group &estimate: corrected has no file for data file ', &
-        findloc(len_trim(corrected(1:n)) == 0, .true., 1), ' (one record written per data '// &
-        'file, in their order; the case has ', n, ')'
-      call fail(c, iomsg)
-    else
-      c%corrected = corrected(1:n)
-    end if
-  end subroutine take_corrected
-
-  !> A priori values and weights and bounds, given per free parameter in
-  !> the order of free, into theta's order.
-  subroutine put_extras(c, free_idx, prior, prior_weight, lower, upper)
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: free_idx(:)
-    real(wp), intent(in) :: prior(:), prior_weight(:), lower(:), upper(:)
-    character(len=msg_len) :: iomsg
-    integer :: j, nfr, pos
-
-    nfr = size(free_idx)
-    if (count(prior_weight /= UNSET) + count(prior /= UNSET) + count(lower /= UNSET) + &
-        count(upper /= UNSET) == 0) return
-    do j = nfr + 1, size(prior)
-      if (any([prior(j), prior_weight(j), lower(j), upper(j)] /= UNSET)) then
-        write (iomsg, '(a,i0,a)') 'group &estimate: prior, prior_weight, lower and upper take '// &
-          'one value per free parameter (', nfr, ')'
-        call fail(c, iomsg)
-        return
-      end if
-    end do
-    allocate (c%prior(size(c%theta)), c%pweight(nfr, nfr), c%lower(size(c%theta)), &
-              c%upper(size(c%theta)))
-    c%prior = c%theta
-    c%pweight = 0.0_wp
-    c%lower = -huge(1.0_wp)
-    c%upper = huge(1.0_wp)
-    do j = 1, nfr
-      pos = count(c%isfree(1:free_idx(j)) == 1)      ! its place among the free, theta order
-      if (prior(j) /= UNSET) c%prior(free_idx(j)) = prior(j)
-      if (prior_weight(j) /= UNSET) c%pweight(pos, pos) = prior_weight(j)
-      if (lower(j) /= UNSET) c%lower(free_idx(j)) = lower(j)
-      if (upper(j) /= UNSET) c%upper(free_idx(j)) = upper(j)
-    end do
-    if (count(prior_weight /= UNSET) > 0) c%use_prior = 1
-    if (count(lower /= UNSET) + count(upper /= UNSET) > 0) c%use_bounds = 1
-  end subroutine put_extras
 
   !> &simulate: the record to write, its time base, inputs and noise.
   subroutine read_simulate_group(rd, c)

@@ -6,6 +6,7 @@
 !> made in mlid_deck_equations.
 submodule (mlid_deck) mlid_deck_model
   use mlid_text, only: joined
+  use mlid_case, only: MAXSEG
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
                                 MODEL_EQUATIONS

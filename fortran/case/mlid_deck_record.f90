@@ -6,6 +6,7 @@
 !> case that predicts a validate case's held-out manoeuvres (holdout_case).
 submodule (mlid_deck) mlid_deck_record
   use mlid_files, only: temporary_for
+  use mlid_case, only: MAXSEG
   use mlid_options, only: option_set
   use mlid_inputs, only: input_signal
   use mlid_channels, only: channel_set_t, channels_read
