@@ -3,6 +3,7 @@
 !> names, units and derived channels, each file's time window, the files
 !> a validate case holds out, and the initial states per file.
 submodule (mlid_deck) mlid_deck_data
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_text, only: text_lines
   use mlid_case, only: MAXSEG
   use mlid_channels, only: channels_spec, channels_join

@@ -4,6 +4,7 @@
 !> of kind 'sixdof' around the deck's definitions, the kinematic model of
 !> kind 'flight_path', and the params entries ('NAME = value').
 submodule (mlid_deck) mlid_deck_equations
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_equations, only: equations_text_codes
   use mlid_sixdof, only: sixdof_parts
   use mlid_flightpath, only: flightpath_text, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS

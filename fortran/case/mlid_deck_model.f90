@@ -5,16 +5,18 @@
 !> of the kinds written as equations (equations, sixdof, flight_path) is
 !> made in mlid_deck_equations.
 submodule (mlid_deck) mlid_deck_model
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_text, only: joined
   use mlid_case, only: MAXSEG
   use mlid_models, only: model_t
-  use mlid_model_factory, only: model_create, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
-                                MODEL_EQUATIONS
+  use mlid_model_factory, only: model_create, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, &
+                                MODEL_X22, MODEL_EQUATIONS
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
   use mlid_ties, only: tie_parse, MAXTERM
   use mlid_report, only: LABEL_WIDTH
   use mlid_params, only: no_ties
-  use mlid_layout, only: layout_table, default_label, block_list
+  use mlid_layout, only: layout_table_t, layout_table, layout_of, element_index, element_name, &
+                         default_label, block_list
   implicit none
 
 contains

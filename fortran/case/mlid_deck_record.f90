@@ -14,7 +14,7 @@ submodule (mlid_deck) mlid_deck_record
   use mlid_sampling, only: record_check_time
   use mlid_param_units, only: param_units
   use mlid_params, only: no_ties
-  use mlid_layout, only: manoeuvre_map
+  use mlid_layout, only: layout_table_t, layout_of, manoeuvre_map
   implicit none
 
 contains
