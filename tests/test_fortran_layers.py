@@ -1,7 +1,8 @@
 """The Fortran core's layers are its folders: a module uses only modules of
-its own layer and of those below (docs/architecture.md), and only
- fortran/app/ may stop.  Reads the source tree beside
-this file; skips where the tree is not there (an installed package alone)."""
+its own layer and of those below (docs/architecture.md), no file is over
+1,200 lines (a longer one wants splitting by what it does), and only
+fortran/app/ may stop.  Reads the source tree beside this file; skips where
+the tree is not there (an installed package alone)."""
 
 import re
 from pathlib import Path
@@ -17,6 +18,7 @@ RANK = ["base", "numerics", "models", "estimation",
         "design", "case", "api", "app"]
 #: Sub-layers that are siblings: neither uses the other.
 SIBLINGS = {("estimation/time_domain", "estimation/frequency_domain")}
+MAX_LINES = 1200
 
 pytestmark = pytest.mark.skipif(not FORTRAN.is_dir(), reason="no source tree beside the tests")
 
@@ -59,6 +61,12 @@ def test_modules_use_only_their_layer_and_below():
                     or (theirs, mine) in SIBLINGS:
                 wrong.append(f"{f.relative_to(FORTRAN)} ({mine}) uses {used} ({theirs})")
     assert not wrong, "upward or sideways uses:\n" + "\n".join(wrong)
+
+
+def test_no_file_over_its_limit():
+    long = [f"{f.relative_to(FORTRAN)}: {n} lines" for f in sources()
+            if (n := len(f.read_text().splitlines())) > MAX_LINES]
+    assert not long, "split by what they do:\n" + "\n".join(long)
 
 
 def test_only_the_programs_stop():

@@ -36,35 +36,25 @@
 !>             f_min, f_max, n_freq (the band of the frequency-domain methods, Hz)
 !> A problem in one case is kept in that case (status, msg) and the others
 !> are still read.  Python reads decks through this reader too, into a handle
-!> (mlid_handles; mlid_api's mlid_deck_* routines).
+!> (mlid_handles; mlid_api_deck's mlid_deck_* routines).
+!>
+!> This file holds the interface (the public names, the constants, reader_t,
+!> and the interfaces of the submodules' procedures that other files call),
+!> deck_read and the case-level driver (read_case, resolve_paths).  Its
+!> submodules: a reader per group, mlid_deck_case (&case), mlid_deck_model
+!> (&model), mlid_deck_equations (the &model kinds written as equations),
+!> mlid_deck_data (&data), mlid_deck_estimate (&estimate), mlid_deck_jobs
+!> (&simulate, &design, &monte_carlo); mlid_deck_reader (what the group
+!> readers share); mlid_deck_record (what the front ends ask of a case once
+!> read: its record, its manoeuvres' layout).
 module mlid_deck
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower, itoa, joined, read_text, line_t, text_lines, comment_start
+  use mlid_text, only: to_lower, itoa, read_text, line_t
   use mlid_deck_scan, only: deck_scan, assignment_t
-  use mlid_files, only: temporary_for, same_file
-  use mlid_case, only: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
-  use mlid_models, only: model_t
-  use mlid_model_factory, only: model_create, kind_code, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
-                                MODEL_EQUATIONS
-  use mlid_equations, only: equations_text_codes
-  use mlid_sixdof, only: sixdof_parts
-  use mlid_flightpath, only: flightpath_text, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
-  use mlid_expr, only: split_definition, expr_t, expr_compile, expr_eval
-  use mlid_options, only: options_t, options_to_flat, options_from_flat, option_set, option_get
-  use mlid_inputs, only: input_signal
-  use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
-  use mlid_channels, only: channel_set_t, channels_read, channels_spec, channels_join
+  use mlid_files, only: same_file
+  use mlid_case, only: case_t, NAMELEN, PATHLEN
+  use mlid_options, only: options_t, options_to_flat, options_from_flat
   use mlid_units, only: UNITLEN
-  use mlid_record, only: record_t, record_read
-  use mlid_sampling, only: record_check_time
-  use mlid_param_units, only: param_units
-  use mlid_ties, only: tie_parse, MAXTERM
-  use mlid_report, only: LABEL_WIDTH
-  use mlid_params, only: no_ties
-  use mlid_layout, only: layout_table_t, layout_table, layout_of, element_index, element_name, &
-                         default_label, locate, &
-                         block_list, manoeuvre_map
   implicit none
   private
   public :: case_t, deck_read, case_record, case_time_input, manoeuvre_layout, &
@@ -78,11 +68,6 @@ module mlid_deck
   integer, parameter :: MAXDEF = 100                                !< an equations model's definitions
   real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
   character(len=*), parameter :: GROUP_NAMES = ' case model data simulate estimate design monte_carlo '
-  !> The jobs of &case, and the methods of &design
-  character(len=12), parameter :: JOBS(5) = [character(len=12) :: 'estimate', 'validate', &
-                                             'simulate', 'design', 'monte_carlo']
-  character(len=10), parameter :: DESIGN_METHODS(4) = [character(len=10) :: 'operator', &
-                                                       'riccati', 'amplitude', 'equalised']
 
   !> What the group readers of one case share: the scratch unit with the
   !> case's text and its lines (for line numbers in messages).
@@ -92,6 +77,216 @@ module mlid_deck
     type(assignment_t), allocatable :: given(:)   !< the case's assignments (deck_scan)
   end type reader_t
 
+  interface
+
+    ! in mlid_deck_reader
+
+    !> A missing group or a namelist read error, as the case's message.
+    module subroutine group_status(rd, group, ios, iomsg, required, c)
+      type(reader_t), intent(in) :: rd
+      character(len=*), intent(in) :: group, iomsg
+      integer, intent(in) :: ios
+      logical, intent(in) :: required
+      type(case_t), intent(inout) :: c
+    end subroutine group_status
+
+    !> Whether quoted text given to one of keys is longer than room (the case fails).
+    module logical function too_long(rd, c, group, keys, room)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: group, keys(:)
+      integer, intent(in) :: room
+    end function too_long
+
+    !> The case fails (MLID_ERR_INPUT) with message text.
+    module subroutine fail(c, text)
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: text
+    end subroutine fail
+
+    !> Set an option of the case by name from the deck's text.
+    module subroutine set_option(c, where, name, text)
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: where, name, text
+    end subroutine set_option
+
+    !> 'a', 'b' or 'c': a list of choices for a message.
+    module function choices(list) result(text)
+      character(len=*), intent(in) :: list(:)
+      character(len=:), allocatable :: text
+    end function choices
+
+    !> The line without its comment.
+    module function strip_comment(line) result(s)
+      character(len=*), intent(in) :: line
+      character(len=len(line)) :: s
+    end function strip_comment
+
+    ! in mlid_deck_case
+
+    !> &case: title, job and the flight condition.
+    module subroutine read_case_group(rd, c)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+    end subroutine read_case_group
+
+    ! in mlid_deck_model
+
+    !> &model: kind and sizes, parameters, free ones and labels, ties, names.
+    module subroutine read_model_group(rd, c, free_idx)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+      integer, allocatable, intent(out) :: free_idx(:)
+    end subroutine read_model_group
+
+    ! in mlid_deck_equations
+
+    !> An equations model's text from the deck.
+    module subroutine equations_text(c, states, xdot, inputs, ynames, outputs, definitions, &
+                                     params, pstart, pre, post)
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: states(:), xdot(:), inputs(:), ynames(:), outputs(:), &
+                                      definitions(:), params(:)
+      real(wp), allocatable, intent(out) :: pstart(:)
+      character(len=*), intent(in), optional :: pre, post   !< lines around the definitions (sixdof)
+    end subroutine equations_text
+
+    !> kind = 'sixdof': the rigid-body lines around the deck's definitions.
+    module subroutine sixdof_deck(c, constants, states, xdot, inputs, definitions, pre, post, xs)
+      type(case_t), intent(inout) :: c
+      real(wp), intent(in) :: constants(:)
+      character(len=*), intent(in) :: states(:), xdot(:), inputs(:), definitions(:)
+      character(len=:), allocatable, intent(out) :: pre, post
+      character(len=TIELEN), allocatable, intent(out) :: xs(:)
+    end subroutine sixdof_deck
+
+    !> The kinds whose model is a text of equations.
+    module logical function written_as_equations(kind)
+      character(len=*), intent(in) :: kind
+    end function written_as_equations
+
+    !> kind = 'flight_path': the kinematic model with its corrections.
+    module subroutine flightpath_deck(c, constants, states, xdot, inputs, ynames, outputs, &
+                                      definitions, params, pstart)
+      type(case_t), intent(inout) :: c
+      real(wp), intent(in) :: constants(:)
+      character(len=*), intent(in) :: states(:), xdot(:), outputs(:), definitions(:), params(:)
+      character(len=*), intent(inout) :: inputs(:), ynames(:)
+      real(wp), allocatable, intent(out) :: pstart(:)
+    end subroutine flightpath_deck
+
+    ! in mlid_deck_data
+
+    !> &data: the records, their channels and windows.
+    module subroutine read_data_group(rd, c)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+    end subroutine read_data_group
+
+    !> initial_states: nx values for each data file.
+    module subroutine check_initial_states(c)
+      type(case_t), intent(inout) :: c
+    end subroutine check_initial_states
+
+    ! in mlid_deck_estimate
+
+    !> &estimate: the estimator's options, prior and bounds.
+    module subroutine read_estimate_group(rd, c, free_idx)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+      integer, intent(in) :: free_idx(:)
+    end subroutine read_estimate_group
+
+    ! in mlid_deck_jobs
+
+    !> &simulate: the record to write, its time base, inputs and noise.
+    module subroutine read_simulate_group(rd, c)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+    end subroutine read_simulate_group
+
+    !> &design: the input design's unknowns, record, limit and settings.
+    module subroutine read_design_group(rd, c)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+    end subroutine read_design_group
+
+    !> &monte_carlo: runs, seed, the input flown and the true values.
+    module subroutine read_monte_carlo_group(rd, c, free_idx)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+      integer, intent(in) :: free_idx(:)
+    end subroutine read_monte_carlo_group
+
+    ! in mlid_deck_record
+
+    !> The entries of theta's block key that hold for manoeuvre j.
+    module function manoeuvre_block(c, nseg, theta, j, key) result(v)
+      type(case_t), intent(in) :: c
+      integer, intent(in) :: nseg, j
+      real(wp), intent(in) :: theta(:)
+      character(len=*), intent(in) :: key
+      real(wp), allocatable :: v(:)
+    end function manoeuvre_block
+
+    !> Whether every corrected record's path can be written.
+    module subroutine corrected_writable(c, status, msg)
+      type(case_t), intent(in) :: c
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+    end subroutine corrected_writable
+
+    !> The record of an estimate case: time, inputs and outputs from its data files.
+    module subroutine case_record(c, t, u, y, status, msg, segstart, units, names, notes, own_t)
+      type(case_t), intent(in) :: c
+      real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
+      !> each manoeuvre's time as its file gives it (t moves them one after another)
+      real(wp), allocatable, intent(out), optional :: own_t(:)
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+      integer, allocatable, intent(out), optional :: segstart(:)
+      character(len=UNITLEN), allocatable, intent(out), optional :: units(:)  !< inputs, outputs
+      character(len=NAMELEN), allocatable, intent(out), optional :: names(:)  !< the channels'
+      type(line_t), allocatable, intent(out), optional :: notes(:)
+    end subroutine case_record
+
+    !> The case's parameters for nseg manoeuvres.
+    module subroutine manoeuvre_layout(c, nseg, status, msg)
+      type(case_t), intent(inout) :: c
+      integer, intent(in) :: nseg
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+    end subroutine manoeuvre_layout
+
+    !> The units of the case's free parameters on nseg manoeuvres.
+    module subroutine case_param_units(c, nseg, channel_units, units, status, msg)
+      type(case_t), intent(in) :: c
+      integer, intent(in) :: nseg
+      character(len=*), intent(in) :: channel_units(:)
+      character(len=UNITLEN), allocatable, intent(out) :: units(:)
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+    end subroutine case_param_units
+
+    !> The case that predicts the held-out manoeuvres of a validate case.
+    module subroutine holdout_case(c, theta_fit, nfit, h, status, msg)
+      type(case_t), intent(in) :: c
+      real(wp), intent(in) :: theta_fit(:)
+      integer, intent(in) :: nfit
+      type(case_t), intent(out) :: h
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+    end subroutine holdout_case
+
+    !> Time base and inputs of a simulate (or monte_carlo) case.
+    module subroutine case_time_input(c, t, u, status, msg)
+      type(case_t), intent(in) :: c
+      real(wp), allocatable, intent(out) :: t(:), u(:, :)
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+    end subroutine case_time_input
+
+  end interface
 
 contains
 
@@ -279,1809 +474,6 @@ contains
     close (rd%unit)
   end subroutine read_case
 
-  !> After a group's namelist read: a missing group (an error when the job
-  !> needs it) or a read error becomes the case's message.
-  subroutine group_status(rd, group, ios, iomsg, required, c)
-    type(reader_t), intent(in) :: rd
-    character(len=*), intent(in) :: group, iomsg
-    integer, intent(in) :: ios
-    logical, intent(in) :: required
-    type(case_t), intent(inout) :: c
-    if (ios < 0 .and. required) then
-      call fail(c, 'group &'//group//' is missing (job '''//trim(c%job)//''' needs it)')
-    else if (ios > 0) then
-      call fail(c, 'group &'//group//' (line '//itoa(group_line(rd%lines, rd%line0, group))// &
-                '): '//blame(rd, group, iomsg))
-    end if
-  end subroutine group_status
-
-  !> A namelist read error in words a user can act on: the compiler names
-  !> the token it could not take ("Cannot match namelist object name .5"):
-  !> a name of the group that is not one of its namelist's, a number where a
-  !> name should be (a value too many), or the rest of a bad value, the name
-  !> assigned just before it on its line being the one with the bad value
-  !> ("max_iter = 2.5"); or the variable whose index is out of range.
-  function blame(rd, group, iomsg) result(text)
-    type(reader_t), intent(in) :: rd
-    character(len=*), intent(in) :: group, iomsg
-    character(len=:), allocatable :: text, token, line
-    integer :: p, k, q, e, b
-    text = trim(iomsg)
-    p = index(iomsg, 'namelist variable ')
-    if (p > 0 .and. index(to_lower(iomsg), 'index') > 0) then
-      k = assigned(rd, group, to_lower(trim(iomsg(p + 18:))), .true.)
-      if (k == 0) return
-      text = 'line '//itoa(rd%given(k)%line)//': '//trim(rd%given(k)%key)//'('// &
-             trim(rd%given(k)%subscript)//'): '
-      if (index(iomsg, 'out of range') > 0) then
-        text = text//'the index lies outside '//trim(rd%given(k)%key)
-      else
-        text = text//'a deck''s lists take one index, NAME(i) or NAME(i:j) (a matrix is '// &
-               'one list, row by row)'
-      end if
-      return
-    end if
-    p = index(iomsg, 'object name ')
-    if (p == 0) return
-    token = trim(iomsg(p + 12:))
-    if (len(token) == 0) return
-    k = assigned(rd, group, to_lower(token), .false.)
-    if (k > 0) then
-      text = 'line '//itoa(rd%given(k)%line)//': unknown name '//token//' in group &'//group
-      return
-    end if
-    if (scan(token(1:1), '0123456789+-') == 1) then   ! a whole value: one too many
-      text = 'a value stands where a name should be (read as '''//token//'''): a name '// &
-             'given more values than it takes, or a name without ='
-      return
-    end if
-    do k = group_line(rd%lines, rd%line0, group) - rd%line0 + 1, size(rd%lines)
-      line = trim(strip_comment(rd%lines(k)%s))
-      q = index(line, token)
-      if (q == 0) cycle
-      e = index(line(1:q - 1), '=', back=.true.)
-      if (e == 0) exit
-      b = scan(trim(line(1:e - 1)), ' ,', back=.true.)
-      text = 'line '//itoa(rd%line0 + k - 1)//': bad value '''// &
-             trim(adjustl(line(e + 1:q + len(token) - 1)))//''' for '// &
-             trim(adjustl(line(b + 1:e - 1)))//' ('//trim(iomsg)//')'
-      return
-    end do
-  end function blame
-
-  !> The case's first assignment of name key in group (with a subscript
-  !> when subscripted), 0 when none.
-  integer function assigned(rd, group, key, subscripted)
-    type(reader_t), intent(in) :: rd
-    character(len=*), intent(in) :: group, key
-    logical, intent(in) :: subscripted
-    integer :: k
-    assigned = 0
-    do k = 1, size(rd%given)
-      if (rd%given(k)%group /= group .or. rd%given(k)%key /= key) cycle
-      if (subscripted .and. len_trim(rd%given(k)%subscript) == 0) cycle
-      assigned = k
-      return
-    end do
-  end function assigned
-
-  !> Whether quoted text given to one of keys in group is longer than room,
-  !> the characters its variable holds (the namelist read would cut it
-  !> without a word): the case fails naming key, line and room.
-  logical function too_long(rd, c, group, keys, room)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: group, keys(:)
-    integer, intent(in) :: room
-    integer :: k
-    too_long = .false.
-    do k = 1, size(rd%given)
-      associate (a => rd%given(k))
-        if (a%group /= group .or. all(a%key /= keys) .or. a%longest <= room) cycle
-        call fail(c, 'line '//itoa(a%line)//': a value of '//trim(a%key)//' in group &'// &
-                  group//' is longer than its '//itoa(room)//' characters')
-        too_long = .true.
-        return
-      end associate
-    end do
-  end function too_long
-
-  subroutine fail(c, text)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: text
-    c%status = MLID_ERR_INPUT
-    c%msg = text
-  end subroutine fail
-
-  !> &case: title, job and the flight condition (mach, altitude, alpha_trim,
-  !> config, tags: for campaign tables; not given is not zero).
-  subroutine read_case_group(rd, c)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    character(len=256) :: title             !< longer than the case's, to see a title too long
-    character(len=16) :: job
-    character(len=1024) :: config, tags     !< longer than the case's too
-    real(wp) :: mach, altitude, alpha_trim, given(NCONDITION)
-    character(len=msg_len) :: iomsg
-    integer :: ios, i
-    namelist /case/ title, job, mach, altitude, alpha_trim, config, tags
-
-    title = ''
-    job = ''
-    config = ''
-    tags = ''
-    mach = huge(1.0_wp)
-    altitude = huge(1.0_wp)
-    alpha_trim = huge(1.0_wp)
-    rewind (rd%unit)
-    read (rd%unit, nml=case, iostat=ios, iomsg=iomsg)
-    call group_status(rd, 'case', ios, iomsg, .true., c)
-    if (c%status /= MLID_OK) return
-    c%title = title
-    c%job = to_lower(job)
-    if (len_trim(title) > len(c%title)) then
-      call fail(c, 'group &case: title is longer than '//itoa(len(c%title))//' characters')
-      return
-    end if
-    if (len_trim(config) > len(c%config) .or. len_trim(tags) > len(c%tags)) then
-      call fail(c, 'group &case: config is longer than '//itoa(len(c%config))//' characters, '// &
-                'or tags than '//itoa(len(c%tags)))
-      return
-    end if
-    c%config = config
-    c%tags = tags
-    given = [mach, altitude, alpha_trim]
-    do i = 1, NCONDITION
-      if (given(i) == huge(1.0_wp)) cycle
-      if (.not. ieee_is_finite(given(i))) then
-        call fail(c, 'group &case: '//trim(CONDITION_NAMES(i))//' is not a finite number')
-        return
-      end if
-      c%condition(i) = given(i)
-      c%condition_given(i) = .true.
-    end do
-    if (c%condition_given(1) .and. c%condition(1) < 0.0_wp) then
-      call fail(c, 'group &case: mach must be >= 0')
-      return
-    end if
-    if (all(c%job /= JOBS)) &
-      call fail(c, 'group &case: job must be '//choices(JOBS)//', got '''//trim(job)//'''')
-  end subroutine read_case_group
-
-  !> &model: the kind and sizes, the parameter vector, free parameters and
-  !> their labels, ties, input hold and substeps, channel names.
-  subroutine read_model_group(rd, c, free_idx)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    integer, allocatable, intent(out) :: free_idx(:)
-    character(len=16) :: kind, input_hold
-    integer :: nx, nu, ny, nw, substeps, user_iconst(MAXFREE), ncoef(3), ios
-    real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
-    real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY), k(MAXU*MAXX), bx(MAXX)
-    character(len=8) :: cd_regressors(MAXR), cl_regressors(MAXR), cm_regressors(MAXR)
-    real(wp) :: cd(MAXR), cl(MAXR), cm(MAXR), constants(9), p(MAXFREE), user_rconst(MAXFREE)
-    character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
-    character(len=TIELEN) :: tie(MAXFREE)
-    character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
-    character(len=TIELEN) :: xdot(MAXX), outputs(MAXY), definitions(MAXDEF)
-    character(len=TIELEN) :: params(MAXFREE)
-    character(len=TIELEN), allocatable :: xs(:)
-    character(len=:), allocatable :: pre, post
-    real(wp) :: initial_states(MAXX*MAXSEG), delay(MAXY), udelay(MAXU), stab(MAXX*MAXY), p0(MAXX)
-    character(len=msg_len) :: iomsg
-    integer, allocatable :: codes(:)
-    real(wp), allocatable :: pstart(:)
-    type(layout_table_t) :: lt
-    type(options_t) :: defaults
-    namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, k, bx, x0, bias, q, r, s, free, names, &
-      tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
-      cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst, &
-      xdot, outputs, definitions, params, initial_states, delay, udelay, stab, p0
-
-    kind = 'linear'
-    nx = 0
-    nu = 0
-    ny = 0
-    nw = 0
-    f = UNSET
-    g = UNSET
-    h = UNSET
-    d = UNSET
-    gamma = UNSET
-    k = UNSET
-    bx = UNSET
-    x0 = UNSET
-    bias = UNSET
-    q = UNSET
-    r = UNSET
-    s = UNSET
-    cd = UNSET
-    cl = UNSET
-    cm = UNSET
-    constants = UNSET
-    p = UNSET
-    user_rconst = UNSET
-    user_iconst = -huge(1)
-    cd_regressors = ''
-    cl_regressors = ''
-    cm_regressors = ''
-    free = ''
-    names = ''
-    tie = ''
-    state_names = ''
-    input_names = ''
-    output_names = ''
-    input_hold = 'linear'
-    substeps = defaults%substeps
-    xdot = ''
-    outputs = ''
-    definitions = ''
-    params = ''
-    initial_states = UNSET
-    delay = UNSET
-    udelay = UNSET
-    stab = UNSET
-    p0 = UNSET
-    rewind (rd%unit)
-    read (rd%unit, nml=model, iostat=ios, iomsg=iomsg)
-    call group_status(rd, 'model', ios, iomsg, .true., c)
-    if (c%status /= MLID_OK) return
-    if (written_as_equations(kind)) then
-      if (any(p /= UNSET) .or. any(user_rconst /= UNSET) .or. any(user_iconst /= -huge(1))) then
-        call fail(c, 'group &model: kind = '''//trim(kind)//''' takes its parameters in '// &
-                  'params (''NAME = value''), not p, user_iconst or user_rconst')
-        return
-      end if
-      select case (to_lower(kind))
-      case ('sixdof')
-        call sixdof_deck(c, constants, state_names, xdot, input_names, definitions, pre, post, xs)
-        if (c%status /= MLID_OK) return
-        call equations_text(c, state_names, xs, input_names, output_names, outputs, &
-                            definitions, params, pstart, pre, post)
-      case ('flight_path')
-        call flightpath_deck(c, constants, state_names, xdot, input_names, output_names, &
-                             outputs, definitions, params, pstart)
-      case default
-        call equations_text(c, state_names, xdot, input_names, output_names, outputs, &
-                            definitions, params, pstart)
-      end select
-      if (c%status /= MLID_OK) return
-    else if (any(len_trim([xdot, outputs, definitions, params]) > 0)) then
-      call fail(c, 'group &model: xdot, outputs, definitions and params are for kind = '// &
-                '''equations'', ''sixdof'' or ''flight_path'', not '''//trim(kind)//'''')
-      return
-    end if
-    call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], constants, &
-                    user_iconst, user_rconst, nx, nu, ny, nw, ncoef, codes)
-    if (c%status /= MLID_OK) return
-    if (too_long(rd, c, 'model', ['state_names ', 'input_names ', 'output_names'], NAMELEN)) &
-      return
-    if (all(count(len_trim(state_names) > 0) /= [0, c%nx])) then
-      call fail(c, 'group &model: state_names names every state (nx = '//itoa(c%nx)// &
-                ') or none; given '//itoa(count(len_trim(state_names) > 0)))
-      return
-    end if
-    if (c%mkind == MODEL_EQUATIONS) then             ! its parameters' own names, for free and tie
-      call layout_of(c%mkind, nx, nu, ny, nw, c%iconst, c%rconst, lt, ios, iomsg)
-      if (ios /= MLID_OK) then
-        call fail(c, 'group &model: '//trim(iomsg))
-        return
-      end if
-    else
-      lt = layout_table(c%mkind, nx, nu, ny, nw, ncoef, codes)
-    end if
-    allocate (c%theta(lt%nth), c%isfree(lt%nth))
-    c%tie = no_ties(lt%nth)
-    c%isfree = 0
-    if (c%mkind == MODEL_LINEAR) then
-      call put_matrix(c, lt, 'f', f, required=.true.)
-      call put_matrix(c, lt, 'g', g, required=nu > 0)
-      call put_matrix(c, lt, 'h', h, required=.true.)
-      call put_matrix(c, lt, 'd', d, required=.false.)
-      call put_matrix(c, lt, 'gamma', gamma, required=nw > 0)
-      call put_matrix(c, lt, 'k', k, required=.false.)
-      call put_matrix(c, lt, 'bx', bx, required=.false.)
-    else if (c%mkind == MODEL_AERO_LONG) then
-      call put_matrix(c, lt, 'cd', cd, required=.false.)
-      call put_matrix(c, lt, 'cl', cl, required=.false.)
-      call put_matrix(c, lt, 'cm', cm, required=.false.)
-    else if (c%mkind == MODEL_EQUATIONS) then
-      c%theta(1:size(pstart)) = pstart
-    else
-      call put_matrix(c, lt, 'p', p, required=ncoef(1) > 0)
-    end if
-    call put_matrix(c, lt, 'x0', x0, required=.false.)
-    call put_matrix(c, lt, 'bias', bias, required=.false.)
-    call put_matrix(c, lt, 'q', q, required=.false.)
-    call put_matrix(c, lt, 'r', r, required=.false.)
-    call put_matrix(c, lt, 's', s, required=.false.)
-    call put_matrix(c, lt, 'delay', delay, required=.false.)
-    call put_matrix(c, lt, 'udelay', udelay, required=.false.)
-    call put_matrix(c, lt, 'stab', stab, required=.false.)
-    call put_matrix(c, lt, 'p0', p0, required=.false.)
-    if (c%status == MLID_OK) call set_free(c, lt, free, names, free_idx)
-    if (c%status == MLID_OK) call set_ties(c, lt, tie)
-    if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'input_hold', input_hold)
-    if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'substeps', itoa(substeps))
-    c%input_names = pack(input_names, len_trim(input_names) > 0)
-    c%output_names = pack(output_names, len_trim(output_names) > 0)
-    if (all(size(c%input_names) /= [0, c%nu]) .or. all(size(c%output_names) /= [0, c%ny])) &
-      call fail(c, 'group &model: input_names and output_names name every input and output '// &
-                '(nu = '//itoa(c%nu)//', ny = '//itoa(c%ny)//') or none; given '// &
-                itoa(size(c%input_names))//' and '//itoa(size(c%output_names)))
-    c%initial_states = pack(initial_states, initial_states /= UNSET)
-    if (size(c%initial_states) > 0 .and. (mod(size(c%initial_states), max(c%nx, 1)) /= 0 &
-        .or. c%nx == 0)) call fail(c, 'group &model: initial_states needs nx = '// &
-        itoa(c%nx)//' values per manoeuvre, got '//itoa(size(c%initial_states)))
-  end subroutine read_model_group
-
-  !> An equations model's text (mlid_equations) from the deck: the states
-  !> and their derivatives, inputs, parameters ('NAME' or 'NAME = start
-  !> value', in the order of p), definitions and outputs.
-  subroutine equations_text(c, states, xdot, inputs, ynames, outputs, definitions, params, &
-                            pstart, pre, post)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: states(:), xdot(:), inputs(:), ynames(:), outputs(:), &
-                                    definitions(:), params(:)
-    real(wp), allocatable, intent(out) :: pstart(:)
-    character(len=*), intent(in), optional :: pre, post   !< lines around the definitions (sixdof)
-    character(len=:), allocatable :: text
-    character(len=NAMELEN) :: name
-    character(len=NAMELEN), allocatable :: pnames(:)
-    integer :: k
-
-    text = ''
-    allocate (pstart(0))
-    if (has_gap(c, 'state_names', states) .or. has_gap(c, 'xdot', xdot) .or. &
-        has_gap(c, 'input_names', inputs) .or. has_gap(c, 'output_names', ynames) .or. &
-        has_gap(c, 'outputs', outputs) .or. has_gap(c, 'definitions', definitions) .or. &
-        has_gap(c, 'params', params)) return
-    if (count(len_trim(states) > 0) /= count(len_trim(xdot) > 0)) then
-      call fail(c, 'group &model: the equations model needs one xdot per state_names entry')
-      return
-    end if
-    if (any(len_trim([xdot, outputs, definitions, params]) == TIELEN)) then
-      call fail(c, 'group &model: an equation is longer than '//itoa(TIELEN - 1)//' characters')
-      return
-    end if
-    do k = 1, count(len_trim(inputs) > 0)
-      text = text//'u '//trim(inputs(k))//achar(10)
-    end do
-    call param_entries(c, params, pnames, pstart)
-    if (c%status /= MLID_OK) return
-    do k = 1, size(pnames)
-      text = text//'p '//trim(pnames(k))//achar(10)
-    end do
-    if (present(pre)) text = text//pre
-    do k = 1, count(len_trim(definitions) > 0)
-      text = text//'l '//trim(definitions(k))//achar(10)
-    end do
-    if (present(post)) text = text//post
-    do k = 1, count(len_trim(xdot) > 0)
-      text = text//'x '//trim(states(k))//' = '//trim(xdot(k))//achar(10)
-    end do
-    do k = 1, count(len_trim(outputs) > 0)
-      name = ynames(k)
-      if (len_trim(name) == 0) name = 'y'//itoa(k)
-      text = text//'y '//trim(name)//' = '//trim(outputs(k))//achar(10)
-    end do
-    c%iconst = equations_text_codes(text)
-  end subroutine equations_text
-
-  !> kind = 'sixdof': the rigid-body lines of mlid_sixdof around the deck's
-  !> definitions, and the state equations (xs) in the order of state_names.
-  subroutine sixdof_deck(c, constants, states, xdot, inputs, definitions, pre, post, xs)
-    type(case_t), intent(inout) :: c
-    real(wp), intent(in) :: constants(:)
-    character(len=*), intent(in) :: states(:), xdot(:), inputs(:), definitions(:)
-    character(len=:), allocatable, intent(out) :: pre, post
-    character(len=TIELEN), allocatable, intent(out) :: xs(:)
-    character(len=:), allocatable :: lines
-    character(len=NAMELEN) :: defined(size(definitions))
-    character(len=msg_len) :: iomsg
-    integer :: k, a, b, ios
-
-    allocate (xs(0))
-    if (any(len_trim(xdot) > 0)) then
-      call fail(c, 'group &model: kind = ''sixdof'' writes the state equations itself (no xdot)')
-      return
-    end if
-    defined = ''
-    do k = 1, size(definitions)
-      a = index(definitions(k), '=')
-      if (a > 1) defined(k) = adjustl(definitions(k)(1:a - 1))
-    end do
-    call sixdof_parts(pack(constants, constants /= UNSET), pack(states, len_trim(states) > 0), &
-                      pack(inputs, len_trim(inputs) > 0), pack(defined, len_trim(defined) > 0), &
-                      pre, post, lines, ios, iomsg)
-    if (ios /= MLID_OK) then
-      call fail(c, 'group &model: '//trim(iomsg))
-      return
-    end if
-    a = 1                                   ! 'x NAME = EXPR' lines -> the EXPRs
-    do while (a < len(lines))
-      b = a + index(lines(a:), achar(10)) - 1
-      k = a + index(lines(a:b), '=') + 1    ! the EXPR: lines(k:b-1)
-      if (b - k > TIELEN) then
-        write (iomsg, '(a,i0,a,i0,a)') 'group &model: a state equation of kind = ''sixdof'' has ', &
-          b - k, ' characters, more than the ', TIELEN, ' an equation may have'
-        call fail(c, trim(iomsg))
-        return
-      end if
-      xs = [character(len=TIELEN) :: xs, lines(k:b - 1)]
-      a = b + 1
-    end do
-  end subroutine sixdof_deck
-
-  !> The kinds whose model is a text of equations (mlid_equations).
-  logical function written_as_equations(kind)
-    character(len=*), intent(in) :: kind
-    written_as_equations = any(to_lower(kind) == [character(len=11) :: 'equations', 'sixdof', &
-                                                  'flight_path'])
-  end function written_as_equations
-
-  !> kind = 'flight_path': the kinematic model of mlid_flightpath with the
-  !> corrections params names (start values there), the outputs of
-  !> output_names (all seven when none) and its own states and inputs.
-  subroutine flightpath_deck(c, constants, states, xdot, inputs, ynames, outputs, definitions, &
-                             params, pstart)
-    type(case_t), intent(inout) :: c
-    real(wp), intent(in) :: constants(:)
-    character(len=*), intent(in) :: states(:), xdot(:), outputs(:), definitions(:), params(:)
-    character(len=*), intent(inout) :: inputs(:), ynames(:)
-    real(wp), allocatable, intent(out) :: pstart(:)
-    character(len=NAMELEN), allocatable :: pnames(:)
-    character(len=:), allocatable :: text
-    character(len=msg_len) :: iomsg
-    integer :: ios
-
-    allocate (pstart(0))
-    if (any(len_trim(states) > 0) .or. any(len_trim(xdot) > 0) .or. any(len_trim(inputs) > 0) &
-        .or. any(len_trim(outputs) > 0) .or. any(len_trim(definitions) > 0)) then
-      call fail(c, 'group &model: kind = ''flight_path'' writes its states, inputs and '// &
-                'equations itself (no state_names, xdot, input_names, outputs, definitions)')
-      return
-    end if
-    if (has_gap(c, 'params', params) .or. has_gap(c, 'output_names', ynames)) return
-    call param_entries(c, params, pnames, pstart)
-    if (c%status /= MLID_OK) return
-    if (all(len_trim(ynames) == 0)) ynames(1:size(FLIGHTPATH_OUTPUTS)) = FLIGHTPATH_OUTPUTS
-    call flightpath_text(pack(constants, constants /= UNSET), pnames, &
-                         pack(ynames, len_trim(ynames) > 0), text, ios, iomsg)
-    if (ios /= MLID_OK) then
-      call fail(c, 'group &model: '//trim(iomsg))
-      return
-    end if
-    inputs(1:size(FLIGHTPATH_INPUTS)) = FLIGHTPATH_INPUTS
-    c%iconst = equations_text_codes(text)
-    c%flight_path = .true.
-  end subroutine flightpath_deck
-
-  !> The params entries' names and start values, in order.
-  subroutine param_entries(c, params, names, values)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: params(:)
-    character(len=NAMELEN), allocatable, intent(out) :: names(:)
-    real(wp), allocatable, intent(out) :: values(:)
-    integer :: k, n
-    n = count(len_trim(params) > 0)
-    allocate (names(n), values(n))
-    do k = 1, n
-      call param_entry(c, params(k), names(k), values(k))
-      if (c%status /= MLID_OK) return
-    end do
-  end subroutine param_entries
-
-  !> A params entry: 'NAME' (start value 0) or 'NAME = value', the value an
-  !> expression of numbers ('-3/2', '2*pi'), never read loosely.
-  subroutine param_entry(c, entry, name, v)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: entry
-    character(len=*), intent(out) :: name
-    real(wp), intent(out) :: v
-    character(len=:), allocatable :: rhs
-    character(len=msg_len) :: iomsg
-    type(expr_t) :: ex
-    real(wp) :: none(1, 0), val(1)
-    integer :: ios
-
-    v = 0.0_wp
-    if (index(entry, '=') == 0) then
-      call split_definition(trim(entry)//' = 0', name, rhs, ios, iomsg)
-    else
-      call split_definition(entry, name, rhs, ios, iomsg)
-      if (ios == MLID_OK) call expr_compile(rhs, [character(len=1) ::], ex, ios, iomsg, &
-                                            noun='variable')
-      if (ios == MLID_OK) then
-        call expr_eval(ex, none, val)
-        v = val(1)
-        if (.not. ieee_is_finite(v)) then
-          ios = MLID_ERR_INPUT
-          iomsg = 'the value is not finite'
-        end if
-      end if
-    end if
-    if (ios /= MLID_OK) call fail(c, 'group &model: params entry '''//trim(entry)//''': '// &
-                                  trim(iomsg))
-  end subroutine param_entry
-
-  !> Whether a list has a blank entry before a filled one (said in one line).
-  logical function has_gap(c, what, list)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: what, list(:)
-    integer :: k
-    has_gap = .false.
-    k = findloc(len_trim(list) == 0, .true., 1)
-    if (k == 0) return
-    has_gap = any(len_trim(list(k + 1:)) > 0)
-    if (has_gap) call fail(c, 'group &model: '//what//'('//itoa(k)//') is empty, and an '// &
-                           'entry after it is not')
-  end function has_gap
-
-  !> The model kind and its sizes and constants (a built-in model's sizes
-  !> are its own; nx, nu, ny, nw may be left out or must agree).
-  subroutine model_kind(c, kind, regressors, constants, user_iconst, user_rconst, nx, nu, ny, &
-                        nw, ncoef, codes)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: kind, regressors(:)
-    real(wp), intent(in) :: constants(:), user_rconst(:)
-    integer, intent(in) :: user_iconst(:)
-    integer, intent(inout) :: nx, nu, ny, nw
-    integer, intent(out) :: ncoef(3)
-    integer, allocatable, intent(out) :: codes(:)
-    character(len=msg_len) :: iomsg
-
-    ncoef = 0
-    allocate (codes(0), c%rconst(0))
-    ! a model written as equations has its text in iconst already
-    if (.not. written_as_equations(kind) .or. .not. allocated(c%iconst)) c%iconst = [integer ::]
-    c%mkind = kind_code(to_lower(kind))
-    if (written_as_equations(kind)) c%mkind = MODEL_EQUATIONS   ! sixdof, flight_path too
-    select case (c%mkind)
-    case (MODEL_LINEAR)
-    case (MODEL_AERO_LONG)
-      call regressor_codes(c, regressors, ncoef, codes)
-      if (c%status /= MLID_OK) return
-      if (count(constants /= UNSET) /= 9) then
-        call fail(c, 'group &model: constants needs 9 values: '//CONSTANT_NAMES)
-        return
-      end if
-      c%iconst = [ncoef, codes]
-      c%rconst = constants
-    case (MODEL_USER)
-      c%iconst = pack(user_iconst, user_iconst /= -huge(1))
-      c%rconst = pack(user_rconst, user_rconst /= UNSET)
-    case (MODEL_X22, MODEL_EQUATIONS)
-    case default
-      call fail(c, 'group &model: unknown kind '''//trim(kind)//''' (available: linear, '// &
-                'longitudinal, x22, user, equations, sixdof, flight_path)')
-      return
-    end select
-    if (c%mkind /= MODEL_LINEAR) then
-      call own_sizes(c, nx, nu, ny, nw, ncoef)
-      if (c%status /= MLID_OK) return
-    end if
-    if (nx < merge(0, 1, c%mkind == MODEL_EQUATIONS) .or. nx > MAXX .or. nu < 0 .or. nu > MAXU .or. ny < 1 .or. ny > MAXY .or. &
-        nw < 0 .or. nw > MAXW) then
-      write (iomsg, '(a,4(1x,i0),a,4(1x,i0))') 'group &model: nx, nu, ny, nw =', nx, nu, ny, nw, &
-        ' out of range; limits are', MAXX, MAXU, MAXY, MAXW
-      call fail(c, iomsg)
-      return
-    end if
-    c%nx = nx
-    c%nu = nu
-    c%ny = ny
-    c%nw = nw
-  end subroutine model_kind
-
-  !> A built-in or user model's own sizes (from the model itself); sizes
-  !> the deck gives must agree with them.
-  subroutine own_sizes(c, nx, nu, ny, nw, ncoef)
-    type(case_t), intent(inout) :: c
-    integer, intent(inout) :: nx, nu, ny, nw, ncoef(3)
-    class(model_t), allocatable :: m
-    character(len=msg_len) :: iomsg
-    integer :: ios
-
-    call model_create(c%mkind, -1, -1, -1, -1, c%iconst, c%rconst, m, ios, iomsg)
-    if (ios /= MLID_OK) then
-      call fail(c, 'group &model: '//trim(iomsg))
-      return
-    end if
-    if (c%mkind /= MODEL_USER .and. any([nx, nu, ny, nw] /= 0 .and. &
-                                        [nx, nu, ny, nw] /= [m%nx, m%nu, m%ny, m%nw])) then
-      write (iomsg, '(a,3(i0,a),i0)') 'group &model: this model has nx, nu, ny, nw = ', m%nx, &
-        ', ', m%nu, ', ', m%ny, ', ', m%nw
-      call fail(c, iomsg)
-      return
-    end if
-    nx = m%nx
-    nu = m%nu
-    ny = m%ny
-    nw = m%nw
-    if (c%mkind /= MODEL_AERO_LONG) ncoef(1) = m%np
-  end subroutine own_sizes
-
-  !> Regressor names of C_D, C_L, C_m (MAXR each) -> their counts and codes.
-  subroutine regressor_codes(c, names, ncoef, codes)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: names(:)
-    integer, intent(out) :: ncoef(3)
-    integer, allocatable, intent(inout) :: codes(:)
-    integer :: k, i
-    ncoef = 0
-    do k = 1, size(names)
-      if (len_trim(names(k)) == 0) cycle
-      i = findloc(REGRESSOR_NAMES, trim(adjustl(names(k))), 1)
-      if (i == 0) then
-        call fail(c, 'group &model: regressor '''//trim(names(k))//''' does not exist (use '// &
-                  joined(REGRESSOR_NAMES)//')')
-        return
-      end if
-      ncoef((k - 1)/MAXR + 1) = ncoef((k - 1)/MAXR + 1) + 1
-      codes = [codes, i]
-    end do
-  end subroutine regressor_codes
-
-  !> Place block key of the deck (a matrix given row by row) into theta
-  !> (column-major); a block not given is zero unless required.
-  subroutine put_matrix(c, lt, key, v, required)
-    type(case_t), intent(inout) :: c
-    type(layout_table_t), intent(in) :: lt
-    character(len=*), intent(in) :: key
-    real(wp), intent(in) :: v(:)
-    logical, intent(in) :: required
-    character(len=msg_len) :: iomsg
-    integer :: b, nr, nc, n, ngiven, i, j, o
-
-    if (c%status /= MLID_OK) return
-    b = findloc(lt%key, key, 1)
-    nr = lt%rows(b)
-    nc = merge(1, lt%cols(b), lt%cols(b) < 0)
-    n = nr*nc
-    o = lt%off(b)
-    ngiven = count(v /= UNSET)
-    if (ngiven == 0 .and. .not. required) then
-      c%theta(o + 1:o + n) = 0.0_wp
-      return
-    end if
-    if (ngiven /= n .or. any(v(1:n) == UNSET)) then
-      if (lt%cols(b) < 0) then
-        write (iomsg, '(a,i0,a,i0)') 'group &model: '//key//' has ', ngiven, &
-          ' values, it needs ', n
-      else
-        write (iomsg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &model: '//key//' has ', ngiven, &
-          ' values, '//key//' is ', nr, 'x', nc, ' and needs ', n, ' (row by row)'
-      end if
-      call fail(c, iomsg)
-      return
-    end if
-    do i = 1, nr
-      do j = 1, nc
-        c%theta(o + (j - 1)*nr + i) = v((i - 1)*nc + j)
-      end do
-    end do
-    if (.not. all(ieee_is_finite(c%theta(o + 1:o + n)))) &
-      call fail(c, 'group &model: '//key//' has a value that is not finite')
-  end subroutine put_matrix
-
-  !> The free parameters (free_idx: their theta indices in the order of
-  !> free) and their labels (names, else the default label).
-  subroutine set_free(c, lt, free, names, free_idx)
-    type(case_t), intent(inout) :: c
-    type(layout_table_t), intent(in) :: lt
-    character(len=*), intent(in) :: free(:), names(:)
-    integer, allocatable, intent(out) :: free_idx(:)
-    character(len=NAMELEN), allocatable :: labels(:)
-    integer :: k, idx
-
-    allocate (free_idx(0), labels(lt%nth))
-    labels = ''
-    do k = 1, size(free)
-      if (len_trim(free(k)) == 0) cycle
-      idx = element_index(lt, free(k))
-      if (idx == 0) then
-        call fail(c, 'group &model: free parameter '''//trim(free(k))// &
-                  ''' does not exist ('//block_list(lt)//' within the dimensions)')
-        return
-      end if
-      if (c%isfree(idx) == 1) then
-        call fail(c, 'group &model: free parameter '''//trim(free(k))//''' listed twice')
-        return
-      end if
-      c%isfree(idx) = 1
-      free_idx = [free_idx, idx]
-      labels(idx) = default_label(lt, idx)
-      if (len_trim(names(k)) > 0) labels(idx) = names(k)
-      if (len_trim(labels(idx)) > LABEL_WIDTH) then
-        call fail(c, 'group &model: the label '''//trim(labels(idx))//''' of free parameter '// &
-                  itoa(k)//' is longer than the '//itoa(LABEL_WIDTH)//' characters the report '// &
-                  'prints (a shorter one in names)')
-        return
-      end if
-    end do
-    if (count(len_trim(names) > 0) > size(free_idx)) then
-      call fail(c, 'group &model: more names than free parameters')
-      return
-    else if (any(len_trim(names) > 0) .and. count(len_trim(names) > 0) < size(free_idx)) then
-      call fail(c, 'group &model: names has '//itoa(count(len_trim(names) > 0))// &
-                ' labels for '//itoa(size(free_idx))//' free parameters (one per free '// &
-                'parameter, in the order of free, or none)')
-      return
-    end if
-    c%labels = pack(labels, c%isfree == 1)
-  end subroutine set_free
-
-  !> Ties 'a = b' or 'a = c + s*b + ...' (mlid_ties), each tied entry once.
-  subroutine set_ties(c, lt, tie)
-    type(case_t), intent(inout) :: c
-    type(layout_table_t), intent(in) :: lt
-    character(len=*), intent(in) :: tie(:)
-    integer :: k, to, n, from(MAXTERM), status
-    real(wp) :: offset, scale(MAXTERM)
-    character(len=msg_len) :: msg
-    do k = 1, size(tie)
-      if (len_trim(tie(k)) == 0) cycle
-      if (len_trim(tie(k)) == len(tie(k))) then       ! namelist input cuts what does not fit
-        call fail(c, 'group &model: tie '''//tie(k)(1:40)//'...'' is longer than '// &
-                  itoa(len(tie(k)) - 1)//' characters')
-        return
-      end if
-      call tie_parse(lt, tie(k), to, offset, n, from, scale, status, msg)
-      if (status == MLID_OK .and. any(c%tie%to == to)) then
-        status = MLID_ERR_INPUT
-        msg = 'tie '''//trim(tie(k))//''': the parameter is tied twice'
-      end if
-      if (status /= MLID_OK) then
-        call fail(c, 'group &model: '//trim(msg))
-        return
-      end if
-      c%tie%to = [c%tie%to, spread(to, 1, n)]
-      c%tie%from = [c%tie%from, from(1:n)]
-      c%tie%scale = [c%tie%scale, scale(1:n)]
-      c%tie%offset(to) = offset
-    end do
-    ! in the words mlid/model.py uses for a model built in Python
-    do k = 1, size(c%tie%to)
-      if (c%isfree(c%tie%to(k)) == 1) then
-        call fail(c, 'group &model: parameter '''//trim(element_name(lt, c%tie%to(k)))// &
-                  ''' is both free and tied')
-        return
-      else if (any(c%tie%to == c%tie%from(k))) then
-        call fail(c, 'group &model: '''//trim(element_name(lt, c%tie%to(k)))//''' is tied to '''// &
-                  trim(element_name(lt, c%tie%from(k)))//''', which is itself tied (a chain or '// &
-                  'a cycle of ties): tie to the free parameter')
-        return
-      end if
-    end do
-  end subroutine set_ties
-
-  !> Set an option of the case by name from the deck's text (the core's
-  !> option table checks the name and the value).
-  subroutine set_option(c, where, name, text)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: where, name, text
-    character(len=msg_len) :: msg
-    integer :: status
-    call option_set(c%iopt, c%ropt, name, text, status, msg)
-    if (status /= MLID_OK) call fail(c, where//trim(msg))
-  end subroutine set_option
-
-  !> &data: the records (one file per manoeuvre), the channels taken of
-  !> them (by column number or name), the columns' names and units, derived
-  !> channels, the units channels are shown in and the time window of each
-  !> file.
-  subroutine read_data_group(rd, c)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    character(len=PATHLEN) :: file(MAXSEG), join(MAXSEG)
-    character(len=CHANLEN) :: time_col, input_cols(MAXCOL), output_cols(MAXCOL), &
-                              columns(MAXCOL), units(MAXCOL), show(MAXCOL), join_columns(MAXCOL)
-    character(len=EXPRLEN) :: derived(MAXDER)
-    real(wp) :: t_start(MAXSEG), t_end(MAXSEG), dt
-    integer :: skip_rows, ios, status, holdout(MAXSEG), i
-    character(len=msg_len) :: iomsg, msg
-    namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
-      derived, show, t_start, t_end, holdout, dt, join, join_columns
-
-    file = ''
-    join = ''
-    join_columns = ''
-    time_col = '1'
-    input_cols = ''
-    output_cols = ''
-    columns = ''
-    units = ''
-    derived = ''
-    show = ''
-    t_start = UNSET
-    t_end = UNSET
-    skip_rows = 0
-    holdout = 0
-    dt = UNSET
-    rewind (rd%unit)
-    read (rd%unit, nml=data, iostat=ios, iomsg=iomsg)
-    call group_status(rd, 'data', ios, iomsg, .true., c)
-    if (c%status /= MLID_OK) return
-    c%data_files = pack(file, len_trim(file) > 0)
-    c%file_no = [(i, i=1, size(c%data_files))]
-    call data_windows(c, t_start, t_end)
-    call data_holdout(c, holdout)
-    call check_data_group(c, [time_col, input_cols, output_cols, columns, units, show, &
-                              join_columns], derived)
-    if (c%status /= MLID_OK) return
-    call channels_spec(time_col, as_text(input_cols), as_text(output_cols), as_text(columns), &
-                       as_text(units), as_text(derived), as_text(show), skip_rows, c%chan, &
-                       status, msg)
-    if (status == MLID_OK) call channels_join(c%chan, text_lines(as_text(join)), &
-                                              text_lines(as_text(join_columns)), &
-                                              text_lines(as_text(c%data_files)), status, msg)
-    if (status /= MLID_OK) call fail(c, 'group &data: '//trim(msg))
-    if (.not. (dt > 0.0_wp .and. ieee_is_finite(dt))) &
-      call fail(c, 'group &data: dt must be > 0 (a uniform time step replacing the '// &
-                'record''s time), or left out')
-    if (c%status /= MLID_OK) return
-    c%chan%dt = merge(0.0_wp, dt, dt == UNSET)     ! 0: the record's own time
-    if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
-      write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%chan%inputs), &
-        ' input_cols and ', size(c%chan%outputs), ' output_cols given, the model has ', c%nu, &
-        ' inputs and ', c%ny, ' outputs'
-      call fail(c, msg)
-    end if
-  end subroutine read_data_group
-
-  !> Each file's window: t_start and t_end in the order of file; a file
-  !> without one takes all of it.
-  subroutine data_windows(c, t_start, t_end)
-    type(case_t), intent(inout) :: c
-    real(wp), intent(in) :: t_start(:), t_end(:)
-    integer :: n
-    n = size(c%data_files)
-    c%win_start = merge(-huge(1.0_wp), t_start(1:n), t_start(1:n) == UNSET)
-    c%win_end = merge(huge(1.0_wp), t_end(1:n), t_end(1:n) == UNSET)
-    if (any(t_start(n + 1:) /= UNSET) .or. any(t_end(n + 1:) /= UNSET)) then
-      call fail(c, 'group &data: more t_start or t_end than files ('//itoa(n)//')')
-    else if (all(count(t_start /= UNSET) /= [0, n]) .or. all(count(t_end /= UNSET) /= [0, n])) then
-      call fail(c, 'group &data: t_start and t_end take one value per file (in the order '// &
-                'of file) or none; given '//itoa(count(t_start /= UNSET))//' and '// &
-                itoa(count(t_end /= UNSET))//' for '//itoa(n)//' files')
-    else if (any(c%win_end <= c%win_start)) then
-      call fail(c, 'group &data: t_end must be after t_start (file '// &
-                itoa(findloc(c%win_end <= c%win_start, .true., 1))//')')
-    end if
-  end subroutine data_windows
-
-  !> The files a validate case predicts: at least one, not all, each once.
-  subroutine data_holdout(c, holdout)
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: holdout(:)
-    integer :: n, k
-    n = size(c%data_files)
-    c%holdout = pack(holdout, holdout /= 0)
-    if (c%status /= MLID_OK) return
-    if (c%job /= 'validate') then
-      if (size(c%holdout) > 0) call fail(c, 'group &data: holdout is for job ''validate''')
-      return
-    end if
-    if (size(c%holdout) == 0 .or. size(c%holdout) >= n) then
-      call fail(c, 'group &data: a validate case needs holdout, the numbers of the files to '// &
-                'predict (at least one of the '//itoa(n)//' files, not all)')
-    else if (any(c%holdout < 1 .or. c%holdout > n)) then
-      call fail(c, 'group &data: holdout '//itoa(c%holdout(findloc(c%holdout < 1 .or. &
-                c%holdout > n, .true., 1)))//' is no file number (1 to '//itoa(n)//')')
-    else
-      do k = 2, size(c%holdout)
-        if (any(c%holdout(:k - 1) == c%holdout(k))) &
-          call fail(c, 'group &data: holdout lists file '//itoa(c%holdout(k))//' twice')
-      end do
-    end if
-  end subroutine data_holdout
-
-  !> What &data must hold.  An entry that fills its whole length was cut.
-  !> initial_states: nx values for each data file (each manoeuvre).
-  subroutine check_initial_states(c)
-    type(case_t), intent(inout) :: c
-    if (.not. allocated(c%initial_states)) return
-    if (size(c%initial_states) == 0) return
-    if (c%job == 'validate') then
-      call fail(c, 'group &model: initial_states is not available with job = ''validate''')
-    else if (size(c%initial_states) /= c%nx*size(c%data_files)) then
-      call fail(c, 'group &model: initial_states has '//itoa(size(c%initial_states))// &
-                ' values; nx = '//itoa(c%nx)//' for each of the '//itoa(size(c%data_files))// &
-                ' data files needs '//itoa(c%nx*size(c%data_files)))
-    end if
-  end subroutine check_initial_states
-
-  subroutine check_data_group(c, entries, derived)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: entries(:), derived(:)
-    integer :: k
-    if (c%status /= MLID_OK) return
-    k = findloc(len_trim(entries) == len(entries), .true., 1)
-    if (size(c%data_files) == 0) then
-      call fail(c, 'group &data: file is missing')
-    else if (k > 0) then
-      call fail(c, 'group &data: "'//entries(k)(1:20)//'..." is longer than '// &
-                itoa(len(entries))//' characters')
-    else if (any(len_trim(derived) == len(derived))) then
-      call fail(c, 'group &data: a derived channel is longer than '//itoa(len(derived))// &
-                ' characters')
-    end if
-  end subroutine check_data_group
-
-  !> The non-blank entries of an array, one per line (channels_spec's form).
-  function as_text(texts) result(text)
-    character(len=*), intent(in) :: texts(:)
-    character(len=:), allocatable :: text
-    integer :: k
-    text = ''
-    do k = 1, size(texts)
-      if (len_trim(texts(k)) > 0) text = text//trim(texts(k))//achar(10)
-    end do
-  end function as_text
-
-  !> &estimate: the estimator's options, and a priori values, weights and
-  !> bounds per free parameter (in the order of free).
-  subroutine read_estimate_group(rd, c, free_idx)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: free_idx(:)
-    character(len=32) :: noise, method, startup, rank_rule, process_noise, noise_criterion, &
-                         filter_params
-    integer :: max_iter, halvings, rank_min, rank_max, ios, n_freq
-    logical :: partials, steady_state
-    real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay, f_min, f_max
-    real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
-    character(len=PATHLEN) :: corrected(MAXSEG)
-    character(len=msg_len) :: iomsg
-    type(options_t) :: opt
-    namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
-      process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond, prior, &
-      prior_weight, prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected, f_min, &
-      f_max, n_freq
-
-    call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
-    max_iter = opt%max_iter
-    halvings = opt%halvings
-    partials = opt%partials
-    steady_state = opt%steady
-    tol_cost = opt%tol_cost
-    tol_step = opt%tol_step
-    tol_grad = opt%tol_grad
-    rcond = opt%rcond
-    prior_decay = opt%prior_decay
-    rank_min = opt%rank_min
-    rank_max = opt%rank_max
-    n_freq = opt%n_freq
-    f_min = opt%f_min
-    f_max = opt%f_max
-    noise = option_get(c%iopt, c%ropt, 'noise')
-    method = option_get(c%iopt, c%ropt, 'method')
-    startup = option_get(c%iopt, c%ropt, 'startup')
-    rank_rule = option_get(c%iopt, c%ropt, 'rank_rule')
-    process_noise = option_get(c%iopt, c%ropt, 'process_noise')
-    noise_criterion = option_get(c%iopt, c%ropt, 'noise_criterion')
-    filter_params = option_get(c%iopt, c%ropt, 'filter_params')
-    prior = UNSET
-    prior_weight = UNSET
-    lower = UNSET
-    upper = UNSET
-    corrected = ''
-    rewind (rd%unit)
-    read (rd%unit, nml=estimate, iostat=ios, iomsg=iomsg)
-    call group_status(rd, 'estimate', ios, iomsg, .false., c)
-    if (c%status /= MLID_OK) return
-    call take_corrected(c, corrected)
-    if (c%status /= MLID_OK) return
-    opt%max_iter = max_iter
-    opt%halvings = halvings
-    opt%partials = partials
-    opt%steady = steady_state
-    opt%tol_cost = tol_cost
-    opt%tol_step = tol_step
-    opt%tol_grad = tol_grad
-    opt%rcond = rcond
-    opt%prior_decay = prior_decay
-    opt%rank_min = rank_min
-    opt%rank_max = rank_max
-    opt%n_freq = n_freq
-    opt%f_min = f_min
-    opt%f_max = f_max
-    call options_to_flat(opt, c%iopt, c%ropt)
-    call set_option(c, 'group &estimate: ', 'method', method)
-    call set_option(c, 'group &estimate: ', 'startup', startup)
-    call set_option(c, 'group &estimate: ', 'rank_rule', rank_rule)
-    call set_option(c, 'group &estimate: ', 'noise', noise)
-    call set_option(c, 'group &estimate: ', 'process_noise', process_noise)
-    call set_option(c, 'group &estimate: ', 'noise_criterion', noise_criterion)
-    call set_option(c, 'group &estimate: ', 'filter_params', filter_params)
-    if (c%status == MLID_OK) call put_extras(c, free_idx, prior, prior_weight, lower, upper)
-  end subroutine read_estimate_group
-
-  !> The entries of theta's block key (laid out for nseg manoeuvres,
-  !> manoeuvre_layout) that hold for manoeuvre j: its own, or the shared ones.
-  function manoeuvre_block(c, nseg, theta, j, key) result(v)
-    type(case_t), intent(in) :: c
-    integer, intent(in) :: nseg, j
-    real(wp), intent(in) :: theta(:)
-    character(len=*), intent(in) :: key
-    real(wp), allocatable :: v(:)
-    type(layout_table_t) :: lt
-    integer, allocatable :: map(:), seg(:)
-    character(len=msg_len) :: iomsg
-    integer :: b, ios, last
-    allocate (v(0))
-    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
-    if (ios /= MLID_OK) return
-    call manoeuvre_map(lt, nseg, map, seg)
-    b = findloc(lt%key, key, 1)
-    if (b == 0 .or. size(map) /= size(theta)) return
-    last = lt%nth                              ! the block ends where the next begins
-    if (b < lt%nblock) last = lt%off(b + 1)
-    v = pack(theta, map > lt%off(b) .and. map <= last .and. (seg == 0 .or. seg == j))
-  end function manoeuvre_block
-
-  !> Whether every corrected record's path can be written: both front ends
-  !> ask before the fit, so that a typo does not cost one.
-  subroutine corrected_writable(c, status, msg)
-    type(case_t), intent(in) :: c
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    character(len=:), allocatable :: tmp
-    integer :: j
-    status = MLID_OK
-    msg = ''
-    if (.not. allocated(c%corrected)) return
-    do j = 1, size(c%corrected)
-      call temporary_for(trim(c%corrected(j)), tmp, status, msg)
-      if (status /= MLID_OK) return
-    end do
-  end subroutine corrected_writable
-
-  !> &estimate corrected: one record to write per data file, for a fit of
-  !> kind 'flight_path' (the corrections it undoes are that kind's).
-  subroutine take_corrected(c, corrected)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: corrected(:)
-    character(len=msg_len) :: iomsg
-    integer :: n
-    if (all(len_trim(corrected) == 0)) return
-    n = 0
-    if (allocated(c%data_files)) n = size(c%data_files)
-    if (.not. c%flight_path) then
-      call fail(c, 'group &estimate: corrected writes the records with a flight-path fit''s '// &
-                'corrections undone: it needs &model kind = ''flight_path''')
-    else if (c%job /= 'estimate') then
-      call fail(c, 'group &estimate: corrected is for job = ''estimate''')
-    else if (any(len_trim(corrected(n + 1:)) > 0)) then
-      write (iomsg, '(a,i0,a)') 'group &estimate: corrected names more files than the case''s ', &
-        n, ' data files (one record written per data file, in their order)'
-      call fail(c, iomsg)
-    else if (any(len_trim(corrected(1:n)) == 0)) then
-      write (iomsg, '(a,i0,a,i0,a)') 'group &estimate: corrected has no file for data file ', &
-        findloc(len_trim(corrected(1:n)) == 0, .true., 1), ' (one record written per data '// &
-        'file, in their order; the case has ', n, ')'
-      call fail(c, iomsg)
-    else
-      c%corrected = corrected(1:n)
-    end if
-  end subroutine take_corrected
-
-  !> A priori values and weights and bounds, given per free parameter in
-  !> the order of free, into theta's order.
-  subroutine put_extras(c, free_idx, prior, prior_weight, lower, upper)
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: free_idx(:)
-    real(wp), intent(in) :: prior(:), prior_weight(:), lower(:), upper(:)
-    character(len=msg_len) :: iomsg
-    integer :: j, nfr, pos
-
-    nfr = size(free_idx)
-    if (count(prior_weight /= UNSET) + count(prior /= UNSET) + count(lower /= UNSET) + &
-        count(upper /= UNSET) == 0) return
-    do j = nfr + 1, size(prior)
-      if (any([prior(j), prior_weight(j), lower(j), upper(j)] /= UNSET)) then
-        write (iomsg, '(a,i0,a)') 'group &estimate: prior, prior_weight, lower and upper take '// &
-          'one value per free parameter (', nfr, ')'
-        call fail(c, iomsg)
-        return
-      end if
-    end do
-    allocate (c%prior(size(c%theta)), c%pweight(nfr, nfr), c%lower(size(c%theta)), &
-              c%upper(size(c%theta)))
-    c%prior = c%theta
-    c%pweight = 0.0_wp
-    c%lower = -huge(1.0_wp)
-    c%upper = huge(1.0_wp)
-    do j = 1, nfr
-      pos = count(c%isfree(1:free_idx(j)) == 1)      ! its place among the free, theta order
-      if (prior(j) /= UNSET) c%prior(free_idx(j)) = prior(j)
-      if (prior_weight(j) /= UNSET) c%pweight(pos, pos) = prior_weight(j)
-      if (lower(j) /= UNSET) c%lower(free_idx(j)) = lower(j)
-      if (upper(j) /= UNSET) c%upper(free_idx(j)) = upper(j)
-    end do
-    if (count(prior_weight /= UNSET) > 0) c%use_prior = 1
-    if (count(lower /= UNSET) + count(upper /= UNSET) > 0) c%use_bounds = 1
-  end subroutine put_extras
-
-  !> &simulate: the record to write, its time base, inputs and noise.
-  subroutine read_simulate_group(rd, c)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    character(len=PATHLEN) :: out
-    character(len=16) :: input_shape(MAXU)
-    real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
-    integer :: seed, ios, o
-    type(layout_table_t) :: lt
-    character(len=msg_len) :: iomsg
-    character(len=PATHLEN) :: input_file
-    namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
-      pulse_width, input_file
-
-    out = ''
-    t_end = 0.0_wp
-    dt = 0.0_wp
-    seed = 0
-    noise_std = UNSET
-    input_shape = ''
-    amplitude = UNSET
-    t_start = UNSET
-    pulse_width = UNSET
-    input_file = ''
-    rewind (rd%unit)
-    read (rd%unit, nml=simulate, iostat=ios, iomsg=iomsg)
-    call group_status(rd, 'simulate', ios, iomsg, .true., c)
-    if (c%status /= MLID_OK) return
-    c%out_file = out
-    c%input_file = input_file
-    c%t_end = t_end
-    c%dt = dt
-    c%seed = seed
-    if (len_trim(input_file) > 0 .and. (t_end /= 0.0_wp .or. dt /= 0.0_wp .or. &
-        any(len_trim(input_shape) > 0) .or. any(amplitude /= UNSET) .or. &
-        any(t_start /= UNSET) .or. any(pulse_width /= UNSET))) then
-      call fail(c, 'group &simulate: input_file gives the time and inputs; t_end, dt, '// &
-                'input_shape, amplitude, t_start and pulse_width are for a standard input')
-      return
-    end if
-    ! one value serves every input; otherwise one per input
-    c%input_shape = per_input_text(input_shape, c%nu, 'none')
-    c%t_start = per_input(t_start, c%nu)
-    c%pulse_width = per_input(pulse_width, c%nu)
-    c%noise_std = pack(noise_std, noise_std /= UNSET)
-    c%amplitude = pack(amplitude, amplitude /= UNSET)
-    if (size(c%amplitude) == 0) c%amplitude = spread(0.0_wp, 1, c%nu)
-    call check_simulate(c)
-    if (c%status /= MLID_OK) return
-    ! noise_std, when given, sets the measurement-noise variances r
-    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
-    if (ios /= MLID_OK) then
-      call fail(c, 'group &simulate: '//trim(iomsg))
-      return
-    end if
-    o = lt%off(findloc(lt%key, 'r', 1))
-    if (size(c%noise_std) == c%ny) c%theta(o + 1:o + c%ny) = c%noise_std**2
-  end subroutine read_simulate_group
-
-  subroutine check_simulate(c)
-    type(case_t), intent(inout) :: c
-    character(len=msg_len) :: iomsg
-    if (len_trim(c%out_file) == 0) then
-      call fail(c, 'group &simulate: out (the data file to write) is missing')
-    else if (len_trim(c%input_file) == 0 .and. .not. (c%dt > 0.0_wp .and. c%t_end > c%dt)) then
-      call fail(c, 'group &simulate: need dt > 0 and t_end > dt')
-    else if (len_trim(c%input_file) == 0 .and. .not. (c%t_end/c%dt < real(MAX_SAMPLES, wp))) then
-      write (iomsg, '(a,es10.3,a,i0,a)') 'group &simulate: t_end/dt =', c%t_end/c%dt, &
-        ' samples; at most ', MAX_SAMPLES, ' are allowed'
-      call fail(c, iomsg)
-    else if (size(c%noise_std) /= c%ny .and. size(c%noise_std) /= 0) then
-      write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
-        ' values, the model has ', c%ny, ' outputs'
-      call fail(c, iomsg)
-    else if (.not. all(c%noise_std >= 0.0_wp .and. c%noise_std < UNSET)) then
-      call fail(c, 'group &simulate: noise_std (the standard deviation of each output''s '// &
-                'noise) must be >= 0 and finite')
-    else if (size(c%amplitude) /= c%nu) then
-      write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: amplitude has ', size(c%amplitude), &
-        ' values, the model has ', c%nu, ' inputs'
-      call fail(c, iomsg)
-    else if (c%seed < 0) then
-      call fail(c, 'group &simulate: seed must be >= 0')
-    else if (size(c%input_shape) /= c%nu .or. size(c%t_start) /= c%nu .or. &
-             size(c%pulse_width) /= c%nu) then
-      write (iomsg, '(a,i0,a)') 'group &simulate: input_shape, t_start and pulse_width take '// &
-        'one value or one per input (', c%nu, ')'
-      call fail(c, iomsg)
-    end if
-  end subroutine check_simulate
-
-  !> The values given, or the one value repeated for every input (zeros
-  !> when none is given).
-  function per_input(v, n) result(out)
-    real(wp), intent(in) :: v(:)
-    integer, intent(in) :: n
-    real(wp), allocatable :: out(:)
-    out = pack(v, v /= UNSET)
-    if (size(out) == 0) out = [0.0_wp]
-    if (size(out) == 1) out = spread(out(1), 1, n)
-  end function per_input
-
-  function per_input_text(v, n, default) result(out)
-    character(len=*), intent(in) :: v(:), default
-    integer, intent(in) :: n
-    character(len=16), allocatable :: out(:)
-    integer :: i
-    out = pack(v, len_trim(v) > 0)
-    if (size(out) == 0) out = [character(len=16) :: default]
-    if (size(out) == 1) out = spread(out(1), 1, n)
-    do i = 1, size(out)
-      out(i) = to_lower(out(i))
-    end do
-  end function per_input_text
-
-  !> &design (job 'design', kind 'linear'): the unknowns (elements of F, G
-  !> or H; default: the free ones), the record's length t_end and step dt,
-  !> the limit (energy, or peak and min_width), weights, servo time
-  !> constants, process noise Gamma Q Gamma', method and iterations, and
-  !> the record to write.
-  subroutine read_design_group(rd, c)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    character(len=NAMELEN) :: unknowns(MAXFREE)
-    character(len=16) :: method
-    character(len=PATHLEN) :: out
-    real(wp) :: t_end, dt, energy, peak, min_width, weights(MAXFREE), servo(MAXU), &
-                process_noise(MAXX*MAXX)
-    integer :: iterations, ios
-    character(len=msg_len) :: iomsg
-    namelist /design/ unknowns, t_end, dt, energy, peak, min_width, weights, servo, &
-      process_noise, method, iterations, out
-
-    unknowns = ''
-    method = ''
-    out = ''
-    t_end = 0.0_wp
-    dt = 0.0_wp
-    energy = UNSET
-    peak = UNSET
-    min_width = UNSET
-    weights = UNSET
-    servo = UNSET
-    process_noise = UNSET
-    iterations = 12
-    rewind (rd%unit)
-    read (rd%unit, nml=design, iostat=ios, iomsg=iomsg)
-    call group_status(rd, 'design', ios, iomsg, .true., c)
-    if (c%status /= MLID_OK) return
-    c%out_file = out
-    c%t_end = t_end
-    c%dt = dt
-    c%design_method = to_lower(method)
-    c%energy = merge(0.0_wp, energy, energy == UNSET)
-    c%peak = merge(0.0_wp, peak, peak == UNSET)
-    c%min_width = merge(0.0_wp, min_width, min_width == UNSET)
-    c%iterations = iterations
-    if (len_trim(method) == 0) c%design_method = merge('amplitude', 'operator ', peak /= UNSET)
-    call design_model_check(c)
-    if (c%status == MLID_OK) call design_unknowns(c, unknowns)
-    if (c%status == MLID_OK) call design_settings(c, weights, servo, process_noise)
-    if (c%status == MLID_OK) call design_limits(c, energy /= UNSET, peak /= UNSET .or. &
-                                                min_width /= UNSET)
-  end subroutine read_design_group
-
-  !> What the design takes of &model: a linear model with inputs, no state
-  !> feedback or stabilisation, measurement noise r > 0 on every output.
-  subroutine design_model_check(c)
-    type(case_t), intent(inout) :: c
-    type(layout_table_t) :: lt
-    integer :: ios, b
-    character(len=msg_len) :: iomsg
-
-    if (c%mkind /= MODEL_LINEAR .or. c%nu < 1) then
-      call fail(c, 'group &design: input design needs kind = ''linear'' with at least one input')
-      return
-    end if
-    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
-    do b = 1, lt%nblock
-      if (all(lt%key(b) /= [character(len=8) :: 'k', 'stab', 'delay', 'udelay'])) cycle
-      if (any(c%theta(lt%off(b) + 1:lt%off(b) + lt%rows(b)*max(1, lt%cols(b))) /= 0.0_wp)) then
-        call fail(c, 'group &design: the design model is F, G, H; &model '//trim(lt%key(b))// &
-                  ' must be zero')
-        return
-      end if
-    end do
-    b = findloc(lt%key, 'r', 1)
-    if (.not. all(c%theta(lt%off(b) + 1:lt%off(b) + c%ny) > 0.0_wp)) &
-      call fail(c, 'group &design: &model r (the measurement-noise variance of each output) '// &
-                'must be > 0: the design''s noise spectral density is r dt')
-  end subroutine design_model_check
-
-  !> The unknowns: elements of F, G or H named in unknowns, else the free
-  !> parameters; each labelled as &model names it when it is free.
-  subroutine design_unknowns(c, unknowns)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: unknowns(:)
-    type(layout_table_t) :: lt
-    integer, allocatable :: idx(:)
-    integer :: k, b, i, j, ios
-    character(len=msg_len) :: iomsg
-
-    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
-    if (any(len_trim(unknowns) > 0)) then
-      allocate (idx(0))
-      do k = 1, size(unknowns)
-        if (len_trim(unknowns(k)) == 0) cycle
-        i = element_index(lt, unknowns(k))
-        if (i == 0) then
-          call fail(c, 'group &design: unknown '''//trim(unknowns(k))//''' is no element '// &
-                    'of F, G or H within the dimensions')
-          return
-        end if
-        if (any(idx == i)) then
-          call fail(c, 'group &design: unknown '''//trim(unknowns(k))//''' listed twice')
-          return
-        end if
-        idx = [idx, i]
-      end do
-    else
-      idx = pack([(k, k=1, size(c%theta))], c%isfree == 1)
-    end if
-    if (size(idx) == 0) then
-      call fail(c, 'group &design: no unknowns: list them in &design unknowns or free them '// &
-                'in &model')
-      return
-    end if
-    allocate (c%ukind(size(idx)), c%urow(size(idx)), c%ucol(size(idx)), c%unknowns(size(idx)))
-    do k = 1, size(idx)
-      call locate(lt, idx(k), b, i, j)
-      c%ukind(k) = findloc([character(len=8) :: 'f', 'g', 'h'], lt%key(b), 1)
-      c%urow(k) = i
-      c%ucol(k) = j
-      c%unknowns(k) = element_name(lt, idx(k))
-      if (c%isfree(idx(k)) == 1) c%unknowns(k) = c%labels(count(c%isfree(1:idx(k)) == 1))
-      if (c%ukind(k) == 0) then
-        call fail(c, 'group &design: unknown '''//trim(element_name(lt, idx(k)))//''' is '// &
-                  'no element of F, G or H (the design''s unknowns are)')
-        return
-      end if
-    end do
-  end subroutine design_unknowns
-
-  !> Weights (one per unknown, > 0; default ones), servo time constants
-  !> (one, or one per input; >= 0, 0 for none) and process noise (nx x nx,
-  !> row by row, symmetric; default none).
-  subroutine design_settings(c, weights, servo, process_noise)
-    type(case_t), intent(inout) :: c
-    real(wp), intent(in) :: weights(:), servo(:), process_noise(:)
-    integer :: m
-
-    m = size(c%ukind)
-    c%weights = pack(weights, weights /= UNSET)
-    if (size(c%weights) == 0) c%weights = spread(1.0_wp, 1, m)
-    c%servo = per_input(servo, c%nu)
-    c%gq = transpose(reshape(pack(process_noise, process_noise /= UNSET), [c%nx, c%nx], &
-                             pad=[0.0_wp]))
-    if (size(c%weights) /= m .or. .not. all(c%weights > 0.0_wp .and. c%weights < UNSET)) then
-      call fail(c, 'group &design: weights takes one value > 0 per unknown ('//itoa(m)//')')
-    else if (size(c%servo) /= c%nu .or. .not. all(c%servo >= 0.0_wp .and. c%servo < UNSET)) then
-      call fail(c, 'group &design: servo takes one time constant >= 0 (s; 0: none), or one '// &
-                'per input ('//itoa(c%nu)//')')
-    else if (all(count(process_noise /= UNSET) /= [0, c%nx*c%nx])) then
-      call fail(c, 'group &design: process_noise is Gamma Q Gamma'' (nx x nx = '// &
-                itoa(c%nx*c%nx)//' values, row by row), got '// &
-                itoa(count(process_noise /= UNSET)))
-    else if (any(abs(c%gq - transpose(c%gq)) > 1.0e-12_wp*maxval(abs(c%gq)))) then
-      call fail(c, 'group &design: process_noise (Gamma Q Gamma'') must be symmetric')
-    end if
-  end subroutine design_settings
-
-  !> The record (t_end a whole number of steps dt), the method and its
-  !> limit: energy for operator, riccati and equalised (an even number of
-  !> steps: the operator's finer grid is the record's); peak and min_width
-  !> for amplitude.
-  subroutine design_limits(c, has_energy, has_peak)
-    type(case_t), intent(inout) :: c
-    logical, intent(in) :: has_energy, has_peak
-    integer :: n
-
-    n = nint(c%t_end/max(c%dt, tiny(1.0_wp)))
-    if (len_trim(c%out_file) == 0) then
-      call fail(c, 'group &design: out (the record of the designed input to write) is missing')
-    else if (.not. (c%dt > 0.0_wp .and. c%t_end > c%dt .and. c%t_end < UNSET)) then
-      call fail(c, 'group &design: need dt > 0 and t_end > dt (the input''s length T, s)')
-    else if (.not. (c%t_end/c%dt < real(MAX_SAMPLES, wp))) then
-      call fail(c, 'group &design: t_end/dt is too many samples')
-    else if (abs(n*c%dt - c%t_end) > 1.0e-9_wp*c%t_end) then
-      call fail(c, 'group &design: t_end must be a whole number of steps dt')
-    else if (all(c%design_method /= DESIGN_METHODS)) then
-      call fail(c, 'group &design: method must be '//choices(DESIGN_METHODS)//', got '''// &
-                trim(c%design_method)//'''')
-    else if (c%design_method == 'amplitude') then
-      if (has_energy .or. .not. (c%peak > 0.0_wp .and. c%min_width > 0.0_wp)) then
-        call fail(c, 'group &design: method ''amplitude'' takes peak > 0 and min_width > 0 '// &
-                  '(the shortest pulse, s), not energy')
-      else if (c%min_width > c%t_end) then
-        call fail(c, 'group &design: min_width is longer than t_end')
-      end if
-    else if (has_peak .or. .not. c%energy > 0.0_wp) then
-      call fail(c, 'group &design: method '''//trim(c%design_method)//''' takes energy > 0 '// &
-                '(the integral of u''u over T), not peak or min_width')
-    else if (mod(n, 2) /= 0) then
-      call fail(c, 'group &design: method '''//trim(c%design_method)//''' needs an even '// &
-                'number of steps t_end/dt (its two grids are t_end/dt/2 and t_end/dt cells)')
-    else if (c%iterations < 0) then
-      call fail(c, 'group &design: iterations must be >= 0')
-    end if
-  end subroutine design_limits
-
-  !> &monte_carlo (job 'monte_carlo'): runs from seed (run k: seed + k - 1),
-  !> the record of the input flown (input_file) and the true values of the
-  !> free parameters (in the order of free; default: the start values).
-  subroutine read_monte_carlo_group(rd, c, free_idx)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: free_idx(:)
-    integer :: runs, seed, ios, nf
-    real(wp) :: truth(MAXFREE)
-    character(len=PATHLEN) :: input_file
-    character(len=msg_len) :: iomsg
-    namelist /monte_carlo/ runs, seed, truth, input_file
-
-    runs = 0
-    seed = 1
-    truth = UNSET
-    input_file = ''
-    rewind (rd%unit)
-    read (rd%unit, nml=monte_carlo, iostat=ios, iomsg=iomsg)
-    call group_status(rd, 'monte_carlo', ios, iomsg, .true., c)
-    if (c%status /= MLID_OK) return
-    nf = size(free_idx)
-    c%runs = runs
-    c%seed = seed
-    c%input_file = input_file
-    c%theta_true = c%theta
-    if (count(truth /= UNSET) > 0) c%theta_true(free_idx) = truth(1:nf)
-    if (len_trim(input_file) == 0) then
-      call fail(c, 'group &monte_carlo: input_file (the record of the input flown) is missing')
-    else if (runs < 1 .or. runs > 1000000) then
-      call fail(c, 'group &monte_carlo: runs must be 1 to 1000000, got '//itoa(runs))
-    else if (seed < 0 .or. seed > huge(1) - runs) then
-      call fail(c, 'group &monte_carlo: seed must be >= 0 (runs use seed, seed + 1, ...)')
-    else if (nf == 0) then
-      call fail(c, 'group &monte_carlo: nothing is free in &model: there is nothing to estimate')
-    else if (all(count(truth /= UNSET) /= [0, nf]) .or. any(truth(nf + 1:) /= UNSET)) then
-      call fail(c, 'group &monte_carlo: truth takes one value per free parameter ('// &
-                itoa(nf)//', in the order of free), got '//itoa(count(truth /= UNSET)))
-    else if (.not. all(ieee_is_finite(c%theta_true))) then
-      call fail(c, 'group &monte_carlo: truth must be finite')
-    end if
-  end subroutine read_monte_carlo_group
-
-  !> 'a', 'b' or 'c': a list of choices for a message.
-  function choices(list) result(text)
-    character(len=*), intent(in) :: list(:)
-    character(len=:), allocatable :: text
-    integer :: k
-    text = ''''//trim(list(1))//''''
-    do k = 2, size(list)
-      if (k == size(list)) then
-        text = text//' or '''//trim(list(k))//''''
-      else
-        text = text//', '''//trim(list(k))//''''
-      end if
-    end do
-  end function choices
-
-  !> The record of an estimate case: time, inputs and outputs from its
-  !> data files (paths resolved by the reader).  Several files are
-  !> several manoeuvres, one after the other, each keeping its sampling with
-  !> its times moved to follow the one before; segstart(k) is the first
-  !> sample of manoeuvre k.  The reader's warnings (values that look wrong
-  !> for their declared unit), one per file, in notes.
-  subroutine case_record(c, t, u, y, status, msg, segstart, units, names, notes, own_t)
-    type(case_t), intent(in) :: c
-    real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
-    !> each manoeuvre's time as its file gives it (t moves them one after another)
-    real(wp), allocatable, intent(out), optional :: own_t(:)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer, allocatable, intent(out), optional :: segstart(:)
-    character(len=UNITLEN), allocatable, intent(out), optional :: units(:)  !< inputs, outputs
-    character(len=NAMELEN), allocatable, intent(out), optional :: names(:)  !< the channels'
-    type(line_t), allocatable, intent(out), optional :: notes(:)
-    real(wp), allocatable :: tk(:), uk(:, :), yk(:, :)
-    integer :: k, nseg
-    integer :: starts(MAXSEG)
-
-    nseg = size(c%data_files)
-    allocate (t(0), u(c%nu, 0), y(c%ny, 0))
-    if (present(notes)) allocate (notes(0))
-    if (present(own_t)) allocate (own_t(0))
-    do k = 1, nseg
-      call read_record(c, k, tk, uk, yk, status, msg, units, names)
-      if (status /= MLID_OK) return
-      if (present(notes) .and. len_trim(msg) > 0) call add_note(notes, msg)
-      msg = ''
-      if (size(tk) < 2 .and. nseg > 1) then
-        status = MLID_ERR_INPUT
-        write (msg, '(a,i0,a)') 'manoeuvre ', k, ' ('//trim(c%data_files(k))// &
-          ') has fewer than 2 samples'
-        return
-      end if
-      starts(k) = size(t) + 1
-      if (present(own_t)) own_t = [own_t, tk]
-      ! each manoeuvre follows the one before, in mlid/maneuvers.py's join's arithmetic
-      if (k > 1) tk = tk + (t(size(t)) + (tk(2) - tk(1)) - tk(1))
-      t = [t, tk]
-      u = reshape([u, uk], [c%nu, size(t)])
-      y = reshape([y, yk], [c%ny, size(t)])
-    end do
-    if (present(segstart)) segstart = starts(1:nseg)
-  end subroutine case_record
-
-  !> One more note; grown by hand (an array constructor of line_t into a
-  !> dummy argument loses the lengths with gfortran 12).
-  subroutine add_note(notes, text)
-    type(line_t), allocatable, intent(inout) :: notes(:)
-    character(len=*), intent(in) :: text
-    type(line_t), allocatable :: more(:)
-    integer :: j
-    allocate (more(size(notes) + 1))
-    do j = 1, size(notes)
-      more(j)%s = notes(j)%s
-    end do
-    more(size(more))%s = trim(text)
-    call move_alloc(more, notes)
-  end subroutine add_note
-
-  !> Data file k: the case's channels of it in its window, by the one
-  !> record reader.
-  subroutine read_record(c, k, t, u, y, status, msg, units, names)
-    type(case_t), intent(in) :: c
-    integer, intent(in) :: k
-    real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    character(len=UNITLEN), allocatable, intent(inout), optional :: units(:)
-    character(len=NAMELEN), allocatable, intent(inout), optional :: names(:)
-    type(channel_set_t) :: set
-    call channels_read(c%data_files(k), c%chan, c%win_start(k), c%win_end(k), set, status, msg, &
-                       manoeuvre=c%file_no(k))
-    if (status /= MLID_OK) return
-    if (present(units)) then           ! the first file's; every file declares the same
-      if (.not. allocated(units)) units = set%units
-    end if
-    if (present(names)) then
-      if (.not. allocated(names)) names = set%names
-    end if
-    call move_alloc(set%t, t)
-    call move_alloc(set%u, u)
-    call move_alloc(set%y, y)
-  end subroutine read_record
-
-  !> The case's parameters for nseg manoeuvres: every manoeuvre its own
-  !> initial state and biases (the x0 and bias blocks repeated, start values
-  !> and free flags alike), the rest shared; labels of a manoeuvre's own
-  !> entries end in '#k'.  As mlid/maneuvers.py does for Python.
-  subroutine manoeuvre_layout(c, nseg, status, msg)
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: nseg
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer :: nth, k
-    integer, allocatable :: map(:), seg(:), new_of(:)
-    logical, allocatable :: own(:)
-    character(len=NAMELEN), allocatable :: full(:), lab(:)
-    character(len=8) :: suffix
-    type(layout_table_t) :: lt
-
-    status = MLID_OK
-    msg = ''
-    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, status, msg)
-    if (status /= MLID_OK) return
-    if (nseg <= 1) then
-      call own_initial_states()
-      return
-    end if
-    call manoeuvre_map(lt, nseg, map, seg)
-    nth = size(c%theta)
-    allocate (own(nth), new_of(0:nth))
-    own = .false.
-    own(pack(map, seg > 0)) = .true.
-    new_of = 0
-    do k = size(map), 1, -1
-      if (seg(k) == 0) new_of(map(k)) = k
-    end do
-    if (any(own(c%tie%to)) .or. any(own(c%tie%from))) then
-      status = MLID_ERR_INPUT
-      msg = 'ties to or from initial states and biases are not available with several manoeuvres'
-      return
-    end if
-    allocate (full(nth))
-    full = ''
-    full(pack([(k, k=1, nth)], c%isfree == 1)) = c%labels
-    if (c%use_prior == 1) then
-      if (any(c%isfree == 1 .and. own)) then
-        status = MLID_ERR_INPUT
-        msg = 'a priori weighting with free initial states or biases is not available with '// &
-              'several manoeuvres'
-        return
-      end if
-    end if
-    allocate (lab(size(map)))
-    do k = 1, size(map)
-      lab(k) = full(map(k))
-      if (seg(k) > 0) then
-        write (suffix, '(a,i0)') '#', seg(k)
-        lab(k) = trim(full(map(k)))//trim(suffix)
-      end if
-    end do
-    c%tie%to = new_of(c%tie%to)           ! tied entries and sources are shared ones
-    c%tie%from = new_of(c%tie%from)
-    c%tie%offset = c%tie%offset(map)
-    c%theta = c%theta(map)
-    if (allocated(c%prior)) c%prior = c%prior(map)
-    if (allocated(c%lower)) c%lower = c%lower(map)
-    if (allocated(c%upper)) c%upper = c%upper(map)
-    if (allocated(c%pweight)) call grow_weight()
-    c%isfree = c%isfree(map)
-    c%labels = pack(lab, c%isfree == 1)
-    call own_initial_states()
-
-  contains
-
-    !> Each manoeuvre's x0 from initial_states (the x0 blocks follow one
-    !> another, manoeuvre by manoeuvre).
-    subroutine own_initial_states()
-      integer :: o
-      if (.not. allocated(c%initial_states)) return
-      if (size(c%initial_states) == 0) return
-      if (size(c%initial_states) /= c%nx*nseg) then
-        status = MLID_ERR_INPUT
-        msg = 'initial_states has '//itoa(size(c%initial_states))//' values, not nx = '// &
-              itoa(c%nx)//' for each of '//itoa(nseg)//' manoeuvres'
-        return
-      end if
-      o = lt%off(findloc(lt%key, 'x0', 1))
-      c%theta(o + 1:o + c%nx*nseg) = c%initial_states
-    end subroutine own_initial_states
-
-    !> The a priori weight over the new free set: shared entries keep
-    !> theirs, a manoeuvre's own get none (none had one, checked above).
-    subroutine grow_weight()
-      real(wp), allocatable :: w(:, :)
-      integer, allocatable :: old(:), newf(:)
-      integer :: a, b, ia, ib
-      old = pack([(k, k=1, nth)], c%isfree == 1)
-      newf = pack([(k, k=1, size(map))], c%isfree(map) == 1)
-      allocate (w(size(newf), size(newf)))
-      w = 0.0_wp
-      do a = 1, size(newf)
-        if (seg(newf(a)) > 0) cycle
-        ia = findloc(old, map(newf(a)), 1)
-        do b = 1, size(newf)
-          if (seg(newf(b)) > 0) cycle
-          ib = findloc(old, map(newf(b)), 1)
-          w(a, b) = c%pweight(ia, ib)
-        end do
-      end do
-      c%pweight = w
-    end subroutine grow_weight
-
-  end subroutine manoeuvre_layout
-
-  !> The units of the case's free parameters on nseg manoeuvres, from its
-  !> channels' units (inputs, then outputs); called before manoeuvre_layout.
-  subroutine case_param_units(c, nseg, channel_units, units, status, msg)
-    type(case_t), intent(in) :: c
-    integer, intent(in) :: nseg
-    character(len=*), intent(in) :: channel_units(:)
-    character(len=UNITLEN), allocatable, intent(out) :: units(:)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    type(layout_table_t) :: lt
-    character(len=UNITLEN), allocatable :: each(:)
-    integer, allocatable :: map(:), seg(:)
-
-    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, status, msg)
-    if (status /= MLID_OK) return
-    allocate (each(size(c%theta)))
-    call param_units(lt, c%theta, channel_units(1:c%nu), channel_units(c%nu + 1:c%nu + c%ny), each)
-    call manoeuvre_map(lt, max(nseg, 1), map, seg)
-    units = pack(each(map), c%isfree(map) == 1)
-  end subroutine case_param_units
-
-  !> The case that predicts the held-out manoeuvres of validate case c
-  !> from its fit on nfit (theta_fit, in the layout of nfit manoeuvres):
-  !> every parameter held at its estimate but the initial states and
-  !> output biases that were free in the fit, fitted afresh on each held-out
-  !> manoeuvre (start: the first fitted manoeuvre's); no ties, prior or
-  !> bounds; output error on a model without noise, as a prediction is.
-  !> One manoeuvre's layout (manoeuvre_layout spreads it over the held-out
-  !> ones).  As mlid/validate.py does for Python.
-  subroutine holdout_case(c, theta_fit, nfit, h, status, msg)
-    type(case_t), intent(in) :: c
-    real(wp), intent(in) :: theta_fit(:)
-    integer, intent(in) :: nfit
-    type(case_t), intent(out) :: h
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    type(layout_table_t) :: lt
-    integer, allocatable :: map(:), seg(:)
-    logical, allocatable :: own(:)
-    character(len=NAMELEN), allocatable :: full(:)
-    integer :: k, b, i0, i1
-
-    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, status, msg)
-    if (status /= MLID_OK) return
-    call manoeuvre_map(lt, max(nfit, 1), map, seg)
-    h = c
-    do k = size(map), 1, -1
-      if (seg(k) <= 1) h%theta(map(k)) = theta_fit(k)
-    end do
-    allocate (own(size(c%theta)), full(size(c%theta)))
-    own = .false.
-    do b = 1, lt%nblock
-      i0 = lt%off(b) + 1
-      i1 = lt%off(b) + lt%rows(b)*merge(1, lt%cols(b), lt%cols(b) < 0)
-      if (any(lt%key(b) == [character(len=8) :: 'x0', 'bias'])) own(i0:i1) = .true.
-      if (any(lt%key(b) == [character(len=8) :: 'q', 'r', 's'])) h%theta(i0:i1) = 0.0_wp
-    end do
-    full = ''
-    full(pack([(k, k=1, size(c%theta))], c%isfree == 1)) = c%labels
-    h%isfree = merge(c%isfree, 0, own)
-    h%labels = pack(full, h%isfree == 1)
-    h%tie = no_ties(size(h%theta))
-    h%use_prior = 0
-    h%use_bounds = 0
-    call option_set(h%iopt, h%ropt, 'method', 'output_error', status, msg)
-    if (status == MLID_OK) call option_set(h%iopt, h%ropt, 'startup', 'none', status, msg)
-    if (status == MLID_OK) call option_set(h%iopt, h%ropt, 'rank_min', '0', status, msg)
-    if (status == MLID_OK) call option_set(h%iopt, h%ropt, 'rank_max', '0', status, msg)
-  end subroutine holdout_case
-
-  !> Time base t = 0, dt, ..., and inputs of a simulate case; or, with
-  !> input_file (simulate, monte_carlo), the file's time (column 1) and the
-  !> nu columns after it.
-  subroutine case_time_input(c, t, u, status, msg)
-    type(case_t), intent(in) :: c
-    real(wp), allocatable, intent(out) :: t(:), u(:, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    type(record_t) :: rec
-    integer :: nt, k, at
-
-    if (len_trim(c%input_file) > 0) then
-      allocate (t(0), u(c%nu, 0))
-      call record_read(c%input_file, [(k, k=1, c%nu + 1)], 0, rec, status, msg)
-      if (status /= MLID_OK) msg = 'input_file: '//trim(msg)
-      if (status /= MLID_OK) return
-      if (size(rec%x, 2) < 2) then
-        status = MLID_ERR_INPUT
-        msg = 'input_file '//trim(c%input_file)//': fewer than 2 samples'
-        return
-      end if
-      call record_check_time(rec%x(1, :), at, status, msg)
-      if (status /= MLID_OK) then
-        msg = 'input_file '//trim(c%input_file)//' line '//itoa(rec%line(at))//': '//trim(msg)
-        return
-      end if
-      t = rec%x(1, :)
-      u = rec%x(2:, :)
-      return
-    end if
-    nt = nint(c%t_end/c%dt) + 1
-    t = [(real(k - 1, wp)*c%dt, k=1, nt)]
-    allocate (u(c%nu, nt))
-    status = MLID_OK
-    msg = ''
-    do k = 1, c%nu
-      call input_signal(c%input_shape(k), c%amplitude(k), c%t_start(k), c%pulse_width(k), c%dt, &
-                        u(k, :), status, msg)
-      if (status /= MLID_OK) return
-    end do
-  end subroutine case_time_input
-
   !> Path relative to the deck's folder unless absolute.
   function resolve(dir, file) result(path)
     character(len=*), intent(in) :: dir, file
@@ -2093,14 +485,6 @@ contains
     end if
   end function resolve
 
-  !> The line without its comment (from the first '!' outside quotes:
-  !> mlid_text's comment_start).
-  function strip_comment(line) result(s)
-    character(len=*), intent(in) :: line
-    character(len=len(line)) :: s
-    s = line(1:comment_start(line) - 1)
-  end function strip_comment
-
   function first_word(line) result(w)
     character(len=*), intent(in) :: line
     character(len=16) :: w
@@ -2111,20 +495,5 @@ contains
     if (e == 0) e = len(s) + 1
     w = to_lower(s(1:min(e - 1, 16)))
   end function first_word
-
-  !> Line number of the first &group in the case (for messages).
-  integer function group_line(lines, line0, group)
-    type(line_t), intent(in) :: lines(:)
-    character(len=*), intent(in) :: group
-    integer, intent(in) :: line0
-    integer :: k
-    group_line = line0
-    do k = 1, size(lines)
-      if (index(to_lower(strip_comment(lines(k)%s)), '&'//group) > 0) then
-        group_line = line0 + k - 1
-        return
-      end if
-    end do
-  end function group_line
 
 end module mlid_deck

@@ -28,19 +28,27 @@
 !>   model, but K and B are the steady state of its linearisation about the
 !>   first initial state and input sample (linearise_once), as in the
 !>   textbook's filter error for nonlinear systems (Jategaonkar ch. 5, ml_fem).
+!>
+!> This file holds the interface, the types the filter keeps, and the
+!> recursions along the record (oe_predict, kf_innovations) with the steps
+!> they take at every sample and every manoeuvre: those stay private
+!> procedures of one file, for the compiler inlines and specialises only
+!> those (a procedure of a submodule is a global symbol, which the core,
+!> compiled -fPIC, may not inline).  The submodules: mlid_filter_covariance
+!> (the covariance updates and their partials, the noise over an interval,
+!> the steady-state gain) and mlid_filter_system (what stays fixed along a
+!> record, set up once per run).
 module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_SINGULAR, &
-                        MLID_ERR_NOCONV, first_failure
-  use mlid_linalg, only: chol_inverse, expm, expm_into, expm_work_size, expm_work_t
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, first_failure
+  use mlid_linalg, only: expm_work_t
   use mlid_models, only: model_t, layout_t, NZ_HROWS
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, segment_map, input_delays, output_delays, stabilized
-  use mlid_rk, only: rk4_step, rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product, &
+  use mlid_rk, only: rk4_interval, input_sens_t, rk_work_t, rk_work_size, small_product, &
                     product_7x4_add, product_7x4_add_tail, past_states
   use mlid_delay, only: delay_outputs, delay_check
   use mlid_lti_predict, only: lti_exact, lti_segment
-  use mlid_riccati, only: dare_solve, stein_solve
   implicit none
   private
   public :: oe_predict, kf_innovations
@@ -83,6 +91,82 @@ module mlid_filter
     real(wp), allocatable :: qw(:, :), gqg(:, :), qd(:, :), ryy(:, :), vm(:, :), ve(:, :)
     type(expm_work_t) :: ew
   end type lti_t
+
+  !> Procedures of the submodules that other files call (private, as the rest).
+  interface
+
+    ! in mlid_filter_system
+
+    !> C, Phi, W, Q, R, S and their partials: what stays fixed along the record.
+    module subroutine lti_setup(m, theta, pm, t, u, opt, sys, status, msg)
+      class(model_t), intent(in) :: m
+      real(wp), intent(in) :: theta(:)
+      type(param_map_t), intent(in) :: pm
+      real(wp), intent(in) :: t(:), u(:, :)
+      type(options_t), intent(in) :: opt
+      type(lti_t), intent(out) :: sys
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+    end subroutine lti_setup
+
+    ! in mlid_filter_covariance
+
+    !> The effective R and S of outputs that carry the process noise.
+    module subroutine output_noise(sys, dhw, code, status, msg)
+      type(lti_t), intent(inout) :: sys
+      real(wp), intent(in) :: dhw(:, :)
+      integer, intent(in) :: code       !< opt%process_noise
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+    end subroutine output_noise
+
+    !> Measurement update: B, B^-1, log|B|, K, P+ and their partials.
+    module subroutine cov_update(sys, cv, partials, status, msg)
+      type(lti_t), intent(in) :: sys
+      type(cov_t), intent(inout) :: cv
+      logical, intent(in) :: partials
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+    end subroutine cov_update
+
+    !> Time update: P- of the next sample (and its partials).
+    module subroutine cov_predict(sys, cv, partials)
+      type(lti_t), intent(in) :: sys
+      type(cov_t), intent(inout) :: cv
+      logical, intent(in) :: partials
+    end subroutine cov_predict
+
+    !> The process noise as it reaches the state over an interval; G = W S.
+    module subroutine noise_reach(sys, code, a, status, msg)
+      type(lti_t), intent(inout) :: sys
+      integer, intent(in) :: code
+      real(wp), intent(in) :: a(:, :)
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+    end subroutine noise_reach
+
+    !> Van Loan's matrix [-A, v; 0, A'] h (2n x 2n).
+    pure module subroutine van_loan_matrix(a, v, h, mh)
+      real(wp), intent(in) :: a(:, :), v(:, :), h
+      real(wp), intent(out) :: mh(:, :)
+    end subroutine van_loan_matrix
+
+    !> The steady-state P(j|j-1) and its update (B, K, P+, partials).
+    module subroutine steady_state(sys, cv, partials, status, msg)
+      type(lti_t), intent(in) :: sys
+      type(cov_t), intent(inout) :: cv
+      logical, intent(in) :: partials
+      integer, intent(out) :: status
+      character(len=*), intent(out) :: msg
+    end subroutine steady_state
+
+    !> The covariances and their work arrays, sized once per run.
+    module subroutine cov_alloc(cv, nx, ny, nf)
+      type(cov_t), intent(out) :: cv
+      integer, intent(in) :: nx, ny, nf
+    end subroutine cov_alloc
+
+  end interface
 
 contains
 
@@ -328,7 +412,6 @@ contains
     end subroutine integrate
 
   end subroutine oe_segment
-
 
   !> The inputs with segment j0..j1 delayed (mlid_delay) and, if asked for,
   !> du(k, j): the moving input delay k's effect on its input at sample j (a
@@ -612,540 +695,6 @@ contains
     if (status == MLID_OK) call noise_reach(sys, opt%process_noise, ax, status, msg)
   end subroutine linearise_once
 
-  !> Outputs that carry the process noise of the next interval, (dh/dw) w
-  !> (dhw): the effective R and S at this sample (report §5.1.7).
-  subroutine output_noise(sys, dhw, code, status, msg)
-    type(lti_t), intent(inout) :: sys
-    real(wp), intent(in) :: dhw(:, :)
-    integer, intent(in) :: code       !< opt%process_noise
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    status = MLID_OK
-    msg = ''
-    if (all(dhw == 0.0_wp)) return
-    if (code /= 0) then
-      status = MLID_ERR_INPUT
-      msg = 'outputs that carry the process noise (accelerations) need held noise, '// &
-            'process_noise = ''held'''
-      return
-    end if
-    sys%qd(:, :) = matmul(sys%q, transpose(dhw))
-    sys%ryy(:, :) = matmul(dhw, sys%qd)
-    sys%r(:, :) = sys%r0 + sys%ryy
-    sys%s(:, :) = sys%s0 + sys%qd
-  end subroutine output_noise
-
-  !> Everything the filter holds fixed along the record (linear models):
-  !> C, Phi, W = held-noise transition, Q, R, S and their partials.
-  subroutine lti_setup(m, theta, pm, t, u, opt, sys, status, msg)
-    class(model_t), intent(in) :: m
-    real(wp), intent(in) :: theta(:)
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(in) :: t(:), u(:, :)
-    type(options_t), intent(in) :: opt
-    type(lti_t), intent(out) :: sys
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    type(layout_t) :: l
-    real(wp) :: dt, e(m%nx), ua(m%nu + m%nw), dcm(m%ny, m%nx, size(pm%im)), a(m%nx, m%nx)
-    real(wp), allocatable :: sk(:, :), s0step(:, :)
-    real(wp) :: x0step(m%nx)
-    integer :: i, k, nf, nx, nw, ny
-    type(options_t) :: o1
-
-    status = MLID_ERR_INPUT
-    l = pm%l
-    nf = pm%nf
-    nx = l%nx
-    nw = l%nw
-    ny = l%ny
-    dt = t(2) - t(1)
-    do k = 2, size(t) - 1
-      if (any(l%seg == k + 1)) cycle                  ! a new manoeuvre: its own time base
-      if (abs((t(k + 1) - t(k)) - dt) > 1.0e-3_wp*dt) then   ! recorded times are rounded
-        write (msg, '(a,i0)') 'the Kalman filter needs uniform sampling; time step changes at sample ', k + 1
-        return
-      end if
-    end do
-    do k = 1, nw
-      if (.not. theta(l%oq + k) >= 0.0_wp) then
-        write (msg, '(a,i0,a)') 'process-noise variance q(', k, ') must be >= 0'
-        return
-      end if
-    end do
-    do k = 1, ny
-      if (.not. theta(l%or + k) > 0.0_wp) then
-        write (msg, '(a,i0,a)') 'measurement-noise variance r(', k, ') must be > 0'
-        return
-      end if
-    end do
-    allocate (sys%c(ny, nx), sys%dc(ny, nx, nf), sys%phi(nx, nx), sys%dphi(nx, nx, nf), &
-              sys%w(nx, nw), sys%dw(nx, nw, nf), sys%q(nw, nw), sys%dq(nw, nw, nf), &
-              sys%r(ny, ny), sys%dr(ny, ny, nf), sys%s(nw, ny), sys%ds(nw, ny, nf), &
-              sys%g(nx, nw), sk(nx, nf), s0step(nx, nf))
-    allocate (sys%qw(nw, nx), sys%gqg(nx, nx), sys%qd(nw, ny), sys%ryy(ny, ny), &
-              sys%vm(2*nx, 2*nx), sys%ve(2*nx, 2*nx))
-    call expm_work_size(sys%ew, 2*nx)
-    sys%dt = dt
-    ua = 0.0_wp
-    e = theta(l%ox0 + 1:l%ox0 + nx)
-    call m%dhdx(t(1), e, u(:, 1), theta(1:l%np), sys%c)
-    call m%dfdw(t(1), e, ua, theta(1:l%np), sys%g)
-    sys%dc = 0.0_wp
-    call m%dhdxp(t(1), e, u(:, 1), theta(1:l%np), pm%im, dcm)
-    do k = 1, size(pm%im)
-      sys%dc(:, :, pm%cm(k)) = sys%dc(:, :, pm%cm(k)) + pm%wm(k)*dcm(:, :, k)
-    end do
-    ! A state driven only by process noise and by itself is a noise-shaping
-    ! (gust) state: its pole must be negative, or the "gust" grows without bound.
-    call m%dfdx(t(1), e, ua, theta(1:l%np), a)
-    do i = 1, nx
-      if (any(sys%g(i, :) /= 0.0_wp) .and. all(pack(a(i, :), [(k /= i, k=1, nx)]) == 0.0_wp) &
-          .and. .not. a(i, i) < 0.0_wp) then
-        write (msg, '(a,i0,a,i0,a,i0,a,g0.6,a)') 'gust state ', i, ' (driven only by process '// &
-          'noise) has a time constant of the wrong sign: f(', i, ',', i, ') = ', a(i, i), &
-          ' must be < 0'
-        return
-      end if
-    end do
-    ! Phi and W: one interval of the integrator applied to unit states and
-    ! unit held noise; their partials from the same step's sensitivities.
-    ! (a nonlinear model gets them at each interval, in kf_innovations)
-    ! The model may be affine (state-equation biases): the step from zero
-    ! state and noise is subtracted, leaving the linear part.
-    o1 = opt
-    sys%phi = 0.0_wp
-    sys%dphi = 0.0_wp
-    sys%w = 0.0_wp
-    sys%dw = 0.0_wp
-    ua = 0.0_wp
-    x0step = 0.0_wp
-    s0step = 0.0_wp
-    if (m%linear) call integrate(x0step, ua, s0step)
-    do i = 1, merge(nx, 0, m%linear)
-      e = 0.0_wp
-      e(i) = 1.0_wp
-      sk = 0.0_wp
-      call integrate(e, ua, sk)
-      sys%phi(:, i) = e - x0step
-      sys%dphi(:, i, :) = sk - s0step
-    end do
-    do i = 1, merge(nw, 0, m%linear)
-      e = 0.0_wp
-      ua = 0.0_wp
-      ua(m%nu + i) = 1.0_wp
-      sk = 0.0_wp
-      call integrate(e, ua, sk)
-      sys%w(:, i) = e - x0step
-      sys%dw(:, i, :) = sk - s0step
-    end do
-    sys%q = 0.0_wp
-    sys%r = 0.0_wp
-    sys%dq = 0.0_wp
-    sys%dr = 0.0_wp
-    sys%ds = 0.0_wp
-    do k = 1, nw                   ! continuous_sd: q is a standard deviation
-      sys%q(k, k) = merge(theta(l%oq + k)**2, theta(l%oq + k), opt%process_noise == 2)
-    end do
-    do k = 1, ny
-      sys%r(k, k) = theta(l%or + k)
-    end do
-    sys%s = reshape(theta(l%os + 1:l%os + nw*ny), [nw, ny])
-    sys%r0 = sys%r
-    sys%s0 = sys%s
-    do k = 1, size(pm%iq)
-      i = pm%iq(k)
-      sys%dq(i, i, pm%cq(k)) = sys%dq(i, i, pm%cq(k)) + pm%wq(k)* &
-                               merge(2.0_wp*theta(l%oq + i), 1.0_wp, opt%process_noise == 2)
-    end do
-    do k = 1, size(pm%ir)
-      sys%dr(pm%ir(k), pm%ir(k), pm%cr(k)) = sys%dr(pm%ir(k), pm%ir(k), pm%cr(k)) + pm%wr(k)
-    end do
-    do k = 1, size(pm%is)
-      i = pm%is(k) - 1
-      sys%ds(mod(i, nw) + 1, i/nw + 1, pm%cs(k)) = sys%ds(mod(i, nw) + 1, i/nw + 1, pm%cs(k)) + &
-                                                  pm%ws(k)
-    end do
-    allocate (sys%nz_phi(nf), sys%nz_w(nf), sys%nz_c(nf), sys%nz_q(nf), sys%nz_r(nf), &
-              sys%nz_s(nf))
-    do k = 1, nf
-      sys%nz_phi(k) = any(sys%dphi(:, :, k) /= 0.0_wp)
-      sys%nz_w(k) = any(sys%dw(:, :, k) /= 0.0_wp)
-      sys%nz_c(k) = any(sys%dc(:, :, k) /= 0.0_wp)
-      sys%nz_q(k) = any(sys%dq(:, :, k) /= 0.0_wp)
-      sys%nz_r(k) = any(sys%dr(:, :, k) /= 0.0_wp)
-      sys%nz_s(k) = any(sys%ds(:, :, k) /= 0.0_wp)
-    end do
-    if (opt%process_noise /= 0 .and. (any(sys%s /= 0.0_wp) .or. any(sys%nz_s))) then
-      msg = 'the cross-covariance s of process and measurement noise needs held noise, '// &
-            'process_noise = ''held'''
-      return
-    end if
-    allocate (sys%wqw(nx, nx), sys%gs(nx, ny))
-    if (m%linear) then
-      call noise_reach(sys, opt%process_noise, a, status, msg)
-      if (status /= MLID_OK) return
-      call noise_reach_partials(m, theta, pm, t, opt%process_noise, a, sys, status, msg)
-      if (status /= MLID_OK) return
-    else                            ! set per interval (kf_innovations); no analytic partials
-      allocate (sys%dwqw(nx, nx, nf), sys%dgs(nx, ny, nf))
-      sys%dwqw = 0.0_wp
-      sys%dgs = 0.0_wp
-      sys%nz_wqw = [(.false., k=1, nf)]
-      sys%nz_gs = sys%nz_wqw
-    end if
-    status = MLID_OK
-    msg = ''
-
-  contains
-
-    subroutine integrate(x, uh, sx)
-      real(wp), intent(inout) :: x(:), sx(:, :)
-      real(wp), intent(in) :: uh(:)
-      real(wp) :: h
-      type(rk_work_t) :: wk
-      integer :: isub
-      h = dt/o1%substeps
-      do isub = 1, o1%substeps
-        call rk4_step(m, theta(1:l%np), t(1), h, uh, uh, x, pm%im, pm%cm, pm%wm, wk, sx)
-      end do
-    end subroutine integrate
-
-  end subroutine lti_setup
-
-  !> Measurement update: B, B^-1, log|B|, K, P+ and their partials.
-  subroutine cov_update(sys, cv, partials, status, msg)
-    type(lti_t), intent(in) :: sys
-    type(cov_t), intent(inout) :: cv
-    logical, intent(in) :: partials
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer :: k, ierr
-
-    status = MLID_OK
-    msg = ''
-    associate (ct => cv%ct, pct => cv%pct, dpct => cv%dpct, xy => cv%xy, xx => cv%x1, yy => cv%yy)
-      ct(:, :) = transpose(sys%c)
-      pct(:, :) = matmul(cv%pm, ct)
-      yy(:, :) = matmul(sys%c, pct)
-      cv%b(:, :) = yy + sys%r
-      call symmetrize(cv%b)
-      call chol_inverse(cv%b, cv%binv, cv%logdet, ierr)
-      if (ierr /= 0) then
-        status = MLID_ERR_SINGULAR
-        msg = 'innovation covariance B = C P C'' + R is not positive definite'
-        return
-      end if
-      cv%k(:, :) = matmul(pct, cv%binv)
-      xx(:, :) = matmul(cv%k, transpose(pct))
-      cv%pp(:, :) = cv%pm - xx
-      call symmetrize(cv%pp)
-      if (.not. partials) return
-      do k = 1, size(cv%dpm, 3)
-        dpct(:, :) = matmul(cv%dpm(:, :, k), ct)
-        if (sys%nz_c(k)) then
-          xy(:, :) = matmul(cv%pm, transpose(sys%dc(:, :, k)))
-          dpct(:, :) = dpct + xy
-        end if
-        cv%db(:, :, k) = matmul(sys%c, dpct)
-        if (sys%nz_c(k)) then
-          yy(:, :) = matmul(sys%dc(:, :, k), pct)
-          cv%db(:, :, k) = cv%db(:, :, k) + yy
-        end if
-        if (sys%nz_r(k)) cv%db(:, :, k) = cv%db(:, :, k) + sys%dr(:, :, k)
-        call symmetrize(cv%db(:, :, k))
-        xy(:, :) = matmul(cv%k, cv%db(:, :, k))
-        xy(:, :) = dpct - xy
-        cv%dk(:, :, k) = matmul(xy, cv%binv)
-        ! dP+ = dP- - dK (C P-) - K d(C P-), with C P- = pct'
-        xx(:, :) = matmul(cv%dk(:, :, k), transpose(pct))
-        cv%dpp(:, :, k) = cv%dpm(:, :, k) - xx
-        xx(:, :) = matmul(cv%k, transpose(dpct))
-        cv%dpp(:, :, k) = cv%dpp(:, :, k) - xx
-        call symmetrize(cv%dpp(:, :, k))
-      end do
-    end associate
-  end subroutine cov_update
-
-  !> Time update: P- of the next sample from P+ (and the partials),
-  !>
-  !>   P- = Phi P+ Phi' + V - G B^-1 G' - Phi K G' - G K' Phi'
-  !>
-  !> with V the process noise as it reaches the state and G = W S its
-  !> correlation with the measurement noise (noise_reach); the products
-  !> shared by all parameters formed once and zero partials skipped.
-  subroutine cov_predict(sys, cv, partials)
-    type(lti_t), intent(in) :: sys
-    type(cov_t), intent(inout) :: cv
-    logical, intent(in) :: partials
-    integer :: k
-    logical :: corr
-
-    corr = any(sys%gs /= 0.0_wp)
-    associate (phit => cv%phit, ppt => cv%ppt, a => cv%a, da => cv%da, tmp => cv%tmp, &
-               x1 => cv%x1, x2 => cv%x2, gb => cv%gb, yx => cv%yx)
-      phit(:, :) = transpose(sys%phi)
-      ppt(:, :) = matmul(cv%pp, phit)                        ! P+ Phi'
-      tmp(:, :) = matmul(sys%phi, ppt)
-      cv%pm(:, :) = tmp + sys%wqw
-      if (corr) then
-        gb(:, :) = matmul(sys%gs, cv%binv)                   ! G B^-1
-        x1(:, :) = matmul(cv%k, transpose(sys%gs))
-        a(:, :) = matmul(sys%phi, x1)                        ! Phi K G'
-        tmp(:, :) = matmul(gb, transpose(sys%gs))
-        cv%pm(:, :) = cv%pm - tmp - a - transpose(a)
-      end if
-      if (.not. partials) return
-      do k = 1, size(cv%dpm, 3)
-        x1(:, :) = matmul(cv%dpp(:, :, k), phit)
-        tmp(:, :) = matmul(sys%phi, x1)
-        if (sys%nz_phi(k)) then
-          da(:, :) = matmul(sys%dphi(:, :, k), ppt)
-          tmp(:, :) = tmp + da + transpose(da)
-        end if
-        if (sys%nz_wqw(k)) tmp(:, :) = tmp + sys%dwqw(:, :, k)
-        if (corr .or. sys%nz_gs(k)) then
-          ! d(G B^-1 G') = dG B^-1 G' + G B^-1 dG' - G B^-1 dB B^-1 G'
-          da(:, :) = matmul(sys%dgs(:, :, k), transpose(gb))
-          yx(:, :) = matmul(cv%db(:, :, k), transpose(gb))
-          x1(:, :) = matmul(gb, yx)
-          tmp(:, :) = tmp - da - transpose(da) + x1
-          ! d(Phi K G') = dPhi K G' + Phi dK G' + Phi K dG'
-          x1(:, :) = matmul(cv%dk(:, :, k), transpose(sys%gs))
-          x2(:, :) = matmul(cv%k, transpose(sys%dgs(:, :, k)))
-          x1(:, :) = x1 + x2
-          da(:, :) = matmul(sys%phi, x1)
-          if (sys%nz_phi(k)) then
-            x1(:, :) = matmul(cv%k, transpose(sys%gs))
-            x2(:, :) = matmul(sys%dphi(:, :, k), x1)
-            da(:, :) = da + x2
-          end if
-          tmp(:, :) = tmp - da - transpose(da)
-        end if
-        cv%dpm(:, :, k) = tmp
-      end do
-    end associate
-  end subroutine cov_predict
-
-  !> a = (a + a')/2 in place: the covariances kept symmetric against rounding.
-  pure subroutine symmetrize(a)
-    real(wp), intent(inout) :: a(:, :)
-    integer :: i, j
-    do j = 1, size(a, 2)
-      do i = 1, j - 1
-        a(i, j) = 0.5_wp*(a(i, j) + a(j, i))
-        a(j, i) = a(i, j)
-      end do
-    end do
-  end subroutine symmetrize
-
-  !> V, the process noise as it reaches the state over one interval, and
-  !> G = W S: for held noise (code 0) V = W Q W'; for continuous white noise
-  !> of density Q (codes 1, 2) V = int_0^dt e^{A s} Gamma Q Gamma' e^{A' s} ds
-  !> exactly (van_loan), with a = A and Gamma = df/dw, and G = 0.
-  subroutine noise_reach(sys, code, a, status, msg)
-    type(lti_t), intent(inout) :: sys
-    integer, intent(in) :: code
-    real(wp), intent(in) :: a(:, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    status = MLID_OK
-    msg = ''
-    if (code == 0) then
-      sys%qw(:, :) = matmul(sys%q, transpose(sys%w))
-      sys%wqw(:, :) = matmul(sys%w, sys%qw)
-      sys%gs(:, :) = matmul(sys%w, sys%s)
-    else
-      sys%qw(:, :) = matmul(sys%q, transpose(sys%g))
-      sys%gqg(:, :) = matmul(sys%g, sys%qw)
-      call van_loan(a, sys%gqg, sys%dt, sys%wqw, status, msg, sys%vm, sys%ve, sys%ew)
-      sys%gs = 0.0_wp
-    end if
-  end subroutine noise_reach
-
-  !> The partials of V and G (noise_reach) for a linear model.  Continuous
-  !> noise needs those of A and Gamma: df/dp at unit states (unit noise)
-  !> less df/dp at zero, the model being linear.
-  subroutine noise_reach_partials(m, theta, pm, t, code, a, sys, status, msg)
-    class(model_t), intent(in) :: m
-    real(wp), intent(in) :: theta(:), t(:), a(:, :)
-    type(param_map_t), intent(in) :: pm
-    integer, intent(in) :: code
-    type(lti_t), intent(inout) :: sys
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    real(wp) :: da(m%nx, m%nx, pm%nf), dgam(m%nx, m%nw, pm%nf), dv(m%nx, m%nx, pm%nf)
-    real(wp) :: b0(m%nx, size(pm%im)), b1(m%nx, size(pm%im)), e(m%nx), ua(m%nu + m%nw)
-    real(wp) :: y(m%nx, m%nx)
-    integer :: i, k, nf
-    logical :: nz(pm%nf)
-
-    nf = pm%nf
-    status = MLID_OK
-    msg = ''
-    allocate (sys%dwqw(m%nx, m%nx, nf), sys%dgs(m%nx, m%ny, nf), sys%nz_wqw(nf), sys%nz_gs(nf))
-    if (code == 0) then
-      do k = 1, nf
-        sys%dwqw(:, :, k) = 0.0_wp
-        if (sys%nz_w(k)) then
-          y = matmul(sys%dw(:, :, k), matmul(sys%q, transpose(sys%w)))
-          sys%dwqw(:, :, k) = y + transpose(y)
-        end if
-        if (sys%nz_q(k)) sys%dwqw(:, :, k) = sys%dwqw(:, :, k) + &
-                                             matmul(sys%w, matmul(sys%dq(:, :, k), transpose(sys%w)))
-        sys%dgs(:, :, k) = matmul(sys%dw(:, :, k), sys%s) + matmul(sys%w, sys%ds(:, :, k))
-      end do
-    else
-      e = 0.0_wp
-      ua = 0.0_wp
-      da = 0.0_wp
-      dgam = 0.0_wp
-      call m%dfdp(t(1), e, ua, theta(1:pm%l%np), pm%im, b0)
-      do i = 1, m%nx + m%nw
-        e = 0.0_wp
-        ua = 0.0_wp
-        if (i <= m%nx) e(i) = 1.0_wp
-        if (i > m%nx) ua(m%nu + i - m%nx) = 1.0_wp
-        call m%dfdp(t(1), e, ua, theta(1:pm%l%np), pm%im, b1)
-        do k = 1, size(pm%im)
-          if (i <= m%nx) da(:, i, pm%cm(k)) = da(:, i, pm%cm(k)) + pm%wm(k)*(b1(:, k) - b0(:, k))
-          if (i > m%nx) dgam(:, i - m%nx, pm%cm(k)) = dgam(:, i - m%nx, pm%cm(k)) + &
-                                                        pm%wm(k)*(b1(:, k) - b0(:, k))
-        end do
-      end do
-      do k = 1, nf
-        y = matmul(dgam(:, :, k), matmul(sys%q, transpose(sys%g)))
-        dv(:, :, k) = y + transpose(y) + matmul(sys%g, matmul(sys%dq(:, :, k), transpose(sys%g)))
-        nz(k) = any(da(:, :, k) /= 0.0_wp) .or. any(dv(:, :, k) /= 0.0_wp)
-      end do
-      call van_loan_partials(a, matmul(sys%g, matmul(sys%q, transpose(sys%g))), sys%dt, da, dv, &
-                             nz, sys%dwqw, status, msg)
-      sys%dgs = 0.0_wp
-    end if
-    do k = 1, nf
-      sys%nz_wqw(k) = any(sys%dwqw(:, :, k) /= 0.0_wp)
-      sys%nz_gs(k) = any(sys%dgs(:, :, k) /= 0.0_wp)
-    end do
-  end subroutine noise_reach_partials
-
-  !> qd = int_0^h e^{A s} v e^{A' s} ds by one matrix exponential (Van Loan,
-  !> 1978): e^{M h} with M = [-A, v; 0, A'] holds e^{A' h} and e^{-A h} qd
-  !> in its right-hand blocks.  mh, e (2n x 2n) and ew: the caller's work
-  !> arrays (the EKF's at every interval).
-  subroutine van_loan(a, v, h, qd, status, msg, mh, e, ew)
-    real(wp), intent(in) :: a(:, :), v(:, :), h
-    real(wp), intent(out) :: qd(:, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    real(wp), intent(out) :: mh(:, :), e(:, :)
-    type(expm_work_t), intent(inout) :: ew
-    integer :: n, info
-    n = size(a, 1)
-    call van_loan_matrix(a, v, h, mh)
-    call expm_into(mh, e, info, ew)
-    if (info /= 0) then
-      status = MLID_ERR_DIVERGED
-      msg = 'continuous process noise: its covariance over a sample interval is not finite'
-      qd = 0.0_wp
-      return
-    end if
-    qd = matmul(transpose(e(n + 1:, n + 1:)), e(1:n, n + 1:))
-    call symmetrize(qd)
-    status = MLID_OK
-    msg = ''
-  end subroutine van_loan
-
-  !> The partials of van_loan's qd for each k with nz(k) (zero for the
-  !> others), from the derivative of the exponential: the upper right block
-  !> of e^{[M, dM; 0, M] h} is d(e^{M h}).
-  subroutine van_loan_partials(a, v, h, da, dv, nz, dqd, status, msg)
-    real(wp), intent(in) :: a(:, :), v(:, :), h, da(:, :, :), dv(:, :, :)
-    logical, intent(in) :: nz(:)
-    real(wp), intent(out) :: dqd(:, :, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    real(wp) :: big(4*size(a, 1), 4*size(a, 1)), eb(4*size(a, 1), 4*size(a, 1))
-    real(wp) :: e(2*size(a, 1), 2*size(a, 1)), de(2*size(a, 1), 2*size(a, 1))
-    integer :: n, k, info
-    n = size(a, 1)
-    dqd = 0.0_wp
-    status = MLID_OK
-    msg = ''
-    big = 0.0_wp
-    call van_loan_matrix(a, v, h, big(1:2*n, 1:2*n))
-    big(2*n + 1:, 2*n + 1:) = big(1:2*n, 1:2*n)
-    do k = 1, size(nz)
-      if (.not. nz(k)) cycle
-      call van_loan_matrix(da(:, :, k), dv(:, :, k), h, big(1:2*n, 2*n + 1:))
-      call expm(big, eb, info)
-      if (info /= 0) then
-        status = MLID_ERR_DIVERGED
-        msg = 'continuous process noise: the partials of its covariance are not finite'
-        return
-      end if
-      e = eb(1:2*n, 1:2*n)
-      de = eb(1:2*n, 2*n + 1:)
-      dqd(:, :, k) = matmul(transpose(de(n + 1:, n + 1:)), e(1:n, n + 1:)) + &
-                     matmul(transpose(e(n + 1:, n + 1:)), de(1:n, n + 1:))
-      dqd(:, :, k) = 0.5_wp*(dqd(:, :, k) + transpose(dqd(:, :, k)))
-    end do
-  end subroutine van_loan_partials
-
-  !> mh = [-A, v; 0, A'] h (2n x 2n).
-  pure subroutine van_loan_matrix(a, v, h, mh)
-    real(wp), intent(in) :: a(:, :), v(:, :), h
-    real(wp), intent(out) :: mh(:, :)
-    integer :: n
-    n = size(a, 1)
-    mh = 0.0_wp
-    mh(1:n, 1:n) = -a*h
-    mh(1:n, n + 1:) = v*h
-    mh(n + 1:, n + 1:) = transpose(a)*h
-  end subroutine van_loan_matrix
-
-  !> The steady-state P(j|j-1) from the Riccati equation (mlid_riccati) and,
-  !> with partials, its partials from the Stein equations; leaves the
-  !> update of that P (B, K, P+ and their partials) in cv.
-  subroutine steady_state(sys, cv, partials, status, msg)
-    type(lti_t), intent(in) :: sys
-    type(cov_t), intent(inout) :: cv
-    logical, intent(in) :: partials
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    real(wp), dimension(size(cv%pm, 1), size(cv%pm, 1)) :: ac, y, pac
-    real(wp), dimension(size(cv%k, 1), size(cv%k, 2)) :: kp
-    real(wp), allocatable :: e(:, :, :)
-    integer :: k, info
-
-    call dare_solve(sys%phi, sys%c, sys%wqw, sys%r, sys%gs, cv%pm, status, msg)
-    if (status /= MLID_OK) return
-    if (partials) then
-      call cov_update(sys, cv, .false., status, msg)
-      if (status /= MLID_OK) return
-      kp = matmul(matmul(sys%phi, matmul(cv%pm, transpose(sys%c))) + sys%gs, cv%binv)
-      ac = sys%phi - matmul(kp, sys%c)
-      pac = matmul(cv%pm, transpose(ac))
-      allocate (e(size(ac, 1), size(ac, 1), size(cv%dpm, 3)))
-      do k = 1, size(e, 3)
-        y = 0.0_wp
-        if (sys%nz_phi(k)) y = matmul(sys%dphi(:, :, k), pac)
-        if (sys%nz_c(k)) y = y - matmul(transpose(pac), matmul(transpose(sys%dc(:, :, k)), &
-                                                               transpose(kp)))
-        if (sys%nz_gs(k)) y = y - matmul(sys%dgs(:, :, k), transpose(kp))
-        e(:, :, k) = y + transpose(y)
-        if (sys%nz_wqw(k)) e(:, :, k) = e(:, :, k) + sys%dwqw(:, :, k)
-        if (sys%nz_r(k)) e(:, :, k) = e(:, :, k) + matmul(kp, matmul(sys%dr(:, :, k), transpose(kp)))
-      end do
-      call stein_solve(ac, e, cv%dpm, info)
-      if (info /= 0) then
-        status = MLID_ERR_NOCONV
-        msg = 'steady-state Kalman filter: its closed loop is not stable (no partials of P)'
-        return
-      end if
-    end if
-    call cov_update(sys, cv, partials, status, msg)
-  end subroutine steady_state
-
   !> P(1|0) = diag(p0) at the start of a manoeuvre (the report's P(0|0)
   !> carried to the first sample; zero: a known initial state), and its
   !> partials: a unit entry for each free p0.
@@ -1164,22 +713,6 @@ contains
       cv%dpm(i, i, pm%cp0(k)) = cv%dpm(i, i, pm%cp0(k)) + pm%wp0(k)
     end do
   end subroutine initial_covariance
-
-  subroutine cov_alloc(cv, nx, ny, nf)
-    type(cov_t), intent(out) :: cv
-    integer, intent(in) :: nx, ny, nf
-    allocate (cv%pm(nx, nx), cv%dpm(nx, nx, nf), cv%pp(nx, nx), cv%dpp(nx, nx, nf), &
-              cv%b(ny, ny), cv%binv(ny, ny), cv%db(ny, ny, nf), cv%k(nx, ny), cv%dk(nx, ny, nf))
-    allocate (cv%ct(nx, ny), cv%pct(nx, ny), cv%dpct(nx, ny), cv%gb(nx, ny), cv%xy(nx, ny), &
-              cv%phit(nx, nx), cv%ppt(nx, nx), cv%a(nx, nx), cv%da(nx, nx), cv%tmp(nx, nx), &
-              cv%x1(nx, nx), cv%x2(nx, nx), cv%yy(ny, ny), cv%yx(ny, nx))
-    cv%pm = 0.0_wp
-    cv%dpm = 0.0_wp
-    cv%pp = 0.0_wp
-    cv%dpp = 0.0_wp
-    cv%db = 0.0_wp
-    cv%dk = 0.0_wp
-  end subroutine cov_alloc
 
   !> Integrate x (and s) over sample interval j -> j+1 with the noise inputs
   !> held at what (nw values); sforce: constant forcing of the sensitivities.

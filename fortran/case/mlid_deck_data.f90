@@ -1,0 +1,167 @@
+!> The reader of a deck's &data group (mlid_deck): the records (one file
+!> per manoeuvre), the channels taken of them by number or name, their
+!> names, units and derived channels, each file's time window, the files
+!> a validate case holds out, and the initial states per file.
+submodule (mlid_deck) mlid_deck_data
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_text, only: text_lines
+  use mlid_case, only: MAXSEG
+  use mlid_channels, only: channels_spec, channels_join
+  implicit none
+
+contains
+
+  !> &data: the records (one file per manoeuvre), the channels taken of
+  !> them (by column number or name), the columns' names and units, derived
+  !> channels, the units channels are shown in and the time window of each
+  !> file.
+  module subroutine read_data_group(rd, c)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    character(len=PATHLEN) :: file(MAXSEG), join(MAXSEG)
+    character(len=CHANLEN) :: time_col, input_cols(MAXCOL), output_cols(MAXCOL), &
+                              columns(MAXCOL), units(MAXCOL), show(MAXCOL), join_columns(MAXCOL)
+    character(len=EXPRLEN) :: derived(MAXDER)
+    real(wp) :: t_start(MAXSEG), t_end(MAXSEG), dt
+    integer :: skip_rows, ios, status, holdout(MAXSEG), i
+    character(len=msg_len) :: iomsg, msg
+    namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
+      derived, show, t_start, t_end, holdout, dt, join, join_columns
+
+    file = ''
+    join = ''
+    join_columns = ''
+    time_col = '1'
+    input_cols = ''
+    output_cols = ''
+    columns = ''
+    units = ''
+    derived = ''
+    show = ''
+    t_start = UNSET
+    t_end = UNSET
+    skip_rows = 0
+    holdout = 0
+    dt = UNSET
+    rewind (rd%unit)
+    read (rd%unit, nml=data, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'data', ios, iomsg, .true., c)
+    if (c%status /= MLID_OK) return
+    c%data_files = pack(file, len_trim(file) > 0)
+    c%file_no = [(i, i=1, size(c%data_files))]
+    call data_windows(c, t_start, t_end)
+    call data_holdout(c, holdout)
+    call check_data_group(c, [time_col, input_cols, output_cols, columns, units, show, &
+                              join_columns], derived)
+    if (c%status /= MLID_OK) return
+    call channels_spec(time_col, as_text(input_cols), as_text(output_cols), as_text(columns), &
+                       as_text(units), as_text(derived), as_text(show), skip_rows, c%chan, &
+                       status, msg)
+    if (status == MLID_OK) call channels_join(c%chan, text_lines(as_text(join)), &
+                                              text_lines(as_text(join_columns)), &
+                                              text_lines(as_text(c%data_files)), status, msg)
+    if (status /= MLID_OK) call fail(c, 'group &data: '//trim(msg))
+    if (.not. (dt > 0.0_wp .and. ieee_is_finite(dt))) &
+      call fail(c, 'group &data: dt must be > 0 (a uniform time step replacing the '// &
+                'record''s time), or left out')
+    if (c%status /= MLID_OK) return
+    c%chan%dt = merge(0.0_wp, dt, dt == UNSET)     ! 0: the record's own time
+    if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
+      write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%chan%inputs), &
+        ' input_cols and ', size(c%chan%outputs), ' output_cols given, the model has ', c%nu, &
+        ' inputs and ', c%ny, ' outputs'
+      call fail(c, msg)
+    end if
+  end subroutine read_data_group
+
+  !> Each file's window: t_start and t_end in the order of file; a file
+  !> without one takes all of it.
+  subroutine data_windows(c, t_start, t_end)
+    type(case_t), intent(inout) :: c
+    real(wp), intent(in) :: t_start(:), t_end(:)
+    integer :: n
+    n = size(c%data_files)
+    c%win_start = merge(-huge(1.0_wp), t_start(1:n), t_start(1:n) == UNSET)
+    c%win_end = merge(huge(1.0_wp), t_end(1:n), t_end(1:n) == UNSET)
+    if (any(t_start(n + 1:) /= UNSET) .or. any(t_end(n + 1:) /= UNSET)) then
+      call fail(c, 'group &data: more t_start or t_end than files ('//itoa(n)//')')
+    else if (all(count(t_start /= UNSET) /= [0, n]) .or. all(count(t_end /= UNSET) /= [0, n])) then
+      call fail(c, 'group &data: t_start and t_end take one value per file (in the order '// &
+                'of file) or none; given '//itoa(count(t_start /= UNSET))//' and '// &
+                itoa(count(t_end /= UNSET))//' for '//itoa(n)//' files')
+    else if (any(c%win_end <= c%win_start)) then
+      call fail(c, 'group &data: t_end must be after t_start (file '// &
+                itoa(findloc(c%win_end <= c%win_start, .true., 1))//')')
+    end if
+  end subroutine data_windows
+
+  !> The files a validate case predicts: at least one, not all, each once.
+  subroutine data_holdout(c, holdout)
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: holdout(:)
+    integer :: n, k
+    n = size(c%data_files)
+    c%holdout = pack(holdout, holdout /= 0)
+    if (c%status /= MLID_OK) return
+    if (c%job /= 'validate') then
+      if (size(c%holdout) > 0) call fail(c, 'group &data: holdout is for job ''validate''')
+      return
+    end if
+    if (size(c%holdout) == 0 .or. size(c%holdout) >= n) then
+      call fail(c, 'group &data: a validate case needs holdout, the numbers of the files to '// &
+                'predict (at least one of the '//itoa(n)//' files, not all)')
+    else if (any(c%holdout < 1 .or. c%holdout > n)) then
+      call fail(c, 'group &data: holdout '//itoa(c%holdout(findloc(c%holdout < 1 .or. &
+                c%holdout > n, .true., 1)))//' is no file number (1 to '//itoa(n)//')')
+    else
+      do k = 2, size(c%holdout)
+        if (any(c%holdout(:k - 1) == c%holdout(k))) &
+          call fail(c, 'group &data: holdout lists file '//itoa(c%holdout(k))//' twice')
+      end do
+    end if
+  end subroutine data_holdout
+
+  !> What &data must hold.  An entry that fills its whole length was cut.
+  !> initial_states: nx values for each data file (each manoeuvre).
+  module subroutine check_initial_states(c)
+    type(case_t), intent(inout) :: c
+    if (.not. allocated(c%initial_states)) return
+    if (size(c%initial_states) == 0) return
+    if (c%job == 'validate') then
+      call fail(c, 'group &model: initial_states is not available with job = ''validate''')
+    else if (size(c%initial_states) /= c%nx*size(c%data_files)) then
+      call fail(c, 'group &model: initial_states has '//itoa(size(c%initial_states))// &
+                ' values; nx = '//itoa(c%nx)//' for each of the '//itoa(size(c%data_files))// &
+                ' data files needs '//itoa(c%nx*size(c%data_files)))
+    end if
+  end subroutine check_initial_states
+
+  subroutine check_data_group(c, entries, derived)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: entries(:), derived(:)
+    integer :: k
+    if (c%status /= MLID_OK) return
+    k = findloc(len_trim(entries) == len(entries), .true., 1)
+    if (size(c%data_files) == 0) then
+      call fail(c, 'group &data: file is missing')
+    else if (k > 0) then
+      call fail(c, 'group &data: "'//entries(k)(1:20)//'..." is longer than '// &
+                itoa(len(entries))//' characters')
+    else if (any(len_trim(derived) == len(derived))) then
+      call fail(c, 'group &data: a derived channel is longer than '//itoa(len(derived))// &
+                ' characters')
+    end if
+  end subroutine check_data_group
+
+  !> The non-blank entries of an array, one per line (channels_spec's form).
+  function as_text(texts) result(text)
+    character(len=*), intent(in) :: texts(:)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = ''
+    do k = 1, size(texts)
+      if (len_trim(texts(k)) > 0) text = text//trim(texts(k))//achar(10)
+    end do
+  end function as_text
+
+end submodule mlid_deck_data

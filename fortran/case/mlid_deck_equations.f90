@@ -1,0 +1,219 @@
+!> The &model kinds written as equations (mlid_deck): the text of an
+!> equations model (states and derivatives, inputs, parameters with start
+!> values, definitions, outputs) for mlid_equations, the rigid-body lines
+!> of kind 'sixdof' around the deck's definitions, the kinematic model of
+!> kind 'flight_path', and the params entries ('NAME = value').
+submodule (mlid_deck) mlid_deck_equations
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_equations, only: equations_text_codes
+  use mlid_sixdof, only: sixdof_parts
+  use mlid_flightpath, only: flightpath_text, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
+  use mlid_expr, only: split_definition, expr_t, expr_compile, expr_eval
+  implicit none
+
+contains
+
+  !> An equations model's text (mlid_equations) from the deck: the states
+  !> and their derivatives, inputs, parameters ('NAME' or 'NAME = start
+  !> value', in the order of p), definitions and outputs.
+  module subroutine equations_text(c, states, xdot, inputs, ynames, outputs, definitions, params, &
+                                   pstart, pre, post)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: states(:), xdot(:), inputs(:), ynames(:), outputs(:), &
+                                    definitions(:), params(:)
+    real(wp), allocatable, intent(out) :: pstart(:)
+    character(len=*), intent(in), optional :: pre, post   !< lines around the definitions (sixdof)
+    character(len=:), allocatable :: text
+    character(len=NAMELEN) :: name
+    character(len=NAMELEN), allocatable :: pnames(:)
+    integer :: k
+
+    text = ''
+    allocate (pstart(0))
+    if (has_gap(c, 'state_names', states) .or. has_gap(c, 'xdot', xdot) .or. &
+        has_gap(c, 'input_names', inputs) .or. has_gap(c, 'output_names', ynames) .or. &
+        has_gap(c, 'outputs', outputs) .or. has_gap(c, 'definitions', definitions) .or. &
+        has_gap(c, 'params', params)) return
+    if (count(len_trim(states) > 0) /= count(len_trim(xdot) > 0)) then
+      call fail(c, 'group &model: the equations model needs one xdot per state_names entry')
+      return
+    end if
+    if (any(len_trim([xdot, outputs, definitions, params]) == TIELEN)) then
+      call fail(c, 'group &model: an equation is longer than '//itoa(TIELEN - 1)//' characters')
+      return
+    end if
+    do k = 1, count(len_trim(inputs) > 0)
+      text = text//'u '//trim(inputs(k))//achar(10)
+    end do
+    call param_entries(c, params, pnames, pstart)
+    if (c%status /= MLID_OK) return
+    do k = 1, size(pnames)
+      text = text//'p '//trim(pnames(k))//achar(10)
+    end do
+    if (present(pre)) text = text//pre
+    do k = 1, count(len_trim(definitions) > 0)
+      text = text//'l '//trim(definitions(k))//achar(10)
+    end do
+    if (present(post)) text = text//post
+    do k = 1, count(len_trim(xdot) > 0)
+      text = text//'x '//trim(states(k))//' = '//trim(xdot(k))//achar(10)
+    end do
+    do k = 1, count(len_trim(outputs) > 0)
+      name = ynames(k)
+      if (len_trim(name) == 0) name = 'y'//itoa(k)
+      text = text//'y '//trim(name)//' = '//trim(outputs(k))//achar(10)
+    end do
+    c%iconst = equations_text_codes(text)
+  end subroutine equations_text
+
+  !> kind = 'sixdof': the rigid-body lines of mlid_sixdof around the deck's
+  !> definitions, and the state equations (xs) in the order of state_names.
+  module subroutine sixdof_deck(c, constants, states, xdot, inputs, definitions, pre, post, xs)
+    type(case_t), intent(inout) :: c
+    real(wp), intent(in) :: constants(:)
+    character(len=*), intent(in) :: states(:), xdot(:), inputs(:), definitions(:)
+    character(len=:), allocatable, intent(out) :: pre, post
+    character(len=TIELEN), allocatable, intent(out) :: xs(:)
+    character(len=:), allocatable :: lines
+    character(len=NAMELEN) :: defined(size(definitions))
+    character(len=msg_len) :: iomsg
+    integer :: k, a, b, ios
+
+    allocate (xs(0))
+    if (any(len_trim(xdot) > 0)) then
+      call fail(c, 'group &model: kind = ''sixdof'' writes the state equations itself (no xdot)')
+      return
+    end if
+    defined = ''
+    do k = 1, size(definitions)
+      a = index(definitions(k), '=')
+      if (a > 1) defined(k) = adjustl(definitions(k)(1:a - 1))
+    end do
+    call sixdof_parts(pack(constants, constants /= UNSET), pack(states, len_trim(states) > 0), &
+                      pack(inputs, len_trim(inputs) > 0), pack(defined, len_trim(defined) > 0), &
+                      pre, post, lines, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &model: '//trim(iomsg))
+      return
+    end if
+    a = 1                                   ! 'x NAME = EXPR' lines -> the EXPRs
+    do while (a < len(lines))
+      b = a + index(lines(a:), achar(10)) - 1
+      k = a + index(lines(a:b), '=') + 1    ! the EXPR: lines(k:b-1)
+      if (b - k > TIELEN) then
+        write (iomsg, '(a,i0,a,i0,a)') 'group &model: a state equation of kind = ''sixdof'' has ', &
+          b - k, ' characters, more than the ', TIELEN, ' an equation may have'
+        call fail(c, trim(iomsg))
+        return
+      end if
+      xs = [character(len=TIELEN) :: xs, lines(k:b - 1)]
+      a = b + 1
+    end do
+  end subroutine sixdof_deck
+
+  !> The kinds whose model is a text of equations (mlid_equations).
+  module logical function written_as_equations(kind)
+    character(len=*), intent(in) :: kind
+    written_as_equations = any(to_lower(kind) == [character(len=11) :: 'equations', 'sixdof', &
+                                                  'flight_path'])
+  end function written_as_equations
+
+  !> kind = 'flight_path': the kinematic model of mlid_flightpath with the
+  !> corrections params names (start values there), the outputs of
+  !> output_names (all seven when none) and its own states and inputs.
+  module subroutine flightpath_deck(c, constants, states, xdot, inputs, ynames, outputs, &
+                                    definitions, params, pstart)
+    type(case_t), intent(inout) :: c
+    real(wp), intent(in) :: constants(:)
+    character(len=*), intent(in) :: states(:), xdot(:), outputs(:), definitions(:), params(:)
+    character(len=*), intent(inout) :: inputs(:), ynames(:)
+    real(wp), allocatable, intent(out) :: pstart(:)
+    character(len=NAMELEN), allocatable :: pnames(:)
+    character(len=:), allocatable :: text
+    character(len=msg_len) :: iomsg
+    integer :: ios
+
+    allocate (pstart(0))
+    if (any(len_trim(states) > 0) .or. any(len_trim(xdot) > 0) .or. any(len_trim(inputs) > 0) &
+        .or. any(len_trim(outputs) > 0) .or. any(len_trim(definitions) > 0)) then
+      call fail(c, 'group &model: kind = ''flight_path'' writes its states, inputs and '// &
+                'equations itself (no state_names, xdot, input_names, outputs, definitions)')
+      return
+    end if
+    if (has_gap(c, 'params', params) .or. has_gap(c, 'output_names', ynames)) return
+    call param_entries(c, params, pnames, pstart)
+    if (c%status /= MLID_OK) return
+    if (all(len_trim(ynames) == 0)) ynames(1:size(FLIGHTPATH_OUTPUTS)) = FLIGHTPATH_OUTPUTS
+    call flightpath_text(pack(constants, constants /= UNSET), pnames, &
+                         pack(ynames, len_trim(ynames) > 0), text, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &model: '//trim(iomsg))
+      return
+    end if
+    inputs(1:size(FLIGHTPATH_INPUTS)) = FLIGHTPATH_INPUTS
+    c%iconst = equations_text_codes(text)
+    c%flight_path = .true.
+  end subroutine flightpath_deck
+
+  !> The params entries' names and start values, in order.
+  subroutine param_entries(c, params, names, values)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: params(:)
+    character(len=NAMELEN), allocatable, intent(out) :: names(:)
+    real(wp), allocatable, intent(out) :: values(:)
+    integer :: k, n
+    n = count(len_trim(params) > 0)
+    allocate (names(n), values(n))
+    do k = 1, n
+      call param_entry(c, params(k), names(k), values(k))
+      if (c%status /= MLID_OK) return
+    end do
+  end subroutine param_entries
+
+  !> A params entry: 'NAME' (start value 0) or 'NAME = value', the value an
+  !> expression of numbers ('-3/2', '2*pi'), never read loosely.
+  subroutine param_entry(c, entry, name, v)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: entry
+    character(len=*), intent(out) :: name
+    real(wp), intent(out) :: v
+    character(len=:), allocatable :: rhs
+    character(len=msg_len) :: iomsg
+    type(expr_t) :: ex
+    real(wp) :: none(1, 0), val(1)
+    integer :: ios
+
+    v = 0.0_wp
+    if (index(entry, '=') == 0) then
+      call split_definition(trim(entry)//' = 0', name, rhs, ios, iomsg)
+    else
+      call split_definition(entry, name, rhs, ios, iomsg)
+      if (ios == MLID_OK) call expr_compile(rhs, [character(len=1) ::], ex, ios, iomsg, &
+                                            noun='variable')
+      if (ios == MLID_OK) then
+        call expr_eval(ex, none, val)
+        v = val(1)
+        if (.not. ieee_is_finite(v)) then
+          ios = MLID_ERR_INPUT
+          iomsg = 'the value is not finite'
+        end if
+      end if
+    end if
+    if (ios /= MLID_OK) call fail(c, 'group &model: params entry '''//trim(entry)//''': '// &
+                                  trim(iomsg))
+  end subroutine param_entry
+
+  !> Whether a list has a blank entry before a filled one (said in one line).
+  logical function has_gap(c, what, list)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: what, list(:)
+    integer :: k
+    has_gap = .false.
+    k = findloc(len_trim(list) == 0, .true., 1)
+    if (k == 0) return
+    has_gap = any(len_trim(list(k + 1:)) > 0)
+    if (has_gap) call fail(c, 'group &model: '//what//'('//itoa(k)//') is empty, and an '// &
+                           'entry after it is not')
+  end function has_gap
+
+end submodule mlid_deck_equations

@@ -1,0 +1,155 @@
+!> The reader of a deck's &estimate group (mlid_deck): the estimator's
+!> options, the a priori values, weights and bounds per free parameter,
+!> and the corrected records of a flight-path fit.
+submodule (mlid_deck) mlid_deck_estimate
+  use mlid_case, only: MAXSEG
+  use mlid_options, only: option_get
+  implicit none
+
+contains
+
+  !> &estimate: the estimator's options, and a priori values, weights and
+  !> bounds per free parameter (in the order of free).
+  module subroutine read_estimate_group(rd, c, free_idx)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: free_idx(:)
+    character(len=32) :: noise, method, startup, rank_rule, process_noise, noise_criterion, &
+                         filter_params
+    integer :: max_iter, halvings, rank_min, rank_max, ios, n_freq
+    logical :: partials, steady_state
+    real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay, f_min, f_max
+    real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
+    character(len=PATHLEN) :: corrected(MAXSEG)
+    character(len=msg_len) :: iomsg
+    type(options_t) :: opt
+    namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
+      process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond, prior, &
+      prior_weight, prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected, f_min, &
+      f_max, n_freq
+
+    call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
+    max_iter = opt%max_iter
+    halvings = opt%halvings
+    partials = opt%partials
+    steady_state = opt%steady
+    tol_cost = opt%tol_cost
+    tol_step = opt%tol_step
+    tol_grad = opt%tol_grad
+    rcond = opt%rcond
+    prior_decay = opt%prior_decay
+    rank_min = opt%rank_min
+    rank_max = opt%rank_max
+    n_freq = opt%n_freq
+    f_min = opt%f_min
+    f_max = opt%f_max
+    noise = option_get(c%iopt, c%ropt, 'noise')
+    method = option_get(c%iopt, c%ropt, 'method')
+    startup = option_get(c%iopt, c%ropt, 'startup')
+    rank_rule = option_get(c%iopt, c%ropt, 'rank_rule')
+    process_noise = option_get(c%iopt, c%ropt, 'process_noise')
+    noise_criterion = option_get(c%iopt, c%ropt, 'noise_criterion')
+    filter_params = option_get(c%iopt, c%ropt, 'filter_params')
+    prior = UNSET
+    prior_weight = UNSET
+    lower = UNSET
+    upper = UNSET
+    corrected = ''
+    rewind (rd%unit)
+    read (rd%unit, nml=estimate, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'estimate', ios, iomsg, .false., c)
+    if (c%status /= MLID_OK) return
+    call take_corrected(c, corrected)
+    if (c%status /= MLID_OK) return
+    opt%max_iter = max_iter
+    opt%halvings = halvings
+    opt%partials = partials
+    opt%steady = steady_state
+    opt%tol_cost = tol_cost
+    opt%tol_step = tol_step
+    opt%tol_grad = tol_grad
+    opt%rcond = rcond
+    opt%prior_decay = prior_decay
+    opt%rank_min = rank_min
+    opt%rank_max = rank_max
+    opt%n_freq = n_freq
+    opt%f_min = f_min
+    opt%f_max = f_max
+    call options_to_flat(opt, c%iopt, c%ropt)
+    call set_option(c, 'group &estimate: ', 'method', method)
+    call set_option(c, 'group &estimate: ', 'startup', startup)
+    call set_option(c, 'group &estimate: ', 'rank_rule', rank_rule)
+    call set_option(c, 'group &estimate: ', 'noise', noise)
+    call set_option(c, 'group &estimate: ', 'process_noise', process_noise)
+    call set_option(c, 'group &estimate: ', 'noise_criterion', noise_criterion)
+    call set_option(c, 'group &estimate: ', 'filter_params', filter_params)
+    if (c%status == MLID_OK) call put_extras(c, free_idx, prior, prior_weight, lower, upper)
+  end subroutine read_estimate_group
+
+  !> &estimate corrected: one record to write per data file, for a fit of
+  !> kind 'flight_path' (the corrections it undoes are that kind's).
+  subroutine take_corrected(c, corrected)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: corrected(:)
+    character(len=msg_len) :: iomsg
+    integer :: n
+    if (all(len_trim(corrected) == 0)) return
+    n = 0
+    if (allocated(c%data_files)) n = size(c%data_files)
+    if (.not. c%flight_path) then
+      call fail(c, 'group &estimate: corrected writes the records with a flight-path fit''s '// &
+                'corrections undone: it needs &model kind = ''flight_path''')
+    else if (c%job /= 'estimate') then
+      call fail(c, 'group &estimate: corrected is for job = ''estimate''')
+    else if (any(len_trim(corrected(n + 1:)) > 0)) then
+      write (iomsg, '(a,i0,a)') 'group &estimate: corrected names more files than the case''s ', &
+        n, ' data files (one record written per data file, in their order)'
+      call fail(c, iomsg)
+    else if (any(len_trim(corrected(1:n)) == 0)) then
+      write (iomsg, '(a,i0,a,i0,a)') 'group &estimate: corrected has no file for data file ', &
+        findloc(len_trim(corrected(1:n)) == 0, .true., 1), ' (one record written per data '// &
+        'file, in their order; the case has ', n, ')'
+      call fail(c, iomsg)
+    else
+      c%corrected = corrected(1:n)
+    end if
+  end subroutine take_corrected
+
+  !> A priori values and weights and bounds, given per free parameter in
+  !> the order of free, into theta's order.
+  subroutine put_extras(c, free_idx, prior, prior_weight, lower, upper)
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: free_idx(:)
+    real(wp), intent(in) :: prior(:), prior_weight(:), lower(:), upper(:)
+    character(len=msg_len) :: iomsg
+    integer :: j, nfr, pos
+
+    nfr = size(free_idx)
+    if (count(prior_weight /= UNSET) + count(prior /= UNSET) + count(lower /= UNSET) + &
+        count(upper /= UNSET) == 0) return
+    do j = nfr + 1, size(prior)
+      if (any([prior(j), prior_weight(j), lower(j), upper(j)] /= UNSET)) then
+        write (iomsg, '(a,i0,a)') 'group &estimate: prior, prior_weight, lower and upper take '// &
+          'one value per free parameter (', nfr, ')'
+        call fail(c, iomsg)
+        return
+      end if
+    end do
+    allocate (c%prior(size(c%theta)), c%pweight(nfr, nfr), c%lower(size(c%theta)), &
+              c%upper(size(c%theta)))
+    c%prior = c%theta
+    c%pweight = 0.0_wp
+    c%lower = -huge(1.0_wp)
+    c%upper = huge(1.0_wp)
+    do j = 1, nfr
+      pos = count(c%isfree(1:free_idx(j)) == 1)      ! its place among the free, theta order
+      if (prior(j) /= UNSET) c%prior(free_idx(j)) = prior(j)
+      if (prior_weight(j) /= UNSET) c%pweight(pos, pos) = prior_weight(j)
+      if (lower(j) /= UNSET) c%lower(free_idx(j)) = lower(j)
+      if (upper(j) /= UNSET) c%upper(free_idx(j)) = upper(j)
+    end do
+    if (count(prior_weight /= UNSET) > 0) c%use_prior = 1
+    if (count(lower /= UNSET) + count(upper /= UNSET) > 0) c%use_bounds = 1
+  end subroutine put_extras
+
+end submodule mlid_deck_estimate

@@ -1,0 +1,372 @@
+!> The readers of the groups of the jobs other than estimate and validate
+!> (mlid_deck): &simulate (the record to write, its time base, inputs and
+!> noise), &design (the input design's unknowns, record, limit, weights,
+!> servo time constants, process noise and method) and &monte_carlo
+!> (runs, seed, the input flown, the true values).
+submodule (mlid_deck) mlid_deck_jobs
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_case, only: MAX_SAMPLES
+  use mlid_model_factory, only: MODEL_LINEAR
+  use mlid_layout, only: layout_table_t, layout_of, element_index, element_name, locate
+  implicit none
+
+  !> The methods of &design.
+  character(len=10), parameter :: DESIGN_METHODS(4) = [character(len=10) :: 'operator', &
+                                                       'riccati', 'amplitude', 'equalised']
+
+contains
+
+  !> &simulate: the record to write, its time base, inputs and noise.
+  module subroutine read_simulate_group(rd, c)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    character(len=PATHLEN) :: out
+    character(len=16) :: input_shape(MAXU)
+    real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
+    integer :: seed, ios, o
+    type(layout_table_t) :: lt
+    character(len=msg_len) :: iomsg
+    character(len=PATHLEN) :: input_file
+    namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
+      pulse_width, input_file
+
+    out = ''
+    t_end = 0.0_wp
+    dt = 0.0_wp
+    seed = 0
+    noise_std = UNSET
+    input_shape = ''
+    amplitude = UNSET
+    t_start = UNSET
+    pulse_width = UNSET
+    input_file = ''
+    rewind (rd%unit)
+    read (rd%unit, nml=simulate, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'simulate', ios, iomsg, .true., c)
+    if (c%status /= MLID_OK) return
+    c%out_file = out
+    c%input_file = input_file
+    c%t_end = t_end
+    c%dt = dt
+    c%seed = seed
+    if (len_trim(input_file) > 0 .and. (t_end /= 0.0_wp .or. dt /= 0.0_wp .or. &
+        any(len_trim(input_shape) > 0) .or. any(amplitude /= UNSET) .or. &
+        any(t_start /= UNSET) .or. any(pulse_width /= UNSET))) then
+      call fail(c, 'group &simulate: input_file gives the time and inputs; t_end, dt, '// &
+                'input_shape, amplitude, t_start and pulse_width are for a standard input')
+      return
+    end if
+    ! one value serves every input; otherwise one per input
+    c%input_shape = per_input_text(input_shape, c%nu, 'none')
+    c%t_start = per_input(t_start, c%nu)
+    c%pulse_width = per_input(pulse_width, c%nu)
+    c%noise_std = pack(noise_std, noise_std /= UNSET)
+    c%amplitude = pack(amplitude, amplitude /= UNSET)
+    if (size(c%amplitude) == 0) c%amplitude = spread(0.0_wp, 1, c%nu)
+    call check_simulate(c)
+    if (c%status /= MLID_OK) return
+    ! noise_std, when given, sets the measurement-noise variances r
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &simulate: '//trim(iomsg))
+      return
+    end if
+    o = lt%off(findloc(lt%key, 'r', 1))
+    if (size(c%noise_std) == c%ny) c%theta(o + 1:o + c%ny) = c%noise_std**2
+  end subroutine read_simulate_group
+
+  subroutine check_simulate(c)
+    type(case_t), intent(inout) :: c
+    character(len=msg_len) :: iomsg
+    if (len_trim(c%out_file) == 0) then
+      call fail(c, 'group &simulate: out (the data file to write) is missing')
+    else if (len_trim(c%input_file) == 0 .and. .not. (c%dt > 0.0_wp .and. c%t_end > c%dt)) then
+      call fail(c, 'group &simulate: need dt > 0 and t_end > dt')
+    else if (len_trim(c%input_file) == 0 .and. .not. (c%t_end/c%dt < real(MAX_SAMPLES, wp))) then
+      write (iomsg, '(a,es10.3,a,i0,a)') 'group &simulate: t_end/dt =', c%t_end/c%dt, &
+        ' samples; at most ', MAX_SAMPLES, ' are allowed'
+      call fail(c, iomsg)
+    else if (size(c%noise_std) /= c%ny .and. size(c%noise_std) /= 0) then
+      write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
+        ' values, the model has ', c%ny, ' outputs'
+      call fail(c, iomsg)
+    else if (.not. all(c%noise_std >= 0.0_wp .and. c%noise_std < UNSET)) then
+      call fail(c, 'group &simulate: noise_std (the standard deviation of each output''s '// &
+                'noise) must be >= 0 and finite')
+    else if (size(c%amplitude) /= c%nu) then
+      write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: amplitude has ', size(c%amplitude), &
+        ' values, the model has ', c%nu, ' inputs'
+      call fail(c, iomsg)
+    else if (c%seed < 0) then
+      call fail(c, 'group &simulate: seed must be >= 0')
+    else if (size(c%input_shape) /= c%nu .or. size(c%t_start) /= c%nu .or. &
+             size(c%pulse_width) /= c%nu) then
+      write (iomsg, '(a,i0,a)') 'group &simulate: input_shape, t_start and pulse_width take '// &
+        'one value or one per input (', c%nu, ')'
+      call fail(c, iomsg)
+    end if
+  end subroutine check_simulate
+
+  !> The values given, or the one value repeated for every input (zeros
+  !> when none is given).
+  function per_input(v, n) result(out)
+    real(wp), intent(in) :: v(:)
+    integer, intent(in) :: n
+    real(wp), allocatable :: out(:)
+    out = pack(v, v /= UNSET)
+    if (size(out) == 0) out = [0.0_wp]
+    if (size(out) == 1) out = spread(out(1), 1, n)
+  end function per_input
+
+  function per_input_text(v, n, default) result(out)
+    character(len=*), intent(in) :: v(:), default
+    integer, intent(in) :: n
+    character(len=16), allocatable :: out(:)
+    integer :: i
+    out = pack(v, len_trim(v) > 0)
+    if (size(out) == 0) out = [character(len=16) :: default]
+    if (size(out) == 1) out = spread(out(1), 1, n)
+    do i = 1, size(out)
+      out(i) = to_lower(out(i))
+    end do
+  end function per_input_text
+
+  !> &design (job 'design', kind 'linear'): the unknowns (elements of F, G
+  !> or H; default: the free ones), the record's length t_end and step dt,
+  !> the limit (energy, or peak and min_width), weights, servo time
+  !> constants, process noise Gamma Q Gamma', method and iterations, and
+  !> the record to write.
+  module subroutine read_design_group(rd, c)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    character(len=NAMELEN) :: unknowns(MAXFREE)
+    character(len=16) :: method
+    character(len=PATHLEN) :: out
+    real(wp) :: t_end, dt, energy, peak, min_width, weights(MAXFREE), servo(MAXU), &
+                process_noise(MAXX*MAXX)
+    integer :: iterations, ios
+    character(len=msg_len) :: iomsg
+    namelist /design/ unknowns, t_end, dt, energy, peak, min_width, weights, servo, &
+      process_noise, method, iterations, out
+
+    unknowns = ''
+    method = ''
+    out = ''
+    t_end = 0.0_wp
+    dt = 0.0_wp
+    energy = UNSET
+    peak = UNSET
+    min_width = UNSET
+    weights = UNSET
+    servo = UNSET
+    process_noise = UNSET
+    iterations = 12
+    rewind (rd%unit)
+    read (rd%unit, nml=design, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'design', ios, iomsg, .true., c)
+    if (c%status /= MLID_OK) return
+    c%out_file = out
+    c%t_end = t_end
+    c%dt = dt
+    c%design_method = to_lower(method)
+    c%energy = merge(0.0_wp, energy, energy == UNSET)
+    c%peak = merge(0.0_wp, peak, peak == UNSET)
+    c%min_width = merge(0.0_wp, min_width, min_width == UNSET)
+    c%iterations = iterations
+    if (len_trim(method) == 0) c%design_method = merge('amplitude', 'operator ', peak /= UNSET)
+    call design_model_check(c)
+    if (c%status == MLID_OK) call design_unknowns(c, unknowns)
+    if (c%status == MLID_OK) call design_settings(c, weights, servo, process_noise)
+    if (c%status == MLID_OK) call design_limits(c, energy /= UNSET, peak /= UNSET .or. &
+                                                min_width /= UNSET)
+  end subroutine read_design_group
+
+  !> What the design takes of &model: a linear model with inputs, no state
+  !> feedback or stabilisation, measurement noise r > 0 on every output.
+  subroutine design_model_check(c)
+    type(case_t), intent(inout) :: c
+    type(layout_table_t) :: lt
+    integer :: ios, b
+    character(len=msg_len) :: iomsg
+
+    if (c%mkind /= MODEL_LINEAR .or. c%nu < 1) then
+      call fail(c, 'group &design: input design needs kind = ''linear'' with at least one input')
+      return
+    end if
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
+    do b = 1, lt%nblock
+      if (all(lt%key(b) /= [character(len=8) :: 'k', 'stab', 'delay', 'udelay'])) cycle
+      if (any(c%theta(lt%off(b) + 1:lt%off(b) + lt%rows(b)*max(1, lt%cols(b))) /= 0.0_wp)) then
+        call fail(c, 'group &design: the design model is F, G, H; &model '//trim(lt%key(b))// &
+                  ' must be zero')
+        return
+      end if
+    end do
+    b = findloc(lt%key, 'r', 1)
+    if (.not. all(c%theta(lt%off(b) + 1:lt%off(b) + c%ny) > 0.0_wp)) &
+      call fail(c, 'group &design: &model r (the measurement-noise variance of each output) '// &
+                'must be > 0: the design''s noise spectral density is r dt')
+  end subroutine design_model_check
+
+  !> The unknowns: elements of F, G or H named in unknowns, else the free
+  !> parameters; each labelled as &model names it when it is free.
+  subroutine design_unknowns(c, unknowns)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: unknowns(:)
+    type(layout_table_t) :: lt
+    integer, allocatable :: idx(:)
+    integer :: k, b, i, j, ios
+    character(len=msg_len) :: iomsg
+
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
+    if (any(len_trim(unknowns) > 0)) then
+      allocate (idx(0))
+      do k = 1, size(unknowns)
+        if (len_trim(unknowns(k)) == 0) cycle
+        i = element_index(lt, unknowns(k))
+        if (i == 0) then
+          call fail(c, 'group &design: unknown '''//trim(unknowns(k))//''' is no element '// &
+                    'of F, G or H within the dimensions')
+          return
+        end if
+        if (any(idx == i)) then
+          call fail(c, 'group &design: unknown '''//trim(unknowns(k))//''' listed twice')
+          return
+        end if
+        idx = [idx, i]
+      end do
+    else
+      idx = pack([(k, k=1, size(c%theta))], c%isfree == 1)
+    end if
+    if (size(idx) == 0) then
+      call fail(c, 'group &design: no unknowns: list them in &design unknowns or free them '// &
+                'in &model')
+      return
+    end if
+    allocate (c%ukind(size(idx)), c%urow(size(idx)), c%ucol(size(idx)), c%unknowns(size(idx)))
+    do k = 1, size(idx)
+      call locate(lt, idx(k), b, i, j)
+      c%ukind(k) = findloc([character(len=8) :: 'f', 'g', 'h'], lt%key(b), 1)
+      c%urow(k) = i
+      c%ucol(k) = j
+      c%unknowns(k) = element_name(lt, idx(k))
+      if (c%isfree(idx(k)) == 1) c%unknowns(k) = c%labels(count(c%isfree(1:idx(k)) == 1))
+      if (c%ukind(k) == 0) then
+        call fail(c, 'group &design: unknown '''//trim(element_name(lt, idx(k)))//''' is '// &
+                  'no element of F, G or H (the design''s unknowns are)')
+        return
+      end if
+    end do
+  end subroutine design_unknowns
+
+  !> Weights (one per unknown, > 0; default ones), servo time constants
+  !> (one, or one per input; >= 0, 0 for none) and process noise (nx x nx,
+  !> row by row, symmetric; default none).
+  subroutine design_settings(c, weights, servo, process_noise)
+    type(case_t), intent(inout) :: c
+    real(wp), intent(in) :: weights(:), servo(:), process_noise(:)
+    integer :: m
+
+    m = size(c%ukind)
+    c%weights = pack(weights, weights /= UNSET)
+    if (size(c%weights) == 0) c%weights = spread(1.0_wp, 1, m)
+    c%servo = per_input(servo, c%nu)
+    c%gq = transpose(reshape(pack(process_noise, process_noise /= UNSET), [c%nx, c%nx], &
+                             pad=[0.0_wp]))
+    if (size(c%weights) /= m .or. .not. all(c%weights > 0.0_wp .and. c%weights < UNSET)) then
+      call fail(c, 'group &design: weights takes one value > 0 per unknown ('//itoa(m)//')')
+    else if (size(c%servo) /= c%nu .or. .not. all(c%servo >= 0.0_wp .and. c%servo < UNSET)) then
+      call fail(c, 'group &design: servo takes one time constant >= 0 (s; 0: none), or one '// &
+                'per input ('//itoa(c%nu)//')')
+    else if (all(count(process_noise /= UNSET) /= [0, c%nx*c%nx])) then
+      call fail(c, 'group &design: process_noise is Gamma Q Gamma'' (nx x nx = '// &
+                itoa(c%nx*c%nx)//' values, row by row), got '// &
+                itoa(count(process_noise /= UNSET)))
+    else if (any(abs(c%gq - transpose(c%gq)) > 1.0e-12_wp*maxval(abs(c%gq)))) then
+      call fail(c, 'group &design: process_noise (Gamma Q Gamma'') must be symmetric')
+    end if
+  end subroutine design_settings
+
+  !> The record (t_end a whole number of steps dt), the method and its
+  !> limit: energy for operator, riccati and equalised (an even number of
+  !> steps: the operator's finer grid is the record's); peak and min_width
+  !> for amplitude.
+  subroutine design_limits(c, has_energy, has_peak)
+    type(case_t), intent(inout) :: c
+    logical, intent(in) :: has_energy, has_peak
+    integer :: n
+
+    n = nint(c%t_end/max(c%dt, tiny(1.0_wp)))
+    if (len_trim(c%out_file) == 0) then
+      call fail(c, 'group &design: out (the record of the designed input to write) is missing')
+    else if (.not. (c%dt > 0.0_wp .and. c%t_end > c%dt .and. c%t_end < UNSET)) then
+      call fail(c, 'group &design: need dt > 0 and t_end > dt (the input''s length T, s)')
+    else if (.not. (c%t_end/c%dt < real(MAX_SAMPLES, wp))) then
+      call fail(c, 'group &design: t_end/dt is too many samples')
+    else if (abs(n*c%dt - c%t_end) > 1.0e-9_wp*c%t_end) then
+      call fail(c, 'group &design: t_end must be a whole number of steps dt')
+    else if (all(c%design_method /= DESIGN_METHODS)) then
+      call fail(c, 'group &design: method must be '//choices(DESIGN_METHODS)//', got '''// &
+                trim(c%design_method)//'''')
+    else if (c%design_method == 'amplitude') then
+      if (has_energy .or. .not. (c%peak > 0.0_wp .and. c%min_width > 0.0_wp)) then
+        call fail(c, 'group &design: method ''amplitude'' takes peak > 0 and min_width > 0 '// &
+                  '(the shortest pulse, s), not energy')
+      else if (c%min_width > c%t_end) then
+        call fail(c, 'group &design: min_width is longer than t_end')
+      end if
+    else if (has_peak .or. .not. c%energy > 0.0_wp) then
+      call fail(c, 'group &design: method '''//trim(c%design_method)//''' takes energy > 0 '// &
+                '(the integral of u''u over T), not peak or min_width')
+    else if (mod(n, 2) /= 0) then
+      call fail(c, 'group &design: method '''//trim(c%design_method)//''' needs an even '// &
+                'number of steps t_end/dt (its two grids are t_end/dt/2 and t_end/dt cells)')
+    else if (c%iterations < 0) then
+      call fail(c, 'group &design: iterations must be >= 0')
+    end if
+  end subroutine design_limits
+
+  !> &monte_carlo (job 'monte_carlo'): runs from seed (run k: seed + k - 1),
+  !> the record of the input flown (input_file) and the true values of the
+  !> free parameters (in the order of free; default: the start values).
+  module subroutine read_monte_carlo_group(rd, c, free_idx)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: free_idx(:)
+    integer :: runs, seed, ios, nf
+    real(wp) :: truth(MAXFREE)
+    character(len=PATHLEN) :: input_file
+    character(len=msg_len) :: iomsg
+    namelist /monte_carlo/ runs, seed, truth, input_file
+
+    runs = 0
+    seed = 1
+    truth = UNSET
+    input_file = ''
+    rewind (rd%unit)
+    read (rd%unit, nml=monte_carlo, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'monte_carlo', ios, iomsg, .true., c)
+    if (c%status /= MLID_OK) return
+    nf = size(free_idx)
+    c%runs = runs
+    c%seed = seed
+    c%input_file = input_file
+    c%theta_true = c%theta
+    if (count(truth /= UNSET) > 0) c%theta_true(free_idx) = truth(1:nf)
+    if (len_trim(input_file) == 0) then
+      call fail(c, 'group &monte_carlo: input_file (the record of the input flown) is missing')
+    else if (runs < 1 .or. runs > 1000000) then
+      call fail(c, 'group &monte_carlo: runs must be 1 to 1000000, got '//itoa(runs))
+    else if (seed < 0 .or. seed > huge(1) - runs) then
+      call fail(c, 'group &monte_carlo: seed must be >= 0 (runs use seed, seed + 1, ...)')
+    else if (nf == 0) then
+      call fail(c, 'group &monte_carlo: nothing is free in &model: there is nothing to estimate')
+    else if (all(count(truth /= UNSET) /= [0, nf]) .or. any(truth(nf + 1:) /= UNSET)) then
+      call fail(c, 'group &monte_carlo: truth takes one value per free parameter ('// &
+                itoa(nf)//', in the order of free), got '//itoa(count(truth /= UNSET)))
+    else if (.not. all(ieee_is_finite(c%theta_true))) then
+      call fail(c, 'group &monte_carlo: truth must be finite')
+    end if
+  end subroutine read_monte_carlo_group
+
+end submodule mlid_deck_jobs

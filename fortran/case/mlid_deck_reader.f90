@@ -1,0 +1,177 @@
+!> What every group reader of a deck shares (mlid_deck): a case that fails
+!> keeps its message (fail); a group missing or refused by its namelist
+!> read becomes a message that names the line and the culprit (group_status,
+!> blame, assigned, group_line); text too long for its variable (too_long);
+!> an option set by name (set_option); a list of choices for a message;
+!> a line without its comment (strip_comment).
+submodule (mlid_deck) mlid_deck_reader
+  use mlid_text, only: comment_start
+  use mlid_options, only: option_set
+  implicit none
+
+contains
+
+  !> After a group's namelist read: a missing group (an error when the job
+  !> needs it) or a read error becomes the case's message.
+  module subroutine group_status(rd, group, ios, iomsg, required, c)
+    type(reader_t), intent(in) :: rd
+    character(len=*), intent(in) :: group, iomsg
+    integer, intent(in) :: ios
+    logical, intent(in) :: required
+    type(case_t), intent(inout) :: c
+    if (ios < 0 .and. required) then
+      call fail(c, 'group &'//group//' is missing (job '''//trim(c%job)//''' needs it)')
+    else if (ios > 0) then
+      call fail(c, 'group &'//group//' (line '//itoa(group_line(rd%lines, rd%line0, group))// &
+                '): '//blame(rd, group, iomsg))
+    end if
+  end subroutine group_status
+
+  !> A namelist read error in words a user can act on: the compiler names
+  !> the token it could not take ("Cannot match namelist object name .5"):
+  !> a name of the group that is not one of its namelist's, a number where a
+  !> name should be (a value too many), or the rest of a bad value, the name
+  !> assigned just before it on its line being the one with the bad value
+  !> ("max_iter = 2.5"); or the variable whose index is out of range.
+  function blame(rd, group, iomsg) result(text)
+    type(reader_t), intent(in) :: rd
+    character(len=*), intent(in) :: group, iomsg
+    character(len=:), allocatable :: text, token, line
+    integer :: p, k, q, e, b
+    text = trim(iomsg)
+    p = index(iomsg, 'namelist variable ')
+    if (p > 0 .and. index(to_lower(iomsg), 'index') > 0) then
+      k = assigned(rd, group, to_lower(trim(iomsg(p + 18:))), .true.)
+      if (k == 0) return
+      text = 'line '//itoa(rd%given(k)%line)//': '//trim(rd%given(k)%key)//'('// &
+             trim(rd%given(k)%subscript)//'): '
+      if (index(iomsg, 'out of range') > 0) then
+        text = text//'the index lies outside '//trim(rd%given(k)%key)
+      else
+        text = text//'a deck''s lists take one index, NAME(i) or NAME(i:j) (a matrix is '// &
+               'one list, row by row)'
+      end if
+      return
+    end if
+    p = index(iomsg, 'object name ')
+    if (p == 0) return
+    token = trim(iomsg(p + 12:))
+    if (len(token) == 0) return
+    k = assigned(rd, group, to_lower(token), .false.)
+    if (k > 0) then
+      text = 'line '//itoa(rd%given(k)%line)//': unknown name '//token//' in group &'//group
+      return
+    end if
+    if (scan(token(1:1), '0123456789+-') == 1) then   ! a whole value: one too many
+      text = 'a value stands where a name should be (read as '''//token//'''): a name '// &
+             'given more values than it takes, or a name without ='
+      return
+    end if
+    do k = group_line(rd%lines, rd%line0, group) - rd%line0 + 1, size(rd%lines)
+      line = trim(strip_comment(rd%lines(k)%s))
+      q = index(line, token)
+      if (q == 0) cycle
+      e = index(line(1:q - 1), '=', back=.true.)
+      if (e == 0) exit
+      b = scan(trim(line(1:e - 1)), ' ,', back=.true.)
+      text = 'line '//itoa(rd%line0 + k - 1)//': bad value '''// &
+             trim(adjustl(line(e + 1:q + len(token) - 1)))//''' for '// &
+             trim(adjustl(line(b + 1:e - 1)))//' ('//trim(iomsg)//')'
+      return
+    end do
+  end function blame
+
+  !> The case's first assignment of name key in group (with a subscript
+  !> when subscripted), 0 when none.
+  integer function assigned(rd, group, key, subscripted)
+    type(reader_t), intent(in) :: rd
+    character(len=*), intent(in) :: group, key
+    logical, intent(in) :: subscripted
+    integer :: k
+    assigned = 0
+    do k = 1, size(rd%given)
+      if (rd%given(k)%group /= group .or. rd%given(k)%key /= key) cycle
+      if (subscripted .and. len_trim(rd%given(k)%subscript) == 0) cycle
+      assigned = k
+      return
+    end do
+  end function assigned
+
+  !> Whether quoted text given to one of keys in group is longer than room,
+  !> the characters its variable holds (the namelist read would cut it
+  !> without a word): the case fails naming key, line and room.
+  module logical function too_long(rd, c, group, keys, room)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: group, keys(:)
+    integer, intent(in) :: room
+    integer :: k
+    too_long = .false.
+    do k = 1, size(rd%given)
+      associate (a => rd%given(k))
+        if (a%group /= group .or. all(a%key /= keys) .or. a%longest <= room) cycle
+        call fail(c, 'line '//itoa(a%line)//': a value of '//trim(a%key)//' in group &'// &
+                  group//' is longer than its '//itoa(room)//' characters')
+        too_long = .true.
+        return
+      end associate
+    end do
+  end function too_long
+
+  module subroutine fail(c, text)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: text
+    c%status = MLID_ERR_INPUT
+    c%msg = text
+  end subroutine fail
+
+  !> Set an option of the case by name from the deck's text (the core's
+  !> option table checks the name and the value).
+  module subroutine set_option(c, where, name, text)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: where, name, text
+    character(len=msg_len) :: msg
+    integer :: status
+    call option_set(c%iopt, c%ropt, name, text, status, msg)
+    if (status /= MLID_OK) call fail(c, where//trim(msg))
+  end subroutine set_option
+
+  !> 'a', 'b' or 'c': a list of choices for a message.
+  module function choices(list) result(text)
+    character(len=*), intent(in) :: list(:)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = ''''//trim(list(1))//''''
+    do k = 2, size(list)
+      if (k == size(list)) then
+        text = text//' or '''//trim(list(k))//''''
+      else
+        text = text//', '''//trim(list(k))//''''
+      end if
+    end do
+  end function choices
+
+  !> The line without its comment (from the first '!' outside quotes:
+  !> mlid_text's comment_start).
+  module function strip_comment(line) result(s)
+    character(len=*), intent(in) :: line
+    character(len=len(line)) :: s
+    s = line(1:comment_start(line) - 1)
+  end function strip_comment
+
+  !> Line number of the first &group in the case (for messages).
+  integer function group_line(lines, line0, group)
+    type(line_t), intent(in) :: lines(:)
+    character(len=*), intent(in) :: group
+    integer, intent(in) :: line0
+    integer :: k
+    group_line = line0
+    do k = 1, size(lines)
+      if (index(to_lower(strip_comment(lines(k)%s)), '&'//group) > 0) then
+        group_line = line0 + k - 1
+        return
+      end if
+    end do
+  end function group_line
+
+end submodule mlid_deck_reader
