@@ -18,25 +18,20 @@ module mlid_api_deck
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_monte_carlo, only: monte_carlo
-  use mlid_deck, only: deck_read, corrected_writable
+  use mlid_deck, only: deck_read
   use mlid_handles, only: session_t, handle_new, handle_session, handle_free
-  use mlid_case, only: case_t, NAMELEN, NCONDITION, CONDITION_NAMES
+  use mlid_case, only: case_t, case_values, NAMELEN, CONDITION_NAMES
   use mlid_text, only: join_lines, split_lines, joined
   use mlid_sampling, only: record_check_segments
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, channels_table
   use mlid_units, only: UNITLEN
   use mlid_run, only: run_case
-  use mlid_named, only: named_t, VALUE_TEXT
+  use mlid_named, only: named_t, VALUE_REAL, VALUE_INT, VALUE_TEXT
   implicit none
   private
-  public :: mlid_handle_new, mlid_handle_free, mlid_deck_open, mlid_deck_case, &
-            mlid_condition_names, mlid_deck_case_condition, mlid_deck_case_model, &
-            mlid_deck_case_data, mlid_deck_case_ties, mlid_deck_case_corrected_writable, &
-            mlid_deck_case_corrected, mlid_deck_case_holdout, mlid_deck_case_initial_states, &
-            mlid_deck_case_record, mlid_channels_read, &
-            mlid_channels_table, mlid_channels_get, mlid_deck_case_run, mlid_case_result_info, &
-            mlid_case_result, mlid_case_result_text, mlid_check_time
+  public :: mlid_handle_new, mlid_handle_free, mlid_deck_open, mlid_condition_names, &
+            mlid_values_sizes, mlid_values, mlid_deck_case_record, mlid_channels_read, &
+            mlid_channels_table, mlid_channels_get, mlid_deck_case_run, mlid_check_time
 
 contains
 
@@ -72,216 +67,11 @@ contains
     ncases = size(s%cases)
   end subroutine mlid_deck_open
 
-  !> Case k of handle h's deck: where it is, what it does, its sizes.
-  !> nt is the number of samples of a simulate case; nfile the data files of
-  !> an estimate case.
-  subroutine mlid_deck_case(h, k, line, title, job, cstatus, cmsg, mkind, nx, nu, ny, nw, nth, nf, &
-                            nic, nrc, nfile, nt)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k
-    integer(c_int), intent(out) :: line, cstatus, mkind, nx, nu, ny, nw, nth, nf, nic, nrc, &
-                                   nfile, nt
-    character(len=128), intent(out) :: title
-    character(len=16), intent(out) :: job
-    character(len=256), intent(out) :: cmsg
-    type(case_t), pointer :: c
-
-    line = 0
-    title = ''
-    job = ''
-    cstatus = MLID_ERR_INPUT
-    cmsg = 'no such case'
-    mkind = 0
-    nx = 0
-    nu = 0
-    ny = 0
-    nw = 0
-    nth = 0
-    nf = 0
-    nic = 0
-    nrc = 0
-    nfile = 0
-    nt = 0
-    c => case_at(h, k)
-    if (.not. associated(c)) return
-    line = c%line
-    title = c%title
-    job = c%job
-    cstatus = c%status
-    cmsg = c%msg
-    if (c%status /= MLID_OK) return
-    mkind = c%mkind
-    nx = c%nx
-    nu = c%nu
-    ny = c%ny
-    nw = c%nw
-    nth = size(c%theta)
-    nf = count(c%isfree == 1)
-    nic = size(c%iconst)
-    nrc = size(c%rconst)
-    if (allocated(c%data_files)) nfile = size(c%data_files)
-    if (c%job == 'simulate' .and. len_trim(c%input_file) == 0) nt = nint(c%t_end/c%dt) + 1
-  end subroutine mlid_deck_case
-
   !> The numeric flight-condition items of &case (mlid_case), comma-separated.
   subroutine mlid_condition_names(names)
     character(len=128), intent(out) :: names
     names = joined(CONDITION_NAMES)
   end subroutine mlid_condition_names
-
-  !> The flight condition of case k (&case): the n numeric items in the
-  !> order of mlid_condition_names (given(i) = 0 where the deck gives none),
-  !> config and tags.
-  subroutine mlid_deck_case_condition(h, k, n, values, given, config, tags)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k, n
-    real(c_double), intent(out) :: values(n)
-    integer(c_int), intent(out) :: given(n)
-    character(len=64), intent(out) :: config
-    character(len=256), intent(out) :: tags
-    type(case_t), pointer :: c
-    integer :: m
-
-    values = 0.0_c_double
-    given = 0
-    config = ''
-    tags = ''
-    c => case_at(h, k)
-    if (.not. associated(c)) return
-    m = min(n, NCONDITION)
-    values(:m) = c%condition(:m)
-    given(:m) = merge(1, 0, c%condition_given(:m))
-    config = c%config
-    tags = c%tags
-  end subroutine mlid_deck_case_condition
-
-  !> The model, options, prior and bounds of case k (sizes from
-  !> mlid_deck_case); labels of the free parameters, one per line.
-  subroutine mlid_deck_case_model(h, k, nth, nf, nic, nrc, theta, isfree, iconst, rconst, &
-                                  iopt, ropt, labels, use_prior, prior, pweight, use_bounds, &
-                                  lower, upper)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k, nth, nf, nic, nrc
-    real(c_double), intent(out) :: theta(nth), rconst(nrc), ropt(16), prior(nth), pweight(nf, nf)
-    real(c_double), intent(out) :: lower(nth), upper(nth)
-    integer(c_int), intent(out) :: isfree(nth), iconst(nic), iopt(16), use_prior, &
-                                   use_bounds
-    character(len=8192), intent(out) :: labels
-    type(case_t), pointer :: c
-
-    c => case_at(h, k)
-    if (.not. associated(c)) return
-    theta = c%theta
-    isfree = c%isfree
-    iconst = c%iconst
-    rconst = c%rconst
-    iopt = c%iopt
-    ropt = c%ropt
-    labels = join_lines(c%labels)
-    use_prior = c%use_prior
-    use_bounds = c%use_bounds
-    prior = theta
-    pweight = 0.0_wp
-    lower = -huge(1.0_wp)
-    upper = huge(1.0_wp)
-    if (allocated(c%prior)) prior = c%prior
-    if (allocated(c%pweight)) pweight = c%pweight
-    if (allocated(c%lower)) lower = c%lower
-    if (allocated(c%upper)) upper = c%upper
-  end subroutine mlid_deck_case_model
-
-  !> Data file j of estimate case k (its path resolved from the deck's
-  !> folder), and the deck's channel names (&model input_names, output_names).
-  subroutine mlid_deck_case_data(h, k, j, path, input_names, output_names)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k, j
-    character(len=512), intent(out) :: path
-    character(len=4096), intent(out) :: input_names, output_names
-    type(case_t), pointer :: c
-    c => case_at(h, k)
-    if (.not. associated(c)) return
-    input_names = join_lines(c%input_names)
-    output_names = join_lines(c%output_names)
-    path = ''
-    if (allocated(c%data_files)) path = c%data_files(j)
-  end subroutine mlid_deck_case_data
-
-  !> The ties of case k: n terms (to, from, scale; nmax at most) and the
-  !> offset of every entry.
-  subroutine mlid_deck_case_ties(h, k, nth, nmax, n, to, from, scale, offset)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k, nth, nmax
-    integer(c_int), intent(out) :: n, to(nmax), from(nmax)
-    real(c_double), intent(out) :: scale(nmax), offset(nth)
-    type(case_t), pointer :: c
-    c => case_at(h, k)
-    if (.not. associated(c)) return
-    n = min(size(c%tie%to), nmax)
-    to = 0
-    from = 0
-    scale = 0.0_wp
-    to(1:n) = c%tie%to(1:n)
-    from(1:n) = c%tie%from(1:n)
-    scale(1:n) = c%tie%scale(1:n)
-    offset = c%tie%offset
-  end subroutine mlid_deck_case_ties
-
-  !> Whether every corrected record of case k can be written (mlid_deck's
-  !> corrected_writable): one line naming the path if not.
-  subroutine mlid_deck_case_corrected_writable(h, k, status, msg)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k
-    integer(c_int), intent(out) :: status
-    character(len=256), intent(out) :: msg
-    type(case_t), pointer :: c
-    c => case_at(h, k)
-    call no_case(c, status, msg)
-    if (status == MLID_OK) call corrected_writable(c, status, msg)
-  end subroutine mlid_deck_case_corrected_writable
-
-  !> Where estimate case k writes manoeuvre j's corrected record (blank: nowhere).
-  subroutine mlid_deck_case_corrected(h, k, j, path)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k, j
-    character(len=512), intent(out) :: path
-    type(case_t), pointer :: c
-    path = ''
-    c => case_at(h, k)
-    if (.not. associated(c)) return
-    if (allocated(c%corrected)) then
-      if (j >= 1 .and. j <= size(c%corrected)) path = c%corrected(j)
-    end if
-  end subroutine mlid_deck_case_corrected
-
-  !> The files validate case k predicts (numbers into its file list).
-  subroutine mlid_deck_case_holdout(h, k, nmax, n, holdout)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k, nmax
-    integer(c_int), intent(out) :: n, holdout(nmax)
-    type(case_t), pointer :: c
-    holdout = 0
-    n = 0
-    c => case_at(h, k)
-    if (.not. associated(c)) return
-    if (allocated(c%holdout)) n = min(size(c%holdout), nmax)
-    if (n > 0) holdout(1:n) = c%holdout(1:n)
-  end subroutine mlid_deck_case_holdout
-
-  !> The initial states case k gives per manoeuvre (n = 0: none; else nx per
-  !> data file, manoeuvre after manoeuvre).
-  subroutine mlid_deck_case_initial_states(h, k, nmax, n, x0)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k, nmax
-    integer(c_int), intent(out) :: n
-    real(c_double), intent(out) :: x0(nmax)
-    type(case_t), pointer :: c
-    x0 = 0.0_wp
-    n = 0
-    c => case_at(h, k)
-    if (.not. associated(c)) return
-    if (allocated(c%initial_states)) n = min(size(c%initial_states), nmax)
-    if (n > 0) x0(1:n) = c%initial_states(1:n)
-  end subroutine mlid_deck_case_initial_states
 
   !> Read data file j of estimate case k as the case takes it (channels,
   !> units, derived channels, units shown, window) and keep it for
@@ -321,6 +111,127 @@ contains
     status = MLID_ERR_INPUT
     write (msg, '(a,i0,a,i0)') 'case ', k, ' has no data file ', j
   end function has_file
+
+  !> How much case k of handle h holds by name (which = 'case': the case as
+  !> read, mlid_case's case_values; 'run': what its last run kept, a fit's
+  !> numbers, mlid_run's put_fit): m values, n numbers, nt characters of
+  !> names (one a line) and texts.
+  subroutine mlid_values_sizes(h, k, which, m, n, nt)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: k
+    character(len=*), intent(in) :: which
+    integer(c_int), intent(out) :: m, n, nt
+    type(named_t) :: v
+    m = 0
+    n = 0
+    nt = 0
+    if (.not. values_of(h, k, which, v)) return
+    call packed_sizes(v, m, n, nt)
+  end subroutine mlid_values_sizes
+
+  !> Those values, packed: value j is the j-th name of text (the names one a
+  !> line, then the texts), of kind kinds(j) (mlid_named's VALUE_*), rank
+  !> shapes(1, j) and shape shapes(2:, j) (a text: its length); its numbers
+  !> follow the values before it in values, its characters (codes) the texts
+  !> before it.  Sizes from mlid_values_sizes; other sizes give nothing.
+  subroutine mlid_values(h, k, which, m, n, nt, kinds, shapes, values, text)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: k, m, n, nt
+    character(len=*), intent(in) :: which
+    integer(c_int), intent(out) :: kinds(m), shapes(4, m), text(nt)
+    real(c_double), intent(out) :: values(n)
+    type(named_t) :: v
+    integer :: mm, nn, ntt
+    kinds = 0
+    shapes = 0
+    values = 0.0_wp
+    text = 0
+    if (.not. values_of(h, k, which, v)) return
+    call packed_sizes(v, mm, nn, ntt)
+    if (mm /= m .or. nn /= n .or. ntt /= nt) return
+    call pack_values(v, kinds, shapes, values, text)
+  end subroutine mlid_values
+
+  !> The values 'case' or 'run' of case k of handle h; false when none.
+  logical function values_of(h, k, which, v)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: k
+    character(len=*), intent(in) :: which
+    type(named_t), intent(out) :: v
+    type(case_t), pointer :: c
+    type(session_t), pointer :: s
+    integer :: status
+    character(len=64) :: msg
+    values_of = .false.
+    c => case_at(h, k)
+    if (.not. associated(c)) return
+    select case (which)
+    case ('case')
+      call case_values(c, v)
+    case ('run')
+      call handle_session(h, s, status, msg)
+      if (.not. allocated(s%runs)) return
+      v = s%runs(k)%results
+    case default
+      return
+    end select
+    values_of = .true.
+  end function values_of
+
+  subroutine packed_sizes(v, m, n, nt)
+    type(named_t), intent(in) :: v
+    integer, intent(out) :: m, n, nt
+    integer :: j
+    m = v%n
+    n = 0
+    nt = 0
+    do j = 1, v%n
+      nt = nt + len(v%v(j)%name) + 1
+      select case (v%v(j)%kind)
+      case (VALUE_REAL)
+        n = n + size(v%v(j)%r)
+      case (VALUE_INT)
+        n = n + size(v%v(j)%i)
+      case (VALUE_TEXT)
+        nt = nt + len(v%v(j)%t)
+      end select
+    end do
+  end subroutine packed_sizes
+
+  subroutine pack_values(v, kinds, shapes, values, text)
+    type(named_t), intent(in) :: v
+    integer(c_int), intent(out) :: kinds(:), shapes(:, :), text(:)
+    real(c_double), intent(out) :: values(:)
+    character(len=:), allocatable :: names, texts
+    integer :: j, at
+    at = 0
+    names = ''
+    texts = ''
+    do j = 1, v%n
+      associate (x => v%v(j))
+        kinds(j) = x%kind
+        shapes(1, j) = x%rank
+        shapes(2:, j) = x%shape
+        names = names//x%name//achar(10)
+        select case (x%kind)
+        case (VALUE_REAL)
+          values(at + 1:at + size(x%r)) = x%r
+          at = at + size(x%r)
+        case (VALUE_INT)
+          values(at + 1:at + size(x%i)) = real(x%i, wp)
+          at = at + size(x%i)
+        case (VALUE_TEXT)
+          shapes(1, j) = 0
+          shapes(2, j) = len(x%t)
+          texts = texts//x%t
+        end select
+      end associate
+    end do
+    names = names//texts
+    do j = 1, len(names)
+      text(j) = ichar(names(j:j))
+    end do
+  end subroutine pack_values
 
   !> Read a record's channels (mlid_channels: text, or a .mat or HDF5 file,
   !> variable naming its matrix when it holds several, '' for none) and keep
@@ -502,94 +413,6 @@ contains
       notes = text
     end associate
   end subroutine mlid_deck_case_run
-
-  !> What the last run of case k of handle h kept under name (a fit's
-  !> numbers: mlid_run's put_fit; a validation's statistics): its kind
-  !> (0 none, mlid_named's VALUE_REAL, VALUE_INT, VALUE_TEXT), rank and
-  !> shape (a text's length).
-  subroutine mlid_case_result_info(h, k, name, kind, rank, shp)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k
-    character(len=*), intent(in) :: name
-    integer(c_int), intent(out) :: kind, rank, shp(3)
-    type(named_t), pointer :: results
-    integer :: j
-    kind = 0
-    rank = 0
-    shp = 0
-    results => run_results(h, k)
-    if (.not. associated(results)) return
-    j = results%find(name)
-    if (j == 0) return
-    kind = results%v(j)%kind
-    rank = results%v(j)%rank
-    shp = results%v(j)%shape
-    if (kind == VALUE_TEXT) shp(1) = len(results%v(j)%t)
-  end subroutine mlid_case_result_info
-
-  !> The n numbers (Fortran order) kept under name by case k's last run.
-  subroutine mlid_case_result(h, k, name, n, values, status, msg)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k, n
-    character(len=*), intent(in) :: name
-    real(c_double), intent(out) :: values(n)
-    integer(c_int), intent(out) :: status
-    character(len=256), intent(out) :: msg
-    type(named_t), pointer :: results
-    integer :: j
-    values = 0.0_wp
-    status = MLID_ERR_INPUT
-    msg = 'case has no result '''//trim(name)//''''
-    results => run_results(h, k)
-    if (.not. associated(results)) return
-    j = results%find(name)
-    if (j == 0) return
-    associate (v => results%v(j))
-      if (allocated(v%r)) then
-        if (size(v%r) /= n) return
-        values = v%r
-      else if (allocated(v%i)) then
-        if (size(v%i) /= n) return
-        values = real(v%i, wp)
-      else
-        return
-      end if
-    end associate
-    status = MLID_OK
-    msg = ''
-  end subroutine mlid_case_result
-
-  !> The text kept under name by case k's last run (a fit's message).
-  subroutine mlid_case_result_text(h, k, name, text)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k
-    character(len=*), intent(in) :: name
-    character(len=256), intent(out) :: text
-    type(named_t), pointer :: results
-    integer :: j
-    text = ''
-    results => run_results(h, k)
-    if (.not. associated(results)) return
-    j = results%find(name)
-    if (j == 0) return
-    if (allocated(results%v(j)%t)) text = results%v(j)%t
-  end subroutine mlid_case_result_text
-
-  !> The results of case k's last run in handle h; null when it has none.
-  function run_results(h, k) result(results)
-    integer(c_int64_t), intent(in) :: h
-    integer(c_int), intent(in) :: k
-    type(named_t), pointer :: results
-    type(session_t), pointer :: s
-    integer :: status
-    character(len=64) :: msg
-    results => null()
-    call handle_session(h, s, status, msg)
-    if (status /= MLID_OK) return
-    if (.not. allocated(s%runs)) return
-    if (k < 1 .or. k > size(s%runs)) return
-    results => s%runs(k)%results
-  end function run_results
 
   !> Time increasing and without gaps (a step over 1.5 times the median),
   !> each manoeuvre of a joined record on its own (segstart: first samples).

@@ -2,17 +2,19 @@
 !> core to do: model kind and sizes, constants, the parameter vector with
 !> free flags, ties and labels, options, prior and bounds, data files and
 !> channels, the simulate job's inputs.  The deck reader fills it
-!> (mlid_deck); mlid_api hands it to Python field by field, so no front end
-!> re-derives a layout.
+!> (mlid_deck); case_values gives it by name (Python reads it so), so no
+!> front end re-derives a layout.
 module mlid_case
   use mlid_kinds, only: wp, msg_len, MLID_OK
   use mlid_model_factory, only: MODEL_LINEAR
   use mlid_options, only: NOPT
   use mlid_channels, only: channels_t
   use mlid_params, only: tie_t
+  use mlid_named, only: named_t
+  use mlid_text, only: join_lines
   implicit none
   private
-  public :: case_t, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
+  public :: case_t, case_values, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512
   integer, parameter :: MAXSEG = 20     !< manoeuvres (data files) per case
@@ -84,5 +86,60 @@ module mlid_case
     integer :: runs = 0
     real(wp), allocatable :: theta_true(:)
   end type case_t
+
+contains
+
+  !> Case c by name, as the front ends read it: where it is and what it
+  !> does, its flight condition, and, when it can run, its model,
+  !> parameters, options, prior, bounds, ties, files and channels (the
+  !> defaults where the deck gives none: prior the start, no weight,
+  !> unbounded).
+  subroutine case_values(c, v)
+    type(case_t), intent(in) :: c
+    type(named_t), intent(out) :: v
+    real(wp), allocatable :: zero(:, :)
+
+    call v%put('line', c%line)
+    call v%put('title', trim(c%title))
+    call v%put('job', trim(c%job))
+    call v%put('status', c%status)
+    call v%put('message', trim(c%msg))
+    call v%put('condition', c%condition)
+    call v%put('condition_given', merge(1, 0, c%condition_given))
+    call v%put('config', trim(c%config))
+    call v%put('tags', trim(c%tags))
+    if (c%status /= MLID_OK) return
+    call v%put('mkind', c%mkind)
+    call v%put('sizes', [c%nx, c%nu, c%ny, c%nw])
+    call v%put('iconst', c%iconst)
+    call v%put('rconst', c%rconst)
+    call v%put('theta', c%theta)
+    call v%put('isfree', c%isfree)
+    call v%put('iopt', c%iopt)
+    call v%put('ropt', c%ropt)
+    call v%put('labels', join_lines(c%labels))
+    call v%put('tie_to', c%tie%to)
+    call v%put('tie_from', c%tie%from)
+    call v%put('tie_scale', c%tie%scale)
+    call v%put('tie_offset', c%tie%offset)
+    call v%put('use_prior', c%use_prior)
+    call v%put('prior', c%theta)
+    if (allocated(c%prior)) call v%put('prior', c%prior)
+    allocate (zero(count(c%isfree == 1), count(c%isfree == 1)))
+    zero = 0.0_wp
+    call v%put('pweight', zero)
+    if (allocated(c%pweight)) call v%put('pweight', c%pweight)
+    call v%put('use_bounds', c%use_bounds)
+    call v%put('lower', spread(-huge(1.0_wp), 1, size(c%theta)))
+    if (allocated(c%lower)) call v%put('lower', c%lower)
+    call v%put('upper', spread(huge(1.0_wp), 1, size(c%theta)))
+    if (allocated(c%upper)) call v%put('upper', c%upper)
+    if (allocated(c%input_names)) call v%put('input_names', join_lines(c%input_names))
+    if (allocated(c%output_names)) call v%put('output_names', join_lines(c%output_names))
+    if (allocated(c%data_files)) call v%put('data_files', join_lines(c%data_files))
+    if (allocated(c%holdout)) call v%put('holdout', c%holdout)
+    if (allocated(c%corrected)) call v%put('corrected', join_lines(c%corrected))
+    if (allocated(c%initial_states)) call v%put('initial_states', c%initial_states)
+  end subroutine case_values
 
 end module mlid_case

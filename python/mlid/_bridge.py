@@ -3,7 +3,10 @@ through f2py, fortran/api/mlid_api_*.f90): its interface object and the helpers
 that read the core's text back.  A core status code becomes an exception in
 errors.py (check_status)."""
 
+import math
 import types
+
+import numpy as np
 
 from . import _core
 from .errors import check_status
@@ -48,3 +51,31 @@ def lines(b):
 #: The kinds of value the core keeps by name (mlid_named), by their code.
 VALUE_REAL, VALUE_INT, VALUE_TEXT = (
     lines(api.mlid_name_list("value_kinds")).index(k) + 1 for k in ("real", "integer", "text"))
+
+
+def values(handle, k, which):
+    """Case k of a handle by name (which 'case': the case as read; 'run':
+    what its last run kept): {name: value}, numbers as floats and ints (or
+    arrays of them in their shape), texts as the core's bytes."""
+    h = handle.value
+    m, n, nt = api.mlid_values_sizes(h, k, which)
+    kinds, shapes, numbers, codes = api.mlid_values(h, k, which, m, n, nt)
+    text = codes.astype(np.uint8).tobytes()
+    names = text.split(b"\n", m)
+    tat = nt - len(names[-1])
+    out, at = {}, 0
+    for name, kind, shape in zip(names, kinds.tolist(), shapes.T.tolist()):
+        if kind == VALUE_TEXT:
+            out[name.decode()] = text[tat:tat + shape[1]]
+            tat += shape[1]
+            continue
+        dims = shape[1:1 + shape[0]]
+        size = math.prod(dims)
+        a = numbers[at:at + size]
+        at += size
+        if not dims:
+            out[name.decode()] = int(a[0]) if kind == VALUE_INT else float(a[0])
+        else:
+            a = a.reshape(dims, order="F")
+            out[name.decode()] = a.astype(np.int32) if kind == VALUE_INT else a
+    return out

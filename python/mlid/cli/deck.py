@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .._bridge import VALUE_INT, VALUE_TEXT, Handle, api as _api, lines as _lines, text as _text
+from .._bridge import Handle, api as _api, lines as _lines, text as _text, values
 from ..data.flight_data import FlightData, read_status
 from ..errors import InputError, MlidError, check_status, guarded, status_of
-from ..estimate.fit import FIT_OUTPUTS, fit_result
+from ..estimate.fit import fit_result
 from ..estimate.options import options_by_name
 from ..model.models import from_core
 from ..report.validation import validation_of
@@ -29,51 +29,53 @@ class Case:
 
     def __init__(self, deck, handle, k):
         self._handle = handle
-        h = handle.value
-        (self.line, title, job, status, msg, mkind, nx, nu, ny, nw, nth, nf, nic, nrc, nfile,
-         nt) = _api.mlid_deck_case(h, k)
-        self.index, self.deck, self.title, self.job = k, Path(deck), _text(title), _text(job)
-        self._title = title.rstrip()      # the deck's own bytes, for the core's JSON
-        self.error = _text(msg) if status else None
-        values, given, config, tags = _api.mlid_deck_case_condition(h, k, len(CONDITIONS))
-        self._condition = {n: float(v) for n, v, g in zip(CONDITIONS, values, given) if g}
-        if _text(config):
-            self._condition["config"] = _text(config)
-        if _text(tags):
-            self._condition["tags"] = [t.strip() for t in _text(tags).split(",") if t.strip()]
+        v = values(handle, k, "case")
+        self.index, self.deck, self.line = k, Path(deck), v["line"]
+        self.title, self.job = _text(v["title"]), _text(v["job"])
+        self._title = v["title"]          # the deck's own bytes, for the core's JSON
+        self.error = _text(v["message"]) if v["status"] else None
+        self._condition = {n: x for n, x, g in zip(CONDITIONS, v["condition"].tolist(),
+                                                   v["condition_given"]) if g}
+        if _text(v["config"]):
+            self._condition["config"] = _text(v["config"])
+        if _text(v["tags"]):
+            self._condition["tags"] = [t.strip() for t in _text(v["tags"]).split(",")
+                                       if t.strip()]
         self.model = None
         self.warnings = []                # the records' (record()), as mlid-batch says them
         if self.error:
             return
-        (theta, isfree, iconst, rconst, iopt, ropt, labels, use_prior, prior, pweight,
-         use_bounds, lower, upper) = _api.mlid_deck_case_model(h, k, nth, nf, nic, nrc)
-        opts = options_by_name(iopt, ropt)
-        n, to, frm, scale, offset = _api.mlid_deck_case_ties(h, k, nth, TIE_TERMS * nth)
-        ties = (to[:n], frm[:n], scale[:n], offset)
-        self.model = from_core(mkind, (nx, nu, ny, nw), iconst, rconst, theta, isfree, ties,
-                               _lines(labels), opts.pop("input_hold"), opts.pop("substeps"))
+        opts = options_by_name(v["iopt"], v["ropt"])
+        theta, isfree = v["theta"], v["isfree"]
+        ties = (v["tie_to"], v["tie_from"], v["tie_scale"], v["tie_offset"])
+        nx, nu, ny, nw = v["sizes"].tolist()
+        self.model = from_core(v["mkind"], (nx, nu, ny, nw), v["iconst"], v["rconst"], theta,
+                               isfree, ties, _lines(v["labels"]), opts.pop("input_hold"),
+                               opts.pop("substeps"))
         free = [self.model.element_names()[j] for j in np.flatnonzero(isfree)]
-        if use_prior:
-            opts.update(prior=dict(zip(free, prior[isfree == 1])), prior_weight=pweight)
-        if use_bounds:
+        if v["use_prior"]:
+            opts.update(prior=dict(zip(free, v["prior"][isfree == 1])),
+                        prior_weight=v["pweight"])
+        if v["use_bounds"]:
             big = np.finfo(float).max
             # a NaN bound goes on to the core, which refuses it as mlid-batch does
             opts["bounds"] = {f: (None if lo <= -big else lo, None if hi >= big else hi)
-                              for f, lo, hi in zip(free, lower[isfree == 1], upper[isfree == 1])
+                              for f, lo, hi in zip(free, v["lower"][isfree == 1],
+                                                   v["upper"][isfree == 1])
                               if not (lo <= -big and hi >= big)}
         self._options = opts
         self._sizes = (nu, ny)
-        self._files = [_api.mlid_deck_case_data(h, k, j) for j in range(1, max(nfile, 1) + 1)]
-        n, holdout = _api.mlid_deck_case_holdout(h, k, max(nfile, 1))
-        self.holdout = [int(j) for j in holdout[:n]]   # validate: the files predicted
+        self._names = (_lines(v.get("input_names", b"")) or None,
+                       _lines(v.get("output_names", b"")) or None)
+        self._files = _lines(v.get("data_files", b""))
+        self.holdout = [int(j) for j in v.get("holdout", ())]   # validate: the files predicted
         # kind flight_path: where each manoeuvre's corrected record goes (&estimate corrected)
-        self.corrected = [p for p in (_text(_api.mlid_deck_case_corrected(h, k, j))
-                                      for j in range(1, nfile + 1)) if p]
-        n, x0 = _api.mlid_deck_case_initial_states(h, k, max(nx, 1) * max(nfile, 1))
-        if n and nfile > 1:                            # each manoeuvre's own x0
-            self._options["initial_states"] = list(x0[:n].reshape(-1, nx))
-        elif n:
-            self.model.x0 = x0[:n]
+        self.corrected = _lines(v.get("corrected", b""))
+        x0 = v.get("initial_states", np.zeros(0))
+        if x0.size and len(self._files) > 1:            # each manoeuvre's own x0
+            self._options["initial_states"] = list(x0.reshape(-1, nx))
+        elif x0.size:
+            self.model.x0 = x0
 
     def where(self):
         return f"{self.deck} case {self.index} (line {self.line}) '{self.title}'"
@@ -88,28 +90,27 @@ class Case:
 
     def channel_names(self):
         """The deck's input and output names (None where not given)."""
-        return tuple(_lines(n) or None for n in self._files[0][-2:])
+        return self._names
 
     def record(self, files=None):
         """The FlightData of an estimate case, read from its data files as the
         core reads them for mlid-batch (channels, units, derived channels,
-        windows, units shown); .mat and HDF5 files are read by this front
-        end into a table the core then takes the same way.  A list when the
+        windows, units shown; text, .mat and HDF5 files).  A list when the
         case names several files (several manoeuvres) or ``files`` is given:
         the numbers (from 1) of the files to read, in that order.  Warnings
         of the reader (a channel declared in rad beyond 2 pi) are
         MlidWarnings, and are added to ``warnings``."""
         inputs, outputs = self.channel_names()
-        numbers = range(1, len(self._files) + 1) if files is None else files
+        # a case without files asks for file 1: the core says it has none
+        numbers = range(1, max(len(self._files), 1) + 1) if files is None else files
         records = []
         for j in numbers:
-            path = _text(self._files[j - 1][0])
             nt, status, msg = _api.mlid_deck_case_record(self._handle.value, self.index, j)
             note = read_status(status, msg)
             if note:
                 self.warnings.append(note)
-            records.append(FlightData._taken(self._handle, *self._sizes, nt, path, inputs,
-                                             outputs))
+            records.append(FlightData._taken(self._handle, *self._sizes, nt, self._files[j - 1],
+                                             inputs, outputs))
         return records[0] if len(records) == 1 and files is None else records
 
     def options(self):
@@ -204,50 +205,28 @@ def run_case(case):
 def _fit_of(case):
     """The FitResult of the fit case's run kept (None when it fitted
     nothing), with its Validation for a validate case."""
-    h, k = case._handle.value, case.index
-    out = {}
-    for name in FIT_OUTPUTS + ("wall_time",):
-        kind, rank, shape = _api.mlid_case_result_info(h, k, name)
-        if kind == 0:
-            return None
-        out[name] = _result_value(h, k, name, kind, rank, shape)
+    kept = values(case._handle, case.index, "run")
+    if "theta" not in kept:
+        return None
+    out = dict(kept, message=_text(kept["message"]))
     numbers = range(1, len(case._files) + 1)
-    files = [j for j in numbers if j not in case.holdout]
-    data = case.record(files)
+    data = case.record([j for j in numbers if j not in case.holdout])
     try:
         result = fit_result(case.model, data if len(data) > 1 else data[0], out,
                             **case.options())
     except MlidError as exc:           # a failed fit: the error carries it
         return exc.result
-    if case.job == "validate" and _api.mlid_case_result_info(h, k, "theil")[0]:
-        result.validation = _validation_of(case, result)
+    if "theil" in kept:
+        result.validation = _validation_of(case, result, kept)
     return result
 
 
-def _result_value(h, k, name, kind, rank, shape):
-    if kind == VALUE_TEXT:
-        return _text(_api.mlid_case_result_text(h, k, name))
-    dims = tuple(int(n) for n in shape[:rank])
-    values, status, msg = _api.mlid_case_result(h, k, name, int(np.prod(dims)))
-    check_status(status, msg)
-    if not dims:
-        return int(values[0]) if kind == VALUE_INT else float(values[0])
-    values = values.reshape(dims, order="F")
-    return values.astype(int) if kind == VALUE_INT else values
-
-
-def _validation_of(case, result):
+def _validation_of(case, result, kept):
     """The Validation the run computed: the core's statistics and
     prediction, the held-out records read as the run read them."""
-    h, k = case._handle.value, case.index
-    kept = sorted(case.holdout)
-    held = case.record(kept)
-    value = {}
-    for name in ("theil", "rms", "rms_over_sigma", "prediction"):
-        kind, rank, shape = _api.mlid_case_result_info(h, k, name)
-        value[name] = _result_value(h, k, name, kind, rank, shape)
-    return validation_of(result, held, kept, value["theil"], value["rms"],
-                         value["rms_over_sigma"], value["prediction"].T.copy())
+    held = sorted(case.holdout)
+    return validation_of(result, case.record(held), held, kept["theil"], kept["rms"],
+                         kept["rms_over_sigma"], kept["prediction"].T.copy())
 
 
 def iter_deck(path):
