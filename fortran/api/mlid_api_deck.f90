@@ -59,11 +59,17 @@ contains
     integer(c_int), intent(out) :: ncases, status
     character(len=256), intent(out) :: msg
     type(session_t), pointer :: s
+    integer :: k
     ncases = 0
     call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
     call deck_read(path, s%cases, status, msg)
     if (allocated(s%runs)) deallocate (s%runs)
+    if (allocated(s%values)) deallocate (s%values)
+    allocate (s%values(size(s%cases)))
+    do k = 1, size(s%cases)                ! once: Python reads each case so
+      call case_values(s%cases(k), s%values(k))
+    end do
     ncases = size(s%cases)
   end subroutine mlid_deck_open
 
@@ -121,11 +127,12 @@ contains
     integer(c_int), intent(in) :: k
     character(len=*), intent(in) :: which
     integer(c_int), intent(out) :: m, n, nt
-    type(named_t) :: v
+    type(named_t), pointer :: v
     m = 0
     n = 0
     nt = 0
-    if (.not. values_of(h, k, which, v)) return
+    v => values_of(h, k, which)
+    if (.not. associated(v)) return
     call packed_sizes(v, m, n, nt)
   end subroutine mlid_values_sizes
 
@@ -140,42 +147,37 @@ contains
     character(len=*), intent(in) :: which
     integer(c_int), intent(out) :: kinds(m), shapes(4, m), text(nt)
     real(c_double), intent(out) :: values(n)
-    type(named_t) :: v
+    type(named_t), pointer :: v
     integer :: mm, nn, ntt
     kinds = 0
     shapes = 0
     values = 0.0_wp
     text = 0
-    if (.not. values_of(h, k, which, v)) return
+    v => values_of(h, k, which)
+    if (.not. associated(v)) return
     call packed_sizes(v, mm, nn, ntt)
     if (mm /= m .or. nn /= n .or. ntt /= nt) return
     call pack_values(v, kinds, shapes, values, text)
   end subroutine mlid_values
 
-  !> The values 'case' or 'run' of case k of handle h; false when none.
-  logical function values_of(h, k, which, v)
+  !> The values 'case' or 'run' of case k of handle h; null when none.
+  function values_of(h, k, which) result(v)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k
     character(len=*), intent(in) :: which
-    type(named_t), intent(out) :: v
-    type(case_t), pointer :: c
+    type(named_t), pointer :: v
     type(session_t), pointer :: s
     integer :: status
     character(len=64) :: msg
-    values_of = .false.
-    c => case_at(h, k)
-    if (.not. associated(c)) return
+    v => null()
+    if (.not. associated(case_at(h, k))) return
+    call handle_session(h, s, status, msg)
     select case (which)
     case ('case')
-      call case_values(c, v)
+      v => s%values(k)
     case ('run')
-      call handle_session(h, s, status, msg)
-      if (.not. allocated(s%runs)) return
-      v = s%runs(k)%results
-    case default
-      return
+      if (allocated(s%runs)) v => s%runs(k)%results
     end select
-    values_of = .true.
   end function values_of
 
   subroutine packed_sizes(v, m, n, nt)

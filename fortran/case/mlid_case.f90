@@ -7,7 +7,7 @@
 module mlid_case
   use mlid_kinds, only: wp, msg_len, MLID_OK
   use mlid_model_factory, only: MODEL_LINEAR
-  use mlid_options, only: NOPT
+  use mlid_options, only: NOPT, options_text
   use mlid_channels, only: channels_t
   use mlid_params, only: tie_t
   use mlid_named, only: named_t
@@ -117,6 +117,7 @@ contains
     call v%put('isfree', c%isfree)
     call v%put('iopt', c%iopt)
     call v%put('ropt', c%ropt)
+    call v%put('options', options_text(c%iopt, c%ropt))
     call v%put('labels', join_lines(c%labels))
     call v%put('tie_to', c%tie%to)
     call v%put('tie_from', c%tie%from)

@@ -11,6 +11,7 @@ module mlid_handles
   use mlid_case, only: case_t
   use mlid_channels, only: channel_set_t
   use mlid_run, only: case_run_t
+  use mlid_named, only: named_t
   implicit none
   private
   public :: session_t, handle_new, handle_session, handle_free
@@ -21,6 +22,7 @@ module mlid_handles
   type :: session_t
     integer(c_int64_t) :: mark = LIVE
     type(case_t), allocatable :: cases(:)        !< the deck read into it
+    type(named_t), allocatable :: values(:)      !< each case by name (mlid_case's case_values)
     type(case_run_t), allocatable :: runs(:)     !< what running each case gave
     type(channel_set_t) :: taken                 !< the channels last read or taken
   end type session_t

@@ -10,7 +10,7 @@ module mlid_options
   implicit none
   private
   public :: options_t, options_from_flat, options_to_flat, NOPT
-  public :: NOPTION, OPTION_NAMES, option_kind, option_set, option_get
+  public :: NOPTION, OPTION_NAMES, option_kind, option_set, option_get, options_text
   public :: METHOD_OUTPUT_ERROR, METHOD_FILTER_ERROR, METHOD_FREQ_OE, METHOD_FREQ_EE, &
             frequency_method
 
@@ -241,10 +241,15 @@ contains
   function option_kind(name) result(kind)
     character(len=*), intent(in) :: name
     character(len=6) :: kind
-    integer :: k
-    k = option_index(name)
+    kind = kind_at(option_index(name))
+  end function option_kind
+
+  !> The kind of option k (its place in OPTION_NAMES; '' for none).
+  function kind_at(k) result(kind)
+    integer, intent(in) :: k
+    character(len=6) :: kind
     kind = ''
-    if (k == 0) return
+    if (k < 1 .or. k > NOPTION) return
     if (k > NIOPT) then
       kind = 'real'
     else if (OPTION_CHOICES(k) == 'false true') then
@@ -254,7 +259,7 @@ contains
     else
       kind = 'int'
     end if
-  end function option_kind
+  end function kind_at
 
   !> Set one option in the flat arrays from its text ('20', 'full', 'true',
   !> '1e-8'); the value's range is checked later by options_from_flat.
@@ -309,10 +314,18 @@ contains
     real(wp), intent(in) :: ropt(NOPT)
     character(len=*), intent(in) :: name
     character(len=32) :: text
-    integer :: k
-    k = option_index(name)
+    text = option_text(iopt, ropt, option_index(name))
+  end function option_get
+
+  !> Option k's value as text (option_get; k its place in OPTION_NAMES).
+  function option_text(iopt, ropt, k) result(text)
+    integer, intent(in) :: iopt(NOPT)
+    real(wp), intent(in) :: ropt(NOPT)
+    integer, intent(in) :: k
+    character(len=32) :: text
     text = ''
-    select case (option_kind(name))
+    if (k < 1 .or. k > NOPTION) return
+    select case (kind_at(k))
     case ('real')
       write (text, '(es24.16e3)') ropt(k - NIOPT)
       text = adjustl(text)
@@ -321,7 +334,20 @@ contains
     case ('bool', 'choice')
       text = choice_word(OPTION_CHOICES(k), iopt(k))
     end select
-  end function option_get
+  end function option_text
+
+  !> Every option by name, one a line in the table's order: 'name value',
+  !> the value as option_get gives it.
+  function options_text(iopt, ropt) result(text)
+    integer, intent(in) :: iopt(NOPT)
+    real(wp), intent(in) :: ropt(NOPT)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = ''
+    do k = 1, NOPTION
+      text = text//trim(OPTION_NAMES(k))//' '//trim(option_text(iopt, ropt, k))//achar(10)
+    end do
+  end function options_text
 
   integer function option_index(name)
     character(len=*), intent(in) :: name

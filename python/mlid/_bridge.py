@@ -3,7 +3,6 @@ through f2py, fortran/api/mlid_api_*.f90): its interface object and the helpers
 that read the core's text back.  A core status code becomes an exception in
 errors.py (check_status)."""
 
-import math
 import types
 
 import numpy as np
@@ -60,22 +59,22 @@ def values(handle, k, which):
     h = handle.value
     m, n, nt = api.mlid_values_sizes(h, k, which)
     kinds, shapes, numbers, codes = api.mlid_values(h, k, which, m, n, nt)
-    text = codes.astype(np.uint8).tobytes()
-    names = text.split(b"\n", m)
-    tat = nt - len(names[-1])
-    out, at = {}, 0
-    for name, kind, shape in zip(names, kinds.tolist(), shapes.T.tolist()):
+    *names, texts = codes.astype(np.uint8).tobytes().split(b"\n", m)
+    out, at, tat = {}, 0, 0
+    for name, kind, (rank, d1, d2, d3) in zip(names, kinds.tolist(), shapes.T.tolist()):
         if kind == VALUE_TEXT:
-            out[name.decode()] = text[tat:tat + shape[1]]
-            tat += shape[1]
-            continue
-        dims = shape[1:1 + shape[0]]
-        size = math.prod(dims)
-        a = numbers[at:at + size]
-        at += size
-        if not dims:
-            out[name.decode()] = int(a[0]) if kind == VALUE_INT else float(a[0])
+            value = texts[tat:tat + d1]
+            tat += d1
+        elif rank == 0:
+            value = int(numbers[at]) if kind == VALUE_INT else float(numbers[at])
+            at += 1
         else:
-            a = a.reshape(dims, order="F")
-            out[name.decode()] = a.astype(np.int32) if kind == VALUE_INT else a
+            size = d1 if rank == 1 else d1 * d2 * (d3 if rank == 3 else 1)
+            value = numbers[at:at + size]
+            if rank > 1:
+                value = value.reshape((d1, d2, d3)[:rank], order="F")
+            if kind == VALUE_INT:
+                value = value.astype(np.int32)
+            at += size
+        out[name.decode()] = value
     return out

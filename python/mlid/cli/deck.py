@@ -11,7 +11,7 @@ from .._bridge import Handle, api as _api, lines as _lines, text as _text, value
 from ..data.flight_data import FlightData, read_status
 from ..errors import InputError, MlidError, check_status, guarded, status_of
 from ..estimate.fit import fit_result
-from ..estimate.options import options_by_name
+from ..estimate.options import options_of_text
 from ..model.models import from_core
 from ..report.validation import validation_of
 
@@ -45,7 +45,7 @@ class Case:
         self.warnings = []                # the records' (record()), as mlid-batch says them
         if self.error:
             return
-        opts = options_by_name(v["iopt"], v["ropt"])
+        opts = options_of_text(v["options"])
         theta, isfree = v["theta"], v["isfree"]
         ties = (v["tie_to"], v["tie_from"], v["tie_scale"], v["tie_offset"])
         nx, nu, ny, nw = v["sizes"].tolist()

@@ -35,6 +35,13 @@ def options_by_name(iopt, ropt):
             for name, kind in _KINDS.items()}
 
 
+def options_of_text(text):
+    """The options by name from the core's text of them (mlid_options's
+    options_text: 'name value' a line), as options_by_name gives them."""
+    pairs = (line.split(" ", 1) for line in text.decode().splitlines())
+    return {name: _TYPES[_KINDS[name]](value) for name, value in pairs}
+
+
 def _as_dict(iopt, ropt):
     opts = options_by_name(iopt, ropt)
     return {name: v for name, v in opts.items() if name not in _MODEL_OPTIONS}
