@@ -1,6 +1,6 @@
 """The core's reader of binary flight records (fortran/case/mlid_tablefile.f90:
 MATLAB v5 by mlid_matfile, HDF5 and v7.3 by mlid_hdf5file, the table rule
-of mlid_named_arrays) against the Python front end's (python/mlid/formats.py,
+of mlid_named_arrays) against the Python front end's (tests/binary_reference.py,
 scipy.io and h5py): the same table, bit for bit, with the same names and
 units, for the real ATTAS records and for files written here; damaged
 files refused with one line, no crash and no hang; and mlid-batch, which

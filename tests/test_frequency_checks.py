@@ -3,7 +3,7 @@ uniform sampling (fortran/case/mlid_record.f90, record_uniform_step and
 record_common_step) asked by the Fourier transform, the measured frequency
 response, the recursive fit and fit()'s frequency-domain methods, with one
 message from all of them and from both front ends; the transfer function's
-parameter count (mlid_api's tf_orders); a measured response's channels
+parameter count (mlid_api_frequency's tf_orders); a measured response's channels
 found in each manoeuvre by name; the recursive fit's band checked and laid
 out by the core (band_check, freq_grid) and its free entries by the core's
 layout of theta."""

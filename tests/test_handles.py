@@ -103,7 +103,7 @@ def test_no_handle_is_refused_in_words():
     api = mlid._bridge.api
     *_, status, msg = api.mlid_deck_case_run(0, 1)
     assert status != 0 and b"no such case (or not a live handle)" in msg
-    nt, status, msg = api.mlid_deck_case_record(0, 1, 1)
+    nt, status, msg = api.mlid_deck_case_record(0, 1, 1, 0)
     assert status != 0 and nt == 0 and b"not a live handle" in msg
 
 

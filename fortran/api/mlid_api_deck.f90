@@ -66,7 +66,8 @@ contains
     call deck_read(path, s%cases, status, msg)
     if (allocated(s%runs)) deallocate (s%runs)
     if (allocated(s%values)) deallocate (s%values)
-    allocate (s%values(size(s%cases)))
+    ! a run per case, here: two threads may run two cases of the deck at once
+    allocate (s%runs(size(s%cases)), s%values(size(s%cases)))
     do k = 1, size(s%cases)                ! once: Python reads each case so
       call case_values(s%cases(k), s%values(k))
     end do
@@ -79,21 +80,25 @@ contains
     names = joined(CONDITION_NAMES)
   end subroutine mlid_condition_names
 
-  !> Read data file j of estimate case k as the case takes it (channels,
-  !> units, derived channels, units shown, window) and keep it for
-  !> mlid_channels_get; a warning as mlid_channels_read gives it.
-  subroutine mlid_deck_case_record(h, k, j, nt, status, msg)
-    integer(c_int64_t), intent(in) :: h
+  !> Read data file j of estimate case k of handle h as the case takes it
+  !> (channels, units, derived channels, units shown, window) and keep it in
+  !> handle out for mlid_channels_get (its own: the cases of a deck share h,
+  !> and may be read from several threads); a warning as mlid_channels_read
+  !> gives it.
+  subroutine mlid_deck_case_record(h, k, j, out, nt, status, msg)
+    integer(c_int64_t), intent(in) :: h, out
     integer(c_int), intent(in) :: k, j
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
-    type(session_t), pointer :: s
+    type(session_t), pointer :: s, o
     type(case_t), pointer :: c
     nt = 0
     if (.not. has_file(h, k, j, s, c, status, msg)) return
-    call channels_read(c%data_files(j), c%chan, c%win_start(j), c%win_end(j), s%taken, status, &
+    call handle_session(out, o, status, msg)
+    if (status /= MLID_OK) return
+    call channels_read(c%data_files(j), c%chan, c%win_start(j), c%win_end(j), o%taken, status, &
                        msg, manoeuvre=c%file_no(j))
-    nt = taken_samples(s%taken, status)
+    nt = taken_samples(o%taken, status)
   end subroutine mlid_deck_case_record
 
   !> Whether case k of handle h (its session s, the case c) has a data
@@ -374,7 +379,7 @@ contains
   !> as mlid-batch runs it, on a copy of the case: it can run again): its
   !> files written, its report lines, JSON object and notes (one a line)
   !> returned, each ending where its length says; a fit's numbers are kept
-  !> in h for mlid_case_result.  status, msg: the case's.
+  !> in h for mlid_values (which = 'run').  status, msg: the case's.
   subroutine mlid_deck_case_run(h, k, report, nreport, json, njson, notes, nnotes, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k
@@ -397,7 +402,6 @@ contains
     call no_case(c, status, msg)
     if (status /= MLID_OK) return
     call handle_session(h, s, status, msg)
-    if (.not. allocated(s%runs)) allocate (s%runs(size(s%cases)))
     work = c
     call run_case(work, s%runs(k))
     associate (r => s%runs(k))

@@ -151,6 +151,27 @@ contains
     type(fit_view_t) :: v
     integer :: bad
 
+    theta_start = theta0
+    theta = theta0
+    sigma = 0.0_wp
+    sigma_c = 0.0_wp
+    rhat = 0.0_wp
+    yhat = 0.0_wp
+    cost = 0.0_wp
+    niter = 0
+    reason = 0
+    converged = 0
+    rank = 0
+    bad_param = 0
+    lag = 0
+    rnoise = 0.0_wp
+    cov = 0.0_wp
+    info = 0.0_wp
+    grad = 0.0_wp
+    eigval = 0.0_wp
+    eigvec = 0.0_wp
+    cov_c = 0.0_wp
+    cost_hist = 0.0_wp
     if (nc /= iopt(1) + 1) then
       status = MLID_ERR_INPUT
       write (msg, '(a,i0,a,i0)') 'cost history length ', nc, ' must be max_iter + 1 = ', &
@@ -165,13 +186,7 @@ contains
     theta_start = v%theta_start
     theta = v%theta
     sigma = v%sigma
-    cov = 0.0_wp
-    info = 0.0_wp
-    grad = 0.0_wp
-    eigval = 0.0_wp
-    eigvec = 0.0_wp
     sigma_c = v%sigma_c
-    cov_c = 0.0_wp
     if (size(v%cov, 1) == nf) then        ! a fit that got as far as its set-up
       cov = v%cov
       cov_c = v%cov_c
@@ -182,7 +197,6 @@ contains
     end if
     rhat = v%rhat
     yhat = v%yhat
-    cost_hist = 0.0_wp
     if (size(v%hist) == nc) cost_hist = v%hist
     cost = v%cost
     niter = v%niter

@@ -1,11 +1,10 @@
-!> Values by name: what a caller hands the core and what it reads back, in
+!> Values by name: what the core hands a front end to read back by name
+!> (a deck's case, what its run kept; mlid_api_deck's mlid_values), in
 !> place of long positional argument lists.  A named_t holds numbers (real
-!> or integer, of any shape up to three dimensions, kept in Fortran order)
-!> and texts, each under its name.  Reading a name that is missing, of the
-!> other kind or of another shape is a message naming it.
+!> or integer, of any shape up to MAXRANK dimensions, kept in Fortran order)
+!> and texts, each under its name.
 module mlid_named
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: itoa
+  use mlid_kinds, only: wp
   implicit none
   private
   public :: named_t, value_t, VALUE_REAL, VALUE_INT, VALUE_TEXT, VALUE_KIND_NAMES, MAXRANK
@@ -30,15 +29,9 @@ module mlid_named
     type(value_t), allocatable :: v(:)   !< v(1:n) hold values; the rest is room
     integer :: n = 0
   contains
-    procedure :: find, has, names, clear
-    procedure :: put_value, put_real0, put_real1, put_real2, put_real3, put_int0, put_int1, &
-                 put_int2, put_text, put_logical
-    generic :: put => put_real0, put_real1, put_real2, put_real3, put_int0, put_int1, put_int2, &
-                      put_text, put_logical
-    procedure :: get_real0, get_real1, get_real2, get_real3, get_int0, get_int1, get_int2, &
-                 get_text
-    generic :: get => get_real0, get_real1, get_real2, get_real3, get_int0, get_int1, get_int2, &
-                      get_text
+    procedure :: find, put_value, put_real0, put_real1, put_real2, put_int0, put_int1, &
+                 put_text, put_logical
+    generic :: put => put_real0, put_real1, put_real2, put_int0, put_int1, put_text, put_logical
   end type named_t
 
 contains
@@ -57,29 +50,6 @@ contains
       end if
     end do
   end function find
-
-  logical function has(self, name)
-    class(named_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    has = self%find(name) > 0
-  end function has
-
-  !> The names held, one a line, in the order they were first put.
-  function names(self) result(text)
-    class(named_t), intent(in) :: self
-    character(len=:), allocatable :: text
-    integer :: k
-    text = ''
-    do k = 1, self%n
-      text = text//self%v(k)%name//achar(10)
-    end do
-  end function names
-
-  subroutine clear(self)
-    class(named_t), intent(inout) :: self
-    if (allocated(self%v)) deallocate (self%v)
-    self%n = 0
-  end subroutine clear
 
   !> Put v under its name, replacing what was there; v is moved in (it is
   !> empty after).  Room doubles as it fills.
@@ -159,16 +129,6 @@ contains
     call self%put_value(v)
   end subroutine put_real2
 
-  subroutine put_real3(self, name, x)
-    class(named_t), intent(inout) :: self
-    character(len=*), intent(in) :: name
-    real(wp), intent(in) :: x(:, :, :)
-    type(value_t) :: v
-    v = numbers(name, VALUE_REAL, shape(x))
-    v%r = reshape(x, [size(x)])
-    call self%put_value(v)
-  end subroutine put_real3
-
   subroutine put_int0(self, name, x)
     class(named_t), intent(inout) :: self
     character(len=*), intent(in) :: name
@@ -189,16 +149,6 @@ contains
     call self%put_value(v)
   end subroutine put_int1
 
-  subroutine put_int2(self, name, x)
-    class(named_t), intent(inout) :: self
-    character(len=*), intent(in) :: name
-    integer, intent(in) :: x(:, :)
-    type(value_t) :: v
-    v = numbers(name, VALUE_INT, shape(x))
-    v%i = reshape(x, [size(x)])
-    call self%put_value(v)
-  end subroutine put_int2
-
   subroutine put_logical(self, name, x)
     class(named_t), intent(inout) :: self
     character(len=*), intent(in) :: name
@@ -216,143 +166,5 @@ contains
     v%t = x
     call self%put_value(v)
   end subroutine put_text
-
-  !> The value called name, of kind and rank (an integer is read as a real
-  !> too); status and a message naming it when it is not.
-  subroutine take(self, name, kind, rank, k, status, msg)
-    class(named_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    integer, intent(in) :: kind, rank
-    integer, intent(out) :: k, status
-    character(len=*), intent(out) :: msg
-    character(len=*), parameter :: KINDS(3) = [character(len=7) :: 'real', 'integer', 'text']
-    status = MLID_ERR_INPUT
-    msg = ''
-    k = self%find(name)
-    if (k == 0) then
-      msg = 'no value '''//trim(name)//''' given'
-      return
-    end if
-    associate (v => self%v(k))
-      if (.not. (v%kind == kind .or. (kind == VALUE_REAL .and. v%kind == VALUE_INT))) then
-        msg = trim(name)//' must be '//trim(KINDS(kind))//', not '//trim(KINDS(v%kind))
-        return
-      end if
-      ! a single number is also a 0-d array, and a scalar a vector of one
-      if (kind /= VALUE_TEXT .and. v%rank /= rank .and. .not. (rank == 0 .and. &
-          product(v%shape) == 1) .and. .not. (rank == 1 .and. v%rank == 0)) then
-        msg = trim(name)//' must have '//itoa(rank)//' dimensions, not '//itoa(v%rank)
-        return
-      end if
-    end associate
-    status = MLID_OK
-  end subroutine take
-
-  function reals(v) result(x)
-    type(value_t), intent(in) :: v
-    real(wp), allocatable :: x(:)
-    if (v%kind == VALUE_INT) then
-      x = real(v%i, wp)
-    else
-      x = v%r
-    end if
-  end function reals
-
-  subroutine get_real0(self, name, x, status, msg)
-    class(named_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    real(wp), intent(out) :: x
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    real(wp), allocatable :: all(:)
-    integer :: k
-    x = 0.0_wp
-    call take(self, name, VALUE_REAL, 0, k, status, msg)
-    if (status /= MLID_OK) return
-    all = reals(self%v(k))
-    x = all(1)
-  end subroutine get_real0
-
-  subroutine get_real1(self, name, x, status, msg)
-    class(named_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    real(wp), allocatable, intent(out) :: x(:)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer :: k
-    call take(self, name, VALUE_REAL, 1, k, status, msg)
-    if (status /= MLID_OK) return
-    x = reals(self%v(k))
-  end subroutine get_real1
-
-  subroutine get_real2(self, name, x, status, msg)
-    class(named_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    real(wp), allocatable, intent(out) :: x(:, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer :: k
-    call take(self, name, VALUE_REAL, 2, k, status, msg)
-    if (status /= MLID_OK) return
-    x = reshape(reals(self%v(k)), self%v(k)%shape(1:2))
-  end subroutine get_real2
-
-  subroutine get_real3(self, name, x, status, msg)
-    class(named_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    real(wp), allocatable, intent(out) :: x(:, :, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer :: k
-    call take(self, name, VALUE_REAL, 3, k, status, msg)
-    if (status /= MLID_OK) return
-    x = reshape(reals(self%v(k)), self%v(k)%shape(1:3))
-  end subroutine get_real3
-
-  subroutine get_int0(self, name, x, status, msg)
-    class(named_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    integer, intent(out) :: x
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer :: k
-    x = 0
-    call take(self, name, VALUE_INT, 0, k, status, msg)
-    if (status == MLID_OK) x = self%v(k)%i(1)
-  end subroutine get_int0
-
-  subroutine get_int1(self, name, x, status, msg)
-    class(named_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    integer, allocatable, intent(out) :: x(:)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer :: k
-    call take(self, name, VALUE_INT, 1, k, status, msg)
-    if (status == MLID_OK) x = self%v(k)%i
-  end subroutine get_int1
-
-  subroutine get_int2(self, name, x, status, msg)
-    class(named_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    integer, allocatable, intent(out) :: x(:, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer :: k
-    call take(self, name, VALUE_INT, 2, k, status, msg)
-    if (status == MLID_OK) x = reshape(self%v(k)%i, self%v(k)%shape(1:2))
-  end subroutine get_int2
-
-  subroutine get_text(self, name, x, status, msg)
-    class(named_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    character(len=:), allocatable, intent(out) :: x
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer :: k
-    x = ''
-    call take(self, name, VALUE_TEXT, 0, k, status, msg)
-    if (status == MLID_OK) x = self%v(k)%t
-  end subroutine get_text
 
 end module mlid_named

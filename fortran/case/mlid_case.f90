@@ -124,17 +124,29 @@ contains
     call v%put('tie_scale', c%tie%scale)
     call v%put('tie_offset', c%tie%offset)
     call v%put('use_prior', c%use_prior)
-    call v%put('prior', c%theta)
-    if (allocated(c%prior)) call v%put('prior', c%prior)
-    allocate (zero(count(c%isfree == 1), count(c%isfree == 1)))
-    zero = 0.0_wp
-    call v%put('pweight', zero)
-    if (allocated(c%pweight)) call v%put('pweight', c%pweight)
+    if (allocated(c%prior)) then
+      call v%put('prior', c%prior)
+    else
+      call v%put('prior', c%theta)
+    end if
+    if (allocated(c%pweight)) then
+      call v%put('pweight', c%pweight)
+    else
+      allocate (zero(count(c%isfree == 1), count(c%isfree == 1)))
+      zero = 0.0_wp
+      call v%put('pweight', zero)
+    end if
     call v%put('use_bounds', c%use_bounds)
-    call v%put('lower', spread(-huge(1.0_wp), 1, size(c%theta)))
-    if (allocated(c%lower)) call v%put('lower', c%lower)
-    call v%put('upper', spread(huge(1.0_wp), 1, size(c%theta)))
-    if (allocated(c%upper)) call v%put('upper', c%upper)
+    if (allocated(c%lower)) then
+      call v%put('lower', c%lower)
+    else
+      call v%put('lower', spread(-huge(1.0_wp), 1, size(c%theta)))
+    end if
+    if (allocated(c%upper)) then
+      call v%put('upper', c%upper)
+    else
+      call v%put('upper', spread(huge(1.0_wp), 1, size(c%theta)))
+    end if
     if (allocated(c%input_names)) call v%put('input_names', join_lines(c%input_names))
     if (allocated(c%output_names)) call v%put('output_names', join_lines(c%output_names))
     if (allocated(c%data_files)) call v%put('data_files', join_lines(c%data_files))

@@ -285,7 +285,7 @@ contains
   !> manoeuvre (start: the first fitted manoeuvre's); no ties, prior or
   !> bounds; output error on a model without noise, as a prediction is.
   !> One manoeuvre's layout (manoeuvre_layout spreads it over the held-out
-  !> ones).  As mlid/validate.py does for Python.
+  !> ones).  As python/mlid/report/validation.py does for Python.
   module subroutine holdout_case(c, theta_fit, nfit, h, status, msg)
     type(case_t), intent(in) :: c
     real(wp), intent(in) :: theta_fit(:)

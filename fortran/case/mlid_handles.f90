@@ -2,8 +2,11 @@
 !> place of module variables, so that two threads with two handles never
 !> see each other's work.  A handle is the address of a session_t the core
 !> allocated (handle_new), given back as an integer; the session holds a
-!> deck's cases, what running each gave, and the channels last read.  The
-!> caller frees it (handle_free) and never uses it after.
+!> deck's cases, each case by name, what running each gave, and the
+!> channels last read.  The caller frees it (handle_free) and never uses it
+!> after: the check of a handle refuses 0 and a session freed but not yet
+!> reused; any other value must be one handle_new gave (Python's
+!> _bridge.Handle owns each one, so no other value reaches the core).
 module mlid_handles
   use, intrinsic :: iso_c_binding, only: c_ptr, c_loc, c_f_pointer, c_int64_t, c_null_ptr, &
                                          c_associated

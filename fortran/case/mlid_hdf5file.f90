@@ -1,5 +1,5 @@
 !> HDF5 files (.h5, .hdf5, and MATLAB v7.3 .mat, which is HDF5 after a
-!> 512-byte header), read as h5py reads them for python/mlid/formats.py:
+!> 512-byte header), read as h5py reads them for tests/binary_reference.py:
 !> every dataset, visited as h5py's visititems visits them (H5Ovisit by
 !> name, native order: alphabetical within a group, a group's members
 !> after it), named by its path ('g/x'); those whose path starts with '#'

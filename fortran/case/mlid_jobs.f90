@@ -1,5 +1,5 @@
 !> The deck jobs that run whole in the core, for both front ends alike
-!> (mlid-batch calls job_run, Python through mlid_api's mlid_deck_case_run):
+!> (run_case, mlid_run, calls job_run for them, for both front ends):
 !>   simulate     a record from the model, a standard input or input_file
 !>   design       the optimal input of &design (report §7), written as a
 !>                record of t and the inputs, its information summarised

@@ -1,5 +1,5 @@
 !> MATLAB v5 MAT-files (saved with -v6 or -v7), read as scipy.io.loadmat
-!> reads them for python/mlid/formats.py, so that both give one table.
+!> reads them for tests/binary_reference.py, so that both give one table.
 !>
 !> A file is a 128-byte header (text, version, the endian indicator 'IM'
 !> little- or 'MI' big-endian) and data elements, each a tag (type, byte
@@ -10,7 +10,7 @@
 !> uint8) are taken, their values, whatever type they are stored in,
 !> converted to real(wp) as numpy converts them; complex, char, cell,
 !> struct, object, sparse and function arrays are passed over by their byte
-!> count without being parsed, as formats.py leaves them out.  A v7.3
+!> count without being parsed, as tests/binary_reference.py (scipy) leaves them out.  A v7.3
 !> header (version 0x0200) is said (v73), for the HDF5 reader to read it.
 !>
 !> Every length is checked against the bytes there are before a byte is

@@ -1,7 +1,7 @@
 !> What a binary flight record (.mat, HDF5) holds, as its table is made of
 !> it: the numeric arrays in the file's order, each with numpy's shape of
 !> it and, from HDF5, the attributes units (or unit) and columns; and the
-!> rule that makes one table of them, the rule of python/mlid/formats.py's
+!> rule that makes one table of them, the rule of tests/binary_reference.py's
 !> _table, so that both front ends take the same channels of a file:
 !>
 !> - one 2-D matrix (both dimensions > 1) is the table, a row per sample

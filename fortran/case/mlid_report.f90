@@ -1,7 +1,7 @@
 !> The printed report of a fit (report Table 5.3 layout) and the JSON of a
-!> case, built once as text: mlid-batch prints and writes these strings,
-!> and Python asks for the same strings through mlid_api, so the two front
-!> ends agree byte for byte.
+!> case, built once as text: the job runner (mlid_run) gives these strings
+!> to both front ends, which print and write them, so the two agree byte
+!> for byte.
 module mlid_report
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, stop_reason_text, fit_outcome, FIT_FAILED

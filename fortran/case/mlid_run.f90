@@ -11,7 +11,7 @@ module mlid_run
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_NOCONV, fit_outcome, FIT_ESTIMATES, FIT_FAILED, &
                         FIT_NOT_RUN
   use mlid_case, only: case_t, NAMELEN
-  use mlid_text, only: line_t, join_lines, split_lines, itoa
+  use mlid_text, only: line_t, itoa
   use mlid_units, only: UNITLEN
   use mlid_deck, only: case_record, manoeuvre_layout, case_param_units, holdout_case, &
                        manoeuvre_block, corrected_writable

@@ -1,5 +1,5 @@
 !> The table of a binary flight record, read by the core for both front
-!> ends as python/mlid/formats.py's read_table reads it: a .mat file
+!> ends as tests/binary_reference.py's read_table reads it: a .mat file
 !> (v5 by mlid_matfile; v7.3, HDF5 after a 512-byte header, by
 !> mlid_hdf5file, its matrix transposed back to MATLAB's) or an HDF5 file
 !> (.h5, .hdf5), then one table of its arrays (mlid_named_arrays).
@@ -54,7 +54,7 @@ contains
   end subroutine tablefile_read
 
   !> Whether path is HDF5: its signature at byte 0, or at 512 (a v7.3 .mat),
-  !> the two places formats.py looks.
+  !> the two places tests/binary_reference.py (h5py) looks.
   subroutine sniff(path, hdf5, status, msg)
     character(len=*), intent(in) :: path
     logical, intent(out) :: hdf5

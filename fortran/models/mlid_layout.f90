@@ -2,7 +2,7 @@
 !>   theta = [p, x0, bias, q, r, s, delay, udelay, stab, p0]
 !> as a table of blocks (key, rows, columns, offset), with the element name
 !> ('f(1,2)', 'x0(3)') and default label ('C_Lalpha', 'M_q.u') of every
-!> entry.  The deck reader and, through mlid_api, Python ask this module;
+!> entry.  The deck reader and, through the flat interface, Python ask this module;
 !> no one else knows the order.
 module mlid_layout
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT

@@ -6,7 +6,10 @@ run fits side by side: mlid.monte_carlo_parallel).
 The core keeps no module state: what a caller keeps between calls is in a
 handle of its own (fortran/case/mlid_handles.f90), and the core is compiled
 -frecursive (locals on each thread's stack).  The routines that read decks
-and records stay under the GIL as before.
+and records, and a deck case's run (mlid_deck_case_run), stay under the
+GIL: they build text, and gfortran 12 keeps the length of a deferred-length
+character result in a static variable, which two threads then share (two
+threads running cases of one deck at once garbled a JSON object).
 
     python f2py_threadsafe.py IN.f90... OUT.f90
 """

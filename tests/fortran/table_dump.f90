@@ -1,5 +1,5 @@
 !> The table the core reads of a .mat or HDF5 record, for the Python tests
-!> to hold against python/mlid/formats.py's read_table:
+!> to hold against tests/binary_reference.py's read_table:
 !>   table_dump FILE OUT [VARIABLE]
 !> prints 'status N', the message, and when N is 0 'nrow ncol' and a line
 !> 'name<TAB>unit' per column; writes x (nrow, ncol), column-major

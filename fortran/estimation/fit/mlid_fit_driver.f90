@@ -2,7 +2,7 @@
 !> parameters and which are free, ties, constants, record, options), with
 !> its a priori values and bounds checked, run by the method the options
 !> name.  The one way in to a fit for the job runner (mlid_run) and the
-!> flat interface (mlid_api's mlid_fit) alike.
+!> flat interface (mlid_api_fit's mlid_fit) alike.
 module mlid_fit_driver
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
@@ -15,7 +15,7 @@ module mlid_fit_driver
   use mlid_newton, only: fit_result_t, extras_t, newton_fit
   implicit none
   private
-  public :: fit_solve, bounds_check, fit_view_t, fit_view
+  public :: fit_solve, fit_view_t, fit_view
 
   !> A fit as its callers see it: every parameter (fixed ones as given),
   !> sigma over every parameter (0 where fixed), the matrices over the free

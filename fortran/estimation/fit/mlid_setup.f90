@@ -1,5 +1,5 @@
 !> The model, options and parameter map of a flat call, built and checked
-!> once for every estimator and job (mlid_api, mlid_jobs): a message names
+!> once for every estimator and job (the flat interface, mlid_jobs): a message names
 !> the offending item.
 module mlid_setup
   use, intrinsic :: iso_c_binding, only: c_double, c_int

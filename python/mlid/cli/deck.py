@@ -105,12 +105,14 @@ class Case:
         numbers = range(1, max(len(self._files), 1) + 1) if files is None else files
         records = []
         for j in numbers:
-            nt, status, msg = _api.mlid_deck_case_record(self._handle.value, self.index, j)
+            out = Handle()
+            nt, status, msg = _api.mlid_deck_case_record(self._handle.value, self.index, j,
+                                                         out.value)
             note = read_status(status, msg)
             if note:
                 self.warnings.append(note)
-            records.append(FlightData._taken(self._handle, *self._sizes, nt, self._files[j - 1],
-                                             inputs, outputs))
+            records.append(FlightData._taken(out, *self._sizes, nt, self._files[j - 1], inputs,
+                                             outputs))
         return records[0] if len(records) == 1 and files is None else records
 
     def options(self):
@@ -215,6 +217,8 @@ def _fit_of(case):
         result = fit_result(case.model, data if len(data) > 1 else data[0], out,
                             **case.options())
     except MlidError as exc:           # a failed fit: the error carries it
+        if getattr(exc, "result", None) is None:
+            raise
         return exc.result
     if "theil" in kept:
         result.validation = _validation_of(case, result, kept)
@@ -224,9 +228,9 @@ def _fit_of(case):
 def _validation_of(case, result, kept):
     """The Validation the run computed: the core's statistics and
     prediction, the held-out records read as the run read them."""
-    held = sorted(case.holdout)
-    return validation_of(result, case.record(held), held, kept["theil"], kept["rms"],
-                         kept["rms_over_sigma"], kept["prediction"].T.copy())
+    # read in file order, as the run joined them; numbered as the deck lists them
+    return validation_of(result, case.record(sorted(case.holdout)), case.holdout, kept["theil"],
+                         kept["rms"], kept["rms_over_sigma"], kept["prediction"].T.copy())
 
 
 def iter_deck(path):

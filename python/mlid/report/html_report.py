@@ -287,8 +287,8 @@ def case_html(case, out, result, error):
     if out is not None and out.get("job") == "simulate" and "samples" in out:
         parts.append(f"<p>simulated {_e(out['samples'])} samples to "
                      f"<code>{_e(Path(out['out']).name)}</code></p>")
-    elif getattr(out, "report", None):        # a design or Monte Carlo: the core's lines
-        parts.append(f"<pre>{_e(out.report)}</pre>")
+    elif getattr(out, "report", None) and result is None and error is None:
+        parts.append(f"<pre>{_e(out.report)}</pre>")   # a design or Monte Carlo: its lines
     if result is not None:
         parts += _fit_sections(result)
     parts.append("</section>")
