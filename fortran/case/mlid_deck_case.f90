@@ -14,9 +14,7 @@ contains
 
   !> &case: title, job and the flight condition (mach, altitude, alpha_trim,
   !> config, tags: for campaign tables; not given is not zero).
-  module subroutine read_case_group(rd, c)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
+  module procedure read_case_group
     character(len=256) :: title             !< longer than the case's, to see a title too long
     character(len=16) :: job
     character(len=1024) :: config, tags     !< longer than the case's too
@@ -65,6 +63,6 @@ contains
     end if
     if (all(c%job /= JOBS)) &
       call fail(c, 'group &case: job must be '//choices(JOBS)//', got '''//trim(job)//'''')
-  end subroutine read_case_group
+  end procedure read_case_group
 
 end submodule mlid_deck_case

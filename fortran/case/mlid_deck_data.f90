@@ -15,9 +15,7 @@ contains
   !> them (by column number or name), the columns' names and units, derived
   !> channels, the units channels are shown in and the time window of each
   !> file.
-  module subroutine read_data_group(rd, c)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
+  module procedure read_data_group
     character(len=PATHLEN) :: file(MAXSEG), join(MAXSEG)
     character(len=CHANLEN) :: time_col, input_cols(MAXCOL), output_cols(MAXCOL), &
                               columns(MAXCOL), units(MAXCOL), show(MAXCOL), join_columns(MAXCOL)
@@ -72,7 +70,7 @@ contains
         ' inputs and ', c%ny, ' outputs'
       call fail(c, msg)
     end if
-  end subroutine read_data_group
+  end procedure read_data_group
 
   !> Each file's window: t_start and t_end in the order of file; a file
   !> without one takes all of it.
@@ -123,8 +121,7 @@ contains
 
   !> What &data must hold.  An entry that fills its whole length was cut.
   !> initial_states: nx values for each data file (each manoeuvre).
-  module subroutine check_initial_states(c)
-    type(case_t), intent(inout) :: c
+  module procedure check_initial_states
     if (.not. allocated(c%initial_states)) return
     if (size(c%initial_states) == 0) return
     if (c%job == 'validate') then
@@ -134,7 +131,7 @@ contains
                 ' values; nx = '//itoa(c%nx)//' for each of the '//itoa(size(c%data_files))// &
                 ' data files needs '//itoa(c%nx*size(c%data_files)))
     end if
-  end subroutine check_initial_states
+  end procedure check_initial_states
 
   subroutine check_data_group(c, entries, derived)
     type(case_t), intent(inout) :: c

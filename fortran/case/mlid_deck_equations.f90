@@ -16,13 +16,7 @@ contains
   !> An equations model's text (mlid_equations) from the deck: the states
   !> and their derivatives, inputs, parameters ('NAME' or 'NAME = start
   !> value', in the order of p), definitions and outputs.
-  module subroutine equations_text(c, states, xdot, inputs, ynames, outputs, definitions, params, &
-                                   pstart, pre, post)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: states(:), xdot(:), inputs(:), ynames(:), outputs(:), &
-                                    definitions(:), params(:)
-    real(wp), allocatable, intent(out) :: pstart(:)
-    character(len=*), intent(in), optional :: pre, post   !< lines around the definitions (sixdof)
+  module procedure equations_text
     character(len=:), allocatable :: text
     character(len=NAMELEN) :: name
     character(len=NAMELEN), allocatable :: pnames(:)
@@ -64,16 +58,11 @@ contains
       text = text//'y '//trim(name)//' = '//trim(outputs(k))//achar(10)
     end do
     c%iconst = equations_text_codes(text)
-  end subroutine equations_text
+  end procedure equations_text
 
   !> kind = 'sixdof': the rigid-body lines of mlid_sixdof around the deck's
   !> definitions, and the state equations (xs) in the order of state_names.
-  module subroutine sixdof_deck(c, constants, states, xdot, inputs, definitions, pre, post, xs)
-    type(case_t), intent(inout) :: c
-    real(wp), intent(in) :: constants(:)
-    character(len=*), intent(in) :: states(:), xdot(:), inputs(:), definitions(:)
-    character(len=:), allocatable, intent(out) :: pre, post
-    character(len=TIELEN), allocatable, intent(out) :: xs(:)
+  module procedure sixdof_deck
     character(len=:), allocatable :: lines
     character(len=NAMELEN) :: defined(size(definitions))
     character(len=msg_len) :: iomsg
@@ -109,25 +98,18 @@ contains
       xs = [character(len=TIELEN) :: xs, lines(k:b - 1)]
       a = b + 1
     end do
-  end subroutine sixdof_deck
+  end procedure sixdof_deck
 
   !> The kinds whose model is a text of equations (mlid_equations).
-  module logical function written_as_equations(kind)
-    character(len=*), intent(in) :: kind
+  module procedure written_as_equations
     written_as_equations = any(to_lower(kind) == [character(len=11) :: 'equations', 'sixdof', &
                                                   'flight_path'])
-  end function written_as_equations
+  end procedure written_as_equations
 
   !> kind = 'flight_path': the kinematic model of mlid_flightpath with the
   !> corrections params names (start values there), the outputs of
   !> output_names (all seven when none) and its own states and inputs.
-  module subroutine flightpath_deck(c, constants, states, xdot, inputs, ynames, outputs, &
-                                    definitions, params, pstart)
-    type(case_t), intent(inout) :: c
-    real(wp), intent(in) :: constants(:)
-    character(len=*), intent(in) :: states(:), xdot(:), outputs(:), definitions(:), params(:)
-    character(len=*), intent(inout) :: inputs(:), ynames(:)
-    real(wp), allocatable, intent(out) :: pstart(:)
+  module procedure flightpath_deck
     character(len=NAMELEN), allocatable :: pnames(:)
     character(len=:), allocatable :: text
     character(len=msg_len) :: iomsg
@@ -153,7 +135,7 @@ contains
     inputs(1:size(FLIGHTPATH_INPUTS)) = FLIGHTPATH_INPUTS
     c%iconst = equations_text_codes(text)
     c%flight_path = .true.
-  end subroutine flightpath_deck
+  end procedure flightpath_deck
 
   !> The params entries' names and start values, in order.
   subroutine param_entries(c, params, names, values)

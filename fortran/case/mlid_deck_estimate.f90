@@ -10,10 +10,7 @@ contains
 
   !> &estimate: the estimator's options, and a priori values, weights and
   !> bounds per free parameter (in the order of free).
-  module subroutine read_estimate_group(rd, c, free_idx)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: free_idx(:)
+  module procedure read_estimate_group
     character(len=32) :: noise, method, startup, rank_rule, process_noise, noise_criterion, &
                          filter_params
     integer :: max_iter, halvings, rank_min, rank_max, ios, n_freq
@@ -84,7 +81,7 @@ contains
     call set_option(c, 'group &estimate: ', 'noise_criterion', noise_criterion)
     call set_option(c, 'group &estimate: ', 'filter_params', filter_params)
     if (c%status == MLID_OK) call put_extras(c, free_idx, prior, prior_weight, lower, upper)
-  end subroutine read_estimate_group
+  end procedure read_estimate_group
 
   !> &estimate corrected: one record to write per data file, for a fit of
   !> kind 'flight_path' (the corrections it undoes are that kind's).

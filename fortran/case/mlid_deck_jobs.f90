@@ -17,9 +17,7 @@ submodule (mlid_deck) mlid_deck_jobs
 contains
 
   !> &simulate: the record to write, its time base, inputs and noise.
-  module subroutine read_simulate_group(rd, c)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
+  module procedure read_simulate_group
     character(len=PATHLEN) :: out
     character(len=16) :: input_shape(MAXU)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
@@ -73,7 +71,7 @@ contains
     end if
     o = lt%off(findloc(lt%key, 'r', 1))
     if (size(c%noise_std) == c%ny) c%theta(o + 1:o + c%ny) = c%noise_std**2
-  end subroutine read_simulate_group
+  end procedure read_simulate_group
 
   subroutine check_simulate(c)
     type(case_t), intent(inout) :: c
@@ -136,9 +134,7 @@ contains
   !> the limit (energy, or peak and min_width), weights, servo time
   !> constants, process noise Gamma Q Gamma', method and iterations, and
   !> the record to write.
-  module subroutine read_design_group(rd, c)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
+  module procedure read_design_group
     character(len=NAMELEN) :: unknowns(MAXFREE)
     character(len=16) :: method
     character(len=PATHLEN) :: out
@@ -179,7 +175,7 @@ contains
     if (c%status == MLID_OK) call design_settings(c, weights, servo, process_noise)
     if (c%status == MLID_OK) call design_limits(c, energy /= UNSET, peak /= UNSET .or. &
                                                 min_width /= UNSET)
-  end subroutine read_design_group
+  end procedure read_design_group
 
   !> What the design takes of &model: a linear model with inputs, no state
   !> feedback or stabilisation, measurement noise r > 0 on every output.
@@ -329,10 +325,7 @@ contains
   !> &monte_carlo (job 'monte_carlo'): runs from seed (run k: seed + k - 1),
   !> the record of the input flown (input_file) and the true values of the
   !> free parameters (in the order of free; default: the start values).
-  module subroutine read_monte_carlo_group(rd, c, free_idx)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: free_idx(:)
+  module procedure read_monte_carlo_group
     integer :: runs, seed, ios, nf
     real(wp) :: truth(MAXFREE)
     character(len=PATHLEN) :: input_file
@@ -367,6 +360,6 @@ contains
     else if (.not. all(ieee_is_finite(c%theta_true))) then
       call fail(c, 'group &monte_carlo: truth must be finite')
     end if
-  end subroutine read_monte_carlo_group
+  end procedure read_monte_carlo_group
 
 end submodule mlid_deck_jobs

@@ -23,10 +23,7 @@ contains
 
   !> &model: the kind and sizes, the parameter vector, free parameters and
   !> their labels, ties, input hold and substeps, channel names.
-  module subroutine read_model_group(rd, c, free_idx)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    integer, allocatable, intent(out) :: free_idx(:)
+  module procedure read_model_group
     character(len=16) :: kind, input_hold
     integer :: nx, nu, ny, nw, substeps, user_iconst(MAXFREE), ncoef(3), ios
     real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
@@ -186,7 +183,7 @@ contains
     if (size(c%initial_states) > 0 .and. (mod(size(c%initial_states), max(c%nx, 1)) /= 0 &
         .or. c%nx == 0)) call fail(c, 'group &model: initial_states needs nx = '// &
         itoa(c%nx)//' values per manoeuvre, got '//itoa(size(c%initial_states)))
-  end subroutine read_model_group
+  end procedure read_model_group
 
   !> The model kind and its sizes and constants (a built-in model's sizes
   !> are its own; nx, nu, ny, nw may be left out or must agree).

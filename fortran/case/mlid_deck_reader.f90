@@ -13,19 +13,14 @@ contains
 
   !> After a group's namelist read: a missing group (an error when the job
   !> needs it) or a read error becomes the case's message.
-  module subroutine group_status(rd, group, ios, iomsg, required, c)
-    type(reader_t), intent(in) :: rd
-    character(len=*), intent(in) :: group, iomsg
-    integer, intent(in) :: ios
-    logical, intent(in) :: required
-    type(case_t), intent(inout) :: c
+  module procedure group_status
     if (ios < 0 .and. required) then
       call fail(c, 'group &'//group//' is missing (job '''//trim(c%job)//''' needs it)')
     else if (ios > 0) then
       call fail(c, 'group &'//group//' (line '//itoa(group_line(rd%lines, rd%line0, group))// &
                 '): '//blame(rd, group, iomsg))
     end if
-  end subroutine group_status
+  end procedure group_status
 
   !> A namelist read error in words a user can act on: the compiler names
   !> the token it could not take ("Cannot match namelist object name .5"):
@@ -100,11 +95,7 @@ contains
   !> Whether quoted text given to one of keys in group is longer than room,
   !> the characters its variable holds (the namelist read would cut it
   !> without a word): the case fails naming key, line and room.
-  module logical function too_long(rd, c, group, keys, room)
-    type(reader_t), intent(in) :: rd
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: group, keys(:)
-    integer, intent(in) :: room
+  module procedure too_long
     integer :: k
     too_long = .false.
     do k = 1, size(rd%given)
@@ -116,30 +107,24 @@ contains
         return
       end associate
     end do
-  end function too_long
+  end procedure too_long
 
-  module subroutine fail(c, text)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: text
+  module procedure fail
     c%status = MLID_ERR_INPUT
     c%msg = text
-  end subroutine fail
+  end procedure fail
 
   !> Set an option of the case by name from the deck's text (the core's
   !> option table checks the name and the value).
-  module subroutine set_option(c, where, name, text)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: where, name, text
+  module procedure set_option
     character(len=msg_len) :: msg
     integer :: status
     call option_set(c%iopt, c%ropt, name, text, status, msg)
     if (status /= MLID_OK) call fail(c, where//trim(msg))
-  end subroutine set_option
+  end procedure set_option
 
   !> 'a', 'b' or 'c': a list of choices for a message.
-  module function choices(list) result(text)
-    character(len=*), intent(in) :: list(:)
-    character(len=:), allocatable :: text
+  module procedure choices
     integer :: k
     text = ''''//trim(list(1))//''''
     do k = 2, size(list)
@@ -149,15 +134,13 @@ contains
         text = text//', '''//trim(list(k))//''''
       end if
     end do
-  end function choices
+  end procedure choices
 
   !> The line without its comment (from the first '!' outside quotes:
   !> mlid_text's comment_start).
-  module function strip_comment(line) result(s)
-    character(len=*), intent(in) :: line
-    character(len=len(line)) :: s
+  module procedure strip_comment
     s = line(1:comment_start(line) - 1)
-  end function strip_comment
+  end procedure strip_comment
 
   !> Line number of the first &group in the case (for messages).
   integer function group_line(lines, line0, group)

@@ -21,12 +21,7 @@ contains
 
   !> The entries of theta's block key (laid out for nseg manoeuvres,
   !> manoeuvre_layout) that hold for manoeuvre j: its own, or the shared ones.
-  module function manoeuvre_block(c, nseg, theta, j, key) result(v)
-    type(case_t), intent(in) :: c
-    integer, intent(in) :: nseg, j
-    real(wp), intent(in) :: theta(:)
-    character(len=*), intent(in) :: key
-    real(wp), allocatable :: v(:)
+  module procedure manoeuvre_block
     type(layout_table_t) :: lt
     integer, allocatable :: map(:), seg(:)
     character(len=msg_len) :: iomsg
@@ -40,14 +35,11 @@ contains
     last = lt%nth                              ! the block ends where the next begins
     if (b < lt%nblock) last = lt%off(b + 1)
     v = pack(theta, map > lt%off(b) .and. map <= last .and. (seg == 0 .or. seg == j))
-  end function manoeuvre_block
+  end procedure manoeuvre_block
 
   !> Whether every corrected record's path can be written: both front ends
   !> ask before the fit, so that a typo does not cost one.
-  module subroutine corrected_writable(c, status, msg)
-    type(case_t), intent(in) :: c
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
+  module procedure corrected_writable
     character(len=:), allocatable :: tmp
     integer :: j
     status = MLID_OK
@@ -57,7 +49,7 @@ contains
       call temporary_for(trim(c%corrected(j)), tmp, status, msg)
       if (status /= MLID_OK) return
     end do
-  end subroutine corrected_writable
+  end procedure corrected_writable
 
   !> The record of an estimate case: time, inputs and outputs from its
   !> data files (paths resolved by the reader).  Several files are
@@ -65,17 +57,7 @@ contains
   !> its times moved to follow the one before; segstart(k) is the first
   !> sample of manoeuvre k.  The reader's warnings (values that look wrong
   !> for their declared unit), one per file, in notes.
-  module subroutine case_record(c, t, u, y, status, msg, segstart, units, names, notes, own_t)
-    type(case_t), intent(in) :: c
-    real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
-    !> each manoeuvre's time as its file gives it (t moves them one after another)
-    real(wp), allocatable, intent(out), optional :: own_t(:)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    integer, allocatable, intent(out), optional :: segstart(:)
-    character(len=UNITLEN), allocatable, intent(out), optional :: units(:)  !< inputs, outputs
-    character(len=NAMELEN), allocatable, intent(out), optional :: names(:)  !< the channels'
-    type(line_t), allocatable, intent(out), optional :: notes(:)
+  module procedure case_record
     real(wp), allocatable :: tk(:), uk(:, :), yk(:, :)
     integer :: k, nseg
     integer :: starts(MAXSEG)
@@ -104,7 +86,7 @@ contains
       y = reshape([y, yk], [c%ny, size(t)])
     end do
     if (present(segstart)) segstart = starts(1:nseg)
-  end subroutine case_record
+  end procedure case_record
 
   !> One more note; grown by hand (an array constructor of line_t into a
   !> dummy argument loses the lengths with gfortran 12).
@@ -150,11 +132,7 @@ contains
   !> initial state and biases (the x0 and bias blocks repeated, start values
   !> and free flags alike), the rest shared; labels of a manoeuvre's own
   !> entries end in '#k'.  As mlid/maneuvers.py does for Python.
-  module subroutine manoeuvre_layout(c, nseg, status, msg)
-    type(case_t), intent(inout) :: c
-    integer, intent(in) :: nseg
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
+  module procedure manoeuvre_layout
     integer :: nth, k
     integer, allocatable :: map(:), seg(:), new_of(:)
     logical, allocatable :: own(:)
@@ -255,17 +233,11 @@ contains
       c%pweight = w
     end subroutine grow_weight
 
-  end subroutine manoeuvre_layout
+  end procedure manoeuvre_layout
 
   !> The units of the case's free parameters on nseg manoeuvres, from its
   !> channels' units (inputs, then outputs); called before manoeuvre_layout.
-  module subroutine case_param_units(c, nseg, channel_units, units, status, msg)
-    type(case_t), intent(in) :: c
-    integer, intent(in) :: nseg
-    character(len=*), intent(in) :: channel_units(:)
-    character(len=UNITLEN), allocatable, intent(out) :: units(:)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
+  module procedure case_param_units
     type(layout_table_t) :: lt
     character(len=UNITLEN), allocatable :: each(:)
     integer, allocatable :: map(:), seg(:)
@@ -276,7 +248,7 @@ contains
     call param_units(lt, c%theta, channel_units(1:c%nu), channel_units(c%nu + 1:c%nu + c%ny), each)
     call manoeuvre_map(lt, max(nseg, 1), map, seg)
     units = pack(each(map), c%isfree(map) == 1)
-  end subroutine case_param_units
+  end procedure case_param_units
 
   !> The case that predicts the held-out manoeuvres of validate case c
   !> from its fit on nfit (theta_fit, in the layout of nfit manoeuvres):
@@ -286,13 +258,7 @@ contains
   !> bounds; output error on a model without noise, as a prediction is.
   !> One manoeuvre's layout (manoeuvre_layout spreads it over the held-out
   !> ones).  As python/mlid/report/validation.py does for Python.
-  module subroutine holdout_case(c, theta_fit, nfit, h, status, msg)
-    type(case_t), intent(in) :: c
-    real(wp), intent(in) :: theta_fit(:)
-    integer, intent(in) :: nfit
-    type(case_t), intent(out) :: h
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
+  module procedure holdout_case
     type(layout_table_t) :: lt
     integer, allocatable :: map(:), seg(:)
     logical, allocatable :: own(:)
@@ -325,16 +291,12 @@ contains
     if (status == MLID_OK) call option_set(h%iopt, h%ropt, 'startup', 'none', status, msg)
     if (status == MLID_OK) call option_set(h%iopt, h%ropt, 'rank_min', '0', status, msg)
     if (status == MLID_OK) call option_set(h%iopt, h%ropt, 'rank_max', '0', status, msg)
-  end subroutine holdout_case
+  end procedure holdout_case
 
   !> Time base t = 0, dt, ..., and inputs of a simulate case; or, with
   !> input_file (simulate, monte_carlo), the file's time (column 1) and the
   !> nu columns after it.
-  module subroutine case_time_input(c, t, u, status, msg)
-    type(case_t), intent(in) :: c
-    real(wp), allocatable, intent(out) :: t(:), u(:, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
+  module procedure case_time_input
     type(record_t) :: rec
     integer :: nt, k, at
 
@@ -367,6 +329,6 @@ contains
                         u(k, :), status, msg)
       if (status /= MLID_OK) return
     end do
-  end subroutine case_time_input
+  end procedure case_time_input
 
 end submodule mlid_deck_record

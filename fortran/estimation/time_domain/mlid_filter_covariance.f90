@@ -14,12 +14,7 @@ contains
 
   !> Outputs that carry the process noise of the next interval, (dh/dw) w
   !> (dhw): the effective R and S at this sample (report §5.1.7).
-  module subroutine output_noise(sys, dhw, code, status, msg)
-    type(lti_t), intent(inout) :: sys
-    real(wp), intent(in) :: dhw(:, :)
-    integer, intent(in) :: code       !< opt%process_noise
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
+  module procedure output_noise
     status = MLID_OK
     msg = ''
     if (all(dhw == 0.0_wp)) return
@@ -33,15 +28,10 @@ contains
     sys%ryy(:, :) = matmul(dhw, sys%qd)
     sys%r(:, :) = sys%r0 + sys%ryy
     sys%s(:, :) = sys%s0 + sys%qd
-  end subroutine output_noise
+  end procedure output_noise
 
   !> Measurement update: B, B^-1, log|B|, K, P+ and their partials.
-  module subroutine cov_update(sys, cv, partials, status, msg)
-    type(lti_t), intent(in) :: sys
-    type(cov_t), intent(inout) :: cv
-    logical, intent(in) :: partials
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
+  module procedure cov_update
     integer :: k, ierr
 
     status = MLID_OK
@@ -87,7 +77,7 @@ contains
         call symmetrize(cv%dpp(:, :, k))
       end do
     end associate
-  end subroutine cov_update
+  end procedure cov_update
 
   !> Time update: P- of the next sample from P+ (and the partials),
   !>
@@ -96,10 +86,7 @@ contains
   !> with V the process noise as it reaches the state and G = W S its
   !> correlation with the measurement noise (noise_reach); the products
   !> shared by all parameters formed once and zero partials skipped.
-  module subroutine cov_predict(sys, cv, partials)
-    type(lti_t), intent(in) :: sys
-    type(cov_t), intent(inout) :: cv
-    logical, intent(in) :: partials
+  module procedure cov_predict
     integer :: k
     logical :: corr
 
@@ -147,7 +134,7 @@ contains
         cv%dpm(:, :, k) = tmp
       end do
     end associate
-  end subroutine cov_predict
+  end procedure cov_predict
 
   !> a = (a + a')/2 in place: the covariances kept symmetric against rounding.
   pure subroutine symmetrize(a)
@@ -165,12 +152,7 @@ contains
   !> G = W S: for held noise (code 0) V = W Q W'; for continuous white noise
   !> of density Q (codes 1, 2) V = int_0^dt e^{A s} Gamma Q Gamma' e^{A' s} ds
   !> exactly (van_loan), with a = A and Gamma = df/dw, and G = 0.
-  module subroutine noise_reach(sys, code, a, status, msg)
-    type(lti_t), intent(inout) :: sys
-    integer, intent(in) :: code
-    real(wp), intent(in) :: a(:, :)
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
+  module procedure noise_reach
     status = MLID_OK
     msg = ''
     if (code == 0) then
@@ -183,7 +165,7 @@ contains
       call van_loan(a, sys%gqg, sys%dt, sys%wqw, status, msg, sys%vm, sys%ve, sys%ew)
       sys%gs = 0.0_wp
     end if
-  end subroutine noise_reach
+  end procedure noise_reach
 
   !> qd = int_0^h e^{A s} v e^{A' s} ds by one matrix exponential (Van Loan,
   !> 1978): e^{M h} with M = [-A, v; 0, A'] holds e^{A' h} and e^{-A h} qd
@@ -227,12 +209,7 @@ contains
   !> The steady-state P(j|j-1) from the Riccati equation (mlid_riccati) and,
   !> with partials, its partials from the Stein equations; leaves the
   !> update of that P (B, K, P+ and their partials) in cv.
-  module subroutine steady_state(sys, cv, partials, status, msg)
-    type(lti_t), intent(in) :: sys
-    type(cov_t), intent(inout) :: cv
-    logical, intent(in) :: partials
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
+  module procedure steady_state
     real(wp), dimension(size(cv%pm, 1), size(cv%pm, 1)) :: ac, y, pac
     real(wp), dimension(size(cv%k, 1), size(cv%k, 2)) :: kp
     real(wp), allocatable :: e(:, :, :)
@@ -265,11 +242,9 @@ contains
       end if
     end if
     call cov_update(sys, cv, partials, status, msg)
-  end subroutine steady_state
+  end procedure steady_state
 
-  module subroutine cov_alloc(cv, nx, ny, nf)
-    type(cov_t), intent(out) :: cv
-    integer, intent(in) :: nx, ny, nf
+  module procedure cov_alloc
     allocate (cv%pm(nx, nx), cv%dpm(nx, nx, nf), cv%pp(nx, nx), cv%dpp(nx, nx, nf), &
               cv%b(ny, ny), cv%binv(ny, ny), cv%db(ny, ny, nf), cv%k(nx, ny), cv%dk(nx, ny, nf))
     allocate (cv%ct(nx, ny), cv%pct(nx, ny), cv%dpct(nx, ny), cv%gb(nx, ny), cv%xy(nx, ny), &
@@ -281,6 +256,6 @@ contains
     cv%dpp = 0.0_wp
     cv%db = 0.0_wp
     cv%dk = 0.0_wp
-  end subroutine cov_alloc
+  end procedure cov_alloc
 
 end submodule mlid_filter_covariance

@@ -12,15 +12,7 @@ contains
 
   !> Everything the filter holds fixed along the record (linear models):
   !> C, Phi, W = held-noise transition, Q, R, S and their partials.
-  module subroutine lti_setup(m, theta, pm, t, u, opt, sys, status, msg)
-    class(model_t), intent(in) :: m
-    real(wp), intent(in) :: theta(:)
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(in) :: t(:), u(:, :)
-    type(options_t), intent(in) :: opt
-    type(lti_t), intent(out) :: sys
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
+  module procedure lti_setup
     type(layout_t) :: l
     real(wp) :: dt, e(m%nx), ua(m%nu + m%nw), dcm(m%ny, m%nx, size(pm%im)), a(m%nx, m%nx)
     real(wp), allocatable :: sk(:, :), s0step(:, :)
@@ -186,7 +178,7 @@ contains
       end do
     end subroutine integrate
 
-  end subroutine lti_setup
+  end procedure lti_setup
 
   !> The partials of V and G (noise_reach) for a linear model.  Continuous
   !> noise needs those of A and Gamma: df/dp at unit states (unit noise)
