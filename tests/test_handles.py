@@ -49,7 +49,7 @@ def outputs(deck):
 
 
 def ran(cases):
-    return [(case_json(case, out, result, error),
+    return [(case_json(case, out, error),
              result.report() if result is not None else getattr(out, "report", ""))
             for case, out, result, error in run_cases(cases)]
 

@@ -24,7 +24,6 @@ module mlid_api_models
   use mlid_param_units, only: param_units
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
   use mlid_jacobian_check, only: check_jacobians
-  use mlid_jobs, only: JOB_RUNS
   use mlid_named, only: VALUE_KIND_NAMES
   use mlid_run, only: corrected_record
   implicit none
@@ -334,7 +333,7 @@ contains
 
   !> A list of names the core defines, one per line: 'regressors' (of the
   !> longitudinal model, by code), 'constants' (its rconst, in order),
-  !> 'core_jobs', 'value_kinds' and 'model_kinds' (by code).
+  !> 'value_kinds' and 'model_kinds' (by code).
   subroutine mlid_name_list(which, text)
     character(len=*), intent(in) :: which
     character(len=1024), intent(out) :: text
@@ -347,8 +346,6 @@ contains
       end do
     case ('constants')
       text = CONSTANT_NAMES
-    case ('core_jobs')            ! the deck jobs mlid_jobs runs whole
-      text = JOB_RUNS
     case ('value_kinds')          ! mlid_named's kinds of value, in the order of their codes
       text = VALUE_KIND_NAMES
     case ('model_kinds')          ! the model kinds' names, in the order of their codes

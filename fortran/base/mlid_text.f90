@@ -7,7 +7,7 @@ module mlid_text
   private
   public :: to_lower, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
             text_file_t, text_open, text_line, text_close, control_character, comment_start, &
-            short_path, seconds, number_text
+            short_path, seconds, number_text, add_line
 
   integer, parameter :: CHUNK = 4096
   character(len=3), parameter :: BOM = char(239)//char(187)//char(191)   !< UTF-8 byte-order mark
@@ -337,5 +337,21 @@ contains
       text = trim(adjustl(buf))
     end if
   end function number_text
+
+  !> lines with text appended; grown by hand (an array constructor of
+  !> line_t loses the lengths with gfortran 12).
+  subroutine add_line(lines, text)
+    type(line_t), allocatable, intent(inout) :: lines(:)
+    character(len=*), intent(in) :: text
+    type(line_t), allocatable :: more(:)
+    integer :: j
+    if (.not. allocated(lines)) allocate (lines(0))
+    allocate (more(size(lines) + 1))
+    do j = 1, size(lines)
+      call move_alloc(lines(j)%s, more(j)%s)
+    end do
+    more(size(more))%s = trim(text)
+    call move_alloc(more, lines)
+  end subroutine add_line
 
 end module mlid_text

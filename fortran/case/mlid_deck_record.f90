@@ -69,7 +69,7 @@ contains
     do k = 1, nseg
       call read_record(c, k, tk, uk, yk, status, msg, units, names)
       if (status /= MLID_OK) return
-      if (present(notes) .and. len_trim(msg) > 0) call add_note(notes, msg)
+      if (present(notes) .and. len_trim(msg) > 0) call add_line(notes, msg)
       msg = ''
       if (size(tk) < 2 .and. nseg > 1) then
         status = MLID_ERR_INPUT
@@ -87,21 +87,6 @@ contains
     end do
     if (present(segstart)) segstart = starts(1:nseg)
   end procedure case_record
-
-  !> One more note; grown by hand (an array constructor of line_t into a
-  !> dummy argument loses the lengths with gfortran 12).
-  subroutine add_note(notes, text)
-    type(line_t), allocatable, intent(inout) :: notes(:)
-    character(len=*), intent(in) :: text
-    type(line_t), allocatable :: more(:)
-    integer :: j
-    allocate (more(size(notes) + 1))
-    do j = 1, size(notes)
-      more(j)%s = notes(j)%s
-    end do
-    more(size(more))%s = trim(text)
-    call move_alloc(more, notes)
-  end subroutine add_note
 
   !> Data file k: the case's channels of it in its window, by the one
   !> record reader.

@@ -11,7 +11,7 @@ module mlid_run
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_NOCONV, fit_outcome, FIT_ESTIMATES, FIT_FAILED, &
                         FIT_NOT_RUN
   use mlid_case, only: case_t, NAMELEN
-  use mlid_text, only: line_t, itoa
+  use mlid_text, only: line_t, itoa, add_line
   use mlid_units, only: UNITLEN
   use mlid_deck, only: case_record, manoeuvre_layout, case_param_units, holdout_case, &
                        manoeuvre_block, corrected_writable
@@ -88,15 +88,7 @@ contains
   subroutine note(r, text)
     type(case_run_t), intent(inout) :: r
     character(len=*), intent(in) :: text
-    type(line_t), allocatable :: more(:)
-    integer :: j
-    ! grown by hand: gfortran 12 garbles an array constructor of line_t
-    allocate (more(size(r%notes) + 1))
-    do j = 1, size(r%notes)
-      call move_alloc(r%notes(j)%s, more(j)%s)
-    end do
-    more(size(more))%s = trim(text)
-    call move_alloc(more, r%notes)
+    call add_line(r%notes, text)
   end subroutine note
 
   subroutine notes_from(r, notes)

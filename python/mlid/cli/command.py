@@ -245,7 +245,7 @@ def _case_task(deck, ks, plots, table, keep):
         out_text, err_text, tables = io.StringIO(), io.StringIO(), []
         with redirect_stdout(out_text), redirect_stderr(err_text):
             case, out, result, error = next(run_cases([case]))
-            obj = case_json(case, out, result, error)
+            obj = case_json(case, out, error)
             bad, unsaid = _show_case(SimpleNamespace(plots=plots, table=table), case, out, result,
                                      error, tables)
             if unsaid:

@@ -138,7 +138,7 @@ class CaseOutput(dict):
 FIT_JOBS = ("estimate", "validate")
 
 
-def case_json(case, out=None, result=None, error=None):
+def case_json(case, out=None, error=None):
     """The JSON object of a case as the core wrote it (mlid-batch writes the
     same bytes); for a case that did not run, title, job, status and message."""
     if isinstance(out, CaseOutput):
