@@ -165,7 +165,8 @@ contains
     call pack_values(v, kinds, shapes, values, text)
   end subroutine mlid_values
 
-  !> The values 'case' or 'run' of case k of handle h; null when none.
+  !> The values 'case' or 'run' of case k of handle h, or 'call': what the
+  !> handle's last call gave; null when none.
   function values_of(h, k, which) result(v)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k
@@ -175,6 +176,11 @@ contains
     integer :: status
     character(len=64) :: msg
     v => null()
+    if (which == 'call') then       ! what the handle's last call gave (k is not used)
+      call handle_session(h, s, status, msg)
+      if (status == MLID_OK) v => s%results
+      return
+    end if
     if (.not. associated(case_at(h, k))) return
     call handle_session(h, s, status, msg)
     select case (which)

@@ -11,7 +11,7 @@ module mlid_api_fit
   use mlid_params, only: param_map_t, apply_ties, ties_of
   use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
   use mlid_newton, only: fit_result_t
-  use mlid_fit_driver, only: fit_solve, fit_view, fit_view_t
+  use mlid_fit_driver, only: fit_solve, fit_view
   use mlid_colored, only: colored_covariance, colored_sandwich
   use mlid_simulate, only: simulate_flat
   use mlid_monte_carlo, only: monte_carlo, mc_statistics
@@ -22,6 +22,11 @@ module mlid_api_fit
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
                          validation_json
   use mlid_validate, only: prediction_stats
+  use mlid_handles, only: session_t, handle_session
+  use mlid_named, only: named_t
+  use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS, &
+                          PART_EXTRAS
+  use mlid_run, only: put_fit
   implicit none
   private
   public :: mlid_report_fit, mlid_case_json, mlid_prediction_stats, mlid_report_validation, &
@@ -103,109 +108,47 @@ contains
     json = text
   end subroutine mlid_report_validation
 
-  !> Maximum-likelihood fit from theta0 (output or filter error, iopt(6)),
-  !> with the options of report sec. 4.6: a priori values prior(nth) and weight
-  !> pweight(nf, nf) over the free parameters (use_prior = 1), bounds
-  !> lower(nth) <= theta <= upper(nth) (use_bounds = 1), the rank-deficient
-  !> search from iopt(10) (rank: the rank of the last step).
-  !> Out: theta_start (theta0, or the equation-error start-up's values), theta, sigma (Cramer-Rao, 0 for fixed), cov/info/grad/eigval over
-  !> the nf free parameters, rhat (R-hat, or the mean innovation covariance),
-  !> yhat, cost_hist(nc) (nc = max_iter + 1; entries past niter + 1 are 0),
-  !> cost, niter, reason (mlid_kinds STOP_*), converged (0/1), bad_param
-  !> (free index of a singular direction), sigma_c and cov_c (the same
-  !> corrected for coloured residuals, mlid_colored) and lag (its lag).
-  !> Several manoeuvres: the record holds them one after the other, segment k
-  !> from sample segstart(k) (segstart(1) = 1), with an initial state and a
-  !> bias vector each in theta (the x0 and bias blocks nseg times as long).
-  subroutine mlid_fit(mkind, nx, nu, ny, nw, nth, theta0, isfree, ntie, mtie, tie_to, tie_from, &
-                      tie_scale, tie_offset, nic, iconst, nrc, &
-                      rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, nc, use_prior, prior, &
-                      pweight, use_bounds, lower, upper, theta_start, theta, sigma, cov, info, &
-                      grad, eigval, eigvec, rhat, yhat, cost_hist, cost, niter, reason, converged, &
-                      rank, bad_param, sigma_c, cov_c, lag, rnoise, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nc, nseg
-    integer(c_int), intent(in) :: segstart(nseg)
-    integer(c_int), intent(in) :: use_prior, use_bounds
-    real(c_double), intent(in) :: prior(nth), pweight(nf, nf), lower(nth), upper(nth)
-    real(c_double), intent(in) :: theta0(nth)
-    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
-    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
-    integer(c_int), intent(in) :: iopt(16)
-    real(c_double), intent(in) :: ropt(16)
-    real(c_double), intent(out) :: theta_start(nth), theta(nth), sigma(nth), cov(nf, nf)
-    real(c_double), intent(out) :: info(nf, nf), grad(nf)
-    real(c_double), intent(out) :: eigval(nf), eigvec(nf, nf), rhat(ny, ny), yhat(ny, nt)
-    real(c_double), intent(out) :: cost_hist(nc), cost
-    integer(c_int), intent(out) :: niter, reason, converged, rank, bad_param, status
-    real(c_double), intent(out) :: sigma_c(nth), cov_c(nf, nf)
-    integer(c_int), intent(out) :: lag
-    !> noise_criterion = 'innovations': the R the fit left (diagonal); NaN otherwise
-    real(c_double), intent(out) :: rnoise(ny)
+  !> Maximum-likelihood fit of the problem of handle h (mlid_api_problem:
+  !> model, params, record, options and extras), output or filter error
+  !> (iopt(6)), with the options of report sec. 4.6: a priori values and
+  !> weight over the free parameters, bounds, the rank-deficient search from
+  !> iopt(10).  What it gives is the handle's results by name, as a deck
+  !> case's fit keeps them (mlid_run's put_fit): theta_start (theta0, or the
+  !> equation-error start-up's values), theta, sigma (Cramer-Rao, 0 for
+  !> fixed), covariance, information, gradient, eigenvalues, eigenvectors
+  !> over the free parameters, rhat (R-hat, or the mean innovation
+  !> covariance), yhat, cost_history (max_iter + 1; entries past iterations
+  !> + 1 are 0), cost, iterations, reason (mlid_kinds STOP_*), converged,
+  !> rank (of the last step), bad_param (free index of a singular
+  !> direction), sigma_corrected and covariance_corrected (for coloured
+  !> residuals, mlid_colored) and colored_lag, r_innovations, status and
+  !> message.  Several manoeuvres: the record holds them one after the
+  !> other, segment k from sample segstart(k) (segstart(1) = 1), with an
+  !> initial state and a bias vector each in theta (the x0 and bias blocks
+  !> nseg times as long).
+  subroutine mlid_fit(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    type(options_t) :: opt
-    type(param_map_t) :: pm
+    type(session_t), pointer :: s
     type(fit_result_t) :: res
-    type(fit_view_t) :: v
+    type(param_map_t) :: pm
+    type(options_t) :: opt
     integer :: bad
 
-    theta_start = theta0
-    theta = theta0
-    sigma = 0.0_wp
-    sigma_c = 0.0_wp
-    rhat = 0.0_wp
-    yhat = 0.0_wp
-    cost = 0.0_wp
-    niter = 0
-    reason = 0
-    converged = 0
-    rank = 0
-    bad_param = 0
-    lag = 0
-    rnoise = 0.0_wp
-    cov = 0.0_wp
-    info = 0.0_wp
-    grad = 0.0_wp
-    eigval = 0.0_wp
-    eigvec = 0.0_wp
-    cov_c = 0.0_wp
-    cost_hist = 0.0_wp
-    if (nc /= iopt(1) + 1) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0,a,i0)') 'cost history length ', nc, ' must be max_iter + 1 = ', &
-        iopt(1) + 1
-      return
-    end if
-    call fit_solve(mkind, nx, nu, ny, nw, theta0, isfree, &
-                   ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, &
-                   y, segstart, iopt, ropt, nf, use_prior, prior, pweight, use_bounds, lower, &
-                   upper, res, pm, opt, bad, status, msg)
-    v = fit_view(res, pm, opt, theta0, ny, nt, bad)
-    theta_start = v%theta_start
-    theta = v%theta
-    sigma = v%sigma
-    sigma_c = v%sigma_c
-    if (size(v%cov, 1) == nf) then        ! a fit that got as far as its set-up
-      cov = v%cov
-      cov_c = v%cov_c
-      info = v%info
-      grad = v%grad
-      eigval = v%eigval
-      eigvec = v%eigvec
-    end if
-    rhat = v%rhat
-    yhat = v%yhat
-    if (size(v%hist) == nc) cost_hist = v%hist
-    cost = v%cost
-    niter = v%niter
-    reason = v%reason
-    converged = merge(1, 0, v%converged)
-    rank = v%rank
-    bad_param = v%bad
-    lag = v%lag
-    rnoise = v%rnoise
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    associate (p => s%problem)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS, PART_EXTRAS], &
+                         status, msg)
+      if (status /= MLID_OK) return
+      call fit_solve(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, &
+                     p%rconst, p%t, p%u, p%y, p%segstart, p%iopt, p%ropt, count(p%isfree == 1), &
+                     p%use_prior, p%prior, p%pweight, p%use_bounds, p%lower, p%upper, res, pm, &
+                     opt, bad, status, msg)
+      call put_fit(s%results, fit_view(res, pm, opt, p%theta, p%ny, size(p%t), bad), status, msg)
+    end associate
   end subroutine mlid_fit
 
   !> Cost, gradient, information matrix and output sensitivity norms at

@@ -2,11 +2,12 @@
 !> place of module variables, so that two threads with two handles never
 !> see each other's work.  A handle is the address of a session_t the core
 !> allocated (handle_new), given back as an integer; the session holds a
-!> deck's cases, each case by name, what running each gave, and the
-!> channels last read.  The caller frees it (handle_free) and never uses it
-!> after: the check of a handle refuses 0 and a session freed but not yet
-!> reused; any other value must be one handle_new gave (Python's
-!> _bridge.Handle owns each one, so no other value reaches the core).
+!> deck's cases, each case by name, what running each gave, the channels
+!> last read, and the problem a call runs on and what the last call gave.
+!> The caller frees it (handle_free) and never uses it after: the check of
+!> a handle refuses 0 and a session freed but not yet reused; any other
+!> value must be one handle_new gave (Python's _bridge.Handle owns each
+!> one, so no other value reaches the core).
 module mlid_handles
   use, intrinsic :: iso_c_binding, only: c_ptr, c_loc, c_f_pointer, c_int64_t, c_null_ptr, &
                                          c_associated
@@ -15,6 +16,7 @@ module mlid_handles
   use mlid_channels, only: channel_set_t
   use mlid_run, only: case_run_t
   use mlid_named, only: named_t
+  use mlid_problem, only: problem_t
   implicit none
   private
   public :: session_t, handle_new, handle_session, handle_free
@@ -28,6 +30,8 @@ module mlid_handles
     type(named_t), allocatable :: values(:)      !< each case by name (mlid_case's case_values)
     type(case_run_t), allocatable :: runs(:)     !< what running each case gave
     type(channel_set_t) :: taken                 !< the channels last read or taken
+    type(problem_t) :: problem                   !< what the calls run on (mlid_api_problem)
+    type(named_t) :: results                     !< what the last call gave, by name
   end type session_t
 
 contains

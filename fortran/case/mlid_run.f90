@@ -31,7 +31,7 @@ module mlid_run
                          validation_json
   implicit none
   private
-  public :: case_run_t, run_case, corrected_record
+  public :: case_run_t, run_case, corrected_record, put_fit
 
   !> What running a case gave.
   type :: case_run_t

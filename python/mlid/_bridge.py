@@ -3,6 +3,7 @@ through f2py, fortran/api/mlid_api_*.f90): its interface object and the helpers
 that read the core's text back.  A core status code becomes an exception in
 errors.py (check_status)."""
 
+import threading
 import types
 
 import numpy as np
@@ -13,7 +14,8 @@ from .errors import check_status
 #: The core's flat interface, its modules (fortran/api/mlid_api_*.f90) as one:
 #: every call of the core goes through it.
 api = types.SimpleNamespace(**{name: getattr(module, name)
-                               for module in (_core.mlid_api_deck, _core.mlid_api_models,
+                               for module in (_core.mlid_api_deck, _core.mlid_api_problem,
+                                              _core.mlid_api_models,
                                               _core.mlid_api_fit, _core.mlid_api_frequency,
                                               _core.mlid_api_design)
                                for name in dir(module) if name.startswith("mlid_")})
@@ -35,6 +37,19 @@ class Handle:
         value, self.value = getattr(self, "value", 0), 0
         if value and api is not None:      # not at interpreter shutdown
             api.mlid_handle_free(value)
+
+
+_local = threading.local()
+
+
+def call_handle():
+    """This thread's handle for calls on a problem (mlid_api_problem's
+    parts, then a call such as mlid_fit, then ``values(h, 0, "call")``):
+    one a thread, so that calls from two threads never share a problem."""
+    h = getattr(_local, "handle", None)
+    if h is None:
+        h = _local.handle = Handle()
+    return h
 
 
 def text(b):

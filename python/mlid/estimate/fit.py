@@ -10,9 +10,9 @@ import warnings
 
 import numpy as np
 
-from .._bridge import api as _api, text as _text
+from .._bridge import api as _api, call_handle as _call_handle, text as _text, values as _values
 from ..errors import InputError, MlidWarning, check_status, guarded
-from ..model.calls import _check_data, _check_model, _manoeuvres, _model_args, _record
+from ..model.calls import _check, _check_data, _check_model, _manoeuvres, _record, _set_problem
 from .evaluate import FREQUENCY_METHODS, _frequency_call
 from .options import _flat_options
 from .outcome import fit_outcome
@@ -222,24 +222,18 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     setup = _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options)
     params, starts, (t, u, y), iopt, ropt = (setup[k] for k in ("params", "starts", "tuy",
                                                                  "iopt", "ropt"))
-    call = dict(**_model_args(model), theta0=params.theta, isfree=params.mask, **params.ties,
-                t=t, u=u, y=y, segstart=starts, iopt=iopt, ropt=ropt,
-                nf=int(params.mask.sum()), nc=setup["opts"]["max_iter"] + 1,
-                **_extras(params, prior, prior_weight, bounds))
+    h = _call_handle()
+    _set_problem(h, model, params, setup["tuy"], starts, iopt, ropt)
+    _check(_api.mlid_set_extras(h.value, **_extras(params, prior, prior_weight, bounds)))
     start = time.perf_counter()
-    out = dict(zip(FIT_OUTPUTS, _api.mlid_fit(**call)))
-    out["wall_time"] = time.perf_counter() - start      # the core call alone
+    status, msg = _api.mlid_fit(h.value)
+    wall_time = time.perf_counter() - start      # the core call alone
+    out = _values(h, 0, "call")
+    if "status" not in out:             # refused before it ran: nothing to read
+        check_status(status, msg)
+    out["wall_time"] = wall_time
     out["message"] = _text(out["message"])
     return _result(model, data, setup, out, stacklevel=3)
-
-
-#: What the core's fit gives, by name: the order of mlid_api_fit's mlid_fit
-#: outputs, and the names the job runner keeps a deck fit's under
-#: (fortran/case/mlid_run.f90, put_fit).
-FIT_OUTPUTS = ("theta_start", "theta", "sigma", "covariance", "information", "gradient",
-               "eigenvalues", "eigenvectors", "rhat", "yhat", "cost_history", "cost",
-               "iterations", "reason", "converged", "rank", "bad_param", "sigma_corrected",
-               "covariance_corrected", "colored_lag", "r_innovations", "status", "message")
 
 
 def _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options):

@@ -4,8 +4,9 @@ and the parameters and joined record of one manoeuvre or several."""
 
 import numpy as np
 
+from .._bridge import api
 from ..data.flight_data import FlightData
-from ..errors import InputError
+from ..errors import InputError, check_status
 from .maneuvers import Params, join
 from .models import Model
 
@@ -35,6 +36,22 @@ def _model_args(model):
     """The model's part of every core call, by keyword."""
     return {"mkind": model.kind, "nx": model.nx, "nu": model.nu, "ny": model.ny,
             "nw": model.nw, "iconst": model.iconst, "rconst": model.rconst}
+
+
+def _check(status_msg):
+    """Raise for a core call's (status, message) that is not OK."""
+    check_status(*status_msg)
+
+
+def _set_problem(h, model, params, tuy, starts, iopt, ropt):
+    """The parts of a call's problem into handle h (mlid_api_problem): the
+    model, the parameters (params: a Params), the record (t, u, y) in the
+    core's layout with each manoeuvre's first sample, and the options."""
+    t, u, y = tuy
+    _check(api.mlid_set_model(h.value, **_model_args(model)))
+    _check(api.mlid_set_params(h.value, theta0=params.theta, isfree=params.mask, **params.ties))
+    _check(api.mlid_set_record(h.value, t=t, u=u, y=y, segstart=starts))
+    _check(api.mlid_set_options(h.value, iopt, ropt))
 
 
 def _record(model, data):
