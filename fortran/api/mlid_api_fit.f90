@@ -7,7 +7,7 @@ module mlid_api_fit
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
-  use mlid_options, only: options_t, frequency_method
+  use mlid_options, only: options_t, frequency_method, NOPT
   use mlid_params, only: param_map_t, apply_ties, ties_of
   use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
   use mlid_newton, only: fit_result_t
@@ -36,33 +36,60 @@ module mlid_api_fit
 contains
 
   !> The printed report and the JSON object of a fit (the text mlid-batch
-  !> prints and writes); labels one per line; the text ends where its
-  !> length says.
-  !> sigc: sigma corrected for coloured residuals, lag: its lag.
-  subroutine mlid_report_fit(nf, ny, nh, labels, units, iopt, ropt, start, est, sig, sigc, lag, cov, eigval, &
-                             eigvec, rhat, hist, cost, niter, reason, converged, nrank, title, job, &
-                             status, msg, rnoise, report, nreport, json, njson)
-    integer(c_int), intent(in) :: nf, ny, nh, iopt(16), niter, reason, converged, nrank, status, lag
-    real(c_double), intent(in) :: ropt(16)
-    character(len=*), intent(in) :: labels, units, title, job, msg
-    real(c_double), intent(in) :: start(nf), est(nf), sig(nf), sigc(nf), cov(nf, nf), eigval(nf), &
-                                  eigvec(nf, nf), rhat(ny, ny), hist(nh), cost
-    real(c_double), intent(in) :: rnoise(ny)   !< the innovations criterion's R; NaN: none
-    character(len=262144), intent(out) :: report, json
-    integer(c_int), intent(out) :: nreport, njson
+  !> prints and writes), from the handle's given values (mlid_api_values):
+  !> labels and units (one a line), iopt, ropt, start, est, sig, sigc (sigma
+  !> corrected for coloured residuals) and lag (its lag), cov, eigval,
+  !> eigvec, rhat, hist, cost, niter, reason, converged, nrank, title, job,
+  !> the fit's fit_status and fit_msg, and rnoise (the innovations
+  !> criterion's R; NaN: none).  Results: report and json, whole.
+  subroutine mlid_report_fit(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: ses
     type(fit_summary_t) :: s
-    character(len=:), allocatable :: text
+    character(len=:), allocatable :: labels, units, title, job, fit_msg
+    integer, allocatable :: iopt(:)
+    real(wp), allocatable :: ropt(:), rnoise(:)
+    integer :: fit_status, converged, nf
 
-    s = fit_summary_t(split_lines(labels, nf, NAMELEN), start, est, sig, sigc, cov, eigval, eigvec, &
-                      rhat, hist, cost, niter, reason, nrank, lag, converged == 1, &
-                      split_lines(units, nf, UNITLEN))
+    call handle_session(h, ses, status, msg)
+    if (status /= MLID_OK) return
+    ses%results = named_t()
+    associate (g => ses%given)
+      call g%get('est', s%est, status, msg)
+      nf = size(s%est)
+      call g%get('labels', labels, status, msg)
+      call g%get('units', units, status, msg)
+      call g%get('iopt', iopt, status, msg, [NOPT])
+      call g%get('ropt', ropt, status, msg, [NOPT])
+      call g%get('start', s%start, status, msg, [nf])
+      call g%get('sig', s%sig, status, msg, [nf])
+      call g%get('sigc', s%sigc, status, msg, [nf])
+      call g%get('lag', s%lag, status, msg)
+      call g%get('cov', s%cov, status, msg, [nf, nf])
+      call g%get('eigval', s%eigval, status, msg, [nf])
+      call g%get('eigvec', s%eigvec, status, msg, [nf, nf])
+      call g%get('rhat', s%rhat, status, msg)
+      call g%get('rnoise', rnoise, status, msg, [size(s%rhat, 1)])
+      call g%get('hist', s%hist, status, msg)
+      call g%get('cost', s%cost, status, msg)
+      call g%get('niter', s%niter, status, msg)
+      call g%get('reason', s%reason, status, msg)
+      call g%get('converged', converged, status, msg)
+      call g%get('nrank', s%rank, status, msg)
+      call g%get('title', title, status, msg)
+      call g%get('job', job, status, msg)
+      call g%get('fit_status', fit_status, status, msg)
+      call g%get('fit_msg', fit_msg, status, msg)
+    end associate
+    if (status /= MLID_OK) return
+    s%converged = converged == 1
+    s%labels = split_lines(labels, nf, NAMELEN)
+    s%units = split_lines(units, nf, UNITLEN)
     if (all(ieee_is_finite(rnoise))) s%rnoise = rnoise
-    text = fit_report(s, iopt, ropt, status, msg)
-    nreport = min(len(text), len(report))
-    report = text
-    text = fit_json(title, job, status, msg, s, iopt, ropt)
-    njson = min(len(text), len(json))
-    json = text
+    call ses%results%put('report', fit_report(s, iopt, ropt, fit_status, fit_msg))
+    call ses%results%put('json', fit_json(title, job, fit_status, fit_msg, s, iopt, ropt))
   end subroutine mlid_report_fit
 
   !> The JSON object of a case without a fit (samples >= 0: a simulate

@@ -31,6 +31,7 @@ module mlid_handles
     type(case_run_t), allocatable :: runs(:)     !< what running each case gave
     type(channel_set_t) :: taken                 !< the channels last read or taken
     type(problem_t) :: problem                   !< what the calls run on (mlid_api_problem)
+    type(named_t) :: given                       !< a call's other values (mlid_api_values)
     type(named_t) :: results                     !< what the last call gave, by name
   end type session_t
 

@@ -15,6 +15,7 @@ from .errors import check_status
 #: every call of the core goes through it.
 api = types.SimpleNamespace(**{name: getattr(module, name)
                                for module in (_core.mlid_api_deck, _core.mlid_api_problem,
+                                              _core.mlid_api_values,
                                               _core.mlid_api_models,
                                               _core.mlid_api_fit, _core.mlid_api_frequency,
                                               _core.mlid_api_design)
@@ -50,6 +51,31 @@ def call_handle():
     if h is None:
         h = _local.handle = Handle()
     return h
+
+
+def put(h, **given):
+    """Values by name for the next call on handle h (mlid_api_values), the
+    values given before forgotten: numbers and arrays as integers (bool and
+    integer types) or reals, in their shape; str as UTF-8 text."""
+    check_status(*api.mlid_values_clear(h.value))
+    for name, v in given.items():
+        if isinstance(v, str):
+            status, msg = api.mlid_put_text(h.value, name, v.encode())
+        else:
+            a = np.asarray(v)
+            dims = (*a.shape, 1, 1, 1)[:3]
+            if a.dtype.kind in "biu":
+                status, msg = api.mlid_put_int(h.value, name, a.astype(np.int32).ravel(order="F"),
+                                               a.ndim, dims)
+            else:
+                status, msg = api.mlid_put_real(h.value, name, a.astype(float).ravel(order="F"),
+                                                a.ndim, dims)
+        check_status(status, msg)
+
+
+def results(h):
+    """What the last call on handle h gave, by name (values of 'call')."""
+    return values(h, 0, "call")
 
 
 def text(b):

@@ -9,7 +9,8 @@ import types
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
+from ..errors import check_status
 from .evaluate import evaluate
 from .outcome import fit_outcome, require_estimates
 from .table import HTML_DIGITS, results_table
@@ -241,18 +242,20 @@ class FitResult:
     def _texts(self, title="", job="estimate"):
         """The core's report and JSON object of this fit (mlid-batch prints
         and writes the same text)."""
-        rep, nrep, js, njs = _api.mlid_report_fit(
-            labels="\n".join(self.names) + "\n",
-            units="\n".join(getattr(self, "param_units", None) or [""] * len(self.names)) + "\n",
-            iopt=self.flat_options, ropt=self.flat_real_options, start=self.start,
-            est=self.estimate, sig=self.sigma, sigc=self.sigma_corrected, lag=self.colored_lag,
-            cov=self.covariance, eigval=self.eigenvalues,
-            eigvec=self.eigenvectors, rhat=self.rhat, hist=self.cost_history, cost=self.cost,
-            niter=self.iterations, reason=self.reason_code, converged=int(self.converged),
-            nrank=self.rank, title=title, job=job, status=self.status, msg=self.message,
-            rnoise=np.full(self.rhat.shape[0], np.nan) if self.r_innovations is None
-            else self.r_innovations)
-        return rep[:nrep].decode(errors="replace"), js[:njs].decode(errors="replace")
+        h = _call_handle()
+        _put(h, labels="\n".join(self.names) + "\n",
+             units="\n".join(getattr(self, "param_units", None) or [""] * len(self.names)) + "\n",
+             iopt=self.flat_options, ropt=self.flat_real_options, start=self.start,
+             est=self.estimate, sig=self.sigma, sigc=self.sigma_corrected, lag=self.colored_lag,
+             cov=self.covariance, eigval=self.eigenvalues, eigvec=self.eigenvectors,
+             rhat=self.rhat, hist=self.cost_history, cost=float(self.cost),
+             niter=self.iterations, reason=self.reason_code, converged=int(self.converged),
+             nrank=self.rank, title=title, job=job, fit_status=self.status, fit_msg=self.message,
+             rnoise=np.full(self.rhat.shape[0], np.nan) if self.r_innovations is None
+             else self.r_innovations)
+        check_status(*_api.mlid_report_fit(h.value))
+        out = _results(h)
+        return out["report"].decode(errors="replace"), out["json"].decode(errors="replace")
 
     def report(self):
         """The printed report (report Table 5.3 layout) with what the
