@@ -74,3 +74,30 @@ def test_only_the_programs_stop():
     found = [str(f.relative_to(FORTRAN)) for f in sources()
              if layer_of(f) != "app" and stop.search(f.read_text())]
     assert not found, f"library code must return a status, not stop: {found}"
+
+
+#: The most arguments a routine of the flat interface may take, its sizes
+#: included (issue 40): what a call needs besides its handle goes by name
+#: (mlid_api_problem's parts, mlid_api_values' values, results by name).
+MAX_ARGS = 12
+HEADER = re.compile(r"^\s*subroutine\s+(\w+)\s*\(([^)]*)\)", re.I | re.M)
+
+
+def wrapped_routines():
+    """(file, routine, its arguments) of each public subroutine of fortran/api/."""
+    for f in sorted((FORTRAN / "api").glob("*.f90")):
+        text = f.read_text()
+        public = {n.strip().lower()
+                  for block in re.findall(r"^\s*public\s*::\s*((?:[^\n]*&\s*\n)*[^\n]*)", text,
+                                          re.I | re.M)
+                  for n in block.replace("&", " ").split(",")}
+        for name, args in HEADER.findall(re.sub(r"&\s*\n\s*&?", " ", text)):
+            if name.lower() in public:
+                yield f.name, name, [a for a in args.split(",") if a.strip()]
+
+
+def test_no_wrapped_routine_takes_more_than_twelve_arguments():
+    found = list(wrapped_routines())
+    assert len(found) > 40                    # the parse found the interface
+    long = [f"{f}: {name} takes {len(args)}" for f, name, args in found if len(args) > MAX_ARGS]
+    assert not long, "\n".join(long)

@@ -246,28 +246,29 @@ contains
     end do
   end subroutine pack_values
 
-  !> Read a record's channels (mlid_channels: text, or a .mat or HDF5 file,
-  !> variable naming its matrix when it holds several, '' for none) and keep
-  !> them in handle h for mlid_channels_get.  The spec as channels_spec takes
-  !> it: one entry per line; t_start, t_end: the window.  Status OK with msg 'warning: ...'
-  !> when a channel looks wrong for its declared unit (degrees in rad).
-  subroutine mlid_channels_read(h, path, variable, time, inputs, outputs, columns, units, derived, &
-                                show, skip_rows, t_start, t_end, dt, nt, status, msg)
+  !> Read a record's channels (mlid_channels: text, or a .mat or HDF5 file)
+  !> from the handle's given values (mlid_api_values): path, variable
+  !> (naming its matrix when it holds several, '' for none), skip_rows and
+  !> the spec (given_spec); keep them in handle h for mlid_channels_get.
+  !> Status OK with msg 'warning: ...' when a channel looks wrong for its
+  !> declared unit (degrees in rad).
+  subroutine mlid_channels_read(h, nt, status, msg)
     integer(c_int64_t), intent(in) :: h
-    character(len=*), intent(in) :: path, variable, time, inputs, outputs, columns, units, &
-                                    derived, show
-    integer(c_int), intent(in) :: skip_rows
-    real(c_double), intent(in) :: t_start, t_end, dt
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
     type(channels_t) :: spec
     type(session_t), pointer :: s
+    character(len=:), allocatable :: path, variable
+    real(wp) :: t_start, t_end
+    integer :: skip_rows
     nt = 0
     call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    call channels_spec(time, inputs, outputs, columns, units, derived, show, skip_rows, spec, &
-                       status, msg)
-    spec%dt = dt
+    call s%given%get('path', path, status, msg)
+    call s%given%get('variable', variable, status, msg)
+    call s%given%get('skip_rows', skip_rows, status, msg)
+    if (status /= MLID_OK) return
+    call given_spec(s%given, skip_rows, spec, t_start, t_end, status, msg)
     spec%variable = variable
     if (status == MLID_OK) then
       call channels_read(path, spec, t_start, t_end, s%taken, status, msg)
@@ -277,26 +278,27 @@ contains
     nt = taken_samples(s%taken, status)
   end subroutine mlid_channels_read
 
-  !> The same for a table x(nrow, ncol) the Python front end read (source
-  !> names it in messages), with its columns' names and units one per line.
-  subroutine mlid_channels_table(h, source, nrow, ncol, x, names, col_units, time, inputs, &
-                                 outputs, columns, units, derived, show, t_start, t_end, dt, &
-                                 nt, status, msg)
+  !> The same for a table x(nrow, ncol) the Python front end read, with
+  !> given values source (what messages call it), names and col_units (its
+  !> columns', one a line) and the spec (given_spec).
+  subroutine mlid_channels_table(h, nrow, ncol, x, nt, status, msg)
     integer(c_int64_t), intent(in) :: h
-    character(len=*), intent(in) :: source, names, col_units, time, inputs, outputs, columns, &
-                                    units, derived, show
     integer(c_int), intent(in) :: nrow, ncol
-    real(c_double), intent(in) :: x(nrow, ncol), t_start, t_end, dt
+    real(c_double), intent(in) :: x(nrow, ncol)
     integer(c_int), intent(out) :: nt, status
     character(len=256), intent(out) :: msg
     type(channels_t) :: spec
     type(session_t), pointer :: s
+    character(len=:), allocatable :: source, names, col_units
+    real(wp) :: t_start, t_end
     nt = 0
     call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    call channels_spec(time, inputs, outputs, columns, units, derived, show, 0, spec, status, &
-                       msg)
-    spec%dt = dt
+    call s%given%get('source', source, status, msg)
+    call s%given%get('names', names, status, msg)
+    call s%given%get('col_units', col_units, status, msg)
+    if (status /= MLID_OK) return
+    call given_spec(s%given, 0, spec, t_start, t_end, status, msg)
     if (status == MLID_OK) then
       call channels_table(source, x, split_lines(names, ncol, NAMELEN), &
                           split_lines(col_units, ncol, UNITLEN), spec, t_start, t_end, s%taken, &
@@ -307,42 +309,70 @@ contains
     nt = taken_samples(s%taken, status)
   end subroutine mlid_channels_table
 
+  !> The channel spec of given values g, as channels_spec takes it: time,
+  !> inputs, outputs, columns, units, derived, show (one entry a line); the
+  !> window t_start, t_end and dt (> 0: a uniform step replacing the time).
+  subroutine given_spec(g, skip_rows, spec, t_start, t_end, status, msg)
+    type(named_t), intent(in) :: g
+    integer, intent(in) :: skip_rows
+    type(channels_t), intent(out) :: spec
+    real(wp), intent(out) :: t_start, t_end
+    integer(c_int), intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=:), allocatable :: time, inputs, outputs, columns, units, derived, show
+    real(wp) :: dt
+    status = MLID_OK
+    msg = ''
+    call g%get('time', time, status, msg)
+    call g%get('inputs', inputs, status, msg)
+    call g%get('outputs', outputs, status, msg)
+    call g%get('columns', columns, status, msg)
+    call g%get('units', units, status, msg)
+    call g%get('derived', derived, status, msg)
+    call g%get('show', show, status, msg)
+    call g%get('t_start', t_start, status, msg)
+    call g%get('t_end', t_end, status, msg)
+    call g%get('dt', dt, status, msg)
+    if (status /= MLID_OK) return
+    call channels_spec(time, inputs, outputs, columns, units, derived, show, skip_rows, spec, &
+                       status, msg)
+    spec%dt = dt
+  end subroutine given_spec
+
   !> The channels handle h took last: t(nt), u(nu, nt), y(ny, nt), the
-  !> file line (or table row) of each sample; per channel (inputs, then
-  !> outputs) the name, the core's unit and the unit declared one per line,
-  !> and scale and offset: core = scale*declared + offset.  Sizes other
-  !> than those taken give zeros and blanks.
-  subroutine mlid_channels_get(h, nu, ny, nt, t, u, y, line, names, units, shown, scale, offset)
+  !> file line (or table row) of each sample; and in h's results, per
+  !> channel (inputs, then outputs), names, units (the core's) and shown
+  !> (the units declared), one a line, and scale and offset: core =
+  !> scale*declared + offset.  Sizes other than those taken: an error.
+  subroutine mlid_channels_get(h, nu, ny, nt, t, u, y, line, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: nu, ny, nt
-    real(c_double), intent(out) :: t(nt), u(nu, nt), y(ny, nt), scale(nu + ny), offset(nu + ny)
-    integer(c_int), intent(out) :: line(nt)
-    character(len=65536), intent(out) :: names, units, shown
+    real(c_double), intent(out) :: t(nt), u(nu, nt), y(ny, nt)
+    integer(c_int), intent(out) :: line(nt), status
+    character(len=256), intent(out) :: msg
     type(session_t), pointer :: s
-    integer :: status
-    character(len=64) :: msg
     t = 0.0_wp
     u = 0.0_wp
     y = 0.0_wp
     line = 0
-    names = ''
-    units = ''
-    shown = ''
-    scale = 0.0_wp
-    offset = 0.0_wp
     call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
+    s%results = named_t()
+    status = MLID_ERR_INPUT
+    msg = 'not the sizes of the channels taken last'
     if (.not. allocated(s%taken%t)) return
     if (size(s%taken%t) /= nt .or. size(s%taken%u, 1) /= nu .or. size(s%taken%y, 1) /= ny) return
+    status = MLID_OK
+    msg = ''
     t = s%taken%t
     u = s%taken%u
     y = s%taken%y
     line = s%taken%line
-    names = join_lines(s%taken%names)
-    units = join_lines(s%taken%units)
-    shown = join_lines(s%taken%shown)
-    scale = s%taken%scale
-    offset = s%taken%offset
+    call s%results%put('names', join_lines(s%taken%names))
+    call s%results%put('units', join_lines(s%taken%units))
+    call s%results%put('shown', join_lines(s%taken%shown))
+    call s%results%put('scale', s%taken%scale)
+    call s%results%put('offset', s%taken%offset)
   end subroutine mlid_channels_get
 
   !> Samples of the set taken (0 when it could not be).

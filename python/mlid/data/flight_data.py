@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._bridge import Handle, api as _api
+from .._bridge import Handle, api as _api, put, results
 from ..checks import real_array
 from ..errors import InputError, MlidWarning, check_status, guarded_class
 from ..files import atomic_open
@@ -51,15 +51,17 @@ def _window(t_start, t_end, dt):
     if dt is not None and not float(dt) > 0:
         raise InputError(f"dt must be > 0 (a uniform time step replacing the record's time), "
                          f"got {dt}")
-    return (-np.inf if t_start is None else float(t_start),
-            np.inf if t_end is None else float(t_end), 0.0 if dt is None else float(dt))
+    return {"t_start": -np.inf if t_start is None else float(t_start),
+            "t_end": np.inf if t_end is None else float(t_end),
+            "dt": 0.0 if dt is None else float(dt)}
 
 
 def _spec(time_col, input_cols, output_cols, columns, units, derived, show):
-    """The channel spec as the core's flat interface takes it."""
-    return (_lines(time_col, "time_col"), _lines(input_cols, "input_cols"),
-            _lines(output_cols, "output_cols"), _lines(columns, "columns"),
-            _lines(units, "units"), _lines(derived, "derived"), _lines(show, "show"))
+    """The channel spec as the core's flat interface takes it, by name."""
+    return {"time": _lines(time_col, "time_col"), "inputs": _lines(input_cols, "input_cols"),
+            "outputs": _lines(output_cols, "output_cols"), "columns": _lines(columns, "columns"),
+            "units": _lines(units, "units"), "derived": _lines(derived, "derived"),
+            "show": _lines(show, "show")}
 
 
 def read_status(status, msg):
@@ -77,7 +79,7 @@ def read_status(status, msg):
 
 def _counts(spec):
     """Inputs and outputs of a spec."""
-    return tuple(len([s for s in text.split("\n") if s]) for text in spec[1:3])
+    return tuple(len([s for s in spec[k].split("\n") if s]) for k in ("inputs", "outputs"))
 
 
 def _text_lines(text, n):
@@ -275,8 +277,9 @@ class FlightData:
         window = _window(t_start, t_end, dt)
         path = str(path)
         handle = Handle()
-        nt, status, msg = _api.mlid_channels_read(handle.value, path, variable or "", *spec,
-                                                  int(skip_rows), *window)
+        put(handle, path=path, variable=variable or "", skip_rows=int(skip_rows), **spec,
+            **window)
+        nt, status, msg = _api.mlid_channels_read(handle.value)
         read_status(status, msg)
         return cls._taken(handle, *_counts(spec), nt, path, input_names, output_names)
 
@@ -325,18 +328,20 @@ class FlightData:
         spec = _spec(time_col, input_cols, output_cols, None, units, derived, show)
         window = _window(t_start, t_end, dt)
         handle = Handle()
-        nt, status, msg = _api.mlid_channels_table(
-            handle.value, source, np.asfortranarray(x), "\n".join(names) + "\n",
-            "\n".join(col_units) + "\n", *spec, *window)
+        put(handle, source=str(source), names="\n".join(names) + "\n",
+            col_units="\n".join(col_units) + "\n", **spec, **window)
+        nt, status, msg = _api.mlid_channels_table(handle.value, np.asfortranarray(x))
         read_status(status, msg)
         return cls._taken(handle, *_counts(spec), nt, source, input_names, output_names)
 
     @classmethod
     def _taken(cls, handle, nu, ny, nt, source, input_names=None, output_names=None):
         """The channels the core took last into handle (mlid_channels_get)."""
-        t, u, y, _, names, units, shown, scale, offset = _api.mlid_channels_get(handle.value, nu,
-                                                                                  ny, nt)
-        names, units, shown = (_text_lines(v, nu + ny) for v in (names, units, shown))
+        t, u, y, _, status, msg = _api.mlid_channels_get(handle.value, nu, ny, nt)
+        check_status(status, msg)
+        labels = results(handle)
+        names, units, shown = (_text_lines(labels[k], nu + ny) for k in ("names", "units", "shown"))
+        scale, offset = labels["scale"], labels["offset"]
         names = [n or (f"u{i + 1}" if i < nu else f"y{i - nu + 1}") for i, n in enumerate(names)]
         display = list(zip(shown, scale, offset))
         return cls(t, u.T, y.T, input_names or names[:nu], output_names or names[nu:],
