@@ -413,27 +413,19 @@ contains
 
   !> Run case k of handle h's deck, whatever its job (mlid_run's run_case,
   !> as mlid-batch runs it, on a copy of the case: it can run again): its
-  !> files written, its report lines, JSON object and notes (one a line)
-  !> returned, each ending where its length says; a fit's numbers are kept
-  !> in h for mlid_values (which = 'run').  status, msg: the case's.
-  subroutine mlid_deck_case_run(h, k, report, nreport, json, njson, notes, nnotes, status, msg)
+  !> files written; kept in h for mlid_values (which = 'run'), whole: its
+  !> report lines ('report'), JSON object ('json'), notes one a line
+  !> ('notes'), and a fit's numbers.  status, msg: the case's.
+  subroutine mlid_deck_case_run(h, k, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k
-    character(len=262144), intent(out) :: report, json
-    character(len=65536), intent(out) :: notes
-    integer(c_int), intent(out) :: nreport, njson, nnotes, status
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     type(session_t), pointer :: s
     type(case_t), pointer :: c
     type(case_t) :: work
     character(len=:), allocatable :: text
     integer :: j
-    report = ''
-    json = ''
-    notes = ''
-    nreport = 0
-    njson = 0
-    nnotes = 0
     c => case_at(h, k)
     call no_case(c, status, msg)
     if (status /= MLID_OK) return
@@ -443,16 +435,13 @@ contains
     associate (r => s%runs(k))
       status = r%status
       msg = r%msg
-      nreport = min(len(r%report), len(report))
-      report = r%report
-      njson = min(len(r%json), len(json))
-      json = r%json
       text = ''
       do j = 1, size(r%notes)
         text = text//r%notes(j)%s//achar(10)
       end do
-      nnotes = min(len(text), len(notes))
-      notes = text
+      call r%results%put('report', r%report)
+      call r%results%put('json', r%json)
+      call r%results%put('notes', text)
     end associate
   end subroutine mlid_deck_case_run
 

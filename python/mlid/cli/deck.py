@@ -123,7 +123,9 @@ class Case:
 
 class CaseOutput(dict):
     """What the core's job runner gave for a case (fortran/case/mlid_run.f90,
-    the one mlid-batch runs): its JSON object as a dict, ``report`` (the
+    the one mlid-batch runs): its JSON object as a dict (and a fit's
+    ``wall_time_s``, which no JSON file holds: two runs' bytes are the
+    same), ``report`` (the
     lines both front ends print), ``json_text`` (the bytes both write),
     ``notes`` (warnings and the failure, one line each, for stderr),
     ``status`` and ``message``."""
@@ -188,13 +190,15 @@ def run_case(case):
     the other jobs).  A case that failed raises its MlidError, carrying the
     FitResult of a failed fit (``result``) and the output (``output``)."""
     case.warnings = []
-    (report, nreport, text, njson, notes, nnotes, status,
-     msg) = _api.mlid_deck_case_run(case._handle.value, case.index)
-    out = CaseOutput(report[:nreport].decode(errors="replace"),
-                     text[:njson].decode(errors="replace"),
-                     notes[:nnotes].decode(errors="replace").splitlines(), int(status),
-                     _text(msg))
-    result = _fit_of(case) if case.job in FIT_JOBS else None
+    status, msg = _api.mlid_deck_case_run(case._handle.value, case.index)
+    kept = values(case._handle, case.index, "run")
+    if "report" not in kept:            # refused before it ran
+        check_status(status, msg)
+    out = CaseOutput(*(kept[k].decode(errors="replace") for k in ("report", "json")),
+                     kept["notes"].decode(errors="replace").splitlines(), int(status), _text(msg))
+    if "wall_time" in kept:             # the fit's own time, as FitResult.as_dict() has it
+        out["wall_time_s"] = kept["wall_time"]
+    result = _fit_of(case, kept) if case.job in FIT_JOBS else None
     if out.status != 0:
         try:
             check_status(out.status, out.message)
@@ -204,10 +208,9 @@ def run_case(case):
     return out, result
 
 
-def _fit_of(case):
+def _fit_of(case, kept):
     """The FitResult of the fit case's run kept (None when it fitted
     nothing), with its Validation for a validate case."""
-    kept = values(case._handle, case.index, "run")
     if "theta" not in kept:
         return None
     out = dict(kept, message=_text(kept["message"]))
