@@ -8,7 +8,8 @@ module mlid_monte_carlo
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t
   use mlid_simulate, only: simulate_outputs, simulate_noise
-  use mlid_newton, only: fit_result_t, extras_t, newton_fit
+  use mlid_newton, only: fit_result_t, extras_t
+  use mlid_fit_driver, only: fit_method
   use mlid_linalg, only: sym_eig
   implicit none
   private
@@ -56,7 +57,7 @@ contains
         call simulate_outputs(m, theta_true, t, u, opt, seed0 + r - 1, y, x, run_status(r), msg)
       end if
       if (run_status(r) /= MLID_OK) cycle
-      call newton_fit(m, theta_start, pm, t, u, y, opt, none, res, run_status(r), msg, &
+      call fit_method(m, theta_start, pm, t, u, y, opt, none, res, run_status(r), msg, &
                       plain_bound=.true.)
       if (.not. allocated(res%theta)) cycle
       est(:, r) = res%theta(pm%ifree)

@@ -102,15 +102,17 @@ def values(handle, k, which):
     kinds, shapes, numbers, codes = api.mlid_values(h, k, which, m, n, nt)
     *names, texts = codes.astype(np.uint8).tobytes().split(b"\n", m)
     out, at, tat = {}, 0, 0
-    for name, kind, (rank, d1, d2, d3) in zip(names, kinds.tolist(), shapes.T.tolist()):
+    for name, kind, rank, d1, d2, d3 in zip(names, kinds.tolist(), *shapes.tolist()):
         if kind == VALUE_TEXT:
             value = texts[tat:tat + d1]
             tat += d1
         elif rank == 0:
-            value = int(numbers[at]) if kind == VALUE_INT else float(numbers[at])
+            value = numbers[at].item()
+            if kind == VALUE_INT:
+                value = int(value)
             at += 1
         else:
-            size = d1 if rank == 1 else d1 * d2 * (d3 if rank == 3 else 1)
+            size = d1 * d2 * d3
             value = numbers[at:at + size]
             if rank > 1:
                 value = value.reshape((d1, d2, d3)[:rank], order="F")

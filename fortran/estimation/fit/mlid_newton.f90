@@ -4,18 +4,16 @@
 !> 8-9), stop on cost change, step size or gradient (§8.2.3).
 module mlid_newton
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, MLID_ERR_INTERNAL, &
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, &
                         MLID_ERR_INPUT, &
                         STOP_NONE, STOP_COST, STOP_STEP, STOP_GRAD, STOP_MAXITER, &
                         STOP_NO_DECREASE, STOP_FAILED
   use mlid_linalg, only: info_inverse, info_eig, eig_inverse
   use mlid_equation_error, only: equation_error
   use mlid_models, only: model_t
-  use mlid_options, only: options_t, frequency_method, METHOD_FILTER_ERROR
-  use mlid_frequency, only: freq_record
-  use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
+  use mlid_options, only: options_t, METHOD_FILTER_ERROR
+  use mlid_likelihood, only: likelihood, sens_keep_t
   use mlid_params, only: param_map_t, apply_ties
-  use mlid_colored, only: colored_covariance
   use mlid_text, only: itoa
   implicit none
   private
@@ -28,12 +26,6 @@ module mlid_newton
   !> The innovations criterion's least R(i,i), relative to the mean squared
   !> innovation of output i: a noise-free output's R stays regular.
   real(wp), parameter :: NOISE_FLOOR = 1.0e-6_wp
-  !> Exact ML: an r(i) below this of its output's innovation variance looks
-  !> noise-free (the likelihood has no maximum as r(i) -> 0) ...
-  real(wp), parameter :: NOISE_FREE_RATIO = 1.0e-4_wp
-  !> ... and what to do then.
-  character(len=*), parameter :: NOISE_FREE_REMEDY = 'fix those r at a floor or use '// &
-    'noise_criterion = ''innovations'''
 
   !> The estimator options of report §4.6 beyond plain Newton-Raphson, over
   !> the free parameters: a priori values and weight (block 7), bounds
@@ -103,16 +95,19 @@ module mlid_newton
     integer :: rank = 0                     !< highest rank of any step: the directions estimated
     integer :: bad_param = 0                !< free index dominating a singular direction
     logical :: converged = .false.
+    logical :: started = .false.            !< the start was evaluated
+    logical :: searched = .false.           !< the search ended (the final bound was made)
   end type fit_result_t
 
 contains
 
-  !> Fit the free parameters of theta0 (map pm) by maximum likelihood, with
-  !> the method of opt and the options in ex.  On a non-zero status res still
-  !> holds the last iterate.  plain_bound: leave out the bound corrected for
-  !> coloured residuals (res%cov_c), which a caller that keeps only res%cov
-  !> (the Monte Carlo) does not need.
-  subroutine newton_fit(m, theta0, pm, t, u, y, opt, ex, res, status, msg, plain_bound)
+  !> Maximise the likelihood over the free parameters of theta0 (map pm) on
+  !> the record t, u, y as the method of opt sees it (the fit driver gives a
+  !> frequency-domain method its transforms), with the options in ex: the
+  !> start, the search, and the final Cramer-Rao bound.  On a non-zero
+  !> status res still holds the last iterate; res%searched says whether the
+  !> search ended (the final bound was made).
+  subroutine newton_fit(m, theta0, pm, t, u, y, opt, ex, res, status, msg)
     class(model_t), intent(in), target :: m
     real(wp), intent(in) :: theta0(:)
     type(param_map_t), intent(in), target :: pm
@@ -122,22 +117,12 @@ contains
     type(fit_result_t), intent(out) :: res
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    logical, intent(in), optional :: plain_bound
     type(problem_t) :: pb
     type(search_t) :: st
     integer :: rmin, rtop, k
-    logical :: colored
     real(wp) :: djr
-    real(wp), allocatable, target :: tf(:), uf(:, :), yf(:, :)
 
-    if (frequency_method(opt)) then    ! the record's transform, once (mlid_frequency)
-      call freq_record(m, theta0, pm, t, u, y, opt, tf, uf, yf, status, msg)
-      if (status /= MLID_OK) return
-      pb = problem_t(m, pm, tf, uf, yf, opt, ex)
-    else
-      pb = problem_t(m, pm, t, u, y, opt, ex)
-    end if
-
+    pb = problem_t(m, pm, t, u, y, opt, ex)
     status = MLID_OK
     if (opt%noise_criterion == 1) call innovation_start(pb, status, msg)
     if (status /= MLID_OK) return
@@ -147,6 +132,7 @@ contains
       res%cost_hist(1) = res%cost
     end if
     if (status /= MLID_OK) return
+    res%started = .true.
     st%nf = pm%nf
     allocate (st%g(st%nf), st%mt(st%nf, st%nf), st%cov(st%nf, st%nf), st%sc(st%nf), st%w(st%nf), &
               st%v(st%nf, st%nf), st%scr(st%nf), st%wr(st%nf), st%vr(st%nf, st%nf))
@@ -160,114 +146,11 @@ contains
     else
       call iterate(pb, st, res, min(rmin, rtop), rtop, status, msg)
     end if
-    if (status /= MLID_OK) then
-      call noise_free_outputs(opt, pm, ex, res, msg)
-      return
-    end if
+    if (status /= MLID_OK) return
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
-    if (opt%noise_criterion == 1) call noise_free_note(pm, size(t), res)
-    if (opt%noise_criterion == 0 .and. opt%method == METHOD_FILTER_ERROR) &
-      call noise_free_warning(pm, ex, res)
+    res%searched = .true.
     call final_bound(opt, ex, st, res, status, msg)
-    colored = .true.
-    if (present(plain_bound)) colored = .not. plain_bound
-    if (frequency_method(opt) .and. allocated(res%cov)) then
-      res%cov_c = res%cov     ! no coloured-residual correction in the frequency domain
-    else if (colored .and. any(status == [MLID_OK, MLID_ERR_NOCONV, MLID_ERR_SINGULAR])) then
-      call colored_bound(pm, y, res, status, msg)
-    end if
-    if (status /= MLID_OK) call noise_free_outputs(opt, pm, ex, res, msg)
   end subroutine newton_fit
-
-  !> A filter-error fit with R free that fails with some r(i) far below its
-  !> output's innovation variance, or fallen a hundredfold from its start:
-  !> those outputs carry (almost) no measurement noise, and exact ML has no
-  !> maximum there (the likelihood grows as r(i) -> 0).  The message then
-  !> says so, and names them and the remedies, in place of the symptom (a
-  !> singular B or information matrix); short enough for the interfaces'
-  !> 256 characters with the symptom.
-  subroutine noise_free_outputs(opt, pm, ex, res, msg)
-    type(options_t), intent(in) :: opt
-    type(param_map_t), intent(in) :: pm
-    type(extras_t), intent(in) :: ex
-    type(fit_result_t), intent(in) :: res
-    character(len=*), intent(inout) :: msg
-    character(len=len(msg)) :: names
-
-    if (opt%method /= METHOD_FILTER_ERROR .or. .not. allocated(res%rhat) .or. &
-        .not. allocated(res%theta) .or. &
-        .not. allocated(res%theta_start)) return
-    names = noise_free_names(pm, ex, res, .true.)
-    if (len_trim(names) > 0) msg = trim(names)//'; '//NOISE_FREE_REMEDY//' ('//trim(msg)//')'
-  end subroutine noise_free_outputs
-
-  !> A filter-error fit with R free that ends with some r(i) far below its
-  !> output's innovation variance: it stopped on the slope of a likelihood
-  !> without maximum, which res%note says, with the remedies.
-  subroutine noise_free_warning(pm, ex, res)
-    type(param_map_t), intent(in) :: pm
-    type(extras_t), intent(in) :: ex
-    type(fit_result_t), intent(inout) :: res
-    character(len=len(res%note)) :: names
-    names = noise_free_names(pm, ex, res, .false.)
-    if (len_trim(names) > 0) res%note = 'warning: '//trim(names)//'; '//NOISE_FREE_REMEDY
-  end subroutine noise_free_warning
-
-  !> 'outputs r(1), r(4) look noise-free (r/B <= 5.7E-05): exact ML has no
-  !> maximum' for the free r(i) below NOISE_FREE_RATIO of their innovation
-  !> variance (with fall: or below NOISE_FREE_FALL of their start), leaving
-  !> out those on a lower bound the user set; '' when there are none.
-  function noise_free_names(pm, ex, res, fall) result(text)
-    type(param_map_t), intent(in) :: pm
-    type(extras_t), intent(in) :: ex
-    type(fit_result_t), intent(in) :: res
-    logical, intent(in) :: fall
-    character(len=256) :: text
-    real(wp), parameter :: NOISE_FREE_FALL = 1.0e-2_wp
-    character(len=16) :: buf
-    real(wp) :: worst, r
-    logical :: low
-    integer :: k, i
-
-    text = ''
-    worst = 0.0_wp
-    do k = 1, pm%nf
-      i = pm%ifree(k) - pm%l%or
-      if (i < 1 .or. i > size(res%rhat, 1)) cycle
-      r = res%theta(pm%ifree(k))
-      low = r < NOISE_FREE_RATIO*res%rhat(i, i)
-      if (fall) low = low .or. r < NOISE_FREE_FALL*res%theta_start(pm%ifree(k))
-      if (.not. low) cycle
-      if (allocated(ex%lower)) then
-        if (r <= ex%lower(k)*(1.0_wp + 1.0e-9_wp)) cycle
-      end if
-      worst = max(worst, r/res%rhat(i, i))
-      text = trim(text)//merge(', ', '  ', len_trim(text) > 0)//'r('//itoa(i)//')'
-    end do
-    if (len_trim(text) == 0) return
-    write (buf, '(es8.1)') worst
-    text = 'outputs '//trim(adjustl(text))//' look noise-free (r/B <= '//trim(adjustl(buf))// &
-           '): exact ML has no maximum'
-  end function noise_free_names
-
-  !> The innovations criterion's outputs whose R is within two standard
-  !> errors of zero, 2 sqrt(2/N) of their mean squared innovation S (the
-  !> sampling error of S itself): they look noise-free, and res%note says so.
-  subroutine noise_free_note(pm, nt, res)
-    type(param_map_t), intent(in) :: pm
-    integer, intent(in) :: nt
-    type(fit_result_t), intent(inout) :: res
-    character(len=len(res%note)) :: names
-    integer :: i
-    names = ''
-    do i = 1, size(res%rhat, 1)
-      if (res%theta(pm%l%or + i) < 2.0_wp*sqrt(2.0_wp/nt)*res%rhat(i, i)) &
-        names = trim(names)//merge(', ', '  ', len_trim(names) > 0)//'r('//itoa(i)//')'
-    end do
-    if (len_trim(names) > 0) res%note = 'warning: '//trim(adjustl(names))//' within sampling '// &
-      'error of zero (below 2 sqrt(2/N) of the mean squared innovation): those outputs look '// &
-      'noise-free'
-  end subroutine noise_free_note
 
   !> The innovations criterion's start: r are not free (the relaxation
   !> estimates them); the first evaluation takes the given r.
@@ -338,46 +221,6 @@ contains
       end if
     end associate
   end subroutine evaluate_full
-
-  !> The Cramer-Rao covariance corrected for coloured residuals
-  !> (mlid_colored) from the weighted sensitivities of the last information
-  !> matrix's evaluation, made here from what it kept; a failure there
-  !> replaces only an OK status.
-  subroutine colored_bound(pm, y, res, status, msg)
-    type(param_map_t), intent(in) :: pm
-    real(wp), intent(in) :: y(:, :)
-    type(fit_result_t), intent(inout) :: res
-    integer, intent(inout) :: status
-    character(len=*), intent(inout) :: msg
-    real(wp), allocatable :: wsens(:, :, :)
-    integer :: cstat
-    character(len=len(msg)) :: cmsg
-
-    allocate (res%cov_c(pm%nf, pm%nf), wsens(size(y, 1), size(y, 2), pm%nf))
-    if (.not. kept(res)) then            ! (no path gets here without them: a guard)
-      res%cov_c = res%cov
-      if (status == MLID_OK) then
-        status = MLID_ERR_INTERNAL
-        msg = 'coloured-residual correction: the estimate''s sensitivities were not kept'
-      end if
-      return
-    end if
-    call weighted_sensitivities(res%keep, pm%l%seg, wsens)
-    call colored_covariance(res%cov, res%info, res%msens, wsens, y - res%yhat, pm%l%seg, -1, &
-                            res%cov_c, res%lag, cstat, cmsg)
-    if (cstat /= MLID_OK .and. status == MLID_OK) then
-      status = cstat
-      msg = cmsg
-    end if
-  end subroutine colored_bound
-
-  !> Whether res holds its evaluation's sensitivities and weights.
-  logical function kept(res)
-    type(fit_result_t), intent(in) :: res
-    kept = .false.
-    if (.not. allocated(res%keep)) return
-    kept = allocated(res%keep%dy) .and. allocated(res%keep%w)
-  end function kept
 
   !> The start: res allocated, theta0 with its ties (or the equation-error
   !> start-up), and the likelihood there.

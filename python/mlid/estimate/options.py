@@ -69,8 +69,8 @@ def default_options():
     return _as_dict(*_api.mlid_default_options())
 
 
-#: _flat_options' answers by the (name, text) pairs the core was given: the
-#: core's options are a function of them, and asking it costs about 40 f2py
+#: _flat_options' answers by the options given: the core's options are a
+#: function of them, and asking it costs about 40 f2py
 #: calls a fit (each option set, then every one read back).  Errors are
 #: raised before anything is kept; cleared when full.
 _OPTIONS_MADE = {}
@@ -88,11 +88,18 @@ def _flat_options(model, options):
     if unknown:
         raise InputError(f"unknown option {unknown[0]!r}; known: {', '.join(default_options())}")
     given.update(input_hold=model.input_hold, substeps=model.substeps)
-    pairs = tuple((name, _as_text(value)) for name, value in given.items())
-    made = _OPTIONS_MADE.get(pairs)
+    # the plain values' own types in the key (True and 1 are the same key
+    # otherwise), their texts only for what is not hashable
+    try:
+        pairs = tuple((name, value.__class__, value) for name, value in given.items())
+        made = _OPTIONS_MADE.get(pairs)
+    except TypeError:
+        pairs = tuple((name, _as_text(value)) for name, value in given.items())
+        made = _OPTIONS_MADE.get(pairs)
     if made is None:
+        texts = tuple((name, _as_text(value)) for name, value in given.items())
         iopt, ropt = _api.mlid_default_options()
-        for name, text in pairs:
+        for name, text in texts:
             status, msg = _api.mlid_option_set(iopt, ropt, name, text)
             check_status(status, msg)
         check_status(*_api.mlid_options_check(iopt, ropt))
