@@ -40,9 +40,22 @@ def _real_number(v):
              v.dtype.kind in "fiu"))
 
 
+#: The extras of a fit with neither a priori values nor bounds, by (parameters,
+#: free ones): the core reads none of their values.
+_NO_EXTRAS = {}
+
+
 def _extras(params, prior, prior_weight, bounds):
     """A priori values/weight and bounds in the core's layout."""
     theta = params.theta
+    if prior is None and prior_weight is None and not bounds:
+        sizes = theta.size, int(params.mask.sum())
+        if sizes not in _NO_EXTRAS:
+            _NO_EXTRAS[sizes] = {
+                "use_prior": 0, "prior": np.zeros(sizes[0]), "pweight": np.zeros(sizes[1:] * 2),
+                "use_bounds": 0, "lower": np.full(sizes[0], -_HUGE),
+                "upper": np.full(sizes[0], _HUGE)}
+        return _NO_EXTRAS[sizes]
     pvec = theta.copy()
     for what, given in (("prior", prior), ("bounds", bounds)):
         if given is not None and not isinstance(given, dict):
