@@ -1,16 +1,19 @@
 !> The flat interface's frequency domain: Fourier transforms, the
 !> frequency-domain fit's data, the recursive estimator, measured and
-!> model frequency responses, transfer-function fits.
-!> Conventions: mlid_api_deck's comment.
+!> model frequency responses, transfer-function fits.  The routines that
+!> take a record, a model or more than a few values take the handle alone:
+!> the problem's parts (mlid_api_problem) and the values given by name
+!> (mlid_api_values), and keep what they give in the handle's results by
+!> name.  Conventions: mlid_api_deck's comment.
 module mlid_api_frequency
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create
   use mlid_options, only: options_t, options_from_flat, options_to_flat, frequency_method, NOPT, &
                           METHOD_FREQ_EE
-  use mlid_params, only: param_map_t, apply_ties, ties_of
+  use mlid_params, only: param_map_t, apply_ties
   use mlid_setup, only: setup
   use mlid_sampling, only: record_common_step
   use mlid_fourier, only: fourier_transform
@@ -21,6 +24,9 @@ module mlid_api_frequency
                                 response_bands, unwrap_deg, DB, DEG
   use mlid_transfer_fit, only: tf_size, tf_start, tf_fit, tf_residuals, tf_log_response, &
                                coherence_weight
+  use mlid_handles, only: session_t, handle_session
+  use mlid_named, only: named_t, VALUE_INT
+  use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS
   implicit none
   private
   public :: mlid_fourier_transform, mlid_uniform_step, mlid_recursive_fdee, mlid_freq_evaluate, &
@@ -97,114 +103,141 @@ contains
   end subroutine band_omega
 
   !> Recursive frequency-domain equation error (mlid_recursive_fd) over a
-  !> moving window of `window` samples, one fit every `stride`: the measured
-  !> states x(nx, nt), inputs u(nu, nt), F0 and G0 with the free entries
-  !> marked (freef, freeg: 1 free), the band n_freq, f_min, f_max (Hz; the
-  !> frequency-domain methods' band, checked as theirs); est and sig
-  !> (np, nwin) the free entries (F column by column, then G) per window,
-  !> tend(nwin) each window's last time.
-  subroutine mlid_recursive_fdee(nx, nu, nt, t, x, u, f0, g0, freef, freeg, n_freq, f_min, f_max, &
-                                 window, stride, nwin, np, tend, est, sig, status, msg)
-    integer(c_int), intent(in) :: nx, nu, nt, n_freq, window, stride, nwin, np
-    real(c_double), intent(in) :: t(nt), x(nx, nt), u(nu, nt), f0(nx, nx), g0(nx, nu), f_min, f_max
-    integer(c_int), intent(in) :: freef(nx, nx), freeg(nx, nu)
-    real(c_double), intent(out) :: tend(nwin), est(np, nwin), sig(np, nwin)
+  !> moving window, on the record of handle h (mlid_api_problem: one
+  !> manoeuvre, its outputs the measured states x) with its given values
+  !> (mlid_api_values): f0 (nx, nx) and g0 (nx, nu) with their free entries
+  !> marked in free_f and free_g (1 free), the band n_freq, f_min, f_max (Hz;
+  !> the frequency-domain methods' band, checked as theirs), window (samples
+  !> in a window) and stride (samples between the ends of two windows).
+  !> Results: t_end (nwin) each window's last time, estimates and sigma
+  !> (np, nwin) the free entries (F column by column, then G) per window.
+  subroutine mlid_recursive_fdee(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    real(wp), allocatable :: w(:)
-    tend = 0.0_wp
-    est = 0.0_wp
-    sig = 0.0_wp
-    call band_omega(n_freq, f_min, f_max, w, status, msg)
+    type(session_t), pointer :: s
+    real(wp), allocatable :: f0(:, :), g0(:, :), w(:), tend(:), est(:, :), sig(:, :)
+    integer, allocatable :: free_f(:, :), free_g(:, :)
+    real(wp) :: f_min, f_max
+    integer :: n_freq, window, stride, nx, nu, nt, np, nwin
+
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    status = MLID_ERR_INPUT
-    if (np /= count(freef == 1) + count(freeg == 1) .or. np == 0) then
-      msg = 'np must count the free entries of F and G (at least one)'
-    else if (.not. (all(ieee_is_finite(t)) .and. all(ieee_is_finite(x)) .and. &
-                    all(ieee_is_finite(u)))) then
-      msg = 'time, states and inputs must be finite'
-    else
-      call recursive_fdee(t, x, u, f0, g0, freef == 1, freeg == 1, w, window, stride, tend, est, &
-                          sig, status, msg)
-    end if
+    s%results = named_t()
+    call problem_needs(s%problem, [PART_RECORD], status, msg)
+    if (status /= MLID_OK) return
+    associate (p => s%problem, g => s%given)
+      nx = size(p%y, 1)
+      nu = size(p%u, 1)
+      nt = size(p%t)
+      call g%get('f0', f0, status, msg, [nx, nx])
+      call g%get('g0', g0, status, msg, [nx, nu])
+      call get_int2(g, 'free_f', free_f, [nx, nx], status, msg)
+      call get_int2(g, 'free_g', free_g, [nx, nu], status, msg)
+      call g%get('n_freq', n_freq, status, msg)
+      call g%get('f_min', f_min, status, msg)
+      call g%get('f_max', f_max, status, msg)
+      call g%get('window', window, status, msg)
+      call g%get('stride', stride, status, msg)
+      if (status /= MLID_OK) return
+      call band_omega(n_freq, f_min, f_max, w, status, msg)
+      if (status /= MLID_OK) return
+      np = count(free_f == 1) + count(free_g == 1)
+      status = MLID_ERR_INPUT
+      if (np == 0) then
+        msg = 'np must count the free entries of F and G (at least one)'
+        return
+      else if (.not. (all(ieee_is_finite(p%t)) .and. all(ieee_is_finite(p%y)) .and. &
+                      all(ieee_is_finite(p%u)))) then
+        msg = 'time, states and inputs must be finite'
+        return
+      end if
+      ! one window where window or stride is bad: recursive_fdee refuses them first
+      nwin = 1
+      if (window >= 3 .and. window <= nt .and. stride >= 1) nwin = (nt - window)/stride + 1
+      allocate (tend(nwin), est(np, nwin), sig(np, nwin))
+      call recursive_fdee(p%t, p%y, p%u, f0, g0, free_f == 1, free_g == 1, w, window, stride, &
+                          tend, est, sig, status, msg)
+    end associate
+    if (status /= MLID_OK) return
+    call s%results%put('t_end', tend)
+    call s%results%put('estimates', est)
+    call s%results%put('sigma', sig)
   end subroutine mlid_recursive_fdee
 
-  !> The frequency-domain methods' data and fit at theta (mlid_frequency):
-  !> freq(nk) the frequencies (Hz, manoeuvre after manoeuvre, nk = n_freq
-  !> times the manoeuvres), z the measured left-hand sides (output error:
-  !> the outputs' transforms Y; equation error: i w Y for the outputs that
-  !> measure a state), zhat the model's, real and imaginary parts (ny, nk);
-  !> the cost, its gradient and information over the nf free parameters and
-  !> S-hat (rhat) there.
-  subroutine mlid_freq_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, ntie, mtie, tie_to, &
-                                 tie_from, tie_scale, tie_offset, nic, iconst, nrc, rconst, nt, &
-                                 t, u, y, nseg, segstart, iopt, ropt, nk, freq, zre, zim, &
-                                 zhre, zhim, nf, cost, grad, info, rhat, nterms, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nseg, nk, nf
-    integer(c_int), intent(in) :: segstart(nseg)
-    real(c_double), intent(in) :: theta(nth)
-    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
-    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
-    integer(c_int), intent(in) :: iopt(16)
-    real(c_double), intent(in) :: ropt(16)
-    real(c_double), intent(out) :: freq(nk), zre(ny, nk), zim(ny, nk), zhre(ny, nk), zhim(ny, nk)
-    real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny)
-    integer(c_int), intent(out) :: nterms      !< the transient terms estimated (mlid_frequency)
+  !> Integer matrix value name of shape shp, as named_t's get (which has
+  !> integers of rank 0 and 1 only).
+  subroutine get_int2(g, name, x, shp, status, msg)
+    type(named_t), intent(in) :: g
+    character(len=*), intent(in) :: name
+    integer, allocatable, intent(out) :: x(:, :)
+    integer, intent(in) :: shp(2)
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    integer :: k
+    allocate (x(0, 0))
+    if (status /= MLID_OK) return
+    k = g%found(name, VALUE_INT, 2, status, msg, shp)
+    if (k > 0) x = reshape(g%v(k)%i, shp)
+  end subroutine get_int2
+
+  !> The frequency-domain methods' data and fit (mlid_frequency) at the
+  !> parameters of handle h's problem (mlid_api_problem: model, params,
+  !> record, options).  Results: frequencies (nk: Hz, manoeuvre after
+  !> manoeuvre, n_freq each), the measured left-hand sides z_re, z_im
+  !> (output error: the outputs' transforms Y; equation error: i w Y for the
+  !> outputs that measure a state) and the model's zhat_re, zhat_im (ny,
+  !> nk); the cost, its gradient and information over the free parameters,
+  !> S-hat (rhat) there, and transient_terms (those estimated).
+  subroutine mlid_freq_evaluate(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
-    real(wp), allocatable :: tf(:), uf(:, :), yf(:, :), yh(:, :)
-    real(wp) :: th(nth)
-    integer :: k
+    real(wp), allocatable :: th(:), tf(:), uf(:, :), yf(:, :), yh(:, :), grad(:), info(:, :), &
+                             rhat(:, :)
+    real(wp) :: cost
+    integer :: nf, nseg, nterms
 
-    freq = 0.0_wp
-    nterms = 0
-    cost = 0.0_wp
-    grad = 0.0_wp
-    info = 0.0_wp
-    rhat = 0.0_wp
-    zre = 0.0_wp
-    zim = 0.0_wp
-    zhre = 0.0_wp
-    zhim = 0.0_wp
-    call setup(mkind, nx, nu, ny, nw, theta, isfree, &
-               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, y, iopt, &
-               ropt, nf, m, opt, pm, status, msg, segstart)
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    status = MLID_ERR_INPUT
-    if (.not. frequency_method(opt)) then
-      msg = 'frequency residuals are for method = ''frequency_output_error'' or '// &
-            '''frequency_equation_error'''
-      return
-    else if (nk /= opt%n_freq*nseg) then
-      write (msg, '(a,i0,a,i0)') 'nk = ', nk, ' must be n_freq times the manoeuvres = ', &
-        opt%n_freq*nseg
-      return
-    end if
-    th = theta
-    call apply_ties(pm%tie, th)
-    call freq_record(m, th, pm, t, u, y, opt, tf, uf, yf, status, msg)
+    s%results = named_t()
+    associate (p => s%problem)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+      if (status /= MLID_OK) return
+      nf = count(p%isfree == 1)
+      call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
+                 p%t, p%u, p%y, p%iopt, p%ropt, nf, m, opt, pm, status, msg, p%segstart)
+      if (status /= MLID_OK) return
+      if (.not. frequency_method(opt)) then
+        status = MLID_ERR_INPUT
+        msg = 'frequency residuals are for method = ''frequency_output_error'' or '// &
+              '''frequency_equation_error'''
+        return
+      end if
+      th = p%theta
+      call apply_ties(pm%tie, th)
+      call freq_record(m, th, pm, p%t, p%u, p%y, opt, tf, uf, yf, status, msg)
+      if (status /= MLID_OK) return
+      nseg = size(p%segstart)
+      allocate (grad(nf), info(nf, nf), rhat(p%ny, p%ny), yh(p%ny, 2*opt%n_freq*nseg))
+      call freq_likelihood(m, th, pm, tf, uf, yf, opt, cost, rhat, yh, status, msg, grad, info, &
+                           nterms=nterms)
+    end associate
     if (status /= MLID_OK) return
-    if (nf /= pm%nf) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0,a,i0,a)') 'nf = ', nf, ' but ', pm%nf, ' parameters are free'
-      return
-    end if
-    allocate (yh(ny, 2*nk))
-    call freq_likelihood(m, th, pm, tf, uf, yf, opt, cost, rhat, yh, status, msg, grad, info, &
-                         nterms=k)
-    nterms = k
-    if (status /= MLID_OK) return
-    freq = reshape(spread(freq_grid(opt), 2, nseg), [nk])
-    zre = yf(:, 1::2)
-    zim = yf(:, 2::2)
-    zhre = yh(:, 1::2)
-    zhim = yh(:, 2::2)
+    call s%results%put('frequencies', reshape(spread(freq_grid(opt), 2, nseg), [opt%n_freq*nseg]))
+    call s%results%put('z_re', yf(:, 1::2))
+    call s%results%put('z_im', yf(:, 2::2))
+    call s%results%put('zhat_re', yh(:, 1::2))
+    call s%results%put('zhat_im', yh(:, 2::2))
+    call s%results%put('cost', cost)
+    call s%results%put('gradient', grad)
+    call s%results%put('information', info)
+    call s%results%put('rhat', rhat)
+    call s%results%put('transient_terms', nterms)
   end subroutine mlid_freq_evaluate
 
   !> The number of frequencies of a measured response from segments of lseg
