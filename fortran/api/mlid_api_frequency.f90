@@ -4,7 +4,9 @@
 !> take a record, a model or more than a few values take the handle alone:
 !> the problem's parts (mlid_api_problem) and the values given by name
 !> (mlid_api_values), and keep what they give in the handle's results by
-!> name.  Conventions: mlid_api_deck's comment.
+!> name.  The Fourier transform, the sample step and a transfer function's
+!> response keep their few arguments: cheap calls, which values by name
+!> would make several times slower.  Conventions: mlid_api_deck's comment.
 module mlid_api_frequency
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
@@ -19,7 +21,6 @@ module mlid_api_frequency
   use mlid_fourier, only: fourier_transform
   use mlid_frequency, only: freq_record, freq_likelihood, freq_grid
   use mlid_recursive_fd, only: recursive_fdee
-  use mlid_fft, only: fft_length
   use mlid_freq_response, only: welch_spectra, response_from_spectra, model_response, &
                                 response_bands, unwrap_deg, DB, DEG
   use mlid_transfer_fit, only: tf_size, tf_start, tf_fit, tf_residuals, tf_log_response, &
@@ -30,8 +31,8 @@ module mlid_api_frequency
   implicit none
   private
   public :: mlid_fourier_transform, mlid_uniform_step, mlid_recursive_fdee, mlid_freq_evaluate, &
-            mlid_freq_count, mlid_freq_response, mlid_model_freq_response, mlid_tf_fit, &
-            mlid_tf_residuals, mlid_tf_response
+            mlid_freq_response, mlid_model_freq_response, mlid_tf_fit, mlid_tf_residuals, &
+            mlid_tf_response
 
 contains
 
@@ -240,159 +241,226 @@ contains
     call s%results%put('transient_terms', nterms)
   end subroutine mlid_freq_evaluate
 
-  !> The number of frequencies of a measured response from segments of lseg
-  !> samples (those of the transform's length fft_length(lseg), but 0 Hz).
-  subroutine mlid_freq_count(lseg, nfreq)
-    integer(c_int), intent(in) :: lseg
-    integer(c_int), intent(out) :: nfreq
-    nfreq = fft_length(max(lseg, 2))/2
-  end subroutine mlid_freq_count
-
-  !> The frequency response y/u of a record (mlid_freq_response): segments
-  !> of lseg samples overlapping by nover within each of its nseg manoeuvres
-  !> (starting at samples segstart); f (Hz), H, coherence, spectra, gain
-  !> (dB), phase (deg, unwrapped), their random errors (1 sigma) and the
-  !> number of averages nd.  nfreq from mlid_freq_count.
-  subroutine mlid_freq_response(nt, u, y, dt, nseg, segstart, lseg, nover, nfreq, f, h_re, h_im, &
-                                coh, guu, gyy, gain, phase, sgain, sphase, nd, status, msg)
-    integer(c_int), intent(in) :: nt, lseg, nover, nfreq, nseg, segstart(nseg)
-    real(c_double), intent(in) :: u(nt), y(nt), dt
-    real(c_double), intent(out), dimension(nfreq) :: f, h_re, h_im, coh, guu, gyy, gain, phase, &
-                                                     sgain, sphase
-    integer(c_int), intent(out) :: nd, status
+  !> The frequency response y/u of a record (mlid_freq_response) from
+  !> handle h's given values: the channels u and y, the sample step dt, the
+  !> first sample of each manoeuvre segstart, segments of lseg samples
+  !> overlapping by nover within each manoeuvre.  Results: frequency (Hz:
+  !> those of the transform's length fft_length(lseg) but 0 Hz), response_re
+  !> and response_im (H), coherence, input_spectrum and output_spectrum,
+  !> gain (dB), phase (deg, unwrapped), their random errors sigma_gain and
+  !> sigma_phase (1 sigma), and averages (the segments averaged).
+  subroutine mlid_freq_response(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    real(wp), allocatable :: ff(:), uu(:), yy(:)
-    complex(wp), allocatable :: uy(:)
-    complex(wp) :: h(nfreq)
-    integer :: ndi, st
-    f = 0.0_wp
-    h_re = 0.0_wp
-    h_im = 0.0_wp
-    coh = 0.0_wp
-    guu = 0.0_wp
-    gyy = 0.0_wp
-    gain = 0.0_wp
-    phase = 0.0_wp
-    sgain = 0.0_wp
-    sphase = 0.0_wp
-    nd = 0
+    type(session_t), pointer :: s
+    real(wp), allocatable :: u(:), y(:), ff(:), uu(:), yy(:), coh(:), gain(:), phase(:), &
+                             sgain(:), sphase(:)
+    complex(wp), allocatable :: uy(:), hh(:)
+    integer, allocatable :: segstart(:)
+    real(wp) :: dt
+    integer :: lseg, nover, nd, nfreq
+
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    associate (g => s%given)
+      call g%get('u', u, status, msg)
+      call g%get('y', y, status, msg, [size(u)])
+      call g%get('dt', dt, status, msg)
+      call g%get('segstart', segstart, status, msg)
+      call g%get('lseg', lseg, status, msg)
+      call g%get('nover', nover, status, msg)
+    end associate
+    if (status /= MLID_OK) return
     if (.not. (all(ieee_is_finite(u)) .and. all(ieee_is_finite(y)))) then
       status = MLID_ERR_INPUT
       msg = 'frequency response: the input or output channel has a value that is not finite'
       return
     end if
-    call welch_spectra(u, y, dt, lseg, nover, segstart, ff, uu, yy, uy, ndi, st, msg)
-    status = st
-    if (st /= MLID_OK) return
-    if (size(ff) /= nfreq) then
-      status = MLID_ERR_INPUT
-      msg = 'frequency response: nfreq is not mlid_freq_count(lseg)'
-      return
-    end if
-    call response_from_spectra(uu, yy, uy, ndi, h, coh, gain, phase, sgain, sphase)
-    f = ff
-    guu = uu
-    gyy = yy
-    h_re = real(h)
-    h_im = aimag(h)
-    nd = ndi
+    call welch_spectra(u, y, dt, lseg, nover, segstart, ff, uu, yy, uy, nd, status, msg)
+    if (status /= MLID_OK) return
+    nfreq = size(ff)
+    allocate (hh(nfreq), coh(nfreq), gain(nfreq), phase(nfreq), sgain(nfreq), sphase(nfreq))
+    call response_from_spectra(uu, yy, uy, nd, hh, coh, gain, phase, sgain, sphase)
+    call s%results%put('frequency', ff)
+    call s%results%put('response_re', real(hh, wp))
+    call s%results%put('response_im', aimag(hh))
+    call s%results%put('coherence', coh)
+    call s%results%put('input_spectrum', uu)
+    call s%results%put('output_spectrum', yy)
+    call s%results%put('gain', gain)
+    call s%results%put('phase', phase)
+    call s%results%put('sigma_gain', sgain)
+    call s%results%put('sigma_phase', sphase)
+    call s%results%put('averages', nd)
   end subroutine mlid_freq_response
 
-  !> The frequency response T (ny, nu, nfreq) of a linear model at w (rad/s)
-  !> with its derivatives dT/dq (ny, nu, nfreq, nq) through jac = dtheta/dq,
-  !> and gain (dB), phase (deg, unwrapped) and their sigmas from cov(q) by
-  !> the delta method (mlid_freq_response).
-  subroutine mlid_model_freq_response(mkind, nx, nu, ny, nw, nth, theta, nic, iconst, nrc, rconst, &
-                                      nq, jac, cov, nfreq, w, t_re, t_im, dt_re, dt_im, gain, &
-                                      phase, sgain, sphase, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nq, nfreq
-    real(c_double), intent(in) :: theta(nth), rconst(nrc), jac(nth, nq), cov(nq, nq), w(nfreq)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(out), dimension(ny, nu, nfreq) :: t_re, t_im, gain, phase, sgain, sphase
-    real(c_double), intent(out), dimension(ny, nu, nfreq, nq) :: dt_re, dt_im
+  !> The frequency response of output `output` to input `input` (1-based)
+  !> of the linear model of handle h at its parameters (mlid_api_problem:
+  !> model, params), from the given values w (nfreq, rad/s), jac (nth, nq:
+  !> dtheta/dq) and cov (nq, nq: the covariance of q) (mlid_freq_response).
+  !> Results: response_re and response_im (T), gain (dB), phase (deg,
+  !> unwrapped) and their sigmas sigma_gain, sigma_phase by the delta method
+  !> (nfreq), and the derivatives dT/dq derivatives_re, derivatives_im
+  !> (nfreq, nq).
+  subroutine mlid_model_freq_response(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     class(model_t), allocatable :: m
-    complex(wp) :: t(ny, nu, nfreq), dt(ny, nu, nfreq, nq)
-    t_re = 0.0_wp
-    t_im = 0.0_wp
-    dt_re = 0.0_wp
-    dt_im = 0.0_wp
-    gain = 0.0_wp
-    phase = 0.0_wp
-    sgain = 0.0_wp
-    sphase = 0.0_wp
-    call model_create(mkind, nx, nu, ny, nw, iconst, rconst, m, status, msg)
+    real(wp), allocatable :: w(:), jac(:, :), cov(:, :)
+    real(wp), allocatable, dimension(:, :, :) :: gain, phase, sgain, sphase
+    complex(wp), allocatable :: t(:, :, :), dt(:, :, :, :)
+    integer :: i, j, nq
+
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    call model_response(m, theta, w, jac, t, dt, status, msg)
-    if (status /= MLID_OK) return
+    s%results = named_t()
+    associate (p => s%problem, g => s%given)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS], status, msg)
+      if (status /= MLID_OK) return
+      call g%get('jac', jac, status, msg)
+      nq = size(jac, 2)
+      call g%get('cov', cov, status, msg, [nq, nq])
+      call g%get('w', w, status, msg)
+      call g%get('input', i, status, msg)
+      call g%get('output', j, status, msg)
+      if (status /= MLID_OK) return
+      if (i < 1 .or. i > p%nu .or. j < 1 .or. j > p%ny) then
+        status = MLID_ERR_INPUT
+        write (msg, '(a,i0,a,i0,a,i0,a,i0)') 'model frequency response: input ', i, &
+          ' and output ', j, ' must be at most ', p%nu, ' and ', p%ny
+        return
+      end if
+      call model_create(p%mkind, p%nx, p%nu, p%ny, p%nw, p%iconst, p%rconst, m, status, msg)
+      if (status /= MLID_OK) return
+      allocate (t(p%ny, p%nu, size(w)), dt(p%ny, p%nu, size(w), nq))
+      call model_response(m, p%theta, w, jac, t, dt, status, msg)
+      if (status /= MLID_OK) return
+    end associate
+    allocate (gain, phase, sgain, sphase, mold=real(t, wp))   ! (ny, nu, nfreq) as t
     call response_bands(t, dt, cov, gain, phase, sgain, sphase)
-    t_re = real(t)
-    t_im = aimag(t)
-    dt_re = real(dt)
-    dt_im = aimag(dt)
+    call s%results%put('response_re', real(t(j, i, :), wp))
+    call s%results%put('response_im', aimag(t(j, i, :)))
+    call s%results%put('gain', gain(j, i, :))
+    call s%results%put('phase', phase(j, i, :))
+    call s%results%put('sigma_gain', sgain(j, i, :))
+    call s%results%put('sigma_phase', sphase(j, i, :))
+    call s%results%put('derivatives_re', real(dt(j, i, :, :), wp))
+    call s%results%put('derivatives_im', aimag(dt(j, i, :, :)))
   end subroutine mlid_model_freq_response
 
   !> Weights of the transfer-function mismatch: 1, or by coherence.
   pure function tf_weights(coh, use_coh) result(wt)
-    real(c_double), intent(in) :: coh(:)
-    integer(c_int), intent(in) :: use_coh
+    real(wp), intent(in) :: coh(:)
+    integer, intent(in) :: use_coh
     real(wp) :: wt(size(coh))
     wt = 1.0_wp
     if (use_coh /= 0) wt = coherence_weight(coh)
   end function tf_weights
 
+  !> The given values every transfer-function call takes: the frequencies w
+  !> (rad/s), the orders m, n and delay (1: with a delay).
+  subroutine tf_given(g, w, m, n, delay, status, msg)
+    type(named_t), intent(in) :: g
+    real(wp), allocatable, intent(out) :: w(:)
+    integer, intent(out) :: m, n, delay
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    m = 0
+    n = 0
+    delay = 0
+    call g%get('w', w, status, msg)
+    call g%get('m', m, status, msg)
+    call g%get('n', n, status, msg)
+    call g%get('delay', delay, status, msg)
+  end subroutine tf_given
+
+  !> The given values of the response a transfer function is fitted to:
+  !> gain (dB) and phase (deg) at the nfreq frequencies, and the weights
+  !> of the mismatch (by the coherence coh when use_coh = 1, else 1).
+  subroutine tf_measured(g, nfreq, gain, phase, wt, status, msg)
+    type(named_t), intent(in) :: g
+    integer, intent(in) :: nfreq
+    real(wp), allocatable, intent(out) :: gain(:), phase(:), wt(:)
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    real(wp), allocatable :: coh(:)
+    integer :: use_coh
+    use_coh = 0
+    call g%get('gain', gain, status, msg, [nfreq])
+    call g%get('phase', phase, status, msg, [nfreq])
+    call g%get('coh', coh, status, msg, [nfreq])
+    call g%get('use_coh', use_coh, status, msg)
+    if (status == MLID_OK) then
+      wt = tf_weights(coh, use_coh)
+    else
+      allocate (wt(0))
+    end if
+  end subroutine tf_measured
+
   !> Fit T(s) = N(s)/D(s) e^(-tau s) (orders m, n; delay when delay = 1)
   !> to gain (dB) and phase (deg) at w (rad/s) by the handling-qualities
   !> mismatch (mlid_transfer_fit), weighted by coherence when use_coh = 1;
   !> from x0 when use_start = 1, else from Levy's least squares with the
-  !> delay at tau0.  x: [b_0..b_m, a_0..a_(n-1), tau]; xs the start used.
-  !> Parameters with isfree = 0 keep their value in x0.
-  subroutine mlid_tf_fit(nfreq, w, gain, phase, coh, use_coh, m, n, delay, tau0, use_start, &
-                         np, x0, isfree, max_iter, xs, x, cov, cost, niter, status, msg)
-    integer(c_int), intent(in) :: nfreq, use_coh, m, n, delay, use_start, np, max_iter
-    integer(c_int), intent(in) :: isfree(np)
-    real(c_double), intent(in) :: w(nfreq), gain(nfreq), phase(nfreq), coh(nfreq), tau0, x0(np)
-    real(c_double), intent(out) :: xs(np), x(np), cov(np, np), cost
-    integer(c_int), intent(out) :: niter, status
+  !> delay at tau0; at most max_iter iterations.  Parameters with isfree = 0
+  !> keep their value in x0.  All of these are handle h's given values
+  !> (with coh).  Results: start (the start used), estimate, both [b_0..b_m,
+  !> a_0..a_(n-1), tau], covariance, mismatch and iterations.
+  subroutine mlid_tf_fit(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    real(wp) :: xw(np), cw(np, np), cst
-    integer :: it
-    xs = 0.0_wp
-    x = 0.0_wp
-    cov = 0.0_wp
-    cost = 0.0_wp
-    niter = 0
-    call tf_check(nfreq, w, gain, phase, m, n, delay, np, status, msg)
+    type(session_t), pointer :: s
+    real(wp), allocatable :: w(:), gain(:), phase(:), wt(:), x0(:), x(:), cov(:, :)
+    integer, allocatable :: isfree(:)
+    real(wp) :: tau0, cost
+    integer :: m, n, delay, use_start, max_iter, niter
+
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    if (use_start /= 0) then
-      xw = x0
-    else
-      xw = x0                                           ! the fixed ones' values
-      call tf_start(m, n, delay /= 0, tau0, w, gain, phase, tf_weights(coh, use_coh), isfree /= 0, &
-                    xw, status, msg)
+    s%results = named_t()
+    associate (g => s%given)
+      call tf_given(g, w, m, n, delay, status, msg)
+      call tf_measured(g, size(w), gain, phase, wt, status, msg)
+      call g%get('tau0', tau0, status, msg)
+      call g%get('use_start', use_start, status, msg)
+      call g%get('max_iter', max_iter, status, msg)
+      call g%get('x0', x0, status, msg)
+      if (status /= MLID_OK) return
+      call g%get('isfree', isfree, status, msg, [size(x0)])
+    end associate
+    if (status /= MLID_OK) return
+    call tf_check(w, gain, phase, m, n, delay, size(x0), status, msg)
+    if (status /= MLID_OK) return
+    x = x0                                  ! the start, or the fixed ones' values
+    if (use_start == 0) then
+      call tf_start(m, n, delay /= 0, tau0, w, gain, phase, wt, isfree /= 0, x, status, msg)
       if (status /= MLID_OK) return
     end if
-    xs = xw
-    call tf_fit(m, n, delay /= 0, w, gain, phase, tf_weights(coh, use_coh), isfree /= 0, max_iter, &
-                xw, cst, cw, it, status, msg)
-    x = xw
-    cov = cw
-    cost = cst
-    niter = it
+    call s%results%put('start', x)
+    allocate (cov(size(x), size(x)))
+    call tf_fit(m, n, delay /= 0, w, gain, phase, wt, isfree /= 0, max_iter, x, cost, cov, niter, &
+                status, msg)
+    call s%results%put('estimate', x)
+    call s%results%put('covariance', cov)
+    call s%results%put('mismatch', cost)
+    call s%results%put('iterations', niter)
   end subroutine mlid_tf_fit
 
   !> Orders, sizes and frequencies of a transfer-function fit.
-  subroutine tf_check(nfreq, w, gain, phase, m, n, delay, np, status, msg)
-    integer(c_int), intent(in) :: nfreq, m, n, delay, np
-    real(c_double), intent(in) :: w(:), gain(:), phase(:)
+  subroutine tf_check(w, gain, phase, m, n, delay, np, status, msg)
+    real(wp), intent(in) :: w(:), gain(:), phase(:)
+    integer, intent(in) :: m, n, delay, np
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     call tf_orders(m, n, delay, np, status, msg)
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
-    if (2*nfreq < np + 1) then
-      write (msg, '(a,i0,a,i0,a)') 'transfer-function fit: ', nfreq, &
+    if (2*size(w) < np + 1) then
+      write (msg, '(a,i0,a,i0,a)') 'transfer-function fit: ', size(w), &
         ' frequencies are too few for ', np, ' parameters'
     else if (.not. (all(ieee_is_finite(w)) .and. all(ieee_is_finite(gain)) .and. &
                     all(ieee_is_finite(phase)))) then
@@ -405,25 +473,39 @@ contains
     end if
   end subroutine tf_check
 
-  !> The mismatch's residuals r (2 nfreq, r'r = cost) and their Jacobian.
-  subroutine mlid_tf_residuals(nfreq, w, gain, phase, coh, use_coh, m, n, delay, np, x, r, jr, &
-                               status, msg)
-    integer(c_int), intent(in) :: nfreq, use_coh, m, n, delay, np
-    real(c_double), intent(in) :: w(nfreq), gain(nfreq), phase(nfreq), coh(nfreq), x(np)
-    real(c_double), intent(out) :: r(2*nfreq), jr(2*nfreq, np)
+  !> The mismatch's residuals (2 nfreq, r'r = the mismatch) and their
+  !> Jacobian (2 nfreq, np) at the given x, from handle h's given values
+  !> as mlid_tf_fit takes them (w, gain, phase, coh, use_coh, m, n, delay).
+  !> Results: residuals and jacobian.
+  subroutine mlid_tf_residuals(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    r = 0.0_wp
-    jr = 0.0_wp
-    call tf_orders(m, n, delay, np, status, msg)
+    type(session_t), pointer :: s
+    real(wp), allocatable :: w(:), gain(:), phase(:), wt(:), x(:), r(:), jr(:, :)
+    integer :: m, n, delay
+
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    call tf_residuals(m, n, delay /= 0, x, w, gain, phase, tf_weights(coh, use_coh), r, jr)
+    s%results = named_t()
+    associate (g => s%given)
+      call tf_given(g, w, m, n, delay, status, msg)
+      call tf_measured(g, size(w), gain, phase, wt, status, msg)
+      call g%get('x', x, status, msg)
+    end associate
+    if (status /= MLID_OK) return
+    call tf_orders(m, n, delay, size(x), status, msg)
+    if (status /= MLID_OK) return
+    allocate (r(2*size(w)), jr(2*size(w), size(x)))
+    call tf_residuals(m, n, delay /= 0, x, w, gain, phase, wt, r, jr)
+    call s%results%put('residuals', r)
+    call s%results%put('jacobian', jr)
   end subroutine mlid_tf_residuals
 
   !> Orders m >= 0, n >= 1 and np = tf_size, the length of x: the
   !> parameters b_0..b_m, a_0..a_(n-1) and tau when delay = 1.
   subroutine tf_orders(m, n, delay, np, status, msg)
-    integer(c_int), intent(in) :: m, n, delay, np
+    integer, intent(in) :: m, n, delay, np
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     status = MLID_OK
