@@ -146,12 +146,12 @@ def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=Non
                          f"{model.element_names()[outside[0]]!r}")
     free_f = mask[f].reshape((model.nx, model.nx), order="F")
     free_g = mask[g].reshape((model.nx, model.nu), order="F")
-    h = _call_handle()
     t, u, x = _record(model, data)
-    check_status(*_api.mlid_set_record(h.value, t=t, u=u, y=x, segstart=[1]))
+    h = _call_handle()
     _put(h, f0=model.F, g0=model.G, free_f=free_f, free_g=free_g,
          n_freq=whole("n_freq", n_freq, -2**31), f_min=_band_edge("f_min", f_min),
          f_max=_band_edge("f_max", f_max), window=int(window), stride=int(stride))
+    check_status(*_api.mlid_set_record(h.value, t=t, u=u, y=x, segstart=[1]))
     check_status(*_api.mlid_recursive_fdee(h.value))
     out = _results(h)
     return {"t_end": out["t_end"], "estimates": out["estimates"].T.copy(),

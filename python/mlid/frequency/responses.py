@@ -299,10 +299,11 @@ def model_response(fit_or_model, frequency, input=0, output=0, covariance=None):
         raise InputError("frequencies must be positive (Hz)")
     i = _channel(names_u, input, "input")
     j = _channel(names_y, output, "output")
+    params = Params(model)
     h = _call_handle()
-    _set_model(h, model)
-    _set_params(h, Params(model))
     _put(h, w=2 * np.pi * f, jac=jac, cov=cov, input=i + 1, output=j + 1)
+    _set_model(h, model)
+    _set_params(h, params)
     check_status(*_api.mlid_model_freq_response(h.value))
     out = _results(h)
     return FrequencyResponse(
