@@ -13,7 +13,8 @@ from matplotlib.figure import Figure
 
 import mlid
 from mlid.report import plots
-from mlid.frequency.responses import FrequencyResponse, free_map, transfer_mismatch, _api
+from mlid._bridge import api as _api, call_handle, put, results
+from mlid.frequency.responses import FrequencyResponse, free_map, transfer_mismatch
 from conftest import BIN
 
 # A short-period-like pair (alpha, q) driven by the elevator: poles -2.1 +- 3.35j.
@@ -300,14 +301,22 @@ def test_transfer_residual_jacobian_against_finite_differences():
     x = np.array([4.0, 2.5, 14.0, 3.1, 0.05, ])
     args = dict(w=2 * np.pi * f, gain=meas.gain, phase=meas.phase, coh=np.full(f.size, 0.8),
                 use_coh=1, m=1, n=2, delay=1)
-    _, jr, status, _ = _api.mlid_tf_residuals(x=x, **args)
-    assert status == 0
+    handle = call_handle()
+
+    def residuals(x):
+        """The core's residuals and their Jacobian at x."""
+        put(handle, x=x, **args)
+        status, _ = _api.mlid_tf_residuals(handle.value)
+        assert status == 0
+        out = results(handle)
+        return out["residuals"].copy(), out["jacobian"].copy()
+
+    _, jr = residuals(x)
     for k in range(x.size):
         h = 1e-6 * max(1.0, abs(x[k]))
         e = np.zeros_like(x)
         e[k] = h
-        fd = (_api.mlid_tf_residuals(x=x + e, **args)[0]
-              - _api.mlid_tf_residuals(x=x - e, **args)[0]) / (2 * h)
+        fd = (residuals(x + e)[0] - residuals(x - e)[0]) / (2 * h)
         np.testing.assert_allclose(jr[:, k], fd, rtol=1e-6, atol=1e-8)
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import mlid
-from mlid._bridge import api as _api
+from mlid._bridge import api as _api, call_handle, put, results
 from conftest import C8_F, C8_FREE, C8_G, C8_NAMES, c8_record, c8_start, run_both
 
 BAND = dict(f_min=0.1, f_max=2.0, n_freq=40)
@@ -139,14 +139,15 @@ def test_transfer_function_parameter_count():
     and one line (before: read past x's end or left entries unused)."""
     w = 2 * np.pi * np.array([0.2, 0.5, 1.0])
     one = np.ones(3)
+    h = call_handle()
     for np_, delay in ((4, 1), (6, 1), (5, 0)):
         x = np.linspace(1.0, 2.0, np_)
-        r, jr, status, msg = _api.mlid_tf_residuals(w=w, gain=one, phase=one, coh=one,
-                                                    use_coh=0, m=1, n=2, delay=delay, x=x)
+        put(h, w=w, gain=one, phase=one, coh=one, use_coh=0, m=1, n=2, delay=delay, x=x)
+        status, msg = _api.mlid_tf_residuals(h.value)
         want = (f"transfer function: orders m = 1, n = 2 (delay {delay}) take {4 + delay} "
                 f"parameters, got {np_}")
         assert status == 1 and msg.decode().strip() == want
-        assert not r.any() and not jr.any()
+        assert results(h) == {}                    # no residuals, no Jacobian
         gain, phase, status, msg = _api.mlid_tf_response(w=w, m=1, n=2, delay=delay, x=x)
         assert status == 1 and msg.decode().strip() == want
         assert not gain.any() and not phase.any()

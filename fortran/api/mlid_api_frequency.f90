@@ -1,31 +1,38 @@
 !> The flat interface's frequency domain: Fourier transforms, the
 !> frequency-domain fit's data, the recursive estimator, measured and
-!> model frequency responses, transfer-function fits.
-!> Conventions: mlid_api_deck's comment.
+!> model frequency responses, transfer-function fits.  The routines that
+!> take a record, a model or more than a few values take the handle alone:
+!> the problem's parts (mlid_api_problem) and the values given by name
+!> (mlid_api_values), and keep what they give in the handle's results by
+!> name.  The Fourier transform, the sample step and a transfer function's
+!> response keep their few arguments: cheap calls, which values by name
+!> would make several times slower.  Conventions: mlid_api_deck's comment.
 module mlid_api_frequency
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create
   use mlid_options, only: options_t, options_from_flat, options_to_flat, frequency_method, NOPT, &
                           METHOD_FREQ_EE
-  use mlid_params, only: param_map_t, apply_ties, ties_of
+  use mlid_params, only: param_map_t, apply_ties
   use mlid_setup, only: setup
   use mlid_sampling, only: record_common_step
   use mlid_fourier, only: fourier_transform
   use mlid_frequency, only: freq_record, freq_likelihood, freq_grid
   use mlid_recursive_fd, only: recursive_fdee
-  use mlid_fft, only: fft_length
   use mlid_freq_response, only: welch_spectra, response_from_spectra, model_response, &
                                 response_bands, unwrap_deg, DB, DEG
   use mlid_transfer_fit, only: tf_size, tf_start, tf_fit, tf_residuals, tf_log_response, &
                                coherence_weight
+  use mlid_handles, only: session_t, handle_session
+  use mlid_named, only: named_t, VALUE_INT
+  use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS
   implicit none
   private
   public :: mlid_fourier_transform, mlid_uniform_step, mlid_recursive_fdee, mlid_freq_evaluate, &
-            mlid_freq_count, mlid_freq_response, mlid_model_freq_response, mlid_tf_fit, &
-            mlid_tf_residuals, mlid_tf_response
+            mlid_freq_response, mlid_model_freq_response, mlid_tf_fit, mlid_tf_residuals, &
+            mlid_tf_response
 
 contains
 
@@ -97,269 +104,363 @@ contains
   end subroutine band_omega
 
   !> Recursive frequency-domain equation error (mlid_recursive_fd) over a
-  !> moving window of `window` samples, one fit every `stride`: the measured
-  !> states x(nx, nt), inputs u(nu, nt), F0 and G0 with the free entries
-  !> marked (freef, freeg: 1 free), the band n_freq, f_min, f_max (Hz; the
-  !> frequency-domain methods' band, checked as theirs); est and sig
-  !> (np, nwin) the free entries (F column by column, then G) per window,
-  !> tend(nwin) each window's last time.
-  subroutine mlid_recursive_fdee(nx, nu, nt, t, x, u, f0, g0, freef, freeg, n_freq, f_min, f_max, &
-                                 window, stride, nwin, np, tend, est, sig, status, msg)
-    integer(c_int), intent(in) :: nx, nu, nt, n_freq, window, stride, nwin, np
-    real(c_double), intent(in) :: t(nt), x(nx, nt), u(nu, nt), f0(nx, nx), g0(nx, nu), f_min, f_max
-    integer(c_int), intent(in) :: freef(nx, nx), freeg(nx, nu)
-    real(c_double), intent(out) :: tend(nwin), est(np, nwin), sig(np, nwin)
+  !> moving window, on the record of handle h (mlid_api_problem: one
+  !> manoeuvre, its outputs the measured states x) with its given values
+  !> (mlid_api_values): f0 (nx, nx) and g0 (nx, nu) with their free entries
+  !> marked in free_f and free_g (1 free), the band n_freq, f_min, f_max (Hz;
+  !> the frequency-domain methods' band, checked as theirs), window (samples
+  !> in a window) and stride (samples between the ends of two windows).
+  !> Results: t_end (nwin) each window's last time, estimates and sigma
+  !> (np, nwin) the free entries (F column by column, then G) per window.
+  subroutine mlid_recursive_fdee(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    real(wp), allocatable :: w(:)
-    tend = 0.0_wp
-    est = 0.0_wp
-    sig = 0.0_wp
-    call band_omega(n_freq, f_min, f_max, w, status, msg)
+    type(session_t), pointer :: s
+    real(wp), allocatable :: f0(:, :), g0(:, :), w(:), tend(:), est(:, :), sig(:, :)
+    integer, allocatable :: free_f(:, :), free_g(:, :)
+    real(wp) :: f_min, f_max
+    integer :: n_freq, window, stride, nx, nu, nt, np, nwin
+
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    status = MLID_ERR_INPUT
-    if (np /= count(freef == 1) + count(freeg == 1) .or. np == 0) then
-      msg = 'np must count the free entries of F and G (at least one)'
-    else if (.not. (all(ieee_is_finite(t)) .and. all(ieee_is_finite(x)) .and. &
-                    all(ieee_is_finite(u)))) then
-      msg = 'time, states and inputs must be finite'
-    else
-      call recursive_fdee(t, x, u, f0, g0, freef == 1, freeg == 1, w, window, stride, tend, est, &
-                          sig, status, msg)
-    end if
+    s%results = named_t()
+    call problem_needs(s%problem, [PART_RECORD], status, msg)
+    if (status /= MLID_OK) return
+    associate (p => s%problem, g => s%given)
+      nx = size(p%y, 1)
+      nu = size(p%u, 1)
+      nt = size(p%t)
+      call g%get('f0', f0, status, msg, [nx, nx])
+      call g%get('g0', g0, status, msg, [nx, nu])
+      call get_int2(g, 'free_f', free_f, [nx, nx], status, msg)
+      call get_int2(g, 'free_g', free_g, [nx, nu], status, msg)
+      call g%get('n_freq', n_freq, status, msg)
+      call g%get('f_min', f_min, status, msg)
+      call g%get('f_max', f_max, status, msg)
+      call g%get('window', window, status, msg)
+      call g%get('stride', stride, status, msg)
+      if (status /= MLID_OK) return
+      call band_omega(n_freq, f_min, f_max, w, status, msg)
+      if (status /= MLID_OK) return
+      np = count(free_f == 1) + count(free_g == 1)
+      status = MLID_ERR_INPUT
+      if (np == 0) then
+        msg = 'np must count the free entries of F and G (at least one)'
+        return
+      else if (.not. (all(ieee_is_finite(p%t)) .and. all(ieee_is_finite(p%y)) .and. &
+                      all(ieee_is_finite(p%u)))) then
+        msg = 'time, states and inputs must be finite'
+        return
+      end if
+      ! one window where window or stride is bad: recursive_fdee refuses them first
+      nwin = 1
+      if (window >= 3 .and. window <= nt .and. stride >= 1) nwin = (nt - window)/stride + 1
+      allocate (tend(nwin), est(np, nwin), sig(np, nwin))
+      call recursive_fdee(p%t, p%y, p%u, f0, g0, free_f == 1, free_g == 1, w, window, stride, &
+                          tend, est, sig, status, msg)
+    end associate
+    if (status /= MLID_OK) return
+    call s%results%put('t_end', tend)
+    call s%results%put('estimates', est)
+    call s%results%put('sigma', sig)
   end subroutine mlid_recursive_fdee
 
-  !> The frequency-domain methods' data and fit at theta (mlid_frequency):
-  !> freq(nk) the frequencies (Hz, manoeuvre after manoeuvre, nk = n_freq
-  !> times the manoeuvres), z the measured left-hand sides (output error:
-  !> the outputs' transforms Y; equation error: i w Y for the outputs that
-  !> measure a state), zhat the model's, real and imaginary parts (ny, nk);
-  !> the cost, its gradient and information over the nf free parameters and
-  !> S-hat (rhat) there.
-  subroutine mlid_freq_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, ntie, mtie, tie_to, &
-                                 tie_from, tie_scale, tie_offset, nic, iconst, nrc, rconst, nt, &
-                                 t, u, y, nseg, segstart, iopt, ropt, nk, freq, zre, zim, &
-                                 zhre, zhim, nf, cost, grad, info, rhat, nterms, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nseg, nk, nf
-    integer(c_int), intent(in) :: segstart(nseg)
-    real(c_double), intent(in) :: theta(nth)
-    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
-    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
-    integer(c_int), intent(in) :: iopt(16)
-    real(c_double), intent(in) :: ropt(16)
-    real(c_double), intent(out) :: freq(nk), zre(ny, nk), zim(ny, nk), zhre(ny, nk), zhim(ny, nk)
-    real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny)
-    integer(c_int), intent(out) :: nterms      !< the transient terms estimated (mlid_frequency)
+  !> Integer matrix value name of shape shp, as named_t's get (which has
+  !> integers of rank 0 and 1 only).
+  subroutine get_int2(g, name, x, shp, status, msg)
+    type(named_t), intent(in) :: g
+    character(len=*), intent(in) :: name
+    integer, allocatable, intent(out) :: x(:, :)
+    integer, intent(in) :: shp(2)
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    integer :: k
+    allocate (x(0, 0))
+    if (status /= MLID_OK) return
+    k = g%found(name, VALUE_INT, 2, status, msg, shp)
+    if (k > 0) x = reshape(g%v(k)%i, shp)
+  end subroutine get_int2
+
+  !> The frequency-domain methods' data and fit (mlid_frequency) at the
+  !> parameters of handle h's problem (mlid_api_problem: model, params,
+  !> record, options).  Results: frequencies (nk: Hz, manoeuvre after
+  !> manoeuvre, n_freq each), the measured left-hand sides z_re, z_im
+  !> (output error: the outputs' transforms Y; equation error: i w Y for the
+  !> outputs that measure a state) and the model's zhat_re, zhat_im (ny,
+  !> nk); the cost, its gradient and information over the free parameters,
+  !> S-hat (rhat) there, and transient_terms (those estimated).
+  subroutine mlid_freq_evaluate(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
-    real(wp), allocatable :: tf(:), uf(:, :), yf(:, :), yh(:, :)
-    real(wp) :: th(nth)
-    integer :: k
+    real(wp), allocatable :: th(:), tf(:), uf(:, :), yf(:, :), yh(:, :), grad(:), info(:, :), &
+                             rhat(:, :)
+    real(wp) :: cost
+    integer :: nf, nseg, nterms
 
-    freq = 0.0_wp
-    nterms = 0
-    cost = 0.0_wp
-    grad = 0.0_wp
-    info = 0.0_wp
-    rhat = 0.0_wp
-    zre = 0.0_wp
-    zim = 0.0_wp
-    zhre = 0.0_wp
-    zhim = 0.0_wp
-    call setup(mkind, nx, nu, ny, nw, theta, isfree, &
-               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, y, iopt, &
-               ropt, nf, m, opt, pm, status, msg, segstart)
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    status = MLID_ERR_INPUT
-    if (.not. frequency_method(opt)) then
-      msg = 'frequency residuals are for method = ''frequency_output_error'' or '// &
-            '''frequency_equation_error'''
-      return
-    else if (nk /= opt%n_freq*nseg) then
-      write (msg, '(a,i0,a,i0)') 'nk = ', nk, ' must be n_freq times the manoeuvres = ', &
-        opt%n_freq*nseg
-      return
-    end if
-    th = theta
-    call apply_ties(pm%tie, th)
-    call freq_record(m, th, pm, t, u, y, opt, tf, uf, yf, status, msg)
+    s%results = named_t()
+    associate (p => s%problem)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+      if (status /= MLID_OK) return
+      nf = count(p%isfree == 1)
+      call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
+                 p%t, p%u, p%y, p%iopt, p%ropt, nf, m, opt, pm, status, msg, p%segstart)
+      if (status /= MLID_OK) return
+      if (.not. frequency_method(opt)) then
+        status = MLID_ERR_INPUT
+        msg = 'frequency residuals are for method = ''frequency_output_error'' or '// &
+              '''frequency_equation_error'''
+        return
+      end if
+      th = p%theta
+      call apply_ties(pm%tie, th)
+      call freq_record(m, th, pm, p%t, p%u, p%y, opt, tf, uf, yf, status, msg)
+      if (status /= MLID_OK) return
+      nseg = size(p%segstart)
+      allocate (grad(nf), info(nf, nf), rhat(p%ny, p%ny), yh(p%ny, 2*opt%n_freq*nseg))
+      call freq_likelihood(m, th, pm, tf, uf, yf, opt, cost, rhat, yh, status, msg, grad, info, &
+                           nterms=nterms)
+    end associate
     if (status /= MLID_OK) return
-    if (nf /= pm%nf) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0,a,i0,a)') 'nf = ', nf, ' but ', pm%nf, ' parameters are free'
-      return
-    end if
-    allocate (yh(ny, 2*nk))
-    call freq_likelihood(m, th, pm, tf, uf, yf, opt, cost, rhat, yh, status, msg, grad, info, &
-                         nterms=k)
-    nterms = k
-    if (status /= MLID_OK) return
-    freq = reshape(spread(freq_grid(opt), 2, nseg), [nk])
-    zre = yf(:, 1::2)
-    zim = yf(:, 2::2)
-    zhre = yh(:, 1::2)
-    zhim = yh(:, 2::2)
+    call s%results%put('frequencies', reshape(spread(freq_grid(opt), 2, nseg), [opt%n_freq*nseg]))
+    call s%results%put('z_re', yf(:, 1::2))
+    call s%results%put('z_im', yf(:, 2::2))
+    call s%results%put('zhat_re', yh(:, 1::2))
+    call s%results%put('zhat_im', yh(:, 2::2))
+    call s%results%put('cost', cost)
+    call s%results%put('gradient', grad)
+    call s%results%put('information', info)
+    call s%results%put('rhat', rhat)
+    call s%results%put('transient_terms', nterms)
   end subroutine mlid_freq_evaluate
 
-  !> The number of frequencies of a measured response from segments of lseg
-  !> samples (those of the transform's length fft_length(lseg), but 0 Hz).
-  subroutine mlid_freq_count(lseg, nfreq)
-    integer(c_int), intent(in) :: lseg
-    integer(c_int), intent(out) :: nfreq
-    nfreq = fft_length(max(lseg, 2))/2
-  end subroutine mlid_freq_count
-
-  !> The frequency response y/u of a record (mlid_freq_response): segments
-  !> of lseg samples overlapping by nover within each of its nseg manoeuvres
-  !> (starting at samples segstart); f (Hz), H, coherence, spectra, gain
-  !> (dB), phase (deg, unwrapped), their random errors (1 sigma) and the
-  !> number of averages nd.  nfreq from mlid_freq_count.
-  subroutine mlid_freq_response(nt, u, y, dt, nseg, segstart, lseg, nover, nfreq, f, h_re, h_im, &
-                                coh, guu, gyy, gain, phase, sgain, sphase, nd, status, msg)
-    integer(c_int), intent(in) :: nt, lseg, nover, nfreq, nseg, segstart(nseg)
-    real(c_double), intent(in) :: u(nt), y(nt), dt
-    real(c_double), intent(out), dimension(nfreq) :: f, h_re, h_im, coh, guu, gyy, gain, phase, &
-                                                     sgain, sphase
-    integer(c_int), intent(out) :: nd, status
+  !> The frequency response y/u of a record (mlid_freq_response) from
+  !> handle h's given values: the channels u and y, the sample step dt, the
+  !> first sample of each manoeuvre segstart, segments of lseg samples
+  !> overlapping by nover within each manoeuvre.  Results: frequency (Hz:
+  !> those of the transform's length fft_length(lseg) but 0 Hz), response_re
+  !> and response_im (H), coherence, input_spectrum and output_spectrum,
+  !> gain (dB), phase (deg, unwrapped), their random errors sigma_gain and
+  !> sigma_phase (1 sigma), and averages (the segments averaged).
+  subroutine mlid_freq_response(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    real(wp), allocatable :: ff(:), uu(:), yy(:)
-    complex(wp), allocatable :: uy(:)
-    complex(wp) :: h(nfreq)
-    integer :: ndi, st
-    f = 0.0_wp
-    h_re = 0.0_wp
-    h_im = 0.0_wp
-    coh = 0.0_wp
-    guu = 0.0_wp
-    gyy = 0.0_wp
-    gain = 0.0_wp
-    phase = 0.0_wp
-    sgain = 0.0_wp
-    sphase = 0.0_wp
-    nd = 0
+    type(session_t), pointer :: s
+    real(wp), allocatable :: u(:), y(:), ff(:), uu(:), yy(:), coh(:), gain(:), phase(:), &
+                             sgain(:), sphase(:)
+    complex(wp), allocatable :: uy(:), hh(:)
+    integer, allocatable :: segstart(:)
+    real(wp) :: dt
+    integer :: lseg, nover, nd, nfreq
+
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    associate (g => s%given)
+      call g%get('u', u, status, msg)
+      call g%get('y', y, status, msg, [size(u)])
+      call g%get('dt', dt, status, msg)
+      call g%get('segstart', segstart, status, msg)
+      call g%get('lseg', lseg, status, msg)
+      call g%get('nover', nover, status, msg)
+    end associate
+    if (status /= MLID_OK) return
     if (.not. (all(ieee_is_finite(u)) .and. all(ieee_is_finite(y)))) then
       status = MLID_ERR_INPUT
       msg = 'frequency response: the input or output channel has a value that is not finite'
       return
     end if
-    call welch_spectra(u, y, dt, lseg, nover, segstart, ff, uu, yy, uy, ndi, st, msg)
-    status = st
-    if (st /= MLID_OK) return
-    if (size(ff) /= nfreq) then
-      status = MLID_ERR_INPUT
-      msg = 'frequency response: nfreq is not mlid_freq_count(lseg)'
-      return
-    end if
-    call response_from_spectra(uu, yy, uy, ndi, h, coh, gain, phase, sgain, sphase)
-    f = ff
-    guu = uu
-    gyy = yy
-    h_re = real(h)
-    h_im = aimag(h)
-    nd = ndi
+    call welch_spectra(u, y, dt, lseg, nover, segstart, ff, uu, yy, uy, nd, status, msg)
+    if (status /= MLID_OK) return
+    nfreq = size(ff)
+    allocate (hh(nfreq), coh(nfreq), gain(nfreq), phase(nfreq), sgain(nfreq), sphase(nfreq))
+    call response_from_spectra(uu, yy, uy, nd, hh, coh, gain, phase, sgain, sphase)
+    call s%results%put('frequency', ff)
+    call s%results%put('response_re', real(hh, wp))
+    call s%results%put('response_im', aimag(hh))
+    call s%results%put('coherence', coh)
+    call s%results%put('input_spectrum', uu)
+    call s%results%put('output_spectrum', yy)
+    call s%results%put('gain', gain)
+    call s%results%put('phase', phase)
+    call s%results%put('sigma_gain', sgain)
+    call s%results%put('sigma_phase', sphase)
+    call s%results%put('averages', nd)
   end subroutine mlid_freq_response
 
-  !> The frequency response T (ny, nu, nfreq) of a linear model at w (rad/s)
-  !> with its derivatives dT/dq (ny, nu, nfreq, nq) through jac = dtheta/dq,
-  !> and gain (dB), phase (deg, unwrapped) and their sigmas from cov(q) by
-  !> the delta method (mlid_freq_response).
-  subroutine mlid_model_freq_response(mkind, nx, nu, ny, nw, nth, theta, nic, iconst, nrc, rconst, &
-                                      nq, jac, cov, nfreq, w, t_re, t_im, dt_re, dt_im, gain, &
-                                      phase, sgain, sphase, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nq, nfreq
-    real(c_double), intent(in) :: theta(nth), rconst(nrc), jac(nth, nq), cov(nq, nq), w(nfreq)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(out), dimension(ny, nu, nfreq) :: t_re, t_im, gain, phase, sgain, sphase
-    real(c_double), intent(out), dimension(ny, nu, nfreq, nq) :: dt_re, dt_im
+  !> The frequency response of output `output` to input `input` (1-based)
+  !> of the linear model of handle h at its parameters (mlid_api_problem:
+  !> model, params), from the given values w (nfreq, rad/s), jac (nth, nq:
+  !> dtheta/dq) and cov (nq, nq: the covariance of q) (mlid_freq_response).
+  !> Results: response_re and response_im (T), gain (dB), phase (deg,
+  !> unwrapped) and their sigmas sigma_gain, sigma_phase by the delta method
+  !> (nfreq), and the derivatives dT/dq derivatives_re, derivatives_im
+  !> (nfreq, nq).
+  subroutine mlid_model_freq_response(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     class(model_t), allocatable :: m
-    complex(wp) :: t(ny, nu, nfreq), dt(ny, nu, nfreq, nq)
-    t_re = 0.0_wp
-    t_im = 0.0_wp
-    dt_re = 0.0_wp
-    dt_im = 0.0_wp
-    gain = 0.0_wp
-    phase = 0.0_wp
-    sgain = 0.0_wp
-    sphase = 0.0_wp
-    call model_create(mkind, nx, nu, ny, nw, iconst, rconst, m, status, msg)
+    real(wp), allocatable :: w(:), jac(:, :), cov(:, :)
+    real(wp), allocatable, dimension(:, :, :) :: gain, phase, sgain, sphase
+    complex(wp), allocatable :: t(:, :, :), dt(:, :, :, :)
+    integer :: i, j, nq
+
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    call model_response(m, theta, w, jac, t, dt, status, msg)
-    if (status /= MLID_OK) return
+    s%results = named_t()
+    associate (p => s%problem, g => s%given)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS], status, msg)
+      if (status /= MLID_OK) return
+      call g%get('jac', jac, status, msg)
+      nq = size(jac, 2)
+      call g%get('cov', cov, status, msg, [nq, nq])
+      call g%get('w', w, status, msg)
+      call g%get('input', i, status, msg)
+      call g%get('output', j, status, msg)
+      if (status /= MLID_OK) return
+      if (i < 1 .or. i > p%nu .or. j < 1 .or. j > p%ny) then
+        status = MLID_ERR_INPUT
+        write (msg, '(a,i0,a,i0,a,i0,a,i0)') 'model frequency response: input ', i, &
+          ' and output ', j, ' must be at most ', p%nu, ' and ', p%ny
+        return
+      end if
+      call model_create(p%mkind, p%nx, p%nu, p%ny, p%nw, p%iconst, p%rconst, m, status, msg)
+      if (status /= MLID_OK) return
+      allocate (t(p%ny, p%nu, size(w)), dt(p%ny, p%nu, size(w), nq))
+      call model_response(m, p%theta, w, jac, t, dt, status, msg)
+      if (status /= MLID_OK) return
+    end associate
+    allocate (gain, phase, sgain, sphase, mold=real(t, wp))   ! (ny, nu, nfreq) as t
     call response_bands(t, dt, cov, gain, phase, sgain, sphase)
-    t_re = real(t)
-    t_im = aimag(t)
-    dt_re = real(dt)
-    dt_im = aimag(dt)
+    call s%results%put('response_re', real(t(j, i, :), wp))
+    call s%results%put('response_im', aimag(t(j, i, :)))
+    call s%results%put('gain', gain(j, i, :))
+    call s%results%put('phase', phase(j, i, :))
+    call s%results%put('sigma_gain', sgain(j, i, :))
+    call s%results%put('sigma_phase', sphase(j, i, :))
+    call s%results%put('derivatives_re', real(dt(j, i, :, :), wp))
+    call s%results%put('derivatives_im', aimag(dt(j, i, :, :)))
   end subroutine mlid_model_freq_response
 
   !> Weights of the transfer-function mismatch: 1, or by coherence.
   pure function tf_weights(coh, use_coh) result(wt)
-    real(c_double), intent(in) :: coh(:)
-    integer(c_int), intent(in) :: use_coh
+    real(wp), intent(in) :: coh(:)
+    integer, intent(in) :: use_coh
     real(wp) :: wt(size(coh))
     wt = 1.0_wp
     if (use_coh /= 0) wt = coherence_weight(coh)
   end function tf_weights
 
+  !> The given values every transfer-function call takes: the frequencies w
+  !> (rad/s), the orders m, n and delay (1: with a delay).
+  subroutine tf_given(g, w, m, n, delay, status, msg)
+    type(named_t), intent(in) :: g
+    real(wp), allocatable, intent(out) :: w(:)
+    integer, intent(out) :: m, n, delay
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    m = 0
+    n = 0
+    delay = 0
+    call g%get('w', w, status, msg)
+    call g%get('m', m, status, msg)
+    call g%get('n', n, status, msg)
+    call g%get('delay', delay, status, msg)
+  end subroutine tf_given
+
+  !> The given values of the response a transfer function is fitted to:
+  !> gain (dB) and phase (deg) at the nfreq frequencies, and the weights
+  !> of the mismatch (by the coherence coh when use_coh = 1, else 1).
+  subroutine tf_measured(g, nfreq, gain, phase, wt, status, msg)
+    type(named_t), intent(in) :: g
+    integer, intent(in) :: nfreq
+    real(wp), allocatable, intent(out) :: gain(:), phase(:), wt(:)
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    real(wp), allocatable :: coh(:)
+    integer :: use_coh
+    use_coh = 0
+    call g%get('gain', gain, status, msg, [nfreq])
+    call g%get('phase', phase, status, msg, [nfreq])
+    call g%get('coh', coh, status, msg, [nfreq])
+    call g%get('use_coh', use_coh, status, msg)
+    if (status == MLID_OK) then
+      wt = tf_weights(coh, use_coh)
+    else
+      allocate (wt(0))
+    end if
+  end subroutine tf_measured
+
   !> Fit T(s) = N(s)/D(s) e^(-tau s) (orders m, n; delay when delay = 1)
   !> to gain (dB) and phase (deg) at w (rad/s) by the handling-qualities
   !> mismatch (mlid_transfer_fit), weighted by coherence when use_coh = 1;
   !> from x0 when use_start = 1, else from Levy's least squares with the
-  !> delay at tau0.  x: [b_0..b_m, a_0..a_(n-1), tau]; xs the start used.
-  !> Parameters with isfree = 0 keep their value in x0.
-  subroutine mlid_tf_fit(nfreq, w, gain, phase, coh, use_coh, m, n, delay, tau0, use_start, &
-                         np, x0, isfree, max_iter, xs, x, cov, cost, niter, status, msg)
-    integer(c_int), intent(in) :: nfreq, use_coh, m, n, delay, use_start, np, max_iter
-    integer(c_int), intent(in) :: isfree(np)
-    real(c_double), intent(in) :: w(nfreq), gain(nfreq), phase(nfreq), coh(nfreq), tau0, x0(np)
-    real(c_double), intent(out) :: xs(np), x(np), cov(np, np), cost
-    integer(c_int), intent(out) :: niter, status
+  !> delay at tau0; at most max_iter iterations.  Parameters with isfree = 0
+  !> keep their value in x0.  All of these are handle h's given values
+  !> (with coh).  Results: start (the start used), estimate, both [b_0..b_m,
+  !> a_0..a_(n-1), tau], covariance, mismatch and iterations.
+  subroutine mlid_tf_fit(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    real(wp) :: xw(np), cw(np, np), cst
-    integer :: it
-    xs = 0.0_wp
-    x = 0.0_wp
-    cov = 0.0_wp
-    cost = 0.0_wp
-    niter = 0
-    call tf_check(nfreq, w, gain, phase, m, n, delay, np, status, msg)
+    type(session_t), pointer :: s
+    real(wp), allocatable :: w(:), gain(:), phase(:), wt(:), x0(:), x(:), cov(:, :)
+    integer, allocatable :: isfree(:)
+    real(wp) :: tau0, cost
+    integer :: m, n, delay, use_start, max_iter, niter
+
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    if (use_start /= 0) then
-      xw = x0
-    else
-      xw = x0                                           ! the fixed ones' values
-      call tf_start(m, n, delay /= 0, tau0, w, gain, phase, tf_weights(coh, use_coh), isfree /= 0, &
-                    xw, status, msg)
+    s%results = named_t()
+    associate (g => s%given)
+      call tf_given(g, w, m, n, delay, status, msg)
+      call tf_measured(g, size(w), gain, phase, wt, status, msg)
+      call g%get('tau0', tau0, status, msg)
+      call g%get('use_start', use_start, status, msg)
+      call g%get('max_iter', max_iter, status, msg)
+      call g%get('x0', x0, status, msg)
+      if (status /= MLID_OK) return
+      call g%get('isfree', isfree, status, msg, [size(x0)])
+    end associate
+    if (status /= MLID_OK) return
+    call tf_check(w, gain, phase, m, n, delay, size(x0), status, msg)
+    if (status /= MLID_OK) return
+    x = x0                                  ! the start, or the fixed ones' values
+    if (use_start == 0) then
+      call tf_start(m, n, delay /= 0, tau0, w, gain, phase, wt, isfree /= 0, x, status, msg)
       if (status /= MLID_OK) return
     end if
-    xs = xw
-    call tf_fit(m, n, delay /= 0, w, gain, phase, tf_weights(coh, use_coh), isfree /= 0, max_iter, &
-                xw, cst, cw, it, status, msg)
-    x = xw
-    cov = cw
-    cost = cst
-    niter = it
+    call s%results%put('start', x)
+    allocate (cov(size(x), size(x)))
+    call tf_fit(m, n, delay /= 0, w, gain, phase, wt, isfree /= 0, max_iter, x, cost, cov, niter, &
+                status, msg)
+    call s%results%put('estimate', x)
+    call s%results%put('covariance', cov)
+    call s%results%put('mismatch', cost)
+    call s%results%put('iterations', niter)
   end subroutine mlid_tf_fit
 
   !> Orders, sizes and frequencies of a transfer-function fit.
-  subroutine tf_check(nfreq, w, gain, phase, m, n, delay, np, status, msg)
-    integer(c_int), intent(in) :: nfreq, m, n, delay, np
-    real(c_double), intent(in) :: w(:), gain(:), phase(:)
+  subroutine tf_check(w, gain, phase, m, n, delay, np, status, msg)
+    real(wp), intent(in) :: w(:), gain(:), phase(:)
+    integer, intent(in) :: m, n, delay, np
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     call tf_orders(m, n, delay, np, status, msg)
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
-    if (2*nfreq < np + 1) then
-      write (msg, '(a,i0,a,i0,a)') 'transfer-function fit: ', nfreq, &
+    if (2*size(w) < np + 1) then
+      write (msg, '(a,i0,a,i0,a)') 'transfer-function fit: ', size(w), &
         ' frequencies are too few for ', np, ' parameters'
     else if (.not. (all(ieee_is_finite(w)) .and. all(ieee_is_finite(gain)) .and. &
                     all(ieee_is_finite(phase)))) then
@@ -372,25 +473,39 @@ contains
     end if
   end subroutine tf_check
 
-  !> The mismatch's residuals r (2 nfreq, r'r = cost) and their Jacobian.
-  subroutine mlid_tf_residuals(nfreq, w, gain, phase, coh, use_coh, m, n, delay, np, x, r, jr, &
-                               status, msg)
-    integer(c_int), intent(in) :: nfreq, use_coh, m, n, delay, np
-    real(c_double), intent(in) :: w(nfreq), gain(nfreq), phase(nfreq), coh(nfreq), x(np)
-    real(c_double), intent(out) :: r(2*nfreq), jr(2*nfreq, np)
+  !> The mismatch's residuals (2 nfreq, r'r = the mismatch) and their
+  !> Jacobian (2 nfreq, np) at the given x, from handle h's given values
+  !> as mlid_tf_fit takes them (w, gain, phase, coh, use_coh, m, n, delay).
+  !> Results: residuals and jacobian.
+  subroutine mlid_tf_residuals(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    r = 0.0_wp
-    jr = 0.0_wp
-    call tf_orders(m, n, delay, np, status, msg)
+    type(session_t), pointer :: s
+    real(wp), allocatable :: w(:), gain(:), phase(:), wt(:), x(:), r(:), jr(:, :)
+    integer :: m, n, delay
+
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    call tf_residuals(m, n, delay /= 0, x, w, gain, phase, tf_weights(coh, use_coh), r, jr)
+    s%results = named_t()
+    associate (g => s%given)
+      call tf_given(g, w, m, n, delay, status, msg)
+      call tf_measured(g, size(w), gain, phase, wt, status, msg)
+      call g%get('x', x, status, msg)
+    end associate
+    if (status /= MLID_OK) return
+    call tf_orders(m, n, delay, size(x), status, msg)
+    if (status /= MLID_OK) return
+    allocate (r(2*size(w)), jr(2*size(w), size(x)))
+    call tf_residuals(m, n, delay /= 0, x, w, gain, phase, wt, r, jr)
+    call s%results%put('residuals', r)
+    call s%results%put('jacobian', jr)
   end subroutine mlid_tf_residuals
 
   !> Orders m >= 0, n >= 1 and np = tf_size, the length of x: the
   !> parameters b_0..b_m, a_0..a_(n-1) and tau when delay = 1.
   subroutine tf_orders(m, n, delay, np, status, msg)
-    integer(c_int), intent(in) :: m, n, delay, np
+    integer, intent(in) :: m, n, delay, np
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     status = MLID_OK

@@ -2,9 +2,10 @@
 without iterating: in the time domain (``evaluate``) and the frequency domain
 (``frequency_evaluate``)."""
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle, results as _results
 from ..errors import InputError, check_status, guarded
-from ..model.calls import _check_data, _check_model, _manoeuvres, _model_args, _record
+from ..model.calls import (_check_data, _check_model, _manoeuvres, _model_args, _record,
+                           _set_params, _set_problem)
 from .options import _flat_options
 
 
@@ -13,15 +14,19 @@ FREQUENCY_METHODS = ("frequency_output_error", "frequency_equation_error")
 
 
 def _frequency_call(model, params, theta, t, u, y, starts, iopt, ropt, opts):
-    nk = opts["n_freq"] * len(starts)
-    (freq, zre, zim, zhre, zhim, cost, grad, info, rhat, nterms, status,
-     msg) = _api.mlid_freq_evaluate(
-        **_model_args(model), theta=theta, isfree=params.mask, **params.ties, t=t, u=u, y=y,
-        segstart=starts, iopt=iopt, ropt=ropt, nk=nk, nf=int(params.mask.sum()))
-    check_status(status, msg)
-    return {"frequencies": freq, "z": (zre + 1j * zim).T.copy(),
-            "zhat": (zhre + 1j * zhim).T.copy(), "cost": float(cost), "gradient": grad,
-            "information": info, "rhat": rhat, "transient_terms": int(nterms)}
+    """The core's frequency-domain data and fit at theta (all of params'
+    entries) on the record (t, u, y) of manoeuvres from samples starts:
+    ``frequency_evaluate``'s dict.  (opts: the core counts the frequencies
+    from the options itself.)"""
+    h = _call_handle()
+    _set_problem(h, model, params, (t, u, y), starts, iopt, ropt)
+    _set_params(h, params, theta)
+    check_status(*_api.mlid_freq_evaluate(h.value))
+    out = _results(h)
+    return {"frequencies": out["frequencies"], "z": (out["z_re"] + 1j * out["z_im"]).T.copy(),
+            "zhat": (out["zhat_re"] + 1j * out["zhat_im"]).T.copy(), "cost": out["cost"],
+            "gradient": out["gradient"], "information": out["information"], "rhat": out["rhat"],
+            "transient_terms": out["transient_terms"]}
 
 
 @guarded

@@ -4,10 +4,11 @@ recursive frequency-domain equation error over a moving window."""
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
 from ..checks import real_array, whole
 from ..data.flight_data import FlightData
 from ..errors import InputError, check_status, guarded
+from ..model.calls import _record
 from ..model.models import LinearModel
 
 
@@ -145,18 +146,16 @@ def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=Non
                          f"{model.element_names()[outside[0]]!r}")
     free_f = mask[f].reshape((model.nx, model.nx), order="F")
     free_g = mask[g].reshape((model.nx, model.nu), order="F")
-    window = int(window)
-    stride = int(stride)
-    nt = len(data.t)
-    nwin = (nt - window) // stride + 1 if 3 <= window <= nt and stride >= 1 else 1
-    tend, est, sig, status, msg = _api.mlid_recursive_fdee(
-        np.asarray(data.t, dtype=float), np.asfortranarray(data.y.T), np.asfortranarray(data.u.T),
-        np.asfortranarray(model.F), np.asfortranarray(model.G), np.asfortranarray(free_f),
-        np.asfortranarray(free_g), whole("n_freq", n_freq, -2**31), _band_edge("f_min", f_min),
-        _band_edge("f_max", f_max), window, stride, nwin, int(mask.sum()))
-    check_status(status, msg)
-    return {"t_end": tend, "estimates": est.T.copy(), "sigma": sig.T.copy(),
-            "names": model.free_names()}
+    t, u, x = _record(model, data)
+    h = _call_handle()
+    _put(h, f0=model.F, g0=model.G, free_f=free_f, free_g=free_g,
+         n_freq=whole("n_freq", n_freq, -2**31), f_min=_band_edge("f_min", f_min),
+         f_max=_band_edge("f_max", f_max), window=int(window), stride=int(stride))
+    check_status(*_api.mlid_set_record(h.value, t=t, u=u, y=x, segstart=[1]))
+    check_status(*_api.mlid_recursive_fdee(h.value))
+    out = _results(h)
+    return {"t_end": out["t_end"], "estimates": out["estimates"].T.copy(),
+            "sigma": out["sigma"].T.copy(), "names": model.free_names()}
 
 
 def _band_edge(name, value):

@@ -31,11 +31,12 @@ output's unit per the input's.
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
 from ..checks import real_array, whole
 from ..errors import InputError, check_status, guarded
 from ..estimate.outcome import require_estimates
 from ..estimate.result import FitResult
+from ..model.calls import _set_model, _set_params
 from ..model.maneuvers import Params
 from .fourier import sample_step
 
@@ -198,16 +199,17 @@ def record_response(data, input=0, output=0, segment=None, overlap=0.5):
     segment = whole("segment", segment, 2)
     if not 0 <= overlap < 1:
         raise InputError(f"overlap must lie in [0, 1), got {overlap}")
-    nfreq = int(_api.mlid_freq_count(segment))
-    (f, h_re, h_im, coh, guu, gyy, gain, phase, sgain, sphase, nd, status,
-     msg) = _api.mlid_freq_response(
-        u=u, y=y, dt=dt, segstart=starts, lseg=segment,
-        nover=int(round(overlap * segment)), nfreq=nfreq)
-    check_status(status, msg)
+    h = _call_handle()
+    _put(h, u=u, y=y, dt=dt, segstart=starts, lseg=segment, nover=int(round(overlap * segment)))
+    check_status(*_api.mlid_freq_response(h.value))
+    out = _results(h)
     return FrequencyResponse(
-        frequency=f, gain=gain, phase=phase, sigma_gain=sgain, sigma_phase=sphase,
-        coherence=coh, averages=int(nd), response=h_re + 1j * h_im, input_spectrum=guu,
-        output_spectrum=gyy, segment=segment,
+        frequency=out["frequency"], gain=out["gain"], phase=out["phase"],
+        sigma_gain=out["sigma_gain"], sigma_phase=out["sigma_phase"],
+        coherence=out["coherence"], averages=out["averages"],
+        response=out["response_re"] + 1j * out["response_im"],
+        input_spectrum=out["input_spectrum"], output_spectrum=out["output_spectrum"],
+        segment=segment,
         input_name=data.input_names[i], output_name=data.output_names[j],
         input_unit=data.input_units[i], output_unit=data.output_units[j], source="record")
 
@@ -297,20 +299,17 @@ def model_response(fit_or_model, frequency, input=0, output=0, covariance=None):
         raise InputError("frequencies must be positive (Hz)")
     i = _channel(names_u, input, "input")
     j = _channel(names_y, output, "output")
-    nq = jac.shape[1]
-    if nq == 0:                      # f2py wants at least one column
-        jac, cov = np.zeros((jac.shape[0], 1)), np.zeros((1, 1))
-    (t_re, t_im, dt_re, dt_im, gain, phase, sgain, sphase, status,
-     msg) = _api.mlid_model_freq_response(
-        mkind=model.kind, nx=model.nx, nu=model.nu, ny=model.ny, nw=model.nw,
-        theta=model.theta, iconst=model.iconst, rconst=model.rconst,
-        jac=np.asfortranarray(jac), cov=np.asfortranarray(cov), w=2 * np.pi * f)
-    check_status(status, msg)
+    params = Params(model)
+    h = _call_handle()
+    _put(h, w=2 * np.pi * f, jac=jac, cov=cov, input=i + 1, output=j + 1)
+    _set_model(h, model)
+    _set_params(h, params)
+    check_status(*_api.mlid_model_freq_response(h.value))
+    out = _results(h)
     return FrequencyResponse(
-        frequency=f, gain=gain[j, i].copy(), phase=phase[j, i].copy(),
-        sigma_gain=sgain[j, i].copy(), sigma_phase=sphase[j, i].copy(),
-        response=t_re[j, i] + 1j * t_im[j, i],
-        derivatives=(dt_re[j, i] + 1j * dt_im[j, i])[:, :nq],
+        frequency=f, gain=out["gain"], phase=out["phase"], sigma_gain=out["sigma_gain"],
+        sigma_phase=out["sigma_phase"], response=out["response_re"] + 1j * out["response_im"],
+        derivatives=out["derivatives_re"] + 1j * out["derivatives_im"],
         input_name=names_u[i], output_name=names_y[j], input_unit=units_u[i],
         output_unit=units_y[j], source="model")
 
@@ -539,18 +538,19 @@ def fit_transfer_function(response, m, n, delay=True, f_min=None, f_max=None,
                 isfree[names.index(name)] = 0
     if start and set(start) | set(fixed or {}) != set(names):
         raise InputError(f"start must give every parameter not fixed: {names}")
-    w = 2 * np.pi * response.frequency[keep]
-    xs, x, cov, cost, niter, status, msg = _api.mlid_tf_fit(
-        w=w, gain=response.gain[keep], phase=response.phase[keep], coh=coh,
-        use_coh=int(coherence_weighting), m=m, n=n, delay=int(delay), tau0=float(delay_start),
-        use_start=int(bool(start)), x0=x0, isfree=isfree,
-        max_iter=whole("max_iter", max_iter, 1))
-    check_status(status, msg)
+    h = _call_handle()
+    _put(h, w=2 * np.pi * response.frequency[keep], gain=response.gain[keep],
+         phase=response.phase[keep], coh=coh, use_coh=int(coherence_weighting), m=m, n=n,
+         delay=int(delay), tau0=float(delay_start), use_start=int(bool(start)), x0=x0,
+         isfree=isfree, max_iter=whole("max_iter", max_iter, 1))
+    check_status(*_api.mlid_tf_fit(h.value))
+    out = _results(h)
     f = response.frequency[keep]
+    cov = out["covariance"]
     return TransferFunctionFit(
-        m=m, n=n, has_delay=bool(delay), names=names, start=xs, estimate=x,
-        sigma=np.sqrt(np.maximum(np.diag(cov), 0.0)), covariance=cov, mismatch=float(cost),
-        iterations=int(niter), frequency_range=(float(f.min()), float(f.max())),
+        m=m, n=n, has_delay=bool(delay), names=names, start=out["start"], estimate=out["estimate"],
+        sigma=np.sqrt(np.maximum(np.diag(cov), 0.0)), covariance=cov, mismatch=out["mismatch"],
+        iterations=out["iterations"], frequency_range=(float(f.min()), float(f.max())),
         points=int(f.size), coherence_weighted=bool(coherence_weighting), free=isfree == 1,
         input_name=response.input_name, output_name=response.output_name,
         input_unit=response.input_unit, output_unit=response.output_unit)
@@ -580,9 +580,10 @@ def transfer_mismatch(fit, response, coherence_weighting=False):
     """
     keep = response.band(*fit.frequency_range)
     coh = response.coherence[keep] if response.coherence is not None else np.ones(keep.sum())
-    r, _, status, msg = _api.mlid_tf_residuals(
-        w=2 * np.pi * response.frequency[keep], gain=response.gain[keep],
-        phase=response.phase[keep], coh=coh, use_coh=int(coherence_weighting), m=fit.m, n=fit.n,
-        delay=int(fit.has_delay), x=real_array("estimate", fit.estimate).ravel())
-    check_status(status, msg)
+    h = _call_handle()
+    _put(h, w=2 * np.pi * response.frequency[keep], gain=response.gain[keep],
+         phase=response.phase[keep], coh=coh, use_coh=int(coherence_weighting), m=fit.m, n=fit.n,
+         delay=int(fit.has_delay), x=real_array("estimate", fit.estimate).ravel())
+    check_status(*_api.mlid_tf_residuals(h.value))
+    r = _results(h)["residuals"]
     return float(r @ r)

@@ -54,6 +54,19 @@ def _set_problem(h, model, params, tuy, starts, iopt, ropt):
     _check(api.mlid_set_options(h.value, iopt, ropt))
 
 
+# The parts one at a time, for the calls that need only some of them.
+def _set_model(h, model):
+    """The model part of a call's problem into handle h."""
+    _check(api.mlid_set_model(h.value, **_model_args(model)))
+
+
+def _set_params(h, params, theta=None):
+    """The parameters part into handle h: params (a Params) at theta (all
+    its entries, e.g. a fit's estimate) when given, else at its own."""
+    _check(api.mlid_set_params(h.value, theta0=params.theta if theta is None else theta,
+                               isfree=params.mask, **params.ties))
+
+
 def _record(model, data):
     if data.u.shape[1] != model.nu:
         raise InputError(f"data has {data.u.shape[1]} input columns, the model has {model.nu} inputs")
