@@ -26,7 +26,7 @@ module mlid_api_frequency
   use mlid_transfer_fit, only: tf_size, tf_start, tf_fit, tf_residuals, tf_log_response, &
                                coherence_weight
   use mlid_handles, only: session_t, handle_session
-  use mlid_named, only: named_t, VALUE_INT
+  use mlid_named, only: named_t
   use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS
   implicit none
   private
@@ -133,8 +133,8 @@ contains
       nt = size(p%t)
       call g%get('f0', f0, status, msg, [nx, nx])
       call g%get('g0', g0, status, msg, [nx, nu])
-      call get_int2(g, 'free_f', free_f, [nx, nx], status, msg)
-      call get_int2(g, 'free_g', free_g, [nx, nu], status, msg)
+      call g%get('free_f', free_f, status, msg, [nx, nx])
+      call g%get('free_g', free_g, status, msg, [nx, nu])
       call g%get('n_freq', n_freq, status, msg)
       call g%get('f_min', f_min, status, msg)
       call g%get('f_max', f_max, status, msg)
@@ -165,22 +165,6 @@ contains
     call s%results%put('estimates', est)
     call s%results%put('sigma', sig)
   end subroutine mlid_recursive_fdee
-
-  !> Integer matrix value name of shape shp, as named_t's get (which has
-  !> integers of rank 0 and 1 only).
-  subroutine get_int2(g, name, x, shp, status, msg)
-    type(named_t), intent(in) :: g
-    character(len=*), intent(in) :: name
-    integer, allocatable, intent(out) :: x(:, :)
-    integer, intent(in) :: shp(2)
-    integer, intent(inout) :: status
-    character(len=*), intent(inout) :: msg
-    integer :: k
-    allocate (x(0, 0))
-    if (status /= MLID_OK) return
-    k = g%found(name, VALUE_INT, 2, status, msg, shp)
-    if (k > 0) x = reshape(g%v(k)%i, shp)
-  end subroutine get_int2
 
   !> The frequency-domain methods' data and fit (mlid_frequency) at the
   !> parameters of handle h's problem (mlid_api_problem: model, params,

@@ -32,13 +32,13 @@ module mlid_named
   contains
     procedure :: find, put_value, put_real0, put_real1, put_real2, put_int0, put_int1, &
                  put_text, put_logical, get_real0, get_real1, get_real2, get_int0, get_int1, &
-                 get_text, found
+                 get_int2, get_text, found
     generic :: put => put_real0, put_real1, put_real2, put_int0, put_int1, put_text, put_logical
     !> get(name, x, status, msg[, shp]): value name as x, checked: there,
     !> of x's kind and rank and, given shp, of that shape.  Nothing when
     !> status is an error already, so that a call gets its values one after
     !> the other and checks status once.
-    generic :: get => get_real0, get_real1, get_real2, get_int0, get_int1, get_text
+    generic :: get => get_real0, get_real1, get_real2, get_int0, get_int1, get_int2, get_text
   end type named_t
 
 contains
@@ -285,6 +285,23 @@ contains
       allocate (x(0))
     end if
   end subroutine get_int1
+
+  subroutine get_int2(self, name, x, status, msg, shp)
+    class(named_t), intent(in) :: self
+    character(len=*), intent(in) :: name
+    integer, allocatable, intent(out) :: x(:, :)
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    integer, intent(in), optional :: shp(2)
+    integer :: k
+    if (status /= MLID_OK) return
+    k = self%found(name, VALUE_INT, 2, status, msg, shp)
+    if (k > 0) then
+      x = reshape(self%v(k)%i, self%v(k)%shape(1:2))
+    else
+      allocate (x(0, 0))
+    end if
+  end subroutine get_int2
 
   subroutine get_text(self, name, x, status, msg)
     class(named_t), intent(in) :: self
