@@ -53,24 +53,35 @@ def call_handle():
     return h
 
 
+#: A scalar's shape as mlid_put_real and mlid_put_int take it.
+_SCALAR = (1, 1, 1)
+
+
 def put(h, **given):
     """Values by name for the next call on handle h (mlid_api_values), the
     values given before forgotten: numbers and arrays as integers (bool and
     integer types) or reals, in their shape; str as UTF-8 text."""
-    check_status(*api.mlid_values_clear(h.value))
+    hv = h.value
+    check_status(*api.mlid_values_clear(hv))
     for name, v in given.items():
-        if isinstance(v, str):
-            status, msg = api.mlid_put_text(h.value, name, v.encode())
+        kind = type(v)
+        if kind is float:                   # the plain cases first: most values are
+            status, msg = api.mlid_put_real(hv, name, v, 0, _SCALAR)
+        elif kind is int or kind is bool:
+            status, msg = api.mlid_put_int(hv, name, v, 0, _SCALAR)
+        elif kind is str:
+            status, msg = api.mlid_put_text(hv, name, v.encode())
         else:
             a = np.asarray(v)
             dims = (*a.shape, 1, 1, 1)[:3]
             if a.dtype.kind in "biu":
-                status, msg = api.mlid_put_int(h.value, name, a.astype(np.int32).ravel(order="F"),
+                status, msg = api.mlid_put_int(hv, name, a.astype(np.int32).ravel(order="F"),
                                                a.ndim, dims)
             else:
-                status, msg = api.mlid_put_real(h.value, name, a.astype(float).ravel(order="F"),
-                                                a.ndim, dims)
-        check_status(status, msg)
+                status, msg = api.mlid_put_real(hv, name, a.astype(float, copy=False)
+                                                .ravel(order="F"), a.ndim, dims)
+        if status:
+            check_status(status, msg)
 
 
 def results(h):
