@@ -54,6 +54,18 @@ def _set_problem(h, model, params, tuy, starts, iopt, ropt):
     _check(api.mlid_set_options(h.value, iopt, ropt))
 
 
+def _set_model(h, model):
+    """The model's part of a call's problem into handle h (mlid_api_problem)."""
+    _check(api.mlid_set_model(h.value, **_model_args(model)))
+
+
+def _set_record(h, tuy, starts):
+    """The record (t, u, y) in the core's layout, with each manoeuvre's
+    first sample, into handle h's problem (mlid_api_problem)."""
+    t, u, y = tuy
+    _check(api.mlid_set_record(h.value, t=t, u=u, y=y, segstart=starts))
+
+
 def _record(model, data):
     if data.u.shape[1] != model.nu:
         raise InputError(f"data has {data.u.shape[1]} input columns, the model has {model.nu} inputs")
