@@ -233,7 +233,9 @@ contains
   !> The parameter layout of handle h's problem's model (mlid_layout), as
   !> results: each block's 'keys' (one a line), 'rows', 'cols' (-1: a
   !> vector) and 'offsets' in theta; each entry's element 'names' and
-  !> default 'labels' (one a line).
+  !> default 'labels' (one a line); and for the longitudinal model each
+  !> coefficient's 'regressors' (one a line: C_D's, C_L's, C_m's; blank for
+  !> other kinds), so that no front end reads them off iconst.
   subroutine mlid_layout(h, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
@@ -255,6 +257,8 @@ contains
       call r%put('names', join_lines(each))
       each = [(default_label(lt, k), k=1, lt%nth)]
       call r%put('labels', join_lines(each))
+      each = REGRESSOR_NAMES(lt%codes)     ! (codes: none but the longitudinal model's)
+      call r%put('regressors', join_lines(each))
     end associate
   end subroutine mlid_layout
 

@@ -113,6 +113,7 @@ class _Layout:
             _lines(out["keys"]), out["rows"].tolist(), out["cols"].tolist(),
             out["offsets"].tolist())}
         self.names, self.labels = _lines(out["names"]), _lines(out["labels"])
+        self.regressors = _lines(out["regressors"])     # the longitudinal model's, in p order
         self.nth = len(self.names)
         self.place = {name: k for k, name in enumerate(self.names)}
         self.np = self.blocks["x0"][0]
@@ -1042,12 +1043,12 @@ def from_core(mkind, sizes, iconst, rconst, theta, isfree, ties, labels, input_h
     m = object.__new__(_KINDS[mkind])
     m.iconst = np.asarray(iconst, dtype=np.int32)
     m.rconst = np.asarray(rconst, dtype=float)
-    if mkind == LongitudinalModel.kind:
-        n, regs = m.iconst[:3], [REGRESSORS[c - 1] for c in m.iconst[3:]]
-        m.regressors = {"CD": regs[:n[0]], "CL": regs[n[0]:n[0] + n[1]],
-                        "Cm": regs[n[0] + n[1]:]}
-        m.constants = dict(zip(CONSTANTS, m.rconst))
     m._init_layout(*sizes)
+    if mkind == LongitudinalModel.kind:           # each coefficient's regressors, from the core
+        lay = m._layout
+        m.regressors = {key: lay.regressors[lay.slice(block)]
+                        for key, block in LongitudinalModel._COEFFICIENTS.items()}
+        m.constants = dict(zip(CONSTANTS, m.rconst))
     m._theta[:] = theta
     names = m.element_names()
     free = [names[k] for k in np.flatnonzero(isfree)]
