@@ -5,7 +5,6 @@
 !> Conventions: mlid_api_deck's comment.
 module mlid_api_models
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, stop_reason_text, fit_outcome
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create, MODEL_KIND_NAMES
@@ -24,15 +23,17 @@ module mlid_api_models
   use mlid_param_units, only: param_units
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
   use mlid_jacobian_check, only: check_jacobians
-  use mlid_named, only: VALUE_KIND_NAMES
+  use mlid_named, only: named_t, VALUE_KIND_NAMES
   use mlid_run, only: corrected_record
+  use mlid_handles, only: session_t, handle_session
+  use mlid_problem, only: problem_needs, PART_MODEL, PART_RECORD
   implicit none
   private
   public :: mlid_input_signal, mlid_default_options, mlid_option_info, mlid_option_set, &
             mlid_option_get, mlid_options_check, mlid_stop_reason, mlid_fit_outcome, &
             mlid_tie_parse, mlid_sixdof_constants, mlid_sixdof_text, mlid_flightpath_lists, &
-            mlid_flightpath_model_text, mlid_flightpath_corrected, mlid_layout_size, &
-            mlid_layout, mlid_manoeuvre_map, mlid_parameter_units, mlid_name_list, mlid_limit, &
+            mlid_flightpath_model_text, mlid_flightpath_corrected, mlid_layout, &
+            mlid_manoeuvre_map, mlid_parameter_units, mlid_name_list, mlid_limit, &
             mlid_model_sizes, mlid_check_jacobians
 
 contains
@@ -111,25 +112,27 @@ contains
     outcome = fit_outcome(status, reason)
   end subroutine mlid_fit_outcome
 
-  !> A tie written as text (mlid_ties) for a model: the tied entry, its
-  !> constant and its terms (n of them, at most MAXTERM: 16 below, a literal
-  !> for f2py, which reads no module parameter).
-  subroutine mlid_tie_parse(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, text, to, offset, &
-                            n, from, scale, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    character(len=*), intent(in) :: text
-    integer(c_int), intent(out) :: to, n, from(16), status
-    real(c_double), intent(out) :: offset, scale(16)
+  !> A tie written as text (mlid_ties) for the model of handle h's problem:
+  !> given 'text'; results 'to' (the tied entry), 'offset', and its terms
+  !> 'from' and 'scale' (at most MAXTERM).
+  subroutine mlid_tie_parse(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     type(layout_table_t) :: lt
-    to = 0
-    n = 0
-    from = 0
-    offset = 0.0_wp
-    scale = 0.0_wp
-    call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
+    character(len=:), allocatable :: text
+    integer :: to, n, from(MAXTERM)
+    real(wp) :: offset, scale(MAXTERM)
+    call model_layout(h, s, lt, status, msg)
+    if (status /= MLID_OK) return
+    call s%given%get('text', text, status, msg)
     if (status == MLID_OK) call tie_parse(lt, text, to, offset, n, from, scale, status, msg)
+    if (status /= MLID_OK) return
+    call s%results%put('to', to)
+    call s%results%put('offset', offset)
+    call s%results%put('from', from(1:n))
+    call s%results%put('scale', scale(1:n))
   end subroutine mlid_tie_parse
 
   !> The six-degree-of-freedom model's constants, in their order.
@@ -190,132 +193,119 @@ contains
   end subroutine mlid_flightpath_model_text
 
   !> One manoeuvre of a flight-path model's fit with its corrections undone
-  !> (mlid_flightpath's flightpath_corrected): the model by its text
-  !> (iconst), its corrections p, the manoeuvre's output biases and delays
-  !> and input delays, its record (t, u, y) -> uc, yc; when path is not
-  !> blank, also written there whole or not at all (mlid_record's
-  !> record_text: the channels' names and units one a line, inputs then
-  !> outputs).
-  subroutine mlid_flightpath_corrected(nic, iconst, np, p, ny, bias, delay, nu, udelay, nt, t, u, &
-                                       y, names, units, path, uc, yc, status, msg)
-    integer(c_int), intent(in) :: nic, iconst(nic), np, ny, nu, nt
-    real(c_double), intent(in) :: p(np), bias(ny), delay(ny), udelay(nu), t(nt), u(nu, nt), &
-                                  y(ny, nt)
-    character(len=*), intent(in) :: names, units, path
-    real(c_double), intent(out) :: uc(nu, nt), yc(ny, nt)
+  !> (mlid_run's corrected_record): handle h's problem gives the model (by
+  !> its text, iconst) and the manoeuvre's record; given are its corrections
+  !> 'p', output 'bias' and 'delay', input 'udelay', the channels' 'names'
+  !> and 'units' (one a line, inputs then outputs) and 'path' (not blank:
+  !> the record is also written there, whole or not at all).  Results 'uc'
+  !> and 'yc', the record's inputs and outputs corrected.
+  subroutine mlid_flightpath_corrected(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    call corrected_record(iconst, p, bias, delay, udelay, t, u, y, split_lines(names, nu + ny, &
-                          NAMELEN), split_lines(units, nu + ny, NAMELEN), path, uc, yc, status, msg)
+    type(session_t), pointer :: s
+    real(wp), allocatable :: p(:), bias(:), delay(:), udelay(:), uc(:, :), yc(:, :)
+    character(len=:), allocatable :: names, units, path
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    call problem_needs(s%problem, [PART_MODEL, PART_RECORD], status, msg)
+    if (status /= MLID_OK) return
+    associate (pb => s%problem, g => s%given)
+      call g%get('p', p, status, msg)
+      call g%get('bias', bias, status, msg, [pb%ny])
+      call g%get('delay', delay, status, msg, [pb%ny])
+      call g%get('udelay', udelay, status, msg, [pb%nu])
+      call g%get('names', names, status, msg)
+      call g%get('units', units, status, msg)
+      call g%get('path', path, status, msg)
+      if (status /= MLID_OK) return
+      allocate (uc(pb%nu, size(pb%t)), yc(pb%ny, size(pb%t)))
+      call corrected_record(pb%iconst, p, bias, delay, udelay, pb%t, pb%u, pb%y, &
+                            split_lines(names, pb%nu + pb%ny, NAMELEN), &
+                            split_lines(units, pb%nu + pb%ny, NAMELEN), path, uc, yc, status, msg)
+    end associate
+    if (status /= MLID_OK) return
+    call s%results%put('uc', uc)
+    call s%results%put('yc', yc)
   end subroutine mlid_flightpath_corrected
 
-  !> Sizes of a model's parameter layout (mlid_layout): blocks and entries.
-  subroutine mlid_layout_size(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, nblock, nth, &
-                              status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    integer(c_int), intent(out) :: nblock, nth, status
-    character(len=256), intent(out) :: msg
-    type(layout_table_t) :: lt
-    call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
-    nblock = lt%nblock
-    nth = lt%nth
-  end subroutine mlid_layout_size
-
-  !> A model's parameter layout: each block's key (one per line), rows,
-  !> columns (-1: a vector) and offset in theta; each entry's element name
-  !> and default label (one per line).
-  subroutine mlid_layout(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, nblock, nth, keys, &
-                         rows, cols, offs, names, labels, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic), nblock, nth
-    real(c_double), intent(in) :: rconst(nrc)
-    character(len=256), intent(out) :: keys
-    integer(c_int), intent(out) :: rows(nblock), cols(nblock), offs(nblock), status
-    character(len=131072), intent(out) :: names, labels
-    character(len=256), intent(out) :: msg
-    type(layout_table_t) :: lt
-    character(len=:), allocatable :: text
-    integer :: k
-
-    keys = ''
-    names = ''
-    labels = ''
-    rows = 0
-    cols = 0
-    offs = 0
-    call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
-    if (status /= MLID_OK) return
-    if (lt%nblock /= nblock .or. lt%nth /= nth) then
-      status = MLID_ERR_INPUT
-      msg = 'layout sizes do not match mlid_layout_size'
-      return
-    end if
-    rows = lt%rows(1:nblock)
-    cols = lt%cols(1:nblock)
-    offs = lt%off(1:nblock)
-    text = ''
-    do k = 1, nblock
-      text = text//trim(lt%key(k))//achar(10)
-    end do
-    keys = text
-    text = ''
-    do k = 1, nth
-      text = text//trim(element_name(lt, k))//achar(10)
-    end do
-    names = text
-    text = ''
-    do k = 1, nth
-      text = text//trim(default_label(lt, k))//achar(10)
-    end do
-    labels = text
-  end subroutine mlid_layout
-
-  !> theta of a model for nseg manoeuvres (mlid_layout's manoeuvre_map):
-  !> entry k (k <= n) copies entry map(k) of the one-manoeuvre theta and
-  !> belongs to manoeuvre seg(k), 0 if shared; nmax >= nseg*nth.
-  subroutine mlid_manoeuvre_map(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, nseg, nmax, &
-                                n, map, seg, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic), nseg, nmax
-    real(c_double), intent(in) :: rconst(nrc)
-    integer(c_int), intent(out) :: n, map(nmax), seg(nmax), status
-    character(len=256), intent(out) :: msg
-    type(layout_table_t) :: lt
-    integer, allocatable :: m(:), s(:)
-    n = 0
-    map = 0
-    seg = 0
-    call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
-    if (status /= MLID_OK) return
-    call manoeuvre_map(lt, max(nseg, 1), m, s)
-    if (size(m) > nmax) then
-      status = MLID_ERR_INPUT
-      msg = 'manoeuvre map: nmax too small'
-      return
-    end if
-    n = size(m)
-    map(1:n) = m
-    seg(1:n) = s
-  end subroutine mlid_manoeuvre_map
-
-  !> The unit of every entry of a model's theta (mlid_param_units), one per
-  !> line, from its record's channel units (one per line, core units).
-  subroutine mlid_parameter_units(mkind, nx, nu, ny, nw, nic, iconst, nrc, rconst, nth, theta, &
-                              input_units, output_units, units, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nic, nrc, iconst(nic), nth
-    real(c_double), intent(in) :: rconst(nrc), theta(nth)
-    character(len=*), intent(in) :: input_units, output_units
-    character(len=65536), intent(out) :: units
+  !> The parameter layout of handle h's problem's model (mlid_layout), as
+  !> results: each block's 'keys' (one a line), 'rows', 'cols' (-1: a
+  !> vector) and 'offsets' in theta; each entry's element 'names' and
+  !> default 'labels' (one a line); and for the longitudinal model each
+  !> coefficient's 'regressors' (one a line: C_D's, C_L's, C_m's; blank for
+  !> other kinds), so that no front end reads them off iconst.
+  subroutine mlid_layout(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     type(layout_table_t) :: lt
-    character(len=UNITLEN), allocatable :: each(:)
-    units = ''
-    allocate (each(nth))
-    call layout_of(mkind, nx, nu, ny, nw, iconst, rconst, lt, status, msg)
+    character(len=32), allocatable :: each(:)
+    integer :: k
+
+    call model_layout(h, s, lt, status, msg)
     if (status /= MLID_OK) return
-    call param_units(lt, theta, split_lines(input_units, nu, UNITLEN), &
-                     split_lines(output_units, ny, UNITLEN), each)
-    units = join_lines(each)
+    associate (nb => lt%nblock, r => s%results)
+      each = lt%key(1:nb)
+      call r%put('keys', join_lines(each))
+      call r%put('rows', lt%rows(1:nb))
+      call r%put('cols', lt%cols(1:nb))
+      call r%put('offsets', lt%off(1:nb))
+      each = [(element_name(lt, k), k=1, lt%nth)]
+      call r%put('names', join_lines(each))
+      each = [(default_label(lt, k), k=1, lt%nth)]
+      call r%put('labels', join_lines(each))
+      each = REGRESSOR_NAMES(lt%codes)     ! (codes: none but the longitudinal model's)
+      call r%put('regressors', join_lines(each))
+    end associate
+  end subroutine mlid_layout
+
+  !> theta of handle h's problem's model for 'nseg' manoeuvres (given;
+  !> mlid_layout's manoeuvre_map): results 'map' and 'seg', entry k copying
+  !> entry map(k) of the one-manoeuvre theta and belonging to manoeuvre
+  !> seg(k), 0 if shared.
+  subroutine mlid_manoeuvre_map(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    type(layout_table_t) :: lt
+    integer, allocatable :: m(:), sg(:)
+    integer :: nseg
+    call model_layout(h, s, lt, status, msg)
+    if (status /= MLID_OK) return
+    call s%given%get('nseg', nseg, status, msg)
+    if (status /= MLID_OK) return
+    call manoeuvre_map(lt, max(nseg, 1), m, sg)
+    call s%results%put('map', m)
+    call s%results%put('seg', sg)
+  end subroutine mlid_manoeuvre_map
+
+  !> The unit of every entry of 'theta' (given) of handle h's problem's
+  !> model (mlid_param_units) from its record's channel units
+  !> ('input_units', 'output_units' given, one a line, core units): result
+  !> 'units', one a line.
+  subroutine mlid_parameter_units(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    type(layout_table_t) :: lt
+    real(wp), allocatable :: theta(:)
+    character(len=:), allocatable :: input_units, output_units
+    character(len=UNITLEN), allocatable :: each(:)
+    call model_layout(h, s, lt, status, msg)
+    if (status /= MLID_OK) return
+    call s%given%get('theta', theta, status, msg, [lt%nth])
+    call s%given%get('input_units', input_units, status, msg)
+    call s%given%get('output_units', output_units, status, msg)
+    if (status /= MLID_OK) return
+    allocate (each(lt%nth))
+    call param_units(lt, theta, split_lines(input_units, s%problem%nu, UNITLEN), &
+                     split_lines(output_units, s%problem%ny, UNITLEN), each)
+    call s%results%put('units', join_lines(each))
   end subroutine mlid_parameter_units
 
   !> A limit of the core by name, for the front ends to size their calls:
@@ -379,31 +369,57 @@ contains
     np = m%np
   end subroutine mlid_model_sizes
 
-  !> Largest relative differences between the model's analytic Jacobians
-  !> (df/dx, df/dp, dh/dx, dh/dp) and central differences at (x, u, p).
-  subroutine mlid_check_jacobians(mkind, nx, nu, ny, nw, np, p, nic, iconst, nrc, rconst, x, u, &
-                                  w, err, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, np, nic, nrc
-    real(c_double), intent(in) :: p(np), x(nx), u(nu), w(nw)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
+  !> Largest relative differences between the analytic Jacobians (df/dx,
+  !> df/dp, dh/dx, dh/dp, df/dw, dh/dw) of handle h's problem's model and
+  !> central differences at the given 'p', 'x', 'u' and 'w'.
+  subroutine mlid_check_jacobians(h, err, status, msg)
+    integer(c_int64_t), intent(in) :: h
     real(c_double), intent(out) :: err(6)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     class(model_t), allocatable :: m
-    real(wp) :: uw(nu + nw)
+    real(wp), allocatable :: p(:), x(:), u(:), w(:)
 
     err = 0.0_wp
-    call model_create(mkind, nx, nu, ny, nw, iconst, rconst, m, status, msg)
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    if (m%np /= np) then
+    call problem_needs(s%problem, [PART_MODEL], status, msg)
+    if (status /= MLID_OK) return
+    associate (pb => s%problem, g => s%given)
+      call g%get('p', p, status, msg)
+      call g%get('x', x, status, msg, [pb%nx])
+      call g%get('u', u, status, msg, [pb%nu])
+      call g%get('w', w, status, msg, [pb%nw])
+      if (status /= MLID_OK) return
+      call model_create(pb%mkind, pb%nx, pb%nu, pb%ny, pb%nw, pb%iconst, pb%rconst, m, status, &
+                        msg)
+    end associate
+    if (status /= MLID_OK) return
+    if (m%np /= size(p)) then
       status = MLID_ERR_INPUT
-      write (msg, '(a,i0,a,i0)') 'the model has ', m%np, ' parameters, not ', np
+      write (msg, '(a,i0,a,i0)') 'the model has ', m%np, ' parameters, not ', size(p)
       return
     end if
-    uw(1:nu) = u
-    uw(nu + 1:) = w
-    call check_jacobians(m, 0.0_wp, x, uw, p, err)
+    call check_jacobians(m, 0.0_wp, x, [u, w], p, err)
   end subroutine mlid_check_jacobians
+
+  !> The session of h, its results emptied, and the layout of its problem's
+  !> model (the part the layout calls above share).
+  subroutine model_layout(h, s, lt, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    type(session_t), pointer, intent(out) :: s
+    type(layout_table_t), intent(out) :: lt
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    call problem_needs(s%problem, [PART_MODEL], status, msg)
+    if (status /= MLID_OK) return
+    associate (pb => s%problem)
+      call layout_of(pb%mkind, pb%nx, pb%nu, pb%ny, pb%nw, pb%iconst, pb%rconst, lt, status, msg)
+    end associate
+  end subroutine model_layout
 
 end module mlid_api_models

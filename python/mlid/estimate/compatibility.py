@@ -19,9 +19,10 @@ core's (fortran/models/mlid_flightpath.f90, flightpath_corrected), which a deck'
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
 from ..data.flight_data import FlightData
 from ..errors import InputError, check_status
+from ..model.calls import _set_model, _set_record
 from ..model.models import FLIGHTPATH_INPUTS
 
 
@@ -109,13 +110,17 @@ def _corrected(model, rec, path=""):
                          "(mlid.FlightPathModel, or a deck of kind 'flight_path')")
     names = "".join(f"{n}\n" for n in rec.input_names + rec.output_names)
     units = "".join(f"{u or ''}\n" for u in list(rec.input_units) + list(rec.output_units))
-    uc, yc, status, msg = _api.mlid_flightpath_corrected(
-        model.iconst, np.asarray(model.p, dtype=float), np.asarray(model.bias, dtype=float),
-        np.asarray(model.delay, dtype=float), np.asarray(model.udelay, dtype=float),
-        np.ascontiguousarray(rec.t, dtype=float), np.ascontiguousarray(rec.u, dtype=float).T,
-        np.ascontiguousarray(rec.y, dtype=float).T, names, units, path)
-    check_status(status, msg)
-    return FlightData(rec.t, uc.T, yc.T, input_names=rec.input_names,
+    h = _call_handle()
+    _set_model(h, model)
+    _set_record(h, (np.ascontiguousarray(rec.t, dtype=float),
+                    np.ascontiguousarray(rec.u, dtype=float).T,
+                    np.ascontiguousarray(rec.y, dtype=float).T), np.array([1], dtype=np.int32))
+    _put(h, p=np.asarray(model.p, dtype=float), bias=np.asarray(model.bias, dtype=float),
+         delay=np.asarray(model.delay, dtype=float), udelay=np.asarray(model.udelay, dtype=float),
+         names=names, units=units, path=path)
+    check_status(*_api.mlid_flightpath_corrected(h.value))
+    out = _results(h)
+    return FlightData(rec.t, out["uc"].T, out["yc"].T, input_names=rec.input_names,
                       output_names=rec.output_names, input_units=rec.input_units,
                       output_units=rec.output_units)
 

@@ -56,7 +56,7 @@ def _set_problem(h, model, params, tuy, starts, iopt, ropt):
 
 # The parts one at a time, for the calls that need only some of them.
 def _set_model(h, model):
-    """The model part of a call's problem into handle h."""
+    """The model part of a call's problem into handle h (mlid_api_problem)."""
     _check(api.mlid_set_model(h.value, **_model_args(model)))
 
 
@@ -65,6 +65,13 @@ def _set_params(h, params, theta=None):
     its entries, e.g. a fit's estimate) when given, else at its own."""
     _check(api.mlid_set_params(h.value, theta0=params.theta if theta is None else theta,
                                isfree=params.mask, **params.ties))
+
+
+def _set_record(h, tuy, starts):
+    """The record (t, u, y) in the core's layout, with each manoeuvre's
+    first sample, into handle h's problem (mlid_api_problem)."""
+    t, u, y = tuy
+    _check(api.mlid_set_record(h.value, t=t, u=u, y=y, segstart=starts))
 
 
 def _record(model, data):

@@ -3,10 +3,10 @@ core's mlid_check_jacobians)."""
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle, put as _put
 from ..checks import real_array
 from ..errors import InputError, check_status, guarded
-from .calls import _check_model, _model_args
+from .calls import _check_model, _set_model
 
 
 @guarded
@@ -47,8 +47,9 @@ def check_jacobians(model, x, u, w=None):
     if x.size != model.nx or u.size != model.nu:
         raise InputError(f"x and u have {x.size} and {u.size} values, the model has {model.nx} "
                          f"states and {model.nu} inputs")
-    err, status, msg = _api.mlid_check_jacobians(
-        **_model_args(model), np=model.np, p=model.theta[:model.np],
-        x=x, u=u, w=w)
+    h = _call_handle()
+    _set_model(h, model)
+    _put(h, p=model.theta[:model.np], x=x, u=u, w=w)
+    err, status, msg = _api.mlid_check_jacobians(h.value)
     check_status(status, msg)
     return dict(zip(("df/dx", "df/dp", "dh/dx", "dh/dp", "df/dw", "dh/dw"), err.tolist()))

@@ -18,7 +18,8 @@ import re
 
 import numpy as np
 
-from .._bridge import api as _api, lines as _lines
+from .._bridge import (api as _api, call_handle as _call_handle, lines as _lines,
+                       put as _put, results as _results)
 from ..checks import real_array
 from ..errors import InputError, check_status, guarded_class
 
@@ -105,30 +106,37 @@ class _Layout:
     _cache = {}
 
     def __init__(self, kind, sizes, iconst, rconst):
-        args = dict(mkind=kind, nx=sizes[0], nu=sizes[1], ny=sizes[2], nw=sizes[3],
-                    iconst=iconst, rconst=rconst)
-        nblock, self.nth, status, msg = _api.mlid_layout_size(**args)
-        check_status(status, msg)
-        keys, rows, cols, offs, names, labels, status, msg = _api.mlid_layout(
-            **args, nblock=nblock, nth=self.nth)
-        check_status(status, msg)
-        self.blocks = {k: (int(o), int(r), int(c))
-                       for k, r, c, o in zip(_lines(keys), rows, cols, offs)}
-        self.names, self.labels = _lines(names), _lines(labels)
+        self._args = dict(mkind=kind, nx=sizes[0], nu=sizes[1], ny=sizes[2], nw=sizes[3],
+                          iconst=np.array(iconst), rconst=np.array(rconst))
+        out = self._call(_api.mlid_layout)
+        self.blocks = {k: (o, r, c) for k, r, c, o in zip(
+            _lines(out["keys"]), out["rows"].tolist(), out["cols"].tolist(),
+            out["offsets"].tolist())}
+        self.names, self.labels = _lines(out["names"]), _lines(out["labels"])
+        self.regressors = _lines(out["regressors"])     # the longitudinal model's, in p order
+        self.nth = len(self.names)
         self.place = {name: k for k, name in enumerate(self.names)}
         self.np = self.blocks["x0"][0]
-        self._args = dict(args, iconst=np.array(iconst), rconst=np.array(rconst))
         self._maps, self._ties = {}, {}
+
+    def _call(self, routine, **given):
+        """routine of the core on this layout's model (the model part of the
+        thread's problem) with the values given by name: what it gives, by
+        name."""
+        h = _call_handle()
+        check_status(*_api.mlid_set_model(h.value, **self._args))
+        if given:
+            _put(h, **given)
+        check_status(*routine(h.value))
+        return _results(h)
 
     def manoeuvre_map(self, n):
         """The core's map of theta on n manoeuvres (mlid_manoeuvre_map): the
         0-based entry of one manoeuvre's theta and the manoeuvre it is own to
         (0 shared), per entry; kept (read-only), as the layout is."""
         if n not in self._maps:
-            m, mp, sg, status, msg = _api.mlid_manoeuvre_map(**self._args, nseg=n,
-                                                             nmax=n * self.nth)
-            check_status(status, msg)
-            entry, seg = mp[:m] - 1, sg[:m].copy()
+            out = self._call(_api.mlid_manoeuvre_map, nseg=n)
+            entry, seg = out["map"] - 1, out["seg"]
             entry.setflags(write=False)
             seg.setflags(write=False)
             self._maps[n] = entry, seg
@@ -141,10 +149,10 @@ class _Layout:
         when full)."""
         tie = self._ties.get(text)
         if tie is None:             # (a local: another thread may clear the store meanwhile)
-            to, offset, n, frm, scale, status, msg = _api.mlid_tie_parse(**self._args, text=text)
-            check_status(status, msg)
-            tie = (int(to) - 1, float(offset),
-                   tuple((int(j) - 1, float(s)) for j, s in zip(frm[:n], scale[:n])))
+            out = self._call(_api.mlid_tie_parse, text=text)
+            tie = (out["to"] - 1, out["offset"],
+                   tuple((j - 1, s) for j, s in zip(out["from"].tolist(),
+                                                    out["scale"].tolist())))
             if len(self._ties) >= TIES_KEPT:
                 self._ties.clear()
             self._ties[text] = tie
@@ -330,12 +338,10 @@ class Model:
         if len(input_units) != self.nu or len(output_units) != self.ny:
             raise InputError(f"param_units: {self.nu} input and {self.ny} output units needed, "
                              f"got {len(input_units)} and {len(output_units)}")
-        text, status, msg = _api.mlid_parameter_units(
-            mkind=self.kind, nx=self.nx, nu=self.nu, ny=self.ny, nw=self.nw, iconst=self.iconst,
-            rconst=self.rconst, theta=self._theta, input_units="\n".join(input_units) + "\n",
-            output_units="\n".join(output_units) + "\n")
-        check_status(status, msg)
-        lines = text.decode(errors="replace").split("\n")
+        out = self._layout._call(_api.mlid_parameter_units, theta=self._theta,
+                                 input_units="\n".join(input_units) + "\n",
+                                 output_units="\n".join(output_units) + "\n")
+        lines = out["units"].decode(errors="replace").split("\n")
         return [s.strip() for s in lines[:self._theta.size]]
 
     def canonical_name(self, name):
@@ -1037,12 +1043,12 @@ def from_core(mkind, sizes, iconst, rconst, theta, isfree, ties, labels, input_h
     m = object.__new__(_KINDS[mkind])
     m.iconst = np.asarray(iconst, dtype=np.int32)
     m.rconst = np.asarray(rconst, dtype=float)
-    if mkind == LongitudinalModel.kind:
-        n, regs = m.iconst[:3], [REGRESSORS[c - 1] for c in m.iconst[3:]]
-        m.regressors = {"CD": regs[:n[0]], "CL": regs[n[0]:n[0] + n[1]],
-                        "Cm": regs[n[0] + n[1]:]}
-        m.constants = dict(zip(CONSTANTS, m.rconst))
     m._init_layout(*sizes)
+    if mkind == LongitudinalModel.kind:           # each coefficient's regressors, from the core
+        lay = m._layout
+        m.regressors = {key: lay.regressors[lay.slice(block)]
+                        for key, block in LongitudinalModel._COEFFICIENTS.items()}
+        m.constants = dict(zip(CONSTANTS, m.rconst))
     m._theta[:] = theta
     names = m.element_names()
     free = [names[k] for k in np.flatnonzero(isfree)]
