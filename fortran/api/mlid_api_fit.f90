@@ -4,7 +4,7 @@
 !> Conventions: mlid_api_deck's comment.
 module mlid_api_fit
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
   use mlid_options, only: options_t, frequency_method, NOPT
@@ -23,15 +23,15 @@ module mlid_api_fit
                          validation_json
   use mlid_validate, only: prediction_stats
   use mlid_handles, only: session_t, handle_session
-  use mlid_named, only: named_t
+  use mlid_named, only: named_t, value_t, VALUE_REAL
   use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS, &
                           PART_EXTRAS
   use mlid_run, only: put_fit
   implicit none
   private
   public :: mlid_report_fit, mlid_case_json, mlid_prediction_stats, mlid_report_validation, &
-            mlid_fit, mlid_evaluate, mlid_colored_cov, mlid_colored_cov_rvv, mlid_simulate, &
-            mlid_monte_carlo, mlid_monte_carlo_summary
+            mlid_fit, mlid_evaluate, mlid_colored_cov, mlid_simulate, mlid_monte_carlo, &
+            mlid_monte_carlo_summary
 
 contains
 
@@ -179,89 +179,112 @@ contains
   end subroutine mlid_fit
 
   !> Cost, gradient, information matrix and output sensitivity norms at
-  !> theta, without iterating.
-  subroutine mlid_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, ntie, mtie, tie_to, tie_from, &
-                           tie_scale, tie_offset, nic, iconst, nrc, &
-                           rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, cost, grad, info, &
-                           rhat, yhat, sens, wsens, msens, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nseg
-    integer(c_int), intent(in) :: segstart(nseg)
-    real(c_double), intent(in) :: theta(nth)
-    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
-    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
-    integer(c_int), intent(in) :: iopt(16)
-    real(c_double), intent(in) :: ropt(16)
-    real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny), yhat(ny, nt)
-    real(c_double), intent(out) :: sens(ny, nf)
-    real(c_double), intent(out) :: wsens(ny, nt, nf), msens(nf, nf)
+  !> the parameters of the problem of handle h (model, params, record and
+  !> options), without iterating.  Results by name: cost, gradient (nf),
+  !> information (nf, nf), rhat (ny, ny), yhat (ny, nt), sensitivity (ny,
+  !> nf), weighted_sensitivity (ny, nt, nf) and information_sensitivity
+  !> (nf, nf), the last two the inputs of mlid_colored_cov.
+  subroutine mlid_evaluate(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
-    real(wp) :: th(nth)
     type(sens_keep_t) :: keep
+    real(wp), allocatable :: th(:), grad(:), info(:, :), rhat(:, :), sens(:, :), msens(:, :)
+    type(value_t), target :: vyhat, vwsens       ! the large ones, written in place
+    real(wp), pointer :: yhat(:, :), wsens(:, :, :)
+    real(wp) :: cost
+    integer :: nf, ny, nt
 
-    cost = 0.0_wp
-    grad = 0.0_wp
-    info = 0.0_wp
-    rhat = 0.0_wp
-    yhat = 0.0_wp
-    sens = 0.0_wp
-    wsens = 0.0_wp
-    msens = 0.0_wp
-    call setup(mkind, nx, nu, ny, nw, theta, isfree, &
-               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, y, iopt, &
-               ropt, &
-               nf, m, opt, pm, status, msg, segstart)
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    if (frequency_method(opt)) then
-      status = MLID_ERR_INPUT
-      msg = 'evaluate works on the time-domain record: the frequency-domain methods have '// &
-            'frequency_evaluate'
-      return
-    end if
-    th = theta
-    call apply_ties(pm%tie, th)
-    ! wsens made as a fit makes it at its estimate: from what the evaluation keeps
-    call likelihood(m, th, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, sens, &
-                    msens, keep=keep)
-    if (status == MLID_OK .and. allocated(keep%dy)) call weighted_sensitivities(keep, pm%l%seg, &
-                                                                                wsens)
+    s%results = named_t()
+    associate (p => s%problem)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+      if (status /= MLID_OK) return
+      nf = count(p%isfree == 1)
+      call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
+                 p%t, p%u, p%y, p%iopt, p%ropt, nf, m, opt, pm, status, msg, p%segstart)
+      if (status /= MLID_OK) return
+      if (frequency_method(opt)) then
+        status = MLID_ERR_INPUT
+        msg = 'evaluate works on the time-domain record: the frequency-domain methods have '// &
+              'frequency_evaluate'
+        return
+      end if
+      ny = p%ny
+      nt = size(p%t)
+      allocate (grad(nf), info(nf, nf), rhat(ny, ny), sens(ny, nf), msens(nf, nf), source=0.0_wp)
+      call real_value(vyhat, 'yhat', [ny, nt])
+      call real_value(vwsens, 'weighted_sensitivity', [ny, nt, nf])
+      yhat(1:ny, 1:nt) => vyhat%r
+      wsens(1:ny, 1:nt, 1:nf) => vwsens%r
+      th = p%theta
+      call apply_ties(pm%tie, th)
+      ! wsens made as a fit makes it at its estimate: from what the evaluation keeps
+      call likelihood(m, th, pm, p%t, p%u, p%y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                      sens, msens, keep=keep)
+    end associate
+    if (status /= MLID_OK) return
+    if (allocated(keep%dy)) call weighted_sensitivities(keep, pm%l%seg, wsens)
+    call s%results%put('cost', cost)
+    call s%results%put('gradient', grad)
+    call s%results%put('information', info)
+    call s%results%put('rhat', rhat)
+    call s%results%put_value(vyhat)
+    call s%results%put('sensitivity', sens)
+    call s%results%put_value(vwsens)
+    call s%results%put('information_sensitivity', msens)
   end subroutine mlid_evaluate
 
-  !> The covariance corrected for coloured residuals (mlid_colored) from
-  !> weighted sensitivities a(ny, nt, nf), residuals v(ny, nt), the segment
-  !> starts, cov (M^-1), info (M) and msens (the part of M a makes); Rvv up
-  !> to lag_in (< 0: the lag chosen from v, returned in lag).
-  subroutine mlid_colored_cov(ny, nt, nf, nseg, segstart, a, v, cov, info, msens, lag_in, &
-                              cov_c, lag, status, msg)
-    integer(c_int), intent(in) :: ny, nt, nf, nseg, segstart(nseg), lag_in
-    real(c_double), intent(in) :: a(ny, nt, nf), v(ny, nt), cov(nf, nf), info(nf, nf), &
-                                  msens(nf, nf)
-    real(c_double), intent(out) :: cov_c(nf, nf)
-    integer(c_int), intent(out) :: lag, status
-    character(len=256), intent(out) :: msg
-    integer :: lg
-    call colored_covariance(cov, info, msens, a, v, segstart, lag_in, cov_c, lg, status, msg)
-    lag = lg
-  end subroutine mlid_colored_cov
-
-  !> The same with the residual autocovariance given: rvv(:, :, k+1) =
-  !> Rvv(k), k = 0 .. nlag (Bartlett weights at nlag).
-  subroutine mlid_colored_cov_rvv(ny, nt, nf, nseg, segstart, a, nlag, rvv, cov, info, msens, &
-                                  cov_c, status, msg)
-    integer(c_int), intent(in) :: ny, nt, nf, nseg, segstart(nseg), nlag
-    real(c_double), intent(in) :: a(ny, nt, nf), rvv(ny, ny, nlag + 1), cov(nf, nf), &
-                                  info(nf, nf), msens(nf, nf)
-    real(c_double), intent(out) :: cov_c(nf, nf)
+  !> The covariance corrected for coloured residuals (mlid_colored), from
+  !> the handle's given values: weighted sensitivities a (ny, nt, nf), the
+  !> segment starts segstart, cov (M^-1), info (M) and msens (the part of M
+  !> a makes), and either the residual autocovariance rvv (ny, ny, nlag+1:
+  !> rvv(:, :, k+1) = Rvv(k), Bartlett weights at nlag) or the residuals v
+  !> (ny, nt) and the lag to go to (< 0: chosen from v).  Results:
+  !> covariance_corrected (nf, nf) and lag, the lag used.
+  subroutine mlid_colored_cov(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    call colored_sandwich(cov, info, msens, a, rvv, segstart, cov_c, status, msg)
-  end subroutine mlid_colored_cov_rvv
+    type(session_t), pointer :: s
+    real(wp), allocatable :: a(:, :, :), v(:, :), rvv(:, :, :), cov(:, :), info(:, :), &
+                             msens(:, :), cov_c(:, :)
+    integer, allocatable :: segstart(:)
+    integer :: nf, lag_in, lag
+
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    associate (g => s%given)
+      call get_real3(g, 'a', a, status, msg)
+      nf = size(a, 3)
+      call g%get('segstart', segstart, status, msg)
+      call g%get('cov', cov, status, msg, [nf, nf])
+      call g%get('info', info, status, msg, [nf, nf])
+      call g%get('msens', msens, status, msg, [nf, nf])
+      if (g%find('rvv') > 0) then
+        call get_real3(g, 'rvv', rvv, status, msg)
+        if (status /= MLID_OK) return
+        allocate (cov_c(nf, nf))
+        lag = size(rvv, 3) - 1
+        call colored_sandwich(cov, info, msens, a, rvv, segstart, cov_c, status, msg)
+      else
+        call g%get('v', v, status, msg)
+        call g%get('lag', lag_in, status, msg)
+        if (status /= MLID_OK) return
+        allocate (cov_c(nf, nf))
+        call colored_covariance(cov, info, msens, a, v, segstart, lag_in, cov_c, lag, status, msg)
+      end if
+    end associate
+    if (status /= MLID_OK) return
+    call s%results%put('covariance_corrected', cov_c)
+    call s%results%put('lag', lag)
+  end subroutine mlid_colored_cov
 
   !> Outputs y and states x of the model along t with inputs u, with the
   !> process and measurement noise whose statistics are in theta (seeded).
@@ -342,5 +365,38 @@ contains
                        stats(2), stats(3), stats(4))
     nok = n
   end subroutine mlid_monte_carlo_summary
+
+  !> v: real value name of shape shp, zero, to be written through a pointer
+  !> of that shape and moved into the results (no copy of a large one).
+  subroutine real_value(v, name, shp)
+    type(value_t), intent(out) :: v
+    character(len=*), intent(in) :: name
+    integer, intent(in) :: shp(:)
+    v%name = name
+    v%kind = VALUE_REAL
+    v%rank = size(shp)
+    v%shape = 1
+    v%shape(1:size(shp)) = shp
+    allocate (v%r(product(shp)), source=0.0_wp)
+  end subroutine real_value
+
+  !> Value name of g as x (rank 3, of shape shp when given), as named_t's
+  !> get (which goes to rank 2).
+  subroutine get_real3(g, name, x, status, msg, shp)
+    type(named_t), intent(in) :: g
+    character(len=*), intent(in) :: name
+    real(wp), allocatable, intent(out) :: x(:, :, :)
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    integer, intent(in), optional :: shp(3)
+    integer :: k
+    if (status /= MLID_OK) return
+    k = g%found(name, VALUE_REAL, 3, status, msg, shp)
+    if (k > 0) then
+      x = reshape(g%v(k)%r, g%v(k)%shape)
+    else
+      allocate (x(0, 0, 0))
+    end if
+  end subroutine get_real3
 
 end module mlid_api_fit
