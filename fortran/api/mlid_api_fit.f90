@@ -8,7 +8,7 @@ module mlid_api_fit
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
   use mlid_options, only: options_t, frequency_method, NOPT
-  use mlid_params, only: param_map_t, apply_ties, ties_of
+  use mlid_params, only: param_map_t, apply_ties
   use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
   use mlid_newton, only: fit_result_t
   use mlid_fit_driver, only: fit_solve, fit_view
@@ -286,84 +286,132 @@ contains
     call s%results%put('lag', lag)
   end subroutine mlid_colored_cov
 
-  !> Outputs y and states x of the model along t with inputs u, with the
-  !> process and measurement noise whose statistics are in theta (seeded).
-  subroutine mlid_simulate(mkind, nx, nu, ny, nw, nth, theta, nic, iconst, nrc, rconst, nt, t, u, &
-                           seed, timing, iopt, ropt, y, x, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed, timing
-    real(c_double), intent(in) :: theta(nth)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt)
-    integer(c_int), intent(in) :: iopt(16)
-    real(c_double), intent(in) :: ropt(16)
+  !> Outputs y and states x of the model of handle h (model, params: theta,
+  !> its free set and ties not used; record: times and inputs, its outputs
+  !> not used; options) with the process and measurement noise whose
+  !> statistics are in theta, drawn from seed; timing 0 or 1 (forward or
+  !> backward, mlid_simulate).  ny, nx and nt: the problem's.  seed and
+  !> timing are arguments, not given values: two values by name cost a
+  !> call 4-5 us, a tenth of a C-8 simulation.
+  subroutine mlid_simulate(h, seed, timing, ny, nx, nt, y, x, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: seed, timing, ny, nx, nt
     real(c_double), intent(out) :: y(ny, nt), x(nx, nt)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    call simulate_flat(mkind, nx, nu, ny, nw, theta, iconst, rconst, t, u, iopt, ropt, seed, y, x, &
-                       status, msg, timing)
+    type(session_t), pointer :: s
+
+    y = 0.0_wp
+    x = 0.0_wp
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()             ! what it gives are its arguments
+    associate (p => s%problem)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+      if (status /= MLID_OK) return
+      if (ny /= p%ny .or. nx /= p%nx .or. nt /= size(p%t)) then
+        status = MLID_ERR_INPUT
+        write (msg, '(a,3(1x,i0),a,3(1x,i0))') 'simulate: outputs for ny, nx, nt =', ny, nx, nt, &
+          '; the problem has', p%ny, p%nx, size(p%t)
+        return
+      end if
+      call simulate_flat(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%iconst, p%rconst, p%t, p%u, &
+                         p%iopt, p%ropt, seed, y, x, status, msg, timing)
+    end associate
   end subroutine mlid_simulate
 
-  !> nrun identifications: data from theta_true with seeds seed0, seed0+1, ...,
-  !> each fitted from theta_start.  est and sig (nf, nrun) are the estimates
-  !> and Cramer-Rao standard deviations of the free parameters, iters the
-  !> iterations, run_status each run's status (0, or the code it ended on).
-  subroutine mlid_monte_carlo(mkind, nx, nu, ny, nw, nth, theta_true, theta_start, isfree, &
-                              ntie, mtie, tie_to, tie_from, tie_scale, tie_offset, &
-                              nic, iconst, nrc, rconst, nt, t, u, seed0, nrun, iopt, ropt, nf, &
-                              est, sig, info, iters, run_status, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed0, nrun, nf
-    real(c_double), intent(in) :: theta_true(nth), theta_start(nth)
-    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
-    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt)
-    integer(c_int), intent(in) :: iopt(16)
-    real(c_double), intent(in) :: ropt(16)
-    real(c_double), intent(out) :: est(nf, nrun), sig(nf, nrun), info(nf, nf, nrun)
-    integer(c_int), intent(out) :: iters(nrun), run_status(nrun), status
+  !> nrun identifications of the problem of handle h (model, params: the
+  !> start values, free set and ties; record: times and inputs, its outputs
+  !> not used; options): data from the given theta_true with seeds seed0,
+  !> seed0+1, ..., each fitted from the start.  Results by name: estimates
+  !> and sigma (nf, nrun), the estimates and Cramer-Rao standard deviations
+  !> of the free parameters, information (nf, nf, nrun), iterations and
+  !> run_status (nrun: 0, or the code the run ended on).
+  subroutine mlid_monte_carlo(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
-    real(wp) :: yzero(ny, nt)
+    real(wp), allocatable :: theta_true(:), est(:, :), sig(:, :)
+    integer, allocatable :: iters(:), run_status(:)
+    type(value_t), target :: vinfo      ! the large one, written in place
+    real(wp), pointer :: info(:, :, :)
+    integer :: seed0, nrun, nf
 
-    est = 0.0_wp
-    info = 0.0_wp
-    sig = 0.0_wp
-    iters = 0
-    run_status = 0
-    yzero = 0.0_wp
-    call setup(mkind, nx, nu, ny, nw, theta_start, isfree, &
-               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, yzero, &
-               iopt, ropt, nf, m, opt, pm, status, msg)
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    if (.not. all(ieee_is_finite(theta_true))) then
-      status = MLID_ERR_INPUT
-      msg = 'true parameter values must be finite'
-      return
-    end if
-    call monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, run_status, &
-                     info)
+    s%results = named_t()
+    associate (p => s%problem, g => s%given)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+      if (status /= MLID_OK) return
+      call g%get('theta_true', theta_true, status, msg, [size(p%theta)])
+      call g%get('seed0', seed0, status, msg)
+      call g%get('nrun', nrun, status, msg)
+      if (status /= MLID_OK) return
+      nf = count(p%isfree == 1)
+      call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
+                 p%t, p%u, p%y, p%iopt, p%ropt, nf, m, opt, pm, status, msg)
+      if (status /= MLID_OK) return
+      if (.not. all(ieee_is_finite(theta_true))) then
+        status = MLID_ERR_INPUT
+        msg = 'true parameter values must be finite'
+        return
+      end if
+      allocate (est(nf, nrun), sig(nf, nrun), iters(nrun), run_status(nrun))
+      run_status = 0
+      call real_value(vinfo, 'information', [nf, nf, nrun])
+      info(1:nf, 1:nf, 1:nrun) => vinfo%r
+      call monte_carlo(m, theta_true, p%theta, pm, p%t, p%u, opt, seed0, est, sig, iters, &
+                       run_status, info)
+    end associate
+    call s%results%put('estimates', est)
+    call s%results%put('sigma', sig)
+    call s%results%put_value(vinfo)
+    call s%results%put('iterations', iters)
+    call s%results%put('run_status', run_status)
   end subroutine mlid_monte_carlo
 
   !> The statistics of Monte Carlo runs (mlid_monte_carlo's mc_statistics,
-  !> those of the deck job too) over the runs with run_status 0 (nok):
-  !> mean, sample sigma and mean Cramer-Rao sigma of each free parameter
-  !> (nf), and stats = [trace, det of the sample covariance, trace, det of
-  !> the mean information]; NaN where too few runs.
-  subroutine mlid_monte_carlo_summary(nf, nrun, est, sig, info, run_status, nok, mean, &
-                                      sample_sigma, cr_sigma, stats)
-    integer(c_int), intent(in) :: nf, nrun
-    real(c_double), intent(in) :: est(nf, nrun), sig(nf, nrun), info(nf, nf, nrun)
-    integer(c_int), intent(in) :: run_status(nrun)
-    integer(c_int), intent(out) :: nok
-    real(c_double), intent(out) :: mean(nf), sample_sigma(nf), cr_sigma(nf), stats(4)
-    integer :: n
-    call mc_statistics(est, sig, info, run_status, n, mean, sample_sigma, cr_sigma, stats(1), &
+  !> those of the deck job too) from the given est and sig (nf, nrun), info
+  !> (nf, nf, nrun) and run_status (nrun), over the runs with run_status 0.
+  !> Results: runs (their number), mean, sample_sigma and mean_cr_sigma of
+  !> each free parameter (nf), sample_cov_trace, sample_cov_det,
+  !> mean_info_trace and mean_info_det; NaN where too few runs.
+  subroutine mlid_monte_carlo_summary(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    real(wp), allocatable :: est(:, :), sig(:, :), info(:, :, :), mean(:), sample_sigma(:), &
+                             cr_sigma(:)
+    integer, allocatable :: run_status(:)
+    real(wp) :: stats(4)
+    integer :: nok
+
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    associate (g => s%given)
+      call g%get('est', est, status, msg)
+      call g%get('sig', sig, status, msg, shape(est))
+      call get_real3(g, 'info', info, status, msg, [size(est, 1), size(est, 1), size(est, 2)])
+      call g%get('run_status', run_status, status, msg, [size(est, 2)])
+    end associate
+    if (status /= MLID_OK) return
+    allocate (mean(size(est, 1)), sample_sigma(size(est, 1)), cr_sigma(size(est, 1)))
+    call mc_statistics(est, sig, info, run_status, nok, mean, sample_sigma, cr_sigma, stats(1), &
                        stats(2), stats(3), stats(4))
-    nok = n
+    call s%results%put('runs', nok)
+    call s%results%put('mean', mean)
+    call s%results%put('sample_sigma', sample_sigma)
+    call s%results%put('mean_cr_sigma', cr_sigma)
+    call s%results%put('sample_cov_trace', stats(1))
+    call s%results%put('sample_cov_det', stats(2))
+    call s%results%put('mean_info_trace', stats(3))
+    call s%results%put('mean_info_det', stats(4))
   end subroutine mlid_monte_carlo_summary
 
   !> v: real value name of shape shp, zero, to be written through a pointer
