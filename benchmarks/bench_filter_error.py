@@ -70,7 +70,7 @@ import mlid
 from timing import interleaved_medians
 
 HERE = Path(__file__).resolve().parent
-ENTRY = "__mlid_api_MOD_mlid_evaluate"    # what callgrind counts
+ENTRY = "__mlid_api_fit_MOD_mlid_evaluate"    # what callgrind counts
 HFB320 = HERE.parent / "cases" / "hfb320" / "hfb320.nml"
 sys.path.insert(0, str(HERE.parent / "cases" / "dhc2_turbulence"))
 sys.path.insert(0, str(HERE.parent / "cases" / "m2f3_gusts"))

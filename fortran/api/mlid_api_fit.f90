@@ -4,11 +4,11 @@
 !> Conventions: mlid_api_deck's comment.
 module mlid_api_fit
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
   use mlid_options, only: options_t, frequency_method, NOPT
-  use mlid_params, only: param_map_t, apply_ties, ties_of
+  use mlid_params, only: param_map_t, apply_ties
   use mlid_likelihood, only: likelihood, sens_keep_t, weighted_sensitivities
   use mlid_newton, only: fit_result_t
   use mlid_fit_driver, only: fit_solve, fit_view
@@ -23,15 +23,15 @@ module mlid_api_fit
                          validation_json
   use mlid_validate, only: prediction_stats
   use mlid_handles, only: session_t, handle_session
-  use mlid_named, only: named_t
+  use mlid_named, only: named_t, value_t, VALUE_REAL
   use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS, &
                           PART_EXTRAS
   use mlid_run, only: put_fit
   implicit none
   private
   public :: mlid_report_fit, mlid_case_json, mlid_prediction_stats, mlid_report_validation, &
-            mlid_fit, mlid_evaluate, mlid_colored_cov, mlid_colored_cov_rvv, mlid_simulate, &
-            mlid_monte_carlo, mlid_monte_carlo_summary
+            mlid_fit, mlid_evaluate, mlid_colored_cov, mlid_simulate, mlid_monte_carlo, &
+            mlid_monte_carlo_summary
 
 contains
 
@@ -179,168 +179,272 @@ contains
   end subroutine mlid_fit
 
   !> Cost, gradient, information matrix and output sensitivity norms at
-  !> theta, without iterating.
-  subroutine mlid_evaluate(mkind, nx, nu, ny, nw, nth, theta, isfree, ntie, mtie, tie_to, tie_from, &
-                           tie_scale, tie_offset, nic, iconst, nrc, &
-                           rconst, nt, t, u, y, nseg, segstart, iopt, ropt, nf, cost, grad, info, &
-                           rhat, yhat, sens, wsens, msens, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, nf, nseg
-    integer(c_int), intent(in) :: segstart(nseg)
-    real(c_double), intent(in) :: theta(nth)
-    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
-    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt), y(ny, nt)
-    integer(c_int), intent(in) :: iopt(16)
-    real(c_double), intent(in) :: ropt(16)
-    real(c_double), intent(out) :: cost, grad(nf), info(nf, nf), rhat(ny, ny), yhat(ny, nt)
-    real(c_double), intent(out) :: sens(ny, nf)
-    real(c_double), intent(out) :: wsens(ny, nt, nf), msens(nf, nf)
+  !> the parameters of the problem of handle h (model, params, record and
+  !> options), without iterating.  Results by name: cost, gradient (nf),
+  !> information (nf, nf), rhat (ny, ny), yhat (ny, nt), sensitivity (ny,
+  !> nf), weighted_sensitivity (ny, nt, nf) and information_sensitivity
+  !> (nf, nf), the last two the inputs of mlid_colored_cov.
+  subroutine mlid_evaluate(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
-    real(wp) :: th(nth)
     type(sens_keep_t) :: keep
+    real(wp), allocatable :: th(:), grad(:), info(:, :), rhat(:, :), sens(:, :), msens(:, :)
+    type(value_t), target :: vyhat, vwsens       ! the large ones, written in place
+    real(wp), pointer :: yhat(:, :), wsens(:, :, :)
+    real(wp) :: cost
+    integer :: nf, ny, nt
 
-    cost = 0.0_wp
-    grad = 0.0_wp
-    info = 0.0_wp
-    rhat = 0.0_wp
-    yhat = 0.0_wp
-    sens = 0.0_wp
-    wsens = 0.0_wp
-    msens = 0.0_wp
-    call setup(mkind, nx, nu, ny, nw, theta, isfree, &
-               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, y, iopt, &
-               ropt, &
-               nf, m, opt, pm, status, msg, segstart)
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    if (frequency_method(opt)) then
-      status = MLID_ERR_INPUT
-      msg = 'evaluate works on the time-domain record: the frequency-domain methods have '// &
-            'frequency_evaluate'
-      return
-    end if
-    th = theta
-    call apply_ties(pm%tie, th)
-    ! wsens made as a fit makes it at its estimate: from what the evaluation keeps
-    call likelihood(m, th, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, sens, &
-                    msens, keep=keep)
-    if (status == MLID_OK .and. allocated(keep%dy)) call weighted_sensitivities(keep, pm%l%seg, &
-                                                                                wsens)
+    s%results = named_t()
+    associate (p => s%problem)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+      if (status /= MLID_OK) return
+      nf = count(p%isfree == 1)
+      call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
+                 p%t, p%u, p%y, p%iopt, p%ropt, nf, m, opt, pm, status, msg, p%segstart)
+      if (status /= MLID_OK) return
+      if (frequency_method(opt)) then
+        status = MLID_ERR_INPUT
+        msg = 'evaluate works on the time-domain record: the frequency-domain methods have '// &
+              'frequency_evaluate'
+        return
+      end if
+      ny = p%ny
+      nt = size(p%t)
+      allocate (grad(nf), info(nf, nf), rhat(ny, ny), sens(ny, nf), msens(nf, nf), source=0.0_wp)
+      call real_value(vyhat, 'yhat', [ny, nt])
+      call real_value(vwsens, 'weighted_sensitivity', [ny, nt, nf])
+      yhat(1:ny, 1:nt) => vyhat%r
+      wsens(1:ny, 1:nt, 1:nf) => vwsens%r
+      th = p%theta
+      call apply_ties(pm%tie, th)
+      ! wsens made as a fit makes it at its estimate: from what the evaluation keeps
+      call likelihood(m, th, pm, p%t, p%u, p%y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                      sens, msens, keep=keep)
+    end associate
+    if (status /= MLID_OK) return
+    if (allocated(keep%dy)) call weighted_sensitivities(keep, pm%l%seg, wsens)
+    call s%results%put('cost', cost)
+    call s%results%put('gradient', grad)
+    call s%results%put('information', info)
+    call s%results%put('rhat', rhat)
+    call s%results%put_value(vyhat)
+    call s%results%put('sensitivity', sens)
+    call s%results%put_value(vwsens)
+    call s%results%put('information_sensitivity', msens)
   end subroutine mlid_evaluate
 
-  !> The covariance corrected for coloured residuals (mlid_colored) from
-  !> weighted sensitivities a(ny, nt, nf), residuals v(ny, nt), the segment
-  !> starts, cov (M^-1), info (M) and msens (the part of M a makes); Rvv up
-  !> to lag_in (< 0: the lag chosen from v, returned in lag).
-  subroutine mlid_colored_cov(ny, nt, nf, nseg, segstart, a, v, cov, info, msens, lag_in, &
-                              cov_c, lag, status, msg)
-    integer(c_int), intent(in) :: ny, nt, nf, nseg, segstart(nseg), lag_in
-    real(c_double), intent(in) :: a(ny, nt, nf), v(ny, nt), cov(nf, nf), info(nf, nf), &
-                                  msens(nf, nf)
-    real(c_double), intent(out) :: cov_c(nf, nf)
-    integer(c_int), intent(out) :: lag, status
-    character(len=256), intent(out) :: msg
-    integer :: lg
-    call colored_covariance(cov, info, msens, a, v, segstart, lag_in, cov_c, lg, status, msg)
-    lag = lg
-  end subroutine mlid_colored_cov
-
-  !> The same with the residual autocovariance given: rvv(:, :, k+1) =
-  !> Rvv(k), k = 0 .. nlag (Bartlett weights at nlag).
-  subroutine mlid_colored_cov_rvv(ny, nt, nf, nseg, segstart, a, nlag, rvv, cov, info, msens, &
-                                  cov_c, status, msg)
-    integer(c_int), intent(in) :: ny, nt, nf, nseg, segstart(nseg), nlag
-    real(c_double), intent(in) :: a(ny, nt, nf), rvv(ny, ny, nlag + 1), cov(nf, nf), &
-                                  info(nf, nf), msens(nf, nf)
-    real(c_double), intent(out) :: cov_c(nf, nf)
+  !> The covariance corrected for coloured residuals (mlid_colored), from
+  !> the handle's given values: weighted sensitivities a (ny, nt, nf), the
+  !> segment starts segstart, cov (M^-1), info (M) and msens (the part of M
+  !> a makes), and either the residual autocovariance rvv (ny, ny, nlag+1:
+  !> rvv(:, :, k+1) = Rvv(k), Bartlett weights at nlag) or the residuals v
+  !> (ny, nt) and the lag to go to (< 0: chosen from v).  Results:
+  !> covariance_corrected (nf, nf) and lag, the lag used.
+  subroutine mlid_colored_cov(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    call colored_sandwich(cov, info, msens, a, rvv, segstart, cov_c, status, msg)
-  end subroutine mlid_colored_cov_rvv
+    type(session_t), pointer :: s
+    real(wp), allocatable :: a(:, :, :), v(:, :), rvv(:, :, :), cov(:, :), info(:, :), &
+                             msens(:, :), cov_c(:, :)
+    integer, allocatable :: segstart(:)
+    integer :: nf, lag_in, lag
 
-  !> Outputs y and states x of the model along t with inputs u, with the
-  !> process and measurement noise whose statistics are in theta (seeded).
-  subroutine mlid_simulate(mkind, nx, nu, ny, nw, nth, theta, nic, iconst, nrc, rconst, nt, t, u, &
-                           seed, timing, iopt, ropt, y, x, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed, timing
-    real(c_double), intent(in) :: theta(nth)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt)
-    integer(c_int), intent(in) :: iopt(16)
-    real(c_double), intent(in) :: ropt(16)
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    associate (g => s%given)
+      call get_real3(g, 'a', a, status, msg)
+      nf = size(a, 3)
+      call g%get('segstart', segstart, status, msg)
+      call g%get('cov', cov, status, msg, [nf, nf])
+      call g%get('info', info, status, msg, [nf, nf])
+      call g%get('msens', msens, status, msg, [nf, nf])
+      if (g%find('rvv') > 0) then
+        call get_real3(g, 'rvv', rvv, status, msg)
+        if (status /= MLID_OK) return
+        allocate (cov_c(nf, nf))
+        lag = size(rvv, 3) - 1
+        call colored_sandwich(cov, info, msens, a, rvv, segstart, cov_c, status, msg)
+      else
+        call g%get('v', v, status, msg)
+        call g%get('lag', lag_in, status, msg)
+        if (status /= MLID_OK) return
+        allocate (cov_c(nf, nf))
+        call colored_covariance(cov, info, msens, a, v, segstart, lag_in, cov_c, lag, status, msg)
+      end if
+    end associate
+    if (status /= MLID_OK) return
+    call s%results%put('covariance_corrected', cov_c)
+    call s%results%put('lag', lag)
+  end subroutine mlid_colored_cov
+
+  !> Outputs y and states x of the model of handle h (model, params: theta,
+  !> its free set and ties not used; record: times and inputs, its outputs
+  !> not used; options) with the process and measurement noise whose
+  !> statistics are in theta, drawn from seed; timing 0 or 1 (forward or
+  !> backward, mlid_simulate).  ny, nx and nt: the problem's.  seed and
+  !> timing are arguments, not given values: two values by name cost a
+  !> call 4-5 us, a tenth of a C-8 simulation.
+  subroutine mlid_simulate(h, seed, timing, ny, nx, nt, y, x, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: seed, timing, ny, nx, nt
     real(c_double), intent(out) :: y(ny, nt), x(nx, nt)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    call simulate_flat(mkind, nx, nu, ny, nw, theta, iconst, rconst, t, u, iopt, ropt, seed, y, x, &
-                       status, msg, timing)
+    type(session_t), pointer :: s
+
+    y = 0.0_wp
+    x = 0.0_wp
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()             ! what it gives are its arguments
+    associate (p => s%problem)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+      if (status /= MLID_OK) return
+      if (ny /= p%ny .or. nx /= p%nx .or. nt /= size(p%t)) then
+        status = MLID_ERR_INPUT
+        write (msg, '(a,3(1x,i0),a,3(1x,i0))') 'simulate: outputs for ny, nx, nt =', ny, nx, nt, &
+          '; the problem has', p%ny, p%nx, size(p%t)
+        return
+      end if
+      call simulate_flat(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%iconst, p%rconst, p%t, p%u, &
+                         p%iopt, p%ropt, seed, y, x, status, msg, timing)
+    end associate
   end subroutine mlid_simulate
 
-  !> nrun identifications: data from theta_true with seeds seed0, seed0+1, ...,
-  !> each fitted from theta_start.  est and sig (nf, nrun) are the estimates
-  !> and Cramer-Rao standard deviations of the free parameters, iters the
-  !> iterations, run_status each run's status (0, or the code it ended on).
-  subroutine mlid_monte_carlo(mkind, nx, nu, ny, nw, nth, theta_true, theta_start, isfree, &
-                              ntie, mtie, tie_to, tie_from, tie_scale, tie_offset, &
-                              nic, iconst, nrc, rconst, nt, t, u, seed0, nrun, iopt, ropt, nf, &
-                              est, sig, info, iters, run_status, status, msg)
-    integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nth, nic, nrc, nt, seed0, nrun, nf
-    real(c_double), intent(in) :: theta_true(nth), theta_start(nth)
-    integer(c_int), intent(in) :: isfree(nth), ntie, mtie, tie_to(mtie), tie_from(mtie)
-    real(c_double), intent(in) :: tie_scale(mtie), tie_offset(nth)  !< affine ties (ntie terms)
-    integer(c_int), intent(in) :: iconst(nic)
-    real(c_double), intent(in) :: rconst(nrc)
-    real(c_double), intent(in) :: t(nt), u(nu, nt)
-    integer(c_int), intent(in) :: iopt(16)
-    real(c_double), intent(in) :: ropt(16)
-    real(c_double), intent(out) :: est(nf, nrun), sig(nf, nrun), info(nf, nf, nrun)
-    integer(c_int), intent(out) :: iters(nrun), run_status(nrun), status
+  !> nrun identifications of the problem of handle h (model, params: the
+  !> start values, free set and ties; record: times and inputs, its outputs
+  !> not used; options): data from the given theta_true with seeds seed0,
+  !> seed0+1, ..., each fitted from the start.  Results by name: estimates
+  !> and sigma (nf, nrun), the estimates and Cramer-Rao standard deviations
+  !> of the free parameters, information (nf, nf, nrun), iterations and
+  !> run_status (nrun: 0, or the code the run ended on).
+  subroutine mlid_monte_carlo(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
     class(model_t), allocatable :: m
     type(options_t) :: opt
     type(param_map_t) :: pm
-    real(wp) :: yzero(ny, nt)
+    real(wp), allocatable :: theta_true(:), est(:, :), sig(:, :)
+    integer, allocatable :: iters(:), run_status(:)
+    type(value_t), target :: vinfo      ! the large one, written in place
+    real(wp), pointer :: info(:, :, :)
+    integer :: seed0, nrun, nf
 
-    est = 0.0_wp
-    info = 0.0_wp
-    sig = 0.0_wp
-    iters = 0
-    run_status = 0
-    yzero = 0.0_wp
-    call setup(mkind, nx, nu, ny, nw, theta_start, isfree, &
-               ties_of(ntie, tie_to, tie_from, tie_scale, tie_offset), iconst, rconst, t, u, yzero, &
-               iopt, ropt, nf, m, opt, pm, status, msg)
+    call handle_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    if (.not. all(ieee_is_finite(theta_true))) then
-      status = MLID_ERR_INPUT
-      msg = 'true parameter values must be finite'
-      return
-    end if
-    call monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, run_status, &
-                     info)
+    s%results = named_t()
+    associate (p => s%problem, g => s%given)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+      if (status /= MLID_OK) return
+      call g%get('theta_true', theta_true, status, msg, [size(p%theta)])
+      call g%get('seed0', seed0, status, msg)
+      call g%get('nrun', nrun, status, msg)
+      if (status /= MLID_OK) return
+      nf = count(p%isfree == 1)
+      call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
+                 p%t, p%u, p%y, p%iopt, p%ropt, nf, m, opt, pm, status, msg)
+      if (status /= MLID_OK) return
+      if (.not. all(ieee_is_finite(theta_true))) then
+        status = MLID_ERR_INPUT
+        msg = 'true parameter values must be finite'
+        return
+      end if
+      allocate (est(nf, nrun), sig(nf, nrun), iters(nrun), run_status(nrun))
+      run_status = 0
+      call real_value(vinfo, 'information', [nf, nf, nrun])
+      info(1:nf, 1:nf, 1:nrun) => vinfo%r
+      call monte_carlo(m, theta_true, p%theta, pm, p%t, p%u, opt, seed0, est, sig, iters, &
+                       run_status, info)
+    end associate
+    call s%results%put('estimates', est)
+    call s%results%put('sigma', sig)
+    call s%results%put_value(vinfo)
+    call s%results%put('iterations', iters)
+    call s%results%put('run_status', run_status)
   end subroutine mlid_monte_carlo
 
   !> The statistics of Monte Carlo runs (mlid_monte_carlo's mc_statistics,
-  !> those of the deck job too) over the runs with run_status 0 (nok):
-  !> mean, sample sigma and mean Cramer-Rao sigma of each free parameter
-  !> (nf), and stats = [trace, det of the sample covariance, trace, det of
-  !> the mean information]; NaN where too few runs.
-  subroutine mlid_monte_carlo_summary(nf, nrun, est, sig, info, run_status, nok, mean, &
-                                      sample_sigma, cr_sigma, stats)
-    integer(c_int), intent(in) :: nf, nrun
-    real(c_double), intent(in) :: est(nf, nrun), sig(nf, nrun), info(nf, nf, nrun)
-    integer(c_int), intent(in) :: run_status(nrun)
-    integer(c_int), intent(out) :: nok
-    real(c_double), intent(out) :: mean(nf), sample_sigma(nf), cr_sigma(nf), stats(4)
-    integer :: n
-    call mc_statistics(est, sig, info, run_status, n, mean, sample_sigma, cr_sigma, stats(1), &
+  !> those of the deck job too) from the given est and sig (nf, nrun), info
+  !> (nf, nf, nrun) and run_status (nrun), over the runs with run_status 0.
+  !> Results: runs (their number), mean, sample_sigma and mean_cr_sigma of
+  !> each free parameter (nf), sample_cov_trace, sample_cov_det,
+  !> mean_info_trace and mean_info_det; NaN where too few runs.
+  subroutine mlid_monte_carlo_summary(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    real(wp), allocatable :: est(:, :), sig(:, :), info(:, :, :), mean(:), sample_sigma(:), &
+                             cr_sigma(:)
+    integer, allocatable :: run_status(:)
+    real(wp) :: stats(4)
+    integer :: nok
+
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    associate (g => s%given)
+      call g%get('est', est, status, msg)
+      call g%get('sig', sig, status, msg, shape(est))
+      call get_real3(g, 'info', info, status, msg, [size(est, 1), size(est, 1), size(est, 2)])
+      call g%get('run_status', run_status, status, msg, [size(est, 2)])
+    end associate
+    if (status /= MLID_OK) return
+    allocate (mean(size(est, 1)), sample_sigma(size(est, 1)), cr_sigma(size(est, 1)))
+    call mc_statistics(est, sig, info, run_status, nok, mean, sample_sigma, cr_sigma, stats(1), &
                        stats(2), stats(3), stats(4))
-    nok = n
+    call s%results%put('runs', nok)
+    call s%results%put('mean', mean)
+    call s%results%put('sample_sigma', sample_sigma)
+    call s%results%put('mean_cr_sigma', cr_sigma)
+    call s%results%put('sample_cov_trace', stats(1))
+    call s%results%put('sample_cov_det', stats(2))
+    call s%results%put('mean_info_trace', stats(3))
+    call s%results%put('mean_info_det', stats(4))
   end subroutine mlid_monte_carlo_summary
+
+  !> v: real value name of shape shp, zero, to be written through a pointer
+  !> of that shape and moved into the results (no copy of a large one).
+  subroutine real_value(v, name, shp)
+    type(value_t), intent(out) :: v
+    character(len=*), intent(in) :: name
+    integer, intent(in) :: shp(:)
+    v%name = name
+    v%kind = VALUE_REAL
+    v%rank = size(shp)
+    v%shape = 1
+    v%shape(1:size(shp)) = shp
+    allocate (v%r(product(shp)), source=0.0_wp)
+  end subroutine real_value
+
+  !> Value name of g as x (rank 3, of shape shp when given), as named_t's
+  !> get (which goes to rank 2).
+  subroutine get_real3(g, name, x, status, msg, shp)
+    type(named_t), intent(in) :: g
+    character(len=*), intent(in) :: name
+    real(wp), allocatable, intent(out) :: x(:, :, :)
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    integer, intent(in), optional :: shp(3)
+    integer :: k
+    if (status /= MLID_OK) return
+    k = g%found(name, VALUE_REAL, 3, status, msg, shp)
+    if (k > 0) then
+      x = reshape(g%v(k)%r, g%v(k)%shape)
+    else
+      allocate (x(0, 0, 0))
+    end if
+  end subroutine get_real3
 
 end module mlid_api_fit

@@ -6,17 +6,18 @@ import warnings
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
 from ..checks import real_array, whole
 from ..errors import ConvergenceWarning, InputError, check_status, guarded, status_text
 from ..estimate.options import _flat_options
-from ..model.calls import _check_model, _model_args, _time_and_inputs
+from ..model.calls import _check_model, _set_simulation, _time_and_inputs
 from ..progress import Silent, bar as progress_bar
 
 
 def _mc_setup(truth, start, t, u, noise_std, runs, seed, options):
-    """Checked arguments of Monte Carlo runs: the core call's keywords but the
-    seed and run count, and the names and true values of the free parameters."""
+    """Checked arguments of Monte Carlo runs: what a call of the core takes but
+    the seed and run count (plain values, to go to a thread or a process), and
+    the names and true values of the free parameters."""
     _check_model(truth, "truth")
     _check_model(start, "start")
     runs = whole("runs", runs, 1, 10**7)
@@ -28,22 +29,21 @@ def _mc_setup(truth, start, t, u, noise_std, runs, seed, options):
         truth.r = real_array("noise_std", noise_std).ravel() ** 2
     iopt, ropt, _ = _flat_options(start, options)
     t, u = _time_and_inputs(start, t, u)
-    mask = start.free_mask
-    call = dict(**_model_args(start), theta_true=truth.theta, theta_start=start.theta,
-                isfree=mask, **start.tie_args(), t=t, u=u.T, iopt=iopt, ropt=ropt,
-                nf=int(mask.sum()))
-    return call, runs, seed, start.free_names(), truth.theta[mask == 1]
+    call = dict(start=start, tu=(t, u.T), iopt=iopt, ropt=ropt, theta_true=truth.theta)
+    return call, runs, seed, start.free_names(), truth.theta[start.free_mask == 1]
 
 
 def _mc_runs(call, seed, runs):
     """Runs seed .. seed + runs - 1 (run k's noise is seed k's whichever
     call makes it: the results do not depend on how runs are split)."""
-    est, sig, info, iters, run_status, status, msg = _api.mlid_monte_carlo(
-        **call, seed0=int(seed), nrun=int(runs))
-    check_status(status, msg)
-    return {"estimates": est.T.copy(), "sigma": sig.T.copy(),
-            "information": np.moveaxis(info, 2, 0).copy(), "iterations": iters,
-            "status": run_status}
+    h = _call_handle()
+    _set_simulation(h, call["start"], call["tu"], call["iopt"], call["ropt"])
+    _put(h, theta_true=call["theta_true"], seed0=int(seed), nrun=int(runs))
+    check_status(*_api.mlid_monte_carlo(h.value))
+    out = _results(h)
+    return {"estimates": out["estimates"].T.copy(), "sigma": out["sigma"].T.copy(),
+            "information": np.moveaxis(out["information"], 2, 0).copy(),
+            "iterations": out["iterations"], "status": out["run_status"]}
 
 
 def _mc_chunks(runs, seed, chunk):
@@ -66,12 +66,12 @@ def _mc_result(parts, names, truth, stacklevel=4):
     out = {key: np.concatenate([p[key] for p in parts])
            for key in ("estimates", "sigma", "information", "iterations", "status")}
     out["names"], out["truth"] = names, truth
-    nok, mean, sample_sigma, cr_sigma, stats = _api.mlid_monte_carlo_summary(
-        est=np.asfortranarray(out["estimates"].T), sig=np.asfortranarray(out["sigma"].T),
-        info=np.asfortranarray(np.moveaxis(out["information"], 0, 2)),
-        run_status=out["status"])
-    out["summary"] = dict(zip(SUMMARY, (int(nok), mean, sample_sigma, cr_sigma,
-                                        *(float(v) for v in stats))))
+    h = _call_handle()
+    _put(h, est=out["estimates"].T, sig=out["sigma"].T,
+         info=np.moveaxis(out["information"], 0, 2), run_status=out["status"])
+    check_status(*_api.mlid_monte_carlo_summary(h.value))
+    summary = _results(h)
+    out["summary"] = {key: summary[key] for key in SUMMARY}
     ok = out["status"] == 0
     bad = out["status"][~ok]
     if bad.size:

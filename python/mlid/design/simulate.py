@@ -3,12 +3,12 @@ process and measurement noise, seeded (the core's mlid_simulate)."""
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle
 from ..checks import real_array, whole
 from ..data.flight_data import FlightData
 from ..errors import InputError, check_status, guarded
 from ..estimate.options import _flat_options
-from ..model.calls import _check_model, _model_args, _time_and_inputs
+from ..model.calls import _check_model, _set_simulation, _time_and_inputs
 
 
 TIMINGS = ("forward", "backward")
@@ -75,8 +75,9 @@ def simulate(model, t, u, noise_std=None, seed=0, output_names=None, input_names
         model = model.with_theta(model.theta)
         model.r = noise**2
     iopt, ropt, _ = _flat_options(model, {})
-    y, x, status, msg = _api.mlid_simulate(**_model_args(model), theta=model.theta, t=t, u=u.T,
-                                           seed=int(seed), timing=TIMINGS.index(timing),
-                                           iopt=iopt, ropt=ropt)
+    h = _call_handle()
+    _set_simulation(h, model, (t, u.T), iopt, ropt, free=False)
+    y, x, status, msg = _api.mlid_simulate(h.value, seed=int(seed), timing=TIMINGS.index(timing),
+                                           ny=model.ny, nx=model.nx, nt=t.size)
     check_status(status, msg)
     return FlightData(t, u, y.T, input_names, output_names), x.T.copy()

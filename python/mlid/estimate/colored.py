@@ -3,7 +3,7 @@ mlid_colored), from what ``evaluate`` gives."""
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
 from ..errors import InputError, check_status, guarded
 
 
@@ -48,20 +48,18 @@ def colored_covariance(weighted_sensitivity, residuals, covariance, information,
     if any(m.shape != (nf, nf) for m in mats):
         raise InputError(f"covariance, information and information_sensitivity must be "
                          f"{nf} x {nf}")
+    h = _call_handle()
+    given = dict(segstart=seg, a=a, cov=mats[0], info=mats[1], msens=mats[2])
     if rvv is not None:
         r = np.asarray(rvv, dtype=float)
         if r.ndim != 3 or r.shape[1:] != (ny, ny):
             raise InputError(f"rvv must be (nlag + 1, {ny}, {ny})")
-        cov_c, status, msg = _api.mlid_colored_cov_rvv(
-            segstart=seg, a=a, nlag=len(r) - 1, rvv=np.asfortranarray(r.transpose(1, 2, 0)),
-            cov=mats[0], info=mats[1], msens=mats[2])
-        check_status(status, msg)
-        return cov_c, len(r) - 1
-    v = np.asarray(residuals, dtype=float)
-    if v.shape != (nt, ny):
-        raise InputError(f"residuals must be ({nt}, {ny}) like the sensitivities")
-    cov_c, used, status, msg = _api.mlid_colored_cov(
-        segstart=seg, a=a, v=np.asfortranarray(v.T), cov=mats[0], info=mats[1], msens=mats[2],
-        lag_in=-1 if lag is None else int(lag))
-    check_status(status, msg)
-    return cov_c, int(used)
+        _put(h, **given, rvv=r.transpose(1, 2, 0))
+    else:
+        v = np.asarray(residuals, dtype=float)
+        if v.shape != (nt, ny):
+            raise InputError(f"residuals must be ({nt}, {ny}) like the sensitivities")
+        _put(h, **given, v=v.T, lag=-1 if lag is None else int(lag))
+    check_status(*_api.mlid_colored_cov(h.value))
+    out = _results(h)
+    return out["covariance_corrected"], out["lag"]

@@ -106,12 +106,9 @@ def evaluate(model, data, initial_states=None, biases=None, **options):
     _check_data(data)
     iopt, ropt, _ = _flat_options(model, options)
     params, record, starts = _manoeuvres(model, data, initial_states, biases)
-    t, u, y = _record(model, record)
-    mask = params.mask
-    cost, grad, info, rhat, yhat, sens, wsens, msens, status, msg = _api.mlid_evaluate(
-        **_model_args(model), theta=params.theta, isfree=mask, **params.ties, t=t, u=u,
-        y=y, segstart=starts, iopt=iopt, ropt=ropt, nf=int(mask.sum()))
-    check_status(status, msg)
-    return {"cost": float(cost), "gradient": grad, "information": info, "rhat": rhat,
-            "yhat": yhat.T.copy(), "sensitivity": sens, "weighted_sensitivity": wsens,
-            "information_sensitivity": msens}
+    h = _call_handle()
+    _set_problem(h, model, params, _record(model, record), starts, iopt, ropt)
+    check_status(*_api.mlid_evaluate(h.value))
+    out = _results(h)
+    out["yhat"] = out["yhat"].T.copy()
+    return out

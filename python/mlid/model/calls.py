@@ -74,6 +74,28 @@ def _set_record(h, tuy, starts):
     _check(api.mlid_set_record(h.value, t=t, u=u, y=y, segstart=starts))
 
 
+def _set_simulation(h, model, tu, iopt, ropt, free=True):
+    """The parts of a call that simulates a model (mlid_simulate, and
+    mlid_monte_carlo's fits of what it simulates) into handle h
+    (mlid_api_problem): the model; its parameters, with its free set and
+    ties (a fit's start) or, free False, none; a record of times and inputs
+    tu = (t, u) in the core's layout whose outputs are not made yet (zero);
+    the options."""
+    t, u = tu
+    n = model.theta.size
+    if free:
+        params = {"isfree": model.free_mask, **model.tie_args()}
+    else:           # no tie is ntie = 0 over arrays of one (f2py wants an element)
+        one = np.zeros(1, dtype=np.int32)
+        params = {"isfree": np.zeros(n, dtype=np.int32), "ntie": 0, "tie_to": one,
+                  "tie_from": one, "tie_scale": np.zeros(1), "tie_offset": np.zeros(n)}
+    _check(api.mlid_set_model(h.value, **_model_args(model)))
+    _check(api.mlid_set_params(h.value, theta0=model.theta, **params))
+    _check(api.mlid_set_record(h.value, t=t, u=u, y=np.zeros((model.ny, t.size), order="F"),
+                               segstart=np.ones(1, dtype=np.int32)))
+    _check(api.mlid_set_options(h.value, iopt, ropt))
+
+
 def _record(model, data):
     if data.u.shape[1] != model.nu:
         raise InputError(f"data has {data.u.shape[1]} input columns, the model has {model.nu} inputs")
