@@ -21,7 +21,8 @@ module mlid_api_models
   use mlid_units, only: UNITLEN
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
   use mlid_param_units, only: param_units
-  use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map
+  use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map, &
+                         manoeuvre_suffix
   use mlid_jacobian_check, only: check_jacobians
   use mlid_named, only: named_t, VALUE_KIND_NAMES
   use mlid_run, only: corrected_record
@@ -265,7 +266,8 @@ contains
   !> theta of handle h's problem's model for 'nseg' manoeuvres (given;
   !> mlid_layout's manoeuvre_map): results 'map' and 'seg', entry k copying
   !> entry map(k) of the one-manoeuvre theta and belonging to manoeuvre
-  !> seg(k), 0 if shared.
+  !> seg(k), 0 if shared, and 'suffix', what each entry's label gets after
+  !> its name ('#2' or nothing; manoeuvre_suffix), one a line.
   subroutine mlid_manoeuvre_map(h, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
@@ -273,7 +275,8 @@ contains
     type(session_t), pointer :: s
     type(layout_table_t) :: lt
     integer, allocatable :: m(:), sg(:)
-    integer :: nseg
+    character(len=12), allocatable :: suffix(:)
+    integer :: nseg, k
     call model_layout(h, s, lt, status, msg)
     if (status /= MLID_OK) return
     call s%given%get('nseg', nseg, status, msg)
@@ -281,6 +284,11 @@ contains
     call manoeuvre_map(lt, max(nseg, 1), m, sg)
     call s%results%put('map', m)
     call s%results%put('seg', sg)
+    allocate (suffix(size(sg)))
+    do k = 1, size(sg)
+      suffix(k) = manoeuvre_suffix(sg(k), nseg)
+    end do
+    call s%results%put('suffix', join_lines(suffix))
   end subroutine mlid_manoeuvre_map
 
   !> The unit of every entry of 'theta' (given) of handle h's problem's

@@ -14,7 +14,7 @@ submodule (mlid_deck) mlid_deck_record
   use mlid_sampling, only: record_check_time
   use mlid_param_units, only: param_units
   use mlid_params, only: no_ties
-  use mlid_layout, only: layout_table_t, layout_of, manoeuvre_map
+  use mlid_layout, only: layout_table_t, layout_of, manoeuvre_map, manoeuvre_suffix
   implicit none
 
 contains
@@ -122,7 +122,6 @@ contains
     integer, allocatable :: map(:), seg(:), new_of(:)
     logical, allocatable :: own(:)
     character(len=NAMELEN), allocatable :: full(:), lab(:)
-    character(len=8) :: suffix
     type(layout_table_t) :: lt
 
     status = MLID_OK
@@ -160,11 +159,7 @@ contains
     end if
     allocate (lab(size(map)))
     do k = 1, size(map)
-      lab(k) = full(map(k))
-      if (seg(k) > 0) then
-        write (suffix, '(a,i0)') '#', seg(k)
-        lab(k) = trim(full(map(k)))//trim(suffix)
-      end if
+      lab(k) = trim(full(map(k)))//trim(manoeuvre_suffix(seg(k), nseg))
     end do
     c%tie%to = new_of(c%tie%to)           ! tied entries and sources are shared ones
     c%tie%from = new_of(c%tie%from)

@@ -16,7 +16,7 @@ module mlid_layout
   implicit none
   private
   public :: layout_table_t, layout_table, layout_of, element_index, element_name, locate, &
-            default_label, block_list, manoeuvre_map, NBLOCK
+            default_label, block_list, manoeuvre_map, manoeuvre_suffix, NBLOCK
 
   integer, parameter :: NBLOCK = 16   !< the linear model's blocks, the most any kind has
   !> Suffix of a longitudinal coefficient's default label, per regressor
@@ -239,6 +239,16 @@ contains
     map = [map, (k, k=last + 1, lt%nth)]
     seg = [seg, (0, k=last + 1, lt%nth)]
   end subroutine manoeuvre_map
+
+  !> What an entry's label gets after its name on nseg manoeuvres: '#k' for
+  !> an entry own to manoeuvre seg = k (manoeuvre_map) when there are
+  !> several ('x0(1)#2'), else nothing.
+  pure function manoeuvre_suffix(seg, nseg) result(suffix)
+    integer, intent(in) :: seg, nseg
+    character(len=12) :: suffix
+    suffix = ''
+    if (seg > 0 .and. nseg > 1) write (suffix, '(a,i0)') '#', seg
+  end function manoeuvre_suffix
 
   !> 'use f(i,j) g(i,j) ... x0(i) ...': the parameters this model has.
   function block_list(lt) result(text)

@@ -23,7 +23,8 @@ class Params:
 
     def __init__(self, model, n=1, initial_states=None, biases=None):
         self.model, self.n = model, n
-        self.map, self.seg = model._layout.manoeuvre_map(n)   # 0-based entries of one manoeuvre
+        # 0-based entries of one manoeuvre, whose manoeuvre, the label's '#k'
+        self.map, self.seg, self._suffix = model._layout.manoeuvre_map(n)
         own = self.seg > 0
         theta, mask, terms = model.theta, model.free_mask, model.tie_terms()
         if n > 1 and terms:
@@ -45,10 +46,9 @@ class Params:
     def _tagged(self, name_of, free_only=False):
         """name_of(element name) for each entry here (the free ones only), an
         own entry's with its manoeuvre number after '#' (several manoeuvres)."""
-        at = self.mask == 1 if free_only else slice(None)
-        elements, n = self.model._layout.names, self.n
-        return [name_of(elements[i]) + (f"#{k}" if k and n > 1 else "")
-                for i, k in zip(self.map[at].tolist(), self.seg[at].tolist())]
+        at = np.flatnonzero(self.mask == 1) if free_only else range(self.map.size)
+        elements, entry, suffix = self.model._layout.names, self.map.tolist(), self._suffix
+        return [name_of(elements[entry[j]]) + suffix[j] for j in at]
 
     def _label(self, element):
         return self._names.get(element, element)

@@ -132,14 +132,16 @@ class _Layout:
 
     def manoeuvre_map(self, n):
         """The core's map of theta on n manoeuvres (mlid_manoeuvre_map): the
-        0-based entry of one manoeuvre's theta and the manoeuvre it is own to
-        (0 shared), per entry; kept (read-only), as the layout is."""
+        0-based entry of one manoeuvre's theta, the manoeuvre it is own to
+        (0 shared) and what its label gets after the name ('#2', or ''), per
+        entry; kept (read-only), as the layout is."""
         if n not in self._maps:
             out = self._call(_api.mlid_manoeuvre_map, nseg=n)
             entry, seg = out["map"] - 1, out["seg"]
             entry.setflags(write=False)
             seg.setflags(write=False)
-            self._maps[n] = entry, seg
+            suffix = tuple(out["suffix"].decode().split("\n")[:seg.size])
+            self._maps[n] = entry, seg, suffix
         return self._maps[n]
 
     def tie(self, text):
