@@ -22,7 +22,7 @@ module mlid_api_models
   use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
   use mlid_param_units, only: param_units
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map, &
-                         manoeuvre_suffix
+                         manoeuvre_suffix, element_index, element_problem
   use mlid_jacobian_check, only: check_jacobians
   use mlid_named, only: named_t, VALUE_KIND_NAMES
   use mlid_run, only: corrected_record
@@ -34,7 +34,7 @@ module mlid_api_models
             mlid_option_get, mlid_options_check, mlid_stop_reason, mlid_fit_outcome, &
             mlid_tie_parse, mlid_sixdof_constants, mlid_sixdof_text, mlid_flightpath_lists, &
             mlid_flightpath_model_text, mlid_flightpath_corrected, mlid_layout, &
-            mlid_manoeuvre_map, mlid_parameter_units, mlid_name_list, mlid_limit, &
+            mlid_manoeuvre_map, mlid_elements, mlid_parameter_units, mlid_name_list, mlid_limit, &
             mlid_model_sizes, mlid_check_jacobians
 
 contains
@@ -262,6 +262,36 @@ contains
       call r%put('regressors', join_lines(each))
     end associate
   end subroutine mlid_layout
+
+  !> The parameters named by 'names' (given, one a line) of handle h's
+  !> problem's model (mlid_layout's element_index: key(i), key(i,j), an
+  !> equations model's own names): results 'written', each as the model
+  !> writes it ('f(1,2)'; '' for none), and 'problem', why each that is none
+  !> is not one (element_problem), one a line.
+  subroutine mlid_elements(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    type(layout_table_t) :: lt
+    character(len=:), allocatable :: text
+    character(len=512), allocatable :: names(:), written(:), problem(:)
+    integer :: k, idx
+    call model_layout(h, s, lt, status, msg)
+    if (status /= MLID_OK) return
+    call s%given%get('names', text, status, msg)
+    if (status /= MLID_OK) return
+    call name_lines(text, names)
+    allocate (written(size(names)), problem(size(names)))
+    do k = 1, size(names)
+      idx = element_index(lt, names(k))
+      written(k) = ''
+      if (idx > 0) written(k) = element_name(lt, idx)
+      problem(k) = element_problem(lt, names(k))
+    end do
+    call s%results%put('written', join_lines(written))
+    call s%results%put('problem', join_lines(problem))
+  end subroutine mlid_elements
 
   !> theta of handle h's problem's model for 'nseg' manoeuvres (given;
   !> mlid_layout's manoeuvre_map): results 'map' and 'seg', entry k copying

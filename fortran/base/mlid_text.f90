@@ -5,7 +5,7 @@ module mlid_text
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: to_lower, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
+  public :: to_lower, to_upper, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
             text_file_t, text_open, text_line, text_close, control_character, comment_start, &
             short_path, seconds, number_text, add_line
 
@@ -37,6 +37,16 @@ contains
       if (s(k:k) >= 'A' .and. s(k:k) <= 'Z') r(k:k) = achar(iachar(s(k:k)) + 32)
     end do
   end function to_lower
+
+  elemental function to_upper(s) result(r)
+    character(len=*), intent(in) :: s
+    character(len=len(s)) :: r
+    integer :: k
+    r = s
+    do k = 1, len(s)
+      if (s(k:k) >= 'a' .and. s(k:k) <= 'z') r(k:k) = achar(iachar(s(k:k)) - 32)
+    end do
+  end function to_upper
 
   function itoa(i) result(s)
     integer, intent(in) :: i

@@ -6,7 +6,7 @@
 !> no one else knows the order.
 module mlid_layout
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower
+  use mlid_text, only: to_lower, to_upper
   use mlid_model_factory, only: MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, MODEL_X22, &
                                 MODEL_EQUATIONS
   use mlid_equations, only: equations_t, equations_create
@@ -15,7 +15,8 @@ module mlid_layout
   use mlid_user_model, only: user_model_t, user_model_create
   implicit none
   private
-  public :: layout_table_t, layout_table, layout_of, element_index, element_name, locate, &
+  public :: layout_table_t, layout_table, layout_of, element_index, element_problem, &
+            element_name, locate, &
             default_label, block_list, manoeuvre_map, manoeuvre_suffix, NBLOCK
 
   integer, parameter :: NBLOCK = 16   !< the linear model's blocks, the most any kind has
@@ -180,8 +181,9 @@ contains
   integer function element_index(lt, name) result(idx)
     type(layout_table_t), intent(in) :: lt
     character(len=*), intent(in) :: name
-    integer :: p, q, i, j, ios, b
-    character(len=len(name)) :: s
+    integer :: i, j, b
+    character(len=len(name)) :: s, key
+    logical :: ok
 
     idx = 0
     s = to_lower(adjustl(name))
@@ -191,27 +193,94 @@ contains
         idx = findloc(to_lower(lt%pnames) == s, .true., 1)
       if (idx > 0) return
     end if
-    p = index(s, '(')
-    q = index(s, ')')
-    if (p < 2 .or. q < p + 2 .or. len_trim(s) /= q) return
-    j = 0
-    if (index(s(p + 1:q - 1), ',') > 0) then
-      read (s(p + 1:q - 1), *, iostat=ios) i, j
-    else
-      read (s(p + 1:q - 1), *, iostat=ios) i
+    call parse_element(name, key, i, j, ok)
+    if (.not. ok) return
+    b = findloc(lt%key(1:lt%nblock), key, 1)
+    if (b == 0) return
+    if (i < 1 .or. i > lt%rows(b)) return
+    if (lt%cols(b) < 0) then
+      if (j == 0) idx = lt%off(b) + i
+    else if (j >= 1 .and. j <= lt%cols(b)) then
+      idx = lt%off(b) + (j - 1)*lt%rows(b) + i
     end if
-    if (ios /= 0) return
-    do b = 1, lt%nblock
-      if (trim(lt%key(b)) /= trim(s(1:p - 1))) cycle
-      if (i < 1 .or. i > lt%rows(b)) return
-      if (lt%cols(b) < 0) then
-        if (j == 0) idx = lt%off(b) + i
-      else if (j >= 1 .and. j <= lt%cols(b)) then
-        idx = lt%off(b) + (j - 1)*lt%rows(b) + i
-      end if
-      return
-    end do
   end function element_index
+
+  !> Why name is no element of lt, as the front ends say it after
+  !> "parameter 'name' "; '' when it is one (element_index).
+  function element_problem(lt, name) result(why)
+    type(layout_table_t), intent(in) :: lt
+    character(len=*), intent(in) :: name
+    character(len=512) :: why
+    character(len=len(name)) :: key
+    integer :: i, j, b
+    logical :: ok
+
+    why = ''
+    if (element_index(lt, name) > 0) return
+    call parse_element(name, key, i, j, ok)
+    b = 0
+    if (ok) b = findloc(lt%key(1:lt%nblock), key, 1)
+    if (b == 0) then
+      why = 'does not exist: use'
+      do b = 1, lt%nblock
+        why = trim(why)//trim(merge(' ', ',', b == 1))//' '//trim(lt%key(b))// &
+              trim(merge('(i,j)', '(i)  ', lt%cols(b) >= 0))
+      end do
+    else if (lt%cols(b) >= 0 .and. j == 0) then
+      why = 'needs two indices: '//trim(lt%key(b))//'(i,j)'
+    else if (lt%cols(b) >= 0) then
+      write (why, '(a,i0,a,i0)') 'does not exist: '//trim(to_upper(lt%key(b)))//' is ', &
+        lt%rows(b), 'x', lt%cols(b)
+    else
+      write (why, '(a,i0,a)') 'does not exist: '//trim(lt%key(b))//' has ', lt%rows(b), ' entries'
+    end if
+  end function element_problem
+
+  !> name as key(i) or key(i,j): any case, blanks around each part, key of
+  !> letters, digits and '_', i and j unsigned integers (j = 0: one index);
+  !> ok false when name is not of that form.
+  subroutine parse_element(name, key, i, j, ok)
+    character(len=*), intent(in) :: name
+    character(len=*), intent(out) :: key
+    integer, intent(out) :: i, j
+    logical, intent(out) :: ok
+    character(len=len(name)) :: s
+    integer :: p, q, c
+
+    key = ''
+    i = 0
+    j = 0
+    s = to_lower(adjustl(name))
+    p = index(s, '(')
+    q = len_trim(s)
+    ok = p > 1 .and. q > p
+    if (.not. ok) return
+    ok = s(q:q) == ')'
+    key = s(1:p - 1)
+    ok = ok .and. len_trim(key) > 0 .and. verify(trim(key), 'abcdefghijklmnopqrstuvwxyz0123456789_') == 0
+    if (.not. ok) return
+    c = index(s(p + 1:q - 1), ',')
+    if (c == 0) then
+      call unsigned(s(p + 1:q - 1), i, ok)
+    else
+      call unsigned(s(p + 1:p + c - 1), i, ok)
+      if (ok) call unsigned(s(p + c + 1:q - 1), j, ok)
+      ok = ok .and. j > 0
+    end if
+  end subroutine parse_element
+
+  !> text (blanks around it) as an unsigned integer of at most 9 digits.
+  subroutine unsigned(text, n, ok)
+    character(len=*), intent(in) :: text
+    integer, intent(out) :: n
+    logical, intent(out) :: ok
+    integer :: ios
+    n = 0
+    ok = len_trim(adjustl(text)) >= 1 .and. len_trim(adjustl(text)) <= 9
+    if (ok) ok = verify(trim(adjustl(text)), '0123456789') == 0
+    if (ok) read (text, *, iostat=ios) n
+    if (ok) ok = ios == 0
+  end subroutine unsigned
 
   !> theta for nseg manoeuvres: every manoeuvre its own initial state and
   !> biases (the x0 and bias blocks repeated), the rest shared.  Entry k of

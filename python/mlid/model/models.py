@@ -14,7 +14,6 @@ F, G, ... are views into theta.
 """
 
 import copy
-import re
 
 import numpy as np
 
@@ -22,8 +21,6 @@ from .._bridge import (api as _api, call_handle as _call_handle, lines as _lines
                        put as _put, results as _results)
 from ..checks import real_array
 from ..errors import InputError, check_status, guarded_class
-
-_ELEMENT = re.compile(r"^\s*([a-z0-9_]+)\s*\(\s*(\d+)\s*(?:,\s*(\d+)\s*)?\)\s*$", re.I)
 
 INPUT_HOLDS = ("linear", "zoh")
 
@@ -117,7 +114,7 @@ class _Layout:
         self.nth = len(self.names)
         self.place = {name: k for k, name in enumerate(self.names)}
         self.np = self.blocks["x0"][0]
-        self._maps, self._ties = {}, {}
+        self._maps, self._ties, self._elements = {}, {}, {}
 
     def _call(self, routine, **given):
         """routine of the core on this layout's model (the model part of the
@@ -129,6 +126,25 @@ class _Layout:
             _put(h, **given)
         check_status(*routine(h.value))
         return _results(h)
+
+    def element(self, name):
+        """The element name of parameter name as the core writes it
+        (mlid_elements: 'F( 1,2 )' -> 'f(1,2)'; an equations model's own
+        names too), or raise InputError saying why it is none; kept, as the
+        layout is."""
+        key = str(name)
+        if key not in self._elements:
+            if "\n" in key:
+                raise InputError(f"parameter {name!r} does not exist: a name is one line")
+            out = self._call(_api.mlid_elements, names=key + "\n")
+            written, problem = (_lines(out[k])[0] if _lines(out[k]) else "" for k in
+                                ("written", "problem"))
+            if not written:
+                raise InputError(f"parameter {name!r} {problem}")
+            if len(self._elements) >= TIES_KEPT:
+                self._elements.clear()
+            self._elements[key] = written
+        return self._elements[key]
 
     def manoeuvre_map(self, n):
         """The core's map of theta on n manoeuvres (mlid_manoeuvre_map): the
@@ -347,12 +363,15 @@ class Model:
         return [s.strip() for s in lines[:self._theta.size]]
 
     def canonical_name(self, name):
-        """The element name of a parameter, checked against the dimensions.
+        """The element name of a parameter, checked against the dimensions
+        (the core's grammar, mlid_layout's element_index).
 
         Parameters
         ----------
         name : str
-            An element name, any case and spacing: 'F( 1,2 )'.
+            An element name, any case and spacing: 'F( 1,2 )'; a model
+            written as equations also takes a parameter's own name, exact or
+            in any case when that is unique ('Mq').
 
         Returns
         -------
@@ -365,25 +384,7 @@ class Model:
             No such block, the wrong number of indices, or indices outside
             the block.
         """
-        m = _ELEMENT.match(str(name))
-        blocks = self._layout.blocks
-        if not m or m.group(1).lower() not in blocks:
-            raise InputError(f"parameter {name!r} does not exist: use "
-                             + ", ".join(f"{k}(i,j)" if c >= 0 else f"{k}(i)"
-                                         for k, (_, _, c) in blocks.items()))
-        key, i = m.group(1).lower(), int(m.group(2))
-        shape = self._layout.shape(key)
-        if len(shape) == 2:
-            if m.group(3) is None:
-                raise InputError(f"parameter {name!r} needs two indices: {key}(i,j)")
-            j = int(m.group(3))
-            if not (1 <= i <= shape[0] and 1 <= j <= shape[1]):
-                raise InputError(f"parameter {name!r} does not exist: {key.upper()} is "
-                                 f"{shape[0]}x{shape[1]}")
-            return f"{key}({i},{j})"
-        if m.group(3) is not None or not 1 <= i <= shape[0]:
-            raise InputError(f"parameter {name!r} does not exist: {key} has {shape[0]} entries")
-        return f"{key}({i})"
+        return self._layout.element(name)
 
     @property
     def free_mask(self):
@@ -865,33 +866,6 @@ class EquationModel(Model):
     def text(self):
         """The model's text as the core reads it (one item a line)."""
         return bytes(self.iconst.astype(np.uint8)).decode()
-
-    def canonical_name(self, name):
-        """The element name of a parameter, by its own name or its element.
-
-        Parameters
-        ----------
-        name : str
-            A parameter's own name, any case ('Mq'), or an element name
-            ('p(5)', 'x0(1)').
-
-        Returns
-        -------
-        str
-            The element name: 'p(5)'.
-
-        Raises
-        ------
-        InputError
-            No such parameter or element.
-        """
-        sl = self._layout.slice("p")
-        own = dict(zip(self._layout.labels[sl], self._layout.names[sl]))
-        key = str(name).strip()
-        if key in own:                          # exact, else any case when unique
-            return own[key]
-        alike = [e for lab, e in own.items() if lab.lower() == key.lower()]
-        return alike[0] if len(alike) == 1 else super().canonical_name(name)
 
 
 #: The six-degree-of-freedom model's constants, in the core's order (mlid_sixdof).
