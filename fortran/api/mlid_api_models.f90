@@ -19,7 +19,7 @@ module mlid_api_models
                              FLIGHTPATH_CORRECTIONS, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
   use mlid_record, only: record_text
   use mlid_units, only: UNITLEN
-  use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
+  use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES, aero_long_iconst
   use mlid_param_units, only: param_units
   use mlid_layout, only: layout_table_t, layout_of, element_name, default_label, manoeuvre_map, &
                          manoeuvre_suffix, element_index, element_problem
@@ -34,8 +34,8 @@ module mlid_api_models
             mlid_option_get, mlid_options_check, mlid_stop_reason, mlid_fit_outcome, &
             mlid_tie_parse, mlid_sixdof_constants, mlid_sixdof_text, mlid_flightpath_lists, &
             mlid_flightpath_model_text, mlid_flightpath_corrected, mlid_layout, &
-            mlid_manoeuvre_map, mlid_elements, mlid_parameter_units, mlid_name_list, mlid_limit, &
-            mlid_model_sizes, mlid_check_jacobians
+            mlid_manoeuvre_map, mlid_elements, mlid_longitudinal_iconst, mlid_parameter_units, &
+            mlid_name_list, mlid_limit, mlid_model_sizes, mlid_check_jacobians
 
 contains
 
@@ -262,6 +262,31 @@ contains
       call r%put('regressors', join_lines(each))
     end associate
   end subroutine mlid_layout
+
+  !> The longitudinal model's iconst (mlid_aero_long's aero_long_iconst)
+  !> from the regressors of C_D, C_L and C_m by name: given 'cd', 'cl' and
+  !> 'cm', one a line; result 'iconst'.
+  subroutine mlid_longitudinal_iconst(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    character(len=:), allocatable :: cd, cl, cm
+    character(len=64), allocatable :: dnames(:), lnames(:), mnames(:)
+    integer, allocatable :: iconst(:)
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    call s%given%get('cd', cd, status, msg)
+    call s%given%get('cl', cl, status, msg)
+    call s%given%get('cm', cm, status, msg)
+    if (status /= MLID_OK) return
+    call name_lines(cd, dnames)
+    call name_lines(cl, lnames)
+    call name_lines(cm, mnames)
+    call aero_long_iconst(dnames, lnames, mnames, iconst, status, msg)
+    if (status == MLID_OK) call s%results%put('iconst', iconst)
+  end subroutine mlid_longitudinal_iconst
 
   !> The parameters named by 'names' (given, one a line) of handle h's
   !> problem's model (mlid_layout's element_index: key(i), key(i,j), an

@@ -6,12 +6,11 @@
 !> made in mlid_deck_equations.
 submodule (mlid_deck) mlid_deck_model
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_text, only: joined
   use mlid_case, only: MAXSEG
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create, kind_code, MODEL_LINEAR, MODEL_AERO_LONG, MODEL_USER, &
                                 MODEL_X22, MODEL_EQUATIONS
-  use mlid_aero_long, only: REGRESSOR_NAMES, CONSTANT_NAMES
+  use mlid_aero_long, only: aero_long_iconst, CONSTANT_NAMES
   use mlid_ties, only: tie_parse, MAXTERM
   use mlid_report, only: LABEL_WIDTH
   use mlid_params, only: no_ties
@@ -197,6 +196,7 @@ contains
     integer, intent(out) :: ncoef(3)
     integer, allocatable, intent(out) :: codes(:)
     character(len=msg_len) :: iomsg
+    integer :: ios
 
     ncoef = 0
     allocate (codes(0), c%rconst(0))
@@ -207,8 +207,14 @@ contains
     select case (c%mkind)
     case (MODEL_LINEAR)
     case (MODEL_AERO_LONG)
-      call regressor_codes(c, regressors, ncoef, codes)
-      if (c%status /= MLID_OK) return
+      call aero_long_iconst(regressors(1:MAXR), regressors(MAXR + 1:2*MAXR), &
+                            regressors(2*MAXR + 1:), codes, ios, iomsg)
+      if (ios /= MLID_OK) then
+        call fail(c, 'group &model: '//trim(iomsg))
+        return
+      end if
+      ncoef = codes(1:3)
+      codes = codes(4:)
       if (count(constants /= UNSET) /= 9) then
         call fail(c, 'group &model: constants needs 9 values: '//CONSTANT_NAMES)
         return
@@ -268,27 +274,6 @@ contains
     nw = m%nw
     if (c%mkind /= MODEL_AERO_LONG) ncoef(1) = m%np
   end subroutine own_sizes
-
-  !> Regressor names of C_D, C_L, C_m (MAXR each) -> their counts and codes.
-  subroutine regressor_codes(c, names, ncoef, codes)
-    type(case_t), intent(inout) :: c
-    character(len=*), intent(in) :: names(:)
-    integer, intent(out) :: ncoef(3)
-    integer, allocatable, intent(inout) :: codes(:)
-    integer :: k, i
-    ncoef = 0
-    do k = 1, size(names)
-      if (len_trim(names(k)) == 0) cycle
-      i = findloc(REGRESSOR_NAMES, trim(adjustl(names(k))), 1)
-      if (i == 0) then
-        call fail(c, 'group &model: regressor '''//trim(names(k))//''' does not exist (use '// &
-                  joined(REGRESSOR_NAMES)//')')
-        return
-      end if
-      ncoef((k - 1)/MAXR + 1) = ncoef((k - 1)/MAXR + 1) + 1
-      codes = [codes, i]
-    end do
-  end subroutine regressor_codes
 
   !> Place block key of the deck (a matrix given row by row) into theta
   !> (column-major); a block not given is zero unless required.

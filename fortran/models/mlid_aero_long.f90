@@ -24,10 +24,11 @@ module mlid_aero_long
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t, NZ_HROWS
   use mlid_trig, only: sin_cos
+  use mlid_text, only: joined
   implicit none
   private
-  public :: aero_long_t, aero_long_create, check_longitudinal_record, REGRESSOR_NAMES, NREG, &
-            CONSTANT_NAMES
+  public :: aero_long_t, aero_long_create, aero_long_iconst, check_longitudinal_record, &
+            REGRESSOR_NAMES, NREG, CONSTANT_NAMES
 
   !> Regressor codes 1..NREG and their names (the deck and Python use the names).
   integer, parameter :: NREG = 6
@@ -93,6 +94,47 @@ module mlid_aero_long
   end type air_t
 
 contains
+
+  !> iconst of the regressors of C_D, C_L and C_m by name (blank entries
+  !> are none); a name that is no regressor is refused, named with the list.
+  subroutine aero_long_iconst(cd, cl, cm, iconst, status, msg)
+    character(len=*), intent(in) :: cd(:), cl(:), cm(:)
+    integer, allocatable, intent(out) :: iconst(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer, allocatable :: codes(:)
+    integer :: ncoef(3)
+
+    allocate (iconst(0), codes(0))
+    ncoef = 0
+    call add_codes(cd, 1)
+    if (status == MLID_OK) call add_codes(cl, 2)
+    if (status == MLID_OK) call add_codes(cm, 3)
+    if (status == MLID_OK) iconst = [ncoef, codes]
+
+  contains
+
+    subroutine add_codes(names, coef)
+      character(len=*), intent(in) :: names(:)
+      integer, intent(in) :: coef
+      integer :: k, i
+      status = MLID_OK
+      msg = ''
+      do k = 1, size(names)
+        if (len_trim(names(k)) == 0) cycle
+        i = findloc(REGRESSOR_NAMES, trim(adjustl(names(k))), 1)
+        if (i == 0) then
+          status = MLID_ERR_INPUT
+          msg = 'regressor '''//trim(adjustl(names(k)))//''' does not exist (use '// &
+                joined(REGRESSOR_NAMES)//')'
+          return
+        end if
+        ncoef(coef) = ncoef(coef) + 1
+        codes = [codes, i]
+      end do
+    end subroutine add_codes
+
+  end subroutine aero_long_iconst
 
   subroutine aero_long_create(iconst, rconst, m, status, msg)
     integer, intent(in) :: iconst(:)

@@ -637,6 +637,15 @@ REGRESSORS = tuple(_lines(_api.mlid_name_list("regressors")))
 CONSTANTS = tuple(_api.mlid_name_list("constants").decode().strip().split(", "))
 
 
+def _longitudinal_iconst(regressors):
+    """The longitudinal model's iconst for its regressors by name, from the
+    core (mlid_longitudinal_iconst), which refuses an unknown one."""
+    h = _call_handle()
+    _put(h, **{k.lower(): "".join(f"{r}\n" for r in regs) for k, regs in regressors.items()})
+    check_status(*_api.mlid_longitudinal_iconst(h.value))
+    return _results(h)["iconst"].astype(np.int32)
+
+
 @_documented
 @guarded_class
 class LongitudinalModel(Model):
@@ -679,18 +688,11 @@ class LongitudinalModel(Model):
         unknown = set(regressors) - set(self.regressors)
         if unknown:
             raise InputError(f"unknown coefficient {sorted(unknown)[0]!r}: use CD, CL, Cm")
-        for key, regs in self.regressors.items():
-            for reg in regs:
-                if reg not in REGRESSORS:
-                    raise InputError(f"regressor {reg!r} does not exist (in {key}): use "
-                                     + ", ".join(REGRESSORS))
+        self.iconst = _longitudinal_iconst(self.regressors)
         missing = [c for c in CONSTANTS if c not in constants]
         if missing:
             raise InputError(f"missing constant {missing[0]!r} (need {', '.join(CONSTANTS)})")
         self.constants = {c: float(constants[c]) for c in CONSTANTS}
-        regs = [self.regressors[k] for k in self._COEFFICIENTS]
-        self.iconst = np.array([len(r) for r in regs]
-                               + [REGRESSORS.index(x) + 1 for r in regs for x in r], dtype=np.int32)
         self.rconst = np.array([self.constants[c] for c in CONSTANTS])
         self._init_layout(*_own_sizes(self.kind, self.iconst, self.rconst))
         for key, block in self._COEFFICIENTS.items():
