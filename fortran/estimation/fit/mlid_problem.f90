@@ -43,7 +43,8 @@ module mlid_problem
 contains
 
   !> MLID_OK when p has every part of needs, else which one is missing and
-  !> what sets it; and the sizes the parts share agree.
+  !> what sets it; and the sizes the parts of needs share agree (a part set
+  !> for an earlier call and not needed now is not looked at).
   subroutine problem_needs(p, needs, status, msg)
     type(problem_t), intent(in) :: p
     integer, intent(in) :: needs(:)
@@ -58,7 +59,7 @@ contains
         return
       end if
     end do
-    if (all(p%has([PART_MODEL, PART_RECORD]))) then
+    if (any(needs == PART_MODEL) .and. any(needs == PART_RECORD)) then
       if (size(p%u, 1) /= p%nu .or. size(p%y, 1) /= p%ny) then
         write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'the record has ', size(p%u, 1), ' inputs and ', &
           size(p%y, 1), ' outputs; the model has ', p%nu, ' and ', p%ny
