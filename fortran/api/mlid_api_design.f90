@@ -200,19 +200,26 @@ contains
     type(given_t) :: gv
     real(wp), allocatable :: w(:), u(:), mm(:, :), ratios(:)
     real(wp) :: mu
-    integer :: m, nratio
+    integer :: m, nu, nratio, stat
 
     call given_problem(h, s, gv, status, msg)
     if (status /= MLID_OK) return
     s%results = named_t()
     m = size(gv%ukind)
-    ! sizes from the caller: no larger than the core's own checks let through
-    if (ncell < 0 .or. iterations < 0) then
-      status = MLID_ERR_INPUT
-      msg = 'cells and iterations must be >= 0'
+    nu = size(gv%g, 2)
+    ! u and ratios are sized by the caller's ncell and iterations, as f2py
+    ! sized them before: sizes past the integer range or the memory refused
+    status = MLID_ERR_INPUT
+    if (ncell < 0 .or. iterations < 0 .or. 2_c_int64_t*ncell*nu > huge(1) .or. &
+        iterations == huge(1)) then
+      msg = 'cells and iterations must be >= 0 and within the integer range'
       return
     end if
-    allocate (w(m), u(2*ncell*size(gv%g, 2)), mm(m, m), ratios(iterations + 1))
+    allocate (w(m), u(2*ncell*nu), mm(m, m), ratios(iterations + 1), stat=stat)
+    if (stat /= 0) then
+      msg = 'not enough memory for the equalised design''s cells and iterations'
+      return
+    end if
     call equalised_input(gv%f, gv%g, gv%h, gv%r, gv%gq, gv%ukind, gv%urow, gv%ucol, gv%w, t, &
                          ncell, e, iterations, alpha, w, u, mu, mm, ratios, nratio, status, msg)
     if (status /= MLID_OK) return
