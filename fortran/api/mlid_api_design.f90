@@ -1,11 +1,27 @@
 !> The flat interface's input design (report sec. VII-VIII): the
 !> operator's and the Riccati method's mu and length, optimal, amplitude-
 !> limited and equalised inputs, their information and responses.
+!>
+!> A call's design is in its handle h.  The problem (mlid_api_problem) holds
+!> the linear model x' = F x + G u, z = H x: its model part (a linear kind)
+!> and its parameters, F(nx,nx), G(nx,nu) and H(ny,nx) among them.  Given by
+!> name (mlid_api_values): r(ny,ny) the noise spectral density R, gq(nx,nx)
+!> the process noise Gamma Q Gamma' (zero: none), the m unknowns by block
+!> ukind(m) (1 F, 2 G, 3 H), row urow(m) and column ucol(m), their weights
+!> w(m), and for mlid_design_mu and mlid_design_length the state-limit
+!> penalty kx(nx,nx) of report 7.6 (symmetric >= 0; not given: none).  A
+!> call's own values are its arguments; nu and m, where given, size its
+!> outputs and must be the model's inputs and the unknowns.
 !> Conventions: mlid_api_deck's comment.
 module mlid_api_design
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_handles, only: session_t, handle_session
+  use mlid_named, only: named_t
+  use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS
+  use mlid_model_factory, only: MODEL_LINEAR
+  use mlid_layout, only: layout_table_t, layout_of
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, transition_length, &
                          costate_input, input_information, mu_for_length, &
                          amplitude_limited_input, equalised_input
@@ -16,31 +32,31 @@ module mlid_api_design
             mlid_design_amplitude, mlid_design_mu_for_length, mlid_design_response, &
             mlid_design_equalised
 
+  !> The design a handle holds (the module's comment); kx zero when not given.
+  type :: given_t
+    real(wp), allocatable :: f(:, :), g(:, :), h(:, :), r(:, :), gq(:, :), w(:), kx(:, :)
+    integer, allocatable :: ukind(:), urow(:), ucol(:)
+  end type given_t
+
 contains
 
-  !> Input design (mlid_design).  Common arguments: the linear model F(nx,nx),
-  !> G(nx,nu), H(ny,nx), the noise spectral density R(ny,ny), the process
-  !> noise Gamma Q Gamma' gq(nx,nx) (zero: none), the m unknowns
-  !> by block ukind (1 F, 2 G, 3 H), row urow and column ucol, weights w(m).
   !> mu_max on [0, T] by the operator method on ncell and 2 ncell cells; u:
-  !> the optimal input on the 2 ncell cells (unit energy, nu per cell).
-  !> kx(nx,nx), symmetric >= 0, the state-limit penalty of report 7.6 (mu the
-  !> largest eigenvalue of tr(WM) - int x' K x dt); zero for none.
-  subroutine mlid_design_mu(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, kx, t, ncell, mu, &
-                            u, status, msg)
-    integer(c_int), intent(in) :: nx, nu, ny, m, ncell
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), &
-                                  kx(nx, nx), t
-    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+  !> the optimal input on the 2 ncell cells (unit energy, nu per cell).  With
+  !> the state penalty kx, mu is the largest eigenvalue of tr(WM) - int x' K x dt.
+  subroutine mlid_design_mu(h, t, ncell, nu, mu, u, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    real(c_double), intent(in) :: t
+    integer(c_int), intent(in) :: ncell, nu
     real(c_double), intent(out) :: mu, u(2*ncell*nu)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     type(design_t) :: d
+    logical :: penalised
     mu = 0.0_wp
     u = 0.0_wp
-    call design_with_penalty(f, g, h, r, gq, ukind, urow, ucol, w, kx, d, status, msg)
+    call given_design(h, d, status, msg, nu=nu, penalised=penalised)
     if (status == MLID_OK) call operator_mu(d, t, ncell, mu, u, status, msg)
-    if (status /= MLID_OK .and. mu <= 0.0_wp .and. any(kx /= 0.0_wp) .and. &
+    if (status /= MLID_OK .and. mu <= 0.0_wp .and. penalised .and. &
         index(msg, 'do not affect') > 0) then
       msg = 'the state penalty outweighs the information of every input: lower its weight'
     end if
@@ -48,20 +64,19 @@ contains
 
   !> The critical length T of mu (method 1 Riccati, 2 transition matrix),
   !> searched up to tmax; lam0(na), na = (m+1) nx: the costate lambda(0)
-  !> (transition method only); kx the state penalty as in mlid_design_mu.
-  subroutine mlid_design_length(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, kx, mu, tmax, &
-                                method, na, t, lam0, status, msg)
-    integer(c_int), intent(in) :: nx, nu, ny, m, method, na
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), &
-                                  kx(nx, nx), mu, tmax
-    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+  !> (transition method only); with the state penalty kx as mlid_design_mu.
+  subroutine mlid_design_length(h, mu, tmax, method, na, t, lam0, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    real(c_double), intent(in) :: mu, tmax
+    integer(c_int), intent(in) :: method, na
     real(c_double), intent(out) :: t, lam0(na)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     type(design_t) :: d
+    logical :: penalised
     t = 0.0_wp
     lam0 = 0.0_wp
-    call design_with_penalty(f, g, h, r, gq, ukind, urow, ucol, w, kx, d, status, msg)
+    call given_design(h, d, status, msg, penalised=penalised)
     if (status /= MLID_OK) return
     if (na /= d%na) then
       status = MLID_ERR_INPUT
@@ -79,19 +94,17 @@ contains
   end subroutine mlid_design_length
 
   !> The optimal input from the costate lam0 (transition method) on ncell
-  !> cells of [0, T], unit energy.
-  subroutine mlid_design_input(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, mu, t, na, &
-                               lam0, ncell, u, status, msg)
-    integer(c_int), intent(in) :: nx, nu, ny, m, na, ncell
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), mu, t
-    real(c_double), intent(in) :: lam0(na)
-    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+  !> cells of [0, T], unit energy (nu per cell).
+  subroutine mlid_design_input(h, mu, t, na, lam0, ncell, nu, u, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    real(c_double), intent(in) :: mu, t, lam0(na)
+    integer(c_int), intent(in) :: na, ncell, nu
     real(c_double), intent(out) :: u(ncell*nu)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     type(design_t) :: d
     u = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
+    call given_design(h, d, status, msg, nu=nu)
     if (status /= MLID_OK) return
     if (na /= d%na) then
       status = MLID_ERR_INPUT
@@ -103,64 +116,58 @@ contains
 
   !> The information matrix mm(m, m) (unweighted, eq. 7.12) of the input u
   !> held over ncell cells of [0, T] (nu per cell).
-  subroutine mlid_design_information(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, t, ncell, u, &
-                                     mm, status, msg)
-    integer(c_int), intent(in) :: nx, nu, ny, m, ncell
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), t, u(ncell*nu)
-    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+  subroutine mlid_design_information(h, t, ncell, nu, u, m, mm, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    real(c_double), intent(in) :: t, u(ncell*nu)
+    integer(c_int), intent(in) :: ncell, nu, m
     real(c_double), intent(out) :: mm(m, m)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     type(design_t) :: d
-    real(wp) :: ones(m)
     mm = 0.0_wp
-    ones = 1.0_wp
     if (.not. all(ieee_is_finite(u))) then
       status = MLID_ERR_INPUT
       msg = 'input is not finite'
       return
     end if
-    call design_create(f, g, h, r, ukind, urow, ucol, ones, d, status, msg, gq)
+    call given_design(h, d, status, msg, nu=nu, m=m, unweighted=.true.)
     if (status == MLID_OK) call input_information(d, t, ncell, u, mm, status, msg)
   end subroutine mlid_design_information
 
   !> The best square wave |u| = peak held over ncell cells of [0, T]
-  !> (mlid_design amplitude_limited_input); trwm its weighted trace.
-  subroutine mlid_design_amplitude(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, t, &
-                                   ncell, peak, u, trwm, status, msg)
-    integer(c_int), intent(in) :: nx, nu, ny, m, ncell
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), &
-                                  w(m), t, peak
-    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+  !> (mlid_design amplitude_limited_input, nu per cell); trwm its weighted trace.
+  subroutine mlid_design_amplitude(h, t, ncell, peak, nu, u, trwm, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    real(c_double), intent(in) :: t, peak
+    integer(c_int), intent(in) :: ncell, nu
     real(c_double), intent(out) :: u(ncell*nu), trwm
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     type(design_t) :: d
     u = 0.0_wp
     trwm = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
+    call given_design(h, d, status, msg, nu=nu)
     if (status == MLID_OK) call amplitude_limited_input(d, t, ncell, peak, u, trwm, status, msg)
   end subroutine mlid_design_amplitude
 
   !> mu_max for the length td by the secant iteration of eq. 7.89 on the
   !> Riccati critical length, started within RICCATI_BRACKET of mu0 (the operator's).
-  subroutine mlid_design_mu_for_length(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w, td, &
-                                       mu0, mu, status, msg)
-    integer(c_int), intent(in) :: nx, nu, ny, m
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), w(m), td, mu0
-    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
+  subroutine mlid_design_mu_for_length(h, td, mu0, mu, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    real(c_double), intent(in) :: td, mu0
     real(c_double), intent(out) :: mu
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     type(design_t) :: d
     mu = 0.0_wp
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
+    call given_design(h, d, status, msg)
     if (status == MLID_OK) call mu_for_length(d, td, (1.0_wp - RICCATI_BRACKET)*mu0, &
                                               (1.0_wp + RICCATI_BRACKET)*mu0, mu, status, msg)
   end subroutine mlid_design_mu_for_length
 
   !> The states x(nx, 0:ncell ns) of x' = F x + G u, x(0) = 0, under the input
-  !> u held over ncell cells of [0, T], at ns substeps per cell.
+  !> u held over ncell cells of [0, T], at ns substeps per cell.  F and G its
+  !> own: a response needs no design.
   subroutine mlid_design_response(nx, nu, f, g, t, ncell, ns, u, x, status, msg)
     integer(c_int), intent(in) :: nx, nu, ncell, ns
     real(c_double), intent(in) :: f(nx, nx), g(nx, nu), t, u(ncell*nu)
@@ -177,35 +184,155 @@ contains
     call input_response(f, g, t, ncell, ns, u, x, status, msg)
   end subroutine mlid_design_response
 
-  !> The weighted-trace design of report 7.8 (mlid_design equalised_input): from
-  !> weights w0, at most iterations updates of eq. 7.88 from step alpha; w
-  !> the weights kept, u the input on 2 ncell cells (energy e, nu per
-  !> cell), mu, mm its unweighted information, ratios(1:nratio) the
-  !> diag(WM) max/min of each design kept.
-  subroutine mlid_design_equalised(nx, nu, ny, f, g, h, r, gq, m, ukind, urow, ucol, w0, t, &
-                                   ncell, e, iterations, alpha, w, u, mu, mm, ratios, nratio, &
-                                   status, msg)
-    integer(c_int), intent(in) :: nx, nu, ny, m, ncell, iterations
-    real(c_double), intent(in) :: f(nx, nx), g(nx, nu), h(ny, nx), r(ny, ny), gq(nx, nx), &
-                                  w0(m), t, e, alpha
-    integer(c_int), intent(in) :: ukind(m), urow(m), ucol(m)
-    real(c_double), intent(out) :: w(m), u(2*ncell*nu), mu, mm(m, m), ratios(iterations + 1)
-    integer(c_int), intent(out) :: nratio, status
+  !> The weighted-trace design of report 7.8 (mlid_design equalised_input):
+  !> from the weights w, at most iterations updates of eq. 7.88 from step
+  !> alpha, the input on 2 ncell cells of [0, T] of energy e.  Results by
+  !> name (mlid_api_deck's mlid_values, 'call'): w the weights kept, u the
+  !> input (nu per cell), mu, mm its unweighted information (m x m), ratios
+  !> the diag(WM) max/min of each design kept.
+  subroutine mlid_design_equalised(h, t, ncell, e, iterations, alpha, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    real(c_double), intent(in) :: t, e, alpha
+    integer(c_int), intent(in) :: ncell, iterations
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    call equalised_input(f, g, h, r, gq, ukind, urow, ucol, w0, t, ncell, e, iterations, alpha, &
-                         w, u, mu, mm, ratios, nratio, status, msg)
+    type(session_t), pointer :: s
+    type(given_t) :: gv
+    real(wp), allocatable :: w(:), u(:), mm(:, :), ratios(:)
+    real(wp) :: mu
+    integer :: m, nu, nratio, stat
+
+    call given_problem(h, s, gv, status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    m = size(gv%ukind)
+    nu = size(gv%g, 2)
+    ! u and ratios are sized by the caller's ncell and iterations, as f2py
+    ! sized them before: sizes past the integer range or the memory refused
+    status = MLID_ERR_INPUT
+    if (ncell < 0 .or. iterations < 0 .or. 2_c_int64_t*ncell*nu > huge(1) .or. &
+        iterations == huge(1)) then
+      msg = 'cells and iterations must be >= 0 and within the integer range'
+      return
+    end if
+    allocate (w(m), u(2*ncell*nu), mm(m, m), ratios(iterations + 1), stat=stat)
+    if (stat /= 0) then
+      msg = 'not enough memory for the equalised design''s cells and iterations'
+      return
+    end if
+    call equalised_input(gv%f, gv%g, gv%h, gv%r, gv%gq, gv%ukind, gv%urow, gv%ucol, gv%w, t, &
+                         ncell, e, iterations, alpha, w, u, mu, mm, ratios, nratio, status, msg)
+    if (status /= MLID_OK) return
+    call s%results%put('w', w)
+    call s%results%put('u', u)
+    call s%results%put('mu', mu)
+    call s%results%put('mm', mm)
+    call s%results%put('ratios', ratios(1:nratio))
   end subroutine mlid_design_equalised
 
-  !> The design problem, with the state-limit penalty kx(nx,nx) of report
-  !> 7.6 when kx is not zero (a zero kx is no penalty: the plain design).
-  subroutine design_with_penalty(f, g, h, r, gq, ukind, urow, ucol, w, kx, d, status, msg)
-    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), r(:, :), gq(:, :), w(:), kx(:, :)
-    integer(c_int), intent(in) :: ukind(:), urow(:), ucol(:)
+  !> The design handle h holds, created with its weights (unit weights when
+  !> unweighted) and, when penalised is present, penalised by kx when kx is
+  !> given and not zero (penalised says so); nu and m checked when present.
+  subroutine given_design(h, d, status, msg, nu, m, unweighted, penalised)
+    integer(c_int64_t), intent(in) :: h
     type(design_t), intent(out) :: d
     integer(c_int), intent(out) :: status
-    character(len=*), intent(out) :: msg
-    call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
-    if (status == MLID_OK .and. any(kx /= 0.0_wp)) call design_state_penalty(d, kx, status, msg)
-  end subroutine design_with_penalty
+    character(len=256), intent(out) :: msg
+    integer(c_int), intent(in), optional :: nu, m
+    logical, intent(in), optional :: unweighted
+    logical, intent(out), optional :: penalised
+    type(session_t), pointer :: s
+    type(given_t) :: gv
+    logical :: pen
+
+    pen = .false.
+    call given_problem(h, s, gv, status, msg, nu, m)
+    if (status == MLID_OK) pen = present(penalised) .and. any(gv%kx /= 0.0_wp)
+    if (present(penalised)) penalised = pen
+    if (status /= MLID_OK) return
+    if (present(unweighted)) then
+      if (unweighted) gv%w = 1.0_wp
+    end if
+    call design_create(gv%f, gv%g, gv%h, gv%r, gv%ukind, gv%urow, gv%ucol, gv%w, d, status, msg, &
+                       gv%gq)
+    if (status == MLID_OK .and. pen) call design_state_penalty(d, gv%kx, status, msg)
+  end subroutine given_design
+
+  !> The design handle h holds (the module's comment) and its session s: F,
+  !> G and H from the problem's linear model, the rest by name (kx zero when
+  !> not given); nu and m checked when present.
+  subroutine given_problem(h, s, gv, status, msg, nu, m)
+    integer(c_int64_t), intent(in) :: h
+    type(session_t), pointer, intent(out) :: s
+    type(given_t), intent(out) :: gv
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    integer(c_int), intent(in), optional :: nu, m
+    type(layout_table_t) :: lt
+    integer :: nun
+
+    call handle_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    associate (p => s%problem, given => s%given)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS], status, msg)
+      if (status /= MLID_OK) return
+      if (p%mkind /= MODEL_LINEAR) then
+        status = MLID_ERR_INPUT
+        msg = 'input design needs a linear model (its F, G and H)'
+        return
+      end if
+      call layout_of(p%mkind, p%nx, p%nu, p%ny, p%nw, p%iconst, p%rconst, lt, status, msg)
+      if (status /= MLID_OK) return
+      if (size(p%theta) /= lt%nth) then
+        status = MLID_ERR_INPUT
+        write (msg, '(a,i0,a,i0)') 'the parameters have ', size(p%theta), &
+          ' values; the linear model has ', lt%nth
+        return
+      end if
+      if (present(nu)) then
+        if (nu /= p%nu) then
+          status = MLID_ERR_INPUT
+          write (msg, '(a,i0,a,i0,a)') 'nu is ', nu, '; the model has ', p%nu, ' inputs'
+          return
+        end if
+      end if
+      gv%f = block(lt, p%theta, 'f')
+      gv%g = block(lt, p%theta, 'g')
+      gv%h = block(lt, p%theta, 'h')
+      call given%get('r', gv%r, status, msg, [p%ny, p%ny])
+      call given%get('gq', gv%gq, status, msg, [p%nx, p%nx])
+      call given%get('ukind', gv%ukind, status, msg)
+      if (status /= MLID_OK) return
+      nun = size(gv%ukind)
+      call given%get('urow', gv%urow, status, msg, [nun])
+      call given%get('ucol', gv%ucol, status, msg, [nun])
+      call given%get('w', gv%w, status, msg, [nun])
+      if (status /= MLID_OK) return
+      if (present(m)) then
+        if (m /= nun) then
+          status = MLID_ERR_INPUT
+          write (msg, '(a,i0,a,i0,a)') 'm is ', m, '; the design has ', nun, ' unknowns'
+          return
+        end if
+      end if
+      if (given%find('kx') > 0) then
+        call given%get('kx', gv%kx, status, msg, [p%nx, p%nx])
+      else
+        allocate (gv%kx(p%nx, p%nx))
+        gv%kx = 0.0_wp
+      end if
+    end associate
+  end subroutine given_problem
+
+  !> Block key (a matrix) of the linear model's theta, laid out by lt.
+  function block(lt, theta, key) result(a)
+    type(layout_table_t), intent(in) :: lt
+    real(wp), intent(in) :: theta(:)
+    character(len=*), intent(in) :: key
+    real(wp), allocatable :: a(:, :)
+    integer :: b
+    b = findloc(lt%key, key, 1)
+    a = reshape(theta(lt%off(b) + 1:lt%off(b) + lt%rows(b)*lt%cols(b)), [lt%rows(b), lt%cols(b)])
+  end function block
 
 end module mlid_api_design

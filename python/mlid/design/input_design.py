@@ -13,9 +13,11 @@ import re
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle, put, results
 from ..checks import real_array, whole
 from ..errors import InputError, check_status, guarded, guarded_class
+from ..model.calls import _set_model_with_params
+from ..model.models import LinearModel
 
 _UNKNOWN = re.compile(r"^\s*([fgh])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*$", re.IGNORECASE)
 
@@ -105,6 +107,20 @@ class DesignedInput:
         return 2 * np.pi * np.fft.rfftfreq(n, dt), spec
 
 
+class _OfModel:
+    """F, G or H of a design: the block of its linear model (an array view:
+    changed in place or set anew, the model changes with it)."""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def __get__(self, design, owner=None):
+        return self if design is None else getattr(design._model, self.name)
+
+    def __set__(self, design, value):
+        setattr(design._model, self.name, value)
+
+
 @guarded_class
 class InputDesign:
     """The linear model x' = F x + G u (+ Gamma eta), z = H x + n
@@ -135,13 +151,14 @@ class InputDesign:
         F, G or H or are listed twice, weights not one per unknown.
     """
 
+    F, G, H = _OfModel(), _OfModel(), _OfModel()
+
     def __init__(self, F, G, H, R, unknowns, weights=None, process_noise=None):
-        self.F, self.G, self.H, self.R = (np.asfortranarray(np.atleast_2d(real_array(n, a)))
-                                          for n, a in (("F", F), ("G", G), ("H", H), ("R", R)))
-        nx, nu, ny = self.F.shape[0], self.G.shape[1], self.H.shape[0]
-        if self.F.shape != (nx, nx) or self.G.shape[0] != nx or self.H.shape[1] != nx \
-                or self.R.shape != (ny, ny):
-            raise InputError(f"F {self.F.shape}, G {self.G.shape}, H {self.H.shape} and R "
+        F, G, H, self.R = (np.asfortranarray(np.atleast_2d(real_array(n, a)))
+                           for n, a in (("F", F), ("G", G), ("H", H), ("R", R)))
+        nx, nu, ny = F.shape[0], G.shape[1], H.shape[0]
+        if F.shape != (nx, nx) or G.shape[0] != nx or H.shape[1] != nx or self.R.shape != (ny, ny):
+            raise InputError(f"F {F.shape}, G {G.shape}, H {H.shape} and R "
                              f"{self.R.shape} do not fit together")
         if isinstance(unknowns, str):
             raise InputError("unknowns must be a list of names such as ['f(1,1)', 'g(2,1)']")
@@ -152,7 +169,7 @@ class InputDesign:
             if not m:
                 raise InputError(f"unknown {name!r}: name an element of F, G or H as 'f(i,j)'")
             key, i, j = m.group(1).lower(), int(m.group(2)), int(m.group(3))
-            shape = {"f": self.F, "g": self.G, "h": self.H}[key].shape
+            shape = {"f": F, "g": G, "h": H}[key].shape
             if not (1 <= i <= shape[0] and 1 <= j <= shape[1]):
                 raise InputError(f"unknown {name!r} is not an element of {key.upper()} "
                                  f"({shape[0]}x{shape[1]})")
@@ -172,9 +189,17 @@ class InputDesign:
             np.asfortranarray(np.asarray(process_noise, dtype=float))
         if self.process_noise.shape != (nx, nx):
             raise InputError(f"process_noise must be {nx}x{nx} (Gamma Q Gamma')")
+        self._model = LinearModel(F, G, H)
 
-    def _args(self):
-        return dict(f=self.F, g=self.G, h=self.H, r=self.R, gq=self.process_noise, **self._unk)
+    def _call(self, **given):
+        """This thread's handle (its value) with the design in it, as
+        fortran/api/mlid_api_design.f90 takes it: the linear model and its
+        parameters, then R, the process noise, the unknowns, their weights and
+        the call's given values by name."""
+        h = call_handle()
+        _set_model_with_params(h, self._model)
+        put(h, r=self.R, gq=self.process_noise, w=self.weights, **self._unk, **given)
+        return h.value
 
     def with_weights(self, weights):
         """The same design problem with other weights.
@@ -214,7 +239,7 @@ class InputDesign:
     def _cells_input(self, u):
         """u as (cells, nu), one row per cell (a vector for one input)."""
         u = real_array("u", u)
-        nu = self.G.shape[1]
+        nu = self._model.nu
         u = u.reshape(-1, 1) if u.ndim == 1 and nu == 1 else u
         if u.ndim != 2 or u.shape[1] != nu:
             raise InputError(f"u has shape {u.shape}; expected (cells, {nu}), one row per cell")
@@ -257,15 +282,15 @@ class InputDesign:
             'riccati', the secant did not.
         """
         self._check_t(T)
-        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, kx=self._penalty(), t=float(T),
-                                                  ncell=self._cells(cells), **self._args())
+        cells = self._cells(cells)
+        mu, u, status, msg = _api.mlid_design_mu(self._call(), t=float(T), ncell=cells,
+                                                  nu=self._model.nu)
         check_status(status, msg)
         if method == "operator":
             return float(mu)
         if method != "riccati":
             raise InputError(f"method must be 'operator' or 'riccati', got {method!r}")
-        mu2, status, msg = _api.mlid_design_mu_for_length(w=self.weights, td=float(T), mu0=mu,
-                                                          **self._args())
+        mu2, status, msg = _api.mlid_design_mu_for_length(self._call(), td=float(T), mu0=mu)
         check_status(status, msg)
         return float(mu2)
 
@@ -305,10 +330,10 @@ class InputDesign:
         """
         if not mu > 0:
             raise InputError(f"mu must be > 0, got {mu}")
-        na = (len(self.unknowns) + 1) * self.F.shape[0]
-        T, lam0, status, msg = _api.mlid_design_length(
-            w=self.weights, kx=self._penalty(), mu=float(mu), tmax=float(tmax),
-            method=self._solver(method), na=na, **self._args())
+        na = (len(self.unknowns) + 1) * self._model.nx
+        tmax, solver = float(tmax), self._solver(method)
+        T, lam0, status, msg = _api.mlid_design_length(self._call(), mu=float(mu), tmax=tmax,
+                                                       method=solver, na=na)
         check_status(status, msg)
         return (float(T), lam0) if method == "transition" else float(T)
 
@@ -335,8 +360,9 @@ class InputDesign:
         """
         self._check_t(T)
         u = self._cells_input(u)
-        M, status, msg = _api.mlid_design_information(t=float(T), ncell=len(u), u=u.ravel(),
-                                                       **self._args())
+        M, status, msg = _api.mlid_design_information(self._call(), t=float(T), ncell=len(u),
+                                                       nu=u.shape[1], u=u.ravel(),
+                                                       m=len(self.unknowns))
         check_status(status, msg)
         return M
 
@@ -372,16 +398,14 @@ class InputDesign:
         """
         self._check_t(T)
         self._check_t(energy, "energy")
-        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, kx=self._penalty(), t=float(T),
-                                                  ncell=self._cells(cells), **self._args())
+        cells = self._cells(cells)
+        nu = self._model.nu
+        mu, u, status, msg = _api.mlid_design_mu(self._call(), t=float(T), ncell=cells, nu=nu)
         check_status(status, msg)
-        nu = self.G.shape[1]
         if method == "transition":
             Tc, lam0 = self.critical_length(mu, "transition", tmax=10 * T)
-            na = (len(self.unknowns) + 1) * self.F.shape[0]
-            u, status, msg = _api.mlid_design_input(w=self.weights, mu=mu, t=float(T), na=na,
-                                                    lam0=lam0, ncell=self._cells(cells),
-                                                    **self._args())
+            u, status, msg = _api.mlid_design_input(self._call(), mu=mu, t=float(T), lam0=lam0,
+                                                    ncell=cells, nu=nu)
             check_status(status, msg)
         elif method != "operator":
             raise InputError(f"method must be 'operator' or 'transition', got {method!r}")
@@ -423,10 +447,9 @@ class InputDesign:
         cells = int(np.floor(T / min_width + 1e-9))
         if cells < 1:
             raise InputError(f"min_width {min_width} is longer than T = {T}")
-        nu = self.G.shape[1]
-        u, trwm, status, msg = _api.mlid_design_amplitude(w=self.weights, t=float(T),
-                                                          ncell=cells, peak=float(peak),
-                                                          **self._args())
+        nu = self._model.nu
+        u, trwm, status, msg = _api.mlid_design_amplitude(self._call(), t=float(T), ncell=cells,
+                                                          peak=float(peak), nu=nu)
         check_status(status, msg)
         u = u.reshape(-1, nu)
         edges = np.linspace(0.0, T, cells + 1)
@@ -465,19 +488,20 @@ class InputDesign:
         iterations = whole("iterations", iterations, 0, 10**4)
         if not (np.isfinite(alpha) and alpha > 0):
             raise InputError(f"alpha must be > 0, got {alpha}")
-        w, u, mu, M, ratios, n, status, msg = _api.mlid_design_equalised(
-            w0=self.weights, t=float(T), ncell=self._cells(cells), e=float(energy),
-            iterations=iterations, alpha=float(alpha), **self._args())
-        check_status(status, msg)
-        u = u.reshape(-1, self.G.shape[1])
-        best = DesignedInput(np.linspace(0.0, T, len(u) + 1), u, M, mu=float(mu),
-                             energy=energy, weights=w.copy())
-        return best, [float(r) for r in ratios[:n]]
+        cells = self._cells(cells)
+        check_status(*_api.mlid_design_equalised(self._call(), t=float(T), ncell=cells,
+                                                 e=float(energy), iterations=iterations,
+                                                 alpha=float(alpha)))
+        r = results(call_handle())
+        u = r["u"].reshape(-1, self._model.nu)
+        best = DesignedInput(np.linspace(0.0, T, len(u) + 1), u, r["mm"], mu=r["mu"],
+                             energy=energy, weights=r["w"].copy())
+        return best, [float(x) for x in r["ratios"]]
 
     # -- the state-limit penalty of §7.6 ----------------------------------
     def _penalty(self, penalty=None):
         """The state penalty K of §7.6 for the core (zero: none)."""
-        nx = self.F.shape[0]
+        nx = self._model.nx
         if penalty is None:
             return np.zeros((nx, nx), order="F")
         K = real_array("penalty", penalty)
@@ -517,11 +541,11 @@ class InputDesign:
         self._check_t(T)
         self._check_t(energy, "energy")
         K = self._penalty(penalty)
-        mu, u, status, msg = _api.mlid_design_mu(w=self.weights, kx=K, t=float(T),
-                                                          ncell=self._cells(cells),
-                                                          **self._args())
+        cells = self._cells(cells)
+        mu, u, status, msg = _api.mlid_design_mu(self._call(kx=K), t=float(T), ncell=cells,
+                                                  nu=self._model.nu)
         check_status(status, msg)
-        u = u.reshape(-1, self.G.shape[1]) * np.sqrt(energy)
+        u = u.reshape(-1, self._model.nu) * np.sqrt(energy)
         edges = np.linspace(0.0, T, len(u) + 1)
         inp = DesignedInput(edges, u, self.information(T, u), mu=float(mu), energy=energy,
                             weights=self.weights.copy())
@@ -551,10 +575,11 @@ class InputDesign:
         """
         if not mu > 0:
             raise InputError(f"mu must be > 0, got {mu}")
-        na = (len(self.unknowns) + 1) * self.F.shape[0]
-        T, lam0, status, msg = _api.mlid_design_length(
-            w=self.weights, kx=self._penalty(penalty), mu=float(mu), tmax=float(tmax),
-            method=self._solver(method), na=na, **self._args())
+        na = (len(self.unknowns) + 1) * self._model.nx
+        K = self._penalty(penalty)
+        tmax, solver = float(tmax), self._solver(method)
+        T, lam0, status, msg = _api.mlid_design_length(self._call(kx=K), mu=float(mu), tmax=tmax,
+                                                       method=solver, na=na)
         check_status(status, msg)
         return (float(T), lam0) if method == "transition" else float(T)
 

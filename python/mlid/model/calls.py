@@ -96,6 +96,15 @@ def _set_simulation(h, model, tu, iopt, ropt, free=True):
     _check(api.mlid_set_options(h.value, iopt, ropt))
 
 
+def _set_model_with_params(h, model):
+    """The model part of a call's problem into handle h, with the model's
+    parameters as it holds them (their free mask and ties too): for a call
+    on the model alone, with no record or options (input design)."""
+    _set_model(h, model)
+    _check(api.mlid_set_params(h.value, theta0=model.theta, isfree=model.free_mask,
+                               **model.tie_args()))
+
+
 def _record(model, data):
     if data.u.shape[1] != model.nu:
         raise InputError(f"data has {data.u.shape[1]} input columns, the model has {model.nu} inputs")
