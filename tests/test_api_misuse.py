@@ -131,7 +131,11 @@ MISUSE = {
     "design unknowns string": (lambda d: mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[1.0]],
                                                           "g(1,1)"), "list of names"),
     "design unknown outside": (lambda d: mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[1.0]],
-                                                          ["f(3,1)"]), r"unknown 'f\(3,1\)' is not an element of F \(1x1\)"),
+                                                          ["f(3,1)"]), r"unknown 'f\(3,1\)' is no element of F, G or H within "
+                                                                       r"the dimensions"),
+    "design unknown in no design block": (
+        lambda d: mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[1.0]], ["x0(1)"]),
+        r"unknown 'x0\(1\)' is no element of F, G or H \(the design's unknowns are\)"),
     "design unknown twice": (lambda d: mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[1.0]],
                                                         ["g(1,1)", "G(1,1)"]), "twice"),
     "design weights count": (lambda d: mlid.InputDesign([[-1.0]], [[1.0]], [[1.0]], [[1.0]],

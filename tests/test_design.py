@@ -110,8 +110,9 @@ def test_information_of_any_input_matches_a_second_computation():
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    ({"unknowns": ["f(3,1)"]}, "not an element"),
-    ({"unknowns": ["q(1)"]}, "name an element"),
+    ({"unknowns": ["f(3,1)"]}, "no element of F, G or H within the dimensions"),
+    ({"unknowns": ["q(1)"]}, "'q\\(1\\)' is no element of F, G or H"),
+    ({"unknowns": ["x0(1)"]}, r"no element of F, G or H \(the design's unknowns are\)"),
     ({"weights": [1.0, -1.0, 1, 1, 1]}, "weights"),
 ])
 def test_bad_design_input(kwargs, match):

@@ -6,9 +6,9 @@
 !> the linear model x' = F x + G u, z = H x: its model part (a linear kind)
 !> and its parameters, F(nx,nx), G(nx,nu) and H(ny,nx) among them.  Given by
 !> name (mlid_api_values): r(ny,ny) the noise spectral density R, gq(nx,nx)
-!> the process noise Gamma Q Gamma' (zero: none), the m unknowns by block
-!> ukind(m) (1 F, 2 G, 3 H), row urow(m) and column ucol(m), their weights
-!> w(m), and for mlid_design_mu and mlid_design_length the state-limit
+!> the process noise Gamma Q Gamma' (zero: none), the m unknowns by element
+!> name, one a line (mlid_design_unknowns: elements of F, G or H), their
+!> weights w(m), and for mlid_design_mu and mlid_design_length the state-limit
 !> penalty kx(nx,nx) of report 7.6 (symmetric >= 0; not given: none).  A
 !> call's own values are its arguments; nu and m, where given, size its
 !> outputs and must be the model's inputs and the unknowns.
@@ -22,6 +22,8 @@ module mlid_api_design
   use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS
   use mlid_model_factory, only: MODEL_LINEAR
   use mlid_layout, only: layout_table_t, layout_of
+  use mlid_design_unknowns, only: unknown_entries, unknown_blocks
+  use mlid_text, only: name_lines
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, transition_length, &
                          costate_input, input_information, mu_for_length, &
                          amplitude_limited_input, equalised_input
@@ -30,7 +32,7 @@ module mlid_api_design
   private
   public :: mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_amplitude, mlid_design_mu_for_length, mlid_design_response, &
-            mlid_design_equalised
+            mlid_design_equalised, mlid_design_check
 
   !> The design a handle holds (the module's comment); kx zero when not given.
   type :: given_t
@@ -258,6 +260,18 @@ contains
     if (status == MLID_OK .and. pen) call design_state_penalty(d, gv%kx, status, msg)
   end subroutine given_design
 
+  !> The design in handle h checked as every call above checks it (its
+  !> model, unknowns, weights, noise), for a front end to refuse a bad one
+  !> when it is made.
+  subroutine mlid_design_check(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    type(given_t) :: gv
+    call given_problem(h, s, gv, status, msg)
+  end subroutine mlid_design_check
+
   !> The design handle h holds (the module's comment) and its session s: F,
   !> G and H from the problem's linear model, the rest by name (kx zero when
   !> not given); nu and m checked when present.
@@ -269,6 +283,9 @@ contains
     character(len=256), intent(out) :: msg
     integer(c_int), intent(in), optional :: nu, m
     type(layout_table_t) :: lt
+    character(len=:), allocatable :: unknowns
+    character(len=64), allocatable :: names(:)
+    integer, allocatable :: idx(:)
     integer :: nun
 
     call handle_session(h, s, status, msg)
@@ -301,11 +318,14 @@ contains
       gv%h = block(lt, p%theta, 'h')
       call given%get('r', gv%r, status, msg, [p%ny, p%ny])
       call given%get('gq', gv%gq, status, msg, [p%nx, p%nx])
-      call given%get('ukind', gv%ukind, status, msg)
+      call given%get('unknowns', unknowns, status, msg)
+      if (status /= MLID_OK) return
+      call name_lines(unknowns, names)
+      call unknown_entries(lt, names, idx, status, msg)
+      if (status /= MLID_OK) return
+      call unknown_blocks(lt, idx, gv%ukind, gv%urow, gv%ucol, status, msg)
       if (status /= MLID_OK) return
       nun = size(gv%ukind)
-      call given%get('urow', gv%urow, status, msg, [nun])
-      call given%get('ucol', gv%ucol, status, msg, [nun])
       call given%get('w', gv%w, status, msg, [nun])
       if (status /= MLID_OK) return
       if (present(m)) then

@@ -7,7 +7,8 @@ submodule (mlid_deck) mlid_deck_jobs
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_case, only: MAX_SAMPLES
   use mlid_model_factory, only: MODEL_LINEAR
-  use mlid_layout, only: layout_table_t, layout_of, element_index, element_name, locate
+  use mlid_layout, only: layout_table_t, layout_of, element_name
+  use mlid_design_unknowns, only: unknown_entries, unknown_blocks
   implicit none
 
   !> The methods of &design.
@@ -211,26 +212,16 @@ contains
     character(len=*), intent(in) :: unknowns(:)
     type(layout_table_t) :: lt
     integer, allocatable :: idx(:)
-    integer :: k, b, i, j, ios
+    integer :: k, ios
     character(len=msg_len) :: iomsg
 
     call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
     if (any(len_trim(unknowns) > 0)) then
-      allocate (idx(0))
-      do k = 1, size(unknowns)
-        if (len_trim(unknowns(k)) == 0) cycle
-        i = element_index(lt, unknowns(k))
-        if (i == 0) then
-          call fail(c, 'group &design: unknown '''//trim(unknowns(k))//''' is no element '// &
-                    'of F, G or H within the dimensions')
-          return
-        end if
-        if (any(idx == i)) then
-          call fail(c, 'group &design: unknown '''//trim(unknowns(k))//''' listed twice')
-          return
-        end if
-        idx = [idx, i]
-      end do
+      call unknown_entries(lt, unknowns, idx, ios, iomsg)
+      if (ios /= MLID_OK) then
+        call fail(c, 'group &design: '//trim(iomsg))
+        return
+      end if
     else
       idx = pack([(k, k=1, size(c%theta))], c%isfree == 1)
     end if
@@ -239,19 +230,15 @@ contains
                 'in &model')
       return
     end if
-    allocate (c%ukind(size(idx)), c%urow(size(idx)), c%ucol(size(idx)), c%unknowns(size(idx)))
+    call unknown_blocks(lt, idx, c%ukind, c%urow, c%ucol, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &design: '//trim(iomsg))
+      return
+    end if
+    allocate (c%unknowns(size(idx)))
     do k = 1, size(idx)
-      call locate(lt, idx(k), b, i, j)
-      c%ukind(k) = findloc([character(len=8) :: 'f', 'g', 'h'], lt%key(b), 1)
-      c%urow(k) = i
-      c%ucol(k) = j
       c%unknowns(k) = element_name(lt, idx(k))
       if (c%isfree(idx(k)) == 1) c%unknowns(k) = c%labels(count(c%isfree(1:idx(k)) == 1))
-      if (c%ukind(k) == 0) then
-        call fail(c, 'group &design: unknown '''//trim(element_name(lt, idx(k)))//''' is '// &
-                  'no element of F, G or H (the design''s unknowns are)')
-        return
-      end if
     end do
   end subroutine design_unknowns
 

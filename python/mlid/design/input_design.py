@@ -9,7 +9,6 @@ over fortran/design/mlid_design.f90.
 R is the spectral density of the continuous measurement noise (eq. 7.11).
 """
 
-import re
 
 import numpy as np
 
@@ -19,7 +18,6 @@ from ..errors import InputError, check_status, guarded, guarded_class
 from ..model.calls import _set_model_with_params
 from ..model.models import LinearModel
 
-_UNKNOWN = re.compile(r"^\s*([fgh])\s*\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*$", re.IGNORECASE)
 
 
 @guarded
@@ -163,24 +161,8 @@ class InputDesign:
         if isinstance(unknowns, str):
             raise InputError("unknowns must be a list of names such as ['f(1,1)', 'g(2,1)']")
         self.unknowns = list(unknowns)
-        kinds, rows, cols = [], [], []
-        for name in self.unknowns:
-            m = _UNKNOWN.match(str(name))
-            if not m:
-                raise InputError(f"unknown {name!r}: name an element of F, G or H as 'f(i,j)'")
-            key, i, j = m.group(1).lower(), int(m.group(2)), int(m.group(3))
-            shape = {"f": F, "g": G, "h": H}[key].shape
-            if not (1 <= i <= shape[0] and 1 <= j <= shape[1]):
-                raise InputError(f"unknown {name!r} is not an element of {key.upper()} "
-                                 f"({shape[0]}x{shape[1]})")
-            if (key, i, j) in zip(kinds, rows, cols):
-                raise InputError(f"unknown {name!r} is listed twice")
-            kinds.append(key)
-            rows.append(i)
-            cols.append(j)
-        kinds = ["fgh".index(k) + 1 for k in kinds]
-        self._unk = {"ukind": np.array(kinds, np.int32), "urow": np.array(rows, np.int32),
-                     "ucol": np.array(cols, np.int32)}
+        # the elements by name, read and checked by the core (mlid_design_unknowns)
+        self._unk = {"unknowns": "".join(f"{name}\n" for name in self.unknowns)}
         self.weights = np.ones(len(self.unknowns)) if weights is None else \
             np.asarray(weights, dtype=float)
         if self.weights.shape != (len(self.unknowns),):
@@ -190,6 +172,7 @@ class InputDesign:
         if self.process_noise.shape != (nx, nx):
             raise InputError(f"process_noise must be {nx}x{nx} (Gamma Q Gamma')")
         self._model = LinearModel(F, G, H)
+        check_status(*_api.mlid_design_check(self._call()))
 
     def _call(self, **given):
         """This thread's handle (its value) with the design in it, as
