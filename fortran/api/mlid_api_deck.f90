@@ -19,7 +19,7 @@ module mlid_api_deck
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_deck, only: deck_read
-  use mlid_handles, only: session_t, handle_new, handle_session, handle_free
+  use mlid_handles, only: session_t, handle_new, handle_session, call_session, handle_free
   use mlid_case, only: case_t, case_values, NAMELEN, CONDITION_NAMES
   use mlid_text, only: join_lines, split_lines, joined
   use mlid_sampling, only: record_check_segments
@@ -355,9 +355,8 @@ contains
     u = 0.0_wp
     y = 0.0_wp
     line = 0
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     status = MLID_ERR_INPUT
     msg = 'not the sizes of the channels taken last'
     if (.not. allocated(s%taken%t)) return

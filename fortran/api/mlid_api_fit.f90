@@ -15,14 +15,14 @@ module mlid_api_fit
   use mlid_colored, only: colored_covariance, colored_sandwich
   use mlid_simulate, only: simulate_flat
   use mlid_monte_carlo, only: monte_carlo, mc_statistics
-  use mlid_setup, only: setup
+  use mlid_setup, only: setup, problem_setup
   use mlid_case, only: NAMELEN
   use mlid_text, only: split_lines
   use mlid_units, only: UNITLEN
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
                          validation_json
   use mlid_validate, only: prediction_stats
-  use mlid_handles, only: session_t, handle_session
+  use mlid_handles, only: session_t, handle_session, call_session
   use mlid_named, only: named_t, value_t, VALUE_REAL
   use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS, &
                           PART_EXTRAS
@@ -53,9 +53,8 @@ contains
     real(wp), allocatable :: ropt(:), rnoise(:)
     integer :: fit_status, converged, nf
 
-    call handle_session(h, ses, status, msg)
+    call call_session(h, ses, status, msg)
     if (status /= MLID_OK) return
-    ses%results = named_t()
     associate (g => ses%given)
       call g%get('est', s%est, status, msg)
       nf = size(s%est)
@@ -163,9 +162,8 @@ contains
     type(options_t) :: opt
     integer :: bad
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     associate (p => s%problem)
       call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS, PART_EXTRAS], &
                          status, msg)
@@ -199,16 +197,12 @@ contains
     real(wp) :: cost
     integer :: nf, ny, nt
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     associate (p => s%problem)
-      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+      call problem_setup(p, m, opt, pm, status, msg)
       if (status /= MLID_OK) return
-      nf = count(p%isfree == 1)
-      call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
-                 p%t, p%u, p%y, p%iopt, p%ropt, nf, m, opt, pm, status, msg, p%segstart)
-      if (status /= MLID_OK) return
+      nf = pm%nf
       if (frequency_method(opt)) then
         status = MLID_ERR_INPUT
         msg = 'evaluate works on the time-domain record: the frequency-domain methods have '// &
@@ -257,9 +251,8 @@ contains
     integer, allocatable :: segstart(:)
     integer :: nf, lag_in, lag
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     associate (g => s%given)
       call get_real3(g, 'a', a, status, msg)
       nf = size(a, 3)
@@ -341,9 +334,8 @@ contains
     real(wp), pointer :: info(:, :, :)
     integer :: seed0, nrun, nf
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     associate (p => s%problem, g => s%given)
       call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
       if (status /= MLID_OK) return
@@ -391,9 +383,8 @@ contains
     real(wp) :: stats(4)
     integer :: nok
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     associate (g => s%given)
       call g%get('est', est, status, msg)
       call g%get('sig', sig, status, msg, shape(est))

@@ -16,7 +16,7 @@ module mlid_api_frequency
   use mlid_options, only: options_t, options_from_flat, options_to_flat, frequency_method, NOPT, &
                           METHOD_FREQ_EE
   use mlid_params, only: param_map_t, apply_ties
-  use mlid_setup, only: setup
+  use mlid_setup, only: problem_setup
   use mlid_sampling, only: record_common_step
   use mlid_fourier, only: fourier_transform
   use mlid_frequency, only: freq_record, freq_likelihood, freq_grid
@@ -25,9 +25,9 @@ module mlid_api_frequency
                                 response_bands, unwrap_deg, DB, DEG
   use mlid_transfer_fit, only: tf_size, tf_start, tf_fit, tf_residuals, tf_log_response, &
                                coherence_weight
-  use mlid_handles, only: session_t, handle_session
+  use mlid_handles, only: session_t, handle_session, call_session
   use mlid_named, only: named_t
-  use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS
+  use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD
   implicit none
   private
   public :: mlid_fourier_transform, mlid_uniform_step, mlid_recursive_fdee, mlid_freq_evaluate, &
@@ -122,9 +122,8 @@ contains
     real(wp) :: f_min, f_max
     integer :: n_freq, window, stride, nx, nu, nt, np, nwin
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     call problem_needs(s%problem, [PART_RECORD], status, msg)
     if (status /= MLID_OK) return
     associate (p => s%problem, g => s%given)
@@ -187,16 +186,12 @@ contains
     real(wp) :: cost
     integer :: nf, nseg, nterms
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     associate (p => s%problem)
-      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+      call problem_setup(p, m, opt, pm, status, msg)
       if (status /= MLID_OK) return
-      nf = count(p%isfree == 1)
-      call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
-                 p%t, p%u, p%y, p%iopt, p%ropt, nf, m, opt, pm, status, msg, p%segstart)
-      if (status /= MLID_OK) return
+      nf = pm%nf
       if (.not. frequency_method(opt)) then
         status = MLID_ERR_INPUT
         msg = 'frequency residuals are for method = ''frequency_output_error'' or '// &
@@ -245,9 +240,8 @@ contains
     real(wp) :: dt
     integer :: lseg, nover, nd, nfreq
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     associate (g => s%given)
       call g%get('u', u, status, msg)
       call g%get('y', y, status, msg, [size(u)])
@@ -299,9 +293,8 @@ contains
     complex(wp), allocatable :: t(:, :, :), dt(:, :, :, :)
     integer :: i, j, nq
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     associate (p => s%problem, g => s%given)
       call problem_needs(p, [PART_MODEL, PART_PARAMS], status, msg)
       if (status /= MLID_OK) return
@@ -403,9 +396,8 @@ contains
     real(wp) :: tau0, cost
     integer :: m, n, delay, use_start, max_iter, niter
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     associate (g => s%given)
       call tf_given(g, w, m, n, delay, status, msg)
       call tf_measured(g, size(w), gain, phase, wt, status, msg)
@@ -469,9 +461,8 @@ contains
     real(wp), allocatable :: w(:), gain(:), phase(:), wt(:), x(:), r(:), jr(:, :)
     integer :: m, n, delay
 
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     associate (g => s%given)
       call tf_given(g, w, m, n, delay, status, msg)
       call tf_measured(g, size(w), gain, phase, wt, status, msg)

@@ -26,7 +26,7 @@ module mlid_api_models
   use mlid_jacobian_check, only: check_jacobians
   use mlid_named, only: named_t, VALUE_KIND_NAMES
   use mlid_run, only: corrected_record
-  use mlid_handles, only: session_t, handle_session
+  use mlid_handles, only: session_t, handle_session, call_session
   use mlid_problem, only: problem_needs, PART_MODEL, PART_RECORD
   implicit none
   private
@@ -207,9 +207,8 @@ contains
     type(session_t), pointer :: s
     real(wp), allocatable :: p(:), bias(:), delay(:), udelay(:), uc(:, :), yc(:, :)
     character(len=:), allocatable :: names, units, path
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     call problem_needs(s%problem, [PART_MODEL, PART_RECORD], status, msg)
     if (status /= MLID_OK) return
     associate (pb => s%problem, g => s%given)
@@ -274,9 +273,8 @@ contains
     character(len=:), allocatable :: cd, cl, cm
     character(len=64), allocatable :: dnames(:), lnames(:), mnames(:)
     integer, allocatable :: iconst(:)
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     call s%given%get('cd', cd, status, msg)
     call s%given%get('cl', cl, status, msg)
     call s%given%get('cm', cm, status, msg)
@@ -475,9 +473,8 @@ contains
     type(layout_table_t), intent(out) :: lt
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    call handle_session(h, s, status, msg)
+    call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
-    s%results = named_t()
     call problem_needs(s%problem, [PART_MODEL], status, msg)
     if (status /= MLID_OK) return
     associate (pb => s%problem)

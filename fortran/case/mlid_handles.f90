@@ -19,7 +19,7 @@ module mlid_handles
   use mlid_problem, only: problem_t
   implicit none
   private
-  public :: session_t, handle_new, handle_session, handle_free
+  public :: session_t, handle_new, handle_session, call_session, handle_free
 
   !> Marks a live session: a handle that does not point at one is refused.
   integer(c_int64_t), parameter :: LIVE = int(z'6d6c6964', c_int64_t)
@@ -80,6 +80,18 @@ contains
     status = MLID_OK
     msg = ''
   end subroutine handle_session
+
+  !> The session of h for a new call of the flat interface: what the last
+  !> call gave is forgotten, so that a call that stops early leaves nothing
+  !> of another's to read.
+  subroutine call_session(h, s, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    type(session_t), pointer, intent(out) :: s
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    call handle_session(h, s, status, msg)
+    if (status == MLID_OK) s%results = named_t()
+  end subroutine call_session
 
   !> Free the session of h (nothing for 0); h is 0 after.
   subroutine handle_free(h)

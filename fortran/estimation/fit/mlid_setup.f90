@@ -11,9 +11,11 @@ module mlid_setup
   use mlid_params, only: param_map_t, param_map_create, tie_t
   use mlid_sampling, only: record_check_segments
   use mlid_aero_long, only: aero_long_t, check_longitudinal_record
+  use mlid_problem, only: problem_t, problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD, &
+                          PART_OPTIONS
   implicit none
   private
-  public :: setup
+  public :: setup, problem_setup
 
 contains
 
@@ -131,5 +133,21 @@ contains
       if (any(y /= 0.0_wp)) call check_longitudinal_record(u, y, status, msg)
     end select
   end subroutine setup
+
+  !> setup of a call's problem p (mlid_problem), which must have its model,
+  !> parameters, record (each manoeuvre's first sample) and options.
+  subroutine problem_setup(p, m, opt, pm, status, msg)
+    type(problem_t), intent(in) :: p
+    class(model_t), allocatable, intent(out) :: m
+    type(options_t), intent(out) :: opt
+    type(param_map_t), intent(out) :: pm
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
+    if (status /= MLID_OK) return
+    call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
+               p%t, p%u, p%y, p%iopt, p%ropt, count(p%isfree == 1), m, opt, pm, status, msg, &
+               p%segstart)
+  end subroutine problem_setup
 
 end module mlid_setup
