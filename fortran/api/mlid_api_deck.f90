@@ -25,7 +25,8 @@ module mlid_api_deck
   use mlid_sampling, only: record_check_segments
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, channels_table
   use mlid_units, only: UNITLEN
-  use mlid_run, only: run_case
+  use mlid_run, only: run_case, around_t, case_run_t
+  use mlid_gil, only: gil_release, gil_restore
   use mlid_named, only: named_t, VALUE_REAL, VALUE_INT, VALUE_TEXT
   implicit none
   private
@@ -412,7 +413,8 @@ contains
 
   !> Run case k of handle h's deck, whatever its job (mlid_run's run_case,
   !> as mlid-batch runs it, on a copy of the case: it can run again): its
-  !> files written; kept in h for mlid_values (which = 'run'), whole: its
+  !> files written (its fit with the GIL released: run_case's hooks); kept
+  !> in h for mlid_values (which = 'run'), whole: its
   !> report lines ('report'), JSON object ('json'), notes one a line
   !> ('notes'), and a fit's numbers.  status, msg: the case's.
   subroutine mlid_deck_case_run(h, k, status, msg)
@@ -423,6 +425,7 @@ contains
     type(session_t), pointer :: s
     type(case_t), pointer :: c
     type(case_t) :: work
+    type(case_run_t) :: run
     character(len=:), allocatable :: text
     integer :: j
     c => case_at(h, k)
@@ -430,7 +433,10 @@ contains
     if (status /= MLID_OK) return
     call handle_session(h, s, status, msg)
     work = c
-    call run_case(work, s%runs(k))
+    ! into a run of its own, kept when it ends: another thread may run case k
+    ! of this handle while this one's fit runs without the GIL
+    call run_case(work, run, around_t(gil_release, gil_restore))
+    s%runs(k) = run
     associate (r => s%runs(k))
       status = r%status
       msg = r%msg

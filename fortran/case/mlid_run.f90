@@ -31,7 +31,18 @@ module mlid_run
                          validation_json
   implicit none
   private
-  public :: case_run_t, run_case, corrected_record, put_fit
+  public :: case_run_t, run_case, corrected_record, put_fit, around_t, hook_t
+
+  !> Called before and after the fit of a case, which builds no text: a
+  !> front end lets its other threads run meanwhile (Python: the GIL
+  !> released, python/mlid/_gil.c); the batch program gives none.
+  abstract interface
+    subroutine hook_t() bind(c)
+    end subroutine hook_t
+  end interface
+  type :: around_t
+    procedure(hook_t), pointer, nopass :: begin => null(), end => null()
+  end type around_t
 
   !> What running a case gave.
   type :: case_run_t
@@ -43,6 +54,7 @@ module mlid_run
     !> a fit's numbers by name (put_fit), for a front end to read: what
     !> mlid_fit_driver's fit_view_t holds, and a validation's statistics
     type(named_t) :: results
+    type(around_t) :: around                  !< run_case's hooks around a fit
   end type case_run_t
 
   character, parameter :: NL = achar(10)
@@ -51,14 +63,16 @@ contains
 
   !> Run case c.  A failed case has its message as the last note, and a
   !> ' FAILED:' line ends its report unless a failed fit's report says it.
-  subroutine run_case(c, r)
+  subroutine run_case(c, r, around)
     type(case_t), intent(inout) :: c
     type(case_run_t), intent(out) :: r
+    type(around_t), intent(in), optional :: around
     character(len=:), allocatable :: json, report, text
     integer :: outcome
 
     r%report = ''
     allocate (r%notes(0))
+    if (present(around)) r%around = around
     r%status = c%status
     r%msg = c%msg
     outcome = FIT_NOT_RUN
@@ -225,10 +239,12 @@ contains
     nth = size(c%theta)
     nf = count(c%isfree == 1)
     call system_clock(clock0, rate)
+    if (associated(r%around%begin)) call r%around%begin()
     call fit_solve(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, c%isfree, c%tie, c%iconst, c%rconst, &
                    t, u, y, segstart, c%iopt, c%ropt, nf, c%use_prior, or_zero(c%prior, nth), &
                    weight_or_zero(c%pweight, nf), c%use_bounds, or_zero(c%lower, nth), &
                    or_zero(c%upper, nth), res, pm, opt, bad, r%status, r%msg)
+    if (associated(r%around%end)) call r%around%end()
     call system_clock(clock1)
     v = fit_view(res, pm, opt, c%theta, c%ny, size(t), bad)
     call summary(c, v, s)

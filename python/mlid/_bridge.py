@@ -106,29 +106,61 @@ VALUE_REAL, VALUE_INT, VALUE_TEXT = (
 
 def values(handle, k, which):
     """Case k of a handle by name (which 'case': the case as read; 'run':
-    what its last run kept): {name: value}, numbers as floats and ints (or
-    arrays of them in their shape), texts as the core's bytes."""
+    what its last run kept; 'call': what the last call gave): {name:
+    value}, numbers as floats and ints (or arrays of them in their shape),
+    texts as the core's bytes."""
     h = handle.value
     m, n, nt = api.mlid_values_sizes(h, k, which)
     kinds, shapes, numbers, codes = api.mlid_values(h, k, which, m, n, nt)
-    *names, texts = codes.astype(np.uint8).tobytes().split(b"\n", m)
-    out, at, tat = {}, 0, 0
+    raw = codes.astype(np.uint8).tobytes()
+    split = len(raw) - int(shapes[1][kinds == VALUE_TEXT].sum())    # names, then texts
+    names, scalars, arrays, texts = _layout(kinds.tobytes() + shapes.tobytes() + raw[:split],
+                                            kinds, shapes, raw, m)
+    out = dict(zip(names[0], numbers[scalars].tolist())) if scalars else {}
+    for name, is_int in names[1]:
+        out[name] = int(out[name]) if is_int else out[name]
+    for name, start, stop, shape, is_int in arrays:
+        value = numbers[start:stop]
+        if shape is not None:
+            value = value.reshape(shape, order="F")
+        out[name] = value.astype(np.int32) if is_int else value
+    for name, start, stop in texts:
+        out[name] = raw[split + start:split + stop]
+    return out
+
+
+#: Layouts of packed values by their kinds, shapes and names (a call gives
+#: the same each time it is made on the same sizes); cleared when full.
+_LAYOUTS = {}
+
+
+def _layout(key, kinds, shapes, raw, m):
+    """Where each value of a packed set is: (scalar names and which are
+    integers), the scalars' places, (name, start, stop, shape or None,
+    integer) of each array, (name, start, stop) of each text."""
+    got = _LAYOUTS.get(key)
+    if got is not None:
+        return got
+    names = raw.split(b"\n", m)[:m]
+    scalar_names, ints, scalars, arrays, texts = [], [], [], [], []
+    at = tat = 0
     for name, kind, rank, d1, d2, d3 in zip(names, kinds.tolist(), *shapes.tolist()):
+        name = name.decode()
         if kind == VALUE_TEXT:
-            value = texts[tat:tat + d1]
+            texts.append((name, tat, tat + d1))
             tat += d1
         elif rank == 0:
-            value = numbers[at].item()
+            scalar_names.append(name)
             if kind == VALUE_INT:
-                value = int(value)
+                ints.append((name, True))
+            scalars.append(at)
             at += 1
         else:
             size = d1 * d2 * d3
-            value = numbers[at:at + size]
-            if rank > 1:
-                value = value.reshape((d1, d2, d3)[:rank], order="F")
-            if kind == VALUE_INT:
-                value = value.astype(np.int32)
+            arrays.append((name, at, at + size, (d1, d2, d3)[:rank] if rank > 1 else None,
+                           kind == VALUE_INT))
             at += size
-        out[name.decode()] = value
-    return out
+    if len(_LAYOUTS) >= 256:
+        _LAYOUTS.clear()
+    got = _LAYOUTS[key] = ((scalar_names, ints), scalars, arrays, texts)
+    return got

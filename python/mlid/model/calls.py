@@ -40,7 +40,8 @@ def _model_args(model):
 
 def _check(status_msg):
     """Raise for a core call's (status, message) that is not OK."""
-    check_status(*status_msg)
+    if status_msg[0]:
+        check_status(*status_msg)
 
 
 def _set_problem(h, model, params, tuy, starts, iopt, ropt):
