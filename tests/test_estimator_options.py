@@ -45,6 +45,19 @@ def test_bounds_hold_the_estimate_on_the_bound(data):
     assert res.converged
 
 
+def test_a_fits_bounds_and_prior_are_its_own(data):
+    """The extras go to the one fit they are given with (mlid_set_extras):
+    the next fit on the same thread, without them, is the plain fit."""
+    free = mlid.fit(c8_start(), data)
+    k = free.names.index("M_q")
+    lower = free.estimate[k] + 3 * free.sigma[k]
+    mlid.fit(c8_start(), data, bounds={"M_q": (lower, None)},
+             prior={"M_q": -1.6}, prior_weight={"M_q": 1e12})
+    after = mlid.fit(c8_start(), data)
+    np.testing.assert_array_equal(after.estimate, free.estimate)
+    np.testing.assert_array_equal(after.sigma, free.sigma)
+
+
 def test_a_parameter_a_rounding_error_off_its_bound_does_not_stall_the_others(data):
     """The step would carry M_q across its bound from 1e-13 (relative) above
     it: M_q goes to the bound and the others take their full step.  (Scaling

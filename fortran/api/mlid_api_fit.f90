@@ -135,7 +135,8 @@ contains
   end subroutine mlid_report_validation
 
   !> Maximum-likelihood fit of the problem of handle h (mlid_api_problem:
-  !> model, params, record, options and extras), output or filter error
+  !> model, params, record, options, and the extras when they were set for
+  !> this fit: a fit takes them away), output or filter error
   !> (iopt(6)), with the options of report sec. 4.6: a priori values and
   !> weight over the free parameters, bounds, the rank-deficient search from
   !> iopt(10).  What it gives is the handle's results by name, as a deck
@@ -165,9 +166,17 @@ contains
     call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
     associate (p => s%problem)
-      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS, PART_EXTRAS], &
-                         status, msg)
+      call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
       if (status /= MLID_OK) return
+      if (.not. p%has(PART_EXTRAS)) then   ! none set for this fit: none
+        p%use_prior = 0
+        p%use_bounds = 0
+        p%prior = [real(wp) ::]
+        p%pweight = reshape([real(wp) ::], [0, 0])
+        p%lower = p%prior
+        p%upper = p%prior
+      end if
+      p%has(PART_EXTRAS) = .false.         ! the extras are the next fit's alone
       call fit_solve(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, &
                      p%rconst, p%t, p%u, p%y, p%segstart, p%iopt, p%ropt, count(p%isfree == 1), &
                      p%use_prior, p%prior, p%pweight, p%use_bounds, p%lower, p%upper, res, pm, &

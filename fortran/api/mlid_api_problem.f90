@@ -84,8 +84,9 @@ contains
     s%problem%ropt = ropt
   end subroutine mlid_set_options
 
-  !> A fit's extras: a priori values (all parameters) and weight (free x
-  !> free), and bounds (all parameters); each used when its use_* is 1.
+  !> The next fit's extras: a priori values (all parameters) and weight
+  !> (free x free), and bounds (all parameters); each used when its use_* is
+  !> 1.  The fit takes them (a fit after it has none unless set again).
   subroutine mlid_set_extras(h, nth, nf, use_prior, prior, pweight, use_bounds, lower, upper, &
                              status, msg)
     integer(c_int64_t), intent(in) :: h

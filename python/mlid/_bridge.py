@@ -113,7 +113,8 @@ def values(handle, k, which):
     m, n, nt = api.mlid_values_sizes(h, k, which)
     kinds, shapes, numbers, codes = api.mlid_values(h, k, which, m, n, nt)
     raw = codes.astype(np.uint8).tobytes()
-    split = len(raw) - int(shapes[1][kinds == VALUE_TEXT].sum())    # names, then texts
+    split = len(raw) - sum(d for kind, d in zip(kinds.tolist(), shapes[1].tolist())
+                           if kind == VALUE_TEXT)                   # names, then texts
     names, scalars, arrays, texts = _layout(kinds.tobytes() + shapes.tobytes() + raw[:split],
                                             kinds, shapes, raw, m)
     out = dict(zip(names[0], numbers[scalars].tolist())) if scalars else {}

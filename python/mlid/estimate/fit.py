@@ -40,22 +40,9 @@ def _real_number(v):
              v.dtype.kind in "fiu"))
 
 
-#: The extras of a fit with neither a priori values nor bounds, by (parameters,
-#: free ones): the core reads none of their values.
-_NO_EXTRAS = {}
-
-
 def _extras(params, prior, prior_weight, bounds):
     """A priori values/weight and bounds in the core's layout."""
     theta = params.theta
-    if prior is None and prior_weight is None and not bounds:
-        sizes = theta.size, int(params.mask.sum())
-        if sizes not in _NO_EXTRAS:
-            _NO_EXTRAS[sizes] = {
-                "use_prior": 0, "prior": np.zeros(sizes[0]), "pweight": np.zeros(sizes[1:] * 2),
-                "use_bounds": 0, "lower": np.full(sizes[0], -_HUGE),
-                "upper": np.full(sizes[0], _HUGE)}
-        return _NO_EXTRAS[sizes]
     pvec = theta.copy()
     for what, given in (("prior", prior), ("bounds", bounds)):
         if given is not None and not isinstance(given, dict):
@@ -237,7 +224,8 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
                                                                  "iopt", "ropt"))
     h = _call_handle()
     _set_problem(h, model, params, setup["tuy"], starts, iopt, ropt)
-    _check(_api.mlid_set_extras(h.value, **_extras(params, prior, prior_weight, bounds)))
+    if prior is not None or prior_weight is not None or bounds:   # else none (the core's)
+        _check(_api.mlid_set_extras(h.value, **_extras(params, prior, prior_weight, bounds)))
     start = time.perf_counter()
     status, msg = _api.mlid_fit(h.value)
     wall_time = time.perf_counter() - start      # the core call alone
