@@ -49,10 +49,11 @@ def _set_problem(h, model, params, tuy, starts, iopt, ropt):
     model, the parameters (params: a Params), the record (t, u, y) in the
     core's layout with each manoeuvre's first sample, and the options."""
     t, u, y = tuy
-    _check(api.mlid_set_model(h.value, **_model_args(model)))
-    _check(api.mlid_set_params(h.value, theta0=params.theta, isfree=params.mask, **params.ties))
-    _check(api.mlid_set_record(h.value, t=t, u=u, y=y, segstart=starts))
-    _check(api.mlid_set_options(h.value, iopt, ropt))
+    hv = h.value
+    _check(api.mlid_set_model(hv, **_model_args(model)))
+    _check(api.mlid_set_params(hv, theta0=params.theta, isfree=params.mask, **params.ties))
+    _check(api.mlid_set_record(hv, t=t, u=u, y=y, segstart=starts))
+    _check(api.mlid_set_options(hv, iopt, ropt))
 
 
 # The parts one at a time, for the calls that need only some of them.

@@ -46,9 +46,12 @@ class Params:
     def _tagged(self, name_of, free_only=False):
         """name_of(element name) for each entry here (the free ones only), an
         own entry's with its manoeuvre number after '#' (several manoeuvres)."""
-        at = np.flatnonzero(self.mask == 1) if free_only else range(self.map.size)
-        elements, entry, suffix = self.model._layout.names, self.map.tolist(), self._suffix
-        return [name_of(elements[entry[j]]) + suffix[j] for j in at]
+        elements, suffix = self.model._layout.names, self._suffix
+        entries = enumerate(self.map.tolist())
+        if free_only:
+            return [name_of(elements[i]) + suffix[j] for (j, i), free in
+                    zip(entries, self.mask.tolist()) if free == 1]
+        return [name_of(elements[i]) + suffix[j] for j, i in entries]
 
     def _label(self, element):
         return self._names.get(element, element)
