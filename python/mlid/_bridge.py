@@ -13,7 +13,30 @@ from .errors import check_status
 
 #: The core's flat interface, its modules (fortran/api/mlid_api_*.f90) as one:
 #: every call of the core goes through it.
-api = types.SimpleNamespace(**{name: getattr(module, name)
+def _utf8_text(routine):
+    """routine with its str arguments given as UTF-8 bytes: f2py takes only
+    ASCII text as str ("function takes exactly 5 arguments" for a path or
+    title with an accent), and the core reads UTF-8."""
+    def call(*args, **kwargs):
+        args = [a.encode() if type(a) is str else a for a in args]
+        kwargs = {k: v.encode() if type(v) is str else v for k, v in kwargs.items()}
+        return routine(*args, **kwargs)
+    call.__doc__, call.__name__ = routine.__doc__, routine.__name__
+    return call
+
+
+#: The routines given only the bridge's own ASCII names as text (value and
+#: part names), called many times a fit: left as f2py made them.
+_ASCII_ONLY = ("mlid_values_sizes", "mlid_values", "mlid_put_real", "mlid_put_int",
+               "mlid_put_text")
+
+
+def _wrapped(name, routine):
+    takes_text = "input string" in (routine.__doc__ or "")
+    return _utf8_text(routine) if takes_text and name not in _ASCII_ONLY else routine
+
+
+api = types.SimpleNamespace(**{name: _wrapped(name, getattr(module, name))
                                for module in (_core.mlid_api_deck, _core.mlid_api_problem,
                                               _core.mlid_api_values,
                                               _core.mlid_api_models,

@@ -425,7 +425,22 @@ def _diagnose(args):
     return 1 if failed else 0
 
 
+def _utf8_streams():
+    """stdout and stderr in UTF-8, as mlid-batch writes the core's text,
+    whatever the locale or PYTHONIOENCODING says (an ASCII terminal got an
+    internal error for a CJK title); characters they cannot take become
+    replacement characters, never an error."""
+    for stream in (sys.stdout, sys.stderr):
+        encoding = (getattr(stream, "encoding", None) or "").lower().replace("-", "")
+        if encoding != "utf8" and hasattr(stream, "reconfigure"):
+            try:
+                stream.reconfigure(encoding="utf-8", errors="replace")
+            except (ValueError, OSError):      # closed, or already read from
+                pass
+
+
 def main(argv=None):
+    _utf8_streams()
     args = _parser().parse_args(argv)
     was, progress.default = progress.default, (False if args.quiet else progress.default)
     try:
