@@ -7,7 +7,7 @@ module mlid_files
   use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: temporary_for, write_whole, commit, same_file
+  public :: temporary_for, write_whole, commit, same_file, not_regular
 
   interface
     !> The C library's canonical absolute name of an existing file.
@@ -119,6 +119,33 @@ contains
     open (newunit=unit, file=path, status='old', iostat=ios)
     if (ios == 0) close (unit, status='delete', iostat=ios)
   end subroutine delete
+
+  !> What path is when it is there but no regular file (a link is taken
+  !> to what it names): 'a directory', 'a FIFO', 'a device', 'a socket';
+  !> '' for a regular file or none.  The readers take regular files only:
+  !> a FIFO waits for a writer and a device may never end.
+  function not_regular(path) result(what)
+    character(len=*), intent(in) :: path
+    character(len=16) :: what
+    integer, parameter :: S_IFMT = int(o'170000'), S_IFREG = int(o'100000'), &
+                          S_IFDIR = int(o'040000'), S_IFIFO = int(o'010000'), &
+                          S_IFSOCK = int(o'140000')
+    integer :: values(13), status
+    what = ''
+    call stat(trim(path), values, status)        ! GNU Fortran's stat(2)
+    if (status /= 0) return
+    select case (iand(values(3), S_IFMT))
+    case (S_IFREG)
+    case (S_IFDIR)
+      what = 'a directory'
+    case (S_IFIFO)
+      what = 'a FIFO'
+    case (S_IFSOCK)
+      what = 'a socket'
+    case default
+      what = 'a device'
+    end select
+  end function not_regular
 
   !> Whether a and b name one file (by the C library's realpath: links, .
   !> and .. resolved; a file not there yet by its folder's).

@@ -3,6 +3,7 @@
 module mlid_text
   use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_files, only: not_regular
   implicit none
   private
   public :: to_lower, to_upper, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
@@ -130,8 +131,9 @@ contains
   end function text_lines
 
   !> Open a text file to read line by line: held whole in memory when it
-  !> can be read at once (a regular file: fast), else read line by line from
-  !> a formatted unit (a pipe).  A missing file or a directory is refused.
+  !> can be read at once (fast), else read line by line from a formatted
+  !> unit.  A missing file, or one that is no regular file (a directory, a
+  !> FIFO, a device), is refused.
   subroutine text_open(path, what, tf, status, msg)
     character(len=*), intent(in) :: path, what
     type(text_file_t), intent(out) :: tf
@@ -147,9 +149,9 @@ contains
       msg = 'file not found: '//trim(path)
       return
     end if
-    inquire (file=trim(path)//'/.', exist=exists)
-    if (exists) then
-      msg = what//trim(path)//' is a directory'
+    if (len_trim(not_regular(path)) > 0) then
+      msg = what//trim(path)//' is '//trim(not_regular(path))
+      if (not_regular(path) /= 'a directory') msg = trim(msg)//', not a regular file'
       return
     end if
     status = MLID_OK

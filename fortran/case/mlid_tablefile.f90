@@ -6,6 +6,7 @@
 module mlid_tablefile
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: to_lower, short_path
+  use mlid_files, only: not_regular
   use mlid_named_arrays, only: named_array_t, arrays_table
   use mlid_matfile, only: matfile_read
   use mlid_hdf5file, only: hdf5file_read
@@ -68,9 +69,14 @@ contains
     folder = .false.
     status = MLID_ERR_INPUT
     inquire (file=path, exist=there)
-    if (there) inquire (file=trim(path)//'/.', exist=folder)   ! a folder is no file
+    if (there) folder = not_regular(path) == 'a directory'      ! a folder is no file
     if (.not. there .or. folder) then
       msg = 'data file '//short_path(path)//': no such file'
+      return
+    end if
+    if (len_trim(not_regular(path)) > 0) then
+      msg = 'data file '//short_path(path)//' is '//trim(not_regular(path))// &
+            ', not a regular file'
       return
     end if
     open (newunit=u, file=path, access='stream', form='unformatted', action='read', &

@@ -1,0 +1,78 @@
+"""Only regular files are read (issue 41, class 5): a FIFO or a device
+(/dev/zero) as a deck or a data file is refused at once with one line, by
+both front ends and by the API, where main waited on the FIFO for a writer
+and read /dev/zero without end.  Each run has a timeout, so that a hang
+fails the test instead of stopping the suite."""
+
+import os
+import subprocess
+
+import pytest
+
+import mlid
+from conftest import BIN
+
+DECK = """&case title = 'make data', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.2, 0.5, -1.0, -2.0,   g = 1.5, 0.3,   h = 1, 0, 0, 1 /
+&simulate out = 'small.dat', t_end = 4.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
+    input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2 /
+&case title = 'middle', job = 'estimate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1,
+    free = 'f(1,1)', 'f(2,1)', 'g(1,1)' /
+&data file = 'DATA', time_col = 1, input_cols = 2, output_cols = 3, 4 /
+"""
+
+needs_fifo = pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+
+
+def _fifo(tmp_path, name):
+    path = tmp_path / name
+    os.mkfifo(path)
+    return path
+
+
+def _both(args, cwd):
+    return [subprocess.run([str(BIN / exe), *pre, *args], capture_output=True, text=True,
+                           cwd=cwd, timeout=120)
+            for exe, pre in (("mlid", ["run"]), ("mlid-batch", []))]
+
+
+@needs_fifo
+@pytest.mark.parametrize("data, kind", [("fifo.dat", "a FIFO"), ("fifo.mat", "a FIFO"),
+                                        ("/dev/zero", "a device")])
+def test_a_data_file_that_is_no_regular_file_is_refused(data, kind, tmp_path):
+    if not data.startswith("/"):
+        _fifo(tmp_path, data)
+    elif not os.path.exists(data):
+        pytest.skip(f"no {data}")
+    deck = tmp_path / "deck.nml"
+    deck.write_text(DECK.replace("DATA", data))
+    runs = _both([deck.name], tmp_path)
+    lines = [r.stderr.splitlines()[0] for r in runs]
+    for run, line in zip(runs, lines):
+        assert run.returncode == 1, run.stderr
+        assert "case 2" in line and f"is {kind}, not a regular file" in line, line
+    assert lines[0].split(":", 1)[1] == lines[1].split(":", 1)[1]
+    assert runs[0].stdout == runs[1].stdout
+
+
+@needs_fifo
+def test_a_deck_that_is_no_regular_file_is_refused(tmp_path):
+    _fifo(tmp_path, "deck.nml")
+    for run in _both(["deck.nml"], tmp_path):
+        assert run.returncode != 0
+        assert "deck.nml is a FIFO, not a regular file" in run.stderr, run.stderr
+
+
+@needs_fifo
+def test_the_api_refuses_what_is_no_regular_file(tmp_path):
+    fifo = _fifo(tmp_path, "fifo.dat")
+    with pytest.raises(mlid.InputError, match="is a FIFO, not a regular file"):
+        mlid.FlightData.load(fifo, 1, [2], [3, 4])
+    with pytest.raises(mlid.InputError, match="is a FIFO, not a regular file"):
+        mlid.read_deck(fifo)
+    if os.path.exists("/dev/zero"):
+        with pytest.raises(mlid.InputError, match="is a device, not a regular file"):
+            mlid.FlightData.load("/dev/zero", 1, [2], [3, 4])
