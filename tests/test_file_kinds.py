@@ -76,3 +76,60 @@ def test_the_api_refuses_what_is_no_regular_file(tmp_path):
     if os.path.exists("/dev/zero"):
         with pytest.raises(mlid.InputError, match="is a device, not a regular file"):
             mlid.FlightData.load("/dev/zero", 1, [2], [3, 4])
+
+
+# ---- outputs: only regular files are replaced (issue 41, class 1) ----------
+
+def _loop(tmp_path):
+    (tmp_path / "loop1").symlink_to("loop2")
+    (tmp_path / "loop2").symlink_to("loop1")
+    return "loop1"
+
+
+@needs_fifo
+@pytest.mark.parametrize("target, says", [
+    ("fifo.json", "(a FIFO, not a regular file)"),
+    ("/dev/null", "(a device, not a regular file)"),
+    ("loop1", "(a link to nothing, or a loop of links)"),
+    ("dangling", "(a link to nothing, or a loop of links)")])
+def test_json_is_written_only_to_a_regular_file(target, says, tmp_path):
+    if target == "fifo.json":
+        _fifo(tmp_path, target)
+    elif target == "loop1":
+        _loop(tmp_path)
+    elif target == "dangling":
+        (tmp_path / "dangling").symlink_to("no_such_folder/x.json")
+    elif not os.path.exists(target):
+        pytest.skip(f"no {target}")
+    deck = tmp_path / "deck.nml"
+    deck.write_text(DECK.replace("DATA", "small.dat"))
+    before = os.lstat(target if target.startswith("/") else tmp_path / target)
+    for run in _both([deck.name, "--json", target], tmp_path):
+        assert run.returncode == 1
+        assert f"cannot write --json {target} {says}" in run.stderr.splitlines()[0], run.stderr
+        assert run.stdout == ""                       # refused before any case runs
+    after = os.lstat(target if target.startswith("/") else tmp_path / target)
+    assert (after.st_mode, after.st_ino) == (before.st_mode, before.st_ino)
+    assert not (tmp_path / "small.dat").exists()
+
+
+@needs_fifo
+def test_a_simulation_does_not_replace_a_fifo(tmp_path):
+    _fifo(tmp_path, "small.dat")
+    deck = tmp_path / "deck.nml"
+    deck.write_text(DECK.replace("DATA", "small.dat"))
+    runs = _both([deck.name], tmp_path)
+    for run in runs:
+        assert run.returncode == 1
+        line = run.stderr.splitlines()[0]
+        assert "case 1" in line and "cannot write small.dat (a FIFO, not a regular file)" in line
+    assert os.path.exists(tmp_path / "small.dat") and not (tmp_path / "small.dat").is_file()
+
+
+@needs_fifo
+def test_the_api_does_not_replace_a_fifo(tmp_path):
+    fifo = _fifo(tmp_path, "out.dat")
+    data, _ = mlid.simulate(mlid.LinearModel([[-1.0]], [[1.0]], [[1.0]]), [0.0, 0.1, 0.2],
+                            [[0.0], [1.0], [0.0]])
+    with pytest.raises(mlid.InputError, match="a FIFO, not a regular file"):
+        data.save(fifo)

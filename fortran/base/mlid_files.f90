@@ -39,6 +39,18 @@ contains
       msg = 'cannot write '//named(path, what)//' (a folder of that name)'
       return
     end if
+    ! what is there must be a regular file to replace: a FIFO or a device
+    ! became one, and a link that leads nowhere was replaced
+    if (len_trim(not_regular(path)) > 0 .or. broken_link(path)) then
+      status = MLID_ERR_INPUT
+      if (broken_link(path)) then
+        msg = 'cannot write '//named(path, what)//' (a link to nothing, or a loop of links)'
+      else
+        msg = 'cannot write '//named(path, what)//' ('//trim(not_regular(path))// &
+              ', not a regular file)'
+      end if
+      return
+    end if
     write (pid, '(i0)') getpid()
     slash = index(path, '/', back=.true.)
     tmp = path(1:slash)//'.'//path(slash + 1:)//'.tmp-'//trim(pid)
@@ -146,6 +158,20 @@ contains
       what = 'a device'
     end select
   end function not_regular
+
+  !> Whether path is a symbolic link that leads to no file (a loop, or a
+  !> name not there).
+  logical function broken_link(path)
+    character(len=*), intent(in) :: path
+    integer, parameter :: S_IFMT = int(o'170000'), S_IFLNK = int(o'120000')
+    integer :: values(13), status
+    broken_link = .false.
+    call lstat(trim(path), values, status)       ! GNU Fortran's lstat(2)
+    if (status /= 0) return
+    if (iand(values(3), S_IFMT) /= S_IFLNK) return
+    call stat(trim(path), values, status)
+    broken_link = status /= 0
+  end function broken_link
 
   !> Whether a and b name one file (by the C library's realpath: links, .
   !> and .. resolved; a file not there yet by its folder's).

@@ -4,6 +4,7 @@ file intact."""
 
 import contextlib
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -15,6 +16,30 @@ A_FOLDER = "(a folder of that name)"
 FULL = "(the disk is full or the file went away)"
 NOT_RENAMED = "(a folder of that name, or no permission)"
 A_DECK = "(a deck this run reads)"
+BROKEN_LINK = "(a link to nothing, or a loop of links)"
+#: what a path may be that is no regular file, in mlid_files' not_regular words
+_KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a device"),
+          (stat.S_ISBLK, "a device"))
+
+
+def not_regular(path, what=None):
+    """Refuse to replace what is there when it is no regular file (a FIFO
+    or a device would become one) or a link that leads nowhere, in
+    mlid-batch's words; nothing when path is a regular file or not there."""
+    name = f"{what} {path}" if what else f"{path}"
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        if os.path.islink(path):
+            raise InputError(f"cannot write {name} {BROKEN_LINK}") from None
+        return
+    except OSError:                     # a loop of links (ELOOP), or no permission
+        if os.path.islink(path):
+            raise InputError(f"cannot write {name} {BROKEN_LINK}") from None
+        return
+    for test, kind in _KINDS:
+        if test(mode):
+            raise InputError(f"cannot write {name} ({kind}, not a regular file)")
 
 
 @contextlib.contextmanager
@@ -22,6 +47,7 @@ def atomic_open(path, mode="w"):
     """A file handle whose content replaces path only when the block ends
     without an exception."""
     path = Path(path)
+    not_regular(path)
     try:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     except OSError:
@@ -88,6 +114,7 @@ def check_writable(path, what, decks=()):
         raise InputError(f"cannot write {what} {path} {A_FOLDER}")
     if str(path).endswith(os.sep):
         raise InputError(f"cannot write {what} {path} {NOT_WRITABLE}")
+    not_regular(path, what)
     if any(Path(path).resolve() == Path(d).resolve() for d in decks):
         raise InputError(f"cannot write {what} {path} {A_DECK}")
     folder = Path(path).parent
