@@ -133,3 +133,23 @@ def test_the_api_does_not_replace_a_fifo(tmp_path):
                             [[0.0], [1.0], [0.0]])
     with pytest.raises(mlid.InputError, match="a FIFO, not a regular file"):
         data.save(fifo)
+
+
+@pytest.mark.parametrize("target, k", [("small.dat", 1), ("record.dat", 2)])
+def test_json_is_no_file_the_run_reads_or_writes(target, k, tmp_path):
+    """--json naming a record a case writes (case 1's simulation) or reads
+    (case 2's data file, there already) is refused before any case runs:
+    main overwrote the record with the JSON."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(DECK.replace("DATA", target))
+    record = b"# t u y1 y2\n0 0 0 0\n"
+    if target == "record.dat":
+        (tmp_path / target).write_bytes(record)
+    for run in _both([deck.name, "--json", target], tmp_path):
+        assert run.returncode == 1 and run.stdout == ""
+        assert (f"cannot write --json {target} (a file this run reads or writes: deck.nml case "
+                f"{k})") in run.stderr.splitlines()[0], run.stderr
+    if target == "record.dat":
+        assert (tmp_path / target).read_bytes() == record
+    else:
+        assert not (tmp_path / target).exists()

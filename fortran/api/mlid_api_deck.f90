@@ -20,7 +20,7 @@ module mlid_api_deck
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_deck, only: deck_read
   use mlid_handles, only: session_t, handle_new, handle_session, call_session, handle_free
-  use mlid_case, only: case_t, case_values, NAMELEN, CONDITION_NAMES
+  use mlid_case, only: case_t, case_values, case_uses, NAMELEN, CONDITION_NAMES
   use mlid_text, only: join_lines, split_lines, joined
   use mlid_sampling, only: record_check_segments
   use mlid_channels, only: channels_t, channel_set_t, channels_spec, channels_read, channels_table
@@ -32,7 +32,8 @@ module mlid_api_deck
   private
   public :: mlid_handle_new, mlid_handle_free, mlid_deck_open, mlid_condition_names, &
             mlid_values_sizes, mlid_values, mlid_deck_case_record, mlid_channels_read, &
-            mlid_channels_table, mlid_channels_get, mlid_deck_case_run, mlid_check_time
+            mlid_channels_table, mlid_channels_get, mlid_deck_case_run, mlid_check_time, &
+            mlid_case_uses
 
 contains
 
@@ -449,6 +450,19 @@ contains
       call r%results%put('notes', text)
     end associate
   end subroutine mlid_deck_case_run
+
+  !> Whether case k of handle h reads or writes the file path (mlid_case's
+  !> case_uses): 1 if it does, else 0 (also for no such case).
+  subroutine mlid_case_uses(h, k, path, uses)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(in) :: k
+    character(len=*), intent(in) :: path
+    integer(c_int), intent(out) :: uses
+    type(case_t), pointer :: c
+    uses = 0
+    c => case_at(h, k)
+    if (associated(c)) uses = merge(1, 0, case_uses(c, path))
+  end subroutine mlid_case_uses
 
   !> Time increasing and without gaps (a step over 1.5 times the median),
   !> each manoeuvre of a joined record on its own (segstart: first samples).

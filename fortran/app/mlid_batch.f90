@@ -8,7 +8,7 @@
 program mlid_batch
   use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t
   use mlid_kinds, only: MLID_OK
-  use mlid_case, only: case_t
+  use mlid_case, only: case_t, case_uses
   use mlid_deck, only: deck_read
   use mlid_run, only: case_run_t, run_case
   use mlid_files, only: temporary_for, write_whole, same_file
@@ -72,6 +72,7 @@ program mlid_batch
       write (0, '(a)') 'mlid-batch: '//trim(msg)
       stop 1, quiet=.true.
     end if
+    call json_not_an_input()
   end if
 
   nfail = 0
@@ -122,6 +123,27 @@ contains
     integer(c_intptr_t) :: previous
     previous = c_signal(25_c_int, 1_c_intptr_t)
   end subroutine ignore_file_size_signal
+
+  !> The JSON file may be no file a case reads or writes (case_uses): the
+  !> decks are read once for that before any case runs (an unreadable one
+  !> is reported when its turn comes).
+  subroutine json_not_an_input()
+    type(case_t), allocatable :: all(:)
+    integer :: j, i
+    do j = 1, nargs
+      if (.not. is_deck(j)) cycle
+      call get_command_argument(j, deck)
+      call deck_read(trim(deck), all, status, msg)
+      if (status /= MLID_OK) cycle
+      do i = 1, size(all)
+        if (case_uses(all(i), trim(json_path))) then
+          write (0, '(a,i0,a)') 'mlid-batch: cannot write --json '//trim(json_path)// &
+            ' (a file this run reads or writes: '//trim(deck)//' case ', i, ')'
+          stop 1, quiet=.true.
+        end if
+      end do
+    end do
+  end subroutine json_not_an_input
 
   !> Run case k (mlid_run's run_case): print its heading and report, its
   !> notes on stderr, add its JSON object, count a failure.

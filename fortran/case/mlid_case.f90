@@ -12,9 +12,11 @@ module mlid_case
   use mlid_params, only: tie_t
   use mlid_named, only: named_t
   use mlid_text, only: join_lines
+  use mlid_files, only: same_file
   implicit none
   private
-  public :: case_t, case_values, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, CONDITION_NAMES
+  public :: case_t, case_values, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
+            CONDITION_NAMES
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512
   integer, parameter :: MAXSEG = 20     !< manoeuvres (data files) per case
@@ -88,6 +90,27 @@ module mlid_case
   end type case_t
 
 contains
+
+  !> Whether case c reads or writes the file path: its data files, the
+  !> inputs its Monte Carlo flies, the record it simulates or designs, its
+  !> corrected records (same_file: links resolved).  A run's --json may be
+  !> none of these.
+  logical function case_uses(c, path)
+    type(case_t), intent(in) :: c
+    character(len=*), intent(in) :: path
+    integer :: k
+    case_uses = same_file(c%out_file, path) .or. same_file(c%input_file, path)
+    if (allocated(c%data_files)) then
+      do k = 1, size(c%data_files)
+        case_uses = case_uses .or. same_file(c%data_files(k), path)
+      end do
+    end if
+    if (allocated(c%corrected)) then
+      do k = 1, size(c%corrected)
+        case_uses = case_uses .or. same_file(c%corrected(k), path)
+      end do
+    end if
+  end function case_uses
 
   !> Case c by name, as the front ends read it: where it is and what it
   !> does, its flight condition, and, when it can run, its model,

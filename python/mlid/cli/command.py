@@ -151,6 +151,23 @@ def _bode(args):
     return 0
 
 
+def _json_not_an_input(path, decks):
+    """The JSON file may be no file a case reads or writes (the core's
+    case_uses, as mlid-batch checks it): the decks are read once for that
+    before any case runs (an unreadable one is reported in its turn)."""
+    from .._bridge import api
+
+    for deck in decks:
+        try:
+            cases = read_deck(deck)
+        except MlidError:
+            continue
+        for case in cases:
+            if api.mlid_case_uses(case._handle.value, case.index, str(path)):
+                raise InputError(f"cannot write --json {path} (a file this run reads or writes: "
+                                 f"{deck} case {case.index})")
+
+
 def _outputs_writable(args):
     """--json, --plots and --report destinations tried before any case runs."""
     from pathlib import Path
@@ -158,6 +175,7 @@ def _outputs_writable(args):
     decks = named_decks(args.deck if isinstance(args.deck, list) else [args.deck])
     if getattr(args, "json", None):
         check_writable(args.json, "--json", decks)
+        _json_not_an_input(args.json, decks)
     if getattr(args, "campaign", None):
         if Path(args.campaign).suffix.lower().lstrip(".") not in FORMATS:
             raise InputError(f"--campaign {args.campaign}: the suffix must be .csv or .json")
