@@ -57,6 +57,12 @@ def _bom(b):
     return b"\xef\xbb\xbf" + b
 
 
+def _tab_before_groups(b):
+    """A TAB before each group's '&' (issue 41: '\t&case' was no case start,
+    and the deck's batch was lost)."""
+    return b"\n".join(b"\t" + line if line.startswith(b"&") else line for line in b.split(b"\n"))
+
+
 def _crlf(b):
     return b.replace(b"\n", b"\r\n")
 
@@ -137,6 +143,8 @@ ENTRIES = {
     "repeat count in a deck": ("repeat_count.nml", OK, {"same_as": "plain deck"}),
     "UTF-8 BOM at the start": ("plain.nml", OK, {"deck": _bom, "same_as": "plain deck"}),
     "CR-LF line ends": ("plain.nml", OK, {"deck": _crlf, "same_as": "plain deck"}),
+    "TAB before each group": ("plain.nml", OK, {"deck": _tab_before_groups,
+                                                "same_as": "plain deck"}),
     "latin-1 bytes in a comment": ("latin1_comment.nml", OK, {"same_as": "plain deck"}),
     "UTF-8 bytes in a comment": ("utf8_comment.nml", OK, {"same_as": "plain deck"}),
     "TAB characters": ("tabs.nml", OK, {"same_as": "plain deck"}),

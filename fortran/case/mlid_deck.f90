@@ -485,15 +485,18 @@ contains
     end if
   end function resolve
 
+  !> The first word of line, lower case, after blanks and TABs (a TAB
+  !> before '&case' starts a case too).
   function first_word(line) result(w)
     character(len=*), intent(in) :: line
     character(len=16) :: w
-    character(len=len(line)) :: s
-    integer :: e
-    s = adjustl(line)
-    e = scan(s, ' /,'//achar(9))
-    if (e == 0) e = len(s) + 1
-    w = to_lower(s(1:min(e - 1, 16)))
+    integer :: b, e
+    w = ''
+    b = verify(line, ' '//achar(9))
+    if (b == 0) return
+    e = scan(line(b:), ' /,'//achar(9))
+    if (e == 0) e = len(line) - b + 2
+    w = to_lower(line(b:b + min(e - 1, 16) - 1))
   end function first_word
 
 end module mlid_deck
