@@ -110,3 +110,19 @@ def assert_reproduces(fit, ref, names=None):
         assert abs(value - ref.estimates[name][0]) < 0.1 * ref.estimates[name][1], name
         assert abs(sigma / ref.estimates[name][1] - 1) < 0.05, name
     assert abs(fit["det_R"] / ref.det_r - 1) < 0.01
+
+
+def two_case_deck(data="small.dat"):
+    """A deck of two small cases: a simulation that writes small.dat, then
+    a fit of data (the file it reads; small.dat by default)."""
+    return f"""&case title = 'make data', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.2, 0.5, -1.0, -2.0,   g = 1.5, 0.3,   h = 1, 0, 0, 1 /
+&simulate out = 'small.dat', t_end = 4.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
+    input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2 /
+&case title = 'middle', job = 'estimate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1,
+    free = 'f(1,1)', 'f(2,1)', 'g(1,1)' /
+&data file = '{data}', time_col = 1, input_cols = 2, output_cols = 3, 4 /
+"""

@@ -10,19 +10,9 @@ import subprocess
 import pytest
 
 import mlid
-from conftest import BIN
+from conftest import BIN, two_case_deck
 
-PLAIN = """&case title = 'make data', job = 'simulate' /
-&model kind = 'linear', nx = 2, nu = 1, ny = 2,
-    f = -1.2, 0.5, -1.0, -2.0,   g = 1.5, 0.3,   h = 1, 0, 0, 1 /
-&simulate out = 'small.dat', t_end = 4.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
-    input_shape = '3211', amplitude = 1.0, t_start = 0.2, pulse_width = 0.2 /
-&case title = 'middle', job = 'estimate' /
-&model kind = 'linear', nx = 2, nu = 1, ny = 2,
-    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1,
-    free = 'f(1,1)', 'f(2,1)', 'g(1,1)' /
-&data file = 'small.dat', time_col = 1, input_cols = 2, output_cols = 3, 4 /
-"""
+PLAIN = two_case_deck()
 
 #: name: (the deck's change, the failure's text or None when it runs)
 DECKS = {
