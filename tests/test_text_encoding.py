@@ -77,3 +77,4 @@ def test_the_api_names_a_missing_non_ascii_file(tmp_path):
         mlid.FlightData.load(missing, 1, [2], [3])
     with pytest.raises(mlid.InputError, match="vol_\u00e9t\u00e9.nml"):
         mlid.read_deck(tmp_path / "vol_\u00e9t\u00e9.nml")
+

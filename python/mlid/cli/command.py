@@ -457,8 +457,34 @@ def _utf8_streams():
                 pass
 
 
+def _matplotlib_folder():
+    """A folder for matplotlib's settings and font cache where its own
+    (~/.config/matplotlib) cannot be made: one of mlid's in the temporary
+    folder, kept between runs (with an unwritable HOME matplotlib made a new
+    one on every run and said so on stderr).  Nothing when MPLCONFIGDIR is
+    set already."""
+    if os.environ.get("MPLCONFIGDIR"):
+        return
+    home = os.environ.get("XDG_CONFIG_HOME") or os.path.join(os.path.expanduser("~"), ".config")
+    own = os.path.join(home, "matplotlib")
+    try:
+        os.makedirs(own, exist_ok=True)
+        if os.access(own, os.W_OK):
+            return
+    except OSError:
+        pass
+    import tempfile
+    ours = os.path.join(tempfile.gettempdir(), f"mlid-matplotlib-{os.getuid()}")
+    try:
+        os.makedirs(ours, mode=0o700, exist_ok=True)
+    except OSError:
+        return
+    os.environ["MPLCONFIGDIR"] = ours
+
+
 def main(argv=None):
     _utf8_streams()
+    _matplotlib_folder()
     args = _parser().parse_args(argv)
     was, progress.default = progress.default, (False if args.quiet else progress.default)
     try:
