@@ -3,6 +3,8 @@
 import os
 import subprocess
 
+import pytest
+
 from conftest import BIN, two_case_deck
 
 
@@ -20,3 +22,31 @@ def test_an_unwritable_home_says_nothing_about_matplotlib(tmp_path):
     assert run.returncode == 0, run.stderr
     assert "matplotlib" not in run.stderr.lower(), run.stderr
     assert (tmp_path / "plots" / "case2_fit.png").is_file()
+
+
+@pytest.mark.parametrize("stdout", ["closed", "/dev/full"])
+def test_a_report_that_cannot_reach_stdout_fails_the_run(stdout, tmp_path):
+    """Issue 41, classes 6 and 10: stdout closed or full.  Both front ends
+    run every case, write the JSON whole, say on stderr that the report was
+    lost and exit 1 (mlid run ended in an internal error with no JSON,
+    mlid-batch lost the report and exited 0)."""
+    if stdout == "/dev/full" and not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    deck = tmp_path / "deck.nml"
+    deck.write_text(two_case_deck())
+    jsons = []
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        (tmp_path / "small.dat").unlink(missing_ok=True)
+        cmd = [str(BIN / exe), *pre, deck.name, "--json", f"{exe}.json"]
+        if stdout == "closed":      # the child starts with file descriptor 1 closed
+            run = subprocess.run(cmd, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+                                 timeout=300, preexec_fn=lambda: os.close(1))
+        else:
+            with open(stdout, "w") as target:
+                run = subprocess.run(cmd, stdout=target, stderr=subprocess.PIPE, text=True,
+                                     cwd=tmp_path, timeout=300)
+        assert run.returncode == 1, run.stderr
+        assert run.stderr.strip().splitlines() == [
+            f"{exe}: the report could not be written to stdout (closed or full)"], run.stderr
+        jsons.append((tmp_path / f"{exe}.json").read_bytes())
+    assert jsons[0] == jsons[1] and jsons[0].startswith(b"[")

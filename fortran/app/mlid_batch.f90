@@ -6,13 +6,14 @@
 !> JSON file are written whole or not at all: to a temporary name in the
 !> same folder, renamed when complete.
 program mlid_batch
-  use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t
+  use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t, c_long, c_size_t, c_char
   use mlid_kinds, only: MLID_OK
   use mlid_case, only: case_t, case_uses
   use mlid_deck, only: deck_read
   use mlid_run, only: case_run_t, run_case
   use mlid_files, only: temporary_for, write_whole, same_file
   use mlid_report, only: json_list
+  use mlid_text, only: itoa
   use mlid_wait_policy, only: brief_spin
   implicit none
   character(len=4096) :: deck, arg, json_path
@@ -21,6 +22,11 @@ program mlid_batch
   character(len=256) :: msg
   character(len=:), allocatable :: objects, json_tmp
   logical, allocatable :: is_deck(:)
+  !> A write of the report failed (stdout closed or full): said at the end,
+  !> and the run fails, as mlid run's does (the Fortran runtime says nothing
+  !> of a failed write to its preconnected unit, so the report goes out
+  !> through write(2))
+  logical :: stdout_lost = .false.
 
   call brief_spin()
   call ignore_file_size_signal()
@@ -103,9 +109,35 @@ program mlid_batch
       stop 1, quiet=.true.
     end if
   end if
+  if (stdout_lost) then
+    write (0, '(a)') 'mlid-batch: the report could not be written to stdout (closed or full)'
+    stop 1, quiet=.true.
+  end if
   if (nfail > 0 .or. nunread > 0) stop 1, quiet=.true.
 
 contains
+
+  !> text to stdout, whole; a failure (closed, full) is kept in stdout_lost.
+  subroutine say(text)
+    character(len=*), intent(in) :: text
+    interface
+      function c_write(fd, buf, n) bind(c, name='write') result(done)
+        import :: c_int, c_long, c_size_t, c_char
+        integer(c_int), value :: fd
+        character(kind=c_char), intent(in) :: buf(*)
+        integer(c_size_t), value :: n
+        integer(c_long) :: done
+      end function c_write
+    end interface
+    integer(c_long) :: done
+    integer :: at
+    at = 1
+    do while (at <= len(text) .and. .not. stdout_lost)
+      done = c_write(1_c_int, text(at:), int(len(text) - at + 1, c_size_t))
+      stdout_lost = done <= 0
+      if (done > 0) at = at + int(done)
+    end do
+  end subroutine say
 
   !> A file over the size limit (ulimit -f) is then a failed write, which the
   !> writers report in one line and clean up after, as Python's front end
@@ -153,9 +185,9 @@ contains
     type(case_run_t) :: r
     integer :: j
 
-    write (*, '(/,a,i0,a)') ' case ', k, ': '//trim(c%title)
+    call say(achar(10)//' case '//itoa(k)//': '//trim(c%title)//achar(10))
     call run_case(c, r)
-    write (*, '(a)', advance='no') r%report
+    call say(r%report)
     do j = 1, size(r%notes)
       write (0, '(a,i0,a,i0,a)') 'mlid-batch: '//trim(deck)//' case ', k, ' (line ', c%line, &
         ') '''//trim(c%title)//''': '//r%notes(j)%s

@@ -2,6 +2,7 @@
 non-zero exit code; a failing case does not stop the rest of a batch."""
 
 import argparse
+import contextlib
 import os
 import sys
 
@@ -487,10 +488,60 @@ def main(argv=None):
     _matplotlib_folder()
     args = _parser().parse_args(argv)
     was, progress.default = progress.default, (False if args.quiet else progress.default)
+    streams = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = out, err = _Checked(sys.stdout), _Checked(sys.stderr)
     try:
-        return _main(args)
+        code = _main(args)
+        out.flush()
     finally:
         progress.default = was
+        sys.stdout, sys.stderr = streams
+    if out.lost:            # as mlid-batch says it, after the rest, and fails
+        print(f"mlid: {STDOUT_LOST}", file=err)
+        return code or 1
+    return code
+
+
+#: What both front ends say when the report could not go to stdout.
+STDOUT_LOST = "the report could not be written to stdout (closed or full)"
+
+
+class _Checked:
+    """A standard stream as the run writes to it: a write or flush that
+    fails (the stream closed, so None here; a full disk) is noted in
+    ``lost``, not raised, so that the rest of the run and its files go on.
+    A broken pipe is still raised: the reader went away (mlid run | head)."""
+
+    def __init__(self, stream):
+        self.stream, self.lost = stream, False
+
+    def write(self, text):
+        try:
+            return self.stream.write(text)
+        except BrokenPipeError:
+            raise
+        except (OSError, AttributeError, ValueError):
+            self._lose()
+            return len(text)
+
+    def flush(self):
+        try:
+            self.stream.flush()
+        except BrokenPipeError:
+            raise
+        except (OSError, AttributeError, ValueError):
+            self._lose()
+
+    def _lose(self):
+        """Noted; what is still buffered goes to /dev/null, so that the
+        interpreter's own flush at its end fails no more."""
+        self.lost = True
+        with contextlib.suppress(OSError, AttributeError, ValueError):
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self.stream.fileno())
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
 
 
 def _main(args):
