@@ -78,13 +78,8 @@ contains
     logical :: penalised
     t = 0.0_wp
     lam0 = 0.0_wp
-    call given_design(h, d, status, msg, penalised=penalised)
+    call given_design(h, d, status, msg, penalised=penalised, na=na)
     if (status /= MLID_OK) return
-    if (na /= d%na) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0)') 'lam0 needs (m+1) nx = ', d%na
-      return
-    end if
     if (method == 1) then
       call riccati_length(d, mu, tmax, t, status, msg)
     else if (method == 2) then
@@ -106,13 +101,8 @@ contains
     character(len=256), intent(out) :: msg
     type(design_t) :: d
     u = 0.0_wp
-    call given_design(h, d, status, msg, nu=nu)
+    call given_design(h, d, status, msg, nu=nu, na=na)
     if (status /= MLID_OK) return
-    if (na /= d%na) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0)') 'lam0 needs (m+1) nx = ', d%na
-      return
-    end if
     call costate_input(d, mu, t, lam0, ncell, u, status, msg)
   end subroutine mlid_design_input
 
@@ -235,12 +225,13 @@ contains
   !> The design handle h holds, created with its weights (unit weights when
   !> unweighted) and, when penalised is present, penalised by kx when kx is
   !> given and not zero (penalised says so); nu and m checked when present.
-  subroutine given_design(h, d, status, msg, nu, m, unweighted, penalised)
+  subroutine given_design(h, d, status, msg, nu, m, unweighted, penalised, na)
     integer(c_int64_t), intent(in) :: h
     type(design_t), intent(out) :: d
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     integer(c_int), intent(in), optional :: nu, m
+    integer(c_int), intent(in), optional :: na   !< a costate's length lam0, checked
     logical, intent(in), optional :: unweighted
     logical, intent(out), optional :: penalised
     type(session_t), pointer :: s
@@ -258,6 +249,11 @@ contains
     call design_create(gv%f, gv%g, gv%h, gv%r, gv%ukind, gv%urow, gv%ucol, gv%w, d, status, msg, &
                        gv%gq)
     if (status == MLID_OK .and. pen) call design_state_penalty(d, gv%kx, status, msg)
+    if (status /= MLID_OK .or. .not. present(na)) return
+    if (na /= d%na) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0)') 'lam0 needs (m+1) nx = ', d%na
+    end if
   end subroutine given_design
 
   !> The design in handle h checked as every call above checks it (its

@@ -107,6 +107,14 @@ def put(h, **given):
             check_status(status, msg)
 
 
+def run(h, routine):
+    """Run routine of the core on handle h (its problem parts and given
+    values set before): what it gave, by name; an exception for a status
+    that is not OK."""
+    check_status(*routine(h.value))
+    return results(h)
+
+
 def results(h):
     """What the last call on handle h gave, by name (values of 'call')."""
     return values(h, 0, "call")

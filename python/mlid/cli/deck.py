@@ -9,7 +9,7 @@ import numpy as np
 
 from .._bridge import Handle, api as _api, lines as _lines, text as _text, values
 from ..data.flight_data import FlightData, read_status
-from ..errors import InputError, MlidError, check_status, guarded, status_of
+from ..errors import MlidError, check_status, guarded, status_of
 from ..estimate.fit import fit_result
 from ..estimate.options import options_of_text
 from ..model.models import from_core

@@ -154,7 +154,7 @@ class InputDesign:
     def __init__(self, F, G, H, R, unknowns, weights=None, process_noise=None):
         F, G, H, self.R = (np.asfortranarray(np.atleast_2d(real_array(n, a)))
                            for n, a in (("F", F), ("G", G), ("H", H), ("R", R)))
-        nx, nu, ny = F.shape[0], G.shape[1], H.shape[0]
+        nx, ny = F.shape[0], H.shape[0]
         if F.shape != (nx, nx) or G.shape[0] != nx or H.shape[1] != nx or self.R.shape != (ny, ny):
             raise InputError(f"F {F.shape}, G {G.shape}, H {H.shape} and R "
                              f"{self.R.shape} do not fit together")

@@ -6,9 +6,9 @@ import warnings
 
 import numpy as np
 
-from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
 from ..checks import real_array, whole
-from ..errors import ConvergenceWarning, InputError, check_status, guarded, status_text
+from ..errors import ConvergenceWarning, InputError, guarded, status_text
 from ..estimate.options import _flat_options
 from ..model.calls import _check_model, _set_simulation, _time_and_inputs
 from ..progress import Silent, bar as progress_bar
@@ -39,8 +39,7 @@ def _mc_runs(call, seed, runs):
     h = _call_handle()
     _set_simulation(h, call["start"], call["tu"], call["iopt"], call["ropt"])
     _put(h, theta_true=call["theta_true"], seed0=int(seed), nrun=int(runs))
-    check_status(*_api.mlid_monte_carlo(h.value))
-    out = _results(h)
+    out = _run(h, _api.mlid_monte_carlo)
     return {"estimates": out["estimates"].T.copy(), "sigma": out["sigma"].T.copy(),
             "information": np.moveaxis(out["information"], 2, 0).copy(),
             "iterations": out["iterations"], "status": out["run_status"]}
@@ -69,8 +68,7 @@ def _mc_result(parts, names, truth, stacklevel=4):
     h = _call_handle()
     _put(h, est=out["estimates"].T, sig=out["sigma"].T,
          info=np.moveaxis(out["information"], 0, 2), run_status=out["status"])
-    check_status(*_api.mlid_monte_carlo_summary(h.value))
-    summary = _results(h)
+    summary = _run(h, _api.mlid_monte_carlo_summary)
     out["summary"] = {key: summary[key] for key in SUMMARY}
     ok = out["status"] == 0
     bad = out["status"][~ok]

@@ -3,8 +3,8 @@ mlid_colored), from what ``evaluate`` gives."""
 
 import numpy as np
 
-from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
-from ..errors import InputError, check_status, guarded
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
+from ..errors import InputError, guarded
 
 
 @guarded
@@ -60,6 +60,5 @@ def colored_covariance(weighted_sensitivity, residuals, covariance, information,
         if v.shape != (nt, ny):
             raise InputError(f"residuals must be ({nt}, {ny}) like the sensitivities")
         _put(h, **given, v=v.T, lag=-1 if lag is None else int(lag))
-    check_status(*_api.mlid_colored_cov(h.value))
-    out = _results(h)
+    out = _run(h, _api.mlid_colored_cov)
     return out["covariance_corrected"], out["lag"]

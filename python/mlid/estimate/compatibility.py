@@ -19,11 +19,10 @@ core's (fortran/models/mlid_flightpath.f90, flightpath_corrected), which a deck'
 
 import numpy as np
 
-from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
 from ..data.flight_data import FlightData
-from ..errors import InputError, check_status
+from ..errors import InputError
 from ..model.calls import _set_model, _set_record
-from ..model.models import FLIGHTPATH_INPUTS
 
 
 
@@ -118,8 +117,7 @@ def _corrected(model, rec, path=""):
     _put(h, p=np.asarray(model.p, dtype=float), bias=np.asarray(model.bias, dtype=float),
          delay=np.asarray(model.delay, dtype=float), udelay=np.asarray(model.udelay, dtype=float),
          names=names, units=units, path=path)
-    check_status(*_api.mlid_flightpath_corrected(h.value))
-    out = _results(h)
+    out = _run(h, _api.mlid_flightpath_corrected)
     return FlightData(rec.t, out["uc"].T, out["yc"].T, input_names=rec.input_names,
                       output_names=rec.output_names, input_units=rec.input_units,
                       output_units=rec.output_units)

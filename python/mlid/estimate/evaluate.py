@@ -2,10 +2,9 @@
 without iterating: in the time domain (``evaluate``) and the frequency domain
 (``frequency_evaluate``)."""
 
-from .._bridge import api as _api, call_handle as _call_handle, results as _results
-from ..errors import InputError, check_status, guarded
-from ..model.calls import (_check_data, _check_model, _manoeuvres, _model_args, _record,
-                           _set_params, _set_problem)
+from .._bridge import api as _api, call_handle as _call_handle, run as _run
+from ..errors import InputError, guarded
+from ..model.calls import _check_data, _check_model, _manoeuvres, _record, _set_params, _set_problem
 from .options import _flat_options
 
 
@@ -21,8 +20,7 @@ def _frequency_call(model, params, theta, t, u, y, starts, iopt, ropt, opts):
     h = _call_handle()
     _set_problem(h, model, params, (t, u, y), starts, iopt, ropt)
     _set_params(h, params, theta)
-    check_status(*_api.mlid_freq_evaluate(h.value))
-    out = _results(h)
+    out = _run(h, _api.mlid_freq_evaluate)
     return {"frequencies": out["frequencies"], "z": (out["z_re"] + 1j * out["z_im"]).T.copy(),
             "zhat": (out["zhat_re"] + 1j * out["zhat_im"]).T.copy(), "cost": out["cost"],
             "gradient": out["gradient"], "information": out["information"], "rhat": out["rhat"],
@@ -108,7 +106,6 @@ def evaluate(model, data, initial_states=None, biases=None, **options):
     params, record, starts = _manoeuvres(model, data, initial_states, biases)
     h = _call_handle()
     _set_problem(h, model, params, _record(model, record), starts, iopt, ropt)
-    check_status(*_api.mlid_evaluate(h.value))
-    out = _results(h)
+    out = _run(h, _api.mlid_evaluate)
     out["yhat"] = out["yhat"].T.copy()
     return out

@@ -9,8 +9,7 @@ import types
 
 import numpy as np
 
-from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
-from ..errors import check_status
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
 from .evaluate import evaluate
 from .outcome import fit_outcome, require_estimates
 from .table import HTML_DIGITS, results_table
@@ -253,8 +252,7 @@ class FitResult:
              nrank=self.rank, title=title, job=job, fit_status=self.status, fit_msg=self.message,
              rnoise=np.full(self.rhat.shape[0], np.nan) if self.r_innovations is None
              else self.r_innovations)
-        check_status(*_api.mlid_report_fit(h.value))
-        out = _results(h)
+        out = _run(h, _api.mlid_report_fit)
         return out["report"].decode(errors="replace"), out["json"].decode(errors="replace")
 
     def report(self):

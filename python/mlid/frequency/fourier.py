@@ -4,7 +4,7 @@ recursive frequency-domain equation error over a moving window."""
 
 import numpy as np
 
-from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
 from ..checks import real_array, whole
 from ..data.flight_data import FlightData
 from ..errors import InputError, check_status, guarded
@@ -152,8 +152,7 @@ def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=Non
          n_freq=whole("n_freq", n_freq, -2**31), f_min=_band_edge("f_min", f_min),
          f_max=_band_edge("f_max", f_max), window=int(window), stride=int(stride))
     check_status(*_api.mlid_set_record(h.value, t=t, u=u, y=x, segstart=[1]))
-    check_status(*_api.mlid_recursive_fdee(h.value))
-    out = _results(h)
+    out = _run(h, _api.mlid_recursive_fdee)
     return {"t_end": out["t_end"], "estimates": out["estimates"].T.copy(),
             "sigma": out["sigma"].T.copy(), "names": model.free_names()}
 

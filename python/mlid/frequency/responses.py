@@ -31,7 +31,7 @@ output's unit per the input's.
 
 import numpy as np
 
-from .._bridge import api as _api, call_handle as _call_handle, put as _put, results as _results
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
 from ..checks import real_array, whole
 from ..errors import InputError, check_status, guarded
 from ..estimate.outcome import require_estimates
@@ -201,8 +201,7 @@ def record_response(data, input=0, output=0, segment=None, overlap=0.5):
         raise InputError(f"overlap must lie in [0, 1), got {overlap}")
     h = _call_handle()
     _put(h, u=u, y=y, dt=dt, segstart=starts, lseg=segment, nover=int(round(overlap * segment)))
-    check_status(*_api.mlid_freq_response(h.value))
-    out = _results(h)
+    out = _run(h, _api.mlid_freq_response)
     return FrequencyResponse(
         frequency=out["frequency"], gain=out["gain"], phase=out["phase"],
         sigma_gain=out["sigma_gain"], sigma_phase=out["sigma_phase"],
@@ -304,8 +303,7 @@ def model_response(fit_or_model, frequency, input=0, output=0, covariance=None):
     _put(h, w=2 * np.pi * f, jac=jac, cov=cov, input=i + 1, output=j + 1)
     _set_model(h, model)
     _set_params(h, params)
-    check_status(*_api.mlid_model_freq_response(h.value))
-    out = _results(h)
+    out = _run(h, _api.mlid_model_freq_response)
     return FrequencyResponse(
         frequency=f, gain=out["gain"], phase=out["phase"], sigma_gain=out["sigma_gain"],
         sigma_phase=out["sigma_phase"], response=out["response_re"] + 1j * out["response_im"],
@@ -543,8 +541,7 @@ def fit_transfer_function(response, m, n, delay=True, f_min=None, f_max=None,
          phase=response.phase[keep], coh=coh, use_coh=int(coherence_weighting), m=m, n=n,
          delay=int(delay), tau0=float(delay_start), use_start=int(bool(start)), x0=x0,
          isfree=isfree, max_iter=whole("max_iter", max_iter, 1))
-    check_status(*_api.mlid_tf_fit(h.value))
-    out = _results(h)
+    out = _run(h, _api.mlid_tf_fit)
     f = response.frequency[keep]
     cov = out["covariance"]
     return TransferFunctionFit(
@@ -584,6 +581,5 @@ def transfer_mismatch(fit, response, coherence_weighting=False):
     _put(h, w=2 * np.pi * response.frequency[keep], gain=response.gain[keep],
          phase=response.phase[keep], coh=coh, use_coh=int(coherence_weighting), m=fit.m, n=fit.n,
          delay=int(fit.has_delay), x=real_array("estimate", fit.estimate).ravel())
-    check_status(*_api.mlid_tf_residuals(h.value))
-    r = _results(h)["residuals"]
+    r = _run(h, _api.mlid_tf_residuals)["residuals"]
     return float(r @ r)

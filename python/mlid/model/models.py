@@ -18,7 +18,7 @@ import copy
 import numpy as np
 
 from .._bridge import (api as _api, call_handle as _call_handle, lines as _lines,
-                       put as _put, results as _results)
+                       put as _put, results as _results, run as _run)
 from ..checks import real_array
 from ..errors import InputError, check_status, guarded_class
 
@@ -642,8 +642,7 @@ def _longitudinal_iconst(regressors):
     core (mlid_longitudinal_iconst), which refuses an unknown one."""
     h = _call_handle()
     _put(h, **{k.lower(): "".join(f"{r}\n" for r in regs) for k, regs in regressors.items()})
-    check_status(*_api.mlid_longitudinal_iconst(h.value))
-    return _results(h)["iconst"].astype(np.int32)
+    return _run(h, _api.mlid_longitudinal_iconst)["iconst"].astype(np.int32)
 
 
 @_documented
