@@ -155,12 +155,13 @@ def _bode(args):
 def _json_not_an_input(path, decks):
     """The JSON file may be no file a case reads or writes (the core's
     case_uses, as mlid-batch checks it): the decks are read once for that
-    before any case runs (an unreadable one is reported in its turn)."""
+    before any case runs (an unreadable one is reported in its turn), and
+    kept for the run (campaign.opened)."""
     from .._bridge import api
 
     for deck in decks:
         try:
-            cases = read_deck(deck)
+            cases = campaign.opened(deck)
         except MlidError:
             continue
         for case in cases:
@@ -288,7 +289,7 @@ def _jobs(args):
     decks = campaign.decks(args.deck)
     for deck in decks:
         try:
-            cases = read_deck(deck)
+            cases = campaign.opened(deck)
         except MlidError as exc:
             if len(decks) == 1:
                 raise
