@@ -50,3 +50,34 @@ def test_a_report_that_cannot_reach_stdout_fails_the_run(stdout, tmp_path):
             f"{exe}: the report could not be written to stdout (closed or full)"], run.stderr
         jsons.append((tmp_path / f"{exe}.json").read_bytes())
     assert jsons[0] == jsons[1] and jsons[0].startswith(b"[")
+
+
+@pytest.mark.parametrize("stderr", ["closed", "/dev/full"])
+@pytest.mark.parametrize("data", ["small.dat", "no_such.dat"])
+def test_a_closed_stderr_loses_only_the_error_lines(stderr, data, tmp_path):
+    """Issue 41, class 10: stderr closed or full.  Only what goes to stderr
+    is lost: both front ends run every case, print the same report, write
+    the same JSON and give the exit code they give with a stderr (1 when a
+    case fails), with no traceback in the report (mlid run met a closed
+    stderr with an AttributeError and no JSON)."""
+    if stderr == "/dev/full" and not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    deck = tmp_path / "deck.nml"
+    deck.write_text(two_case_deck(data))
+    got = []
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        (tmp_path / "small.dat").unlink(missing_ok=True)
+        cmd = [str(BIN / exe), *pre, deck.name, "--json", f"{exe}.json"]
+        if stderr == "closed":
+            run = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, cwd=tmp_path,
+                                 timeout=300, preexec_fn=lambda: os.close(2))
+        else:
+            with open(stderr, "w") as target:
+                run = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=target, text=True,
+                                     cwd=tmp_path, timeout=300)
+        assert run.returncode == (0 if data == "small.dat" else 1), run.stdout
+        assert "Traceback" not in run.stdout
+        assert ("converged (" in run.stdout) == (data == "small.dat"), run.stdout
+        got.append((run.stdout, (tmp_path / f"{exe}.json").read_bytes()))
+    assert got[0] == got[1]
+    assert got[0][1].count(b'"title"') == 2, got[0][1]
