@@ -143,3 +143,33 @@ def test_json_is_no_file_the_run_reads_or_writes(target, k, tmp_path):
         assert (tmp_path / target).read_bytes() == record
     else:
         assert not (tmp_path / target).exists()
+
+
+@pytest.mark.parametrize("option", ["--table", "--campaign"])
+def test_a_table_is_no_file_the_run_reads(option, tmp_path):
+    """--table or --campaign naming a .csv record a case reads is refused
+    before any case runs, in the words of --json, and the record is kept."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(DECK.replace("DATA", "record.csv"))
+    record = b"t,u,y1,y2\n0,0,0,0\n"
+    (tmp_path / "record.csv").write_bytes(record)
+    run = subprocess.run([str(BIN / "mlid"), "run", deck.name, option, "record.csv"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert run.returncode == 1 and run.stdout == ""
+    assert run.stderr.splitlines() == [f"mlid: cannot write {option} record.csv (a file this "
+                                       "run reads or writes: deck.nml case 2)"], run.stderr
+    assert (tmp_path / "record.csv").read_bytes() == record
+
+
+def test_two_outputs_are_two_files(tmp_path):
+    """--json, --table and --campaign naming one file: refused before any
+    case runs (the last one written replaced the others)."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(DECK.replace("DATA", "small.dat"))
+    run = subprocess.run([str(BIN / "mlid"), "run", deck.name, "--json", "out.json",
+                          "--table", "./out.json"], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=120)
+    assert run.returncode == 1 and run.stdout == ""
+    assert run.stderr.splitlines() == ["mlid: --json and --table name one file, ./out.json: "
+                                       "each output goes to a file of its own"], run.stderr
+    assert not (tmp_path / "out.json").exists() and not (tmp_path / "small.dat").exists()

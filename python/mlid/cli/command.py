@@ -152,11 +152,11 @@ def _bode(args):
     return 0
 
 
-def _json_not_an_input(path, decks):
-    """The JSON file may be no file a case reads or writes (the core's
-    case_uses, as mlid-batch checks it): the decks are read once for that
-    before any case runs (an unreadable one is reported in its turn), and
-    kept for the run (campaign.opened)."""
+def _not_an_input(path, option, decks):
+    """An output file may be no file a case reads or writes (the core's
+    case_uses, as mlid-batch checks --json): the decks are read once for
+    that before any case runs (an unreadable one is reported in its turn),
+    and kept for the run (campaign.opened)."""
     from .._bridge import api
 
     for deck in decks:
@@ -166,27 +166,33 @@ def _json_not_an_input(path, decks):
             continue
         for case in cases:
             if api.mlid_case_uses(case._handle.value, case.index, str(path)):
-                raise InputError(f"cannot write --json {path} (a file this run reads or writes: "
-                                 f"{deck} case {case.index})")
+                raise InputError(f"cannot write {option} {path} (a file this run reads or "
+                                 f"writes: {deck} case {case.index})")
 
 
 def _outputs_writable(args):
-    """--json, --plots and --report destinations tried before any case runs."""
+    """--json, --table, --campaign, --plots and --report destinations tried
+    before any case runs: each a file of its own that no case reads or
+    writes."""
     from pathlib import Path
 
     decks = named_decks(args.deck if isinstance(args.deck, list) else [args.deck])
-    if getattr(args, "json", None):
-        check_writable(args.json, "--json", decks)
-        _json_not_an_input(args.json, decks)
-    if getattr(args, "campaign", None):
-        if Path(args.campaign).suffix.lower().lstrip(".") not in FORMATS:
-            raise InputError(f"--campaign {args.campaign}: the suffix must be .csv or .json")
-        check_writable(args.campaign, "--campaign", decks)
-    if getattr(args, "table", None):
-        if Path(args.table).suffix.lower().lstrip(".") not in WRITERS:
-            raise InputError(f"--table {args.table}: the suffix must be one of "
-                             f"{', '.join('.' + s for s in WRITERS)}")
-        check_writable(args.table, "--table", decks)
+    suffixes = {"--campaign": (FORMATS, "must be .csv or .json"),
+                "--table": (WRITERS, "must be one of " + ", ".join("." + s for s in WRITERS))}
+    files = {}
+    for option in ("--json", "--table", "--campaign"):
+        path = getattr(args, option[2:], None)
+        if not path:
+            continue
+        if option in suffixes and Path(path).suffix.lower().lstrip(".") not in suffixes[option][0]:
+            raise InputError(f"{option} {path}: the suffix {suffixes[option][1]}")
+        check_writable(path, option, decks)
+        _not_an_input(path, option, decks)
+        for other, its in files.items():
+            if os.path.realpath(its) == os.path.realpath(path):
+                raise InputError(f"{other} and {option} name one file, {path}: each output "
+                                 "goes to a file of its own")
+        files[option] = path
     for option in ("plots", "report", "campaign_plots"):
         folder = getattr(args, option, None)
         if not folder:
