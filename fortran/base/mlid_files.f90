@@ -8,6 +8,13 @@ module mlid_files
   implicit none
   private
   public :: temporary_for, write_whole, commit, same_file, not_regular
+  public :: file_stamp_t, file_stamp, file_changed
+
+  !> What tells whether a file changed between two looks at it: its size
+  !> and modification time (stat(2); whole seconds, what GNU Fortran gives).
+  type :: file_stamp_t
+    integer(int64) :: size = -1, mtime = -1
+  end type file_stamp_t
 
   interface
     !> The C library's canonical absolute name of an existing file.
@@ -172,6 +179,36 @@ contains
     call stat(trim(path), values, status)
     broken_link = status /= 0
   end function broken_link
+
+  !> The stamp of path now (-1s when it cannot be looked at).
+  function file_stamp(path) result(stamp)
+    character(len=*), intent(in) :: path
+    type(file_stamp_t) :: stamp
+    integer :: values(13), status
+    integer(int64) :: bytes
+    call stat(trim(path), values, status)        ! GNU Fortran's stat(2): default kind
+    if (status /= 0) return
+    inquire (file=trim(path), size=bytes)        ! the size, of any file (over 2 GiB too)
+    stamp = file_stamp_t(bytes, int(values(10), int64))
+  end function file_stamp
+
+  !> '' when path still has the stamp it had before it was read (before),
+  !> else why it is refused: a record rewritten while it was read was read
+  !> as a prefix of itself.
+  function file_changed(path, before) result(msg)
+    character(len=*), intent(in) :: path
+    type(file_stamp_t), intent(in) :: before
+    character(len=:), allocatable :: msg
+    type(file_stamp_t) :: after
+    character(len=24) :: a, b
+    msg = ''
+    after = file_stamp(path)
+    if (after%size == before%size .and. after%mtime == before%mtime) return
+    write (a, '(i0)') before%size
+    write (b, '(i0)') after%size
+    msg = 'changed while it was read ('//trim(a)//' bytes when opened, '//trim(b)// &
+          ' after, or a new modification time): read it once it is written whole'
+  end function file_changed
 
   !> Whether a and b name one file (by the C library's realpath: links, .
   !> and .. resolved; a file not there yet by its folder's).

@@ -3,7 +3,7 @@
 module mlid_text
   use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_files, only: not_regular
+  use mlid_files, only: not_regular, file_stamp_t, file_stamp, file_changed
   implicit none
   private
   public :: to_lower, to_upper, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
@@ -279,9 +279,11 @@ contains
     character(len=*), intent(out) :: msg
     type(line_t), allocatable :: more(:)
     type(text_file_t) :: tf
+    type(file_stamp_t) :: stamp
     integer :: ios, n
 
     allocate (lines(0))
+    stamp = file_stamp(path)
     call text_open(path, '', tf, status, msg)
     if (status /= MLID_OK) return
     deallocate (lines)
@@ -309,6 +311,10 @@ contains
     if (ios > 0) then
       status = MLID_ERR_INPUT
       msg = trim(path)//': cannot be read'
+    else
+      msg = file_changed(path, stamp)
+      if (len_trim(msg) > 0) status = MLID_ERR_INPUT
+      if (len_trim(msg) > 0) msg = trim(path)//' '//trim(msg)
     end if
   end subroutine read_text
 

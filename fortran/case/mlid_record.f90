@@ -16,6 +16,7 @@ module mlid_record
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
   use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
+  use mlid_files, only: file_stamp_t, file_stamp, file_changed
   use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close, &
                        control_character, short_path
   use mlid_units, only: UNITLEN
@@ -61,12 +62,14 @@ contains
     logical, intent(in), optional :: header_only
     character(len=:), allocatable :: line, header
     type(text_file_t) :: tf
+    type(file_stamp_t) :: stamp
     integer :: nline, nrow, ios, hline, hoff
     logical :: only_header
 
     only_header = .false.
     if (present(header_only)) only_header = header_only
     allocate (rec%x(size(cols), 0), rec%names(0), rec%units(0), rec%line(0))
+    stamp = file_stamp(path)
     call text_open(path, 'data file ', tf, status, msg)
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
@@ -89,6 +92,8 @@ contains
       if (len_trim(msg) > 0) then
         call text_close(tf)
         msg = 'data file '//short_path(path)//' line '//itoa(nline)//': '//trim(msg)
+        if (len(file_changed(path, stamp)) > 0) &     ! a row cut by a writer: say that
+          msg = 'data file '//short_path(path)//' '//file_changed(path, stamp)
         return
       end if
       if (only_header .and. rec%ncol > 0) exit
@@ -98,18 +103,22 @@ contains
       msg = 'data file '//short_path(path)//': cannot be read'
       return
     end if
+    msg = file_changed(path, stamp)
+    if (len_trim(msg) > 0) then
+      msg = 'data file '//short_path(path)//' '//trim(msg)
+      return
+    end if
     if (rec%ncol == 0) then
       msg = 'data file '//short_path(path)//': no data rows'
       return
     end if
-    msg = control_character(header, hoff)        ! the line that names the columns
+    call names_of(header, rec%ncol, rec%names, rec%units, hoff, msg)
     if (len_trim(msg) > 0) then
       msg = 'data file '//short_path(path)//' line '//itoa(hline)//': '//trim(msg)
       return
     end if
     rec%x = rec%x(:, 1:nrow)
     rec%line = rec%line(1:nrow)
-    call names_of(header, rec%ncol, rec%names, rec%units)
     status = MLID_OK
     msg = ''
   end subroutine record_read
@@ -331,14 +340,16 @@ contains
 
   !> The column names and units of a header line with ncol fields (blanks
   !> otherwise): 'ALCG[deg]' or 'ALCG [deg]' is the column ALCG in deg.
-  subroutine names_of(header, ncol, names, units)
+  !> A control character is an error in a header that names the columns
+  !> (msg, its character counted from hoff); any other comment holds any bytes.
+  subroutine names_of(header, ncol, names, units, hoff, msg)
     character(len=*), intent(in) :: header
-    integer, intent(in) :: ncol
+    integer, intent(in) :: ncol, hoff
     character(len=NAMELEN), allocatable, intent(out) :: names(:)
     character(len=UNITLEN), allocatable, intent(out) :: units(:)
+    character(len=*), intent(out) :: msg
     character(len=len(header)) :: h
     integer, allocatable :: first(:), last(:)
-    character(len=msg_len) :: msg
     integer :: k, b
     allocate (names(ncol), units(ncol))
     names = ''
@@ -348,7 +359,12 @@ contains
       if (h(k:k) == '[' .and. h(k - 1:k - 1) == ' ') h(k - 1:) = h(k:)
     end do
     call fields(h, first, last, msg)
-    if (size(first) /= ncol .or. len_trim(msg) > 0) return
+    if (size(first) /= ncol .or. len_trim(msg) > 0) then
+      msg = ''
+      return
+    end if
+    msg = control_character(header, hoff)
+    if (len_trim(msg) > 0) return
     do k = 1, ncol
       b = index(h(first(k):last(k)), '[')
       if (b > 1 .and. h(last(k):last(k)) == ']') then

@@ -6,7 +6,7 @@
 module mlid_tablefile
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: to_lower, short_path
-  use mlid_files, only: not_regular
+  use mlid_files, only: not_regular, file_stamp_t, file_stamp, file_changed
   use mlid_named_arrays, only: named_array_t, arrays_table
   use mlid_matfile, only: matfile_read
   use mlid_hdf5file, only: hdf5file_read
@@ -30,10 +30,12 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     type(named_array_t), allocatable :: arrays(:)
+    type(file_stamp_t) :: stamp
     logical :: hdf5, v73, mat
     integer :: n
 
     mat = ends_with(to_lower(trim(path)), '.mat')
+    stamp = file_stamp(path)
     call sniff(path, hdf5, status, msg)
     if (status /= MLID_OK) return
     v73 = .false.
@@ -49,6 +51,12 @@ contains
     if (hdf5 .or. v73) then          ! a v7.3 header without HDF5 after it fails here
       call hdf5file_read(path, arrays, n, status, msg)
       if (status /= MLID_OK) return
+    end if
+    msg = file_changed(path, stamp)
+    if (len_trim(msg) > 0) then
+      status = MLID_ERR_INPUT
+      msg = 'data file '//short_path(path)//' '//trim(msg)
+      return
     end if
     call arrays_table(path, arrays(1:n), variable, mat .and. (hdf5 .or. v73), x, names, &
                       units, status, msg)
