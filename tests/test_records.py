@@ -47,6 +47,18 @@ def test_header_names_become_channel_names(tmp_path):
     assert d.input_names == ["u1"] and d.output_names == ["y1"]
 
 
+@pytest.mark.parametrize("note", [b"# operator \x00 note", b"# \x1b[0m 12 deg C", b"# ok"])
+def test_a_note_after_the_header_keeps_the_names_and_holds_any_bytes(note, tmp_path):
+    """Issue 41, class 8: a # comment between the header and the data, of
+    any bytes (a NUL too, as the README says), is read past; the names are
+    the last header line's with a name per column (a NUL in the note was
+    refused, and the note took the header's place: no names)."""
+    (tmp_path / "r.dat").write_bytes(b"# time de q\n" + note + b"\n0 1 2\n0.1 1 3\n0.2 0 4\n")
+    d = mlid.FlightData.load(tmp_path / "r.dat", time_col="time", input_cols=["de"],
+                             output_cols=["q"])
+    assert d.input_names == ["de"] and d.output_names == ["q"] and d.nt == 3
+
+
 def test_skip_rows_then_header(tmp_path):
     d = load(tmp_path, "flight 12, run 3\nt,u,y\n0,1,2\n0.1,1,3\n0.2,0,4\n", skip_rows=1,
              output_cols=["y"])

@@ -18,7 +18,7 @@ module mlid_record
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_files, only: file_stamp_t, file_stamp, file_changed
   use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close, &
-                       control_character, short_path
+                       control_character, short_path, line_t
   use mlid_units, only: UNITLEN
   implicit none
   private
@@ -36,6 +36,14 @@ module mlid_record
     integer, allocatable :: line(:)
     integer :: ncol = 0
   end type record_t
+
+  !> The header lines before the first data row, each a candidate for the
+  !> line that names the columns: its text, file line and the offset of its
+  !> text in that line (after a '#').
+  type :: headers_t
+    type(line_t), allocatable :: text(:)
+    integer, allocatable :: line(:), off(:)
+  end type headers_t
 
   interface
     !> C's decimal conversion of a field already checked to be a plain number.
@@ -60,10 +68,12 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     logical, intent(in), optional :: header_only
-    character(len=:), allocatable :: line, header
+    character(len=:), allocatable :: line
+    type(headers_t) :: heads
+    character(len=:), allocatable :: bad
     type(text_file_t) :: tf
     type(file_stamp_t) :: stamp
-    integer :: nline, nrow, ios, hline, hoff
+    integer :: nline, nrow, ios, k
     logical :: only_header
 
     only_header = .false.
@@ -73,9 +83,7 @@ contains
     call text_open(path, 'data file ', tf, status, msg)
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
-    header = ''
-    hline = 0
-    hoff = 0
+    allocate (heads%text(0), heads%line(0), heads%off(0))
     nline = 0
     nrow = 0
     do
@@ -83,12 +91,10 @@ contains
       if (ios /= 0) exit
       nline = nline + 1
       if (nline <= skip_rows) then
-        header = line             ! the last line skipped may name the columns
-        hline = nline
-        hoff = 0
+        call add_header(heads, line, nline, 0)    ! a line skipped may name the columns
         cycle
       end if
-      call take_line(line, nline, nrow, header, hline, hoff, rec, cols, only_header, msg)
+      call take_line(line, nline, nrow, heads, rec, cols, only_header, msg)
       if (len_trim(msg) > 0) then
         call text_close(tf)
         msg = 'data file '//short_path(path)//' line '//itoa(nline)//': '//trim(msg)
@@ -112,9 +118,21 @@ contains
       msg = 'data file '//short_path(path)//': no data rows'
       return
     end if
-    call names_of(header, rec%ncol, rec%names, rec%units, hoff, msg)
-    if (len_trim(msg) > 0) then
-      msg = 'data file '//short_path(path)//' line '//itoa(hline)//': '//trim(msg)
+    deallocate (rec%names, rec%units)
+    allocate (rec%names(rec%ncol), rec%units(rec%ncol))
+    rec%names = ''
+    rec%units = ''
+    ! the last with a name per column and no control character; one with a
+    ! control character is refused only when no clean one names the columns
+    bad = ''
+    do k = size(heads%line), 1, -1
+      call names_of(heads%text(k)%s, rec%ncol, rec%names, rec%units, heads%off(k), msg)
+      if (len_trim(msg) > 0 .and. len(bad) == 0) &
+        bad = 'data file '//short_path(path)//' line '//itoa(heads%line(k))//': '//trim(msg)
+      if (any(rec%names /= '')) exit
+    end do
+    if (all(rec%names == '') .and. len(bad) > 0) then
+      msg = bad
       return
     end if
     rec%x = rec%x(:, 1:nrow)
@@ -125,11 +143,11 @@ contains
 
   !> Classify one line (blank, comment, header, data row) and take a data
   !> row's columns into rec; msg is non-blank for a line that is wrong.
-  subroutine take_line(line, nline, nrow, header, hline, hoff, rec, cols, only_header, msg)
+  subroutine take_line(line, nline, nrow, heads, rec, cols, only_header, msg)
     character(len=*), intent(in) :: line
     integer, intent(in) :: nline, cols(:)
-    integer, intent(inout) :: nrow, hline, hoff   !< the header's line, where it starts less 1
-    character(len=:), allocatable, intent(inout) :: header
+    integer, intent(inout) :: nrow
+    type(headers_t), intent(inout) :: heads
     type(record_t), intent(inout) :: rec
     logical, intent(in) :: only_header
     character(len=*), intent(out) :: msg
@@ -145,9 +163,7 @@ contains
     if (len_trim(msg) > 0) return
     if (hash > 0) then
       if (rec%ncol == 0 .and. len_trim(line(1:hash - 1)) == 0) then
-        header = line(hash + 1:)
-        hline = nline
-        hoff = hash
+        call add_header(heads, line(hash + 1:), nline, hash)
       end if
       call fields(line(1:hash - 1), first, last, msg)
     else
@@ -159,9 +175,7 @@ contains
       if (.not. plain_number(line(first(1):last(1))) .and. &
           verify(line(first(1):first(1)), '+-.0123456789') > 0 .and. &
           .not. not_finite_word(line(first(1):last(1)))) then
-        header = line                      ! a header line before the first data row
-        hline = nline
-        hoff = 0
+        call add_header(heads, line, nline, 0)   ! a header line before the first data row
         return
       end if
       rec%ncol = ncol
@@ -181,6 +195,15 @@ contains
     end if
     call add_row(line, first, last, nline, nrow, rec, cols, msg)
   end subroutine take_line
+
+  subroutine add_header(heads, text, nline, off)
+    type(headers_t), intent(inout) :: heads
+    character(len=*), intent(in) :: text
+    integer, intent(in) :: nline, off
+    heads%text = [heads%text, line_t(text)]
+    heads%line = [heads%line, nline]
+    heads%off = [heads%off, off]
+  end subroutine add_header
 
   !> The requested columns of a data row, appended to rec.
   subroutine add_row(line, first, last, nline, nrow, rec, cols, msg)
@@ -340,20 +363,17 @@ contains
 
   !> The column names and units of a header line with ncol fields (blanks
   !> otherwise): 'ALCG[deg]' or 'ALCG [deg]' is the column ALCG in deg.
-  !> A control character is an error in a header that names the columns
-  !> (msg, its character counted from hoff); any other comment holds any bytes.
+  !> A line with ncol fields and a control character names nothing, and says
+  !> why in msg (its character counted from hoff).
   subroutine names_of(header, ncol, names, units, hoff, msg)
     character(len=*), intent(in) :: header
     integer, intent(in) :: ncol, hoff
-    character(len=NAMELEN), allocatable, intent(out) :: names(:)
-    character(len=UNITLEN), allocatable, intent(out) :: units(:)
+    character(len=NAMELEN), intent(inout) :: names(:)   !< blank unless header names ncol columns
+    character(len=UNITLEN), intent(inout) :: units(:)
     character(len=*), intent(out) :: msg
     character(len=len(header)) :: h
     integer, allocatable :: first(:), last(:)
     integer :: k, b
-    allocate (names(ncol), units(ncol))
-    names = ''
-    units = ''
     h = header
     do k = len_trim(h), 2, -1        ! 'ALCG [deg]' -> 'ALCG[deg]'
       if (h(k:k) == '[' .and. h(k - 1:k - 1) == ' ') h(k - 1:) = h(k:)
@@ -363,7 +383,7 @@ contains
       msg = ''
       return
     end if
-    msg = control_character(header, hoff)
+    msg = control_character(header, hoff)      ! no names from a line with one
     if (len_trim(msg) > 0) return
     do k = 1, ncol
       b = index(h(first(k):last(k)), '[')
