@@ -167,6 +167,17 @@ MISUSE = {
     "parallel u transposed": (lambda d: mlid.monte_carlo_parallel(_model(2), _model(2), T, U2.T,
                                                                   workers=1),
                               r"given nu x nt: transpose it"),
+    # masked arrays (issue 41, class 8): the mask was dropped, and the hidden samples fitted
+    "FlightData y masked": (lambda d: mlid.FlightData(d.t, d.u, np.ma.masked_greater(d.y, 0.1)),
+                            r"^y is a masked array with \d+ masked values: cut the samples or "
+                            r"fill them \(np\.ma\.filled, or interpolate\) before passing it$"),
+    "FlightData t masked": (lambda d: mlid.FlightData(np.ma.masked_equal(d.t, d.t[3]), d.u, d.y),
+                            r"^t is a masked array with 1 masked value: cut"),
+    "simulate u masked": (lambda d: mlid.simulate(_model(), T, np.ma.masked_greater(U1, 0.9)),
+                          r"^u is a masked array with \d+ masked values"),
+    "model matrix masked": (lambda d: mlid.LinearModel(np.ma.masked_equal([[-1.0, 0.5], [-0.8, -2.0]], 0.5),
+                                                       [[1.0], [0.3]], np.eye(2)),
+                            r"^F is a masked array with 1 masked value"),
 }
 
 
@@ -198,3 +209,6 @@ def test_right_calls_still_work(record):
     res = mlid.fit(_model(), (record,), max_iter=np.int64(10), tol_cost=1e-9)
     assert res.converged
     assert set(mlid.check_jacobians(_model(), np.zeros(2), 0.0)) >= {"df/dx", "dh/dp"}
+    # a masked array with nothing masked is its data
+    same = mlid.FlightData(np.ma.masked_array(record.t), record.u, np.ma.masked_array(record.y))
+    assert np.array_equal(same.y, record.y) and not np.ma.isMaskedArray(same.y)

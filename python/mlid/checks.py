@@ -7,7 +7,16 @@ from .errors import InputError
 
 def real_array(name, a, finite=True):
     """a as a float64 array of real numbers (not complex, text or objects),
-    finite unless finite=False."""
+    finite unless finite=False.  A masked array with samples masked is
+    refused: what a masked sample should be (cut, filled, interpolated) is
+    the caller's choice, and dropping the mask would fit what it hides."""
+    if np.ma.isMaskedArray(a):
+        masked = int(np.ma.count_masked(a))
+        if masked:
+            raise InputError(f"{name} is a masked array with {masked} masked value"
+                             f"{'s' if masked > 1 else ''}: cut the samples or fill them "
+                             "(np.ma.filled, or interpolate) before passing it")
+        a = np.ma.getdata(a)
     a = np.asarray(a)
     if a.dtype.kind not in "biuf":
         raise InputError(f"{name} must hold real numbers, got {a.dtype}")

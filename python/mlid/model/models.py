@@ -251,7 +251,7 @@ class Model:
 
     def _put(self, key, value, what=None):
         shape = self._layout.shape(key)
-        a = np.asarray(value, dtype=float)
+        a = real_array(what or key, value, finite=False)
         if a.size != int(np.prod(shape)):
             raise InputError(f"{what or key} must have {int(np.prod(shape))} values"
                              + (f" ({shape[0]}x{shape[1]})" if len(shape) == 2 else "")
