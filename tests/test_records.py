@@ -254,3 +254,27 @@ while True:
             r"data file rec\.dat changed while it was read \(\d+ bytes when "
             r"opened, \d+ after, or a new modification time\): read it once it is written "
             r"whole", str(got)), got
+
+
+def test_a_long_record_is_noted_with_its_size(tmp_path):
+    """Issue 41, class 8: a fit of a long record (from 200,000 samples) says
+    so on stderr, the same from both front ends (a 1e6-sample fit took
+    12-18 s with nothing said); a manoeuvre's record says nothing."""
+    deck = tmp_path / "deck.nml"
+    from conftest import two_case_deck
+    deck.write_text(two_case_deck().replace("t_end = 4.0", "t_end = 4000.0"))
+    notes = []
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        (tmp_path / "small.dat").unlink(missing_ok=True)
+        run = subprocess.run([str(BIN / exe), *pre, deck.name], capture_output=True, text=True,
+                             cwd=tmp_path, timeout=300)
+        assert run.returncode == 0, run.stderr
+        notes.append(run.stderr.replace(exe + ":", "", 1))
+    assert notes[0] == notes[1]
+    assert notes[0].splitlines() == [
+        " deck.nml case 2 (line 6) 'middle': a long record: 200001 samples of 4 channels (6 MB "
+        "of numbers) and 3 free parameters: the fit takes longer than a manoeuvre's"]
+    deck.write_text(two_case_deck())
+    run = subprocess.run([str(BIN / "mlid-batch"), deck.name], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=300)
+    assert run.returncode == 0 and run.stderr == ""

@@ -58,6 +58,9 @@ module mlid_run
   end type case_run_t
 
   character, parameter :: NL = achar(10)
+  !> Samples from which a fit's record is noted as long (an hour at 50 Hz;
+  !> a manoeuvre is a few thousand): a fit of it takes seconds to minutes.
+  integer, parameter :: LONG_RECORD = 200000
 
 contains
 
@@ -238,6 +241,10 @@ contains
     if (r%status /= MLID_OK) return
     nth = size(c%theta)
     nf = count(c%isfree == 1)
+    if (size(t) >= LONG_RECORD) call note(r, 'a long record: '//itoa(size(t))//' samples of '// &
+      itoa(size(u, 1) + size(y, 1) + 1)//' channels ('//itoa(nint(8.0e-6_wp*size(t)* &
+      (size(u, 1) + size(y, 1) + 1)))//' MB of numbers) and '//itoa(nf)//' free parameters: '// &
+      'the fit takes longer than a manoeuvre''s')
     call system_clock(clock0, rate)
     if (associated(r%around%begin)) call r%around%begin()
     call fit_solve(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, c%isfree, c%tie, c%iconst, c%rconst, &
