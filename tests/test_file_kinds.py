@@ -173,3 +173,22 @@ def test_two_outputs_are_two_files(tmp_path):
     assert run.stderr.splitlines() == ["mlid: --json and --table name one file, ./out.json: "
                                        "each output goes to a file of its own"], run.stderr
     assert not (tmp_path / "out.json").exists() and not (tmp_path / "small.dat").exists()
+
+
+def test_a_hard_link_to_an_input_is_that_input(tmp_path):
+    """Files are compared by device and inode (issue 41, class 1): --json
+    naming a hard link to the record a case writes, or to the deck, is
+    refused by both front ends, and the files are kept."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(DECK.replace("DATA", "small.dat"))
+    subprocess.run([str(BIN / "mlid-batch"), deck.name], capture_output=True, cwd=tmp_path,
+                   timeout=120, check=True)
+    os.link(tmp_path / "small.dat", tmp_path / "hard.dat")
+    os.link(deck, tmp_path / "deck_link.json")
+    record, text = (tmp_path / "small.dat").read_bytes(), deck.read_bytes()
+    for target, says in (("hard.dat", "(a file this run reads or writes: deck.nml case 1)"),
+                         ("deck_link.json", "")):
+        for run in _both([deck.name, "--json", target], tmp_path):
+            assert run.returncode == 1 and run.stdout == "", run.stderr
+            assert f"cannot write --json {target} " in run.stderr and says in run.stderr
+    assert (tmp_path / "small.dat").read_bytes() == record and deck.read_bytes() == text

@@ -210,13 +210,21 @@ contains
           ' after, or a new modification time): read it once it is written whole'
   end function file_changed
 
-  !> Whether a and b name one file (by the C library's realpath: links, .
-  !> and .. resolved; a file not there yet by its folder's).
+  !> Whether a and b name one file: by device and inode when both exist
+  !> (hard links too), else by the C library's realpath (links, . and ..
+  !> resolved; a file not there yet by its folder's).
   logical function same_file(a, b)
     character(len=*), intent(in) :: a, b
+    integer :: va(13), vb(13), sa, sb
     same_file = .false.
     if (len_trim(a) == 0 .or. len_trim(b) == 0) return
-    same_file = real_path(a) == real_path(b)
+    call stat(trim(a), va, sa)
+    call stat(trim(b), vb, sb)
+    if (sa == 0 .and. sb == 0) then
+      same_file = va(1) == vb(1) .and. va(2) == vb(2)
+    else
+      same_file = real_path(a) == real_path(b)
+    end if
   end function same_file
 
   function real_path(path) result(r)

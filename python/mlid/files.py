@@ -106,6 +106,14 @@ def atomic_savefig(fig, path, **kw):
         fig.savefig(fh, format=path.suffix.lstrip(".") or "png", **kw)
 
 
+def same_file(a, b):
+    """One file: by device and inode when both exist (hard links too), else
+    by name with links resolved (as the core's same_file)."""
+    if os.path.exists(a) and os.path.exists(b):
+        return os.path.samefile(a, b)
+    return os.path.realpath(a) == os.path.realpath(b)
+
+
 def check_writable(path, what, decks=()):
     """One clear line, before any work starts, if path cannot be written: a
     folder, a name ending in / (a folder, Path would drop the /), a folder
@@ -115,7 +123,7 @@ def check_writable(path, what, decks=()):
     if str(path).endswith(os.sep):
         raise InputError(f"cannot write {what} {path} {NOT_WRITABLE}")
     not_regular(path, what)
-    if any(Path(path).resolve() == Path(d).resolve() for d in decks):
+    if any(same_file(path, d) for d in decks):
         raise InputError(f"cannot write {what} {path} {A_DECK}")
     folder = Path(path).parent
     try:

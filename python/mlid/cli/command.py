@@ -11,7 +11,7 @@ from .._version import installed_version
 from ..discrepancy.diagnose import FAMILIES, diagnose
 from ..errors import InputError, InternalError, MlidError
 from ..estimate.table import WRITERS, ResultsTable, results_table
-from ..files import atomic_write_text, check_writable
+from ..files import atomic_write_text, check_writable, same_file
 from ..frequency.responses import fit_transfer_function, record_response
 from ..report import plots
 from ..report.html_report import write_report
@@ -189,7 +189,7 @@ def _outputs_writable(args):
         check_writable(path, option, decks)
         _not_an_input(path, option, decks)
         for other, its in files.items():
-            if os.path.realpath(its) == os.path.realpath(path):
+            if same_file(its, path):
                 raise InputError(f"{other} and {option} name one file, {path}: each output "
                                  "goes to a file of its own")
         files[option] = path
