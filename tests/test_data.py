@@ -48,3 +48,56 @@ def test_bad_files(tmp_path, text, kwargs, match):
 def test_missing_file(tmp_path):
     with pytest.raises(mlid.InputError, match="not found"):
         mlid.FlightData.load(tmp_path / "none.dat", 1, [2], [3])
+
+
+# ---- time in a DataFrame (issue 42, data in) ------------------------------------
+
+def _frame():
+    pd = pytest.importorskip("pandas")
+    t = 0.02 * np.arange(100)
+    return pd, t, pd.DataFrame({"t": t, "u": np.sin(3 * t), "y1": np.cos(t), "y2": np.sin(t)})
+
+
+def _times():
+    pd, t, base = _frame()
+    start = pd.Timestamp("2026-12-07 10:00:00")
+    dates = start + pd.to_timedelta(t, unit="s")
+    indexed = base.drop(columns="t")
+    return t, {
+        "seconds": (base, "t"),
+        "timedelta64 column": (base.assign(t=pd.to_timedelta(t, unit="s")), "t"),
+        "datetime64 column": (base.assign(t=dates), "t"),
+        "datetime64 with a time zone": (base.assign(t=dates.tz_localize("UTC")), "t"),
+        "seconds as the index": (base.set_index("t"), "t"),
+        "TimedeltaIndex by name": (indexed.set_axis(pd.TimedeltaIndex(
+            pd.to_timedelta(t, unit="s"), name="time")), "time"),
+        "DatetimeIndex as 'index'": (indexed.set_axis(pd.DatetimeIndex(dates)), "index"),
+        "dates from a later start": (base.assign(t=dates + pd.Timedelta(days=400)), "t"),
+    }
+
+
+@pytest.mark.parametrize("kind", list(_times()[1]))
+def test_time_of_any_pandas_kind_is_seconds_from_the_first_sample(kind):
+    """A timedelta64 column was read as nanoseconds (t = 0, 2e7, ...), a
+    datetime64 one as epoch nanoseconds, and time as the index was 'no
+    channel named time'."""
+    t, kinds = _times()
+    frame, time_col = kinds[kind]
+    d = mlid.FlightData.from_frame(frame, time_col, ["u"], ["y1", "y2"])
+    assert np.max(np.abs(d.t - t)) < 1e-9
+    assert np.array_equal(d.y[:, 0], np.cos(t))
+
+
+def test_dates_elsewhere_and_ambiguous_time_are_refused_in_words():
+    pd, t, base = _frame()
+    stamp = base.assign(stamp=pd.Timestamp("2026-01-01") + pd.to_timedelta(t, unit="s"))
+    with pytest.raises(mlid.InputError, match=r"^column stamp holds dates \(datetime64\[ns\]\); "
+                                              r"only the time column may \(time_col = 't'\)$"):
+        mlid.FlightData.from_frame(stamp, "t", ["u"], ["y1", "y2"])
+    both = base.set_index(pd.Index(t, name="t"))
+    with pytest.raises(mlid.InputError, match="names both a column and the index"):
+        mlid.FlightData.from_frame(both, "t", ["u"], ["y1", "y2"])
+    gap = base.assign(t=pd.to_timedelta(t, unit="s"))
+    gap.loc[5, "t"] = pd.NaT
+    with pytest.raises(mlid.InputError, match=r"time column t has a missing value \(NaT\) at row 5"):
+        mlid.FlightData.from_frame(gap, "t", ["u"], ["y1", "y2"])

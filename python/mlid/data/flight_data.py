@@ -64,6 +64,48 @@ def _spec(time_col, input_cols, output_cols, columns, units, derived, show):
             "show": _lines(show, "show")}
 
 
+def _time_in_seconds(frame, time_col):
+    """frame with its time as a column of seconds: the index when time_col
+    is "index" or the index's name (and no column's), dates and durations
+    (datetime64, timedelta64, with or without a time zone) as seconds from
+    the first sample.  Any other column of dates or durations is refused:
+    as numbers they are nanoseconds, never what a channel means."""
+    if not hasattr(frame, "dtypes") or not hasattr(frame, "index"):
+        return frame
+    import pandas as pd
+
+    columns = [str(c) for c in frame.columns]
+    index_name = frame.index.name
+    by_index = isinstance(time_col, str) and (time_col == "index" or (
+        index_name is not None and time_col == str(index_name)))
+    if by_index and time_col in columns:
+        raise InputError(f"time_col '{time_col}' names both a column and the index: rename one")
+    if by_index:
+        name = time_col if time_col != "index" else "index"
+        frame = frame.reset_index(drop=False)
+        frame.columns = [name] + columns
+        columns = [name] + columns
+    for c, dtype in zip(columns, frame.dtypes):
+        if not (pd.api.types.is_datetime64_any_dtype(dtype)
+                or pd.api.types.is_timedelta64_dtype(dtype)):
+            continue
+        if c != str(time_col):
+            raise InputError(f"column {c} holds {'dates' if 'datetime' in str(dtype) else 'durations'}"
+                             f" ({dtype}); only the time column may (time_col = {time_col!r})")
+    if isinstance(time_col, str) and time_col in columns:
+        k = columns.index(time_col)
+        col = frame.iloc[:, k]
+        if pd.api.types.is_datetime64_any_dtype(col.dtype) or \
+                pd.api.types.is_timedelta64_dtype(col.dtype):
+            if col.isna().any():
+                raise InputError(f"time column {time_col} has a missing value (NaT) at row "
+                                 f"{int(np.flatnonzero(col.isna().to_numpy())[0])}")
+            seconds = (col - col.iloc[0]).dt.total_seconds() if len(col) else col.astype(float)
+            frame = frame.copy()
+            frame.isetitem(k, seconds.to_numpy(dtype=float))
+    return frame
+
+
 def read_status(status, msg):
     """The core channel reader's status: raise for an error; a warning it
     left (values that look wrong for their declared unit) becomes an
@@ -297,6 +339,10 @@ class FlightData:
             The table, a column per channel, numbers only.
         time_col, input_cols, output_cols : str or list of str
             Channels by column name (or a derived channel's), as in ``load``.
+            Time may be the frame's index (``time_col`` its name, or
+            ``"index"``), and may be seconds, ``datetime64`` or
+            ``timedelta64`` (a ``DatetimeIndex``, a ``TimedeltaIndex``):
+            dates and durations become seconds from the first sample.
         units, derived, t_start, t_end, input_names, output_names, show, dt
             As in ``load``.
         source : str
@@ -316,6 +362,7 @@ class FlightData:
         MlidWarning
             A channel declared in rad goes beyond 2 pi (most likely degrees).
         """
+        frame = _time_in_seconds(frame, time_col)
         try:
             names = [str(c) for c in frame.columns]
             x = np.asarray(frame.to_numpy(dtype=float), dtype=float)
