@@ -4,7 +4,7 @@
 !> for byte.
 module mlid_report
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, stop_reason_text, fit_outcome, FIT_FAILED
+  use mlid_kinds, only: wp, stop_reason_text, fit_outcome, FIT_FAILED, STOP_DIVERGED
   use mlid_linalg, only: chol_inverse
   use mlid_options, only: NOPT, option_get
   use mlid_units, only: UNITLEN
@@ -59,6 +59,7 @@ contains
       trim(merge('converged    ', 'NOT converged', s%converged))//' ('// &
       trim(stop_reason_text(s%reason))//')'
     text = trim(buf)//NL
+    if (s%reason == STOP_DIVERGED) text = text//' '//trim(msg)//NL   ! how (mlid_newton)
     if (iopt(10) > 0) then
       write (buf, '(a,i0,a,i0,a)') ' rank-deficient solution: rank ', s%rank, ' of ', &
         size(s%labels), ' (sigma from the same rank)'
