@@ -22,9 +22,9 @@ F = np.array([[-1.0, 0.0], [0.3, -2.0]])
 G = np.array([[1e150, 0.0], [0.0, -1e120]])
 H = np.array([[1.0, 0.0], [0.0, 1e-75]])
 STD = np.array([0.01, 1e-77])
-#: outputs scaled by these in the second record: R's diagonal near 1e196, det R beyond the
-#: largest float
-SCALE = np.array([1e100, 1e175])
+#: outputs scaled by these in the second record: R's diagonal near 1e200 and residuals near
+#: 1e100 in rms, det R beyond the largest float
+SCALE = np.array([1e102, 1e177])
 
 MODEL = """&model kind = 'linear', nx = 2, nu = 2, ny = 2,
     f = -1.3, 0.0,  0.2, -1.6,   g = 1.2e150, 0.0,  0.0, -0.8e120,
@@ -36,8 +36,13 @@ DECK = ("&case title = 'huge and tiny numbers', job = 'estimate' /\n"
         + "&data file = 'big.dat', time_col = 1, input_cols = 2, 3, output_cols = 4, 5 /\n"
         "&estimate max_iter = 20 /\n\n"
         "&case title = 'det R beyond the largest float', job = 'estimate' /\n"
-        + MODEL.format(h1="1.0e100", h2="1.0e100")
+        + MODEL.format(h1="1.0e102", h2="1.0e102")
         + "&data file = 'huge.dat', time_col = 1, input_cols = 2, 3, output_cols = 4, 5 /\n"
+        "&estimate max_iter = 20 /\n\n"
+        "&case title = 'residuals beyond 1e100 in rms', job = 'validate' /\n"
+        + MODEL.format(h1="1.0e102", h2="1.0e102")
+        + "&data file = 'huge.dat', 'huge2.dat', time_col = 1, input_cols = 2, 3,\n"
+        "    output_cols = 4, 5, holdout = 2 /\n"
         "&estimate max_iter = 20 /\n\n"
         "&case title = 'huge and tiny numbers: Monte Carlo', job = 'monte_carlo' /\n"
         + MODEL.format(h1="1.0", h2="1.0e-75")
@@ -54,13 +59,13 @@ def _strict(text):
     return json.loads(text, parse_constant=refuse)
 
 
-def _record():
+def _record(seed=3):
     """The truth's response to a 3211 and a doublet on inputs of 1e-150 and
     1e-120, with noise (fixed seed)."""
     t = np.arange(NT) * DT
     u = np.column_stack([1e-150 * input_signal("3211", 1.0, 0.5, 0.3, DT, NT),
                          1e-120 * input_signal("doublet", 1.0, 1.0, 0.6, DT, NT)])
-    data, _ = mlid.simulate(mlid.LinearModel(F, G, H), t, u, STD, seed=3)
+    data, _ = mlid.simulate(mlid.LinearModel(F, G, H), t, u, STD, seed=seed)
     return data
 
 
@@ -70,9 +75,11 @@ def runs(tmp_path_factory):
     where = tmp_path_factory.mktemp("numbers")
     data = _record()
     data.save(where / "big.dat")
-    big = np.loadtxt(where / "big.dat")
-    big[:, 3:] *= SCALE
-    np.savetxt(where / "huge.dat", big, fmt="%.17e", header="t u1 u2 y1 y2")
+    for name, seed in (("huge.dat", 3), ("huge2.dat", 4)):
+        _record(seed).save(where / name)
+        big = np.loadtxt(where / name)
+        big[:, 3:] *= SCALE
+        np.savetxt(where / name, big, fmt="%.17e", header="t u1 u2 y1 y2")
     (where / "numbers.nml").write_text(DECK)
     both = run_both(where / "numbers.nml", "--json", str(where / "{exe}.json"), cwd=where)
     texts = [(where / f"{exe}.json").read_text() for exe in ("mlid", "mlid-batch")]
@@ -89,13 +96,13 @@ def test_both_front_ends_print_the_same_bytes_and_no_asterisks(runs):
     assert py.stdout == fo.stdout and pyjson == fojson
     assert "*" not in py.stdout
     # the values that used to be asterisks, with three exponent digits
-    for shown in ("E+150", "E+120", "E+147", "E-154", "E-158"):
+    for shown in ("E+150", "E+120", "E+147", "E-154", "E-158", "E+200", "E+100 "):
         assert shown in py.stdout, shown
 
 
 def test_the_json_is_valid_and_not_finite_is_null(runs):
     _, (text, _), _ = runs
-    fit, huge, mc = _strict(text)
+    fit, huge, valid, mc = _strict(text)
     assert fit["converged"] and fit["estimate"][3] == pytest.approx(1e150, rel=0.05)
     assert fit["estimate"][4] == pytest.approx(-1e120, rel=0.05)
     assert fit["R"][1][1] == pytest.approx(1e-154, rel=0.2) and 0 < fit["det_R"] < 1e-150
@@ -103,11 +110,12 @@ def test_the_json_is_valid_and_not_finite_is_null(runs):
     assert huge["converged"] and min(huge["R"][0][0], huge["R"][1][1]) > 1e190
     assert huge["det_R"] is None
     assert mc["failed"] == 0 and mc["truth"][3] == 1e150
+    assert max(valid["validation"]["rms"]) > 1e100
 
 
 def test_the_report_reads_back_as_the_json(runs):
     (py, _), (text, _), _ = runs
-    fit, huge, mc = _strict(text)
+    fit, huge, valid, mc = _strict(text)
     fits = py.stdout.split(" case ")[1:]
     for obj, report in ((fit, fits[0]), (huge, fits[1])):
         lines = report.splitlines()
@@ -124,7 +132,11 @@ def test_the_report_reads_back_as_the_json(runs):
         assert cost == pytest.approx(obj["cost"], rel=1e-9)
         assert det == (pytest.approx(obj["det_R"], rel=1e-6) if obj["det_R"] is not None
                        else np.inf)
-    lines = fits[2].splitlines()
+    rows = [x.split() for x in fits[2].splitlines() if x.startswith((" y1 ", " y2 "))]
+    assert [_values(" ".join(r[1:])) for r in rows] == [
+        pytest.approx([valid["validation"][key][i] for key in ("theil", "rms", "rms_over_sigma")],
+                      rel=1e-3) for i in range(2)]
+    lines = fits[3].splitlines()
     for k, name in enumerate(FREE):
         row = next(x for x in lines if x.startswith(" " + name + " "))
         want = [mc[key][k] for key in ("truth", "start", "mean", "sample_sigma",

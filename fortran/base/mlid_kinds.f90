@@ -31,7 +31,7 @@ module mlid_kinds
   integer, parameter, public :: STOP_MAXITER = 4    !< iteration limit reached
   integer, parameter, public :: STOP_NO_DECREASE = 5 !< no cost decrease after all halvings
   integer, parameter, public :: STOP_FAILED = 6     !< an error ended the iteration
-  integer, parameter, public :: STOP_DIVERGED = 7   !< it ended on a fit that is not sane (mlid_newton)
+  integer, parameter, public :: STOP_DIVERGED = 7   !< it ended on a fit not sane (mlid_newton)
 
   !> What a fit that ended with a status and a stop reason has to show.
   integer, parameter, public :: FIT_ESTIMATES = 0  !< estimates and sigma, converged or not
