@@ -31,6 +31,7 @@ module mlid_kinds
   integer, parameter, public :: STOP_MAXITER = 4    !< iteration limit reached
   integer, parameter, public :: STOP_NO_DECREASE = 5 !< no cost decrease after all halvings
   integer, parameter, public :: STOP_FAILED = 6     !< an error ended the iteration
+  integer, parameter, public :: STOP_DIVERGED = 7   !< it ended on a fit not sane (mlid_newton)
 
   !> What a fit that ended with a status and a stop reason has to show.
   integer, parameter, public :: FIT_ESTIMATES = 0  !< estimates and sigma, converged or not
@@ -52,13 +53,15 @@ contains
     case (STOP_MAXITER);     text = 'iteration limit reached'
     case (STOP_NO_DECREASE); text = 'no cost decrease after all step halvings'
     case (STOP_FAILED);      text = 'stopped by an error'
+    case (STOP_DIVERGED);    text = 'diverged: R-hat or cost not sane'
     case default;            text = 'not started'
     end select
   end function stop_reason_text
 
   !> What a fit has to show (FIT_*).  Running out of iterations or of step
   !> halvings leaves a result (status MLID_ERR_NOCONV, reason MAXITER or
-  !> NO_DECREASE) whose sigma still mean something; any other error, and a
+  !> NO_DECREASE) whose sigma still mean something, and a fit that diverged
+  !> (reason DIVERGED) shows what it reached, as not converged; any other error, and a
   !> NOCONV from inside a step (the steady-state Riccati iteration), leaves
   !> no estimates: a singular information has no inverse, a diverged or
   !> non-positive-definite likelihood no value.

@@ -8,7 +8,7 @@ module mlid_text
   private
   public :: to_lower, to_upper, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
             text_file_t, text_open, text_line, text_close, control_character, comment_start, &
-            short_path, seconds, number_text, add_line
+            short_path, seconds, number_text, es_text, fixed_text, add_line
 
   integer, parameter :: CHUNK = 4096
   character(len=3), parameter :: BOM = char(239)//char(187)//char(191)   !< UTF-8 byte-order mark
@@ -351,10 +351,43 @@ contains
       if (text(1:1) == '.') text = '0'//text
       if (text(1:2) == '-.') text = '-0'//text(2:)
     else
-      write (buf, '(es10.3)') x
-      text = trim(adjustl(buf))
+      text = trim(adjustl(es_text(x, 10, 3)))
     end if
   end function number_text
+
+  !> x as the edit descriptor ESw.dE2 writes it (a report's column), or,
+  !> when that field would be asterisks, in the fewest characters (at least
+  !> w, right-justified) that hold it: ES with a two-digit exponent (a sign
+  !> the width had no room for), else with a three-digit one ('1.0000E+150':
+  !> |x| from about 1E+100, or non-zero below 1E-99).  A normal number keeps
+  !> its bytes; none becomes asterisks.
+  function es_text(x, w, d) result(text)
+    real(wp), intent(in) :: x
+    integer, intent(in) :: w, d
+    character(len=:), allocatable :: text
+    character(len=64) :: buf
+    write (buf, '(es'//itoa(w)//'.'//itoa(d)//'e2)') x
+    if (index(buf(1:w), '*') == 0) then
+      text = buf(1:w)
+      return
+    end if
+    write (buf, '(es'//itoa(d + 7)//'.'//itoa(d)//'e2)') x      ! sign, digit, point, E+nn
+    if (index(buf(1:d + 7), '*') > 0) write (buf, '(es'//itoa(d + 8)//'.'//itoa(d)//'e3)') x
+    text = trim(adjustl(buf))
+    if (len(text) < w) text = repeat(' ', w - len(text))//text
+  end function es_text
+
+  !> x as Fw.d writes it, or es_text(x, w, d) when that would be asterisks
+  !> (a value too large for the column).
+  function fixed_text(x, w, d) result(text)
+    real(wp), intent(in) :: x
+    integer, intent(in) :: w, d
+    character(len=:), allocatable :: text
+    character(len=64) :: buf
+    write (buf, '(f'//itoa(w)//'.'//itoa(d)//')') x
+    text = buf(1:w)
+    if (index(text, '*') > 0) text = es_text(x, w, max(1, min(d, w - 7)))
+  end function fixed_text
 
   !> lines with text appended; grown by hand (an array constructor of
   !> line_t loses the lengths with gfortran 12).

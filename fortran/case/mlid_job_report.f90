@@ -3,7 +3,7 @@
 module mlid_job_report
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp
-  use mlid_text, only: itoa
+  use mlid_text, only: itoa, es_text
   use mlid_report, only: case_json, json_string, number, numbers, strings, matrix
   implicit none
   private
@@ -57,25 +57,19 @@ contains
     character(len=256) :: buf
     integer :: k
 
-    write (buf, '(a,es10.4e2,a,i0,a,es10.4e2,a)') ' input design, method '''// &
-      trim(s%method)//''' (report ch. 7): T = ', s%t, ' s, ', s%cells, ' cells of ', &
-      s%t/s%cells, ' s'
-    text = trim(buf)//NL
+    text = ' input design, method '''//trim(s%method)//''' (report ch. 7): T = '// &
+           es_text(s%t, 10, 4)//' s, '//itoa(s%cells)//' cells of '// &
+           es_text(s%t/s%cells, 10, 4)//' s'//NL
     do k = 1, size(s%servo)
       if (s%servo(k) > 0.0_wp) then
-        write (buf, '(a,es10.4e2,a)') ' servo on '//trim(s%inputs(k))//': first order, '// &
-          'time constant ', s%servo(k), ' s (the input is its command, report 8.3)'
-        text = text//trim(buf)//NL
+        text = text//' servo on '//trim(s%inputs(k))//': first order, time constant '// &
+               es_text(s%servo(k), 10, 4)//' s (the input is its command, report 8.3)'//NL
       end if
     end do
     if (s%noise) text = text//' process noise: the steady-state filter''s sensitivities '// &
                        '(report 7.5)'//NL
-    write (buf, '(a,es14.7e2,a,es14.7e2)') ' energy ', s%energy, '   peak ', s%peak
-    text = text//trim(buf)
-    if (ieee_is_finite(s%mu)) then
-      write (buf, '(a,es14.7e2,a)') '   mu ', s%mu, ' (max tr(WM) = mu E)'
-      text = text//trim(buf)
-    end if
+    text = text//trim(' energy '//es_text(s%energy, 14, 7)//'   peak '//es_text(s%peak, 14, 7))
+    if (ieee_is_finite(s%mu)) text = text//'   mu '//es_text(s%mu, 14, 7)//' (max tr(WM) = mu E)'
     text = text//NL
     if (s%nratio > 0) then
       write (buf, '(a,f0.4,a,f0.4,a,i0,a)') ' equalised weights (eq. 7.88): diag(WM) max/min ', &
@@ -85,14 +79,13 @@ contains
     write (buf, '(1x,a16,a13,a15)') 'unknown         ', 'weight', 'sigma (CR)'
     text = text//trim(buf)//NL
     do k = 1, size(s%labels)
-      write (buf, '(1x,a16,es13.4e2,es15.6e2)') s%labels(k), s%weights(k), s%sigma(k)
-      text = text//trim(buf)//NL
+      write (buf, '(1x,a16)') s%labels(k)
+      text = text//trim(buf(1:17)//es_text(s%weights(k), 13, 4)//es_text(s%sigma(k), 15, 6))//NL
     end do
-    write (buf, '(a,es14.7e2,a,es14.7e2)') ' tr M = ', s%trace, '   det M = ', s%det
-    text = text//trim(buf)//NL//' eigenvalues of M:'
+    text = text//trim(' tr M = '//es_text(s%trace, 14, 7)//'   det M = '//es_text(s%det, 14, 7))// &
+           NL//' eigenvalues of M:'
     do k = 1, size(s%eig)
-      write (buf, '(es11.4e2)') s%eig(k)
-      text = text//trim(buf)
+      text = text//es_text(s%eig(k), 11, 4)
     end do
     text = text//NL//' designed input written to '//trim(s%out)//' ('//itoa(s%samples)// &
            ' samples)'//NL
@@ -145,16 +138,15 @@ contains
       'mean CR sigma'
     text = text//trim(buf)//NL
     do k = 1, size(s%labels)
-      write (buf, '(1x,a16,5es14.5e2)') s%labels(k), s%truth(k), s%start(k), s%mean(k), &
-        s%sample_sigma(k), s%cr_sigma(k)
-      text = text//trim(buf)//NL
+      write (buf, '(1x,a16)') s%labels(k)
+      text = text//trim(buf(1:17)//es_text(s%truth(k), 14, 5)//es_text(s%start(k), 14, 5)// &
+             es_text(s%mean(k), 14, 5)//es_text(s%sample_sigma(k), 14, 5)// &
+             es_text(s%cr_sigma(k), 14, 5))//NL
     end do
-    write (buf, '(a,es12.5e2,a,es12.5e2)') ' sample covariance: det ', s%cov_det, '   trace ', &
-      s%cov_trace
-    text = text//trim(buf)//NL
-    write (buf, '(a,es12.5e2,a,es12.5e2)') ' information (mean over the runs): trace ', &
-      s%info_trace, '   det ', s%info_det
-    text = text//trim(buf)//NL
+    text = text//trim(' sample covariance: det '//es_text(s%cov_det, 12, 5)//'   trace '// &
+                      es_text(s%cov_trace, 12, 5))//NL
+    text = text//trim(' information (mean over the runs): trace '//es_text(s%info_trace, 12, 5)// &
+                      '   det '//es_text(s%info_det, 12, 5))//NL
   end function mc_report
 
   function mc_json(title, job, s) result(text)

@@ -4,11 +4,11 @@
 !> for byte.
 module mlid_report
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, stop_reason_text, fit_outcome, FIT_FAILED
+  use mlid_kinds, only: wp, stop_reason_text, fit_outcome, FIT_FAILED, STOP_DIVERGED
   use mlid_linalg, only: chol_inverse
   use mlid_options, only: NOPT, option_get
   use mlid_units, only: UNITLEN
-  use mlid_text, only: itoa
+  use mlid_text, only: itoa, es_text, fixed_text
   implicit none
   private
   public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string, number, &
@@ -59,6 +59,7 @@ contains
       trim(merge('converged    ', 'NOT converged', s%converged))//' ('// &
       trim(stop_reason_text(s%reason))//')'
     text = trim(buf)//NL
+    if (s%reason == STOP_DIVERGED) text = text//' '//trim(msg)//NL   ! how (mlid_newton)
     if (iopt(10) > 0) then
       write (buf, '(a,i0,a,i0,a)') ' rank-deficient solution: rank ', s%rank, ' of ', &
         size(s%labels), ' (sigma from the same rank)'
@@ -68,9 +69,8 @@ contains
       'estimate', 'sigma', 'sigma col.'
     text = text//trim(buf)//NL
     do k = 1, size(s%labels)
-      write (buf, label_format('2es15.6e2,2es13.4e2')) s%labels(k), unit_of(s, k), s%start(k), &
-        s%est(k), s%sig(k), s%sigc(k)
-      text = text//trim(buf)//NL
+      text = text//trim(label_unit(s, k)//es_text(s%start(k), 15, 6)//es_text(s%est(k), 15, 6)// &
+             es_text(s%sig(k), 13, 4)//es_text(s%sigc(k), 13, 4))//NL
     end do
     write (buf, '(a,i0,a)') ' sigma col.: Cramer-Rao sigma corrected for coloured residuals ' // &
       '(residual autocorrelation to lag ', s%lag, ')'
@@ -78,13 +78,13 @@ contains
                   'frequency domain)'
     text = text//trim(buf)//NL
     ! output error estimates R; filter error reports the mean innovation covariance B
-    write (buf, '(a,es17.10e2,a,es13.6e2)') ' cost J = ', s%cost, '   det '// &
-      trim(merge('R', 'B', oe .or. fd))//' = ', det_r(s%rhat)
+    buf = ' cost J = '//es_text(s%cost, 17, 10)//'   det '//trim(merge('R', 'B', oe .or. fd))// &
+          ' = '//es_text(det_r(s%rhat), 13, 6)
     if (fd) buf(index(buf, 'det R'):index(buf, 'det R') + 4) = 'det S'
     text = text//trim(buf)//NL
     if (.not. (oe .or. fd)) then
-      write (buf, '(a,es17.10e2,a)') ' cost J'' = ', cost_prime(s%rhat), &
-        '   (1/2N) sum nu''nu, unweighted (report 5.1.6)'
+      buf = ' cost J'' = '//es_text(cost_prime(s%rhat), 17, 10)// &
+            '   (1/2N) sum nu''nu, unweighted (report 5.1.6)'
       text = text//trim(buf)//NL
     end if
     if (fd) then      ! the residual spectrum S of the transformed outputs
@@ -93,14 +93,12 @@ contains
       text = text//' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', oe))
     end if
     do k = 1, size(s%rhat, 1)
-      write (buf, '(1x,es10.4e2)') s%rhat(k, k)
-      text = text//trim(buf)
+      text = text//' '//es_text(s%rhat(k, k), 10, 4)
     end do
     if (allocated(s%rnoise)) then
       text = text//NL//' R diagonal (from the innovations)'
       do k = 1, size(s%rnoise)
-        write (buf, '(1x,es10.4e2)') s%rnoise(k)
-        text = text//trim(buf)
+        text = text//' '//es_text(s%rnoise(k), 10, 4)
       end do
     end if
     text = text//NL//identifiability(s%labels, s%eigval, s%eigvec, s%cov)
@@ -126,8 +124,7 @@ contains
     write (buf, label_format('a15,a15')) 'parameter       ', 'unit      ', 'start', 'last value'
     text = text//trim(buf)//NL
     do k = 1, size(s%labels)
-      write (buf, label_format('2es15.6e2')) s%labels(k), unit_of(s, k), s%start(k), s%est(k)
-      text = text//trim(buf)//NL
+      text = text//trim(label_unit(s, k)//es_text(s%start(k), 15, 6)//es_text(s%est(k), 15, 6))//NL
     end do
     text = text//' last value: where the fit stopped, not an estimate (a failed fit has no '// &
            'sigma, correlations or cost)'//NL//' FAILED: '//trim(msg)//NL
@@ -224,8 +221,7 @@ contains
   function fmt_e(x) result(s)
     real(wp), intent(in) :: x
     character(len=16) :: s
-    write (s, '(es10.3e2)') x
-    s = adjustl(s)
+    s = adjustl(es_text(x, 10, 3))
   end function fmt_e
 
   !> The report's J' (its §5.1.6): (1/2N) sum_j nu_j' nu_j, the unweighted
@@ -268,8 +264,9 @@ contains
     write (buf, '(1x,a16,a12,a14,a12)') 'output          ', 'Theil U', 'rms error', 'rms/sigma'
     text = text//trim(buf)//NL
     do k = 1, size(names)
-      write (buf, '(1x,a16,f12.4,es14.4e2,f12.3)') names(k), theil(k), rms(k), ratio(k)
-      text = text//trim(buf)//NL
+      write (buf, '(1x,a16)') names(k)
+      text = text//trim(buf(1:17)//fixed_text(theil(k), 12, 4)//es_text(rms(k), 14, 4)// &
+             fixed_text(ratio(k), 12, 3))//NL
     end do
     text = text//' Theil U: rms(y - yhat)/(rms(y) + rms(yhat)); sigma: the identification''s '// &
            'residual sigma'//NL
@@ -526,11 +523,21 @@ contains
     s = s//']'
   end function numbers
 
+  !> The start of row k of the table of parameters: its label and unit.
+  function label_unit(s, k) result(text)
+    type(fit_summary_t), intent(in) :: s
+    integer, intent(in) :: k
+    character(len=LABEL_WIDTH + 12) :: text
+    write (text, label_format('')) s%labels(k), unit_of(s, k)
+  end function label_unit
+
   !> A row of the table of parameters: label, unit, then rest.
   function label_format(rest) result(f)
     character(len=*), intent(in) :: rest
     character(len=:), allocatable :: f
-    f = '(1x,a'//itoa(LABEL_WIDTH)//',1x,a10,'//rest//')'
+    f = '(1x,a'//itoa(LABEL_WIDTH)//',1x,a10'
+    if (len(rest) > 0) f = f//','//rest
+    f = f//')'
   end function label_format
 
 end module mlid_report

@@ -5,7 +5,7 @@
 module mlid_inputs
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower
+  use mlid_text, only: to_lower, es_text
   implicit none
   private
   public :: input_signal, INPUT_SHAPES
@@ -45,8 +45,8 @@ contains
     if (to_lower(shape) == 'none') return
     if (t_start < 0.0_wp .or. t_start > real(size(u) - 1, wp)*dt) then
       status = MLID_ERR_INPUT
-      write (msg, '(a,es10.3,a,es10.3,a)') 'input signal: t_start =', t_start, &
-        ' s lies outside the record (0 to', real(size(u) - 1, wp)*dt, ' s)'
+      msg = 'input signal: t_start ='//es_text(t_start, 10, 3)//' s lies outside the record '// &
+            '(0 to'//es_text(real(size(u) - 1, wp)*dt, 10, 3)//' s)'
       return
     end if
     ! both in samples; a pulse wider than the record acts as the record

@@ -27,6 +27,7 @@ module mlid_riccati
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV
   use mlid_linalg, only: solve, chol_inverse
+  use mlid_text, only: es_text
   implicit none
   private
   public :: dare_solve, stein_solve, riccati_residual
@@ -89,9 +90,9 @@ contains
     res = riccati_residual(a, c, q, r, g, p)
     if (ierr /= 0 .or. it > MAX_DOUBLINGS .or. .not. res <= RESIDUAL_TOL) then
       status = MLID_ERR_NOCONV
-      write (msg, '(a,es9.2,a)') 'steady-state Kalman filter: no stabilising solution of the '// &
-        'Riccati equation (relative residual ', res, '): a mode is neither damped nor seen '// &
-        'in the outputs, or R is too small'
+      msg = 'steady-state Kalman filter: no stabilising solution of the Riccati equation '// &
+            '(relative residual '//es_text(res, 9, 2)//'): a mode is neither damped nor seen '// &
+            'in the outputs, or R is too small'
       return
     end if
     status = MLID_OK

@@ -4,7 +4,7 @@
 module mlid_sampling
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: itoa, seconds
+  use mlid_text, only: itoa, seconds, es_text
   implicit none
   private
   public :: record_check_time, record_check_segments, record_uniform_step, record_common_step, &
@@ -115,9 +115,7 @@ contains
   function precise(x) result(text)
     real(wp), intent(in) :: x
     character(len=:), allocatable :: text
-    character(len=24) :: buf
-    write (buf, '(es16.9)') x
-    text = trim(adjustl(buf))
+    text = trim(adjustl(es_text(x, 16, 9)))
   end function precise
 
   !> The one step dt of the manoeuvres of t starting at samples starts: each

@@ -13,7 +13,7 @@ module mlid_fit_driver
   use mlid_frequency, only: freq_record
   use mlid_likelihood, only: weighted_sensitivities
   use mlid_colored, only: colored_covariance
-  use mlid_text, only: itoa
+  use mlid_text, only: itoa, es_text
   use mlid_params, only: param_map_t, tie_t
   use mlid_linalg, only: sym_eig
   use mlid_setup, only: setup
@@ -221,7 +221,6 @@ contains
     logical, intent(in) :: fall
     character(len=256) :: text
     real(wp), parameter :: NOISE_FREE_FALL = 1.0e-2_wp
-    character(len=16) :: buf
     real(wp) :: worst, r
     logical :: low
     integer :: k, i
@@ -242,8 +241,8 @@ contains
       text = trim(text)//merge(', ', '  ', len_trim(text) > 0)//'r('//itoa(i)//')'
     end do
     if (len_trim(text) == 0) return
-    write (buf, '(es8.1)') worst
-    text = 'outputs '//trim(adjustl(text))//' look noise-free (r/B <= '//trim(adjustl(buf))// &
+    text = 'outputs '//trim(adjustl(text))//' look noise-free (r/B <= '// &
+           trim(adjustl(es_text(worst, 8, 1)))// &
            '): exact ML has no maximum'
   end function noise_free_names
 

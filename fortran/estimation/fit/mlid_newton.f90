@@ -7,14 +7,14 @@ module mlid_newton
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, &
                         MLID_ERR_INPUT, &
                         STOP_NONE, STOP_COST, STOP_STEP, STOP_GRAD, STOP_MAXITER, &
-                        STOP_NO_DECREASE, STOP_FAILED
+                        STOP_NO_DECREASE, STOP_FAILED, STOP_DIVERGED
   use mlid_linalg, only: info_inverse, info_eig, eig_inverse
   use mlid_equation_error, only: equation_error
   use mlid_models, only: model_t
   use mlid_options, only: options_t, METHOD_FILTER_ERROR
   use mlid_likelihood, only: likelihood, sens_keep_t
   use mlid_params, only: param_map_t, apply_ties
-  use mlid_text, only: itoa
+  use mlid_text, only: itoa, es_text
   implicit none
   private
   public :: fit_result_t, extras_t, newton_fit
@@ -26,6 +26,11 @@ module mlid_newton
   !> The innovations criterion's least R(i,i), relative to the mean squared
   !> innovation of output i: a noise-free output's R stays regular.
   real(wp), parameter :: NOISE_FLOOR = 1.0e-6_wp
+  !> A sane fit's R-hat(i,i), the mean squared residual (innovation) of
+  !> output i, is at most this times the mean square of output i as
+  !> measured: a residual 1000 times the measured signal in rms is a model
+  !> that blew up, not one that fits (not_sane).
+  real(wp), parameter :: SANE_RATIO = 1.0e6_wp
 
   !> The estimator options of report §4.6 beyond plain Newton-Raphson, over
   !> the free parameters: a priori values and weight (block 7), bounds
@@ -121,6 +126,7 @@ contains
     type(search_t) :: st
     integer :: rmin, rtop, k
     real(wp) :: djr
+    character(len=len(msg)) :: why
 
     pb = problem_t(m, pm, t, u, y, opt, ex)
     status = MLID_OK
@@ -148,9 +154,45 @@ contains
     end if
     if (status /= MLID_OK) return
     res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
+    why = not_sane(res, y)
+    if (len_trim(why) > 0) then      ! whatever test stopped it, it blew up
+      res%reason = STOP_DIVERGED
+      res%converged = .false.
+    end if
     res%searched = .true.
-    call final_bound(opt, ex, st, res, status, msg)
+    call final_bound(opt, ex, st, res, why, status, msg)
   end subroutine newton_fit
+
+  !> Why the fit res to the outputs y (as the search sees them) is not
+  !> sane, '' when it is: its cost and every entry of R-hat must be finite,
+  !> and no R-hat(i,i) above SANE_RATIO times the mean square of output i
+  !> (an output measured as zero throughout gives no scale and is not
+  !> checked).  Only a fit that blew up fails this: an unstable start on a
+  !> long record can end a search on a point whose outputs dwarf the data,
+  !> where the step test is met because the parameters hardly move.
+  function not_sane(res, y) result(why)
+    type(fit_result_t), intent(in) :: res
+    real(wp), intent(in) :: y(:, :)
+    character(len=256) :: why
+    real(wp) :: ms
+    integer :: i
+
+    why = ''
+    if (.not. (ieee_is_finite(res%cost) .and. all(ieee_is_finite(res%rhat)))) then
+      why = 'diverged: the cost or R-hat is not finite'
+      return
+    end if
+    do i = 1, size(res%rhat, 1)
+      ms = sum(y(i, :)**2)/size(y, 2)
+      if (.not. (ms > 0.0_wp .and. res%rhat(i, i) > SANE_RATIO*ms)) cycle
+      why = 'diverged: R-hat('//itoa(i)//','//itoa(i)//') = '// &
+            trim(adjustl(es_text(res%rhat(i, i), 9, 2)))//' is '// &
+            trim(adjustl(es_text(res%rhat(i, i)/ms, 9, 2)))//' times the mean square of '// &
+            'output '//itoa(i)//' (a sane fit''s is at most '// &
+            trim(adjustl(es_text(SANE_RATIO, 9, 2)))//' times)'
+      return
+    end do
+  end function not_sane
 
   !> The innovations criterion's start: r are not free (the relaxation
   !> estimates them); the first evaluation takes the given r.
@@ -492,13 +534,16 @@ contains
   end subroutine take_stash
 
   !> Cramer-Rao bound at the final estimate, with the prior's weight and
-  !> the rank of the last step; a singular information or an iteration that
-  !> did not converge sets status (res is kept).
-  subroutine final_bound(opt, ex, st, res, status, msg)
+  !> the rank of the last step; a fit that diverged (why, from not_sane:
+  !> the cause of the singular information it may bring), a singular
+  !> information or an iteration that did not converge sets status (res is
+  !> kept).
+  subroutine final_bound(opt, ex, st, res, why, status, msg)
     type(options_t), intent(in) :: opt
     type(extras_t), intent(in) :: ex
     type(search_t), intent(inout) :: st
     type(fit_result_t), intent(inout) :: res
+    character(len=*), intent(in) :: why
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer :: ndrop, k, tstat
@@ -512,11 +557,14 @@ contains
       if (status /= MLID_OK) return
       call eig_inverse(st%scr, st%wr, st%vr, opt%rcond, res%rank, res%cov, k, tstat)
     end if
-    if (ndrop > 0 .and. opt%rank_min == 0) then     ! singular, and no rank-deficient solution asked
+    if (len_trim(why) > 0) then
+      status = MLID_ERR_NOCONV
+      msg = why
+    else if (ndrop > 0 .and. opt%rank_min == 0) then     ! singular, and no rank-deficient solution asked
       status = MLID_ERR_SINGULAR
-      write (msg, '(a,i0,a,es9.2,a,i0,a)') 'information matrix singular (', ndrop, &
-        ' eigenvalue(s) of the normalised matrix below', opt%rcond, ' of the largest): free parameter ', &
-        res%bad_param, ' is not identifiable from these data'
+      msg = 'information matrix singular ('//itoa(ndrop)//' eigenvalue(s) of the normalised '// &
+            'matrix below '//trim(adjustl(es_text(opt%rcond, 9, 2)))//' of the largest): free '// &
+            'parameter '//itoa(res%bad_param)//' is not identifiable from these data'
     else if (.not. res%converged) then
       status = MLID_ERR_NOCONV
       write (msg, '(a,i0,a)') 'not converged after ', res%niter, ' iterations: ' // &

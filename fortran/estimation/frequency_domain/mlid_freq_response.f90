@@ -17,6 +17,7 @@
 module mlid_freq_response
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR
+  use mlid_text, only: es_text
   use mlid_fft, only: fft_plan_t, fft_plan, fft_real_pair, fft_length
   use mlid_models, only: model_t, linear_model_t, layout_t, model_layout
   implicit none
@@ -239,8 +240,8 @@ contains
     call zgesv(nx, nu, r, nx, ipiv, q, nx, info)
     if (info /= 0) then
       status = MLID_ERR_SINGULAR
-      write (msg, '(a,es10.3,a)') 'model frequency response: jw I - A is singular at w = ', w, &
-        ' rad/s (a pole on the imaginary axis)'
+      msg = 'model frequency response: jw I - A is singular at w = '//es_text(w, 10, 3)// &
+            ' rad/s (a pole on the imaginary axis)'
       return
     end if
     ! P = C R: solve (sI - A)' P' = C' with the same factors

@@ -190,7 +190,10 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
         Estimates, Cramer-Rao and coloured-residual sigmas, covariance,
         R-hat, outputs, cost history and how the iteration ended.  A run that
         ends without meeting a convergence test returns its last iterate with
-        ``converged`` False.
+        ``converged`` False; so does one that blew up, whatever test it met
+        (reason 'diverged: R-hat or cost not sane': its cost or R-hat is not
+        finite, or an R-hat(i,i) is above 1e6 times the mean square of output
+        i as measured; the message names the output and the ratio).
 
     Raises
     ------

@@ -4,6 +4,7 @@ HTML form for Jupyter, and the whiteness test of its residuals."""
 import functools
 import html
 import json
+import math
 import re
 import types
 
@@ -19,6 +20,18 @@ from .table import HTML_DIGITS, results_table
 NOT_IN_A_FAILED_FIT = ("sigma", "sigma_corrected", "covariance", "covariance_corrected",
                        "information", "gradient", "eigenvalues", "eigenvectors", "rhat", "yhat",
                        "cost", "cost_history")
+
+
+def _finite_or_none(value):
+    """value with every float that is not finite, in its lists and dicts,
+    replaced by None."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, list):
+        return [_finite_or_none(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _finite_or_none(v) for k, v in value.items()}
+    return value
 
 
 def whiteness(residuals, lags=20):
@@ -202,8 +215,10 @@ class FitResult:
 
     @property
     def det_r(self):
-        """The determinant of R-hat (the report's det R, or det B)."""
-        return float(np.linalg.det(self.rhat))
+        """The determinant of R-hat (the report's det R, or det B); beyond
+        the largest float it is infinite, as the report prints it."""
+        with np.errstate(over="ignore", under="ignore"):
+            return float(np.linalg.det(self.rhat))
 
     def as_dict(self):
         """Plain types for JSON.
@@ -215,8 +230,14 @@ class FitResult:
             parameters, start, estimate, sigmas, correlation, R, cost and its
             history, iterations, convergence, rank, reason, message, wall time;
             for a failed fit, as its JSON: ``failed`` True, ``last_values``,
-            and None for the estimates and every statistic.
+            and None for the estimates and every statistic.  A number that
+            is not finite (det R beyond the largest float) is None, as the
+            core's JSON has it (null): JSON has no NaN or infinity.
         """
+        return _finite_or_none(self._as_dict())
+
+    def _as_dict(self):
+        """as_dict, its numbers as they are."""
         core = json.loads(self._texts()[1])           # the estimator and band, as the core words them
         common = {"failed": self.failed, "method": core["method"], "band": core["band"],
                   "parameters": list(self.names),
