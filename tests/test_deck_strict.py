@@ -101,6 +101,9 @@ LEGAL = {
                                       "names = 1*'a11', 'a21', names(3) = 'b1'"),
     "a null value before an element set by index": ("h = 1, 0, 0, 1,",
                                                     "h = , 0, 0, 1, h(1) = 1,"),
+    # each group's namelist read sees that group's text alone (issue 41)
+    "a group's name in quoted text": ("job = 'estimate'",
+                                      "job = 'estimate', config = 'a &estimate b'"),
 }
 
 
@@ -119,14 +122,26 @@ def test_legal_namelist_syntax_reads_as_the_plain_deck(tmp_path, name):
     assert outs[0] == outs[1]
 
 
-def test_a_group_after_a_quoted_bang_on_its_line_is_refused(tmp_path):
-    """The namelist read skips a line from its first !, quoted or not, when
-    it looks for a group: the &estimate after 't!s' was never read (the fit
-    ran with the default options)."""
-    middle = FIT.replace("output_cols = 3, 4 /\n&estimate", "output_cols = 3, 4, "
-                         "output_names = 'y!1', 'y2' / &estimate")
-    _refused(tmp_path, middle, "line 10: start &estimate on a line of its own (a ! in quoted "
-                               "text before it hides it from the namelist read)")
+def test_a_group_after_a_quoted_bang_on_its_line_is_read(tmp_path):
+    """Each group's namelist read is given that group's text alone (issue
+    41), so a ! in quoted text before a group on its line hides nothing: the
+    &estimate after 'y!1' is read (it was refused, and before that never
+    read: the fit ran with the default options)."""
+    deck = tmp_path / "deck.nml"
+    outs = []
+    for est in ("\n&estimate", " &estimate"):
+        middle = FIT.replace("'b1' /", "'b1', output_names = 'y!1', 'y2' /").replace(
+            "max_iter = 20", "max_iter = 1").replace("/\n&data", "/\n&data", 1)
+        middle = middle.replace("output_cols = 3, 4 /\n&estimate", "output_cols = 3, 4 /" + est)
+        middle = middle.replace("'y2' /\n&data", "'y2' /\n&data")
+        deck.write_text(SIM + middle + GOOD)
+        both = run_both(deck, cwd=tmp_path)
+        assert all(r.returncode == 0 for r in both), both[0].stderr
+        assert both[0].stdout == both[1].stdout
+        assert "max_iter = 1" in deck.read_text() and "not converged after 1 iteration" in \
+            both[0].stderr, both[0].stderr
+        outs.append(both[0].stdout)
+    assert outs[0] == outs[1]
 
 
 # lists of one value per item given too short (none given keeps the default),
@@ -239,10 +254,6 @@ BLAMED = {
         FIT.replace("'b1' /", "'b1', x0 = " + "1, " * 40 + "bias = 0, 0 /"),
         "group &model (line 7): a value stands where a name should be (read as '1'): a "
         "name given more values than it takes, or a name without ="),
-    "a group's name in quoted text": (
-        FIT.replace("'middle', job", "'middle', config = 'a &estimate b', job"),
-        "line 6: quoted text 'a &estimate b' holds '&estimate', which the namelist reads would "
-        "take for the group"),
 }
 
 
