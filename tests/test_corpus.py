@@ -12,8 +12,10 @@ same estimates as the plain deck or record it was derived from.
 Whole-deck entries (empty deck, text before the first &case, a directory)
 cannot have neighbours: the deck is refused with one line from each front end.
 
-An in-process fuzz test (hypothesis) mutates a good deck and a good record:
-mlid.read_deck and mlid.FlightData.load may raise only mlid.MlidError.
+An in-process fuzz test (hypothesis) mutates a good deck and a good record,
+and puts Unicode text and invalid UTF-8 into a deck's titles, names, comments
+and strings: mlid.read_deck and mlid.FlightData.load may raise only
+mlid.MlidError.
 """
 
 import json
@@ -541,6 +543,55 @@ else:
                 return
             for case in cases:
                 assert case.error is None or isinstance(case.error, str)
+
+
+    # decks with Unicode (issue 41): random non-ASCII text put into titles, names, comments
+    # and quoted strings, or anywhere, as UTF-8, or as raw bytes (invalid UTF-8 among them)
+    _SLOTS = [b"title = 'middle", b"names = 'a11", b"'f(1,1)", b"output_cols = 3, 4 /",
+              b"job = 'estimate'", b"&model", b"nx = 2,"]
+    _unicode = st.one_of(
+        st.text(st.characters(min_codepoint=0x80, max_codepoint=0x10FFFF,
+                              blacklist_categories=("Cs",)), min_size=1, max_size=12)
+        .map(lambda t: t.encode()),
+        st.binary(min_size=1, max_size=8),
+        st.sampled_from([b"\xc3", b"\xe2\x80", b"\xff\xfe", b"\xed\xa0\x80", b"\xc0\xaf",
+                         "é".encode() * 200, "\u2212".encode(), "\u00a0".encode(),
+                         "\u201cq\u201d".encode()]))
+    _placement = st.one_of(
+        st.tuples(st.sampled_from(["slot", "comment"]), st.integers(0, len(_SLOTS) - 1),
+                  _unicode),
+        st.tuples(st.just("anywhere"), st.floats(0, 1), _unicode))
+
+
+    def _place(data, placements):
+        b = data
+        for how, where, text in placements:
+            if how == "slot":
+                slot = _SLOTS[where]
+                b = b.replace(slot, slot + text, 1)
+            elif how == "comment":
+                slot = _SLOTS[where]
+                b = b.replace(slot, slot + b" ! " + text + b"\n", 1)
+            else:
+                k = int(where * len(b))
+                b = b[:k] + text + b[k:]
+        return b
+
+
+    @settings(max_examples=150, deadline=None, derandomize=True, database=None,
+              suppress_health_check=list(HealthCheck))
+    @given(st.lists(_placement, min_size=1, max_size=4))
+    def test_fuzz_read_deck_unicode(placements):
+        with tempfile.TemporaryDirectory() as d:
+            path = Path(d) / "deck.nml"
+            path.write_bytes(_place(GOOD_DECK, placements))
+            try:
+                cases = mlid.read_deck(path)
+            except mlid.MlidError:
+                return
+            for case in cases:
+                assert case.error is None or isinstance(case.error, str)
+                assert isinstance(case.title, str)
 
 
     @FUZZ
