@@ -12,8 +12,10 @@ same estimates as the plain deck or record it was derived from.
 Whole-deck entries (empty deck, text before the first &case, a directory)
 cannot have neighbours: the deck is refused with one line from each front end.
 
-An in-process fuzz test (hypothesis) mutates a good deck and a good record:
-mlid.read_deck and mlid.FlightData.load may raise only mlid.MlidError.
+An in-process fuzz test (hypothesis) mutates a good deck and a good record,
+and puts Unicode text and invalid UTF-8 into a deck's titles, names, comments
+and strings: mlid.read_deck and mlid.FlightData.load may raise only
+mlid.MlidError.
 """
 
 import json
@@ -117,10 +119,6 @@ def _bell_in_a_later_comment(b):
 
 def _form_feed_in_a_deck_comment(b):
     return b.replace(b"\n", b" ! page\x0c\n", 1)
-
-
-def _nul_in_title(b):
-    return b.replace(b"title = 'middle'", b"title = 'mid\x00dle'", 1)
 
 
 # ---- the table ---------------------------------------------------------------
@@ -234,6 +232,40 @@ ENTRIES = {
                                                            "same_as": "good record"}),
     "columns beyond the file": ("record_cols_beyond.nml", r"column 7 requested",
                                 {"record": "good.dat"}),
+    # issue 41, class 7 (decks)
+    # a form feed outside quoted text is a blank (a page break); inside it, and any other
+    # control character outside a comment, fails its case alone (it failed the whole deck)
+    "form feeds between values and groups": ("form_feed.nml", OK, {"same_as": "plain deck"}),
+    "form feed in a quoted name": ("form_feed_in_a_name.nml",
+                                   r"^line 14: control character \\x0C at character 59$", {}),
+    "NUL byte in a quoted name": ("nul_in_a_name.nml",
+                                  r"^line 14: control character \\x00 at character 59$", {}),
+    # the largest number was the sentinel of 'not given': now it is read as given
+    "the largest number as a value": ("huge_value_given.nml",
+                                      r"delay\(1\) = 0\.1798E\+309 s is not shorter", {}),
+    "&simulate in an estimate case": ("simulate_in_estimate.nml",
+                                      r"^line 16: group &simulate is not read by job 'estimate' "
+                                      r"\(it reads &case, &model, &data, &estimate\)$", {}),
+    "&data in a simulate case": ("data_in_simulate.nml",
+                                 r"^line 12: group &data is not read by job 'simulate' \(it reads "
+                                 r"&case, &model, &simulate\)$", {}),
+    "prior with 2 of 3 values": ("prior_partial.nml", r"prior has 2 values; .*one value per "
+                                                      r"free parameter \(3", {}),
+    "lower with 1 of 3 values": ("lower_partial.nml", r"lower has 1 values; .*one value per "
+                                                      r"free parameter \(3", {}),
+    "an element given twice through a strided section": (
+        "strided_twice.nml", r"^line 12: h\(4\) given twice in group &model \(first at line "
+                             r"12\)$", {}),
+    "21 data files": ("files_21.nml", r"^group &data: file has 21 entries; a case takes at "
+                                      r"most 20 manoeuvres \(data files\)$", {}),
+    "tol_grad = inf": ("tol_grad_inf.nml", r"^tolerances tol_cost, tol_step, tol_grad must be "
+                                           r"finite and >= 0$", {}),
+    # null values keep their element's default (the namelist way): bias, x0 zero
+    "null values and r* nulls": ("null_values.nml", OK, {"same_as": "plain deck"}),
+    "a title of 100 characters in 200 bytes": ("utf8_title.nml", OK, {"same_as": "plain deck",
+                                                                      "title": "\u00e9" * 100}),
+    # a job's blanks around it are no part of it: ' estimate ' is estimate
+    "job with blanks around it": ("job_blanks.nml", OK, {"same_as": "plain deck"}),
 }
 
 # whole decks that are refused as a whole: name -> (how to make the deck, phrase)
@@ -241,11 +273,8 @@ WHOLE = {
     "empty deck": ("empty.nml", r"no &case group"),
     "text before the first &case": ("plain.nml", r"line 1\b.*text before the first &case"),
     "deck that is a directory": (None, r"directory"),
-    "NUL byte in a title": ("plain.nml", r"batch\.nml line 7: control character \\x00 at "
-                                         r"character 19$"),
 }
-WHOLE_TRANSFORM = {"text before the first &case": _text_before,
-                   "NUL byte in a title": _nul_in_title}
+WHOLE_TRANSFORM = {"text before the first &case": _text_before}
 
 FORBIDDEN = ("Traceback", "Error termination", "internal error", "Fortran runtime error",
              "Segmentation fault", "SIGSEGV", "Backtrace", "core dumped", "Program received signal")
@@ -514,6 +543,55 @@ else:
                 return
             for case in cases:
                 assert case.error is None or isinstance(case.error, str)
+
+
+    # decks with Unicode (issue 41): random non-ASCII text put into titles, names, comments
+    # and quoted strings, or anywhere, as UTF-8, or as raw bytes (invalid UTF-8 among them)
+    _SLOTS = [b"title = 'middle", b"names = 'a11", b"'f(1,1)", b"output_cols = 3, 4 /",
+              b"job = 'estimate'", b"&model", b"nx = 2,"]
+    _unicode = st.one_of(
+        st.text(st.characters(min_codepoint=0x80, max_codepoint=0x10FFFF,
+                              blacklist_categories=("Cs",)), min_size=1, max_size=12)
+        .map(lambda t: t.encode()),
+        st.binary(min_size=1, max_size=8),
+        st.sampled_from([b"\xc3", b"\xe2\x80", b"\xff\xfe", b"\xed\xa0\x80", b"\xc0\xaf",
+                         "é".encode() * 200, "\u2212".encode(), "\u00a0".encode(),
+                         "\u201cq\u201d".encode()]))
+    _placement = st.one_of(
+        st.tuples(st.sampled_from(["slot", "comment"]), st.integers(0, len(_SLOTS) - 1),
+                  _unicode),
+        st.tuples(st.just("anywhere"), st.floats(0, 1), _unicode))
+
+
+    def _place(data, placements):
+        b = data
+        for how, where, text in placements:
+            if how == "slot":
+                slot = _SLOTS[where]
+                b = b.replace(slot, slot + text, 1)
+            elif how == "comment":
+                slot = _SLOTS[where]
+                b = b.replace(slot, slot + b" ! " + text + b"\n", 1)
+            else:
+                k = int(where * len(b))
+                b = b[:k] + text + b[k:]
+        return b
+
+
+    @settings(max_examples=150, deadline=None, derandomize=True, database=None,
+              suppress_health_check=list(HealthCheck))
+    @given(st.lists(_placement, min_size=1, max_size=4))
+    def test_fuzz_read_deck_unicode(placements):
+        with tempfile.TemporaryDirectory() as d:
+            path = Path(d) / "deck.nml"
+            path.write_bytes(_place(GOOD_DECK, placements))
+            try:
+                cases = mlid.read_deck(path)
+            except mlid.MlidError:
+                return
+            for case in cases:
+                assert case.error is None or isinstance(case.error, str)
+                assert isinstance(case.title, str)
 
 
     @FUZZ

@@ -101,6 +101,9 @@ LEGAL = {
                                       "names = 1*'a11', 'a21', names(3) = 'b1'"),
     "a null value before an element set by index": ("h = 1, 0, 0, 1,",
                                                     "h = , 0, 0, 1, h(1) = 1,"),
+    # each group's namelist read sees that group's text alone (issue 41)
+    "a group's name in quoted text": ("job = 'estimate'",
+                                      "job = 'estimate', config = 'a &estimate b'"),
 }
 
 
@@ -119,14 +122,24 @@ def test_legal_namelist_syntax_reads_as_the_plain_deck(tmp_path, name):
     assert outs[0] == outs[1]
 
 
-def test_a_group_after_a_quoted_bang_on_its_line_is_refused(tmp_path):
-    """The namelist read skips a line from its first !, quoted or not, when
-    it looks for a group: the &estimate after 't!s' was never read (the fit
-    ran with the default options)."""
-    middle = FIT.replace("output_cols = 3, 4 /\n&estimate", "output_cols = 3, 4, "
-                         "output_names = 'y!1', 'y2' / &estimate")
-    _refused(tmp_path, middle, "line 10: start &estimate on a line of its own (a ! in quoted "
-                               "text before it hides it from the namelist read)")
+def test_a_group_after_a_quoted_bang_on_its_line_is_read(tmp_path):
+    """Each group's namelist read is given that group's text alone (issue
+    41), so a ! in quoted text before a group on its line hides nothing: the
+    &estimate after 'y!1' is read (it was refused, and before that never
+    read: the fit ran with the default options)."""
+    deck = tmp_path / "deck.nml"
+    outs = []
+    for sep in ("\n", " "):               # &estimate on a line of its own, then after 'y!1'
+        middle = FIT.replace("\n&estimate max_iter = 20, halvings = 5 /", "").replace(
+            "'b1' /", "'b1', output_names = 'y!1', 'y2' /" + sep + "&estimate max_iter = 1 /")
+        assert ("'y!1', 'y2' / &estimate" in middle) == (sep == " ")
+        deck.write_text(SIM + middle + GOOD)
+        both = run_both(deck, cwd=tmp_path)
+        assert all(r.returncode == 0 for r in both), both[0].stderr
+        assert both[0].stdout == both[1].stdout
+        assert "not converged after 1 iteration" in both[0].stderr, both[0].stderr
+        outs.append(both[0].stdout)
+    assert outs[0] == outs[1]
 
 
 # lists of one value per item given too short (none given keeps the default),
@@ -239,10 +252,6 @@ BLAMED = {
         FIT.replace("'b1' /", "'b1', x0 = " + "1, " * 40 + "bias = 0, 0 /"),
         "group &model (line 7): a value stands where a name should be (read as '1'): a "
         "name given more values than it takes, or a name without ="),
-    "a group's name in quoted text": (
-        FIT.replace("'middle', job", "'middle', config = 'a &estimate b', job"),
-        "line 6: quoted text 'a &estimate b' holds '&estimate', which the namelist reads would "
-        "take for the group"),
 }
 
 
@@ -262,3 +271,115 @@ def test_a_design_is_not_written_over_the_deck(tmp_path):
     _refused(tmp_path, design, f"group &design: out '{tmp_path}/./deck.nml' is the deck or the "
                                "input_file: the record written would overwrite what it is made from")
     assert (tmp_path / "deck.nml").read_text().startswith(SIM)
+
+
+# ---- issue 41, class 7 ---------------------------------------------------------------
+
+def test_a_title_is_limited_in_characters_not_bytes(tmp_path):
+    """128 characters of UTF-8 (here 256 bytes) are a title; 129 are refused,
+    the message naming characters (the limit was 128 bytes)."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(SIM + FIT.replace("'middle'", "'" + "é" * 128 + "'") + GOOD)
+    for run in run_both(deck, cwd=tmp_path):
+        assert run.returncode == 0, run.stderr
+        assert f" case 2: {'é' * 128}\n" in run.stdout
+    _refused_title = "é" * 129
+    deck.write_text(SIM + FIT.replace("'middle'", f"'{_refused_title}'") + GOOD)
+    for run in run_both(deck, cwd=tmp_path):
+        assert run.returncode == 1
+        assert (f"'{'é' * 128}': group &case: title is longer than 128 characters"
+                in run.stderr), run.stderr
+
+
+OTHER_JOBS = {
+    "&estimate in a design case": (
+        """&case title = 'middle', job = 'design' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1, r = 0.01, 0.01,
+    free = 'f(1,1)', 'g(1,1)' /
+&design t_end = 2.0, dt = 0.02, energy = 1.0, out = 'designed.dat' /
+&estimate max_iter = 3 /
+""", "line 11: group &estimate is not read by job 'design' (it reads &case, &model, &design)"),
+    "&monte_carlo in an estimate case": (
+        FIT + "&monte_carlo runs = 3 /\n",
+        "line 12: group &monte_carlo is not read by job 'estimate' (it reads &case, &model, "
+        "&data, &estimate)"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(OTHER_JOBS))
+def test_a_group_of_another_job_is_refused(tmp_path, name):
+    middle, message = OTHER_JOBS[name]
+    _refused(tmp_path, middle, message)
+
+
+NULLS = {
+    "a null in a block that has no default": (
+        FIT.replace("f = -1.0, 0.5,", "f = , 0.5,"),
+        "group &model: f(1) is a null value, and f has no default to keep (it is needed)"),
+    "the brief's strided section": (
+        FIT.replace("'b1' /", "'b1', x0(1:2:1) = 1, 2, x0(2) = 3 /"),
+        "line 9: x0(2) given twice in group &model (first at line 9)"),
+    "a list given from its second element": (
+        FIT.replace("max_iter = 20", "max_iter = 20, prior_weight(2:3) = 1, 1, prior(2) = 1"),
+        None),
+    "a null in a list without a default": (
+        SIM.replace("'make data'", "'middle'").replace("noise_std = 0.01, 0.01",
+                                                       "noise_std = , 0.01")
+        .replace("small.dat", "other.dat"),
+        "group &simulate: noise_std(1) is a null value, and noise_std has no default to keep"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(NULLS))
+def test_null_values_and_elements(tmp_path, name):
+    """A null value keeps its element's default (the namelist way), so a
+    block without one refuses it; elements given by index are read as given."""
+    middle, message = NULLS[name]
+    if message is not None:
+        _refused(tmp_path, middle, message)
+        return
+    deck = tmp_path / "deck.nml"
+    deck.write_text(SIM + middle + GOOD)
+    assert all(r.returncode == 0 for r in run_both(deck, cwd=tmp_path))
+
+
+def test_a_50_mb_single_line_deck_is_refused_in_one_line(tmp_path):
+    """A deck of one 50 MB line whose seed is a number of 50 million digits
+    overflowed the stack (an automatic copy of the word in the scan): both
+    front ends segfaulted.  Now each says what is wrong in one line."""
+    deck = tmp_path / "big.nml"
+    deck.write_text(SIM.replace("\n", " ").replace("seed = 4,", "seed = 4" + "0" * 50_000_000
+                                                     + ",") + "\n")
+    for run in run_both(deck, cwd=tmp_path):
+        assert run.returncode == 1, run.stderr[-500:]
+        errors = [ln for ln in run.stderr.splitlines() if "case 1 (line 1) 'make data'" in ln]
+        assert len(errors) == 1 and "group &simulate" in errors[0], run.stderr[-500:]
+        assert len(errors[0]) < 400
+
+
+def test_a_deck_is_read_alike_under_a_file_size_limit(tmp_path):
+    """The reader copied each case to a scratch file, which `ulimit -f` cut,
+    and the case then read other options (issue 41).  It reads from memory
+    now: a case larger than the limit reads the same with and without it."""
+    import subprocess
+    from conftest import BIN
+    deck = tmp_path / "deck.nml"
+    deck.write_text(SIM)
+    assert all(r.returncode == 0 for r in run_both(deck, cwd=tmp_path))   # small.dat
+    # text a namelist read takes (leading blanks), past the limit of 2 KiB
+    indented = "".join(" " * 1000 + f"{k} = {v}\n" for k, v in (
+        ("halvings", 5), ("tol_cost", "1e-12"), ("tol_step", "1e-12"), ("max_iter", 2)))
+    middle = FIT.replace("max_iter = 20, halvings = 5 /", "\n" + indented + "/")
+    deck.write_text(middle + GOOD)
+    assert middle.index("max_iter = 2") > 4096
+    outs = {}
+    for limit in ("unlimited", "2"):
+        for exe, pre in (("mlid", "run "), ("mlid-batch", "")):
+            run = subprocess.run(["bash", "-c", f"ulimit -f {limit}; '{BIN / exe}' {pre}'{deck}'"],
+                                 capture_output=True, text=True, cwd=tmp_path)
+            assert run.returncode == 0, run.stderr
+            outs[limit, exe] = (run.stdout, run.stderr.replace(exe + ": ", ""))
+    assert outs["2", "mlid"] == outs["unlimited", "mlid"] == outs["2", "mlid-batch"] \
+        == outs["unlimited", "mlid-batch"]
+    assert "not converged after 2 iterations" in outs["2", "mlid"][1]   # its options read

@@ -133,12 +133,12 @@ def test_infinite_bounds_bound_nothing(data):
 
 
 @pytest.mark.parametrize("bounds, message", [
-    ("lower = NaN", "'M_q': lower bound is not a number"),
+    ("lower(1) = NaN", "'M_q': lower bound is not a number"),
     ("upper(1) = nan", "'M_q': upper bound is not a number"),
     ("lower = -1.0, NaN", "'M_alpha': lower bound is not a number"),
-    ("upper = -Inf", "'M_q': upper bound is -Inf (no value lies below it)"),
-    ("lower = +Infinity", "'M_q': lower bound is +Inf (no value lies above it)"),
-    ("lower = -1.0, upper = -2.0", "'M_q': lower bound above upper bound"),
+    ("upper(1) = -Inf", "'M_q': upper bound is -Inf (no value lies below it)"),
+    ("lower(1) = +Infinity", "'M_q': lower bound is +Inf (no value lies above it)"),
+    ("lower(1) = -1.0, upper(1) = -2.0", "'M_q': lower bound above upper bound"),
 ])
 def test_bad_bounds_in_decks_are_one_line_in_both_front_ends(tmp_path, bounds, message):
     """A NaN bound was dropped by mlid run and called 'above the upper
@@ -176,7 +176,7 @@ def test_options_through_decks_in_both_front_ends(tmp_path):
 &model kind = 'linear', nx = 2, nu = 1, ny = 2, f = -1.0, 0.5, -0.8, -2.0, g = 1.0, 0.3,
     h = 1, 0, 0, 1, free = 'g(1,1)', 'f(1,1)', 'f(2,1)' /
 &data file = 'd.dat', input_cols = 2, output_cols = 3, 4 /
-&estimate prior = 1.4, prior_weight = 50.0, lower = -10, -10, -0.95, rank_min = 2,
+&estimate prior(1) = 1.4, prior_weight(1) = 50.0, lower = -10, -10, -0.95, rank_min = 2,
     rank_rule = 'staged' /
 """)
     res = []

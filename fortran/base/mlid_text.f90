@@ -270,8 +270,8 @@ contains
     k = len(line) + 1
   end function comment_start
 
-  !> All lines of a deck; a control character outside a comment is refused
-  !> (a comment may hold any bytes: a form feed between cases, say).
+  !> All lines of a text file (a deck: its reader checks each case's text
+  !> for control characters, so that one case's fails that case alone).
   subroutine read_text(path, lines, status, msg)
     character(len=*), intent(in) :: path
     type(line_t), allocatable, intent(out) :: lines(:)
@@ -298,13 +298,6 @@ contains
       call text_line(tf, lines(n + 1)%s, ios)
       if (ios /= 0) exit
       n = n + 1
-      msg = control_character(lines(n)%s(1:comment_start(lines(n)%s) - 1))
-      if (len_trim(msg) > 0) then
-        call text_close(tf)
-        status = MLID_ERR_INPUT
-        msg = trim(path)//' line '//itoa(n)//': '//trim(msg)
-        return
-      end if
     end do
     call text_close(tf)
     lines = lines(1:n)

@@ -15,7 +15,7 @@ module mlid_case
   use mlid_files, only: same_file
   implicit none
   private
-  public :: case_t, case_values, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
+  public :: case_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
             CONDITION_NAMES
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512
@@ -25,6 +25,8 @@ module mlid_case
   integer, parameter :: MAX_SAMPLES = 10000000
 
   !> The numeric flight-condition items of &case, in order.
+  !> A title's characters at the most (UTF-8: up to four bytes each).
+  integer, parameter :: TITLE_CHARS = 128
   integer, parameter :: NCONDITION = 3
   character(len=10), parameter :: CONDITION_NAMES(NCONDITION) = &
     [character(len=10) :: 'mach', 'altitude', 'alpha_trim']
@@ -33,7 +35,7 @@ module mlid_case
     integer :: status = MLID_OK
     character(len=msg_len) :: msg = ''
     integer :: line = 0                       !< line of &case in the deck
-    character(len=128) :: title = ''
+    character(len=4*TITLE_CHARS) :: title = ''   !< TITLE_CHARS characters of UTF-8
     character(len=16) :: job = ''
     !> the flight condition (&case), for campaign tables: CONDITION_NAMES'
     !> values where given, the configuration and free-text tags

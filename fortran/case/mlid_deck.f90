@@ -49,8 +49,10 @@
 !> read: its record, its manoeuvres' layout).
 module mlid_deck
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower, itoa, read_text, line_t, add_line
-  use mlid_deck_scan, only: deck_scan, assignment_t
+  use mlid_text, only: to_lower, itoa, read_text, line_t, add_line, control_character
+  use mlid_deck_scan, only: deck_scan, assignment_t, group_span_t, element_states, last_element, &
+                            ABSENT, &
+                            NULLED, GIVEN
   use mlid_files, only: same_file
   use mlid_case, only: case_t, NAMELEN, PATHLEN
   use mlid_options, only: options_t, options_to_flat, options_from_flat
@@ -66,15 +68,26 @@ module mlid_deck
   integer, parameter :: MAXDER = 50, CHANLEN = 64, EXPRLEN = 1024  !< &data entries
   integer, parameter :: TIELEN = 512                                !< a tie's or equation's text
   integer, parameter :: MAXDEF = 100                                !< an equations model's definitions
-  real(wp), parameter :: UNSET = huge(1.0_wp)   !< marks array entries the deck did not give
+  !> The jobs of &case, and the groups each reads, in the order they are
+  !> read (&case first: the job); a group of another job is refused.
+  integer, parameter :: NJOB = 5
+  character(len=12), parameter :: JOBS(NJOB) = [character(len=12) :: 'estimate', 'validate', &
+                                                'simulate', 'design', 'monte_carlo']
+  character(len=40), parameter :: JOB_GROUPS(NJOB) = [character(len=40) :: &
+    'case model data estimate', 'case model data estimate', 'case model simulate', &
+    'case model design', 'case model monte_carlo estimate']
   character(len=*), parameter :: GROUP_NAMES = ' case model data simulate estimate design monte_carlo '
+  character(len=*), parameter :: FORM_FEED = achar(12)
 
-  !> What the group readers of one case share: the scratch unit with the
-  !> case's text and its lines (for line numbers in messages).
+  !> What the group readers of one case share: the text of each group (all
+  !> its namelist read is given), the case's lines (for line numbers in
+  !> messages) and what its assignments set, element by element.
   type :: reader_t
-    integer :: unit = 0, line0 = 0
+    integer :: line0 = 0
     type(line_t), allocatable :: lines(:)
     type(assignment_t), allocatable :: given(:)   !< the case's assignments (deck_scan)
+    type(group_span_t), allocatable :: spans(:)   !< its groups (deck_scan)
+    type(line_t), allocatable :: texts(:)         !< each group's text, as spans
   end type reader_t
 
   interface
@@ -116,6 +129,52 @@ module mlid_deck
       character(len=:), allocatable :: text
     end function choices
 
+    !> The text of group in the case ('' when the case has none): what its
+    !> namelist read is given.
+    module function group_text(rd, group) result(text)
+      type(reader_t), intent(in) :: rd
+      character(len=*), intent(in) :: group
+      character(len=:), allocatable :: text
+    end function group_text
+
+    !> Whether scalar key of group was given a value.
+    module logical function is_given(rd, group, key)
+      type(reader_t), intent(in) :: rd
+      character(len=*), intent(in) :: group, key
+    end function is_given
+
+    !> The elements of list key of group the deck gave (a value or a null):
+    !> the first m of v, m the last one given, where a null keeps v's
+    !> entry (its default, filled before the read).  An element left out
+    !> before the last, or a null where has_default is false, fails the
+    !> case.
+    module subroutine take_list(rd, c, group, key, v, out, has_default)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: group, key
+      real(wp), intent(in) :: v(:)
+      real(wp), allocatable, intent(out) :: out(:)
+      logical, intent(in) :: has_default
+    end subroutine take_list
+
+    !> Lists of one entry per manoeuvre given more than MAXSEG entries fail
+    !> the case, in those words (the namelist read would blame a value).
+    module subroutine per_manoeuvre(rd, c, group, keys)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: group, keys(:)
+    end subroutine per_manoeuvre
+
+    !> How many elements of list key (of room n) the deck gave, m (take_list).
+    module subroutine list_length(rd, c, group, key, n, has_default, m)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: group, key
+      integer, intent(in) :: n
+      logical, intent(in) :: has_default
+      integer, intent(out) :: m
+    end subroutine list_length
+
     !> The line without its comment.
     module function strip_comment(line) result(s)
       character(len=*), intent(in) :: line
@@ -154,7 +213,7 @@ module mlid_deck
     !> kind = 'sixdof': the rigid-body lines around the deck's definitions.
     module subroutine sixdof_deck(c, constants, states, xdot, inputs, definitions, pre, post, xs)
       type(case_t), intent(inout) :: c
-      real(wp), intent(in) :: constants(:)
+      real(wp), intent(in) :: constants(:)     !< those the deck gave
       character(len=*), intent(in) :: states(:), xdot(:), inputs(:), definitions(:)
       character(len=:), allocatable, intent(out) :: pre, post
       character(len=TIELEN), allocatable, intent(out) :: xs(:)
@@ -169,7 +228,7 @@ module mlid_deck
     module subroutine flightpath_deck(c, constants, states, xdot, inputs, ynames, outputs, &
                                       definitions, params, pstart)
       type(case_t), intent(inout) :: c
-      real(wp), intent(in) :: constants(:)
+      real(wp), intent(in) :: constants(:)     !< those the deck gave
       character(len=*), intent(in) :: states(:), xdot(:), outputs(:), definitions(:), params(:)
       character(len=*), intent(inout) :: inputs(:), ynames(:)
       real(wp), allocatable, intent(out) :: pstart(:)
@@ -413,7 +472,8 @@ contains
   end function read_by_case
 
   !> Parse one case from its lines (first is the &case line, number line0):
-  !> one reader per group, each after the one before succeeded.
+  !> one reader per group of its job, in JOB_GROUPS' order, each after the
+  !> one before succeeded.
   subroutine read_case(lines, line0, c)
     type(line_t), intent(in) :: lines(:)
     integer, intent(in) :: line0
@@ -423,23 +483,36 @@ contains
     type(options_t) :: opt
     integer, allocatable :: free_idx(:)
     type(line_t), allocatable :: stripped(:)
-    character(len=msg_len) :: msg
-    integer :: k, status
+    character(len=msg_len) :: msg, msg2
+    character(len=:), allocatable :: groups
+    integer :: k, status, status2, e
 
-    ! The case without comments goes to a scratch file that each group's
-    ! namelist read rewinds: gfortran and a Python reader disagree on
-    ! comments after a trailing comma.  deck_scan first checks the text as a
-    ! whole (what a namelist read would pass over or take silently), and
-    ! keeps its assignments for blame.
+    ! Each group's namelist read is given that group's text alone, its
+    ! comments stripped (gfortran and a Python reader disagree on comments
+    ! after a trailing comma), from memory: no scratch file to be cut.
+    ! deck_scan first checks the text as a whole (what a namelist read
+    ! would pass over or take silently), and keeps its assignments.
     rd%line0 = line0
     rd%lines = lines
-    open (newunit=rd%unit, status='scratch', action='readwrite', form='formatted')
     allocate (stripped(size(lines)))
+    status = MLID_OK
     do k = 1, size(lines)
-      stripped(k)%s = trim(strip_comment(lines(k)%s))
-      write (rd%unit, '(a)') stripped(k)%s
+      stripped(k)%s = strip_comment(lines(k)%s)
+      call form_feeds(stripped(k)%s)
+      msg2 = control_character(stripped(k)%s)
+      if (len_trim(msg2) == 0) cycle
+      stripped(k)%s = ''        ! neither to the scan nor to the title
+      if (status /= MLID_OK) cycle
+      status = MLID_ERR_INPUT
+      msg = 'line '//itoa(line0 + k - 1)//': '//trim(msg2)
     end do
-    call deck_scan(stripped, line0, GROUP_NAMES, status, msg, rd%given)
+    ! the groups scanned up to a problem still give the case its title
+    call deck_scan(stripped, line0, GROUP_NAMES, status2, msg2, rd%given, rd%spans)
+    call span_texts(stripped, rd)
+    if (status == MLID_OK) then
+      status = status2
+      msg = msg2
+    end if
     if (status /= MLID_OK) call fail(c, msg)
     call options_to_flat(options_t(), c%iopt, c%ropt)
     ! the title first, so that a message about the groups names the case
@@ -450,29 +523,130 @@ contains
       c%status = scanned%status
       c%msg = scanned%msg
     end if
-    if (c%status == MLID_OK) call read_model_group(rd, c, free_idx)
-    if (c%status == MLID_OK .and. any(c%job == ['estimate', 'validate'])) then
-      call read_data_group(rd, c)
-      if (c%status == MLID_OK) call check_initial_states(c)
-      if (c%status == MLID_OK) call read_estimate_group(rd, c, free_idx)
-    else if (c%status == MLID_OK) then
-      if (size(c%initial_states) > 0) &
-        call fail(c, 'group &model: initial_states is for estimate cases (several data files)')
-      if (c%status == MLID_OK .and. c%job == 'simulate') call read_simulate_group(rd, c)
-      if (c%status == MLID_OK .and. c%job == 'design') call read_design_group(rd, c)
-      if (c%status == MLID_OK .and. c%job == 'monte_carlo') then
+    if (c%status /= MLID_OK) return
+    groups = groups_of_job(c%job)
+    call other_jobs_groups(rd, c, groups)
+    k = index(groups, ' ')            ! past 'case'
+    do while (c%status == MLID_OK .and. k > 0 .and. k < len(groups))
+      e = index(groups(k + 1:)//' ', ' ') + k
+      select case (groups(k + 1:e - 1))
+      case ('model')
+        call read_model_group(rd, c, free_idx)
+      case ('data')
+        call read_data_group(rd, c)
+        if (c%status == MLID_OK) call check_initial_states(c)
+      case ('estimate')
+        call read_estimate_group(rd, c, free_idx)
+      case ('simulate')
+        call read_simulate_group(rd, c)
+      case ('design')
+        call read_design_group(rd, c)
+      case ('monte_carlo')
         call read_monte_carlo_group(rd, c, free_idx)
-        if (c%status == MLID_OK) call read_estimate_group(rd, c, free_idx)
-        if (c%status == MLID_OK .and. (c%use_prior == 1 .or. c%use_bounds == 1 .or. &
-            allocated(c%corrected))) call fail(c, 'group &estimate: prior, bounds and '// &
-            'corrected are not used by job ''monte_carlo'' (each run starts from &model)')
-      end if
-    end if
+      end select
+      k = e
+    end do
+    if (c%status == MLID_OK .and. index(groups, ' data') == 0 .and. size(c%initial_states) > 0) &
+      call fail(c, 'group &model: initial_states is for estimate cases (several data files)')
+    if (c%status == MLID_OK .and. c%job == 'monte_carlo' .and. (c%use_prior == 1 .or. &
+        c%use_bounds == 1 .or. allocated(c%corrected))) call fail(c, 'group &estimate: prior, '// &
+        'bounds and corrected are not used by job ''monte_carlo'' (each run starts from &model)')
     if (c%status == MLID_OK) then
       call options_from_flat(c%iopt, c%ropt, opt, c%status, c%msg)
     end if
-    close (rd%unit)
   end subroutine read_case
+
+  !> The groups job reads (JOB_GROUPS), '' for no job.
+  function groups_of_job(job) result(groups)
+    character(len=*), intent(in) :: job
+    character(len=:), allocatable :: groups
+    integer :: j
+    groups = ''
+    j = findloc(JOBS, job, 1)
+    if (j > 0) groups = trim(JOB_GROUPS(j))
+  end function groups_of_job
+
+  !> A group of the case that its job does not read is refused, not passed
+  !> over (a &simulate in an estimate case was).
+  subroutine other_jobs_groups(rd, c, groups)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: groups
+    integer :: k
+    do k = 1, size(rd%spans)
+      if (index(' '//groups//' ', ' '//trim(rd%spans(k)%name)//' ') > 0) cycle
+      call fail(c, 'line '//itoa(rd%spans(k)%line)//': group &'//trim(rd%spans(k)%name)// &
+                ' is not read by job '''//trim(c%job)//''' (it reads &'// &
+                replace_blanks(groups, ', &')//')')
+      return
+    end do
+  end subroutine other_jobs_groups
+
+  !> 'a b c' -> 'a, &b, &c' (sep ', &').
+  function replace_blanks(words, sep) result(text)
+    character(len=*), intent(in) :: words, sep
+    character(len=:), allocatable :: text
+    integer :: k
+    text = ''
+    do k = 1, len(words)
+      if (words(k:k) == ' ') then
+        text = text//sep
+      else
+        text = text//words(k:k)
+      end if
+    end do
+  end function replace_blanks
+
+  !> The text of each group the scan found: its lines from its & to its /,
+  !> joined by blanks (an end of line is a blank to a namelist read, and
+  !> no quoted text crosses one: deck_scan); '' for a group not closed.
+  subroutine span_texts(stripped, rd)
+    type(line_t), intent(in) :: stripped(:)
+    type(reader_t), intent(inout) :: rd
+    integer :: g, k, n, at, a, b
+    allocate (rd%texts(size(rd%spans)))
+    do g = 1, size(rd%spans)
+      rd%texts(g)%s = ''
+      if (rd%spans(g)%k2 == 0) cycle
+      associate (sp => rd%spans(g))
+        n = 0
+        do k = sp%k1, sp%k2
+          a = merge(sp%p1, 1, k == sp%k1)
+          b = merge(sp%p2, len(stripped(k)%s), k == sp%k2)
+          n = n + (b - a + 1) + 1
+        end do
+        deallocate (rd%texts(g)%s)
+        allocate (character(len=n) :: rd%texts(g)%s)
+        at = 0
+        do k = sp%k1, sp%k2
+          a = merge(sp%p1, 1, k == sp%k1)
+          b = merge(sp%p2, len(stripped(k)%s), k == sp%k2)
+          rd%texts(g)%s(at + 1:at + b - a + 2) = stripped(k)%s(a:b)//' '
+          at = at + b - a + 2
+        end do
+      end associate
+    end do
+  end subroutine span_texts
+
+  !> A form feed outside quoted text is a blank (a page break, as in the
+  !> decks of old and in most languages' source text); in quoted text it
+  !> stays, and is refused as a control character.
+  subroutine form_feeds(s)
+    character(len=*), intent(inout) :: s
+    character :: quote
+    integer :: k
+    if (index(s, FORM_FEED) == 0) return
+    quote = ' '
+    do k = 1, len(s)
+      if (quote /= ' ') then
+        if (s(k:k) == quote) quote = ' '
+      else if (s(k:k) == '''' .or. s(k:k) == '"') then
+        quote = s(k:k)
+      else if (s(k:k) == FORM_FEED) then
+        s(k:k) = ' '
+      end if
+    end do
+  end subroutine form_feeds
 
   !> Path relative to the deck's folder unless absolute.
   function resolve(dir, file) result(path)
@@ -485,16 +659,16 @@ contains
     end if
   end function resolve
 
-  !> The first word of line, lower case, after blanks and TABs (a TAB
-  !> before '&case' starts a case too).
+  !> The first word of line, lower case, after blanks, TABs and form feeds
+  !> (a TAB before '&case' starts a case too).
   function first_word(line) result(w)
     character(len=*), intent(in) :: line
     character(len=16) :: w
     integer :: b, e
     w = ''
-    b = verify(line, ' '//achar(9))
+    b = verify(line, ' '//achar(9)//FORM_FEED)
     if (b == 0) return
-    e = scan(line(b:), ' /,'//achar(9))
+    e = scan(line(b:), ' /,'//achar(9)//FORM_FEED)
     if (e == 0) e = len(line) - b + 2
     w = to_lower(line(b:b + min(e - 1, 16) - 1))
   end function first_word

@@ -21,8 +21,10 @@ contains
                               columns(MAXCOL), units(MAXCOL), show(MAXCOL), join_columns(MAXCOL)
     character(len=EXPRLEN) :: derived(MAXDER)
     real(wp) :: t_start(MAXSEG), t_end(MAXSEG), dt
-    integer :: skip_rows, ios, status, holdout(MAXSEG), i
+    integer :: skip_rows, ios, status, holdout(MAXSEG), i, nh
+    real(wp), allocatable :: ts(:), te(:)
     character(len=msg_len) :: iomsg, msg
+    character(len=:), allocatable :: gtext
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
       derived, show, t_start, t_end, holdout, dt, join, join_columns
 
@@ -36,19 +38,27 @@ contains
     units = ''
     derived = ''
     show = ''
-    t_start = UNSET
-    t_end = UNSET
+    t_start = -huge(1.0_wp)       ! a null keeps it: the file from its start
+    t_end = huge(1.0_wp)          ! ... to its end
     skip_rows = 0
     holdout = 0
-    dt = UNSET
-    rewind (rd%unit)
-    read (rd%unit, nml=data, iostat=ios, iomsg=iomsg)
+    dt = 0.0_wp
+    call per_manoeuvre(rd, c, 'data', [character(len=8) :: 'file', 'join', 't_start', 't_end', &
+                                       'holdout'])
+    if (c%status /= MLID_OK) return
+    gtext = group_text(rd, 'data')
+    ios = -1                          ! missing
+    if (len(gtext) > 0) read (gtext, nml=data, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'data', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
     c%data_files = pack(file, len_trim(file) > 0)
     c%file_no = [(i, i=1, size(c%data_files))]
-    call data_windows(c, t_start, t_end)
-    call data_holdout(c, holdout)
+    call take_list(rd, c, 'data', 't_start', t_start, ts, .true.)
+    call take_list(rd, c, 'data', 't_end', t_end, te, .true.)
+    call list_length(rd, c, 'data', 'holdout', size(holdout), .false., nh)
+    if (c%status /= MLID_OK) return
+    call data_windows(c, ts, te)
+    call data_holdout(c, holdout(1:nh))
     call check_data_group(c, [time_col, input_cols, output_cols, columns, units, show, &
                               join_columns], derived)
     if (c%status /= MLID_OK) return
@@ -59,11 +69,11 @@ contains
                                               text_lines(as_text(join_columns)), &
                                               text_lines(as_text(c%data_files)), status, msg)
     if (status /= MLID_OK) call fail(c, 'group &data: '//trim(msg))
-    if (.not. (dt > 0.0_wp .and. ieee_is_finite(dt))) &
+    if (is_given(rd, 'data', 'dt') .and. .not. (dt > 0.0_wp .and. ieee_is_finite(dt))) &
       call fail(c, 'group &data: dt must be > 0 (a uniform time step replacing the '// &
                 'record''s time), or left out')
     if (c%status /= MLID_OK) return
-    c%chan%dt = merge(0.0_wp, dt, dt == UNSET)     ! 0: the record's own time
+    c%chan%dt = dt                                 ! 0: the record's own time
     if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
       write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%chan%inputs), &
         ' input_cols and ', size(c%chan%outputs), ' output_cols given, the model has ', c%nu, &
@@ -72,24 +82,27 @@ contains
     end if
   end procedure read_data_group
 
-  !> Each file's window: t_start and t_end in the order of file; a file
-  !> without one takes all of it.
+  !> Each file's window: t_start and t_end in the order of file (those
+  !> the deck gave); a file without one takes all of it.
   subroutine data_windows(c, t_start, t_end)
     type(case_t), intent(inout) :: c
     real(wp), intent(in) :: t_start(:), t_end(:)
     integer :: n
     n = size(c%data_files)
-    c%win_start = merge(-huge(1.0_wp), t_start(1:n), t_start(1:n) == UNSET)
-    c%win_end = merge(huge(1.0_wp), t_end(1:n), t_end(1:n) == UNSET)
-    if (any(t_start(n + 1:) /= UNSET) .or. any(t_end(n + 1:) /= UNSET)) then
+    c%win_start = spread(-huge(1.0_wp), 1, n)
+    c%win_end = spread(huge(1.0_wp), 1, n)
+    if (size(t_start) > n .or. size(t_end) > n) then
       call fail(c, 'group &data: more t_start or t_end than files ('//itoa(n)//')')
-    else if (all(count(t_start /= UNSET) /= [0, n]) .or. all(count(t_end /= UNSET) /= [0, n])) then
+    else if (all(size(t_start) /= [0, n]) .or. all(size(t_end) /= [0, n])) then
       call fail(c, 'group &data: t_start and t_end take one value per file (in the order '// &
-                'of file) or none; given '//itoa(count(t_start /= UNSET))//' and '// &
-                itoa(count(t_end /= UNSET))//' for '//itoa(n)//' files')
-    else if (any(c%win_end <= c%win_start)) then
-      call fail(c, 'group &data: t_end must be after t_start (file '// &
-                itoa(findloc(c%win_end <= c%win_start, .true., 1))//')')
+                'of file) or none; given '//itoa(size(t_start))//' and '// &
+                itoa(size(t_end))//' for '//itoa(n)//' files')
+    else
+      if (size(t_start) == n) c%win_start = t_start
+      if (size(t_end) == n) c%win_end = t_end
+      if (any(c%win_end <= c%win_start)) &
+        call fail(c, 'group &data: t_end must be after t_start (file '// &
+                  itoa(findloc(c%win_end <= c%win_start, .true., 1))//')')
     end if
   end subroutine data_windows
 
@@ -99,7 +112,7 @@ contains
     integer, intent(in) :: holdout(:)
     integer :: n, k
     n = size(c%data_files)
-    c%holdout = pack(holdout, holdout /= 0)
+    c%holdout = holdout
     if (c%status /= MLID_OK) return
     if (c%job /= 'validate') then
       if (size(c%holdout) > 0) call fail(c, 'group &data: holdout is for job ''validate''')

@@ -78,7 +78,7 @@ contains
       a = index(definitions(k), '=')
       if (a > 1) defined(k) = adjustl(definitions(k)(1:a - 1))
     end do
-    call sixdof_parts(pack(constants, constants /= UNSET), pack(states, len_trim(states) > 0), &
+    call sixdof_parts(constants, pack(states, len_trim(states) > 0), &
                       pack(inputs, len_trim(inputs) > 0), pack(defined, len_trim(defined) > 0), &
                       pre, post, lines, ios, iomsg)
     if (ios /= MLID_OK) then
@@ -126,7 +126,7 @@ contains
     call param_entries(c, params, pnames, pstart)
     if (c%status /= MLID_OK) return
     if (all(len_trim(ynames) == 0)) ynames(1:size(FLIGHTPATH_OUTPUTS)) = FLIGHTPATH_OUTPUTS
-    call flightpath_text(pack(constants, constants /= UNSET), pnames, &
+    call flightpath_text(constants, pnames, &
                          pack(ynames, len_trim(ynames) > 0), text, ios, iomsg)
     if (ios /= MLID_OK) then
       call fail(c, 'group &model: '//trim(iomsg))

@@ -20,6 +20,7 @@ contains
     character(len=PATHLEN) :: corrected(MAXSEG)
     character(len=msg_len) :: iomsg
     type(options_t) :: opt
+    character(len=:), allocatable :: gtext
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
       process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond, prior, &
       prior_weight, prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected, f_min, &
@@ -47,13 +48,19 @@ contains
     process_noise = option_get(c%iopt, c%ropt, 'process_noise')
     noise_criterion = option_get(c%iopt, c%ropt, 'noise_criterion')
     filter_params = option_get(c%iopt, c%ropt, 'filter_params')
-    prior = UNSET
-    prior_weight = UNSET
-    lower = UNSET
-    upper = UNSET
+    ! what an entry not given (or a null value) keeps: no a priori weight
+    ! (its value the start value), no bound
+    prior = 0.0_wp
+    prior(1:size(free_idx)) = c%theta(free_idx)
+    prior_weight = 0.0_wp
+    lower = -huge(1.0_wp)
+    upper = huge(1.0_wp)
     corrected = ''
-    rewind (rd%unit)
-    read (rd%unit, nml=estimate, iostat=ios, iomsg=iomsg)
+    call per_manoeuvre(rd, c, 'estimate', ['corrected'])
+    if (c%status /= MLID_OK) return
+    gtext = group_text(rd, 'estimate')
+    ios = -1                          ! missing
+    if (len(gtext) > 0) read (gtext, nml=estimate, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'estimate', ios, iomsg, .false., c)
     if (c%status /= MLID_OK) return
     call take_corrected(c, corrected)
@@ -80,7 +87,7 @@ contains
     call set_option(c, 'group &estimate: ', 'process_noise', process_noise)
     call set_option(c, 'group &estimate: ', 'noise_criterion', noise_criterion)
     call set_option(c, 'group &estimate: ', 'filter_params', filter_params)
-    if (c%status == MLID_OK) call put_extras(c, free_idx, prior, prior_weight, lower, upper)
+    if (c%status == MLID_OK) call put_extras(rd, c, free_idx, prior, prior_weight, lower, upper)
   end procedure read_estimate_group
 
   !> &estimate corrected: one record to write per data file, for a fit of
@@ -113,25 +120,31 @@ contains
   end subroutine take_corrected
 
   !> A priori values and weights and bounds, given per free parameter in
-  !> the order of free, into theta's order.
-  subroutine put_extras(c, free_idx, prior, prior_weight, lower, upper)
+  !> the order of free, into theta's order.  A list given whole (prior =
+  !> ...) has one entry per free parameter, a null keeping its default; by
+  !> element (lower(12:13) = ...) it gives those alone.
+  subroutine put_extras(rd, c, free_idx, prior, prior_weight, lower, upper)
+    type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
     integer, intent(in) :: free_idx(:)
     real(wp), intent(in) :: prior(:), prior_weight(:), lower(:), upper(:)
-    character(len=msg_len) :: iomsg
-    integer :: j, nfr, pos
+    character(len=12), parameter :: KEYS(4) = [character(len=12) :: 'prior', 'prior_weight', &
+                                               'lower', 'upper']
+    integer :: j, nfr, pos, k, m(4)
 
     nfr = size(free_idx)
-    if (count(prior_weight /= UNSET) + count(prior /= UNSET) + count(lower /= UNSET) + &
-        count(upper /= UNSET) == 0) return
-    do j = nfr + 1, size(prior)
-      if (any([prior(j), prior_weight(j), lower(j), upper(j)] /= UNSET)) then
-        write (iomsg, '(a,i0,a)') 'group &estimate: prior, prior_weight, lower and upper take '// &
-          'one value per free parameter (', nfr, ')'
-        call fail(c, iomsg)
+    do k = 1, 4
+      m(k) = last_element(rd%given, 'estimate', trim(KEYS(k)))
+      j = whole_list_length(rd, 'estimate', trim(KEYS(k)))
+      if (m(k) > nfr .or. (j >= 0 .and. j /= nfr)) then
+        call fail(c, 'group &estimate: '//trim(KEYS(k))//' has '//itoa(max(m(k), j))// &
+                  ' values; prior, prior_weight, lower and upper take one value per free '// &
+                  'parameter ('//itoa(nfr)//', in the order of free; a null value keeps '// &
+                  'its default), or name their elements: lower(2) = ...')
         return
       end if
     end do
+    if (all(m == 0)) return
     allocate (c%prior(size(c%theta)), c%pweight(nfr, nfr), c%lower(size(c%theta)), &
               c%upper(size(c%theta)))
     c%prior = c%theta
@@ -140,13 +153,26 @@ contains
     c%upper = huge(1.0_wp)
     do j = 1, nfr
       pos = count(c%isfree(1:free_idx(j)) == 1)      ! its place among the free, theta order
-      if (prior(j) /= UNSET) c%prior(free_idx(j)) = prior(j)
-      if (prior_weight(j) /= UNSET) c%pweight(pos, pos) = prior_weight(j)
-      if (lower(j) /= UNSET) c%lower(free_idx(j)) = lower(j)
-      if (upper(j) /= UNSET) c%upper(free_idx(j)) = upper(j)
+      c%prior(free_idx(j)) = prior(j)
+      c%pweight(pos, pos) = prior_weight(j)
+      c%lower(free_idx(j)) = lower(j)
+      c%upper(free_idx(j)) = upper(j)
     end do
-    if (count(prior_weight /= UNSET) > 0) c%use_prior = 1
-    if (count(lower /= UNSET) + count(upper /= UNSET) > 0) c%use_bounds = 1
+    if (m(2) > 0) c%use_prior = 1
+    if (m(3) + m(4) > 0) c%use_bounds = 1
   end subroutine put_extras
+
+  !> The items (values and nulls) of the last assignment of key in group
+  !> without a subscript (the whole list); -1 when none.
+  integer function whole_list_length(rd, group, key)
+    type(reader_t), intent(in) :: rd
+    character(len=*), intent(in) :: group, key
+    integer :: k
+    whole_list_length = -1
+    do k = 1, size(rd%given)
+      if (rd%given(k)%group == group .and. rd%given(k)%key == key .and. &
+          len_trim(rd%given(k)%subscript) == 0) whole_list_length = rd%given(k)%n
+    end do
+  end function whole_list_length
 
 end submodule mlid_deck_estimate

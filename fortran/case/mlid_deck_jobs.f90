@@ -26,6 +26,7 @@ contains
     type(layout_table_t) :: lt
     character(len=msg_len) :: iomsg
     character(len=PATHLEN) :: input_file
+    character(len=:), allocatable :: gtext
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
       pulse_width, input_file
 
@@ -33,14 +34,15 @@ contains
     t_end = 0.0_wp
     dt = 0.0_wp
     seed = 0
-    noise_std = UNSET
+    noise_std = 0.0_wp          ! what a null value keeps (none for noise_std)
     input_shape = ''
-    amplitude = UNSET
-    t_start = UNSET
-    pulse_width = UNSET
+    amplitude = 0.0_wp
+    t_start = 0.0_wp
+    pulse_width = 0.0_wp
     input_file = ''
-    rewind (rd%unit)
-    read (rd%unit, nml=simulate, iostat=ios, iomsg=iomsg)
+    gtext = group_text(rd, 'simulate')
+    ios = -1                          ! missing
+    if (len(gtext) > 0) read (gtext, nml=simulate, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'simulate', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
     c%out_file = out
@@ -48,19 +50,22 @@ contains
     c%t_end = t_end
     c%dt = dt
     c%seed = seed
+    call take_list(rd, c, 'simulate', 'noise_std', noise_std, c%noise_std, .false.)
+    call take_list(rd, c, 'simulate', 'amplitude', amplitude, c%amplitude, .true.)
+    call take_list(rd, c, 'simulate', 't_start', t_start, c%t_start, .true.)
+    call take_list(rd, c, 'simulate', 'pulse_width', pulse_width, c%pulse_width, .true.)
+    if (c%status /= MLID_OK) return
     if (len_trim(input_file) > 0 .and. (t_end /= 0.0_wp .or. dt /= 0.0_wp .or. &
-        any(len_trim(input_shape) > 0) .or. any(amplitude /= UNSET) .or. &
-        any(t_start /= UNSET) .or. any(pulse_width /= UNSET))) then
+        any(len_trim(input_shape) > 0) .or. size(c%amplitude) > 0 .or. &
+        size(c%t_start) > 0 .or. size(c%pulse_width) > 0)) then
       call fail(c, 'group &simulate: input_file gives the time and inputs; t_end, dt, '// &
                 'input_shape, amplitude, t_start and pulse_width are for a standard input')
       return
     end if
     ! one value serves every input; otherwise one per input
     c%input_shape = per_input_text(input_shape, c%nu, 'none')
-    c%t_start = per_input(t_start, c%nu)
-    c%pulse_width = per_input(pulse_width, c%nu)
-    c%noise_std = pack(noise_std, noise_std /= UNSET)
-    c%amplitude = pack(amplitude, amplitude /= UNSET)
+    c%t_start = per_input(c%t_start, c%nu)
+    c%pulse_width = per_input(c%pulse_width, c%nu)
     if (size(c%amplitude) == 0) c%amplitude = spread(0.0_wp, 1, c%nu)
     call check_simulate(c)
     if (c%status /= MLID_OK) return
@@ -89,7 +94,7 @@ contains
       write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
         ' values, the model has ', c%ny, ' outputs'
       call fail(c, iomsg)
-    else if (.not. all(c%noise_std >= 0.0_wp .and. c%noise_std < UNSET)) then
+    else if (.not. all(c%noise_std >= 0.0_wp .and. ieee_is_finite(c%noise_std))) then
       call fail(c, 'group &simulate: noise_std (the standard deviation of each output''s '// &
                 'noise) must be >= 0 and finite')
     else if (size(c%amplitude) /= c%nu) then
@@ -106,13 +111,13 @@ contains
     end if
   end subroutine check_simulate
 
-  !> The values given, or the one value repeated for every input (zeros
-  !> when none is given).
+  !> The values given (v), or the one value repeated for every input
+  !> (zeros when none is given).
   function per_input(v, n) result(out)
     real(wp), intent(in) :: v(:)
     integer, intent(in) :: n
     real(wp), allocatable :: out(:)
-    out = pack(v, v /= UNSET)
+    out = v
     if (size(out) == 0) out = [0.0_wp]
     if (size(out) == 1) out = spread(out(1), 1, n)
   end function per_input
@@ -143,6 +148,8 @@ contains
                 process_noise(MAXX*MAXX)
     integer :: iterations, ios
     character(len=msg_len) :: iomsg
+    real(wp), allocatable :: wts(:), srv(:), pn(:)
+    character(len=:), allocatable :: gtext
     namelist /design/ unknowns, t_end, dt, energy, peak, min_width, weights, servo, &
       process_noise, method, iterations, out
 
@@ -151,31 +158,36 @@ contains
     out = ''
     t_end = 0.0_wp
     dt = 0.0_wp
-    energy = UNSET
-    peak = UNSET
-    min_width = UNSET
-    weights = UNSET
-    servo = UNSET
-    process_noise = UNSET
+    energy = 0.0_wp              ! what an entry not given (or a null) keeps
+    peak = 0.0_wp
+    min_width = 0.0_wp
+    weights = 1.0_wp
+    servo = 0.0_wp
+    process_noise = 0.0_wp
     iterations = 12
-    rewind (rd%unit)
-    read (rd%unit, nml=design, iostat=ios, iomsg=iomsg)
+    gtext = group_text(rd, 'design')
+    ios = -1                          ! missing
+    if (len(gtext) > 0) read (gtext, nml=design, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'design', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
     c%out_file = out
     c%t_end = t_end
     c%dt = dt
     c%design_method = to_lower(method)
-    c%energy = merge(0.0_wp, energy, energy == UNSET)
-    c%peak = merge(0.0_wp, peak, peak == UNSET)
-    c%min_width = merge(0.0_wp, min_width, min_width == UNSET)
+    c%energy = energy
+    c%peak = peak
+    c%min_width = min_width
     c%iterations = iterations
-    if (len_trim(method) == 0) c%design_method = merge('amplitude', 'operator ', peak /= UNSET)
+    if (len_trim(method) == 0) c%design_method = merge('amplitude', 'operator ', &
+                                                        is_given(rd, 'design', 'peak'))
     call design_model_check(c)
     if (c%status == MLID_OK) call design_unknowns(c, unknowns)
-    if (c%status == MLID_OK) call design_settings(c, weights, servo, process_noise)
-    if (c%status == MLID_OK) call design_limits(c, energy /= UNSET, peak /= UNSET .or. &
-                                                min_width /= UNSET)
+    call take_list(rd, c, 'design', 'weights', weights, wts, .true.)
+    call take_list(rd, c, 'design', 'servo', servo, srv, .true.)
+    call take_list(rd, c, 'design', 'process_noise', process_noise, pn, .false.)
+    if (c%status == MLID_OK) call design_settings(c, wts, srv, pn)
+    if (c%status == MLID_OK) call design_limits(c, is_given(rd, 'design', 'energy'), &
+      is_given(rd, 'design', 'peak') .or. is_given(rd, 'design', 'min_width'))
   end procedure read_design_group
 
   !> What the design takes of &model: a linear model with inputs, no state
@@ -244,27 +256,27 @@ contains
 
   !> Weights (one per unknown, > 0; default ones), servo time constants
   !> (one, or one per input; >= 0, 0 for none) and process noise (nx x nx,
-  !> row by row, symmetric; default none).
+  !> row by row, symmetric; default none), as the deck gave them.
   subroutine design_settings(c, weights, servo, process_noise)
     type(case_t), intent(inout) :: c
     real(wp), intent(in) :: weights(:), servo(:), process_noise(:)
     integer :: m
 
     m = size(c%ukind)
-    c%weights = pack(weights, weights /= UNSET)
+    c%weights = weights
     if (size(c%weights) == 0) c%weights = spread(1.0_wp, 1, m)
     c%servo = per_input(servo, c%nu)
-    c%gq = transpose(reshape(pack(process_noise, process_noise /= UNSET), [c%nx, c%nx], &
+    c%gq = transpose(reshape(process_noise, [c%nx, c%nx], &
                              pad=[0.0_wp]))
-    if (size(c%weights) /= m .or. .not. all(c%weights > 0.0_wp .and. c%weights < UNSET)) then
+    if (size(c%weights) /= m .or. .not. all(c%weights > 0.0_wp .and. ieee_is_finite(c%weights))) then
       call fail(c, 'group &design: weights takes one value > 0 per unknown ('//itoa(m)//')')
-    else if (size(c%servo) /= c%nu .or. .not. all(c%servo >= 0.0_wp .and. c%servo < UNSET)) then
+    else if (size(c%servo) /= c%nu .or. .not. all(c%servo >= 0.0_wp .and. ieee_is_finite(c%servo))) then
       call fail(c, 'group &design: servo takes one time constant >= 0 (s; 0: none), or one '// &
                 'per input ('//itoa(c%nu)//')')
-    else if (all(count(process_noise /= UNSET) /= [0, c%nx*c%nx])) then
+    else if (all(size(process_noise) /= [0, c%nx*c%nx])) then
       call fail(c, 'group &design: process_noise is Gamma Q Gamma'' (nx x nx = '// &
                 itoa(c%nx*c%nx)//' values, row by row), got '// &
-                itoa(count(process_noise /= UNSET)))
+                itoa(size(process_noise)))
     else if (any(abs(c%gq - transpose(c%gq)) > 1.0e-12_wp*maxval(abs(c%gq)))) then
       call fail(c, 'group &design: process_noise (Gamma Q Gamma'') must be symmetric')
     end if
@@ -282,7 +294,7 @@ contains
     n = nint(c%t_end/max(c%dt, tiny(1.0_wp)))
     if (len_trim(c%out_file) == 0) then
       call fail(c, 'group &design: out (the record of the designed input to write) is missing')
-    else if (.not. (c%dt > 0.0_wp .and. c%t_end > c%dt .and. c%t_end < UNSET)) then
+    else if (.not. (c%dt > 0.0_wp .and. c%t_end > c%dt .and. ieee_is_finite(c%t_end))) then
       call fail(c, 'group &design: need dt > 0 and t_end > dt (the input''s length T, s)')
     else if (.not. (c%t_end/c%dt < real(MAX_SAMPLES, wp))) then
       call fail(c, 'group &design: t_end/dt is too many samples')
@@ -315,16 +327,20 @@ contains
   module procedure read_monte_carlo_group
     integer :: runs, seed, ios, nf
     real(wp) :: truth(MAXFREE)
+    real(wp), allocatable :: tr(:)
     character(len=PATHLEN) :: input_file
     character(len=msg_len) :: iomsg
+    character(len=:), allocatable :: gtext
     namelist /monte_carlo/ runs, seed, truth, input_file
 
     runs = 0
     seed = 1
-    truth = UNSET
+    truth = 0.0_wp                ! a null keeps the start value
+    truth(1:size(free_idx)) = c%theta(free_idx)
     input_file = ''
-    rewind (rd%unit)
-    read (rd%unit, nml=monte_carlo, iostat=ios, iomsg=iomsg)
+    gtext = group_text(rd, 'monte_carlo')
+    ios = -1                          ! missing
+    if (len(gtext) > 0) read (gtext, nml=monte_carlo, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'monte_carlo', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
     nf = size(free_idx)
@@ -332,7 +348,9 @@ contains
     c%seed = seed
     c%input_file = input_file
     c%theta_true = c%theta
-    if (count(truth /= UNSET) > 0) c%theta_true(free_idx) = truth(1:nf)
+    call take_list(rd, c, 'monte_carlo', 'truth', truth, tr, .true.)
+    if (c%status /= MLID_OK) return
+    if (size(tr) == nf .and. nf > 0) c%theta_true(free_idx) = tr
     if (len_trim(input_file) == 0) then
       call fail(c, 'group &monte_carlo: input_file (the record of the input flown) is missing')
     else if (runs < 1 .or. runs > 1000000) then
@@ -341,9 +359,9 @@ contains
       call fail(c, 'group &monte_carlo: seed must be >= 0 (runs use seed, seed + 1, ...)')
     else if (nf == 0) then
       call fail(c, 'group &monte_carlo: nothing is free in &model: there is nothing to estimate')
-    else if (all(count(truth /= UNSET) /= [0, nf]) .or. any(truth(nf + 1:) /= UNSET)) then
+    else if (all(size(tr) /= [0, nf])) then
       call fail(c, 'group &monte_carlo: truth takes one value per free parameter ('// &
-                itoa(nf)//', in the order of free), got '//itoa(count(truth /= UNSET)))
+                itoa(nf)//', in the order of free), got '//itoa(size(tr)))
     else if (.not. all(ieee_is_finite(c%theta_true))) then
       call fail(c, 'group &monte_carlo: truth must be finite')
     end if

@@ -39,9 +39,11 @@ contains
     real(wp) :: initial_states(MAXX*MAXSEG), delay(MAXY), udelay(MAXU), stab(MAXX*MAXY), p0(MAXX)
     character(len=msg_len) :: iomsg
     integer, allocatable :: codes(:)
-    real(wp), allocatable :: pstart(:)
+    real(wp), allocatable :: pstart(:), consts(:), urconst(:), x0s(:)
+    integer :: niconst
     type(layout_table_t) :: lt
     type(options_t) :: defaults
+    character(len=:), allocatable :: gtext
     namelist /model/ kind, nx, nu, ny, nw, f, g, h, d, gamma, k, bx, x0, bias, q, r, s, free, names, &
       tie, input_hold, substeps, state_names, input_names, output_names, cd_regressors, &
       cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst, &
@@ -52,25 +54,27 @@ contains
     nu = 0
     ny = 0
     nw = 0
-    f = UNSET
-    g = UNSET
-    h = UNSET
-    d = UNSET
-    gamma = UNSET
-    k = UNSET
-    bx = UNSET
-    x0 = UNSET
-    bias = UNSET
-    q = UNSET
-    r = UNSET
-    s = UNSET
-    cd = UNSET
-    cl = UNSET
-    cm = UNSET
-    constants = UNSET
-    p = UNSET
-    user_rconst = UNSET
-    user_iconst = -huge(1)
+    ! what a null value keeps (a block left out is zero; a required one is
+    ! refused): which entries the deck gave is the scan's (element_states)
+    f = 0.0_wp
+    g = 0.0_wp
+    h = 0.0_wp
+    d = 0.0_wp
+    gamma = 0.0_wp
+    k = 0.0_wp
+    bx = 0.0_wp
+    x0 = 0.0_wp
+    bias = 0.0_wp
+    q = 0.0_wp
+    r = 0.0_wp
+    s = 0.0_wp
+    cd = 0.0_wp
+    cl = 0.0_wp
+    cm = 0.0_wp
+    constants = 0.0_wp
+    p = 0.0_wp
+    user_rconst = 0.0_wp
+    user_iconst = 0
     cd_regressors = ''
     cl_regressors = ''
     cm_regressors = ''
@@ -86,29 +90,36 @@ contains
     outputs = ''
     definitions = ''
     params = ''
-    initial_states = UNSET
-    delay = UNSET
-    udelay = UNSET
-    stab = UNSET
-    p0 = UNSET
-    rewind (rd%unit)
-    read (rd%unit, nml=model, iostat=ios, iomsg=iomsg)
+    initial_states = 0.0_wp
+    delay = 0.0_wp
+    udelay = 0.0_wp
+    stab = 0.0_wp
+    p0 = 0.0_wp
+    gtext = group_text(rd, 'model')
+    ios = -1                          ! missing
+    if (len(gtext) > 0) read (gtext, nml=model, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'model', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
+    call take_list(rd, c, 'model', 'constants', constants, consts, .false.)
+    call take_list(rd, c, 'model', 'user_rconst', user_rconst, urconst, .false.)
+    call list_length(rd, c, 'model', 'user_iconst', size(user_iconst), .false., niconst)
+    call take_list(rd, c, 'model', 'initial_states', initial_states, x0s, .false.)
+    if (c%status /= MLID_OK) return
     if (written_as_equations(kind)) then
-      if (any(p /= UNSET) .or. any(user_rconst /= UNSET) .or. any(user_iconst /= -huge(1))) then
+      if (any(element_states(rd%given, 'model', 'p', size(p)) /= ABSENT) .or. &
+          size(urconst) > 0 .or. niconst > 0) then
         call fail(c, 'group &model: kind = '''//trim(kind)//''' takes its parameters in '// &
                   'params (''NAME = value''), not p, user_iconst or user_rconst')
         return
       end if
       select case (to_lower(kind))
       case ('sixdof')
-        call sixdof_deck(c, constants, state_names, xdot, input_names, definitions, pre, post, xs)
+        call sixdof_deck(c, consts, state_names, xdot, input_names, definitions, pre, post, xs)
         if (c%status /= MLID_OK) return
         call equations_text(c, state_names, xs, input_names, output_names, outputs, &
                             definitions, params, pstart, pre, post)
       case ('flight_path')
-        call flightpath_deck(c, constants, state_names, xdot, input_names, output_names, &
+        call flightpath_deck(c, consts, state_names, xdot, input_names, output_names, &
                              outputs, definitions, params, pstart)
       case default
         call equations_text(c, state_names, xdot, input_names, output_names, outputs, &
@@ -120,8 +131,8 @@ contains
                 '''equations'', ''sixdof'' or ''flight_path'', not '''//trim(kind)//'''')
       return
     end if
-    call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], constants, &
-                    user_iconst, user_rconst, nx, nu, ny, nw, ncoef, codes)
+    call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], consts, &
+                    user_iconst(1:niconst), urconst, nx, nu, ny, nw, ncoef, codes)
     if (c%status /= MLID_OK) return
     if (too_long(rd, c, 'model', ['state_names ', 'input_names ', 'output_names'], NAMELEN)) &
       return
@@ -143,31 +154,31 @@ contains
     c%tie = no_ties(lt%nth)
     c%isfree = 0
     if (c%mkind == MODEL_LINEAR) then
-      call put_matrix(c, lt, 'f', f, required=.true.)
-      call put_matrix(c, lt, 'g', g, required=nu > 0)
-      call put_matrix(c, lt, 'h', h, required=.true.)
-      call put_matrix(c, lt, 'd', d, required=.false.)
-      call put_matrix(c, lt, 'gamma', gamma, required=nw > 0)
-      call put_matrix(c, lt, 'k', k, required=.false.)
-      call put_matrix(c, lt, 'bx', bx, required=.false.)
+      call put_matrix(rd, c, lt, 'f', f, required=.true.)
+      call put_matrix(rd, c, lt, 'g', g, required=nu > 0)
+      call put_matrix(rd, c, lt, 'h', h, required=.true.)
+      call put_matrix(rd, c, lt, 'd', d, required=.false.)
+      call put_matrix(rd, c, lt, 'gamma', gamma, required=nw > 0)
+      call put_matrix(rd, c, lt, 'k', k, required=.false.)
+      call put_matrix(rd, c, lt, 'bx', bx, required=.false.)
     else if (c%mkind == MODEL_AERO_LONG) then
-      call put_matrix(c, lt, 'cd', cd, required=.false.)
-      call put_matrix(c, lt, 'cl', cl, required=.false.)
-      call put_matrix(c, lt, 'cm', cm, required=.false.)
+      call put_matrix(rd, c, lt, 'cd', cd, required=.false.)
+      call put_matrix(rd, c, lt, 'cl', cl, required=.false.)
+      call put_matrix(rd, c, lt, 'cm', cm, required=.false.)
     else if (c%mkind == MODEL_EQUATIONS) then
       c%theta(1:size(pstart)) = pstart
     else
-      call put_matrix(c, lt, 'p', p, required=ncoef(1) > 0)
+      call put_matrix(rd, c, lt, 'p', p, required=ncoef(1) > 0)
     end if
-    call put_matrix(c, lt, 'x0', x0, required=.false.)
-    call put_matrix(c, lt, 'bias', bias, required=.false.)
-    call put_matrix(c, lt, 'q', q, required=.false.)
-    call put_matrix(c, lt, 'r', r, required=.false.)
-    call put_matrix(c, lt, 's', s, required=.false.)
-    call put_matrix(c, lt, 'delay', delay, required=.false.)
-    call put_matrix(c, lt, 'udelay', udelay, required=.false.)
-    call put_matrix(c, lt, 'stab', stab, required=.false.)
-    call put_matrix(c, lt, 'p0', p0, required=.false.)
+    call put_matrix(rd, c, lt, 'x0', x0, required=.false.)
+    call put_matrix(rd, c, lt, 'bias', bias, required=.false.)
+    call put_matrix(rd, c, lt, 'q', q, required=.false.)
+    call put_matrix(rd, c, lt, 'r', r, required=.false.)
+    call put_matrix(rd, c, lt, 's', s, required=.false.)
+    call put_matrix(rd, c, lt, 'delay', delay, required=.false.)
+    call put_matrix(rd, c, lt, 'udelay', udelay, required=.false.)
+    call put_matrix(rd, c, lt, 'stab', stab, required=.false.)
+    call put_matrix(rd, c, lt, 'p0', p0, required=.false.)
     if (c%status == MLID_OK) call set_free(c, lt, free, names, free_idx)
     if (c%status == MLID_OK) call set_ties(c, lt, tie)
     if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'input_hold', input_hold)
@@ -178,7 +189,7 @@ contains
       call fail(c, 'group &model: input_names and output_names name every input and output '// &
                 '(nu = '//itoa(c%nu)//', ny = '//itoa(c%ny)//') or none; given '// &
                 itoa(size(c%input_names))//' and '//itoa(size(c%output_names)))
-    c%initial_states = pack(initial_states, initial_states /= UNSET)
+    c%initial_states = x0s
     if (size(c%initial_states) > 0 .and. (mod(size(c%initial_states), max(c%nx, 1)) /= 0 &
         .or. c%nx == 0)) call fail(c, 'group &model: initial_states needs nx = '// &
         itoa(c%nx)//' values per manoeuvre, got '//itoa(size(c%initial_states)))
@@ -215,15 +226,15 @@ contains
       end if
       ncoef = codes(1:3)
       codes = codes(4:)
-      if (count(constants /= UNSET) /= 9) then
+      if (size(constants) /= 9) then
         call fail(c, 'group &model: constants needs 9 values: '//CONSTANT_NAMES)
         return
       end if
       c%iconst = [ncoef, codes]
       c%rconst = constants
     case (MODEL_USER)
-      c%iconst = pack(user_iconst, user_iconst /= -huge(1))
-      c%rconst = pack(user_rconst, user_rconst /= UNSET)
+      c%iconst = user_iconst
+      c%rconst = user_rconst
     case (MODEL_X22, MODEL_EQUATIONS)
     case default
       call fail(c, 'group &model: unknown kind '''//trim(kind)//''' (available: linear, '// &
@@ -276,15 +287,17 @@ contains
   end subroutine own_sizes
 
   !> Place block key of the deck (a matrix given row by row) into theta
-  !> (column-major); a block not given is zero unless required.
-  subroutine put_matrix(c, lt, key, v, required)
+  !> (column-major); a block not given is zero unless required.  A null
+  !> value keeps its entry's default, zero: a required block has none.
+  subroutine put_matrix(rd, c, lt, key, v, required)
+    type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
     type(layout_table_t), intent(in) :: lt
     character(len=*), intent(in) :: key
     real(wp), intent(in) :: v(:)
     logical, intent(in) :: required
     character(len=msg_len) :: iomsg
-    integer :: b, nr, nc, n, ngiven, i, j, o
+    integer :: b, nr, nc, n, ngiven, i, j, o, st(size(v))
 
     if (c%status /= MLID_OK) return
     b = findloc(lt%key, key, 1)
@@ -292,12 +305,13 @@ contains
     nc = merge(1, lt%cols(b), lt%cols(b) < 0)
     n = nr*nc
     o = lt%off(b)
-    ngiven = count(v /= UNSET)
+    st = element_states(rd%given, 'model', key, size(v))
+    ngiven = count(st /= ABSENT)
     if (ngiven == 0 .and. .not. required) then
       c%theta(o + 1:o + n) = 0.0_wp
       return
     end if
-    if (ngiven /= n .or. any(v(1:n) == UNSET)) then
+    if (ngiven /= n .or. any(st(1:n) == ABSENT)) then
       if (lt%cols(b) < 0) then
         write (iomsg, '(a,i0,a,i0)') 'group &model: '//key//' has ', ngiven, &
           ' values, it needs ', n
@@ -306,6 +320,11 @@ contains
           ' values, '//key//' is ', nr, 'x', nc, ' and needs ', n, ' (row by row)'
       end if
       call fail(c, iomsg)
+      return
+    end if
+    if (required .and. any(st(1:n) == NULLED)) then
+      call fail(c, 'group &model: '//key//'('//itoa(findloc(st(1:n) == NULLED, .true., 1))// &
+                ') is a null value, and '//key//' has no default to keep (it is needed)')
       return
     end if
     do i = 1, nr

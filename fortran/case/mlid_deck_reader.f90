@@ -7,6 +7,7 @@
 submodule (mlid_deck) mlid_deck_reader
   use mlid_text, only: comment_start
   use mlid_options, only: option_set
+  use mlid_case, only: MAXSEG
   implicit none
 
 contains
@@ -14,7 +15,17 @@ contains
   !> After a group's namelist read: a missing group (an error when the job
   !> needs it) or a read error becomes the case's message.
   module procedure group_status
-    if (ios < 0 .and. required) then
+    integer :: k, j
+    character(len=1) :: one
+    if (ios < 0 .and. len(group_text(rd, group)) > 0) then
+      ! never met (deck_scan found the group's /); but gfortran 12 takes the
+      ! next internal namelist read after an end of file for an empty one
+      ! (status 0, nothing read) unless another internal read comes between
+      one = '1'
+      read (one, *, iostat=j) k
+      call fail(c, 'group &'//group//' (line '//itoa(group_line(rd%lines, rd%line0, group))// &
+                '): its end was not found')
+    else if (ios < 0 .and. required) then
       call fail(c, 'group &'//group//' is missing (job '''//trim(c%job)//''' needs it)')
     else if (ios > 0) then
       call fail(c, 'group &'//group//' (line '//itoa(group_line(rd%lines, rd%line0, group))// &
@@ -108,6 +119,60 @@ contains
       end associate
     end do
   end procedure too_long
+
+  !> The text of group in the case ('' when none): what its namelist read
+  !> is given.
+  module procedure group_text
+    integer :: k
+    text = ''
+    do k = 1, size(rd%spans)
+      if (rd%spans(k)%name == group) text = rd%texts(k)%s
+    end do
+  end procedure group_text
+
+  !> Whether scalar key of group was given a value (not a null).
+  module procedure is_given
+    integer :: st(1)
+    st = element_states(rd%given, group, key, 1)
+    is_given = st(1) == GIVEN
+  end procedure is_given
+
+  !> Lists of one entry per manoeuvre (data file) with more than MAXSEG.
+  module procedure per_manoeuvre
+    integer :: k, m
+    do k = 1, size(keys)
+      m = last_element(rd%given, group, trim(keys(k)))
+      if (m <= MAXSEG) cycle
+      call fail(c, 'group &'//group//': '//trim(keys(k))//' has '//itoa(m)//' entries; a '// &
+                'case takes at most '//itoa(MAXSEG)//' manoeuvres (data files)')
+      return
+    end do
+  end procedure per_manoeuvre
+
+  !> The first m entries of v, m the last element of list key the deck
+  !> gave (list_length); a null keeps v's entry, its default.
+  module procedure take_list
+    integer :: m
+    call list_length(rd, c, group, key, size(v), has_default, m)
+    out = v(1:m)
+  end procedure take_list
+
+  !> The last element of list key (of room n) the deck gave, a value or a
+  !> null (0: none); an element left out before it, or a null where the
+  !> list has no default, fails the case.
+  module procedure list_length
+    integer :: st(n), j
+    st = element_states(rd%given, group, key, n)
+    m = findloc(st /= ABSENT, .true., 1, back=.true.)
+    j = findloc(st(1:m) == ABSENT, .true., 1)
+    if (j > 0) then
+      call fail(c, 'group &'//group//': '//key//'('//itoa(j)//') is left out, '//key// &
+                '('//itoa(m)//') given (a list is given from its first element on)')
+    else if (.not. has_default .and. any(st(1:m) == NULLED)) then
+      call fail(c, 'group &'//group//': '//key//'('//itoa(findloc(st(1:m) == NULLED, .true., &
+                1))//') is a null value, and '//key//' has no default to keep')
+    end if
+  end procedure list_length
 
   module procedure fail
     c%status = MLID_ERR_INPUT

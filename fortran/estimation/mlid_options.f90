@@ -169,9 +169,9 @@ contains
       msg = 'partials, steady and startup flags must be 0 or 1'
     else if (opt%substeps < 1 .or. opt%substeps > SUBSTEPS_LIMIT) then
       write (msg, '(a,i0,a,i0)') 'substeps must lie in 1 to ', SUBSTEPS_LIMIT, ', got ', opt%substeps
-    else if (.not. (opt%tol_cost >= 0.0_wp .and. opt%tol_step >= 0.0_wp .and. &
-                    opt%tol_grad >= 0.0_wp)) then
-      msg = 'tolerances tol_cost, tol_step, tol_grad must be >= 0'
+    else if (.not. all([opt%tol_cost, opt%tol_step, opt%tol_grad] >= 0.0_wp .and. &
+                       ieee_is_finite([opt%tol_cost, opt%tol_step, opt%tol_grad]))) then
+      msg = 'tolerances tol_cost, tol_step, tol_grad must be finite and >= 0'
     else if (.not. (opt%rcond > 0.0_wp .and. opt%rcond < 1.0_wp)) then
       msg = 'rcond must lie in (0, 1)'
     else if (opt%rank_min < 0 .or. opt%rank_max < 0) then
@@ -217,7 +217,8 @@ contains
         msg = 'f_min, f_max and n_freq are the band '// &
         'of the frequency-domain methods (method = ''frequency_output_error'' or '// &
         '''frequency_equation_error'')'
-    else if (.not. (opt%f_min > 0.0_wp .and. opt%f_max > opt%f_min)) then
+    else if (.not. (opt%f_min > 0.0_wp .and. opt%f_max > opt%f_min .and. &
+                    ieee_is_finite(opt%f_max))) then
       msg = 'the frequency-domain methods need the band 0 < f_min < f_max (Hz)'
     else if (opt%n_freq < 2 .or. opt%n_freq > NFREQ_LIMIT) then
       write (msg, '(a,i0,a,i0)') 'n_freq must lie in 2 to ', NFREQ_LIMIT, ', got ', opt%n_freq
