@@ -325,8 +325,8 @@ def test_a_file_size_limit_leaves_every_file_whole_in_both_front_ends(tmp_path):
                       if line.startswith(f"{exe}: ")])
     assert lines[0] == lines[1]
     assert lines[0] == ["c8.nml case 1 (line 7) 'C-8 short period: simulate a doublet record': "
-                        "cannot write c8_doublet.dat (the disk is full or the file went away)",
-                        "cannot write out.json (the disk is full or the file went away)"]
+                        "cannot write c8_doublet.dat (the disk is full, a file size limit was reached, or the file went away)",
+                        "cannot write out.json (the disk is full, a file size limit was reached, or the file went away)"]
 
 
 def test_several_decks_run_one_after_another_in_both_front_ends(tmp_path):

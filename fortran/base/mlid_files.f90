@@ -111,7 +111,7 @@ contains
     end if
     if (status /= 0) then
       status = MLID_ERR_INPUT
-      msg = 'cannot write '//path//' (the disk is full or the file went away)'
+      msg = 'cannot write '//path//' (the disk is full, a file size limit was reached, or the file went away)'
       return
     end if
     call commit(tmp, path, status, msg)

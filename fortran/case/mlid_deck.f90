@@ -49,7 +49,7 @@
 !> read: its record, its manoeuvres' layout).
 module mlid_deck
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower, itoa, read_text, line_t, add_line, control_character
+  use mlid_text, only: to_lower, itoa, read_text, line_t, add_line, control_character, es_text
   use mlid_deck_scan, only: deck_scan, assignment_t, group_span_t, element_states, last_element, &
                             ABSENT, &
                             NULLED, GIVEN

@@ -87,9 +87,8 @@ contains
     else if (len_trim(c%input_file) == 0 .and. .not. (c%dt > 0.0_wp .and. c%t_end > c%dt)) then
       call fail(c, 'group &simulate: need dt > 0 and t_end > dt')
     else if (len_trim(c%input_file) == 0 .and. .not. (c%t_end/c%dt < real(MAX_SAMPLES, wp))) then
-      write (iomsg, '(a,es10.3,a,i0,a)') 'group &simulate: t_end/dt =', c%t_end/c%dt, &
-        ' samples; at most ', MAX_SAMPLES, ' are allowed'
-      call fail(c, iomsg)
+      call fail(c, 'group &simulate: t_end/dt ='//es_text(c%t_end/c%dt, 10, 3)// &
+                ' samples; at most '//itoa(MAX_SAMPLES)//' are allowed')
     else if (size(c%noise_std) /= c%ny .and. size(c%noise_std) /= 0) then
       write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: noise_std has ', size(c%noise_std), &
         ' values, the model has ', c%ny, ' outputs'

@@ -114,6 +114,7 @@ contains
     character(len=16) :: buf
     write (buf, '(g0.4)') x
     if (abs(x) < 0.1_wp .and. x /= 0.0_wp) write (buf, '(es10.3)') x
+    if (abs(x) < 1.0e-99_wp .and. x /= 0.0_wp) write (buf, '(es11.3e3)') x   ! not '1.000-150'
     text = trim(adjustl(buf))
   end function num
 

@@ -13,7 +13,7 @@ from .errors import InputError
 # the reasons a file cannot be written, in mlid-batch's words (fortran/base/mlid_files.f90)
 NOT_WRITABLE = "(its folder is missing or not writable)"
 A_FOLDER = "(a folder of that name)"
-FULL = "(the disk is full or the file went away)"
+FULL = "(the disk is full, a file size limit was reached, or the file went away)"
 NOT_RENAMED = "(a folder of that name, or no permission)"
 A_DECK = "(a deck this run reads)"
 BROKEN_LINK = "(a link to nothing, or a loop of links)"

@@ -97,8 +97,10 @@ class Campaign:
 
     def text(self, fmt):
         """The table as CSV or JSON text."""
-        if fmt == "json":
-            return json.dumps(self.rows, indent=1) + "\n"
+        if fmt == "json":     # strict JSON: null for a number that is not finite, as the core's
+            rows = [{k: None if isinstance(v, float) and not math.isfinite(v) else v
+                     for k, v in r.items()} for r in self.rows]
+            return json.dumps(rows, indent=1, allow_nan=False) + "\n"
         buf = io.StringIO()
         w = csv.DictWriter(buf, fieldnames=self.columns, lineterminator="\n")
         w.writeheader()
