@@ -144,3 +144,41 @@ def test_a_failed_fit_makes_them_too():
     assert res.failed and res.model.F[0, 0] == 1000.0
     assert res.manoeuvres[0].theta.tolist() == model.theta.tolist()
     assert res.param_units == [""]
+
+
+# ---- results keyed by name (issue 42, results out) ------------------------------
+
+def _named_fit(manoeuvres=1):
+    m = mlid.LinearModel([[-1.0, 0.5], [-0.8, -2.0]], [[1.0], [0.3]], np.eye(2),
+                         free=["f(1,1)", "g(1,1)"], names={"f(1,1)": "Mq", "g(1,1)": "Mde"})
+    t = np.arange(101) * 0.02
+    d, _ = mlid.simulate(m, t, np.sin(3 * t)[:, None], [0.01, 0.01], seed=3)
+    d.output_names = ["q", "theta"]
+    return mlid.fit(m, d if manoeuvres == 1 else [d] * manoeuvres), d
+
+
+def test_params_are_keyed_by_name():
+    res, _ = _named_fit()
+    p = res.params
+    assert list(p.index) == res.names == ["Mq", "Mde"]
+    assert p.loc["Mq", "estimate"] == res.estimate[0]
+    assert p.loc["Mde", "sigma_cr"] == res.sigma[1]
+    assert res.to_frame().equals(p)
+
+
+def test_outputs_and_residuals_as_time_indexed_frames():
+    res, d = _named_fit()
+    f = res.outputs_frame()
+    assert list(f.columns.get_level_values(1)[:2]) == ["q", "theta"]
+    assert np.array_equal(f.index.to_numpy(), d.t)
+    assert np.array_equal(f["measured"].to_numpy(), d.y)
+    assert np.allclose(f["residual"].to_numpy(), d.y - res.yhat)
+    assert list(res.residuals_frame().columns) == ["q", "theta"]
+    assert [w["output"] for w in res.whiteness()] == ["q", "theta"]
+
+
+def test_several_manoeuvres_each_on_its_own_time():
+    res, d = _named_fit(manoeuvres=2)
+    f = res.residuals_frame()
+    assert f.index.names == ["manoeuvre", "t"]
+    assert np.array_equal(f.loc[2].index.to_numpy(), d.t)

@@ -11,6 +11,7 @@ import types
 import numpy as np
 
 from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
+from ..errors import InputError
 from .evaluate import evaluate
 from .outcome import fit_outcome, require_estimates
 from .table import HTML_DIGITS, results_table
@@ -196,7 +197,7 @@ class FitResult:
         Returns
         -------
         list of dict
-            As ``mlid.whiteness``.
+            As ``mlid.whiteness``, each with its ``output``'s name first.
 
         Raises
         ------
@@ -204,7 +205,93 @@ class FitResult:
             If the fit failed.
         """
         require_estimates(self, "whiteness test")
-        return whiteness(self.residuals, lags)
+        return [{"output": name, **w}
+                for name, w in zip(self._output_names(), whiteness(self.residuals, lags))]
+
+    def _output_names(self):
+        names = list(getattr(self.data, "output_names", None) or [])
+        return names or [f"y{i + 1}" for i in range(np.shape(self.rhat)[0])]
+
+    @property
+    def params(self):
+        """The results table as a pandas DataFrame indexed by parameter name,
+        in the order of ``names``: unit, estimate, Cramer-Rao sigma, corrected
+        sigma, relative sigma (%) and the coloured-residuals flag
+        (``res.params.loc["M_q", "estimate"]``).
+
+        Raises
+        ------
+        InputError
+            If the fit failed, or pandas is not installed.
+        """
+        return self.table().to_frame().set_index("name")
+
+    def to_frame(self):
+        """The estimates as a DataFrame indexed by name (``params``).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        return self.params
+
+    def _time_index(self, pd):
+        """Time as the frames' index: t [s], under the manoeuvre's number
+        when the fit took several."""
+        t = np.asarray(self.data.t, dtype=float)
+        data = getattr(self, "evaluate_args", (None,))[0]
+        if not isinstance(data, (list, tuple)) or len(data) < 2:
+            return pd.Index(t, name="t")
+        number = np.repeat(np.arange(1, len(data) + 1), [d.nt for d in data])
+        own = np.concatenate([d.t for d in data])     # each manoeuvre on its own time
+        return pd.MultiIndex.from_arrays([number, own if own.size == t.size else t],
+                                         names=["manoeuvre", "t"])
+
+    def residuals_frame(self):
+        """The residuals (innovations for filter error), a column per output
+        named as the record names it, indexed by time; ``attrs["units"]``
+        gives each column's unit (the record's, core units).
+
+        Returns
+        -------
+        pandas.DataFrame
+
+        Raises
+        ------
+        InputError
+            If the fit failed, is a frequency-domain fit, or pandas is missing.
+        """
+        return self.outputs_frame()["residual"]
+
+    def outputs_frame(self):
+        """Measured and model outputs and their difference, indexed by time,
+        columns (``measured``/``model``/``residual``, output name);
+        ``attrs["units"]`` each output's unit.
+
+        Returns
+        -------
+        pandas.DataFrame
+
+        Raises
+        ------
+        InputError
+            If the fit failed, is a frequency-domain fit, or pandas is missing.
+        """
+        require_estimates(self, "outputs frame")
+        if self.frequencies is not None:
+            raise InputError("outputs_frame: a frequency-domain fit has transforms, not a time "
+                             "history (see z and zhat)")
+        try:
+            import pandas as pd
+        except ImportError:
+            raise InputError("outputs_frame needs pandas: pip install pandas") from None
+        names = self._output_names()
+        blocks = {"measured": self.data.y, "model": self.yhat, "residual": self.residuals}
+        frame = pd.concat({k: pd.DataFrame(v, columns=names, index=self._time_index(pd))
+                           for k, v in blocks.items()}, axis=1)
+        units = list(getattr(self.data, "output_units", None) or [""] * len(names))
+        frame.attrs["units"] = dict(zip(names, units))
+        return frame
 
     @property
     def cost_prime(self):
