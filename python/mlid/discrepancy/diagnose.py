@@ -69,22 +69,11 @@ from . import effects, holdout, score_test, terms
 from .diagnosis import Diagnosis, residual_diagnostics
 
 
-def _normal_upper(p):
-    """z with P(Z > z) = p (bisection on erfc)."""
-    lo, hi = -40.0, 40.0
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if 0.5 * math.erfc(mid / math.sqrt(2)) > p else (lo, mid)
-    return 0.5 * (lo + hi)
-
-
 def chi2_quantile(p, k=1):
-    """Upper-p point of chi-square(k): exact for k = 1 (the square of the
-    two-sided normal point), Wilson-Hilferty for k > 1."""
-    if k == 1:
-        return _normal_upper(p / 2) ** 2
-    z = _normal_upper(p)
-    return k * (1 - 2 / (9 * k) + z * math.sqrt(2 / (9 * k))) ** 3
+    """Upper-p point of chi-square(k) (scipy)."""
+    from scipy.stats import chi2
+
+    return float(chi2.isf(p, k))
 
 
 class Candidate:

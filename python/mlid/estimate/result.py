@@ -49,14 +49,16 @@ def whiteness(residuals, lags=20):
     Returns
     -------
     list of dict
-        Per column: ``Q``; ``critical``, the 5% point of chi-square(lags)
-        (Wilson-Hilferty); ``white``, Q below it; ``outside``, the fraction
+        Per column: ``Q``; ``critical``, the upper 5% point of
+        chi-square(lags); ``white``, Q below it; ``outside``, the fraction
         of autocorrelations outside +-1.96/sqrt(N).
     """
     e = np.asarray(residuals, dtype=float)
     e = e.reshape(len(e), -1) - e.reshape(len(e), -1).mean(axis=0)
     n = len(e)
-    crit = lags * (1 - 2 / (9 * lags) + 1.6449 * np.sqrt(2 / (9 * lags))) ** 3
+    from scipy.stats import chi2
+
+    crit = chi2.ppf(0.95, lags)
     out = []
     for col in e.T:
         c0 = col @ col

@@ -520,15 +520,17 @@ def residual_spectra(result, segment=None):
     shortest = min(s.stop - s.start for s in recs.segments())
     m = int(segment or min(256, max(32, shortest // 4)))
     m = max(8, min(m, shortest))
-    w = np.hanning(m)
+    from scipy.signal import welch
+
     acc, count = np.zeros((m // 2 + 1, e.shape[1])), 0
-    for seg in recs.segments():
+    for seg in recs.segments():     # each manoeuvre's windows, averaged over all of them
         s = e[seg] - e[seg].mean(axis=0)
-        for a in range(0, len(s) - m + 1, m // 2):
-            acc += np.abs(np.fft.rfft(s[a:a + m] * w[:, None], axis=0)) ** 2
-            count += 1
-    psd = acc / (count * recs.dt ** -1 * np.sum(w ** 2))
-    psd[1:-1] *= 2
+        windows = (len(s) - m) // (m // 2) + 1
+        _, p = welch(s, fs=1.0 / recs.dt, window=np.hanning(m), noverlap=m // 2, detrend=False,
+                     axis=0)
+        acc += windows * p
+        count += windows
+    psd = acc / count
     scales = np.array([_display(recs.first, "y", i)[1] for i in range(e.shape[1])])
     return np.fft.rfftfreq(m, recs.dt), psd / scales ** 2
 
