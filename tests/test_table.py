@@ -166,3 +166,21 @@ def test_text_table_holds_every_row_at_its_printed_precision():
     assert first[:2] == ["C_Lalpha", "1/rad"] and first[-1] == "coloured"
     assert [float(x) for x in first[2:6]] == [3.21174, 0.0394, 0.128, 3.99]
     assert second[-1] == "--" and len(lines) == 4
+
+
+@pytest.mark.parametrize("name, tex", [("Z_alpha", r"$Z_{\alpha}$"), ("C_m_de", r"$C_{m_{\mathrm{de}}}$"),
+                                       ("M_q", "$M_{q}$"), ("alpha", r"$\alpha$"), ("Mq", "Mq"),
+                                       ("f(1,1)", "f(1,1)"), ("x0(1)#2", r"x0(1)\#2")])
+def test_latex_names_are_math(name, tex):
+    """Issue 42: the LaTeX table printed Z\\_alpha for Z_alpha."""
+    from mlid.estimate.table import latex_name
+    assert latex_name(name) == tex
+
+
+@pytest.mark.parametrize("unit, tex", [("1/s2", r"\si{s^{-2}}"), ("rad/s", r"\si{rad.s^{-1}}"),
+                                       ("m/(rad.s)", r"\si{m.rad^{-1}.s^{-1}}"), ("-", ""),
+                                       ("deg%", r"deg\%")])
+def test_latex_units_are_siunitx_powers(unit, tex):
+    """Issue 42: the LaTeX table printed 1/s2 for s^-2."""
+    from mlid.estimate.table import latex_unit
+    assert latex_unit(unit) == tex

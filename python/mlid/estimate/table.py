@@ -8,6 +8,7 @@ import html
 import io
 import json
 import math
+import re
 
 import numpy as np
 
@@ -34,9 +35,57 @@ _LATEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$",
                   "^": r"\textasciicircum{}"}
 
 
+GREEK = ("alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "kappa",
+         "lambda", "mu", "nu", "xi", "rho", "sigma", "tau", "phi", "chi", "psi", "omega")
+
+
 def latex_escape(text):
     """text with LaTeX's special characters escaped."""
     return "".join(_LATEX_SPECIAL.get(c, c) for c in str(text))
+
+
+def _symbol(part):
+    if part in GREEK or part[:1].upper() + part[1:] in ("Gamma", "Delta", "Theta", "Phi", "Psi",
+                                                         "Omega"):
+        return "\\" + part
+    return part if len(part) == 1 or part.isdigit() else rf"\mathrm{{{part}}}"
+
+
+def latex_name(name):
+    """A parameter name as LaTeX: a name of words joined by underscores as
+    math with nested subscripts and Greek letters (Z_alpha: $Z_{\alpha}$,
+    C_m_de: $C_{m_{\mathrm{de}}}$); any other name as escaped text."""
+    name = str(name)
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*(_[A-Za-z0-9]+)*", name):
+        return latex_escape(name)
+    parts = name.split("_")
+    if len(parts) == 1 and name not in GREEK:
+        return latex_escape(name)
+    text = _symbol(parts[-1])
+    for part in reversed(parts[:-1]):
+        text = f"{_symbol(part)}_{{{text}}}"
+    return f"${text}$"
+
+
+def latex_unit(unit):
+    """A core unit ('rad/s', '1/s2', 'm/(rad.s)', '-') as siunitx's \\si in
+    powers (\\si{rad.s^{-1}}); '' for none or '-'; a unit of other
+    characters as escaped text."""
+    unit = str(unit).strip()
+    if unit in ("", "-"):
+        return ""
+    if not re.fullmatch(r"[A-Za-z0-9.]+(/\(?[A-Za-z0-9.]+\)?)?", unit):
+        return latex_escape(unit)
+    top, _, bottom = unit.partition("/")
+    factors = []
+    for sign, group in ((1, top), (-1, bottom.strip("()"))):
+        for f in filter(None, group.split(".")):
+            sym, power = re.fullmatch(r"([A-Za-z]*)(\d*)", f).groups()
+            if not sym:
+                continue          # the 1 of 1/s
+            p = sign * int(power or 1)
+            factors.append(sym if p == 1 else f"{sym}^{{{p}}}")
+    return rf"\si{{{'.'.join(factors)}}}" if factors else ""
 
 
 def results_table(result, case=None):
@@ -187,8 +236,9 @@ class ResultsTable:
         return self.text()
 
     def latex_text(self):
-        """A booktabs tabular (needs \\usepackage{booktabs}); numbers plain, to
-        4 significant digits; names and units escaped.
+        """A booktabs tabular (needs \\usepackage{booktabs} and siunitx);
+        numbers plain, to 4 significant digits; names as math (latex_name),
+        units by siunitx (latex_unit).
 
         Returns
         -------
@@ -322,6 +372,10 @@ def _html_cell(col, value):
 def _latex_cell(col, value):
     if col == "flag":
         return FLAG_TEXT if value else ""
+    if col == "name":
+        return latex_name(value)
+    if col == "unit":
+        return latex_unit(value)
     if isinstance(value, (float, np.floating)):
         return f"{value:.4g}" if math.isfinite(value) else "--"
     return latex_escape(value)
