@@ -182,3 +182,10 @@ def test_several_manoeuvres_each_on_its_own_time():
     f = res.residuals_frame()
     assert f.index.names == ["manoeuvre", "t"]
     assert np.array_equal(f.loc[2].index.to_numpy(), d.t)
+
+
+def test_sensitivity_norms_by_name():
+    res, _ = _named_fit()
+    f = res.sensitivity_frame()
+    assert list(f.index) == ["Mq", "Mde"] and list(f.columns) == ["q", "theta"]
+    assert np.array_equal(f.to_numpy(), res.sensitivity_norms().T)

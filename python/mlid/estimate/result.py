@@ -448,6 +448,26 @@ class FitResult:
         return evaluate(self.model, data, initial_states=x0s, biases=biases,
                         **self.options)["sensitivity"]
 
+    def sensitivity_frame(self):
+        """The sensitivity norms as a DataFrame: a row per free parameter
+        (``names``), a column per output (the record's names).
+
+        Returns
+        -------
+        pandas.DataFrame
+
+        Raises
+        ------
+        InputError
+            If the fit failed, or pandas is not installed.
+        """
+        try:
+            import pandas as pd
+        except ImportError:
+            raise InputError("sensitivity_frame needs pandas: pip install pandas") from None
+        return pd.DataFrame(self.sensitivity_norms().T, index=pd.Index(self.names, name="name"),
+                            columns=self._output_names())
+
     def sensitivity_table(self):
         """The sensitivity norms as printed lines, a row per parameter.
 
