@@ -101,3 +101,23 @@ def test_dates_elsewhere_and_ambiguous_time_are_refused_in_words():
     gap.loc[5, "t"] = pd.NaT
     with pytest.raises(mlid.InputError, match=r"time column t has a missing value \(NaT\) at row 5"):
         mlid.FlightData.from_frame(gap, "t", ["u"], ["y1", "y2"])
+
+
+def test_an_xarray_dataset_with_a_time_coordinate_and_units():
+    """Issue 42, data in: a Dataset along its time coordinate (dates here),
+    each variable's units attribute its unit (deg read as deg, the core's
+    rad inside)."""
+    xr = pytest.importorskip("xarray")
+    pd = pytest.importorskip("pandas")
+    t = 0.02 * np.arange(100)
+    ds = xr.Dataset({"de": ("time", np.sin(3 * t), {"units": "deg"}),
+                     "q": ("time", np.cos(t), {"units": "deg/s"}),
+                     "a": ("time", np.sin(t))},
+                    coords={"time": pd.Timestamp("2026-01-01") + pd.to_timedelta(t, unit="s")})
+    d = mlid.FlightData.from_frame(ds, "time", ["de"], ["q", "a"])
+    assert np.max(np.abs(d.t - t)) < 1e-9
+    assert d.input_units == ["rad"] and d.output_units == ["rad/s", ""]
+    assert np.allclose(d.u[:, 0], np.deg2rad(np.sin(3 * t)), rtol=1e-14)
+    assert np.array_equal(d.y[:, 1], np.sin(t))
+    with pytest.raises(mlid.InputError, match="one dimension"):
+        mlid.FlightData.from_frame(xr.Dataset({"x": (("a", "b"), np.zeros((2, 2)))}), "a")

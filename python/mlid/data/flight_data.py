@@ -64,6 +64,26 @@ def _spec(time_col, input_cols, output_cols, columns, units, derived, show):
             "show": _lines(show, "show")}
 
 
+def _dataset_frame(frame, time_col):
+    """An xarray Dataset as the DataFrame from_frame takes: its variables
+    along its one dimension as columns, named 'NAME[unit]' from a variable's
+    ``units`` attribute, the time coordinate as the index (time_col its
+    name); anything else is returned as it is."""
+    if not (hasattr(frame, "data_vars") and hasattr(frame, "coords")):
+        return frame
+    dims = list(frame.dims)
+    if len(dims) != 1:
+        raise InputError(f"from_frame takes a Dataset of one dimension (time), this one has "
+                         f"{len(dims)}: {', '.join(map(str, dims))}")
+    table = frame.to_dataframe()
+    units = {str(k): str(v.attrs.get("units", "")).strip() for k, v in frame.variables.items()}
+    table.columns = [f"{c}[{units[str(c)]}]" if units.get(str(c)) else str(c)
+                     for c in table.columns]
+    if str(time_col) != str(table.index.name) and str(time_col) != "index":
+        table = table.reset_index()     # time is a variable, not the coordinate
+    return table
+
+
 def _time_in_seconds(frame, time_col):
     """frame with its time as a column of seconds: the index when time_col
     is "index" or the index's name (and no column's), dates and durations
@@ -335,8 +355,10 @@ class FlightData:
 
         Parameters
         ----------
-        frame : pandas.DataFrame
-            The table, a column per channel, numbers only.
+        frame : pandas.DataFrame or xarray.Dataset
+            The table, a column per channel, numbers only; or a Dataset of
+            one-dimensional variables along its time coordinate, each
+            variable's ``units`` attribute its unit.
         time_col, input_cols, output_cols : str or list of str
             Channels by column name (or a derived channel's), as in ``load``.
             Time may be the frame's index (``time_col`` its name, or
@@ -362,7 +384,7 @@ class FlightData:
         MlidWarning
             A channel declared in rad goes beyond 2 pi (most likely degrees).
         """
-        frame = _time_in_seconds(frame, time_col)
+        frame = _time_in_seconds(_dataset_frame(frame, time_col), time_col)
         try:
             names = [str(c) for c in frame.columns]
             x = np.asarray(frame.to_numpy(dtype=float), dtype=float)
