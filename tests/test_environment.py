@@ -81,3 +81,47 @@ def test_a_closed_stderr_loses_only_the_error_lines(stderr, data, tmp_path):
         got.append((run.stdout, (tmp_path / f"{exe}.json").read_bytes()))
     assert got[0] == got[1]
     assert got[0][1].count(b'"title"') == 2, got[0][1]
+
+
+def test_a_c_locale_writes_the_same_utf8_json(tmp_path):
+    """LC_ALL=C and PYTHONUTF8=0 with an accented title and a failing case:
+    mlid run wrote no JSON ('ascii' codec can't encode); now both write
+    the same UTF-8 bytes."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(two_case_deck("no_such.dat").replace("'middle'", "'\u00e9t\u00e9'"),
+                    encoding="utf-8")
+    env = {**os.environ, "LC_ALL": "C", "LANG": "C", "PYTHONUTF8": "0"}
+    env.pop("PYTHONIOENCODING", None)
+    got = []
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        run = subprocess.run([str(BIN / exe), *pre, deck.name, "--json", f"{exe}.json"],
+                             capture_output=True, cwd=tmp_path, env=env, timeout=300)
+        assert run.returncode == 1, run.stderr
+        got.append((run.stdout, (tmp_path / f"{exe}.json").read_bytes()))
+    assert got[0] == got[1] and "\u00e9t\u00e9".encode() in got[0][1]
+
+
+def test_python_optimized_runs():
+    """PYTHONOPTIMIZE=2 strips docstrings: mlid run ended at import
+    (AttributeError in models' docstring filling)."""
+    run = subprocess.run([str(BIN / "mlid"), "--version"], capture_output=True, text=True,
+                         env={**os.environ, "PYTHONOPTIMIZE": "2"}, timeout=120)
+    assert run.returncode == 0 and run.stderr == "", run.stderr
+
+
+def test_a_working_folder_that_is_gone(tmp_path):
+    """Run from a folder deleted under it, --json relative: one line, the
+    same from both front ends (mlid run ended in an internal error)."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(two_case_deck())
+    gone = tmp_path / "gone"
+    lines = []
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        gone.mkdir()
+        script = f'cd {gone} && rmdir {gone} && exec "$@"'
+        run = subprocess.run(["bash", "-c", script, "sh", str(BIN / exe), *pre, str(deck),
+                              "--json", "x.json"], capture_output=True, text=True, timeout=120)
+        assert run.returncode == 1 and run.stdout == "", run.stderr
+        lines.append(run.stderr.replace(exe, "", 1))
+    assert lines[0] == lines[1] == ": cannot write --json x.json (its folder is missing or not " \
+                                   "writable)\n"

@@ -5,6 +5,7 @@ and read /dev/zero without end.  Each run has a timeout, so that a hang
 fails the test instead of stopping the suite."""
 
 import os
+import shutil
 import subprocess
 
 import pytest
@@ -192,3 +193,46 @@ def test_a_hard_link_to_an_input_is_that_input(tmp_path):
             assert run.returncode == 1 and run.stdout == "", run.stderr
             assert f"cannot write --json {target} " in run.stderr and says in run.stderr
     assert (tmp_path / "small.dat").read_bytes() == record and deck.read_bytes() == text
+
+
+def test_a_link_is_written_through(tmp_path):
+    """--json naming a link to a file: the file it names gets the JSON and
+    the link stays a link (a rename onto the link put a file in its place
+    and left the file it named as it was)."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(DECK.replace("DATA", "small.dat"))
+    texts = []
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        (tmp_path / "real.json").write_text("old")
+        (tmp_path / "link.json").unlink(missing_ok=True)
+        (tmp_path / "link.json").symlink_to("real.json")
+        run = subprocess.run([str(BIN / exe), *pre, deck.name, "--json", "link.json"],
+                             capture_output=True, text=True, cwd=tmp_path, timeout=120)
+        assert run.returncode == 0, run.stderr
+        assert (tmp_path / "link.json").is_symlink()
+        texts.append((tmp_path / "real.json").read_text())
+    assert texts[0] == texts[1] and texts[0].startswith("[")
+
+
+@pytest.mark.skipif(os.geteuid() != 0 or not shutil.which("setpriv"),
+                    reason="needs root to run as another user (root itself may write anything)")
+def test_a_file_the_user_may_not_write_is_refused(tmp_path):
+    """A JSON file of another user's, read-only, in a folder this user may
+    write: refused in one line before any case runs (the rename replaced
+    it, owner and all)."""
+    os.chmod(tmp_path, 0o777)
+    deck = tmp_path / "deck.nml"
+    deck.write_text(DECK.replace("DATA", "small.dat"))
+    os.chmod(deck, 0o644)
+    ro = tmp_path / "ro.json"
+    ro.write_text("root's")
+    os.chmod(ro, 0o444)
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        run = subprocess.run(["setpriv", "--reuid=nobody", "--regid=nogroup", "--clear-groups",
+                              str(BIN / exe), *pre, deck.name, "--json", "ro.json"],
+                             capture_output=True, text=True, cwd=tmp_path, timeout=120,
+                             env={**os.environ, "HOME": str(tmp_path), "MPLCONFIGDIR": str(tmp_path)})
+        assert run.returncode == 1 and run.stdout == "", run.stderr
+        assert run.stderr.splitlines()[-1] == (f"{exe}: cannot write --json ro.json (a file you "
+                                               "may not write)"), run.stderr
+    assert ro.read_text() == "root's" and ro.stat().st_uid == 0

@@ -278,3 +278,15 @@ def test_a_long_record_is_noted_with_its_size(tmp_path):
     run = subprocess.run([str(BIN / "mlid-batch"), deck.name], capture_output=True, text=True,
                          cwd=tmp_path, timeout=300)
     assert run.returncode == 0 and run.stderr == ""
+
+
+def test_a_csv_with_every_field_quoted(tmp_path):
+    """A spreadsheet's CSV that quotes every field, header and numbers:
+    read as the plain one (it said 'no data rows')."""
+    plain = "t,de,q\n0.0,1.0,2.0\n0.1,1.0,3.0\n0.2,0.0,4.0\n"
+    quoted = '"t","de","q"\n"0.0","1.0","2.0"\n"0.1","1.0","3.0"\n"0.2","0.0","4.0"\n'
+    (tmp_path / "p.csv").write_text(plain)
+    (tmp_path / "q.csv").write_text(quoted)
+    kw = dict(time_col="t", input_cols=["de"], output_cols=["q"])
+    a, b = (mlid.FlightData.load(tmp_path / n, **kw) for n in ("p.csv", "q.csv"))
+    assert np.array_equal(a.t, b.t) and np.array_equal(a.y, b.y) and b.output_names == ["q"]

@@ -37,6 +37,7 @@ contains
     character(len=*), intent(out) :: msg
     character(len=*), intent(in), optional :: what
     character(len=16) :: pid
+    character(len=:), allocatable :: target
     integer :: unit, slash
     logical :: folder
 
@@ -58,9 +59,15 @@ contains
       end if
       return
     end if
+    if (access(trim(path), ' ') == 0 .and. access(trim(path), 'w') /= 0) then
+      status = MLID_ERR_INPUT       ! a rename would replace it all the same
+      msg = 'cannot write '//named(path, what)//' (a file you may not write)'
+      return
+    end if
+    target = write_target(path)
     write (pid, '(i0)') getpid()
-    slash = index(path, '/', back=.true.)
-    tmp = path(1:slash)//'.'//path(slash + 1:)//'.tmp-'//trim(pid)
+    slash = index(target, '/', back=.true.)
+    tmp = target(1:slash)//'.'//target(slash + 1:)//'.tmp-'//trim(pid)
     open (newunit=unit, file=tmp, status='replace', action='write', iostat=status)
     if (status /= 0) then
       status = MLID_ERR_INPUT
@@ -122,7 +129,7 @@ contains
     character(len=*), intent(in) :: tmp, path
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    call rename(tmp, path, status)
+    call rename(tmp, write_target(path), status)
     msg = ''
     if (status /= 0) then
       call delete(tmp)
@@ -130,6 +137,21 @@ contains
       msg = 'cannot write '//path//' (a folder of that name, or no permission)'
     end if
   end subroutine commit
+
+  !> Where a write to path goes: the file a link names, so that the link
+  !> stays and the file it names is written (a rename onto the link put a
+  !> file in its place); path itself otherwise.
+  function write_target(path) result(target)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable :: target
+    integer, parameter :: S_IFMT = int(o'170000'), S_IFLNK = int(o'120000')
+    integer :: values(13), status
+    target = trim(path)
+    call lstat(trim(path), values, status)
+    if (status /= 0) return
+    if (iand(values(3), S_IFMT) /= S_IFLNK) return
+    if (len(c_real_path(trim(path))) > 0) target = c_real_path(trim(path))
+  end function write_target
 
   !> Remove the file path if it is there.
   subroutine delete(path)

@@ -264,7 +264,8 @@ contains
 
   !> Where the fields of a line start and end: separated by blanks, tabs
   !> and at most one comma (two commas, or a comma first or last, leave a
-  !> field empty, which is an error).
+  !> field empty, which is an error); a field in double quotes is what they
+  !> hold.
   subroutine fields(line, first, last, msg)
     character(len=*), intent(in) :: line
     integer, allocatable, intent(out) :: first(:), last(:)
@@ -301,6 +302,13 @@ contains
     end do
     if (inside) last(m) = n
     if (comma) msg = 'an empty field (a comma last)'
+    do k = 1, m          ! "1.5" as a spreadsheet's CSV quotes every field: its text
+      if (last(k) - first(k) >= 2 .and. line(first(k):first(k)) == '"' .and. &
+          line(last(k):last(k)) == '"') then
+        first(k) = first(k) + 1
+        last(k) = last(k) - 1
+      end if
+    end do
   end subroutine fields
 
   !> A plain number: sign, digits with at most one point, an exponent with

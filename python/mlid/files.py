@@ -17,6 +17,7 @@ FULL = "(the disk is full, a file size limit was reached, or the file went away)
 NOT_RENAMED = "(a folder of that name, or no permission)"
 A_DECK = "(a deck this run reads)"
 BROKEN_LINK = "(a link to nothing, or a loop of links)"
+READ_ONLY = "(a file you may not write)"
 #: what a path may be that is no regular file, in mlid_files' not_regular words
 _KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a device"),
           (stat.S_ISBLK, "a device"))
@@ -42,18 +43,37 @@ def not_regular(path, what=None):
             raise InputError(f"cannot write {name} ({kind}, not a regular file)")
 
 
+def write_target(path):
+    """Where a write to path goes: the file a link names (the link stays),
+    else path (as mlid_files' write_target)."""
+    path = Path(path)
+    if path.is_symlink() and path.exists():
+        return Path(os.path.realpath(path))
+    return path
+
+
+def read_only(path, what=None):
+    """Refuse a file that is there and that this user may not write (a
+    rename would replace it all the same), in mlid-batch's words."""
+    if os.path.exists(path) and not os.access(path, os.W_OK):
+        raise InputError(f"cannot write {f'{what} {path}' if what else path} {READ_ONLY}")
+
+
 @contextlib.contextmanager
 def atomic_open(path, mode="w"):
-    """A file handle whose content replaces path only when the block ends
-    without an exception."""
+    """A file handle whose content replaces path (or the file a link at path
+    names) only when the block ends without an exception; text in UTF-8,
+    whatever the locale says."""
     path = Path(path)
     not_regular(path)
+    read_only(path)
+    target = write_target(path)
     try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
     except OSError:
         raise InputError(f"cannot write {path} {NOT_WRITABLE}") from None
     try:
-        fh = os.fdopen(fd, mode)
+        fh = os.fdopen(fd, mode) if "b" in mode else os.fdopen(fd, mode, encoding="utf-8")
         with contextlib.suppress(OSError):     # best effort: some file systems refuse it
             os.fchmod(fd, _new_file_mode())    # mkstemp's 0600 is for secrets, not reports
         try:
@@ -71,7 +91,7 @@ def atomic_open(path, mode="w"):
                 fh.close()
             raise InputError(f"cannot write {path} {FULL}") from None
         try:
-            os.replace(tmp, path)
+            os.replace(tmp, target)
         except OSError:
             raise InputError(f"cannot write {path} {NOT_RENAMED}") from None
     except BaseException:
@@ -93,9 +113,11 @@ def _new_file_mode():
 
 
 def atomic_write_text(path, text):
-    with atomic_open(path) as fh:
+    """text to path in UTF-8, whatever the locale says (as mlid-batch writes)."""
+    data = text.encode("utf-8", "surrogateescape")
+    with atomic_open(path, "wb") as fh:
         try:
-            fh.write(text)
+            fh.write(data)
         except OSError:
             raise InputError(f"cannot write {path} {FULL}") from None
 
@@ -111,7 +133,10 @@ def same_file(a, b):
     by name with links resolved (as the core's same_file)."""
     if os.path.exists(a) and os.path.exists(b):
         return os.path.samefile(a, b)
-    return os.path.realpath(a) == os.path.realpath(b)
+    try:
+        return os.path.realpath(a) == os.path.realpath(b)
+    except OSError:             # a relative name in a folder that is gone
+        return str(a) == str(b)
 
 
 def check_writable(path, what, decks=()):
@@ -123,6 +148,7 @@ def check_writable(path, what, decks=()):
     if str(path).endswith(os.sep):
         raise InputError(f"cannot write {what} {path} {NOT_WRITABLE}")
     not_regular(path, what)
+    read_only(path, what)
     if any(same_file(path, d) for d in decks):
         raise InputError(f"cannot write {what} {path} {A_DECK}")
     folder = Path(path).parent

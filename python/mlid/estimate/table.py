@@ -13,7 +13,7 @@ import re
 import numpy as np
 
 from ..errors import InputError
-from ..files import atomic_open
+from ..files import atomic_write_text
 from .outcome import require_estimates
 
 #: Column keys (CSV header, JSON keys, DataFrame columns) and LaTeX headings.
@@ -348,8 +348,7 @@ WRITERS = {"csv": ResultsTable.to_csv, "tex": ResultsTable.to_latex,
 
 
 def _write(path, text):
-    with atomic_open(path) as fh:
-        fh.write(text)
+    atomic_write_text(path, text)
 
 
 def _csv_cell(col, value):

@@ -85,7 +85,10 @@ _COMMON_RAISES = """InputError
 
 
 def _documented(cls):
-    """Fill the shared constructor arguments into the class docstring."""
+    """Fill the shared constructor arguments into the class docstring (none
+    under python -OO, PYTHONOPTIMIZE=2)."""
+    if cls.__doc__ is None:
+        return cls
     cls.__doc__ = cls.__doc__.replace("{common}", _COMMON_PARAMETERS).replace(
         "{raises}", _COMMON_RAISES)
     return cls
