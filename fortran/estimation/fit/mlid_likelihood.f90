@@ -207,7 +207,8 @@ contains
       if (.not. (rhat(i, i) > tiny(1.0_wp))) then
         status = MLID_ERR_SINGULAR
         write (msg, '(a,i0,a)') 'residual variance of output ', i, &
-          ' is zero or not finite: the output is fitted exactly (noise-free or constant data?)'
+          ' is zero, below the smallest normal number or not finite: the output is fitted '// &
+          'exactly (noise-free or constant data?), or its units make it too small (scale it)'
         return
       end if
     end do
