@@ -3,7 +3,8 @@
 !> Cramer-Rao standard deviations; repeat.
 module mlid_monte_carlo
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use mlid_kinds, only: wp, MLID_OK
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INTERRUPTED
+  use mlid_interrupt, only: interrupt_requested
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t
@@ -18,7 +19,8 @@ module mlid_monte_carlo
 contains
 
   !> Run r uses seed seed0 + r - 1.  A failed run is recorded in
-  !> run_status(r) and does not stop the others.  Without process noise
+  !> run_status(r) and does not stop the others; a Ctrl-C does: the runs
+  !> it stopped and those not run have the status MLID_ERR_INTERRUPTED.  Without process noise
   !> every run's states are the same: the record without measurement noise
   !> is simulated once and each run adds its own draw (simulate_noise, the
   !> draws of simulate_outputs: the same record to the bit).
@@ -48,6 +50,10 @@ contains
     quiet = no_process_noise(theta_true, pm%l)
     if (quiet) call clean_record(cstat)
     do r = 1, size(run_status)
+      if (interrupt_requested()) then
+        run_status(r:) = MLID_ERR_INTERRUPTED
+        exit
+      end if
       if (quiet) then
         run_status(r) = cstat
         if (cstat == MLID_OK) call simulate_noise(m, theta_true, size(t), seed0 + r - 1, .false., &

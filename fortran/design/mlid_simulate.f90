@@ -23,6 +23,7 @@ module mlid_simulate
   use mlid_rk, only: rk4_interval, rk_work_t
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use mlid_setup, only: setup
+  use mlid_interrupt, only: check_interrupt, POLL_MASK
   implicit none
   private
   public :: simulate_outputs, simulate_noise, simulate_flat
@@ -138,6 +139,10 @@ contains
     subroutine integrate()
       x = theta(l%ox0 + 1:l%ox0 + m%nx)
       do j = 1, size(t)
+        if (iand(j, POLL_MASK) == 0) then
+          call check_interrupt(status, msg)
+          if (status /= MLID_OK) return
+        end if
         xhist(:, j) = x
         call m%h(t(j), x, ud(:, j), theta(1:l%np), y(:, j))
         y(:, j) = y(:, j) + theta(l%obias + 1:l%obias + ny)

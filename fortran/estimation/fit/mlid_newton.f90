@@ -5,7 +5,7 @@
 module mlid_newton
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, &
-                        MLID_ERR_INPUT, &
+                        MLID_ERR_INPUT, MLID_ERR_INTERRUPTED, MLID_ERR_MEMORY, &
                         STOP_NONE, STOP_COST, STOP_STEP, STOP_GRAD, STOP_MAXITER, &
                         STOP_NO_DECREASE, STOP_FAILED
   use mlid_linalg, only: info_inverse, info_eig, eig_inverse
@@ -15,6 +15,7 @@ module mlid_newton
   use mlid_likelihood, only: likelihood, sens_keep_t
   use mlid_params, only: param_map_t, apply_ties
   use mlid_text, only: itoa
+  use mlid_interrupt, only: check_interrupt
   implicit none
   private
   public :: fit_result_t, extras_t, newton_fit
@@ -310,6 +311,11 @@ contains
       msg = ''
       res%reason = STOP_NONE
       do while (st%it < opt%max_iter)
+        call check_interrupt(status, msg)
+        if (status /= MLID_OK) then
+          res%reason = STOP_FAILED
+          return
+        end if
         st%it = st%it + 1
         ! the objective of this iteration: likelihood + prior term (weight s W)
         jnow = res%cost + prior_cost(ex, pm, res%theta, st%s)
@@ -454,6 +460,11 @@ contains
             stashed = tstat == MLID_OK
           else
             call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
+          end if
+          if (tstat == MLID_ERR_INTERRUPTED .or. tstat == MLID_ERR_MEMORY) then
+            status = tstat                   ! not a bad trial point: the fit ends
+            msg = tmsg
+            return
           end if
           if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
             jt = jt + prior_cost(ex, pm, trial, st%s)
