@@ -24,6 +24,8 @@ module mlid_simulate
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use mlid_setup, only: setup
   use mlid_interrupt, only: check_interrupt, POLL_MASK
+  use mlid_memory, only: check_alloc
+  use mlid_text, only: itoa
   implicit none
   private
   public :: simulate_outputs, simulate_noise, simulate_flat
@@ -75,7 +77,8 @@ contains
     type(rk_work_t) :: wk     !< the integration's work arrays
     integer :: j, nw, ny
     integer, allocatable :: none(:)
-    real(wp) :: ud(size(u, 1), size(u, 2))
+    real(wp), allocatable :: ud(:, :)
+    integer :: ist
 
     status = MLID_ERR_INPUT
     l = model_layout(m)
@@ -100,7 +103,11 @@ contains
     ! inputs that reach the aircraft late (mlid_delay)
     call delay_check(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), 1, 'udelay', status, msg)
     if (status /= MLID_OK) return
-    ud = u
+    allocate (ud(size(u, 1), size(u, 2)), stat=ist)
+    call check_alloc(ist, 'the inputs of '//itoa(size(t))//' samples', real(size(u), wp), status, &
+                     msg)
+    if (status /= MLID_OK) return
+    ud(:, :) = u
     call delay_outputs(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), ud)
     allocate (none(0))
     done = .false.
@@ -188,11 +195,14 @@ contains
     logical :: ok
     integer :: i, j, nw, ny
 
-    status = MLID_ERR_INPUT
     l = model_layout(m)
     nw = m%nw
     ny = m%ny
-    allocate (w(nw, 0:nt), v(ny, nt))
+    allocate (w(nw, 0:nt), v(ny, nt), stat=i)
+    call check_alloc(i, 'the noise of '//itoa(nt)//' samples', real(nw + ny, wp)*(nt + 1), status, &
+                     msg)
+    if (status /= MLID_OK) return
+    status = MLID_ERR_INPUT
     w = 0.0_wp
     v = 0.0_wp
     if (seed < 0) then

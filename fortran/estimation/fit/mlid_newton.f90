@@ -16,6 +16,7 @@ module mlid_newton
   use mlid_params, only: param_map_t, apply_ties
   use mlid_text, only: itoa
   use mlid_interrupt, only: check_interrupt
+  use mlid_memory, only: no_memory, check_alloc
   implicit none
   private
   public :: fit_result_t, extras_t, newton_fit
@@ -232,7 +233,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: ee_sigma(pb%pm%nf)
-    integer :: nf, ny, nt
+    integer :: nf, ny, nt, ist
 
     associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt)
       nf = pm%nf
@@ -240,7 +241,10 @@ contains
       nt = size(t)
       allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), &
                 res%eigvec(nf, nf), res%rhat(ny, ny), res%yhat(ny, nt), &
-                res%cost_hist(opt%max_iter + 1), res%keep, res%msens(nf, nf))
+                res%cost_hist(opt%max_iter + 1), res%keep, res%msens(nf, nf), stat=ist)
+      call check_alloc(ist, 'the model outputs of '//itoa(nt)//' samples', real(ny, wp)*nt, &
+                       status, msg)
+      if (status /= MLID_OK) return
       res%theta = theta0
       call apply_ties(pm%tie, res%theta)
       res%cost_hist = 0.0_wp
@@ -435,7 +439,10 @@ contains
 
     stashed = .false.
     associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt, ex => pb%ex)
-      allocate (rt(m%ny, m%ny), yt(m%ny, size(t)))
+      allocate (rt(m%ny, m%ny), yt(m%ny, size(t)), stat=tstat)
+      call check_alloc(tstat, 'a trial step of '//itoa(size(t))//' samples', &
+                       real(m%ny, wp)*size(t), status, msg)
+      if (status /= MLID_OK) return
       best%cost = huge(1.0_wp)
       best%step = 0.0_wp
       best%rank = 0
@@ -451,7 +458,16 @@ contains
             trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
           call apply_ties(pm%tie, trial)
           if (ih == 0 .and. rlo >= rmax .and. opt%method /= METHOD_FILTER_ERROR) then
-            if (.not. allocated(stash%keep)) stash = res
+            if (.not. allocated(stash%keep)) then   ! (a copy of res would not check its memory)
+              allocate (stash%rhat(m%ny, m%ny), stash%yhat(m%ny, size(t)), stash%grad(pm%nf), &
+                        stash%info(pm%nf, pm%nf), stash%msens(pm%nf, pm%nf), stash%keep, &
+                        stat=tstat)
+              if (tstat /= 0) then
+                call no_memory('a trial step of '//itoa(size(t))//' samples', &
+                               real(m%ny, wp)*size(t), status, msg)
+                return
+              end if
+            end if
             stash%theta = trial
             call likelihood(m, trial, pm, t, u, y, opt, stash%cost, stash%rhat, stash%yhat, &
                             tstat, tmsg, stash%grad, stash%info, msens=stash%msens, &

@@ -41,7 +41,7 @@
 module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_INTERRUPTED, &
-                        first_failure
+                        MLID_ERR_MEMORY, first_failure
   use mlid_linalg, only: expm_work_t
   use mlid_models, only: model_t, layout_t, NZ_HROWS
   use mlid_options, only: options_t
@@ -51,6 +51,8 @@ module mlid_filter
   use mlid_delay, only: delay_outputs, delay_check
   use mlid_lti_predict, only: lti_exact, lti_segment
   use mlid_interrupt, only: check_interrupt, POLL_MASK
+  use mlid_memory, only: no_memory, check_alloc
+  use mlid_text, only: itoa
   implicit none
   private
   public :: oe_predict, kf_innovations
@@ -237,6 +239,9 @@ contains
                        yhat, status, dy, xhist)
       msg = ''
       if (status == MLID_ERR_INTERRUPTED) call check_interrupt(status, msg)   ! its message
+      if (status == MLID_ERR_MEMORY) call no_memory('the states of '//itoa(j1 - j0 + 1)// &
+                                                    ' samples', real(m%nx, wp)*(j1 - j0 + 1), &
+                                                    status, msg)
       if (status /= MLID_ERR_DIVERGED) return        ! else diverged: the RK4 path says where
     end if
     do i = 1, m%nu
@@ -250,7 +255,10 @@ contains
     else
       call mf%uses_params(used)
       call segment_map(pm, iseg, used, pk, cols)
-      allocate (dyk(m%ny, pk%nf, size(t)))
+      allocate (dyk(m%ny, pk%nf, size(t)), stat=i)
+      call check_alloc(i, 'the sensitivities of '//itoa(size(t))//' samples x '//itoa(pk%nf)// &
+                       ' parameters', real(m%ny, wp)*pk%nf*size(t), status, msg)
+      if (status /= MLID_OK) return
       call oe_segment(mf, theta, pk, t, u, opt, iseg, j0, j1, yhat, status, msg, dyk, xhist, z)
       do c = 1, pm%nf
         if (all(cols /= c)) dy(:, c, j0:j1) = 0.0_wp

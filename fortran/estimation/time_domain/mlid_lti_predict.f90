@@ -34,7 +34,7 @@
 module mlid_lti_predict
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: iso_fortran_env, only: int64
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INTERRUPTED
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INTERRUPTED, MLID_ERR_MEMORY
   use mlid_interrupt, only: interrupt_requested, POLL_MASK
   use mlid_models, only: model_t, linear_model_t
   use mlid_options, only: options_t
@@ -106,7 +106,8 @@ contains
   !> and xhist(:, j0:j1) if present, for a model lti_exact accepts.  s0: the
   !> segment's initial sensitivities (nx, nf).  A state that is not finite
   !> returns MLID_ERR_DIVERGED and nothing else: the caller's RK4 path then
-  !> says where, as it always has; a Ctrl-C, MLID_ERR_INTERRUPTED.
+  !> says where, as it always has; a Ctrl-C, MLID_ERR_INTERRUPTED; no memory
+  !> for the states, MLID_ERR_MEMORY.
   subroutine lti_segment(m, theta, pm, t, u, opt, iseg, j0, j1, s0, yhat, status, dy, xhist)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), t(:), u(:, :), s0(:, :)
@@ -140,7 +141,11 @@ contains
     else
       call interval_map(sys, dt, opt%substeps, opt%hold, mp)
     end if
-    allocate (x(nx, n))
+    allocate (x(nx, n), stat=j)
+    if (j /= 0) then                    ! the caller names it (mlid_filter, mlid_simulate)
+      status = MLID_ERR_MEMORY
+      return
+    end if
     x(:, 1) = theta(pm%l%ox0 + (iseg - 1)*nx + 1:pm%l%ox0 + iseg*nx)
     select case (nx)                    ! the common sizes as constants: loops unrolled
     case (1)
