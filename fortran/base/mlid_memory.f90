@@ -1,12 +1,13 @@
 !> Allocations that may not fit in memory (arrays the length of a record):
 !> allocated with stat=, and a failure becomes the status MLID_ERR_MEMORY
+!> (its message built only then: a fit allocates in every evaluation)
 !> with a message naming what did not fit and its size, in place of the
 !> Fortran runtime's abort (which ends the Python interpreter too).
 module mlid_memory
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_MEMORY
+  use mlid_kinds, only: wp, MLID_ERR_MEMORY
   implicit none
   private
-  public :: no_memory, check_alloc
+  public :: no_memory
 
 contains
 
@@ -28,18 +29,5 @@ contains
     status = MLID_ERR_MEMORY
     msg = 'not enough memory for '//what//' ('//trim(size)//')'
   end subroutine no_memory
-
-  !> After an allocation with stat=ist: status MLID_OK if it succeeded
-  !> (ist 0), else no_memory's status and message.
-  subroutine check_alloc(ist, what, nreal, status, msg)
-    integer, intent(in) :: ist
-    character(len=*), intent(in) :: what
-    real(wp), intent(in) :: nreal
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    status = MLID_OK
-    msg = ''
-    if (ist /= 0) call no_memory(what, nreal, status, msg)
-  end subroutine check_alloc
 
 end module mlid_memory

@@ -24,7 +24,7 @@ module mlid_simulate
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use mlid_setup, only: setup
   use mlid_interrupt, only: check_interrupt, POLL_MASK
-  use mlid_memory, only: check_alloc
+  use mlid_memory, only: no_memory
   use mlid_text, only: itoa
   implicit none
   private
@@ -104,9 +104,11 @@ contains
     call delay_check(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), 1, 'udelay', status, msg)
     if (status /= MLID_OK) return
     allocate (ud(size(u, 1), size(u, 2)), stat=ist)
-    call check_alloc(ist, 'the inputs of '//itoa(size(t))//' samples', real(size(u), wp), status, &
-                     msg)
-    if (status /= MLID_OK) return
+    if (ist /= 0) then
+      call no_memory('the inputs of '//itoa(size(t))//' samples', real(size(u), wp), status, &
+        msg)
+      return
+    end if
     ud(:, :) = u
     call delay_outputs(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), ud)
     allocate (none(0))
@@ -199,9 +201,11 @@ contains
     nw = m%nw
     ny = m%ny
     allocate (w(nw, 0:nt), v(ny, nt), stat=i)
-    call check_alloc(i, 'the noise of '//itoa(nt)//' samples', real(nw + ny, wp)*(nt + 1), status, &
-                     msg)
-    if (status /= MLID_OK) return
+    if (i /= 0) then
+      call no_memory('the noise of '//itoa(nt)//' samples', real(nw + ny, wp)*(nt + 1), status, &
+        msg)
+      return
+    end if
     status = MLID_ERR_INPUT
     w = 0.0_wp
     v = 0.0_wp

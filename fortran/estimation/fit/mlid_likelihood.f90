@@ -36,7 +36,7 @@ module mlid_likelihood
   use mlid_frequency, only: freq_likelihood
   use mlid_params, only: param_map_t, apply_ties, input_delays, output_delays, stabilized
   use mlid_filter, only: oe_predict, kf_innovations
-  use mlid_memory, only: check_alloc
+  use mlid_memory, only: no_memory
   use mlid_text, only: itoa
   implicit none
   private
@@ -188,14 +188,18 @@ contains
     nt = size(t)
     nf = pm%nf
     allocate (nu(ny, nt), stat=ist)
-    call check_alloc(ist, 'the residuals of '//itoa(nt)//' samples', real(ny, wp)*nt, status, msg)
-    if (status /= MLID_OK) return
+    if (ist /= 0) then
+      call no_memory('the residuals of '//itoa(nt)//' samples', real(ny, wp)*nt, status, msg)
+      return
+    end if
     if (present(grad)) then
       if (present(keep)) call reuse(keep%dy, [ny, nf, nt], dy)
       ist = 0
       if (.not. allocated(dy)) allocate (dy(ny, nf, nt), stat=ist)
-      call check_alloc(ist, sens_text(nt, nf), real(ny, wp)*nf*nt, status, msg)
-      if (status /= MLID_OK) return
+      if (ist /= 0) then
+        call no_memory(sens_text(nt, nf), real(ny, wp)*nf*nt, status, msg)
+        return
+      end if
       call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy=dy, z=y)
     else
       call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, z=y)
@@ -641,26 +645,34 @@ contains
     ist = 0
     if (.not. allocated(binv)) allocate (binv(ny, ny, nt), stat=ist)
     if (ist == 0) allocate (nu(ny, nt), logdet(nt), stat=ist)
-    call check_alloc(ist, 'the innovations of '//itoa(nt)//' samples', real(ny, wp)*(ny + 1)*nt, &
-                     status, msg)
-    if (status /= MLID_OK) return
+    if (ist /= 0) then
+      call no_memory('the innovations of '//itoa(nt)//' samples', real(ny, wp)*(ny + 1)*nt, &
+        status, msg)
+      return
+    end if
     if (present(grad) .and. .not. allocated(dnu)) allocate (dnu(ny, nf, nt), stat=ist)
-    call check_alloc(ist, sens_text(nt, nf), real(ny, wp)*nf*nt, status, msg)
-    if (status /= MLID_OK) return
+    if (ist /= 0) then
+      call no_memory(sens_text(nt, nf), real(ny, wp)*nf*nt, status, msg)
+      return
+    end if
     if (present(grad) .and. .not. m%linear .and. opt%partials) then
       allocate (db(ny, ny, nf, nt), b0(ny, ny, nt), stat=ist)
-      call check_alloc(ist, 'the covariance partials of '//itoa(nt)//' samples x '//itoa(nf)// &
-                       ' parameters', real(ny, wp)*ny*(nf + 1)*nt, status, msg)
-      if (status /= MLID_OK) return
+      if (ist /= 0) then
+        call no_memory('the covariance partials of '//itoa(nt)//' samples x '//itoa(nf)// &
+          ' parameters', real(ny, wp)*ny*(nf + 1)*nt, status, msg)
+        return
+      end if
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
                           bhist=b0)
       if (status == MLID_OK) call numerical_partials(m, theta, pm, t, u, y, opt, nu, b0, dnu, db, &
                                                      status, msg)
     else if (present(grad)) then
       allocate (db(ny, ny, nf, merge(1, nt, opt%steady)), stat=ist)
-      call check_alloc(ist, 'the covariance partials of '//itoa(nt)//' samples x '//itoa(nf)// &
-                       ' parameters', real(ny, wp)*ny*nf*merge(1, nt, opt%steady), status, msg)
-      if (status /= MLID_OK) return
+      if (ist /= 0) then
+        call no_memory('the covariance partials of '//itoa(nt)//' samples x '//itoa(nf)// &
+          ' parameters', real(ny, wp)*ny*nf*merge(1, nt, opt%steady), status, msg)
+        return
+      end if
       db = 0.0_wp
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, db)
     else

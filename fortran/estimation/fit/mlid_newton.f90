@@ -16,7 +16,7 @@ module mlid_newton
   use mlid_params, only: param_map_t, apply_ties
   use mlid_text, only: itoa
   use mlid_interrupt, only: check_interrupt
-  use mlid_memory, only: no_memory, check_alloc
+  use mlid_memory, only: no_memory
   implicit none
   private
   public :: fit_result_t, extras_t, newton_fit
@@ -242,9 +242,11 @@ contains
       allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), &
                 res%eigvec(nf, nf), res%rhat(ny, ny), res%yhat(ny, nt), &
                 res%cost_hist(opt%max_iter + 1), res%keep, res%msens(nf, nf), stat=ist)
-      call check_alloc(ist, 'the model outputs of '//itoa(nt)//' samples', real(ny, wp)*nt, &
-                       status, msg)
-      if (status /= MLID_OK) return
+      if (ist /= 0) then
+        call no_memory('the model outputs of '//itoa(nt)//' samples', real(ny, wp)*nt, &
+          status, msg)
+        return
+      end if
       res%theta = theta0
       call apply_ties(pm%tie, res%theta)
       res%cost_hist = 0.0_wp
@@ -440,9 +442,11 @@ contains
     stashed = .false.
     associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt, ex => pb%ex)
       allocate (rt(m%ny, m%ny), yt(m%ny, size(t)), stat=tstat)
-      call check_alloc(tstat, 'a trial step of '//itoa(size(t))//' samples', &
-                       real(m%ny, wp)*size(t), status, msg)
-      if (status /= MLID_OK) return
+      if (tstat /= 0) then
+        call no_memory('a trial step of '//itoa(size(t))//' samples', &
+          real(m%ny, wp)*size(t), status, msg)
+        return
+      end if
       best%cost = huge(1.0_wp)
       best%step = 0.0_wp
       best%rank = 0

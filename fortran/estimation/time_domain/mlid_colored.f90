@@ -209,7 +209,7 @@ contains
     real(wp), allocatable :: kr(:, :, :), ki(:, :, :), sr(:, :, :), si(:, :, :), gr(:, :, :), &
                              gi(:, :, :), x(:, :)
     type(fft_plan_t) :: plan
-    integer :: ny, nt, nf, n, nfreq, l, r, i, q, q0, nq, ist
+    integer :: ny, nt, nf, n, nfreq, l, r, i, q, q0, nq, ist, rq(CHUNK), cq(CHUNK)
 
     status = MLID_OK
     msg = ''
@@ -239,10 +239,14 @@ contains
                        real(nq, wp)*nt, status, msg)
         return
       end if
+      do q = 1, nq                             ! series q0 - 1 + q: row rq of column cq
+        l = (q0 + q - 2)/ny + 1
+        rq(q) = q0 + q - 1 - ny*(l - 1)
+        cq(q) = cols(l)
+      end do
       do i = 1, nt                             ! (sample by sample: the cheapest order measured)
-        do q = q0, q0 + nq - 1
-          l = (q - 1)/ny + 1
-          x(q - q0 + 1, i) = a(q - ny*(l - 1), i, cols(l))
+        do q = 1, nq
+          x(q, i) = a(rq(q), i, cq(q))
         end do
       end do
       r = q0 - ny*((q0 - 1)/ny)

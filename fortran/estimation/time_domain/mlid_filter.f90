@@ -51,7 +51,7 @@ module mlid_filter
   use mlid_delay, only: delay_outputs, delay_check
   use mlid_lti_predict, only: lti_exact, lti_segment
   use mlid_interrupt, only: check_interrupt, POLL_MASK
-  use mlid_memory, only: no_memory, check_alloc
+  use mlid_memory, only: no_memory
   use mlid_text, only: itoa
   implicit none
   private
@@ -256,9 +256,11 @@ contains
       call mf%uses_params(used)
       call segment_map(pm, iseg, used, pk, cols)
       allocate (dyk(m%ny, pk%nf, size(t)), stat=i)
-      call check_alloc(i, 'the sensitivities of '//itoa(size(t))//' samples x '//itoa(pk%nf)// &
-                       ' parameters', real(m%ny, wp)*pk%nf*size(t), status, msg)
-      if (status /= MLID_OK) return
+      if (i /= 0) then
+        call no_memory('the sensitivities of '//itoa(size(t))//' samples x '//itoa(pk%nf)// &
+          ' parameters', real(m%ny, wp)*pk%nf*size(t), status, msg)
+        return
+      end if
       call oe_segment(mf, theta, pk, t, u, opt, iseg, j0, j1, yhat, status, msg, dyk, xhist, z)
       do c = 1, pm%nf
         if (all(cols /= c)) dy(:, c, j0:j1) = 0.0_wp
