@@ -97,7 +97,8 @@ def test_api_call_answers_ctrl_c_and_the_next_call_works(call):
         sent = time.time()
         proc.send_signal(signal.SIGINT)
         answered = _answer_time(proc, sent)
-        out, err = proc.communicate(timeout=120)
+        out, err = proc.stdout.read(), proc.stderr.read()   # (not communicate: what
+        proc.wait(timeout=120)                              # readline buffered is kept)
     finally:
         proc.kill()
     print(f"{call}: answered Ctrl-C in {answered:.3f} s")
@@ -132,7 +133,7 @@ def test_a_handler_of_the_users_own_still_ends_the_call():
         sent = time.time()
         proc.send_signal(signal.SIGINT)
         line = proc.stdout.readline()
-        proc.communicate(timeout=60)
+        proc.wait(timeout=60)
     finally:
         proc.kill()
     assert line.startswith("interrupted"), line
