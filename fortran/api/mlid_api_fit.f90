@@ -5,7 +5,7 @@
 module mlid_api_fit
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_MEMORY, MLID_ERR_INTERRUPTED
   use mlid_models, only: model_t
   use mlid_options, only: options_t, frequency_method, NOPT
   use mlid_params, only: param_map_t, apply_ties
@@ -181,6 +181,9 @@ contains
                      p%rconst, p%t, p%u, p%y, p%segstart, p%iopt, p%ropt, count(p%isfree == 1), &
                      p%use_prior, p%prior, p%pweight, p%use_bounds, p%lower, p%upper, res, pm, &
                      opt, bad, status, msg)
+      ! out of memory or interrupted: nothing to view (a long record's view
+      ! needs the memory that was missing), the status says it
+      if (status == MLID_ERR_MEMORY .or. status == MLID_ERR_INTERRUPTED) return
       call put_fit(s%results, fit_view(res, pm, opt, p%theta, p%ny, size(p%t), bad), status, msg)
     end associate
   end subroutine mlid_fit

@@ -15,6 +15,7 @@ program mlid_batch
   use mlid_report, only: json_list
   use mlid_text, only: itoa
   use mlid_wait_policy, only: brief_spin
+  use mlid_interrupt, only: interrupt_arm, interrupt_requested
   implicit none
   character(len=4096) :: deck, arg, json_path
   type(case_t), allocatable :: cases(:)
@@ -30,6 +31,7 @@ program mlid_batch
 
   call brief_spin()
   call ignore_file_size_signal()
+  call interrupt_arm(.true.)
   nargs = command_argument_count()
   allocate (is_deck(nargs), source=.false.)
   json_path = ''
@@ -96,6 +98,7 @@ program mlid_batch
       cycle
     end if
     do k = 1, size(cases)
+      call stop_if_interrupted()
       call run_one(k, cases(k))
     end do
     ncases = ncases + size(cases)
@@ -116,6 +119,16 @@ program mlid_batch
   if (nfail > 0 .or. nunread > 0) stop 1, quiet=.true.
 
 contains
+
+  !> Ctrl-C (armed over the default at the start: mlid_interrupt.c) ends
+  !> the case it came in, then the run: one line, no JSON written (its
+  !> temporary was never made), exit code 130 as a shell gives for SIGINT;
+  !> what earlier cases wrote stays, whole.  A second Ctrl-C ends it at once.
+  subroutine stop_if_interrupted()
+    if (.not. interrupt_requested()) return
+    write (0, '(a)') 'mlid-batch: interrupted'
+    stop 130, quiet=.true.
+  end subroutine stop_if_interrupted
 
   !> text to stdout, whole; a failure (closed, full) is kept in stdout_lost.
   subroutine say(text)
@@ -187,6 +200,7 @@ contains
 
     call say(achar(10)//' case '//itoa(k)//': '//trim(c%title)//achar(10))
     call run_case(c, r)
+    call stop_if_interrupted()
     call say(r%report)
     do j = 1, size(r%notes)
       write (0, '(a,i0,a,i0,a)') 'mlid-batch: '//trim(deck)//' case ', k, ' (line ', c%line, &

@@ -22,6 +22,8 @@ module mlid_kinds
   integer, parameter, public :: MLID_ERR_DIVERGED = 3  !< state became non-finite
   integer, parameter, public :: MLID_ERR_NOCONV = 4    !< iteration ended without convergence
   integer, parameter, public :: MLID_ERR_INTERNAL = 5  !< LAPACK or other internal failure
+  integer, parameter, public :: MLID_ERR_INTERRUPTED = 6  !< Ctrl-C (mlid_interrupt)
+  integer, parameter, public :: MLID_ERR_MEMORY = 7    !< an allocation failed (not enough memory)
 
   !> Why a Newton iteration stopped.
   integer, parameter, public :: STOP_NONE = 0

@@ -26,6 +26,7 @@ module mlid_design
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, &
                         MLID_ERR_INTERNAL
   use mlid_linalg, only: expm, sym_eig, solve, chol_inverse
+  use mlid_interrupt, only: check_interrupt, interrupt_requested, POLL_MASK
   implicit none
   private
   public :: design_t, design_create, operator_mu, riccati_length, transition_length, &
@@ -169,11 +170,18 @@ contains
                                                                  maxval(abs(hrh))))
     sg = 0.0_wp
     do it = 1, 10000000
+      if (iand(it, POLL_MASK) == 0) then
+        if (interrupt_requested()) exit
+      end if
       old = sg
       sg = sg + dt*rhs(sg + 0.5_wp*dt*rhs(sg))           ! midpoint steps
       if (maxval(abs(sg - old)) <= 1.0e-13_wp*max(1.0e-300_wp, maxval(abs(sg)))) exit
       if (.not. all(ieee_is_finite(sg))) exit
     end do
+    status = MLID_OK
+    msg = ''
+    call check_interrupt(status, msg)
+    if (status /= MLID_OK) return
     if (.not. all(ieee_is_finite(sg)) .or. it > 10000000) then
       status = MLID_ERR_NOCONV
       msg = 'steady-state Kalman filter of the design did not converge (unobservable '// &
@@ -392,6 +400,11 @@ contains
     do while (h > 1.0e-13_wp*tmax)
       steps = steps + 1
       if (steps > 10000000) exit
+      if (iand(steps, POLL_MASK) == 0) then
+        status = MLID_OK
+        call check_interrupt(status, msg)
+        if (status /= MLID_OK) return
+      end if
       pn = p
       call rk4(pn, h)
       g1 = escape(pn)
@@ -505,6 +518,7 @@ contains
     a = 0.0_wp
     fa = 1.0_wp                           ! det Phi_ll(0) = det I
     do k = 1, 2000
+      if (interrupt_requested()) exit
       b = k*dt
       fb = det_ll(phi)
       if (sign(1.0_wp, fb) /= sign(1.0_wp, fa)) exit
@@ -512,6 +526,8 @@ contains
       fa = fb
       phi = matmul(phi, step)
     end do
+    call check_interrupt(status, msg)
+    if (status /= MLID_OK) return
     if (k > 2000) then
       status = MLID_ERR_NOCONV
       write (msg, '(a,g0.4)') 'no conjugate point before T = ', tmax
@@ -626,6 +642,10 @@ contains
     if (status /= MLID_OK) return
     x = 0.0_wp
     do k = 0, n - 1
+      if (iand(k, POLL_MASK) == 0) then
+        call check_interrupt(status, msg)
+        if (status /= MLID_OK) return
+      end if
       do j = 0, ns
         if (j > 0) x = matmul(e(1:d%na, 1:d%na), x) + matmul(e(1:d%na, d%na + 1:), &
                                                              u(k*d%nu + 1:(k + 1)*d%nu))
@@ -693,6 +713,9 @@ contains
     end if
     trwm = -huge(1.0_wp)
     do k = nn, max(1, nn - nstart + 1), -1
+      status = MLID_OK
+      call check_interrupt(status, msg)
+      if (status /= MLID_OK) return
       v = merge(peak, -peak, vec(:, k) >= 0.0_wp)
       qv = matmul(q, v)
       do flips = 1, 100*nn
@@ -742,6 +765,8 @@ contains
     if (status /= MLID_OK) return
     fb = t - td
     do it = 1, 100
+      call check_interrupt(status, msg)
+      if (status /= MLID_OK) return
       if (abs(fb) <= 1.0e-10_wp*td .or. fb == fa) exit
       xc = xb - fb*(xb - xa)/(fb - fa)             ! eq. 7.89
       if (.not. (xc > 0.0_wp .and. ieee_is_finite(xc))) exit
@@ -906,6 +931,8 @@ contains
     ratios(1) = spread_of([(mm(i, i)*w(i), i=1, size(w))])
     a = alpha
     do it = 1, iterations
+      call check_interrupt(status, msg)
+      if (status /= MLID_OK) return
       wt = w + a*(1.0_wp/[(mm(i, i), i=1, size(w))] - w)
       wt = wt/maxval(wt)
       call energy_input(f, g, h, r, gq, ukind, urow, ucol, wt, t, n, e, ut, mut, mt, status, msg)

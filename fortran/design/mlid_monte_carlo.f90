@@ -3,7 +3,8 @@
 !> Cramer-Rao standard deviations; repeat.
 module mlid_monte_carlo
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use mlid_kinds, only: wp, MLID_OK
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INTERRUPTED, MLID_ERR_MEMORY
+  use mlid_interrupt, only: interrupt_requested
   use mlid_models, only: model_t, layout_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t
@@ -18,7 +19,9 @@ module mlid_monte_carlo
 contains
 
   !> Run r uses seed seed0 + r - 1.  A failed run is recorded in
-  !> run_status(r) and does not stop the others.  Without process noise
+  !> run_status(r) and does not stop the others; a Ctrl-C does, and so does
+  !> a record too long for the memory: the run it stopped and those not run
+  !> have its status (MLID_ERR_INTERRUPTED, MLID_ERR_MEMORY).  Without process noise
   !> every run's states are the same: the record without measurement noise
   !> is simulated once and each run adds its own draw (simulate_noise, the
   !> draws of simulate_outputs: the same record to the bit).
@@ -33,7 +36,7 @@ contains
     real(wp), intent(out) :: est(:, :), sig(:, :)
     integer, intent(out) :: iters(:), run_status(:)
     real(wp), intent(out), optional :: info(:, :, :)   !< each run's information matrix
-    real(wp) :: y(m%ny, size(t)), x(m%nx, size(t)), yclean(m%ny, size(t))
+    real(wp), allocatable :: y(:, :), x(:, :), yclean(:, :)
     real(wp), allocatable :: w(:, :), v(:, :)
     type(fit_result_t) :: res
     type(extras_t) :: none
@@ -45,9 +48,18 @@ contains
     sig = 0.0_wp
     iters = 0
     if (present(info)) info = 0.0_wp
+    allocate (y(m%ny, size(t)), x(m%nx, size(t)), yclean(m%ny, size(t)), stat=k)
+    if (k /= 0) then
+      run_status = MLID_ERR_MEMORY
+      return
+    end if
     quiet = no_process_noise(theta_true, pm%l)
     if (quiet) call clean_record(cstat)
     do r = 1, size(run_status)
+      if (interrupt_requested()) then
+        run_status(r:) = MLID_ERR_INTERRUPTED
+        exit
+      end if
       if (quiet) then
         run_status(r) = cstat
         if (cstat == MLID_OK) call simulate_noise(m, theta_true, size(t), seed0 + r - 1, .false., &
@@ -56,9 +68,17 @@ contains
       else
         call simulate_outputs(m, theta_true, t, u, opt, seed0 + r - 1, y, x, run_status(r), msg)
       end if
+      if (run_status(r) == MLID_ERR_MEMORY .or. run_status(r) == MLID_ERR_INTERRUPTED) then
+        run_status(r + 1:) = run_status(r)
+        exit
+      end if
       if (run_status(r) /= MLID_OK) cycle
       call fit_method(m, theta_start, pm, t, u, y, opt, none, res, run_status(r), msg, &
                       plain_bound=.true.)
+      if (run_status(r) == MLID_ERR_MEMORY .or. run_status(r) == MLID_ERR_INTERRUPTED) then
+        run_status(r + 1:) = run_status(r)
+        exit
+      end if
       if (.not. allocated(res%theta)) cycle
       est(:, r) = res%theta(pm%ifree)
       do k = 1, pm%nf

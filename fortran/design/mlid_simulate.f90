@@ -23,6 +23,9 @@ module mlid_simulate
   use mlid_rk, only: rk4_interval, rk_work_t
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use mlid_setup, only: setup
+  use mlid_interrupt, only: check_interrupt, POLL_MASK
+  use mlid_memory, only: no_memory
+  use mlid_text, only: itoa
   implicit none
   private
   public :: simulate_outputs, simulate_noise, simulate_flat
@@ -74,7 +77,8 @@ contains
     type(rk_work_t) :: wk     !< the integration's work arrays
     integer :: j, nw, ny
     integer, allocatable :: none(:)
-    real(wp) :: ud(size(u, 1), size(u, 2))
+    real(wp), allocatable :: ud(:, :)
+    integer :: ist
 
     status = MLID_ERR_INPUT
     l = model_layout(m)
@@ -99,7 +103,13 @@ contains
     ! inputs that reach the aircraft late (mlid_delay)
     call delay_check(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), 1, 'udelay', status, msg)
     if (status /= MLID_OK) return
-    ud = u
+    allocate (ud(size(u, 1), size(u, 2)), stat=ist)
+    if (ist /= 0) then
+      call no_memory('the inputs of '//itoa(size(t))//' samples', real(size(u), wp), status, &
+        msg)
+      return
+    end if
+    ud(:, :) = u
     call delay_outputs(theta(l%oudelay + 1:l%oudelay + m%nu), t, 1, size(t), ud)
     allocate (none(0))
     done = .false.
@@ -138,6 +148,10 @@ contains
     subroutine integrate()
       x = theta(l%ox0 + 1:l%ox0 + m%nx)
       do j = 1, size(t)
+        if (iand(j, POLL_MASK) == 0) then
+          call check_interrupt(status, msg)
+          if (status /= MLID_OK) return
+        end if
         xhist(:, j) = x
         call m%h(t(j), x, ud(:, j), theta(1:l%np), y(:, j))
         y(:, j) = y(:, j) + theta(l%obias + 1:l%obias + ny)
@@ -183,11 +197,16 @@ contains
     logical :: ok
     integer :: i, j, nw, ny
 
-    status = MLID_ERR_INPUT
     l = model_layout(m)
     nw = m%nw
     ny = m%ny
-    allocate (w(nw, 0:nt), v(ny, nt))
+    allocate (w(nw, 0:nt), v(ny, nt), stat=i)
+    if (i /= 0) then
+      call no_memory('the noise of '//itoa(nt)//' samples', real(nw + ny, wp)*(nt + 1), status, &
+        msg)
+      return
+    end if
+    status = MLID_ERR_INPUT
     w = 0.0_wp
     v = 0.0_wp
     if (seed < 0) then

@@ -6,8 +6,11 @@
 !> later stages, over the stride) with one set of twiddles, real and
 !> imaginary parts apart.  A plan holds the radices and twiddle factors of
 !> one length, so many transforms share them.
+!> A Ctrl-C (mlid_interrupt) cuts a transform short between its stages,
+!> leaving no transform: a caller that has a status polls after it.
 module mlid_fft
   use mlid_kinds, only: wp
+  use mlid_interrupt, only: interrupt_requested
   implicit none
   private
   public :: fft_plan_t, fft_plan, fft_forward, fft_length, fft_smooth_length, fft_real_pair, &
@@ -89,7 +92,7 @@ contains
   end function fft_plan
 
   !> z = DFT(z), z(0:n-1), n = p%n.
-  pure subroutine fft_forward(p, z)
+  subroutine fft_forward(p, z)
     type(fft_plan_t), intent(in) :: p
     complex(wp), intent(inout) :: z(0:)
     real(wp), allocatable :: zr(:), zi(:)
@@ -103,7 +106,7 @@ contains
   !> The transforms of m complex series in place, series j's sample k at
   !> zr(j, k) + i zi(j, k) (arrays m x n, k = 0 .. n-1): one stage per
   !> radix between z and a buffer, each series' values the same whatever m is.
-  pure subroutine fft_many(p, m, zr, zi)
+  subroutine fft_many(p, m, zr, zi)
     type(fft_plan_t), intent(in) :: p
     integer, intent(in) :: m
     real(wp), intent(inout) :: zr(m*p%n), zi(m*p%n)
@@ -119,7 +122,7 @@ contains
 
   !> fft_many between z and the buffer y, the transforms left in y when
   !> in_y (an odd number of stages), else in z.
-  pure subroutine stages(p, m, zr, zi, yr, yi, in_y)
+  subroutine stages(p, m, zr, zi, yr, yi, in_y)
     type(fft_plan_t), intent(in) :: p
     integer, intent(in) :: m
     real(wp), intent(inout) :: zr(m*p%n), zi(m*p%n)
@@ -129,6 +132,7 @@ contains
     s = 1                                     ! stride: transforms of n/s points, s of them
     in_y = .false.
     do i = 1, size(p%radix)
+      if (interrupt_requested()) exit        ! (a stage of a long record: tens of ms)
       if (in_y) then
         call stage(p, p%radix(i), m*s, s, yr, yi, zr, zi)
       else
@@ -321,7 +325,7 @@ contains
 
   !> The transforms X, Y (f = 0 .. n/2) of two real series x, y (zero-
   !> padded to n = p%n) by one complex transform of x + i y.
-  pure subroutine fft_real_pair(p, x, y, xf, yf)
+  subroutine fft_real_pair(p, x, y, xf, yf)
     type(fft_plan_t), intent(in) :: p
     real(wp), intent(in) :: x(:), y(:)
     complex(wp), intent(out) :: xf(0:), yf(0:)
@@ -356,7 +360,7 @@ contains
   !> them in the real parts, the rest in the imaginary parts.  (The block's
   !> rows are picked by explicit loops: as an array section they cost
   !> several times the copy.)
-  pure subroutine real_block(p, x, r0, nr, fr, fi)
+  subroutine real_block(p, x, r0, nr, fr, fi)
     type(fft_plan_t), intent(in) :: p
     real(wp), contiguous, intent(in) :: x(:, :)
     integer, intent(in) :: r0, nr

@@ -29,7 +29,7 @@ OPENMP_SPIN = _brief_spin()
 from ._version import installed_version as _installed_version
 from .heap import keep_freed_memory as _keep_freed_memory
 from .errors import (MlidError, InputError, SingularInformationError, DivergenceError,
-                     NonConvergenceError, InternalError, MlidWarning)
+                     NonConvergenceError, InternalError, OutOfMemoryError, MlidWarning)
 from .data.flight_data import FlightData
 from .model.models import LinearModel, LongitudinalModel, UserModel, X22Model, EquationModel, \
     SixDofModel, FlightPathModel
@@ -64,7 +64,7 @@ __version__ = _installed_version()
 KEEPS_FREED_MEMORY = _keep_freed_memory()
 
 __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceError",
-           "NonConvergenceError", "InternalError", "MlidWarning", "LinearModel", "LongitudinalModel", "UserModel",
+           "NonConvergenceError", "InternalError", "OutOfMemoryError", "MlidWarning", "LinearModel", "LongitudinalModel", "UserModel",
            "X22Model", "EquationModel", "SixDofModel", "FlightPathModel", "InputDesign", "DesignedInput", "monte_carlo_parallel", "diagnose", "check_jacobians", "FlightData", "FitResult",
            "fit", "evaluate", "simulate", "monte_carlo", "default_options", "read_deck",
            "run_deck", "whiteness", "reduce_measured_state", "reduced_data",

@@ -69,12 +69,22 @@ class InternalError(MlidError):
     """A numerical library call failed unexpectedly."""
 
 
+class OutOfMemoryError(MlidError, MemoryError):
+    """The core could not allocate what a call needs (a record too long for
+    this machine's memory): the message names what and its size.  Also a
+    MemoryError."""
+
+
+#: The core's status of a call that Ctrl-C interrupted: KeyboardInterrupt.
+INTERRUPTED = 6
+
 _BY_STATUS = {
     1: InputError,
     2: SingularInformationError,
     3: DivergenceError,
     4: NonConvergenceError,
     5: InternalError,
+    7: OutOfMemoryError,
 }
 
 
@@ -88,7 +98,8 @@ def status_of(error):
 
 #: A core status code in a few words (a Monte Carlo run's status, say).
 STATUS_TEXT = {0: "succeeded", 1: "bad input", 2: "singular information", 3: "diverged",
-               4: "not converged", 5: "internal error"}
+               4: "not converged", 5: "internal error", INTERRUPTED: "interrupted",
+               7: "out of memory"}
 
 
 def status_text(status):
@@ -98,11 +109,15 @@ def status_text(status):
 
 def check_status(status, msg, context="", result=None):
     """Raise the exception for a non-zero core status, with its message and
-    the failed fit, when there is one, as ``.result``."""
+    the failed fit, when there is one, as ``.result``; KeyboardInterrupt
+    for a call Ctrl-C interrupted (when Python's own handler has not raised
+    it already)."""
     if status == 0:
         return
     text = msg.decode(errors="replace") if isinstance(msg, bytes) else str(msg)
     text = text.strip()
+    if status == INTERRUPTED:
+        raise KeyboardInterrupt(text)
     if context:
         text = f"{context}: {text}"
     error = _BY_STATUS.get(int(status), MlidError)(text)
@@ -126,7 +141,8 @@ def guarded(fn):
         except MlidError:
             raise
         except MemoryError:
-            raise InputError(f"{fn.__qualname__}: not enough memory for these sizes") from None
+            raise OutOfMemoryError(f"{fn.__qualname__}: not enough memory for these sizes") \
+                from None
         except Exception as exc:
             if os.environ.get("MLID_DEBUG"):
                 raise

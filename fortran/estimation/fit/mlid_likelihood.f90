@@ -36,6 +36,8 @@ module mlid_likelihood
   use mlid_frequency, only: freq_likelihood
   use mlid_params, only: param_map_t, apply_ties, input_delays, output_delays, stabilized
   use mlid_filter, only: oe_predict, kf_innovations
+  use mlid_memory, only: no_memory
+  use mlid_text, only: itoa
   implicit none
   private
   public :: likelihood, sens_keep_t, weighted_sensitivities
@@ -179,22 +181,32 @@ contains
     real(wp), allocatable :: dy(:, :, :), nu(:, :), w1(:, :, :)
     real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny), rdiag(m%ny)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
-    integer :: ny, nt, nf, i, k, ierr
+    integer :: ny, nt, nf, i, k, ierr, ist
     logical :: ok
 
     ny = m%ny
     nt = size(t)
     nf = pm%nf
+    allocate (nu(ny, nt), stat=ist)
+    if (ist /= 0) then
+      call no_memory('the residuals of '//itoa(nt)//' samples', real(ny, wp)*nt, status, msg)
+      return
+    end if
     if (present(grad)) then
       if (present(keep)) call reuse(keep%dy, [ny, nf, nt], dy)
-      if (.not. allocated(dy)) allocate (dy(ny, nf, nt))
+      ist = 0
+      if (.not. allocated(dy)) allocate (dy(ny, nf, nt), stat=ist)
+      if (ist /= 0) then
+        call no_memory(sens_text(nt, nf), real(ny, wp)*nf*nt, status, msg)
+        return
+      end if
       call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, dy=dy, z=y)
     else
       call oe_predict(m, theta, pm, t, u, opt, yhat, status, msg, z=y)
     end if
     if (status /= MLID_OK) return
 
-    nu = y - yhat
+    nu(:, :) = y - yhat
     if (opt%full_r) then
       rhat = matmul(nu, transpose(nu))/nt
     else                                    ! the diagonal only
@@ -621,7 +633,7 @@ contains
     real(wp), allocatable :: b0(:, :, :)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :), bpart(:, :, :), vv(:, :, :)
     real(wp) :: bnu(m%ny)
-    integer :: ny, nt, nf, j, b, nblk, j0, j1
+    integer :: ny, nt, nf, j, b, nblk, j0, j1, ist
     logical :: tv
 
     ny = m%ny
@@ -631,17 +643,37 @@ contains
       call reuse(keep%w, [ny, ny, nt], binv)
       call reuse(keep%dy, [ny, nf, nt], dnu)
     end if
-    if (.not. allocated(binv)) allocate (binv(ny, ny, nt))
-    if (present(grad) .and. .not. allocated(dnu)) allocate (dnu(ny, nf, nt))
-    allocate (nu(ny, nt), logdet(nt))
+    ist = 0
+    if (.not. allocated(binv)) allocate (binv(ny, ny, nt), stat=ist)
+    if (ist == 0) allocate (nu(ny, nt), logdet(nt), stat=ist)
+    if (ist /= 0) then
+      call no_memory('the innovations of '//itoa(nt)//' samples', real(ny, wp)*(ny + 1)*nt, &
+        status, msg)
+      return
+    end if
+    if (present(grad) .and. .not. allocated(dnu)) allocate (dnu(ny, nf, nt), stat=ist)
+    if (ist /= 0) then
+      call no_memory(sens_text(nt, nf), real(ny, wp)*nf*nt, status, msg)
+      return
+    end if
     if (present(grad) .and. .not. m%linear .and. opt%partials) then
-      allocate (db(ny, ny, nf, nt), b0(ny, ny, nt))
+      allocate (db(ny, ny, nf, nt), b0(ny, ny, nt), stat=ist)
+      if (ist /= 0) then
+        call no_memory('the covariance partials of '//itoa(nt)//' samples x '//itoa(nf)// &
+          ' parameters', real(ny, wp)*ny*(nf + 1)*nt, status, msg)
+        return
+      end if
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, &
                           bhist=b0)
       if (status == MLID_OK) call numerical_partials(m, theta, pm, t, u, y, opt, nu, b0, dnu, db, &
                                                      status, msg)
     else if (present(grad)) then
-      allocate (db(ny, ny, nf, merge(1, nt, opt%steady)))
+      allocate (db(ny, ny, nf, merge(1, nt, opt%steady)), stat=ist)
+      if (ist /= 0) then
+        call no_memory('the covariance partials of '//itoa(nt)//' samples x '//itoa(nf)// &
+          ' parameters', real(ny, wp)*ny*nf*merge(1, nt, opt%steady), status, msg)
+        return
+      end if
       db = 0.0_wp
       call kf_innovations(m, theta, pm, t, u, y, opt, yhat, nu, binv, logdet, status, msg, dnu, db)
     else
@@ -880,5 +912,12 @@ contains
       trace = trace + a(i, i)
     end do
   end function trace
+
+  !> What a fit's sensitivities are, for a message that they do not fit in memory.
+  function sens_text(nt, nf) result(text)
+    integer, intent(in) :: nt, nf
+    character(len=:), allocatable :: text
+    text = 'the sensitivities of '//itoa(nt)//' samples x '//itoa(nf)//' parameters'
+  end function sens_text
 
 end module mlid_likelihood

@@ -5,7 +5,7 @@
 module mlid_newton
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, &
-                        MLID_ERR_INPUT, &
+                        MLID_ERR_INPUT, MLID_ERR_INTERRUPTED, MLID_ERR_MEMORY, &
                         STOP_NONE, STOP_COST, STOP_STEP, STOP_GRAD, STOP_MAXITER, &
                         STOP_NO_DECREASE, STOP_FAILED, STOP_DIVERGED
   use mlid_linalg, only: info_inverse, info_eig, eig_inverse
@@ -15,6 +15,8 @@ module mlid_newton
   use mlid_likelihood, only: likelihood, sens_keep_t
   use mlid_params, only: param_map_t, apply_ties
   use mlid_text, only: itoa, es_text
+  use mlid_interrupt, only: check_interrupt
+  use mlid_memory, only: no_memory
   implicit none
   private
   public :: fit_result_t, extras_t, newton_fit
@@ -273,7 +275,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp) :: ee_sigma(pb%pm%nf)
-    integer :: nf, ny, nt
+    integer :: nf, ny, nt, ist
 
     associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt)
       nf = pm%nf
@@ -281,7 +283,12 @@ contains
       nt = size(t)
       allocate (res%grad(nf), res%info(nf, nf), res%cov(nf, nf), res%eigval(nf), &
                 res%eigvec(nf, nf), res%rhat(ny, ny), res%yhat(ny, nt), &
-                res%cost_hist(opt%max_iter + 1), res%keep, res%msens(nf, nf))
+                res%cost_hist(opt%max_iter + 1), res%keep, res%msens(nf, nf), stat=ist)
+      if (ist /= 0) then
+        call no_memory('the model outputs of '//itoa(nt)//' samples', real(ny, wp)*nt, &
+          status, msg)
+        return
+      end if
       res%theta = theta0
       call apply_ties(pm%tie, res%theta)
       res%cost_hist = 0.0_wp
@@ -352,6 +359,11 @@ contains
       msg = ''
       res%reason = STOP_NONE
       do while (st%it < opt%max_iter)
+        call check_interrupt(status, msg)
+        if (status /= MLID_OK) then
+          res%reason = STOP_FAILED
+          return
+        end if
         st%it = st%it + 1
         ! the objective of this iteration: likelihood + prior term (weight s W)
         jnow = res%cost + prior_cost(ex, pm, res%theta, st%s)
@@ -471,7 +483,12 @@ contains
 
     stashed = .false.
     associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt, ex => pb%ex)
-      allocate (rt(m%ny, m%ny), yt(m%ny, size(t)))
+      allocate (rt(m%ny, m%ny), yt(m%ny, size(t)), stat=tstat)
+      if (tstat /= 0) then
+        call no_memory('a trial step of '//itoa(size(t))//' samples', &
+          real(m%ny, wp)*size(t), status, msg)
+        return
+      end if
       best%cost = huge(1.0_wp)
       best%step = 0.0_wp
       best%rank = 0
@@ -487,7 +504,16 @@ contains
             trial(pm%ifree) = min(max(trial(pm%ifree), ex%lower), ex%upper)
           call apply_ties(pm%tie, trial)
           if (ih == 0 .and. rlo >= rmax .and. opt%method /= METHOD_FILTER_ERROR) then
-            if (.not. allocated(stash%keep)) stash = res
+            if (.not. allocated(stash%keep)) then   ! (a copy of res would not check its memory)
+              allocate (stash%rhat(m%ny, m%ny), stash%yhat(m%ny, size(t)), stash%grad(pm%nf), &
+                        stash%info(pm%nf, pm%nf), stash%msens(pm%nf, pm%nf), stash%keep, &
+                        stat=tstat)
+              if (tstat /= 0) then
+                call no_memory('a trial step of '//itoa(size(t))//' samples', &
+                               real(m%ny, wp)*size(t), status, msg)
+                return
+              end if
+            end if
             stash%theta = trial
             call likelihood(m, trial, pm, t, u, y, opt, stash%cost, stash%rhat, stash%yhat, &
                             tstat, tmsg, stash%grad, stash%info, msens=stash%msens, &
@@ -496,6 +522,11 @@ contains
             stashed = tstat == MLID_OK
           else
             call likelihood(m, trial, pm, t, u, y, opt, jt, rt, yt, tstat, tmsg)
+          end if
+          if (tstat == MLID_ERR_INTERRUPTED .or. tstat == MLID_ERR_MEMORY) then
+            status = tstat                   ! not a bad trial point: the fit ends
+            msg = tmsg
+            return
           end if
           if (tstat == MLID_OK .and. ieee_is_finite(jt)) then
             jt = jt + prior_cost(ex, pm, trial, st%s)

@@ -20,6 +20,7 @@ module mlid_freq_response
   use mlid_text, only: es_text
   use mlid_fft, only: fft_plan_t, fft_plan, fft_real_pair, fft_length
   use mlid_models, only: model_t, linear_model_t, layout_t, model_layout
+  use mlid_interrupt, only: check_interrupt
   implicit none
   private
   public :: welch_spectra, response_from_spectra, unwrap_deg, model_response, &
@@ -88,6 +89,8 @@ contains
     guy = 0.0_wp
     do piece = 1, size(starts)
       do s = 1, segment_count(ends(piece) - starts(piece) + 1, lseg, nover)
+        call check_interrupt(status, msg)
+        if (status /= MLID_OK) return
         j0 = starts(piece) - 1 + (s - 1)*(lseg - nover)
         call fft_real_pair(p, win*(u(j0 + 1:j0 + lseg) - sum(u(j0 + 1:j0 + lseg))/lseg), &
                            win*(y(j0 + 1:j0 + lseg) - sum(y(j0 + 1:j0 + lseg))/lseg), uf, yf)
@@ -96,6 +99,8 @@ contains
         guy = guy + conjg(uf(1:))*yf(1:)
       end do
     end do
+    call check_interrupt(status, msg)                    ! (the last transform cut short)
+    if (status /= MLID_OK) return
     scale = 2.0_wp*dt/(lseg*(sum(win**2)/lseg)*nd)
     guu = scale*guu
     gyy = scale*gyy

@@ -63,6 +63,7 @@ module mlid_frequency
   use mlid_linalg, only: chol_inverse, chol_solve, independent_columns
   use mlid_text, only: itoa
   use mlid_sampling, only: record_uniform_step
+  use mlid_interrupt, only: check_interrupt
   implicit none
   private
   public :: freq_record, freq_likelihood, freq_grid
@@ -151,6 +152,9 @@ contains
       end do
       allocate (xf(nu + ny, nk))
       call fourier_transform(x, dt, t(j0), w, xf)
+      status = MLID_OK
+      call check_interrupt(status, msg)
+      if (status /= MLID_OK) return
       do k = 1, nk
         c = 2*((s - 1)*nk + k) - 1
         tf(c:c + 1) = w(k)

@@ -22,6 +22,7 @@ module mlid_recursive_fd
   use mlid_fourier, only: fourier_weights
   use mlid_linalg, only: chol_inverse
   use mlid_sampling, only: record_uniform_step
+  use mlid_interrupt, only: check_interrupt, POLL_MASK
   implicit none
   private
   public :: recursive_fdee
@@ -78,6 +79,11 @@ contains
     s = 0.0_wp
     iw = 0
     do j = 1, nt
+      if (iand(j, POLL_MASK) == 0) then
+        status = MLID_OK
+        call check_interrupt(status, msg)
+        if (status /= MLID_OK) return
+      end if
       if (mod(j - 1, REPHASE) == 0) then
         ph = exp(-IU*w*t(j))
       else

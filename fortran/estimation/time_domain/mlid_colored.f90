@@ -37,6 +37,9 @@ module mlid_colored
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_linalg, only: add_sym_atb
   use mlid_fft, only: fft_plan_t, fft_plan, fft_many, fft_smooth_length, fft_real_many
+  use mlid_interrupt, only: check_interrupt, interrupt_requested
+  use mlid_memory, only: no_memory
+  use mlid_text, only: itoa
   implicit none
   private
   public :: colored_covariance, colored_sandwich, colored_bracket
@@ -49,6 +52,10 @@ module mlid_colored
   integer, parameter :: LAG_FACTOR = 4
   !> Longest lag as a fraction 1/LAG_CAP_DIV of the record.
   integer, parameter :: LAG_CAP_DIV = 10
+  !> Series the bracket's transform takes at a time: two of mlid_fft's
+  !> blocks of 16 (the same blocks as all at once, so the same numbers;
+  !> two threads busy), a Ctrl-C seen between them.
+  integer, parameter :: CHUNK = 32
 
 contains
 
@@ -79,7 +86,8 @@ contains
     if (lag < 0) lag = lag_cap(size(v, 2))
     lag = min(lag, size(v, 2) - 1)
     allocate (rvv(size(v, 1), size(v, 1), 0:lag))
-    call residual_autocov(v, seg, rvv)
+    call residual_autocov(v, seg, rvv, status, msg)
+    if (status /= MLID_OK) return
     if (lag_in < 0) lag = colored_lag(rvv, size(v, 2))
     call colored_sandwich(cov, info, msens, a, rvv(:, :, 0:lag), seg, cov_c, status, msg)
   end subroutine colored_covariance
@@ -106,7 +114,9 @@ contains
       msg = 'colored covariance: cov, info, msens must be nf x nf and Rvv ny x ny'
       return
     end if
-    d = info - msens + colored_bracket(a, rvv, seg, BRACKET_AUTO)
+    call bracket(a, rvv, seg, BRACKET_AUTO, d, status, msg)
+    if (status /= MLID_OK) return
+    d = info - msens + d
     cov_c = matmul(cov, matmul(d, cov))
     cov_c = 0.5_wp*(cov_c + transpose(cov_c))   ! symmetric to rounding
   end subroutine colored_sandwich
@@ -119,10 +129,26 @@ contains
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
     integer, intent(in) :: seg(:), how
     real(wp) :: b(size(a, 3), size(a, 3))
+    integer :: status
+    character(len=256) :: msg
+    call bracket(a, rvv, seg, how, b, status, msg)
+  end function colored_bracket
+
+  !> colored_bracket, with a status: the memory of a long record's
+  !> transforms, or a Ctrl-C.
+  subroutine bracket(a, rvv, seg, how, b, status, msg)
+    real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
+    integer, intent(in) :: seg(:), how
+    real(wp), intent(out) :: b(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: bs(:, :)
     integer, allocatable :: cols(:)
     integer :: s, i0, i1, lag, c
     logical :: fourier
     b = 0.0_wp
+    status = MLID_OK
+    msg = ''
     do s = 1, size(seg)
       call segment_bounds(seg, s, size(a, 2), i0, i1)
       lag = min(ubound(rvv, 3), i1 - i0)
@@ -132,14 +158,17 @@ contains
       fourier = how == BRACKET_FOURIER .or. (how == BRACKET_AUTO .and. &
                 fourier_cheaper(size(a, 1), i1 - i0 + 1, size(cols), lag))
       if (fourier) then
-        b(cols, cols) = b(cols, cols) + segment_bracket(a(:, i0:i1, :), cols, rvv(:, :, 0:lag), &
-                                                        ubound(rvv, 3))
+        call segment_bracket(a(:, i0:i1, :), cols, rvv(:, :, 0:lag), ubound(rvv, 3), bs, status, &
+                             msg)
       else
-        b(cols, cols) = b(cols, cols) + segment_direct(a(:, i0:i1, :), cols, rvv(:, :, 0:lag), &
-                                                       ubound(rvv, 3))
+        call segment_direct(a(:, i0:i1, :), cols, rvv(:, :, 0:lag), ubound(rvv, 3), bs, status, &
+                            msg)
       end if
+      if (status == MLID_OK) call check_interrupt(status, msg)
+      if (status /= MLID_OK) return
+      b(cols, cols) = b(cols, cols) + bs
     end do
-  end function colored_bracket
+  end subroutine bracket
 
   !> Whether the transform costs less than the direct filter for one
   !> segment: each way's loops counted, each count weighted by the
@@ -169,40 +198,70 @@ contains
   !> transforms of their rows, then Re sum_f A(f)^H K(f) A(f)/n over f = 0
   !> .. n/2, the inner ones twice (f and n - f are conjugate for real
   !> series): Re(A^H G) = Ar' Gr + Ai' Gi, symmetric as K(f) is Hermitian.
-  function segment_bracket(a, cols, rvv, lag) result(b)
+  !> A long record's transforms (and a Ctrl-C between them) may end it with
+  !> a status; b is then not the bracket.
+  subroutine segment_bracket(a, cols, rvv, lag, b, status, msg)
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
     integer, intent(in) :: cols(:), lag
-    real(wp) :: b(size(cols), size(cols))
+    real(wp), allocatable, intent(out) :: b(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
     real(wp), allocatable :: kr(:, :, :), ki(:, :, :), sr(:, :, :), si(:, :, :), gr(:, :, :), &
                              gi(:, :, :), x(:, :)
     type(fft_plan_t) :: plan
-    integer :: ny, nt, nf, n, nfreq, l, r, i
+    integer :: ny, nt, nf, n, nfreq, l, r, i, q, q0, nq, ist, rq(CHUNK), cq(CHUNK)
 
+    status = MLID_OK
+    msg = ''
     ny = size(a, 1)
     nt = size(a, 2)
     nf = size(cols)
+    allocate (b(nf, nf))
+    b = 0.0_wp
     n = fft_smooth_length(nt + ubound(rvv, 3))
     nfreq = n/2 + 1
     plan = fft_plan(n)
     allocate (kr(nfreq, ny, ny), ki(nfreq, ny, ny), sr(nfreq, ny, nf), si(nfreq, ny, nf), &
-              gr(nfreq, ny, nf), gi(nfreq, ny, nf))
-    call kernel_spectra(plan, rvv, lag, kr, ki)
-    ! every parameter's rows at once, row r of parameter l as series r + ny (l - 1)
-    allocate (x(ny*nf, nt))
-    do i = 1, nt                               ! (sample by sample: the cheapest order measured)
-      do l = 1, nf
-        do r = 1, ny
-          x(r + ny*(l - 1), i) = a(r, i, cols(l))
+              gr(nfreq, ny, nf), gi(nfreq, ny, nf), stat=ist)
+    if (ist /= 0) then
+      call no_memory('the coloured-residual bound of '//itoa(nt)//' samples x '//itoa(nf)// &
+                     ' parameters', real(nfreq, wp)*ny*(4.0_wp*nf + 2*ny), status, msg)
+      return
+    end if
+    call kernel_spectra(plan, rvv, lag, kr, ki, status, msg)
+    if (status /= MLID_OK) return
+    ! row r of parameter l as series q = r + ny (l - 1), CHUNK series at a time
+    do q0 = 1, ny*nf, CHUNK
+      nq = min(CHUNK, ny*nf - q0 + 1)
+      allocate (x(nq, nt), stat=ist)
+      if (ist /= 0) then
+        call no_memory('the coloured-residual bound of '//itoa(nt)//' samples', &
+                       real(nq, wp)*nt, status, msg)
+        return
+      end if
+      do q = 1, nq                             ! series q0 - 1 + q: row rq of column cq
+        l = (q0 + q - 2)/ny + 1
+        rq(q) = q0 + q - 1 - ny*(l - 1)
+        cq(q) = cols(l)
+      end do
+      do i = 1, nt                             ! (sample by sample: the cheapest order measured)
+        do q = 1, nq
+          x(q, i) = a(rq(q), i, cq(q))
         end do
       end do
+      r = q0 - ny*((q0 - 1)/ny)
+      l = (q0 - 1)/ny + 1
+      call fft_real_many(plan, x, sr(1, r, l), si(1, r, l))  ! (series q0 on)
+      deallocate (x)
+      call check_interrupt(status, msg)
+      if (status /= MLID_OK) return
     end do
-    call fft_real_many(plan, x, sr, si)
-    deallocate (x)
     ! each parameter's filtered transforms on their own (the result does
     ! not depend on the threads)
     !$omp parallel do private(r) schedule(static)
     do l = 1, nf
       do r = 1, ny - 1, 2                      ! G(f) = K(f) A(f), all f at once, two rows a pass
+        if (interrupt_requested()) exit
         call kernel_product(nfreq, ny, kr(:, :, r:r + 1), ki(:, :, r:r + 1), sr(:, :, l), &
                             si(:, :, l), gr(:, r:r + 1, l), gi(:, r:r + 1, l))
       end do
@@ -210,34 +269,45 @@ contains
                                                    sr(:, :, l), si(:, :, l), gr(:, ny, l), gi(:, ny, l))
     end do
     !$omp end parallel do
-    b = 0.0_wp
+    call check_interrupt(status, msg)
+    if (status /= MLID_OK) return
     call add_sym_atb(nfreq*ny, nf, sr, gr, b)
     call add_sym_atb(nfreq*ny, nf, si, gi, b)
     b = b/real(n, wp)
-  end function segment_bracket
+  end subroutine segment_bracket
 
   !> The kernel's transform K(f)(r, q) = kr(f, q, r) + i ki(f, q, r) (f = 0
   !> .. n/2; row r of K(f) a contiguous column), the inner frequencies
   !> doubled (f and n - f: the sum over f = 0 .. n/2 counts each twice),
   !> all entries r <= q at once: K(q, r)(d) = K(r, q)(-d), so its transform
   !> is the conjugate.
-  subroutine kernel_spectra(plan, rvv, lag, kr, ki)
+  subroutine kernel_spectra(plan, rvv, lag, kr, ki, status, msg)
     type(fft_plan_t), intent(in) :: plan
     real(wp), intent(in) :: rvv(:, :, 0:)
     integer, intent(in) :: lag
     real(wp), intent(out) :: kr(0:, :, :), ki(0:, :, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
     real(wp), allocatable :: z(:, :), fr(:, :), fi(:, :)
     integer, allocatable :: pr(:), pq(:)
-    integer :: p, r, q, nh
+    integer :: p, r, q, nh, ist
 
     nh = plan%n/2
+    status = MLID_OK
     call upper_pairs(size(rvv, 1), pr, pq)
-    allocate (z(size(pr), 0:plan%n - 1), fr(0:nh, size(pr)), fi(0:nh, size(pr)))
+    allocate (z(size(pr), 0:plan%n - 1), fr(0:nh, size(pr)), fi(0:nh, size(pr)), stat=ist)
+    if (ist /= 0) then
+      call no_memory('the coloured-residual bound''s kernel of '//itoa(plan%n)//' points', &
+                     2.0_wp*size(pr)*plan%n, status, msg)
+      return
+    end if
     z = 0.0_wp
     do p = 1, size(pr)
       call kernel_row(rvv, lag, pr(p), pq(p), z(p, :))
     end do
     call fft_real_many(plan, z, fr, fi)
+    call check_interrupt(status, msg)
+    if (status /= MLID_OK) return
     fr(1:nh - 1, :) = 2.0_wp*fr(1:nh - 1, :)
     fi(1:nh - 1, :) = 2.0_wp*fi(1:nh - 1, :)
     do p = 1, size(pr)
@@ -351,24 +421,36 @@ contains
   !> of a, as P + P' with P = sum_i a(i)' g(i), g(i) = Rvv(0) a(i)/2 + sum_k>0 w(k) Rvv(k)' a(i+k):
   !> the pair (i, j = i+k) gives a(i)' Rvv(-k) a(i+k) = a(i)' Rvv(k)' a(i+k),
   !> the pair (i+k, i) its transpose.
-  function segment_direct(a, cols, rvv, lag) result(b)
+  subroutine segment_direct(a, cols, rvv, lag, b, status, msg)
     real(wp), intent(in) :: a(:, :, :), rvv(:, :, 0:)
     integer, intent(in) :: cols(:), lag
-    real(wp) :: b(size(cols), size(cols))
+    real(wp), allocatable, intent(out) :: b(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
     real(wp), allocatable :: at(:, :, :), g(:, :, :)
     real(wp) :: w
-    integer :: ny, nt, nf, k, l, j, r
+    integer :: ny, nt, nf, k, l, j, r, ist
 
+    status = MLID_OK
+    msg = ''
     ny = size(a, 1)
     nt = size(a, 2)
     nf = size(cols)
+    allocate (b(nf, nf))
+    b = 0.0_wp
     ! time first (a and g transposed): each term of the filter is one long
     ! contiguous loop over the samples
-    allocate (at(nt, ny, nf), g(nt, ny, nf))
+    allocate (at(nt, ny, nf), g(nt, ny, nf), stat=ist)
+    if (ist /= 0) then
+      call no_memory('the coloured-residual bound of '//itoa(nt)//' samples x '//itoa(nf)// &
+                     ' parameters', 2.0_wp*nt*ny*nf, status, msg)
+      return
+    end if
     ! each parameter's column on its own (threads share no sum, so the
     ! result does not depend on their number)
     !$omp parallel do private(k, j, r, w) schedule(static)
     do l = 1, nf
+      if (interrupt_requested()) cycle
       at(:, :, l) = transpose(a(:, :, cols(l)))
       g(:, :, l) = 0.0_wp
       do k = 0, ubound(rvv, 3)
@@ -382,25 +464,34 @@ contains
       end do
     end do
     !$omp end parallel do
-    b = 0.0_wp                                 ! P + P', P = A' G: both triangles' dot products
-    call add_sym_atb(ny*nt, nf, at, g, b)
+    call check_interrupt(status, msg)
+    if (status /= MLID_OK) return
+    call add_sym_atb(ny*nt, nf, at, g, b)      ! P + P', P = A' G: both triangles' dot products
     call add_sym_atb(ny*nt, nf, g, at, b)
-  end function segment_direct
+  end subroutine segment_direct
 
   !> Rvv(:, :, k) = (1/N) sum v(i) v(i+k)' over the pairs within one
   !> segment, k = 0 .. ubound(rvv, 3).
-  subroutine residual_autocov(v, seg, rvv)
+  subroutine residual_autocov(v, seg, rvv, status, msg)
     real(wp), intent(in) :: v(:, :)
     integer, intent(in) :: seg(:)
     real(wp), intent(out) :: rvv(:, :, 0:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: c(:, :, :)
     integer :: s, i0, i1, nt, lag
 
     nt = size(v, 2)
     rvv = 0.0_wp
+    status = MLID_OK
+    msg = ''
     do s = 1, size(seg)
       call segment_bounds(seg, s, nt, i0, i1)
       lag = min(ubound(rvv, 3), i1 - i0)
-      rvv(:, :, 0:lag) = rvv(:, :, 0:lag) + segment_autocov(v(:, i0:i1), lag)
+      call segment_autocov(v(:, i0:i1), lag, c, status, msg)
+      if (status == MLID_OK) call check_interrupt(status, msg)
+      if (status /= MLID_OK) return
+      rvv(:, :, 0:lag) = rvv(:, :, 0:lag) + c
     end do
     rvv = rvv/real(nt, wp)
   end subroutine residual_autocov
@@ -411,25 +502,36 @@ contains
   !> transformed back gives c(r, q, k) at k and c(q, r, k) at n - k; the
   !> pairs r <= q go back two to a transform (each one a real series), the
   !> first half of them in the real parts, the rest in the imaginary parts.
-  function segment_autocov(x, lag) result(c)
+  subroutine segment_autocov(x, lag, c, status, msg)
     real(wp), intent(in) :: x(:, :)
     integer, intent(in) :: lag
-    real(wp) :: c(size(x, 1), size(x, 1), 0:lag)
+    real(wp), allocatable, intent(out) :: c(:, :, :)   !< (ny, ny, 0:lag)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
     real(wp), allocatable :: xr(:, :), xi(:, :), zr(:, :), zi(:, :)
     integer, allocatable :: pr(:), pq(:)
     real(wp), allocatable :: down(:)
     type(fft_plan_t) :: plan
-    integer :: ny, n, nh, p, m
+    integer :: ny, n, nh, p, m, ist
 
+    status = MLID_OK
+    msg = ''
     ny = size(x, 1)
     n = fft_smooth_length(size(x, 2) + lag)
     nh = n/2
     plan = fft_plan(n)
-    allocate (xr(0:nh, ny), xi(0:nh, ny))
-    call fft_real_many(plan, x, xr, xi)
     call upper_pairs(ny, pr, pq)
     m = (size(pr) + 1)/2
-    allocate (zr(m, 0:n - 1), zi(m, 0:n - 1), down(size(pr)))
+    allocate (c(ny, ny, 0:lag), xr(0:nh, ny), xi(0:nh, ny), zr(m, 0:n - 1), zi(m, 0:n - 1), &
+              down(size(pr)), stat=ist)
+    if (ist /= 0) then
+      call no_memory('the residual autocorrelations of '//itoa(size(x, 2))//' samples', &
+                     real(n, wp)*(ny + 2*m), status, msg)
+      return
+    end if
+    call fft_real_many(plan, x, xr, xi)
+    call check_interrupt(status, msg)
+    if (status /= MLID_OK) return
     do p = 1, size(pr)
       call add_cross(p, xr(:, pr(p)), xi(:, pr(p)), xr(:, pq(p)), xi(:, pq(p)))
     end do
@@ -496,7 +598,7 @@ contains
         c(q, r, k) = (cr(n - k)/real(n, wp))*up
       end do
     end subroutine put
-  end function segment_autocov
+  end subroutine segment_autocov
 
   !> The pairs (pr(p), pq(p)) of 1 .. ny with pr <= pq, row by row.
   pure subroutine upper_pairs(ny, pr, pq)

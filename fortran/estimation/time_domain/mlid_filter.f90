@@ -40,7 +40,8 @@
 !> record, set up once per run).
 module mlid_filter
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, first_failure
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INPUT, MLID_ERR_INTERRUPTED, &
+                        MLID_ERR_MEMORY, first_failure
   use mlid_linalg, only: expm_work_t
   use mlid_models, only: model_t, layout_t, NZ_HROWS
   use mlid_options, only: options_t
@@ -49,6 +50,9 @@ module mlid_filter
                     product_7x4_add, product_7x4_add_tail, past_states
   use mlid_delay, only: delay_outputs, delay_check
   use mlid_lti_predict, only: lti_exact, lti_segment
+  use mlid_interrupt, only: check_interrupt, POLL_MASK
+  use mlid_memory, only: no_memory
+  use mlid_text, only: itoa
   implicit none
   private
   public :: oe_predict, kf_innovations
@@ -234,7 +238,11 @@ contains
       call lti_segment(m, theta, pm, t, u, opt, iseg, j0, j1, initial_sensitivity(pm, iseg), &
                        yhat, status, dy, xhist)
       msg = ''
-      if (status == MLID_OK) return                  ! else diverged: the RK4 path says where
+      if (status == MLID_ERR_INTERRUPTED) call check_interrupt(status, msg)   ! its message
+      if (status == MLID_ERR_MEMORY) call no_memory('the states of '//itoa(j1 - j0 + 1)// &
+                                                    ' samples', real(m%nx, wp)*(j1 - j0 + 1), &
+                                                    status, msg)
+      if (status /= MLID_ERR_DIVERGED) return        ! else diverged: the RK4 path says where
     end if
     do i = 1, m%nu
       fixed(i) = all(u(i, j0:j1) == u(i, j0))
@@ -247,7 +255,12 @@ contains
     else
       call mf%uses_params(used)
       call segment_map(pm, iseg, used, pk, cols)
-      allocate (dyk(m%ny, pk%nf, size(t)))
+      allocate (dyk(m%ny, pk%nf, size(t)), stat=i)
+      if (i /= 0) then
+        call no_memory('the sensitivities of '//itoa(size(t))//' samples x '//itoa(pk%nf)// &
+          ' parameters', real(m%ny, wp)*pk%nf*size(t), status, msg)
+        return
+      end if
       call oe_segment(mf, theta, pk, t, u, opt, iseg, j0, j1, yhat, status, msg, dyk, xhist, z)
       do c = 1, pm%nf
         if (all(cols /= c)) dy(:, c, j0:j1) = 0.0_wp
@@ -359,6 +372,10 @@ contains
       end if
       if (present(du)) us = input_sens_t(pm%iu, pm%cu, du(:, j0), du(:, j0))
       do j = j0, j1
+        if (iand(j, POLL_MASK) == 0) then
+          call check_interrupt(status, msg)
+          if (status /= MLID_OK) return
+        end if
         if (j > j0) then
           if (present(dy) .and. present(du)) then
             us%d0 = du(:, j - 1)
@@ -520,6 +537,10 @@ contains
     iseg = 0
 
     do j = 1, size(t)
+      if (iand(j, POLL_MASK) == 0) then
+        call check_interrupt(status, msg)
+        if (status /= MLID_OK) return
+      end if
       if (segment_starts(l, j, iseg)) then
         ! each manoeuvre from its own (known) initial state: P = 0
         x = theta(l%ox0 + (iseg - 1)*l%nx + 1:l%ox0 + iseg*l%nx)

@@ -34,7 +34,8 @@
 module mlid_lti_predict
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: iso_fortran_env, only: int64
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_INTERRUPTED, MLID_ERR_MEMORY
+  use mlid_interrupt, only: interrupt_requested, POLL_MASK
   use mlid_models, only: model_t, linear_model_t
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, input_delays, output_delays, stabilized
@@ -105,7 +106,8 @@ contains
   !> and xhist(:, j0:j1) if present, for a model lti_exact accepts.  s0: the
   !> segment's initial sensitivities (nx, nf).  A state that is not finite
   !> returns MLID_ERR_DIVERGED and nothing else: the caller's RK4 path then
-  !> says where, as it always has.
+  !> says where, as it always has; a Ctrl-C, MLID_ERR_INTERRUPTED; no memory
+  !> for the states, MLID_ERR_MEMORY.
   subroutine lti_segment(m, theta, pm, t, u, opt, iseg, j0, j1, s0, yhat, status, dy, xhist)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:), t(:), u(:, :), s0(:, :)
@@ -139,7 +141,11 @@ contains
     else
       call interval_map(sys, dt, opt%substeps, opt%hold, mp)
     end if
-    allocate (x(nx, n))
+    allocate (x(nx, n), stat=j)
+    if (j /= 0) then                    ! the caller names it (mlid_filter, mlid_simulate)
+      status = MLID_ERR_MEMORY
+      return
+    end if
     x(:, 1) = theta(pm%l%ox0 + (iseg - 1)*nx + 1:pm%l%ox0 + iseg*nx)
     select case (nx)                    ! the common sizes as constants: loops unrolled
     case (1)
@@ -157,13 +163,17 @@ contains
       status = MLID_ERR_DIVERGED
       return
     end if
+    if (interrupt_requested()) then
+      status = MLID_ERR_INTERRUPTED
+      return
+    end if
     if (present(xhist)) xhist(:, j0:j1) = x
     call outputs(ny, nx, nu, n, sys%c, sys%d, &
                  theta(pm%l%obias + (iseg - 1)*ny + 1:pm%l%obias + iseg*ny), x, u(:, j0:j1), &
                  yhat(:, j0:j1))
     if (present(dy)) call sensitivities(ny, nx, nu, pm%nf, n, size(live), live, pm, iseg, sys, &
                                         mp, opt%hold, x, u(:, j0:j1), s0(:, live), &
-                                        dy(:, :, j0:j1))
+                                        dy(:, :, j0:j1), status)
   end subroutine lti_segment
 
   !> The states x(:, 2:n) from x(:, 1), sample by sample:
@@ -272,7 +282,8 @@ contains
   !> column c's: advanced by the recursion with its forcing (advance), then
   !> dy = C s (c_times_s) + the few terms of dC x and dD u + dbias.  Each element sums its terms in the order the products over
   !> blocks of samples did before, so the results are those to the bit.
-  subroutine sensitivities(ny, nx, nu, nf, n, nl, live, pm, iseg, sys, mp, hold, x, u, s0, dy)
+  subroutine sensitivities(ny, nx, nu, nf, n, nl, live, pm, iseg, sys, mp, hold, x, u, s0, dy, &
+                           status)
     integer, intent(in) :: ny, nx, nu, nf, n, nl, live(nl), iseg
     type(param_map_t), intent(in) :: pm
     type(lti_sys_t), intent(in) :: sys
@@ -280,6 +291,7 @@ contains
     logical, intent(in) :: hold
     real(wp), intent(in) :: x(nx, n), u(nu, n), s0(nx, nl)
     real(wp), intent(out) :: dy(ny*nf, n)
+    integer, intent(inout) :: status     !< MLID_ERR_INTERRUPTED on a Ctrl-C
     real(wp) :: wb(size(pm%ib))
     integer(int64) :: off(nl)            ! 64-bit: no widening at each use
     integer :: oc(size(sys%cv)), od(size(sys%dv)), ob(size(pm%ib)), nb, k, i, z0, z1
@@ -312,26 +324,26 @@ contains
     select case (nx)                    ! the common sizes as constants: loops unrolled
     case (1)
       call sweep(1, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
-                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy, status)
     case (2)
       call sweep(2, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
-                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy, status)
     case (3)
       call sweep(3, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
-                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy, status)
     case (4)
       call sweep(4, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
-                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy, status)
     case default
       call sweep(nx, ny, nu, nf, n, nl, hold, off, oc, od, ob(1:nb), wb(1:nb), &
-                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy)
+                 z0, z1, sys, mp%w, mp%dc, mp%phi, sys%c, x, u, s0, dy, status)
     end select
   end subroutine sensitivities
 
   !> sensitivities' sample loop (nx by value: a constant nx makes a clone),
   !> s(:, :, now) the sensitivities at sample k.
   subroutine sweep(nx, ny, nu, nf, n, nl, hold, off, oc, od, ob, wb, z0, z1, sys, w, dc, &
-                   phi, cm, x, u, s0, dy)
+                   phi, cm, x, u, s0, dy, status)
     integer, value :: nx
     integer, intent(in) :: ny, nu, nf, n, nl, oc(:), od(:), ob(:), z0, z1
     integer(int64), intent(in) :: off(nl)
@@ -340,6 +352,7 @@ contains
                             x(nx, n), u(nu, n), s0(nx, nl)
     type(lti_sys_t), intent(in) :: sys
     real(wp), intent(inout) :: dy(ny*nf, n)
+    integer, intent(inout) :: status
     real(wp) :: s(nx, nl, 2), zb(GROUP, nx + 2*nu)
     integer :: k, t, now, nz
 
@@ -348,6 +361,12 @@ contains
     s(:, :, 1) = s0
     now = 1
     do k = 1, n
+      if (iand(k, POLL_MASK) == 0) then
+        if (interrupt_requested()) then
+          status = MLID_ERR_INTERRUPTED
+          return
+        end if
+      end if
       if (k > 1) then                   ! s(k) from s(k-1) and the interval's forcing
         if (nx <= 2) then               ! z = [x0; u0; u1], each in every lane of a vector
           do t = 1, nx

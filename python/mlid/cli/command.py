@@ -568,6 +568,10 @@ def _main(args):
         os.dup2(devnull, sys.stdout.fileno())
         return 141
     except KeyboardInterrupt:
+        # Ctrl-C: the core's call unwound within milliseconds (mlid_interrupt);
+        # one line, as mlid-batch says it, no --json, and 130 as a shell
+        # reports a SIGINT
+        print("mlid: interrupted", file=sys.stderr)
         return 130
     except MlidError as exc:
         print(f"mlid: {exc}", file=sys.stderr)
