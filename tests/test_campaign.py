@@ -116,3 +116,24 @@ def test_a_deck_whose_cases_depend_on_each_other_runs_in_order(tmp_path):
     serial = _run([tmp_path / "a", tmp_path / "b", "--workers", "1"])
     assert serial[0] == 0 and serial[1].count("converged") >= 2
     assert _run([tmp_path / "a", tmp_path / "b", "--workers", "2"]) == serial
+
+
+def test_plots_of_several_decks_are_each_decks_own(tmp_path):
+    """Issue 42: `mlid run FOLDER --plots p` over several decks left one
+    case2_fit.png, each deck's replacing the last; now each deck has a
+    folder of its own in p (one deck keeps p itself)."""
+    from conftest import two_case_deck
+    for name in ("a", "b"):
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / f"{name}.nml").write_text(two_case_deck())
+    (tmp_path / "c").mkdir()
+    (tmp_path / "c" / "a.nml").write_text(two_case_deck())    # a second deck named a
+    run = subprocess.run([str(BIN / "mlid"), "run", "a/a.nml", "b/b.nml", "c/a.nml", "--plots",
+                          "p", "-q"], capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    assert run.returncode == 0, run.stderr
+    made = sorted(str(p.relative_to(tmp_path / "p")) for p in (tmp_path / "p").rglob("*.png"))
+    assert made == ["a_a/case2_fit.png", "b/case2_fit.png", "c_a/case2_fit.png"], made
+    run = subprocess.run([str(BIN / "mlid"), "run", "b/b.nml", "--plots", "q", "-q"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    assert (tmp_path / "q" / "case2_fit.png").is_file()

@@ -78,3 +78,32 @@ def test_the_api_names_a_missing_non_ascii_file(tmp_path):
     with pytest.raises(mlid.InputError, match="vol_\u00e9t\u00e9.nml"):
         mlid.read_deck(tmp_path / "vol_\u00e9t\u00e9.nml")
 
+
+
+def test_a_deck_whose_name_is_no_utf8_runs_alike(tmp_path):
+    """A deck named with raw Latin-1 bytes (d\\xe9ck.nml), its case 2
+    failing: mlid run refused the whole deck (UnicodeEncodeError: surrogates
+    not allowed), mlid-batch ran it; now both run every case and print the
+    same bytes, the name's byte as it is."""
+    name = os.fsdecode(b"d\xe9ck.nml")
+    (tmp_path / name).write_text(two_case_deck("no_such.dat"))
+    got = []
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        run = subprocess.run([os.fsencode(str(BIN / exe)), *pre, b"d\xe9ck.nml", b"--json",
+                              f"{exe}.json".encode()], capture_output=True, cwd=tmp_path)
+        assert run.returncode == 1, run.stderr
+        got.append((run.stdout, run.stderr.split(b": ", 1)[1],
+                    (tmp_path / f"{exe}.json").read_bytes()))
+    assert got[0] == got[1]
+    assert b"d\xe9ck.nml case 2" in got[0][1]
+
+
+def test_the_api_reads_a_record_whose_name_is_no_utf8(tmp_path):
+    """FlightData.load of os.fsdecode(b'vol_\\xe9t\\xe9.dat'): a bare
+    UnicodeEncodeError before; now the file is read."""
+    (tmp_path / os.fsdecode(b"vol_\xe9t\xe9.dat")).write_text("# t u y\n0 0 1\n0.1 1 2\n0.2 0 3\n")
+    d = mlid.FlightData.load(tmp_path / os.fsdecode(b"vol_\xe9t\xe9.dat"), time_col=1,
+                             input_cols=[2], output_cols=[3])
+    assert d.nt == 3
+    with pytest.raises(mlid.InputError, match="file not found"):
+        mlid.FlightData.load(tmp_path / os.fsdecode(b"n\xe9ant.dat"), output_cols=[2])

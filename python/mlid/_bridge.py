@@ -18,8 +18,8 @@ def _utf8_text(routine):
     ASCII text as str ("function takes exactly 5 arguments" for a path or
     title with an accent), and the core reads UTF-8."""
     def call(*args, **kwargs):
-        args = [a.encode() if type(a) is str else a for a in args]
-        kwargs = {k: v.encode() if type(v) is str else v for k, v in kwargs.items()}
+        args = [_bytes(a) if type(a) is str else a for a in args]
+        kwargs = {k: _bytes(v) if type(v) is str else v for k, v in kwargs.items()}
         return routine(*args, **kwargs)
     call.__doc__, call.__name__ = routine.__doc__, routine.__name__
     return call
@@ -128,7 +128,7 @@ def put(h, **given):
         elif kind is int or kind is bool:
             status, msg = api.mlid_put_int(hv, name, v, 0, _SCALAR)
         elif kind is str:
-            status, msg = api.mlid_put_text(hv, name, v.encode())
+            status, msg = api.mlid_put_text(hv, name, _bytes(v))
         else:
             a = np.asarray(v)
             dims = (*a.shape, 1, 1, 1)[:3]
@@ -155,14 +155,22 @@ def results(h):
     return values(h, 0, "call")
 
 
+def _bytes(s):
+    """Text for the core: UTF-8, and a name that is no UTF-8 (a file name's
+    raw bytes, as Python's os.fsdecode gives them) as its own bytes."""
+    return s.encode("utf-8", "surrogateescape")
+
+
 def text(b):
-    """A character value of the core as Python text: decoded, blanks stripped."""
-    return b.decode(errors="replace").strip()
+    """A character value of the core as Python text: decoded (bytes that are
+    no UTF-8 kept as os.fsdecode keeps them, so that they go back as they
+    came), blanks stripped."""
+    return b.decode("utf-8", "surrogateescape").strip()
 
 
 def lines(b):
     """A newline-separated list of the core as its non-empty lines."""
-    return [s for s in b.decode(errors="replace").rstrip().split("\n") if s]
+    return [s for s in b.decode("utf-8", "surrogateescape").rstrip().split("\n") if s]
 
 
 #: The kinds of value the core keeps by name (mlid_named), by their code.

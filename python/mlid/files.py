@@ -73,7 +73,8 @@ def atomic_open(path, mode="w"):
     except OSError:
         raise InputError(f"cannot write {path} {NOT_WRITABLE}") from None
     try:
-        fh = os.fdopen(fd, mode) if "b" in mode else os.fdopen(fd, mode, encoding="utf-8")
+        fh = os.fdopen(fd, mode) if "b" in mode else os.fdopen(fd, mode, encoding="utf-8",
+                                                                   errors="surrogateescape")
         with contextlib.suppress(OSError):     # best effort: some file systems refuse it
             os.fchmod(fd, _new_file_mode())    # mkstemp's 0600 is for secrets, not reports
         try:

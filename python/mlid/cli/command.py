@@ -293,6 +293,7 @@ def _jobs(args):
     folder's counted)."""
     jobs, unread = [], 0
     decks = campaign.decks(args.deck)
+    folders = _plot_folders(decks, args.plots)
     for deck in decks:
         try:
             cases = campaign.opened(deck)
@@ -304,9 +305,26 @@ def _jobs(args):
             continue
         ks = list(range(1, len(cases) + 1))
         groups = [ks] if any(c.job in WRITING_JOBS for c in cases) else [[k] for k in ks]
-        jobs += [(str(deck), g, args.plots, bool(args.table), bool(args.report))
+        jobs += [(str(deck), g, folders.get(deck), bool(args.table), bool(args.report))
                  for g in groups]
     return jobs, unread, len(decks)
+
+
+def _plot_folders(decks, plots):
+    """Each deck's folder of plots: --plots itself for one deck, a folder
+    of its own in it, named after the deck, for several (each deck's
+    case1_fit.png replaced the last one's); decks of one name in two
+    folders are told apart by their folders."""
+    if not plots:
+        return {}
+    if len(decks) == 1:
+        return {decks[0]: plots}
+    from pathlib import Path
+
+    stems = [Path(d).stem for d in decks]
+    names = [s if stems.count(s) == 1 else str(Path(d).with_suffix("")).strip("/").replace(
+        "/", "_") for s, d in zip(stems, decks)]
+    return {d: str(Path(plots) / n) for d, n in zip(decks, names)}
 
 
 def _run(args):
@@ -454,13 +472,13 @@ def _diagnose(args):
 def _utf8_streams():
     """stdout and stderr in UTF-8, as mlid-batch writes the core's text,
     whatever the locale or PYTHONIOENCODING says (an ASCII terminal got an
-    internal error for a CJK title); characters they cannot take become
-    replacement characters, never an error."""
+    internal error for a CJK title); bytes of the core's text that are no
+    UTF-8 (a deck's Latin-1, a file name's raw bytes) go out as they came,
+    as mlid-batch writes them."""
     for stream in (sys.stdout, sys.stderr):
-        encoding = (getattr(stream, "encoding", None) or "").lower().replace("-", "")
-        if encoding != "utf8" and hasattr(stream, "reconfigure"):
+        if hasattr(stream, "reconfigure"):
             try:
-                stream.reconfigure(encoding="utf-8", errors="replace")
+                stream.reconfigure(encoding="utf-8", errors="surrogateescape")
             except (ValueError, OSError):      # closed, or already read from
                 pass
 

@@ -147,7 +147,7 @@ def case_json(case, out=None, error=None):
         return out.json_text
     text, n = _api.mlid_case_json(case._title, case.job, status_of(error) if error else 0,
                                   str(error or ""), -1, "")
-    return text[:n].decode(errors="replace")
+    return text[:n].decode("utf-8", "surrogateescape")
 
 
 def json_list(objects):
@@ -194,8 +194,9 @@ def run_case(case):
     kept = values(case._handle, case.index, "run")
     if "report" not in kept:            # refused before it ran
         check_status(status, msg)
-    out = CaseOutput(*(kept[k].decode(errors="replace") for k in ("report", "json")),
-                     kept["notes"].decode(errors="replace").splitlines(), int(status), _text(msg))
+    out = CaseOutput(*(kept[k].decode("utf-8", "surrogateescape") for k in ("report", "json")),
+                     kept["notes"].decode("utf-8", "surrogateescape").splitlines(), int(status),
+                     _text(msg))
     if "wall_time" in kept:             # the fit's own time, as FitResult.as_dict() has it
         out["wall_time_s"] = kept["wall_time"]
     result = _fit_of(case, kept) if case.job in FIT_JOBS else None

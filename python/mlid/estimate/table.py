@@ -52,7 +52,7 @@ def _symbol(part):
 
 
 def latex_name(name):
-    """A parameter name as LaTeX: a name of words joined by underscores as
+    r"""A parameter name as LaTeX: a name of words joined by underscores as
     math with nested subscripts and Greek letters (Z_alpha: $Z_{\alpha}$,
     C_m_de: $C_{m_{\mathrm{de}}}$); any other name as escaped text."""
     name = str(name)
@@ -68,8 +68,8 @@ def latex_name(name):
 
 
 def latex_unit(unit):
-    """A core unit ('rad/s', '1/s2', 'm/(rad.s)', '-') as siunitx's \\si in
-    powers (\\si{rad.s^{-1}}); '' for none or '-'; a unit of other
+    r"""A core unit ('rad/s', '1/s2', 'm/(rad.s)', '-') as siunitx's \si in
+    powers (\si{rad.s^{-1}}); '' for none or '-'; a unit of other
     characters as escaped text."""
     unit = str(unit).strip()
     if unit in ("", "-"):
