@@ -98,3 +98,22 @@ def test_front_end_case_too_large_for_memory_is_one_line_and_the_batch_goes_on(t
     assert not (tmp_path / "big.dat").exists()
     assert (tmp_path / "small.dat").stat().st_size > 0          # the rest of the batch ran
     assert "case 2: a short one" in run.stdout
+
+
+def test_a_simulated_record_too_large_for_memory_is_one_line_in_mlid_batch(tmp_path):
+    """Red-team corpus (issue 41, class 6): a 2M-sample simulate and its fit
+    under a 700 MB address limit segfaulted in mlid-batch (the record's
+    text and its header copy were unchecked allocations, and the FFT of the
+    coloured-residual bound's workspace); now it runs, or says in one line
+    what did not fit, and the batch goes on."""
+    from conftest import two_case_deck
+    deck = tmp_path / "big.nml"
+    deck.write_text(two_case_deck().replace("t_end = 4.0, dt = 0.02", "t_end = 20000.0, dt = 0.01"))
+    run = subprocess.run(["bash", "-c", f"ulimit -v 700000; exec {BIN / 'mlid-batch'} big.nml"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=600,
+                         env={**os.environ, "OMP_NUM_THREADS": "1"})
+    assert run.returncode in (0, 1), run.stderr[-2000:]
+    assert "Segmentation" not in run.stderr and "Error allocating" not in run.stderr
+    assert " case 2: middle" in run.stdout
+    if run.returncode:
+        assert "not enough memory for" in run.stderr, run.stderr

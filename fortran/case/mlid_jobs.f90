@@ -90,8 +90,9 @@ contains
     allocate (names(c%nu + c%ny), units(c%nu + c%ny))
     names = ''
     units = ''
-    text = record_text(names, units, t, u, y)
-    text = '# t, inputs, outputs (mlid simulate)'//text(index(text, NL):)
+    call record_text(names, units, t, u, y, text, status, msg, &
+                     first_line='# t, inputs, outputs (mlid simulate)')
+    if (status /= MLID_OK) return
     call write_file(c%out_file, text, status, msg)
     if (status /= MLID_OK) return
     report = simulate_report(size(t), c%out_file)
@@ -111,6 +112,7 @@ contains
     character(len=NAMELEN), allocatable :: names(:)
     character(len=UNITLEN), allocatable :: units(:)
     real(wp), allocatable :: none(:, :)
+    character(len=:), allocatable :: text
 
     m = size(c%ukind)
     n = nint(c%t_end/c%dt)
@@ -149,7 +151,9 @@ contains
       names(k) = input_name(c, k)
     end do
     units = ''
-    call write_file(c%out_file, record_text(names, units, t, uc, none), status, msg)
+    call record_text(names, units, t, uc, none, text, status, msg)
+    if (status /= MLID_OK) return
+    call write_file(c%out_file, text, status, msg)
     if (status /= MLID_OK) return
     s%inputs = names
     report = design_report(s)

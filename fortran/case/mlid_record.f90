@@ -17,6 +17,7 @@ module mlid_record
   use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_files, only: file_stamp_t, file_stamp, file_changed
+  use mlid_memory, only: no_memory
   use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close, &
                        control_character, short_path, line_t
   use mlid_units, only: UNITLEN
@@ -407,22 +408,36 @@ contains
   !> The text of a record as this reader reads it back: a '#' header line
   !> naming the columns with their units ('t[s] ax[m/s2] ...') and a row
   !> per sample, every value to 17 digits (exact).
-  function record_text(names, units, t, u, y) result(text)
+  subroutine record_text(names, units, t, u, y, text, status, msg, first_line)
     character(len=*), intent(in) :: names(:), units(:)   !< the inputs', then the outputs'
     real(wp), intent(in) :: t(:), u(:, :), y(:, :)
-    character(len=:), allocatable :: text
+    character(len=:), allocatable, intent(out) :: text
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=*), intent(in), optional :: first_line  !< in place of the names' header
+    character(len=:), allocatable :: header
     character(len=25) :: field
     integer(int64) :: w
-    integer :: j, k
+    integer :: j, k, ist
 
-    text = '# t[s]'
+    header = '# t[s]'
     do k = 1, size(names)
-      text = text//' '//trim(names(k))
-      if (len_trim(units(k)) > 0) text = text//'['//trim(units(k))//']'
+      header = header//' '//trim(names(k))
+      if (len_trim(units(k)) > 0) header = header//'['//trim(units(k))//']'
     end do
-    w = len(text) + 1
+    if (present(first_line)) header = first_line
     ! rows of 25 characters a value and a newline (64-bit: a long record passes 2**31)
-    text = text//repeat(' ', (25_int64*(1 + size(u, 1) + size(y, 1)) + 1)*size(t) + 1)
+    allocate (character(len=len(header) + (25_int64*(1 + size(u, 1) + size(y, 1)) + 1)* &
+                        size(t) + 1) :: text, stat=ist)
+    if (ist /= 0) then
+      call no_memory('the text of a record of '//itoa(size(t))//' samples', &
+                     (25.0_wp*(1 + size(u, 1) + size(y, 1)) + 1)*size(t)/8, status, msg)
+      return
+    end if
+    status = MLID_OK
+    msg = ''
+    w = len(header) + 1
+    text(1:w - 1) = header
     text(w:w) = achar(10)
     do j = 1, size(t)
       do k = 0, size(u, 1) + size(y, 1)
@@ -439,7 +454,7 @@ contains
       w = w + 1
       text(w:w) = achar(10)
     end do
-  end function record_text
+  end subroutine record_text
 
   !> NaN or an infinity, as a field may spell them.
   logical function not_finite_word(field)

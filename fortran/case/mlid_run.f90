@@ -197,7 +197,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     type(equations_t) :: eqs
-    character(len=:), allocatable :: tmp
+    character(len=:), allocatable :: tmp, text
 
     uc = u
     yc = y
@@ -210,8 +210,8 @@ contains
                               yc, status, msg)
     if (status /= MLID_OK .or. len_trim(path) == 0) return
     call temporary_for(trim(path), tmp, status, msg)
-    if (status == MLID_OK) call write_whole(trim(path), tmp, record_text(names, units, t, uc, yc), &
-                                            status, msg)
+    if (status == MLID_OK) call record_text(names, units, t, uc, yc, text, status, msg)
+    if (status == MLID_OK) call write_whole(trim(path), tmp, text, status, msg)
   end subroutine corrected_record
 
   !> Fit case c to a record (several manoeuvres: segstart); with json

@@ -25,6 +25,8 @@ module mlid_fft
   !> Complex series per block of fft_real_many: a block's two buffers of
   !> 4 BLOCK n reals stay in a core's cache at the lengths of the records.
   integer, parameter :: BLOCK = 8
+  !> Series-lengths of workspace one thread of fft_real_many allocates (its block's four)
+  integer, parameter, public :: FFT_WORK_ROWS = 4*BLOCK
   !> The radices, in the order the stages take them.
   integer, parameter :: RADICES(4) = [4, 2, 3, 5]
 
@@ -325,14 +327,16 @@ contains
 
   !> The transforms X, Y (f = 0 .. n/2) of two real series x, y (zero-
   !> padded to n = p%n) by one complex transform of x + i y.
-  subroutine fft_real_pair(p, x, y, xf, yf)
+  subroutine fft_real_pair(p, x, y, xf, yf, ok)
     type(fft_plan_t), intent(in) :: p
     real(wp), intent(in) :: x(:), y(:)
     complex(wp), intent(out) :: xf(0:), yf(0:)
+    logical, intent(out) :: ok          !< false when the workspace did not fit in memory
     real(wp) :: fr(0:p%n/2, 2), fi(0:p%n/2, 2), xy(2, size(x))
     xy(1, :) = x
     xy(2, :) = y
-    call real_block(p, xy, 1, 2, fr, fi)
+    ok = .true.
+    call real_block(p, xy, 1, 2, fr, fi, ok)
     xf(0:p%n/2) = cmplx(fr(:, 1), fi(:, 1), wp)
     yf(0:p%n/2) = cmplx(fr(:, 2), fi(:, 2), wp)
   end subroutine fft_real_pair
@@ -343,15 +347,17 @@ contains
   !> X2(f) = (Z(f) - conj(Z(n-f)))/(2i); BLOCK complex series at a time,
   !> the blocks fixed by the rows alone (the result does not depend on the
   !> threads).
-  subroutine fft_real_many(p, x, fr, fi)
+  subroutine fft_real_many(p, x, fr, fi, ok)
     type(fft_plan_t), intent(in) :: p
     real(wp), contiguous, intent(in) :: x(:, :)
     real(wp), intent(out) :: fr(0:p%n/2, size(x, 1)), fi(0:p%n/2, size(x, 1))
+    logical, intent(out) :: ok          !< false when a block's workspace did not fit in memory
     integer :: r0, nr
-    !$omp parallel do private(nr) schedule(static)
+    ok = .true.
+    !$omp parallel do private(nr) schedule(static) reduction(.and.:ok)
     do r0 = 1, size(x, 1), 2*BLOCK
       nr = min(2*BLOCK, size(x, 1) - r0 + 1)
-      call real_block(p, x, r0, nr, fr(:, r0:r0 + nr - 1), fi(:, r0:r0 + nr - 1))
+      call real_block(p, x, r0, nr, fr(:, r0:r0 + nr - 1), fi(:, r0:r0 + nr - 1), ok)
     end do
     !$omp end parallel do
   end subroutine fft_real_many
@@ -360,17 +366,22 @@ contains
   !> them in the real parts, the rest in the imaginary parts.  (The block's
   !> rows are picked by explicit loops: as an array section they cost
   !> several times the copy.)
-  subroutine real_block(p, x, r0, nr, fr, fi)
+  subroutine real_block(p, x, r0, nr, fr, fi, ok)
     type(fft_plan_t), intent(in) :: p
     real(wp), contiguous, intent(in) :: x(:, :)
     integer, intent(in) :: r0, nr
     real(wp), intent(out) :: fr(0:, :), fi(0:, :)
+    logical, intent(inout) :: ok        !< set false when the workspace does not fit
     real(wp), allocatable :: zr(:, :), zi(:, :), yr(:, :), yi(:, :)
-    integer :: m, m2, nt
+    integer :: m, m2, nt, ist
     real(wp) :: down(nr)
     logical :: in_y
     m = (nr + 1)/2
-    allocate (zr(m, 0:p%n - 1), zi(m, 0:p%n - 1), yr(m, 0:p%n - 1), yi(m, 0:p%n - 1))
+    allocate (zr(m, 0:p%n - 1), zi(m, 0:p%n - 1), yr(m, 0:p%n - 1), yi(m, 0:p%n - 1), stat=ist)
+    if (ist /= 0) then
+      ok = .false.
+      return
+    end if
     m2 = nr - m
     nt = size(x, 2)
     ! each series scaled by a power of two to a largest value near 1 (exact):

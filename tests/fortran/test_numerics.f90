@@ -225,13 +225,15 @@ contains
     real(wp) :: x(nr, nt), fr(0:n/2, nr), fi(0:n/2, nr), err
     complex(wp) :: e(0:n - 1)
     integer :: j, k
+    logical :: ok
     do k = 1, nt
       do j = 1, nr
         x(j, k) = rng_normal(r)*10.0_wp**merge(6, -6, j <= 8 .or. j > 16)   ! pairs j, j + 8
       end do
     end do
     plan = fft_plan(n)
-    call fft_real_many(plan, x, fr, fi)
+    call fft_real_many(plan, x, fr, fi, ok)
+    call check(ok, 'fft_real_many: its workspace allocated')
     err = 0.0_wp
     do j = 1, nr
       e = dft([cmplx(x(j, :), 0.0_wp, wp), (cmplx(0.0_wp, 0.0_wp, wp), k=nt, n - 1)])
@@ -250,12 +252,14 @@ contains
     real(wp) :: x(nt), y(nt)
     complex(wp) :: xf(0:n/2), yf(0:n/2), ex(0:n - 1), ey(0:n - 1)
     integer :: k
+    logical :: ok
     do k = 1, nt
       x(k) = 1.0e6_wp*rng_normal(r)
       y(k) = 1.0e-6_wp*rng_normal(r)
     end do
     plan = fft_plan(n)
-    call fft_real_pair(plan, x, y, xf, yf)
+    call fft_real_pair(plan, x, y, xf, yf, ok)
+    call check(ok, 'fft_real_pair: its workspace allocated')
     ex = dft([cmplx(x, 0.0_wp, wp), (cmplx(0.0_wp, 0.0_wp, wp), k=nt, n - 1)])
     ey = dft([cmplx(y, 0.0_wp, wp), (cmplx(0.0_wp, 0.0_wp, wp), k=nt, n - 1)])
     call check(maxval(abs(xf - ex(0:n/2))) < 1.0e-13_wp*sum(abs(x)) .and. &

@@ -17,8 +17,9 @@
 module mlid_freq_response
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR
-  use mlid_text, only: es_text
-  use mlid_fft, only: fft_plan_t, fft_plan, fft_real_pair, fft_length
+  use mlid_text, only: es_text, itoa
+  use mlid_memory, only: no_memory
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_real_pair, fft_length, FFT_WORK_ROWS
   use mlid_models, only: model_t, linear_model_t, layout_t, model_layout
   use mlid_interrupt, only: check_interrupt
   implicit none
@@ -58,6 +59,7 @@ contains
     complex(wp), allocatable :: uf(:), yf(:)
     real(wp) :: scale
     integer :: nfft, k, s, j0, piece, ends(size(starts))
+    logical :: ok
     status = MLID_OK
     msg = ''
     nd = 0
@@ -93,7 +95,12 @@ contains
         if (status /= MLID_OK) return
         j0 = starts(piece) - 1 + (s - 1)*(lseg - nover)
         call fft_real_pair(p, win*(u(j0 + 1:j0 + lseg) - sum(u(j0 + 1:j0 + lseg))/lseg), &
-                           win*(y(j0 + 1:j0 + lseg) - sum(y(j0 + 1:j0 + lseg))/lseg), uf, yf)
+                           win*(y(j0 + 1:j0 + lseg) - sum(y(j0 + 1:j0 + lseg))/lseg), uf, yf, ok)
+        if (.not. ok) then
+          call no_memory('the transforms of '//itoa(lseg)//'-sample segments', &
+                         real(FFT_WORK_ROWS, wp)*nfft, status, msg)
+          return
+        end if
         guu = guu + abs(uf(1:))**2
         gyy = gyy + abs(yf(1:))**2
         guy = guy + conjg(uf(1:))*yf(1:)

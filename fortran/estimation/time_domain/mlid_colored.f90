@@ -36,7 +36,8 @@
 module mlid_colored
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_linalg, only: add_sym_atb
-  use mlid_fft, only: fft_plan_t, fft_plan, fft_many, fft_smooth_length, fft_real_many
+  use mlid_fft, only: fft_plan_t, fft_plan, fft_many, fft_smooth_length, fft_real_many, &
+                     FFT_WORK_ROWS
   use mlid_interrupt, only: check_interrupt, interrupt_requested
   use mlid_memory, only: no_memory
   use mlid_text, only: itoa
@@ -210,6 +211,7 @@ contains
                              gi(:, :, :), x(:, :)
     type(fft_plan_t) :: plan
     integer :: ny, nt, nf, n, nfreq, l, r, i, q, q0, nq, ist, rq(CHUNK), cq(CHUNK)
+    logical :: ok
 
     status = MLID_OK
     msg = ''
@@ -251,9 +253,11 @@ contains
       end do
       r = q0 - ny*((q0 - 1)/ny)
       l = (q0 - 1)/ny + 1
-      call fft_real_many(plan, x, sr(1, r, l), si(1, r, l))  ! (series q0 on)
+      call fft_real_many(plan, x, sr(1, r, l), si(1, r, l), ok)  ! (series q0 on)
       deallocate (x)
-      call check_interrupt(status, msg)
+      if (.not. ok) call no_memory('the coloured-residual bound''s transforms of '// &
+                                   itoa(plan%n)//' points', real(FFT_WORK_ROWS, wp)*plan%n, status, msg)
+      if (ok) call check_interrupt(status, msg)
       if (status /= MLID_OK) return
     end do
     ! each parameter's filtered transforms on their own (the result does
@@ -291,6 +295,7 @@ contains
     real(wp), allocatable :: z(:, :), fr(:, :), fi(:, :)
     integer, allocatable :: pr(:), pq(:)
     integer :: p, r, q, nh, ist
+    logical :: ok
 
     nh = plan%n/2
     status = MLID_OK
@@ -305,8 +310,10 @@ contains
     do p = 1, size(pr)
       call kernel_row(rvv, lag, pr(p), pq(p), z(p, :))
     end do
-    call fft_real_many(plan, z, fr, fi)
-    call check_interrupt(status, msg)
+    call fft_real_many(plan, z, fr, fi, ok)
+    if (.not. ok) call no_memory('the coloured-residual bound''s transforms of '// &
+                                 itoa(plan%n)//' points', real(FFT_WORK_ROWS, wp)*plan%n, status, msg)
+    if (ok) call check_interrupt(status, msg)
     if (status /= MLID_OK) return
     fr(1:nh - 1, :) = 2.0_wp*fr(1:nh - 1, :)
     fi(1:nh - 1, :) = 2.0_wp*fi(1:nh - 1, :)
@@ -513,6 +520,7 @@ contains
     real(wp), allocatable :: down(:)
     type(fft_plan_t) :: plan
     integer :: ny, n, nh, p, m, ist
+    logical :: ok
 
     status = MLID_OK
     msg = ''
@@ -529,8 +537,10 @@ contains
                      real(n, wp)*(ny + 2*m), status, msg)
       return
     end if
-    call fft_real_many(plan, x, xr, xi)
-    call check_interrupt(status, msg)
+    call fft_real_many(plan, x, xr, xi, ok)
+    if (.not. ok) call no_memory('the residual autocorrelations'' transforms of '// &
+                                 itoa(plan%n)//' points', real(FFT_WORK_ROWS, wp)*plan%n, status, msg)
+    if (ok) call check_interrupt(status, msg)
     if (status /= MLID_OK) return
     do p = 1, size(pr)
       call add_cross(p, xr(:, pr(p)), xi(:, pr(p)), xr(:, pq(p)), xi(:, pq(p)))
