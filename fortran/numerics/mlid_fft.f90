@@ -13,7 +13,7 @@ module mlid_fft
   use mlid_interrupt, only: interrupt_requested
   implicit none
   private
-  public :: fft_plan_t, fft_plan, fft_forward, fft_length, fft_smooth_length, fft_real_pair, &
+  public :: fft_plan_t, fft_plan, fft_plan_into, fft_forward, fft_length, fft_smooth_length, fft_real_pair, &
             fft_many, fft_real_many
 
   type :: fft_plan_t
@@ -67,10 +67,22 @@ contains
   pure function fft_plan(n) result(p)
     integer, intent(in) :: n
     type(fft_plan_t) :: p
+    logical :: ok
+    call fft_plan_into(n, p, ok)
+  end function fft_plan
+
+  !> fft_plan made in place: ok false (and p%n 0) when its twiddles do not
+  !> fit in memory (a record's length: a plan's copy is an allocation too).
+  pure subroutine fft_plan_into(n, p, ok)
+    integer, intent(in) :: n
+    type(fft_plan_t), intent(out) :: p
+    logical, intent(out) :: ok
     real(wp), parameter :: two_pi = 8.0_wp*atan(1.0_wp)
-    integer :: k, j, i
+    integer :: k, j, i, ist
+    allocate (p%radix(0), p%wr(0:n - 1), p%wi(0:n - 1), stat=ist)
+    ok = ist == 0
+    if (.not. ok) return
     p%n = n
-    allocate (p%radix(0), p%wr(0:n - 1), p%wi(0:n - 1))
     j = n
     do i = 1, size(RADICES)
       do while (mod(j, RADICES(i)) == 0 .and. j > 1)
@@ -91,7 +103,7 @@ contains
       p%wr(3*n/4) = 0.0_wp
       p%wi(n/2) = 0.0_wp
     end if
-  end function fft_plan
+  end subroutine fft_plan_into
 
   !> z = DFT(z), z(0:n-1), n = p%n.
   subroutine fft_forward(p, z)

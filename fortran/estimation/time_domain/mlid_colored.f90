@@ -36,7 +36,7 @@
 module mlid_colored
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_linalg, only: add_sym_atb
-  use mlid_fft, only: fft_plan_t, fft_plan, fft_many, fft_smooth_length, fft_real_many, &
+  use mlid_fft, only: fft_plan_t, fft_plan_into, fft_many, fft_smooth_length, fft_real_many, &
                      FFT_WORK_ROWS
   use mlid_interrupt, only: check_interrupt, interrupt_requested
   use mlid_memory, only: no_memory
@@ -222,7 +222,12 @@ contains
     b = 0.0_wp
     n = fft_smooth_length(nt + ubound(rvv, 3))
     nfreq = n/2 + 1
-    plan = fft_plan(n)
+    call fft_plan_into(n, plan, ok)
+    if (.not. ok) then
+      call no_memory('the coloured-residual bound''s transform of '//itoa(n)//' points', &
+                     2.0_wp*n, status, msg)
+      return
+    end if
     allocate (kr(nfreq, ny, ny), ki(nfreq, ny, ny), sr(nfreq, ny, nf), si(nfreq, ny, nf), &
               gr(nfreq, ny, nf), gi(nfreq, ny, nf), stat=ist)
     if (ist /= 0) then
@@ -527,7 +532,12 @@ contains
     ny = size(x, 1)
     n = fft_smooth_length(size(x, 2) + lag)
     nh = n/2
-    plan = fft_plan(n)
+    call fft_plan_into(n, plan, ok)
+    if (.not. ok) then
+      call no_memory('the residual autocorrelations'' transform of '//itoa(n)//' points', &
+                     2.0_wp*n, status, msg)
+      return
+    end if
     call upper_pairs(ny, pr, pq)
     m = (size(pr) + 1)/2
     allocate (c(ny, ny, 0:lag), xr(0:nh, ny), xi(0:nh, ny), zr(m, 0:n - 1), zi(m, 0:n - 1), &
