@@ -193,4 +193,7 @@ def test_front_end_ctrl_c_is_one_line_exit_130_and_no_json(tmp_path, front):
     assert not (tmp_path / "out.json").exists()
     assert not [p.name for p in tmp_path.iterdir() if ".tmp-" in p.name]   # no temporaries
     assert "Monte Carlo" not in out                      # no report of the case it stopped
+    # the same stdout from both: the finished case's report, the stopped one's heading
+    assert out.startswith("\n case 1: ") and out.count("\n case ") == 2
+    assert out.rstrip("\n").split("\n")[-1].startswith(" case 2: ")
     np.loadtxt(tmp_path / "rec.dat")                     # the earlier case's record, whole

@@ -270,7 +270,11 @@ def _case_task(deck, ks, plots, table, keep):
         case = campaign.opened(deck)[k - 1]
         out_text, err_text, tables = io.StringIO(), io.StringIO(), []
         with redirect_stdout(out_text), redirect_stderr(err_text):
-            case, out, result, error = next(run_cases([case]))
+            try:
+                case, out, result, error = next(run_cases([case]))
+            except KeyboardInterrupt as exc:    # what mlid-batch has printed by then
+                exc.finished = done, f"\n case {case.index}: {case.title}\n"
+                raise
             obj = case_json(case, out, error)
             bad, unsaid = _show_case(SimpleNamespace(plots=plots, table=table), case, out, result,
                                      error, tables)
@@ -327,6 +331,22 @@ def _plot_folders(decks, plots):
     return {d: str(Path(plots) / n) for d, n in zip(decks, names)}
 
 
+def _up_to_an_interrupt(outcomes):
+    """The cases' outcomes; on Ctrl-C, the reports of the cases its task had
+    finished and the heading of the case it stopped, as mlid-batch prints
+    them, before the interrupt goes on."""
+    try:
+        yield from outcomes
+    except KeyboardInterrupt as exc:
+        finished, heading = getattr(exc, "finished", ([], ""))
+        for text, err, *_ in finished:
+            sys.stdout.write(text)
+            sys.stderr.write(err)
+        sys.stdout.write(heading)
+        sys.stdout.flush()
+        raise
+
+
 def _run(args):
     import warnings
 
@@ -349,9 +369,9 @@ def _run(args):
     objects, tables, ran, rows = [], [], [], []
     n = sum(len(j[1]) for j in jobs)
     cases = progress.bar(None if n > 1 else False, n, "mlid run", "case")
-    for text, err, obj, rows_of, bad, crow, done in (
-            c for task in campaign.outcomes(_case_task, jobs, min(workers, max(len(jobs), 1)),
-                                            args.scheduler) for c in task):
+    outcomes = (c for task in campaign.outcomes(_case_task, jobs, min(workers, max(len(jobs), 1)),
+                                                args.scheduler) for c in task)
+    for text, err, obj, rows_of, bad, crow, done in _up_to_an_interrupt(outcomes):
         cases.update()
         cases.clear()                     # the case's lines go above the bar
         sys.stdout.write(text)
