@@ -32,3 +32,12 @@ def whole(name, value, low=0, high=2**31 - 1):
     if not low <= value <= high:
         raise InputError(f"{name} must lie in {low} to {high}, got {value}")
     return int(value)
+
+
+def pandas_for(what):
+    """The pandas module, or one line saying that what needs it."""
+    try:
+        import pandas
+    except ImportError:
+        raise InputError(f"{what} needs pandas: pip install pandas") from None
+    return pandas

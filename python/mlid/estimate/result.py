@@ -11,6 +11,7 @@ import types
 import numpy as np
 
 from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
+from ..checks import pandas_for
 from ..errors import InputError
 from .evaluate import evaluate
 from .outcome import fit_outcome, require_estimates
@@ -283,10 +284,7 @@ class FitResult:
         if self.frequencies is not None:
             raise InputError("outputs_frame: a frequency-domain fit has transforms, not a time "
                              "history (see z and zhat)")
-        try:
-            import pandas as pd
-        except ImportError:
-            raise InputError("outputs_frame needs pandas: pip install pandas") from None
+        pd = pandas_for("outputs_frame")
         names = self._output_names()
         blocks = {"measured": self.data.y, "model": self.yhat, "residual": self.residuals}
         frame = pd.concat({k: pd.DataFrame(v, columns=names, index=self._time_index(pd))
@@ -461,10 +459,7 @@ class FitResult:
         InputError
             If the fit failed, or pandas is not installed.
         """
-        try:
-            import pandas as pd
-        except ImportError:
-            raise InputError("sensitivity_frame needs pandas: pip install pandas") from None
+        pd = pandas_for("sensitivity_frame")
         return pd.DataFrame(self.sensitivity_norms().T, index=pd.Index(self.names, name="name"),
                             columns=self._output_names())
 

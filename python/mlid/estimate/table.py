@@ -12,6 +12,7 @@ import re
 
 import numpy as np
 
+from ..checks import pandas_for
 from ..errors import InputError
 from ..files import atomic_write_text
 from .outcome import require_estimates
@@ -317,10 +318,7 @@ class ResultsTable:
         InputError
             If pandas is not installed.
         """
-        try:
-            import pandas as pd
-        except ImportError:
-            raise InputError("ResultsTable.to_frame needs pandas: pip install pandas") from None
+        pd = pandas_for("ResultsTable.to_frame")
         return pd.DataFrame([[row[c] for c in self.columns] for row in self.rows],
                             columns=list(self.columns))
 
