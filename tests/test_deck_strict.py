@@ -198,17 +198,17 @@ LONG = {
     "a label wider than the report's column": (
         FIT.replace("names = 'a11'", "names = 'a_rather_long_label'"),
         "group &model: the label 'a_rather_long_label' of free parameter 1 is longer than the 16 "
-        "characters the report prints (a shorter one in names)"),
+        "bytes the report prints (a shorter one in names)"),
     "an output name over 32 characters": (
         FIT.replace("h = 1, 0, 0, 1,", "h = 1, 0, 0, 1, output_names = 'y1', '" + "y" * 33 + "',"),
-        "line 8: a value of output_names in group &model is longer than its 32 characters"),
+        "line 8: a value of output_names in group &model is longer than its 32 bytes"),
     "a state name over 32 characters, its quotes doubled": (
         FIT.replace("h = 1, 0, 0, 1,", "h = 1, 0, 0, 1, state_names = 'x1', '" + "x''" * 16
                     + "x',"),
-        "line 8: a value of state_names in group &model is longer than its 32 characters"),
+        "line 8: a value of state_names in group &model is longer than its 32 bytes"),
     "a file name over 511 characters": (
         FIT.replace("file = 'small.dat'", "file = '" + "d/" * 300 + "small.dat'"),
-        "...' is longer than 511 characters (with the deck's folder)"),
+        "...' is longer than 511 bytes (with the deck's folder)"),
 }
 
 
@@ -225,7 +225,7 @@ def test_values_longer_than_their_room_are_refused(tmp_path, name):
 def test_a_config_or_tags_longer_than_their_room_is_refused(tmp_path, entry):
     """They were cut without a word (a campaign table's column)."""
     _refused(tmp_path, FIT.replace("job = 'estimate' /", f"job = 'estimate', {entry} /"),
-             "group &case: config is longer than 64 characters, or tags than 256")
+             "group &case: config is longer than 64 bytes, or tags than 256")
 
 
 def test_a_title_longer_than_128_characters_is_refused(tmp_path):
@@ -247,7 +247,7 @@ BLAMED = {
                                   "x0"),
     "two indices": (FIT.replace("'b1' /", "'b1', f(1,1) = 2.0 /"),
                     "group &model (line 7): line 9: f(1,1): a deck's lists take one index, "
-                    "NAME(i) or NAME(i:j) (a matrix is one list, row by row)"),
+                    "NAME(i), NAME(i:j) or NAME(i:j:s) (a matrix is one list, row by row)"),
     "more values than a name takes": (
         FIT.replace("'b1' /", "'b1', x0 = " + "1, " * 40 + "bias = 0, 0 /"),
         "group &model (line 7): a value stands where a name should be (read as '1'): a "

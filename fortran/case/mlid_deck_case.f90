@@ -41,7 +41,7 @@ contains
       return
     end if
     if (len_trim(config) > len(c%config) .or. len_trim(tags) > len(c%tags)) then
-      call fail(c, 'group &case: config is longer than '//itoa(len(c%config))//' characters, '// &
+      call fail(c, 'group &case: config is longer than '//itoa(len(c%config))//' bytes, '// &
                 'or tags than '//itoa(len(c%tags)))
       return
     end if

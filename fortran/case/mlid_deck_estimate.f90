@@ -56,7 +56,9 @@ contains
     lower = -huge(1.0_wp)
     upper = huge(1.0_wp)
     corrected = ''
-    call per_manoeuvre(rd, c, 'estimate', ['corrected'])
+    call at_most(rd, c, 'estimate', ['corrected'], MAXSEG, 'manoeuvres (data files)')
+    call at_most(rd, c, 'estimate', [character(len=12) :: 'prior', 'prior_weight', 'lower', &
+                                     'upper'], MAXFREE, 'free parameters')
     if (c%status /= MLID_OK) return
     gtext = group_text(rd, 'estimate')
     ios = -1                          ! missing
