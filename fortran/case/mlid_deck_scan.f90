@@ -477,8 +477,8 @@ contains
 
   !> Where an assignment's items go, from its subscript: (i), (i:j) or
   !> (i:j:s), a bound left out being the array's (only the lower, 1, is
-  !> known here), or none; and how many elements it names (room, when its
-  !> bounds are given).  why: what is wrong with a section ('' if nothing):
+  !> known here), or none; and how many elements a section names (room,
+  !> when its bounds are given).  why: what is wrong with a section ('' if nothing):
   !> a stride of 0, or one that does not go from i to j.
   subroutine elements(a, why)
     type(assignment_t), intent(inout) :: a
@@ -507,7 +507,7 @@ contains
       end if
     end if
     lo = 1
-    hi = 0
+    hi = 1
     step = 1
     ios = 0
     if (len_trim(part(1)) > 0) read (part(1), *, iostat=ios) lo
@@ -518,20 +518,19 @@ contains
       why = 'the stride is 0 (NAME(i:j:s) takes every s-th element from i to j)'
       return
     end if
-    if (c1 == 0) then                     ! (i): one element
-      hi = lo
-    else if (len_trim(part(2)) == 0) then
-      hi = 0                               ! to the array's upper bound
-    else if ((step > 0 .and. hi < lo) .or. (step < 0 .and. hi > lo)) then
-      why = 'a stride of '//itoa(step)//' does not go from '//itoa(lo)//' to '//itoa(hi)// &
-            ' (NAME(i:j:s) takes every s-th element from i to j)'
-      return
-    end if
     if (step < 0 .and. len_trim(part(1)) == 0) return   ! from the array's upper bound
+    ! (i) = a, b, ... fills the elements from i on (as a compiler reads it);
+    ! (i:) runs to the array's upper bound: only (i:j[:s]) has a room here
+    if (c1 > 0 .and. len_trim(part(2)) > 0) then
+      if ((step > 0 .and. hi < lo) .or. (step < 0 .and. hi > lo)) then
+        why = 'a stride of '//itoa(step)//' does not go from '//itoa(lo)//' to '//itoa(hi)// &
+              ' (NAME(i:j:s) takes every s-th element from i to j)'
+        return
+      end if
+      a%room = int(min((int(hi, int64) - lo)/step + 1, int(huge(1), int64)))
+    end if
     a%first = lo
     a%step = step
-    if (c1 == 0 .or. len_trim(part(2)) > 0) &
-      a%room = int(min((int(hi, int64) - lo)/step + 1, int(huge(1), int64)))
   end subroutine elements
 
   !> Whether two assignments of one name set a common element by a value.
