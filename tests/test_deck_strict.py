@@ -447,6 +447,9 @@ FOLLOW_UPS = {
     "a real for a logical": (FIT.replace("halvings = 5", "halvings = 5, partials = 0.5"),
                              "group &estimate (line 11): line 11: partials takes T or F (true or "
                              "false), not a number"),
+    "a repeat count for a scalar": (FIT.replace("halvings = 5", "halvings = 2*5"),
+                                    "group &estimate (line 11): line 11: halvings is given more "
+                                    "values than it takes (r*value is r values)"),
     "a null in names": (FIT.replace("names = 'a11', 'a21', 'b1'", "names = 'a11', , 'b1'"),
                         "group &model: names(2) is a null value, and names has no default to keep"),
     "free from its second element": (

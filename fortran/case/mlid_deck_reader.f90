@@ -65,6 +65,13 @@ contains
       end if
       return
     end if
+    p = index(iomsg, 'Repeat count too large for namelist object ')
+    if (p > 0) then
+      k = assigned(rd, group, to_lower(trim(iomsg(p + 43:))), .false.)
+      if (k > 0) text = 'line '//itoa(rd%given(k)%line)//': '//trim(rd%given(k)%key)// &
+                        ' is given more values than it takes (r*value is r values)'
+      return
+    end if
     p = index(iomsg, 'object name ')
     if (p == 0) return
     token = trim(iomsg(p + 12:))
@@ -118,6 +125,8 @@ contains
         else if (index(iomsg, 'Bad repeat count') > 0) then
           text = 'line '//itoa(a%line)//': '//trim(a%key)//' takes T or F (true or false), '// &
                  'not a number'
+        else
+          text = 'line '//itoa(a%line)//': '//trim(a%key)//': '//trim(iomsg)
         end if
       end associate
       return
