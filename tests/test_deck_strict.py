@@ -450,6 +450,13 @@ FOLLOW_UPS = {
     "a repeat count for a scalar": (FIT.replace("halvings = 5", "halvings = 2*5"),
                                     "group &estimate (line 11): line 11: halvings is given more "
                                     "values than it takes (r*value is r values)"),
+    # a word cut to its room read as another: 'linear' and ten blanks and x was linear
+    "a kind longer than its room": (FIT.replace("kind = 'linear'", "kind = 'linear          x'"),
+                                    "line 7: a value of kind in group &model is longer than its "
+                                    "16 bytes"),
+    "a job longer than its room": (FIT.replace("job = 'estimate'", "job = 'estimate        x'"),
+                                   "line 6: a value of job in group &case is longer than its 16 "
+                                   "bytes"),
     "a null in names": (FIT.replace("names = 'a11', 'a21', 'b1'", "names = 'a11', , 'b1'"),
                         "group &model: names(2) is a null value, and names has no default to keep"),
     "free from its second element": (

@@ -36,6 +36,7 @@ contains
     cut = char_end(title, TITLE_CHARS)
     c%title = title(1:cut)
     c%job = to_lower(adjustl(job))
+    if (too_long(rd, c, 'case', ['job'], len(job))) return
     if (cut < len_trim(title)) then
       call fail(c, 'group &case: title is longer than '//itoa(TITLE_CHARS)//' characters')
       return

@@ -65,6 +65,8 @@ contains
     if (len(gtext) > 0) read (gtext, nml=estimate, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'estimate', ios, iomsg, .false., c)
     if (c%status /= MLID_OK) return
+    if (too_long(rd, c, 'estimate', [character(len=16) :: 'method', 'startup', 'rank_rule', &
+                 'noise', 'process_noise', 'noise_criterion', 'filter_params'], len(method))) return
     call take_corrected(c, corrected)
     if (c%status /= MLID_OK) return
     opt%max_iter = max_iter

@@ -45,6 +45,7 @@ contains
     if (len(gtext) > 0) read (gtext, nml=simulate, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'simulate', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
+    if (too_long(rd, c, 'simulate', ['input_shape'], len(input_shape))) return
     c%out_file = out
     c%input_file = input_file
     c%t_end = t_end
@@ -175,6 +176,8 @@ contains
     if (len(gtext) > 0) read (gtext, nml=design, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'design', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
+    if (too_long(rd, c, 'design', ['method'], len(method))) return
+    if (too_long(rd, c, 'design', ['unknowns'], len(unknowns))) return
     c%out_file = out
     c%t_end = t_end
     c%dt = dt

@@ -116,6 +116,10 @@ contains
     if (len(gtext) > 0) read (gtext, nml=model, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'model', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
+    ! a word cut to its room could read as another ('linear' and more blanks)
+    if (too_long(rd, c, 'model', ['kind      ', 'input_hold'], len(kind))) return
+    if (too_long(rd, c, 'model', ['cd_regressors', 'cl_regressors', 'cm_regressors'], &
+                 len(cd_regressors))) return
     ! free and names have no default: a null would drop a parameter unseen
     call list_length(rd, c, 'model', 'free', MAXFREE, .false., nfree)
     call list_length(rd, c, 'model', 'names', MAXFREE, .false., nfree)
