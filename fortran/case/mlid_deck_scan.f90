@@ -81,6 +81,7 @@ contains
     msg = ''
     seen = ' '
     group = ''
+    word = ''
     gline = 0
     after = 0
     ne = 0               ! assignments so far: every(1:ne)
