@@ -153,7 +153,9 @@ ENTRIES = {
     "nx = 0": ("nx_0.nml", r"out of range", {}),
     "nx = 31": ("nx_31.nml", r"out of range", {}),
     "nx = -1": ("nx_minus_1.nml", r"out of range", {}),
-    "nx = 2147483648": ("nx_2147483648.nml", r"\bnx\b|[Ii]nteger overflow", {}),
+    "nx = 2147483648": ("nx_2147483648.nml", r"^group &model \(line 8\): line 8: nx has a value "
+                                             r"beyond the integers \(-2147483648 to 2147483647\)$",
+                        {}),
     "free parameter that does not exist": ("free_missing.nml", r"'f\(3,1\)' does not exist", {}),
     "free parameter listed twice": ("free_twice.nml", r"'f\(1,1\)' listed twice", {}),
     "tie to a missing parameter": ("tie_missing.nml", r"tie 'f\(1,2\)=f\(3,3\)'", {}),
@@ -265,7 +267,47 @@ ENTRIES = {
     "a title of 100 characters in 200 bytes": ("utf8_title.nml", OK, {"same_as": "plain deck",
                                                                       "title": "\u00e9" * 100}),
     # a job's blanks around it are no part of it: ' estimate ' is estimate
-    "job with blanks around it": ("job_blanks.nml", OK, {"same_as": "plain deck"}),
+    "job with blanks around it": ("job_blanks.nml", OK, {"same_as": "plain deck"}),    # issue 41 follow-ups (a held-out corpus): elements of lists with a default (x0, bias, d,
+    # delay, r) named alone keep the others' default, as a null does
+    "elements of lists with a default named alone": ("elements_by_index.nml", OK,
+                                                     {"same_as": "plain deck"}),
+    # sections with a stride are legal: a stride of 0, and more values than the elements
+    # of a section, are named as such (not "one index", not "given twice")
+    "a stride of 0": ("stride_0.nml", r"^line 14: x0\(1:2:0\): the stride is 0 \(NAME\(i:j:s\) "
+                                      r"takes every s-th element from i to j\)$", {}),
+    "3 values for a section of 2 elements": (
+        "section_too_many.nml", r"^line 13: h\(1:4:2\) has 3 values for its 2 elements in group "
+                                r"&model$", {}),
+    # gfortran's "Integer overflow while reading item 1", "Bad repeat count in item 1":
+    # the item named
+    "max_iter = -2147483649": ("max_iter_overflow.nml",
+                               r"^group &estimate \(line 15\): line 15: max_iter has a value beyond "
+                               r"the integers \(-2147483648 to 2147483647\)$", {}),
+    "a number for a logical": ("steady_state_number.nml",
+                               r"^group &estimate \(line 15\): line 15: steady_state takes T or F "
+                               r"\(true or false\), not a number$", {}),
+    # the limit, as for 21 data files (the namelist read blamed a value)
+    "201 free parameters": ("free_201.nml", r"^group &model: free has 201 entries; a case takes "
+                                            r"at most 200 free parameters$", {}),
+    # free has no default: a null would drop a parameter unseen (it fitted 2)
+    "a null in free": ("free_null.nml", r"^group &model: free\(2\) is a null value, and free has "
+                                        r"no default to keep$", {}),
+    # a name takes non-ASCII bytes: the message quotes it whole
+    "a group name with a non-ASCII letter": ("group_non_ascii.nml",
+                                             r"^line 8: unknown group &modèle \(groups are ", {}),
+    "a name with a non-ASCII letter": ("name_non_ascii.nml", r"^group &model \(line 8\): line 8: "
+                                                            r"unknown name ñx in group &model$", {}),
+    # the report's label column is 16 bytes: the message says bytes, and quotes the label whole
+    "a label of 6 CJK characters (18 bytes)": (
+        "label_cjk.nml", r"^group &model: the label '日本語日本語' of free parameter 1 is longer "
+                         r"than the 16 bytes the report prints", {}),
+    "a label of 16 × é (32 bytes)": (
+        "label_16_e_acute.nml", r"^group &model: the label 'é{16}' of free parameter 1 is longer "
+                                r"than the 16 bytes the report prints", {}),
+    # its square, the variance r, overflowed: "parameter 21 is not finite"
+    "noise_std = 1e200": ("noise_std_huge.nml", r"^group &simulate: noise_std\(1\) is too large: "
+                                                r"its square, the variance r, is beyond the largest "
+                                                r"number", {}),
 }
 
 # whole decks that are refused as a whole: name -> (how to make the deck, phrase)

@@ -198,17 +198,17 @@ LONG = {
     "a label wider than the report's column": (
         FIT.replace("names = 'a11'", "names = 'a_rather_long_label'"),
         "group &model: the label 'a_rather_long_label' of free parameter 1 is longer than the 16 "
-        "characters the report prints (a shorter one in names)"),
+        "bytes the report prints (a shorter one in names)"),
     "an output name over 32 characters": (
         FIT.replace("h = 1, 0, 0, 1,", "h = 1, 0, 0, 1, output_names = 'y1', '" + "y" * 33 + "',"),
-        "line 8: a value of output_names in group &model is longer than its 32 characters"),
+        "line 8: a value of output_names in group &model is longer than its 32 bytes"),
     "a state name over 32 characters, its quotes doubled": (
         FIT.replace("h = 1, 0, 0, 1,", "h = 1, 0, 0, 1, state_names = 'x1', '" + "x''" * 16
                     + "x',"),
-        "line 8: a value of state_names in group &model is longer than its 32 characters"),
+        "line 8: a value of state_names in group &model is longer than its 32 bytes"),
     "a file name over 511 characters": (
         FIT.replace("file = 'small.dat'", "file = '" + "d/" * 300 + "small.dat'"),
-        "...' is longer than 511 characters (with the deck's folder)"),
+        "...' is longer than 511 bytes (with the deck's folder)"),
 }
 
 
@@ -225,7 +225,7 @@ def test_values_longer_than_their_room_are_refused(tmp_path, name):
 def test_a_config_or_tags_longer_than_their_room_is_refused(tmp_path, entry):
     """They were cut without a word (a campaign table's column)."""
     _refused(tmp_path, FIT.replace("job = 'estimate' /", f"job = 'estimate', {entry} /"),
-             "group &case: config is longer than 64 characters, or tags than 256")
+             "group &case: config is longer than 64 bytes, or tags than 256")
 
 
 def test_a_title_longer_than_128_characters_is_refused(tmp_path):
@@ -247,7 +247,7 @@ BLAMED = {
                                   "x0"),
     "two indices": (FIT.replace("'b1' /", "'b1', f(1,1) = 2.0 /"),
                     "group &model (line 7): line 9: f(1,1): a deck's lists take one index, "
-                    "NAME(i) or NAME(i:j) (a matrix is one list, row by row)"),
+                    "NAME(i), NAME(i:j) or NAME(i:j:s) (a matrix is one list, row by row)"),
     "more values than a name takes": (
         FIT.replace("'b1' /", "'b1', x0 = " + "1, " * 40 + "bias = 0, 0 /"),
         "group &model (line 7): a value stands where a name should be (read as '1'): a "
@@ -383,3 +383,167 @@ def test_a_deck_is_read_alike_under_a_file_size_limit(tmp_path):
     assert outs["2", "mlid"] == outs["unlimited", "mlid"] == outs["2", "mlid-batch"] \
         == outs["unlimited", "mlid-batch"]
     assert "not converged after 2 iterations" in outs["2", "mlid"][1]   # its options read
+
+
+# ---- issue 41 follow-ups (a held-out corpus) -----------------------------------------
+
+# an element of a list with a default named alone sets it, the others keep their default
+# (as a null does): each pair reads alike, through both front ends
+BY_INDEX = {
+    "x0": ("'b1' /", "'b1', x0(2) = 0.05 /", "'b1', x0 = 0.0, 0.05 /"),
+    "bias and d": ("'b1' /", "'b1', bias(2) = 0.01, d(2) = 0.1 /",
+                   "'b1', bias = 0.0, 0.01, d = 0.0, 0.1 /"),
+    "delay": ("'b1' /", "'b1', delay(2) = 0.02 /", "'b1', delay = 0.0, 0.02 /"),
+    "&data t_start of the second file": (
+        "file = 'small.dat',", "file = 'small.dat', 'small.dat', t_start(2) = 0.5,",
+        "file = 'small.dat', 'small.dat', t_start = 0.0, 0.5,"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BY_INDEX))
+def test_elements_named_alone_keep_the_others_default(tmp_path, name):
+    plain, by_index, whole = BY_INDEX[name]
+    deck = tmp_path / "deck.nml"
+    outs = []
+    for text in (by_index, whole):
+        deck.write_text(SIM + FIT.replace(plain, text) + GOOD)
+        both = run_both(deck, cwd=tmp_path)
+        assert all(r.returncode == 0 for r in both), both[0].stderr
+        assert both[0].stdout == both[1].stdout
+        outs.append(both[0].stdout)
+    assert outs[0] == outs[1]
+    deck.write_text(SIM + FIT + GOOD)
+    assert run_both(deck, cwd=tmp_path)[0].stdout != outs[0]   # the element did count
+
+
+FOLLOW_UPS = {
+    "an element beyond a list with a default": (
+        FIT.replace("'b1' /", "'b1', x0(3) = 1.0 /"),
+        "group &model: x0(3) is given, and x0 takes 2 values"),
+    "an element beyond a matrix with a default": (
+        FIT.replace("'b1' /", "'b1', d(3) = 1.0 /"),
+        "group &model: d(3) is given, and d takes 2 values (2x1, row by row)"),
+    "a stride that does not go from i to j": (
+        FIT.replace("'b1' /", "'b1', x0(1:2:-1) = 1.0 /"),
+        "line 9: x0(1:2:-1): a stride of -1 does not go from 1 to 2 (NAME(i:j:s) takes every "
+        "s-th element from i to j)"),
+    "a section's upper bound below its lower": (
+        FIT.replace("'b1' /", "'b1', x0(2:1) = 1.0 /"),
+        "line 9: x0(2:1): a stride of 1 does not go from 2 to 1"),
+    "3 values for a section of 2": (
+        FIT.replace("'b1' /", "'b1', x0(1:2) = 1, 2, 3 /"),
+        "line 9: x0(1:2) has 3 values for its 2 elements in group &model"),
+    "an integer overflow in the second item": (
+        FIT.replace("halvings = 5", "halvings = 99999999999"),
+        "group &estimate (line 11): line 11: halvings has a value beyond the integers "
+        "(-2147483648 to 2147483647)"),
+    "an integer overflow in &data": (
+        FIT.replace("output_cols = 3, 4 /", "output_cols = 3, 4, skip_rows = -2147483649 /"),
+        "group &data (line 10): line 10: skip_rows has a value beyond the integers"),
+    "an integer overflow in &simulate": (
+        SIM.replace("'make data'", "'middle'").replace("seed = 4", "seed = 4294967296")
+        .replace("small.dat", "other.dat"),
+        "group &simulate (line 9): line 9: seed has a value beyond the integers"),
+    "a real for a logical": (FIT.replace("halvings = 5", "halvings = 5, partials = 0.5"),
+                             "group &estimate (line 11): line 11: partials takes T or F (true or "
+                             "false), not a number"),
+    "a repeat count for a scalar": (FIT.replace("halvings = 5", "halvings = 2*5"),
+                                    "group &estimate (line 11): line 11: halvings is given more "
+                                    "values than it takes (r*value is r values)"),
+    # a word cut to its room read as another: 'linear' and ten blanks and x was linear
+    "a kind longer than its room": (FIT.replace("kind = 'linear'", "kind = 'linear          x'"),
+                                    "line 7: a value of kind in group &model is longer than its "
+                                    "16 bytes"),
+    "a job longer than its room": (FIT.replace("job = 'estimate'", "job = 'estimate        x'"),
+                                   "line 6: a value of job in group &case is longer than its 16 "
+                                   "bytes"),
+    "a null in names": (FIT.replace("names = 'a11', 'a21', 'b1'", "names = 'a11', , 'b1'"),
+                        "group &model: names(2) is a null value, and names has no default to keep"),
+    "free from its second element": (
+        FIT.replace("free = 'f(1,1)', 'f(2,1)', 'g(1,1)', names = 'a11', 'a21', 'b1'",
+                    "free(2) = 'f(2,1)'"),
+        "group &model: free(1) is left out, free(2) given (a list is given from its first "
+        "element on)"),
+    "201 a priori values": (FIT.replace("halvings = 5", "halvings = 5, prior = 201*1.0"),
+                            "group &estimate: prior has 201 entries; a case takes at most 200 "
+                            "free parameters"),
+    "a label over the 32 bytes of its room": (
+        FIT.replace("names = 'a11'", "names = '" + "日" * 11 + "'"),
+        "line 9: a value of names in group &model is longer than its 32 bytes"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(FOLLOW_UPS))
+def test_follow_ups_are_refused_in_their_words(tmp_path, name):
+    middle, message = FOLLOW_UPS[name]
+    _refused(tmp_path, middle, message)
+
+
+def test_a_message_never_cuts_a_utf8_character(tmp_path):
+    """A group name of 30 × 'é' is quoted cut to 37 bytes: at a character's
+    end (18 of them), never inside one; stderr and JSON are valid UTF-8."""
+    import subprocess
+    from conftest import BIN
+    deck = tmp_path / "deck.nml"
+    deck.write_text(SIM + FIT.replace("&model", "&" + "é" * 30, 1) + GOOD)
+    for exe, pre in (("mlid", ["run"]), ("mlid-batch", [])):
+        run = subprocess.run([str(BIN / exe), *pre, str(deck), "--json", str(tmp_path / "o.json")],
+                             capture_output=True, cwd=tmp_path)
+        err = run.stderr.decode("utf-8")          # strict: no byte of a cut character
+        assert f"line 7: unknown group &{'é' * 18}... (groups are" in err, err
+        js = (tmp_path / "o.json").read_bytes().decode("utf-8")
+        assert "\ufffd" not in js and "é" * 18 + "..." in js
+
+
+# a plain deck of every job, read where the stack is small: &model's lists on the stack
+# (over 512 KB) overflowed a thread's stack and `ulimit -s 512`; both front ends segfaulted
+EVERY_JOB = SIM + FIT + """&case title = 'design', job = 'design' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1, r = 0.01, 0.01,
+    free = 'f(1,1)', 'g(1,1)' /
+&design t_end = 2.0, dt = 0.02, energy = 1.0, out = 'designed.dat' /
+&case title = 'mc', job = 'monte_carlo' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3,   h = 1, 0, 0, 1, r = 0.01, 0.01,
+    free = 'f(1,1)', 'g(1,1)' /
+&monte_carlo runs = 2, input_file = 'small.dat' /
+&estimate max_iter = 5 /
+"""
+
+
+def test_a_deck_reads_in_a_thread_of_256_kb(tmp_path):
+    """mlid.read_deck in a thread whose stack is 256 KB (in a child process:
+    a stack overflow would end the test run)."""
+    import subprocess
+    import sys
+    deck = tmp_path / "deck.nml"
+    deck.write_text(EVERY_JOB)
+    code = f"""
+import threading, mlid
+threading.stack_size(256 * 1024)
+got = []
+t = threading.Thread(target=lambda: got.append(mlid.read_deck({str(deck)!r})))
+t.start(); t.join()
+print([(c.title, c.error) for c in got[0]])
+"""
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.strip() == str([("make data", None), ("middle", None), ("design", None),
+                                      ("mc", None)])
+
+
+def test_both_front_ends_run_a_deck_under_ulimit_s_256(tmp_path):
+    """mlid-batch and mlid run under `ulimit -s 256` (KB): the same report as
+    without the limit."""
+    import subprocess
+    from conftest import BIN
+    deck = tmp_path / "deck.nml"
+    deck.write_text(SIM + FIT + GOOD)
+    outs = {}
+    for limit in ("unlimited", "256"):
+        for exe, pre in (("mlid", "run "), ("mlid-batch", "")):
+            run = subprocess.run(["bash", "-c", f"ulimit -s {limit}; '{BIN / exe}' {pre}'{deck}'"],
+                                 capture_output=True, text=True, cwd=tmp_path)
+            assert run.returncode == 0, (limit, exe, run.returncode, run.stderr[-2000:])
+            outs[limit, exe] = run.stdout
+    assert len(set(outs.values())) == 1 and outs["256", "mlid"].count("converged (") == 2

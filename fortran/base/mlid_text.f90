@@ -8,7 +8,7 @@ module mlid_text
   private
   public :: to_lower, to_upper, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
             text_file_t, text_open, text_line, text_close, control_character, comment_start, &
-            short_path, seconds, number_text, es_text, fixed_text, add_line
+            short_path, seconds, number_text, es_text, fixed_text, add_line, utf8_head
 
   integer, parameter :: CHUNK = 4096
   character(len=3), parameter :: BOM = char(239)//char(187)//char(191)   !< UTF-8 byte-order mark
@@ -56,6 +56,32 @@ contains
     write (buf, '(i0)') i
     s = trim(buf)
   end function itoa
+
+  !> text cut to at most n bytes at a UTF-8 character boundary, a character
+  !> cut short at its end dropped too (a message quoting a name never ends
+  !> inside a character): a lead byte 110xxxxx, 1110xxxx or 11110xxx starts a
+  !> character of 2, 3 or 4 bytes; any other byte is one of its own.
+  pure function utf8_head(text, n) result(head)
+    character(len=*), intent(in) :: text
+    integer, intent(in) :: n
+    character(len=:), allocatable :: head
+    integer :: k, p, b, need
+    k = min(max(n, 0), len(text))
+    p = k                                 ! where the last character starts
+    do while (p > 1 .and. p > k - 3)
+      if (iand(iachar(text(p:p)), 192) /= 128) exit
+      p = p - 1
+    end do
+    need = 1
+    if (p >= 1) then
+      b = iachar(text(p:p))
+      if (iand(b, 224) == 192) need = 2
+      if (iand(b, 240) == 224) need = 3
+      if (iand(b, 248) == 240) need = 4
+      if (p + need - 1 > k) k = p - 1
+    end if
+    head = text(1:k)
+  end function utf8_head
 
   !> 'a, b, c'
   function joined(names) result(text)

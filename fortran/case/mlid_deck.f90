@@ -49,7 +49,8 @@
 !> read: its record, its manoeuvres' layout).
 module mlid_deck
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower, itoa, read_text, line_t, add_line, control_character, es_text
+  use mlid_text, only: to_lower, itoa, read_text, line_t, add_line, control_character, es_text, &
+                       utf8_head
   use mlid_deck_scan, only: deck_scan, assignment_t, group_span_t, element_states, last_element, &
                             ABSENT, &
                             NULLED, GIVEN
@@ -147,23 +148,35 @@ module mlid_deck
     !> the first m of v, m the last one given, where a null keeps v's
     !> entry (its default, filled before the read).  An element left out
     !> before the last, or a null where has_default is false, fails the
-    !> case.
-    module subroutine take_list(rd, c, group, key, v, out, has_default)
+    !> case.  full: the list's length when the deck names some of its
+    !> elements by index alone (x0(2) = ...): those are set, the others keep
+    !> their default (has_default), and out is v(1:full).
+    module subroutine take_list(rd, c, group, key, v, out, has_default, full)
       type(reader_t), intent(in) :: rd
       type(case_t), intent(inout) :: c
       character(len=*), intent(in) :: group, key
       real(wp), intent(in) :: v(:)
       real(wp), allocatable, intent(out) :: out(:)
       logical, intent(in) :: has_default
+      integer, intent(in), optional :: full
     end subroutine take_list
 
-    !> Lists of one entry per manoeuvre given more than MAXSEG entries fail
-    !> the case, in those words (the namelist read would blame a value).
-    module subroutine per_manoeuvre(rd, c, group, keys)
+    !> Whether the deck gives key of group by index alone: every assignment
+    !> of it has a subscript (x0(2) = ...), none gives the list whole.
+    module logical function by_index(rd, group, key)
+      type(reader_t), intent(in) :: rd
+      character(len=*), intent(in) :: group, key
+    end function by_index
+
+    !> Lists given more than room entries fail the case, in words that name
+    !> the limit, room what (the namelist read would blame a value): '20
+    !> manoeuvres (data files)', '200 free parameters'.
+    module subroutine at_most(rd, c, group, keys, room, what)
       type(reader_t), intent(in) :: rd
       type(case_t), intent(inout) :: c
-      character(len=*), intent(in) :: group, keys(:)
-    end subroutine per_manoeuvre
+      character(len=*), intent(in) :: group, keys(:), what
+      integer, intent(in) :: room
+    end subroutine at_most
 
     !> How many elements of list key (of room n) the deck gave, m (take_list).
     module subroutine list_length(rd, c, group, key, n, has_default, m)
@@ -454,8 +467,8 @@ contains
   subroutine path_too_long(c, path)
     type(case_t), intent(inout) :: c
     character(len=*), intent(in) :: path
-    if (c%status == MLID_OK) call fail(c, 'file name '''//path(1:min(len(path), 40))// &
-      '...'' is longer than '//itoa(PATHLEN - 1)//' characters (with the deck''s folder)')
+    if (c%status == MLID_OK) call fail(c, 'file name '''//utf8_head(path, 40)// &
+      '...'' is longer than '//itoa(PATHLEN - 1)//' bytes (with the deck''s folder)')
   end subroutine path_too_long
 
   !> Whether path is the deck, the case's input_file or one of its data

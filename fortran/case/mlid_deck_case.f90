@@ -36,12 +36,13 @@ contains
     cut = char_end(title, TITLE_CHARS)
     c%title = title(1:cut)
     c%job = to_lower(adjustl(job))
+    if (too_long(rd, c, 'case', ['job'], len(job))) return
     if (cut < len_trim(title)) then
       call fail(c, 'group &case: title is longer than '//itoa(TITLE_CHARS)//' characters')
       return
     end if
     if (len_trim(config) > len(c%config) .or. len_trim(tags) > len(c%tags)) then
-      call fail(c, 'group &case: config is longer than '//itoa(len(c%config))//' characters, '// &
+      call fail(c, 'group &case: config is longer than '//itoa(len(c%config))//' bytes, '// &
                 'or tags than '//itoa(len(c%tags)))
       return
     end if

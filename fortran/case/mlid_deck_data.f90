@@ -4,7 +4,7 @@
 !> a validate case holds out, and the initial states per file.
 submodule (mlid_deck) mlid_deck_data
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_text, only: text_lines
+  use mlid_text, only: text_lines, utf8_head
   use mlid_case, only: MAXSEG
   use mlid_channels, only: channels_spec, channels_join
   implicit none
@@ -14,12 +14,13 @@ contains
   !> &data: the records (one file per manoeuvre), the channels taken of
   !> them (by column number or name), the columns' names and units, derived
   !> channels, the units channels are shown in and the time window of each
-  !> file.
+  !> file.  Its lists are allocated (some 190 KB: not on a thread's stack).
   module procedure read_data_group
-    character(len=PATHLEN) :: file(MAXSEG), join(MAXSEG)
-    character(len=CHANLEN) :: time_col, input_cols(MAXCOL), output_cols(MAXCOL), &
-                              columns(MAXCOL), units(MAXCOL), show(MAXCOL), join_columns(MAXCOL)
-    character(len=EXPRLEN) :: derived(MAXDER)
+    character(len=PATHLEN), allocatable :: file(:), join(:)
+    character(len=CHANLEN) :: time_col
+    character(len=CHANLEN), allocatable :: input_cols(:), output_cols(:), columns(:), units(:), &
+                                           show(:), join_columns(:)
+    character(len=EXPRLEN), allocatable :: derived(:)
     real(wp) :: t_start(MAXSEG), t_end(MAXSEG), dt
     integer :: skip_rows, ios, status, holdout(MAXSEG), i, nh
     real(wp), allocatable :: ts(:), te(:)
@@ -28,6 +29,13 @@ contains
     namelist /data/ file, time_col, input_cols, output_cols, skip_rows, columns, units, &
       derived, show, t_start, t_end, holdout, dt, join, join_columns
 
+    allocate (file(MAXSEG), join(MAXSEG), input_cols(MAXCOL), output_cols(MAXCOL), &
+              columns(MAXCOL), units(MAXCOL), show(MAXCOL), join_columns(MAXCOL), &
+              derived(MAXDER), stat=ios)
+    if (ios /= 0) then
+      call fail(c, 'group &data: out of memory for its lists')
+      return
+    end if
     file = ''
     join = ''
     join_columns = ''
@@ -43,8 +51,8 @@ contains
     skip_rows = 0
     holdout = 0
     dt = 0.0_wp
-    call per_manoeuvre(rd, c, 'data', [character(len=8) :: 'file', 'join', 't_start', 't_end', &
-                                       'holdout'])
+    call at_most(rd, c, 'data', [character(len=8) :: 'file', 'join', 't_start', 't_end', &
+                                 'holdout'], MAXSEG, 'manoeuvres (data files)')
     if (c%status /= MLID_OK) return
     gtext = group_text(rd, 'data')
     ios = -1                          ! missing
@@ -53,8 +61,8 @@ contains
     if (c%status /= MLID_OK) return
     c%data_files = pack(file, len_trim(file) > 0)
     c%file_no = [(i, i=1, size(c%data_files))]
-    call take_list(rd, c, 'data', 't_start', t_start, ts, .true.)
-    call take_list(rd, c, 'data', 't_end', t_end, te, .true.)
+    call take_list(rd, c, 'data', 't_start', t_start, ts, .true., size(c%data_files))
+    call take_list(rd, c, 'data', 't_end', t_end, te, .true., size(c%data_files))
     call list_length(rd, c, 'data', 'holdout', size(holdout), .false., nh)
     if (c%status /= MLID_OK) return
     call data_windows(c, ts, te)
@@ -155,11 +163,11 @@ contains
     if (size(c%data_files) == 0) then
       call fail(c, 'group &data: file is missing')
     else if (k > 0) then
-      call fail(c, 'group &data: "'//entries(k)(1:20)//'..." is longer than '// &
-                itoa(len(entries))//' characters')
+      call fail(c, 'group &data: "'//utf8_head(entries(k), 20)//'..." is longer than '// &
+                itoa(len(entries))//' bytes')
     else if (any(len_trim(derived) == len(derived))) then
       call fail(c, 'group &data: a derived channel is longer than '//itoa(len(derived))// &
-                ' characters')
+                ' bytes')
     end if
   end subroutine check_data_group
 

@@ -56,13 +56,17 @@ contains
     lower = -huge(1.0_wp)
     upper = huge(1.0_wp)
     corrected = ''
-    call per_manoeuvre(rd, c, 'estimate', ['corrected'])
+    call at_most(rd, c, 'estimate', ['corrected'], MAXSEG, 'manoeuvres (data files)')
+    call at_most(rd, c, 'estimate', [character(len=12) :: 'prior', 'prior_weight', 'lower', &
+                                     'upper'], MAXFREE, 'free parameters')
     if (c%status /= MLID_OK) return
     gtext = group_text(rd, 'estimate')
     ios = -1                          ! missing
     if (len(gtext) > 0) read (gtext, nml=estimate, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'estimate', ios, iomsg, .false., c)
     if (c%status /= MLID_OK) return
+    if (too_long(rd, c, 'estimate', [character(len=16) :: 'method', 'startup', 'rank_rule', &
+                 'noise', 'process_noise', 'noise_criterion', 'filter_params'], len(method))) return
     call take_corrected(c, corrected)
     if (c%status /= MLID_OK) return
     opt%max_iter = max_iter

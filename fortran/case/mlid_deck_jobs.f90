@@ -45,15 +45,16 @@ contains
     if (len(gtext) > 0) read (gtext, nml=simulate, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'simulate', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
+    if (too_long(rd, c, 'simulate', ['input_shape'], len(input_shape))) return
     c%out_file = out
     c%input_file = input_file
     c%t_end = t_end
     c%dt = dt
     c%seed = seed
     call take_list(rd, c, 'simulate', 'noise_std', noise_std, c%noise_std, .false.)
-    call take_list(rd, c, 'simulate', 'amplitude', amplitude, c%amplitude, .true.)
-    call take_list(rd, c, 'simulate', 't_start', t_start, c%t_start, .true.)
-    call take_list(rd, c, 'simulate', 'pulse_width', pulse_width, c%pulse_width, .true.)
+    call take_list(rd, c, 'simulate', 'amplitude', amplitude, c%amplitude, .true., c%nu)
+    call take_list(rd, c, 'simulate', 't_start', t_start, c%t_start, .true., c%nu)
+    call take_list(rd, c, 'simulate', 'pulse_width', pulse_width, c%pulse_width, .true., c%nu)
     if (c%status /= MLID_OK) return
     if (len_trim(input_file) > 0 .and. (t_end /= 0.0_wp .or. dt /= 0.0_wp .or. &
         any(len_trim(input_shape) > 0) .or. size(c%amplitude) > 0 .or. &
@@ -96,6 +97,10 @@ contains
     else if (.not. all(c%noise_std >= 0.0_wp .and. ieee_is_finite(c%noise_std))) then
       call fail(c, 'group &simulate: noise_std (the standard deviation of each output''s '// &
                 'noise) must be >= 0 and finite')
+    else if (any(c%noise_std > sqrt(huge(1.0_wp)))) then
+      call fail(c, 'group &simulate: noise_std('//itoa(findloc(c%noise_std > sqrt(huge(1.0_wp)), &
+                .true., 1))//') is too large: its square, the variance r, is beyond the '// &
+                'largest number ('//trim(es_text(sqrt(huge(1.0_wp)), 10, 3))//' at most)')
     else if (size(c%amplitude) /= c%nu) then
       write (iomsg, '(a,i0,a,i0,a)') 'group &simulate: amplitude has ', size(c%amplitude), &
         ' values, the model has ', c%nu, ' inputs'
@@ -145,7 +150,7 @@ contains
     character(len=PATHLEN) :: out
     real(wp) :: t_end, dt, energy, peak, min_width, weights(MAXFREE), servo(MAXU), &
                 process_noise(MAXX*MAXX)
-    integer :: iterations, ios
+    integer :: iterations, ios, nunk
     character(len=msg_len) :: iomsg
     real(wp), allocatable :: wts(:), srv(:), pn(:)
     character(len=:), allocatable :: gtext
@@ -164,11 +169,15 @@ contains
     servo = 0.0_wp
     process_noise = 0.0_wp
     iterations = 12
+    call at_most(rd, c, 'design', ['unknowns', 'weights '], MAXFREE, 'unknowns')
+    if (c%status /= MLID_OK) return
     gtext = group_text(rd, 'design')
     ios = -1                          ! missing
     if (len(gtext) > 0) read (gtext, nml=design, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'design', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
+    if (too_long(rd, c, 'design', ['method'], len(method))) return
+    if (too_long(rd, c, 'design', ['unknowns'], len(unknowns))) return
     c%out_file = out
     c%t_end = t_end
     c%dt = dt
@@ -179,10 +188,13 @@ contains
     c%iterations = iterations
     if (len_trim(method) == 0) c%design_method = merge('amplitude', 'operator ', &
                                                         is_given(rd, 'design', 'peak'))
-    call design_model_check(c)
+    ! unknowns has no default but the free parameters: a null would drop one unseen
+    call list_length(rd, c, 'design', 'unknowns', size(unknowns), .false., nunk)
+    if (c%status == MLID_OK) call design_model_check(c)
     if (c%status == MLID_OK) call design_unknowns(c, unknowns)
-    call take_list(rd, c, 'design', 'weights', weights, wts, .true.)
-    call take_list(rd, c, 'design', 'servo', servo, srv, .true.)
+    if (c%status /= MLID_OK) return
+    call take_list(rd, c, 'design', 'weights', weights, wts, .true., size(c%ukind))
+    call take_list(rd, c, 'design', 'servo', servo, srv, .true., c%nu)
     call take_list(rd, c, 'design', 'process_noise', process_noise, pn, .false.)
     if (c%status == MLID_OK) call design_settings(c, wts, srv, pn)
     if (c%status == MLID_OK) call design_limits(c, is_given(rd, 'design', 'energy'), &
@@ -337,6 +349,8 @@ contains
     truth = 0.0_wp                ! a null keeps the start value
     truth(1:size(free_idx)) = c%theta(free_idx)
     input_file = ''
+    call at_most(rd, c, 'monte_carlo', ['truth'], MAXFREE, 'free parameters')
+    if (c%status /= MLID_OK) return
     gtext = group_text(rd, 'monte_carlo')
     ios = -1                          ! missing
     if (len(gtext) > 0) read (gtext, nml=monte_carlo, iostat=ios, iomsg=iomsg)
@@ -347,7 +361,7 @@ contains
     c%seed = seed
     c%input_file = input_file
     c%theta_true = c%theta
-    call take_list(rd, c, 'monte_carlo', 'truth', truth, tr, .true.)
+    call take_list(rd, c, 'monte_carlo', 'truth', truth, tr, .true., nf)
     if (c%status /= MLID_OK) return
     if (size(tr) == nf .and. nf > 0) c%theta_true(free_idx) = tr
     if (len_trim(input_file) == 0) then

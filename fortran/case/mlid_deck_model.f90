@@ -16,27 +16,29 @@ submodule (mlid_deck) mlid_deck_model
   use mlid_params, only: no_ties
   use mlid_layout, only: layout_table_t, layout_table, layout_of, element_index, element_name, &
                          default_label, block_list
+  use mlid_text, only: utf8_head
   implicit none
 
 contains
 
   !> &model: the kind and sizes, the parameter vector, free parameters and
-  !> their labels, ties, input hold and substeps, channel names.
+  !> their labels, ties, input hold and substeps, channel names.  Its lists
+  !> are allocated (over half a megabyte of text and numbers: on the stack
+  !> they overflowed a thread's 256 KB, and a shell's ulimit -s 512).
   module procedure read_model_group
     character(len=16) :: kind, input_hold
-    integer :: nx, nu, ny, nw, substeps, user_iconst(MAXFREE), ncoef(3), ios
-    real(wp) :: f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY)
-    real(wp) :: gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY), k(MAXU*MAXX), bx(MAXX)
-    character(len=8) :: cd_regressors(MAXR), cl_regressors(MAXR), cm_regressors(MAXR)
-    real(wp) :: cd(MAXR), cl(MAXR), cm(MAXR), constants(9), p(MAXFREE), user_rconst(MAXFREE)
-    character(len=NAMELEN) :: free(MAXFREE), names(MAXFREE)
-    character(len=TIELEN) :: tie(MAXFREE)
-    character(len=NAMELEN) :: state_names(MAXX), input_names(MAXU), output_names(MAXY)
-    character(len=TIELEN) :: xdot(MAXX), outputs(MAXY), definitions(MAXDEF)
-    character(len=TIELEN) :: params(MAXFREE)
+    integer :: nx, nu, ny, nw, substeps, ncoef(3), ios, nfree
+    integer, allocatable :: user_iconst(:)
+    real(wp), allocatable :: f(:), g(:), h(:), d(:), x0(:), bias(:), gamma(:), q(:), r(:), &
+                             s(:), k(:), bx(:), cd(:), cl(:), cm(:), constants(:), p(:), &
+                             user_rconst(:), initial_states(:), delay(:), udelay(:), stab(:), &
+                             p0(:)
+    character(len=8), allocatable :: cd_regressors(:), cl_regressors(:), cm_regressors(:)
+    character(len=NAMELEN), allocatable :: free(:), names(:), state_names(:), input_names(:), &
+                                           output_names(:)
+    character(len=TIELEN), allocatable :: tie(:), xdot(:), outputs(:), definitions(:), params(:)
     character(len=TIELEN), allocatable :: xs(:)
     character(len=:), allocatable :: pre, post
-    real(wp) :: initial_states(MAXX*MAXSEG), delay(MAXY), udelay(MAXU), stab(MAXX*MAXY), p0(MAXX)
     character(len=msg_len) :: iomsg
     integer, allocatable :: codes(:)
     real(wp), allocatable :: pstart(:), consts(:), urconst(:), x0s(:)
@@ -49,6 +51,18 @@ contains
       cl_regressors, cm_regressors, cd, cl, cm, constants, p, user_iconst, user_rconst, &
       xdot, outputs, definitions, params, initial_states, delay, udelay, stab, p0
 
+    allocate (f(MAXX*MAXX), g(MAXX*MAXU), h(MAXY*MAXX), d(MAXY*MAXU), x0(MAXX), bias(MAXY), &
+              gamma(MAXX*MAXW), q(MAXW), r(MAXY), s(MAXW*MAXY), k(MAXU*MAXX), bx(MAXX), &
+              cd(MAXR), cl(MAXR), cm(MAXR), constants(9), p(MAXFREE), user_rconst(MAXFREE), &
+              user_iconst(MAXFREE), initial_states(MAXX*MAXSEG), delay(MAXY), udelay(MAXU), &
+              stab(MAXX*MAXY), p0(MAXX), cd_regressors(MAXR), cl_regressors(MAXR), &
+              cm_regressors(MAXR), free(MAXFREE), names(MAXFREE), state_names(MAXX), &
+              input_names(MAXU), output_names(MAXY), tie(MAXFREE), xdot(MAXX), outputs(MAXY), &
+              definitions(MAXDEF), params(MAXFREE), stat=ios)
+    if (ios /= 0) then
+      call fail(c, 'group &model: out of memory for its lists')
+      return
+    end if
     kind = 'linear'
     nx = 0
     nu = 0
@@ -95,11 +109,20 @@ contains
     udelay = 0.0_wp
     stab = 0.0_wp
     p0 = 0.0_wp
+    call at_most(rd, c, 'model', ['free ', 'names'], MAXFREE, 'free parameters')
+    if (c%status /= MLID_OK) return
     gtext = group_text(rd, 'model')
     ios = -1                          ! missing
     if (len(gtext) > 0) read (gtext, nml=model, iostat=ios, iomsg=iomsg)
     call group_status(rd, 'model', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
+    ! a word cut to its room could read as another ('linear' and more blanks)
+    if (too_long(rd, c, 'model', ['kind      ', 'input_hold'], len(kind))) return
+    if (too_long(rd, c, 'model', ['cd_regressors', 'cl_regressors', 'cm_regressors'], &
+                 len(cd_regressors))) return
+    ! free and names have no default: a null would drop a parameter unseen
+    call list_length(rd, c, 'model', 'free', MAXFREE, .false., nfree)
+    call list_length(rd, c, 'model', 'names', MAXFREE, .false., nfree)
     call take_list(rd, c, 'model', 'constants', constants, consts, .false.)
     call take_list(rd, c, 'model', 'user_rconst', user_rconst, urconst, .false.)
     call list_length(rd, c, 'model', 'user_iconst', size(user_iconst), .false., niconst)
@@ -126,7 +149,8 @@ contains
                             definitions, params, pstart)
       end select
       if (c%status /= MLID_OK) return
-    else if (any(len_trim([xdot, outputs, definitions, params]) > 0)) then
+    else if (any(len_trim(xdot) > 0) .or. any(len_trim(outputs) > 0) .or. &
+             any(len_trim(definitions) > 0) .or. any(len_trim(params) > 0)) then
       call fail(c, 'group &model: xdot, outputs, definitions and params are for kind = '// &
                 '''equations'', ''sixdof'' or ''flight_path'', not '''//trim(kind)//'''')
       return
@@ -134,8 +158,8 @@ contains
     call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], consts, &
                     user_iconst(1:niconst), urconst, nx, nu, ny, nw, ncoef, codes)
     if (c%status /= MLID_OK) return
-    if (too_long(rd, c, 'model', ['state_names ', 'input_names ', 'output_names'], NAMELEN)) &
-      return
+    if (too_long(rd, c, 'model', ['state_names ', 'input_names ', 'output_names', &
+                                  'free        ', 'names       '], NAMELEN)) return
     if (all(count(len_trim(state_names) > 0) /= [0, c%nx])) then
       call fail(c, 'group &model: state_names names every state (nx = '//itoa(c%nx)// &
                 ') or none; given '//itoa(count(len_trim(state_names) > 0)))
@@ -288,7 +312,9 @@ contains
 
   !> Place block key of the deck (a matrix given row by row) into theta
   !> (column-major); a block not given is zero unless required.  A null
-  !> value keeps its entry's default, zero: a required block has none.
+  !> value keeps its entry's default, zero: a required block has none.  A
+  !> block that is not required may name some of its elements alone
+  !> (x0(2) = 0.5): the others keep their default, as a null does.
   subroutine put_matrix(rd, c, lt, key, v, required)
     type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
@@ -310,6 +336,16 @@ contains
     if (ngiven == 0 .and. .not. required) then
       c%theta(o + 1:o + n) = 0.0_wp
       return
+    end if
+    if (.not. required .and. by_index(rd, 'model', key)) then
+      i = findloc(st /= ABSENT, .true., 1, back=.true.)
+      if (i > n) then
+        call fail(c, 'group &model: '//key//'('//itoa(i)//') is given, and '//key// &
+                  ' takes '//trim(shape_text(nr, nc, lt%cols(b) < 0)))
+        return
+      end if
+      where (st(1:n) == ABSENT) st(1:n) = NULLED      ! its default, as a null
+      ngiven = n
     end if
     if (ngiven /= n .or. any(st(1:n) == ABSENT)) then
       if (lt%cols(b) < 0) then
@@ -336,6 +372,15 @@ contains
       call fail(c, 'group &model: '//key//' has a value that is not finite')
   end subroutine put_matrix
 
+  !> 'n values', or 'n values (nr x nc, row by row)'.
+  function shape_text(nr, nc, vector) result(text)
+    integer, intent(in) :: nr, nc
+    logical, intent(in) :: vector
+    character(len=:), allocatable :: text
+    text = itoa(nr*nc)//' values'
+    if (.not. vector) text = text//' ('//itoa(nr)//'x'//itoa(nc)//', row by row)'
+  end function shape_text
+
   !> The free parameters (free_idx: their theta indices in the order of
   !> free) and their labels (names, else the default label).
   subroutine set_free(c, lt, free, names, free_idx)
@@ -352,7 +397,7 @@ contains
       if (len_trim(free(k)) == 0) cycle
       idx = element_index(lt, free(k))
       if (idx == 0) then
-        call fail(c, 'group &model: free parameter '''//trim(free(k))// &
+        call fail(c, 'group &model: free parameter '''//utf8_head(trim(free(k)), NAMELEN)// &
                   ''' does not exist ('//block_list(lt)//' within the dimensions)')
         return
       end if
@@ -365,9 +410,10 @@ contains
       labels(idx) = default_label(lt, idx)
       if (len_trim(names(k)) > 0) labels(idx) = names(k)
       if (len_trim(labels(idx)) > LABEL_WIDTH) then
-        call fail(c, 'group &model: the label '''//trim(labels(idx))//''' of free parameter '// &
-                  itoa(k)//' is longer than the '//itoa(LABEL_WIDTH)//' characters the report '// &
-                  'prints (a shorter one in names)')
+        ! the report's column is LABEL_WIDTH bytes (UTF-8: one to four a character)
+        call fail(c, 'group &model: the label '''//utf8_head(trim(labels(idx)), NAMELEN)// &
+                  ''' of free parameter '//itoa(k)//' is longer than the '//itoa(LABEL_WIDTH)// &
+                  ' bytes the report prints (a shorter one in names)')
         return
       end if
     end do
@@ -394,8 +440,8 @@ contains
     do k = 1, size(tie)
       if (len_trim(tie(k)) == 0) cycle
       if (len_trim(tie(k)) == len(tie(k))) then       ! namelist input cuts what does not fit
-        call fail(c, 'group &model: tie '''//tie(k)(1:40)//'...'' is longer than '// &
-                  itoa(len(tie(k)) - 1)//' characters')
+        call fail(c, 'group &model: tie '''//utf8_head(tie(k), 40)//'...'' is longer than '// &
+                  itoa(len(tie(k)) - 1)//' bytes')
         return
       end if
       call tie_parse(lt, tie(k), to, offset, n, from, scale, status, msg)

@@ -5,7 +5,7 @@
 !> an option set by name (set_option); a list of choices for a message;
 !> a line without its comment (strip_comment).
 submodule (mlid_deck) mlid_deck_reader
-  use mlid_text, only: comment_start
+  use mlid_text, only: comment_start, utf8_head
   use mlid_options, only: option_set
   use mlid_case, only: MAXSEG
   implicit none
@@ -38,13 +38,19 @@ contains
   !> a name of the group that is not one of its namelist's, a number where a
   !> name should be (a value too many), or the rest of a bad value, the name
   !> assigned just before it on its line being the one with the bad value
-  !> ("max_iter = 2.5"); or the variable whose index is out of range.
+  !> ("max_iter = 2.5"); or the variable whose index is out of range; or the
+  !> assignment it counts as its item n (an integer too large, a number for
+  !> a logical: by_item).
   function blame(rd, group, iomsg) result(text)
     type(reader_t), intent(in) :: rd
     character(len=*), intent(in) :: group, iomsg
     character(len=:), allocatable :: text, token, line
     integer :: p, k, q, e, b
     text = trim(iomsg)
+    if (index(iomsg, ' item ') > 0) then
+      text = by_item(rd, group, iomsg)
+      return
+    end if
     p = index(iomsg, 'namelist variable ')
     if (p > 0 .and. index(to_lower(iomsg), 'index') > 0) then
       k = assigned(rd, group, to_lower(trim(iomsg(p + 18:))), .true.)
@@ -54,9 +60,16 @@ contains
       if (index(iomsg, 'out of range') > 0) then
         text = text//'the index lies outside '//trim(rd%given(k)%key)
       else
-        text = text//'a deck''s lists take one index, NAME(i) or NAME(i:j) (a matrix is '// &
-               'one list, row by row)'
+        text = text//'a deck''s lists take one index, NAME(i), NAME(i:j) or NAME(i:j:s) '// &
+               '(a matrix is one list, row by row)'
       end if
+      return
+    end if
+    p = index(iomsg, 'Repeat count too large for namelist object ')
+    if (p > 0) then
+      k = assigned(rd, group, to_lower(trim(iomsg(p + 43:))), .false.)
+      if (k > 0) text = 'line '//itoa(rd%given(k)%line)//': '//trim(rd%given(k)%key)// &
+                        ' is given more values than it takes (r*value is r values)'
       return
     end if
     p = index(iomsg, 'object name ')
@@ -87,6 +100,39 @@ contains
     end do
   end function blame
 
+  !> gfortran's "Integer overflow while reading item 3", "Bad repeat count
+  !> in item 2 of list input" (a number for a logical): its item n is the
+  !> group's n-th assignment (NAME = values), the one named.
+  function by_item(rd, group, iomsg) result(text)
+    type(reader_t), intent(in) :: rd
+    character(len=*), intent(in) :: group, iomsg
+    character(len=:), allocatable :: text
+    integer :: p, n, k, ios
+    text = trim(iomsg)
+    p = index(iomsg, ' item ') + 6
+    n = 0
+    ios = 1
+    if (verify(iomsg(p:p), '0123456789') == 0) read (iomsg(p:), *, iostat=ios) n
+    if (ios /= 0) return
+    do k = 1, size(rd%given)
+      if (rd%given(k)%group /= group) cycle
+      n = n - 1
+      if (n > 0) cycle
+      associate (a => rd%given(k))
+        if (index(iomsg, 'Integer overflow') > 0) then
+          text = 'line '//itoa(a%line)//': '//trim(a%key)//' has a value beyond the '// &
+                 'integers (-2147483648 to 2147483647)'
+        else if (index(iomsg, 'Bad repeat count') > 0) then
+          text = 'line '//itoa(a%line)//': '//trim(a%key)//' takes T or F (true or false), '// &
+                 'not a number'
+        else
+          text = 'line '//itoa(a%line)//': '//trim(a%key)//': '//trim(iomsg)
+        end if
+      end associate
+      return
+    end do
+  end function by_item
+
   !> The case's first assignment of name key in group (with a subscript
   !> when subscripted), 0 when none.
   integer function assigned(rd, group, key, subscripted)
@@ -104,7 +150,7 @@ contains
   end function assigned
 
   !> Whether quoted text given to one of keys in group is longer than room,
-  !> the characters its variable holds (the namelist read would cut it
+  !> the bytes its variable holds (UTF-8: one to four a character) (the namelist read would cut it
   !> without a word): the case fails naming key, line and room.
   module procedure too_long
     integer :: k
@@ -113,7 +159,7 @@ contains
       associate (a => rd%given(k))
         if (a%group /= group .or. all(a%key /= keys) .or. a%longest <= room) cycle
         call fail(c, 'line '//itoa(a%line)//': a value of '//trim(a%key)//' in group &'// &
-                  group//' is longer than its '//itoa(room)//' characters')
+                  group//' is longer than its '//itoa(room)//' bytes')
         too_long = .true.
         return
       end associate
@@ -137,25 +183,62 @@ contains
     is_given = st(1) == GIVEN
   end procedure is_given
 
-  !> Lists of one entry per manoeuvre (data file) with more than MAXSEG.
-  module procedure per_manoeuvre
+  !> Lists with more than room entries (room: MAXSEG manoeuvres, MAXFREE
+  !> free parameters).
+  module procedure at_most
     integer :: k, m
     do k = 1, size(keys)
       m = last_element(rd%given, group, trim(keys(k)))
-      if (m <= MAXSEG) cycle
+      if (m <= room) cycle
       call fail(c, 'group &'//group//': '//trim(keys(k))//' has '//itoa(m)//' entries; a '// &
-                'case takes at most '//itoa(MAXSEG)//' manoeuvres (data files)')
+                'case takes at most '//itoa(room)//' '//what)
       return
     end do
-  end procedure per_manoeuvre
+  end procedure at_most
 
   !> The first m entries of v, m the last element of list key the deck
-  !> gave (list_length); a null keeps v's entry, its default.
+  !> gave (list_length); a null keeps v's entry, its default.  Elements
+  !> named by index alone in a list of full entries with a default: all
+  !> full entries, those not named keeping their default.
   module procedure take_list
     integer :: m
+    if (present(full) .and. has_default) then
+      if (by_index(rd, group, key)) then
+        m = last_element(rd%given, group, key)
+        if (m > min(full, size(v))) then
+          call beyond(c, group, key, m, min(full, size(v)))
+          allocate (out(0))
+        else
+          out = v(1:min(full, size(v)))
+        end if
+        return
+      end if
+    end if
     call list_length(rd, c, group, key, size(v), has_default, m)
     out = v(1:m)
   end procedure take_list
+
+  !> key(m) given, key taking n values.
+  subroutine beyond(c, group, key, m, n)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: group, key
+    integer, intent(in) :: m, n
+    call fail(c, 'group &'//group//': '//key//'('//itoa(m)//') is given, and '//key// &
+              ' takes '//itoa(n)//' value'//trim(merge('s', ' ', n /= 1)))
+  end subroutine beyond
+
+  module procedure by_index
+    integer :: k
+    by_index = .false.
+    do k = 1, size(rd%given)
+      if (rd%given(k)%group /= group .or. rd%given(k)%key /= key) cycle
+      if (len_trim(rd%given(k)%subscript) == 0) then
+        by_index = .false.
+        return
+      end if
+      by_index = .true.
+    end do
+  end procedure by_index
 
   !> The last element of list key (of room n) the deck gave, a value or a
   !> null (0: none); an element left out before it, or a null where the

@@ -16,8 +16,9 @@
 !> sentinel value (element_states), and where each group's text lies
 !> (group_span_t), which is all its namelist read is given.
 module mlid_deck_scan
+  use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
-  use mlid_text, only: to_lower, itoa, line_t
+  use mlid_text, only: to_lower, itoa, line_t, utf8_head
   implicit none
   private
   public :: deck_scan, assignment_t, group_span_t, element_states, last_element, ABSENT, NULLED, GIVEN
@@ -32,12 +33,13 @@ module mlid_deck_scan
   !> One assignment of a group: its group and name, the element its first
   !> item goes to and the step between items (first = -1 when the subscript
   !> is not of one dimension: the namelist read says what is wrong), the
-  !> items met (n), their runs (item, count, GIVEN or NULLED), its line and
-  !> the longest quoted text among them (a namelist read cuts text to its
-  !> variable's room without a word).
+  !> elements its subscript names (room, 0 when it has none or its upper
+  !> bound is the array's), the items met (n), their runs (item, count,
+  !> GIVEN or NULLED), its line and the longest quoted text among them (a
+  !> namelist read cuts text to its variable's room without a word).
   type :: assignment_t
     character(len=WORDLEN) :: group = '', key = '', subscript = ''
-    integer :: first = 1, step = 1, n = 0, line = 0, longest = 0, nrun = 0
+    integer :: first = 1, step = 1, room = 0, n = 0, line = 0, longest = 0, nrun = 0
     integer, allocatable :: run(:, :)
   end type assignment_t
 
@@ -51,6 +53,9 @@ module mlid_deck_scan
   character(len=*), parameter :: BLANKS = ' '//achar(9)
   !> What the scan met last in an assignment's values (for null values)
   integer, parameter :: AFTER_EQUALS = 1, AFTER_VALUE = 2, AFTER_COMMA = 3
+  !> The bytes of a name (and of a group's): these, and any byte of a
+  !> non-ASCII character, so that a message quotes the whole of a name like
+  !> ñx (not one cut at its first such byte); a namelist read then refuses it.
   character(len=*), parameter :: WORD_CHARS = &
     'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ_0123456789'
 
@@ -76,6 +81,7 @@ contains
     msg = ''
     seen = ' '
     group = ''
+    word = ''
     gline = 0
     after = 0
     ne = 0               ! assignments so far: every(1:ne)
@@ -101,13 +107,13 @@ contains
           if (ingroup) then
             spans(ns)%k2 = k
             spans(ns)%p2 = p
-            call check_twice()
+            call ended()
           end if
           ingroup = .false.
           p = p + 1
         case ('&', '$')
           e = word_end(s, p + 1)
-          word = s(p + 1:min(e - 1, p + WORDLEN + 1))
+          word = utf8_head(s(p + 1:e - 1), WORDLEN + 1)
           if (s(p:p) == '$' .or. to_lower(word) == 'end') then
             call problem('line '//itoa(ln)//': '''//s(p:e - 1)//''': a group starts with '// &
                          '&name and ends with / ($name ... $end and &end are not read)')
@@ -209,6 +215,7 @@ contains
       integer, intent(inout) :: p
       integer, intent(in) :: ln
       type(assignment_t) :: a
+      character(len=:), allocatable :: why
       integer :: e, q, j
       e = word_end(s, p)
       q = next_char(s, e)
@@ -240,9 +247,13 @@ contains
       end if
       a%line = ln
       a%group = to_lower(group)
-      call elements(a)
-      call check_twice()                 ! the assignment before ends here
+      call ended()                       ! the assignment before ends here
       if (status /= MLID_OK) return
+      call elements(a, why)
+      if (len(why) > 0) then
+        call problem('line '//itoa(ln)//': '//trim(a%key)//'('//trim(a%subscript)//'): '//why)
+        return
+      end if
       call push(a)
       after = AFTER_EQUALS
       p = len(s) + 1                     ! the = on the next line: eq_next
@@ -250,8 +261,24 @@ contains
     end subroutine name_or_value
 
     !> The assignment just ended (every(ne), at the next name or the
-    !> group's /) may set no element that an earlier one of its name in its
-    !> group set.
+    !> group's /): no more items than the elements its subscript names
+    !> (a namelist read would take the one too many for a name), and none
+    !> an earlier one of its name in its group set (check_twice).
+    subroutine ended()
+      if (ne <= g0) return
+      associate (a => every(ne))
+        if (a%room > 0 .and. a%n > a%room) then
+          call problem('line '//itoa(a%line)//': '//trim(a%key)//trim(paren(a%subscript))// &
+                       ' has '//itoa(a%n)//' values for its '//itoa(a%room)//' element'// &
+                       trim(merge('s', ' ', a%room > 1))//' in group &'//group)
+          return
+        end if
+      end associate
+      call check_twice()
+    end subroutine ended
+
+    !> The assignment just ended may set no element that an earlier one of
+    !> its name in its group set.
     subroutine check_twice()
       integer :: j
       if (ne <= g0) return
@@ -387,6 +414,7 @@ contains
     b%subscript = a%subscript
     b%first = a%first
     b%step = a%step
+    b%room = a%room
     b%n = a%n
     b%line = a%line
     b%longest = a%longest
@@ -450,13 +478,18 @@ contains
 
   !> Where an assignment's items go, from its subscript: (i), (i:j) or
   !> (i:j:s), a bound left out being the array's (only the lower, 1, is
-  !> known here), or none.
-  subroutine elements(a)
+  !> known here), or none; and how many elements a section names (room,
+  !> when its bounds are given).  why: what is wrong with a section ('' if nothing):
+  !> a stride of 0, or one that does not go from i to j.
+  subroutine elements(a, why)
     type(assignment_t), intent(inout) :: a
+    character(len=:), allocatable, intent(out) :: why
     character(len=WORDLEN) :: part(3)
-    integer :: c1, c2, lo, step, ios
+    integer :: c1, c2, lo, hi, step, ios
+    why = ''
     a%first = 1
     a%step = 1
+    a%room = 0
     if (len_trim(a%subscript) == 0) return
     a%first = -1             ! not one dimension, or not known here: the namelist read says
     if (index(a%subscript, ',') > 0) return
@@ -475,12 +508,28 @@ contains
       end if
     end if
     lo = 1
+    hi = 1
     step = 1
     ios = 0
     if (len_trim(part(1)) > 0) read (part(1), *, iostat=ios) lo
+    if (ios == 0 .and. len_trim(part(2)) > 0) read (part(2), *, iostat=ios) hi
     if (ios == 0 .and. len_trim(part(3)) > 0) read (part(3), *, iostat=ios) step
-    if (ios /= 0 .or. step == 0 .or. (c1 == 0 .and. len_trim(part(1)) == 0)) return
+    if (ios /= 0 .or. (c1 == 0 .and. len_trim(part(1)) == 0)) return
+    if (step == 0) then
+      why = 'the stride is 0 (NAME(i:j:s) takes every s-th element from i to j)'
+      return
+    end if
     if (step < 0 .and. len_trim(part(1)) == 0) return   ! from the array's upper bound
+    ! (i) = a, b, ... fills the elements from i on (as a compiler reads it);
+    ! (i:) runs to the array's upper bound: only (i:j[:s]) has a room here
+    if (c1 > 0 .and. len_trim(part(2)) > 0) then
+      if ((step > 0 .and. hi < lo) .or. (step < 0 .and. hi > lo)) then
+        why = 'a stride of '//itoa(step)//' does not go from '//itoa(lo)//' to '//itoa(hi)// &
+              ' (NAME(i:j:s) takes every s-th element from i to j)'
+        return
+      end if
+      a%room = int(min((int(hi, int64) - lo)/step + 1, int(huge(1), int64)))
+    end if
     a%first = lo
     a%step = step
   end subroutine elements
@@ -628,13 +677,19 @@ contains
     if (next_char > 0) next_char = p + next_char - 1
   end function next_char
 
-  !> Where the word (letters, digits, _) starting at p ends (one after it).
+  !> Where the word (letters, digits, _, non-ASCII bytes) starting at p
+  !> ends (one after it).
   integer function word_end(s, p)
     character(len=*), intent(in) :: s
     integer, intent(in) :: p
+    integer :: k
     word_end = len(s) + 1
-    if (p > len(s)) return
-    if (verify(s(p:), WORD_CHARS) > 0) word_end = p + verify(s(p:), WORD_CHARS) - 1
+    do k = p, len(s)
+      if (iachar(s(k:k)) < 128 .and. index(WORD_CHARS, s(k:k)) == 0) then
+        word_end = k
+        return
+      end if
+    end do
   end function word_end
 
   !> The closing quote of the text quoted at p (a doubled quote is one
@@ -660,12 +715,13 @@ contains
     end do
   end function quote_end
 
-  !> Text for a message: trimmed, at most 40 characters.
+  !> Text for a message: trimmed, at most 40 bytes (never cut inside a
+  !> UTF-8 character).
   function shown(s) result(t)
     character(len=*), intent(in) :: s
     character(len=:), allocatable :: t
     t = trim(s)
-    if (len(t) > 40) t = t(1:37)//'...'
+    if (len(t) > 40) t = utf8_head(t, 37)//'...'
   end function shown
 
   function paren(s) result(t)
