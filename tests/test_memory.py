@@ -117,3 +117,29 @@ def test_a_simulated_record_too_large_for_memory_is_one_line_in_mlid_batch(tmp_p
     assert " case 2: middle" in run.stdout
     if run.returncode:
         assert "not enough memory for" in run.stderr, run.stderr
+
+
+def test_the_coloured_bound_too_large_for_memory_is_an_mlid_memory_error():
+    """Red-team corpus: a fit of 3,000,000 samples under a 900 MB limit got
+    through the fit and crashed in the coloured-residual bound (the
+    compiler's copy of the residuals for the FFT, and the FFT's workspace,
+    were allocations nothing checked); now it names what did not fit."""
+    code = textwrap.dedent("""
+        import numpy as np
+        import mlid
+        n = 3_000_000
+        t = np.arange(n) * 0.01
+        u = np.zeros((n, 1))
+        u[10:50] = 1
+        m = mlid.LinearModel([[-1.2, 0.5], [-1.0, -2.0]], [[1.5], [0.3]], np.eye(2),
+                             free=["f(1,1)"])
+        d, _ = mlid.simulate(m, t, u, [0.01, 0.01], seed=1)
+        try:
+            mlid.fit(m, d, max_iter=2)
+            print("fitted")
+        except mlid.OutOfMemoryError as exc:
+            print(type(exc).__name__, exc)
+    """)
+    run = _limited([sys.executable, "-c", code], 900_000)
+    assert run.returncode == 0 and "Error allocating" not in run.stderr, run.stderr
+    assert run.stdout.startswith(("OutOfMemoryError not enough memory for", "fitted")), run.stdout

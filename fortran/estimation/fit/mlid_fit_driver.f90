@@ -14,6 +14,7 @@ module mlid_fit_driver
   use mlid_likelihood, only: weighted_sensitivities
   use mlid_colored, only: colored_covariance
   use mlid_text, only: itoa, es_text
+  use mlid_memory, only: no_memory
   use mlid_params, only: param_map_t, tie_t
   use mlid_linalg, only: sym_eig
   use mlid_setup, only: setup
@@ -146,8 +147,8 @@ contains
     type(fit_result_t), intent(inout) :: res
     integer, intent(inout) :: status
     character(len=*), intent(inout) :: msg
-    real(wp), allocatable :: wsens(:, :, :)
-    integer :: cstat
+    real(wp), allocatable :: wsens(:, :, :), v(:, :)
+    integer :: cstat, ist
     character(len=len(msg)) :: cmsg
 
     allocate (res%cov_c(pm%nf, pm%nf), wsens(size(y, 1), size(y, 2), pm%nf))
@@ -160,8 +161,15 @@ contains
       return
     end if
     call weighted_sensitivities(res%keep, pm%l%seg, wsens)
-    call colored_covariance(res%cov, res%info, res%msens, wsens, y - res%yhat, pm%l%seg, -1, &
-                            res%cov_c, res%lag, cstat, cmsg)
+    allocate (v(size(y, 1), size(y, 2)), stat=ist)   ! the residuals: a record's length
+    if (ist /= 0) then
+      call no_memory('the residuals of '//itoa(size(y, 2))//' samples', real(size(y), wp), &
+                     cstat, cmsg)
+    else
+      v = y - res%yhat
+      call colored_covariance(res%cov, res%info, res%msens, wsens, v, pm%l%seg, -1, &
+                              res%cov_c, res%lag, cstat, cmsg)
+    end if
     if (cstat /= MLID_OK .and. status == MLID_OK) then
       status = cstat
       msg = cmsg

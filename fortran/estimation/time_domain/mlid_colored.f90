@@ -66,7 +66,8 @@ contains
   !> a: weighted sensitivities (ny, nt, nf), seg: first sample of each
   !> segment (seg(1) = 1, increasing).
   subroutine colored_covariance(cov, info, msens, a, v, seg, lag_in, cov_c, lag, status, msg)
-    real(wp), intent(in) :: cov(:, :), info(:, :), msens(:, :), a(:, :, :), v(:, :)
+    real(wp), intent(in) :: cov(:, :), info(:, :), msens(:, :), a(:, :, :)
+    real(wp), contiguous, intent(in) :: v(:, :)   !< (a caller's copy: a record's length)
     integer, intent(in) :: seg(:), lag_in
     real(wp), intent(out) :: cov_c(:, :)
     integer, intent(out) :: lag, status
@@ -145,7 +146,7 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: bs(:, :)
     integer, allocatable :: cols(:)
-    integer :: s, i0, i1, lag, c
+    integer :: s, i0, i1, lag
     logical :: fourier
     b = 0.0_wp
     status = MLID_OK
@@ -155,7 +156,7 @@ contains
       lag = min(ubound(rvv, 3), i1 - i0)
       ! the columns that move in this segment (a parameter of another
       ! manoeuvre adds zeros)
-      cols = pack([(c, c=1, size(a, 3))], [(any(a(:, i0:i1, c) /= 0.0_wp), c=1, size(a, 3))])
+      cols = moving_columns(a, i0, i1)
       fourier = how == BRACKET_FOURIER .or. (how == BRACKET_AUTO .and. &
                 fourier_cheaper(size(a, 1), i1 - i0 + 1, size(cols), lag))
       if (fourier) then
@@ -170,6 +171,30 @@ contains
       b(cols, cols) = b(cols, cols) + bs
     end do
   end subroutine bracket
+
+  !> The columns of a that are not zero in samples i0 .. i1, by loops: an
+  !> any() over a section made a temporary of the record's length (an
+  !> allocation nothing checks).
+  function moving_columns(a, i0, i1) result(cols)
+    real(wp), intent(in) :: a(:, :, :)
+    integer, intent(in) :: i0, i1
+    integer, allocatable :: cols(:)
+    logical :: moves(size(a, 3))
+    integer :: c, i, r
+    moves = .false.
+    do c = 1, size(a, 3)
+      do i = i0, i1
+        do r = 1, size(a, 1)
+          if (a(r, i, c) /= 0.0_wp) then
+            moves(c) = .true.
+            exit
+          end if
+        end do
+        if (moves(c)) exit
+      end do
+    end do
+    cols = pack([(c, c=1, size(a, 3))], moves)
+  end function moving_columns
 
   !> Whether the transform costs less than the direct filter for one
   !> segment: each way's loops counted, each count weighted by the
@@ -485,7 +510,7 @@ contains
   !> Rvv(:, :, k) = (1/N) sum v(i) v(i+k)' over the pairs within one
   !> segment, k = 0 .. ubound(rvv, 3).
   subroutine residual_autocov(v, seg, rvv, status, msg)
-    real(wp), intent(in) :: v(:, :)
+    real(wp), contiguous, intent(in) :: v(:, :)
     integer, intent(in) :: seg(:)
     real(wp), intent(out) :: rvv(:, :, 0:)
     integer, intent(out) :: status
@@ -515,7 +540,7 @@ contains
   !> pairs r <= q go back two to a transform (each one a real series), the
   !> first half of them in the real parts, the rest in the imaginary parts.
   subroutine segment_autocov(x, lag, c, status, msg)
-    real(wp), intent(in) :: x(:, :)
+    real(wp), contiguous, intent(in) :: x(:, :)   !< (no copy for the FFT's contiguous x)
     integer, intent(in) :: lag
     real(wp), allocatable, intent(out) :: c(:, :, :)   !< (ny, ny, 0:lag)
     integer, intent(out) :: status
