@@ -1,6 +1,6 @@
 """Batch decks, read by the core's reader (fortran/case/mlid_deck.f90), the one
 mlid-batch uses: Python only turns each case spec into objects.  See
-README.md for every group and name."""
+docs/guide/decks.md for every group and name."""
 
 import json
 from pathlib import Path
