@@ -90,6 +90,7 @@ def test_campaign_table_has_conditions_and_estimates(runs):
         k = fit["parameters"].index("M_q")
         assert float(r["M_q"]) == pytest.approx(fit["estimate"][k], rel=1e-12)
         assert float(r["M_q_sigma"]) == pytest.approx(fit["sigma"][k], rel=1e-12)
+        assert r["M_q_unit"] == fit["units"][k]          # the unit the plots put on the axis
     # a longer window: a smaller sigma
     assert np.all(np.diff([float(r["M_q_sigma"]) for r in rows[:3]]) < 0)
 

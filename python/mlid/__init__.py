@@ -59,7 +59,12 @@ from .cli import campaign
 from .estimate import compatibility
 from .report import plots, reference
 
-__version__ = _installed_version()
+def __getattr__(name):
+    """mlid.__version__, looked up when asked (the package metadata's import
+    is a fifth of `import mlid`)."""
+    if name == "__version__":
+        return _installed_version()
+    raise AttributeError(f"module 'mlid' has no attribute {name!r}")
 #: Whether freed memory is kept for the next fit (heap.py; MLID_MALLOC=system: not).
 KEEPS_FREED_MEMORY = _keep_freed_memory()
 

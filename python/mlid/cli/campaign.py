@@ -68,8 +68,9 @@ def row(case, result):
     r["status"] = "failed" if not fitted else ("converged" if result.status == 0
                                                 else "not converged")
     if fitted:
-        for n, est, sd in zip(result.names, result.estimate, result.sigma):
-            r[n], r[n + "_sigma"] = float(est), float(sd)
+        units = getattr(result, "param_units", None) or [""] * len(result.names)
+        for n, est, sd, unit in zip(result.names, result.estimate, result.sigma, units):
+            r[n], r[n + "_sigma"], r[n + "_unit"] = float(est), float(sd), unit or ""
     return r
 
 
@@ -118,7 +119,8 @@ class Campaign:
 
     def plot(self, parameter, condition, path):
         """One derivative against a flight condition, with its Cramer-Rao
-        sigma as error bars, over the cases that have both.
+        sigma as error bars (1 sigma, said in the legend), its unit on the
+        axis, over the cases that have both.
 
         Returns
         -------
@@ -132,15 +134,19 @@ class Campaign:
         """
         use_file_backend()
         import matplotlib.pyplot as plt
-        pts = [(r[condition], r[parameter], r[parameter + "_sigma"]) for r in self.rows
-               if condition in r and parameter in r and math.isfinite(r[parameter])]
-        if not pts:
+        rows = [r for r in self.rows
+                if condition in r and parameter in r and math.isfinite(r[parameter])]
+        if not rows:
             raise InputError(f"no case has both {parameter} and {condition}")
-        x, y, s = zip(*sorted(pts))
+        x, y, s = zip(*sorted((r[condition], r[parameter], r[parameter + "_sigma"])
+                              for r in rows))
+        unit = next((r.get(parameter + "_unit") for r in rows if r.get(parameter + "_unit")), "")
         fig, ax = plt.subplots(figsize=(6, 4))
-        ax.errorbar(x, y, yerr=s, fmt="o", capsize=3)
+        ax.errorbar(x, y, yerr=s, fmt="o", capsize=3, label="estimate ± 1σ (Cramér-Rao)")
         ax.set_xlabel(condition)
-        ax.set_ylabel(parameter)
+        ax.set_ylabel(f"{parameter} [{unit}]" if unit else parameter)
+        ax.set_title(f"{parameter} against {condition}, {len(rows)} cases", fontsize=10)
+        ax.legend(loc="best", fontsize=8)
         ax.grid(True, alpha=0.3)
         fig.tight_layout()
         atomic_savefig(fig, path, dpi=100)

@@ -43,12 +43,21 @@ JOBS = """jobs:
 """
 
 
+class _Version(argparse.Action):
+    """--version, its number looked up only when asked."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"mlid {installed_version()}")
+        parser.exit()
+
+
 def _parser():
     p = argparse.ArgumentParser(
         prog="mlid", description="Maximum-likelihood identification of aircraft stability and "
         "control derivatives (NASA CR-2200 and beyond).", epilog=JOBS,
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--version", action="version", version=f"mlid {installed_version()}")
+    p.add_argument("--version", action=_Version, nargs=0,
+                   help="show program's version number and exit")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bars (they show only when stderr is a terminal)")
     quiet = argparse.ArgumentParser(add_help=False)     # also after the job's name
