@@ -440,3 +440,20 @@ def test_files_are_written_whole_or_not_at_all(case, tmp_path):
         target = tmp_path / f"{make.__name__}.png"
         assert isinstance(make(case["fit"], path=target), Figure)
         _written_whole(target)
+
+
+def test_windows_of_one_flight_are_drawn_on_their_own_time(case):
+    """Issue 42: the second window of a multi-window fit was drawn on the
+    first one's time axis (140-170 s shown at 110-140 s); windows that
+    follow one another keep their own times, the join still broken."""
+    first, _ = case["pair"]
+    later = mlid.FlightData(first.t + first.t[-1] + 10.0, first.u, first.y,
+                            first.input_names, first.output_names,
+                            input_units=first.input_units, output_units=first.output_units)
+    res = mlid.fit(_start(), [first, later])
+    n1 = first.nt
+    for fig in (plots.outputs(res), plots.fit_overview(res)):
+        x = np.asarray(_data_lines(fig.axes[0], 2 * n1 + 1)[0].get_xdata())
+        np.testing.assert_allclose(x[:n1], first.t, atol=1e-12)
+        assert np.isnan(x[n1])
+        np.testing.assert_allclose(x[n1 + 1:], later.t, atol=1e-12)

@@ -143,15 +143,20 @@ def _display(record, which, i):
 
 class _Records:
     """A record or several manoeuvres as the plots see them: the records,
-    the fit's time axis (joined, each manoeuvre after the one before) cut
-    into one piece per manoeuvre, and each channel in its declared unit."""
+    the time axis cut into one piece per manoeuvre (each manoeuvre on its
+    own time when the manoeuvres follow one another, as windows of one
+    flight do; else joined, each after the one before), and each channel in
+    its declared unit."""
 
     def __init__(self, records, t=None):
         records = list(records) if isinstance(records, (list, tuple)) else [records]
         if not records or not all(isinstance(r, FlightData) for r in records):
             raise InputError("plots need a FlightData or a list of them")
         self.records = records
-        if len(records) > 1 and t is None:
+        own = np.concatenate([r.t for r in records])
+        if len(records) > 1 and np.all(np.diff(own) > 0):
+            t = own         # windows of one flight in order: each on its own time
+        elif len(records) > 1 and t is None:
             t = join(records)[0].t
         t = records[0].t if t is None else np.asarray(t, dtype=float)
         self.cuts = np.cumsum([r.nt for r in records])[:-1]
