@@ -136,10 +136,16 @@ def test_residual_band_is_two_sigma_of_rhat_in_the_declared_unit(case):
         outside = np.mean(np.abs(res.residuals[:, i]) > 2 * np.sqrt(res.rhat[i, i]))
         assert ax.get_title(loc="right") == f"{100 * outside:.1f}% outside ±2σ"
     # the overview's right half draws the same band
-    right = fig_overview = plots.fit_overview(res)
-    axes = [ax for ax in right.subfigs[1].axes]
+    right = fig_overview = plots.fit_overview(res, title="deck.nml case 2: middle")
+    estimates, *axes = right.subfigs[1].axes      # the estimates where the inputs are
     assert isinstance(fig_overview, Figure) and len(axes) == 2
     np.testing.assert_allclose(_span(axes[0]), [-band[0], band[0]], rtol=1e-13)
+    # issue 42: no empty quadrant (the estimates with their sigma) and a title
+    (text,) = estimates.texts
+    assert text.get_text().split("\n")[0] == "estimate ± 1σ (Cramér-Rao)"
+    assert len(text.get_text().split("\n")) == 1 + len(res.names)
+    assert f"{res.estimate[0]: .4g} ± {res.sigma[0]:.2g}" in text.get_text()
+    assert right.get_suptitle() == "deck.nml case 2: middle"
 
 
 def test_filter_error_band_is_that_of_the_innovations():
@@ -170,6 +176,8 @@ def test_manoeuvre_joins_are_not_bridged(case):
     checked = 0
     for fig in figs:
         for ax in fig.axes:
+            if ax.texts and not ax.get_lines():      # the overview's estimates: no time axis
+                continue
             assert not _data_lines(ax, n), "a line joins the manoeuvres"
             for line in _data_lines(ax, n + 1):
                 x, y = np.asarray(line.get_xdata()), np.asarray(line.get_ydata())

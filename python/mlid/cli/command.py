@@ -254,7 +254,9 @@ def _show_case(args, case, out, result, error, tables):
         unsaid = unsaid or table_error
     checked = getattr(result, "validation", None)
     if args.plots and fitted:
-        plots = [(plot_fit, result)] + ([(plot_validation, checked)] if checked else [])
+        title = f"{case.deck} case {case.index}: {case.title}"
+        plots = [(lambda r, f, s: plot_fit(r, f, s, title), result)] + (
+            [(plot_validation, checked)] if checked else [])
         for fn, what in plots:
             path, plot_error = _attempt("plot", fn, what, args.plots, f"case{case.index}")
             if path is not None:

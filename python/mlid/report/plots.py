@@ -406,33 +406,51 @@ def frequency_overview(result, path=None):
     return _finish(fig, path)
 
 
-def fit_overview(result, path=None):
+def fit_overview(result, path=None, title=None):
     """Outputs (with the inputs) on the left, residuals on the right, rows
-    aligned per output: the figure ``plot_fit`` writes (``frequency_overview``
-    for a frequency-domain fit).
+    aligned per output, the estimates with their sigma beside the inputs,
+    under a title naming the case (``title``) or the record: the figure
+    ``plot_fit`` writes (``frequency_overview`` for a frequency-domain fit).
 
     Returns
     -------
     matplotlib.figure.Figure
-        nu + ny axes on the left, ny on the right.
+        nu + ny axes on the left; on the right the estimates (when there
+        are inputs) and ny residual axes.
     """
     import matplotlib.pyplot as plt
     if getattr(result, "frequencies", None) is not None:
         return frequency_overview(result, path)
     recs = _Records.of_result(result)
     nu, ny = result.data.u.shape[1], result.data.y.shape[1]
-    fig = plt.figure(figsize=(12, 1.3 * (nu + ny) + 0.8), layout="constrained")
+    fig = plt.figure(figsize=(12, 1.3 * (nu + ny) + 1.0), layout="constrained")
+    fig.suptitle(title or getattr(result.data, "source", "") or "fit", fontsize=11)
     left, right = fig.subfigures(1, 2, width_ratios=[1.15, 1])
     la = left.subplots(nu + ny, 1, sharex=True, squeeze=False)[:, 0]
     ra = right.subplots(nu + ny, 1, sharex=True, squeeze=False)[:, 0]
     _draw_outputs(left, la, result, recs)
-    for ax in ra[:nu]:
+    for ax in ra[1:nu]:
         ax.remove()
+    if nu:
+        _estimates_text(ra[0], result, lines=max(3, int(nu * 1.3 * 72 / 11)))
     _draw_residuals(ra[nu:], result, recs)
     left.suptitle(outputs_title(result), fontsize=10)
     right.suptitle(f"residuals with ±2σ bands (σ from {noise_symbol(result)})",
                    fontsize=10)
     return _finish(fig, path)
+
+
+def _estimates_text(ax, result, lines):
+    """The estimates with their Cramér-Rao sigma and unit, as many as the
+    axis has lines for (the rest counted), in the place the inputs leave."""
+    ax.axis("off")
+    units = getattr(result, "param_units", None) or [""] * len(result.names)
+    rows = [f"{n[:16]:<16} {e: .4g} ± {s:.2g} {u}" for n, e, s, u in
+            zip(result.names, result.estimate, result.sigma, units)]
+    if len(rows) > lines - 1:
+        rows = rows[:lines - 2] + [f"... {len(rows) - (lines - 2)} more (the results table)"]
+    ax.text(0.0, 1.0, "\n".join(["estimate ± 1σ (Cramér-Rao)"] + rows), va="top",
+            ha="left", family="monospace", fontsize=8, transform=ax.transAxes)
 
 
 def _write_into(draw, obj, folder, name):
@@ -444,9 +462,13 @@ def _write_into(draw, obj, folder, name):
     return folder / name
 
 
-def plot_fit(result, folder, stem):
-    """Write FOLDER/STEM_fit.png (``fit_overview``) and return its path."""
-    return _write_into(fit_overview, result, folder, f"{stem}_fit.png")
+def plot_fit(result, folder, stem, title=None):
+    """Write FOLDER/STEM_fit.png (``fit_overview``, under title) and return
+    its path."""
+    path = Path(folder) / f"{stem}_fit.png"
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    close(fit_overview(result, path, title=title))
+    return path
 
 
 def plot_validation(v, folder, stem):
