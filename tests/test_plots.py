@@ -465,3 +465,20 @@ def test_windows_of_one_flight_are_drawn_on_their_own_time(case):
         np.testing.assert_allclose(x[:n1], first.t, atol=1e-12)
         assert np.isnan(x[n1])
         np.testing.assert_allclose(x[n1 + 1:], later.t, atol=1e-12)
+
+
+def test_a_constant_input_gets_no_panel():
+    """Issue 42: a constant input ('one', for a bias or trim term) had a
+    flat panel of its own in every time figure."""
+    t = 0.02 * np.arange(200)
+    u = np.column_stack([np.where((t > 1) & (t < 2), 1.0, 0.0), np.ones_like(t)])
+    m = mlid.LinearModel([[-1.0, 0.5], [-0.8, -2.0]], [[1.0, 0.05], [0.3, 0.0]], np.eye(2),
+                         free=["f(1,1)", "g(1,1)", "g(1,2)"])
+    data, _ = mlid.simulate(m, t, u, [0.01, 0.01], seed=2)
+    data.input_names = ["de", "one"]
+    res = mlid.fit(m, data)
+    assert plots.drawn_inputs(data) == [0]
+    ylabels = [ax.get_ylabel() for ax in plots.time_histories(data).axes]
+    assert not any(lab.startswith("one") for lab in ylabels) and len(ylabels) == 3
+    left = plots.fit_overview(res).subfigs[0].axes
+    assert len(left) == 3 and left[0].get_ylabel().startswith("de")

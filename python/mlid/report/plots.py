@@ -278,7 +278,7 @@ def time_histories(data, path=None):
         If data is not a FlightData or a list of them.
     """
     recs = _Records(data)
-    rows = [("u", i) for i in range(recs.first.u.shape[1])] + \
+    rows = [("u", i) for i in drawn_inputs(recs.first)] + \
            [("y", i) for i in range(recs.first.y.shape[1])]
     fig, axes = _figure(len(rows), 1, 7.5, 1.35, sharex=True)
     for ax, (which, i) in zip(axes[:, 0], rows):
@@ -291,10 +291,17 @@ def time_histories(data, path=None):
     return _finish(fig, path)
 
 
+def drawn_inputs(data):
+    """The inputs a figure draws: those that vary (a constant input, the
+    'one' of a bias or trim term, gets no flat panel of its own)."""
+    u = np.asarray(data.u)
+    return [i for i in range(u.shape[1]) if u.shape[0] and np.ptp(u[:, i]) > 0]
+
+
 def _draw_outputs(fig, axes, result, recs):
-    nu = result.data.u.shape[1]
-    for i in range(nu):
-        ax = axes[i]
+    inputs = drawn_inputs(result.data)
+    nu = len(inputs)
+    for ax, i in zip(axes, inputs):
         x, _ = recs.shown("u", i)
         ax.plot(recs.time, x, color=COLORS["input"], lw=1.0)
         ax.set_ylabel(recs.label("u", i))
@@ -346,7 +353,7 @@ def outputs(result, path=None):
         nu + ny axes sharing the time axis: the inputs, then each output.
     """
     recs = _Records.of_result(result)
-    n = result.data.u.shape[1] + result.data.y.shape[1]
+    n = len(drawn_inputs(result.data)) + result.data.y.shape[1]
     fig, axes = _figure(n, 1, 7.5, 1.35, sharex=True)
     _draw_outputs(fig, axes[:, 0], result, recs)
     fig.suptitle(outputs_title(result), fontsize=10)
@@ -422,7 +429,7 @@ def fit_overview(result, path=None, title=None):
     if getattr(result, "frequencies", None) is not None:
         return frequency_overview(result, path)
     recs = _Records.of_result(result)
-    nu, ny = result.data.u.shape[1], result.data.y.shape[1]
+    nu, ny = len(drawn_inputs(result.data)), result.data.y.shape[1]
     fig = plt.figure(figsize=(12, 1.3 * (nu + ny) + 1.0), layout="constrained")
     fig.suptitle(title or getattr(result.data, "source", "") or "fit", fontsize=11)
     left, right = fig.subfigures(1, 2, width_ratios=[1.15, 1])
@@ -930,7 +937,7 @@ def validation(v, path=None):
     """
     result = v.prediction
     recs = _Records.of_result(result)
-    nu = result.data.u.shape[1]
+    nu = len(drawn_inputs(result.data))
     n = nu + result.data.y.shape[1]
     fig, axes = _figure(n, 1, 7.5, 1.35, sharex=True)
     _draw_outputs(fig, axes[:, 0], result, recs)
