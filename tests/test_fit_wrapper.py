@@ -189,3 +189,34 @@ def test_sensitivity_norms_by_name():
     f = res.sensitivity_frame()
     assert list(f.index) == ["Mq", "Mde"] and list(f.columns) == ["q", "theta"]
     assert np.array_equal(f.to_numpy(), res.sensitivity_norms().T)
+
+
+def test_the_report_names_each_output_under_the_noise_diagonal(tmp_path):
+    """Issue 42, text: 'R diagonal' named no outputs.  Each value has its
+    output's name under it, right-aligned in its column, and its unit
+    squared when the record has units; the same from mlid-batch."""
+    res, data = _named_fit()
+    lines = res.report().split("\n")
+    k = next(i for i, ln in enumerate(lines) if ln.startswith(" R diagonal:"))
+    values, names = lines[k], lines[k + 1]
+    assert names.split() == ["output:", "q", "theta"]
+    for name, v in zip(("q", "theta"), values.split()[2:]):       # right ends aligned
+        assert names.index(name) + len(name) == values.index(v) + len(v)
+    assert not lines[k + 2].startswith(" unit:")                  # no units: no line
+    assert res.identifiability()[0].startswith(" normalised information")
+    deck = tmp_path / "d.nml"
+    deck.write_text("&case title = 'u', job = 'estimate' /\n&model kind = 'linear', nx = 2, "
+                    "nu = 1, ny = 2, f = -1.0, 0.5, -0.8, -2.0, g = 1.0, 0.3, h = 1, 0, 0, 1,\n"
+                    "    free = 'f(1,1)', 'g(1,1)' /\n&data file = 'r.csv', time_col = 't', "
+                    "input_cols = 'de', output_cols = 'q', 'theta' /\n")
+    t = data.t
+    (tmp_path / "r.csv").write_text("t,de[deg],q[deg/s],theta[deg]\n" + "".join(
+        f"{a},{np.degrees(b)},{np.degrees(c)},{np.degrees(d)}\n"
+        for a, b, c, d in zip(t, data.u[:, 0], data.y[:, 0], data.y[:, 1])))
+    import subprocess
+    from conftest import BIN
+    out = subprocess.run([str(BIN / "mlid-batch"), deck.name], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=120).stdout.split("\n")
+    k = next(i for i, ln in enumerate(out) if ln.startswith(" R diagonal:"))
+    assert out[k + 1].split() == ["output:", "q", "theta"]
+    assert out[k + 2].split() == ["unit:", "(rad/s)^2", "rad^2"]

@@ -48,7 +48,7 @@ contains
     character(len=256), intent(out) :: msg
     type(session_t), pointer :: ses
     type(fit_summary_t) :: s
-    character(len=:), allocatable :: labels, units, title, job, fit_msg
+    character(len=:), allocatable :: labels, units, title, job, fit_msg, outputs, output_units
     integer, allocatable :: iopt(:)
     real(wp), allocatable :: ropt(:), rnoise(:)
     integer :: fit_status, converged, nf
@@ -86,6 +86,15 @@ contains
     s%converged = converged == 1
     s%labels = split_lines(labels, nf, NAMELEN)
     s%units = split_lines(units, nf, UNITLEN)
+    associate (g => ses%given)      ! the outputs' names and units, when the caller has them
+      if (g%find('outputs') > 0) then
+        call g%get('outputs', outputs, status, msg)
+        call g%get('output_units', output_units, status, msg)
+        if (status /= MLID_OK) return
+        s%outputs = split_lines(outputs, size(s%rhat, 1), 32)
+        s%output_units = split_lines(output_units, size(s%rhat, 1), UNITLEN)
+      end if
+    end associate
     if (all(ieee_is_finite(rnoise))) s%rnoise = rnoise
     call ses%results%put('report', fit_report(s, iopt, ropt, fit_status, fit_msg))
     call ses%results%put('json', fit_json(title, job, fit_status, fit_msg, s, iopt, ropt))

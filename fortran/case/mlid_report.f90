@@ -8,7 +8,7 @@ module mlid_report
   use mlid_linalg, only: chol_inverse
   use mlid_options, only: NOPT, option_get
   use mlid_units, only: UNITLEN
-  use mlid_text, only: itoa, es_text, fixed_text
+  use mlid_text, only: itoa, es_text, fixed_text, utf8_head
   implicit none
   private
   public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string, number, &
@@ -30,6 +30,9 @@ module mlid_report
     character(len=UNITLEN), allocatable :: units(:)  !< of each parameter (mlid_param_units)
     !> filter error with noise_criterion = 'innovations': the R it left (diagonal)
     real(wp), allocatable :: rnoise(:)
+    !> the outputs' names and units (the record's), under the noise's diagonal
+    character(len=32), allocatable :: outputs(:)
+    character(len=UNITLEN), allocatable :: output_units(:)
   end type fit_summary_t
 
 contains
@@ -43,7 +46,7 @@ contains
     real(wp), intent(in) :: ropt(NOPT)
     integer, intent(in) :: status      !< the fit's (mlid_kinds)
     character(len=*), intent(in) :: msg
-    character(len=:), allocatable :: text, method
+    character(len=:), allocatable :: text, method, label
     character(len=512) :: buf
     logical :: oe, fd
     integer :: k
@@ -88,10 +91,11 @@ contains
       text = text//trim(buf)//NL
     end if
     if (fd) then      ! the residual spectrum S of the transformed outputs
-      text = text//' S diagonal:      '
+      label = ' S diagonal:      '
     else
-      text = text//' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', oe))
+      label = ' '//trim(merge('R diagonal:      ', 'B diagonal (mean)', oe))
     end if
+    text = text//label
     do k = 1, size(s%rhat, 1)
       text = text//' '//es_text(s%rhat(k, k), 10, 4)
     end do
@@ -101,8 +105,54 @@ contains
         text = text//' '//es_text(s%rnoise(k), 10, 4)
       end do
     end if
-    text = text//NL//identifiability(s%labels, s%eigval, s%eigvec, s%cov)
+    text = text//NL//noise_columns(s, len(label))//identifiability(s%labels, s%eigval, s%eigvec, &
+                                                              s%cov)
   end function fit_report
+
+  !> Under the noise's diagonal, whose output each value is and in what unit
+  !> (the square of the output's): a line each, their columns under the
+  !> values; '' when the summary has no names.
+  function noise_columns(s, width) result(text)
+    type(fit_summary_t), intent(in) :: s
+    integer, intent(in) :: width        !< of the noise line's label, whose values these head
+    character(len=:), allocatable :: text
+    character(len=UNITLEN + 4) :: sq
+    integer :: k
+    text = ''
+    if (.not. allocated(s%outputs)) return
+    if (size(s%outputs) /= size(s%rhat, 1) .or. all(s%outputs == '')) return
+    text = pad(' output:', width)
+    do k = 1, size(s%outputs)
+      text = text//' '//adjustr(column(s%outputs(k)))
+    end do
+    text = text//NL
+    if (.not. allocated(s%output_units)) return
+    if (all(s%output_units == '')) return
+    text = text//pad(' unit:', width)
+    do k = 1, size(s%output_units)
+      sq = s%output_units(k)
+      if (scan(trim(sq), '/.') > 0) sq = '('//trim(sq)//')'
+      if (len_trim(sq) > 0 .and. sq /= '-') sq = trim(sq)//'^2'
+      text = text//' '//adjustr(column(sq))
+    end do
+    text = text//NL
+  end function noise_columns
+
+  !> label padded with blanks to width.
+  function pad(label, width) result(c)
+    character(len=*), intent(in) :: label
+    integer, intent(in) :: width
+    character(len=width) :: c
+    c = label
+  end function pad
+
+  !> A name for a 10-character column: its first 10 bytes, at a character
+  !> boundary.
+  function column(name) result(c)
+    character(len=*), intent(in) :: name
+    character(len=10) :: c
+    c = utf8_head(trim(name), 10)
+  end function column
 
   !> The report of a failed fit: its first line says it failed, the table
   !> has only the start and the last values reached, and the last line is

@@ -128,14 +128,16 @@ contains
     real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :), own_t(:)
     integer, allocatable :: segstart(:)
     character(len=UNITLEN), allocatable :: units(:)
+    character(len=NAMELEN), allocatable :: names(:)
     type(line_t), allocatable :: notes(:)
 
     outcome = FIT_NOT_RUN
-    call case_record(c, t, u, y, r%status, r%msg, segstart, units, notes=notes, own_t=own_t)
+    call case_record(c, t, u, y, r%status, r%msg, segstart, units, names, notes=notes, &
+                     own_t=own_t)
     call notes_from(r, notes)
     if (r%status == MLID_OK) call corrected_writable(c, r%status, r%msg)   ! before a long fit
     if (r%status == MLID_OK) call fit_record(c, t, u, y, segstart, units, r, json, theta, rhat, &
-                                             yhat, outcome)
+                                             yhat, outcome, names)
     if (allocated(c%corrected)) then
       if (r%status == MLID_OK) then
         call write_corrected(c, own_t, u, y, segstart, units, theta, r)
@@ -217,11 +219,12 @@ contains
   !> Fit case c to a record (several manoeuvres: segstart); with json
   !> present, add its report to r and return its JSON object.  theta, R-hat
   !> and the outputs of the fit are returned.
-  subroutine fit_record(c, t, u, y, segstart, units, r, json, theta, rhat, yhat, outcome)
+  subroutine fit_record(c, t, u, y, segstart, units, r, json, theta, rhat, yhat, outcome, names)
     type(case_t), intent(inout) :: c
     real(wp), intent(in) :: t(:), u(:, :), y(:, :)
     integer, intent(in) :: segstart(:)
-    character(len=*), intent(in) :: units(:)
+    character(len=*), intent(in) :: units(:)       !< the channels': inputs, then outputs
+    character(len=*), intent(in), optional :: names(:)   !< the channels' names, as units
     type(case_run_t), intent(inout) :: r
     character(len=:), allocatable, intent(out), optional :: json
     real(wp), allocatable, intent(out) :: theta(:), rhat(:, :), yhat(:, :)
@@ -236,6 +239,10 @@ contains
 
     outcome = FIT_NOT_RUN
     call case_param_units(c, size(segstart), units, s%units, r%status, r%msg)
+    if (present(names)) then                  ! the outputs, named under R's diagonal
+      s%outputs = names(size(u, 1) + 1:)
+      s%output_units = units(size(u, 1) + 1:)
+    end if
     ! several data files: several manoeuvres, each its own x0 and biases
     if (r%status == MLID_OK) call manoeuvre_layout(c, size(segstart), r%status, r%msg)
     if (r%status /= MLID_OK) return
@@ -339,7 +346,7 @@ contains
     real(wp), allocatable :: th(:), uh(:, :), yh(:, :), pred(:, :), theil(:), rms(:), ratio(:)
     integer, allocatable :: segstart(:), sh(:)
     character(len=UNITLEN), allocatable :: units(:), hunits(:)
-    character(len=NAMELEN), allocatable :: names(:)
+    character(len=NAMELEN), allocatable :: names(:), fnames(:)
     type(line_t), allocatable :: notes(:)
     type(case_t) :: fitted, held
     logical, allocatable :: out(:)
@@ -351,13 +358,13 @@ contains
     out(c%holdout) = .true.
     ! every part read before the fit: the files fitted, then those held out
     fitted = files_of(c, .not. out)
-    call case_record(fitted, t, u, y, r%status, r%msg, segstart, units, notes=notes)
+    call case_record(fitted, t, u, y, r%status, r%msg, segstart, units, fnames, notes=notes)
     call notes_from(r, notes)
     if (r%status == MLID_OK) call case_record(files_of(c, out), th, uh, yh, r%status, r%msg, sh, &
                                               hunits, names, notes)
     if (r%status == MLID_OK) call notes_from(r, notes)
     if (r%status == MLID_OK) call fit_record(fitted, t, u, y, segstart, units, r, json, theta, &
-                                             rhat, yhat, outcome)
+                                             rhat, yhat, outcome, fnames)
     if (r%status /= MLID_OK) return
     call holdout_case(files_of(c, out), theta, count(.not. out), held, r%status, r%msg)
     if (r%status /= MLID_OK) return

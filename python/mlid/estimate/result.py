@@ -350,7 +350,13 @@ class FitResult:
         """The core's report and JSON object of this fit (mlid-batch prints
         and writes the same text)."""
         h = _call_handle()
-        _put(h, labels="\n".join(self.names) + "\n",
+        data = self.data if not isinstance(self.data, (list, tuple)) else self.data[0]
+        outputs = list(getattr(data, "output_names", None) or [])
+        named = {}
+        if len(outputs) == np.shape(self.rhat)[0]:      # named under R's diagonal
+            named = dict(outputs="\n".join(outputs) + "\n", output_units="\n".join(
+                getattr(data, "output_units", None) or [""] * len(outputs)) + "\n")
+        _put(h, **named, labels="\n".join(self.names) + "\n",
              units="\n".join(getattr(self, "param_units", None) or [""] * len(self.names)) + "\n",
              iopt=self.flat_options, ropt=self.flat_real_options, start=self.start,
              est=self.estimate, sig=self.sigma, sigc=self.sigma_corrected, lag=self.colored_lag,
@@ -385,8 +391,10 @@ class FitResult:
         if self.failed:
             return []
         lines = self.report().split("\n")
-        k = [i for i, ln in enumerate(lines) if ln.startswith((" R diagonal", " B diagonal"))]
-        return lines[k[0] + 1:]
+        k = [i for i, ln in enumerate(lines) if ln.startswith((" R diagonal", " B diagonal",
+                                                             " S diagonal", " output:",
+                                                             " unit:"))]
+        return lines[k[-1] + 1:]
 
     def against_truth(self, truth):
         """The estimates against known true values: a simulated record's.
