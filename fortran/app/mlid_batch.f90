@@ -103,6 +103,7 @@ program mlid_batch
     end do
     ncases = ncases + size(cases)
   end do
+  call stop_if_interrupted()      ! a Ctrl-C during the last case's report: no JSON, as before it
   if (nfail > 0) write (0, '(i0,a,i0,a)') nfail, ' of ', ncases, ' cases failed'
   if (nunread > 0) write (0, '(i0,a,i0,a)') nunread, ' of ', ndeck, ' decks could not be read'
   if (len_trim(json_path) > 0) then

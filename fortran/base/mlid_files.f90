@@ -242,8 +242,8 @@ contains
     if (len_trim(a) == 0 .or. len_trim(b) == 0) return
     call stat(trim(a), va, sa)
     call stat(trim(b), vb, sb)
-    if (sa == 0 .and. sb == 0) then
-      same_file = va(1) == vb(1) .and. va(2) == vb(2)
+    if (sa == 0 .and. sb == 0) then      ! (size and time too: GNU stat's 32-bit inode number)
+      same_file = all(va([1, 2, 8, 10]) == vb([1, 2, 8, 10]))
     else
       same_file = real_path(a) == real_path(b)
     end if

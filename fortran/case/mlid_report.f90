@@ -99,22 +99,24 @@ contains
     do k = 1, size(s%rhat, 1)
       text = text//' '//es_text(s%rhat(k, k), 10, 4)
     end do
+    text = text//NL//noise_columns(s, len(label), fd)     ! under the values they name
     if (allocated(s%rnoise)) then
-      text = text//NL//' R diagonal (from the innovations)'
+      text = text//' R diagonal (from the innovations)'
       do k = 1, size(s%rnoise)
         text = text//' '//es_text(s%rnoise(k), 10, 4)
       end do
+      text = text//NL
     end if
-    text = text//NL//noise_columns(s, len(label))//identifiability(s%labels, s%eigval, s%eigvec, &
-                                                              s%cov)
+    text = text//identifiability(s%labels, s%eigval, s%eigvec, s%cov)
   end function fit_report
 
   !> Under the noise's diagonal, whose output each value is and in what unit
-  !> (the square of the output's): a line each, their columns under the
-  !> values; '' when the summary has no names.
-  function noise_columns(s, width) result(text)
+  !> (the square of the output's; none for a frequency-domain S): a line
+  !> each, their columns under the values; '' when the summary has no names.
+  function noise_columns(s, width, fd) result(text)
     type(fit_summary_t), intent(in) :: s
     integer, intent(in) :: width        !< of the noise line's label, whose values these head
+    logical, intent(in) :: fd           !< S of transforms: no unit line (it is (unit s)^2)
     character(len=:), allocatable :: text
     character(len=UNITLEN + 4) :: sq
     integer :: k
@@ -126,7 +128,7 @@ contains
       text = text//' '//adjustr(column(s%outputs(k)))
     end do
     text = text//NL
-    if (.not. allocated(s%output_units)) return
+    if (fd .or. .not. allocated(s%output_units)) return
     if (all(s%output_units == '')) return
     text = text//pad(' unit:', width)
     do k = 1, size(s%output_units)

@@ -151,9 +151,19 @@ contains
     integer :: cstat, ist
     character(len=len(msg)) :: cmsg
 
-    allocate (res%cov_c(pm%nf, pm%nf), wsens(size(y, 1), size(y, 2), pm%nf))
+    allocate (res%cov_c(pm%nf, pm%nf))
+    res%cov_c = res%cov
+    allocate (wsens(size(y, 1), size(y, 2), pm%nf), stat=ist)   ! nf times the record
+    if (ist /= 0) then
+      call no_memory('the weighted sensitivities of '//itoa(size(y, 2))//' samples x '// &
+                     itoa(pm%nf)//' parameters', real(size(y), wp)*pm%nf, cstat, cmsg)
+      if (status == MLID_OK) then
+        status = cstat
+        msg = cmsg
+      end if
+      return
+    end if
     if (.not. kept(res)) then            ! (no path gets here without them: a guard)
-      res%cov_c = res%cov
       if (status == MLID_OK) then
         status = MLID_ERR_INTERNAL
         msg = 'coloured-residual correction: the estimate''s sensitivities were not kept'

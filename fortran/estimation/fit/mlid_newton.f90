@@ -5,7 +5,7 @@
 module mlid_newton
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_NOCONV, &
-                        MLID_ERR_INPUT, MLID_ERR_INTERRUPTED, MLID_ERR_MEMORY, &
+                        MLID_ERR_INPUT, MLID_ERR_INTERRUPTED, MLID_ERR_MEMORY, MLID_ERR_DIVERGED, &
                         STOP_NONE, STOP_COST, STOP_STEP, STOP_GRAD, STOP_MAXITER, &
                         STOP_NO_DECREASE, STOP_FAILED, STOP_DIVERGED
   use mlid_linalg, only: info_inverse, info_eig, eig_inverse
@@ -582,6 +582,10 @@ contains
     if (allocated(ex%weight)) res%info = res%info + st%s*ex%weight
     call info_inverse(res%info, opt%rcond, res%cov, res%eigval, ndrop, res%bad_param, status, &
                       msg, res%rank, res%eigvec)
+    if (status /= MLID_OK .and. len_trim(why) > 0) then
+      status = MLID_ERR_DIVERGED     ! a fit that blew up: why it is not sane, not the information
+      msg = why
+    end if
     if (status /= MLID_OK) return
     if (res%rank < st%nf) then   ! the covariance of the directions estimated, in the search's units
       call info_eig(res%info, st%scr, st%wr, st%vr, status, msg, st%unit)

@@ -339,6 +339,7 @@ def _plot_folders(decks, plots):
     stems = [Path(d).stem for d in decks]
     names = [s if stems.count(s) == 1 else str(Path(d).with_suffix("")).strip("/").replace(
         "/", "_") for s, d in zip(stems, decks)]
+    names = [n if names.count(n) == 1 else f"{n}_{k + 1}" for k, n in enumerate(names)]
     return {d: str(Path(plots) / n) for d, n in zip(decks, names)}
 
 

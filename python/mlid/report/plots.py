@@ -278,7 +278,7 @@ def time_histories(data, path=None):
         If data is not a FlightData or a list of them.
     """
     recs = _Records(data)
-    rows = [("u", i) for i in drawn_inputs(recs.first)] + \
+    rows = [("u", i) for i in drawn_inputs(recs.records)] + \
            [("y", i) for i in range(recs.first.y.shape[1])]
     fig, axes = _figure(len(rows), 1, 7.5, 1.35, sharex=True)
     for ax, (which, i) in zip(axes[:, 0], rows):
@@ -292,9 +292,11 @@ def time_histories(data, path=None):
 
 
 def drawn_inputs(data):
-    """The inputs a figure draws: those that vary (a constant input, the
-    'one' of a bias or trim term, gets no flat panel of its own)."""
-    u = np.asarray(data.u)
+    """The inputs a figure draws: those that vary, in any of the records
+    when data is a list (a constant input, the 'one' of a bias or trim
+    term, gets no flat panel of its own)."""
+    records = data if isinstance(data, (list, tuple)) else [data]
+    u = np.concatenate([np.asarray(r.u) for r in records])
     return [i for i in range(u.shape[1]) if u.shape[0] and np.ptp(u[:, i]) > 0]
 
 
@@ -560,7 +562,8 @@ def residual_spectra(result, segment=None):
     for seg in recs.segments():     # each manoeuvre's windows, averaged over all of them
         s = e[seg] - e[seg].mean(axis=0)
         windows = (len(s) - m) // (m // 2) + 1
-        _, p = welch(s, fs=1.0 / recs.dt, window=np.hanning(m), noverlap=m // 2, detrend=False,
+        _, p = welch(s, fs=1.0 / recs.dt, window=np.hanning(m), noverlap=m - m // 2,  # hop m//2
+                     detrend=False,
                      axis=0)
         acc += windows * p
         count += windows
