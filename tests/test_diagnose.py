@@ -197,3 +197,22 @@ def test_linear_nonlinear_candidates_include_breakpoints_and_outputs():
     beta = fit.yhat[:, 2]
     for c, q in zip(brk, np.quantile(beta, dg.BREAKPOINTS)):
         np.testing.assert_allclose(c.spec["values"], np.maximum(beta - q, 0.0), atol=1e-12)
+
+
+def test_the_diagnosis_figure_has_hz_units_and_labels():
+    """Issue 42: the diagnose figure had no axis labels or units, residuals
+    in rad and spectra on bin numbers; now the spectrum is Welch's in Hz up
+    to Nyquist, lag in s, each residual in its declared unit."""
+    model, data = scenarios.make("bias", 1)
+    d = mlid.diagnose(model, data)
+    fig = d.figure()
+    rows = np.array(fig.axes).reshape(-1, 3)
+    assert [ax.get_xlabel() for ax in rows[-1]] == ["t [s]", "lag [s]", "frequency [Hz]"]
+    dt = float(np.median(np.diff(data.t)))
+    for ax in rows[:, 2]:
+        f = ax.get_lines()[0].get_xdata()
+        assert f[0] > 0 and abs(f[-1] - 0.5 / dt) < 1e-9          # to Nyquist, in Hz
+        assert ax.get_ylabel().startswith("PSD [")
+    lag = rows[0, 1].get_lines()[0].get_xdata()
+    assert abs(lag[1] - dt) < 1e-12
+    assert all(ax.get_ylabel().startswith("Δ") for ax in rows[:, 0])

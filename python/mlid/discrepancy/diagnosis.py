@@ -244,7 +244,7 @@ class Diagnosis:
                 f"{len(self.rounds)} rounds, cost {self.base.cost:.6g} -> {self.fit.cost:.6g})")
 
     def plot(self, folder):
-        """Residuals, their autocorrelation and spectrum before and after.
+        """Write ``figure()`` to FOLDER/diagnosis.png.
 
         Parameters
         ----------
@@ -261,29 +261,59 @@ class Diagnosis:
         import matplotlib.pyplot as plt
         from pathlib import Path
         Path(folder).mkdir(parents=True, exist_ok=True)
-        ny = self.base.residuals.shape[1]
-        fig, axes = plt.subplots(ny, 3, figsize=(11, 2.0 * ny + 1), squeeze=False)
-        for i in range(ny):
-            for res, label, color in ((self.base, "before", "C3"), (self.fit, "after", "C0")):
-                e = res.residuals[:, i]
-                axes[i, 0].plot(res.data.t, e, color=color, lw=0.7, label=label)
-                c = e - e.mean()
-                ac = [1.0] + [float(c[k:] @ c[:-k] / (c @ c)) for k in range(1, 30)]
-                axes[i, 1].plot(ac, "o-", ms=2, color=color, label=label)
-                spec = np.abs(np.fft.rfft(c)) ** 2
-                axes[i, 2].semilogy(spec[1:], color=color, lw=0.7, label=label)
-            bound = 1.96 / math.sqrt(len(self.base.residuals))
-            axes[i, 1].axhspan(-bound, bound, color="0.9")
-            axes[i, 0].set_ylabel(self.before[i]["output"])
-        axes[0, 0].set_title("residuals")
-        axes[0, 1].set_title("autocorrelation")
-        axes[0, 2].set_title("spectrum")
-        axes[0, 0].legend(fontsize=7)
-        fig.tight_layout()
+        fig = self.figure()
         path = Path(folder) / "diagnosis.png"
         atomic_savefig(fig, path, dpi=100)
         plt.close(fig)
         return path
+
+    def figure(self):
+        """Residuals, their autocorrelation and power spectrum, before and
+        after the accepted effects, per output in its declared unit: time
+        in s, lag in s with the ±1.96/√N band, spectrum in Hz (Welch, Hann
+        windows, one-sided) in unit²/Hz.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            A row per output: residuals, autocorrelation, spectrum.
+        """
+        import matplotlib.pyplot as plt
+        from scipy.signal import welch
+        data = self.base.data
+        ny = self.base.residuals.shape[1]
+        dt = float(np.median(np.diff(data.t))) if data.nt > 1 else 1.0
+        n = len(self.base.residuals)
+        lags = min(30, n - 1)
+        fig, axes = plt.subplots(ny, 3, figsize=(11, 2.0 * ny + 1.2), squeeze=False)
+        for i in range(ny):
+            unit, scale, _ = data.output_display[i]
+            unit = unit or data.output_units[i]
+            for res, label, color in ((self.base, "before", "C3"), (self.fit, "after", "C0")):
+                e = res.residuals[:, i] / scale
+                axes[i, 0].plot(res.data.t, e, color=color, lw=0.7, label=label)
+                c = e - e.mean()
+                ac = [1.0] + [float(c[k:] @ c[:-k] / (c @ c)) for k in range(1, lags + 1)]
+                axes[i, 1].plot(dt * np.arange(lags + 1), ac, "o-", ms=2, color=color,
+                                label=label)
+                f, p = welch(c, fs=1.0 / dt, window="hann", nperseg=min(256, max(8, n // 4)))
+                axes[i, 2].semilogy(f[1:], p[1:], color=color, lw=0.7, label=label)
+            bound = 1.96 / math.sqrt(n)
+            axes[i, 1].axhspan(-bound, bound, color="0.9", label="±1.96/√N")
+            name = self.before[i]["output"]
+            axes[i, 0].set_ylabel(f"Δ{name} [{unit}]" if unit else f"Δ{name}")
+            axes[i, 1].set_ylabel("autocorrelation [-]")
+            axes[i, 2].set_ylabel(f"PSD [{unit}²/Hz]" if unit else "PSD [1/Hz]")
+        for ax, label in zip(axes[-1], ("t [s]", "lag [s]", "frequency [Hz]")):
+            ax.set_xlabel(label)
+        axes[0, 0].set_title("residuals")
+        axes[0, 1].set_title("autocorrelation")
+        axes[0, 2].set_title("power spectrum (Welch, Hann)")
+        axes[0, 0].legend(fontsize=7)
+        axes[0, 1].legend(fontsize=7)
+        fig.suptitle("residuals before and after the accepted effects", fontsize=10)
+        fig.tight_layout()
+        return fig
 
 
 def _esc(text):
