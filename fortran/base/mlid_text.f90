@@ -160,11 +160,14 @@ contains
   !> can be read at once (fast), else read line by line from a formatted
   !> unit.  A missing file, or one that is no regular file (a directory, a
   !> FIFO, a device), is refused.
-  subroutine text_open(path, what, tf, status, msg)
+  subroutine text_open(path, what, tf, status, msg, by_line)
     character(len=*), intent(in) :: path, what
     type(text_file_t), intent(out) :: tf
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    !> read line by line even when it could be held whole (a reader that
+    !> stops early, at a record's first data row, reads only that far)
+    logical, intent(in), optional :: by_line
     integer(int64) :: size_bytes
     logical :: exists
     integer :: unit
@@ -182,6 +185,9 @@ contains
     end if
     status = MLID_OK
     msg = ''
+    if (present(by_line)) then
+      if (by_line) size_bytes = 0
+    end if
     if (size_bytes > 0) then
       open (newunit=unit, file=path, access='stream', form='unformatted', action='read', &
             status='old', iostat=status)

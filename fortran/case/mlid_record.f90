@@ -81,7 +81,7 @@ contains
     if (present(header_only)) only_header = header_only
     allocate (rec%x(size(cols), 0), rec%names(0), rec%units(0), rec%line(0))
     stamp = file_stamp(path)
-    call text_open(path, 'data file ', tf, status, msg)
+    call text_open(path, 'data file ', tf, status, msg, by_line=only_header)
     if (status /= MLID_OK) return
     status = MLID_ERR_INPUT
     allocate (heads%text(0), heads%line(0), heads%off(0))
