@@ -196,6 +196,22 @@ contains
     cols = pack([(c, c=1, size(a, 3))], moves)
   end function moving_columns
 
+  !> After fft_real_many on n points (what: whose transforms): its workspace that did not
+  !> fit in memory (ok false), else a Ctrl-C, as status.
+  subroutine after_transforms(ok, what, n, status, msg)
+    logical, intent(in) :: ok
+    character(len=*), intent(in) :: what
+    integer, intent(in) :: n
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    if (ok) then
+      call check_interrupt(status, msg)
+    else
+      call no_memory(what//' of '//itoa(n)//' points', &
+                     real(FFT_WORK_ROWS, wp)*n, status, msg)
+    end if
+  end subroutine after_transforms
+
   !> Whether the transform costs less than the direct filter for one
   !> segment: each way's loops counted, each count weighted by the
   !> instructions it takes (callgrind, benchmarks/bench_colored_bracket.f90;
@@ -285,9 +301,7 @@ contains
       l = (q0 - 1)/ny + 1
       call fft_real_many(plan, x, sr(1, r, l), si(1, r, l), ok)  ! (series q0 on)
       deallocate (x)
-      if (.not. ok) call no_memory('the coloured-residual bound''s transforms of '// &
-                                   itoa(plan%n)//' points', real(FFT_WORK_ROWS, wp)*plan%n, status, msg)
-      if (ok) call check_interrupt(status, msg)
+      call after_transforms(ok, 'the coloured-residual bound''s transforms', plan%n, status, msg)
       if (status /= MLID_OK) return
     end do
     ! each parameter's filtered transforms on their own (the result does
@@ -341,9 +355,7 @@ contains
       call kernel_row(rvv, lag, pr(p), pq(p), z(p, :))
     end do
     call fft_real_many(plan, z, fr, fi, ok)
-    if (.not. ok) call no_memory('the coloured-residual bound''s transforms of '// &
-                                 itoa(plan%n)//' points', real(FFT_WORK_ROWS, wp)*plan%n, status, msg)
-    if (ok) call check_interrupt(status, msg)
+    call after_transforms(ok, 'the coloured-residual bound''s transforms', plan%n, status, msg)
     if (status /= MLID_OK) return
     fr(1:nh - 1, :) = 2.0_wp*fr(1:nh - 1, :)
     fi(1:nh - 1, :) = 2.0_wp*fi(1:nh - 1, :)
@@ -573,9 +585,7 @@ contains
       return
     end if
     call fft_real_many(plan, x, xr, xi, ok)
-    if (.not. ok) call no_memory('the residual autocorrelations'' transforms of '// &
-                                 itoa(plan%n)//' points', real(FFT_WORK_ROWS, wp)*plan%n, status, msg)
-    if (ok) call check_interrupt(status, msg)
+    call after_transforms(ok, 'the residual autocorrelations'' transforms', plan%n, status, msg)
     if (status /= MLID_OK) return
     do p = 1, size(pr)
       call add_cross(p, xr(:, pr(p)), xi(:, pr(p)), xr(:, pq(p)), xi(:, pq(p)))
