@@ -239,7 +239,7 @@ def _show_case(args, case, out, result, error, tables):
     report and notes are the core's (mlid-batch prints the same); a failed
     fit has its report (last values) and no table or plot; an estimate that
     did not converge is a result with a warning, not a failure."""
-    print(f"\n case {case.index}: {case.title}")
+    print(_heading(case), end="")
     if out is not None:
         print(out.report, end="")
         for note in out.notes:
@@ -284,7 +284,7 @@ def _case_task(deck, ks, plots, table, keep):
             try:
                 case, out, result, error = next(run_cases([case]))
             except KeyboardInterrupt as exc:    # what mlid-batch has printed by then
-                exc.finished = done, f"\n case {case.index}: {case.title}\n"
+                exc.finished = done, _heading(case)
                 raise
             obj = case_json(case, out, error)
             bad, unsaid = _show_case(SimpleNamespace(plots=plots, table=table), case, out, result,
@@ -341,6 +341,11 @@ def _plot_folders(decks, plots):
         "/", "_") for s, d in zip(stems, decks)]
     names = [n if names.count(n) == 1 else f"{n}_{k + 1}" for k, n in enumerate(names)]
     return {d: str(Path(plots) / n) for d, n in zip(decks, names)}
+
+
+def _heading(case):
+    """A case's heading in the report, as mlid-batch prints it."""
+    return f"\n case {case.index}: {case.title}\n"
 
 
 def _up_to_an_interrupt(outcomes):
@@ -464,7 +469,7 @@ def _diagnose(args):
     warnings.simplefilter("ignore")
     failed, cases, objects = 0, read_deck(args.deck), []
     for case in cases:
-        print(f"\n case {case.index}: {case.title}")
+        print(_heading(case), end="")
         d = None
         if case.job not in FIT_JOBS or case.error:
             out, error = _attempt("run", run_case, case)
