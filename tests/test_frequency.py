@@ -141,7 +141,7 @@ def test_model_response_against_numpy_with_feedback_and_delays():
 def test_model_response_derivatives_against_finite_differences():
     m = _feedback_model()
     f = np.array([0.05, 0.4, 2.0, 9.0])
-    free = np.flatnonzero(m.free_mask)                  # theta order, as the derivatives
+    free = m.free_indices()                  # theta order, as the derivatives
     terms = m.tie_terms()
     for i, j in ((0, 1), (1, 2)):
         r = mlid.model_response(m, f, i, j)
@@ -187,7 +187,7 @@ def test_model_bands_are_the_delta_method_of_the_cramer_rao_covariance(fitted):
     assert (r.input_name, r.output_name) == ("de", "q")
     m = res.model
     grads = []
-    for k in np.flatnonzero(m.free_mask):                # the covariance's order
+    for k in m.free_indices():                # the covariance's order
         h = 1e-6 * max(1.0, abs(m.theta[k]))
         out = []
         for sign in (1, -1):

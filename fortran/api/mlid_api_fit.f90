@@ -187,7 +187,7 @@ contains
       end if
       p%has(PART_EXTRAS) = .false.         ! the extras are the next fit's alone
       call fit_solve(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, &
-                     p%rconst, p%t, p%u, p%y, p%segstart, p%iopt, p%ropt, count(p%isfree == 1), &
+                     p%rconst, p%t, p%u, p%y, p%segstart, p%iopt, p%ropt, count(p%isfree > 0), &
                      p%use_prior, p%prior, p%pweight, p%use_bounds, p%lower, p%upper, res, pm, &
                      opt, bad, status, msg)
       ! out of memory or interrupted: nothing to view (a long record's view
@@ -364,7 +364,7 @@ contains
       call g%get('seed0', seed0, status, msg)
       call g%get('nrun', nrun, status, msg)
       if (status /= MLID_OK) return
-      nf = count(p%isfree == 1)
+      nf = count(p%isfree > 0)
       call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
                  p%t, p%u, p%y, p%iopt, p%ropt, nf, m, opt, pm, status, msg)
       if (status /= MLID_OK) return

@@ -18,7 +18,7 @@ module mlid_run
   use mlid_validate, only: prediction_stats
   use mlid_equations, only: equations_t, equations_create
   use mlid_flightpath, only: flightpath_corrected
-  use mlid_params, only: param_map_t
+  use mlid_params, only: param_map_t, free_indices
   use mlid_options, only: options_t
   use mlid_newton, only: fit_result_t
   use mlid_fit_driver, only: fit_solve, fit_view, fit_view_t
@@ -247,7 +247,7 @@ contains
     if (r%status == MLID_OK) call manoeuvre_layout(c, size(segstart), r%status, r%msg)
     if (r%status /= MLID_OK) return
     nth = size(c%theta)
-    nf = count(c%isfree == 1)
+    nf = count(c%isfree > 0)
     if (size(t) >= LONG_RECORD) call note(r, 'a long record: '//itoa(size(t))//' samples of '// &
       itoa(size(u, 1) + size(y, 1) + 1)//' channels ('//itoa(nint(8.0e-6_wp*size(t)* &
       (size(u, 1) + size(y, 1) + 1)))//' MB of numbers) and '//itoa(nf)//' free parameters: '// &
@@ -313,14 +313,14 @@ contains
     type(case_t), intent(in) :: c
     type(fit_view_t), intent(in) :: v
     type(fit_summary_t), intent(inout) :: s
-    logical :: free(size(c%theta))
+    integer, allocatable :: free(:)
 
-    free = c%isfree == 1
+    free = free_indices(c%isfree)
     s%labels = c%labels
-    s%start = pack(v%theta_start, free)
-    s%est = pack(v%theta, free)
-    s%sig = pack(v%sigma, free)
-    s%sigc = pack(v%sigma_c, free)
+    s%start = v%theta_start(free)
+    s%est = v%theta(free)
+    s%sig = v%sigma(free)
+    s%sigc = v%sigma_c(free)
     s%cov = v%cov
     s%eigval = v%eigval
     s%eigvec = v%eigvec
@@ -368,7 +368,7 @@ contains
     if (r%status /= MLID_OK) return
     call holdout_case(files_of(c, out), theta, count(.not. out), held, r%status, r%msg)
     if (r%status /= MLID_OK) return
-    if (count(held%isfree == 1) > 0) then
+    if (count(held%isfree > 0) > 0) then
       call fit_record(held, th, uh, yh, sh, hunits, r, theta=theta, rhat=r0, yhat=pred, &
                       outcome=held_outcome)
     else

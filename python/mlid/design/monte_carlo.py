@@ -30,7 +30,7 @@ def _mc_setup(truth, start, t, u, noise_std, runs, seed, options):
     iopt, ropt, _ = _flat_options(start, options)
     t, u = _time_and_inputs(start, t, u)
     call = dict(start=start, tu=(t, u.T), iopt=iopt, ropt=ropt, theta_true=truth.theta)
-    return call, runs, seed, start.free_names(), truth.theta[start.free_mask == 1]
+    return call, runs, seed, start.free_names(), truth.theta[start.free_indices()]
 
 
 def _mc_runs(call, seed, runs):

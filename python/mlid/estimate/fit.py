@@ -50,11 +50,11 @@ def _extras(params, prior, prior_weight, bounds):
                              f"{type(given).__name__}")
     for name, value in (prior or {}).items():
         pvec[params.index(name)] = value
-    nf = int(params.mask.sum())
+    nf = params.free.size
     if prior_weight is None:
         weight = np.zeros((nf, nf))
     elif isinstance(prior_weight, dict):
-        free = list(np.flatnonzero(params.mask))
+        free = params.free.tolist()
         weight = np.zeros((nf, nf))
         for name, w in prior_weight.items():
             k = free.index(params.index(name))
@@ -276,7 +276,7 @@ def _result(model, data, setup, out, stacklevel):
     fields = dict(yhat=out["yhat"].T.copy())
     fields.update(_frequency_fields(model, params, theta, *setup["tuy"], starts, setup["iopt"],
                                     setup["ropt"], opts, status, reason))
-    free = params.mask == 1
+    free = params.free
     rnoise = out["r_innovations"]
     result = FitResult(
         start_model=model, data=record, options=opts,
@@ -328,4 +328,4 @@ def _frequency_fields(model, params, theta, t, u, y, starts, iopt, ropt, opts, s
 def _free_units(model, input_units, output_units, params):
     """The unit of each free parameter of a fit (mlid_param_units)."""
     units = model.param_units(input_units, output_units)
-    return [units[i] for i, f in zip(params.map, params.mask) if f]
+    return [units[params.map[j]] for j in params.free]

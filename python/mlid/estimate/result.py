@@ -413,7 +413,7 @@ class FitResult:
         deviations : ndarray
             (estimate - truth) / Cramer-Rao sigma of each.
         """
-        values = truth.theta[self.start_model.free_mask == 1]    # theta order, as estimate
+        values = truth.theta[self.start_model.free_indices()]     # as estimate
         return values, (self.estimate - values) / self.sigma
 
     def json(self, title="", job="estimate"):

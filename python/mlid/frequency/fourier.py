@@ -136,7 +136,7 @@ def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=Non
         raise InputError("recursive_frequency_fit takes no ties, input feedback K or delays "
                          "(its state equations are x' = F x + G u)")
     # the free entries by the core's layout of theta: F, then G, each column by column
-    mask = model.free_mask
+    mask = model.free_mask                 # its own order: F, then G
     f, g = model._layout.slice("f"), model._layout.slice("g")
     outside = mask.astype(bool)
     outside[f] = outside[g] = False
@@ -154,7 +154,8 @@ def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=Non
     check_status(*_api.mlid_set_record(h.value, t=t, u=u, y=x, segstart=[1]))
     out = _run(h, _api.mlid_recursive_fdee)
     return {"t_end": out["t_end"], "estimates": out["estimates"].T.copy(),
-            "sigma": out["sigma"].T.copy(), "names": model.free_names()}
+            "sigma": out["sigma"].T.copy(),
+            "names": [model.names.get(n, n) for n in np.array(model.element_names())[mask > 0]]}
 
 
 def _band_edge(name, value):

@@ -230,8 +230,8 @@ def free_map(fit_or_model):
     fitted = isinstance(fit_or_model, FitResult)
     model = getattr(fit_or_model, "start_model", fit_or_model.model) if fitted else fit_or_model
     params = Params(model, len(getattr(fit_or_model, "manoeuvres", ())) or 1)
-    jac = np.zeros((model.theta.size, int(params.mask.sum())))
-    for c, k in enumerate(np.flatnonzero(params.mask)):
+    jac = np.zeros((model.theta.size, params.free.size))
+    for c, k in enumerate(params.free):
         if params.seg[k] == 0:
             jac[params.map[k], c] = 1.0
     for a, (_, sources) in model.tie_terms().items():
