@@ -59,7 +59,10 @@ def _latex_tabular(columns, align, header=True, verbatim=None):
             rows = np.flatnonzero(mask.iloc[:, k].to_numpy())
             if rows.size:
                 styler = styler.format(str, subset=(frame.index[rows], [col]))
-    return styler.to_latex(column_format=align, hrules=header)
+    try:
+        return styler.to_latex(column_format=align, hrules=header)
+    except ImportError as e:            # pandas' LaTeX is a jinja2 template
+        raise InputError(f"LaTeX tables need jinja2 ({e}): pip install jinja2") from None
 
 
 def _symbol(part):
