@@ -309,7 +309,8 @@ module mlid_deck
     end subroutine corrected_writable
 
     !> The record of an estimate case: time, inputs and outputs from its data files.
-    module subroutine case_record(c, t, u, y, status, msg, segstart, units, names, notes, own_t)
+    module subroutine case_record(c, t, u, y, status, msg, segstart, units, names, notes, own_t, &
+                                  shown, scale)
       type(case_t), intent(in) :: c
       real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
       !> each manoeuvre's time as its file gives it (t moves them one after another)
@@ -320,6 +321,10 @@ module mlid_deck
       character(len=UNITLEN), allocatable, intent(out), optional :: units(:)  !< inputs, outputs
       character(len=NAMELEN), allocatable, intent(out), optional :: names(:)  !< the channels'
       type(line_t), allocatable, intent(out), optional :: notes(:)
+      !> the unit each channel is shown in (deck `show`, else declared) and
+      !> its scale: core = scale*shown + offset (a difference: core = scale*shown)
+      character(len=UNITLEN), allocatable, intent(out), optional :: shown(:)
+      real(wp), allocatable, intent(out), optional :: scale(:)
     end subroutine case_record
 
     !> The case's parameters for nseg manoeuvres.

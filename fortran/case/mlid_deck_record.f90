@@ -67,7 +67,7 @@ contains
     if (present(notes)) allocate (notes(0))
     if (present(own_t)) allocate (own_t(0))
     do k = 1, nseg
-      call read_record(c, k, tk, uk, yk, status, msg, units, names)
+      call read_record(c, k, tk, uk, yk, status, msg, units, names, shown, scale)
       if (status /= MLID_OK) return
       if (present(notes) .and. len_trim(msg) > 0) call add_line(notes, msg)
       msg = ''
@@ -90,14 +90,15 @@ contains
 
   !> Data file k: the case's channels of it in its window, by the one
   !> record reader.
-  subroutine read_record(c, k, t, u, y, status, msg, units, names)
+  subroutine read_record(c, k, t, u, y, status, msg, units, names, shown, scale)
     type(case_t), intent(in) :: c
     integer, intent(in) :: k
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    character(len=UNITLEN), allocatable, intent(inout), optional :: units(:)
+    character(len=UNITLEN), allocatable, intent(inout), optional :: units(:), shown(:)
     character(len=NAMELEN), allocatable, intent(inout), optional :: names(:)
+    real(wp), allocatable, intent(inout), optional :: scale(:)
     type(channel_set_t) :: set
     call channels_read(c%data_files(k), c%chan, c%win_start(k), c%win_end(k), set, status, msg, &
                        manoeuvre=c%file_no(k))
@@ -107,6 +108,12 @@ contains
     end if
     if (present(names)) then
       if (.not. allocated(names)) names = set%names
+    end if
+    if (present(shown)) then
+      if (.not. allocated(shown)) shown = set%shown
+    end if
+    if (present(scale)) then
+      if (.not. allocated(scale)) scale = set%scale
     end if
     call move_alloc(set%t, t)
     call move_alloc(set%u, u)

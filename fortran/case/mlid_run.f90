@@ -345,8 +345,9 @@ contains
     real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :), r0(:, :)
     real(wp), allocatable :: th(:), uh(:, :), yh(:, :), pred(:, :), theil(:), rms(:), ratio(:)
     integer, allocatable :: segstart(:), sh(:)
-    character(len=UNITLEN), allocatable :: units(:), hunits(:)
+    character(len=UNITLEN), allocatable :: units(:), hunits(:), shown(:)
     character(len=NAMELEN), allocatable :: names(:), fnames(:)
+    real(wp), allocatable :: scale(:)
     type(line_t), allocatable :: notes(:)
     type(case_t) :: fitted, held
     logical, allocatable :: out(:)
@@ -361,7 +362,7 @@ contains
     call case_record(fitted, t, u, y, r%status, r%msg, segstart, units, fnames, notes=notes)
     call notes_from(r, notes)
     if (r%status == MLID_OK) call case_record(files_of(c, out), th, uh, yh, r%status, r%msg, sh, &
-                                              hunits, names, notes)
+                                              hunits, names, notes, shown=shown, scale=scale)
     if (r%status == MLID_OK) call notes_from(r, notes)
     if (r%status == MLID_OK) call fit_record(fitted, t, u, y, segstart, units, r, json, theta, &
                                              rhat, yhat, outcome, fnames)
@@ -384,7 +385,8 @@ contains
     if (allocated(c%output_names)) then
       if (all(len_trim(c%output_names) > 0)) names(c%nu + 1:) = c%output_names
     end if
-    r%report = r%report//validation_report(names(c%nu + 1:), c%holdout, theil, rms, ratio)
+    r%report = r%report//validation_report(names(c%nu + 1:), shown(c%nu + 1:), &
+                                           scale(c%nu + 1:), c%holdout, theil, rms, ratio)
     call r%results%put('theil', theil)
     call r%results%put('rms', rms)
     call r%results%put('rms_over_sigma', ratio)
