@@ -727,3 +727,21 @@ def test_mlid_run_plots_writes_every_figure_of_a_fit(tmp_path):
     assert [Path(s).name for s in said] == names
     for name in names:
         _written_whole(tmp_path / "p" / name)
+
+
+def test_frequency_fit_figure_draws_each_manoeuvre_on_its_own(case):
+    """A frequency-domain fit of two manoeuvres: each one's transforms a line
+    of its own, rising in frequency (sorted together they zigzagged
+    between the two), each output named with its unit (core unit times s)."""
+    res = mlid.fit(_start(), case["pair"], method="frequency_output_error", f_min=0.1,
+                   f_max=2.0, n_freq=30)
+    fig = plots.frequency_overview(res)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["|Y alpha| [rad·s]", "|Y q| [(rad/s)·s]"]
+    assert fig.axes[-1].get_xlabel() == "frequency [Hz]"
+    for i, ax in enumerate(fig.axes):
+        model = [ln for ln in ax.get_lines() if ln.get_label().startswith("model")]
+        assert [ln.get_label() for ln in model] == ["model (manoeuvre 1)", "model (manoeuvre 2)"]
+        for k, ln in enumerate(model):
+            f = np.asarray(ln.get_xdata())
+            assert len(f) == 30 and np.all(np.diff(f) > 0)
+            np.testing.assert_allclose(ln.get_ydata(), np.abs(res.zhat[30 * k:30 * (k + 1), i]))

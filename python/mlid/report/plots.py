@@ -410,7 +410,6 @@ def residuals(result, path=None):
 
 
 @_styled
-@_styled
 def frequency_overview(result, path=None):
     """A frequency-domain fit: for each output the magnitude of the measured
     transform (or equation error's left-hand side) and the model's against
@@ -423,20 +422,42 @@ def frequency_overview(result, path=None):
     """
     ny = result.z.shape[1]
     fig, axes = _figure(ny, 1, 6.5, 1.6, sharex=True)
-    order = np.argsort(result.frequencies, kind="stable")
-    f = result.frequencies[order]
+    f = np.asarray(result.frequencies)
+    # one block of frequencies per manoeuvre, each drawn on its own (no line
+    # zigzags between two manoeuvres' transforms)
+    blocks = np.split(np.arange(len(f)), np.flatnonzero(np.diff(f) <= 0) + 1)
+    names, units = _transform_names(result, ny)
     for i, ax in enumerate(axes[:, 0]):
-        ax.semilogy(f, np.abs(result.z[order, i]), ".", ms=3, color=COLORS["measured"],
-                    label="measured")
-        ax.semilogy(f, np.abs(result.zhat[order, i]), color=COLORS["model"], lw=1,
-                    label="model")
-        ax.semilogy(f, np.abs(result.residuals[order, i]), color=COLORS["residual"], lw=0.8,
-                    label="residual")
-        ax.set_ylabel(f"|Z_{i + 1}|")
-    axes[-1, 0].set_xlabel("frequency (Hz)")
-    axes[0, 0].legend(fontsize=7, ncol=3, loc="upper right")
-    fig.suptitle(f"{result.options['method'].replace('_', ' ')}: transforms", fontsize=10)
+        for k, b in enumerate(blocks):
+            which = f" (manoeuvre {k + 1})" if len(blocks) > 1 else ""
+            style = ("-", "--", ":", "-.")[k % 4]
+            ax.semilogy(f[b], np.abs(result.z[b, i]), ".", ms=3, color=COLORS["measured"],
+                        label="measured" if k == 0 else None)
+            ax.semilogy(f[b], np.abs(result.zhat[b, i]), style, color=COLORS["model"], lw=1,
+                        label=f"model{which}")
+            ax.semilogy(f[b], np.abs(result.residuals[b, i]), style, color=COLORS["residual"],
+                        lw=0.8, label=f"residual{which}")
+        ax.set_ylabel(axis_label(f"|{names[i]}|", units[i]))
+    axes[-1, 0].set_xlabel("frequency [Hz]")
+    _figure_legend(fig, axes[0, :1])
+    equation = result.options["method"] == "frequency_equation_error"
+    fig.suptitle(f"{result.options['method'].replace('_', ' ')}: finite Fourier transforms"
+                 + ("\nleft-hand sides Z: jωY of an output that measures a state, else Y"
+                    if equation else " of the outputs, core units"), fontsize=10)
     return _finish(fig, path)
+
+
+def _transform_names(result, n):
+    """Names and units of the n transforms of a frequency-domain fit, one
+    per output: Y, in the output's core unit times s (output error); the
+    left-hand side, jω Y or Y, unit not stated (equation error)."""
+    names = list(result.data.output_names)
+    names = names if len(names) == n else [f"y{k + 1}" for k in range(n)]
+    if result.options["method"] == "frequency_equation_error":
+        return [f"Z {name}" for name in names], [""] * n
+    units = list(result.data.output_units or [""] * n)
+    units = units if len(units) == n else [""] * n
+    return [f"Y {name}" for name in names], [f"{_grouped(u)}·s" if u else "" for u in units]
 
 
 def fit_overview(result, path=None, title=None):
@@ -609,14 +630,16 @@ def autocorrelation(result, lags=None, path=None):
     tau, rho, band = residual_autocorrelation(result, lags)
     fig, axes, ncols = _panels(rho.shape[1])
     for i, ax in enumerate(axes):
-        ax.axhspan(-band, band, color=COLORS["band"], alpha=0.12, lw=0)
+        ax.axhspan(-band, band, color=COLORS["band"], alpha=BAND_ALPHA, lw=0,
+                   label="±1.96/√N (95%)")
         ax.vlines(tau, 0, rho[:, i], color=COLORS["residual"], lw=1.4)
-        ax.plot(tau, rho[:, i], "o", ms=2.5, color=COLORS["residual"])
+        ax.plot(tau, rho[:, i], "o", ms=2.5, color=COLORS["residual"], label="ρ(τ)")
         ax.axhline(0, color="0.5", lw=0.6)
         ax.set_title(result.data.output_names[i])
         ax.set_ylabel("autocorrelation [-]")
         ax.set_ylim(min(-2.5 * band, np.nanmin(rho[:, i]) - 0.05), 1.05)
     _bottom_labels(axes, ncols, "lag [s]")
+    _figure_legend(fig, axes[:1])
     fig.suptitle(f"residual autocorrelation, ±1.96/√N band (N = {len(result.residuals)})",
                  fontsize=10)
     return _finish(fig, path)
