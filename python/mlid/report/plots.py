@@ -1049,7 +1049,9 @@ def bode_data(result, hz=True, measured=True):
     (``mlid.model_response``: the delta method on the core's analytic
     derivatives, the channels' delays included), and the record's response
     (``mlid.record_response``) with its random-error σ (Bendat & Piersol).
-    Constant inputs are left out (``drawn_inputs``).
+    Constant inputs are left out (``drawn_inputs``).  The record's response
+    of a pair is the single-input one, G_uy / G_uu: where several inputs
+    move together it carries the others' effect too (the model's does not).
 
     Parameters
     ----------
