@@ -839,8 +839,8 @@ def measured_vs_model(result, path=None):
         ax.set_ylabel(axis_label(f"{who} {name}", unit))
         ax.set_title(f"{name}: R² = {r2[i]:.3f}, fit {fit[i]:.1f}%", loc="left")
     _figure_legend(fig, grid.flat[:1])
-    fig.suptitle(f"measured against {who} output; fit % = 100 (1 - ‖y - ŷ‖ / ‖y - ȳ‖)",
-                 fontsize=10)
+    fig.suptitle(f"measured against {who} output\nR² = 1 - Σ(y - ŷ)² / Σ(y - ȳ)², "
+                 "fit = 100 (1 - ‖y - ŷ‖ / ‖y - ȳ‖) %", fontsize=10)
     return _finish(fig, path)
 
 
