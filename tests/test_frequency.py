@@ -341,11 +341,12 @@ def test_bode_measured_plot(fitted, tmp_path):
     assert ag.get_title(loc="left") == "de → q  [(rad/s)/deg]"
     assert [ax.get_ylabel() for ax in (ag, ap, ac)] == ["gain [dB]", "phase [deg]",
                                                          "coherence γ²"]
-    labels = [ln.get_label() for ln in ag.get_lines()]
-    assert labels == ["identified model", "measured (record)", "measured, γ² < 0.6",
-                      "LOES (1/2, delay)"]
+    labels = [ln.get_label() for ln in ag.get_lines() if not ln.get_label().startswith("_")]
+    assert labels == ["identified model", "measured, γ² < 0.6 (no bar)", "LOES (1/2, delay)"]
     good = meas.coherence >= plots.COHERENCE_SHOWN
-    np.testing.assert_allclose(ag.get_lines()[1].get_xdata(), meas.frequency[good])
+    (bars,) = ag.containers                      # the trusted points, with their error bars
+    assert bars.get_label() == "measured ±2σ (random error)"
+    np.testing.assert_allclose(bars[0].get_xdata(), meas.frequency[good])
     model_line = ag.get_lines()[0]
     ref = mlid.model_response(fitted, model_line.get_xdata(), "de", "q")
     # in the declared units: (q [rad/s]) / (de [deg]) = (q/de in core units) * pi/180

@@ -15,7 +15,7 @@ from ..files import atomic_write_text, check_writable, same_file
 from ..frequency.responses import fit_transfer_function, record_response
 from ..report import plots
 from ..report.html_report import write_report
-from ..report.plots import plot_fit, plot_validation, use_file_backend
+from ..report.plots import fit_writers, plot_validation, use_file_backend
 from . import campaign
 from .campaign import FORMATS, decks as named_decks
 from .deck import FIT_JOBS, case_json, json_list, read_deck, run_case, run_cases
@@ -255,7 +255,8 @@ def _show_case(args, case, out, result, error, tables):
     checked = getattr(result, "validation", None)
     if args.plots and fitted:
         title = f"{case.deck} case {case.index}: {case.title}"
-        plots = [(lambda r, f, s: plot_fit(r, f, s, title), result)] + (
+        plots = [(lambda r, f, s, w=write: w(r, f, s, title), result)
+                 for write in fit_writers(result)] + (
             [(plot_validation, checked)] if checked else [])
         for fn, what in plots:
             path, plot_error = _attempt("plot", fn, what, args.plots, f"case{case.index}")
