@@ -66,7 +66,7 @@ $(VPY):
 
 # The venv's packages, installed again when this list changes.
 $(DEPS): $(VPY) Makefile
-	$(VPY) -m pip install -q meson meson-python ninja numpy matplotlib scipy h5py pandas xarray pytest dask distributed hypothesis tqdm
+	$(VPY) -m pip install -q meson meson-python ninja numpy matplotlib scipy h5py pandas xarray pytest dask distributed hypothesis tqdm jinja2
 	touch $(DEPS)
 
 # Build with meson-python into ./build (kept, so meson test can run there); the
