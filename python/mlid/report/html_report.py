@@ -206,13 +206,13 @@ def _png_size(data):
 
 def _png(fig):
     """fig as PNG bytes at DPI.  Its layout is made once, at DPI, and then
-    fixed: savefig would lay it out in a drawing of its own before the one
-    it writes (the same pixels, some 13% less time)."""
+    fixed (no layout engine): with one, savefig draws the whole figure once
+    unseen before the drawing it writes (the same pixels, a fifth less time)."""
     fig.set_dpi(DPI)
     engine = fig.get_layout_engine()
     if engine is not None:
         engine.execute(fig)
-        fig.set_layout_engine("none")
+        fig.set_layout_engine(None)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI)
     return buf.getvalue()
