@@ -8,6 +8,9 @@ median, and the ratios report / run (the target of issue 42: <= 2).
 
 --mlid names other installs' `mlid` to time beside this one (e.g. a build
 of main: the before and after in one table); each gets its own rows.
+--breakdown also says where a report's time goes, in one process (CPU s):
+the run, the imports a report needs (matplotlib, scipy.signal with
+scipy.stats, jinja2) and each figure of FIT_SECTIONS, made and written.
 The ATTAS deck reads the shared data (../shared/data) and is skipped
 without it.
 """
@@ -88,12 +91,53 @@ def show(title, times, mlids):
               f"{np.median(rep[:, 1]) / np.median(run[:, 1]):.1f}x (median)")
 
 
+def breakdown(deck):
+    """CPU seconds of each stage of a C-8 report, in this process."""
+    clock = time.process_time
+    work = Path(tempfile.mkdtemp(prefix="mlid_bench_report_"))
+    try:
+        shutil.copy(deck, work / deck.name)
+        t0 = clock()
+        import mlid
+        cases = mlid.run_deck(work / deck.name)
+        stages = [("import mlid, run the deck", clock() - t0)]
+        for name, stmt in (("import matplotlib (Agg), pyplot", "import matplotlib; "
+                            "matplotlib.use('Agg'); import matplotlib.pyplot"),
+                           ("import scipy.signal (and scipy.stats)", "import scipy.signal"),
+                           ("import jinja2", "import jinja2")):
+            t0 = clock()
+            exec(stmt, {})
+            stages.append((name, clock() - t0))
+        from mlid.report import html_report
+        fit = next(r for _, _, r, _ in cases if r is not None)
+        for part in html_report.FIT_SECTIONS:
+            if part.when is not None and not part.when(fit):
+                continue
+            for item in part.items:
+                t0 = clock()
+                block = item(fit)
+                if isinstance(block, html_report.Figure):
+                    stages.append((f"figure {block.id}", clock() - t0))
+        t0 = clock()
+        html_report.write_report(work / "report", work / deck.name, cases)
+        stages.append(("write_report (all of it, imports done)", clock() - t0))
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    print(f"\nwhere the time of a report goes ({deck.name}, one process, CPU s)")
+    for name, t in stages:
+        print(f"  {name:44s} {t:8.3f}")
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--rounds", type=int, default=5)
     p.add_argument("--mlid", action="append", default=[], metavar="PATH",
                    help="another install's mlid, timed beside this one")
+    p.add_argument("--breakdown", action="store_true", help="where a report's time goes")
     args = p.parse_args(argv)
+    if args.breakdown:
+        breakdown(C8)
+        return 0
     mlids = [BIN / "mlid", *args.mlid]
     print(f"rounds: {args.rounds}, seconds per process; cores: {os.cpu_count()}, "
           f"load average {os.getloadavg()[0]:.1f}")
