@@ -45,13 +45,14 @@ bench: install
 install: sysdeps $(STAMP)
 
 # System packages from Debian: gfortran, LAPACK/BLAS, zlib and HDF5 (the core reads .mat
-# and HDF5 records), venv and headers for Python.
+# and HDF5 records), venv and headers for Python, chromium (the HTML report's screenshot test).
 sysdeps:
 	@missing=""; \
 	command -v gfortran >/dev/null || missing="$$missing gfortran"; \
 	dpkg -s liblapack-dev >/dev/null 2>&1 || missing="$$missing liblapack-dev libblas-dev"; \
 	dpkg -s zlib1g-dev >/dev/null 2>&1 || missing="$$missing zlib1g-dev"; \
 	dpkg -s libhdf5-dev >/dev/null 2>&1 || missing="$$missing libhdf5-dev"; \
+	command -v chromium >/dev/null || missing="$$missing chromium"; \
 	$(PYTHON) -c 'import ensurepip, venv' 2>/dev/null || missing="$$missing python3-venv"; \
 	$(PYTHON) -c 'import sysconfig, os, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \
 	  || missing="$$missing python3-dev"; \
