@@ -38,7 +38,6 @@ exclude_patterns = ["_build", "fortran_api.md", "reference/deck_items.txt", "exa
                     "**/README.md"]
 myst_enable_extensions = ["dollarmath"]
 myst_heading_anchors = 3
-suppress_warnings = []
 
 # The API pages: one per public name of mlid.__all__ (api.rst).
 autosummary_generate = True

@@ -60,9 +60,11 @@ if DATA is not None:
                                 output_cols=["ALCG", "QRGY"], columns=COLUMNS,
                                 derived={"de": "DELV"}, t_start=2.0, t_end=24.0,
                                 show={"ALCG": "deg", "QRGY": "deg/s", "de": "deg"})
+    title = "ATTAS fAttasElv1.mat (../shared/data), 2-24 s: output error"
     print(f"flight record ../shared/data/fAttasElv1.mat: {data.nt} samples")
 else:
     data = simulated_record()
+    title = "simulated record of the ATTAS short-period model: output error"
     print(f"simulated record (no ../shared/data here): {data.nt} samples")
 
 model = mlid.LinearModel(F0, G0, np.eye(2), bx=BX0, x0=data.y[0], free=FREE, names=NAMES)
@@ -75,5 +77,5 @@ print(res.params[["estimate", "sigma_cr"]].to_string(float_format=lambda v: f"{v
 
 # %%
 # Measured and model outputs, residuals and the estimates.
-plots.fit_overview(res)
+plots.fit_overview(res, title=title)
 plt.show()

@@ -38,6 +38,6 @@ for name, t, e, s in zip(res.params.index, truth, res.estimate, z):
 
 # %%
 # The fit: measured and model outputs, the residuals and the estimates.
-fig = plots.fit_overview(res)
+fig = plots.fit_overview(res, title=f"cases/c8_short_period/c8.nml, case 2: {estimate.title}")
 plt.show()
 shutil.rmtree(work)
