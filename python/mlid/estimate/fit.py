@@ -219,6 +219,27 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     -----
     MlidWarning
         When the core warns about the record (units that look wrong).
+
+    Examples
+    --------
+    A first-order system, xdot = a x + b u, simulated with a pulse and noise
+    of sigma 0.01, then fitted from start values half the truth:
+
+    >>> import numpy as np
+    >>> import mlid
+    >>> truth = mlid.LinearModel([[-2.0]], [[4.0]], [[1.0]], r=[1e-4])
+    >>> t = np.arange(0.0, 5.0, 0.02)
+    >>> u = np.where((t > 1.0) & (t < 2.0), 1.0, 0.0).reshape(-1, 1)
+    >>> data, states = mlid.simulate(truth, t, u, seed=1)
+    >>> start = mlid.LinearModel([[-1.0]], [[2.0]], [[1.0]], free=["f(1,1)", "g(1,1)"],
+    ...                          names={"f(1,1)": "a", "g(1,1)": "b"})
+    >>> res = mlid.fit(start, data)
+    >>> res.converged
+    True
+    >>> res.params["estimate"].round(2).to_dict()
+    {'a': -2.0, 'b': 3.99}
+    >>> bool(np.all(abs(res.estimate - [-2.0, 4.0]) < 3 * res.sigma))
+    True
     """
     _check_model(model)
     _check_data(data)

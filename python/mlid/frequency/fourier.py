@@ -68,6 +68,19 @@ def fourier_transform(t, x, freq):
     ------
     InputError
         Fewer than two samples, sampling not uniform, values not finite.
+
+    Examples
+    --------
+    A constant over one second: its transform is 1 s at 0 Hz and, exactly,
+    nothing at 1 Hz, where an FFT's sum over the samples would leave the
+    end points' half weights.
+
+    >>> import numpy as np
+    >>> import mlid
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> X = mlid.fourier_transform(t, np.ones_like(t), [0.0, 1.0])
+    >>> np.round(abs(X), 12)
+    array([1., 0.])
     """
     t = real_array("t", t)
     xa = real_array("x", x)

@@ -614,6 +614,22 @@ class LinearModel(Model):
     Raises
     ------
     {raises}
+
+    Examples
+    --------
+    The short period, x = (alpha, q), with three derivatives to estimate,
+    each under its own label:
+
+    >>> import mlid
+    >>> model = mlid.LinearModel([[-0.7, 1.0], [-0.6, -1.6]], [[0.0], [-1.7]],
+    ...                          [[1.0, 0.0], [0.0, 1.0]],
+    ...                          free=["f(2,1)", "f(2,2)", "g(2,1)"],
+    ...                          names={"f(2,1)": "M_alpha", "f(2,2)": "M_q",
+    ...                                 "g(2,1)": "M_de"})
+    >>> model
+    LinearModel(nx=2, nu=1, ny=2, nw=0, free=['M_alpha', 'M_q', 'M_de'])
+    >>> float(model.F[1, 1])
+    -1.6
     """
 
     kind = MODEL_KINDS["linear"]
