@@ -1,6 +1,6 @@
 """
-ATTAS short period in Python
-============================
+ATTAS short period in Python, and every figure of a fit
+=======================================================
 
 The ATTAS elevator manoeuvre ``fAttasElv1.mat`` (DLR's VFW-614 research aircraft; channels
 in ``../shared/data/ATTAS_CHANNELS.md``) fitted with the two-state short-period model of
@@ -78,4 +78,41 @@ print(res.params[["estimate", "sigma_cr"]].to_string(float_format=lambda v: f"{v
 # %%
 # Measured and model outputs, residuals and the estimates.
 plots.fit_overview(res, title=title)
+plt.show()
+
+# %%
+# Each output measured against the model, with the 1:1 line; R² and fit % in the titles.
+plots.measured_vs_model(res)
+plt.show()
+
+# %%
+# The residuals' autocorrelation against lag in seconds, with its ±1.96/√N band: a white
+# residual stays inside it at about 95 % of the lags.
+plots.autocorrelation(res)
+plt.show()
+
+# %%
+# The residuals' cross-correlation with the elevator (MATLAB ``resid``'s second panel): a
+# term the model misses shows as a peak outside the band.
+plots.residual_input(res)
+plt.show()
+
+# %%
+# The residual spectra by Welch's method in Hz, with the white-noise level of the same
+# variance dashed.
+plots.spectra(res)
+plt.show()
+
+# %%
+# The correlation matrix of the estimates.
+plots.correlation(res)
+plt.show()
+
+# %%
+# The modes of the identified model in the s-plane, with models drawn from the Cramér-Rao
+# covariance, and its frequency response with the ±2σ Cramér-Rao band (delta method) and
+# the record's own response with its random-error bars.
+plots.s_plane(res)
+plt.show()
+plots.bode(res)
 plt.show()

@@ -123,11 +123,13 @@ contains
   !> The places of the free entries on several manoeuvres (map, seg:
   !> mlid_layout's manoeuvre_map): the shared ones keep theirs; manoeuvre k's
   !> own copies follow all of them, manoeuvre by manoeuvre, each in the order
-  !> of free.  As python/mlid/model/maneuvers.py's Params does.
+  !> of free; one manoeuvre keeps the order of free.  As
+  !> python/mlid/model/maneuvers.py's Params does.
   pure function manoeuvre_places(isfree, map, seg) result(places)
     integer, intent(in) :: isfree(:), map(:), seg(:)
     integer :: places(size(map))
     places = isfree(map)
+    if (maxval(seg, 1, seg >= 0) <= 1) return
     where (places > 0 .and. seg > 0) places = places + seg*maxval(isfree)
   end function manoeuvre_places
 

@@ -71,9 +71,9 @@ def whiteness(residuals, lags=20, outputs=None):
     e = np.asarray(residuals, dtype=float)
     e = e.reshape(len(e), -1) - e.reshape(len(e), -1).mean(axis=0)
     n = len(e)
-    from scipy.stats import chi2
+    from scipy.special import chdtri    # scipy.stats' chi2 without its import (~0.5 s)
 
-    crit = chi2.ppf(0.95, lags)
+    crit = chdtri(lags, 0.05)                 # the 95 % point of chi-square(lags)
     names = list(outputs) if outputs is not None else [f"y{i + 1}" for i in range(e.shape[1])]
     if len(names) != e.shape[1]:
         raise InputError(f"whiteness: {len(names)} output names for {e.shape[1]} columns")

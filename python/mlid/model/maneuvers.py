@@ -41,8 +41,9 @@ class Params:
         # the places in the order of free: the shared entries keep theirs, each
         # manoeuvre's own copies follow (as the core's manoeuvre_places)
         self.mask = mask[self.map].astype(np.int32)
-        own_free = (self.mask > 0) & own
-        self.mask[own_free] += self.seg[own_free] * mask.max(initial=0)
+        if n > 1:
+            own_free = (self.mask > 0) & own
+            self.mask[own_free] += self.seg[own_free] * mask.max(initial=0)
         self.free = free_entries(self.mask)            # the free entries, in the order of free
         # a tie points at the new places of its shared entries
         shared = np.where(own, -1, self.map)
