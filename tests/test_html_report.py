@@ -188,8 +188,9 @@ def test_modes_table_is_numpy_of_the_identified_f(run):
 def test_every_figure_is_inlined_and_nothing_is_fetched(run):
     page = run["page"]
     fit, simulate, failing = (page.sections[f"case-{k}"] for k in (2, 1, 3))
-    assert len(fit["imgs"]) == 6         # overview, autocorrelation, spectra, correlation,
-    assert simulate["imgs"] == failing["imgs"] == []          # s-plane, Bode
+    # overview, autocorrelation, spectra, measured vs model, residual-input, correlation,
+    assert len(fit["imgs"]) == 8                              # s-plane, Bode
+    assert simulate["imgs"] == failing["imgs"] == []
     for src in fit["imgs"]:
         assert src.startswith("data:image/png;base64,")
         assert base64.b64decode(src.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n"
@@ -254,7 +255,7 @@ def test_a_validate_case_shows_its_prediction(tmp_path):
     np.testing.assert_allclose(got[:, 0], v.theil, rtol=5e-3)
     np.testing.assert_allclose(got[:, 1], v.rms * [180 / np.pi, 1.0], rtol=5e-4)
     np.testing.assert_allclose(got[:, 2], v.rms_over_sigma, rtol=5e-3)
-    assert len(section["imgs"]) == 7        # the fit's six and the prediction
+    assert len(section["imgs"]) == 9        # the fit's eight and the prediction
     # the parameters' units, from the channels' (Z_a in 1/s, a0 in rad; '' where not known)
     est = _table(section, cls="estimates")
     assert [r[1] for r in est[1:]] == list(cases[0][2].param_units)

@@ -85,7 +85,7 @@ def test_every_image_of_the_page_loads(report, tmp_path):
     body = re.search(r"<body([^>]*)>", p.stdout)
     assert body, p.stderr[-2000:]
     attrs = dict(re.findall(r'(data-[a-z]+)="([^"]*)"', body.group(1)))
-    assert attrs.get("data-images") == "6", attrs           # the fit's six figures
+    assert attrs.get("data-images") == "8", attrs           # the fit's eight figures
     assert attrs["data-broken"] == "0"
     # each drawn at the size its PNG has, as the page says
     said = re.findall(r'<img [^>]*width="(\d+)" height="(\d+)"', report.read_text())

@@ -56,11 +56,11 @@ def test_an_organisations_template_puts_its_header_and_order(tmp_path):
     order = [text.index(f'id="case-2-{k}"') for k in ("figures", "estimates", "modes")]
     assert order == sorted(order)
     assert 'id="case-2-whiteness"' not in text and 'id="case-2-noise"' not in text
-    assert "figures: figure,figure,figure,figure" in text
+    assert "figures: figure,figure,figure,figure,figure,figure" in text
     assert "estimates: table" in text and "modes: table,figure,figure" in text
     # what it shows is the built-in's: the estimates, the inlined figures
     fit = page.sections["case-2"]
-    assert len(fit["imgs"]) == 6 and all(s.startswith("data:image/png;base64,")
+    assert len(fit["imgs"]) == 8 and all(s.startswith("data:image/png;base64,")
                                          for s in fit["imgs"])
     est = next(t["rows"] for t in fit["tables"] if t["class"] == "estimates")
     assert [r[0] for r in est[1:]] == list(cases[1][2].names)
