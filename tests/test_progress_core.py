@@ -23,6 +23,7 @@ import time
 
 import pytest
 
+import mlid
 import mlid.progress
 from conftest import BIN, REPO
 from mlid._bridge import Handle, api
@@ -183,3 +184,24 @@ def test_ctrl_c_ends_mlid_batch_with_its_line_drawn(tmp_path):
     assert rc == 130
     assert re.search(rb"\r monte carlo \d+%\r\nmlid-batch: interrupted\r\n$", term), term[-200:]
     assert b"Monte Carlo:" not in out                          # the case did not report
+
+
+def test_parallel_monte_carlo_bar_moves_in_small_chunks_with_the_same_numbers(monkeypatch):
+    """monte_carlo_parallel's bar moves as chunks end: with a bar, some 100
+    chunks (not 4 a worker), and the same numbers (run k's seed is k's)."""
+    import numpy as np
+    import mlid.design.parallel as parallel
+    from conftest import c8_record, c8_start, c8_truth
+    sizes = []
+    runs_of = parallel._mc_runs
+    monkeypatch.setattr(parallel, "_mc_runs", lambda call, s, n: sizes.append(n) or
+                        runs_of(call, s, n))
+    rec = c8_record(t_end=2.0)
+    args = (c8_truth(), c8_start(), rec.t, rec.u)
+    shown = mlid.monte_carlo_parallel(*args, runs=200, workers=2, progress=io.StringIO())
+    assert sorted(set(sizes)) == [2] and len(sizes) == 100
+    sizes.clear()
+    plain = mlid.monte_carlo_parallel(*args, runs=200, workers=2, progress=False)
+    assert sorted(set(sizes)) == [25]
+    assert np.array_equal(shown["estimates"], plain["estimates"])
+    assert np.array_equal(shown["status"], plain["status"])
