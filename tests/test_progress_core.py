@@ -94,24 +94,26 @@ def counted_run(case):
     status, msg = api.mlid_deck_case_run(case._handle.value, case.index, counter.value)
     kept = deck_module.values(case._handle, case.index, "run")
     label, done, total, exact, active, phase = deck_module._progress_of(counter)
-    assert phase >= 1
-    return int(status), kept["report"], (label, done, total, exact, active)
+    return int(status), kept["report"], (label, done, total, exact, active), phase
 
 
 def test_the_core_counts_monte_carlo_runs_and_fit_iterations(tmp_path):
+    """The count after the run: every run of a Monte Carlo; a fit's
+    iterations against max_iter, after its record's reading."""
     cases = deck_module.read_deck(mc_deck(tmp_path, 300))
     deck_module.run_case(cases[0], progress=False)            # the designed input
     plain, _ = deck_module.run_case(cases[1], progress=False)
-    status, report, count = counted_run(cases[1])
-    assert status == 0 and count == ("monte carlo", 300, 300, 1, 0)
+    status, report, count, phase = counted_run(cases[1])
+    assert status == 0 and count == ("monte carlo", 300, 300, 1, 0) and phase == 1
     assert report.decode() == plain.report                 # the same numbers, counted or not
 
     (tmp_path / "c8.nml").write_text((REPO / "cases" / "c8_short_period" / "c8.nml").read_text())
     simulate, c8 = deck_module.read_deck(tmp_path / "c8.nml")      # its record, then its fit
     deck_module.run_case(simulate, progress=False)
     plain, result = deck_module.run_case(c8, progress=False)
-    status, report, count = counted_run(c8)
+    status, report, count, phase = counted_run(c8)
     label, done, total, exact, active = count
+    assert phase == 2                         # reading its record, then its fit
     assert status == 0 and report.decode() == plain.report
     assert (label, exact, active) == ("fit", 0, 0)
     assert done == result.iterations > 0

@@ -1,5 +1,5 @@
 !> mlid-batch's progress line for the long work of a case (mlid_progress:
-!> a Monte Carlo's runs, a fit's iterations): on stderr when it is a
+!> a Monte Carlo's runs, a fit's iterations, a text record's rows): on stderr when it is a
 !> terminal, redrawn in place ("\r monte carlo 45%") as often as the core
 !> calls tell (at most every 100 ms, from half a second of work on), and
 !> ended by a newline when the work ends.  Nothing at all when stderr is

@@ -1,5 +1,5 @@
 !> Progress of the core's long loops (a Monte Carlo's runs, a fit's Newton
-!> iterations): a counter the loop sets, kept in what the call was given
+!> iterations, a text record's rows): a counter the loop sets, kept in what the call was given
 !> (a handle's session, mlid-batch's own variable), never in a module
 !> variable.  A front end sees it one of two ways: it reads the counter
 !> from another thread while the call runs (Python, the GIL released:

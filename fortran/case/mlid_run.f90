@@ -131,7 +131,7 @@ contains
 
     outcome = FIT_NOT_RUN
     call case_record(c, t, u, y, r%status, r%msg, segstart, units, names, notes=notes, &
-                     own_t=own_t)
+                     own_t=own_t, progress=r%progress)
     call notes_from(r, notes)
     if (r%status == MLID_OK) call corrected_writable(c, r%status, r%msg)   ! before a long fit
     if (r%status == MLID_OK) call fit_record(c, t, u, y, segstart, units, r, json, theta, rhat, &
@@ -356,10 +356,11 @@ contains
     out(c%holdout) = .true.
     ! every part read before the fit: the files fitted, then those held out
     fitted = files_of(c, .not. out)
-    call case_record(fitted, t, u, y, r%status, r%msg, segstart, units, fnames, notes=notes)
+    call case_record(fitted, t, u, y, r%status, r%msg, segstart, units, fnames, notes=notes, &
+                     progress=r%progress)
     call notes_from(r, notes)
     if (r%status == MLID_OK) call case_record(files_of(c, out), th, uh, yh, r%status, r%msg, sh, &
-                                              hunits, names, notes)
+                                              hunits, names, notes, progress=r%progress)
     if (r%status == MLID_OK) call notes_from(r, notes)
     if (r%status == MLID_OK) call fit_record(fitted, t, u, y, segstart, units, r, json, theta, &
                                              rhat, yhat, outcome, fnames)
