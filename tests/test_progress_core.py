@@ -158,7 +158,7 @@ def test_mlid_batch_prints_a_percentage_line_on_a_terminal_only(tmp_path):
 def test_mlid_run_draws_a_bar_on_a_terminal_only(tmp_path):
     deck = mc_deck(tmp_path, 3000)
     child = ("import sys, mlid.progress as p; p.QUIET_S = 0.0; p.READ_EVERY_S = 0.002; "
-             "from mlid.cli.command import main; sys.exit(main(['run', sys.argv[1]]))")
+             "from mlid.cli.command import main; sys.exit(main(['run', *sys.argv[1:]]))")
     argv = [sys.executable, "-c", child, deck.name]
     quiet = subprocess.run(argv, cwd=tmp_path, capture_output=True)
     batch = subprocess.run([str(BIN / "mlid-batch"), deck.name], cwd=tmp_path,
@@ -168,6 +168,8 @@ def test_mlid_run_draws_a_bar_on_a_terminal_only(tmp_path):
     rc, out, term = under_pty(argv, tmp_path)
     assert rc == 0 and out == quiet.stdout
     assert re.search(rb"monte carlo: +\d+%\|", term), term[-300:]
+    rc, out, term = under_pty(argv + ["-q"], tmp_path)          # asked for none
+    assert rc == 0 and out == quiet.stdout and term == b""
 
 
 def test_ctrl_c_ends_mlid_batch_with_its_line_drawn(tmp_path):

@@ -466,7 +466,7 @@ contains
   !> that call runs without the GIL; all 0 for a handle that is none.
   subroutine mlid_progress_get(p, label, done, total, exact, active, phase)
     integer(c_int64_t), intent(in) :: p
-    character(len=32), intent(out) :: label   !< mlid_progress's LABEL_LEN (f2py needs the number)
+    character(len=48), intent(out) :: label   !< mlid_progress's LABEL_LEN (f2py needs the number)
     integer(c_int), intent(out) :: done, total, exact, active, phase
     type(session_t), pointer :: s
     integer :: status

@@ -18,7 +18,8 @@ module mlid_progress
   public :: progress_t, tell_t, progress_start, progress_to, progress_stop, progress_read, &
             LABEL_LEN, QUIET_MS, TELL_EVERY_MS
 
-  integer, parameter :: LABEL_LEN = 32
+  !> What runs, as a front end shows it ('monte carlo', 'reading <file>'): cut here.
+  integer, parameter :: LABEL_LEN = 48
   !> Work that ends sooner shows nothing (most cases take milliseconds).
   integer, parameter :: QUIET_MS = 500
   !> A terminal line redrawn more often is not read any better.

@@ -92,7 +92,8 @@ contains
     allocate (heads%text(0), heads%line(0), heads%off(0))
     nline = 0
     nrow = 0
-    if (allocated(tf%text)) call progress_start(progress, 'reading the record', 100, .true.)
+    if (allocated(tf%text)) call progress_start(progress, 'reading '// &
+                                                path(index(path, '/', back=.true.) + 1:), 100, .true.)
     do
       call text_line(tf, line, ios)
       if (ios /= 0) exit
