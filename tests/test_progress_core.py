@@ -209,3 +209,12 @@ def test_parallel_monte_carlo_bar_moves_in_small_chunks_with_the_same_numbers(mo
     assert sorted(set(sizes)) == [25]
     assert np.array_equal(shown["estimates"], plain["estimates"])
     assert np.array_equal(shown["status"], plain["status"])
+
+
+def test_ctrl_c_ends_mlid_run_with_its_bar_drawn(tmp_path):
+    """The same in mlid run: the bar's thread stops with the call."""
+    deck = mc_deck(tmp_path, 1_000_000)
+    rc, out, term = under_pty([str(BIN / "mlid"), "run", deck.name], tmp_path,
+                              until=b"monte carlo:", then=lambda p: p.send_signal(signal.SIGINT))
+    assert rc == 130 and b"mlid: interrupted" in term
+    assert b"Monte Carlo:" not in out
