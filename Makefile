@@ -1,6 +1,9 @@
 # Two commands do all set-up on a fresh Debian machine with Python 3.11 (as root):
 #   make demo   install what is missing, then run the C-8 case and print the report
-#   make test   install what is missing, then pytest (installed package) and meson test
+#   make test   install what is missing, then pytest (installed package), meson test and
+#               the documentation site (make docs)
+# make docs builds the site into docs/_build/html (Sphinx, warnings as errors; FORD's
+# Fortran API in docs/_build/html/fortran).
 # make install NATIVE=true builds the Fortran core for this machine's processor
 # (meson option native: -march=native); make install alone goes back to the portable core.
 SHELL := /bin/bash
@@ -15,7 +18,7 @@ SOURCES := $(shell find fortran python -name '*.f90' -o -name '*.py' -o -name 'm
            meson.build meson.options pyproject.toml
 APT := DEBIAN_FRONTEND=noninteractive apt-get install -y -q
 
-.PHONY: demo test install sysdeps bench clean
+.PHONY: demo test docs install sysdeps bench clean
 
 demo: install
 	$(VENV)/bin/mlid run cases/c8_short_period/c8.nml --plots $(BUILD)/plots --json $(BUILD)/c8.json
@@ -23,6 +26,14 @@ demo: install
 test: install
 	$(VPY) -m pytest tests -q
 	$(VENV)/bin/meson test -C $(BUILD) --print-errorlogs
+	$(MAKE) --no-print-directory docs
+
+# The documentation site: Sphinx (its gallery's examples run, their figures made; the deck
+# reference made from the core's tables), then FORD's Fortran API into its fortran/ folder.
+docs: install
+	$(VPY) -m sphinx -W --keep-going -q -b html docs docs/_build/html
+	$(VENV)/bin/ford -q docs/fortran_api.md
+	test -f docs/_build/html/fortran/index.html
 
 bench: install
 	$(VPY) -m pip install -q statsmodels
@@ -45,13 +56,14 @@ bench: install
 install: sysdeps $(STAMP)
 
 # System packages from Debian: gfortran, LAPACK/BLAS, zlib and HDF5 (the core reads .mat
-# and HDF5 records), venv and headers for Python.
+# and HDF5 records), venv and headers for Python, chromium (the HTML report's screenshot test).
 sysdeps:
 	@missing=""; \
 	command -v gfortran >/dev/null || missing="$$missing gfortran"; \
 	dpkg -s liblapack-dev >/dev/null 2>&1 || missing="$$missing liblapack-dev libblas-dev"; \
 	dpkg -s zlib1g-dev >/dev/null 2>&1 || missing="$$missing zlib1g-dev"; \
 	dpkg -s libhdf5-dev >/dev/null 2>&1 || missing="$$missing libhdf5-dev"; \
+	command -v chromium >/dev/null || missing="$$missing chromium"; \
 	$(PYTHON) -c 'import ensurepip, venv' 2>/dev/null || missing="$$missing python3-venv"; \
 	$(PYTHON) -c 'import sysconfig, os, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \
 	  || missing="$$missing python3-dev"; \
@@ -66,7 +78,8 @@ $(VPY):
 
 # The venv's packages, installed again when this list changes.
 $(DEPS): $(VPY) Makefile
-	$(VPY) -m pip install -q meson meson-python ninja numpy matplotlib scipy h5py pandas xarray pytest dask distributed hypothesis tqdm
+	$(VPY) -m pip install -q meson meson-python ninja numpy matplotlib scipy h5py pandas xarray pytest dask distributed hypothesis tqdm jinja2
+	$(VPY) -m pip install -q sphinx numpydoc pydata-sphinx-theme myst-parser sphinx-gallery ford
 	touch $(DEPS)
 
 # Build with meson-python into ./build (kept, so meson test can run there); the

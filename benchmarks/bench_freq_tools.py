@@ -6,9 +6,9 @@ fortran/estimation/frequency_domain/mlid_transfer_fit.f90) on the C-8 longitudin
   segments, half overlap), against scipy.signal's csd + welch (a second
   implementation: the same numbers, tests/test_frequency.py);
 - the identified model's response with Cramer-Rao bands at 200 frequencies
-  (analytic derivatives, delta method), against the sampled band of
-  plots.bode_data (300 draws, every input-output pair at 300 frequencies:
-  not the same work, the cost of the band the HTML report draws);
+  (analytic derivatives, delta method), against plots.bode_data (the same
+  bands for every input-output pair at 300 frequencies, with the record's
+  response of each pair: not the same work, what the Bode figure draws);
 - a LOES fit, q/delta_e = (b1 s + b0) e^-ts / (s^2 + a1 s + a0), to the
   model's response at 100 frequencies over 0.5-10 rad/s (above the phugoid,
   as handling-qualities fits of the short period take it).
@@ -61,7 +61,7 @@ def main():
     print(f"  record response (Welch, 256-sample segments): {1e3 * t_rec:8.3f} ms"
           f"   scipy csd+welch: {1e3 * t_sci:8.3f} ms   ratio {t_rec / t_sci:.2f}")
     print(f"  model response + CR bands, 200 frequencies:   {1e3 * t_mod:8.3f} ms"
-          f"   sampled band (bode_data, 300 draws, all pairs): {1e3 * t_sampled:8.1f} ms")
+          f"   bode_data (all pairs, record's too): {1e3 * t_sampled:8.1f} ms")
     print(f"  LOES fit (1/2 with delay, 100 frequencies):   {1e3 * t_loes:8.3f} ms"
           f"   ({fit.iterations} iterations, mismatch {fit.mismatch:.3g})")
     print(f"  max sigma of the gain over 200 frequencies: {model.sigma_gain.max():.3f} dB")

@@ -133,7 +133,7 @@ def test_plots_of_several_decks_are_each_decks_own(tmp_path):
     run = subprocess.run([str(BIN / "mlid"), "run", "a/a.nml", "b/b.nml", "c/a.nml", "--plots",
                           "p", "-q"], capture_output=True, text=True, cwd=tmp_path, timeout=600)
     assert run.returncode == 0, run.stderr
-    made = sorted(str(p.relative_to(tmp_path / "p")) for p in (tmp_path / "p").rglob("*.png"))
+    made = sorted(str(p.relative_to(tmp_path / "p")) for p in (tmp_path / "p").rglob("*_fit.png"))
     assert made == ["a_a/case2_fit.png", "b/case2_fit.png", "c_a/case2_fit.png"], made
     run = subprocess.run([str(BIN / "mlid"), "run", "b/b.nml", "--plots", "q", "-q"],
                          capture_output=True, text=True, cwd=tmp_path, timeout=600)

@@ -57,8 +57,9 @@ def _run_both(deck, *extra):
 
 DECKS = {"c8": (C8_CASE / "c8.nml", ["M_q", "M_alpha", "Z_alpha", "M_delta", "Z_delta"]),
          "m2f3": (REPO / "cases" / "m2f3_gusts" / "m2f3.nml",
-                  ["L_p", "N_p", "L_r", "N_r", "L_beta", "N_beta", "Y_beta", "a_gust", "L_da",
-                   "N_da", "Y_da", "L_dr", "N_dr", "Y_dr", "q_gust", "R_p", "R_r", "R_beta",
+                  # in the order of the deck's free (its names), not theta's
+                  ["L_p", "L_r", "L_beta", "N_p", "N_r", "N_beta", "Y_beta", "L_da", "L_dr",
+                   "N_da", "N_dr", "Y_da", "Y_dr", "a_gust", "q_gust", "R_p", "R_r", "R_beta",
                    "R_phi", "R_ay"]),
          "x22": (REPO / "cases" / "x22_vtol" / "x22.nml", list(mlid.model.models.X22_LABELS))}
 
@@ -414,3 +415,28 @@ def test_a_folder_of_decks_with_one_unreadable_runs_the_others(tmp_path):
     assert run.returncode == 1
     assert run.stdout.count(" case 2: C-8 short period: output-error fit") == 2
     assert run.stderr.splitlines()[-1] == "1 of 3 decks could not be read"
+
+
+def test_parameters_come_in_the_order_of_free(tmp_path):
+    """The report, the JSON and the API list the free parameters as the deck
+    lists them, whatever their place in theta; the fit is the same fit."""
+    text = (C8_CASE / "c8.nml").read_text()
+    given = ("free  = 'f(3,3)', 'f(3,4)', 'f(4,4)', 'g(3,1)', 'g(4,1)',\n"
+             "    names = 'M_q',    'M_alpha', 'Z_alpha', 'M_delta', 'Z_delta',")
+    assert given in text
+    mixed = ("free = 'g(3,1)', 'f(4,4)', 'f(3,3)', 'g(4,1)', 'f(3,4)',\n"
+             "    names = 'M_delta', 'Z_alpha', 'M_q', 'Z_delta', 'M_alpha',")
+    fits = {}
+    for name, deck_text in (("theta", text), ("mixed", text.replace(given, mixed))):
+        deck = tmp_path / name / "c8.nml"
+        deck.parent.mkdir()
+        deck.write_text(deck_text)
+        py, fo = _run_both(deck, "--json", str(deck.parent / "out.json"))
+        assert py.returncode == 0 and fo.returncode == 0, py.stderr + fo.stderr
+        fits[name] = json.loads((deck.parent / "out.json").read_text())[1]
+        rows = [line.split()[0] for line in fo.stdout.split("sigma col.\n")[1].splitlines()[:5]]
+        assert rows == fits[name]["parameters"]
+    assert fits["mixed"]["parameters"] == ["M_delta", "Z_alpha", "M_q", "Z_delta", "M_alpha"]
+    by_name = dict(zip(fits["theta"]["parameters"], fits["theta"]["estimate"]))
+    np.testing.assert_allclose(fits["mixed"]["estimate"],
+                               [by_name[n] for n in fits["mixed"]["parameters"]], rtol=1e-9)

@@ -93,7 +93,7 @@ def test_information_of_any_input_matches_a_second_computation():
     t = np.arange(n + 1) * dt
     uu = np.vstack([u, u[-1:]])
     sens = []
-    for i in np.flatnonzero(model.free_mask):
+    for i in model.free_indices():
         th = model.theta.copy()
         h = 1e-6 * max(1.0, abs(th[i]))
         th[i] += h

@@ -116,7 +116,7 @@ def test_monte_carlo_job_is_the_python_monte_carlo(loop_runs):
     start = mlid.LinearModel(C8_F, C8_G, np.eye(4), r=R_SAMPLE, free=UNKNOWNS, names=names,
                              input_hold="zoh")
     theta = start.theta.copy()
-    theta[start.free_mask == 1] = cases[3]["truth"]
+    theta[start.free_indices()] = cases[3]["truth"]
     mc = mlid.monte_carlo(start.with_theta(theta), start, rec[:, 0], rec[:, 1:], runs=50, seed=1,
                           progress=False)
     summary = mc["summary"]

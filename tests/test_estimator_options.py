@@ -68,10 +68,10 @@ def test_a_parameter_a_rounding_error_off_its_bound_does_not_stall_the_others(da
     lower = free.estimate[k] + 3 * free.sigma[k]
     start = c8_start().with_theta(c8_start().theta)
     th = start.theta.copy()
-    th[np.flatnonzero(start.free_mask)[k]] = lower * (1 + 1e-13) if lower > 0 else lower * (1 - 1e-13)
+    th[start.free_indices()[k]] = lower * (1 + 1e-13) if lower > 0 else lower * (1 - 1e-13)
     start = start.with_theta(th)
     res = mlid.fit(start, data, bounds={"M_q": (lower, None)})
-    held = start.with_theta(np.where(np.arange(th.size) == np.flatnonzero(start.free_mask)[k],
+    held = start.with_theta(np.where(np.arange(th.size) == start.free_indices()[k],
                                      lower, th))
     fixed = mlid.fit(held.with_free([n for n in start.free if n != start.free[k]]), data)
     assert res.converged and res.iterations > 1

@@ -163,8 +163,9 @@ def test_no_plot_table_or_html_statistics_of_a_failed_fit(runs, tmp_path):
     assert proc.returncode == 1
     for k in FAILED:                    # the same text, nothing added
         assert f" case {runs['sections'][k]}" in proc.stdout
-    assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == \
-        [f"case{NOT_CONVERGED}_fit.png", f"case{GOOD}_fit.png"]
+    drawn = {p.name.split("_")[0] for p in (tmp_path / "plots").iterdir()}
+    assert drawn == {f"case{NOT_CONVERGED}", f"case{GOOD}"}
+    assert (tmp_path / "plots" / f"case{GOOD}_fit.png").is_file()
     cases = {line.split(",")[0] for line in (tmp_path / "t.csv").read_text().splitlines()[1:]}
     assert cases == {str(NOT_CONVERGED), str(GOOD)}
     page = (tmp_path / "html" / "failed.html").read_text()

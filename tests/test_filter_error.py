@@ -50,7 +50,7 @@ def _check_gradient(model, opts):
     data = record(model)
     ev = mlid.evaluate(model, data, **opts)
     fd = finite_difference(lambda th: mlid.evaluate(model.with_theta(th), data, **opts)["cost"],
-                           model.theta, np.flatnonzero(model.free_mask), rel=1e-4, floor=1e-1,
+                           model.theta, model.free_indices(), rel=1e-4, floor=1e-1,
                            five_point=True)
     rel = np.abs(fd - ev["gradient"]) / np.maximum(np.abs(fd), 1.0)
     assert np.max(rel) < 1e-6, dict(zip(model.free_names(), rel))
@@ -151,7 +151,7 @@ def test_filter_error_fit_and_monte_carlo_sigma():
     data = record(truth, seed=11)
     res = mlid.fit(start, data, method="filter_error")
     assert res.converged
-    z = (res.estimate - truth.theta[truth.free_mask == 1]) / res.sigma
+    z = (res.estimate - truth.theta[truth.free_indices()]) / res.sigma
     assert np.all(np.abs(z) < 3.5), z
     mc = mlid.monte_carlo(truth, start, data.t, data.u, runs=40, seed=200, method="filter_error")
     ok = mc["status"] == 0
@@ -165,7 +165,7 @@ def test_output_error_fails_where_filter_error_succeeds():
     data = record(truth, seed=5)
     oe = mlid.fit(truth.with_free(BODY), data)
     fe = mlid.fit(truth, data, method="filter_error")
-    tr = truth.theta[truth.with_free(BODY).free_mask == 1]
+    tr = truth.theta[truth.with_free(BODY).free_indices()]
     z_oe = np.abs((oe.estimate - tr) / oe.sigma)
     body = [fe.names.index(n) for n in BODY]          # results come in theta order
     z_fe = np.abs((fe.estimate[body] - tr) / fe.sigma[body])

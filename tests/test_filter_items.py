@@ -30,7 +30,7 @@ GAIN = {"method": "filter_error", "filter_params": "gain"}
 def _gradient_error(model, data, opts):
     ev = mlid.evaluate(model, data, **opts)
     fd = finite_difference(lambda th: mlid.evaluate(model.with_theta(th), data, **opts)["cost"],
-                           model.theta, np.flatnonzero(model.free_mask), rel=1e-4, floor=1e-1,
+                           model.theta, model.free_indices(), rel=1e-4, floor=1e-1,
                            five_point=True)
     rel = np.abs(fd - ev["gradient"]) / np.maximum(np.abs(fd), 1.0)
     return dict(zip(model.free_names(), rel))

@@ -102,15 +102,14 @@ def test_fields_made_later_are_those_of_the_fit(data):
     assert _made_now(late) == eager
     # and they are what they say: the start model with the estimates put in
     start = c8_start()
-    mask = start.free_mask == 1
     theta = start.theta
-    theta[mask] = late.estimate
+    theta[start.free_indices()] = late.estimate
     assert late.model.theta.tolist() == theta.tolist()
     assert late.model.free_names() == late.names
     assert late.manoeuvres[0].theta.tolist() == theta.tolist()
     assert late.manoeuvres[0] is not late.model
     units = start.param_units(data.input_units, data.output_units)
-    assert late.param_units == [u for u, f in zip(units, mask) if f]
+    assert late.param_units == [units[k] for k in start.free_indices()]
     assert late.model is late.model     # made once
     # a result travels with them made or not
     copy = pickle.loads(pickle.dumps(mlid.fit(c8_start(), data)))

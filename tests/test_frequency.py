@@ -141,7 +141,7 @@ def test_model_response_against_numpy_with_feedback_and_delays():
 def test_model_response_derivatives_against_finite_differences():
     m = _feedback_model()
     f = np.array([0.05, 0.4, 2.0, 9.0])
-    free = np.flatnonzero(m.free_mask)                  # theta order, as the derivatives
+    free = m.free_indices()                  # theta order, as the derivatives
     terms = m.tie_terms()
     for i, j in ((0, 1), (1, 2)):
         r = mlid.model_response(m, f, i, j)
@@ -187,7 +187,7 @@ def test_model_bands_are_the_delta_method_of_the_cramer_rao_covariance(fitted):
     assert (r.input_name, r.output_name) == ("de", "q")
     m = res.model
     grads = []
-    for k in np.flatnonzero(m.free_mask):                # the covariance's order
+    for k in m.free_indices():                # the covariance's order
         h = 1e-6 * max(1.0, abs(m.theta[k]))
         out = []
         for sign in (1, -1):
@@ -341,11 +341,12 @@ def test_bode_measured_plot(fitted, tmp_path):
     assert ag.get_title(loc="left") == "de → q  [(rad/s)/deg]"
     assert [ax.get_ylabel() for ax in (ag, ap, ac)] == ["gain [dB]", "phase [deg]",
                                                          "coherence γ²"]
-    labels = [ln.get_label() for ln in ag.get_lines()]
-    assert labels == ["identified model", "measured (record)", "measured, γ² < 0.6",
-                      "LOES (1/2, delay)"]
+    labels = [ln.get_label() for ln in ag.get_lines() if not ln.get_label().startswith("_")]
+    assert labels == ["identified model", "measured, γ² < 0.6 (no bar)", "LOES (1/2, delay)"]
     good = meas.coherence >= plots.COHERENCE_SHOWN
-    np.testing.assert_allclose(ag.get_lines()[1].get_xdata(), meas.frequency[good])
+    (bars,) = ag.containers                      # the trusted points, with their error bars
+    assert bars.get_label() == "measured ±2σ (random error)"
+    np.testing.assert_allclose(bars[0].get_xdata(), meas.frequency[good])
     model_line = ag.get_lines()[0]
     ref = mlid.model_response(fitted, model_line.get_xdata(), "de", "q")
     # in the declared units: (q [rad/s]) / (de [deg]) = (q/de in core units) * pi/180

@@ -89,7 +89,7 @@ def test_synthetic_longitudinal_fit_recovers_truth():
     start = truth.with_theta(truth.theta * np.where(truth.free_mask == 1, 1.2, 1.0))
     res = mlid.fit(start, data)
     assert res.converged
-    z = (res.estimate - truth.theta[truth.free_mask == 1]) / res.sigma
+    z = (res.estimate - truth.theta[truth.free_indices()]) / res.sigma
     assert np.all(np.abs(z) < 3), z
 
 
@@ -106,7 +106,7 @@ def test_longitudinal_gradient_matches_finite_differences():
     start = model.with_theta(model.theta * np.where(model.free_mask == 1, 1.05, 1.0))
     ev = mlid.evaluate(start, data)
     fd = finite_difference(lambda th: mlid.evaluate(start.with_theta(th), data)["cost"],
-                           start.theta, np.flatnonzero(start.free_mask), rel=1e-4, floor=1e-2,
+                           start.theta, start.free_indices(), rel=1e-4, floor=1e-2,
                            five_point=True)
     rel = np.abs(fd - ev["gradient"]) / np.maximum(np.abs(fd), 1.0)
     assert np.max(rel) < 1e-6, dict(zip(start.free_names(), rel))
@@ -140,7 +140,7 @@ def test_ekf_gradient_matches_finite_differences(partials):
     data, _ = mlid.simulate(model, t[:300], u[:300], seed=2)
     start = model.with_theta(model.theta * np.where(model.free_mask == 1, 1.03, 1.0))
     ev = mlid.evaluate(start, data, method="filter_error", partials=partials)
-    idx = np.flatnonzero(start.free_mask)
+    idx = start.free_indices()
     fd = finite_difference(
         lambda th: mlid.evaluate(start.with_theta(th), data, method="filter_error")["cost"],
         start.theta, idx, rel=1e-5, floor=1e-12)
@@ -164,10 +164,10 @@ def test_ekf_fit_recovers_truth_with_turbulence():
     fe = mlid.fit(start, data, method="filter_error",
                   bounds={n: (0.0, None) for n in ("q(2)", "q(4)")})
     assert fe.converged
-    z = (fe.estimate - truth.theta[truth.free_mask == 1]) / fe.sigma
+    z = (fe.estimate - truth.theta[truth.free_indices()]) / fe.sigma
     assert np.all(np.abs(z) < 3), dict(zip(fe.names, z))
     oe = mlid.fit(_hfb_like(COEFFS).with_theta(start.theta), data)
-    z_oe = (oe.estimate - truth.theta[oe.model.free_mask == 1]) / oe.sigma
+    z_oe = (oe.estimate - truth.theta[oe.model.free_indices()]) / oe.sigma
     assert np.max(np.abs(z_oe)) > np.max(np.abs(z[:len(COEFFS)]))
 
 
@@ -194,12 +194,12 @@ def test_equation_error_startup_lands_near_the_truth():
     far = truth.with_theta(truth.theta * np.where(truth.free_mask == 1, 1.5, 1.0))
     res = mlid.fit(far, data, startup="equation_error")
     assert res.converged
-    tr = truth.theta[truth.free_mask == 1]
+    tr = truth.theta[truth.free_indices()]
     # the start-up alone is a one-pass least squares: much nearer than the start, overall
     # (single coefficients such as C_L0, collinear with C_LV, may not be)
     def rms(x):
         return np.sqrt(np.mean(((x - tr) / res.sigma) ** 2))
-    assert rms(res.start) < rms(far.theta[far.free_mask == 1]) / 3
+    assert rms(res.start) < rms(far.theta[far.free_indices()]) / 3
     assert np.all(np.abs((res.estimate - tr) / res.sigma) < 3)
 
 

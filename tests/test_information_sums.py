@@ -71,7 +71,7 @@ def test_sparse_columns(pulse_at, noise):
     data = _record(pulse_at)
     model = _model(SPARSE)
     ev, dy = _check_sums(model, data, noise=noise)
-    free = np.flatnonzero(model.free_mask)
+    free = model.free_indices()
     jac = finite_difference(lambda th: mlid.evaluate(model.with_theta(th), data,
                                                      noise=noise)["yhat"],
                             model.theta, free)                   # (nf, nt, ny)
@@ -100,7 +100,7 @@ def test_sparse_columns_gradient_is_the_costs():
     data = _record(NT - 1)
     model = _model(SPARSE)
     ev = mlid.evaluate(model, data)
-    free = np.flatnonzero(model.free_mask)
+    free = model.free_indices()
     fd = finite_difference(lambda th: mlid.evaluate(model.with_theta(th), data)["cost"],
                            model.theta, free, five_point=True)
     assert np.max(np.abs(fd - ev["gradient"]) / np.sqrt(np.diag(ev["information"]))) < 1e-5

@@ -117,7 +117,7 @@ def test_gradient_matches_finite_differences(process_noise):
     start = model.with_theta(model.theta * np.where(model.free_mask == 1, 1.03, 1.0))
     opts = dict(method="filter_error", steady_state=True, process_noise=process_noise)
     ev = mlid.evaluate(start, data, **opts)
-    idx = np.flatnonzero(start.free_mask)
+    idx = start.free_indices()
     fd = finite_difference(lambda th: mlid.evaluate(start.with_theta(th), data, **opts)["cost"],
                            start.theta, idx, rel=1e-5, floor=1e-12)
     rel = np.abs(fd - ev["gradient"]) / np.maximum(np.abs(fd), 1e-3 * np.max(np.abs(fd)))

@@ -1,9 +1,13 @@
 """The plots (python/mlid/report/plots.py), read back from the figures they return:
 channels in the unit the record declared, the ±2σ band from R̂, no line
 across a manoeuvre join, lags in s and spectra in Hz up to Nyquist, the
-correlation map, modes and Bode magnitude against numpy, the Cramér-Rao
-band against the delta method, the Monte Carlo normal curve, files written
-whole.  A small short-period model keeps it to a few seconds."""
+residual-input cross-correlation against a direct sum and white noise, the
+measured-vs-model R² against numpy, the correlation map, modes and Bode
+magnitude against numpy, the Cramér-Rao band drawn as model ± 2σ of the
+delta method, the record's points with their random-error bars, the Monte
+Carlo normal curve, files written whole.  A small short-period model keeps it to a few seconds."""
+
+from pathlib import Path
 
 import matplotlib
 
@@ -44,10 +48,11 @@ def _inputs(nt, t0=1.0):
     return t, input_signal("3211", np.radians(2.0), t0, 0.6, DT, nt)[:, None]
 
 
-def _record(folder, name, nt, seed):
+def _record(folder, name, nt, seed, u=None):
     """A simulated record written as the file a flight-test rig would give
-    (deg where declared) and loaded back; also the file's columns."""
-    t, u = _inputs(nt)
+    (deg where declared) and loaded back; also the file's columns.  The
+    input a 3211 unless u [rad] is given."""
+    t, u = _inputs(nt) if u is None else (np.arange(nt) * DT, u[:, None])
     sim, _ = mlid.simulate(_truth(), t, u, noise_std=NOISE, seed=seed)
     cols = np.column_stack([t, np.degrees(sim.u[:, 0]), np.degrees(sim.y[:, 0]), sim.y[:, 1]])
     path = folder / name
@@ -61,8 +66,13 @@ def case(tmp_path_factory):
     rec, cols = _record(folder, "one.dat", 201, seed=4)
     first, _ = _record(folder, "m1.dat", 120, seed=5)
     second, _ = _record(folder, "m2.dat", 90, seed=6)
+    # a broadband input (smoothed white noise) for a record's response of high coherence
+    noise = np.random.default_rng(3).standard_normal(1200)
+    wide, _ = _record(folder, "wide.dat", 1200, seed=7,
+                      u=np.radians(2.0) * np.convolve(noise, np.ones(4) / 4, mode="same"))
     return {"rec": rec, "cols": cols, "fit": mlid.fit(_start(), rec),
-            "pair": [first, second], "joint": mlid.fit(_start(), [first, second])}
+            "pair": [first, second], "joint": mlid.fit(_start(), [first, second]),
+            "wide": mlid.fit(_start(), wide)}
 
 
 @pytest.fixture(autouse=True)
@@ -229,6 +239,126 @@ def test_autocorrelation_sums_within_each_manoeuvre(case):
         np.testing.assert_allclose(rho[:, i], np.array(num) / num[0], rtol=1e-12, atol=1e-14)
 
 
+# -- residual-input correlation and cross-plots ------------------------------------------
+
+def _xcorr(e, u, lags):
+    """sum_t e(t + tau) u(t) / sqrt(sum e^2 sum u^2), tau = -lags..lags, one product at a time."""
+    e, u = e - e.mean(), u - u.mean()
+    n = len(e)
+    return np.array([sum(e[t + tau] * u[t] for t in range(max(0, -tau), min(n, n - tau)))
+                     for tau in range(-lags, lags + 1)]) / np.sqrt((e @ e) * (u @ u))
+
+
+def test_residual_input_correlation_against_a_direct_sum(case):
+    res, rec = case["fit"], case["rec"]
+    tau, r, inputs, band = plots.residual_input_correlation(res, lags=12)
+    n = rec.nt
+    assert inputs == [0] and r.shape == (25, 2, 1) and band == 1.96 / np.sqrt(n)
+    np.testing.assert_allclose(tau, DT * np.arange(-12, 13), rtol=1e-12)
+    for i in range(2):
+        np.testing.assert_allclose(r[:, i, 0], _xcorr(res.residuals[:, i], rec.u[:, 0], 12),
+                                   rtol=1e-10, atol=1e-14)
+    fig = plots.residual_input(res, lags=12)
+    assert isinstance(fig, Figure) and len(fig.axes) == 2
+    for i, ax in enumerate(fig.axes):
+        (dots,) = [ln for ln in ax.get_lines() if ln.get_marker() == "o"]
+        np.testing.assert_allclose(dots.get_xdata(), tau)
+        np.testing.assert_allclose(dots.get_ydata(), r[:, i, 0])
+        np.testing.assert_allclose(_span(ax), [-band, band])
+        assert ax.get_title(loc="left") == f"Δ{('alpha', 'q')[i]} × de"
+    assert fig.axes[-1].get_xlabel().startswith("lag τ [s]")
+    assert fig.axes[0].get_ylabel() == "r [-]"
+    assert "±1.96/√N (95%)" in [t.get_text() for t in fig.legends[0].get_texts()]
+    assert f"N = {n}" in fig._suptitle.get_text()
+
+
+def test_residual_input_correlation_sums_within_each_manoeuvre(case):
+    res = case["joint"]
+    first, second = case["pair"]
+    n1 = first.nt
+    _, r, _, band = plots.residual_input_correlation(res, lags=8)
+    e, u = res.residuals, res.data.u[:, 0]
+    assert band == 1.96 / np.sqrt(len(e))
+    for i in range(2):
+        parts = [(e[:n1, i], u[:n1]), (e[n1:, i], u[n1:])]
+        num = sum(_xcorr(a, b, 8) * np.sqrt(((a - a.mean()) @ (a - a.mean()))
+                                            * ((b - b.mean()) @ (b - b.mean())))
+                  for a, b in parts)
+        see = sum((a - a.mean()) @ (a - a.mean()) for a, _ in parts)
+        suu = sum((b - b.mean()) @ (b - b.mean()) for _, b in parts)
+        np.testing.assert_allclose(r[:, i, 0], num / np.sqrt(see * suu), rtol=1e-10, atol=1e-14)
+
+
+def test_independent_white_noise_stays_within_the_band():
+    """Residuals independent of the inputs keep r(tau) within +-1.96/sqrt(N)
+    at about 95% of the lags (seeded: 94.9% of 6 x 101 lags here); an
+    input-driven residual (a missed gain) does not."""
+    rng = np.random.default_rng(7)
+    n, lags = 2000, 50
+    e, u = rng.standard_normal((n, 3)), rng.standard_normal((n, 2))
+    r = plots.cross_correlation(e, u, lags)
+    inside = np.mean(np.abs(r) <= 1.96 / np.sqrt(n))
+    assert 0.92 <= inside <= 0.98, inside
+    missed = e[:, :1] + 0.3 * np.roll(u[:, :1], 3, axis=0)      # 0.3 u(t - 3) left over
+    r = plots.cross_correlation(missed, u[:, :1], lags)
+    assert abs(r[lags + 3, 0, 0]) > 5 * 1.96 / np.sqrt(n)
+
+
+def test_the_fitted_case_residuals_are_independent_of_the_input(case):
+    """The simulated case's model is right: its residuals stay within the band
+    at most lags."""
+    _, r, _, band = plots.residual_input_correlation(case["fit"])
+    assert np.mean(np.abs(r) <= band) >= 0.85
+
+
+def test_measured_vs_model_r2_against_numpy(case):
+    res, cols = case["fit"], case["cols"]
+    r2, fit = plots.fit_statistics(res)
+    y, yhat = res.data.y, res.yhat
+    for i in range(2):
+        want = 1 - np.sum((y[:, i] - yhat[:, i]) ** 2) / np.sum((y[:, i] - y[:, i].mean()) ** 2)
+        assert r2[i] == pytest.approx(want, rel=1e-12)
+        assert fit[i] == pytest.approx(100 * (1 - np.sqrt(1 - want)), rel=1e-12)
+        assert r2[i] == pytest.approx(np.corrcoef(y[:, i], yhat[:, i])[0, 1] ** 2, abs=0.02)
+    fig = plots.measured_vs_model(res)
+    assert isinstance(fig, Figure) and len(fig.axes) == 2
+    model_deg = [np.degrees(yhat[:, 0]), yhat[:, 1]]
+    for i, (ax, name, unit) in enumerate(zip(fig.axes, ("alpha", "q"), ("deg", "rad/s"))):
+        pts, one = ax.get_lines()
+        np.testing.assert_allclose(pts.get_xdata(), cols[:, 2 + i], rtol=1e-13)
+        np.testing.assert_allclose(pts.get_ydata(), model_deg[i], rtol=1e-12, atol=1e-15)
+        np.testing.assert_array_equal(one.get_xdata(), one.get_ydata())     # the 1:1 line
+        assert ax.get_xlabel() == f"measured {name} [{unit}]"
+        assert ax.get_ylabel() == f"model {name} [{unit}]"
+        assert ax.get_title(loc="left") == f"{name}: R² = {r2[i]:.3f}, fit {fit[i]:.1f}%"
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == [f"samples (N = {len(y)})",
+                                                                  "1:1"]
+
+
+def test_a_fits_figures_are_written_each_under_the_case(case, tmp_path):
+    """What mlid run --plots writes of a fit: the overview, the cross-plots,
+    the residual-input correlation, and for a linear model the Bode plot,
+    each under the case's title."""
+    res = case["fit"]
+    assert plots.fit_writers(res) == [plots.plot_fit, plots.plot_measured_vs_model,
+                                      plots.plot_residual_input, plots.plot_bode]
+    paths = plots.plot_fit_figures(res, tmp_path, "case2", "deck.nml case 2: short period")
+    assert [p.name for p in paths] == ["case2_fit.png", "case2_measured_vs_model.png",
+                                       "case2_residual_input.png", "case2_bode.png"]
+    for p in paths:
+        _written_whole(p)
+    fig = plots._under("deck.nml case 2: short period", plots.residual_input)(res, None)
+    assert fig._suptitle.get_text().startswith("deck.nml case 2: short period\nresidual-input")
+
+
+def test_residual_input_leaves_constant_inputs_out():
+    res = _constant_input_fit()
+    _, r, inputs, _ = plots.residual_input_correlation(res)
+    assert inputs == [0] and r.shape[2] == 1
+    assert [ax.get_title(loc="left") for ax in plots.residual_input(res).axes] == \
+        ["Δy1 × de", "Δy2 × de"]
+
+
 def test_spectra_in_hz_to_nyquist_against_scipy(case):
     res = case["fit"]
     fig = plots.spectra(res, segment=64)
@@ -329,7 +459,7 @@ def _response(F, G, H, D, omega):
 def test_bode_magnitude_and_phase_against_numpy(case):
     res = case["fit"]
     b = plots.bode_data(res)
-    assert b["unit"] == "Hz"
+    assert b["unit"] == "Hz" and b["inputs"] == [0]
     pick = [0, 75, 150, 225, 299]
     m = res.model
     g = _response(m.F, m.G, m.H, m.D, 2 * np.pi * b["freq"][pick])
@@ -337,22 +467,44 @@ def test_bode_magnitude_and_phase_against_numpy(case):
     np.testing.assert_allclose(b["mag"][pick], 20 * np.log10(np.abs(g)), rtol=1e-10)
     dphase = (b["phase"][pick] - np.degrees(np.angle(g)) + 180) % 360 - 180
     np.testing.assert_allclose(dphase, 0, atol=1e-8)
-    # up to the Nyquist frequency of the record, no further
-    assert b["freq"][-1] <= 1 / (2 * DT) * (1 + 1e-12)
+    # to the Nyquist frequency of the record (the record's response reaches it), no further
+    np.testing.assert_allclose(b["freq"][-1], 1 / (2 * DT), rtol=1e-12)
     fig = plots.bode(res)
     assert isinstance(fig, Figure)
     titles = [ax.get_title(loc="left") for ax in fig.axes if ax.get_title(loc="left")]
     assert titles == ["de → alpha  [deg/deg]", "de → q  [(rad/s)/deg]"]
     assert fig.axes[-1].get_xlabel() == "frequency [Hz]"
-    (est,) = [ln for ln in fig.axes[2].get_lines() if ln.get_label() == "estimate"]
+    assert [ax.get_ylabel() for ax in fig.axes] == ["gain [dB]", "phase [deg]"] * 2
+    (est,) = [ln for ln in fig.axes[2].get_lines() if ln.get_label() == "identified model"]
     np.testing.assert_allclose(est.get_ydata(), b["mag"][:, 1, 0])
+    rad = plots.bode_data(res, hz=False, measured=False)
+    assert rad["unit"] == "rad/s" and rad["measured"] is None
+    assert rad["freq"][-1] <= np.pi / DT * (1 + 1e-12)
 
 
-def test_bode_band_is_the_cramer_rao_spread(case):
-    """The sampled band against the delta method: half its width is 1.96 sigma
-    of the magnitude, sigma^2 = g' C g with g the gradient of |G| [dB] over
-    the free parameters (central differences).  300 draws put the 2.5 and
-    97.5 percentiles within about 6% (one sd) of a normal's: 20% is 3 sd."""
+def _band(ax):
+    """The one filled band on ax."""
+    (band,) = [c for c in ax.collections if c.get_label() == "model ±2σ (Cramér-Rao)"]
+    return band
+
+
+def _band_edges(ax):
+    """(x, lower, upper) of the one filled band on ax (fill_between's polygon)."""
+    band = _band(ax)
+    v = band.get_paths()[0].vertices
+    n = (len(v) - 3) // 2
+    lower, upper = v[1:n + 1], v[n + 2:2 * n + 2][::-1]
+    np.testing.assert_array_equal(lower[:, 0], upper[:, 0])
+    return lower[:, 0], lower[:, 1], upper[:, 1]
+
+
+def test_bode_band_is_two_cramer_rao_sigma_drawn_and_stated(case):
+    """The band is the model's ±2σ (BAND_SIGMAS) with σ of the delta method,
+    σ² = g' C g, g the gradient of the gain [dB] or phase [deg] over the free
+    parameters (central differences here, the core's analytic derivatives
+    in the plot); the figure draws exactly those edges, says ±2σ in its
+    legend, and states the widest half-width above each axis."""
+    assert plots.BAND_SIGMAS == 2
     res = case["fit"]
     b = plots.bode_data(res)
     m = res.model
@@ -361,21 +513,89 @@ def test_bode_band_is_the_cramer_rao_spread(case):
     pick = [60, 150, 240]
     omega = 2 * np.pi * b["freq"][pick]
 
-    def mag(theta):
+    def response(theta):
         x = m.with_theta(theta)
-        return 20 * np.log10(np.abs(_response(x.F, x.G, x.H, x.D, omega)[:, :, 0]))
+        return _response(x.F, x.G, x.H, x.D, omega)[:, :, 0]
 
     grads = []
     for k in pos:
         h = 1e-6 * max(abs(m.theta[k]), 1.0)
         e = np.zeros_like(m.theta)
         e[k] = h
-        grads.append((mag(m.theta + e) - mag(m.theta - e)) / (2 * h))
-    grads = np.array(grads)                                   # (nf, npick, ny)
+        ratio = response(m.theta + e) / response(m.theta - e)     # no wrap of the phase
+        grads.append(np.concatenate([20 * np.log10(np.abs(ratio)),
+                                     np.degrees(np.angle(ratio))], axis=1) / (2 * h))
+    grads = np.array(grads)                                   # (nf, npick, 2 ny)
     sigma = np.sqrt(np.einsum("aij,ab,bij->ij", grads, res.covariance, grads))
-    half = 0.5 * (b["mag_band"][1] - b["mag_band"][0])[pick][:, :, 0]
-    np.testing.assert_allclose(half / (1.96 * sigma), 1.0, atol=0.2)
-    assert np.all(b["mag_band"][0] <= b["mag"]) and np.all(b["mag"] <= b["mag_band"][1])
+    np.testing.assert_allclose(b["mag_sigma"][pick][:, :, 0], sigma[:, :2], rtol=1e-4)
+    np.testing.assert_allclose(b["phase_sigma"][pick][:, :, 0], sigma[:, 2:], rtol=1e-4)
+    for key in ("mag", "phase"):
+        np.testing.assert_allclose(b[f"{key}_band"], b[key] + np.array([-2, 2])[:, None, None, None]
+                                   * b[f"{key}_sigma"], rtol=1e-13, atol=1e-12)
+    fig = plots.bode(res)
+    for k, ax in enumerate(fig.axes):
+        i, key, unit = k // 2, ("mag", "phase")[k % 2], ("dB", "deg")[k % 2]
+        x, lo, hi = _band_edges(ax)
+        np.testing.assert_allclose(x, b["freq"], rtol=1e-13)
+        np.testing.assert_allclose(lo, b[key][:, i, 0] - 2 * b[f"{key}_sigma"][:, i, 0],
+                                   rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(hi, b[key][:, i, 0] + 2 * b[f"{key}_sigma"][:, i, 0],
+                                   rtol=1e-12, atol=1e-12)
+        band = _band(ax)
+        assert band.get_alpha() >= 0.2 and band.get_linewidth() > 0      # seen, and edged
+        assert ax.get_title(loc="right") == \
+            f"±2σ ≤ {2 * b[f'{key}_sigma'][:, i, 0].max():.2g} {unit}"
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "model ±2σ (Cramér-Rao)" in legend and "measured ±2σ (random error)" in legend
+
+
+def test_bode_measured_points_have_their_random_error_bars(case):
+    """The record's response (mlid.record_response: Bendat & Piersol's σ)
+    as points with ±2σ error bars where the coherence is 0.6 or more,
+    in the declared units (alpha/de in deg/deg: the core's dB), and hollow
+    points without bars below; the same in bode_measured."""
+    res = case["wide"]
+    rec = res.data
+    b = plots.bode_data(res)
+    fig = plots.bode(res)
+    shift = 20 * np.log10(SCALE_U[0] / SCALE_Y)
+    for i, name in enumerate(("alpha", "q")):
+        r = mlid.record_response(rec, "de", name)
+        good = r.coherence >= plots.COHERENCE_SHOWN
+        assert 3 <= good.sum() < len(good)               # both kinds are drawn
+        for ax, y, s in ((fig.axes[2 * i], r.gain + shift[i], r.sigma_gain),
+                         (fig.axes[2 * i + 1], None, r.sigma_phase)):
+            (bars,) = ax.containers
+            points, _, (lines,) = bars
+            np.testing.assert_allclose(points.get_xdata(), r.frequency[good], rtol=1e-13)
+            if y is not None:
+                np.testing.assert_allclose(points.get_ydata(), y[good], rtol=1e-12)
+            else:                    # the phase, moved by whole turns onto the model's branch
+                turns = (np.asarray(points.get_ydata()) - r.phase[good]) / 360
+                np.testing.assert_allclose(turns, np.round(turns), atol=1e-9)
+            seg = np.array(lines.get_segments())
+            np.testing.assert_allclose(seg[:, 1, 1] - seg[:, 0, 1], 4 * s[good], rtol=1e-12)
+            (hollow,) = [ln for ln in ax.get_lines() if ln.get_mfc() == "none"]
+            np.testing.assert_allclose(hollow.get_xdata(), r.frequency[~good], rtol=1e-13)
+        np.testing.assert_allclose(b["measured"]["mag_sigma"][:, i, 0], r.sigma_gain)
+    one = plots.bode_measured(res, "de", "q")
+    r = mlid.record_response(rec, "de", "q")
+    good = r.coherence >= plots.COHERENCE_SHOWN
+    (bars,) = one.axes[0].containers
+    seg = np.array(bars[2][0].get_segments())
+    np.testing.assert_allclose(seg[:, 1, 1] - seg[:, 0, 1], 4 * r.sigma_gain[good], rtol=1e-12)
+    x, lo, hi = _band_edges(one.axes[0])
+    mod = mlid.model_response(res, x, "de", "q")
+    np.testing.assert_allclose(hi - lo, 4 * mod.sigma_gain, rtol=1e-10, atol=1e-12)
+
+
+def test_bode_leaves_constant_inputs_out():
+    res = _constant_input_fit()
+    b = plots.bode_data(res)
+    assert b["inputs"] == [0] and b["mag"].shape[2] == 1
+    fig = plots.bode(res)
+    assert all(ax.get_title(loc="left").startswith("de") for ax in fig.axes
+               if ax.get_title(loc="left"))
 
 
 # -- Monte Carlo ------------------------------------------------------------------------
@@ -444,7 +664,7 @@ def test_files_are_written_whole_or_not_at_all(case, tmp_path):
     assert out == tmp_path / "deep" / "er" / "case1_fit.png"
     _written_whole(out)
     for make in (plots.autocorrelation, plots.spectra, plots.correlation, plots.bode,
-                 plots.s_plane):
+                 plots.s_plane, plots.residual_input, plots.measured_vs_model):
         target = tmp_path / f"{make.__name__}.png"
         assert isinstance(make(case["fit"], path=target), Figure)
         _written_whole(target)
@@ -467,18 +687,61 @@ def test_windows_of_one_flight_are_drawn_on_their_own_time(case):
         np.testing.assert_allclose(x[n1 + 1:], later.t, atol=1e-12)
 
 
-def test_a_constant_input_gets_no_panel():
-    """Issue 42: a constant input ('one', for a bias or trim term) had a
-    flat panel of its own in every time figure."""
+def _constant_input_fit():
+    """A fit whose second input is the constant 'one' of a bias term."""
     t = 0.02 * np.arange(200)
     u = np.column_stack([np.where((t > 1) & (t < 2), 1.0, 0.0), np.ones_like(t)])
     m = mlid.LinearModel([[-1.0, 0.5], [-0.8, -2.0]], [[1.0, 0.05], [0.3, 0.0]], np.eye(2),
                          free=["f(1,1)", "g(1,1)", "g(1,2)"])
     data, _ = mlid.simulate(m, t, u, [0.01, 0.01], seed=2)
     data.input_names = ["de", "one"]
-    res = mlid.fit(m, data)
+    return mlid.fit(m, data)
+
+
+def test_a_constant_input_gets_no_panel():
+    """Issue 42: a constant input ('one', for a bias or trim term) had a
+    flat panel of its own in every time figure."""
+    res = _constant_input_fit()
+    data = res.data
     assert plots.drawn_inputs(data) == [0]
     ylabels = [ax.get_ylabel() for ax in plots.time_histories(data).axes]
     assert not any(lab.startswith("one") for lab in ylabels) and len(ylabels) == 3
     left = plots.fit_overview(res).subfigs[0].axes
     assert len(left) == 3 and left[0].get_ylabel().startswith("de")
+
+
+def test_mlid_run_plots_writes_every_figure_of_a_fit(tmp_path):
+    """`mlid run --plots` writes each figure of fit_writers for the fit
+    (case 2 of a linear model) and names each on stdout."""
+    import subprocess
+
+    from conftest import BIN, two_case_deck
+    (tmp_path / "d.nml").write_text(two_case_deck())
+    run = subprocess.run([str(BIN / "mlid"), "run", "d.nml", "--plots", "p"], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    names = ["case2_fit.png", "case2_measured_vs_model.png", "case2_residual_input.png",
+             "case2_bode.png"]
+    assert sorted(p.name for p in (tmp_path / "p").iterdir()) == sorted(names)
+    said = [ln.split("plot: ")[1] for ln in run.stdout.splitlines() if "plot: " in ln]
+    assert [Path(s).name for s in said] == names
+    for name in names:
+        _written_whole(tmp_path / "p" / name)
+
+
+def test_frequency_fit_figure_draws_each_manoeuvre_on_its_own(case):
+    """A frequency-domain fit of two manoeuvres: each one's transforms a line
+    of its own, rising in frequency (sorted together they zigzagged
+    between the two), each output named with its unit (core unit times s)."""
+    res = mlid.fit(_start(), case["pair"], method="frequency_output_error", f_min=0.1,
+                   f_max=2.0, n_freq=30)
+    fig = plots.frequency_overview(res)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["|Y alpha| [rad·s]", "|Y q| [(rad/s)·s]"]
+    assert fig.axes[-1].get_xlabel() == "frequency [Hz]"
+    for i, ax in enumerate(fig.axes):
+        model = [ln for ln in ax.get_lines() if ln.get_label().startswith("model")]
+        assert [ln.get_label() for ln in model] == ["model (manoeuvre 1)", "model (manoeuvre 2)"]
+        for k, ln in enumerate(model):
+            f = np.asarray(ln.get_xdata())
+            assert len(f) == 30 and np.all(np.diff(f) > 0)
+            np.testing.assert_allclose(ln.get_ydata(), np.abs(res.zhat[30 * k:30 * (k + 1), i]))

@@ -96,7 +96,7 @@ def test_show_changes_the_display_only(tmp_path):
     plots.close(fig)
     # the HTML report's noise table gives σ in the unit shown
     from mlid.report.html_report import noise_table
-    assert "<td>deg/s</td>" in noise_table(fb) and "<td>deg/s</td>" not in noise_table(fa)
+    assert "<td>deg/s</td>" in str(noise_table(fb)) and "<td>deg/s</td>" not in str(noise_table(fa))
 
 
 def test_show_in_both_front_ends_gives_the_same_bytes(tmp_path):

@@ -55,7 +55,7 @@ def test_output_error_sensitivities_match_central_differences(substeps, hold):
     model.input_hold = hold
     opts = case.options()
     ev = mlid.evaluate(model, data, **opts)
-    free = np.flatnonzero(model.free_mask)
+    free = model.free_indices()
     jac = finite_difference(lambda th: mlid.evaluate(model.with_theta(th), data, **opts)["yhat"],
                             model.theta, free)                   # (nf, nt, ny)
     fd = np.einsum("ij,ktj->itk", np.linalg.inv(ev["rhat"]), np.asarray(jac))

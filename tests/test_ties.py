@@ -43,12 +43,12 @@ def test_gradient_against_finite_differences(ties):
 
     def cost(k, h):
         th = theta0.copy()
-        th[m.free_mask.nonzero()[0][k]] += h
+        th[m.free_indices()[k]] += h
         mm = m.with_theta(m.tied(th))
         return mlid.evaluate(mm, data)["cost"]
 
     for k in range(len(free)):
-        h = 1e-6 * max(1.0, abs(theta0[m.free_mask.nonzero()[0][k]]))
+        h = 1e-6 * max(1.0, abs(theta0[m.free_indices()[k]]))
         fd = (cost(k, h) - cost(k, -h)) / (2 * h)
         assert fd == pytest.approx(ev["gradient"][k], rel=2e-4, abs=1e-6 * abs(ev["gradient"]).max())
 

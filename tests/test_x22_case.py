@@ -38,7 +38,7 @@ def test_x22_ekf_gradient_matches_finite_differences():
     short = mlid.FlightData(data.t[:80], data.u[:80], data.y[:80])
     m = x22.model(x22.TRUTH * 1.002, "moderate")
     ev = mlid.evaluate(m, short, method="filter_error")
-    idx = np.flatnonzero(m.free_mask)
+    idx = m.free_indices()
     fd = finite_difference(
         lambda th: mlid.evaluate(m.with_theta(th), short, method="filter_error")["cost"],
         m.theta, idx, rel=1e-6, floor=1e-9)

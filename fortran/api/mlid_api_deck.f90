@@ -18,7 +18,7 @@ module mlid_api_deck
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
-  use mlid_deck, only: deck_read
+  use mlid_deck, only: deck_read, deck_groups
   use mlid_handles, only: session_t, handle_new, handle_session, call_session, handle_free
   use mlid_case, only: case_t, case_values, case_uses, NAMELEN, CONDITION_NAMES
   use mlid_text, only: join_lines, split_lines, joined
@@ -34,7 +34,7 @@ module mlid_api_deck
   public :: mlid_handle_new, mlid_handle_free, mlid_deck_open, mlid_condition_names, &
             mlid_values_sizes, mlid_values, mlid_deck_case_record, mlid_channels_read, &
             mlid_channels_table, mlid_channels_get, mlid_deck_case_run, mlid_check_time, &
-            mlid_case_uses, mlid_progress_get
+            mlid_case_uses, mlid_deck_groups, mlid_progress_get
 
 contains
 
@@ -76,6 +76,13 @@ contains
     end do
     ncases = size(s%cases)
   end subroutine mlid_deck_open
+
+  !> The deck's groups, a line each: 'group|jobs that read it|its names'
+  !> (mlid_deck's table, from which the deck reference is made).
+  subroutine mlid_deck_groups(text)
+    character(len=2048), intent(out) :: text
+    text = deck_groups()
+  end subroutine mlid_deck_groups
 
   !> The numeric flight-condition items of &case (mlid_case), comma-separated.
   subroutine mlid_condition_names(names)

@@ -126,21 +126,37 @@ contains
     call prediction_stats(y, yhat, rhat, theil, rms, ratio)
   end subroutine mlid_prediction_stats
 
-  !> The printed lines and the JSON member of a validation.
-  subroutine mlid_report_validation(ny, nh, names, holdout, theil, rms, ratio, report, nreport, &
-                                    json, njson)
-    integer(c_int), intent(in) :: ny, nh, holdout(nh)
-    character(len=*), intent(in) :: names
-    real(c_double), intent(in) :: theil(ny), rms(ny), ratio(ny)
-    character(len=65536), intent(out) :: report, json
-    integer(c_int), intent(out) :: nreport, njson
-    character(len=:), allocatable :: text
-    text = validation_report(split_lines(names, ny, NAMELEN), holdout, theil, rms, ratio)
-    nreport = min(len(text), len(report))
-    report = text
-    text = validation_json(split_lines(names, ny, NAMELEN), holdout, theil, rms, ratio)
-    njson = min(len(text), len(json))
-    json = text
+  !> The printed lines and the JSON member of a validation, from the
+  !> handle's given values (mlid_api_values): names and units (the unit each
+  !> output is shown in; one a line), scale (core = scale*shown), holdout,
+  !> theil, rms and ratio (core units).  Results: report and json, whole.
+  subroutine mlid_report_validation(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: ses
+    character(len=:), allocatable :: names, units
+    integer, allocatable :: holdout(:)
+    real(wp), allocatable :: scale(:), theil(:), rms(:), ratio(:)
+    integer :: ny
+
+    call call_session(h, ses, status, msg)
+    if (status /= MLID_OK) return
+    associate (g => ses%given)
+      call g%get('theil', theil, status, msg)
+      ny = size(theil)
+      call g%get('names', names, status, msg)
+      call g%get('units', units, status, msg)
+      call g%get('scale', scale, status, msg, [ny])
+      call g%get('holdout', holdout, status, msg)
+      call g%get('rms', rms, status, msg, [ny])
+      call g%get('ratio', ratio, status, msg, [ny])
+    end associate
+    if (status /= MLID_OK) return
+    call ses%results%put('report', validation_report(split_lines(names, ny, NAMELEN), &
+                         split_lines(units, ny, UNITLEN), scale, holdout, theil, rms, ratio))
+    call ses%results%put('json', validation_json(split_lines(names, ny, NAMELEN), holdout, &
+                         theil, rms, ratio))
   end subroutine mlid_report_validation
 
   !> Maximum-likelihood fit of the problem of handle h (mlid_api_problem:
@@ -187,7 +203,7 @@ contains
       end if
       p%has(PART_EXTRAS) = .false.         ! the extras are the next fit's alone
       call fit_solve(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, &
-                     p%rconst, p%t, p%u, p%y, p%segstart, p%iopt, p%ropt, count(p%isfree == 1), &
+                     p%rconst, p%t, p%u, p%y, p%segstart, p%iopt, p%ropt, count(p%isfree > 0), &
                      p%use_prior, p%prior, p%pweight, p%use_bounds, p%lower, p%upper, res, pm, &
                      opt, bad, status, msg)
       ! out of memory or interrupted: nothing to view (a long record's view
@@ -364,7 +380,7 @@ contains
       call g%get('seed0', seed0, status, msg)
       call g%get('nrun', nrun, status, msg)
       if (status /= MLID_OK) return
-      nf = count(p%isfree == 1)
+      nf = count(p%isfree > 0)
       call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
                  p%t, p%u, p%y, p%iopt, p%ropt, nf, m, opt, pm, status, msg)
       if (status /= MLID_OK) return

@@ -9,7 +9,7 @@ module mlid_api_models
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create, MODEL_KIND_NAMES
   use mlid_options, only: options_t, options_from_flat, options_to_flat, NOPTION, OPTION_NAMES, &
-                          option_kind, option_set, option_get
+                          option_kind, option_words, option_set, option_get
   use mlid_ties, only: tie_parse, MAXTERM
   use mlid_inputs, only: input_signal
   use mlid_case, only: NAMELEN
@@ -30,8 +30,8 @@ module mlid_api_models
   use mlid_problem, only: problem_needs, PART_MODEL, PART_RECORD
   implicit none
   private
-  public :: mlid_input_signal, mlid_default_options, mlid_option_info, mlid_option_set, &
-            mlid_option_get, mlid_options_check, mlid_stop_reason, mlid_fit_outcome, &
+  public :: mlid_input_signal, mlid_default_options, mlid_option_info, mlid_option_choices, &
+            mlid_option_set, mlid_option_get, mlid_options_check, mlid_stop_reason, mlid_fit_outcome, &
             mlid_tie_parse, mlid_sixdof_constants, mlid_sixdof_text, mlid_flightpath_lists, &
             mlid_flightpath_model_text, mlid_flightpath_corrected, mlid_layout, &
             mlid_manoeuvre_map, mlid_elements, mlid_longitudinal_iconst, mlid_parameter_units, &
@@ -68,6 +68,13 @@ contains
     name = OPTION_NAMES(k)
     kind = option_kind(name)
   end subroutine mlid_option_info
+
+  !> The words option name takes, blank-separated ('' for a number).
+  subroutine mlid_option_choices(name, words)
+    character(len=*), intent(in) :: name
+    character(len=80), intent(out) :: words
+    words = option_words(name)
+  end subroutine mlid_option_choices
 
   !> Set an option by name from its text in the flat arrays.
   subroutine mlid_option_set(iopt, ropt, name, text, status, msg)

@@ -157,7 +157,7 @@ contains
     if (allocated(c%pweight)) then
       call v%put('pweight', c%pweight)
     else
-      allocate (zero(count(c%isfree == 1), count(c%isfree == 1)))
+      allocate (zero(count(c%isfree > 0), count(c%isfree > 0)))
       zero = 0.0_wp
       call v%put('pweight', zero)
     end if

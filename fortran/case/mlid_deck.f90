@@ -63,7 +63,7 @@ module mlid_deck
   private
   public :: case_t, deck_read, case_record, case_time_input, manoeuvre_layout, &
             case_param_units, holdout_case, manoeuvre_block, corrected_writable, NAMELEN, &
-            PATHLEN
+            PATHLEN, deck_groups
 
   integer, parameter :: MAXX = 30, MAXU = 30, MAXY = 30, MAXW = 10, MAXFREE = 200, MAXCOL = 100
   integer, parameter :: MAXR = 12   !< regressors of each coefficient
@@ -79,6 +79,24 @@ module mlid_deck
     'case model data estimate', 'case model data estimate', 'case model simulate', &
     'case model design', 'case model monte_carlo estimate']
   character(len=*), parameter :: GROUP_NAMES = ' case model data simulate estimate design monte_carlo '
+  !> The names each group takes, in GROUP_NAMES' order: the same as its
+  !> reader's namelist statement (tests/test_docs.py checks both ways), for
+  !> the deck reference, which is made from this table (deck_groups).
+  integer, parameter :: NGROUP = 7
+  character(len=360), parameter :: GROUP_KEYS(NGROUP) = [character(len=360) :: &
+    'title job mach altitude alpha_trim config tags', &
+    'kind nx nu ny nw f g h d gamma k bx x0 bias q r s free names tie input_hold substeps '// &
+    'state_names input_names output_names cd_regressors cl_regressors cm_regressors cd cl cm '// &
+    'constants p user_iconst user_rconst xdot outputs definitions params initial_states delay '// &
+    'udelay stab p0', &
+    'file time_col input_cols output_cols skip_rows columns units derived show t_start t_end '// &
+    'holdout dt join join_columns', &
+    'out t_end dt seed noise_std input_shape amplitude t_start pulse_width input_file', &
+    'method startup max_iter halvings noise partials steady_state process_noise '// &
+    'noise_criterion filter_params tol_cost tol_step tol_grad rcond prior prior_weight '// &
+    'prior_decay rank_min rank_max rank_rule lower upper corrected f_min f_max n_freq', &
+    'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out', &
+    'runs seed truth input_file']
   character(len=*), parameter :: FORM_FEED = achar(12)
 
   !> What the group readers of one case share: the text of each group (all
@@ -312,7 +330,7 @@ module mlid_deck
     !> The record of an estimate case: time, inputs and outputs from its data
     !> files; progress: how far each is read (mlid_progress).
     module subroutine case_record(c, t, u, y, status, msg, segstart, units, names, notes, own_t, &
-                                  progress)
+                                  shown, scale, progress)
       type(case_t), intent(in) :: c
       real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
       !> each manoeuvre's time as its file gives it (t moves them one after another)
@@ -323,6 +341,10 @@ module mlid_deck
       character(len=UNITLEN), allocatable, intent(out), optional :: units(:)  !< inputs, outputs
       character(len=NAMELEN), allocatable, intent(out), optional :: names(:)  !< the channels'
       type(line_t), allocatable, intent(out), optional :: notes(:)
+      !> the unit each channel is shown in (deck `show`, else declared) and
+      !> its scale: core = scale*shown + offset (a difference: core = scale*shown)
+      character(len=UNITLEN), allocatable, intent(out), optional :: shown(:)
+      real(wp), allocatable, intent(out), optional :: scale(:)
       type(progress_t), intent(inout), optional :: progress
     end subroutine case_record
 
@@ -572,6 +594,26 @@ contains
       call options_from_flat(c%iopt, c%ropt, opt, c%status, c%msg)
     end if
   end subroutine read_case
+
+  !> The deck's groups, one line each: 'group|jobs that read it|its names',
+  !> the lists blank-separated (GROUP_NAMES, JOB_GROUPS, GROUP_KEYS).
+  function deck_groups() result(text)
+    character(len=:), allocatable :: text, group, readers
+    integer :: g, j, p, e
+    text = ''
+    p = 1
+    do g = 1, NGROUP
+      e = index(GROUP_NAMES(p + 1:), ' ') + p
+      group = GROUP_NAMES(p + 1:e - 1)
+      p = e
+      readers = ''
+      do j = 1, NJOB
+        if (index(' '//trim(JOB_GROUPS(j))//' ', ' '//group//' ') > 0) &
+          readers = readers//' '//trim(JOBS(j))
+      end do
+      text = text//group//'|'//trim(adjustl(readers))//'|'//trim(GROUP_KEYS(g))//achar(10)
+    end do
+  end function deck_groups
 
   !> The groups job reads (JOB_GROUPS), '' for no job.
   function groups_of_job(job) result(groups)

@@ -134,7 +134,7 @@ contains
     real(wp), intent(in) :: prior(:), prior_weight(:), lower(:), upper(:)
     character(len=12), parameter :: KEYS(4) = [character(len=12) :: 'prior', 'prior_weight', &
                                                'lower', 'upper']
-    integer :: j, nfr, pos, k, m(4)
+    integer :: j, nfr, k, m(4)
 
     nfr = size(free_idx)
     do k = 1, 4
@@ -156,9 +156,8 @@ contains
     c%lower = -huge(1.0_wp)
     c%upper = huge(1.0_wp)
     do j = 1, nfr
-      pos = count(c%isfree(1:free_idx(j)) == 1)      ! its place among the free, theta order
       c%prior(free_idx(j)) = prior(j)
-      c%pweight(pos, pos) = prior_weight(j)
+      c%pweight(j, j) = prior_weight(j)
       c%lower(free_idx(j)) = lower(j)
       c%upper(free_idx(j)) = upper(j)
     end do

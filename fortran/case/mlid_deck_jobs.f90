@@ -9,6 +9,7 @@ submodule (mlid_deck) mlid_deck_jobs
   use mlid_model_factory, only: MODEL_LINEAR
   use mlid_layout, only: layout_table_t, layout_of, element_name
   use mlid_design_unknowns, only: unknown_entries, unknown_blocks
+  use mlid_params, only: free_indices
   implicit none
 
   !> The methods of &design.
@@ -246,7 +247,7 @@ contains
         return
       end if
     else
-      idx = pack([(k, k=1, size(c%theta))], c%isfree == 1)
+      idx = free_indices(c%isfree)
     end if
     if (size(idx) == 0) then
       call fail(c, 'group &design: no unknowns: list them in &design unknowns or free them '// &
@@ -261,7 +262,7 @@ contains
     allocate (c%unknowns(size(idx)))
     do k = 1, size(idx)
       c%unknowns(k) = element_name(lt, idx(k))
-      if (c%isfree(idx(k)) == 1) c%unknowns(k) = c%labels(count(c%isfree(1:idx(k)) == 1))
+      if (c%isfree(idx(k)) > 0) c%unknowns(k) = c%labels(findloc(free_indices(c%isfree), idx(k), 1))
     end do
   end subroutine design_unknowns
 

@@ -401,11 +401,11 @@ contains
                   ''' does not exist ('//block_list(lt)//' within the dimensions)')
         return
       end if
-      if (c%isfree(idx) == 1) then
+      if (c%isfree(idx) > 0) then
         call fail(c, 'group &model: free parameter '''//trim(free(k))//''' listed twice')
         return
       end if
-      c%isfree(idx) = 1
+      c%isfree(idx) = size(free_idx) + 1           ! its place in the order of free
       free_idx = [free_idx, idx]
       labels(idx) = default_label(lt, idx)
       if (len_trim(names(k)) > 0) labels(idx) = names(k)
@@ -426,7 +426,7 @@ contains
                 'parameter, in the order of free, or none)')
       return
     end if
-    c%labels = pack(labels, c%isfree == 1)
+    c%labels = labels(free_idx)
   end subroutine set_free
 
   !> Ties 'a = b' or 'a = c + s*b + ...' (mlid_ties), each tied entry once.
@@ -460,7 +460,7 @@ contains
     end do
     ! in the words mlid/model.py uses for a model built in Python
     do k = 1, size(c%tie%to)
-      if (c%isfree(c%tie%to(k)) == 1) then
+      if (c%isfree(c%tie%to(k)) > 0) then
         call fail(c, 'group &model: parameter '''//trim(element_name(lt, c%tie%to(k)))// &
                   ''' is both free and tied')
         return

@@ -13,7 +13,7 @@ submodule (mlid_deck) mlid_deck_record
   use mlid_record, only: record_t, record_read
   use mlid_sampling, only: record_check_time
   use mlid_param_units, only: param_units
-  use mlid_params, only: no_ties
+  use mlid_params, only: no_ties, free_indices, manoeuvre_places
   use mlid_layout, only: layout_table_t, layout_of, manoeuvre_map, manoeuvre_suffix
   implicit none
 
@@ -67,7 +67,7 @@ contains
     if (present(notes)) allocate (notes(0))
     if (present(own_t)) allocate (own_t(0))
     do k = 1, nseg
-      call read_record(c, k, tk, uk, yk, status, msg, units, names, progress)
+      call read_record(c, k, tk, uk, yk, status, msg, units, names, shown, scale, progress)
       if (status /= MLID_OK) return
       if (present(notes) .and. len_trim(msg) > 0) call add_line(notes, msg)
       msg = ''
@@ -90,14 +90,15 @@ contains
 
   !> Data file k: the case's channels of it in its window, by the one
   !> record reader.
-  subroutine read_record(c, k, t, u, y, status, msg, units, names, progress)
+  subroutine read_record(c, k, t, u, y, status, msg, units, names, shown, scale, progress)
     type(case_t), intent(in) :: c
     integer, intent(in) :: k
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    character(len=UNITLEN), allocatable, intent(inout), optional :: units(:)
+    character(len=UNITLEN), allocatable, intent(inout), optional :: units(:), shown(:)
     character(len=NAMELEN), allocatable, intent(inout), optional :: names(:)
+    real(wp), allocatable, intent(inout), optional :: scale(:)
     type(progress_t), intent(inout), optional :: progress
     type(channel_set_t) :: set
     call channels_read(c%data_files(k), c%chan, c%win_start(k), c%win_end(k), set, status, msg, &
@@ -108,6 +109,12 @@ contains
     end if
     if (present(names)) then
       if (.not. allocated(names)) names = set%names
+    end if
+    if (present(shown)) then
+      if (.not. allocated(shown)) shown = set%shown
+    end if
+    if (present(scale)) then
+      if (.not. allocated(scale)) scale = set%scale
     end if
     call move_alloc(set%t, t)
     call move_alloc(set%u, u)
@@ -120,7 +127,7 @@ contains
   !> entries end in '#k'.  As mlid/maneuvers.py does for Python.
   module procedure manoeuvre_layout
     integer :: nth, k
-    integer, allocatable :: map(:), seg(:), new_of(:)
+    integer, allocatable :: map(:), seg(:), new_of(:), places(:)
     logical, allocatable :: own(:)
     character(len=NAMELEN), allocatable :: full(:), lab(:)
     type(layout_table_t) :: lt
@@ -134,6 +141,7 @@ contains
       return
     end if
     call manoeuvre_map(lt, nseg, map, seg)
+    places = manoeuvre_places(c%isfree, map, seg)
     nth = size(c%theta)
     allocate (own(nth), new_of(0:nth))
     own = .false.
@@ -149,9 +157,9 @@ contains
     end if
     allocate (full(nth))
     full = ''
-    full(pack([(k, k=1, nth)], c%isfree == 1)) = c%labels
+    full(free_indices(c%isfree)) = c%labels
     if (c%use_prior == 1) then
-      if (any(c%isfree == 1 .and. own)) then
+      if (any(c%isfree > 0 .and. own)) then
         status = MLID_ERR_INPUT
         msg = 'a priori weighting with free initial states or biases is not available with '// &
               'several manoeuvres'
@@ -170,8 +178,8 @@ contains
     if (allocated(c%lower)) c%lower = c%lower(map)
     if (allocated(c%upper)) c%upper = c%upper(map)
     if (allocated(c%pweight)) call grow_weight()
-    c%isfree = c%isfree(map)
-    c%labels = pack(lab, c%isfree == 1)
+    c%isfree = places
+    c%labels = lab(free_indices(c%isfree))
     call own_initial_states()
 
   contains
@@ -198,8 +206,8 @@ contains
       real(wp), allocatable :: w(:, :)
       integer, allocatable :: old(:), newf(:)
       integer :: a, b, ia, ib
-      old = pack([(k, k=1, nth)], c%isfree == 1)
-      newf = pack([(k, k=1, size(map))], c%isfree(map) == 1)
+      old = free_indices(c%isfree)
+      newf = free_indices(places)
       allocate (w(size(newf), size(newf)))
       w = 0.0_wp
       do a = 1, size(newf)
@@ -228,7 +236,7 @@ contains
     allocate (each(size(c%theta)))
     call param_units(lt, c%theta, channel_units(1:c%nu), channel_units(c%nu + 1:c%nu + c%ny), each)
     call manoeuvre_map(lt, max(nseg, 1), map, seg)
-    units = pack(each(map), c%isfree(map) == 1)
+    units = each(map(free_indices(manoeuvre_places(c%isfree, map, seg))))
   end procedure case_param_units
 
   !> The case that predicts the held-out manoeuvres of validate case c
@@ -262,9 +270,9 @@ contains
       if (any(lt%key(b) == [character(len=8) :: 'q', 'r', 's'])) h%theta(i0:i1) = 0.0_wp
     end do
     full = ''
-    full(pack([(k, k=1, size(c%theta))], c%isfree == 1)) = c%labels
+    full(free_indices(c%isfree)) = c%labels
     h%isfree = merge(c%isfree, 0, own)
-    h%labels = pack(full, h%isfree == 1)
+    h%labels = full(free_indices(h%isfree))
     h%tie = no_ties(size(h%theta))
     h%use_prior = 0
     h%use_bounds = 0

@@ -286,7 +286,7 @@ contains
 
     call case_time_input(c, t, u, status, msg)
     if (status /= MLID_OK) return
-    nf = count(c%isfree == 1)
+    nf = count(c%isfree > 0)
     allocate (y(c%ny, size(t)))
     y = 0.0_wp
     call setup(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, c%isfree, c%tie, c%iconst, c%rconst, &

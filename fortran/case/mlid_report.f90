@@ -297,9 +297,12 @@ contains
   end function det_r
 
   !> The lines of a validation (mlid_validate): the files predicted, then
-  !> per output Theil's U, the rms prediction error and rms/sigma.
-  function validation_report(names, holdout, theil, rms, ratio) result(text)
-    character(len=*), intent(in) :: names(:)
+  !> per output Theil's U, the rms prediction error in the unit the output
+  !> is shown in (core = scale*shown, a difference has no offset) and
+  !> rms/sigma.
+  function validation_report(names, units, scale, holdout, theil, rms, ratio) result(text)
+    character(len=*), intent(in) :: names(:), units(:)
+    real(wp), intent(in) :: scale(:)
     integer, intent(in) :: holdout(:)
     real(wp), intent(in) :: theil(:), rms(:), ratio(:)
     character(len=:), allocatable :: text
@@ -313,15 +316,28 @@ contains
     end do
     text = text//' (refitted there: only the initial state and output biases the '// &
            'identification fitted; every other parameter held at its estimate)'//NL
-    write (buf, '(1x,a16,a12,a14,a12)') 'output          ', 'Theil U', 'rms error', 'rms/sigma'
+    write (buf, '(1x,a16,a12,a14,2x,a10,a12)') 'output          ', 'Theil U', 'rms error', &
+      'unit      ', 'rms/sigma'
     text = text//trim(buf)//NL
     do k = 1, size(names)
       write (buf, '(1x,a16)') names(k)
-      text = text//trim(buf(1:17)//fixed_text(theil(k), 12, 4)//es_text(rms(k), 14, 4)// &
-             fixed_text(ratio(k), 12, 3))//NL
+      text = text//trim(buf(1:17)//fixed_text(theil(k), 12, 4)//es_text(rms(k)/scale(k), 14, 4)// &
+             '  '//unit_cell(units(k))//fixed_text(ratio(k), 12, 3))//NL
     end do
-    text = text//' Theil U: rms(y - yhat)/(rms(y) + rms(yhat)); sigma: the identification''s '// &
-           'residual sigma'//NL
+    text = text//' Theil U: rms(y - yhat)/(rms(y) + rms(yhat)); rms error in the unit the '// &
+           'output is shown in; sigma: the identification''s residual sigma'//NL
+  contains
+    !> a unit in its column of 10 (a longer one whole, then one blank)
+    function unit_cell(unit) result(cell)
+      character(len=*), intent(in) :: unit
+      character(len=:), allocatable :: cell
+      cell = trim(unit)
+      if (len(cell) < 10) then
+        cell = cell//repeat(' ', 10 - len(cell))
+      else
+        cell = cell//' '
+      end if
+    end function unit_cell
   end function validation_report
 
   !> The "validation" member of a validate case's JSON object.

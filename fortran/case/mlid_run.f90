@@ -18,7 +18,7 @@ module mlid_run
   use mlid_validate, only: prediction_stats
   use mlid_equations, only: equations_t, equations_create
   use mlid_flightpath, only: flightpath_corrected
-  use mlid_params, only: param_map_t
+  use mlid_params, only: param_map_t, free_indices
   use mlid_options, only: options_t
   use mlid_newton, only: fit_result_t
   use mlid_fit_driver, only: fit_solve, fit_view, fit_view_t
@@ -245,7 +245,7 @@ contains
     if (r%status == MLID_OK) call manoeuvre_layout(c, size(segstart), r%status, r%msg)
     if (r%status /= MLID_OK) return
     nth = size(c%theta)
-    nf = count(c%isfree == 1)
+    nf = count(c%isfree > 0)
     if (size(t) >= LONG_RECORD) call note(r, 'a long record: '//itoa(size(t))//' samples of '// &
       itoa(size(u, 1) + size(y, 1) + 1)//' channels ('//itoa(nint(8.0e-6_wp*size(t)* &
       (size(u, 1) + size(y, 1) + 1)))//' MB of numbers) and '//itoa(nf)//' free parameters: '// &
@@ -311,14 +311,14 @@ contains
     type(case_t), intent(in) :: c
     type(fit_view_t), intent(in) :: v
     type(fit_summary_t), intent(inout) :: s
-    logical :: free(size(c%theta))
+    integer, allocatable :: free(:)
 
-    free = c%isfree == 1
+    free = free_indices(c%isfree)
     s%labels = c%labels
-    s%start = pack(v%theta_start, free)
-    s%est = pack(v%theta, free)
-    s%sig = pack(v%sigma, free)
-    s%sigc = pack(v%sigma_c, free)
+    s%start = v%theta_start(free)
+    s%est = v%theta(free)
+    s%sig = v%sigma(free)
+    s%sigc = v%sigma_c(free)
     s%cov = v%cov
     s%eigval = v%eigval
     s%eigvec = v%eigvec
@@ -343,8 +343,9 @@ contains
     real(wp), allocatable :: t(:), u(:, :), y(:, :), theta(:), rhat(:, :), yhat(:, :), r0(:, :)
     real(wp), allocatable :: th(:), uh(:, :), yh(:, :), pred(:, :), theil(:), rms(:), ratio(:)
     integer, allocatable :: segstart(:), sh(:)
-    character(len=UNITLEN), allocatable :: units(:), hunits(:)
+    character(len=UNITLEN), allocatable :: units(:), hunits(:), shown(:)
     character(len=NAMELEN), allocatable :: names(:), fnames(:)
+    real(wp), allocatable :: scale(:)
     type(line_t), allocatable :: notes(:)
     type(case_t) :: fitted, held
     logical, allocatable :: out(:)
@@ -360,14 +361,15 @@ contains
                      progress=r%progress)
     call notes_from(r, notes)
     if (r%status == MLID_OK) call case_record(files_of(c, out), th, uh, yh, r%status, r%msg, sh, &
-                                              hunits, names, notes, progress=r%progress)
+                                              hunits, names, notes, shown=shown, scale=scale, &
+                                              progress=r%progress)
     if (r%status == MLID_OK) call notes_from(r, notes)
     if (r%status == MLID_OK) call fit_record(fitted, t, u, y, segstart, units, r, json, theta, &
                                              rhat, yhat, outcome, fnames)
     if (r%status /= MLID_OK) return
     call holdout_case(files_of(c, out), theta, count(.not. out), held, r%status, r%msg)
     if (r%status /= MLID_OK) return
-    if (count(held%isfree == 1) > 0) then
+    if (count(held%isfree > 0) > 0) then
       call fit_record(held, th, uh, yh, sh, hunits, r, theta=theta, rhat=r0, yhat=pred, &
                       outcome=held_outcome)
     else
@@ -383,7 +385,8 @@ contains
     if (allocated(c%output_names)) then
       if (all(len_trim(c%output_names) > 0)) names(c%nu + 1:) = c%output_names
     end if
-    r%report = r%report//validation_report(names(c%nu + 1:), c%holdout, theil, rms, ratio)
+    r%report = r%report//validation_report(names(c%nu + 1:), shown(c%nu + 1:), &
+                                           scale(c%nu + 1:), c%holdout, theil, rms, ratio)
     call r%results%put('theil', theil)
     call r%results%put('rms', rms)
     call r%results%put('rms_over_sigma', ratio)

@@ -10,7 +10,7 @@ module mlid_options
   implicit none
   private
   public :: options_t, options_from_flat, options_to_flat, NOPT
-  public :: NOPTION, OPTION_NAMES, option_kind, option_set, option_get, options_text
+  public :: NOPTION, OPTION_NAMES, option_kind, option_words, option_set, option_get, options_text
   public :: METHOD_OUTPUT_ERROR, METHOD_FILTER_ERROR, METHOD_FREQ_OE, METHOD_FREQ_EE, &
             frequency_method
 
@@ -244,6 +244,17 @@ contains
     character(len=6) :: kind
     kind = kind_at(option_index(name))
   end function option_kind
+
+  !> The words a choice option takes, blank-separated in the order of their
+  !> codes ('false true' for a logical one; '' for a number or no option).
+  function option_words(name) result(words)
+    character(len=*), intent(in) :: name
+    character(len=:), allocatable :: words
+    integer :: k
+    words = ''
+    k = option_index(name)
+    if (k >= 1 .and. k <= NOPTION) words = trim(OPTION_CHOICES(k))
+  end function option_words
 
   !> The kind of option k (its place in OPTION_NAMES; '' for none).
   function kind_at(k) result(kind)

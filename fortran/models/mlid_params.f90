@@ -10,7 +10,9 @@ module mlid_params
   use mlid_models, only: layout_t
   implicit none
   private
-  public :: param_map_t, tie_t, ties_of, param_map_create, segment_map, apply_ties, no_ties, input_delays, output_delays, stabilized
+  public :: param_map_t, tie_t, ties_of, param_map_create, free_indices, manoeuvre_places, &
+            segment_map, apply_ties, &
+            no_ties, input_delays, output_delays, stabilized
 
   !> Affine ties: term i gives theta(to(i)) the part scale(i)*theta(from(i));
   !> offset(k) is the constant of a tied entry k (0 for the others).
@@ -57,7 +59,7 @@ contains
     call check(l, isfree, tie, status, msg)
     if (status /= MLID_OK) return
     pm%tie = tie
-    pm%ifree = pack([(k, k=1, l%nth)], isfree == 1)
+    pm%ifree = free_indices(isfree)
     pm%nf = size(pm%ifree)
     ! moving entries: the free ones, then each term of a tie to a free one
     act = pm%ifree
@@ -95,6 +97,39 @@ contains
     end subroutine block
 
   end subroutine param_map_create
+
+  !> The theta indices of the free entries in the order of free: isfree(k) > 0
+  !> is entry k's place among the free parameters, so that the report, the
+  !> JSON and every table list them as the deck or script listed them.  Equal
+  !> places keep theta order (flags of 1 give theta order; a manoeuvre's own
+  !> copies of one free entry share its place).
+  pure function free_indices(isfree) result(idx)
+    integer, intent(in) :: isfree(:)
+    integer, allocatable :: idx(:)
+    integer :: k, j, key
+    idx = pack([(k, k=1, size(isfree))], isfree > 0)
+    do k = 2, size(idx)                  ! a stable insertion sort: free lists are short
+      key = idx(k)
+      j = k - 1
+      do while (j >= 1)
+        if (isfree(idx(j)) <= isfree(key)) exit
+        idx(j + 1) = idx(j)
+        j = j - 1
+      end do
+      idx(j + 1) = key
+    end do
+  end function free_indices
+
+  !> The places of the free entries on several manoeuvres (map, seg:
+  !> mlid_layout's manoeuvre_map): the shared ones keep theirs; manoeuvre k's
+  !> own copies follow all of them, manoeuvre by manoeuvre, each in the order
+  !> of free.  As python/mlid/model/maneuvers.py's Params does.
+  pure function manoeuvre_places(isfree, map, seg) result(places)
+    integer, intent(in) :: isfree(:), map(:), seg(:)
+    integer :: places(size(map))
+    places = isfree(map)
+    where (places > 0 .and. seg > 0) places = places + seg*maxval(isfree)
+  end function manoeuvre_places
 
   !> The map of one manoeuvre's sensitivities: only the free columns that
   !> can move segment iseg (its own initial state and biases, the model
@@ -179,8 +214,8 @@ contains
         'one source and scale each: nth = ', l%nth
       return
     end if
-    if (any(isfree /= 0 .and. isfree /= 1)) then
-      msg = 'free flags must be 0 or 1'
+    if (any(isfree < 0)) then
+      msg = 'free flags must be 0 (fixed) or a free parameter''s place in the order of free (> 0)'
       return
     end if
     do i = 1, size(tie%to)
@@ -192,7 +227,7 @@ contains
       else if (j == k) then
         write (msg, '(a,i0,a)') 'parameter ', k, ' is tied to itself'
         return
-      else if (isfree(k) == 1) then
+      else if (isfree(k) > 0) then
         write (msg, '(a,i0,a)') 'parameter ', k, ' is both free and tied'
         return
       else if (any(tie%to == j)) then

@@ -146,7 +146,7 @@ contains
     call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
     if (status /= MLID_OK) return
     call setup(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, p%rconst, &
-               p%t, p%u, p%y, p%iopt, p%ropt, count(p%isfree == 1), m, opt, pm, status, msg, &
+               p%t, p%u, p%y, p%iopt, p%ropt, count(p%isfree > 0), m, opt, pm, status, msg, &
                p%segstart)
   end subroutine problem_setup
 

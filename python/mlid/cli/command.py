@@ -14,8 +14,8 @@ from ..estimate.table import WRITERS, ResultsTable, results_table
 from ..files import atomic_write_text, check_writable, same_file
 from ..frequency.responses import fit_transfer_function, record_response
 from ..report import plots
-from ..report.html_report import write_report
-from ..report.plots import plot_fit, plot_validation, use_file_backend
+from ..report.html_report import load_template, write_report
+from ..report.plots import fit_writers, plot_validation, use_file_backend
 from . import campaign
 from .campaign import FORMATS, decks as named_decks
 from .deck import FIT_JOBS, case_json, json_list, read_deck, run_case, run_cases
@@ -87,6 +87,9 @@ def _parser():
                      ".csv, .tex (LaTeX booktabs) or .json")
     run.add_argument("--report", metavar="DIR", help="write one self-contained HTML page of "
                      "the deck, DIR/<deck name>.html, with every case's tables and figures")
+    run.add_argument("--report-template", metavar="FILE", help="a jinja2 template of the "
+                     "--report page in place of mlid's own (its variables: "
+                     "mlid.report.html_report)")
     diag = sub.add_parser("diagnose", help="find what the model of each estimate case misses",
                           parents=[quiet])
     diag.add_argument("deck", help="namelist deck (.nml)")
@@ -202,6 +205,11 @@ def _outputs_writable(args):
                 raise InputError(f"{other} and {option} name one file, {path}: each output "
                                  "goes to a file of its own")
         files[option] = path
+    template = getattr(args, "report_template", None)
+    if template and not args.report:
+        raise InputError("--report-template needs --report DIR")
+    if template:
+        load_template(template)
     for option in ("plots", "report", "campaign_plots"):
         folder = getattr(args, option, None)
         if not folder:
@@ -255,7 +263,8 @@ def _show_case(args, case, out, result, error, tables):
     checked = getattr(result, "validation", None)
     if args.plots and fitted:
         title = f"{case.deck} case {case.index}: {case.title}"
-        plots = [(lambda r, f, s: plot_fit(r, f, s, title), result)] + (
+        plots = [(lambda r, f, s, w=write: w(r, f, s, title), result)
+                 for write in fit_writers(result)] + (
             [(plot_validation, checked)] if checked else [])
         for fn, what in plots:
             path, plot_error = _attempt("plot", fn, what, args.plots, f"case{case.index}")
@@ -418,7 +427,8 @@ def _run(args):
         writes.append((f"--campaign {args.campaign}", campaign.Campaign(rows).write,
                        args.campaign))
     if args.report:
-        writes.append((f"--report {args.report}", write_report, args.report, args.deck[0], ran))
+        writes.append((f"--report {args.report}", write_report, args.report, args.deck[0], ran,
+                       args.report_template))
     for what, fn, *fn_args in writes:
         path, error = _attempt(what, fn, *fn_args)
         if error:

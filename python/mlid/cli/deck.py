@@ -12,7 +12,7 @@ from ..data.flight_data import FlightData, read_status
 from ..errors import MlidError, check_status, guarded, status_of
 from ..estimate.fit import fit_result
 from ..estimate.options import options_of_text
-from ..model.models import from_core
+from ..model.models import free_entries, from_core
 from ..progress import core_bar, shown_on
 from ..report.validation import validation_of
 
@@ -53,16 +53,16 @@ class Case:
         self.model = from_core(v["mkind"], (nx, nu, ny, nw), v["iconst"], v["rconst"], theta,
                                isfree, ties, _lines(v["labels"]), opts.pop("input_hold"),
                                opts.pop("substeps"))
-        free = [self.model.element_names()[j] for j in np.flatnonzero(isfree)]
+        order = free_entries(isfree)
+        free = [self.model.element_names()[j] for j in order]
         if v["use_prior"]:
-            opts.update(prior=dict(zip(free, v["prior"][isfree == 1])),
+            opts.update(prior=dict(zip(free, v["prior"][order])),
                         prior_weight=v["pweight"])
         if v["use_bounds"]:
             big = np.finfo(float).max
             # a NaN bound goes on to the core, which refuses it as mlid-batch does
             opts["bounds"] = {f: (None if lo <= -big else lo, None if hi >= big else hi)
-                              for f, lo, hi in zip(free, v["lower"][isfree == 1],
-                                                   v["upper"][isfree == 1])
+                              for f, lo, hi in zip(free, v["lower"][order], v["upper"][order])
                               if not (lo <= -big and hi >= big)}
         self._options = opts
         self._sizes = (nu, ny)

@@ -200,6 +200,17 @@ class FlightData:
     InputError
         t not a vector, u or y not one row per sample (given transposed, the
         message says so), or names, units or display not one per channel.
+
+    Examples
+    --------
+    >>> import mlid
+    >>> data = mlid.FlightData([0.0, 0.1, 0.2], [1.0, 0.0, -1.0],
+    ...                        [[0.0, 1.0], [0.1, 0.9], [0.3, 0.7]],
+    ...                        input_names=["de"], output_names=["alpha", "q"])
+    >>> data
+    FlightData(nt=3, inputs=['de'], outputs=['alpha', 'q'])
+    >>> data.y.shape
+    (3, 2)
     """
 
     def __init__(self, t, u, y, input_names=None, output_names=None, source="",
@@ -383,6 +394,23 @@ class FlightData:
         -----
         MlidWarning
             A channel declared in rad goes beyond 2 pi (most likely degrees).
+
+        Examples
+        --------
+        A column's unit in brackets: degrees become radians on reading, and
+        ``shown`` gives them back in the unit declared.
+
+        >>> import pandas as pd
+        >>> import mlid
+        >>> frame = pd.DataFrame({"t": [0.0, 0.1, 0.2], "de": [0.0, 0.5, 1.0],
+        ...                       "ALCG[deg]": [1.0, 2.0, 3.0]})
+        >>> data = mlid.FlightData.from_frame(frame, "t", ["de"], ["ALCG"])
+        >>> data.output_units
+        ['rad']
+        >>> data.y[:, 0].round(5)
+        array([0.01745, 0.03491, 0.05236])
+        >>> data.shown("y", 0)
+        (array([1., 2., 3.]), 'deg')
         """
         frame = _time_in_seconds(_dataset_frame(frame, time_col), time_col)
         try:

@@ -90,14 +90,15 @@ class DesignedInput:
         return 0.5 * (self.t_edges[1:] + self.t_edges[:-1])
 
     def spectrum(self):
-        """|Fourier transform| of the first input (Fig. 8.4), zero-padded eightfold.
+        """The magnitude of the first input's Fourier transform (Fig. 8.4), zero-padded
+        eightfold.
 
         Returns
         -------
         omega : ndarray
             Frequencies [rad/s].
         magnitude : ndarray
-            |U(omega)|.
+            ``|U(omega)|``.
         """
         dt = self.t_edges[1] - self.t_edges[0]
         n = 8 * len(self.u)                      # zero padding for a smooth curve
@@ -398,7 +399,7 @@ class InputDesign:
                              weights=self.weights.copy())
 
     def amplitude_limited(self, T, peak, min_width):
-        """The best square wave under |u| <= peak with no pulse shorter than
+        """The best square wave under ``|u| <= peak`` with no pulse shorter than
         min_width: tr(WM) is convex in u, so the optimum over the box is a
         corner (+-peak on every cell); found by local search from the signs
         of the leading energy-optimal inputs (fortran/design/mlid_design.f90).  The

@@ -12,6 +12,7 @@ from ..errors import ConvergenceWarning, InputError, guarded, status_text
 from ..estimate.options import _flat_options
 from ..model.calls import _check_model, _set_simulation, _time_and_inputs
 from ..progress import Silent, bar as progress_bar
+from .monte_carlo_result import MonteCarloResult
 
 
 def _mc_setup(truth, start, t, u, noise_std, runs, seed, options):
@@ -30,7 +31,7 @@ def _mc_setup(truth, start, t, u, noise_std, runs, seed, options):
     iopt, ropt, _ = _flat_options(start, options)
     t, u = _time_and_inputs(start, t, u)
     call = dict(start=start, tu=(t, u.T), iopt=iopt, ropt=ropt, theta_true=truth.theta)
-    return call, runs, seed, start.free_names(), truth.theta[start.free_mask == 1]
+    return call, runs, seed, start.free_names(), truth.theta[start.free_indices()]
 
 
 def _mc_runs(call, seed, runs):
@@ -62,8 +63,9 @@ SUMMARY = ("runs", "mean", "sample_sigma", "mean_cr_sigma", "sample_cov_trace", 
 def _mc_result(parts, names, truth, stacklevel=4):
     """The runs of parts joined in order, the summary over the runs that
     succeeded (the core's), and a ConvergenceWarning naming how many did not."""
-    out = {key: np.concatenate([p[key] for p in parts])
-           for key in ("estimates", "sigma", "information", "iterations", "status")}
+    out = MonteCarloResult({key: np.concatenate([p[key] for p in parts])
+                            for key in ("estimates", "sigma", "information", "iterations",
+                                        "status")})
     out["names"], out["truth"] = names, truth
     h = _call_handle()
     _put(h, est=out["estimates"].T, sig=out["sigma"].T,
@@ -116,8 +118,8 @@ def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, progress=N
 
     Returns
     -------
-    dict
-        ``estimates`` and ``sigma`` (Cramer-Rao standard deviations), (runs,
+    MonteCarloResult
+        A dict: ``estimates`` and ``sigma`` (Cramer-Rao standard deviations), (runs,
         nf); ``information`` (runs, nf, nf); ``iterations`` and ``status``
         (runs,), status 0 for a converged run, else the core's status code
         (4 not converged, 2 singular information, 3 diverged); ``names`` and
@@ -125,7 +127,9 @@ def monte_carlo(truth, start, t, u, noise_std=None, runs=100, seed=1, progress=N
         status 0, their number ``runs``, ``mean`` estimate, ``sample_sigma``,
         ``mean_cr_sigma``, and ``sample_cov_trace``, ``sample_cov_det``,
         ``mean_info_trace``, ``mean_info_det`` (the core's statistics, the
-        same numbers as the deck job 'monte_carlo' reports).
+        same numbers as the deck job 'monte_carlo' reports).  Also by name
+        (``mc.mean['M_q']``), and as DataFrames: ``to_frame()`` a row per
+        parameter (truth and summary), ``runs_frame()`` a row per run.
 
     Raises
     ------

@@ -42,7 +42,7 @@ def monte_carlo_parallel(truth, start, t, u, runs=100, seed=1, workers=None, sch
 
     Returns
     -------
-    dict
+    MonteCarloResult
         As ``mlid.monte_carlo``.
 
     Raises

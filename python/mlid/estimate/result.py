@@ -13,7 +13,9 @@ import numpy as np
 from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
 from ..checks import pandas_for
 from ..errors import InputError
+from .diagnostics import Identifiability, Sensitivity, Whiteness
 from .evaluate import evaluate
+from .named import NamedArray
 from .outcome import fit_outcome, require_estimates
 from .table import HTML_DIGITS, results_table
 
@@ -22,6 +24,10 @@ from .table import HTML_DIGITS, results_table
 NOT_IN_A_FAILED_FIT = ("sigma", "sigma_corrected", "covariance", "covariance_corrected",
                        "information", "gradient", "eigenvalues", "eigenvectors", "rhat", "yhat",
                        "cost", "cost_history")
+#: The fields of a FitResult with one entry per free parameter, and those
+#: with one row and column per free parameter: NamedArrays by ``names``.
+BY_PARAMETER = ("start", "estimate", "sigma", "sigma_corrected", "gradient")
+BY_PARAMETER_PAIR = ("covariance", "covariance_corrected", "information")
 
 
 def _finite_or_none(value):
@@ -36,7 +42,7 @@ def _finite_or_none(value):
     return value
 
 
-def whiteness(residuals, lags=20):
+def whiteness(residuals, lags=20, outputs=None):
     """Ljung-Box test of each column of residuals over lags 1..lags.
 
     Parameters
@@ -46,13 +52,21 @@ def whiteness(residuals, lags=20):
         removed first.
     lags : int
         The largest lag.
+    outputs : list of str, optional
+        The columns' names (default y1, y2, ...).
 
     Returns
     -------
-    list of dict
-        Per column: ``Q``; ``critical``, the upper 5% point of
-        chi-square(lags); ``white``, Q below it; ``outside``, the fraction
-        of autocorrelations outside +-1.96/sqrt(N).
+    Whiteness
+        A list of dicts, per column: ``output``; ``Q``; ``critical``, the
+        upper 5% point of chi-square(lags); ``white``, Q below it;
+        ``outside``, the fraction of autocorrelations outside
+        +-1.96/sqrt(N).  Also by output name, as arrays and as a DataFrame.
+
+    Raises
+    ------
+    InputError
+        If outputs does not name each column.
     """
     e = np.asarray(residuals, dtype=float)
     e = e.reshape(len(e), -1) - e.reshape(len(e), -1).mean(axis=0)
@@ -60,14 +74,18 @@ def whiteness(residuals, lags=20):
     from scipy.stats import chi2
 
     crit = chi2.ppf(0.95, lags)
+    names = list(outputs) if outputs is not None else [f"y{i + 1}" for i in range(e.shape[1])]
+    if len(names) != e.shape[1]:
+        raise InputError(f"whiteness: {len(names)} output names for {e.shape[1]} columns")
     out = []
-    for col in e.T:
+    for name, col in zip(names, e.T):
         c0 = col @ col
         rho = np.array([col[k:] @ col[:-k] for k in range(1, lags + 1)]) / c0
         q = n * (n + 2) * np.sum(rho**2 / (n - np.arange(1, lags + 1)))
-        out.append({"Q": float(q), "critical": float(crit), "white": bool(q < crit),
+        out.append({"output": name, "Q": float(q), "critical": float(crit),
+                    "white": bool(q < crit),
                     "outside": float(np.mean(np.abs(rho) > 1.96 / np.sqrt(n)))})
-    return out
+    return Whiteness(out, lags)
 
 
 class FitResult:
@@ -142,6 +160,13 @@ class FitResult:
                     self.__dict__[name] = np.full(np.shape(fields[name]), np.nan)
             self.cost = float("nan")
             self.converged = False
+        names = fields.get("names")
+        if names is not None:       # reached by name as well as by position
+            for field in BY_PARAMETER + BY_PARAMETER_PAIR:
+                value = self.__dict__.get(field)
+                if isinstance(value, np.ndarray) and value.ndim == (
+                        1 if field in BY_PARAMETER else 2) and len(value) == len(names):
+                    self.__dict__[field] = NamedArray(value, names)
 
     @property
     def failed(self):
@@ -187,7 +212,8 @@ class FitResult:
         d = np.sqrt(np.clip(np.diag(self.covariance), 0, None))
         with np.errstate(invalid="ignore", divide="ignore"):
             c = self.covariance / np.outer(d, d)
-        return np.where(np.outer(d, d) > 0, c, 0.0)
+        c = np.where(np.outer(d, d) > 0, c, 0.0)
+        return NamedArray(c, self.names) if hasattr(self, "names") else c
 
     def whiteness(self, lags=20):
         """Ljung-Box whiteness test of the residuals (innovations), per output.
@@ -199,8 +225,10 @@ class FitResult:
 
         Returns
         -------
-        list of dict
-            As ``mlid.whiteness``, each with its ``output``'s name first.
+        Whiteness
+            As ``mlid.whiteness``, the outputs named as the record names
+            them: a list of dicts, one per output; ``to_frame()`` a row per
+            output.
 
         Raises
         ------
@@ -208,8 +236,7 @@ class FitResult:
             If the fit failed.
         """
         require_estimates(self, "whiteness test")
-        return [{"output": name, **w}
-                for name, w in zip(self._output_names(), whiteness(self.residuals, lags))]
+        return whiteness(self.residuals, lags, self._output_names())
 
     def _output_names(self):
         names = list(getattr(self.data, "output_names", None) or [])
@@ -386,15 +413,20 @@ class FitResult:
 
         Returns
         -------
-        list of str
+        Identifiability
+            The report's lines (a list of str; empty for a failed fit), with
+            their numbers: eigenvalues, spread, weakest direction and
+            correlations by parameter name; ``to_frame()`` a row per
+            parameter.
         """
         if self.failed:
-            return []
+            return Identifiability([], [], np.zeros(0), np.zeros((0, 0)), np.zeros((0, 0)))
         lines = self.report().split("\n")
         k = [i for i, ln in enumerate(lines) if ln.startswith((" R diagonal", " B diagonal",
                                                              " S diagonal", " output:",
                                                              " unit:"))]
-        return lines[k[-1] + 1:]
+        return Identifiability(lines[k[-1] + 1:], self.names, self.eigenvalues,
+                               self.eigenvectors, self.correlation)
 
     def against_truth(self, truth):
         """The estimates against known true values: a simulated record's.
@@ -413,7 +445,7 @@ class FitResult:
         deviations : ndarray
             (estimate - truth) / Cramer-Rao sigma of each.
         """
-        values = truth.theta[self.start_model.free_mask == 1]    # theta order, as estimate
+        values = truth.theta[self.start_model.free_indices()]     # as estimate
         return values, (self.estimate - values) / self.sigma
 
     def json(self, title="", job="estimate"):
@@ -456,7 +488,8 @@ class FitResult:
 
     def sensitivity_frame(self):
         """The sensitivity norms as a DataFrame: a row per free parameter
-        (``names``), a column per output (the record's names).
+        (``names``), a column per output (the record's names);
+        ``sensitivity_table().to_frame()``.
 
         Returns
         -------
@@ -467,24 +500,24 @@ class FitResult:
         InputError
             If the fit failed, or pandas is not installed.
         """
-        pd = pandas_for("sensitivity_frame")
-        return pd.DataFrame(self.sensitivity_norms().T, index=pd.Index(self.names, name="name"),
-                            columns=self._output_names())
+        pandas_for("sensitivity_frame")        # before the model is run
+        return self.sensitivity_table().to_frame()
 
     def sensitivity_table(self):
-        """The sensitivity norms as printed lines, a row per parameter.
+        """The sensitivity norms, a row per parameter.
 
         Returns
         -------
-        list of str
+        Sensitivity
+            The printed lines (a list of str), the norms (ny, nf), a
+            parameter's norms by name, ``to_frame()``.
+
+        Raises
+        ------
+        InputError
+            If the fit failed.
         """
-        s = self.sensitivity_norms()
-        outs = [n[:10] for n in self.data.output_names] or [f"y{i + 1}" for i in range(len(s))]
-        lines = [" output sensitivity norms (residual sigmas over the record)",
-                 f" {'parameter':<16}" + "".join(f"{n:>11}" for n in outs)]
-        for k, name in enumerate(self.names):
-            lines.append(f" {name[:16]:<16}" + "".join(f"{v:11.3E}" for v in s[:, k]))
-        return lines
+        return Sensitivity(self.sensitivity_norms(), self.names, self._output_names())
 
     def table(self):
         """The results table: name, unit, estimate, Cramer-Rao and corrected

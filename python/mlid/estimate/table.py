@@ -31,9 +31,6 @@ FLAG_RATIO = 2.0
 FLAG_TEXT = "coloured"
 CASE = "case"
 NUMERIC = ("estimate", "sigma_cr", "sigma_corrected", "relative_sigma_percent")
-_LATEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
-                  "_": r"\_", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}",
-                  "^": r"\textasciicircum{}"}
 
 
 GREEK = ("alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "kappa",
@@ -41,8 +38,31 @@ GREEK = ("alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "
 
 
 def latex_escape(text):
-    """text with LaTeX's special characters escaped."""
-    return "".join(_LATEX_SPECIAL.get(c, c) for c in str(text))
+    """text with LaTeX's special characters escaped, as pandas escapes a
+    table's text (Styler.format(escape='latex'))."""
+    return _latex_tabular({"": [str(text)]}, "l", header=False).split("\n")[1][:-3]
+
+
+def _latex_tabular(columns, align, header=True, verbatim=None):
+    r"""A booktabs tabular made by pandas (Styler.to_latex): columns
+    {heading: cells}, cells text; text escaped by pandas but the headings
+    (LaTeX already) and the cells verbatim marks True (math, \si); no
+    index."""
+    pd = pandas_for("LaTeX tables")
+    frame = pd.DataFrame({k: list(v) for k, v in columns.items()})
+    styler = frame.style.hide(axis="index").format(escape="latex")
+    if not header:
+        styler = styler.hide(axis="columns")
+    if verbatim is not None and np.any(verbatim):
+        mask = pd.DataFrame(verbatim, columns=frame.columns)
+        for k, col in enumerate(frame.columns):     # what is LaTeX already goes as it is
+            rows = np.flatnonzero(mask.iloc[:, k].to_numpy())
+            if rows.size:
+                styler = styler.format(str, subset=(frame.index[rows], [col]))
+    try:
+        return styler.to_latex(column_format=align, hrules=header)
+    except ImportError as e:            # pandas' LaTeX is a jinja2 template
+        raise InputError(f"LaTeX tables need jinja2 ({e}): pip install jinja2") from None
 
 
 def _symbol(part):
@@ -52,31 +72,36 @@ def _symbol(part):
     return part if len(part) == 1 or part.isdigit() else rf"\mathrm{{{part}}}"
 
 
-def latex_name(name):
-    r"""A parameter name as LaTeX: a name of words joined by underscores as
-    math with nested subscripts and Greek letters (Z_alpha: $Z_{\alpha}$,
-    C_m_de: $C_{m_{\mathrm{de}}}$); any other name as escaped text."""
+def _math_name(name):
+    """A name of words joined by underscores as math (None for any other)."""
     name = str(name)
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*(_[A-Za-z0-9]+)*", name):
-        return latex_escape(name)
+        return None
     parts = name.split("_")
     if len(parts) == 1 and name not in GREEK:
-        return latex_escape(name)
+        return None
     text = _symbol(parts[-1])
     for part in reversed(parts[:-1]):
         text = f"{_symbol(part)}_{{{text}}}"
     return f"${text}$"
 
 
-def latex_unit(unit):
-    r"""A core unit ('rad/s', '1/s2', 'm/(rad.s)', '-') as siunitx's \si in
-    powers (\si{rad.s^{-1}}); '' for none or '-'; a unit of other
-    characters as escaped text."""
+def latex_name(name):
+    r"""A parameter name as LaTeX: a name of words joined by underscores as
+    math with nested subscripts and Greek letters (Z_alpha: $Z_{\alpha}$,
+    C_m_de: $C_{m_{\mathrm{de}}}$); any other name as escaped text."""
+    math_text = _math_name(name)
+    return latex_escape(name) if math_text is None else math_text
+
+
+def _si_unit(unit):
+    r"""A core unit as siunitx's \si in powers; '' for none or '-', None for
+    a unit of other characters."""
     unit = str(unit).strip()
     if unit in ("", "-"):
         return ""
     if not re.fullmatch(r"[A-Za-z0-9.]+(/\(?[A-Za-z0-9.]+\)?)?", unit):
-        return latex_escape(unit)
+        return None
     top, _, bottom = unit.partition("/")
     factors = []
     for sign, group in ((1, top), (-1, bottom.strip("()"))):
@@ -87,6 +112,14 @@ def latex_unit(unit):
             p = sign * int(power or 1)
             factors.append(sym if p == 1 else f"{sym}^{{{p}}}")
     return rf"\si{{{'.'.join(factors)}}}" if factors else ""
+
+
+def latex_unit(unit):
+    r"""A core unit ('rad/s', '1/s2', 'm/(rad.s)', '-') as siunitx's \si in
+    powers (\si{rad.s^{-1}}); '' for none or '-'; a unit of other
+    characters as escaped text."""
+    si = _si_unit(unit)
+    return latex_escape(str(unit).strip()) if si is None else si
 
 
 def results_table(result, case=None):
@@ -237,23 +270,30 @@ class ResultsTable:
         return self.text()
 
     def latex_text(self):
-        """A booktabs tabular (needs \\usepackage{booktabs} and siunitx);
-        numbers plain, to 4 significant digits; names as math (latex_name),
-        units by siunitx (latex_unit).
+        """A booktabs tabular (needs \\usepackage{booktabs} and siunitx),
+        made by pandas (Styler.to_latex, which escapes the text); numbers
+        plain, to 4 significant digits; names as math (latex_name), units by
+        siunitx (latex_unit).
 
         Returns
         -------
         str
+
+        Raises
+        ------
+        InputError
+            If pandas (or jinja2, which its LaTeX needs) is not installed.
         """
         cols = self.columns
         align = "".join("l" if c in (CASE, "name", "unit", "flag") else "r" for c in cols)
         heads = ((("Case",) if CASE in cols else ()) + LATEX_HEADINGS)
-        lines = [rf"\begin{{tabular}}{{{align}}}", r"\toprule", " & ".join(heads) + r" \\",
-                 r"\midrule"]
-        for row in self.rows:
-            lines.append(" & ".join(_latex_cell(c, row[c]) for c in cols) + r" \\")
-        lines += [r"\bottomrule", r"\end{tabular}"]
-        return "\n".join(lines) + "\n"
+        cells, verbatim = {}, []
+        for head, c in zip(heads, cols):
+            texts = [_latex_cell(c, row[c]) for row in self.rows]
+            cells[head] = [t for t, _ in texts]
+            verbatim.append([v for _, v in texts])
+        return _latex_tabular(cells, align, verbatim=np.array(verbatim, dtype=bool).T
+                              if self.rows else None)
 
     def html_text(self):
         """An HTML table (no styling): names, units and flags escaped,
@@ -367,12 +407,16 @@ def _html_cell(col, value):
 
 
 def _latex_cell(col, value):
+    """A cell of the LaTeX table: its text, and whether it is LaTeX already
+    (math names, siunitx units, numbers) rather than text to escape."""
     if col == "flag":
-        return FLAG_TEXT if value else ""
+        return (FLAG_TEXT if value else ""), False
     if col == "name":
-        return latex_name(value)
+        math_text = _math_name(value)
+        return (str(value), False) if math_text is None else (math_text, True)
     if col == "unit":
-        return latex_unit(value)
+        si = _si_unit(value)
+        return (str(value).strip(), False) if si is None else (si, True)
     if isinstance(value, (float, np.floating)):
-        return f"{value:.4g}" if math.isfinite(value) else "--"
-    return latex_escape(value)
+        return (f"{value:.4g}" if math.isfinite(value) else "--"), True
+    return str(value), False

@@ -68,6 +68,19 @@ def fourier_transform(t, x, freq):
     ------
     InputError
         Fewer than two samples, sampling not uniform, values not finite.
+
+    Examples
+    --------
+    A constant over one second: its transform is 1 s at 0 Hz and, exactly,
+    nothing at 1 Hz, where an FFT's sum over the samples would leave the
+    end points' half weights.
+
+    >>> import numpy as np
+    >>> import mlid
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> X = mlid.fourier_transform(t, np.ones_like(t), [0.0, 1.0])
+    >>> np.round(abs(X), 12)
+    array([1., 0.])
     """
     t = real_array("t", t)
     xa = real_array("x", x)
@@ -136,7 +149,7 @@ def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=Non
         raise InputError("recursive_frequency_fit takes no ties, input feedback K or delays "
                          "(its state equations are x' = F x + G u)")
     # the free entries by the core's layout of theta: F, then G, each column by column
-    mask = model.free_mask
+    mask = model.free_mask                 # its own order: F, then G
     f, g = model._layout.slice("f"), model._layout.slice("g")
     outside = mask.astype(bool)
     outside[f] = outside[g] = False
@@ -154,7 +167,8 @@ def recursive_frequency_fit(model, data, window, stride=1, f_min=None, f_max=Non
     check_status(*_api.mlid_set_record(h.value, t=t, u=u, y=x, segstart=[1]))
     out = _run(h, _api.mlid_recursive_fdee)
     return {"t_end": out["t_end"], "estimates": out["estimates"].T.copy(),
-            "sigma": out["sigma"].T.copy(), "names": model.free_names()}
+            "sigma": out["sigma"].T.copy(),
+            "names": [model.names.get(n, n) for n in np.array(model.element_names())[mask > 0]]}
 
 
 def _band_edge(name, value):

@@ -145,10 +145,10 @@ def _column(record, k, what, name, unit):
 def record_response(data, input=0, output=0, segment=None, overlap=0.5):
     """The frequency response of one output to one input of a record.
 
-    H = G_uy / G_uu and gamma^2 = |G_uy|^2 / (G_uu G_yy) from one-sided
+    ``H = G_uy / G_uu`` and ``gamma^2 = |G_uy|^2 / (G_uu G_yy)`` from one-sided
     spectra averaged over Hann-windowed segments, each with its mean
     removed (Welch).  The random errors are Bendat & Piersol's for n_d
-    averages: eps = sqrt(1 - gamma^2) / (|gamma| sqrt(2 n_d)), sigma of the
+    averages: ``eps = sqrt(1 - gamma^2) / (|gamma| sqrt(2 n_d))``, sigma of the
     gain 20/ln10 eps dB, of the phase eps rad.
 
     Parameters
@@ -230,8 +230,8 @@ def free_map(fit_or_model):
     fitted = isinstance(fit_or_model, FitResult)
     model = getattr(fit_or_model, "start_model", fit_or_model.model) if fitted else fit_or_model
     params = Params(model, len(getattr(fit_or_model, "manoeuvres", ())) or 1)
-    jac = np.zeros((model.theta.size, int(params.mask.sum())))
-    for c, k in enumerate(np.flatnonzero(params.mask)):
+    jac = np.zeros((model.theta.size, params.free.size))
+    for c, k in enumerate(params.free):
         if params.seg[k] == 0:
             jac[params.map[k], c] = 1.0
     for a, (_, sources) in model.tie_terms().items():
@@ -274,6 +274,18 @@ def model_response(fit_or_model, frequency, input=0, output=0, covariance=None):
         the wrong size, frequencies not positive.
     SingularInformationError
         A pole on the imaginary axis at one of the frequencies.
+
+    Examples
+    --------
+    The first-order lag 2/(s + 2): unit gain at low frequency, and at its
+    corner, omega = 2 rad/s (1/pi Hz), 3 dB down and 45 degrees behind.
+
+    >>> import numpy as np
+    >>> import mlid
+    >>> lag = mlid.LinearModel([[-2.0]], [[2.0]], [[1.0]])
+    >>> r = mlid.model_response(lag, [0.01, 1 / np.pi])
+    >>> r.gain.round(2) + 0.0, r.phase.round(1)
+    (array([ 0.  , -3.01]), array([ -1.8, -45. ]))
     """
     if isinstance(fit_or_model, FitResult):
         require_estimates(fit_or_model, "frequency response")

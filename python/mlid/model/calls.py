@@ -86,7 +86,7 @@ def _set_simulation(h, model, tu, iopt, ropt, free=True):
     t, u = tu
     n = model.theta.size
     if free:
-        params = {"isfree": model.free_mask, **model.tie_args()}
+        params = {"isfree": model.free_places, **model.tie_args()}
     else:           # no tie is ntie = 0 over arrays of one (f2py wants an element)
         one = np.zeros(1, dtype=np.int32)
         params = {"isfree": np.zeros(n, dtype=np.int32), "ntie": 0, "tie_to": one,
@@ -103,7 +103,7 @@ def _set_model_with_params(h, model):
     parameters as it holds them (their free mask and ties too): for a call
     on the model alone, with no record or options (input design)."""
     _set_model(h, model)
-    _check(api.mlid_set_params(h.value, theta0=model.theta, isfree=model.free_mask,
+    _check(api.mlid_set_params(h.value, theta0=model.theta, isfree=model.free_places,
                                **model.tie_args()))
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from ..checks import real_array
 from ..data.flight_data import FlightData
 from ..errors import InputError
+from .models import free_entries
 
 
 class Params:
@@ -26,7 +27,7 @@ class Params:
         # 0-based entries of one manoeuvre, whose manoeuvre, the label's '#k'
         self.map, self.seg, self._suffix = model._layout.manoeuvre_map(n)
         own = self.seg > 0
-        theta, mask, terms = model.theta, model.free_mask, model.tie_terms()
+        theta, mask, terms = model.theta, model.free_places, model.tie_terms()
         if n > 1 and terms:
             own_old = np.zeros(theta.size, dtype=bool)
             own_old[self.map[own]] = True
@@ -37,7 +38,12 @@ class Params:
         self.theta = theta[self.map]
         for key, given in (("x0", initial_states), ("bias", biases)):
             self._put_own(key, given, "initial_states" if key == "x0" else "biases")
+        # the places in the order of free: the shared entries keep theirs, each
+        # manoeuvre's own copies follow (as the core's manoeuvre_places)
         self.mask = mask[self.map].astype(np.int32)
+        own_free = (self.mask > 0) & own
+        self.mask[own_free] += self.seg[own_free] * mask.max(initial=0)
+        self.free = free_entries(self.mask)            # the free entries, in the order of free
         # a tie points at the new places of its shared entries
         shared = np.where(own, -1, self.map)
         self.ties = model.tie_args(shared if n > 1 else None, terms)
@@ -47,11 +53,8 @@ class Params:
         """name_of(element name) for each entry here (the free ones only), an
         own entry's with its manoeuvre number after '#' (several manoeuvres)."""
         elements, suffix = self.model._layout.names, self._suffix
-        entries = enumerate(self.map.tolist())
-        if free_only:
-            return [name_of(elements[i]) + suffix[j] for (j, i), free in
-                    zip(entries, self.mask.tolist()) if free == 1]
-        return [name_of(elements[i]) + suffix[j] for j, i in entries]
+        tagged = [name_of(elements[i]) + suffix[j] for j, i in enumerate(self.map.tolist())]
+        return [tagged[j] for j in self.free] if free_only else tagged
 
     def _label(self, element):
         return self._names.get(element, element)

@@ -391,11 +391,28 @@ class Model:
 
     @property
     def free_mask(self):
-        """1 for each free entry of theta, else 0 (int32, as the core takes it)."""
+        """1 for each free entry of theta, else 0, in theta order."""
+        return (self.free_places > 0).astype(np.int32)
+
+    @property
+    def free_places(self):
+        """Each free entry's place in the order of free (1, 2, ...), 0 for a
+        fixed one (int32, as the core takes it; free_entries reads it)."""
         place = self._layout.place
-        mask = np.zeros(len(self._layout.names), dtype=np.int32)
-        mask[[place[n] for n in self.free]] = 1
-        return mask
+        places = np.zeros(len(self._layout.names), dtype=np.int32)
+        places[[place[n] for n in self.free]] = np.arange(1, len(self.free) + 1)
+        return places
+
+    def free_indices(self):
+        """The theta entries of the free parameters, in the order of free.
+
+        Returns
+        -------
+        numpy.ndarray of int
+            0-based entries of theta in the order of a fit's estimate, so
+            that ``truth.theta[truth.free_indices()]`` lines up with it.
+        """
+        return free_entries(self.free_places)
 
     def tie_terms(self):
         """The ties parsed by the core (fortran/models/mlid_ties.f90).
@@ -469,15 +486,14 @@ class Model:
                 "tie_scale": np.array(scale or [0.0], dtype=float), "tie_offset": offset}
 
     def free_names(self):
-        """Readable labels of the free parameters, in theta order.
+        """Readable labels of the free parameters, in the order of free.
 
         Returns
         -------
         list of str
             Each free parameter's label, or its element name when it has none.
         """
-        return [self.names.get(n, n)
-                for n, f in zip(self._layout.names, self.free_mask.tolist()) if f]
+        return [self.names.get(n, n) for n in self.free]
 
     def value(self, name):
         """The value of one parameter, by element name or label.
@@ -598,6 +614,22 @@ class LinearModel(Model):
     Raises
     ------
     {raises}
+
+    Examples
+    --------
+    The short period, x = (alpha, q), with three derivatives to estimate,
+    each under its own label:
+
+    >>> import mlid
+    >>> model = mlid.LinearModel([[-0.7, 1.0], [-0.6, -1.6]], [[0.0], [-1.7]],
+    ...                          [[1.0, 0.0], [0.0, 1.0]],
+    ...                          free=["f(2,1)", "f(2,2)", "g(2,1)"],
+    ...                          names={"f(2,1)": "M_alpha", "f(2,2)": "M_q",
+    ...                                 "g(2,1)": "M_de"})
+    >>> model
+    LinearModel(nx=2, nu=1, ny=2, nw=0, free=['M_alpha', 'M_q', 'M_de'])
+    >>> float(model.F[1, 1])
+    -1.6
     """
 
     kind = MODEL_KINDS["linear"]
@@ -1016,6 +1048,32 @@ def _tie_text(names, offset, sources):
     return text
 
 
+def free_entries(mask):
+    """The free entries of a parameter vector in the order of free.
+
+    Parameters
+    ----------
+    mask : array_like of int
+        mask[k] > 0 is entry k's place among the free parameters, as the
+        core takes it (free_indices, fortran/models/mlid_params.f90); equal
+        places keep the vector's order (a manoeuvre's own copies of one entry
+        share a place); 0 is a fixed entry.
+
+    Returns
+    -------
+    numpy.ndarray of int
+        The 0-based free entries, in the order of free.
+
+    Examples
+    --------
+    >>> free_entries([0, 3, 0, 1, 2]).tolist()
+    [3, 4, 1]
+    """
+    mask = np.asarray(mask)
+    idx = np.flatnonzero(mask > 0)
+    return idx[np.argsort(mask[idx], kind="stable")]
+
+
 def from_core(mkind, sizes, iconst, rconst, theta, isfree, ties, labels, input_hold, substeps):
     """The model a case spec of the core describes (kind, sizes (nx, nu, ny,
     nw), constants, the whole theta with free flags, ties and the free
@@ -1031,7 +1089,7 @@ def from_core(mkind, sizes, iconst, rconst, theta, isfree, ties, labels, input_h
         m.constants = dict(zip(CONSTANTS, m.rconst))
     m._theta[:] = theta
     names = m.element_names()
-    free = [names[k] for k in np.flatnonzero(isfree)]
+    free = [names[k] for k in free_entries(isfree)]
     to, frm, scale, offset = ties
     grouped = {}
     for k, j, s in zip(to, frm, scale):

@@ -1,11 +1,64 @@
 """One self-contained HTML page per deck: every case's estimates, noise,
 convergence, whiteness and figures, readable offline (figures inlined as
-base64 PNG, CSS inline, no external link), written whole or not at all."""
+base64 PNG, CSS inline, no external link), written whole or not at all.
+
+The page is a jinja2 template (``templates/report.html.j2``, autoescaped),
+so that a test organisation can put its own header and its own order of
+the sections: ``write_report(..., template=FILE)`` or
+``mlid run DECK --report DIR --report-template FILE``.  A template may
+``{% extends "mlid/report.html.j2" %}`` and replace a block (``title``,
+``style``, ``header``, ``toc``, ``case``, ``footer``), or be a page of its
+own that imports the parts, ``{% import "mlid/macros.html.j2" as m %}``
+(``m.toc(cases)``, ``m.case_head(case)``, ``m.sections(case.rows)``,
+``m.section(s)``, ``m.block(b)``, ``m.table(t)``, ``m.figure(f)``).  Files
+it includes or imports without the ``mlid/`` prefix are looked up beside it.
+A name the template uses that the page has not is an error naming the
+template's line (no silent blank).
+
+The template's variables
+------------------------
+deck : str
+    The deck's path as given.
+deck_name : str
+    Its file name.
+version : str
+    mlid's version.
+css : str
+    The built-in style sheet (the ``style`` block).
+cases : list of case
+    One per case of the deck, in order.
+
+A case has ``index`` (from 1), ``title``, ``job``, ``status`` (converged,
+not converged, failed, done ...), ``status_class`` (ok, warn or fail),
+``message`` (its error or warning, '' if none), ``blocks`` (what a case
+that is not a fit shows: the simulated record, a design's or Monte Carlo
+run's lines), ``sections`` (its sections in the built-in order),
+``section`` (the same by key, e.g. ``case.section.figures``; test with
+``'modes' in case.section``) and ``rows`` (the sections in rows, those of
+a row side by side).
+
+A section has ``key``, ``id`` (case-K-key), ``heading``, ``blocks`` and
+``folded`` (shown closed, the printed report).  The keys of a fit, in the
+built-in order (``FIT_SECTIONS``): estimates, noise, convergence,
+history (the cost at each iteration, no heading), whiteness, figures, validation (a validate case), modes (a linear model),
+printed; of a failed fit: last.
+
+A block has ``kind``: 'table' (``header``, ``rows`` of cells, ``cls``; a
+cell is text or has ``text`` and ``cls``, a flag or a status), 'figure'
+(``id``, ``src`` the data: URI, ``width`` and ``height`` in px,
+``caption``; or ``error`` when it could not be drawn and ``src`` is ''),
+'text', 'note' or 'pre' (``text``).
+
+A figure or section is added to every report in one place: ``FIT_SECTIONS``.
+"""
 
 import base64
-import html
+import functools
 import io
 import math
+import struct
+import traceback
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +74,12 @@ from . import plots
 FLAG_RELATIVE_SIGMA = 0.20
 #: |correlation| above which an estimate is flagged (the report's 0.9).
 FLAG_CORRELATION = 0.9
+#: Resolution of the page's figures: a CSS pixel per dot, so a figure is
+#: shown at its own size (and drawn in half the time of plots.DPI).
+DPI = 96
+#: The built-in templates; the page is TEMPLATE, its parts MACROS.
+TEMPLATES = Path(__file__).with_name("templates")
+TEMPLATE, MACROS = "mlid/report.html.j2", "mlid/macros.html.j2"
 
 CSS = """
 body{font-family:"DejaVu Sans",Helvetica,Arial,sans-serif;font-size:14px;line-height:1.45;
@@ -50,8 +109,85 @@ details summary{cursor:pointer;color:#1f5fa8;margin:8px 0}
 """
 
 
-def _e(x):
-    return html.escape(str(x), quote=True)
+# -- what a template is given ---------------------------------------------------
+
+@dataclass
+class Cell:
+    """A table cell shown as a span of class cls (a flag, a status)."""
+    text: str
+    cls: str
+
+
+@dataclass
+class Table:
+    """A table: header (None for none), rows of cells, its class.  In a
+    template ``{{ t }}`` is the built-in markup (``m.table``)."""
+    header: list
+    rows: list
+    cls: str = ""
+    kind: str = "table"
+
+    def __html__(self):
+        return _environment(None).get_template(MACROS).module.table(self)
+
+    def __str__(self):
+        return str(self.__html__())
+
+
+@dataclass
+class Text:
+    """A paragraph ('text'), a note ('note') or preformatted lines ('pre')."""
+    text: str
+    kind: str = "text"
+
+
+@dataclass
+class Figure:
+    """A drawn figure as a data: URI, or why it could not be drawn."""
+    id: str
+    caption: str
+    src: str = ""
+    width: int = 0
+    height: int = 0
+    error: str = ""
+    kind: str = "figure"
+
+
+@dataclass
+class Section:
+    key: str
+    id: str
+    heading: str
+    blocks: list
+    column: bool = False
+    folded: bool = False
+
+
+@dataclass
+class Case:
+    index: object
+    title: str
+    job: str
+    status: str
+    status_class: str
+    message: str
+    blocks: list = field(default_factory=list)
+    sections: list = field(default_factory=list)
+
+    @property
+    def section(self):
+        return {s.key: s for s in self.sections}
+
+    @property
+    def rows(self):
+        """The sections in rows: consecutive column sections share one."""
+        rows = []
+        for s in self.sections:
+            if s.column and rows and rows[-1][-1].column:
+                rows[-1].append(s)
+            else:
+                rows.append([s])
+        return rows
 
 
 def _num(v, digits=5):
@@ -63,37 +199,45 @@ def _num(v, digits=5):
     return f"{v:.{digits}g}"
 
 
-def _table(header, rows, cls=""):
-    """An HTML table (no head row when header is None); cells are escaped
-    unless given as ('raw', html)."""
-    def cell(c, tag):
-        text = c[1] if isinstance(c, tuple) and c and c[0] == "raw" else _e(c)
-        return f"<{tag}>{text}</{tag}>"
-    head = "" if header is None else \
-        "<thead><tr>" + "".join(cell(h, "th") for h in header) + "</tr></thead>"
-    body = "".join("<tr>" + "".join(cell(c, "td") for c in r) + "</tr>" for r in rows)
-    return f'<table class="{cls}">{head}<tbody>{body}</tbody></table>'
+def _png_size(data):
+    """(width, height) in px from a PNG's header."""
+    return struct.unpack(">II", data[16:24])
 
 
 def _png(fig):
-    """The figure as an <img> with a data: URI (base64 PNG); the figure is closed."""
+    """fig as PNG bytes at DPI.  Its layout is made once, at DPI, and then
+    fixed (no layout engine): with one, savefig draws the whole figure once
+    unseen before the drawing it writes (the same pixels, a fifth less time)."""
+    fig.set_dpi(DPI)
+    engine = fig.get_layout_engine()
+    if engine is not None:
+        engine.execute(fig)
+        fig.set_layout_engine(None)
     buf = io.BytesIO()
-    try:
-        fig.savefig(buf, format="png", dpi=plots.DPI)
-    finally:
-        plots.close(fig)
-    data = base64.b64encode(buf.getvalue()).decode("ascii")
-    return f'<img alt="" src="data:image/png;base64,{data}">'
+    fig.savefig(buf, format="png", dpi=DPI)
+    return buf.getvalue()
 
 
-def _figure(make, caption):
-    """A <figure> of make(), or one line saying why it could not be drawn."""
-    try:
-        img = _png(make())
-    except Exception as exc:          # one figure failing does not lose the page
-        return f'<p class="note">figure not drawn ({_e(caption)}): {_e(type(exc).__name__)}: ' \
-               f'{_e(exc)}</p>'
-    return f"<figure>{img}<figcaption>{_e(caption)}</figcaption></figure>"
+def figure(key, draw, caption):
+    """A section item: the figure draw(result) inlined as a PNG at DPI,
+    captioned caption (text, or a function of the result); a figure that
+    fails is one line saying why, the page goes on."""
+    def item(result):
+        text = caption(result) if callable(caption) else caption
+        block = Figure(key, text)
+        try:
+            fig = draw(result)
+            try:
+                data = _png(fig)
+            finally:
+                plots.close(fig)
+        except Exception as exc:          # one figure failing does not lose the page
+            block.error = f"{type(exc).__name__}: {exc}"
+            return block
+        block.width, block.height = _png_size(data)
+        block.src = "data:image/png;base64," + base64.b64encode(data).decode("ascii")
+        return block
+    return item
 
 
 # -- tables of a fit -------------------------------------------------------------
@@ -113,11 +257,15 @@ def _flags(result, k, rel):
 
 
 def estimates_table(result):
-    """The results table of ``mlid.estimate.table.results_table`` as HTML: name, unit,
+    """The results table of ``mlid.estimate.table.results_table``: name, unit,
     estimate, Cramér-Rao σ, σ corrected for coloured residuals, relative σ
     and flag, with the start value after the unit and the report's own flags
     (relative σ above FLAG_RELATIVE_SIGMA, |correlation| above
     FLAG_CORRELATION) beside the table's.
+
+    Returns
+    -------
+    Table
 
     Raises
     ------
@@ -132,16 +280,33 @@ def estimates_table(result):
         rows.append([r["name"], r["unit"], _num(result.start[k]), _num(r["estimate"]),
                      _num(r["sigma_cr"], 3), _num(r["sigma_corrected"], 3),
                      f"{100 * rel:.1f}" if math.isfinite(rel) else "–",
-                     ("raw", f'<span class="flag">{_e(", ".join(flags))}</span>') if flags
-                     else ""])
-    note = "" if any(r[1] for r in rows) else \
-        '<p class="note">units of the parameters: not declared to the fit</p>'
-    return _table(header, rows, "estimates") + note
+                     Cell(", ".join(flags), "flag") if flags else ""])
+    return Table(header, rows, "estimates")
+
+
+def _units_note(result):
+    units = getattr(result, "param_units", None) or []
+    return None if any(units) else Text("units of the parameters: not declared to the fit",
+                                        "note")
+
+
+def _identifiability(result):
+    try:
+        ident = result.identifiability()
+    except Exception:
+        return None
+    text = "\n".join(ident) if isinstance(ident, (list, tuple)) else str(ident)
+    return Text(text, "pre") if text.strip() else None
 
 
 def noise_table(result):
     """Per output: σ = √ of the diagonal of R̂ (B̂ for filter error) in the
-    declared unit, and the diagonal itself in the core's unit; det R̂."""
+    declared unit, and the diagonal itself in the core's unit.
+
+    Returns
+    -------
+    Table
+    """
     recs = plots._Records.of_result(result)
     sym = plots.noise_symbol(result)
     rows = []
@@ -151,8 +316,11 @@ def noise_table(result):
         core = recs.first.output_units[i] if recs.first.output_units else ""
         rows.append([name, _num(math.sqrt(max(r, 0.0)) / abs(scale), 4), unit, _num(r, 4),
                      plots.unit_squared(core)])
-    return (_table(["output", f"σ = √{sym}ᵢᵢ", "unit", f"{sym}ᵢᵢ", "unit"], rows)
-            + f"<p>det {sym} = {_e(_num(result.det_r))}</p>")
+    return Table(["output", f"σ = √{sym}ᵢᵢ", "unit", f"{sym}ᵢᵢ", "unit"], rows)
+
+
+def _det(result):
+    return Text(f"det {plots.noise_symbol(result)} = {_num(result.det_r)}")
 
 
 def noise_heading(result):
@@ -162,33 +330,41 @@ def noise_heading(result):
         else "Measurement noise (R̂)"
 
 
-def convergence_html(result):
+def convergence_table(result):
     """How the iteration ended, as a two-column table."""
     state = "converged" if result.converged else "not converged"
     rows = [["status", state], ["stopped because", result.reason],
             ["iterations", result.iterations], ["final cost", _num(result.cost, 8)],
             ["rank", result.rank], ["fit time [s]", _num(result.wall_time, 3)]]
-    return _table(None, rows)
+    return Table(None, rows)
 
 
-def cost_history_html(result):
+def cost_history(result):
     """The cost at each iteration, one line that wraps."""
-    hist = " → ".join(_num(c, 7) for c in result.cost_history)
-    return f'<p class="note">cost history: {_e(hist)}</p>'
+    return Text("cost history: " + " → ".join(_num(c, 7) for c in result.cost_history),
+                "note")
 
 
-def whiteness_html(result):
+def whiteness_table(result):
+    """Per output: Ljung-Box Q over 20 lags, its 5% critical value, the
+    verdict and the share of lags outside ±1.96/√N."""
     rows = []
     for name, w in zip(result.data.output_names, result.whiteness()):
         rows.append([name, _num(w["Q"], 4), _num(w["critical"], 4),
-                     ("raw", '<span class="status ok">white</span>') if w["white"] else
-                     ("raw", '<span class="status warn">coloured</span>'),
-                     f"{100 * w['outside']:.0f}"])
-    return (_table(["output", "Ljung-Box Q (20 lags)", "5% critical", "verdict",
-                    "lags outside ±1.96/√N [%]"], rows))
+                     Cell("white", "status ok") if w["white"] else
+                     Cell("coloured", "status warn"), f"{100 * w['outside']:.0f}"])
+    return Table(["output", "Ljung-Box Q (20 lags)", "5% critical", "verdict",
+                  "lags outside ±1.96/√N [%]"], rows)
 
 
-def validation_html(v):
+def _held_out(v):
+    held = ", ".join(str(k) for k in v.holdout)
+    return Text(f"held-out file{'s' * (len(v.holdout) > 1)} {held}, predicted by the "
+                "identified model (refitted there: only the initial state and output "
+                "biases it fitted)")
+
+
+def validation_table(v):
     """Per output of the held-out manoeuvres: Theil's U, the rms prediction
     error in the declared unit and its ratio to the identification's σ."""
     recs = plots._Records.of_result(v.prediction)
@@ -197,13 +373,11 @@ def validation_html(v):
         unit, scale, _ = plots._display(recs.first, "y", i)
         rows.append([name, _num(v.theil[i], 3), _num(v.rms[i] / abs(scale), 4), unit,
                      _num(v.rms_over_sigma[i], 3)])
-    held = ", ".join(str(k) for k in v.holdout)
-    return (f"<p>held-out file{'s' * (len(v.holdout) > 1)} {_e(held)}, predicted by the "
-            "identified model (refitted there: only the initial state and output biases it fitted)</p>"
-            + _table(["output", "Theil U", "rms error", "unit", "rms / σ"], rows))
+    return Table(["output", "Theil U", "rms error", "unit", "rms / σ"], rows)
 
 
-def modes_html(model):
+def modes_table(model):
+    """Eigenvalues of the identified model with ωn, fn, ζ or time constant."""
     rows = []
     for m in plots.modes(model):
         z = m["eigenvalue"]
@@ -213,8 +387,111 @@ def modes_html(model):
         else:
             rows.append([lam, _num(m["omega_n"], 4), _num(m["f_n"], 4), _num(m["zeta"], 3),
                          ""])
-    return _table(["eigenvalue [rad/s]", "ωn [rad/s]", "fn [Hz]", "ζ [-]",
-                   "time constant [s]"], rows)
+    return Table(["eigenvalue [rad/s]", "ωn [rad/s]", "fn [Hz]", "ζ [-]",
+                  "time constant [s]"], rows)
+
+
+# -- the sections of a fit, in one place ----------------------------------------
+
+@dataclass(frozen=True)
+class Part:
+    """A section of a fit's report: its key, heading (text or a function
+    of the result), items (functions of the result giving a block, a list
+    of blocks, or None for nothing), when it is shown (a function of the
+    result; always when None), whether it stands beside its neighbour
+    (column) and whether it is shown closed (folded)."""
+    key: str
+    heading: object             # None: no heading of its own
+    items: tuple
+    when: object = None
+    column: bool = False
+    folded: bool = False
+
+
+def _validated(result):
+    return getattr(result, "validation", None) is not None
+
+
+def _linear(result):
+    return getattr(result.model, "kind", None) == 1
+
+
+def _time_domain(result):
+    return getattr(result, "frequencies", None) is None
+
+
+def _inputs_move(result):
+    return _time_domain(result) and bool(plots.drawn_inputs(result.data))
+
+
+def _only(when, item):
+    """A section item shown only when when(result)."""
+    return lambda result: item(result) if when(result) else None
+
+
+#: The sections of a fit, in order; a figure is one ``figure(key, draw,
+#: caption)`` line in a section's items.
+FIT_SECTIONS = (
+    Part("estimates", "Estimates", (estimates_table, _units_note, _identifiability)),
+    Part("noise", noise_heading, (noise_table, _det), column=True),
+    Part("convergence", "Convergence", (convergence_table,), column=True),
+    Part("history", None, (cost_history,)),
+    Part("whiteness", "Whiteness of the residuals", (whiteness_table,)),
+    Part("figures", "Figures", (
+        figure("fit", plots.fit_overview,
+               lambda r: f"{plots.outputs_title(r)} with the inputs; residuals with ±2σ "
+                         f"bands, σ from {plots.noise_symbol(r)}"),
+        figure("autocorrelation", plots.autocorrelation,
+               "residual autocorrelation against lag, ±1.96/√N band"),
+        figure("spectra", plots.spectra,
+               "residual power spectra, white-noise level of the same variance dashed"),
+        _only(_time_domain, figure(
+            "measured-vs-model", plots.measured_vs_model,
+            "each output measured against the model, the 1:1 line; R² and fit % in each title")),
+        _only(_inputs_move, figure(
+            "residual-input", plots.residual_input,
+            "cross-correlation of each output's residual with each input against lag, "
+            "±1.96/√N (95%) band: a term the model misses shows outside it")),
+        figure("correlation", plots.correlation, "correlation matrix of the estimates"))),
+    Part("validation", "Validation on held-out manoeuvres", (
+        lambda r: _held_out(r.validation), lambda r: validation_table(r.validation),
+        figure("validation", lambda r: plots.validation(r.validation),
+               "held-out manoeuvres: measured outputs and the identified model's "
+               "prediction")), when=_validated),
+    Part("modes", "Modes of the identified model", (
+        lambda r: modes_table(r.model),
+        figure("s-plane", plots.s_plane,
+               "eigenvalues of A; the cloud: models drawn from N(θ̂, Cramér-Rao covariance), "
+               f"{plots.BAND_SAMPLES} draws, seed {plots.BAND_SEED}"),
+        figure("bode", plots.bode,
+               lambda r: "frequency response per input-output pair; "
+                         f"{plots.band_label('model', 'Cramér-Rao')} band (delta method)")),
+        when=_linear),
+    Part("printed", "the printed report", (lambda r: Text(r.report(), "pre"),), folded=True),
+)
+#: What a failed fit shows: no estimates, statistics or figures; why.
+FAILED_SECTIONS = (
+    Part("last", "Last values reached (not estimates)", (lambda r: Text(r.report(), "pre"),)),
+)
+
+
+def fit_sections(result, case_id):
+    """The sections of a fit (FIT_SECTIONS, or FAILED_SECTIONS when it failed)."""
+    out = []
+    for part in FAILED_SECTIONS if result.failed else FIT_SECTIONS:
+        if part.when is not None and not part.when(result):
+            continue
+        blocks = []
+        for item in part.items:
+            got = item(result)
+            blocks += [] if got is None else got if isinstance(got, list) else [got]
+        for b in blocks:
+            if isinstance(b, Figure):
+                b.id = f"{case_id}-{b.id}"
+        heading = part.heading(result) if callable(part.heading) else part.heading
+        out.append(Section(part.key, f"{case_id}-{part.key}", heading, blocks, part.column,
+                           part.folded))
+    return out
 
 
 # -- a case ------------------------------------------------------------------------
@@ -231,94 +508,92 @@ def _status(out, result, error):
     return "ok", "converged" if result is not None else "done"
 
 
-def _fit_sections(result):
-    if result.failed:            # no estimates, statistics or figures: the report says why
-        return ["<h3>Last values reached (not estimates)</h3>",
-                f"<pre>{_e(result.report())}</pre>"]
-    parts = ["<h3>Estimates</h3>", estimates_table(result)]
-    try:
-        ident = result.identifiability()
-    except Exception:
-        ident = []
-    if ident:
-        parts.append(f"<pre>{_e(chr(10).join(ident))}</pre>")
-    parts += [f'<div class="grid"><div><h3>{_e(noise_heading(result))}</h3>',
-              noise_table(result),
-              "</div><div><h3>Convergence</h3>", convergence_html(result), "</div></div>",
-              cost_history_html(result),
-              "<h3>Whiteness of the residuals</h3>", whiteness_html(result),
-              "<h3>Figures</h3>",
-              _figure(lambda: plots.fit_overview(result), f"{plots.outputs_title(result)} "
-                      "with the inputs; residuals with ±2σ bands, σ from "
-                      f"{plots.noise_symbol(result)}"),
-              _figure(lambda: plots.autocorrelation(result), "residual autocorrelation against "
-                      "lag, ±1.96/√N band"),
-              _figure(lambda: plots.spectra(result), "residual power spectra, white-noise level "
-                      "of the same variance dashed"),
-              _figure(lambda: plots.correlation(result), "correlation matrix of the estimates")]
-    checked = getattr(result, "validation", None)
-    if checked is not None:
-        parts += ["<h3>Validation on held-out manoeuvres</h3>", validation_html(checked),
-                  _figure(lambda: plots.validation(checked), "held-out manoeuvres: measured "
-                          "outputs and the identified model's prediction")]
-    if getattr(result.model, "kind", None) == 1:
-        parts += ["<h3>Modes of the identified model</h3>", modes_html(result.model),
-                  _figure(lambda: plots.s_plane(result), "eigenvalues of A; the cloud: models "
-                          f"drawn from N(θ̂, Cramér-Rao covariance), {plots.BAND_SAMPLES} "
-                          f"draws, seed {plots.BAND_SEED}"),
-                  _figure(lambda: plots.bode(result), "frequency response per input-output "
-                          "pair; band: 2.5-97.5 percentiles of the sampled models (≈ ±2σ)")]
-    parts.append(f"<details><summary>the printed report</summary><pre>{_e(result.report())}"
-                 "</pre></details>")
-    return parts
-
-
-def case_html(case, out, result, error):
-    """The <section> of one case: title, job, status, and what it produced."""
+def case_view(case, out, result, error):
+    """What the template is given of one case (see the module's docstring)."""
     k = getattr(case, "index", "")
     cls, text = _status(out, result, error)
-    parts = [f'<section id="case-{_e(k)}"><h2>Case {_e(k)}: {_e(case.title)}</h2>',
-             f'<p class="meta">job: <b>{_e(case.job)}</b> &nbsp; '
-             f'<span class="status {cls}">{_e(text)}</span></p>']
     message = str(error) if error is not None else (
         (out or {}).get("message") or (getattr(result, "message", "") if result else ""))
-    if message:
-        parts.append(f'<div class="error">{_e(message)}</div>')
+    view = Case(k, str(case.title), str(case.job), text, cls, str(message or ""))
     if out is not None and out.get("job") == "simulate" and "samples" in out:
-        parts.append(f"<p>simulated {_e(out['samples'])} samples to "
-                     f"<code>{_e(Path(out['out']).name)}</code></p>")
+        view.blocks.append(Text(f"simulated {out['samples']} samples to "
+                                f"{Path(out['out']).name}"))
     elif getattr(out, "report", None) and result is None and error is None:
-        parts.append(f"<pre>{_e(out.report)}</pre>")   # a design or Monte Carlo: its lines
+        view.blocks.append(Text(out.report, "pre"))   # a design or Monte Carlo: its lines
     if result is not None:
-        parts += _fit_sections(result)
-    parts.append("</section>")
-    return "\n".join(parts)
+        view.sections = fit_sections(result, f"case-{k}")
+    return view
 
 
-def _toc(entries):
-    rows = []
-    for case, out, result, error in entries:
-        cls, text = _status(out, result, error)
-        k = getattr(case, "index", "")
-        rows.append([k, ("raw", f'<a href="#case-{_e(k)}">{_e(case.title)}</a>'), case.job,
-                     ("raw", f'<span class="status {cls}">{_e(text)}</span>')])
-    return _table(["case", "title", "job", "status"], rows, "toc")
+# -- the page -----------------------------------------------------------------------
+
+@functools.lru_cache(maxsize=8)
+def _environment(folder):
+    """The templates: mlid's own under 'mlid/', then those in folder (a
+    custom template's); autoescaped, an unknown name an error."""
+    import jinja2
+    loaders = [jinja2.PrefixLoader({"mlid": jinja2.FileSystemLoader(str(TEMPLATES))})]
+    if folder is not None:
+        loaders.append(jinja2.FileSystemLoader(folder))
+    return jinja2.Environment(loader=jinja2.ChoiceLoader(loaders), autoescape=True,
+                              undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
 
 
-def report_html(deck_path, cases):
+def _template_line(exc, fallback):
+    """'FILE, line N' of the template frame where exc was raised."""
+    frames = [f for f in traceback.extract_tb(exc.__traceback__)
+              if not f.filename.endswith(".py") and not f.filename.startswith("<")]
+    if getattr(exc, "lineno", None):
+        return f"{getattr(exc, 'filename', None) or fallback}, line {exc.lineno}"
+    if frames:
+        return f"{frames[-1].filename}, line {frames[-1].lineno}"
+    return str(fallback)
+
+
+def load_template(template=None):
+    """The page's template: mlid's own (None), or the file template.
+
+    Raises
+    ------
+    InputError
+        One line naming the file (and line) if it cannot be read or parsed.
+    """
+    if template is None:
+        return _environment(None).get_template(TEMPLATE)
+    import jinja2
+    path = Path(template)
+    if not path.is_file():
+        raise InputError(f"cannot read report template {template}: "
+                         f"{'a folder' if path.is_dir() else 'no such file'}")
+    try:
+        return _environment(str(path.resolve().parent)).get_template(path.name)
+    except UnicodeDecodeError:
+        raise InputError(f"report template {template}: not UTF-8 text") from None
+    except OSError as exc:
+        raise InputError(f"cannot read report template {template}: {exc.strerror}") from None
+    except jinja2.TemplateError as exc:
+        raise InputError(f"report template {_template_line(exc, template)}: "
+                         f"{getattr(exc, 'message', None) or exc}") from None
+
+
+def report_html(deck_path, cases, template=None):
     """The whole page as text (see write_report)."""
-    entries = list(cases)
-    name = Path(deck_path).name
-    body = [f"<h1>mlid report: {_e(name)}</h1>",
-            f'<p class="meta">deck {_e(deck_path)} &middot; {len(entries)} cases &middot; '
-            f"mlid {_e(installed_version())}</p>", _toc(entries)]
-    body += [case_html(*entry) for entry in entries]
-    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f"<title>mlid: {_e(name)}</title><style>{CSS}</style></head><body>\n"
-            + "\n".join(body) + "\n</body></html>\n")
+    from markupsafe import Markup    # the style sheet is mlid's own: not escaped
+
+    page = load_template(template)
+    entries = [case_view(*entry) for entry in cases]
+    names = {"deck": str(deck_path), "deck_name": Path(deck_path).name,
+             "version": installed_version(), "css": Markup(CSS), "cases": entries}
+    if template is None:
+        return page.render(names)
+    try:
+        return page.render(names)
+    except Exception as exc:              # the organisation's template: its line
+        raise InputError(f"report template {_template_line(exc, template)}: "
+                         f"{type(exc).__name__}: {exc}") from None
 
 
-def write_report(folder, deck_path, cases):
+def write_report(folder, deck_path, cases, template=None):
     """Write FOLDER/<deck stem>.html, one self-contained page for a deck.
 
     Parameters
@@ -331,6 +606,9 @@ def write_report(folder, deck_path, cases):
         What ``mlid.cli.deck.iter_deck`` yields: (case, out dict or None,
         FitResult or None, error or None).  A failing case shows its error;
         a figure that cannot be drawn shows why; the rest goes on.
+    template : str or Path, optional
+        A jinja2 template of the page in place of mlid's own (its
+        variables: this module's docstring).
 
     Returns
     -------
@@ -340,8 +618,10 @@ def write_report(folder, deck_path, cases):
     Raises
     ------
     InputError
-        If the folder cannot be made or written.
+        If the folder cannot be made or written, or the template cannot be
+        read, parsed or rendered (one line naming its file and line).
     """
+    load_template(template)            # a bad template is said before any figure is drawn
     folder = Path(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -349,6 +629,7 @@ def write_report(folder, deck_path, cases):
         raise InputError(f"cannot make report folder {folder}: {exc.strerror}") from None
     path = folder / f"{Path(deck_path).stem}.html"
     # ASCII with character references: the same bytes whatever the locale
-    text = report_html(deck_path, cases).encode("ascii", "xmlcharrefreplace").decode("ascii")
+    text = report_html(deck_path, cases, template).encode("ascii", "xmlcharrefreplace") \
+        .decode("ascii")
     atomic_write_text(path, text)
     return path

@@ -30,8 +30,21 @@ STYLE = {"font.size": 9, "axes.titlesize": 9.5, "axes.labelsize": 9, "xtick.labe
          "axes.spines.top": False, "axes.spines.right": False, "figure.dpi": 100,
          "lines.linewidth": 1.2}
 DPI = 120
-#: Draws and seed of the Cramér-Rao band of the Bode plot.
+#: Draws and seed of the Cramér-Rao cloud of the s-plane plot.
 BAND_SAMPLES, BAND_SEED = 300, 0
+#: Width in σ of every band and error bar of a frequency response (the model's
+#: Cramér-Rao band, the record's random error), stated in the legend (band_label).
+BAND_SIGMAS = 2
+#: Opacity of a band's fill (its edge is drawn in full).
+BAND_ALPHA = 0.25
+#: Coherence below which the Bode plot draws a measured point hollow (less trusted).
+COHERENCE_SHOWN = 0.6
+
+
+def band_label(what, source):
+    """The legend entry of a band or error bars of width BAND_SIGMAS σ:
+    'model ±2σ (Cramér-Rao)'."""
+    return f"{what} ±{BAND_SIGMAS}σ ({source})"
 
 
 def use_file_backend():
@@ -224,6 +237,17 @@ def _bottom_labels(axes, ncols, label):
             ax.set_xlabel(label)
 
 
+def _figure_legend(fig, axes):
+    """One legend at the foot of fig with every labelled artist of axes, each
+    label once."""
+    seen = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(lab, h)
+    fig.legend(list(seen.values()), list(seen), loc="outside lower center",
+               ncols=len(seen) if len(seen) < 4 else 2, frameon=False)
+
+
 def _legend_above(ax, side, **kw):
     """ax's legend just above it, on the left or right, off the data."""
     ax.legend(loc=f"lower {side}", bbox_to_anchor=(0.0 if side == "left" else 1.0, 1.0),
@@ -386,7 +410,6 @@ def residuals(result, path=None):
 
 
 @_styled
-@_styled
 def frequency_overview(result, path=None):
     """A frequency-domain fit: for each output the magnitude of the measured
     transform (or equation error's left-hand side) and the model's against
@@ -399,20 +422,42 @@ def frequency_overview(result, path=None):
     """
     ny = result.z.shape[1]
     fig, axes = _figure(ny, 1, 6.5, 1.6, sharex=True)
-    order = np.argsort(result.frequencies, kind="stable")
-    f = result.frequencies[order]
+    f = np.asarray(result.frequencies)
+    # one block of frequencies per manoeuvre, each drawn on its own (no line
+    # zigzags between two manoeuvres' transforms)
+    blocks = np.split(np.arange(len(f)), np.flatnonzero(np.diff(f) <= 0) + 1)
+    names, units = _transform_names(result, ny)
     for i, ax in enumerate(axes[:, 0]):
-        ax.semilogy(f, np.abs(result.z[order, i]), ".", ms=3, color=COLORS["measured"],
-                    label="measured")
-        ax.semilogy(f, np.abs(result.zhat[order, i]), color=COLORS["model"], lw=1,
-                    label="model")
-        ax.semilogy(f, np.abs(result.residuals[order, i]), color=COLORS["residual"], lw=0.8,
-                    label="residual")
-        ax.set_ylabel(f"|Z_{i + 1}|")
-    axes[-1, 0].set_xlabel("frequency (Hz)")
-    axes[0, 0].legend(fontsize=7, ncol=3, loc="upper right")
-    fig.suptitle(f"{result.options['method'].replace('_', ' ')}: transforms", fontsize=10)
+        for k, b in enumerate(blocks):
+            which = f" (manoeuvre {k + 1})" if len(blocks) > 1 else ""
+            style = ("-", "--", ":", "-.")[k % 4]
+            ax.semilogy(f[b], np.abs(result.z[b, i]), ".", ms=3, color=COLORS["measured"],
+                        label="measured" if k == 0 else None)
+            ax.semilogy(f[b], np.abs(result.zhat[b, i]), style, color=COLORS["model"], lw=1,
+                        label=f"model{which}")
+            ax.semilogy(f[b], np.abs(result.residuals[b, i]), style, color=COLORS["residual"],
+                        lw=0.8, label=f"residual{which}")
+        ax.set_ylabel(axis_label(f"|{names[i]}|", units[i]))
+    axes[-1, 0].set_xlabel("frequency [Hz]")
+    _figure_legend(fig, axes[0, :1])
+    equation = result.options["method"] == "frequency_equation_error"
+    fig.suptitle(f"{result.options['method'].replace('_', ' ')}: finite Fourier transforms"
+                 + ("\nleft-hand sides Z: jωY of an output that measures a state, else Y"
+                    if equation else " of the outputs, core units"), fontsize=10)
     return _finish(fig, path)
+
+
+def _transform_names(result, n):
+    """Names and units of the n transforms of a frequency-domain fit, one
+    per output: Y, in the output's core unit times s (output error); the
+    left-hand side, jω Y or Y, unit not stated (equation error)."""
+    names = list(result.data.output_names)
+    names = names if len(names) == n else [f"y{k + 1}" for k in range(n)]
+    if result.options["method"] == "frequency_equation_error":
+        return [f"Z {name}" for name in names], [""] * n
+    units = list(result.data.output_units or [""] * n)
+    units = units if len(units) == n else [""] * n
+    return [f"Y {name}" for name in names], [f"{_grouped(u)}·s" if u else "" for u in units]
 
 
 def fit_overview(result, path=None, title=None):
@@ -480,12 +525,68 @@ def plot_fit(result, folder, stem, title=None):
     return path
 
 
+def _under(title, draw):
+    """draw(result, path) with title (naming the case) above its own title."""
+    def drawn(result, path):
+        fig = draw(result)
+        if title:
+            fig.suptitle(f"{title}\n{fig._suptitle.get_text()}", fontsize=10)
+        return _finish(fig, path)
+    return drawn
+
+
+def plot_residual_input(result, folder, stem, title=None):
+    """Write FOLDER/STEM_residual_input.png (``residual_input``, under
+    title) and return its path."""
+    return _write_into(_under(title, residual_input), result, folder,
+                       f"{stem}_residual_input.png")
+
+
+def plot_measured_vs_model(result, folder, stem, title=None):
+    """Write FOLDER/STEM_measured_vs_model.png (``measured_vs_model``, under
+    title) and return its path."""
+    return _write_into(_under(title, measured_vs_model), result, folder,
+                       f"{stem}_measured_vs_model.png")
+
+
+def plot_bode(result, folder, stem, title=None):
+    """Write FOLDER/STEM_bode.png (``bode``, under title) and return its path."""
+    return _write_into(_under(title, bode), result, folder, f"{stem}_bode.png")
+
+
+def fit_writers(result):
+    """The figures a fit's plots are, as functions (result, folder, stem,
+    title) writing each and returning its path: the overview
+    (``plot_fit``); for a time-domain fit the measured-vs-model cross-plots
+    and, when an input varies, the residual-input correlation; for a linear
+    model the Bode plot.  ``mlid run --plots`` writes them all."""
+    writers = [plot_fit]
+    if getattr(result, "frequencies", None) is None:
+        writers.append(plot_measured_vs_model)
+        if drawn_inputs(result.data):
+            writers.append(plot_residual_input)
+    if getattr(result.model, "kind", None) == 1:
+        writers.append(plot_bode)
+    return writers
+
+
+def plot_fit_figures(result, folder, stem, title=None):
+    """Write every figure of ``fit_writers`` into FOLDER as STEM_*.png and
+    return their paths."""
+    return [write(result, folder, stem, title) for write in fit_writers(result)]
+
+
 def plot_validation(v, folder, stem):
     """Write FOLDER/STEM_validation.png (``validation``) and return its path."""
     return _write_into(validation, v, folder, f"{stem}_validation.png")
 
 
 # -- residual statistics ------------------------------------------------------
+
+def _max_lag(lags, n):
+    """The largest lag in samples: lags, else N/10 between 10 and 50; below N."""
+    return int(min(lags or max(10, min(50, n // 10)), n - 1))
+
 
 def residual_autocorrelation(result, lags=None):
     """Autocorrelation of each output's residuals at lags 0..lags, summed
@@ -498,7 +599,7 @@ def residual_autocorrelation(result, lags=None):
     recs = _Records.of_result(result)
     e = result.residuals - result.residuals.mean(axis=0)
     n = len(e)
-    lags = int(min(lags or max(10, min(50, n // 10)), n - 1))
+    lags = _max_lag(lags, n)
     num = np.zeros((lags + 1, e.shape[1]))
     for seg in recs.segments():
         s = e[seg]
@@ -529,16 +630,217 @@ def autocorrelation(result, lags=None, path=None):
     tau, rho, band = residual_autocorrelation(result, lags)
     fig, axes, ncols = _panels(rho.shape[1])
     for i, ax in enumerate(axes):
-        ax.axhspan(-band, band, color=COLORS["band"], alpha=0.12, lw=0)
+        ax.axhspan(-band, band, color=COLORS["band"], alpha=BAND_ALPHA, lw=0,
+                   label="±1.96/√N (95%)")
         ax.vlines(tau, 0, rho[:, i], color=COLORS["residual"], lw=1.4)
-        ax.plot(tau, rho[:, i], "o", ms=2.5, color=COLORS["residual"])
+        ax.plot(tau, rho[:, i], "o", ms=2.5, color=COLORS["residual"], label="ρ(τ)")
         ax.axhline(0, color="0.5", lw=0.6)
         ax.set_title(result.data.output_names[i])
         ax.set_ylabel("autocorrelation [-]")
         ax.set_ylim(min(-2.5 * band, np.nanmin(rho[:, i]) - 0.05), 1.05)
     _bottom_labels(axes, ncols, "lag [s]")
+    _figure_legend(fig, axes[:1])
     fig.suptitle(f"residual autocorrelation, ±1.96/√N band (N = {len(result.residuals)})",
                  fontsize=10)
+    return _finish(fig, path)
+
+
+def cross_correlation(e, u, lags, segments=None):
+    """Normalised cross-correlation of each column of e with each of u at
+    lags -lags..lags (samples):
+
+        r(τ) = Σ e(t + τ) u(t) / √(Σ e² Σ u²),
+
+    each signal less its mean within each segment, every sum within each
+    segment (no product spans a join; scipy.signal.correlate).  τ > 0: e
+    after u.  Independent e and u, one of them white, keep r within
+    ±1.96/√N at about 95% of the lags.
+
+    Parameters
+    ----------
+    e : array (N, ne)
+    u : array (N, nu)
+    lags : int
+    segments : list of slice, optional
+        The manoeuvres (default: one).
+
+    Returns
+    -------
+    r : ndarray (2 lags + 1, ne, nu)
+    """
+    from scipy.signal import correlate, correlation_lags
+
+    e, u = np.asarray(e, dtype=float), np.asarray(u, dtype=float)
+    num = np.zeros((2 * lags + 1, e.shape[1], u.shape[1]))
+    see, suu = np.zeros(e.shape[1]), np.zeros(u.shape[1])
+    for seg in segments or [slice(0, len(e))]:
+        es, us = e[seg] - e[seg].mean(axis=0), u[seg] - u[seg].mean(axis=0)
+        lag = correlation_lags(len(es), len(us))
+        keep = np.abs(lag) <= lags
+        for i in range(es.shape[1]):
+            for c in range(us.shape[1]):
+                num[lag[keep] + lags, i, c] += correlate(es[:, i], us[:, c])[keep]
+        see += np.sum(es ** 2, axis=0)
+        suu += np.sum(us ** 2, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return num / np.sqrt(see[None, :, None] * suu[None, None, :])
+
+
+def residual_input_correlation(result, lags=None):
+    """``cross_correlation`` of each output's residuals with each input
+    that varies (``drawn_inputs``), within each manoeuvre.  τ > 0: the
+    residual after the input (what the model misses of the input's
+    effect); τ < 0: before it (feedback from the output to the input).
+
+    Parameters
+    ----------
+    result : FitResult
+        A time-domain fit.
+    lags : int, optional
+        The largest lag in samples (default N/10, between 10 and 50).
+
+    Returns
+    -------
+    (lag times (2L+1,) in s, r (2L+1, ny, nd), input indices (nd,), band 1.96/√N)
+
+    Raises
+    ------
+    InputError
+        If the fit is of the frequency domain.
+    """
+    if getattr(result, "frequencies", None) is not None:
+        raise InputError("the residual-input correlation needs a time-domain fit")
+    recs = _Records.of_result(result)
+    inputs = drawn_inputs(recs.records)
+    n = len(result.residuals)
+    big = _max_lag(lags, n)
+    r = cross_correlation(result.residuals, np.asarray(result.data.u)[:, inputs], big,
+                          recs.segments())
+    return np.arange(-big, big + 1) * recs.dt, r, inputs, 1.96 / np.sqrt(n)
+
+
+@_styled
+def residual_input(result, lags=None, path=None):
+    """The residual-input cross-correlation (MATLAB ``resid``'s second
+    panel): for each output's residual and each input that varies, r(τ) of
+    ``residual_input_correlation`` against lag [s], with the ±1.96/√N band
+    (95%) that independent residuals and inputs stay within.
+
+    Parameters
+    ----------
+    result : FitResult
+        A time-domain fit with at least one input that varies.
+    lags : int, optional
+        Largest lag in samples (default N/10, between 10 and 50).
+    path : str or Path, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axis per output (rows) and input (columns).
+
+    Raises
+    ------
+    InputError
+        A frequency-domain fit, or no input that varies.
+    """
+    tau, r, inputs, band = residual_input_correlation(result, lags)
+    if not inputs:
+        raise InputError("the residual-input correlation needs an input that varies")
+    recs = _Records.of_result(result)
+    ny, nd = r.shape[1:]
+    fig, axes = _figure(ny, nd, max(6.0, 3.6 * nd), 1.55, sharex=True, sharey=True)
+    for i in range(ny):
+        for c, j in enumerate(inputs):
+            ax = axes[i, c]
+            ax.axhspan(-band, band, color=COLORS["band"], alpha=BAND_ALPHA, lw=0,
+                       label="±1.96/√N (95%)")
+            ax.vlines(tau, 0, r[:, i, c], color=COLORS["residual"], lw=1.2)
+            ax.plot(tau, r[:, i, c], "o", ms=2.2, color=COLORS["residual"], label="r(τ)")
+            ax.axhline(0, color="0.5", lw=0.6)
+            ax.axvline(0, color="0.5", lw=0.6)
+            outside = np.mean(np.abs(r[:, i, c]) > band)
+            ax.set_title(f"Δ{recs.names('y')[i]} × {recs.names('u')[j]}", loc="left")
+            ax.set_title(f"{100 * outside:.0f}% outside", loc="right", fontsize=7.5,
+                         color="0.35")
+        axes[i, 0].set_ylabel("r [-]")
+    for c in range(nd):
+        axes[-1, c].set_xlabel("lag τ [s]  (τ > 0: residual after input)")
+    lim = max(2.5 * band, 1.1 * np.nanmax(np.abs(r)))
+    axes[0, 0].set_ylim(-lim, lim)
+    _figure_legend(fig, axes.flat)
+    fig.suptitle("residual-input cross-correlation, band ±1.96/√N (95%), "
+                 f"N = {len(result.residuals)}\nr(τ) = Σ e(t+τ) u(t) / √(Σe² Σu²), "
+                 "each manoeuvre less its means", fontsize=10)
+    return _finish(fig, path)
+
+
+def fit_statistics(result):
+    """R² and MATLAB's fit percentage of each output of a time-domain fit:
+    R² = 1 - Σ(y - ŷ)² / Σ(y - ȳ)², fit = 100 (1 - ‖y - ŷ‖ / ‖y - ȳ‖);
+    y measured, ŷ the model's (the filter's for filter error), ȳ the
+    mean over the record (all manoeuvres).
+
+    Returns
+    -------
+    (R² (ny,), fit [%] (ny,))
+    """
+    require_estimates(result, "plot")
+    y, yhat = np.asarray(result.data.y), np.asarray(result.yhat)
+    ss_res = np.sum((y - yhat) ** 2, axis=0)
+    ss_tot = np.sum((y - y.mean(axis=0)) ** 2, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return 1 - ss_res / ss_tot, 100 * (1 - np.sqrt(ss_res / ss_tot))
+
+
+@_styled
+def measured_vs_model(result, path=None):
+    """Measured against model output, one square panel per output in its
+    declared unit, with the 1:1 line and R² and fit % (``fit_statistics``)
+    in the panel's title.
+
+    Parameters
+    ----------
+    result : FitResult
+        A time-domain fit.
+    path : str or Path, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axis per output.
+    """
+    if getattr(result, "frequencies", None) is not None:
+        raise InputError("measured-vs-model cross-plots need a time-domain fit")
+    recs = _Records.of_result(result)
+    r2, fit = fit_statistics(result)
+    ny = result.data.y.shape[1]
+    ncols = ny if ny <= 3 else int(np.ceil(np.sqrt(ny)))
+    nrows = (ny + ncols - 1) // ncols
+    fig, grid = _figure(nrows, ncols, 3.3 * ncols, 3.1)
+    for ax in list(grid.flat)[ny:]:
+        ax.remove()
+    who = model_label(result)
+    for i, ax in enumerate(list(grid.flat)[:ny]):
+        x, unit = recs.shown("y", i)
+        y = recs.convert("y", i, result.yhat[:, i])
+        ok = np.isfinite(x) & np.isfinite(y)
+        ax.plot(x[ok], y[ok], ".", ms=2.0, alpha=0.6, color=COLORS["model"],
+                label=f"samples (N = {int(ok.sum())})")
+        lo, hi = min(x[ok].min(), y[ok].min()), max(x[ok].max(), y[ok].max())
+        pad = 0.05 * (hi - lo or 1.0)
+        ends = [lo - pad, hi + pad]
+        ax.plot(ends, ends, "--", color=COLORS["truth"], lw=0.9, label="1:1")
+        ax.set_xlim(ends)
+        ax.set_ylim(ends)
+        ax.set_aspect("equal")
+        name = recs.names("y")[i]
+        ax.set_xlabel(axis_label(f"measured {name}", unit))
+        ax.set_ylabel(axis_label(f"{who} {name}", unit))
+        ax.set_title(f"{name}: R² = {r2[i]:.3f}, fit {fit[i]:.1f}%", loc="left")
+    _figure_legend(fig, grid.flat[:1])
+    fig.suptitle(f"measured against {who} output\nR² = 1 - Σ(y - ŷ)² / Σ(y - ȳ)², "
+                 "fit = 100 (1 - ‖y - ŷ‖ / ‖y - ȳ‖) %", fontsize=10)
     return _finish(fig, path)
 
 
@@ -713,69 +1015,157 @@ def sampled_models(result, samples=BAND_SAMPLES, seed=BAND_SEED):
     return out
 
 
-def frequency_response(model, omega):
-    """G(jω) = C (jωI - A)^-1 B + D at omega [rad/s]: (nω, ny, nu) complex."""
-    A, B, C, D = state_space(model)
-    n = A.shape[0]
-    s = 1j * np.asarray(omega, dtype=float)[:, None, None] * np.eye(n) - A
-    return C @ np.linalg.solve(s, np.broadcast_to(B, (len(omega), *B.shape))) + D
-
-
-def _frequencies(model, hz, dt):
-    """A decade below the slowest mode to a decade above the fastest, at most
-    the Nyquist frequency of the record."""
+def _frequencies(model, hz, dt, measured=None):
+    """A decade below the slowest mode to a decade above the fastest, at
+    most the Nyquist frequency of the record, widened to the measured
+    frequencies given (rad/s): (rad/s, axis values)."""
     wn = [r["omega_n"] for r in modes(model) if r["omega_n"] > 0] or [1.0]
     lo, hi = min(wn) / 10, min(max(wn) * 10, np.pi / dt)
+    if measured is not None:
+        lo, hi = min(lo, measured[0]), max(hi, measured[-1])
     omega = np.logspace(np.log10(lo), np.log10(max(hi, 10 * lo)), 300)
     return omega, (omega / (2 * np.pi) if hz else omega)
 
 
-def bode_data(result, hz=True, samples=BAND_SAMPLES, seed=BAND_SEED):
-    """Magnitude [dB] and phase [deg] of the identified model, in the
-    declared units of the channels, with a Cramér-Rao band.
+def _on_branch(phase, f, f_ref, phase_ref):
+    """phase [deg] at f moved by whole turns onto the branch of phase_ref at
+    f_ref (the same complex response, drawn beside the model's curve)."""
+    return phase - 360 * np.round((phase - np.interp(f, f_ref, phase_ref)) / 360)
 
-    The band is sampled: ``samples`` parameter vectors drawn from
-    N(estimate, covariance) with a fixed seed; at each frequency the 2.5 and
-    97.5 percentiles (the ±2σ band of a normal spread).
+
+def _record_responses(recs, inputs, ny):
+    """The record's response of every output to each input given (None
+    where the record has none: too short, or not uniformly sampled), and
+    the reason when there is none."""
+    try:
+        return [[record_response(recs.records, j, i) for j in inputs] for i in range(ny)], None
+    except InputError as exc:
+        return None, str(exc)
+
+
+def bode_data(result, hz=True, measured=True):
+    """Gain [dB] and phase [deg] of the identified model per input-output
+    pair in the declared units of the channels, with their Cramér-Rao σ
+    (``mlid.model_response``: the delta method on the core's analytic
+    derivatives, the channels' delays included), and the record's response
+    (``mlid.record_response``) with its random-error σ (Bendat & Piersol).
+    Constant inputs are left out (``drawn_inputs``).  The record's response
+    of a pair is the single-input one, G_uy / G_uu: where several inputs
+    move together it carries the others' effect too (the model's does not).
+
+    Parameters
+    ----------
+    result : FitResult
+        A fit of a LinearModel.
+    hz : bool
+        Frequencies in Hz (default) or rad/s.
+    measured : bool
+        Also the record's response.
 
     Returns
     -------
     dict
-        ``freq`` (axis values), ``unit`` ('Hz' or 'rad/s'), ``mag``, ``phase``
-        (nω, ny, nu) and ``mag_band``, ``phase_band`` (2, nω, ny, nu).
+        ``freq`` (nω,) and ``unit`` ('Hz' or 'rad/s'); ``inputs`` (the
+        model's input indices drawn, nd); ``mag``, ``phase``, ``mag_sigma``,
+        ``phase_sigma`` (nω, ny, nd); ``mag_band``, ``phase_band`` (2, nω,
+        ny, nd): value ∓ BAND_SIGMAS σ; ``measured``: None, or a dict of
+        ``freq`` (nf,), ``mag``, ``phase`` (on the model's branch),
+        ``mag_sigma``, ``phase_sigma``, ``coherence`` (nf, ny, nd),
+        ``averages`` and ``segment``; ``measured_error``: why there is no
+        record response, or None.
+
+    Raises
+    ------
+    InputError
+        If the model is not linear or the fit failed.
     """
+    state_space(result.model)
     recs = _Records.of_result(result)
-    omega, freq = _frequencies(result.model, hz, recs.dt)
-    su = np.array([_display(recs.first, "u", j)[1] for j in range(result.model.nu)])
-    sy = np.array([_display(recs.first, "y", i)[1] for i in range(result.model.ny)])
-    gain = su[None, :] / sy[:, None]          # core ratio to declared-unit ratio
+    inputs = drawn_inputs(recs.records)
+    ny = result.model.ny
+    rec, why = _record_responses(recs, inputs, ny) if measured else (None, None)
+    omega, freq = _frequencies(result.model, hz, recs.dt,
+                               2 * np.pi * rec[0][0].frequency if rec else None)
+    fhz = omega / (2 * np.pi)
+    shape = (len(omega), ny, len(inputs))
+    out = {k: np.zeros(shape) for k in ("mag", "phase", "mag_sigma", "phase_sigma")}
+    m = None
+    if rec:
+        nf = len(rec[0][0].frequency)
+        m = {k: np.zeros((nf, ny, len(inputs))) for k in
+             ("mag", "phase", "mag_sigma", "phase_sigma", "coherence")}
+        m.update(freq=rec[0][0].frequency * (1 if hz else 2 * np.pi),
+                 averages=rec[0][0].averages, segment=rec[0][0].segment)
+    for i in range(ny):
+        for c, j in enumerate(inputs):
+            shift = _declared_db(recs.first, j, i)[0]
+            r = model_response(result, fhz, j, i)
+            out["mag"][:, i, c], out["phase"][:, i, c] = r.gain + shift, r.phase
+            out["mag_sigma"][:, i, c], out["phase_sigma"][:, i, c] = r.sigma_gain, r.sigma_phase
+            if m is not None:
+                g = rec[i][c]
+                m["mag"][:, i, c] = g.gain + shift
+                m["phase"][:, i, c] = _on_branch(g.phase, g.frequency, fhz, r.phase)
+                m["mag_sigma"][:, i, c], m["phase_sigma"][:, i, c] = g.sigma_gain, g.sigma_phase
+                m["coherence"][:, i, c] = g.coherence
+    for key in ("mag", "phase"):
+        k_sigma = BAND_SIGMAS * out[f"{key}_sigma"]
+        out[f"{key}_band"] = np.stack([out[key] - k_sigma, out[key] + k_sigma])
+    return {"freq": freq, "unit": "Hz" if hz else "rad/s", "inputs": inputs, **out,
+            "measured": m, "measured_error": why}
 
-    def db_phase(model):
-        g = frequency_response(model, omega) * gain
-        with np.errstate(divide="ignore"):
-            return 20 * np.log10(np.abs(g)), np.degrees(np.unwrap(np.angle(g), axis=0))
 
-    mag, phase = db_phase(result.model)
-    mags, phases = [], []
-    for m in sampled_models(result, samples, seed):
-        a, p = db_phase(m)
-        # the branch nearest the estimate's phase at each frequency: a draw
-        # whose pole crosses the axis turns the other way, by 360 deg, which
-        # is the same complex response
-        p -= 360 * np.round((p - phase) / 360)
-        mags.append(a)
-        phases.append(p)
-    q = (2.5, 97.5)
-    return {"freq": freq, "unit": "Hz" if hz else "rad/s", "mag": mag, "phase": phase,
-            "mag_band": np.percentile(mags, q, axis=0),
-            "phase_band": np.percentile(phases, q, axis=0), "samples": samples, "seed": seed}
+def _draw_band(ax, f, y, sigma, unit):
+    """The model's curve and its ±BAND_SIGMAS σ Cramér-Rao band (y and sigma
+    in unit): filled, edged in the curve's colour, its widest half stated
+    above the axis."""
+    k = BAND_SIGMAS * np.asarray(sigma)
+    ax.plot(f, y, color=COLORS["model"], label="identified model")
+    ax.fill_between(f, y - k, y + k, facecolor=COLORS["band"], alpha=BAND_ALPHA,
+                    edgecolor=COLORS["model"], lw=0.7, label=band_label("model", "Cramér-Rao"))
+    # a band can be too narrow to see: its widest half, stated
+    ax.set_title(f"±{BAND_SIGMAS}σ ≤ {np.nanmax(k):.2g} {unit}", loc="right", fontsize=7.5,
+                 color="0.35", pad=2)
+
+
+def _draw_measured(ax, f, y, sigma, coherence):
+    """The record's response: where the coherence is at least
+    COHERENCE_SHOWN, filled points with ±BAND_SIGMAS σ error bars (the
+    random error); below it, hollow grey points without (Bendat & Piersol's
+    error holds for small errors only, and bars of tens of dB would hide
+    the rest)."""
+    good = np.asarray(coherence) >= COHERENCE_SHOWN
+    if good.any():
+        ax.errorbar(f[good], y[good], yerr=BAND_SIGMAS * np.asarray(sigma)[good], fmt="o",
+                    ms=2.8, color=COLORS["measured"], elinewidth=0.7, capsize=1.8,
+                    label=band_label("measured", "random error"))
+    if not good.all():
+        ax.plot(f[~good], y[~good], "o", ms=2.8, mfc="none", mew=0.6, color="0.6",
+                label=f"measured, γ² < {COHERENCE_SHOWN} (no bar)")
+
+
+def _limits(ax, band, y=None, sigma=None, coherence=None):
+    """y limits that hold the model's band (2, n), every measured point y
+    and the error bars drawn (``_draw_measured``): 5% margin."""
+    values = [np.ravel(band)]
+    if y is not None:
+        good = np.asarray(coherence) >= COHERENCE_SHOWN
+        k = BAND_SIGMAS * np.asarray(sigma)
+        values += [y, y[good] - k[good], y[good] + k[good]]
+    v = np.concatenate(values)
+    v = v[np.isfinite(v)]
+    lo, hi = v.min(), v.max()
+    pad = 0.05 * (hi - lo or 1.0)
+    ax.set_ylim(lo - pad, hi + pad)
 
 
 @_styled
-def bode(result, hz=True, samples=BAND_SAMPLES, seed=BAND_SEED, path=None):
-    """Bode plot of a linear identified model per input-output pair:
-    magnitude [dB] and phase [deg] against frequency, with the sampled
-    Cramér-Rao 95% (±2σ) band of ``bode_data``.
+def bode(result, hz=True, measured=True, path=None):
+    """Bode plot of a linear identified model per input-output pair
+    (constant inputs left out): gain [dB] and phase [deg] against frequency
+    with the model's ±2σ Cramér-Rao band, and the record's response with
+    ±2σ random-error bars (``bode_data``; BAND_SIGMAS σ, stated in the
+    legend).
 
     Parameters
     ----------
@@ -783,44 +1173,48 @@ def bode(result, hz=True, samples=BAND_SAMPLES, seed=BAND_SEED, path=None):
         A fit of a LinearModel.
     hz : bool
         Frequency axis in Hz (default) or rad/s.
-    samples, seed : int
-        Draws of the parameter vector for the band, and their seed.
+    measured : bool
+        Also draw the record's response.
     path : str or Path, optional
 
     Returns
     -------
     matplotlib.figure.Figure
-        2 ny rows (magnitude, phase) by nu columns.
+        2 ny rows (gain, phase) by one column per drawn input.
 
     Raises
     ------
     InputError
         If the model is not linear.
     """
-    state_space(result.model)
-    b = bode_data(result, hz, samples, seed)
+    b = bode_data(result, hz, measured)
     recs = _Records.of_result(result)
-    ny, nu = b["mag"].shape[1:]
-    fig, axes = _figure(2 * ny, nu, max(6.8, 4.8 * nu + 0.6), 1.35, sharex=True)
-    for j in range(nu):
+    ny, nd = b["mag"].shape[1:]
+    m = b["measured"]
+    fig, axes = _figure(2 * ny, nd, max(6.8, 4.8 * nd + 0.6), 1.35, sharex=True)
+    for c, j in enumerate(b["inputs"]):
         for i in range(ny):
-            am, ap = axes[2 * i, j], axes[2 * i + 1, j]
-            uy, uu = _display(recs.first, "y", i)[0], _display(recs.first, "u", j)[0]
-            ratio = unit_ratio(uy, uu)
-            for ax, key, lab in ((am, "mag", "dB"), (ap, "phase", "deg")):
-                ax.fill_between(b["freq"], b[f"{key}_band"][0, :, i, j],
-                                b[f"{key}_band"][1, :, i, j], color=COLORS["band"], alpha=0.2,
-                                lw=0, label="95% band (CR)")
-                ax.plot(b["freq"], b[key][:, i, j], color=COLORS["model"], label="estimate")
+            am, ap = axes[2 * i, c], axes[2 * i + 1, c]
+            ratio = unit_ratio(_display(recs.first, "y", i)[0], _display(recs.first, "u", j)[0])
+            for ax, key in ((am, "mag"), (ap, "phase")):
+                _draw_band(ax, b["freq"], b[key][:, i, c], b[f"{key}_sigma"][:, i, c],
+                           "dB" if key == "mag" else "deg")
+                shown = () if m is None else (m[key][:, i, c], m[f"{key}_sigma"][:, i, c],
+                                              m["coherence"][:, i, c])
+                if shown:
+                    _draw_measured(ax, m["freq"], *shown)
+                _limits(ax, b[f"{key}_band"][:, :, i, c], *shown)
                 ax.set_xscale("log")
-            am.set_ylabel("|G| [dB]")
+            am.set_ylabel("gain [dB]")
             ap.set_ylabel("phase [deg]")
             am.set_title(f"{recs.names('u')[j]} → {recs.names('y')[i]}"
                          + (f"  [{ratio}]" if ratio else ""), loc="left")
-        axes[-1, j].set_xlabel(f"frequency [{b['unit']}]")
-    _legend_above(axes[0, 0], "right", ncols=2)
-    fig.suptitle(f"frequency response of the identified model\nband: 2.5-97.5 percentiles of "
-                 f"{samples} draws from N(θ̂, Cramér-Rao covariance), seed {seed}", fontsize=9.5)
+        axes[-1, c].set_xlabel(f"frequency [{b['unit']}]")
+    _figure_legend(fig, axes.flat)
+    said = (f"; record: {m['averages']} averages of {m['segment']} samples (Welch)"
+            if m is not None else (f"; no record response: {b['measured_error']}"
+                                   if b["measured_error"] else ""))
+    fig.suptitle(f"frequency response of the identified model{said}", fontsize=9.5)
     return _finish(fig, path)
 
 
@@ -963,18 +1357,15 @@ def _declared_db(record, i, j):
     return 20 * np.log10(abs(su / sy)), unit_ratio(uy, uu)
 
 
-#: Coherence below which the Bode plot draws a measured point hollow (less trusted).
-COHERENCE_SHOWN = 0.6
-
-
 @_styled
 def bode_measured(result, input=0, output=0, measured=None, loes=None, frequencies=200,
                   path=None):
     """Bode plot of an identified linear model against the record's
     measured frequency response: gain and phase of the model with its ±2σ
     Cramér-Rao band (delta method, the core's analytic derivatives), the
-    measured response as points (hollow where the coherence is below
-    COHERENCE_SHOWN), its coherence in a third panel, and a
+    measured response as points with ±2σ random-error bars (Bendat &
+    Piersol; hollow and grey where the coherence is below COHERENCE_SHOWN),
+    its coherence in a third panel, and a
     fitted transfer function (LOES) when given.  Gains in dB of the
     declared units' ratio.
 
@@ -1010,25 +1401,20 @@ def bode_measured(result, input=0, output=0, measured=None, loes=None, frequenci
     shift, ratio = _declared_db(recs.first, i, j)
     fig, axes = _figure(3, 1, 6.8, 1.6, sharex=True, height_ratios=[1.3, 1.3, 0.8])
     ag, ap, ac = axes[:, 0]
-    # the measured phase on the model's branch (the same complex response)
-    mph = measured.phase - 360 * np.round((measured.phase - np.interp(f, fm, mod.phase)) / 360)
-    for ax, y, ym, s in ((ag, measured.gain + shift, mod.gain + shift, mod.sigma_gain),
-                         (ap, mph, mod.phase, mod.sigma_phase)):
-        ax.fill_between(fm, ym - 2 * s, ym + 2 * s, color=COLORS["band"], alpha=0.2, lw=0,
-                        label="model ±2σ (Cramér-Rao)")
-        ax.plot(fm, ym, color=COLORS["model"], label="identified model")
-        good = measured.coherence >= COHERENCE_SHOWN
-        ax.plot(f[good], y[good], "o", ms=2.5, color=COLORS["measured"],
-                label="measured (record)")
-        ax.plot(f[~good], y[~good], "o", ms=2.5, mfc="none", mew=0.6, color="0.6",
-                label=f"measured, γ² < {COHERENCE_SHOWN}")
+    mph = _on_branch(measured.phase, f, fm, mod.phase)
+    for ax, y, ym, sm, s, unit in ((ag, measured.gain + shift, mod.gain + shift,
+                                    mod.sigma_gain, measured.sigma_gain, "dB"),
+                                   (ap, mph, mod.phase, mod.sigma_phase, measured.sigma_phase,
+                                    "deg")):
+        _draw_band(ax, fm, ym, sm, unit)
+        _draw_measured(ax, f, y, s, measured.coherence)
         if loes is not None:
             fl = fm[(fm >= loes.frequency_range[0]) & (fm <= loes.frequency_range[1])]
             r = loes.response(fl)
-            yl = r.gain + shift if ax is ag else r.phase - 360 * np.round(
-                (r.phase - np.interp(fl, fm, mod.phase)) / 360)
+            yl = r.gain + shift if ax is ag else _on_branch(r.phase, fl, fm, mod.phase)
             ax.plot(fl, yl, "--", color=COLORS["mean"], label=f"LOES ({loes.m}/{loes.n}"
                     + (", delay" if loes.has_delay else "") + ")")
+        _limits(ax, [ym - BAND_SIGMAS * sm, ym + BAND_SIGMAS * sm], y, s, measured.coherence)
         ax.set_xscale("log")
     ac.plot(f, measured.coherence, "o", ms=2.5, color=COLORS["measured"])
     ac.axhline(COHERENCE_SHOWN, color="0.6", lw=0.7, ls=(0, (4, 3)))
@@ -1039,7 +1425,7 @@ def bode_measured(result, input=0, output=0, measured=None, loes=None, frequenci
     ac.set_xlabel("frequency [Hz]")
     ag.set_title(f"{measured.input_name} → {measured.output_name}"
                  + (f"  [{ratio}]" if ratio else ""), loc="left")
-    _legend_above(ag, "right", ncols=3)
+    _figure_legend(fig, [ag, ap])
     fig.suptitle(f"frequency response: identified model and record ({measured.averages} "
                  f"averages of {measured.segment} samples)", fontsize=9.5)
     return _finish(fig, path)

@@ -11,12 +11,14 @@ same through fortran/case/mlid_deck.f90's holdout_case)."""
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
 from ..data.flight_data import FlightData
 from ..design.simulate import simulate
 from ..errors import InputError, check_status, guarded
 from ..estimate.fit import fit
+from ..estimate.named import NamedArray
 from ..estimate.result import FitResult
+from ..estimate.views import TableView
 from ..model.maneuvers import join
 from . import plots
 
@@ -26,13 +28,16 @@ OWN_BLOCKS = ("x0", "bias")
 PREDICTION_OPTIONS = {"method": "output_error", "startup": "none", "rank_min": 0, "rank_max": 0}
 
 
-class Validation:
-    """A validation: ``theil``, ``rms`` and ``rms_over_sigma`` (one per output),
-    ``holdout`` (the numbers of the held-out manoeuvres, as the deck counts
-    its files; 1, 2, ... for ``mlid.validate``), ``prediction`` (a
-    FitResult-like object whose ``data`` are the held-out records joined and
-    ``yhat`` the model's prediction, for the plots), ``identification`` (the
-    FitResult validated), ``output_names``.
+class Validation(TableView):
+    """A validation: ``theil``, ``rms`` (core units) and ``rms_over_sigma``
+    (one per output, NamedArrays by output name), ``holdout`` (the numbers of the held-out manoeuvres,
+    as the deck counts its files; 1, 2, ... for ``mlid.validate``),
+    ``prediction`` (a FitResult-like object whose ``data`` are the held-out
+    records joined and ``yhat`` the model's prediction, for the plots),
+    ``identification`` (the FitResult validated), ``output_names`` and
+    ``output_display`` (per output the unit it is shown in, and the scale
+    and offset: core = scale*shown + offset).  ``to_frame()``: a row per
+    output; ``report()`` the printed lines, rms errors in the shown unit.
 
     Parameters
     ----------
@@ -40,15 +45,47 @@ class Validation:
         The attributes above, by name (``validate`` sets them).
     """
 
+    output_display = None
+
     def __init__(self, **fields):
         self.__dict__.update(fields)
+        if self.output_display is None:
+            self.output_display = [("", 1.0, 0.0)] * len(self.output_names)
+        for name in ("theil", "rms", "rms_over_sigma"):     # by output name too
+            self.__dict__[name] = NamedArray(np.asarray(fields[name], dtype=float),
+                                             self.output_names)
+
+    @property
+    def rms_shown(self):
+        """The rms errors in the unit each output is shown in (an error is a
+        difference: the scale only, no offset)."""
+        return np.asarray(self.rms) / np.array([s for _, s, _ in self.output_display])
+
+    @property
+    def shown_units(self):
+        """The unit each output is shown in ('' none declared)."""
+        return [u for u, _, _ in self.output_display]
 
     def _texts(self):
-        names = "\n".join(self.output_names) + "\n"
-        rep, nrep, js, njs = _api.mlid_report_validation(
-            names=names, holdout=np.asarray(self.holdout, dtype=np.int32), theil=self.theil,
-            rms=self.rms, ratio=self.rms_over_sigma)
-        return rep[:nrep].decode(errors="replace"), js[:njs].decode(errors="replace")
+        h = _call_handle()
+        _put(h, names="\n".join(self.output_names) + "\n",
+             units="\n".join(self.shown_units) + "\n",
+             scale=np.array([s for _, s, _ in self.output_display], dtype=float),
+             holdout=np.asarray(self.holdout, dtype=np.int32), theil=self.theil, rms=self.rms,
+             ratio=self.rms_over_sigma)
+        out = _run(h, _api.mlid_report_validation)
+        return out["report"].decode(errors="replace"), out["json"].decode(errors="replace")
+
+    def _table(self):
+        return "output", list(self.output_names), {
+            "theil": list(self.theil), "rms": list(self.rms_shown), "unit": self.shown_units,
+            "rms_over_sigma": list(self.rms_over_sigma)}
+
+    def _heading(self):
+        files = ", ".join(map(str, self.holdout))
+        return (f"prediction of held-out manoeuvre{'s' if len(self.holdout) > 1 else ''} "
+                f"{files}: Theil U, rms error in the unit shown, rms over the "
+                "identification's residual sigma")
 
     def report(self):
         """The printed lines (the same as mlid-batch prints).
@@ -95,13 +132,6 @@ class Validation:
         matplotlib.figure.Figure
         """
         return plots.validation(self, path)
-
-    def __repr__(self):
-        worst = int(np.argmax(self.theil)) if len(self.theil) else 0
-        return (f"Validation(holdout={list(self.holdout)}, worst Theil U "
-                f"{self.theil[worst]:.3f} on {self.output_names[worst]})" if len(self.theil)
-                else "Validation()")
-
 
 def _prediction_model(result):
     """The identified model with only its own blocks free (those the
@@ -189,4 +219,5 @@ def _validation(result, joined, holdout, theil, rms, ratio, prediction):
     ny = joined.y.shape[1]
     return Validation(theil=theil, rms=rms, rms_over_sigma=ratio, holdout=list(holdout),
                       prediction=prediction, identification=result,
-                      output_names=list(joined.output_names[:ny]))
+                      output_names=list(joined.output_names[:ny]),
+                      output_display=list(joined.output_display[:ny]))
