@@ -101,7 +101,7 @@ def test_decks_read_and_run_from_threads_give_the_serial_results(tmp_path):
 
 def test_no_handle_is_refused_in_words():
     api = mlid._bridge.api
-    *_, status, msg = api.mlid_deck_case_run(0, 1)
+    *_, status, msg = api.mlid_deck_case_run(0, 1, 0)
     assert status != 0 and b"no such case (or not a live handle)" in msg
     nt, status, msg = api.mlid_deck_case_record(0, 1, 1, 0)
     assert status != 0 and nt == 0 and b"not a live handle" in msg

@@ -28,12 +28,13 @@ module mlid_api_deck
   use mlid_run, only: run_case, around_t, case_run_t
   use mlid_gil, only: gil_release, gil_restore
   use mlid_named, only: named_t, VALUE_REAL, VALUE_INT, VALUE_TEXT
+  use mlid_progress, only: progress_read
   implicit none
   private
   public :: mlid_handle_new, mlid_handle_free, mlid_deck_open, mlid_condition_names, &
             mlid_values_sizes, mlid_values, mlid_deck_case_record, mlid_channels_read, &
             mlid_channels_table, mlid_channels_get, mlid_deck_case_run, mlid_check_time, &
-            mlid_case_uses, mlid_deck_groups
+            mlid_case_uses, mlid_deck_groups, mlid_progress_get
 
 contains
 
@@ -425,12 +426,13 @@ contains
   !> in h for mlid_values (which = 'run'), whole: its
   !> report lines ('report'), JSON object ('json'), notes one a line
   !> ('notes'), and a fit's numbers.  status, msg: the case's.
-  subroutine mlid_deck_case_run(h, k, status, msg)
+  subroutine mlid_deck_case_run(h, k, p, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(in) :: k
+    integer(c_int64_t), intent(in) :: p      !< a handle to count the run's progress in, or 0
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    type(session_t), pointer :: s
+    type(session_t), pointer :: s, ps
     type(case_t), pointer :: c
     type(case_t) :: work
     type(case_run_t) :: run
@@ -443,7 +445,13 @@ contains
     work = c
     ! into a run of its own, kept when it ends: another thread may run case k
     ! of this handle while this one's fit runs without the GIL
-    call run_case(work, run, around_t(gil_release, gil_restore))
+    if (p == 0) then
+      call run_case(work, run, around_t(gil_release, gil_restore))
+    else
+      call handle_session(p, ps, status, msg)
+      if (status /= MLID_OK) return
+      call run_case(work, run, around_t(gil_release, gil_restore), ps%progress)
+    end if
     s%runs(k) = run
     associate (r => s%runs(k))
       status = r%status
@@ -457,6 +465,29 @@ contains
       call r%results%put('notes', text)
     end associate
   end subroutine mlid_deck_case_run
+
+  !> How far the long work of the call given handle p for its progress
+  !> is (mlid_progress): what runs (label), done of total (the end when
+  !> exact is 1, a ceiling otherwise), running (active 1), and its phase
+  !> (one more for each new piece of work).  Read from another thread while
+  !> that call runs without the GIL; all 0 for a handle that is none.
+  subroutine mlid_progress_get(p, label, done, total, exact, active, phase)
+    integer(c_int64_t), intent(in) :: p
+    character(len=48), intent(out) :: label   !< mlid_progress's LABEL_LEN (f2py needs the number)
+    integer(c_int), intent(out) :: done, total, exact, active, phase
+    type(session_t), pointer :: s
+    integer :: status
+    character(len=64) :: msg
+    label = ''
+    done = 0
+    total = 0
+    exact = 0
+    active = 0
+    phase = 0
+    call handle_session(p, s, status, msg)
+    if (status /= MLID_OK) return
+    call progress_read(s%progress, label, done, total, exact, active, phase)
+  end subroutine mlid_progress_get
 
   !> Whether case k of handle h reads or writes the file path (mlid_case's
   !> case_uses): 1 if it does, else 0 (also for no such case).

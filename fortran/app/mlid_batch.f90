@@ -16,6 +16,8 @@ program mlid_batch
   use mlid_text, only: itoa
   use mlid_wait_policy, only: brief_spin
   use mlid_interrupt, only: interrupt_arm, interrupt_requested
+  use mlid_progress, only: progress_t
+  use mlid_batch_progress, only: terminal_progress
   implicit none
   character(len=4096) :: deck, arg, json_path
   type(case_t), allocatable :: cases(:)
@@ -192,15 +194,21 @@ contains
   end subroutine json_not_an_input
 
   !> Run case k (mlid_run's run_case): print its heading and report, its
-  !> notes on stderr, add its JSON object, count a failure.
+  !> notes on stderr, add its JSON object, count a failure.  Its long work
+  !> shows a progress line when stderr is a terminal (mlid_batch_progress).
   subroutine run_one(k, c)
     integer, intent(in) :: k
     type(case_t), intent(inout) :: c
     type(case_run_t) :: r
+    type(progress_t), target :: progress
     integer :: j
 
     call say(achar(10)//' case '//itoa(k)//': '//trim(c%title)//achar(10))
-    call run_case(c, r)
+    if (terminal_progress(progress)) then      ! its long work's line on the terminal
+      call run_case(c, r, progress=progress)
+    else
+      call run_case(c, r)
+    end if
     call stop_if_interrupted()
     call say(r%report)
     do j = 1, size(r%notes)

@@ -31,6 +31,7 @@ module mlid_channels
   use mlid_expr, only: expr_t, expr_compile, expr_eval, expr_uses, split_definition
   use mlid_units, only: unit_to_core, units_of, UNITLEN
   use mlid_tablefile, only: tablefile_read
+  use mlid_progress, only: progress_t
   implicit none
   private
   public :: channels_t, channel_set_t, channels_spec, channels_join, channels_read, &
@@ -148,7 +149,8 @@ contains
   !> (the header is read first: names, units, number of columns; then only
   !> the columns the case needs are converted), a .mat or HDF5 file's
   !> through its table (mlid_tablefile), taken as channels_table takes one.
-  subroutine channels_read(path, spec_in, t_start, t_end, set, status, msg, manoeuvre)
+  !> progress: how far the text record's rows are read (mlid_progress).
+  subroutine channels_read(path, spec_in, t_start, t_end, set, status, msg, manoeuvre, progress)
     character(len=*), intent(in) :: path
     type(channels_t), intent(in) :: spec_in
     real(wp), intent(in) :: t_start, t_end
@@ -156,6 +158,7 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer, intent(in), optional :: manoeuvre   !< the file's place in the case's list
+    type(progress_t), intent(inout), optional :: progress
     type(channels_t) :: spec
     type(record_t) :: rec
     type(plan_t) :: plan
@@ -188,7 +191,7 @@ contains
       return
     end if
     cols = pack([(k, k=1, ndat)], plan%need(1:ndat))
-    call record_read(path, cols, spec%skip_rows, rec, status, msg)
+    call record_read(path, cols, spec%skip_rows, rec, status, msg, progress=progress)
     if (status /= MLID_OK) return
     allocate (ch(size(rec%x, 2), size(plan%name)))
     ch = 0.0_wp

@@ -58,6 +58,7 @@ module mlid_deck
   use mlid_case, only: case_t, NAMELEN, PATHLEN
   use mlid_options, only: options_t, options_to_flat, options_from_flat
   use mlid_units, only: UNITLEN
+  use mlid_progress, only: progress_t
   implicit none
   private
   public :: case_t, deck_read, case_record, case_time_input, manoeuvre_layout, &
@@ -326,9 +327,10 @@ module mlid_deck
       character(len=*), intent(out) :: msg
     end subroutine corrected_writable
 
-    !> The record of an estimate case: time, inputs and outputs from its data files.
+    !> The record of an estimate case: time, inputs and outputs from its data
+    !> files; progress: how far each is read (mlid_progress).
     module subroutine case_record(c, t, u, y, status, msg, segstart, units, names, notes, own_t, &
-                                  shown, scale)
+                                  shown, scale, progress)
       type(case_t), intent(in) :: c
       real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
       !> each manoeuvre's time as its file gives it (t moves them one after another)
@@ -343,6 +345,7 @@ module mlid_deck
       !> its scale: core = scale*shown + offset (a difference: core = scale*shown)
       character(len=UNITLEN), allocatable, intent(out), optional :: shown(:)
       real(wp), allocatable, intent(out), optional :: scale(:)
+      type(progress_t), intent(inout), optional :: progress
     end subroutine case_record
 
     !> The case's parameters for nseg manoeuvres.

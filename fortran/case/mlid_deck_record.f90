@@ -67,7 +67,7 @@ contains
     if (present(notes)) allocate (notes(0))
     if (present(own_t)) allocate (own_t(0))
     do k = 1, nseg
-      call read_record(c, k, tk, uk, yk, status, msg, units, names, shown, scale)
+      call read_record(c, k, tk, uk, yk, status, msg, units, names, shown, scale, progress)
       if (status /= MLID_OK) return
       if (present(notes) .and. len_trim(msg) > 0) call add_line(notes, msg)
       msg = ''
@@ -90,7 +90,7 @@ contains
 
   !> Data file k: the case's channels of it in its window, by the one
   !> record reader.
-  subroutine read_record(c, k, t, u, y, status, msg, units, names, shown, scale)
+  subroutine read_record(c, k, t, u, y, status, msg, units, names, shown, scale, progress)
     type(case_t), intent(in) :: c
     integer, intent(in) :: k
     real(wp), allocatable, intent(out) :: t(:), u(:, :), y(:, :)
@@ -99,9 +99,10 @@ contains
     character(len=UNITLEN), allocatable, intent(inout), optional :: units(:), shown(:)
     character(len=NAMELEN), allocatable, intent(inout), optional :: names(:)
     real(wp), allocatable, intent(inout), optional :: scale(:)
+    type(progress_t), intent(inout), optional :: progress
     type(channel_set_t) :: set
     call channels_read(c%data_files(k), c%chan, c%win_start(k), c%win_end(k), set, status, msg, &
-                       manoeuvre=c%file_no(k))
+                       manoeuvre=c%file_no(k), progress=progress)
     if (status /= MLID_OK) return
     if (present(units)) then           ! the first file's; every file declares the same
       if (.not. allocated(units)) units = set%units

@@ -17,6 +17,7 @@ module mlid_handles
   use mlid_run, only: case_run_t
   use mlid_named, only: named_t
   use mlid_problem, only: problem_t
+  use mlid_progress, only: progress_t
   implicit none
   private
   public :: session_t, handle_new, handle_session, call_session, handle_free
@@ -33,6 +34,9 @@ module mlid_handles
     type(problem_t) :: problem                   !< what the calls run on (mlid_api_problem)
     type(named_t) :: given                       !< a call's other values (mlid_api_values)
     type(named_t) :: results                     !< what the last call gave, by name
+    !> the long work of a call given this handle for it, read from another
+    !> thread while it runs (mlid_api_deck's mlid_progress_get)
+    type(progress_t) :: progress
   end type session_t
 
 contains

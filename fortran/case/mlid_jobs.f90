@@ -22,6 +22,7 @@ module mlid_jobs
   use mlid_units, only: UNITLEN
   use mlid_files, only: temporary_for, write_whole
   use mlid_text, only: itoa
+  use mlid_progress, only: progress_t
   use mlid_design, only: design_t, design_create, operator_mu, mu_for_length, transition_length, &
                          RICCATI_BRACKET, &
                          costate_input, input_information, amplitude_limited_input, &
@@ -30,7 +31,19 @@ module mlid_jobs
                              mc_report, mc_json, simulate_report, simulate_json
   implicit none
   private
-  public :: job_run, JOB_RUNS
+  public :: job_run, JOB_RUNS, around_t, hook_t
+
+  !> Called before and after the numerical work of a case (a fit, the runs
+  !> of a Monte Carlo), which builds no text: a front end lets its other
+  !> threads run meanwhile (Python: the GIL released, python/mlid/_gil.c,
+  !> and its progress bar read then); the batch program gives none.
+  abstract interface
+    subroutine hook_t() bind(c)
+    end subroutine hook_t
+  end interface
+  type :: around_t
+    procedure(hook_t), pointer, nopass :: begin => null(), end => null()
+  end type around_t
 
   !> The jobs run here (the others are fits, run by the front ends)
   character(len=*), parameter :: JOB_RUNS = ' simulate design monte_carlo '
@@ -39,12 +52,15 @@ module mlid_jobs
 contains
 
   !> Run case c's job; report and json are empty when it failed (status,
-  !> msg say why).
-  subroutine job_run(c, report, json, status, msg)
+  !> msg say why).  around: the hooks around its long numerical work;
+  !> progress: that work's count (mlid_progress).
+  subroutine job_run(c, report, json, status, msg, around, progress)
     type(case_t), intent(in) :: c
     character(len=:), allocatable, intent(out) :: report, json
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    type(around_t), intent(in), optional :: around
+    type(progress_t), intent(inout), optional :: progress
 
     report = ''
     json = ''
@@ -57,7 +73,7 @@ contains
     case ('design')
       call design_job(c, report, json, status, msg)
     case ('monte_carlo')
-      call monte_carlo_job(c, report, json, status, msg)
+      call monte_carlo_job(c, report, json, status, msg, around, progress)
     case default
       status = MLID_ERR_INPUT
       msg = 'job '''//trim(c%job)//''' is a fit, not run by job_run'
@@ -253,11 +269,13 @@ contains
 
   !> monte_carlo: runs seed, seed + 1, ... simulated from the truth with
   !> the input of input_file, each fitted from &model's values.
-  subroutine monte_carlo_job(c, report, json, status, msg)
+  subroutine monte_carlo_job(c, report, json, status, msg, around, progress)
     type(case_t), intent(in) :: c
     character(len=:), allocatable, intent(inout) :: report, json
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    type(around_t), intent(in), optional :: around
+    type(progress_t), intent(inout), optional :: progress
     real(wp), allocatable :: t(:), u(:, :), y(:, :), est(:, :), sig(:, :), info(:, :, :)
     integer, allocatable :: iters(:), run_status(:)
     class(model_t), allocatable :: m
@@ -276,8 +294,14 @@ contains
     if (status /= MLID_OK) return
     allocate (est(nf, c%runs), sig(nf, c%runs), info(nf, nf, c%runs), iters(c%runs), &
               run_status(c%runs))
+    if (present(around)) then
+      if (associated(around%begin)) call around%begin()
+    end if
     call monte_carlo(m, c%theta_true, c%theta, pm, t, u, opt, c%seed, est, sig, iters, &
-                     run_status, info)
+                     run_status, info, progress)
+    if (present(around)) then
+      if (associated(around%end)) call around%end()
+    end if
     s%labels = c%labels
     s%truth = c%theta_true(pm%ifree)
     s%start = c%theta(pm%ifree)

@@ -21,11 +21,14 @@ module mlid_record
   use mlid_text, only: itoa, to_lower, text_file_t, text_open, text_line, text_close, &
                        control_character, short_path, line_t
   use mlid_units, only: UNITLEN
+  use mlid_progress, only: progress_t, progress_start, progress_to, progress_stop
   implicit none
   private
   public :: record_t, record_read, record_text, NAMELEN
 
   integer, parameter :: NAMELEN = 32
+  !> A record's progress is set every 8192 lines (a millisecond or so of them).
+  integer, parameter :: PROGRESS_MASK = 8191
 
   !> A record as read: the columns asked for, x(size(cols), nrow), the
   !> file's column names and units (from its header, when it has one:
@@ -61,14 +64,16 @@ contains
   !> Read the columns cols (from 1) of a text record, after skip_rows lines
   !> skipped as they are.  header_only: stop at the first data row (for the
   !> column names and their number).  Time is the caller's to check: it
-  !> knows which column holds it and which window it takes.
-  subroutine record_read(path, cols, skip_rows, rec, status, msg, header_only)
+  !> knows which column holds it and which window it takes.  progress: the
+  !> share of the file's text taken, in per cent (mlid_progress).
+  subroutine record_read(path, cols, skip_rows, rec, status, msg, header_only, progress)
     character(len=*), intent(in) :: path
     integer, intent(in) :: cols(:), skip_rows
     type(record_t), intent(out) :: rec
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     logical, intent(in), optional :: header_only
+    type(progress_t), intent(inout), optional :: progress
     character(len=:), allocatable :: line
     type(headers_t) :: heads
     character(len=:), allocatable :: bad
@@ -87,10 +92,14 @@ contains
     allocate (heads%text(0), heads%line(0), heads%off(0))
     nline = 0
     nrow = 0
+    if (allocated(tf%text)) call progress_start(progress, 'reading '// &
+                                                path(index(path, '/', back=.true.) + 1:), 100, .true.)
     do
       call text_line(tf, line, ios)
       if (ios /= 0) exit
       nline = nline + 1
+      if (iand(nline, PROGRESS_MASK) == 0 .and. allocated(tf%text)) &
+        call progress_to(progress, int(100*(tf%pos - 1)/max(1_int64, len(tf%text, int64))))
       if (nline <= skip_rows) then
         call add_header(heads, line, nline, 0)    ! a line skipped may name the columns
         cycle
@@ -98,6 +107,7 @@ contains
       call take_line(line, nline, nrow, heads, rec, cols, only_header, msg)
       if (len_trim(msg) > 0) then
         call text_close(tf)
+        call progress_stop(progress)
         msg = 'data file '//short_path(path)//' line '//itoa(nline)//': '//trim(msg)
         if (len(file_changed(path, stamp)) > 0) &     ! a row cut by a writer: say that
           msg = 'data file '//short_path(path)//' '//file_changed(path, stamp)
@@ -105,6 +115,8 @@ contains
       end if
       if (only_header .and. rec%ncol > 0) exit
     end do
+    if (allocated(tf%text)) call progress_to(progress, 100)
+    call progress_stop(progress)
     call text_close(tf)
     if (ios > 0) then
       msg = 'data file '//short_path(path)//': cannot be read'

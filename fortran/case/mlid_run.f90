@@ -24,7 +24,8 @@ module mlid_run
   use mlid_fit_driver, only: fit_solve, fit_view, fit_view_t
   use mlid_named, only: named_t
   use mlid_simulate, only: simulate_flat
-  use mlid_jobs, only: job_run, JOB_RUNS
+  use mlid_jobs, only: job_run, JOB_RUNS, around_t, hook_t   ! the hooks: mlid_jobs's
+  use mlid_progress, only: progress_t
   use mlid_files, only: temporary_for, write_whole
   use mlid_record, only: record_text
   use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
@@ -32,17 +33,6 @@ module mlid_run
   implicit none
   private
   public :: case_run_t, run_case, corrected_record, put_fit, around_t, hook_t
-
-  !> Called before and after the fit of a case, which builds no text: a
-  !> front end lets its other threads run meanwhile (Python: the GIL
-  !> released, python/mlid/_gil.c); the batch program gives none.
-  abstract interface
-    subroutine hook_t() bind(c)
-    end subroutine hook_t
-  end interface
-  type :: around_t
-    procedure(hook_t), pointer, nopass :: begin => null(), end => null()
-  end type around_t
 
   !> What running a case gave.
   type :: case_run_t
@@ -55,6 +45,9 @@ module mlid_run
     !> mlid_fit_driver's fit_view_t holds, and a validation's statistics
     type(named_t) :: results
     type(around_t) :: around                  !< run_case's hooks around a fit
+    !> the progress of its long work while it runs (mlid_progress), when a
+    !> front end shows it; not associated: not counted
+    type(progress_t), pointer :: progress => null()
   end type case_run_t
 
   character, parameter :: NL = achar(10)
@@ -66,23 +59,27 @@ contains
 
   !> Run case c.  A failed case has its message as the last note, and a
   !> ' FAILED:' line ends its report unless a failed fit's report says it.
-  subroutine run_case(c, r, around)
+  !> around: the hooks around its numerical work; progress: where that
+  !> work counts its steps, for a front end to show (mlid_progress).
+  subroutine run_case(c, r, around, progress)
     type(case_t), intent(inout) :: c
     type(case_run_t), intent(out) :: r
     type(around_t), intent(in), optional :: around
+    type(progress_t), intent(inout), target, optional :: progress
     character(len=:), allocatable :: json, report, text
     integer :: outcome
 
     r%report = ''
     allocate (r%notes(0))
     if (present(around)) r%around = around
+    if (present(progress)) r%progress => progress
     r%status = c%status
     r%msg = c%msg
     outcome = FIT_NOT_RUN
     if (r%status /= MLID_OK) then
       continue
     else if (index(JOB_RUNS, ' '//trim(c%job)//' ') > 0) then
-      call job_run(c, report, text, r%status, r%msg)
+      call job_run(c, report, text, r%status, r%msg, r%around, r%progress)   ! null: absent (F2008)
       if (r%status == MLID_OK) then
         r%report = report
         json = text
@@ -95,6 +92,7 @@ contains
     ! a job that stopped before its result has only its message to give
     if (.not. allocated(json)) json = case_json(c%title, c%job, r%status, r%msg)
     r%json = json
+    r%progress => null()            ! the caller's, for this run only
     if (r%status /= MLID_OK) then
       call note(r, r%msg)
       ! a failed fit's report ends with this line already
@@ -133,7 +131,7 @@ contains
 
     outcome = FIT_NOT_RUN
     call case_record(c, t, u, y, r%status, r%msg, segstart, units, names, notes=notes, &
-                     own_t=own_t)
+                     own_t=own_t, progress=r%progress)
     call notes_from(r, notes)
     if (r%status == MLID_OK) call corrected_writable(c, r%status, r%msg)   ! before a long fit
     if (r%status == MLID_OK) call fit_record(c, t, u, y, segstart, units, r, json, theta, rhat, &
@@ -257,7 +255,7 @@ contains
     call fit_solve(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, c%isfree, c%tie, c%iconst, c%rconst, &
                    t, u, y, segstart, c%iopt, c%ropt, nf, c%use_prior, or_zero(c%prior, nth), &
                    weight_or_zero(c%pweight, nf), c%use_bounds, or_zero(c%lower, nth), &
-                   or_zero(c%upper, nth), res, pm, opt, bad, r%status, r%msg)
+                   or_zero(c%upper, nth), res, pm, opt, bad, r%status, r%msg, r%progress)
     if (associated(r%around%end)) call r%around%end()
     call system_clock(clock1)
     v = fit_view(res, pm, opt, c%theta, c%ny, size(t), bad)
@@ -359,10 +357,12 @@ contains
     out(c%holdout) = .true.
     ! every part read before the fit: the files fitted, then those held out
     fitted = files_of(c, .not. out)
-    call case_record(fitted, t, u, y, r%status, r%msg, segstart, units, fnames, notes=notes)
+    call case_record(fitted, t, u, y, r%status, r%msg, segstart, units, fnames, notes=notes, &
+                     progress=r%progress)
     call notes_from(r, notes)
     if (r%status == MLID_OK) call case_record(files_of(c, out), th, uh, yh, r%status, r%msg, sh, &
-                                              hunits, names, notes, shown=shown, scale=scale)
+                                              hunits, names, notes, shown=shown, scale=scale, &
+                                              progress=r%progress)
     if (r%status == MLID_OK) call notes_from(r, notes)
     if (r%status == MLID_OK) call fit_record(fitted, t, u, y, segstart, units, r, json, theta, &
                                              rhat, yhat, outcome, fnames)

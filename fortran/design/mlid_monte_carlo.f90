@@ -12,6 +12,7 @@ module mlid_monte_carlo
   use mlid_newton, only: fit_result_t, extras_t
   use mlid_fit_driver, only: fit_method
   use mlid_linalg, only: sym_eig
+  use mlid_progress, only: progress_t, progress_start, progress_to, progress_stop
   implicit none
   private
   public :: monte_carlo, mc_statistics
@@ -24,9 +25,10 @@ contains
   !> have its status (MLID_ERR_INTERRUPTED, MLID_ERR_MEMORY).  Without process noise
   !> every run's states are the same: the record without measurement noise
   !> is simulated once and each run adds its own draw (simulate_noise, the
-  !> draws of simulate_outputs: the same record to the bit).
+  !> draws of simulate_outputs: the same record to the bit).  progress
+  !> counts the runs ended (mlid_progress).
   subroutine monte_carlo(m, theta_true, theta_start, pm, t, u, opt, seed0, est, sig, iters, &
-                         run_status, info)
+                         run_status, info, progress)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta_true(:), theta_start(:)
     type(param_map_t), intent(in) :: pm
@@ -36,6 +38,7 @@ contains
     real(wp), intent(out) :: est(:, :), sig(:, :)
     integer, intent(out) :: iters(:), run_status(:)
     real(wp), intent(out), optional :: info(:, :, :)   !< each run's information matrix
+    type(progress_t), intent(inout), optional :: progress
     real(wp), allocatable :: y(:, :), x(:, :), yclean(:, :)
     real(wp), allocatable :: w(:, :), v(:, :)
     type(fit_result_t) :: res
@@ -54,8 +57,10 @@ contains
       return
     end if
     quiet = no_process_noise(theta_true, pm%l)
+    call progress_start(progress, 'monte carlo', size(run_status), .true.)
     if (quiet) call clean_record(cstat)
     do r = 1, size(run_status)
+      call progress_to(progress, r - 1)
       if (interrupt_requested()) then
         run_status(r:) = MLID_ERR_INTERRUPTED
         exit
@@ -87,6 +92,8 @@ contains
       iters(r) = res%niter
       if (present(info) .and. allocated(res%info)) info(:, :, r) = res%info
     end do
+    call progress_to(progress, r - 1)     ! r: the run that stopped it, or one past the last
+    call progress_stop(progress)
 
   contains
 

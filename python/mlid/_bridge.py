@@ -54,8 +54,9 @@ def _interruptible(routine):
 
 #: The routines that only copy values in or out of a handle, and make or
 #: free one: not armed for Ctrl-C (arming costs a microsecond or two, some
-#: 2 % of a C-8 fit were every part of its problem armed).
-_COPY_ONLY = ("mlid_values_clear", "mlid_handle_new", "mlid_handle_free")
+#: 2 % of a C-8 fit were every part of its problem armed; a progress bar's
+#: thread reads the count while the call it counts runs).
+_COPY_ONLY = ("mlid_values_clear", "mlid_handle_new", "mlid_handle_free", "mlid_progress_get")
 
 
 def _wrapped(name, routine):

@@ -10,8 +10,8 @@ and records, and a deck case's run (mlid_deck_case_run), stay under the
 GIL: they build text, and gfortran 12 keeps the length of a deferred-length
 character result in a static variable, which two threads then share (two
 threads running cases of one deck at once garbled a JSON object).  A deck
-case's fit, which builds no text, releases it from inside the run
-(mlid_run's hooks, _gil.c).
+case's fit or Monte Carlo runs, which build no text, release it from inside
+the run (the job runner's hooks, _gil.c).
 
     python f2py_threadsafe.py IN.f90... OUT.f90
 """

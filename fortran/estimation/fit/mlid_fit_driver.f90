@@ -19,6 +19,7 @@ module mlid_fit_driver
   use mlid_linalg, only: sym_eig
   use mlid_setup, only: setup
   use mlid_newton, only: fit_result_t, extras_t, newton_fit
+  use mlid_progress, only: progress_t, progress_start, progress_stop
   implicit none
   private
   public :: fit_solve, fit_method, fit_view_t, fit_view
@@ -54,10 +55,11 @@ contains
   !> failed), pm the parameter map, opt the options; bad names the free
   !> parameter a message of the checks is about (0 none; a singular fit's
   !> is res%bad_param).  msg of a good fit is the
-  !> set-up's warning, else the fit's note.
+  !> set-up's warning, else the fit's note.  progress counts the Newton
+  !> iterations (mlid_progress; the budget max_iter as its ceiling).
   subroutine fit_solve(mkind, nx, nu, ny, nw, theta0, isfree, tie, iconst, rconst, t, u, y, &
                        segstart, iopt, ropt, nf, use_prior, prior, pweight, use_bounds, lower, &
-                       upper, res, pm, opt, bad, status, msg)
+                       upper, res, pm, opt, bad, status, msg, progress)
     integer(c_int), intent(in) :: mkind, nx, nu, ny, nw, nf, use_prior, use_bounds
     real(c_double), intent(in) :: theta0(:), rconst(:), t(:), u(:, :), y(:, :)
     integer(c_int), intent(in) :: isfree(:), iconst(:), segstart(:)
@@ -69,6 +71,7 @@ contains
     type(options_t), intent(out) :: opt
     integer, intent(out) :: bad, status
     character(len=*), intent(out) :: msg
+    type(progress_t), intent(inout), target, optional :: progress
     class(model_t), allocatable :: m
     type(extras_t) :: ex
     character(len=len(msg)) :: warning
@@ -81,7 +84,10 @@ contains
     call fit_extras(pm, opt, theta0, use_prior, prior, pweight, use_bounds, lower, upper, ex, &
                     bad, status, msg)
     if (status /= MLID_OK) return
+    if (present(progress)) ex%progress => progress
+    call progress_start(progress, 'fit', opt%max_iter, .false.)
     call fit_method(m, theta0, pm, t, u, y, opt, ex, res, status, msg)
+    call progress_stop(progress)
     if (status /= MLID_OK) return
     msg = warning
     if (len_trim(warning) == 0) msg = res%note

@@ -17,6 +17,7 @@ module mlid_newton
   use mlid_text, only: itoa, es_text
   use mlid_interrupt, only: check_interrupt
   use mlid_memory, only: no_memory
+  use mlid_progress, only: progress_t, progress_to
   implicit none
   private
   public :: fit_result_t, extras_t, newton_fit
@@ -41,6 +42,9 @@ module mlid_newton
     real(wp), allocatable :: prior(:)       !< a priori values (nf)
     real(wp), allocatable :: weight(:, :)   !< a priori weight matrix (nf, nf), positive semi-definite
     real(wp), allocatable :: lower(:), upper(:)   !< bounds (nf)
+    !> the iterations taken, for a front end's progress (mlid_progress);
+    !> not associated: not counted
+    type(progress_t), pointer :: progress => null()
   end type extras_t
 
   !> What a search works on, fixed for its length: the model, the map of
@@ -359,6 +363,7 @@ contains
       msg = ''
       res%reason = STOP_NONE
       do while (st%it < opt%max_iter)
+        if (associated(ex%progress)) call progress_to(ex%progress, st%it)
         call check_interrupt(status, msg)
         if (status /= MLID_OK) then
           res%reason = STOP_FAILED
@@ -427,6 +432,7 @@ contains
       end do
       if (res%reason == STOP_NONE) res%reason = STOP_MAXITER
       res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
+      if (associated(ex%progress)) call progress_to(ex%progress, st%it)
     end associate
   end subroutine iterate
 

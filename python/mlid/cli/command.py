@@ -274,11 +274,14 @@ def _show_case(args, case, out, result, error, tables):
     return failed or unsaid is not None, unsaid
 
 
-def _case_task(deck, ks, plots, table, keep):
+def _case_task(deck, ks, plots, table, keep, live=False):
     """Run cases ks of deck in order as a serial run would, each one's
     printout captured: per case (stdout, stderr, JSON object, table rows,
     failed, campaign row, and with keep what --report needs, else None: the
-    fit stays in the worker).  A worker's task (mlid.cli.campaign.outcomes)."""
+    fit stays in the worker).  A worker's task (mlid.cli.campaign.outcomes).
+    live (the cases run in this process, one at a time): a case's long work
+    shows a bar when stderr is a terminal, the one stderr is before it is
+    captured."""
     import io
     from contextlib import redirect_stderr, redirect_stdout
     from types import SimpleNamespace
@@ -286,12 +289,13 @@ def _case_task(deck, ks, plots, table, keep):
     if plots:
         use_file_backend()
     done = []
+    bar_on = progress.shown_on() if live else False
     for k in ks:
         case = campaign.opened(deck)[k - 1]
         out_text, err_text, tables = io.StringIO(), io.StringIO(), []
         with redirect_stdout(out_text), redirect_stderr(err_text):
             try:
-                case, out, result, error = next(run_cases([case]))
+                case, out, result, error = next(run_cases([case], bar_on))
             except KeyboardInterrupt as exc:    # what mlid-batch has printed by then
                 exc.finished = done, _heading(case)
                 raise
@@ -395,7 +399,9 @@ def _run(args):
     objects, tables, ran, rows = [], [], [], []
     n = sum(len(j[1]) for j in jobs)
     cases = progress.bar(None if n > 1 else False, n, "mlid run", "case")
-    outcomes = (c for task in campaign.outcomes(_case_task, jobs, min(workers, max(len(jobs), 1)),
+    workers = min(workers, max(len(jobs), 1))
+    live = workers == 1 and args.scheduler is None       # a bar of a case's own work too
+    outcomes = (c for task in campaign.outcomes(_case_task, [(*j, live) for j in jobs], workers,
                                                 args.scheduler) for c in task)
     for text, err, obj, rows_of, bad, crow, done in _up_to_an_interrupt(outcomes):
         cases.update()

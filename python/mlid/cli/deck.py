@@ -13,6 +13,7 @@ from ..errors import MlidError, check_status, guarded, status_of
 from ..estimate.fit import fit_result
 from ..estimate.options import options_of_text
 from ..model.models import free_entries, from_core
+from ..progress import core_bar, shown_on
 from ..report.validation import validation_of
 
 
@@ -183,14 +184,20 @@ def read_deck(path):
 
 
 @guarded
-def run_case(case):
+def run_case(case, progress=None):
     """Run one case in the core's job runner, as mlid-batch runs it: its
     report, JSON and files are the core's (a CaseOutput), and a fit's
     FitResult is made from the numbers the run kept, read by name (none for
     the other jobs).  A case that failed raises its MlidError, carrying the
-    FitResult of a failed fit (``result``) and the output (``output``)."""
+    FitResult of a failed fit (``result``) and the output (``output``).
+    ``progress`` (as mlid.progress.bar takes it: None, when stderr is a
+    terminal): a bar for the case's long work, counted by the core in a
+    handle of its own."""
     case.warnings = []
-    status, msg = _api.mlid_deck_case_run(case._handle.value, case.index)
+    counter = Handle() if shown_on(progress) else None
+    with core_bar(progress if counter else False, lambda: _progress_of(counter)):
+        status, msg = _api.mlid_deck_case_run(case._handle.value, case.index,
+                                              counter.value if counter else 0)
     kept = values(case._handle, case.index, "run")
     if "report" not in kept:            # refused before it ran
         check_status(status, msg)
@@ -207,6 +214,13 @@ def run_case(case):
             exc.result, exc.output = result, out
             raise
     return out, result
+
+
+def _progress_of(counter):
+    """What the core's count in handle counter says (mlid_progress_get):
+    label, done, total, exact, active, phase."""
+    label, *numbers = _api.mlid_progress_get(counter.value)
+    return (_text(label), *map(int, numbers))
 
 
 def _fit_of(case, kept):
@@ -244,11 +258,12 @@ def iter_deck(path):
     return run_cases(read_deck(path))
 
 
-def run_cases(cases):
-    """As ``iter_deck`` for cases ``read_deck`` has read already."""
+def run_cases(cases, progress=None):
+    """As ``iter_deck`` for cases ``read_deck`` has read already (progress:
+    as ``run_case`` takes it)."""
     for case in cases:
         try:
-            out, result = run_case(case)
+            out, result = run_case(case, progress)
             yield case, out, result, None
         except MlidError as exc:
             yield case, getattr(exc, "output", None), getattr(exc, "result", None), exc

@@ -16,7 +16,7 @@ import numpy as np
 from ..checks import whole
 from ..errors import InputError, guarded
 from ..openmp import team_size
-from ..progress import bar as progress_bar
+from ..progress import bar as progress_bar, shown_on
 from .monte_carlo import _mc_chunks, _mc_result, _mc_runs, _mc_setup
 
 
@@ -62,7 +62,9 @@ def monte_carlo_parallel(truth, start, t, u, runs=100, seed=1, workers=None, sch
         raise InputError("scheduler must be an address such as 'tcp://127.0.0.1:8786' or a "
                          f"distributed.Client, got {type(scheduler).__name__}")
     workers = (os.cpu_count() or 1) if workers is None else whole("workers", workers, 1, 4096)
-    chunk = whole("chunk", chunk or max(1, int(np.ceil(runs / (4 * workers)))), 1, 10**7)
+    # a bar moves as chunks end: some 100 chunks when one shows
+    parts_of = max(100, 4 * workers) if shown_on(progress) else 4 * workers
+    chunk = whole("chunk", chunk or max(1, int(np.ceil(runs / parts_of))), 1, 10**7)
     jobs = _mc_chunks(runs, seed, chunk)
     parts = [None] * len(jobs)
     with progress_bar(progress, runs, "Monte Carlo", "run") as b:
