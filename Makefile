@@ -14,7 +14,8 @@ BUILD := build
 NATIVE ?= false
 STAMP := $(VENV)/.mlid-installed-native-$(NATIVE)
 DEPS := $(VENV)/.mlid-deps
-SOURCES := $(shell find fortran python -name '*.f90' -o -name '*.py' -o -name 'meson.build') \
+SOURCES := $(shell find fortran python -name '*.f90' -o -name '*.py' -o -name '*.c' -o -name '*.j2' \
+             -o -name 'meson.build') \
            meson.build meson.options pyproject.toml
 APT := DEBIAN_FRONTEND=noninteractive apt-get install -y -q
 

@@ -54,7 +54,7 @@ def synthetic_600():
     std = np.array([0.2, 0.002, 0.002, 0.002, 0.01, 0.05, 0.1])
     data, _ = mlid.simulate(truth, t, u, std, seed=11)
     th = truth.theta.copy()
-    idx = np.flatnonzero(truth.free_mask)
+    idx = truth.free_indices()
     th[idx] *= np.where(np.arange(idx.size) % 2, 1.3, 0.7)   # start 30% off
     return truth, truth.with_theta(th), data
 
@@ -73,7 +73,7 @@ def main():
     report("C-8, 301 samples, 5 parameters", c8_start(), c8, 50)
     truth, start, data = synthetic_600()
     wall, res = report("synthetic 4x7, 600 samples, 11 parameters", start, data, 50)
-    z = (res.estimate - truth.theta[truth.free_mask == 1]) / res.sigma
+    z = (res.estimate - truth.theta[truth.free_indices()]) / res.sigma
     print(f"  max |estimate - truth| / sigma = {np.max(np.abs(z)):.2f}")
     print(f"  target < 20 ms: {'met' if wall < 0.020 else 'NOT met'}")
 

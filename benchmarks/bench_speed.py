@@ -178,7 +178,7 @@ def hfb320():
     data = case.record()
     opts = case.options()
     model = case.model
-    mask = model.free_mask.astype(bool)
+    mask = model.free_indices()               # in the order of res.estimate
     start = model.theta[mask].copy()
 
     def outputs(p):
@@ -214,7 +214,7 @@ def hfb320():
     (c_sim,) = interleaved_medians([lambda: outputs(start)], rounds=3, n=20,
                                    clock=time.process_time)
     dev = np.max(np.abs(p - res.estimate) / res.sigma)
-    print(f"(a) HFB-320 output error, {len(data.t)} samples, {mask.sum()} parameters, "
+    print(f"(a) HFB-320 output error, {len(data.t)} samples, {mask.size} parameters, "
           f"{res.iterations} iterations (medians of 3 interleaved rounds):")
     print(f"  mlid.fit {1e3 * t_mlid:.2f} ms; scipy least_squares (relaxed weights) "
           f"{1e3 * t_scipy:.0f} ms ({calls[0]} least_squares calls, {calls[1]} simulations); "

@@ -102,7 +102,7 @@ def main():
     order = [res.names.index(n) for n in DERIVS] + [res.names.index("a (gust)"),
                                                     res.names.index("q (gust)")] \
         + [res.names.index(f"R_{o}") for o in ["p", "r", "beta", "phi", "ay"]]
-    x0 = start.theta[start.free_mask == 1][order]
+    x0 = start.theta[start.free_indices()][order]
     scale = np.where(np.abs(x0) > 0, np.abs(x0), 1e-2)
     mod = M2F3(data, scale)
     assert abs(mod.loglike(res.estimate[order] / scale) - llf_mlid) < 1e-8 * abs(llf_mlid), \

@@ -167,7 +167,7 @@ def test_output_error_fails_where_filter_error_succeeds():
     fe = mlid.fit(truth, data, method="filter_error")
     tr = truth.theta[truth.with_free(BODY).free_indices()]
     z_oe = np.abs((oe.estimate - tr) / oe.sigma)
-    body = [fe.names.index(n) for n in BODY]          # results come in theta order
+    body = [fe.names.index(n) for n in BODY]          # by name: BODY's order in fe
     z_fe = np.abs((fe.estimate[body] - tr) / fe.sigma[body])
     assert np.max(z_oe) > 3 and np.max(z_fe) < 3, (z_oe, z_fe)
 

@@ -141,7 +141,7 @@ def test_model_response_against_numpy_with_feedback_and_delays():
 def test_model_response_derivatives_against_finite_differences():
     m = _feedback_model()
     f = np.array([0.05, 0.4, 2.0, 9.0])
-    free = m.free_indices()                  # theta order, as the derivatives
+    free = m.free_indices()                  # the order of free, as the derivatives
     terms = m.tie_terms()
     for i, j in ((0, 1), (1, 2)):
         r = mlid.model_response(m, f, i, j)

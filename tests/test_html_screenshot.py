@@ -34,7 +34,7 @@ PROBE = """<script>window.addEventListener("load", () => {
 
 
 def _chromium(tmp_path, *args):
-    return subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu",
+    return subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
                            "--hide-scrollbars", f"--user-data-dir={tmp_path / 'profile'}",
                            *args], capture_output=True, text=True, timeout=300)
 
@@ -61,7 +61,7 @@ def test_the_screenshot_is_the_page_with_its_figures(report, tmp_path):
     rgb = np.round(img * 255).astype(int)
     assert rgb.std() > 20                                   # not a uniform image
     # the page ends inside the window (all of it is in the shot), and is as
-    # tall as a page of six figures
+    # tall as a page of eight figures
     ink = np.flatnonzero((rgb < 250).any(axis=(1, 2)))
     assert 3000 < ink[-1] < HEIGHT - 200, ink[-1]
 

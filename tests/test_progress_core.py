@@ -145,7 +145,9 @@ def test_mlid_batch_prints_a_percentage_line_on_a_terminal_only(tmp_path):
     argv = [str(BIN / "mlid-batch"), deck.name]
     quiet = subprocess.run(argv, cwd=tmp_path, capture_output=True, env=env_with(OMP_NUM_THREADS=1))
     assert quiet.returncode == 0 and quiet.stderr == b""        # redirected: nothing
-    rc, out, term = under_pty(argv, tmp_path, env_with(OMP_NUM_THREADS=2))
+    # told from the first run on, however fast the machine (not after half a second)
+    rc, out, term = under_pty(argv, tmp_path, env_with(OMP_NUM_THREADS=2,
+                                                       MLID_PROGRESS_QUIET_MS="0"))
     assert rc == 0
     assert out == quiet.stdout                # the same report, on two threads and with the line
     lines = re.findall(rb"\r monte carlo (\d+)%", term)

@@ -62,8 +62,9 @@ def test_a_named_array_stays_a_numpy_array(res):
     assert type(est[1:3]) is np.ndarray                    # a slice: entries no longer the named
     assert type(np.concatenate([est, est])) is np.ndarray
     assert est.tolist() == plain.tolist() and json.dumps(est.tolist())
+    assert "M_q" in est and "N_r" not in est and plain[0] in est     # names, and values
     # element by element with the same names keeps them: an error by name
-    truth = NamedArray(c8_truth().theta[c8_start().free_mask == 1], res.names)
+    truth = NamedArray(c8_truth().theta[c8_start().free_indices()], res.names)
     dev = (est - truth) / res.sigma
     assert dev["M_q"] == pytest.approx((plain[0] - truth[0]) / res.sigma[0], rel=1e-14)
     # a derived array refuses a name in one line, not silently

@@ -184,3 +184,8 @@ def test_latex_units_are_siunitx_powers(unit, tex):
     """Issue 42: the LaTeX table printed 1/s2 for s^-2."""
     from mlid.estimate.table import latex_unit
     assert latex_unit(unit) == tex
+
+
+def test_latex_escape_keeps_a_cell_on_one_line():
+    from mlid.estimate.table import latex_escape
+    assert latex_escape("a_b & 50%\nnext") == r"a\_b \& 50\% next"

@@ -7,7 +7,7 @@
 !> explicit-shape arrays of C kinds, a status code and a message out.
 !>   mkind, nx, nu, ny, nw   model kind (mlid_model_factory), sizes, noise inputs
 !>   theta(nth)              all parameters [p, x0, bias, q, r, s] (mlid_models)
-!>   isfree(nth)             1 where the parameter is estimated, else 0
+!>   isfree(nth)             a free parameter's place in the order of free (1, 2, ...), 0 fixed
 !>   ntie, mtie, tie_to, tie_from, tie_scale (mtie >= max(ntie, 1)), tie_offset(nth)
 !>                           affine ties: theta(to) := offset(to) + sum scale*theta(from)
 !>   iconst, rconst          model constants (unused by the linear model)

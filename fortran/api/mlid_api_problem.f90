@@ -34,8 +34,9 @@ contains
     s%problem%rconst = rconst
   end subroutine mlid_set_model
 
-  !> The parameters theta0 (mlid_models' layout), which are free (1) and
-  !> their affine ties (ntie terms; mlid_api_deck's comment).
+  !> The parameters theta0 (mlid_models' layout), which are free (isfree:
+  !> each one's place in the order of free, 0 fixed) and their affine ties
+  !> (ntie terms; mlid_api_deck's comment).
   subroutine mlid_set_params(h, nth, theta0, isfree, ntie, mtie, tie_to, tie_from, tie_scale, &
                              tie_offset, status, msg)
     integer(c_int64_t), intent(in) :: h

@@ -27,11 +27,20 @@ module mlid_batch_progress
 
 contains
 
-  !> Whether stderr is a terminal; if so, p tells the line there.
+  !> Whether stderr is a terminal; if so, p tells the line there, from
+  !> MLID_PROGRESS_QUIET_MS of work on when that is set (0: at once), else
+  !> from the core's QUIET_MS.
   logical function terminal_progress(p)
     type(progress_t), intent(inout) :: p
+    character(len=16) :: quiet
+    integer :: n, ios, ms
     terminal_progress = c_isatty(2_c_int) == 1
-    if (terminal_progress) p%tell => tell_line
+    if (.not. terminal_progress) return
+    p%tell => tell_line
+    call get_environment_variable('MLID_PROGRESS_QUIET_MS', quiet, n)
+    if (n == 0 .or. n > len(quiet)) return
+    read (quiet, *, iostat=ios) ms
+    if (ios == 0 .and. ms >= 0) p%quiet_ms = ms
   end function terminal_progress
 
   !> The line: a share of runs in per cent, or iterations against their

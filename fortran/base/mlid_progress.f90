@@ -46,6 +46,7 @@ module mlid_progress
     procedure(tell_t), pointer, nopass :: tell => null()
     integer(int64) :: next = 0   !< clock count from which tell is called again
     logical :: told = .false.    !< tell was called for this work
+    integer :: quiet_ms = QUIET_MS  !< work shorter than this is not told
   end type progress_t
 
 contains
@@ -67,7 +68,7 @@ contains
     p%active = .true.
     if (.not. associated(p%tell)) return
     call system_clock(now, rate)
-    p%next = now + QUIET_MS*rate/1000
+    p%next = now + int(p%quiet_ms, int64)*rate/1000
   end subroutine progress_start
 
   !> done steps of the work are done.
@@ -95,7 +96,9 @@ contains
   end subroutine progress_stop
 
   !> What p says now, as integers (exact, active: 1 or 0), for a reader
-  !> in another thread (each call reads memory afresh).
+  !> in another thread (each call reads memory afresh).  No lock: at the
+  !> instant one piece of work starts a reader may see some fields of the
+  !> last one; what it draws is a bar, redrawn a tenth of a second later.
   subroutine progress_read(p, label, done, total, exact, active, phase)
     type(progress_t), intent(in) :: p
     character(len=*), intent(out) :: label

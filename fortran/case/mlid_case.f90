@@ -52,7 +52,7 @@ module mlid_case
     type(tie_t) :: tie                        !< affine ties (mlid_params)
     integer :: use_prior = 0, use_bounds = 0
     real(wp), allocatable :: prior(:), pweight(:, :), lower(:), upper(:)  !< prior(nth) etc.
-    character(len=NAMELEN), allocatable :: labels(:)  !< per free parameter, theta order
+    character(len=NAMELEN), allocatable :: labels(:)  !< per free parameter, in the order of free
     character(len=NAMELEN), allocatable :: input_names(:), output_names(:)  !< channels, if named
     real(wp), allocatable :: initial_states(:)  !< nx per manoeuvre, if given (else x0 for each)
     integer :: iopt(NOPT) = 0

@@ -24,7 +24,7 @@ module mlid_job_report
     character(len=512) :: out = ''
   end type design_summary_t
 
-  !> The statistics of a Monte Carlo (free parameters, theta order).
+  !> The statistics of a Monte Carlo (free parameters, in the order of free).
   type :: mc_summary_t
     character(len=32), allocatable :: labels(:)
     real(wp), allocatable :: truth(:), start(:), mean(:), sample_sigma(:), cr_sigma(:)

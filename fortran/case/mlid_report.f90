@@ -18,7 +18,7 @@ module mlid_report
   character, parameter :: NL = achar(10)
   integer, parameter :: LABEL_WIDTH = 16   !< the table's column of parameter labels
 
-  !> What a report says of one fit (free parameters only, theta order).
+  !> What a report says of one fit (free parameters only, in the order of free).
   type :: fit_summary_t
     character(len=32), allocatable :: labels(:)
     real(wp), allocatable :: start(:), est(:), sig(:), sigc(:), cov(:, :), eigval(:), eigvec(:, :)

@@ -2,6 +2,7 @@
 nothing otherwise.  Every function that takes ``progress=`` asks bar() or
 core_bar() here, so when a bar shows is decided in one place."""
 
+import os
 import sys
 import threading
 import time
@@ -104,6 +105,15 @@ READ_EVERY_S = 0.1
 QUIET_S = 0.5
 
 
+def _quiet_s():
+    """QUIET_S, or MLID_PROGRESS_QUIET_MS when it is set (as mlid-batch reads it)."""
+    try:
+        ms = int(os.environ["MLID_PROGRESS_QUIET_MS"])
+    except (KeyError, ValueError):
+        return QUIET_S
+    return ms / 1000 if ms >= 0 else QUIET_S
+
+
 class core_bar:
     """A bar for the core's own count of a call's long work (a Monte
     Carlo's runs, a fit's Newton iterations: fortran/base/mlid_progress.f90),
@@ -137,14 +147,14 @@ class core_bar:
         return False
 
     def _follow(self):
-        drawn, phase, since = None, None, 0.0
+        drawn, phase, since, quiet = None, None, 0.0, _quiet_s()
         while not self._stop.wait(READ_EVERY_S):
             label, done, total, exact, active, now = self.read()
             if now != phase or not active:        # new work, or none: the last bar goes
                 if drawn is not None:
                     drawn.close()
                 drawn, phase, since = None, now, time.monotonic()
-            if active and drawn is None and time.monotonic() - since >= QUIET_S:
+            if active and drawn is None and time.monotonic() - since >= quiet:
                 drawn = self._bar(label, done, total, exact)
             elif drawn is not None and done > drawn.n:
                 drawn.update(done - drawn.n)
@@ -154,7 +164,8 @@ class core_bar:
     def _bar(self, label, done, total, exact):
         from tqdm import tqdm
         if exact:
-            return tqdm(total=total, initial=done, desc=label, unit="run", file=self.stream,
+            unit = "run" if label.startswith("monte carlo") else "%"     # a record's share
+            return tqdm(total=total, initial=done, desc=label, unit=unit, file=self.stream,
                         leave=False, dynamic_ncols=True, mininterval=0)
         # a fit's iterations: stops when it converges, so the budget is no end
         return tqdm(initial=done, desc=f"{label} (at most {total} iterations)", unit="it",

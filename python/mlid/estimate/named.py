@@ -102,6 +102,12 @@ class NamedArray(np.ndarray):
     def __getitem__(self, key):
         return self.view(np.ndarray)[self._positions(key)]
 
+    def __contains__(self, key):
+        """A name is in it when it names an entry; a number, when it equals one."""
+        if isinstance(key, str):
+            return self._names is not None and key in self._names
+        return super().__contains__(key)
+
     def __setitem__(self, key, value):
         self.view(np.ndarray)[self._positions(key)] = _plain(value)
 

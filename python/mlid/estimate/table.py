@@ -39,8 +39,10 @@ GREEK = ("alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "
 
 def latex_escape(text):
     """text with LaTeX's special characters escaped, as pandas escapes a
-    table's text (Styler.format(escape='latex'))."""
-    return _latex_tabular({"": [str(text)]}, "l", header=False).split("\n")[1][:-3]
+    table's text (Styler.format(escape='latex')); a line break is a blank
+    (a table cell is one line)."""
+    one_line = " ".join(str(text).splitlines())
+    return _latex_tabular({"": [one_line]}, "l", header=False).split("\n")[1][:-3]
 
 
 def _latex_tabular(columns, align, header=True, verbatim=None):

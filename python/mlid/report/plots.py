@@ -530,7 +530,8 @@ def _under(title, draw):
     def drawn(result, path):
         fig = draw(result)
         if title:
-            fig.suptitle(f"{title}\n{fig._suptitle.get_text()}", fontsize=10)
+            own = fig.get_suptitle()
+            fig.suptitle(f"{title}\n{own}" if own else title, fontsize=10)
         return _finish(fig, path)
     return drawn
 

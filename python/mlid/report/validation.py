@@ -133,6 +133,7 @@ class Validation(TableView):
         """
         return plots.validation(self, path)
 
+
 def _prediction_model(result):
     """The identified model with only its own blocks free (those the
     identification fitted), no ties and no noise."""
