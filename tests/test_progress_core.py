@@ -26,7 +26,7 @@ import pytest
 import mlid
 import mlid.progress
 from conftest import BIN, REPO
-from mlid._bridge import Handle, api
+from mlid._bridge import Handle, api, progress_of
 from mlid.cli import deck as deck_module
 
 #: The C-8 loop's design case and its Monte Carlo (runs set per test).
@@ -93,7 +93,7 @@ def counted_run(case):
     counter = Handle()
     status, msg = api.mlid_deck_case_run(case._handle.value, case.index, counter.value)
     kept = deck_module.values(case._handle, case.index, "run")
-    label, done, total, exact, active, phase = deck_module._progress_of(counter)
+    label, done, total, exact, active, phase = progress_of(counter)
     return int(status), kept["report"], (label, done, total, exact, active), phase
 
 
@@ -118,6 +118,28 @@ def test_the_core_counts_monte_carlo_runs_and_fit_iterations(tmp_path):
     assert (label, exact, active) == ("fit", 0, 0)
     assert done == result.iterations > 0
     assert total == c8.options()["max_iter"] == 20
+
+
+def test_a_fit_from_python_draws_its_iterations(c8_data, monkeypatch, capfd):
+    """mlid.fit(progress=stream) draws the core's count of its Newton
+    iterations; asked for from the first step (MLID_PROGRESS_QUIET_MS=0), a
+    fit that ends before the bar's thread reads still shows it; the same fit
+    with or without it; nothing on a stderr that is no terminal."""
+    from conftest import c8_start
+    monkeypatch.setenv("MLID_PROGRESS_QUIET_MS", "0")
+    data = c8_data
+    plain = mlid.fit(c8_start(), data, progress=False)
+    stream = io.StringIO()
+    shown = mlid.fit(c8_start(), data, progress=stream)
+    assert shown.estimate.tolist() == plain.estimate.tolist()
+    drawn = stream.getvalue()
+    # tqdm's count without a total: 'fit (at most 30 iterations): 5it' (max_iter's default)
+    budget = mlid.default_options()["max_iter"]
+    counts = [int(n) for n in re.findall(rf"fit \(at most {budget} iterations\): (\d+)it", drawn)]
+    assert counts and max(counts) == plain.iterations, drawn[-300:]
+    capfd.readouterr()
+    mlid.fit(c8_start(), data)                # stderr is no terminal here: nothing
+    assert capfd.readouterr().err == ""
 
 
 def test_a_case_bar_in_python_draws_the_count(tmp_path, monkeypatch, capfd):

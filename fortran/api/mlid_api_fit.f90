@@ -23,6 +23,7 @@ module mlid_api_fit
                          validation_json
   use mlid_validate, only: prediction_stats
   use mlid_handles, only: session_t, handle_session, call_session
+  use mlid_progress, only: progress_t
   use mlid_named, only: named_t, value_t, VALUE_REAL
   use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS, &
                           PART_EXTRAS
@@ -177,12 +178,14 @@ contains
   !> message.  Several manoeuvres: the record holds them one after the
   !> other, segment k from sample segstart(k) (segstart(1) = 1), with an
   !> initial state and a bias vector each in theta (the x0 and bias blocks
-  !> nseg times as long).
-  subroutine mlid_fit(h, status, msg)
-    integer(c_int64_t), intent(in) :: h
+  !> nseg times as long).  p: a handle whose progress counts the Newton
+  !> iterations while the fit runs (mlid_api_deck's mlid_progress_get), or 0.
+  subroutine mlid_fit(h, p, status, msg)
+    integer(c_int64_t), intent(in) :: h, p
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
-    type(session_t), pointer :: s
+    type(session_t), pointer :: s, ps
+    type(progress_t), pointer :: counter
     type(fit_result_t) :: res
     type(param_map_t) :: pm
     type(options_t) :: opt
@@ -190,6 +193,12 @@ contains
 
     call call_session(h, s, status, msg)
     if (status /= MLID_OK) return
+    counter => null()
+    if (p /= 0) then
+      call handle_session(p, ps, status, msg)
+      if (status /= MLID_OK) return
+      counter => ps%progress
+    end if
     associate (p => s%problem)
       call problem_needs(p, [PART_MODEL, PART_PARAMS, PART_RECORD, PART_OPTIONS], status, msg)
       if (status /= MLID_OK) return
@@ -202,10 +211,11 @@ contains
         p%upper = p%prior
       end if
       p%has(PART_EXTRAS) = .false.         ! the extras are the next fit's alone
+      ! counter null: no progress argument (a disassociated pointer is an absent optional)
       call fit_solve(p%mkind, p%nx, p%nu, p%ny, p%nw, p%theta, p%isfree, p%tie, p%iconst, &
                      p%rconst, p%t, p%u, p%y, p%segstart, p%iopt, p%ropt, count(p%isfree > 0), &
                      p%use_prior, p%prior, p%pweight, p%use_bounds, p%lower, p%upper, res, pm, &
-                     opt, bad, status, msg)
+                     opt, bad, status, msg, counter)
       ! out of memory or interrupted: nothing to view (a long record's view
       ! needs the memory that was missing), the status says it
       if (status == MLID_ERR_MEMORY .or. status == MLID_ERR_INTERRUPTED) return

@@ -240,3 +240,25 @@ def _layout(key, kinds, shapes, raw, m):
         _LAYOUTS.clear()
     got = _LAYOUTS[key] = ((scalar_names, ints), scalars, arrays, texts)
     return got
+
+
+def counted(progress):
+    """A handle for the core to count a call's long work in (None when no
+    bar is wanted: ``progress`` as mlid.progress.bar takes it) and the
+    mlid.progress.core_bar that draws its count while the call runs; the
+    call takes ``counter_id(handle)``."""
+    from .progress import core_bar, shown_on
+    counter = Handle() if shown_on(progress) else None
+    return counter, core_bar(progress if counter else False, lambda: progress_of(counter))
+
+
+def counter_id(counter):
+    """The handle a call counts its progress in, 0 for none."""
+    return counter.value if counter is not None else 0
+
+
+def progress_of(counter):
+    """What the core's count in handle counter says (mlid_progress_get):
+    label, done, total, exact, active, phase."""
+    label, *numbers = api.mlid_progress_get(counter.value)
+    return (text(label), *map(int, numbers))

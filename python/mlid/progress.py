@@ -147,7 +147,7 @@ class core_bar:
         return False
 
     def _follow(self):
-        drawn, phase, since, quiet = None, None, 0.0, _quiet_s()
+        drawn, phase, since, quiet, shown = None, None, 0.0, _quiet_s(), set()
         while not self._stop.wait(READ_EVERY_S):
             label, done, total, exact, active, now = self.read()
             if now != phase or not active:        # new work, or none: the last bar goes
@@ -156,10 +156,16 @@ class core_bar:
                 drawn, phase, since = None, now, time.monotonic()
             if active and drawn is None and time.monotonic() - since >= quiet:
                 drawn = self._bar(label, done, total, exact)
+                shown.add(now)
             elif drawn is not None and done > drawn.n:
                 drawn.update(done - drawn.n)
         if drawn is not None:
             drawn.close()
+        # asked for from the first step (quiet 0): work that ended between two
+        # readings is drawn as it ended, so a short call shows its bar too
+        label, done, total, exact, _, now = self.read()
+        if quiet == 0 and now > 0 and now not in shown and done > 0:
+            self._bar(label, done, total, exact).close()
 
     def _bar(self, label, done, total, exact):
         from tqdm import tqdm
@@ -170,3 +176,4 @@ class core_bar:
         # a fit's iterations: stops when it converges, so the budget is no end
         return tqdm(initial=done, desc=f"{label} (at most {total} iterations)", unit="it",
                     file=self.stream, leave=False, dynamic_ncols=True, mininterval=0)
+

@@ -7,13 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .._bridge import Handle, api as _api, lines as _lines, text as _text, values
+from .._bridge import (Handle, api as _api, counted, counter_id, lines as _lines,
+                       text as _text, values)
 from ..data.flight_data import FlightData, read_status
 from ..errors import MlidError, check_status, guarded, status_of
 from ..estimate.fit import fit_result
 from ..estimate.options import options_of_text
 from ..model.models import free_entries, from_core
-from ..progress import core_bar, shown_on
 from ..report.validation import validation_of
 
 
@@ -194,10 +194,10 @@ def run_case(case, progress=None):
     terminal): a bar for the case's long work, counted by the core in a
     handle of its own."""
     case.warnings = []
-    counter = Handle() if shown_on(progress) else None
-    with core_bar(progress if counter else False, lambda: _progress_of(counter)):
+    counter, bar = counted(progress)
+    with bar:
         status, msg = _api.mlid_deck_case_run(case._handle.value, case.index,
-                                              counter.value if counter else 0)
+                                              counter_id(counter))
     kept = values(case._handle, case.index, "run")
     if "report" not in kept:            # refused before it ran
         check_status(status, msg)
@@ -214,13 +214,6 @@ def run_case(case, progress=None):
             exc.result, exc.output = result, out
             raise
     return out, result
-
-
-def _progress_of(counter):
-    """What the core's count in handle counter says (mlid_progress_get):
-    label, done, total, exact, active, phase."""
-    label, *numbers = _api.mlid_progress_get(counter.value)
-    return (_text(label), *map(int, numbers))
 
 
 def _fit_of(case, kept):

@@ -10,7 +10,8 @@ import warnings
 
 import numpy as np
 
-from .._bridge import api as _api, call_handle as _call_handle, text as _text, values as _values
+from .._bridge import (api as _api, call_handle as _call_handle, counted, counter_id,
+                       text as _text, values as _values)
 from ..errors import InputError, MlidWarning, check_status, guarded
 from ..model.calls import _check, _check_data, _check_model, _manoeuvres, _record, _set_problem
 from .evaluate import FREQUENCY_METHODS, _frequency_call
@@ -83,7 +84,7 @@ def _extras(params, prior, prior_weight, bounds):
 
 @guarded
 def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=None,
-        biases=None, **options):
+        biases=None, progress=None, **options):
     """Maximum-likelihood fit of the model's free parameters.
 
     Modified Newton-Raphson (report §4.6) on the negative log-likelihood,
@@ -183,6 +184,11 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
             a time while a likelihood-ratio test at 5% accepts it.
         prior_decay : float
             The a priori weights are multiplied by this each iteration.
+    progress : None, bool or stream
+        A bar of the Newton iterations (against max_iter) for a fit that
+        runs over half a second, counted by the core: None shows it when
+        stderr is a terminal, False never, a stream forces it there
+        (``mlid.progress.bar`` says more).
 
     Returns
     -------
@@ -250,8 +256,10 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     _set_problem(h, model, params, setup["tuy"], starts, iopt, ropt)
     if prior is not None or prior_weight is not None or bounds:   # else none (the core's)
         _check(_api.mlid_set_extras(h.value, **_extras(params, prior, prior_weight, bounds)))
+    counter, bar = counted(progress)
     start = time.perf_counter()
-    status, msg = _api.mlid_fit(h.value)
+    with bar:
+        status, msg = _api.mlid_fit(h.value, counter_id(counter))
     wall_time = time.perf_counter() - start      # the core call alone
     out = _values(h, 0, "call")
     if "status" not in out:             # refused before it ran: nothing to read
