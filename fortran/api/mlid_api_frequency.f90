@@ -19,6 +19,8 @@ module mlid_api_frequency
   use mlid_setup, only: problem_setup
   use mlid_sampling, only: record_common_step
   use mlid_fourier, only: fourier_transform
+  use mlid_smooth, only: smooth_fourier, smooth_uniform_check
+  use mlid_text, only: itoa
   use mlid_frequency, only: freq_record, freq_likelihood, freq_grid
   use mlid_recursive_fd, only: recursive_fdee
   use mlid_freq_response, only: welch_spectra, response_from_spectra, model_response, &
@@ -32,7 +34,7 @@ module mlid_api_frequency
   private
   public :: mlid_fourier_transform, mlid_uniform_step, mlid_recursive_fdee, mlid_freq_evaluate, &
             mlid_freq_response, mlid_model_freq_response, mlid_tf_fit, mlid_tf_residuals, &
-            mlid_tf_response
+            mlid_tf_response, mlid_smooth_channel
 
 contains
 
@@ -64,6 +66,38 @@ contains
       msg = ''
     end if
   end subroutine mlid_fourier_transform
+
+  !> The global Fourier smoother (mlid_smooth) of one channel x(n) at the
+  !> times t(n) (uniform): smoothed xs, derivative xd, cut-off fc [Hz]
+  !> (the rule's, or fc_given's when > 0).
+  subroutine mlid_smooth_channel(n, t, x, fc_given, xs, xd, fc, status, msg)
+    integer(c_int), intent(in) :: n
+    real(c_double), intent(in) :: t(n), x(n), fc_given
+    real(c_double), intent(out) :: xs(n), xd(n), fc
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    real(wp) :: dt
+    integer :: at, kc
+    character(len=256) :: why
+    xs = 0.0_wp
+    xd = 0.0_wp
+    fc = 0.0_wp
+    status = MLID_ERR_INPUT
+    if (.not. (all(ieee_is_finite(x)) .and. all(ieee_is_finite(t)))) then
+      msg = 'times and samples must be finite'
+      return
+    end if
+    call smooth_uniform_check(t, dt, at, why)
+    if (at > 0) then
+      msg = 'sample '//itoa(at)//': '//trim(why)
+      return
+    end if
+    if (.not. (fc_given >= 0.0_wp .and. ieee_is_finite(fc_given))) then
+      msg = 'the cut-off must be a frequency > 0 in Hz'
+      return
+    end if
+    call smooth_fourier(x, dt, xs, xd, kc, fc, status, msg, fc_given)
+  end subroutine mlid_smooth_channel
 
   !> The one sample step dt of a record whose nseg manoeuvres start at
   !> samples segstart: each uniformly sampled and all at one step

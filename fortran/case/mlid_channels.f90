@@ -32,6 +32,7 @@ module mlid_channels
   use mlid_units, only: unit_to_core, units_of, UNITLEN
   use mlid_tablefile, only: tablefile_read
   use mlid_progress, only: progress_t
+  use mlid_smooth, only: smooth_fourier, smooth_uniform_check
   implicit none
   private
   public :: channels_t, channel_set_t, channels_spec, channels_join, channels_read, &
@@ -80,6 +81,9 @@ module mlid_channels
     real(wp), allocatable :: factor(:), offset(:), dscale(:), doffset(:)
     logical, allocatable :: need(:)
     type(expr_t), allocatable :: expr(:)
+    !> per derived channel: 0 an expression, 1 smooth(src), 2 deriv(src)
+    integer, allocatable :: op(:), src(:)
+    real(wp), allocatable :: fc(:)           !< smooth/deriv's cut-off [Hz], 0: the rule's
     integer :: itime = 0, nin = 0
     integer, allocatable :: pick(:)          !< inputs, then outputs
   end type plan_t
@@ -399,7 +403,10 @@ contains
     plan%ncol = ncol
     allocate (plan%name(ncol + nder), plan%unit(ncol + nder), plan%declared(ncol + nder), &
               plan%factor(ncol + nder), plan%offset(ncol + nder), plan%need(ncol + nder), &
-              plan%expr(nder))
+              plan%expr(nder), plan%op(nder), plan%src(nder), plan%fc(nder))
+    plan%fc = 0.0_wp
+    plan%op = 0
+    plan%src = 0
     plan%name(1:ncol) = names
     plan%declared(1:ncol) = units
     plan%need = .false.
@@ -563,12 +570,19 @@ contains
       msg = 'derived: a channel named '//trim(plan%name(j))//' exists already'
       return
     end if
-    call expr_compile(rhs, plan%name(1:j - 1), plan%expr(j - plan%ncol), status, msg)
+    call smoothing_op(rhs, j, plan, status, msg)
     if (status /= MLID_OK) then
       msg = 'derived '//trim(plan%name(j))//': '//trim(msg)
       return
     end if
-    uses = expr_uses(plan%expr(j - plan%ncol))
+    if (plan%op(j - plan%ncol) == 0) then
+      call expr_compile(rhs, plan%name(1:j - 1), plan%expr(j - plan%ncol), status, msg)
+      if (status /= MLID_OK) then
+        msg = 'derived '//trim(plan%name(j))//': '//trim(msg)
+        return
+      end if
+    end if
+    uses = uses_of(plan, j)
     do k = 1, size(uses)
       call mark(plan, uses(k))
     end do
@@ -582,7 +596,104 @@ contains
       plan%declared(j) = plan%declared(uses(1))
     if (len_trim(plan%unit(j)) > 0 .and. len_trim(plan%declared(j)) > 0) &
       plan%factor(j) = plan%factor(uses(1))
+    if (plan%op(j - plan%ncol) == 2) then    ! a rate: per second, shown in the core's unit
+      plan%declared(j) = ''
+      plan%factor(j) = 1.0_wp
+      if (len_trim(plan%unit(j)) > 0) plan%unit(j) = trim(plan%unit(j))//'/s'
+    end if
   end subroutine derive
+
+  !> 'smooth(NAME)' or 'deriv(NAME)', or with a cut-off in Hz 'deriv(NAME,
+  !> 2.5)' (mlid_smooth, over the file's whole record as read) sets derived channel j's op and source; any other use
+  !> of smooth( or deriv( (inside an expression, or of an expression) is
+  !> refused; anything else is an expression (op 0).
+  subroutine smoothing_op(rhs, j, plan, status, msg)
+    character(len=*), intent(in) :: rhs
+    integer, intent(in) :: j
+    type(plan_t), intent(inout) :: plan
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=:), allocatable :: text, arg
+    integer :: op, open, i, comma, ios
+    real(wp) :: fc
+    status = MLID_OK
+    msg = ''
+    text = to_lower(trim(adjustl(rhs)))
+    op = 0
+    if (index(text, 'smooth(') == 1) op = 1
+    if (index(text, 'deriv(') == 1) op = 2
+    if (op == 0) then
+      if (uses_call(text, 'smooth(') .or. uses_call(text, 'deriv(')) then
+        status = MLID_ERR_INPUT
+        msg = 'smooth() and deriv() make a channel of their own: write NAME = smooth(CHANNEL)'// &
+              ' or NAME = deriv(CHANNEL) on a line of its own'
+      end if
+      return
+    end if
+    status = MLID_ERR_INPUT
+    open = index(text, '(')
+    if (text(len(text):) /= ')') then
+      msg = 'smooth() and deriv() take one channel''s name, as smooth(p) or deriv(p, 2.5)'
+      return
+    end if
+    arg = trim(adjustl(rhs))
+    arg = arg(open + 1:len(arg) - 1)
+    comma = index(arg, ',')
+    if (comma > 0) then                      ! NAME, cut-off in Hz
+      read (arg(comma + 1:), *, iostat=ios) fc
+      if (ios /= 0 .or. .not. fc > 0.0_wp .or. fc > huge(fc)) then
+        msg = 'the cut-off in '''//trim(adjustl(rhs))//''' must be a frequency > 0 in Hz'
+        return
+      end if
+      plan%fc(j - plan%ncol) = fc
+      arg = arg(1:comma - 1)
+    end if
+    arg = trim(adjustl(arg))
+    if (len(arg) == 0 .or. verify(arg, 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_') &
+        /= 0) then
+      msg = 'smooth() and deriv() take one channel''s name (and a cut-off in Hz), not '''// &
+            arg//''' (define an expression as a derived channel first)'
+      return
+    end if
+    call find(plan, arg, j - 1, i, msg)
+    if (i == 0) return
+    plan%op(j - plan%ncol) = op
+    plan%src(j - plan%ncol) = i
+    status = MLID_OK
+  end subroutine smoothing_op
+
+  !> Whether text calls the function whose 'name(' is given (not as the tail of a longer name).
+  logical function uses_call(text, name)
+    character(len=*), intent(in) :: text, name
+    integer :: at, from
+    character :: before
+    uses_call = .false.
+    from = 1
+    do
+      at = index(text(from:), name)
+      if (at == 0) return
+      at = at + from - 1
+      before = ' '
+      if (at > 1) before = text(at - 1:at - 1)
+      if (verify(before, 'abcdefghijklmnopqrstuvwxyz0123456789_') /= 0) then
+        uses_call = .true.
+        return
+      end if
+      from = at + 1
+    end do
+  end function uses_call
+
+  !> The channels derived channel i (> ncol) is computed from.
+  function uses_of(plan, i) result(uses)
+    type(plan_t), intent(in) :: plan
+    integer, intent(in) :: i
+    integer, allocatable :: uses(:)
+    if (plan%op(i - plan%ncol) > 0) then
+      uses = [plan%src(i - plan%ncol)]
+    else
+      uses = expr_uses(plan%expr(i - plan%ncol))
+    end if
+  end function uses_of
 
   !> A channel needed, and the columns a derived channel is computed from.
   recursive subroutine mark(plan, i)
@@ -593,7 +704,7 @@ contains
     if (plan%need(i)) return
     plan%need(i) = .true.
     if (i <= plan%ncol) return
-    uses = expr_uses(plan%expr(i - plan%ncol))
+    uses = uses_of(plan, i)
     do k = 1, size(uses)
       call mark(plan, uses(k))
     end do
@@ -703,7 +814,23 @@ contains
         ch(:, k) = plan%factor(k)*ch(:, k) + plan%offset(k)
     end do
     do k = plan%ncol + 1, size(plan%name)
-      call expr_eval(plan%expr(k - plan%ncol), ch(:, 1:k - 1), ch(:, k))
+      if (plan%op(k - plan%ncol) > 0) then
+        if (.not. plan%need(k)) cycle
+        call smoothed(plan, k, ch, dt, at, status, msg)
+        if (status /= MLID_OK) then
+          if (at > 0) then
+            msg = where//' '//lineword//' '//itoa(line(at))//': derived channel '// &
+                  trim(plan%name(k))//': '//trim(msg)
+          else
+            msg = where//': derived channel '//trim(plan%name(k))//': '//trim(msg)
+          end if
+          status = MLID_ERR_INPUT
+          return
+        end if
+        status = MLID_ERR_INPUT
+      else
+        call expr_eval(plan%expr(k - plan%ncol), ch(:, 1:k - 1), ch(:, k))
+      end if
       if (.not. plan%need(k) .or. all(ieee_is_finite(ch(:, k)))) cycle
       r = findloc(ieee_is_finite(ch(:, k)), .false., 1)
       msg = where//' '//lineword//' '//itoa(line(r))//': derived channel '// &
@@ -739,6 +866,43 @@ contains
     set%offset = plan%doffset(plan%pick)
     call radians_check(plan, set, where, msg)
   end subroutine take
+
+  !> Derived channel k = smooth or deriv of its source over the whole record
+  !> read, at the step dt when the deck rebuilds the time (dt > 0), else at
+  !> the time channel's, which must be uniform and computed before k.
+  subroutine smoothed(plan, k, ch, dt, at, status, msg)
+    type(plan_t), intent(in) :: plan
+    integer, intent(in) :: k
+    real(wp), intent(inout) :: ch(:, :)
+    real(wp), intent(in) :: dt
+    integer, intent(out) :: at               !< the sample a non-uniform step ends at, else 0
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: xs(:), xd(:)
+    real(wp) :: step, fc
+    integer :: kc
+    status = MLID_ERR_INPUT
+    at = 0
+    step = dt
+    if (step <= 0.0_wp) then
+      if (plan%itime >= k) then
+        msg = 'the time channel '//trim(plan%name(plan%itime))//' must be a column or a '// &
+              'derived channel defined before it'
+        return
+      end if
+      call smooth_uniform_check(ch(:, plan%itime), step, at, msg)
+      if (at > 0) return
+    end if
+    allocate (xs(size(ch, 1)), xd(size(ch, 1)))
+    call smooth_fourier(ch(:, plan%src(k - plan%ncol)), step, xs, xd, kc, fc, status, msg, &
+                        plan%fc(k - plan%ncol))
+    if (status /= MLID_OK) return
+    if (plan%op(k - plan%ncol) == 1) then
+      ch(:, k) = xs
+    else
+      ch(:, k) = xd
+    end if
+  end subroutine smoothed
 
   !> A channel declared in rad whose values go beyond 2 pi in magnitude
   !> most likely holds degrees: a warning (status stays OK) naming the one

@@ -39,6 +39,7 @@ from .estimate.evaluate import evaluate, frequency_evaluate
 from .estimate.fit import fit
 from .estimate.result import FitResult, whiteness
 from .frequency.fourier import fourier_transform, recursive_frequency_fit
+from .frequency.smoothing import smooth, deriv
 from .frequency.responses import (FrequencyResponse, TransferFunctionFit, record_response,
                                   model_response, fit_transfer_function)
 from .design.simulate import simulate
@@ -76,4 +77,4 @@ __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceErr
            "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation",
            "FrequencyResponse", "TransferFunctionFit", "record_response", "model_response",
            "fit_transfer_function", "fourier_transform", "frequency_evaluate",
-           "recursive_frequency_fit"]
+           "recursive_frequency_fit", "smooth", "deriv"]
