@@ -599,7 +599,12 @@ contains
     if (plan%op(j - plan%ncol) == 2) then    ! a rate: per second, shown in the core's unit
       plan%declared(j) = ''
       plan%factor(j) = 1.0_wp
-      if (len_trim(plan%unit(j)) > 0) plan%unit(j) = trim(plan%unit(j))//'/s'
+      if (index(plan%unit(j), '/s', back=.true.) == len_trim(plan%unit(j)) - 1 .and. &
+          len_trim(plan%unit(j)) > 2) then
+        plan%unit(j) = trim(plan%unit(j))//'2'      ! rad/s -> rad/s2, m/s -> m/s2
+      else if (len_trim(plan%unit(j)) > 0) then
+        plan%unit(j) = trim(plan%unit(j))//'/s'
+      end if
     end if
   end subroutine derive
 
