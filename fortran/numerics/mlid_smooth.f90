@@ -27,7 +27,8 @@
 !> length: its DFT is by the FFT when M is 2^a 3^b 5^c, else by
 !> Bluestein's chirp-z through one of such a length.
 module mlid_smooth
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_MEMORY, MLID_ERR_INTERRUPTED
+  use mlid_interrupt, only: interrupt_requested
   use mlid_text, only: seconds, itoa
   use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_smooth_length
   implicit none
@@ -60,6 +61,7 @@ contains
     real(wp), allocatable :: p(:), w(:)
     real(wp) :: slope, tk
     integer :: n, m, k, ist
+    logical :: ok(3)
 
     n = size(x)
     xs = 0.0_wp
@@ -78,6 +80,7 @@ contains
     m = 2*(n - 1)
     allocate (y(0:m - 1), yd(0:m - 1), p(0:n - 1), w(0:n - 1), stat=ist)
     if (ist /= 0) then
+      status = MLID_ERR_MEMORY
       msg = 'smoothing: out of memory'
       return
     end if
@@ -88,7 +91,7 @@ contains
     do k = 1, n - 2
       y(m - k) = -y(k)
     end do
-    call dft(y, .false.)
+    call dft(y, .false., ok(1))
     p = abs(y(0:n - 1))**2
     kc = cutoff(p)
     if (present(fc_given)) then
@@ -105,8 +108,18 @@ contains
       if (k < n - 1) yd(m - k) = cmplx(0.0_wp, -tk, wp)*y(m - k)
     end do
     yd(n - 1) = 0.0_wp                       ! Nyquist: its derivative has no sign
-    call dft(y, .true.)
-    call dft(yd, .true.)
+    call dft(y, .true., ok(2))
+    call dft(yd, .true., ok(3))
+    if (.not. all(ok)) then
+      status = MLID_ERR_MEMORY
+      msg = 'smoothing: out of memory'
+      return
+    end if
+    if (interrupt_requested()) then          ! a transform cut short (mlid_fft)
+      status = MLID_ERR_INTERRUPTED
+      msg = 'interrupted'
+      return
+    end if
     do k = 0, n - 1
       xs(k + 1) = real(y(k), wp)/m + x(1) + slope*k
       xd(k + 1) = real(yd(k), wp)/m + slope/dt
@@ -211,22 +224,27 @@ contains
   end subroutine sift
 
   !> z = DFT(z) (inverse: unnormalised, exp(+...)) of any length: the FFT
-  !> when the length is 2^a 3^b 5^c, else Bluestein's chirp-z.
-  subroutine dft(z, inverse)
+  !> when the length is 2^a 3^b 5^c, else Bluestein's chirp-z.  ok false
+  !> when its workspace did not fit in memory.
+  subroutine dft(z, inverse, ok)
     complex(wp), intent(inout) :: z(0:)
     logical, intent(in) :: inverse
+    logical, intent(out) :: ok
     type(fft_plan_t) :: plan
     complex(wp), allocatable :: a(:), b(:), c(:)
-    integer :: m, l, j
+    integer :: m, l, j, ist
     integer(kind=8) :: j2
     m = size(z)
+    ok = .true.
     if (inverse) z = conjg(z)
     if (fft_smooth_length(m) == m) then
       plan = fft_plan(m)
       call fft_forward(plan, z)
     else
       l = fft_smooth_length(2*m - 1)
-      allocate (a(0:l - 1), b(0:l - 1), c(0:m - 1))
+      allocate (a(0:l - 1), b(0:l - 1), c(0:m - 1), stat=ist)
+      ok = ist == 0
+      if (.not. ok) return
       do j = 0, m - 1                        ! c(j) = exp(-i pi j^2/m), j^2 taken mod 2m
         j2 = mod(int(j, 8)*j, 2_8*m)
         c(j) = cmplx(cos(PI*j2/m), -sin(PI*j2/m), wp)
