@@ -186,3 +186,57 @@ def test_bad_arguments_one_line(call, words):
         call()
     text = str(e.value)
     assert words in text and "\n" not in text
+
+
+DECK = """&case title = 'multisines', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 3, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3, 0.2, 0.1, 0.5, 0.5,  h = 1, 0, 0, 1 /
+&simulate out = 'ms.dat', t_end = 20.0, dt = 0.02, seed = 4, noise_std = 0.01, 0.01,
+    input_shape = 'multisine', amplitude = 1.0, 2.0, 0.5, f_min = 0.1, f_max = 1.5 /
+&case title = 'sweep prbs', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 3, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3, 0.2, 0.1, 0.5, 0.5,  h = 1, 0, 0, 1 /
+&simulate out = 'sw.dat', t_end = 20.0, dt = 0.02, input_shape = 'sweep', 'log_sweep', 'prbs',
+    amplitude = 1.0, 1.0, 1.0, f_min = 0.1, f_max = 1.5, pulse_width = 2.0, 2.0, 0.2,
+    prbs_order = 6 /
+&case title = 'bad band', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 3, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3, 0.2, 0.1, 0.5, 0.5,  h = 1, 0, 0, 1 /
+&simulate out = 'bad.dat', t_end = 20.0, dt = 0.02, input_shape = 'multisine',
+    amplitude = 1.0, 1.0, 1.0, f_min = 0.1, f_max = 0.12 /
+&case title = 'bad prbs', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 3, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3, 0.2, 0.1, 0.5, 0.5,  h = 1, 0, 0, 1 /
+&simulate out = 'bad2.dat', t_end = 20.0, dt = 0.02, input_shape = 'prbs', 'none', 'none',
+    amplitude = 1.0, 1.0, 1.0, pulse_width = 0.2, prbs_order = 25 /
+"""
+
+
+def test_deck_simulate_signals_both_front_ends(tmp_path):
+    """&simulate input_shape = 'multisine' / 'sweep' / 'log_sweep' / 'prbs': the same
+    report and records from both front ends, the records the Python API's signals,
+    and one line for each bad case."""
+    from conftest import run_both
+    deck = tmp_path / "signals.nml"
+    deck.write_text(DECK)
+    records = {}
+    for run, exe in zip(run_both(deck, cwd=tmp_path), ("mlid", "mlid-batch")):
+        assert run.returncode == 1
+        errors = run.stderr.splitlines()
+        assert errors[0].endswith("'bad band': multisine: the band [ 1.000E-01, 1.200E-01] Hz "
+                                  "holds 1 harmonics of 1/T (T = 2.000E+01 s) below Nyquist, "
+                                  "fewer than the 3 inputs")
+        assert errors[1].endswith("'bad prbs': prbs: the order must be 2 to 20, got 25")
+        assert errors[0].startswith(f"{exe}: {deck} case 3 (line 12)")
+        records[exe] = {name: (tmp_path / name).read_bytes() for name in ("ms.dat", "sw.dat")}
+        assert not (tmp_path / "bad.dat").exists() and not (tmp_path / "bad2.dat").exists()
+    outs = [r.stdout for r in run_both(deck, cwd=tmp_path)]
+    assert outs[0] == outs[1]
+    assert records["mlid"] == records["mlid-batch"]
+    ms = np.loadtxt(tmp_path / "ms.dat")
+    ref = multisine(3, 0.1, 1.5, 20.0, 0.02, amplitude=[1.0, 2.0, 0.5])
+    assert np.allclose(ms[:, 1:4], ref.u, atol=1e-12)
+    sw = np.loadtxt(tmp_path / "sw.dat")
+    assert np.allclose(sw[:, 1], sweep("linear", 0.1, 1.5, 20.0, 0.02, fade=2.0), atol=1e-12)
+    assert np.allclose(sw[:, 2], sweep("log", 0.1, 1.5, 20.0, 0.02, fade=2.0), atol=1e-12)
+    assert np.array_equal(sw[:, 3], prbs(6, 10, 0.02, 1001))

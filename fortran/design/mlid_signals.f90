@@ -13,6 +13,12 @@ module mlid_signals
   implicit none
   private
   public :: multisine_band, multisine, peak_factor, sweep, prbs, finish_signal
+  public :: SIGNAL_SHAPES, MULTISINE_ITERATIONS
+
+  !> the shapes a deck's &simulate input_shape takes besides mlid_inputs'
+  character(len=*), parameter :: SIGNAL_SHAPES = 'multisine, sweep, log_sweep, prbs'
+  !> clipping/projection steps of a deck's multisines (Python's default too)
+  integer, parameter :: MULTISINE_ITERATIONS = 1000
 
   real(wp), parameter :: PI = 3.14159265358979323846264338327950288_wp
   real(wp), parameter :: TWOPI = 2.0_wp*PI
