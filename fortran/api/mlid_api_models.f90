@@ -65,63 +65,59 @@ contains
   end subroutine mlid_multisine_count
 
   !> m orthogonal multisines with minimised RPF (mlid_signals' multisine):
-  !> pw(nh) relative powers of the band's harmonics, amp(m) peaks, iters
-  !> clipping steps; out: u(nt+1,m) on t = 0..nt*dt, each harmonic's number kh, input owner,
-  !> phase ph and amplitude ampl, each input's Schroeder and final RPF.
-  subroutine mlid_multisine(f_min, f_max, dt, nt, m, nh, pw, amp, iters, u, kh, owner, ph, ampl, &
-                            rpf0, rpf, status, msg)
-    real(c_double), intent(in) :: f_min, f_max, dt
+  !> band = f_min, f_max [Hz], dt [s]; pw(nh) relative powers of the band's
+  !> harmonics, amp(m) peaks, iters clipping steps; out: u(nt+1,m) on
+  !> t = 0..nt*dt, harm(nh,4) each harmonic's number, input, phase and
+  !> amplitude, rpf(m,2) each input's Schroeder and final RPF.
+  subroutine mlid_multisine(band, nt, m, nh, pw, amp, iters, u, harm, rpf, status, msg)
+    real(c_double), intent(in) :: band(3)
     integer(c_int), intent(in) :: nt, m, nh, iters
     real(c_double), intent(in) :: pw(nh), amp(m)
-    real(c_double), intent(out) :: u(nt + 1, m), ph(nh), ampl(nh), rpf0(m), rpf(m)
-    integer(c_int), intent(out) :: kh(nh), owner(nh), status
+    real(c_double), intent(out) :: u(nt + 1, m), harm(nh, 4), rpf(m, 2)
+    integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     integer, allocatable :: k(:), own(:)
     u = 0
-    ph = 0
-    ampl = 0
-    rpf0 = 0
+    harm = 0
     rpf = 0
-    kh = 0
-    owner = 0
-    call multisine_band(f_min, f_max, dt, nt, m, k, own, status, msg)
+    call multisine_band(band(1), band(2), band(3), nt, m, k, own, status, msg)
     if (status /= MLID_OK) return
     if (size(k) /= nh) then
       status = MLID_ERR_INPUT
       msg = 'multisine: the band holds a different number of harmonics than the powers given'
       return
     end if
-    kh = k
-    owner = own
-    call multisine(k, own, pw, amp, iters, u, ph, ampl, rpf0, rpf, status, msg)
+    harm(:, 1) = k
+    harm(:, 2) = own
+    call multisine(k, own, pw, amp, iters, u, harm(:, 3), harm(:, 4), rpf(:, 1), rpf(:, 2), &
+                   status, msg)
   end subroutine mlid_multisine
 
-  !> A linear or logarithmic sweep (mlid_signals' sweep), then finished
-  !> (zero /= 0: zero mean and ends; limit > 0: scaled to max |u| <= limit).
-  subroutine mlid_sweep(kind, f0, f1, a0, a1, t_fade, dt, nt, zero, limit, u, status, msg)
+  !> A linear or logarithmic sweep (mlid_signals' sweep); finishing is
+  !> mlid_finish_signal's.
+  subroutine mlid_sweep(kind, f0, f1, a0, a1, t_fade, dt, nt, u, status, msg)
     character(len=*), intent(in) :: kind
-    real(c_double), intent(in) :: f0, f1, a0, a1, t_fade, dt, limit
-    integer(c_int), intent(in) :: nt, zero
+    real(c_double), intent(in) :: f0, f1, a0, a1, t_fade, dt
+    integer(c_int), intent(in) :: nt
     real(c_double), intent(out) :: u(nt)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     call sweep(kind, f0, f1, a0, a1, t_fade, dt, u, status, msg)
-    if (status == MLID_OK) call finish_signal(u, zero /= 0, limit, status, msg)
   end subroutine mlid_sweep
 
   !> A maximal-length PRBS of order n, bits nclock samples long, +-a
-  !> (mlid_signals' prbs), then finished as mlid_sweep's.
-  subroutine mlid_prbs(n, nclock, a, nt, zero, limit, u, status, msg)
-    integer(c_int), intent(in) :: n, nclock, nt, zero
-    real(c_double), intent(in) :: a, limit
+  !> (mlid_signals' prbs); finishing is mlid_finish_signal's.
+  subroutine mlid_prbs(n, nclock, a, nt, u, status, msg)
+    integer(c_int), intent(in) :: n, nclock, nt
+    real(c_double), intent(in) :: a
     real(c_double), intent(out) :: u(nt)
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     call prbs(n, nclock, a, u, status, msg)
-    if (status == MLID_OK) call finish_signal(u, zero /= 0, limit, status, msg)
   end subroutine mlid_prbs
 
-  !> Any signal x finished as mlid_sweep's, as u.
+  !> Any signal x made to start and end at zero with zero mean (zero /= 0)
+  !> and scaled to max |u| <= limit (limit > 0): mlid_signals' finish_signal.
   subroutine mlid_finish_signal(x, nt, zero, limit, u, status, msg)
     integer(c_int), intent(in) :: nt, zero
     real(c_double), intent(in) :: x(nt), limit

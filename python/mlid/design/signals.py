@@ -193,10 +193,12 @@ def multisine(n_inputs, f_min, f_max, T, dt, amplitude=1.0, power=None, iteratio
     if pw.shape != (nh,):
         raise InputError(f"power must hold one value per harmonic of the band ({nh}), "
                          f"got shape {pw.shape}")
-    u, kh, owner, ph, ampl, rpf0, rpf, status, msg = _api.mlid_multisine(
-        f_min, f_max, float(dt), nt, pw, np.ascontiguousarray(amp), iterations)
+    u, harm, rpf, status, msg = _api.mlid_multisine(
+        np.array([f_min, f_max, float(dt)]), nt, pw, np.ascontiguousarray(amp), iterations)
     check_status(status, msg)
-    return Multisine(np.arange(nt + 1) * float(dt), u, kh, owner, ph, ampl, rpf0, rpf)
+    kh, owner = np.rint(harm[:, 0]).astype(int), np.rint(harm[:, 1]).astype(int)
+    return Multisine(np.arange(nt + 1) * float(dt), u, kh, owner, harm[:, 2].copy(),
+                     harm[:, 3].copy(), rpf[:, 0].copy(), rpf[:, 1].copy())
 
 
 @guarded
@@ -262,10 +264,9 @@ def sweep(kind, f_start, f_end, T, dt, amplitude=1.0, amplitude_end=None, fade=0
     a0 = _real("amplitude", amplitude)
     a1 = a0 if amplitude_end is None else _real("amplitude_end", amplitude_end)
     u, status, msg = _api.mlid_sweep(kind, _real("f_start", f_start), _real("f_end", f_end),
-                                     a0, a1, _real("fade", fade), float(dt), nt, int(bool(zero)),
-                                     _real("limit", limit))
+                                     a0, a1, _real("fade", fade), float(dt), nt)
     check_status(status, msg)
-    return u
+    return finish(u, zero=zero, limit=limit)
 
 
 @guarded
@@ -307,10 +308,9 @@ def prbs(order, clock, dt, nt, amplitude=1.0, zero=False, limit=0.0):
     clock = whole("clock", clock, 1, 10**7)
     _real("dt", dt)
     nt = whole("nt", nt, 1, 10**7)
-    u, status, msg = _api.mlid_prbs(order, clock, _real("amplitude", amplitude), nt,
-                                    int(bool(zero)), _real("limit", limit))
+    u, status, msg = _api.mlid_prbs(order, clock, _real("amplitude", amplitude), nt)
     check_status(status, msg)
-    return u
+    return finish(u, zero=zero, limit=limit)
 
 
 @guarded
