@@ -12,6 +12,7 @@ module mlid_api_models
                           option_kind, option_words, option_set, option_get
   use mlid_ties, only: tie_parse, MAXTERM
   use mlid_inputs, only: input_signal
+  use mlid_signals, only: multisine_band, multisine, sweep, prbs, finish_signal
   use mlid_case, only: NAMELEN
   use mlid_text, only: join_lines, split_lines, name_lines, joined
   use mlid_sixdof, only: sixdof_parts, SIXDOF_CONSTANTS
@@ -30,7 +31,8 @@ module mlid_api_models
   use mlid_problem, only: problem_needs, PART_MODEL, PART_RECORD
   implicit none
   private
-  public :: mlid_input_signal, mlid_default_options, mlid_option_info, mlid_option_choices, &
+  public :: mlid_input_signal, mlid_multisine_count, mlid_multisine, mlid_sweep, mlid_prbs, &
+            mlid_finish_signal, mlid_default_options, mlid_option_info, mlid_option_choices, &
             mlid_option_set, mlid_option_get, mlid_options_check, mlid_stop_reason, mlid_fit_outcome, &
             mlid_tie_parse, mlid_sixdof_constants, mlid_sixdof_text, mlid_flightpath_lists, &
             mlid_flightpath_model_text, mlid_flightpath_corrected, mlid_layout, &
@@ -49,6 +51,82 @@ contains
     character(len=256), intent(out) :: msg
     call input_signal(shape, amplitude, t_start, pulse_width, dt, u, status, msg)
   end subroutine mlid_input_signal
+
+  !> How many harmonics of 1/(nt*dt) the band [f_min, f_max] holds for m
+  !> inputs (mlid_signals' multisine_band), to size mlid_multisine's arrays.
+  subroutine mlid_multisine_count(f_min, f_max, dt, nt, m, nh, status, msg)
+    real(c_double), intent(in) :: f_min, f_max, dt
+    integer(c_int), intent(in) :: nt, m
+    integer(c_int), intent(out) :: nh, status
+    character(len=256), intent(out) :: msg
+    integer, allocatable :: k(:), owner(:)
+    call multisine_band(f_min, f_max, dt, nt, m, k, owner, status, msg)
+    nh = size(k)
+  end subroutine mlid_multisine_count
+
+  !> m orthogonal multisines with minimised RPF (mlid_signals' multisine):
+  !> band = f_min, f_max [Hz], dt [s]; pw(nh) relative powers of the band's
+  !> harmonics, amp(m) peaks, iters clipping steps; out: u(nt+1,m) on
+  !> t = 0..nt*dt, harm(nh,4) each harmonic's number, input, phase and
+  !> amplitude, rpf(m,2) each input's Schroeder and final RPF.
+  subroutine mlid_multisine(band, nt, m, nh, pw, amp, iters, u, harm, rpf, status, msg)
+    real(c_double), intent(in) :: band(3)
+    integer(c_int), intent(in) :: nt, m, nh, iters
+    real(c_double), intent(in) :: pw(nh), amp(m)
+    real(c_double), intent(out) :: u(nt + 1, m), harm(nh, 4), rpf(m, 2)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    integer, allocatable :: k(:), own(:)
+    u = 0
+    harm = 0
+    rpf = 0
+    call multisine_band(band(1), band(2), band(3), nt, m, k, own, status, msg)
+    if (status /= MLID_OK) return
+    if (size(k) /= nh) then
+      status = MLID_ERR_INPUT
+      msg = 'multisine: the band holds a different number of harmonics than the powers given'
+      return
+    end if
+    harm(:, 1) = k
+    harm(:, 2) = own
+    call multisine(k, own, pw, amp, iters, u, harm(:, 3), harm(:, 4), rpf(:, 1), rpf(:, 2), &
+                   status, msg)
+  end subroutine mlid_multisine
+
+  !> A linear or logarithmic sweep (mlid_signals' sweep); finishing is
+  !> mlid_finish_signal's.
+  subroutine mlid_sweep(kind, f0, f1, a0, a1, t_fade, dt, nt, u, status, msg)
+    character(len=*), intent(in) :: kind
+    real(c_double), intent(in) :: f0, f1, a0, a1, t_fade, dt
+    integer(c_int), intent(in) :: nt
+    real(c_double), intent(out) :: u(nt)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call sweep(kind, f0, f1, a0, a1, t_fade, dt, u, status, msg)
+  end subroutine mlid_sweep
+
+  !> A maximal-length PRBS of order n, bits nclock samples long, +-a
+  !> (mlid_signals' prbs); finishing is mlid_finish_signal's.
+  subroutine mlid_prbs(n, nclock, a, nt, u, status, msg)
+    integer(c_int), intent(in) :: n, nclock, nt
+    real(c_double), intent(in) :: a
+    real(c_double), intent(out) :: u(nt)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    call prbs(n, nclock, a, u, status, msg)
+  end subroutine mlid_prbs
+
+  !> Any signal x made to start and end at zero with zero mean (zero /= 0)
+  !> and scaled to max |u| <= limit (limit > 0): mlid_signals' finish_signal.
+  subroutine mlid_finish_signal(x, nt, zero, limit, u, status, msg)
+    integer(c_int), intent(in) :: nt, zero
+    real(c_double), intent(in) :: x(nt), limit
+    real(c_double), intent(out) :: u(nt)
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    u = x
+    call finish_signal(u, zero /= 0, limit, status, msg)
+  end subroutine mlid_finish_signal
 
   !> The default options, so that Python and decks share one set.
   subroutine mlid_default_options(iopt, ropt)

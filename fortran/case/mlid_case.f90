@@ -73,6 +73,10 @@ module mlid_case
     real(wp), allocatable :: noise_std(:), amplitude(:)
     character(len=16), allocatable :: input_shape(:)   !< per input
     real(wp), allocatable :: t_start(:), pulse_width(:)  !< per input
+    !> &simulate f_min, f_max: the band of its multisines and sweeps [Hz];
+    !> prbs_order: its PRBS' register length
+    real(wp) :: f_band(2) = 0.0_wp
+    integer :: prbs_order = 0
     !> simulate and monte_carlo: a record whose time and first nu columns
     !> after it are the inputs (a designed input), instead of input_shape
     character(len=PATHLEN) :: input_file = ''

@@ -23,15 +23,19 @@ contains
     character(len=PATHLEN) :: out
     character(len=16) :: input_shape(MAXU)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
-    integer :: seed, ios, o
+    real(wp) :: f_min, f_max
+    integer :: seed, ios, o, prbs_order
     type(layout_table_t) :: lt
     character(len=msg_len) :: iomsg
     character(len=PATHLEN) :: input_file
     character(len=:), allocatable :: gtext
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
-      pulse_width, input_file
+      pulse_width, input_file, f_min, f_max, prbs_order
 
     out = ''
+    f_min = 0.0_wp
+    f_max = 0.0_wp
+    prbs_order = 0
     t_end = 0.0_wp
     dt = 0.0_wp
     seed = 0
@@ -52,6 +56,8 @@ contains
     c%t_end = t_end
     c%dt = dt
     c%seed = seed
+    c%f_band = [f_min, f_max]
+    c%prbs_order = prbs_order
     call take_list(rd, c, 'simulate', 'noise_std', noise_std, c%noise_std, .false.)
     call take_list(rd, c, 'simulate', 'amplitude', amplitude, c%amplitude, .true., c%nu)
     call take_list(rd, c, 'simulate', 't_start', t_start, c%t_start, .true., c%nu)
@@ -59,9 +65,11 @@ contains
     if (c%status /= MLID_OK) return
     if (len_trim(input_file) > 0 .and. (t_end /= 0.0_wp .or. dt /= 0.0_wp .or. &
         any(len_trim(input_shape) > 0) .or. size(c%amplitude) > 0 .or. &
-        size(c%t_start) > 0 .or. size(c%pulse_width) > 0)) then
+        size(c%t_start) > 0 .or. size(c%pulse_width) > 0 .or. any(c%f_band /= 0.0_wp) .or. &
+        prbs_order /= 0)) then
       call fail(c, 'group &simulate: input_file gives the time and inputs; t_end, dt, '// &
-                'input_shape, amplitude, t_start and pulse_width are for a standard input')
+                'input_shape, amplitude, t_start, pulse_width, f_min, f_max and prbs_order '// &
+                'are for a standard input')
       return
     end if
     ! one value serves every input; otherwise one per input

@@ -9,6 +9,7 @@ submodule (mlid_deck) mlid_deck_record
   use mlid_case, only: MAXSEG
   use mlid_options, only: option_set
   use mlid_inputs, only: input_signal
+  use mlid_signals, only: multisine_band, multisine, sweep, prbs, SIGNAL_SHAPES, MULTISINE_ITERATIONS
   use mlid_channels, only: channel_set_t, channels_read
   use mlid_record, only: record_t, record_read
   use mlid_sampling, only: record_check_time
@@ -311,13 +312,57 @@ contains
     nt = nint(c%t_end/c%dt) + 1
     t = [(real(k - 1, wp)*c%dt, k=1, nt)]
     allocate (u(c%nu, nt))
-    status = MLID_OK
-    msg = ''
+    u = 0.0_wp
+    call deck_multisines(c, u, status, msg)
+    if (status /= MLID_OK) return
     do k = 1, c%nu
-      call input_signal(c%input_shape(k), c%amplitude(k), c%t_start(k), c%pulse_width(k), c%dt, &
-                        u(k, :), status, msg)
+      select case (trim(to_lower(c%input_shape(k))))
+      case ('multisine')
+        cycle
+      case ('sweep')
+        call sweep('linear', c%f_band(1), c%f_band(2), c%amplitude(k), c%amplitude(k), &
+                   c%pulse_width(k), c%dt, u(k, :), status, msg)
+      case ('log_sweep')
+        call sweep('log', c%f_band(1), c%f_band(2), c%amplitude(k), c%amplitude(k), &
+                   c%pulse_width(k), c%dt, u(k, :), status, msg)
+      case ('prbs')
+        call prbs(c%prbs_order, nint(c%pulse_width(k)/c%dt), c%amplitude(k), u(k, :), status, msg)
+      case default
+        call input_signal(c%input_shape(k), c%amplitude(k), c%t_start(k), c%pulse_width(k), c%dt, &
+                          u(k, :), status, msg)
+        if (index(msg, 'unknown input shape') > 0) msg = trim(msg)//', '//SIGNAL_SHAPES
+      end select
       if (status /= MLID_OK) return
     end do
   end procedure case_time_input
+
+  !> The inputs whose shape is 'multisine': one set, mutually orthogonal over
+  !> the record (T = t_end, the last sample repeating the first), in the band
+  !> f_band, each input's peak its amplitude, flat spectra.
+  subroutine deck_multisines(c, u, status, msg)
+    type(case_t), intent(in) :: c
+    real(wp), intent(inout) :: u(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer, allocatable :: ms(:), kh(:), own(:)
+    real(wp), allocatable :: um(:, :), ph(:), ampl(:), r0(:), r1(:)
+    integer :: k, ierr
+    status = MLID_OK
+    msg = ''
+    ms = pack([(k, k=1, c%nu)], to_lower(c%input_shape) == 'multisine')
+    if (size(ms) == 0) return
+    call multisine_band(c%f_band(1), c%f_band(2), c%dt, size(u, 2) - 1, size(ms), kh, own, status, msg)
+    if (status /= MLID_OK) return
+    allocate (um(size(u, 2), size(ms)), ph(size(kh)), ampl(size(kh)), r0(size(ms)), r1(size(ms)), &
+              stat=ierr)
+    if (ierr /= 0) then
+      status = MLID_ERR_INPUT
+      msg = 'multisine: out of memory'
+      return
+    end if
+    call multisine(kh, own, spread(1.0_wp, 1, size(kh)), c%amplitude(ms), MULTISINE_ITERATIONS, &
+                   um, ph, ampl, r0, r1, status, msg)
+    if (status == MLID_OK) u(ms, :) = transpose(um)
+  end subroutine deck_multisines
 
 end submodule mlid_deck_record

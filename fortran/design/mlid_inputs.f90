@@ -10,13 +10,14 @@ module mlid_inputs
   private
   public :: input_signal, INPUT_SHAPES
 
-  character(len=*), parameter :: INPUT_SHAPES = 'none, step, pulse, doublet, 3211'
+  character(len=*), parameter :: INPUT_SHAPES = 'none, step, pulse, doublet, 211, 3211'
 
 contains
 
   !> u(k) at t(k) = (k-1)*dt for a named shape of amplitude a starting at
   !> t_start with unit pulse width pw:
   !>   step: a from t_start on; pulse: a for pw; doublet: +a for pw, -a for pw;
+  !>   211: +a for 2pw, -a for pw, +a for pw;
   !>   3211: +a for 3pw, -a for 2pw, +a for pw, -a for pw.
   subroutine input_signal(shape, a, t_start, pw, dt, u, status, msg)
     character(len=*), intent(in) :: shape
@@ -62,6 +63,9 @@ contains
     case ('doublet')
       widths = [1, 1]
       signs = [1.0_wp, -1.0_wp]
+    case ('211')
+      widths = [2, 1, 1]
+      signs = [1.0_wp, -1.0_wp, 1.0_wp]
     case ('3211')
       widths = [3, 2, 1, 1]
       signs = [1.0_wp, -1.0_wp, 1.0_wp, -1.0_wp]
