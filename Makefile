@@ -24,10 +24,11 @@ APT := DEBIAN_FRONTEND=noninteractive apt-get install -y -q
 demo: install
 	$(VENV)/bin/mlid run cases/c8_short_period/c8.nml --plots $(BUILD)/plots --json $(BUILD)/c8.json
 
+# the docs first: the tests compare the pages a build wrote with what the core says now
 test: install
+	$(MAKE) --no-print-directory docs
 	$(VPY) -m pytest tests -q
 	$(VENV)/bin/meson test -C $(BUILD) --print-errorlogs
-	$(MAKE) --no-print-directory docs
 
 # The documentation site: Sphinx (its gallery's examples run, their figures made; the deck
 # reference made from the core's tables), then FORD's Fortran API into its fortran/ folder.
