@@ -7,6 +7,7 @@
 submodule (mlid_deck) mlid_deck_record
   use mlid_files, only: temporary_for
   use mlid_case, only: MAXSEG
+  use mlid_kinds, only: MLID_ERR_MEMORY
   use mlid_options, only: option_set
   use mlid_inputs, only: input_signal
   use mlid_signals, only: multisine_band, multisine, sweep, prbs, SIGNAL_SHAPES, MULTISINE_ITERATIONS
@@ -356,7 +357,7 @@ contains
     allocate (um(size(u, 2), size(ms)), ph(size(kh)), ampl(size(kh)), r0(size(ms)), r1(size(ms)), &
               stat=ierr)
     if (ierr /= 0) then
-      status = MLID_ERR_INPUT
+      status = MLID_ERR_MEMORY
       msg = 'multisine: out of memory'
       return
     end if

@@ -8,7 +8,7 @@
 !> input owns every m-th harmonic of the band (interleaved).
 module mlid_signals
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_MEMORY
   use mlid_text, only: es_text, itoa
   implicit none
   private
@@ -66,6 +66,7 @@ contains
     deallocate (k, owner)
     allocate (k(k2 - k1 + 1), owner(k2 - k1 + 1), stat=ierr)
     if (ierr /= 0) then
+      status = MLID_ERR_MEMORY
       msg = 'multisine: out of memory'
       return
     end if
@@ -227,6 +228,7 @@ contains
     end if
     allocate (ctab(0:nt - 1), stab(0:nt - 1), stat=ierr)
     if (ierr /= 0) then
+      status = MLID_ERR_MEMORY
       msg = 'multisine: out of memory'
       return
     end if
