@@ -8,7 +8,7 @@ module mlid_sampling
   implicit none
   private
   public :: record_check_time, record_check_segments, record_uniform_step, record_common_step, &
-            GAP_FACTOR, UNIFORM_TOL
+            median, GAP_FACTOR, UNIFORM_TOL
 
   !> A time step larger than this times the median step is a gap.
   real(wp), parameter :: GAP_FACTOR = 1.5_wp

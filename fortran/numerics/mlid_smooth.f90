@@ -31,6 +31,7 @@ module mlid_smooth
   use mlid_interrupt, only: interrupt_requested
   use mlid_text, only: seconds, itoa
   use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_smooth_length
+  use mlid_sampling, only: median
   implicit none
   private
   public :: smooth_fourier, SMOOTH_MIN_SAMPLES, smooth_uniform_check
@@ -130,7 +131,7 @@ contains
   end subroutine smooth_fourier
 
   !> The cut-off bin of step 3 from the mirror's power p(0:n-1).
-  pure integer function cutoff(p) result(kc)
+  integer function cutoff(p) result(kc)
     real(wp), intent(in) :: p(0:)
     real(wp) :: floor, csum(0:size(p) - 2), avg(size(p) - 2)
     integer :: n, k, lo, hi, h
@@ -171,57 +172,6 @@ contains
       end if
     end do
   end function weights
-
-  !> The median of v (a sorted copy: n log n, cheap next to the transforms).
-  pure real(wp) function median(v)
-    real(wp), intent(in) :: v(:)
-    real(wp) :: s(size(v))
-    integer :: n
-    s = v
-    n = size(s)
-    call sort(s)
-    if (mod(n, 2) == 1) then
-      median = s((n + 1)/2)
-    else
-      median = 0.5_wp*(s(n/2) + s(n/2 + 1))
-    end if
-  end function median
-
-  !> Heapsort, ascending.
-  pure subroutine sort(a)
-    real(wp), intent(inout) :: a(:)
-    integer :: n, i
-    real(wp) :: t
-    n = size(a)
-    do i = n/2, 1, -1
-      call sift(a, i, n)
-    end do
-    do i = n, 2, -1
-      t = a(1)
-      a(1) = a(i)
-      a(i) = t
-      call sift(a, 1, i - 1)
-    end do
-  end subroutine sort
-
-  pure subroutine sift(a, start, last)
-    real(wp), intent(inout) :: a(:)
-    integer, intent(in) :: start, last
-    integer :: root, child
-    real(wp) :: t
-    root = start
-    do while (2*root <= last)
-      child = 2*root
-      if (child < last) then
-        if (a(child) < a(child + 1)) child = child + 1
-      end if
-      if (a(root) >= a(child)) return
-      t = a(root)
-      a(root) = a(child)
-      a(child) = t
-      root = child
-    end do
-  end subroutine sift
 
   !> z = DFT(z) (inverse: unnormalised, exp(+...)) of any length: the FFT
   !> when the length is 2^a 3^b 5^c, else Bluestein's chirp-z.  ok false

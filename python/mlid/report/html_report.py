@@ -412,18 +412,6 @@ def _validated(result):
     return getattr(result, "validation", None) is not None
 
 
-def _linear(result):
-    return getattr(result.model, "kind", None) == 1
-
-
-def _time_domain(result):
-    return getattr(result, "frequencies", None) is None
-
-
-def _inputs_move(result):
-    return _time_domain(result) and bool(plots.drawn_inputs(result.data))
-
-
 def _only(when, item):
     """A section item shown only when when(result)."""
     return lambda result: item(result) if when(result) else None
@@ -445,10 +433,10 @@ FIT_SECTIONS = (
                "residual autocorrelation against lag, ±1.96/√N band"),
         figure("spectra", plots.spectra,
                "residual power spectra, white-noise level of the same variance dashed"),
-        _only(_time_domain, figure(
+        _only(plots.time_domain, figure(
             "measured-vs-model", plots.measured_vs_model,
             "each output measured against the model, the 1:1 line; R² and fit % in each title")),
-        _only(_inputs_move, figure(
+        _only(plots.inputs_move, figure(
             "residual-input", plots.residual_input,
             "cross-correlation of each output's residual with each input against lag, "
             "±1.96/√N (95%) band: a term the model misses shows outside it")),
@@ -466,7 +454,7 @@ FIT_SECTIONS = (
         figure("bode", plots.bode,
                lambda r: "frequency response per input-output pair; "
                          f"{plots.band_label('model', 'Cramér-Rao')} band (delta method)")),
-        when=_linear),
+        when=plots.linear_model),
     Part("printed", "the printed report", (lambda r: Text(r.report(), "pre"),), folded=True),
 )
 #: What a failed fit shows: no estimates, statistics or figures; why.

@@ -555,6 +555,21 @@ def plot_bode(result, folder, stem, title=None):
     return _write_into(_under(title, bode), result, folder, f"{stem}_bode.png")
 
 
+def time_domain(result):
+    """Whether result is a time-domain fit (its residuals are time series)."""
+    return getattr(result, "frequencies", None) is None
+
+
+def inputs_move(result):
+    """A time-domain fit with an input that varies (one to correlate with)."""
+    return time_domain(result) and bool(drawn_inputs(result.data))
+
+
+def linear_model(result):
+    """Whether the fitted model is linear (it has modes and a Bode plot)."""
+    return getattr(result.model, "kind", None) == 1
+
+
 def fit_writers(result):
     """The figures a fit's plots are, as functions (result, folder, stem,
     title) writing each and returning its path: the overview
@@ -562,11 +577,11 @@ def fit_writers(result):
     and, when an input varies, the residual-input correlation; for a linear
     model the Bode plot.  ``mlid run --plots`` writes them all."""
     writers = [plot_fit]
-    if getattr(result, "frequencies", None) is None:
+    if time_domain(result):
         writers.append(plot_measured_vs_model)
-        if drawn_inputs(result.data):
-            writers.append(plot_residual_input)
-    if getattr(result.model, "kind", None) == 1:
+    if inputs_move(result):
+        writers.append(plot_residual_input)
+    if linear_model(result):
         writers.append(plot_bode)
     return writers
 
