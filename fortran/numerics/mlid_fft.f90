@@ -14,7 +14,7 @@ module mlid_fft
   implicit none
   private
   public :: fft_plan_t, fft_plan, fft_plan_into, fft_forward, fft_length, fft_smooth_length, fft_real_pair, &
-            fft_many, fft_real_many
+            fft_many, fft_real_many, fft_any_length
 
   type :: fft_plan_t
     integer :: n = 0
@@ -478,5 +478,49 @@ contains
       end do
     end do
   end subroutine unpack
+
+  !> z = DFT(z) (inverse: unnormalised, exp(+...)) of any length: the FFT
+  !> when the length is 2^a 3^b 5^c, else Bluestein's chirp-z.  ok false
+  !> when its workspace did not fit in memory.
+  subroutine fft_any_length(z, inverse, ok)
+    complex(wp), intent(inout) :: z(0:)
+    logical, intent(in) :: inverse
+    logical, intent(out) :: ok
+    type(fft_plan_t) :: plan
+    complex(wp), allocatable :: a(:), b(:), c(:)
+    integer :: m, l, j, ist
+    integer(kind=8) :: j2
+    real(wp), parameter :: PI = 4.0_wp*atan(1.0_wp)
+    m = size(z)
+    ok = .true.
+    if (inverse) z = conjg(z)
+    if (fft_smooth_length(m) == m) then
+      plan = fft_plan(m)
+      call fft_forward(plan, z)
+    else
+      l = fft_smooth_length(2*m - 1)
+      allocate (a(0:l - 1), b(0:l - 1), c(0:m - 1), stat=ist)
+      ok = ist == 0
+      if (.not. ok) return
+      do j = 0, m - 1                        ! c(j) = exp(-i pi j^2/m), j^2 taken mod 2m
+        j2 = mod(int(j, 8)*j, 2_8*m)
+        c(j) = cmplx(cos(PI*j2/m), -sin(PI*j2/m), wp)
+      end do
+      a = 0.0_wp
+      a(0:m - 1) = z*c
+      b = 0.0_wp
+      b(0:m - 1) = conjg(c)
+      do j = 1, m - 1
+        b(l - j) = conjg(c(j))
+      end do
+      plan = fft_plan(l)
+      call fft_forward(plan, a)
+      call fft_forward(plan, b)
+      a = conjg(a*b)                         ! the convolution by an inverse transform
+      call fft_forward(plan, a)
+      z = c*conjg(a(0:m - 1))/l
+    end if
+    if (inverse) z = conjg(z)
+  end subroutine fft_any_length
 
 end module mlid_fft

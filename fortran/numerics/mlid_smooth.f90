@@ -25,12 +25,12 @@
 !>    for the sine series), the line's slope added back.
 !> The bin k is the frequency k/(2 (n-1) dt).  The mirror's period is any
 !> length: its DFT is by the FFT when M is 2^a 3^b 5^c, else by
-!> Bluestein's chirp-z through one of such a length.
+!> Bluestein's chirp-z through one of such a length (mlid_fft's fft_any_length).
 module mlid_smooth
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_MEMORY, MLID_ERR_INTERRUPTED
   use mlid_interrupt, only: interrupt_requested
   use mlid_text, only: seconds, itoa
-  use mlid_fft, only: fft_plan_t, fft_plan, fft_forward, fft_smooth_length
+  use mlid_fft, only: fft_any_length
   use mlid_sampling, only: median
   implicit none
   private
@@ -92,7 +92,7 @@ contains
     do k = 1, n - 2
       y(m - k) = -y(k)
     end do
-    call dft(y, .false., ok(1))
+    call fft_any_length(y, .false., ok(1))
     p = abs(y(0:n - 1))**2
     kc = cutoff(p)
     if (present(fc_given)) then
@@ -109,8 +109,8 @@ contains
       if (k < n - 1) yd(m - k) = cmplx(0.0_wp, -tk, wp)*y(m - k)
     end do
     yd(n - 1) = 0.0_wp                       ! Nyquist: its derivative has no sign
-    call dft(y, .true., ok(2))
-    call dft(yd, .true., ok(3))
+    call fft_any_length(y, .true., ok(2))
+    call fft_any_length(yd, .true., ok(3))
     if (.not. all(ok)) then
       status = MLID_ERR_MEMORY
       msg = 'smoothing: out of memory'
@@ -172,49 +172,6 @@ contains
       end if
     end do
   end function weights
-
-  !> z = DFT(z) (inverse: unnormalised, exp(+...)) of any length: the FFT
-  !> when the length is 2^a 3^b 5^c, else Bluestein's chirp-z.  ok false
-  !> when its workspace did not fit in memory.
-  subroutine dft(z, inverse, ok)
-    complex(wp), intent(inout) :: z(0:)
-    logical, intent(in) :: inverse
-    logical, intent(out) :: ok
-    type(fft_plan_t) :: plan
-    complex(wp), allocatable :: a(:), b(:), c(:)
-    integer :: m, l, j, ist
-    integer(kind=8) :: j2
-    m = size(z)
-    ok = .true.
-    if (inverse) z = conjg(z)
-    if (fft_smooth_length(m) == m) then
-      plan = fft_plan(m)
-      call fft_forward(plan, z)
-    else
-      l = fft_smooth_length(2*m - 1)
-      allocate (a(0:l - 1), b(0:l - 1), c(0:m - 1), stat=ist)
-      ok = ist == 0
-      if (.not. ok) return
-      do j = 0, m - 1                        ! c(j) = exp(-i pi j^2/m), j^2 taken mod 2m
-        j2 = mod(int(j, 8)*j, 2_8*m)
-        c(j) = cmplx(cos(PI*j2/m), -sin(PI*j2/m), wp)
-      end do
-      a = 0.0_wp
-      a(0:m - 1) = z*c
-      b = 0.0_wp
-      b(0:m - 1) = conjg(c)
-      do j = 1, m - 1
-        b(l - j) = conjg(c(j))
-      end do
-      plan = fft_plan(l)
-      call fft_forward(plan, a)
-      call fft_forward(plan, b)
-      a = conjg(a*b)                         ! the convolution by an inverse transform
-      call fft_forward(plan, a)
-      z = c*conjg(a(0:m - 1))/l
-    end if
-    if (inverse) z = conjg(z)
-  end subroutine dft
 
   !> The step of a uniform time t (its mean step); 0 and a message naming
   !> the first sample where a step differs from the mean by more than
