@@ -141,9 +141,15 @@ def test_deck_runs_identically_in_both_front_ends(tmp_path):
 @pytest.mark.parametrize("rows, derived, message", [
     (201, "'y1s = smooth(y3)', 'y1d = deriv(y1)'", "derived y1s: no channel named y3"),
     (201, "'y1s = 2*smooth(y1)', 'y1d = deriv(y1)'",
-     "derived y1s: smooth() and deriv() make a channel of their own"),
+     "derived y1s: smooth() makes a channel of its own"),
     (201, "'y1s = smooth(y1 + y2)', 'y1d = deriv(y1)'",
-     "smooth() and deriv() take one channel's name (and a cut-off in Hz), not 'y1 + y2'"),
+     "smooth() takes one channel's name, not 'y1 + y2'"),
+    (201, "'y1s = smooth_local(y1, 2)', 'y1d = deriv(y1)'",
+     "derived y1s: smooth_local() takes no cut-off: its windows are fixed"),
+    (201, "'y1s = smooth(y1)', 'y1d = 1 + deriv_local(y1)'",
+     "derived y1d: deriv_local() makes a channel of its own"),
+    (4, "'y1s = smooth_local(y1)', 'y1d = deriv_local(y1)'",
+     "data file short.dat: derived channel y1s: local smoothing needs at least 5 samples, 4 given"),
     (201, "'y1s = smooth(y1, -2)', 'y1d = deriv(y1)'",
      "the cut-off in 'smooth(y1, -2)' must be a frequency > 0 in Hz"),
     (10, "'y1s = smooth(y1)', 'y1d = deriv(y1)'",
@@ -190,3 +196,46 @@ def test_attas_rates_against_the_textbooks_accelerations():
                 print(f"{name} {rate}dot, cut-off {fc or 'auto'}: rms difference {diff:.3g} "
                       f"rad/s^2, {_rms(e):.3g} with the ends (reference rms {size:.3g})")
                 assert diff < max(share * size, 0.005), (name, rate, fc)
+
+
+def test_local_smoothing_is_exact_on_cubics_inside():
+    """Spencer's 15 weights keep a cubic (their second moment is zero) and
+    the 17-point central difference differentiates it exactly, so
+    deriv_local is exact wherever both full formulas reach (8 + 8 samples
+    from each end); the 5-point formulas toward the ends are not (their
+    weights (7, 24, 34, 24, 7)/96 bias a curve by (104/96) x''(t) dt^2/2),
+    and the two end samples are held: checked to be so."""
+    t = 0.05 * np.arange(120)
+    x = 0.3 - 1.2 * t + 0.4 * t**2 - 0.07 * t**3
+    dx = -1.2 + 0.8 * t - 0.21 * t**2
+    xs = mlid.smooth(t, x, method="local")
+    xd = mlid.deriv(t, x, method="local")
+    assert np.max(np.abs(xs[8:-8] - x[8:-8])) < 1e-12
+    assert np.max(np.abs(xd[16:-16] - dx[16:-16])) < 1e-10
+    assert np.max(np.abs(xs[3:8] - x[3:8])) > 1e-5       # the 5-point formula's bias
+    assert np.all(xs[:3] == x[:3]) and np.all(xs[-3:] == x[-3:])
+    assert xd[0] == xd[1] == xd[2] and xd[-1] == xd[-2] == xd[-3]
+    with pytest.raises(mlid.InputError, match="takes no cut-off"):
+        mlid.deriv(t, x, fc=2.0, method="local")
+    with pytest.raises(mlid.InputError, match="method must be one of"):
+        mlid.smooth(t, x, method="spline")
+
+
+@needs_data
+def test_deriv_local_remakes_the_textbooks_angular_accelerations():
+    """deriv_local of the ATTAS rates (the .mat records, as the flight-path
+    decks read them) against what the reference used (FVSysID ndiff_pqr,
+    refs/derived/attas_fpr_pqrdot.asc), every sample, the ends included.
+    Measured: 5.0e-11 rad/s^2 at most (the textbook prints its weights to 11
+    digits; ours are computed), against accelerations of up to 0.5 rad/s^2."""
+    ref = np.loadtxt(DATA / "refs" / "derived" / "attas_fpr_pqrdot.asc")
+    for seg, name in enumerate(["Elv1", "Ail1", "Rud1"], 1):
+        d = mlid.FlightData.load(DATA / f"fAttas{name}.mat", "T", ["pd", "qd", "rd"], ["PHI"],
+                                 columns=["T[s]", "AXCG", "AYCG", "AZCG", "AYCKP", "AZCKP",
+                                          "PRGX[deg/s]", "QRGY[deg/s]", "RRGZ[deg/s]", "PHI"],
+                                 dt=0.04,
+                                 derived={"pd": "deriv_local(PRGX)", "qd": "deriv_local(QRGY)",
+                                          "rd": "deriv_local(RRGZ)"})
+        r = ref[ref[:, 1] == seg][:, 2:5]
+        assert d.u.shape == r.shape
+        assert np.max(np.abs(d.u - r)) < 1e-9, name

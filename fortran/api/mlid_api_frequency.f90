@@ -20,6 +20,7 @@ module mlid_api_frequency
   use mlid_sampling, only: record_common_step
   use mlid_fourier, only: fourier_transform
   use mlid_smooth, only: smooth_fourier, smooth_uniform_check
+  use mlid_local_smooth, only: smooth_local, deriv_local
   use mlid_text, only: itoa
   use mlid_frequency, only: freq_record, freq_likelihood, freq_grid
   use mlid_recursive_fd, only: recursive_fdee
@@ -67,11 +68,12 @@ contains
     end if
   end subroutine mlid_fourier_transform
 
-  !> The global Fourier smoother (mlid_smooth) of one channel x(n) at the
-  !> times t(n) (uniform): smoothed xs, derivative xd, cut-off fc [Hz]
-  !> (the rule's, or fc_given's when > 0).
-  subroutine mlid_smooth_channel(n, t, x, fc_given, xs, xd, fc, status, msg)
-    integer(c_int), intent(in) :: n
+  !> The global Fourier smoother (mlid_smooth; local = 0) or the local one
+  !> (mlid_local_smooth; local = 1) of one channel x(n) at the times t(n)
+  !> (uniform): smoothed xs, derivative xd, cut-off fc [Hz] (Fourier: the
+  !> rule's, or fc_given's when > 0; local: 0).
+  subroutine mlid_smooth_channel(n, t, x, fc_given, local, xs, xd, fc, status, msg)
+    integer(c_int), intent(in) :: n, local
     real(c_double), intent(in) :: t(n), x(n), fc_given
     real(c_double), intent(out) :: xs(n), xd(n), fc
     integer(c_int), intent(out) :: status
@@ -96,7 +98,12 @@ contains
       msg = 'the cut-off must be a frequency > 0 in Hz'
       return
     end if
-    call smooth_fourier(x, dt, xs, xd, kc, fc, status, msg, fc_given)
+    if (local == 0) then
+      call smooth_fourier(x, dt, xs, xd, kc, fc, status, msg, fc_given)
+    else
+      call deriv_local(x, dt, xd, status, msg)
+      if (status == MLID_OK) call smooth_local(x, xs, status, msg)
+    end if
   end subroutine mlid_smooth_channel
 
   !> The one sample step dt of a record whose nseg manoeuvres start at

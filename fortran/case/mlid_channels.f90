@@ -33,6 +33,7 @@ module mlid_channels
   use mlid_tablefile, only: tablefile_read
   use mlid_progress, only: progress_t
   use mlid_smooth, only: smooth_fourier, smooth_uniform_check
+  use mlid_local_smooth, only: smooth_local, deriv_local
   implicit none
   private
   public :: channels_t, channel_set_t, channels_spec, channels_join, channels_read, &
@@ -81,12 +82,20 @@ module mlid_channels
     real(wp), allocatable :: factor(:), offset(:), dscale(:), doffset(:)
     logical, allocatable :: need(:)
     type(expr_t), allocatable :: expr(:)
-    !> per derived channel: 0 an expression, 1 smooth(src), 2 deriv(src)
+    !> per derived channel: 0 an expression, else its place in SMOOTHERS (of src)
     integer, allocatable :: op(:), src(:)
     real(wp), allocatable :: fc(:)           !< smooth/deriv's cut-off [Hz], 0: the rule's
     integer :: itime = 0, nin = 0
     integer, allocatable :: pick(:)          !< inputs, then outputs
   end type plan_t
+
+  !> The smoothing functions of a derived channel, each of one channel:
+  !> global Fourier (mlid_smooth) and local (mlid_local_smooth); the even
+  !> places are derivatives.
+  character(len=*), parameter :: SMOOTHERS(4) = [character(len=12) :: 'smooth', 'deriv', &
+                                                 'smooth_local', 'deriv_local']
+  character(len=*), parameter :: SMOOTHERS_USE = 'smooth(p), deriv(p), deriv(p, 2.5) (a '// &
+                                                 'cut-off in Hz), smooth_local(p) or deriv_local(p)'
 
 contains
 
@@ -596,7 +605,7 @@ contains
       plan%declared(j) = plan%declared(uses(1))
     if (len_trim(plan%unit(j)) > 0 .and. len_trim(plan%declared(j)) > 0) &
       plan%factor(j) = plan%factor(uses(1))
-    if (plan%op(j - plan%ncol) == 2) then    ! a rate: per second, shown in the core's unit
+    if (is_rate(plan%op(j - plan%ncol))) then  ! per second, shown in the core's unit
       plan%declared(j) = ''
       plan%factor(j) = 1.0_wp
       if (index(plan%unit(j), '/s', back=.true.) == len_trim(plan%unit(j)) - 1 .and. &
@@ -608,10 +617,11 @@ contains
     end if
   end subroutine derive
 
-  !> 'smooth(NAME)' or 'deriv(NAME)', or with a cut-off in Hz 'deriv(NAME,
-  !> 2.5)' (mlid_smooth, over the file's whole record as read) sets derived channel j's op and source; any other use
-  !> of smooth( or deriv( (inside an expression, or of an expression) is
-  !> refused; anything else is an expression (op 0).
+  !> 'F(NAME)' for F in SMOOTHERS, or with a cut-off in Hz 'deriv(NAME,
+  !> 2.5)' (the Fourier ones only), over the file's whole record as read,
+  !> sets derived channel j's op and source; any other use of them (inside
+  !> an expression, or of an expression) is refused; anything else is an
+  !> expression (op 0).
   subroutine smoothing_op(rhs, j, plan, status, msg)
     character(len=*), intent(in) :: rhs
     integer, intent(in) :: j
@@ -619,32 +629,38 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     character(len=:), allocatable :: text, arg
-    integer :: op, open, i, comma, ios
+    integer :: op, i, comma, ios
     real(wp) :: fc
     status = MLID_OK
     msg = ''
     text = to_lower(trim(adjustl(rhs)))
     op = 0
-    if (index(text, 'smooth(') == 1) op = 1
-    if (index(text, 'deriv(') == 1) op = 2
+    do i = 1, size(SMOOTHERS)
+      if (index(text, trim(SMOOTHERS(i))//'(') == 1) op = i
+    end do
+    status = MLID_ERR_INPUT
     if (op == 0) then
-      if (uses_call(text, 'smooth(') .or. uses_call(text, 'deriv(')) then
-        status = MLID_ERR_INPUT
-        msg = 'smooth() and deriv() make a channel of their own: write NAME = smooth(CHANNEL)'// &
-              ' or NAME = deriv(CHANNEL) on a line of its own'
-      end if
+      do i = 1, size(SMOOTHERS)
+        if (uses_call(text, trim(SMOOTHERS(i))//'(')) then
+          msg = trim(SMOOTHERS(i))//'() makes a channel of its own: write NAME = '// &
+                trim(SMOOTHERS(i))//'(CHANNEL) on a line of its own'
+          return
+        end if
+      end do
+      status = MLID_OK
       return
     end if
-    status = MLID_ERR_INPUT
-    open = index(text, '(')
     if (text(len(text):) /= ')') then
-      msg = 'smooth() and deriv() take one channel''s name, as smooth(p) or deriv(p, 2.5)'
+      msg = trim(SMOOTHERS(op))//'() takes one channel''s name: '//SMOOTHERS_USE
       return
     end if
     arg = trim(adjustl(rhs))
-    arg = arg(open + 1:len(arg) - 1)
+    arg = arg(index(arg, '(') + 1:len(arg) - 1)
     comma = index(arg, ',')
-    if (comma > 0) then                      ! NAME, cut-off in Hz
+    if (comma > 0 .and. op > 2) then
+      msg = trim(SMOOTHERS(op))//'() takes no cut-off: its windows are fixed'
+      return
+    else if (comma > 0) then                 ! NAME, cut-off in Hz
       read (arg(comma + 1:), *, iostat=ios) fc
       if (ios /= 0 .or. .not. fc > 0.0_wp .or. fc > huge(fc)) then
         msg = 'the cut-off in '''//trim(adjustl(rhs))//''' must be a frequency > 0 in Hz'
@@ -656,8 +672,8 @@ contains
     arg = trim(adjustl(arg))
     if (len(arg) == 0 .or. verify(arg, 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_') &
         /= 0) then
-      msg = 'smooth() and deriv() take one channel''s name (and a cut-off in Hz), not '''// &
-            arg//''' (define an expression as a derived channel first)'
+      msg = trim(SMOOTHERS(op))//'() takes one channel''s name, not '''//arg// &
+            ''' (define an expression as a derived channel first): '//SMOOTHERS_USE
       return
     end if
     call find(plan, arg, j - 1, i, msg)
@@ -666,6 +682,12 @@ contains
     plan%src(j - plan%ncol) = i
     status = MLID_OK
   end subroutine smoothing_op
+
+  !> Whether smoothing op gives a derivative (SMOOTHERS' even places).
+  pure logical function is_rate(op)
+    integer, intent(in) :: op
+    is_rate = op > 0 .and. mod(op, 2) == 0
+  end function is_rate
 
   !> Whether text calls the function whose 'name(' is given (not as the tail of a longer name).
   logical function uses_call(text, name)
@@ -872,9 +894,10 @@ contains
     call radians_check(plan, set, where, msg)
   end subroutine take
 
-  !> Derived channel k = smooth or deriv of its source over the whole record
-  !> read, at the step dt when the deck rebuilds the time (dt > 0), else at
-  !> the time channel's, which must be uniform and computed before k.
+  !> Derived channel k = its smoothing function of its source over the
+  !> whole record read, at the step dt when the deck rebuilds the time
+  !> (dt > 0), else at the time channel's, which must be uniform and
+  !> computed before k.
   subroutine smoothed(plan, k, ch, dt, at, status, msg)
     type(plan_t), intent(in) :: plan
     integer, intent(in) :: k
@@ -885,7 +908,7 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: xs(:), xd(:)
     real(wp) :: step, fc
-    integer :: kc
+    integer :: kc, op, src
     status = MLID_ERR_INPUT
     at = 0
     step = dt
@@ -898,14 +921,22 @@ contains
       call smooth_uniform_check(ch(:, plan%itime), step, at, msg)
       if (at > 0) return
     end if
+    op = plan%op(k - plan%ncol)
+    src = plan%src(k - plan%ncol)
     allocate (xs(size(ch, 1)), xd(size(ch, 1)))
-    call smooth_fourier(ch(:, plan%src(k - plan%ncol)), step, xs, xd, kc, fc, status, msg, &
-                        plan%fc(k - plan%ncol))
+    select case (op)
+    case (1, 2)
+      call smooth_fourier(ch(:, src), step, xs, xd, kc, fc, status, msg, plan%fc(k - plan%ncol))
+    case (3)
+      call smooth_local(ch(:, src), xs, status, msg)
+    case default
+      call deriv_local(ch(:, src), step, xd, status, msg)
+    end select
     if (status /= MLID_OK) return
-    if (plan%op(k - plan%ncol) == 1) then
-      ch(:, k) = xs
-    else
+    if (is_rate(op)) then
       ch(:, k) = xd
+    else
+      ch(:, k) = xs
     end if
   end subroutine smoothed
 

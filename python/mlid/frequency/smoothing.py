@@ -1,6 +1,7 @@
-"""Global Fourier smoothing and the smoothed derivative of one channel (the
-core's mlid_smooth, the same the decks' ``smooth(NAME)`` and ``deriv(NAME)``
-use)."""
+"""Smoothing and the smoothed derivative of one channel: the global Fourier
+smoother (the core's mlid_smooth, the decks' ``smooth(NAME)`` and
+``deriv(NAME)``) or the local one (mlid_local_smooth, ``smooth_local(NAME)``
+and ``deriv_local(NAME)``)."""
 
 import numpy as np
 
@@ -9,7 +10,15 @@ from ..checks import real_array
 from ..errors import InputError, check_status, guarded
 
 
-def _smoothed(t, x, fc):
+#: method -> the core's switch (mlid_smooth_channel's local)
+METHODS = {"fourier": 0, "local": 1}
+
+
+def _smoothed(t, x, fc, method):
+    if method not in METHODS:
+        raise InputError(f"method must be one of {', '.join(map(repr, METHODS))}, not {method!r}")
+    if method == "local" and fc is not None:
+        raise InputError("the local smoother takes no cut-off (fc): its windows are fixed")
     t = real_array("t", t)
     x = real_array("x", x)
     if t.ndim != 1 or x.shape != t.shape:
@@ -19,14 +28,14 @@ def _smoothed(t, x, fc):
         fc = 0.0
     elif not (isinstance(fc, (int, float)) and np.isfinite(fc) and fc > 0):
         raise InputError(f"fc must be a frequency > 0 in Hz or None, not {fc!r}")
-    xs, xd, fc, status, msg = _api.mlid_smooth_channel(t, x, float(fc))
+    xs, xd, fc, status, msg = _api.mlid_smooth_channel(t, x, float(fc), METHODS[method])
     check_status(status, msg)
     return xs, xd, float(fc)
 
 
 @guarded
-def smooth(t, x, fc=None, cutoff=False):
-    """x smoothed by the core's global Fourier smoother.
+def smooth(t, x, fc=None, cutoff=False, method="fourier"):
+    """x smoothed by the core's global Fourier smoother (or its local one).
 
     The line through the first and last samples is removed, the rest
     mirrored (odd) and transformed; the cut-off is the first bin k, up from
@@ -45,7 +54,11 @@ def smooth(t, x, fc=None, cutoff=False):
     fc : float, optional
         The cut-off [Hz]; None: the rule's.
     cutoff : bool
-        Also return the cut-off frequency [Hz].
+        Also return the cut-off frequency [Hz] (0 for the local smoother).
+    method : {'fourier', 'local'}
+        'local': Spencer's 15-point moving average, shorter formulas toward
+        the ends (fortran/numerics/mlid_local_smooth.f90, the textbook's
+        preprocessing); no cut-off.
 
     Returns
     -------
@@ -54,7 +67,8 @@ def smooth(t, x, fc=None, cutoff=False):
     Raises
     ------
     InputError
-        Fewer than 16 samples, non-uniform or non-finite times or samples.
+        Fewer than 16 samples (local: 5), non-uniform or non-finite times or
+        samples, an unknown method, a cut-off for the local smoother.
 
     Examples
     --------
@@ -66,15 +80,17 @@ def smooth(t, x, fc=None, cutoff=False):
     >>> bool(np.std(xs - np.sin(2*np.pi*0.5*t)) < 0.02), 0.5 < fc < 3
     (True, True)
     """
-    xs, _, fc = _smoothed(t, x, fc)
+    xs, _, fc = _smoothed(t, x, fc, method)
     return (xs, fc) if cutoff else xs
 
 
 @guarded
-def deriv(t, x, fc=None):
+def deriv(t, x, fc=None, method="fourier"):
     """The derivative of x smoothed as by :func:`smooth`: the filtered
     spectrum times i 2 pi f transformed back, plus the slope of the line
-    through the end points.
+    through the end points; or (method 'local') the central difference of
+    the local smoother's output, on 17 points inside and 5 toward the ends,
+    the two end samples at each end held at the third's value.
 
     Parameters
     ----------
@@ -84,6 +100,8 @@ def deriv(t, x, fc=None):
         The channel.
     fc : float, optional
         The cut-off [Hz]; None: the rule's.
+    method : {'fourier', 'local'}
+        As :func:`smooth`.
 
     Returns
     -------
@@ -105,4 +123,4 @@ def deriv(t, x, fc=None):
     >>> bool(np.std(xd - np.pi*np.cos(2*np.pi*0.5*t)) < 0.2)
     True
     """
-    return _smoothed(t, x, fc)[1]
+    return _smoothed(t, x, fc, method)[1]
