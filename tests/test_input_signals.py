@@ -240,3 +240,35 @@ def test_deck_simulate_signals_both_front_ends(tmp_path):
     assert np.allclose(sw[:, 1], sweep("linear", 0.1, 1.5, 20.0, 0.02, fade=2.0), atol=1e-12)
     assert np.allclose(sw[:, 2], sweep("log", 0.1, 1.5, 20.0, 0.02, fade=2.0), atol=1e-12)
     assert np.array_equal(sw[:, 3], prbs(6, 10, 0.02, 1001))
+
+
+def test_deck_simulate_reports_each_input(tmp_path):
+    """The simulate report and JSON give each input's shape, peak, rms and
+    relative peak factor, as computed from the written record, and a
+    multisine's harmonics (those of the Python API's multisine, disjoint
+    between the inputs) or a sweep's band."""
+    import json
+    from conftest import run_both
+    deck = tmp_path / "signals.nml"
+    deck.write_text(DECK.split("&case title = 'bad band'")[0])
+    runs = run_both(deck, "--json", "out.json", cwd=tmp_path)
+    assert runs[0].stdout == runs[1].stdout
+    cases = json.loads((tmp_path / "out.json").read_text())
+    ref = multisine(3, 0.1, 1.5, 20.0, 0.02, amplitude=[1.0, 2.0, 0.5])
+    for case, name in zip(cases, ("ms.dat", "sw.dat")):
+        rec = np.loadtxt(tmp_path / name)
+        for k, inp in enumerate(case["inputs"]):
+            u = rec[:, 1 + k]
+            assert inp["peak"] == pytest.approx(np.max(np.abs(u)), rel=1e-9)
+            assert inp["rms"] == pytest.approx(np.sqrt(np.mean(u**2)), rel=1e-9)
+            rpf = (u.max() - u.min()) / (2 * np.sqrt(2) * np.sqrt(np.mean(u**2)))
+            assert inp["rpf"] == pytest.approx(rpf, rel=1e-9)
+    shapes = [i["shape"] for c in cases for i in c["inputs"]]
+    assert shapes == ["multisine"] * 3 + ["sweep", "log_sweep", "prbs"]
+    freqs = [np.array(i["frequencies_hz"]) for i in cases[0]["inputs"]]
+    assert sum(map(len, freqs)) == len(np.unique(np.concatenate(freqs)))
+    for k, f in enumerate(freqs):
+        assert np.allclose(f, ref.frequencies[k]), k
+    assert cases[1]["inputs"][0]["frequencies_hz"] == [0.1, 1.5]
+    assert cases[1]["inputs"][2]["frequencies_hz"] == []
+    assert " multisine " in runs[0].stdout and "RPF" in runs[0].stdout

@@ -8,9 +8,18 @@ module mlid_job_report
   implicit none
   private
   public :: design_summary_t, design_report, design_json, mc_summary_t, mc_report, mc_json, &
-            simulate_report, simulate_json
+            simulate_report, simulate_json, input_summary_t
 
   character, parameter :: NL = achar(10)
+
+  !> One input of a simulation: its shape ('file' when read from
+  !> input_file), peak |u|, rms, relative peak factor (max - min)/(2 sqrt(2)
+  !> rms) and, for a multisine or a sweep, its frequencies [Hz].
+  type :: input_summary_t
+    character(len=32) :: name = '', shape = ''
+    real(wp) :: peak = 0.0_wp, rms = 0.0_wp, rpf = 0.0_wp
+    real(wp), allocatable :: freq(:)
+  end type input_summary_t
 
   !> A designed input and its information (unknowns in the case's order).
   type :: design_summary_t
@@ -35,18 +44,49 @@ module mlid_job_report
 
 contains
 
-  function simulate_report(samples, out) result(text)
+  !> The samples written and a line per input (shape, peak, rms, RPF and a
+  !> multisine's harmonics or a sweep's band).
+  function simulate_report(samples, out, inputs) result(text)
     integer, intent(in) :: samples
     character(len=*), intent(in) :: out
+    type(input_summary_t), intent(in) :: inputs(:)
     character(len=:), allocatable :: text
+    character(len=256) :: buf
+    integer :: k, j
     text = ' simulated '//itoa(samples)//' samples to '//trim(out)//NL
+    if (size(inputs) == 0) return
+    write (buf, '(1x,a16,a12,3a14)') 'input           ', 'shape       ', 'peak', 'rms', 'RPF'
+    text = text//trim(buf)//NL
+    do k = 1, size(inputs)
+      write (buf, '(1x,a16,a12)') inputs(k)%name, inputs(k)%shape
+      text = text//trim(buf(1:29)//es_text(inputs(k)%peak, 14, 5)// &
+                        es_text(inputs(k)%rms, 14, 5)//es_text(inputs(k)%rpf, 14, 5))
+      if (size(inputs(k)%freq) > 0) then
+        text = text//'   Hz:'
+        do j = 1, size(inputs(k)%freq)
+          text = text//' '//trim(adjustl(es_text(inputs(k)%freq(j), 10, 3)))
+        end do
+      end if
+      text = text//NL
+    end do
   end function simulate_report
 
-  function simulate_json(title, job, samples, out) result(text)
+  function simulate_json(title, job, samples, out, inputs) result(text)
     character(len=*), intent(in) :: title, job, out
     integer, intent(in) :: samples
+    type(input_summary_t), intent(in) :: inputs(:)
     character(len=:), allocatable :: text
+    integer :: k
     text = case_json(title, job, 0, '', samples, trim(out))
+    text = text(1:len(text) - 1)//','//NL//'"inputs": ['
+    do k = 1, size(inputs)
+      if (k > 1) text = text//','
+      text = text//NL//'{"name": '//json_string(trim(inputs(k)%name))//', "shape": '// &
+             json_string(trim(inputs(k)%shape))//', "peak": '//number(inputs(k)%peak)// &
+             ', "rms": '//number(inputs(k)%rms)//', "rpf": '//number(inputs(k)%rpf)// &
+             ', "frequencies_hz": '//numbers(inputs(k)%freq)//'}'
+    end do
+    text = text//']}'
   end function simulate_json
 
   !> The method and its limit, the unknowns' weights and Cramer-Rao sigma,

@@ -21,13 +21,14 @@ module mlid_jobs
   use mlid_record, only: record_text
   use mlid_units, only: UNITLEN
   use mlid_files, only: temporary_for, write_whole
-  use mlid_text, only: itoa
+  use mlid_text, only: itoa, to_lower
   use mlid_progress, only: progress_t
   use mlid_design, only: design_t, design_create, operator_mu, mu_for_length, transition_length, &
                          RICCATI_BRACKET, &
                          costate_input, input_information, amplitude_limited_input, &
                          energy_input, equalised_input, information_summary, servo_model
-  use mlid_job_report, only: design_summary_t, design_report, design_json, mc_summary_t, &
+  use mlid_signals, only: multisine_band, peak_factor
+  use mlid_job_report, only: input_summary_t, design_summary_t, design_report, design_json, mc_summary_t, &
                              mc_report, mc_json, simulate_report, simulate_json
   implicit none
   private
@@ -95,6 +96,7 @@ contains
     character(len=:), allocatable :: text
     character(len=NAMELEN), allocatable :: names(:)
     character(len=UNITLEN), allocatable :: units(:)
+    type(input_summary_t), allocatable :: inputs(:)
 
     call case_time_input(c, t, u, status, msg)
     if (status /= MLID_OK) return
@@ -111,9 +113,50 @@ contains
     if (status /= MLID_OK) return
     call write_file(c%out_file, text, status, msg)
     if (status /= MLID_OK) return
-    report = simulate_report(size(t), c%out_file)
-    json = simulate_json(c%title, c%job, size(t), c%out_file)
+    call input_summaries(c, t, u, inputs, status, msg)
+    if (status /= MLID_OK) return
+    report = simulate_report(size(t), c%out_file, inputs)
+    json = simulate_json(c%title, c%job, size(t), c%out_file, inputs)
   end subroutine simulate_job
+
+  !> What the report says of each simulated input; a multisine's harmonics
+  !> are asked again of multisine_band, which dealt them (the same call as
+  !> case_time_input's), a sweep's band is f_band.
+  subroutine input_summaries(c, t, u, inputs, status, msg)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: t(:), u(:, :)
+    type(input_summary_t), allocatable, intent(out) :: inputs(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer, allocatable :: kh(:), own(:), ms(:)
+    integer :: k
+    status = MLID_OK
+    msg = ''
+    allocate (inputs(c%nu))
+    ms = [integer ::]
+    if (len_trim(c%input_file) == 0) then
+      ms = pack([(k, k=1, c%nu)], to_lower(c%input_shape) == 'multisine')
+      if (size(ms) > 0) call multisine_band(c%f_band(1), c%f_band(2), c%dt, size(t) - 1, &
+                                            size(ms), kh, own, status, msg)
+      if (status /= MLID_OK) return
+    end if
+    do k = 1, c%nu
+      inputs(k)%name = input_name(c, k)
+      inputs(k)%shape = 'file'
+      if (len_trim(c%input_file) == 0) inputs(k)%shape = to_lower(c%input_shape(k))
+      inputs(k)%peak = maxval(abs(u(k, :)))
+      inputs(k)%rms = sqrt(sum(u(k, :)**2)/size(t))
+      inputs(k)%rpf = peak_factor(u(k, :))
+      select case (inputs(k)%shape)
+      case ('multisine')
+        inputs(k)%freq = pack(kh, own == findloc(ms, k, 1))/((size(t) - 1)*c%dt)
+      case ('sweep', 'log_sweep')
+        inputs(k)%freq = c%f_band
+      case default
+        allocate (inputs(k)%freq(0))
+      end select
+    end do
+  end subroutine input_summaries
 
   !> design: the optimal input of &design on the model of &model (through
   !> its servo, if any), held over the record's steps and written to out.
