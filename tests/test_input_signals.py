@@ -272,3 +272,53 @@ def test_deck_simulate_reports_each_input(tmp_path):
     assert cases[1]["inputs"][0]["frequencies_hz"] == [0.1, 1.5]
     assert cases[1]["inputs"][2]["frequencies_hz"] == []
     assert " multisine " in runs[0].stdout and "RPF" in runs[0].stdout
+
+
+SHAPED = """&case title = 'shaped', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 3, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3, 0.2, 0.1, 0.5, 0.5,  h = 1, 0, 0, 1 /
+&simulate out = 'sh.dat', t_end = 20.0, dt = 0.02, input_shape = 'sweep', 'prbs', '3211',
+    amplitude = 1.0, 2.0, 0.5, amplitude_end = 0.25, f_min = 0.1, f_max = 1.5,
+    pulse_width = 2.0, 0.2, 1.0, prbs_order = 6, limit = 0, 1.5, 0, zero_mean = .true. /
+"""
+
+
+def test_deck_shapes_limits_and_zero_means_as_the_python_api(tmp_path):
+    """&simulate amplitude_end (a sweep's amplitude shaping), limit and
+    zero_mean give the Python API's signals (sweep(amplitude_end=...),
+    finish(zero=True, limit=...)) in both front ends: zero at both ends,
+    zero mean, the limit kept."""
+    from conftest import run_both
+    deck = tmp_path / "shaped.nml"
+    deck.write_text(SHAPED)
+    runs = run_both(deck, cwd=tmp_path)
+    assert runs[0].returncode == runs[1].returncode == 0 and runs[0].stdout == runs[1].stdout
+    u = np.loadtxt(tmp_path / "sh.dat")[:, 1:4]
+    want = [finish(sweep("linear", 0.1, 1.5, 20.0, 0.02, amplitude=1.0, amplitude_end=0.25,
+                         fade=2.0)),
+            finish(prbs(6, 10, 0.02, 1001, amplitude=2.0), limit=1.5),
+            finish(multistep("3211", 0.5, 0.0, 1.0, 0.02, 1001))]
+    for k in range(3):
+        assert np.allclose(u[:, k], want[k], atol=1e-12), k
+    assert np.all(u[0] == 0) and np.all(u[-1] == 0)
+    assert np.max(np.abs(u.mean(axis=0))) < 1e-12
+    assert np.max(np.abs(u[:, 1])) == pytest.approx(1.5, rel=1e-12)
+    # shaping: the sweep's envelope falls from 1 toward 0.25
+    assert np.max(np.abs(u[100:200, 0])) > 1.8 * np.max(np.abs(u[-200:-100, 0]))
+
+
+@pytest.mark.parametrize("change, message", [
+    ("limit = 0, 1.5, 0", "limit = -1",),
+    ("amplitude_end = 0.25", "amplitude_end = 0.25, 0.5"),
+])
+def test_deck_bad_shaping_one_line(tmp_path, change, message):
+    """A negative limit, or amplitude_end of neither one value nor one per input: one line."""
+    deck = tmp_path / "bad.nml"
+    deck.write_text(SHAPED.replace(change, message))
+    from conftest import refused_by_both
+    refused_by_both(deck, {"limit = -1": "limit (the largest |u| of each input; 0: none) must be "
+                                         ">= 0 and finite",
+                           "amplitude_end = 0.25, 0.5": "amplitude_end and limit take one value "
+                                                        "or one per input (3)"}[message],
+                    cwd=tmp_path)
+    assert not (tmp_path / "sh.dat").exists()

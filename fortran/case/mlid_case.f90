@@ -77,6 +77,11 @@ module mlid_case
     !> prbs_order: its PRBS' register length
     real(wp) :: f_band(2) = 0.0_wp
     integer :: prbs_order = 0
+    !> a sweep's amplitude at its end (per input; linear from amplitude),
+    !> each input's limit on |u| (scaled down to it; 0: none), and whether
+    !> every input is made to start and end at zero with zero mean
+    real(wp), allocatable :: amplitude_end(:), limit(:)
+    logical :: zero_mean = .false.
     !> simulate and monte_carlo: a record whose time and first nu columns
     !> after it are the inputs (a designed input), instead of input_shape
     character(len=PATHLEN) :: input_file = ''

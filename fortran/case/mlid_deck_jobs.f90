@@ -4,7 +4,7 @@
 !> servo time constants, process noise and method) and &monte_carlo
 !> (runs, seed, the input flown, the true values).
 submodule (mlid_deck) mlid_deck_jobs
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
   use mlid_case, only: MAX_SAMPLES
   use mlid_model_factory, only: MODEL_LINEAR
   use mlid_layout, only: layout_table_t, layout_of, element_name
@@ -23,19 +23,23 @@ contains
     character(len=PATHLEN) :: out
     character(len=16) :: input_shape(MAXU)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
-    real(wp) :: f_min, f_max
+    real(wp) :: f_min, f_max, amplitude_end(MAXU), limit(MAXU)
     integer :: seed, ios, o, prbs_order
+    logical :: zero_mean
     type(layout_table_t) :: lt
     character(len=msg_len) :: iomsg
     character(len=PATHLEN) :: input_file
     character(len=:), allocatable :: gtext
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
-      pulse_width, input_file, f_min, f_max, prbs_order
+      pulse_width, input_file, f_min, f_max, prbs_order, amplitude_end, limit, zero_mean
 
     out = ''
     f_min = 0.0_wp
     f_max = 0.0_wp
     prbs_order = 0
+    amplitude_end = ieee_value(1.0_wp, ieee_quiet_nan)    ! not given
+    limit = 0.0_wp
+    zero_mean = .false.
     t_end = 0.0_wp
     dt = 0.0_wp
     seed = 0
@@ -58,18 +62,21 @@ contains
     c%seed = seed
     c%f_band = [f_min, f_max]
     c%prbs_order = prbs_order
+    c%zero_mean = zero_mean
     call take_list(rd, c, 'simulate', 'noise_std', noise_std, c%noise_std, .false.)
     call take_list(rd, c, 'simulate', 'amplitude', amplitude, c%amplitude, .true., c%nu)
     call take_list(rd, c, 'simulate', 't_start', t_start, c%t_start, .true., c%nu)
     call take_list(rd, c, 'simulate', 'pulse_width', pulse_width, c%pulse_width, .true., c%nu)
+    call take_list(rd, c, 'simulate', 'amplitude_end', amplitude_end, c%amplitude_end, .true., c%nu)
+    call take_list(rd, c, 'simulate', 'limit', limit, c%limit, .true., c%nu)
     if (c%status /= MLID_OK) return
     if (len_trim(input_file) > 0 .and. (t_end /= 0.0_wp .or. dt /= 0.0_wp .or. &
         any(len_trim(input_shape) > 0) .or. size(c%amplitude) > 0 .or. &
         size(c%t_start) > 0 .or. size(c%pulse_width) > 0 .or. any(c%f_band /= 0.0_wp) .or. &
-        prbs_order /= 0)) then
+        prbs_order /= 0 .or. size(c%amplitude_end) > 0 .or. size(c%limit) > 0 .or. zero_mean)) then
       call fail(c, 'group &simulate: input_file gives the time and inputs; t_end, dt, '// &
-                'input_shape, amplitude, t_start, pulse_width, f_min, f_max and prbs_order '// &
-                'are for a standard input')
+                'input_shape, amplitude, amplitude_end, t_start, pulse_width, f_min, f_max, '// &
+                'prbs_order, limit and zero_mean are for a standard input')
       return
     end if
     ! one value serves every input; otherwise one per input
@@ -77,6 +84,11 @@ contains
     c%t_start = per_input(c%t_start, c%nu)
     c%pulse_width = per_input(c%pulse_width, c%nu)
     if (size(c%amplitude) == 0) c%amplitude = spread(0.0_wp, 1, c%nu)
+    c%limit = per_input(c%limit, c%nu)
+    if (size(c%amplitude_end) == 0) c%amplitude_end = [ieee_value(1.0_wp, ieee_quiet_nan)]
+    c%amplitude_end = per_input(c%amplitude_end, c%nu)
+    if (size(c%amplitude_end) == c%nu .and. size(c%amplitude) == c%nu) &   ! not given: the amplitude's
+      c%amplitude_end = merge(c%amplitude, c%amplitude_end, ieee_is_nan(c%amplitude_end))
     call check_simulate(c)
     if (c%status /= MLID_OK) return
     ! noise_std, when given, sets the measurement-noise variances r
@@ -117,10 +129,17 @@ contains
     else if (c%seed < 0) then
       call fail(c, 'group &simulate: seed must be >= 0')
     else if (size(c%input_shape) /= c%nu .or. size(c%t_start) /= c%nu .or. &
-             size(c%pulse_width) /= c%nu) then
-      write (iomsg, '(a,i0,a)') 'group &simulate: input_shape, t_start and pulse_width take '// &
-        'one value or one per input (', c%nu, ')'
+             size(c%pulse_width) /= c%nu .or. size(c%limit) /= c%nu .or. &
+             size(c%amplitude_end) /= c%nu) then
+      write (iomsg, '(a,i0,a)') 'group &simulate: input_shape, t_start, pulse_width, '// &
+        'amplitude_end and limit take one value or one per input (', c%nu, ')'
       call fail(c, iomsg)
+    else if (.not. all(c%limit >= 0.0_wp .and. ieee_is_finite(c%limit))) then
+      call fail(c, 'group &simulate: limit (the largest |u| of each input; 0: none) must be '// &
+                '>= 0 and finite')
+    else if (.not. all(ieee_is_finite(c%amplitude_end))) then
+      call fail(c, 'group &simulate: amplitude_end (a sweep''s amplitude at its end) must be '// &
+                'finite')
     end if
   end subroutine check_simulate
 

@@ -10,7 +10,8 @@ submodule (mlid_deck) mlid_deck_record
   use mlid_kinds, only: MLID_ERR_MEMORY
   use mlid_options, only: option_set
   use mlid_inputs, only: input_signal
-  use mlid_signals, only: multisine_band, multisine, sweep, prbs, SIGNAL_SHAPES, MULTISINE_ITERATIONS
+  use mlid_signals, only: multisine_band, multisine, sweep, prbs, finish_signal, SIGNAL_SHAPES, &
+                          MULTISINE_ITERATIONS
   use mlid_channels, only: channel_set_t, channels_read
   use mlid_record, only: record_t, record_read
   use mlid_sampling, only: record_check_time
@@ -321,10 +322,10 @@ contains
       case ('multisine')
         cycle
       case ('sweep')
-        call sweep('linear', c%f_band(1), c%f_band(2), c%amplitude(k), c%amplitude(k), &
+        call sweep('linear', c%f_band(1), c%f_band(2), c%amplitude(k), c%amplitude_end(k), &
                    c%pulse_width(k), c%dt, u(k, :), status, msg)
       case ('log_sweep')
-        call sweep('log', c%f_band(1), c%f_band(2), c%amplitude(k), c%amplitude(k), &
+        call sweep('log', c%f_band(1), c%f_band(2), c%amplitude(k), c%amplitude_end(k), &
                    c%pulse_width(k), c%dt, u(k, :), status, msg)
       case ('prbs')
         call prbs(c%prbs_order, nint(c%pulse_width(k)/c%dt), c%amplitude(k), u(k, :), status, msg)
@@ -333,6 +334,8 @@ contains
                           u(k, :), status, msg)
         if (index(msg, 'unknown input shape') > 0) msg = trim(msg)//', '//SIGNAL_SHAPES
       end select
+      if (status /= MLID_OK) return
+      call finish_signal(u(k, :), c%zero_mean, c%limit(k), status, msg)
       if (status /= MLID_OK) return
     end do
   end procedure case_time_input
