@@ -322,3 +322,29 @@ def test_deck_bad_shaping_one_line(tmp_path, change, message):
                                                         "or one per input (3)"}[message],
                     cwd=tmp_path)
     assert not (tmp_path / "sh.dat").exists()
+
+
+def test_deck_multisine_power_as_the_python_api(tmp_path):
+    """&simulate power (one relative power per harmonic of the band) gives
+    the Python API's multisine(power=...), in both front ends; a list of the
+    wrong length fails that case with one line naming the band's count."""
+    from conftest import run_both
+    case = """&case title = '{title}', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 2, ny = 2,
+    f = -1.0, 0.5, -2.0, -1.5, g = 1.0, 0.2, 0.0, 1.0, h = 1, 0, 0, 1 /
+&simulate out = '{out}', t_end = 10.0, dt = 0.02, input_shape = 'multisine',
+    amplitude = 1.0, 0.5, f_min = 0.1, f_max = 1.0, power = {power} /
+"""
+    deck = tmp_path / "power.nml"
+    deck.write_text(case.format(title="sloped", out="p.dat", power="10, 9, 8, 7, 6, 5, 4, 3, 2, 1")
+                    + case.format(title="short", out="q.dat", power="10, 9, 8"))
+    runs = run_both(deck, cwd=tmp_path)
+    assert runs[0].stdout == runs[1].stdout
+    for run in runs:
+        assert run.returncode == 1
+        assert run.stderr.splitlines()[0].endswith(
+            "'short': multisine: power has 3 values, the band holds 10 harmonics (one per "
+            "harmonic, all inputs' in frequency order)")
+    ms = multisine(2, 0.1, 1.0, 10.0, 0.02, amplitude=[1.0, 0.5], power=np.arange(10, 0, -1.0))
+    assert np.allclose(np.loadtxt(tmp_path / "p.dat")[:, 1:3], ms.u, atol=1e-12)
+    assert not (tmp_path / "q.dat").exists()

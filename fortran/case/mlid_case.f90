@@ -81,6 +81,9 @@ module mlid_case
     !> each input's limit on |u| (scaled down to it; 0: none), and whether
     !> every input is made to start and end at zero with zero mean
     real(wp), allocatable :: amplitude_end(:), limit(:)
+    !> the multisines' relative power per harmonic of the band, all inputs'
+    !> in frequency order (empty: flat)
+    real(wp), allocatable :: power(:)
     logical :: zero_mean = .false.
     !> simulate and monte_carlo: a record whose time and first nu columns
     !> after it are the inputs (a designed input), instead of input_shape

@@ -24,6 +24,7 @@ contains
     character(len=16) :: input_shape(MAXU)
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
     real(wp) :: f_min, f_max, amplitude_end(MAXU), limit(MAXU)
+    real(wp), allocatable :: power(:)
     integer :: seed, ios, o, prbs_order
     logical :: zero_mean
     type(layout_table_t) :: lt
@@ -31,7 +32,7 @@ contains
     character(len=PATHLEN) :: input_file
     character(len=:), allocatable :: gtext
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
-      pulse_width, input_file, f_min, f_max, prbs_order, amplitude_end, limit, zero_mean
+      pulse_width, input_file, f_min, f_max, prbs_order, amplitude_end, limit, zero_mean, power
 
     out = ''
     f_min = 0.0_wp
@@ -40,6 +41,12 @@ contains
     amplitude_end = ieee_value(1.0_wp, ieee_quiet_nan)    ! not given
     limit = 0.0_wp
     zero_mean = .false.
+    allocate (power(MAX_HARMONICS), stat=ios)
+    if (ios /= 0) then
+      call fail(c, 'group &simulate: out of memory')
+      return
+    end if
+    power = 1.0_wp
     t_end = 0.0_wp
     dt = 0.0_wp
     seed = 0
@@ -69,14 +76,16 @@ contains
     call take_list(rd, c, 'simulate', 'pulse_width', pulse_width, c%pulse_width, .true., c%nu)
     call take_list(rd, c, 'simulate', 'amplitude_end', amplitude_end, c%amplitude_end, .true., c%nu)
     call take_list(rd, c, 'simulate', 'limit', limit, c%limit, .true., c%nu)
+    call take_list(rd, c, 'simulate', 'power', power, c%power, .true.)
     if (c%status /= MLID_OK) return
     if (len_trim(input_file) > 0 .and. (t_end /= 0.0_wp .or. dt /= 0.0_wp .or. &
         any(len_trim(input_shape) > 0) .or. size(c%amplitude) > 0 .or. &
         size(c%t_start) > 0 .or. size(c%pulse_width) > 0 .or. any(c%f_band /= 0.0_wp) .or. &
-        prbs_order /= 0 .or. size(c%amplitude_end) > 0 .or. size(c%limit) > 0 .or. zero_mean)) then
+        prbs_order /= 0 .or. size(c%amplitude_end) > 0 .or. size(c%limit) > 0 .or. zero_mean &
+        .or. size(c%power) > 0)) then
       call fail(c, 'group &simulate: input_file gives the time and inputs; t_end, dt, '// &
                 'input_shape, amplitude, amplitude_end, t_start, pulse_width, f_min, f_max, '// &
-                'prbs_order, limit and zero_mean are for a standard input')
+                'prbs_order, limit, zero_mean and power are for a standard input')
       return
     end if
     ! one value serves every input; otherwise one per input
@@ -137,6 +146,9 @@ contains
     else if (.not. all(c%limit >= 0.0_wp .and. ieee_is_finite(c%limit))) then
       call fail(c, 'group &simulate: limit (the largest |u| of each input; 0: none) must be '// &
                 '>= 0 and finite')
+    else if (.not. all(c%power >= 0.0_wp .and. ieee_is_finite(c%power))) then
+      call fail(c, 'group &simulate: power (the multisines'' relative power per harmonic) '// &
+                'must be >= 0 and finite')
     else if (.not. all(ieee_is_finite(c%amplitude_end))) then
       call fail(c, 'group &simulate: amplitude_end (a sweep''s amplitude at its end) must be '// &
                 'finite')

@@ -342,7 +342,8 @@ contains
 
   !> The inputs whose shape is 'multisine': one set, mutually orthogonal over
   !> the record (T = t_end, the last sample repeating the first), in the band
-  !> f_band, each input's peak its amplitude, flat spectra.
+  !> f_band, each input's peak its amplitude, its spectrum power's (flat
+  !> when not given).
   subroutine deck_multisines(c, u, status, msg)
     type(case_t), intent(in) :: c
     real(wp), intent(inout) :: u(:, :)
@@ -364,8 +365,19 @@ contains
       msg = 'multisine: out of memory'
       return
     end if
-    call multisine(kh, own, spread(1.0_wp, 1, size(kh)), c%amplitude(ms), MULTISINE_ITERATIONS, &
-                   um, ph, ampl, r0, r1, status, msg)
+    if (size(c%power) > 0 .and. size(c%power) /= size(kh)) then
+      status = MLID_ERR_INPUT
+      msg = 'multisine: power has '//itoa(size(c%power))//' values, the band holds '// &
+            itoa(size(kh))//' harmonics (one per harmonic, all inputs'' in frequency order)'
+      return
+    end if
+    if (size(c%power) == 0) then
+      call multisine(kh, own, spread(1.0_wp, 1, size(kh)), c%amplitude(ms), MULTISINE_ITERATIONS, &
+                     um, ph, ampl, r0, r1, status, msg)
+    else
+      call multisine(kh, own, c%power, c%amplitude(ms), MULTISINE_ITERATIONS, um, ph, ampl, r0, &
+                     r1, status, msg)
+    end if
     if (status == MLID_OK) u(ms, :) = transpose(um)
   end subroutine deck_multisines
 
