@@ -6,7 +6,9 @@ sum of sines plus white noise: time per sample side by side, the ratios,
 and each one's rms error against the true signal and derivative (the
 middle 90% and the first and last 5%).  A record of 10,000 samples has a
 mirror of 19,998 = 2 * 3^2 * 11 * 101: not 2^a 3^b 5^c, so Bluestein's
-transform; 10,001 samples (mirror 20,000) take the FFT directly.
+transform; 10,001 samples (mirror 20,000) take the FFT directly.  The
+local variant (method='local': Spencer's 15-point average, the 17-point
+central difference) is timed in the same rounds, against the same savgol.
 
     python benchmarks/bench_smooth.py
 """
@@ -45,8 +47,10 @@ def main():
         dt = t[1] - t[0]
         fns = [lambda: mlid.smooth(t, x), lambda: mlid.deriv(t, x),
                lambda: savgol_filter(x, WINDOW, ORDER),
-               lambda: savgol_filter(x, WINDOW, ORDER, deriv=1, delta=dt)]
-        ts, td, ss, sd = interleaved_medians(fns, rounds=5, n=5)
+               lambda: savgol_filter(x, WINDOW, ORDER, deriv=1, delta=dt),
+               lambda: mlid.smooth(t, x, method="local"),
+               lambda: mlid.deriv(t, x, method="local")]
+        ts, td, ss, sd, tls, tld = interleaved_medians(fns, rounds=5, n=5)
         _, fc = mlid.smooth(t, x, cutoff=True)
         print(f"{n} samples (cut-off {fc:.3f} Hz; Savitzky-Golay: cubic over {WINDOW} samples)")
         print(f"  {'':10s} {'mlid us/sample':>15s} {'savgol us/sample':>17s} {'ratio':>7s}"
@@ -54,6 +58,10 @@ def main():
         for name, tm, ts_, est, sg, truth in (
                 ("smooth", ts, ss, mlid.smooth(t, x), savgol_filter(x, WINDOW, ORDER), true),
                 ("deriv", td, sd, mlid.deriv(t, x),
+                 savgol_filter(x, WINDOW, ORDER, deriv=1, delta=dt), true_dot),
+                ("smooth_lo", tls, ss, mlid.smooth(t, x, method="local"),
+                 savgol_filter(x, WINDOW, ORDER), true),
+                ("deriv_lo", tld, sd, mlid.deriv(t, x, method="local"),
                  savgol_filter(x, WINDOW, ORDER, deriv=1, delta=dt), true_dot)):
             em, eme = errors(est, truth)
             es, ese = errors(sg, truth)
