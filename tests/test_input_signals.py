@@ -348,3 +348,32 @@ def test_deck_multisine_power_as_the_python_api(tmp_path):
     ms = multisine(2, 0.1, 1.0, 10.0, 0.02, amplitude=[1.0, 0.5], power=np.arange(10, 0, -1.0))
     assert np.allclose(np.loadtxt(tmp_path / "p.dat")[:, 1:3], ms.u, atol=1e-12)
     assert not (tmp_path / "q.dat").exists()
+
+
+def test_deck_schroeder_phases_as_the_python_api(tmp_path):
+    """&simulate phases = 'schroeder' gives multisine(iterations=0), whose RPF
+    the optimised default beats on every input; an unknown word: one line."""
+    import json
+    from conftest import run_both
+    case = """&case title = '{title}', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 3, ny = 2,
+    f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3, 0.2, 0.1, 0.5, 0.5,  h = 1, 0, 0, 1 /
+&simulate out = '{title}.dat', t_end = 20.0, dt = 0.02, input_shape = 'multisine',
+    amplitude = 1.0, 1.0, 1.0, f_min = 0.1, f_max = 1.5{phases} /
+"""
+    deck = tmp_path / "phases.nml"
+    deck.write_text(case.format(title="schroeder", phases=", phases = 'Schroeder'")
+                    + case.format(title="optimised", phases="")
+                    + case.format(title="bad", phases=", phases = 'random'"))
+    runs = run_both(deck, "--json", "{exe}.json", cwd=tmp_path)
+    assert runs[0].stdout == runs[1].stdout
+    for run in runs:
+        assert run.stderr.splitlines()[0].endswith(
+            "'bad': group &simulate: phases must be 'optimised' (least relative peak factor) "
+            "or 'schroeder', not 'random'")
+    ref = multisine(3, 0.1, 1.5, 20.0, 0.02, iterations=0)
+    assert np.allclose(np.loadtxt(tmp_path / "schroeder.dat")[:, 1:4], ref.u, atol=1e-12)
+    cases = json.loads((tmp_path / "mlid.json").read_text())
+    schroeder = [i["rpf"] for i in cases[0]["inputs"]]
+    optimised = [i["rpf"] for i in cases[1]["inputs"]]
+    assert all(o < s for o, s in zip(optimised, schroeder)), (optimised, schroeder)

@@ -84,6 +84,9 @@ module mlid_case
     !> the multisines' relative power per harmonic of the band, all inputs'
     !> in frequency order (empty: flat)
     real(wp), allocatable :: power(:)
+    !> the multisines' phases: 'optimised' (least relative peak factor) or
+    !> 'schroeder' (Schroeder's, not iterated)
+    character(len=16) :: phases = 'optimised'
     logical :: zero_mean = .false.
     !> simulate and monte_carlo: a record whose time and first nu columns
     !> after it are the inputs (a designed input), instead of input_shape

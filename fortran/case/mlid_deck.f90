@@ -94,7 +94,7 @@ module mlid_deck
     'file time_col input_cols output_cols skip_rows columns units derived show t_start t_end '// &
     'holdout dt join join_columns', &
     'out t_end dt seed noise_std input_shape amplitude t_start pulse_width input_file f_min f_max '// &
-    'prbs_order amplitude_end limit zero_mean power', &
+    'prbs_order amplitude_end limit zero_mean power phases', &
     'method startup max_iter halvings noise partials steady_state process_noise '// &
     'noise_criterion filter_params tol_cost tol_step tol_grad rcond prior prior_weight '// &
     'prior_decay rank_min rank_max rank_rule lower upper corrected f_min f_max n_freq', &

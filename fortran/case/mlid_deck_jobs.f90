@@ -21,7 +21,7 @@ contains
   !> &simulate: the record to write, its time base, inputs and noise.
   module procedure read_simulate_group
     character(len=PATHLEN) :: out
-    character(len=16) :: input_shape(MAXU)
+    character(len=16) :: input_shape(MAXU), phases
     real(wp) :: t_end, dt, noise_std(MAXY), amplitude(MAXU), t_start(MAXU), pulse_width(MAXU)
     real(wp) :: f_min, f_max, amplitude_end(MAXU), limit(MAXU)
     real(wp), allocatable :: power(:)
@@ -32,7 +32,8 @@ contains
     character(len=PATHLEN) :: input_file
     character(len=:), allocatable :: gtext
     namelist /simulate/ out, t_end, dt, seed, noise_std, input_shape, amplitude, t_start, &
-      pulse_width, input_file, f_min, f_max, prbs_order, amplitude_end, limit, zero_mean, power
+      pulse_width, input_file, f_min, f_max, prbs_order, amplitude_end, limit, zero_mean, power, &
+      phases
 
     out = ''
     f_min = 0.0_wp
@@ -41,6 +42,7 @@ contains
     amplitude_end = ieee_value(1.0_wp, ieee_quiet_nan)    ! not given
     limit = 0.0_wp
     zero_mean = .false.
+    phases = 'optimised'
     allocate (power(MAX_HARMONICS), stat=ios)
     if (ios /= 0) then
       call fail(c, 'group &simulate: out of memory')
@@ -62,6 +64,7 @@ contains
     call group_status(rd, 'simulate', ios, iomsg, .true., c)
     if (c%status /= MLID_OK) return
     if (too_long(rd, c, 'simulate', ['input_shape'], len(input_shape))) return
+    if (too_long(rd, c, 'simulate', ['phases'], len(phases))) return
     c%out_file = out
     c%input_file = input_file
     c%t_end = t_end
@@ -70,6 +73,7 @@ contains
     c%f_band = [f_min, f_max]
     c%prbs_order = prbs_order
     c%zero_mean = zero_mean
+    c%phases = to_lower(phases)
     call take_list(rd, c, 'simulate', 'noise_std', noise_std, c%noise_std, .false.)
     call take_list(rd, c, 'simulate', 'amplitude', amplitude, c%amplitude, .true., c%nu)
     call take_list(rd, c, 'simulate', 't_start', t_start, c%t_start, .true., c%nu)
@@ -82,10 +86,10 @@ contains
         any(len_trim(input_shape) > 0) .or. size(c%amplitude) > 0 .or. &
         size(c%t_start) > 0 .or. size(c%pulse_width) > 0 .or. any(c%f_band /= 0.0_wp) .or. &
         prbs_order /= 0 .or. size(c%amplitude_end) > 0 .or. size(c%limit) > 0 .or. zero_mean &
-        .or. size(c%power) > 0)) then
+        .or. size(c%power) > 0 .or. c%phases /= 'optimised')) then
       call fail(c, 'group &simulate: input_file gives the time and inputs; t_end, dt, '// &
                 'input_shape, amplitude, amplitude_end, t_start, pulse_width, f_min, f_max, '// &
-                'prbs_order, limit, zero_mean and power are for a standard input')
+                'prbs_order, limit, zero_mean, power and phases are for a standard input')
       return
     end if
     ! one value serves every input; otherwise one per input
@@ -146,6 +150,9 @@ contains
     else if (.not. all(c%limit >= 0.0_wp .and. ieee_is_finite(c%limit))) then
       call fail(c, 'group &simulate: limit (the largest |u| of each input; 0: none) must be '// &
                 '>= 0 and finite')
+    else if (c%phases /= 'optimised' .and. c%phases /= 'schroeder') then
+      call fail(c, 'group &simulate: phases must be ''optimised'' (least relative peak '// &
+                'factor) or ''schroeder'', not '''//trim(c%phases)//'''')
     else if (.not. all(c%power >= 0.0_wp .and. ieee_is_finite(c%power))) then
       call fail(c, 'group &simulate: power (the multisines'' relative power per harmonic) '// &
                 'must be >= 0 and finite')

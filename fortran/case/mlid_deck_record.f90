@@ -351,7 +351,7 @@ contains
     character(len=*), intent(out) :: msg
     integer, allocatable :: ms(:), kh(:), own(:)
     real(wp), allocatable :: um(:, :), ph(:), ampl(:), r0(:), r1(:)
-    integer :: k, ierr
+    integer :: k, ierr, iterations
     status = MLID_OK
     msg = ''
     ms = pack([(k, k=1, c%nu)], to_lower(c%input_shape) == 'multisine')
@@ -371,12 +371,13 @@ contains
             itoa(size(kh))//' harmonics (one per harmonic, all inputs'' in frequency order)'
       return
     end if
+    iterations = merge(0, MULTISINE_ITERATIONS, c%phases == 'schroeder')
     if (size(c%power) == 0) then
-      call multisine(kh, own, spread(1.0_wp, 1, size(kh)), c%amplitude(ms), MULTISINE_ITERATIONS, &
+      call multisine(kh, own, spread(1.0_wp, 1, size(kh)), c%amplitude(ms), iterations, &
                      um, ph, ampl, r0, r1, status, msg)
     else
-      call multisine(kh, own, c%power, c%amplitude(ms), MULTISINE_ITERATIONS, um, ph, ampl, r0, &
-                     r1, status, msg)
+      call multisine(kh, own, c%power, c%amplitude(ms), iterations, um, ph, ampl, r0, r1, &
+                     status, msg)
     end if
     if (status == MLID_OK) u(ms, :) = transpose(um)
   end subroutine deck_multisines
