@@ -222,32 +222,49 @@ contains
   !> of S(i,i) (R >= 0 keeps the gain physical; the floor keeps B regular);
   !> an R that moves against its last move goes halfway (in ratio) only,
   !> which damps the two-cycle noise-free outputs otherwise fall into.
-  !> Then the likelihood is evaluated again.  djr: the cost's fall from it.
+  !> The move is taken only where the likelihood falls: else it is halved
+  !> in ratio, as a Newton step is, up to opt%halvings times, and then not
+  !> taken (from a start where C P C' exceeds S the whole move takes R to
+  !> its floor and the gain to the measurements: HFB-320, issue 44).
+  !> djr: the cost's fall from it (>= 0).
   subroutine relax_noise(pb, res, djr, status, msg)
     type(problem_t), intent(in) :: pb
     type(fit_result_t), intent(inout) :: res
     real(wp), intent(out) :: djr
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: target
-    integer :: i, k, dir
+    real(wp) :: r0(pb%m%ny), target(pb%m%ny), j0
+    integer :: i, ih, dir(pb%m%ny)
+    integer, allocatable :: ir(:)
 
     associate (m => pb%m, pm => pb%pm)
       if (.not. allocated(res%rmove)) then
         allocate (res%rmove(m%ny))
         res%rmove = 0
       end if
-      djr = res%cost
+      j0 = res%cost
+      ir = [(pm%l%or + i, i=1, m%ny)]
+      r0 = res%theta(ir)
       do i = 1, m%ny
-        k = pm%l%or + i
-        target = max(res%rhat(i, i) - res%bmean(i, i) + res%theta(k), NOISE_FLOOR*res%rhat(i, i))
-        dir = int(sign(1.0_wp, target - res%theta(k)))
-        if (dir*res%rmove(i) < 0) target = sqrt(target*res%theta(k))
-        res%rmove(i) = dir
-        res%theta(k) = target
+        target(i) = max(res%rhat(i, i) - res%bmean(i, i) + r0(i), NOISE_FLOOR*res%rhat(i, i))
+        dir(i) = int(sign(1.0_wp, target(i) - r0(i)))
+        if (dir(i)*res%rmove(i) < 0) target(i) = sqrt(target(i)*r0(i))
       end do
+      do ih = 0, pb%opt%halvings
+        res%theta(ir) = target
+        call evaluate_full(pb, res, status, msg)
+        if (status == MLID_OK .and. res%cost <= j0) then
+          res%rmove = dir
+          djr = j0 - res%cost
+          return
+        end if
+        if (status == MLID_ERR_INTERRUPTED) return
+        target = sqrt(target*r0)
+      end do
+      res%theta(ir) = r0                     ! no move lowers the cost: R stays
+      res%rmove = 0
       call evaluate_full(pb, res, status, msg)
-      djr = djr - res%cost
+      djr = 0.0_wp
     end associate
   end subroutine relax_noise
 
