@@ -87,6 +87,7 @@ module mlid_case
     real(wp), allocatable :: weights(:)       !< per unknown
     real(wp), allocatable :: servo(:)         !< servo time constant per input (0: none)
     real(wp), allocatable :: gq(:, :)         !< process noise Gamma Q Gamma' (nx, nx)
+    real(wp), allocatable :: kx(:, :)         !< the state penalty K of report 7.6 (nx, nx; 0: none)
     character(len=16) :: design_method = ''
     real(wp) :: energy = 0.0_wp, peak = 0.0_wp, min_width = 0.0_wp
     integer :: iterations = 0                 !< equalised: weight updates tried
