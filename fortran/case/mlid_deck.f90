@@ -34,7 +34,8 @@
 !>             prior, prior_weight,
 !>             prior_decay, rank_min, rank_max, rank_rule, lower, upper (per free parameter, in the
 !>             order of free), corrected (kind flight_path: one record per data file),
-!>             f_min, f_max, n_freq (the band of the frequency-domain methods, Hz)
+!>             f_min, f_max, n_freq (the band of the frequency-domain methods, Hz),
+!>             x0_from, x0_samples (the measured states' x0 from each record)
 !> A problem in one case is kept in that case (status, msg) and the others
 !> are still read.  Python reads decks through this reader too, into a handle
 !> (mlid_handles; mlid_api_deck's mlid_deck_* routines).
@@ -96,7 +97,8 @@ module mlid_deck
     'prbs_order', &
     'method startup max_iter halvings noise partials steady_state process_noise '// &
     'noise_criterion filter_params tol_cost tol_step tol_grad rcond prior prior_weight '// &
-    'prior_decay rank_min rank_max rank_rule lower upper corrected f_min f_max n_freq', &
+    'prior_decay rank_min rank_max rank_rule lower upper corrected f_min f_max n_freq x0_from '// &
+    'x0_samples', &
     'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out '// &
     'state_penalty', &
     'runs seed truth input_file']
