@@ -174,6 +174,11 @@ def test_a_validate_case_predicts_each_held_out_record_from_its_own_first_sample
     pred = result.validation.prediction.yhat
     assert pred[0, 0] == m2[0, 2]              # y1 = x1 at the first sample
     assert abs(pred[0, 0]) > 0.2
+    # mlid.validate on the fit of the first record: the same prediction
+    m2_data = case.record([2])[0]
+    own = mlid.validate(result, m2_data, holdout=[2], x0_from="first")
+    np.testing.assert_allclose(own.prediction.yhat, pred, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(own.theil, result.validation.theil, rtol=1e-12)
 
 
 BAD = {
@@ -280,3 +285,24 @@ def test_real_records_in_the_units_the_fit_sees():
     res = mlid.fit(hfb.model, data, x0_from="first", **opts)
     assert res.model.x0.tolist() == data.y[0, :4].tolist()
     assert hfb.model.x0.tolist() != data.y[0, :4].tolist()     # the reference's own x0
+
+
+@pytest.mark.skipif(not DATA.is_dir(), reason="real flight data not beside the checkout")
+def test_flight_path_outputs_written_as_states_on_three_manoeuvres():
+    """cases/flight_path/tc22 types each manoeuvre's initial_states: u, v, w
+    from the air data, phi, theta, psi, h the first samples (deg -> rad, ft
+    -> m) to its digits.  x0_from = 'first' sets those four from each
+    record (the outputs 'phi', ..., 'h' are written as the states), keeps
+    u, v, w, and gives the same fit to 1e-5 sigma (the deck is left as it
+    is: its published numbers come from its typed digits)."""
+    case = mlid.read_deck(REPO / "cases" / "flight_path" / "tc22.nml")[0]
+    data, opts = case.record(), case.options()
+    typed = np.array(opts["initial_states"])
+    res = mlid.fit(case.model, data, x0_from="first", **opts)
+    for k, (m, rec) in enumerate(zip(res.manoeuvres, data)):
+        assert m.x0[3:].tolist() == rec.y[0, 3:].tolist()
+        assert m.x0[:3].tolist() == typed[k, :3].tolist()
+        np.testing.assert_allclose(m.x0[3:], typed[k, 3:], rtol=0, atol=1e-9)
+    ref = mlid.fit(case.model, data, **opts)
+    assert np.all(np.abs(res.estimate - ref.estimate) < 1e-5 * ref.sigma)
+    np.testing.assert_allclose(res.sigma, ref.sigma, rtol=1e-6)
