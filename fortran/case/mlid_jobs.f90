@@ -22,6 +22,7 @@ module mlid_jobs
   use mlid_units, only: UNITLEN
   use mlid_files, only: temporary_for, write_whole
   use mlid_text, only: itoa
+  use mlid_memory, only: no_memory
   use mlid_progress, only: progress_t
   use mlid_design, only: design_t, design_create, operator_mu, mu_for_length, transition_length, &
                          RICCATI_BRACKET, &
@@ -303,10 +304,15 @@ contains
     character(len=*), intent(out) :: msg
     integer, parameter :: NS = 4
     real(wp), allocatable :: x(:, :), w(:), xx(:, :)
-    integer :: j, np
+    integer :: j, np, ierr
 
     np = s%cells*NS + 1
-    allocate (x(size(f, 1), np), w(np), xx(c%nx, c%nx))
+    allocate (x(size(f, 1), np), w(np), xx(c%nx, c%nx), stat=ierr)
+    if (ierr /= 0) then
+      call no_memory('the states under the designed input', real(size(f, 1) + 1, wp)*np, &
+                     status, msg)
+      return
+    end if
     call input_response(f, g, c%t_end, s%cells, NS, u, x, status, msg)
     if (status /= MLID_OK) return
     w = 2.0_wp
