@@ -28,7 +28,8 @@ module mlid_api_models
   use mlid_named, only: named_t, VALUE_KIND_NAMES
   use mlid_run, only: corrected_record
   use mlid_handles, only: session_t, handle_session, call_session
-  use mlid_problem, only: problem_needs, PART_MODEL, PART_RECORD
+  use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD
+  use mlid_initial_states, only: x0_from_record
   implicit none
   private
   public :: mlid_input_signal, mlid_multisine_count, mlid_multisine, mlid_sweep, mlid_prbs, &
@@ -37,7 +38,7 @@ module mlid_api_models
             mlid_tie_parse, mlid_sixdof_constants, mlid_sixdof_text, mlid_flightpath_lists, &
             mlid_flightpath_model_text, mlid_flightpath_corrected, mlid_layout, &
             mlid_manoeuvre_map, mlid_elements, mlid_longitudinal_iconst, mlid_parameter_units, &
-            mlid_name_list, mlid_limit, mlid_model_sizes, mlid_check_jacobians
+            mlid_name_list, mlid_limit, mlid_model_sizes, mlid_check_jacobians, mlid_x0_from
 
 contains
 
@@ -314,6 +315,33 @@ contains
     call s%results%put('uc', uc)
     call s%results%put('yc', yc)
   end subroutine mlid_flightpath_corrected
+
+  !> x0 from the record (mlid_initial_states, as a deck's &estimate
+  !> x0_from): handle h's problem gives the model, its parameters (laid out
+  !> for its record's manoeuvres) and the record; given 'rule' ('first' or
+  !> 'mean') and 'samples' (k, 'mean'); result 'theta', the parameters with
+  !> each manoeuvre's measured states' x0 from its own samples.
+  subroutine mlid_x0_from(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    character(len=:), allocatable :: rule
+    real(wp), allocatable :: theta(:)
+    integer :: k
+    call call_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    call problem_needs(s%problem, [PART_MODEL, PART_PARAMS, PART_RECORD], status, msg)
+    if (status == MLID_OK) call s%given%get('rule', rule, status, msg)
+    if (status == MLID_OK) call s%given%get('samples', k, status, msg)
+    if (status /= MLID_OK) return
+    associate (pb => s%problem)
+      theta = pb%theta
+      call x0_from_record(pb%mkind, pb%nx, pb%nu, pb%ny, pb%nw, pb%iconst, pb%rconst, theta, &
+                          pb%y, pb%segstart, rule, k, status, msg)
+    end associate
+    if (status == MLID_OK) call s%results%put('theta', theta)
+  end subroutine mlid_x0_from
 
   !> The parameter layout of handle h's problem's model (mlid_layout), as
   !> results: each block's 'keys' (one a line), 'rows', 'cols' (-1: a

@@ -55,6 +55,10 @@ module mlid_case
     character(len=NAMELEN), allocatable :: labels(:)  !< per free parameter, in the order of free
     character(len=NAMELEN), allocatable :: input_names(:), output_names(:)  !< channels, if named
     real(wp), allocatable :: initial_states(:)  !< nx per manoeuvre, if given (else x0 for each)
+    !> &estimate x0_from ('' none, 'first', 'mean') and x0_samples: the
+    !> measured states' x0 from each manoeuvre's record (mlid_initial_states)
+    character(len=8) :: x0_from = ''
+    integer :: x0_samples = 0
     integer :: iopt(NOPT) = 0
     real(wp) :: ropt(NOPT) = 0.0_wp
     !> the records, one per manoeuvre (relative paths are resolved from the deck)
@@ -98,6 +102,7 @@ module mlid_case
     real(wp), allocatable :: weights(:)       !< per unknown
     real(wp), allocatable :: servo(:)         !< servo time constant per input (0: none)
     real(wp), allocatable :: gq(:, :)         !< process noise Gamma Q Gamma' (nx, nx)
+    real(wp), allocatable :: kx(:, :)         !< the state penalty K of report 7.6 (nx, nx; 0: none)
     character(len=16) :: design_method = ''
     real(wp) :: energy = 0.0_wp, peak = 0.0_wp, min_width = 0.0_wp
     integer :: iterations = 0                 !< equalised: weight updates tried
@@ -193,6 +198,10 @@ contains
     if (allocated(c%holdout)) call v%put('holdout', c%holdout)
     if (allocated(c%corrected)) call v%put('corrected', join_lines(c%corrected))
     if (allocated(c%initial_states)) call v%put('initial_states', c%initial_states)
+    if (len_trim(c%x0_from) > 0) then
+      call v%put('x0_from', trim(c%x0_from))
+      call v%put('x0_samples', c%x0_samples)
+    end if
   end subroutine case_values
 
 end module mlid_case

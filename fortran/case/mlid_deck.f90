@@ -25,7 +25,8 @@
 !>             dt, energy (operator, riccati, equalised) or peak and
 !>             min_width (amplitude), weights, servo (time constant per
 !>             input), process_noise (Gamma Q Gamma'), method, iterations,
-!>             out (the record of t and the inputs)                  (design)
+!>             out (the record of t and the inputs), state_penalty (K of
+!>             report 7.6: one weight per state or nx x nx)          (design)
 !>   &monte_carlo runs, seed, truth (per free parameter), input_file;
 !>             &estimate's options for the fits                 (monte_carlo)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
@@ -33,7 +34,8 @@
 !>             prior, prior_weight,
 !>             prior_decay, rank_min, rank_max, rank_rule, lower, upper (per free parameter, in the
 !>             order of free), corrected (kind flight_path: one record per data file),
-!>             f_min, f_max, n_freq (the band of the frequency-domain methods, Hz)
+!>             f_min, f_max, n_freq (the band of the frequency-domain methods, Hz),
+!>             x0_from, x0_samples (the measured states' x0 from each record)
 !> A problem in one case is kept in that case (status, msg) and the others
 !> are still read.  Python reads decks through this reader too, into a handle
 !> (mlid_handles; mlid_api_deck's mlid_deck_* routines).
@@ -97,8 +99,10 @@ module mlid_deck
     'prbs_order amplitude_end limit zero_mean power phases', &
     'method startup max_iter halvings noise partials steady_state process_noise '// &
     'noise_criterion filter_params tol_cost tol_step tol_grad rcond prior prior_weight '// &
-    'prior_decay rank_min rank_max rank_rule lower upper corrected f_min f_max n_freq', &
-    'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out', &
+    'prior_decay rank_min rank_max rank_rule lower upper corrected f_min f_max n_freq x0_from '// &
+    'x0_samples', &
+    'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out '// &
+    'state_penalty', &
     'runs seed truth input_file']
   character(len=*), parameter :: FORM_FEED = achar(12)
 

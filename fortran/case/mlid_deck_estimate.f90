@@ -4,6 +4,7 @@
 submodule (mlid_deck) mlid_deck_estimate
   use mlid_case, only: MAXSEG
   use mlid_options, only: option_get
+  use mlid_initial_states, only: x0_rule_check
   implicit none
 
 contains
@@ -12,8 +13,8 @@ contains
   !> bounds per free parameter (in the order of free).
   module procedure read_estimate_group
     character(len=32) :: noise, method, startup, rank_rule, process_noise, noise_criterion, &
-                         filter_params
-    integer :: max_iter, halvings, rank_min, rank_max, ios, n_freq
+                         filter_params, x0_from
+    integer :: max_iter, halvings, rank_min, rank_max, ios, n_freq, x0_samples
     logical :: partials, steady_state
     real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay, f_min, f_max
     real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
@@ -24,7 +25,7 @@ contains
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
       process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond, prior, &
       prior_weight, prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected, f_min, &
-      f_max, n_freq
+      f_max, n_freq, x0_from, x0_samples
 
     call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
     max_iter = opt%max_iter
@@ -56,6 +57,8 @@ contains
     lower = -huge(1.0_wp)
     upper = huge(1.0_wp)
     corrected = ''
+    x0_from = ''
+    x0_samples = 0
     call at_most(rd, c, 'estimate', ['corrected'], MAXSEG, 'manoeuvres (data files)')
     call at_most(rd, c, 'estimate', [character(len=12) :: 'prior', 'prior_weight', 'lower', &
                                      'upper'], MAXFREE, 'free parameters')
@@ -66,8 +69,10 @@ contains
     call group_status(rd, 'estimate', ios, iomsg, .false., c)
     if (c%status /= MLID_OK) return
     if (too_long(rd, c, 'estimate', [character(len=16) :: 'method', 'startup', 'rank_rule', &
-                 'noise', 'process_noise', 'noise_criterion', 'filter_params'], len(method))) return
+                 'noise', 'process_noise', 'noise_criterion', 'filter_params', 'x0_from'], &
+                 len(method))) return
     call take_corrected(c, corrected)
+    if (c%status == MLID_OK) call take_x0_from(c, x0_from, x0_samples)
     if (c%status /= MLID_OK) return
     opt%max_iter = max_iter
     opt%halvings = halvings
@@ -93,6 +98,31 @@ contains
     call set_option(c, 'group &estimate: ', 'filter_params', filter_params)
     if (c%status == MLID_OK) call put_extras(rd, c, free_idx, prior, prior_weight, lower, upper)
   end procedure read_estimate_group
+
+  !> &estimate x0_from, x0_samples: the measured states' x0 from each
+  !> manoeuvre's record (mlid_initial_states), for the fits of estimate and
+  !> validate.
+  subroutine take_x0_from(c, x0_from, x0_samples)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: x0_from
+    integer, intent(in) :: x0_samples
+    character(len=msg_len) :: iomsg
+    integer :: ios
+    if (len_trim(x0_from) == 0) then
+      if (x0_samples /= 0) call fail(c, 'group &estimate: x0_samples is for x0_from = ''mean''')
+      return
+    end if
+    call x0_rule_check(to_lower(x0_from), x0_samples, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &estimate: '//trim(iomsg))
+    else if (c%job == 'monte_carlo') then
+      call fail(c, 'group &estimate: x0_from is for the fits of estimate and validate cases '// &
+                '(a Monte Carlo''s runs start from &model)')
+    else
+      c%x0_from = to_lower(x0_from)
+      c%x0_samples = max(x0_samples, 1)
+    end if
+  end subroutine take_x0_from
 
   !> &estimate corrected: one record to write per data file, for a fit of
   !> kind 'flight_path' (the corrections it undoes are that kind's).

@@ -196,13 +196,13 @@ contains
     character(len=16) :: method
     character(len=PATHLEN) :: out
     real(wp) :: t_end, dt, energy, peak, min_width, weights(MAXFREE), servo(MAXU), &
-                process_noise(MAXX*MAXX)
+                process_noise(MAXX*MAXX), state_penalty(MAXX*MAXX)
     integer :: iterations, ios, nunk
     character(len=msg_len) :: iomsg
-    real(wp), allocatable :: wts(:), srv(:), pn(:)
+    real(wp), allocatable :: wts(:), srv(:), pn(:), kx(:)
     character(len=:), allocatable :: gtext
     namelist /design/ unknowns, t_end, dt, energy, peak, min_width, weights, servo, &
-      process_noise, method, iterations, out
+      process_noise, method, iterations, out, state_penalty
 
     unknowns = ''
     method = ''
@@ -215,6 +215,7 @@ contains
     weights = 1.0_wp
     servo = 0.0_wp
     process_noise = 0.0_wp
+    state_penalty = 0.0_wp
     iterations = 12
     call at_most(rd, c, 'design', ['unknowns', 'weights '], MAXFREE, 'unknowns')
     if (c%status /= MLID_OK) return
@@ -243,10 +244,45 @@ contains
     call take_list(rd, c, 'design', 'weights', weights, wts, .true., size(c%ukind))
     call take_list(rd, c, 'design', 'servo', servo, srv, .true., c%nu)
     call take_list(rd, c, 'design', 'process_noise', process_noise, pn, .false.)
+    call take_list(rd, c, 'design', 'state_penalty', state_penalty, kx, .false.)
     if (c%status == MLID_OK) call design_settings(c, wts, srv, pn)
     if (c%status == MLID_OK) call design_limits(c, is_given(rd, 'design', 'energy'), &
       is_given(rd, 'design', 'peak') .or. is_given(rd, 'design', 'min_width'))
+    if (c%status == MLID_OK) call design_penalty(c, kx)
   end procedure read_design_group
+
+  !> The state penalty K of report 7.6 (tr(WM) - int x'Kx dt): one weight
+  !> >= 0 per state (K diagonal) or nx x nx values row by row, symmetric
+  !> (the core checks K >= 0 when it designs); none: K = 0.  The energy
+  !> methods take it (the criterion stays a quadratic form in u).
+  subroutine design_penalty(c, kx)
+    type(case_t), intent(inout) :: c
+    real(wp), intent(in) :: kx(:)
+    integer :: k
+    allocate (c%kx(c%nx, c%nx))
+    c%kx = 0.0_wp
+    if (size(kx) == c%nx) then
+      do k = 1, c%nx
+        c%kx(k, k) = kx(k)
+      end do
+    else if (size(kx) == c%nx*c%nx) then
+      c%kx = transpose(reshape(kx, [c%nx, c%nx]))
+    else if (size(kx) > 0) then
+      call fail(c, 'group &design: state_penalty takes one weight per state ('//itoa(c%nx)// &
+                ') or nx x nx = '//itoa(c%nx*c%nx)//' values row by row, got '//itoa(size(kx)))
+      return
+    end if
+    if (.not. all(ieee_is_finite(c%kx))) then
+      call fail(c, 'group &design: state_penalty must be finite')
+    else if (any(abs(c%kx - transpose(c%kx)) > 1.0e-12_wp*maxval(abs(c%kx)))) then
+      call fail(c, 'group &design: state_penalty (K) must be symmetric')
+    else if (any([(c%kx(k, k), k=1, c%nx)] < 0.0_wp)) then
+      call fail(c, 'group &design: state_penalty weights must be >= 0 (K >= 0)')
+    else if (any(c%kx /= 0.0_wp) .and. all(c%design_method /= ['operator', 'riccati '])) then
+      call fail(c, 'group &design: state_penalty is for method ''operator'' or ''riccati'', '// &
+                'not '''//trim(c%design_method)//'''')
+    end if
+  end subroutine design_penalty
 
   !> What the design takes of &model: a linear model with inputs, no state
   !> feedback or stabilisation, measurement noise r > 0 on every output.

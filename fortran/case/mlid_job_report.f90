@@ -30,6 +30,10 @@ module mlid_job_report
     real(wp) :: trace = 0.0_wp
     integer :: cells = 0, samples = 0, nratio = 0
     logical :: noise = .false.          !< designed with process noise (§7.5)
+    !> the state penalty K of §7.6 (not allocated: none), and under the
+    !> input int x'Kx dt and each state's peak |x| and rms
+    real(wp), allocatable :: kx(:, :), xpeak(:), xrms(:)
+    real(wp) :: xint = 0.0_wp
     character(len=512) :: out = ''
   end type design_summary_t
 
@@ -108,8 +112,13 @@ contains
     end do
     if (s%noise) text = text//' process noise: the steady-state filter''s sensitivities '// &
                        '(report 7.5)'//NL
+    if (allocated(s%kx)) text = text//penalty_lines(s)
     text = text//trim(' energy '//es_text(s%energy, 14, 7)//'   peak '//es_text(s%peak, 14, 7))
-    if (ieee_is_finite(s%mu)) text = text//'   mu '//es_text(s%mu, 14, 7)//' (max tr(WM) = mu E)'
+    if (ieee_is_finite(s%mu) .and. allocated(s%kx)) then
+      text = text//'   mu '//es_text(s%mu, 14, 7)//' (max tr(WM) - int x''Kx dt = mu E)'
+    else if (ieee_is_finite(s%mu)) then
+      text = text//'   mu '//es_text(s%mu, 14, 7)//' (max tr(WM) = mu E)'
+    end if
     text = text//NL
     if (s%nratio > 0) then
       write (buf, '(a,f0.4,a,f0.4,a,i0,a)') ' equalised weights (eq. 7.88): diag(WM) max/min ', &
@@ -149,7 +158,7 @@ contains
            '"sigma": '//numbers(s%sigma)//','//NL// &
            '"eigenvalues": '//numbers(s%eig)//','//NL// &
            '"M": '//matrix(s%mm)//','//NL// &
-           '"equalise_ratios": '//ratios()//','//NL// &
+           '"equalise_ratios": '//ratios()//','//NL//penalty()// &
            '"samples": '//itoa(s%samples)//', "out": '//json_string(trim(s%out))//'}'
 
   contains
@@ -160,7 +169,39 @@ contains
       if (s%nratio > 0) v = numbers(s%ratios(1:s%nratio))
     end function ratios
 
+    function penalty() result(v)
+      character(len=:), allocatable :: v
+      v = ''
+      if (allocated(s%kx)) v = '"state_penalty": '//matrix(s%kx)//', "state_integral_K": '// &
+                               number(s%xint)//','//NL//'"state_peak": '//numbers(s%xpeak)// &
+                               ', "state_rms": '//numbers(s%xrms)//','//NL
+    end function penalty
+
   end function design_json
+
+  !> The state penalty K of §7.6 and what it weighs under the input: K's
+  !> rows, int x'Kx dt, each state's peak |x| and rms over T.
+  function penalty_lines(s) result(text)
+    type(design_summary_t), intent(in) :: s
+    character(len=:), allocatable :: text
+    character(len=256) :: buf
+    integer :: i, j
+    text = ' state penalty K (report 7.6: tr(WM) - int x''Kx dt maximised), row by row:'//NL
+    do i = 1, size(s%kx, 1)
+      text = text//' '
+      do j = 1, size(s%kx, 2)
+        text = text//es_text(s%kx(i, j), 12, 4)
+      end do
+      text = text//NL
+    end do
+    text = text//trim(' under the input: int x''Kx dt = '//es_text(s%xint, 14, 7))//NL
+    write (buf, '(1x,a8,2a15)') 'state   ', 'peak |x|', 'rms x'
+    text = text//trim(buf)//NL
+    do i = 1, size(s%xpeak)
+      write (buf, '(1x,a1,i0)') 'x', i
+      text = text//trim(buf(1:9)//es_text(s%xpeak(i), 15, 6)//es_text(s%xrms(i), 15, 6))//NL
+    end do
+  end function penalty_lines
 
   !> Runs and failures, then per free parameter truth, start, mean, sample
   !> sigma and mean Cramer-Rao sigma; the sample covariance and the mean

@@ -22,11 +22,13 @@ module mlid_jobs
   use mlid_units, only: UNITLEN
   use mlid_files, only: temporary_for, write_whole
   use mlid_text, only: itoa, to_lower
+  use mlid_memory, only: no_memory
   use mlid_progress, only: progress_t
   use mlid_design, only: design_t, design_create, operator_mu, mu_for_length, transition_length, &
                          RICCATI_BRACKET, &
                          costate_input, input_information, amplitude_limited_input, &
-                         energy_input, equalised_input, information_summary, servo_model
+                         equalised_input, information_summary, servo_model, &
+                         design_state_penalty, input_response
   use mlid_signals, only: multisine_band, peak_factor
   use mlid_job_report, only: input_summary_t, design_summary_t, design_report, design_json, mc_summary_t, &
                              mc_report, mc_json, simulate_report, simulate_json
@@ -192,6 +194,8 @@ contains
     uc(:, n + 1) = uc(:, n)
     s%energy = sum(u**2)*c%t_end/s%cells
     s%peak = maxval(abs(u))
+    if (any(c%kx /= 0.0_wp)) call state_excursions(c, f, g, u, s, status, msg)
+    if (status /= MLID_OK) return
     s%t = c%t_end
     s%labels = c%unknowns
     s%servo = c%servo
@@ -274,10 +278,12 @@ contains
 
     s%mu = ieee_value(1.0_wp, ieee_quiet_nan)
     select case (c%design_method)
-    case ('operator')
+    case ('operator')             ! the largest eigenvalue of the operator (of the penalised one)
       allocate (u(n*c%nu))
-      call energy_input(f, g, h, r, gq, ks, c%urow, cs, c%weights, c%t_end, n/2, c%energy, u, &
-                        s%mu, s%mm, status, msg)
+      call penalised_design(c, f, g, h, r, gq, ks, cs, d, status, msg)
+      if (status == MLID_OK) call operator_mu(d, c%t_end, n/2, s%mu, u, status, msg)
+      u = u*sqrt(c%energy)
+      if (status == MLID_OK) call input_information(d, c%t_end, n, u, s%mm, status, msg)
     case ('equalised')
       allocate (u(n*c%nu), s%ratios(c%iterations + 1))
       call equalised_input(f, g, h, r, gq, ks, c%urow, cs, c%weights, c%t_end, n/2, c%energy, &
@@ -287,7 +293,7 @@ contains
       ! mu of T by the secant of eq. 7.89 from the operator's; the input from
       ! the costate of the conjugate point (eqs 7.23-7.29)
       allocate (u(n*c%nu))
-      call design_create(f, g, h, r, ks, c%urow, cs, c%weights, d, status, msg, gq)
+      call penalised_design(c, f, g, h, r, gq, ks, cs, d, status, msg)
       if (status == MLID_OK) call operator_mu(d, c%t_end, n/2, mu0, u, status, msg)
       if (status == MLID_OK) call mu_for_length(d, c%t_end, (1.0_wp - RICCATI_BRACKET)*mu0, &
                                                 (1.0_wp + RICCATI_BRACKET)*mu0, s%mu, status, msg)
@@ -309,6 +315,61 @@ contains
       if (status == MLID_OK) call input_information(d, c%t_end, cells, u, s%mm, status, msg)
     end select
   end subroutine design_input
+
+  !> The design of case c on the (servo) model f, g, h with its state
+  !> penalty K of report 7.6 (on the model's states; a servo's own states
+  !> unpenalised), if any: tr(WM) - int x'Kx dt.
+  subroutine penalised_design(c, f, g, h, r, gq, ks, cs, d, status, msg)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), r(:, :), gq(:, :)
+    integer, intent(in) :: ks(:), cs(:)
+    type(design_t), intent(out) :: d
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp) :: k(size(f, 1), size(f, 1))
+    call design_create(f, g, h, r, ks, c%urow, cs, c%weights, d, status, msg, gq)
+    if (status /= MLID_OK .or. all(c%kx == 0.0_wp)) return
+    k = 0.0_wp
+    k(1:c%nx, 1:c%nx) = c%kx
+    call design_state_penalty(d, k, status, msg)
+    if (status /= MLID_OK) msg = 'state_penalty: '//trim(msg)
+  end subroutine penalised_design
+
+  !> What the state penalty weighs, under the input u (its cells) from
+  !> x(0) = 0: int x'Kx dt, and each state's peak |x| and rms over T
+  !> (Simpson's rule on four exact samples per cell, as Python's
+  !> InputDesign.state_integral).
+  subroutine state_excursions(c, f, g, u, s, status, msg)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: f(:, :), g(:, :), u(:)
+    type(design_summary_t), intent(inout) :: s
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer, parameter :: NS = 4
+    real(wp), allocatable :: x(:, :), w(:), xx(:, :)
+    integer :: j, np, ierr
+
+    np = s%cells*NS + 1
+    allocate (x(size(f, 1), np), w(np), xx(c%nx, c%nx), stat=ierr)
+    if (ierr /= 0) then
+      call no_memory('the states under the designed input', real(size(f, 1) + 1, wp)*np, &
+                     status, msg)
+      return
+    end if
+    call input_response(f, g, c%t_end, s%cells, NS, u, x, status, msg)
+    if (status /= MLID_OK) return
+    w = 2.0_wp
+    w(2:np - 1:2) = 4.0_wp
+    w([1, np]) = 1.0_wp
+    w = w*(c%t_end/(np - 1))/3.0_wp
+    do j = 1, c%nx
+      xx(:, j) = matmul(x(1:c%nx, :), w*x(j, :))
+    end do
+    s%kx = c%kx
+    s%xint = sum(c%kx*xx)
+    s%xpeak = maxval(abs(x(1:c%nx, :)), dim=2)
+    s%xrms = sqrt(max([(xx(j, j), j=1, c%nx)], 0.0_wp)/c%t_end)
+  end subroutine state_excursions
 
   !> monte_carlo: runs seed, seed + 1, ... simulated from the truth with
   !> the input of input_file, each fitted from &model's values.

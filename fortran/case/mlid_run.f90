@@ -16,6 +16,7 @@ module mlid_run
   use mlid_deck, only: case_record, manoeuvre_layout, case_param_units, holdout_case, &
                        manoeuvre_block, corrected_writable
   use mlid_validate, only: prediction_stats
+  use mlid_initial_states, only: x0_from_record
   use mlid_equations, only: equations_t, equations_create
   use mlid_flightpath, only: flightpath_corrected
   use mlid_params, only: param_map_t, free_indices
@@ -243,6 +244,10 @@ contains
     end if
     ! several data files: several manoeuvres, each its own x0 and biases
     if (r%status == MLID_OK) call manoeuvre_layout(c, size(segstart), r%status, r%msg)
+    ! &estimate x0_from: each manoeuvre's measured states start at its record's
+    if (r%status == MLID_OK .and. len_trim(c%x0_from) > 0) &
+      call x0_from_record(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, c%theta, y, &
+                          segstart, c%x0_from, c%x0_samples, r%status, r%msg)
     if (r%status /= MLID_OK) return
     nth = size(c%theta)
     nf = count(c%isfree > 0)
@@ -373,7 +378,7 @@ contains
       call fit_record(held, th, uh, yh, sh, hunits, r, theta=theta, rhat=r0, yhat=pred, &
                       outcome=held_outcome)
     else
-      call predict(held, th, uh, sh, pred, r%status, r%msg)
+      call predict(held, th, uh, yh, sh, pred, r%status, r%msg)
     end if
     if (r%status /= MLID_OK) then         ! the case failed: its JSON says why, not the fit's
       r%msg = 'prediction of the held-out files: '//trim(r%msg)
@@ -408,15 +413,15 @@ contains
   end function files_of
 
   !> The outputs of case h (nothing free) on each manoeuvre, simulated
-  !> without noise.
-  subroutine predict(h, t, u, segstart, y, status, msg)
+  !> without noise (x0_from: each from its measured states' x0 of ym).
+  subroutine predict(h, t, u, ym, segstart, y, status, msg)
     type(case_t), intent(in) :: h
-    real(wp), intent(in) :: t(:), u(:, :)
+    real(wp), intent(in) :: t(:), u(:, :), ym(:, :)
     integer, intent(in) :: segstart(:)
     real(wp), allocatable, intent(out) :: y(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), allocatable :: x(:, :)
+    real(wp), allocatable :: x(:, :), theta(:)
     integer :: j, i0, i1
 
     allocate (y(h%ny, size(t)), x(h%nx, size(t)))
@@ -425,7 +430,11 @@ contains
       i0 = segstart(j)
       i1 = size(t)
       if (j < size(segstart)) i1 = segstart(j + 1) - 1
-      call simulate_flat(h%mkind, h%nx, h%nu, h%ny, h%nw, h%theta, h%iconst, h%rconst, &
+      theta = h%theta
+      if (len_trim(h%x0_from) > 0) call x0_from_record(h%mkind, h%nx, h%nu, h%ny, h%nw, &
+        h%iconst, h%rconst, theta, ym(:, i0:i1), [1], h%x0_from, h%x0_samples, status, msg)
+      if (status /= MLID_OK) return
+      call simulate_flat(h%mkind, h%nx, h%nu, h%ny, h%nw, theta, h%iconst, h%rconst, &
                          t(i0:i1), u(:, i0:i1), h%iopt, h%ropt, 0, y(:, i0:i1), x(:, i0:i1), &
                          status, msg)
       if (status /= MLID_OK) return

@@ -77,6 +77,7 @@ module mlid_aero_long
     procedure :: dfdw => al_dfdw
     procedure :: dhdxp => al_dhdxp
     procedure :: param_rows => al_param_rows
+    procedure :: measured_states => al_measured_states
   end type aero_long_t
 
   !> What f, h and their Jacobians share at one point, computed once: the
@@ -431,6 +432,16 @@ contains
       end if
     end do
   end subroutine outputs
+
+  !> The outputs V, alpha, theta, q are the states (outputs, y(1:4) = x).
+  pure subroutine al_measured_states(self, p, which, known)
+    class(aero_long_t), intent(in) :: self
+    real(wp), intent(in) :: p(:)
+    integer, intent(out) :: which(:)
+    logical, intent(out) :: known
+    which = [1, 2, 3, 4, 0, 0, 0]
+    known = .true.
+  end subroutine al_measured_states
 
   !> The rows of df/dp and dh/dp a parameter moves (model_t%param_rows):
   !> the state equation its coefficient forces, brow as state_param_jacobian

@@ -43,6 +43,7 @@ module mlid_equations
     integer :: nvar = 0                                 !< v = [x, u, p, t]
     type(program_t) :: fprog, hprog                     !< state derivatives, outputs
     character(len=NAMELEN), allocatable :: xnames(:), unames(:), pnames(:), ynames(:)
+    integer, allocatable :: ystate(:)     !< the state an output is written as (y v = v), or 0
   contains
     procedure :: eval => eq_eval
     procedure :: dfdw => eq_dfdw
@@ -52,6 +53,7 @@ module mlid_equations
     procedure :: dhdu => eq_dhdu
     procedure :: fold_inputs => eq_fold_inputs
     procedure :: uses_params => eq_uses_params
+    procedure :: measured_states => eq_measured_states
   end type equations_t
 
   !> One line of the text: its kind letter, name and expression.
@@ -95,6 +97,7 @@ contains
     m%unames = names_of(items, 'u')
     m%pnames = names_of(items, 'p')
     m%ynames = names_of(items, 'y')
+    m%ystate = output_states(items, m%xnames)
     m%nx = size(m%xnames)
     m%nu = size(m%unames)
     m%np = size(m%pnames)
@@ -172,6 +175,29 @@ contains
       items = [items, it]
     end do
   end subroutine read_items
+
+  !> Each output's state when its expression is that state's name alone, else 0.
+  pure function output_states(items, xnames) result(ystate)
+    type(item_t), intent(in) :: items(:)
+    character(len=*), intent(in) :: xnames(:)
+    integer, allocatable :: ystate(:)
+    integer :: k
+    allocate (ystate(0))
+    do k = 1, size(items)
+      if (items(k)%kind /= 'y') cycle
+      ystate = [ystate, findloc(xnames, trim(adjustl(items(k)%rhs)), 1)]
+    end do
+  end function output_states
+
+  !> Output i is the state it is written as (y theta = theta).
+  pure subroutine eq_measured_states(self, p, which, known)
+    class(equations_t), intent(in) :: self
+    real(wp), intent(in) :: p(:)
+    integer, intent(out) :: which(:)
+    logical, intent(out) :: known
+    which = self%ystate
+    known = .true.
+  end subroutine eq_measured_states
 
   pure function names_of(items, kind) result(names)
     type(item_t), intent(in) :: items(:)

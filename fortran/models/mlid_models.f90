@@ -66,6 +66,10 @@ module mlid_models
     !> sum that leaves them out has the same value.  Naming a row that
     !> happens to be zero is allowed; leaving out one that is not is wrong.
     procedure :: param_rows => every_param_row
+    !> measured_states(p, which, known): which(i) the state output i is
+    !> (y_i = x_j whatever x and u, bias apart: its first sample is that
+    !> state's first value), 0 for none; known false: the kind cannot say.
+    procedure :: measured_states => cannot_say
   end type model_t
 
   !> How many rows of a column of dh/dp param_rows can name.
@@ -137,6 +141,7 @@ module mlid_models
     procedure :: dfdu => lin_dfdu
     procedure :: dhdu => lin_dhdu
     procedure :: matrices => lin_matrices
+    procedure :: measured_states => lin_measured_states
   end type linear_model_t
 
 contains
@@ -185,6 +190,36 @@ contains
       k = reshape(p(self%ok + 1:self%ok + nu*nx), [nu, nx])
     end associate
   end subroutine lin_matrices
+
+  !> A kind that does not say which output is which state (model_t%measured_states).
+  pure subroutine cannot_say(self, p, which, known)
+    class(model_t), intent(in) :: self
+    real(wp), intent(in) :: p(:)
+    integer, intent(out) :: which(:)
+    logical, intent(out) :: known
+    which = 0
+    known = .false.
+  end subroutine cannot_say
+
+  !> Output i is state j when its row of H is the unit vector e_j and its
+  !> row of D is zero (then D K x adds nothing either).
+  pure subroutine lin_measured_states(self, p, which, known)
+    class(linear_model_t), intent(in) :: self
+    real(wp), intent(in) :: p(:)
+    integer, intent(out) :: which(:)
+    logical, intent(out) :: known
+    real(wp) :: f(self%nx, self%nx), g(self%nx, self%nu), h(self%ny, self%nx), &
+                d(self%ny, self%nu), k(self%nu, self%nx)
+    integer :: i, j
+    call self%matrices(p, f, g, h, d, k)
+    which = 0
+    known = .true.
+    do i = 1, self%ny
+      j = findloc(h(i, :), 1.0_wp, 1)
+      if (j == 0 .or. count(h(i, :) /= 0.0_wp) /= 1 .or. any(d(i, :) /= 0.0_wp)) cycle
+      which(i) = j
+    end do
+  end subroutine lin_measured_states
 
   !> Dense Jacobians (param_rows): any row of df/dp and dh/dp can be nonzero.
   pure subroutine every_param_row(self, idx, frow, hrow)

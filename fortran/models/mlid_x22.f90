@@ -54,9 +54,20 @@ module mlid_x22
     procedure :: dfdw => xdfdw
     procedure :: dhdw => xdhdw
     procedure :: dhdxp => xdhdxp
+    procedure :: measured_states => x22_measured_states
   end type x22_t
 
 contains
+
+  !> The outputs u, w, theta, q are the states (output_part, y(1:4) = x).
+  pure subroutine x22_measured_states(self, p, which, known)
+    class(x22_t), intent(in) :: self
+    real(wp), intent(in) :: p(:)
+    integer, intent(out) :: which(:)
+    logical, intent(out) :: known
+    which = [1, 2, 3, 4, 0, 0, 0]
+    known = .true.
+  end subroutine x22_measured_states
 
   subroutine x22_create(iconst, rconst, m, status, msg)
     integer, intent(in) :: iconst(:)

@@ -77,6 +77,8 @@ class Case:
             self._options["initial_states"] = list(x0.reshape(-1, nx))
         elif x0.size:
             self.model.x0 = x0
+        if "x0_from" in v:                              # &estimate x0_from, x0_samples
+            self._options.update(x0_from=_text(v["x0_from"]), x0_samples=int(v["x0_samples"]))
 
     def where(self):
         return f"{self.deck} case {self.index} (line {self.line}) '{self.title}'"

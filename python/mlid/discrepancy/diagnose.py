@@ -438,6 +438,8 @@ def diagnose(model, data, families=FAMILIES, alpha=0.05, refit_best=4, max_effec
         base = fit_model(model, data, **options)
         b.update()
         options["startup"] = "none"
+        options.pop("x0_from", None)            # the refits start from the estimate's x0
+        options.pop("x0_samples", None)
         return _rounds(model, data, base, families, alpha, refit_best, max_effects,
                        options, b)
 

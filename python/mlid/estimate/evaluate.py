@@ -68,13 +68,14 @@ def frequency_evaluate(model, data, **options):
 
 
 @guarded
-def evaluate(model, data, initial_states=None, biases=None, **options):
+def evaluate(model, data, initial_states=None, biases=None, x0_from=None, x0_samples=None,
+             **options):
     """The likelihood and its derivatives at the model's current parameters
     (no iteration).
 
     Parameters
     ----------
-    model, data, initial_states, biases, **options
+    model, data, initial_states, biases, x0_from, x0_samples, **options
         As for ``fit``.
 
     Returns
@@ -103,7 +104,7 @@ def evaluate(model, data, initial_states=None, biases=None, **options):
     _check_model(model)
     _check_data(data)
     iopt, ropt, _ = _flat_options(model, options)
-    params, record, starts = _manoeuvres(model, data, initial_states, biases)
+    params, record, starts = _manoeuvres(model, data, initial_states, biases, x0_from, x0_samples)
     h = _call_handle()
     _set_problem(h, model, params, _record(model, record), starts, iopt, ropt)
     out = _run(h, _api.mlid_evaluate)

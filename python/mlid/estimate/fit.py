@@ -84,7 +84,7 @@ def _extras(params, prior, prior_weight, bounds):
 
 @guarded
 def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=None,
-        biases=None, progress=None, **options):
+        biases=None, x0_from=None, x0_samples=None, progress=None, **options):
     """Maximum-likelihood fit of the model's free parameters.
 
     Modified Newton-Raphson (report §4.6) on the negative log-likelihood,
@@ -111,6 +111,19 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     initial_states, biases : list of array_like, optional
         Start values of each manoeuvre's x0 and output bias (several
         manoeuvres only; default the model's).
+    x0_from : {'first', 'mean'}, optional
+        Each manoeuvre's x0 of every state an output measures from its own
+        record: that output's first sample, or the mean of its first
+        ``x0_samples``, less its bias (a deck's &estimate x0_from; the
+        core's rule, fortran/models/mlid_initial_states.f90).  An output
+        measures state j when its row of H is the unit vector e_j and its
+        row of D zero; a longitudinal or X-22 model's first four outputs; an
+        equations, sixdof or flight-path output written as the state's
+        name.  The other states keep their x0; free or held as ``free``
+        says.  A user model cannot say which output is which state.
+    x0_samples : int, optional
+        The samples averaged by x0_from = 'mean' (>= 1, at most a
+        manoeuvre's).
     **options
         Estimator options by name (defaults: ``default_options()``):
 
@@ -249,7 +262,8 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     """
     _check_model(model)
     _check_data(data)
-    setup = _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options)
+    setup = _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options,
+                   (x0_from, x0_samples))
     params, starts, (t, u, y), iopt, ropt = (setup[k] for k in ("params", "starts", "tuy",
                                                                  "iopt", "ropt"))
     h = _call_handle()
@@ -269,24 +283,27 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
     return _result(model, data, setup, out, stacklevel=3)
 
 
-def _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options):
+def _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options,
+           x0=(None, None)):
     """What a fit's call and result are made of: the flat options and the
-    options by name, the manoeuvres' parameter map, the record joined and
-    its arrays, each manoeuvre's first sample."""
+    options by name, the manoeuvres' parameter map (x0 = (x0_from,
+    x0_samples): the measured states' x0 from the record), the record
+    joined and its arrays, each manoeuvre's first sample."""
     iopt, ropt, opts = _flat_options(model, options)
-    params, record, starts = _manoeuvres(model, data, initial_states, biases)
+    params, record, starts = _manoeuvres(model, data, initial_states, biases, *x0)
     return {"iopt": iopt, "ropt": ropt, "opts": opts, "params": params, "record": record,
             "starts": starts, "tuy": _record(model, record),
             "evaluate_args": (data, initial_states, biases)}
 
 
 def fit_result(model, data, out, prior=None, prior_weight=None, bounds=None,
-               initial_states=None, biases=None, **options):
+               initial_states=None, biases=None, x0_from=None, x0_samples=None, **options):
     """The FitResult of a fit the core has run already (a deck case run by
     the job runner, its numbers read by name: ``out`` has FIT_OUTPUTS), for
     ``fit``'s arguments, and its ``wall_time``; raises as ``fit`` does when
     it failed."""
-    setup = _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options)
+    setup = _setup(model, data, prior, prior_weight, bounds, initial_states, biases, options,
+                   (x0_from, x0_samples))
     return _result(model, data, setup, out, stacklevel=3)
 
 

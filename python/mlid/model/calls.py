@@ -4,7 +4,7 @@ and the parameters and joined record of one manoeuvre or several."""
 
 import numpy as np
 
-from .._bridge import api
+from .._bridge import api, call_handle, put, run
 from ..data.flight_data import FlightData
 from ..errors import InputError, check_status
 from .maneuvers import Params, join
@@ -119,12 +119,36 @@ def _record(model, data):
     return np.ascontiguousarray(data.t, dtype=float), u, y
 
 
-def _manoeuvres(model, data, initial_states, biases):
-    """The parameters and the record for one manoeuvre or several (a list)."""
+def _manoeuvres(model, data, initial_states, biases, x0_from=None, x0_samples=None):
+    """The parameters and the record for one manoeuvre or several (a list),
+    with x0_from: each manoeuvre's measured states' x0 from its record."""
     if isinstance(data, (list, tuple)):
         record, starts = join(list(data))
-        return Params(model, len(data), initial_states, biases), record, starts
-    if initial_states is not None or biases is not None:
+        params = Params(model, len(data), initial_states, biases)
+    elif initial_states is not None or biases is not None:
         raise InputError("initial_states and biases are for several manoeuvres (a list of "
                          "records); one manoeuvre takes the model's x0 and bias")
-    return Params(model), data, np.array([1], dtype=np.int32)
+    else:
+        params, record, starts = Params(model), data, np.array([1], dtype=np.int32)
+    if x0_from is not None or x0_samples is not None:
+        params.theta = _x0_from(model, params, record, starts, x0_from, x0_samples)
+    return params, record, starts
+
+
+def _x0_from(model, params, record, starts, rule, samples):
+    """params' theta with each manoeuvre's x0 of the states an output
+    measures at that output's first sample ('first') or the mean of its
+    first ``samples`` ('mean'), less its bias: the core's rule
+    (fortran/models/mlid_initial_states.f90), as a deck's &estimate x0_from."""
+    if rule is None:
+        raise InputError("x0_samples is for x0_from = 'mean'")
+    if not isinstance(rule, str):
+        raise InputError(f"x0_from must be 'first' or 'mean', got {rule!r}")
+    if samples is not None and (isinstance(samples, bool) or not isinstance(samples, (int, np.integer))):
+        raise InputError(f"x0_samples must be a whole number, got {samples!r}")
+    h = call_handle()
+    _set_model(h, model)
+    _set_params(h, params)
+    _set_record(h, _record(model, record), starts)
+    put(h, rule=rule, samples=0 if samples is None else int(samples))
+    return run(h, api.mlid_x0_from)["theta"]

@@ -19,6 +19,7 @@ from ..estimate.fit import fit
 from ..estimate.named import NamedArray
 from ..estimate.result import FitResult
 from ..estimate.views import TableView
+from ..model.calls import _manoeuvres
 from ..model.maneuvers import join
 from . import plots
 
@@ -146,14 +147,20 @@ def _prediction_model(result):
     return model
 
 
-def _predict(model, records):
-    """Outputs of a model with nothing free on each record, without noise."""
-    parts = [simulate(model, r.t, r.u)[0].y for r in records]
+def _predict(model, records, x0=(None, None)):
+    """Outputs of a model with nothing free on each record, without noise
+    (x0 = (x0_from, x0_samples): each from its own measured states' x0)."""
+    parts = []
+    for r in records:
+        m = model
+        if x0 != (None, None):
+            m = model.with_theta(_manoeuvres(model, r, None, None, *x0)[0].theta)
+        parts.append(simulate(m, r.t, r.u)[0].y)
     return np.vstack(parts)
 
 
 @guarded
-def validate(result, data, holdout=None):
+def validate(result, data, holdout=None, x0_from=None, x0_samples=None):
     """Predict held-out manoeuvres with an identified model.
 
     Parameters
@@ -165,6 +172,9 @@ def validate(result, data, holdout=None):
     holdout : list of int, optional
         How the report numbers the held-out manoeuvres (a deck's file
         numbers); default 1, 2, ...
+    x0_from, x0_samples : optional
+        As for ``fit``: each held-out manoeuvre's measured states start at
+        its own first samples (as a deck's validate case with x0_from).
 
     Returns
     -------
@@ -191,11 +201,12 @@ def validate(result, data, holdout=None):
     joined = join(records)[0] if len(records) > 1 else records[0]
     if model.free:
         opts = {**result.options, **PREDICTION_OPTIONS}
-        prediction = fit(model, records if len(records) > 1 else records[0], **opts)
+        prediction = fit(model, records if len(records) > 1 else records[0], x0_from=x0_from,
+                         x0_samples=x0_samples, **opts)
         check_status(prediction.status, prediction.message)    # not converged: no prediction
         yhat = prediction.yhat
     else:
-        yhat = _predict(model, records)
+        yhat = _predict(model, records, (x0_from, x0_samples))
         prediction = FitResult(data=joined, yhat=yhat, model=model,
                                evaluate_args=(records if len(records) > 1 else records[0],
                                               None, None))
