@@ -77,13 +77,13 @@ def test_riccati_design_with_a_penalty_is_at_its_penalised_length(tmp_path):
 
 
 def test_a_larger_penalty_lowers_the_state_integral(tmp_path):
-    """int x'K0x dt under the designed input, for penalties 0, K0 and 30 K0:
+    """int x'K0x dt under the designed input, for penalties 0, K0 and 3 K0:
     each larger penalty gives smaller excursions, and the information falls
     with them (what §7.6 trades)."""
     k0 = np.diag([5.0, 50.0])
     d = _design()
     integrals, traces = [], []
-    for scale in (0.0, 1.0, 30.0):
+    for scale in (0.0, 1.0, 3.0):
         extra = f"state_penalty = {5.0 * scale}, {50.0 * scale}" if scale else "method = 'operator'"
         got, rec, _ = _run(tmp_path, extra)
         integrals.append(np.sum(k0 * d.state_integral(T, rec[:-1, 1:])))
@@ -145,3 +145,15 @@ def test_bad_state_penalty_is_one_line_in_both_front_ends(tmp_path, name):
         assert out.stdout.count("designed input written to") == 2    # before and after
         outs[front] = (out.stdout, errors[0].split("': ", 1)[1])
     assert outs["py"] == outs["fo"]
+
+
+@pytest.mark.parametrize("scale", [10.0, 1e6, 1e12])
+def test_a_penalty_above_all_information_is_refused_not_extrapolated(scale):
+    """With K so large that every eigenvalue of the penalised operator is
+    negative, the Richardson extrapolation of the two grids' (negative)
+    largest eigenvalues could come out positive (K = 1e12 K0 gave mu = 11009,
+    growing with K; 30 K0 gave 2e-5): the core refuses instead, naming the
+    penalty.  (5 K0 still has mu = 0.13 > 0; 10 K0 has none.)"""
+    with pytest.raises(mlid.errors.SingularInformationError,
+                       match="a state penalty outweighs the information"):
+        _design().state_penalised(T, ENERGY, [5.0 * scale, 50.0 * scale], cells=100)

@@ -359,11 +359,15 @@ contains
       end if
       deallocate (q, ev, vec)
     end do
+    ! the finer grid's eigenvalue first: when every eigenvalue is negative (a
+    ! state penalty above the information) the extrapolation of two
+    ! negatives can come out positive
     mu = (4.0_wp*mu2 - mu1)/3.0_wp
-    if (.not. mu > 0.0_wp) then
+    if (.not. (mu2 > 0.0_wp .and. mu > 0.0_wp)) then
       status = MLID_ERR_SINGULAR
-      msg = 'the unknowns do not affect the outputs (zero sensitivity, or an input that '// &
-            'reaches no state): no input can identify them'
+      msg = 'no input raises the criterion: the unknowns do not affect the outputs (zero '// &
+            'sensitivity, or an input that reaches no state), or a state penalty outweighs '// &
+            'the information of every input'
       return
     end if
     status = MLID_OK
