@@ -96,7 +96,8 @@ module mlid_deck
     'method startup max_iter halvings noise partials steady_state process_noise '// &
     'noise_criterion filter_params tol_cost tol_step tol_grad rcond prior prior_weight '// &
     'prior_decay rank_min rank_max rank_rule lower upper corrected f_min f_max n_freq', &
-    'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out', &
+    'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out '// &
+    'candidates compare rank_by f_min f_max pulse_width', &
     'runs seed truth input_file']
   character(len=*), parameter :: FORM_FEED = achar(12)
 
