@@ -286,3 +286,14 @@ def test_bad_ranking_names_are_one_line_each(tmp_path, name):
         assert not (tmp_path / "bad.dat").exists()
         outs[front] = (out.stdout, errors[0].split("': ", 1)[1])
     assert outs["py"] == outs["fo"]
+
+
+def test_ranking_figure_draws_every_candidate(c8_ranking, tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    fig = mlid.plots.input_ranking(c8_ranking, path=tmp_path / "rank.png")
+    inputs, sigma = fig.axes
+    assert len(inputs.patches) == len(c8_ranking)                     # one stairs each
+    assert len(sigma.patches) == len(c8_ranking) * len(c8_ranking.unknowns)
+    assert (tmp_path / "rank.png").stat().st_size > 0
+    mlid.plots.close(fig)

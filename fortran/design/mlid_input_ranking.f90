@@ -14,7 +14,8 @@
 !> (at least 2 nu harmonics of 1/T, below 0.4/cell) of the multisine and
 !> the sweeps, the base pulse 2.33/w_max of the doublet and the 3211 (the
 !> doublet's energy spectrum peaks at w dt = 2.33, tan(w dt/2) = w dt, so
-!> at the fastest mode), shortened to fit its window, and the PRBS clock
+!> at the fastest mode); a base pulse, given or not, is shortened to fit
+!> its window and rounded to cells; the PRBS clock
 !> 0.44/f_max (its spectrum's half power at f_max), its order the least
 !> whose period fills the window.
 !>
@@ -278,8 +279,8 @@ contains
     select case (name)
     case ('doublet', '3211')
       pw = pulse
-      if (pw <= 0.0_wp) pw = min(DOUBLET_PEAK/wmax, tw/merge(2.0_wp, 7.0_wp, name == 'doublet'))
-      pw = max(1, nint(pw/hc))*hc
+      if (pw <= 0.0_wp) pw = DOUBLET_PEAK/wmax
+      pw = max(1, min(nint(pw/hc), size(w)/merge(2, 7, name == 'doublet')))*hc
       call input_signal(name, 1.0_wp, 0.0_wp, pw, hc, w, status, msg)
       detail = 'base pulse '//trim(adjustl(es_text(pw, 10, 3)))//' s'
     case ('sweep', 'log_sweep')

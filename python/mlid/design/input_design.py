@@ -498,7 +498,7 @@ class InputDesign:
         from the signal library.  With several inputs the multisine drives
         them all at once (mutually orthogonal), the other shapes one after
         the other in equal windows of T.  The band and base pulse not given
-        come from the model: w_max the largest |eigenvalue| of F, band
+        come from the model: w_max the largest eigenvalue modulus of F, band
         [1/T, w_max/pi] Hz, doublet and 3211 base pulse 2.33/w_max (the
         doublet's spectral peak at the fastest mode), shortened to fit.
 
@@ -508,7 +508,7 @@ class InputDesign:
             Length [s], > 0.
         energy, peak : float
             The common energy (the integral of u'u over [0, T]) or the common
-            peak max |u|: give one.
+            peak (the largest absolute value of u): give one.
         candidates : sequence of str
             Names from ``CANDIDATES``.
         cells : int

@@ -38,7 +38,7 @@ class InputRanking(TableView):
     sigma : ndarray (candidates, n)
         Cramér-Rao sigma of each unknown.
     energy, peak : ndarray (candidates,)
-        Each scaled input's energy and largest |u|.
+        Each scaled input's energy and largest absolute value.
     state_peak, state_rms : ndarray (candidates, nx)
         Peak and rms over [0, T] of each state of the model, from x(0) = 0.
     output_peak, output_rms : ndarray (candidates, ny)
