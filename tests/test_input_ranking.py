@@ -297,3 +297,26 @@ def test_ranking_figure_draws_every_candidate(c8_ranking, tmp_path):
     assert len(sigma.patches) == len(c8_ranking) * len(c8_ranking.unknowns)
     assert (tmp_path / "rank.png").stat().st_size > 0
     mlid.plots.close(fig)
+
+
+def test_two_inputs_one_after_the_other_and_the_multisine_at_once():
+    """ATTAS lateral F, G (aileron, rudder; benchmarks/bench_input_ranking.py):
+    a doublet, sweep or PRBS drives input 1 in the first half of T and input 2
+    in the second; the multisine drives both at once, orthogonal over T; each
+    candidate's M is InputDesign.information of its input."""
+    F = [[-3.53744, 0.475534], [-0.086939, -0.169526]]
+    G = [[-4.93279, 0.73334], [-0.192049, -0.74855]]
+    d = mlid.InputDesign(F, G, np.eye(2), np.diag([1e-7, 1e-7]),
+                         ["f(1,1)", "f(1,2)", "g(1,1)", "g(1,2)", "f(2,1)", "f(2,2)", "g(2,1)",
+                          "g(2,2)"])
+    r = d.rank_inputs(20.0, energy=20.0, cells=100,
+                      candidates=["doublet", "sweep", "prbs", "multisine", "optimal"])
+    for k, name in enumerate(r.names):
+        u = r.u[k]
+        np.testing.assert_allclose(d.information(20.0, u), r.M[k], rtol=1e-12)
+        if name == "multisine":
+            assert np.all(np.abs(u).max(axis=0) > 0)
+            assert abs(u[:, 0] @ u[:, 1]) < 1e-12 * np.sum(u**2)
+        elif name != "optimal":
+            assert np.all(u[50:, 0] == 0) and np.all(u[:50, 1] == 0), name
+            np.testing.assert_allclose(np.abs(u[:50, 0]).max(), np.abs(u[50:, 1]).max())

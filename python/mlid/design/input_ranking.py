@@ -53,8 +53,8 @@ class InputRanking(TableView):
         self.unknowns = list(unknowns)
         self.compare, self.level, self.rank_by = compare, float(level), rank_by
         m, nc = len(self.unknowns), len(names)
-        u = np.asarray(r["u"]).reshape(-1, nu, nc, order="F")
-        self.u = np.moveaxis(u, 2, 0)[order]
+        u = np.asarray(r["u"]).reshape(nu, -1, nc, order="F")      # the core's: cell by cell
+        self.u = np.transpose(u, (2, 1, 0))[order]
         self.t_edges = np.linspace(0.0, T, self.u.shape[1] + 1)
         self.M = np.asarray(r["mm"]).reshape(m, m, nc, order="F").transpose(2, 0, 1)[order]
         for key in ("det", "trace", "energy", "peak"):
