@@ -108,8 +108,8 @@ contains
     associate (r => s%ranking)
       text = ' candidate inputs at equal '//trim(r%compare)//' '//trim(adjustl(es_text(r%level, &
              14, 7)))//', ranked by '//trim(merge('det M (D-optimal)', 'tr M             ', &
-             r%rank_by == 'det'))//NL
-      write (buf, '(1x,a4,2x,a10,2a13)') 'rank', 'candidate', 'det M', 'tr M'
+             r%rank_by == 'det'))//'; s: Cramer-Rao sigma'//NL
+      write (buf, '(1x,a4,2x,a10,2a13)') 'rank', 'candidate ', 'det M', 'tr M'
       text = text//trim(buf)
       do j = 1, size(s%labels)
         text = text//' '//adjustr(sigma_head(s%labels(j)))
