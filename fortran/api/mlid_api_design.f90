@@ -23,16 +23,17 @@ module mlid_api_design
   use mlid_model_factory, only: MODEL_LINEAR
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_design_unknowns, only: unknown_entries, unknown_blocks
-  use mlid_text, only: name_lines
+  use mlid_text, only: name_lines, join_lines
   use mlid_design, only: design_t, design_create, operator_mu, riccati_length, transition_length, &
                          costate_input, input_information, mu_for_length, &
                          amplitude_limited_input, equalised_input
   use mlid_design, only: design_state_penalty, input_response, RICCATI_BRACKET
+  use mlid_input_ranking, only: ranking_options_t, ranking_t, rank_candidates
   implicit none
   private
   public :: mlid_design_mu, mlid_design_length, mlid_design_input, mlid_design_information, &
             mlid_design_amplitude, mlid_design_mu_for_length, mlid_design_response, &
-            mlid_design_equalised, mlid_design_check
+            mlid_design_equalised, mlid_design_check, mlid_design_rank
 
   !> The design a handle holds (the module's comment); kx zero when not given.
   type :: given_t
@@ -221,6 +222,94 @@ contains
     call s%results%put('mm', mm)
     call s%results%put('ratios', ratios(1:nratio))
   end subroutine mlid_design_equalised
+
+  !> "Which input to fly" (mlid_input_ranking): the candidates, one a line
+  !> by name 'candidates', on ncell cells of [0, T], each scaled to level,
+  !> the common energy or peak ('compare'), ranked by 'rank_by'; 'f_band'
+  !> (2, Hz) and 'pulse_width' (s), 0 for the model's.  'optimal' is the
+  !> operator method's input on ncell/2 and ncell cells (ncell even).
+  !> Results by name ('call'): names and signals (one a line), order, u
+  !> (ncell nu, candidates), mm (m, m candidates), det, trace, sigma (m,
+  !> candidates), energy, peak, x_peak, x_rms (nx, candidates), y_peak,
+  !> y_rms (ny, candidates).
+  subroutine mlid_design_rank(h, t, ncell, level, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    real(c_double), intent(in) :: t, level
+    integer(c_int), intent(in) :: ncell
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    type(given_t) :: gv
+    type(design_t) :: d
+    type(ranking_options_t) :: o
+    type(ranking_t) :: r
+    real(wp), allocatable :: uopt(:)
+    real(wp) :: mu
+
+    call given_problem(h, s, gv, status, msg)
+    if (status == MLID_OK) call ranking_options(s, o, status, msg)
+    if (status /= MLID_OK) return
+    status = MLID_ERR_INPUT
+    if (ncell < 4 .or. mod(ncell, 2) /= 0 .or. ncell > 100000) then
+      msg = 'cells must be even, 4 to 100000 (the optimal input''s grids are cells/2 and cells)'
+      return
+    end if
+    call design_create(gv%f, gv%g, gv%h, gv%r, gv%ukind, gv%urow, gv%ucol, gv%w, d, status, msg, &
+                       gv%gq)
+    if (status /= MLID_OK) return
+    allocate (uopt(ncell*d%nu))
+    uopt = 0.0_wp
+    if (any(o%names == 'optimal')) call operator_mu(d, t, ncell/2, mu, uopt, status, msg)
+    if (status == MLID_OK) call rank_candidates(d, gv%f, gv%g, gv%h, t, ncell, o, level, uopt, r, &
+                                                status, msg)
+    if (status /= MLID_OK) return
+    s%results = named_t()
+    call s%results%put('names', join_lines(r%names))
+    call s%results%put('signals', join_lines(r%detail))
+    call s%results%put('order', r%order)
+    call s%results%put('u', r%u)
+    call s%results%put('mm', reshape(r%mm, [d%m, d%m*size(r%names)]))
+    call s%results%put('det', r%det)
+    call s%results%put('trace', r%trace)
+    call s%results%put('sigma', r%sigma)
+    call s%results%put('energy', r%energy)
+    call s%results%put('peak', r%peak)
+    call s%results%put('x_peak', r%x_peak)
+    call s%results%put('x_rms', r%x_rms)
+    call s%results%put('y_peak', r%y_peak)
+    call s%results%put('y_rms', r%y_rms)
+  end subroutine mlid_design_rank
+
+  !> The ranking's options as given by name in session s (mlid_design_rank).
+  subroutine ranking_options(s, o, status, msg)
+    type(session_t), intent(inout) :: s
+    type(ranking_options_t), intent(out) :: o
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    character(len=:), allocatable :: text
+    character(len=64), allocatable :: names(:)
+    real(wp), allocatable :: band(:)
+
+    call s%given%get('candidates', text, status, msg)
+    if (status /= MLID_OK) return
+    call name_lines(text, names)
+    status = MLID_ERR_INPUT
+    if (size(names) == 0 .or. any(len_trim(names) > 16)) then
+      msg = 'candidates: give at least one, each a name of at most 16 characters'
+      return
+    end if
+    o%names = names
+    status = MLID_OK
+    call s%given%get('compare', text, status, msg)
+    if (status == MLID_OK) o%compare = text
+    if (status == MLID_OK) call s%given%get('rank_by', text, status, msg)
+    if (status == MLID_OK) o%rank_by = text
+    if (status == MLID_OK) call s%given%get('f_band', band, status, msg, [2])
+    if (status == MLID_OK) call s%given%get('pulse_width', o%pulse_width, status, msg)
+    if (status /= MLID_OK) return
+    o%f_min = band(1)
+    o%f_max = band(2)
+  end subroutine ranking_options
 
   !> The design handle h holds, created with its weights (unit weights when
   !> unweighted) and, when penalised is present, penalised by kx when kx is

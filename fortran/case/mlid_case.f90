@@ -13,6 +13,7 @@ module mlid_case
   use mlid_named, only: named_t
   use mlid_text, only: join_lines
   use mlid_files, only: same_file
+  use mlid_input_ranking, only: ranking_options_t
   implicit none
   private
   public :: case_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
@@ -106,6 +107,8 @@ module mlid_case
     character(len=16) :: design_method = ''
     real(wp) :: energy = 0.0_wp, peak = 0.0_wp, min_width = 0.0_wp
     integer :: iterations = 0                 !< equalised: weight updates tried
+    !> design: the candidate inputs ranked beside the design (none: no ranking)
+    type(ranking_options_t) :: ranking
     !> monte_carlo (&monte_carlo): runs (seed as simulate's), the true parameters
     integer :: runs = 0
     real(wp), allocatable :: theta_true(:)

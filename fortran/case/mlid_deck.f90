@@ -102,7 +102,7 @@ module mlid_deck
     'prior_decay rank_min rank_max rank_rule lower upper corrected f_min f_max n_freq x0_from '// &
     'x0_samples', &
     'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out '// &
-    'state_penalty', &
+    'state_penalty candidates compare rank_by f_min f_max pulse_width', &
     'runs seed truth input_file']
   character(len=*), parameter :: FORM_FEED = achar(12)
 

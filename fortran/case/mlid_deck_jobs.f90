@@ -10,6 +10,7 @@ submodule (mlid_deck) mlid_deck_jobs
   use mlid_layout, only: layout_table_t, layout_of, element_name
   use mlid_design_unknowns, only: unknown_entries, unknown_blocks
   use mlid_params, only: free_indices
+  use mlid_input_ranking, only: ranking_options_t, check_ranking_options
   implicit none
 
   !> The methods of &design.
@@ -201,8 +202,11 @@ contains
     character(len=msg_len) :: iomsg
     real(wp), allocatable :: wts(:), srv(:), pn(:), kx(:)
     character(len=:), allocatable :: gtext
+    character(len=16) :: candidates(16), compare, rank_by
+    real(wp) :: f_min, f_max, pulse_width
     namelist /design/ unknowns, t_end, dt, energy, peak, min_width, weights, servo, &
-      process_noise, method, iterations, out, state_penalty
+      process_noise, method, iterations, out, state_penalty, candidates, compare, rank_by, &
+      f_min, f_max, pulse_width
 
     unknowns = ''
     method = ''
@@ -217,7 +221,15 @@ contains
     process_noise = 0.0_wp
     state_penalty = 0.0_wp
     iterations = 12
+    candidates = ''
+    compare = 'energy'
+    rank_by = 'det'
+    f_min = 0.0_wp
+    f_max = 0.0_wp
+    pulse_width = 0.0_wp
     call at_most(rd, c, 'design', ['unknowns', 'weights '], MAXFREE, 'unknowns')
+    if (c%status == MLID_OK) call at_most(rd, c, 'design', ['candidates'], size(candidates), &
+                                          'candidates')
     if (c%status /= MLID_OK) return
     gtext = group_text(rd, 'design')
     ios = -1                          ! missing
@@ -226,6 +238,9 @@ contains
     if (c%status /= MLID_OK) return
     if (too_long(rd, c, 'design', ['method'], len(method))) return
     if (too_long(rd, c, 'design', ['unknowns'], len(unknowns))) return
+    if (too_long(rd, c, 'design', ['candidates', 'compare   ', 'rank_by   '], len(compare))) return
+    c%ranking = ranking_options_t(pack(candidates, len_trim(candidates) > 0), compare, rank_by, &
+                                  f_min, f_max, pulse_width)
     c%out_file = out
     c%t_end = t_end
     c%dt = dt
@@ -249,6 +264,7 @@ contains
     if (c%status == MLID_OK) call design_limits(c, is_given(rd, 'design', 'energy'), &
       is_given(rd, 'design', 'peak') .or. is_given(rd, 'design', 'min_width'))
     if (c%status == MLID_OK) call design_penalty(c, kx)
+    if (c%status == MLID_OK) call design_ranking(c)
   end procedure read_design_group
 
   !> The state penalty K of report 7.6 (tr(WM) - int x'Kx dt): one weight
@@ -283,6 +299,16 @@ contains
                 'not '''//trim(c%design_method)//'''')
     end if
   end subroutine design_penalty
+
+  !> The candidates ranked beside the design (mlid_input_ranking), checked
+  !> as the ranking checks them, on the record's cells of dt.
+  subroutine design_ranking(c)
+    type(case_t), intent(inout) :: c
+    integer :: ios
+    character(len=msg_len) :: iomsg
+    call check_ranking_options(c%ranking, 0.5_wp/c%dt, ios, iomsg)
+    if (ios /= MLID_OK) call fail(c, 'group &design: '//trim(iomsg))
+  end subroutine design_ranking
 
   !> What the design takes of &model: a linear model with inputs, no state
   !> feedback or stabilisation, measurement noise r > 0 on every output.

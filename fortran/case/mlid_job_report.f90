@@ -5,6 +5,7 @@ module mlid_job_report
   use mlid_kinds, only: wp
   use mlid_text, only: itoa, es_text
   use mlid_report, only: case_json, json_string, number, numbers, strings, matrix
+  use mlid_input_ranking, only: ranking_t
   implicit none
   private
   public :: design_summary_t, design_report, design_json, mc_summary_t, mc_report, mc_json, &
@@ -35,6 +36,10 @@ module mlid_job_report
     real(wp), allocatable :: kx(:, :), xpeak(:), xrms(:)
     real(wp) :: xint = 0.0_wp
     character(len=512) :: out = ''
+    !> the candidate inputs ranked beside it (none: no ranking), the labels
+    !> of the states and outputs whose peak and rms it gives
+    type(ranking_t) :: ranking
+    character(len=32), allocatable :: states(:), outputs(:)
   end type design_summary_t
 
   !> The statistics of a Monte Carlo (free parameters, in the order of free).
@@ -138,7 +143,78 @@ contains
     end do
     text = text//NL//' designed input written to '//trim(s%out)//' ('//itoa(s%samples)// &
            ' samples)'//NL
+    if (allocated(s%ranking%order)) text = text//ranking_report(s)
   end function design_report
+
+  !> The candidates in rank order: det M, tr M and each unknown's sigma,
+  !> then the peak and rms of each state and output under each.
+  function ranking_report(s) result(text)
+    type(design_summary_t), intent(in) :: s
+    character(len=:), allocatable :: text
+    character(len=256) :: buf
+    integer :: k, j, c
+
+    associate (r => s%ranking)
+      text = ' candidate inputs at equal '//trim(r%compare)//' '//trim(adjustl(es_text(r%level, &
+             14, 7)))//', ranked by '//trim(merge('det M (D-optimal)', 'tr M             ', &
+             r%rank_by == 'det'))//'; s: Cramer-Rao sigma'//NL
+      write (buf, '(1x,a4,2x,a10,2a13)') 'rank', 'candidate ', 'det M', 'tr M'
+      text = text//trim(buf)
+      do j = 1, size(s%labels)
+        text = text//' '//adjustr(sigma_head(s%labels(j)))
+      end do
+      text = text//'  signal'//NL
+      do k = 1, size(r%order)
+        c = r%order(k)
+        write (buf, '(1x,i4,2x,a10)') k, r%names(c)
+        text = text//buf(1:17)//es_text(r%det(c), 13, 4)//es_text(r%trace(c), 13, 4)
+        do j = 1, size(s%labels)
+          text = text//' '//es_text(r%sigma(j, c), 13, 4)
+        end do
+        text = text//'  '//trim(r%detail(c))//NL
+      end do
+      write (buf, '(1x,a16)') 'peak, rms of'
+      text = text//trim(buf)
+      do k = 1, size(r%order)
+        text = text//adjustr(r%names(r%order(k))(1:12))
+      end do
+      text = text//NL
+      text = text//response_rows(s%states, r%x_peak, r%x_rms, r%order)// &
+             response_rows(s%outputs, r%y_peak, r%y_rms, r%order)
+    end associate
+  end function ranking_report
+
+  !> 'sigma label', at most 13 characters
+  function sigma_head(label) result(head)
+    character(len=*), intent(in) :: label
+    character(len=13) :: head
+    head = 's '//trim(label)
+  end function sigma_head
+
+  !> Two lines per name: its peak and its rms under each candidate, ranked.
+  function response_rows(names, peak, rms, order) result(text)
+    character(len=*), intent(in) :: names(:)
+    real(wp), intent(in) :: peak(:, :), rms(:, :)
+    integer, intent(in) :: order(:)
+    character(len=:), allocatable :: text
+    character(len=32) :: buf
+    integer :: i, k
+
+    text = ''
+    do i = 1, size(names)
+      write (buf, '(1x,a16)') 'peak '//names(i)
+      text = text//buf(1:17)
+      do k = 1, size(order)
+        text = text//es_text(peak(i, order(k)), 12, 4)
+      end do
+      write (buf, '(1x,a16)') 'rms  '//names(i)
+      text = text//NL//buf(1:17)
+      do k = 1, size(order)
+        text = text//es_text(rms(i, order(k)), 12, 4)
+      end do
+      text = text//NL
+    end do
+  end function response_rows
 
   function design_json(title, job, s) result(text)
     character(len=*), intent(in) :: title, job
@@ -159,6 +235,7 @@ contains
            '"eigenvalues": '//numbers(s%eig)//','//NL// &
            '"M": '//matrix(s%mm)//','//NL// &
            '"equalise_ratios": '//ratios()//','//NL//penalty()// &
+           '"ranking": '//ranking_json(s)//','//NL// &
            '"samples": '//itoa(s%samples)//', "out": '//json_string(trim(s%out))//'}'
 
   contains
@@ -202,6 +279,37 @@ contains
       text = text//trim(buf(1:9)//es_text(s%xpeak(i), 15, 6)//es_text(s%xrms(i), 15, 6))//NL
     end do
   end function penalty_lines
+
+  !> The ranking as a JSON object, its lists in rank order (null: none).
+  function ranking_json(s) result(text)
+    type(design_summary_t), intent(in) :: s
+    character(len=:), allocatable :: text
+    integer :: k
+
+    text = 'null'
+    if (.not. allocated(s%ranking%order)) return
+    associate (r => s%ranking, o => s%ranking%order)
+      text = '{"compare": '//json_string(trim(r%compare))//', "level": '//number(r%level)// &
+             ', "rank_by": '//json_string(trim(r%rank_by))//','//NL// &
+             '"candidates": '//strings(r%names(o))//','//NL// &
+             '"signals": '//strings(r%detail(o))//','//NL// &
+             '"energy": '//numbers(r%energy(o))//', "peak": '//numbers(r%peak(o))//','//NL// &
+             '"det_M": '//numbers(r%det(o))//','//NL// &
+             '"trace_M": '//numbers(r%trace(o))//','//NL// &
+             '"sigma": '//matrix(transpose(r%sigma(:, o)))//','//NL// &
+             '"states": '//strings(s%states)//', "outputs": '//strings(s%outputs)//','//NL// &
+             '"state_peak": '//matrix(transpose(r%x_peak(:, o)))//','//NL// &
+             '"state_rms": '//matrix(transpose(r%x_rms(:, o)))//','//NL// &
+             '"output_peak": '//matrix(transpose(r%y_peak(:, o)))//','//NL// &
+             '"output_rms": '//matrix(transpose(r%y_rms(:, o)))//','//NL// &
+             '"M": ['
+      do k = 1, size(o)
+        text = text//matrix(r%mm(:, :, o(k)))
+        if (k < size(o)) text = text//', '
+      end do
+      text = text//']}'
+    end associate
+  end function ranking_json
 
   !> Runs and failures, then per free parameter truth, start, mean, sample
   !> sigma and mean Cramer-Rao sigma; the sample covariance and the mean

@@ -23,6 +23,7 @@ module mlid_jobs
   use mlid_files, only: temporary_for, write_whole
   use mlid_text, only: itoa, to_lower
   use mlid_memory, only: no_memory
+  use mlid_input_ranking, only: rank_candidates
   use mlid_progress, only: progress_t
   use mlid_design, only: design_t, design_create, operator_mu, mu_for_length, transition_length, &
                          RICCATI_BRACKET, &
@@ -213,6 +214,11 @@ contains
     do k = 1, c%nu
       names(k) = input_name(c, k)
     end do
+    if (allocated(c%ranking%names)) then
+      if (size(c%ranking%names) > 0) call rank_job(c, f, g, h, r, gq, ks, cs, uc(:, 1:n), s, &
+                                                   status, msg)
+      if (status /= MLID_OK) return
+    end if
     units = ''
     call record_text(names, units, t, uc, none, text, status, msg)
     if (status /= MLID_OK) return
@@ -370,6 +376,43 @@ contains
     s%xpeak = maxval(abs(x(1:c%nx, :)), dim=2)
     s%xrms = sqrt(max([(xx(j, j), j=1, c%nx)], 0.0_wp)/c%t_end)
   end subroutine state_excursions
+  !> The candidates of &design ranked beside the design's input uc (on the
+  !> record's steps), each at its energy or peak; the states (a servo's
+  !> after the model's) and outputs labelled.
+  subroutine rank_job(c, f, g, h, r, gq, ks, cs, uc, s, status, msg)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), r(:, :), gq(:, :), uc(:, :)
+    integer, intent(in) :: ks(:), cs(:)
+    type(design_summary_t), intent(inout) :: s
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(design_t) :: d
+    real(wp) :: level
+    integer :: k, j
+
+    call design_create(f, g, h, r, ks, c%urow, cs, c%weights, d, status, msg, gq)
+    if (status /= MLID_OK) return
+    level = merge(s%energy, s%peak, to_lower(c%ranking%compare) == 'energy')
+    call rank_candidates(d, f, g, h, c%t_end, size(uc, 2), c%ranking, level, &
+                         reshape(uc, [size(uc)]), s%ranking, status, msg)
+    if (status /= MLID_OK) return
+    allocate (s%states(size(f, 1)), s%outputs(c%ny))
+    do k = 1, c%nx
+      s%states(k) = 'x'//itoa(k)
+    end do
+    j = c%nx
+    do k = 1, c%nu
+      if (.not. c%servo(k) > 0.0_wp) cycle
+      j = j + 1
+      s%states(j) = trim(input_name(c, k))//' servo'
+    end do
+    do k = 1, c%ny
+      s%outputs(k) = 'y'//itoa(k)
+      if (allocated(c%output_names)) then
+        if (size(c%output_names) == c%ny) s%outputs(k) = c%output_names(k)
+      end if
+    end do
+  end subroutine rank_job
 
   !> monte_carlo: runs seed, seed + 1, ... simulated from the truth with
   !> the input of input_file, each fitted from &model's values.

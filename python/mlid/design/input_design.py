@@ -482,6 +482,79 @@ class InputDesign:
                              energy=energy, weights=r["w"].copy())
         return best, [float(x) for x in r["ratios"]]
 
+    #: The candidates rank_inputs compares by default (the core's names).
+    CANDIDATES = ("optimal", "doublet", "3211", "multisine", "sweep", "log_sweep", "prbs")
+
+    def rank_inputs(self, T, energy=None, peak=None, candidates=CANDIDATES, cells=200,
+                    rank_by="det", f_band=None, pulse_width=None):
+        """Which input to fly: candidate inputs held over ``cells`` equal cells
+        of [0, T], each scaled to the same energy (or peak), ranked by the
+        information they give the unknowns (fortran/design/mlid_input_ranking.f90,
+        as the deck's ``&design candidates``).
+
+        'optimal' is ``optimal_input(T, energy, cells // 2)`` (the design
+        operator's eigenfunction, with this design's weights); 'doublet',
+        '3211', 'multisine', 'sweep' (linear), 'log_sweep' and 'prbs' come
+        from the signal library.  With several inputs the multisine drives
+        them all at once (mutually orthogonal), the other shapes one after
+        the other in equal windows of T.  The band and base pulse not given
+        come from the model: w_max the largest eigenvalue modulus of F, band
+        [1/T, w_max/pi] Hz, doublet and 3211 base pulse 2.33/w_max (the
+        doublet's spectral peak at the fastest mode), shortened to fit.
+
+        Parameters
+        ----------
+        T : float
+            Length [s], > 0.
+        energy, peak : float
+            The common energy (the integral of u'u over [0, T]) or the common
+            peak (the largest absolute value of u): give one.
+        candidates : sequence of str
+            Names from ``CANDIDATES``.
+        cells : int
+            Even, 4 or more: the cells every candidate is held over.
+        rank_by : {'det', 'trace'}
+            D-optimal (det M, the default) or tr M.
+        f_band : (float, float), optional
+            The multisine's and the sweeps' band [Hz] (default: the model's).
+        pulse_width : float, optional
+            The doublet's and the 3211's base pulse [s] (default: the model's).
+
+        Returns
+        -------
+        InputRanking
+            Best first; ``to_frame()``, a text repr, ``mlid.plots.input_ranking``.
+
+        Raises
+        ------
+        InputError
+            T not > 0, neither or both of energy and peak, an unknown
+            candidate or rank_by, cells odd or out of range, a band above
+            the cells' Nyquist frequency.
+        """
+        from .input_ranking import InputRanking
+        self._check_t(T)
+        if (energy is None) == (peak is None):
+            raise InputError("give one of energy and peak: the level every candidate is "
+                             "scaled to")
+        compare, level = ("energy", energy) if peak is None else ("peak", peak)
+        self._check_t(level, compare)
+        if isinstance(candidates, str):
+            raise InputError("candidates must be a list of names such as ['optimal', "
+                             "'doublet']")
+        band = np.zeros(2) if f_band is None else real_array("f_band", f_band)
+        if band.shape != (2,):
+            raise InputError(f"f_band must be (f_min, f_max) in Hz, got shape {band.shape}")
+        pw = 0.0 if pulse_width is None else pulse_width
+        if isinstance(pw, (str, bytes)) or not (np.isfinite(pw) and pw > 0 or pw == 0.0):
+            raise InputError(f"pulse_width must be > 0, got {pulse_width}")
+        cells = whole("cells", cells, 4, 100000)
+        h = self._call(candidates="".join(f"{c}\n" for c in candidates), compare=compare,
+                       rank_by=str(rank_by), f_band=band, pulse_width=float(pw))
+        check_status(*_api.mlid_design_rank(h, t=float(T), ncell=cells, level=float(level)))
+        return InputRanking(results(call_handle()), self.unknowns, T, compare, level,
+                            str(rank_by).lower(), self._model.nu)
+
     # -- the state-limit penalty of §7.6 ----------------------------------
     def _penalty(self, penalty=None):
         """The state penalty K of §7.6 for the core (zero: none)."""

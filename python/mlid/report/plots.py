@@ -1329,6 +1329,52 @@ def monte_carlo_histograms(mc, cr_sigma=None, units=None, path=None):
     return _finish(fig, path)
 
 
+# -- which input to fly -----------------------------------------------------------
+
+@_styled
+def input_ranking(ranking, path=None):
+    """Which input to fly (``InputDesign.rank_inputs``): each candidate as
+    scaled, one panel per input (left), and each unknown's Cramér-Rao σ
+    under each candidate relative to the best-ranked one's (right, log
+    scale: a bar above 1 is a worse σ).
+
+    Parameters
+    ----------
+    ranking : InputRanking
+    path : str or Path, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+    nu = ranking.u.shape[2]
+    fig = plt.figure(figsize=(10.0, max(3.4, 1.6 * nu + 0.7)), layout="constrained")
+    grid = fig.add_gridspec(nu, 2, width_ratios=[1.0, 1.2])
+    for j in range(nu):
+        ax = fig.add_subplot(grid[j, 0])
+        for k, name in enumerate(ranking.names):
+            ax.stairs(ranking.u[k][:, j], ranking.t_edges, lw=1.0, label=f"{k + 1}. {name}")
+        ax.set_ylabel(f"input {j + 1}")
+        ax.set_xlim(ranking.t_edges[0], ranking.t_edges[-1])
+    ax.set_xlabel("t [s]")
+    ax.set_title(f"inputs at equal {ranking.compare} {ranking.level:.4g}", loc="left")
+    ax.legend(fontsize=7, frameon=False, ncols=2)
+    ax = fig.add_subplot(grid[:, 1])
+    x = np.arange(len(ranking.unknowns))
+    width = 0.8 / len(ranking)
+    for k, name in enumerate(ranking.names):
+        ax.bar(x + (k - (len(ranking) - 1) / 2) * width, ranking.sigma[k] / ranking.sigma[0],
+               width, label=f"{k + 1}. {name}")
+    ax.set_yscale("log")
+    ax.axhline(1.0, color="0.4", lw=0.7)
+    ax.set_xticks(x, ranking.unknowns)
+    ax.set_ylabel(f"Cramér-Rao σ / σ of {ranking.names[0]}")
+    by = "det M" if ranking.rank_by == "det" else "tr M"
+    ax.set_title(f"σ of each unknown (ranked by {by})", loc="left")
+    return _finish(fig, path)
+
+
 # -- validation ---------------------------------------------------------------
 
 @_styled
