@@ -10,18 +10,21 @@ with measurement noise and identify the derivatives in seeded Monte Carlo runs: 
 sample σ of the estimates against the Cramér-Rao σ.
 """
 
+import sys
+
 import numpy as np
 import matplotlib.pyplot as plt
 
 import mlid
 
-F = [[-0.02, -32.2, 0.0, 33.74], [0.0, 0.0, 1.0, 0.0],
-     [0.003, 0.0, -1.588, -0.562], [-0.004, 0.0, 1.0, -0.737]]
-G = [[0.0], [0.0], [-1.658], [0.005]]
-R_SAMPLE = np.array([0.125, 0.125, 0.125, 0.25])          # per-sample noise variances
-DT, T, ENERGY = 0.02, 2.0, 58.0
-UNKNOWNS = ["f(3,3)", "f(3,4)", "f(4,4)", "g(3,1)", "g(4,1)"]
-NAMES = ["M_q", "M_alpha", "Z_alpha", "M_delta", "Z_delta"]
+from _records import CASES
+
+# the C-8 four-state model, its unknowns, noise, length and energy, asked of the case
+# that holds them (cases/c8_monte_carlo/c8_longitudinal.py)
+sys.path.insert(0, str(CASES / "c8_monte_carlo"))
+from c8_longitudinal import (F0 as F, G0 as G, R_SAMPLE, DT, T, ENERGY,  # noqa: E402
+                             UNKNOWNS, NAMES as LONG_NAMES)
+NAMES = [LONG_NAMES[u] for u in UNKNOWNS]
 
 design = mlid.InputDesign(F, G, np.eye(4), np.diag(R_SAMPLE * DT), UNKNOWNS)
 optimal = design.optimal_input(T, ENERGY, cells=50)

@@ -29,7 +29,7 @@ module mlid_jobs
                          RICCATI_BRACKET, &
                          costate_input, input_information, amplitude_limited_input, &
                          equalised_input, information_summary, servo_model, &
-                         design_state_penalty, input_response
+                         design_state_penalty, input_response, simpson_weights
   use mlid_signals, only: multisine_band, peak_factor
   use mlid_job_report, only: input_summary_t, design_summary_t, design_report, design_json, mc_summary_t, &
                              mc_report, mc_json, simulate_report, simulate_json
@@ -364,10 +364,7 @@ contains
     end if
     call input_response(f, g, c%t_end, s%cells, NS, u, x, status, msg)
     if (status /= MLID_OK) return
-    w = 2.0_wp
-    w(2:np - 1:2) = 4.0_wp
-    w([1, np]) = 1.0_wp
-    w = w*(c%t_end/(np - 1))/3.0_wp
+    w = simpson_weights(np, c%t_end)
     do j = 1, c%nx
       xx(:, j) = matmul(x(1:c%nx, :), w*x(j, :))
     end do

@@ -32,7 +32,7 @@ module mlid_design
   public :: design_t, design_create, operator_mu, riccati_length, transition_length, &
             costate_input, input_information, mu_for_length, amplitude_limited_input, &
             design_state_penalty, input_response, energy_input, equalised_input, &
-            information_summary, servo_model
+            information_summary, servo_model, simpson_weights
 
   type :: design_t
     integer :: nx = 0, nu = 0, ny = 0, m = 0, na = 0
@@ -624,6 +624,17 @@ contains
     status = MLID_OK
     msg = ''
   end subroutine costate_input
+
+  !> Simpson's rule's weights for np (odd) equally spaced samples over [0, t].
+  pure function simpson_weights(np, t) result(w)
+    integer, intent(in) :: np
+    real(wp), intent(in) :: t
+    real(wp) :: w(np)
+    w = 2.0_wp
+    w(2:np - 1:2) = 4.0_wp
+    w([1, np]) = 1.0_wp
+    w = w*(t/(np - 1))/3.0_wp
+  end function simpson_weights
 
   !> The information matrix M (m x m, unweighted, eq. 7.12) of the input u
   !> held over n cells of [0, T] (nu per cell): the augmented states exact at

@@ -28,7 +28,9 @@ module mlid_input_ranking
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_INTERNAL
   use mlid_text, only: to_lower, itoa, es_text
-  use mlid_design, only: design_t, input_information, information_summary, input_response
+  use mlid_design, only: design_t, input_information, information_summary, input_response, &
+                         simpson_weights
+  use mlid_linalg, only: general_eig
   use mlid_inputs, only: input_signal
   use mlid_signals, only: multisine_band, multisine, sweep, prbs, MULTISINE_ITERATIONS
   implicit none
@@ -68,16 +70,6 @@ module mlid_input_ranking
     real(wp), allocatable :: x_peak(:, :), x_rms(:, :), y_peak(:, :), y_rms(:, :)
   end type ranking_t
 
-  interface
-    subroutine dgeev(jobvl, jobvr, n, a, lda, wr, wi, vl, ldvl, vr, ldvr, work, lwork, info)
-      import :: wp
-      character, intent(in) :: jobvl, jobvr
-      integer, intent(in) :: n, lda, ldvl, ldvr, lwork
-      real(wp), intent(inout) :: a(lda, *)
-      real(wp), intent(out) :: wr(*), wi(*), vl(ldvl, *), vr(ldvr, *), work(*)
-      integer, intent(out) :: info
-    end subroutine dgeev
-  end interface
 
 contains
 
@@ -220,12 +212,10 @@ contains
     real(wp), intent(out) :: wmax, band(2)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: a(size(f, 1), size(f, 1)), wr(size(f, 1)), wi(size(f, 1)), vl(1, 1), vr(1, 1)
-    real(wp) :: work(8*size(f, 1) + 8)
+    real(wp) :: wr(size(f, 1)), wi(size(f, 1))
     integer :: info
 
-    a = f
-    call dgeev('N', 'N', size(f, 1), a, size(f, 1), wr, wi, vl, 1, vr, 1, work, size(work), info)
+    call general_eig(f, wr, wi, info)
     if (info /= 0) then
       status = MLID_ERR_INTERNAL
       msg = 'the eigenvalues of F could not be found'
@@ -353,8 +343,7 @@ contains
     call input_response(f, g, t, n, NS, r%u(:, k), x, status, msg)
     if (status /= MLID_OK) return
     y = matmul(h, x)
-    wt = [(merge(1.0_wp, merge(4.0_wp, 2.0_wp, mod(i, 2) == 1), i == 0 .or. i == n*NS), &
-           i=0, n*NS)]*(t/(n*NS))/3.0_wp             ! Simpson's rule
+    wt = simpson_weights(n*NS + 1, t)
     r%x_peak(:, k) = maxval(abs(x), dim=2)
     r%y_peak(:, k) = maxval(abs(y), dim=2)
     r%x_rms(:, k) = sqrt(matmul(x**2, wt)/t)

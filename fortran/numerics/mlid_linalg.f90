@@ -9,7 +9,7 @@ module mlid_linalg
   private
   public :: add_sym_atb, add_syrk, add_atv, sym_atb_t, pair_rows, sym_eig, chol_inverse, chol_solve, &
             psd_factor, info_inverse, info_eig, eig_inverse, expm, expm_into, expm_work_size, &
-            expm_work_t, solve, independent_columns
+            expm_work_t, solve, independent_columns, general_eig
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -43,6 +43,14 @@ module mlid_linalg
       real(wp), intent(inout) :: a(lda, *), b(ldb, *)
       integer, intent(out) :: ipiv(*), info
     end subroutine dgesv
+    subroutine dgeev(jobvl, jobvr, n, a, lda, wr, wi, vl, ldvl, vr, ldvr, work, lwork, info)
+      import :: wp
+      character, intent(in) :: jobvl, jobvr
+      integer, intent(in) :: n, lda, ldvl, ldvr, lwork
+      real(wp), intent(inout) :: a(lda, *)
+      real(wp), intent(out) :: wr(*), wi(*), vl(ldvl, *), vr(ldvr, *), work(*)
+      integer, intent(out) :: info
+    end subroutine dgeev
   end interface
 
   !> Below this size chol_inverse factorises without LAPACK.
@@ -304,6 +312,21 @@ contains
     call dsyevr('V', 'A', 'L', n, acopy, n, 0.0_wp, 0.0_wp, 0, 0, 0.0_wp, m, w, v, n, &
                 isuppz, work, size(work), iwork, size(iwork), info)
   end subroutine sym_eig
+
+  !> The eigenvalues wr + i wi of a general square matrix (no vectors).
+  !> info /= 0 reports a LAPACK failure.
+  subroutine general_eig(a, wr, wi, info)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: wr(:), wi(:)
+    integer, intent(out) :: info
+    real(wp) :: acopy(size(a, 1), size(a, 1)), vl(1, 1), vr(1, 1), work(8*size(a, 1) + 8)
+    integer :: n
+    n = size(a, 1)
+    info = 0
+    if (n == 0) return
+    acopy = a
+    call dgeev('N', 'N', n, acopy, n, wr, wi, vl, 1, vr, 1, work, size(work), info)
+  end subroutine general_eig
 
   !> The same by a plain Cholesky factorisation for small n, where LAPACK's
   !> call overhead outweighs the arithmetic.  info = k > 0: the leading minor
