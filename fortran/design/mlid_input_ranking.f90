@@ -327,7 +327,6 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: x(:, :), y(:, :), wt(:)
     real(wp) :: eig(d%m)
-    integer :: i
 
     call input_information(d, t, n, r%u(:, k), r%mm(:, :, k), status, msg)
     if (status /= MLID_OK) return
