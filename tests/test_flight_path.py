@@ -21,7 +21,7 @@ needs_data = pytest.mark.skipif(not (DATA / "fAttasElv1_pqrDot.asc").is_file(),
 @needs_data
 @pytest.mark.parametrize("deck", sorted(REFS))
 def test_each_deck_reproduces_its_reference_in_both_front_ends(deck, tmp_path):
-    """Measured: 0.020, 0.012 and 0.0096 sigma, sigma within 0.05%, det R within 4.1e-5."""
+    """Measured: 0.020, 0.012, 0.037 and 0.010 sigma, sigma within 0.08%, det R within 8.4e-7."""
     path = HERE / f"{deck}.nml"
     assert "! reference:" in path.read_text()
     fit = both_front_ends_json(path, tmp_path)

@@ -127,8 +127,10 @@ def main():
         if deck == "tc32.nml":
             columns = [np.loadtxt(DATA / f"fAttas{n}_pqrDot.asc")[:, 45:48]
                        for n in ("Elv1", "Ail1", "Rud1")]
-            print(f"the records' columns 46-48 (read by this deck) against the reference's "
-                  f"angular accelerations: at most {against_reference(columns):.1e} rad/s^2 apart")
+            print(f"the records' columns 46-48 (read by this deck's reference) against the "
+                  f"angular accelerations of tc22's: at most {against_reference(columns):.1e} "
+                  f"rad/s^2 apart; after its quirk (* pi/180) "
+                  f"{against_reference(columns) * np.pi / 180:.1e}")
         if deck == "tc33.nml":
             print("time delays: " + ", ".join(
                 f"{n} {1e3 * v:.2f} ms (sigma {1e3 * sd:.1f} ms)"
