@@ -14,7 +14,8 @@ FORTRAN = Path(__file__).resolve().parents[1] / "fortran"
 #: Layers, lowest first; a folder below a layer (estimation/fit) is that layer,
 #: ranked by its own entry where it has one.
 RANK = ["base", "numerics", "models", "estimation",
-        "estimation/time_domain", "estimation/frequency_domain", "estimation/fit",
+        "estimation/time_domain", "estimation/frequency_domain", "estimation/online",
+        "estimation/fit",
         "design", "case", "api", "app"]
 #: Sub-layers that are siblings: neither uses the other.
 SIBLINGS = {("estimation/time_domain", "estimation/frequency_domain")}

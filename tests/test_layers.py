@@ -26,6 +26,7 @@ RANK = {
     "estimate": 4,
     "frequency": 5,
     "design": 5,
+    "online": 5,
     "discrepancy": 6,
     "report": 7,
     "cli": 8,

@@ -46,6 +46,7 @@ from .design.simulate import simulate
 from .design.monte_carlo import monte_carlo
 from .design.parallel import monte_carlo_parallel
 from .design.input_design import InputDesign, DesignedInput
+from . import online
 from .discrepancy.reduction import reduce_measured_state, reduced_data, recover_disturbance
 from .discrepancy.model_checks import fpe, compare_models, predict
 from .discrepancy.diagnose import diagnose
