@@ -17,7 +17,8 @@ MODULES = sorted(m.name for m in pkgutil.walk_packages(mlid.__path__, "mlid.")
 #: Modules with Examples sections; a test below checks each has some, so
 #: that a docstring rewritten without them is noticed.
 WITH_EXAMPLES = ("mlid.data.flight_data", "mlid.model.models", "mlid.estimate.fit",
-                 "mlid.frequency.fourier", "mlid.frequency.responses", "mlid.design.signals")
+                 "mlid.frequency.fourier", "mlid.frequency.responses", "mlid.design.signals",
+                 "mlid.online.rls", "mlid.online.ftr")
 
 
 def examples(name):

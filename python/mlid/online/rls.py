@@ -18,8 +18,9 @@ class OnlineEstimate:
     names : list of str
         The parameters.
     estimates, sigma : ndarray (n, np)
-        The estimate and its sigma after each sample (sigma 0 until there
-        are more samples, weighted, than parameters).
+        The estimate and its sigma at each point of the history (each
+        sample, or each solve); NaN where there is none yet (rls: sigma 0
+        until there are more samples, weighted, than parameters).
     """
 
     def __init__(self, t, names, estimates, sigma):
@@ -38,7 +39,7 @@ class OnlineEstimate:
         est, sig = self.estimates, self.sigma[-1]
         out = {}
         for j, name in enumerate(self.names):
-            outside = np.abs(est[:, j] - est[-1, j]) > width * sig[j]
+            outside = ~(np.abs(est[:, j] - est[-1, j]) <= width * sig[j])   # NaN: outside
             if not sig[j] > 0:
                 out[name] = float("nan")
             else:
@@ -57,7 +58,7 @@ class OnlineEstimate:
     def __repr__(self):
         rows = "\n".join(f"  {n:12s} {v: .6g}  sigma {s:.3g}"
                          for n, v, s in zip(self.names, self.estimates[-1], self.sigma[-1]))
-        return f"OnlineEstimate: {len(self.t)} samples, final\n{rows}"
+        return f"OnlineEstimate: {len(self.t)} points of history, final\n{rows}"
 
 
 @guarded

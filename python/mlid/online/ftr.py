@@ -1,0 +1,86 @@
+"""Fourier-transform regression in real time (the core's mlid_ftr): the
+state equations' F and G from growing Fourier transforms, solved every few
+samples."""
+
+import numpy as np
+
+from .._bridge import api as _api
+from ..checks import real_array
+from ..errors import InputError, check_status, guarded
+from .rls import OnlineEstimate
+
+
+def _whole(name, value, low):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise InputError(f"{name} must be a whole number >= {low}, not {value!r}")
+    return int(value)
+
+
+@guarded
+def ftr(t, x, u, frequencies, every=25, trim=10, first=1):
+    """Fourier-transform regression (Morelli's real-time method,
+    fortran/estimation/online/mlid_ftr.f90): the transforms X(w), U(w) of
+    the measured states and inputs gain each sample; every ``every``
+    samples each state equation i w X_i = F(i,:) X + G(i,:) U is solved by
+    least squares on the real parts over the band.
+
+    Parameters
+    ----------
+    t : array_like (n,)
+        Sample times [s].
+    x : array_like (n, nx)
+        The measured states (every state measured).
+    u : array_like (n, nu)
+        The inputs.
+    frequencies : array_like (nw,)
+        The band's frequencies [Hz], more than nx + nu.
+    every : int
+        Samples between solves (25 at 25 Hz: one a second).
+    trim : int
+        The trim removed from x and u first: the mean of the first ``trim``
+        samples (0: none).
+    first : int
+        The first sample taken into the transforms (1-based; the textbook's
+        ftr_mod starts at 2).
+
+    Returns
+    -------
+    OnlineEstimate
+        At each solve's time: the estimates f(i,j) and g(i,l), equation by
+        equation (F's row i, then G's), and their sigma (from each
+        equation's residual variance over the band); NaN at a solve before
+        the band is excited enough to determine them.
+
+    Examples
+    --------
+    >>> import numpy as np, mlid
+    >>> from mlid.design.signals import multistep
+    >>> t = 0.02 * np.arange(1000)
+    >>> de = multistep("3211", 1.0, 1.0, 0.5, 0.02, 1000)
+    >>> m = mlid.LinearModel(F=[[-1.0, 1.0], [-4.0, -1.5]], G=[[0.1], [-6.0]], H=np.eye(2))
+    >>> data, _ = mlid.simulate(m, t, de[:, None])
+    >>> est = mlid.online.ftr(t, data.y, de, np.arange(0.1, 1.5, 0.05), every=50)
+    >>> round(est.final["f(2,1)"], 2), round(est.final["g(2,1)"], 2)
+    (-4.0, -6.0)
+    """
+    t = real_array("t", t)
+    x = real_array("x", x)
+    u = real_array("u", u)
+    if x.ndim == 1:
+        x = x[:, None]
+    if u.ndim == 1:
+        u = u[:, None]
+    if t.ndim != 1 or x.shape[0] != t.size or u.shape[0] != t.size:
+        raise InputError(f"t (n,), x (n, nx) and u (n, nu) need one row per sample (shapes "
+                         f"{t.shape}, {x.shape}, {u.shape})")
+    w = 2 * np.pi * real_array("frequencies", frequencies)
+    every, trim, first = _whole("every", every, 1), _whole("trim", trim, 0), \
+        _whole("first", first, 1)
+    nx, nu = x.shape[1], u.shape[1]
+    ts, est, sig, status, msg = _api.mlid_ftr(t.size // every, t, np.asfortranarray(x.T),
+                                              np.asfortranarray(u.T), w, every, trim, first)
+    check_status(status, msg)
+    names = [n for i in range(1, nx + 1)
+             for n in [f"f({i},{j})" for j in range(1, nx + 1)]
+             + [f"g({i},{k})" for k in range(1, nu + 1)]]
+    return OnlineEstimate(ts, names, est.T.copy(), sig.T.copy())
