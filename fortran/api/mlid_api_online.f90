@@ -1,14 +1,19 @@
 !> The flat interface's online (recursive) estimation.  Recursive least
-!> squares takes its few arrays directly (a regression, not a model).
-!> Conventions: mlid_api_deck's comment.
+!> squares takes its few arrays directly (a regression, not a model); the
+!> estimators on a record take the handle alone (mlid_api_frequency's
+!> comment).  Conventions: mlid_api_deck's comment.
 module mlid_api_online
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use mlid_kinds, only: wp, MLID_ERR_INPUT
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use mlid_kinds, only: wp, MLID_OK
+  use mlid_handles, only: session_t, call_session
+  use mlid_problem, only: problem_needs, PART_RECORD
   use mlid_rls, only: rls_settings_t, rls_run
   use mlid_ftr, only: ftr_settings_t, ftr_run
   implicit none
   private
   public :: mlid_rls, mlid_ftr
+
+  real(wp), parameter :: PI = 4.0_wp*atan(1.0_wp)
 
 contains
 
@@ -28,36 +33,43 @@ contains
     status = st
   end subroutine mlid_rls
 
-  !> Fourier-transform regression (mlid_ftr) of the measured states x(nx, n)
-  !> and inputs u(nu, n) at the times t(n) over the frequencies w(nw)
-  !> [rad/s], a solve every `every` samples (m = n/every solves), the trim
-  !> from the first `trim` samples, the transforms from sample `first`:
-  !> each solve's time ts(m), estimates est(np, m) and sigma sig(np, m),
-  !> np = nx (nx + nu), equation by equation.
-  subroutine mlid_ftr(nx, nu, n, nw, m, t, x, u, w, every, trim, first, ts, est, sig, status, &
-                      msg)
-    integer(c_int), intent(in) :: nx, nu, n, nw, m, every, trim, first
-    real(c_double), intent(in) :: t(n), x(nx, n), u(nu, n), w(nw)
-    real(c_double), intent(out) :: ts(m), est(nx*(nx + nu), m), sig(nx*(nx + nu), m)
+  !> Fourier-transform regression (mlid_ftr) on the record of handle h
+  !> (mlid_api_problem: one manoeuvre, its outputs the measured states x)
+  !> with its given values (mlid_api_values): frequencies (Hz), every
+  !> (samples between solves), trim (samples whose mean is the trim), first
+  !> (the first sample in the transforms).  Results: t_solve (m) each
+  !> solve's time, estimates and sigma (nx (nx + nu), m), equation by
+  !> equation (F's row, then G's), m = n/every.
+  subroutine mlid_ftr(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
+    type(session_t), pointer :: ses
     type(ftr_settings_t) :: s
-    integer :: st
-    ts = 0.0_wp
-    est = 0.0_wp
-    sig = 0.0_wp
-    if (every < 1 .or. m /= n/max(every, 1)) then
-      status = MLID_ERR_INPUT
-      msg = 'Fourier-transform regression: the solve interval must be >= 1 sample (room for '// &
-            'n/every solves)'
-      return
-    end if
-    s%w = w
-    s%every = every
-    s%trim = trim
-    s%first = first
-    call ftr_run(t, x, u, s, ts, est, sig, st, msg)
-    status = st
+    real(wp), allocatable :: hz(:), ts(:), est(:, :), sig(:, :)
+    integer :: m, np
+
+    call call_session(h, ses, status, msg)
+    if (status /= MLID_OK) return
+    call problem_needs(ses%problem, [PART_RECORD], status, msg)
+    if (status /= MLID_OK) return
+    associate (p => ses%problem, g => ses%given)
+      call g%get('frequencies', hz, status, msg)
+      call g%get('every', s%every, status, msg)
+      call g%get('trim', s%trim, status, msg)
+      call g%get('first', s%first, status, msg)
+      if (status /= MLID_OK) return
+      s%w = 2.0_wp*PI*hz
+      m = 0
+      if (s%every >= 1) m = size(p%t)/s%every
+      np = size(p%y, 1)*(size(p%y, 1) + size(p%u, 1))
+      allocate (ts(m), est(np, m), sig(np, m))
+      call ftr_run(p%t, p%y, p%u, s, ts, est, sig, status, msg)
+    end associate
+    if (status /= MLID_OK) return
+    call ses%results%put('t_solve', ts)
+    call ses%results%put('estimates', est)
+    call ses%results%put('sigma', sig)
   end subroutine mlid_ftr
 
 end module mlid_api_online

@@ -4,7 +4,7 @@ samples."""
 
 import numpy as np
 
-from .._bridge import api as _api
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
 from ..checks import real_array
 from ..errors import InputError, check_status, guarded
 from .rls import OnlineEstimate
@@ -73,13 +73,15 @@ def ftr(t, x, u, frequencies, every=25, trim=10, first=1):
     if t.ndim != 1 or x.shape[0] != t.size or u.shape[0] != t.size:
         raise InputError(f"t (n,), x (n, nx) and u (n, nu) need one row per sample (shapes "
                          f"{t.shape}, {x.shape}, {u.shape})")
-    w = 2 * np.pi * real_array("frequencies", frequencies)
-    every, trim, first = _whole("every", every, 1), _whole("trim", trim, 0), \
-        _whole("first", first, 1)
     nx, nu = x.shape[1], u.shape[1]
-    ts, est, sig, status, msg = _api.mlid_ftr(t.size // every, t, np.asfortranarray(x.T),
-                                              np.asfortranarray(u.T), w, every, trim, first)
-    check_status(status, msg)
+    h = _call_handle()
+    _put(h, frequencies=real_array("frequencies", frequencies), every=_whole("every", every, 1),
+         trim=_whole("trim", trim, 0), first=_whole("first", first, 1))
+    # (n, k) C-ordered is the core's (k, n) Fortran-ordered: no copy
+    check_status(*_api.mlid_set_record(h.value, t=t, u=np.ascontiguousarray(u).T,
+                                       y=np.ascontiguousarray(x).T, segstart=[1]))
+    out = _run(h, _api.mlid_ftr)
+    ts, est, sig = out["t_solve"], out["estimates"], out["sigma"]
     names = [n for i in range(1, nx + 1)
              for n in [f"f({i},{j})" for j in range(1, nx + 1)]
              + [f"g({i},{k})" for k in range(1, nu + 1)]]
