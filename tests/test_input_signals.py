@@ -274,6 +274,28 @@ def test_deck_simulate_reports_each_input(tmp_path):
     assert " multisine " in runs[0].stdout and "RPF" in runs[0].stdout
 
 
+def test_deck_limit_scales_multisines_too(tmp_path):
+    """&simulate limit on multisine inputs scales each down to its limit
+    (peaks 0.5 and 0.3 from amplitudes 1 and 2; the third, unlimited, keeps
+    its 0.5), which keeps them orthogonal; more than 4,000 powers are one
+    line naming the limit."""
+    from conftest import run_both
+    deck = tmp_path / "ms.nml"
+    deck.write_text(DECK.split("&case title = 'sweep prbs'")[0]
+                    .replace("f_min = 0.1, f_max = 1.5 /", "f_min = 0.1, f_max = 1.5, limit = 0.5, 0.3, 0 /"))
+    runs = run_both(deck, cwd=tmp_path)
+    assert runs[0].returncode == 0 and runs[0].stdout == runs[1].stdout, runs[0].stderr
+    u = np.loadtxt(tmp_path / "ms.dat")[:, 1:4]
+    np.testing.assert_allclose(np.abs(u).max(axis=0), [0.5, 0.3, 0.5], rtol=1e-12)
+    gram = u[:-1].T @ u[:-1]
+    assert abs(gram[0, 1]) < 1e-9 * np.sqrt(gram[0, 0] * gram[1, 1])
+    deck.write_text(DECK.split("&case title = 'sweep prbs'")[0]
+                    .replace("f_max = 1.5 /", "f_max = 1.5, power = " + ", ".join(["1"] * 4001) + " /"))
+    from conftest import refused_by_both
+    refused_by_both(deck, "power has 4001 entries; a case takes at most 4000 relative powers",
+                    cwd=tmp_path)
+
+
 SHAPED = """&case title = 'shaped', job = 'simulate' /
 &model kind = 'linear', nx = 2, nu = 3, ny = 2,
     f = -1.0, 0.5, -0.8, -2.0,   g = 1.0, 0.3, 0.2, 0.1, 0.5, 0.5,  h = 1, 0, 0, 1 /

@@ -145,7 +145,7 @@ def test_deck_runs_identically_in_both_front_ends(tmp_path):
     (201, "'y1s = smooth(y1 + y2)', 'y1d = deriv(y1)'",
      "smooth() takes one channel's name, not 'y1 + y2'"),
     (201, "'y1s = smooth_local(y1, 2)', 'y1d = deriv(y1)'",
-     "derived y1s: smooth_local() takes no cut-off: its windows are fixed"),
+     "derived y1s: smooth_local(): the local smoother takes no cut-off: its windows are fixed"),
     (201, "'y1s = smooth(y1)', 'y1d = 1 + deriv_local(y1)'",
      "derived y1d: deriv_local() makes a channel of its own"),
     (4, "'y1s = smooth_local(y1)', 'y1d = deriv_local(y1)'",

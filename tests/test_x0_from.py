@@ -137,6 +137,8 @@ def test_python_fit_takes_x0_from_as_the_deck_does(records):
                             free=["f(1,1)", "f(2,1)", "g(1,1)"])
     res_held = mlid.fit(held, data, x0_from="first")
     assert res_held.model.x0[0] == m1[0, 2] - 0.1 and res_held.model.x0[1] == -0.2
+    # the rule in any case, as the deck reads it
+    assert mlid.fit(held, data, x0_from="First").estimate.tolist() == res_held.estimate.tolist()
     ev = mlid.evaluate(held, data, x0_from="first")
     assert np.isfinite(ev["cost"])
 

@@ -260,8 +260,8 @@ contains
     allocate (uopt(ncell*d%nu))
     uopt = 0.0_wp
     if (any(o%names == 'optimal')) call operator_mu(d, t, ncell/2, mu, uopt, status, msg)
-    if (status == MLID_OK) call rank_candidates(d, gv%f, gv%g, gv%h, t, ncell, o, level, uopt, r, &
-                                                status, msg)
+    if (status == MLID_OK) call rank_candidates(d, gv%f, gv%g, gv%h, gv%f, t, ncell, o, level, &
+                                                uopt, r, status, msg)
     if (status /= MLID_OK) return
     s%results = named_t()
     call s%results%put('names', join_lines(r%names))

@@ -20,7 +20,7 @@ module mlid_api_frequency
   use mlid_sampling, only: record_common_step
   use mlid_fourier, only: fourier_transform
   use mlid_smooth, only: smooth_fourier, smooth_uniform_check
-  use mlid_local_smooth, only: smooth_local, deriv_local
+  use mlid_local_smooth, only: smooth_local, deriv_local, LOCAL_NO_CUTOFF
   use mlid_text, only: itoa
   use mlid_frequency, only: freq_record, freq_likelihood, freq_grid
   use mlid_recursive_fd, only: recursive_fdee
@@ -100,6 +100,9 @@ contains
     end if
     if (local == 0) then
       call smooth_fourier(x, dt, xs, xd, kc, fc, status, msg, fc_given)
+    else if (fc_given > 0.0_wp) then
+      status = MLID_ERR_INPUT
+      msg = LOCAL_NO_CUTOFF
     else
       call deriv_local(x, dt, xd, status, msg)
       if (status == MLID_OK) call smooth_local(x, xs, status, msg)

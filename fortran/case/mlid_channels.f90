@@ -33,7 +33,7 @@ module mlid_channels
   use mlid_tablefile, only: tablefile_read
   use mlid_progress, only: progress_t
   use mlid_smooth, only: smooth_fourier, smooth_uniform_check
-  use mlid_local_smooth, only: smooth_local, deriv_local
+  use mlid_local_smooth, only: smooth_local, deriv_local, LOCAL_NO_CUTOFF
   implicit none
   private
   public :: channels_t, channel_set_t, channels_spec, channels_join, channels_read, &
@@ -658,7 +658,7 @@ contains
     arg = arg(index(arg, '(') + 1:len(arg) - 1)
     comma = index(arg, ',')
     if (comma > 0 .and. op > 2) then
-      msg = trim(SMOOTHERS(op))//'() takes no cut-off: its windows are fixed'
+      msg = trim(SMOOTHERS(op))//'(): '//LOCAL_NO_CUTOFF
       return
     else if (comma > 0) then                 ! NAME, cut-off in Hz
       read (arg(comma + 1:), *, iostat=ios) fc

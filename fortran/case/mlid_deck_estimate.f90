@@ -112,7 +112,7 @@ contains
       if (x0_samples /= 0) call fail(c, 'group &estimate: x0_samples is for x0_from = ''mean''')
       return
     end if
-    call x0_rule_check(to_lower(x0_from), x0_samples, ios, iomsg)
+    call x0_rule_check(x0_from, x0_samples, ios, iomsg)
     if (ios /= MLID_OK) then
       call fail(c, 'group &estimate: '//trim(iomsg))
     else if (c%job == 'monte_carlo') then

@@ -59,6 +59,8 @@ contains
     t_start = 0.0_wp
     pulse_width = 0.0_wp
     input_file = ''
+    call at_most(rd, c, 'simulate', ['power'], MAX_HARMONICS, 'relative powers (one per harmonic)')
+    if (c%status /= MLID_OK) return
     gtext = group_text(rd, 'simulate')
     ios = -1                          ! missing
     if (len(gtext) > 0) read (gtext, nml=simulate, iostat=ios, iomsg=iomsg)

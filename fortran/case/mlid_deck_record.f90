@@ -319,7 +319,9 @@ contains
     if (status /= MLID_OK) return
     do k = 1, c%nu
       select case (trim(to_lower(c%input_shape(k))))
-      case ('multisine')
+      case ('multisine')     ! made above, as one set; scaling keeps them orthogonal
+        call finish_signal(u(k, :), .false., c%limit(k), status, msg)
+        if (status /= MLID_OK) return
         cycle
       case ('sweep')
         call sweep('linear', c%f_band(1), c%f_band(2), c%amplitude(k), c%amplitude_end(k), &

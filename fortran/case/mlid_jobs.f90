@@ -102,6 +102,7 @@ contains
     type(input_summary_t), allocatable :: inputs(:)
 
     call case_time_input(c, t, u, status, msg)
+    if (status == MLID_OK) call input_summaries(c, t, u, inputs, status, msg)
     if (status /= MLID_OK) return
     allocate (y(c%ny, size(t)), x(c%nx, size(t)))
     call simulate_flat(c%mkind, c%nx, c%nu, c%ny, c%nw, c%theta, c%iconst, c%rconst, t, u, c%iopt, &
@@ -115,8 +116,6 @@ contains
                      first_line='# t, inputs, outputs (mlid simulate)')
     if (status /= MLID_OK) return
     call write_file(c%out_file, text, status, msg)
-    if (status /= MLID_OK) return
-    call input_summaries(c, t, u, inputs, status, msg)
     if (status /= MLID_OK) return
     report = simulate_report(size(t), c%out_file, inputs)
     json = simulate_json(c%title, c%job, size(t), c%out_file, inputs)
@@ -390,7 +389,7 @@ contains
     call design_create(f, g, h, r, ks, c%urow, cs, c%weights, d, status, msg, gq)
     if (status /= MLID_OK) return
     level = merge(s%energy, s%peak, to_lower(c%ranking%compare) == 'energy')
-    call rank_candidates(d, f, g, h, c%t_end, size(uc, 2), c%ranking, level, &
+    call rank_candidates(d, f, g, h, f(1:c%nx, 1:c%nx), c%t_end, size(uc, 2), c%ranking, level, &
                          reshape(uc, [size(uc)]), s%ranking, status, msg)
     if (status /= MLID_OK) return
     allocate (s%states(size(f, 1)), s%outputs(c%ny))

@@ -31,6 +31,7 @@ module mlid_input_ranking
   use mlid_design, only: design_t, input_information, information_summary, input_response, &
                          simpson_weights
   use mlid_linalg, only: general_eig
+  use mlid_memory, only: no_memory
   use mlid_inputs, only: input_signal
   use mlid_signals, only: multisine_band, multisine, sweep, prbs, MULTISINE_ITERATIONS
   implicit none
@@ -52,7 +53,7 @@ module mlid_input_ranking
   !> 'det' or 'trace'; the band [Hz] and base pulse [s], 0 for the model's.
   type :: ranking_options_t
     character(len=16), allocatable :: names(:)
-    character(len=8) :: compare = 'energy', rank_by = 'det'
+    character(len=16) :: compare = 'energy', rank_by = 'det'
     real(wp) :: f_min = 0.0_wp, f_max = 0.0_wp, pulse_width = 0.0_wp
   end type ranking_options_t
 
@@ -60,7 +61,7 @@ module mlid_input_ranking
   type :: ranking_t
     character(len=16), allocatable :: names(:)
     character(len=48), allocatable :: detail(:)      !< each signal's settings, in words
-    character(len=8) :: compare = '', rank_by = ''
+    character(len=16) :: compare = '', rank_by = ''
     real(wp) :: level = 0.0_wp                       !< the common energy or peak
     integer, allocatable :: order(:)
     !> u(cells nu, candidate) as scaled; their energies and peaks
@@ -124,16 +125,18 @@ contains
 
   !> Rank the candidates of o for the design d of the model (f, g, h) on n
   !> cells of [0, T], each scaled to level (o%compare's energy or peak);
-  !> uopt: the design's own input on the cells (nu per cell), 'optimal'.
-  subroutine rank_candidates(d, f, g, h, t, n, o, level, uopt, r, status, msg)
+  !> uopt: the design's own input on the cells (nu per cell), 'optimal';
+  !> fplant: the plant's F (without a servo's states), whose modes set the
+  !> default band and base pulse.
+  subroutine rank_candidates(d, f, g, h, fplant, t, n, o, level, uopt, r, status, msg)
     type(design_t), intent(in) :: d
-    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), t, level, uopt(:)
+    real(wp), intent(in) :: f(:, :), g(:, :), h(:, :), fplant(:, :), t, level, uopt(:)
     integer, intent(in) :: n
     type(ranking_options_t), intent(in) :: o
     type(ranking_t), intent(out) :: r
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    integer :: nc, k
+    integer :: nc, k, ierr
 
     call check_ranking_options(o, 0.5_wp*n/t, status, msg)
     if (status /= MLID_OK) return
@@ -153,9 +156,15 @@ contains
     r%level = level
     allocate (r%u(n*d%nu, nc), r%detail(nc), r%energy(nc), r%peak(nc), r%mm(d%m, d%m, nc), &
               r%det(nc), r%trace(nc), r%sigma(d%m, nc), r%x_peak(d%nx, nc), r%x_rms(d%nx, nc), &
-              r%y_peak(d%ny, nc), r%y_rms(d%ny, nc))
+              r%y_peak(d%ny, nc), r%y_rms(d%ny, nc), stat=ierr)
+    if (ierr /= 0) then
+      call no_memory('the candidates'' inputs and information', &
+                     real(nc, wp)*(n*d%nu + d%m*d%m), status, msg)
+      return
+    end if
     do k = 1, nc
-      call candidate(r%names(k), f, d%nu, t, n, o, uopt, r%u(:, k), r%detail(k), status, msg)
+      call candidate(r%names(k), fplant, d%nu, t, n, o, uopt, r%u(:, k), r%detail(k), status, &
+                     msg)
       if (status == MLID_OK) call scale(r%u(:, k), t/n, r%compare, level, status, msg)
       if (status == MLID_OK) call evaluate(d, f, g, h, t, n, r, k, status, msg)
       if (status /= MLID_OK) then
@@ -240,11 +249,15 @@ contains
     integer, allocatable :: k(:), owner(:)
     real(wp), allocatable :: us(:, :), ph(:), ampl(:)
     real(wp) :: rpf0(nu), rpf(nu)
-    integer :: j
+    integer :: j, ierr
 
     call multisine_band(band(1), band(2), t/n, n, nu, k, owner, status, msg)
     if (status /= MLID_OK) return
-    allocate (us(n + 1, nu), ph(size(k)), ampl(size(k)))
+    allocate (us(n + 1, nu), ph(size(k)), ampl(size(k)), stat=ierr)
+    if (ierr /= 0) then
+      call no_memory('the candidate multisines', real(n + 1, wp)*nu, status, msg)
+      return
+    end if
     call multisine(k, owner, spread(1.0_wp, 1, size(k)), spread(1.0_wp, 1, nu), &
                    MULTISINE_ITERATIONS, us, ph, ampl, rpf0, rpf, status, msg)
     if (status /= MLID_OK) return
@@ -327,6 +340,7 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: x(:, :), y(:, :), wt(:)
     real(wp) :: eig(d%m)
+    integer :: ierr
 
     call input_information(d, t, n, r%u(:, k), r%mm(:, :, k), status, msg)
     if (status /= MLID_OK) return
@@ -338,7 +352,12 @@ contains
     end if
     r%energy(k) = sum(r%u(:, k)**2)*t/n
     r%peak(k) = maxval(abs(r%u(:, k)))
-    allocate (x(d%nx, 0:n*NS), wt(0:n*NS))
+    allocate (x(d%nx, 0:n*NS), wt(0:n*NS), y(d%ny, 0:n*NS), stat=ierr)
+    if (ierr /= 0) then
+      call no_memory('the states and outputs under a candidate', real(d%nx + d%ny + 1, wp)* &
+                     (n*NS + 1), status, msg)
+      return
+    end if
     call input_response(f, g, t, n, NS, r%u(:, k), x, status, msg)
     if (status /= MLID_OK) return
     y = matmul(h, x)

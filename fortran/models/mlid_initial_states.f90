@@ -8,6 +8,7 @@ module mlid_initial_states
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
   use mlid_model_factory, only: model_create, MODEL_KIND_NAMES
+  use mlid_text, only: to_lower
   use mlid_layout, only: layout_table_t, layout_of, manoeuvre_map
   implicit none
   private
@@ -60,19 +61,23 @@ contains
             'D''s row zero; an equations output written as the state''s name)'
       return
     end if
-    call set_x0(lt, map, seg, which, y, segstart, merge(1, k, rule == 'first'), theta, status, msg)
+    call set_x0(lt, map, seg, which, y, segstart, merge(1, k, to_lower(rule) == 'first'), theta, &
+                status, msg)
   end subroutine x0_from_record
 
-  !> rule one of X0_RULES; k the samples averaged: >= 1 for 'mean', none
-  !> (0) or 1 for 'first'.
-  subroutine x0_rule_check(rule, k, status, msg)
-    character(len=*), intent(in) :: rule
+  !> rule one of X0_RULES (in any case); k the samples averaged: >= 1 for
+  !> 'mean', none (0) or 1 for 'first'.
+  subroutine x0_rule_check(rule_given, k, status, msg)
+    character(len=*), intent(in) :: rule_given
     integer, intent(in) :: k
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    character(len=len(rule_given)) :: rule
+    rule = to_lower(rule_given)
     status = MLID_ERR_INPUT
     if (all(X0_RULES /= rule)) then
-      msg = 'x0_from must be ''first'' or ''mean'', got '''//trim(rule)//''''
+      msg = 'x0_from must be '''//trim(X0_RULES(1))//''' or '''//trim(X0_RULES(2))//''', got '''// &
+            trim(rule_given)//''''
     else if (rule == 'mean' .and. k < 1) then
       write (msg, '(a,i0)') 'x0_from = ''mean'' needs x0_samples >= 1 (the samples averaged), got ', k
     else if (rule == 'first' .and. k /= 0 .and. k /= 1) then

@@ -19,14 +19,17 @@
 !> from the change of the channel; the Fourier deriv has no such error
 !> (docs: the guide's decks page).
 module mlid_local_smooth
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_MEMORY
   use mlid_text, only: itoa
   implicit none
   private
-  public :: smooth_local, deriv_local, LOCAL_MIN_SAMPLES
+  public :: smooth_local, deriv_local, LOCAL_MIN_SAMPLES, LOCAL_NO_CUTOFF
 
   !> The 5-point derivative needs two samples each side of the third.
   integer, parameter :: LOCAL_MIN_SAMPLES = 5
+  !> Why a cut-off given to the local smoother is refused.
+  character(len=*), parameter :: LOCAL_NO_CUTOFF = 'the local smoother takes no cut-off: its '// &
+                                                   'windows are fixed'
   real(wp), parameter :: SPENCER(0:7) = [74.0_wp, 67.0_wp, 46.0_wp, 21.0_wp, 3.0_wp, &
                                          -5.0_wp, -6.0_wp, -3.0_wp]/320.0_wp
   real(wp), parameter :: FIVE(0:2) = [34.0_wp, 24.0_wp, 7.0_wp]/96.0_wp
@@ -60,13 +63,20 @@ contains
     real(wp), intent(out) :: xd(size(x))
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp) :: xs(size(x)), c17(8), c5(2)
-    integer :: n, k, i
+    real(wp), allocatable :: xs(:)
+    real(wp) :: c17(8), c5(2)
+    integer :: n, k, i, ierr
     n = size(x)
     xd = 0.0_wp
     if (.not. dt > 0.0_wp) then
       status = MLID_ERR_INPUT
       msg = 'differentiation needs a time step > 0'
+      return
+    end if
+    allocate (xs(n), stat=ierr)            ! heap: decks are read in small threads
+    if (ierr /= 0) then
+      status = MLID_ERR_MEMORY
+      msg = 'local smoothing: out of memory'
       return
     end if
     call smooth_local(x, xs, status, msg)

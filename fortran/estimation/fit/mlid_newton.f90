@@ -237,6 +237,7 @@ contains
     integer :: i, ih, dir(pb%m%ny)
     integer, allocatable :: ir(:)
 
+    djr = 0.0_wp
     associate (m => pb%m, pm => pb%pm)
       if (.not. allocated(res%rmove)) then
         allocate (res%rmove(m%ny))

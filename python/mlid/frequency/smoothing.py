@@ -17,8 +17,6 @@ METHODS = {"fourier": 0, "local": 1}
 def _smoothed(t, x, fc, method):
     if method not in METHODS:
         raise InputError(f"method must be one of {', '.join(map(repr, METHODS))}, not {method!r}")
-    if method == "local" and fc is not None:
-        raise InputError("the local smoother takes no cut-off (fc): its windows are fixed")
     t = real_array("t", t)
     x = real_array("x", x)
     if t.ndim != 1 or x.shape != t.shape:
