@@ -261,6 +261,9 @@ BAD = {
     "band above Nyquist": ("candidates = 'sweep', f_min = 0.1, f_max = 30",
                            "f_max = 3.000E+01 Hz is above the cells' Nyquist frequency"),
     "band crossed": ("candidates = 'sweep', f_min = 2, f_max = 1", "the band needs f_max > f_min"),
+    "f_min alone": ("candidates = 'sweep', f_min = 0.2", "f_min needs f_max"),
+    "settings without candidates": ("compare = 'peak'",
+                                    "compare is for the ranking of candidates: list them"),
     "pulse negative": ("candidates = 'doublet', pulse_width = -0.1",
                        "f_min, f_max and pulse_width must be finite and >= 0"),
 }

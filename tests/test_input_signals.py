@@ -329,20 +329,24 @@ def test_deck_shapes_limits_and_zero_means_as_the_python_api(tmp_path):
     assert np.max(np.abs(u[100:200, 0])) > 1.8 * np.max(np.abs(u[-200:-100, 0]))
 
 
-@pytest.mark.parametrize("change, message", [
-    ("limit = 0, 1.5, 0", "limit = -1",),
-    ("amplitude_end = 0.25", "amplitude_end = 0.25, 0.5"),
+@pytest.mark.parametrize("change, new, message", [
+    ("limit = 0, 1.5, 0", "limit = -1",
+     "limit (the largest |u| of each input; 0: none) must be >= 0 and finite"),
+    ("amplitude_end = 0.25", "amplitude_end = 0.25, 0.5",
+     "amplitude_end and limit take one value or one per input (3)"),
+    ("input_shape = 'sweep', 'prbs', '3211'", "input_shape = 'prbs', 'prbs', '3211'",
+     "amplitude_end is for sweeps (input_shape 'sweep' or 'log_sweep'), and no input is one"),
+    ("zero_mean = .true.", "zero_mean = .true., phases = 'schroeder'",
+     "power and phases are for multisines (input_shape 'multisine'), and no input is one"),
 ])
-def test_deck_bad_shaping_one_line(tmp_path, change, message):
-    """A negative limit, or amplitude_end of neither one value nor one per input: one line."""
+def test_deck_bad_shaping_one_line(tmp_path, change, new, message):
+    """A negative limit, amplitude_end of neither one value nor one per input,
+    amplitude_end without a sweep, phases without a multisine: one line each
+    (a setting no input takes is refused, not ignored)."""
     deck = tmp_path / "bad.nml"
-    deck.write_text(SHAPED.replace(change, message))
+    deck.write_text(SHAPED.replace(change, new))
     from conftest import refused_by_both
-    refused_by_both(deck, {"limit = -1": "limit (the largest |u| of each input; 0: none) must be "
-                                         ">= 0 and finite",
-                           "amplitude_end = 0.25, 0.5": "amplitude_end and limit take one value "
-                                                        "or one per input (3)"}[message],
-                    cwd=tmp_path)
+    refused_by_both(deck, message, cwd=tmp_path)
     assert not (tmp_path / "sh.dat").exists()
 
 

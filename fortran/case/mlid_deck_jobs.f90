@@ -101,6 +101,8 @@ contains
     c%pulse_width = per_input(c%pulse_width, c%nu)
     if (size(c%amplitude) == 0) c%amplitude = spread(0.0_wp, 1, c%nu)
     c%limit = per_input(c%limit, c%nu)
+    call shape_settings_used(c, size(c%amplitude_end) > 0)
+    if (c%status /= MLID_OK) return
     if (size(c%amplitude_end) == 0) c%amplitude_end = [ieee_value(1.0_wp, ieee_quiet_nan)]
     c%amplitude_end = per_input(c%amplitude_end, c%nu)
     if (size(c%amplitude_end) == c%nu .and. size(c%amplitude) == c%nu) &   ! not given: the amplitude's
@@ -116,6 +118,23 @@ contains
     o = lt%off(findloc(lt%key, 'r', 1))
     if (size(c%noise_std) == c%ny) c%theta(o + 1:o + c%ny) = c%noise_std**2
   end procedure read_simulate_group
+
+  !> The settings of one kind of signal refused where no input has that
+  !> shape (they would be read and ignored).
+  subroutine shape_settings_used(c, shaped)
+    type(case_t), intent(inout) :: c
+    logical, intent(in) :: shaped
+    logical :: sweeps, multisines
+    sweeps = any(c%input_shape == 'sweep' .or. c%input_shape == 'log_sweep')
+    multisines = any(c%input_shape == 'multisine')
+    if (shaped .and. .not. sweeps) then
+      call fail(c, 'group &simulate: amplitude_end is for sweeps (input_shape ''sweep'' or '// &
+                '''log_sweep''), and no input is one')
+    else if ((size(c%power) > 0 .or. c%phases /= 'optimised') .and. .not. multisines) then
+      call fail(c, 'group &simulate: power and phases are for multisines (input_shape '// &
+                '''multisine''), and no input is one')
+    end if
+  end subroutine shape_settings_used
 
   subroutine check_simulate(c)
     type(case_t), intent(inout) :: c
@@ -266,7 +285,7 @@ contains
     if (c%status == MLID_OK) call design_limits(c, is_given(rd, 'design', 'energy'), &
       is_given(rd, 'design', 'peak') .or. is_given(rd, 'design', 'min_width'))
     if (c%status == MLID_OK) call design_penalty(c, kx)
-    if (c%status == MLID_OK) call design_ranking(c)
+    if (c%status == MLID_OK) call design_ranking(rd, c)
   end procedure read_design_group
 
   !> The state penalty K of report 7.6 (tr(WM) - int x'Kx dt): one weight
@@ -304,10 +323,21 @@ contains
 
   !> The candidates ranked beside the design (mlid_input_ranking), checked
   !> as the ranking checks them, on the record's cells of dt.
-  subroutine design_ranking(c)
+  subroutine design_ranking(rd, c)
+    type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
-    integer :: ios
+    integer :: ios, k
     character(len=msg_len) :: iomsg
+    character(len=11), parameter :: SETTINGS(5) = [character(len=11) :: 'compare', 'rank_by', &
+                                                   'f_min', 'f_max', 'pulse_width']
+    if (size(c%ranking%names) == 0) then
+      do k = 1, size(SETTINGS)
+        if (.not. is_given(rd, 'design', trim(SETTINGS(k)))) cycle
+        call fail(c, 'group &design: '//trim(SETTINGS(k))//' is for the ranking of '// &
+                  'candidates: list them in candidates')
+        return
+      end do
+    end if
     call check_ranking_options(c%ranking, 0.5_wp/c%dt, ios, iomsg)
     if (ios /= MLID_OK) call fail(c, 'group &design: '//trim(iomsg))
   end subroutine design_ranking

@@ -101,6 +101,8 @@ contains
     else if (.not. all(ieee_is_finite([o%f_min, o%f_max, o%pulse_width])) .or. &
              o%f_min < 0.0_wp .or. o%f_max < 0.0_wp .or. o%pulse_width < 0.0_wp) then
       msg = 'f_min, f_max and pulse_width must be finite and >= 0 (0: from the model)'
+    else if (o%f_min > 0.0_wp .and. .not. o%f_max > 0.0_wp) then
+      msg = 'f_min needs f_max (the band is the model''s when neither is given)'
     else if (o%f_max > 0.0_wp .and. .not. o%f_max > o%f_min) then
       msg = 'the band needs f_max > f_min'
     else if (o%f_max > nyquist) then
