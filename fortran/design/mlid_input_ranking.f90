@@ -288,7 +288,7 @@ contains
       pw = max(1, min(nint(pw/hc), size(w)/merge(2, 7, name == 'doublet')))*hc
       call input_signal(name, 1.0_wp, 0.0_wp, pw, hc, w, status, msg)
       detail = 'base pulse '//trim(adjustl(es_text(pw, 10, 3)))//' s'
-    case ('sweep', 'log_sweep')
+    case ('sweep', 'log_sweep')      ! a log sweep cannot start at 0 Hz: at least 1e-3/window
       call sweep(merge('linear', 'log   ', name == 'sweep'), max(band(1), 1.0e-3_wp/tw), band(2), &
                  1.0_wp, 1.0_wp, 0.0_wp, hc, w, status, msg)
       detail = band_text(band)
