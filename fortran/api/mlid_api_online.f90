@@ -9,9 +9,10 @@ module mlid_api_online
   use mlid_problem, only: problem_needs, PART_RECORD
   use mlid_rls, only: rls_settings_t, rls_run
   use mlid_ftr, only: ftr_settings_t, ftr_run
+  use mlid_online_history, only: convergence_times
   implicit none
   private
-  public :: mlid_rls, mlid_ftr
+  public :: mlid_rls, mlid_ftr, mlid_convergence_times
 
   real(wp), parameter :: PI = 4.0_wp*atan(1.0_wp)
 
@@ -39,14 +40,15 @@ contains
   !> (samples between solves), trim (samples whose mean is the trim), first
   !> (the first sample in the transforms).  Results: t_solve (m) each
   !> solve's time, estimates and sigma (nx (nx + nu), m), equation by
-  !> equation (F's row, then G's), m = n/every.
+  !> equation (F's row, then G's), residual_variance (nx, m) each
+  !> equation's, m = n/every.
   subroutine mlid_ftr(h, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
     character(len=256), intent(out) :: msg
     type(session_t), pointer :: ses
     type(ftr_settings_t) :: s
-    real(wp), allocatable :: hz(:), ts(:), est(:, :), sig(:, :)
+    real(wp), allocatable :: hz(:), ts(:), est(:, :), sig(:, :), s2(:, :)
     integer :: m, np
 
     call call_session(h, ses, status, msg)
@@ -63,13 +65,24 @@ contains
       m = 0
       if (s%every >= 1) m = size(p%t)/s%every
       np = size(p%y, 1)*(size(p%y, 1) + size(p%u, 1))
-      allocate (ts(m), est(np, m), sig(np, m))
-      call ftr_run(p%t, p%y, p%u, s, ts, est, sig, status, msg)
+      allocate (ts(m), est(np, m), sig(np, m), s2(size(p%y, 1), m))
+      call ftr_run(p%t, p%y, p%u, s, ts, est, sig, s2, status, msg)
     end associate
     if (status /= MLID_OK) return
     call ses%results%put('t_solve', ts)
     call ses%results%put('estimates', est)
     call ses%results%put('sigma', sig)
+    call ses%results%put('residual_variance', s2)
   end subroutine mlid_ftr
+
+  !> When each of np estimates (est(np, n) at the times t(n), sigma sig)
+  !> converged: from then on within width times its final sigma of its
+  !> final value (mlid_online_history), NaN without a final sigma.
+  subroutine mlid_convergence_times(np, n, t, est, sig, width, tc)
+    integer(c_int), intent(in) :: np, n
+    real(c_double), intent(in) :: t(n), est(np, n), sig(np, n), width
+    real(c_double), intent(out) :: tc(np)
+    tc = convergence_times(t, est, sig, width)
+  end subroutine mlid_convergence_times
 
 end module mlid_api_online

@@ -92,6 +92,11 @@ module mlid_case
     !> the multisines' phases: 'optimised' (least relative peak factor) or
     !> 'schroeder' (Schroeder's, not iterated)
     character(len=16) :: phases = 'optimised'
+    !> &online: the estimator, the band [Hz] and its frequencies, samples
+    !> between solves, the trim's samples and the first sample transformed
+    character(len=16) :: online_estimator = ''
+    real(wp) :: online_band(2) = 0.0_wp
+    integer :: online_nfreq = 0, online_every = 0, online_trim = 0, online_first = 1
     logical :: zero_mean = .false.
     !> simulate and monte_carlo: a record whose time and first nu columns
     !> after it are the inputs (a designed input), instead of input_shape

@@ -76,17 +76,18 @@ module mlid_deck
   integer, parameter :: MAXDEF = 100                                !< an equations model's definitions
   !> The jobs of &case, and the groups each reads, in the order they are
   !> read (&case first: the job); a group of another job is refused.
-  integer, parameter :: NJOB = 5
+  integer, parameter :: NJOB = 6
   character(len=12), parameter :: JOBS(NJOB) = [character(len=12) :: 'estimate', 'validate', &
-                                                'simulate', 'design', 'monte_carlo']
+                                                'simulate', 'design', 'monte_carlo', 'online']
   character(len=40), parameter :: JOB_GROUPS(NJOB) = [character(len=40) :: &
     'case model data estimate', 'case model data estimate', 'case model simulate', &
-    'case model design', 'case model monte_carlo estimate']
-  character(len=*), parameter :: GROUP_NAMES = ' case model data simulate estimate design monte_carlo '
+    'case model design', 'case model monte_carlo estimate', 'case model data online']
+  character(len=*), parameter :: GROUP_NAMES = ' case model data simulate estimate design '// &
+                                               'monte_carlo online '
   !> The names each group takes, in GROUP_NAMES' order: the same as its
   !> reader's namelist statement (tests/test_docs.py checks both ways), for
   !> the deck reference, which is made from this table (deck_groups).
-  integer, parameter :: NGROUP = 7
+  integer, parameter :: NGROUP = 8
   character(len=360), parameter :: GROUP_KEYS(NGROUP) = [character(len=360) :: &
     'title job mach altitude alpha_trim config tags', &
     'kind nx nu ny nw f g h d gamma k bx x0 bias q r s free names tie input_hold substeps '// &
@@ -103,7 +104,8 @@ module mlid_deck
     'x0_samples', &
     'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out '// &
     'state_penalty candidates compare rank_by f_min f_max pulse_width', &
-    'runs seed truth input_file']
+    'runs seed truth input_file', &
+    'estimator f_min f_max n_freq every trim first out']
   character(len=*), parameter :: FORM_FEED = achar(12)
 
   !> What the group readers of one case share: the text of each group (all
@@ -315,6 +317,13 @@ module mlid_deck
       type(case_t), intent(inout) :: c
       integer, intent(in) :: free_idx(:)
     end subroutine read_monte_carlo_group
+
+    !> &online: the online estimator, its settings and the history's record.
+    module subroutine read_online_group(rd, c, free_idx)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+      integer, intent(in) :: free_idx(:)
+    end subroutine read_online_group
 
     ! in mlid_deck_record
 
@@ -589,6 +598,8 @@ contains
         call read_design_group(rd, c)
       case ('monte_carlo')
         call read_monte_carlo_group(rd, c, free_idx)
+      case ('online')
+        call read_online_group(rd, c, free_idx)
       end select
       k = e
     end do

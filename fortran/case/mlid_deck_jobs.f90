@@ -521,4 +521,108 @@ contains
     end if
   end procedure read_monte_carlo_group
 
+  !> &online (job 'online'): the estimator ('ftr': Fourier-transform
+  !> regression, mlid_ftr), its band (f_min, f_max [Hz], n_freq frequencies
+  !> evenly spaced, the ends included), samples between solves, the trim's
+  !> samples, the first sample transformed, and the record of the history.
+  module procedure read_online_group
+    character(len=16) :: estimator
+    character(len=PATHLEN) :: out
+    real(wp) :: f_min, f_max
+    integer :: n_freq, every, trim, first, ios
+    character(len=msg_len) :: iomsg
+    character(len=:), allocatable :: gtext
+    namelist /online/ estimator, f_min, f_max, n_freq, every, trim, first, out
+
+    estimator = 'ftr'
+    f_min = 0.0_wp
+    f_max = 0.0_wp
+    n_freq = 0
+    every = 0
+    trim = 10
+    first = 1
+    out = ''
+    gtext = group_text(rd, 'online')
+    ios = -1                          ! missing
+    if (len(gtext) > 0) read (gtext, nml=online, iostat=ios, iomsg=iomsg)
+    call group_status(rd, 'online', ios, iomsg, .true., c)
+    if (c%status /= MLID_OK) return
+    if (too_long(rd, c, 'online', ['estimator'], len(estimator))) return
+    c%online_estimator = to_lower(estimator)
+    c%online_band = [f_min, f_max]
+    c%online_nfreq = n_freq
+    c%online_every = every
+    c%online_trim = trim
+    c%online_first = first
+    c%out_file = out
+    call check_online(c, free_idx)
+  end procedure read_online_group
+
+  !> What the online job takes: its estimator's names and settings, and a
+  !> model it can estimate (ftr: linear, the states measured, H = I and D
+  !> zero, every entry of F and G free and nothing else).
+  subroutine check_online(c, free_idx)
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: free_idx(:)
+    type(layout_table_t) :: lt
+    integer :: ios, fb, gb, hb, db, k
+    integer, allocatable :: want(:)
+    character(len=msg_len) :: iomsg
+    if (c%online_estimator /= 'ftr') then
+      call fail(c, 'group &online: estimator must be ''ftr'' (Fourier-transform regression), '// &
+                'not '''//trim(c%online_estimator)//'''')
+      return
+    else if (len_trim(c%out_file) == 0) then
+      call fail(c, 'group &online: out (the record of the estimates'' history to write) is missing')
+      return
+    else if (.not. (c%online_band(1) > 0.0_wp .and. c%online_band(2) > c%online_band(1) .and. &
+                    ieee_is_finite(c%online_band(2))) .or. c%online_nfreq < 2) then
+      call fail(c, 'group &online: the band needs 0 < f_min < f_max (Hz) and n_freq >= 2 '// &
+                'frequencies')
+      return
+    else if (c%online_every < 1 .or. c%online_trim < 0 .or. c%online_first < 1) then
+      call fail(c, 'group &online: every (samples between solves) must be >= 1, trim >= 0 and '// &
+                'first >= 1')
+      return
+    end if
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
+    if (ios /= MLID_OK .or. c%mkind /= MODEL_LINEAR .or. c%nu < 1 .or. c%ny /= c%nx) then
+      call fail(c, 'group &online: ''ftr'' needs kind = ''linear'' with inputs and every state '// &
+                'measured (ny = nx, H = I, D = 0)')
+      return
+    end if
+    fb = findloc(lt%key, 'f', 1)
+    gb = findloc(lt%key, 'g', 1)
+    want = [(lt%off(fb) + k, k=1, c%nx*c%nx), (lt%off(gb) + k, k=1, c%nx*c%nu)]
+    hb = lt%off(findloc(lt%key, 'h', 1))
+    db = lt%off(findloc(lt%key, 'd', 1))
+    if (any(c%theta(hb + 1:hb + c%nx*c%nx) /= reshape(identity(c%nx), [c%nx*c%nx])) .or. &
+        any(c%theta(db + 1:db + c%nx*c%nu) /= 0.0_wp)) then
+      call fail(c, 'group &online: ''ftr'' needs H = I and D = 0 (every state measured, in '// &
+                'order)')
+    else if (size(free_idx) /= size(want) .or. any(count_in(want, free_idx) /= 1)) then
+      call fail(c, 'group &online: ''ftr'' estimates every entry of F and G: free must list '// &
+                'them all ('//itoa(size(want))//') and nothing else')
+    end if
+  end subroutine check_online
+
+  pure function identity(n) result(a)
+    integer, intent(in) :: n
+    real(wp) :: a(n, n)
+    integer :: i
+    a = 0.0_wp
+    do i = 1, n
+      a(i, i) = 1.0_wp
+    end do
+  end function identity
+
+  !> How often each of want is in have.
+  pure function count_in(want, have) result(n)
+    integer, intent(in) :: want(:), have(:)
+    integer :: n(size(want)), k
+    do k = 1, size(want)
+      n(k) = count(have == want(k))
+    end do
+  end function count_in
+
 end submodule mlid_deck_jobs

@@ -9,7 +9,8 @@ module mlid_job_report
   implicit none
   private
   public :: design_summary_t, design_report, design_json, mc_summary_t, mc_report, mc_json, &
-            simulate_report, simulate_json, input_summary_t
+            simulate_report, simulate_json, input_summary_t, online_summary_t, online_report, &
+            online_json
 
   character, parameter :: NL = achar(10)
 
@@ -21,6 +22,17 @@ module mlid_job_report
     real(wp) :: peak = 0.0_wp, rms = 0.0_wp, rpf = 0.0_wp
     real(wp), allocatable :: freq(:)
   end type input_summary_t
+
+  !> An online estimator's history (at each solve: t, the estimates est
+  !> and sigma sig (np, m), each equation's residual variance s2 (nx, m)),
+  !> its settings and when each estimate converged.
+  type :: online_summary_t
+    character(len=32), allocatable :: names(:)
+    real(wp), allocatable :: t(:), est(:, :), sig(:, :), s2(:, :), converged(:)
+    real(wp) :: band(2) = 0.0_wp
+    integer :: nfreq = 0, every = 0, samples = 0
+    character(len=512) :: out = ''
+  end type online_summary_t
 
   !> A designed input and its information (unknowns in the case's order).
   type :: design_summary_t
@@ -358,5 +370,58 @@ contains
            '"mean_info_trace": '//number(s%info_trace)//', "mean_info_det": '// &
            number(s%info_det)//'}'
   end function mc_json
+
+  !> The estimator and its band, then per parameter the last solve's
+  !> estimate and sigma and when it converged; each equation's residual
+  !> variance at the last solve.
+  function online_report(o) result(text)
+    type(online_summary_t), intent(in) :: o
+    character(len=:), allocatable :: text
+    character(len=256) :: buf
+    integer :: k, m
+    m = size(o%t)
+    text = ' online estimation, Fourier-transform regression: '//itoa(o%samples)//' samples, '// &
+           itoa(m)//' solves (every '//itoa(o%every)//' samples), '//itoa(o%nfreq)// &
+           ' frequencies '//trim(adjustl(es_text(o%band(1), 10, 3)))//' to '// &
+           trim(adjustl(es_text(o%band(2), 10, 3)))//' Hz; history to '//trim(o%out)//NL
+    if (m == 0) return
+    write (buf, '(1x,a16,3a15)') 'parameter       ', 'estimate', 'sigma', 'converged [s]'
+    text = text//trim(buf)//NL
+    do k = 1, size(o%names)
+      write (buf, '(1x,a16)') o%names(k)
+      text = text//trim(buf(1:17)//es_text(o%est(k, m), 15, 6)//es_text(o%sig(k, m), 15, 4)// &
+                        es_text(o%converged(k), 15, 4))//NL
+    end do
+    text = text//' converged: from then on within 2 sigma of the last estimate'//NL
+    text = text//trim(' equation error variance (last solve):'//numbers_text(o%s2(:, m)))//NL
+  end function online_report
+
+  function online_json(title, job, o) result(text)
+    character(len=*), intent(in) :: title, job
+    type(online_summary_t), intent(in) :: o
+    character(len=:), allocatable :: text
+    integer :: m
+    m = size(o%t)
+    text = case_json(title, job, 0, '', o%samples, trim(o%out))
+    text = text(1:len(text) - 1)//','//NL// &
+           '"estimator": "ftr", "band": '//numbers(o%band)//', "n_freq": '//itoa(o%nfreq)// &
+           ', "every": '//itoa(o%every)//','//NL// &
+           '"parameters": '//strings(o%names)//','//NL// &
+           '"t": '//numbers(o%t)//','//NL// &
+           '"estimates": '//matrix(transpose(o%est))//','//NL// &
+           '"sigma": '//matrix(transpose(o%sig))//','//NL// &
+           '"converged": '//numbers(o%converged)//','//NL// &
+           '"residual_variance": '//matrix(transpose(o%s2))//'}'
+  end function online_json
+
+  function numbers_text(v) result(text)
+    real(wp), intent(in) :: v(:)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = ''
+    do k = 1, size(v)
+      text = text//es_text(v(k), 12, 4)
+    end do
+  end function numbers_text
 
 end module mlid_job_report

@@ -7,10 +7,13 @@
 !> Each returns the report lines and the JSON object of the case (written
 !> once, in mlid_job_report); files are written whole or not at all.
 module mlid_jobs
-  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_case, only: case_t, NAMELEN
-  use mlid_deck, only: case_time_input
+  use mlid_deck, only: case_time_input, case_record
+  use mlid_ftr, only: ftr_settings_t, ftr_run
+  use mlid_online_history, only: convergence_times
+  use mlid_layout, only: layout_table_t, layout_of
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_models, only: model_t
   use mlid_options, only: options_t
@@ -31,7 +34,8 @@ module mlid_jobs
                          equalised_input, information_summary, servo_model, &
                          design_state_penalty, input_response, simpson_weights
   use mlid_signals, only: multisine_band, peak_factor
-  use mlid_job_report, only: input_summary_t, design_summary_t, design_report, design_json, mc_summary_t, &
+  use mlid_job_report, only: online_summary_t, online_report, online_json, input_summary_t, &
+                             design_summary_t, design_report, design_json, mc_summary_t, &
                              mc_report, mc_json, simulate_report, simulate_json
   implicit none
   private
@@ -50,7 +54,8 @@ module mlid_jobs
   end type around_t
 
   !> The jobs run here (the others are fits, run by the front ends)
-  character(len=*), parameter :: JOB_RUNS = ' simulate design monte_carlo '
+  character(len=*), parameter :: JOB_RUNS = ' simulate design monte_carlo online '
+  real(wp), parameter :: PI = 4.0_wp*atan(1.0_wp)
   character, parameter :: NL = achar(10)
 
 contains
@@ -78,6 +83,8 @@ contains
       call design_job(c, report, json, status, msg)
     case ('monte_carlo')
       call monte_carlo_job(c, report, json, status, msg, around, progress)
+    case ('online')
+      call online_job(c, report, json, status, msg)
     case default
       status = MLID_ERR_INPUT
       msg = 'job '''//trim(c%job)//''' is a fit, not run by job_run'
@@ -458,6 +465,94 @@ contains
     report = mc_report(s)
     json = mc_json(c%title, c%job, s)
   end subroutine monte_carlo_job
+
+  !> online: the estimator over the case's record (its files one after
+  !> another, run straight across the joins), the history written to out
+  !> (t, each estimate, each sigma; from the first solve that determines
+  !> them all, so that &data reads it), the report and JSON from the last
+  !> solve: estimates, sigma, when each converged (within 2 sigma of its
+  !> final value from then on) and each equation's residual variance.
+  subroutine online_job(c, report, json, status, msg)
+    type(case_t), intent(in) :: c
+    character(len=:), allocatable, intent(inout) :: report, json
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: t(:), u(:, :), y(:, :), vals(:, :), none(:, :)
+    type(ftr_settings_t) :: s
+    type(online_summary_t) :: o
+    character(len=NAMELEN), allocatable :: names(:)
+    character(len=UNITLEN), allocatable :: units(:)
+    character(len=:), allocatable :: text
+    integer :: m, np, k, k0
+
+    call case_record(c, t, u, y, status, msg)
+    if (status /= MLID_OK) return
+    s%w = [(2.0_wp*PI*(c%online_band(1) + (c%online_band(2) - c%online_band(1))* &
+            real(k, wp)/(c%online_nfreq - 1)), k=0, c%online_nfreq - 1)]
+    s%every = c%online_every
+    s%trim = c%online_trim
+    s%first = c%online_first
+    m = size(t)/s%every
+    np = c%nx*(c%nx + c%nu)
+    allocate (o%t(m), o%est(np, m), o%sig(np, m), o%s2(c%nx, m))
+    call ftr_run(t, y, u, s, o%t, o%est, o%sig, o%s2, status, msg)
+    if (status /= MLID_OK) return
+    o%names = ftr_labels(c)
+    o%band = c%online_band
+    o%nfreq = c%online_nfreq
+    o%every = s%every
+    o%samples = size(t)
+    o%out = c%out_file
+    o%converged = convergence_times(o%t, o%est, o%sig, 2.0_wp)
+    allocate (names(2*np))
+    names(1:np) = o%names
+    do k = 1, np
+      names(np + k) = 'sigma_'//trim(o%names(k))
+    end do
+    ! the record from the first solve that determined every parameter on
+    k0 = findloc([(all(ieee_is_finite(o%est(:, k))), k=1, m)], .true., 1)
+    if (k0 == 0) then
+      status = MLID_ERR_INPUT
+      msg = 'online: no solve determined the parameters (the band is not excited enough)'
+      return
+    end if
+    allocate (units(2*np), none(0, m - k0 + 1), vals(2*np, m - k0 + 1))
+    units = ''
+    vals(1:np, :) = o%est(:, k0:)
+    vals(np + 1:, :) = o%sig(:, k0:)
+    call record_text(names, units, o%t(k0:), vals, none, text, status, msg)
+    if (status /= MLID_OK) return
+    call write_file(c%out_file, text, status, msg)
+    if (status /= MLID_OK) return
+    report = online_report(o)
+    json = online_json(c%title, c%job, o)
+  end subroutine online_job
+
+  !> The labels of F's and G's entries in the regression's order (row i
+  !> of F, then of G), from the case's labels of its free parameters (the
+  !> deck's names, else f(i,j)); theta holds F, then G, column by column.
+  function ftr_labels(c) result(names)
+    type(case_t), intent(in) :: c
+    character(len=NAMELEN), allocatable :: names(:)
+    type(layout_table_t) :: lt
+    integer :: i, j, k, status, fo, go
+    character(len=256) :: msg
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, status, msg)
+    fo = lt%off(findloc(lt%key, 'f', 1))
+    go = lt%off(findloc(lt%key, 'g', 1))
+    allocate (names(c%nx*(c%nx + c%nu)))
+    k = 0
+    do i = 1, c%nx
+      do j = 1, c%nx
+        k = k + 1
+        names(k) = c%labels(c%isfree(fo + (j - 1)*c%nx + i))
+      end do
+      do j = 1, c%nu
+        k = k + 1
+        names(k) = c%labels(c%isfree(go + (j - 1)*c%nx + i))
+      end do
+    end do
+  end function ftr_labels
 
   !> Input k's name: &model's, else u<k>.
   function input_name(c, k) result(name)

@@ -51,11 +51,12 @@ contains
 
   !> ts(m), est(np, m), sig(np, m): each solve's time (its last sample's)
   !> and the estimates of F and G with sigma, equation by equation
-  !> (F(i, :), then G(i, :) for state i), np = nx (nx + nu), m the solves.
-  subroutine ftr_run(t, x, u, s, ts, est, sig, status, msg)
+  !> (F(i, :), then G(i, :) for state i), np = nx (nx + nu), m the solves;
+  !> s2(nx, m) each equation's residual variance over the band (the cost).
+  subroutine ftr_run(t, x, u, s, ts, est, sig, s2, status, msg)
     real(wp), intent(in) :: t(:), x(:, :), u(:, :)
     type(ftr_settings_t), intent(in) :: s
-    real(wp), intent(out) :: ts(:), est(:, :), sig(:, :)
+    real(wp), intent(out) :: ts(:), est(:, :), sig(:, :), s2(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     complex(wp) :: a(size(s%w), size(x, 1) + size(u, 1)), ph(size(s%w))
@@ -65,6 +66,7 @@ contains
     ts = 0.0_wp
     est = 0.0_wp
     sig = 0.0_wp
+    s2 = 0.0_wp
     call check(t, x, u, s, status, msg)
     if (status /= MLID_OK) return
     nx = size(x, 1)
@@ -86,19 +88,19 @@ contains
       if (mod(k, s%every) /= 0) cycle
       m = m + 1
       ts(m) = t(k)
-      call solve_equations(a, s%w, nx, est(:, m), sig(:, m))
+      call solve_equations(a, s%w, nx, est(:, m), sig(:, m), s2(:, m))
     end do
   end subroutine ftr_run
 
   !> One solve of i w X_i = [X U] theta_i for each state i over the
   !> transforms so far a = [X U] (nw, nx + nu); NaN where they do not yet
   !> determine theta.
-  subroutine solve_equations(a, w, nx, est, sig)
+  subroutine solve_equations(a, w, nx, est, sig, s2)
     complex(wp), intent(in) :: a(:, :)
     real(wp), intent(in) :: w(:)
     integer, intent(in) :: nx
-    real(wp), intent(out) :: est(:), sig(:)
-    real(wp) :: nrm(size(a, 2), size(a, 2)), inv(size(a, 2), size(a, 2)), logdet, s2
+    real(wp), intent(out) :: est(:), sig(:), s2(:)
+    real(wp) :: nrm(size(a, 2), size(a, 2)), inv(size(a, 2), size(a, 2)), logdet
     complex(wp) :: b(size(w))
     integer :: i, j, np, info, j0
 
@@ -108,14 +110,15 @@ contains
     if (info /= 0) then
       est = ieee_value(1.0_wp, ieee_quiet_nan)
       sig = est
+      s2 = est
       return
     end if
     do i = 1, nx
       j0 = (i - 1)*np
       b = IU*w*a(:, i)
       est(j0 + 1:j0 + np) = matmul(inv, real(matmul(conjg(transpose(a)), b), wp))
-      s2 = sum(abs(b - matmul(a, cmplx(est(j0 + 1:j0 + np), 0.0_wp, wp)))**2)/(size(w) - np)
-      sig(j0 + 1:j0 + np) = sqrt(max(s2, 0.0_wp)*[(inv(j, j), j=1, np)])
+      s2(i) = sum(abs(b - matmul(a, cmplx(est(j0 + 1:j0 + np), 0.0_wp, wp)))**2)/(size(w) - np)
+      sig(j0 + 1:j0 + np) = sqrt(max(s2(i), 0.0_wp)*[(inv(j, j), j=1, np)])
     end do
   end subroutine solve_equations
 

@@ -35,17 +35,11 @@ class OnlineEstimate:
     def convergence_time(self, width=2.0):
         """For each parameter, the first time after which its estimate stays
         within width times its final sigma of its final value (NaN when the
-        final sigma is 0)."""
-        est, sig = self.estimates, self.sigma[-1]
-        out = {}
-        for j, name in enumerate(self.names):
-            outside = ~(np.abs(est[:, j] - est[-1, j]) <= width * sig[j])   # NaN: outside
-            if not sig[j] > 0:
-                out[name] = float("nan")
-            else:
-                last = np.flatnonzero(outside)
-                out[name] = float(self.t[last[-1] + 1] if last.size else self.t[0])
-        return out
+        final sigma is 0; the core's rule, the one the deck's report uses)."""
+        tc = _api.mlid_convergence_times(np.asfortranarray(self.t, dtype=float),
+                                         np.asfortranarray(self.estimates.T),
+                                         np.asfortranarray(self.sigma.T), float(width))
+        return dict(zip(self.names, tc.tolist()))
 
     def to_frame(self):
         """The history as a pandas DataFrame indexed by t: each parameter's

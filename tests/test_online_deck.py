@@ -1,0 +1,116 @@
+"""The online job (issue 45 item 4; job = 'online', &online): Fourier-
+transform regression over a deck's record in both front ends, the history
+written as a record &data reads, the report's last estimates and
+convergence times the Python API's, and bad settings one line each."""
+
+import json
+
+import numpy as np
+import pytest
+
+import mlid
+from conftest import REPO, refused_by_both, run_both
+
+DATA = REPO.parent / "shared" / "data"
+needs_data = pytest.mark.skipif(not (DATA / "refs" / "recursive" / "hist_tc11_FTR.csv").is_file(),
+                                reason="the ATTAS records and references are not in ../shared")
+
+#: A short-period model simulated with a 3-2-1-1, then fitted online.
+SIMULATE = """&case title = 'record', job = 'simulate' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.0, 1.0, -4.0, -1.5,   g = 0.1, -6.0,   h = 1, 0, 0, 1, r = 1e-6, 1e-6 /
+&simulate out = 'rec.dat', t_end = 20.0, dt = 0.02, seed = 3, input_shape = '3211',
+    amplitude = 1.0, t_start = 1.0, pulse_width = 0.5 /
+"""
+ONLINE = """&case title = 'online', job = 'online' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = 0, 0, 0, 0,   g = 0, 0,   h = 1, 0, 0, 1,
+    names = 'Za', 'Zq', 'Ma', 'Mq', 'Zd', 'Md',
+    free = 'f(1,1)', 'f(1,2)', 'f(2,1)', 'f(2,2)', 'g(1,1)', 'g(2,1)' /
+&data file = 'rec.dat', columns = 't', 'de', 'a', 'q', time_col = 't', input_cols = 'de',
+    output_cols = 'a', 'q' /
+&online f_min = 0.1, f_max = 1.45, n_freq = 28, every = 50, trim = 0, out = 'hist.dat' /
+"""
+
+
+def test_online_deck_in_both_front_ends_is_the_python_api(tmp_path):
+    """A simulated record (noise 1e-3): both front ends print and write the
+    same bytes; the history file's columns are mlid.online.ftr's estimates
+    and sigma on the same record (a second path: Python's own call); the
+    last estimates are within 2% of the truth; the JSON's convergence times
+    are OnlineEstimate.convergence_time()'s."""
+    (tmp_path / "sim.nml").write_text(SIMULATE)
+    assert run_both(tmp_path / "sim.nml", cwd=tmp_path)[1].returncode == 0
+    deck = tmp_path / "online.nml"
+    deck.write_text(ONLINE)
+    runs = run_both(deck, "--json", "{exe}.json", cwd=tmp_path)
+    assert runs[0].returncode == 0, runs[0].stderr
+    assert runs[0].stdout == runs[1].stdout
+    assert (tmp_path / "mlid.json").read_bytes() == (tmp_path / "mlid-batch.json").read_bytes()
+    out = json.loads((tmp_path / "mlid.json").read_text())[0]
+    rec = np.loadtxt(tmp_path / "rec.dat")
+    est = mlid.online.ftr(rec[:, 0], rec[:, 2:4], rec[:, 1], np.linspace(0.1, 1.45, 28),
+                          every=50, trim=0)
+    hist = mlid.FlightData.load(tmp_path / "hist.dat", "t", ["Za", "Zq", "Zd", "Ma", "Mq", "Md"],
+                                ["sigma_Za", "sigma_Md"])
+    # the record starts at the first solve that determined every estimate
+    first = np.flatnonzero(np.all(np.isfinite(est.estimates), axis=1))[0]
+    assert first > 0 and np.all(np.isnan(est.estimates[0]))
+    np.testing.assert_allclose(hist.t, est.t[first:], rtol=1e-15)
+    np.testing.assert_allclose(hist.u, est.estimates[first:], rtol=1e-13)
+    np.testing.assert_allclose(hist.y[:, 0], est.sigma[first:, 0], rtol=1e-13)
+    assert out["parameters"] == ["Za", "Zq", "Zd", "Ma", "Mq", "Md"]
+    np.testing.assert_allclose(out["estimates"][-1], [-1.0, 1.0, 0.1, -4.0, -1.5, -6.0],
+                               rtol=0.02, atol=0.005)
+    assert out["converged"] == pytest.approx(list(est.convergence_time().values()))
+    assert "converged [s]" in runs[0].stdout
+
+
+@needs_data
+def test_tc11_online_deck_reproduces_the_textbooks_ftr(tmp_path):
+    """The textbook's test case 11 as a deck (fAttasElv1 and Elv2 joined,
+    0.2-1.48 Hz, 33 frequencies, a solve a second, trim of 10, from sample
+    2): every solve's estimates within 1e-6 of the reference's sigma."""
+    import pandas as pd
+    deck = tmp_path / "tc11.nml"
+    deck.write_text(f"""&case title = 'tc11 ftr', job = 'online' /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = 0, 0, 0, 0,   g = 0, 0,   h = 1, 0, 0, 1,
+    names = 'Zal', 'Zq1', 'Mal', 'Mq', 'Zde', 'Mde',
+    free = 'f(1,1)', 'f(1,2)', 'f(2,1)', 'f(2,2)', 'g(1,1)', 'g(2,1)' /
+&data file = '{DATA}/fAttasElv1.mat', '{DATA}/fAttasElv2.mat',
+    columns = 'T[s]', 'c2', 'c3', 'c4', 'c5', 'c6', 'c7', 'QRGY[deg/s]', 'c9', 'c10', 'c11', 'c12',
+              'ALCG[deg]', 'c14', 'c15', 'c16', 'c17', 'c18', 'c19', 'c20', 'c21', 'DELV[deg]',
+    time_col = 'T', input_cols = 'DELV', output_cols = 'ALCG', 'QRGY', dt = 0.04 /
+&online f_min = 0.2, f_max = 1.48, n_freq = 33, every = 25, trim = 10, first = 2,
+    out = 'hist.dat' /
+""")
+    runs = run_both(deck, "--json", "o.json", cwd=tmp_path)
+    assert runs[0].returncode == 0 and runs[0].stdout == runs[1].stdout, runs[0].stderr
+    out = json.loads((tmp_path / "o.json").read_text())[0]
+    ref = pd.read_csv(DATA / "refs" / "recursive" / "hist_tc11_FTR.csv")
+    names = ["Zal", "Zq1", "Zde", "Mal", "Mq", "Mde"]
+    assert out["parameters"] == names
+    dev = np.abs(np.array(out["estimates"]) - ref[names].to_numpy()) / \
+        ref[[f"sig_{n}" for n in names]].to_numpy()
+    assert np.max(dev) < 1e-6
+
+
+@pytest.mark.parametrize("change, new, message", [
+    ("&online f_min", "&online estimator = 'ekf', f_min",
+     "group &online: estimator must be 'ftr' (Fourier-transform regression), not 'ekf'"),
+    ("n_freq = 28", "n_freq = 1", "the band needs 0 < f_min < f_max (Hz) and n_freq >= 2"),
+    ("every = 50", "every = 0", "every (samples between solves) must be >= 1"),
+    (", out = 'hist.dat'", "", "out (the record of the estimates' history to write) is missing"),
+    ("'g(1,1)', 'g(2,1)' /", "'g(1,1)' /",
+     "'ftr' estimates every entry of F and G: free must list them all (6)"),
+    ("h = 1, 0, 0, 1,", "h = 1, 0, 0, 2,", "'ftr' needs H = I and D = 0"),
+])
+def test_bad_online_settings_one_line(tmp_path, change, new, message):
+    deck = tmp_path / "bad.nml"
+    text = ONLINE.replace(change, new)
+    if "names" in text and "'g(2,1)'" not in text:
+        text = text.replace("'Zd', 'Md'", "'Zd'")
+    deck.write_text(text)
+    refused_by_both(deck, message, cwd=tmp_path)
+    assert not (tmp_path / "hist.dat").exists()
