@@ -32,10 +32,11 @@ def x22_deck(folder):
 def hfb320_filter_error_deck(folder):
     """The HFB-320 deck's filter-error cases alone (20 parameters, real
     flight data; case 3 the extended Kalman filter, case 4 the steady-state
-    gain), their data paths made absolute."""
+    gain; the ml_fem2 cases after them: tests/test_hfb320_fem.py), their data
+    paths made absolute."""
     text = HFB320.read_text()
     starts = [m.start() for m in re.finditer(r"^&case\b", text, flags=re.M)]
-    case = text[starts[2]:]
+    case = text[starts[2]:starts[4]]
     assert case.count("filter_error") == 2 and "steady_state = .true." in case
     case = re.sub(r"file = '([^']+)'",
                   lambda m: f"file = '{(HFB320.parent / m.group(1)).resolve()}'", case)

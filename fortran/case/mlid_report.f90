@@ -30,6 +30,8 @@ module mlid_report
     character(len=UNITLEN), allocatable :: units(:)  !< of each parameter (mlid_param_units)
     !> filter error with noise_criterion = 'innovations': the R it left (diagonal)
     real(wp), allocatable :: rnoise(:)
+    !> noise_criterion = 'textbook': diag(KC) of the gain (the constraint <= 1)
+    real(wp), allocatable :: kc(:)
     !> the outputs' names and units (the record's), under the noise's diagonal
     character(len=32), allocatable :: outputs(:)
     character(len=UNITLEN), allocatable :: output_units(:)
@@ -81,7 +83,9 @@ contains
                   'frequency domain)'
     text = text//trim(buf)//NL
     ! output error estimates R; filter error reports the mean innovation covariance B
-    buf = ' cost J = '//es_text(s%cost, 17, 10)//'   det '//trim(merge('R', 'B', oe .or. fd))// &
+    ! (the textbook's filter error: R-hat, the innovations' mean square, is its R)
+    buf = ' cost J = '//es_text(s%cost, 17, 10)//'   det '// &
+          trim(merge('R', 'B', oe .or. fd .or. allocated(s%kc)))// &
           ' = '//es_text(det_r(s%rhat), 13, 6)
     if (fd) buf(index(buf, 'det R'):index(buf, 'det R') + 4) = 'det S'
     text = text//trim(buf)//NL
@@ -104,6 +108,13 @@ contains
       text = text//' R diagonal (from the innovations)'
       do k = 1, size(s%rnoise)
         text = text//' '//es_text(s%rnoise(k), 10, 4)
+      end do
+      text = text//NL
+    end if
+    if (allocated(s%kc)) then
+      text = text//' diag(KC) of the textbook gain (<= 1)'
+      do k = 1, size(s%kc)
+        text = text//' '//es_text(s%kc(k), 10, 4)
       end do
       text = text//NL
     end if
@@ -199,6 +210,10 @@ contains
         option_get(iopt, ropt, 'filter_params') == 'gain') then
       text = 'filter-error ML, steady-state gain K and B as the parameters (eqs 4.19-4.21), B '// &
              trim(option_get(iopt, ropt, 'noise'))
+    else if (option_get(iopt, ropt, 'method') == 'filter_error' .and. &
+             option_get(iopt, ropt, 'noise_criterion') == 'textbook') then
+      text = 'filter error as the textbook computes it (FVSysID ml_fem2): continuous Riccati '// &
+             'gain with R dt, cost det R, diag(KC) <= 1'
     else if (option_get(iopt, ropt, 'method') == 'filter_error') then
       text = 'filter-error ML, '//trim(merge('steady-state gain', 'time-varying gain', &
              option_get(iopt, ropt, 'steady_state') == 'true'))//', '// &

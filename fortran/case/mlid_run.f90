@@ -336,6 +336,7 @@ contains
     s%lag = v%lag
     s%converged = v%converged
     if (all(ieee_is_finite(v%rnoise))) s%rnoise = v%rnoise
+    if (size(v%kc) > 0) s%kc = v%kc
   end subroutine summary
 
   !> Validate case c: fit on the files not held out (reported as an estimate

@@ -39,7 +39,7 @@ module mlid_options
     '', '', 'diagonal full', 'linear zoh', '', &
     'output_error filter_error frequency_output_error frequency_equation_error', 'false true', &
     'false true', 'none equation_error', '', '', 'iteration staged', &
-    'held continuous continuous_sd', 'exact innovations', 'noise gain', '', '', '', '', '', &
+    'held continuous continuous_sd', 'exact innovations textbook', 'noise gain', '', '', '', '', '', &
     '', '', '']
 
   type :: options_t
@@ -67,6 +67,10 @@ module mlid_options
     !>   0 exact: r are parameters like any other (free or fixed),
     !>   1 innovations: r from the innovations after each Newton step on the
     !>     others, R = mean squared innovations - C P C', at least a floor
+    !>   2 textbook: FVSysID's ml_fem2 (mlid_textbook_gain, mlid_likelihood,
+    !>     mlid_newton): the gain from the continuous Riccati equation with R dt
+    !>     as the measurement density, cost det R, R the innovations' mean
+    !>     square after each step, F compensated, diag(KC) <= 1
     integer :: noise_criterion = 0
     !> iopt(15): what filter error estimates besides the system parameters:
     !>   0 noise: the noise statistics q, r, S (eq. 4.17 with eqs 4.8-4.18),
@@ -77,7 +81,9 @@ module mlid_options
     !> iopt(16): frequencies of the band of the frequency-domain methods, evenly
     !> spaced from f_min to f_max (both included)
     integer :: n_freq = DEFAULT_N_FREQ
-    real(wp) :: tol_cost = 1.0e-8_wp  !< ropt(1): |dJ| <= tol_cost*max(1,|J|)
+    !> ropt(1): |dJ| <= tol_cost*max(1,|J|); with noise_criterion = 'textbook'
+    !> the relative change of det R a step makes (ml_fem2's tolR, 1e-4 there)
+    real(wp) :: tol_cost = 1.0e-8_wp
     real(wp) :: tol_step = 1.0e-8_wp  !< ropt(2): |dtheta| <= tol_step*|theta|
     real(wp) :: tol_grad = 1.0e-4_wp  !< ropt(3): sqrt(g' M^-1 g) (step in Cramer-Rao sigmas)
     real(wp) :: rcond = 1.0e-10_wp    !< ropt(4): eigenvalues of M below rcond*max are singular
@@ -181,17 +187,26 @@ contains
     else if (opt%process_noise < 0 .or. opt%process_noise > 2) then
       write (msg, '(a,i0)') 'process noise code must be 0 (held), 1 (continuous) or 2 '// &
         '(continuous_sd), got ', iopt(13)
-    else if (opt%noise_criterion < 0 .or. opt%noise_criterion > 1) then
-      write (msg, '(a,i0)') 'noise criterion code must be 0 (exact) or 1 (innovations), got ', &
-        iopt(14)
-    else if (opt%noise_criterion == 1 .and. opt%method /= METHOD_FILTER_ERROR) then
-      msg = 'noise_criterion = ''innovations'' is for filter error (method = ''filter_error''): '// &
-            'output error estimates R from the residuals anyway'
+    else if (opt%noise_criterion < 0 .or. opt%noise_criterion > 2) then
+      write (msg, '(a,i0)') 'noise criterion code must be 0 (exact), 1 (innovations) or 2 '// &
+        '(textbook), got ', iopt(14)
+    else if (opt%noise_criterion >= 1 .and. opt%method /= METHOD_FILTER_ERROR) then
+      msg = 'noise_criterion = '''//trim(choice_word(OPTION_CHOICES(14), opt%noise_criterion))// &
+            ''' is for filter error (method = ''filter_error''): output error estimates R '// &
+            'from the residuals anyway'
+    else if (opt%noise_criterion == 2 .and. .not. opt%steady) then
+      msg = 'noise_criterion = ''textbook'' is the textbook''s steady-state filter: set '// &
+            'steady_state = true'
+    else if (opt%noise_criterion == 2 .and. opt%process_noise == 0) then
+      msg = 'noise_criterion = ''textbook'' takes continuous process noise: process_noise = '// &
+            '''continuous_sd'' (q the textbook''s F) or ''continuous'''
+    else if (opt%noise_criterion == 2 .and. opt%full_r) then
+      msg = 'noise_criterion = ''textbook'' estimates a diagonal R: noise = ''diagonal'''
     else if (opt%filter_params < 0 .or. opt%filter_params > 1) then
       write (msg, '(a,i0)') 'filter parameters code must be 0 (noise) or 1 (gain), got ', iopt(15)
     else if (opt%filter_params == 1 .and. opt%method /= METHOD_FILTER_ERROR) then
       msg = 'filter_params = ''gain'' is for filter error (method = ''filter_error'')'
-    else if (opt%filter_params == 1 .and. opt%noise_criterion == 1) then
+    else if (opt%filter_params == 1 .and. opt%noise_criterion >= 1) then
       msg = 'filter_params = ''gain'' estimates B from the innovations (eq. 4.20), not R: '// &
             'leave noise_criterion = ''exact'''
     else if (opt%rank_max > 0 .and. opt%rank_max < opt%rank_min) then

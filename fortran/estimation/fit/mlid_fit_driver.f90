@@ -40,6 +40,7 @@ module mlid_fit_driver
     real(wp), allocatable :: theta_start(:), theta(:), sigma(:), sigma_c(:)
     real(wp), allocatable :: cov(:, :), cov_c(:, :), info(:, :), grad(:), eigval(:), eigvec(:, :)
     real(wp), allocatable :: rhat(:, :), yhat(:, :), hist(:), rnoise(:)
+    real(wp), allocatable :: kc(:)   !< the textbook gain's diag(KC) (empty for other criteria)
     real(wp) :: cost = 0.0_wp
     integer :: niter = 0, reason = 0, rank = 0, bad = 0, lag = 0
     logical :: converged = .false.
@@ -398,11 +399,13 @@ contains
     v%yhat = 0.0_wp
     v%hist = 0.0_wp
     v%rnoise = ieee_value(1.0_wp, ieee_quiet_nan)
+    allocate (v%kc(0))
+    if (allocated(res%kc)) v%kc = res%kc
     v%bad = bad
     if (allocated(res%theta_start)) v%theta_start = res%theta_start
     if (.not. allocated(res%theta)) return
     v%theta = res%theta
-    if (opt%noise_criterion == 1) v%rnoise = v%theta(pm%l%or + 1:pm%l%or + ny)
+    if (opt%noise_criterion >= 1) v%rnoise = v%theta(pm%l%or + 1:pm%l%or + ny)
     v%hist = res%cost_hist
     if (.not. allocated(res%info)) return
     do k = 1, nf

@@ -25,10 +25,19 @@
 !>   runs: its gain depends on the parameters also through the
 !>   linearisation, whose analytic partials would need second derivatives
 !>   of f and h.  Without partials the analytic sensitivities hold the gain.
+!> filter error as the textbook computes it (noise_criterion = 'textbook',
+!>   FVSysID's ml_fem2): the gain K(theta) of the continuous Riccati equation
+!>   with R dt as the measurement density (mlid_textbook_gain; R = diag(r),
+!>   held), the predictor x(j|j) = x(j|j-1) + K nu(j) as the stabilized
+!>   output error's, R-hat = diag of the mean squared innovations and the
+!>   cost 1/2 N (ny + ln det R-hat): det R as the textbook's cost.  The
+!>   sensitivities carry dK/dtheta (analytic) as a free K's would, each
+!>   parameter moving K's entries by its partials.
 module mlid_likelihood
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: iso_fortran_env, only: int64
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, first_failure
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INPUT, MLID_ERR_DIVERGED, &
+                        first_failure
   use mlid_linalg, only: add_syrk, add_atv, add_sym_atb, sym_atb_t, pair_rows, chol_inverse, &
                          psd_factor
   use mlid_models, only: model_t
@@ -36,8 +45,9 @@ module mlid_likelihood
   use mlid_frequency, only: freq_likelihood
   use mlid_params, only: param_map_t, apply_ties, input_delays, output_delays, stabilized
   use mlid_filter, only: oe_predict, kf_innovations
+  use mlid_textbook_gain, only: textbook_t, textbook_gain
   use mlid_memory, only: no_memory
-  use mlid_text, only: itoa
+  use mlid_text, only: itoa, es_text
   implicit none
   private
   public :: likelihood, sens_keep_t, weighted_sensitivities
@@ -103,6 +113,9 @@ contains
     if (frequency_method(opt)) then      ! t, u, y are the transformed record
       call freq_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
                            info, sens, msens)
+    else if (opt%method == METHOD_FILTER_ERROR .and. opt%noise_criterion == 2) then
+      call textbook_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
+                               info, sens, msens, keep)
     else if (opt%method == METHOD_FILTER_ERROR .and. opt%filter_params == 1) then
       ! K and B as the parameters: the predictor with the gain K, B = R-hat
       call oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
@@ -166,8 +179,12 @@ contains
     end if
   end subroutine filter_check
 
-  subroutine oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
-                           info, sens, msens, keep)
+  !> The textbook criterion: output error's likelihood of the predictor
+  !> with the gain K(theta) (block stab set to it), the free columns moving
+  !> K's entries by dK/dtheta (the map's gain entries: entry, column,
+  !> weight), so that the sensitivities are those of the whole predictor.
+  subroutine textbook_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, &
+                                 grad, info, sens, msens, keep)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: theta(:)
     type(param_map_t), intent(in) :: pm
@@ -178,6 +195,79 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), msens(:, :)
     type(sens_keep_t), intent(inout), optional :: keep
+    type(textbook_t) :: tg
+    type(param_map_t) :: pk
+    real(wp), allocatable :: th(:), dk(:, :)
+    integer :: e, c, n, nk
+
+    cost = huge(1.0_wp)
+    status = MLID_ERR_INPUT
+    if (output_delays(theta, pm) .or. input_delays(theta, pm)) then
+      msg = 'time delays are for output error (method = ''output_error''), not the filter'
+      return
+    else if (stabilized(theta, pm%l)) then
+      msg = 'stab, the gain of the stabilized output error, is for output error; the filter '// &
+            'has its own'
+      return
+    else if (size(pm%ir) > 0) then
+      msg = 'r('//itoa(pm%ir(1))//') is free, but with noise_criterion = ''textbook'' the r are '// &
+            'the innovations'' mean squares, set after each step: leave them fixed'
+      return
+    else if (size(pm%is) > 0 .or. any(theta(pm%l%os + 1:pm%l%os + m%nw*m%ny) /= 0.0_wp)) then
+      msg = 'noise_criterion = ''textbook'' has no cross-covariance s of process and '// &
+            'measurement noise: leave s at zero'
+      return
+    end if
+    call textbook_gain(m, theta, pm, t, u, opt, present(grad), tg, status, msg)
+    if (status /= MLID_OK) return
+    nk = m%nx*m%ny
+    th = theta
+    th(pm%l%ostab + 1:pm%l%ostab + nk) = reshape(tg%k, [nk])
+    pk = pm
+    if (present(grad)) then
+      dk = reshape(tg%dk, [nk, pm%nf])
+      n = count(dk /= 0.0_wp)
+      deallocate (pk%ik, pk%ck, pk%wk)
+      allocate (pk%ik(n), pk%ck(n), pk%wk(n), stat=e)
+      if (e /= 0) then
+        call no_memory('the gain''s partials', 3.0_wp*n, status, msg)
+        return
+      end if
+      n = 0
+      do c = 1, pm%nf
+        do e = 1, nk
+          if (dk(e, c) == 0.0_wp) cycle
+          n = n + 1
+          pk%ik(n) = e
+          pk%ck(n) = c
+          pk%wk(n) = dk(e, c)
+        end do
+      end do
+    end if
+    call oe_likelihood(m, th, pk, t, u, y, opt, cost, rhat, yhat, status, msg, grad, info, &
+                       sens, msens, keep, theta(pm%l%or + 1:pm%l%or + m%ny))
+    if (status == MLID_ERR_DIVERGED .and. maxval(tg%kc) > 1.0_wp) &   ! why, most likely
+      msg = trim(msg)//'; the textbook gain has diag(KC) up to '// &
+            trim(adjustl(es_text(maxval(tg%kc), 9, 2)))//' > 1 here: start with r larger '// &
+            '(the textbook''s: the output-error residual variances)'
+  end subroutine textbook_likelihood
+
+  subroutine oe_likelihood(m, theta, pm, t, u, y, opt, cost, rhat, yhat, status, msg, grad, &
+                           info, sens, msens, keep, rgain)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: theta(:)
+    type(param_map_t), intent(in) :: pm
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(options_t), intent(in) :: opt
+    real(wp), intent(out) :: cost, rhat(:, :), yhat(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), intent(out), optional :: grad(:), info(:, :), sens(:, :), msens(:, :)
+    type(sens_keep_t), intent(inout), optional :: keep
+    !> the textbook criterion: the gradient and information weighted by this
+    !> R (the gain's, diagonal) instead of R-hat, as the textbook's
+    !> Gauss-Newton step has them (the same at its fixed point R = R-hat)
+    real(wp), intent(in), optional :: rgain(:)
     real(wp), allocatable :: dy(:, :, :), nu(:, :), w1(:, :, :)
     real(wp) :: rinv(m%ny, m%ny), logdet, lw(m%ny, m%ny), rdiag(m%ny)
     real(wp), allocatable :: gpart(:, :), ipart(:, :, :)
@@ -249,6 +339,12 @@ contains
       ! segments in parallel, their parts added in order: the result does
       ! not depend on the number of threads
       ! the weights: R^-1 = L L' (L = diag(sqrt(1/R_ii)) for a diagonal R)
+      if (present(rgain)) then
+        rinv = 0.0_wp
+        do i = 1, ny
+          rinv(i, i) = 1.0_wp/rgain(i)
+        end do
+      end if
       call psd_factor(rinv, lw, ok)
       allocate (gpart(nf, pm%l%nseg), ipart(nf, nf, pm%l%nseg))
       !$omp parallel do schedule(dynamic, 1) if (pm%l%nseg > 1)

@@ -13,6 +13,8 @@ module mlid_newton
   use mlid_models, only: model_t
   use mlid_options, only: options_t, METHOD_FILTER_ERROR
   use mlid_likelihood, only: likelihood, sens_keep_t
+  use mlid_textbook_gain, only: textbook_t, textbook_gain
+  use mlid_linalg, only: solve
   use mlid_params, only: param_map_t, apply_ties
   use mlid_text, only: itoa, es_text
   use mlid_interrupt, only: check_interrupt
@@ -34,6 +36,13 @@ module mlid_newton
   !> measured: a residual 1000 times the measured signal in rms is a model
   !> that blew up, not one that fits (not_sane).
   real(wp), parameter :: SANE_RATIO = 1.0e6_wp
+  !> The textbook criterion (FVSysID ml_fem2): R is re-estimated after the
+  !> Newton step of this iteration and each later one (the early R of a poor
+  !> start would mislead the gain), the F-compensation halved at most
+  !> TEXTBOOK_HALVINGS times when it raises det R; R counts as settled when
+  !> no R(i,i) moves by more than R_SETTLE_TOL of itself in the update.
+  integer, parameter :: TEXTBOOK_R_FROM = 3, TEXTBOOK_HALVINGS = 2
+  real(wp), parameter :: R_SETTLE_TOL = 1.0e-6_wp
 
   !> The estimator options of report §4.6 beyond plain Newton-Raphson, over
   !> the free parameters: a priori values and weight (block 7), bounds
@@ -98,6 +107,9 @@ module mlid_newton
     !> samples at theta (ny, ny); unallocated otherwise
     real(wp), allocatable :: bmean(:, :)
     integer, allocatable :: rmove(:)        !< ... and the sign of each r's last move there
+    !> textbook criterion: diag(K C) of the gain at theta (nx; the constraint
+    !> diag(KC) <= 1); unallocated otherwise
+    real(wp), allocatable :: kc(:)
     character(len=256) :: note = ''         !< what a good fit should still say (a warning)
     integer :: lag = 0                      !< its residual-autocorrelation lag
     real(wp) :: cost = 0.0_wp               !< negative log-likelihood (without the prior term)
@@ -136,7 +148,7 @@ contains
 
     pb = problem_t(m, pm, t, u, y, opt, ex)
     status = MLID_OK
-    if (opt%noise_criterion == 1) call innovation_start(pb, status, msg)
+    if (opt%noise_criterion >= 1) call innovation_start(pb, status, msg)
     if (status /= MLID_OK) return
     call fit_start(pb, theta0, res, status, msg)
     if (status == MLID_OK .and. opt%noise_criterion == 1) then
@@ -167,7 +179,20 @@ contains
     end if
     res%searched = .true.
     call final_bound(opt, ex, st, res, why, status, msg)
+    if (opt%noise_criterion == 2) call gain_kc(pb, res)
   end subroutine newton_fit
+
+  !> The textbook gain's diag(KC) at res%theta into res%kc (left
+  !> unallocated if the gain cannot be had there).
+  subroutine gain_kc(pb, res)
+    type(problem_t), intent(in) :: pb
+    type(fit_result_t), intent(inout) :: res
+    type(textbook_t) :: tg
+    integer :: tstat
+    character(len=256) :: tmsg
+    call textbook_gain(pb%m, res%theta, pb%pm, pb%t, pb%u, pb%opt, .false., tg, tstat, tmsg)
+    if (tstat == MLID_OK) res%kc = tg%kc
+  end subroutine gain_kc
 
   !> Why the fit res to the outputs y (as the search sees them) is not
   !> sane, '' when it is: its cost and every entry of R-hat must be finite,
@@ -210,7 +235,8 @@ contains
     msg = ''
     if (size(pb%pm%ir) > 0) then
       status = MLID_ERR_INPUT
-      msg = 'r('//itoa(pb%pm%ir(1))//') is free, but with noise_criterion = ''innovations'' the '// &
+      msg = 'r('//itoa(pb%pm%ir(1))//') is free, but with noise_criterion = '''// &
+            trim(merge('innovations', 'textbook   ', pb%opt%noise_criterion == 1))//''' the '// &
             'r are estimated from the innovations after each step: leave them fixed'
     end if
   end subroutine innovation_start
@@ -268,6 +294,136 @@ contains
       djr = 0.0_wp
     end associate
   end subroutine relax_noise
+
+  !> Whether R is where the textbook criterion's update would leave it
+  !> (within R_SETTLE_TOL); always for the other criteria.
+  logical function r_settled(pb, res)
+    type(problem_t), intent(in) :: pb
+    type(fit_result_t), intent(in) :: res
+    integer :: i
+    r_settled = .true.
+    if (pb%opt%noise_criterion /= 2) return
+    do i = 1, pb%m%ny
+      if (abs(res%rhat(i, i) - res%theta(pb%pm%l%or + i)) > R_SETTLE_TOL*res%theta(pb%pm%l%or + i)) &
+        r_settled = .false.
+    end do
+  end function r_settled
+
+  !> The textbook criterion's R update (FVSysID ml_fem2): r becomes the
+  !> diagonal of the innovations' mean square, and the free q are rescaled
+  !> for it (the F-compensation, textbook eq. 5.41): q_k times the mean of
+  !> sqrt(R_new(i)/R_old(i)) over the outputs i weighted by (C Gamma)_ik^2
+  !> / R_old(i) (squared for q a density), so that the gain changes little.
+  !> Taken if det R does not rise; else the compensation is halved (q
+  !> halfway back) up to TEXTBOOK_HALVINGS times, and then nothing moves.
+  !> djr: the cost's fall from it (>= 0).
+  subroutine textbook_noise(pb, res, djr, status, msg)
+    type(problem_t), intent(in) :: pb
+    type(fit_result_t), intent(inout) :: res
+    real(wp), intent(out) :: djr
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(textbook_t) :: tg
+    real(wp) :: r0(pb%m%ny), rn(pb%m%ny), q0(pb%m%nw), qn(pb%m%nw), w(pb%m%ny), ph, j0
+    integer :: i, k, ih
+
+    djr = 0.0_wp
+    associate (m => pb%m, pm => pb%pm, l => pb%pm%l)
+      call textbook_gain(m, res%theta, pm, pb%t, pb%u, pb%opt, .false., tg, status, msg)
+      if (status /= MLID_OK) return
+      j0 = res%cost
+      r0 = res%theta(l%or + 1:l%or + m%ny)
+      rn = [(res%rhat(i, i), i=1, m%ny)]
+      q0 = res%theta(l%oq + 1:l%oq + m%nw)
+      qn = q0
+      do k = 1, size(pm%iq)
+        i = pm%iq(k)
+        w = tg%cg(:, i)**2/r0
+        if (.not. sum(w) > 0.0_wp) cycle
+        ph = sum(w*sqrt(rn/r0))/sum(w)
+        qn(i) = q0(i)*merge(ph, ph**2, pb%opt%process_noise == 2)
+      end do
+      do ih = 0, TEXTBOOK_HALVINGS
+        res%theta(l%or + 1:l%or + m%ny) = rn
+        res%theta(l%oq + 1:l%oq + m%nw) = qn
+        call apply_ties(pm%tie, res%theta)
+        call evaluate_full(pb, res, status, msg)
+        if (status == MLID_OK .and. res%cost <= j0) then
+          djr = j0 - res%cost
+          return
+        end if
+        if (status == MLID_ERR_INTERRUPTED) return
+        qn = 0.5_wp*(qn + q0)
+      end do
+      res%theta(l%or + 1:l%or + m%ny) = r0     ! no update lowers det R: R and F stay
+      res%theta(l%oq + 1:l%oq + m%nw) = q0
+      call apply_ties(pm%tie, res%theta)
+      call evaluate_full(pb, res, status, msg)
+    end associate
+  end subroutine textbook_noise
+
+  !> The textbook criterion's inequality diag(KC) <= 1 on the Newton step
+  !> (FVSysID's kcle1, textbook eqs 5.35-5.39), linearised about theta:
+  !> kc + D step <= 1, D = d diag(KC)/dtheta.  The step minimising the
+  !> Newton step's quadratic model 1/2 s' M s + g' s under them, by active
+  !> sets: the violated constraints are held as equalities, s = s0 - cov
+  !> D_a' lam with (D_a cov D_a') lam = kc_a + D_a s0 - 1 (cov = M^-1, s0 the
+  !> free step); a constraint whose multiplier lam is negative is released,
+  !> one the new step violates is added, until the set holds still.
+  subroutine kc_constrain(pb, theta, cov, step, status, msg)
+    type(problem_t), intent(in) :: pb
+    real(wp), intent(in) :: theta(:), cov(:, :)
+    real(wp), intent(inout) :: step(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(textbook_t) :: tg
+    real(wp) :: s0(size(step))
+    real(wp), allocatable :: lam(:)
+    logical :: act(pb%m%nx), viol(pb%m%nx), movable(pb%m%nx)
+    integer :: pass, ierr, k
+    integer, allocatable :: ia(:)
+
+    call textbook_gain(pb%m, theta, pb%pm, pb%t, pb%u, pb%opt, .true., tg, status, msg)
+    if (status /= MLID_OK) return
+    s0 = step
+    act = .false.
+    movable = any(tg%dkc /= 0.0_wp, dim=2)     ! a constraint no parameter moves is left alone
+    do pass = 1, 4*pb%m%nx + 4
+      if (any(act)) then
+        ia = pack([(k, k=1, pb%m%nx)], act)
+        call held(ia, step, lam, ierr)
+        if (ierr /= 0) then                    ! dependent constraints: the free step stands
+          step = s0
+          return
+        end if
+        if (any(lam < 0.0_wp)) then            ! release the most negative multiplier
+          act(ia(minloc(lam, 1))) = .false.
+          step = s0
+          cycle
+        end if
+      end if
+      viol = .not. act .and. movable .and. tg%kc + matmul(tg%dkc, step) > 1.0_wp
+      if (.not. any(viol)) exit
+      act = act .or. viol
+    end do
+
+  contains
+
+    !> The step with the constraints ia held as equalities, and their multipliers.
+    subroutine held(ia, step, lam, ierr)
+      integer, intent(in) :: ia(:)
+      real(wp), intent(out) :: step(:)
+      real(wp), allocatable, intent(out) :: lam(:)
+      integer, intent(out) :: ierr
+      real(wp) :: d(size(ia), size(step)), x(size(ia), 1)
+      d = tg%dkc(ia, :)
+      call solve(matmul(d, matmul(cov, transpose(d))), &
+                 reshape(tg%kc(ia) + matmul(d, s0) - 1.0_wp, [size(ia), 1]), x, ierr)
+      lam = x(:, 1)
+      step = s0 - matmul(cov, matmul(transpose(d), lam))
+    end subroutine held
+
+  end subroutine kc_constrain
 
   !> The likelihood at res%theta with everything a Newton step needs.
   subroutine evaluate_full(pb, res, status, msg)
@@ -373,7 +529,7 @@ contains
     type(candidate_t) :: best
     type(fit_result_t) :: stash        ! the full evaluation of a first trial (best_of_ranks)
     real(wp) :: step(st%nf), decrement, jnow, dj, djr
-    logical :: first, stashed
+    logical :: first, stashed, tb_stop
 
     associate (m => pb%m, pm => pb%pm, t => pb%t, u => pb%u, y => pb%y, opt => pb%opt, ex => pb%ex)
       first = .true.
@@ -396,7 +552,7 @@ contains
           res%reason = STOP_FAILED
           return
         end if
-        if (decrement <= opt%tol_grad) then
+        if (decrement <= opt%tol_grad .and. r_settled(pb, res)) then
           res%reason = STOP_GRAD
           exit
         end if
@@ -409,9 +565,17 @@ contains
           return
         end if
         dj = jnow - best%cost
+        ! the textbook criterion's stop (ml_fem2): once R is re-estimated, a
+        ! step that changes det R by at most tol_cost of itself, before R moves
+        tb_stop = opt%noise_criterion == 2 .and. st%it >= TEXTBOOK_R_FROM .and. &
+                  flat(max(dj, 0.0_wp), jnow)
+        if (.not. (dj > 0.0_wp) .and. tb_stop) then
+          res%reason = STOP_COST
+          exit
+        end if
         if (.not. (dj > 0.0_wp)) then
           ! No decrease: converged if the objective is flat to tolerance, else stuck.
-          if (best%cost < huge(1.0_wp) .and. abs(dj) <= opt%tol_cost*max(1.0_wp, abs(jnow))) then
+          if (best%cost < huge(1.0_wp) .and. flat(abs(dj), jnow)) then
             res%reason = STOP_COST
           else
             res%reason = STOP_NO_DECREASE
@@ -432,13 +596,21 @@ contains
           call evaluate_full(pb, res, status, msg)
         end if
         djr = 0.0_wp
+        if (status == MLID_OK .and. tb_stop) then
+          res%cost_hist(st%it + 1) = res%cost
+          res%reason = STOP_COST
+          exit
+        end if
         if (status == MLID_OK .and. opt%noise_criterion == 1) call relax_noise(pb, res, djr, status, msg)
+        if (status == MLID_OK .and. opt%noise_criterion == 2 .and. st%it >= TEXTBOOK_R_FROM) &
+          call textbook_noise(pb, res, djr, status, msg)
         if (status /= MLID_OK) then
           res%reason = STOP_FAILED
           return
         end if
         res%cost_hist(st%it + 1) = res%cost
-        if (max(dj, abs(djr)) <= opt%tol_cost*max(1.0_wp, abs(best%cost))) then
+        if (opt%noise_criterion /= 2 .and. &     ! (the textbook's stop is tb_stop's)
+            max(dj, abs(djr)) <= opt%tol_cost*max(1.0_wp, abs(best%cost))) then
           res%reason = STOP_COST
           exit
         end if
@@ -452,6 +624,21 @@ contains
       res%converged = any(res%reason == [STOP_COST, STOP_STEP, STOP_GRAD])
       if (associated(ex%progress)) call progress_to(ex%progress, st%it)
     end associate
+
+  contains
+
+    !> Whether a cost change dj (>= 0) from jref is within tol_cost: of
+    !> max(1, |J|), or for the textbook criterion of det R (J = N/2 ln det R
+    !> + const, so det R changes by the factor exp(2 dj / N)).
+    logical function flat(dj, jref)
+      real(wp), intent(in) :: dj, jref
+      if (pb%opt%noise_criterion == 2) then
+        flat = exp(2*dj/size(pb%t)) - 1.0_wp <= pb%opt%tol_cost
+      else
+        flat = dj <= pb%opt%tol_cost*max(1.0_wp, abs(jref))
+      end if
+    end function flat
+
   end subroutine iterate
 
   !> Gradient and information of this iteration's objective (with the
@@ -734,6 +921,11 @@ contains
         step = factor*step
       else
         dec = sqrt(max(0.0_wp, -dot_product(st%g, step)))
+      end if
+      if (opt%noise_criterion == 2) then   ! the step within diag(KC) <= 1
+        call kc_constrain(pb, res%theta, st%cov, step, status, msg)
+        ! a constrained step need not descend: its length in sigmas instead
+        dec = sqrt(max(0.0_wp, dot_product(step, matmul(st%mt, step))))
       end if
     end associate
 

@@ -177,6 +177,18 @@ def fit(model, data, prior=None, prior_weight=None, bounds=None, initial_states=
             estimated from the innovations (eqs 4.19-4.21; ``noise`` makes
             B diagonal or full); q, r and S are then not parameters.  The
             time-varying filter starts from the model's p0 (P(1|0)).
+        process_noise : 'held', 'continuous' or 'continuous_sd'
+            Filter error: what q are: variances held over each sample
+            interval, spectral densities of continuous white noise, or their
+            standard deviations (the textbook's F).
+        noise_criterion : 'exact', 'innovations' or 'textbook'
+            Filter error: how R is had.  'exact': r are parameters like any
+            other; 'innovations': set after each step to what the
+            innovations leave (R = S - C P C'); 'textbook': filter error as
+            FVSysID's ml_fem2 computes it (gain from the continuous Riccati
+            equation with R dt, R the innovations' mean square, the
+            F-compensation, cost det R, diag(KC) <= 1; tol_cost is then the
+            relative change of det R).  docs/guide/estimator.md compares them.
         startup : 'none' or 'equation_error'
             Start from an equation-error least-squares pass (all states
             measured).
