@@ -84,3 +84,29 @@ def test_bad_settings_one_line(kwargs, words):
     with pytest.raises(mlid.InputError) as err:
         mlid.online.ftr(t, np.zeros((100, 2)), np.zeros(100), **args)
     assert words in str(err.value) and "\n" not in str(err.value).strip()
+
+
+def test_forgetting_tracks_a_halved_control_derivative():
+    """M_delta halves at 30 s of a 60 s record (a PRBS throughout, noise
+    1e-3): with lambda = 0.998 (memory dt/(1 - lambda) = 10 s) the estimate
+    is within 1% of -6 just before the change and within 5% of -3 from
+    about 22 s after it on (measured: -6.02 at 29.5 s; -2.91 at 60 s; within
+    5% from 52.5 s); without forgetting it ends between the two (-4.26)."""
+    from mlid.design.signals import prbs
+    dt, n = 0.02, 3001
+    t = dt * np.arange(n)
+    de = prbs(7, 10, dt, n)
+    u = np.column_stack([de * (t < 30), de * (t >= 30)])
+    model = mlid.LinearModel(F=[[-1.0, 1.0], [-4.0, -1.5]], G=[[0.1, 0.1], [-6.0, -3.0]],
+                             H=np.eye(2), r=[1e-6, 1e-6])
+    data, _ = mlid.simulate(model, t, u, seed=2)
+    band = np.arange(0.1, 2.0, 0.05)
+    tracked = mlid.online.ftr(t, data.y, de, band, every=25, trim=0, forgetting=0.998)
+    plain = mlid.online.ftr(t, data.y, de, band, every=25, trim=0)
+    m_de = tracked.estimates[:, 5]
+    assert abs(m_de[np.searchsorted(tracked.t, 29.5)] + 6.0) < 0.06
+    late = tracked.t >= 53.0
+    assert np.all(np.abs(m_de[late] + 3.0) < 0.15)
+    assert -4.6 < plain.estimates[-1, 5] < -3.9
+    with pytest.raises(mlid.InputError, match="forgetting factor must be in"):
+        mlid.online.ftr(t, data.y, de, band, forgetting=1.5)

@@ -38,7 +38,7 @@ contains
   !> (mlid_api_problem: one manoeuvre, its outputs the measured states x)
   !> with its given values (mlid_api_values): frequencies (Hz), every
   !> (samples between solves), trim (samples whose mean is the trim), first
-  !> (the first sample in the transforms).  Results: t_solve (m) each
+  !> (the first sample in the transforms), forgetting (lambda, 1: none).  Results: t_solve (m) each
   !> solve's time, estimates and sigma (nx (nx + nu), m), equation by
   !> equation (F's row, then G's), residual_variance (nx, m) each
   !> equation's, m = n/every.
@@ -60,6 +60,7 @@ contains
       call g%get('every', s%every, status, msg)
       call g%get('trim', s%trim, status, msg)
       call g%get('first', s%first, status, msg)
+      call g%get('forgetting', s%lambda, status, msg)
       if (status /= MLID_OK) return
       s%w = 2.0_wp*PI*hz
       m = 0

@@ -97,6 +97,7 @@ module mlid_case
     character(len=16) :: online_estimator = ''
     real(wp) :: online_band(2) = 0.0_wp
     integer :: online_nfreq = 0, online_every = 0, online_trim = 0, online_first = 1
+    real(wp) :: online_lambda = 1.0_wp     !< the forgetting factor
     logical :: zero_mean = .false.
     !> simulate and monte_carlo: a record whose time and first nu columns
     !> after it are the inputs (a designed input), instead of input_shape

@@ -528,11 +528,11 @@ contains
   module procedure read_online_group
     character(len=16) :: estimator
     character(len=PATHLEN) :: out
-    real(wp) :: f_min, f_max
+    real(wp) :: f_min, f_max, forgetting
     integer :: n_freq, every, trim, first, ios
     character(len=msg_len) :: iomsg
     character(len=:), allocatable :: gtext
-    namelist /online/ estimator, f_min, f_max, n_freq, every, trim, first, out
+    namelist /online/ estimator, f_min, f_max, n_freq, every, trim, first, forgetting, out
 
     estimator = 'ftr'
     f_min = 0.0_wp
@@ -541,6 +541,7 @@ contains
     every = 0
     trim = 10
     first = 1
+    forgetting = 1.0_wp
     out = ''
     gtext = group_text(rd, 'online')
     ios = -1                          ! missing
@@ -554,6 +555,7 @@ contains
     c%online_every = every
     c%online_trim = trim
     c%online_first = first
+    c%online_lambda = forgetting
     c%out_file = out
     call check_online(c, free_idx)
   end procedure read_online_group
@@ -579,6 +581,9 @@ contains
                     ieee_is_finite(c%online_band(2))) .or. c%online_nfreq < 2) then
       call fail(c, 'group &online: the band needs 0 < f_min < f_max (Hz) and n_freq >= 2 '// &
                 'frequencies')
+      return
+    else if (.not. (c%online_lambda > 0.0_wp .and. c%online_lambda <= 1.0_wp)) then
+      call fail(c, 'group &online: forgetting (lambda) must be in (0, 1], 1 for none')
       return
     else if (c%online_every < 1 .or. c%online_trim < 0 .or. c%online_first < 1) then
       call fail(c, 'group &online: every (samples between solves) must be >= 1, trim >= 0 and '// &

@@ -492,6 +492,7 @@ contains
     s%every = c%online_every
     s%trim = c%online_trim
     s%first = c%online_first
+    s%lambda = c%online_lambda
     m = size(t)/s%every
     np = c%nx*(c%nx + c%nu)
     allocate (o%t(m), o%est(np, m), o%sig(np, m), o%s2(c%nx, m))

@@ -15,7 +15,11 @@
 !> Every state is measured; every entry of F and G is estimated (no bias
 !> terms: the trim, the mean of the first `trim` samples, is removed from
 !> x and u first).  The growing transform needs no window: each solve sees
-!> the record so far.  mlid_recursive_fd is its moving-window relative with
+!> the record so far.  With a forgetting factor lambda < 1 the transforms
+!> fade, X <- lambda X + x(k) exp(-i w (t_k - t_1)), to track a change:
+!> the weights exp(a (t_k - t_n)), a = -ln(lambda)/dt, move the derivative's
+!> factor from i w to i w - a (the weighted transform is the transform at
+!> the complex frequency w + i a, up to a factor all terms share).  mlid_recursive_fd is its moving-window relative with
 !> transient terms.  A solve before the band is excited (Re(A^H A)
 !> singular) gives NaN: no estimate yet.
 module mlid_ftr
@@ -37,6 +41,7 @@ module mlid_ftr
     integer :: every = 25
     integer :: trim = 10
     integer :: first = 1
+    real(wp) :: lambda = 1.0_wp
   end type ftr_settings_t
 
 contains
@@ -59,7 +64,7 @@ contains
     real(wp), intent(out) :: ts(:), est(:, :), sig(:, :), s2(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    complex(wp) :: a(size(s%w), size(x, 1) + size(u, 1)), ph(size(s%w))
+    complex(wp) :: a(size(s%w), size(x, 1) + size(u, 1)), ph(size(s%w)), iw(size(s%w))
     real(wp) :: xt(size(x, 1)), ut(size(u, 1))
     integer :: nx, np, k, m, kt
 
@@ -80,28 +85,28 @@ contains
     end if
     a = 0.0_wp
     m = 0
+    iw = IU*s%w + log(s%lambda)/((t(size(t)) - t(1))/(size(t) - 1))
     do k = 1, size(t)
       if (k >= s%first) then
         ph = exp(-IU*s%w*(t(k) - t(1)))
-        a = a + spread(ph, 2, np)*spread([x(:, k) - xt, u(:, k) - ut], 1, size(s%w))
+        a = s%lambda*a + spread(ph, 2, np)*spread([x(:, k) - xt, u(:, k) - ut], 1, size(s%w))
       end if
       if (mod(k, s%every) /= 0) cycle
       m = m + 1
       ts(m) = t(k)
-      call solve_equations(a, s%w, nx, est(:, m), sig(:, m), s2(:, m))
+      call solve_equations(a, iw, nx, est(:, m), sig(:, m), s2(:, m))
     end do
   end subroutine ftr_run
 
-  !> One solve of i w X_i = [X U] theta_i for each state i over the
-  !> transforms so far a = [X U] (nw, nx + nu); NaN where they do not yet
-  !> determine theta.
-  subroutine solve_equations(a, w, nx, est, sig, s2)
-    complex(wp), intent(in) :: a(:, :)
-    real(wp), intent(in) :: w(:)
+  !> One solve of iw X_i = [X U] theta_i for each state i over the
+  !> transforms so far a = [X U] (nw, nx + nu), iw the derivative's factor
+  !> (i w - a); NaN where they do not yet determine theta.
+  subroutine solve_equations(a, iw, nx, est, sig, s2)
+    complex(wp), intent(in) :: a(:, :), iw(:)
     integer, intent(in) :: nx
     real(wp), intent(out) :: est(:), sig(:), s2(:)
     real(wp) :: nrm(size(a, 2), size(a, 2)), inv(size(a, 2), size(a, 2)), logdet
-    complex(wp) :: b(size(w))
+    complex(wp) :: b(size(iw))
     integer :: i, j, np, info, j0
 
     np = size(a, 2)
@@ -115,9 +120,9 @@ contains
     end if
     do i = 1, nx
       j0 = (i - 1)*np
-      b = IU*w*a(:, i)
+      b = iw*a(:, i)
       est(j0 + 1:j0 + np) = matmul(inv, real(matmul(conjg(transpose(a)), b), wp))
-      s2(i) = sum(abs(b - matmul(a, cmplx(est(j0 + 1:j0 + np), 0.0_wp, wp)))**2)/(size(w) - np)
+      s2(i) = sum(abs(b - matmul(a, cmplx(est(j0 + 1:j0 + np), 0.0_wp, wp)))**2)/(size(iw) - np)
       sig(j0 + 1:j0 + np) = sqrt(max(s2(i), 0.0_wp)*[(inv(j, j), j=1, np)])
     end do
   end subroutine solve_equations
@@ -141,6 +146,8 @@ contains
             itoa(np)//' parameters per equation; more frequencies than parameters are needed'
     else if (.not. (all(ieee_is_finite(s%w)) .and. all(s%w > 0.0_wp))) then
       msg = 'Fourier-transform regression: the frequencies must be > 0 and finite'
+    else if (.not. (s%lambda > 0.0_wp .and. s%lambda <= 1.0_wp)) then
+      msg = 'Fourier-transform regression: the forgetting factor must be in (0, 1]'
     else if (s%every < 1 .or. s%trim < 0 .or. s%first < 1) then
       msg = 'Fourier-transform regression: the solve interval must be >= 1 sample, the trim '// &
             'samples >= 0 and the first sample >= 1'

@@ -17,7 +17,7 @@ def _whole(name, value, low):
 
 
 @guarded
-def ftr(t, x, u, frequencies, every=25, trim=10, first=1):
+def ftr(t, x, u, frequencies, every=25, trim=10, first=1, forgetting=1.0):
     """Fourier-transform regression (Morelli's real-time method,
     fortran/estimation/online/mlid_ftr.f90): the transforms X(w), U(w) of
     the measured states and inputs gain each sample; every ``every``
@@ -42,6 +42,9 @@ def ftr(t, x, u, frequencies, every=25, trim=10, first=1):
     first : int
         The first sample taken into the transforms (1-based; the textbook's
         ftr_mod starts at 2).
+    forgetting : float
+        lambda in (0, 1]: the transforms fade by lambda a sample, to track
+        a change (memory about dt/(1 - lambda) s); 1: none.
 
     Returns
     -------
@@ -76,7 +79,8 @@ def ftr(t, x, u, frequencies, every=25, trim=10, first=1):
     nx, nu = x.shape[1], u.shape[1]
     h = _call_handle()
     _put(h, frequencies=real_array("frequencies", frequencies), every=_whole("every", every, 1),
-         trim=_whole("trim", trim, 0), first=_whole("first", first, 1))
+         trim=_whole("trim", trim, 0), first=_whole("first", first, 1),
+         forgetting=float(real_array("forgetting", forgetting)))
     # (n, k) C-ordered is the core's (k, n) Fortran-ordered: no copy
     check_status(*_api.mlid_set_record(h.value, t=t, u=np.ascontiguousarray(u).T,
                                        y=np.ascontiguousarray(x).T, segstart=[1]))
