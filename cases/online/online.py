@@ -1,0 +1,90 @@
+"""Online estimation against the textbook software's recursive estimators
+(FVSysID chapter 7, ../shared/data/refs/recursive/): test case 11 by
+Fourier-transform regression as a deck (tc11_ftr.nml, both front ends run
+it alike) and test case 23's six aerodynamic regressions by recursive least
+squares in Python; every number README.md quotes is printed here.
+
+    python cases/online/online.py
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import mlid
+from mlid.cli.deck import iter_deck
+
+HERE = Path(__file__).resolve().parent
+REFS = HERE.parents[2] / "shared" / "data" / "refs" / "recursive"
+#: Test case 23's regressions, in the reference header's words, and the
+#: regressor behind each parameter's suffix.
+TC23 = {"CD": ["CD0", "CDal"], "CL": ["CL0", "CLal"], "Cm": ["Cm0", "Cmal", "Cmq", "Cmde"],
+        "CY": ["CY0", "CYbe"], "Cl": ["Cl0", "Clbe", "Clp", "Clr", "Clda"],
+        "Cn": ["Cn0", "Cnbe", "Cnp", "Cnr", "Cndr"]}
+REGRESSOR = {"0": None, "al": "al", "be": "be", "q": "qn", "p": "pn", "r": "rn",
+             "de": "de", "da": "da", "dr": "dr"}
+
+
+def ftr_against_reference():
+    import pandas as pd
+    case, out, _, error = next(iter_deck(HERE / "tc11_ftr.nml"))
+    if error:
+        sys.exit(f"{case.where()}: {error}")
+    ref = pd.read_csv(REFS / "hist_tc11_FTR.csv")
+    names = out["parameters"]
+    est, sig = np.array(out["estimates"]), np.array(out["sigma"])
+    dev = np.abs(est - ref[names].to_numpy()) / ref[[f"sig_{n}" for n in names]].to_numpy()
+    ratio = sig[-1] / ref[[f"sig_{n}" for n in names]].to_numpy()[-1]
+    print(f"test case 11, FTR deck: {len(out['t'])} solves; largest |ours - reference| at any "
+          f"solve {dev.max():.1e} sigma; sigma ratios at the last {ratio.min():.6f} to "
+          f"{ratio.max():.6f}")
+    print("  last solve: " + ", ".join(f"{n} {v:.6g} ({s:.3g})" for n, v, s in
+                                       zip(names, est[-1], sig[-1])))
+    print("  converged (within 2 sigma of the last from then on): " + ", ".join(
+        f"{n} {c:.2f} s" for n, c in zip(names, out["converged"])))
+    mine = mlid.online.ftr(*_tc11(), np.linspace(0.2, 1.48, 33), every=25, trim=10)
+    later = mine.t >= 0.2 * mine.t[-1]
+    dev1 = np.abs(mine.estimates - ref[names].to_numpy()) / \
+        ref[[f"sig_{n}" for n in names]].to_numpy()
+    print(f"  from sample 1 (mlid's default): largest |difference| after the first 20% "
+          f"{dev1[later].max():.4f} sigma, at the last solve {dev1[-1].max():.4f} sigma")
+
+
+def _tc11():
+    cols = (["T[s]"] + [f"c{i}" for i in range(2, 8)] + ["QRGY[deg/s]"]
+            + [f"c{i}" for i in range(9, 13)] + ["ALCG[deg]"] + [f"c{i}" for i in range(14, 22)]
+            + ["DELV[deg]"])
+    parts = [mlid.FlightData.load(REFS.parents[1] / n, "T", ["DELV"], ["ALCG", "QRGY"],
+                                  columns=cols) for n in ("fAttasElv1.mat", "fAttasElv2.mat")]
+    z = np.vstack([p.y for p in parts])
+    return 0.04 * np.arange(len(z)), z, np.vstack([p.u for p in parts])
+
+
+def rls_against_reference():
+    import pandas as pd
+    data = pd.read_csv(REFS / "data_tc23_RLS.csv")
+    hist = pd.read_csv(REFS / "hist_tc23_RLS.csv")
+    worst, worst_final = 0.0, 0.0
+    for z, names in TC23.items():
+        X = np.column_stack([np.ones(len(data)) if REGRESSOR[n[2:]] is None
+                             else data[REGRESSOR[n[2:]]].to_numpy() for n in names])
+        est = mlid.online.rls(X, data[z].to_numpy(), names=names, t=data["t"].to_numpy(),
+                              p0=1e7 if z == "Cm" else 1e6)
+        ref = hist[names].to_numpy()
+        scale = np.abs(ref[-1])
+        worst = max(worst, np.max(np.abs(est.estimates - ref) / scale))
+        worst_final = max(worst_final, np.max(np.abs(est.estimates[-1] - ref[-1]) / scale))
+    print(f"test case 23, RLS (lambda 1, P0 1e6 I, Cm 1e7 I): largest |ours - reference| at any "
+          f"sample {worst:.1e} of the parameter's final size; at the last {worst_final:.1e}")
+
+
+def main():
+    if not (REFS / "hist_tc11_FTR.csv").is_file():
+        sys.exit(f"the references are not under {REFS}")
+    ftr_against_reference()
+    rls_against_reference()
+
+
+if __name__ == "__main__":
+    main()
