@@ -131,3 +131,29 @@ def test_hfb320_deck_same_bytes_from_both_front_ends(tmp_path):
             assert run.returncode == 0, run.stderr
             outs.add((run.stdout, js.read_bytes()))
     assert len(outs) == 1
+
+
+@needs_data
+def test_textbook_starts_at_the_output_error_residuals_when_no_r_is_given(tmp_path):
+    """Case 5 gives no r: R starts at the output-error residuals' mean squares
+    at the start, as ml_fem2 does (its iSD = 0).  The same case with r typed
+    in as those values (an output-error evaluation at the start, det
+    1.146167e-18 against the reference's 1.1462e-18) gives the same fit; r
+    given for some outputs only is refused with one line."""
+    text = DECK.read_text(encoding="utf-8").replace("../../../shared", str(REPO.parent / "shared"))
+    start = text.index("&case title = 'HFB-320 flight 1, FVSysID ml_fem2")
+    block = text[start:text.index("&case", start + 10)]
+    typed = block.replace(
+        "    q = 0.02, 0.002, 0.02, 0.02,\n",
+        "    q = 0.02, 0.002, 0.02, 0.02,\n    r = 4.477116216751726, 6.003824471709899e-06, "
+        "0.0012482865559363828, 5.146816902572848e-05,\n        0.00014939701741928388, "
+        "0.011559714803140825, 0.3843079828379845,\n")
+    assert typed != block
+    (tmp_path / "typed.nml").write_text(typed)
+    (tmp_path / "part.nml").write_text(block.replace("    q = 0.02, 0.002, 0.02, 0.02,\n",
+                                                     "    q = 0.02, 0.002, 0.02, 0.02, r(1) = 4.5,\n"))
+    _, own = mlid.cli.deck.run_case(case(5))
+    _, given = mlid.cli.deck.run_case(mlid.read_deck(tmp_path / "typed.nml")[0])
+    np.testing.assert_allclose(own.estimate, given.estimate, rtol=1e-9)
+    with pytest.raises(mlid.InputError, match="give r \\(the start R\\) for every output, or for none"):
+        mlid.cli.deck.run_case(mlid.read_deck(tmp_path / "part.nml")[0])

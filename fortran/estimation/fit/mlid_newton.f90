@@ -10,6 +10,7 @@ module mlid_newton
                         STOP_NO_DECREASE, STOP_FAILED, STOP_DIVERGED
   use mlid_linalg, only: info_inverse, info_eig, eig_inverse
   use mlid_equation_error, only: equation_error
+  use mlid_filter, only: oe_predict
   use mlid_models, only: model_t
   use mlid_options, only: options_t, METHOD_FILTER_ERROR
   use mlid_likelihood, only: likelihood, sens_keep_t
@@ -144,13 +145,16 @@ contains
     type(search_t) :: st
     integer :: rmin, rtop, k
     real(wp) :: djr
+    real(wp), allocatable :: th0(:)
     character(len=len(msg)) :: why
 
     pb = problem_t(m, pm, t, u, y, opt, ex)
     status = MLID_OK
+    th0 = theta0
     if (opt%noise_criterion >= 1) call innovation_start(pb, status, msg)
+    if (status == MLID_OK .and. opt%noise_criterion == 2) call textbook_start_r(pb, th0, status, msg)
     if (status /= MLID_OK) return
-    call fit_start(pb, theta0, res, status, msg)
+    call fit_start(pb, th0, res, status, msg)
     if (status == MLID_OK .and. opt%noise_criterion == 1) then
       call relax_noise(pb, res, djr, status, msg)     ! R from the start's innovations
       res%cost_hist(1) = res%cost
@@ -240,6 +244,38 @@ contains
             'r are estimated from the innovations after each step: leave them fixed'
     end if
   end subroutine innovation_start
+
+  !> The textbook criterion's start R when no r is given (all zero): the
+  !> mean squared output-error residuals at the start, no gain (ml_fem2's
+  !> default, its iSD = 0); r given for some outputs only is refused.
+  subroutine textbook_start_r(pb, theta, status, msg)
+    type(problem_t), intent(in) :: pb
+    real(wp), intent(inout) :: theta(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: yhat(:, :)
+    integer :: i, ist
+    integer, allocatable :: ir(:)
+    status = MLID_OK
+    msg = ''
+    ir = [(pb%pm%l%or + i, i=1, pb%m%ny)]
+    if (all(theta(ir) > 0.0_wp)) return
+    if (any(theta(ir) /= 0.0_wp)) then
+      status = MLID_ERR_INPUT
+      msg = 'noise_criterion = ''textbook'': give r (the start R) for every output, or for none '// &
+            '(R then starts at the output-error residuals'' mean squares, as ml_fem2 does)'
+      return
+    end if
+    allocate (yhat(pb%m%ny, size(pb%t)), stat=ist)
+    if (ist /= 0) then
+      call no_memory('the output-error outputs at the start', real(pb%m%ny, wp)*size(pb%t), &
+                     status, msg)
+      return
+    end if
+    call oe_predict(pb%m, theta, pb%pm, pb%t, pb%u, pb%opt, yhat, status, msg)
+    if (status /= MLID_OK) return
+    theta(ir) = sum((pb%y - yhat)**2, dim=2)/size(pb%t)
+  end subroutine textbook_start_r
 
   !> The relaxation's second half (innovations criterion, Maine and Iliff):
   !> after a Newton step on the other parameters, R becomes what the
