@@ -2,6 +2,7 @@
 monitoring a test point, envelope expansion or adaptive control (the core's
 fortran/estimation/online/)."""
 
+from .filters import ekf, ukf
 from .rls import OnlineEstimate, rls
 
-__all__ = ["OnlineEstimate", "rls"]
+__all__ = ["OnlineEstimate", "ekf", "rls", "ukf"]

@@ -20,11 +20,15 @@ class OnlineEstimate:
     estimates, sigma : ndarray (n, np)
         The estimate and its sigma after each sample (sigma 0 until there
         are more samples, weighted, than parameters).
+    states, states_sigma : ndarray (n, nx) or None
+        A filter's state estimates and their sigma after each sample (None
+        for a regression).
     """
 
-    def __init__(self, t, names, estimates, sigma):
+    def __init__(self, t, names, estimates, sigma, states=None, states_sigma=None):
         self.t, self.names = t, list(names)
         self.estimates, self.sigma = estimates, sigma
+        self.states, self.states_sigma = states, states_sigma
 
     @property
     def final(self):

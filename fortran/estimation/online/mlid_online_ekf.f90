@@ -1,0 +1,181 @@
+!> The extended Kalman filter with the state augmented by the free model
+!> parameters (Jategaonkar 2015, sec. 7.2; mlid_online_filter's
+!> conventions), with the model's exact Jacobians:
+!>
+!>   prediction  xa- by the model's integration over [t(k-1), t(k)],
+!>               Phi = exp(A dt), A = [df/dx df/dp; 0 0] at xa+(k-1), u(k-1),
+!>               P- = Phi P+ Phi' + diag(q)
+!>   update      C = [dh/dx dh/dp] at xa-, K = P- C' (C P- C' + R)^-1,
+!>               xa+ = xa- + K (z - y),
+!>               P+ = (I - K C) P- (I - K C)' + K R K'   (Joseph form)
+!>
+!> The textbook's code takes A and C by central differences and Phi by a
+!> 10-term Taylor series; for a model bilinear in states and parameters
+!> (the short period) the differences are exact to rounding.
+module mlid_online_ekf
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_MEMORY
+  use mlid_models, only: model_t
+  use mlid_linalg, only: expm_into, expm_work_size, expm_work_t, solve
+  use mlid_rk, only: rk_work_t
+  use mlid_text, only: itoa
+  use mlid_online_filter, only: filter_settings_t, filter_check, filter_propagate, &
+                                filter_outputs, filter_params
+  implicit none
+  private
+  public :: ekf_run
+
+contains
+
+  !> est(:, k), sig(:, k): xa+ and sqrt(diag P+) after sample k of the
+  !> record (t, u, z), from the states x0 and the model parameters p (its
+  !> free ones ifree the start of their estimates), output biases bias.
+  subroutine ekf_run(m, p, ifree, x0, bias, t, u, z, s, est, sig, status, msg)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: p(:), x0(:), bias(:), t(:), u(:, :), z(:, :)
+    integer, intent(in) :: ifree(:)
+    type(filter_settings_t), intent(in) :: s
+    real(wp), intent(out) :: est(:, :), sig(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: pc(:, :), phi(:, :), w(:)
+    real(wp) :: xa(m%nx + size(ifree))
+    type(rk_work_t) :: wk
+    type(expm_work_t) :: ew
+    integer :: k, n, i, ierr
+
+    est = 0.0_wp
+    sig = 0.0_wp
+    call filter_check(m, p, ifree, x0, bias, t, u, z, s, 0, status, msg)
+    if (status /= MLID_OK) return
+    n = size(xa)
+    allocate (pc(n, n), phi(n, n), w(m%nw), stat=ierr)
+    if (ierr /= 0) then
+      status = MLID_ERR_MEMORY
+      msg = 'extended Kalman filter: out of memory'
+      return
+    end if
+    call expm_work_size(ew, n)
+    w = 0.0_wp
+    xa = [x0, p(ifree)]
+    pc = 0.0_wp
+    do i = 1, n
+      pc(i, i) = s%p0(i)
+    end do
+    do k = 1, size(t)
+      if (k > 1) then
+        call transition(m, p, ifree, s%delta, t(k) - t(k - 1), t(k - 1), u(:, k - 1), xa, &
+                        phi, ew, status)
+        if (status /= MLID_OK) exit
+        call filter_propagate(m, p, ifree, s, t(k - 1), t(k), u(:, k - 1), u(:, k), w, xa, wk)
+        pc = matmul(phi, matmul(pc, transpose(phi)))
+        do i = 1, n
+          pc(i, i) = pc(i, i) + s%q(i)
+        end do
+      end if
+      call ekf_update(m, p, ifree, bias, s%r, s%delta, t(k), u(:, k), z(:, k), xa, pc, status)
+      if (status /= MLID_OK .or. .not. all(ieee_is_finite(xa))) exit
+      est(:, k) = xa
+      sig(:, k) = sqrt(max([(pc(i, i), i=1, n)], 0.0_wp))
+    end do
+    if (status == MLID_OK .and. k > size(t)) then
+      msg = ''
+      return
+    end if
+    status = MLID_ERR_DIVERGED
+    msg = 'extended Kalman filter diverged at sample '//itoa(k)
+  end subroutine ekf_run
+
+  !> Phi = exp(A dt) of the augmented system at xa, u (the model's exact
+  !> Jacobians; the parameters' rows zero).
+  subroutine transition(m, p, ifree, delta, dt, t0, u0, xa, phi, ew, status)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: p(:), delta, dt, t0, u0(:), xa(:)
+    integer, intent(in) :: ifree(:)
+    real(wp), intent(out) :: phi(:, :)
+    type(expm_work_t), intent(inout) :: ew
+    integer, intent(out) :: status
+    real(wp) :: a(size(xa), size(xa)), pp(size(p)), uw(m%nu + m%nw)
+    integer :: nx
+    nx = m%nx
+    call filter_params(m, p, ifree, xa, pp)
+    uw = 0.0_wp
+    uw(1:m%nu) = u0
+    a = 0.0_wp
+    if (delta > 0.0_wp) then
+      call central_differences(m, p, ifree, t0, uw, xa, delta, .true., a(1:nx, :))
+    else
+      call m%eval(t0, xa(1:nx), uw, pp, ifree, a=a(1:nx, 1:nx), b=a(1:nx, nx + 1:))
+    end if
+    call expm_into(a*dt, phi, status, ew)
+  end subroutine transition
+
+  !> The measurement update at one sample, Joseph form (status /= 0: the
+  !> innovation covariance is singular).
+  subroutine ekf_update(m, p, ifree, bias, r, delta, t, u, z, xa, pc, status)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: p(:), bias(:), r(:), delta, t, u(:), z(:)
+    integer, intent(in) :: ifree(:)
+    real(wp), intent(inout) :: xa(:), pc(:, :)
+    integer, intent(out) :: status
+    real(wp) :: c(m%ny, size(xa)), y(m%ny), sy(m%ny, m%ny), kt(m%ny, size(xa)), &
+                ikc(size(xa), size(xa)), kg(size(xa), m%ny)
+    integer :: i
+    if (delta > 0.0_wp) then
+      call filter_outputs(m, p, ifree, bias, t, u, xa, y)
+      call central_differences(m, p, ifree, t, u, xa, delta, .false., c)
+    else
+      call filter_outputs(m, p, ifree, bias, t, u, xa, y, c)
+    end if
+    kt = matmul(c, pc)                          ! C P (P symmetric: (P C')')
+    sy = matmul(kt, transpose(c))
+    do i = 1, m%ny
+      sy(i, i) = sy(i, i) + r(i)
+    end do
+    call solve(sy, matmul(c, pc), kt, status)   ! K' = S^-1 C P
+    if (status /= 0) return
+    kg = transpose(kt)
+    xa = xa + matmul(kg, z - y)
+    ikc = -matmul(kg, c)
+    do i = 1, size(xa)
+      ikc(i, i) = ikc(i, i) + 1.0_wp
+    end do
+    pc = matmul(ikc, matmul(pc, transpose(ikc)))
+    pc = pc + matmul(kg*spread(r, 1, size(xa)), transpose(kg))
+    pc = 0.5_wp*(pc + transpose(pc))
+  end subroutine ekf_update
+
+  !> The textbook's Jacobians for comparison: d f / d xa (state true; u
+  !> with the noise inputs) or d y / d xa by central differences, each
+  !> entry of xa moved by +-delta.
+  subroutine central_differences(m, p, ifree, t, u, xa, delta, state, jac)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: p(:), t, u(:), xa(:), delta
+    integer, intent(in) :: ifree(:)
+    logical, intent(in) :: state
+    real(wp), intent(out) :: jac(:, :)
+    real(wp) :: xp(size(xa)), pp(size(p)), gp(size(jac, 1)), gm(size(jac, 1)), zb(size(jac, 1))
+    integer :: j
+    zb = 0.0_wp
+    do j = 1, size(xa)
+      xp = xa
+      xp(j) = xa(j) + delta
+      call at(xp, gp)
+      xp(j) = xa(j) - delta
+      call at(xp, gm)
+      jac(:, j) = (gp - gm)/(2.0_wp*delta)
+    end do
+  contains
+    subroutine at(xv, g)
+      real(wp), intent(in) :: xv(:)
+      real(wp), intent(out) :: g(:)
+      if (state) then
+        call filter_params(m, p, ifree, xv, pp)
+        call m%f(t, xv(1:m%nx), u, pp, g)
+      else
+        call filter_outputs(m, p, ifree, zb, t, u, xv, g)
+      end if
+    end subroutine at
+  end subroutine central_differences
+
+end module mlid_online_ekf
