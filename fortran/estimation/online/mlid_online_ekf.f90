@@ -9,14 +9,18 @@
 !>               xa+ = xa- + K (z - y),
 !>               P+ = (I - K C) P- (I - K C)' + K R K'   (Joseph form)
 !>
-!> The textbook's code takes A and C by central differences and Phi by a
-!> 10-term Taylor series; for a model bilinear in states and parameters
-!> (the short period) the differences are exact to rounding.
+!> Phi = [E G; 0 I] with E = exp(F dt), G = int_0^dt exp(F s) ds B (F =
+!> df/dx, B = df/dp), both from one exponential of [F I; 0 0] dt (2 nx
+!> square), and P- and the Joseph form by blocks: O(nx n^2) and O(ny n^2)
+!> a sample, not O(n^3).  The textbook's code takes A and C by central
+!> differences and Phi by a 10-term Taylor series; for a model bilinear in
+!> states and parameters (the short period) the differences are exact to
+!> rounding.
 module mlid_online_ekf
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_MEMORY
   use mlid_models, only: model_t
-  use mlid_linalg, only: expm_into, expm_work_size, expm_work_t, solve
+  use mlid_linalg, only: expm_into, expm_work_size, expm_work_t, chol_inverse
   use mlid_rk, only: rk_work_t
   use mlid_text, only: itoa
   use mlid_online_filter, only: filter_settings_t, filter_check, filter_propagate, &
@@ -38,7 +42,7 @@ contains
     real(wp), intent(out) :: est(:, :), sig(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), allocatable :: pc(:, :), phi(:, :), w(:)
+    real(wp), allocatable :: pc(:, :), phi(:, :), w(:)   ! phi: [E G], nx x n
     real(wp) :: xa(m%nx + size(ifree))
     type(rk_work_t) :: wk
     type(expm_work_t) :: ew
@@ -49,13 +53,13 @@ contains
     call filter_check(m, p, ifree, x0, bias, t, u, z, s, 0, status, msg)
     if (status /= MLID_OK) return
     n = size(xa)
-    allocate (pc(n, n), phi(n, n), w(m%nw), stat=ierr)
+    allocate (pc(n, n), phi(m%nx, n), w(m%nw), stat=ierr)
     if (ierr /= 0) then
       status = MLID_ERR_MEMORY
       msg = 'extended Kalman filter: out of memory'
       return
     end if
-    call expm_work_size(ew, n)
+    call expm_work_size(ew, 2*m%nx)
     w = 0.0_wp
     xa = [x0, p(ifree)]
     pc = 0.0_wp
@@ -68,7 +72,7 @@ contains
                         phi, ew, status)
         if (status /= MLID_OK) exit
         call filter_propagate(m, p, ifree, s, t(k - 1), t(k), u(:, k - 1), u(:, k), w, xa, wk)
-        pc = matmul(phi, matmul(pc, transpose(phi)))
+        call propagate_covariance(m%nx, phi, pc)
         do i = 1, n
           pc(i, i) = pc(i, i) + s%q(i)
         end do
@@ -86,8 +90,9 @@ contains
     msg = 'extended Kalman filter diverged at sample '//itoa(k)
   end subroutine ekf_run
 
-  !> Phi = exp(A dt) of the augmented system at xa, u (the model's exact
-  !> Jacobians; the parameters' rows zero).
+  !> phi = [E G], the states' rows of exp(A dt) for the augmented A =
+  !> [F B; 0 0] at xa, u (the model's exact Jacobians): the exponential of
+  !> [F I; 0 0] dt is [E H; 0 I], H = int_0^dt exp(F s) ds, and G = H B.
   subroutine transition(m, p, ifree, delta, dt, t0, u0, xa, phi, ew, status)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), delta, dt, t0, u0(:), xa(:)
@@ -95,31 +100,54 @@ contains
     real(wp), intent(out) :: phi(:, :)
     type(expm_work_t), intent(inout) :: ew
     integer, intent(out) :: status
-    real(wp) :: a(size(xa), size(xa)), pp(size(p)), uw(m%nu + m%nw)
-    integer :: nx
+    real(wp) :: ab(m%nx, size(xa)), pp(size(p)), uw(m%nu + m%nw), a2(2*m%nx, 2*m%nx), &
+                e2(2*m%nx, 2*m%nx)
+    integer :: nx, i
     nx = m%nx
     call filter_params(m, p, ifree, xa, pp)
     uw = 0.0_wp
     uw(1:m%nu) = u0
-    a = 0.0_wp
     if (delta > 0.0_wp) then
-      call central_differences(m, p, ifree, t0, uw, xa, delta, .true., a(1:nx, :))
+      call central_differences(m, p, ifree, t0, uw, xa, delta, .true., ab)
     else
-      call m%eval(t0, xa(1:nx), uw, pp, ifree, a=a(1:nx, 1:nx), b=a(1:nx, nx + 1:))
+      call m%eval(t0, xa(1:nx), uw, pp, ifree, a=ab(:, 1:nx), b=ab(:, nx + 1:))
     end if
-    call expm_into(a*dt, phi, status, ew)
+    a2 = 0.0_wp
+    a2(1:nx, 1:nx) = ab(:, 1:nx)*dt
+    do i = 1, nx
+      a2(i, nx + i) = dt
+    end do
+    call expm_into(a2, e2, status, ew)
+    phi(:, 1:nx) = e2(1:nx, 1:nx)
+    phi(:, nx + 1:) = matmul(e2(1:nx, nx + 1:), ab(:, nx + 1:))
   end subroutine transition
 
-  !> The measurement update at one sample, Joseph form (status /= 0: the
-  !> innovation covariance is singular).
+  !> P <- Phi P Phi' for Phi = [phi; 0 I] (phi = [E G], the states' rows):
+  !> the parameters' block stays, the states' rows are phi P Phi'.
+  pure subroutine propagate_covariance(nx, phi, pc)
+    integer, intent(in) :: nx
+    real(wp), intent(in) :: phi(:, :)
+    real(wp), intent(inout) :: pc(:, :)
+    real(wp) :: top(nx, size(pc, 1))
+    top = matmul(phi, pc)                                   ! rows 1:nx of Phi P
+    pc(1:nx, 1:nx) = matmul(top(:, 1:nx), transpose(phi(:, 1:nx))) + &
+                     matmul(top(:, nx + 1:), transpose(phi(:, nx + 1:)))
+    pc(1:nx, nx + 1:) = top(:, nx + 1:)
+    pc(nx + 1:, 1:nx) = transpose(top(:, nx + 1:))
+    pc(1:nx, 1:nx) = 0.5_wp*(pc(1:nx, 1:nx) + transpose(pc(1:nx, 1:nx)))
+  end subroutine propagate_covariance
+
+  !> The measurement update at one sample, Joseph form by products with
+  !> C and K alone: with A = P - K (C P), P+ = A - (A C') K' + K R K'
+  !> (status /= 0: the innovation covariance is not positive definite).
   subroutine ekf_update(m, p, ifree, bias, r, delta, t, u, z, xa, pc, status)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), bias(:), r(:), delta, t, u(:), z(:)
     integer, intent(in) :: ifree(:)
     real(wp), intent(inout) :: xa(:), pc(:, :)
     integer, intent(out) :: status
-    real(wp) :: c(m%ny, size(xa)), y(m%ny), sy(m%ny, m%ny), kt(m%ny, size(xa)), &
-                ikc(size(xa), size(xa)), kg(size(xa), m%ny)
+    real(wp) :: c(m%ny, size(xa)), y(m%ny), sy(m%ny, m%ny), si(m%ny, m%ny), cp(m%ny, size(xa)), &
+                kg(size(xa), m%ny), logdet
     integer :: i
     if (delta > 0.0_wp) then
       call filter_outputs(m, p, ifree, bias, t, u, xa, y)
@@ -127,21 +155,18 @@ contains
     else
       call filter_outputs(m, p, ifree, bias, t, u, xa, y, c)
     end if
-    kt = matmul(c, pc)                          ! C P (P symmetric: (P C')')
-    sy = matmul(kt, transpose(c))
+    cp = matmul(c, pc)                          ! C P = (P C')'
+    sy = matmul(cp, transpose(c))
     do i = 1, m%ny
       sy(i, i) = sy(i, i) + r(i)
     end do
-    call solve(sy, matmul(c, pc), kt, status)   ! K' = S^-1 C P
+    call chol_inverse(sy, si, logdet, status)
     if (status /= 0) return
-    kg = transpose(kt)
+    kg = matmul(transpose(cp), si)              ! K = P C' S^-1
     xa = xa + matmul(kg, z - y)
-    ikc = -matmul(kg, c)
-    do i = 1, size(xa)
-      ikc(i, i) = ikc(i, i) + 1.0_wp
-    end do
-    pc = matmul(ikc, matmul(pc, transpose(ikc)))
-    pc = pc + matmul(kg*spread(r, 1, size(xa)), transpose(kg))
+    pc = pc - matmul(kg, cp)                    ! A = (I - K C) P
+    pc = pc - matmul(matmul(pc, transpose(c)), transpose(kg)) + &
+         matmul(kg*spread(r, 1, size(xa)), transpose(kg))
     pc = 0.5_wp*(pc + transpose(pc))
   end subroutine ekf_update
 

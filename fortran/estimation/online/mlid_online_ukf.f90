@@ -10,7 +10,8 @@
 !>              Pxx = sum wc dx dx' + diag(q), Pyy = sum wc dy dy'.
 !>
 !> Sigma points xa +- gamma S(:, i), S the symmetric square root of P
-!> (negative eigenvalues taken as 0), gamma = sqrt(N + lambda),
+!> (negative eigenvalues taken as 0; Jacobi from the last sample's
+!> eigenvectors), gamma = sqrt(N + lambda),
 !> lambda = alpha^2 (N + kappa) - N; weights wm(0) = lambda/(N + lambda),
 !> wc(0) = wm(0) + 1 - alpha^2 + beta, the others 1/(2 (N + lambda)).
 !> Update: K = Pxy Pyy^-1, xa+ = mean + K (z - y mean), P+ = Pxx - K Pyy K'.
@@ -19,7 +20,7 @@ module mlid_online_ukf
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_DIVERGED, MLID_ERR_MEMORY
   use mlid_models, only: model_t
-  use mlid_linalg, only: sym_eig, solve
+  use mlid_linalg, only: sym_sqrt_jacobi, solve
   use mlid_rk, only: rk_work_t
   use mlid_text, only: itoa
   use mlid_online_filter, only: filter_settings_t, filter_check, filter_propagate, &
@@ -33,6 +34,7 @@ module mlid_online_ukf
     integer :: n = 0, na = 0          !< xa's size, the sampled vector's
     real(wp) :: gam = 0.0_wp
     real(wp), allocatable :: wm(:), wc(:), xs(:, :), xt(:, :), ys(:, :)
+    real(wp), allocatable :: basis(:, :)   !< the last covariance's eigenvectors (na, na)
   end type unscented_t
 
 contains
@@ -134,12 +136,16 @@ contains
     if (.not. na + lambda > 0.0_wp) return       ! filter_check says why
     ut%gam = sqrt(na + lambda)
     allocate (ut%wm(0:2*na), ut%wc(0:2*na), ut%xs(na, 0:2*na), ut%xt(n, 0:2*na), &
-              ut%ys(m%ny, 0:2*na), stat=ierr)
+              ut%ys(m%ny, 0:2*na), ut%basis(na, na), stat=ierr)
     if (ierr /= 0) then
       status = MLID_ERR_MEMORY
       msg = 'unscented Kalman filter: out of memory'
       return
     end if
+    ut%basis = 0.0_wp
+    do ierr = 1, na
+      ut%basis(ierr, ierr) = 1.0_wp
+    end do
     ut%wm = 1.0_wp/(2.0_wp*(na + lambda))
     ut%wc = ut%wm
     ut%wm(0) = lambda/(na + lambda)
@@ -154,7 +160,7 @@ contains
     real(wp), intent(in) :: xm(:), pc(:, :)
     type(unscented_t), intent(inout) :: ut
     integer, intent(out) :: status
-    real(wp) :: pa(ut%na, ut%na), ev(ut%na), v(ut%na, ut%na), sq(ut%na, ut%na)
+    real(wp) :: pa(ut%na, ut%na), sq(ut%na, ut%na)
     integer :: i, n
     n = ut%n
     pa = 0.0_wp
@@ -166,9 +172,8 @@ contains
         pa(i, i) = s%r(i - n - nw)
       end if
     end do
-    call sym_eig(pa, ev, v, status)
+    call sym_sqrt_jacobi(pa, ut%basis, sq, status)   ! from the last sample's basis
     if (status /= 0) return
-    sq = matmul(v*spread(sqrt(max(ev, 0.0_wp)), 1, ut%na), transpose(v))
     ut%xs = 0.0_wp
     ut%xs(1:n, :) = spread(xm, 2, 2*ut%na + 1)
     ut%xs(:, 1:ut%na) = ut%xs(:, 1:ut%na) - ut%gam*sq
