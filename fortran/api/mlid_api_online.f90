@@ -47,8 +47,10 @@ contains
   !> parameters (indices into theta's first block p); p0, q (nx + nf): xa's
   !> start and process-noise variances, states first; r (ny); ut = (alpha,
   !> beta, kappa) and kappa_given (0: kappa = 3 - N); delta (> 0: the EKF's
-  !> Jacobians by central differences).  Results: est and sig (nx + nf,
-  !> nt), xa and its sigma after each sample.
+  !> Jacobians by central differences); r_fade (in (0, 1): the EKF's R
+  !> adapted with this fading memory, 0: r given).  Results: est and sig
+  !> (nx + nf, nt), xa and its sigma after each sample; rhist (ny, nt), R's
+  !> diagonal after each (the EKF's).
   subroutine mlid_online_filter(h, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
@@ -99,6 +101,7 @@ contains
     call g%get('ut', ut, status, msg, [3])
     call g%get('kappa_given', kappa_given, status, msg)
     call g%get('delta', fs%delta, status, msg)
+    call g%get('r_fade', fs%r_fade, status, msg)
     if (status /= MLID_OK) return
     fs%alpha = ut(1)
     fs%beta = ut(2)
@@ -118,10 +121,11 @@ contains
     type(named_t), intent(inout) :: results
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), allocatable :: est(:, :), sig(:, :)
+    real(wp), allocatable :: est(:, :), sig(:, :), rhist(:, :)
     type(layout_t) :: l
     integer :: ierr
-    allocate (est(m%nx + size(ifree), size(t)), sig(m%nx + size(ifree), size(t)), stat=ierr)
+    allocate (est(m%nx + size(ifree), size(t)), sig(m%nx + size(ifree), size(t)), &
+              rhist(m%ny, size(t)), stat=ierr)
     if (ierr /= 0) then
       status = MLID_ERR_MEMORY
       msg = 'online filter: out of memory for the history'
@@ -132,7 +136,7 @@ contains
     associate (p => theta(1:m%np), x0 => theta(l%ox0 + 1:l%ox0 + m%nx), &
                bias => theta(l%obias + 1:l%obias + m%ny))
       if (method == 1) then
-        call ekf_run(m, p, ifree, x0, bias, t, u, z, fs, est, sig, status, msg)
+        call ekf_run(m, p, ifree, x0, bias, t, u, z, fs, est, sig, rhist, status, msg)
       else
         call ukf_run(m, p, ifree, x0, bias, t, u, z, fs, method == 3, est, sig, status, msg)
       end if
@@ -140,6 +144,7 @@ contains
     if (status /= MLID_OK) return
     call results%put('est', est)
     call results%put('sig', sig)
+    if (method == 1) call results%put('rhist', rhist)
   end subroutine run_filter
 
 end module mlid_api_online

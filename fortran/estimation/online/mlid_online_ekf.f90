@@ -15,7 +15,8 @@
 !> a sample, not O(n^3).  The textbook's code takes A and C by central
 !> differences and Phi by a 10-term Taylor series; for a model bilinear in
 !> states and parameters (the short period) the differences are exact to
-!> rounding.
+!> rounding.  R is given, or adapted from the residuals after each update
+!> (adapt_r).
 module mlid_online_ekf
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_MEMORY
@@ -33,26 +34,30 @@ contains
 
   !> est(:, k), sig(:, k): xa+ and sqrt(diag P+) after sample k of the
   !> record (t, u, z), from the states x0 and the model parameters p (its
-  !> free ones ifree the start of their estimates), output biases bias.
-  subroutine ekf_run(m, p, ifree, x0, bias, t, u, z, s, est, sig, status, msg)
+  !> free ones ifree the start of their estimates), output biases bias;
+  !> rhist(:, k): R's diagonal used at sample k+1 (s%r throughout unless
+  !> adaptive, s%r_fade > 0: adapt_r).
+  subroutine ekf_run(m, p, ifree, x0, bias, t, u, z, s, est, sig, rhist, status, msg)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), x0(:), bias(:), t(:), u(:, :), z(:, :)
     integer, intent(in) :: ifree(:)
     type(filter_settings_t), intent(in) :: s
-    real(wp), intent(out) :: est(:, :), sig(:, :)
+    real(wp), intent(out) :: est(:, :), sig(:, :), rhist(:, :)
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: pc(:, :), phi(:, :), w(:)   ! phi: [E G], nx x n
-    real(wp) :: xa(m%nx + size(ifree))
+    real(wp) :: xa(m%nx + size(ifree)), r(m%ny), c(m%ny, m%nx + size(ifree))
     type(rk_work_t) :: wk
     type(expm_work_t) :: ew
     integer :: k, n, i, ierr
 
     est = 0.0_wp
     sig = 0.0_wp
+    rhist = 0.0_wp
     call filter_check(m, p, ifree, x0, bias, t, u, z, s, 0, status, msg)
     if (status /= MLID_OK) return
     n = size(xa)
+    r = s%r
     allocate (pc(n, n), phi(m%nx, n), w(m%nw), stat=ierr)
     if (ierr /= 0) then
       status = MLID_ERR_MEMORY
@@ -77,8 +82,11 @@ contains
           pc(i, i) = pc(i, i) + s%q(i)
         end do
       end if
-      call ekf_update(m, p, ifree, bias, s%r, s%delta, t(k), u(:, k), z(:, k), xa, pc, status)
+      call ekf_update(m, p, ifree, bias, r, s%delta, t(k), u(:, k), z(:, k), xa, pc, c, status)
       if (status /= MLID_OK .or. .not. all(ieee_is_finite(xa))) exit
+      if (s%r_fade > 0.0_wp) call adapt_r(m, p, ifree, bias, t(k), u(:, k), z(:, k), xa, pc, c, &
+                                          1.0_wp - s%r_fade**k, s%r_fade, r)
+      rhist(:, k) = r
       est(:, k) = xa
       sig(:, k) = sqrt(max([(pc(i, i), i=1, n)], 0.0_wp))
     end do
@@ -140,13 +148,14 @@ contains
   !> The measurement update at one sample, Joseph form by products with
   !> C and K alone: with A = P - K (C P), P+ = A - (A C') K' + K R K'
   !> (status /= 0: the innovation covariance is not positive definite).
-  subroutine ekf_update(m, p, ifree, bias, r, delta, t, u, z, xa, pc, status)
+  subroutine ekf_update(m, p, ifree, bias, r, delta, t, u, z, xa, pc, c, status)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), bias(:), r(:), delta, t, u(:), z(:)
     integer, intent(in) :: ifree(:)
     real(wp), intent(inout) :: xa(:), pc(:, :)
+    real(wp), intent(out) :: c(:, :)            !< dy/dxa at the prediction
     integer, intent(out) :: status
-    real(wp) :: c(m%ny, size(xa)), y(m%ny), sy(m%ny, m%ny), si(m%ny, m%ny), cp(m%ny, size(xa)), &
+    real(wp) :: y(m%ny), sy(m%ny, m%ny), si(m%ny, m%ny), cp(m%ny, size(xa)), &
                 kg(size(xa), m%ny), logdet
     integer :: i
     if (delta > 0.0_wp) then
@@ -169,6 +178,26 @@ contains
          matmul(kg*spread(r, 1, size(xa)), transpose(kg))
     pc = 0.5_wp*(pc + transpose(pc))
   end subroutine ekf_update
+
+  !> Adaptive R (Sage and Husa's fading memory, diagonal): from the
+  !> residual e = z - y(xa+) after the update, E{e e'} = R - C P+ C', so
+  !>   R <- (1 - dk) R + dk (e^2 + diag(C P+ C')),  dk = (1 - b)/(1 - b^k),
+  !> b the fading factor (about 1/(1 - b) samples remembered); wk = 1 - b^k.
+  subroutine adapt_r(m, p, ifree, bias, t, u, z, xa, pc, c, wk, b, r)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: p(:), bias(:), t, u(:), z(:), xa(:), pc(:, :), c(:, :), wk, b
+    integer, intent(in) :: ifree(:)
+    real(wp), intent(inout) :: r(:)
+    real(wp) :: y(m%ny), cp(m%ny, size(xa)), dk
+    integer :: i
+    call filter_outputs(m, p, ifree, bias, t, u, xa, y)
+    cp = matmul(c, pc)
+    dk = (1.0_wp - b)/wk
+    do i = 1, m%ny
+      r(i) = (1.0_wp - dk)*r(i) + dk*((z(i) - y(i))**2 + dot_product(cp(i, :), c(i, :)))
+    end do
+    r = max(r, tiny(1.0_wp))
+  end subroutine adapt_r
 
   !> The textbook's Jacobians for comparison: d f / d xa (state true; u
   !> with the noise inputs) or d y / d xa by central differences, each

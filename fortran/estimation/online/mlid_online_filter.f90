@@ -32,6 +32,7 @@ module mlid_online_filter
     logical :: hold = .false.
     integer :: nsub = 1
     real(wp) :: delta = 0.0_wp   !< > 0: the EKF's Jacobians by central differences (the textbook's)
+    real(wp) :: r_fade = 0.0_wp  !< in (0, 1): the EKF's R adapted, this fading memory (0: R given)
   end type filter_settings_t
 
 contains
@@ -113,6 +114,10 @@ contains
       msg = 'online filter: the times must increase'
     else if (.not. (s%delta >= 0.0_wp .and. ieee_is_finite(s%delta))) then
       msg = 'the difference step delta must be >= 0 (0: exact Jacobians) and finite'
+    else if (.not. (s%r_fade >= 0.0_wp .and. s%r_fade < 1.0_wp)) then
+      msg = 'the fading factor of the adaptive R must be in [0, 1) (0: R given)'
+    else if (ukf_dim > 0 .and. s%r_fade > 0.0_wp) then
+      msg = 'the adaptive R is the extended Kalman filter''s only'
     else if (ukf_dim > 0) then
       call check_unscented(s, ukf_dim, msg)
     end if

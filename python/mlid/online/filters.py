@@ -24,7 +24,7 @@ def _per_entry(name, value, n, what):
     return a
 
 
-def _run(method, model, data, free, p0, q, r, ut, delta):
+def _run(method, model, data, free, p0, q, r, ut, delta, r_fading=0.0):
     _check_model(model)
     if not isinstance(data, FlightData):
         raise InputError("data must be one FlightData (the filters run on one record; join "
@@ -54,12 +54,14 @@ def _run(method, model, data, free, p0, q, r, ut, delta):
     alpha, beta, kappa = ut
     _put(h, method=_METHODS[method], ifree=np.array(idx, dtype=np.int32) + 1, p0=p0, q=q, r=r,
          ut=np.array([alpha, beta, 0.0 if kappa is None else kappa], dtype=float),
-         kappa_given=int(kappa is not None), delta=float(delta))
+         kappa_given=int(kappa is not None), delta=float(delta), r_fade=float(r_fading))
     out = _run_call(h, _api.mlid_online_filter)
     est, sig = out["est"], out["sig"]
     nx = model.nx
+    noise = out["rhist"].T.copy() if r_fading else None
     return OnlineEstimate(t, labels, est[nx:].T.copy(), sig[nx:].T.copy(),
-                          states=est[:nx].T.copy(), states_sigma=sig[:nx].T.copy())
+                          states=est[:nx].T.copy(), states_sigma=sig[:nx].T.copy(),
+                          noise=noise)
 
 
 _PARAMS = """
@@ -99,7 +101,7 @@ def _doc(f):
 
 @guarded
 @_doc
-def ekf(model, data, free=None, p0=10.0, q=0.0, r=None, differences=0.0):
+def ekf(model, data, free=None, p0=10.0, q=0.0, r=None, differences=0.0, r_fading=0.0):
     """Extended Kalman filter with the state augmented by the free parameters
     (fortran/estimation/online/mlid_online_ekf.f90): the model's integration
     from sample to sample, Phi = exp(A dt) with the model's exact Jacobians,
@@ -108,6 +110,11 @@ def ekf(model, data, free=None, p0=10.0, q=0.0, r=None, differences=0.0):
     {params}    differences : float
         > 0: the Jacobians by central differences with this step instead
         (the textbook's choice, for comparison).
+    r_fading : float
+        In (0, 1): R adapted after each update from the residuals, with
+        this fading memory b (R = (1 - d) R + d (e^2 + diag C P C'), d =
+        (1 - b)/(1 - b^k), Sage and Husa; about 1/(1 - b) samples
+        remembered), r its start; the history in ``noise``.  0: r given.
     {returns}
     Examples
     --------
@@ -123,7 +130,7 @@ def ekf(model, data, free=None, p0=10.0, q=0.0, r=None, differences=0.0):
     >>> round(est.final["M_de"], 1)
     -6.0
     """
-    return _run("ekf", model, data, free, p0, q, r, (0.5, 2.0, None), differences)
+    return _run("ekf", model, data, free, p0, q, r, (0.5, 2.0, None), differences, r_fading)
 
 
 @guarded

@@ -23,12 +23,15 @@ class OnlineEstimate:
     states, states_sigma : ndarray (n, nx) or None
         A filter's state estimates and their sigma after each sample (None
         for a regression).
+    noise : ndarray (n, ny) or None
+        An adaptive filter's measurement-noise variances after each sample
+        (None when they were given).
     """
 
-    def __init__(self, t, names, estimates, sigma, states=None, states_sigma=None):
+    def __init__(self, t, names, estimates, sigma, states=None, states_sigma=None, noise=None):
         self.t, self.names = t, list(names)
         self.estimates, self.sigma = estimates, sigma
-        self.states, self.states_sigma = states, states_sigma
+        self.states, self.states_sigma, self.noise = states, states_sigma, noise
 
     @property
     def final(self):
