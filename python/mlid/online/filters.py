@@ -95,7 +95,10 @@ _RETURNS = """
 
 
 def _doc(f):
-    f.__doc__ = f.__doc__.format(params=_PARAMS, returns=_RETURNS)
+    """Fill the shared parameters and returns into f's docstring (none under
+    python -OO)."""
+    if f.__doc__ is not None:
+        f.__doc__ = f.__doc__.format(params=_PARAMS, returns=_RETURNS)
     return f
 
 
