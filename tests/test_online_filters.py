@@ -107,7 +107,7 @@ def test_tc11_exact_jacobians_against_central_differences():
     Phi by a 10-term Taylor series; mlid takes the model's exact Jacobians
     and exp(A dt).  The short-period model is bilinear in states and
     parameters, where a central difference is exact but for rounding: the
-    two choices differ by 7e-8 of the reference's sigma on test case 11,
+    two choices differ by 1.1e-7 of the reference's sigma on test case 11,
     and both lie on the reference.  A coarse step on a model that is not
     bilinear in one variable (M_alpha alpha^3 below) does move the
     result."""
