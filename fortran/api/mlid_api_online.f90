@@ -1,20 +1,31 @@
 !> The flat interface's online (recursive) estimation.  Recursive least
 !> squares takes its few arrays directly (a regression, not a model); the
 !> estimators on a record take the handle alone (mlid_api_frequency's
-!> comment).  Conventions: mlid_api_deck's comment.
+!> comment); the augmented-state filters (mlid_online_filter) take a call
+!> handle's model, parameters, record and options (mlid_api_problem).
+!> Conventions: mlid_api_deck's comment.
 module mlid_api_online
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use mlid_kinds, only: wp, MLID_OK
-  use mlid_handles, only: session_t, call_session
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_MEMORY
   use mlid_problem, only: problem_needs, PART_RECORD
   use mlid_rls, only: rls_settings_t, rls_run
   use mlid_ftr, only: ftr_settings_t, ftr_run
   use mlid_online_history, only: convergence_times
+  use mlid_models, only: model_t, layout_t, model_layout
+  use mlid_options, only: options_t
+  use mlid_params, only: param_map_t
+  use mlid_setup, only: problem_setup
+  use mlid_handles, only: session_t, call_session
+  use mlid_named, only: named_t
+  use mlid_online_filter, only: filter_settings_t
+  use mlid_online_ekf, only: ekf_run
+  use mlid_online_ukf, only: ukf_run
   implicit none
   private
-  public :: mlid_rls, mlid_ftr, mlid_convergence_times
+  public :: mlid_rls, mlid_ftr, mlid_convergence_times, mlid_online_filter
 
   real(wp), parameter :: PI = 4.0_wp*atan(1.0_wp)
+
 
 contains
 
@@ -85,5 +96,113 @@ contains
     real(c_double), intent(out) :: tc(np)
     tc = convergence_times(t, est, sig, width)
   end subroutine mlid_convergence_times
+  !> An augmented-state filter on the problem of handle h: its model at
+  !> the parameters given (x0 and the output biases fixed, the noise
+  !> inputs' variances q for the augmented-noise UKF), one record (one
+  !> manoeuvre), the options' input hold and RK4 substeps; the problem's
+  !> own free set is not used.  Given values (mlid_api_values): method (1
+  !> EKF, 2 UKF, 3 the augmented-noise UKF); ifree, the free model
+  !> parameters (indices into theta's first block p); p0, q (nx + nf): xa's
+  !> start and process-noise variances, states first; r (ny); ut = (alpha,
+  !> beta, kappa) and kappa_given (0: kappa = 3 - N); delta (> 0: the EKF's
+  !> Jacobians by central differences); r_fade (in (0, 1): the EKF's R
+  !> adapted with this fading memory, 0: r given).  Results: est and sig
+  !> (nx + nf, nt), xa and its sigma after each sample; rhist (ny, nt), R's
+  !> diagonal after each (the EKF's).
+  subroutine mlid_online_filter(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: se
+    class(model_t), allocatable :: m
+    type(options_t) :: opt
+    type(param_map_t) :: pm
+    type(filter_settings_t) :: fs
+    integer, allocatable :: ifree(:)
+    integer :: method, st
+
+    call call_session(h, se, status, msg)
+    if (status /= MLID_OK) return
+    associate (p => se%problem, g => se%given)
+      call problem_setup(p, m, opt, pm, st, msg)
+      if (st == MLID_OK) call g%get('method', method, st, msg)
+      if (st == MLID_OK) call g%get('ifree', ifree, st, msg)
+      if (st == MLID_OK) call given_settings(g, m, size(ifree), opt, fs, st, msg)
+      status = st
+      if (st /= MLID_OK) return
+      status = MLID_ERR_INPUT
+      if (method < 1 .or. method > 3) then
+        msg = 'online filter method must be 1 (EKF), 2 (UKF) or 3 (augmented-noise UKF)'
+      else if (size(p%segstart) /= 1) then
+        msg = 'the online filters run on one record: join the manoeuvres into one'
+      else
+        call run_filter(m, method, ifree, fs, p%theta, p%t, p%u, p%y, se%results, st, msg)
+        status = st
+      end if
+    end associate
+  end subroutine mlid_online_filter
+
+  !> The filter settings from the given values and the options.
+  subroutine given_settings(g, m, nf, opt, fs, status, msg)
+    type(named_t), intent(in) :: g
+    class(model_t), intent(in) :: m
+    integer, intent(in) :: nf
+    type(options_t), intent(in) :: opt
+    type(filter_settings_t), intent(out) :: fs
+    integer, intent(inout) :: status
+    character(len=*), intent(inout) :: msg
+    real(wp), allocatable :: ut(:)
+    integer :: kappa_given
+    call g%get('p0', fs%p0, status, msg, [m%nx + nf])
+    call g%get('q', fs%q, status, msg, [m%nx + nf])
+    call g%get('r', fs%r, status, msg, [m%ny])
+    call g%get('ut', ut, status, msg, [3])
+    call g%get('kappa_given', kappa_given, status, msg)
+    call g%get('delta', fs%delta, status, msg)
+    call g%get('r_fade', fs%r_fade, status, msg)
+    if (status /= MLID_OK) return
+    fs%alpha = ut(1)
+    fs%beta = ut(2)
+    fs%kappa = ut(3)
+    fs%kappa_given = kappa_given /= 0
+    fs%hold = opt%hold
+    fs%nsub = opt%substeps
+  end subroutine given_settings
+
+  !> The filter on the record (t, u, z) from theta's model parameters, x0
+  !> and biases; est and sig into the results.
+  subroutine run_filter(m, method, ifree, fs, theta, t, u, z, results, status, msg)
+    class(model_t), intent(in) :: m
+    integer, intent(in) :: method, ifree(:)
+    type(filter_settings_t), intent(inout) :: fs
+    real(wp), intent(in) :: theta(:), t(:), u(:, :), z(:, :)
+    type(named_t), intent(inout) :: results
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: est(:, :), sig(:, :), rhist(:, :)
+    type(layout_t) :: l
+    integer :: ierr
+    allocate (est(m%nx + size(ifree), size(t)), sig(m%nx + size(ifree), size(t)), &
+              rhist(m%ny, size(t)), stat=ierr)
+    if (ierr /= 0) then
+      status = MLID_ERR_MEMORY
+      msg = 'online filter: out of memory for the history'
+      return
+    end if
+    l = model_layout(m)
+    fs%qw = theta(l%oq + 1:l%oq + m%nw)
+    associate (p => theta(1:m%np), x0 => theta(l%ox0 + 1:l%ox0 + m%nx), &
+               bias => theta(l%obias + 1:l%obias + m%ny))
+      if (method == 1) then
+        call ekf_run(m, p, ifree, x0, bias, t, u, z, fs, est, sig, rhist, status, msg)
+      else
+        call ukf_run(m, p, ifree, x0, bias, t, u, z, fs, method == 3, est, sig, status, msg)
+      end if
+    end associate
+    if (status /= MLID_OK) return
+    call results%put('est', est)
+    call results%put('sig', sig)
+    if (method == 1) call results%put('rhist', rhist)
+  end subroutine run_filter
 
 end module mlid_api_online

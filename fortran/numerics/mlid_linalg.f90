@@ -9,7 +9,7 @@ module mlid_linalg
   private
   public :: add_sym_atb, add_syrk, add_atv, sym_atb_t, pair_rows, sym_eig, chol_inverse, chol_solve, &
             psd_factor, info_inverse, info_eig, eig_inverse, expm, expm_into, expm_work_size, &
-            expm_work_t, solve, independent_columns, general_eig
+            expm_work_t, solve, independent_columns, general_eig, sym_sqrt_jacobi
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -312,6 +312,89 @@ contains
     call dsyevr('V', 'A', 'L', n, acopy, n, 0.0_wp, 0.0_wp, 0, 0, 0.0_wp, m, w, v, n, &
                 isuppz, work, size(work), iwork, size(iwork), info)
   end subroutine sym_eig
+
+  !> The symmetric square root s of a symmetric matrix A = V diag(w) V'
+  !> (s = V diag(sqrt(max(w, 0))) V', negative eigenvalues taken as 0), by
+  !> cyclic Jacobi rotations started from v, an orthogonal basis near A's
+  !> eigenvectors (the identity when none is known); v on exit is the
+  !> basis reached.  B = V' A V is rotated while an off-diagonal entry
+  !> exceeds 1e-8 (d_p + d_q) min(d_p, d_q), d = sqrt(max(diag B, 0)) (and
+  !> eps max|diag B|: rounding); then sqrt(B) is taken to first order in the
+  !> entries left, sqrt(B)_pq = b_pq/(d_p + d_q): the second order is below
+  !> 1e-16 of each entry's own scale.  From the basis of a matrix close
+  !> by (a filter's covariance a sample before) a sweep or two do, or none,
+  !> where a fresh decomposition (sym_eig) costs several times more.
+  !> info = 1: no convergence in 40 sweeps.
+  pure subroutine sym_sqrt_jacobi(a, v, s, info)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(inout) :: v(:, :)
+    real(wp), intent(out) :: s(:, :)
+    integer, intent(out) :: info
+    real(wp), parameter :: tol = 1.0e-8_wp
+    real(wp) :: b(size(a, 1), size(a, 1)), d(size(a, 1)), floor
+    integer :: sweep, p, q, n
+    logical :: rotated
+    n = size(a, 1)
+    b = matmul(transpose(v), matmul(a, v))
+    d = sqrt(max([(b(p, p), p=1, n)], 0.0_wp))
+    floor = epsilon(tol)*maxval(abs([(b(p, p), p=1, n)]))
+    info = 1
+    do sweep = 1, 40
+      rotated = .false.
+      do q = 2, n
+        do p = 1, q - 1
+          if (abs(b(p, q)) <= max(tol*(d(p) + d(q))*min(d(p), d(q)), floor)) cycle
+          call jacobi_rotate(b, v, p, q)
+          d(p) = sqrt(max(b(p, p), 0.0_wp))
+          d(q) = sqrt(max(b(q, q), 0.0_wp))
+          rotated = .true.
+        end do
+      end do
+      if (.not. rotated) then
+        info = 0
+        exit
+      end if
+    end do
+    do q = 1, n
+      do p = 1, n
+        b(p, q) = merge(b(p, q)/(d(p) + d(q)), 0.0_wp, p /= q .and. d(p) + d(q) > 0.0_wp)
+      end do
+      b(q, q) = d(q)
+    end do
+    s = matmul(v, matmul(b, transpose(v)))
+  end subroutine sym_sqrt_jacobi
+
+  !> One Jacobi rotation zeroing b(p, q) (p /= q) of the symmetric b,
+  !> b <- J' b J, v <- v J: columns p and q turned, then copied to the rows.
+  pure subroutine jacobi_rotate(b, v, p, q)
+    real(wp), intent(inout) :: b(:, :), v(:, :)
+    integer, intent(in) :: p, q
+    real(wp) :: theta, t, c, sn, bp, bq, app, aqq, apq
+    integer :: r
+    app = b(p, p)
+    aqq = b(q, q)
+    apq = b(p, q)
+    theta = (aqq - app)/(2.0_wp*apq)
+    t = sign(1.0_wp, theta)/(abs(theta) + sqrt(theta**2 + 1.0_wp))
+    c = 1.0_wp/sqrt(t**2 + 1.0_wp)
+    sn = t*c
+    do r = 1, size(b, 1)
+      bp = b(r, p)
+      bq = b(r, q)
+      b(r, p) = c*bp - sn*bq
+      b(r, q) = sn*bp + c*bq
+      bp = v(r, p)
+      bq = v(r, q)
+      v(r, p) = c*bp - sn*bq
+      v(r, q) = sn*bp + c*bq
+    end do
+    b(p, :) = b(:, p)
+    b(q, :) = b(:, q)
+    b(p, p) = app - t*apq
+    b(q, q) = aqq + t*apq
+    b(p, q) = 0.0_wp
+    b(q, p) = 0.0_wp
+  end subroutine jacobi_rotate
 
   !> The eigenvalues wr + i wi of a general square matrix (no vectors).
   !> info /= 0 reports a LAPACK failure.

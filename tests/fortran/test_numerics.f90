@@ -62,7 +62,7 @@ program test_numerics
   use mlid_options, only: options_t
   use mlid_filter, only: oe_predict
   use mlid_linalg, only: sym_eig, chol_inverse, chol_solve, independent_columns, add_sym_atb, psd_factor, &
-                         sym_atb_t, pair_rows
+                         sym_atb_t, pair_rows, sym_sqrt_jacobi
   use mlid_random, only: rng_t, rng_seed, rng_normal
   use mlid_text, only: itoa
   use test_checks, only: check, finish
@@ -87,6 +87,7 @@ program test_numerics
   call test_sym_order()
   call test_fft()
   call test_independent_columns()
+  call test_sym_sqrt_jacobi()
   call test_colored_paths()
   call finish()
 
@@ -97,6 +98,49 @@ contains
   !> rank, never the zero one, and the kept columns span every column (the
   !> least-squares residual of each on them within rounding of its size);
   !> independent columns are all kept.
+  !> The symmetric square root by Jacobi rotations (the UKF's sigma
+  !> points): s s = A and s symmetric for a covariance whose eigenvalues
+  !> span 1e-8 to 10, from the identity and warm from the basis of a matrix
+  !> close by; equal to sym_eig's V diag(sqrt w) V'; a negative eigenvalue
+  !> taken as 0.
+  subroutine test_sym_sqrt_jacobi()
+    type(rng_t) :: r
+    real(wp) :: b(10, 10), a(10, 10), v(10, 10), s(10, 10), w(10), ve(10, 10), ref(10, 10)
+    integer :: j, info, info2
+    call rng_seed(r, 17)
+    do j = 1, 10
+      b(:, j) = normals(r, 10)*10.0_wp**(-0.4_wp*j)
+    end do
+    a = matmul(b, transpose(b))
+    v = 0.0_wp
+    do j = 1, 10
+      v(j, j) = 1.0_wp
+    end do
+    call sym_sqrt_jacobi(a, v, s, info)
+    call sym_eig(a, w, ve, info2)
+    ref = matmul(ve*spread(sqrt(max(w, 0.0_wp)), 1, 10), transpose(ve))
+    call check(info == 0 .and. info2 == 0, 'sym_sqrt_jacobi converges')
+    call check(maxval(abs(matmul(s, s) - a)) < 1.0e-13_wp*maxval(abs(a)), &
+               'sym_sqrt_jacobi: s s = A')
+    call check(maxval(abs(s - transpose(s))) < 1.0e-14_wp*maxval(abs(s)) .and. &
+               maxval(abs(s - ref)) < 1.0e-12_wp*maxval(abs(ref)), &
+               'sym_sqrt_jacobi: symmetric, sym_eig''s square root')
+    a(3, 3) = a(3, 3)*(1.0_wp + 1.0e-3_wp)        ! close by: warm from the basis reached
+    call sym_sqrt_jacobi(a, v, s, info)
+    call check(info == 0 .and. maxval(abs(matmul(s, s) - a)) < 1.0e-13_wp*maxval(abs(a)), &
+               'sym_sqrt_jacobi from a nearby basis')
+    w = [4.0_wp, -1.0_wp, 1.0_wp, 2.0_wp, 0.5_wp, 3.0_wp, 1.5_wp, 2.5_wp, 0.7_wp, 0.2_wp]
+    a = matmul(ve*spread(w, 1, 10), transpose(ve))   ! sym_eig's basis, one eigenvalue < 0
+    ref = matmul(ve*spread(sqrt(max(w, 0.0_wp)), 1, 10), transpose(ve))
+    v = 0.0_wp
+    do j = 1, 10
+      v(j, j) = 1.0_wp
+    end do
+    call sym_sqrt_jacobi(a, v, s, info)
+    call check(info == 0 .and. maxval(abs(s - ref)) < 1.0e-13_wp, &
+               'sym_sqrt_jacobi takes negative eigenvalues as 0')
+  end subroutine test_sym_sqrt_jacobi
+
   subroutine test_independent_columns()
     type(rng_t) :: r
     real(wp) :: b(40, 7), a(7, 7), x(7), res(40), worst

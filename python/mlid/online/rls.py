@@ -21,11 +21,18 @@ class OnlineEstimate:
         The estimate and its sigma at each point of the history (each
         sample, or each solve); NaN where there is none yet (rls: sigma 0
         until there are more samples, weighted, than parameters).
+    states, states_sigma : ndarray (n, nx) or None
+        A filter's state estimates and their sigma after each sample (None
+        for a regression).
+    noise : ndarray (n, ny) or None
+        An adaptive filter's measurement-noise variances after each sample
+        (None when they were given).
     """
 
-    def __init__(self, t, names, estimates, sigma):
+    def __init__(self, t, names, estimates, sigma, states=None, states_sigma=None, noise=None):
         self.t, self.names = t, list(names)
         self.estimates, self.sigma = estimates, sigma
+        self.states, self.states_sigma, self.noise = states, states_sigma, noise
 
     @property
     def final(self):
