@@ -97,8 +97,9 @@ def test_tc11_online_deck_reproduces_the_textbooks_ftr(tmp_path):
 
 
 @pytest.mark.parametrize("change, new, message", [
-    ("&online f_min", "&online estimator = 'ekf', f_min",
-     "group &online: estimator must be 'ftr' (Fourier-transform regression), not 'ekf'"),
+    ("&online f_min", "&online estimator = 'kalman', f_min",
+     "group &online: estimator must be 'ftr' (Fourier-transform regression), 'ekf', 'ukf' or "
+     "'ukf_augmented' (the augmented-state filters), not 'kalman'"),
     ("n_freq = 28", "n_freq = 1", "the band needs 0 < f_min < f_max (Hz) and n_freq >= 2"),
     ("every = 50", "every = 0", "every (samples between solves) must be >= 1"),
     (", out = 'hist.dat'", "", "out (the record of the estimates' history to write) is missing"),
@@ -114,3 +115,29 @@ def test_bad_online_settings_one_line(tmp_path, change, new, message):
     deck.write_text(text)
     refused_by_both(deck, message, cwd=tmp_path)
     assert not (tmp_path / "hist.dat").exists()
+
+
+@needs_data
+@pytest.mark.parametrize("estimator, ref_name", [("ekf", "EKF"), ("ukf", "UKF")])
+def test_tc11_online_filter_decks_reproduce_the_textbooks(tmp_path, estimator, ref_name):
+    """cases/online/tc11_ekf.nml (and the same with estimator 'ukf'): the
+    textbook's test case 11 by the augmented-state filters, its header's
+    settings, in both front ends alike; every sample's estimates within 1e-6
+    of the reference's sigma (the deck's f(1,2) is the reference's 1 + Zq)."""
+    import pandas as pd
+    deck = tmp_path / "tc11.nml"
+    text = (REPO / "cases" / "online" / "tc11_ekf.nml").read_text()
+    deck.write_text(text.replace("../../../shared", str(REPO.parent / "shared"))
+                    .replace("estimator = 'ekf'", f"estimator = '{estimator}'"))
+    runs = run_both(deck, "--json", "{exe}.json", cwd=tmp_path)
+    assert runs[0].returncode == 0 and runs[0].stdout == runs[1].stdout, runs[0].stderr
+    assert (tmp_path / "mlid.json").read_bytes() == (tmp_path / "mlid-batch.json").read_bytes()
+    out = json.loads((tmp_path / "mlid.json").read_text())[0]
+    ref = pd.read_csv(DATA / "refs" / "recursive" / f"hist_tc11_{ref_name}.csv")
+    names = ["Z0", "Zal", "Zq", "Zde", "M0", "Mal", "Mq", "Mde"]
+    est = np.array(out["estimates"])
+    est[:, out["parameters"].index("Zq1")] -= 1.0
+    order = [out["parameters"].index("Zq1" if n == "Zq" else n) for n in names]
+    ref_est = ref[names].to_numpy()
+    ref_sig = ref[[f"sig_{n}" for n in names]].to_numpy()
+    assert np.max(np.abs(est[:, order] - ref_est) / ref_sig) < 1e-6

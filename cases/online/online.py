@@ -1,8 +1,10 @@
 """Online estimation against the textbook software's recursive estimators
 (FVSysID chapter 7, ../shared/data/refs/recursive/): test case 11 by
-Fourier-transform regression as a deck (tc11_ftr.nml, both front ends run
-it alike) and test case 23's six aerodynamic regressions by recursive least
-squares in Python; every number README.md quotes is printed here.
+Fourier-transform regression (tc11_ftr.nml) and by the augmented-state
+extended and unscented Kalman filters (tc11_ekf.nml, and the same deck
+with estimator 'ukf') as decks, both front ends run them alike, and test
+case 23's six aerodynamic regressions by recursive least squares in
+Python; every number README.md quotes is printed here.
 
     python cases/online/online.py
 """
@@ -51,6 +53,34 @@ def ftr_against_reference():
           f"{dev1[later].max():.4f} sigma, at the last solve {dev1[-1].max():.4f} sigma")
 
 
+def filters_against_reference():
+    """The EKF deck, and the same deck with the unscented filter: every
+    sample's estimates against the reference's history (its Zq is the
+    deck's f(1,2) - 1)."""
+    import pandas as pd
+    import tempfile
+    names = ["Z0", "Zal", "Zq", "Zde", "M0", "Mal", "Mq", "Mde"]
+    text = (HERE / "tc11_ekf.nml").read_text()
+    for estimator, ref_name in (("ekf", "EKF"), ("ukf", "UKF")):
+        with tempfile.TemporaryDirectory() as tmp:
+            deck = Path(tmp) / "tc11.nml"
+            deck.write_text(text.replace("../../../shared", str(HERE.parents[2] / "shared"))
+                            .replace("estimator = 'ekf'", f"estimator = '{estimator}'"))
+            case, out, _, error = next(iter_deck(deck))
+        if error:
+            sys.exit(f"{case.where()}: {error}")
+        ref = pd.read_csv(REFS / f"hist_tc11_{ref_name}.csv")
+        est = np.array(out["estimates"])
+        est[:, out["parameters"].index("Zq1")] -= 1.0
+        order = [out["parameters"].index("Zq1" if n == "Zq" else n) for n in names]
+        sig = ref[[f"sig_{n}" for n in names]].to_numpy()
+        dev = np.abs(est[:, order] - ref[names].to_numpy()) / sig
+        ratio = np.array(out["sigma"])[-1, order] / sig[-1]
+        print(f"test case 11, {ref_name} deck: {len(out['t'])} samples; largest |ours - "
+              f"reference| at any sample {dev.max():.1e} sigma; sigma ratios at the last "
+              f"{ratio.min():.6f} to {ratio.max():.6f}")
+
+
 def _tc11():
     cols = (["T[s]"] + [f"c{i}" for i in range(2, 8)] + ["QRGY[deg/s]"]
             + [f"c{i}" for i in range(9, 13)] + ["ALCG[deg]"] + [f"c{i}" for i in range(14, 22)]
@@ -83,6 +113,7 @@ def main():
     if not (REFS / "hist_tc11_FTR.csv").is_file():
         sys.exit(f"the references are not under {REFS}")
     ftr_against_reference()
+    filters_against_reference()
     rls_against_reference()
 
 

@@ -17,13 +17,18 @@ module mlid_case
   implicit none
   private
   public :: case_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
-            CONDITION_NAMES
+            CONDITION_NAMES, ONLINE_ESTIMATORS
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512
   integer, parameter :: MAXSEG = 20     !< manoeuvres (data files) per case
   !> Samples of a simulated record at the most: checked before anything is
   !> allocated (a real manoeuvre has thousands).
   integer, parameter :: MAX_SAMPLES = 10000000
+  !> &online's estimators: Fourier-transform regression, the augmented-state
+  !> extended and unscented Kalman filters (the unscented in its standard
+  !> and its augmented-noise form)
+  character(len=16), parameter :: ONLINE_ESTIMATORS(4) = [character(len=16) :: 'ftr', 'ekf', &
+                                                          'ukf', 'ukf_augmented']
 
   !> The numeric flight-condition items of &case, in order.
   !> A title's characters at the most (UTF-8: up to four bytes each).
@@ -98,6 +103,11 @@ module mlid_case
     real(wp) :: online_band(2) = 0.0_wp
     integer :: online_nfreq = 0, online_every = 0, online_trim = 0, online_first = 1
     real(wp) :: online_lambda = 1.0_wp     !< the forgetting factor
+    !> the filters' start variances and process-noise variances of the
+    !> states then the free parameters, Jacobians' difference step (0:
+    !> exact) and R's fading memory (0: R = &model's r)
+    real(wp), allocatable :: online_p0(:), online_q(:)
+    real(wp) :: online_delta = 0.0_wp, online_rfade = 0.0_wp
     logical :: zero_mean = .false.
     !> simulate and monte_carlo: a record whose time and first nu columns
     !> after it are the inputs (a designed input), instead of input_shape

@@ -5,7 +5,7 @@
 !> (runs, seed, the input flown, the true values).
 submodule (mlid_deck) mlid_deck_jobs
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
-  use mlid_case, only: MAX_SAMPLES
+  use mlid_case, only: MAX_SAMPLES, ONLINE_ESTIMATORS
   use mlid_model_factory, only: MODEL_LINEAR
   use mlid_layout, only: layout_table_t, layout_of, element_name
   use mlid_design_unknowns, only: unknown_entries, unknown_blocks
@@ -528,11 +528,12 @@ contains
   module procedure read_online_group
     character(len=16) :: estimator
     character(len=PATHLEN) :: out
-    real(wp) :: f_min, f_max, forgetting
+    real(wp) :: f_min, f_max, forgetting, p0(MAXX + MAXFREE), q(MAXX + MAXFREE), delta, r_fade
     integer :: n_freq, every, trim, first, ios
     character(len=msg_len) :: iomsg
     character(len=:), allocatable :: gtext
-    namelist /online/ estimator, f_min, f_max, n_freq, every, trim, first, forgetting, out
+    namelist /online/ estimator, f_min, f_max, n_freq, every, trim, first, forgetting, p0, q, &
+      delta, r_fade, out
 
     estimator = 'ftr'
     f_min = 0.0_wp
@@ -542,7 +543,13 @@ contains
     trim = 10
     first = 1
     forgetting = 1.0_wp
+    p0 = 0.0_wp
+    q = 0.0_wp
+    delta = 0.0_wp
+    r_fade = 0.0_wp
     out = ''
+    call at_most(rd, c, 'online', ['p0', 'q '], MAXX + MAXFREE, 'states and free parameters')
+    if (c%status /= MLID_OK) return
     gtext = group_text(rd, 'online')
     ios = -1                          ! missing
     if (len(gtext) > 0) read (gtext, nml=online, iostat=ios, iomsg=iomsg)
@@ -556,6 +563,11 @@ contains
     c%online_trim = trim
     c%online_first = first
     c%online_lambda = forgetting
+    c%online_delta = delta
+    c%online_rfade = r_fade
+    call take_list(rd, c, 'online', 'p0', p0, c%online_p0, .false.)
+    call take_list(rd, c, 'online', 'q', q, c%online_q, .false.)
+    if (c%status /= MLID_OK) return
     c%out_file = out
     call check_online(c, free_idx)
   end procedure read_online_group
@@ -570,12 +582,16 @@ contains
     integer :: ios, fb, gb, hb, db, k
     integer, allocatable :: want(:)
     character(len=msg_len) :: iomsg
-    if (c%online_estimator /= 'ftr') then
+    if (all(ONLINE_ESTIMATORS /= c%online_estimator)) then
       call fail(c, 'group &online: estimator must be ''ftr'' (Fourier-transform regression), '// &
-                'not '''//trim(c%online_estimator)//'''')
+                '''ekf'', ''ukf'' or ''ukf_augmented'' (the augmented-state filters), not '''// &
+                trim(c%online_estimator)//'''')
       return
     else if (len_trim(c%out_file) == 0) then
       call fail(c, 'group &online: out (the record of the estimates'' history to write) is missing')
+      return
+    else if (c%online_estimator /= 'ftr') then
+      call check_online_filter(c, free_idx)
       return
     else if (.not. (c%online_band(1) > 0.0_wp .and. c%online_band(2) > c%online_band(1) .and. &
                     ieee_is_finite(c%online_band(2))) .or. c%online_nfreq < 2) then
@@ -610,6 +626,28 @@ contains
                 'them all ('//itoa(size(want))//') and nothing else')
     end if
   end subroutine check_online
+
+  !> The augmented-state filters: the free parameters the model's own (not
+  !> x0, biases or noise), p0 and q one per state and free parameter; the
+  !> rest (values, r) the filter checks when it runs.
+  subroutine check_online_filter(c, free_idx)
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: free_idx(:)
+    type(layout_table_t) :: lt
+    integer :: ios, n
+    character(len=msg_len) :: iomsg
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
+    n = c%nx + size(free_idx)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &online: '//trim(iomsg))
+    else if (size(free_idx) == 0 .or. any(free_idx > lt%np)) then
+      call fail(c, 'group &online: the filters estimate the model''s own parameters: free must '// &
+                'list some, and no x0, bias or noise entry')
+    else if (size(c%online_p0) /= n .or. size(c%online_q) /= n) then
+      call fail(c, 'group &online: p0 and q take one variance per state and free parameter ('// &
+                itoa(n)//', the states first)')
+    end if
+  end subroutine check_online_filter
 
   pure function identity(n) result(a)
     integer, intent(in) :: n

@@ -4,6 +4,7 @@ module mlid_job_report
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp
   use mlid_text, only: itoa, es_text
+  use mlid_case, only: ONLINE_ESTIMATORS
   use mlid_report, only: case_json, json_string, number, numbers, strings, matrix
   use mlid_input_ranking, only: ranking_t
   implicit none
@@ -13,6 +14,10 @@ module mlid_job_report
             online_json
 
   character, parameter :: NL = achar(10)
+  !> The report's words for each of mlid_case's ONLINE_ESTIMATORS.
+  character(len=48), parameter :: ESTIMATOR_WORDS(size(ONLINE_ESTIMATORS)) = [character(len=48) :: &
+    'Fourier-transform regression', 'extended Kalman filter (augmented state)', &
+    'unscented Kalman filter (augmented state)', 'unscented Kalman filter (augmented noise)']
 
   !> One input of a simulation: its shape ('file' when read from
   !> input_file), peak |u|, rms, relative peak factor (max - min)/(2 sqrt(2)
@@ -23,14 +28,17 @@ module mlid_job_report
     real(wp), allocatable :: freq(:)
   end type input_summary_t
 
-  !> An online estimator's history (at each solve: t, the estimates est
-  !> and sigma sig (np, m), each equation's residual variance s2 (nx, m)),
-  !> its settings and when each estimate converged.
+  !> An online estimator's history (at each point: t, the estimates est and
+  !> sigma sig (np, m), its own measure s2: FTR each equation's residual
+  !> variance, a filter R's diagonal), its settings and when each estimate
+  !> converged.
   type :: online_summary_t
+    character(len=16) :: estimator = ''
+    character(len=32) :: measure = ''        !< what s2 holds, for the report
+    character(len=:), allocatable :: settings  !< the estimator's settings in words
     character(len=32), allocatable :: names(:)
     real(wp), allocatable :: t(:), est(:, :), sig(:, :), s2(:, :), converged(:)
-    real(wp) :: band(2) = 0.0_wp
-    integer :: nfreq = 0, every = 0, samples = 0
+    integer :: samples = 0
     character(len=512) :: out = ''
   end type online_summary_t
 
@@ -380,10 +388,8 @@ contains
     character(len=256) :: buf
     integer :: k, m
     m = size(o%t)
-    text = ' online estimation, Fourier-transform regression: '//itoa(o%samples)//' samples, '// &
-           itoa(m)//' solves (every '//itoa(o%every)//' samples), '//itoa(o%nfreq)// &
-           ' frequencies '//trim(adjustl(es_text(o%band(1), 10, 3)))//' to '// &
-           trim(adjustl(es_text(o%band(2), 10, 3)))//' Hz; history to '//trim(o%out)//NL
+    text = ' online estimation, '//trim(ESTIMATOR_WORDS(findloc(ONLINE_ESTIMATORS, o%estimator, 1)))// &
+           ': '//itoa(o%samples)//' samples, '//o%settings//'; history to '//trim(o%out)//NL
     if (m == 0) return
     write (buf, '(1x,a16,3a15)') 'parameter       ', 'estimate', 'sigma', 'converged [s]'
     text = text//trim(buf)//NL
@@ -393,25 +399,24 @@ contains
                         es_text(o%converged(k), 15, 4))//NL
     end do
     text = text//' converged: from then on within 2 sigma of the last estimate'//NL
-    text = text//trim(' equation error variance (last solve):'//numbers_text(o%s2(:, m)))//NL
+    text = text//trim(' '//trim(o%measure)//' (last):'//numbers_text(o%s2(:, m)))//NL
   end function online_report
 
   function online_json(title, job, o) result(text)
     character(len=*), intent(in) :: title, job
     type(online_summary_t), intent(in) :: o
     character(len=:), allocatable :: text
-    integer :: m
-    m = size(o%t)
     text = case_json(title, job, 0, '', o%samples, trim(o%out))
     text = text(1:len(text) - 1)//','//NL// &
-           '"estimator": "ftr", "band": '//numbers(o%band)//', "n_freq": '//itoa(o%nfreq)// &
-           ', "every": '//itoa(o%every)//','//NL// &
+           '"estimator": '//json_string(trim(o%estimator))//', "settings": '// &
+           json_string(o%settings)//','//NL// &
            '"parameters": '//strings(o%names)//','//NL// &
            '"t": '//numbers(o%t)//','//NL// &
            '"estimates": '//matrix(transpose(o%est))//','//NL// &
            '"sigma": '//matrix(transpose(o%sig))//','//NL// &
            '"converged": '//numbers(o%converged)//','//NL// &
-           '"residual_variance": '//matrix(transpose(o%s2))//'}'
+           '"measure": '//json_string(trim(o%measure))//', "measure_values": '// &
+           matrix(transpose(o%s2))//'}'
   end function online_json
 
   function numbers_text(v) result(text)

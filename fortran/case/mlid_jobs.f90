@@ -12,6 +12,10 @@ module mlid_jobs
   use mlid_case, only: case_t, NAMELEN
   use mlid_deck, only: case_time_input, case_record
   use mlid_ftr, only: ftr_settings_t, ftr_run
+  use mlid_online_filter, only: filter_settings_t
+  use mlid_online_ekf, only: ekf_run
+  use mlid_online_ukf, only: ukf_run
+  use mlid_model_factory, only: model_create
   use mlid_online_history, only: convergence_times
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_layout, only: layout_table_t, layout_of
@@ -24,7 +28,7 @@ module mlid_jobs
   use mlid_record, only: record_text
   use mlid_units, only: UNITLEN
   use mlid_files, only: temporary_for, write_whole
-  use mlid_text, only: itoa, to_lower
+  use mlid_text, only: itoa, to_lower, es_text
   use mlid_memory, only: no_memory
   use mlid_input_ranking, only: rank_candidates
   use mlid_progress, only: progress_t
@@ -468,25 +472,46 @@ contains
 
   !> online: the estimator over the case's record (its files one after
   !> another, run straight across the joins), the history written to out
-  !> (t, each estimate, each sigma; from the first solve that determines
+  !> (t, each estimate, each sigma; from the first point that determines
   !> them all, so that &data reads it), the report and JSON from the last
-  !> solve: estimates, sigma, when each converged (within 2 sigma of its
-  !> final value from then on) and each equation's residual variance.
+  !> point: estimates, sigma, when each converged (within 2 sigma of its
+  !> final value from then on) and the estimator's own measure (FTR: each
+  !> equation's residual variance; the filters: R's diagonal).
   subroutine online_job(c, report, json, status, msg)
     type(case_t), intent(in) :: c
     character(len=:), allocatable, intent(inout) :: report, json
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), allocatable :: t(:), u(:, :), y(:, :), vals(:, :), none(:, :)
-    type(ftr_settings_t) :: s
+    real(wp), allocatable :: t(:), u(:, :), y(:, :)
     type(online_summary_t) :: o
-    character(len=NAMELEN), allocatable :: names(:)
-    character(len=UNITLEN), allocatable :: units(:)
-    character(len=:), allocatable :: text
-    integer :: m, np, k, k0
 
     call case_record(c, t, u, y, status, msg)
     if (status /= MLID_OK) return
+    if (c%online_estimator == 'ftr') then
+      call online_ftr(c, t, u, y, o, status, msg)
+    else
+      call online_filter(c, t, u, y, o, status, msg)
+    end if
+    if (status /= MLID_OK) return
+    o%estimator = c%online_estimator
+    o%samples = size(t)
+    o%out = c%out_file
+    o%converged = convergence_times(o%t, o%est, o%sig, 2.0_wp)
+    call write_history(c%out_file, o, status, msg)
+    if (status /= MLID_OK) return
+    report = online_report(o)
+    json = online_json(c%title, c%job, o)
+  end subroutine online_job
+
+  !> Fourier-transform regression's solves (mlid_ftr) into o.
+  subroutine online_ftr(c, t, u, y, o, status, msg)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(online_summary_t), intent(inout) :: o
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    type(ftr_settings_t) :: s
+    integer :: m, np, k
     s%w = [(2.0_wp*PI*(c%online_band(1) + (c%online_band(2) - c%online_band(1))* &
             real(k, wp)/(c%online_nfreq - 1)), k=0, c%online_nfreq - 1)]
     s%every = c%online_every
@@ -499,35 +524,117 @@ contains
     call ftr_run(t, y, u, s, o%t, o%est, o%sig, o%s2, status, msg)
     if (status /= MLID_OK) return
     o%names = ftr_labels(c)
-    o%band = c%online_band
-    o%nfreq = c%online_nfreq
-    o%every = s%every
-    o%samples = size(t)
-    o%out = c%out_file
-    o%converged = convergence_times(o%t, o%est, o%sig, 2.0_wp)
-    allocate (names(2*np))
+    o%measure = 'equation error variance'
+    o%settings = itoa(m)//' solves (every '//itoa(s%every)//' samples), '// &
+                 itoa(c%online_nfreq)//' frequencies '// &
+                 trim(adjustl(es_text(c%online_band(1), 10, 3)))//' to '// &
+                 trim(adjustl(es_text(c%online_band(2), 10, 3)))//' Hz'
+  end subroutine online_ftr
+
+  !> An augmented-state filter (mlid_online_ekf, mlid_online_ukf) over the
+  !> record from &model's values, its free model parameters estimated;
+  !> the parameters' rows of its history into o.
+  subroutine online_filter(c, t, u, y, o, status, msg)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: t(:), u(:, :), y(:, :)
+    type(online_summary_t), intent(inout) :: o
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    class(model_t), allocatable :: m
+    type(layout_table_t) :: lt
+    type(filter_settings_t) :: s
+    real(wp), allocatable :: est(:, :), sig(:, :), rhist(:, :)
+    integer, allocatable :: ifree(:)
+    integer :: n, k, ro, xo, bo, qo
+
+    call model_create(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, m, status, msg)
+    if (status == MLID_OK) call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, &
+                                          c%rconst, lt, status, msg)
+    if (status /= MLID_OK) return
+    ifree = pack([(k, k=1, lt%np)], c%isfree(1:lt%np) > 0)
+    ifree = ifree(sort_by(c%isfree(ifree)))          ! the order of free
+    n = c%nx + size(ifree)
+    ro = lt%off(findloc(lt%key, 'r', 1))
+    xo = lt%off(findloc(lt%key, 'x0', 1))
+    bo = lt%off(findloc(lt%key, 'bias', 1))
+    qo = lt%off(findloc(lt%key, 'q', 1))
+    s%p0 = c%online_p0
+    s%q = c%online_q
+    s%r = c%theta(ro + 1:ro + c%ny)
+    s%qw = c%theta(qo + 1:qo + c%nw)
+    s%delta = c%online_delta
+    s%r_fade = c%online_rfade
+    s%hold = c%iopt(4) == 1
+    s%nsub = max(1, c%iopt(5))
+    allocate (est(n, size(t)), sig(n, size(t)), rhist(c%ny, size(t)))
+    rhist = 0.0_wp
+    associate (p => c%theta(1:lt%np), x0 => c%theta(xo + 1:xo + c%nx), &
+               bias => c%theta(bo + 1:bo + c%ny))
+      if (c%online_estimator == 'ekf') then
+        call ekf_run(m, p, ifree, x0, bias, t, u, y, s, est, sig, rhist, status, msg)
+      else
+        call ukf_run(m, p, ifree, x0, bias, t, u, y, s, c%online_estimator == 'ukf_augmented', &
+                     est, sig, status, msg)
+        rhist = spread(s%r, 2, size(t))
+      end if
+    end associate
+    if (status /= MLID_OK) return
+    o%t = t
+    o%est = est(c%nx + 1:, :)
+    o%sig = sig(c%nx + 1:, :)
+    o%s2 = rhist
+    o%names = c%labels(c%isfree(ifree))
+    o%measure = 'R diagonal'
+    o%settings = itoa(size(t))//' updates'
+  end subroutine online_filter
+
+  !> The places that sort v ascending (v small: the free parameters).
+  pure function sort_by(v) result(order)
+    integer, intent(in) :: v(:)
+    integer :: order(size(v)), i, j, k
+    order = [(i, i=1, size(v))]
+    do i = 2, size(v)
+      k = order(i)
+      j = i - 1
+      do while (j >= 1)
+        if (v(order(j)) <= v(k)) exit
+        order(j + 1) = order(j)
+        j = j - 1
+      end do
+      order(j + 1) = k
+    end do
+  end function sort_by
+
+  !> The history (t, the estimates, their sigma_) from the first point
+  !> that determines every estimate, so that &data reads it.
+  subroutine write_history(path, o, status, msg)
+    character(len=*), intent(in) :: path
+    type(online_summary_t), intent(in) :: o
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: vals(:, :), none(:, :)
+    character(len=NAMELEN), allocatable :: names(:)
+    character(len=UNITLEN), allocatable :: units(:)
+    character(len=:), allocatable :: text
+    integer :: np, k, k0
+    np = size(o%names)
+    k0 = findloc([(all(ieee_is_finite(o%est(:, k))), k=1, size(o%t))], .true., 1)
+    if (k0 == 0) then
+      status = MLID_ERR_INPUT
+      msg = 'online: no point of the history determined the parameters (too little excitation)'
+      return
+    end if
+    allocate (names(2*np), units(2*np), none(0, size(o%t) - k0 + 1), vals(2*np, size(o%t) - k0 + 1))
     names(1:np) = o%names
     do k = 1, np
       names(np + k) = 'sigma_'//trim(o%names(k))
     end do
-    ! the record from the first solve that determined every parameter on
-    k0 = findloc([(all(ieee_is_finite(o%est(:, k))), k=1, m)], .true., 1)
-    if (k0 == 0) then
-      status = MLID_ERR_INPUT
-      msg = 'online: no solve determined the parameters (the band is not excited enough)'
-      return
-    end if
-    allocate (units(2*np), none(0, m - k0 + 1), vals(2*np, m - k0 + 1))
     units = ''
     vals(1:np, :) = o%est(:, k0:)
     vals(np + 1:, :) = o%sig(:, k0:)
     call record_text(names, units, o%t(k0:), vals, none, text, status, msg)
-    if (status /= MLID_OK) return
-    call write_file(c%out_file, text, status, msg)
-    if (status /= MLID_OK) return
-    report = online_report(o)
-    json = online_json(c%title, c%job, o)
-  end subroutine online_job
+    if (status == MLID_OK) call write_file(path, text, status, msg)
+  end subroutine write_history
 
   !> The labels of F's and G's entries in the regression's order (row i
   !> of F, then of G), from the case's labels of its free parameters (the
