@@ -316,6 +316,21 @@ def test_sig2_max_and_thresholds_change_the_choice():
     assert len(mlid.stepwise(c, y, f_in=1e9, f_out=1e9).selected) == 1
 
 
+def test_forced_terms_and_own_constant():
+    """A forced term stays whatever its F (here a noise candidate); with
+    intercept=False a given column of ones is the constant like any other
+    candidate, and forcing it gives the same model as intercept=True."""
+    c, y, truth = _synthetic()
+    r = mlid.stepwise(c, y, forced=["noise2"], f_in=10.0, f_out=10.0)
+    assert sorted(r.selected) == sorted(list(truth) + ["noise2"])
+    assert r.f["noise2"] < 10.0
+    own = mlid.stepwise(c.assign(one=1.0), y, intercept=False, forced=["one"], f_in=10.0,
+                        f_out=10.0, method="mof")
+    ref = mlid.stepwise(c, y, f_in=10.0, f_out=10.0, method="mof")
+    assert own.estimates["one"] == pytest.approx(ref.estimates["1"], rel=1e-10)
+    assert own.r2 == pytest.approx(ref.r2, rel=1e-12)
+
+
 BAD = [
     (dict(y=np.ones(5)), "X must be \\(N, m\\) and y \\(N,\\) of one length"),
     (dict(method="sideways"), "method must be forward, backward or mof, not 'sideways'"),
@@ -350,6 +365,11 @@ def test_bad_data_one_line():
         (lambda: mlid.stepwise(c.assign(twin=2 * c["al"]), y, method="backward"),
          "candidate 'twin' is \\(nearly\\) a combination"),
         (lambda: mlid.stepwise(c.rename(columns={"al": "1"}), y), "a candidate is named '1'"),
+        (lambda: mlid.stepwise(c, np.full(200, 0.3)), "measurements are constant throughout"),
+        (lambda: mlid.stepwise(c.assign(a2=c["al"]), y, forced=["al", "a2"]),
+         "forced term 'a2' is \\(nearly\\) a combination"),
+        (lambda: mlid.stepwise(c.assign(a2=c["al"]), y, forced=["al", "a2"], method="mof"),
+         "forced term 'a2' is \\(nearly\\) a combination"),
         (lambda: mlid.stepwise(c[["al"]], y[:1]), "X must be"),
         (lambda: mlid.stepwise(c[["al"]].iloc[:2], y[:2]), "2 samples are too few"),
         (lambda: mlid.stepwise_candidates({"al": y}, ["alpha"]), "variable 'alpha' is not in"),

@@ -10,7 +10,7 @@
 !> is the triangular back-substitution of the orthogonal expansion).  The
 !> forced terms (the constant) are the first functions, always kept.
 module mlid_orthogonal_functions
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_MEMORY
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_MEMORY
   use mlid_text, only: itoa
   use mlid_regression, only: regression_settings_t, regression_t, regression_check, &
                              cross_products, sweep, path_start, path_add, regression_finish, TOL
@@ -55,6 +55,12 @@ contains
     end do
     do j = 1, m                                   ! the forced terms first
       if (.not. forced(j)) cycle
+      if (qq(j) <= TOL*x2(j)) then
+        status = MLID_ERR_INPUT
+        msg = 'model structure: forced term '//itoa(j)//' is (nearly) a combination of '// &
+              'the forced terms before it'
+        return
+      end if
       call take(q, qq, e, in, j, red)
     end do
     call path_start(r, m, m, y, s, count(in), dot_product(e, e), status, msg)

@@ -88,8 +88,8 @@ contains
           return
         end if
       end do
-      if (all(y == 0.0_wp)) then
-        msg = 'model structure: the measurements are zero throughout'
+      if (maxval(y) == minval(y)) then
+        msg = 'model structure: the measurements are constant throughout: nothing to model'
         return
       end if
       status = MLID_OK
@@ -255,7 +255,12 @@ contains
     r%selected = in
     r%theta = 0.0_wp
     r%sigma = 0.0_wp
-    allocate (th(np), cd(np))
+    allocate (th(np), cd(np), stat=info)
+    if (info /= 0) then
+      status = MLID_ERR_MEMORY
+      msg = 'model structure: out of memory'
+      return
+    end if
     call qr_least_squares(x(:, idx), y, th, cd, info)
     if (info /= 0) then
       status = MLID_ERR_INTERNAL

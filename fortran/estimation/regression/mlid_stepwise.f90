@@ -10,7 +10,7 @@
 !> The forced terms (the constant) never leave.  The final estimates are
 !> least squares on the chosen terms (regression_finish).
 module mlid_stepwise
-  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_MEMORY
   use mlid_text, only: itoa
   use mlid_regression, only: regression_settings_t, regression_t, regression_check, &
                              cross_products, sweep, f_enter, f_remove, path_start, path_add, &
@@ -119,7 +119,12 @@ contains
     call regression_check(x, y, forced, s, status, msg)
     if (status /= MLID_OK) return
     m = size(forced)
-    allocate (a(m + 1, m + 1))
+    allocate (a(m + 1, m + 1), stat=j)
+    if (j /= 0) then
+      status = MLID_ERR_MEMORY
+      msg = 'model structure: out of memory for '//itoa(m + 1)//' x '//itoa(m + 1)//' values'
+      return
+    end if
     call cross_products(x, y, a, status, msg)
     if (status /= MLID_OK) return
     do j = 1, m
