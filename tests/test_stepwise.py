@@ -316,6 +316,27 @@ def test_sig2_max_and_thresholds_change_the_choice():
     assert len(mlid.stepwise(c, y, f_in=1e9, f_out=1e9).selected) == 1
 
 
+def test_candidates_are_the_products_and_splines():
+    """The core's candidates equal numpy's products and splines, named
+    and ordered by degree, each degree in the variables' order (3
+    variables to degree 3: 19 products; C(3 + 3, 3) - 1)."""
+    import itertools
+    rng = np.random.default_rng(4)
+    d = {"al": rng.standard_normal(50), "de": rng.standard_normal(50), "q": rng.standard_normal(50)}
+    c = mlid.stepwise_candidates(d, ["al", "de", "q"], degree=3, knots={"al": [-0.2, 0.4]},
+                                 spline_degree=2)
+    want = {}
+    for deg in (1, 2, 3):
+        for combo in itertools.combinations_with_replacement(["al", "de", "q"], deg):
+            name = "*".join(v if combo.count(v) == 1 else f"{v}^{combo.count(v)}"
+                            for v in dict.fromkeys(combo))
+            want[name] = np.prod([d[v] for v in combo], axis=0)
+    for k in (-0.2, 0.4):
+        want[f"(al-{k:g})+^2"] = np.maximum(d["al"] - k, 0) ** 2
+    assert list(c.columns) == list(want)
+    np.testing.assert_allclose(c.to_numpy(), np.column_stack(list(want.values())), rtol=1e-15)
+
+
 def test_forced_terms_and_own_constant():
     """A forced term stays whatever its F (here a noise candidate); with
     intercept=False a given column of ones is the constant like any other
@@ -377,6 +398,8 @@ def test_bad_data_one_line():
         (lambda: mlid.stepwise_candidates({"al": y}, ["al"], knots={"be": [0]}),
          "knots are given for 'be'"),
         (lambda: mlid.stepwise(c, y).model_start("c m"), "coefficient must be a name"),
+        (lambda: mlid.stepwise_candidates({"al": y, "b": y}, ["al", "b"], degree=200),
+         "make more than 10000 candidates"),
     ]
     for call, message in cases:
         with pytest.raises(mlid.InputError, match=message) as e:

@@ -7,10 +7,11 @@ module mlid_api_regression
   use mlid_regression, only: regression_settings_t, regression_t
   use mlid_stepwise, only: stepwise_forward, stepwise_backward
   use mlid_orthogonal_functions, only: orthogonal_functions
+  use mlid_candidates, only: candidate_terms
   use mlid_handles, only: session_t, call_session
   implicit none
   private
-  public :: mlid_model_structure
+  public :: mlid_model_structure, mlid_candidate_terms
 
 contains
 
@@ -77,5 +78,37 @@ contains
     call s%results%put('path_pse', r%path_pse(0:k))
     call s%results%put('path_s', r%path_s(0:k))
   end subroutine mlid_model_structure
+
+  !> Candidate regressors (mlid_candidates) of handle h's given values: v
+  !> (N, nv) the variables, degree, knot_var (nk; 1-based) and knots (nk)
+  !> the splines' variables and knots, spline_degree.  Results: x (N, nt +
+  !> nk) the candidates, powers (nv nt) the products' exponents, column by
+  !> column.
+  subroutine mlid_candidate_terms(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    real(wp), allocatable :: v(:, :), knots(:), x(:, :)
+    integer, allocatable :: knot_var(:), powers(:, :)
+    integer :: degree, spline_degree, st
+
+    call call_session(h, s, st, msg)
+    status = st
+    if (st /= MLID_OK) return
+    associate (g => s%given)
+      call g%get('v', v, st, msg)
+      call g%get('degree', degree, st, msg)
+      call g%get('knot_var', knot_var, st, msg)
+      call g%get('knots', knots, st, msg)
+      call g%get('spline_degree', spline_degree, st, msg)
+    end associate
+    if (st == MLID_OK) call candidate_terms(v, degree, knot_var, knots, spline_degree, x, &
+                                            powers, st, msg)
+    status = st
+    if (st /= MLID_OK) return
+    call s%results%put('x', x)
+    call s%results%put('powers', reshape(powers, [size(powers)]))
+  end subroutine mlid_candidate_terms
 
 end module mlid_api_regression

@@ -4,7 +4,6 @@ regression with the partial F-test and multivariate orthogonal functions
 with the predicted square error, by the core (fortran/estimation/
 regression); a small generator of polynomial and spline candidates."""
 
-import itertools
 import re
 
 import numpy as np
@@ -265,8 +264,9 @@ def stepwise(X, y, method="forward", f_in=4.0, f_out=4.0, intercept=True, forced
 
 
 def stepwise_candidates(data, variables, degree=2, knots=None, spline_degree=1):
-    """Candidate regressors from named variables: each variable, their
-    products and powers up to a total degree, and spline terms.
+    """Candidate regressors from named variables (the core's
+    mlid_candidates): each variable, their products and powers up to a
+    total degree, and spline terms.
 
     Parameters
     ----------
@@ -276,7 +276,8 @@ def stepwise_candidates(data, variables, degree=2, knots=None, spline_degree=1):
         The variables to use (e.g. 'al', 'be', 'pn', 'qn', 'rn', 'de').
     degree : int
         The largest total degree of a product: 1 the variables alone, 2
-        also 'al^2' and 'al*de', ...
+        also 'al^2' and 'al*de', ...; by degree, each in the variables'
+        order.
     knots : dict, optional
         Per variable the knots of its spline terms: (v - k)+^n, named
         '(v-k)+' or '(v-k)+^n'.
@@ -292,30 +293,36 @@ def stepwise_candidates(data, variables, degree=2, knots=None, spline_degree=1):
     ------
     InputError
         A variable not in the data, not real or not finite, knots for a
-        variable not used, or a degree below 1.
+        variable not used, a degree below 1, or more than 10,000 candidates.
     """
     pd = pandas_for("stepwise_candidates")
     if isinstance(variables, str):
         variables = [variables]
-    cols = {}
-    for v in variables:
-        if v not in data:
-            raise InputError(f"variable {v!r} is not in the data")
-        cols[v] = real_array(v, data[v])
-    if not (isinstance(degree, int) and degree >= 1):
-        raise InputError(f"degree must be a whole number >= 1, got {degree!r}")
-    if not (isinstance(spline_degree, int) and spline_degree >= 1):
-        raise InputError(f"spline_degree must be a whole number >= 1, got {spline_degree!r}")
-    out = {}
-    for d in range(1, degree + 1):
-        for combo in itertools.combinations_with_replacement(list(cols), d):
-            name = "*".join(f"{v}^{combo.count(v)}" if combo.count(v) > 1 else v
-                            for v in dict.fromkeys(combo))
-            out[name] = np.prod([cols[v] for v in combo], axis=0)
+    variables = list(variables)
+    missing = [v for v in variables if v not in data]
+    if missing:
+        raise InputError(f"variable {missing[0]!r} is not in the data")
+    V = np.column_stack([real_array(v, data[v]) for v in variables]) if variables else None
+    for label, v in (("degree", degree), ("spline_degree", spline_degree)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+            raise InputError(f"{label} must be a whole number >= 1, got {v!r}")
+    knot_var, knot_at, knot_names = [], [], []
     for v, ks in (knots or {}).items():
-        if v not in cols:
+        if v not in variables:
             raise InputError(f"knots are given for {v!r}, which is not among the variables")
         for k in np.atleast_1d(real_array(f"knots of {v}", ks)):
-            name = f"({v}-{k:g})+" + (f"^{spline_degree}" if spline_degree > 1 else "")
-            out[name] = np.maximum(cols[v] - k, 0.0) ** spline_degree
-    return pd.DataFrame(out, index=getattr(data, "index", None))
+            knot_var.append(variables.index(v) + 1)
+            knot_at.append(float(k))
+            knot_names.append(f"({v}-{k:g})+" + (f"^{spline_degree}" if spline_degree > 1
+                                                 else ""))
+    if V is None:
+        raise InputError("candidates: no variables or no samples")
+    h = _call_handle()
+    _put(h, v=np.asfortranarray(V), degree=int(degree), knot_var=np.array(knot_var, np.int32),
+         knots=np.array(knot_at, float), spline_degree=int(spline_degree))
+    out = _run(h, _api.mlid_candidate_terms)
+    x = np.asarray(out["x"]).reshape(V.shape[0], -1, order="F")
+    powers = np.asarray(out["powers"]).reshape(len(variables), -1, order="F")
+    names = ["*".join(v if e == 1 else f"{v}^{e}" for v, e in zip(variables, col) if e)
+             for col in powers.T] + knot_names
+    return pd.DataFrame(x, columns=names, index=getattr(data, "index", None))
