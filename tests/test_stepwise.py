@@ -307,6 +307,26 @@ def test_result_views_and_start_of_a_fit():
     assert r.deck_text("cm").splitlines()[0].startswith("    cm_regressors = '1', ")
 
 
+def test_structure_starts_a_longitudinal_model():
+    """Candidates named as the longitudinal kind's regressors: the chosen
+    structure and its estimates are that model's C_m terms and start values
+    (the core checks the names), its free parameters in that order."""
+    c, y, _ = _synthetic()
+    named = c[["al", "q", "de", "al^2", "be"]].set_axis(["alpha", "qhat", "de", "alpha^2", "beta"],
+                                                        axis=1)
+    r = mlid.stepwise(named, y - (-8.0) * c["(al-0.08)+"], f_in=10.0, f_out=10.0)
+    assert r.selected == ["1", "alpha", "qhat", "de", "alpha^2"]
+    start = r.model_start("cm")
+    const = dict(zip(mlid.model.models.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6,
+                                                   104.67, 7472.0, 0.0524, 0.792, 1.215]))
+    model = mlid.LongitudinalModel({"Cm": start["cm_regressors"]}, {"Cm": start["cm"]}, const,
+                                   x0=[106.0, 0.11, 0.105, -0.003],
+                                   free=[f"cm({k + 1})" for k in range(5)])
+    assert model.regressors["Cm"] == r.selected
+    np.testing.assert_array_equal(model.coefficients["Cm"], [r.estimates[n] for n in r.selected])
+    assert "cm = " in r.deck_text("cm")
+
+
 def test_sig2_max_and_thresholds_change_the_choice():
     """A larger sig2_max charges more per term (fewer terms); a larger F_in
     lets fewer enter."""
