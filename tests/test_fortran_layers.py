@@ -15,7 +15,7 @@ FORTRAN = Path(__file__).resolve().parents[1] / "fortran"
 #: ranked by its own entry where it has one.
 RANK = ["base", "numerics", "models", "estimation",
         "estimation/time_domain", "estimation/frequency_domain", "estimation/online",
-        "estimation/fit",
+        "estimation/regression", "estimation/fit",
         "design", "case", "api", "app"]
 #: Sub-layers that are siblings: neither uses the other.
 SIBLINGS = {("estimation/time_domain", "estimation/frequency_domain")}

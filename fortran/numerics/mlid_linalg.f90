@@ -1,7 +1,7 @@
 !> Dense linear algebra of the core: LAPACK wrappers (symmetric
 !> eigen-decomposition, Cholesky inverse with log-determinant), the
 !> symmetric products' kernels, a pivoted Cholesky choosing independent
-!> columns, and the matrix exponential.
+!> columns, the matrix exponential, and least squares by QR.
 module mlid_linalg
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL
@@ -9,7 +9,8 @@ module mlid_linalg
   private
   public :: add_sym_atb, add_syrk, add_atv, sym_atb_t, pair_rows, sym_eig, chol_inverse, chol_solve, &
             psd_factor, info_inverse, info_eig, eig_inverse, expm, expm_into, expm_work_size, &
-            expm_work_t, solve, independent_columns, general_eig, sym_sqrt_jacobi
+            expm_work_t, solve, independent_columns, general_eig, sym_sqrt_jacobi, &
+            qr_least_squares
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -51,6 +52,37 @@ module mlid_linalg
       real(wp), intent(out) :: wr(*), wi(*), vl(ldvl, *), vr(ldvr, *), work(*)
       integer, intent(out) :: info
     end subroutine dgeev
+    subroutine dgeqrf(m, n, a, lda, tau, work, lwork, info)
+      import :: wp
+      integer, intent(in) :: m, n, lda, lwork
+      real(wp), intent(inout) :: a(lda, *)
+      real(wp), intent(out) :: tau(*), work(*)
+      integer, intent(out) :: info
+    end subroutine dgeqrf
+    subroutine dormqr(side, trans, m, n, k, a, lda, tau, c, ldc, work, lwork, info)
+      import :: wp
+      character, intent(in) :: side, trans
+      integer, intent(in) :: m, n, k, lda, ldc, lwork
+      real(wp), intent(in) :: a(lda, *), tau(*)
+      real(wp), intent(inout) :: c(ldc, *)
+      real(wp), intent(out) :: work(*)
+      integer, intent(out) :: info
+    end subroutine dormqr
+    subroutine dtrtrs(uplo, trans, diag, n, nrhs, a, lda, b, ldb, info)
+      import :: wp
+      character, intent(in) :: uplo, trans, diag
+      integer, intent(in) :: n, nrhs, lda, ldb
+      real(wp), intent(in) :: a(lda, *)
+      real(wp), intent(inout) :: b(ldb, *)
+      integer, intent(out) :: info
+    end subroutine dtrtrs
+    subroutine dtrtri(uplo, diag, n, a, lda, info)
+      import :: wp
+      character, intent(in) :: uplo, diag
+      integer, intent(in) :: n, lda
+      real(wp), intent(inout) :: a(lda, *)
+      integer, intent(out) :: info
+    end subroutine dtrtri
   end interface
 
   !> Below this size chol_inverse factorises without LAPACK.
@@ -810,5 +842,46 @@ contains
       d(k) = a(k, k)
     end do
   end function info_diag
+
+  !> Least squares min |x theta - y| (x: n x p, n >= p) by Householder QR
+  !> (LAPACK dgeqrf, dormqr, dtrtrs), and cdiag = diag((x'x)^-1) from R^-1
+  !> (dtrtri): (x'x)^-1 = R^-1 R^-T.  info /= 0: LAPACK failed, or R is
+  !> singular (info > 0: its zero diagonal entry), or out of memory (-1000).
+  subroutine qr_least_squares(x, y, theta, cdiag, info)
+    real(wp), intent(in) :: x(:, :), y(:)
+    real(wp), intent(out) :: theta(:), cdiag(:)
+    integer, intent(out) :: info
+    real(wp), allocatable :: a(:, :), b(:, :), tau(:), work(:)
+    real(wp) :: wq(1)
+    integer :: n, p, i, ierr
+    n = size(x, 1)
+    p = size(x, 2)
+    theta = 0.0_wp
+    cdiag = 0.0_wp
+    allocate (a(n, p), b(n, 1), tau(max(p, 1)), stat=ierr)
+    if (ierr /= 0) then
+      info = -1000
+      return
+    end if
+    a = x
+    b(:, 1) = y
+    call dgeqrf(n, p, a, n, tau, wq, -1, info)
+    if (info /= 0) return
+    allocate (work(max(int(wq(1)), p, 1)), stat=ierr)
+    if (ierr /= 0) then
+      info = -1000
+      return
+    end if
+    call dgeqrf(n, p, a, n, tau, work, size(work), info)
+    if (info == 0) call dormqr('L', 'T', n, 1, p, a, n, tau, b, n, work, size(work), info)
+    if (info == 0) call dtrtrs('U', 'N', 'N', p, 1, a, n, b, n, info)
+    if (info /= 0) return
+    theta = b(1:p, 1)
+    call dtrtri('U', 'N', p, a, n, info)
+    if (info /= 0) return
+    do i = 1, p
+      cdiag(i) = sum(a(i, i:p)**2)
+    end do
+  end subroutine qr_least_squares
 
 end module mlid_linalg

@@ -38,6 +38,7 @@ from .estimate.options import default_options
 from .estimate.evaluate import evaluate, frequency_evaluate
 from .estimate.fit import fit
 from .estimate.result import FitResult, whiteness
+from .estimate.stepwise import stepwise, stepwise_candidates, ModelStructure
 from .frequency.fourier import fourier_transform, recursive_frequency_fit
 from .frequency.smoothing import smooth, deriv
 from .frequency.responses import (FrequencyResponse, TransferFunctionFit, record_response,
@@ -78,4 +79,5 @@ __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceErr
            "recover_disturbance", "fpe", "compare_models", "predict", "validate", "Validation",
            "FrequencyResponse", "TransferFunctionFit", "record_response", "model_response",
            "fit_transfer_function", "fourier_transform", "frequency_evaluate",
-           "recursive_frequency_fit", "smooth", "deriv"]
+           "recursive_frequency_fit", "smooth", "deriv", "stepwise", "stepwise_candidates",
+           "ModelStructure"]

@@ -1,0 +1,114 @@
+!> The flat interface's model-structure determination for equation-error
+!> models: stepwise regression and orthogonal functions (fortran/
+!> estimation/regression).  Conventions: mlid_api_deck's comment.
+module mlid_api_regression
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_regression, only: regression_settings_t, regression_t
+  use mlid_stepwise, only: stepwise_forward, stepwise_backward
+  use mlid_orthogonal_functions, only: orthogonal_functions
+  use mlid_candidates, only: candidate_terms
+  use mlid_handles, only: session_t, call_session
+  implicit none
+  private
+  public :: mlid_model_structure, mlid_candidate_terms
+
+contains
+
+  !> The model structure of handle h's given values (mlid_api_values):
+  !> x (N, m) the candidates, y (N), forced (m; 1: always in), method
+  !> ('forward', 'backward' or 'mof'), f_in, f_out, sig2_max (0: the
+  !> variance of y).  Results: selected (m; 1 in), theta, sigma, f (m; F to
+  !> remove where selected, to enter where not), r2, s, pse, sig2_max, and
+  !> the path (steps 0..): term (+j in, -j out, 0 the start), np, f, r2,
+  !> pse, s.
+  subroutine mlid_model_structure(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    real(wp), allocatable :: x(:, :), y(:)
+    integer, allocatable :: forced(:)
+    character(len=:), allocatable :: method
+    type(regression_settings_t) :: set
+    type(regression_t) :: r
+    integer :: k, st
+
+    call call_session(h, s, st, msg)
+    status = st
+    if (st /= MLID_OK) return
+    associate (g => s%given)
+      call g%get('x', x, st, msg)
+      call g%get('y', y, st, msg, [size(x, 1)])
+      call g%get('forced', forced, st, msg, [size(x, 2)])
+      call g%get('method', method, st, msg)
+      call g%get('f_in', set%f_in, st, msg)
+      call g%get('f_out', set%f_out, st, msg)
+      call g%get('sig2_max', set%sig2_max, st, msg)
+    end associate
+    if (st == MLID_OK) then
+      select case (method)
+      case ('forward')
+        call stepwise_forward(x, y, forced /= 0, set, r, st, msg)
+      case ('backward')
+        call stepwise_backward(x, y, forced /= 0, set, r, st, msg)
+      case ('mof')
+        call orthogonal_functions(x, y, forced /= 0, set, r, st, msg)
+      case default
+        st = MLID_ERR_INPUT
+        msg = 'model structure: method must be forward, backward or mof, not '''// &
+              method(1:min(len(method), 40))//''''
+      end select
+    end if
+    status = st
+    if (st /= MLID_OK) return
+    k = r%nsteps
+    call s%results%put('selected', merge(1, 0, r%selected))
+    call s%results%put('theta', r%theta)
+    call s%results%put('sigma', r%sigma)
+    call s%results%put('f', r%f)
+    call s%results%put('r2', r%r2)
+    call s%results%put('s', r%s)
+    call s%results%put('pse', r%pse)
+    call s%results%put('sig2_max', r%sig2_max)
+    call s%results%put('term', r%term(0:k))
+    call s%results%put('np', r%np(0:k))
+    call s%results%put('path_f', r%path_f(0:k))
+    call s%results%put('path_r2', r%path_r2(0:k))
+    call s%results%put('path_pse', r%path_pse(0:k))
+    call s%results%put('path_s', r%path_s(0:k))
+  end subroutine mlid_model_structure
+
+  !> Candidate regressors (mlid_candidates) of handle h's given values: v
+  !> (N, nv) the variables, degree, knot_var (nk; 1-based) and knots (nk)
+  !> the splines' variables and knots, spline_degree.  Results: x (N, nt +
+  !> nk) the candidates, powers (nv nt) the products' exponents, column by
+  !> column.
+  subroutine mlid_candidate_terms(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    real(wp), allocatable :: v(:, :), knots(:), x(:, :)
+    integer, allocatable :: knot_var(:), powers(:, :)
+    integer :: degree, spline_degree, st
+
+    call call_session(h, s, st, msg)
+    status = st
+    if (st /= MLID_OK) return
+    associate (g => s%given)
+      call g%get('v', v, st, msg)
+      call g%get('degree', degree, st, msg)
+      call g%get('knot_var', knot_var, st, msg)
+      call g%get('knots', knots, st, msg)
+      call g%get('spline_degree', spline_degree, st, msg)
+    end associate
+    if (st == MLID_OK) call candidate_terms(v, degree, knot_var, knots, spline_degree, x, &
+                                            powers, st, msg)
+    status = st
+    if (st /= MLID_OK) return
+    call s%results%put('x', x)
+    call s%results%put('powers', reshape(powers, [size(powers)]))
+  end subroutine mlid_candidate_terms
+
+end module mlid_api_regression
