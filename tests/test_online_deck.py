@@ -141,3 +141,27 @@ def test_tc11_online_filter_decks_reproduce_the_textbooks(tmp_path, estimator, r
     ref_est = ref[names].to_numpy()
     ref_sig = ref[[f"sig_{n}" for n in names]].to_numpy()
     assert np.max(np.abs(est[:, order] - ref_est) / ref_sig) < 1e-6
+
+
+def test_online_history_figure_draws_each_parameter_with_its_band(tmp_path):
+    """mlid.plots.online_history: a panel per parameter with the ±2σ band,
+    the online estimate, the batch estimate (dashed) and where it
+    converged; written whole to the path given."""
+    import matplotlib
+    matplotlib.use("Agg")
+    from mlid.design.signals import multistep
+    t = 0.02 * np.arange(1000)
+    de = multistep("3211", 1.0, 1.0, 0.5, 0.02, 1000)
+    model = mlid.LinearModel(F=[[-1.0, 1.0], [-4.0, -1.5]], G=[[0.1], [-6.0]], H=np.eye(2),
+                             r=[1e-6, 1e-6])
+    data, _ = mlid.simulate(model, t, de[:, None], seed=1)
+    est = mlid.online.ftr(t, data.y, de, np.arange(0.1, 1.5, 0.05), every=50)
+    batch = {"f(1,1)": -1.0, "f(2,1)": -4.0, "g(2,1)": -6.0}
+    fig = mlid.plots.online_history(est, batch=batch, path=tmp_path / "history.png")
+    axes = [ax for ax in fig.axes if ax.get_title(loc="left")]
+    assert [ax.get_title(loc="left") for ax in axes] == est.names
+    titled = {ax.get_title(loc="left"): ax for ax in axes}
+    dashed = [ln for ln in titled["g(2,1)"].get_lines() if ln.get_linestyle() == "--"]
+    assert len(dashed) == 1 and dashed[0].get_ydata()[0] == -6.0
+    assert len(titled["g(2,1)"].collections) == 1          # the sigma band
+    assert (tmp_path / "history.png").stat().st_size > 10_000

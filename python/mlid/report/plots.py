@@ -1491,3 +1491,48 @@ def bode_measured(result, input=0, output=0, measured=None, loes=None, frequenci
     fig.suptitle(f"frequency response: identified model and record ({measured.averages} "
                  f"averages of {measured.segment} samples)", fontsize=9.5)
     return _finish(fig, path)
+
+
+@_styled
+def online_history(estimate, batch=None, path=None, width=2.0):
+    """An online estimator's history (``mlid.online``: rls, ftr, ekf,
+    ukf): each parameter against time with its ±width σ band, the batch
+    estimate beside it when given (a dashed line), and a dot where the
+    estimate converged (from then on within width σ of its last value).
+
+    Parameters
+    ----------
+    estimate : OnlineEstimate
+    batch : dict or FitResult, optional
+        The batch estimates by parameter name (a FitResult's estimate by
+        name), drawn for comparison.
+    path : str or Path, optional
+    width : float
+        The band's half-width in σ.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    names = list(estimate.names)
+    if batch is not None and hasattr(batch, "estimate") and hasattr(batch, "names"):
+        batch = dict(zip(batch.names, np.asarray(batch.estimate).tolist()))
+    converged = estimate.convergence_time(width)
+    fig, axes, ncols = _panels(len(names))
+    for ax, (j, name) in zip(axes, enumerate(names)):
+        est, sig = estimate.estimates[:, j], estimate.sigma[:, j]
+        ax.fill_between(estimate.t, est - width * sig, est + width * sig, alpha=0.25, lw=0)
+        ax.plot(estimate.t, est, lw=1.0, label="online")
+        if batch is not None and name in batch:
+            ax.axhline(batch[name], color="k", ls="--", lw=0.8, label="batch")
+        tc = converged[name]
+        if np.isfinite(tc):
+            k = int(np.searchsorted(estimate.t, tc))
+            ax.plot([tc], [est[min(k, len(est) - 1)]], "o", ms=4, color="C3", label="converged")
+        last, s = est[-1], sig[-1]
+        if np.isfinite(last) and np.isfinite(s) and s > 0:
+            ax.set_ylim(last - 10 * width * s, last + 10 * width * s)
+        ax.set_title(name, loc="left", fontsize=9)
+    _bottom_labels(axes, ncols, "t [s]")
+    _figure_legend(fig, axes)
+    return _finish(fig, path)
