@@ -21,7 +21,7 @@ module mlid_jobs
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_models, only: model_t
   use mlid_options, only: options_t
-  use mlid_params, only: param_map_t
+  use mlid_params, only: param_map_t, free_indices
   use mlid_setup, only: setup
   use mlid_simulate, only: simulate_flat
   use mlid_monte_carlo, only: monte_carlo, mc_statistics
@@ -551,8 +551,7 @@ contains
     if (status == MLID_OK) call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, &
                                           c%rconst, lt, status, msg)
     if (status /= MLID_OK) return
-    ifree = pack([(k, k=1, lt%np)], c%isfree(1:lt%np) > 0)
-    ifree = ifree(sort_by(c%isfree(ifree)))          ! the order of free
+    ifree = free_indices(c%isfree(1:lt%np))         ! the model's own, in the order of free
     n = c%nx + size(ifree)
     ro = lt%off(findloc(lt%key, 'r', 1))
     xo = lt%off(findloc(lt%key, 'x0', 1))
@@ -587,23 +586,6 @@ contains
     o%measure = 'R diagonal'
     o%settings = itoa(size(t))//' updates'
   end subroutine online_filter
-
-  !> The places that sort v ascending (v small: the free parameters).
-  pure function sort_by(v) result(order)
-    integer, intent(in) :: v(:)
-    integer :: order(size(v)), i, j, k
-    order = [(i, i=1, size(v))]
-    do i = 2, size(v)
-      k = order(i)
-      j = i - 1
-      do while (j >= 1)
-        if (v(order(j)) <= v(k)) exit
-        order(j + 1) = order(j)
-        j = j - 1
-      end do
-      order(j + 1) = k
-    end do
-  end function sort_by
 
   !> The history (t, the estimates, their sigma_) from the first point
   !> that determines every estimate, so that &data reads it.
