@@ -19,7 +19,7 @@ module mlid_jobs
   use mlid_online_history, only: convergence_times
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_layout, only: layout_table_t, layout_of
-  use mlid_models, only: model_t
+  use mlid_models, only: model_t, layout_t, model_layout
   use mlid_options, only: options_t
   use mlid_params, only: param_map_t, free_indices
   use mlid_setup, only: setup
@@ -541,34 +541,33 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     class(model_t), allocatable :: m
-    type(layout_table_t) :: lt
+    type(layout_t) :: l
     type(filter_settings_t) :: s
     real(wp), allocatable :: est(:, :), sig(:, :), rhist(:, :)
     integer, allocatable :: ifree(:)
-    integer :: n, k, ro, xo, bo, qo
+    integer :: n, ierr
 
     call model_create(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, m, status, msg)
-    if (status == MLID_OK) call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, &
-                                          c%rconst, lt, status, msg)
     if (status /= MLID_OK) return
-    ifree = free_indices(c%isfree(1:lt%np))         ! the model's own, in the order of free
+    l = model_layout(m)
+    ifree = free_indices(c%isfree(1:l%np))          ! the model's own, in the order of free
     n = c%nx + size(ifree)
-    ro = lt%off(findloc(lt%key, 'r', 1))
-    xo = lt%off(findloc(lt%key, 'x0', 1))
-    bo = lt%off(findloc(lt%key, 'bias', 1))
-    qo = lt%off(findloc(lt%key, 'q', 1))
     s%p0 = c%online_p0
     s%q = c%online_q
-    s%r = c%theta(ro + 1:ro + c%ny)
-    s%qw = c%theta(qo + 1:qo + c%nw)
+    s%r = c%theta(l%or + 1:l%or + c%ny)
+    s%qw = c%theta(l%oq + 1:l%oq + c%nw)
     s%delta = c%online_delta
     s%r_fade = c%online_rfade
     s%hold = c%iopt(4) == 1
     s%nsub = max(1, c%iopt(5))
-    allocate (est(n, size(t)), sig(n, size(t)), rhist(c%ny, size(t)))
+    allocate (est(n, size(t)), sig(n, size(t)), rhist(c%ny, size(t)), stat=ierr)
+    if (ierr /= 0) then
+      call no_memory('the filter''s history', real(2*n + c%ny, wp)*size(t), status, msg)
+      return
+    end if
     rhist = 0.0_wp
-    associate (p => c%theta(1:lt%np), x0 => c%theta(xo + 1:xo + c%nx), &
-               bias => c%theta(bo + 1:bo + c%ny))
+    associate (p => c%theta(1:l%np), x0 => c%theta(l%ox0 + 1:l%ox0 + c%nx), &
+               bias => c%theta(l%obias + 1:l%obias + c%ny))
       if (c%online_estimator == 'ekf') then
         call ekf_run(m, p, ifree, x0, bias, t, u, y, s, est, sig, rhist, status, msg)
       else
