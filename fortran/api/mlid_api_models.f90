@@ -30,6 +30,7 @@ module mlid_api_models
   use mlid_handles, only: session_t, handle_session, call_session
   use mlid_problem, only: problem_needs, PART_MODEL, PART_PARAMS, PART_RECORD
   use mlid_initial_states, only: x0_from_record
+  use mlid_input_ranking, only: CANDIDATE_NAMES
   implicit none
   private
   public :: mlid_input_signal, mlid_multisine_count, mlid_multisine, mlid_sweep, mlid_prbs, &
@@ -497,7 +498,8 @@ contains
 
   !> A list of names the core defines, one per line: 'regressors' (of the
   !> longitudinal model, by code), 'constants' (its rconst, in order),
-  !> 'value_kinds' and 'model_kinds' (by code).
+  !> 'value_kinds' and 'model_kinds' (by code), 'ranking_candidates' (the
+  !> inputs the design ranks, mlid_input_ranking).
   subroutine mlid_name_list(which, text)
     character(len=*), intent(in) :: which
     character(len=1024), intent(out) :: text
@@ -515,6 +517,10 @@ contains
     case ('model_kinds')          ! the model kinds' names, in the order of their codes
       do k = 1, size(MODEL_KIND_NAMES)
         text = trim(text)//trim(MODEL_KIND_NAMES(k))//achar(10)
+      end do
+    case ('ranking_candidates')
+      do k = 1, size(CANDIDATE_NAMES)
+        text = trim(text)//trim(CANDIDATE_NAMES(k))//achar(10)
       end do
     end select
   end subroutine mlid_name_list

@@ -8,7 +8,7 @@ module mlid_text
   private
   public :: to_lower, to_upper, itoa, joined, join_lines, split_lines, name_lines, text_lines, read_text, line_t, &
             text_file_t, text_open, text_line, text_close, control_character, comment_start, &
-            short_path, seconds, number_text, es_text, fixed_text, add_line, utf8_head
+            short_path, seconds, number_text, es_text, fixed_text, add_line, utf8_head, choices
 
   integer, parameter :: CHUNK = 4096
   character(len=3), parameter :: BOM = char(239)//char(187)//char(191)   !< UTF-8 byte-order mark
@@ -28,6 +28,21 @@ module mlid_text
   end type text_file_t
 
 contains
+
+  !> 'a', 'b' or 'c': a list of choices for a message.
+  pure function choices(list) result(text)
+    character(len=*), intent(in) :: list(:)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = ''''//trim(list(1))//''''
+    do k = 2, size(list)
+      if (k == size(list)) then
+        text = text//' or '''//trim(list(k))//''''
+      else
+        text = text//', '''//trim(list(k))//''''
+      end if
+    end do
+  end function choices
 
   elemental function to_lower(s) result(r)
     character(len=*), intent(in) :: s

@@ -52,6 +52,7 @@
 module mlid_deck
   use mlid_kinds, only: wp, msg_len, MLID_OK, MLID_ERR_INPUT
   use mlid_text, only: to_lower, itoa, read_text, line_t, add_line, control_character, es_text, &
+                       choices, &
                        utf8_head
   use mlid_deck_scan, only: deck_scan, assignment_t, group_span_t, element_states, last_element, &
                             ABSENT, &
@@ -151,12 +152,6 @@ module mlid_deck
       type(case_t), intent(inout) :: c
       character(len=*), intent(in) :: where, name, text
     end subroutine set_option
-
-    !> 'a', 'b' or 'c': a list of choices for a message.
-    module function choices(list) result(text)
-      character(len=*), intent(in) :: list(:)
-      character(len=:), allocatable :: text
-    end function choices
 
     !> The text of group in the case ('' when the case has none): what its
     !> namelist read is given.

@@ -271,18 +271,6 @@ contains
     if (status /= MLID_OK) call fail(c, where//trim(msg))
   end procedure set_option
 
-  !> 'a', 'b' or 'c': a list of choices for a message.
-  module procedure choices
-    integer :: k
-    text = ''''//trim(list(1))//''''
-    do k = 2, size(list)
-      if (k == size(list)) then
-        text = text//' or '''//trim(list(k))//''''
-      else
-        text = text//', '''//trim(list(k))//''''
-      end if
-    end do
-  end procedure choices
 
   !> The line without its comment (from the first '!' outside quotes:
   !> mlid_text's comment_start).

@@ -12,6 +12,7 @@ module mlid_jobs
   use mlid_case, only: case_t, NAMELEN
   use mlid_deck, only: case_time_input, case_record
   use mlid_ftr, only: ftr_settings_t, ftr_run
+  use mlid_frequency, only: freq_grid
   use mlid_online_filter, only: filter_settings_t
   use mlid_online_ekf, only: ekf_run
   use mlid_online_ukf, only: ukf_run
@@ -511,9 +512,12 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     type(ftr_settings_t) :: s
-    integer :: m, np, k
-    s%w = [(2.0_wp*PI*(c%online_band(1) + (c%online_band(2) - c%online_band(1))* &
-            real(k, wp)/(c%online_nfreq - 1)), k=0, c%online_nfreq - 1)]
+    type(options_t) :: band
+    integer :: m, np
+    band%n_freq = c%online_nfreq          ! the frequency-domain methods' grid
+    band%f_min = c%online_band(1)
+    band%f_max = c%online_band(2)
+    s%w = 2.0_wp*PI*freq_grid(band)
     s%every = c%online_every
     s%trim = c%online_trim
     s%first = c%online_first

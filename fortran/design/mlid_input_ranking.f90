@@ -27,7 +27,7 @@
 module mlid_input_ranking
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_INTERNAL
-  use mlid_text, only: to_lower, itoa, es_text
+  use mlid_text, only: to_lower, itoa, es_text, choices
   use mlid_design, only: design_t, input_information, information_summary, input_response, &
                          simpson_weights
   use mlid_linalg, only: general_eig
@@ -86,7 +86,7 @@ contains
     status = MLID_ERR_INPUT
     do k = 1, size(o%names)
       if (all(to_lower(o%names(k)) /= CANDIDATE_NAMES)) then
-        msg = 'candidates: unknown candidate '''//trim(o%names(k))//''': use '//listed(CANDIDATE_NAMES)
+        msg = 'candidates: unknown candidate '''//trim(o%names(k))//''': use '//choices(CANDIDATE_NAMES)
         return
       end if
       if (any(to_lower(o%names(k)) == to_lower(o%names(:k - 1)))) then
@@ -95,9 +95,9 @@ contains
       end if
     end do
     if (all(to_lower(o%compare) /= COMPARE_NAMES)) then
-      msg = 'compare must be '//listed(COMPARE_NAMES)//', got '''//trim(o%compare)//''''
+      msg = 'compare must be '//choices(COMPARE_NAMES)//', got '''//trim(o%compare)//''''
     else if (all(to_lower(o%rank_by) /= RANK_BY_NAMES)) then
-      msg = 'rank_by must be '//listed(RANK_BY_NAMES)//', got '''//trim(o%rank_by)//''''
+      msg = 'rank_by must be '//choices(RANK_BY_NAMES)//', got '''//trim(o%rank_by)//''''
     else if (.not. all(ieee_is_finite([o%f_min, o%f_max, o%pulse_width])) .or. &
              o%f_min < 0.0_wp .or. o%f_max < 0.0_wp .or. o%pulse_width < 0.0_wp) then
       msg = 'f_min, f_max and pulse_width must be finite and >= 0 (0: from the model)'
@@ -113,17 +113,6 @@ contains
       msg = ''
     end if
   end subroutine check_ranking_options
-
-  !> 'a', 'b' or 'c'
-  function listed(names) result(text)
-    character(len=*), intent(in) :: names(:)
-    character(len=:), allocatable :: text
-    integer :: k
-    text = ''''//trim(names(1))//''''
-    do k = 2, size(names)
-      text = text//trim(merge(' or', ',  ', k == size(names)))//' '''//trim(names(k))//''''
-    end do
-  end function listed
 
   !> Rank the candidates of o for the design d of the model (f, g, h) on n
   !> cells of [0, T], each scaled to level (o%compare's energy or peak);

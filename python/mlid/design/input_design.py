@@ -12,7 +12,7 @@ R is the spectral density of the continuous measurement noise (eq. 7.11).
 
 import numpy as np
 
-from .._bridge import api as _api, call_handle, put, results
+from .._bridge import api as _api, call_handle, put, results, lines
 from ..checks import real_array, whole
 from ..errors import InputError, check_status, guarded, guarded_class
 from ..model.calls import _set_model_with_params
@@ -483,7 +483,7 @@ class InputDesign:
         return best, [float(x) for x in r["ratios"]]
 
     #: The candidates rank_inputs compares by default (the core's names).
-    CANDIDATES = ("optimal", "doublet", "3211", "multisine", "sweep", "log_sweep", "prbs")
+    CANDIDATES = tuple(lines(_api.mlid_name_list("ranking_candidates")))   # the core's
 
     def rank_inputs(self, T, energy=None, peak=None, candidates=CANDIDATES, cells=200,
                     rank_by="det", f_band=None, pulse_width=None):
