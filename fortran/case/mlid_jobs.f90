@@ -36,6 +36,7 @@ module mlid_jobs
   use mlid_design, only: design_t, design_create, operator_mu, mu_for_length, transition_length, &
                          RICCATI_BRACKET, &
                          costate_input, input_information, amplitude_limited_input, &
+                         operator_input, &
                          equalised_input, information_summary, servo_model, &
                          design_state_penalty, input_response, simpson_weights
   use mlid_signals, only: multisine_band, peak_factor
@@ -298,9 +299,8 @@ contains
     case ('operator')             ! the largest eigenvalue of the operator (of the penalised one)
       allocate (u(n*c%nu))
       call penalised_design(c, f, g, h, r, gq, ks, cs, d, status, msg)
-      if (status == MLID_OK) call operator_mu(d, c%t_end, n/2, s%mu, u, status, msg)
-      u = u*sqrt(c%energy)
-      if (status == MLID_OK) call input_information(d, c%t_end, n, u, s%mm, status, msg)
+      if (status == MLID_OK) call operator_input(d, c%t_end, n/2, c%energy, u, s%mu, s%mm, &
+                                                 status, msg)
     case ('equalised')
       allocate (u(n*c%nu), s%ratios(c%iterations + 1))
       call equalised_input(f, g, h, r, gq, ks, c%urow, cs, c%weights, c%t_end, n/2, c%energy, &

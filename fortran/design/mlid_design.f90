@@ -31,7 +31,7 @@ module mlid_design
   private
   public :: design_t, design_create, operator_mu, riccati_length, transition_length, &
             costate_input, input_information, mu_for_length, amplitude_limited_input, &
-            design_state_penalty, input_response, energy_input, equalised_input, &
+            design_state_penalty, input_response, energy_input, operator_input, equalised_input, &
             information_summary, servo_model, simpson_weights
 
   type :: design_t
@@ -915,11 +915,23 @@ contains
     mu = 0.0_wp
     mm = 0.0_wp
     call design_create(f, g, h, r, ukind, urow, ucol, w, d, status, msg, gq)
-    if (status == MLID_OK) call operator_mu(d, t, n, mu, u, status, msg)
+    if (status == MLID_OK) call operator_input(d, t, n, e, u, mu, mm, status, msg)
+  end subroutine energy_input
+
+  !> energy_input on the design d as made (with a state penalty, say).
+  subroutine operator_input(d, t, n, e, u, mu, mm, status, msg)
+    type(design_t), intent(in) :: d
+    real(wp), intent(in) :: t, e
+    integer, intent(in) :: n
+    real(wp), intent(out) :: u(:), mu, mm(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    mm = 0.0_wp
+    call operator_mu(d, t, n, mu, u, status, msg)
     if (status /= MLID_OK) return
     u = u*sqrt(e)
     call input_information(d, t, 2*n, u, mm, status, msg)
-  end subroutine energy_input
+  end subroutine operator_input
 
   !> The weighted-trace design of §7.8: from weights w0, eq. 7.88
   !> w <- w + alpha (1/m_ii - w), scaled to a largest weight of 1, toward an
