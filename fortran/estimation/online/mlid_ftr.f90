@@ -65,8 +65,8 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     complex(wp) :: a(size(s%w), size(x, 1) + size(u, 1)), ph(size(s%w)), iw(size(s%w))
-    real(wp) :: xt(size(x, 1)), ut(size(u, 1))
-    integer :: nx, np, k, m, kt
+    real(wp) :: xt(size(x, 1)), ut(size(u, 1)), z(size(x, 1) + size(u, 1))
+    integer :: nx, np, k, m, kt, j
 
     ts = 0.0_wp
     est = 0.0_wp
@@ -89,7 +89,10 @@ contains
     do k = 1, size(t)
       if (k >= s%first) then
         ph = exp(-IU*s%w*(t(k) - t(1)))
-        a = s%lambda*a + spread(ph, 2, np)*spread([x(:, k) - xt, u(:, k) - ut], 1, size(s%w))
+        z = [x(:, k) - xt, u(:, k) - ut]
+        do j = 1, np                         ! no temporaries on the per-sample path
+          a(:, j) = s%lambda*a(:, j) + ph*z(j)
+        end do
       end if
       if (mod(k, s%every) /= 0) cycle
       m = m + 1
