@@ -98,8 +98,9 @@ def test_tc11_online_deck_reproduces_the_textbooks_ftr(tmp_path):
 
 @pytest.mark.parametrize("change, new, message", [
     ("&online f_min", "&online estimator = 'kalman', f_min",
-     "group &online: estimator must be 'ftr' (Fourier-transform regression), 'ekf', 'ukf' or "
-     "'ukf_augmented' (the augmented-state filters), not 'kalman'"),
+     "group &online: estimator must be 'ftr' (Fourier-transform regression), 'ekf', 'ukf', "
+     "'ukf_augmented' (the augmented-state filters) or 'efrls' (the extended filter as "
+     "forgetting-factor least squares), not 'kalman'"),
     ("n_freq = 28", "n_freq = 1", "the band needs 0 < f_min < f_max (Hz) and n_freq >= 2"),
     ("every = 50", "every = 0", "every (samples between solves) must be >= 1"),
     (", out = 'hist.dat'", "", "out (the record of the estimates' history to write) is missing"),

@@ -17,7 +17,7 @@ module mlid_api_online
   use mlid_setup, only: problem_setup
   use mlid_handles, only: session_t, call_session
   use mlid_named, only: named_t
-  use mlid_online_filter, only: filter_settings_t
+  use mlid_online_filter, only: filter_settings_t, FORGET_RANGE
   use mlid_online_ekf, only: ekf_run
   use mlid_online_ukf, only: ukf_run
   implicit none
@@ -96,19 +96,21 @@ contains
     real(c_double), intent(out) :: tc(np)
     tc = convergence_times(t, est, sig, width)
   end subroutine mlid_convergence_times
+
   !> An augmented-state filter on the problem of handle h: its model at
   !> the parameters given (x0 and the output biases fixed, the noise
   !> inputs' variances q for the augmented-noise UKF), one record (one
   !> manoeuvre), the options' input hold and RK4 substeps; the problem's
   !> own free set is not used.  Given values (mlid_api_values): method (1
-  !> EKF, 2 UKF, 3 the augmented-noise UKF); ifree, the free model
-  !> parameters (indices into theta's first block p); p0, q (nx + nf): xa's
-  !> start and process-noise variances, states first; r (ny); ut = (alpha,
-  !> beta, kappa) and kappa_given (0: kappa = 3 - N); delta (> 0: the EKF's
-  !> Jacobians by central differences); r_fade (in (0, 1): the EKF's R
-  !> adapted with this fading memory, 0: r given).  Results: est and sig
-  !> (nx + nf, nt), xa and its sigma after each sample; rhist (ny, nt), R's
-  !> diagonal after each (the EKF's).
+  !> EKF, 2 UKF, 3 the augmented-noise UKF, 4 the EKF as extended
+  !> forgetting-factor least squares, forget its lambda); ifree, the free
+  !> model parameters (indices into theta's first block p); p0, q (nx +
+  !> nf): xa's start and process-noise variances, states first; r (ny); ut
+  !> = (alpha, beta, kappa) and kappa_given (0: kappa = 3 - N); delta (> 0:
+  !> the EKF's Jacobians by central differences); r_fade (in (0, 1): the
+  !> EKF's R adapted with this fading memory, 0: r given).  Results: est
+  !> and sig (nx + nf, nt), xa and its sigma after each sample; rhist (ny,
+  !> nt), R's diagonal after each (the EKF's).
   subroutine mlid_online_filter(h, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
@@ -128,11 +130,15 @@ contains
       if (st == MLID_OK) call g%get('method', method, st, msg)
       if (st == MLID_OK) call g%get('ifree', ifree, st, msg)
       if (st == MLID_OK) call given_settings(g, m, size(ifree), opt, fs, st, msg)
+      if (st == MLID_OK .and. method == 4) call g%get('forget', fs%forget, st, msg)
       status = st
       if (st /= MLID_OK) return
       status = MLID_ERR_INPUT
-      if (method < 1 .or. method > 3) then
-        msg = 'online filter method must be 1 (EKF), 2 (UKF) or 3 (augmented-noise UKF)'
+      if (method < 1 .or. method > 4) then
+        msg = 'online filter method must be 1 (EKF), 2 (UKF), 3 (augmented-noise UKF) or 4 '// &
+              '(EFRLS)'
+      else if (method == 4 .and. .not. (fs%forget > 0.0_wp .and. fs%forget <= 1.0_wp)) then
+        msg = FORGET_RANGE
       else if (size(p%segstart) /= 1) then
         msg = 'the online filters run on one record: join the manoeuvres into one'
       else
@@ -193,7 +199,7 @@ contains
     fs%qw = theta(l%oq + 1:l%oq + m%nw)
     associate (p => theta(1:m%np), x0 => theta(l%ox0 + 1:l%ox0 + m%nx), &
                bias => theta(l%obias + 1:l%obias + m%ny))
-      if (method == 1) then
+      if (method == 1 .or. method == 4) then
         call ekf_run(m, p, ifree, x0, bias, t, u, z, fs, est, sig, rhist, status, msg)
       else
         call ukf_run(m, p, ifree, x0, bias, t, u, z, fs, method == 3, est, sig, status, msg)
@@ -202,7 +208,7 @@ contains
     if (status /= MLID_OK) return
     call results%put('est', est)
     call results%put('sig', sig)
-    if (method == 1) call results%put('rhist', rhist)
+    if (method == 1 .or. method == 4) call results%put('rhist', rhist)
   end subroutine run_filter
 
 end module mlid_api_online

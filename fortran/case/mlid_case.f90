@@ -26,9 +26,10 @@ module mlid_case
   integer, parameter :: MAX_SAMPLES = 10000000
   !> &online's estimators: Fourier-transform regression, the augmented-state
   !> extended and unscented Kalman filters (the unscented in its standard
-  !> and its augmented-noise form)
-  character(len=16), parameter :: ONLINE_ESTIMATORS(4) = [character(len=16) :: 'ftr', 'ekf', &
-                                                          'ukf', 'ukf_augmented']
+  !> and its augmented-noise form), the extended filter as forgetting-factor
+  !> least squares
+  character(len=16), parameter :: ONLINE_ESTIMATORS(5) = [character(len=16) :: 'ftr', 'ekf', &
+                                                          'ukf', 'ukf_augmented', 'efrls']
 
   !> The numeric flight-condition items of &case, in order.
   !> A title's characters at the most (UTF-8: up to four bytes each).

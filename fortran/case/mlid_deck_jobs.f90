@@ -584,7 +584,8 @@ contains
     character(len=msg_len) :: iomsg
     if (all(ONLINE_ESTIMATORS /= c%online_estimator)) then
       call fail(c, 'group &online: estimator must be ''ftr'' (Fourier-transform regression), '// &
-                '''ekf'', ''ukf'' or ''ukf_augmented'' (the augmented-state filters), not '''// &
+                '''ekf'', ''ukf'', ''ukf_augmented'' (the augmented-state filters) or ''efrls'' '// &
+                '(the extended filter as forgetting-factor least squares), not '''// &
                 trim(c%online_estimator)//'''')
       return
     else if (len_trim(c%out_file) == 0) then
@@ -646,6 +647,12 @@ contains
     else if (size(c%online_p0) /= n .or. size(c%online_q) /= n) then
       call fail(c, 'group &online: p0 and q take one variance per state and free parameter ('// &
                 itoa(n)//', the states first)')
+    else if (c%online_estimator == 'efrls' .and. &
+             .not. (c%online_lambda > 0.0_wp .and. c%online_lambda <= 1.0_wp)) then
+      call fail(c, 'group &online: forgetting (lambda) must be in (0, 1], 1 for none')
+    else if (c%online_estimator /= 'efrls' .and. c%online_lambda /= 1.0_wp) then
+      call fail(c, 'group &online: forgetting is ''ftr''''s and ''efrls''''s, not '''// &
+                trim(c%online_estimator)//'''''s')
     end if
   end subroutine check_online_filter
 

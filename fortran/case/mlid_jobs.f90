@@ -562,6 +562,7 @@ contains
     s%qw = c%theta(l%oq + 1:l%oq + c%nw)
     s%delta = c%online_delta
     s%r_fade = c%online_rfade
+    if (c%online_estimator == 'efrls') s%forget = c%online_lambda
     s%hold = c%iopt(4) == 1
     s%nsub = max(1, c%iopt(5))
     allocate (est(n, size(t)), sig(n, size(t)), rhist(c%ny, size(t)), stat=ierr)
@@ -572,7 +573,7 @@ contains
     rhist = 0.0_wp
     associate (p => c%theta(1:l%np), x0 => c%theta(l%ox0 + 1:l%ox0 + c%nx), &
                bias => c%theta(l%obias + 1:l%obias + c%ny))
-      if (c%online_estimator == 'ekf') then
+      if (c%online_estimator == 'ekf' .or. c%online_estimator == 'efrls') then
         call ekf_run(m, p, ifree, x0, bias, t, u, y, s, est, sig, rhist, status, msg)
       else
         call ukf_run(m, p, ifree, x0, bias, t, u, y, s, c%online_estimator == 'ukf_augmented', &

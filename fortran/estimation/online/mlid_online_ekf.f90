@@ -17,6 +17,15 @@
 !> states and parameters (the short period) the differences are exact to
 !> rounding.  R is given, or adapted from the residuals after each update
 !> (adapt_r).
+!>
+!> With a forgetting factor lambda (s%forget > 0) the same recursion is the
+!> textbook's extended forgetting-factor least squares (EFRLS, sec. 7.4):
+!> the innovation weighted by lambda R, P+ divided by lambda after each
+!> update (old samples' weight decays as lambda^k), and no update at the
+!> first sample (x0, p0 are the estimate there).  The textbook takes R = I
+!> (unit weights, so its "sigma" is not a standard deviation) and C at the
+!> previous estimate; here R is the one given (the noise variances make P a
+!> covariance, inflated by the forgetting) and C at the prediction, exact.
 module mlid_online_ekf
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_DIVERGED, MLID_ERR_MEMORY
@@ -49,6 +58,7 @@ contains
     real(wp) :: xa(m%nx + size(ifree)), r(m%ny), c(m%ny, m%nx + size(ifree))
     type(rk_work_t) :: wk
     type(expm_work_t) :: ew
+    real(wp) :: lam          ! the forgetting factor (1: none)
     integer :: k, n, i, ierr
 
     est = 0.0_wp
@@ -58,6 +68,7 @@ contains
     if (status /= MLID_OK) return
     n = size(xa)
     r = s%r
+    lam = merge(s%forget, 1.0_wp, s%forget > 0.0_wp)
     allocate (pc(n, n), phi(m%nx, n), w(m%nw), stat=ierr)
     if (ierr /= 0) then
       status = MLID_ERR_MEMORY
@@ -82,8 +93,12 @@ contains
           pc(i, i) = pc(i, i) + s%q(i)
         end do
       end if
-      call ekf_update(m, p, ifree, bias, r, s%delta, t(k), u(:, k), z(:, k), xa, pc, c, status)
-      if (status /= MLID_OK .or. .not. all(ieee_is_finite(xa))) exit
+      if (k > 1 .or. s%forget == 0.0_wp) then
+        call ekf_update(m, p, ifree, bias, lam*r, s%delta, t(k), u(:, k), z(:, k), xa, pc, c, &
+                        status)
+        if (status /= MLID_OK .or. .not. all(ieee_is_finite(xa))) exit
+        if (lam < 1.0_wp) pc = pc/lam
+      end if
       if (s%r_fade > 0.0_wp) call adapt_r(m, p, ifree, bias, t(k), u(:, k), z(:, k), xa, pc, c, &
                                           1.0_wp - s%r_fade**k, s%r_fade, r)
       rhist(:, k) = r

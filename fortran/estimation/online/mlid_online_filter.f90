@@ -16,6 +16,9 @@ module mlid_online_filter
   implicit none
   private
   public :: filter_settings_t, filter_check, filter_propagate, filter_outputs, filter_params
+  public :: FORGET_RANGE
+
+  character(len=*), parameter :: FORGET_RANGE = 'the forgetting factor must be in (0, 1], 1 for none'
 
   !> The filters' settings.  p0, q: the start covariance and the process
   !> noise (variances, discrete: added to P at each propagation) of xa
@@ -33,6 +36,9 @@ module mlid_online_filter
     integer :: nsub = 1
     real(wp) :: delta = 0.0_wp   !< > 0: the EKF's Jacobians by central differences (the textbook's)
     real(wp) :: r_fade = 0.0_wp  !< in (0, 1): the EKF's R adapted, this fading memory (0: R given)
+    !> in (0, 1]: the EKF run as extended forgetting-factor least squares
+    !> (mlid_online_ekf), this forgetting factor (0: the Kalman filter)
+    real(wp) :: forget = 0.0_wp
   end type filter_settings_t
 
 contains
@@ -116,6 +122,10 @@ contains
       msg = 'the difference step delta must be >= 0 (0: exact Jacobians) and finite'
     else if (.not. (s%r_fade >= 0.0_wp .and. s%r_fade < 1.0_wp)) then
       msg = 'the fading factor of the adaptive R must be in [0, 1) (0: R given)'
+    else if (.not. (s%forget >= 0.0_wp .and. s%forget <= 1.0_wp)) then
+      msg = FORGET_RANGE
+    else if (s%forget > 0.0_wp .and. (ukf_dim > 0 .or. s%r_fade > 0.0_wp)) then
+      msg = 'forgetting is the extended Kalman filter''s, with R given'
     else if (ukf_dim > 0 .and. s%r_fade > 0.0_wp) then
       msg = 'the adaptive R is the extended Kalman filter''s only'
     else if (ukf_dim > 0) then

@@ -2,8 +2,8 @@
 monitoring a test point, envelope expansion or adaptive control (the core's
 fortran/estimation/online/)."""
 
-from .filters import ekf, ukf
+from .filters import efrls, ekf, ukf
 from .rls import OnlineEstimate, rls
 from .ftr import ftr
 
-__all__ = ["OnlineEstimate", "ekf", "ftr", "rls", "ukf"]
+__all__ = ["OnlineEstimate", "efrls", "ekf", "ftr", "rls", "ukf"]

@@ -11,7 +11,7 @@ from ..estimate.options import _flat_options
 from ..model.calls import _check, _check_model, _record, _set_simulation
 from .rls import OnlineEstimate
 
-_METHODS = {"ekf": 1, "ukf": 2, "ukf_augmented": 3}
+_METHODS = {"ekf": 1, "ukf": 2, "ukf_augmented": 3, "efrls": 4}
 
 
 def _per_entry(name, value, n, what):
@@ -24,7 +24,7 @@ def _per_entry(name, value, n, what):
     return a
 
 
-def _run(method, model, data, free, p0, q, r, ut, delta, r_fading=0.0):
+def _run(method, model, data, free, p0, q, r, ut, delta, r_fading=0.0, forget=0.0):
     _check_model(model)
     if not isinstance(data, FlightData):
         raise InputError("data must be one FlightData (the filters run on one record; join "
@@ -54,7 +54,8 @@ def _run(method, model, data, free, p0, q, r, ut, delta, r_fading=0.0):
     alpha, beta, kappa = ut
     _put(h, method=_METHODS[method], ifree=np.array(idx, dtype=np.int32) + 1, p0=p0, q=q, r=r,
          ut=np.array([alpha, beta, 0.0 if kappa is None else kappa], dtype=float),
-         kappa_given=int(kappa is not None), delta=float(delta), r_fade=float(r_fading))
+         kappa_given=int(kappa is not None), delta=float(delta), r_fade=float(r_fading),
+         forget=float(forget))
     out = _run_call(h, _api.mlid_online_filter)
     est, sig = out["est"], out["sig"]
     nx = model.nx
@@ -134,6 +135,29 @@ def ekf(model, data, free=None, p0=10.0, q=0.0, r=None, differences=0.0, r_fadin
     -6.0
     """
     return _run("ekf", model, data, free, p0, q, r, (0.5, 2.0, None), differences, r_fading)
+
+
+@guarded
+@_doc
+def efrls(model, data, free=None, forgetting=0.998, p0=1e3, q=0.0, r=None, differences=0.0):
+    """Extended forgetting-factor recursive least squares (the textbook's
+    EFRLS, sec. 7.4): the extended Kalman filter's recursion
+    (fortran/estimation/online/mlid_online_ekf.f90) with the innovation
+    weighted by lambda R and P divided by lambda after each update, so
+    that a sample's weight decays as lambda^k; no update at the first
+    sample (x0 and p0 are the estimate there).
+    {params}    forgetting : float
+        lambda in (0, 1]; 1: no forgetting (a memory of about 1/(1 - lambda)
+        samples otherwise).
+    differences : float
+        > 0: the Jacobians by central differences with this step.
+
+    The textbook weights every output by 1 (r = 1): its P is then not a
+    covariance.  With r the measurement-noise variances, sigma is a
+    standard deviation inflated by the forgetting.
+    {returns}"""
+    return _run("efrls", model, data, free, p0, q, r, (0.5, 2.0, None), differences,
+                forget=forgetting)
 
 
 @guarded
