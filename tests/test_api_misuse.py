@@ -35,6 +35,8 @@ U2 = np.column_stack([np.sin(3 * T), np.cos(2 * T)])
 NAN_U = U1.copy()
 NAN_U[7, 0] = np.nan
 BIG = 2**31
+X2 = np.column_stack([np.sin(T), np.cos(T)])
+F10 = np.linspace(0.2, 2.0, 10)
 
 MISUSE = {
     # fit / evaluate
@@ -188,6 +190,41 @@ MISUSE = {
     "model matrix masked": (lambda d: mlid.LinearModel(np.ma.masked_equal([[-1.0, 0.5], [-0.8, -2.0]], 0.5),
                                                        [[1.0], [0.3]], np.eye(2)),
                             r"^F is a masked array with 1 masked value"),
+    # online estimation and model structure (issue 45)
+    "rls X 1-D": (lambda d: mlid.online.rls(np.sin(T), np.sin(T)), r"X must be \(n, np\) and y \(n,\)"),
+    "rls forgetting 0": (lambda d: mlid.online.rls(X2, np.sin(T), forgetting=0.0),
+                         r"forgetting factor must be in \(0, 1\], not 0"),
+    "rls forgetting NaN": (lambda d: mlid.online.rls(X2, np.sin(T), forgetting=math.nan),
+                           r"forgetting factor must be in \(0, 1\], not NaN"),
+    "rls p0 negative": (lambda d: mlid.online.rls(X2, np.sin(T), p0=-1.0), "P0 .* must be > 0"),
+    "rls names count": (lambda d: mlid.online.rls(X2, np.sin(T), names=["a"]), "1 names for 2 regressors"),
+    "ftr every 0": (lambda d: mlid.online.ftr(T, d.y, d.u, F10, every=0), "every must be a whole number >= 1"),
+    "ftr x short": (lambda d: mlid.online.ftr(T, d.y[:50], d.u, F10), "need one row per sample"),
+    "ftr forgetting 2": (lambda d: mlid.online.ftr(T, d.y, d.u, F10, forgetting=2.0),
+                         r"forgetting factor must be in \(0, 1\]"),
+    "ftr negative frequency": (lambda d: mlid.online.ftr(T, d.y, d.u, -F10), "frequencies must be > 0"),
+    "ftr too few frequencies": (lambda d: mlid.online.ftr(T, d.y, d.u, [0.5]), "more frequencies than parameters"),
+    "ekf data list": (lambda d: mlid.online.ekf(_model(), [d, d]), "data must be one FlightData"),
+    "ekf model None": (lambda d: mlid.online.ekf(None, d), "model must be a mlid model"),
+    "ekf p0 NaN": (lambda d: mlid.online.ekf(_model(), d, p0=math.nan), "p0 has a value that is not finite"),
+    "ekf free unknown": (lambda d: mlid.online.ekf(_model(), d, free=["M_x"]), "parameter 'M_x' does not exist"),
+    "ukf beta inf": (lambda d: mlid.online.ukf(_model(), d, beta=math.inf, r=[1, 1]), "beta and kappa must be finite"),
+    "efrls forgetting 0": (lambda d: mlid.online.efrls(_model(), d, forgetting=0.0, r=[1, 1]),
+                           r"forgetting factor must be in \(0, 1\], 1 for none"),
+    "stepwise method typo": (lambda d: mlid.stepwise(X2, np.sin(T), method="forwards"),
+                             "method must be forward, backward or mof, not 'forwards'"),
+    "stepwise y short": (lambda d: mlid.stepwise(X2, np.sin(T[:50])), r"X must be \(N, m\) and y \(N,\)"),
+    "stepwise F_in negative": (lambda d: mlid.stepwise(X2, np.sin(T), f_in=-1.0), "F_in and F_out must be > 0"),
+    "stepwise forced unknown": (lambda d: mlid.stepwise(X2, np.sin(T), forced=["zz"], names=["a", "b"]),
+                                "forced terms .'zz'. are not among the candidates"),
+    "candidates of a FlightData": (lambda d: mlid.stepwise_candidates(d, ["alpha"]),
+                                   "data must be a pandas DataFrame or a dict"),
+    "candidates ragged": (lambda d: mlid.stepwise_candidates({"a": np.sin(T), "b": T[:50]}, ["a", "b"]),
+                          "one sample count, got a 101, b 50"),
+    "candidates degree 0": (lambda d: mlid.stepwise_candidates({"a": np.sin(T)}, ["a"], degree=0),
+                            "degree and the spline degree must be at least 1"),
+    "candidates knots NaN": (lambda d: mlid.stepwise_candidates({"a": np.sin(T)}, ["a"], knots={"a": [math.nan]}),
+                             "knots of a has a value that is not finite"),
 }
 
 

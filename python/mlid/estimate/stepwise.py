@@ -292,17 +292,25 @@ def stepwise_candidates(data, variables, degree=2, knots=None, spline_degree=1):
     Raises
     ------
     InputError
-        A variable not in the data, not real or not finite, knots for a
+        data not a table, a variable not in the data, not real or not
+        finite, variables of different lengths, knots for a
         variable not used, a degree below 1, or more than 10,000 candidates.
     """
     pd = pandas_for("stepwise_candidates")
     if isinstance(variables, str):
         variables = [variables]
     variables = list(variables)
+    if not hasattr(data, "keys"):
+        raise InputError("data must be a pandas DataFrame or a dict of the variables' samples "
+                         f"by name, got {type(data).__name__}")
     missing = [v for v in variables if v not in data]
     if missing:
         raise InputError(f"variable {missing[0]!r} is not in the data")
-    V = np.column_stack([real_array(v, data[v]) for v in variables]) if variables else None
+    columns = [real_array(v, data[v]).ravel() for v in variables]
+    if len({c.size for c in columns}) > 1:
+        raise InputError("the variables need one sample count, got "
+                         + ", ".join(f"{v} {c.size}" for v, c in zip(variables, columns)))
+    V = np.column_stack(columns) if variables else None
     for label, v in (("degree", degree), ("spline_degree", spline_degree)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
             raise InputError(f"{label} must be a whole number >= 1, got {v!r}")
