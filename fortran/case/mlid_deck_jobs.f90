@@ -644,7 +644,12 @@ contains
     else if (size(free_idx) == 0 .or. any(free_idx > lt%np)) then
       call fail(c, 'group &online: the filters estimate the model''s own parameters: free must '// &
                 'list some, and no x0, bias or noise entry')
-    else if (size(c%online_p0) /= n .or. size(c%online_q) /= n) then
+    else if (allocated(c%tie%to)) then
+      if (size(c%tie%to) > 0) call fail(c, 'group &online: the online filters do not follow '// &
+                                        'ties: give the model without them')
+    end if
+    if (c%status /= MLID_OK) return
+    if (size(c%online_p0) /= n .or. size(c%online_q) /= n) then
       call fail(c, 'group &online: p0 and q take one variance per state and free parameter ('// &
                 itoa(n)//', the states first)')
     else if (c%online_estimator == 'efrls' .and. &
