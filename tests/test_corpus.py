@@ -308,6 +308,16 @@ ENTRIES = {
     "noise_std = 1e200": ("noise_std_huge.nml", r"^group &simulate: noise_std\(1\) is too large: "
                                                 r"its square, the variance r, is beyond the largest "
                                                 r"number", {}),
+    # issue 45: the online job's recursive least squares ('rls'): its settings and its model
+    "rls with p0 for 3 of 2 outputs": ("rls_p0_count.nml", r"^group &online: 'rls' takes one p0 "
+                                       r"\(P0 = p0 I\) for all outputs or one per output \(2\), "
+                                       r"got 3$", {}),
+    "rls on a model with states": ("rls_states.nml", r"^group &online: 'rls' regresses the outputs "
+                                   r"of a model with no states \(nx = 0, e\.g\. kind = "
+                                   r"'equations'\), not nx = 2$", {}),
+    "rls on an output not linear in its parameter": (
+        "rls_nonlinear.nml", r"^online: 'rls' regresses outputs linear in the free parameters; "
+                             r"output y2 is not \(sample \d+\)$", {}),
 }
 
 # whole decks that are refused as a whole: name -> (how to make the deck, phrase)

@@ -26,9 +26,10 @@ module mlid_case
   integer, parameter :: MAX_SAMPLES = 10000000
   !> &online's estimators: Fourier-transform regression, the augmented-state
   !> extended and unscented Kalman filters (the unscented in its standard
-  !> and its augmented-noise form)
-  character(len=16), parameter :: ONLINE_ESTIMATORS(4) = [character(len=16) :: 'ftr', 'ekf', &
-                                                          'ukf', 'ukf_augmented']
+  !> and its augmented-noise form), recursive least squares of the model's
+  !> outputs on their free parameters
+  character(len=16), parameter :: ONLINE_ESTIMATORS(5) = [character(len=16) :: 'ftr', 'ekf', &
+                                                          'ukf', 'ukf_augmented', 'rls']
 
   !> The numeric flight-condition items of &case, in order.
   !> A title's characters at the most (UTF-8: up to four bytes each).
@@ -108,6 +109,8 @@ module mlid_case
     !> exact) and R's fading memory (0: R = &model's r)
     real(wp), allocatable :: online_p0(:), online_q(:)
     real(wp) :: online_delta = 0.0_wp, online_rfade = 0.0_wp
+    !> rls: the bound on trace(P)/n of each regression (0: none)
+    real(wp) :: online_pmax = 0.0_wp
     logical :: zero_mean = .false.
     !> simulate and monte_carlo: a record whose time and first nu columns
     !> after it are the inputs (a designed input), instead of input_shape

@@ -17,7 +17,8 @@ module mlid_job_report
   !> The report's words for each of mlid_case's ONLINE_ESTIMATORS.
   character(len=48), parameter :: ESTIMATOR_WORDS(size(ONLINE_ESTIMATORS)) = [character(len=48) :: &
     'Fourier-transform regression', 'extended Kalman filter (augmented state)', &
-    'unscented Kalman filter (augmented state)', 'unscented Kalman filter (augmented noise)']
+    'unscented Kalman filter (augmented state)', 'unscented Kalman filter (augmented noise)', &
+    'recursive least squares']
 
   !> One input of a simulation: its shape ('file' when read from
   !> input_file), peak |u|, rms, relative peak factor (max - min)/(2 sqrt(2)

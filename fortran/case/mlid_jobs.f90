@@ -18,6 +18,7 @@ module mlid_jobs
   use mlid_online_ukf, only: ukf_run
   use mlid_model_factory, only: model_create
   use mlid_online_history, only: convergence_times
+  use mlid_job_rls, only: online_rls
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_models, only: model_t, layout_t, model_layout
@@ -490,6 +491,8 @@ contains
     if (status /= MLID_OK) return
     if (c%online_estimator == 'ftr') then
       call online_ftr(c, t, u, y, o, status, msg)
+    else if (c%online_estimator == 'rls') then
+      call online_rls(c, t, u, y, o, status, msg)
     else
       call online_filter(c, t, u, y, o, status, msg)
     end if
