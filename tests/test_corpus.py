@@ -318,6 +318,17 @@ ENTRIES = {
     "rls on an output not linear in its parameter": (
         "rls_nonlinear.nml", r"^online: 'rls' regresses outputs linear in the free parameters; "
                              r"output y2 is not \(sample \d+\)$", {}),
+    # issue 45: the deck's model-structure job ('stepwise', &stepwise; no &model)
+    "stepwise with an unknown method": ("stepwise_method.nml", r"^group &stepwise: method must "
+                                        r"be 'forward', 'backward' or 'mof', not 'sideways'$", {}),
+    "stepwise forcing a term that is no candidate": (
+        "stepwise_forced.nml", r"^group &stepwise: forced term 'u\^3' is not among the 3 "
+                               r"candidates$", {}),
+    "stepwise knots on a variable not in &data": (
+        "stepwise_knot_var.nml", r"^group &stepwise: knot_vars 'alpha' is not one of &data's "
+                                 r"input_cols \(the variables\)$", {}),
+    "&model in a stepwise case": ("stepwise_model.nml", r"^line \d+: group &model is not read by "
+                                  r"job 'stepwise' \(it reads &case, &data, &stepwise\)$", {}),
 }
 
 # whole decks that are refused as a whole: name -> (how to make the deck, phrase)

@@ -4,8 +4,9 @@ Fourier-transform regression (tc11_ftr.nml) and by the augmented-state
 extended and unscented Kalman filters (tc11_ekf.nml, and the same deck
 with estimator 'ukf') as decks, both front ends run them alike, and test
 case 23's six aerodynamic regressions by recursive least squares in
-Python and as a deck (tc23_rls.nml); every number README.md quotes is
-printed here.
+Python and as a deck (tc23_rls.nml), and their model structure by
+stepwise regression as a deck (tc23_stepwise.nml); every number
+README.md quotes is printed here.
 
     python cases/online/online.py
 """
@@ -144,6 +145,33 @@ def rls_deck_against_reference():
         f"{n} {conv[n]:.2f} s" for n in names))
 
 
+def stepwise_deck():
+    """tc23_stepwise.nml: each coefficient's terms from 47 candidates, by
+    each method (the deck's, then the same deck with 'backward' and 'mof'),
+    against the reference's linear model."""
+    import tempfile
+    reference = {"CD": ["al"], "CL": ["al"], "Cm": ["al", "qn", "de"], "CY": ["be"],
+                 "Cl": ["be", "pn", "rn", "da"], "Cn": ["be", "pn", "rn", "dr"]}
+    text = (HERE / "tc23_stepwise.nml").read_text()
+    for method in ("forward", "backward", "mof"):
+        with tempfile.TemporaryDirectory() as tmp:
+            deck = Path(tmp) / "tc23.nml"
+            deck.write_text(text.replace("../../../shared", str(HERE.parents[2] / "shared"))
+                            .replace("method = 'forward'", f"method = '{method}'"))
+            case, out, _, error = next(iter_deck(deck))
+        if error:
+            sys.exit(f"{case.where()}: {error}")
+        rule = "least PSE" if method == "mof" else "F_in = F_out = 20"
+        print(f"test case 23, stepwise deck, {method} ({rule}), {len(out['candidates'])} "
+              "candidates:")
+        for o in out["outputs"]:
+            missing = [r for r in reference[o["output"]] if r not in o["selected"]]
+            print(f"  {o['output']}: {len(o['selected'])} terms, R2 {o['r2']:.4f}, PSE "
+                  f"{o['pse']:.3g}; the reference's regressors "
+                  + ("all kept" if not missing else "kept except " + ", ".join(missing))
+                  + "; the first steps: " + ", ".join(o["path"]["term"][1:4]))
+
+
 def main():
     if not (REFS / "hist_tc11_FTR.csv").is_file():
         sys.exit(f"the references are not under {REFS}")
@@ -151,6 +179,7 @@ def main():
     filters_against_reference()
     rls_against_reference()
     rls_deck_against_reference()
+    stepwise_deck()
 
 
 if __name__ == "__main__":

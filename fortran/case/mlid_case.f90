@@ -16,7 +16,7 @@ module mlid_case
   use mlid_input_ranking, only: ranking_options_t
   implicit none
   private
-  public :: case_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
+  public :: case_t, stepwise_spec_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
             CONDITION_NAMES, ONLINE_ESTIMATORS
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512
@@ -37,6 +37,23 @@ module mlid_case
   integer, parameter :: NCONDITION = 3
   character(len=10), parameter :: CONDITION_NAMES(NCONDITION) = &
     [character(len=10) :: 'mach', 'altitude', 'alpha_trim']
+
+  !> &stepwise (job 'stepwise', mlid_job_stepwise): the method ('forward',
+  !> 'backward', 'mof'), the partial-F thresholds, sig2_max of PSE (0: the
+  !> variance of y), the candidates from &data's inputs (products to
+  !> degree, spline terms (v - knot)+^spline_degree of the variables
+  !> knot_var), the constant, the terms always in, each output's &model
+  !> item name for the model start ('' : its channel's name in lower case).
+  type :: stepwise_spec_t
+    character(len=16) :: method = 'forward'
+    real(wp) :: f_in = 4.0_wp, f_out = 4.0_wp, sig2_max = 0.0_wp
+    integer :: degree = 1, spline_degree = 1
+    logical :: intercept = .true.
+    integer, allocatable :: knot_var(:)
+    real(wp), allocatable :: knots(:)
+    character(len=64), allocatable :: forced(:)
+    character(len=NAMELEN), allocatable :: coefficients(:)
+  end type stepwise_spec_t
 
   type :: case_t
     integer :: status = MLID_OK
@@ -131,6 +148,7 @@ module mlid_case
     !> monte_carlo (&monte_carlo): runs (seed as simulate's), the true parameters
     integer :: runs = 0
     real(wp), allocatable :: theta_true(:)
+    type(stepwise_spec_t) :: stepwise          !< &stepwise
   end type case_t
 
 contains

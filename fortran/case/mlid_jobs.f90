@@ -19,6 +19,7 @@ module mlid_jobs
   use mlid_model_factory, only: model_create
   use mlid_online_history, only: convergence_times
   use mlid_job_rls, only: online_rls
+  use mlid_job_stepwise, only: stepwise_job
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_models, only: model_t, layout_t, model_layout
@@ -61,7 +62,7 @@ module mlid_jobs
   end type around_t
 
   !> The jobs run here (the others are fits, run by the front ends)
-  character(len=*), parameter :: JOB_RUNS = ' simulate design monte_carlo online '
+  character(len=*), parameter :: JOB_RUNS = ' simulate design monte_carlo online stepwise '
   real(wp), parameter :: PI = 4.0_wp*atan(1.0_wp)
   character, parameter :: NL = achar(10)
 
@@ -92,6 +93,8 @@ contains
       call monte_carlo_job(c, report, json, status, msg, around, progress)
     case ('online')
       call online_job(c, report, json, status, msg)
+    case ('stepwise')
+      call stepwise_job(c, report, json, status, msg)
     case default
       status = MLID_ERR_INPUT
       msg = 'job '''//trim(c%job)//''' is a fit, not run by job_run'
