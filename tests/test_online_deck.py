@@ -264,6 +264,8 @@ def test_tc23_rls_deck_reproduces_the_textbook(tmp_path):
      "'rls' regresses outputs linear in the free parameters; output Cm is not (sample 1)"),
     ("'CY0 + CYbe*be'", "'CY0 + CYbe*be + Cm0*de'",
      "'rls' regresses each output on its own parameters; Cm0 enters 2 outputs"),
+    ("'CY0 + CYbe*be'", "'CY0 + CYbe*be*0'",
+     "'rls': CYbe enters no output (its regressor is zero throughout the record)"),
 ])
 def test_bad_rls_settings_one_line(tmp_path, change, new, message):
     """Each bad setting of the rls deck: one line from both front ends, no

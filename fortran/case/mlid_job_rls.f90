@@ -129,9 +129,13 @@ contains
     status = MLID_ERR_INPUT
     do j = 1, size(ifree)
       enters = any(d(:, j, :) /= 0.0_wp, dim=2)
-      if (count(enters) /= 1) then
+      if (count(enters) > 1) then
         msg = 'online: ''rls'' regresses each output on its own parameters; '// &
               trim(c%labels(c%isfree(ifree(j))))//' enters '//itoa(count(enters))//' outputs'
+        return
+      else if (count(enters) == 0) then
+        msg = 'online: ''rls'': '//trim(c%labels(c%isfree(ifree(j))))//' enters no output '// &
+              '(its regressor is zero throughout the record)'
         return
       end if
       owner(j) = findloc(enters, .true., 1)
