@@ -188,6 +188,10 @@ MISUSE = {
     "model matrix masked": (lambda d: mlid.LinearModel(np.ma.masked_equal([[-1.0, 0.5], [-0.8, -2.0]], 0.5),
                                                        [[1.0], [0.3]], np.eye(2)),
                             r"^F is a masked array with 1 masked value"),
+    # model structure (issue 45): the candidates' names are the core's, one a line
+    "stepwise candidates two-line name": (
+        lambda d: mlid.stepwise_candidates({"a\nb": T}, ["a\nb"]),
+        "a variable's name must be text of one line"),
 }
 
 
