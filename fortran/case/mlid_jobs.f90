@@ -4,6 +4,9 @@
 !>   design       the optimal input of &design (report §7), written as a
 !>                record of t and the inputs, its information summarised
 !>   monte_carlo  seeded runs: simulate from the truth, fit from &model
+!>   online       an online estimator's history (FTR, the filters here;
+!>                recursive least squares in mlid_job_rls)
+!>   stepwise     the model structure of each output (mlid_job_stepwise)
 !> Each returns the report lines and the JSON object of the case (written
 !> once, in mlid_job_report); files are written whole or not at all.
 module mlid_jobs
