@@ -207,5 +207,5 @@ def test_case_deck_tc23_stepwise(tmp_path):
     out = json.loads((tmp_path / "mlid.json").read_text())[0]
     assert [len(o["selected"]) for o in out["outputs"]] == [15, 11, 10, 15, 13, 11]
     assert out["outputs"][4]["model_start"].startswith("    croll_regressors = '1', 'be', ")
-    assert (tmp_path / "tc23_stepwise_start.txt").read_text() == \
+    assert (tmp_path / "tc23_stepwise_start.dat").read_text() == \
         "".join(o["model_start"] + "\n" for o in out["outputs"])
