@@ -225,6 +225,10 @@ MISUSE = {
                             "degree and the spline degree must be at least 1"),
     "candidates knots NaN": (lambda d: mlid.stepwise_candidates({"a": np.sin(T)}, ["a"], knots={"a": [math.nan]}),
                              "knots of a has a value that is not finite"),
+    # the candidates' names are the core's, one a line
+    "stepwise candidates two-line name": (
+        lambda d: mlid.stepwise_candidates({"a\nb": T}, ["a\nb"]),
+        "a variable's name must be text of one line"),
 }
 
 

@@ -308,6 +308,27 @@ ENTRIES = {
     "noise_std = 1e200": ("noise_std_huge.nml", r"^group &simulate: noise_std\(1\) is too large: "
                                                 r"its square, the variance r, is beyond the largest "
                                                 r"number", {}),
+    # issue 45: the online job's recursive least squares ('rls'): its settings and its model
+    "rls with p0 for 3 of 2 outputs": ("rls_p0_count.nml", r"^group &online: 'rls' takes one p0 "
+                                       r"\(P0 = p0 I\) for all outputs or one per output \(2\), "
+                                       r"got 3$", {}),
+    "rls on a model with states": ("rls_states.nml", r"^group &online: 'rls' regresses the outputs "
+                                   r"of a model with no states \(nx = 0, e\.g\. kind = "
+                                   r"'equations'\), not nx = 2$", {}),
+    "rls on an output not linear in its parameter": (
+        "rls_nonlinear.nml", r"^online: 'rls' regresses outputs linear in the free parameters; "
+                             r"output y2 is not \(sample \d+\)$", {}),
+    # issue 45: the deck's model-structure job ('stepwise', &stepwise; no &model)
+    "stepwise with an unknown method": ("stepwise_method.nml", r"^group &stepwise: method must "
+                                        r"be 'forward', 'backward' or 'mof', not 'sideways'$", {}),
+    "stepwise forcing a term that is no candidate": (
+        "stepwise_forced.nml", r"^group &stepwise: forced term 'u\^3' is not among the 3 "
+                               r"candidates$", {}),
+    "stepwise knots on a variable not in &data": (
+        "stepwise_knot_var.nml", r"^group &stepwise: knot_vars 'alpha' is not one of &data's "
+                                 r"input_cols \(the variables\)$", {}),
+    "&model in a stepwise case": ("stepwise_model.nml", r"^line \d+: group &model is not read by "
+                                  r"job 'stepwise' \(it reads &case, &data, &stepwise\)$", {}),
 }
 
 # whole decks that are refused as a whole: name -> (how to make the deck, phrase)

@@ -53,7 +53,7 @@ def page_table(page):
 def test_the_deck_reference_lists_every_name_the_reader_takes():
     core = core_table()
     assert set(core) == {"case", "model", "data", "simulate", "estimate", "design",
-                         "monte_carlo", "online"}
+                         "monte_carlo", "online", "stepwise"}
     assert sum(len(k) for k in core.values()) > 100
     assert page_table(generator().make_page()) == core
 

@@ -4,7 +4,9 @@ Fourier-transform regression (tc11_ftr.nml) and by the augmented-state
 extended and unscented Kalman filters (tc11_ekf.nml, and the same deck
 with estimator 'ukf') as decks, both front ends run them alike, and test
 case 23's six aerodynamic regressions by recursive least squares in
-Python; every number README.md quotes is printed here.
+Python and as a deck (tc23_rls.nml), and their model structure by
+stepwise regression as a deck (tc23_stepwise.nml); every number
+README.md quotes is printed here.
 
     python cases/online/online.py
 """
@@ -109,12 +111,75 @@ def rls_against_reference():
           f"sample {worst:.1e} of the parameter's final size; at the last {worst_final:.1e}")
 
 
+def rls_deck_against_reference():
+    """tc23_rls.nml: the same regressions as a deck (equation error on the
+    outputs of an equations model of no states)."""
+    import pandas as pd
+    import tempfile
+    text = (HERE / "tc23_rls.nml").read_text()
+    with tempfile.TemporaryDirectory() as tmp:
+        deck = Path(tmp) / "tc23.nml"
+        deck.write_text(text.replace("../../../shared", str(HERE.parents[2] / "shared")))
+        case, out, _, error = next(iter_deck(deck))
+    if error:
+        sys.exit(f"{case.where()}: {error}")
+    names = out["parameters"]
+    est, sig = np.array(out["estimates"]), np.array(out["sigma"])
+    ref = pd.read_csv(REFS / "hist_tc23_RLS.csv")[names].to_numpy()
+    final, ref_sig = {}, {}
+    rows = False
+    for line in (REFS / "ref_tc23_RLS.txt").read_text().splitlines():
+        rows = line.startswith("# [final]") or (rows and not line.startswith("#"))
+        if rows and not line.startswith("#") and line.split():
+            f = line.split()
+            final[f[0]], ref_sig[f[0]] = float(f[1]), float(f[2])
+    want = np.array([final[n] for n in names])
+    ratio = sig[-1] / np.array([ref_sig[n] for n in names])
+    print(f"test case 23, RLS deck: {len(out['t'])} samples; largest |ours - reference| / |final| "
+          f"at the last sample {np.max(np.abs(est[-1] - want) / np.abs(want)):.1e} (the table's "
+          f"10 digits), at any sample {np.max(np.abs(est - ref) / np.abs(want)):.1e}; sigma "
+          f"(ours, a-posteriori residuals) / the reference's LS_Stat {ratio.min():.3f} to "
+          f"{ratio.max():.3f}")
+    conv = dict(zip(names, out["converged"]))
+    print("  converged (within 2 sigma of the last from then on): " + ", ".join(
+        f"{n} {conv[n]:.2f} s" for n in names))
+
+
+def stepwise_deck():
+    """tc23_stepwise.nml: each coefficient's terms from 47 candidates, by
+    each method (the deck's, then the same deck with 'backward' and 'mof'),
+    against the reference's linear model."""
+    import tempfile
+    reference = {"CD": ["al"], "CL": ["al"], "Cm": ["al", "qn", "de"], "CY": ["be"],
+                 "Cl": ["be", "pn", "rn", "da"], "Cn": ["be", "pn", "rn", "dr"]}
+    text = (HERE / "tc23_stepwise.nml").read_text()
+    for method in ("forward", "backward", "mof"):
+        with tempfile.TemporaryDirectory() as tmp:
+            deck = Path(tmp) / "tc23.nml"
+            deck.write_text(text.replace("../../../shared", str(HERE.parents[2] / "shared"))
+                            .replace("method = 'forward'", f"method = '{method}'"))
+            case, out, _, error = next(iter_deck(deck))
+        if error:
+            sys.exit(f"{case.where()}: {error}")
+        rule = "least PSE" if method == "mof" else "F_in = F_out = 20"
+        print(f"test case 23, stepwise deck, {method} ({rule}), {len(out['candidates'])} "
+              "candidates:")
+        for o in out["outputs"]:
+            missing = [r for r in reference[o["output"]] if r not in o["selected"]]
+            print(f"  {o['output']}: {len(o['selected'])} terms, R2 {o['r2']:.4f}, PSE "
+                  f"{o['pse']:.3g}; the reference's regressors "
+                  + ("all kept" if not missing else "kept except " + ", ".join(missing))
+                  + "; the first steps: " + ", ".join(o["path"]["term"][1:4]))
+
+
 def main():
     if not (REFS / "hist_tc11_FTR.csv").is_file():
         sys.exit(f"the references are not under {REFS}")
     ftr_against_reference()
     filters_against_reference()
     rls_against_reference()
+    rls_deck_against_reference()
+    stepwise_deck()
 
 
 if __name__ == "__main__":

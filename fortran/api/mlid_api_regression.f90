@@ -9,9 +9,11 @@ module mlid_api_regression
   use mlid_orthogonal_functions, only: orthogonal_functions
   use mlid_candidates, only: candidate_terms
   use mlid_handles, only: session_t, call_session
+  use mlid_stepwise_text, only: CANDLEN, candidate_names, model_start_text
+  use mlid_text, only: name_lines, join_lines, itoa
   implicit none
   private
-  public :: mlid_model_structure, mlid_candidate_terms
+  public :: mlid_model_structure, mlid_candidate_terms, mlid_model_start_text
 
 contains
 
@@ -80,10 +82,11 @@ contains
   end subroutine mlid_model_structure
 
   !> Candidate regressors (mlid_candidates) of handle h's given values: v
-  !> (N, nv) the variables, degree, knot_var (nk; 1-based) and knots (nk)
-  !> the splines' variables and knots, spline_degree.  Results: x (N, nt +
-  !> nk) the candidates, powers (nv nt) the products' exponents, column by
-  !> column.
+  !> (N, nv) the variables, vnames their names (one a line), degree,
+  !> knot_var (nk; 1-based) and knots (nk) the splines' variables and
+  !> knots, spline_degree.  Results: x (N, nt + nk) the candidates, powers
+  !> (nv nt) the products' exponents, column by column, and names (one a
+  !> line; mlid_stepwise_text, as the deck's job 'stepwise' names them).
   subroutine mlid_candidate_terms(h, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
@@ -92,12 +95,15 @@ contains
     real(wp), allocatable :: v(:, :), knots(:), x(:, :)
     integer, allocatable :: knot_var(:), powers(:, :)
     integer :: degree, spline_degree, st
+    character(len=:), allocatable :: vtext
+    character(len=CANDLEN), allocatable :: vnames(:), names(:)
 
     call call_session(h, s, st, msg)
     status = st
     if (st /= MLID_OK) return
     associate (g => s%given)
       call g%get('v', v, st, msg)
+      call g%get('vnames', vtext, st, msg)
       call g%get('degree', degree, st, msg)
       call g%get('knot_var', knot_var, st, msg)
       call g%get('knots', knots, st, msg)
@@ -107,8 +113,49 @@ contains
                                             powers, st, msg)
     status = st
     if (st /= MLID_OK) return
+    call name_lines(vtext, vnames)
+    if (size(vnames) /= size(v, 2)) then
+      status = MLID_ERR_INPUT
+      msg = 'candidates: '//itoa(size(vnames))//' names for '//itoa(size(v, 2))//' variables'
+      return
+    end if
+    names = candidate_names(vnames, powers, knot_var, knots, spline_degree)
     call s%results%put('x', x)
     call s%results%put('powers', reshape(powers, [size(powers)]))
+    call s%results%put('names', join_lines(names))
   end subroutine mlid_candidate_terms
+
+  !> A selected model as the lines of a deck's &model group (mlid_stepwise_
+  !> text, the text the deck's job 'stepwise' prints) from handle h's given
+  !> values: coefficient (the item's name), names (the terms, one a line)
+  !> and values.  Result: text.
+  subroutine mlid_model_start_text(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    character(len=:), allocatable :: coefficient, ntext
+    character(len=CANDLEN), allocatable :: names(:)
+    real(wp), allocatable :: values(:)
+    integer :: st
+
+    call call_session(h, s, st, msg)
+    status = st
+    if (st /= MLID_OK) return
+    associate (g => s%given)
+      call g%get('coefficient', coefficient, st, msg)
+      call g%get('names', ntext, st, msg)
+      call g%get('values', values, st, msg)
+    end associate
+    status = st
+    if (st /= MLID_OK) return
+    call name_lines(ntext, names)
+    if (size(names) /= size(values)) then
+      status = MLID_ERR_INPUT
+      msg = 'model start: '//itoa(size(names))//' names for '//itoa(size(values))//' values'
+      return
+    end if
+    call s%results%put('text', model_start_text(coefficient, names, values))
+  end subroutine mlid_model_start_text
 
 end module mlid_api_regression

@@ -16,7 +16,7 @@ module mlid_case
   use mlid_input_ranking, only: ranking_options_t
   implicit none
   private
-  public :: case_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
+  public :: case_t, stepwise_spec_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
             CONDITION_NAMES, ONLINE_ESTIMATORS
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512
@@ -27,9 +27,10 @@ module mlid_case
   !> &online's estimators: Fourier-transform regression, the augmented-state
   !> extended and unscented Kalman filters (the unscented in its standard
   !> and its augmented-noise form), the extended filter as forgetting-factor
-  !> least squares
-  character(len=16), parameter :: ONLINE_ESTIMATORS(5) = [character(len=16) :: 'ftr', 'ekf', &
-                                                          'ukf', 'ukf_augmented', 'efrls']
+  !> least squares, recursive least squares of the model's outputs on their
+  !> free parameters
+  character(len=16), parameter :: ONLINE_ESTIMATORS(6) = [character(len=16) :: 'ftr', 'ekf', &
+                                                          'ukf', 'ukf_augmented', 'efrls', 'rls']
 
   !> The numeric flight-condition items of &case, in order.
   !> A title's characters at the most (UTF-8: up to four bytes each).
@@ -37,6 +38,23 @@ module mlid_case
   integer, parameter :: NCONDITION = 3
   character(len=10), parameter :: CONDITION_NAMES(NCONDITION) = &
     [character(len=10) :: 'mach', 'altitude', 'alpha_trim']
+
+  !> &stepwise (job 'stepwise', mlid_job_stepwise): the method ('forward',
+  !> 'backward', 'mof'), the partial-F thresholds, sig2_max of PSE (0: the
+  !> variance of y), the candidates from &data's inputs (products to
+  !> degree, spline terms (v - knot)+^spline_degree of the variables
+  !> knot_var), the constant, the terms always in, each output's &model
+  !> item name for the model start ('' : its channel's name in lower case).
+  type :: stepwise_spec_t
+    character(len=16) :: method = 'forward'
+    real(wp) :: f_in = 4.0_wp, f_out = 4.0_wp, sig2_max = 0.0_wp
+    integer :: degree = 1, spline_degree = 1
+    logical :: intercept = .true.
+    integer, allocatable :: knot_var(:)
+    real(wp), allocatable :: knots(:)
+    character(len=64), allocatable :: forced(:)
+    character(len=NAMELEN), allocatable :: coefficients(:)
+  end type stepwise_spec_t
 
   type :: case_t
     integer :: status = MLID_OK
@@ -109,6 +127,8 @@ module mlid_case
     !> exact) and R's fading memory (0: R = &model's r)
     real(wp), allocatable :: online_p0(:), online_q(:)
     real(wp) :: online_delta = 0.0_wp, online_rfade = 0.0_wp
+    !> rls: the bound on trace(P)/n of each regression (0: none)
+    real(wp) :: online_pmax = 0.0_wp
     logical :: zero_mean = .false.
     !> simulate and monte_carlo: a record whose time and first nu columns
     !> after it are the inputs (a designed input), instead of input_shape
@@ -129,6 +149,7 @@ module mlid_case
     !> monte_carlo (&monte_carlo): runs (seed as simulate's), the true parameters
     integer :: runs = 0
     real(wp), allocatable :: theta_true(:)
+    type(stepwise_spec_t) :: stepwise          !< &stepwise
   end type case_t
 
 contains

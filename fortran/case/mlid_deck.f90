@@ -29,6 +29,11 @@
 !>             report 7.6: one weight per state or nx x nx)          (design)
 !>   &monte_carlo runs, seed, truth (per free parameter), input_file;
 !>             &estimate's options for the fits                 (monte_carlo)
+!>   &online   the online estimator and its settings, the history's record (online)
+!>   &stepwise method, f_in, f_out, sig2_max, degree, knot_vars, knots,
+!>             spline_degree, intercept, forced, coefficients, out: the model
+!>             structure of each of &data's outputs from candidates made of
+!>             its inputs (no &model)                             (stepwise)
 !>   &estimate method, startup, max_iter, halvings, noise, partials, steady_state,
 !>             process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond,
 !>             prior, prior_weight,
@@ -77,18 +82,20 @@ module mlid_deck
   integer, parameter :: MAXDEF = 100                                !< an equations model's definitions
   !> The jobs of &case, and the groups each reads, in the order they are
   !> read (&case first: the job); a group of another job is refused.
-  integer, parameter :: NJOB = 6
+  integer, parameter :: NJOB = 7
   character(len=12), parameter :: JOBS(NJOB) = [character(len=12) :: 'estimate', 'validate', &
-                                                'simulate', 'design', 'monte_carlo', 'online']
+                                                'simulate', 'design', 'monte_carlo', 'online', &
+                                                'stepwise']
   character(len=40), parameter :: JOB_GROUPS(NJOB) = [character(len=40) :: &
     'case model data estimate', 'case model data estimate', 'case model simulate', &
-    'case model design', 'case model monte_carlo estimate', 'case model data online']
+    'case model design', 'case model monte_carlo estimate', 'case model data online', &
+    'case data stepwise']
   character(len=*), parameter :: GROUP_NAMES = ' case model data simulate estimate design '// &
-                                               'monte_carlo online '
+                                               'monte_carlo online stepwise '
   !> The names each group takes, in GROUP_NAMES' order: the same as its
   !> reader's namelist statement (tests/test_docs.py checks both ways), for
   !> the deck reference, which is made from this table (deck_groups).
-  integer, parameter :: NGROUP = 8
+  integer, parameter :: NGROUP = 9
   character(len=360), parameter :: GROUP_KEYS(NGROUP) = [character(len=360) :: &
     'title job mach altitude alpha_trim config tags', &
     'kind nx nu ny nw f g h d gamma k bx x0 bias q r s free names tie input_hold substeps '// &
@@ -106,7 +113,9 @@ module mlid_deck
     'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out '// &
     'state_penalty candidates compare rank_by f_min f_max pulse_width', &
     'runs seed truth input_file', &
-    'estimator f_min f_max n_freq every trim first forgetting p0 q delta r_fade out']
+    'estimator f_min f_max n_freq every trim first forgetting p0 q delta r_fade out p_max', &
+    'method f_in f_out sig2_max degree knot_vars knots spline_degree intercept forced '// &
+    'coefficients out']
   character(len=*), parameter :: FORM_FEED = achar(12)
 
   !> What the group readers of one case share: the text of each group (all
@@ -319,6 +328,14 @@ module mlid_deck
       type(case_t), intent(inout) :: c
       integer, intent(in) :: free_idx(:)
     end subroutine read_online_group
+
+    ! in mlid_deck_stepwise
+
+    !> &stepwise: model-structure determination of &data's outputs.
+    module subroutine read_stepwise_group(rd, c)
+      type(reader_t), intent(in) :: rd
+      type(case_t), intent(inout) :: c
+    end subroutine read_stepwise_group
 
     ! in mlid_deck_record
 
@@ -595,6 +612,8 @@ contains
         call read_monte_carlo_group(rd, c, free_idx)
       case ('online')
         call read_online_group(rd, c, free_idx)
+      case ('stepwise')
+        call read_stepwise_group(rd, c)
       end select
       k = e
     end do

@@ -82,7 +82,10 @@ contains
                 'record''s time), or left out')
     if (c%status /= MLID_OK) return
     c%chan%dt = dt                                 ! 0: the record's own time
-    if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
+    if (c%job == 'stepwise') then        ! no &model: the channels are the variables and outputs
+      c%nu = size(c%chan%inputs)
+      c%ny = size(c%chan%outputs)
+    else if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
       write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%chan%inputs), &
         ' input_cols and ', size(c%chan%outputs), ' output_cols given, the model has ', c%nu, &
         ' inputs and ', c%ny, ' outputs'

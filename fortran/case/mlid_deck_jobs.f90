@@ -529,11 +529,12 @@ contains
     character(len=16) :: estimator
     character(len=PATHLEN) :: out
     real(wp) :: f_min, f_max, forgetting, p0(MAXX + MAXFREE), q(MAXX + MAXFREE), delta, r_fade
+    real(wp) :: p_max
     integer :: n_freq, every, trim, first, ios
     character(len=msg_len) :: iomsg
     character(len=:), allocatable :: gtext
     namelist /online/ estimator, f_min, f_max, n_freq, every, trim, first, forgetting, p0, q, &
-      delta, r_fade, out
+      delta, r_fade, out, p_max
 
     estimator = 'ftr'
     f_min = 0.0_wp
@@ -547,6 +548,7 @@ contains
     q = 0.0_wp
     delta = 0.0_wp
     r_fade = 0.0_wp
+    p_max = 0.0_wp
     out = ''
     call at_most(rd, c, 'online', ['p0', 'q '], MAXX + MAXFREE, 'states and free parameters')
     if (c%status /= MLID_OK) return
@@ -565,12 +567,56 @@ contains
     c%online_lambda = forgetting
     c%online_delta = delta
     c%online_rfade = r_fade
+    c%online_pmax = p_max
     call take_list(rd, c, 'online', 'p0', p0, c%online_p0, .false.)
     call take_list(rd, c, 'online', 'q', q, c%online_q, .false.)
     if (c%status /= MLID_OK) return
     c%out_file = out
+    if (c%online_estimator == 'rls') then
+      call check_online_rls(rd, c, free_idx)
+    else if (is_given(rd, 'online', 'p_max')) then
+      call fail(c, 'group &online: p_max is for estimator ''rls''')
+    end if
+    if (c%status /= MLID_OK) return
     call check_online(c, free_idx)
   end procedure read_online_group
+
+  !> Recursive least squares (mlid_job_rls): a model of no states whose
+  !> outputs take the free parameters (the model's own), one P0 for all
+  !> regressions or one per output, no process noise, a bound >= 0.
+  subroutine check_online_rls(rd, c, free_idx)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: free_idx(:)
+    type(layout_table_t) :: lt
+    integer :: ios
+    character(len=msg_len) :: iomsg
+    call layout_of(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, lt, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &online: '//trim(iomsg))
+    else if (c%nx /= 0) then
+      call fail(c, 'group &online: ''rls'' regresses the outputs of a model with no states '// &
+                '(nx = 0, e.g. kind = ''equations''), not nx = '//itoa(c%nx))
+    else if (size(free_idx) == 0 .or. any(free_idx > lt%np)) then
+      call fail(c, 'group &online: ''rls'' estimates the model''s own parameters: free must '// &
+                'list some, and no bias or noise entry')
+    else if (all(size(c%online_p0) /= [0, 1, c%ny])) then
+      call fail(c, 'group &online: ''rls'' takes one p0 (P0 = p0 I) for all outputs or one '// &
+                'per output ('//itoa(c%ny)//'), got '//itoa(size(c%online_p0)))
+    else if (.not. all(c%online_p0 > 0.0_wp .and. ieee_is_finite(c%online_p0))) then
+      call fail(c, 'group &online: p0 must be > 0 and finite')
+    else if (size(c%online_q) > 0) then
+      call fail(c, 'group &online: q is for the filters, not ''rls''')
+    else if (.not. (c%online_pmax >= 0.0_wp .and. ieee_is_finite(c%online_pmax))) then
+      call fail(c, 'group &online: p_max (the bound on trace(P)/n) must be >= 0 (0: none) '// &
+                'and finite')
+    else if (.not. (c%online_lambda > 0.0_wp .and. c%online_lambda <= 1.0_wp)) then
+      call fail(c, 'group &online: forgetting (lambda) must be in (0, 1], 1 for none')
+    else if (is_given(rd, 'online', 'f_min') .or. is_given(rd, 'online', 'f_max') .or. &
+             is_given(rd, 'online', 'n_freq') .or. is_given(rd, 'online', 'every')) then
+      call fail(c, 'group &online: f_min, f_max, n_freq and every are for ''ftr'', not ''rls''')
+    end if
+  end subroutine check_online_rls
 
   !> What the online job takes: its estimator's names and settings, and a
   !> model it can estimate (ftr: linear, the states measured, H = I and D
@@ -584,12 +630,15 @@ contains
     character(len=msg_len) :: iomsg
     if (all(ONLINE_ESTIMATORS /= c%online_estimator)) then
       call fail(c, 'group &online: estimator must be ''ftr'' (Fourier-transform regression), '// &
-                '''ekf'', ''ukf'', ''ukf_augmented'' (the augmented-state filters) or ''efrls'' '// &
-                '(the extended filter as forgetting-factor least squares), not '''// &
+                '''ekf'', ''ukf'', ''ukf_augmented'' (the augmented-state filters), ''efrls'' '// &
+                '(the extended filter as forgetting-factor least squares) or ''rls'' '// &
+                '(recursive least squares), not '''// &
                 trim(c%online_estimator)//'''')
       return
     else if (len_trim(c%out_file) == 0) then
       call fail(c, 'group &online: out (the record of the estimates'' history to write) is missing')
+      return
+    else if (c%online_estimator == 'rls') then
       return
     else if (c%online_estimator /= 'ftr') then
       call check_online_filter(c, free_idx)
@@ -656,7 +705,7 @@ contains
              .not. (c%online_lambda > 0.0_wp .and. c%online_lambda <= 1.0_wp)) then
       call fail(c, 'group &online: forgetting (lambda) must be in (0, 1], 1 for none')
     else if (c%online_estimator /= 'efrls' .and. c%online_lambda /= 1.0_wp) then
-      call fail(c, 'group &online: forgetting is ''ftr''''s and ''efrls''''s, not '''// &
+      call fail(c, 'group &online: forgetting is ''ftr''''s, ''efrls''''s and ''rls''''s, not '''// &
                 trim(c%online_estimator)//'''''s')
     end if
   end subroutine check_online_filter

@@ -18,7 +18,7 @@ module mlid_job_report
   character(len=48), parameter :: ESTIMATOR_WORDS(size(ONLINE_ESTIMATORS)) = [character(len=48) :: &
     'Fourier-transform regression', 'extended Kalman filter (augmented state)', &
     'unscented Kalman filter (augmented state)', 'unscented Kalman filter (augmented noise)', &
-    'extended forgetting-factor least squares']
+    'extended forgetting-factor least squares', 'recursive least squares']
 
   !> One input of a simulation: its shape ('file' when read from
   !> input_file), peak |u|, rms, relative peak factor (max - min)/(2 sqrt(2)

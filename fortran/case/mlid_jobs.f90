@@ -4,6 +4,9 @@
 !>   design       the optimal input of &design (report §7), written as a
 !>                record of t and the inputs, its information summarised
 !>   monte_carlo  seeded runs: simulate from the truth, fit from &model
+!>   online       an online estimator's history (FTR, the filters here;
+!>                recursive least squares in mlid_job_rls)
+!>   stepwise     the model structure of each output (mlid_job_stepwise)
 !> Each returns the report lines and the JSON object of the case (written
 !> once, in mlid_job_report); files are written whole or not at all.
 module mlid_jobs
@@ -18,6 +21,8 @@ module mlid_jobs
   use mlid_online_ukf, only: ukf_run
   use mlid_model_factory, only: model_create
   use mlid_online_history, only: convergence_times
+  use mlid_job_rls, only: online_rls
+  use mlid_job_stepwise, only: stepwise_job
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_models, only: model_t, layout_t, model_layout
@@ -60,7 +65,7 @@ module mlid_jobs
   end type around_t
 
   !> The jobs run here (the others are fits, run by the front ends)
-  character(len=*), parameter :: JOB_RUNS = ' simulate design monte_carlo online '
+  character(len=*), parameter :: JOB_RUNS = ' simulate design monte_carlo online stepwise '
   real(wp), parameter :: PI = 4.0_wp*atan(1.0_wp)
   character, parameter :: NL = achar(10)
 
@@ -91,6 +96,8 @@ contains
       call monte_carlo_job(c, report, json, status, msg, around, progress)
     case ('online')
       call online_job(c, report, json, status, msg)
+    case ('stepwise')
+      call stepwise_job(c, report, json, status, msg)
     case default
       status = MLID_ERR_INPUT
       msg = 'job '''//trim(c%job)//''' is a fit, not run by job_run'
@@ -490,6 +497,8 @@ contains
     if (status /= MLID_OK) return
     if (c%online_estimator == 'ftr') then
       call online_ftr(c, t, u, y, o, status, msg)
+    else if (c%online_estimator == 'rls') then
+      call online_rls(c, t, u, y, o, status, msg)
     else
       call online_filter(c, t, u, y, o, status, msg)
     end if

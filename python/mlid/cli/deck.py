@@ -23,6 +23,12 @@ TIE_TERMS = int(_api.mlid_limit("tie_terms"))
 #: The numeric flight-condition items of &case, in the core's order.
 CONDITIONS = tuple(n.strip() for n in _text(_api.mlid_condition_names()).split(","))
 
+#: The jobs whose cases have a &model (the core's deck groups: 'group|jobs|names' a line);
+#: a case of another job ('stepwise') makes no model object.
+MODEL_JOBS = frozenset(next(line.split("|")[1].split()
+                            for line in _text(_api.mlid_deck_groups()).splitlines()
+                            if line.startswith("model|")))
+
 
 class Case:
     """Case k of a deck: what to run, or why it cannot run (``error``).  The
@@ -44,7 +50,7 @@ class Case:
                                        if t.strip()]
         self.model = None
         self.warnings = []                # the records' (record()), as mlid-batch says them
-        if self.error:
+        if self.error or self.job not in MODEL_JOBS:
             return
         opts = options_of_text(v["options"])
         theta, isfree = v["theta"], v["isfree"]

@@ -8,7 +8,8 @@ import re
 
 import numpy as np
 
-from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
+from .._bridge import api as _api, call_handle as _call_handle, lines as _lines, put as _put, \
+    run as _run
 from ..checks import pandas_for, real_array
 from ..errors import InputError, guarded
 
@@ -122,7 +123,9 @@ class ModelStructure:
                 coefficient: [self.estimates[n] for n in self.selected]}
 
     def deck_text(self, coefficient):
-        """model_start(coefficient) as the lines of a deck's &model group.
+        """model_start(coefficient) as the lines of a deck's &model group:
+        the core's text (fortran/case/mlid_stepwise_text.f90), the one the
+        deck's job 'stepwise' prints and writes.
 
         Parameters
         ----------
@@ -133,12 +136,13 @@ class ModelStructure:
         -------
         str
             Two lines: ``<coefficient>_regressors = ...`` and
-            ``<coefficient> = ...``.
+            ``<coefficient> = ...`` (the values as %.10g writes them).
         """
         start = self.model_start(coefficient)
-        names = ", ".join("'" + n.replace("'", "''") + "'" for n in self.selected)
-        values = ", ".join(f"{v:.10g}" for v in start[coefficient])
-        return f"    {coefficient}_regressors = {names},\n    {coefficient} = {values},"
+        h = _call_handle()
+        _put(h, coefficient=coefficient, names="".join(n + "\n" for n in self.selected),
+             values=np.asarray(start[coefficient], dtype=float))
+        return bytes(_run(h, _api.mlid_model_start_text)["text"]).decode("utf-8", "surrogateescape")
 
     def __repr__(self):
         rows = "\n".join(f"  {n:14s} {self.estimates[n]: .6g}  sigma {self.sigma[n]:.3g}  "
@@ -280,7 +284,7 @@ def stepwise_candidates(data, variables, degree=2, knots=None, spline_degree=1):
         order.
     knots : dict, optional
         Per variable the knots of its spline terms: (v - k)+^n, named
-        '(v-k)+' or '(v-k)+^n'.
+        '(v-k)+' or '(v-k)+^n' (k as %g writes it).
     spline_degree : int
         n of the spline terms.
 
@@ -314,23 +318,23 @@ def stepwise_candidates(data, variables, degree=2, knots=None, spline_degree=1):
     for label, v in (("degree", degree), ("spline_degree", spline_degree)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
             raise InputError(f"{label} must be a whole number >= 1, got {v!r}")
-    knot_var, knot_at, knot_names = [], [], []
+    knot_var, knot_at = [], []
     for v, ks in (knots or {}).items():
         if v not in variables:
             raise InputError(f"knots are given for {v!r}, which is not among the variables")
         for k in np.atleast_1d(real_array(f"knots of {v}", ks)):
             knot_var.append(variables.index(v) + 1)
             knot_at.append(float(k))
-            knot_names.append(f"({v}-{k:g})+" + (f"^{spline_degree}" if spline_degree > 1
-                                                 else ""))
     if V is None:
         raise InputError("candidates: no variables or no samples")
+    bad = [v for v in variables if not isinstance(v, str) or "\n" in v]
+    if bad:
+        raise InputError(f"a variable's name must be text of one line, got {bad[0]!r}")
     h = _call_handle()
-    _put(h, v=np.asfortranarray(V), degree=int(degree), knot_var=np.array(knot_var, np.int32),
+    _put(h, v=np.asfortranarray(V), vnames="".join(v + "\n" for v in variables),
+         degree=int(degree), knot_var=np.array(knot_var, np.int32),
          knots=np.array(knot_at, float), spline_degree=int(spline_degree))
     out = _run(h, _api.mlid_candidate_terms)
     x = np.asarray(out["x"]).reshape(V.shape[0], -1, order="F")
-    powers = np.asarray(out["powers"]).reshape(len(variables), -1, order="F")
-    names = ["*".join(v if e == 1 else f"{v}^{e}" for v, e in zip(variables, col) if e)
-             for col in powers.T] + knot_names
-    return pd.DataFrame(x, columns=names, index=getattr(data, "index", None))
+    # the names are the core's (fortran/case/mlid_stepwise_text.f90), as the deck's job prints
+    return pd.DataFrame(x, columns=_lines(out["names"]), index=getattr(data, "index", None))
