@@ -83,6 +83,66 @@ def filters_against_reference():
               f"{ratio.min():.6f} to {ratio.max():.6f}")
 
 
+def _deck_output(name, estimator=None):
+    """The first case of a deck here, its data read from ../shared, run in a
+    scratch folder (its history file goes there)."""
+    import tempfile
+    text = (HERE / name).read_text().replace("../../../shared", str(HERE.parents[2] / "shared"))
+    if estimator:
+        text = text.replace("estimator = 'ekf'", f"estimator = '{estimator}'")
+    with tempfile.TemporaryDirectory() as tmp:
+        deck = Path(tmp) / name
+        deck.write_text(text)
+        case, out, _, error = next(iter_deck(deck))
+    if error:
+        sys.exit(f"{case.where()}: {error}")
+    return out
+
+
+def efrls_against_reference():
+    """tc11_efrls.nml against the EFRLS reference: relative differences
+    (its sigma is no standard deviation: unit weights)."""
+    import pandas as pd
+    out = _deck_output("tc11_efrls.nml")
+    ref = pd.read_csv(REFS / "hist_tc11_EFRLS.csv")
+    names = ["Z0", "Zal", "Zq", "Zde", "M0", "Mal", "Mq", "Mde"]
+    est = np.array(out["estimates"])
+    est[:, out["parameters"].index("Zq1")] -= 1.0
+    order = [out["parameters"].index("Zq1" if n == "Zq" else n) for n in names]
+    rel = np.abs(est[:, order] - ref[names].to_numpy()) / np.abs(ref[names].to_numpy()[-1])
+    checkpoints = [round(j * 1252 / 10) - 1 for j in range(1, 11)]
+    print(f"test case 11, EFRLS deck: largest |ours - reference| / |final| at the ten "
+          f"checkpoints {rel[checkpoints].max():.1e}, at the last sample {rel[-1].max():.1e}")
+
+
+def _reference_table(name, count):
+    lines = (REFS.parent / name).read_text().splitlines()
+    start = next(i for i, s in enumerate(lines) if "estimate" in s and "crb_std" in s)
+    rows = [s.split() for s in lines[start + 1:start + 1 + count]]
+    return np.array([float(r[-2]) for r in rows]), np.array([float(r[-1]) for r in rows])
+
+
+def held_out_cases():
+    """Chapter 7's test cases 4 and 8, which no recursive reference holds:
+    the filters' last estimates against the batch fits of the same records."""
+    ref, sig = _reference_table("hfb320_fem_tc04_fvsysid_octave.txt", 11)
+    for estimator in ("ekf", "ukf"):
+        out = _deck_output("hfb320_ekf.nml", estimator)
+        dev = np.abs(np.array(out["estimates"])[-1] - ref) / sig
+        ratio = np.array(out["sigma"])[-1] / sig
+        worst = out["parameters"][int(np.argmax(dev))]
+        print(f"HFB-320 {estimator.upper()} (hfb320_ekf.nml): last estimates against the "
+              f"filter-error fit, largest {dev.max():.2f} of its sigma ({worst}); sigma ratios "
+              f"{ratio.min():.2f} to {ratio.max():.2f}")
+    ref, _ = _reference_table("unstab_ac_tc06_regstart_fvsysid_octave.txt", 5)
+    for estimator in ("ekf", "ukf"):
+        out = _deck_output("unstable_ekf.nml", estimator)
+        rel = np.abs(np.array(out["estimates"])[-1] - ref) / np.abs(ref)
+        print(f"unstable aircraft {estimator.upper()} (unstable_ekf.nml): last estimates "
+              f"against the output-error fit, largest {100 * rel.max():.2f}% "
+              f"({out['parameters'][int(np.argmax(rel))]})")
+
+
 def _tc11():
     cols = (["T[s]"] + [f"c{i}" for i in range(2, 8)] + ["QRGY[deg/s]"]
             + [f"c{i}" for i in range(9, 13)] + ["ALCG[deg]"] + [f"c{i}" for i in range(14, 22)]
@@ -177,6 +237,8 @@ def main():
         sys.exit(f"the references are not under {REFS}")
     ftr_against_reference()
     filters_against_reference()
+    efrls_against_reference()
+    held_out_cases()
     rls_against_reference()
     rls_deck_against_reference()
     stepwise_deck()
