@@ -323,3 +323,27 @@ def test_rls_deck_regresses_state_equations_on_smoothed_derivatives(tmp_path):
                                    atol=1e-12)
     np.testing.assert_allclose(out["estimates"][-1], [-1.0, 1.0, 0.1, -4.0, -1.5, -6.0],
                                rtol=0.06)
+
+
+def test_timing_is_asked_for_and_changes_nothing_else(tmp_path):
+    """timing = .true.: one more report line (the estimator's time per
+    sample beside the sampling interval, 20 ms here) and seconds_per_sample
+    in the JSON, from both front ends; everything else the untimed run's
+    bytes. Untimed, neither appears (the case decks compare bytes)."""
+    (tmp_path / "sim.nml").write_text(SIMULATE)
+    assert run_both(tmp_path / "sim.nml", cwd=tmp_path)[1].returncode == 0
+    (tmp_path / "plain.nml").write_text(ONLINE)
+    (tmp_path / "timed.nml").write_text(ONLINE.replace("out = 'hist.dat'",
+                                                       "out = 'hist.dat', timing = .true."))
+    plain = run_both(tmp_path / "plain.nml", "--json", "plain-{exe}.json", cwd=tmp_path)
+    timed = run_both(tmp_path / "timed.nml", "--json", "timed-{exe}.json", cwd=tmp_path)
+    for exe, p, t in zip(("mlid", "mlid-batch"), plain, timed):
+        assert p.returncode == 0 and t.returncode == 0, t.stderr
+        extra = [line for line in t.stdout.splitlines() if line not in p.stdout.splitlines()]
+        assert len(extra) == 1 and extra[0].startswith(" time per sample:"), extra
+        assert "sampling interval  2.000E+01 ms" in extra[0]
+        assert "time per sample" not in p.stdout
+        pj = json.loads((tmp_path / f"plain-{exe}.json").read_text())[0]
+        tj = json.loads((tmp_path / f"timed-{exe}.json").read_text())[0]
+        assert "seconds_per_sample" not in pj and tj.pop("seconds_per_sample") > 0
+        assert tj == pj

@@ -129,6 +129,9 @@ module mlid_case
     real(wp) :: online_delta = 0.0_wp, online_rfade = 0.0_wp
     !> rls: the bound on trace(P)/n of each regression (0: none)
     real(wp) :: online_pmax = 0.0_wp
+    !> the estimator's time per sample in the report and JSON (asked for:
+    !> a measured time makes two runs' bytes differ)
+    logical :: online_timing = .false.
     logical :: zero_mean = .false.
     !> simulate and monte_carlo: a record whose time and first nu columns
     !> after it are the inputs (a designed input), instead of input_shape

@@ -113,7 +113,7 @@ module mlid_deck
     'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out '// &
     'state_penalty candidates compare rank_by f_min f_max pulse_width', &
     'runs seed truth input_file', &
-    'estimator f_min f_max n_freq every trim first forgetting p0 q delta r_fade out p_max', &
+    'estimator f_min f_max n_freq every trim first forgetting p0 q delta r_fade out p_max timing', &
     'method f_in f_out sig2_max degree knot_vars knots spline_degree intercept forced '// &
     'coefficients out']
   character(len=*), parameter :: FORM_FEED = achar(12)

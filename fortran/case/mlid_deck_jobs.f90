@@ -531,10 +531,11 @@ contains
     real(wp) :: f_min, f_max, forgetting, p0(MAXX + MAXFREE), q(MAXX + MAXFREE), delta, r_fade
     real(wp) :: p_max
     integer :: n_freq, every, trim, first, ios
+    logical :: timing
     character(len=msg_len) :: iomsg
     character(len=:), allocatable :: gtext
     namelist /online/ estimator, f_min, f_max, n_freq, every, trim, first, forgetting, p0, q, &
-      delta, r_fade, out, p_max
+      delta, r_fade, out, p_max, timing
 
     estimator = 'ftr'
     f_min = 0.0_wp
@@ -549,6 +550,7 @@ contains
     delta = 0.0_wp
     r_fade = 0.0_wp
     p_max = 0.0_wp
+    timing = .false.
     out = ''
     call at_most(rd, c, 'online', ['p0', 'q '], MAXX + MAXFREE, 'states and free parameters')
     if (c%status /= MLID_OK) return
@@ -568,6 +570,7 @@ contains
     c%online_delta = delta
     c%online_rfade = r_fade
     c%online_pmax = p_max
+    c%online_timing = timing
     call take_list(rd, c, 'online', 'p0', p0, c%online_p0, .false.)
     call take_list(rd, c, 'online', 'q', q, c%online_q, .false.)
     if (c%status /= MLID_OK) return

@@ -41,6 +41,8 @@ module mlid_job_report
     real(wp), allocatable :: t(:), est(:, :), sig(:, :), s2(:, :), converged(:)
     integer :: samples = 0
     character(len=512) :: out = ''
+    real(wp) :: per_sample = -1.0_wp   !< the estimator's seconds a sample (< 0: not timed)
+    real(wp) :: dt = 0.0_wp            !< the record's mean sampling interval
   end type online_summary_t
 
   !> A designed input and its information (unknowns in the case's order).
@@ -401,6 +403,9 @@ contains
     end do
     text = text//' converged: from then on within 2 sigma of the last estimate'//NL
     text = text//trim(' '//trim(o%measure)//' (last):'//numbers_text(o%s2(:, m)))//NL
+    if (o%per_sample >= 0.0_wp) text = text//' time per sample:'// &
+      trim(es_text(1.0e6_wp*o%per_sample, 11, 3))//' us, the sampling interval'// &
+      trim(es_text(1.0e3_wp*o%dt, 11, 3))//' ms (timed: this line differs from run to run)'//NL
   end function online_report
 
   function online_json(title, job, o) result(text)
@@ -417,7 +422,10 @@ contains
            '"sigma": '//matrix(transpose(o%sig))//','//NL// &
            '"converged": '//numbers(o%converged)//','//NL// &
            '"measure": '//json_string(trim(o%measure))//', "measure_values": '// &
-           matrix(transpose(o%s2))//'}'
+           matrix(transpose(o%s2))
+    if (o%per_sample >= 0.0_wp) text = text//','//NL//'"seconds_per_sample": '// &
+                                       number(o%per_sample)
+    text = text//'}'
   end function online_json
 
   function numbers_text(v) result(text)

@@ -11,6 +11,7 @@
 !> once, in mlid_job_report); files are written whole or not at all.
 module mlid_jobs
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
+  use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_case, only: case_t, NAMELEN
   use mlid_deck, only: case_time_input, case_record
@@ -23,7 +24,6 @@ module mlid_jobs
   use mlid_online_history, only: convergence_times
   use mlid_job_rls, only: online_rls
   use mlid_job_stepwise, only: stepwise_job
-  use mlid_layout, only: layout_table_t, layout_of
   use mlid_layout, only: layout_table_t, layout_of
   use mlid_models, only: model_t, layout_t, model_layout
   use mlid_options, only: options_t
@@ -492,9 +492,11 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: t(:), u(:, :), y(:, :)
     type(online_summary_t) :: o
+    integer(int64) :: clock0, clock1, rate
 
     call case_record(c, t, u, y, status, msg)
     if (status /= MLID_OK) return
+    call system_clock(clock0, rate)
     if (c%online_estimator == 'ftr') then
       call online_ftr(c, t, u, y, o, status, msg)
     else if (c%online_estimator == 'rls') then
@@ -502,9 +504,13 @@ contains
     else
       call online_filter(c, t, u, y, o, status, msg)
     end if
+    call system_clock(clock1)
     if (status /= MLID_OK) return
+    if (c%online_timing) o%per_sample = real(clock1 - clock0, wp)/real(max(rate, 1_int64), wp)/ &
+                                        size(t)
     o%estimator = c%online_estimator
     o%samples = size(t)
+    if (size(t) > 1) o%dt = (t(size(t)) - t(1))/(size(t) - 1)
     o%out = c%out_file
     o%converged = convergence_times(o%t, o%est, o%sig, 2.0_wp)
     call write_history(c%out_file, o, status, msg)
