@@ -347,3 +347,19 @@ def test_timing_is_asked_for_and_changes_nothing_else(tmp_path):
         tj = json.loads((tmp_path / f"timed-{exe}.json").read_text())[0]
         assert "seconds_per_sample" not in pj and tj.pop("seconds_per_sample") > 0
         assert tj == pj
+
+
+def test_plots_draw_the_online_history(tmp_path):
+    """`mlid run --plots DIR` on an online deck writes its history figure
+    (mlid.plots.online_history of the JSON's estimates and sigma)."""
+    import subprocess
+    from conftest import BIN
+    (tmp_path / "sim.nml").write_text(SIMULATE)
+    assert run_both(tmp_path / "sim.nml", cwd=tmp_path)[1].returncode == 0
+    (tmp_path / "online.nml").write_text(ONLINE)
+    run = subprocess.run([str(BIN / "mlid"), "run", "online.nml", "--plots", "figs"],
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    png = tmp_path / "figs" / "case1_online.png"
+    assert f" plot: {png.relative_to(tmp_path)}" in run.stdout or f" plot: {png}" in run.stdout
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10000

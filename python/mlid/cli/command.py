@@ -15,7 +15,7 @@ from ..files import atomic_write_text, check_writable, same_file
 from ..frequency.responses import fit_transfer_function, record_response
 from ..report import plots
 from ..report.html_report import load_template, write_report
-from ..report.plots import fit_writers, plot_validation, use_file_backend
+from ..report.plots import fit_writers, plot_online_history, plot_validation, use_file_backend
 from . import campaign
 from .campaign import FORMATS, decks as named_decks
 from .deck import FIT_JOBS, case_json, json_list, read_deck, run_case, run_cases
@@ -240,6 +240,14 @@ def _failed(case, error):
     print(f"mlid: {case.where()}: {error}", file=sys.stderr)
 
 
+def _online_estimate(out):
+    """An online job's history from its JSON object, for its figure."""
+    import numpy as np
+    from ..online import OnlineEstimate
+    return OnlineEstimate(np.asarray(out["t"], float), out["parameters"],
+                          np.asarray(out["estimates"], float), np.asarray(out["sigma"], float))
+
+
 def _show_case(args, case, out, result, error, tables):
     """Print a case's report and write its table rows and plots; returns
     whether it failed and the error still to say (one the core's run did
@@ -261,6 +269,12 @@ def _show_case(args, case, out, result, error, tables):
             tables.append(table)
         unsaid = unsaid or table_error
     checked = getattr(result, "validation", None)
+    if args.plots and out is not None and error is None and case.job == "online" and "t" in out:
+        path, plot_error = _attempt("plot", plot_online_history, _online_estimate(out),
+                                    args.plots, f"case{case.index}")
+        if path is not None:
+            print(f" plot: {path}")
+        unsaid = unsaid or plot_error
     if args.plots and fitted:
         title = f"{case.deck} case {case.index}: {case.title}"
         plots = [(lambda r, f, s, w=write: w(r, f, s, title), result)

@@ -592,6 +592,12 @@ def plot_fit_figures(result, folder, stem, title=None):
     return [write(result, folder, stem, title) for write in fit_writers(result)]
 
 
+def plot_online_history(estimate, folder, stem):
+    """Write FOLDER/STEM_online.png (``online_history``) and return its path."""
+    return _write_into(lambda e, path: online_history(e, path=path), estimate, folder,
+                       f"{stem}_online.png")
+
+
 def plot_validation(v, folder, stem):
     """Write FOLDER/STEM_validation.png (``validation``) and return its path."""
     return _write_into(validation, v, folder, f"{stem}_validation.png")
