@@ -215,3 +215,17 @@ def test_smoothness_weight_names_only_tables():
     for i in range(4):
         D[i, i:i + 3] = [1, -2, 1]
     np.testing.assert_allclose(w, 2.0 * D.T @ D, atol=1e-9)
+
+
+def test_table_values_are_ordinary_parameters():
+    """Tied, bounded and with a prior, by their names."""
+    d = table_record()
+    m = table_model(values=START, x0=[0.09, 0.0], free=NAMES[:4],
+                    ties={"CLt[5]": "CLt[4] + 0.15", "CLt[6]": "CLt[4] + 0.1"})
+    free = mlid.fit(m, d)
+    res = mlid.fit(m, d, bounds={"CLt[1]": (-0.1, 0.03)}, prior={"CLt[2]": 0.5},
+                   prior_weight={"CLt[2]": 1e6})
+    theta = res.model.theta
+    assert theta[4] == theta[3] + 0.15 and theta[5] == theta[3] + 0.1
+    assert res.estimate[0] == 0.03 < free.estimate[0]                 # held at its bound
+    assert 0.5 < res.estimate[1] < free.estimate[1]                   # pulled to the prior
