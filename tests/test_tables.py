@@ -229,3 +229,56 @@ def test_table_values_are_ordinary_parameters():
     assert theta[4] == theta[3] + 0.15 and theta[5] == theta[3] + 0.1
     assert res.estimate[0] == 0.03 < free.estimate[0]                 # held at its bound
     assert 0.5 < res.estimate[1] < free.estimate[1]                   # pulled to the prior
+
+
+# HFB-320-like longitudinal model (tests/test_sixdof.py's scenario)
+LONG = dict(zip(mlid.model.models.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
+                                              7472.0, 0.0524, 0.792, 1.215]))
+LONG_REGS = {"CD": ["1", "V/V0", "alpha"], "CL": ["1", "V/V0", "alpha", "alpha^2"],
+             "Cm": ["1", "V/V0", "alpha", "qhat", "de"]}
+LONG_VALS = {"CD": [0.117758, -0.0517459, 0.234846], "CL": [-0.204711, 0.363549, 3.21232, 1.5],
+             "Cm": [0.134413, -0.0139045, -1.00241, -27.0570, -1.43707]}
+
+
+def longitudinal_run(model):
+    from mlid.design.signals import input_signal
+    t = np.arange(601) * 0.1
+    de = -0.008 + input_signal("3211", 0.03, 2.0, 1.5, 0.1, 601)
+    return mlid.simulate(model, t, np.column_stack([de, np.full(601, 11600.0)]))[0]
+
+
+def test_the_longitudinal_kind_as_equations_is_itself():
+    """The longitudinal model written out as equations (mlid_long_text)
+    with no table gives the built-in model's outputs: the same equations."""
+    lm = mlid.LongitudinalModel(LONG_REGS, LONG_VALS, LONG, x0=[106.0, 0.11, 0.105, -0.003],
+                                substeps=4, free=["cl(3)", "cm(4)"])
+    eq = lm.with_tables({})
+    assert eq.element_labels()[:4] == ["C_D0", "C_DV", "C_Dalpha", "C_L0"]
+    assert eq.free_names() == ["C_Lalpha", "C_mq"]
+    a, b = longitudinal_run(lm), longitudinal_run(eq)
+    np.testing.assert_allclose(b.y, a.y, rtol=1e-12, atol=1e-12 * np.ptp(a.y, axis=0).max())
+
+
+def test_a_longitudinal_coefficient_as_a_table():
+    """C_Lalpha a table over alpha, C_mq one over alpha: equal to the
+    constant coefficient when every value is that constant, exact Jacobians
+    inside the cells, values named C_Lalpha[i]."""
+    lm = mlid.LongitudinalModel(LONG_REGS, LONG_VALS, LONG, x0=[106.0, 0.11, 0.105, -0.003],
+                                substeps=4)
+    ba = [0.0, 0.05, 0.1, 0.15, 0.2]
+    flat = lm.with_tables({"C_Lalpha": Table("alpha", ba, np.full(5, 3.21232)),
+                           "C_mq": Table("alpha", ba, np.full(5, -27.0570))})
+    assert flat.free_names()[-10:] == [f"C_Lalpha[{i}]" for i in range(1, 6)] + [
+        f"C_mq[{i}]" for i in range(1, 6)]
+    a, b = longitudinal_run(lm), longitudinal_run(flat)
+    np.testing.assert_allclose(b.y, a.y, rtol=1e-12, atol=1e-12 * np.ptp(a.y, axis=0).max())
+    rng = np.random.default_rng(8)
+    bent = lm.with_tables({"C_Lalpha": Table("alpha", ba, 3.2 + rng.normal(0, 0.3, 5)),
+                           "C_m0": Table(["alpha", "de"], [ba, [-0.05, 0.0, 0.05]],
+                                         0.13 + rng.normal(0, 0.02, (5, 3)))})
+    for x, u in [([106.0, 0.11, 0.105, -0.003], [-0.01, 11600.0]),
+                 ([98.0, 0.07, 0.02, 0.05], [0.02, 9000.0])]:
+        err = mlid.check_jacobians(bent, x, u)
+        assert max(err.values()) < 1e-6, err
+    with pytest.raises(InputError, match="C_Lbeta"):
+        lm.with_tables({"C_Lbeta": Table("alpha", ba)})

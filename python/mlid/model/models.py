@@ -746,6 +746,47 @@ class LongitudinalModel(Model):
         """The coefficients' current values, {'CD': array, 'CL': ..., 'Cm': ...}."""
         return {key: self._block(block) for key, block in self._COEFFICIENTS.items()}
 
+    def with_tables(self, tables, free=None):
+        """This model written as equations (fortran/models/mlid_long_text.f90)
+        with some of its coefficients tables: the same states, inputs
+        (named de, F), outputs and equations, no process noise.
+
+        Parameters
+        ----------
+        tables : dict
+            {label: Table}: the coefficient of that label (C_D0, C_Lalpha,
+            C_mq, ...) a table over states, inputs or qhat; its values are
+            parameters 'C_Lalpha[i]', ... after the other coefficients
+            (which keep their labels as names and their values).
+        free : sequence of str, optional
+            The new model's free parameters (default: this model's free
+            coefficients that are not tables, and every table value).
+
+        Returns
+        -------
+        EquationModel
+            With this model's x0, output biases and r.
+
+        Raises
+        ------
+        InputError
+            A label that is no coefficient, a table the core refuses.
+        """
+        labels = self.element_labels()[:self.np]
+        lines = "".join(t.line(n)[2:] + "\n" for n, t in tables.items())
+        out = self._layout._call(_api.mlid_longitudinal_text, tables=lines)
+        p = [v for n, v in zip(labels, self._theta[:self.np]) if n not in tables]
+        p += [v for n in labels if n in tables for v in tables[n].flat_values]
+        if free is None:
+            free = [labels[k] for k in self.free_indices() if k < self.np
+                    and labels[k] not in tables]
+            free += [v for n in labels if n in tables for v in tables[n].value_names(n)]
+        m = object.__new__(EquationModel)
+        m._from_text(out["text"].decode().rstrip("\n"), p,
+                     (self._block("x0"), self._block("bias"), None, self._block("r"), None,
+                      free, None, None, self.input_hold, self.substeps, None, None, None, None))
+        return m
+
 
 @_documented
 @guarded_class
