@@ -282,3 +282,53 @@ def test_a_longitudinal_coefficient_as_a_table():
         assert max(err.values()) < 1e-6, err
     with pytest.raises(InputError, match="C_Lbeta"):
         lm.with_tables({"C_Lbeta": Table("alpha", ba)})
+
+
+TABLE_DECK = """&case title = 'a table', job = 'estimate' /
+&model kind = 'equations', state_names = 'alpha', 'q', input_names = 'de',
+    output_names = 'alpha', 'q', 'CL',
+    definitions = 'CLt(alpha) = 0 0.1 0.2 0.3 0.4 0.5',
+    params = {starts},
+    xdot = 'q - 0.3*CLt', '-6*(alpha - de) - 2*q', outputs = 'alpha', 'q', 'CLt',
+    x0 = 0.09, 0, free = {free} /
+&data file = 'rec.dat', time_col = 1, input_cols = 2, output_cols = 3, 4, 5 /
+{estimate}"""
+
+
+def table_deck(tmp_path, free=NAMES[:5], estimate="", starts=None):
+    d = table_record()
+    np.savetxt(tmp_path / "rec.dat", np.column_stack([d.t, d.u, d.y]))
+    starts = starts or ", ".join(f"'{n} = {float(v)!r}'" for n, v in zip(NAMES, START))
+    deck = tmp_path / "t.nml"
+    deck.write_text(TABLE_DECK.format(starts=starts, free=", ".join(f"'{n}'" for n in free),
+                                      estimate=estimate))
+    return d, deck
+
+
+def test_a_deck_declares_a_table(tmp_path):
+    """A definitions entry 'NAME(v) = breakpoints' is a table, params
+    'NAME[i] = value' its start values: both front ends give the same
+    bytes, and the fit of the Python model's."""
+    from conftest import both_front_ends_json
+    d, deck = table_deck(tmp_path)
+    fit = both_front_ends_json(deck, tmp_path)
+    res = mlid.fit(table_model(values=START, x0=[0.09, 0.0], free=NAMES[:5]), d)
+    assert fit["parameters"] == NAMES[:5]
+    np.testing.assert_allclose(fit["estimate"], res.estimate, rtol=1e-9)
+    np.testing.assert_allclose(fit["sigma"], res.sigma, rtol=1e-7)
+
+
+def test_a_deck_names_the_cell_no_sample_reaches(tmp_path):
+    from conftest import run_both
+    _, deck = table_deck(tmp_path, free=NAMES, estimate="&estimate rank_min = 1 /\n")
+    outs = run_both(deck, cwd=tmp_path)
+    assert outs[0].stdout == outs[1].stdout and outs[0].returncode == 0, outs[0].stderr
+    assert (" not identifiable, left at the a priori value (no information; a table value: "
+            "reached by no sample): CLt[6]\n") in outs[0].stdout
+
+
+def test_a_deck_refuses_a_start_of_no_table_value(tmp_path):
+    from conftest import refused_by_both
+    _, deck = table_deck(tmp_path, starts="'CLt[7] = 1'")
+    refused_by_both(deck, "group &model: params entry 'CLt[7] = 1' is not 'NAME[i] = value' "
+                          "of a table's value", cwd=tmp_path)
