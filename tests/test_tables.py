@@ -332,3 +332,26 @@ def test_a_deck_refuses_a_start_of_no_table_value(tmp_path):
     _, deck = table_deck(tmp_path, starts="'CLt[7] = 1'")
     refused_by_both(deck, "group &model: params entry 'CLt[7] = 1' is not 'NAME[i] = value' "
                           "of a table's value", cwd=tmp_path)
+
+
+def test_a_sixdof_deck_with_a_table(tmp_path):
+    """Kind 'sixdof' in a deck: Cl's beta term a table over beta (truth:
+    Clb*beta, linear, so the values are Clb times the breakpoints); the
+    table values within 4 sigma of it, the same in both front ends."""
+    from conftest import both_front_ends_json
+    from test_sixdof import CONSTANTS as SIX, LATERAL_DECK, LAT_TRUTH, lateral_record
+    lateral_record(tmp_path / "lat.dat")
+    consts = ", ".join(repr(SIX[k]) for k in mlid.model.models.SIXDOF_CONSTANTS)
+    deck = LATERAL_DECK.format(consts=consts).replace(
+        "'Cl = Clb*beta + Clp*phat", "'Clt(beta) = -0.1 0 0.1', 'Cl = Clt + Clp*phat").replace(
+        "'Clb = -0.07', ", "").replace(
+        "params = ", "params = 'Clt[1] = 0', 'Clt[2] = 0', 'Clt[3] = 0', ").replace(
+        "free = 'CYb', 'Clb'", "free = 'CYb', 'Clt[1]', 'Clt[2]', 'Clt[3]'")
+    (tmp_path / "lat.nml").write_text(deck)
+    fit = both_front_ends_json(tmp_path / "lat.nml", tmp_path)
+    assert fit["converged"]
+    truth = dict(LAT_TRUTH, **{"Clt[1]": 0.1 * -LAT_TRUTH["Clb"], "Clt[2]": 0.0,
+                               "Clt[3]": 0.1 * LAT_TRUTH["Clb"]})
+    assert fit["parameters"][1:4] == ["Clt[1]", "Clt[2]", "Clt[3]"]
+    for name, value, sigma in zip(fit["parameters"], fit["estimate"], fit["sigma"]):
+        assert abs(value - truth[name]) < 4 * sigma, (name, value, sigma)
