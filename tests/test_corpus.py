@@ -308,6 +308,13 @@ ENTRIES = {
     "noise_std = 1e200": ("noise_std_huge.nml", r"^group &simulate: noise_std\(1\) is too large: "
                                                 r"its square, the variance r, is beyond the largest "
                                                 r"number", {}),
+    # tables (definitions 'T(u) = breakpoints', params 'T[i] = start')
+    "a table's breakpoints that do not increase": (
+        "table_breakpoints_decrease.nml", r"^group &model: equations model: table T, breakpoints "
+                                          r"of u: the breakpoints must increase$", {}),
+    "a start for no table value": (
+        "table_start_of_no_value.nml", r"^group &model: params entry 'T\[4\] = 1' is not "
+                                       r"'NAME\[i\] = value' of a table's value$", {}),
     # issue 45: the online job's recursive least squares ('rls'): its settings and its model
     "rls with p0 for 3 of 2 outputs": ("rls_p0_count.nml", r"^group &online: 'rls' takes one p0 "
                                        r"\(P0 = p0 I\) for all outputs or one per output \(2\), "

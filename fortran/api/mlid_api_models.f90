@@ -7,7 +7,9 @@ module mlid_api_models
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, stop_reason_text, fit_outcome
   use mlid_models, only: model_t
-  use mlid_model_factory, only: model_create, MODEL_KIND_NAMES
+  use mlid_model_factory, only: model_create, MODEL_KIND_NAMES, MODEL_AERO_LONG
+  use mlid_equations, only: equations_tables
+  use mlid_long_text, only: longitudinal_text
   use mlid_options, only: options_t, options_from_flat, options_to_flat, NOPTION, OPTION_NAMES, &
                           option_kind, option_words, option_set, option_get
   use mlid_ties, only: tie_parse, MAXTERM
@@ -39,7 +41,8 @@ module mlid_api_models
             mlid_tie_parse, mlid_sixdof_constants, mlid_sixdof_text, mlid_flightpath_lists, &
             mlid_flightpath_model_text, mlid_flightpath_corrected, mlid_layout, &
             mlid_manoeuvre_map, mlid_elements, mlid_longitudinal_iconst, mlid_parameter_units, &
-            mlid_name_list, mlid_limit, mlid_model_sizes, mlid_check_jacobians, mlid_x0_from
+            mlid_name_list, mlid_limit, mlid_model_sizes, mlid_check_jacobians, mlid_x0_from, &
+            mlid_model_tables, mlid_longitudinal_text
 
 contains
 
@@ -583,6 +586,68 @@ contains
     end if
     call check_jacobians(m, 0.0_wp, x, [u, w], p, err)
   end subroutine mlid_check_jacobians
+
+  !> The tables of handle h's problem's model (an equations model's,
+  !> mlid_tables): results 'cells', each parameter's text (a table value's
+  !> name and where it is weighted; '' for others, one a line, in p order),
+  !> and 'weight', the smoothness prior's weight (np x np) for the given
+  !> 'smoothness' (each table's weight, in the text's order).
+  subroutine mlid_model_tables(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    class(model_t), allocatable :: m
+    real(wp), allocatable :: lambda(:), w(:, :)
+    character(len=160), allocatable :: texts(:)
+
+    call call_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    call problem_needs(s%problem, [PART_MODEL], status, msg)
+    if (status /= MLID_OK) return
+    associate (pb => s%problem)
+      call model_create(pb%mkind, pb%nx, pb%nu, pb%ny, pb%nw, pb%iconst, pb%rconst, m, status, &
+                        msg)
+    end associate
+    if (status /= MLID_OK) return
+    call s%given%get('smoothness', lambda, status, msg)
+    if (status /= MLID_OK) return
+    allocate (texts(m%np), w(m%np, m%np))
+    call equations_tables(m, lambda, texts, w, status, msg)
+    if (status /= MLID_OK) return
+    call s%results%put('cells', join_lines(texts))
+    call s%results%put('weight', w)
+  end subroutine mlid_model_tables
+
+  !> The longitudinal model of handle h's problem written as equations
+  !> (mlid_long_text), its coefficients named by the given 'tables' (table
+  !> lines 'C_Lalpha(alpha) = 0 0.1 0.2', one a line) made tables: result
+  !> 'text'.
+  subroutine mlid_longitudinal_text(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    character(len=:), allocatable :: given, text
+    character(len=512), allocatable :: tables(:)
+
+    call call_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    call problem_needs(s%problem, [PART_MODEL], status, msg)
+    if (status /= MLID_OK) return
+    call s%given%get('tables', given, status, msg)
+    if (status /= MLID_OK) return
+    if (s%problem%mkind /= MODEL_AERO_LONG) then
+      status = MLID_ERR_INPUT
+      msg = 'longitudinal text: the model is not a longitudinal one'
+      return
+    end if
+    call name_lines(given, tables)
+    associate (pb => s%problem)
+      call longitudinal_text(pb%iconst, pb%rconst, tables, text, status, msg)
+    end associate
+    if (status == MLID_OK) call s%results%put('text', text)
+  end subroutine mlid_longitudinal_text
 
   !> The session of h, its results emptied, and the layout of its problem's
   !> model (the part the layout calls above share).

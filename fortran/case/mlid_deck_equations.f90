@@ -5,7 +5,7 @@
 !> kind 'flight_path', and the params entries ('NAME = value').
 submodule (mlid_deck) mlid_deck_equations
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use mlid_equations, only: equations_text_codes
+  use mlid_equations, only: equations_t, equations_create, equations_text_codes
   use mlid_sixdof, only: sixdof_parts
   use mlid_flightpath, only: flightpath_text, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
   use mlid_expr, only: split_definition, expr_t, expr_compile, expr_eval
@@ -39,14 +39,16 @@ contains
     do k = 1, count(len_trim(inputs) > 0)
       text = text//'u '//trim(inputs(k))//achar(10)
     end do
-    call param_entries(c, params, pnames, pstart)
+    call param_entries(c, pack(params, index(params, '[') == 0), pnames, pstart)
     if (c%status /= MLID_OK) return
     do k = 1, size(pnames)
       text = text//'p '//trim(pnames(k))//achar(10)
     end do
     if (present(pre)) text = text//pre
-    do k = 1, count(len_trim(definitions) > 0)
-      text = text//'l '//trim(definitions(k))//achar(10)
+    do k = 1, count(len_trim(definitions) > 0)      ! 'NAME(v, ...) = breakpoints': a table
+      text = text//trim(merge('t', 'l', index(definitions(k), '(') > 0 .and. &
+                              scan(definitions(k), '=(') == index(definitions(k), '(')))// &
+             ' '//trim(definitions(k))//achar(10)
     end do
     if (present(post)) text = text//post
     do k = 1, count(len_trim(xdot) > 0)
@@ -58,7 +60,43 @@ contains
       text = text//'y '//trim(name)//' = '//trim(outputs(k))//achar(10)
     end do
     c%iconst = equations_text_codes(text)
+    call table_starts(c, pack(params, index(params, '[') > 0), pstart)
   end procedure equations_text
+
+  !> The start values of the tables' values (params entries 'NAME[i,j] =
+  !> value'; the others start at 0) after those of the params (pstart): the
+  !> order of p.  A model that cannot be made is left for the kind's own
+  !> check to say so.
+  subroutine table_starts(c, entries, pstart)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: entries(:)
+    real(wp), allocatable, intent(inout) :: pstart(:)
+    type(equations_t) :: eqs
+    character(len=msg_len) :: iomsg
+    real(wp), allocatable :: full(:)
+    real(wp) :: v
+    integer :: k, j, ios, eq
+
+    call equations_create(c%iconst, [real(wp) ::], eqs, ios, iomsg)
+    if (ios /= MLID_OK) return
+    allocate (full(eqs%np))
+    full = 0.0_wp
+    full(1:size(pstart)) = pstart
+    do k = 1, size(entries)
+      eq = index(entries(k), '=')
+      j = 0
+      if (eq > 0) j = findloc(eqs%pnames, trim(adjustl(entries(k)(1:eq - 1))), 1)
+      if (j == 0) then
+        call fail(c, 'group &model: params entry '''//trim(entries(k))//''' is not '// &
+                  '''NAME[i] = value'' of a table''s value')
+        return
+      end if
+      call entry_value(c, entries(k), entries(k)(eq + 1:), v)
+      if (c%status /= MLID_OK) return
+      full(j) = v
+    end do
+    call move_alloc(full, pstart)
+  end subroutine table_starts
 
   !> kind = 'sixdof': the rigid-body lines of mlid_sixdof around the deck's
   !> definitions, and the state equations (xs) in the order of state_names.
@@ -75,7 +113,7 @@ contains
     end if
     defined = ''
     do k = 1, size(definitions)
-      a = index(definitions(k), '=')
+      a = scan(definitions(k), '=(')           ! a definition's name, or a table's
       if (a > 1) defined(k) = adjustl(definitions(k)(1:a - 1))
     end do
     call sixdof_parts(constants, pack(states, len_trim(states) > 0), &
@@ -161,8 +199,6 @@ contains
     real(wp), intent(out) :: v
     character(len=:), allocatable :: rhs
     character(len=msg_len) :: iomsg
-    type(expr_t) :: ex
-    real(wp) :: none(1, 0), val(1)
     integer :: ios
 
     v = 0.0_wp
@@ -170,20 +206,36 @@ contains
       call split_definition(trim(entry)//' = 0', name, rhs, ios, iomsg)
     else
       call split_definition(entry, name, rhs, ios, iomsg)
-      if (ios == MLID_OK) call expr_compile(rhs, [character(len=1) ::], ex, ios, iomsg, &
-                                            noun='variable')
-      if (ios == MLID_OK) then
-        call expr_eval(ex, none, val)
-        v = val(1)
-        if (.not. ieee_is_finite(v)) then
-          ios = MLID_ERR_INPUT
-          iomsg = 'the value is not finite'
-        end if
-      end if
+      if (ios == MLID_OK) call entry_value(c, entry, rhs, v)
+      return
     end if
     if (ios /= MLID_OK) call fail(c, 'group &model: params entry '''//trim(entry)//''': '// &
                                   trim(iomsg))
   end subroutine param_entry
+
+  !> The value rhs of params entry entry: an expression of numbers.
+  subroutine entry_value(c, entry, rhs, v)
+    type(case_t), intent(inout) :: c
+    character(len=*), intent(in) :: entry, rhs
+    real(wp), intent(out) :: v
+    character(len=msg_len) :: iomsg
+    type(expr_t) :: ex
+    real(wp) :: none(1, 0), val(1)
+    integer :: ios
+
+    v = 0.0_wp
+    call expr_compile(rhs, [character(len=1) ::], ex, ios, iomsg, noun='variable')
+    if (ios == MLID_OK) then
+      call expr_eval(ex, none, val)
+      v = val(1)
+      if (.not. ieee_is_finite(v)) then
+        ios = MLID_ERR_INPUT
+        iomsg = 'the value is not finite'
+      end if
+    end if
+    if (ios /= MLID_OK) call fail(c, 'group &model: params entry '''//trim(entry)//''': '// &
+                                  trim(iomsg))
+  end subroutine entry_value
 
   !> Whether a list has a blank entry before a filled one (said in one line).
   logical function has_gap(c, what, list)

@@ -69,6 +69,7 @@ contains
       write (buf, '(a,i0,a,i0,a)') ' rank-deficient solution: rank ', s%rank, ' of ', &
         size(s%labels), ' (sigma from the same rank)'
       text = text//trim(buf)//NL
+      text = text//not_estimated(s)
     end if
     write (buf, label_format('a15,a15,a13,a13')) 'parameter       ', 'unit      ', 'start', &
       'estimate', 'sigma', 'sigma col.'
@@ -120,6 +121,21 @@ contains
     end if
     text = text//identifiability(s%labels, s%eigval, s%eigvec, s%cov)
   end function fit_report
+
+  !> The parameters a rank-deficient solution left wholly at their a priori
+  !> values (sigma 0: they lie in the directions dropped), named: a table
+  !> value no sample reaches is one (mlid_tables); '' when there are none.
+  function not_estimated(s) result(text)
+    type(fit_summary_t), intent(in) :: s
+    character(len=:), allocatable :: text
+    integer :: k
+    text = ''
+    do k = 1, size(s%labels)
+      if (s%sig(k) == 0.0_wp) text = text//' '//trim(s%labels(k))
+    end do
+    if (len(text) > 0) text = ' not identifiable, left at the a priori value (no information; '// &
+                              'a table value: reached by no sample):'//text//NL
+  end function not_estimated
 
   !> Under the noise's diagonal, whose output each value is and in what unit
   !> (the square of the output's; none for a frequency-domain S): a line

@@ -17,6 +17,9 @@
 !>   p NAME           a model parameter, in the order of p
 !>   l NAME = EXPR    a definition (a constant or an intermediate quantity),
 !>                    usable in the lines after it
+!>   t NAME(V1, ...) = B1 ...; B2 ...   a table over up to three variables
+!>                    and its breakpoints (mlid_tables): a definition, its
+!>                    values parameters NAME[i,j] in the place of the line
 !>
 !> Expressions read states, inputs, parameters, t (time) and definitions.
 !> No process noise enters (nw = 0); there may be no states (nx = 0): the
@@ -24,14 +27,16 @@
 module mlid_equations
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
-  use mlid_expr, only: expr_t, expr_compile, split_definition, is_name
-  use mlid_expr_diff, only: graph_t, program_t, graph_add, graph_fold, program_of, &
+  use mlid_expr, only: expr_t, expr_compile, split_definition, is_name, OP_VAR
+  use mlid_expr_diff, only: graph_t, program_t, graph_add, graph_node, graph_fold, program_of, &
                             program_forward, program_jacobian, program_values, program_reads, &
                             MAXNODE, MAXVAR
   use mlid_text, only: to_lower
+  use mlid_tables, only: table_t, table_read, table_graph, table_size, table_value_name, &
+                         table_value_text, table_smoothness
   implicit none
   private
-  public :: equations_t, equations_create, equations_text_codes
+  public :: equations_t, equations_create, equations_text_codes, equations_tables
 
   integer, parameter :: NAMELEN = 32
   !> Limits that let the evaluators work in fixed local arrays: variables
@@ -44,6 +49,8 @@ module mlid_equations
     type(program_t) :: fprog, hprog                     !< state derivatives, outputs
     character(len=NAMELEN), allocatable :: xnames(:), unames(:), pnames(:), ynames(:)
     integer, allocatable :: ystate(:)     !< the state an output is written as (y v = v), or 0
+    type(table_t), allocatable :: tables(:)   !< the tables, in the text's order
+    integer, allocatable :: tfirst(:)     !< where each table's values start in p
   contains
     procedure :: eval => eq_eval
     procedure :: dfdw => eq_dfdw
@@ -61,6 +68,7 @@ module mlid_equations
     character :: kind = ' '
     character(len=NAMELEN) :: name = ''
     character(len=:), allocatable :: rhs
+    type(table_t) :: tab                  !< a table's (kind 't')
   end type item_t
 
 contains
@@ -95,7 +103,7 @@ contains
     if (status /= MLID_OK) return
     m%xnames = names_of(items, 'x')
     m%unames = names_of(items, 'u')
-    m%pnames = names_of(items, 'p')
+    call param_names(items, m)
     m%ynames = names_of(items, 'y')
     m%ystate = output_states(items, m%xnames)
     m%nx = size(m%xnames)
@@ -148,9 +156,13 @@ contains
       it%rhs = ''
       if (len(line) > 2 .and. line(2:2) /= ' ') then
         status = MLID_ERR_INPUT
-        msg = 'line '''//line//''' is not x|y|l NAME = ..., u NAME or p NAME'
+        msg = 'line '''//line//''' is not x|y|l NAME = ..., u NAME, p NAME or '// &
+              't NAME(v) = breakpoints'
       else if (index('xyl', it%kind) > 0 .and. len(line) > 2) then
         call split_definition(line(2:), it%name, it%rhs, status, msg)
+      else if (it%kind == 't' .and. len(line) > 2) then
+        call table_read(line(2:), it%tab, status, msg)
+        it%name = it%tab%name
       else if (index('up', it%kind) > 0 .and. len(line) > 2) then
         it%name = adjustl(line(2:))
         if (.not. is_name(trim(it%name)) .or. len_trim(adjustl(line(2:))) > NAMELEN) then
@@ -159,7 +171,8 @@ contains
         end if
       else
         status = MLID_ERR_INPUT
-        msg = 'line '''//line//''' is not x|y|l NAME = ..., u NAME or p NAME'
+        msg = 'line '''//line//''' is not x|y|l NAME = ..., u NAME, p NAME or '// &
+              't NAME(v) = breakpoints'
       end if
       if (status == MLID_OK .and. it%kind /= 'y' .and. (it%name == 't' .or. &
           to_lower(it%name) == 'pi' .or. &
@@ -172,9 +185,58 @@ contains
         msg = 'equations model: '//msg
         return
       end if
-      items = [items, it]
+      call append_item(items, it)
     end do
   end subroutine read_items
+
+  !> The tables' part of a model's p (an equations model's; none of other
+  !> kinds): each parameter's text (a table value's with where it is
+  !> weighted, mlid_tables' table_value_text; '' for a p line's), and the
+  !> smoothness prior's weight w(np, np) of the tables' second differences,
+  !> lambda(k) table k's weight (0: none; one for each table).
+  subroutine equations_tables(m, lambda, texts, w, status, msg)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: lambda(:)
+    character(len=*), intent(out) :: texts(:)
+    real(wp), intent(out) :: w(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: k, j, ntab
+    texts = ''
+    w = 0.0_wp
+    status = MLID_OK
+    msg = ''
+    ntab = 0
+    select type (m)
+    type is (equations_t)
+      ntab = size(m%tables)
+      do k = 1, merge(ntab, 0, size(lambda) == ntab)
+        do j = 1, table_size(m%tables(k))
+          texts(m%tfirst(k) + j - 1) = table_value_text(m%tables(k), j)
+        end do
+        if (lambda(k) > 0.0_wp) call table_smoothness(m%tables(k), m%tfirst(k) - 1, lambda(k), w)
+      end do
+    end select
+    if (size(lambda) /= ntab) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0)') 'smoothness: the model has ', ntab, ' tables, not ', size(lambda)
+    end if
+  end subroutine equations_tables
+
+  !> items with it after them (not [items, it]: gfortran 12 frees a table's
+  !> breakpoints twice in an array constructor of a type that holds them).
+  subroutine append_item(items, it)
+    type(item_t), allocatable, intent(inout) :: items(:)
+    type(item_t), intent(in) :: it
+    type(item_t), allocatable :: more(:)
+    integer :: k
+    allocate (more(size(items) + 1))
+    do k = 1, size(items)
+      more(k) = items(k)
+    end do
+    more(size(more)) = it
+    call move_alloc(more, items)
+  end subroutine append_item
 
   !> Each output's state when its expression is that state's name alone, else 0.
   pure function output_states(items, xnames) result(ystate)
@@ -199,6 +261,36 @@ contains
     known = .true.
   end subroutine eq_measured_states
 
+  !> The parameters' names in the text's order: a p line's name, a table's
+  !> values' (NAME[i,j]); and where each table's values start.
+  subroutine param_names(items, m)
+    type(item_t), intent(in) :: items(:)
+    type(equations_t), intent(inout) :: m
+    integer :: k, j, ntab, n
+    ntab = count(items%kind == 't')
+    n = count(items%kind == 'p')
+    do k = 1, size(items)
+      if (items(k)%kind == 't') n = n + table_size(items(k)%tab)
+    end do
+    allocate (m%pnames(n), m%tables(ntab), m%tfirst(ntab))
+    ntab = 0
+    n = 0
+    do k = 1, size(items)
+      if (items(k)%kind == 'p') then
+        n = n + 1
+        m%pnames(n) = items(k)%name
+      else if (items(k)%kind == 't') then
+        ntab = ntab + 1
+        m%tables(ntab) = items(k)%tab
+        m%tfirst(ntab) = n + 1
+        do j = 1, table_size(items(k)%tab)
+          m%pnames(n + j) = table_value_name(items(k)%tab, j)
+        end do
+        n = n + table_size(items(k)%tab)
+      end if
+    end do
+  end subroutine param_names
+
   pure function names_of(items, kind) result(names)
     type(item_t), intent(in) :: items(:)
     character, intent(in) :: kind
@@ -219,12 +311,24 @@ contains
     integer, allocatable :: defroot(:), froot(:), hroot(:)
     type(graph_t) :: g
     type(expr_t) :: ex
-    integer :: k, root
+    integer :: k, root, ntab
 
     names = [m%xnames, m%unames, m%pnames, [character(len=NAMELEN) :: 't']]
     allocate (defroot(0), froot(0), hroot(0))
     status = MLID_OK
+    ntab = 0
     do k = 1, size(items)
+      if (items(k)%kind == 't') then
+        ntab = ntab + 1
+        call table_root(g, items(k)%tab, names, m%nvar, defroot, &
+                        m%nx + m%nu + m%tfirst(ntab) - 1, root, status, msg)
+        if (status /= MLID_OK) then
+          msg = 'equations model, table '//trim(items(k)%name)//': '//msg
+          return
+        end if
+        defroot = [defroot, root]
+        names = [names, items(k)%name]
+      end if
       if (index('xyl', items(k)%kind) == 0) cycle
       call expr_compile(items(k)%rhs, names, ex, status, msg, noun='variable')
       if (status == MLID_OK) call graph_add(g, ex, m%nvar, defroot, root, status, msg)
@@ -246,6 +350,39 @@ contains
     m%fprog = program_of(g, froot, m%nvar)
     m%hprog = program_of(g, hroot, m%nvar)
   end subroutine compile_all
+
+  !> A table's lookup in the graph: its variables' nodes (a variable of v,
+  !> or a definition before it, by name: exact, else any case when unique),
+  !> its values the variables p0 + 1 ...
+  subroutine table_root(g, tab, names, nvar, defroot, p0, root, status, msg)
+    type(graph_t), intent(inout) :: g
+    type(table_t), intent(in) :: tab
+    character(len=*), intent(in) :: names(:)
+    integer, intent(in) :: nvar, defroot(:), p0
+    integer, intent(out) :: root, status
+    character(len=*), intent(out) :: msg
+    integer :: vnode(tab%ndim), d, j
+    logical :: same(size(names))
+
+    root = 0
+    do d = 1, tab%ndim
+      same = names == tab%var(d)
+      if (count(same) == 0) same = to_lower(names) == to_lower(tab%var(d))
+      if (count(same) /= 1) then
+        status = MLID_ERR_INPUT
+        msg = 'no state, input, parameter or definition before it is named '//trim(tab%var(d))
+        return
+      end if
+      j = findloc(same, .true., 1)
+      if (j <= nvar) then
+        call graph_node(g, OP_VAR, j, 0.0_wp, 0, 0, vnode(d), status, msg)
+        if (status /= MLID_OK) return
+      else
+        vnode(d) = defroot(j - nvar)
+      end if
+    end do
+    call table_graph(g, tab, vnode, p0, root, status, msg)
+  end subroutine table_root
 
   !> The equations with the fixed inputs' values folded in: over one
   !> manoeuvre, b1*m1 + b2*m2 + b3*m3 (m the manoeuvres' indicators) is b1.

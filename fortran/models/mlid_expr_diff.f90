@@ -18,7 +18,7 @@ module mlid_expr_diff
                        F_ATAN2, F_SQRT, F_ABS, F_EXP, F_LOG, F_LOG10, F_MIN, F_MAX, F_TANH, F_STEP
   implicit none
   private
-  public :: graph_t, program_t, graph_add, graph_fold, program_of, program_forward, &
+  public :: graph_t, program_t, graph_add, graph_node, graph_fold, program_of, program_forward, &
             program_jacobian, program_values, program_reads, MAXNODE, MAXVAR
 
   !> The most nodes a model's graph may have: the sweeps work in fixed
@@ -122,6 +122,29 @@ contains
     status = MLID_OK
     msg = ''
   end subroutine graph_add
+
+  !> k: the node op(arg, num) of operands a, b (nodes of g, 0: none), the one
+  !> there is or a new one: a caller that builds an expression node by node
+  !> (a table lookup, mlid_tables).  Fails when the graph would pass MAXNODE.
+  subroutine graph_node(g, op, arg, num, a, b, k, status, msg)
+    type(graph_t), intent(inout) :: g
+    integer, intent(in) :: op, arg, a, b
+    real(wp), intent(in) :: num
+    integer, intent(out) :: k, status
+    character(len=*), intent(out) :: msg
+    k = 0
+    status = MLID_OK
+    msg = ''
+    if (.not. allocated(g%op)) allocate (g%op(0), g%arg(0), g%c1(0), g%c2(0), g%num(0))
+    if (g%n >= MAXNODE) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a)') 'the equations, definitions and tables together pass ', MAXNODE, &
+        ' operations'
+      return
+    end if
+    if (size(g%op) <= g%n) call reserve(g, 2*g%n + 16)     ! room ahead: not one at a time
+    call add_node(g, op, arg, num, a, b, k)
+  end subroutine graph_node
 
   !> The node that computes op(arg, num) of nodes a, b already, or 0: a
   !> subexpression written twice (sin(theta) in three state equations) is

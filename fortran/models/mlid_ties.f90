@@ -148,12 +148,13 @@ contains
         return
       end if
       if (verify(text(p:p), 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ') == 0) then
-        ! a bare name (an equations model's own), or key(i) / key(i,j)
+        ! a bare name (an equations model's own), key(i) / key(i,j), or a table's NAME[i,j]
         close = verify(text(p:)//' ', WORD) - 1
         after = p + close
         if (after <= len(text)) after = after - 1 + verify(text(after:)//'x', ' ')
         if (after <= len(text)) then
           if (text(after:after) == '(') close = index(text(p:), ')')
+          if (text(after:after) == '[') close = index(text(p:), ']')   ! a table value
         end if
         if (close == 0) then
           write (msg, '(a,i0)') 'tie '''//trim(text)//''': a parameter name needs (i) or '// &

@@ -21,6 +21,7 @@ from .._bridge import (api as _api, call_handle as _call_handle, lines as _lines
                        put as _put, results as _results, run as _run)
 from ..checks import real_array
 from ..errors import InputError, check_status, guarded_class
+from .tables import Table
 
 INPUT_HOLDS = ("linear", "zoh")
 
@@ -745,6 +746,47 @@ class LongitudinalModel(Model):
         """The coefficients' current values, {'CD': array, 'CL': ..., 'Cm': ...}."""
         return {key: self._block(block) for key, block in self._COEFFICIENTS.items()}
 
+    def with_tables(self, tables, free=None):
+        """This model written as equations (fortran/models/mlid_long_text.f90)
+        with some of its coefficients tables: the same states, inputs
+        (named de, F), outputs and equations, no process noise.
+
+        Parameters
+        ----------
+        tables : dict
+            {label: Table}: the coefficient of that label (C_D0, C_Lalpha,
+            C_mq, ...) a table over states, inputs or qhat; its values are
+            parameters 'C_Lalpha[i]', ... after the other coefficients
+            (which keep their labels as names and their values).
+        free : sequence of str, optional
+            The new model's free parameters (default: this model's free
+            coefficients that are not tables, and every table value).
+
+        Returns
+        -------
+        EquationModel
+            With this model's x0, output biases and r.
+
+        Raises
+        ------
+        InputError
+            A label that is no coefficient, a table the core refuses.
+        """
+        labels = self.element_labels()[:self.np]
+        lines = "".join(t.line(n)[2:] + "\n" for n, t in tables.items())
+        out = self._layout._call(_api.mlid_longitudinal_text, tables=lines)
+        p = [v for n, v in zip(labels, self._theta[:self.np]) if n not in tables]
+        p += [v for n in labels if n in tables for v in tables[n].flat_values]
+        if free is None:
+            free = [labels[k] for k in self.free_indices() if k < self.np
+                    and labels[k] not in tables]
+            free += [v for n in labels if n in tables for v in tables[n].value_names(n)]
+        m = object.__new__(EquationModel)
+        m._from_text(out["text"].decode().rstrip("\n"), p,
+                     (self._block("x0"), self._block("bias"), None, self._block("r"), None,
+                      free, None, None, self.input_hold, self.substeps, None, None, None, None))
+        return m
+
 
 @_documented
 @guarded_class
@@ -854,7 +896,10 @@ class EquationModel(Model):
         {name: start value} of each model parameter, in the order of p.
     definitions : dict, optional
         {name: expression} of constants and intermediate quantities, each
-        usable by the ones after it and by the equations.
+        usable by the ones after it and by the equations; an expression may
+        be a ``Table`` (mlid.model.tables): its values are parameters after
+        those of params, named 'NAME[i]', 'NAME[i,j]', ..., in the order of
+        the definitions.
     {common}
 
     Raises
@@ -884,11 +929,13 @@ class EquationModel(Model):
             if not isinstance(n, str) or not n or any(c.isspace() for c in n):
                 raise InputError(f"equations model: {n!r} is not a name")
         lines = ([f"u {n}" for n in inputs] + [f"p {n}" for n in params] + [pre]
-                 + [f"l {n} = {_one_line(e)}" for n, e in definitions.items()] + [post]
+                 + [e.line(n) if isinstance(e, Table) else f"l {n} = {_one_line(e)}"
+                    for n, e in definitions.items()] + [post]
                  + [f"x {n} = {_one_line(e)}" for n, e in states.items()]
                  + [f"y {n} = {_one_line(e)}" for n, e in outputs.items()])
-        self._from_text("\n".join(line.rstrip("\n") for line in lines if line),
-                        list(params.values()), common)
+        p = list(params.values()) + [v for e in definitions.values() if isinstance(e, Table)
+                                     for v in e.flat_values]
+        self._from_text("\n".join(line.rstrip("\n") for line in lines if line), p, common)
 
     def _from_text(self, text, p, common):
         """The model from its text, the parameters' start values and the
@@ -902,6 +949,90 @@ class EquationModel(Model):
     def text(self):
         """The model's text as the core reads it (one item a line)."""
         return bytes(self.iconst.astype(np.uint8)).decode()
+
+    @property
+    def table_names(self):
+        """The tables' names, in the text's order (lines 't NAME(...) = ...')."""
+        return [line[2:].split("(", 1)[0].strip() for line in self.text.split("\n")
+                if line.startswith("t ")]
+
+    def _tables(self, smoothness=None):
+        """The core's account of the tables (mlid_model_tables): each p
+        entry's text and the smoothness weight over theta's p."""
+        names = self.table_names
+        smoothness = dict(smoothness or {})
+        unknown = sorted(set(smoothness) - set(names))
+        if unknown:
+            raise InputError(f"smoothness: no table named {', '.join(unknown)} (tables: "
+                             f"{', '.join(names) or 'none'})")
+        lam = np.array([float(smoothness.get(n, 0.0)) for n in names] or [0.0])[:len(names)]
+        out = self._layout._call(_api.mlid_model_tables, smoothness=lam)
+        cells = out["cells"].decode("utf-8", "surrogateescape").split("\n")[:self.np]
+        return cells, np.asarray(out["weight"]).reshape(self.np, self.np, order="F")
+
+    @property
+    def table_cells(self):
+        """{label: text} of each table value: its name and where it is
+        weighted, 'CLt[3] (alpha = 0.2; weighted where 0.1 < alpha < 0.3)'."""
+        texts = self._tables()[0]
+        labels = self.element_labels()
+        return {labels[k]: t for k, t in enumerate(texts) if t}
+
+    def smoothness_weight(self, smoothness):
+        """The a priori weight of the tables' smoothness over the free
+        parameters, for ``fit(..., prior_weight=...)``.
+
+        The prior's cost is 1/2 sum_tables lambda sum d^2, d each second
+        difference between neighbouring values along each variable (the
+        change of slope times the mean spacing: v[i-1] - 2 v[i] + v[i+1] on
+        even breakpoints) of theta minus the a priori values (by default the
+        start: start from a table linear in each variable, zero or constant,
+        and d is the table's own).  lambda = 1/sigma^2, sigma the a priori
+        spread of one second difference, in the coefficient's units.
+
+        Parameters
+        ----------
+        smoothness : dict
+            {table name: lambda}; tables not named have none.
+
+        Returns
+        -------
+        numpy.ndarray (nf, nf)
+            Over the free parameters, in the order of free; add a diagonal
+            of other a priori weights to it.
+
+        Raises
+        ------
+        InputError
+            A name that is no table of the model.
+        """
+        w = np.zeros((self._theta.size, self._theta.size))
+        w[:self.np, :self.np] = self._tables(smoothness)[1]
+        idx = self.free_indices()
+        return w[np.ix_(idx, idx)]
+
+    def unreached_cells(self, information):
+        """The free table values no sample reaches: zero information.
+
+        Parameters
+        ----------
+        information : FitResult or array_like (nf, nf)
+            A fit's result (its ``information``), or an information matrix
+            over the free parameters in the order of free.
+
+        Returns
+        -------
+        list of str
+            '... is reached by no sample: not identifiable' for each free
+            table value whose row of the information is zero (its
+            weight is zero at every sample), in the order of free.
+        """
+        info = np.asarray(getattr(information, "information", information), dtype=float)
+        texts = self._tables()[0]
+        free = self.free_indices()
+        return [f"{texts[j]} is reached by no sample: not identifiable"
+                for k, j in enumerate(free) if j < self.np and texts[j]
+                and not np.any(info[k] != 0.0)]
 
 
 #: The six-degree-of-freedom model's constants, in the core's order (mlid_sixdof).
