@@ -39,7 +39,10 @@ statistic at the current fit, the free parameters partialled out
 score in q at q -> 0+; delays, lags and scale factors outside the model's
 elements by the match of the residuals to their signature.  The best few
 are refitted, every new parameter inside the Newton iteration with its
-Cramer-Rao sigma.  A candidate is significant when its likelihood ratio
+Cramer-Rao sigma, from where the candidate reproduces the current model
+(a lag: one damped Newton step in tau from tau = 0), so that a refit never
+ends above the current fit; one that does is retried nearer that point and
+else reported untested, not rejected.  A candidate is significant when its likelihood ratio
 2 dJ beats the chi-square(k) point at alpha over the number of candidates
 (Bonferroni) and its cost drop beats Akaike's k.  A significant one is
 accepted when it holds out (mlid.discrepancy.holdout): fitted to all but the last third
@@ -215,7 +218,7 @@ def _library(model, data, fit, families, nx, options):
         for s, i in _measured_states(model, outs):
             if outs[i].lower() in ANGLES:
                 cands.append(Candidate("process noise", f"first-order gust on {outs[i]}",
-                                       k=2, state=s, angle=s))
+                                       k=2, state=s, angle=s, angle_output=i))
     return cands
 
 
@@ -478,8 +481,8 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
         good = [c for c in tried if c.lr is not None and c.lr > chi2_quantile(
             alpha / len(cands), c.k) and c.lr / 2 > c.k]
         for c in tried:
-            if c.lr is not None and c not in good:
-                c.decision = "rejected" if c.lr >= 0 else NEGATIVE_LR
+            if c.lr is not None and c not in good and c.decision == "refitted":
+                c.decision = "rejected"
         rounds.append({"cost": fit.cost, "candidates": cands, "threshold": threshold})
         best = _choose(good, current, cur_data, fit, options)
         if best is None:
@@ -495,9 +498,22 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
                      split.what if split else None)
 
 
-#: why a refit can end above the fit it started from
-NEGATIVE_LR = ("rejected: its refit ended above the current fit (2dJ < 0: a worse local "
-               "optimum or an iteration that failed), so it adds nothing")
+#: a refit's 2dJ below -NESTED_TOL max(1, |J|) ended above the current fit:
+#: a failed optimisation.  Every refit starts where it reproduces the current
+#: model (or, a lag, below its cost) and the Newton iteration only takes steps
+#: that lower the cost, so a proper refit ends at 2dJ >= 0 up to the rounding
+#: of the cost: a sum of N terms carries about N eps relative (1e-12 for
+#: 10^4 samples); 1e-9 leaves room for the other integration paths (a lag's
+#: substeps) and stays below the fit's own stop, tol_cost 1e-8 relative
+NESTED_TOL = 1e-9
+#: a retry starts this many times nearer the nested point
+DAMPING = 4.0
+#: step halvings of the retry (the core's default is 5)
+DAMPED_HALVINGS = 12
+#: a first-order lag's start is at most this many sample intervals
+LAG_START_MAX = 20.0
+#: RK4 substeps a lag candidate may take (its smallest start: dt over this)
+LAG_SUBSTEPS_MAX = 64
 #: held-out checks a round makes at most (two fits each)
 MAX_CHECKS = 3
 
@@ -763,10 +779,11 @@ DELAY_STARTS = (0.5, 2.5, 5.5)
 LAG_ORDER_ALPHA = 0.05
 
 
-def _build(model, data, fit, c, options, start=None):
+def _build(model, data, fit, c, options, start=None, damp=None):
     """A candidate's model: (model, record, fit options, labels of its new
     parameters, value) with value(res) its quantities (mlid.discrepancy.effects'
-    Extension.value), or None for a parameter candidate."""
+    Extension.value), or None for a parameter candidate.  damp scales the
+    start of process noise (its q, a gust's intensity) toward zero."""
     f, first = c.family, holdout.records(data)[0]
     if "param" in c.spec:
         m = _with_param(model, c.spec["param"])
@@ -783,6 +800,8 @@ def _build(model, data, fit, c, options, start=None):
     if f == "process noise" and "angle" not in c.spec:
         m = _noisy(model.with_theta(fit.model.theta), [c.spec["state"]])
         m.r = np.diag(fit.rhat).copy()
+        if damp is not None:
+            m.q = m.q * damp * damp
         q = m.names.get("q(1)", "q(1)")
         return m, data, _merged(options, {"method": "filter_error",
                                           "bounds": {"q(1)": (0.0, None)}}), [q], None
@@ -793,8 +812,15 @@ def _build(model, data, fit, c, options, start=None):
     elif f == "sensor lag":
         ext = effects.sensor_lag(model, first, c.spec["output"] + 1,
                                  order=c.spec.get("order", 1), start=start)
+        if c.spec.get("order", 1) == 1 and start is not None:
+            ext.model.substeps = _lag_substeps(model, start, _interval(data))
     else:                                   # a first-order gust on an angle
-        ext = effects.gust(model.with_theta(fit.model.theta), first, c.spec["angle"] + 1)
+        m = model.with_theta(fit.model.theta)
+        intensity = None
+        if damp is not None:
+            h = first.y[:, c.spec["angle_output"]] if "angle_output" in c.spec else None
+            intensity = None if h is None else damp * effects.GUST_FRACTION * float(np.std(h))
+        ext = effects.gust(m, first, c.spec["angle"] + 1, intensity=intensity)
     return ext.model, data, _merged(options, ext.options), ext.params, ext.value
 
 
@@ -808,18 +834,31 @@ def _merged(options, extra):
 
 
 def _refit(model, data, fit, c, options):
-    """Refit with the candidate: c.lr = 2 (J0 - J1), c.fit, c.quantities
-    (what it estimates: name, value, sigma, unit, meaning), its model, record
-    and options in c.spec; a failure goes in c.decision."""
+    """Refit with the candidate from the point where it reproduces the
+    current model (its nested point): c.lr = 2 (J0 - J1), c.fit,
+    c.quantities (what it estimates: name, value, sigma, unit, meaning), its
+    model, record and options in c.spec; a failure goes in c.decision.  A
+    refit that ends above the current fit (2dJ below -NESTED_TOL of the
+    cost) failed to find its own optimum: it is tried once more from nearer
+    the nested point with more step halvings (_damped), and when it fails
+    again the candidate is untested, not rejected."""
+    tol = NESTED_TOL * max(1.0, abs(fit.cost))
     try:
-        starts = ([s * _interval(data) for s in DELAY_STARTS]
-                  if c.family == "input time delay" else [c.spec.get("start")])
-        best = None
-        for s in starts:
-            m, d, opts, labels, value = _build(model, data, fit, c, options, s)
-            res, said = _quietly(fit_model, m, d, **opts)
-            if best is None or res.cost < best[0].cost:
-                best = (res, d, opts, labels, value, said)
+        if _lag_first(c):
+            tau = _lag_start(model, data, fit, c, options)
+            if tau is None:            # its decision says why
+                return
+            c.spec["start"] = tau
+        best = _fit_starts(model, data, fit, c, options, _starts(c, data))
+        if 2 * (fit.cost - best[0].cost) < -tol:
+            first = 2 * (fit.cost - best[0].cost)
+            again = _damped(model, data, fit, c, options)
+            if again is None or 2 * (fit.cost - again[0].cost) < -tol:
+                c.decision = (f"untested: its refit ended above the current fit (2dJ {first:.2f}"
+                              f"{'' if again is None else f', again {2 * (fit.cost - again[0].cost):.2f}'}"
+                              " from nearer its nested point): a failed optimisation, not a test")
+                return
+            best = again
         res, d, opts, labels, value, said = best
         c.quantities = value(res) if value else _param_quantities(res, labels, c.family)
     except MlidError as exc:
@@ -835,8 +874,131 @@ def _refit(model, data, fit, c, options):
         j = int(np.argmax(np.abs(corr)))
         c.note = "; ".join(filter(None, (f"correlated {corr[j]:+.3f} with {others[j]}",
                                          c.note)))
-    c.spec.update(model=res.model, data=d, options=opts)
+    c.spec.update(model=res.model, data=d, options=opts, labels=labels, value=value)
     c.decision = "refitted"
+
+
+def _starts(c, data):
+    """The starts of a candidate's refit: an input delay's DELAY_STARTS
+    (its cost has a kink at each whole sample), else the one start its spec
+    holds (None: the nested point itself)."""
+    if c.family == "input time delay":
+        return [s * _interval(data) for s in DELAY_STARTS]
+    return [c.spec.get("start")]
+
+
+def _fit_starts(model, data, fit, c, options, starts, damp=None):
+    """The best refit over the starts: (result, record, options, labels,
+    value, warnings said).  damp: the start's size relative to the usual
+    one, for the families that take one (process noise), with more step
+    halvings."""
+    best = None
+    for s in starts:
+        m, d, opts, labels, value = _build(model, data, fit, c, options, s, damp)
+        if damp is not None:
+            opts = dict(opts, halvings=max(DAMPED_HALVINGS, int(opts.get("halvings") or 0)))
+        res, said = _quietly(fit_model, m, d, **opts)
+        if best is None or res.cost < best[0].cost:
+            best = (res, d, opts, labels, value, said)
+    return best
+
+
+def _damped(model, data, fit, c, options):
+    """The retry of a refit that ended above the current fit: from a start
+    DAMPING times nearer the nested point (a lag's tau, a delay's half
+    sample, process noise's intensity), with DAMPED_HALVINGS step halvings.
+    None when there is no nearer start (a lag already at its smallest)."""
+    if c.family == "sensor lag" and c.spec.get("order", 1) == 1:
+        tau = float(c.spec.get("start") or 2.0 * _interval(data)) / DAMPING
+        if tau < _interval(data) / LAG_SUBSTEPS_MAX:
+            return None
+        starts = [tau]
+    elif c.family == "input time delay":
+        starts = [DELAY_STARTS[0] * _interval(data) / DAMPING]
+    else:
+        starts = [c.spec.get("start")]
+    try:
+        return _fit_starts(model, data, fit, c, options, starts, damp=1.0 / DAMPING)
+    except MlidError:
+        return None
+
+
+def _lag_first(c):
+    """A first-order sensor lag with no start given (_lag_order gives the
+    second-order one its own)."""
+    return c.family == "sensor lag" and c.spec.get("order", 1) == 1 \
+        and c.spec.get("start") is None
+
+
+def _lag_start(model, data, fit, c, options):
+    """A first-order lag's start: one Newton step in tau from its nested
+    point tau = 0, where it reproduces the current model, the others
+    partialled out; halved by DAMPING while the lag model's cost there is
+    above the current fit's.  Near tau = 0 the lagged output is y - tau
+    dy/dt, so the step is the score test's of the regressor -dy/dt on the
+    output (_lag_slope).  None, with c's decision set, when the cost rises
+    as tau grows from 0 (the lag's best is none: 2dJ 0, rejected) or no
+    start below the current fit is found (untested).  The lag's states get
+    the RK4 substeps that integrate the start's tau (LAG_SUBSTEPS_MAX at
+    most): the core's RK4 is unstable beyond dt/tau = 2.8 substeps, where
+    the old start of two sample intervals let the refit stall at
+    tau = 0.36 dt, above the current fit."""
+    signed, rest = _lag_slope(model, data, c, options)
+    i, dt = c.spec["output"], _interval(data)
+    if not (signed < 0 and rest > 0):
+        c.lr, c.fit, c.quantities = 0.0, fit, [
+            ("time constant tau", 0.0, math.nan, "s", "the cost rises as tau grows from 0: "
+             "no lag")]
+        c.decision = "rejected: the cost rises as its tau grows from 0 (its best is no lag)"
+        return None
+    tau = min(-signed / rest, LAG_START_MAX * dt)
+    opts = dict(evaluate_options(options))
+    while tau >= dt / LAG_SUBSTEPS_MAX:
+        ext = effects.sensor_lag(model, holdout.records(data)[0], i + 1, start=tau)
+        ext.model.substeps = _lag_substeps(model, tau, dt)
+        try:
+            cost = evaluate(ext.model, data, **opts)["cost"]
+        except MlidError:
+            cost = math.inf
+        if cost <= fit.cost:
+            c.spec["substeps"] = ext.model.substeps
+            return tau
+        tau /= DAMPING
+    c.decision = (f"untested: no start of its tau down to {dt / LAG_SUBSTEPS_MAX:.2g} s "
+                  "fits as well as the current model")
+    return None
+
+
+def _lag_substeps(model, tau, dt):
+    """RK4 substeps for a lag of time constant tau: a step of at most tau
+    (well inside RK4's stability, 2.8 tau), LAG_SUBSTEPS_MAX at most."""
+    return int(min(LAG_SUBSTEPS_MAX, max(model.substeps, math.ceil(dt / tau))))
+
+
+def _lag_slope(model, data, c, options):
+    """The partialled gradient and information of a lag's tau at tau = 0:
+    those of a regressor -dy_i/dt (the model's simulated output i,
+    differentiated per record) entering output i at zero."""
+    i = c.spec["output"]
+    yhat = _state_estimates(model, data, options)[:, i]
+    slope = np.concatenate(_per_record_list(
+        data, lambda r, rows: -np.gradient(yhat[rows], r.t)))
+    m, d = _with_inputs(model, data, [("-dy/dt", slope)])
+    param = f"d({i + 1},{model.nu + 1})"
+    m = m.with_free(list(model.free) + [param])
+    ev = evaluate(m, d, **evaluate_options(options))
+    names = m.free_names()
+    score, _, signed = score_test.statistics(
+        ev["gradient"], ev["information"], [names.index(n) for n in model.free_names()],
+        [names.index(m.names.get(param, param))])
+    signed, score = float(signed[0]), float(score[0])
+    return signed, (signed * signed / score if score > 0 else 0.0)
+
+
+def _per_record_list(data, make):
+    """make(record, rows) for each record, as a list."""
+    out = _per_record(data, make)
+    return out if isinstance(out, list) else [out]
 
 
 def _quietly(fn, *args, **kwargs):
