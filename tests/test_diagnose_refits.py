@@ -81,3 +81,29 @@ def test_a_refit_that_fails_twice_is_untested(monkeypatch):
     listed = [x for r in d.as_dict()["rounds"] for x in r["listed"]]
     assert any(x["name"] == "bias on beta" and x["decision"].startswith("untested")
                for x in listed)
+
+
+def test_the_effects_numbers_come_from_the_final_fit():
+    """The two-effect record: the aileron delay is accepted in round 1, the
+    bias on beta in round 2, which moves the delay's estimate (0.05896 to
+    0.05936 s at seed 1, 0.7 sigma).  The report, the JSON and the HTML give
+    the final fit's numbers; the round's listing keeps the refit's."""
+    from mlid.discrepancy.diagnosis import _g
+    model, data = scenarios.make("two", 1)
+    d = mlid.diagnose(model, data)
+    delay, bias = d.effects
+    assert (delay.name, delay.round, bias.round) == ("delay on delta_a", 1, 2)
+    k = d.fit.names.index("delay delta_a")
+    value, sigma = delay.quantities[0][1:3]
+    assert (value, sigma) == (d.fit.estimate[k], d.fit.sigma[k])
+    old = delay.refit_quantities[0][1]
+    assert abs(old - value) > 0.3 * sigma                 # the second effect moved it
+    report = d.report()
+    assert f"time delay = {value:.5g} +- {sigma:.2g} s" in report
+    assert f"{old:.5g}" not in report
+    out = json.loads(json.dumps(d.as_dict()))
+    assert out["effects"][0]["value"] == value and out["effects"][0]["round"] == 1
+    listed = [c for c in out["rounds"][0]["listed"] if c["name"] == "delay on delta_a"][0]
+    assert listed["value"] == old
+    page = d._repr_html_()
+    assert _g(value) in page and _g(old) not in page

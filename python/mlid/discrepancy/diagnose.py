@@ -88,7 +88,9 @@ class Candidate:
         self.signature = None      # residual signature (structural candidates)
         self.confounded = False
         self.lr = None
-        self.quantities = None     # what its refit estimates (_refit)
+        self.quantities = None     # what it estimates: its refit's, an effect's the final fit's
+        self.refit_quantities = None   # an effect's quantities from its own refit
+        self.round = None          # an effect: the round (1, 2, ...) that accepted it
         self.holdout = None        # 2 dJ on the held-out part (mlid.discrepancy.holdout)
         self.explained = None      # the share of the held-out residual it removes
         self.fit = None
@@ -490,9 +492,12 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
         for c in good:
             if c is not best and c.decision == "refitted":
                 c.decision = "significant, not the best this round"
+        best.round = len(rounds)
         effects.append(best)
         current, fit, cur_data = best.spec["model"], best.fit, best.spec["data"]
         options = best.spec["options"]
+    for e in effects:
+        _from_final(e, fit)
     split = holdout.Split.of(data)
     return Diagnosis(base, fit, current, effects, rounds, alpha,
                      split.what if split else None)
@@ -1001,6 +1006,18 @@ def _per_record_list(data, make):
     return out if isinstance(out, list) else [out]
 
 
+def _from_final(c, final):
+    """An accepted effect's quantities from the final fit (its refit's stay
+    in c.refit_quantities): a later effect moves the estimates of an earlier
+    one (a lag's wn and zeta once a bias is in)."""
+    c.refit_quantities = c.quantities
+    labels, value = c.spec.get("labels"), c.spec.get("value")
+    try:
+        c.quantities = value(final) if value else _param_quantities(final, labels, c.family)
+    except (MlidError, ValueError) as exc:       # kept as its refit's, and said so
+        c.note = "; ".join(filter(None, (c.note, f"its quantities are its refit's: {exc}")))
+
+
 def _quietly(fn, *args, **kwargs):
     """fn's result and the texts of the warnings it gave: a candidate's
     warnings belong to it (its note), not to the user's console."""
@@ -1033,4 +1050,5 @@ def _lag_order(c, model, data, fit, options):
               f"{2 * (c.fit.cost - second.fit.cost):.1f}")
     c.name, c.k = "second-order " + c.name, 2
     c.quantities, c.lr, c.fit = second.quantities, second.lr, second.fit
-    c.spec.update(model=second.spec["model"], order=2)
+    c.spec.update(model=second.spec["model"], order=2, labels=second.spec["labels"],
+                  value=second.spec["value"])
