@@ -214,3 +214,26 @@ def _rk4_lateral(seed, l_abs_beta, sub=10):
     y = xs + rng.normal(0.0, 1.0, xs.shape) * NOISE
     return analysis_model(), mlid.FlightData(t, u, y, ["delta_a", "delta_r"],
                                              ["p", "r", "beta", "phi"])
+
+
+#: yaw moment per degree of bank in the equivalence record [deg/s2 per deg] (ours)
+N_PHI = -0.5
+
+
+def equivalent_pair(seed):
+    """A record where two candidates are the same model (issue 47's "V fed
+    back to delta_e" and M_V with Z_V free, laterally): the truth has a yaw
+    moment N_phi f(2,4) the analysis model lacks, and the analysis model
+    has L_phi f(1,4) free (zero in the truth).  phi fed back to an aileron
+    or the rudder moves f(1,4), which is free, and f(2,4) by k N_da (or k
+    N_dr): each is the same model as N_phi free."""
+    t, u = inputs()
+    F, G = matrices(BASE)
+    F[1, 3] = N_PHI
+    truth = mlid.LinearModel(F, G, np.eye(4), r=np.square(NOISE))
+    data, _ = mlid.simulate(truth, t, u, seed=seed)
+    model = analysis_model()
+    model = model.with_free(list(model.free) + ["f(1,4)"],
+                            names={**model.names, "f(1,4)": "L_phi", "f(2,4)": "N_phi"})
+    return model, mlid.FlightData(t, u, data.y, ["delta_a", "delta_r"],
+                                  ["p", "r", "beta", "phi"])

@@ -91,11 +91,20 @@ class Candidate:
         self.quantities = None     # what it estimates: its refit's, an effect's the final fit's
         self.refit_quantities = None   # an effect's quantities from its own refit
         self.round = None          # an effect: the round (1, 2, ...) that accepted it
+        self.equivalent = []       # the other candidates that are the same model (_equivalents)
+        self.equivalent_to = None  # the candidate that speaks for this one's model
         self.holdout = None        # 2 dJ on the held-out part (mlid.discrepancy.holdout)
         self.explained = None      # the share of the held-out residual it removes
         self.fit = None
         self.decision = "not refitted"
         self.note = ""
+
+    @property
+    def title(self):
+        """Its name, with those of the candidates that are the same model."""
+        if not self.equivalent:
+            return self.name
+        return f"{self.name} (the same model as {', '.join(e.name for e in self.equivalent)})"
 
     @property
     def value(self):
@@ -476,12 +485,14 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
                      and ("angle" in c.spec) == coloured]
             if noise and noise[0] not in tried:
                 tried.append(noise[0])
+        tried += _same_score(scored, tried, threshold)
         bump(b, b.n + len(tried))
         for c in tried:
             _refit(current, cur_data, fit, c, options)
             b.update()
+        _equivalents(sorted(tried, key=cands.index), fit)
         good = [c for c in tried if c.lr is not None and c.lr > chi2_quantile(
-            alpha / len(cands), c.k) and c.lr / 2 > c.k]
+            alpha / len(cands), c.k) and c.lr / 2 > c.k and c.equivalent_to is None]
         for c in tried:
             if c.lr is not None and c not in good and c.decision == "refitted":
                 c.decision = "rejected"
@@ -519,8 +530,52 @@ DAMPED_HALVINGS = 12
 LAG_START_MAX = 20.0
 #: RK4 substeps a lag candidate may take (its smallest start: dt over this)
 LAG_SUBSTEPS_MAX = 64
+#: two candidates are the same model when their refits' 2dJ agree to
+#: EQUIVALENT_COST max(1, |J|) (two fits of one model agree to the Newton
+#: stop, tol_cost 1e-8 relative; measured 5e-9 absolute on
+#: tests/scenarios.py's equivalent_pair) and their fitted outputs to
+#: EQUIVALENT_OUTPUT of each output's residual sd (measured 5e-6; the
+#: nearest other candidate there moves them 17 sd)
+EQUIVALENT_COST = 1e-8
+EQUIVALENT_OUTPUT = 1e-3
+#: untried candidates refitted because their score equals a tried one's (to
+#: EQUAL_SCORE relative): maybe the same model, which only refits can tell
+EQUAL_SCORE = 1e-6
+EQUAL_SCORE_REFITS = 2
 #: held-out checks a round makes at most (two fits each)
 MAX_CHECKS = 3
+
+
+def _same_score(scored, tried, threshold):
+    """Untried candidates whose score equals a tried significant one's to
+    EQUAL_SCORE (EQUAL_SCORE_REFITS at most): equivalent models score alike,
+    and only their refits tell whether they are (_equivalents)."""
+    marks = [t.score for t in tried if t.score is not None and t.score > threshold]
+    extra = [c for c in scored if c not in tried
+             and any(abs(c.score - s) <= EQUAL_SCORE * s for s in marks)]
+    return extra[:EQUAL_SCORE_REFITS]
+
+
+def _equivalents(tried, fit):
+    """Refitted candidates that are the same model: the same number of new
+    parameters, 2dJ within EQUIVALENT_COST of the cost and fitted outputs
+    within EQUIVALENT_OUTPUT of each output's residual sd.  The first in the
+    library's order speaks for the group (c.equivalent); the others say
+    whose model they are (c.equivalent_to) and are not judged apart."""
+    tol = 2 * EQUIVALENT_COST * max(1.0, abs(fit.cost))
+    sd = np.sqrt(np.maximum(np.diag(fit.rhat), np.finfo(float).tiny))
+    done = [c for c in tried if c.lr is not None and c.fit is not fit]
+    for i, c in enumerate(done):
+        if c.equivalent_to is not None:
+            continue
+        for e in done[i + 1:]:
+            if e.equivalent_to is None and e.k == c.k and abs(e.lr - c.lr) <= tol \
+                    and e.fit.yhat.shape == c.fit.yhat.shape \
+                    and np.max(np.abs(e.fit.yhat - c.fit.yhat) / sd) <= EQUIVALENT_OUTPUT:
+                c.equivalent.append(e)
+                e.equivalent_to = c
+                e.decision = (f"the same model as {c.name} (2dJ and fitted outputs equal to "
+                              "rounding): one explanation, judged under that name")
 
 
 def _choose(good, model, data, fit, options):

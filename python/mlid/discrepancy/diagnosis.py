@@ -125,7 +125,7 @@ class Diagnosis:
         """One line: the effects found, or that nothing is missing."""
         if not self.effects:
             return "nothing missing at this significance"
-        return "effects found: " + ", ".join(c.name for c in self.effects)
+        return "effects found: " + ", ".join(c.title for c in self.effects)
 
     def report(self):
         """The diagnosis as printed lines: each round's candidates with their
@@ -155,7 +155,7 @@ class Diagnosis:
             lines.append(" effects found (their quantities from the final fit):")
             for c in self.effects:
                 held = "" if c.holdout is None else f", held out {c.holdout:+.1f}"
-                lines.append(f"   {c.family}: {c.name} (round {c.round}: 2dJ {c.lr:.1f}{held})")
+                lines.append(f"   {c.family}: {c.title} (round {c.round}: 2dJ {c.lr:.1f}{held})")
                 for q, v, sd, unit, meaning in c.quantities or []:
                     lines.append(f"      {q} = {v:.5g} +- {sd:.2g}{' ' + unit if unit else ''}"
                                  f"  ({meaning})")
@@ -194,7 +194,8 @@ class Diagnosis:
                     "quantities": [{"quantity": q, "value": num(v), "sigma": num(sd),
                                     "unit": unit, "meaning": meaning}
                                    for q, v, sd, unit, meaning in qs or []],
-                    "decision": c.decision, "note": c.note}
+                    "decision": c.decision, "note": c.note,
+                    "equivalent": [{"family": e.family, "name": e.name} for e in c.equivalent]}
         return {"verdict": self.verdict, "alpha": self.alpha, "warning": self.coloured,
                 "held_out": self.held_out,
                 "cost_before": num(self.base.cost), "cost_after": num(self.fit.cost),
@@ -226,7 +227,7 @@ class Diagnosis:
             parts.append(_html_table(
                 "mlid-effects", ("family", "effect", "quantity", "value", "σ", "unit",
                                  "meaning", "2dJ", "held-out 2dJ"),
-                [(c.family, c.name, q, v, sd, unit, meaning, c.lr, c.holdout)
+                [(c.family, c.title, q, v, sd, unit, meaning, c.lr, c.holdout)
                  for c in self.effects for q, v, sd, unit, meaning in c.quantities or []]))
         for k, rnd in enumerate(self.rounds, 1):
             parts.append(f"<p>{_esc(self._round_header(k, rnd))}</p>")
