@@ -12,7 +12,9 @@ Candidate families (each with the name a flight-test engineer would use):
 
     output bias           a constant offset on one output (free bias(i))
     state-equation bias   a constant in a state equation with a free
-                          derivative (bx(i) free: a thrust or moment offset)
+                          derivative (bx(i) free: a thrust or moment offset;
+                          an equations model: a constant term written into
+                          the equation, mlid.discrepancy.terms.state_biases)
     missing derivative    a fixed element of F or G set free (e.g. Y_p)
     input time delay      the aircraft sees an input late: udelay(j) free
                           (output error; mlid.discrepancy.effects.input_delay)
@@ -68,7 +70,7 @@ from ..estimate.evaluate import evaluate
 from ..estimate.fit import fit as fit_model
 from ..estimate.options import evaluate_options
 from ..model.models import (REGRESSORS, EquationModel, FlightPathModel, LinearModel,
-                    LongitudinalModel)
+                    LongitudinalModel, SixDofModel)
 from ..progress import bar as progress_bar, bump
 from . import effects, holdout, score_test, terms
 from .diagnosis import Diagnosis, residual_diagnostics
@@ -172,6 +174,10 @@ def _library(model, data, fit, families, nx, options):
             if e not in model.free and e not in model.ties:
                 cands.append(Candidate("state-equation bias", f"bias in the "
                                        f"{_state_name(model, row, outs)} equation", param=e))
+    if "state_bias" in families and isinstance(model, EquationModel) \
+            and not isinstance(model, (FlightPathModel, SixDofModel)):
+        for t in terms.state_biases(model):
+            cands.append(Candidate("state-equation bias", f"bias in {t.equation}", term=t))
     if "derivative" in families and isinstance(model, LinearModel):
         for e in _linear_elements(model, nx):
             cands.append(Candidate("missing derivative", model.names.get(e, e), param=e))
