@@ -1019,12 +1019,13 @@ def _lag_first(c):
 def _lag_start(model, data, fit, c, options):
     """A first-order lag's start: one Newton step in tau from its nested
     point tau = 0, where it reproduces the current model, the others
-    partialled out; halved by DAMPING while the lag model's cost there is
-    above the current fit's.  Near tau = 0 the lagged output is y - tau
-    dy/dt, so the step is the score test's of the regressor -dy/dt on the
-    output (_lag_slope).  None, with c's decision set, when the cost rises
-    as tau grows from 0 (the lag's best is none: 2dJ 0, rejected) or no
-    start below the current fit is found (untested).  The lag's states get
+    partialled out; divided by DAMPING while the lag model's cost there is
+    above the current fit's, down to dt / LAG_SUBSTEPS_MAX.  Near tau = 0
+    the lagged output is y - tau dy/dt, so the step is the score test's of
+    the regressor -dy/dt on the output (_lag_slope).  None, with c's
+    decision set, when the cost rises as tau grows from 0, by that slope or
+    at the smallest tau (the lag's best is none: 2dJ 0, rejected), or when
+    the lag model could not be evaluated (untested).  The lag's states get
     the RK4 substeps that integrate the start's tau (LAG_SUBSTEPS_MAX at
     most): the core's RK4 is unstable beyond dt/tau = 2.8 substeps, where
     the old start of two sample intervals let the refit stall at
@@ -1032,27 +1033,48 @@ def _lag_start(model, data, fit, c, options):
     signed, rest = _lag_slope(model, data, c, options)
     i, dt = c.spec["output"], _interval(data)
     if not (signed < 0 and rest > 0):
-        c.lr, c.fit, c.quantities = 0.0, fit, [
-            ("time constant tau", 0.0, math.nan, "s", "the cost rises as tau grows from 0: "
-             "no lag")]
-        c.decision = "rejected: the cost rises as its tau grows from 0 (its best is no lag)"
-        return None
+        return _no_lag(c, fit, "")
     tau = min(-signed / rest, LAG_START_MAX * dt)
+    smallest = dt / LAG_SUBSTEPS_MAX
     opts = dict(evaluate_options(options))
-    while tau >= dt / LAG_SUBSTEPS_MAX:
-        ext = effects.sensor_lag(model, holdout.records(data)[0], i + 1, start=tau)
-        ext.model.substeps = _lag_substeps(model, tau, dt)
+    failed = False
+    for t in _damped_taus(tau, smallest):
+        ext = effects.sensor_lag(model, holdout.records(data)[0], i + 1, start=t)
+        ext.model.substeps = _lag_substeps(model, t, dt)
         try:
             cost = evaluate(ext.model, data, **opts)["cost"]
         except MlidError:
-            cost = math.inf
+            failed = True
+            continue
         if cost <= fit.cost:
             c.spec["substeps"] = ext.model.substeps
-            return tau
-        tau /= DAMPING
-    c.decision = (f"untested: no start of its tau down to {dt / LAG_SUBSTEPS_MAX:.2g} s "
-                  "fits as well as the current model")
+            return t
+    if failed:
+        c.decision = (f"untested: no start of its tau down to {smallest:.2g} s could be "
+                      "evaluated below the current fit")
+        return None
+    # even the smallest tau costs more: the slope's estimate (dy/dt by finite
+    # differences) was small and of the wrong sign
+    return _no_lag(c, fit, f" at tau = {smallest:.2g} s too")
+
+
+def _no_lag(c, fit, where):
+    """A lag whose cost rises as tau grows from 0: its best is the current
+    model (2dJ 0), rejected; None (no start)."""
+    c.lr, c.fit, c.quantities = 0.0, fit, [
+        ("time constant tau", 0.0, math.nan, "s", "the cost rises as tau grows from 0: no lag")]
+    c.decision = f"rejected: the cost rises as its tau grows from 0{where} (its best is no lag)"
     return None
+
+
+def _damped_taus(tau, smallest):
+    """A lag's starts: tau divided by DAMPING while above smallest, then
+    smallest (dt over LAG_SUBSTEPS_MAX)."""
+    out = []
+    while tau > smallest:
+        out.append(tau)
+        tau /= DAMPING
+    return out + [smallest]
 
 
 def _lag_substeps(model, tau, dt):
