@@ -46,8 +46,8 @@ are refitted, every new parameter inside the Newton iteration with its
 Cramer-Rao sigma, from where the candidate reproduces the current model
 (a lag: one damped Newton step in tau from tau = 0), so that a refit never
 ends above the current fit; one that does is retried nearer that point and
-else reported untested, not rejected.  A candidate is significant when its likelihood ratio
-2 dJ beats the chi-square(k) point at alpha over the number of candidates
+else reported untested, not rejected.  A candidate is significant when its
+likelihood ratio 2 dJ beats the chi-square(k) point at alpha over the number of candidates
 (Bonferroni) and its cost drop beats Akaike's k.  A significant one is
 accepted when it holds out (mlid.discrepancy.holdout): fitted to all but the last third
 of the record (or the last manoeuvre), it predicts that part better, by the
@@ -397,7 +397,8 @@ def _noisy(model, states):
                        + [f"r({i + 1})" for i in range(ny)])
 
 
-FAMILIES = ("bias", "state_bias", "derivative", "nonlinear", "delay", "scale", "lag", "noise", "feedback")
+FAMILIES = ("bias", "state_bias", "derivative", "nonlinear", "delay", "scale", "lag", "noise",
+            "feedback")
 #: turbulence (a filter) absorbs much of any deterministic misfit: a
 #: deterministic candidate goes before it when the held-out residual it
 #: leaves is at most this multiple of what turbulence leaves.  Measured on
@@ -937,12 +938,14 @@ def _refit(model, data, fit, c, options):
             c.spec["start"] = tau
         best = _fit_starts(model, data, fit, c, options, _starts(c, data))
         if 2 * (fit.cost - best[0].cost) < -tol:
-            first = 2 * (fit.cost - best[0].cost)
+            tries = [2 * (fit.cost - best[0].cost)]
             again = _damped(model, data, fit, c, options)
-            if again is None or 2 * (fit.cost - again[0].cost) < -tol:
-                c.decision = (f"untested: its refit ended above the current fit (2dJ {first:.2f}"
-                              f"{'' if again is None else f', again {2 * (fit.cost - again[0].cost):.2f}'}"
-                              " from nearer its nested point): a failed optimisation, not a test")
+            if again is not None:
+                tries.append(2 * (fit.cost - again[0].cost))
+            if tries[-1] < -tol:
+                said = ", again ".join(f"{x:.2f}" for x in tries)
+                c.decision = (f"untested: its refit ended above the current fit (2dJ {said} "
+                              "from nearer its nested point): a failed optimisation, not a test")
                 return
             best = again
         res, d, opts, labels, value, said = best
@@ -1047,7 +1050,6 @@ def _lag_start(model, data, fit, c, options):
             failed = True
             continue
         if cost <= fit.cost:
-            c.spec["substeps"] = ext.model.substeps
             return t
     if failed:
         c.decision = (f"untested: no start of its tau down to {smallest:.2g} s could be "

@@ -96,7 +96,8 @@ class Diagnosis:
         """The candidates a round lists: every one refitted (largest 2dJ
         first), then the best of the rest, eight in all."""
         tried = sorted([c for c in rnd["candidates"]
-                        if c.lr is not None or c.decision.startswith(("refit failed", "untested"))],
+                        if c.lr is not None
+                        or c.decision.startswith(("refit failed", "untested"))],
                        key=lambda c: -math.inf if c.lr is None else c.lr, reverse=True)
         rest = sorted([c for c in rnd["candidates"] if c.decision == "not refitted"],
                       key=_rank_key, reverse=True)
