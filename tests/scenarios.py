@@ -4,7 +4,8 @@
 A lateral model (report eq. 5.1 with HL-10-like derivatives, flown open loop
 with an aileron 3-2-1-1 and a rudder doublet) generates each record; the
 truth contains one effect (or two, or none) that the analysis model lacks.
-The nonlinear-term scenario uses the longitudinal model instead.  In the
+The nonlinear-term scenario uses the longitudinal model instead, the state-bias one a
+linear longitudinal model with the phugoid (a thrust-like bias on V-dot).  In the
 SAS scenario a yaw damper adds K_SAS r to the pilot's rudder; the record holds
 the pedal command as the input and the rudder position as a fifth output.
 """
@@ -25,7 +26,7 @@ FREE = {"L_p": "f(1,1)", "L_r": "f(1,2)", "L_beta": "f(1,3)", "N_p": "f(2,1)", "
 NOISE = [0.2, 0.1, 0.05, 0.05]          # p, r [deg/s], beta, phi [deg]
 DT, NT = 0.02, 400
 SCENARIOS = ("null", "bias", "derivative", "gust", "delay", "scale", "lag", "nonlinear", "two",
-             "sas", "nonlinear_lateral")
+             "sas", "nonlinear_lateral", "state_bias")
 L_ABS_BETA = -1.0                       # roll moment |beta| beta [deg/s2 per deg2] (ours)
 K_SAS = 0.5                             # deg rudder per deg/s of yaw rate (ours)
 RUDDER_NOISE = 0.05                     # deg
@@ -39,7 +40,8 @@ EXPECTED = {"bias": ("output bias", "bias on beta"),
             "nonlinear": ("nonlinear term", "alpha^2 in Cm"),
             "two": [("output bias", "bias on beta"), ("input time delay", "delay on delta_a")],
             "sas": ("feedback loop (SAS)", "r fed back to delta_r"),
-            "nonlinear_lateral": ("nonlinear term", "|beta|beta in the p equation")}
+            "nonlinear_lateral": ("nonlinear term", "|beta|beta in the p equation"),
+            "state_bias": ("state-equation bias", "bias in the V equation")}
 
 
 def matrices(v, y_p=0.0):
@@ -94,6 +96,8 @@ def make(scenario, seed):
         return _rk4_lateral(seed, 0.0)
     if scenario == "sas":
         return _sas(seed)
+    if scenario == "state_bias":
+        return longitudinal_linear(seed)
     t, u = inputs()
     rng = np.random.default_rng(seed)
     F, G = matrices(BASE, y_p=-0.15 if scenario == "derivative" else 0.0)
@@ -214,3 +218,59 @@ def _rk4_lateral(seed, l_abs_beta, sub=10):
     y = xs + rng.normal(0.0, 1.0, xs.shape) * NOISE
     return analysis_model(), mlid.FlightData(t, u, y, ["delta_a", "delta_r"],
                                              ["p", "r", "beta", "phi"])
+
+
+#: yaw moment per degree of bank in the equivalence record [deg/s2 per deg] (ours)
+N_PHI = -0.5
+
+
+def equivalent_pair(seed):
+    """A record where two candidates are the same model (issue 47's "V fed
+    back to delta_e" and M_V with Z_V free, laterally): the truth has a yaw
+    moment N_phi f(2,4) the analysis model lacks, and the analysis model
+    has L_phi f(1,4) free (zero in the truth).  phi fed back to an aileron
+    or the rudder moves f(1,4), which is free, and f(2,4) by k N_da (or k
+    N_dr): each is the same model as N_phi free."""
+    t, u = inputs()
+    F, G = matrices(BASE)
+    F[1, 3] = N_PHI
+    truth = mlid.LinearModel(F, G, np.eye(4), r=np.square(NOISE))
+    data, _ = mlid.simulate(truth, t, u, seed=seed)
+    model = analysis_model()
+    model = model.with_free(list(model.free) + ["f(1,4)"],
+                            names={**model.names, "f(1,4)": "L_phi", "f(2,4)": "N_phi"})
+    return model, mlid.FlightData(t, u, data.y, ["delta_a", "delta_r"],
+                                  ["p", "r", "beta", "phi"])
+
+
+#: a linear longitudinal model with the phugoid (states V [m/s], alpha, q,
+#: theta [rad], input delta_e [rad]; ours): its free derivatives, their
+#: values and the noise of V, alpha, q, theta
+LON_FREE = {"X_V": ("f(1,1)", -0.03), "X_alpha": ("f(1,2)", 4.0), "Z_V": ("f(2,1)", -0.002),
+            "Z_alpha": ("f(2,2)", -1.2), "M_alpha": ("f(3,2)", -6.0), "M_q": ("f(3,3)", -1.6),
+            "Z_de": ("g(2,1)", -0.1), "M_de": ("g(3,1)", -9.0)}
+LON_NOISE = [0.1, 0.002, 0.002, 0.002]
+LON_DT, LON_NT = 0.05, 800
+#: the thrust-like bias on V-dot [m/s2] (ours)
+V_DOT_BIAS = 0.05
+
+
+def longitudinal_linear(seed, v_dot_bias=V_DOT_BIAS):
+    """A linear longitudinal record (40 s: an elevator 3-2-1-1 and a pulse,
+    the phugoid) whose truth has a constant v_dot_bias in the V equation
+    (a thrust offset) that the analysis model lacks (issue 47 item 2)."""
+    F = np.zeros((4, 4))
+    G = np.zeros((4, 1))
+    for name, (e, v) in LON_FREE.items():
+        (F if e[0] == "f" else G)[int(e[2]) - 1, int(e[4]) - 1] = v
+    F[1, 2], F[0, 3], F[3, 2] = 1.0, -9.81, 1.0
+    t = np.arange(LON_NT) * LON_DT
+    de = input_signal("3211", 0.02, 2.0, 0.6, LON_DT, LON_NT) \
+        + input_signal("pulse", -0.03, 15.0, 2.0, LON_DT, LON_NT)
+    u = de.reshape(-1, 1)
+    truth = mlid.LinearModel(F, G, np.eye(4), bx=[v_dot_bias, 0.0, 0.0, 0.0],
+                             r=np.square(LON_NOISE))
+    data, _ = mlid.simulate(truth, t, u, seed=seed)
+    model = mlid.LinearModel(F, G, np.eye(4), free=[e for e, _ in LON_FREE.values()],
+                             names={e: n for n, (e, _) in LON_FREE.items()})
+    return model, mlid.FlightData(t, u, data.y, ["delta_e"], ["V", "alpha", "q", "theta"])

@@ -11,6 +11,10 @@ in §5.2-5.3).
 Candidate families (each with the name a flight-test engineer would use):
 
     output bias           a constant offset on one output (free bias(i))
+    state-equation bias   a constant in a state equation with a free
+                          derivative (bx(i) free: a thrust or moment offset;
+                          an equations model: a constant term written into
+                          the equation, mlid.discrepancy.terms.state_biases)
     missing derivative    a fixed element of F or G set free (e.g. Y_p)
     input time delay      the aircraft sees an input late: udelay(j) free
                           (output error; mlid.discrepancy.effects.input_delay)
@@ -39,8 +43,11 @@ statistic at the current fit, the free parameters partialled out
 score in q at q -> 0+; delays, lags and scale factors outside the model's
 elements by the match of the residuals to their signature.  The best few
 are refitted, every new parameter inside the Newton iteration with its
-Cramer-Rao sigma.  A candidate is significant when its likelihood ratio
-2 dJ beats the chi-square(k) point at alpha over the number of candidates
+Cramer-Rao sigma, from where the candidate reproduces the current model
+(a lag: one damped Newton step in tau from tau = 0), so that a refit never
+ends above the current fit; one that does is retried nearer that point and
+else reported untested, not rejected.  A candidate is significant when its
+likelihood ratio 2 dJ beats the chi-square(k) point at alpha over the number of candidates
 (Bonferroni) and its cost drop beats Akaike's k.  A significant one is
 accepted when it holds out (mlid.discrepancy.holdout): fitted to all but the last third
 of the record (or the last manoeuvre), it predicts that part better, by the
@@ -63,7 +70,7 @@ from ..estimate.evaluate import evaluate
 from ..estimate.fit import fit as fit_model
 from ..estimate.options import evaluate_options
 from ..model.models import (REGRESSORS, EquationModel, FlightPathModel, LinearModel,
-                    LongitudinalModel)
+                    LongitudinalModel, SixDofModel)
 from ..progress import bar as progress_bar, bump
 from . import effects, holdout, score_test, terms
 from .diagnosis import Diagnosis, residual_diagnostics
@@ -85,12 +92,23 @@ class Candidate:
         self.signature = None      # residual signature (structural candidates)
         self.confounded = False
         self.lr = None
-        self.quantities = None     # what its refit estimates (_refit)
+        self.quantities = None     # what it estimates: its refit's, an effect's the final fit's
+        self.refit_quantities = None   # an effect's quantities from its own refit
+        self.round = None          # an effect: the round (1, 2, ...) that accepted it
+        self.equivalent = []       # the other candidates that are the same model (_equivalents)
+        self.equivalent_to = None  # the candidate that speaks for this one's model
         self.holdout = None        # 2 dJ on the held-out part (mlid.discrepancy.holdout)
         self.explained = None      # the share of the held-out residual it removes
         self.fit = None
         self.decision = "not refitted"
         self.note = ""
+
+    @property
+    def title(self):
+        """Its name, with those of the candidates that are the same model."""
+        if not self.equivalent:
+            return self.name
+        return f"{self.name} (the same model as {', '.join(e.name for e in self.equivalent)})"
 
     @property
     def value(self):
@@ -150,6 +168,16 @@ def _library(model, data, fit, families, nx, options):
             if f"bias({i + 1})" not in model.free:
                 cands.append(Candidate("output bias", f"bias on {outs[i]}",
                                        param=f"bias({i + 1})"))
+    if "state_bias" in families and isinstance(model, LinearModel):
+        for row in _dynamic_rows(model, nx):      # a thrust or moment offset
+            e = f"bx({row + 1})"
+            if e not in model.free and e not in model.ties:
+                cands.append(Candidate("state-equation bias", f"bias in the "
+                                       f"{_state_name(model, row, outs)} equation", param=e))
+    if "state_bias" in families and isinstance(model, EquationModel) \
+            and not isinstance(model, (FlightPathModel, SixDofModel)):
+        for t in terms.state_biases(model):
+            cands.append(Candidate("state-equation bias", f"bias in {t.equation}", term=t))
     if "derivative" in families and isinstance(model, LinearModel):
         for e in _linear_elements(model, nx):
             cands.append(Candidate("missing derivative", model.names.get(e, e), param=e))
@@ -215,7 +243,7 @@ def _library(model, data, fit, families, nx, options):
         for s, i in _measured_states(model, outs):
             if outs[i].lower() in ANGLES:
                 cands.append(Candidate("process noise", f"first-order gust on {outs[i]}",
-                                       k=2, state=s, angle=s))
+                                       k=2, state=s, angle=s, angle_output=i))
     return cands
 
 
@@ -369,7 +397,8 @@ def _noisy(model, states):
                        + [f"r({i + 1})" for i in range(ny)])
 
 
-FAMILIES = ("bias", "derivative", "nonlinear", "delay", "scale", "lag", "noise", "feedback")
+FAMILIES = ("bias", "state_bias", "derivative", "nonlinear", "delay", "scale", "lag", "noise",
+            "feedback")
 #: turbulence (a filter) absorbs much of any deterministic misfit: a
 #: deterministic candidate goes before it when the held-out residual it
 #: leaves is at most this multiple of what turbulence leaves.  Measured on
@@ -471,15 +500,17 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
                      and ("angle" in c.spec) == coloured]
             if noise and noise[0] not in tried:
                 tried.append(noise[0])
+        tried += _same_score(scored, tried, threshold)
         bump(b, b.n + len(tried))
         for c in tried:
             _refit(current, cur_data, fit, c, options)
             b.update()
+        _equivalents(sorted(tried, key=cands.index), fit)
         good = [c for c in tried if c.lr is not None and c.lr > chi2_quantile(
-            alpha / len(cands), c.k) and c.lr / 2 > c.k]
+            alpha / len(cands), c.k) and c.lr / 2 > c.k and c.equivalent_to is None]
         for c in tried:
-            if c.lr is not None and c not in good:
-                c.decision = "rejected" if c.lr >= 0 else NEGATIVE_LR
+            if c.lr is not None and c not in good and c.decision == "refitted":
+                c.decision = "rejected"
         rounds.append({"cost": fit.cost, "candidates": cands, "threshold": threshold})
         best = _choose(good, current, cur_data, fit, options)
         if best is None:
@@ -487,19 +518,87 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
         for c in good:
             if c is not best and c.decision == "refitted":
                 c.decision = "significant, not the best this round"
+        best.round = len(rounds)
         effects.append(best)
         current, fit, cur_data = best.spec["model"], best.fit, best.spec["data"]
         options = best.spec["options"]
+    for e in effects:
+        _from_final(e, fit)
     split = holdout.Split.of(data)
     return Diagnosis(base, fit, current, effects, rounds, alpha,
                      split.what if split else None)
 
 
-#: why a refit can end above the fit it started from
-NEGATIVE_LR = ("rejected: its refit ended above the current fit (2dJ < 0: a worse local "
-               "optimum or an iteration that failed), so it adds nothing")
+#: a refit's 2dJ below -NESTED_TOL max(1, |J|) ended above the current fit:
+#: a failed optimisation.  Every refit starts where it reproduces the current
+#: model (or, a lag, below its cost) and the Newton iteration only takes steps
+#: that lower the cost, so a proper refit ends at 2dJ >= 0 up to the rounding
+#: of the cost: a sum of N terms carries about N eps relative (1e-12 for
+#: 10^4 samples); 1e-9 leaves room for the other integration paths (a lag's
+#: substeps) and stays below the fit's own stop, tol_cost 1e-8 relative
+NESTED_TOL = 1e-9
+#: a retry starts this many times nearer the nested point
+DAMPING = 4.0
+#: step halvings of the retry (the core's default is 5)
+DAMPED_HALVINGS = 12
+#: a first-order lag's start is at most this many sample intervals
+LAG_START_MAX = 20.0
+#: RK4 substeps a lag candidate may take (its smallest start: dt over this)
+LAG_SUBSTEPS_MAX = 64
+#: two candidates are the same model when their refits' 2dJ agree to
+#: EQUIVALENT_COST max(1, |J|) (two fits of one model agree to the Newton
+#: stop, tol_cost 1e-8 relative; measured 5e-9 absolute on
+#: tests/scenarios.py's equivalent_pair) and their fitted outputs to
+#: EQUIVALENT_OUTPUT of each output's residual sd (measured 5e-6; the
+#: nearest other candidate there moves them 17 sd)
+EQUIVALENT_COST = 1e-8
+EQUIVALENT_OUTPUT = 1e-3
+#: untried candidates refitted because their score equals a tried one's (to
+#: EQUAL_SCORE relative): maybe the same model, which only refits can tell
+EQUAL_SCORE = 1e-6
+EQUAL_SCORE_REFITS = 2
+#: a nonlinear term goes before a candidate of another family only when its
+#: 2dJ is larger by the chi-square(1) point at TERM_ALPHA: the terms are
+#: many stand-ins (products, breakpoints at quantiles), and the best of them
+#: fits a constant almost as well as the constant itself.  Measured on
+#: tests/scenarios.py's longitudinal_linear (a bias on V-dot): the breakpoint
+#: max(V - b, 0) at V's 25% quantile came within -6.4 to +2.5 of the bias's
+#: 2dJ and was named first at 3 of 10 seeds
+TERM_ALPHA = 0.05
 #: held-out checks a round makes at most (two fits each)
 MAX_CHECKS = 3
+
+
+def _same_score(scored, tried, threshold):
+    """Untried candidates whose score equals a tried significant one's to
+    EQUAL_SCORE (EQUAL_SCORE_REFITS at most): equivalent models score alike,
+    and only their refits tell whether they are (_equivalents)."""
+    marks = [t.score for t in tried if t.score is not None and t.score > threshold]
+    extra = [c for c in scored if c not in tried
+             and any(abs(c.score - s) <= EQUAL_SCORE * s for s in marks)]
+    return extra[:EQUAL_SCORE_REFITS]
+
+
+def _equivalents(tried, fit):
+    """Refitted candidates that are the same model: the same number of new
+    parameters, 2dJ within EQUIVALENT_COST of the cost and fitted outputs
+    within EQUIVALENT_OUTPUT of each output's residual sd.  The first in the
+    library's order speaks for the group (c.equivalent); the others say
+    whose model they are (c.equivalent_to) and are not judged apart."""
+    tol = 2 * EQUIVALENT_COST * max(1.0, abs(fit.cost))
+    sd = np.sqrt(np.maximum(np.diag(fit.rhat), np.finfo(float).tiny))
+    done = [c for c in tried if c.lr is not None and c.fit is not fit]
+    for i, c in enumerate(done):
+        if c.equivalent_to is not None:
+            continue
+        for e in done[i + 1:]:
+            if e.equivalent_to is None and e.k == c.k and abs(e.lr - c.lr) <= tol \
+                    and e.fit.yhat.shape == c.fit.yhat.shape \
+                    and np.max(np.abs(e.fit.yhat - c.fit.yhat) / sd) <= EQUIVALENT_OUTPUT:
+                c.equivalent.append(e)
+                e.equivalent_to = c
+                e.decision = (f"the same model as {c.name} (2dJ and fitted outputs equal to "
+                              "rounding): one explanation, judged under that name")
 
 
 def _choose(good, model, data, fit, options):
@@ -511,7 +610,9 @@ def _choose(good, model, data, fit, options):
     most DETERMINISTIC_FIRST times what turbulence leaves: a filter absorbs
     any deterministic misfit, so turbulence is accepted only when no
     deterministic effect explains the unseen data about as well."""
-    order = sorted(good, key=lambda c: c.lr, reverse=True)
+    margin = chi2_quantile(TERM_ALPHA)
+    order = sorted(good, key=lambda c: c.lr - margin * (c.family == "nonlinear term"),
+                   reverse=True)
     if not order:
         return None
     n = holdout.Split.of(data)
@@ -750,6 +851,8 @@ def _corr(a, b):
 
 #: what a parameter candidate's estimate means, by family
 MEANING = {"output bias": "constant offset of the sensor",
+           "state-equation bias": "constant added to the state's derivative (a thrust or "
+                                  "moment offset)",
            "missing derivative": "a fixed element of the model, set free",
            "nonlinear term": "coefficient of the term in its equation",
            "feedback loop (SAS)": "surface motion per unit of the state fed back",
@@ -763,10 +866,11 @@ DELAY_STARTS = (0.5, 2.5, 5.5)
 LAG_ORDER_ALPHA = 0.05
 
 
-def _build(model, data, fit, c, options, start=None):
+def _build(model, data, fit, c, options, start=None, damp=None):
     """A candidate's model: (model, record, fit options, labels of its new
     parameters, value) with value(res) its quantities (mlid.discrepancy.effects'
-    Extension.value), or None for a parameter candidate."""
+    Extension.value), or None for a parameter candidate.  damp scales the
+    start of process noise (its q, a gust's intensity) toward zero."""
     f, first = c.family, holdout.records(data)[0]
     if "param" in c.spec:
         m = _with_param(model, c.spec["param"])
@@ -783,6 +887,8 @@ def _build(model, data, fit, c, options, start=None):
     if f == "process noise" and "angle" not in c.spec:
         m = _noisy(model.with_theta(fit.model.theta), [c.spec["state"]])
         m.r = np.diag(fit.rhat).copy()
+        if damp is not None:
+            m.q = m.q * damp * damp
         q = m.names.get("q(1)", "q(1)")
         return m, data, _merged(options, {"method": "filter_error",
                                           "bounds": {"q(1)": (0.0, None)}}), [q], None
@@ -793,8 +899,15 @@ def _build(model, data, fit, c, options, start=None):
     elif f == "sensor lag":
         ext = effects.sensor_lag(model, first, c.spec["output"] + 1,
                                  order=c.spec.get("order", 1), start=start)
+        if c.spec.get("order", 1) == 1 and start is not None:
+            ext.model.substeps = _lag_substeps(model, start, _interval(data))
     else:                                   # a first-order gust on an angle
-        ext = effects.gust(model.with_theta(fit.model.theta), first, c.spec["angle"] + 1)
+        m = model.with_theta(fit.model.theta)
+        intensity = None
+        if damp is not None:
+            h = first.y[:, c.spec["angle_output"]] if "angle_output" in c.spec else None
+            intensity = None if h is None else damp * effects.GUST_FRACTION * float(np.std(h))
+        ext = effects.gust(m, first, c.spec["angle"] + 1, intensity=intensity)
     return ext.model, data, _merged(options, ext.options), ext.params, ext.value
 
 
@@ -808,18 +921,33 @@ def _merged(options, extra):
 
 
 def _refit(model, data, fit, c, options):
-    """Refit with the candidate: c.lr = 2 (J0 - J1), c.fit, c.quantities
-    (what it estimates: name, value, sigma, unit, meaning), its model, record
-    and options in c.spec; a failure goes in c.decision."""
+    """Refit with the candidate from the point where it reproduces the
+    current model (its nested point): c.lr = 2 (J0 - J1), c.fit,
+    c.quantities (what it estimates: name, value, sigma, unit, meaning), its
+    model, record and options in c.spec; a failure goes in c.decision.  A
+    refit that ends above the current fit (2dJ below -NESTED_TOL of the
+    cost) failed to find its own optimum: it is tried once more from nearer
+    the nested point with more step halvings (_damped), and when it fails
+    again the candidate is untested, not rejected."""
+    tol = NESTED_TOL * max(1.0, abs(fit.cost))
     try:
-        starts = ([s * _interval(data) for s in DELAY_STARTS]
-                  if c.family == "input time delay" else [c.spec.get("start")])
-        best = None
-        for s in starts:
-            m, d, opts, labels, value = _build(model, data, fit, c, options, s)
-            res, said = _quietly(fit_model, m, d, **opts)
-            if best is None or res.cost < best[0].cost:
-                best = (res, d, opts, labels, value, said)
+        if _lag_first(c):
+            tau = _lag_start(model, data, fit, c, options)
+            if tau is None:            # its decision says why
+                return
+            c.spec["start"] = tau
+        best = _fit_starts(model, data, fit, c, options, _starts(c, data))
+        if 2 * (fit.cost - best[0].cost) < -tol:
+            tries = [2 * (fit.cost - best[0].cost)]
+            again = _damped(model, data, fit, c, options)
+            if again is not None:
+                tries.append(2 * (fit.cost - again[0].cost))
+            if tries[-1] < -tol:
+                said = ", again ".join(f"{x:.2f}" for x in tries)
+                c.decision = (f"untested: its refit ended above the current fit (2dJ {said} "
+                              "from nearer its nested point): a failed optimisation, not a test")
+                return
+            best = again
         res, d, opts, labels, value, said = best
         c.quantities = value(res) if value else _param_quantities(res, labels, c.family)
     except MlidError as exc:
@@ -835,8 +963,164 @@ def _refit(model, data, fit, c, options):
         j = int(np.argmax(np.abs(corr)))
         c.note = "; ".join(filter(None, (f"correlated {corr[j]:+.3f} with {others[j]}",
                                          c.note)))
-    c.spec.update(model=res.model, data=d, options=opts)
+    c.spec.update(model=res.model, data=d, options=opts, labels=labels, value=value)
     c.decision = "refitted"
+
+
+def _starts(c, data):
+    """The starts of a candidate's refit: an input delay's DELAY_STARTS
+    (its cost has a kink at each whole sample), else the one start its spec
+    holds (None: the nested point itself)."""
+    if c.family == "input time delay":
+        return [s * _interval(data) for s in DELAY_STARTS]
+    return [c.spec.get("start")]
+
+
+def _fit_starts(model, data, fit, c, options, starts, damp=None):
+    """The best refit over the starts: (result, record, options, labels,
+    value, warnings said).  damp: the start's size relative to the usual
+    one, for the families that take one (process noise), with more step
+    halvings."""
+    best = None
+    for s in starts:
+        m, d, opts, labels, value = _build(model, data, fit, c, options, s, damp)
+        if damp is not None:
+            opts = dict(opts, halvings=max(DAMPED_HALVINGS, int(opts.get("halvings") or 0)))
+        res, said = _quietly(fit_model, m, d, **opts)
+        if best is None or res.cost < best[0].cost:
+            best = (res, d, opts, labels, value, said)
+    return best
+
+
+def _damped(model, data, fit, c, options):
+    """The retry of a refit that ended above the current fit: from a start
+    DAMPING times nearer the nested point (a lag's tau, a delay's half
+    sample, process noise's intensity), with DAMPED_HALVINGS step halvings.
+    None when there is no nearer start (a lag already at its smallest)."""
+    if c.family == "sensor lag" and c.spec.get("order", 1) == 1:
+        tau = float(c.spec.get("start") or 2.0 * _interval(data)) / DAMPING
+        if tau < _interval(data) / LAG_SUBSTEPS_MAX:
+            return None
+        starts = [tau]
+    elif c.family == "input time delay":
+        starts = [DELAY_STARTS[0] * _interval(data) / DAMPING]
+    else:
+        starts = [c.spec.get("start")]
+    try:
+        return _fit_starts(model, data, fit, c, options, starts, damp=1.0 / DAMPING)
+    except MlidError:
+        return None
+
+
+def _lag_first(c):
+    """A first-order sensor lag with no start given (_lag_order gives the
+    second-order one its own)."""
+    return c.family == "sensor lag" and c.spec.get("order", 1) == 1 \
+        and c.spec.get("start") is None
+
+
+def _lag_start(model, data, fit, c, options):
+    """A first-order lag's start: one Newton step in tau from its nested
+    point tau = 0, where it reproduces the current model, the others
+    partialled out; divided by DAMPING while the lag model's cost there is
+    above the current fit's, down to dt / LAG_SUBSTEPS_MAX.  Near tau = 0
+    the lagged output is y - tau dy/dt, so the step is the score test's of
+    the regressor -dy/dt on the output (_lag_slope).  None, with c's
+    decision set, when the cost rises as tau grows from 0, by that slope or
+    at the smallest tau (the lag's best is none: 2dJ 0, rejected), or when
+    the lag model could not be evaluated (untested).  The lag's states get
+    the RK4 substeps that integrate the start's tau (LAG_SUBSTEPS_MAX at
+    most): the core's RK4 is unstable beyond dt/tau = 2.8 substeps, where
+    the old start of two sample intervals let the refit stall at
+    tau = 0.36 dt, above the current fit."""
+    signed, rest = _lag_slope(model, data, c, options)
+    i, dt = c.spec["output"], _interval(data)
+    if not (signed < 0 and rest > 0):
+        return _no_lag(c, fit, "")
+    tau = min(-signed / rest, LAG_START_MAX * dt)
+    smallest = dt / LAG_SUBSTEPS_MAX
+    opts = dict(evaluate_options(options))
+    failed = False
+    for t in _damped_taus(tau, smallest):
+        ext = effects.sensor_lag(model, holdout.records(data)[0], i + 1, start=t)
+        ext.model.substeps = _lag_substeps(model, t, dt)
+        try:
+            cost = evaluate(ext.model, data, **opts)["cost"]
+        except MlidError:
+            failed = True
+            continue
+        if cost <= fit.cost:
+            return t
+    if failed:
+        c.decision = (f"untested: no start of its tau down to {smallest:.2g} s could be "
+                      "evaluated below the current fit")
+        return None
+    # even the smallest tau costs more: the slope's estimate (dy/dt by finite
+    # differences) was small and of the wrong sign
+    return _no_lag(c, fit, f" at tau = {smallest:.2g} s too")
+
+
+def _no_lag(c, fit, where):
+    """A lag whose cost rises as tau grows from 0: its best is the current
+    model (2dJ 0), rejected; None (no start)."""
+    c.lr, c.fit, c.quantities = 0.0, fit, [
+        ("time constant tau", 0.0, math.nan, "s", "the cost rises as tau grows from 0: no lag")]
+    c.decision = f"rejected: the cost rises as its tau grows from 0{where} (its best is no lag)"
+    return None
+
+
+def _damped_taus(tau, smallest):
+    """A lag's starts: tau divided by DAMPING while above smallest, then
+    smallest (dt over LAG_SUBSTEPS_MAX)."""
+    out = []
+    while tau > smallest:
+        out.append(tau)
+        tau /= DAMPING
+    return out + [smallest]
+
+
+def _lag_substeps(model, tau, dt):
+    """RK4 substeps for a lag of time constant tau: a step of at most tau
+    (well inside RK4's stability, 2.8 tau), LAG_SUBSTEPS_MAX at most."""
+    return int(min(LAG_SUBSTEPS_MAX, max(model.substeps, math.ceil(dt / tau))))
+
+
+def _lag_slope(model, data, c, options):
+    """The partialled gradient and information of a lag's tau at tau = 0:
+    those of a regressor -dy_i/dt (the model's simulated output i,
+    differentiated per record) entering output i at zero."""
+    i = c.spec["output"]
+    yhat = _state_estimates(model, data, options)[:, i]
+    slope = np.concatenate(_per_record_list(
+        data, lambda r, rows: -np.gradient(yhat[rows], r.t)))
+    m, d = _with_inputs(model, data, [("-dy/dt", slope)])
+    param = f"d({i + 1},{model.nu + 1})"
+    m = m.with_free(list(model.free) + [param])
+    ev = evaluate(m, d, **evaluate_options(options))
+    names = m.free_names()
+    score, _, signed = score_test.statistics(
+        ev["gradient"], ev["information"], [names.index(n) for n in model.free_names()],
+        [names.index(m.names.get(param, param))])
+    signed, score = float(signed[0]), float(score[0])
+    return signed, (signed * signed / score if score > 0 else 0.0)
+
+
+def _per_record_list(data, make):
+    """make(record, rows) for each record, as a list."""
+    out = _per_record(data, make)
+    return out if isinstance(out, list) else [out]
+
+
+def _from_final(c, final):
+    """An accepted effect's quantities from the final fit (its refit's stay
+    in c.refit_quantities): a later effect moves the estimates of an earlier
+    one (a lag's wn and zeta once a bias is in)."""
+    c.refit_quantities = c.quantities
+    labels, value = c.spec.get("labels"), c.spec.get("value")
+    try:
+        c.quantities = value(final) if value else _param_quantities(final, labels, c.family)
+    except (MlidError, ValueError) as exc:       # kept as its refit's, and said so
+        c.note = "; ".join(filter(None, (c.note, f"its quantities are its refit's: {exc}")))
 
 
 def _quietly(fn, *args, **kwargs):
@@ -871,4 +1155,5 @@ def _lag_order(c, model, data, fit, options):
               f"{2 * (c.fit.cost - second.fit.cost):.1f}")
     c.name, c.k = "second-order " + c.name, 2
     c.quantities, c.lr, c.fit = second.quantities, second.lr, second.fit
-    c.spec.update(model=second.spec["model"], order=2)
+    c.spec.update(model=second.spec["model"], order=2, labels=second.spec["labels"],
+                  value=second.spec["value"])

@@ -96,7 +96,8 @@ class Diagnosis:
         """The candidates a round lists: every one refitted (largest 2dJ
         first), then the best of the rest, eight in all."""
         tried = sorted([c for c in rnd["candidates"]
-                        if c.lr is not None or c.decision.startswith("refit failed")],
+                        if c.lr is not None
+                        or c.decision.startswith(("refit failed", "untested"))],
                        key=lambda c: -math.inf if c.lr is None else c.lr, reverse=True)
         rest = sorted([c for c in rnd["candidates"] if c.decision == "not refitted"],
                       key=_rank_key, reverse=True)
@@ -125,7 +126,7 @@ class Diagnosis:
         """One line: the effects found, or that nothing is missing."""
         if not self.effects:
             return "nothing missing at this significance"
-        return "effects found: " + ", ".join(c.name for c in self.effects)
+        return "effects found: " + ", ".join(c.title for c in self.effects)
 
     def report(self):
         """The diagnosis as printed lines: each round's candidates with their
@@ -152,10 +153,10 @@ class Diagnosis:
                 lines.append("   confounded with the free parameters, not tried: "
                              + ", ".join(confounded))
         if self.effects:
-            lines.append(" effects found:")
+            lines.append(" effects found (their quantities from the final fit):")
             for c in self.effects:
                 held = "" if c.holdout is None else f", held out {c.holdout:+.1f}"
-                lines.append(f"   {c.family}: {c.name} (2dJ {c.lr:.1f}{held})")
+                lines.append(f"   {c.family}: {c.title} (round {c.round}: 2dJ {c.lr:.1f}{held})")
                 for q, v, sd, unit, meaning in c.quantities or []:
                     lines.append(f"      {q} = {v:.5g} +- {sd:.2g}{' ' + unit if unit else ''}"
                                  f"  ({meaning})")
@@ -172,8 +173,10 @@ class Diagnosis:
     def as_dict(self):
         """Plain types for JSON (``mlid diagnose --json``): the verdict, the
         effects with value and sigma (None where the candidate has none, a
-        profiled delay, lag or scale factor), each round's candidates as the
-        report lists them, and the residuals before and after.
+        profiled delay, lag or scale factor) from the final fit and the round
+        that accepted each, each round's candidates as the report lists them
+        (with their own refit's quantities), and the residuals before and
+        after.
 
         Returns
         -------
@@ -182,23 +185,25 @@ class Diagnosis:
         def num(x):
             return None if x is None or not math.isfinite(x) else float(x)
 
-        def cand(c):
-            value, sigma = c.value if c.value is not None else (None, None)
+        def cand(c, final=True):
+            qs = c.quantities if final or c.refit_quantities is None else c.refit_quantities
+            value, sigma = (qs[0][1], qs[0][2]) if qs else (None, None)
             return {"family": c.family, "name": c.name, "score": num(c.score),
                     "signature": num(c.signature), "lr": num(c.lr),
                     "holdout_lr": num(c.holdout), "explained": num(c.explained),
                     "value": num(value), "sigma": num(sigma),
                     "quantities": [{"quantity": q, "value": num(v), "sigma": num(sd),
                                     "unit": unit, "meaning": meaning}
-                                   for q, v, sd, unit, meaning in c.quantities or []],
-                    "decision": c.decision, "note": c.note}
+                                   for q, v, sd, unit, meaning in qs or []],
+                    "decision": c.decision, "note": c.note,
+                    "equivalent": [{"family": e.family, "name": e.name} for e in c.equivalent]}
         return {"verdict": self.verdict, "alpha": self.alpha, "warning": self.coloured,
                 "held_out": self.held_out,
                 "cost_before": num(self.base.cost), "cost_after": num(self.fit.cost),
-                "effects": [cand(c) for c in self.effects],
+                "effects": [dict(cand(c), round=c.round) for c in self.effects],
                 "rounds": [{"cost": num(r["cost"]), "threshold": num(r["threshold"]),
                             "candidates_tried": len(r["candidates"]),
-                            "listed": [cand(c) for c in self._listed(r)],
+                            "listed": [cand(c, final=False) for c in self._listed(r)],
                             "confounded": [c.name for c in r["candidates"] if c.confounded]}
                            for r in self.rounds],
                 "residuals": [{"output": b["output"], "rms_before": num(b["rms"]),
@@ -216,10 +221,14 @@ class Diagnosis:
         if self.coloured:
             parts.append(f'<p class="warning">warning: {_esc(self.coloured)}</p>')
         if self.effects:
+            parts.append("<p>the effects' quantities from the final fit; 2dJ and held-out 2dJ "
+                         "from the round that accepted each ("
+                         + _esc(", ".join(f"{c.name}: round {c.round}" for c in self.effects))
+                         + ")</p>")
             parts.append(_html_table(
                 "mlid-effects", ("family", "effect", "quantity", "value", "σ", "unit",
                                  "meaning", "2dJ", "held-out 2dJ"),
-                [(c.family, c.name, q, v, sd, unit, meaning, c.lr, c.holdout)
+                [(c.family, c.title, q, v, sd, unit, meaning, c.lr, c.holdout)
                  for c in self.effects for q, v, sd, unit, meaning in c.quantities or []]))
         for k, rnd in enumerate(self.rounds, 1):
             parts.append(f"<p>{_esc(self._round_header(k, rnd))}</p>")

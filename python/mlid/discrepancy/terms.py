@@ -350,6 +350,41 @@ def _measured(model, lines, records, variables):
     return out
 
 
+def state_biases(model):
+    """A constant in each state equation of an EquationModel that depends on
+    an estimated parameter (a thrust or moment offset: issue 47's
+    state-equation bias), as terms whose expression is 1; the kinematic
+    equations get none.
+
+    Parameters
+    ----------
+    model : EquationModel
+        Not a six-DOF or flight-path model (their state equations are the
+        core's, not the text's).
+
+    Returns
+    -------
+    list of Term
+        Labelled 'bias', coefficient '<state>dot_bias', by state.
+
+    Raises
+    ------
+    InputError
+        Another model kind (one line naming it).
+    """
+    if not isinstance(model, EquationModel) or isinstance(model, (SixDofModel, FlightPathModel)):
+        raise InputError(f"state-equation biases: a {type(model).__name__} has no state "
+                         "equations in its text (EquationModel has)")
+    lines = [_parse(line) for line in _text_lines(model)]
+    uses = _uses(lines)
+    own = dict(zip(model.element_names(), model.element_labels()))
+    estimated = {own[e] for e in [*model.free, *model.ties]}
+    taken = {name.lower() for _, name, _ in lines} | {"t", "pi"}
+    return [Term(model, k, f"the {name} equation", "bias", "1",
+                 _fresh(f"{name}dot_bias", taken, model.np + 1))
+            for k, (kind, name, _) in enumerate(lines) if kind == "x" and uses[k] & estimated]
+
+
 def _fresh(name, taken, index):
     """name, made unique (case-insensitively, as the core reads names) and
     short enough for the core; taken is updated."""
