@@ -7,7 +7,7 @@ module mlid_files
   use mlid_kinds, only: MLID_OK, MLID_ERR_INPUT
   implicit none
   private
-  public :: temporary_for, write_whole, commit, same_file, not_regular
+  public :: temporary_for, write_whole, write_file, commit, same_file, not_regular
   public :: file_stamp_t, file_stamp, file_changed
 
   !> What tells whether a file changed between two looks at it: its size
@@ -123,6 +123,16 @@ contains
     end if
     call commit(tmp, path, status, msg)
   end subroutine write_whole
+
+  !> text to path, whole or not at all (a temporary beside it, renamed).
+  subroutine write_file(path, text, status, msg)
+    character(len=*), intent(in) :: path, text
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    character(len=:), allocatable :: tmp
+    call temporary_for(trim(path), tmp, status, msg)
+    if (status == MLID_OK) call write_whole(trim(path), tmp, text, status, msg)
+  end subroutine write_file
 
   !> Rename tmp onto path; on failure tmp is deleted.
   subroutine commit(tmp, path, status, msg)

@@ -17,8 +17,8 @@ module mlid_job_stepwise
   use mlid_stepwise, only: stepwise_forward, stepwise_backward
   use mlid_orthogonal_functions, only: orthogonal_functions
   use mlid_stepwise_text, only: CANDLEN, CONSTANT, candidate_names, model_start_text
-  use mlid_report, only: case_json, json_string, number, numbers, strings
-  use mlid_files, only: temporary_for, write_whole
+  use mlid_report, only: case_json, json_string, number, numbers, strings, integers
+  use mlid_files, only: write_file
   use mlid_text, only: itoa, es_text, to_lower
   implicit none
   private
@@ -289,28 +289,5 @@ contains
     t = trim(s)
     if (len(t) < w) t = repeat(' ', w - len(t))//t
   end function right
-
-  !> A JSON list of integers.
-  function integers(n) result(s)
-    integer, intent(in) :: n(:)
-    character(len=:), allocatable :: s
-    integer :: k
-    s = '['
-    do k = 1, size(n)
-      s = s//itoa(n(k))
-      if (k < size(n)) s = s//', '
-    end do
-    s = s//']'
-  end function integers
-
-  !> text to path, whole or not at all.
-  subroutine write_file(path, text, status, msg)
-    character(len=*), intent(in) :: path, text
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    character(len=:), allocatable :: tmp
-    call temporary_for(trim(path), tmp, status, msg)
-    if (status == MLID_OK) call write_whole(trim(path), tmp, text, status, msg)
-  end subroutine write_file
 
 end module mlid_job_stepwise

@@ -33,7 +33,7 @@ module mlid_jobs
   use mlid_monte_carlo, only: monte_carlo, mc_statistics
   use mlid_record, only: record_text
   use mlid_units, only: UNITLEN
-  use mlid_files, only: temporary_for, write_whole
+  use mlid_files, only: write_file
   use mlid_text, only: itoa, to_lower, es_text
   use mlid_memory, only: no_memory
   use mlid_input_ranking, only: rank_candidates
@@ -673,15 +673,5 @@ contains
       if (size(c%input_names) == c%nu) name = c%input_names(k)
     end if
   end function input_name
-
-  !> text to path, whole or not at all.
-  subroutine write_file(path, text, status, msg)
-    character(len=*), intent(in) :: path, text
-    integer, intent(out) :: status
-    character(len=*), intent(out) :: msg
-    character(len=:), allocatable :: tmp
-    call temporary_for(trim(path), tmp, status, msg)
-    if (status == MLID_OK) call write_whole(trim(path), tmp, text, status, msg)
-  end subroutine write_file
 
 end module mlid_jobs

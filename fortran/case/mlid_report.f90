@@ -12,7 +12,7 @@ module mlid_report
   implicit none
   private
   public :: fit_summary_t, fit_report, fit_json, case_json, json_list, json_string, number, &
-            numbers, strings, matrix, &
+            numbers, strings, integers, matrix, &
             validation_report, validation_json, LABEL_WIDTH
 
   character, parameter :: NL = achar(10)
