@@ -445,39 +445,41 @@ contains
 
   !> x = sqrt(B) for a symmetric B near its diagonal d^2 (d = sqrt(max(diag
   !> B, 0))): x = D + Y with D Y + Y D = E - Y^2, E = B's off-diagonal part,
-  !> solved entry by entry, Y_pq = (E - Y^2)_pq/(d_p + d_q), from Y = 0
-  !> (whose first step is the first-order root) until no entry moves by
-  !> more than eps (min(d_p, d_q) + eps max d).  info = 1: not in 60 steps.
+  !> solved entry by entry, Y_pq = (E - Y^2)_pq/(d_p + d_q), from the
+  !> first-order root Y = E_pq/(d_p + d_q) until no entry moves by more
+  !> than eps (min(d_p, d_q) + eps max d).  info = 1: not in 60 steps.
   pure subroutine sqrt_near_diagonal(n, b, d, x, info)
     integer, intent(in) :: n
     real(wp), intent(in) :: b(n, n), d(n)
     real(wp), intent(out) :: x(n, n)
     integer, intent(out) :: info
-    real(wp) :: h(n, n), y2(n, n), ynew, dmax, eps
+    real(wp) :: h(n, n), e(n, n), tl(n, n), y2(n, n), ynew, dmax, eps
     integer :: it, p, q
     logical :: moved
     eps = epsilon(1.0_wp)
     dmax = maxval(d)
-    do q = 1, n
+    do q = 1, n                       ! the upper triangles: 1/(d_p + d_q), E, the tolerance
       do p = 1, q
         h(p, q) = 0.0_wp
         if (d(p) + d(q) > 0.0_wp) h(p, q) = 1.0_wp/(d(p) + d(q))
+        e(p, q) = merge(b(p, q), 0.0_wp, p /= q)
+        tl(p, q) = eps*(min(d(p), d(q)) + eps*dmax)
+        x(p, q) = e(p, q)*h(p, q)      ! Y, until the end
+        x(q, p) = x(p, q)
       end do
     end do
-    x = 0.0_wp                                  ! Y, until the end
     info = 1
     do it = 1, 60
-      do q = 1, n                               ! Y^2's upper triangle (Y symmetric)
+      do q = 1, n                     ! Y^2's upper triangle (Y symmetric)
         do p = 1, q
-          y2(p, q) = dot_product(x(:, p), x(:, q))
+          y2(p, q) = dot2(n, x(:, p), x(:, q))
         end do
       end do
       moved = .false.
       do q = 1, n
         do p = 1, q
-          ynew = -y2(p, q)*h(p, q)
-          if (p /= q) ynew = (b(p, q) - y2(p, q))*h(p, q)
-          moved = moved .or. abs(ynew - x(p, q)) > eps*(min(d(p), d(q)) + eps*dmax)
+          ynew = (e(p, q) - y2(p, q))*h(p, q)
+          moved = moved .or. abs(ynew - x(p, q)) > tl(p, q)
           x(p, q) = ynew
           x(q, p) = ynew
         end do
@@ -491,6 +493,23 @@ contains
       x(q, q) = x(q, q) + d(q)
     end do
   end subroutine sqrt_near_diagonal
+
+  !> x'y in two interleaved partial sums (odd and even terms): two
+  !> independent chains of additions, which the compiler can pack.
+  pure real(wp) function dot2(n, x, y) result(s)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(n), y(n)
+    real(wp) :: s1, s2
+    integer :: k
+    s1 = 0.0_wp
+    s2 = 0.0_wp
+    do k = 1, n - 1, 2
+      s1 = s1 + x(k)*y(k)
+      s2 = s2 + x(k + 1)*y(k + 1)
+    end do
+    if (mod(n, 2) == 1) s1 = s1 + x(n)*y(n)
+    s = s1 + s2
+  end function dot2
 
   !> c = a b, all n x n, column by column.
   pure subroutine product_ab(n, a, b, c)
