@@ -10,7 +10,7 @@ module mlid_linalg
   public :: add_sym_atb, add_syrk, add_atv, sym_atb_t, pair_rows, sym_eig, chol_inverse, chol_solve, &
             psd_factor, info_inverse, info_eig, eig_inverse, expm, expm_into, expm_work_size, &
             expm_work_t, solve, independent_columns, general_eig, sym_sqrt_jacobi, &
-            qr_least_squares
+            qr_least_squares, dot2
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &

@@ -40,7 +40,7 @@ module mlid_online_ukf
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_DIVERGED, MLID_ERR_MEMORY
   use mlid_models, only: model_t
-  use mlid_linalg, only: sym_sqrt_jacobi, chol_inverse
+  use mlid_linalg, only: sym_sqrt_jacobi, chol_inverse, dot2
   use mlid_rk, only: rk_work_t
   use mlid_text, only: itoa
   use mlid_online_filter, only: filter_settings_t, filter_check, filter_propagate, &
@@ -63,6 +63,9 @@ module mlid_online_ukf
     real(wp), allocatable :: sn(:)             !< (na - n) the noise's standard deviations
     real(wp), allocatable :: xm(:), ym(:), pyy(:, :), pyi(:, :), pxy(:, :), kg(:, :), &
                              w0(:), r(:), cpc(:)
+    !> (0:2 na, n or ny) the points' deviations from the mean, a point a
+    !> row, and times wc: the covariances' sums as contiguous dot products
+    real(wp), allocatable :: dx(:, :), wdx(:, :), dy(:, :), wdy(:, :)
   end type unscented_t
 
 contains
@@ -166,7 +169,8 @@ contains
     allocate (ut%wm(0:2*na), ut%wc(0:2*na), ut%xs(na, 0:2*na), ut%xt(n, 0:2*na), &
               ut%ys(ny, 0:2*na), ut%sq(n, n), ut%basis(n, n), ut%sn(na - n), ut%xm(n), &
               ut%ym(ny), ut%pyy(ny, ny), ut%pyi(ny, ny), ut%pxy(n, ny), ut%kg(n, ny), &
-              ut%w0(m%nw), ut%r(ny), ut%cpc(ny), stat=ierr)
+              ut%w0(m%nw), ut%r(ny), ut%cpc(ny), ut%dx(0:2*na, n), ut%wdx(0:2*na, n), &
+              ut%dy(0:2*na, ny), ut%wdy(0:2*na, ny), stat=ierr)
     if (ierr /= 0) then
       status = MLID_ERR_MEMORY
       msg = 'unscented Kalman filter: out of memory'
@@ -253,9 +257,9 @@ contains
     end do
   end subroutine sigma_outputs
 
-  !> The update from the propagated points ut%xt and their outputs ut%ys
-  !> (both left as their deviations from the mean): xa+ and P+; ut%pyi
-  !> = Pyy^-1 (status /= 0: Pyy is not positive definite).
+  !> The update from the propagated points ut%xt and their outputs ut%ys:
+  !> xa+ and P+; ut%pyi = Pyy^-1 (status /= 0: Pyy is not positive
+  !> definite).
   subroutine ukf_update(q, augmented, z, ut, xa, pc, status)
     real(wp), intent(in) :: q(:), z(:)
     logical, intent(in) :: augmented
@@ -273,18 +277,25 @@ contains
       ut%xm = ut%xm + ut%wm(j)*ut%xt(:, j)
       ut%ym = ut%ym + ut%wm(j)*ut%ys(:, j)
     end do
-    pc = 0.0_wp
-    ut%pyy = 0.0_wp
-    ut%pxy = 0.0_wp
-    do j = 0, 2*ut%na                          ! the upper triangles, mirrored below
-      ut%xt(:, j) = ut%xt(:, j) - ut%xm
-      ut%ys(:, j) = ut%ys(:, j) - ut%ym
-      do c = 1, n
-        pc(1:c, c) = pc(1:c, c) + (ut%wc(j)*ut%xt(c, j))*ut%xt(1:c, j)
+    do j = 0, 2*ut%na                          ! the deviations, a point a row
+      ut%dx(j, :) = ut%xt(:, j) - ut%xm
+      ut%dy(j, :) = ut%ys(:, j) - ut%ym
+    end do
+    do c = 1, ny
+      ut%wdy(:, c) = ut%wc*ut%dy(:, c)
+    end do
+    do c = 1, n                                ! sums over the points: dot products
+      ut%wdx(:, c) = ut%wc*ut%dx(:, c)
+      do i = 1, c
+        pc(i, c) = dot2(2*ut%na + 1, ut%wdx(:, i), ut%dx(:, c))
       end do
-      do c = 1, ny
-        ut%pyy(1:c, c) = ut%pyy(1:c, c) + (ut%wc(j)*ut%ys(c, j))*ut%ys(1:c, j)
-        ut%pxy(:, c) = ut%pxy(:, c) + (ut%wc(j)*ut%ys(c, j))*ut%xt(:, j)
+    end do
+    do c = 1, ny
+      do i = 1, n
+        ut%pxy(i, c) = dot2(2*ut%na + 1, ut%wdx(:, i), ut%dy(:, c))
+      end do
+      do i = 1, c
+        ut%pyy(i, c) = dot2(2*ut%na + 1, ut%wdy(:, i), ut%dy(:, c))
       end do
     end do
     do c = 1, n
