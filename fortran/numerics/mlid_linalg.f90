@@ -378,7 +378,7 @@ contains
     call product_ab(n, a, v, w)                 ! w = A V, b = V' w
     do q = 1, n
       do p = 1, q
-        b(p, q) = dot_product(v(:, p), w(:, q))
+        b(p, q) = dot2(n, v(:, p), w(:, q))
         b(q, p) = b(p, q)
       end do
     end do
