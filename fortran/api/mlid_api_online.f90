@@ -107,10 +107,10 @@ contains
   !> model parameters (indices into theta's first block p); p0, q (nx +
   !> nf): xa's start and process-noise variances, states first; r (ny); ut
   !> = (alpha, beta, kappa) and kappa_given (0: kappa = 3 - N); delta (> 0:
-  !> the EKF's Jacobians by central differences); r_fade (in (0, 1): the
-  !> EKF's R adapted with this fading memory, 0: r given).  Results: est
-  !> and sig (nx + nf, nt), xa and its sigma after each sample; rhist (ny,
-  !> nt), R's diagonal after each (the EKF's).
+  !> the EKF's Jacobians by central differences); r_fade (in (0, 1): R
+  !> adapted with this fading memory, 0: r given).  Results: est and sig
+  !> (nx + nf, nt), xa and its sigma after each sample; rhist (ny, nt), R's
+  !> diagonal after each.
   subroutine mlid_online_filter(h, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
@@ -202,13 +202,14 @@ contains
       if (method == 1 .or. method == 4) then
         call ekf_run(m, p, ifree, x0, bias, t, u, z, fs, est, sig, rhist, status, msg)
       else
-        call ukf_run(m, p, ifree, x0, bias, t, u, z, fs, method == 3, est, sig, status, msg)
+        call ukf_run(m, p, ifree, x0, bias, t, u, z, fs, method == 3, est, sig, rhist, status, &
+                     msg)
       end if
     end associate
     if (status /= MLID_OK) return
     call results%put('est', est)
     call results%put('sig', sig)
-    if (method == 1 .or. method == 4) call results%put('rhist', rhist)
+    call results%put('rhist', rhist)
   end subroutine run_filter
 
 end module mlid_api_online

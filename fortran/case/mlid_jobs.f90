@@ -592,8 +592,7 @@ contains
         call ekf_run(m, p, ifree, x0, bias, t, u, y, s, est, sig, rhist, status, msg)
       else
         call ukf_run(m, p, ifree, x0, bias, t, u, y, s, c%online_estimator == 'ukf_augmented', &
-                     est, sig, status, msg)
-        rhist = spread(s%r, 2, size(t))
+                     est, sig, rhist, status, msg)
       end if
     end associate
     if (status /= MLID_OK) return

@@ -10,7 +10,7 @@ module mlid_linalg
   public :: add_sym_atb, add_syrk, add_atv, sym_atb_t, pair_rows, sym_eig, chol_inverse, chol_solve, &
             psd_factor, info_inverse, info_eig, eig_inverse, expm, expm_into, expm_work_size, &
             expm_work_t, solve, independent_columns, general_eig, sym_sqrt_jacobi, &
-            qr_least_squares
+            qr_least_squares, dot2
 
   interface
     subroutine dsyevr(jobz, range, uplo, n, a, lda, vl, vu, il, iu, abstol, m, w, z, ldz, &
@@ -346,37 +346,91 @@ contains
   end subroutine sym_eig
 
   !> The symmetric square root s of a symmetric matrix A = V diag(w) V'
-  !> (s = V diag(sqrt(max(w, 0))) V', negative eigenvalues taken as 0), by
-  !> cyclic Jacobi rotations started from v, an orthogonal basis near A's
-  !> eigenvectors (the identity when none is known); v on exit is the
-  !> basis reached.  B = V' A V is rotated while an off-diagonal entry
-  !> exceeds 1e-8 (d_p + d_q) min(d_p, d_q), d = sqrt(max(diag B, 0)) (and
-  !> eps max|diag B|: rounding); then sqrt(B) is taken to first order in the
-  !> entries left, sqrt(B)_pq = b_pq/(d_p + d_q): the second order is below
-  !> 1e-16 of each entry's own scale.  From the basis of a matrix close
-  !> by (a filter's covariance a sample before) a sweep or two do, or none,
-  !> where a fresh decomposition (sym_eig) costs several times more.
-  !> info = 1: no convergence in 40 sweeps.
+  !> (s = V diag(sqrt(max(w, 0))) V', negative eigenvalues taken as 0),
+  !> from v, an orthogonal basis near A's eigenvectors (the identity when
+  !> none is known; on exit the basis reached): B = V' A V is brought near
+  !> diagonal by cyclic Jacobi rotations (near_diagonal), then sqrt(B) is
+  !> solved for to rounding around its diagonal (sqrt_near_diagonal) and
+  !> s = V sqrt(B) V'.  From the basis of a matrix close by (a filter's
+  !> covariance a sample before) few rotations or none are needed, where
+  !> a fresh decomposition (sym_eig, LAPACK's dsyevr) costs several times
+  !> more at the filters' sizes (n ~ 10).  info = 1: no convergence.
   pure subroutine sym_sqrt_jacobi(a, v, s, info)
     real(wp), intent(in) :: a(:, :)
     real(wp), intent(inout) :: v(:, :)
     real(wp), intent(out) :: s(:, :)
     integer, intent(out) :: info
-    real(wp), parameter :: tol = 1.0e-8_wp
-    real(wp) :: b(size(a, 1), size(a, 1)), d(size(a, 1)), floor
-    integer :: sweep, p, q, n
+    call sqrt_jacobi(size(a, 1), a, v, s, info)
+  end subroutine sym_sqrt_jacobi
+
+  !> sym_sqrt_jacobi on explicit shapes (unit strides), the products by
+  !> columns and the symmetric ones by their upper triangle: this runs at
+  !> every sample of the UKF, where matmul's temporaries cost as much as
+  !> the arithmetic.
+  pure subroutine sqrt_jacobi(n, a, v, s, info)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: a(n, n)
+    real(wp), intent(inout) :: v(n, n)
+    real(wp), intent(out) :: s(n, n)
+    integer, intent(out) :: info
+    real(wp) :: b(n, n), w(n, n), d(n)
+    integer :: p, q
+    call product_ab(n, a, v, w)                 ! w = A V, b = V' w
+    do q = 1, n
+      do p = 1, q
+        b(p, q) = dot2(n, v(:, p), w(:, q))
+        b(q, p) = b(p, q)
+      end do
+    end do
+    call near_diagonal(n, b, v, d, info)
+    if (info == 0) call sqrt_near_diagonal(n, b, d, w, info)
+    if (info /= 0) then
+      s = 0.0_wp
+      return
+    end if
+    do q = 1, n                                 ! b = sqrt(B) V'
+      b(:, q) = w(:, 1)*v(q, 1)
+      do p = 2, n
+        b(:, q) = b(:, q) + w(:, p)*v(q, p)
+      end do
+    end do
+    do q = 1, n                                 ! s = V b, the upper triangle, mirrored
+      s(1:q, q) = v(1:q, 1)*b(1, q)
+      do p = 2, n
+        s(1:q, q) = s(1:q, q) + v(1:q, p)*b(p, q)
+      end do
+      s(q, 1:q - 1) = s(1:q - 1, q)
+    end do
+  end subroutine sqrt_jacobi
+
+  !> Cyclic Jacobi rotations of the symmetric b (and its basis v) while an
+  !> off-diagonal entry exceeds tol (d_p + d_q) min(d_p, d_q), d =
+  !> sqrt(max(diag b, 0)) (and eps max|diag b|: rounding), tol = 0.1/n:
+  !> then the first-order root's entries b_pq/(d_p + d_q) are below tol
+  !> min(d_p, d_q), where sqrt_near_diagonal's iteration contracts by 2 n
+  !> tol = 0.2 or less.  info = 1: no convergence in 40 sweeps.
+  pure subroutine near_diagonal(n, b, v, d, info)
+    integer, intent(in) :: n
+    real(wp), intent(inout) :: b(n, n), v(n, n)
+    real(wp), intent(out) :: d(n)
+    integer, intent(out) :: info
+    real(wp) :: tol, floor
+    integer :: sweep, p, q
     logical :: rotated
-    n = size(a, 1)
-    b = matmul(transpose(v), matmul(a, v))
-    d = sqrt(max([(b(p, p), p=1, n)], 0.0_wp))
-    floor = epsilon(tol)*maxval(abs([(b(p, p), p=1, n)]))
+    tol = 0.1_wp/max(n, 10)
+    floor = 0.0_wp
+    do q = 1, n
+      d(q) = sqrt(max(b(q, q), 0.0_wp))
+      floor = max(floor, abs(b(q, q)))
+    end do
+    floor = epsilon(tol)*floor
     info = 1
     do sweep = 1, 40
       rotated = .false.
       do q = 2, n
         do p = 1, q - 1
           if (abs(b(p, q)) <= max(tol*(d(p) + d(q))*min(d(p), d(q)), floor)) cycle
-          call jacobi_rotate(b, v, p, q)
+          call jacobi_rotate(n, b, v, p, q)
           d(p) = sqrt(max(b(p, p), 0.0_wp))
           d(q) = sqrt(max(b(q, q), 0.0_wp))
           rotated = .true.
@@ -387,20 +441,97 @@ contains
         exit
       end if
     end do
-    do q = 1, n
-      do p = 1, n
-        b(p, q) = merge(b(p, q)/(d(p) + d(q)), 0.0_wp, p /= q .and. d(p) + d(q) > 0.0_wp)
+  end subroutine near_diagonal
+
+  !> x = sqrt(B) for a symmetric B near its diagonal d^2 (d = sqrt(max(diag
+  !> B, 0))): x = D + Y with D Y + Y D = E - Y^2, E = B's off-diagonal part,
+  !> solved entry by entry, Y_pq = (E - Y^2)_pq/(d_p + d_q), from the
+  !> first-order root Y = E_pq/(d_p + d_q) until no entry moves by more
+  !> than 4 eps (min(d_p, d_q) + eps max d): near_diagonal's tolerance makes
+  !> the step contract by 0.2 or less, so the error left is below a
+  !> quarter of the last move.  info = 1: not in 60 steps.
+  pure subroutine sqrt_near_diagonal(n, b, d, x, info)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: b(n, n), d(n)
+    real(wp), intent(out) :: x(n, n)
+    integer, intent(out) :: info
+    real(wp) :: h(n, n), e(n, n), tl(n, n), y2(n, n), ynew, dmax, eps
+    integer :: it, p, q
+    logical :: moved
+    eps = epsilon(1.0_wp)
+    dmax = maxval(d)
+    do q = 1, n                       ! the upper triangles: 1/(d_p + d_q), E, the tolerance
+      do p = 1, q
+        h(p, q) = 0.0_wp
+        if (d(p) + d(q) > 0.0_wp) h(p, q) = 1.0_wp/(d(p) + d(q))
+        e(p, q) = merge(b(p, q), 0.0_wp, p /= q)
+        tl(p, q) = 4.0_wp*eps*(min(d(p), d(q)) + eps*dmax)
+        x(p, q) = e(p, q)*h(p, q)      ! Y, until the end
+        x(q, p) = x(p, q)
       end do
-      b(q, q) = d(q)
     end do
-    s = matmul(v, matmul(b, transpose(v)))
-  end subroutine sym_sqrt_jacobi
+    info = 1
+    do it = 1, 60
+      do q = 1, n                     ! Y^2's upper triangle (Y symmetric)
+        do p = 1, q
+          y2(p, q) = dot2(n, x(:, p), x(:, q))
+        end do
+      end do
+      moved = .false.
+      do q = 1, n
+        do p = 1, q
+          ynew = (e(p, q) - y2(p, q))*h(p, q)
+          moved = moved .or. abs(ynew - x(p, q)) > tl(p, q)
+          x(p, q) = ynew
+          x(q, p) = ynew
+        end do
+      end do
+      if (.not. moved) then
+        info = 0
+        exit
+      end if
+    end do
+    do q = 1, n
+      x(q, q) = x(q, q) + d(q)
+    end do
+  end subroutine sqrt_near_diagonal
+
+  !> x'y in two interleaved partial sums (odd and even terms): two
+  !> independent chains of additions, which the compiler can pack.
+  pure real(wp) function dot2(n, x, y) result(s)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(n), y(n)
+    real(wp) :: s1, s2
+    integer :: k
+    s1 = 0.0_wp
+    s2 = 0.0_wp
+    do k = 1, n - 1, 2
+      s1 = s1 + x(k)*y(k)
+      s2 = s2 + x(k + 1)*y(k + 1)
+    end do
+    if (mod(n, 2) == 1) s1 = s1 + x(n)*y(n)
+    s = s1 + s2
+  end function dot2
+
+  !> c = a b, all n x n, column by column.
+  pure subroutine product_ab(n, a, b, c)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: a(n, n), b(n, n)
+    real(wp), intent(out) :: c(n, n)
+    integer :: j, k
+    do j = 1, n
+      c(:, j) = a(:, 1)*b(1, j)
+      do k = 2, n
+        c(:, j) = c(:, j) + a(:, k)*b(k, j)
+      end do
+    end do
+  end subroutine product_ab
 
   !> One Jacobi rotation zeroing b(p, q) (p /= q) of the symmetric b,
   !> b <- J' b J, v <- v J: columns p and q turned, then copied to the rows.
-  pure subroutine jacobi_rotate(b, v, p, q)
-    real(wp), intent(inout) :: b(:, :), v(:, :)
-    integer, intent(in) :: p, q
+  pure subroutine jacobi_rotate(n, b, v, p, q)
+    integer, intent(in) :: n, p, q
+    real(wp), intent(inout) :: b(n, n), v(n, n)
     real(wp) :: theta, t, c, sn, bp, bq, app, aqq, apq
     integer :: r
     app = b(p, p)
@@ -410,7 +541,7 @@ contains
     t = sign(1.0_wp, theta)/(abs(theta) + sqrt(theta**2 + 1.0_wp))
     c = 1.0_wp/sqrt(t**2 + 1.0_wp)
     sn = t*c
-    do r = 1, size(b, 1)
+    do r = 1, n
       bp = b(r, p)
       bq = b(r, q)
       b(r, p) = c*bp - sn*bq

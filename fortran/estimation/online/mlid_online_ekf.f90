@@ -16,7 +16,7 @@
 !> differences and Phi by a 10-term Taylor series; for a model bilinear in
 !> states and parameters (the short period) the differences are exact to
 !> rounding.  R is given, or adapted from the residuals after each update
-!> (adapt_r).
+!> (mlid_online_filter's filter_adapt_r).
 !>
 !> With a forgetting factor lambda (s%forget > 0) the same recursion is the
 !> textbook's extended forgetting-factor least squares (EFRLS, sec. 7.4):
@@ -34,7 +34,7 @@ module mlid_online_ekf
   use mlid_rk, only: rk_work_t
   use mlid_text, only: itoa
   use mlid_online_filter, only: filter_settings_t, filter_check, filter_propagate, &
-                                filter_outputs, filter_params
+                                filter_outputs, filter_params, filter_adapt_r
   implicit none
   private
   public :: ekf_run
@@ -45,7 +45,7 @@ contains
   !> record (t, u, z), from the states x0 and the model parameters p (its
   !> free ones ifree the start of their estimates), output biases bias;
   !> rhist(:, k): R's diagonal used at sample k+1 (s%r throughout unless
-  !> adaptive, s%r_fade > 0: adapt_r).
+  !> adaptive, s%r_fade > 0: filter_adapt_r).
   subroutine ekf_run(m, p, ifree, x0, bias, t, u, z, s, est, sig, rhist, status, msg)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: p(:), x0(:), bias(:), t(:), u(:, :), z(:, :)
@@ -99,8 +99,8 @@ contains
         if (status /= MLID_OK .or. .not. all(ieee_is_finite(xa))) exit
         if (lam < 1.0_wp) pc = pc/lam
       end if
-      if (s%r_fade > 0.0_wp) call adapt_r(m, p, ifree, bias, t(k), u(:, k), z(:, k), xa, pc, c, &
-                                          1.0_wp - s%r_fade**k, s%r_fade, r)
+      if (s%r_fade > 0.0_wp) call filter_adapt_r(m, p, ifree, bias, t(k), u(:, k), z(:, k), xa, &
+                                                 cpc_diag(c, pc), k, s%r_fade, r)
       rhist(:, k) = r
       est(:, k) = xa
       sig(:, k) = sqrt(max([(pc(i, i), i=1, n)], 0.0_wp))
@@ -194,25 +194,17 @@ contains
     pc = 0.5_wp*(pc + transpose(pc))
   end subroutine ekf_update
 
-  !> Adaptive R (Sage and Husa's fading memory, diagonal): from the
-  !> residual e = z - y(xa+) after the update, E{e e'} = R - C P+ C', so
-  !>   R <- (1 - dk) R + dk (e^2 + diag(C P+ C')),  dk = (1 - b)/(1 - b^k),
-  !> b the fading factor (about 1/(1 - b) samples remembered); wk = 1 - b^k.
-  subroutine adapt_r(m, p, ifree, bias, t, u, z, xa, pc, c, wk, b, r)
-    class(model_t), intent(in) :: m
-    real(wp), intent(in) :: p(:), bias(:), t, u(:), z(:), xa(:), pc(:, :), c(:, :), wk, b
-    integer, intent(in) :: ifree(:)
-    real(wp), intent(inout) :: r(:)
-    real(wp) :: y(m%ny), cp(m%ny, size(xa)), dk
+  !> diag(C P C'), the adaptive R's (mlid_online_filter's filter_adapt_r)
+  !> with C at the prediction and P+.
+  pure function cpc_diag(c, pc) result(d)
+    real(wp), intent(in) :: c(:, :), pc(:, :)
+    real(wp) :: d(size(c, 1)), cp(size(c, 1), size(c, 2))
     integer :: i
-    call filter_outputs(m, p, ifree, bias, t, u, xa, y)
     cp = matmul(c, pc)
-    dk = (1.0_wp - b)/wk
-    do i = 1, m%ny
-      r(i) = (1.0_wp - dk)*r(i) + dk*((z(i) - y(i))**2 + dot_product(cp(i, :), c(i, :)))
+    do i = 1, size(c, 1)
+      d(i) = dot_product(cp(i, :), c(i, :))
     end do
-    r = max(r, tiny(1.0_wp))
-  end subroutine adapt_r
+  end function cpc_diag
 
   !> The textbook's Jacobians for comparison: d f / d xa (state true; u
   !> with the noise inputs) or d y / d xa by central differences, each

@@ -19,6 +19,7 @@ module mlid_online_filter
   public :: FORGET_RANGE
 
   character(len=*), parameter :: FORGET_RANGE = 'the forgetting factor must be in (0, 1], 1 for none'
+  public :: filter_adapt_r
 
   !> The filters' settings.  p0, q: the start covariance and the process
   !> noise (variances, discrete: added to P at each propagation) of xa
@@ -35,7 +36,7 @@ module mlid_online_filter
     logical :: hold = .false.
     integer :: nsub = 1
     real(wp) :: delta = 0.0_wp   !< > 0: the EKF's Jacobians by central differences (the textbook's)
-    real(wp) :: r_fade = 0.0_wp  !< in (0, 1): the EKF's R adapted, this fading memory (0: R given)
+    real(wp) :: r_fade = 0.0_wp  !< in (0, 1): R adapted, this fading memory (0: R given)
     !> in (0, 1]: the EKF run as extended forgetting-factor least squares
     !> (mlid_online_ekf), this forgetting factor (0: the Kalman filter)
     real(wp) :: forget = 0.0_wp
@@ -91,6 +92,25 @@ contains
     y = y + bias
   end subroutine filter_outputs
 
+  !> Adaptive R (Sage and Husa's fading memory, diagonal) after the update
+  !> at sample k: from the residual e = z - y(xa+), E{e e'} = R - C P+ C', so
+  !>   R <- (1 - dk) R + dk (e^2 + cpc),  dk = (1 - b)/(1 - b^k),
+  !> cpc = diag(C P+ C') (each filter's own: the EKF's Jacobian, the UKF's
+  !> transform), b the fading factor (about 1/(1 - b) samples remembered).
+  subroutine filter_adapt_r(m, p, ifree, bias, t, u, z, xa, cpc, k, b, r)
+    class(model_t), intent(in) :: m
+    real(wp), intent(in) :: p(:), bias(:), t, u(:), z(:), xa(:), cpc(:), b
+    integer, intent(in) :: ifree(:), k
+    real(wp), intent(inout) :: r(:)
+    real(wp) :: y(m%ny), dk
+    integer :: i
+    call filter_outputs(m, p, ifree, bias, t, u, xa, y)
+    dk = (1.0_wp - b)/(1.0_wp - b**k)
+    do i = 1, m%ny
+      r(i) = max((1.0_wp - dk)*r(i) + dk*((z(i) - y(i))**2 + cpc(i)), tiny(1.0_wp))
+    end do
+  end subroutine filter_adapt_r
+
   !> The settings and the record checked against the model: one line on
   !> the first problem.  ukf_dim: the dimension the unscented transform
   !> samples (0 for the EKF).
@@ -126,8 +146,6 @@ contains
       msg = FORGET_RANGE
     else if (s%forget > 0.0_wp .and. (ukf_dim > 0 .or. s%r_fade > 0.0_wp)) then
       msg = 'forgetting is the extended Kalman filter''s, with R given'
-    else if (ukf_dim > 0 .and. s%r_fade > 0.0_wp) then
-      msg = 'the adaptive R is the extended Kalman filter''s only'
     else if (ukf_dim > 0) then
       call check_unscented(s, ukf_dim, msg)
     end if

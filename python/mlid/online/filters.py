@@ -163,7 +163,7 @@ def efrls(model, data, free=None, forgetting=0.998, p0=1e3, q=0.0, r=None, diffe
 @guarded
 @_doc
 def ukf(model, data, free=None, p0=10.0, q=0.0, r=None, augmented=False, alpha=0.5, beta=2.0,
-        kappa=None):
+        kappa=None, r_fading=0.0):
     """Unscented Kalman filter with the state augmented by the free
     parameters (fortran/estimation/online/mlid_online_ukf.f90): 2N + 1 sigma
     points from the symmetric square root of P, each carried by the model's
@@ -177,6 +177,12 @@ def ukf(model, data, free=None, p0=10.0, q=0.0, r=None, augmented=False, alpha=0
     alpha, beta, kappa : float
         The unscented transform's spread, prior and scaling (kappa None:
         3 - N).
+    r_fading : float
+        In (0, 1): R adapted after each update as the EKF's (Sage and
+        Husa's fading memory b, about 1/(1 - b) samples remembered), with
+        diag C P C' from the transform's own moments, R - R Pyy^-1 R; r its
+        start (in the augmented form, the sampled measurement noise's
+        variances); the history in ``noise``.  0: r given.
     {returns}"""
     method = "ukf_augmented" if augmented else "ukf"
-    return _run(method, model, data, free, p0, q, r, (alpha, beta, kappa), 0.0)
+    return _run(method, model, data, free, p0, q, r, (alpha, beta, kappa), 0.0, r_fading)
