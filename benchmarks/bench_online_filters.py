@@ -4,7 +4,7 @@ joined, 1,252 samples, 8 parameters; each reference header's settings),
 against the real-time budget of a sample (dt = 40 ms) and against the
 textbook software's Octave CPU time, read from each reference's header
 (../shared/data/refs/recursive/ref_tc11_*.txt: EKF 5.98 s, UKF 10.7 s,
-UKFaug 16.1 s).  Target: >= 1,000x the reference.  The whole Python call is
+UKFaug 16.1 s, EFRLS 5.40 s).  Target: >= 1,000x the reference.  The whole Python call is
 timed (record and model set up, the filter, the history returned).
 
     python benchmarks/bench_online_filters.py
@@ -59,7 +59,9 @@ def main():
     runs = {"EKF": lambda: mlid.online.ekf(model(), data, p0=10.0, q=q, r=R),
             "UKF": lambda: mlid.online.ukf(model(), data, p0=10.0, q=q, r=R),
             "UKFaug": lambda: mlid.online.ukf(model(True), data, p0=10.0, q=0.0, r=R,
-                                              augmented=True)}
+                                              augmented=True),
+            "EFRLS": lambda: mlid.online.efrls(model(), data, forgetting=0.998, p0=1e3,
+                                               r=[1.0, 1.0])}
     times = interleaved_medians(list(runs.values()), rounds=5, n=3)
     for (name, _), t in zip(runs.items(), times):
         us = 1e6 * t / data.nt
