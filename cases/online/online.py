@@ -60,17 +60,9 @@ def filters_against_reference():
     sample's estimates against the reference's history (its Zq is the
     deck's f(1,2) - 1)."""
     import pandas as pd
-    import tempfile
     names = ["Z0", "Zal", "Zq", "Zde", "M0", "Mal", "Mq", "Mde"]
-    text = (HERE / "tc11_ekf.nml").read_text()
     for estimator, ref_name in (("ekf", "EKF"), ("ukf", "UKF")):
-        with tempfile.TemporaryDirectory() as tmp:
-            deck = Path(tmp) / "tc11.nml"
-            deck.write_text(text.replace("../../../shared", str(HERE.parents[2] / "shared"))
-                            .replace("estimator = 'ekf'", f"estimator = '{estimator}'"))
-            case, out, _, error = next(iter_deck(deck))
-        if error:
-            sys.exit(f"{case.where()}: {error}")
+        out = _deck_output("tc11_ekf.nml", estimator)
         ref = pd.read_csv(REFS / f"hist_tc11_{ref_name}.csv")
         est = np.array(out["estimates"])
         est[:, out["parameters"].index("Zq1")] -= 1.0
