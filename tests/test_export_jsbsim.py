@@ -1,6 +1,7 @@
 """Export to JSBSim (python/mlid/export/): the aerodynamics section of a
-six-degree-of-freedom model with tables, flown in JSBSim (the Python
-package) on the model's own inputs and compared with mlid.simulate; the
+six-degree-of-freedom model with tables (and of the longitudinal kind),
+flown in JSBSim (the Python package) on the model's own inputs and
+compared with mlid.simulate; the
 plain table set (JSON, CSV); sigma as comments; files whole or not at all.
 
 JSBSim is set up to fly what mlid's model assumes, and what is left is
@@ -52,7 +53,8 @@ def sixdof(planet=EARTH, **kw):
     over alpha, the rest derivatives; rho the 1976 standard atmosphere's
     troposphere (JSBSim's) in h."""
     return mlid.SixDofModel(
-        dict(CONSTANTS, g=gravity(planet)), states=STATES, outputs={n: n for n in OUTPUTS}, inputs=["de", "da", "dr"],
+        dict(CONSTANTS, g=gravity(planet)), states=STATES, outputs={n: n for n in OUTPUTS},
+        inputs=["de", "da", "dr"],
         params=PARAMS,
         definitions={"rho": RHO, "Mach": "V/340.294",
                      "CLa": Table(["alpha", "Mach"], [ALPHA, MACH], CLA),
@@ -93,8 +95,8 @@ def manoeuvre(seconds=8.0, dt=0.01):
     return t, np.column_stack([de, da, dr])
 
 
-def mlid_flight(model, t, u):
-    d, _ = mlid.simulate(model, t, u, noise_std=[0.0] * len(OUTPUTS))
+def mlid_flight(model, t, u, ny=len(OUTPUTS)):
+    d, _ = mlid.simulate(model, t, u, noise_std=[0.0] * ny)
     return d.y
 
 
@@ -117,16 +119,27 @@ INTEGRATORS = ("rate/rotational", "rate/translational", "position/rotational",
 INTEGRATOR = 4
 
 
-def jsbsim_flight(tmp_path, model, t, u, planet=EARTH, dt=0.005):
-    """The exported aircraft flown in JSBSim from the model's x0, the
-    inputs linear between samples (as mlid's), sampled at t; the outputs
-    in SI, as OUTPUTS."""
+#: What a flight reads of JSBSim: (property, factor to SI) by the name
+#: mlid's outputs have.
+READ = {"alpha": ("aero/alpha-rad", 1.0), "beta": ("aero/beta-rad", 1.0),
+        "V": ("velocities/vt-fps", FT), "p": ("velocities/p-rad_sec", 1.0),
+        "q": ("velocities/q-rad_sec", 1.0), "r": ("velocities/r-rad_sec", 1.0),
+        "phi": ("attitude/phi-rad", 1.0), "theta": ("attitude/theta-rad", 1.0),
+        "h": ("position/h-sl-ft", FT)}
+SURFACES = ("fcs/elevator-pos-rad", "fcs/left-aileron-pos-rad", "fcs/rudder-pos-rad")
+
+
+def fly(tmp_path, model, ic, t, u, outputs, planet=EARTH, dt=0.005, **export):
+    """The exported aircraft flown in JSBSim from ic {'u': m/s, 'theta':
+    rad, 'h': m, ...}, the surfaces (SURFACES, u's columns) linear between
+    samples (as mlid's inputs), set before each step (the forces after a
+    step are at its end); the outputs at t in SI, and the density at the
+    start [kg/m^3]."""
     jsbsim = pytest.importorskip("jsbsim", reason="the jsbsim package is not installed")
     folder = tmp_path / "aircraft" / "mlidtest"
     folder.mkdir(parents=True)
-    mlid.export.jsbsim(model, folder / "mlidtest.xml", aircraft=True, name="mlidtest")
+    mlid.export.jsbsim(model, folder / "mlidtest.xml", aircraft=True, name="mlidtest", **export)
     (tmp_path / "planet.xml").write_text(PLANET.format(r=planet[0], gm=planet[1]))
-    jsbsim.FGJSBBase().debug_lvl = 0
     fdm = jsbsim.FGFDMExec(str(tmp_path))
     fdm.set_debug_level(0)
     assert fdm.load_planet(str(tmp_path / "planet.xml"), False)
@@ -134,37 +147,33 @@ def jsbsim_flight(tmp_path, model, t, u, planet=EARTH, dt=0.005):
     fdm["simulation/gravity-model"] = 0                     # GM/r^2, spherical
     for prop in INTEGRATORS:                                # JSBSim's default: Euler for
         fdm[f"simulation/integrator/{prop}"] = INTEGRATOR   # the rotation, first order
-    x0 = dict(zip(STATES, model.x0))
-    for k in ("u", "v", "w"):
-        fdm[f"ic/{k}-fps"] = x0[k] / FT
-    for k in ("p", "q", "r"):
-        fdm[f"ic/{k}-rad_sec"] = x0[k]
-    fdm["ic/phi-rad"], fdm["ic/theta-rad"] = x0["phi"], x0["theta"]
-    fdm["ic/psi-true-rad"] = x0["psi"]
-    fdm["ic/h-sl-ft"] = x0["h"] / FT
+    for k, v in ic.items():
+        unit = {"u": "fps", "v": "fps", "w": "fps", "p": "rad_sec", "q": "rad_sec",
+                "r": "rad_sec", "phi": "rad", "theta": "rad", "psi": "true-rad", "h": "sl-ft"}[k]
+        fdm[f"ic/{k}-{unit}"] = v / FT if unit in ("fps", "sl-ft") else v
     fdm["ic/lat-geod-deg"], fdm["ic/long-gc-deg"] = 0.0, 0.0
     fdm.set_dt(dt)
-    surfaces = ("fcs/elevator-pos-rad", "fcs/left-aileron-pos-rad", "fcs/rudder-pos-rad")
 
     def set_inputs(time):
-        for k, prop in enumerate(surfaces):
-            fdm[prop] = np.interp(time, t, u[:, k])
+        for k in range(u.shape[1]):
+            fdm[SURFACES[k]] = np.interp(time, t, u[:, k])
     set_inputs(0.0)
     assert fdm.run_ic()
     rho = fdm["atmosphere/rho-slugs_ft3"] * SLUG_FT3
     out = []
     steps = int(round((t[1] - t[0]) / dt))
     for k in range(t.size):
-        if k:
-            for j in range(steps):
-                set_inputs(t[k - 1] + (j + 1) * dt)   # the forces after this step are at its end
-                fdm.run()
-        out.append([fdm["aero/alpha-rad"], fdm["aero/beta-rad"], fdm["velocities/vt-fps"] * FT,
-                    fdm["velocities/p-rad_sec"], fdm["velocities/q-rad_sec"],
-                    fdm["velocities/r-rad_sec"], fdm["attitude/phi-rad"],
-                    fdm["attitude/theta-rad"], fdm["position/h-sl-ft"] * FT])
+        for j in range(steps if k else 0):
+            set_inputs(t[k - 1] + (j + 1) * dt)
+            fdm.run()
+        out.append([fdm[READ[n][0]] * READ[n][1] for n in outputs])
     assert fdm.get_sim_time() == pytest.approx(t[-1], abs=1e-9)
     return np.array(out), rho
+
+
+def jsbsim_flight(tmp_path, model, t, u, planet=EARTH, dt=0.005):
+    """The six-degree-of-freedom model's flight from its x0, OUTPUTS."""
+    return fly(tmp_path, model, dict(zip(STATES, model.x0)), t, u, OUTPUTS, planet, dt)
 
 
 #: The agreement asked of JSBSim and mlid over the 8 s manoeuvre (max abs,
@@ -199,6 +208,49 @@ def test_jsbsim_flies_the_exported_model_as_mlid_does(tmp_path, planet, toleranc
     for k, name in enumerate(OUTPUTS):
         assert err[k] < TOLERANCE[tolerance][name], (name, err[k], spread[k])
         assert spread[k] > 50 * TOLERANCE[tolerance][name], (name, spread[k])
+
+
+# HFB-320-like longitudinal kind (tests/test_tables.py's), C_Lalpha a table
+LONG = dict(zip(mlid.model.models.CONSTANTS, [9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67,
+                                              7472.0, 0.0524, 0.792, 1.215]))
+LONG_REGS = {"CD": ["1", "V/V0", "alpha"], "CL": ["1", "V/V0", "alpha", "alpha^2"],
+             "Cm": ["1", "V/V0", "alpha", "qhat", "de"]}
+LONG_VALS = {"CD": [0.117758, -0.0517459, 0.234846], "CL": [-0.204711, 0.363549, 3.21232, 1.5],
+             "Cm": [0.134413, -0.0139045, -1.00241, -27.0570, -1.43707]}
+#: Where the 1976 atmosphere's density is the model's 0.792 kg/m^3.
+H_LONG = 4320.850236110069
+
+
+def test_jsbsim_flies_the_longitudinal_kind(tmp_path):
+    """The longitudinal kind written as equations, C_Lalpha a table over
+    alpha, a 3211 on the elevator and no thrust (F = 0; JSBSim has no
+    propulsion), flown on the flat planet with the lateral motion zero
+    (symmetric: it stays zero).  Its qhat is q cbar/(2 V0) at its fixed V0,
+    exported so.  The model's rho is constant where JSBSim's grows as the
+    glide descends (9 m: 0.09%), which V and theta show over the 6 s;
+    measured V 5.9e-3 m/s, alpha 4.0e-5 rad, theta 1.5e-4 rad, q 8.3e-5
+    rad/s (the tolerances about three times these)."""
+    from mlid.design.signals import input_signal
+    lm = mlid.LongitudinalModel(LONG_REGS, LONG_VALS, LONG, x0=[106.0, 0.11, 0.105, 0.0],
+                                substeps=4)
+    model = lm.with_tables({"C_Lalpha": Table("alpha", [0.0, 0.05, 0.1, 0.15, 0.2],
+                                              [3.3, 3.25, 3.2, 3.1, 2.9])})
+    assert isa_rho(H_LONG) == pytest.approx(0.792, rel=1e-12)
+    t = np.arange(601) * 0.01
+    de = -0.008 + input_signal("3211", 0.03, 1.0, 0.5, 0.01, 601)
+    want = mlid_flight(model, t, np.column_stack([de, np.zeros(t.size)]), ny=7)[:, :4]
+    V, alpha, theta, q = model.x0
+    ic = dict(u=V * np.cos(alpha), w=V * np.sin(alpha), v=0.0, theta=theta, q=q, h=H_LONG)
+    planet = (FLAT[0], LONG["g"] * (FLAT[0] + H_LONG) ** 2)
+    got, rho0 = fly(tmp_path, model, ic, t, de[:, None], ["V", "alpha", "theta", "q"], planet,
+                    constants=dict(Ix=2.5e4, Iz=9.0e4, Ixz=0.0, b=14.5))
+    assert rho0 == pytest.approx(0.792, rel=1e-5)
+    err = np.abs(got - want).max(axis=0)
+    spread = np.ptp(want, axis=0)
+    print("longitudinal", {n: f"{e:.2g}" for n, e in zip("V alpha theta q".split(), err)})
+    tolerance = np.array([0.02, 1.2e-4, 5e-4, 2.5e-4])
+    assert np.all(err < tolerance), err
+    assert np.all(spread > 50 * tolerance), spread
 
 
 def test_the_section_is_the_aircrafts_and_names_jsbsims_properties(tmp_path):
@@ -274,10 +326,14 @@ def test_refusals_leave_no_file(tmp_path):
     with pytest.raises(InputError, match="input 'flap' has no JSBSim property"):
         mlid.export.jsbsim(_flap_model(), tmp_path / "x.xml")
     assert not (tmp_path / "x.xml").exists()
-    with pytest.raises(InputError, match="not a six-degree-of-freedom model"):
+    with pytest.raises(InputError, match="neither a six-degree-of-freedom model"):
         mlid.export.jsbsim(mlid.EquationModel(outputs={"y": "a*x"}, inputs=["x"],
                                               params={"a": 1.0}), tmp_path / "y.xml")
     assert not (tmp_path / "y.xml").exists()
+    lm = mlid.LongitudinalModel(LONG_REGS, LONG_VALS, LONG).with_tables({})
+    with pytest.raises(InputError, match=r"the model has no Ix, Iz, Ixz, b: give constants"):
+        mlid.export.jsbsim(lm, tmp_path / "l.xml", aircraft=True)
+    assert not (tmp_path / "l.xml").exists()
     with pytest.raises(InputError, match="format 'txt'"):
         mlid.export.tables(m, tmp_path / "t.txt")
     text = mlid.export.jsbsim(_flap_model(), tmp_path / "z.xml",

@@ -1,5 +1,7 @@
-"""A six-degree-of-freedom model (``SixDofModel``, or its fit) as JSBSim's
-aerodynamics: an ``<aerodynamics>`` section, or a minimal aircraft around it.
+"""A six-degree-of-freedom model (``SixDofModel``), the longitudinal kind
+written as equations (``LongitudinalModel.with_tables``), or a fit of
+either, as JSBSim's aerodynamics: an ``<aerodynamics>`` section, or a
+minimal aircraft around it.
 
 JSBSim works in English units (FGJSBBase): lengths in ft, areas in ft^2,
 mass in slug (weights in lbs), forces in lbf, dynamic pressure in lbf/ft^2
@@ -72,8 +74,8 @@ INPUTS = {"de": ("fcs/elevator-pos-rad", 1.0), "da": ("fcs/left-aileron-pos-rad"
 RATES = {"phat": ("p", "metrics/bw-ft"), "qhat": ("q", "metrics/cbarw-ft"),
          "rhat": ("r", "metrics/bw-ft")}
 CONSTANTS = ("m", "Ix", "Iy", "Iz", "Ixz", "S", "cbar", "b", "g")
-#: What mlid_sixdof writes around the user's definitions (not exported).
-_GENERATED = {"V", "alpha", "beta", "phat", "qhat", "rhat"}
+#: The longitudinal kind's constants as mlid_long_text names them.
+LONGITUDINAL = ("g", "Sm", "ScIy", "lTIy", "V0", "mass", "sigT", "rho", "c2")
 _LEFT_OUT = {"rho": "JSBSim's atmosphere gives qbar (aero/qbar-psf)",
              "T": "thrust belongs to JSBSim's propulsion", "sigT": "thrust inclination",
              "lT": "thrust moment arm"}
@@ -82,14 +84,17 @@ AXES = (("X", None), ("Y", None), ("Z", None), ("ROLL", "metrics/bw-ft"),
         ("PITCH", "metrics/cbarw-ft"), ("YAW", "metrics/bw-ft"))
 
 
-def jsbsim(model_or_result, path, inputs=None, aircraft=False, name="mlid"):
-    """Write a six-degree-of-freedom model as JSBSim aerodynamics.
+def jsbsim(model_or_result, path, inputs=None, aircraft=False, name="mlid", constants=None):
+    """Write an identified aircraft model as JSBSim aerodynamics.
 
     Parameters
     ----------
-    model_or_result : SixDofModel or FitResult
+    model_or_result : SixDofModel, EquationModel or FitResult
         The model (its parameters' values) or a fit of it (the estimates,
-        and each free value's sigma as an XML comment).
+        and each free value's sigma as an XML comment): a
+        ``SixDofModel``, or the longitudinal kind written as equations
+        (``LongitudinalModel.with_tables``: its S, cbar, m and Iy come
+        from its constants S/m, S cbar/Iy, cbar/2 and m).
     path : str or Path
         The file, written whole or not at all.
     inputs : dict, optional
@@ -104,6 +109,10 @@ def jsbsim(model_or_result, path, inputs=None, aircraft=False, name="mlid"):
         point on it, one contact point, no propulsion, the same section.
     name : str
         The aircraft's name (with aircraft=True).
+    constants : dict, optional
+        SI values the model does not hold, for the aircraft: the
+        longitudinal kind's Ix, Iz, Ixz [kg m^2] and b [m] (the lateral
+        motion stays zero in symmetric flight, but JSBSim needs them).
 
     Returns
     -------
@@ -113,33 +122,46 @@ def jsbsim(model_or_result, path, inputs=None, aircraft=False, name="mlid"):
     Raises
     ------
     InputError
-        Not a six-degree-of-freedom model, an input with no property, an
-        expression JSBSim has no function for, a file that cannot be
-        written.
+        Neither kind, an input with no property, an expression JSBSim has
+        no function for, an aircraft's constant the model lacks, a file
+        that cannot be written.
     """
-    text = aircraft_text(model_or_result, inputs, name) if aircraft else \
-        aerodynamics_text(model_or_result, inputs)
+    text = aircraft_text(model_or_result, inputs, name, constants) if aircraft else \
+        aerodynamics_text(model_or_result, inputs, constants)
     atomic_write_text(path, text)
     return text
 
 
 class _Writer:
-    """The section's text from a model's parts."""
+    """The section's text from a model's parts: the sixdof kind (its text
+    names the constants and the air data before the user's definitions), or
+    the longitudinal kind written as equations (mlid_long_text: S/m,
+    S cbar/Iy, cbar/2, V0, ...; qhat = q cbar/(2 V0) at the fixed V0)."""
 
-    def __init__(self, src, inputs):
+    def __init__(self, src, inputs, constants=None):
         self.src = src
-        self.defs = dict(src.definitions)
-        missing = [c for c in CONSTANTS if c not in self.defs]
-        if missing or "rhat" not in self.defs:
-            raise InputError("JSBSim export: the model is not a six-degree-of-freedom model "
-                             "(SixDofModel): no constant " + (missing or ["rhat"])[0])
-        self.constants = {c: float(self.defs[c]) for c in CONSTANTS}
+        defs = dict(src.definitions)
         order = [n for n, _ in src.definitions]
-        first = order.index("rhat") + 1
-        last = order.index("qbar")
-        if order[last - 2:last] == ["CX", "CZ"] and \
-                self.defs["CX"] == "-CD*cos(alpha) + CL*sin(alpha)":
-            last -= 2                                   # mlid_sixdof's CX, CZ of CD, CL
+        self.fixed = {}                                  # a normalised rate's fixed factor
+        if all(c in defs for c in CONSTANTS) and "rhat" in defs:
+            self.numbers = {c: float(defs[c]) for c in CONSTANTS}
+            self.constants = dict(self.numbers)
+            first, last = order.index("rhat") + 1, order.index("qbar")
+            if order[last - 2:last] == ["CX", "CZ"] and \
+                    defs["CX"] == "-CD*cos(alpha) + CL*sin(alpha)":
+                last -= 2                                # mlid_sixdof's CX, CZ of CD, CL
+        elif all(c in defs for c in LONGITUDINAL) and defs.get("qhat") == "q*c2/V0":
+            n = self.numbers = {c: float(defs[c]) for c in LONGITUDINAL}
+            self.fixed["qhat"] = ("q", n["c2"] / n["V0"], "cbar/(2 V0), the model's fixed V0")
+            S, cbar = n["Sm"] * n["mass"], 2 * n["c2"]
+            self.constants = dict(m=n["mass"], S=S, cbar=cbar, Iy=S * cbar / n["ScIy"],
+                                  g=n["g"])
+            first, last = order.index("qhat") + 1, order.index("qbar")
+        else:
+            raise InputError("JSBSim export: the model is neither a six-degree-of-freedom "
+                             "model (SixDofModel) nor the longitudinal kind written as "
+                             "equations (LongitudinalModel.with_tables)")
+        self.constants.update({k: float(v) for k, v in (constants or {}).items()})
         self.user = [(n, d) for n, d in src.definitions[first:last]]
         self.props = dict(PROPERTIES)
         for n, prop in {**INPUTS, **(inputs or {})}.items():
@@ -153,8 +175,12 @@ class _Writer:
             return [f"<property>aero/mlid/{name}</property>"]
         if name in self.src.params:
             return [f"<value>{ex.number(self.src.value(name))}</value>{self._sigma(name)}"]
-        if name in self.constants:
-            return [f"<value>{ex.number(self.constants[name])}</value> <!-- {name} (SI) -->"]
+        if name in self.numbers:
+            return [f"<value>{ex.number(self.numbers[name])}</value> <!-- {name} (SI) -->"]
+        if name in self.fixed:
+            rate, factor, what = self.fixed[name]
+            return ex._wrap("product", [self._property(rate),
+                                        [f"<value>{ex.number(factor)}</value> <!-- {what} -->"]])
         if name in RATES:
             rate, length = RATES[name]
             return ex._wrap("quotient", [ex._wrap("product", [self._property(rate),
@@ -203,7 +229,7 @@ class _Writer:
         for k, v in enumerate(t.variables):
             if v in self.emitted:
                 prop, factor = f"aero/mlid/{v}", 1.0
-            elif v in RATES:          # a property of its own, written out as resolve does
+            elif v in RATES or v in self.fixed:     # a property of its own, as resolve writes it
                 self.lines += [f'<function name="aero/mlid/{v}">',
                                *("  " + line for line in self.resolve(v, t.name)), "</function>"]
                 self.emitted.add(v)
@@ -260,15 +286,16 @@ class _Writer:
     def section(self):
         c = self.constants
         self.lines += [
-            "<!-- mlid's six-degree-of-freedom model (SI) in JSBSim's units: the model's",
+            "<!-- mlid's identified model (SI) in JSBSim's units: the model's",
             "     numbers as they are, JSBSim's properties converted to SI where read",
             "     (ft -> m: * 0.3048; slug/ft^3 -> kg/m^3: * 515.3788184; psf -> Pa: *",
             "     47.88025898), rates normalised as aero/bi2vel, aero/ci2vel.  Forces qbar S C",
             "     [lbf], moments qbar S b C, qbar S cbar C [ft lbf], body axes, about the",
             "     aerodynamic reference point (the model's centre of gravity).  The aircraft's",
-            f"     metrics must be the model's: S = {c['S']!r} m^2 = {c['S'] / FT**2!r} ft^2,",
-            f"     b = {c['b']!r} m = {c['b'] / FT!r} ft, cbar = {c['cbar']!r} m = "
-            f"{c['cbar'] / FT!r} ft. -->"]
+            "     metrics must be the model's: " + ", ".join(
+                f"{k} = {c[k]!r} m{'^2' if k == 'S' else ''} = "
+                f"{c[k] / FT**(2 if k == 'S' else 1)!r} ft{'^2' if k == 'S' else ''}"
+                for k in ("S", "b", "cbar") if k in c) + ". -->"]
         for name, defn in self.user:
             if name in _LEFT_OUT:
                 self.lines.append(f"<!-- {name} left out: {_LEFT_OUT[name]} -->")
@@ -279,21 +306,23 @@ class _Writer:
         return ["<aerodynamics>", *("  " + line for line in self.lines), "</aerodynamics>"]
 
 
-def aerodynamics_text(model_or_result, inputs=None):
+def aerodynamics_text(model_or_result, inputs=None, constants=None):
     """The ``<aerodynamics>`` section's text (see ``jsbsim``)."""
-    return "\n".join(['<?xml version="1.0"?>', *_Writer(Source(model_or_result),
-                                                         inputs).section()]) + "\n"
+    return "\n".join(['<?xml version="1.0"?>', *_Writer(Source(model_or_result), inputs,
+                                                         constants).section()]) + "\n"
 
 
-def aircraft_text(model_or_result, inputs=None, name="mlid"):
+def aircraft_text(model_or_result, inputs=None, name="mlid", constants=None):
     """A minimal JSBSim aircraft around the section (see ``jsbsim``)."""
-    w = _Writer(Source(model_or_result), inputs)
-    aero = w.section()
+    w = _Writer(Source(model_or_result), inputs, constants)
     c = w.constants
-    origin = ["<x> 0 </x>", "<y> 0 </y>", "<z> 0 </z>"]
-
-    def location(n, unit="IN", xyz=origin):
-        return [f'<location name="{n}" unit="{unit}">', *("  " + s for s in xyz), "</location>"]
+    missing = [k for k in CONSTANTS if k not in c]
+    if missing:
+        raise InputError(f"JSBSim aircraft: the model has no {', '.join(missing)}: give "
+                         f"constants={{{', '.join(repr(k) + ': ...' for k in missing)}}} (SI)")
+    aero = w.section()
+    def location(n):
+        return [f'<location name="{n}" unit="IN"> <x> 0 </x> <y> 0 </y> <z> 0 </z> </location>']
 
     metrics = ["<metrics>",
                f'  <wingarea unit="FT2"> {c["S"] / FT**2!r} </wingarea> <!-- S / 0.3048^2 -->',
