@@ -346,3 +346,43 @@ def _flap_model():
                             inputs=["de", "flap", "v", "p", "r", "phi"],
                             definitions={"rho": "1.2", "CL": "5*alpha", "CD": "0.03",
                                          "Cm": "-alpha - de + 0.1*flap"})
+
+
+def test_tables_of_one_two_three_variables_in_jsbsim(tmp_path):
+    """1-, 2- and 3-variable tables (over alpha, beta and de; V in m/s,
+    breakpoints converted to ft/s), read in JSBSim at states inside and
+    beyond the breakpoints: JSBSim's tables give mlid's values (linear,
+    held beyond the ends)."""
+    jsbsim = pytest.importorskip("jsbsim", reason="the jsbsim package is not installed")
+    rng = np.random.default_rng(11)
+    ba, bb, bd, bv = [-0.1, 0.0, 0.1, 0.25], [-0.1, 0.0, 0.1], [-0.05, 0.05], [80.0, 120.0]
+    defs = {"T1": Table("alpha", ba, rng.normal(size=4)),
+            "T2": Table(["alpha", "V"], [ba, bv], rng.normal(size=(4, 2))),
+            "T3": Table(["alpha", "beta", "de"], [ba, bb, bd], rng.normal(size=(4, 3, 2))),
+            "rho": "1.0", "CL": "5*alpha", "CD": "0.03", "Cm": "-alpha - de",
+            "CY": "-beta", "Cl": "-beta", "Cn": "beta"}
+
+    def model(x0=None):
+        return mlid.SixDofModel(CONSTANTS, states=STATES, inputs=["de", "da", "dr"],
+                                outputs={"T1": "T1", "T2": "T2", "T3": "T3"}, definitions=defs,
+                                x0=x0)
+    folder = tmp_path / "aircraft" / "tab"
+    folder.mkdir(parents=True)
+    mlid.export.jsbsim(model(), folder / "tab.xml", aircraft=True, name="tab")
+    fdm = jsbsim.FGFDMExec(str(tmp_path))
+    fdm.set_debug_level(0)
+    assert fdm.load_model("tab")
+    for alpha, beta, de, V in [(0.03, 0.02, 0.01, 100.0), (-0.2, -0.3, 0.2, 60.0),
+                               (0.3, 0.05, -0.04, 130.0), (0.1, 0.0, 0.05, 80.0)]:
+        u, v, w = (V * np.cos(alpha) * np.cos(beta), V * np.sin(beta),
+                   V * np.sin(alpha) * np.cos(beta))
+        x0 = [u, v, w, 0, 0, 0, 0, 0, 0, 1000.0]
+        want = mlid.simulate(model(x0), np.array([0.0, 0.01]), np.array([[de, 0, 0]] * 2),
+                             noise_std=[0.0] * 3)[0].y[0]          # the outputs at x0
+        for k, val in zip("uvw", (u, v, w)):
+            fdm[f"ic/{k}-fps"] = val / FT
+        fdm["ic/h-sl-ft"] = 1000.0 / FT
+        fdm["fcs/elevator-pos-rad"] = de
+        assert fdm.run_ic()
+        got = [fdm[f"aero/mlid/T{k}"] for k in (1, 2, 3)]
+        np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
