@@ -81,6 +81,7 @@ $(VPY):
 # The venv's packages, installed again when this list changes.
 $(DEPS): $(VPY) Makefile
 	$(VPY) -m pip install -q meson meson-python ninja numpy matplotlib scipy h5py pandas xarray pytest dask distributed hypothesis tqdm jinja2
+	$(VPY) -m pip install -q jsbsim || echo "mlid: no jsbsim for this Python: the JSBSim flights of tests/test_export_jsbsim.py will be skipped"
 	$(VPY) -m pip install -q sphinx numpydoc pydata-sphinx-theme myst-parser sphinx-gallery ford
 	touch $(DEPS)
 

@@ -27,6 +27,7 @@ RANK = {
     "frequency": 5,
     "design": 5,
     "online": 5,
+    "export": 5,
     "discrepancy": 6,
     "report": 7,
     "cli": 8,

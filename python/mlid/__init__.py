@@ -8,9 +8,10 @@ and those below it only (tests/test_layers.py checks it):
     cli          decks, campaigns, the ``mlid`` command
     report       plots, the HTML report, reference fits, validation
     discrepancy  what the model is missing (diagnose and its tools)
-    design, frequency
+    design, frequency, online, export
                  input design, simulation, Monte Carlo; frequency responses,
-                 Fourier transforms (siblings: neither imports the other)
+                 Fourier transforms; online estimation; export to a simulator
+                 (siblings: none imports another)
     estimate     options, evaluate, fit, its result and results table
     model, data  model objects and manoeuvres; flight records
     _bridge      the only module that imports the extension mlid._core
@@ -48,6 +49,7 @@ from .design.monte_carlo import monte_carlo
 from .design.parallel import monte_carlo_parallel
 from .design.input_design import InputDesign, DesignedInput
 from . import online
+from . import export
 from .discrepancy.reduction import reduce_measured_state, reduced_data, recover_disturbance
 from .discrepancy.model_checks import fpe, compare_models, predict
 from .discrepancy.diagnose import diagnose
