@@ -200,3 +200,27 @@ def test_conditions_from_deck_cases_and_renamed_variables():
     plain = mlid.fit_tables(res, tc.tables(), CONDS)
     np.testing.assert_array_equal(fit.values, plain.values)
     assert "Consistency of each manoeuvre" in fit.text() and repr(fit).startswith("<TableFit")
+
+
+def test_the_figure_draws_each_table_with_its_estimates(tmp_path):
+    """A panel a table: M_alpha's three Mach curves (the Mach numbers
+    flown), 15 local estimates each panel, the disagreeing manoeuvre ringed,
+    M_q's unreached breakpoint dashed; written whole."""
+    from mlid.report.plots import close, use_file_backend
+    from mlid.report.table_fit_plots import table_fit_figure
+    use_file_backend()
+    res = tc.campaign(CONDS, 0, {7: "bias"})
+    fit = mlid.fit_tables(res, tc.tables(extra_q_breakpoint=0.3), CONDS)
+    fig = table_fit_figure(fit, tmp_path / "tables.png", quantities=["M_alpha", "M_q"])
+    assert (tmp_path / "tables.png").stat().st_size > 10_000
+    ax_a, ax_q = fig.axes[:2]
+    labels_a = ax_a.get_legend_handles_labels()[1]
+    assert [x for x in labels_a if x.startswith("table Mach")] == [
+        "table Mach = 0.3", "table Mach = 0.5", "table Mach = 0.7"]
+    assert "disagrees (χ² test)" in labels_a
+    points = sum(len(c[0].get_xdata()) for c in ax_a.containers)      # the error bars
+    assert points == 15
+    assert "alpha = 0.3: reached by no manoeuvre" in ax_q.get_legend_handles_labels()[1]
+    close(fig)
+    with pytest.raises(mlid.InputError, match="no table 'X'"):
+        table_fit_figure(fit, quantities=["X"])
