@@ -224,3 +224,36 @@ def test_the_figure_draws_each_table_with_its_estimates(tmp_path):
     close(fig)
     with pytest.raises(mlid.InputError, match="no table 'X'"):
         table_fit_figure(fit, quantities=["X"])
+
+
+DECK_CASE = """&case title = 'short period at alpha {alpha}', job = 'estimate',
+    alpha_trim = {alpha}, mach = {mach} /
+&model kind = 'linear', nx = 2, nu = 1, ny = 2,
+    f = -1.2, 1.0, -2.0, -1.0, g = -0.1, -6.0, h = 1, 0, 0, 1, bias = {alpha}, 0,
+    free = 'f(1,1)', 'f(2,1)', 'f(2,2)', 'g(1,1)', 'g(2,1)', 'bias(1)', 'bias(2)',
+    names = 'Z_alpha', 'M_alpha', 'M_q', 'Z_de', 'M_de', 'b_alpha', 'b_q',
+    state_names = 'alpha', 'q', input_names = 'de', output_names = 'alpha', 'q' /
+&data file = 'm{k}.dat', time_col = 1, input_cols = 2, output_cols = 3, 4 /
+"""
+
+
+def test_a_campaign_of_deck_cases(tmp_path):
+    """The campaign route: one deck a manoeuvre, its &case alpha_trim and
+    mach the condition; the cases run by the core's runner (mlid run's),
+    their FitResults and cases into fit_tables: the same tables as the
+    Python fits of the same records."""
+    from mlid.cli.deck import iter_deck
+    conds = tc.grid(5, [0.3, 0.7])
+    for k, c in enumerate(conds):
+        d = tc.record(c, k)
+        np.savetxt(tmp_path / f"m{k}.dat", np.column_stack([d.t, d.u, d.y]))
+        (tmp_path / f"m{k}.nml").write_text(DECK_CASE.format(alpha=c["alpha"], mach=c["Mach"],
+                                                             k=k))
+    runs = [next(iter(iter_deck(tmp_path / f"m{k}.nml"))) for k in range(len(conds))]
+    assert all(err is None and res.converged for _, _, res, err in runs)
+    fit = mlid.fit_tables([res for _, _, res, _ in runs], tc.tables(),
+                          [case for case, _, _, _ in runs],
+                          variables={"alpha": "alpha_trim", "Mach": "mach"})
+    py = mlid.fit_tables([tc.local_fit(c, k) for k, c in enumerate(conds)], tc.tables(), conds)
+    np.testing.assert_allclose(fit.values, py.values, rtol=1e-6)
+    assert fit.disagree == [] and not fit.unreached
