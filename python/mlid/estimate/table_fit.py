@@ -170,6 +170,27 @@ class TableFit:
     """Tables fitted to a campaign's local estimates, and each manoeuvre's
     consistency with them (made by :func:`mlid.fit_tables`).
 
+    Parameters
+    ----------
+    tables : dict
+        {quantity: Table}.
+    variables : list of str
+        The tables' variables, the rows of conditions.
+    conditions : ndarray (nvar, nman)
+        Each manoeuvre's values of them (NaN: none).
+    labels : list of str
+        The manoeuvres.
+    entries : list of (str, str)
+        Each local estimate's manoeuvre and quantity.
+    theta : ndarray (K,)
+        The local estimates.
+    cov : ndarray (K, K)
+        Their covariance (block-diagonal: manoeuvre by manoeuvre).
+    level : float
+        The tests' level.
+    out : dict
+        The core's results by name (mlid_table_fit).
+
     Attributes
     ----------
     tables : dict
@@ -235,8 +256,23 @@ class TableFit:
         self.p_total, self.limit_total = float(out["p_total"]), float(out["limit_total"])
 
     def table(self, quantity):
-        """A table's values in its breakpoints' shape (values[i, j] at
-        (b1[i], b2[j])), NaN where not reached."""
+        """A table's values in its breakpoints' shape.
+
+        Parameters
+        ----------
+        quantity : str
+            The table's name (its quantity).
+
+        Returns
+        -------
+        ndarray
+            values[i, j] at (b1[i], b2[j]), NaN where not reached.
+
+        Raises
+        ------
+        InputError
+            No table of that name.
+        """
         if quantity not in self.tables:
             raise InputError(f"no table {quantity!r} (tables: {', '.join(self.tables)})")
         names = self.tables[quantity].value_names(quantity)
@@ -244,9 +280,26 @@ class TableFit:
                                                                   order="F")
 
     def curve(self, quantity, points):
-        """The fitted table and its sigma at points (npts, ndim) of its
-        variables: w'v and sqrt(w' Cov(v) w), w the weights there (the
-        core's lookup); NaN where an unreached value has weight."""
+        """The fitted table and its sigma anywhere.
+
+        Parameters
+        ----------
+        quantity : str
+            The table's name.
+        points : array_like (npts, ndim)
+            Points of its variables, in the Table's order.
+
+        Returns
+        -------
+        value, sigma : ndarray (npts,)
+            w'v and sqrt(w' Cov(v) w), w the interpolation weights there
+            (the core's lookup); NaN where an unreached value has weight.
+
+        Raises
+        ------
+        InputError
+            No table of that name, or points that are not finite.
+        """
         if quantity not in self.tables:
             raise InputError(f"no table {quantity!r} (tables: {', '.join(self.tables)})")
         tab = self.tables[quantity]
@@ -268,8 +321,13 @@ class TableFit:
         return value, np.sqrt(np.clip(var, 0, None))
 
     def consistency(self):
-        """The consistency tests as a pandas DataFrame: a row a manoeuvre
-        (chi2, dof, limit, p_value, disagrees)."""
+        """The consistency tests as a table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            A row a manoeuvre: chi2, dof, limit, p_value, disagrees.
+        """
         pd = pandas_for("TableFit.consistency")
         return pd.DataFrame({"chi2": self.chi2, "dof": self.dof, "limit": self.limit,
                              "p_value": self.p_value,
@@ -277,8 +335,14 @@ class TableFit:
                             index=pd.Index(self.labels, name="manoeuvre"))
 
     def text(self):
-        """The summary: each value with its sigma and where it acts, the
-        values no manoeuvre reaches, each manoeuvre's test and the total."""
+        """The summary as text.
+
+        Returns
+        -------
+        str
+            Each value with its sigma and where it acts (or that no
+            manoeuvre reaches it), each manoeuvre's test and the total.
+        """
         n = len(self.names)
         out = [f"Two-step table fit: {len(self.labels)} manoeuvres, {len(self.theta)} local "
                f"estimates, {len(self.tables)} table(s), {n} values ({int(self.reached.sum())} "

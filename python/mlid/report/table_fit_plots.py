@@ -49,6 +49,11 @@ def table_fit_figure(fit, path=None, quantities=None):
     Returns
     -------
     matplotlib.figure.Figure
+
+    Raises
+    ------
+    InputError
+        fit is no TableFit, or a quantity no table of it.
     """
     import matplotlib.pyplot as plt
     if not isinstance(fit, TableFit):
