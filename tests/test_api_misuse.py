@@ -229,7 +229,45 @@ MISUSE = {
     "stepwise candidates two-line name": (
         lambda d: mlid.stepwise_candidates({"a\nb": T}, ["a\nb"]),
         "a variable's name must be text of one line"),
+    # the two-step table fit (mlid.fit_tables)
+    "fit_tables results empty": (lambda d: mlid.fit_tables([], _TAB, []),
+                                 "results must be a list of FitResults, at least one"),
+    "fit_tables result not a fit": (lambda d: mlid.fit_tables(["fit"], _TAB, [{"a": 0}]),
+                                    r"results\[0\] must be a FitResult, got str"),
+    "fit_tables tables a list": (lambda d: mlid.fit_tables(_local(d), [_TAB["M_a"]], [{"a": 0}]),
+                                 r"tables must be a dict \{quantity name: Table\}"),
+    "fit_tables table not a Table": (lambda d: mlid.fit_tables(_local(d), {"M_a": [0, 1]}, [{"a": 0}]),
+                                     r"tables\['M_a'\] must be a mlid.model.tables.Table, got list"),
+    "fit_tables conditions count": (lambda d: mlid.fit_tables(_local(d), _TAB, [{"a": 0}] * 2),
+                                    "conditions: one for each of the 1 results, got 2"),
+    "fit_tables condition missing": (lambda d: mlid.fit_tables(_local(d), _TAB, [{"b": 0}]),
+                                     "manoeuvre 'manoeuvre 1' has no value of a .a variable of table M_a"),
+    "fit_tables condition NaN": (lambda d: mlid.fit_tables(_local(d), _TAB, [{"a": math.nan}]),
+                                 r"conditions\[0\]\['a'\] has a value that is not finite"),
+    "fit_tables condition a number": (lambda d: mlid.fit_tables(_local(d), _TAB, [0.1]),
+                                      r"conditions\[0\] must be a dict \{variable: value\} or a deck case"),
+    "fit_tables level 1.5": (lambda d: mlid.fit_tables(_local(d), _TAB, [{"a": 0}], level=1.5),
+                             "the level must be between 0 and 1"),
+    "fit_tables no tabled quantity": (lambda d: mlid.fit_tables(_local(d), {"M_q": _TAB["M_a"]}, [{"a": 0}]),
+                                      r"manoeuvre 'manoeuvre 1' estimates none of the tabled quantities \(M_q\)"),
+    "fit_tables quantity no name": (lambda d: mlid.fit_tables([mlid.fit(_model(), d)], {"f(2,1)": _TAB["M_a"]}, [{"a": 0}]),
+                                    r"tables: 'f\(2,1\)' is not a name a table can have"),
+    "fit_tables labels count": (lambda d: mlid.fit_tables(_local(d), _TAB, [{"a": 0}], labels=["x", "y"]),
+                                "labels: one for each of the 1 results, got 2"),
+    "fit_tables bad breakpoints": (lambda d: mlid.fit_tables(_local(d), {"M_a": mlid.model.tables.Table("a", [1, 0])}, [{"a": 0}]),
+                                   "breakpoints of a: the breakpoints must increase"),
+    "fit_tables curve of no table": (lambda d: mlid.fit_tables(_local(d), _TAB, [{"a": 0.0}]).curve("M_q", [[0.1]]),
+                                     r"no table 'M_q' \(tables: M_a\)"),
 }
+
+
+def _local(d):
+    """A one-manoeuvre campaign: the local fit of _model() to d."""
+    m = _model()
+    return [mlid.fit(mlid.LinearModel(m.F, m.G, m.H, free=m.free, names={"f(2,1)": "M_a"}), d)]
+
+
+_TAB = {"M_a": mlid.model.tables.Table("a", [0.0, 1.0])}
 
 
 @pytest.fixture(scope="module")

@@ -78,7 +78,8 @@ api = types.SimpleNamespace(**{name: _wrapped(name, getattr(module, name))
                                               _core.mlid_api_models,
                                               _core.mlid_api_fit, _core.mlid_api_frequency,
                                               _core.mlid_api_design, _core.mlid_api_online,
-                                              _core.mlid_api_regression)
+                                              _core.mlid_api_regression,
+                                              _core.mlid_api_table_fit)
                                for name in dir(module) if name.startswith("mlid_")})
 
 

@@ -1,0 +1,373 @@
+"""The two-step route from a campaign's local fits to tables over the flight
+envelope (issue 46): each manoeuvre fitted on its own first (``mlid.fit``,
+or the cases of ``mlid run --campaign``), then the tables' values fitted to
+the local estimates with their full covariances, and each manoeuvre's
+estimates tested against the tables.  The numbers are the core's
+(fortran/estimation/fit/mlid_table_fit.f90); the interpolation is the
+tables' own (mlid_tables), the one a model with tables flies.
+
+The fit minimises sum_i (theta_i - A_i v)' C_i^-1 (theta_i - A_i v) over
+the table values v: theta_i the estimates of manoeuvre i of the quantities
+the tables model, C_i their covariance (the local fit's block), A_i the
+interpolation weights at the manoeuvre's flight condition.  Each
+manoeuvre's test is chi2_i = r_i' S_i^+ r_i, r_i = theta_i - A_i v the
+residual and S_i = C_i - A_i Cov(v) A_i' its covariance, against the
+chi-square of rank(S_i) degrees of freedom (docs/guide/estimator.md,
+"Tables from local fits").
+"""
+
+import re
+
+import numpy as np
+
+from .._bridge import api as _api, call_handle as _call_handle, lines as _lines, \
+    put as _put, run as _run
+from ..checks import pandas_for, real_array
+from ..errors import InputError, guarded, guarded_class
+from ..model.tables import Table
+from .named import NamedArray
+
+#: The default level of the consistency tests: the probability of naming a
+#: manoeuvre that agrees with the tables.
+LEVEL = 0.01
+
+
+def _one_line(name, what):
+    name = str(name)
+    if not name or "\n" in name:
+        raise InputError(f"{what} must be text of one line, got {name!r}")
+    return name
+
+
+def _tables_text(tables):
+    """{quantity: Table} as the core's lines 'NAME(v1, v2) = b b; b b'."""
+    if not isinstance(tables, dict) or not tables:
+        raise InputError("tables must be a dict {quantity name: Table}, at least one, got "
+                         f"{type(tables).__name__}")
+    for name, tab in tables.items():
+        if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_]\w*", name):
+            raise InputError(f"tables: {name!r} is not a name a table can have: name the "
+                             "parameter in the local model (names={'f(2,1)': 'M_alpha'})")
+        if not isinstance(tab, Table):
+            raise InputError(f"tables[{name!r}] must be a mlid.model.tables.Table, got "
+                             f"{type(tab).__name__}")
+    return "".join(tab.line(name)[2:] + "\n" for name, tab in tables.items())
+
+
+def _condition_of(item, k):
+    """A manoeuvre's condition: a mapping, or an object with ``condition``
+    (a deck's Case)."""
+    cond = getattr(item, "condition", item)
+    if not hasattr(cond, "items"):
+        raise InputError(f"conditions[{k}] must be a dict {{variable: value}} or a deck case, "
+                         f"got {type(item).__name__}")
+    return cond
+
+
+def _conditions(conditions, n, variables, tables):
+    """The (nvar, nman) array of the tables' variables at each manoeuvre
+    (NaN where it has none) and the variables' names."""
+    names = list(dict.fromkeys(v for tab in tables.values() for v in tab.variables))
+    rename = dict(variables or {})
+    if len(conditions) != n:
+        raise InputError(f"conditions: one for each of the {n} results, got {len(conditions)}")
+    out = np.full((len(names), n), np.nan)
+    for k, item in enumerate(conditions):
+        cond = _condition_of(item, k)
+        for j, v in enumerate(names):
+            x = cond.get(rename.get(v, v))
+            if x is not None:
+                out[j, k] = real_array(f"conditions[{k}][{rename.get(v, v)!r}]", x,
+                                       finite=True).item()
+    return names, out
+
+
+@guarded
+def fit_tables(results, tables, conditions, labels=None, level=LEVEL, variables=None):
+    """Tables fitted to local estimates with their covariances (the
+    two-step route), and the chi-square test of each manoeuvre.
+
+    Parameters
+    ----------
+    results : sequence of FitResult
+        The local fits, one a manoeuvre; each must estimate (have free) at
+        least one of the tabled quantities.  Their ``covariance`` blocks
+        weight the estimates; manoeuvres are independent.
+    tables : dict
+        {quantity: Table}: the quantity, a free parameter's name in the
+        results (a derivative such as ``'M_alpha'``), is the table over the
+        flight-condition variables; its values are named ``'M_alpha[i]'``.
+        The Table's values are not used (only its breakpoints).
+    conditions : sequence
+        Each manoeuvre's flight condition: a dict {variable: value}, or a
+        deck case (its ``condition``, from &case mach, altitude, alpha_trim).
+    labels : sequence of str, optional
+        The manoeuvres' names (default 'manoeuvre 1', ...).
+    level : float
+        The tests' level: the probability of naming a manoeuvre that
+        agrees (0.01).
+    variables : dict, optional
+        {table variable: condition name} where they differ, e.g.
+        ``{'alpha': 'alpha_trim', 'Mach': 'mach'}``.
+
+    Returns
+    -------
+    TableFit
+
+    Raises
+    ------
+    InputError
+        A result that is no fit or failed, or estimates none of the
+        quantities; a condition missing; a table the core refuses.
+    SingularInformationError
+        Values reached only in a fixed combination (named), or a
+        covariance that is not positive definite.
+    """
+    if isinstance(results, (str, bytes)) or not hasattr(results, "__len__") or not results:
+        raise InputError("results must be a list of FitResults, at least one")
+    results = list(results)
+    labels = [f"manoeuvre {k + 1}" for k in range(len(results))] if labels is None \
+        else [_one_line(x, "a manoeuvre's label") for x in labels]
+    if len(labels) != len(results):
+        raise InputError(f"labels: one for each of the {len(results)} results, got {len(labels)}")
+    text = _tables_text(tables)
+    level = real_array("level", level, finite=True).item()
+    names, cond = _conditions(list(conditions), len(results), variables, tables)
+    quantities = list(tables)
+    etab, eman, theta, blocks, where = [], [], [], [], []
+    for k, (res, lab) in enumerate(zip(results, labels)):
+        if not all(hasattr(res, a) for a in ("names", "estimate", "covariance")):
+            raise InputError(f"results[{k}] must be a FitResult, got {type(res).__name__}")
+        if getattr(res, "failed", False):
+            raise InputError(f"manoeuvre {lab!r}: its fit failed; leave it out")
+        idx = [(t, list(res.names).index(q)) for t, q in enumerate(quantities)
+               if q in res.names]
+        if not idx:
+            raise InputError(f"manoeuvre {lab!r} estimates none of the tabled quantities "
+                             f"({', '.join(quantities)})")
+        j = [i for _, i in idx]
+        etab += [t + 1 for t, _ in idx]
+        eman += [k + 1] * len(idx)
+        theta += list(np.asarray(res.estimate, dtype=float)[j])
+        blocks.append(np.asarray(res.covariance, dtype=float)[np.ix_(j, j)])
+        where += [(lab, quantities[t]) for t, _ in idx]
+    cov = np.zeros((len(theta), len(theta)))
+    at = 0
+    for b in blocks:
+        cov[at:at + len(b), at:at + len(b)] = b
+        at += len(b)
+    h = _call_handle()
+    _put(h, tables=text, variables="".join(n + "\n" for n in names), conditions=cond,
+         labels="".join(x + "\n" for x in labels), entry_table=np.array(etab, dtype=np.int32),
+         entry_manoeuvre=np.array(eman, dtype=np.int32), theta=np.array(theta),
+         covariance=cov, level=float(level))
+    out = _run(h, _api.mlid_table_fit)
+    return TableFit(dict(tables), names, cond, labels, where, np.array(theta), cov, level, out)
+
+
+@guarded_class
+class TableFit:
+    """Tables fitted to a campaign's local estimates, and each manoeuvre's
+    consistency with them (made by :func:`mlid.fit_tables`).
+
+    Parameters
+    ----------
+    tables : dict
+        {quantity: Table}.
+    variables : list of str
+        The tables' variables, the rows of conditions.
+    conditions : ndarray (nvar, nman)
+        Each manoeuvre's values of them (NaN: none).
+    labels : list of str
+        The manoeuvres.
+    entries : list of (str, str)
+        Each local estimate's manoeuvre and quantity.
+    theta : ndarray (K,)
+        The local estimates.
+    cov : ndarray (K, K)
+        Their covariance (block-diagonal: manoeuvre by manoeuvre).
+    level : float
+        The tests' level.
+    out : dict
+        The core's results by name (mlid_table_fit).
+
+    Attributes
+    ----------
+    tables : dict
+        {quantity: Table} as given (their breakpoints).
+    names, cells : list of str
+        Each value's name ('M_alpha[3]') and where it is weighted
+        ('M_alpha[3] (alpha = 0.1; weighted where 0.05 < alpha < 0.15)').
+    values, sigma : NamedArray (nv,)
+        The values and their standard deviations; NaN for a value no
+        manoeuvre reaches.
+    covariance : NamedArray (nv, nv)
+        Cov(v) = (A' C^-1 A)^-1 over the reached values (NaN elsewhere).
+    unreached : list of str
+        Each value no manoeuvre reaches (all its weights zero), said as
+        '... is reached by no manoeuvre: not identifiable'.
+    labels : list of str
+        The manoeuvres.
+    entries : list of (str, str)
+        Each local estimate's manoeuvre and quantity, in the order of
+        ``theta``, ``local_sigma`` and ``residuals``.
+    theta, local_sigma, residuals : ndarray (K,)
+        The local estimates, their sigma, and theta - A v.
+    chi2, p_value, limit : ndarray (nman,)
+        Each manoeuvre's chi-square, its p-value and the limit at the level.
+    dof : ndarray of int (nman,)
+        Its degrees of freedom: its estimates less the directions it alone
+        decides (a value only it reaches).
+    disagree : list of str
+        The manoeuvres whose chi-square passes the limit, the least likely
+        first.  A grossly wrong manoeuvre pulls the tables toward itself and
+        its neighbours' residuals with them: the first is the one to look
+        at; fit again without it and test the rest.
+    chi2_total, dof_total, p_total, limit_total
+        The campaign's r' C^-1 r on K - (values reached) degrees of freedom.
+    level : float
+    """
+
+    def __init__(self, tables, variables, conditions, labels, entries, theta, cov, level,
+                 out):
+        self.tables, self.variables = tables, list(variables)
+        self.conditions = conditions
+        self.labels, self.entries, self.level = list(labels), list(entries), float(level)
+        self.theta, self.local_sigma = theta, np.sqrt(np.diag(cov))
+        self.names = _lines(out["names"])
+        self.cells = out["cells"].decode("utf-8", "surrogateescape").split("\n")[:len(self.names)]
+        self.values = NamedArray(np.asarray(out["values"], dtype=float), self.names)
+        self.sigma = NamedArray(np.asarray(out["sigma"], dtype=float), self.names)
+        self.covariance = NamedArray(np.asarray(out["covariance"], dtype=float).reshape(
+            len(self.names), len(self.names)), self.names)
+        self.reached = np.asarray(out["reached"]).astype(bool)
+        self.unreached = [f"{c} is reached by no manoeuvre: not identifiable"
+                          for c, r in zip(self.cells, self.reached) if not r]
+        self.weights = np.asarray(out["weights"], dtype=float).reshape(len(theta), -1)
+        self.residuals = np.atleast_1d(np.asarray(out["residuals"], dtype=float))
+        self.chi2 = np.atleast_1d(np.asarray(out["chi2"], dtype=float))
+        self.dof = np.atleast_1d(np.asarray(out["dof"])).astype(int)
+        self.p_value = np.atleast_1d(np.asarray(out["p_value"], dtype=float))
+        self.limit = np.atleast_1d(np.asarray(out["limit"], dtype=float))
+        order = np.lexsort((-self.chi2, self.p_value))          # the worst first
+        flags = np.atleast_1d(out["disagree"])
+        self.disagree = [self.labels[k] for k in order if flags[k]]
+        self.chi2_total, self.dof_total = float(out["chi2_total"]), int(out["dof_total"])
+        self.p_total, self.limit_total = float(out["p_total"]), float(out["limit_total"])
+
+    def table(self, quantity):
+        """A table's values in its breakpoints' shape.
+
+        Parameters
+        ----------
+        quantity : str
+            The table's name (its quantity).
+
+        Returns
+        -------
+        ndarray
+            values[i, j] at (b1[i], b2[j]), NaN where not reached.
+
+        Raises
+        ------
+        InputError
+            No table of that name.
+        """
+        if quantity not in self.tables:
+            raise InputError(f"no table {quantity!r} (tables: {', '.join(self.tables)})")
+        names = self.tables[quantity].value_names(quantity)
+        return np.array([self.values[n] for n in names]).reshape(self.tables[quantity].shape,
+                                                                  order="F")
+
+    def curve(self, quantity, points):
+        """The fitted table and its sigma anywhere.
+
+        Parameters
+        ----------
+        quantity : str
+            The table's name.
+        points : array_like (npts, ndim)
+            Points of its variables, in the Table's order.
+
+        Returns
+        -------
+        value, sigma : ndarray (npts,)
+            w'v and sqrt(w' Cov(v) w), w the interpolation weights there
+            (the core's lookup); NaN where an unreached value has weight.
+
+        Raises
+        ------
+        InputError
+            No table of that name, or points that are not finite.
+        """
+        if quantity not in self.tables:
+            raise InputError(f"no table {quantity!r} (tables: {', '.join(self.tables)})")
+        tab = self.tables[quantity]
+        pts = real_array("points", points, finite=True).reshape(-1, len(tab.variables))
+        h = _call_handle()
+        _put(h, tables=_tables_text({quantity: tab}),
+             variables="".join(v + "\n" for v in tab.variables), conditions=pts.T.copy(),
+             labels="".join(f"point {k + 1}\n" for k in range(len(pts))),
+             entry_table=np.ones(len(pts), dtype=np.int32),
+             entry_manoeuvre=np.arange(1, len(pts) + 1, dtype=np.int32))
+        w = np.asarray(_run(h, _api.mlid_table_weights)["weights"]).reshape(len(pts), -1)
+        idx = [self.names.index(n) for n in tab.value_names(quantity)]
+        v, c = np.asarray(self.values)[idx], np.asarray(self.covariance)[np.ix_(idx, idx)]
+        used = w != 0
+        value = np.array([wk[u] @ v[u] if np.all(np.isfinite(v[u])) else np.nan
+                          for wk, u in zip(w, used)])
+        var = np.array([wk[u] @ c[np.ix_(u, u)] @ wk[u] if np.all(np.isfinite(v[u])) else np.nan
+                        for wk, u in zip(w, used)])
+        return value, np.sqrt(np.clip(var, 0, None))
+
+    def consistency(self):
+        """The consistency tests as a table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            A row a manoeuvre: chi2, dof, limit, p_value, disagrees.
+        """
+        pd = pandas_for("TableFit.consistency")
+        return pd.DataFrame({"chi2": self.chi2, "dof": self.dof, "limit": self.limit,
+                             "p_value": self.p_value,
+                             "disagrees": [lab in self.disagree for lab in self.labels]},
+                            index=pd.Index(self.labels, name="manoeuvre"))
+
+    def text(self):
+        """The summary as text.
+
+        Returns
+        -------
+        str
+            Each value with its sigma and where it acts (or that no
+            manoeuvre reaches it), each manoeuvre's test and the total.
+        """
+        n = len(self.names)
+        out = [f"Two-step table fit: {len(self.labels)} manoeuvres, {len(self.theta)} local "
+               f"estimates, {len(self.tables)} table(s), {n} values ({int(self.reached.sum())} "
+               "reached)", "", "Table values (estimate +- sigma):"]
+        width = max(len(c) for c in self.cells)
+        for c, v, s, r in zip(self.cells, self.values, self.sigma, self.reached):
+            out.append(f"  {c:<{width}}  " + (f"{v:12.5g} +- {s:.3g}" if r else
+                                              "not identifiable: reached by no manoeuvre"))
+        out += ["", f"Consistency of each manoeuvre with the tables (chi-square, level "
+                f"{self.level:g}):"]
+        lw = max(9, max(len(x) for x in self.labels))
+        out.append(f"  {'manoeuvre':<{lw}} {'chi2':>10} {'dof':>4} {'limit':>8} {'p-value':>10}")
+        for lab, c, d, lim, p in zip(self.labels, self.chi2, self.dof, self.limit,
+                                     self.p_value):
+            note = "  disagrees" if lab in self.disagree else (
+                "  (decides its values alone: nothing to test)" if d == 0 else "")
+            out.append(f"  {lab:<{lw}} {c:10.4g} {d:4d} {lim:8.4g} {p:10.3g}{note}")
+        verdict = "consistent" if self.p_total >= self.level else "inconsistent"
+        if self.dof_total == 0:
+            verdict = "nothing to test (as many values as estimates)"
+        out += ["", f"Total: chi2 = {self.chi2_total:.4g} on {self.dof_total} degrees of "
+                f"freedom (limit {self.limit_total:.4g}, p = {self.p_total:.3g}): {verdict}",
+                "Manoeuvres that disagree: " + (", ".join(self.disagree) or "none")]
+        return "\n".join(out) + "\n"
+
+    def __repr__(self):
+        return (f"<TableFit: {len(self.tables)} table(s), {len(self.names)} values, "
+                f"{len(self.labels)} manoeuvres, {len(self.disagree)} disagree>")

@@ -1,0 +1,109 @@
+"""A synthetic campaign with hidden tables, for the two-step table fit
+(tests/test_table_fit.py, benchmarks/bench_table_fit.py).
+
+Each manoeuvre is a short-period record (states alpha, q; elevator 3-2-1-1;
+alpha and q measured, with the trim alpha as the alpha vane's offset) at its
+own flight condition (alpha_trim, Mach).  The truth's M_alpha is a table
+over (alpha, Mach) and M_q one over alpha, both nonlinear in alpha: the
+local model is linear with constant derivatives, fitted per manoeuvre with
+its output biases free.  A faulty manoeuvre is fitted with the vane's
+offset held at the deck's alpha_trim while the vane reads 0.01 rad more
+(a wrong sensor bias), or flies with a M_alpha 30 % off the table (a wrong
+derivative: a configuration the deck does not say).
+"""
+
+import numpy as np
+
+import mlid
+from mlid.design.signals import input_signal
+from mlid.model.tables import Table
+
+NAMES = {"f(1,1)": "Z_alpha", "f(2,1)": "M_alpha", "f(2,2)": "M_q", "g(1,1)": "Z_de",
+         "g(2,1)": "M_de"}
+FREE = list(NAMES) + ["bias(1)", "bias(2)"]
+Z_ALPHA, Z_DE, M_DE = -1.2, -0.1, -6.0
+
+BA = [0.0, 0.06, 0.12, 0.18]              # alpha [rad]
+BM = [0.3, 0.7]                           # Mach
+SHAPE_A = np.array([-4.0, -3.0, -1.6, -1.1])
+MA_TRUTH = np.outer(SHAPE_A, [1.0, 1.32])            # M_alpha[i, j] at (BA[i], BM[j]) [1/s^2]
+BQ = [0.0, 0.09, 0.18]
+MQ_TRUTH = np.array([-1.2, -1.8, -1.5])              # M_q [1/s]
+VANE_BIAS = 0.03                                     # rad: the faulty manoeuvre's
+DERIVATIVE_ERROR = 1.1                               # the faulty M_alpha's factor
+
+DT, NT = 0.02, 500
+NOISE = [0.002, 0.004]                               # alpha [rad], q [rad/s]
+
+
+def tables(extra_q_breakpoint=None):
+    """The tables to fit (their breakpoints; the values are the fit's):
+    M_alpha and M_q as the truth's, the constant derivatives as straight
+    lines in alpha (a test of their constancy)."""
+    bq = BQ + ([extra_q_breakpoint] if extra_q_breakpoint is not None else [])
+    lines = {n: Table("alpha", [BA[0], BA[-1]]) for n in ("Z_alpha", "Z_de", "M_de")}
+    return {"M_alpha": Table(["alpha", "Mach"], [BA, BM]), "M_q": Table("alpha", bq), **lines}
+
+
+def lookup(bps, values, point):
+    """Multilinear interpolation on the breakpoints (the reference)."""
+    out = np.asarray(values, dtype=float)
+    for b, v in zip(bps, point):
+        i = min(np.searchsorted(b, v, side="right") - 1, len(b) - 2)
+        f = (v - b[i]) / (b[i + 1] - b[i])
+        w = np.zeros(len(b))
+        w[i], w[i + 1] = 1 - f, f
+        out = np.tensordot(w, out, axes=(0, 0))
+    return float(out)
+
+
+def truth_at(alpha, mach):
+    """The true (M_alpha, M_q) at a condition."""
+    return lookup([BA, BM], MA_TRUTH, [alpha, mach]), lookup([BQ], MQ_TRUTH, [alpha])
+
+
+def grid(n_alpha, machs):
+    """Conditions {alpha, Mach}: n_alpha values over [0, 0.18] at each Mach."""
+    return [{"alpha": float(a), "Mach": float(m)} for m in machs
+            for a in np.linspace(BA[0], BA[-1], n_alpha)]
+
+
+def model(m_alpha, m_q, alpha_trim, free=FREE):
+    F = [[Z_ALPHA, 1.0], [m_alpha, m_q]]
+    return mlid.LinearModel(F, [[Z_DE], [M_DE]], np.eye(2), bias=[alpha_trim, 0.0],
+                            free=list(free), names=NAMES)
+
+
+def record(cond, seed, fault=None):
+    """A manoeuvre's record at cond (fault 'derivative': its M_alpha off)."""
+    ma, mq = truth_at(cond["alpha"], cond["Mach"])
+    if fault == "derivative":
+        ma *= DERIVATIVE_ERROR
+    vane = cond["alpha"] + (VANE_BIAS if fault == "bias" else 0.0)
+    t = np.arange(NT) * DT
+    u = input_signal("3211", 0.02, 0.4, 1.0, DT, NT)[:, None]
+    return mlid.simulate(model(ma, mq, vane), t, u, noise_std=NOISE, seed=seed)[0]
+
+
+def local_fit(cond, seed, fault=None):
+    """The manoeuvre's own fit from a start off the truth; with fault
+    'bias' the vane's offset is held at the deck's alpha_trim."""
+    d = record(cond, seed, fault)
+    free = [f for f in FREE if f != "bias(1)"] if fault == "bias" else FREE
+    return mlid.fit(model(-2.0, -1.0, cond["alpha"], free), d)
+
+
+def campaign(conds, seed, faults=None):
+    """The local fits of a campaign (manoeuvre k's record from seed
+    1000 seed + k); faults {k: 'bias' or 'derivative'}."""
+    faults = faults or {}
+    return [local_fit(c, 1000 * seed + k, faults.get(k)) for k, c in enumerate(conds)]
+
+
+def true_values(tabs):
+    """The true table values in the fit's order (NaN where the truth has
+    none: a breakpoint outside the truth's)."""
+    out = list(MA_TRUTH.ravel(order="F"))
+    bq = tabs["M_q"].breakpoints[0]
+    out += [lookup([BQ], MQ_TRUTH, [b]) if b <= BQ[-1] else np.nan for b in bq]
+    return np.array(out + [Z_ALPHA] * 2 + [Z_DE] * 2 + [M_DE] * 2)
