@@ -258,8 +258,13 @@ def test_tc23_rls_deck_reproduces_the_textbook(tmp_path):
     ("forgetting = 1.0,", "forgetting = 1.0, p_max = -1,",
      "group &online: p_max (the bound on trace(P)/n) must be >= 0"),
     ("forgetting = 1.0,", "forgetting = 1.5,", "forgetting (lambda) must be in (0, 1]"),
-    ("forgetting = 1.0,", "forgetting = 1.0, q = 1e-6,", "group &online: q is for the filters"),
-    ("forgetting = 1.0,", "every = 10,", "f_min, f_max, n_freq and every are for 'ftr', not 'rls'"),
+    ("forgetting = 1.0,", "forgetting = 1.0, q = 1e-6,",
+     "group &online: 'rls' does not take q (it takes p0 p_max forgetting)"),
+    ("forgetting = 1.0,", "every = 10,", "'rls' does not take every (it takes p0 p_max forgetting)"),
+    ("forgetting = 1.0,", "forgetting = 1.0, delta = 1e-4, r_fade = 0.9,",
+     "'rls' does not take delta (it takes p0 p_max forgetting)"),
+    ("forgetting = 1.0,", "forgetting = 1.0, trim = 5,", "'rls' does not take trim"),
+    ("forgetting = 1.0,", "forgetting = 1.0, tie = 'CDal = 2*CLal',", None),
     ("'Cm0 + Cmal*al + Cmq*qn", "'Cm0 + Cmal*al*Cmal + Cmq*qn",
      "'rls' regresses outputs linear in the free parameters; output Cm is not (sample 1)"),
     ("'CY0 + CYbe*be'", "'CY0 + CYbe*be + Cm0*de'",
@@ -269,7 +274,11 @@ def test_tc23_rls_deck_reproduces_the_textbook(tmp_path):
 ])
 def test_bad_rls_settings_one_line(tmp_path, change, new, message):
     """Each bad setting of the rls deck: one line from both front ends, no
-    history written."""
+    history written.  A setting rls does not take is refused, not ignored;
+    a tie would leave its parameter at its start, so it is refused too."""
+    if message is None:                 # the tie goes in &model
+        change, new = "free = 'CD0', 'CDal',", "tie = 'CDal = 2*CLal', free = 'CD0',"
+        message = "'rls' does not follow ties (a tied parameter would stay at its start)"
     deck = _tc23_deck(tmp_path, change, new)
     refused_by_both(deck, message, cwd=tmp_path)
     assert not (tmp_path / "tc23_rls_history.dat").exists()
@@ -282,7 +291,8 @@ def test_rls_needs_a_model_of_no_states(tmp_path):
     refused_by_both(deck, "'rls' regresses the outputs of a model with no states (nx = 0, e.g. "
                     "kind = 'equations'), not nx = 2", cwd=tmp_path)
     deck.write_text(ONLINE.replace("n_freq = 28,", "n_freq = 28, p_max = 10,"))
-    refused_by_both(deck, "group &online: p_max is for estimator 'rls'", cwd=tmp_path)
+    refused_by_both(deck, "group &online: 'ftr' does not take p_max (it takes f_min f_max n_freq "
+                    "every trim first forgetting)", cwd=tmp_path)
 
 
 RLS_STATES = """&case title = 'equation error by rls', job = 'online' /

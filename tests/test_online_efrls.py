@@ -106,7 +106,7 @@ def test_tc11_efrls_deck_is_the_python_api_in_both_front_ends(tmp_path):
 @pytest.mark.parametrize("change, new, message", [
     ("forgetting = 0.998", "forgetting = 0.0", "forgetting (lambda) must be in (0, 1], 1 for none"),
     ("estimator = 'efrls', forgetting = 0.998", "estimator = 'ekf', forgetting = 0.998",
-     "forgetting is 'ftr''s, 'efrls''s and 'rls''s, not 'ekf''s"),
+     "'ekf' does not take forgetting (it takes p0 q delta r_fade)"),
 ])
 def test_bad_efrls_settings_get_one_line_from_both(tmp_path, change, new, message):
     refused_by_both(_deck(tmp_path, change, new), message, cwd=tmp_path)

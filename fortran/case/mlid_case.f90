@@ -17,7 +17,7 @@ module mlid_case
   implicit none
   private
   public :: case_t, stepwise_spec_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
-            CONDITION_NAMES, ONLINE_ESTIMATORS
+            CONDITION_NAMES, ONLINE_ESTIMATORS, ONLINE_TAKES
 
   integer, parameter :: NAMELEN = 32, PATHLEN = 512
   integer, parameter :: MAXSEG = 20     !< manoeuvres (data files) per case
@@ -31,6 +31,11 @@ module mlid_case
   !> free parameters
   character(len=16), parameter :: ONLINE_ESTIMATORS(6) = [character(len=16) :: 'ftr', 'ekf', &
                                                           'ukf', 'ukf_augmented', 'efrls', 'rls']
+  !> The &online settings each estimator takes (beside estimator, out and
+  !> timing), in ONLINE_ESTIMATORS' order: the deck refuses the others.
+  character(len=64), parameter :: ONLINE_TAKES(6) = [character(len=64) :: &
+    'f_min f_max n_freq every trim first forgetting', 'p0 q delta r_fade', 'p0 q r_fade', &
+    'p0 q r_fade', 'p0 q delta forgetting', 'p0 p_max forgetting']
 
   !> The numeric flight-condition items of &case, in order.
   !> A title's characters at the most (UTF-8: up to four bytes each).

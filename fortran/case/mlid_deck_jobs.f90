@@ -5,13 +5,16 @@
 !> (runs, seed, the input flown, the true values).
 submodule (mlid_deck) mlid_deck_jobs
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan, ieee_value, ieee_quiet_nan
-  use mlid_case, only: MAX_SAMPLES, ONLINE_ESTIMATORS
+  use mlid_case, only: MAX_SAMPLES, ONLINE_ESTIMATORS, ONLINE_TAKES
   use mlid_model_factory, only: MODEL_LINEAR
   use mlid_layout, only: layout_table_t, layout_of, element_name
   use mlid_design_unknowns, only: unknown_entries, unknown_blocks
   use mlid_params, only: free_indices
   use mlid_input_ranking, only: ranking_options_t, check_ranking_options
   implicit none
+
+  character(len=*), parameter :: FORGETTING_RANGE = &
+    'group &online: forgetting (lambda) must be in (0, 1], 1 for none'
 
   !> The methods of &design.
   character(len=10), parameter :: DESIGN_METHODS(4) = [character(len=10) :: 'operator', &
@@ -575,14 +578,47 @@ contains
     call take_list(rd, c, 'online', 'q', q, c%online_q, .false.)
     if (c%status /= MLID_OK) return
     c%out_file = out
-    if (c%online_estimator == 'rls') then
-      call check_online_rls(rd, c, free_idx)
-    else if (is_given(rd, 'online', 'p_max')) then
-      call fail(c, 'group &online: p_max is for estimator ''rls''')
-    end if
+    call refuse_untaken(rd, c)
+    if (c%status == MLID_OK .and. c%online_estimator == 'rls') call check_online_rls(rd, c, free_idx)
     if (c%status /= MLID_OK) return
     call check_online(c, free_idx)
   end procedure read_online_group
+
+  !> A setting of &online that the estimator does not take (ONLINE_TAKES)
+  !> fails the case: it would be ignored.  An unknown estimator is
+  !> check_online's to name.
+  subroutine refuse_untaken(rd, c)
+    type(reader_t), intent(in) :: rd
+    type(case_t), intent(inout) :: c
+    character(len=:), allocatable :: all, takes
+    integer :: e, i, j
+    e = findloc(ONLINE_ESTIMATORS, c%online_estimator, 1)
+    if (e == 0) return
+    all = ' '//trim(joined_words(ONLINE_TAKES))//' '
+    takes = ' '//trim(ONLINE_TAKES(e))//' '
+    i = 1
+    do while (i < len(all))
+      j = index(all(i + 1:), ' ') + i
+      if (j > i + 1) then
+        if (is_given(rd, 'online', all(i + 1:j - 1)) .and. index(takes, all(i:j)) == 0) then
+          call fail(c, 'group &online: '''//trim(c%online_estimator)//''' does not take '// &
+                    all(i + 1:j - 1)//' (it takes '//trim(ONLINE_TAKES(e))//')')
+          return
+        end if
+      end if
+      i = j
+    end do
+  contains
+    function joined_words(list) result(text)
+      character(len=*), intent(in) :: list(:)
+      character(len=:), allocatable :: text
+      integer :: k
+      text = ''
+      do k = 1, size(list)
+        text = text//' '//trim(list(k))
+      end do
+    end function joined_words
+  end subroutine refuse_untaken
 
   !> Recursive least squares (mlid_job_rls): a model of no states whose
   !> outputs take the free parameters (the model's own), one P0 for all
@@ -608,16 +644,14 @@ contains
                 'per output ('//itoa(c%ny)//'), got '//itoa(size(c%online_p0)))
     else if (.not. all(c%online_p0 > 0.0_wp .and. ieee_is_finite(c%online_p0))) then
       call fail(c, 'group &online: p0 must be > 0 and finite')
-    else if (size(c%online_q) > 0) then
-      call fail(c, 'group &online: q is for the filters, not ''rls''')
+    else if (tied(c)) then
+      call fail(c, 'group &online: ''rls'' does not follow ties (a tied parameter would stay '// &
+                'at its start): give the model without them')
     else if (.not. (c%online_pmax >= 0.0_wp .and. ieee_is_finite(c%online_pmax))) then
       call fail(c, 'group &online: p_max (the bound on trace(P)/n) must be >= 0 (0: none) '// &
                 'and finite')
     else if (.not. (c%online_lambda > 0.0_wp .and. c%online_lambda <= 1.0_wp)) then
-      call fail(c, 'group &online: forgetting (lambda) must be in (0, 1], 1 for none')
-    else if (is_given(rd, 'online', 'f_min') .or. is_given(rd, 'online', 'f_max') .or. &
-             is_given(rd, 'online', 'n_freq') .or. is_given(rd, 'online', 'every')) then
-      call fail(c, 'group &online: f_min, f_max, n_freq and every are for ''ftr'', not ''rls''')
+      call fail(c, FORGETTING_RANGE)
     end if
   end subroutine check_online_rls
 
@@ -652,7 +686,7 @@ contains
                 'frequencies')
       return
     else if (.not. (c%online_lambda > 0.0_wp .and. c%online_lambda <= 1.0_wp)) then
-      call fail(c, 'group &online: forgetting (lambda) must be in (0, 1], 1 for none')
+      call fail(c, FORGETTING_RANGE)
       return
     else if (c%online_every < 1 .or. c%online_trim < 0 .or. c%online_first < 1) then
       call fail(c, 'group &online: every (samples between solves) must be >= 1, trim >= 0 and '// &
@@ -696,22 +730,24 @@ contains
     else if (size(free_idx) == 0 .or. any(free_idx > lt%np)) then
       call fail(c, 'group &online: the filters estimate the model''s own parameters: free must '// &
                 'list some, and no x0, bias or noise entry')
-    else if (allocated(c%tie%to)) then
-      if (size(c%tie%to) > 0) call fail(c, 'group &online: the online filters do not follow '// &
-                                        'ties: give the model without them')
-    end if
-    if (c%status /= MLID_OK) return
-    if (size(c%online_p0) /= n .or. size(c%online_q) /= n) then
+    else if (tied(c)) then
+      call fail(c, 'group &online: the online filters do not follow ties: give the model '// &
+                'without them')
+    else if (size(c%online_p0) /= n .or. size(c%online_q) /= n) then
       call fail(c, 'group &online: p0 and q take one variance per state and free parameter ('// &
                 itoa(n)//', the states first)')
-    else if (c%online_estimator == 'efrls' .and. &
-             .not. (c%online_lambda > 0.0_wp .and. c%online_lambda <= 1.0_wp)) then
-      call fail(c, 'group &online: forgetting (lambda) must be in (0, 1], 1 for none')
-    else if (c%online_estimator /= 'efrls' .and. c%online_lambda /= 1.0_wp) then
-      call fail(c, 'group &online: forgetting is ''ftr''''s, ''efrls''''s and ''rls''''s, not '''// &
-                trim(c%online_estimator)//'''''s')
+    else if (.not. (c%online_lambda > 0.0_wp .and. c%online_lambda <= 1.0_wp)) then
+      call fail(c, FORGETTING_RANGE)
     end if
   end subroutine check_online_filter
+
+  !> Whether case c ties parameters (the online estimators estimate the
+  !> free ones alone).
+  pure logical function tied(c)
+    type(case_t), intent(in) :: c
+    tied = .false.
+    if (allocated(c%tie%to)) tied = size(c%tie%to) > 0
+  end function tied
 
   pure function identity(n) result(a)
     integer, intent(in) :: n

@@ -405,7 +405,7 @@ contains
 
   !> Cyclic Jacobi rotations of the symmetric b (and its basis v) while an
   !> off-diagonal entry exceeds tol (d_p + d_q) min(d_p, d_q), d =
-  !> sqrt(max(diag b, 0)) (and eps max|diag b|: rounding), tol = 0.1/n:
+  !> sqrt(max(diag b, 0)) (and eps max|diag b|: rounding), tol = 0.1/max(n, 10):
   !> then the first-order root's entries b_pq/(d_p + d_q) are below tol
   !> min(d_p, d_q), where sqrt_near_diagonal's iteration contracts by 2 n
   !> tol = 0.2 or less.  info = 1: no convergence in 40 sweeps.
@@ -444,7 +444,10 @@ contains
   end subroutine near_diagonal
 
   !> x = sqrt(B) for a symmetric B near its diagonal d^2 (d = sqrt(max(diag
-  !> B, 0))): x = D + Y with D Y + Y D = E - Y^2, E = B's off-diagonal part,
+  !> B, 0))): x = D + Y with D Y + Y D = E - Y^2, E = B's off-diagonal part
+  !> (an entry below rounding of the largest variance, eps max d^2, taken
+  !> as 0: near_diagonal leaves those unrotated, and between two variances
+  !> as small the iteration would not contract),
   !> solved entry by entry, Y_pq = (E - Y^2)_pq/(d_p + d_q), from the
   !> first-order root Y = E_pq/(d_p + d_q) until no entry moves by more
   !> than 4 eps (min(d_p, d_q) + eps max d): near_diagonal's tolerance makes
@@ -464,7 +467,7 @@ contains
       do p = 1, q
         h(p, q) = 0.0_wp
         if (d(p) + d(q) > 0.0_wp) h(p, q) = 1.0_wp/(d(p) + d(q))
-        e(p, q) = merge(b(p, q), 0.0_wp, p /= q)
+        e(p, q) = merge(b(p, q), 0.0_wp, p /= q .and. abs(b(p, q)) > eps*dmax*dmax)
         tl(p, q) = 4.0_wp*eps*(min(d(p), d(q)) + eps*dmax)
         x(p, q) = e(p, q)*h(p, q)      ! Y, until the end
         x(q, p) = x(p, q)

@@ -139,6 +139,24 @@ contains
     call sym_sqrt_jacobi(a, v, s, info)
     call check(info == 0 .and. maxval(abs(s - ref)) < 1.0e-13_wp, &
                'sym_sqrt_jacobi takes negative eigenvalues as 0')
+    ! two tiny variances, correlated below rounding of the largest: still a root
+    a = 0.0_wp
+    a(1, 1) = 100.0_wp
+    a(2, 2) = 1.0e-16_wp
+    a(3, 3) = 1.0e-16_wp
+    a(2, 3) = 0.9e-16_wp
+    a(3, 2) = 0.9e-16_wp
+    do j = 4, 10
+      a(j, j) = 1.0_wp
+    end do
+    v = 0.0_wp
+    do j = 1, 10
+      v(j, j) = 1.0_wp
+    end do
+    call sym_sqrt_jacobi(a, v, s, info)
+    call check(info == 0 .and. all(s == s) .and. &
+               maxval(abs(matmul(s, s) - a)) < 1.0e-13_wp*maxval(abs(a)), &
+               'sym_sqrt_jacobi: tiny correlated variances beside a large one')
   end subroutine test_sym_sqrt_jacobi
 
   subroutine test_independent_columns()

@@ -55,10 +55,10 @@ contains
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: pc(:, :), phi(:, :), w(:)   ! phi: [E G], nx x n
-    real(wp) :: xa(m%nx + size(ifree)), r(m%ny), c(m%ny, m%nx + size(ifree))
+    real(wp) :: xa(m%nx + size(ifree)), r(m%ny), rw(m%ny), c(m%ny, m%nx + size(ifree))
     type(rk_work_t) :: wk
     type(expm_work_t) :: ew
-    real(wp) :: lam          ! the forgetting factor (1: none)
+    real(wp) :: lam          ! the forgetting factor (1: none); rw = lam r, the update's weights
     integer :: k, n, i, ierr
 
     est = 0.0_wp
@@ -69,6 +69,7 @@ contains
     n = size(xa)
     r = s%r
     lam = merge(s%forget, 1.0_wp, s%forget > 0.0_wp)
+    rw = lam*r
     allocate (pc(n, n), phi(m%nx, n), w(m%nw), stat=ierr)
     if (ierr /= 0) then
       status = MLID_ERR_MEMORY
@@ -94,16 +95,21 @@ contains
         end do
       end if
       if (k > 1 .or. s%forget == 0.0_wp) then
-        call ekf_update(m, p, ifree, bias, lam*r, s%delta, t(k), u(:, k), z(:, k), xa, pc, c, &
+        call ekf_update(m, p, ifree, bias, rw, s%delta, t(k), u(:, k), z(:, k), xa, pc, c, &
                         status)
         if (status /= MLID_OK .or. .not. all(ieee_is_finite(xa))) exit
         if (lam < 1.0_wp) pc = pc/lam
       end if
-      if (s%r_fade > 0.0_wp) call filter_adapt_r(m, p, ifree, bias, t(k), u(:, k), z(:, k), xa, &
-                                                 cpc_diag(c, pc), k, s%r_fade, r)
+      if (s%r_fade > 0.0_wp) then        ! (no forgetting then: rw is r)
+        call filter_adapt_r(m, p, ifree, bias, t(k), u(:, k), z(:, k), xa, cpc_diag(c, pc), k, &
+                            s%r_fade, r)
+        rw = r
+      end if
       rhist(:, k) = r
       est(:, k) = xa
-      sig(:, k) = sqrt(max([(pc(i, i), i=1, n)], 0.0_wp))
+      do i = 1, n
+        sig(i, k) = sqrt(max(pc(i, i), 0.0_wp))
+      end do
     end do
     if (status == MLID_OK .and. k > size(t)) then
       msg = ''

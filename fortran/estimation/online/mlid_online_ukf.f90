@@ -309,6 +309,7 @@ contains
     do c = 1, ny
       ut%pyy(c, 1:c - 1) = ut%pyy(1:c - 1, c)
     end do
+    xa = ut%xm                                 ! the prediction, if the update fails
     call chol_inverse(ut%pyy, ut%pyi, logdet, status)
     if (status /= 0) return
     do c = 1, ny                               ! K = Pxy Pyy^-1
@@ -317,7 +318,6 @@ contains
         ut%kg(:, c) = ut%kg(:, c) + ut%pxy(:, i)*ut%pyi(i, c)
       end do
     end do
-    xa = ut%xm
     do c = 1, ny
       xa = xa + ut%kg(:, c)*(z(c) - ut%ym(c))
     end do

@@ -139,7 +139,7 @@ def ekf(model, data, free=None, p0=10.0, q=0.0, r=None, differences=0.0, r_fadin
 
 @guarded
 @_doc
-def efrls(model, data, free=None, forgetting=0.998, p0=1e3, q=0.0, r=None, differences=0.0):
+def efrls(model, data, free=None, forgetting=1.0, p0=10.0, q=0.0, r=None, differences=0.0):
     """Extended forgetting-factor recursive least squares (the textbook's
     EFRLS, sec. 7.4): the extended Kalman filter's recursion
     (fortran/estimation/online/mlid_online_ekf.f90) with the innovation
@@ -147,8 +147,9 @@ def efrls(model, data, free=None, forgetting=0.998, p0=1e3, q=0.0, r=None, diffe
     that a sample's weight decays as lambda^k; no update at the first
     sample (x0 and p0 are the estimate there).
     {params}    forgetting : float
-        lambda in (0, 1]; 1: no forgetting (a memory of about 1/(1 - lambda)
-        samples otherwise).
+        lambda in (0, 1]; 1 (the deck's default too): no forgetting, a memory
+        of about 1/(1 - lambda) samples otherwise (the textbook's test case
+        11: 0.998).
     differences : float
         > 0: the Jacobians by central differences with this step.
 
