@@ -206,11 +206,12 @@ contains
       call split_definition(trim(entry)//' = 0', name, rhs, ios, iomsg)
     else
       call split_definition(entry, name, rhs, ios, iomsg)
-      if (ios == MLID_OK) call entry_value(c, entry, rhs, v)
-      return
     end if
-    if (ios /= MLID_OK) call fail(c, 'group &model: params entry '''//trim(entry)//''': '// &
-                                  trim(iomsg))
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &model: params entry '''//trim(entry)//''': '//trim(iomsg))
+    else if (index(entry, '=') > 0) then
+      call entry_value(c, entry, rhs, v)
+    end if
   end subroutine param_entry
 
   !> The value rhs of params entry entry: an expression of numbers.
