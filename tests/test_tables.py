@@ -76,6 +76,19 @@ def test_bad_tables_are_refused_with_a_reason(bad, why):
     assert why in str(err.value)
 
 
+def test_a_variable_matching_two_names_but_for_case_says_so():
+    """A table's variable is found by its exact name, else by any case
+    when one name matches: two that match are named, not 'no ... is named'."""
+    with pytest.raises(InputError) as err:
+        mlid.EquationModel(outputs={"CL": "T"}, inputs=["alpha", "Alpha"],
+                           definitions={"T": Table("ALPHA", [0.0, 0.1])})
+    assert str(err.value).endswith("equations model, table T: its variable ALPHA matches 2 "
+                                   "names but for case (alpha, Alpha): write one of them exactly")
+    m = mlid.EquationModel(outputs={"CL": "T"}, inputs=["alpha", "Alpha"],
+                           definitions={"T": Table("Alpha", [0.0, 0.1])})
+    assert m.np == 2                                  # the exact name still wins
+
+
 def test_values_of_the_wrong_shape_are_refused():
     with pytest.raises(InputError, match=r"shape \(3,\)"):
         Table("alpha", [0, 1, 2], [1.0, 2.0])

@@ -31,7 +31,7 @@ module mlid_equations
   use mlid_expr_diff, only: graph_t, program_t, graph_add, graph_node, graph_fold, program_of, &
                             program_forward, program_jacobian, program_values, program_reads, &
                             MAXNODE, MAXVAR
-  use mlid_text, only: to_lower
+  use mlid_text, only: to_lower, joined, itoa
   use mlid_tables, only: table_t, table_read, table_graph, table_size, table_value_name, &
                          table_value_text, table_smoothness
   implicit none
@@ -368,7 +368,12 @@ contains
     do d = 1, tab%ndim
       same = names == tab%var(d)
       if (count(same) == 0) same = to_lower(names) == to_lower(tab%var(d))
-      if (count(same) /= 1) then
+      if (count(same) > 1) then
+        status = MLID_ERR_INPUT
+        msg = 'its variable '//trim(tab%var(d))//' matches '//itoa(count(same))//' names '// &
+              'but for case ('//joined(pack(names, same))//'): write one of them exactly'
+        return
+      else if (count(same) == 0) then
         status = MLID_ERR_INPUT
         msg = 'no state, input, parameter or definition before it is named '//trim(tab%var(d))
         return
