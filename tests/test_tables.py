@@ -230,6 +230,19 @@ def test_smoothness_weight_names_only_tables():
     np.testing.assert_allclose(w, 2.0 * D.T @ D, atol=1e-9)
 
 
+@pytest.mark.parametrize("lam, said", [(-1.0, "-1"), (float("nan"), "NaN"),
+                                       (float("inf"), "Infinity")])
+def test_a_smoothness_weight_not_finite_and_at_least_0_is_refused(lam, said):
+    """lambda < 0 would reward roughness, NaN spoil the fit: refused with
+    the table named, never read as 'no prior' (which 0 is)."""
+    m = table_model(values=START, free=NAMES)
+    with pytest.raises(InputError) as err:
+        m.smoothness_weight({"CLt": lam})
+    assert str(err.value).endswith(f"smoothness: the weight of table CLt is {said}, not a "
+                                   f"finite number >= 0 (0: no prior)")
+    assert not m.smoothness_weight({"CLt": 0.0}).any()
+
+
 def test_table_values_are_ordinary_parameters():
     """Tied, bounded and with a prior, by their names."""
     d = table_record()

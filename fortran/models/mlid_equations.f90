@@ -25,13 +25,14 @@
 !> No process noise enters (nw = 0); there may be no states (nx = 0): the
 !> outputs are then functions of inputs and parameters (regression).
 module mlid_equations
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
   use mlid_expr, only: expr_t, expr_compile, split_definition, is_name, OP_VAR
   use mlid_expr_diff, only: graph_t, program_t, graph_add, graph_node, graph_fold, program_of, &
                             program_forward, program_jacobian, program_values, program_reads, &
                             MAXNODE, MAXVAR
-  use mlid_text, only: to_lower, joined, itoa
+  use mlid_text, only: to_lower, joined, itoa, number_text
   use mlid_tables, only: table_t, table_read, table_graph, table_size, table_value_name, &
                          table_value_text, table_smoothness
   implicit none
@@ -193,7 +194,9 @@ contains
   !> kinds): each parameter's text (a table value's with where it is
   !> weighted, mlid_tables' table_value_text; '' for a p line's), and the
   !> smoothness prior's weight w(np, np) of the tables' second differences,
-  !> lambda(k) table k's weight (0: none; one for each table).
+  !> lambda(k) table k's weight (one for each table): finite and >= 0, 0
+  !> for no prior on that table (a negative weight would reward roughness,
+  !> NaN spoil the fit: refused, never read as none).
   subroutine equations_tables(m, lambda, texts, w, status, msg)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: lambda(:)
@@ -211,6 +214,12 @@ contains
     type is (equations_t)
       ntab = size(m%tables)
       do k = 1, merge(ntab, 0, size(lambda) == ntab)
+        if (.not. (ieee_is_finite(lambda(k)) .and. lambda(k) >= 0.0_wp)) then
+          status = MLID_ERR_INPUT
+          msg = 'smoothness: the weight of table '//trim(m%tables(k)%name)//' is '// &
+                number_text(lambda(k))//', not a finite number >= 0 (0: no prior)'
+          return
+        end if
         do j = 1, table_size(m%tables(k))
           texts(m%tfirst(k) + j - 1) = table_value_text(m%tables(k), j)
         end do
