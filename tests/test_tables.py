@@ -360,6 +360,34 @@ def test_a_deck_refuses_a_start_of_no_table_value(tmp_path):
                           "of a table's value", cwd=tmp_path)
 
 
+def test_a_model_too_large_is_refused_before_its_names_are_made(tmp_path):
+    """Forty tables of 56^3 values: 7 million parameters, their names 225
+    MB, were made before the model was refused as too large.  Now the
+    sizes are counted first: one line from both front ends, and mlid-batch
+    stays small (peak resident memory, of the child alone)."""
+    import resource
+    import subprocess
+    import sys
+    from conftest import BIN, refused_by_both
+    bps = " ".join(str(k) for k in range(1, 57))
+    tables = ", ".join(f"'T{k}(u, x1, x2) = {bps}; {bps}; {bps}'" for k in range(1, 41))
+    deck = tmp_path / "big.nml"
+    deck.write_text(f"""&case title = 'too large', job = 'estimate' /
+&model kind = 'equations', state_names = 'x1', 'x2', input_names = 'u',
+    definitions = {tables},
+    xdot = '-x1 + T1*u', '-x2', outputs = 'x1', 'x2', free = 'T1[1,1,1]' /
+&data file = 'rec.dat', time_col = 1, input_cols = 2, output_cols = 3, 4 /
+""")
+    refused_by_both(deck, "group &model: equations model: too large: 7024643 states, inputs and "
+                          "parameters with the tables' values (at most 511), 2 states and 2 "
+                          "outputs (at most 64 each)", cwd=tmp_path)
+    code = ("import resource, subprocess, sys; subprocess.run(sys.argv[1:], capture_output=True); "
+            "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+    run = subprocess.run([sys.executable, "-c", code, str(BIN / "mlid-batch"), str(deck)],
+                         capture_output=True, text=True, cwd=tmp_path, check=True)
+    assert int(run.stdout) < 100_000, run.stdout             # kB: the names alone were 225 MB
+
+
 def test_a_sixdof_deck_with_a_table(tmp_path):
     """Kind 'sixdof' in a deck: Cl's beta term a table over beta (truth:
     Clb*beta, linear, so the values are Clb times the breakpoints); the
