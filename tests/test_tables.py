@@ -285,6 +285,26 @@ def test_the_longitudinal_kind_as_equations_is_itself():
     np.testing.assert_allclose(b.y, a.y, rtol=1e-12, atol=1e-12 * np.ptp(a.y, axis=0).max())
 
 
+def test_the_longitudinal_text_asks_the_model_for_its_facts():
+    """mlid_long_text writes the longitudinal model out: its regressors,
+    constants and sizes are mlid_aero_long's, asked there, not copied (a
+    copy would drift when the model changes).  Every regressor in one
+    coefficient: the text is still the model itself."""
+    from conftest import REPO
+    src = (REPO / "fortran" / "models" / "mlid_long_text.f90").read_text()
+    code = "\n".join(line.split("!")[0] for line in src.splitlines())   # comments dropped
+    for copy in ("'alpha^2'", "'qhat'", "'ScIy'", "'sigT'", "'c2'", "4, 2, 7, 4"):
+        assert copy not in code, copy
+    regs = dict(LONG_REGS, CD=["1", "V/V0", "alpha", "alpha^2", "qhat", "de"])
+    vals = dict(LONG_VALS, CD=[0.117758, -0.0517459, 0.234846, 0.3, 0.5, 0.02])
+    lm = mlid.LongitudinalModel(regs, vals, LONG, x0=[106.0, 0.11, 0.105, -0.003], substeps=4)
+    eq = lm.with_tables({})
+    assert [ln.split(" =")[0] for ln in eq.text.split("\n") if ln.startswith("l ")][:9] == [
+        "l g", "l Sm", "l ScIy", "l lTIy", "l V0", "l mass", "l sigT", "l rho", "l c2"]
+    a, b = longitudinal_run(lm), longitudinal_run(eq)
+    np.testing.assert_allclose(b.y, a.y, rtol=1e-12, atol=1e-12 * np.ptp(a.y, axis=0).max())
+
+
 def test_a_longitudinal_coefficient_as_a_table():
     """C_Lalpha a table over alpha, C_mq one over alpha: equal to the
     constant coefficient when every value is that constant, exact Jacobians
