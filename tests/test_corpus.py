@@ -315,6 +315,14 @@ ENTRIES = {
     "a start for no table value": (
         "table_start_of_no_value.nml", r"^group &model: params entry 'T\[4\] = 1' is not "
                                        r"'NAME\[i\] = value' of a table's value$", {}),
+    # a params entry 'NAME = value' whose NAME is no name: said, not a blank name read on
+    "a params entry whose name is no name": (
+        "params_not_a_name.nml", r"^group &model: params entry 'CD al = 0': 'CD al' in "
+                                 r"'CD al = 0' is not a name$", {}),
+    # the same table value's start given twice: the last won unseen
+    "a table value's start given twice": (
+        "table_start_twice.nml", r"^group &model: params entry 'T\[2\] = 3' gives T\[2\] a "
+                                 r"start value a second time$", {}),
     # issue 45: the online job's recursive least squares ('rls'): its settings and its model
     "rls with p0 for 3 of 2 outputs": ("rls_p0_count.nml", r"^group &online: 'rls' takes one p0 "
                                        r"\(P0 = p0 I\) for all outputs or one per output \(2\), "

@@ -76,6 +76,19 @@ def test_bad_tables_are_refused_with_a_reason(bad, why):
     assert why in str(err.value)
 
 
+def test_a_variable_matching_two_names_but_for_case_says_so():
+    """A table's variable is found by its exact name, else by any case
+    when one name matches: two that match are named, not 'no ... is named'."""
+    with pytest.raises(InputError) as err:
+        mlid.EquationModel(outputs={"CL": "T"}, inputs=["alpha", "Alpha"],
+                           definitions={"T": Table("ALPHA", [0.0, 0.1])})
+    assert str(err.value).endswith("equations model, table T: its variable ALPHA matches 2 "
+                                   "names but for case (alpha, Alpha): write one of them exactly")
+    m = mlid.EquationModel(outputs={"CL": "T"}, inputs=["alpha", "Alpha"],
+                           definitions={"T": Table("Alpha", [0.0, 0.1])})
+    assert m.np == 2                                  # the exact name still wins
+
+
 def test_values_of_the_wrong_shape_are_refused():
     with pytest.raises(InputError, match=r"shape \(3,\)"):
         Table("alpha", [0, 1, 2], [1.0, 2.0])
@@ -217,6 +230,19 @@ def test_smoothness_weight_names_only_tables():
     np.testing.assert_allclose(w, 2.0 * D.T @ D, atol=1e-9)
 
 
+@pytest.mark.parametrize("lam, said", [(-1.0, "-1"), (float("nan"), "NaN"),
+                                       (float("inf"), "Infinity")])
+def test_a_smoothness_weight_not_finite_and_at_least_0_is_refused(lam, said):
+    """lambda < 0 would reward roughness, NaN spoil the fit: refused with
+    the table named, never read as 'no prior' (which 0 is)."""
+    m = table_model(values=START, free=NAMES)
+    with pytest.raises(InputError) as err:
+        m.smoothness_weight({"CLt": lam})
+    assert str(err.value).endswith(f"smoothness: the weight of table CLt is {said}, not a "
+                                   f"finite number >= 0 (0: no prior)")
+    assert not m.smoothness_weight({"CLt": 0.0}).any()
+
+
 def test_table_values_are_ordinary_parameters():
     """Tied, bounded and with a prior, by their names."""
     d = table_record()
@@ -255,6 +281,26 @@ def test_the_longitudinal_kind_as_equations_is_itself():
     eq = lm.with_tables({})
     assert eq.element_labels()[:4] == ["C_D0", "C_DV", "C_Dalpha", "C_L0"]
     assert eq.free_names() == ["C_Lalpha", "C_mq"]
+    a, b = longitudinal_run(lm), longitudinal_run(eq)
+    np.testing.assert_allclose(b.y, a.y, rtol=1e-12, atol=1e-12 * np.ptp(a.y, axis=0).max())
+
+
+def test_the_longitudinal_text_asks_the_model_for_its_facts():
+    """mlid_long_text writes the longitudinal model out: its regressors,
+    constants and sizes are mlid_aero_long's, asked there, not copied (a
+    copy would drift when the model changes).  Every regressor in one
+    coefficient: the text is still the model itself."""
+    from conftest import REPO
+    src = (REPO / "fortran" / "models" / "mlid_long_text.f90").read_text()
+    code = "\n".join(line.split("!")[0] for line in src.splitlines())   # comments dropped
+    for copy in ("'alpha^2'", "'qhat'", "'ScIy'", "'sigT'", "'c2'", "4, 2, 7, 4"):
+        assert copy not in code, copy
+    regs = dict(LONG_REGS, CD=["1", "V/V0", "alpha", "alpha^2", "qhat", "de"])
+    vals = dict(LONG_VALS, CD=[0.117758, -0.0517459, 0.234846, 0.3, 0.5, 0.02])
+    lm = mlid.LongitudinalModel(regs, vals, LONG, x0=[106.0, 0.11, 0.105, -0.003], substeps=4)
+    eq = lm.with_tables({})
+    assert [ln.split(" =")[0] for ln in eq.text.split("\n") if ln.startswith("l ")][:9] == [
+        "l g", "l Sm", "l ScIy", "l lTIy", "l V0", "l mass", "l sigT", "l rho", "l c2"]
     a, b = longitudinal_run(lm), longitudinal_run(eq)
     np.testing.assert_allclose(b.y, a.y, rtol=1e-12, atol=1e-12 * np.ptp(a.y, axis=0).max())
 
@@ -332,6 +378,34 @@ def test_a_deck_refuses_a_start_of_no_table_value(tmp_path):
     _, deck = table_deck(tmp_path, starts="'CLt[7] = 1'")
     refused_by_both(deck, "group &model: params entry 'CLt[7] = 1' is not 'NAME[i] = value' "
                           "of a table's value", cwd=tmp_path)
+
+
+def test_a_model_too_large_is_refused_before_its_names_are_made(tmp_path):
+    """Forty tables of 56^3 values: 7 million parameters, their names 225
+    MB, were made before the model was refused as too large.  Now the
+    sizes are counted first: one line from both front ends, and mlid-batch
+    stays small (peak resident memory, of the child alone)."""
+    import resource
+    import subprocess
+    import sys
+    from conftest import BIN, refused_by_both
+    bps = " ".join(str(k) for k in range(1, 57))
+    tables = ", ".join(f"'T{k}(u, x1, x2) = {bps}; {bps}; {bps}'" for k in range(1, 41))
+    deck = tmp_path / "big.nml"
+    deck.write_text(f"""&case title = 'too large', job = 'estimate' /
+&model kind = 'equations', state_names = 'x1', 'x2', input_names = 'u',
+    definitions = {tables},
+    xdot = '-x1 + T1*u', '-x2', outputs = 'x1', 'x2', free = 'T1[1,1,1]' /
+&data file = 'rec.dat', time_col = 1, input_cols = 2, output_cols = 3, 4 /
+""")
+    refused_by_both(deck, "group &model: equations model: too large: 7024643 states, inputs and "
+                          "parameters with the tables' values (at most 511), 2 states and 2 "
+                          "outputs (at most 64 each)", cwd=tmp_path)
+    code = ("import resource, subprocess, sys; subprocess.run(sys.argv[1:], capture_output=True); "
+            "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+    run = subprocess.run([sys.executable, "-c", code, str(BIN / "mlid-batch"), str(deck)],
+                         capture_output=True, text=True, cwd=tmp_path, check=True)
+    assert int(run.stdout) < 100_000, run.stdout             # kB: the names alone were 225 MB
 
 
 def test_a_sixdof_deck_with_a_table(tmp_path):

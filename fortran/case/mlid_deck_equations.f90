@@ -64,9 +64,9 @@ contains
   end procedure equations_text
 
   !> The start values of the tables' values (params entries 'NAME[i,j] =
-  !> value'; the others start at 0) after those of the params (pstart): the
-  !> order of p.  A model that cannot be made is left for the kind's own
-  !> check to say so.
+  !> value', each value's once; the others start at 0) after those of the
+  !> params (pstart): the order of p.  A model that cannot be made is left
+  !> for the kind's own check to say so.
   subroutine table_starts(c, entries, pstart)
     type(case_t), intent(inout) :: c
     character(len=*), intent(in) :: entries(:)
@@ -74,14 +74,16 @@ contains
     type(equations_t) :: eqs
     character(len=msg_len) :: iomsg
     real(wp), allocatable :: full(:)
+    logical, allocatable :: given(:)
     real(wp) :: v
     integer :: k, j, ios, eq
 
     call equations_create(c%iconst, [real(wp) ::], eqs, ios, iomsg)
     if (ios /= MLID_OK) return
-    allocate (full(eqs%np))
+    allocate (full(eqs%np), given(eqs%np))
     full = 0.0_wp
     full(1:size(pstart)) = pstart
+    given = .false.
     do k = 1, size(entries)
       eq = index(entries(k), '=')
       j = 0
@@ -91,9 +93,15 @@ contains
                   '''NAME[i] = value'' of a table''s value')
         return
       end if
+      if (given(j)) then
+        call fail(c, 'group &model: params entry '''//trim(entries(k))//''' gives '// &
+                  trim(eqs%pnames(j))//' a start value a second time')
+        return
+      end if
       call entry_value(c, entries(k), entries(k)(eq + 1:), v)
       if (c%status /= MLID_OK) return
       full(j) = v
+      given(j) = .true.
     end do
     call move_alloc(full, pstart)
   end subroutine table_starts
@@ -206,11 +214,12 @@ contains
       call split_definition(trim(entry)//' = 0', name, rhs, ios, iomsg)
     else
       call split_definition(entry, name, rhs, ios, iomsg)
-      if (ios == MLID_OK) call entry_value(c, entry, rhs, v)
-      return
     end if
-    if (ios /= MLID_OK) call fail(c, 'group &model: params entry '''//trim(entry)//''': '// &
-                                  trim(iomsg))
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &model: params entry '''//trim(entry)//''': '//trim(iomsg))
+    else if (index(entry, '=') > 0) then
+      call entry_value(c, entry, rhs, v)
+    end if
   end subroutine param_entry
 
   !> The value rhs of params entry entry: an expression of numbers.

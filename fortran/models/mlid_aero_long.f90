@@ -28,9 +28,14 @@ module mlid_aero_long
   implicit none
   private
   public :: aero_long_t, aero_long_create, aero_long_iconst, check_longitudinal_record, &
-            REGRESSOR_NAMES, NREG, CONSTANT_NAMES
+            REGRESSOR_NAMES, NREG, CONSTANT_NAMES, CONSTANT_SYMBOLS, AERO_LONG_SIZES
 
-  !> Regressor codes 1..NREG and their names (the deck and Python use the names).
+  !> The model's sizes nx, nu, ny, nw: states V, alpha, theta, q; inputs
+  !> delta_e, F_T; outputs V, alpha, theta, q, qdot, a_x, a_z; process noise
+  !> in each state equation.
+  integer, parameter :: AERO_LONG_SIZES(4) = [4, 2, 7, 4]
+  !> Regressor codes 1..NREG and their names (the deck and Python use the
+  !> names; each is also its expression in mlid_long_text's equations).
   integer, parameter :: NREG = 6
   character(len=8), parameter :: REGRESSOR_NAMES(NREG) = &
     [character(len=8) :: '1', 'V/V0', 'alpha', 'alpha^2', 'qhat', 'de']
@@ -53,8 +58,11 @@ module mlid_aero_long
   !> load of two entries the parameters' loop stored one by one waits until
   !> those stores reach the cache).
   integer, parameter :: GRAD_NONE = 5
-  !> The constants rconst, in order.
+  !> The constants rconst, in order: their names (the deck's and Python's),
+  !> and in the same order their names in mlid_long_text's equations.
   character(len=*), parameter :: CONSTANT_NAMES = 'g, S/m, S cbar/Iy, lT/Iy, V0, m, sigma_T, rho, cbar/2'
+  character(len=4), parameter :: CONSTANT_SYMBOLS(9) = [character(len=4) :: 'g', 'Sm', 'ScIy', &
+                                                        'lTIy', 'V0', 'mass', 'sigT', 'rho', 'c2']
 
   type, extends(model_t) :: aero_long_t
     integer, allocatable :: code(:)      !< regressor code of each parameter
@@ -160,19 +168,19 @@ contains
       msg = 'longitudinal model: unknown regressor code'
       return
     end if
-    if (size(rconst) /= 9) then
-      write (msg, '(a,i0)') 'longitudinal model: rconst needs 9 constants ('//CONSTANT_NAMES// &
-        '), got ', size(rconst)
+    if (size(rconst) /= size(CONSTANT_SYMBOLS)) then
+      write (msg, '(a,i0,a,i0)') 'longitudinal model: rconst needs ', size(CONSTANT_SYMBOLS), &
+        ' constants ('//CONSTANT_NAMES//'), got ', size(rconst)
       return
     end if
     if (.not. (rconst(5) > 0.0_wp .and. rconst(6) > 0.0_wp .and. rconst(8) > 0.0_wp)) then
       msg = 'longitudinal model: V0, mass and density must be > 0'
       return
     end if
-    m%nx = 4
-    m%nu = 2
-    m%ny = 7
-    m%nw = 4      ! process noise (turbulence) adds to each state equation
+    m%nx = AERO_LONG_SIZES(1)
+    m%nu = AERO_LONG_SIZES(2)
+    m%ny = AERO_LONG_SIZES(3)
+    m%nw = AERO_LONG_SIZES(4)      ! process noise (turbulence) adds to each state equation
     m%np = np
     m%code = iconst(4:)
     allocate (m%at_grad(np), m%brow(np))

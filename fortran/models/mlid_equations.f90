@@ -25,13 +25,16 @@
 !> No process noise enters (nw = 0); there may be no states (nx = 0): the
 !> outputs are then functions of inputs and parameters (regression).
 module mlid_equations
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t
+  use mlid_memory, only: no_memory
   use mlid_expr, only: expr_t, expr_compile, split_definition, is_name, OP_VAR
   use mlid_expr_diff, only: graph_t, program_t, graph_add, graph_node, graph_fold, program_of, &
                             program_forward, program_jacobian, program_values, program_reads, &
                             MAXNODE, MAXVAR
-  use mlid_text, only: to_lower
+  use mlid_text, only: to_lower, joined, itoa, number_text
   use mlid_tables, only: table_t, table_read, table_graph, table_size, table_value_name, &
                          table_value_text, table_smoothness
   implicit none
@@ -101,9 +104,12 @@ contains
     end if
     call read_items(iconst, items, status, msg)
     if (status /= MLID_OK) return
+    call check_size(items, status, msg)     ! before the names: a 200^3 table has 8e6 values
+    if (status /= MLID_OK) return
     m%xnames = names_of(items, 'x')
     m%unames = names_of(items, 'u')
-    call param_names(items, m)
+    call param_names(items, m, status, msg)
+    if (status /= MLID_OK) return
     m%ynames = names_of(items, 'y')
     m%ystate = output_states(items, m%xnames)
     m%nx = size(m%xnames)
@@ -112,19 +118,35 @@ contains
     m%ny = size(m%ynames)
     m%nw = 0
     m%nvar = m%nx + m%nu + m%np + 1
-    if (m%nvar > MAXVAR .or. m%nx > MAXOUT .or. m%ny > MAXOUT) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0,a,i0,a)') 'equations model: too large (at most ', MAXVAR - 1, &
-        ' states, inputs and parameters together, ', MAXOUT, ' states and outputs each)'
-      return
-    end if
-    if (m%ny == 0) then
-      status = MLID_ERR_INPUT
-      msg = 'equations model: no outputs (lines y NAME = ...)'
-      return
-    end if
     call compile_all(m, items, status, msg)
   end subroutine equations_create
+
+  !> The model's sizes from its items, refused beyond the fixed limits
+  !> (MAXVAR, MAXOUT) or without outputs: counted, nothing allocated.
+  subroutine check_size(items, status, msg)
+    type(item_t), intent(in) :: items(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer(int64) :: nvar        ! tables of up to 200^3 values each: beyond 32 bits
+    integer :: k, nx, ny
+    nx = count(items%kind == 'x')
+    ny = count(items%kind == 'y')
+    nvar = nx + count(items%kind == 'u') + count(items%kind == 'p') + 1
+    do k = 1, size(items)
+      if (items(k)%kind == 't') nvar = nvar + table_size(items(k)%tab)
+    end do
+    status = MLID_ERR_INPUT
+    if (nvar > MAXVAR .or. nx > MAXOUT .or. ny > MAXOUT) then
+      write (msg, '(5(a,i0),a)') 'equations model: too large: ', nvar - 1, ' states, inputs '// &
+        'and parameters with the tables'' values (at most ', MAXVAR - 1, '), ', nx, &
+        ' states and ', ny, ' outputs (at most ', MAXOUT, ' each)'
+    else if (ny == 0) then
+      msg = 'equations model: no outputs (lines y NAME = ...)'
+    else
+      status = MLID_OK
+      msg = ''
+    end if
+  end subroutine check_size
 
   !> Split the text into items, checking each line's form and that no name
   !> is used twice.
@@ -193,7 +215,9 @@ contains
   !> kinds): each parameter's text (a table value's with where it is
   !> weighted, mlid_tables' table_value_text; '' for a p line's), and the
   !> smoothness prior's weight w(np, np) of the tables' second differences,
-  !> lambda(k) table k's weight (0: none; one for each table).
+  !> lambda(k) table k's weight (one for each table): finite and >= 0, 0
+  !> for no prior on that table (a negative weight would reward roughness,
+  !> NaN spoil the fit: refused, never read as none).
   subroutine equations_tables(m, lambda, texts, w, status, msg)
     class(model_t), intent(in) :: m
     real(wp), intent(in) :: lambda(:)
@@ -211,6 +235,12 @@ contains
     type is (equations_t)
       ntab = size(m%tables)
       do k = 1, merge(ntab, 0, size(lambda) == ntab)
+        if (.not. (ieee_is_finite(lambda(k)) .and. lambda(k) >= 0.0_wp)) then
+          status = MLID_ERR_INPUT
+          msg = 'smoothness: the weight of table '//trim(m%tables(k)%name)//' is '// &
+                number_text(lambda(k))//', not a finite number >= 0 (0: no prior)'
+          return
+        end if
         do j = 1, table_size(m%tables(k))
           texts(m%tfirst(k) + j - 1) = table_value_text(m%tables(k), j)
         end do
@@ -263,16 +293,24 @@ contains
 
   !> The parameters' names in the text's order: a p line's name, a table's
   !> values' (NAME[i,j]); and where each table's values start.
-  subroutine param_names(items, m)
+  subroutine param_names(items, m, status, msg)
     type(item_t), intent(in) :: items(:)
     type(equations_t), intent(inout) :: m
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
     integer :: k, j, ntab, n
     ntab = count(items%kind == 't')
     n = count(items%kind == 'p')
     do k = 1, size(items)
       if (items(k)%kind == 't') n = n + table_size(items(k)%tab)
     end do
-    allocate (m%pnames(n), m%tables(ntab), m%tfirst(ntab))
+    allocate (m%pnames(n), m%tables(ntab), m%tfirst(ntab), stat=status)
+    if (status /= 0) then
+      call no_memory('the parameters'' names', (NAMELEN*n)/8.0_wp, status, msg)
+      return
+    end if
+    status = MLID_OK
+    msg = ''
     ntab = 0
     n = 0
     do k = 1, size(items)
@@ -368,7 +406,12 @@ contains
     do d = 1, tab%ndim
       same = names == tab%var(d)
       if (count(same) == 0) same = to_lower(names) == to_lower(tab%var(d))
-      if (count(same) /= 1) then
+      if (count(same) > 1) then
+        status = MLID_ERR_INPUT
+        msg = 'its variable '//trim(tab%var(d))//' matches '//itoa(count(same))//' names '// &
+              'but for case ('//joined(pack(names, same))//'): write one of them exactly'
+        return
+      else if (count(same) == 0) then
         status = MLID_ERR_INPUT
         msg = 'no state, input, parameter or definition before it is named '//trim(tab%var(d))
         return

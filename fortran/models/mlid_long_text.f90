@@ -11,18 +11,12 @@ module mlid_long_text
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_layout, only: layout_table_t, layout_of, default_label
   use mlid_model_factory, only: MODEL_AERO_LONG
+  use mlid_aero_long, only: aero_long_t, aero_long_create, REGRESSOR_NAMES, CONSTANT_SYMBOLS
   implicit none
   private
   public :: longitudinal_text
 
   character(len=*), parameter :: NL = achar(10)
-  !> The constants' names in the text, in rconst's order (CONSTANT_NAMES).
-  character(len=5), parameter :: CONST(9) = [character(len=5) :: 'g', 'Sm', 'ScIy', 'lTIy', &
-                                             'V0', 'mass', 'sigT', 'rho', 'c2']
-  !> Each regressor as an expression of the text (mlid_aero_long's
-  !> REGRESSOR_NAMES, in their order).
-  character(len=8), parameter :: REG_TEXT(6) = [character(len=8) :: '1', 'V/V0', 'alpha', &
-                                                'alpha^2', 'qhat', 'de']
 
 contains
 
@@ -36,6 +30,7 @@ contains
     character(len=:), allocatable, intent(out) :: text
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
+    type(aero_long_t) :: model
     type(layout_table_t) :: lt
     character(len=32), allocatable :: labels(:)
     character(len=:), allocatable :: params, tabs, coef(:)
@@ -43,7 +38,9 @@ contains
     integer :: k, j, c, first
 
     text = ''
-    call layout_of(MODEL_AERO_LONG, 4, 2, 7, 4, iconst, rconst, lt, status, msg)
+    call aero_long_create(iconst, rconst, model, status, msg)   ! its sizes; rconst checked
+    if (status == MLID_OK) call layout_of(MODEL_AERO_LONG, model%nx, model%nu, model%ny, &
+                                          model%nw, iconst, rconst, lt, status, msg)
     if (status /= MLID_OK) return
     labels = [(default_label(lt, k), k=1, sum(iconst(1:3)))]
     call check_tables(labels, tables, status, msg)
@@ -63,7 +60,7 @@ contains
           tabs = tabs//'t '//trim(adjustl(tables(table_of(labels(k - 3), tables))))//NL
         end if
         coef(c) = trim(coef(c))//trim(merge(' + ', '   ', first == 0))//trim(labels(k - 3))// &
-                  '*'//trim(REG_TEXT(iconst(k)))
+                  '*'//trim(REGRESSOR_NAMES(iconst(k)))     ! each name its expression here
         first = 0
       end do
       if (first == 1) coef(c) = '0'
@@ -74,9 +71,9 @@ contains
     text = text//'y V = V'//NL//'y alpha = alpha'//NL//'y theta = theta'//NL//'y q = q'//NL// &
            'y qdot = qdot'//NL//'y ax = Sm*qbar*(CL*sin(alpha) - CD*cos(alpha)) + F*cos(sigT)/mass'// &
            NL//'y az = Sm*qbar*(-CL*cos(alpha) - CD*sin(alpha)) - F*sin(sigT)/mass'//NL
-    do k = 9, 1, -1
+    do k = size(CONSTANT_SYMBOLS), 1, -1
       write (num, '(es24.16e3)') rconst(k)
-      text = 'l '//trim(CONST(k))//' = '//trim(adjustl(num))//NL//text
+      text = 'l '//trim(CONSTANT_SYMBOLS(k))//' = '//trim(adjustl(num))//NL//text
     end do
     text = 'u de'//NL//'u F'//NL//params//text      ! constants before the tables' variables
     k = index(text, 'x V =')

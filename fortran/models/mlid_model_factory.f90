@@ -2,7 +2,7 @@
 module mlid_model_factory
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_models, only: model_t, linear_model_t
-  use mlid_aero_long, only: aero_long_t, aero_long_create
+  use mlid_aero_long, only: aero_long_t, aero_long_create, AERO_LONG_SIZES
   use mlid_user_model, only: user_model_t, user_model_create
   use mlid_x22, only: x22_t, x22_create
   use mlid_equations, only: equations_t, equations_create
@@ -48,6 +48,7 @@ contains
     type(user_model_t) :: user
     type(x22_t) :: x22
     type(equations_t) :: eqs
+    integer :: k
 
     status = MLID_OK
     msg = ''
@@ -75,10 +76,11 @@ contains
       lin%linear = .true.
       allocate (model, source=lin)
     case (MODEL_AERO_LONG)
-      if (any([nx, nu, ny, nw] /= [4, 2, 7, 4]) .and. any([nx, nu, ny, nw] /= -1)) then
+      if (any([nx, nu, ny, nw] /= AERO_LONG_SIZES) .and. any([nx, nu, ny, nw] /= -1)) then
         status = MLID_ERR_INPUT
-        msg = 'longitudinal model: nx, nu, ny, nw must be 4, 2, 7, 4 (V, alpha, theta, q; '// &
-              'delta_e, thrust; V, alpha, theta, q, qdot, a_x, a_z)'
+        write (msg, '(a,3(i0,a),i0,a)') 'longitudinal model: nx, nu, ny, nw must be ', &
+          (AERO_LONG_SIZES(k), ', ', k=1, 3), AERO_LONG_SIZES(4), ' (V, alpha, theta, q; '// &
+          'delta_e, thrust; V, alpha, theta, q, qdot, a_x, a_z)'
         return
       end if
       call aero_long_create(iconst, rconst, aero, status, msg)

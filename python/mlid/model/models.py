@@ -993,7 +993,8 @@ class EquationModel(Model):
         Parameters
         ----------
         smoothness : dict
-            {table name: lambda}; tables not named have none.
+            {table name: lambda}, lambda a finite number >= 0; 0, like a
+            table not named, is no prior on that table.
 
         Returns
         -------
@@ -1004,7 +1005,8 @@ class EquationModel(Model):
         Raises
         ------
         InputError
-            A name that is no table of the model.
+            A name that is no table of the model, or a lambda that is
+            negative or not finite (the core's message names the table).
         """
         w = np.zeros((self._theta.size, self._theta.size))
         w[:self.np, :self.np] = self._tables(smoothness)[1]
