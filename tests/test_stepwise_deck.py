@@ -33,13 +33,18 @@ PARAM = {"al": "al", "be": "be", "pn": "p", "qn": "q", "rn": "r", "de": "de", "d
          "dr": "dr"}
 
 
-def _deck(method="forward", extra=""):
+#: The thresholds each method takes (the deck refuses one it does not use).
+THRESHOLDS = {"forward": "f_in = 10, f_out = 10, ", "backward": "f_out = 10, ", "mof": ""}
+
+
+def _deck(method="forward", thresholds=None):
+    thresholds = THRESHOLDS[method] if thresholds is None else thresholds
     return f"""&case title = 'TC23 structure ({method})', job = 'stepwise' /
 &data file = '{CSV}', time_col = 't',
     input_cols = {', '.join(f"'{v}'" for v in VARIABLES)},
     output_cols = {', '.join(f"'{z}'" for z in OUTPUTS)} /
 &stepwise method = '{method}', degree = 2, knot_vars = 'al', 'al', 'be', knots = 0.03, 0.045, 0.0,
-    f_in = 10, f_out = 10{extra}, coefficients = 'cd', 'cl', 'cm', 'cy', 'croll', 'cn',
+    {thresholds}coefficients = 'cd', 'cl', 'cm', 'cy', 'croll', 'cn',
     out = 'start.txt' /
 """
 
@@ -79,6 +84,13 @@ def test_tc23_deck_is_pythons_stepwise(tmp_path, method):
         assert o["model_start"] in runs[0].stdout
         starts.append(o["model_start"])
     assert (tmp_path / "start.txt").read_text() == "".join(s + "\n" for s in starts)
+    # the report and the JSON show the thresholds the method uses, no other
+    shown = {"forward": " (F_in 1.000E+01, F_out 1.000E+01): ", "backward": " (F_out 1.000E+01): ",
+             "mof": " with PSE: "}[method]
+    head = next(line for line in runs[0].stdout.splitlines() if "model structure, " in line)
+    assert shown in head and ("F_in" in head) == (method == "forward") \
+        and ("F_out" in head) == (method != "mof"), head
+    assert ("f_in" in out) == (method == "forward") and ("f_out" in out) == (method != "mof")
 
 
 @needs_refs
@@ -159,6 +171,29 @@ BAD = [
     ("input_cols = 'al'", "input_cols = '1', 'al'",
      "a variable is named '1', the constant's name: set intercept = F"),
 ]
+
+
+@needs_refs
+@pytest.mark.parametrize("method, thresholds, message", [
+    ("backward", "f_in = 10, f_out = 10, ",
+     "group &stepwise: f_in (the partial F to enter) is for method 'forward', not 'backward'"),
+    ("mof", "f_in = 10, ",
+     "group &stepwise: f_in (the partial F to enter) is for method 'forward', not 'mof'"),
+    ("mof", "f_out = 10, ", "group &stepwise: f_out (the partial F to stay) is for methods "
+     "'forward' and 'backward', not 'mof'"),
+    ("backward", "f_out = -1, ", "group &stepwise: f_out (the partial F to stay) must be > 0 "
+     "and finite"),
+])
+def test_a_threshold_the_method_does_not_use_is_refused(tmp_path, method, thresholds, message):
+    """Backward elimination takes no f_in (terms only leave), MOF neither
+    threshold (the model of least PSE): given, one line from both front
+    ends, as a setting that did nothing would otherwise show in the report;
+    backward's own f_out is checked alone (4, f_in's default, is no bound
+    on it)."""
+    deck = tmp_path / "unused.nml"
+    deck.write_text(_deck(method, thresholds))
+    refused_by_both(deck, message, cwd=tmp_path)
+    assert not (tmp_path / "start.txt").exists()
 
 
 @needs_refs
