@@ -168,6 +168,9 @@ BAD = [
     ("\n    out = 'start.txt'", "\n    sig2_max = -1, out = 'start.txt'", "sig2_max must be >= 0"),
     ("&stepwise", "&model kind = 'linear' /\n&stepwise",
      "group &model is not read by job 'stepwise' (it reads &case, &data, &stepwise)"),
+    (",\n    output_cols = 'CD', 'CL', 'Cm', 'CY', 'Cl', 'Cn' /", " /",
+     "group &data: a stepwise case needs output_cols (the measured coefficients whose model "
+     "structure it finds)"),
     ("input_cols = 'al'", "input_cols = '1', 'al'",
      "a variable is named '1', the constant's name: set intercept = F"),
 ]
