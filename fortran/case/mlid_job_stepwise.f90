@@ -80,7 +80,9 @@ contains
       call candidate_terms(transpose(u), s%degree, s%knot_var, s%knots, s%spline_degree, xt, &
                            powers, status, msg)
       if (status /= MLID_OK) return
-      names = candidate_names(c%chan%inputs, powers, s%knot_var, s%knots, s%spline_degree)
+      call candidate_names(c%chan%inputs, powers, s%knot_var, s%knots, s%spline_degree, names, &
+                           status, msg)
+      if (status /= MLID_OK) return
       if (s%intercept) then
         allocate (x(size(xt, 1), size(xt, 2) + 1))
         x(:, 1) = 1.0_wp
