@@ -176,6 +176,40 @@ BAD = [
 ]
 
 
+def test_a_64_byte_name_is_whole_everywhere(tmp_path):
+    """A candidate's name of 64 bytes, CANDLEN (two channels of 32 and 31
+    bytes at degree 2), forced and entering: whole in the report, in the
+    JSON (its path's '+name' is 65 bytes) and in the model start, from both
+    front ends alike."""
+    a, b = "a" * 32, "b" * 31
+    rng = np.random.default_rng(6)
+    t = np.arange(300) * 0.02
+    va, vb = rng.standard_normal(300), rng.standard_normal(300)
+    y = 0.5 + 2.0 * va * vb + 0.01 * rng.standard_normal(300)
+    np.savetxt(tmp_path / "ab.csv", np.column_stack([t, va, vb, y]), delimiter=",",
+               header=f"t,{a},{b},y", comments="")
+    deck = tmp_path / "ab.nml"
+    deck.write_text(f"""&case title = 'long names', job = 'stepwise' /
+&data file = 'ab.csv', time_col = 't', input_cols = '{a}', '{b}', output_cols = 'y' /
+&stepwise degree = 2, f_in = 10, f_out = 10, out = 'start.txt' /
+&case title = 'long names forced', job = 'stepwise' /
+&data file = 'ab.csv', time_col = 't', input_cols = '{a}', '{b}', output_cols = 'y' /
+&stepwise degree = 2, f_in = 10, f_out = 10, forced = '{a}*{b}' /
+""")
+    runs = run_both(deck, "--json", "{exe}.json", cwd=tmp_path)
+    assert runs[0].returncode == 0 and runs[0].stdout == runs[1].stdout, runs[0].stderr
+    assert (tmp_path / "mlid.json").read_bytes() == (tmp_path / "mlid-batch.json").read_bytes()
+    name = f"{a}*{b}"
+    assert len(name) == 64
+    for case in json.loads((tmp_path / "mlid.json").read_text()):
+        o = case["outputs"][0]
+        assert name in case["candidates"] and o["selected"] == ["1", name], case["title"]
+        assert o["model_start"].startswith(f"    y_regressors = '1', '{name}',\n")
+    path = json.loads((tmp_path / "mlid.json").read_text())[0]["outputs"][0]["path"]["term"]
+    assert path[:2] == ["start", "+" + name]
+    assert f"+{name} " in runs[0].stdout and f"\n   {name} " in runs[0].stdout
+
+
 @needs_refs
 @pytest.mark.parametrize("method, thresholds, message", [
     ("backward", "f_in = 10, f_out = 10, ",

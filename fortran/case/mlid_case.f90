@@ -14,6 +14,7 @@ module mlid_case
   use mlid_text, only: join_lines
   use mlid_files, only: same_file
   use mlid_input_ranking, only: ranking_options_t
+  use mlid_stepwise_text, only: CANDLEN
   implicit none
   private
   public :: case_t, stepwise_spec_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
@@ -52,7 +53,7 @@ module mlid_case
     logical :: intercept = .true.
     integer, allocatable :: knot_var(:)
     real(wp), allocatable :: knots(:)
-    character(len=64), allocatable :: forced(:)
+    character(len=CANDLEN), allocatable :: forced(:)
     character(len=NAMELEN), allocatable :: coefficients(:)
   contains
     procedure :: uses_f_in => stepwise_uses_f_in

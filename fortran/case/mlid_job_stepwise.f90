@@ -213,7 +213,7 @@ contains
     character(len=*), intent(in) :: names(:)
     type(selection_t), intent(in) :: sel(:)
     character(len=:), allocatable :: text
-    character(len=64), allocatable :: terms(:)
+    character(len=CANDLEN + 1), allocatable :: terms(:)     ! '+name', '-name'
     integer :: i, k
     text = case_json(c%title, c%job, 0, '', n, trim(c%out_file))
     text = text(1:len(text) - 1)//','//NL//'"method": '//json_string(trim(c%stepwise%method))
