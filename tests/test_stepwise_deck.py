@@ -9,12 +9,15 @@ is handed on as &model lines, the same text from the deck and from
 ModelStructure.deck_text (the core's); bad settings one line each."""
 
 import json
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
 import mlid
-from conftest import REPO, refused_by_both, run_both
+from conftest import BIN, REPO, refused_by_both, run_both
 
 REFS = REPO.parent / "shared" / "data" / "refs" / "recursive"
 CSV = REFS / "data_tc23_RLS.csv"
@@ -208,6 +211,36 @@ def test_a_64_byte_name_is_whole_everywhere(tmp_path):
     path = json.loads((tmp_path / "mlid.json").read_text())[0]["outputs"][0]["path"]["term"]
     assert path[:2] == ["start", "+" + name]
     assert f"+{name} " in runs[0].stdout and f"\n   {name} " in runs[0].stdout
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="ulimit -v as on Linux")
+def test_candidates_too_large_for_memory_are_one_line(tmp_path):
+    """60,000 samples of 8 variables to degree 5: 1,286 candidates (617 MB)
+    fit under a 1 GB address limit, the candidates with the constant (617 MB
+    more) do not: one line from each front end, not the Fortran runtime's
+    abort, and the next case runs (OpenMP one thread: every thread's stack
+    takes address space)."""
+    rng = np.random.default_rng(7)
+    n, names = 60_000, [f"v{k}" for k in range(8)]
+    v = rng.standard_normal((n, 8))
+    np.savetxt(tmp_path / "big.csv", np.column_stack([np.arange(n) * 0.01, v, v[:, 0]]),
+               delimiter=",", fmt="%.6g", header="t," + ",".join(names) + ",y", comments="")
+    cols = ", ".join(f"'{k}'" for k in names)
+    (tmp_path / "big.nml").write_text(f"""&case title = 'many candidates', job = 'stepwise' /
+&data file = 'big.csv', time_col = 't', input_cols = {cols}, output_cols = 'y' /
+&stepwise degree = 5, f_in = 1e9, f_out = 1e9 /
+&case title = 'a few', job = 'stepwise' /
+&data file = 'big.csv', time_col = 't', input_cols = 'v0', 'v1', output_cols = 'y' /
+&stepwise /
+""")
+    for exe, pre in (("mlid", "run "), ("mlid-batch", "")):
+        run = subprocess.run(["bash", "-c", f"ulimit -v 1000000 && exec {BIN / exe} {pre}big.nml"],
+                             cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                             env=dict(os.environ, OMP_NUM_THREADS="1"))
+        assert run.returncode == 1 and run.stderr.splitlines() == [
+            f"{exe}: big.nml case 1 (line 1) 'many candidates': not enough memory for the "
+            "candidates and the constant (617.8 MB)", "1 of 2 cases failed"], run.stderr[-2000:]
+        assert "case 2: a few" in run.stdout and "y_regressors = '1', 'v0'," in run.stdout
 
 
 @needs_refs

@@ -19,6 +19,7 @@ module mlid_job_stepwise
   use mlid_stepwise_text, only: CANDLEN, CONSTANT, candidate_names, model_start_text
   use mlid_report, only: case_json, json_string, number, numbers, strings, integers
   use mlid_files, only: write_file
+  use mlid_memory, only: no_memory
   use mlid_text, only: itoa, es_text, to_lower
   implicit none
   private
@@ -76,6 +77,7 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: xt(:, :)
     integer, allocatable :: powers(:, :)
+    integer :: ierr
     associate (s => c%stepwise)
       call candidate_terms(transpose(u), s%degree, s%knot_var, s%knots, s%spline_degree, xt, &
                            powers, status, msg)
@@ -84,7 +86,12 @@ contains
                            status, msg)
       if (status /= MLID_OK) return
       if (s%intercept) then
-        allocate (x(size(xt, 1), size(xt, 2) + 1))
+        allocate (x(size(xt, 1), size(xt, 2) + 1), stat=ierr)     ! N up to MAX_SAMPLES
+        if (ierr /= 0) then
+          call no_memory('the candidates and the constant', real(size(xt, 1), wp)* &
+                         real(size(xt, 2) + 1, wp), status, msg)
+          return
+        end if
         x(:, 1) = 1.0_wp
         x(:, 2:) = xt
         names = [character(len=CANDLEN) :: CONSTANT, names]
