@@ -342,6 +342,12 @@ ENTRIES = {
     "stepwise knots on a variable not in &data": (
         "stepwise_knot_var.nml", r"^group &stepwise: knot_vars 'alpha' is not one of &data's "
                                  r"input_cols \(the variables\)$", {}),
+    "stepwise with no output_cols": ("stepwise_no_outputs.nml", r"^group &data: a stepwise case "
+                                     r"needs output_cols \(the measured coefficients whose "
+                                     r"model structure it finds\)$", {}),
+    "stepwise candidate named beyond 64 bytes (two 32-byte channels at degree 2)": (
+        "stepwise_long_name.nml", r"^group &stepwise: candidate 'a{32}\*b{32}' is longer than "
+                                  r"a candidate's name may be \(64 bytes\)$", {}),
     "&model in a stepwise case": ("stepwise_model.nml", r"^line \d+: group &model is not read by "
                                   r"job 'stepwise' \(it reads &case, &data, &stepwise\)$", {}),
 }

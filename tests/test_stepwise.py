@@ -372,6 +372,39 @@ def test_forced_terms_and_own_constant():
     assert own.r2 == pytest.approx(ref.r2, rel=1e-12)
 
 
+def test_a_name_longer_than_a_candidate_name_may_be_is_refused():
+    """The core holds a candidate's name in 64 bytes: a longer one (two
+    40-character variables' product at degree 2, a long variable, a long
+    term of deck_text; é is two bytes) is refused with one line naming it,
+    not cut (cut names can meet, and forced terms and the model start then
+    name the wrong term); 64 bytes are kept whole."""
+    a, b = "a" * 40, "b" * 40
+    v = np.linspace(0.0, 1.0, 30)
+    too_long = "is longer than a candidate's name may be \\(64 bytes\\)"
+    cases = [
+        (lambda: mlid.stepwise_candidates({a: v, b: v ** 2}, [a, b], degree=2),
+         f"^candidates: candidate '{a}\\*{b}' {too_long}$"),
+        (lambda: mlid.stepwise_candidates({"c" * 65: v}, ["c" * 65], degree=1),
+         f"^candidates: candidate '{'c' * 65}' {too_long}$"),
+        (lambda: mlid.stepwise_candidates({"é" * 33: v}, ["é" * 33], degree=1),
+         f"^candidates: candidate '{'é' * 33}' {too_long}$"),
+    ]
+    rng = np.random.default_rng(5)
+    X = rng.standard_normal((200, 2))
+    y = 1.0 + 2.0 * X[:, 0] + 0.1 * rng.standard_normal(200)
+    r = mlid.stepwise(X, y, names=["x" * 65, "z"], f_in=10.0, f_out=10.0)
+    assert r.selected == ["1", "x" * 65]
+    cases.append((lambda: r.deck_text("cm"), f"^model start: candidate '{'x' * 65}' {too_long}$"))
+    for call, message in cases:
+        with pytest.raises(mlid.InputError, match=message) as e:
+            call()
+        assert "\n" not in str(e.value)
+    c = mlid.stepwise_candidates({"d" * 62: v}, ["d" * 62], degree=2)
+    assert list(c.columns) == ["d" * 62, "d" * 62 + "^2"]
+    r = mlid.stepwise(X, y, names=["x" * 64, "z"], f_in=10.0, f_out=10.0)
+    assert r.deck_text("cm").startswith(f"    cm_regressors = '1', '{'x' * 64}',\n")
+
+
 BAD = [
     (dict(y=np.ones(5)), "X must be \\(N, m\\) and y \\(N,\\) of one length"),
     (dict(method="sideways"), "method must be forward, backward or mof, not 'sideways'"),

@@ -9,12 +9,15 @@ is handed on as &model lines, the same text from the deck and from
 ModelStructure.deck_text (the core's); bad settings one line each."""
 
 import json
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
 import mlid
-from conftest import REPO, refused_by_both, run_both
+from conftest import BIN, REPO, refused_by_both, run_both
 
 REFS = REPO.parent / "shared" / "data" / "refs" / "recursive"
 CSV = REFS / "data_tc23_RLS.csv"
@@ -33,13 +36,18 @@ PARAM = {"al": "al", "be": "be", "pn": "p", "qn": "q", "rn": "r", "de": "de", "d
          "dr": "dr"}
 
 
-def _deck(method="forward", extra=""):
+#: The thresholds each method takes (the deck refuses one it does not use).
+THRESHOLDS = {"forward": "f_in = 10, f_out = 10, ", "backward": "f_out = 10, ", "mof": ""}
+
+
+def _deck(method="forward", thresholds=None):
+    thresholds = THRESHOLDS[method] if thresholds is None else thresholds
     return f"""&case title = 'TC23 structure ({method})', job = 'stepwise' /
 &data file = '{CSV}', time_col = 't',
     input_cols = {', '.join(f"'{v}'" for v in VARIABLES)},
     output_cols = {', '.join(f"'{z}'" for z in OUTPUTS)} /
 &stepwise method = '{method}', degree = 2, knot_vars = 'al', 'al', 'be', knots = 0.03, 0.045, 0.0,
-    f_in = 10, f_out = 10{extra}, coefficients = 'cd', 'cl', 'cm', 'cy', 'croll', 'cn',
+    {thresholds}coefficients = 'cd', 'cl', 'cm', 'cy', 'croll', 'cn',
     out = 'start.txt' /
 """
 
@@ -79,6 +87,13 @@ def test_tc23_deck_is_pythons_stepwise(tmp_path, method):
         assert o["model_start"] in runs[0].stdout
         starts.append(o["model_start"])
     assert (tmp_path / "start.txt").read_text() == "".join(s + "\n" for s in starts)
+    # the report and the JSON show the thresholds the method uses, no other
+    shown = {"forward": " (F_in 1.000E+01, F_out 1.000E+01): ", "backward": " (F_out 1.000E+01): ",
+             "mof": " with PSE: "}[method]
+    head = next(line for line in runs[0].stdout.splitlines() if "model structure, " in line)
+    assert shown in head and ("F_in" in head) == (method == "forward") \
+        and ("F_out" in head) == (method != "mof"), head
+    assert ("f_in" in out) == (method == "forward") and ("f_out" in out) == (method != "mof")
 
 
 @needs_refs
@@ -156,9 +171,99 @@ BAD = [
     ("\n    out = 'start.txt'", "\n    sig2_max = -1, out = 'start.txt'", "sig2_max must be >= 0"),
     ("&stepwise", "&model kind = 'linear' /\n&stepwise",
      "group &model is not read by job 'stepwise' (it reads &case, &data, &stepwise)"),
+    (",\n    output_cols = 'CD', 'CL', 'Cm', 'CY', 'Cl', 'Cn' /", " /",
+     "group &data: a stepwise case needs output_cols (the measured coefficients whose model "
+     "structure it finds)"),
     ("input_cols = 'al'", "input_cols = '1', 'al'",
      "a variable is named '1', the constant's name: set intercept = F"),
 ]
+
+
+def test_a_64_byte_name_is_whole_everywhere(tmp_path):
+    """A candidate's name of 64 bytes, CANDLEN (two channels of 32 and 31
+    bytes at degree 2), forced and entering: whole in the report, in the
+    JSON (its path's '+name' is 65 bytes) and in the model start, from both
+    front ends alike."""
+    a, b = "a" * 32, "b" * 31
+    rng = np.random.default_rng(6)
+    t = np.arange(300) * 0.02
+    va, vb = rng.standard_normal(300), rng.standard_normal(300)
+    y = 0.5 + 2.0 * va * vb + 0.01 * rng.standard_normal(300)
+    np.savetxt(tmp_path / "ab.csv", np.column_stack([t, va, vb, y]), delimiter=",",
+               header=f"t,{a},{b},y", comments="")
+    deck = tmp_path / "ab.nml"
+    deck.write_text(f"""&case title = 'long names', job = 'stepwise' /
+&data file = 'ab.csv', time_col = 't', input_cols = '{a}', '{b}', output_cols = 'y' /
+&stepwise degree = 2, f_in = 10, f_out = 10, out = 'start.txt' /
+&case title = 'long names forced', job = 'stepwise' /
+&data file = 'ab.csv', time_col = 't', input_cols = '{a}', '{b}', output_cols = 'y' /
+&stepwise degree = 2, f_in = 10, f_out = 10, forced = '{a}*{b}' /
+""")
+    runs = run_both(deck, "--json", "{exe}.json", cwd=tmp_path)
+    assert runs[0].returncode == 0 and runs[0].stdout == runs[1].stdout, runs[0].stderr
+    assert (tmp_path / "mlid.json").read_bytes() == (tmp_path / "mlid-batch.json").read_bytes()
+    name = f"{a}*{b}"
+    assert len(name) == 64
+    for case in json.loads((tmp_path / "mlid.json").read_text()):
+        o = case["outputs"][0]
+        assert name in case["candidates"] and o["selected"] == ["1", name], case["title"]
+        assert o["model_start"].startswith(f"    y_regressors = '1', '{name}',\n")
+    path = json.loads((tmp_path / "mlid.json").read_text())[0]["outputs"][0]["path"]["term"]
+    assert path[:2] == ["start", "+" + name]
+    assert f"+{name} " in runs[0].stdout and f"\n   {name} " in runs[0].stdout
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="ulimit -v as on Linux")
+def test_candidates_too_large_for_memory_are_one_line(tmp_path):
+    """60,000 samples of 8 variables to degree 5: 1,286 candidates (617 MB)
+    fit under a 1 GB address limit, the candidates with the constant (617 MB
+    more) do not: one line from each front end, not the Fortran runtime's
+    abort, and the next case runs (OpenMP one thread: every thread's stack
+    takes address space)."""
+    rng = np.random.default_rng(7)
+    n, names = 60_000, [f"v{k}" for k in range(8)]
+    v = rng.standard_normal((n, 8))
+    np.savetxt(tmp_path / "big.csv", np.column_stack([np.arange(n) * 0.01, v, v[:, 0]]),
+               delimiter=",", fmt="%.6g", header="t," + ",".join(names) + ",y", comments="")
+    cols = ", ".join(f"'{k}'" for k in names)
+    (tmp_path / "big.nml").write_text(f"""&case title = 'many candidates', job = 'stepwise' /
+&data file = 'big.csv', time_col = 't', input_cols = {cols}, output_cols = 'y' /
+&stepwise degree = 5, f_in = 1e9, f_out = 1e9 /
+&case title = 'a few', job = 'stepwise' /
+&data file = 'big.csv', time_col = 't', input_cols = 'v0', 'v1', output_cols = 'y' /
+&stepwise /
+""")
+    for exe, pre in (("mlid", "run "), ("mlid-batch", "")):
+        run = subprocess.run(["bash", "-c", f"ulimit -v 1000000 && exec {BIN / exe} {pre}big.nml"],
+                             cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                             env=dict(os.environ, OMP_NUM_THREADS="1"))
+        assert run.returncode == 1 and run.stderr.splitlines() == [
+            f"{exe}: big.nml case 1 (line 1) 'many candidates': not enough memory for the "
+            "candidates and the constant (617.8 MB)", "1 of 2 cases failed"], run.stderr[-2000:]
+        assert "case 2: a few" in run.stdout and "y_regressors = '1', 'v0'," in run.stdout
+
+
+@needs_refs
+@pytest.mark.parametrize("method, thresholds, message", [
+    ("backward", "f_in = 10, f_out = 10, ",
+     "group &stepwise: f_in (the partial F to enter) is for method 'forward', not 'backward'"),
+    ("mof", "f_in = 10, ",
+     "group &stepwise: f_in (the partial F to enter) is for method 'forward', not 'mof'"),
+    ("mof", "f_out = 10, ", "group &stepwise: f_out (the partial F to stay) is for methods "
+     "'forward' and 'backward', not 'mof'"),
+    ("backward", "f_out = -1, ", "group &stepwise: f_out (the partial F to stay) must be > 0 "
+     "and finite"),
+])
+def test_a_threshold_the_method_does_not_use_is_refused(tmp_path, method, thresholds, message):
+    """Backward elimination takes no f_in (terms only leave), MOF neither
+    threshold (the model of least PSE): given, one line from both front
+    ends, as a setting that did nothing would otherwise show in the report;
+    backward's own f_out is checked alone (4, f_in's default, is no bound
+    on it)."""
+    deck = tmp_path / "unused.nml"
+    deck.write_text(_deck(method, thresholds))
+    refused_by_both(deck, message, cwd=tmp_path)
+    assert not (tmp_path / "start.txt").exists()
 
 
 @needs_refs

@@ -205,15 +205,19 @@ def stepwise_deck():
     reference = {"CD": ["al"], "CL": ["al"], "Cm": ["al", "qn", "de"], "CY": ["be"],
                  "Cl": ["be", "pn", "rn", "da"], "Cn": ["be", "pn", "rn", "dr"]}
     text = (HERE / "tc23_stepwise.nml").read_text()
+    # each method with the thresholds it takes (the deck refuses one it does not use)
+    settings = {"forward": "method = 'forward', f_in = 20, f_out = 20",
+                "backward": "method = 'backward', f_out = 20", "mof": "method = 'mof'"}
     for method in ("forward", "backward", "mof"):
         with tempfile.TemporaryDirectory() as tmp:
             deck = Path(tmp) / "tc23.nml"
             deck.write_text(text.replace("../../../shared", str(HERE.parents[2] / "shared"))
-                            .replace("method = 'forward'", f"method = '{method}'"))
+                            .replace(settings["forward"], settings[method]))
             case, out, _, error = next(iter_deck(deck))
         if error:
             sys.exit(f"{case.where()}: {error}")
-        rule = "least PSE" if method == "mof" else "F_in = F_out = 20"
+        rule = {"forward": "F_in = F_out = 20", "backward": "F_out = 20",
+                "mof": "least PSE"}[method]
         print(f"test case 23, stepwise deck, {method} ({rule}), {len(out['candidates'])} "
               "candidates:")
         for o in out["outputs"]:

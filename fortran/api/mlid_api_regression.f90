@@ -9,8 +9,8 @@ module mlid_api_regression
   use mlid_orthogonal_functions, only: orthogonal_functions
   use mlid_candidates, only: candidate_terms
   use mlid_handles, only: session_t, call_session
-  use mlid_stepwise_text, only: CANDLEN, candidate_names, model_start_text
-  use mlid_text, only: name_lines, join_lines, itoa
+  use mlid_stepwise_text, only: CANDLEN, candidate_names, candidate_lines, model_start_text
+  use mlid_text, only: join_lines, itoa
   implicit none
   private
   public :: mlid_model_structure, mlid_candidate_terms, mlid_model_start_text
@@ -113,13 +113,18 @@ contains
                                             powers, st, msg)
     status = st
     if (st /= MLID_OK) return
-    call name_lines(vtext, vnames)
-    if (size(vnames) /= size(v, 2)) then
-      status = MLID_ERR_INPUT
-      msg = 'candidates: '//itoa(size(vnames))//' names for '//itoa(size(v, 2))//' variables'
+    call candidate_lines(vtext, vnames, st, msg)
+    if (st == MLID_OK .and. size(vnames) /= size(v, 2)) then
+      st = MLID_ERR_INPUT
+      msg = itoa(size(vnames))//' names for '//itoa(size(v, 2))//' variables'
+    end if
+    if (st == MLID_OK) call candidate_names(vnames, powers, knot_var, knots, spline_degree, &
+                                            names, st, msg)
+    status = st
+    if (st /= MLID_OK) then
+      msg = 'candidates: '//msg
       return
     end if
-    names = candidate_names(vnames, powers, knot_var, knots, spline_degree)
     call s%results%put('x', x)
     call s%results%put('powers', reshape(powers, [size(powers)]))
     call s%results%put('names', join_lines(names))
@@ -149,10 +154,14 @@ contains
     end associate
     status = st
     if (st /= MLID_OK) return
-    call name_lines(ntext, names)
-    if (size(names) /= size(values)) then
-      status = MLID_ERR_INPUT
-      msg = 'model start: '//itoa(size(names))//' names for '//itoa(size(values))//' values'
+    call candidate_lines(ntext, names, st, msg)
+    if (st == MLID_OK .and. size(names) /= size(values)) then
+      st = MLID_ERR_INPUT
+      msg = itoa(size(names))//' names for '//itoa(size(values))//' values'
+    end if
+    status = st
+    if (st /= MLID_OK) then
+      msg = 'model start: '//msg
       return
     end if
     call s%results%put('text', model_start_text(coefficient, names, values))

@@ -14,6 +14,7 @@ module mlid_case
   use mlid_text, only: join_lines
   use mlid_files, only: same_file
   use mlid_input_ranking, only: ranking_options_t
+  use mlid_stepwise_text, only: CANDLEN
   implicit none
   private
   public :: case_t, stepwise_spec_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
@@ -57,8 +58,11 @@ module mlid_case
     logical :: intercept = .true.
     integer, allocatable :: knot_var(:)
     real(wp), allocatable :: knots(:)
-    character(len=64), allocatable :: forced(:)
+    character(len=CANDLEN), allocatable :: forced(:)
     character(len=NAMELEN), allocatable :: coefficients(:)
+  contains
+    procedure :: uses_f_in => stepwise_uses_f_in
+    procedure :: uses_f_out => stepwise_uses_f_out
   end type stepwise_spec_t
 
   type :: case_t
@@ -161,6 +165,18 @@ module mlid_case
   end type case_t
 
 contains
+
+  !> The thresholds a method uses: F_in forward only (backward only
+  !> removes terms), F_out not mof (it keeps the model of least PSE).
+  pure logical function stepwise_uses_f_in(s)
+    class(stepwise_spec_t), intent(in) :: s
+    stepwise_uses_f_in = s%method == 'forward'
+  end function stepwise_uses_f_in
+
+  pure logical function stepwise_uses_f_out(s)
+    class(stepwise_spec_t), intent(in) :: s
+    stepwise_uses_f_out = s%method /= 'mof'
+  end function stepwise_uses_f_out
 
   !> Whether case c reads or writes the file path: its data files, the
   !> inputs its Monte Carlo flies, the record it simulates or designs, its

@@ -85,6 +85,8 @@ contains
     if (c%job == 'stepwise') then        ! no &model: the channels are the variables and outputs
       c%nu = size(c%chan%inputs)
       c%ny = size(c%chan%outputs)
+      if (c%ny == 0) call fail(c, 'group &data: a stepwise case needs output_cols (the '// &
+                               'measured coefficients whose model structure it finds)')
     else if (size(c%chan%inputs) /= c%nu .or. size(c%chan%outputs) /= c%ny) then
       write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'group &data: ', size(c%chan%inputs), &
         ' input_cols and ', size(c%chan%outputs), ' output_cols given, the model has ', c%nu, &

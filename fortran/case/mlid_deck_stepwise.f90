@@ -71,7 +71,7 @@ contains
       s%coefficients = pack(coefficients, len_trim(coefficients) > 0)
     end associate
     c%out_file = out
-    call check_settings(c, nk)
+    call check_settings(rd, c, nk)
     if (c%status == MLID_OK) call check_names(c, knot_vars(1:nk))
     if (c%status == MLID_OK) call check_starts(c)
   end procedure read_stepwise_group
@@ -103,17 +103,29 @@ contains
     allocate (c%tie%to(0), c%tie%from(0), c%tie%scale(0), c%tie%offset(0))
   end subroutine no_model
 
-  subroutine check_settings(c, nk)
+  !> The method, the thresholds it uses (a threshold it does not use is
+  !> refused when given: the report would show a setting that did nothing),
+  !> sig2_max, the degrees and the knots.
+  subroutine check_settings(rd, c, nk)
+    type(reader_t), intent(in) :: rd
     type(case_t), intent(inout) :: c
     integer, intent(in) :: nk
     associate (s => c%stepwise)
       if (all(METHODS /= s%method)) then
         call fail(c, 'group &stepwise: method must be '//choices(METHODS)//', not '''// &
                   trim(s%method)//'''')
-      else if (.not. (s%f_in > 0.0_wp .and. s%f_out > 0.0_wp .and. s%f_out <= s%f_in .and. &
-                      ieee_is_finite(s%f_in))) then
+      else if (is_given(rd, 'stepwise', 'f_in') .and. .not. s%uses_f_in()) then
+        call fail(c, 'group &stepwise: f_in (the partial F to enter) is for method '// &
+                  '''forward'', not '''//trim(s%method)//'''')
+      else if (is_given(rd, 'stepwise', 'f_out') .and. .not. s%uses_f_out()) then
+        call fail(c, 'group &stepwise: f_out (the partial F to stay) is for methods '// &
+                  '''forward'' and ''backward'', not '''//trim(s%method)//'''')
+      else if (s%uses_f_in() .and. .not. (s%f_in > 0.0_wp .and. s%f_out > 0.0_wp .and. &
+                                          s%f_out <= s%f_in .and. ieee_is_finite(s%f_in))) then
         call fail(c, 'group &stepwise: f_in and f_out (the partial F to enter and to stay) '// &
                   'must be > 0 and finite with f_out <= f_in')
+      else if (s%uses_f_out() .and. .not. (s%f_out > 0.0_wp .and. ieee_is_finite(s%f_out))) then
+        call fail(c, 'group &stepwise: f_out (the partial F to stay) must be > 0 and finite')
       else if (.not. (s%sig2_max >= 0.0_wp .and. ieee_is_finite(s%sig2_max))) then
         call fail(c, 'group &stepwise: sig2_max must be >= 0 (0: the variance of each output) '// &
                   'and finite')

@@ -10,7 +10,7 @@
 !> when it names a file.
 module mlid_job_stepwise
   use mlid_kinds, only: wp, MLID_OK, msg_len
-  use mlid_case, only: case_t
+  use mlid_case, only: case_t, stepwise_spec_t
   use mlid_deck, only: case_record
   use mlid_candidates, only: candidate_terms
   use mlid_regression, only: regression_settings_t, regression_t
@@ -19,6 +19,7 @@ module mlid_job_stepwise
   use mlid_stepwise_text, only: CANDLEN, CONSTANT, candidate_names, model_start_text
   use mlid_report, only: case_json, json_string, number, numbers, strings, integers
   use mlid_files, only: write_file
+  use mlid_memory, only: no_memory
   use mlid_text, only: itoa, es_text, to_lower
   implicit none
   private
@@ -76,13 +77,21 @@ contains
     character(len=*), intent(out) :: msg
     real(wp), allocatable :: xt(:, :)
     integer, allocatable :: powers(:, :)
+    integer :: ierr
     associate (s => c%stepwise)
       call candidate_terms(transpose(u), s%degree, s%knot_var, s%knots, s%spline_degree, xt, &
                            powers, status, msg)
       if (status /= MLID_OK) return
-      names = candidate_names(c%chan%inputs, powers, s%knot_var, s%knots, s%spline_degree)
+      call candidate_names(c%chan%inputs, powers, s%knot_var, s%knots, s%spline_degree, names, &
+                           status, msg)
+      if (status /= MLID_OK) return
       if (s%intercept) then
-        allocate (x(size(xt, 1), size(xt, 2) + 1))
+        allocate (x(size(xt, 1), size(xt, 2) + 1), stat=ierr)     ! N up to MAX_SAMPLES
+        if (ierr /= 0) then
+          call no_memory('the candidates and the constant', real(size(xt, 1), wp)* &
+                         real(size(xt, 2) + 1, wp), status, msg)
+          return
+        end if
         x(:, 1) = 1.0_wp
         x(:, 2:) = xt
         names = [character(len=CANDLEN) :: CONSTANT, names]
@@ -107,6 +116,8 @@ contains
     associate (s => c%stepwise)
       set%f_in = s%f_in
       set%f_out = s%f_out
+      ! a method without f_in (the deck refuses one): the core's f_out <= f_in holds
+      if (.not. s%uses_f_in()) set%f_in = max(s%f_in, s%f_out)
       set%sig2_max = s%sig2_max
       do j = 1, size(names)
         forced(j) = any(s%forced == names(j)) .or. (s%intercept .and. j == 1)
@@ -171,9 +182,7 @@ contains
     character(len=:), allocatable :: text
     integer :: i, k, j
     associate (s => c%stepwise)
-      text = ' model structure, '//trim(method_words(s%method))//' (F_in '// &
-             trim(adjustl(es_text(s%f_in, 10, 3)))//', F_out '// &
-             trim(adjustl(es_text(s%f_out, 10, 3)))//'): '//itoa(n)//' samples, '// &
+      text = ' model structure, '//trim(method_words(s%method))//thresholds_text(s)//': '//itoa(n)//' samples, '// &
              itoa(size(names))//' candidates of '//itoa(c%nu)//' variables (degree '// &
              itoa(s%degree)//', '//itoa(size(s%knots))//' spline knots'// &
              trim(merge(', the constant', '              ', s%intercept))//')'
@@ -211,12 +220,13 @@ contains
     character(len=*), intent(in) :: names(:)
     type(selection_t), intent(in) :: sel(:)
     character(len=:), allocatable :: text
-    character(len=64), allocatable :: terms(:)
+    character(len=CANDLEN + 1), allocatable :: terms(:)     ! '+name', '-name'
     integer :: i, k
     text = case_json(c%title, c%job, 0, '', n, trim(c%out_file))
-    text = text(1:len(text) - 1)//','//NL//'"method": '//json_string(trim(c%stepwise%method))// &
-           ', "f_in": '//number(c%stepwise%f_in)//', "f_out": '//number(c%stepwise%f_out)// &
-           ','//NL//'"candidates": '//strings(names)//','//NL//'"outputs": ['
+    text = text(1:len(text) - 1)//','//NL//'"method": '//json_string(trim(c%stepwise%method))
+    if (c%stepwise%uses_f_in()) text = text//', "f_in": '//number(c%stepwise%f_in)
+    if (c%stepwise%uses_f_out()) text = text//', "f_out": '//number(c%stepwise%f_out)
+    text = text//','//NL//'"candidates": '//strings(names)//','//NL//'"outputs": ['
     do i = 1, size(sel)
       associate (r => sel(i)%r)
         allocate (terms(0:r%nsteps))
@@ -258,6 +268,17 @@ contains
       s = '-'//trim(names(-term))
     end if
   end function step_term
+
+  !> The thresholds the method uses, as the report shows them: ' (F_in a,
+  !> F_out b)' forward, ' (F_out b)' backward, none for mof (least PSE).
+  function thresholds_text(s) result(text)
+    type(stepwise_spec_t), intent(in) :: s
+    character(len=:), allocatable :: text
+    text = ''
+    if (s%uses_f_in()) text = 'F_in '//trim(adjustl(es_text(s%f_in, 10, 3)))//', '
+    if (s%uses_f_out()) text = text//'F_out '//trim(adjustl(es_text(s%f_out, 10, 3)))
+    if (len(text) > 0) text = ' ('//text//')'
+  end function thresholds_text
 
   function method_words(method) result(s)
     character(len=*), intent(in) :: method

@@ -5,12 +5,13 @@
 !> &model group (the start of an output-error fit).
 module mlid_stepwise_text
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan
-  use mlid_kinds, only: wp, MLID_OK
-  use mlid_text, only: itoa
+  use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
+  use mlid_text, only: itoa, utf8_head, name_lines
   use mlid_candidates, only: candidate_terms
   implicit none
   private
-  public :: CANDLEN, CONSTANT, candidate_names, candidate_list, model_start_text, g_text
+  public :: CANDLEN, CONSTANT, candidate_names, candidate_list, candidate_lines, model_start_text, &
+            g_text
 
   !> A candidate's name at the most ('al*be^2', '(al-0.03)+^2').
   integer, parameter :: CANDLEN = 64
@@ -22,30 +23,73 @@ contains
   !> The names of candidate_terms' columns: each product of the variables
   !> vnames by its exponents powers (nv, nt): 'al', 'al*de', 'al^2'; then
   !> each spline term: '(v-k)+', or '(v-k)+^n' for spline_degree n > 1
-  !> (k as %g writes it).
-  function candidate_names(vnames, powers, knot_var, knots, spline_degree) result(names)
+  !> (k as %g writes it).  A name longer than CANDLEN is refused.
+  subroutine candidate_names(vnames, powers, knot_var, knots, spline_degree, names, status, msg)
     character(len=*), intent(in) :: vnames(:)
     integer, intent(in) :: powers(:, :), knot_var(:), spline_degree
     real(wp), intent(in) :: knots(:)
-    character(len=CANDLEN) :: names(size(powers, 2) + size(knots))
+    character(len=CANDLEN), allocatable, intent(out) :: names(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
     character(len=:), allocatable :: s
     integer :: j, i
-    do j = 1, size(powers, 2)
-      s = ''
-      do i = 1, size(vnames)
-        if (powers(i, j) == 0) cycle
-        if (len(s) > 0) s = s//'*'
-        s = s//trim(vnames(i))
-        if (powers(i, j) > 1) s = s//'^'//itoa(powers(i, j))
-      end do
+    allocate (names(size(powers, 2) + size(knots)))
+    status = MLID_OK
+    msg = ''
+    do j = 1, size(names)
+      if (j <= size(powers, 2)) then
+        s = ''
+        do i = 1, size(vnames)
+          if (powers(i, j) == 0) cycle
+          if (len(s) > 0) s = s//'*'
+          s = s//trim(vnames(i))
+          if (powers(i, j) > 1) s = s//'^'//itoa(powers(i, j))
+        end do
+      else
+        i = j - size(powers, 2)
+        s = '('//trim(vnames(knot_var(i)))//'-'//g_text(knots(i), 6)//')+'
+        if (spline_degree > 1) s = s//'^'//itoa(spline_degree)
+      end if
+      call check_length(s, status, msg)
+      if (status /= MLID_OK) return
       names(j) = s
     end do
-    do j = 1, size(knots)
-      s = '('//trim(vnames(knot_var(j)))//'-'//g_text(knots(j), 6)//')+'
-      if (spline_degree > 1) s = s//'^'//itoa(spline_degree)
-      names(size(powers, 2) + j) = s
+  end subroutine candidate_names
+
+  !> The names of text, one a line (mlid_text's name_lines), as candidates'
+  !> names: a line longer than CANDLEN is refused.
+  subroutine candidate_lines(text, names, status, msg)
+    character(len=*), intent(in) :: text
+    character(len=CANDLEN), allocatable, intent(out) :: names(:)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    integer :: p, e
+    p = 1
+    do
+      e = index(text(p:), achar(10))
+      if (e == 0) exit
+      call check_length(text(p:p + e - 2), status, msg)
+      if (status /= MLID_OK) return
+      p = p + e
     end do
-  end function candidate_names
+    status = MLID_OK
+    msg = ''
+    call name_lines(text, names)
+  end subroutine candidate_lines
+
+  !> A candidate's name fits in CANDLEN bytes: cut, two names could meet,
+  !> and forced terms and the model start would name the wrong term.
+  subroutine check_length(name, status, msg)
+    character(len=*), intent(in) :: name
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    status = MLID_OK
+    msg = ''
+    if (len(name) <= CANDLEN) return
+    status = MLID_ERR_INPUT
+    msg = 'candidate '''//utf8_head(name, 120)//trim(merge('...', '   ', len(name) > 120))// &
+          ''' is longer than a candidate''s name may be ('//itoa(CANDLEN)//' bytes)'
+  end subroutine check_length
 
   !> The candidates' names that the variables vnames give (candidate_terms'
   !> order), without their data: the checks of a deck's &stepwise.
@@ -62,7 +106,7 @@ contains
     one = 1.0_wp
     call candidate_terms(one, degree, knot_var, knots, spline_degree, x, powers, status, msg)
     if (status /= MLID_OK) return
-    names = candidate_names(vnames, powers, knot_var, knots, spline_degree)
+    call candidate_names(vnames, powers, knot_var, knots, spline_degree, names, status, msg)
   end subroutine candidate_list
 
   !> A selected model as two lines of a deck's &model group: the item

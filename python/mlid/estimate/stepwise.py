@@ -137,6 +137,12 @@ class ModelStructure:
         str
             Two lines: ``<coefficient>_regressors = ...`` and
             ``<coefficient> = ...`` (the values as %.10g writes them).
+
+        Raises
+        ------
+        InputError
+            A coefficient that is no name, or a selected term's name over
+            the 64 bytes a candidate's name may have.
         """
         start = self.model_start(coefficient)
         h = _call_handle()
@@ -298,7 +304,8 @@ def stepwise_candidates(data, variables, degree=2, knots=None, spline_degree=1):
     InputError
         data not a table, a variable not in the data, not real or not
         finite, variables of different lengths, knots for a
-        variable not used, a degree below 1, or more than 10,000 candidates.
+        variable not used, a degree below 1, more than 10,000 candidates,
+        or a candidate's name over 64 bytes (the core's; not cut).
     """
     pd = pandas_for("stepwise_candidates")
     if isinstance(variables, str):
