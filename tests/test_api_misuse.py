@@ -212,7 +212,7 @@ MISUSE = {
     "efrls forgetting 0": (lambda d: mlid.online.efrls(_model(), d, forgetting=0.0, r=[1, 1]),
                            r"forgetting factor must be in \(0, 1\], 1 for none"),
     "stepwise method typo": (lambda d: mlid.stepwise(X2, np.sin(T), method="forwards"),
-                             "method must be forward, backward or mof, not 'forwards'"),
+                             "method must be 'forward', 'backward' or 'mof', not 'forwards'"),
     "stepwise y short": (lambda d: mlid.stepwise(X2, np.sin(T[:50])), r"X must be \(N, m\) and y \(N,\)"),
     "stepwise F_in negative": (lambda d: mlid.stepwise(X2, np.sin(T), f_in=-1.0), "F_in and F_out must be > 0"),
     "stepwise forced unknown": (lambda d: mlid.stepwise(X2, np.sin(T), forced=["zz"], names=["a", "b"]),

@@ -269,12 +269,14 @@ def test_synthetic_truth_is_recovered(method):
     seeds: 4 is a test for one candidate, not for the largest of many.)
     At seed 11 the estimates are within 4 sigma of the truth and equal
     lstsq on the chosen columns to 1e-10, sigma, s, R^2 and PSE its own."""
+    # the thresholds the method uses (f_in forward's, f_out not mof's)
+    f = {"forward": dict(f_in=10.0, f_out=10.0), "backward": dict(f_out=10.0), "mof": {}}[method]
     for seed in range(11, 31):
         c, y, truth = _synthetic(seed)
-        r = mlid.stepwise(c, y, method=method, f_in=10.0, f_out=10.0)
+        r = mlid.stepwise(c, y, method=method, **f)
         assert sorted(r.selected) == sorted(truth), seed
     c, y, truth = _synthetic()
-    r = mlid.stepwise(c, y, method=method, f_in=10.0, f_out=10.0)
+    r = mlid.stepwise(c, y, method=method, **f)
     for n, v in truth.items():
         assert abs(r.estimates[n] - v) < 4 * r.sigma[n], n
     cols = [n for n in r.selected if n != "1"]
@@ -365,9 +367,8 @@ def test_forced_terms_and_own_constant():
     r = mlid.stepwise(c, y, forced=["noise2"], f_in=10.0, f_out=10.0)
     assert sorted(r.selected) == sorted(list(truth) + ["noise2"])
     assert r.f["noise2"] < 10.0
-    own = mlid.stepwise(c.assign(one=1.0), y, intercept=False, forced=["one"], f_in=10.0,
-                        f_out=10.0, method="mof")
-    ref = mlid.stepwise(c, y, f_in=10.0, f_out=10.0, method="mof")
+    own = mlid.stepwise(c.assign(one=1.0), y, intercept=False, forced=["one"], method="mof")
+    ref = mlid.stepwise(c, y, method="mof")
     assert own.estimates["one"] == pytest.approx(ref.estimates["1"], rel=1e-10)
     assert own.r2 == pytest.approx(ref.r2, rel=1e-12)
 
@@ -407,7 +408,11 @@ def test_a_name_longer_than_a_candidate_name_may_be_is_refused():
 
 BAD = [
     (dict(y=np.ones(5)), "X must be \\(N, m\\) and y \\(N,\\) of one length"),
-    (dict(method="sideways"), "method must be forward, backward or mof, not 'sideways'"),
+    (dict(method="sideways"), "method must be 'forward', 'backward' or 'mof', not 'sideways'"),
+    (dict(method="backward", f_in=10.0), "f_in .the partial F to enter. is not a setting of "
+     "method 'backward'"),
+    (dict(method="mof", f_out=10.0), "f_out .the partial F to stay. is not a setting of method 'mof'"),
+    (dict(method="backward", f_out=-1.0), "F_out must be > 0 and finite"),
     (dict(f_in=2.0, f_out=4.0), "F_out <= F_in"),
     (dict(f_in="4"), "f_in must be a number"),
     (dict(sig2_max=-1.0), "sig2_max must be a positive number"),

@@ -75,7 +75,9 @@ def test_tc23_deck_is_pythons_stepwise(tmp_path, method):
     assert out["candidates"] == ["1"] + list(cands.columns) and len(out["candidates"]) == 48
     starts = []
     for z, item, o in zip(OUTPUTS, ITEMS, out["outputs"]):
-        r = mlid.stepwise(cands, d[z], method=method, f_in=10.0, f_out=10.0)
+        thresholds = {"forward": dict(f_in=10.0, f_out=10.0), "backward": dict(f_out=10.0),
+                      "mof": {}}[method]           # the ones the method uses
+        r = mlid.stepwise(cands, d[z], method=method, **thresholds)
         assert o["output"] == z and o["selected"] == r.selected, z
         np.testing.assert_allclose(o["estimates"], [r.estimates[n] for n in r.selected],
                                    rtol=1e-9)

@@ -5,8 +5,7 @@ module mlid_api_regression
   use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT
   use mlid_regression, only: regression_settings_t, regression_t
-  use mlid_stepwise, only: stepwise_forward, stepwise_backward
-  use mlid_orthogonal_functions, only: orthogonal_functions
+  use mlid_structure, only: model_structure, uses_f_in, uses_f_out
   use mlid_candidates, only: candidate_terms
   use mlid_handles, only: session_t, call_session
   use mlid_stepwise_text, only: CANDLEN, candidate_names, candidate_lines, model_start_text
@@ -19,7 +18,8 @@ contains
 
   !> The model structure of handle h's given values (mlid_api_values):
   !> x (N, m) the candidates, y (N), forced (m; 1: always in), method
-  !> ('forward', 'backward' or 'mof'), f_in, f_out, sig2_max (0: the
+  !> ('forward', 'backward' or 'mof'), f_in and f_out where the method uses
+  !> them (default 4; refused where it does not), sig2_max (0: the
   !> variance of y).  Results: selected (m; 1 in), theta, sigma, f (m; F to
   !> remove where selected, to enter where not), r2, s, pse, sig2_max, and
   !> the path (steps 0..): term (+j in, -j out, 0 the start), np, f, r2,
@@ -44,24 +44,20 @@ contains
       call g%get('y', y, st, msg, [size(x, 1)])
       call g%get('forced', forced, st, msg, [size(x, 2)])
       call g%get('method', method, st, msg)
-      call g%get('f_in', set%f_in, st, msg)
-      call g%get('f_out', set%f_out, st, msg)
       call g%get('sig2_max', set%sig2_max, st, msg)
+      ! a threshold given that the method does not use would be ignored
+      if (st == MLID_OK .and. g%find('f_in') > 0) then
+        call g%get('f_in', set%f_in, st, msg)
+        if (.not. uses_f_in(method)) call unused('f_in (the partial F to enter)', method, &
+                                                  st, msg)
+      end if
+      if (st == MLID_OK .and. g%find('f_out') > 0) then
+        call g%get('f_out', set%f_out, st, msg)
+        if (.not. uses_f_out(method)) call unused('f_out (the partial F to stay)', method, &
+                                                   st, msg)
+      end if
     end associate
-    if (st == MLID_OK) then
-      select case (method)
-      case ('forward')
-        call stepwise_forward(x, y, forced /= 0, set, r, st, msg)
-      case ('backward')
-        call stepwise_backward(x, y, forced /= 0, set, r, st, msg)
-      case ('mof')
-        call orthogonal_functions(x, y, forced /= 0, set, r, st, msg)
-      case default
-        st = MLID_ERR_INPUT
-        msg = 'model structure: method must be forward, backward or mof, not '''// &
-              method(1:min(len(method), 40))//''''
-      end select
-    end if
+    if (st == MLID_OK) call model_structure(method, x, y, forced /= 0, set, r, st, msg)
     status = st
     if (st /= MLID_OK) return
     k = r%nsteps
@@ -80,6 +76,16 @@ contains
     call s%results%put('path_pse', r%path_pse(0:k))
     call s%results%put('path_s', r%path_s(0:k))
   end subroutine mlid_model_structure
+
+  !> A threshold given that the method does not use: one line.
+  subroutine unused(what, method, st, msg)
+    character(len=*), intent(in) :: what, method
+    integer, intent(out) :: st
+    character(len=*), intent(out) :: msg
+    st = MLID_ERR_INPUT
+    msg = 'model structure: '//what//' is not a setting of method '''// &
+          method(1:min(len(method), 40))//''''
+  end subroutine unused
 
   !> Candidate regressors (mlid_candidates) of handle h's given values: v
   !> (N, nv) the variables, vnames their names (one a line), degree,

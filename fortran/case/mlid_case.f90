@@ -15,6 +15,7 @@ module mlid_case
   use mlid_files, only: same_file
   use mlid_input_ranking, only: ranking_options_t
   use mlid_stepwise_text, only: CANDLEN
+  use mlid_structure, only: uses_f_in, uses_f_out
   implicit none
   private
   public :: case_t, stepwise_spec_t, case_values, TITLE_CHARS, case_uses, NAMELEN, PATHLEN, MAXSEG, MAX_SAMPLES, NCONDITION, &
@@ -166,16 +167,15 @@ module mlid_case
 
 contains
 
-  !> The thresholds a method uses: F_in forward only (backward only
-  !> removes terms), F_out not mof (it keeps the model of least PSE).
+  !> The thresholds the case's method uses (mlid_structure's).
   pure logical function stepwise_uses_f_in(s)
     class(stepwise_spec_t), intent(in) :: s
-    stepwise_uses_f_in = s%method == 'forward'
+    stepwise_uses_f_in = uses_f_in(trim(s%method))
   end function stepwise_uses_f_in
 
   pure logical function stepwise_uses_f_out(s)
     class(stepwise_spec_t), intent(in) :: s
-    stepwise_uses_f_out = s%method /= 'mof'
+    stepwise_uses_f_out = uses_f_out(trim(s%method))
   end function stepwise_uses_f_out
 
   !> Whether case c reads or writes the file path: its data files, the

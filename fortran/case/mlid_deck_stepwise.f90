@@ -5,10 +5,10 @@ submodule (mlid_deck) mlid_deck_stepwise
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_text, only: choices
   use mlid_stepwise_text, only: CANDLEN, CONSTANT, candidate_list
+  use mlid_structure, only: STRUCTURE_METHODS
   implicit none
 
   integer, parameter :: MAXKNOT = 100, MAXFORCED = 100
-  character(len=8), parameter :: METHODS(3) = [character(len=8) :: 'forward', 'backward', 'mof']
 
 contains
 
@@ -111,8 +111,8 @@ contains
     type(case_t), intent(inout) :: c
     integer, intent(in) :: nk
     associate (s => c%stepwise)
-      if (all(METHODS /= s%method)) then
-        call fail(c, 'group &stepwise: method must be '//choices(METHODS)//', not '''// &
+      if (all(STRUCTURE_METHODS /= s%method)) then
+        call fail(c, 'group &stepwise: method must be '//choices(STRUCTURE_METHODS)//', not '''// &
                   trim(s%method)//'''')
       else if (is_given(rd, 'stepwise', 'f_in') .and. .not. s%uses_f_in()) then
         call fail(c, 'group &stepwise: f_in (the partial F to enter) is for method '// &

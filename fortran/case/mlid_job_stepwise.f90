@@ -14,8 +14,7 @@ module mlid_job_stepwise
   use mlid_deck, only: case_record
   use mlid_candidates, only: candidate_terms
   use mlid_regression, only: regression_settings_t, regression_t
-  use mlid_stepwise, only: stepwise_forward, stepwise_backward
-  use mlid_orthogonal_functions, only: orthogonal_functions
+  use mlid_structure, only: model_structure
   use mlid_stepwise_text, only: CANDLEN, CONSTANT, candidate_names, model_start_text
   use mlid_report, only: case_json, json_string, number, numbers, strings, integers
   use mlid_files, only: write_file
@@ -116,20 +115,11 @@ contains
     associate (s => c%stepwise)
       set%f_in = s%f_in
       set%f_out = s%f_out
-      ! a method without f_in (the deck refuses one): the core's f_out <= f_in holds
-      if (.not. s%uses_f_in()) set%f_in = max(s%f_in, s%f_out)
       set%sig2_max = s%sig2_max
       do j = 1, size(names)
         forced(j) = any(s%forced == names(j)) .or. (s%intercept .and. j == 1)
       end do
-      select case (s%method)
-      case ('backward')
-        call stepwise_backward(x, y, forced, set, sel%r, status, msg)
-      case ('mof')
-        call orthogonal_functions(x, y, forced, set, sel%r, status, msg)
-      case default
-        call stepwise_forward(x, y, forced, set, sel%r, status, msg)
-      end select
+      call model_structure(trim(s%method), x, y, forced, set, sel%r, status, msg)
       sel%output = trim(c%chan%outputs(i))
       if (status /= MLID_OK) then
         msg = 'stepwise: output '//sel%output//': '//named_candidates(msg, names)

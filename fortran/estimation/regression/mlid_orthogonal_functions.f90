@@ -36,7 +36,7 @@ contains
     logical :: in(size(forced))
     integer :: j, m, n, ierr, kbest
 
-    call regression_check(x, y, forced, s, status, msg)
+    call regression_check(x, y, forced, s, .false., .false., status, msg)
     if (status /= MLID_OK) return
     m = size(forced)
     n = size(y)

@@ -54,12 +54,14 @@ contains
 
   !> x (N, m) the candidates, y (N) the measured coefficient, forced (m)
   !> the terms always in the model: finite, sizes agreeing, N above the
-  !> forced terms, thresholds F_out <= F_in (else a term could enter and
-  !> leave for ever).
-  subroutine regression_check(x, y, forced, s, status, msg)
+  !> forced terms; the thresholds the procedure uses (entering: F_in and
+  !> F_out, with F_out <= F_in, else a term could enter and leave for
+  !> ever; removing: F_out) > 0 and finite.
+  subroutine regression_check(x, y, forced, s, entering, removing, status, msg)
     real(wp), intent(in) :: x(:, :), y(:)
     logical, intent(in) :: forced(:)
     type(regression_settings_t), intent(in) :: s
+    logical, intent(in) :: entering, removing
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
     integer :: j
@@ -75,10 +77,13 @@ contains
             itoa(count(forced))//' forced terms and one more'
     else if (.not. (all(ieee_is_finite(x)) .and. all(ieee_is_finite(y)))) then
       msg = 'model structure: the candidates and the measurements must be finite'
-    else if (.not. (s%f_in > 0.0_wp .and. s%f_out > 0.0_wp .and. s%f_out <= s%f_in .and. &
-                    ieee_is_finite(s%f_in))) then
+    else if (entering .and. .not. (s%f_in > 0.0_wp .and. s%f_out > 0.0_wp .and. &
+                                   s%f_out <= s%f_in .and. ieee_is_finite(s%f_in))) then
       msg = 'model structure: F_in and F_out must be > 0 and finite with F_out <= F_in, not '// &
             trim(adjustl(es_text(s%f_in, 10, 3)))//' and '//trim(adjustl(es_text(s%f_out, 10, 3)))
+    else if (removing .and. .not. (s%f_out > 0.0_wp .and. ieee_is_finite(s%f_out))) then
+      msg = 'model structure: F_out must be > 0 and finite, not '// &
+            trim(adjustl(es_text(s%f_out, 10, 3)))
     else if (.not. (s%sig2_max >= 0.0_wp .and. ieee_is_finite(s%sig2_max))) then
       msg = 'model structure: sig2_max must be >= 0 (0: the variance of y) and finite'
     else

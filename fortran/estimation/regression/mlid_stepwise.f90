@@ -34,7 +34,7 @@ contains
     logical :: in(size(forced))
     integer :: j, m
 
-    call start(x, y, forced, s, a, in, r, status, msg)
+    call start(x, y, forced, s, .true., a, in, r, status, msg)
     if (status /= MLID_OK) return
     m = size(forced)
     do
@@ -75,7 +75,7 @@ contains
             itoa(m)//' candidates'
       return
     end if
-    call start(x, y, forced, s, a, in, r, status, msg)
+    call start(x, y, forced, s, .false., a, in, r, status, msg)
     if (status /= MLID_OK) return
     ny = m + 1
     do j = 1, m
@@ -105,10 +105,11 @@ contains
   !> Checked input, the cross products with the forced terms swept in, and
   !> the path's start (room for 10 (m + 1) steps: with F_out <= F_in far
   !> more than a selection takes).
-  subroutine start(x, y, forced, s, a, in, r, status, msg)
+  subroutine start(x, y, forced, s, entering, a, in, r, status, msg)
     real(wp), intent(in) :: x(:, :), y(:)
     logical, intent(in) :: forced(:)
     type(regression_settings_t), intent(in) :: s
+    logical, intent(in) :: entering     !< forward selection: F_in checked too
     real(wp), allocatable, intent(out) :: a(:, :)
     logical, intent(out) :: in(:)
     type(regression_t), intent(out) :: r
@@ -116,7 +117,7 @@ contains
     character(len=*), intent(out) :: msg
     integer :: j, m
     in = .false.
-    call regression_check(x, y, forced, s, status, msg)
+    call regression_check(x, y, forced, s, entering, .true., status, msg)
     if (status /= MLID_OK) return
     m = size(forced)
     allocate (a(m + 1, m + 1), stat=j)

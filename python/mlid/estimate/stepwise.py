@@ -158,7 +158,7 @@ class ModelStructure:
 
 
 @guarded
-def stepwise(X, y, method="forward", f_in=4.0, f_out=4.0, intercept=True, forced=(),
+def stepwise(X, y, method="forward", f_in=None, f_out=None, intercept=True, forced=(),
              sig2_max=None, names=None):
     """The terms of an equation-error model y = X theta that the data
     support, from candidate regressors (fortran/estimation/regression).
@@ -189,11 +189,13 @@ def stepwise(X, y, method="forward", f_in=4.0, f_out=4.0, intercept=True, forced
         The measured coefficient.
     method : str
         'forward', 'backward' or 'mof'.
-    f_in, f_out : float
-        Partial-F thresholds to enter and to stay (f_out <= f_in).  4 is
-        about the 95 % point of F(1, N) for large N, Klein and Morelli's
-        usual value; the textbook software's swr uses 20 for the coloured
-        residuals of flight data.
+    f_in, f_out : float, optional
+        Partial-F thresholds to enter and to stay (f_out <= f_in); default
+        4, about the 95 % point of F(1, N) for large N, Klein and Morelli's
+        usual value (the textbook software's swr uses 20 for the coloured
+        residuals of flight data).  f_in is forward's alone, f_out the
+        stepwise methods' (not mof's): a threshold the method does not use
+        is refused, not ignored.
     intercept : bool
         Add the constant '1' as the first term, always in the model.
     forced : sequence of str
@@ -256,14 +258,15 @@ def stepwise(X, y, method="forward", f_in=4.0, f_out=4.0, intercept=True, forced
         sig2_max = 0.0
     elif not (isinstance(sig2_max, (int, float)) and sig2_max > 0 and np.isfinite(sig2_max)):
         raise InputError(f"sig2_max must be a positive number (or None), got {sig2_max!r}")
-    for label, v in (("f_in", f_in), ("f_out", f_out)):
+    thresholds = {k: v for k, v in (("f_in", f_in), ("f_out", f_out)) if v is not None}
+    for label, v in thresholds.items():
         if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
             raise InputError(f"{label} must be a number, got {v!r}")
     if not isinstance(method, str):
         raise InputError(f"method must be 'forward', 'backward' or 'mof', got {method!r}")
     h = _call_handle()
-    _put(h, x=np.asfortranarray(X), y=y, forced=isforced, method=method, f_in=float(f_in),
-         f_out=float(f_out), sig2_max=float(sig2_max))
+    _put(h, x=np.asfortranarray(X), y=y, forced=isforced, method=method,
+         sig2_max=float(sig2_max), **{k: float(v) for k, v in thresholds.items()})
     try:
         out = _run(h, _api.mlid_model_structure)
     except InputError as e:
