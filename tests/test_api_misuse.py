@@ -9,6 +9,7 @@ import pytest
 
 import mlid
 from mlid.design.signals import input_signal
+from mlid.model.point import outputs_at
 
 
 def _model(nu=1):
@@ -22,6 +23,10 @@ def _record():
     u = np.sin(3 * t)[:, None]
     data, _ = mlid.simulate(_model(), t, u, [0.01, 0.01], seed=3)
     return data
+
+
+def _eq():
+    return mlid.EquationModel({"a": "a"}, states={"a": "-a"})
 
 
 def _design():
@@ -119,6 +124,16 @@ MISUSE = {
     "check_jacobians x wrong": (lambda d: mlid.check_jacobians(_model(), [0, 0, 0], [0]),
                                 r"x and u have 3 and 1 values, the model has 2 sta"),
     "check_jacobians u None": (lambda d: mlid.check_jacobians(_model(), [0, 0], None), r"u must hold real numbers, got object"),
+    # a model's outputs at a point; DAVE-ML
+    "outputs_at model path": (lambda d: outputs_at("user.f90", [0, 0], [0]), "model must be"),
+    "outputs_at x wrong": (lambda d: outputs_at(_model(), [0, 0, 0], [0]),
+                           r"x, u and t have 3, 1 and 1 values; the model has 2 states"),
+    "outputs_at x nan": (lambda d: outputs_at(_model(), [0, math.nan], [0]), "finite"),
+    "outputs_at two times": (lambda d: outputs_at(_model(), [0, 0], [0], t=[0, 1]), "t is one time"),
+    "daveml linear model": (lambda d: mlid.export.daveml_text(_model()), "written as equations"),
+    "daveml check not a state": (lambda d: mlid.export.daveml_text(_eq(), checks=[{"a": 1, "b": 2}]),
+                                 "check case 1: b is not a state or input"),
+    "daveml bad date": (lambda d: mlid.export.daveml_text(_eq(), date="2026-13-01"), "YYYY-MM-DD"),
     # input design
     "design F None": (lambda d: mlid.InputDesign(None, [[1.0]], [[1.0]], [[1.0]], ["g(1,1)"]),
                       r"F must hold real numbers, got object"),

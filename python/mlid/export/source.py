@@ -24,7 +24,8 @@ class Source:
     model : EquationModel
     inputs, params, states : list of str
     definitions : list of (name, expression or Table)
-    outputs : dict
+    equations, outputs : dict
+        {state: its derivative's expression}, {output: its expression}.
     sigma : dict
         {free parameter: sigma} of a fit (empty for a model).
     """
@@ -42,7 +43,7 @@ class Source:
         self.sigma = ({} if names is None or sigma is None
                       else {n: float(s) for n, s in zip(names, np.ravel(sigma))})
         self.inputs, self.params, self.states = [], [], []
-        self.definitions, self.outputs = [], {}
+        self.definitions, self.outputs, self.equations = [], {}, {}
         for line in model.text.split("\n"):
             kind, _, rest = line.partition(" ")
             if kind == "u":
@@ -55,7 +56,9 @@ class Source:
             elif kind == "t":
                 self.definitions.append(self._table(rest))
             elif kind == "x":
-                self.states.append(rest.partition(" = ")[0].strip())
+                name, _, expr = rest.partition(" = ")
+                self.states.append(name.strip())
+                self.equations[name.strip()] = expr.strip()
             elif kind == "y":
                 name, _, expr = rest.partition(" = ")
                 self.outputs[name.strip()] = expr.strip()
