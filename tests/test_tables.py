@@ -373,6 +373,38 @@ def test_a_deck_names_the_cell_no_sample_reaches(tmp_path):
             "reached by no sample): CLt[6]\n") in outs[0].stdout
 
 
+def test_a_deck_smooths_a_table_as_python_does(tmp_path):
+    """&estimate smoothness = 'CLt = lambda' is the Python fit's
+    prior_weight=model.smoothness_weight({'CLt': lambda}), all six values
+    free (the unreached CLt[6] filled by the prior), with another a priori
+    weight given beside it: same estimates and sigma, same bytes from both
+    front ends."""
+    from conftest import both_front_ends_json
+    d, deck = table_deck(tmp_path, free=NAMES, estimate="&estimate smoothness = 'CLt = 1e4', "
+                         "prior_weight(1) = 100 /\n")
+    fit = both_front_ends_json(deck, tmp_path)
+    m = table_model(values=START, x0=[0.09, 0.0], free=NAMES)
+    w = m.smoothness_weight({"CLt": 1e4})
+    w[0, 0] += 100.0
+    res = mlid.fit(m, d, prior_weight=w)
+    assert fit["parameters"] == NAMES
+    np.testing.assert_allclose(fit["estimate"], res.estimate, rtol=1e-9)
+    np.testing.assert_allclose(fit["sigma"], res.sigma, rtol=1e-7)
+    assert np.isfinite(fit["sigma"][5])
+
+
+@pytest.mark.parametrize("entry, said", [
+    ("'CLx = 1'", "group &estimate: smoothness: no table named CLx (tables: CLt)"),
+    ("'CLt = -1'", "group &estimate: smoothness: the weight of table CLt is -1, not a finite "
+                   "number >= 0 (0: no prior)"),
+    ("'CLt = 1 2'", "group &estimate: smoothness entry 'CLt = 1 2': "),
+    ("'CLt'", "group &estimate: smoothness entry 'CLt' is not 'TABLE = weight'")])
+def test_a_deck_refuses_a_bad_smoothness_entry(tmp_path, entry, said):
+    from conftest import refused_by_both
+    _, deck = table_deck(tmp_path, free=NAMES, estimate=f"&estimate smoothness = {entry} /\n")
+    refused_by_both(deck, said, cwd=tmp_path)
+
+
 def test_a_deck_refuses_a_start_of_no_table_value(tmp_path):
     from conftest import refused_by_both
     _, deck = table_deck(tmp_path, starts="'CLt[7] = 1'")

@@ -80,6 +80,7 @@ module mlid_deck
   integer, parameter :: MAXDER = 50, CHANLEN = 64, EXPRLEN = 1024  !< &data entries
   integer, parameter :: TIELEN = 512                                !< a tie's or equation's text
   integer, parameter :: MAXDEF = 100                                !< an equations model's definitions
+  integer, parameter :: MAXTABLES = 16                              !< &estimate smoothness entries
   !> The jobs of &case, and the groups each reads, in the order they are
   !> read (&case first: the job); a group of another job is refused.
   integer, parameter :: NJOB = 7
@@ -109,7 +110,7 @@ module mlid_deck
     'method startup max_iter halvings noise partials steady_state process_noise '// &
     'noise_criterion filter_params tol_cost tol_step tol_grad rcond prior prior_weight '// &
     'prior_decay rank_min rank_max rank_rule lower upper corrected f_min f_max n_freq x0_from '// &
-    'x0_samples', &
+    'x0_samples smoothness', &
     'unknowns t_end dt energy peak min_width weights servo process_noise method iterations out '// &
     'state_penalty candidates compare rank_by f_min f_max pulse_width', &
     'runs seed truth input_file', &
@@ -155,6 +156,14 @@ module mlid_deck
       type(case_t), intent(inout) :: c
       character(len=*), intent(in) :: text
     end subroutine fail
+
+    !> The value rhs of an entry 'NAME = value' of a list: an expression of
+    !> numbers, finite (the case fails, naming what and the entry, if not).
+    module subroutine number_value(c, what, entry, rhs, v)
+      type(case_t), intent(inout) :: c
+      character(len=*), intent(in) :: what, entry, rhs
+      real(wp), intent(out) :: v
+    end subroutine number_value
 
     !> Set an option of the case by name from the deck's text.
     module subroutine set_option(c, where, name, text)

@@ -227,6 +227,13 @@ contains
     type(case_t), intent(inout) :: c
     character(len=*), intent(in) :: entry, rhs
     real(wp), intent(out) :: v
+    call number_value(c, 'group &model: params entry', entry, rhs, v)
+  end subroutine entry_value
+
+  !> The value rhs of an entry 'NAME = value': an expression of numbers
+  !> ('-3/2', '2*pi'), finite, never read loosely; what names the entry's
+  !> list in the message.
+  module procedure number_value
     character(len=msg_len) :: iomsg
     type(expr_t) :: ex
     real(wp) :: none(1, 0), val(1)
@@ -242,9 +249,8 @@ contains
         iomsg = 'the value is not finite'
       end if
     end if
-    if (ios /= MLID_OK) call fail(c, 'group &model: params entry '''//trim(entry)//''': '// &
-                                  trim(iomsg))
-  end subroutine entry_value
+    if (ios /= MLID_OK) call fail(c, what//' '''//trim(entry)//''': '//trim(iomsg))
+  end procedure number_value
 
   !> Whether a list has a blank entry before a filled one (said in one line).
   logical function has_gap(c, what, list)

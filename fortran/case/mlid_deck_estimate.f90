@@ -5,6 +5,10 @@ submodule (mlid_deck) mlid_deck_estimate
   use mlid_case, only: MAXSEG
   use mlid_options, only: option_get
   use mlid_initial_states, only: x0_rule_check
+  use mlid_model_factory, only: model_create
+  use mlid_models, only: model_t
+  use mlid_equations, only: equations_smoothness
+  use mlid_expr, only: split_definition
   implicit none
 
 contains
@@ -19,13 +23,14 @@ contains
     real(wp) :: tol_cost, tol_step, tol_grad, rcond, prior_decay, f_min, f_max
     real(wp) :: prior(MAXFREE), prior_weight(MAXFREE), lower(MAXFREE), upper(MAXFREE)
     character(len=PATHLEN) :: corrected(MAXSEG)
+    character(len=TIELEN) :: smoothness(MAXTABLES)
     character(len=msg_len) :: iomsg
     type(options_t) :: opt
     character(len=:), allocatable :: gtext
     namelist /estimate/ method, startup, max_iter, halvings, noise, partials, steady_state, &
       process_noise, noise_criterion, filter_params, tol_cost, tol_step, tol_grad, rcond, prior, &
       prior_weight, prior_decay, rank_min, rank_max, rank_rule, lower, upper, corrected, f_min, &
-      f_max, n_freq, x0_from, x0_samples
+      f_max, n_freq, x0_from, x0_samples, smoothness
 
     call options_from_flat(c%iopt, c%ropt, opt, ios, iomsg)
     max_iter = opt%max_iter
@@ -57,9 +62,11 @@ contains
     lower = -huge(1.0_wp)
     upper = huge(1.0_wp)
     corrected = ''
+    smoothness = ''
     x0_from = ''
     x0_samples = 0
     call at_most(rd, c, 'estimate', ['corrected'], MAXSEG, 'manoeuvres (data files)')
+    call at_most(rd, c, 'estimate', ['smoothness'], MAXTABLES, 'tables')
     call at_most(rd, c, 'estimate', [character(len=12) :: 'prior', 'prior_weight', 'lower', &
                                      'upper'], MAXFREE, 'free parameters')
     if (c%status /= MLID_OK) return
@@ -97,6 +104,7 @@ contains
     call set_option(c, 'group &estimate: ', 'noise_criterion', noise_criterion)
     call set_option(c, 'group &estimate: ', 'filter_params', filter_params)
     if (c%status == MLID_OK) call put_extras(rd, c, free_idx, prior, prior_weight, lower, upper)
+    if (c%status == MLID_OK) call take_smoothness(c, free_idx, smoothness)
   end procedure read_estimate_group
 
   !> &estimate x0_from, x0_samples: the measured states' x0 from each
@@ -179,12 +187,7 @@ contains
       end if
     end do
     if (all(m == 0)) return
-    allocate (c%prior(size(c%theta)), c%pweight(nfr, nfr), c%lower(size(c%theta)), &
-              c%upper(size(c%theta)))
-    c%prior = c%theta
-    c%pweight = 0.0_wp
-    c%lower = -huge(1.0_wp)
-    c%upper = huge(1.0_wp)
+    call no_extras(c, nfr)
     do j = 1, nfr
       c%prior(free_idx(j)) = prior(j)
       c%pweight(j, j) = prior_weight(j)
@@ -194,6 +197,69 @@ contains
     if (m(2) > 0) c%use_prior = 1
     if (m(3) + m(4) > 0) c%use_bounds = 1
   end subroutine put_extras
+
+  !> The a priori values, weights and bounds of a case that gives none: the
+  !> start values, no weight, no bounds (nfr free parameters).
+  subroutine no_extras(c, nfr)
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: nfr
+    allocate (c%prior(size(c%theta)), c%pweight(nfr, nfr), c%lower(size(c%theta)), &
+              c%upper(size(c%theta)))
+    c%prior = c%theta
+    c%pweight = 0.0_wp
+    c%lower = -huge(1.0_wp)
+    c%upper = huge(1.0_wp)
+  end subroutine no_extras
+
+  !> &estimate smoothness = 'TABLE = lambda', ...: each table's smoothness
+  !> prior (mlid_tables' table_smoothness; lambda = 1/sigma^2, sigma the a
+  !> priori spread of one second difference) added into the a priori weight
+  !> over the free values, about the prior values (by default the start).
+  subroutine take_smoothness(c, free_idx, items)
+    type(case_t), intent(inout) :: c
+    integer, intent(in) :: free_idx(:)
+    character(len=*), intent(in) :: items(:)
+    class(model_t), allocatable :: m
+    character(len=NAMELEN) :: names(size(items))
+    character(len=:), allocatable :: rhs
+    character(len=msg_len) :: iomsg
+    real(wp) :: lambda(size(items))
+    real(wp), allocatable :: w(:, :)
+    integer :: k, n, ios, a, b
+
+    n = 0
+    do k = 1, size(items)
+      if (len_trim(items(k)) == 0) cycle
+      n = n + 1
+      call split_definition(items(k), names(n), rhs, ios, iomsg)
+      if (ios /= MLID_OK) then
+        call fail(c, 'group &estimate: smoothness entry '''//trim(items(k))//''' is not '// &
+                  '''TABLE = weight'': '//trim(iomsg))
+        return
+      end if
+      call number_value(c, 'group &estimate: smoothness entry', items(k), rhs, lambda(n))
+      if (c%status /= MLID_OK) return
+    end do
+    if (n == 0) return
+    call model_create(c%mkind, -1, -1, -1, -1, c%iconst, c%rconst, m, ios, iomsg)
+    if (ios == MLID_OK) then
+      allocate (w(m%np, m%np), stat=ios)
+      if (ios /= 0) iomsg = 'smoothness: no memory for the weight'
+    end if
+    if (ios == MLID_OK) call equations_smoothness(m, names(1:n), lambda(1:n), w, ios, iomsg)
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &estimate: '//trim(iomsg))
+      return
+    end if
+    if (.not. allocated(c%pweight)) call no_extras(c, size(free_idx))
+    do b = 1, size(free_idx)            ! theta's first np entries are p
+      do a = 1, size(free_idx)
+        if (max(free_idx(a), free_idx(b)) <= m%np) &
+          c%pweight(a, b) = c%pweight(a, b) + w(free_idx(a), free_idx(b))
+      end do
+    end do
+    c%use_prior = 1
+  end subroutine take_smoothness
 
   !> The items (values and nulls) of the last assignment of key in group
   !> without a subscript (the whole list); -1 when none.

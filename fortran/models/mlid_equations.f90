@@ -39,7 +39,8 @@ module mlid_equations
                          table_value_text, table_smoothness
   implicit none
   private
-  public :: equations_t, equations_create, equations_text_codes, equations_tables
+  public :: equations_t, equations_create, equations_text_codes, equations_tables, &
+            equations_smoothness
 
   integer, parameter :: NAMELEN = 32
   !> Limits that let the evaluators work in fixed local arrays: variables
@@ -252,6 +253,47 @@ contains
       write (msg, '(a,i0,a,i0)') 'smoothness: the model has ', ntab, ' tables, not ', size(lambda)
     end if
   end subroutine equations_tables
+
+  !> The smoothness prior's weight over p (w, np x np) for the tables named:
+  !> names(i) with weight lambda(i), the others none (as equations_tables);
+  !> a name that is no table of the model, or a model with no tables, is
+  !> refused naming it and the tables there are.
+  subroutine equations_smoothness(m, names, lambda, w, status, msg)
+    class(model_t), intent(in) :: m
+    character(len=*), intent(in) :: names(:)
+    real(wp), intent(in) :: lambda(:)
+    real(wp), intent(out) :: w(:, :)
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: lam(:)
+    character(len=160), allocatable :: texts(:)
+    character(len=:), allocatable :: known
+    integer :: i, k
+
+    w = 0.0_wp
+    status = MLID_ERR_INPUT
+    msg = 'smoothness: the model has no tables (tables are lines of an equations or sixdof model)'
+    select type (m)
+    type is (equations_t)
+      if (size(m%tables) == 0) return
+      known = ''
+      do k = 1, size(m%tables)
+        known = known//merge(', ', '  ', k > 1)//trim(m%tables(k)%name)
+      end do
+      allocate (lam(size(m%tables)), texts(m%np))
+      lam = 0.0_wp
+      do i = 1, size(names)
+        k = findloc([(m%tables(k)%name == names(i), k=1, size(m%tables))], .true., 1)
+        if (k == 0) then
+          msg = 'smoothness: no table named '//trim(names(i))//' (tables: '// &
+                trim(adjustl(known))//')'
+          return
+        end if
+        lam(k) = lambda(i)
+      end do
+      call equations_tables(m, lam, texts, w, status, msg)
+    end select
+  end subroutine equations_smoothness
 
   !> items with it after them (not [items, it]: gfortran 12 frees a table's
   !> breakpoints twice in an array constructor of a type that holds them).
