@@ -99,3 +99,48 @@ def test_the_figure_draws_a_fits_tables_with_the_band_of_its_covariance(tmp_path
     assert np.isnan(value[2]) and np.isnan(sd[2])        # weighted on the unreached value
     table_fit_figure(res, tmp_path / "t.png")
     assert (tmp_path / "t.png").stat().st_size > 10000
+
+
+def test_a_deck_fit_with_tables_has_a_tables_section(tmp_path):
+    """The HTML report of a deck whose model has tables: the tables section
+    with its figure, each value and the one no sample reaches flagged."""
+    from mlid.cli.deck import iter_deck
+    from mlid.report.html_report import write_report
+    from test_tables import NAMES, table_deck
+    _, deck = table_deck(tmp_path, free=NAMES, estimate="&estimate rank_min = 1 /\n")
+    page = write_report(tmp_path / "rep", deck, iter_deck(deck)).read_text()
+    assert 'id="case-1-tables"' in page and 'id="case-1-table-figure"' in page
+    assert "not identifiable, reached by nothing (1): CLt[6]" in page
+    assert page.count("reached by nothing: not identifiable") == 1
+    assert "alpha = 0.5; weighted where 0.4 &lt; alpha" in page
+
+
+def test_a_two_step_fit_page_has_the_consistency_test_and_the_exports(tmp_path):
+    """write_tables_report of a two-step fit (tests/table_campaign.py, a
+    manoeuvre with a wrong vane bias): the figure, the values, the test
+    naming the manoeuvre, and where the tables were exported; the same with
+    a global fit and those local estimates on top."""
+    import mlid
+    import table_campaign as tc
+    from mlid.report.html_report import write_tables_report
+    conds = tc.grid(5, [0.3, 0.5, 0.7])
+    res = tc.campaign(conds, 0, faults={7: "bias"})
+    fit = mlid.fit_tables(res, tc.tables(), conds)
+    assert fit.disagree and fit.disagree[0] == "manoeuvre 8"
+    (tmp_path / "tables.json").write_text("{}")
+    page = write_tables_report(tmp_path / "t.html", fit,
+                               exports={"table set (JSON)": tmp_path / "tables.json",
+                                        "JSBSim aerodynamics": tmp_path / "none.xml"}).read_text()
+    assert 'id="case-1-table-figure"' in page and "data:image/png;base64," in page
+    assert 'id="case-1-consistency"' in page and "disagrees" in page
+    assert str((tmp_path / "tables.json").resolve()) in page and "2 bytes" in page
+    assert "not written" in page                  # an export that is not there says so
+    # a global fit's page: the Python fit of one manoeuvre's model is enough for the band
+    from test_tables import NAMES, START, table_model, table_record
+    one = mlid.fit(table_model(values=START, x0=[0.09, 0.0], free=NAMES[:5]), table_record())
+    with pytest.raises(mlid.InputError, match="local must be a TableFit"):
+        write_tables_report(tmp_path / "g.html", one, local=res[0])
+    page = write_tables_report(tmp_path / "g.html", one).read_text()
+    assert "Consistency" not in page and "every table value is reached" in page
+    page = write_tables_report(tmp_path / "g.html", one, local=fit).read_text()
+    assert 'id="case-1-consistency"' in page and 'id="case-1-table-figure"' in page

@@ -40,12 +40,16 @@ class FittedTables:
     names, cells : list of str
         Each value's name and where it acts (the core's text).
     values, sigma : NamedArray
-        The estimates and their Cramer-Rao sigma; NaN for a value that is
-        not free or that no sample reaches (not identifiable).
+        The estimates and their Cramer-Rao sigma (a value not free: its
+        value, sigma 0); NaN for a value no sample reaches (not
+        identifiable).
     covariance : NamedArray (nv, nv)
-        Their covariance, the fit's block (NaN where not free or reached).
+        Their covariance, the fit's block (0 for a value not free, NaN for
+        one not reached).
     reached : ndarray of bool
-        False for a value no sample reaches, or not free.
+        False for a value no sample reaches.
+    fixed : list of str
+        The values that are not free.
     unreached : list of str
         The core's '... is reached by no sample: not identifiable' lines.
 
@@ -70,16 +74,19 @@ class FittedTables:
         self.unreached = list(result.model.unreached_cells(result))
         gone = {u.split(" ", 1)[0] for u in self.unreached}
         free = list(result.names)
-        at = [free.index(n) if n in free and n not in gone else -1 for n in self.names]
-        self.reached = np.array([k >= 0 for k in at])
+        at = [free.index(n) if n in free else -1 for n in self.names]
+        self.reached = np.array([n not in gone for n in self.names])
+        self.fixed = [n for n, j in zip(self.names, at) if j < 0]
         cov = np.asarray(result.covariance, dtype=float)
-        est = np.asarray(result.estimate, dtype=float)
         nv = len(self.names)
-        c = np.full((nv, nv), np.nan)
-        v = np.full(nv, np.nan)
+        # a fixed value is known (no variance); one nothing reaches has no estimate
+        c = np.zeros((nv, nv))
+        v = np.array([src.value(n) for n in self.names])
         ok = [k for k, j in enumerate(at) if j >= 0]
         c[np.ix_(ok, ok)] = cov[np.ix_([at[k] for k in ok], [at[k] for k in ok])]
-        v[ok] = est[[at[k] for k in ok]]
+        out = ~self.reached
+        c[out, :] = c[:, out] = np.nan
+        v[out] = np.nan
         self.values = NamedArray(v, self.names)
         self.covariance = NamedArray(c, self.names)
         self.sigma = NamedArray(np.sqrt(np.clip(np.diag(c), 0, None)), self.names)
