@@ -31,8 +31,8 @@ module mlid_run
   use mlid_progress, only: progress_t
   use mlid_files, only: temporary_for, write_whole
   use mlid_record, only: record_text
-  use mlid_report, only: CELLLEN, fit_summary_t, fit_report, fit_json, case_json, validation_report, &
-                         validation_json
+  use mlid_report, only: CELLLEN, fit_summary_t, fit_report, fit_json, case_json, &
+                         validation_report, validation_json
   implicit none
   private
   public :: case_run_t, run_case, corrected_record, put_fit, around_t, hook_t
