@@ -104,7 +104,8 @@ def _without_plots(stdout):
 
 
 @pytest.mark.parametrize("deck", [REPO / "cases" / "hfb320" / "hfb320.nml",
-                                  REPO / "cases" / "user_model" / "cubic_short_period.nml"],
+                                  REPO / "cases" / "user_model" / "cubic_short_period.nml",
+                                  REPO / "cases" / "tables" / "attas_alpha_tables.nml"],
                          ids=lambda p: p.parent.name)
 def test_every_other_deck_gives_the_same_bytes(deck, tmp_path):
     """The decks of cases/ not run above: report and JSON byte for byte."""

@@ -17,6 +17,8 @@ module mlid_report
 
   character, parameter :: NL = achar(10)
   integer, parameter :: LABEL_WIDTH = 16   !< the table's column of parameter labels
+  !> the longest text of an unreached table value (its name, where it acts, the verdict)
+  integer, parameter, public :: CELLLEN = 256
 
   !> What a report says of one fit (free parameters only, in the order of free).
   type :: fit_summary_t
@@ -35,6 +37,11 @@ module mlid_report
     !> the outputs' names and units (the record's), under the noise's diagonal
     character(len=32), allocatable :: outputs(:)
     character(len=UNITLEN), allocatable :: output_units(:)
+    !> the free table values no sample reaches, each 'NAME[i] (where it acts) is reached
+    !> by no sample: not identifiable' (none: a model without tables, or all reached)
+    character(len=CELLLEN), allocatable :: unreached(:)
+    !> the labels of those values, in the same order
+    character(len=32), allocatable :: unreached_labels(:)
   end type fit_summary_t
 
 contains
@@ -124,14 +131,19 @@ contains
 
   !> The parameters a rank-deficient solution left wholly at their a priori
   !> values (sigma 0: they lie in the directions dropped), named: a table
-  !> value no sample reaches is one (mlid_tables); '' when there are none.
+  !> value no sample reaches is one (mlid_tables), named whatever rounding
+  !> left in its sigma (its information is exactly zero); '' when there are
+  !> none.
   function not_estimated(s) result(text)
     type(fit_summary_t), intent(in) :: s
     character(len=:), allocatable :: text
     integer :: k
+    logical :: unreached
     text = ''
     do k = 1, size(s%labels)
-      if (s%sig(k) == 0.0_wp) text = text//' '//trim(s%labels(k))
+      unreached = .false.
+      if (allocated(s%unreached_labels)) unreached = any(s%unreached_labels == s%labels(k))
+      if (s%sig(k) == 0.0_wp .or. unreached) text = text//' '//trim(s%labels(k))
     end do
     if (len(text) > 0) text = ' not identifiable, left at the a priori value (no information; '// &
                               'a table value: reached by no sample):'//text//NL
@@ -395,6 +407,8 @@ contains
   !> last values and null for every statistic of the fit.  "method" names
   !> the estimator (the option's word); "band" is the frequency-domain
   !> methods' f_min, f_max (Hz) and n_freq, null for the time domain.
+  !> "unreached_cells" lists the free table values no sample reaches (the
+  !> printed report names them among those not identifiable), [] when none.
   function fit_json(title, job, status, msg, s, iopt, ropt) result(text)
     character(len=*), intent(in) :: title, job, msg
     integer, intent(in) :: status
@@ -419,7 +433,8 @@ contains
              NL//'"R": null, "det_R": null, "R_innovations": null, "cost": null, "cost_prime": null, '// &
              '"cost_history": null,'// &
              NL// &
-             '"iterations": '//itoa(s%niter)//', "converged": false, "rank": null'
+             '"iterations": '//itoa(s%niter)//', "converged": false, "rank": null,'//NL// &
+             '"unreached_cells": null'
     else
       text = text//'"estimate": '//numbers(s%est)//','//NL//'"sigma": '//numbers(s%sig)//','//NL// &
              '"sigma_corrected": '//numbers(s%sigc)//', "colored_lag": '//itoa(s%lag)// &
@@ -430,7 +445,8 @@ contains
              ', "cost": '//number(s%cost)//', "cost_prime": '//number(cost_prime(s%rhat))// &
              ','//NL//'"cost_history": '//numbers(s%hist)//','//NL// &
              '"iterations": '//itoa(s%niter)//', "converged": '// &
-             trim(merge('true ', 'false', s%converged))//', "rank": '//itoa(s%rank)
+             trim(merge('true ', 'false', s%converged))//', "rank": '//itoa(s%rank)// &
+             ','//NL//'"unreached_cells": '//unreached_list()
     end if
     text = text//', "reason": '//json_string(trim(stop_reason_text(s%reason)))//'}'
 
@@ -441,6 +457,13 @@ contains
       v = 'null'
       if (allocated(s%rnoise)) v = numbers(s%rnoise)
     end function r_innovations
+
+    !> The table values no sample reaches, [] when none (or no tables).
+    function unreached_list() result(v)
+      character(len=:), allocatable :: v
+      v = '[]'
+      if (allocated(s%unreached)) v = strings(s%unreached)
+    end function unreached_list
 
   end function fit_json
 

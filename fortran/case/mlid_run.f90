@@ -17,7 +17,9 @@ module mlid_run
                        manoeuvre_block, corrected_writable
   use mlid_validate, only: prediction_stats
   use mlid_initial_states, only: x0_from_record
-  use mlid_equations, only: equations_t, equations_create
+  use mlid_equations, only: equations_t, equations_create, equations_tables
+  use mlid_models, only: model_t
+  use mlid_model_factory, only: model_create
   use mlid_flightpath, only: flightpath_corrected
   use mlid_params, only: param_map_t, free_indices
   use mlid_options, only: options_t
@@ -29,8 +31,8 @@ module mlid_run
   use mlid_progress, only: progress_t
   use mlid_files, only: temporary_for, write_whole
   use mlid_record, only: record_text
-  use mlid_report, only: fit_summary_t, fit_report, fit_json, case_json, validation_report, &
-                         validation_json
+  use mlid_report, only: CELLLEN, fit_summary_t, fit_report, fit_json, case_json, &
+                         validation_report, validation_json
   implicit none
   private
   public :: case_run_t, run_case, corrected_record, put_fit, around_t, hook_t
@@ -337,7 +339,49 @@ contains
     s%converged = v%converged
     if (all(ieee_is_finite(v%rnoise))) s%rnoise = v%rnoise
     if (size(v%kc) > 0) s%kc = v%kc
+    call unreached_cells(c, v%info, free, s)
   end subroutine summary
+
+  !> The free table values of case c's model that no sample reaches, into
+  !> s: their row of the information info (free x free) is zero, as every
+  !> hat weight is zero at every sample (mlid_tables); each said with where
+  !> it acts (equations_tables' text).  None for a model without tables, or
+  !> when info is not the fit's (a failed fit) or a prior fills it.
+  subroutine unreached_cells(c, info, free, s)
+    type(case_t), intent(in) :: c
+    real(wp), intent(in) :: info(:, :)
+    integer, intent(in) :: free(:)
+    type(fit_summary_t), intent(inout) :: s
+    class(model_t), allocatable :: m
+    character(len=CELLLEN), allocatable :: texts(:)
+    real(wp), allocatable :: w(:, :)
+    integer :: k, status, ntab
+    character(len=256) :: msg
+    logical, allocatable :: none(:)
+
+    allocate (s%unreached(0), s%unreached_labels(0))
+    if (size(info, 1) /= size(free) .or. size(info, 2) /= size(free)) return
+    call model_create(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, m, status, msg)
+    if (status /= MLID_OK) return
+    ntab = 0
+    select type (m)
+    type is (equations_t)
+      ntab = size(m%tables)
+    end select
+    if (ntab == 0) return
+    allocate (texts(m%np), w(m%np, m%np), stat=status)
+    if (status /= 0) return           ! only the report's list is lost: the fit stands
+    call equations_tables(m, [(0.0_wp, k=1, ntab)], texts, w, status, msg)
+    if (status /= MLID_OK) return
+    none = [(all(info(k, :) == 0.0_wp), k=1, size(free))]
+    do k = 1, size(free)
+      if (free(k) > m%np) cycle
+      if (len_trim(texts(free(k))) == 0 .or. .not. none(k)) cycle
+      s%unreached = [character(len=CELLLEN) :: s%unreached, trim(texts(free(k)))// &
+                     ' is reached by no sample: not identifiable']
+      s%unreached_labels = [character(len=32) :: s%unreached_labels, s%labels(k)]
+    end do
+  end subroutine unreached_cells
 
   !> Validate case c: fit on the files not held out (reported as an estimate
   !> case is), then predict the held-out ones (holdout_case) and say how well.

@@ -40,8 +40,12 @@ a row side by side).
 A section has ``key``, ``id`` (case-K-key), ``heading``, ``blocks`` and
 ``folded`` (shown closed, the printed report).  The keys of a fit, in the
 built-in order (``FIT_SECTIONS``): estimates, noise, convergence,
-history (the cost at each iteration, no heading), whiteness, figures, validation (a validate case), modes (a linear model),
-printed; of a failed fit: last.
+history (the cost at each iteration, no heading), whiteness, figures, tables (a model with
+tables: each against its variables with the band from the fit's covariance, the values with
+σ and where each acts, those no sample reaches), validation (a validate case), modes (a
+linear model), printed; of a failed fit: last.  A fit of tables alone (a two-step
+``mlid.fit_tables`` or a global one, with its consistency test and the files it was exported
+to) is a page of its own: ``write_tables_report``.
 
 A block has ``kind``: 'table' (``header``, ``rows`` of cells, ``cls``; a
 cell is text or has ``text`` and ``cls``, a flag or a status), 'figure'
@@ -66,8 +70,10 @@ import numpy as np
 from .._version import installed_version
 from ..errors import InputError
 from ..estimate.table import FLAG_TEXT, HEADINGS, results_table
+from ..estimate.table_fit import TableFit
 from ..files import atomic_write_text
 from . import plots
+from . import table_fit_plots
 
 #: Relative Cramér-Rao σ above which an estimate is flagged (when the result
 #: carries no flags of its own).
@@ -391,6 +397,142 @@ def modes_table(model):
                   "time constant [s]"], rows)
 
 
+# -- tables over the flight condition ----------------------------------------------
+
+def has_tables(result):
+    """Whether a fit's model has tables (and the fit estimates)."""
+    return bool(getattr(getattr(result, "model", None), "table_names", None)) \
+        and not getattr(result, "failed", False)
+
+
+def table_values_table(fit):
+    """Each table value: where it acts, the estimate and its σ (the
+    fit's Cramér-Rao σ, or the two-step fit's), or that nothing reaches it.
+
+    Parameters
+    ----------
+    fit : TableFit, FitResult with tables, or a global fit's result
+
+    Returns
+    -------
+    Table
+    """
+    fit = table_fit_plots.tables_of(fit)
+    fixed = set(getattr(fit, "fixed", ()))
+    rows = []
+    for name, cell, v, sd, r in zip(fit.names, fit.cells, fit.values, fit.sigma, fit.reached):
+        where = cell[len(name):].strip().strip("()") if cell.startswith(name) else cell
+        rows.append([name, where, _num(v) if r else "–",
+                     "fixed" if name in fixed else _num(sd, 3) if r else "–",
+                     "" if r else Cell("reached by nothing: not identifiable", "flag")])
+    return Table(["value", "where it acts", "estimate", "σ", ""], rows, "estimates")
+
+
+def _unreached_note(fit):
+    fit = table_fit_plots.tables_of(fit)
+    gone = [n for n, r in zip(fit.names, fit.reached) if not r]
+    if not gone:
+        return Text("every table value is reached", "note")
+    return Text(f"not identifiable, reached by nothing ({len(gone)}): {', '.join(gone)}",
+                "note")
+
+
+def consistency_table(fit):
+    """A two-step fit's chi-square test of each manoeuvre against the
+    tables, the worst named first in its caption; None for a fit with none.
+
+    Returns
+    -------
+    list of blocks, or None
+    """
+    if not hasattr(fit, "chi2") or not hasattr(fit, "disagree"):
+        return None
+    rows = []
+    for lab, c, d, lim, p in zip(fit.labels, fit.chi2, fit.dof, fit.limit, fit.p_value):
+        verdict = Cell("disagrees", "status fail") if lab in fit.disagree else (
+            "alone decides its values" if d == 0 else Cell("agrees", "status ok"))
+        rows.append([lab, _num(c, 4), int(d), _num(lim, 4), _num(p, 3), verdict])
+    total = (f"total: χ² = {_num(fit.chi2_total, 4)} on {fit.dof_total} degrees of freedom "
+             f"(limit {_num(fit.limit_total, 4)}, p = {_num(fit.p_total, 3)}); level "
+             f"{fit.level:g}; disagree: {', '.join(fit.disagree) or 'none'}")
+    return [Table(["manoeuvre", "χ²", "dof", f"limit ({fit.level:g})", "p-value", ""], rows),
+            Text(total, "note")]
+
+
+def exports_table(exports):
+    """Where the tables were exported: what, the file, its size; None when
+    none were.
+
+    Parameters
+    ----------
+    exports : dict
+        {what: path}, e.g. {'JSBSim aerodynamics': 'aero.xml'}.
+    """
+    if not exports:
+        return None
+    rows = []
+    for what, path in dict(exports).items():
+        path = Path(path)
+        size = f"{path.stat().st_size} bytes" if path.is_file() else \
+            Cell("not written", "flag")
+        rows.append([str(what), str(path.resolve()), size])
+    return Table(["export", "file", "size"], rows)
+
+
+def _tables_caption(fit):
+    two_step = hasattr(fit, "chi2") and hasattr(fit, "entries")
+    return ("each table against its first variable: " +
+            ("the local estimates ±2σ, the fitted table and its ±2σ band (two-step)"
+             if two_step else "the fitted values at the breakpoints and the ±2σ band of the "
+             "fit's covariance") + "; a breakpoint nothing reaches dashed")
+
+
+def table_fit_sections(fit, local=None, exports=None, case_id="tables"):
+    """The sections of a fit of tables: the figure (the local estimates of
+    local, a TableFit, on top of a global fit), the values, the
+    consistency test (a two-step fit's, or local's) and the exports.
+
+    Parameters
+    ----------
+    fit : TableFit, FitResult with tables, or a global fit's result
+    local : TableFit, optional
+    exports : dict, optional
+        {what: path} of the files the tables were exported to.
+    case_id : str
+        The sections' id prefix.
+
+    Returns
+    -------
+    list of Section
+
+    Raises
+    ------
+    InputError
+        local is no TableFit.
+    """
+    if local is not None and not isinstance(local, TableFit):
+        raise InputError(f"local must be a TableFit (mlid.fit_tables), got "
+                         f"{type(local).__name__}")
+    figure_item = figure("table-figure", lambda f: table_fit_plots.table_fit_figure(f, local=local),
+                         _tables_caption)
+    out = [Section("tables", f"{case_id}-tables", "Tables",
+                   [b for b in (figure_item(fit), table_values_table(fit), _unreached_note(fit))
+                    if b is not None])]
+    test = consistency_table(fit if hasattr(fit, "chi2") else local) \
+        if (hasattr(fit, "chi2") or local is not None) else None
+    if test:
+        out.append(Section("consistency", f"{case_id}-consistency",
+                           "Consistency of each manoeuvre with the tables", test))
+    table = exports_table(exports)
+    if table is not None:
+        out.append(Section("exports", f"{case_id}-exports", "Exported", [table]))
+    for sec in out:
+        for b in sec.blocks:
+            if isinstance(b, Figure):
+                b.id = f"{case_id}-{b.id}"
+    return out
+
+
 # -- the sections of a fit, in one place ----------------------------------------
 
 @dataclass(frozen=True)
@@ -441,6 +583,9 @@ FIT_SECTIONS = (
             "cross-correlation of each output's residual with each input against lag, "
             "±1.96/√N (95%) band: a term the model misses shows outside it")),
         figure("correlation", plots.correlation, "correlation matrix of the estimates"))),
+    Part("tables", "Tables", (
+        figure("table-figure", table_fit_plots.table_fit_figure, _tables_caption),
+        table_values_table, _unreached_note), when=has_tables),
     Part("validation", "Validation on held-out manoeuvres", (
         lambda r: _held_out(r.validation), lambda r: validation_table(r.validation),
         figure("validation", lambda r: plots.validation(r.validation),
@@ -566,10 +711,14 @@ def load_template(template=None):
 
 def report_html(deck_path, cases, template=None):
     """The whole page as text (see write_report)."""
+    return _page(deck_path, [case_view(*entry) for entry in cases], template)
+
+
+def _page(deck_path, entries, template=None):
+    """The page of case views entries."""
     from markupsafe import Markup    # the style sheet is mlid's own: not escaped
 
     page = load_template(template)
-    entries = [case_view(*entry) for entry in cases]
     names = {"deck": str(deck_path), "deck_name": Path(deck_path).name,
              "version": installed_version(), "css": Markup(CSS), "cases": entries}
     if template is None:
@@ -619,5 +768,43 @@ def write_report(folder, deck_path, cases, template=None):
     # ASCII with character references: the same bytes whatever the locale
     text = report_html(deck_path, cases, template).encode("ascii", "xmlcharrefreplace") \
         .decode("ascii")
+    atomic_write_text(path, text)
+    return path
+
+
+def write_tables_report(path, fit, local=None, exports=None, title="tables",
+                        template=None):
+    """Write one self-contained page of a fit of tables: each table
+    against its variables with the band (and the local estimates ± σ),
+    the values, the consistency test and where the tables were exported.
+
+    Parameters
+    ----------
+    path : str or Path
+        The page (written whole or not at all).
+    fit : TableFit, FitResult with tables, or a global fit's result
+    local : TableFit, optional
+        Local estimates drawn on a global fit, and their consistency test.
+    exports : dict, optional
+        {what: path} of the exported files (JSBSim, JSON, CSV).
+    title : str
+        The page's heading.
+    template : str or Path, optional
+        As write_report's.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    InputError
+        fit has no tables, local is no TableFit, the page cannot be written.
+    """
+    load_template(template)
+    view = Case(1, str(title), "tables", "done", "ok", "")
+    view.sections = table_fit_sections(fit, local, exports, "case-1")
+    text = _page(title, [view], template).encode("ascii", "xmlcharrefreplace").decode("ascii")
+    path = Path(path)
     atomic_write_text(path, text)
     return path

@@ -1,17 +1,113 @@
-"""The figure of a two-step table fit (mlid.fit_tables): each table against
-its first variable, the local estimates with their error bars on top and
-the fitted table with its band, a breakpoint whose values no manoeuvre
-reaches dashed (plots.py's style and band width).  A table
-over more variables is drawn as one curve for each value the manoeuvres
-flew of the others (the table's breakpoints where they flew more than six),
-each with its manoeuvres in its colour; a manoeuvre that disagrees with the
-tables is ringed."""
+"""The figure of tables over the flight condition: each table against its
+first variable, the local estimates with their error bars on top and the
+fitted table with its band, a breakpoint whose values nothing reaches
+dashed (plots.py's style and band width).  The fit is a two-step one
+(mlid.fit_tables, its own local estimates), or a global one: a fit whose
+model has tables (a deck's or mlid.fit's result, its band from the fit's
+Cramer-Rao covariance: ``FittedTables``) or any result offering tables,
+table(q), curve(q, points), sigma and reached as TableFit does, with a
+TableFit's local estimates on top when given.  A table over more variables
+is drawn as one curve for each value the manoeuvres flew of the others (the
+table's breakpoints where they flew more than six), each with its
+manoeuvres in its colour; a manoeuvre that disagrees with the tables is
+ringed."""
 
 import numpy as np
 
 from ..errors import InputError
+from ..estimate.named import NamedArray
 from ..estimate.table_fit import TableFit
+from ..export.source import Source
+from ..model.tables import Table
 from .plots import BAND_ALPHA, BAND_SIGMAS, COLORS, _figure, _finish, _styled, band_label
+
+
+class FittedTables:
+    """The tables of a fit whose model has tables, as a TableFit offers
+    its own: each value with its sigma and where it acts, their covariance
+    (the fit's Cramer-Rao block), the table and its sigma anywhere.
+
+    Parameters
+    ----------
+    result : FitResult
+        A fit (a deck case's or ``mlid.fit``'s) of a model written as
+        equations with at least one table.
+
+    Attributes
+    ----------
+    tables : dict
+        {name: Table} (breakpoints; values: the estimates).
+    names, cells : list of str
+        Each value's name and where it acts (the core's text).
+    values, sigma : NamedArray
+        The estimates and their Cramer-Rao sigma (a value not free: its
+        value, sigma 0); NaN for a value no sample reaches (not
+        identifiable).
+    covariance : NamedArray (nv, nv)
+        Their covariance, the fit's block (0 for a value not free, NaN for
+        one not reached).
+    reached : ndarray of bool
+        False for a value no sample reaches.
+    fixed : list of str
+        The values that are not free.
+    unreached : list of str
+        The core's '... is reached by no sample: not identifiable' lines.
+
+    Raises
+    ------
+    InputError
+        A result that is no fit of a model with tables, or a failed fit.
+    """
+
+    def __init__(self, result):
+        if not all(hasattr(result, a) for a in ("model", "names", "covariance")):
+            raise InputError(f"a fit's result is needed, got {type(result).__name__}")
+        if getattr(result, "failed", False):
+            raise InputError("the fit failed: it has no tables to draw")
+        src = Source(result)
+        if not src.tables:
+            raise InputError("the fit's model has no table")
+        self.tables = {t.name: Table(t.variables, t.breakpoints, t.values) for t in src.tables}
+        self.names = [n for q, t in self.tables.items() for n in t.value_names(q)]
+        cells = result.model.table_cells
+        self.cells = [cells.get(n, n) for n in self.names]
+        self.unreached = list(result.model.unreached_cells(result))
+        gone = {u.split(" ", 1)[0] for u in self.unreached}
+        free = list(result.names)
+        at = [free.index(n) if n in free else -1 for n in self.names]
+        self.reached = np.array([n not in gone for n in self.names])
+        self.fixed = [n for n, j in zip(self.names, at) if j < 0]
+        cov = np.asarray(result.covariance, dtype=float)
+        nv = len(self.names)
+        # a fixed value is known (no variance); one nothing reaches has no estimate
+        c = np.zeros((nv, nv))
+        v = np.array([src.value(n) for n in self.names])
+        ok = [k for k, j in enumerate(at) if j >= 0]
+        c[np.ix_(ok, ok)] = cov[np.ix_([at[k] for k in ok], [at[k] for k in ok])]
+        out = ~self.reached
+        c[out, :] = c[:, out] = np.nan
+        v[out] = np.nan
+        self.values = NamedArray(v, self.names)
+        self.covariance = NamedArray(c, self.names)
+        self.sigma = NamedArray(np.sqrt(np.clip(np.diag(c), 0, None)), self.names)
+
+    def table(self, quantity):
+        """A table's values in its breakpoints' shape (NaN where not reached)."""
+        return TableFit.table(self, quantity)
+
+    def curve(self, quantity, points):
+        """The table and its sigma at points (npts, nvar): the core's
+        interpolation weights w, w'v and sqrt(w' Cov w) (TableFit.curve)."""
+        return TableFit.curve(self, quantity, points)
+
+
+def tables_of(fit):
+    """fit as something with tables, curve and sigma: a TableFit or a
+    global fit's result as it is, a fit whose model has tables wrapped in
+    FittedTables."""
+    if hasattr(fit, "tables") and hasattr(fit, "curve"):
+        return fit
+    return FittedTables(fit)
 
 #: The most curves a panel draws for the values flown of a table's other variables.
 MAX_SLICES = 6
@@ -33,18 +129,55 @@ def _slices(fit, tab, flown):
     return [tuple(v) for v in values], near
 
 
+def _local(fit, local):
+    """Where the local estimates come from: the two-step fit itself, or
+    the TableFit given beside a global fit; None for none."""
+    if local is not None and not isinstance(local, TableFit):
+        raise InputError(f"local must be a TableFit (mlid.fit_tables), got "
+                         f"{type(local).__name__}")
+    return fit if isinstance(fit, TableFit) else local
+
+
+def _flown(tab, q, loc):
+    """The local estimates of q: their rows of loc, each manoeuvre's
+    values of the table's variables (nloc, nvar)."""
+    if loc is None or q not in loc.tables:
+        return [], [], np.zeros((0, len(tab.variables)))
+    rows = [k for k, (_, quantity) in enumerate(loc.entries) if quantity == q]
+    man = [loc.labels.index(loc.entries[k][0]) for k in rows]
+    var = [loc.variables.index(v) for v in tab.variables]
+    return rows, man, loc.conditions[np.ix_(var, man)].T
+
+
+def _global_slices(tab, flown):
+    """For a table over more variables with no local estimates: its
+    breakpoints of the others (at most MAX_SLICES)."""
+    if len(tab.variables) == 1 or len(flown):
+        return None
+    values = np.array(np.meshgrid(*tab.breakpoints[1:], indexing="ij")).reshape(
+        len(tab.variables) - 1, -1).T
+    return [tuple(v) for v in values[:MAX_SLICES]]
+
+
 @_styled
-def table_fit_figure(fit, path=None, quantities=None):
+def table_fit_figure(fit, path=None, quantities=None, local=None):
     """Each table against its first variable: the local estimates ±2σ, the
     fitted table and its ±2σ band; the manoeuvres that disagree ringed.
 
     Parameters
     ----------
-    fit : TableFit
+    fit : TableFit, FitResult or a global fit's result
+        A two-step fit (its local estimates drawn), a fit whose model has
+        tables (the band from its Cramér-Rao covariance; its values at the
+        breakpoints drawn ±2σ), or a result offering tables, curve and
+        sigma as TableFit does.
     path : str or Path, optional
         Where to write the figure (PNG, whole or not at all).
     quantities : list of str, optional
         The tables drawn (default all), a panel each.
+    local : TableFit, optional
+        Local estimates drawn on top of a global fit's band (those of a
+        two-step fit of the same manoeuvres); a two-step fit draws its own.
 
     Returns
     -------
@@ -53,11 +186,13 @@ def table_fit_figure(fit, path=None, quantities=None):
     Raises
     ------
     InputError
-        fit is no TableFit, or a quantity no table of it.
+        fit has no tables (a failed fit, a model without tables), local
+        is no TableFit, or a quantity no table of it.
     """
     import matplotlib.pyplot as plt
-    if not isinstance(fit, TableFit):
-        raise InputError(f"fit must be a TableFit (mlid.fit_tables), got {type(fit).__name__}")
+    loc = _local(fit, local)
+    two_step = isinstance(fit, TableFit)
+    fit = tables_of(fit)
     quantities = list(fit.tables) if quantities is None else list(quantities)
     for q in quantities:
         if q not in fit.tables:
@@ -66,13 +201,15 @@ def table_fit_figure(fit, path=None, quantities=None):
     nrows = -(-len(quantities) // ncols)
     fig, axes = _figure(nrows, ncols, 4.6 * ncols, 3.0)
     colours = plt.get_cmap("tab10")
+    source = "two-step" if two_step else "Cramér-Rao"
     for ax, q in zip(axes.flat, quantities):
         tab = fit.tables[q]
-        rows = [k for k, (_, quantity) in enumerate(fit.entries) if quantity == q]
-        man = [fit.labels.index(fit.entries[k][0]) for k in rows]
-        var = [fit.variables.index(v) for v in tab.variables]
-        flown = fit.conditions[np.ix_(var, man)].T
-        slices, near = _slices(fit, tab, flown)
+        rows, man, flown = _flown(tab, q, loc)
+        slices = _global_slices(tab, flown)
+        if slices is None:
+            slices, near = _slices(fit, tab, flown) if len(flown) else ([()], [])
+        else:
+            near = []
         x = np.linspace(tab.breakpoints[0][0], tab.breakpoints[0][-1], CURVE_POINTS)
         for s, rest in enumerate(slices):
             colour = colours(s % 10) if len(slices) > 1 else COLORS["model"]
@@ -82,28 +219,35 @@ def table_fit_figure(fit, path=None, quantities=None):
             ax.plot(x, value, color=colour, label=f"table {what}".strip())
             ax.fill_between(x, value - BAND_SIGMAS * sd, value + BAND_SIGMAS * sd,
                             color=colour, alpha=BAND_ALPHA, linewidth=0)
-            mine = near == s
-            ax.errorbar(flown[mine, 0], fit.theta[rows][mine],
-                        yerr=BAND_SIGMAS * fit.local_sigma[rows][mine], fmt="o", ms=3.5,
-                        capsize=2, color=colour, linewidth=0.8)
-        bad = np.array([fit.labels[m] in fit.disagree for m in man], dtype=bool)
-        if bad.any():
-            ax.plot(flown[bad, 0], fit.theta[rows][bad], "o", ms=10, mfc="none",
-                    color=COLORS["residual"], label="disagrees (χ² test)")
-        ax.plot([], [], "o", color="0.4", ms=3.5,
-                label=band_label("local estimates", "Cramér-Rao"))
+            if not two_step:           # the fitted values at the breakpoints
+                b = tab.breakpoints[0]
+                bv, bs = fit.curve(q, np.column_stack([b] + [np.full_like(b, r) for r in rest]))
+                ax.plot(b, bv, "s", ms=3, color=colour)
+            if len(rows):
+                mine = np.asarray(near) == s
+                ax.errorbar(flown[mine, 0], loc.theta[rows][mine],
+                            yerr=BAND_SIGMAS * loc.local_sigma[rows][mine], fmt="o", ms=3.5,
+                            capsize=2, color=colour, linewidth=0.8)
+        if len(rows):
+            bad = np.array([loc.labels[m] in loc.disagree for m in man], dtype=bool)
+            if bad.any():
+                ax.plot(flown[bad, 0], loc.theta[rows][bad], "o", ms=10, mfc="none",
+                        color=COLORS["residual"], label="disagrees (χ² test)")
+            ax.plot([], [], "o", color="0.4", ms=3.5,
+                    label=band_label("local estimates", "Cramér-Rao"))
         ax.fill_between([], [], [], color="0.4", alpha=BAND_ALPHA,
-                        label=band_label("table", "two-step"))
+                        label=band_label("table", source))
         ax.set_xlabel(tab.variables[0])
         ax.set_ylabel(q)
-        ax.set_title(f"{q}: {len(rows)} local estimates, {len(tab.flat_values)} values")
+        ax.set_title(f"{q}: {len(rows)} local estimates, {len(tab.flat_values)} values"
+                     if len(rows) else f"{q}: {len(tab.flat_values)} values")
         reached = np.array([fit.reached[fit.names.index(n)] for n in tab.value_names(q)])
         reached = reached.reshape(tab.shape, order="F").reshape(tab.shape[0], -1).any(axis=1)
         for b, r in zip(tab.breakpoints[0], reached):
             ax.axvline(b, color=COLORS["grid"] if r else COLORS["residual"],
                        linestyle="-" if r else "--", linewidth=0.8, zorder=0,
                        label=None if r else f"{tab.variables[0]} = {b:g}: reached by no "
-                                            "manoeuvre")
+                                            f"{'manoeuvre' if two_step else 'sample'}")
         ax.legend(loc="best", fontsize=7)
     for ax in list(axes.flat)[len(quantities):]:
         ax.set_visible(False)
