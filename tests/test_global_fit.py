@@ -217,7 +217,8 @@ def test_each_manoeuvre_its_own_sensor_correction():
 
 def test_conditions_from_channels_and_missing_inputs():
     """Records that carry alpha_trim and Mach as constant channels need no
-    conditions: the same fit.  An input in neither is named."""
+    conditions: the same fit; so do deck cases' conditions (&case
+    alpha_trim, mach).  An input in neither is named."""
     recs, conds = records(0)[::3], CONDS[::3]
     given = mlid.fit_global(tc.global_model(), recs, conds, variables=tc.VARIABLES)
     carried = [mlid.FlightData(d.t, np.column_stack([np.full(d.nt, c["Mach"]), d.u,
@@ -227,6 +228,14 @@ def test_conditions_from_channels_and_missing_inputs():
     own = mlid.fit_global(tc.global_model(), carried)
     np.testing.assert_array_equal(own.values, given.values)
     np.testing.assert_array_equal(own.conditions, given.conditions)
+
+    class Case:                       # what a deck's Case gives: condition
+        def __init__(self, c):
+            self.condition = {"alpha_trim": c["alpha"], "mach": c["Mach"], "config": "clean"}
+
+    cases = mlid.fit_global(tc.global_model(), recs, [Case(c) for c in conds],
+                            variables={"Mach": "mach"})
+    np.testing.assert_array_equal(cases.values, given.values)
     with pytest.raises(mlid.InputError, match="manoeuvre 1: the model's input 'Mach' is "
                                               "neither a channel of its record"):
         mlid.fit_global(tc.global_model(), recs, [{"alpha_trim": 0.0}] * 10)
