@@ -1,5 +1,6 @@
 """A synthetic campaign with hidden tables, for the two-step table fit
-(tests/test_table_fit.py, benchmarks/bench_table_fit.py).
+(tests/test_table_fit.py, benchmarks/bench_table_fit.py) and the one-step
+global fit (tests/test_global_fit.py, benchmarks/bench_global_fit.py).
 
 Each manoeuvre is a short-period record (states alpha, q; elevator 3-2-1-1;
 alpha and q measured, with the trim alpha as the alpha vane's offset) at its
@@ -10,6 +11,10 @@ its output biases free.  A faulty manoeuvre is fitted with the vane's
 offset held at the deck's alpha_trim while the vane reads 0.01 rad more
 (a wrong sensor bias), or flies with a M_alpha 30 % off the table (a wrong
 derivative: a configuration the deck does not say).
+
+The global model is the same aircraft written as equations with the five
+derivatives tables over the manoeuvre's condition (alpha_trim, Mach: inputs
+constant over a manoeuvre), started off the truth.
 """
 
 import numpy as np
@@ -82,7 +87,8 @@ def record(cond, seed, fault=None):
     vane = cond["alpha"] + (VANE_BIAS if fault == "bias" else 0.0)
     t = np.arange(NT) * DT
     u = input_signal("3211", 0.02, 0.4, 1.0, DT, NT)[:, None]
-    return mlid.simulate(model(ma, mq, vane), t, u, noise_std=NOISE, seed=seed)[0]
+    return mlid.simulate(model(ma, mq, vane), t, u, noise_std=NOISE, seed=seed,
+                         input_names=["de"], output_names=["alpha", "q"])[0]
 
 
 def local_fit(cond, seed, fault=None):
@@ -107,3 +113,60 @@ def true_values(tabs):
     bq = tabs["M_q"].breakpoints[0]
     out += [lookup([BQ], MQ_TRUTH, [b]) if b <= BQ[-1] else np.nan for b in bq]
     return np.array(out + [Z_ALPHA] * 2 + [Z_DE] * 2 + [M_DE] * 2)
+
+
+# ---- the one-step global fit -------------------------------------------------------------
+
+#: The global model's table variables and the conditions' names of them.
+VARIABLES = {"alpha_trim": "alpha", "Mach": "Mach"}
+#: Start values of the global tables (the truth's are in MA_TRUTH, MQ_TRUTH
+#: and Z_ALPHA, Z_DE, M_DE).
+START = {"M_alpha": -2.0, "M_q": -1.0, "Z_alpha": -1.0, "Z_de": -0.2, "M_de": -5.0}
+
+
+def global_tables(extra_q_breakpoint=None):
+    """tables() over the global model's variables: alpha_trim for alpha."""
+    out = {}
+    for name, tab in tables(extra_q_breakpoint).items():
+        variables = ["alpha_trim" if v == "alpha" else v for v in tab.variables]
+        out[name] = Table(variables, tab.breakpoints)
+    return out
+
+
+def global_model(free_vane_bias=True, corrections=0, extra_q_breakpoint=None):
+    """The short period with its derivatives tables over (alpha_trim, Mach),
+    every table value free and started at START; the alpha vane reads
+    alpha_trim + alpha (+ its own bias, free unless free_vane_bias is
+    False: the vane's offset known), q its own bias free.  corrections = n:
+    each of n manoeuvres its own scale-factor error k_alpha of the vane (a
+    table over the manoeuvre's number)."""
+    defs = {name: Table(tab.variables, tab.breakpoints, np.full(tab.shape, START[name]))
+            for name, tab in global_tables(extra_q_breakpoint).items()}
+    vane = "alpha + alpha_trim"
+    if corrections:
+        defs["k_alpha"] = Table("manoeuvre", np.arange(1.0, corrections + 1))
+        vane = "(1 + k_alpha)*alpha + alpha_trim"
+    free = [n for name, tab in defs.items() for n in tab.value_names(name)]
+    free += (["bias(1)"] if free_vane_bias else []) + ["bias(2)"]
+    return mlid.EquationModel(
+        {"alpha_m": vane, "q_m": "q"},
+        states={"alpha": "Z_alpha*alpha + q + Z_de*de", "q": "M_alpha*alpha + M_q*q + M_de*de"},
+        inputs=["de", "alpha_trim", "Mach"] + (["manoeuvre"] if corrections else []),
+        definitions=defs, free=free)
+
+
+def local_equation_model(cond):
+    """The local model of local_fit written as equations (the global
+    model's kind, constant derivatives): the benchmark's like-for-like
+    baseline."""
+    names = {"Z_alpha": Z_ALPHA, "M_alpha": -2.0, "M_q": -1.0, "Z_de": Z_DE, "M_de": M_DE}
+    return mlid.EquationModel(
+        {"alpha_m": "alpha", "q_m": "q"},
+        states={"alpha": "Z_alpha*alpha + q + Z_de*de", "q": "M_alpha*alpha + M_q*q + M_de*de"},
+        inputs=["de"], params=names, bias=[cond["alpha"], 0.0],
+        free=list(names) + ["bias(1)", "bias(2)"])
+
+
+def global_truth(tabs):
+    """The true values of global_tables in the fit's order (true_values)."""
+    return true_values({"M_q": Table("alpha", tabs["M_q"].breakpoints)})

@@ -10,10 +10,11 @@ module mlid_api_table_fit
   use mlid_named, only: named_t
   use mlid_text, only: name_lines, join_lines, itoa
   use mlid_tables, only: table_t, table_size, table_value_name, table_value_text
-  use mlid_table_fit, only: table_fit_t, tables_of_text, table_design, table_fit, table_count
+  use mlid_table_fit, only: table_fit_t, tables_of_text, table_design, table_fit, table_test, &
+                            table_count
   implicit none
   private
-  public :: mlid_table_fit, mlid_table_weights
+  public :: mlid_table_fit, mlid_table_test, mlid_table_weights
 
   integer, parameter :: LINELEN = 4096, NAMELEN = 64
 
@@ -42,7 +43,7 @@ contains
     integer, allocatable :: eman(:)
     type(table_fit_t) :: r
     real(wp) :: level
-    integer :: st, k
+    integer :: st
 
     call call_session(h, s, st, msg)
     if (st == MLID_OK) call design_of(s%given, tabs, labels, eman, a, st, msg)
@@ -54,25 +55,63 @@ contains
     call value_texts(tabs, names, s%results)
     call table_fit(a, theta, c, eman, labels, names, level, r, st, msg)
     status = st
-    if (st /= MLID_OK) return
-    associate (o => s%results)
-      call o%put('values', r%v)
-      call o%put('sigma', sqrt([(r%cov(k, k), k=1, size(r%v))]))
-      call o%put('covariance', r%cov)
-      call o%put('reached', merge(1, 0, r%reached))
-      call o%put('weights', a)
-      call o%put('residuals', r%resid)
-      call o%put('chi2', r%chi2)
-      call o%put('dof', r%dof)
-      call o%put('p_value', r%pval)
-      call o%put('limit', r%limit)
-      call o%put('disagree', merge(1, 0, r%disagree))
-      call o%put('chi2_total', r%chi2_total)
-      call o%put('dof_total', r%dof_total)
-      call o%put('p_total', r%p_total)
-      call o%put('limit_total', r%limit_total)
-    end associate
+    if (st == MLID_OK) call put_fit(r, a, s%results)
   end subroutine mlid_table_fit
+
+  !> The chi-square tests of mlid_table_fit against the given values
+  !> 'values' (nv) and 'value_covariance' (nv, nv), fitted elsewhere (the
+  !> one-step global fit): the same given values besides and the same
+  !> results (values, sigma and covariance those given).
+  subroutine mlid_table_test(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    type(table_t), allocatable :: tabs(:)
+    character(len=NAMELEN), allocatable :: labels(:), names(:)
+    real(wp), allocatable :: a(:, :), theta(:), c(:, :), v(:), cv(:, :)
+    integer, allocatable :: eman(:)
+    type(table_fit_t) :: r
+    real(wp) :: level
+    integer :: st
+
+    call call_session(h, s, st, msg)
+    if (st == MLID_OK) call design_of(s%given, tabs, labels, eman, a, st, msg)
+    if (st == MLID_OK) call s%given%get('theta', theta, st, msg, [size(eman)])
+    if (st == MLID_OK) call s%given%get('covariance', c, st, msg, [size(eman), size(eman)])
+    if (st == MLID_OK) call s%given%get('level', level, st, msg)
+    if (st == MLID_OK) call s%given%get('values', v, st, msg, [size(a, 2)])
+    if (st == MLID_OK) call s%given%get('value_covariance', cv, st, msg, [size(a, 2), size(a, 2)])
+    status = st
+    if (st /= MLID_OK) return
+    call value_texts(tabs, names, s%results)
+    call table_test(a, theta, c, eman, labels, v, cv, level, r, st, msg)
+    status = st
+    if (st == MLID_OK) call put_fit(r, a, s%results)
+  end subroutine mlid_table_test
+
+  !> A table fit's or test's results by name (mlid_table_fit's list).
+  subroutine put_fit(r, a, o)
+    type(table_fit_t), intent(in) :: r
+    real(wp), intent(in) :: a(:, :)
+    type(named_t), intent(inout) :: o
+    integer :: k
+    call o%put('values', r%v)
+    call o%put('sigma', sqrt([(r%cov(k, k), k=1, size(r%v))]))
+    call o%put('covariance', r%cov)
+    call o%put('reached', merge(1, 0, r%reached))
+    call o%put('weights', a)
+    call o%put('residuals', r%resid)
+    call o%put('chi2', r%chi2)
+    call o%put('dof', r%dof)
+    call o%put('p_value', r%pval)
+    call o%put('limit', r%limit)
+    call o%put('disagree', merge(1, 0, r%disagree))
+    call o%put('chi2_total', r%chi2_total)
+    call o%put('dof_total', r%dof_total)
+    call o%put('p_total', r%p_total)
+    call o%put('limit_total', r%limit_total)
+  end subroutine put_fit
 
   !> The tables' interpolation weights (mlid_table_fit's weights alone):
   !> the given values tables, variables, conditions, labels, entry_table,

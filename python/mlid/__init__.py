@@ -40,7 +40,7 @@ from .estimate.evaluate import evaluate, frequency_evaluate
 from .estimate.fit import fit
 from .estimate.result import FitResult, whiteness
 from .estimate.stepwise import stepwise, stepwise_candidates, ModelStructure
-from .estimate.table_fit import fit_tables, TableFit
+from .estimate.table_fit import fit_tables, TableFit, fit_global, GlobalTableFit
 from .frequency.fourier import fourier_transform, recursive_frequency_fit
 from .frequency.smoothing import smooth, deriv
 from .frequency.responses import (FrequencyResponse, TransferFunctionFit, record_response,
@@ -83,4 +83,4 @@ __all__ = ["MlidError", "InputError", "SingularInformationError", "DivergenceErr
            "FrequencyResponse", "TransferFunctionFit", "record_response", "model_response",
            "fit_transfer_function", "fourier_transform", "frequency_evaluate",
            "recursive_frequency_fit", "smooth", "deriv", "stepwise", "stepwise_candidates",
-           "ModelStructure", "fit_tables", "TableFit"]
+           "ModelStructure", "fit_tables", "TableFit", "fit_global", "GlobalTableFit"]

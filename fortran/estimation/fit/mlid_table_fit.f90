@@ -18,7 +18,8 @@
 !> whole campaign's r' C^-1 r is chi-square with K - rank(M) degrees of
 !> freedom.  A table value whose weights are zero at every manoeuvre is
 !> not reached (no value, NaN); values reached only in a fixed combination
-!> are refused by name.
+!> are refused by name.  The same tests against values fitted elsewhere
+!> (the one-step global fit of the manoeuvres' records): table_test.
 module mlid_table_fit
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL, &
@@ -32,7 +33,7 @@ module mlid_table_fit
   use mlid_chi2, only: chi2_sf, chi2_limit
   implicit none
   private
-  public :: table_fit_t, tables_of_text, table_design, table_fit, table_count
+  public :: table_fit_t, tables_of_text, table_design, table_fit, table_test, table_count
 
   !> Below this, an eigenvalue of a manoeuvre's residual covariance (in
   !> units of its own covariance, so between 0 and 1) is a direction the
@@ -235,12 +236,69 @@ contains
     res%cov = nan
     res%v(idx) = matmul(p, matmul(transpose(ca), theta))
     res%cov(idx, idx) = p
+    call tests_of(ar, theta, c, cinv, idx, eman, size(labels), level, res, status, msg)
+  end subroutine table_fit
+
+  !> table_fit's chi-square tests of the local estimates theta (covariance
+  !> c) against values v with covariance cov fitted elsewhere: the one-step
+  !> global fit of the same manoeuvres' records, whose tables estimate the
+  !> same v with (to first order) the same Cov(v) = (A' C^-1 A)^-1, so that
+  !> S_i = C_ii - A_i Cov(v) A_i' is again the covariance of r_i.  v and cov
+  !> must be finite at every value a manoeuvre reaches.
+  subroutine table_test(a, theta, c, eman, labels, v, cov, level, res, status, msg)
+    real(wp), intent(in) :: a(:, :), theta(:), c(:, :), v(:), cov(:, :), level
+    integer, intent(in) :: eman(:)
+    character(len=*), intent(in) :: labels(:)
+    type(table_fit_t), intent(out) :: res
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
+    real(wp), allocatable :: cinv(:, :)
+    integer, allocatable :: idx(:)
+    real(wp) :: logdet
+    integer :: nv, info, i
+
+    call check_inputs(theta, c, eman, size(labels), level, labels, status, msg)
+    if (status /= MLID_OK) return
+    nv = size(a, 2)
+    status = MLID_ERR_INPUT
+    if (size(v) /= nv .or. size(cov, 1) /= nv .or. size(cov, 2) /= nv) then
+      msg = 'table test: the values must be '//itoa(nv)//' and their covariance '// &
+            itoa(nv)//' x '//itoa(nv)
+      return
+    end if
+    res%reached = [(any(a(:, i) /= 0.0_wp), i=1, nv)]
+    idx = pack([(i, i=1, nv)], res%reached)
+    if (.not. (all(ieee_is_finite(v(idx))) .and. all(ieee_is_finite(cov(idx, idx))))) then
+      msg = 'table test: a value a manoeuvre reaches, or its covariance, is not finite'
+      return
+    end if
+    allocate (cinv(size(c, 1), size(c, 2)))
+    call chol_inverse(c, cinv, logdet, info)
+    if (info /= 0) then
+      status = MLID_ERR_SINGULAR
+      msg = 'table test: the local estimates'' covariance is not positive definite'
+      return
+    end if
+    res%v = v
+    res%cov = cov
+    call tests_of(a(:, idx), theta, c, cinv, idx, eman, size(labels), level, res, status, msg)
+  end subroutine table_test
+
+  !> The residuals theta - A v at res%v, the campaign's total chi2 and each
+  !> manoeuvre's test (ar: A's columns of the reached values idx).
+  subroutine tests_of(ar, theta, c, cinv, idx, eman, nman, level, res, status, msg)
+    real(wp), intent(in) :: ar(:, :), theta(:), c(:, :), cinv(:, :), level
+    integer, intent(in) :: idx(:), eman(:), nman
+    type(table_fit_t), intent(inout) :: res
+    integer, intent(out) :: status
+    character(len=*), intent(out) :: msg
     res%resid = theta - matmul(ar, res%v(idx))
     res%chi2_total = dot_product(res%resid, matmul(cinv, res%resid))
     res%dof_total = size(theta) - size(idx)
     call verdict(res%chi2_total, res%dof_total, level, res%p_total, res%limit_total)
-    call manoeuvre_tests(ar, c, p, res%resid, eman, size(labels), level, res, status, msg)
-  end subroutine table_fit
+    call manoeuvre_tests(ar, c, res%cov(idx, idx), res%resid, eman, nman, level, res, status, &
+                         msg)
+  end subroutine tests_of
 
   !> Sizes, finite numbers, the level: one line naming what is wrong.
   subroutine check_inputs(theta, c, eman, nman, level, labels, status, msg)

@@ -23,8 +23,10 @@ import numpy as np
 from .._bridge import api as _api, call_handle as _call_handle, lines as _lines, \
     put as _put, run as _run
 from ..checks import pandas_for, real_array
+from ..data.flight_data import FlightData
 from ..errors import InputError, guarded, guarded_class
 from ..model.tables import Table
+from .fit import fit
 from .named import NamedArray
 
 #: The default level of the consistency tests: the probability of naming a
@@ -133,36 +135,14 @@ def fit_tables(results, tables, conditions, labels=None, level=LEVEL, variables=
     text = _tables_text(tables)
     level = real_array("level", level, finite=True).item()
     names, cond = _conditions(list(conditions), len(results), variables, tables)
-    quantities = list(tables)
-    etab, eman, theta, blocks, where = [], [], [], [], []
-    for k, (res, lab) in enumerate(zip(results, labels)):
-        if not all(hasattr(res, a) for a in ("names", "estimate", "covariance")):
-            raise InputError(f"results[{k}] must be a FitResult, got {type(res).__name__}")
-        if getattr(res, "failed", False):
-            raise InputError(f"manoeuvre {lab!r}: its fit failed; leave it out")
-        idx = [(t, list(res.names).index(q)) for t, q in enumerate(quantities)
-               if q in res.names]
-        if not idx:
-            raise InputError(f"manoeuvre {lab!r} estimates none of the tabled quantities "
-                             f"({', '.join(quantities)})")
-        j = [i for _, i in idx]
-        etab += [t + 1 for t, _ in idx]
-        eman += [k + 1] * len(idx)
-        theta += list(np.asarray(res.estimate, dtype=float)[j])
-        blocks.append(np.asarray(res.covariance, dtype=float)[np.ix_(j, j)])
-        where += [(lab, quantities[t]) for t, _ in idx]
-    cov = np.zeros((len(theta), len(theta)))
-    at = 0
-    for b in blocks:
-        cov[at:at + len(b), at:at + len(b)] = b
-        at += len(b)
+    etab, eman, theta, cov, where = _local_entries(results, labels, list(tables))
     h = _call_handle()
     _put(h, tables=text, variables="".join(n + "\n" for n in names), conditions=cond,
          labels="".join(x + "\n" for x in labels), entry_table=np.array(etab, dtype=np.int32),
-         entry_manoeuvre=np.array(eman, dtype=np.int32), theta=np.array(theta),
-         covariance=cov, level=float(level))
+         entry_manoeuvre=np.array(eman, dtype=np.int32), theta=theta, covariance=cov,
+         level=float(level))
     out = _run(h, _api.mlid_table_fit)
-    return TableFit(dict(tables), names, cond, labels, where, np.array(theta), cov, level, out)
+    return TableFit(dict(tables), names, cond, labels, where, theta, cov, level, out)
 
 
 @guarded_class
@@ -371,3 +351,352 @@ class TableFit:
     def __repr__(self):
         return (f"<TableFit: {len(self.tables)} table(s), {len(self.names)} values, "
                 f"{len(self.labels)} manoeuvres, {len(self.disagree)} disagree>")
+
+
+# ---- the one-step route: one fit of every manoeuvre's record ------------------------------
+
+#: The input that numbers the manoeuvres (1, 2, ...): a table over it alone
+#: is each manoeuvre's own correction (a sensor's scale factor, say), not a
+#: campaign table.
+MANOEUVRE = "manoeuvre"
+
+
+def _model_lines(model, kind):
+    """The items of one kind ('u', 't') of an equations model's text."""
+    return [line[2:].strip() for line in model.text.split("\n") if line.startswith(kind + " ")]
+
+
+def _model_tables(model):
+    """{name: Table} of the model's tables (their variables and breakpoints),
+    those over the manoeuvre number alone left out."""
+    out = {}
+    for line in _model_lines(model, "t"):
+        head, _, bps = line.partition(" = ")
+        name, _, rest = head.partition("(")
+        variables = [v.strip() for v in rest.rstrip(") ").split(",")]
+        if variables != [MANOEUVRE]:
+            out[name.strip()] = Table(variables, [[float(x) for x in b.split()]
+                                                  for b in bps.split(";")])
+    return out
+
+
+def _records(model, data, conditions, rename):
+    """Each manoeuvre's record with the model's inputs in order: a channel of
+    the record by name, else its condition (or its number, for the input
+    MANOEUVRE) as a constant channel."""
+    inputs = _model_lines(model, "u")
+    out = []
+    for k, d in enumerate(data):
+        if not isinstance(d, FlightData):
+            raise InputError(f"data[{k}] must be a FlightData, got {type(d).__name__}")
+        cond = {} if conditions is None else _condition_of(conditions[k], k)
+        given = {v: cond[rename.get(v, v)] for v in inputs if rename.get(v, v) in cond}
+        if MANOEUVRE in inputs and MANOEUVRE not in given:
+            given[MANOEUVRE] = k + 1
+        channels = [v for v in inputs if v not in given]
+        by_name = all(v in d.input_names for v in channels)
+        if not by_name and d.u.shape[1] != len(channels):
+            missing = [v for v in channels if v not in d.input_names]
+            raise InputError(f"manoeuvre {k + 1}: the model's input {missing[0]!r} is neither a "
+                             f"channel of its record ({', '.join(d.input_names)}) nor in its "
+                             "condition")
+        cols, names, units = [], [], []
+        for v in inputs:
+            if v in given:
+                x = real_array(f"conditions[{k}][{rename.get(v, v)!r}]", given[v],
+                               finite=True).item()
+                cols.append(np.full(d.nt, x))
+                units.append("")
+            else:
+                j = d.input_names.index(v) if by_name else channels.index(v)
+                cols.append(d.u[:, j])
+                units.append(d.input_units[j])
+            names.append(v)
+        out.append(FlightData(d.t, np.column_stack(cols), d.y, names, d.output_names,
+                              source=d.source, input_units=units, output_units=d.output_units,
+                              output_display=d.output_display))
+    return out
+
+
+def _flown(records, variables):
+    """(nvar, nman): each manoeuvre's value of each table variable that is a
+    channel constant over it (NaN otherwise: a state, or a channel that
+    varies)."""
+    out = np.full((len(variables), len(records)), np.nan)
+    for k, r in enumerate(records):
+        for j, v in enumerate(variables):
+            if v in r.input_names:
+                u = r.u[:, r.input_names.index(v)]
+                if np.all(u == u[0]):
+                    out[j, k] = u[0]
+    return out
+
+
+@guarded
+def fit_global(model, data, conditions=None, local=None, labels=None, level=LEVEL,
+               variables=None, **fit_args):
+    """The one-step route: one fit of every manoeuvre's record, sharing the
+    tables, each manoeuvre with its own initial state and output biases.
+
+    One ``mlid.fit(model, records)`` (output error, or filter error where
+    the model has its filter: ``method='filter_error'``): the core runs the
+    manoeuvres' simulations and their parts of the information matrix in
+    parallel (OpenMP over manoeuvres, fortran/estimation/fit/mlid_likelihood.f90),
+    and a channel constant over a manoeuvre (its condition) is folded into
+    the model, so that each manoeuvre computes the sensitivities of only
+    the table values it reaches.
+
+    Parameters
+    ----------
+    model : EquationModel
+        The model with its tables (``definitions``, mlid.model.tables.Table)
+        over inputs that are each manoeuvre's condition (and over states if
+        a table is nonlinear within a manoeuvre).  Its free parameters are
+        estimated; x0 and bias entries are each manoeuvre's own.  A table
+        over the input ``'manoeuvre'`` alone (breakpoints 1, 2, ..., n) is
+        each manoeuvre's own correction (a sensor's scale factor, say): the
+        input is the manoeuvre's number, its value k's weight 1 there and 0
+        elsewhere.
+    data : list of FlightData
+        One record a manoeuvre.  Each input of the model is the record's
+        channel of that name or, if it has none, the manoeuvre's condition
+        of that name as a constant channel; a record whose channels are not
+        named as the model's inputs gives its channels in the order of the
+        inputs it does not get from its condition.
+    conditions : sequence, optional
+        Each manoeuvre's flight condition: a dict {variable: value} or a
+        deck case (its ``condition``), for the inputs its record lacks.
+    local : sequence of FitResult, optional
+        The same manoeuvres' local fits (as for :func:`fit_tables`): then
+        each one's estimates are tested against the global tables (the
+        chi-square test of fit_tables, with the global values and their
+        covariance: the core's mlid_table_test).
+    labels : sequence of str, optional
+        The manoeuvres' names (default 'manoeuvre 1', ...).
+    level : float
+        The tests' level (0.01).
+    variables : dict, optional
+        {model input: condition name} where they differ, e.g.
+        ``{'alpha_trim': 'alpha', 'Mach': 'mach'}``.
+    **fit_args
+        Passed to ``mlid.fit``: prior, prior_weight (e.g. the tables'
+        ``smoothness_weight``), bounds, initial_states, biases, x0_from and
+        the estimator's options.
+
+    Returns
+    -------
+    GlobalTableFit
+
+    Raises
+    ------
+    InputError
+        A model without tables, a record that is no FlightData, an input
+        neither in the record nor in the condition; what ``mlid.fit`` and
+        ``fit_tables`` raise.
+    SingularInformationError
+        Values no manoeuvre separates (the fit's information singular).
+    """
+    if not hasattr(model, "text") or not hasattr(model, "table_names"):
+        raise InputError(f"fit_global needs a model written as equations with tables "
+                         f"(EquationModel, SixDofModel), got {type(model).__name__}")
+    tables = _model_tables(model)
+    if not tables:
+        raise InputError("fit_global: the model has no table over a flight condition")
+    if isinstance(data, (str, bytes)) or not hasattr(data, "__len__") or not data:
+        raise InputError("data must be a list of FlightData, a manoeuvre each, at least one")
+    data = list(data)
+    if conditions is not None:
+        conditions = list(conditions)
+        if len(conditions) != len(data):
+            raise InputError(f"conditions: one for each of the {len(data)} records, got "
+                             f"{len(conditions)}")
+    labels = [f"manoeuvre {k + 1}" for k in range(len(data))] if labels is None \
+        else [_one_line(x, "a manoeuvre's label") for x in labels]
+    if len(labels) != len(data):
+        raise InputError(f"labels: one for each of the {len(data)} records, got {len(labels)}")
+    level = real_array("level", level, finite=True).item()
+    if local is not None and (isinstance(local, (str, bytes)) or not hasattr(local, "__len__")
+                              or len(local) != len(data)):
+        raise InputError(f"local: one fit for each of the {len(data)} manoeuvres, got "
+                         f"{len(local) if hasattr(local, '__len__') else type(local).__name__}")
+    records = _records(model, data, conditions, dict(variables or {}))
+    result = fit(model, records, **fit_args)
+    return GlobalTableFit(tables, records, labels, result, local, level)
+
+
+@guarded_class
+class GlobalTableFit(TableFit):
+    """Tables from one fit of a campaign's records (made by
+    :func:`mlid.fit_global`): the interface of :class:`TableFit` (values,
+    sigma, covariance, table, curve, text), so that figures, exports and
+    the comparison with the two-step route take either.
+
+    Parameters
+    ----------
+    tables : dict
+        {quantity: Table}: the model's tables (their breakpoints).
+    records : list of FlightData
+        The records as fitted (the conditions as channels).
+    labels : list of str
+        The manoeuvres.
+    result : FitResult
+        The global fit.
+    local : sequence of FitResult or None
+        The manoeuvres' local fits, to test against the tables.
+    level : float
+        The tests' level.
+
+    Attributes
+    ----------
+    result : FitResult
+        The fit itself: every free parameter (each manoeuvre's own x0 and
+        biases named '#k'), the cost, the iterations, ``wall_time``.
+    model : EquationModel
+        The fitted model (manoeuvre 1's x0 and biases): what an export
+        writes.
+    names, cells, values, sigma, covariance, reached, unreached
+        As TableFit's, over every value of every table; a value the fit
+        holds (not free) has its model value and sigma NaN; a free value no
+        sample reaches (no information) is NaN and named in unreached.
+    conditions : ndarray (nvar, nman)
+        Each manoeuvre's value of each table variable (a channel constant
+        over it; NaN otherwise).
+    entries, theta, local_sigma, residuals, chi2, dof, p_value, limit,
+    disagree, chi2_total, dof_total, p_total, limit_total
+        With ``local``: the test of each manoeuvre's local estimates
+        against the global tables, as TableFit's; without, empty (no test,
+        none disagree).
+    """
+
+    def __init__(self, tables, records, labels, result, local, level):
+        self.tables, self.result, self.model = dict(tables), result, result.model
+        self.variables = list(dict.fromkeys(v for t in tables.values() for v in t.variables))
+        self.conditions = _flown(records, self.variables)
+        self.labels, self.level = list(labels), float(level)
+        model = result.start_model
+        self.names = [n for q, t in tables.items() for n in t.value_names(q)]
+        cells = model.table_cells
+        self.cells = [cells.get(n, n) for n in self.names]
+        free = list(result.names)
+        at = [free.index(n) if n in free else -1 for n in self.names]
+        info = np.asarray(result.information)
+        self.reached = np.array([k < 0 or bool(np.any(info[k] != 0.0)) for k in at])
+        values = np.array([result.estimate[k] if k >= 0 else self.model.value(n)
+                           for n, k in zip(self.names, at)], dtype=float)
+        cov = np.full((len(at), len(at)), np.nan)
+        idx = [j for j, k in enumerate(at) if k >= 0]
+        cov[np.ix_(idx, idx)] = np.asarray(result.covariance)[np.ix_([at[j] for j in idx],
+                                                                     [at[j] for j in idx])]
+        values[~self.reached] = np.nan
+        cov[~self.reached, :] = np.nan
+        cov[:, ~self.reached] = np.nan
+        self.values = NamedArray(values, self.names)
+        self.covariance = NamedArray(cov, self.names)
+        self.sigma = NamedArray(np.sqrt(np.diag(cov)), self.names)
+        self.unreached = [f"{c} is reached by no sample: not identifiable"
+                          for c, r in zip(self.cells, self.reached) if not r]
+        self.local = None if local is None else list(local)
+        self._test(self.local)
+
+    def _test(self, local):
+        """The local estimates' chi-square tests against these tables (the
+        core's mlid_table_test), or no test."""
+        n = len(self.labels)
+        if local is None:
+            self.entries, self.theta, self.local_sigma = [], np.zeros(0), np.zeros(0)
+            self.weights = np.zeros((0, len(self.names)))
+            self.residuals = np.zeros(0)
+            self.chi2, self.p_value, self.limit = np.zeros(n), np.ones(n), np.zeros(n)
+            self.dof, self.disagree = np.zeros(n, dtype=int), []
+            self.chi2_total, self.dof_total, self.p_total, self.limit_total = 0.0, 0, 1.0, 0.0
+            return
+        held = [n for n, r in zip(self.names, self.reached) if r and
+                not np.isfinite(self.covariance[n, n])]
+        if held:
+            raise InputError(f"local: the tables' value {held[0]} is held in the global fit: "
+                             "free every reached value to test against them")
+        etab, eman, theta, cov, entries = _local_entries(local, self.labels, list(self.tables))
+        h = _call_handle()
+        cov_v = np.nan_to_num(np.asarray(self.covariance), nan=0.0)
+        _put(h, tables=_tables_text(self.tables),
+             variables="".join(v + "\n" for v in self.variables), conditions=self.conditions,
+             labels="".join(x + "\n" for x in self.labels),
+             entry_table=np.array(etab, dtype=np.int32),
+             entry_manoeuvre=np.array(eman, dtype=np.int32), theta=theta, covariance=cov,
+             level=self.level, values=np.nan_to_num(np.asarray(self.values), nan=0.0),
+             value_covariance=cov_v)
+        out = _run(h, _api.mlid_table_test)
+        self.entries, self.theta = entries, theta
+        self.local_sigma = np.sqrt(np.diag(cov))
+        self.weights = np.asarray(out["weights"], dtype=float).reshape(len(theta), -1)
+        self.residuals = np.atleast_1d(np.asarray(out["residuals"], dtype=float))
+        self.chi2 = np.atleast_1d(np.asarray(out["chi2"], dtype=float))
+        self.dof = np.atleast_1d(np.asarray(out["dof"])).astype(int)
+        self.p_value = np.atleast_1d(np.asarray(out["p_value"], dtype=float))
+        self.limit = np.atleast_1d(np.asarray(out["limit"], dtype=float))
+        order = np.lexsort((-self.chi2, self.p_value))
+        flags = np.atleast_1d(out["disagree"])
+        self.disagree = [self.labels[k] for k in order if flags[k]]
+        self.chi2_total, self.dof_total = float(out["chi2_total"]), int(out["dof_total"])
+        self.p_total, self.limit_total = float(out["p_total"]), float(out["limit_total"])
+
+    def text(self):
+        """The summary as text.
+
+        Returns
+        -------
+        str
+            The fit (manoeuvres, cost, iterations), each table value with
+            its sigma and where it acts, and with local fits each
+            manoeuvre's test against the tables.
+        """
+        r = self.result
+        out = [f"One-step global table fit: {len(self.labels)} manoeuvres, {len(r.names)} free "
+               f"parameters, {len(self.tables)} table(s), {len(self.names)} values "
+               f"({int(self.reached.sum())} reached); cost {r.cost:.6g} after {r.iterations} "
+               f"iterations ({'converged' if r.converged else 'not converged'}: {r.reason})",
+               "", "Table values (estimate +- sigma):"]
+        width = max(len(c) for c in self.cells)
+        for c, v, s, ok in zip(self.cells, self.values, self.sigma, self.reached):
+            shown = f"{v:12.5g} +- {s:.3g}" if np.isfinite(s) else f"{v:12.5g} (held)"
+            out.append(f"  {c:<{width}}  " + (shown if ok else
+                                              "not identifiable: reached by no sample"))
+        if self.local is None:
+            return "\n".join(out) + "\n"
+        rest = TableFit.text(self).split("\n")
+        at = next(k for k, line in enumerate(rest) if line.startswith("Consistency"))
+        rest[at] = rest[at].replace("with the tables", "with the global tables")
+        return "\n".join(out + [""] + rest[at:])
+
+    def __repr__(self):
+        return (f"<GlobalTableFit: {len(self.tables)} table(s), {len(self.names)} values, "
+                f"{len(self.labels)} manoeuvres, {len(self.disagree)} disagree>")
+
+
+def _local_entries(results, labels, quantities):
+    """The local estimates of the tabled quantities: each entry's table and
+    manoeuvre (1-based), the estimates, their block-diagonal covariance and
+    (manoeuvre, quantity) of each."""
+    etab, eman, theta, blocks, where = [], [], [], [], []
+    for k, (res, lab) in enumerate(zip(results, labels)):
+        if not all(hasattr(res, a) for a in ("names", "estimate", "covariance")):
+            raise InputError(f"results[{k}] must be a FitResult, got {type(res).__name__}")
+        if getattr(res, "failed", False):
+            raise InputError(f"manoeuvre {lab!r}: its fit failed; leave it out")
+        idx = [(t, list(res.names).index(q)) for t, q in enumerate(quantities)
+               if q in res.names]
+        if not idx:
+            raise InputError(f"manoeuvre {lab!r} estimates none of the tabled quantities "
+                             f"({', '.join(quantities)})")
+        j = [i for _, i in idx]
+        etab += [t + 1 for t, _ in idx]
+        eman += [k + 1] * len(idx)
+        theta += list(np.asarray(res.estimate, dtype=float)[j])
+        blocks.append(np.asarray(res.covariance, dtype=float)[np.ix_(j, j)])
+        where += [(lab, quantities[t]) for t, _ in idx]
+    cov = np.zeros((len(theta), len(theta)))
+    at = 0
+    for b in blocks:
+        cov[at:at + len(b), at:at + len(b)] = b
+        at += len(b)
+    return etab, eman, np.array(theta), cov, where
