@@ -5,6 +5,7 @@ interpolation held at the end breakpoints): it must give mlid's own
 outputs along a simulated record, the file's check cases (computed by the
 core), and a fit's sigma; the elements in the order DAVE-ML 2.0 sets."""
 
+import json
 import math
 import xml.etree.ElementTree as ET
 
@@ -14,7 +15,7 @@ import pytest
 import mlid
 from mlid.errors import InputError
 from mlid.model.tables import Table
-from mlid.model.point import outputs_at
+from mlid.model.point import derivatives_at, outputs_at
 from test_export_jsbsim import OUTPUTS, STATES, sixdof
 from test_tables import NAMES, START, table_model, table_record
 
@@ -186,6 +187,37 @@ def test_a_fit_carries_each_free_values_sigma():
     assert bounds[5] == 0 and values[5] == START[5]
 
 
+def test_a_tied_value_gets_its_sigma_through_the_tie_and_an_unreached_one_none(tmp_path):
+    """CLt[5] tied to CLt[4] has CLt[4]'s sigma (scale 1), not 0; a free
+    value no sample reaches (CLt[6], rank-deficient fit) gets NaN and is
+    named in the table's description, never a sigma of 0 (known)."""
+    d = table_record()
+    m = table_model(values=START, x0=[0.09, 0.0], free=NAMES[:4] + ["CLt[6]"],
+                    ties={"CLt[5]": "CLt[4] + 0.15"})
+    res = mlid.fit(m, d, rank_min=1)
+    cov = res.covariance_of(["CLt[4]", "CLt[5]", "CLt[6]", "x0(1)"])
+    assert cov[1, 1] == pytest.approx(cov[0, 0], rel=1e-12) and cov[1, 1] > 0
+    assert np.isnan(cov[2, 2]) and cov[3, 3] == 0
+    g = Reader(mlid.export.daveml_text(res, date=DATE)).root.find(D + "griddedTableDef")
+    bounds = g.find(D + "uncertainty").find(D + "normalPDF").find(D + "bounds") \
+        .find(D + "dataTable").text
+    sig = np.array([float(v) for v in bounds.replace(",", " ").split()])
+    np.testing.assert_allclose(sig[:4], np.sqrt(np.diag(res.covariance))[:4], rtol=1e-12)
+    assert sig[4] == pytest.approx(sig[3], rel=1e-12) and np.isnan(sig[5])
+    assert "CLt[6]" in g.find(D + "description").text
+    # the table set says the same: CLt[5] a sigma, CLt[6] none (null)
+    table = json.loads(mlid.export.tables(res, tmp_path / "t.json"))["tables"][0]
+    assert table["sigma"][4] == pytest.approx(sig[4]) and table["sigma"][5] is None
+
+
+def test_the_point_is_evaluated_not_integrated():
+    """outputs_at and derivatives_at evaluate h and f where they are, even
+    where one step of integration would diverge (a' = -a^3 at a = 1e60)."""
+    m = mlid.EquationModel({"y": "2*a"}, states={"a": "-a^3"})
+    assert outputs_at(m, [1e60], [])[0] == 2e60
+    assert derivatives_at(m, [2.0], [])[0] == -8.0
+
+
 def test_elements_come_in_the_order_dave_ml_sets():
     """DAVEfunc: fileHeader, variableDef+, breakpointDef*, griddedTableDef*,
     function*, checkData?; a variableDef's parts in the standard's order;
@@ -197,7 +229,11 @@ def test_elements_come_in_the_order_dave_ml_sets():
              "checkData"]
     seen = [order.index(c.tag.replace(D, "")) for c in root]
     assert seen == sorted(seen) and seen[0] == 0 and seen.count(5) == 1
-    parts = ["description", "calculation", "isOutput", "isState", "isStateDeriv", "uncertainty"]
+    # DAVE-ML 2.0's variableDef: description?, (provenance)?, calculation?,
+    # (isInput | isControl | isDisturbance)?, isState?, isStateDeriv?,
+    # isOutput?, isStdAIAA?, uncertainty?
+    parts = ["description", "calculation", "isInput", "isState", "isStateDeriv", "isOutput",
+             "uncertainty"]
     ids = [v.get("varID") for v in root.findall(D + "variableDef")]
     assert len(ids) == len(set(ids))
     for v in root.findall(D + "variableDef"):

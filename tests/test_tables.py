@@ -398,7 +398,8 @@ def test_a_deck_smooths_a_table_as_python_does(tmp_path):
     ("'CLt = -1'", "group &estimate: smoothness: the weight of table CLt is -1, not a finite "
                    "number >= 0 (0: no prior)"),
     ("'CLt = 1 2'", "group &estimate: smoothness entry 'CLt = 1 2': "),
-    ("'CLt'", "group &estimate: smoothness entry 'CLt' is not 'TABLE = weight'")])
+    ("'CLt'", "group &estimate: smoothness entry 'CLt' is not 'TABLE = weight'"),
+    ("'CLt = 1', 'CLt = 2'", "group &estimate: smoothness: table CLt is given a weight twice")])
 def test_a_deck_refuses_a_bad_smoothness_entry(tmp_path, entry, said):
     from conftest import refused_by_both
     _, deck = table_deck(tmp_path, free=NAMES, estimate=f"&estimate smoothness = {entry} /\n")

@@ -42,7 +42,7 @@ module mlid_api_models
             mlid_flightpath_model_text, mlid_flightpath_corrected, mlid_layout, &
             mlid_manoeuvre_map, mlid_elements, mlid_longitudinal_iconst, mlid_parameter_units, &
             mlid_name_list, mlid_limit, mlid_model_sizes, mlid_check_jacobians, mlid_x0_from, &
-            mlid_model_tables, mlid_longitudinal_text
+            mlid_model_tables, mlid_longitudinal_text, mlid_model_point
 
 contains
 
@@ -586,6 +586,49 @@ contains
     end if
     call check_jacobians(m, 0.0_wp, x, [u, w], p, err)
   end subroutine mlid_check_jacobians
+
+  !> A model at one point (given 'p', 'x', 'u' and 't', the process noise
+  !> zero): results 'y', the outputs h without the output biases, and
+  !> 'xdot', the state derivatives f; nothing is integrated.
+  subroutine mlid_model_point(h, status, msg)
+    integer(c_int64_t), intent(in) :: h
+    integer(c_int), intent(out) :: status
+    character(len=256), intent(out) :: msg
+    type(session_t), pointer :: s
+    class(model_t), allocatable :: m
+    real(wp), allocatable :: p(:), x(:), u(:), t(:), y(:), xdot(:)
+
+    call call_session(h, s, status, msg)
+    if (status /= MLID_OK) return
+    call problem_needs(s%problem, [PART_MODEL], status, msg)
+    if (status /= MLID_OK) return
+    associate (pb => s%problem, g => s%given)
+      call g%get('p', p, status, msg)
+      if (status == MLID_OK) call g%get('x', x, status, msg, [pb%nx])
+      if (status == MLID_OK) call g%get('u', u, status, msg, [pb%nu])
+      if (status == MLID_OK) call g%get('t', t, status, msg, [1])
+      if (status /= MLID_OK) return
+      call model_create(pb%mkind, pb%nx, pb%nu, pb%ny, pb%nw, pb%iconst, pb%rconst, m, status, &
+                        msg)
+    end associate
+    if (status /= MLID_OK) return
+    if (m%np /= size(p)) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0)') 'the model has ', m%np, ' parameters, not ', size(p)
+      return
+    end if
+    allocate (y(m%ny), xdot(m%nx), stat=status)
+    if (status /= 0) then
+      status = MLID_ERR_INPUT
+      msg = 'model point: no memory for the outputs'
+      return
+    end if
+    u = [u, spread(0.0_wp, 1, m%nw)]         ! the model's inputs carry w after u
+    call m%f(t(1), x, u, p, xdot)
+    call m%h(t(1), x, u, p, y)
+    call s%results%put('y', y)
+    call s%results%put('xdot', xdot)
+  end subroutine mlid_model_point
 
   !> The tables of handle h's problem's model (an equations model's,
   !> mlid_tables): results 'cells', each parameter's text (a table value's

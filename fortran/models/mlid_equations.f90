@@ -268,7 +268,7 @@ contains
     real(wp), allocatable :: lam(:)
     character(len=160), allocatable :: texts(:)
     character(len=:), allocatable :: known
-    integer :: i, k
+    integer :: i, j, k
 
     w = 0.0_wp
     status = MLID_ERR_INPUT
@@ -280,13 +280,20 @@ contains
       do k = 1, size(m%tables)
         known = known//merge(', ', '  ', k > 1)//trim(m%tables(k)%name)
       end do
-      allocate (lam(size(m%tables)), texts(m%np))
+      allocate (lam(size(m%tables)), texts(m%np), stat=j)
+      if (j /= 0) then
+        msg = 'smoothness: no memory for the tables'' weights'
+        return
+      end if
       lam = 0.0_wp
       do i = 1, size(names)
-        k = findloc([(m%tables(k)%name == names(i), k=1, size(m%tables))], .true., 1)
+        k = findloc([(m%tables(j)%name == names(i), j=1, size(m%tables))], .true., 1)
         if (k == 0) then
           msg = 'smoothness: no table named '//trim(names(i))//' (tables: '// &
                 trim(adjustl(known))//')'
+          return
+        else if (any(names(1:i - 1) == names(i))) then
+          msg = 'smoothness: table '//trim(names(i))//' is given a weight twice'
           return
         end if
         lam(k) = lambda(i)

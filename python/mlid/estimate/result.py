@@ -407,6 +407,50 @@ class FitResult:
         """
         return self._texts()[0].rstrip("\n")
 
+    def covariance_of(self, labels):
+        """The Cramer-Rao covariance of any of the model's parameters, by
+        label: a free one's from ``covariance``, a tied one's through its
+        ties (J Cov J', J its scales on the free ones), one neither free
+        nor tied zero (known); a free table value no sample reaches
+        (``model.unreached_names``) NaN in its row and column.
+
+        Parameters
+        ----------
+        labels : sequence of str
+            The model's parameter labels ('C_Lalpha', 'CLt[2]').
+
+        Returns
+        -------
+        NamedArray (n, n)
+
+        Raises
+        ------
+        InputError
+            A label that is no parameter of the model; a failed fit.
+        """
+        require_estimates(self, "covariance_of")
+        labels = list(labels)
+        model = self.model
+        theta_labels = model.element_labels()
+        entry = {lab: k for k, lab in enumerate(theta_labels)}
+        unknown = [lab for lab in labels if lab not in entry]
+        if unknown:
+            raise InputError(f"covariance_of: {', '.join(unknown)} is no parameter of the model")
+        free = {n: i for i, n in enumerate(self.names)}
+        terms = model.tie_terms()
+        J = np.zeros((len(labels), len(free)))
+        for r, lab in enumerate(labels):
+            if lab in free:
+                J[r, free[lab]] = 1.0
+            for j, scale in terms.get(entry[lab], (0.0, []))[1]:
+                if theta_labels[j] in free:           # a fixed source adds no variance
+                    J[r, free[theta_labels[j]]] += scale
+        cov = J @ np.asarray(self.covariance, dtype=float) @ J.T
+        unreached = set(model.unreached_names(self))
+        gone = [r for r, lab in enumerate(labels) if lab in unreached]
+        cov[gone, :] = cov[:, gone] = np.nan
+        return NamedArray(cov, labels)
+
     def identifiability(self):
         """The report's lines on identifiability: eigenvalue spread of the
         normalised information, its weakest direction, correlations above 0.9.

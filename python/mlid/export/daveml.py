@@ -7,32 +7,34 @@ What each part of the model becomes (in the standard's element order):
   ``variableDef`` with no calculation (an input of the function); a state is
   marked ``<isState/>``;
 - a parameter: a ``variableDef`` with its ``initialValue`` (the estimate,
-  for a fit) and, when it was free, its Cramer-Rao sigma as an additive
-  normal ``uncertainty`` of one sigma; a definition that is a number: the
-  same, as a constant;
+  for a fit) and, when it was free or tied, its Cramer-Rao sigma as an
+  additive normal ``uncertainty`` of one sigma; a definition that is a
+  number: the same, as a constant;
 - a definition: a ``variableDef`` whose ``calculation`` is the expression
   in MathML-2 content markup (the two-argument arctangent as DAVE-ML's
   ``csymbol`` extension);
 - a table: its ``breakpointDef`` per variable, a ``griddedTableDef``
   (values with the last variable varying fastest, as the standard lists
-  them; the fit's sigma of each value as an additive normal uncertainty
-  table) and a ``function`` from the variables to the table's name,
+  them; the fit's sigma of each value, free or tied, as an additive normal
+  uncertainty table, 0 for a value held, NaN for one no sample reaches,
+  named in the table's description) and a ``function`` from the variables to the table's name,
   linear, held beyond the end breakpoints (``extrapolate="neither"``), as
   mlid's tables are;
 - each state equation: ``d_NAME``, ``<isStateDeriv/>`` and ``<isOutput/>``;
+  an input channel and t are marked ``<isInput/>``;
   each output equation: ``y_NAME``, ``<isOutput/>``.
 
 Optional ``checkData``: static shots at given states and inputs, their
-outputs computed by mlid's core (the model evaluated there, through a
-one-step simulation whose outputs are the exported quantities), with a
-tolerance, so that a DAVE-ML tool can verify its reading of the file.
+outputs computed by mlid's core (the model's f and h evaluated there,
+``mlid.model.point``), with a tolerance, so that a DAVE-ML tool can
+verify its reading of the file.
 
 The model's units are kept (mlid's models are in SI and radians); a
 name's units are taken from ``UNITS`` (the flight variables and the
 six-degree-of-freedom constants, in the standard's recommended
-abbreviations), from ``units`` given to the export, or, for a
-six-degree-of-freedom model's coefficients and derivatives, ``nd``
-(dimensionless).  Anything else is written with units ``"unknown"`` and
+abbreviations), from ``units`` given to the export, or ``nd``
+(dimensionless) for the coefficients CX ... Cn and a six-degree-of-freedom
+model's parameters (its derivatives).  Anything else is written with units ``"unknown"`` and
 said so in its description rather than guessed.
 """
 
@@ -45,9 +47,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..files import atomic_write_text
-from ..model.models import EquationModel
-from ..model.point import outputs_at
-from ..model.tables import Table as ModelTable
+from ..model.point import derivatives_at, outputs_at
 from . import expressions as ex
 from .source import Source, Table
 
@@ -154,7 +154,7 @@ class _Writer:
             return self.units[name]
         if name in UNITS:
             return UNITS[name]
-        if self.sixdof and name not in dict(self.src.definitions) or name in COEFFICIENTS:
+        if name in COEFFICIENTS or (self.sixdof and name in self.src.params):
             return "nd"
         return "unknown"
 
@@ -187,14 +187,15 @@ class _Writer:
         for e in [*src.equations.values(), *src.outputs.values()]:
             read |= ex.names(ex.parse(e, "an equation"))
         for n in src.inputs:
-            out += self._var(n, [])
+            out += self._var(n, ["<isInput/>"])
         for n in src.states:
             out += self._var(n, ["<isState/>"])
         if "t" in read and "t" not in src.params:
-            out += self._var("t", [])
+            out += self._var("t", ["<isInput/>"])
         for n in src.params:
             s = src.sigma.get(n)
-            inner = self._uncertainty([ex.number(s)]) if s is not None else []
+            inner = [] if s is None else self._uncertainty([ex.number(s)]) if math.isfinite(s) \
+                else [f"<description>{n}: not identified by the fit (no sigma)</description>"]
             out += self._var(n, inner, initial=src.value(n))
         for n, d in src.definitions:
             if isinstance(d, Table):
@@ -206,7 +207,7 @@ class _Writer:
         for n, e in src.equations.items():
             self.units.setdefault(f"d_{n}", _per_second(self.unit(n)))
             out += self._var(f"d_{n}", self._calculation(e, f"state equation {n}")
-                             + ["<isOutput/>", "<isStateDeriv/>"])
+                             + ["<isStateDeriv/>", "<isOutput/>"])
         for n, e in src.outputs.items():
             self.units.setdefault(f"y_{n}", self.unit(n))
             out += self._var(f"y_{n}", self._calculation(e, f"output {n}") + ["<isOutput/>"])
@@ -231,10 +232,19 @@ class _Writer:
         out = []
         for t in self.src.tables:
             refs = [f'    <bpRef bpID="{_bp_id(t, v)}"/>' for v in t.variables]
-            sigma = np.where(np.isfinite(t.sigma), t.sigma, 0.0)
-            unc = self._uncertainty(_data_table(sigma)) if np.any(np.isfinite(t.sigma)) else []
+            # sigma: the fit's (free or tied), 0 for a value held, NaN for one
+            # the fit estimated but no sample reaches (said in the description)
+            names = t.labels
+            estimated = np.array([n in self.src.sigma for n in names]).reshape(t.values.shape,
+                                                                               order="F")
+            sigma = np.where(estimated, t.sigma, 0.0)
+            unc = self._uncertainty(_data_table(sigma)) if estimated.any() else []
+            lost = [n for n in names if n in self.src.sigma and not
+                    math.isfinite(self.src.sigma[n])]
+            note = [f"  <description>not identified (reached by no sample; sigma NaN, the "
+                    f"value its start): {', '.join(lost)}</description>"] if lost else []
             out += ([f'<griddedTableDef name="{t.name}" gtID="{t.name}_table" '
-                     f'units="{self.unit(t.name)}">', "  <breakpointRefs>", *refs,
+                     f'units="{self.unit(t.name)}">', *note, "  <breakpointRefs>", *refs,
                      "  </breakpointRefs>"] + ["  " + line for line in unc]
                     + ["  " + line for line in _data_table(t.values)] + ["</griddedTableDef>"])
         return out
@@ -286,17 +296,14 @@ class _Writer:
 
 def _evaluate(src, names, shot):
     """The exported quantities (d_NAME, y_NAME) at one check case, computed
-    by the core: the model's own text with those as its outputs."""
-    defs = {n: ModelTable(d.variables, d.breakpoints, d.values) if isinstance(d, Table) else d
-            for n, d in src.definitions}
-    exprs = {**{f"d_{n}": e for n, e in src.equations.items()},
-             **{f"y_{n}": e for n, e in src.outputs.items()}}
-    model = EquationModel({n: exprs[n] for n in names}, states=src.equations,
-                          inputs=src.inputs, params={n: src.value(n) for n in src.params},
-                          definitions=defs)
-    y = outputs_at(model, [shot[n] for n in src.states], [shot[n] for n in src.inputs],
-                   shot.get("t", 0.0))
-    return dict(zip(names, y.tolist()))
+    by the core (the model's f and h there, without output biases, as the
+    file's y_NAME)."""
+    x = [shot[n] for n in src.states]
+    u = [shot[n] for n in src.inputs]
+    t = shot.get("t", 0.0)
+    values = dict(zip([f"d_{n}" for n in src.states], derivatives_at(src.model, x, u, t)))
+    values.update(zip([f"y_{n}" for n in src.outputs], outputs_at(src.model, x, u, t)))
+    return {n: float(values[n]) for n in names}
 
 
 def _bp_id(t, variable):

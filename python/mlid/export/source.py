@@ -8,12 +8,13 @@ from ..errors import InputError
 
 
 class Table:
-    """One table of a model: its variables, breakpoints, values and (from
-    a fit) each value's sigma (NaN: not free, no sigma)."""
+    """One table of a model: its variables, breakpoints, values, each
+    value's parameter label ('CLt[2,1]', in p's order) and (from a fit)
+    sigma (NaN: not estimated, or reached by no sample)."""
 
-    def __init__(self, name, variables, breakpoints, values, sigma):
+    def __init__(self, name, variables, breakpoints, values, sigma, labels):
         self.name, self.variables, self.breakpoints = name, variables, breakpoints
-        self.values, self.sigma = values, sigma
+        self.values, self.sigma, self.labels = values, sigma, labels
 
 
 class Source:
@@ -27,7 +28,9 @@ class Source:
     equations, outputs : dict
         {state: its derivative's expression}, {output: its expression}.
     sigma : dict
-        {free parameter: sigma} of a fit (empty for a model).
+        {parameter: sigma} of a fit's free and tied model parameters (its
+        ``covariance_of``; NaN for a free table value no sample reaches);
+        empty for a model.
     """
 
     def __init__(self, model_or_result):
@@ -38,10 +41,7 @@ class Source:
                              f"result is needed, got {type(model).__name__}")
         self.model = model
         self.fitted = model is not model_or_result
-        names = getattr(model_or_result, "names", None) if self.fitted else None
-        sigma = getattr(model_or_result, "sigma", None) if self.fitted else None
-        self.sigma = ({} if names is None or sigma is None
-                      else {n: float(s) for n, s in zip(names, np.ravel(sigma))})
+        self.sigma = _sigma(model_or_result) if self.fitted else {}
         self.inputs, self.params, self.states = [], [], []
         self.definitions, self.outputs, self.equations = [], {}, {}
         for line in model.text.split("\n"):
@@ -78,9 +78,22 @@ class Source:
         labels = [f"{name}[{','.join(str(i + 1) for i in ijk)}]" for ijk in idx]
         values = np.array([self.value(n) for n in labels]).reshape(shape, order="F")
         sigma = np.array([self.sigma.get(n, np.nan) for n in labels]).reshape(shape, order="F")
-        return name, Table(name, variables, breakpoints, values, sigma)
+        return name, Table(name, variables, breakpoints, values, sigma, labels)
 
     @property
     def tables(self):
         """The model's tables, in the text's order."""
         return [d for _, d in self.definitions if isinstance(d, Table)]
+
+
+def _sigma(result):
+    """{label: sigma} of the model parameters (p) a fit estimated, free or
+    tied (FitResult.covariance_of)."""
+    model = result.model
+    labels = model.element_labels()[:model.np]
+    tied = {labels[k] for k in model.tie_terms() if k < model.np}
+    free = set(result.names)
+    shown = [n for n in labels if n in free or n in tied]
+    cov = np.asarray(result.covariance_of(shown), dtype=float) if shown else np.zeros((0, 0))
+    return {n: float(np.sqrt(v)) if np.isfinite(v) else float("nan")
+            for n, v in zip(shown, np.diag(cov))}

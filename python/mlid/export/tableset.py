@@ -43,7 +43,8 @@ def tables(model_or_result, path, format=None):
     JSON: ``{"fitted": bool, "tables": [{"name", "variables",
     "breakpoints", "values", "sigma"}], "parameters": {name: {"value",
     "sigma"}}}``, values[i][j][k] at (breakpoints[0][i], breakpoints[1][j],
-    ...), sigma null where a value is not free.  CSV: a header, then
+    ...); sigma that of a free or tied value (FitResult.covariance_of), null
+    for a value held or one no sample reaches.  CSV: a header, then
     ``table, i, j, k, var1, x1, var2, x2, var3, x3, value, sigma`` a row,
     in the order of the parameters 'NAME[i,j,k]' (the first index fastest;
     1-based indices, empty where a table has fewer variables or a value
@@ -71,7 +72,7 @@ def _json(src):
             "sigma": np.vectorize(_sigma, otypes=[object])(t.sigma).tolist()})
     for n in src.params:
         s = src.sigma.get(n)
-        out["parameters"][n] = {"value": src.value(n), "sigma": s}
+        out["parameters"][n] = {"value": src.value(n), "sigma": None if s is None else _sigma(s)}
     return json.dumps(out, indent=1) + "\n"
 
 

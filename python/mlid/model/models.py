@@ -1029,11 +1029,22 @@ class EquationModel(Model):
             table value whose row of the information is zero (its
             weight is zero at every sample), in the order of free.
         """
+        texts = self._tables()[0]
+        return [f"{texts[j]} is reached by no sample: not identifiable"
+                for j in self._unreached(information)]
+
+    def unreached_names(self, information):
+        """The labels of the free table values no sample reaches (those
+        ``unreached_cells`` describes), in the order of free."""
+        labels = self.element_labels()
+        return [labels[j] for j in self._unreached(information)]
+
+    def _unreached(self, information):
+        """The entries (of theta) of the free table values whose row of the
+        information is zero."""
         info = np.asarray(getattr(information, "information", information), dtype=float)
         texts = self._tables()[0]
-        free = self.free_indices()
-        return [f"{texts[j]} is reached by no sample: not identifiable"
-                for k, j in enumerate(free) if j < self.np and texts[j]
+        return [j for k, j in enumerate(self.free_indices()) if j < self.np and texts[j]
                 and not np.any(info[k] != 0.0)]
 
 

@@ -1,13 +1,13 @@
-"""A model's outputs at one point, h(x, u, t), computed by the core: the
-first sample of a simulation that starts there, with no noise (the core
-takes records of two samples or more; the second is not used)."""
+"""A model at one point: its outputs h(x, u, t) (without output biases)
+and state derivatives f(x, u, t), evaluated by the core (mlid_model_point;
+nothing is integrated), the process noise zero."""
 
 import numpy as np
 
-from .._bridge import api as _api, call_handle as _call_handle
+from .._bridge import api as _api, call_handle as _call_handle, put as _put, run as _run
 from ..checks import real_array
-from ..errors import InputError, check_status, guarded
-from .calls import _check_model, _set_simulation
+from ..errors import InputError, guarded
+from .calls import _check_model, _set_model
 
 
 @guarded
@@ -24,12 +24,28 @@ def outputs_at(model, x, u, t=0.0):
     Returns
     -------
     ndarray (ny,)
+        h(x, u, t) at the model's parameters, without the output biases.
 
     Raises
     ------
     InputError
         x or u of the wrong size, values that are not finite.
     """
+    return _point(model, x, u, t)["y"]
+
+
+@guarded
+def derivatives_at(model, x, u, t=0.0):
+    """The model's state derivatives f(x, u, t) (as ``outputs_at``).
+
+    Returns
+    -------
+    ndarray (nx,)
+    """
+    return _point(model, x, u, t)["xdot"]
+
+
+def _point(model, x, u, t):
     _check_model(model)
     x = real_array("x", x, finite=True).ravel()
     u = real_array("u", u, finite=True).ravel()
@@ -37,12 +53,8 @@ def outputs_at(model, x, u, t=0.0):
     if x.size != model.nx or u.size != model.nu or t.size != 1:
         raise InputError(f"x, u and t have {x.size}, {u.size} and {t.size} values; the model "
                          f"has {model.nx} states and {model.nu} inputs, and t is one time")
-    m = model.with_theta(model.theta)
-    m.x0, m.r = x, np.zeros(model.ny)
-    iopt, ropt = _api.mlid_default_options()
     h = _call_handle()
-    _set_simulation(h, m, (np.array([t[0], t[0] + 1.0]), np.repeat(u.reshape(-1, 1), 2, axis=1)),
-                    iopt, ropt, free=False)
-    y, _, status, msg = _api.mlid_simulate(h.value, seed=0, timing=0, ny=m.ny, nx=m.nx, nt=2)
-    check_status(status, msg)
-    return y[:, 0].copy()
+    _set_model(h, model)
+    _put(h, p=model.theta[:model.np], x=x, u=u, t=t)
+    out = _run(h, _api.mlid_model_point)
+    return {k: np.asarray(out[k], dtype=float).ravel() for k in ("y", "xdot")}

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..estimate.named import NamedArray
-from ..estimate.table_fit import TableFit
+from ..estimate.table_fit import GlobalTableFit, TableFit
 from ..export.source import Source
 from ..model.tables import Table
 from .plots import BAND_ALPHA, BAND_SIGMAS, COLORS, _figure, _finish, _styled, band_label
@@ -40,16 +40,16 @@ class FittedTables:
     names, cells : list of str
         Each value's name and where it acts (the core's text).
     values, sigma : NamedArray
-        The estimates and their Cramer-Rao sigma (a value not free: its
-        value, sigma 0); NaN for a value no sample reaches (not
-        identifiable).
+        The estimates and their Cramer-Rao sigma (a value held: its value,
+        sigma 0); NaN for a value no sample reaches (not identifiable).
     covariance : NamedArray (nv, nv)
-        Their covariance, the fit's block (0 for a value not free, NaN for
-        one not reached).
+        Their covariance (FitResult.covariance_of: tied values through
+        their ties, 0 for a value held, NaN for one not reached).
     reached : ndarray of bool
         False for a value no sample reaches.
-    fixed : list of str
-        The values that are not free.
+    fixed, tied : list of str
+        The values neither free nor tied (known: sigma 0), and those tied
+        (their sigma through the ties, FitResult.covariance_of).
     unreached : list of str
         The core's '... is reached by no sample: not identifiable' lines.
 
@@ -72,21 +72,18 @@ class FittedTables:
         cells = result.model.table_cells
         self.cells = [cells.get(n, n) for n in self.names]
         self.unreached = list(result.model.unreached_cells(result))
-        gone = {u.split(" ", 1)[0] for u in self.unreached}
-        free = list(result.names)
-        at = [free.index(n) if n in free else -1 for n in self.names]
+        gone = set(result.model.unreached_names(result))
+        free = set(result.names)
+        tied_entries = result.model.tie_terms()
+        labels = result.model.element_labels()
         self.reached = np.array([n not in gone for n in self.names])
-        self.fixed = [n for n, j in zip(self.names, at) if j < 0]
-        cov = np.asarray(result.covariance, dtype=float)
-        nv = len(self.names)
-        # a fixed value is known (no variance); one nothing reaches has no estimate
-        c = np.zeros((nv, nv))
+        self.tied = [n for n in self.names if labels.index(n) in tied_entries]
+        self.fixed = [n for n in self.names if n not in free and n not in self.tied]
+        # the covariance of every value, free or tied (a held one's is zero:
+        # known; one nothing reaches has no estimate)
+        c = np.asarray(result.covariance_of(self.names), dtype=float)
         v = np.array([src.value(n) for n in self.names])
-        ok = [k for k, j in enumerate(at) if j >= 0]
-        c[np.ix_(ok, ok)] = cov[np.ix_([at[k] for k in ok], [at[k] for k in ok])]
-        out = ~self.reached
-        c[out, :] = c[:, out] = np.nan
-        v[out] = np.nan
+        v[~self.reached] = np.nan
         self.values = NamedArray(v, self.names)
         self.covariance = NamedArray(c, self.names)
         self.sigma = NamedArray(np.sqrt(np.clip(np.diag(c), 0, None)), self.names)
@@ -151,12 +148,16 @@ def _flown(tab, q, loc):
 
 def _global_slices(tab, flown):
     """For a table over more variables with no local estimates: its
-    breakpoints of the others (at most MAX_SLICES)."""
+    breakpoints of the others, at most MAX_SLICES of them spread evenly
+    over all, and the title's note of how many are drawn when not all."""
     if len(tab.variables) == 1 or len(flown):
-        return None
+        return None, ""
     values = np.array(np.meshgrid(*tab.breakpoints[1:], indexing="ij")).reshape(
         len(tab.variables) - 1, -1).T
-    return [tuple(v) for v in values[:MAX_SLICES]]
+    if len(values) <= MAX_SLICES:
+        return [tuple(v) for v in values], ""
+    pick = np.unique(np.round(np.linspace(0, len(values) - 1, MAX_SLICES)).astype(int))
+    return [tuple(values[k]) for k in pick], f" ({len(pick)} of {len(values)} slices)"
 
 
 @_styled
@@ -191,7 +192,9 @@ def table_fit_figure(fit, path=None, quantities=None, local=None):
     """
     import matplotlib.pyplot as plt
     loc = _local(fit, local)
-    two_step = isinstance(fit, TableFit)
+    two_step = isinstance(fit, TableFit) and not isinstance(fit, GlobalTableFit)
+    source = "two-step" if two_step else \
+        "global fit, Cramér-Rao" if isinstance(fit, GlobalTableFit) else "Cramér-Rao"
     fit = tables_of(fit)
     quantities = list(fit.tables) if quantities is None else list(quantities)
     for q in quantities:
@@ -201,11 +204,10 @@ def table_fit_figure(fit, path=None, quantities=None, local=None):
     nrows = -(-len(quantities) // ncols)
     fig, axes = _figure(nrows, ncols, 4.6 * ncols, 3.0)
     colours = plt.get_cmap("tab10")
-    source = "two-step" if two_step else "Cramér-Rao"
     for ax, q in zip(axes.flat, quantities):
         tab = fit.tables[q]
         rows, man, flown = _flown(tab, q, loc)
-        slices = _global_slices(tab, flown)
+        slices, shown = _global_slices(tab, flown)
         if slices is None:
             slices, near = _slices(fit, tab, flown) if len(flown) else ([()], [])
         else:
@@ -239,8 +241,8 @@ def table_fit_figure(fit, path=None, quantities=None, local=None):
                         label=band_label("table", source))
         ax.set_xlabel(tab.variables[0])
         ax.set_ylabel(q)
-        ax.set_title(f"{q}: {len(rows)} local estimates, {len(tab.flat_values)} values"
-                     if len(rows) else f"{q}: {len(tab.flat_values)} values")
+        ax.set_title((f"{q}: {len(rows)} local estimates, {len(tab.flat_values)} values"
+                      if len(rows) else f"{q}: {len(tab.flat_values)} values") + shown)
         reached = np.array([fit.reached[fit.names.index(n)] for n in tab.value_names(q)])
         reached = reached.reshape(tab.shape, order="F").reshape(tab.shape[0], -1).any(axis=1)
         for b, r in zip(tab.breakpoints[0], reached):
