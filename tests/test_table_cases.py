@@ -4,6 +4,7 @@ the constant-coefficient case, the values no sample reaches named alike in
 the printed report, the JSON and Python, and the figure of a fit's tables
 with the band from its covariance."""
 
+import html
 import json
 import subprocess
 
@@ -135,12 +136,55 @@ def test_a_two_step_fit_page_has_the_consistency_test_and_the_exports(tmp_path):
     assert 'id="case-1-consistency"' in page and "disagrees" in page
     assert str((tmp_path / "tables.json").resolve()) in page and "2 bytes" in page
     assert "not written" in page                  # an export that is not there says so
-    # a global fit's page: the Python fit of one manoeuvre's model is enough for the band
-    from test_tables import NAMES, START, table_model, table_record
-    one = mlid.fit(table_model(values=START, x0=[0.09, 0.0], free=NAMES[:5]), table_record())
+    assert "local estimates with the two-step tables" in page
+    # the global fit of the same records and tables, as a fit's result: the two-step fit
+    # of its tables (alpha_trim, the conditions' alpha) drawn on its band and tested,
+    # headed as a test against the two-step tables
+    recs = [tc.record(c, k, "bias" if k == 7 else None) for k, c in enumerate(conds)]
+    glob = mlid.fit_global(tc.global_model(), recs, conds, variables=tc.VARIABLES)
+    fit = mlid.fit_tables(res, tc.global_tables(), conds, variables=tc.VARIABLES)
     with pytest.raises(mlid.InputError, match="local must be a TableFit"):
-        write_tables_report(tmp_path / "g.html", one, local=res[0])
-    page = write_tables_report(tmp_path / "g.html", one).read_text()
-    assert "Consistency" not in page and "every table value is reached" in page
-    page = write_tables_report(tmp_path / "g.html", one, local=fit).read_text()
+        write_tables_report(tmp_path / "g.html", glob.result, local=res[0])
+    page = html.unescape(write_tables_report(tmp_path / "g.html", glob.result).read_text())
+    assert "Consistency" not in page and "the ±2σ band of the fit's covariance" in page
+    page = html.unescape(write_tables_report(tmp_path / "g.html", glob.result,
+                                             local=fit).read_text())
     assert 'id="case-1-consistency"' in page and 'id="case-1-table-figure"' in page
+    assert "data:image/png;base64," in page and "disagrees" in page
+    assert "the local estimates ±2σ (of the two-step fit)" in page
+    assert "local estimates with the two-step tables (mlid.fit_tables" in page
+    # a global fit given the local fits: its own test, against the global tables
+    page = write_tables_report(tmp_path / "g.html", mlid.fit_global(
+        tc.global_model(), recs, conds, variables=tc.VARIABLES, local=res)).read_text()
+    assert "local estimates with the global tables" in page and "disagrees" in page
+    assert "two-step" not in page
+
+
+def test_local_estimates_of_other_tables_are_refused(tmp_path):
+    """A two-step fit whose tables are not the fit's (other names, other
+    breakpoints, other variables) is refused with one line naming what differs, not drawn
+    or tested beside the fit's tables."""
+    import mlid
+    import table_campaign as tc
+    from mlid.report.html_report import write_tables_report
+    from test_tables import NAMES, START, table_model, table_record
+    conds = tc.grid(4, [0.3, 0.7])
+    res = tc.campaign(conds, 0)
+    fit = mlid.fit_tables(res, tc.tables(), conds)
+    one = mlid.fit(table_model(values=START, x0=[0.09, 0.0], free=NAMES[:5]), table_record())
+    with pytest.raises(mlid.InputError) as err:
+        write_tables_report(tmp_path / "g.html", one, local=fit)
+    assert str(err.value) == ("local: its tables (M_alpha, M_q, Z_alpha, Z_de, M_de) are not "
+                              "the fit's (CLt)")
+    other = mlid.fit_tables(res, tc.tables(extra_q_breakpoint=0.2), conds)
+    with pytest.raises(mlid.InputError) as err:
+        write_tables_report(tmp_path / "g.html", fit, local=other)
+    assert str(err.value) == ("local: its table M_q has breakpoints 0 0.09 0.18 0.2, the "
+                              "fit's 0 0.09 0.18")
+    glob = mlid.fit_global(tc.global_model(), [tc.record(c, k) for k, c in enumerate(conds)],
+                           conds, variables=tc.VARIABLES)
+    with pytest.raises(mlid.InputError) as err:
+        write_tables_report(tmp_path / "g.html", glob.result, local=fit)
+    assert str(err.value) == ("local: its table M_alpha is over alpha, Mach, the fit's over "
+                              "alpha_trim, Mach")
+    assert not (tmp_path / "g.html").exists()

@@ -70,7 +70,7 @@ import numpy as np
 from .._version import installed_version
 from ..errors import InputError
 from ..estimate.table import FLAG_TEXT, HEADINGS, results_table
-from ..estimate.table_fit import TableFit
+from ..estimate.table_fit import GlobalTableFit, TableFit
 from ..files import atomic_write_text
 from . import plots
 from . import table_fit_plots
@@ -479,18 +479,75 @@ def exports_table(exports):
     return Table(["export", "file", "size"], rows)
 
 
-def _tables_caption(fit):
-    two_step = hasattr(fit, "chi2") and hasattr(fit, "entries")
-    return ("each table against its first variable: " +
-            ("the local estimates ±2σ, the fitted table and its ±2σ band (two-step)"
-             if two_step else "the fitted values at the breakpoints and the ±2σ band of the "
-             "fit's covariance") + "; a breakpoint nothing reaches dashed")
+def _drawn_local(fit, local=None):
+    """The TableFit whose local estimates the figure draws (as
+    table_fit_plots does: a TableFit's own, else local's), or None when it
+    has none."""
+    loc = fit if isinstance(fit, TableFit) else local
+    return loc if loc is not None and len(loc.entries) else None
+
+
+def _tables_caption(fit, local=None):
+    loc = _drawn_local(fit, local)
+    route = "global fit" if isinstance(fit, GlobalTableFit) else \
+        "two-step" if isinstance(fit, TableFit) else "the fit's covariance"
+    what = ("the local estimates ±2σ" + ("" if loc is fit else " (of the two-step fit)") +
+            f", the fitted table and its ±2σ band ({route})") if loc is not None else \
+        ("the fitted values at the breakpoints and the ±2σ band of the fit's covariance")
+    return f"each table against its first variable: {what}; a breakpoint nothing reaches dashed"
+
+
+def _bps(table):
+    return " × ".join(" ".join(f"{v:g}" for v in b) for b in table.breakpoints)
+
+
+def _same_tables(fit, local):
+    """Refuse local (a TableFit) whose tables are not the fit's: the same
+    names, variables and breakpoints (the figure finds each local estimate's
+    place by the variables' names: fit_tables(..., variables=) names a
+    global model's alpha_trim for the conditions' alpha)."""
+    mine = fit.tables if isinstance(getattr(fit, "tables", None), dict) else \
+        table_fit_plots.FittedTables(fit).tables
+    theirs = local.tables
+    if set(mine) != set(theirs):
+        raise InputError(f"local: its tables ({', '.join(theirs)}) are not the fit's "
+                         f"({', '.join(mine)})")
+    for q, tab in mine.items():
+        other = theirs[q]
+        if tuple(other.variables) != tuple(tab.variables):
+            raise InputError(f"local: its table {q} is over {', '.join(other.variables)}, the "
+                             f"fit's over {', '.join(tab.variables)}")
+        if len(other.breakpoints) != len(tab.breakpoints) or not all(
+                a.shape == b.shape and np.array_equal(a, b)
+                for a, b in zip(other.breakpoints, tab.breakpoints)):
+            raise InputError(f"local: its table {q} has breakpoints {_bps(other)}, the fit's "
+                             f"{_bps(tab)}")
+
+
+def _consistency(fit, local):
+    """The consistency test to show and its heading: a two-step fit's own,
+    a global fit's of its local fits, or local's against its own (two-step)
+    tables; (None, None) when there is none."""
+    own = isinstance(fit, TableFit) and not (isinstance(fit, GlobalTableFit) and
+                                             fit.local is None)
+    if own:
+        where = "the global tables" if isinstance(fit, GlobalTableFit) else \
+            "the two-step tables"
+        return fit, f"Consistency of each manoeuvre's local estimates with {where}"
+    if local is not None:
+        return local, ("Consistency of each manoeuvre's local estimates with the two-step "
+                       "tables (mlid.fit_tables: the same breakpoints, not the values above)")
+    return None, None
 
 
 def table_fit_sections(fit, local=None, exports=None, case_id="tables"):
     """The sections of a fit of tables: the figure (the local estimates of
     local, a TableFit, on top of a global fit), the values, the
-    consistency test (a two-step fit's, or local's) and the exports.
+    consistency test and the exports.  The test shown is a two-step
+    fit's (its local estimates against its tables), a global fit's of the
+    local fits given to mlid.fit_global (against the global tables), or
+    else local's (its local estimates against its own two-step tables),
+    each headed as what it is.
 
     Parameters
     ----------
@@ -508,21 +565,23 @@ def table_fit_sections(fit, local=None, exports=None, case_id="tables"):
     Raises
     ------
     InputError
-        local is no TableFit.
+        local is no TableFit, or its tables are not the fit's (names,
+        variables or breakpoints).
     """
-    if local is not None and not isinstance(local, TableFit):
-        raise InputError(f"local must be a TableFit (mlid.fit_tables), got "
-                         f"{type(local).__name__}")
+    if local is not None:
+        if not isinstance(local, TableFit):
+            raise InputError(f"local must be a TableFit (mlid.fit_tables), got "
+                             f"{type(local).__name__}")
+        _same_tables(fit, local)
     figure_item = figure("table-figure", lambda f: table_fit_plots.table_fit_figure(f, local=local),
-                         _tables_caption)
+                         lambda f: _tables_caption(f, local))
     out = [Section("tables", f"{case_id}-tables", "Tables",
                    [b for b in (figure_item(fit), table_values_table(fit), _unreached_note(fit))
                     if b is not None])]
-    test = consistency_table(fit if hasattr(fit, "chi2") else local) \
-        if (hasattr(fit, "chi2") or local is not None) else None
+    tested, heading = _consistency(fit, local)
+    test = consistency_table(tested) if tested is not None else None
     if test:
-        out.append(Section("consistency", f"{case_id}-consistency",
-                           "Consistency of each manoeuvre with the tables", test))
+        out.append(Section("consistency", f"{case_id}-consistency", heading, test))
     table = exports_table(exports)
     if table is not None:
         out.append(Section("exports", f"{case_id}-exports", "Exported", [table]))
@@ -784,7 +843,9 @@ def write_tables_report(path, fit, local=None, exports=None, title="tables",
         The page (written whole or not at all).
     fit : TableFit, FitResult with tables, or a global fit's result
     local : TableFit, optional
-        Local estimates drawn on a global fit, and their consistency test.
+        A two-step fit of the same tables (names, variables, breakpoints): its local
+        estimates drawn on a fit that has none, and their consistency test
+        against its own tables (shown when fit has no test of its own).
     exports : dict, optional
         {what: path} of the exported files (JSBSim, JSON, CSV).
     title : str
@@ -799,7 +860,8 @@ def write_tables_report(path, fit, local=None, exports=None, title="tables",
     Raises
     ------
     InputError
-        fit has no tables, local is no TableFit, the page cannot be written.
+        fit has no tables, local is no TableFit or has other tables (names,
+        variables or breakpoints) than fit, the page cannot be written.
     """
     load_template(template)
     view = Case(1, str(title), "tables", "done", "ok", "")
