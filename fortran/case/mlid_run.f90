@@ -9,7 +9,7 @@ module mlid_run
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: iso_fortran_env, only: int64
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_NOCONV, fit_outcome, FIT_ESTIMATES, FIT_FAILED, &
-                        FIT_NOT_RUN
+                        FIT_NOT_RUN, msg_len
   use mlid_case, only: case_t, NAMELEN
   use mlid_text, only: line_t, itoa, add_line
   use mlid_units, only: UNITLEN
@@ -353,13 +353,16 @@ contains
     integer, intent(in) :: free(:)
     type(fit_summary_t), intent(inout) :: s
     class(model_t), allocatable :: m
-    character(len=CELLLEN), allocatable :: texts(:)
+    character(len=CELLLEN), allocatable :: texts(:), said(:)
+    character(len=32), allocatable :: labels(:)
     real(wp), allocatable :: w(:, :)
-    integer :: k, status, ntab
-    character(len=256) :: msg
+    integer :: j, k, status, ntab
+    character(len=msg_len) :: msg
     logical, allocatable :: none(:)
 
-    allocate (s%unreached(0), s%unreached_labels(0))
+    ! every early return leaves the lists empty: only the report's list is lost, the fit stands
+    allocate (s%unreached(0), s%unreached_labels(0), stat=status)
+    if (status /= 0) return
     if (size(info, 1) /= size(free) .or. size(info, 2) /= size(free)) return
     call model_create(c%mkind, c%nx, c%nu, c%ny, c%nw, c%iconst, c%rconst, m, status, msg)
     if (status /= MLID_OK) return
@@ -369,18 +372,26 @@ contains
       ntab = size(m%tables)
     end select
     if (ntab == 0) return
-    allocate (texts(m%np), w(m%np, m%np), stat=status)
-    if (status /= 0) return           ! only the report's list is lost: the fit stands
+    allocate (texts(m%np), w(m%np, m%np), none(size(free)), stat=status)
+    if (status /= 0) return
     call equations_tables(m, [(0.0_wp, k=1, ntab)], texts, w, status, msg)
     if (status /= MLID_OK) return
-    none = [(all(info(k, :) == 0.0_wp), k=1, size(free))]
+    none = .false.
     do k = 1, size(free)
       if (free(k) > m%np) cycle
-      if (len_trim(texts(free(k))) == 0 .or. .not. none(k)) cycle
-      s%unreached = [character(len=CELLLEN) :: s%unreached, trim(texts(free(k)))// &
-                     ' is reached by no sample: not identifiable']
-      s%unreached_labels = [character(len=32) :: s%unreached_labels, s%labels(k)]
+      none(k) = len_trim(texts(free(k))) > 0 .and. all(info(k, :) == 0.0_wp)
     end do
+    allocate (said(count(none)), labels(count(none)), stat=status)
+    if (status /= 0) return
+    j = 0
+    do k = 1, size(free)
+      if (.not. none(k)) cycle
+      j = j + 1
+      said(j) = trim(texts(free(k)))//' is reached by no sample: not identifiable'
+      labels(j) = s%labels(k)
+    end do
+    call move_alloc(said, s%unreached)
+    call move_alloc(labels, s%unreached_labels)
   end subroutine unreached_cells
 
   !> Validate case c: fit on the files not held out (reported as an estimate
