@@ -88,7 +88,8 @@ class Source:
 
 def _sigma(result):
     """{label: sigma} of the model parameters (p) a fit estimated, free or
-    tied (FitResult.covariance_of)."""
+    tied (FitResult.covariance_of; a global table fit's own FitResult)."""
+    result = getattr(result, "result", result)
     model = result.model
     labels = model.element_labels()[:model.np]
     tied = {labels[k] for k in model.tie_terms() if k < model.np}

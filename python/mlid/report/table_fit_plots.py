@@ -127,12 +127,15 @@ def _slices(fit, tab, flown):
 
 
 def _local(fit, local):
-    """Where the local estimates come from: the two-step fit itself, or
-    the TableFit given beside a global fit; None for none."""
+    """Where the local estimates come from: the TableFit given, else the
+    fit's own (a two-step fit, or a global fit tested against local fits);
+    None for none."""
     if local is not None and not isinstance(local, TableFit):
         raise InputError(f"local must be a TableFit (mlid.fit_tables), got "
                          f"{type(local).__name__}")
-    return fit if isinstance(fit, TableFit) else local
+    if local is not None:
+        return local
+    return fit if isinstance(fit, TableFit) and len(fit.entries) else None
 
 
 def _flown(tab, q, loc):
