@@ -7,7 +7,8 @@ alpha and q measured, with the trim alpha as the alpha vane's offset) at its
 own flight condition (alpha_trim, Mach).  The truth's M_alpha is a table
 over (alpha, Mach) and M_q one over alpha, both nonlinear in alpha: the
 local model is linear with constant derivatives, fitted per manoeuvre with
-its output biases free.  A faulty manoeuvre is fitted with the vane's
+its output biases free, from a start off the truth (START; the vane's
+offset at 0 where it is free).  A faulty manoeuvre is fitted with the vane's
 offset held at the deck's alpha_trim while the vane reads 0.01 rad more
 (a wrong sensor bias), or flies with a M_alpha 30 % off the table (a wrong
 derivative: a configuration the deck does not say).
@@ -73,10 +74,25 @@ def grid(n_alpha, machs):
             for a in np.linspace(BA[0], BA[-1], n_alpha)]
 
 
-def model(m_alpha, m_q, alpha_trim, free=FREE):
-    F = [[Z_ALPHA, 1.0], [m_alpha, m_q]]
-    return mlid.LinearModel(F, [[Z_DE], [M_DE]], np.eye(2), bias=[alpha_trim, 0.0],
+#: Start values of the fits (the global tables' and the local fits'): off
+#: the truth's (MA_TRUTH, MQ_TRUTH, Z_ALPHA, Z_DE, M_DE) by 20 % or more.
+START = {"M_alpha": -2.0, "M_q": -1.0, "Z_alpha": -1.0, "Z_de": -0.2, "M_de": -5.0}
+
+
+def model(m_alpha, m_q, alpha_trim, free=FREE, z_alpha=Z_ALPHA, z_de=Z_DE, m_de=M_DE):
+    """The linear short period (the truth's Z_alpha, Z_de, M_de unless given)."""
+    F = [[z_alpha, 1.0], [m_alpha, m_q]]
+    return mlid.LinearModel(F, [[z_de], [m_de]], np.eye(2), bias=[alpha_trim, 0.0],
                             free=list(free), names=NAMES)
+
+
+def local_model(cond, free=FREE):
+    """The local model to fit at cond, started off the truth: START's
+    derivatives, the vane's offset at 0 where it is free (the deck's
+    alpha_trim where it is held)."""
+    vane = 0.0 if "bias(1)" in free else cond["alpha"]
+    return model(START["M_alpha"], START["M_q"], vane, free, START["Z_alpha"], START["Z_de"],
+                 START["M_de"])
 
 
 def record(cond, seed, fault=None):
@@ -92,11 +108,11 @@ def record(cond, seed, fault=None):
 
 
 def local_fit(cond, seed, fault=None):
-    """The manoeuvre's own fit from a start off the truth; with fault
-    'bias' the vane's offset is held at the deck's alpha_trim."""
+    """The manoeuvre's own fit from a start off the truth (local_model);
+    with fault 'bias' the vane's offset is held at the deck's alpha_trim."""
     d = record(cond, seed, fault)
     free = [f for f in FREE if f != "bias(1)"] if fault == "bias" else FREE
-    return mlid.fit(model(-2.0, -1.0, cond["alpha"], free), d)
+    return mlid.fit(local_model(cond, free), d)
 
 
 def campaign(conds, seed, faults=None):
@@ -119,9 +135,6 @@ def true_values(tabs):
 
 #: The global model's table variables and the conditions' names of them.
 VARIABLES = {"alpha_trim": "alpha", "Mach": "Mach"}
-#: Start values of the global tables (the truth's are in MA_TRUTH, MQ_TRUTH
-#: and Z_ALPHA, Z_DE, M_DE).
-START = {"M_alpha": -2.0, "M_q": -1.0, "Z_alpha": -1.0, "Z_de": -0.2, "M_de": -5.0}
 
 
 def global_tables(extra_q_breakpoint=None):
@@ -157,13 +170,13 @@ def global_model(free_vane_bias=True, corrections=0, extra_q_breakpoint=None):
 
 def local_equation_model(cond):
     """The local model of local_fit written as equations (the global
-    model's kind, constant derivatives): the benchmark's like-for-like
-    baseline."""
-    names = {"Z_alpha": Z_ALPHA, "M_alpha": -2.0, "M_q": -1.0, "Z_de": Z_DE, "M_de": M_DE}
+    model's kind, constant derivatives), started as local_model (START, the
+    vane's offset at 0): the benchmark's like-for-like baseline."""
+    names = dict(START)
     return mlid.EquationModel(
         {"alpha_m": "alpha", "q_m": "q"},
         states={"alpha": "Z_alpha*alpha + q + Z_de*de", "q": "M_alpha*alpha + M_q*q + M_de*de"},
-        inputs=["de"], params=names, bias=[cond["alpha"], 0.0],
+        inputs=["de"], params=names, bias=[0.0, 0.0],
         free=list(names) + ["bias(1)", "bias(2)"])
 
 

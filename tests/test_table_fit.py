@@ -229,7 +229,7 @@ def test_the_figure_draws_each_table_with_its_estimates(tmp_path):
 DECK_CASE = """&case title = 'short period at alpha {alpha}', job = 'estimate',
     alpha_trim = {alpha}, mach = {mach} /
 &model kind = 'linear', nx = 2, nu = 1, ny = 2,
-    f = -1.2, 1.0, -2.0, -1.0, g = -0.1, -6.0, h = 1, 0, 0, 1, bias = {alpha}, 0,
+    f = -1.0, 1.0, -2.0, -1.0, g = -0.2, -5.0, h = 1, 0, 0, 1, bias = 0, 0,
     free = 'f(1,1)', 'f(2,1)', 'f(2,2)', 'g(1,1)', 'g(2,1)', 'bias(1)', 'bias(2)',
     names = 'Z_alpha', 'M_alpha', 'M_q', 'Z_de', 'M_de', 'b_alpha', 'b_q',
     state_names = 'alpha', 'q', input_names = 'de', output_names = 'alpha', 'q' /
@@ -241,7 +241,8 @@ def test_a_campaign_of_deck_cases(tmp_path):
     """The campaign route: one deck a manoeuvre, its &case alpha_trim and
     mach the condition; the cases run by the core's runner (mlid run's),
     their FitResults and cases into fit_tables: the same tables as the
-    Python fits of the same records."""
+    Python fits of the same records from the same start (tc.local_model's,
+    off the truth)."""
     from mlid.cli.deck import iter_deck
     conds = tc.grid(5, [0.3, 0.7])
     for k, c in enumerate(conds):

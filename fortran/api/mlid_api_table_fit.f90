@@ -59,9 +59,9 @@ contains
   end subroutine mlid_table_fit
 
   !> The chi-square tests of mlid_table_fit against the given values
-  !> 'values' (nv) and 'value_covariance' (nv, nv), fitted elsewhere (the
-  !> one-step global fit): the same given values besides and the same
-  !> results (values, sigma and covariance those given).
+  !> 'values' (nv), fitted elsewhere (the one-step global fit): the same
+  !> given values besides and the same results (values those given; sigma
+  !> and covariance those of the local estimates, table_test's P).
   subroutine mlid_table_test(h, status, msg)
     integer(c_int64_t), intent(in) :: h
     integer(c_int), intent(out) :: status
@@ -69,7 +69,7 @@ contains
     type(session_t), pointer :: s
     type(table_t), allocatable :: tabs(:)
     character(len=NAMELEN), allocatable :: labels(:), names(:)
-    real(wp), allocatable :: a(:, :), theta(:), c(:, :), v(:), cv(:, :)
+    real(wp), allocatable :: a(:, :), theta(:), c(:, :), v(:)
     integer, allocatable :: eman(:)
     type(table_fit_t) :: r
     real(wp) :: level
@@ -81,11 +81,10 @@ contains
     if (st == MLID_OK) call s%given%get('covariance', c, st, msg, [size(eman), size(eman)])
     if (st == MLID_OK) call s%given%get('level', level, st, msg)
     if (st == MLID_OK) call s%given%get('values', v, st, msg, [size(a, 2)])
-    if (st == MLID_OK) call s%given%get('value_covariance', cv, st, msg, [size(a, 2), size(a, 2)])
     status = st
     if (st /= MLID_OK) return
     call value_texts(tabs, names, s%results)
-    call table_test(a, theta, c, eman, labels, v, cv, level, r, st, msg)
+    call table_test(a, theta, c, eman, labels, names, v, level, r, st, msg)
     status = st
     if (st == MLID_OK) call put_fit(r, a, s%results)
   end subroutine mlid_table_test

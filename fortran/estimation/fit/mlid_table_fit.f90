@@ -24,7 +24,7 @@ module mlid_table_fit
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use mlid_kinds, only: wp, MLID_OK, MLID_ERR_INPUT, MLID_ERR_SINGULAR, MLID_ERR_INTERNAL, &
                         MLID_ERR_MEMORY
-  use mlid_text, only: itoa
+  use mlid_text, only: itoa, es_text
   use mlid_expr, only: OP_VAR
   use mlid_expr_diff, only: graph_t, program_t, graph_node, program_of, program_forward, &
                             program_jacobian, MAXNODE, MAXVAR
@@ -39,6 +39,9 @@ module mlid_table_fit
   !> units of its own covariance, so between 0 and 1) is a direction the
   !> manoeuvre alone decides: no degree of freedom.
   real(wp), parameter :: DOF_TOL = 1.0e-9_wp
+  !> Below minus this, an eigenvalue of it is no rounding: S_i is not a
+  !> covariance (an error, not a direction to drop).
+  real(wp), parameter :: NEG_TOL = 1.0e-8_wp
   !> Below this times the largest, an eigenvalue of the normalised M is a
   !> combination of values no manoeuvre separates.
   real(wp), parameter :: RCOND = 1.0e-12_wp
@@ -240,36 +243,44 @@ contains
   end subroutine table_fit
 
   !> table_fit's chi-square tests of the local estimates theta (covariance
-  !> c) against values v with covariance cov fitted elsewhere: the one-step
-  !> global fit of the same manoeuvres' records, whose tables estimate the
-  !> same v with (to first order) the same Cov(v) = (A' C^-1 A)^-1, so that
-  !> S_i = C_ii - A_i Cov(v) A_i' is again the covariance of r_i.  v and cov
-  !> must be finite at every value a manoeuvre reaches.
-  subroutine table_test(a, theta, c, eman, labels, v, cov, level, res, status, msg)
-    real(wp), intent(in) :: a(:, :), theta(:), c(:, :), v(:), cov(:, :), level
+  !> c) against values v fitted elsewhere: the one-step global fit of the
+  !> same manoeuvres' records.  Only v is taken from there: S_i is built
+  !> from P = (A' C^-1 A)^-1 of the local covariances, as in table_fit
+  !> (positive semi-definite, exactly singular where a manoeuvre alone
+  !> decides a value), not from the global fit's own Cov(v): its difference
+  !> from P is noise, which would make S_i's small eigenvalues, and so the
+  !> degrees of freedom, random.  The test holds (Hausman: the global v is
+  !> then, to first order, the efficient estimate, and theta_i - A_i v has
+  !> the covariance C_ii - A_i P A_i') when the local fits are of the same
+  !> records, each local model contains the global one at its manoeuvre's
+  !> condition, the noise is the same in every manoeuvre (the global fit's
+  !> one R-hat), and the global fit has no prior (a prior moves v off the
+  !> local estimates' weighted mean).  v must be finite at every value a
+  !> manoeuvre reaches; names name the values in a message.
+  subroutine table_test(a, theta, c, eman, labels, names, v, level, res, status, msg)
+    real(wp), intent(in) :: a(:, :), theta(:), c(:, :), v(:), level
     integer, intent(in) :: eman(:)
-    character(len=*), intent(in) :: labels(:)
+    character(len=*), intent(in) :: labels(:), names(:)
     type(table_fit_t), intent(out) :: res
     integer, intent(out) :: status
     character(len=*), intent(out) :: msg
-    real(wp), allocatable :: cinv(:, :)
+    real(wp), allocatable :: cinv(:, :), ar(:, :), m(:, :), p(:, :), w(:), vec(:, :)
     integer, allocatable :: idx(:)
     real(wp) :: logdet
-    integer :: nv, info, i
+    integer :: nv, info, i, ndrop, bad
 
     call check_inputs(theta, c, eman, size(labels), level, labels, status, msg)
     if (status /= MLID_OK) return
     nv = size(a, 2)
     status = MLID_ERR_INPUT
-    if (size(v) /= nv .or. size(cov, 1) /= nv .or. size(cov, 2) /= nv) then
-      msg = 'table test: the values must be '//itoa(nv)//' and their covariance '// &
-            itoa(nv)//' x '//itoa(nv)
+    if (size(v) /= nv) then
+      msg = 'table test: the values must be '//itoa(nv)
       return
     end if
     res%reached = [(any(a(:, i) /= 0.0_wp), i=1, nv)]
     idx = pack([(i, i=1, nv)], res%reached)
-    if (.not. (all(ieee_is_finite(v(idx))) .and. all(ieee_is_finite(cov(idx, idx))))) then
-      msg = 'table test: a value a manoeuvre reaches, or its covariance, is not finite'
+    if (.not. all(ieee_is_finite(v(idx)))) then
+      msg = 'table test: a value a manoeuvre reaches is not finite'
       return
     end if
     allocate (cinv(size(c, 1), size(c, 2)))
@@ -279,9 +290,22 @@ contains
       msg = 'table test: the local estimates'' covariance is not positive definite'
       return
     end if
+    ar = a(:, idx)
+    m = matmul(transpose(ar), matmul(cinv, ar))
+    allocate (p(size(idx), size(idx)), w(size(idx)), vec(size(idx), size(idx)))
+    call info_inverse(m, RCOND, p, w, ndrop, bad, status, msg, vec=vec)
+    if (status /= MLID_OK) return
+    if (ndrop > 0) then
+      status = MLID_ERR_SINGULAR
+      msg = 'table test: the local estimates reach the values '//combination(names(idx), &
+            vec(:, 1))//' only in a fixed combination: nothing to test them against'
+      return
+    end if
+    allocate (res%cov(nv, nv))
+    res%cov = ieee_value(0.0_wp, ieee_quiet_nan)
+    res%cov(idx, idx) = p
     res%v = v
-    res%cov = cov
-    call tests_of(a(:, idx), theta, c, cinv, idx, eman, size(labels), level, res, status, msg)
+    call tests_of(ar, theta, c, cinv, idx, eman, size(labels), level, res, status, msg)
   end subroutine table_test
 
   !> The residuals theta - A v at res%v, the campaign's total chi2 and each
@@ -376,7 +400,7 @@ contains
   !> T S_i T' = V diag(s) V' (s in [0, 1]: 1 where the tables take nothing
   !> from the manoeuvre, 0 where it alone decides them), z = V' T r_i,
   !> chi2_i = sum z_k^2 / s_k over s_k > DOF_TOL, those its degrees of
-  !> freedom.
+  !> freedom; an s_k below -NEG_TOL is an error (S_i no covariance).
   subroutine manoeuvre_tests(ar, c, p, r, eman, nman, level, res, status, msg)
     real(wp), intent(in) :: ar(:, :), c(:, :), p(:, :), r(:), level
     integer, intent(in) :: eman(:), nman
@@ -407,6 +431,12 @@ contains
       s = matmul(tm, matmul(s, transpose(tm)))
       call sym_eig(0.5_wp*(s + transpose(s)), sw, v, info)
       if (info /= 0) exit
+      if (sw(1) < -NEG_TOL) then
+        status = MLID_ERR_INTERNAL
+        msg = 'table fit: manoeuvre '//itoa(i)//'''s residual covariance has the eigenvalue '// &
+              es_text(sw(1), 10, 3)//' (of its own 1): not a covariance'
+        return
+      end if
       z = matmul(transpose(v), matmul(tm, r(e)))
       res%dof(i) = count(sw > DOF_TOL)
       res%chi2(i) = sum(z**2/max(sw, DOF_TOL), mask=sw > DOF_TOL)

@@ -25,6 +25,7 @@ from .._bridge import api as _api, call_handle as _call_handle, lines as _lines,
 from ..checks import pandas_for, real_array
 from ..data.flight_data import FlightData
 from ..errors import InputError, guarded, guarded_class
+from ..model.maneuvers import Params
 from ..model.tables import Table
 from .fit import fit
 from .named import NamedArray
@@ -383,8 +384,12 @@ def _model_tables(model):
 def _records(model, data, conditions, rename):
     """Each manoeuvre's record with the model's inputs in order: a channel of
     the record by name, else its condition (or its number, for the input
-    MANOEUVRE) as a constant channel."""
+    MANOEUVRE) as a constant channel.  Channels by position only when none
+    of the record's is named as an input.  Refused with one line naming the
+    manoeuvre and the input: an input in neither, in both with different
+    values, or a table's variable whose channel varies over the manoeuvre."""
     inputs = _model_lines(model, "u")
+    over = {v for t in _model_tables(model).values() for v in t.variables}
     out = []
     for k, d in enumerate(data):
         if not isinstance(d, FlightData):
@@ -393,26 +398,42 @@ def _records(model, data, conditions, rename):
         given = {v: cond[rename.get(v, v)] for v in inputs if rename.get(v, v) in cond}
         if MANOEUVRE in inputs and MANOEUVRE not in given:
             given[MANOEUVRE] = k + 1
-        channels = [v for v in inputs if v not in given]
-        by_name = all(v in d.input_names for v in channels)
-        if not by_name and d.u.shape[1] != len(channels):
-            missing = [v for v in channels if v not in d.input_names]
-            raise InputError(f"manoeuvre {k + 1}: the model's input {missing[0]!r} is neither a "
-                             f"channel of its record ({', '.join(d.input_names)}) nor in its "
-                             "condition")
-        cols, names, units = [], [], []
+        given = {v: real_array(f"conditions[{k}][{rename.get(v, v)!r}]", x, finite=True).item()
+                 for v, x in given.items()}
+        by_name = any(v in d.input_names for v in inputs)
+        if by_name:
+            channel = {v: d.input_names.index(v) for v in inputs if v in d.input_names}
+        else:
+            rest = [v for v in inputs if v not in given]
+            if d.u.shape[1] != len(rest):
+                raise InputError(f"manoeuvre {k + 1}: its record's channels "
+                                 f"({', '.join(d.input_names)}) are none of the model's inputs "
+                                 f"by name and not one for each input its condition does not "
+                                 f"give ({', '.join(rest)})")
+            channel = {v: j for j, v in enumerate(rest)}
+        cols, units = [], []
         for v in inputs:
-            if v in given:
-                x = real_array(f"conditions[{k}][{rename.get(v, v)!r}]", given[v],
-                               finite=True).item()
-                cols.append(np.full(d.nt, x))
-                units.append("")
+            name = rename.get(v, v)
+            if v not in channel and v not in given:
+                raise InputError(f"manoeuvre {k + 1}: the model's input {v!r} is neither a "
+                                 f"channel of its record ({', '.join(d.input_names)}) nor in its "
+                                 "condition")
+            if v in channel:
+                u = d.u[:, channel[v]]
+                if v in over and not np.all(u == u[0]):
+                    raise InputError(f"manoeuvre {k + 1}: the input {v!r}, a table's variable, "
+                                     f"varies over its record (channel {d.input_names[channel[v]]!r}"
+                                     "): a manoeuvre's condition must be constant")
+                if v in given and not np.all(u == given[v]):
+                    raise InputError(f"manoeuvre {k + 1}: the input {v!r} is a channel of its "
+                                     f"record and its condition's {name!r} ({given[v]:g}), "
+                                     "different: give it once")
+                cols.append(u)
+                units.append(d.input_units[channel[v]])
             else:
-                j = d.input_names.index(v) if by_name else channels.index(v)
-                cols.append(d.u[:, j])
-                units.append(d.input_units[j])
-            names.append(v)
-        out.append(FlightData(d.t, np.column_stack(cols), d.y, names, d.output_names,
+                cols.append(np.full(d.nt, given[v]))
+                units.append("")
+        out.append(FlightData(d.t, np.column_stack(cols), d.y, list(inputs), d.output_names,
                               source=d.source, input_units=units, output_units=d.output_units,
                               output_display=d.output_display))
     return out
@@ -434,7 +455,7 @@ def _flown(records, variables):
 
 @guarded
 def fit_global(model, data, conditions=None, local=None, labels=None, level=LEVEL,
-               variables=None, **fit_args):
+               variables=None, smoothness=None, **fit_args):
     """The one-step route: one fit of every manoeuvre's record, sharing the
     tables, each manoeuvre with its own initial state and output biases.
 
@@ -460,17 +481,21 @@ def fit_global(model, data, conditions=None, local=None, labels=None, level=LEVE
     data : list of FlightData
         One record a manoeuvre.  Each input of the model is the record's
         channel of that name or, if it has none, the manoeuvre's condition
-        of that name as a constant channel; a record whose channels are not
-        named as the model's inputs gives its channels in the order of the
-        inputs it does not get from its condition.
+        of that name as a constant channel; given in both, the two must be
+        equal; in neither, refused.  A channel of an input a table is over
+        must be constant over the manoeuvre (its condition).  Only a record
+        none of whose channels is named as a model's input gives its
+        channels by position, in the order of the inputs its condition
+        does not give.
     conditions : sequence, optional
         Each manoeuvre's flight condition: a dict {variable: value} or a
         deck case (its ``condition``), for the inputs its record lacks.
     local : sequence of FitResult, optional
         The same manoeuvres' local fits (as for :func:`fit_tables`): then
         each one's estimates are tested against the global tables (the
-        chi-square test of fit_tables, with the global values and their
-        covariance: the core's mlid_table_test).
+        chi-square test of fit_tables at the global values: the core's
+        mlid_table_test).  The test holds without a prior only (refused
+        with ``smoothness`` or ``prior_weight``).
     labels : sequence of str, optional
         The manoeuvres' names (default 'manoeuvre 1', ...).
     level : float
@@ -478,10 +503,15 @@ def fit_global(model, data, conditions=None, local=None, labels=None, level=LEVE
     variables : dict, optional
         {model input: condition name} where they differ, e.g.
         ``{'alpha_trim': 'alpha', 'Mach': 'mach'}``.
+    smoothness : dict, optional
+        {table name: lambda}: the tables' smoothness prior, the model's
+        ``smoothness_weight(smoothness)`` over the global fit's free
+        parameters (zero rows for each manoeuvre's own entries).
     **fit_args
-        Passed to ``mlid.fit``: prior, prior_weight (e.g. the tables'
-        ``smoothness_weight``), bounds, initial_states, biases, x0_from and
-        the estimator's options.
+        Passed to ``mlid.fit``: prior, prior_weight (over the global fit's
+        free parameters: the shared ones, then each manoeuvre's own,
+        'bias(1)#2'; not with ``smoothness``), bounds, initial_states,
+        biases, x0_from and the estimator's options.
 
     Returns
     -------
@@ -519,9 +549,40 @@ def fit_global(model, data, conditions=None, local=None, labels=None, level=LEVE
                               or len(local) != len(data)):
         raise InputError(f"local: one fit for each of the {len(data)} manoeuvres, got "
                          f"{len(local) if hasattr(local, '__len__') else type(local).__name__}")
+    prior = smoothness is not None or fit_args.get("prior_weight") is not None
+    if local is not None and prior:
+        raise InputError("local: the test of local fits against the global tables holds for a "
+                         "global fit without a prior only (a prior moves the tables off what "
+                         "the records say): fit without smoothness and prior_weight to test")
     records = _records(model, data, conditions, dict(variables or {}))
+    if smoothness is not None:
+        if fit_args.get("prior_weight") is not None:
+            raise InputError("fit_global: give smoothness or prior_weight, not both (add other "
+                             "a priori weights to a prior_weight over the global free "
+                             "parameters)")
+        fit_args["prior_weight"] = _global_weight(model, len(records), smoothness, fit_args)
     result = fit(model, records, **fit_args)
     return GlobalTableFit(tables, records, labels, result, local, level)
+
+
+def _global_weight(model, n, smoothness, fit_args):
+    """The model's smoothness weight over the free parameters of its fit to
+    n manoeuvres: the shared entries' rows and columns where the model's
+    are, zero for each manoeuvre's own (x0, biases: no table values)."""
+    w = model.smoothness_weight(smoothness)
+    w = 0.5 * (w + w.T)          # exactly symmetric, as the core asks (its rounding is not)
+    mine = list(model.free_names())
+    names = Params(model, n, fit_args.get("initial_states"), fit_args.get("biases")).free_names()
+    at = {name: k for k, name in enumerate(names)}
+    idx = [at.get(name, -1) for name in mine]
+    out = np.zeros((len(names), len(names)))
+    rows = [i for i, k in enumerate(idx) if k >= 0]
+    lost = [mine[i] for i, k in enumerate(idx) if k < 0 and np.any(w[i] != 0.0)]
+    if lost:
+        raise InputError(f"smoothness: {lost[0]} is each manoeuvre's own in the global fit, "
+                         "not a table value")
+    out[np.ix_([idx[i] for i in rows], [idx[i] for i in rows])] = w[np.ix_(rows, rows)]
+    return out
 
 
 @guarded_class
@@ -555,9 +616,12 @@ class GlobalTableFit(TableFit):
         The fitted model (manoeuvre 1's x0 and biases): what an export
         writes.
     names, cells, values, sigma, covariance, reached, unreached
-        As TableFit's, over every value of every table; a value the fit
-        holds (not free) has its model value and sigma NaN; a free value no
-        sample reaches (no information) is NaN and named in unreached.
+        As TableFit's, over every value of every table, the covariance
+        the result's ``covariance_of``: a tied value's through its ties, a
+        held one's 0; a free value no sample reaches (no information) is NaN
+        and named in unreached (the model's ``unreached_cells``).
+    held : list of str
+        The values neither free nor tied (shown '(held)').
     conditions : ndarray (nvar, nman)
         Each manoeuvre's value of each table variable (a channel constant
         over it; NaN otherwise).
@@ -573,28 +637,24 @@ class GlobalTableFit(TableFit):
         self.variables = list(dict.fromkeys(v for t in tables.values() for v in t.variables))
         self.conditions = _flown(records, self.variables)
         self.labels, self.level = list(labels), float(level)
-        model = result.start_model
         self.names = [n for q, t in tables.items() for n in t.value_names(q)]
-        cells = model.table_cells
+        cells = result.start_model.table_cells
         self.cells = [cells.get(n, n) for n in self.names]
-        free = list(result.names)
-        at = [free.index(n) if n in free else -1 for n in self.names]
-        info = np.asarray(result.information)
-        self.reached = np.array([k < 0 or bool(np.any(info[k] != 0.0)) for k in at])
-        values = np.array([result.estimate[k] if k >= 0 else self.model.value(n)
-                           for n, k in zip(self.names, at)], dtype=float)
-        cov = np.full((len(at), len(at)), np.nan)
-        idx = [j for j, k in enumerate(at) if k >= 0]
-        cov[np.ix_(idx, idx)] = np.asarray(result.covariance)[np.ix_([at[j] for j in idx],
-                                                                     [at[j] for j in idx])]
+        # one place for each fact: the model says which free values no
+        # sample reaches, the result gives any value's covariance (tied
+        # ones through their ties, held ones 0, unreached ones NaN)
+        gone = set(self.model.unreached_names(result))
+        self.reached = np.array([n not in gone for n in self.names])
+        self.unreached = list(self.model.unreached_cells(result))
+        entry = {lab: k for k, lab in enumerate(self.model.element_labels())}
+        tied, free = self.model.tie_terms(), set(result.names)
+        self.held = [n for n in self.names if n not in free and entry[n] not in tied]
+        values = np.array([self.model.value(n) for n in self.names], dtype=float)
         values[~self.reached] = np.nan
-        cov[~self.reached, :] = np.nan
-        cov[:, ~self.reached] = np.nan
+        cov = np.asarray(result.covariance_of(self.names), dtype=float)
         self.values = NamedArray(values, self.names)
         self.covariance = NamedArray(cov, self.names)
         self.sigma = NamedArray(np.sqrt(np.diag(cov)), self.names)
-        self.unreached = [f"{c} is reached by no sample: not identifiable"
-                          for c, r in zip(self.cells, self.reached) if not r]
         self.local = None if local is None else list(local)
         self._test(self.local)
 
@@ -610,21 +670,19 @@ class GlobalTableFit(TableFit):
             self.dof, self.disagree = np.zeros(n, dtype=int), []
             self.chi2_total, self.dof_total, self.p_total, self.limit_total = 0.0, 0, 1.0, 0.0
             return
-        held = [n for n, r in zip(self.names, self.reached) if r and
-                not np.isfinite(self.covariance[n, n])]
+        held = [n for n, r in zip(self.names, self.reached) if r and n in self.held]
         if held:
-            raise InputError(f"local: the tables' value {held[0]} is held in the global fit: "
-                             "free every reached value to test against them")
+            raise InputError(f"local: the tables' value {held[0]} is held in the global fit "
+                             "(neither free nor tied): the test compares the local estimates "
+                             "with fitted tables; free it to test")
         etab, eman, theta, cov, entries = _local_entries(local, self.labels, list(self.tables))
         h = _call_handle()
-        cov_v = np.nan_to_num(np.asarray(self.covariance), nan=0.0)
         _put(h, tables=_tables_text(self.tables),
              variables="".join(v + "\n" for v in self.variables), conditions=self.conditions,
              labels="".join(x + "\n" for x in self.labels),
              entry_table=np.array(etab, dtype=np.int32),
              entry_manoeuvre=np.array(eman, dtype=np.int32), theta=theta, covariance=cov,
-             level=self.level, values=np.nan_to_num(np.asarray(self.values), nan=0.0),
-             value_covariance=cov_v)
+             level=self.level, values=np.nan_to_num(np.asarray(self.values), nan=0.0))
         out = _run(h, _api.mlid_table_test)
         self.entries, self.theta = entries, theta
         self.local_sigma = np.sqrt(np.diag(cov))
@@ -657,8 +715,9 @@ class GlobalTableFit(TableFit):
                f"iterations ({'converged' if r.converged else 'not converged'}: {r.reason})",
                "", "Table values (estimate +- sigma):"]
         width = max(len(c) for c in self.cells)
-        for c, v, s, ok in zip(self.cells, self.values, self.sigma, self.reached):
-            shown = f"{v:12.5g} +- {s:.3g}" if np.isfinite(s) else f"{v:12.5g} (held)"
+        for n, c, v, s, ok in zip(self.names, self.cells, self.values, self.sigma,
+                                  self.reached):
+            shown = f"{v:12.5g} (held)" if n in self.held else f"{v:12.5g} +- {s:.3g}"
             out.append(f"  {c:<{width}}  " + (shown if ok else
                                               "not identifiable: reached by no sample"))
         if self.local is None:
