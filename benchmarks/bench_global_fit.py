@@ -80,7 +80,7 @@ def main():
     conds = tc.grid(10, [0.3, 0.5, 0.7])
     recs = [tc.record(c, k) for k, c in enumerate(conds)]
     model = tc.global_model()
-    linear = [tc.model(-2.0, -1.0, c["alpha"]) for c in conds]
+    linear = [tc.local_model(c) for c in conds]          # started off the truth, as the global
     equations = [tc.local_equation_model(c) for c in conds]
     tabs = tc.global_tables()
 
