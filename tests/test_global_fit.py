@@ -404,6 +404,26 @@ def test_a_held_value_has_sigma_0_and_is_refused_by_the_test():
         mlid.fit_global(model, recs, conds, variables=tc.VARIABLES, local=tc.campaign(conds, 0))
 
 
+def test_a_tied_value_has_its_ties_sigma_and_is_tested():
+    """A table value tied to another (Z_de[2] = Z_de[1]) is no held value:
+    its value and sigma those of its source (covariance_of through the
+    ties), and the local fits are tested against the tables."""
+    from mlid.model.tables import Table
+    recs, conds = records(0)[::3], CONDS[::3]
+    base = tc.global_model()
+    tied = mlid.EquationModel(
+        {"alpha_m": "alpha + alpha_trim", "q_m": "q"},
+        states={"alpha": "Z_alpha*alpha + q + Z_de*de", "q": "M_alpha*alpha + M_q*q + M_de*de"},
+        inputs=["de", "alpha_trim", "Mach"],
+        definitions={n: Table(t.variables, t.breakpoints, np.full(t.shape, tc.START[n]))
+                     for n, t in tc.global_tables().items()},
+        free=[n for n in base.free_names() if n != "Z_de[2]"], ties={"Z_de[2]": "Z_de[1]"})
+    fit = mlid.fit_global(tied, recs, conds, variables=tc.VARIABLES, local=tc.campaign(conds, 0))
+    assert fit.held == [] and fit.sigma["Z_de[2]"] == fit.sigma["Z_de[1]"] > 0
+    assert fit.values["Z_de[2]"] == fit.values["Z_de[1]"]
+    assert fit.dof.tolist() == [5] * 10 and "(held)" not in fit.text()
+
+
 def test_the_figure_and_the_export_take_the_global_fit(tmp_path):
     """table_fit_figure draws the global tables with the local estimates on
     top; the table set's values and sigma are the global fit's."""
