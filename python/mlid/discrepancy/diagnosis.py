@@ -70,6 +70,13 @@ class Diagnosis:
     held_out : str or None
         The part of the data the effects were checked on ('the last third
         of the record', 'the last manoeuvre'); None: too short to hold out.
+    unexplained : list of Structure
+        The structures the final residuals still hold that no accepted
+        effect explains (mlid.discrepancy.structure): a spectral peak's
+        channel and frequency, an input correlation's channel and input.
+    colour : Candidate or None
+        Coloured measurement noise when it explained the residuals' colour
+        better than turbulence or a gust (mlid.discrepancy.noise_colour).
 
     Attributes
     ----------
@@ -79,10 +86,12 @@ class Diagnosis:
         ``residual_diagnostics`` of ``base`` and of ``final``.
     """
 
-    def __init__(self, base, final, model, effects, rounds, alpha, held_out=None):
+    def __init__(self, base, final, model, effects, rounds, alpha, held_out=None,
+                 unexplained=(), colour=None):
         self.base, self.fit, self.model = base, final, model
         self.effects, self.rounds, self.alpha = effects, rounds, alpha
         self.held_out = held_out
+        self.unexplained, self.colour = list(unexplained), colour
         self.before = residual_diagnostics(base)
         self.after = residual_diagnostics(final)
 
@@ -122,11 +131,37 @@ class Diagnosis:
                 "then optimistic (use the coloured-residual sigmas)")
 
     @property
+    def not_explained(self):
+        """One line per structure no candidate explains (first-class: in the
+        verdict, the report, the JSON and the HTML)."""
+        return [f"{s.text} not explained by any candidate" for s in self.unexplained]
+
+    @property
+    def colour_text(self):
+        """The residuals' colour as coloured measurement noise, with its
+        quantities, or ''."""
+        c = self.colour
+        if c is None:
+            return ""
+        qs = "; ".join(f"{q} {v:.3g} +- {sd:.2g}{' ' + u if u else ''}"
+                       for q, v, sd, u, _ in c.quantities or [])
+        return (f"the residuals' colour is coloured measurement noise on "
+                f"{c.name.rsplit(' on ', 1)[-1]} ({qs}), not turbulence or a gust")
+
+    @property
     def verdict(self):
-        """One line: the effects found, or that nothing is missing."""
+        """One line: the effects found, or that nothing is missing; then
+        what is not explained, and coloured measurement noise when named."""
         if not self.effects:
-            return "nothing missing at this significance"
-        return "effects found: " + ", ".join(c.title for c in self.effects)
+            text = ("nothing missing at this significance" if not self.unexplained
+                    else "no effect of the library explains the residuals")
+        else:
+            text = "effects found: " + ", ".join(c.title for c in self.effects)
+        if self.unexplained:
+            text += "; not explained: " + "; ".join(s.text for s in self.unexplained)
+        if self.colour is not None:
+            text += "; residual colour: coloured measurement noise"
+        return text
 
     def report(self):
         """The diagnosis as printed lines: each round's candidates with their
@@ -142,7 +177,8 @@ class Diagnosis:
             lines.append(" " + self._round_header(k, rnd))
             for c in self._listed(rnd):
                 stat = (f"score {c.score:9.2f}" if c.score is not None
-                        else f"signature {c.signature:6.3f}")
+                        else f"signature {c.signature:6.3f}" if c.signature is not None
+                        else " " * 15)
                 lr = f"2dJ {c.lr:9.2f}" if c.lr is not None else " " * 13
                 ho = f"held out {c.holdout:+8.2f}" if c.holdout is not None else " " * 17
                 note = f" ({c.note})" if c.note else ""
@@ -160,8 +196,12 @@ class Diagnosis:
                 for q, v, sd, unit, meaning in c.quantities or []:
                     lines.append(f"      {q} = {v:.5g} +- {sd:.2g}{' ' + unit if unit else ''}"
                                  f"  ({meaning})")
-        else:
+        elif not self.unexplained:
             lines.append(" " + self.verdict)
+        for text in self.not_explained:
+            lines.append(" NOT EXPLAINED: " + text)
+        if self.colour_text:
+            lines.append(" " + self.colour_text)
         lines.append(f" cost {self.base.cost:.2f} -> {self.fit.cost:.2f}")
         if self.coloured:
             lines.append(" warning: " + self.coloured)
@@ -199,6 +239,10 @@ class Diagnosis:
                     "equivalent": [{"family": e.family, "name": e.name} for e in c.equivalent]}
         return {"verdict": self.verdict, "alpha": self.alpha, "warning": self.coloured,
                 "held_out": self.held_out,
+                "not_explained": [dict(s.as_dict(), statement=t)
+                                  for s, t in zip(self.unexplained, self.not_explained)],
+                "noise_colour": None if self.colour is None else dict(
+                    cand(self.colour), statement=self.colour_text),
                 "cost_before": num(self.base.cost), "cost_after": num(self.fit.cost),
                 "effects": [dict(cand(c), round=c.round) for c in self.effects],
                 "rounds": [{"cost": num(r["cost"]), "threshold": num(r["threshold"]),
@@ -218,6 +262,15 @@ class Diagnosis:
                  f'<span class="verdict">{_esc(self.verdict)}</span>; cost '
                  f'<span class="cost-before">{_g(self.base.cost)}</span> &rarr; '
                  f'<span class="cost-after">{_g(self.fit.cost)}</span></p>']
+        if self.unexplained:
+            parts.append('<p class="not-explained"><b>Not explained</b></p>')
+            parts.append(_html_table(
+                "mlid-not-explained", ("kind", "channel", "frequency [Hz]", "statistic",
+                                       "5% point", "what remains"),
+                [(s.kind, s.channel, s.frequency, s.size, s.point, t)
+                 for s, t in zip(self.unexplained, self.not_explained)]))
+        if self.colour_text:
+            parts.append(f'<p class="noise-colour">{_esc(self.colour_text)}</p>')
         if self.coloured:
             parts.append(f'<p class="warning">warning: {_esc(self.coloured)}</p>')
         if self.effects:
