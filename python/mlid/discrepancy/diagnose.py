@@ -516,7 +516,9 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
         rounds.append({"cost": fit.cost, "candidates": cands, "threshold": threshold,
                        "colour": None, "structures": _structures(current, cur_data, fit,
                                                                  options, alpha),
-                       "fit": fit})
+                       "fit": fit, "uncorrected": [
+                           c for c in tried if c.lr is not None and c.equivalent_to is None
+                           and c.lr > chi2_quantile(alpha / len(cands), c.k) and c.lr / 2 > c.k]})
         best = _choose(good, current, cur_data, fit, options, rounds[-1])
         if best is None:
             break
@@ -534,6 +536,7 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
         else _structures(current, cur_data, fit, options, alpha)
     for r in rounds:
         r.pop("fit", None)
+        r.pop("uncorrected", None)
     colour = next((r["colour"] for r in reversed(rounds) if r["colour"] is not None), None)
     return Diagnosis(base, fit, current, effects, rounds, alpha,
                      split.what if split else None, unexplained=left, colour=colour)
@@ -648,6 +651,8 @@ def _choose(good, model, data, fit, options, rnd=None):
                 or not _beats_colour(noise, model, data, fit, options, rnd):
             noise = None
         order = [c for c in order if c.family != "process noise"]
+    if noise is not None:
+        order = _uncorrected(order, (rnd or {}).get("uncorrected") or [], margin)
     for c in order[:MAX_CHECKS]:
         if not _check(c, model, data, fit, options, n, base, weight, base_ss):
             continue
@@ -668,6 +673,25 @@ def _choose(good, model, data, fit, options, rnd=None):
     if noise is not None:
         noise.decision = "ACCEPTED"
     return noise
+
+
+def _uncorrected(order, raw, margin):
+    """The deterministic candidates when turbulence or a gust leads and
+    beats coloured measurement noise: the residuals' colour is then the
+    process noise's, which its filter models, and the deterministic ones
+    are weighed against it by their held-out residual (DETERMINISTIC_FIRST)
+    without the colour factor, which would count that colour twice: every
+    one significant before the factor, in order of 2dJ."""
+    out = list(order) + [c for c in raw if c not in order and c.family != "process noise"]
+    for c in out:
+        if c.colour > 1.0:
+            c.note = "; ".join(filter(None, (
+                f"not divided by its colour factor {c.colour:.2f}: the colour is the leading "
+                "process noise's", c.note.replace(f"coloured residuals: 2dJ / {c.colour:.2f}", "")
+                .strip("; "))))
+            c.colour = 1.0
+    return sorted(out, key=lambda c: c.lr - margin * (c.family == "nonlinear term"),
+                  reverse=True)
 
 
 def _main_output(c, fit):
