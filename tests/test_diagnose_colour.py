@@ -177,3 +177,24 @@ def test_the_colour_factor_is_one_under_white_noise_and_large_under_ar1():
         res = mlid.fit(m, data)
         k = colour_factor(res, ["bias(3)"], {})
         assert low <= k <= high, (phi, k)
+
+
+def test_the_score_for_colour():
+    """score_corrected (the generalised score test, the core's coloured
+    bracket): within 30% of the plain score on the white null, at most a
+    third of it for the leading candidates under AR(1) noise of phi 0.8;
+    in the JSON with the colour factor and the stated rule."""
+    d = mlid.diagnose(*scenarios.make("null", 3))
+    top = max((c for c in d.rounds[0]["candidates"] if c.score and not c.confounded
+               and c.score_corrected is not None), key=lambda c: c.score)
+    assert top.score_corrected == pytest.approx(top.score, rel=0.3)
+    d = mlid.diagnose(*ar1_null(3, 0.8))
+    lead = sorted((c for c in d.rounds[0]["candidates"] if c.score and not c.confounded
+                   and c.score_corrected is not None), key=lambda c: -c.score)[:3]
+    assert all(c.score_corrected < c.score / 3 for c in lead), [
+        (c.name, c.score, c.score_corrected) for c in lead]
+    js = d.as_dict()
+    assert "colour factor" in js["colour_rule"]
+    listed = [c for r in js["rounds"] for c in r["listed"]]
+    assert any(c["score_corrected"] is not None for c in listed)
+    assert any(c["colour_factor"] and c["colour_factor"] > 1 for c in listed)

@@ -66,6 +66,7 @@ import numpy as np
 
 from ..data.flight_data import FlightData
 from ..errors import InputError, MlidError, guarded
+from ..estimate.colored import colored_covariance
 from ..estimate.evaluate import evaluate
 from ..estimate.fit import fit as fit_model
 from ..estimate.options import evaluate_options
@@ -89,6 +90,7 @@ class Candidate:
     def __init__(self, family, name, k=1, **spec):
         self.family, self.name, self.k, self.spec = family, name, k, spec
         self.score = None          # LM statistic (parameter candidates)
+        self.score_corrected = None    # the same for coloured residuals (score_test.corrected)
         self.signature = None      # residual signature (structural candidates)
         self.confounded = False
         self.lr = None
@@ -520,11 +522,12 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
                            c for c in tried if c.lr is not None and c.equivalent_to is None
                            and c.lr > chi2_quantile(alpha / len(cands), c.k) and c.lr / 2 > c.k]})
         best = _choose(good, current, cur_data, fit, options, rounds[-1])
-        if best is None:
-            break
         for c in good:
             if c is not best and c.decision == "refitted":
-                c.decision = "significant, not the best this round"
+                c.decision = ("significant, not the best this round" if best is not None
+                              else "significant, not accepted")
+        if best is None:
+            break
         best.round = len(rounds)
         effects.append(best)
         current, fit, cur_data = best.spec["model"], best.fit, best.spec["data"]
@@ -802,10 +805,12 @@ def _structures(model, data, fit, options, alpha):
     if not probes:
         return found
     _score_together(model, data, probes, options)
+    def size(p):        # the colour-corrected score where it could be had
+        return p.score if p.score_corrected is None else p.score_corrected
     scored = sorted([p for p in probes if p.score is not None and not p.confounded],
-                    key=lambda p: p.score, reverse=True)
+                    key=size, reverse=True)
     point = chi2_quantile(alpha / len(probes))
-    if not scored or scored[0].score <= point:
+    if not scored or size(scored[0]) <= point:
         return found
     best = scored[0]
     _refit(model, data, fit, best, options)
@@ -1004,10 +1009,29 @@ def _score_together(model, data, batch, options):
         else:
             batch[0].confounded, batch[0].decision = True, "confounded"
         return
-    _lm(ev, m.free_names(), model.free_names(), [m.names.get(e, e) for e in extra], batch)
+    _lm(ev, m.free_names(), model.free_names(), [m.names.get(e, e) for e in extra], batch,
+        meat=_meat(ev, d))
 
 
-def _lm(ev, names, base, extra, cands, one_sided=False):
+def _meat(ev, data):
+    """The middle of the information's sandwich under coloured residuals
+    (M - Ms plus the core's bracket of the weighted sensitivities with the
+    residual autocovariance: mlid.estimate.colored_covariance with an
+    identity for M^-1), or None when it cannot be had."""
+    try:
+        e = _joined(data, "y") - ev["yhat"]
+        recs = holdout.records(data)
+        starts = np.cumsum([1] + [r.nt for r in recs[:-1]])
+        nf = ev["information"].shape[0]
+        meat, _ = colored_covariance(ev["weighted_sensitivity"], e, np.eye(nf),
+                                     ev["information"], ev["information_sensitivity"],
+                                     segment_starts=starts)
+    except (MlidError, KeyError, ValueError):
+        return None
+    return meat
+
+
+def _lm(ev, names, base, extra, cands, one_sided=False, meat=None):
     """Each candidate's score statistic (mlid.discrepancy.score_test) for its extra
     parameter, the base ones partialled out; one_sided: only a cost that
     falls as the parameter grows counts.  A candidate with less than
@@ -1016,11 +1040,17 @@ def _lm(ev, names, base, extra, cands, one_sided=False):
     score, share, signed = score_test.statistics(
         ev["gradient"], ev["information"], [names.index(n) for n in base],
         [names.index(n) for n in extra])
-    for c, sc, sh, gk in zip(cands, score, share, signed):
+    robust = (score_test.corrected(ev["gradient"], ev["information"], meat,
+                                   [names.index(n) for n in base],
+                                   [names.index(n) for n in extra])
+              if meat is not None else [None] * len(cands))
+    for c, sc, sh, gk, rb in zip(cands, score, share, signed, robust):
         if sh < CONFOUNDED:                 # the free parameters already span it
             c.confounded, c.decision, c.score = True, "confounded", 0.0
         else:
             c.score = 0.0 if one_sided and gk >= 0 else float(sc)
+            if rb is not None:
+                c.score_corrected = 0.0 if one_sided and gk >= 0 else float(rb)
 
 
 #: the process-noise variance at which its score is taken (q -> 0+: the

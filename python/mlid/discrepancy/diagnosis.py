@@ -48,6 +48,14 @@ def residual_diagnostics(res, lags=20, xcorr_lags=10):
     return out
 
 
+#: the rule under coloured residuals, as the report states it (issue 47 item 1)
+COLOUR_RULE = ("coloured residuals: each refit's 2dJ and held-out 2dJ are divided by its colour "
+               "factor (Wald with the coloured-residual covariance over the Cramer-Rao one, at "
+               "least 1); turbulence or a gust must beat coloured measurement noise; the score "
+               "(ranking only) is also given for colour (generalised score test); an effect must "
+               "explain a spectral peak or input correlation of its channel")
+
+
 class Diagnosis:
     """The outcome of ``diagnose``: accepted effects, every candidate tried,
     the gap between the first and the last fit.
@@ -172,11 +180,14 @@ class Diagnosis:
         -------
         str
         """
-        lines = [" model-discrepancy diagnosis; " + self.held_out_text]
+        lines = [" model-discrepancy diagnosis; " + self.held_out_text,
+                 " " + COLOUR_RULE]
         for k, rnd in enumerate(self.rounds, 1):
             lines.append(" " + self._round_header(k, rnd))
             for c in self._listed(rnd):
-                stat = (f"score {c.score:9.2f}" if c.score is not None
+                stat = (f"score {c.score:9.2f}" + (f" ({c.score_corrected:.2f} for colour)"
+                                                   if c.score_corrected is not None else "")
+                        if c.score is not None
                         else f"signature {c.signature:6.3f}" if c.signature is not None
                         else " " * 15)
                 lr = f"2dJ {c.lr:9.2f}" if c.lr is not None else " " * 13
@@ -229,6 +240,8 @@ class Diagnosis:
             qs = c.quantities if final or c.refit_quantities is None else c.refit_quantities
             value, sigma = (qs[0][1], qs[0][2]) if qs else (None, None)
             return {"family": c.family, "name": c.name, "score": num(c.score),
+                    "score_corrected": num(getattr(c, "score_corrected", None)),
+                    "colour_factor": num(getattr(c, "colour", None)),
                     "signature": num(c.signature), "lr": num(c.lr),
                     "holdout_lr": num(c.holdout), "explained": num(c.explained),
                     "value": num(value), "sigma": num(sigma),
@@ -238,6 +251,7 @@ class Diagnosis:
                     "decision": c.decision, "note": c.note,
                     "equivalent": [{"family": e.family, "name": e.name} for e in c.equivalent]}
         return {"verdict": self.verdict, "alpha": self.alpha, "warning": self.coloured,
+                "colour_rule": COLOUR_RULE,
                 "held_out": self.held_out,
                 "not_explained": [dict(s.as_dict(), statement=t)
                                   for s, t in zip(self.unexplained, self.not_explained)],
@@ -286,9 +300,11 @@ class Diagnosis:
         for k, rnd in enumerate(self.rounds, 1):
             parts.append(f"<p>{_esc(self._round_header(k, rnd))}</p>")
             parts.append(_html_table(
-                "mlid-candidates", ("family", "candidate", "score", "signature", "2dJ",
-                                    "held-out 2dJ", "decision"),
-                [(c.family, c.name, c.score, c.signature, c.lr, c.holdout,
+                "mlid-candidates", ("family", "candidate", "score", "score for colour",
+                                    "signature", "2dJ", "colour factor", "held-out 2dJ",
+                                    "decision"),
+                [(c.family, c.name, c.score, getattr(c, "score_corrected", None), c.signature,
+                  c.lr, getattr(c, "colour", None), c.holdout,
                   c.decision + (f" ({c.note})" if c.note else "")) for c in self._listed(rnd)]))
             confounded = [c.name for c in rnd["candidates"] if c.confounded]
             if confounded:
