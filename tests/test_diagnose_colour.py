@@ -198,3 +198,38 @@ def test_the_score_for_colour():
     listed = [c for r in js["rounds"] for c in r["listed"]]
     assert any(c["score_corrected"] is not None for c in listed)
     assert any(c["colour_factor"] and c["colour_factor"] > 1 for c in listed)
+
+
+def hfb_residual_null(k):
+    """The HFB-320 case's fitted model simulated, plus the real record's
+    residuals (each output's mean removed: a null), shifted circularly by k
+    tenths of the record: real coloured noise (Ljung-Box Q in the
+    thousands) with nothing missing.  None when the shared record is not
+    there."""
+    import sys
+    from conftest import REPO
+    sys.path.insert(0, str(REPO / "cases" / "discrepancy"))
+    import demos
+    if not demos.HFB_DECK.is_file():
+        return None
+    case = mlid.read_deck(demos.HFB_DECK)[0]
+    try:
+        data = case.record()
+    except mlid.MlidError:
+        return None
+    f = mlid.fit(case.model, data)
+    e = f.residuals - f.residuals.mean(axis=0)
+    y = f.yhat + np.roll(e, k * data.nt // 10, axis=0)
+    return case.model, mlid.FlightData(data.t, data.u, y, data.input_names, data.output_names,
+                                       input_units=data.input_units,
+                                       output_units=data.output_units)
+
+
+def test_real_coloured_residuals_null_is_clean():
+    """Issue 47 measured the real-noise null clean 4 of 10 times (main gives
+    4/10 on these ten shifts too); at least 9 of 10 now."""
+    made = [hfb_residual_null(k) for k in range(10)]
+    if made[0] is None:
+        pytest.skip("the HFB-320 record is not in the shared data")
+    clean_ = [not mlid.diagnose(*m).effects for m in made]
+    assert sum(clean_) >= 9, clean_
