@@ -57,6 +57,32 @@ at most DETERMINISTIC_FIRST times the held-out residual turbulence leaves
 is accepted first.  A candidate whose direction the free parameters
 already span is flagged as confounded; a refitted one strongly correlated
 with a free parameter (above 0.95) says so.
+
+Coloured residuals (issue 47 item 1), the rule:
+- each refit's 2dJ and held-out 2dJ are divided by its colour factor
+  (colour_factor: the Wald statistic of its new parameters with the
+  Cramer-Rao covariance over the same with the covariance corrected for
+  coloured residuals, the core's mlid_colored, at least 1) before they
+  meet their chi-square points; candidates are still ranked by their own
+  2dJ;
+- turbulence or a gust is accepted only when it beats coloured
+  measurement noise on the output that reads its state
+  (mlid.discrepancy.noise_colour) by the chi-square(1) point in 2dJ - 2k;
+  when it does not, the colour is named as measurement noise; when it
+  does, the deterministic candidates are weighed against it without the
+  factor (the colour is then the process noise's);
+- the score is given for colour too (score_test.corrected, the
+  generalised score test on the core's coloured bracket); the plain score
+  still ranks (an effect's own misfit colours the residuals and would hide
+  it).
+
+Not explained (issue 47 item 3): the residuals' spectral peaks and
+clipped-input correlations (mlid.discrepancy.structure) are structures an
+accepted effect must explain on its channel (the output whose residual it
+lowers most) by structure.MARGIN of their excess; a candidate that leaves
+one in place is a stand-in and is not accepted, and turbulence is not
+accepted while an input correlation remains.  What no candidate explains
+is reported as such (Diagnosis.unexplained).
 """
 
 import math
