@@ -300,12 +300,13 @@ class Diagnosis:
         for k, rnd in enumerate(self.rounds, 1):
             parts.append(f"<p>{_esc(self._round_header(k, rnd))}</p>")
             parts.append(_html_table(
-                "mlid-candidates", ("family", "candidate", "score", "score for colour",
-                                    "signature", "2dJ", "colour factor", "held-out 2dJ",
-                                    "decision"),
-                [(c.family, c.name, c.score, getattr(c, "score_corrected", None), c.signature,
-                  c.lr, getattr(c, "colour", None), c.holdout,
-                  c.decision + (f" ({c.note})" if c.note else "")) for c in self._listed(rnd)]))
+                "mlid-candidates", ("family", "candidate", "score", "signature", "2dJ",
+                                    "held-out 2dJ", "decision", "score for colour",
+                                    "colour factor"),
+                [(c.family, c.name, c.score, c.signature, c.lr, c.holdout,
+                  c.decision + (f" ({c.note})" if c.note else ""),
+                  getattr(c, "score_corrected", None), getattr(c, "colour", None))
+                 for c in self._listed(rnd)]))
             confounded = [c.name for c in rnd["candidates"] if c.confounded]
             if confounded:
                 parts.append("<p>confounded with the free parameters, not tried: "
