@@ -851,8 +851,8 @@ def _structures(model, data, fit, options, alpha):
     s = structure.Structure(
         "input correlation", i, outs[i], best.lr / best.colour, point,
         f"{outs[i]} residual correlated with |{best.spec['input']}| below "
-        f"{best.spec['level']:.3g}{unit} (a dead-zone or backlash is outside the library)")
-    s.probe, s.score_point = best, point
+        f"{best.spec['level']:.3g}{unit} (a dead-zone or backlash is outside the library)",
+        probe=best, score_point=point)
     return found + [s]
 
 

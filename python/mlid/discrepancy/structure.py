@@ -65,12 +65,19 @@ class Structure:
         and the test's point; excess = size / point.
     text : str
         What the report says of it.
+    bin : int or None
+        The peak's bin of the Welch spectrum.
+    probe, score_point : Candidate, float or None
+        An input correlation's probe (mlid.diagnose's) and the point its
+        score is judged against, to tell whether an effect removes it.
     """
 
-    def __init__(self, kind, output, channel, size, point, text, frequency=None, bin=None):
+    def __init__(self, kind, output, channel, size, point, text, frequency=None, bin=None,
+                 probe=None, score_point=None):
         self.kind, self.output, self.channel = kind, output, channel
         self.size, self.point, self.text = float(size), float(point), text
         self.frequency, self.bin = frequency, bin
+        self.probe, self.score_point = probe, score_point
 
     @property
     def excess(self):
