@@ -57,6 +57,32 @@ at most DETERMINISTIC_FIRST times the held-out residual turbulence leaves
 is accepted first.  A candidate whose direction the free parameters
 already span is flagged as confounded; a refitted one strongly correlated
 with a free parameter (above 0.95) says so.
+
+Coloured residuals (issue 47 item 1), the rule:
+- each refit's 2dJ and held-out 2dJ are divided by its colour factor
+  (colour_factor: the Wald statistic of its new parameters with the
+  Cramer-Rao covariance over the same with the covariance corrected for
+  coloured residuals, the core's mlid_colored, at least 1) before they
+  meet their chi-square points; candidates are still ranked by their own
+  2dJ;
+- turbulence or a gust is accepted only when it beats coloured
+  measurement noise on the output that reads its state
+  (mlid.discrepancy.noise_colour) by the chi-square(1) point in 2dJ - 2k;
+  when it does not, the colour is named as measurement noise; when it
+  does, the deterministic candidates are weighed against it without the
+  factor (the colour is then the process noise's);
+- the score is given for colour too (score_test.corrected, the
+  generalised score test on the core's coloured bracket); the plain score
+  still ranks (an effect's own misfit colours the residuals and would hide
+  it).
+
+Not explained (issue 47 item 3): the residuals' spectral peaks and
+clipped-input correlations (mlid.discrepancy.structure) are structures an
+accepted effect must explain on its channel (the output whose residual it
+lowers most) by structure.MARGIN of their excess; a candidate that leaves
+one in place is a stand-in and is not accepted, and turbulence is not
+accepted while an input correlation remains.  What no candidate explains
+is reported as such (Diagnosis.unexplained).
 """
 
 import math
@@ -66,13 +92,14 @@ import numpy as np
 
 from ..data.flight_data import FlightData
 from ..errors import InputError, MlidError, guarded
+from ..estimate.colored import colored_covariance
 from ..estimate.evaluate import evaluate
 from ..estimate.fit import fit as fit_model
 from ..estimate.options import evaluate_options
 from ..model.models import (REGRESSORS, EquationModel, FlightPathModel, LinearModel,
                     LongitudinalModel, SixDofModel)
 from ..progress import bar as progress_bar, bump
-from . import effects, holdout, score_test, terms
+from . import effects, holdout, noise_colour, score_test, structure, terms
 from .diagnosis import Diagnosis, residual_diagnostics
 
 
@@ -89,6 +116,7 @@ class Candidate:
     def __init__(self, family, name, k=1, **spec):
         self.family, self.name, self.k, self.spec = family, name, k, spec
         self.score = None          # LM statistic (parameter candidates)
+        self.score_corrected = None    # the same for coloured residuals (score_test.corrected)
         self.signature = None      # residual signature (structural candidates)
         self.confounded = False
         self.lr = None
@@ -98,6 +126,7 @@ class Candidate:
         self.equivalent = []       # the other candidates that are the same model (_equivalents)
         self.equivalent_to = None  # the candidate that speaks for this one's model
         self.holdout = None        # 2 dJ on the held-out part (mlid.discrepancy.holdout)
+        self.colour = 1.0          # its tests' colour factor (colour_factor): 2dJ / colour
         self.explained = None      # the share of the held-out residual it removes
         self.fit = None
         self.decision = "not refitted"
@@ -506,18 +535,25 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
             _refit(current, cur_data, fit, c, options)
             b.update()
         _equivalents(sorted(tried, key=cands.index), fit)
-        good = [c for c in tried if c.lr is not None and c.lr > chi2_quantile(
-            alpha / len(cands), c.k) and c.lr / 2 > c.k and c.equivalent_to is None]
+        good = [c for c in tried if c.lr is not None and c.lr / c.colour > chi2_quantile(
+            alpha / len(cands), c.k) and c.lr / c.colour / 2 > c.k
+            and c.equivalent_to is None]
         for c in tried:
             if c.lr is not None and c not in good and c.decision == "refitted":
                 c.decision = "rejected"
-        rounds.append({"cost": fit.cost, "candidates": cands, "threshold": threshold})
-        best = _choose(good, current, cur_data, fit, options)
-        if best is None:
-            break
+        rounds.append({"cost": fit.cost, "candidates": cands, "threshold": threshold,
+                       "colour": None, "structures": _structures(current, cur_data, fit,
+                                                                 options, alpha),
+                       "fit": fit, "uncorrected": [
+                           c for c in tried if c.lr is not None and c.equivalent_to is None
+                           and c.lr > chi2_quantile(alpha / len(cands), c.k) and c.lr / 2 > c.k]})
+        best = _choose(good, current, cur_data, fit, options, rounds[-1])
         for c in good:
             if c is not best and c.decision == "refitted":
-                c.decision = "significant, not the best this round"
+                c.decision = ("significant, not the best this round" if best is not None
+                              else "significant, not accepted")
+        if best is None:
+            break
         best.round = len(rounds)
         effects.append(best)
         current, fit, cur_data = best.spec["model"], best.fit, best.spec["data"]
@@ -525,8 +561,14 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
     for e in effects:
         _from_final(e, fit)
     split = holdout.Split.of(data)
+    left = rounds[-1]["structures"] if rounds and rounds[-1]["fit"] is fit \
+        else _structures(current, cur_data, fit, options, alpha)
+    for r in rounds:
+        r.pop("fit", None)
+        r.pop("uncorrected", None)
+    colour = next((r["colour"] for r in reversed(rounds) if r["colour"] is not None), None)
     return Diagnosis(base, fit, current, effects, rounds, alpha,
-                     split.what if split else None)
+                     split.what if split else None, unexplained=left, colour=colour)
 
 
 #: a refit's 2dJ below -NESTED_TOL max(1, |J|) ended above the current fit:
@@ -601,7 +643,7 @@ def _equivalents(tried, fit):
                               "rounding): one explanation, judged under that name")
 
 
-def _choose(good, model, data, fit, options):
+def _choose(good, model, data, fit, options, rnd=None):
     """The effect a round accepts, or None.  The significant candidates are
     checked on the held-out part (mlid.discrepancy.holdout) in order of 2dJ; the first
     whose fit to the rest predicts it better than the model's own is
@@ -611,6 +653,8 @@ def _choose(good, model, data, fit, options):
     any deterministic misfit, so turbulence is accepted only when no
     deterministic effect explains the unseen data about as well."""
     margin = chi2_quantile(TERM_ALPHA)
+    # ranked by their own 2dJ: refits of one record compare like for like;
+    # the colour factor (colour_factor) only says whether each is significant
     order = sorted(good, key=lambda c: c.lr - margin * (c.family == "nonlinear term"),
                    reverse=True)
     if not order:
@@ -632,9 +676,12 @@ def _choose(good, model, data, fit, options):
     base_ss = _weighted_ss(n.held(y - base[2]), weight)
     noise = order[0] if order[0].family == "process noise" else None
     if noise is not None:
-        if not _check(noise, model, data, fit, options, n, base, weight, base_ss):
+        if not _check(noise, model, data, fit, options, n, base, weight, base_ss) \
+                or not _beats_colour(noise, model, data, fit, options, rnd):
             noise = None
         order = [c for c in order if c.family != "process noise"]
+    if noise is not None:
+        order = _uncorrected(order, (rnd or {}).get("uncorrected") or [], margin)
     for c in order[:MAX_CHECKS]:
         if not _check(c, model, data, fit, options, n, base, weight, base_ss):
             continue
@@ -642,15 +689,226 @@ def _choose(good, model, data, fit, options):
             c.decision = (f"significant, holds out; leaves {1 - c.explained:.0%} of the held-out "
                           f"residual, turbulence {1 - noise.explained:.0%}")
             continue
+        if _leaves_structure(c, model, data, fit, options, rnd):
+            continue
         c.decision = "ACCEPTED"
         if noise is not None:
             noise.decision = (f"significant, holds out; {c.name} leaves {1 - c.explained:.0%} "
                               f"of the held-out residual against its {1 - noise.explained:.0%}: "
                               "deterministic first")
         return c
+    if noise is not None and _leaves_structure(noise, model, data, fit, options, rnd):
+        noise = None
     if noise is not None:
         noise.decision = "ACCEPTED"
     return noise
+
+
+def _uncorrected(order, raw, margin):
+    """The deterministic candidates when turbulence or a gust leads and
+    beats coloured measurement noise: the residuals' colour is then the
+    process noise's, which its filter models, and the deterministic ones
+    are weighed against it by their held-out residual (DETERMINISTIC_FIRST)
+    without the colour factor, which would count that colour twice: every
+    one significant before the factor, in order of 2dJ."""
+    out = list(order) + [c for c in raw if c not in order and c.family != "process noise"]
+    for c in out:
+        if c.colour > 1.0:
+            c.note = "; ".join(filter(None, (
+                f"not divided by its colour factor {c.colour:.2f}: the colour is the leading "
+                "process noise's", c.note.replace(f"coloured residuals: 2dJ / {c.colour:.2f}", "")
+                .strip("; "))))
+            c.colour = 1.0
+    return sorted(out, key=lambda c: c.lr - margin * (c.family == "nonlinear term"),
+                  reverse=True)
+
+
+def _main_output(c, fit):
+    """The output whose weighted residual sum of squares c's refit lowers
+    most: the channel it was chosen for."""
+    w = 1.0 / np.maximum(np.diag(fit.rhat), np.finfo(float).tiny)
+    drop = (np.sum(fit.residuals**2, axis=0) - np.sum(c.fit.residuals**2, axis=0)) * w
+    return int(np.argmax(drop))
+
+
+def _leaves_structure(c, model, data, fit, options, rnd):
+    """Issue 47 item 3's rule: an effect must explain the structure of its
+    own channel (_main_output).  A significant structure of the current
+    residuals on that channel (mlid.discrepancy.structure: a spectral peak,
+    an input correlation) that c's refit leaves in place (it removes less
+    than structure.MARGIN of its excess) makes c a stand-in: not accepted,
+    its decision says what it leaves.  True then."""
+    found = (rnd or {}).get("structures") or []
+    if not found or c.fit is None:
+        return False
+    inputs = [s for s in found if s.kind == "input correlation"]
+    if c.family == "process noise" and inputs:
+        # a filter tracks any deterministic misfit: an input correlation is
+        # not turbulence's to explain
+        c.decision = (f"significant, but the {inputs[0].text} remains: a deterministic "
+                      "structure, which turbulence does not explain; not accepted")
+        return True
+    main = _main_output(c, fit)
+    for s in found:
+        if s.output != main:
+            continue
+        try:
+            if s.kind == "spectral peak":
+                after = structure.peak_left(c.fit, s)
+            else:
+                after = _probe_score(c.spec["model"], c.spec["data"], s.probe, c.spec["options"])
+        except MlidError:
+            continue
+        before = (s.size, s.point) if s.kind == "spectral peak" else (s.probe.score, s.score_point)
+        if not structure.explained(before, after):
+            c.decision = (f"significant, holds out, but leaves the {s.text} in place "
+                          f"({before[0]:.3g} -> {after:.3g}): a stand-in, not accepted")
+            return True
+    return False
+
+
+#: a clipped input's probe (mlid.discrepancy.structure): its clip levels at
+#: these quantiles of the input's non-zero magnitudes
+PROBE_QUANTILES = (0.25, 0.5)
+#: the family of the probes (never accepted: outside the library)
+PROBE = "input nonlinearity (outside the library)"
+
+
+def _probe_candidates(model, data, nx):
+    """sat(u_j, b) = min(max(u_j, -b), b) in each dynamic state equation,
+    b at PROBE_QUANTILES of |u_j| over its non-zero samples: what a
+    dead-zone or backlash leaves (the small values of an input act unlike
+    its large ones).  A b at or above the input's largest magnitude is u_j
+    itself and left out."""
+    first = holdout.records(data)[0]
+    ins = first.input_names or [f"u{j + 1}" for j in range(model.nu)]
+    outs = first.output_names or [f"y{i + 1}" for i in range(model.ny)]
+    u = _joined(data, "u")
+    rows = _dynamic_rows(model, nx)
+    out = []
+    for j in range(model.nu):
+        if REGRESSOR_MARK in ins[j] or not np.any(model.G[rows, j]):
+            continue
+        mag = np.abs(u[:, j])
+        nz = mag[mag > 0]
+        if nz.size == 0:
+            continue
+        levels = sorted(set(float(b) for b in np.quantile(nz, PROBE_QUANTILES)))
+        for b in levels:
+            v = np.clip(u[:, j], -b, b)
+            if np.allclose(v, u[:, j]) or not np.any(v):
+                continue
+            unit = first.input_units[j] if first.input_units else ""
+            for row in rows:
+                c = Candidate(PROBE, f"sat({ins[j]}, {b:.3g}) in the "
+                              f"{_state_name(model, row, outs)} equation", row=row, block="g",
+                              regressor=f"sat({ins[j]},{b:.3g})", values=v)
+                c.spec.update(input=ins[j], level=b, unit=unit, state=row)
+                out.append(c)
+    return out
+
+
+def _probe_score(model, data, probe, options):
+    """A probe's (plain) score statistic at a model: its regressor at zero
+    in its equation, the model's free parameters partialled out."""
+    p = Candidate(probe.family, probe.name, **{k: v for k, v in probe.spec.items()
+                                               if k in ("row", "block", "regressor", "values")})
+    if not isinstance(model, LinearModel):
+        raise MlidError("a probe needs a LinearModel")
+    _score_together(model, data, [p], options)
+    return 0.0 if p.score is None else p.score
+
+
+def _structures(model, data, fit, options, alpha):
+    """The significant structures of a fit's residuals: its spectral peaks
+    (mlid.discrepancy.structure) and, for a LinearModel, the best input
+    probe when its colour-corrected refit beats the chi-square(1) point at
+    alpha over the number of probes."""
+    found = structure.peaks(fit, holdout.records(data)[0].output_names or None, alpha)
+    if not isinstance(model, LinearModel) or model.nw or isinstance(data, (list, tuple)):
+        return found
+    probes = _probe_candidates(model, data, min(model.nx, fit.model.nx))
+    if not probes:
+        return found
+    _score_together(model, data, probes, options)
+    def size(p):        # the colour-corrected score where it could be had
+        return p.score if p.score_corrected is None else p.score_corrected
+    scored = sorted([p for p in probes if p.score is not None and not p.confounded],
+                    key=size, reverse=True)
+    point = chi2_quantile(alpha / len(probes))
+    if not scored or size(scored[0]) <= point:
+        return found
+    best = scored[0]
+    _refit(model, data, fit, best, options)
+    if best.lr is None or best.lr / best.colour <= point:
+        return found
+    first = holdout.records(data)[0]
+    outs = first.output_names or [f"y{i + 1}" for i in range(model.ny)]
+    i = next((i for st, i in _measured_states(model, outs) if st == best.spec["state"]), None)
+    if i is None:
+        return found
+    unit = f" {best.spec['unit']}" if best.spec["unit"] else ""
+    s = structure.Structure(
+        "input correlation", i, outs[i], best.lr / best.colour, point,
+        f"{outs[i]} residual correlated with |{best.spec['input']}| below "
+        f"{best.spec['level']:.3g}{unit} (a dead-zone or backlash is outside the library)",
+        probe=best, score_point=point)
+    return found + [s]
+
+
+#: the family of coloured measurement noise (mlid.discrepancy.noise_colour)
+COLOUR = "measurement-noise colour"
+
+
+def _noise_output(model, data, c):
+    """The output a process-noise candidate's state is read by alone (a
+    gust: its angle's output), or None."""
+    if "angle_output" in c.spec:
+        return c.spec["angle_output"]
+    outs = holdout.records(data)[0].output_names or [f"y{i + 1}" for i in range(model.ny)]
+    return next((i for s, i in _measured_states(model, outs) if s == c.spec["state"]), None)
+
+
+def _beats_colour(noise, model, data, fit, options, rnd):
+    """Does turbulence or a gust beat coloured measurement noise on the
+    output that reads its state (mlid.discrepancy.noise_colour)?  Both are
+    filter-error refits of the same current model; the process noise wins
+    when its 2dJ less 2k (Akaike) beats the noise colour's by the
+    chi-square(1) point at HOLDOUT_ALPHA.  When it does not, the colour is
+    the named explanation of the residuals' colour (rnd['colour']) and the
+    process noise is not accepted.  True when it beats it (or when no
+    output reads its state alone: nothing to compare)."""
+    if not isinstance(model, LinearModel):
+        return True
+    i = _noise_output(model, data, noise)
+    if i is None:
+        return True
+    first = holdout.records(data)[0]
+    outs = first.output_names or [f"y{k + 1}" for k in range(model.ny)]
+    e = fit.residuals[:, i]
+    tau = noise_colour.start_time_constant(e, _interval(data))
+    col = Candidate(COLOUR, f"coloured measurement noise on {outs[i]}", k=2, output=i,
+                    tau=tau, intensity=max(float(np.std(e)) * 0.7, 1e-12))
+    _refit(model, data, fit, col, options)
+    if rnd is not None:
+        rnd["candidates"].append(col)
+    if col.lr is None:
+        noise.note = "; ".join(filter(None, (noise.note, f"its competitor {col.name}: "
+                                             f"{col.decision}")))
+        return True
+    margin = chi2_quantile(HOLDOUT_ALPHA)
+    lead = (noise.lr - 2 * noise.k) - (col.lr - 2 * col.k)
+    if lead > margin:
+        col.decision = (f"rejected: {noise.name} beats it by {lead:.1f} in 2dJ - 2k "
+                        f"(needs {margin:.2f})")
+        return True
+    col.decision = "the residuals' colour: explained as coloured measurement noise"
+    noise.decision = (f"significant, holds out, but does not beat {col.name} "
+                      f"(2dJ - 2k {noise.lr - 2 * noise.k:.1f} against "
+                      f"{col.lr - 2 * col.k:.1f}, needs a lead of {margin:.2f})")
+    if rnd is not None:
+        rnd["colour"] = col
+    return False
 
 
 def _check(c, model, data, fit, options, n, base, weight, base_ss):
@@ -673,7 +931,7 @@ def _check(c, model, data, fit, options, n, base, weight, base_ss):
     if said:
         c.note = "; ".join(filter(None, (c.note, "held-in fit: " + "; ".join(said))))
     c.explained = 1.0 - _weighted_ss(n.held(_joined(data, "y") - yhat), weight) / base_ss
-    if c.holdout <= chi2_quantile(HOLDOUT_ALPHA, c.k):
+    if c.holdout / c.colour <= chi2_quantile(HOLDOUT_ALPHA, c.k):
         c.decision = "significant, fails its held-out check"
         return False
     return True
@@ -777,10 +1035,29 @@ def _score_together(model, data, batch, options):
         else:
             batch[0].confounded, batch[0].decision = True, "confounded"
         return
-    _lm(ev, m.free_names(), model.free_names(), [m.names.get(e, e) for e in extra], batch)
+    _lm(ev, m.free_names(), model.free_names(), [m.names.get(e, e) for e in extra], batch,
+        meat=_meat(ev, d))
 
 
-def _lm(ev, names, base, extra, cands, one_sided=False):
+def _meat(ev, data):
+    """The middle of the information's sandwich under coloured residuals
+    (M - Ms plus the core's bracket of the weighted sensitivities with the
+    residual autocovariance: mlid.estimate.colored_covariance with an
+    identity for M^-1), or None when it cannot be had."""
+    try:
+        e = _joined(data, "y") - ev["yhat"]
+        recs = holdout.records(data)
+        starts = np.cumsum([1] + [r.nt for r in recs[:-1]])
+        nf = ev["information"].shape[0]
+        meat, _ = colored_covariance(ev["weighted_sensitivity"], e, np.eye(nf),
+                                     ev["information"], ev["information_sensitivity"],
+                                     segment_starts=starts)
+    except (MlidError, KeyError, ValueError):
+        return None
+    return meat
+
+
+def _lm(ev, names, base, extra, cands, one_sided=False, meat=None):
     """Each candidate's score statistic (mlid.discrepancy.score_test) for its extra
     parameter, the base ones partialled out; one_sided: only a cost that
     falls as the parameter grows counts.  A candidate with less than
@@ -789,11 +1066,17 @@ def _lm(ev, names, base, extra, cands, one_sided=False):
     score, share, signed = score_test.statistics(
         ev["gradient"], ev["information"], [names.index(n) for n in base],
         [names.index(n) for n in extra])
-    for c, sc, sh, gk in zip(cands, score, share, signed):
+    robust = (score_test.corrected(ev["gradient"], ev["information"], meat,
+                                   [names.index(n) for n in base],
+                                   [names.index(n) for n in extra])
+              if meat is not None else [None] * len(cands))
+    for c, sc, sh, gk, rb in zip(cands, score, share, signed, robust):
         if sh < CONFOUNDED:                 # the free parameters already span it
             c.confounded, c.decision, c.score = True, "confounded", 0.0
         else:
             c.score = 0.0 if one_sided and gk >= 0 else float(sc)
+            if rb is not None:
+                c.score_corrected = 0.0 if one_sided and gk >= 0 else float(rb)
 
 
 #: the process-noise variance at which its score is taken (q -> 0+: the
@@ -857,7 +1140,8 @@ MEANING = {"output bias": "constant offset of the sensor",
            "nonlinear term": "coefficient of the term in its equation",
            "feedback loop (SAS)": "surface motion per unit of the state fed back",
            "sensor scale factor": "the sensor's gain on the quantity it reads (1: none)",
-           "process noise": "variance of the process noise held over a sample on the equation"}
+           "process noise": "variance of the process noise held over a sample on the equation",
+           PROBE: "coefficient of the clipped input in its equation"}
 #: an input delay's starts, in samples: its cost has a kink at each whole
 #: sample (the interpolation), so Newton is started in three intervals
 DELAY_STARTS = (0.5, 2.5, 5.5)
@@ -892,7 +1176,12 @@ def _build(model, data, fit, c, options, start=None, damp=None):
         q = m.names.get("q(1)", "q(1)")
         return m, data, _merged(options, {"method": "filter_error",
                                           "bounds": {"q(1)": (0.0, None)}}), [q], None
-    if f == "input time delay":
+    if f == COLOUR:
+        scale = 1.0 if damp is None else damp
+        ext = noise_colour.measurement_colour(model.with_theta(fit.model.theta), first,
+                                              c.spec["output"], c.spec["tau"],
+                                              scale * c.spec["intensity"])
+    elif f == "input time delay":
         ext = effects.input_delay(model, first, c.spec["input"] + 1, start=start)
     elif f == "sensor scale factor":
         ext = effects.scale_factor(model, first, c.spec["output"] + 1)
@@ -956,6 +1245,9 @@ def _refit(model, data, fit, c, options):
     c.lr = float(2 * (fit.cost - res.cost))
     c.fit = res
     c.note = "; ".join(said)
+    c.colour = colour_factor(res, labels, opts)
+    if c.colour > 1.0:
+        c.note = "; ".join(filter(None, (f"coloured residuals: 2dJ / {c.colour:.2f}", c.note)))
     k = res.names.index(labels[0])
     corr = np.delete(res.correlation[k], [res.names.index(n) for n in labels])
     others = [n for n in res.names if n not in labels]
@@ -965,6 +1257,34 @@ def _refit(model, data, fit, c, options):
                                          c.note)))
     c.spec.update(model=res.model, data=d, options=opts, labels=labels, value=value)
     c.decision = "refitted"
+
+
+def colour_factor(res, labels, options):
+    """How much coloured residuals inflate a refit's tests of its new
+    parameters: the Wald statistic x' C^-1 x of their estimates x with the
+    Cramer-Rao covariance C over the same with the covariance corrected
+    for coloured residuals (the core's mlid_colored, as the fit's
+    sigma_corrected), at least 1.  Under white residuals both agree; under
+    coloured ones the likelihood ratio 2dJ and the held-out 2dJ are that
+    Wald statistic's size times the factor too (an AR(1) noise of phi 0.8
+    on a slow regressor: about (1 + phi) / (1 - phi) = 9), so the tests
+    divide them by it (the rule of issue 47 item 1).  1 for a filter-error
+    refit: its innovations carry the noise model, and its competitor is
+    coloured measurement noise (mlid.discrepancy.noise_colour)."""
+    if options.get("method") == "filter_error":
+        return 1.0
+    try:
+        k = [res.names.index(n) for n in labels]
+        x = np.asarray(res.estimate, dtype=float)[k]
+        cov = np.asarray(res.covariance, dtype=float)[np.ix_(k, k)]
+        covc = np.asarray(res.covariance_corrected, dtype=float)[np.ix_(k, k)]
+        plain = float(x @ np.linalg.solve(cov, x))
+        corrected = float(x @ np.linalg.solve(covc, x))
+    except (ValueError, TypeError, np.linalg.LinAlgError):
+        return 1.0
+    if not (math.isfinite(plain) and math.isfinite(corrected)) or corrected <= 0 or plain <= 0:
+        return 1.0
+    return max(1.0, plain / corrected)
 
 
 def _starts(c, data):
@@ -1155,5 +1475,6 @@ def _lag_order(c, model, data, fit, options):
               f"{2 * (c.fit.cost - second.fit.cost):.1f}")
     c.name, c.k = "second-order " + c.name, 2
     c.quantities, c.lr, c.fit = second.quantities, second.lr, second.fit
+    c.colour = second.colour
     c.spec.update(model=second.spec["model"], order=2, labels=second.spec["labels"],
                   value=second.spec["value"])

@@ -48,6 +48,14 @@ def residual_diagnostics(res, lags=20, xcorr_lags=10):
     return out
 
 
+#: the rule under coloured residuals, as the report states it (issue 47 item 1)
+COLOUR_RULE = ("coloured residuals: each refit's 2dJ and held-out 2dJ are divided by its colour "
+               "factor (Wald with the coloured-residual covariance over the Cramer-Rao one, at "
+               "least 1); turbulence or a gust must beat coloured measurement noise; the score "
+               "(ranking only) is also given for colour (generalised score test); an effect must "
+               "explain a spectral peak or input correlation of its channel")
+
+
 class Diagnosis:
     """The outcome of ``diagnose``: accepted effects, every candidate tried,
     the gap between the first and the last fit.
@@ -70,6 +78,13 @@ class Diagnosis:
     held_out : str or None
         The part of the data the effects were checked on ('the last third
         of the record', 'the last manoeuvre'); None: too short to hold out.
+    unexplained : list of Structure
+        The structures the final residuals still hold that no accepted
+        effect explains (mlid.discrepancy.structure): a spectral peak's
+        channel and frequency, an input correlation's channel and input.
+    colour : Candidate or None
+        Coloured measurement noise when it explained the residuals' colour
+        better than turbulence or a gust (mlid.discrepancy.noise_colour).
 
     Attributes
     ----------
@@ -79,10 +94,12 @@ class Diagnosis:
         ``residual_diagnostics`` of ``base`` and of ``final``.
     """
 
-    def __init__(self, base, final, model, effects, rounds, alpha, held_out=None):
+    def __init__(self, base, final, model, effects, rounds, alpha, held_out=None,
+                 unexplained=(), colour=None):
         self.base, self.fit, self.model = base, final, model
         self.effects, self.rounds, self.alpha = effects, rounds, alpha
         self.held_out = held_out
+        self.unexplained, self.colour = list(unexplained), colour
         self.before = residual_diagnostics(base)
         self.after = residual_diagnostics(final)
 
@@ -122,11 +139,37 @@ class Diagnosis:
                 "then optimistic (use the coloured-residual sigmas)")
 
     @property
+    def not_explained(self):
+        """One line per structure no candidate explains (first-class: in the
+        verdict, the report, the JSON and the HTML)."""
+        return [f"{s.text} not explained by any candidate" for s in self.unexplained]
+
+    @property
+    def colour_text(self):
+        """The residuals' colour as coloured measurement noise, with its
+        quantities, or ''."""
+        c = self.colour
+        if c is None:
+            return ""
+        qs = "; ".join(f"{q} {v:.3g} +- {sd:.2g}{' ' + u if u else ''}"
+                       for q, v, sd, u, _ in c.quantities or [])
+        return (f"the residuals' colour is coloured measurement noise on "
+                f"{c.name.rsplit(' on ', 1)[-1]} ({qs}), not turbulence or a gust")
+
+    @property
     def verdict(self):
-        """One line: the effects found, or that nothing is missing."""
+        """One line: the effects found, or that nothing is missing; then
+        what is not explained, and coloured measurement noise when named."""
         if not self.effects:
-            return "nothing missing at this significance"
-        return "effects found: " + ", ".join(c.title for c in self.effects)
+            text = ("nothing missing at this significance" if not self.unexplained
+                    else "no effect of the library explains the residuals")
+        else:
+            text = "effects found: " + ", ".join(c.title for c in self.effects)
+        if self.unexplained:
+            text += "; not explained: " + "; ".join(s.text for s in self.unexplained)
+        if self.colour is not None:
+            text += "; residual colour: coloured measurement noise"
+        return text
 
     def report(self):
         """The diagnosis as printed lines: each round's candidates with their
@@ -137,12 +180,16 @@ class Diagnosis:
         -------
         str
         """
-        lines = [" model-discrepancy diagnosis; " + self.held_out_text]
+        lines = [" model-discrepancy diagnosis; " + self.held_out_text,
+                 " " + COLOUR_RULE]
         for k, rnd in enumerate(self.rounds, 1):
             lines.append(" " + self._round_header(k, rnd))
             for c in self._listed(rnd):
-                stat = (f"score {c.score:9.2f}" if c.score is not None
-                        else f"signature {c.signature:6.3f}")
+                stat = (f"score {c.score:9.2f}" + (f" ({c.score_corrected:.2f} for colour)"
+                                                   if c.score_corrected is not None else "")
+                        if c.score is not None
+                        else f"signature {c.signature:6.3f}" if c.signature is not None
+                        else " " * 15)
                 lr = f"2dJ {c.lr:9.2f}" if c.lr is not None else " " * 13
                 ho = f"held out {c.holdout:+8.2f}" if c.holdout is not None else " " * 17
                 note = f" ({c.note})" if c.note else ""
@@ -160,8 +207,12 @@ class Diagnosis:
                 for q, v, sd, unit, meaning in c.quantities or []:
                     lines.append(f"      {q} = {v:.5g} +- {sd:.2g}{' ' + unit if unit else ''}"
                                  f"  ({meaning})")
-        else:
+        elif not self.unexplained:
             lines.append(" " + self.verdict)
+        for text in self.not_explained:
+            lines.append(" NOT EXPLAINED: " + text)
+        if self.colour_text:
+            lines.append(" " + self.colour_text)
         lines.append(f" cost {self.base.cost:.2f} -> {self.fit.cost:.2f}")
         if self.coloured:
             lines.append(" warning: " + self.coloured)
@@ -189,6 +240,8 @@ class Diagnosis:
             qs = c.quantities if final or c.refit_quantities is None else c.refit_quantities
             value, sigma = (qs[0][1], qs[0][2]) if qs else (None, None)
             return {"family": c.family, "name": c.name, "score": num(c.score),
+                    "score_corrected": num(getattr(c, "score_corrected", None)),
+                    "colour_factor": num(getattr(c, "colour", None)),
                     "signature": num(c.signature), "lr": num(c.lr),
                     "holdout_lr": num(c.holdout), "explained": num(c.explained),
                     "value": num(value), "sigma": num(sigma),
@@ -198,7 +251,12 @@ class Diagnosis:
                     "decision": c.decision, "note": c.note,
                     "equivalent": [{"family": e.family, "name": e.name} for e in c.equivalent]}
         return {"verdict": self.verdict, "alpha": self.alpha, "warning": self.coloured,
+                "colour_rule": COLOUR_RULE,
                 "held_out": self.held_out,
+                "not_explained": [dict(s.as_dict(), statement=t)
+                                  for s, t in zip(self.unexplained, self.not_explained)],
+                "noise_colour": None if self.colour is None else dict(
+                    cand(self.colour), statement=self.colour_text),
                 "cost_before": num(self.base.cost), "cost_after": num(self.fit.cost),
                 "effects": [dict(cand(c), round=c.round) for c in self.effects],
                 "rounds": [{"cost": num(r["cost"]), "threshold": num(r["threshold"]),
@@ -218,6 +276,15 @@ class Diagnosis:
                  f'<span class="verdict">{_esc(self.verdict)}</span>; cost '
                  f'<span class="cost-before">{_g(self.base.cost)}</span> &rarr; '
                  f'<span class="cost-after">{_g(self.fit.cost)}</span></p>']
+        if self.unexplained:
+            parts.append('<p class="not-explained"><b>Not explained</b></p>')
+            parts.append(_html_table(
+                "mlid-not-explained", ("kind", "channel", "frequency [Hz]", "statistic",
+                                       "5% point", "what remains"),
+                [(s.kind, s.channel, s.frequency, s.size, s.point, t)
+                 for s, t in zip(self.unexplained, self.not_explained)]))
+        if self.colour_text:
+            parts.append(f'<p class="noise-colour">{_esc(self.colour_text)}</p>')
         if self.coloured:
             parts.append(f'<p class="warning">warning: {_esc(self.coloured)}</p>')
         if self.effects:
@@ -234,9 +301,12 @@ class Diagnosis:
             parts.append(f"<p>{_esc(self._round_header(k, rnd))}</p>")
             parts.append(_html_table(
                 "mlid-candidates", ("family", "candidate", "score", "signature", "2dJ",
-                                    "held-out 2dJ", "decision"),
+                                    "held-out 2dJ", "decision", "score for colour",
+                                    "colour factor"),
                 [(c.family, c.name, c.score, c.signature, c.lr, c.holdout,
-                  c.decision + (f" ({c.note})" if c.note else "")) for c in self._listed(rnd)]))
+                  c.decision + (f" ({c.note})" if c.note else ""),
+                  getattr(c, "score_corrected", None), getattr(c, "colour", None))
+                 for c in self._listed(rnd)]))
             confounded = [c.name for c in rnd["candidates"] if c.confounded]
             if confounded:
                 parts.append("<p>confounded with the free parameters, not tried: "

@@ -53,3 +53,45 @@ def statistics(gradient, information, base, extra):
     share = np.where(mee > 0, rest / np.where(mee > 0, mee, 1.0), 0.0)
     score = np.where(rest > 0, signed**2 / np.where(rest > 0, rest, 1.0), 0.0)
     return score, share, signed
+
+
+def corrected(gradient, information, meat, base, extra):
+    """The score statistic of each extra parameter with the partialled
+    gradient's variance taken from the meat B (the information's sandwich
+    middle under coloured residuals: the core's mlid_colored bracket,
+    sum_i sum_j a(i)' w(|i-j|) Rvv(i-j) a(j), plus M - Ms) instead of the
+    information M:
+
+        score_c = (g_c - M_ct M_tt^-1 g_t)^2 / (l' B l),  l = (-M_tt^-1 M_tc, 1),
+
+    asymptotically chi-square(1) when c is absent whatever the residuals'
+    colour (the generalised score test); equal to ``statistics``' score
+    when B = M (white residuals).
+
+    Parameters
+    ----------
+    gradient : ndarray (nf,)
+    information, meat : ndarray (nf, nf)
+    base, extra : sequence of int
+
+    Returns
+    -------
+    ndarray (len(extra),)
+        The statistics; 0 where the variance is not positive.
+    """
+    g, M, B = np.asarray(gradient), np.asarray(information), np.asarray(meat)
+    b, e = list(base), list(extra)
+    x = np.zeros((len(b), len(e)))
+    y = np.zeros(len(b))
+    if b:
+        rhs = np.column_stack([M[np.ix_(b, e)], g[b]])
+        try:
+            sol = np.linalg.solve(M[np.ix_(b, b)], rhs)
+        except np.linalg.LinAlgError:
+            sol = np.linalg.lstsq(M[np.ix_(b, b)], rhs, rcond=None)[0]
+        x, y = sol[:, :-1], sol[:, -1]
+    signed = g[e] - M[np.ix_(e, b)] @ y
+    # l' B l = B_cc - 2 x_c' B_tc + x_c' B_tt x_c, for each extra c
+    var = (B[e, e] - 2.0 * np.einsum("be,be->e", B[np.ix_(b, e)], x)
+           + np.einsum("be,bk,ke->e", x, B[np.ix_(b, b)], x))
+    return np.where(var > 0, signed**2 / np.where(var > 0, var, 1.0), 0.0)

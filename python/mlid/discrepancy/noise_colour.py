@@ -1,0 +1,101 @@
+"""Coloured measurement noise as an explanation of its own (issue 47 item 1).
+
+Residuals that are not white need not mean a missing effect: the sensor's
+noise itself may be coloured (an anti-aliasing filter, a vane's own
+dynamics, a noise generator with memory).  Turbulence or a gust, which the
+filter-error method predicts one step ahead, explains any such colour, so
+mlid.diagnose accepts them only when they beat this model of the noise:
+
+    y_i = h_i(x, u) + n + v,   ndot = -n / T + w,
+
+a first-order (AR(1) when sampled) noise n on output i alone, entering no
+state equation, with white noise v on top.  Its new state comes after the
+model's own (every element name keeps its meaning); free: the pole
+f(g,g) = -1/T, the noise's process noise q (Gamma = e_g) and every r not
+free or tied already: filter error, like the gust of
+mlid.discrepancy.effects.
+"""
+
+import math
+
+import numpy as np
+
+from ..errors import InputError
+from ..model.models import LinearModel
+from .effects import Extension, _dt, _fixed, _name, _parts, gust_variance
+
+#: The start of T when the residuals do not give one: a few samples.
+START_SAMPLES = 3.0
+
+
+def start_time_constant(residual, dt):
+    """T from the residual's autocorrelation: rho(2) / rho(1) is the AR(1)
+    factor a = exp(-dt / T) of a coloured part under white noise (the white
+    part adds to lag 0 alone); START_SAMPLES dt when that ratio is not in
+    (0, 1)."""
+    e = np.asarray(residual, dtype=float)
+    e = e - e.mean()
+    c1, c2 = float(e[1:] @ e[:-1]), float(e[2:] @ e[:-2])
+    a = c2 / c1 if c1 > 0 else 0.0
+    if not 0.0 < a < 1.0:
+        return START_SAMPLES * dt
+    return -dt / math.log(a)
+
+
+def measurement_colour(model, data, i, tau, intensity):
+    """Output i's measurement noise made first-order coloured (the module's
+    model).
+
+    Parameters
+    ----------
+    model : LinearModel
+        The current fit's model (its derivatives the start).
+    data : FlightData
+    i : int
+        The output, 0-based.
+    tau, intensity : float
+        Starts of T [s] and of the coloured part's stationary standard
+        deviation (in the output's unit), both > 0.
+
+    Returns
+    -------
+    Extension
+        options: method 'filter_error' and q >= 0; value(res): T [s] and the
+        coloured part's standard deviation.
+    """
+    if not isinstance(model, LinearModel):
+        raise InputError("measurement_colour extends a LinearModel, got "
+                         f"{type(model).__name__}")
+    if not (tau > 0 and intensity > 0):
+        raise InputError(f"measurement_colour: tau and intensity must be > 0, got {tau!r}, "
+                         f"{intensity!r}")
+    dt, nw, g = _dt(data), model.nw, model.nx
+    out = _name(data.output_names, i, "y")
+    unit = data.output_units[i] if data.output_units else ""
+    parts = _parts(model, 1, 1)
+    parts["F"][g, g] = -1.0 / tau
+    parts["H"][i, g] = 1.0
+    parts["Gamma"][g, nw] = 1.0
+    parts["q"][nw] = intensity**2 / gust_variance(tau, dt)[0]
+    guess = 0.5 * np.var(np.diff(data.y, axis=0), axis=0)
+    parts["r"] = np.where(model.r > 0, model.r, guess)
+    pole, q = f"f({g + 1},{g + 1})", f"q({nw + 1})"
+    labels = [f"noise pole {out}", f"noise q {out}"]
+    parts["free"] += [pole, q] + [f"r({k + 1})" for k in range(model.ny)
+                                  if _fixed(model, f"r({k + 1})")]
+    parts["names"].update({pole: labels[0], q: labels[1]})
+
+    def convert(x, cov):
+        T, qv = -1.0 / x[0], x[1]
+        v, dv = gust_variance(T, dt)
+        sd = math.sqrt(max(qv, 0.0) * v)
+        grad = ([dv * math.sqrt(qv / v) / 2.0 * T * T, math.sqrt(v / qv) / 2.0]
+                if qv > 0 else None)
+        sd_sigma = math.sqrt(max(np.asarray(grad) @ cov @ np.asarray(grad), 0.0)) \
+            if grad else math.nan
+        return [("noise time constant T", T, math.sqrt(max(T**4 * cov[0, 0], 0.0)), "s",
+                 f"correlation time of the measurement noise of {out}"),
+                ("coloured noise standard deviation", sd, sd_sigma, unit,
+                 f"stationary rms of the coloured part of {out}'s noise")]
+    options = {"method": "filter_error", "bounds": {labels[1]: (0.0, None)}}
+    return Extension(LinearModel(**parts), data, labels, options, convert)
