@@ -70,7 +70,23 @@ def diagnose_record(name, seed):
         return {"error": f"{type(exc).__name__}: {exc}", "cpu": time.process_time() - t0}
     cpu = time.process_time() - t0
     return {"effects": [[e.family, e.name] for e in d.effects], "cpu": cpu,
-            "not_explained": NOT_EXPLAINED in d.report()}
+            "not_explained": NOT_EXPLAINED in d.report(), "decided": _decided(name, d),
+            "round1": [len(d.rounds[0]["candidates"]), d.rounds[0]["threshold"]]
+            if d.rounds else None}
+
+
+def _decided(name, d):
+    """What the first round decided of the true effect (a one-effect
+    scenario): its decision's first clause ('ACCEPTED', 'rejected', ...),
+    'not listed' when it was no candidate; None for the other kinds."""
+    sc = scenarios.CATALOGUE[name]
+    if sc.kind not in ("single", "weak", "real") or not d.rounds:
+        return None
+    family, label = sc.expected[0]
+    for c in d.rounds[0]["candidates"]:
+        if c.family == family and (label is None or c.name == label):
+            return c.decision.split(";")[0].split(" (")[0]
+    return "not listed"
 
 
 def _matches(effect, expected):
@@ -232,6 +248,27 @@ def print_weak(res, both):
             print(row)
 
 
+def print_decided(res, both):
+    """For the weak effects: which test decided the true effect in round 1,
+    counted over the seeds of each size."""
+    names = [n for n in res if scenarios.CATALOGUE[n].kind == "weak"]
+    if not names:
+        return
+    print("\nweak effects: what round 1 decided of the true effect (rejected: 2dJ below the "
+          "Bonferroni point or Akaike's; fails its held-out check: the held-out comparison)")
+    for s in ("ours", "main") if both else ("ours",):
+        for n in names:
+            count = {}
+            for r, _ in res[n][s]:
+                key = r.get("decided") or r.get("error", "?")
+                count[key] = count.get(key, 0) + 1
+            tag = f" [{s}]" if both else ""
+            first = next((r["round1"] for r, _ in res[n][s] if r.get("round1")), None)
+            said = f" (of {first[0]} candidates, 2dJ > {first[1]:.2f})" if first else ""
+            print(f"  {n + tag:<26} " + "; ".join(f"{k} {v}" for k, v in sorted(
+                count.items(), key=lambda kv: -kv[1])) + said)
+
+
 def lateral_12(seeds=3):
     """The 12-parameter lateral record (the 11 derivatives and a bias on
     phi; issue 16's CPU target <= 1 s): median CPU over the null, Y_p and
@@ -282,6 +319,8 @@ def main(argv=None):
         names = [n for n in names if not n.startswith("hfb")]
     print("CR sigmas of the weak effects (seed 0's record, at the truth): " + ", ".join(
         f"{e} {scenarios.cr_sigma(e):.4g}" for e in scenarios.WEAK_EFFECTS))
+    print("their information's share in the held-out part: " + ", ".join(
+        f"{e} {scenarios.heldout_share(e):.2f}" for e in scenarios.WEAK_EFFECTS))
     other = Worker(args.main) if args.main else None
     try:
         res = run(names, range(1, args.seeds + 1), other)
@@ -290,6 +329,7 @@ def main(argv=None):
             other.close()
     print_tables(res, other is not None)
     print_weak(res, other is not None)
+    print_decided(res, other is not None)
     if args.json:
         Path(args.json).write_text(json.dumps(
             {n: {s: [dict(r, **o) for r, o in v] for s, v in r.items()}

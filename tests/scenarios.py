@@ -571,12 +571,9 @@ def _longitudinal_alpha2(seed, cm_alpha2):
     return _longitudinal(seed, cm_alpha2)
 
 
-@functools.lru_cache(maxsize=None)
-def cr_sigma(effect):
-    """The Cramer-Rao sigma of a weak effect's parameter (WEAK_EFFECTS: the
-    bias on beta, Y_p, C_m alpha^2) in the analysis model with it free, at
-    the truth without it, on seed 0's record: the unit of the weak-effect
-    curve."""
+def _weak_extended(effect):
+    """A weak effect's analysis model with its parameter free (last), at the
+    truth without it, and seed 0's record."""
     if effect == "quadratic":
         model, data = _longitudinal(0, 0.0)
         regs = {k: list(v) for k, v in model.regressors.items()}
@@ -584,13 +581,33 @@ def cr_sigma(effect):
         regs["Cm"].append("alpha^2")
         vals["Cm"].append(0.0)
         ext = mlid.LongitudinalModel(regs, vals, model.constants, **model._common())
-        ext = ext.with_free(list(model.free) + [f"cm({len(regs['Cm'])})"])
-    else:
-        model, data = lateral(0)
-        ext = model.with_free(list(model.free) + [{"bias": "bias(3)", "derivative": "f(3,1)"}[
-            effect]])
-    info = mlid.evaluate(ext, data)["information"]
-    return float(np.sqrt(np.linalg.inv(info)[-1, -1]))
+        return ext.with_free(list(model.free) + [f"cm({len(regs['Cm'])})"]), data
+    model, data = lateral(0)
+    return model.with_free(list(model.free) + [{"bias": "bias(3)", "derivative": "f(3,1)"}[
+        effect]]), data
+
+
+def _last_sigma(model, data):
+    return float(np.sqrt(np.linalg.inv(mlid.evaluate(model, data)["information"])[-1, -1]))
+
+
+@functools.lru_cache(maxsize=None)
+def cr_sigma(effect):
+    """The Cramer-Rao sigma of a weak effect's parameter (WEAK_EFFECTS: the
+    bias on beta, Y_p, C_m alpha^2) in the analysis model with it free, at
+    the truth without it, on seed 0's record: the unit of the weak-effect
+    curve."""
+    return _last_sigma(*_weak_extended(effect))
+
+
+def heldout_share(effect):
+    """The share of a weak effect's information in the part of the record
+    the workflow holds out (mlid.discrepancy.holdout's split): 1 - sigma^2
+    of the whole record over sigma^2 of the part fitted."""
+    from mlid.discrepancy.holdout import Split
+    ext, data = _weak_extended(effect)
+    head = Split.of(data).head(data)
+    return 1.0 - cr_sigma(effect) ** 2 / _last_sigma(ext, head) ** 2
 
 
 def weak(effect, size, seed):
