@@ -29,6 +29,7 @@ made by each side's mlid.simulate from tests/scenarios.py of this tree.
 
 import argparse
 import json
+import math
 import subprocess
 import sys
 import time
@@ -83,10 +84,14 @@ def _decided(name, d):
     if sc.kind not in ("single", "weak", "real") or not d.rounds:
         return None
     family, label = sc.expected[0]
-    for c in d.rounds[0]["candidates"]:
-        if c.family == family and (label is None or c.name == label):
-            return c.decision.split(";")[0].split(" (")[0]
-    return "not listed"
+    mine = [c for c in d.rounds[0]["candidates"]
+            if c.family == family and (label is None or c.name == label)]
+    if not mine:
+        return "not listed"
+    # any of a family (label None): the one accepted, else the one refitted furthest
+    c = max(mine, key=lambda c: (c.decision == "ACCEPTED", c.lr is not None,
+                                 -math.inf if c.lr is None else c.lr))
+    return c.decision.split(";")[0].split(" (")[0]
 
 
 def _matches(effect, expected):
