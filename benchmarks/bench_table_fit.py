@@ -24,7 +24,7 @@ import table_campaign as tc  # noqa: E402
 def main():
     conds = tc.grid(10, [0.3, 0.5, 0.7])
     records = [tc.record(c, k) for k, c in enumerate(conds)]
-    models = [tc.model(-2.0, -1.0, c["alpha"]) for c in conds]
+    models = [tc.local_model(c) for c in conds]
     fits = lambda: [mlid.fit(m, d) for m, d in zip(models, records)]     # noqa: E731
     res = fits()
     tabs = tc.tables()

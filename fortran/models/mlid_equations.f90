@@ -247,6 +247,7 @@ contains
         end do
         if (lambda(k) > 0.0_wp) call table_smoothness(m%tables(k), m%tfirst(k) - 1, lambda(k), w)
       end do
+      w = 0.5_wp*(w + transpose(w))     ! exactly symmetric: the sums' rounding is not
     end select
     if (size(lambda) /= ntab) then
       status = MLID_ERR_INPUT

@@ -1035,7 +1035,18 @@ class EquationModel(Model):
 
     def unreached_names(self, information):
         """The labels of the free table values no sample reaches (those
-        ``unreached_cells`` describes), in the order of free."""
+        ``unreached_cells`` describes).
+
+        Parameters
+        ----------
+        information : FitResult or array_like (nf, nf)
+            As ``unreached_cells``.
+
+        Returns
+        -------
+        list of str
+            Their labels ('CLt[6]'), in the order of free.
+        """
         labels = self.element_labels()
         return [labels[j] for j in self._unreached(information)]
 
