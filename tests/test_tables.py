@@ -3,6 +3,8 @@ values interpolated (multi)linearly and held beyond the ends, exact Jacobians,
 a nonlinear table recovered by output error within its Cramer-Rao bounds, a
 cell no sample reaches named, and the smoothness prior."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -330,6 +332,23 @@ def test_a_longitudinal_coefficient_as_a_table():
         lm.with_tables({"C_Lbeta": Table("alpha", ba)})
 
 
+
+def test_with_tables_keeps_the_other_blocks_and_refuses_process_noise():
+    """x0, biases, r, the delays, stab and p0 carry over (as in a deck);
+    process noise, which an equations model has not, is refused, not
+    dropped."""
+    lm = mlid.LongitudinalModel(LONG_REGS, LONG_VALS, LONG, x0=[106.0, 0.11, 0.105, -0.003],
+                                bias=np.arange(7) * 0.01, r=np.arange(1, 8) * 1e-3,
+                                delay=[0, 0.1, 0, 0, 0, 0, 0.2], udelay=[0.05, 0])
+    eq = lm.with_tables({"C_Lalpha": Table("alpha", [0.0, 0.1], [3.2, 3.2])})
+    for key in ("x0", "bias", "r", "delay", "udelay", "stab", "p0"):
+        np.testing.assert_array_equal(eq._block(key), lm._block(key), err_msg=key)
+    assert eq.delay[6] == 0.2 and eq.udelay[0] == 0.05
+    lm.q = [1e-4, 0, 0, 0]
+    with pytest.raises(InputError, match="no process noise: q and S must be zero"):
+        lm.with_tables({})
+
+
 TABLE_DECK = """&case title = 'a table', job = 'estimate' /
 &model kind = 'equations', state_names = 'alpha', 'q', input_names = 'de',
     output_names = 'alpha', 'q', 'CL',
@@ -462,3 +481,79 @@ def test_a_sixdof_deck_with_a_table(tmp_path):
     assert fit["parameters"][1:4] == ["Clt[1]", "Clt[2]", "Clt[3]"]
     for name, value, sigma in zip(fit["parameters"], fit["estimate"], fit["sigma"]):
         assert abs(value - truth[name]) < 4 * sigma, (name, value, sigma)
+
+
+
+# kind = 'longitudinal' in a deck with a coefficient a table: the real HFB-320 record
+# (../shared/data, read from there), cases/hfb320/hfb320.nml's first case's model
+HFB_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hfb320_1_10.asc"
+HFB_REGS = {"CD": ["1", "V/V0", "alpha"], "CL": ["1", "V/V0", "alpha"],
+            "Cm": ["1", "V/V0", "alpha", "qhat", "de"]}
+HFB_START = {"CD": [5.67516e-3, 7.72612e-3, 0.674256], "CL": [-0.318267, 0.260317, 5.37576],
+             "Cm": [4.98218e-2, 1.89182e-2, -0.498586, -25.8439, -0.990687]}
+HFB_X0 = [106.023, 0.111685, 0.104887, -0.00332659]
+HFB_BREAKS = [0.08, 0.105, 0.13]                  # alpha of the record: 0.086 to 0.126 rad
+HFB_FREE = ["C_D0", "C_DV", "C_Dalpha", "C_LV", "C_m0", "C_mV", "C_malpha", "C_mq", "C_mde",
+            "C_Lalpha[1]", "C_Lalpha[2]", "C_Lalpha[3]"]
+LONG_DECK = """&case title = 'HFB-320, C_Lalpha a table', job = 'estimate' /
+&model kind = 'longitudinal', {extra}
+    cd_regressors = '1', 'V/V0', 'alpha', cl_regressors = '1', 'V/V0', 'alpha',
+    cm_regressors = '1', 'V/V0', 'alpha', 'qhat', 'de',
+    cd = 5.67516e-3, 7.72612e-3, 0.674256, cl = -0.318267, 0.260317, 5.37576,
+    cm = 4.98218e-2, 1.89182e-2, -0.498586, -25.8439, -0.990687,
+    constants = 9.80665, 4.028e-3, 8.0027e-4, -7.0153e-6, 104.67, 7472.0, 0.0524, 0.792, 1.215,
+    x0 = 106.023, 0.111685, 0.104887, -0.00332659,
+    definitions = {definitions}, params = {params},
+    free = {free} /
+&data file = '{data}', time_col = 1, input_cols = 2, 4, output_cols = 5, 6, 7, 8, 9, 10, 11 /
+&estimate max_iter = 20 /
+"""
+needs_hfb = pytest.mark.skipif(not HFB_DATA.is_file(), reason=f"no flight data at {HFB_DATA}")
+
+
+def long_deck(tmp_path, extra="", definitions=f"'C_Lalpha(alpha) = {' '.join(map(str, HFB_BREAKS))}'",
+              params="'C_Lalpha[2] = 5.3'"):
+    deck = tmp_path / "long.nml"
+    deck.write_text(LONG_DECK.format(extra=extra, definitions=definitions, params=params,
+                                     free=", ".join(f"'{n}'" for n in HFB_FREE), data=HFB_DATA))
+    return deck
+
+
+@needs_hfb
+def test_a_longitudinal_deck_with_a_table_is_pythons_with_tables(tmp_path):
+    """kind = 'longitudinal' with definitions 'C_Lalpha(alpha) = ...' is the
+    model's with_tables: its values start at the params entry, the others at
+    cl's C_Lalpha (Python: the Table's values); free names the equations
+    model's parameters.  Same estimates and sigma as Python's fit, the same
+    bytes from both front ends."""
+    from conftest import both_front_ends_json
+    fit = both_front_ends_json(long_deck(tmp_path, extra="delay(7) = 0.1,"), tmp_path)
+    rec = np.loadtxt(HFB_DATA)
+    d = mlid.FlightData(rec[:, 0], rec[:, [1, 3]], rec[:, 4:11])
+    lm = mlid.LongitudinalModel(HFB_REGS, HFB_START, LONG, x0=HFB_X0, delay=[0] * 6 + [0.1])
+    eq = lm.with_tables({"C_Lalpha": Table("alpha", HFB_BREAKS, [5.37576, 5.3, 5.37576])},
+                        free=HFB_FREE)
+    res = mlid.fit(eq, d, max_iter=20)
+    assert fit["parameters"] == HFB_FREE and fit["converged"]
+    np.testing.assert_allclose(fit["estimate"], res.estimate, rtol=1e-9)
+    np.testing.assert_allclose(fit["sigma"], res.sigma, rtol=1e-7)
+
+
+@needs_hfb
+@pytest.mark.parametrize("change, said", [
+    (dict(definitions="'C_L = 3'"), "group &model: longitudinal model: table 'C_L = 3' names no "
+                                    "coefficient of the model (its labels: C_D0, C_Lalpha, ...)"),
+    (dict(definitions="'C_Lbeta(alpha) = 0 1'"), "group &model: longitudinal model: table "
+     "'C_Lbeta(alpha) = 0 1' names no coefficient of the model (its labels: C_D0, C_Lalpha, ...)"),
+    (dict(params="'C_mq = -20'"), "group &model: params entry 'C_mq = -20' is not 'NAME[i] = "
+     "value' of a table's value (kind = 'longitudinal': its coefficients start in cd, cl, cm)"),
+    (dict(params="'C_Lalpha[4] = 1'"), "group &model: params entry 'C_Lalpha[4] = 1' is not "
+                                       "'NAME[i] = value' of a table's value"),
+    (dict(extra="q = 0, 1e-4, 0, 0,"), "group &model: kind = 'longitudinal' with tables is "
+     "written as equations, which have no process noise: q and s must be zero"),
+    (dict(extra="xdot = 'q', 'q', 'q', 'q',"), "group &model: xdot, outputs, definitions and "
+     "params are for kind = 'equations', 'sixdof' or 'flight_path' (definitions and params also "
+     "for 'longitudinal': its tables), not 'longitudinal'")])
+def test_a_longitudinal_deck_refuses_a_bad_table_entry(tmp_path, change, said):
+    from conftest import refused_by_both
+    refused_by_both(long_deck(tmp_path, **change), said, cwd=tmp_path)

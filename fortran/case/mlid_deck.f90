@@ -273,6 +273,14 @@ module mlid_deck
       character(len=TIELEN), allocatable, intent(out) :: xs(:)
     end subroutine sixdof_deck
 
+    !> kind = 'longitudinal' with tables: the model written as equations.
+    module subroutine longitudinal_tables(c, lt, definitions, params)
+      use mlid_layout, only: layout_table_t
+      type(case_t), intent(inout) :: c
+      type(layout_table_t), intent(inout) :: lt    !< the longitudinal model's, then the new one's
+      character(len=*), intent(in) :: definitions(:), params(:)
+    end subroutine longitudinal_tables
+
     !> The kinds whose model is a text of equations.
     module logical function written_as_equations(kind)
       character(len=*), intent(in) :: kind

@@ -9,6 +9,10 @@ submodule (mlid_deck) mlid_deck_equations
   use mlid_sixdof, only: sixdof_parts
   use mlid_flightpath, only: flightpath_text, FLIGHTPATH_OUTPUTS, FLIGHTPATH_INPUTS
   use mlid_expr, only: split_definition, expr_t, expr_compile, expr_eval
+  use mlid_long_text, only: longitudinal_text
+  use mlid_layout, only: layout_table_t, layout_of, default_label
+  use mlid_model_factory, only: MODEL_EQUATIONS
+  use mlid_params, only: no_ties
   implicit none
 
 contains
@@ -105,6 +109,83 @@ contains
     end do
     call move_alloc(full, pstart)
   end subroutine table_starts
+
+  !> kind = 'longitudinal' with tables (definitions 'C_Lalpha(alpha) = 0 0.1'):
+  !> the model written as equations (mlid_long_text, as Python's
+  !> with_tables), its parameters the coefficients not tabled, then the
+  !> tables' values; a value starts at its params entry ('C_Lalpha[2] =
+  !> 3.1'), else at its coefficient's start value (cd, cl, cm).  The other
+  !> blocks (x0, bias, r, delay, ...) carry over; process noise it has none.
+  module procedure longitudinal_tables
+    type(layout_table_t) :: eq
+    character(len=:), allocatable :: text
+    character(len=msg_len) :: iomsg
+    real(wp), allocatable :: theta(:), pstart(:)
+    character(len=32), allocatable :: labels(:)     ! default_label's
+    integer :: ios, b, o, n, k
+
+    if (has_gap(c, 'definitions', definitions) .or. has_gap(c, 'params', params)) return
+    if (any(len_trim([definitions, params]) == TIELEN)) then
+      call fail(c, 'group &model: an entry is longer than '//itoa(TIELEN - 1)//' characters')
+      return
+    end if
+    k = findloc(len_trim(params) > 0 .and. index(params, '[') == 0, .true., 1)
+    if (k > 0) then
+      call fail(c, 'group &model: params entry '''//trim(params(k))//''' is not ''NAME[i] = '// &
+                'value'' of a table''s value (kind = ''longitudinal'': its coefficients start in '// &
+                'cd, cl, cm)')
+      return
+    end if
+    if (any(c%theta([block_idx(lt, 'q'), block_idx(lt, 's')]) /= 0.0_wp)) then
+      call fail(c, 'group &model: kind = ''longitudinal'' with tables is written as equations, '// &
+                'which have no process noise: q and s must be zero')
+      return
+    end if
+    call longitudinal_text(c%iconst, c%rconst, pack(definitions, len_trim(definitions) > 0), &
+                           text, ios, iomsg)
+    if (ios == MLID_OK) then
+      c%iconst = equations_text_codes(text)
+      c%rconst = [real(wp) ::]
+      call layout_of(MODEL_EQUATIONS, c%nx, c%nu, c%ny, 0, c%iconst, c%rconst, eq, ios, iomsg)
+    end if
+    if (ios /= MLID_OK) then
+      call fail(c, 'group &model: '//trim(iomsg))
+      return
+    end if
+    allocate (pstart(eq%np), theta(eq%nth))
+    labels = [(default_label(lt, b), b=1, lt%np)]
+    do k = 1, eq%np                       ! 'C_mq' or a value 'C_Lalpha[2]': its coefficient's
+      n = scan(eq%pnames(k)//'[', '[')
+      pstart(k) = c%theta(findloc(labels, eq%pnames(k)(1:n - 1), 1))
+    end do
+    call table_starts(c, pack(params, len_trim(params) > 0), pstart)
+    if (c%status /= MLID_OK) return
+    theta = 0.0_wp
+    theta(1:eq%np) = pstart
+    do b = 1, eq%nblock                  ! x0, bias, r, delay, udelay, stab, p0
+      o = findloc(lt%key, eq%key(b), 1)
+      if (eq%key(b) == 'p' .or. o == 0) cycle
+      if (size(block_idx(eq, eq%key(b))) == size(block_idx(lt, lt%key(o)))) &
+        theta(block_idx(eq, eq%key(b))) = c%theta(block_idx(lt, lt%key(o)))
+    end do
+    call move_alloc(theta, c%theta)
+    deallocate (c%isfree)
+    allocate (c%isfree(eq%nth), source=0)
+    c%tie = no_ties(eq%nth)
+    c%mkind = MODEL_EQUATIONS
+    c%nw = 0
+    lt = eq
+  end procedure longitudinal_tables
+
+  !> The indices in theta of block key of layout lt.
+  function block_idx(lt, key) result(idx)
+    type(layout_table_t), intent(in) :: lt
+    character(len=*), intent(in) :: key
+    integer, allocatable :: idx(:)
+    integer :: b, k
+    b = findloc(lt%key, key, 1)
+    idx = [(lt%off(b) + k, k=1, lt%rows(b)*merge(1, lt%cols(b), lt%cols(b) < 0))]
+  end function block_idx
 
   !> kind = 'sixdof': the rigid-body lines of mlid_sixdof around the deck's
   !> definitions, and the state equations (xs) in the order of state_names.

@@ -150,9 +150,11 @@ contains
       end select
       if (c%status /= MLID_OK) return
     else if (any(len_trim(xdot) > 0) .or. any(len_trim(outputs) > 0) .or. &
-             any(len_trim(definitions) > 0) .or. any(len_trim(params) > 0)) then
+             (to_lower(kind) /= 'longitudinal' .and. (any(len_trim(definitions) > 0) .or. &
+                                                     any(len_trim(params) > 0)))) then
       call fail(c, 'group &model: xdot, outputs, definitions and params are for kind = '// &
-                '''equations'', ''sixdof'' or ''flight_path'', not '''//trim(kind)//'''')
+                '''equations'', ''sixdof'' or ''flight_path'' (definitions and params also '// &
+                'for ''longitudinal'': its tables), not '''//trim(kind)//'''')
       return
     end if
     call model_kind(c, kind, [cd_regressors, cl_regressors, cm_regressors], consts, &
@@ -203,6 +205,10 @@ contains
     call put_matrix(rd, c, lt, 'udelay', udelay, required=.false.)
     call put_matrix(rd, c, lt, 'stab', stab, required=.false.)
     call put_matrix(rd, c, lt, 'p0', p0, required=.false.)
+    ! tables make it an equations model: free and tie name that model's parameters
+    if (c%status == MLID_OK .and. c%mkind == MODEL_AERO_LONG .and. &
+        (any(len_trim(definitions) > 0) .or. any(len_trim(params) > 0))) &
+      call longitudinal_tables(c, lt, definitions, params)
     if (c%status == MLID_OK) call set_free(c, lt, free, names, free_idx)
     if (c%status == MLID_OK) call set_ties(c, lt, tie)
     if (c%status == MLID_OK) call set_option(c, 'group &model: ', 'input_hold', input_hold)

@@ -765,13 +765,21 @@ class LongitudinalModel(Model):
         Returns
         -------
         EquationModel
-            With this model's x0, output biases and r.
+            With this model's x0, output biases, r, delay, udelay, stab and
+            p0.  A table's values start at the Table's values (zero when it
+            was made without any); a deck's (kind = 'longitudinal' with
+            definitions) start at its params entries, else at the
+            coefficient's start value.
 
         Raises
         ------
         InputError
-            A label that is no coefficient, a table the core refuses.
+            A label that is no coefficient, a table the core refuses, process
+            noise (q or S not zero: an equations model has none).
         """
+        if np.any(self._block("q")) or np.any(self._block("s")):
+            raise InputError("with_tables: the model is written as equations, which have no "
+                             "process noise: q and S must be zero")
         labels = self.element_labels()[:self.np]
         lines = "".join(t.line(n)[2:] + "\n" for n, t in tables.items())
         out = self._layout._call(_api.mlid_longitudinal_text, tables=lines)
@@ -784,7 +792,8 @@ class LongitudinalModel(Model):
         m = object.__new__(EquationModel)
         m._from_text(out["text"].decode().rstrip("\n"), p,
                      (self._block("x0"), self._block("bias"), None, self._block("r"), None,
-                      free, None, None, self.input_hold, self.substeps, None, None, None, None))
+                      free, None, None, self.input_hold, self.substeps, self._block("delay"),
+                      self._block("udelay"), self._block("stab"), self._block("p0")))
         return m
 
 
