@@ -2,8 +2,8 @@
 !> sizes (a built-in model's own), the parameter vector block by block
 !> (matrices row by row), the free parameters and their labels, ties,
 !> input hold and substeps, channel names and initial states.  The text
-!> of the kinds written as equations (equations, sixdof, flight_path) is
-!> made in mlid_deck_equations.
+!> of the kinds written as equations (equations, sixdof, flight_path; the
+!> longitudinal kind with tables) is made in mlid_deck_equations.
 submodule (mlid_deck) mlid_deck_model
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use mlid_case, only: MAXSEG
