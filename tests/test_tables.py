@@ -344,6 +344,11 @@ def test_with_tables_keeps_the_other_blocks_and_refuses_process_noise():
     for key in ("x0", "bias", "r", "delay", "udelay", "stab", "p0"):
         np.testing.assert_array_equal(eq._block(key), lm._block(key), err_msg=key)
     assert eq.delay[6] == 0.2 and eq.udelay[0] == 0.05
+    # a Table made without values starts at the coefficient's value (as a
+    # deck's table value without a params entry); one with values at those
+    bare = lm.with_tables({"C_Lalpha": Table("alpha", [0.0, 0.1, 0.2])})
+    assert [bare.value(f"C_Lalpha[{i}]") for i in (1, 2, 3)] == [lm.value("C_Lalpha")] * 3
+    assert eq.value("C_Lalpha[1]") == 3.2 and lm.value("C_Lalpha") != 3.2
     lm.q = [1e-4, 0, 0, 0]
     with pytest.raises(InputError, match="no process noise: q and S must be zero"):
         lm.with_tables({})

@@ -766,10 +766,9 @@ class LongitudinalModel(Model):
         -------
         EquationModel
             With this model's x0, output biases, r, delay, udelay, stab and
-            p0.  A table's values start at the Table's values (zero when it
-            was made without any); a deck's (kind = 'longitudinal' with
-            definitions) start at its params entries, else at the
-            coefficient's start value.
+            p0.  A table's values start at the Table's values or, when it
+            was made without any, at the coefficient's value here (as a
+            deck's table values without a params entry do).
 
         Raises
         ------
@@ -784,7 +783,10 @@ class LongitudinalModel(Model):
         lines = "".join(t.line(n)[2:] + "\n" for n, t in tables.items())
         out = self._layout._call(_api.mlid_longitudinal_text, tables=lines)
         p = [v for n, v in zip(labels, self._theta[:self.np]) if n not in tables]
-        p += [v for n in labels if n in tables for v in tables[n].flat_values]
+        coef = dict(zip(labels, self._theta[:self.np]))
+        p += [v for n in labels if n in tables for v in
+              (tables[n].flat_values if tables[n].given else
+               np.full(tables[n].flat_values.size, coef[n]))]
         if free is None:
             free = [labels[k] for k in self.free_indices() if k < self.np
                     and labels[k] not in tables]

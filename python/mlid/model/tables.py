@@ -62,6 +62,7 @@ class Table:
             raise InputError(f"a table over {len(self.variables)} variables needs as many "
                              f"lists of breakpoints, got {len(self.breakpoints)}")
         self.shape = tuple(b.size for b in self.breakpoints)
+        self.given = values is not None          # else a model may start it (with_tables)
         values = np.zeros(self.shape) if values is None else np.asarray(values, dtype=float)
         if values.shape != self.shape:
             raise InputError(f"table values must have the shape {self.shape} of its "
