@@ -355,3 +355,20 @@ def test_real_coloured_residuals_null_is_clean():
         pytest.skip("the HFB-320 record is not in the shared data")
     clean_ = [not mlid.diagnose(*m).effects for m in made]
     assert sum(clean_) >= 9, clean_
+
+
+def test_a_gust_whose_competitor_cannot_be_fitted_is_untested(monkeypatch):
+    """Issue 47 item 1's competitor is required: when coloured measurement
+    noise cannot be fitted, the gust is untested, not accepted; and one
+    competitor per output serves every process noise of a round."""
+    from mlid.discrepancy import noise_colour
+
+    def fail(*args, **kwargs):
+        raise mlid.MlidError("no competitor here")
+    monkeypatch.setattr(noise_colour, "measurement_colour", fail)
+    d = mlid.diagnose(*scenarios.make("gust", 2))
+    assert not any(e.family == "process noise" for e in d.effects), d.report()
+    noise = [c for c in d.rounds[0]["candidates"] if c.family == "process noise" and c.lr]
+    assert any(c.decision.startswith("untested: its competitor") for c in noise), d.report()
+    colour = [c.name for c in d.rounds[0]["candidates"] if c.family == "measurement-noise colour"]
+    assert len(colour) == len(set(colour)), colour

@@ -573,6 +573,7 @@ def _rounds(model, data, base, families, alpha, refit_best, max_effects, options
         else _structures(current, cur_data, fit, options, alpha)
     for r in rounds:
         r.pop("fit", None)
+        r.pop("competitors", None)
     colour = next((r["colour"] for r in reversed(rounds) if r["colour"] is not None), None)
     return Diagnosis(base, fit, current, effects, rounds, alpha,
                      split.what if split else None, unexplained=left, colour=colour)
@@ -959,14 +960,18 @@ def _beats_colour(noise, model, data, fit, options, rnd):
         return False
     first = holdout.records(data)[0]
     outs = first.output_names or [f"y{k + 1}" for k in range(model.ny)]
-    e = fit.residuals[:, i]
-    tau = noise_colour.start_time_constant(e, _interval(data))
-    col = Candidate(COLOUR, f"coloured measurement noise on {outs[i]}", k=2, output=i,
-                    channel=outs[i],
-                    tau=tau, intensity=max(float(np.std(e)) * 0.7, 1e-12))
-    _refit(model, data, fit, col, options)
-    if rnd is not None:
-        rnd["candidates"].append(col)
+    # one competitor per output and round, whichever process noise meets it
+    made = {} if rnd is None else rnd.setdefault("competitors", {})
+    col = made.get(i)
+    if col is None:
+        e = fit.residuals[:, i]
+        tau = noise_colour.start_time_constant(e, _interval(data))
+        col = made[i] = Candidate(COLOUR, f"coloured measurement noise on {outs[i]}", k=2,
+                                  output=i, channel=outs[i], tau=tau,
+                                  intensity=max(float(np.std(e)) * 0.7, 1e-12))
+        _refit(model, data, fit, col, options)
+        if rnd is not None:
+            rnd["candidates"].append(col)
     if col.lr is None:
         noise.decision = (f"untested: its competitor {col.name} could not be fitted "
                           f"({col.decision}); not accepted")
@@ -976,6 +981,8 @@ def _beats_colour(noise, model, data, fit, options, rnd):
     if lead > margin:
         col.decision = (f"rejected: {noise.name} beats it by {lead:.1f} in 2dJ - 2k "
                         f"(needs {margin:.2f})")
+        if rnd is not None and rnd.get("colour") is col:
+            rnd["colour"] = None
         return True
     col.decision = "the residuals' colour: explained as coloured measurement noise"
     noise.decision = (f"significant, holds out, but does not beat {col.name} "

@@ -247,6 +247,8 @@ class Diagnosis:
             return {"family": c.family, "name": c.name, "score": num(c.score),
                     "score_corrected": num(getattr(c, "score_corrected", None)),
                     "colour_factor": num(getattr(c, "colour", None)),
+                    "colour_factor_refit": num(getattr(c, "colour_refit", None)),
+                    "colour_factor_null": num(getattr(c, "colour_null", None)),
                     "signature": num(c.signature), "lr": num(c.lr),
                     "holdout_lr": num(c.holdout), "explained": num(c.explained),
                     "value": num(value), "sigma": num(sigma),
