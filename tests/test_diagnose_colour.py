@@ -19,8 +19,10 @@ import pytest
 import mlid
 import scenarios
 
-#: fixed seeds of the AR(1) nulls
+#: fixed seeds of the AR(1) nulls: 1-10 were used while the rule was
+#: tuned, 11-20 were not (held out)
 AR1_SEEDS = tuple(range(1, 11))
+AR1_HELD_SEEDS = tuple(range(11, 21))
 #: the structural mode on q: frequency [Hz], damping, and its gain on the
 #: elevator's rate [rad/s per rad/s] (ours)
 MODE_HZ, MODE_ZETA, MODE_GAIN = 2.7, 0.03, 0.5
@@ -90,10 +92,37 @@ def clean(d):
 
 @pytest.mark.parametrize("phi", [0.3, 0.6, 0.8])
 def test_ar1_nulls_are_clean(phi):
-    """At least 9 of 10 fixed seeds accept nothing (issue 47 measured 8, 0
-    and 0 of 10 before the colour factor and the noise-colour candidate)."""
-    ok = [clean(mlid.diagnose(*ar1_null(seed, phi))) for seed in AR1_SEEDS]
-    assert sum(ok) >= 9, (phi, ok)
+    """At least 19 of 20 fixed seeds accept nothing, ten of them not used
+    while tuning (issue 47 measured 8, 0 and 0 of 10 before the colour
+    factor and the noise-colour candidate; on seeds 11-40 this rule gave
+    30, 30 and 29 of 30)."""
+    ok = [clean(mlid.diagnose(*ar1_null(seed, phi))) for seed in AR1_SEEDS + AR1_HELD_SEEDS]
+    assert sum(ok) >= 19, (phi, ok)
+
+
+def longitudinal_ar1_null(seed, phi):
+    """The linear longitudinal record (no bias on V-dot) with AR(1)
+    measurement noise of factor phi, stationary sd scenarios.LON_NOISE."""
+    model, data = scenarios.longitudinal_linear(seed, v_dot_bias=0.0)
+    _, x = mlid.simulate(mlid.LinearModel(model.F, model.G, np.eye(4)), data.t, data.u,
+                         seed=seed)
+    rng = np.random.default_rng(seed)
+    sd = np.asarray(scenarios.LON_NOISE)
+    e = np.empty_like(x)
+    e[0] = rng.normal(size=4) * sd
+    w = rng.normal(size=x.shape) * sd * math.sqrt(1 - phi * phi)
+    for k in range(1, len(e)):
+        e[k] = phi * e[k - 1] + w[k]
+    return model, mlid.FlightData(data.t, data.u, x + e, data.input_names, data.output_names)
+
+
+def test_longitudinal_ar1_nulls_are_clean():
+    """The longitudinal aircraft under AR(1) noise of phi 0.8: at least 9
+    of 10 seeds accept nothing (17 of 20 before the colour factor under the
+    null: a theta bias and products in the V equation; 20 of 20 now on
+    seeds 1-20 at phi 0.6 and 0.8)."""
+    ok = [clean(mlid.diagnose(*longitudinal_ar1_null(seed, 0.8))) for seed in range(1, 11)]
+    assert sum(ok) >= 9, ok
 
 
 def test_a_gust_beats_coloured_measurement_noise():
@@ -108,13 +137,13 @@ def test_a_gust_beats_coloured_measurement_noise():
 
 
 def test_coloured_noise_is_named_on_a_strongly_coloured_null():
-    """Where turbulence leads an AR(1) null (phi 0.8, seed 2), coloured
-    measurement noise explains the colour at least as well: named, in the
-    report, the JSON and the HTML, and nothing accepted."""
-    d = mlid.diagnose(*ar1_null(2, 0.8))
+    """Where a process noise is significant on an AR(1) null (phi 0.8, seed
+    13: a gust on beta), coloured measurement noise explains the colour at
+    least as well: named, in the report, the JSON and the HTML, and nothing
+    accepted."""
+    d = mlid.diagnose(*ar1_null(13, 0.8))
     assert not d.effects, d.report()
-    if d.colour is None:               # nothing led: nothing to name
-        pytest.skip("no process-noise candidate led on this record")
+    assert d.colour is not None, d.report()
     assert d.colour.family == "measurement-noise colour"
     assert "coloured measurement noise on" in d.report()
     js = d.as_dict()
@@ -154,29 +183,122 @@ def test_a_dead_zone_is_not_explained():
         assert not d.effects, d.report()
 
 
-def test_the_peak_test_is_quiet_on_white_and_coloured_noise():
-    """The spectral-peak test alone (structure.peaks) on the residuals of
-    the white null and of AR(1) nulls: no peak at 5% over all bins and
-    outputs on most seeds (its stated rate)."""
+def _peaks_on_noise(phi, reps, n=400, dt=0.02, outputs=4, seed=1):
+    """How many of reps synthetic residual sets (AR(1) of factor phi, n
+    samples of dt, several outputs) the spectral-peak test
+    (structure.peaks) finds a peak in."""
+    import types
     from mlid.discrepancy import structure
+    rng = np.random.default_rng(seed)
     hits = 0
-    for seed in range(1, 11):
-        for phi in (0.0, 0.8):
-            model, data = ar1_null(seed, phi) if phi else scenarios.make("null", seed)
-            hits += bool(structure.peaks(mlid.fit(model, data)))
-    assert hits <= 2
+    for _ in range(reps):
+        w = rng.normal(size=(n + 200, outputs))
+        e = np.empty_like(w)
+        e[0] = w[0]
+        for k in range(1, len(w)):
+            e[k] = phi * e[k - 1] + w[k]
+        res = types.SimpleNamespace(residuals=e[200:], data=types.SimpleNamespace(
+            t=np.arange(n) * dt, output_names=[f"y{i}" for i in range(outputs)]))
+        hits += bool(structure.peaks(res))
+    return hits
+
+
+def test_the_peak_test_false_alarm_rate():
+    """The spectral-peak test alone on 200 white and 200 AR(1) phi 0.8
+    residual sets of four outputs (the lateral record's length): its stated
+    level is PEAK_ALPHA = 5% over every bin and output, its measured rate
+    is 0 of 400 (and 0 of 400 on 800-sample sets): conservative, since it
+    counts the averages' degrees of freedom as the segments that do not
+    overlap (structure.py).  Asserted: at most 1%, i.e. that rate, not the
+    stated one; a smooth colour makes no peak."""
+    hits = _peaks_on_noise(0.0, 200) + _peaks_on_noise(0.8, 200)
+    assert hits <= 4, hits
+
+
+def test_the_peak_test_finds_a_sine():
+    """White sets with a sine of amplitude 0.6 sd at 7 Hz on one output:
+    found there in most (measured 36 of 50): the test is not merely
+    silent."""
+    import types
+    from mlid.discrepancy import structure
+    rng = np.random.default_rng(2)
+    n, dt, hits = 400, 0.02, 0
+    t = np.arange(n) * dt
+    for _ in range(50):
+        e = rng.normal(size=(n, 4))
+        e[:, 1] += 0.6 * np.sin(2 * math.pi * 7.0 * t)
+        res = types.SimpleNamespace(residuals=e, data=types.SimpleNamespace(
+            t=t, output_names=[f"y{i}" for i in range(4)]))
+        found = structure.peaks(res)
+        hits += any(s.output == 1 and abs(s.frequency - 7.0) < 0.5 for s in found)
+    assert hits >= 30, hits
 
 
 def test_the_colour_factor_is_one_under_white_noise_and_large_under_ar1():
-    """colour_factor: about 1 for a bias refit on the white null, about
-    (1 + phi) / (1 - phi) = 9 for it under AR(1) noise of phi 0.8."""
+    """colour_factor's variance ratio for a bias refit: within 0.7-1.3 on
+    the white null (measured 0.87-1.03, seeds 3-5), within 5-12 under AR(1)
+    noise of phi 0.8 (measured 6.2-7.4; (1 + phi) / (1 - phi) = 9 in
+    theory: the refit's own residuals bias it low, which is why the tests
+    also take the factor at the current fit, null_colour_factor)."""
     from mlid.discrepancy.diagnose import colour_factor
-    for phi, low, high in ((0.0, 1.0, 1.5), (0.8, 4.0, 15.0)):
-        model, data = ar1_null(3, phi) if phi else scenarios.make("null", 3)
-        m = model.with_free(list(model.free) + ["bias(3)"])
-        res = mlid.fit(m, data)
-        k = colour_factor(res, ["bias(3)"], {})
-        assert low <= k <= high, (phi, k)
+    for phi, low, high in ((0.0, 0.7, 1.3), (0.8, 5.0, 12.0)):
+        for seed in (3, 4, 5):
+            model, data = ar1_null(seed, phi) if phi else scenarios.make("null", seed)
+            m = model.with_free(list(model.free) + ["bias(3)"])
+            res = mlid.fit(m, data)
+            k = res.names.index("bias(3)")
+            ratio = float((res.sigma_corrected[k] / res.sigma[k]) ** 2)
+            assert low <= ratio <= high, (phi, seed, ratio)
+            assert colour_factor(res, ["bias(3)"], {}) == pytest.approx(max(1.0, ratio))
+
+
+def test_an_effect_and_a_mode_on_one_channel():
+    """A q bias of 5 sd with the 2.7 Hz mode on the same q gyro: the bias
+    is named (its fitted change has no power at the peak, so the peak does
+    not judge it), and the peak is still said as not explained."""
+    for seed in (1, 2):
+        model, data = structural_mode(seed)
+        y = data.y.copy()
+        y[:, 2] += 5 * scenarios.LON_NOISE[2]
+        d = mlid.diagnose(model, mlid.FlightData(data.t, data.u, y, data.input_names,
+                                                 data.output_names))
+        assert [e.name for e in d.effects] == ["bias on q"], d.report()
+        assert any(s.kind == "spectral peak" and s.channel == "q" for s in d.unexplained)
+        assert "q residual peak at" in d.verdict
+
+
+def backlash(seed):
+    """The dead_zone record with a backlash of DEAD_ZONE instead: the
+    aileron follows its command only when the command leaves a band of
+    DEAD_ZONE either side of it."""
+    t, u = scenarios.inputs()
+    f = 0.2 + (1.5 - 0.2) * t / t[-1]
+    u = u.copy()
+    u[:, 0] = SWEEP_AMPLITUDE * np.sin(2 * math.pi * np.cumsum(f) * scenarios.DT)
+    surf, pos = u.copy(), 0.0
+    for k in range(len(t)):
+        pos = min(max(pos, u[k, 0] - DEAD_ZONE), u[k, 0] + DEAD_ZONE)
+        surf[k, 0] = pos
+    F, G = scenarios.matrices(scenarios.BASE)
+    data, _ = mlid.simulate(mlid.LinearModel(F, G, np.eye(4), r=np.square(scenarios.NOISE)),
+                            t, surf, seed=seed)
+    return scenarios.analysis_model(), mlid.FlightData(
+        t, u, data.y, ["delta_a", "delta_r"], ["p", "r", "beta", "phi"])
+
+
+def test_a_backlash_names_no_wrong_effect():
+    """A backlash on the aileron sweep (outside the library): the input
+    correlation with the aileron's small values is said as not explained,
+    and no effect is named on at least 4 of 5 seeds (before, a delay on
+    delta_a and products were named on 6 of 10: the delay's own channel is
+    p, the probe's r; now 0 of 10, seeds 1-10)."""
+    named = 0
+    for seed in range(1, 6):
+        d = mlid.diagnose(*backlash(seed))
+        assert any(s.kind == "input correlation" and "delta_a" in s.text
+                   for s in d.unexplained), d.report()
+        named += bool(d.effects)
+    assert named <= 1, named
 
 
 def test_the_score_for_colour():
@@ -233,3 +355,20 @@ def test_real_coloured_residuals_null_is_clean():
         pytest.skip("the HFB-320 record is not in the shared data")
     clean_ = [not mlid.diagnose(*m).effects for m in made]
     assert sum(clean_) >= 9, clean_
+
+
+def test_a_gust_whose_competitor_cannot_be_fitted_is_untested(monkeypatch):
+    """Issue 47 item 1's competitor is required: when coloured measurement
+    noise cannot be fitted, the gust is untested, not accepted; and one
+    competitor per output serves every process noise of a round."""
+    from mlid.discrepancy import noise_colour
+
+    def fail(*args, **kwargs):
+        raise mlid.MlidError("no competitor here")
+    monkeypatch.setattr(noise_colour, "measurement_colour", fail)
+    d = mlid.diagnose(*scenarios.make("gust", 2))
+    assert not any(e.family == "process noise" for e in d.effects), d.report()
+    noise = [c for c in d.rounds[0]["candidates"] if c.family == "process noise" and c.lr]
+    assert any(c.decision.startswith("untested: its competitor") for c in noise), d.report()
+    colour = [c.name for c in d.rounds[0]["candidates"] if c.family == "measurement-noise colour"]
+    assert len(colour) == len(set(colour)), colour

@@ -50,10 +50,12 @@ def residual_diagnostics(res, lags=20, xcorr_lags=10):
 
 #: the rule under coloured residuals, as the report states it (issue 47 item 1)
 COLOUR_RULE = ("coloured residuals: each refit's 2dJ and held-out 2dJ are divided by its colour "
-               "factor (Wald with the coloured-residual covariance over the Cramer-Rao one, at "
-               "least 1); turbulence or a gust must beat coloured measurement noise; the score "
+               "factor, the larger of its refit's (Wald with the coloured-residual covariance "
+               "over the Cramer-Rao one) and the current fit's (its score over its score for "
+               "colour), at least 1, and the 2dJ point is widened for the factor's estimate "
+               "(fixed-b); turbulence or a gust must beat coloured measurement noise; the score "
                "(ranking only) is also given for colour (generalised score test); an effect must "
-               "explain a spectral peak or input correlation of its channel")
+               "explain the spectral peaks and input correlations its fitted change reaches")
 
 
 class Diagnosis:
@@ -104,9 +106,12 @@ class Diagnosis:
         self.after = residual_diagnostics(final)
 
     def _round_header(self, k, rnd):
+        widen = rnd.get("widen", 1.0)
+        wide = (f"; over its colour factor > {widen * rnd['threshold']:.2f}, widened "
+                f"x{widen:.2f} for the factor's estimate" if widen > 1.0 else "")
         return (f"round {k}: cost {rnd['cost']:.2f}, {len(rnd['candidates'])} candidates, "
                 f"threshold 2dJ > {rnd['threshold']:.2f} (chi-square, alpha "
-                f"{self.alpha}/{len(rnd['candidates'])})")
+                f"{self.alpha}/{len(rnd['candidates'])}{wide})")
 
     @staticmethod
     def _listed(rnd):
@@ -154,7 +159,7 @@ class Diagnosis:
         qs = "; ".join(f"{q} {v:.3g} +- {sd:.2g}{' ' + u if u else ''}"
                        for q, v, sd, u, _ in c.quantities or [])
         return (f"the residuals' colour is coloured measurement noise on "
-                f"{c.name.rsplit(' on ', 1)[-1]} ({qs}), not turbulence or a gust")
+                f"{c.spec['channel']} ({qs}), not turbulence or a gust")
 
     @property
     def verdict(self):
@@ -165,8 +170,8 @@ class Diagnosis:
                     else "no effect of the library explains the residuals")
         else:
             text = "effects found: " + ", ".join(c.title for c in self.effects)
-        if self.unexplained:
-            text += "; not explained: " + "; ".join(s.text for s in self.unexplained)
+        if self.not_explained:
+            text += "; " + "; ".join(self.not_explained)
         if self.colour is not None:
             text += "; residual colour: coloured measurement noise"
         return text
@@ -207,7 +212,7 @@ class Diagnosis:
                 for q, v, sd, unit, meaning in c.quantities or []:
                     lines.append(f"      {q} = {v:.5g} +- {sd:.2g}{' ' + unit if unit else ''}"
                                  f"  ({meaning})")
-        elif not self.unexplained:
+        else:
             lines.append(" " + self.verdict)
         for text in self.not_explained:
             lines.append(" NOT EXPLAINED: " + text)
@@ -242,6 +247,8 @@ class Diagnosis:
             return {"family": c.family, "name": c.name, "score": num(c.score),
                     "score_corrected": num(getattr(c, "score_corrected", None)),
                     "colour_factor": num(getattr(c, "colour", None)),
+                    "colour_factor_refit": num(getattr(c, "colour_refit", None)),
+                    "colour_factor_null": num(getattr(c, "colour_null", None)),
                     "signature": num(c.signature), "lr": num(c.lr),
                     "holdout_lr": num(c.holdout), "explained": num(c.explained),
                     "value": num(value), "sigma": num(sigma),
@@ -280,8 +287,8 @@ class Diagnosis:
             parts.append('<p class="not-explained"><b>Not explained</b></p>')
             parts.append(_html_table(
                 "mlid-not-explained", ("kind", "channel", "frequency [Hz]", "statistic",
-                                       "5% point", "what remains"),
-                [(s.kind, s.channel, s.frequency, s.size, s.point, t)
+                                       "point", "its test", "what remains"),
+                [(s.kind, s.channel, s.frequency, s.size, s.point, s.test, t)
                  for s, t in zip(self.unexplained, self.not_explained)]))
         if self.colour_text:
             parts.append(f'<p class="noise-colour">{_esc(self.colour_text)}</p>')

@@ -119,16 +119,18 @@ def _channel(which, n, names, what, kind):
     return int(which) - 1
 
 
-def _name(names, i, letter):
+def channel_name(names, i, letter):
+    """Channel i's name, or letter and its 1-based number when unnamed."""
     return names[i] if names else f"{letter}{i + 1}"
 
 
-def _dt(data):
+def sample_interval(data):
     """The sample interval (the median step, for a record with a rounding jitter)."""
     return float(np.median(np.diff(data.t)))
 
 
-def _fixed(model, element):
+def is_fixed(model, element):
+    """Is the model's element neither free nor tied?"""
     return element not in model.free and element not in model.ties
 
 
@@ -155,7 +157,7 @@ def _sd(grad, cov):
 
 # --- extending the matrices ------------------------------------------------
 
-def _parts(model, n=0, nw=0):
+def model_parts(model, n=0, nw=0):
     """The LinearModel arguments of model with n more states and nw more
     process noises, all zero (their rows and columns of F, G, H, Gamma, K,
     bx, x0, stab, p0, q and S).  New ones come last, so every old element keeps
@@ -198,7 +200,7 @@ def _drive(model, parts, i, z, p, pval):
         if e in parts["free"]:
             parts["free"].remove(e)
         parts["ties"].pop(e, None)
-        if _fixed(model, e):
+        if is_fixed(model, e):
             if value != 0.0:
                 parts[mat][z, j] = -value * pval
                 parts["ties"][dst] = _affine(0.0, [(-value, p)])
@@ -216,11 +218,11 @@ def _initial_reading(model, parts, i, z, u0):
     offset, terms = 0.0, []
     parts["x0"][z] = model.H[i] @ model.x0 + model.D[i] @ u0
     for e, value, mat, j in _row(model, i):
-        if value == 0.0 and _fixed(model, e):
+        if value == 0.0 and is_fixed(model, e):
             continue
         factor = f"x0({j + 1})" if mat == "F" else None
         known = model.x0[j] if mat == "F" else u0[j]
-        if factor in model.ties or (not _fixed(model, e)
+        if factor in model.ties or (not is_fixed(model, e)
                                     and (known != 0.0 or factor in model.free)):
             parts["free"].append(f"x0({z + 1})")
             return
@@ -277,8 +279,8 @@ def sensor_lag(model, data, i, order=1, start=None):
     i = _channel(i, model.ny, data.output_names, "sensor_lag", "output")
     if order not in (1, 2):
         raise InputError(f"sensor_lag: order must be 1 or 2, got {order!r}")
-    dt, z, out = _dt(data), model.nx, _name(data.output_names, i, "y")
-    parts = _parts(model, order)
+    dt, z, out = sample_interval(data), model.nx, channel_name(data.output_names, i, "y")
+    parts = model_parts(model, order)
     _initial_reading(model, parts, i, z, data.u[0])
     F = parts["F"]
     if order == 1:
@@ -358,13 +360,13 @@ def scale_factor(model, data, i):
     """
     _linear(model, "scale_factor")
     i = _channel(i, model.ny, data.output_names, "scale_factor", "output")
-    out = _name(data.output_names, i, "y")
-    fixed = [(e, c) for e, c, _, _ in _row(model, i) if c != 0.0 and _fixed(model, e)]
+    out = channel_name(data.output_names, i, "y")
+    fixed = [(e, c) for e, c, _, _ in _row(model, i) if c != 0.0 and is_fixed(model, e)]
     if not fixed:
         raise InputError(f"scale_factor: output {out}'s row of H and D has no fixed nonzero "
                          "element, so a scale factor cannot be told from its free elements")
     e0, c0 = fixed[0]
-    parts = _parts(model)
+    parts = model_parts(model)
     parts["free"].append(e0)
     parts["ties"].update({e: _affine(0.0, [(c / c0, e0)]) for e, c in fixed[1:]})
     parts["names"].setdefault(e0, f"gain {out}")
@@ -407,11 +409,11 @@ def input_delay(model, data, j, start=None):
     if not isinstance(model, Model):
         raise InputError(f"input_delay needs a mlid model, got {type(model).__name__}")
     j = _channel(j, model.nu, data.input_names, "input_delay", "input")
-    e, inp = f"udelay({j + 1})", _name(data.input_names, j, "u")
-    if not _fixed(model, e):
+    e, inp = f"udelay({j + 1})", channel_name(data.input_names, j, "u")
+    if not is_fixed(model, e):
         raise InputError(f"input_delay: {e} is already free or tied")
     delay = model.udelay.copy()
-    delay[j] = 0.5 * _dt(data) if start is None else float(start)
+    delay[j] = 0.5 * sample_interval(data) if start is None else float(start)
     m = model.with_free(list(model.free) + [e])
     m.udelay = delay
     m.names.setdefault(e, f"delay {inp}")
@@ -428,7 +430,7 @@ def _dynamic_rows(model):
     aerodynamic ones.  A row with none is kinematics (phi-dot = p + tan(theta)
     r), where a gust does not enter."""
     return [r for r in range(model.nx)
-            if any(not _fixed(model, f"{k}({r + 1},{j + 1})")
+            if any(not is_fixed(model, f"{k}({r + 1},{j + 1})")
                    for k, n in (("f", model.nx), ("g", model.nu)) for j in range(n))]
 
 
@@ -517,17 +519,17 @@ def gust(model, data, state, tau=0.5, intensity=None):
     if not (tau > 0 and (intensity is None or intensity > 0)):
         raise InputError(f"gust: tau and intensity must be > 0, got {tau!r}, {intensity!r}")
     readers = [i for i in range(model.ny)
-               if model.H[i, s] != 0.0 or not _fixed(model, f"h({i + 1},{s + 1})")]
+               if model.H[i, s] != 0.0 or not is_fixed(model, f"h({i + 1},{s + 1})")]
     if not readers:
         raise InputError(f"gust: no output reads state {s + 1} (its column of H is zero)")
     best = max(readers, key=lambda i: abs(model.H[i, s]))
     # the angle by the output that reads it alone (a vane), for names and unit
     alone = [i for i in readers if model.H[i, s] == 1.0 and np.count_nonzero(model.H[i]) == 1
              and not model.D[i].any()]
-    angle = _name(data.output_names, alone[0], "y") if alone else f"x{s + 1}"
+    angle = channel_name(data.output_names, alone[0], "y") if alone else f"x{s + 1}"
     unit = data.output_units[alone[0]] if alone else ""
-    dt, nw, g = _dt(data), model.nw, model.nx
-    parts = _parts(model, 1, 1)
+    dt, nw, g = sample_interval(data), model.nw, model.nx
+    parts = model_parts(model, 1, 1)
     parts["F"][g, g] = -1.0 / tau
     for r in _dynamic_rows(model):
         parts["F"][r, g] = model.F[r, s]
@@ -545,7 +547,7 @@ def gust(model, data, state, tau=0.5, intensity=None):
     pole, q = f"f({g + 1},{g + 1})", f"q({nw + 1})"
     labels = [f"gust pole {angle}", f"gust q {angle}"]
     parts["free"] += [pole, q] + [f"r({i + 1})" for i in range(model.ny)
-                                  if _fixed(model, f"r({i + 1})")]
+                                  if is_fixed(model, f"r({i + 1})")]
     parts["names"].update({pole: labels[0], q: labels[1]})
 
     def convert(x, cov):

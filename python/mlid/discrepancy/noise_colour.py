@@ -22,7 +22,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..model.models import LinearModel
-from .effects import Extension, _dt, _fixed, _name, _parts, gust_variance
+from .effects import (Extension, channel_name, gust_variance, is_fixed, model_parts,
+                      sample_interval)
 
 #: The start of T when the residuals do not give one: a few samples.
 START_SAMPLES = 3.0
@@ -69,10 +70,10 @@ def measurement_colour(model, data, i, tau, intensity):
     if not (tau > 0 and intensity > 0):
         raise InputError(f"measurement_colour: tau and intensity must be > 0, got {tau!r}, "
                          f"{intensity!r}")
-    dt, nw, g = _dt(data), model.nw, model.nx
-    out = _name(data.output_names, i, "y")
+    dt, nw, g = sample_interval(data), model.nw, model.nx
+    out = channel_name(data.output_names, i, "y")
     unit = data.output_units[i] if data.output_units else ""
-    parts = _parts(model, 1, 1)
+    parts = model_parts(model, 1, 1)
     parts["F"][g, g] = -1.0 / tau
     parts["H"][i, g] = 1.0
     parts["Gamma"][g, nw] = 1.0
@@ -82,7 +83,7 @@ def measurement_colour(model, data, i, tau, intensity):
     pole, q = f"f({g + 1},{g + 1})", f"q({nw + 1})"
     labels = [f"noise pole {out}", f"noise q {out}"]
     parts["free"] += [pole, q] + [f"r({k + 1})" for k in range(model.ny)
-                                  if _fixed(model, f"r({k + 1})")]
+                                  if is_fixed(model, f"r({k + 1})")]
     parts["names"].update({pole: labels[0], q: labels[1]})
 
     def convert(x, cov):

@@ -70,10 +70,18 @@ class Structure:
     probe, score_point : Candidate, float or None
         An input correlation's probe (mlid.diagnose's) and the point its
         score is judged against, to tell whether an effect removes it.
+    probe_best : float or None
+        The largest score (for colour) over every probe at the fit: an
+        effect explains the correlation when it leaves every probe below
+        score_point.
+    test : str
+        The test whose point ``point`` is (its level and what it is
+        divided over).
     """
 
     def __init__(self, kind, output, channel, size, point, text, frequency=None, bin=None,
-                 probe=None, score_point=None):
+                 probe=None, score_point=None, test="", probe_best=None):
+        self.test, self.probe_best = test, probe_best
         self.kind, self.output, self.channel = kind, output, channel
         self.size, self.point, self.text = float(size), float(point), text
         self.frequency, self.bin = frequency, bin
@@ -86,7 +94,8 @@ class Structure:
     def as_dict(self):
         return {"kind": self.kind, "channel": self.channel,
                 "frequency": None if self.frequency is None else float(self.frequency),
-                "statistic": self.size, "point": self.point, "text": self.text}
+                "statistic": self.size, "point": self.point, "test": self.test,
+                "text": self.text}
 
     def __repr__(self):
         return f"Structure({self.text})"
@@ -161,7 +170,9 @@ def peaks(res, names=None, alpha=PEAK_ALPHA):
         if ratio[k] > point:
             found.append(Structure("spectral peak", i, names[i], ratio[k], point,
                                    f"{names[i]} residual peak at {f[k]:.3g} Hz",
-                                   frequency=float(f[k]), bin=k))
+                                   frequency=float(f[k]), bin=k,
+                                   test=f"peak over background at {alpha:g} over {tested} bins "
+                                        "of all outputs"))
     return found
 
 
