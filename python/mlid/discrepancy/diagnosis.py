@@ -50,9 +50,9 @@ def residual_diagnostics(res, lags=20, xcorr_lags=10):
 
 #: the rule under coloured residuals, as the report states it (issue 47 item 1)
 COLOUR_RULE = ("coloured residuals: each refit's 2dJ and held-out 2dJ are divided by its colour "
-               "factor, the larger of its refit's (Wald with the coloured-residual covariance "
-               "over the Cramer-Rao one) and the current fit's (its score over its score for "
-               "colour), at least 1, and the 2dJ point is widened for the factor's estimate "
+               "factor, its refit's (Wald with the coloured-residual covariance over the "
+               "Cramer-Rao one), at least 1, and the 2dJ point is widened for the factor's "
+               "estimate "
                "(fixed-b); turbulence or a gust must beat coloured measurement noise; the score "
                "(ranking only) is also given for colour (generalised score test); an effect must "
                "explain the spectral peaks and input correlations its fitted change reaches")
