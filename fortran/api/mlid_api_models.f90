@@ -566,24 +566,9 @@ contains
 
     err = 0.0_wp
     call handle_session(h, s, status, msg)
+    if (status == MLID_OK) call model_at_point(s, m, p, x, u, status, msg)
+    if (status == MLID_OK) call s%given%get('w', w, status, msg, [s%problem%nw])
     if (status /= MLID_OK) return
-    call problem_needs(s%problem, [PART_MODEL], status, msg)
-    if (status /= MLID_OK) return
-    associate (pb => s%problem, g => s%given)
-      call g%get('p', p, status, msg)
-      call g%get('x', x, status, msg, [pb%nx])
-      call g%get('u', u, status, msg, [pb%nu])
-      call g%get('w', w, status, msg, [pb%nw])
-      if (status /= MLID_OK) return
-      call model_create(pb%mkind, pb%nx, pb%nu, pb%ny, pb%nw, pb%iconst, pb%rconst, m, status, &
-                        msg)
-    end associate
-    if (status /= MLID_OK) return
-    if (m%np /= size(p)) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0,a,i0)') 'the model has ', m%np, ' parameters, not ', size(p)
-      return
-    end if
     call check_jacobians(m, 0.0_wp, x, [u, w], p, err)
   end subroutine mlid_check_jacobians
 
@@ -599,24 +584,9 @@ contains
     real(wp), allocatable :: p(:), x(:), u(:), t(:), y(:), xdot(:)
 
     call call_session(h, s, status, msg)
+    if (status == MLID_OK) call model_at_point(s, m, p, x, u, status, msg)
+    if (status == MLID_OK) call s%given%get('t', t, status, msg, [1])
     if (status /= MLID_OK) return
-    call problem_needs(s%problem, [PART_MODEL], status, msg)
-    if (status /= MLID_OK) return
-    associate (pb => s%problem, g => s%given)
-      call g%get('p', p, status, msg)
-      if (status == MLID_OK) call g%get('x', x, status, msg, [pb%nx])
-      if (status == MLID_OK) call g%get('u', u, status, msg, [pb%nu])
-      if (status == MLID_OK) call g%get('t', t, status, msg, [1])
-      if (status /= MLID_OK) return
-      call model_create(pb%mkind, pb%nx, pb%nu, pb%ny, pb%nw, pb%iconst, pb%rconst, m, status, &
-                        msg)
-    end associate
-    if (status /= MLID_OK) return
-    if (m%np /= size(p)) then
-      status = MLID_ERR_INPUT
-      write (msg, '(a,i0,a,i0)') 'the model has ', m%np, ' parameters, not ', size(p)
-      return
-    end if
     allocate (y(m%ny), xdot(m%nx), stat=status)
     if (status /= 0) then
       status = MLID_ERR_INPUT
@@ -629,6 +599,32 @@ contains
     call s%results%put('y', y)
     call s%results%put('xdot', xdot)
   end subroutine mlid_model_point
+
+  !> The model of session s's problem and the point given to it ('p', 'x',
+  !> 'u'; p the model's np parameters): what mlid_check_jacobians and
+  !> mlid_model_point share.
+  subroutine model_at_point(s, m, p, x, u, status, msg)
+    type(session_t), pointer, intent(in) :: s
+    class(model_t), allocatable, intent(out) :: m
+    real(wp), allocatable, intent(out) :: p(:), x(:), u(:)
+    integer(c_int), intent(out) :: status
+    character(len=*), intent(out) :: msg
+    call problem_needs(s%problem, [PART_MODEL], status, msg)
+    if (status /= MLID_OK) return
+    associate (pb => s%problem, g => s%given)
+      call g%get('p', p, status, msg)
+      if (status == MLID_OK) call g%get('x', x, status, msg, [pb%nx])
+      if (status == MLID_OK) call g%get('u', u, status, msg, [pb%nu])
+      if (status /= MLID_OK) return
+      call model_create(pb%mkind, pb%nx, pb%nu, pb%ny, pb%nw, pb%iconst, pb%rconst, m, status, &
+                        msg)
+    end associate
+    if (status /= MLID_OK) return
+    if (m%np /= size(p)) then
+      status = MLID_ERR_INPUT
+      write (msg, '(a,i0,a,i0)') 'the model has ', m%np, ' parameters, not ', size(p)
+    end if
+  end subroutine model_at_point
 
   !> The tables of handle h's problem's model (an equations model's,
   !> mlid_tables): results 'cells', each parameter's text (a table value's

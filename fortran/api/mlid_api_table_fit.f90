@@ -45,11 +45,7 @@ contains
     real(wp) :: level
     integer :: st
 
-    call call_session(h, s, st, msg)
-    if (st == MLID_OK) call design_of(s%given, tabs, labels, eman, a, st, msg)
-    if (st == MLID_OK) call s%given%get('theta', theta, st, msg, [size(eman)])
-    if (st == MLID_OK) call s%given%get('covariance', c, st, msg, [size(eman), size(eman)])
-    if (st == MLID_OK) call s%given%get('level', level, st, msg)
+    call local_estimates(h, s, tabs, labels, eman, a, theta, c, level, st, msg)
     status = st
     if (st /= MLID_OK) return
     call value_texts(tabs, names, s%results)
@@ -75,11 +71,7 @@ contains
     real(wp) :: level
     integer :: st
 
-    call call_session(h, s, st, msg)
-    if (st == MLID_OK) call design_of(s%given, tabs, labels, eman, a, st, msg)
-    if (st == MLID_OK) call s%given%get('theta', theta, st, msg, [size(eman)])
-    if (st == MLID_OK) call s%given%get('covariance', c, st, msg, [size(eman), size(eman)])
-    if (st == MLID_OK) call s%given%get('level', level, st, msg)
+    call local_estimates(h, s, tabs, labels, eman, a, theta, c, level, st, msg)
     if (st == MLID_OK) call s%given%get('values', v, st, msg, [size(a, 2)])
     status = st
     if (st /= MLID_OK) return
@@ -88,6 +80,27 @@ contains
     status = st
     if (st == MLID_OK) call put_fit(r, a, s%results)
   end subroutine mlid_table_test
+
+  !> What mlid_table_fit and mlid_table_test both read of handle h: the
+  !> session, the tables' design (design_of), the local estimates 'theta',
+  !> their 'covariance' and the tests' 'level'.
+  subroutine local_estimates(h, s, tabs, labels, eman, a, theta, c, level, st, msg)
+    integer(c_int64_t), intent(in) :: h
+    type(session_t), pointer, intent(out) :: s
+    type(table_t), allocatable, intent(out) :: tabs(:)
+    character(len=NAMELEN), allocatable, intent(out) :: labels(:)
+    integer, allocatable, intent(out) :: eman(:)
+    real(wp), allocatable, intent(out) :: a(:, :), theta(:), c(:, :)
+    real(wp), intent(out) :: level
+    integer, intent(out) :: st
+    character(len=*), intent(out) :: msg
+    level = 0.0_wp
+    call call_session(h, s, st, msg)
+    if (st == MLID_OK) call design_of(s%given, tabs, labels, eman, a, st, msg)
+    if (st == MLID_OK) call s%given%get('theta', theta, st, msg, [size(eman)])
+    if (st == MLID_OK) call s%given%get('covariance', c, st, msg, [size(eman), size(eman)])
+    if (st == MLID_OK) call s%given%get('level', level, st, msg)
+  end subroutine local_estimates
 
   !> A table fit's or test's results by name (mlid_table_fit's list).
   subroutine put_fit(r, a, o)
