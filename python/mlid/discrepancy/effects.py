@@ -528,38 +528,63 @@ def gust(model, data, state, tau=0.5, intensity=None):
              and not model.D[i].any()]
     angle = channel_name(data.output_names, alone[0], "y") if alone else f"x{s + 1}"
     unit = data.output_units[alone[0]] if alone else ""
-    dt, nw, g = sample_interval(data), model.nw, model.nx
+    g = model.nx
     parts = model_parts(model, 1, 1)
-    parts["F"][g, g] = -1.0 / tau
     for r in _dynamic_rows(model):
         parts["F"][r, g] = model.F[r, s]
         _same_as(model, parts, f"f({r + 1},{s + 1})", f"f({r + 1},{g + 1})")
     for i in range(model.ny):
         parts["H"][i, g] = model.H[i, s]
         _same_as(model, parts, f"h({i + 1},{s + 1})", f"h({i + 1},{g + 1})")
-    parts["Gamma"][g, nw] = 1.0
     if intensity is None:
         h = model.H[best, s] if model.H[best, s] else 1.0
         intensity = GUST_FRACTION * float(np.std(data.y[:, best])) / abs(h)
+    labels, stats = first_order_noise(model, data, parts, tau, intensity, f"gust {{}} {angle}")
+
+    def convert(x, cov):
+        T, sd_T, sd, sd_sd = stats(x, cov)
+        return [("gust time constant T", T, sd_T, "s",
+                 f"correlation time of the gust in {angle}: how long a gust lasts"),
+                ("gust standard deviation", sd, sd_sd, unit,
+                 f"stationary rms of the gust, as equivalent {angle}")]
+    options = {"method": "filter_error", "bounds": {labels[1]: (0.0, None)}}
+    return Extension(LinearModel(**parts), data, labels, options, convert)
+
+
+def first_order_noise(model, data, parts, tau, intensity, label):
+    """A first-order noise state appended to parts (the model's matrices,
+    model_parts(model, 1, 1)) at state nx, driven by a new white noise: its
+    pole -1/tau, q for the stationary rms intensity, r started where it is
+    zero, the pole, q and the fixed r free; what the gust and the coloured
+    measurement noise share.
+
+    Returns
+    -------
+    labels : list of str
+        The pole's and q's labels, label.format('pole') and .format('q').
+    stats : callable
+        stats(x, cov) of the fitted (pole, q) and their covariance: T, its
+        sigma, the stationary rms and its sigma (delta method).
+    """
+    dt, nw, g = sample_interval(data), model.nw, model.nx
+    parts["F"][g, g] = -1.0 / tau
+    parts["Gamma"][g, nw] = 1.0
     parts["q"][nw] = intensity**2 / gust_variance(tau, dt)[0]
     guess = 0.5 * np.var(np.diff(data.y, axis=0), axis=0)
     parts["r"] = np.where(model.r > 0, model.r, guess)
     pole, q = f"f({g + 1},{g + 1})", f"q({nw + 1})"
-    labels = [f"gust pole {angle}", f"gust q {angle}"]
+    labels = [label.format("pole"), label.format("q")]
     parts["free"] += [pole, q] + [f"r({i + 1})" for i in range(model.ny)
                                   if is_fixed(model, f"r({i + 1})")]
     parts["names"].update({pole: labels[0], q: labels[1]})
 
-    def convert(x, cov):
+    def stats(x, cov):
         T, qv = -1.0 / x[0], x[1]
         v, dv = gust_variance(T, dt)
         sd = math.sqrt(max(qv, 0.0) * v)
         # d sd / d pole = d sd / dT * dT / d pole, dT / d pole = 1 / pole^2 = T^2
         grad = ([dv * math.sqrt(qv / v) / 2.0 * T * T, math.sqrt(v / qv) / 2.0]
                 if qv > 0 else None)
-        return [("gust time constant T", T, _sd([T * T, 0.0], cov), "s",
-                 f"correlation time of the gust in {angle}: how long a gust lasts"),
-                ("gust standard deviation", sd, _sd(grad, cov) if grad else math.nan, unit,
-                 f"stationary rms of the gust, as equivalent {angle}")]
-    options = {"method": "filter_error", "bounds": {labels[1]: (0.0, None)}}
-    return Extension(LinearModel(**parts), data, labels, options, convert)
+        return T, _sd([T * T, 0.0], cov), sd, _sd(grad, cov) if grad else math.nan
+
+    return labels, stats

@@ -22,8 +22,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model.models import LinearModel
-from .effects import (Extension, channel_name, gust_variance, is_fixed, model_parts,
-                      sample_interval)
+from .effects import Extension, channel_name, first_order_noise, model_parts
 
 #: The start of T when the residuals do not give one: a few samples.
 START_SAMPLES = 3.0
@@ -70,31 +69,15 @@ def measurement_colour(model, data, i, tau, intensity):
     if not (tau > 0 and intensity > 0):
         raise InputError(f"measurement_colour: tau and intensity must be > 0, got {tau!r}, "
                          f"{intensity!r}")
-    dt, nw, g = sample_interval(data), model.nw, model.nx
     out = channel_name(data.output_names, i, "y")
     unit = data.output_units[i] if data.output_units else ""
     parts = model_parts(model, 1, 1)
-    parts["F"][g, g] = -1.0 / tau
-    parts["H"][i, g] = 1.0
-    parts["Gamma"][g, nw] = 1.0
-    parts["q"][nw] = intensity**2 / gust_variance(tau, dt)[0]
-    guess = 0.5 * np.var(np.diff(data.y, axis=0), axis=0)
-    parts["r"] = np.where(model.r > 0, model.r, guess)
-    pole, q = f"f({g + 1},{g + 1})", f"q({nw + 1})"
-    labels = [f"noise pole {out}", f"noise q {out}"]
-    parts["free"] += [pole, q] + [f"r({k + 1})" for k in range(model.ny)
-                                  if is_fixed(model, f"r({k + 1})")]
-    parts["names"].update({pole: labels[0], q: labels[1]})
+    parts["H"][i, model.nx] = 1.0
+    labels, stats = first_order_noise(model, data, parts, tau, intensity, f"noise {{}} {out}")
 
     def convert(x, cov):
-        T, qv = -1.0 / x[0], x[1]
-        v, dv = gust_variance(T, dt)
-        sd = math.sqrt(max(qv, 0.0) * v)
-        grad = ([dv * math.sqrt(qv / v) / 2.0 * T * T, math.sqrt(v / qv) / 2.0]
-                if qv > 0 else None)
-        sd_sigma = math.sqrt(max(np.asarray(grad) @ cov @ np.asarray(grad), 0.0)) \
-            if grad else math.nan
-        return [("noise time constant T", T, math.sqrt(max(T**4 * cov[0, 0], 0.0)), "s",
+        T, sd_T, sd, sd_sigma = stats(x, cov)
+        return [("noise time constant T", T, sd_T, "s",
                  f"correlation time of the measurement noise of {out}"),
                 ("coloured noise standard deviation", sd, sd_sigma, unit,
                  f"stationary rms of the coloured part of {out}'s noise")]
